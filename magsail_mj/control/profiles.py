@@ -1,0 +1,68 @@
+"""Open-loop torque profiles of the distributed-vs-centralised experiment.
+
+Spec: truss-magnetorquer-array.md §6.3 (bang-bang-off) and §6.4 (versine-shaped, Eq. 9 with
+the erratum of §12 item T1: the third line's denominator is ``t_v``, not ``t``).
+With ``t₋ = t_end/3``, ``t₀ = 2 t_end/3``:
+
+bang-bang-off: ``+τ_max`` on ``[0, t₋]``, ``−τ_max`` on ``(t₋, t₀]``, 0 after.
+
+versine (ramp time ``t_v``, default ``t_end/10``)::
+
+    ½[1 − cos(π t/t_v)]                      0 ≤ t ≤ t_v
+    1                                        t_v < t ≤ t₋ − t_v
+    cos(π/2 · (t − (t₋ − t_v))/t_v)          t₋ − t_v < t ≤ t₋ + t_v
+    −1                                       t₋ + t_v < t ≤ t₀ − t_v
+    −½[1 + cos(π (t₀ − t_v − t)/t_v)]        t₀ − t_v < t ≤ t₀
+    0                                        t > t₀
+
+times ``τ_max``. Both are rest-to-rest for a rigid body (zero net impulse).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["bang_bang_off", "versine", "torque_profile"]
+
+
+def bang_bang_off(t, *, tau_max: float, t_end: float):
+    """Bang-bang-off profile (§6.3) at time(s) ``t`` [s]; returns N m."""
+    t = np.asarray(t, dtype=float)
+    t_minus, t_zero = t_end / 3.0, 2.0 * t_end / 3.0
+    out = np.where(t <= t_minus, tau_max, np.where(t <= t_zero, -tau_max, 0.0))
+    return np.where(t < 0, 0.0, out)
+
+
+def versine(t, *, tau_max: float, t_end: float, t_v: float | None = None):
+    """Versine-shaped profile (§6.4, corrected per §12 item T1) at time(s) ``t`` [s]; N m."""
+    t = np.asarray(t, dtype=float)
+    t_v = t_end / 10.0 if t_v is None else float(t_v)
+    t_minus, t_zero = t_end / 3.0, 2.0 * t_end / 3.0
+    if not 0 < t_v <= t_minus / 2:
+        raise ValueError(f"t_v: must be in (0, t_end/6], got {t_v}")
+    conds = [
+        t < 0,
+        t <= t_v,
+        t <= t_minus - t_v,
+        t <= t_minus + t_v,
+        t <= t_zero - t_v,
+        t <= t_zero,
+    ]
+    vals = [
+        np.zeros_like(t),
+        0.5 * (1.0 - np.cos(np.pi * t / t_v)),
+        np.ones_like(t),
+        np.cos(0.5 * np.pi * (t - (t_minus - t_v)) / t_v),
+        -np.ones_like(t),
+        -0.5 * (1.0 + np.cos(np.pi * (t_zero - t_v - t) / t_v)),
+    ]
+    return tau_max * np.select(conds, vals, default=0.0)
+
+
+def torque_profile(kind: str, t, *, tau_max: float, t_end: float, t_v: float | None = None):
+    """Dispatch on ``kind`` = ``"bang_bang_off"`` | ``"versine"``."""
+    if kind == "bang_bang_off":
+        return bang_bang_off(t, tau_max=tau_max, t_end=t_end)
+    if kind == "versine":
+        return versine(t, tau_max=tau_max, t_end=t_end, t_v=t_v)
+    raise ValueError(f"kind: must be 'bang_bang_off' or 'versine', got {kind!r}")

@@ -1,0 +1,119 @@
+"""Atomic output writing and run manifests.
+
+Every file of a run folder is written to a temporary file in the same folder and moved into
+place with ``os.replace``, so a reader never sees a half-written file and a crash leaves the
+previous version intact.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import platform
+import sys
+import tempfile
+from importlib import metadata
+from pathlib import Path
+from typing import Any, Iterator
+
+import numpy as np
+
+__all__ = [
+    "atomic_path",
+    "write_json",
+    "write_npz",
+    "package_versions",
+    "prepare_run_dir",
+    "RunDirError",
+    "to_jsonable",
+]
+
+_VERSIONED = ("magsail_mj", "mujoco", "dm-control", "numpy", "scipy", "ppigrf", "mediapy",
+              "imageio-ffmpeg", "matplotlib", "pydantic")
+
+
+class RunDirError(RuntimeError):
+    """The output folder cannot be used (it holds another run and overwriting was not asked)."""
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path, suffix: str = "") -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; on success it replaces ``path`` atomically."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix, dir=path.parent)
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+        os.replace(tmp_path, path)
+    finally:
+        if tmp_path.exists():
+            tmp_path.unlink()
+
+
+def to_jsonable(value: Any) -> Any:
+    """Convert NumPy scalars/arrays and non-finite floats to JSON-safe values (NaN → null)."""
+    if isinstance(value, dict):
+        return {str(k): to_jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return to_jsonable(value.tolist())
+    if isinstance(value, (np.bool_, bool)):
+        return bool(value)
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, (np.floating, float)):
+        v = float(value)
+        return v if math.isfinite(v) else None
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def write_json(path: str | Path, obj: Any) -> Path:
+    """Write ``obj`` as indented JSON, atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(to_jsonable(obj), indent=2, sort_keys=False) + "\n")
+    return Path(path)
+
+
+def write_npz(path: str | Path, **arrays: np.ndarray) -> Path:
+    """Write arrays to a compressed ``.npz``, atomically."""
+    with atomic_path(path, suffix=".npz") as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+    return Path(path)
+
+
+def package_versions() -> dict[str, str]:
+    """Versions of Python and the packages that determine a run's numbers."""
+    out = {"python": sys.version.split()[0], "platform": platform.platform()}
+    for name in _VERSIONED:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def prepare_run_dir(out_dir: str | Path, *, overwrite: bool = False, resume: bool = False) -> Path:
+    """Create ``out_dir`` or check it may be reused.
+
+    A folder that already holds a ``manifest.json`` belongs to an earlier run: it is reused only
+    with ``overwrite=True`` or ``resume=True``; otherwise :class:`RunDirError` names it, so
+    nothing the user had is overwritten silently.
+    """
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise RunDirError(f"--out {out}: exists and is not a folder")
+    if (out / "manifest.json").exists() and not (overwrite or resume):
+        raise RunDirError(
+            f"--out {out}: holds an earlier run (manifest.json); pass --overwrite to replace it "
+            "or --resume to continue it"
+        )
+    out.mkdir(parents=True, exist_ok=True)
+    return out

@@ -1,0 +1,269 @@
+"""The runner: step loop, zero-order-hold control, decimated recording, divergence, checkpoints.
+
+Each step ``k`` (time ``t = k·δt``):
+
+1. if the controller is due (``t ≥ next sample``), it reads the state and returns a command,
+   which is then held constant (zero-order hold) until its next sample;
+2. ``xfrc_applied`` is zeroed and every load adds its wrench (vectorised, index arrays built
+   once, see :mod:`magsail_mj.loads.base`);
+3. every ``record_every`` steps the probes are sampled (before the step, so record 0 is the
+   initial state);
+4. ``mj_step`` integrates one step with the model's integrator (loads held over the step).
+
+A step whose state is not finite, that MuJoCo flags as unstable, or whose strut strain
+exceeds the configured bound stops the run: :class:`RunResult` then carries ``status =
+"diverged"``, the time and the cause, and everything recorded up to that point.
+
+Checkpoints (every ``checkpoint_every_s`` simulated seconds) hold the full MuJoCo integration
+state, the controller object, the held command and the records; ``resume=True`` restarts from
+the last one and gives the same numbers as an uninterrupted run.
+"""
+
+from __future__ import annotations
+
+import math
+import pickle
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Protocol, Sequence
+
+import mujoco
+import numpy as np
+
+from magsail_mj.io import atomic_path
+from magsail_mj.loads.base import Load, StepState
+
+__all__ = ["Controller", "BodyKinematics", "Simulation", "RunResult", "DivergenceError"]
+
+_STATE_SPEC = mujoco.mjtState.mjSTATE_INTEGRATION
+
+
+class Controller(Protocol):
+    """A sampled controller: ``update`` runs every ``period_s`` and its output is held."""
+
+    period_s: float
+
+    def update(self, state: StepState) -> Any: ...
+
+
+class DivergenceError(RuntimeError):
+    """Raised inside the loop when the state blows up; the runner turns it into a result."""
+
+
+class BodyKinematics:
+    """World pose and velocity of every body, read straight from ``qpos``/``qvel``.
+
+    Particle bodies (three world-aligned slide joints) and free bodies are handled with index
+    arrays built once; any other body (e.g. a wheel hinged to a bus) gets ``xpos``/``xquat``
+    from ``mj_kinematics``, which is then run before the loads each step.
+    """
+
+    def __init__(self, model: mujoco.MjModel):
+        self.model = model
+        nb = model.nbody
+        self.pos0 = model.body_pos.copy()
+        part_body, part_q, part_v = [], [], []
+        free_body, free_q, free_v = [], [], []
+        other = []
+        for b in range(1, nb):
+            jn, ja = model.body_jntnum[b], model.body_jntadr[b]
+            types = model.jnt_type[ja:ja + jn] if jn else []
+            if jn == 1 and types[0] == mujoco.mjtJoint.mjJNT_FREE:
+                free_body.append(b); free_q.append(model.jnt_qposadr[ja]); free_v.append(model.jnt_dofadr[ja])
+            elif (jn == 3 and np.all(types == mujoco.mjtJoint.mjJNT_SLIDE)
+                  and np.allclose(model.jnt_axis[ja:ja + 3], np.eye(3))
+                  and model.body_parentid[b] == 0 and np.allclose(model.body_quat[b], [1, 0, 0, 0])):
+                part_body.append(b); part_q.append(model.jnt_qposadr[ja]); part_v.append(model.jnt_dofadr[ja])
+            elif jn == 0 and model.body_parentid[b] == 0:
+                continue  # welded to the world: fixed pose, zero velocity
+            else:
+                other.append(b)
+        self.part_body = np.array(part_body, dtype=int)
+        self.part_q = np.array(part_q, dtype=int)[:, None] + np.arange(3) if part_q else np.zeros((0, 3), int)
+        self.part_v = np.array(part_v, dtype=int)[:, None] + np.arange(3) if part_v else np.zeros((0, 3), int)
+        self.free_body = np.array(free_body, dtype=int)
+        self.free_q = np.array(free_q, dtype=int)
+        self.free_v = np.array(free_v, dtype=int)
+        self.other = np.array(other, dtype=int)
+        self.pos = np.zeros((nb, 3))
+        self.pos[:] = model.body_pos
+        self.vel = np.zeros((nb, 3))
+        self.xquat = np.tile([1.0, 0, 0, 0], (nb, 1))
+        self.xquat[:] = model.body_quat
+        self.omega = np.zeros((nb, 3))
+
+    def update(self, data: mujoco.MjData) -> None:
+        """Refresh ``pos``, ``vel``, ``xquat``, ``omega`` from ``data.qpos``/``data.qvel``."""
+        if self.other.size:
+            mujoco.mj_kinematics(self.model, data)
+            self.pos[self.other] = data.xpos[self.other]
+            self.xquat[self.other] = data.xquat[self.other]
+        if self.part_body.size:
+            self.pos[self.part_body] = self.pos0[self.part_body] + data.qpos[self.part_q]
+            self.vel[self.part_body] = data.qvel[self.part_v]
+        for b, qa, va in zip(self.free_body, self.free_q, self.free_v):
+            self.pos[b] = data.qpos[qa:qa + 3]
+            q = data.qpos[qa + 3:qa + 7]
+            self.xquat[b] = q / np.linalg.norm(q)
+            self.vel[b] = data.qvel[va:va + 3]
+            R = np.empty(9)
+            mujoco.mju_quat2Mat(R, self.xquat[b])
+            self.omega[b] = R.reshape(3, 3) @ data.qvel[va + 3:va + 6]
+
+
+@dataclass
+class RunResult:
+    """What a run produced.
+
+    ``records`` maps probe names to arrays stacked over record times (first axis), with ``t``.
+    ``status`` is ``"completed"``, ``"diverged"`` or ``"stopped"`` (``stop_after_s`` reached).
+    """
+
+    records: dict[str, np.ndarray]
+    status: str
+    message: str
+    t_end_s: float
+    steps: int
+    wall_time_s: float
+
+
+@dataclass
+class Simulation:
+    """A model with its loads, controller, environment and probes, ready to run.
+
+    Attributes:
+      model: compiled MuJoCo model (``opt.timestep`` and ``opt.integrator`` are used as set).
+      duration_s: simulated time to run.
+      loads: force models adding into ``xfrc_applied`` each step.
+      controller: sampled controller, or ``None``; its command is passed to loads as
+        ``state.ctrl``, and a command with an ``apply_ctrl(data)`` method may also set ``data.ctrl``.
+      environment: object with ``sample(t)`` (see :mod:`magsail_mj.environment`), or ``None``.
+      probes: name → function(state, data) returning an array recorded every ``record_every`` steps.
+      record_every: decimation of the recorder.
+      strain_check: function(positions) → (max strain, strut index), checked at record steps.
+      max_strain: divergence bound on strut strain.
+      checkpoint_every_s: checkpoint interval in simulated seconds (0 = none).
+      init: function(data) setting the initial state (qpos, qvel, time) before the run.
+    """
+
+    model: mujoco.MjModel
+    duration_s: float
+    loads: Sequence[Load] = ()
+    controller: Controller | None = None
+    environment: Any = None
+    probes: dict[str, Callable[[StepState, mujoco.MjData], Any]] = field(default_factory=dict)
+    record_every: int = 10
+    strain_check: Callable[[np.ndarray], tuple[float, int]] | None = None
+    max_strain: float = 0.5
+    checkpoint_every_s: float = 0.0
+    init: Callable[[mujoco.MjData], None] | None = None
+
+    def __post_init__(self) -> None:
+        if self.record_every < 1:
+            raise ValueError(f"record_every: must be >= 1, got {self.record_every}")
+        self.data = mujoco.MjData(self.model)
+        if self.init is not None:
+            self.init(self.data)
+        self.kin = BodyKinematics(self.model)
+        self.n_steps = int(round(self.duration_s / self.model.opt.timestep))
+
+    # ------------------------------------------------------------------ checkpoints
+    def _checkpoint(self, path: Path, step: int, loop: dict) -> None:
+        state = np.empty(mujoco.mj_stateSize(self.model, _STATE_SPEC))
+        mujoco.mj_getState(self.model, self.data, state, _STATE_SPEC)
+        blob = {"step": step, "state": state, "loop": loop}
+        with atomic_path(path) as tmp:
+            with open(tmp, "wb") as fh:
+                pickle.dump(blob, fh, protocol=pickle.HIGHEST_PROTOCOL)
+
+    def _restore(self, path: Path) -> tuple[int, dict]:
+        with open(path, "rb") as fh:
+            blob = pickle.load(fh)
+        mujoco.mj_setState(self.model, self.data, blob["state"], _STATE_SPEC)
+        return blob["step"], blob["loop"]
+
+    # ------------------------------------------------------------------ loop
+    def run(
+        self,
+        *,
+        progress: bool = False,
+        checkpoint_path: str | Path | None = None,
+        resume: bool = False,
+        stop_after_s: float | None = None,
+    ) -> RunResult:
+        """Run to ``duration_s`` (or until divergence / ``stop_after_s``)."""
+        m, d = self.model, self.data
+        dt = m.opt.timestep
+        ckpt = Path(checkpoint_path) if checkpoint_path else None
+        loop = {"records": {name: [] for name in ["t", *self.probes]}, "cmd": None,
+                "next_ctrl": 0.0, "controller": self.controller}
+        start = 0
+        if resume:
+            if ckpt is None or not ckpt.exists():
+                raise FileNotFoundError(f"resume: no checkpoint at {ckpt}")
+            start, loop = self._restore(ckpt)
+            self.controller = loop["controller"]
+        records = loop["records"]
+        ckpt_every = (int(round(self.checkpoint_every_s / dt)) if self.checkpoint_every_s > 0 else 0)
+        stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(round(stop_after_s / dt)))
+        bar = None
+        if progress and self.n_steps > 2000:
+            from tqdm import tqdm
+            bar = tqdm(total=self.n_steps, initial=start, unit="step", file=sys.stderr,
+                       mininterval=1.0, leave=False)
+        status, message = "completed", ""
+        kin = self.kin
+        bad0 = int(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number)
+        wall0 = time.perf_counter()
+        step = start
+        try:
+            for step in range(start, stop_step + 1):
+                t = step * dt
+                if ckpt is not None and step > start and (
+                        (ckpt_every and step % ckpt_every == 0) or step == stop_step < self.n_steps):
+                    self._checkpoint(ckpt, step, loop)
+                if step == stop_step < self.n_steps:
+                    status, message = "stopped", f"stopped at t = {t:.3f} s (stop_after_s)"
+                    break
+                kin.update(d)
+                state = StepState(t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega,
+                                  env=self.environment.sample(t) if self.environment is not None else None,
+                                  ctrl=loop["cmd"])
+                if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+                    raise DivergenceError(f"state is not finite at t = {t:.3f} s")
+                if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > bad0:
+                    raise DivergenceError(f"MuJoCo flagged an unstable acceleration at t = {t:.3f} s")
+                if self.controller is not None and t >= loop["next_ctrl"] - 1e-9 * dt:
+                    loop["cmd"] = self.controller.update(state)
+                    state.ctrl = loop["cmd"]
+                    loop["next_ctrl"] += self.controller.period_s
+                    if hasattr(loop["cmd"], "apply_ctrl"):
+                        loop["cmd"].apply_ctrl(d)
+                if step % self.record_every == 0 or step == self.n_steps:
+                    if self.strain_check is not None:
+                        strain, strut = self.strain_check(kin.pos)
+                        if strain > self.max_strain:
+                            raise DivergenceError(
+                                f"strut {strut} strain {strain:.3g} exceeds max_strain "
+                                f"{self.max_strain:g} at t = {t:.3f} s")
+                    records["t"].append(t)
+                    for name, probe in self.probes.items():
+                        records[name].append(np.array(probe(state, d), copy=True))
+                if step == self.n_steps:
+                    break
+                d.xfrc_applied[:] = 0.0
+                for load in self.loads:
+                    load.add(state, d.xfrc_applied)
+                mujoco.mj_step(m, d)
+                if bar is not None and (step + 1) % 100 == 0:
+                    bar.update(100)
+        except DivergenceError as err:
+            status, message = "diverged", str(err)
+        finally:
+            if bar is not None:
+                bar.close()
+        out = {name: np.asarray(vals) for name, vals in records.items()}
+        return RunResult(records=out, status=status, message=message, t_end_s=step * dt,
+                         steps=step - start, wall_time_s=time.perf_counter() - wall0)
