@@ -130,7 +130,7 @@ def _format_error(err: dict[str, Any]) -> str:
         sign = {"greater_than_equal": ">=", "greater_than": ">",
                 "less_than": "<", "less_than_equal": "<="}[kind]
         bound = next(iter(ctx.values())) if ctx else "?"
-        noun = "an integer" if isinstance(value, int) and not isinstance(value, bool) else "a number"
+        noun = "an integer" if isinstance(bound, int) and not isinstance(bound, bool) else "a number"
         return f"{loc}: must be {noun} {sign} {bound}, got {value!r}"
     msg = err.get("msg", "invalid value")
     msg = msg.removeprefix("Value error, ")

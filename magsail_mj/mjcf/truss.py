@@ -2,8 +2,8 @@
 
 One body per node, placed at its reference position, with three world-aligned slide joints
 (x, y, z): a particle has no rotational state, and slide joints give 3 dofs per node where a
-free joint would give 6 (measured: see README, "Design choices"). Mass is explicit (the
-geoms are visual only: tiny, non-colliding, massless). One spatial tendon per strut between the
+free joint would give 6 (measured: see README, "Design choices"). Mass is carried by each node's
+tiny, non-colliding sphere geom (its rotational inertia is irrelevant: no rotational dofs). One spatial tendon per strut between the
 node sites, with its own ``stiffness`` k, ``damping`` γ and ``springlength`` l0: MuJoCo's
 passive tendon force ``−k (L − l0) − γ L̇`` along the tendon is exactly the two-sided
 spring–dashpot law of truss-magnetorquer-array.md §2.4. Gravity is off and contacts are
@@ -95,6 +95,7 @@ def build_truss_spec(
     spec = mujoco.MjSpec()
     spec.modelname = options.name
     spec.compiler.autolimits = True
+    spec.compiler.savecompiled = False  # numbers saved exactly, explicit inertials kept
     spec.option.timestep = options.timestep_s
     spec.option.integrator = INTEGRATORS[options.integrator]
     spec.option.gravity = [0.0, 0.0, 0.0]
@@ -111,15 +112,12 @@ def build_truss_spec(
     axes = np.eye(3)
     for i in range(n):
         body = spec.worldbody.add_body(name=f"n{i}", pos=lattice.nodes[i].tolist())
-        body.explicitinertial = True
-        body.mass = float(masses[i])
-        body.inertia = [1e-6, 1e-6, 1e-6]
         if i not in fixed:
             for ax, axis in zip("xyz", axes):
                 body.add_joint(name=f"n{i}_{ax}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis.tolist(),
                                damping=float(options.node_damping_1_s * masses[i]))
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0], contype=0,
-                      conaffinity=0, mass=0.0, rgba=list(NODE_RGBA), group=1)
+                      conaffinity=0, mass=float(masses[i]), rgba=list(NODE_RGBA), group=1)
         body.add_site(name=f"s{i}", size=[radius * 0.5, 0, 0], group=5)
     for s in range(S):
         p, q = lattice.struts[s]
@@ -129,3 +127,19 @@ def build_truss_spec(
         tendon.wrap_site(f"s{p}")
         tendon.wrap_site(f"s{q}")
     return spec
+
+
+def node_positions_from_qpos(model: mujoco.MjModel, qpos: np.ndarray, *, n_nodes: int) -> np.ndarray:
+    """World node positions ``(…, n_nodes, 3)`` from ``qpos`` (``(…, nq)``) of a truss model.
+
+    Node ``i`` is body ``i + 1`` at reference ``body_pos``; a free node adds its three slide
+    coordinates, a clamped node (no joints) stays at its reference.
+    """
+    qpos = np.asarray(qpos)
+    bodies = np.arange(1, n_nodes + 1)
+    ref = model.body_pos[bodies]
+    out = np.broadcast_to(ref, qpos.shape[:-1] + ref.shape).copy()
+    has = model.body_jntnum[bodies] == 3
+    adr = model.jnt_qposadr[model.body_jntadr[bodies[has]]]
+    out[..., has, :] += qpos[..., adr[:, None] + np.arange(3)]
+    return out

@@ -1,0 +1,272 @@
+r"""Local surface angle of the deformed top layer (spec §5.2; erratum **M1**).
+
+At one chosen time (e.g. the time of maximum surface SD):
+
+1. The top-layer nodes are expressed in the **average-plane frame** (erratum **M1**: the average
+   plane of the top layer, not the body ``x1 y1`` plane): origin at the centroid, normal
+   :math:`\hat n` from the total-least-squares fit (§5.1), oriented along the best-fit body
+   ``z1``; in-plane axes :math:`\hat e_u` = the best-fit body ``x1`` projected onto the plane and
+   normalised, :math:`\hat e_v = \hat n\times\hat e_u` (the projected ``y1`` made exactly
+   orthogonal). Coordinates :math:`u, v` (in-plane) and :math:`w` (height along :math:`\hat n`).
+2. A continuous surface :math:`w(u, v)` is fitted:
+
+   * ``method="cubic"`` (the paper's choice): ``scipy.interpolate.CloughTocher2DInterpolator``
+     on the Delaunay triangulation of the scattered nodes (like MATLAB's cubic ``griddata``),
+     evaluated on a regular grid of spacing ``spacing_m`` inside the convex hull; gradient by
+     finite differences (central, one-sided next to the hull); triangle-shaped artefacts and
+     boundary overshoot are expected with this method;
+   * ``method="spline"``: an interpolating bicubic spline on the reference node grid. The
+     surface is fitted parametrically, :math:`(u, v, w)(s, t)` with ``s``, ``t`` the node
+     column/row means of ``u``/``v`` (the undeformed in-plane grid up to in-plane strain), so
+     in-plane displacements are accounted for exactly; the tangent vectors come from the
+     spline derivatives and the slope from the surface normal
+     :math:`N = r_s\times r_t`: :math:`\tan\alpha = \sqrt{N_u^2+N_v^2}/|N_w| = |\nabla w|`.
+     Needs the top-layer nodes as an ``N × N`` grid in **j-major** order (flat index
+     ``j N + i``, ``i`` along ``x1``), as the lattice generator produces them.
+
+3. :math:`\alpha = \arctan|\nabla w|` [rad]: the angle between the tangent plane and the
+   average plane.
+4. Statistics over the grid points with a finite ``alpha``: median, 95th percentile, maximum,
+   and the maximum along the outer edge (grid points within ``edge_band_m`` of the boundary of
+   the node hull; default one cube edge, estimated as the median nearest-neighbour node
+   spacing).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from scipy.interpolate import CloughTocher2DInterpolator, RectBivariateSpline
+from scipy.spatial import ConvexHull, Delaunay, cKDTree
+
+from magsail_mj.estimation._arrays import as_points, as_rotations
+
+from .flatness import average_plane
+
+__all__ = ["SurfaceAngle", "plane_frame", "local_surface_angle"]
+
+
+@dataclass(frozen=True)
+class SurfaceAngle:
+    """Result of :func:`local_surface_angle`.
+
+    Attributes:
+      u, v: ``(nu,)``, ``(nv,)`` regular grid axes [m] (for ``"spline"``: the parameter grid,
+        which is the in-plane position up to in-plane strain; see ``u_points``/``v_points``).
+      alpha: ``(nv, nu)`` local surface angle [rad]; NaN outside the node hull.
+      w: ``(nv, nu)`` fitted height above the average plane [m]; NaN outside.
+      u_points, v_points: ``(nv, nu)`` in-plane position of every grid sample [m].
+      edge_mask: ``(nv, nu)`` True for samples within ``edge_band_m`` of the boundary.
+      median, p95, max, edge_max: statistics of the finite ``alpha`` values [rad].
+      edge_band_m: width of the edge band used [m].
+      method: ``"cubic"`` or ``"spline"``.
+      centroid, normal, e_u, e_v: ``(3,)`` the average-plane frame, in the input frame.
+    """
+
+    u: np.ndarray = field(repr=False)
+    v: np.ndarray = field(repr=False)
+    alpha: np.ndarray = field(repr=False)
+    w: np.ndarray = field(repr=False)
+    u_points: np.ndarray = field(repr=False)
+    v_points: np.ndarray = field(repr=False)
+    edge_mask: np.ndarray = field(repr=False)
+    median: float
+    p95: float
+    max: float
+    edge_max: float
+    edge_band_m: float
+    method: str
+    centroid: np.ndarray
+    normal: np.ndarray
+    e_u: np.ndarray
+    e_v: np.ndarray
+
+
+def plane_frame(
+    points: np.ndarray, R_body: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    r"""Average-plane frame of a point set (step 1 of §5.2).
+
+    Returns ``(centroid, normal, e_u, e_v)``, all ``(3,)``: ``normal`` is the TLS normal with
+    ``normal · z1 >= 0``; ``e_u`` the normalised projection of body ``x1 = R_body[:, 0]`` on the
+    plane; ``e_v = normal × e_u``.
+    """
+    x = as_points(points, "points", min_points=3)
+    R = as_rotations(R_body, "R_body")
+    if R.shape != (3, 3):
+        raise ValueError(f"R_body: expected shape (3, 3), got {R.shape}")
+    c, n = average_plane(x, orient=R[:, 2])
+    x1 = R[:, 0]
+    eu = x1 - np.dot(x1, n) * n
+    nu = np.linalg.norm(eu)
+    if not nu > 1e-6:
+        raise ValueError("R_body: body x1 axis is (nearly) normal to the average plane")
+    eu = eu / nu
+    ev = np.cross(n, eu)
+    return c, n, eu, ev
+
+
+def _fd_gradient(W: np.ndarray, h_v: float, h_u: float) -> tuple[np.ndarray, np.ndarray]:
+    """Finite-difference gradient of a grid with NaN holes: central where both neighbours are
+    finite, one-sided where only one is, NaN otherwise. Returns ``(dW/dv, dW/du)``."""
+
+    def one_axis(A: np.ndarray, h: float, axis: int) -> np.ndarray:
+        P = np.full(A.shape, np.nan)
+        M = np.full(A.shape, np.nan)
+        lo = [slice(None)] * 2
+        hi = [slice(None)] * 2
+        lo[axis] = slice(0, -1)
+        hi[axis] = slice(1, None)
+        diff = (A[tuple(hi)] - A[tuple(lo)]) / h  # forward diff at lo, backward diff at hi
+        P[tuple(lo)] = diff
+        M[tuple(hi)] = diff
+        central = 0.5 * (P + M)
+        return np.where(np.isfinite(central), central, np.where(np.isfinite(P), P, M))
+
+    return one_axis(W, h_v, 0), one_axis(W, h_u, 1)
+
+
+def _axis(lo: float, hi: float, h: float) -> np.ndarray:
+    """Regular axis with spacing ``h``, aligned on 0, covering ``[lo, hi]`` (inclusive)."""
+    eps = 1e-9 * max(1.0, abs(lo), abs(hi)) / h
+    i0 = int(np.ceil(lo / h - eps))
+    i1 = int(np.floor(hi / h + eps))
+    return h * np.arange(i0, i1 + 1, dtype=float)
+
+
+def _hull_distance(nodes_uv: np.ndarray, query: np.ndarray) -> np.ndarray:
+    """Distance [m] from each query point to the boundary of the nodes' convex hull (positive
+    inside; negative outside)."""
+    hull = ConvexHull(nodes_uv)
+    eq = hull.equations  # unit outward normals: n.x + b <= 0 inside
+    return -np.max(query @ eq[:, :2].T + eq[:, 2], axis=-1)
+
+
+def _stats(alpha: np.ndarray, edge: np.ndarray) -> tuple[float, float, float, float]:
+    fin = np.isfinite(alpha)
+    a = alpha[fin]
+    if a.size == 0:
+        return (np.nan,) * 4
+    ae = alpha[fin & edge]
+    return (
+        float(np.median(a)),
+        float(np.percentile(a, 95.0)),
+        float(a.max()),
+        float(ae.max()) if ae.size else np.nan,
+    )
+
+
+def local_surface_angle(
+    top_points: np.ndarray,
+    R_body: np.ndarray,
+    *,
+    spacing_m: float = 0.25,
+    method: Literal["cubic", "spline"] = "cubic",
+    nodes_per_side: int | None = None,
+    edge_band_m: float | None = None,
+) -> SurfaceAngle:
+    r"""Local surface angle map and statistics of the top layer at one time (spec §5.2, **M1**).
+
+    See the module docstring for the frame, the two fitting methods and the statistics.
+
+    Args:
+      top_points: ``(n, 3)`` top-layer node positions [m] (world frame). For
+        ``method="spline"`` an ``N × N`` grid in j-major order (index ``j N + i``).
+      R_body: ``(3, 3)`` best-fit body-to-world rotation at the same time (§4.1).
+      spacing_m: evaluation grid spacing [m] (spec: 0.25 m).
+      method: ``"cubic"`` (Clough–Tocher, default) or ``"spline"`` (bicubic on the node grid).
+      nodes_per_side: ``N`` for ``"spline"``; default ``sqrt(n)`` (ignored by ``"cubic"``).
+      edge_band_m: width of the boundary band for ``edge_max`` [m]; default one cube edge
+        (median nearest-neighbour node spacing in the plane).
+
+    Returns:
+      :class:`SurfaceAngle` (angles in radians).
+    """
+    x = as_points(top_points, "top_points", min_points=3)
+    if not (np.isfinite(spacing_m) and spacing_m > 0):
+        raise ValueError(f"spacing_m: must be a finite number > 0, got {spacing_m!r}")
+    if not np.all(np.isfinite(x)):
+        raise ValueError("top_points: contains NaN or Inf")
+    c, n, eu, ev = plane_frame(x, R_body)
+    X = x - c
+    uv = np.stack([X @ eu, X @ ev], axis=-1)
+    wn = X @ n
+
+    if edge_band_m is None:
+        dist, _ = cKDTree(uv).query(uv, k=2)
+        band = float(np.median(dist[:, 1]))
+    else:
+        band = float(edge_band_m)
+        if not (np.isfinite(band) and band >= 0):
+            raise ValueError(f"edge_band_m: must be a finite number >= 0, got {edge_band_m!r}")
+
+    h = float(spacing_m)
+    if method == "cubic":
+        tri = Delaunay(uv)
+        interp = CloughTocher2DInterpolator(tri, wn)
+        ua = _axis(uv[:, 0].min(), uv[:, 0].max(), h)
+        va = _axis(uv[:, 1].min(), uv[:, 1].max(), h)
+        U, V = np.meshgrid(ua, va)  # (nv, nu)
+        W = interp(U, V)
+        gv, gu = _fd_gradient(W, h, h)
+        alpha = np.arctan(np.hypot(gu, gv))
+        dist_b = _hull_distance(uv, np.stack([U.ravel(), V.ravel()], -1)).reshape(U.shape)
+        Up, Vp = U, V
+    elif method == "spline":
+        N = nodes_per_side if nodes_per_side is not None else int(round(np.sqrt(x.shape[0])))
+        if N * N != x.shape[0]:
+            raise ValueError(
+                f"nodes_per_side: {N}^2 != number of top_points ({x.shape[0]}); "
+                "method='spline' needs an N x N grid"
+            )
+        if N < 4:
+            raise ValueError(f"nodes_per_side: bicubic spline needs N >= 4, got {N}")
+        ug = uv[:, 0].reshape(N, N)  # [j, i]
+        vg = uv[:, 1].reshape(N, N)
+        wg = wn.reshape(N, N)
+        s = ug.mean(axis=0)  # along i
+        t = vg.mean(axis=1)  # along j
+        if not (np.all(np.diff(s) > 0) and np.all(np.diff(t) > 0)):
+            raise ValueError(
+                "top_points: not an N x N grid in j-major order (index j*N + i, i along body "
+                "x1, j along body y1), or too distorted for method='spline'"
+            )
+        sa = _axis(s[0], s[-1], h)
+        ta = _axis(t[0], t[-1], h)
+        spl = [RectBivariateSpline(t, s, g, kx=3, ky=3, s=0) for g in (ug, vg, wg)]
+        r_s = np.stack([f(ta, sa, dy=1) for f in spl], axis=-1)  # (nt, ns, 3)
+        r_t = np.stack([f(ta, sa, dx=1) for f in spl], axis=-1)
+        Nrm = np.cross(r_s, r_t)
+        alpha = np.arctan2(np.hypot(Nrm[..., 0], Nrm[..., 1]), np.abs(Nrm[..., 2]))
+        W = spl[2](ta, sa)
+        Up = spl[0](ta, sa)
+        Vp = spl[1](ta, sa)
+        ua, va = sa, ta
+        S, Tg = np.meshgrid(sa, ta)
+        dist_b = np.minimum.reduce([S - s[0], s[-1] - S, Tg - t[0], t[-1] - Tg])
+    else:
+        raise ValueError(f"method: expected 'cubic' or 'spline', got {method!r}")
+
+    edge = (dist_b <= band + 1e-12 * max(1.0, band)) & np.isfinite(alpha)
+    med, p95, amax, emax = _stats(alpha, edge)
+    return SurfaceAngle(
+        u=ua,
+        v=va,
+        alpha=alpha,
+        w=W,
+        u_points=Up,
+        v_points=Vp,
+        edge_mask=edge,
+        median=med,
+        p95=p95,
+        max=amax,
+        edge_max=emax,
+        edge_band_m=band,
+        method=method,
+        centroid=c,
+        normal=n,
+        e_u=eu,
+        e_v=ev,
+    )

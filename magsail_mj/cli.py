@@ -1,0 +1,115 @@
+"""``magsail`` command line: build | run | render | validate.
+
+Exit codes: 0 success, 2 invalid input (config, arguments, run folder), 3 the simulation
+diverged (its outputs up to the divergence are still written).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+__all__ = ["main"]
+
+
+def _cmd_build(args: argparse.Namespace) -> int:
+    from magsail_mj.config import load_config
+    from magsail_mj.io import atomic_path
+    from magsail_mj.scenarios import build_scenario
+
+    cfg = load_config(args.config, args.set)
+    scenario = build_scenario(cfg)
+    out = Path(args.output) if args.output else Path(args.config).with_suffix(".xml")
+    with atomic_path(out) as tmp:
+        tmp.write_text(scenario.spec.to_xml())
+    size = scenario.manifest_extra().get("model_size", {})
+    print(json.dumps({"mjcf": str(out), **size}))
+    return 0
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from magsail_mj.config import load_config
+
+    cfg = load_config(args.config, args.set)
+    print(json.dumps({"config": args.config, "concept": cfg.concept, "scenario": cfg.scenario, "valid": True}))
+    return 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from magsail_mj.config import load_config
+    from magsail_mj.io import to_jsonable
+    from magsail_mj.run import run_scenario
+
+    cfg = load_config(args.config, args.set)
+    outcome = run_scenario(cfg, args.out, video=args.video, resume=args.resume, overwrite=args.overwrite,
+                           progress=False if args.no_progress else None)
+    print(json.dumps(to_jsonable(dict(outcome)), indent=2))
+    print(f"run folder: {outcome.run_dir}", file=sys.stderr)
+    if args.video:
+        print(f"video: {outcome.run_dir / 'video.mp4'}", file=sys.stderr)
+    if outcome.status == "diverged":
+        print(f"error: simulation diverged: {outcome.get('status_message')}", file=sys.stderr)
+        return 3
+    return 0
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    from magsail_mj.render import render_run
+
+    out = render_run(Path(args.run_dir), Path(args.output), compare=Path(args.compare) if args.compare else None,
+                     labels=args.labels)
+    print(str(out))
+    return 0
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="magsail", description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="command", required=True)
+
+    b = sub.add_parser("build", help="write the MJCF of a config and print the model size")
+    b.add_argument("config")
+    b.add_argument("-o", "--output", help="MJCF path (default: next to the config, same stem)")
+    b.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    b.set_defaults(fn=_cmd_build)
+
+    v = sub.add_parser("validate", help="check a config and exit")
+    v.add_argument("config")
+    v.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    v.set_defaults(fn=_cmd_validate)
+
+    r = sub.add_parser("run", help="simulate a config into a run folder")
+    r.add_argument("config")
+    r.add_argument("--out", required=True, help="run folder")
+    r.add_argument("--video", action="store_true", help="also render video.mp4")
+    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a config key, e.g. --set sim.duration_s=60")
+    r.add_argument("--resume", action="store_true", help="continue from the folder's checkpoint")
+    r.add_argument("--overwrite", action="store_true", help="replace an earlier run in --out")
+    r.add_argument("--no-progress", action="store_true")
+    r.set_defaults(fn=_cmd_run)
+
+    rr = sub.add_parser("render", help="render a run folder to MP4 (optionally side by side)")
+    rr.add_argument("run_dir")
+    rr.add_argument("-o", "--output", required=True)
+    rr.add_argument("--compare", help="second run folder, shown on the right")
+    rr.add_argument("--labels", nargs=2, metavar=("LEFT", "RIGHT"))
+    rr.set_defaults(fn=_cmd_render)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    from magsail_mj.config import ConfigError
+    from magsail_mj.io import RunDirError
+
+    args = _parser().parse_args(argv)
+    try:
+        return args.fn(args)
+    except (ConfigError, RunDirError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

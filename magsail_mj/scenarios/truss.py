@@ -1,0 +1,349 @@
+"""The flexible truss concept (``truss_magnetorquer``): config schema and scenario wiring.
+
+Spec: truss-magnetorquer-array.md. Scenarios handled here:
+
+- ``dist_vs_central`` (§6): open-loop torque profile about x1, distributed over all top-layer
+  y1-struts or concentrated in the central cube, free space;
+- ``cantilever`` (§2.7): linear static solve and a MuJoCo settle of the clamped lattice;
+- ``free``: the lattice with no actuator (momentum/energy checks, environment-only runs).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import mujoco
+import numpy as np
+from pydantic import Field, model_validator
+
+from magsail_mj.config import SimConfig, StrictModel, register_concept
+from magsail_mj.control.profiles import torque_profile
+from magsail_mj.geometry.lattice import Lattice, make_lattice
+from magsail_mj.geometry.truss_properties import (
+    clamped_nodes, loaded_nodes, node_masses, strut_damping, strut_stiffness,
+)
+from magsail_mj.loads.point_force import NodeForceLoad
+from magsail_mj.loads.strut_torque import StrutTorqueLoad
+from magsail_mj.mjcf.truss import TrussModelOptions, build_truss_spec
+from magsail_mj.scenarios import register_builder
+from magsail_mj.sim import RunResult, Simulation
+
+__all__ = ["TrussConfig", "TrussScenario", "build_truss_scenario", "TrussModel", "make_truss_model"]
+
+Vec3 = tuple[float, float, float]
+
+
+class LatticeConfig(StrictModel):
+    """``[lattice]``: ``units`` cubes per side (N = units + 1 nodes per side, spec §12 E2)."""
+
+    units: int = Field(ge=1, le=200)
+    side_m: float = Field(gt=0)
+    diagonals: Literal["parity", "X"] = "parity"
+
+
+class PointMass(StrictModel):
+    node: int = Field(ge=0)
+    kg: float = Field(gt=0)
+
+
+class MassConfig(StrictModel):
+    """``[mass]``: total mass (``total_kg`` or ``areal_density_kg_m2`` × side²), spec §2.3."""
+
+    total_kg: float | None = Field(default=None, gt=0)
+    areal_density_kg_m2: float | None = Field(default=None, gt=0)
+    central_fraction: float = Field(default=0.0, ge=0, lt=1)
+    central_nodes: Literal["cube8"] = "cube8"
+    point_masses: list[PointMass] = []
+
+    @model_validator(mode="after")
+    def _one_mass(self) -> "MassConfig":
+        if (self.total_kg is None) == (self.areal_density_kg_m2 is None):
+            raise ValueError("give exactly one of total_kg and areal_density_kg_m2")
+        return self
+
+
+class StiffnessConfig(StrictModel):
+    """``[stiffness]``: target plate bending stiffness and its mapping (spec §2.5, §2.7)."""
+
+    EI_Nm2: float = Field(gt=0)
+    calibration: Literal["cantilever", "formula"] = "cantilever"
+
+
+class DampingConfig(StrictModel):
+    """``[damping]``: strut damping ratio ζ_s (spec §2.6, §12 S5)."""
+
+    zeta_strut: float = Field(default=0.1, ge=0)
+
+
+class ActuatorsConfig(StrictModel):
+    """``[actuators]`` of the generic strut torquers (spec §3.1, §6.2)."""
+
+    kind: Literal["generic"] = "generic"
+    placement: Literal["distributed", "central"] = "distributed"
+    central_pair: Literal["top", "diagonal"] = "top"
+    torque_axis: Literal["local", "bestfit"] = "local"
+
+
+class ProfileConfig(StrictModel):
+    """``[profile]``: open-loop torque about body ``axis`` (spec §6.3–6.4)."""
+
+    kind: Literal["bang_bang_off", "versine"]
+    tau_max_Nm: float = Field(ge=0)
+    t_end_s: float = Field(gt=0)
+    t_v_s: float | None = Field(default=None, gt=0)
+    axis: Literal["x1", "y1", "z1"] = "x1"
+
+
+class InitialConfig(StrictModel):
+    """``[initial]``: rigid initial body rate (body = world axes at t = 0)."""
+
+    omega0_rad_s: Vec3 = (0.0, 0.0, 0.0)
+
+
+class CantileverConfig(StrictModel):
+    """``[cantilever]`` (spec §2.7): tip load and the settle damping (default 2 ω₁)."""
+
+    load_N: float = Field(gt=0)
+    settle_damping_1_s: float | None = Field(default=None, gt=0)
+
+
+class RenderConfig(StrictModel):
+    """``[render]``: video options."""
+
+    exaggeration: float = Field(default=1.0, gt=0)
+    azimuth_deg: float = 180.0
+    elevation_deg: float = -30.0
+    distance_factor: float = Field(default=1.6, gt=0)
+    fps: int = Field(default=30, ge=1, le=120)
+    max_frames: int = Field(default=450, ge=2)
+
+
+@register_concept("truss_magnetorquer")
+class TrussConfig(StrictModel):
+    """A truss scenario config (``models/truss_magnetorquer/*.toml``)."""
+
+    concept: Literal["truss_magnetorquer"]
+    scenario: Literal["dist_vs_central", "cantilever", "free"]
+    description: str = ""
+    sim: SimConfig
+    lattice: LatticeConfig
+    mass: MassConfig
+    stiffness: StiffnessConfig
+    damping: DampingConfig = DampingConfig()
+    actuators: ActuatorsConfig | None = None
+    profile: ProfileConfig | None = None
+    initial: InitialConfig = InitialConfig()
+    cantilever: CantileverConfig | None = None
+    render: RenderConfig = RenderConfig()
+
+    @model_validator(mode="after")
+    def _tables_for_scenario(self) -> "TrussConfig":
+        if self.scenario == "dist_vs_central" and (self.actuators is None or self.profile is None):
+            raise ValueError("scenario 'dist_vs_central' needs the [actuators] and [profile] tables")
+        if self.scenario == "cantilever" and self.cantilever is None:
+            raise ValueError("scenario 'cantilever' needs the [cantilever] table")
+        return self
+
+
+# ---------------------------------------------------------------------------------- model
+
+
+@dataclass
+class TrussModel:
+    """Everything derived from the structural tables of a config."""
+
+    lattice: Lattice
+    masses: np.ndarray
+    k: np.ndarray
+    gamma: float
+    calibration_factor: float
+    particle_mass_kg: float
+    total_kg: float
+    spec: mujoco.MjSpec
+    fixed_nodes: tuple[int, ...] = ()
+
+
+def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: float = 0.0) -> TrussModel:
+    """Lattice, masses, spring constants, damping and the MjSpec of a config."""
+    lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
+    total = cfg.mass.total_kg if cfg.mass.total_kg is not None else cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
+    masses = node_masses(lat, total_kg=total, central_fraction=cfg.mass.central_fraction,
+                         point_masses=[(p.node, p.kg) for p in cfg.mass.point_masses])
+    k, c = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_Nm2, calibration=cfg.stiffness.calibration)
+    m_p = total / lat.n_nodes
+    gamma = strut_damping(lat, k, zeta=cfg.damping.zeta_strut, particle_mass_kg=m_p)
+    opts = TrussModelOptions(timestep_s=cfg.sim.timestep_s, integrator=cfg.sim.integrator,
+                             fixed_nodes=tuple(int(i) for i in fixed_nodes),
+                             node_damping_1_s=node_damping_1_s, name=f"truss_{cfg.scenario}")
+    spec = build_truss_spec(lat, masses=masses, stiffness=k, damping=gamma, options=opts)
+    return TrussModel(lattice=lat, masses=masses, k=k, gamma=gamma, calibration_factor=c,
+                      particle_mass_kg=m_p, total_kg=total, spec=spec, fixed_nodes=tuple(fixed_nodes))
+
+
+def actuated_struts(lat: Lattice, act: ActuatorsConfig, axis: str) -> np.ndarray:
+    """Struts carrying torquers (spec §6.2): a family of top-layer edges, or the central cube's.
+
+    Torque about x1 comes from y1-struts and about y1 from x1-struts (§12 S6); about z1 both
+    families act. ``central_pair="diagonal"`` takes the i0 top strut and the i0+1 bottom strut.
+    """
+    kinds = {"x1": ["y_edge"], "y1": ["x_edge"], "z1": ["x_edge", "y_edge"]}[axis]
+    if act.placement == "distributed":
+        return np.concatenate([lat.struts_of_kind(kd, layer=1) for kd in kinds])
+    n = lat.units
+    i0 = (n - 1) // 2
+    out = []
+    for kd in kinds:
+        for s in lat.struts_of_kind(kd):
+            a, b = lat.ijk[lat.struts[s]]
+            lo = np.minimum(a, b)
+            if kd == "y_edge" and lo[1] == i0 and lo[0] in (i0, i0 + 1):
+                want_k = 1 if act.central_pair == "top" or lo[0] == i0 else 0
+                if lo[2] == want_k:
+                    out.append(s)
+            if kd == "x_edge" and lo[0] == i0 and lo[1] in (i0, i0 + 1):
+                want_k = 1 if act.central_pair == "top" or lo[1] == i0 else 0
+                if lo[2] == want_k:
+                    out.append(s)
+    return np.array(sorted(out), dtype=int)
+
+
+# ---------------------------------------------------------------------------------- scenario
+
+
+@dataclass
+class TrussScenario:
+    """A truss run: the model plus its loads, probes and post-processing."""
+
+    cfg: TrussConfig
+    tm: TrussModel
+    spec: mujoco.MjSpec = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.spec = self.tm.spec
+        self.model = self.spec.compile()
+        self.torque_load: StrutTorqueLoad | None = None
+
+    # -------------------------------------------------------------- runner
+    def _profile_command(self):
+        p = self.cfg.profile
+        axis = {"x1": 0, "y1": 1, "z1": 2}[p.axis]
+
+        def command(state) -> np.ndarray:
+            tau = np.zeros(3)
+            tau[axis] = float(torque_profile(p.kind, state.t, tau_max=p.tau_max_Nm, t_end=p.t_end_s, t_v=p.t_v_s))
+            return tau
+
+        return command
+
+    def loads(self) -> list:
+        cfg, lat = self.cfg, self.tm.lattice
+        if cfg.scenario == "dist_vs_central":
+            struts = actuated_struts(lat, cfg.actuators, cfg.profile.axis)
+            self.torque_load = StrutTorqueLoad(lat, struts, command=self._profile_command(),
+                                               torque_axis=cfg.actuators.torque_axis)
+            return [self.torque_load]
+        if cfg.scenario == "cantilever":
+            tip = loaded_nodes(lat)
+            force = np.zeros((tip.size, 3))
+            force[:, 2] = -cfg.cantilever.load_N / tip.size
+            return [NodeForceLoad(tip + 1, force)]
+        return []
+
+    def init_state(self, data: mujoco.MjData) -> None:
+        """Rigid initial rotation rate ω₀ about the centre of mass: v_i = ω₀ × (p_i − p_c)."""
+        w = np.asarray(self.cfg.initial.omega0_rad_s, dtype=float)
+        if not np.any(w) or self.tm.fixed_nodes:
+            return
+        p = self.tm.lattice.nodes
+        pc = np.average(p, axis=0, weights=self.tm.masses)
+        data.qvel[:] = np.cross(w, p - pc).ravel()
+
+    def simulation(self) -> Simulation:
+        lat = self.tm.lattice
+        a, b = lat.struts[:, 0] + 1, lat.struts[:, 1] + 1
+        l0 = lat.rest_length
+
+        def strain_check(pos: np.ndarray) -> tuple[float, int]:
+            r = pos[b] - pos[a]
+            eps = np.abs(np.sqrt(np.einsum("ij,ij->i", r, r)) / l0 - 1.0)
+            s = int(np.argmax(eps))
+            return float(eps[s]), s
+
+        probes: dict[str, Any] = {"qpos": lambda s, d: d.qpos}
+        loads = self.loads()
+        if self.torque_load is not None:
+            tl, nt = self.torque_load, self.model.ntendon
+            probes["torque_cmd_body_Nm"] = lambda s, d: tl.last_command
+            probes["strut_activity"] = lambda s, d: tl.activity(nt)
+        return Simulation(model=self.model, duration_s=self.cfg.sim.duration_s, loads=loads,
+                          probes=probes, record_every=self.cfg.sim.record_every,
+                          strain_check=strain_check, max_strain=self.cfg.sim.max_strain,
+                          checkpoint_every_s=self.cfg.sim.checkpoint_every_s, init=self.init_state)
+
+    # -------------------------------------------------------------- outputs
+    def node_positions(self, qpos: np.ndarray) -> np.ndarray:
+        """(T, n, 3) node positions from recorded qpos (clamped nodes stay at reference)."""
+        from magsail_mj.mjcf.truss import node_positions_from_qpos
+
+        return node_positions_from_qpos(self.model, qpos, n_nodes=self.tm.lattice.n_nodes)
+
+    def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        from magsail_mj.scenarios.truss_metrics import cantilever_summary, dynamic_summary
+
+        if self.cfg.scenario == "cantilever":
+            return cantilever_summary(self, result)
+        return dynamic_summary(self, result)
+
+    def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
+        from magsail_mj.scenarios.truss_plots import truss_plots
+
+        return truss_plots(self, run_dir, series)
+
+    def render_info(self) -> dict[str, Any]:
+        r = self.cfg.render
+        top = self.tm.lattice.top_nodes
+        return {
+            "title": f"{self.cfg.scenario}: {self.cfg.description}".strip(": "),
+            "top_nodes": top.tolist(),
+            "overlay": ["surface_sd_m", "torque_cmd_x1_Nm"] if self.cfg.scenario == "dist_vs_central" else ["surface_sd_m"],
+            "camera": {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
+                       "distance_m": r.distance_factor * self.cfg.lattice.side_m},
+            "exaggeration": r.exaggeration,
+            "fps": r.fps,
+            "max_frames": r.max_frames,
+        }
+
+    def manifest_extra(self) -> dict[str, Any]:
+        lat = self.tm.lattice
+        return {
+            "model_size": {"nodes": lat.n_nodes, "struts": lat.n_struts, "dofs": int(self.model.nv)},
+            "zeta_strut": self.cfg.damping.zeta_strut,
+            "gamma_Ns_m": self.tm.gamma,
+            "stiffness_calibration": self.cfg.stiffness.calibration,
+            "stiffness_calibration_factor": self.tm.calibration_factor,
+            "integrator": self.cfg.sim.integrator,
+            "timestep_s": self.cfg.sim.timestep_s,
+        }
+
+
+@register_builder("truss_magnetorquer")
+def build_truss_scenario(cfg: TrussConfig) -> TrussScenario:
+    """Scenario object of a truss config (the cantilever clamps its i = 0 edge)."""
+    if cfg.scenario == "cantilever":
+        lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
+        c = cfg.cantilever
+        damping = c.settle_damping_1_s if c.settle_damping_1_s is not None else 2.0 * first_cantilever_omega(cfg)
+        tm = make_truss_model(cfg, fixed_nodes=clamped_nodes(lat), node_damping_1_s=damping)
+    else:
+        tm = make_truss_model(cfg)
+    return TrussScenario(cfg=cfg, tm=tm)
+
+
+def first_cantilever_omega(cfg: TrussConfig) -> float:
+    """ω₁ = 1.875² √(EI / (ρ_L L⁴)) with ρ_L = M/d (spec §2.7) [rad/s]."""
+    total = cfg.mass.total_kg if cfg.mass.total_kg is not None else cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
+    L = cfg.lattice.side_m
+    return 1.875**2 * np.sqrt(cfg.stiffness.EI_Nm2 / (total / L * L**4))
+

@@ -1,0 +1,155 @@
+"""Post-processing of truss runs into summary figures and time series (spec §4–§6, §2.7)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from scipy.integrate import cumulative_trapezoid
+
+from magsail_mj.analysis.energy import strain_energy, structural_failure
+from magsail_mj.analysis.flatness import surface_sd
+from magsail_mj.analysis.surface_angle import local_surface_angle
+from magsail_mj.control.profiles import torque_profile
+from magsail_mj.estimation.attitude import best_fit_rotation, body_rates, euler_zyx, particle_inertia
+from magsail_mj.geometry.truss_properties import cantilever_linear, loaded_nodes
+from magsail_mj.sim import RunResult
+
+if TYPE_CHECKING:
+    from magsail_mj.scenarios.truss import TrussScenario
+
+__all__ = ["dynamic_summary", "cantilever_summary", "rigid_response"]
+
+
+def rigid_response(kind: str, t: np.ndarray, *, tau_max: float, t_end: float, t_v: float | None,
+                   inertia: float, dt_fine: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
+    """Rigid-body angle and rate about the torque axis: ω = ∫τ/I dt, φ = ∫ω dt (from rest).
+
+    Integrated by the trapezoid rule on a ``dt_fine`` grid (exact for the piecewise-constant
+    bang-bang profile up to the breakpoints' grid alignment) and sampled at ``t``.
+    """
+    tf = np.arange(0.0, float(np.max(t)) + dt_fine, dt_fine)
+    tau = torque_profile(kind, tf, tau_max=tau_max, t_end=t_end, t_v=t_v)
+    w = cumulative_trapezoid(tau / inertia, tf, initial=0.0)
+    phi = cumulative_trapezoid(w, tf, initial=0.0)
+    return np.interp(t, tf, phi), np.interp(t, tf, w)
+
+
+def _common(sc: "TrussScenario", result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray], np.ndarray]:
+    lat, tm = sc.tm.lattice, sc.tm
+    t = result.records["t"]
+    pos = sc.node_positions(result.records["qpos"])
+    top = lat.top_nodes
+    sd = surface_sd(pos[:, top])
+    energy = strain_energy(pos, lat.struts, tm.k, lat.rest_length)
+    fail = structural_failure(pos, lat.struts, lat.rest_length, tets=lat.cube_tetrahedra(),
+                              reference=lat.nodes, strain_limit=sc.cfg.sim.max_strain)
+    failed_idx = np.flatnonzero(fail.failed)
+    kmax = int(np.nanargmax(sd)) if sd.size else 0
+    summary: dict[str, Any] = {
+        "status": result.status,
+        "status_message": result.message,
+        "t_end_s": float(t[-1]) if t.size else 0.0,
+        "surface_sd_max_m": float(np.nanmax(sd)) if sd.size else float("nan"),
+        "t_surface_sd_max_s": float(t[kmax]) if t.size else float("nan"),
+        "strain_energy_max_J": float(np.nanmax(energy)) if energy.size else float("nan"),
+        "strut_strain_max": float(np.nanmax(fail.max_abs_strain)) if t.size else float("nan"),
+        "failed": bool(failed_idx.size > 0 or result.status == "diverged"),
+        "t_failed_s": float(t[failed_idx[0]]) if failed_idx.size else float("nan"),
+        "gamma_Ns_m": float(tm.gamma),
+        "zeta_strut": float(sc.cfg.damping.zeta_strut),
+        "stiffness_calibration_factor": float(tm.calibration_factor),
+        "wall_time_s": float(result.wall_time_s),
+    }
+    series = {"surface_sd_m": sd, "strain_energy_J": energy, "strut_strain_max": fail.max_abs_strain}
+    return summary, series, pos
+
+
+def dynamic_summary(sc: "TrussScenario", result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Summary of a dynamic run (``dist_vs_central`` and ``free``), spec §6.6 and §11."""
+    summary, series, pos = _common(sc, result)
+    lat, cfg = sc.tm.lattice, sc.cfg
+    t = result.records["t"]
+    if t.size < 2:
+        return summary, series
+    R, _ = best_fit_rotation(lat.nodes, pos)
+    psi, theta, phi = euler_zyx(R, unwrap=True)
+    dt_rec = float(t[1] - t[0])
+    omega = body_rates(R, dt_rec, omega0=np.asarray(cfg.initial.omega0_rad_s))
+    inertia = particle_inertia(lat.nodes, sc.tm.masses)
+    series.update(psi_rad=psi, theta_rad=theta, phi_rad=phi, omega_body_rad_s=omega,
+                  R_body_to_world=R)
+    summary.update({
+        "rotation_x1_final_rad": float(phi[-1]),
+        "phi_final_rad": float(phi[-1]),
+        "off_axis_rotation_max_rad": float(max(np.max(np.abs(psi)), np.max(np.abs(theta)))),
+        "psi_peak_abs_rad": float(np.max(np.abs(psi))),
+        "theta_peak_abs_rad": float(np.max(np.abs(theta))),
+        "omega1_peak_rad_s": float(np.max(np.abs(omega[:, 0]))),
+        "I_kgm2": inertia.moments.tolist(),
+    })
+    kmax = int(np.nanargmax(series["surface_sd_m"]))
+    ang = local_surface_angle(pos[kmax, lat.top_nodes], R[kmax], nodes_per_side=lat.nodes_per_side)
+    series.update(surface_angle_map_rad=ang.alpha, surface_angle_u_m=ang.u, surface_angle_v_m=ang.v)
+    summary.update({
+        "surface_angle_median_rad": float(ang.median), "surface_angle_p95_rad": float(ang.p95),
+        "surface_angle_max_rad": float(ang.max), "surface_angle_edge_max_rad": float(ang.edge_max),
+    })
+    if cfg.scenario == "dist_vs_central":
+        p = cfg.profile
+        axis = {"x1": 0, "y1": 1, "z1": 2}[p.axis]
+        ang_rigid, rate_rigid = rigid_response(p.kind, t, tau_max=p.tau_max_Nm, t_end=p.t_end_s, t_v=p.t_v_s,
+                                               inertia=float(inertia.moments[axis]))
+        series.update(phi_rigid_rad=ang_rigid, omega_rigid_rad_s=rate_rigid,
+                      torque_cmd_x1_Nm=result.records["torque_cmd_body_Nm"][:, 0])
+        summary["phi_rigid_final_rad"] = float(ang_rigid[-1])
+        t_off = 2.0 * p.t_end_s / 3.0
+        after = t > t_off
+        if np.count_nonzero(after) >= 2:
+            sd_after = series["surface_sd_m"][after]
+            summary.update({
+                "surface_sd_after_off_mean_m": float(np.mean(sd_after)),
+                "surface_sd_after_off_p2p_m": float(np.ptp(sd_after)),
+                "surface_sd_after_off_slope_m_per_s": float(np.polyfit(t[after], sd_after, 1)[0]),
+            })
+        else:
+            summary.update({k: float("nan") for k in ("surface_sd_after_off_mean_m", "surface_sd_after_off_p2p_m",
+                                                      "surface_sd_after_off_slope_m_per_s")})
+    return summary, series
+
+
+def cantilever_summary(sc: "TrussScenario", result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Cantilever check (spec §2.7): linear solve (formula and calibrated) vs the MuJoCo settle."""
+    lat, cfg = sc.tm.lattice, sc.cfg
+    P = cfg.cantilever.load_N
+    EI = cfg.stiffness.EI_Nm2
+    k_formula = sc.tm.k / sc.tm.calibration_factor
+    formula = cantilever_linear(lat, k_formula, load_N=P)
+    used = cantilever_linear(lat, sc.tm.k, load_N=P)
+    calibrated = cantilever_linear(lat, k_formula * (EI / formula.EI_eff_Nm2), load_N=P)
+    t = result.records["t"]
+    pos = sc.node_positions(result.records["qpos"])
+    tip = loaded_nodes(lat)
+    tip_z = -np.mean(pos[:, tip, 2] - lat.nodes[tip, 2], axis=1)
+    speed = np.abs(np.gradient(tip_z, t)) if t.size > 2 else np.array([np.nan])
+    delta_mj = float(tip_z[-1])
+    summary = {
+        "status": result.status,
+        "status_message": result.message,
+        "EI_target_Nm2": EI,
+        "EI_eff_formula_Nm2": formula.EI_eff_Nm2,
+        "EI_ratio_formula": formula.EI_eff_Nm2 / EI,
+        "stiffness_calibration": cfg.stiffness.calibration,
+        "stiffness_calibration_factor": EI / formula.EI_eff_Nm2,
+        "EI_ratio_calibrated": calibrated.EI_eff_Nm2 / EI,
+        "beam_deflection_m": P * lat.side_m**3 / (3 * EI),
+        "tip_deflection_linear_m": used.tip_deflection_m,
+        "tip_deflection_mujoco_m": delta_mj,
+        "EI_eff_mujoco_Nm2": P * lat.side_m**3 / (3 * delta_mj) if delta_mj > 0 else float("nan"),
+        "linear_vs_mujoco_rel_diff": abs(delta_mj - used.tip_deflection_m) / used.tip_deflection_m,
+        "tip_speed_final_m_s": float(speed[-1]),
+        "settled": bool(speed[-1] < 1e-6 * max(delta_mj, 1e-300)),
+        "tip_deflection_over_side": delta_mj / lat.side_m,
+        "wall_time_s": result.wall_time_s,
+    }
+    return summary, {"tip_deflection_m": tip_z}

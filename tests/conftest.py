@@ -1,0 +1,30 @@
+"""Shared test helpers: a small, fast truss config."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+SMALL_TRUSS = {
+    "concept": "truss_magnetorquer",
+    "scenario": "dist_vs_central",
+    "description": "small test truss",
+    "sim": {"duration_s": 20.0, "timestep_s": 0.1, "integrator": "RK4", "record_every": 5,
+            "seed": 0, "progress": False},
+    "lattice": {"units": 3, "side_m": 12.0, "diagonals": "parity"},
+    "mass": {"total_kg": 8.0, "central_fraction": 0.0},
+    "stiffness": {"EI_Nm2": 50.0, "calibration": "cantilever"},
+    "damping": {"zeta_strut": 0.1},
+    "actuators": {"placement": "distributed"},
+    "profile": {"kind": "bang_bang_off", "tau_max_Nm": 0.01, "t_end_s": 20.0},
+}
+
+
+@pytest.fixture
+def small_truss_tree() -> dict:
+    """A raw config tree of a 3 × 3-cube truss (32 nodes) with a distributed torque."""
+    return copy.deepcopy(SMALL_TRUSS)

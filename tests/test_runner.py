@@ -1,0 +1,88 @@
+"""The runner and run folders: outputs, resume, divergence, no silent overwrite."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from magsail_mj.config import apply_overrides, parse_config
+from magsail_mj.io import RunDirError
+from magsail_mj.run import run_scenario
+
+
+def _cfg(tree, *overrides):
+    return parse_config(apply_overrides(tree, list(overrides)))
+
+
+def test_run_folder_contents(tmp_path, small_truss_tree):
+    out = run_scenario(_cfg(small_truss_tree), tmp_path / "run")
+    files = {p.name for p in (tmp_path / "run").iterdir()}
+    assert {"model.xml", "timeseries.npz", "summary.json", "manifest.json", "euler_angles.png",
+            "body_rates.png", "surface_sd.png"} <= files
+    assert not [f for f in files if f.startswith(".")], "temporary files left behind"
+    manifest = json.loads((tmp_path / "run/manifest.json").read_text())
+    assert manifest["config_hash"] and manifest["versions"]["mujoco"].startswith("4.")
+    assert set(manifest["files"]) >= {"model.xml", "timeseries.npz", "summary.json"}
+    summary = json.loads((tmp_path / "run/summary.json").read_text())
+    for key in ("rotation_x1_final_rad", "off_axis_rotation_max_rad", "surface_sd_max_m", "strain_energy_max_J"):
+        assert np.isfinite(summary[key]), key
+    ts = np.load(tmp_path / "run/timeseries.npz")
+    # record_every = 5 steps of 0.1 s over 20 s: 41 samples including t = 0 and t = 20 s
+    assert ts["t"].shape == (41,) and ts["qpos"].shape == (41, 96)
+    assert out.status == "completed"
+
+
+def test_earlier_run_is_not_overwritten(tmp_path, small_truss_tree):
+    cfg = _cfg(small_truss_tree, "sim.duration_s=1.0")
+    run_scenario(cfg, tmp_path / "run")
+    before = (tmp_path / "run/manifest.json").read_text()
+    with pytest.raises(RunDirError, match="--overwrite"):
+        run_scenario(cfg, tmp_path / "run")
+    assert (tmp_path / "run/manifest.json").read_text() == before
+    run_scenario(cfg, tmp_path / "run", overwrite=True)
+
+
+def test_resume_equals_uninterrupted(tmp_path, small_truss_tree):
+    cfg = _cfg(small_truss_tree, "sim.checkpoint_every_s=4.0")
+    full = run_scenario(cfg, tmp_path / "full")
+    run_scenario(cfg, tmp_path / "cut", stop_after_s=9.0)
+    cut = np.load(tmp_path / "cut/timeseries.npz")
+    assert cut["t"][-1] < 9.0
+    resumed = run_scenario(cfg, tmp_path / "cut", resume=True)
+    a = np.load(tmp_path / "full/timeseries.npz")
+    b = np.load(tmp_path / "cut/timeseries.npz")
+    assert np.array_equal(a["t"], b["t"])
+    assert np.array_equal(a["qpos"], b["qpos"]), "resumed run differs from the uninterrupted one"
+    assert resumed["phi_final_rad"] == full["phi_final_rad"]
+
+
+def test_same_config_same_numbers(tmp_path, small_truss_tree):
+    cfg = _cfg(small_truss_tree, "sim.duration_s=3.0")
+    run_scenario(cfg, tmp_path / "a")
+    run_scenario(cfg, tmp_path / "b")
+    assert np.array_equal(np.load(tmp_path / "a/timeseries.npz")["qpos"], np.load(tmp_path / "b/timeseries.npz")["qpos"])
+
+
+def test_divergence_stops_with_time_and_cause_and_keeps_records(tmp_path, small_truss_tree):
+    # A torque far beyond what the soft lattice can carry tears it apart within seconds.
+    cfg = _cfg(small_truss_tree, "profile.tau_max_Nm=50.0", "sim.max_strain=0.3", "sim.record_every=1")
+    out = run_scenario(cfg, tmp_path / "run")
+    assert out.status == "diverged"
+    assert "strain" in out["status_message"] and "t = " in out["status_message"]
+    ts = np.load(tmp_path / "run/timeseries.npz")
+    assert 1 < ts["t"].size < 201
+    manifest = json.loads((tmp_path / "run/manifest.json").read_text())
+    assert manifest["status"] == "diverged"
+
+
+def test_cli_reports_bad_config_before_writing(tmp_path, capsys):
+    from magsail_mj.cli import main
+    from tests.conftest import REPO
+
+    cfg = REPO / "models/truss_magnetorquer/dist_vs_central/case_c_central_bangbang.toml"
+    rc = main(["run", str(cfg), "--out", str(tmp_path / "run"), "--set", "sim.timestep_s=0"])
+    assert rc == 2
+    assert "sim.timestep_s: must be a number > 0, got 0" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
