@@ -84,5 +84,5 @@ def test_cli_reports_bad_config_before_writing(tmp_path, capsys):
     cfg = REPO / "models/truss_magnetorquer/dist_vs_central/case_c_central_bangbang.toml"
     rc = main(["run", str(cfg), "--out", str(tmp_path / "run"), "--set", "sim.timestep_s=0"])
     assert rc == 2
-    assert "sim.timestep_s: must be a number > 0, got 0" in capsys.readouterr().err
+    assert "sim.timestep_s: must be a number > 0.0, got 0" in capsys.readouterr().err
     assert not (tmp_path / "run").exists()
