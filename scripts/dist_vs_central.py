@@ -1,0 +1,169 @@
+"""Reproduce the distributed-vs-centralised torque experiment (truss-magnetorquer-array.md §6).
+
+Runs the configs ``models/truss_magnetorquer/dist_vs_central/case_{a,b,c}_{distributed,central}_
+{bangbang,versine}.toml`` (in parallel worker processes), then writes into ``--out``:
+
+- one run folder per config (summary.json, timeseries.npz, plots, manifest);
+- ``comparison.md``: the table of summary figures of all runs, plus the central/distributed
+  ratio of the maximum surface SD per case and profile;
+- ``<profile>_cases.png``: φ, ω₁ and surface SD vs time, central and distributed, per case,
+  with the rigid-body response overlaid (like the paper's Figs. 6–8 and 11–13);
+- ``torque_profiles.png``: the two profiles (like Fig. 10);
+- with ``--video``: ``case_<x>_<profile>_side_by_side.mp4`` (central | distributed).
+
+    python scripts/dist_vs_central.py                               # all twelve
+    python scripts/dist_vs_central.py --cases c --profiles bangbang --video   # the main job
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+CONFIGS = REPO / "models" / "truss_magnetorquer" / "dist_vs_central"
+KEYS = ("rotation_x1_final_rad", "phi_rigid_final_rad", "off_axis_rotation_max_rad", "omega1_peak_rad_s",
+        "surface_sd_max_m", "t_surface_sd_max_s", "strain_energy_max_J", "strut_strain_max",
+        "surface_sd_after_off_mean_m", "failed")
+
+
+def _run_one(config: str, out_dir: str, overrides: list[str]) -> tuple[str, dict]:
+    from magsail_mj.config import load_config
+    from magsail_mj.run import run_scenario
+
+    cfg = load_config(config, overrides)
+    summary = run_scenario(cfg, out_dir, overwrite=True, progress=False)
+    return config, dict(summary)
+
+
+def _fmt(v) -> str:
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if v is None:
+        return "–"
+    return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+
+def comparison_table(summaries: dict[str, dict]) -> str:
+    """Markdown table of the runs' key figures and the central/distributed SD ratios."""
+    lines = ["| run | " + " | ".join(KEYS) + " |", "|---" * (len(KEYS) + 1) + "|"]
+    for name in sorted(summaries):
+        lines.append(f"| {name} | " + " | ".join(_fmt(summaries[name].get(k)) for k in KEYS) + " |")
+    lines += ["", "| case | profile | max SD central / distributed |", "|---|---|---|"]
+    for name in sorted(summaries):
+        if "_central_" not in name:
+            continue
+        other = name.replace("_central_", "_distributed_")
+        if other in summaries:
+            ratio = summaries[name]["surface_sd_max_m"] / summaries[other]["surface_sd_max_m"]
+            case, _, prof = name.split("_", 1)[1].partition("_central_")
+            lines.append(f"| {case.upper()} | {prof} | {ratio:.3g} |")
+    return "\n".join(lines) + "\n"
+
+
+def case_figure(out: Path, profile: str, cases: list[str]) -> Path:
+    """φ, ω₁ and surface SD vs time for each case, central and distributed side by side."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from magsail_mj.scenarios.truss_plots import save_figure
+
+    fig, axs = plt.subplots(3, len(cases), figsize=(5 * len(cases), 8), squeeze=False, sharex=True)
+    for col, case in enumerate(cases):
+        for place, style in (("central", "-"), ("distributed", "-")):
+            run = out / f"case_{case}_{place}_{profile}"
+            if not (run / "timeseries.npz").exists():
+                continue
+            ts = np.load(run / "timeseries.npz")
+            axs[0, col].plot(ts["t"], ts["phi_rad"], style, label=place)
+            axs[1, col].plot(ts["t"], ts["omega_body_rad_s"][:, 0], style, label=place)
+            axs[2, col].plot(ts["t"], ts["surface_sd_m"], style, label=place)
+            rigid_t, rigid_phi, rigid_w = ts["t"], ts["phi_rigid_rad"], ts["omega_rigid_rad_s"]
+        axs[0, col].plot(rigid_t, rigid_phi, "k--", lw=1, label="rigid")
+        axs[1, col].plot(rigid_t, rigid_w, "k--", lw=1, label="rigid")
+        axs[0, col].set_title(f"Case {case.upper()} ({profile})")
+        axs[0, col].set_ylabel("φ [rad]")
+        axs[1, col].set_ylabel("ω₁ [rad/s]")
+        axs[2, col].set_ylabel("surface SD [m]")
+        axs[2, col].set_xlabel("t [s]")
+        axs[0, col].legend()
+    return save_figure(fig, out / f"{profile}_cases.png")
+
+
+def profile_figure(out: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from magsail_mj.control.profiles import bang_bang_off, versine
+    from magsail_mj.scenarios.truss_plots import save_figure
+
+    t = np.linspace(0, 1800, 3601)
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    ax.plot(t, bang_bang_off(t, tau_max=0.1, t_end=1800), label="bang-bang-off")
+    ax.plot(t, versine(t, tau_max=0.1, t_end=1800), label="versine (Eq. 9, corrected)")
+    ax.set(xlabel="t [s]", ylabel="τ about x1 [N m]")
+    ax.legend()
+    return save_figure(fig, out / "torque_profiles.png")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="runs/dist_vs_central", help="output folder")
+    ap.add_argument("--cases", nargs="+", default=["a", "b", "c"], choices=["a", "b", "c"])
+    ap.add_argument("--profiles", nargs="+", default=["bangbang", "versine"], choices=["bangbang", "versine"])
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--video", action="store_true", help="render the side-by-side MP4s")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="override for every run, e.g. --set sim.duration_s=120")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    jobs = [(CONFIGS / f"case_{c}_{p}_{prof}.toml", out / f"case_{c}_{p}_{prof}")
+            for c in args.cases for prof in args.profiles for p in ("central", "distributed")]
+    t0 = time.perf_counter()
+    summaries: dict[str, dict] = {}
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        futures = {pool.submit(_run_one, str(cfg), str(run), args.set): run for cfg, run in jobs}
+        for fut in as_completed(futures):
+            run = futures[fut]
+            try:
+                _, summary = fut.result()
+            except Exception as err:  # one failed run must not lose the others
+                print(f"{run.name}: FAILED: {err}", file=sys.stderr)
+                continue
+            summaries[run.name] = summary
+            print(f"{run.name}: {summary['status']}, φ_end = {summary.get('rotation_x1_final_rad', float('nan')):.4g} rad, "
+                  f"max SD = {summary['surface_sd_max_m']:.4g} m ({summary['wall_time_s']:.0f} s)", file=sys.stderr)
+    table = comparison_table(summaries)
+    (out / "comparison.md").write_text(table)
+    for prof in args.profiles:
+        case_figure(out, prof, args.cases)
+    profile_figure(out)
+    videos = []
+    if args.video:
+        from magsail_mj.render import render_run
+
+        for c in args.cases:
+            for prof in args.profiles:
+                central, dist = out / f"case_{c}_central_{prof}", out / f"case_{c}_distributed_{prof}"
+                if central.name in summaries and dist.name in summaries:
+                    videos.append(render_run(central, out / f"case_{c}_{prof}_side_by_side.mp4", compare=dist,
+                                             labels=["centralised", "distributed"]))
+    print(table)
+    print(json.dumps({"runs": len(summaries), "wall_time_s": round(time.perf_counter() - t0, 1),
+                      "comparison": str(out / "comparison.md"), "videos": [str(v) for v in videos]}, indent=2))
+    return 0 if len(summaries) == len(jobs) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
