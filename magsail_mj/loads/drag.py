@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from magsail_mj.environment.frames import quat_to_mat
-from magsail_mj.environment.surfaces import FacetSet, cell_node_matrix, drag_forces, quad_area_vectors
+from magsail_mj.environment.surfaces import CellGeometry, FacetSet, drag_forces
 
 from .base import StepState
 
@@ -69,6 +69,9 @@ class LatticeDragLoad:
     Args:
       cells: (ncell, 4) corner node indices (counter-clockwise about the front normal);
       drag_coefficient: C_d; two_sided: membrane (default); body_offset: body index of node 0.
+
+    Per cell: F = −½ C_d ρ A |n̂·V| V (two-sided; max(n̂·V, 0) one-sided), which is the module's
+    law with |V| A_proj = A |n̂·V|.
     """
 
     name = "drag_lattice"
@@ -81,27 +84,21 @@ class LatticeDragLoad:
         if not drag_coefficient > 0:
             raise ValueError(f"drag_coefficient: must be > 0, got {drag_coefficient!r}")
         self.cells = cells
-        self.body_cells = cells + int(body_offset)
+        self.geometry = CellGeometry(cells + int(body_offset))
         self.cd = float(drag_coefficient)
         self.two_sided = bool(two_sided)
-        self._S = None
-
-    def _scatter(self, nrows: int):
-        if self._S is None or self._S.shape[0] != nrows:
-            self._S = cell_node_matrix(self.body_cells, nrows)
-        return self._S
 
     def cell_forces(self, state: StepState) -> np.ndarray:
-        """Force on each cell (ncell, 3) [N] in world axes."""
+        """Force on each cell (3, ncell) [N] in world axes."""
         env = state.env
-        A = quad_area_vectors(state.pos, self.body_cells)
-        area = np.sqrt(np.einsum("ij,ij->i", A, A))
-        normal = A / area[:, None]
-        S = self._scatter(len(state.pos))
-        V = env.v_rel_eci + S.T @ state.vel  # S holds ¼ entries: Sᵀ v = mean corner velocity
-        return drag_forces(normal, area, V, env.density_kg_m3, self.cd, self.two_sided)
+        area, n = self.geometry.area_normal(state.pos)
+        V = self.geometry.mean_velocity(state.vel)
+        V += env.v_rel_eci[:, None]
+        proj = n[0] * V[0] + n[1] * V[1] + n[2] * V[2]
+        proj = np.abs(proj) if self.two_sided else np.maximum(proj, 0.0)
+        return ((-0.5 * self.cd * env.density_kg_m3) * area * proj) * V
 
     def add(self, state: StepState, xfrc: np.ndarray) -> None:
         if state.env.density_kg_m3 == 0.0:
             return
-        xfrc[:, :3] += self._scatter(xfrc.shape[0]) @ self.cell_forces(state)
+        self.geometry.scatter(self.cell_forces(state), xfrc)

@@ -20,12 +20,11 @@ import numpy as np
 
 from magsail_mj.environment.frames import quat_to_mat
 from magsail_mj.environment.surfaces import (
+    CellGeometry,
     FacetSet,
     Optics,
-    cell_node_matrix,
-    optics_arrays,
-    quad_area_vectors,
     srp_forces,
+    uniform_srp_constants,
 )
 
 from .base import StepState
@@ -76,6 +75,11 @@ class LatticeSRPLoad:
         normal (see :func:`magsail_mj.environment.surfaces.lattice_top_cells`).
       optics: surface coefficients (one for all cells); two_sided: membrane (default) or not.
       body_offset: body index of node 0 (1 when body 0 is the world).
+
+    Per step (vectorised, (3, ncell) layout): cell areas and normals from the current node
+    positions, the force law of :func:`~magsail_mj.environment.surfaces.srp_forces` with the
+    coefficients folded into constants (:func:`~magsail_mj.environment.surfaces.uniform_srp_constants`),
+    and one sparse product to share the forces among the corners.
     """
 
     name = "srp_lattice"
@@ -86,27 +90,30 @@ class LatticeSRPLoad:
         if cells.ndim != 2 or cells.shape[1] != 4:
             raise ValueError(f"cells: must have shape (ncell, 4), got {cells.shape}")
         self.cells = cells
-        self.body_cells = cells + int(body_offset)
         self.body_offset = int(body_offset)
+        self.geometry = CellGeometry(cells + self.body_offset)
         self.optics = optics or Optics()
-        self.coeffs = optics_arrays([self.optics])
         self.two_sided = bool(two_sided)
-        self._S = None
-
-    def _scatter(self, nrows: int):
-        if self._S is None or self._S.shape[0] != nrows:
-            self._S = cell_node_matrix(self.body_cells, nrows)
-        return self._S
+        self._rs, self._k_front, self._k_back, self._one_minus_rs = uniform_srp_constants(self.optics)
 
     def cell_forces(self, state: StepState) -> np.ndarray:
-        """Force on each cell (ncell, 3) [N] in world axes."""
+        """Force on each cell (3, ncell) [N] in world axes."""
         env = state.env
-        A = quad_area_vectors(state.pos, self.body_cells)
-        area = np.sqrt(np.einsum("ij,ij->i", A, A))
-        normal = A / area[:, None]
-        return srp_forces(normal, area, env.sun_eci, env.srp_pressure_N_m2, self.coeffs, self.two_sided)
+        s = env.sun_eci
+        area, n = self.geometry.area_normal(state.pos)
+        c = s[0] * n[0] + s[1] * n[1] + s[2] * n[2]
+        front = c >= 0.0
+        cos_a = np.abs(c)
+        two_rs_cos = (2.0 * self._rs) * cos_a
+        k_n = np.where(front, two_rs_cos + self._k_front, -(two_rs_cos + self._k_back))
+        scale = (-env.srp_pressure_N_m2) * area * cos_a
+        if not self.two_sided:
+            scale = np.where(front, scale, 0.0)
+        F = (scale * k_n) * n
+        F += np.multiply.outer(s * self._one_minus_rs, scale)
+        return F
 
     def add(self, state: StepState, xfrc: np.ndarray) -> None:
         if state.env.srp_pressure_N_m2 == 0.0:
             return
-        xfrc[:, :3] += self._scatter(xfrc.shape[0]) @ self.cell_forces(state)
+        self.geometry.scatter(self.cell_forces(state), xfrc)

@@ -16,11 +16,13 @@ rigid body (allowed for rigid single bodies, design.md).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from magsail_mj.environment.constants import J2_EARTH, MU_EARTH, R_J2
 from magsail_mj.environment.frames import quat_to_mat
-from magsail_mj.environment.gravity import gravity_gradient_torque, tidal_acceleration
+from magsail_mj.environment.gravity import _q_and_f, gravity_gradient_torque, tidal_acceleration
 
 from .base import StepState
 
@@ -75,8 +77,18 @@ class TidalGravityLoad:
 
     def add(self, state: StepState, xfrc: np.ndarray) -> None:
         """Add m_i a(x_i) to the force rows of ``xfrc`` (world frame)."""
-        a = self.accelerations(state.env.r_ref_eci, state.pos[self._sel])
-        xfrc[self._sel, :3] += self._m_col * a
+        r = state.env.r_ref_eci
+        x = state.pos[self._sel]
+        if self.j2:
+            xfrc[self._sel, :3] += self._m_col * self.accelerations(r, x)
+            return
+        # two-body fast path: the same formula as tidal_acceleration with m μ/|r|³ folded in
+        r2 = float(r @ r)
+        _, f = _q_and_f(r, x, r2)
+        k = (self.mu / (r2 * math.sqrt(r2))) * self._m_col[:, 0] / (1.0 + f)
+        F = np.multiply.outer(k * f, r)
+        F -= k[:, None] * x
+        xfrc[self._sel, :3] += F
 
 
 class GravityGradientTorqueLoad:
@@ -95,7 +107,8 @@ class GravityGradientTorqueLoad:
         if I.shape == (3,):
             I = np.diag(I)
         if I.shape != (3, 3) or not np.allclose(I, I.T):
-            raise ValueError(f"inertia_body: must be a symmetric (3, 3) tensor or 3 principal moments, got shape {I.shape}")
+            raise ValueError("inertia_body: must be a symmetric (3, 3) tensor or 3 principal moments, "
+                             f"got shape {I.shape}")
         self.body_id = int(body_id)
         self.inertia_body = I
         self.mu = float(mu)

@@ -1,0 +1,36 @@
+"""Orbit, frames and time, geomagnetic field, Sun and atmosphere (docs/environment.md).
+
+The runtime entry point is :class:`Environment` (precompute along the reference orbit once,
+``sample(t)`` per step in O(1)); its config tables live in :mod:`.config`.
+"""
+
+from .config import (
+    AtmosphereConfig,
+    DragConfig,
+    EnvironmentConfig,
+    FieldConfig,
+    GravityConfig,
+    OrbitConfig,
+    SRPConfig,
+    SunConfig,
+    check_environment,
+)
+from .environment import Environment, EnvSample, elements_from_config
+from .orbit import OrbitalElements, ReferenceOrbit
+
+__all__ = [
+    "AtmosphereConfig",
+    "DragConfig",
+    "EnvironmentConfig",
+    "FieldConfig",
+    "GravityConfig",
+    "OrbitConfig",
+    "SRPConfig",
+    "SunConfig",
+    "check_environment",
+    "Environment",
+    "EnvSample",
+    "elements_from_config",
+    "OrbitalElements",
+    "ReferenceOrbit",
+]

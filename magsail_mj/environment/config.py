@@ -1,0 +1,283 @@
+"""Config tables of the environment: ``[orbit]``, ``[field]``, ``[atmosphere]``, ``[sun]``,
+``[srp]``, ``[drag]``, ``[gravity]``.
+
+Each table is a :class:`magsail_mj.config.StrictModel` (unknown keys are errors). Keys carry their
+unit (``_km``, ``_deg``, ``_s``, ``_T``, ``_h``). A concept schema embeds the tables it needs,
+e.g. ``orbit: OrbitConfig = OrbitConfig(enabled=False)``; :class:`EnvironmentConfig` groups them
+and checks that they fit together (:func:`check_environment`), and
+:meth:`magsail_mj.environment.Environment.from_config` builds the runtime object.
+
+Defaults follow the truss spec §9.2/§11 (800 km polar orbit needs ``altitude_km = 800``,
+``inclination_deg = 90``, ``raan_deg = 90``; R_E = 6370 km, §12 item O8; epoch
+2020-01-01T00:00Z, item O7; μ = 3.986004418e14, item M2). The CNUSAIL orbit is written with
+``semi_major_axis_km = 6963.1``, ``eccentricity = 0.01939``, ``ltdn_h = 10.5``,
+``R_E_km = 6378.137``, ``propagator = "j2"``; the reflector's with ``R_E_km = 6371``.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, field_validator, model_validator
+
+from magsail_mj.config import StrictModel
+
+from .constants import J2_EARTH, MU_EARTH, OMEGA_EARTH, P_SUN_1AU
+from .timeutil import parse_epoch
+
+__all__ = [
+    "OrbitConfig",
+    "FieldConfig",
+    "AtmosphereConfig",
+    "SunConfig",
+    "SRPConfig",
+    "DragConfig",
+    "GravityConfig",
+    "EnvironmentConfig",
+    "check_environment",
+]
+
+Vec3 = tuple[float, float, float]
+
+
+def _check_iso(v: str) -> str:
+    try:
+        parse_epoch(v)
+    except ValueError:
+        raise ValueError("must be an ISO 8601 UTC date-time within 1900–2100, such as "
+                         "'2020-01-01T00:00:00Z'") from None
+    return v
+
+
+class OrbitConfig(StrictModel):
+    """``[orbit]``: the reference orbit the world origin rides (design.md).
+
+    Size: ``altitude_km`` (a = R_E + altitude) **or** ``semi_major_axis_km``. Orientation:
+    ``inclination_deg``, ``raan_deg`` **or** ``ltdn_h`` (local time of the descending node at
+    the epoch, CNUSAIL spec §5.1), ``arg_perigee_deg``. Start: ``arg_lat0_deg`` (argument of
+    latitude u0 = ω + ν0) **or** ``true_anomaly0_deg``; neither means u0 = 0 (ascending node).
+    ``enabled = false`` means free space (no orbit; the world is inertial).
+    """
+
+    enabled: bool = True
+    altitude_km: float | None = Field(default=None, gt=0)
+    semi_major_axis_km: float | None = Field(default=None, gt=0)
+    eccentricity: float = Field(default=0.0, ge=0, lt=1)
+    inclination_deg: float = Field(default=0.0, ge=0, le=180)
+    raan_deg: float | None = None
+    ltdn_h: float | None = Field(default=None, ge=0, lt=24)
+    arg_perigee_deg: float = 0.0
+    arg_lat0_deg: float | None = None
+    true_anomaly0_deg: float | None = None
+    epoch: str = "2020-01-01T00:00:00Z"
+    R_E_km: float = Field(default=6370.0, gt=0)
+    mu_m3_s2: float = Field(default=MU_EARTH, gt=0)
+    propagator: Literal["kepler", "j2"] = "kepler"
+    J2: float = Field(default=J2_EARTH, ge=0)
+    j2_radius_km: float = Field(default=6378.137, gt=0)
+    omega_earth_rad_s: float = Field(default=OMEGA_EARTH, ge=0)
+
+    @field_validator("epoch")
+    @classmethod
+    def _epoch_iso(cls, v: str) -> str:
+        return _check_iso(v)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "OrbitConfig":
+        if self.altitude_km is not None and self.semi_major_axis_km is not None:
+            raise ValueError("altitude_km and semi_major_axis_km both given: give exactly one")
+        if self.raan_deg is not None and self.ltdn_h is not None:
+            raise ValueError("raan_deg and ltdn_h both given: give exactly one")
+        if self.arg_lat0_deg is not None and self.true_anomaly0_deg is not None:
+            raise ValueError("arg_lat0_deg and true_anomaly0_deg both given: give exactly one")
+        if not self.enabled:
+            return self
+        if self.altitude_km is None and self.semi_major_axis_km is None:
+            raise ValueError("altitude_km or semi_major_axis_km is required when enabled = true")
+        a = self.semi_major_axis_km_value
+        if a * (1.0 - self.eccentricity) <= self.R_E_km:
+            raise ValueError(
+                f"perigee radius a(1 - e) = {a * (1 - self.eccentricity):.1f} km must exceed "
+                f"R_E_km = {self.R_E_km} km"
+            )
+        return self
+
+    @property
+    def semi_major_axis_km_value(self) -> float:
+        """Semi-major axis [km] from whichever of the two size keys is given."""
+        if self.semi_major_axis_km is not None:
+            return self.semi_major_axis_km
+        return self.R_E_km + (self.altitude_km or 0.0)
+
+
+FieldModel = Literal["igrf", "dipole", "tilted_dipole", "planar_dipole", "constant", "none"]
+
+
+class FieldConfig(StrictModel):
+    """``[field]``: geomagnetic field model along the reference orbit.
+
+    * ``igrf``: IGRF-14 via ppigrf, up to ``igrf_max_degree``, coefficients at the epoch (or
+      ``igrf_date``), sampled every ``sample_step_s`` along the orbit and interpolated (cubic
+      spline of the ECI components).
+    * ``dipole``: centred dipole aligned with −z; ``tilted_dipole``: IGRF degree-1 dipole fixed
+      in ECEF; ``planar_dipole``: reflector spec Eq. 11. ``B0_T`` [T] is the equatorial field at
+      ``R_ref_km``; when ``B0_T`` is absent the IGRF degree-1 value at the epoch is used with
+      R = 6371.2 km; ``R_ref_km`` absent means the orbit's ``R_E_km``.
+    * ``constant``: ``constant_T`` (3 components in world = ECI axes [T]).
+    * ``none``: B = 0.
+
+    ``sample_step_s`` is the step of the environment's precompute grid for every channel
+    (orbit, field, Sun, MSIS density).
+    """
+
+    model: FieldModel = "igrf"
+    constant_T: Vec3 | None = None
+    B0_T: float | None = Field(default=None, gt=0)
+    R_ref_km: float | None = Field(default=None, gt=0)
+    igrf_max_degree: int = Field(default=13, ge=1, le=13)
+    igrf_date: str | None = None
+    sample_step_s: float = Field(default=10.0, gt=0, le=600)
+
+    @field_validator("igrf_date")
+    @classmethod
+    def _date_iso(cls, v: str | None) -> str | None:
+        return None if v is None else _check_iso(v)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "FieldConfig":
+        if self.model == "constant" and self.constant_T is None:
+            raise ValueError("constant_T (3 components in tesla) is required when model = 'constant'")
+        if self.model != "constant" and self.constant_T is not None:
+            raise ValueError(f"constant_T is only used with model = 'constant', not {self.model!r}")
+        dipoles = ("dipole", "tilted_dipole", "planar_dipole")
+        if self.model not in dipoles and (self.B0_T is not None or self.R_ref_km is not None):
+            raise ValueError(f"B0_T and R_ref_km are only used with model in {list(dipoles)}, "
+                             f"not {self.model!r}")
+        return self
+
+
+class AtmosphereConfig(StrictModel):
+    """``[atmosphere]``: density model and flow.
+
+    ``exponential``: CNUSAIL spec §5.5 table (0–1000 km); ``msis``: pymsis (optional extra),
+    precomputed along the orbit, with ``f107_sfu``, ``f107a_sfu``, ``ap`` passed explicitly
+    (``msis_version`` 0 = NRLMSISE-00); ``none``: ρ = 0. ``corotating``: flow velocity relative
+    to an atmosphere turning with the Earth, v_rel = v − ω⊕ × r (default), else inertial v.
+    """
+
+    model: Literal["exponential", "msis", "none"] = "exponential"
+    corotating: bool = True
+    f107_sfu: float = Field(default=150.0, gt=0)
+    f107a_sfu: float = Field(default=150.0, gt=0)
+    ap: float = Field(default=15.0, ge=0)
+    msis_version: Literal[0, 2] = 0
+
+
+class SunConfig(StrictModel):
+    """``[sun]``: Sun direction and shadow.
+
+    ``ephemeris``: low-precision solar ephemeris (≈0.01°); ``fixed``: a fixed direction
+    ``direction_eci`` at 1 AU (e.g. the reflector's +y); ``none``: no Sun.
+    ``shadow``: ``cylindrical`` Earth shadow or ``none``.
+    """
+
+    model: Literal["ephemeris", "fixed", "none"] = "ephemeris"
+    direction_eci: Vec3 | None = None
+    shadow: Literal["cylindrical", "none"] = "cylindrical"
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "SunConfig":
+        if self.model == "fixed":
+            if self.direction_eci is None:
+                raise ValueError("direction_eci is required when model = 'fixed'")
+            if sum(c * c for c in self.direction_eci) == 0:
+                raise ValueError("direction_eci must not be the zero vector")
+        elif self.direction_eci is not None:
+            raise ValueError(f"direction_eci is only used with model = 'fixed', not {self.model!r}")
+        return self
+
+
+class SRPConfig(StrictModel):
+    """``[srp]``: solar radiation pressure. ``pressure_N_m2`` at 1 AU (4.563e-6, CNUSAIL §6.3),
+    scaled by (1 AU/d)² when ``distance_scaling``; zero in shadow."""
+
+    enabled: bool = False
+    pressure_N_m2: float = Field(default=P_SUN_1AU, ge=0)
+    distance_scaling: bool = True
+
+
+class DragConfig(StrictModel):
+    """``[drag]``: aerodynamic drag, flat-plate free-molecular coefficient ``drag_coefficient``."""
+
+    enabled: bool = False
+    drag_coefficient: float = Field(default=2.2, gt=0)
+
+
+class GravityConfig(StrictModel):
+    """``[gravity]``: ``tidal``: exact tidal acceleration on every body (orbit-following world);
+    ``j2``: include J2 in it (needs ``orbit.propagator = "j2"``); ``classical_torque``: the
+    classical gravity-gradient torque on a single rigid body instead."""
+
+    tidal: bool = True
+    j2: bool = False
+    classical_torque: bool = False
+
+
+class EnvironmentConfig(StrictModel):
+    """All environment tables together; validated for consistency (:func:`check_environment`)."""
+
+    orbit: OrbitConfig = OrbitConfig(enabled=False)
+    field: FieldConfig = FieldConfig(model="none")
+    atmosphere: AtmosphereConfig = AtmosphereConfig(model="none")
+    sun: SunConfig = SunConfig(model="none")
+    srp: SRPConfig = SRPConfig()
+    drag: DragConfig = DragConfig()
+    gravity: GravityConfig = GravityConfig(tidal=False)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "EnvironmentConfig":
+        problems = check_environment(
+            orbit=self.orbit, field=self.field, atmosphere=self.atmosphere, sun=self.sun,
+            srp=self.srp, drag=self.drag, gravity=self.gravity,
+        )
+        if problems:
+            raise ValueError("; ".join(problems))
+        return self
+
+
+def check_environment(
+    *,
+    orbit: OrbitConfig,
+    field: FieldConfig,
+    atmosphere: AtmosphereConfig,
+    sun: SunConfig,
+    srp: SRPConfig,
+    drag: DragConfig,
+    gravity: GravityConfig,
+) -> list[str]:
+    """Cross-table problems as ``key.path: message`` lines (empty when consistent)."""
+    out: list[str] = []
+    if not orbit.enabled:
+        if field.model not in ("constant", "none"):
+            out.append(f"field.model: {field.model!r} is evaluated along an orbit; with orbit.enabled = "
+                       "false use 'constant' or 'none'")
+        if gravity.tidal or gravity.classical_torque or gravity.j2:
+            out.append("gravity: tidal/classical_torque/j2 need orbit.enabled = true "
+                       "(set them to false for free space)")
+        if drag.enabled:
+            out.append("drag.enabled: drag needs orbit.enabled = true")
+        if atmosphere.model == "msis":
+            out.append("atmosphere.model: 'msis' is evaluated along an orbit; needs orbit.enabled = true")
+        if sun.shadow != "none" and sun.model != "none":
+            out.append("sun.shadow: the Earth shadow needs orbit.enabled = true (set sun.shadow = 'none')")
+    if gravity.j2 and orbit.propagator != "j2":
+        out.append("gravity.j2: the tidal J2 term needs orbit.propagator = 'j2' (the reference orbit must "
+                   "feel J2 too)")
+    if gravity.tidal and gravity.classical_torque:
+        out.append("gravity: choose tidal (every body) or classical_torque (one rigid body), not both")
+    if drag.enabled and atmosphere.model == "none":
+        out.append("drag.enabled: needs atmosphere.model = 'exponential' or 'msis'")
+    if srp.enabled and sun.model == "none":
+        out.append("srp.enabled: needs sun.model = 'ephemeris' or 'fixed'")
+    return out
+
