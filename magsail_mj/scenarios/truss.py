@@ -20,6 +20,10 @@ from pydantic import Field, model_validator
 
 from magsail_mj.config import SimConfig, StrictModel, register_concept
 from magsail_mj.control.profiles import torque_profile
+from magsail_mj.environment.config import (
+    AtmosphereConfig, DragConfig, EnvironmentConfig, FieldConfig, GravityConfig, OrbitConfig, SRPConfig,
+    SunConfig,
+)
 from magsail_mj.geometry.lattice import Lattice, make_lattice
 from magsail_mj.geometry.truss_properties import (
     clamped_nodes, loaded_nodes, node_masses, strut_damping, strut_stiffness,
@@ -97,9 +101,16 @@ class ProfileConfig(StrictModel):
 
 
 class InitialConfig(StrictModel):
-    """``[initial]``: rigid initial body rate (body = world axes at t = 0)."""
+    """``[initial]``: rigid initial attitude (body → world, scalar-first) and body rate."""
 
+    q0_wxyz: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
     omega0_rad_s: Vec3 = (0.0, 0.0, 0.0)
+
+    @model_validator(mode="after")
+    def _unit_quaternion(self) -> "InitialConfig":
+        if abs(np.linalg.norm(self.q0_wxyz) - 1.0) > 1e-6:
+            raise ValueError(f"q0_wxyz: must be a unit quaternion, got norm {np.linalg.norm(self.q0_wxyz):.6g}")
+        return self
 
 
 class CantileverConfig(StrictModel):
@@ -137,6 +148,18 @@ class TrussConfig(StrictModel):
     initial: InitialConfig = InitialConfig()
     cantilever: CantileverConfig | None = None
     render: RenderConfig = RenderConfig()
+    orbit: OrbitConfig = OrbitConfig(enabled=False)
+    field: FieldConfig = FieldConfig(model="none")
+    atmosphere: AtmosphereConfig = AtmosphereConfig(model="none")
+    sun: SunConfig = SunConfig(model="none")
+    srp: SRPConfig = SRPConfig()
+    drag: DragConfig = DragConfig()
+    gravity: GravityConfig = GravityConfig(tidal=False)
+
+    def environment_config(self) -> EnvironmentConfig:
+        """The environment tables as one validated :class:`EnvironmentConfig`."""
+        return EnvironmentConfig(orbit=self.orbit, field=self.field, atmosphere=self.atmosphere, sun=self.sun,
+                                 srp=self.srp, drag=self.drag, gravity=self.gravity)
 
     @model_validator(mode="after")
     def _tables_for_scenario(self) -> "TrussConfig":
@@ -144,6 +167,14 @@ class TrussConfig(StrictModel):
             raise ValueError("scenario 'dist_vs_central' needs the [actuators] and [profile] tables")
         if self.scenario == "cantilever" and self.cantilever is None:
             raise ValueError("scenario 'cantilever' needs the [cantilever] table")
+        if self.scenario == "cantilever" and self.orbit.enabled:
+            raise ValueError("scenario 'cantilever' runs in free space: set orbit.enabled = false")
+        from magsail_mj.environment.config import check_environment
+
+        problems = check_environment(orbit=self.orbit, field=self.field, atmosphere=self.atmosphere, sun=self.sun,
+                                     srp=self.srp, drag=self.drag, gravity=self.gravity)
+        if problems:
+            raise ValueError("; ".join(problems))
         return self
 
 
@@ -224,6 +255,12 @@ class TrussScenario:
         self.spec = self.tm.spec
         self.model = self.spec.compile()
         self.torque_load: StrutTorqueLoad | None = None
+        self.environment = None
+        if self.cfg.orbit.enabled:
+            from magsail_mj.environment.environment import Environment
+
+            self.environment = Environment.from_config(self.cfg.environment_config(),
+                                                       duration_s=self.cfg.sim.duration_s)
 
     # -------------------------------------------------------------- runner
     def _profile_command(self):
@@ -237,28 +274,58 @@ class TrussScenario:
 
         return command
 
+    def environment_loads(self) -> list:
+        """Tidal gravity, SRP and drag on the lattice, as the environment tables ask."""
+        if self.environment is None:
+            return []
+        from magsail_mj.environment.surfaces import lattice_top_cells
+        from magsail_mj.loads.drag import LatticeDragLoad
+        from magsail_mj.loads.srp import LatticeSRPLoad
+        from magsail_mj.loads.tidal import TidalGravityLoad
+
+        cfg, lat = self.cfg, self.tm.lattice
+        out: list = []
+        if cfg.gravity.tidal:
+            out.append(TidalGravityLoad.from_environment(self.environment, np.arange(lat.n_nodes) + 1, self.tm.masses))
+        cells = lattice_top_cells(lat.nodes_per_side)
+        if cfg.srp.enabled:
+            out.append(LatticeSRPLoad(cells))
+        if cfg.drag.enabled:
+            out.append(LatticeDragLoad(cells, drag_coefficient=cfg.drag.drag_coefficient))
+        return out
+
     def loads(self) -> list:
         cfg, lat = self.cfg, self.tm.lattice
+        out = self.environment_loads()
         if cfg.scenario == "dist_vs_central":
             struts = actuated_struts(lat, cfg.actuators, cfg.profile.axis)
             self.torque_load = StrutTorqueLoad(lat, struts, command=self._profile_command(),
                                                torque_axis=cfg.actuators.torque_axis)
-            return [self.torque_load]
+            out.append(self.torque_load)
         if cfg.scenario == "cantilever":
             tip = loaded_nodes(lat)
             force = np.zeros((tip.size, 3))
             force[:, 2] = -cfg.cantilever.load_N / tip.size
-            return [NodeForceLoad(tip + 1, force)]
-        return []
+            out.append(NodeForceLoad(tip + 1, force))
+        return out
+
+    def initial_rotation(self) -> np.ndarray:
+        """Body → world rotation matrix of ``initial.q0_wxyz``."""
+        from magsail_mj.estimation.attitude import matrix_from_quat
+
+        return matrix_from_quat(np.asarray(self.cfg.initial.q0_wxyz, dtype=float))
 
     def init_state(self, data: mujoco.MjData) -> None:
-        """Rigid initial rotation rate ω₀ about the centre of mass: v_i = ω₀ × (p_i − p_c)."""
-        w = np.asarray(self.cfg.initial.omega0_rad_s, dtype=float)
-        if not np.any(w) or self.tm.fixed_nodes:
+        """Rigid initial state about the centre of mass p_c: x_i = p_c + R (p_i − p_c),
+        v_i = R (ω₀ × (p_i − p_c)) with ω₀ in body components (undeformed, unstressed)."""
+        if self.tm.fixed_nodes:
             return
+        w = np.asarray(self.cfg.initial.omega0_rad_s, dtype=float)
+        R = self.initial_rotation()
         p = self.tm.lattice.nodes
         pc = np.average(p, axis=0, weights=self.tm.masses)
-        data.qvel[:] = np.cross(w, p - pc).ravel()
+        data.qpos[:] = ((p - pc) @ R.T + pc - p).ravel()
+        data.qvel[:] = (np.cross(w, p - pc) @ R.T).ravel()
 
     def simulation(self) -> Simulation:
         lat = self.tm.lattice
@@ -280,6 +347,7 @@ class TrussScenario:
         return Simulation(model=self.model, duration_s=self.cfg.sim.duration_s, loads=loads,
                           probes=probes, record_every=self.cfg.sim.record_every,
                           strain_check=strain_check, max_strain=self.cfg.sim.max_strain,
+                          environment=self.environment,
                           checkpoint_every_s=self.cfg.sim.checkpoint_every_s, init=self.init_state)
 
     # -------------------------------------------------------------- outputs

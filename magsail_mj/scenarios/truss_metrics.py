@@ -12,7 +12,7 @@ from magsail_mj.analysis.flatness import surface_sd
 from magsail_mj.analysis.surface_angle import local_surface_angle
 from magsail_mj.control.profiles import torque_profile
 from magsail_mj.estimation.attitude import best_fit_rotation, body_rates, euler_zyx, particle_inertia
-from magsail_mj.geometry.truss_properties import cantilever_linear, loaded_nodes
+from magsail_mj.geometry.truss_properties import cantilever_linear, loaded_nodes, strut_stiffness
 from magsail_mj.sim import RunResult
 
 if TYPE_CHECKING:
@@ -95,6 +95,10 @@ def dynamic_summary(sc: "TrussScenario", result: RunResult) -> tuple[dict[str, A
         "surface_angle_median_rad": float(ang.median), "surface_angle_p95_rad": float(ang.p95),
         "surface_angle_max_rad": float(ang.max), "surface_angle_edge_max_rad": float(ang.edge_max),
     })
+    if sc.environment is not None:
+        summary.update(sc.environment.summary())
+        series.update(lvlh_attitude(sc.environment, t, R))
+        summary["normal_to_orbit_normal_max_rad"] = float(np.max(series["normal_to_orbit_normal_rad"]))
     if cfg.scenario == "dist_vs_central":
         p = cfg.profile
         axis = {"x1": 0, "y1": 1, "z1": 2}[p.axis]
@@ -118,6 +122,23 @@ def dynamic_summary(sc: "TrussScenario", result: RunResult) -> tuple[dict[str, A
     return summary, series
 
 
+def lvlh_attitude(environment, t: np.ndarray, R: np.ndarray) -> dict[str, np.ndarray]:
+    """Attitude relative to the reference orbit's LVLH frame (x̂ = r̂, ẑ = orbit normal ĥ).
+
+    ``R_lvlh = L R`` with ``L`` the ECI → LVLH rotation; its ZYX angles (yaw ψ about ĥ, pitch,
+    roll), and the angle between the plate normal (body z1) and ĥ.
+    """
+    from magsail_mj.environment.frames import lvlh_frame
+
+    samples = environment.sample_many(t)
+    L = lvlh_frame(samples["r_ref_eci"], samples["v_ref_eci"])
+    R_lvlh = L @ R
+    yaw, pitch, roll = euler_zyx(R_lvlh, unwrap=True)
+    cos_n = np.clip(np.einsum("ti,ti->t", R[:, :, 2], L[:, 2, :]), -1.0, 1.0)
+    return {"lvlh_yaw_rad": yaw, "lvlh_pitch_rad": pitch, "lvlh_roll_rad": roll,
+            "normal_to_orbit_normal_rad": np.arccos(cos_n), "r_ref_eci_m": samples["r_ref_eci"]}
+
+
 def cantilever_summary(sc: "TrussScenario", result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Cantilever check (spec §2.7): linear solve (formula and calibrated) vs the MuJoCo settle."""
     lat, cfg = sc.tm.lattice, sc.cfg
@@ -126,7 +147,12 @@ def cantilever_summary(sc: "TrussScenario", result: RunResult) -> tuple[dict[str
     k_formula = sc.tm.k / sc.tm.calibration_factor
     formula = cantilever_linear(lat, k_formula, load_N=P)
     used = cantilever_linear(lat, sc.tm.k, load_N=P)
-    calibrated = cantilever_linear(lat, k_formula * (EI / formula.EI_eff_Nm2), load_N=P)
+    # The calibrated spring constants exactly as the reproduction runs get them (factor from the
+    # cached unit-size solve of ``calibration_factor``), so this checks that the factor carries
+    # over to this d and EI; scaling k_formula by EI/EI_eff of this very solve would give 1 by
+    # construction and test nothing.
+    k_calibrated, _ = strut_stiffness(lat, EI_Nm2=EI, calibration="cantilever")
+    calibrated = cantilever_linear(lat, k_calibrated, load_N=P)
     t = result.records["t"]
     pos = sc.node_positions(result.records["qpos"])
     tip = loaded_nodes(lat)
@@ -146,6 +172,7 @@ def cantilever_summary(sc: "TrussScenario", result: RunResult) -> tuple[dict[str
         "tip_deflection_linear_m": used.tip_deflection_m,
         "tip_deflection_mujoco_m": delta_mj,
         "EI_eff_mujoco_Nm2": P * lat.side_m**3 / (3 * delta_mj) if delta_mj > 0 else float("nan"),
+        "EI_ratio_mujoco": P * lat.side_m**3 / (3 * delta_mj) / EI if delta_mj > 0 else float("nan"),
         "linear_vs_mujoco_rel_diff": abs(delta_mj - used.tip_deflection_m) / used.tip_deflection_m,
         "tip_speed_final_m_s": float(speed[-1]),
         "settled": bool(speed[-1] < 1e-6 * max(delta_mj, 1e-300)),

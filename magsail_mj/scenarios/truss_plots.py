@@ -66,6 +66,16 @@ def truss_plots(sc: "TrussScenario", run_dir: Path, series: dict[str, np.ndarray
         ax.legend()
         out.append(save_figure(fig, run_dir / "body_rates.png"))
 
+    if "lvlh_roll_rad" in series:
+        fig, axs = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+        for key, label in (("lvlh_roll_rad", "roll"), ("lvlh_pitch_rad", "pitch"), ("lvlh_yaw_rad", "yaw")):
+            axs[0].plot(t, np.degrees(series[key]), label=label)
+        axs[0].set(ylabel="attitude in LVLH [deg]", title=title + " — libration")
+        axs[0].legend()
+        axs[1].plot(t, np.degrees(series["normal_to_orbit_normal_rad"]))
+        axs[1].set(xlabel="t [s]", ylabel="plate normal to orbit normal [deg]")
+        out.append(save_figure(fig, run_dir / "libration.png"))
+
     fig, axs = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
     axs[0].plot(t, series["surface_sd_m"])
     axs[0].set(ylabel="surface SD [m]", title=title + " — flatness and strain energy")
