@@ -1,0 +1,850 @@
+"""Render a run folder (or two, side by side) into an MP4.
+
+A run folder holds ``model.xml``, ``timeseries.npz`` (``t`` (T,), ``qpos`` (T, nq), optional
+``strut_activity`` (T, ntendon) int8 in {-1, 0, +1}, optional scalar series) and
+``manifest.json`` whose ``render`` table gives ``title``, ``top_nodes``, ``overlay``, ``camera``
+and ``exaggeration`` (all optional). See ``docs/rendering.md``.
+
+Per frame: the recorded ``qpos`` is set, positions are computed (``mj_kinematics``,
+``mj_comPos``, ``mj_camlight``, ``mj_tendon``; no dynamics), struts (tendons) are coloured
+from ``strut_activity`` through ``model.tendon_rgba``, top-layer nodes are coloured by their
+height above the top layer's total-least-squares plane through ``model.geom_rgba``, and the
+image from :class:`mujoco.Renderer` gets a text overlay drawn with PIL.
+
+Camera: a free camera whose ``lookat`` follows the centroid of the body positions, with a fixed
+azimuth/elevation in the world (inertial-axes) frame and a fixed distance derived from the
+structure's size, so rotations of the structure are seen as rotations.
+
+Thin struts and small nodes of a 100 m truss are far below one pixel; their rendered radii are
+raised to a minimum on-screen size (tendon 1 px wide, actuated tendon 2.5 px, top node 8 px),
+which changes the picture only, never the recorded motion.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import re
+import warnings
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from magsail_mj.render.backend import ensure_gl_backend, make_renderer
+from magsail_mj.render.video import Mp4Writer
+
+__all__ = [
+    "ACTIVE_NEG_RGBA",
+    "ACTIVE_POS_RGBA",
+    "CameraView",
+    "DEFAULT_AZIMUTH_DEG",
+    "DEFAULT_ELEVATION_DEG",
+    "RunData",
+    "RunScene",
+    "frame_plan",
+    "load_run",
+    "render_frames",
+    "render_run",
+]
+
+#: Strut colour for ``strut_activity == +1`` (red) and ``-1`` (blue).
+ACTIVE_POS_RGBA = (0.95, 0.12, 0.10, 1.0)
+ACTIVE_NEG_RGBA = (0.10, 0.35, 1.00, 1.0)
+#: Default free-camera view, MuJoCo convention: azimuth 180° looks along −x, elevation −30°
+#: looks down at 30° from above.
+DEFAULT_AZIMUTH_DEG = 180.0
+DEFAULT_ELEVATION_DEG = -30.0
+#: Diverging colormap of node heights (purple below the plane, orange above); chosen to be
+#: distinct from the red/blue strut activity colours.
+DEFAULT_HEIGHT_CMAP = "PuOr_r"
+
+_CAMERA_KEYS = ("azimuth_deg", "elevation_deg", "distance_m")
+_MIN_PX = {"tendon": 0.5, "active": 1.25, "top_node": 4.0}  # minimum radii [px]
+# Scenes with more objects than this are drawn with coarser tessellation (6 slices, 4 stacks
+# instead of MuJoCo's 28 x 16): 14x faster in software rendering (800-node truss, OSMesa),
+# and struts a few pixels wide look the same.
+_LOD_MIN_OBJECTS = 500
+_LOD_SLICES, _LOD_STACKS = 6, 4
+_NODE_NAME = re.compile(r"n(\d+)\Z")
+_UNITS = [  # (name suffix, printed unit), longest first
+    ("_rad_s", "rad/s"), ("_deg_s", "°/s"), ("_Am2", "A·m²"), ("_Nm", "N·m"), ("_rpm", "rpm"),
+    ("_rad", "rad"), ("_deg", "°"), ("_kg", "kg"), ("_m", "m"), ("_s", "s"), ("_N", "N"),
+    ("_A", "A"), ("_T", "T"), ("_J", "J"), ("_W", "W"),
+]
+
+
+# --------------------------------------------------------------------------- run loading
+
+
+@dataclass(frozen=True)
+class RunData:
+    """The contents of a run folder that rendering needs.
+
+    Attributes:
+      run_dir: the folder.
+      model_xml: path of ``model.xml``.
+      t: (T,) record times [s], non-decreasing.
+      qpos: (T, nq) MuJoCo ``qpos`` at each record.
+      strut_activity: (T, ntendon) int8 in {-1, 0, +1}, or ``None``.
+      series: overlay series named in ``manifest.render.overlay``, each (T,) or (T, k).
+      title: ``manifest.render.title`` (default: the folder name).
+      top_nodes: node indices of the top layer (body = node + 1), or ``None``.
+      camera: ``manifest.render.camera`` (keys from ``azimuth_deg``, ``elevation_deg``,
+        ``distance_m``).
+      exaggeration: ``manifest.render.exaggeration`` or ``None``.
+      manifest: the whole manifest.
+    """
+
+    run_dir: Path
+    model_xml: Path
+    t: np.ndarray
+    qpos: np.ndarray
+    strut_activity: np.ndarray | None
+    series: dict[str, np.ndarray]
+    title: str
+    top_nodes: np.ndarray | None
+    camera: dict[str, float]
+    exaggeration: float | None
+    manifest: dict = field(repr=False)
+
+
+def _check_camera(camera: object, what: str) -> dict[str, float]:
+    if camera is None:
+        return {}
+    if not isinstance(camera, Mapping):
+        raise ValueError(f"{what}: expected a mapping with keys {_CAMERA_KEYS}, got {camera!r}")
+    out: dict[str, float] = {}
+    for key, value in camera.items():
+        if key not in _CAMERA_KEYS:
+            raise ValueError(f"{what}: unknown key {key!r}; allowed: {_CAMERA_KEYS}")
+        if value is None:
+            continue
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{what}.{key}: expected a number, got {value!r}") from None
+        if not math.isfinite(v) or (key == "distance_m" and v <= 0):
+            raise ValueError(f"{what}.{key}: must be finite{' and > 0' if key == 'distance_m' else ''}, "
+                             f"got {value!r}")
+        out[key] = v
+    return out
+
+
+def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir") -> RunData:
+    """Read and validate a run folder (``model.xml``, ``timeseries.npz``, ``manifest.json``).
+
+    Args:
+      run_dir: the folder.
+      name: the argument name used in error messages (e.g. ``"compare"``).
+
+    Raises:
+      FileNotFoundError: a file is missing (its path is named).
+      ValueError: a series or manifest entry has the wrong shape or value (its name is given).
+    """
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise FileNotFoundError(f"{name}: no such folder {str(run_dir)!r}")
+    paths = {name: run_dir / name for name in ("model.xml", "timeseries.npz", "manifest.json")}
+    for path in paths.values():
+        if not path.is_file():
+            raise FileNotFoundError(f"{name}: {str(path)!r} is missing")
+    try:
+        manifest = json.loads(paths["manifest.json"].read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{paths['manifest.json']}: not valid JSON ({exc})") from None
+    render = manifest.get("render") or {}
+    if not isinstance(render, Mapping):
+        raise ValueError(f"{paths['manifest.json']}: 'render' must be an object, got {render!r}")
+    where = f"{paths['manifest.json']}: render"
+
+    with np.load(paths["timeseries.npz"], allow_pickle=False) as npz:
+        arrays = {key: npz[key] for key in npz.files}
+    where_ts = str(paths["timeseries.npz"])
+    for key in ("t", "qpos"):
+        if key not in arrays:
+            raise ValueError(f"{where_ts}: series {key!r} is missing (has {sorted(arrays)})")
+    t = np.asarray(arrays["t"], dtype=float)
+    qpos = np.asarray(arrays["qpos"], dtype=float)
+    if t.ndim != 1 or t.size == 0:
+        raise ValueError(f"{where_ts}: 't' must have shape (T,) with T >= 1, got {t.shape}")
+    if not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0):
+        raise ValueError(f"{where_ts}: 't' must be finite and non-decreasing")
+    T = t.size
+    if qpos.ndim != 2 or qpos.shape[0] != T:
+        raise ValueError(f"{where_ts}: 'qpos' must have shape ({T}, nq), got {qpos.shape}")
+
+    finite = np.isfinite(qpos).all(axis=1)
+    if not finite.all():   # a diverged run keeps what was recorded: render up to the blow-up
+        first = int(np.argmin(finite))
+        if first == 0:
+            raise ValueError(f"{where_ts}: 'qpos' is non-finite from the first record on")
+        warnings.warn(f"{where_ts}: 'qpos' is non-finite from record {first} "
+                      f"(t = {t[first]:g} s); rendering the {first} records before it",
+                      RuntimeWarning, stacklevel=2)
+        T = first
+        t, qpos = t[:T], qpos[:T]
+        arrays = {k: (v[:T] if np.ndim(v) >= 1 and len(v) == finite.size else v)
+                  for k, v in arrays.items()}
+
+    activity = arrays.get("strut_activity")
+    if activity is not None:
+        activity = np.asarray(activity)
+        if activity.ndim != 2 or activity.shape[0] != T:
+            raise ValueError(f"{where_ts}: 'strut_activity' must have shape ({T}, ntendon), "
+                             f"got {activity.shape}")
+        if activity.size and not np.all(np.isin(activity, (-1, 0, 1))):
+            raise ValueError(f"{where_ts}: 'strut_activity' values must be -1, 0 or +1")
+        activity = activity.astype(np.int8)
+
+    overlay = render.get("overlay") or []
+    if isinstance(overlay, str) or not isinstance(overlay, Sequence):
+        raise ValueError(f"{where}.overlay: expected a list of series names, got {overlay!r}")
+    series: dict[str, np.ndarray] = {}
+    for name in overlay:
+        if name not in arrays:
+            raise ValueError(f"{where}.overlay: series {name!r} is not in {where_ts} "
+                             f"(has {sorted(arrays)})")
+        s = np.asarray(arrays[name])
+        if s.ndim not in (1, 2) or s.shape[0] != T or not np.issubdtype(s.dtype, np.number):
+            raise ValueError(f"{where}.overlay: series {name!r} must be numeric with shape ({T},) "
+                             f"or ({T}, k), got {s.shape} {s.dtype}")
+        series[str(name)] = s
+
+    top = render.get("top_nodes")
+    if top is not None:
+        top = np.asarray(top)
+        if top.ndim != 1 or top.size < 3 or not np.issubdtype(top.dtype, np.integer) \
+                or np.any(top < 0) or np.unique(top).size != top.size:
+            raise ValueError(f"{where}.top_nodes: expected >= 3 distinct node indices >= 0, "
+                             f"got {render.get('top_nodes')!r:.200}")
+        top = top.astype(np.int64)
+
+    exaggeration = render.get("exaggeration")
+    if exaggeration is not None:
+        try:
+            exaggeration = float(exaggeration)
+        except (TypeError, ValueError):
+            raise ValueError(f"{where}.exaggeration: expected a number, got {exaggeration!r}") from None
+        if not (math.isfinite(exaggeration) and exaggeration > 0):
+            raise ValueError(f"{where}.exaggeration: must be > 0, got {exaggeration!r}")
+
+    title = render.get("title") or run_dir.resolve().name
+    return RunData(run_dir=run_dir, model_xml=paths["model.xml"], t=t, qpos=qpos,
+                   strut_activity=activity, series=series, title=str(title), top_nodes=top,
+                   camera=_check_camera(render.get("camera"), f"{where}.camera"),
+                   exaggeration=exaggeration, manifest=manifest)
+
+
+# --------------------------------------------------------------------------- timeline
+
+
+def frame_plan(times: Sequence[np.ndarray], *, max_frames: int
+               ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
+    """Common frame times for one or more runs.
+
+    The run with the longest time span sets the frame times: its records, subsampled uniformly
+    to at most ``max_frames``. Every run shows, at each frame time, its nearest record (a run
+    that ended earlier holds its last record).
+
+    Args:
+      times: each run's (T,) record times [s].
+      max_frames: most frames, >= 1.
+
+    Returns:
+      ``(frame_t, indices, ended)``: (F,) frame times [s]; per run, (F,) record indices; per
+      run, (F,) bool, True where the frame time lies after the run's last record.
+    """
+    if int(max_frames) != max_frames or max_frames < 1:
+        raise ValueError(f"max_frames: must be an integer >= 1, got {max_frames!r}")
+    spans = [float(t[-1] - t[0]) for t in times]
+    base = int(np.argmax(spans))
+    n = len(times[base])
+    F = min(n, int(max_frames))
+    idx = np.unique(np.round(np.linspace(0, n - 1, F)).astype(np.int64))
+    frame_t = np.asarray(times[base], dtype=float)[idx]
+    indices, ended = [], []
+    for k, t in enumerate(times):
+        t = np.asarray(t, dtype=float)
+        if k == base:
+            indices.append(idx)
+        else:
+            j = np.clip(np.searchsorted(t, frame_t), 1, max(t.size - 1, 1))
+            if t.size == 1:
+                j = np.zeros_like(j)
+            else:
+                j = np.where(np.abs(frame_t - t[j - 1]) <= np.abs(t[j] - frame_t), j - 1, j)
+            indices.append(j.astype(np.int64))
+        tol = 1e-9 * max(1.0, abs(float(t[-1])))
+        ended.append(frame_t > t[-1] + tol)
+    return frame_t, indices, ended
+
+
+# --------------------------------------------------------------------------- the 3-D scene
+
+
+@dataclass(frozen=True)
+class CameraView:
+    """Free-camera view in MuJoCo's convention.
+
+    Attributes:
+      azimuth_deg: direction of view about world z; 0 looks along +x, 180 along −x.
+      elevation_deg: negative looks down from above.
+      distance_m: camera distance from the look-at point (the body centroid) [m].
+    """
+
+    azimuth_deg: float = DEFAULT_AZIMUTH_DEG
+    elevation_deg: float = DEFAULT_ELEVATION_DEG
+    distance_m: float = 1.0
+
+
+class RunScene:
+    """Renders the frames of one run: kinematics, colouring, camera, MuJoCo image.
+
+    Use as a context manager (it owns an OpenGL context)::
+
+        with RunScene(run, width=960, height=540) as scene:
+            scene.prepare(indices, exaggeration=1.0)
+            view = CameraView(distance_m=scene.auto_distance_m)
+            image = scene.render(0, view=view)
+
+    Args:
+      run: the loaded run.
+      width: image width [px].
+      height: image height [px].
+      antialias: 4x multisampling (MuJoCo's ``offsamples``); off is about twice as fast in
+        software rendering, with jagged thin struts.
+    """
+
+    def __init__(self, run: RunData, *, width: int, height: int, antialias: bool = True) -> None:
+        import mujoco
+
+        self.run = run
+        self.width, self.height = int(width), int(height)
+        try:
+            self.model = mujoco.MjModel.from_xml_path(str(run.model_xml))
+        except Exception as exc:
+            raise ValueError(f"{run.model_xml}: cannot load the model ({exc})") from exc
+        m = self.model
+        self.data = mujoco.MjData(m)
+        q = m.vis.quality
+        if m.ngeom + m.ntendon > _LOD_MIN_OBJECTS:
+            q.numslices = min(int(q.numslices), _LOD_SLICES)
+            q.numstacks = min(int(q.numstacks), _LOD_STACKS)
+        if not antialias:
+            q.offsamples = 0
+        if run.qpos.shape[1] != m.nq:
+            raise ValueError(f"{run.run_dir / 'timeseries.npz'}: 'qpos' has {run.qpos.shape[1]} "
+                             f"columns, the model has nq = {m.nq}")
+        if run.strut_activity is not None and run.strut_activity.shape[1] != m.ntendon:
+            raise ValueError(f"{run.run_dir / 'timeseries.npz'}: 'strut_activity' has "
+                             f"{run.strut_activity.shape[1]} columns, the model has "
+                             f"{m.ntendon} tendons")
+
+        # Truss nodes: bodies named "n<i>" that are body i + 1 (build_truss_spec).
+        names = [m.body(b).name for b in range(m.nbody)]
+        self.node_bodies = np.array([b for b in range(1, m.nbody)
+                                     if (mt := _NODE_NAME.match(names[b])) and int(mt.group(1)) == b - 1],
+                                    dtype=np.int64)
+        self.top_bodies: np.ndarray | None = None
+        self.top_geoms: np.ndarray | None = None
+        if run.top_nodes is not None:
+            bodies = run.top_nodes + 1
+            bad = bodies[bodies >= m.nbody]
+            if bad.size:
+                raise ValueError(f"{run.run_dir / 'manifest.json'}: render.top_nodes: node "
+                                 f"{int(bad[0]) - 1} does not exist (model has {m.nbody - 1} bodies)")
+            nogeom = bodies[m.body_geomnum[bodies] < 1]
+            if nogeom.size:
+                raise ValueError(f"{run.run_dir / 'manifest.json'}: render.top_nodes: node "
+                                 f"{int(nogeom[0]) - 1} has no geom to colour")
+            self.top_bodies = bodies
+            self.top_geoms = m.body_geomadr[bodies].astype(np.int64)
+
+        # Render-only size floors, based on the original sizes.
+        self._tendon_rgba0 = m.tendon_rgba.copy()
+        self._tendon_width0 = m.tendon_width.copy()
+        self._geom_size0 = m.geom_size.copy()
+        node_set = np.zeros(m.nbody, bool)
+        node_set[self.node_bodies] = True
+        self._node_sphere_geoms = np.flatnonzero(
+            node_set[m.geom_bodyid] & (m.geom_type == int(mujoco.mjtGeom.mjGEOM_SPHERE)))
+
+        self._indices: np.ndarray | None = None
+        self._centroid: np.ndarray | None = None
+        self._heights: np.ndarray | None = None
+        self._shift: np.ndarray | None = None
+        self.radius_m = float(m.stat.extent)
+        self.height_limit_m = 0.0
+        self.exaggeration = 1.0
+        self._renderer = None
+        self._option = mujoco.MjvOption()
+        self._camera = mujoco.MjvCamera()
+        self._camera.type = int(mujoco.mjtCamera.mjCAMERA_FREE)
+        self._configured_distance: float | None = None
+
+    # -- lifecycle
+
+    def __enter__(self) -> "RunScene":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Free the OpenGL context."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # -- kinematics
+
+    def _positions(self, qpos: np.ndarray) -> None:
+        import mujoco
+
+        m, d = self.model, self.data
+        d.qpos[:] = qpos
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+
+    def _finish_positions(self) -> None:
+        import mujoco
+
+        m, d = self.model, self.data
+        mujoco.mj_camlight(m, d)
+        if m.nflex:
+            mujoco.mj_flex(m, d)
+        mujoco.mj_tendon(m, d)
+
+    def prepare(self, indices: np.ndarray, *, exaggeration: float = 1.0) -> None:
+        """Pre-pass over the frames to render: centroids, size, node heights, exaggeration.
+
+        Args:
+          indices: (F,) record indices of the frames, in frame order.
+          exaggeration: factor k on each node's out-of-plane deviation (see module docs);
+            needs at least 3 truss nodes when k != 1.
+        """
+        from magsail_mj.analysis.flatness import average_plane, surface_heights
+
+        indices = np.asarray(indices, dtype=np.int64)
+        if indices.ndim != 1 or indices.size == 0 or indices.min() < 0 \
+                or indices.max() >= self.run.t.size:
+            raise ValueError(f"indices: expected (F,) record indices in [0, {self.run.t.size})")
+        if not (math.isfinite(exaggeration) and exaggeration > 0):
+            raise ValueError(f"exaggeration: must be > 0, got {exaggeration!r}")
+        if exaggeration != 1.0 and self.node_bodies.size < 3:
+            raise ValueError("exaggeration: needs a flexible structure (>= 3 node bodies named "
+                             "n0, n1, ... as build_truss_spec makes them); this model has "
+                             f"{self.node_bodies.size}")
+        m, d = self.model, self.data
+        F = indices.size
+        xpos = np.empty((F, m.nbody, 3))
+        for f, i in enumerate(indices):
+            self._positions(self.run.qpos[i])
+            xpos[f] = d.xpos
+            if f == 0:
+                c0 = d.xpos[1:].mean(axis=0) if m.nbody > 1 else np.zeros(3)
+                if m.ngeom:
+                    r = np.linalg.norm(d.geom_xpos - c0, axis=1) + m.geom_rbound
+                    self.radius_m = float(r.max())
+                elif m.nbody > 1:
+                    self.radius_m = float(np.linalg.norm(d.xpos[1:] - c0, axis=1).max())
+                if not self.radius_m > 0:
+                    self.radius_m = float(m.stat.extent) or 1.0
+        if not np.all(np.isfinite(xpos)):
+            bad = indices[np.flatnonzero(~np.isfinite(xpos).all(axis=(1, 2)))[0]]
+            raise ValueError(f"{self.run.run_dir / 'timeseries.npz'}: non-finite positions at "
+                             f"record {int(bad)} (t = {self.run.t[bad]:g} s)")
+        self._indices = indices
+        self._centroid = xpos[:, 1:].mean(axis=1) if m.nbody > 1 else np.zeros((F, 3))
+        self.exaggeration = float(exaggeration)
+
+        nodes = xpos[:, self.node_bodies] if self.node_bodies.size else None
+        top = xpos[:, self.top_bodies] if self.top_bodies is not None else None
+        if top is not None:
+            if nodes is not None and self.node_bodies.size > top.shape[1]:
+                orient = top.mean(axis=1) - nodes.mean(axis=1)   # from mid-plane towards the top
+            else:
+                _, orient = average_plane(top)
+                for f in range(1, F):                 # keep the normal's sign continuous
+                    if orient[f] @ orient[f - 1] < 0:
+                        orient[f] = -orient[f]
+            self._heights = surface_heights(top, orient=orient)
+            self.height_limit_m = float(np.max(np.abs(self._heights)))
+        else:
+            self._heights = None
+            self.height_limit_m = 0.0
+
+        self._shift = None
+        if exaggeration != 1.0 and nodes is not None:
+            c, nrm = average_plane(nodes)
+            s = np.einsum("fij,fj->fi", nodes - c[:, None, :], nrm)         # (F, n) [m]
+            layers = np.zeros(self.node_bodies.size, np.int64)
+            if self.top_bodies is not None:
+                layers[np.isin(self.node_bodies, self.top_bodies)] = 1
+            dev = s.copy()
+            for layer in np.unique(layers):
+                sel = layers == layer
+                dev[:, sel] -= s[:, sel].mean(axis=1, keepdims=True)
+            self._shift = (exaggeration - 1.0) * dev[:, :, None] * nrm[:, None, :]  # (F, n, 3)
+            node_of_body = np.full(m.nbody, -1, np.int64)
+            node_of_body[self.node_bodies] = np.arange(self.node_bodies.size)
+            self._geom_nodes = node_of_body[m.geom_bodyid]
+            self._site_nodes = node_of_body[m.site_bodyid]
+
+    @property
+    def auto_distance_m(self) -> float:
+        """Camera distance [m] at which the structure's bounding sphere (radius from
+        :meth:`prepare`) spans 80 % of the image height, leaving room for the overlay."""
+        fovy = math.radians(float(self.model.vis.global_.fovy))
+        return 1.25 * self.radius_m / math.sin(fovy / 2)
+
+    # -- rendering
+
+    def _configure(self, distance: float) -> None:
+        """Clipping planes and render-only size floors for a camera ``distance`` [m]."""
+        import mujoco
+
+        if self._configured_distance == distance:
+            return
+        m = self.model
+        extent = float(m.stat.extent) if m.stat.extent > 0 else 1.0
+        reach = self.radius_m * max(1.0, self.exaggeration)
+        m.vis.map.znear = max(1e-3 * distance, 0.02 * max(distance - 2 * reach, 0.0)) / extent
+        m.vis.map.zfar = (distance + 4 * reach) / extent
+        px = 2 * distance * math.tan(math.radians(float(m.vis.global_.fovy)) / 2) / self.height
+        m.tendon_width[:] = np.maximum(self._tendon_width0, _MIN_PX["tendon"] * px)
+        self._active_width = np.maximum(self._tendon_width0, _MIN_PX["active"] * px)
+        self._base_width = m.tendon_width.copy()
+        if self.top_geoms is not None:
+            g = self._node_sphere_geoms
+            m.geom_size[g, 0] = self._geom_size0[g, 0]
+            tg = self.top_geoms[m.geom_type[self.top_geoms] == int(mujoco.mjtGeom.mjGEOM_SPHERE)]
+            m.geom_size[tg, 0] = np.maximum(self._geom_size0[tg, 0], _MIN_PX["top_node"] * px)
+        self._configured_distance = distance
+
+    def render(self, frame: int, *, view: CameraView, height_limit_m: float | None = None,
+               cmap: str = DEFAULT_HEIGHT_CMAP) -> np.ndarray:
+        """Render frame number ``frame`` (position in the prepared ``indices``) without overlay.
+
+        Args:
+          frame: 0-based frame number.
+          view: camera azimuth/elevation/distance.
+          height_limit_m: node height [m] mapped to the colormap ends (default: the largest
+            |height| over the prepared frames).
+          cmap: matplotlib colormap name for node heights.
+
+        Returns:
+          (height, width, 3) uint8 image.
+        """
+        import mujoco
+
+        if self._indices is None:
+            raise RuntimeError("RunScene.render: call prepare() first")
+        if not 0 <= frame < self._indices.size:
+            raise ValueError(f"frame: must be in [0, {self._indices.size}), got {frame!r}")
+        m, d = self.model, self.data
+        if self._renderer is None:
+            max_geom = max(10000, 2 * (m.ngeom + m.nwrap + m.ntendon) + 1000)
+            self._renderer = make_renderer(m, width=self.width, height=self.height,
+                                           max_geom=max_geom)
+            flags = self._renderer.scene.flags
+            flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
+            flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        self._configure(float(view.distance_m))
+        i = int(self._indices[frame])
+
+        self._positions(self.run.qpos[i])
+        if self._shift is not None:
+            shift = self._shift[frame]
+            d.xpos[self.node_bodies] += shift
+            d.xipos[self.node_bodies] += shift
+            g = self._geom_nodes >= 0
+            d.geom_xpos[g] += shift[self._geom_nodes[g]]
+            s = self._site_nodes >= 0
+            d.site_xpos[s] += shift[self._site_nodes[s]]
+        self._finish_positions()
+
+        if self.run.strut_activity is not None:
+            act = self.run.strut_activity[i]
+            rgba = self._tendon_rgba0.copy()
+            rgba[act > 0] = ACTIVE_POS_RGBA
+            rgba[act < 0] = ACTIVE_NEG_RGBA
+            m.tendon_rgba[:] = rgba
+            m.tendon_width[:] = np.where(act != 0, self._active_width, self._base_width)
+        if self._heights is not None:
+            lim = self.height_limit_m if height_limit_m is None else float(height_limit_m)
+            h = self._heights[frame]
+            u = 0.5 + 0.5 * h / lim if lim > 0 else np.full(h.shape, 0.5)
+            m.geom_rgba[self.top_geoms] = _colormap(cmap)(np.clip(u, 0.0, 1.0))
+
+        cam = self._camera
+        cam.lookat[:] = self._centroid[frame]
+        cam.distance = float(view.distance_m)
+        cam.azimuth = float(view.azimuth_deg)
+        cam.elevation = float(view.elevation_deg)
+        self._renderer.update_scene(d, camera=cam, scene_option=self._option)
+        return self._renderer.render()
+
+
+# --------------------------------------------------------------------------- 2-D overlay
+
+
+@lru_cache(maxsize=8)
+def _colormap(name: str):
+    import matplotlib
+
+    try:
+        return matplotlib.colormaps[name]
+    except KeyError:
+        raise ValueError(f"height_cmap: unknown matplotlib colormap {name!r}") from None
+
+
+@lru_cache(maxsize=16)
+def _font(size: int):
+    """DejaVu Sans (shipped with matplotlib; has ×, ±, ², °) at ``size`` px."""
+    from PIL import ImageFont
+
+    try:
+        import matplotlib
+
+        path = Path(matplotlib.get_data_path()) / "fonts" / "ttf" / "DejaVuSans.ttf"
+        return ImageFont.truetype(str(path), size)
+    except (OSError, ImportError):
+        return ImageFont.load_default(size=size)
+
+
+@lru_cache(maxsize=8)
+def _colour_bar(cmap: str, height: int, width: int):
+    """Vertical colour bar image, top = colormap end (positive heights)."""
+    from PIL import Image
+
+    colours = (_colormap(cmap)(np.linspace(1.0, 0.0, height))[:, :3] * 255).astype(np.uint8)
+    return Image.fromarray(np.ascontiguousarray(np.repeat(colours[:, None, :], width, axis=1)))
+
+
+def _format_value(name: str, value: np.ndarray) -> str:
+    unit = next((u for suffix, u in _UNITS if name.endswith(suffix)), "")
+    v = np.atleast_1d(np.asarray(value, dtype=float))
+    text = f"{v[0]:.4g}" if v.size == 1 else "[" + ", ".join(f"{x:.3g}" for x in v) + "]"
+    return f"{name} = {text}{' ' + unit if unit else ''}"
+
+
+def _format_length(x: float) -> str:
+    if x == 0:
+        return "0 m"
+    if abs(x) < 1e-3:
+        return f"{x * 1e6:.3g} µm"
+    if abs(x) < 1:
+        return f"{x * 1e3:.3g} mm"
+    return f"{x:.3g} m"
+
+
+def _draw_overlay(image: np.ndarray, *, title: str, time_s: float, ended: bool,
+                  values: Sequence[str], exaggeration: float, label: str | None,
+                  height_limit_m: float | None, cmap: str, activity: bool) -> np.ndarray:
+    """Title, clock, series values, exaggeration note, height colour bar, activity legend, label."""
+    from PIL import Image, ImageDraw
+
+    h, w = image.shape[:2]
+    size = max(10, round(h / 30))
+    big, small = _font(round(size * 1.25)), _font(size)
+    img = Image.fromarray(image)
+    draw = ImageDraw.Draw(img)
+    ink = dict(fill=(255, 255, 255), stroke_width=max(1, size // 9), stroke_fill=(0, 0, 0))
+    pad = size // 2
+    y = pad
+    draw.text((pad, y), title, font=big, **ink)
+    y += round(size * 1.25) + pad
+    draw.text((pad, y), f"t = {time_s:.1f} s" + ("  (run ended)" if ended else ""), font=small, **ink)
+    y += size + pad // 2
+    for line in values:
+        draw.text((pad, y), line, font=small, **ink)
+        y += size + pad // 2
+    if exaggeration != 1.0:
+        draw.text((pad, h - pad - size), f"×{exaggeration:g} exaggerated", font=small, **ink)
+    if activity:
+        x = w - pad
+        for text, rgba in (("strut −", ACTIVE_NEG_RGBA), ("strut +", ACTIVE_POS_RGBA)):
+            tw = draw.textlength(text, font=small)
+            x -= tw
+            draw.text((x, h - pad - size), text, font=small, **ink)
+            x -= size + pad // 2
+            draw.rectangle([x, h - pad - size, x + size * 0.8, h - pad - size * 0.2],
+                           fill=tuple(int(255 * c) for c in rgba[:3]))
+            x -= pad
+    if height_limit_m is not None:
+        bar_h, bar_w = h // 3, max(6, size // 2)
+        x0, y0 = w - pad - bar_w, (h - bar_h) // 2
+        img.paste(_colour_bar(cmap, bar_h, bar_w), (x0, y0))
+        for frac, value in ((0.0, height_limit_m), (0.5, 0.0), (1.0, -height_limit_m)):
+            text = ("+" if value > 0 else "−" if value < 0 else "") + _format_length(abs(value))
+            tw = draw.textlength(text, font=small)
+            draw.text((x0 - pad - tw, y0 + frac * bar_h - size / 2), text, font=small, **ink)
+        caption = "height above top plane"
+        tw = draw.textlength(caption, font=small)
+        if tw > w / 4:
+            caption = "height"
+            tw = draw.textlength(caption, font=small)
+        draw.text((w - pad - tw, y0 - size - pad), caption, font=small, **ink)
+    if label:
+        tw = draw.textlength(label, font=big)
+        bottom_row = size + pad if (activity or exaggeration != 1.0) else 0
+        draw.text(((w - tw) / 2, h - pad - round(size * 1.25) - bottom_row), label, font=big, **ink)
+    return np.asarray(img)
+
+
+# --------------------------------------------------------------------------- public API
+
+
+def _resolve_view(runs: Sequence[RunData], camera: Mapping | None,
+                  scenes: Sequence[RunScene]) -> CameraView:
+    settings = {**runs[0].camera, **_check_camera(camera, "camera")}
+    distance = settings.get("distance_m") or max(s.auto_distance_m for s in scenes)
+    return CameraView(azimuth_deg=settings.get("azimuth_deg", DEFAULT_AZIMUTH_DEG),
+                      elevation_deg=settings.get("elevation_deg", DEFAULT_ELEVATION_DEG),
+                      distance_m=float(distance))
+
+
+def render_frames(
+    run_dir: str | os.PathLike,
+    *,
+    compare: str | os.PathLike | None = None,
+    labels: Sequence[str] | None = None,
+    width: int = 960,
+    height: int = 540,
+    max_frames: int = 600,
+    exaggeration: float | None = None,
+    camera: Mapping[str, float] | None = None,
+    height_cmap: str = DEFAULT_HEIGHT_CMAP,
+    antialias: bool = True,
+) -> Iterator[np.ndarray]:
+    """Yield the finished video frames of a run (or of two runs side by side).
+
+    Same arguments as :func:`render_run` (without the output options). Each frame is
+    ``(height, width * n_runs, 3)`` uint8. The OpenGL contexts are released when the generator
+    is exhausted or closed.
+    """
+    for name, value in (("width", width), ("height", height)):
+        if int(value) != value or value < 16:
+            raise ValueError(f"{name}: must be an integer >= 16, got {value!r}")
+    if exaggeration is not None and not (math.isfinite(exaggeration) and exaggeration > 0):
+        raise ValueError(f"exaggeration: must be > 0, got {exaggeration!r}")
+    _colormap(height_cmap)
+    ensure_gl_backend()
+    run_dirs = [Path(run_dir)] + ([Path(compare)] if compare is not None else [])
+    runs = [load_run(p, name=n) for p, n in zip(run_dirs, ("run_dir", "compare"))]
+    if labels is None:
+        labels = [r.run_dir.resolve().name for r in runs] if len(runs) > 1 else [None]
+    else:
+        if isinstance(labels, str) or len(labels) != len(runs):
+            raise ValueError(f"labels: expected {len(runs)} label(s), one per run, got {labels!r}")
+        labels = [str(x) for x in labels]
+    frame_t, indices, ended = frame_plan([r.t for r in runs], max_frames=max_frames)
+
+    with contextlib.ExitStack() as stack:
+        scenes = [stack.enter_context(RunScene(r, width=int(width), height=int(height),
+                                                    antialias=antialias))
+                  for r in runs]
+        ks = []
+        for run, scene, idx in zip(runs, scenes, indices):
+            k = exaggeration if exaggeration is not None else (runs[0].exaggeration or 1.0)
+            if k != 1.0 and scene.node_bodies.size < 3 and exaggeration is None:
+                warnings.warn(f"{run.run_dir}: manifest exaggeration {k:g} ignored: the model has "
+                              "no flexible structure", RuntimeWarning, stacklevel=2)
+                k = 1.0
+            scene.prepare(idx, exaggeration=k)
+            ks.append(k)
+        view = _resolve_view(runs, camera, scenes)
+        limits = [s.height_limit_m for s in scenes if s.top_bodies is not None]
+        limit = max(limits) if limits else None
+        for f in range(frame_t.size):
+            panels = []
+            for run, scene, idx, end, k, label in zip(runs, scenes, indices, ended, ks, labels):
+                image = scene.render(f, view=view, height_limit_m=limit, cmap=height_cmap)
+                i = int(idx[f])
+                panels.append(_draw_overlay(
+                    image, title=run.title, time_s=float(run.t[i]), ended=bool(end[f]),
+                    values=[_format_value(n, s[i]) for n, s in run.series.items()],
+                    exaggeration=k, label=label,
+                    height_limit_m=limit if scene.top_bodies is not None else None,
+                    cmap=height_cmap, activity=run.strut_activity is not None))
+            yield panels[0] if len(panels) == 1 else np.concatenate(panels, axis=1)
+
+
+def render_run(
+    run_dir: str | os.PathLike,
+    out_path: str | os.PathLike,
+    *,
+    compare: str | os.PathLike | None = None,
+    labels: Sequence[str] | None = None,
+    fps: float = 30,
+    width: int = 960,
+    height: int = 540,
+    max_frames: int = 600,
+    exaggeration: float | None = None,
+    camera: Mapping[str, float] | None = None,
+    height_cmap: str = DEFAULT_HEIGHT_CMAP,
+    antialias: bool = True,
+    crf: float = 20.0,
+    progress: bool = False,
+) -> Path:
+    """Render a run folder to a browser-playable MP4 (H.264, yuv420p), written atomically.
+
+    Args:
+      run_dir: run folder (``model.xml``, ``timeseries.npz``, ``manifest.json``).
+      out_path: output ``.mp4`` path (folder created if missing; replaced atomically).
+      compare: a second run folder, rendered beside the first with the same camera and frame
+        times; the video is then ``2 * width`` wide.
+      labels: one label per panel (default with ``compare``: the run folder names; without:
+        none).
+      fps: playback frames per second.
+      width: width of one panel [px], even.
+      height: height [px], even.
+      max_frames: the recorded frames are subsampled uniformly to at most this many.
+      exaggeration: out-of-plane exaggeration factor k (default: manifest
+        ``render.exaggeration``, else 1). Each truss node's deviation from the best-fit plane
+        of all nodes, less its layer's mean (so the layer spacing is kept), is multiplied by k.
+      camera: ``{"azimuth_deg", "elevation_deg", "distance_m"}`` (any subset) overriding the
+        manifest's ``render.camera`` and the defaults (azimuth 180°, elevation −30°, distance
+        from the structure's size), MuJoCo free-camera convention.
+      height_cmap: matplotlib diverging colormap for top-node heights.
+      antialias: 4x multisampling; ``False`` renders about twice as fast in software.
+      crf: x264 quality (lower is better and larger).
+      progress: show a tqdm progress bar.
+
+    Returns:
+      the path of the written video.
+
+    Raises:
+      FileNotFoundError: a run folder or one of its files is missing.
+      ValueError: an argument or a run file is invalid (named in the message).
+      magsail_mj.render.backend.GLBackendError: no OpenGL backend works.
+    """
+    out_path = Path(out_path)
+    n_panels = 1 if compare is None else 2
+    for name, value in (("width", width), ("height", height)):
+        if int(value) != value or value < 16 or int(value) % 2:
+            raise ValueError(f"{name}: must be an even integer >= 16 (H.264 yuv420p), got {value!r}")
+    if not fps > 0:
+        raise ValueError(f"fps: must be > 0, got {fps!r}")
+    if out_path.suffix.lower() != ".mp4":
+        raise ValueError(f"out_path: must end in '.mp4', got {str(out_path)!r}")
+    frames = render_frames(run_dir, compare=compare, labels=labels, width=width, height=height,
+                           max_frames=max_frames, exaggeration=exaggeration, camera=camera,
+                           height_cmap=height_cmap, antialias=antialias)
+    with contextlib.closing(frames):
+        iterator: Iterator[np.ndarray] = frames
+        if progress:
+            from tqdm import tqdm
+
+            iterator = tqdm(frames, desc=f"render {Path(run_dir).name}", unit="frame")
+        with Mp4Writer(out_path, width=int(width) * n_panels, height=int(height), fps=fps,
+                       crf=crf) as writer:
+            for frame in iterator:
+                writer.add(frame)
+    return out_path

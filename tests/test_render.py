@@ -1,0 +1,427 @@
+"""Rendering: GL backend choice and fallback, run-folder rendering, side-by-side, MP4 output.
+
+Synthetic run folders are built here: a small truss lattice (``make_lattice`` +
+``build_truss_spec``, MJCF from ``spec.to_xml()``) whose recorded ``qpos`` is a rigid rotation of
+the plate (plus an optional bending shape), with strut activity that is 0, then +1, then −1 on
+the top-layer x-edges; and a rigid satellite (one free body). Videos are read back with
+``imageio-ffmpeg`` and checked for frame count, size, content, strut colours and codec.
+
+The tests that render are skipped, with the reason, only when no OpenGL backend can create a
+renderer at all (see ``magsail_mj.render.backend``).
+"""
+
+from __future__ import annotations
+
+# The GL backend must be chosen before mujoco is imported (MUJOCO_GL is read at import time).
+# Other test modules may have imported mujoco already; the first renderer then switches.
+import warnings
+
+from magsail_mj.render.backend import ensure_gl_backend
+
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", RuntimeWarning)
+    ensure_gl_backend()
+
+import json  # noqa: E402
+import os  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import textwrap  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from scipy.spatial.transform import Rotation  # noqa: E402
+
+from magsail_mj.geometry.lattice import make_lattice  # noqa: E402
+from magsail_mj.mjcf.truss import build_truss_spec  # noqa: E402
+from magsail_mj.render import backend  # noqa: E402
+from magsail_mj.render.compose import RunScene, frame_plan, load_run, render_run  # noqa: E402
+from magsail_mj.render.video import Mp4Writer, read_mp4, video_codec  # noqa: E402
+
+W, H = 320, 180          # small frames keep software rendering fast
+T_FRAMES = 9             # records: activity 0 (0-2), +1 (3-5), -1 (6-8)
+REPO = Path(__file__).resolve().parents[1]
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+@pytest.fixture(scope="session")
+def gl() -> str:
+    """The working GL backend; skips the rendering tests if there is none."""
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_string("<mujoco><worldbody><geom size='1'/></worldbody></mujoco>")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            r = backend.make_renderer(m, width=16, height=16)
+    except backend.GLBackendError as exc:
+        pytest.skip(f"no OpenGL backend can create a MuJoCo renderer: {exc}")
+    r.close()
+    return backend.active_backend()
+
+
+def write_truss_run(folder: Path, *, units: int = 3, side_m: float = 10.0, T: int = T_FRAMES,
+                    duration_s: float = 80.0, bend_m: float = 0.0, activity: bool = True,
+                    title: str = "truss test") -> dict:
+    """A run folder whose plate turns rigidly by 60° about x and 30° about z over the run."""
+    lat = make_lattice(units=units, side_m=side_m)
+    spec = build_truss_spec(lat, masses=np.full(lat.n_nodes, 0.1),
+                            stiffness=np.full(lat.n_struts, 1.0), damping=0.01)
+    model = spec.compile()
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "model.xml").write_text(spec.to_xml())
+    t = np.linspace(0.0, duration_s, T)
+    p0 = lat.nodes
+    r2 = (p0[:, 0] ** 2 + p0[:, 1] ** 2) / (side_m / 2) ** 2
+    qpos = np.empty((T, model.nq))
+    for k, tk in enumerate(t):
+        rot = Rotation.from_euler("xz", [60.0 * tk / duration_s, 30.0 * tk / duration_s],
+                                  degrees=True).as_matrix()
+        p = p0.copy()
+        p[:, 2] += bend_m * r2
+        qpos[k] = (p @ rot.T - p0).ravel()
+    arrays = {"t": t, "qpos": qpos, "surface_sd_m": np.linspace(0.0, 0.01, T),
+              "torque_cmd_Nm": np.linspace(-1e-3, 1e-3, T)}
+    x_top = lat.struts_of_kind("x_edge", layer=1)
+    if activity:
+        act = np.zeros((T, lat.n_struts), np.int8)
+        third = T // 3
+        act[third:2 * third, x_top] = 1
+        act[2 * third:, x_top] = -1
+        arrays["strut_activity"] = act
+    np.savez(folder / "timeseries.npz", **arrays)
+    manifest = {"config": {"units": units}, "config_hash": "test", "scenario": "render_test",
+                "render": {"title": title, "top_nodes": lat.top_nodes.tolist(),
+                           "overlay": ["surface_sd_m", "torque_cmd_Nm"]}}
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    return {"lattice": lat, "t": t, "qpos": qpos}
+
+
+def write_rigid_run(folder: Path, *, T: int = 6) -> None:
+    """A satellite (one free body: bus and two panels) turning about z while drifting along x."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "model.xml").write_text(textwrap.dedent("""\
+        <mujoco model="sat">
+          <option gravity="0 0 0"/>
+          <worldbody>
+            <light pos="0 0 5" dir="0 0 -1" directional="true"/>
+            <body name="bus">
+              <freejoint/>
+              <geom type="box" size="0.3 0.2 0.1" rgba="0.8 0.7 0.2 1"/>
+              <geom type="box" pos="0.8 0 0" size="0.5 0.3 0.005" rgba="0.2 0.3 0.8 1"/>
+              <geom type="box" pos="-0.8 0 0" size="0.5 0.3 0.005" rgba="0.2 0.3 0.8 1"/>
+            </body>
+          </worldbody>
+        </mujoco>"""))
+    t = np.linspace(0.0, 10.0, T)
+    qpos = np.zeros((T, 7))
+    qpos[:, 0] = 0.1 * t
+    qpos[:, 3:] = Rotation.from_euler("z", (9.0 * t)[:, None], degrees=True).as_quat(
+        scalar_first=True)
+    np.savez(folder / "timeseries.npz", t=t, qpos=qpos)
+    (folder / "manifest.json").write_text(json.dumps(
+        {"config": {}, "config_hash": "x", "scenario": "rigid", "render": {"title": "rigid sat"}}))
+
+
+def colour_counts(frame: np.ndarray) -> tuple[int, int]:
+    """Pixels that are clearly red and clearly blue (the active strut colours)."""
+    r, g, b = (frame[..., i].astype(int) for i in range(3))
+    red = (r > 140) & (r - g > 70) & (r - b > 70)
+    blue = (b > 140) & (b - r > 70) & (b - g > 40)
+    return int(red.sum()), int(blue.sum())
+
+
+def run_python(code: str, **env: str) -> subprocess.CompletedProcess:
+    """Run ``code`` in a fresh interpreter (MUJOCO_GL is fixed per process)."""
+    full_env = {k: v for k, v in os.environ.items()
+                if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM", "MUJOCO_EGL_DEVICE_ID")}
+    full_env.update(env)
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True,
+                          text=True, env=full_env, cwd=REPO, timeout=120)
+
+
+PROBE = textwrap.dedent("""
+    import warnings
+    warnings.simplefilter("always")
+    {prelude}
+    from magsail_mj.render import backend
+    backend.ensure_gl_backend()
+    import mujoco
+    m = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><light pos="0 0 3"/>'
+        '<geom type="sphere" size=".3" rgba="1 0 0 1"/></worldbody></mujoco>')
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    with backend.make_renderer(m, width=64, height=48) as r:
+        r.update_scene(d)
+        img = r.render()
+    print("ACTIVE", backend.active_backend(), int((img[..., 0] > 150).sum()))
+""")
+
+
+def probe(prelude: str = "", **env: str) -> tuple[str | None, int, str]:
+    proc = run_python(PROBE.format(prelude=textwrap.dedent(prelude).strip()), **env)
+    for line in proc.stdout.splitlines():
+        if line.startswith("ACTIVE"):
+            _, name, red = line.split()
+            return name, int(red), proc.stderr
+    return None, 0, proc.stdout + proc.stderr
+
+
+# --------------------------------------------------------------------------- backend
+
+
+def test_ensure_gl_backend_prefers_osmesa(monkeypatch):
+    for present, expected in ((True, "osmesa"), (False, "egl")):
+        monkeypatch.delenv("MUJOCO_GL", raising=False)
+        monkeypatch.delenv("PYOPENGL_PLATFORM", raising=False)
+        monkeypatch.setattr(backend, "osmesa_available", lambda present=present: present)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)   # "mujoco already imported"
+            assert backend.ensure_gl_backend() == expected
+        assert os.environ["MUJOCO_GL"] == expected
+        assert os.environ["PYOPENGL_PLATFORM"] == expected
+    # An explicit choice is respected.
+    monkeypatch.setenv("MUJOCO_GL", "egl")
+    monkeypatch.delenv("PYOPENGL_PLATFORM", raising=False)
+    assert backend.ensure_gl_backend() == "egl"
+    assert os.environ["PYOPENGL_PLATFORM"] == "egl"
+
+
+def test_no_backend_raises_with_install_hint(monkeypatch):
+    import mujoco
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("simulated: cannot create a GL context")
+
+    monkeypatch.setattr(backend, "_ACTIVE", None)
+    monkeypatch.setattr(backend, "_try_renderer", fail)
+    m = mujoco.MjModel.from_xml_string("<mujoco/>")
+    with pytest.raises(backend.GLBackendError) as info:
+        backend.make_renderer(m, width=16, height=16)
+    msg = str(info.value)
+    assert "apt-get install -y libosmesa6" in msg
+    assert "MUJOCO_GL=osmesa" in msg and "MUJOCO_GL=egl" in msg
+    with pytest.raises(ValueError, match="width"):
+        backend.make_renderer(m, width=0, height=16)
+
+
+@pytest.mark.parametrize("name", backend.HEADLESS_BACKENDS)
+def test_each_backend_renders(name):
+    if name == "osmesa" and not backend.osmesa_available():
+        pytest.skip("libOSMesa is not installed (apt-get install -y libosmesa6)")
+    active, red, err = probe(MUJOCO_GL=name)
+    if active != name:
+        pytest.skip(f"MUJOCO_GL={name} cannot render here (got {active}): {err[-500:]}")
+    assert red > 100, "the red sphere is missing from the image"
+
+
+def test_fallback_egl_to_osmesa():
+    """A broken EGL (invalid device id) falls back to OSMesa, with a warning."""
+    if not backend.osmesa_available():
+        pytest.skip("libOSMesa is not installed")
+    active, red, err = probe(MUJOCO_GL="egl", MUJOCO_EGL_DEVICE_ID="99")
+    assert active == "osmesa", err
+    assert "fell back to MUJOCO_GL='osmesa'" in err
+    assert red > 100
+
+
+def test_fallback_osmesa_to_egl():
+    """Without OSMesa (simulated), rendering falls back to EGL, with a warning."""
+    prelude = """
+    import magsail_mj.render.backend as b
+    _orig = b._switch_backend
+    def _no_osmesa(name):
+        if name == "osmesa":
+            raise ImportError("simulated: libOSMesa missing")
+        _orig(name)
+    b._switch_backend = _no_osmesa
+    """
+    # PYOPENGL_PLATFORM=egl makes MuJoCo's own import of its OSMesa backend fail.
+    active, red, err = probe(prelude, MUJOCO_GL="osmesa", PYOPENGL_PLATFORM="egl")
+    if active is None and "GLBackendError" in err:
+        pytest.skip("EGL cannot render on this machine either")
+    assert active == "egl", err
+    assert "fell back to MUJOCO_GL='egl'" in err
+    assert red > 100
+
+
+def test_mujoco_imported_first_still_renders():
+    """If mujoco was imported before the backend was chosen, the first renderer switches."""
+    active, red, err = probe(prelude="import mujoco")
+    assert active in backend.HEADLESS_BACKENDS, err
+    assert red > 100
+
+
+def test_package_import_selects_backend():
+    """``import magsail_mj`` must choose MUJOCO_GL before anything imports mujoco."""
+    import magsail_mj
+
+    init = Path(magsail_mj.__path__[0]) / "__init__.py"
+    if not init.is_file() or "ensure_gl_backend" not in init.read_text():
+        pytest.skip("magsail_mj/__init__.py does not call ensure_gl_backend() yet")
+    proc = run_python("""
+        import os, magsail_mj, mujoco
+        from mujoco.rendering.classic import gl_context
+        print("GL", os.environ.get("MUJOCO_GL"), gl_context.GLContext.__module__)
+    """)
+    line = next(x for x in proc.stdout.splitlines() if x.startswith("GL"))
+    _, chosen, module = line.split()
+    assert chosen in backend.HEADLESS_BACKENDS
+    assert module == f"mujoco.{chosen}"
+
+
+# --------------------------------------------------------------------------- video I/O
+
+
+def test_mp4_writer_is_atomic(tmp_path):
+    out = tmp_path / "v.mp4"
+    out.write_bytes(b"old")
+    with pytest.raises(RuntimeError, match="boom"):
+        with Mp4Writer(out, width=32, height=16, fps=10) as w:
+            w.add(np.zeros((16, 32, 3), np.uint8))
+            raise RuntimeError("boom")
+    assert out.read_bytes() == b"old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["v.mp4"]
+    with Mp4Writer(out, width=32, height=16, fps=10) as w:
+        for k in range(3):
+            w.add(np.full((16, 32, 3), 80 * k, np.uint8))
+    assert read_mp4(out).shape == (3, 16, 32, 3)
+    assert video_codec(out) == "h264 yuv420p"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["v.mp4"]
+    with pytest.raises(ValueError, match="width"):
+        Mp4Writer(out, width=33, height=16)
+    with pytest.raises(ValueError, match="path"):
+        Mp4Writer(tmp_path / "v.avi", width=32, height=16)
+
+
+# --------------------------------------------------------------------------- run rendering
+
+
+def test_frame_plan_nearest_and_hold():
+    ta = np.linspace(0.0, 100.0, 101)
+    tb = np.linspace(0.0, 40.0, 9)                       # shorter run, coarser records
+    ft, (ia, ib), (ea, eb) = frame_plan([tb, ta], max_frames=11)
+    assert np.allclose(ft, np.linspace(0.0, 100.0, 11))  # the longer run sets the times
+    assert np.array_equal(ib, np.arange(0, 101, 10))
+    assert np.allclose(tb[ia], [0, 10, 20, 30, 40, 40, 40, 40, 40, 40, 40])
+    assert ea.tolist() == [False] * 5 + [True] * 6 and not eb.any()
+    with pytest.raises(ValueError, match="max_frames"):
+        frame_plan([ta], max_frames=0)
+
+
+def test_render_truss_run(tmp_path, gl):
+    write_truss_run(tmp_path / "run_a")
+    out = render_run(tmp_path / "run_a", tmp_path / "videos" / "a.mp4", width=W, height=H, fps=10)
+    assert out == tmp_path / "videos" / "a.mp4"
+    assert sorted(p.name for p in out.parent.iterdir()) == ["a.mp4"]     # no temp file left
+    assert video_codec(out) == "h264 yuv420p"
+    v = read_mp4(out)
+    assert v.shape == (T_FRAMES, H, W, 3)
+    assert all(frame.std() > 10 for frame in v), "blank frame"
+    assert not np.array_equal(v[0], v[-1]), "the plate does not move"
+    red = [colour_counts(f)[0] for f in v]
+    blue = [colour_counts(f)[1] for f in v]
+    # Activity 0 in records 0-2, +1 in 3-5, -1 in 6-8 (the legend's swatches are in every frame).
+    assert min(red[3:6]) > max(red[:3]) + 30, red
+    assert min(blue[6:9]) > max(blue[:3]) + 30, blue
+    assert max(red[6:9]) < min(red[3:6]), red
+
+    v4 = read_mp4(render_run(tmp_path / "run_a", tmp_path / "b.mp4", width=W, height=H,
+                             max_frames=4))
+    assert v4.shape == (4, H, W, 3)
+
+
+def test_render_side_by_side(tmp_path, gl):
+    write_truss_run(tmp_path / "design_a")
+    write_truss_run(tmp_path / "design_b", T=5, duration_s=40.0, activity=False, bend_m=0.3,
+                    title="bent")
+    out = render_run(tmp_path / "design_a", tmp_path / "ab.mp4", compare=tmp_path / "design_b",
+                     width=W, height=H)
+    v = read_mp4(out)
+    assert v.shape == (T_FRAMES, H, 2 * W, 3)
+    assert video_codec(out) == "h264 yuv420p"
+    left, right = v[:, :, :W], v[:, :, W:]
+    assert all(f.std() > 10 for f in left) and all(f.std() > 10 for f in right)
+    # Activity exists only in the left run.
+    assert colour_counts(left[4])[0] > colour_counts(right[4])[0] + 30
+    # The shorter right run holds its last record once it has ended.
+    assert np.abs(right[-1].astype(int) - right[-2]).mean() < 1.0
+    with pytest.raises(ValueError, match="labels"):
+        render_run(tmp_path / "design_a", tmp_path / "x.mp4", compare=tmp_path / "design_b",
+                   labels=["only one"], width=W, height=H)
+
+
+def test_render_rigid_body_run(tmp_path, gl):
+    write_rigid_run(tmp_path / "rigid")
+    v = read_mp4(render_run(tmp_path / "rigid", tmp_path / "r.mp4", width=W, height=H,
+                            camera={"azimuth_deg": 135.0, "elevation_deg": -45.0}))
+    assert v.shape == (6, H, W, 3)
+    assert all(f.std() > 10 for f in v)
+    assert not np.array_equal(v[0], v[-1])
+    with pytest.raises(ValueError, match="exaggeration"):
+        render_run(tmp_path / "rigid", tmp_path / "r2.mp4", width=W, height=H, exaggeration=5.0)
+    assert not (tmp_path / "r2.mp4").exists()
+
+
+def test_exaggeration_scales_out_of_plane_deviation(tmp_path, gl):
+    """k scales each node's deviation from its layer's mean offset; layer spacing is kept."""
+    bend = 0.2
+    info = write_truss_run(tmp_path / "bent", T=2, bend_m=bend, activity=False)
+    lat = info["lattice"]
+    run = load_run(tmp_path / "bent")
+    k = 5.0
+    with RunScene(run, width=W, height=H) as scene:
+        scene.prepare(np.array([0]), exaggeration=k)
+        from magsail_mj.render.compose import CameraView
+
+        image = scene.render(0, view=CameraView(distance_m=scene.auto_distance_m))
+        z = scene.data.xpos[1:lat.n_nodes + 1, 2].copy()      # record 0: no rotation
+        site_z = scene.data.site_xpos[:, 2].copy()
+    assert image.std() > 10
+    ref = lat.nodes[:, 2]
+    w = bend * (lat.nodes[:, 0] ** 2 + lat.nodes[:, 1] ** 2) / (lat.side_m / 2) ** 2
+    top, bottom = lat.top_nodes, lat.bottom_nodes
+    for layer in (top, bottom):
+        dev = w[layer] - w[layer].mean()
+        expected = ref[layer] + w[layer].mean() + k * dev
+        assert np.allclose(z[layer], expected, atol=1e-9)
+    assert np.isclose(z[top].mean() - z[bottom].mean(), lat.cube_edge_m)   # thickness kept
+    assert np.allclose(site_z, z)                                          # struts follow
+
+
+def test_render_errors_name_the_argument(tmp_path):
+    write_truss_run(tmp_path / "run")
+    with pytest.raises(ValueError, match="width"):
+        render_run(tmp_path / "run", tmp_path / "x.mp4", width=321)
+    with pytest.raises(ValueError, match="out_path"):
+        render_run(tmp_path / "run", tmp_path / "x.gif")
+    with pytest.raises(FileNotFoundError, match="compare"):
+        render_run(tmp_path / "run", tmp_path / "x.mp4", compare=tmp_path / "missing")
+    manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    manifest["render"]["overlay"] = ["no_such_series_m"]
+    (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(ValueError, match="no_such_series_m"):
+        load_run(tmp_path / "run")
+    manifest["render"]["overlay"] = []
+    manifest["render"]["camera"] = {"zoom": 2}
+    (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(ValueError, match="camera"):
+        load_run(tmp_path / "run")
+    assert not (tmp_path / "x.mp4").exists()
+
+
+def test_diverged_run_is_rendered_up_to_the_blow_up(tmp_path):
+    write_truss_run(tmp_path / "run")
+    with np.load(tmp_path / "run" / "timeseries.npz") as npz:
+        arrays = dict(npz)
+    arrays["qpos"][-2:, 5] = np.nan
+    np.savez(tmp_path / "run" / "timeseries.npz", **arrays)
+    with pytest.warns(RuntimeWarning, match="non-finite from record 7"):
+        run = load_run(tmp_path / "run")
+    assert run.t.size == T_FRAMES - 2 and run.qpos.shape[0] == T_FRAMES - 2
+    assert run.strut_activity.shape[0] == T_FRAMES - 2
+    assert run.series["surface_sd_m"].shape == (T_FRAMES - 2,)
