@@ -92,7 +92,8 @@ def run_scenario(
     if video:
         from magsail_mj.render import render_run
 
-        render_run(run_dir, run_dir / "video.mp4")
+        info = manifest["render"]
+        render_run(run_dir, run_dir / "video.mp4", fps=info.get("fps", 30), max_frames=info.get("max_frames", 600))
         manifest["files"]["video.mp4"] = _sha256(run_dir / "video.mp4")
         write_json(run_dir / "manifest.json", manifest)
     out = RunOutcome(summary)

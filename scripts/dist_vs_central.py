@@ -158,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
                 central, dist = out / f"case_{c}_central_{prof}", out / f"case_{c}_distributed_{prof}"
                 if central.name in summaries and dist.name in summaries:
                     videos.append(render_run(central, out / f"case_{c}_{prof}_side_by_side.mp4", compare=dist,
-                                             labels=["centralised", "distributed"]))
+                                             labels=["centralised", "distributed"], max_frames=360, fps=30))
     print(table)
     print(json.dumps({"runs": len(summaries), "wall_time_s": round(time.perf_counter() - t0, 1),
                       "comparison": str(out / "comparison.md"), "videos": [str(v) for v in videos]}, indent=2))
