@@ -64,6 +64,22 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_scaling_magnetorquer(args: argparse.Namespace) -> int:
+    from magsail_mj.analysis.scaling import scaling_report
+    from magsail_mj.io import to_jsonable
+
+    side = args.side_m[0] if len(args.side_m) == 1 else args.side_m
+    kappa = args.kappa[0] if len(args.kappa) == 1 else args.kappa
+    try:
+        report = scaling_report(side, kappa, altitude_km=args.altitude_km, total_kg=args.total_kg,
+                                rod_mass_kg=args.rod_mass_kg)
+    except ValueError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    print(json.dumps(to_jsonable(report)))
+    return 0
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="magsail", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
@@ -96,6 +112,16 @@ def _parser() -> argparse.ArgumentParser:
     rr.add_argument("--compare", help="second run folder, shown on the right")
     rr.add_argument("--labels", nargs=2, metavar=("LEFT", "RIGHT"))
     rr.set_defaults(fn=_cmd_render)
+
+    sc = sub.add_parser("scaling", help="analytic scaling laws (one JSON object on stdout)")
+    scs = sc.add_subparsers(dest="law", required=True)
+    mt = scs.add_parser("magnetorquer", help="rod mass fraction λ_f(d, κ_τ) (truss spec §8)")
+    mt.add_argument("--side-m", type=float, nargs="+", required=True, help="plate side(s) d [m]")
+    mt.add_argument("--kappa", type=float, nargs="+", required=True, help="dipole per rod mass κ_τ [A m²/kg]")
+    mt.add_argument("--altitude-km", type=float, default=800.0)
+    mt.add_argument("--total-kg", type=float, default=200.0)
+    mt.add_argument("--rod-mass-kg", type=float, default=100.0)
+    mt.set_defaults(fn=_cmd_scaling_magnetorquer)
     return p
 
 

@@ -139,3 +139,15 @@ def test_scaling_script_writes_plot_and_json(tmp_path, capsys):
     assert printed == saved
     assert (tmp_path / "lambda_f_vs_side.png").stat().st_size > 10_000
     assert "| 100 |" in (tmp_path / "table.md").read_text()
+
+
+def test_cli_prints_one_json_object(capsys):
+    import json
+
+    from magsail_mj.cli import main
+
+    assert main(["scaling", "magnetorquer", "--side-m", "75", "--kappa", "100"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["side_m"] == 75.0 and 0 < report["lambda_f"] < 1
+    assert main(["scaling", "magnetorquer", "--side-m", "-1", "--kappa", "100"]) == 2
+    assert "side_m" in capsys.readouterr().err
