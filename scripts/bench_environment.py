@@ -11,7 +11,10 @@ Measures, in one run (issue 3 item 9, the part that does not need the runner):
    lattice (truss spec §2.2, §2.4) and one classical RK4 step of it (4 evaluations), the
    reference cost of design.md.
 
-The comparison with the MuJoCo step cost is added with the runner. Prints a JSON object.
+4. the runner's cost per MuJoCo RK4 step of the 75 m lattice, bare and with all environment
+   loads (tidal, SRP, drag) — the issue's target: the loads add at most 50 % to the bare step.
+
+Prints a JSON object.
 
 Usage: python scripts/bench_environment.py [--repeat 2000]
 """
@@ -23,6 +26,7 @@ import json
 import platform
 import time
 from datetime import datetime
+from pathlib import Path
 
 import numpy as np
 
@@ -31,10 +35,14 @@ from magsail_mj.environment.constants import MU_EARTH
 from magsail_mj.environment.field import igrf_eci
 from magsail_mj.environment.surfaces import Optics, lattice_top_cells
 from magsail_mj.environment.timeutil import gmst_rad
+from magsail_mj.geometry.lattice import make_lattice
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.drag import LatticeDragLoad
 from magsail_mj.loads.srp import LatticeSRPLoad
 from magsail_mj.loads.tidal import TidalGravityLoad
+from magsail_mj.reference.numpy_rk4 import SpringMassLattice
+
+REPO = Path(__file__).resolve().parents[1]
 
 N, SIDE, MASS = 20, 75.0, 0.25
 ORBIT = OrbitConfig(altitude_km=800, inclination_deg=90, raan_deg=90)
@@ -51,58 +59,49 @@ def _best(fn, repeat: int, rounds: int = 5) -> float:
     return best
 
 
-def lattice(n: int = N, d: float = SIDE):
-    """Nodes (index k n² + j n + i) and parity-rule struts of the two-layer lattice."""
-    a = d / (n - 1)
-    k, j, i = np.meshgrid(np.arange(2), np.arange(n), np.arange(n), indexing="ij")
-    ijk = np.stack([i, j, k], -1).reshape(-1, 3)
-    p = np.stack([ijk[:, 0] * a - d / 2, ijk[:, 1] * a - d / 2, (ijk[:, 2] - 0.5) * a], -1)
-    idx = lambda i, j, k: k * n * n + j * n + i  # noqa: E731
-    struts = []
-    for kk in range(2):
-        for jj in range(n):
-            for ii in range(n):
-                if ii + 1 < n:
-                    struts.append((idx(ii, jj, kk), idx(ii + 1, jj, kk)))
-                if jj + 1 < n:
-                    struts.append((idx(ii, jj, kk), idx(ii, jj + 1, kk)))
-                if kk == 0:
-                    struts.append((idx(ii, jj, 0), idx(ii, jj, 1)))
-    even = (ijk.sum(1) % 2) == 0
-    diag = []
-    for u in range(len(p)):
-        if not even[u]:
-            continue
-        for v in range(u + 1, len(p)):
-            if even[v] and np.sum(np.abs(ijk[u] - ijk[v])) == 2 and np.all(np.abs(ijk[u] - ijk[v]) <= 1):
-                diag.append((u, v))
-    return p, np.array(struts + diag), a
+def lattice():
+    """Nodes, parity-rule struts and cube edge of the 800-node, 75 m lattice (truss spec §2.2)."""
+    lat = make_lattice(units=N - 1, side_m=SIDE)
+    return lat.nodes, lat.struts, lat.cube_edge_m
 
 
 def numpy_rhs_factory(p0: np.ndarray, struts: np.ndarray, k_edge: float, gamma: float, m: float):
-    """Plain NumPy spring–dashpot accelerations (the papers' formulation), scatter by bincount."""
-    i, j = struts[:, 0], struts[:, 1]
-    l0 = np.linalg.norm(p0[j] - p0[i], axis=1)
-    k = k_edge * l0.min() / l0  # same EA on every strut: k = EA / l0
-    nn = len(p0)
+    """Plain NumPy spring–dashpot forces of the reference integrator (same EA on every strut)."""
+    l0 = np.linalg.norm(p0[struts[:, 1]] - p0[struts[:, 0]], axis=1)
+    system = SpringMassLattice(masses=np.full(len(p0), m), struts=struts, k=k_edge * l0.min() / l0, l0=l0,
+                               gamma=gamma)
+    return system.forces
 
-    def rhs(x, v):
-        d = x[j] - x[i]
-        ln = np.sqrt(np.einsum("ij,ij->i", d, d))
-        e = d / ln[:, None]
-        dv = v[j] - v[i]
-        f = (k * (ln - l0) + gamma * np.einsum("ij,ij->i", dv, e))[:, None] * e
-        F = np.empty_like(x)
-        for c in range(3):
-            F[:, c] = np.bincount(i, f[:, c], nn) - np.bincount(j, f[:, c], nn)
-        return F / m
 
-    return rhs
+def mujoco_step_costs(steps: int) -> dict[str, float]:
+    """Runner cost per step of the 75 m orbital lattice (libration config, MuJoCo RK4 at 0.1 s):
+    bare (no loads, no environment) and with all environment loads (tidal, SRP, drag), in one run."""
+    from magsail_mj.config import load_config
+    from magsail_mj.scenarios import build_scenario
+    from magsail_mj.sim import Simulation
+
+    cfg = load_config(REPO / "models/truss_magnetorquer/libration.toml",
+                      ["srp.enabled=true", "drag.enabled=true", "atmosphere.model='exponential'",
+                       "sun.model='ephemeris'", f"sim.duration_s={steps * 0.1}", "sim.progress=false"])
+    sc = build_scenario(cfg)
+    out = {}
+    for name, loads, env in (("bare", [], None), ("env_loads", sc.environment_loads(), sc.environment)):
+        times = []
+        for _ in range(2):
+            sim = Simulation(model=sc.model, duration_s=cfg.sim.duration_s, loads=loads, environment=env,
+                             record_every=10**9, init=sc.init_state)
+            times.append(sim.run().wall_time_s / steps)
+        out[f"mujoco_rk4_step_{name}_ms"] = min(times) * 1e3
+    out["env_loads_added_fraction_of_step"] = (out["mujoco_rk4_step_env_loads_ms"] / out["mujoco_rk4_step_bare_ms"]
+                                               - 1.0)
+    out["env_loads"] = [type(ld).__name__ for ld in sc.environment_loads()]
+    return out
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=2000, help="calls per timing round")
+    ap.add_argument("--steps", type=int, default=600, help="MuJoCo steps per runner timing")
     args = ap.parse_args()
     out: dict[str, object] = {"machine": platform.processor() or platform.machine(),
                               "python": platform.python_version()}
@@ -170,6 +169,7 @@ def main() -> None:
     out["baseline_numpy_rhs_us"] = _best(lambda: rhs(x, v), max(1, args.repeat // 4)) * 1e6
     out["baseline_numpy_rk4_step_us"] = 4 * out["baseline_numpy_rhs_us"]
     out["loads_over_numpy_rk4_step"] = out["loads_total_us"] / out["baseline_numpy_rk4_step_us"]
+    out.update(mujoco_step_costs(args.steps))
     out["date"] = datetime.now().isoformat(timespec="seconds")
     print(json.dumps(out, indent=1))
 
