@@ -49,7 +49,11 @@ def strut_couple_forces(r_i, r_j, n, a, c):
     e = r / ell[:, None]
     n_perp = n - np.einsum("ij,ij->i", n, e)[:, None] * e
     n_hat = n_perp / np.sqrt(np.einsum("ij,ij->i", n_perp, n_perp))[:, None]
-    w = np.cross(n_hat, e)
+    # w = n̂ × ê, written out (np.cross costs more than the arithmetic for a few hundred rows)
+    w = np.empty_like(e)
+    w[:, 0] = n_hat[:, 1] * e[:, 2] - n_hat[:, 2] * e[:, 1]
+    w[:, 1] = n_hat[:, 2] * e[:, 0] - n_hat[:, 0] * e[:, 2]
+    w[:, 2] = n_hat[:, 0] * e[:, 1] - n_hat[:, 1] * e[:, 0]
     return (a[:, None] * n_hat + c[:, None] * w) / ell[:, None]
 
 
