@@ -1,4 +1,4 @@
-"""Orbit, frames and time, geomagnetic field, Sun and atmosphere (docs/environment.md).
+"""Orbit, frames and time, geomagnetic field, Sun and atmosphere (README: Orbit and space environment).
 
 The runtime entry point is :class:`Environment` (precompute along the reference orbit once,
 ``sample(t)`` per step in O(1)); its config tables live in :mod:`.config`.

@@ -6,7 +6,7 @@ Exponential model (CNUSAIL spec §5.5, paper Eq. 14, base values of Vallado's Ta
 
 with the row of the largest base altitude h0 ≤ h; h = |r| − R_E (spherical Earth). Below 0 km
 the first row, above 1000 km the last row is extrapolated. The published table is continuous to
-0.14 % at its band edges (largest jump at 25 km; all others ≤ 1e-4), see ``docs/environment.md``.
+0.14 % at its band edges (largest jump at 25 km; all others ≤ 1e-4), see the README (Atmosphere).
 
 MSIS (optional extra ``magsail_mj[msis]``): ``pymsis.calculate`` with F10.7, F10.7A and Ap
 always passed explicitly (otherwise pymsis tries to download space-weather files; the machines

@@ -3,7 +3,7 @@
 A run folder holds ``model.xml``, ``timeseries.npz`` (``t`` (T,), ``qpos`` (T, nq), optional
 ``strut_activity`` (T, ntendon) int8 in {-1, 0, +1}, optional scalar series) and
 ``manifest.json`` whose ``render`` table gives ``title``, ``top_nodes``, ``overlay``, ``camera``
-and ``exaggeration`` (all optional). See ``docs/rendering.md``.
+and ``exaggeration`` (all optional). See the README (Rendering videos).
 
 Per frame: the recorded ``qpos`` is set, positions are computed (``mj_kinematics``,
 ``mj_comPos``, ``mj_camlight``, ``mj_tendon``; no dynamics), struts (tendons) are coloured
