@@ -198,7 +198,7 @@ class Simulation:
         dt = m.opt.timestep
         ckpt = Path(checkpoint_path) if checkpoint_path else None
         loop = {"records": {name: [] for name in ["t", *self.probes]}, "cmd": None,
-                "next_ctrl": 0.0, "controller": self.controller}
+                "n_ctrl": 0, "controller": self.controller}
         start = 0
         if resume:
             if ckpt is None or not ckpt.exists():
@@ -235,10 +235,12 @@ class Simulation:
                     raise DivergenceError(f"state is not finite at t = {t:.3f} s")
                 if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > bad0:
                     raise DivergenceError(f"MuJoCo flagged an unstable acceleration at t = {t:.3f} s")
-                if self.controller is not None and t >= loop["next_ctrl"] - 1e-9 * dt:
+                # sample k is due at k·period (computed, not accumulated, so no sample is ever
+                # skipped by round-off); the step is due when t has reached it within 1e-6 δt
+                if self.controller is not None and t >= loop["n_ctrl"] * self.controller.period_s - 1e-6 * dt:
                     loop["cmd"] = self.controller.update(state)
                     state.ctrl = loop["cmd"]
-                    loop["next_ctrl"] += self.controller.period_s
+                    loop["n_ctrl"] = int(np.floor(t / self.controller.period_s + 1e-6 * dt / self.controller.period_s)) + 1
                     if hasattr(loop["cmd"], "apply_ctrl"):
                         loop["cmd"].apply_ctrl(d)
                 if step % self.record_every == 0 or step == self.n_steps:

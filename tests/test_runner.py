@@ -86,3 +86,33 @@ def test_cli_reports_bad_config_before_writing(tmp_path, capsys):
     assert rc == 2
     assert "sim.timestep_s: must be a number > 0.0, got 0" in capsys.readouterr().err
     assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("period, dt, duration", [(0.1, 0.1, 1000.0), (0.3, 0.1, 1000.0), (1.0, 0.05, 500.0)])
+def test_controller_sampled_at_every_period_without_drift(period, dt, duration):
+    """Zero-order hold: the controller runs at k·period exactly, never skipping a sample."""
+    import mujoco
+
+    from magsail_mj.sim import Simulation
+
+    model = mujoco.MjModel.from_xml_string(
+        f'<mujoco><option timestep="{dt}" gravity="0 0 0"/><worldbody><body>'
+        '<joint type="slide" axis="1 0 0"/><geom size="0.1" mass="1"/></body></worldbody></mujoco>')
+
+    class Counter:
+        period_s = period
+
+        def __init__(self):
+            self.times = []
+
+        def update(self, state):
+            self.times.append(state.t)
+            return None
+
+    ctrl = Counter()
+    Simulation(model=model, duration_s=duration, controller=ctrl, record_every=10**6).run()
+    times = np.asarray(ctrl.times)
+    expected = np.arange(0.0, duration + 1e-9, period)
+    assert times.size == expected.size
+    # each sample falls on the first step at or after k·period
+    np.testing.assert_allclose(times, np.ceil(expected / dt - 1e-6) * dt, atol=1e-9)
