@@ -1,0 +1,536 @@
+r"""The CNUSAIL-1 sail cubesat (concept ``cnusail``): config schema and scenario wiring.
+
+Spec: ``cnusail-cubesat.md`` (CNUSAIL-1 paper: Yoo, Kim, Suk, Kim, IJASS 17(4) 2016). A rigid 3U bus
+with a 2 m × 2 m sail (stowed or deployed mass properties) and three reaction-wheel rotors on
+hinges (:mod:`magsail_mj.mjcf.cubesat`) rides the J2 reference orbit of spec §5.1 in the
+orbit-following world; gravity gradient, drag, SRP and residual-dipole torques
+(:mod:`magsail_mj.loads.cubesat_disturbances`) and the magnetorquer torque
+(:mod:`magsail_mj.loads.actuators_cubesat`) enter through ``xfrc_applied``; the flight controller
+(:mod:`magsail_mj.control.cnusail_modes`) drives the wheel motors through MuJoCo actuators.
+
+Scenario ids (``models/cnusail/<id>.toml``) and what they run:
+
+=====================  ===================================================================
+``detumble_pre``       S1: B-dot, stowed, ω0 = [6, −7, 3] °/s, K = 3e4, 10 orbits
+``detumble_post``      S2: B-dot, deployed, ω0 = [2, −7, 1] °/s, K = 5e4, 10 orbits
+``nadir_pre``          S3: eigen-axis nadir slew, stowed, q_e(0) of the paper (146.5°), 1 orbit
+``nadir_post``         S4: the same, deployed
+``pd_vs_eigenaxis``    S5: 108° slew about the S3 axis, deployed; ``control.mode`` = eigen_axis
+                       (S5b) or pd (S5a) — ``scripts/cnusail_pd_vs_eigenaxis.py`` runs both
+``deorbit``            S6: nadir → deorbit attitude (90°), fixed gains, ν0 = 180°, 2 orbits
+``deorbit_recalc``     S7: the same with the gain recalculation of §7.5
+``lifetime``           S8: orbit decay for the three attitude regimes (SciPy, no MuJoCo run)
+=====================  ===================================================================
+
+Frames: world = ECI axes (origin on the reference orbit); body frame of spec §2.1 (ẑ_B = sail
+normal); quaternions scalar-first, body → world. Config quaternions end in ``_wxyz``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import mujoco
+import numpy as np
+from pydantic import Field, field_validator, model_validator
+
+from magsail_mj.config import SimConfig, StrictModel, register_concept
+from magsail_mj.environment.config import (
+    AtmosphereConfig, DragConfig, EnvironmentConfig, FieldConfig, GravityConfig, OrbitConfig, SRPConfig,
+    SunConfig,
+)
+from magsail_mj.scenarios import register_builder
+from magsail_mj.sim import RunResult, Simulation
+
+__all__ = ["CnusailConfig", "CnusailScenario", "build_cnusail_scenario", "TABLE2_INERTIA", "DEFAULT_BUS_CENTROID"]
+
+Vec3 = tuple[float, float, float]
+DEG = math.pi / 180.0
+TABLE2_INERTIA: dict[str, Vec3] = {"stowed": (0.0506, 0.0506, 0.010), "deployed": (0.3104, 0.3121, 0.5757)}
+"""Principal inertia [kg m²] of CNUSAIL-1 (paper Table 2), rotors included."""
+DEFAULT_BUS_CENTROID: dict[str, Vec3] = {"stowed": (0.005, 0.005, -0.02), "deployed": (0.0, 0.0, -0.05)}
+"""Bus centroid relative to the CM (spec §3.2, assumed)."""
+
+
+# ---------------------------------------------------------------------------------- config
+
+
+class SpacecraftConfig(StrictModel):
+    """``[spacecraft]``: mass properties and geometry (spec §3; assumed items of §3.2 are keys).
+
+    ``inertia_kg_m2`` and ``bus_centroid_m`` default to the ``configuration``'s Table 2 / §3.2
+    values. ``r_cp_m``: sail centre of pressure relative to the CM (drag and SRP lever, §3.2).
+    ``drag_surfaces``: ``"sail+bus"`` (default) or ``"sail"`` (paper form, §6.2).
+    """
+
+    configuration: Literal["stowed", "deployed"] = "deployed"
+    mass_kg: float = Field(default=4.0, gt=0)
+    inertia_kg_m2: Vec3 | None = None
+    r_cp_m: Vec3 = (0.01, 0.01, 0.10)
+    bus_centroid_m: Vec3 | None = None
+    bus_size_m: Vec3 = (0.1, 0.1, 0.3)
+    sail_area_m2: float = Field(default=4.0, gt=0)
+    residual_dipole_A_m2: Vec3 = (2.887e-4, 2.887e-4, 2.887e-4)
+    drag_surfaces: Literal["sail+bus", "sail"] = "sail+bus"
+
+    @field_validator("inertia_kg_m2")
+    @classmethod
+    def _positive(cls, v):
+        if v is not None and min(v) <= 0:
+            raise ValueError("every principal moment must be > 0 kg m²")
+        return v
+
+    @property
+    def inertia(self) -> Vec3:
+        return self.inertia_kg_m2 or TABLE2_INERTIA[self.configuration]
+
+    @property
+    def bus_centroid(self) -> Vec3:
+        return self.bus_centroid_m or DEFAULT_BUS_CENTROID[self.configuration]
+
+    @property
+    def sail_side_m(self) -> float:
+        return math.sqrt(self.sail_area_m2)
+
+
+class MtqConfig(StrictModel):
+    """``[actuators.mtq]`` (spec §4.1, E-5): ``limits`` names a limit set (``"command"`` 0.2/0.2/0.1,
+    ``"half_watt"`` 0.02/0.02/0.01 A m²) unless ``dipole_max_A_m2`` is given; the 2 s cycle with
+    ``blank_s`` magnetometer blanking; ``power_max_W`` for the reported power."""
+
+    limits: Literal["command", "half_watt"] = "command"
+    dipole_max_A_m2: Vec3 | None = None
+    cycle_s: float = Field(default=2.0, gt=0)
+    blank_s: float = Field(default=0.2, ge=0)
+    power_max_W: float = Field(default=0.5, gt=0)
+
+    @property
+    def limit_vector(self) -> np.ndarray:
+        from magsail_mj.loads.actuators_cubesat import MTQ_LIMIT_SETS
+
+        return np.asarray(self.dipole_max_A_m2 or MTQ_LIMIT_SETS[self.limits], dtype=float)
+
+    @model_validator(mode="after")
+    def _check(self) -> "MtqConfig":
+        if self.blank_s >= self.cycle_s:
+            raise ValueError(f"blank_s ({self.blank_s}) must be shorter than cycle_s ({self.cycle_s})")
+        if self.dipole_max_A_m2 is not None and min(self.dipole_max_A_m2) <= 0:
+            raise ValueError("dipole_max_A_m2: every limit must be > 0")
+        return self
+
+
+class WheelsConfig(StrictModel):
+    """``[actuators.wheels]`` (spec §4.2, E-4): rotor (Table 4, §4.3), limits, DC-motor constants
+    (assumed, §4.2) and the driver model."""
+
+    model: Literal["dc_motor", "ideal"] = "dc_motor"
+    electrical: Literal["quasi_static", "substep"] = "quasi_static"
+    rotor_inertia_kg_m2: float = Field(default=4.5e-6, gt=0)
+    rotor_transverse_inertia_kg_m2: float = Field(default=2.25e-6, gt=0)
+    rotor_mass_kg: float = Field(default=0.03, gt=0)
+    torque_max_N_m: float = Field(default=1.96e-4, gt=0)
+    speed_max_rpm: float = Field(default=7000.0, gt=0)
+    K_M_N_m_A: float = Field(default=6.0e-3, gt=0)
+    K_b_V_s_rad: float = Field(default=6.0e-3, gt=0)
+    R_ohm: float = Field(default=10.0, gt=0)
+    L_H: float = Field(default=1.0e-3, ge=0)
+    K_B_N_m_s: float = Field(default=1.0e-8, ge=0)
+    V_max_V: float = Field(default=5.0, gt=0)
+    i_max_A: float | None = Field(default=None, gt=0)
+
+    def motor_params(self):
+        from magsail_mj.loads.actuators_cubesat import DCMotorParams
+
+        return DCMotorParams(spin_inertia_kg_m2=self.rotor_inertia_kg_m2, torque_max_N_m=self.torque_max_N_m,
+                             speed_max_rpm=self.speed_max_rpm, K_M_N_m_A=self.K_M_N_m_A,
+                             K_b_V_s_rad=self.K_b_V_s_rad, R_ohm=self.R_ohm, L_H=self.L_H,
+                             K_B_N_m_s=self.K_B_N_m_s, V_max_V=self.V_max_V, i_max_A=self.i_max_A)
+
+
+class ActuatorsConfig(StrictModel):
+    """``[actuators]``: ``mtq`` and ``wheels`` sub-tables."""
+
+    mtq: MtqConfig = MtqConfig()
+    wheels: WheelsConfig = WheelsConfig()
+
+
+class UnloadingConfig(StrictModel):
+    """``[control.unloading]`` (spec §7.4): gain k_rw [1/s], per-axis activation above
+    ``threshold_rpm`` (E-8), optional hysteresis ``off_rpm``."""
+
+    enabled: bool = True
+    k_rw_per_s: float = Field(default=0.005, gt=0)
+    threshold_rpm: float = Field(default=3000.0, gt=0)
+    off_rpm: float | None = Field(default=None, ge=0)
+
+
+class ModesConfig(StrictModel):
+    """``[control.modes]`` (spec §8, E-17): mode switching (off for the stand-alone scenarios)."""
+
+    enabled: bool = False
+    detumble_entry_deg_s: float = Field(default=1.0, gt=0)
+    detumble_exit_deg_s: float = Field(default=0.3, gt=0)
+    dwell_s: float = Field(default=60.0, ge=0)
+    deorbit_at_s: float | None = Field(default=None, ge=0)
+
+
+class SensorsConfig(StrictModel):
+    """``[control.sensors]``: white-noise σ per axis (0 = ideal sensors, the paper's case)."""
+
+    magnetometer_noise_T: float = Field(default=0.0, ge=0)
+    gyro_noise_rad_s: float = Field(default=0.0, ge=0)
+
+
+class ControlConfig(StrictModel):
+    """``[control]`` (spec §7): ``mode`` = the law of a stand-alone run (``"bdot"`` detumbling,
+    ``"eigen_axis"`` or ``"pd"`` pointing; with ``modes.enabled`` the pointing law), ``command``
+    (``"nadir"`` or ``"deorbit"``), sample rate, B-dot and eigen-axis parameters, gain
+    recalculation (§7.5) and the sub-tables ``unloading``, ``modes``, ``sensors``."""
+
+    mode: Literal["bdot", "eigen_axis", "pd"]
+    command: Literal["nadir", "deorbit"] = "nadir"
+    rate_Hz: float = Field(default=1.0, gt=0)
+    bdot_gain_A_m2_s_T: float = Field(default=5.0e4, gt=0)
+    bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
+    bdot_omega_c_rad_s: float = Field(default=0.5, gt=0)
+    slew_rate_max_deg_s: float = Field(default=0.3, gt=0)
+    omega_n_rad_s: float = Field(default=0.02, gt=0)
+    zeta: float = Field(default=0.9, gt=0)
+    gain_clamp_min: float = Field(default=0.1, ge=0, lt=1)
+    gyro_comp: Literal["Iw", "Iw+hw", "none"] = "Iw"
+    shortest_rotation: bool = True
+    gain_recalc: bool = False
+    recalc_margin_deg: float = Field(default=20.0, gt=0)
+    unloading: UnloadingConfig = UnloadingConfig()
+    modes: ModesConfig = ModesConfig()
+    sensors: SensorsConfig = SensorsConfig()
+
+
+class InitialConfig(StrictModel):
+    """``[initial]``: body attitude relative to the initial command frame (``q_err0_wxyz``,
+    scalar-first, normalised on load; identity = aligned with it), body rate ``omega0_deg_s``
+    (absent: ω_e(0) = 0, i.e. ω(0) = A(q_e)[0, −ω_o, 0]) and wheel speeds [rpm]."""
+
+    q_err0_wxyz: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
+    omega0_deg_s: Vec3 | None = None
+    wheel_speed_rpm: Vec3 = (0.0, 0.0, 0.0)
+
+    @field_validator("q_err0_wxyz")
+    @classmethod
+    def _normalise(cls, v):
+        n = math.sqrt(sum(c * c for c in v))
+        if not n > 0:
+            raise ValueError("must be a non-zero quaternion [w, x, y, z]")
+        return tuple(c / n for c in v)
+
+
+class AnalysisConfig(StrictModel):
+    """``[analysis]``: metric thresholds. ``pointing_threshold_deg`` (5°, §2.2);
+    ``detumble_threshold_deg_s`` for ``detumble_time_s`` (0.3 °/s, E-17);
+    ``settle_margin_s`` after the 5° entry before the steady metrics (default 4/(ζω_n), the 2 %
+    settling time of the small-angle loop); ``disturbance_orbit`` computes the one-orbit disturbance
+    profile of both attitude modes (pointing runs)."""
+
+    pointing_threshold_deg: float = Field(default=5.0, gt=0)
+    detumble_threshold_deg_s: float = Field(default=0.3, gt=0)
+    settle_margin_s: float | None = Field(default=None, ge=0)
+    disturbance_orbit: bool = True
+
+
+class RenderConfig(StrictModel):
+    """``[render]``: ``time_lapse`` = simulated seconds per video second (spec §11: 60 for slews,
+    600 for detumbling), frames capped at ``max_frames``; camera in world (ECI-parallel) axes."""
+
+    time_lapse: float = Field(default=60.0, gt=0)
+    fps: int = Field(default=30, ge=1, le=120)
+    max_frames: int = Field(default=900, ge=2)
+    azimuth_deg: float = 135.0
+    elevation_deg: float = -25.0
+    distance_m: float | None = Field(default=None, gt=0)
+    markers: bool = True
+
+
+class LifetimeConfig(StrictModel):
+    """``[lifetime]`` (spec §10, S8): regimes → drag areas, methods, atmospheres, stop altitude,
+    time caps, the comparison set (generic 3U cubesats, flown sails)."""
+
+    area_nadir_m2: float = Field(default=0.03, gt=0)
+    area_deorbit_m2: float = Field(default=4.0, gt=0)
+    area_tumbling_m2: float = Field(default=2.035, gt=0)
+    methods_cowell: list[Literal["nadir", "deorbit", "tumbling"]] = ["deorbit", "tumbling"]
+    atmospheres: list[Literal["exp", "msis_low", "msis_mid", "msis_high"]] = ["exp", "msis_low", "msis_mid", "msis_high"]
+    stop_altitude_km: float = Field(default=120.0, gt=0)
+    cowell_max_days: float = Field(default=1000.0, gt=0)
+    cowell_rtol: float = Field(default=1e-9, gt=0, lt=1e-3)
+    cowell_corotating: bool = True
+    averaged_init: Literal["geometric", "osculating"] = "geometric"
+    generic_area_m2: float = Field(default=0.035, gt=0)
+    generic_altitudes_km: list[float] = [300, 350, 400, 450, 500, 550, 600, 650, 700, 750, 800]
+    references: bool = True
+
+
+@register_concept("cnusail")
+class CnusailConfig(StrictModel):
+    """A CNUSAIL scenario config (``models/cnusail/<id>.toml``)."""
+
+    concept: Literal["cnusail"]
+    scenario: str = Field(pattern=r"^[a-z0-9_]+$")
+    kind: Literal["attitude", "lifetime"] = "attitude"
+    description: str = ""
+    sim: SimConfig
+    spacecraft: SpacecraftConfig = SpacecraftConfig()
+    actuators: ActuatorsConfig = ActuatorsConfig()
+    control: ControlConfig = ControlConfig(mode="eigen_axis")
+    initial: InitialConfig = InitialConfig()
+    analysis: AnalysisConfig = AnalysisConfig()
+    render: RenderConfig = RenderConfig()
+    lifetime: LifetimeConfig = LifetimeConfig()
+    orbit: OrbitConfig = OrbitConfig(semi_major_axis_km=6963.1, eccentricity=0.01939, inclination_deg=98.0,
+                                     ltdn_h=10.5, true_anomaly0_deg=0.0, epoch="2016-01-01T00:00:00Z",
+                                     R_E_km=6378.137, propagator="j2")
+    field: FieldConfig = FieldConfig(model="igrf")
+    atmosphere: AtmosphereConfig = AtmosphereConfig(model="exponential")
+    sun: SunConfig = SunConfig(model="ephemeris")
+    srp: SRPConfig = SRPConfig(enabled=True)
+    drag: DragConfig = DragConfig(enabled=True)
+    gravity: GravityConfig = GravityConfig(tidal=False, classical_torque=True)
+
+    def environment_config(self) -> EnvironmentConfig:
+        return EnvironmentConfig(orbit=self.orbit, field=self.field, atmosphere=self.atmosphere, sun=self.sun,
+                                 srp=self.srp, drag=self.drag, gravity=self.gravity)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "CnusailConfig":
+        from magsail_mj.environment.config import check_environment
+
+        problems = check_environment(orbit=self.orbit, field=self.field, atmosphere=self.atmosphere, sun=self.sun,
+                                     srp=self.srp, drag=self.drag, gravity=self.gravity)
+        if self.gravity.tidal:
+            problems.append("gravity.tidal: the cubesat is one rigid body at the world origin; use "
+                            "gravity.classical_torque = true (spec §4.3) and tidal = false")
+        if not self.orbit.enabled:
+            problems.append("orbit.enabled: the CNUSAIL scenarios ride the reference orbit; must be true")
+        dt = self.sim.timestep_s
+        periods = (("control.rate_Hz", 1.0 / self.control.rate_Hz),
+                   ("actuators.mtq.cycle_s", self.actuators.mtq.cycle_s),
+                   ("actuators.mtq.blank_s", self.actuators.mtq.blank_s))
+        for key, value in (periods if self.kind == "attitude" else ()):
+            n = value / dt
+            if abs(n - round(n)) > 1e-9 * max(1.0, n) or (value > 0 and round(n) < 1):
+                problems.append(f"{key}: its period {value:g} s must be a whole multiple of sim.timestep_s = {dt:g} s")
+        m = self.control.modes
+        if m.detumble_exit_deg_s > m.detumble_entry_deg_s:
+            problems.append("control.modes.detumble_exit_deg_s: must not exceed detumble_entry_deg_s")
+        if m.enabled and self.control.mode == "bdot":
+            problems.append("control.mode: with control.modes.enabled give the pointing law ('eigen_axis' or 'pd')")
+        u = self.control.unloading
+        if u.off_rpm is not None and u.off_rpm > u.threshold_rpm:
+            problems.append("control.unloading.off_rpm: must not exceed threshold_rpm")
+        if problems:
+            raise ValueError("; ".join(problems))
+        return self
+
+
+# ---------------------------------------------------------------------------------- scenario
+
+
+def _model_params(cfg: CnusailConfig):
+    from magsail_mj.mjcf.cubesat import CubesatModelParams
+
+    sc, w = cfg.spacecraft, cfg.actuators.wheels
+    return CubesatModelParams(
+        configuration=sc.configuration, mass_kg=sc.mass_kg, inertia_kg_m2=tuple(sc.inertia),
+        bus_size_m=tuple(sc.bus_size_m), bus_centroid_m=tuple(sc.bus_centroid), sail_side_m=sc.sail_side_m,
+        sail_centre_m=tuple(sc.r_cp_m), rotor_mass_kg=w.rotor_mass_kg, rotor_spin_inertia_kg_m2=w.rotor_inertia_kg_m2,
+        rotor_transverse_inertia_kg_m2=w.rotor_transverse_inertia_kg_m2, wheel_damping_N_m_s=w.K_B_N_m_s,
+        motor_force_limit_N_m=10.0 * w.torque_max_N_m, timestep_s=cfg.sim.timestep_s,
+        integrator=cfg.sim.integrator, markers=cfg.render.markers, name=f"cnusail_{cfg.scenario}")
+
+
+@dataclass
+class CnusailScenario:
+    """A CNUSAIL attitude run: model, environment, loads, controller, probes and outputs."""
+
+    cfg: CnusailConfig
+    spec: mujoco.MjSpec = field(init=False)
+
+    def __post_init__(self) -> None:
+        from magsail_mj.environment.environment import Environment
+        from magsail_mj.mjcf.cubesat import build_cubesat_spec, cubesat_indices
+
+        self.params = _model_params(self.cfg)
+        self.spec = build_cubesat_spec(self.params)
+        self.model = self.spec.compile()
+        self.idx = cubesat_indices(self.model)
+        self.environment = Environment.from_config(self.cfg.environment_config(), duration_s=self.cfg.sim.duration_s)
+        el = self.environment.elements
+        self.orbit_period_s = el.period(self.environment.mu)
+        self.inertia = np.diag(np.asarray(self.cfg.spacecraft.inertia, dtype=float))
+        self.controller = None
+        self.disturbances = self.make_disturbances()
+
+    # -------------------------------------------------------------- parts
+    def make_disturbances(self):
+        from magsail_mj.loads.cubesat_disturbances import (
+            CubesatDisturbanceLoad, cubesat_drag_facets, cubesat_sail_facets,
+        )
+
+        cfg, sc = self.cfg, self.cfg.spacecraft
+        drag = None
+        if cfg.drag.enabled:
+            drag = cubesat_drag_facets(configuration=sc.configuration, surfaces=sc.drag_surfaces,
+                                       sail_area_m2=sc.sail_area_m2, r_cp_m=sc.r_cp_m, bus_size_m=sc.bus_size_m,
+                                       bus_centroid_m=sc.bus_centroid)
+        srp = None
+        if cfg.srp.enabled and sc.configuration == "deployed":
+            srp = cubesat_sail_facets(area_m2=sc.sail_area_m2, r_cp_m=sc.r_cp_m)
+        return CubesatDisturbanceLoad(self.idx.bus, inertia_kg_m2=self.inertia, drag_facets=drag, srp_facets=srp,
+                                      drag_coefficient=cfg.drag.drag_coefficient,
+                                      residual_dipole_A_m2=np.asarray(sc.residual_dipole_A_m2),
+                                      gravity_gradient=cfg.gravity.classical_torque, mu=self.environment.mu)
+
+    def make_controller(self):
+        from magsail_mj.control.cnusail_modes import CnusailControlParams, CnusailController, ModeLogicParams
+        from magsail_mj.loads.actuators_cubesat import MagnetorquerCycle, WheelDriver
+
+        cfg, c, a = self.cfg, self.cfg.control, self.cfg.actuators
+        driver = WheelDriver(a.wheels.motor_params(), model=a.wheels.model, electrical=a.wheels.electrical)
+        modes = ModeLogicParams(enabled=c.modes.enabled, detumble_entry_rad_s=c.modes.detumble_entry_deg_s * DEG,
+                                detumble_exit_rad_s=c.modes.detumble_exit_deg_s * DEG, dwell_s=c.modes.dwell_s,
+                                deorbit_at_s=c.modes.deorbit_at_s)
+        params = CnusailControlParams(
+            timestep_s=cfg.sim.timestep_s, law=c.mode, command=c.command, attitude_period_s=1.0 / c.rate_Hz,
+            mtq_cycle=MagnetorquerCycle(cycle_s=a.mtq.cycle_s, blank_s=a.mtq.blank_s, timestep_s=cfg.sim.timestep_s),
+            mtq_limits_A_m2=a.mtq.limit_vector, bdot_form=c.bdot_form, bdot_gain=c.bdot_gain_A_m2_s_T,
+            bdot_omega_c_rad_s=c.bdot_omega_c_rad_s, omega_n_rad_s=c.omega_n_rad_s, zeta=c.zeta,
+            rate_max_rad_s=c.slew_rate_max_deg_s * DEG, clamp_min=c.gain_clamp_min, gyro_comp=c.gyro_comp,
+            shortest_rotation=c.shortest_rotation, recalc_enabled=c.gain_recalc,
+            recalc_margin_rad=c.recalc_margin_deg * DEG, unloading_enabled=c.unloading.enabled,
+            k_rw_per_s=c.unloading.k_rw_per_s, unload_on_rpm=c.unloading.threshold_rpm,
+            unload_off_rpm=c.unloading.off_rpm, inertia_kg_m2=self.inertia, wheel_driver=driver, modes=modes,
+            magnetometer_noise_T=c.sensors.magnetometer_noise_T, gyro_noise_rad_s=c.sensors.gyro_noise_rad_s,
+            seed=cfg.sim.seed)
+        idx = self.idx
+        return CnusailController(params, q_quat=idx.q_quat, v_ang=idx.v_ang, wheel_qvel=idx.wheel_qvel,
+                                 wheel_act=idx.wheel_act)
+
+    def initial_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(p_b (4,), ω_body (3,) [rad/s], ω_M (3,) [rad/s]) at t = 0 (spec §9 notes):
+        p_b = p_c ⊗ p_e with p_c the initial command (nadir for detumbling), and ω from
+        ``initial.omega0_deg_s`` or from ω_e(0) = 0."""
+        from magsail_mj.control.cnusail_modes import Mode, command_quaternion
+        from magsail_mj.control.eigenaxis import orbital_rate, quat_mul, rate_error
+
+        c = self.cfg.control
+        env0 = self.environment.sample(0.0)
+        mode = Mode.DEORBIT if (c.mode != "bdot" and c.command == "deorbit" and not c.modes.enabled) else Mode.NADIR
+        p_c = command_quaternion(mode, env0.r_ref_eci, env0.v_ref_eci)
+        p_e = np.asarray(self.cfg.initial.q_err0_wxyz, dtype=float)
+        p_b = quat_mul(p_c, p_e)
+        p_b = p_b / np.linalg.norm(p_b)
+        if self.cfg.initial.omega0_deg_s is not None:
+            w = np.asarray(self.cfg.initial.omega0_deg_s, dtype=float) * DEG
+        else:
+            w = -rate_error(np.zeros(3), p_e, orbital_rate(env0.r_ref_eci, env0.v_ref_eci))
+        from magsail_mj.loads.actuators_cubesat import RPM
+
+        return p_b, w, np.asarray(self.cfg.initial.wheel_speed_rpm, dtype=float) * RPM
+
+    def init_state(self, data: mujoco.MjData) -> None:
+        p_b, w, wM = self.initial_state()
+        idx = self.idx
+        data.qpos[idx.q_pos] = 0.0
+        data.qpos[idx.q_quat] = p_b
+        data.qvel[idx.v_lin] = 0.0
+        data.qvel[idx.v_ang] = w
+        data.qvel[idx.wheel_qvel] = wM
+        for qa in idx.marker_qpos.values():
+            data.qpos[qa:qa + 4] = [1.0, 0.0, 0.0, 0.0]
+
+    def simulation(self) -> Simulation:
+        from magsail_mj.loads.actuators_cubesat import MagnetorquerLoad
+
+        if self.cfg.kind != "attitude":
+            raise ValueError(f"kind: simulation() is for attitude runs, got {self.cfg.kind!r}")
+        self.controller = ctl = self.make_controller()
+        dist = self.disturbances
+        mtq = MagnetorquerLoad(self.idx.bus)
+        idx = self.idx
+
+        def mtq_body(state, d):
+            m = state.ctrl.dipole_body if state.ctrl is not None else np.zeros(3)
+            R = np.empty(9)
+            mujoco.mju_quat2Mat(R, d.qpos[idx.q_quat])
+            return np.cross(m, R.reshape(3, 3).T @ state.env.B_eci)
+
+        probes = {
+            "qpos": lambda s, d: d.qpos,
+            "qvel": lambda s, d: d.qvel,
+            "mode": lambda s, d: int(ctl.mode),
+            "p_e": lambda s, d: ctl.p_e,
+            "theta_e_rad": lambda s, d: ctl.theta_e,
+            "omega_e_rad_s": lambda s, d: ctl.omega_e,
+            "u_cmd_N_m": lambda s, d: ctl.u,
+            "T_M_N_m": lambda s, d: ctl.T_M,
+            "dipole_cmd_A_m2": lambda s, d: ctl.dipole_held,
+            "unload_mask": lambda s, d: ctl.unload_mask.astype(np.int8),
+            "torque_dist_body_N_m": lambda s, d: dist.torques_body(s),
+            "torque_mtq_body_N_m": mtq_body,
+        }
+        return Simulation(model=self.model, duration_s=self.cfg.sim.duration_s, loads=[dist, mtq], controller=ctl,
+                          environment=self.environment, probes=probes, record_every=self.cfg.sim.record_every,
+                          checkpoint_every_s=self.cfg.sim.checkpoint_every_s, init=self.init_state)
+
+    # -------------------------------------------------------------- outputs
+    def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        from magsail_mj.scenarios.cnusail_metrics import attitude_outputs
+
+        return attitude_outputs(self, result)
+
+    def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
+        from magsail_mj.scenarios.cnusail_plots import attitude_plots
+
+        return attitude_plots(self, run_dir, series)
+
+    def render_info(self) -> dict[str, Any]:
+        r = self.cfg.render
+        frames = int(min(r.max_frames, max(2, math.ceil(self.cfg.sim.duration_s / r.time_lapse * r.fps))))
+        cam: dict[str, float] = {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg}
+        if r.distance_m is not None:
+            cam["distance_m"] = r.distance_m
+        law = {"bdot": "B-dot", "eigen_axis": "eigen-axis", "pd": "PD"}[self.cfg.control.mode]
+        return {
+            "title": f"CNUSAIL-1 {self.cfg.scenario} ({self.cfg.spacecraft.configuration}, {law})",
+            "overlay": ["mode", "theta_e_deg", "omega_norm_deg_s", "wheel_speed_rpm"],
+            "camera": cam,
+            "fps": r.fps,
+            "max_frames": frames,
+            "markers": {"mk_sun": "Sun (yellow)", "mk_vel": "velocity (green)", "mk_nadir": "nadir (blue)",
+                        "mk_field": "magnetic field (magenta)", "axis_x/y/z": "body axes red/green/blue",
+                        "sail_front": "sail front face +z (gold)", "sail_back": "sail back face (silver)"},
+        }
+
+    def manifest_extra(self) -> dict[str, Any]:
+        m = self.model
+        return {
+            "model_size": {"bodies": int(m.nbody), "dofs": int(m.nv), "actuators": int(m.nu)},
+            "integrator": self.cfg.sim.integrator,
+            "timestep_s": self.cfg.sim.timestep_s,
+            "orbit_period_s": self.orbit_period_s,
+            "composite_inertia_kg_m2": list(self.cfg.spacecraft.inertia),
+            "hub_inertia_kg_m2": self.params.hub_inertia_kg_m2.tolist(),
+            "events": len(self.controller.events) if self.controller is not None else 0,
+        }
+
+
+@register_builder("cnusail")
+def build_cnusail_scenario(cfg: CnusailConfig):
+    """Scenario object of a CNUSAIL config (attitude run or lifetime analysis)."""
+    if cfg.kind == "lifetime":
+        from magsail_mj.scenarios.cnusail_lifetime import LifetimeScenario
+
+        return LifetimeScenario(cfg)
+    return CnusailScenario(cfg)
