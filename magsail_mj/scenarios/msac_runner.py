@@ -1,0 +1,429 @@
+r"""Native-speed runner of the MSAC multibody model (spec ``msac.md`` §5.3, §6).
+
+The paper case is 1.2·10⁸ RK4 steps (600 s at 5 µs), so no Python function may run per step.
+:class:`MsacRunner` with ``method="replay"`` records one settled cycle of computed torques
+(:func:`magsail_mj.control.msac_drive.replay_table`, a few hundred Python steps), then drives
+MuJoCo through :func:`mujoco.rollout.rollout` in chunks of whole cycles with a precomputed,
+periodic control array (feed-forward torques + servo set-points). ``method="computed_torque"``
+runs the per-step Python computed-torque loop instead (for verification and short runs); both
+produce identical record layouts.
+
+Per step ``k`` the runner sees the step-start state ``x_k`` (time ``t_k = k δt``), the
+controls ``u_k`` and the sensors (evaluated by MuJoCo at ``x_k``). From each chunk it keeps,
+vectorised:
+
+* ``records`` every ``record_every`` steps: ``t``, ``qpos``, ``qvel``, ``omega_world_rad_s``
+  (bus angular velocity in world axes), ``angmom_N_m_s`` (total angular momentum, world axes,
+  about the system centre of mass), ``joint_force`` (actuator torque/force on the four shape
+  joints, N m / N), ``phase`` (1..4);
+* the stroboscopic series at every cycle start: ``strobe_t``, ``strobe_quat`` (bus
+  quaternion), ``strobe_shape`` (the four shape joint positions);
+* full-rate windows (``win_*``) of ``window_s`` at the start, the middle and the end;
+* world ``ω_z`` block-averaged to ``omega_sample_hz`` (≥ 20 kHz), low-pass filtered at the
+  end of the run (zero-phase Butterworth) and kept decimated to 1 kHz
+  (``omega_filt_t``, ``omega_z_filtered_rad_s``), plus its per-cycle extremes
+  (``omega_z_cycle_min_rad_s``/``_max_``) for the raw-signal envelope of a long run;
+* running maxima (``run_*``): angular-momentum drift ``max|L − L_0|``, peak hinge torque and
+  slide force, shape tracking error ``max|q − q_des|``; and the momentum removed by the
+  projection at chunk boundaries (``run_momentum_projection_*``, see :meth:`MsacRunner._project`).
+
+Angular momentum. The exact dynamics conserve the total momentum (every drive force is an
+internal joint force), and the computed-torque loop keeps it to round-off (measured drift
+7·10⁻⁸ N m s per simulated second). With the joint servos of the replay, RK4 lets it drift
+steadily: measured 0.08 N m s per simulated second at δt = 5 µs (0.01 at δt/2), i.e. about
+2·10⁻⁸ of the momentum the wings exchange with the bus each stroke, but over 600 s it would add
+a spurious bus rate of ~0.5 % of the secular rate. The runner therefore projects the state back
+onto zero total momentum at every chunk boundary (every ``chunk_cycles`` cycles, default 0.2 s)
+and reports how much it removed.
+
+Long runs checkpoint (pickle of the state and the accumulators at chunk boundaries) and resume
+exactly: chunked rollouts restart from the full physics state, so a resumed run equals an
+uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import math
+import pickle
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import mujoco
+import numpy as np
+
+from magsail_mj.analysis.msac_post import lowpass
+from magsail_mj.control.msac_cycle import CyclePath, cycle_state
+from magsail_mj.control.msac_drive import (
+    ComputedTorque, desired_shape, replay_table, servo_rates, set_initial_state, steps_per_cycle,
+)
+from magsail_mj.io import atomic_path
+from magsail_mj.mjcf.msac import shape_indices
+from magsail_mj.sim import RunResult
+
+__all__ = ["MsacRunner", "StaticRunner"]
+
+_FP = mujoco.mjtState.mjSTATE_FULLPHYSICS
+_WARNINGS = (mujoco.mjtWarning.mjWARN_BADCTRL, mujoco.mjtWarning.mjWARN_BADQACC,
+             mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL)
+
+
+@dataclass
+class _Acc:
+    """Accumulators of one run (lists of per-chunk arrays and running maxima)."""
+
+    rec: dict[str, list] = field(default_factory=dict)
+    strobe: dict[str, list] = field(default_factory=dict)
+    win: dict[str, list] = field(default_factory=dict)
+    omega_blocks: list = field(default_factory=list)
+    block_carry: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cyc_min: list = field(default_factory=list)
+    cyc_max: list = field(default_factory=list)
+    L0: np.ndarray | None = None
+    drift_max: float = 0.0
+    drift_z_max: float = 0.0
+    hinge_peak: float = 0.0
+    slide_peak: float = 0.0
+    track_max: np.ndarray = field(default_factory=lambda: np.zeros(4))
+    proj_sum: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    proj_max: float = 0.0
+    proj_count: int = 0
+
+    def add(self, store: dict[str, list], **arrays: np.ndarray) -> None:
+        for k, v in arrays.items():
+            store.setdefault(k, []).append(np.array(v, copy=True))
+
+
+@dataclass
+class MsacRunner:
+    """Run an MSAC model along its cycle (see module docs).
+
+    Attributes:
+      model: compiled MSAC model (owned by the runner; ``opt`` is used as set).
+      path: the prescribed cycle.
+      duration_s: simulated time [s].
+      method: ``replay`` (native rollout) or ``computed_torque`` (Python per step).
+      record_every: record decimation [steps].
+      omega_c_dt: computed-torque bandwidth ``ω_c δt``.
+      calibration_cycles: computed-torque cycles before the replay table is taken.
+      chunk_cycles: cycles per rollout call.
+      window_s: length of each full-rate window [s].
+      omega_sample_hz: minimum rate of the block-averaged ``ω_z`` fed to the filter [Hz].
+      lowpass_order, lowpass_cutoff_hz: Butterworth order and cutoff [Hz].
+      checkpoint_every_s: checkpoint interval in simulated seconds (0 = none).
+      momentum_projection: zero the total momentum at every chunk boundary (see
+        :meth:`_project`); the removed drift is reported.
+    """
+
+    model: mujoco.MjModel
+    path: CyclePath
+    duration_s: float
+    method: Literal["replay", "computed_torque"] = "replay"
+    record_every: int = 200
+    omega_c_dt: float = 0.2
+    calibration_cycles: int = 3
+    chunk_cycles: int = 200
+    window_s: float = 0.02
+    omega_sample_hz: float = 20e3
+    lowpass_order: int = 4
+    lowpass_cutoff_hz: float = 10.0
+    checkpoint_every_s: float = 0.0
+    momentum_projection: bool = True
+
+    def __post_init__(self) -> None:
+        if self.method not in ("replay", "computed_torque"):
+            raise ValueError(f"method: must be 'replay' or 'computed_torque', got {self.method!r}")
+        if int(self.record_every) != self.record_every or self.record_every < 1:
+            raise ValueError(f"record_every: must be an integer >= 1, got {self.record_every!r}")
+        if int(self.chunk_cycles) != self.chunk_cycles or self.chunk_cycles < 1:
+            raise ValueError(f"chunk_cycles: must be an integer >= 1, got {self.chunk_cycles!r}")
+        m = self.model
+        self.dt = float(m.opt.timestep)
+        self.N = steps_per_cycle(self.path, self.dt)
+        self.n_steps = int(round(self.duration_s / self.dt))
+        if self.n_steps < 1:
+            raise ValueError(f"duration_s: must cover at least one step of {self.dt:g} s, got {self.duration_s!r}")
+        self.ix = shape_indices(m)
+        self.nq, self.nv, self.nu = m.nq, m.nv, m.nu
+        self.nstate = mujoco.mj_stateSize(m, _FP)
+        # ω_z block: the largest divisor of N whose length is at most 1/omega_sample_hz
+        target = max(1, int(math.floor(1.0 / (self.omega_sample_hz * self.dt) + 1e-9)))
+        self.block = max(b for b in range(1, self.N + 1) if self.N % b == 0 and b <= target)
+        self.q_des_cycle, _, _ = desired_shape(self.path, np.arange(self.N) * self.dt)
+        w = int(round(self.window_s / self.dt))
+        mid = int(round(self.n_steps / 2 / self.N)) * self.N
+        end = max(0, (self.n_steps - w) // self.N * self.N)
+        ranges = sorted({(0, min(w, self.n_steps)), (mid, min(mid + w, self.n_steps)), (end, min(end + w, self.n_steps))})
+        merged: list[list[int]] = []
+        for a, b in ranges:
+            if a >= b:
+                continue
+            if merged and a <= merged[-1][1]:
+                merged[-1][1] = max(merged[-1][1], b)
+            else:
+                merged.append([a, b])
+        self.windows = [tuple(r) for r in merged]
+        self.table = None
+
+    # ------------------------------------------------------------------ chunk bookkeeping
+    def _process(self, acc: _Acc, k0: int, S: np.ndarray, sd: np.ndarray, ctrl: np.ndarray) -> None:
+        """Fold the step-start states ``S`` (n, nstate), sensors ``sd`` and controls of steps
+        ``k0 … k0+n−1`` into the accumulators (vectorised)."""
+        ix, nq, nv = self.ix, self.nq, self.nv
+        n = S.shape[0]
+        steps = k0 + np.arange(n)
+        t = steps * self.dt
+        qpos = S[:, 1:1 + nq]
+        qvel = S[:, 1 + nq:1 + nq + nv]
+        L = sd[:, ix["angmom"]]
+        w_world = sd[:, ix["angvel"]]
+        frc = sd[:, ix["frc"]]
+        if acc.L0 is None:
+            acc.L0 = L[0].copy()
+        dL = L - acc.L0
+        acc.drift_max = max(acc.drift_max, float(np.sqrt((dL * dL).sum(axis=1)).max()))
+        acc.drift_z_max = max(acc.drift_z_max, float(np.abs(dL[:, 2]).max()))
+        acc.hinge_peak = max(acc.hinge_peak, float(np.abs(frc[:, [0, 2]]).max()))
+        acc.slide_peak = max(acc.slide_peak, float(np.abs(frc[:, [1, 3]]).max()))
+        err = np.abs(qpos[:, ix["qpos"]] - self.q_des_cycle[steps % self.N])
+        acc.track_max = np.maximum(acc.track_max, err.max(axis=0))
+
+        sel = steps % self.N == 0
+        if sel.any():
+            acc.add(acc.strobe, strobe_t=t[sel], strobe_quat=qpos[sel, 3:7], strobe_shape=qpos[sel][:, ix["qpos"]])
+        sel = steps % self.record_every == 0
+        if sel.any():
+            acc.add(acc.rec, t=t[sel], qpos=qpos[sel], qvel=qvel[sel], omega_world_rad_s=w_world[sel],
+                    angmom_N_m_s=L[sel], joint_force=frc[sel],
+                    phase=cycle_state(self.path, t[sel]).phase + 1)
+        for wid, (a, b) in enumerate(self.windows):
+            sel = (steps >= a) & (steps < b)
+            if sel.any():
+                acc.add(acc.win, win_t=t[sel], win_id=np.full(int(sel.sum()), wid), win_qpos=qpos[sel],
+                        win_qvel=qvel[sel], win_omega_world_rad_s=w_world[sel], win_angmom_N_m_s=L[sel],
+                        win_joint_force=frc[sel], win_ctrl=ctrl[sel])
+        wz = np.concatenate([acc.block_carry, w_world[:, 2]])
+        nb = wz.size // self.block
+        if nb:
+            acc.omega_blocks.append(wz[:nb * self.block].reshape(nb, self.block).mean(axis=1))
+        acc.block_carry = wz[nb * self.block:].copy()
+        # per-cycle extremes of the raw ω_z over the complete cycles of this chunk
+        first = (-k0) % self.N
+        ncyc = (n - first) // self.N
+        if ncyc:
+            blk = w_world[first:first + ncyc * self.N, 2].reshape(ncyc, self.N)
+            acc.cyc_min.append(blk.min(axis=1))
+            acc.cyc_max.append(blk.max(axis=1))
+
+    # ------------------------------------------------------------------ momentum projection
+    def _project(self, data: mujoco.MjData, state: np.ndarray, acc: _Acc) -> np.ndarray:
+        r"""Remove the integrator's drift of the total momentum at a chunk boundary.
+
+        For a floating base the generalised momentum of the free-joint coordinates,
+        ``p_b = (M v)_b``, is the total linear and angular momentum (in the free joint's
+        coordinates); it is zero at the start and the exact dynamics keep it zero (all drive
+        forces are internal joint forces). Setting ``v_b ← v_b − M_bb⁻¹ p_b`` restores
+        ``p_b = 0`` by changing only the bus velocity (a standard projection onto the invariant,
+        Hairer, Lubich & Wanner, *Geometric Numerical Integration*, §IV.4). The removed ``p_b``
+        (the drift accumulated over the chunk) is kept in ``run_momentum_projection_*``.
+        """
+        m, nq, nv = self.model, self.nq, self.nv
+        mujoco.mj_setState(m, data, state, _FP)
+        mujoco.mj_fwdPosition(m, data)
+        M = np.zeros((nv, nv))
+        mujoco.mj_fullM(m, data, M)
+        b = self.ix["bus_dof"]
+        v = state[1 + nq:1 + nq + nv]
+        p_b = (M @ v)[b]
+        dv = -np.linalg.solve(M[np.ix_(b, b)], p_b)
+        out = state.copy()
+        out[1 + nq + b] += dv
+        acc.proj_sum = acc.proj_sum + p_b
+        acc.proj_max = max(acc.proj_max, float(np.abs(p_b).max()))
+        acc.proj_count += 1
+        return out
+
+    # ------------------------------------------------------------------ checkpoints
+    def _save(self, path: Path, k: int, state: np.ndarray, acc: _Acc) -> None:
+        blob = {"k": k, "state": state, "acc": acc, "table": self.table}
+        with atomic_path(path) as tmp:
+            with open(tmp, "wb") as fh:
+                pickle.dump(blob, fh, protocol=pickle.HIGHEST_PROTOCOL)
+
+    # ------------------------------------------------------------------ run
+    def run(self, *, progress: bool = False, checkpoint_path: str | Path | None = None,
+            resume: bool = False, stop_after_s: float | None = None) -> RunResult:
+        """Run to ``duration_s`` (or ``stop_after_s``, rounded up to a chunk boundary)."""
+        import scipy.signal  # noqa: F401  (imported before the clock starts: the filter runs at the end)
+
+        m = self.model
+        dt, N = self.dt, self.N
+        wall0 = time.perf_counter()
+        data = mujoco.MjData(m)
+        ckpt = Path(checkpoint_path) if checkpoint_path else None
+        if resume:
+            if ckpt is None or not ckpt.exists():
+                raise FileNotFoundError(f"resume: no checkpoint at {ckpt}")
+            with open(ckpt, "rb") as fh:
+                blob = pickle.load(fh)
+            k, state, acc, self.table = blob["k"], blob["state"], blob["acc"], blob["table"]
+        else:
+            set_initial_state(m, data, self.path)
+            state = np.empty(self.nstate)
+            mujoco.mj_getState(m, data, state, _FP)
+            acc, k = _Acc(), 0
+            if self.method == "replay":
+                self.table = replay_table(m, self.path, omega_c_dt=self.omega_c_dt,
+                                          calibration_cycles=self.calibration_cycles)
+        k_start = k
+        if self.method == "replay":
+            cyc_ctrl = self.table.ctrl
+        else:
+            ct = ComputedTorque(m, self.path, omega_c_dt=self.omega_c_dt)
+            cyc_ctrl = np.zeros((N, self.nu))
+            cyc_ctrl[:, self.ix["servo"]] = servo_rates(m, self.path, N)
+            m.opt.disableactuator |= 1 << 1     # computed torque alone: servos off
+        chunk = int(self.chunk_cycles) * N
+        ctrl_chunk = np.tile(cyc_ctrl, (int(self.chunk_cycles), 1))
+        stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(math.ceil(stop_after_s / dt)))
+        ck_every = int(round(self.checkpoint_every_s / dt)) if self.checkpoint_every_s > 0 else 0
+        next_ck = (k // ck_every + 1) * ck_every if ck_every else None
+        st_buf = np.empty((1, chunk, self.nstate))
+        sd_buf = np.empty((1, chunk, m.nsensordata))
+        bar = None
+        if progress and self.n_steps > 10 * chunk:
+            from tqdm import tqdm
+            bar = tqdm(total=self.n_steps, initial=k, unit="step", unit_scale=True, file=sys.stderr,
+                       mininterval=5.0, leave=False)
+        status, message = "completed", ""
+        from mujoco import rollout as mj_rollout
+        pool = mj_rollout.Rollout(nthread=0)
+        warn0 = {w: data.warning[w].number for w in _WARNINGS}
+        try:
+            while k < stop_step:
+                n = min(chunk, stop_step - k)
+                ctrl = ctrl_chunk[(k % N):(k % N) + n] if (k % N) + n <= chunk else \
+                    np.tile(cyc_ctrl, (n // N + 2, 1))[(k % N):(k % N) + n]
+                if self.method == "replay":
+                    st = st_buf[:, :n] if n == chunk else np.empty((1, n, self.nstate))
+                    sd = sd_buf[:, :n] if n == chunk else np.empty((1, n, m.nsensordata))
+                    pool.rollout(m, data, state[None], ctrl[None], state=st, sensordata=sd)
+                    post = st[0]
+                    sens = sd[0]
+                else:
+                    post = np.empty((n, self.nstate))
+                    sens = np.empty((n, m.nsensordata))
+                    ctrl = ctrl.copy()
+                    mujoco.mj_setState(m, data, state, _FP)
+                    for i in range(n):
+                        ctrl[i, self.ix["ff"]] = ct.torque(data, k + i) / ct.gear
+                        data.ctrl[:] = ctrl[i]
+                        mujoco.mj_step(m, data)
+                        sens[i] = data.sensordata   # computed at the step-start state
+                        mujoco.mj_getState(m, data, post[i], _FP)
+                S = np.vstack([state[None], post[:-1]])
+                warned = [w.name.removeprefix("mjWARN_") for w in _WARNINGS if data.warning[w].number > warn0[w]]
+                if warned or not np.all(np.isfinite(post)) or abs(post[-1, 0] - (k + n) * dt) > 1e-6 * max(1.0, (k + n) * dt):
+                    bad = int(np.argmax(~np.isfinite(post).all(axis=1) | (np.diff(np.concatenate([[state[0]], post[:, 0]])) <= 0)))
+                    status = "diverged"
+                    message = (f"MuJoCo warning {', '.join(warned) or 'none'}; state not finite or stepping stopped "
+                               f"at t = {(k + bad) * dt:.6f} s (BADCTRL: a control above 1e10 or not finite, "
+                               f"raise the ff gear)")
+                    self._process(acc, k, S[:bad + 1], sens[:bad + 1], ctrl[:bad + 1])
+                    k += bad
+                    break
+                self._process(acc, k, S, sens, ctrl)
+                state = post[-1].copy()
+                k += n
+                if self.momentum_projection:
+                    state = self._project(data, state, acc)
+                if bar is not None:
+                    bar.update(n)
+                if ckpt is not None and next_ck is not None and k >= next_ck and k < self.n_steps:
+                    self._save(ckpt, k, state, acc)
+                    next_ck = (k // ck_every + 1) * ck_every
+        finally:
+            pool.close()
+            if bar is not None:
+                bar.close()
+            if self.method == "computed_torque":
+                m.opt.disableactuator &= ~(1 << 1)
+        if status == "completed" and k < self.n_steps:
+            status, message = "stopped", f"stopped at t = {k * dt:.6f} s (stop_after_s)"
+            if ckpt is not None:
+                self._save(ckpt, k, state, acc)
+        if status == "completed":
+            # the final state (t = duration) as a last sample: sensors from mj_forward
+            mujoco.mj_setState(m, data, state, _FP)
+            data.ctrl[:] = cyc_ctrl[k % N]
+            mujoco.mj_forward(m, data)
+            self._process_final(acc, k, state, data.sensordata.copy(), cyc_ctrl[k % N])
+        records = self._records(acc)
+        records["run_replay_settle_change"] = np.array(self.table.settle_change if self.table else np.nan)
+        return RunResult(records=records, status=status, message=message, t_end_s=k * dt,
+                         steps=k - k_start, wall_time_s=time.perf_counter() - wall0)
+
+    def _process_final(self, acc: _Acc, k: int, state: np.ndarray, sens: np.ndarray, ctrl: np.ndarray) -> None:
+        """Add the end state to the strobe (if a cycle start) and the records (always)."""
+        ix, nq, nv = self.ix, self.nq, self.nv
+        qpos, qvel = state[1:1 + nq], state[1 + nq:1 + nq + nv]
+        t = np.array([k * self.dt])
+        if k % self.N == 0:
+            acc.add(acc.strobe, strobe_t=t, strobe_quat=qpos[None, 3:7], strobe_shape=qpos[None, ix["qpos"]])
+        acc.add(acc.rec, t=t, qpos=qpos[None], qvel=qvel[None], omega_world_rad_s=sens[None, ix["angvel"]],
+                angmom_N_m_s=sens[None, ix["angmom"]], joint_force=sens[None, ix["frc"]],
+                phase=cycle_state(self.path, t).phase + 1)
+        dL = sens[ix["angmom"]] - acc.L0
+        acc.drift_max = max(acc.drift_max, float(np.linalg.norm(dL)))
+        acc.drift_z_max = max(acc.drift_z_max, float(abs(dL[2])))
+
+    def _records(self, acc: _Acc) -> dict[str, np.ndarray]:
+        """Concatenate the accumulators into the run's record arrays (see module docs)."""
+        cat = lambda parts: np.concatenate(parts) if parts else np.zeros(0)  # noqa: E731
+        out: dict[str, np.ndarray] = {}
+        out.update({k: cat(v) for k, v in acc.rec.items()})
+        out.update({k: cat(v) for k, v in acc.strobe.items()})
+        out.update({k: cat(v) for k, v in acc.win.items()})
+        wz = cat(acc.omega_blocks)
+        fs = 1.0 / (self.block * self.dt)
+        out["omega_block_hz"] = np.array(fs)
+        if wz.size:
+            tb = (np.arange(wz.size) * self.block + 0.5 * (self.block - 1)) * self.dt
+            dec = max(1, int(round(fs / 1000.0)))
+            padlen = 3 * (2 * math.ceil(self.lowpass_order / 2) + 1)   # sosfiltfilt's default
+            if wz.size > padlen and self.lowpass_cutoff_hz < fs / 2:
+                wf = lowpass(wz, fs_hz=fs, cutoff_hz=self.lowpass_cutoff_hz, order=self.lowpass_order)
+            else:
+                wf = np.full_like(wz, np.nan)
+            out["omega_filt_t"] = tb[::dec]
+            out["omega_z_filtered_rad_s"] = wf[::dec]
+            out["omega_z_block_mean_rad_s"] = np.array(wz.mean())
+        out["omega_z_cycle_min_rad_s"] = cat(acc.cyc_min)
+        out["omega_z_cycle_max_rad_s"] = cat(acc.cyc_max)
+        out["run_angmom_drift_max_N_m_s"] = np.array(acc.drift_max)
+        out["run_angmom_drift_z_max_N_m_s"] = np.array(acc.drift_z_max)
+        out["run_hinge_torque_peak_N_m"] = np.array(acc.hinge_peak)
+        out["run_slide_force_peak_N"] = np.array(acc.slide_peak)
+        out["run_tracking_error_max"] = acc.track_max.copy()
+        out["run_steps_per_cycle"] = np.array(self.N)
+        out["run_momentum_projection_sum"] = acc.proj_sum.copy()
+        out["run_momentum_projection_max"] = np.array(acc.proj_max)
+        out["run_momentum_projection_count"] = np.array(acc.proj_count)
+        return out
+
+
+@dataclass
+class StaticRunner:
+    """A run with no dynamics (the ``lumped`` scenario): one record of the initial state."""
+
+    model: mujoco.MjModel
+    path: CyclePath
+
+    def run(self, *, progress: bool = False, checkpoint_path: Any = None, resume: bool = False,
+            stop_after_s: float | None = None) -> RunResult:
+        data = mujoco.MjData(self.model)
+        set_initial_state(self.model, data, self.path)
+        return RunResult(records={"t": np.zeros(1), "qpos": data.qpos.copy()[None]}, status="completed",
+                         message="analytic scenario: no MuJoCo steps", t_end_s=0.0, steps=0, wall_time_s=0.0)

@@ -1,0 +1,178 @@
+"""MSAC sensitivity sweeps (F6) and actuator design chart (F7), spec msac.md §4, §8.
+
+    python scripts/msac_sweeps.py                      # all models/msac/sweeps/*.toml -> runs/msac/sweeps/
+    python scripts/msac_sweeps.py --only stroke extension
+
+Each sweep config runs through ``magsail_mj.run.run_scenario`` into ``runs/msac/sweeps/<name>/``
+(its own ``sweep.png`` and ``summary.json``: per point Eq. (6), the exact planar model and MuJoCo,
+secular rates, peak hinge torque and slide force). This script then draws
+
+* ``F6_sensitivity.png``: one panel per sweep, the per-cycle rotation θ_γ from Eq. (6) (model
+  inertias), the exact model and MuJoCo (20 cycles per point, first excluded);
+* ``F7_design_chart.png``: the amplification trade-off of spec §4. Scaling model, anchored at the
+  simple piezo actuator (a): extension ``ε = 0.1 %·a`` and attainable cycle frequency
+  ``f = 4 kHz/a`` for an amplification factor ``a`` (stroke ±10°, all other parameters as the
+  paper case). Curves: secular rate ``θ_γ(ε)·f`` from the exact planar model and from Eq. (7);
+  MuJoCo points from the ``amplification`` sweep; the two operating points (a) 0.1 % at 4 kHz
+  and (b) 1 % at 1 kHz (the paper case, evaluated by the references: it lies off the scaling
+  line, which gives 1 % only at 400 Hz). Lower panel: the peak hinge torque and slide force the
+  prescribed motion demands (MuJoCo, per wing), against the 200 N peak force of one piezo chip.
+
+Assumptions of the chart (spec §4): rigid wings, prescribed kinematics (the actuator is assumed
+to deliver whatever force the path needs), extension ∝ a and frequency ∝ 1/a exactly, no
+structural dynamics. Writes ``runs/msac/sweeps/F6_F7.json`` with the plotted numbers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from magsail_mj.config import load_config
+from magsail_mj.io import to_jsonable, write_json
+from magsail_mj.run import run_scenario
+
+REPO = Path(__file__).resolve().parents[1]
+SWEEPS = REPO / "models" / "msac" / "sweeps"
+PIEZO_PEAK_FORCE_N = 200.0          # spec §4: one multilayer PZT chip
+
+
+def run_sweeps(names: list[str], out: Path) -> dict[str, dict]:
+    """Run the named sweep configs; return ``{name: summary}``."""
+    results = {}
+    for name in names:
+        cfg = load_config(SWEEPS / f"{name}.toml")
+        t0 = time.perf_counter()
+        summary = run_scenario(cfg, out / name, overwrite=True, progress=False)
+        print(f"{name}: {len(cfg.sweep.points)} points in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        results[name] = dict(summary)
+    return results
+
+
+def _labels(summary: dict) -> list[str]:
+    return [", ".join(f"{v:g}" if isinstance(v, (int, float)) else "/".join(f"{x:g}" for x in v) for v in p)
+            for p in summary["sweep_points"]]
+
+
+def f6_figure(results: dict[str, dict], path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from magsail_mj.scenarios.msac_plots import save_figure
+
+    names = [n for n in results if n != "amplification"]
+    cols = 4
+    rows = math.ceil(len(names) / cols)
+    fig, axs = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.6 * rows), squeeze=False)
+    for ax, name in zip(axs.flat, names):
+        s = results[name]
+        x = np.arange(len(s["sweep_points"]))
+        ax.plot(x, s["sweep_theta_gamma_eq6_model_rad"], "s--", color="0.5", label="Eq. (6)")
+        ax.plot(x, s["sweep_theta_gamma_exact_rad"], "ko-", mfc="none", label="exact model")
+        ax.plot(x, s["sweep_theta_gamma_mujoco_rad"], "C3x", ms=9, mew=2, label="MuJoCo")
+        ax.set_xticks(x, _labels(s), fontsize=8, rotation=20)
+        ax.set_title(f"{name}: {', '.join(k.split('.')[-1] for k in s['sweep_keys'])}", fontsize=9)
+        ax.set_yscale("log")
+        ax.set_ylabel("θ_γ per cycle [rad]", fontsize=8)
+        ax.grid(alpha=0.3)
+    for ax in list(axs.flat)[len(names):]:
+        ax.axis("off")
+    axs.flat[0].legend(fontsize=8)
+    fig.suptitle("F6 MSAC sensitivity of the per-cycle rotation (base: paper_1khz; 20 cycles per point)", fontsize=11)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def design_curves(a: np.ndarray) -> dict[str, np.ndarray]:
+    """Exact and Eq. (7) secular rates along the scaling model ``ε = 0.1 %·a``, ``f = 4 kHz/a``."""
+    from magsail_mj.scenarios.msac import MsacScenario, point_config
+
+    base = load_config(REPO / "models/msac/paper_1khz.toml")
+    exact, eq7 = [], []
+    for ai in a:
+        cfg = point_config(base, ["cycle.extension_frac", "cycle.frequency_Hz"], [1e-3 * ai, 4000.0 / ai], cycles=3)
+        ref = MsacScenario(cfg=cfg).references()
+        exact.append(ref["predicted_rate_exact_rad_s"])
+        eq7.append(ref["predicted_rate_lumped_rad_s"])
+    return {"a": a, "rate_exact_rad_s": np.array(exact), "rate_eq7_rad_s": np.array(eq7)}
+
+
+def operating_point(ext: float, f: float) -> dict:
+    from magsail_mj.scenarios.msac import MsacScenario, point_config
+
+    base = load_config(REPO / "models/msac/paper_1khz.toml")
+    cfg = point_config(base, ["cycle.extension_frac", "cycle.frequency_Hz"], [ext, f], cycles=3)
+    return MsacScenario(cfg=cfg).references()
+
+
+def f7_figure(results: dict[str, dict], path: Path) -> tuple[Path, dict]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from magsail_mj.scenarios.msac_plots import save_figure
+
+    a = np.geomspace(1, 50, 60)
+    cur = design_curves(a)
+    op_a, op_b = operating_point(1e-3, 4000.0), operating_point(1e-2, 1000.0)
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8, 8), sharex=True)
+    ax.plot(a, cur["rate_exact_rad_s"], "k-", label="exact planar model")
+    ax.plot(a, cur["rate_eq7_rad_s"], "--", color="0.5", label="Eq. (7) lumped")
+    data = {"curves": cur, "op_a": op_a, "op_b": op_b}
+    if "amplification" in results:
+        s = results["amplification"]
+        a_pts = np.array([p[0] / 1e-3 for p in s["sweep_points"]])
+        ax.plot(a_pts, s["sweep_secular_rate_rad_s"], "C3x", ms=9, mew=2, label="MuJoCo (20 cycles)")
+        ax2.plot(a_pts, s["sweep_hinge_torque_peak_N_m"], "C0o-", label="peak hinge torque [N m]")
+        ax2.plot(a_pts, s["sweep_slide_force_peak_N"], "C1s-", label="peak slide force [N]")
+        data["mujoco"] = {"a": a_pts, **{k: s[k] for k in ("sweep_secular_rate_rad_s", "sweep_hinge_torque_peak_N_m",
+                                                            "sweep_slide_force_peak_N", "sweep_theta_gamma_mujoco_rad",
+                                                            "sweep_theta_gamma_exact_rad")}}
+    ax.plot([1], [op_a["predicted_rate_exact_rad_s"]], "D", color="C2", ms=10,
+            label=f"(a) 0.1 % at 4 kHz: {op_a['predicted_rate_exact_rad_s']:.3g} rad/s")
+    ax.plot([10], [op_b["predicted_rate_exact_rad_s"]], "*", color="C4", ms=14,
+            label=f"(b) 1 % at 1 kHz (paper): {op_b['predicted_rate_exact_rad_s']:.3g} rad/s")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_ylabel("secular rate [rad/s]")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    ax.set_title("F7 design chart: amplification a, extension 0.1 %·a at 4 kHz/a (stroke ±10°)", fontsize=10)
+    ax2.axhline(PIEZO_PEAK_FORCE_N, color="k", ls=":", label="one piezo chip, 200 N peak")
+    ax2.set_yscale("log")
+    ax2.set_xlabel("amplification factor a")
+    ax2.set_ylabel("demanded by the prescribed motion")
+    ax2.grid(alpha=0.3, which="both")
+    ax2.legend(fontsize=8)
+    fig.tight_layout()
+    return save_figure(fig, path), data
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", nargs="*", help="sweep names (default: all)")
+    ap.add_argument("--out", type=Path, default=REPO / "runs/msac/sweeps")
+    a = ap.parse_args(argv)
+    names = a.only or sorted(p.stem for p in SWEEPS.glob("*.toml"))
+    results = run_sweeps(names, a.out)
+    f6 = f6_figure(results, a.out / "F6_sensitivity.png")
+    f7, data = f7_figure(results, a.out / "F7_design_chart.png")
+    table = {name: {k: v for k, v in s.items() if k.startswith("sweep_")} for name, s in results.items()}
+    write_json(a.out / "F6_F7.json", {"sweeps": table, "design_chart": data})
+    print(json.dumps(to_jsonable({"F6": str(f6), "F7": str(f7),
+                                  "max_mujoco_vs_exact_rel_diff": {n: s["sweep_mujoco_vs_exact_rel_diff_max"]
+                                                                   for n, s in results.items()}}), indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
