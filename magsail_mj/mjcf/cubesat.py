@@ -46,6 +46,8 @@ from typing import Literal
 import mujoco
 import numpy as np
 
+from magsail_mj.mjcf.common import INTEGRATORS, free_space_spec
+
 __all__ = [
     "CubesatModelParams",
     "build_cubesat_spec",
@@ -56,12 +58,6 @@ __all__ = [
     "CubesatIndices",
 ]
 
-INTEGRATORS = {
-    "RK4": mujoco.mjtIntegrator.mjINT_RK4,
-    "Euler": mujoco.mjtIntegrator.mjINT_EULER,
-    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
-}
 WHEEL_NAMES = ("rw_x", "rw_y", "rw_z")
 MARKER_NAMES = ("mk_sun", "mk_vel", "mk_nadir", "mk_field")
 _MARKER_RGBA = {
@@ -176,16 +172,7 @@ def _quat_z_to(v: np.ndarray) -> list[float]:
 def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpec:
     """Return the ``MjSpec`` of the CNUSAIL-1 cubesat (see the module docstring)."""
     p = params or CubesatModelParams()
-    spec = mujoco.MjSpec()
-    spec.modelname = p.name
-    spec.compiler.autolimits = True
-    spec.option.timestep = p.timestep_s
-    spec.option.integrator = INTEGRATORS[p.integrator]
-    spec.option.gravity = [0.0, 0.0, 0.0]
-    # Free space: no contacts, limits, equalities or friction loss exist.
-    for flag in ("CONTACT", "CONSTRAINT", "EQUALITY", "FRICTIONLOSS", "LIMIT", "FILTERPARENT",
-                 "MIDPHASE", "WARMSTART", "ISLAND"):
-        spec.option.disableflags |= int(getattr(mujoco.mjtDisableBit, f"mjDSBL_{flag}"))
+    spec = free_space_spec(name=p.name, timestep_s=p.timestep_s, integrator=p.integrator)
     deployed = p.configuration == "deployed"
     reach = (p.sail_side_m / math.sqrt(2.0) + 0.1) if deployed else 0.3
     spec.visual.global_.offwidth = 1920

@@ -20,16 +20,12 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from magsail_mj.mjcf.common import INTEGRATORS
+
 from magsail_mj.geometry.lattice import Lattice
 
 __all__ = ["TrussModelOptions", "build_truss_spec", "INTEGRATORS", "STRUT_RGBA", "NODE_RGBA"]
 
-INTEGRATORS = {
-    "RK4": mujoco.mjtIntegrator.mjINT_RK4,
-    "Euler": mujoco.mjtIntegrator.mjINT_EULER,
-    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
-}
 STRUT_RGBA = (0.55, 0.58, 0.62, 1.0)
 NODE_RGBA = (0.85, 0.85, 0.88, 1.0)
 
