@@ -5,7 +5,11 @@ Spec: truss-magnetorquer-array.md. Scenarios handled here:
 - ``dist_vs_central`` (§6): open-loop torque profile about x1, distributed over all top-layer
   y1-struts or concentrated in the central cube, free space;
 - ``cantilever`` (§2.7): linear static solve and a MuJoCo settle of the clamped lattice;
-- ``free``: the lattice with no actuator (momentum/energy checks, environment-only runs).
+- ``free``: the lattice with no actuator (momentum/energy checks, environment-only runs);
+- ``detumble`` (§9.3) and ``slew`` (§9.4–9.6): the 75 m truss in orbit with magnetorquer rods in
+  its top-layer struts (``actuators.kind = "magnetorquer"``) under B-dot or quaternion feedback
+  (``[control]``, ``[maneuver]``); loads, controller, probes, metrics and plots in
+  :mod:`magsail_mj.scenarios.truss_orbital`.
 """
 
 from __future__ import annotations
@@ -37,6 +41,9 @@ from magsail_mj.sim import RunResult, Simulation
 __all__ = ["TrussConfig", "TrussScenario", "build_truss_scenario", "TrussModel", "make_truss_model"]
 
 Vec3 = tuple[float, float, float]
+
+ORBITAL_SCENARIOS = ("detumble", "slew")
+"""Scenario kinds driven by the magnetorquer rod array in orbit (spec §9.3–9.6)."""
 
 
 class LatticeConfig(StrictModel):
@@ -82,12 +89,104 @@ class DampingConfig(StrictModel):
 
 
 class ActuatorsConfig(StrictModel):
-    """``[actuators]`` of the generic strut torquers (spec §3.1, §6.2)."""
+    """``[actuators]``: generic strut torquers (spec §3.1, §6.2) or magnetorquer rods (§3.2, §9.1).
 
-    kind: Literal["generic"] = "generic"
+    ``kind = "generic"`` uses ``placement``, ``central_pair``, ``torque_axis``.
+    ``kind = "magnetorquer"``: rods in every top-layer x1- and y1-strut (§7.1, §12 O5), dipole
+    from ``kappa_Am2_per_kg`` [A m²/kg] × ``rod_mass_kg`` [kg] shared per ``rod_dipole_basis``
+    (``"per_family"``: κ_τ M_τ per family, 26.32 A m² per rod for the §9.1 truss; ``"total"``: κ_τ M_τ
+    over both families, 13.16 A m²; §12 item O4). The rod mass is part of ``mass.total_kg``,
+    spread uniformly over the particles (§12 item S4).
+    """
+
+    kind: Literal["generic", "magnetorquer"] = "generic"
     placement: Literal["distributed", "central"] = "distributed"
     central_pair: Literal["top", "diagonal"] = "top"
     torque_axis: Literal["local", "bestfit"] = "local"
+    kappa_Am2_per_kg: float = Field(default=100.0, gt=0)
+    rod_mass_kg: float | None = Field(default=None, gt=0)
+    rod_dipole_basis: Literal["per_family", "total"] = "per_family"
+
+    @model_validator(mode="after")
+    def _rods(self) -> "ActuatorsConfig":
+        if self.kind == "magnetorquer":
+            if self.rod_mass_kg is None:
+                raise ValueError("rod_mass_kg is required when kind = 'magnetorquer'")
+            if self.placement != "distributed":
+                raise ValueError("placement: magnetorquer rods sit in every top-layer strut; "
+                                 f"only 'distributed' is allowed, got {self.placement!r}")
+        return self
+
+
+class LloydConfig(StrictModel):
+    """``[control.lloyd]``: rod selection (spec §7.4); ``seed`` absent = ``sim.seed``."""
+
+    seed: int | None = Field(default=None, ge=0)
+    tol_rel: float = Field(default=1e-6, gt=0, lt=1)
+    max_iter: int = Field(default=10_000, ge=1)
+
+
+class ControlConfig(StrictModel):
+    """``[control]`` of the orbital rod-array scenarios (spec §9.3–9.4, §11).
+
+    ``kind``: ``"bdot"`` (§9.3, gain ``k_bdot_Nms_per_T2``), ``"quat_pd"`` (§9.4: diagonal gains
+    ``Pq_Nm``, ``Pw_Nms``; gravity-gradient compensation ``gg_comp`` with the Eq. 21 inertia, or
+    ``gg_comp_inertia_kgm2`` when given, e.g. the printed ``[1893, 1893, 2867]``, §12 O3) or
+    ``"open_loop"`` (the ``[profile]`` torque through the allocation).
+    ``period_s``: control period (absent = every integration step, §12 O6).
+    ``rate_method``: backward-difference form of §4.2. ``allocation``: §7.3 mode (§12 T5).
+    ``cache_dir``: on-disk Lloyd cache (relative paths from the working directory; ``""`` = none);
+    a count missing there costs one Lloyd run (~1.4 s) the first time it is commanded.
+    ``low_authority_threshold_Nm``: |T_ref| above which low delivered torque is reported (§9.4).
+    """
+
+    kind: Literal["bdot", "quat_pd", "open_loop"]
+    period_s: float | None = Field(default=None, gt=0)
+    rate_method: Literal["log", "first_order"] = "log"
+    k_bdot_Nms_per_T2: float = Field(default=1e12, ge=0)
+    Pq_Nm: Vec3 = (10.0, 50.0, 1.0)
+    Pw_Nms: Vec3 = (1600.0, 8000.0, 800.0)
+    gg_comp: bool = True
+    gg_comp_inertia_kgm2: Vec3 | None = None
+    allocation: Literal["paper", "exact"] = "paper"
+    lloyd: LloydConfig = LloydConfig()
+    cache_dir: str = "runs/lloyd_cache"
+    low_authority_threshold_Nm: float = Field(default=0.02, ge=0)
+
+    @model_validator(mode="after")
+    def _gains(self) -> "ControlConfig":
+        for name in ("Pq_Nm", "Pw_Nms"):
+            if any(not (g >= 0) for g in getattr(self, name)):
+                raise ValueError(f"{name}: gains must be >= 0, got {getattr(self, name)!r}")
+        if self.gg_comp_inertia_kgm2 is not None and any(not (v > 0) for v in self.gg_comp_inertia_kgm2):
+            raise ValueError(f"gg_comp_inertia_kgm2: moments must be > 0 kg m², got {self.gg_comp_inertia_kgm2!r}")
+        return self
+
+
+Quat = tuple[float, float, float, float]
+
+
+def _check_unit_quat(q: Quat | None, name: str) -> None:
+    if q is not None and abs(float(np.linalg.norm(q)) - 1.0) > 1e-4:
+        raise ValueError(f"{name}: must be a unit quaternion [w, x, y, z] (|q| within 1e-4 of 1), "
+                         f"got norm {np.linalg.norm(q):.6g}")
+
+
+class ManeuverConfig(StrictModel):
+    """``[maneuver]`` (spec §9.4, §11): initial and target attitude, body → inertial, scalar first.
+
+    ``q0_wxyz`` (when given) is the initial attitude and replaces ``initial.q0_wxyz``;
+    ``q_ref_wxyz`` is the slew target. Both are normalised before use.
+    """
+
+    q0_wxyz: Quat | None = None
+    q_ref_wxyz: Quat | None = None
+
+    @model_validator(mode="after")
+    def _unit(self) -> "ManeuverConfig":
+        _check_unit_quat(self.q0_wxyz, "q0_wxyz")
+        _check_unit_quat(self.q_ref_wxyz, "q_ref_wxyz")
+        return self
 
 
 class ProfileConfig(StrictModel):
@@ -136,7 +235,7 @@ class TrussConfig(StrictModel):
     """A truss scenario config (``models/truss_magnetorquer/*.toml``)."""
 
     concept: Literal["truss_magnetorquer"]
-    scenario: Literal["dist_vs_central", "cantilever", "free"]
+    scenario: Literal["dist_vs_central", "cantilever", "free", "detumble", "slew"]
     description: str = ""
     sim: SimConfig
     lattice: LatticeConfig
@@ -147,6 +246,8 @@ class TrussConfig(StrictModel):
     profile: ProfileConfig | None = None
     initial: InitialConfig = InitialConfig()
     cantilever: CantileverConfig | None = None
+    control: ControlConfig | None = None
+    maneuver: ManeuverConfig = ManeuverConfig()
     render: RenderConfig = RenderConfig()
     orbit: OrbitConfig = OrbitConfig(enabled=False)
     field: FieldConfig = FieldConfig(model="none")
@@ -155,6 +256,36 @@ class TrussConfig(StrictModel):
     srp: SRPConfig = SRPConfig()
     drag: DragConfig = DragConfig()
     gravity: GravityConfig = GravityConfig(tidal=False)
+
+    @property
+    def total_mass_kg(self) -> float:
+        """Total mass [kg] (``total_kg`` or areal density × side²)."""
+        m = self.mass
+        return m.total_kg if m.total_kg is not None else m.areal_density_kg_m2 * self.lattice.side_m**2
+
+    @property
+    def q0_wxyz(self) -> Quat:
+        """Initial attitude: ``maneuver.q0_wxyz`` when given, else ``initial.q0_wxyz``."""
+        return self.maneuver.q0_wxyz if self.maneuver.q0_wxyz is not None else self.initial.q0_wxyz
+
+    def _check_orbital(self) -> None:
+        sc = self.scenario
+        if self.actuators is None or self.actuators.kind != "magnetorquer":
+            raise ValueError(f"scenario {sc!r} needs [actuators] with kind = 'magnetorquer'")
+        if self.control is None:
+            raise ValueError(f"scenario {sc!r} needs the [control] table")
+        if not self.orbit.enabled or self.field.model == "none":
+            raise ValueError(f"scenario {sc!r} needs orbit.enabled = true and a field model other than 'none'")
+        want = {"detumble": ("bdot", "open_loop"), "slew": ("quat_pd", "open_loop")}[sc]
+        if self.control.kind not in want:
+            raise ValueError(f"control.kind: scenario {sc!r} takes {list(want)}, got {self.control.kind!r}")
+        if self.control.kind == "open_loop" and self.profile is None:
+            raise ValueError("control.kind: 'open_loop' needs the [profile] table")
+        if sc == "slew" and self.maneuver.q_ref_wxyz is None:
+            raise ValueError("scenario 'slew' needs maneuver.q_ref_wxyz (target attitude)")
+        if self.control.period_s is not None and self.control.period_s < self.sim.timestep_s * (1 - 1e-9):
+            raise ValueError(f"control.period_s: must be >= sim.timestep_s = {self.sim.timestep_s} s, "
+                             f"got {self.control.period_s}")
 
     def environment_config(self) -> EnvironmentConfig:
         """The environment tables as one validated :class:`EnvironmentConfig`."""
@@ -169,6 +300,22 @@ class TrussConfig(StrictModel):
             raise ValueError("scenario 'cantilever' needs the [cantilever] table")
         if self.scenario == "cantilever" and self.orbit.enabled:
             raise ValueError("scenario 'cantilever' runs in free space: set orbit.enabled = false")
+        if self.scenario in ORBITAL_SCENARIOS:
+            self._check_orbital()
+        elif self.control is not None:
+            raise ValueError(f"control: the [control] table is used by the scenarios {list(ORBITAL_SCENARIOS)}, "
+                             f"not {self.scenario!r}")
+        if self.actuators is not None and self.actuators.kind == "magnetorquer":
+            if self.scenario not in ORBITAL_SCENARIOS:
+                raise ValueError(f"actuators.kind: 'magnetorquer' needs scenario in {list(ORBITAL_SCENARIOS)}, "
+                                 f"got {self.scenario!r}")
+            total = self.total_mass_kg
+            if self.actuators.rod_mass_kg > total:
+                raise ValueError(f"actuators.rod_mass_kg: {self.actuators.rod_mass_kg} kg exceeds the total "
+                                 f"mass {total} kg (the rods are part of it, §12 S4)")
+        if (self.maneuver.q0_wxyz is not None and "q0_wxyz" in self.initial.model_fields_set
+                and not np.allclose(self.maneuver.q0_wxyz, self.initial.q0_wxyz)):
+            raise ValueError("maneuver.q0_wxyz and initial.q0_wxyz differ: give the initial attitude once")
         from magsail_mj.environment.config import check_environment
 
         problems = check_environment(orbit=self.orbit, field=self.field, atmosphere=self.atmosphere, sun=self.sun,
@@ -255,6 +402,9 @@ class TrussScenario:
         self.spec = self.tm.spec
         self.model = self.spec.compile()
         self.torque_load: StrutTorqueLoad | None = None
+        self.rod_load = None
+        self.tidal_load = None
+        self.controller = None
         self.environment = None
         if self.cfg.orbit.enabled:
             from magsail_mj.environment.environment import Environment
@@ -286,7 +436,9 @@ class TrussScenario:
         cfg, lat = self.cfg, self.tm.lattice
         out: list = []
         if cfg.gravity.tidal:
-            out.append(TidalGravityLoad.from_environment(self.environment, np.arange(lat.n_nodes) + 1, self.tm.masses))
+            self.tidal_load = TidalGravityLoad.from_environment(self.environment, np.arange(lat.n_nodes) + 1,
+                                                                self.tm.masses)
+            out.append(self.tidal_load)
         cells = lattice_top_cells(lat.nodes_per_side)
         if cfg.srp.enabled:
             out.append(LatticeSRPLoad(cells))
@@ -302,6 +454,11 @@ class TrussScenario:
             self.torque_load = StrutTorqueLoad(lat, struts, command=self._profile_command(),
                                                torque_axis=cfg.actuators.torque_axis)
             out.append(self.torque_load)
+        if cfg.scenario in ORBITAL_SCENARIOS:
+            from magsail_mj.scenarios.truss_orbital import make_rod_load
+
+            self.rod_load = make_rod_load(self)
+            out.append(self.rod_load)
         if cfg.scenario == "cantilever":
             tip = loaded_nodes(lat)
             force = np.zeros((tip.size, 3))
@@ -310,10 +467,11 @@ class TrussScenario:
         return out
 
     def initial_rotation(self) -> np.ndarray:
-        """Body → world rotation matrix of ``initial.q0_wxyz``."""
+        """Body → world rotation matrix of the initial attitude (``maneuver.q0_wxyz`` or
+        ``initial.q0_wxyz``)."""
         from magsail_mj.estimation.attitude import matrix_from_quat
 
-        return matrix_from_quat(np.asarray(self.cfg.initial.q0_wxyz, dtype=float))
+        return matrix_from_quat(np.asarray(self.cfg.q0_wxyz, dtype=float))
 
     def init_state(self, data: mujoco.MjData) -> None:
         """Rigid initial state about the centre of mass p_c: x_i = p_c + R (p_i − p_c),
@@ -344,7 +502,13 @@ class TrussScenario:
             tl, nt = self.torque_load, self.model.ntendon
             probes["torque_cmd_body_Nm"] = lambda s, d: tl.last_command
             probes["strut_activity"] = lambda s, d: tl.activity(nt)
+        if self.cfg.scenario in ORBITAL_SCENARIOS:
+            from magsail_mj.scenarios.truss_orbital import make_controller, orbital_probes
+
+            self.controller = make_controller(self)
+            probes.update(orbital_probes(self))
         return Simulation(model=self.model, duration_s=self.cfg.sim.duration_s, loads=loads,
+                          controller=self.controller,
                           probes=probes, record_every=self.cfg.sim.record_every,
                           strain_check=strain_check, max_strain=self.cfg.sim.max_strain,
                           environment=self.environment,
@@ -362,9 +526,17 @@ class TrussScenario:
 
         if self.cfg.scenario == "cantilever":
             return cantilever_summary(self, result)
+        if self.cfg.scenario in ORBITAL_SCENARIOS:
+            from magsail_mj.scenarios.truss_orbital import orbital_summary
+
+            return orbital_summary(self, result)
         return dynamic_summary(self, result)
 
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
+        if self.cfg.scenario in ORBITAL_SCENARIOS:
+            from magsail_mj.scenarios.truss_orbital import orbital_plots
+
+            return orbital_plots(self, run_dir, result, series)
         from magsail_mj.scenarios.truss_plots import truss_plots
 
         return truss_plots(self, run_dir, series)
@@ -375,7 +547,9 @@ class TrussScenario:
         return {
             "title": f"{self.cfg.scenario}: {self.cfg.description}".strip(": "),
             "top_nodes": top.tolist(),
-            "overlay": ["surface_sd_m", "torque_cmd_x1_Nm"] if self.cfg.scenario == "dist_vs_central" else ["surface_sd_m"],
+            "overlay": (["surface_sd_m", "torque_cmd_x1_Nm"] if self.cfg.scenario == "dist_vs_central"
+                        else _orbital_overlay(self.cfg) if self.cfg.scenario in ORBITAL_SCENARIOS
+                        else ["surface_sd_m"]),
             "camera": {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
                        "distance_m": r.distance_factor * self.cfg.lattice.side_m},
             "exaggeration": r.exaggeration,
@@ -385,7 +559,13 @@ class TrussScenario:
 
     def manifest_extra(self) -> dict[str, Any]:
         lat = self.tm.lattice
+        extra: dict[str, Any] = {}
+        if self.cfg.scenario in ORBITAL_SCENARIOS:
+            from magsail_mj.scenarios.truss_orbital import orbital_manifest
+
+            extra = orbital_manifest(self)
         return {
+            **extra,
             "model_size": {"nodes": lat.n_nodes, "struts": lat.n_struts, "dofs": int(self.model.nv)},
             "zeta_strut": self.cfg.damping.zeta_strut,
             "gamma_Ns_m": self.tm.gamma,
@@ -394,6 +574,13 @@ class TrussScenario:
             "integrator": self.cfg.sim.integrator,
             "timestep_s": self.cfg.sim.timestep_s,
         }
+
+
+def _orbital_overlay(cfg: TrussConfig) -> list[str]:
+    """Overlay series of the orbital videos (values printed on each frame)."""
+    if cfg.scenario == "slew":
+        return ["error_angle_deg", "omega_norm_rad_s", "N1", "N2", "surface_sd_m"]
+    return ["omega_body_rad_s", "N1", "N2", "surface_sd_m"]
 
 
 @register_builder("truss_magnetorquer")
