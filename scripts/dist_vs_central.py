@@ -28,7 +28,7 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIGS = REPO / "models" / "truss_magnetorquer" / "dist_vs_central"
-KEYS = ("rotation_x1_final_rad", "phi_rigid_final_rad", "off_axis_rotation_max_rad", "omega1_peak_rad_s",
+KEYS = ("status", "t_end_s", "rotation_x1_final_rad", "phi_rigid_final_rad", "off_axis_rotation_max_rad", "omega1_peak_rad_s",
         "surface_sd_max_m", "t_surface_sd_max_s", "strain_energy_max_J", "strut_strain_max",
         "surface_sd_after_off_mean_m", "failed")
 
