@@ -1,0 +1,178 @@
+r"""Quaternion error feedback with gravity-gradient compensation for the rod array (spec §9.4).
+
+Conventions: quaternions scalar-first Hamilton ``[w, x, y, z]``; ``q`` maps body components to
+inertial (ECI = world) components, like the rotation matrix ``R`` of the best-fit attitude.
+
+**Error quaternion** (spec §9.4; §12 item O2 corrects the paper's ``q_err = q_ref q_t*``, whose
+vector part points *towards* the target so that ``−P_q q_err`` pushes away from it):
+
+.. math:: q_e = q_{\text{ref}}^{*}\otimes q_t,\qquad q_{e,0}<0\ \Rightarrow\ q_e\leftarrow -q_e
+
+(the current attitude relative to the target, in body components; the sign flip takes the
+shortest path).
+
+**Reference torque** (paper Eqs. 20, 22 with diagonal gains; body components, N m):
+
+.. math:: \mathbf T_{\text{ref}} = -\mathcal P_q\,\mathbf q_{e,\text{vec}} - \mathcal P_\omega\,\boldsymbol\omega
+          - \frac{3\mu}{r^5}\,\mathbf r_b\times\mathcal I\,\mathbf r_b ,
+
+``P_q = diag(10, 50, 1)`` N m, ``P_ω = diag(1600, 8000, 800)`` N m s by default (the listed values,
+§12 item O9), ``ω`` the backward-difference body rate (§4.2), ``r_b = Rᵀ (r_ref + x_c)`` the
+centre-of-mass position from the Earth's centre in body components (§3.3) and ``𝓘`` the
+particle-set inertia of Eq. 21 (§4.4; §12 item O3: computed, not the printed 1893/2867 kg m²,
+which remain selectable). The last term is minus the classical gravity-gradient torque (Eq. 14),
+so a rigid body's gravity-gradient torque is cancelled exactly when the allocation delivers
+``T_ref``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal, Sequence
+
+import numpy as np
+
+from magsail_mj.control.allocation import TorqueDistributor
+from magsail_mj.control.rod_attitude import RodAttitudeController
+from magsail_mj.environment.constants import MU_EARTH
+from magsail_mj.estimation.attitude import quat_from_matrix
+
+__all__ = [
+    "quat_multiply",
+    "quat_conjugate",
+    "error_quaternion",
+    "gg_compensation_torque",
+    "quaternion_feedback_torque",
+    "QuaternionFeedbackRodController",
+]
+
+
+def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton product ``p ⊗ q`` of scalar-first quaternions (``(..., 4)``, broadcast)."""
+    p = np.asarray(p, dtype=float)
+    q = np.asarray(q, dtype=float)
+    pw, px, py, pz = np.moveaxis(p, -1, 0)
+    qw, qx, qy, qz = np.moveaxis(q, -1, 0)
+    return np.stack([pw * qw - px * qx - py * qy - pz * qz,
+                     pw * qx + px * qw + py * qz - pz * qy,
+                     pw * qy - px * qz + py * qw + pz * qx,
+                     pw * qz + px * qy - py * qx + pz * qw], axis=-1)
+
+
+def quat_conjugate(q: np.ndarray) -> np.ndarray:
+    """``q* = [w, −x, −y, −z]`` (the inverse of a unit quaternion)."""
+    q = np.asarray(q, dtype=float)
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def _unit_quat(q: Sequence[float], name: str) -> np.ndarray:
+    a = np.asarray(q, dtype=float)
+    if a.shape != (4,) or not np.all(np.isfinite(a)) or not np.linalg.norm(a) > 0:
+        raise ValueError(f"{name}: expected a non-zero quaternion [w, x, y, z], got {q!r}")
+    return a / np.linalg.norm(a)
+
+
+def error_quaternion(q_ref: np.ndarray, q_t: np.ndarray) -> np.ndarray:
+    r"""``q_e = q_ref* ⊗ q_t`` with ``q_{e,0} ≥ 0`` (spec §9.4, §12 item O2); ``(..., 4)``.
+
+    Its vector part is ``sin(θ/2) â`` with ``â`` the axis (body components) and ``θ ∈ [0, π]`` the
+    angle of the rotation that takes the target attitude to the current one; the attitude error
+    angle is ``2 arccos q_{e,0}``.
+    """
+    qe = quat_multiply(quat_conjugate(q_ref), q_t)
+    return np.where(qe[..., :1] < 0.0, -qe, qe)
+
+
+def gg_compensation_torque(r_body: np.ndarray, inertia: np.ndarray, *, mu: float = MU_EARTH) -> np.ndarray:
+    r"""Compensation term ``−3μ/r⁵ r_b × (𝓘 r_b)`` [N m] (spec §9.4, Eq. 22).
+
+    Args:
+      r_body: (3,) centre-of-mass position from the Earth's centre in body components [m].
+      inertia: (3,) principal moments or (3, 3) tensor about the centre of mass, body axes [kg m²].
+      mu: gravitational parameter [m³/s²].
+
+    Equals minus :func:`magsail_mj.environment.gravity.gravity_gradient_torque` (tested).
+    """
+    r = np.asarray(r_body, dtype=float)
+    I = np.asarray(inertia, dtype=float)
+    I = np.diag(I) if I.shape == (3,) else I
+    if r.shape != (3,) or I.shape != (3, 3):
+        raise ValueError(f"r_body, inertia: expected (3,) and (3,) or (3, 3), got {r.shape}, {I.shape}")
+    r2 = float(r @ r)
+    if not r2 > 0:
+        raise ValueError("r_body: the centre of mass must not be at the Earth's centre")
+    return -3.0 * mu / (r2 * r2 * np.sqrt(r2)) * np.cross(r, I @ r)
+
+
+def quaternion_feedback_torque(q_e: np.ndarray, omega_body: np.ndarray, *, Pq_Nm: Sequence[float],
+                               Pw_Nms: Sequence[float], gg_comp_body: np.ndarray | None = None) -> np.ndarray:
+    r"""``T_ref = −P_q q_{e,vec} − P_ω ω (+ gg_comp_body)`` [N m], diagonal gains (spec §9.4).
+
+    Args:
+      q_e: (4,) error quaternion of :func:`error_quaternion`.
+      omega_body: (3,) body rate [rad/s].
+      Pq_Nm: diagonal of ``P_q`` [N m]; Pw_Nms: diagonal of ``P_ω`` [N m s].
+      gg_comp_body: (3,) compensation term of :func:`gg_compensation_torque`, or ``None``.
+    """
+    T = -np.asarray(Pq_Nm, dtype=float) * np.asarray(q_e, dtype=float)[1:] \
+        - np.asarray(Pw_Nms, dtype=float) * np.asarray(omega_body, dtype=float)
+    if gg_comp_body is not None:
+        T = T + gg_comp_body
+    return T
+
+
+class QuaternionFeedbackRodController(RodAttitudeController):
+    """Quaternion feedback + gravity-gradient compensation feeding the rod allocation (§9.4).
+
+    Args:
+      q_ref_wxyz: target attitude (body → inertial, scalar first).
+      Pq_Nm, Pw_Nms: gain diagonals (default the paper's (10, 50, 1) N m and (1600, 8000, 800) N m s).
+      gg_comp: include the gravity-gradient compensation term.
+      inertia_kgm2: (3,) moments or (3, 3) tensor used by the compensation [kg m²] (Eq. 21 by
+        default, computed by the caller from the undeformed particle set, §4.4).
+      mu: gravitational parameter [m³/s²].
+      reference_nodes, masses, node_bodies, distributor, period_s, omega0_body, rate_method: see
+        :class:`~magsail_mj.control.rod_attitude.RodAttitudeController`.
+
+    ``RodCommand.extra`` holds ``q_err`` (4,) and ``gg_comp_body`` (3,) [N m].
+    """
+
+    law = "quat_pd"
+
+    def __init__(self, *, reference_nodes: np.ndarray, masses: np.ndarray | float,
+                 distributor: TorqueDistributor | None, period_s: float, q_ref_wxyz: Sequence[float],
+                 inertia_kgm2: Sequence[float] | np.ndarray, Pq_Nm: Sequence[float] = (10.0, 50.0, 1.0),
+                 Pw_Nms: Sequence[float] = (1600.0, 8000.0, 800.0), gg_comp: bool = True,
+                 mu: float = MU_EARTH, node_bodies: np.ndarray | None = None,
+                 omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
+                 rate_method: Literal["log", "first_order"] = "log") -> None:
+        super().__init__(reference_nodes=reference_nodes, masses=masses, node_bodies=node_bodies,
+                         distributor=distributor, period_s=period_s, omega0_body=omega0_body,
+                         rate_method=rate_method)
+        self.q_ref = _unit_quat(q_ref_wxyz, "q_ref_wxyz")
+        for name, g in (("Pq_Nm", Pq_Nm), ("Pw_Nms", Pw_Nms)):
+            a = np.asarray(g, dtype=float)
+            if a.shape != (3,) or not np.all(np.isfinite(a)) or np.any(a < 0):
+                raise ValueError(f"{name}: expected 3 gains >= 0, got {g!r}")
+        self.Pq = np.asarray(Pq_Nm, dtype=float)
+        self.Pw = np.asarray(Pw_Nms, dtype=float)
+        I = np.asarray(inertia_kgm2, dtype=float)
+        I = np.diag(I) if I.shape == (3,) else I
+        if I.shape != (3, 3) or not np.all(np.isfinite(I)) or not np.allclose(I, I.T):
+            raise ValueError(f"inertia_kgm2: expected 3 moments or a symmetric (3, 3) tensor [kg m²], "
+                             f"got shape {np.shape(inertia_kgm2)}")
+        self.inertia = I
+        self.gg_comp = bool(gg_comp)
+        if not (np.isfinite(mu) and mu > 0):
+            raise ValueError(f"mu: must be > 0 m³/s², got {mu!r}")
+        self.mu = float(mu)
+
+    def reference_torque(self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray,
+                         com_world: np.ndarray, env: Any) -> tuple[np.ndarray, dict[str, Any]]:
+        """``T_ref`` of the module docstring; ``extra = {"q_err", "gg_comp_body"}``."""
+        q_e = error_quaternion(self.q_ref, quat_from_matrix(R))
+        comp = np.zeros(3)
+        if self.gg_comp:
+            r_b = R.T @ (np.asarray(env.r_ref_eci, dtype=float) + com_world)
+            comp = gg_compensation_torque(r_b, self.inertia, mu=self.mu)
+        T = quaternion_feedback_torque(q_e, omega_body, Pq_Nm=self.Pq, Pw_Nms=self.Pw, gg_comp_body=comp)
+        return T, {"q_err": q_e, "gg_comp_body": comp}
