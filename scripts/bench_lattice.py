@@ -37,7 +37,6 @@ relative difference meaningless.
 from __future__ import annotations
 
 import argparse
-import copy
 import platform
 import sys
 import time
@@ -47,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from magsail_mj.analysis.flatness import surface_sd
-from magsail_mj.config import parse_config
+from magsail_mj.config import load_config
 from magsail_mj.estimation.attitude import best_fit_rotation, rotation_angle
 from magsail_mj.reference.numpy_rk4 import from_truss_scenario, rk4_run
 from magsail_mj.scenarios.truss import build_truss_scenario
@@ -56,19 +55,8 @@ ANGLE_TOL_RAD = 1e-3   # spec §3.4: attitude angles within 1e-3 rad
 SD_TOL_REL = 0.02      # spec §3.4: surface SD within 2 %
 SAMPLE_S = 3.0         # comparison sampling period: a multiple of every step tried (0.1 … 0.3 s)
 
-CASE_A = {
-    "concept": "truss_magnetorquer",
-    "scenario": "dist_vs_central",
-    "description": "benchmark: Case A, distributed, bang-bang-off",
-    "sim": {"duration_s": 300.0, "timestep_s": 0.1, "integrator": "RK4", "record_every": 10,
-            "seed": 0, "progress": False},
-    "lattice": {"units": 19, "side_m": 100.0, "diagonals": "parity"},
-    "mass": {"total_kg": 100.0, "central_fraction": 0.0},
-    "stiffness": {"EI_Nm2": 1000.0, "calibration": "cantilever"},
-    "damping": {"zeta_strut": 0.1},
-    "actuators": {"kind": "generic", "placement": "distributed", "torque_axis": "local"},
-    "profile": {"kind": "bang_bang_off", "tau_max_Nm": 0.1, "t_end_s": 1800.0, "axis": "x1"},
-}
+CASE_A = Path(__file__).resolve().parents[1] / "models/truss_magnetorquer/dist_vs_central/case_a_distributed_bangbang.toml"
+"""The benchmark model: Case A (EI 1e3, 100 m, 100 kg, calibrated, ζ 0.1), distributed bang-bang torque."""
 
 RUNNER_CASES = [("RK4", 0.1), ("Euler", 0.1), ("implicitfast", 0.1)] + [
     (integrator, dt) for dt in (0.12, 0.15, 0.2, 0.25, 0.3) for integrator in ("Euler", "implicitfast")]
@@ -96,11 +84,9 @@ class Row:
 
 
 def config(units: int, duration: float, integrator: str = "RK4", dt: float = 0.1):
-    tree = copy.deepcopy(CASE_A)
-    tree["lattice"]["units"] = units
-    tree["sim"].update(duration_s=duration, integrator=integrator, timestep_s=dt,
-                       record_every=max(1, int(round(SAMPLE_S / dt))))
-    return parse_config(tree)
+    return load_config(CASE_A, [f"lattice.units={units}", f"sim.duration_s={duration}",
+                                f"sim.integrator='{integrator}'", f"sim.timestep_s={dt}",
+                                f"sim.record_every={max(1, int(round(SAMPLE_S / dt)))}", "sim.progress=false"])
 
 
 def compare(lattice, t_ref: np.ndarray, x_ref: np.ndarray, t: np.ndarray, x: np.ndarray
