@@ -23,6 +23,8 @@ run continues identically.
 
 from __future__ import annotations
 
+import abc
+
 import math
 from dataclasses import dataclass, field
 from typing import Any, Literal, Sequence
@@ -102,7 +104,7 @@ def _vec3(value: Sequence[float], name: str) -> np.ndarray:
     return a
 
 
-class RodAttitudeController:
+class RodAttitudeController(abc.ABC):
     """Base class: estimation (§4.1–4.2) + reference torque (subclass) + allocation (§7).
 
     Args:
@@ -156,10 +158,10 @@ class RodAttitudeController:
         self.stats = np.zeros(4, dtype=np.int64)
 
     # ------------------------------------------------------------------ law
+    @abc.abstractmethod
     def reference_torque(self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray,
                          com_world: np.ndarray, env: Any) -> tuple[np.ndarray, dict[str, Any]]:
-        """``(T_ref_body [N m], extra)`` of the control law; implemented by subclasses."""
-        raise NotImplementedError
+        """``(T_ref_body [N m], extra)`` of the control law; each subclass defines it."""
 
     # ------------------------------------------------------------------ one sample
     def estimate(self, state: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
