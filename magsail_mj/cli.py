@@ -1,4 +1,4 @@
-"""``magsail`` command line: build | run | render | validate.
+"""``magsail`` command line: build | validate | run | render | sweep | scaling | torque.
 
 Exit codes: 0 success, 2 invalid input (config, arguments, run folder), 3 the simulation
 diverged (its outputs up to the divergence are still written).
@@ -80,6 +80,21 @@ def _cmd_scaling_magnetorquer(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from magsail_mj.sweep import load_sweep, run_sweep
+
+    if args.workers < 1:
+        print(f"error: --workers: must be >= 1, got {args.workers}", file=sys.stderr)
+        return 2
+    sweep = load_sweep(args.sweep, extra_overrides=tuple(args.set), only=args.only)
+    out = Path(args.out) if args.out else Path("runs") / sweep.name
+    records = run_sweep(sweep, out, workers=args.workers, video=args.video, overwrite=args.overwrite,
+                        log=lambda line: print(line, file=sys.stderr))
+    print(json.dumps({"sweep": sweep.name, "out": str(out),
+                      "status": {r["id"]: r["status"] for r in records}}, indent=2))
+    return 1 if any(r["status"] == "failed" for r in records) else 0
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="magsail", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
@@ -112,6 +127,17 @@ def _parser() -> argparse.ArgumentParser:
     rr.add_argument("--compare", help="second run folder, shown on the right")
     rr.add_argument("--labels", nargs=2, metavar=("LEFT", "RIGHT"))
     rr.set_defaults(fn=_cmd_render)
+
+    sw = sub.add_parser("sweep", help="run every config of a sweep file in parallel worker processes")
+    sw.add_argument("sweep", help="sweep TOML ([[run]] tables with id and config)")
+    sw.add_argument("--out", help="sweep folder (default: runs/<sweep name>)")
+    sw.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    sw.add_argument("--only", help="run only the ids containing this text")
+    sw.add_argument("--video", action="store_true", help="render video.mp4 in every run folder")
+    sw.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="override a key in every run, e.g. --set sim.duration_s=60")
+    sw.add_argument("--overwrite", action="store_true", help="rerun runs that already finished")
+    sw.set_defaults(fn=_cmd_sweep)
 
     sc = sub.add_parser("scaling", help="analytic scaling laws (one JSON object on stdout)")
     scs = sc.add_subparsers(dest="law", required=True)
