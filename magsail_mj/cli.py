@@ -95,6 +95,30 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     return 1 if any(r["status"] == "failed" for r in records) else 0
 
 
+def _cmd_scaling_loops(args: argparse.Namespace) -> int:
+    from magsail_mj.analysis.loop_scaling import loop_sizing, scaling_table
+    from magsail_mj.io import to_jsonable
+
+    options = {"geometry": "--geometry", "units": "--units", "side_m": "--side-m",
+               "areal_density_kg_m2": "--areal-density", "kappa": "--kappa"}
+    try:
+        if args.table:
+            report = scaling_table(side_m=args.side_m, areal_density_kg_m2=args.areal_density,
+                                   kappa=args.kappa)
+        elif args.geometry is None:
+            raise ValueError("geometry: required unless --table is given (one of A, B, C, D)")
+        else:
+            report = loop_sizing(args.geometry, units=args.units, side_m=args.side_m,
+                                 areal_density_kg_m2=args.areal_density, kappa=args.kappa)
+    except ValueError as err:
+        msg = str(err)
+        name = msg.split(":", 1)[0]
+        print(f"error: {options.get(name, name)}{msg[len(name):]}", file=sys.stderr)
+        return 2
+    print(json.dumps(to_jsonable(report)))
+    return 0
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="magsail", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
@@ -148,6 +172,17 @@ def _parser() -> argparse.ArgumentParser:
     mt.add_argument("--total-kg", type=float, default=200.0)
     mt.add_argument("--rod-mass-kg", type=float, default=100.0)
     mt.set_defaults(fn=_cmd_scaling_magnetorquer)
+    lo = scs.add_parser("loops", help="current-loop sizing: Eq.-9 current, wire, λ_f, power (current-loops §3)")
+    lo.add_argument("--geometry", help="loop geometry A, B, C or D (Cx/Cy/Dx/Dy accepted)")
+    lo.add_argument("--units", type=int, default=19, help="cubic units per side N (default 19)")
+    lo.add_argument("--side-m", type=float, default=250.0, help="plate side D [m] (default 250)")
+    lo.add_argument("--areal-density", type=float, default=0.1, metavar="KG_M2",
+                    help="areal density σ_A [kg/m²] (default 0.1)")
+    lo.add_argument("--kappa", type=float, default=15.0,
+                    help="geometry A rim-inertia factor κ = 12 k_c − 1 (paper 15, physical 1)")
+    lo.add_argument("--table", action="store_true",
+                    help="print the §7.2 scaling object (A–D × N = 12, 19, 27) instead of one sizing")
+    lo.set_defaults(fn=_cmd_scaling_loops)
     return p
 
 

@@ -525,7 +525,12 @@ def loop_sizing(geometry: str, *, units: int, side_m: float, areal_density_kg_m2
     area, length = table1(g, N, D)
     lam_inertia = 0.0
     if g == "A":
-        lam_inertia = solve_lambda_A(lambda_u_A(D, s, constants=constants), kappa=k, branch="light")
+        try:
+            lam_inertia = solve_lambda_A(lambda_u_A(D, s, constants=constants), kappa=k, branch="light")
+        except NoLoopSolution as err:
+            d_fold = (fold_A(k)[1] / (4.0 * c1(constants) * np.cbrt(s))) ** 0.6
+            raise NoLoopSolution(f"side_m: {D:g} m is beyond geometry A's fold; at areal_density_kg_m2 = "
+                                 f"{s:g} and kappa = {k:g} the largest plate is {d_fold:.6g} m ({err})") from None
     ch = lambda_f_chain(g, units=N, side_m=D, areal_density_kg_m2=s, kappa=k if g == "A" else 0.0,
                         lambda_f_inertia=lam_inertia, constants=constants)
     P = radiated_power(ch["wire_diameter_m"], length, constants=constants)
