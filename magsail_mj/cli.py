@@ -119,6 +119,25 @@ def _cmd_scaling_loops(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_torque_coil(args: argparse.Namespace) -> int:
+    from magsail_mj.analysis.coil_torque import coil_torque_report
+    from magsail_mj.io import to_jsonable
+
+    options = {"side_m": "--side-m", "segment_m": "--segment-m", "depth_m": "--depth-m", "current_A": "--current-a",
+               "field_T": "--field-t", "pitch_cells": "--pitch-cells", "rows": "--rows"}
+    try:
+        report = coil_torque_report(side_m=args.side_m, segment_m=args.segment_m, depth_m=args.depth_m,
+                                    current_A=args.current_a, field_T=args.field_t, pitch_cells=args.pitch_cells,
+                                    rows=args.rows)
+    except ValueError as err:
+        msg = str(err)
+        name = msg.split(":", 1)[0]
+        print(f"error: {options.get(name, name)}{msg[len(name):]}", file=sys.stderr)
+        return 2
+    print(json.dumps(to_jsonable(report)))
+    return 0
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="magsail", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
@@ -183,6 +202,17 @@ def _parser() -> argparse.ArgumentParser:
     lo.add_argument("--table", action="store_true",
                     help="print the §7.2 scaling object (A–D × N = 12, 19, 27) instead of one sizing")
     lo.set_defaults(fn=_cmd_scaling_loops)
+    tq = sub.add_parser("torque", help="analytic actuator torques (one JSON object on stdout)")
+    tqs = tq.add_subparsers(dest="actuator", required=True)
+    tc = tqs.add_parser("coil", help="reflector coil paths: capability T_max, torque vectors (reflector spec §3.6)")
+    tc.add_argument("--side-m", type=float, default=100.0, help="structure side d [m] (default 100)")
+    tc.add_argument("--segment-m", type=float, default=1.0, help="segment length = cell edge L [m] (default 1)")
+    tc.add_argument("--depth-m", type=float, default=None, help="lattice depth h [m] (default L, A1)")
+    tc.add_argument("--current-a", type=float, default=10.0, help="maximum current I_max [A] (default 10)")
+    tc.add_argument("--field-t", type=float, default=30e-6, help="reference field B_ref [T] (default 30e-6)")
+    tc.add_argument("--pitch-cells", type=int, default=2, help="coil column pitch p [cells] (default 2, A2)")
+    tc.add_argument("--rows", type=int, default=None, help="3/4 turns per column N_row (default d/L)")
+    tc.set_defaults(fn=_cmd_torque_coil)
     return p
 
 
