@@ -1,0 +1,47 @@
+"""``magsail torque coil`` (reflector spec §3.6, §8.2): one JSON object on stdout, bad options exit 2."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from magsail_mj.cli import main
+
+
+def test_torque_coil_prints_capability_and_torque_vectors(capsys):
+    rc = main(["torque", "coil", "--side-m", "20", "--segment-m", "1", "--current-a", "10", "--field-t", "30e-6"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["T_max_ycoil_N_m"] == pytest.approx(0.75 * 20 * 10 * 10 * 30e-6)
+    assert out["m_max_A_m2"] == pytest.approx(out["T_max_ycoil_N_m"] / 30e-6)
+    for key in ("T_max_xcoil_N_m", "T_max_zloop_N_m", "zloop_side_m", "T_max_perimeter_loop_N_m",
+                "T_max_ycoil_p1_N_m", "T_max_ycoil_rows_plus1_N_m", "path_length_m", "node_count",
+                "segment_count", "net_force_Bx_N", "closed_lead_dipole_y_A_m2"):
+        assert key in out
+    for path in ("ycoil", "xcoil", "zloop"):
+        for ax in "xyz":
+            assert len(out["paths"][path][f"T_B{ax}_N_m"]) == 3
+
+
+def test_torque_coil_options_depth_pitch_rows(capsys):
+    assert main(["torque", "coil", "--side-m", "20", "--depth-m", "2", "--pitch-cells", "1", "--rows", "8"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["depth_m"] == 2.0 and out["pitch_cells"] == 1 and out["rows"] == 8
+    assert out["T_max_ycoil_N_m"] == pytest.approx(0.75 * 8 * 20 * 10 * 1 * 2 * 30e-6)
+
+
+@pytest.mark.parametrize("argv,option", [(["--side-m", "20.5"], "--side-m"), (["--pitch-cells", "0"], "--pitch-cells"),
+                                         (["--current-a", "-1"], "--current-a"), (["--rows", "0"], "--rows")])
+def test_torque_coil_bad_option_exits_2_and_names_it(capsys, argv, option):
+    rc = main(["torque", "coil", *argv])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert option in err
+
+
+def test_torque_coil_non_number_is_an_argparse_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["torque", "coil", "--field-t", "abc"])
+    assert exc.value.code == 2
+    assert "--field-t" in capsys.readouterr().err
