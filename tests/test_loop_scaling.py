@@ -28,7 +28,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 
-from magsail_mj.analysis import loop_scaling as ls
 from magsail_mj.analysis.loop_scaling import (
     DEFAULT_CONSTANTS, NoLoopSolution, ThermalConstants, c1, conductor_mass, dipole_max, fold_A,
     geometry_factor, geometry_factor_b_loops, gravity_gradient_torque_max, h_A, joule_power,
@@ -105,6 +104,7 @@ def test_closed_form_lambda_equals_the_chain(g, N, D, s):
         radiated_power(ch["wire_diameter_m"], length), rel=1e-12)
     assert ch["conductor_mass_kg"] == pytest.approx(
         K.rho_c_kg_m3 * math.pi / 4 * ch["wire_diameter_m"] ** 2 * length, rel=1e-14)
+    assert conductor_mass(ch["wire_diameter_m"], length) == ch["conductor_mass_kg"]
     assert ch["current_A"] * area == pytest.approx(dipole_max(D, s), rel=1e-12)
 
 
