@@ -22,12 +22,22 @@ def generated_xml(config: Path) -> str:
     return build_scenario(load_config(config)).spec.to_xml()
 
 
+def is_sweep_file(path: Path) -> bool:
+    """A sweep file (``[[run]]`` tables, no ``concept``) lists configs; it has no MJCF of its own."""
+    import tomllib
+
+    tree = tomllib.loads(path.read_text())
+    return "run" in tree and "concept" not in tree
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="only compare, write nothing")
     args = ap.parse_args(argv)
     stale = []
     for config in sorted(MODELS.rglob("*.toml")):
+        if is_sweep_file(config):
+            continue
         xml = generated_xml(config)
         target = config.with_suffix(".xml")
         if target.exists() and target.read_text() == xml:
