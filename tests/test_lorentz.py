@@ -75,7 +75,8 @@ def test_closed_circuits_zero_force_and_dipole_torque(units, names, seed, amp, s
     about = rng.normal(size=3) * side
     force, torque = lorentz_wrench(pos, segs, currents, B, about)
     m = total_dipole(pos, segs, currents)
-    np.testing.assert_allclose(m, (currents[:, None] * a).sum(axis=0), rtol=0, atol=1e-13 * np.abs(m).max())
+    np.testing.assert_allclose(m, (currents[:, None] * a).sum(axis=0), rtol=0,
+                               atol=1e-13 * np.abs(currents[:, None] * a).sum())
     scale = np.abs(currents[:, None] * a).sum() * np.linalg.norm(B)
     np.testing.assert_allclose(torque, np.cross(m, B), rtol=0, atol=1e-13 * scale)
 
