@@ -181,7 +181,8 @@ def self_field_max_T(pos, segs: CircuitSegments, currents_A, *, parallel_cos: fl
     max_e B_w(e) (0 when no segment has a parallel neighbour, or all currents are zero).
 
     All pairs, vectorised in chunks of ``chunk`` rows (memory ~ 8 chunk × S floats): a diagnostic
-    for a run's start/end or a decimated record (about 0.1 s for 3 244 segments), not for every step.
+    for a run's start/end or a decimated record (0.2–1.5 s for the 3 244 segments of F at N = 27
+    on a shared 2-core machine), not for every step.
     """
     pos = _positions(pos, segs)
     sI = np.abs(segs.segment_currents(currents_A))
