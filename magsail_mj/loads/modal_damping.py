@@ -85,6 +85,7 @@ class ModalDampingLoad:
 
     Attributes:
       last_power_W: dissipated power :math:`P` of the last evaluation [W].
+      last_forces: ``(n, 3)`` world-frame forces of the last evaluation [N].
       last_R: the last :math:`R_\theta` (body → world).
       modes: the ``modes`` given.
       ratios: the damping ratios (set by :meth:`for_lattice`, else ``None``).
@@ -128,6 +129,7 @@ class ModalDampingLoad:
             self.dtype = np.dtype(dtype)
         self.last_power_W = 0.0
         self.last_R = np.eye(3)
+        self.last_forces = np.zeros((n, 3))
         self.modes = modes
         self.ratios: np.ndarray | None = None
         self._sl = slice(self.body_offset, self.body_offset + n)
@@ -138,8 +140,8 @@ class ModalDampingLoad:
                     xi_low: float = 0.01, n_low: int = 100, xi_cap: float = 10.0,
                     form: Literal["dense", "low_rank"] = "dense",
                     frame: Literal["body", "inertial"] = "body", dtype=np.float32,
-                    body_offset: int = 1, cache_dir=None) -> "ModalDampingLoad":
-        """Modes (cached), schedule and γ of a free lattice in one call.
+                    body_offset: int = 1, cache_dir=None, modes: Modes | None = None) -> "ModalDampingLoad":
+        """Modes (cached, or ``modes`` if given), schedule and γ of a free lattice in one call.
 
         ``form="low_rank"`` (only sensible with ``"capped_rayleigh"``) returns a load applying
         the low-rank part only; the model then needs tendon damping ``load.tendon_damping(k)``.
@@ -149,7 +151,8 @@ class ModalDampingLoad:
 
         if form not in ("dense", "low_rank"):
             raise ValueError(f"form: must be 'dense' or 'low_rank', got {form!r}")
-        modes = lattice_modes(nodes, struts, k, masses, cache_dir=cache_dir)
+        if modes is None:
+            modes = lattice_modes(nodes, struts, k, masses, cache_dir=cache_dir)
         xi = damping_ratios(modes.omega, n_rigid=modes.n_rigid, schedule=schedule, xi_low=xi_low,
                             n_low=n_low, xi_cap=xi_cap)
         gamma = (caughey_matrix(modes, xi, dtype=dtype) if form == "dense"
@@ -192,6 +195,7 @@ class ModalDampingLoad:
         g = self.gamma_apply(v_body).reshape(self.n, 3)
         F = -(g @ R.T)
         self.last_R = R
+        self.last_forces = F
         self.last_power_W = float(-np.einsum("ij,ij->", F, vel))
         return F
 
