@@ -180,6 +180,9 @@ def test_low_rank_load_plus_tendon_damping_equals_dense_in_mujoco(cache):
     F_mj = data.qfrc_passive.reshape(-1, 3) + low.forces(lat.nodes, v)
     F_dense = dense.forces(lat.nodes, v)
     assert np.abs(F_mj - F_dense).max() < 1e-9 * np.abs(F_dense).max()
+    again = ModalDampingLoad.for_lattice(**common, modes=dense.modes)        # precomputed modes
+    assert np.array_equal(again.forces(lat.nodes, v), F_dense)
+    assert np.array_equal(again.last_forces, F_dense)
 
 
 # ----------------------------------------------------------------------------- co-rotation
