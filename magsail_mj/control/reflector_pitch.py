@@ -1,0 +1,181 @@
+r"""Reflector pitch tracking: quaternion feedback, projection ⟂ B and saturation (reflector spec §6.5).
+
+Body frame of the plate (``x`` grey line, ``y`` pitch axis, ``z`` normal); quaternions scalar
+first, body → world; SI units.
+
+Error and reference torque (normative form, Eqs. 14–15 corrected):
+
+.. math::
+
+   q_e = q_{ref}^{*}\otimes q_t\ (q_{e,w}\ge 0),\qquad
+   \mathbf T_{ref,b} = -P_q\,\mathbf q_{e,vec} - P_\omega\,(\boldsymbol\omega_b - [\boldsymbol\omega_{ref,b}])
+                        + [\mathcal I\,\boldsymbol\alpha_{ref,b}],
+
+``rate_term = "absolute"`` (as printed, baseline) damps ω_b; ``"error"`` damps ω_b − ω_ref,b with
+``ω_ref,b = R(q_e)ᵀ β̇ ŷ`` (the reference rate in current body axes); ``feedforward`` adds
+``𝓘 α_ref,b`` with ``α_ref,b = R(q_e)ᵀ β̈ ŷ``. Gains per axis from a bandwidth:
+``P_q = 2 I_jj ω_n²``, ``P_ω = 2 ζ ω_n I_jj``.
+
+Actuator (normative): with the x-coil, y-coil and in-plane loop any torque ⟂ B is available,
+
+.. math:: \mathbf T_{act} = \mathrm{sat}_{c}\big((\mathbb 1 - \hat b\hat b^{\mathsf T})\mathbf T_{ref}\big),
+
+``saturation = "norm"`` (baseline): ``c = T_max`` (the coil capability at 30 µT);
+``"field_scaled"``: ``c = T_max |B| / B_ref``; ``"per_path"``: ``m = B × T_ref / |B|²``, each
+component clipped to its path's ``±m_max``, ``T = m × B``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal, Sequence
+
+import numpy as np
+
+from magsail_mj.control.reflector_steering import ReflectorOrbit, SteeringReference
+
+
+def cross3(a, b) -> np.ndarray:
+    """``a × b`` of two 3-vectors, written out (cheaper than ``np.cross`` per call)."""
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+__all__ = ["PitchCommand", "ReflectorPitchController", "pitch_gains", "project_and_saturate",
+           "error_quaternion", "quat_to_matrix"]
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix (3, 3) of a unit scalar-first quaternion (body → world)."""
+    w, x, y, z = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def error_quaternion(q_ref: np.ndarray, q_t: np.ndarray) -> np.ndarray:
+    """``q_e = q_ref* ⊗ q_t`` with a non-negative scalar part (current attitude relative to the reference)."""
+    w1, x1, y1, z1 = q_ref[0], -q_ref[1], -q_ref[2], -q_ref[3]
+    w2, x2, y2, z2 = q_t
+    qe = np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+                   w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                   w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+                   w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+    return -qe if qe[0] < 0 else qe
+
+
+def pitch_gains(inertia: Sequence[float], *, omega_n_rad_s: float, zeta: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(P_q, P_ω)`` per axis: ``2 I_jj ω_n²`` [N m] and ``2 ζ ω_n I_jj`` [N m s]."""
+    I = np.asarray(inertia, dtype=float)
+    if not (omega_n_rad_s > 0 and zeta > 0):
+        raise ValueError(f"omega_n_rad_s, zeta: must be > 0, got {omega_n_rad_s!r}, {zeta!r}")
+    return 2 * I * omega_n_rad_s ** 2, 2 * zeta * omega_n_rad_s * I
+
+
+def project_and_saturate(T_ref: np.ndarray, B: np.ndarray, *,
+                         saturation: Literal["norm", "field_scaled", "per_path"], cap_N_m: float,
+                         B_ref_T: float, m_max_A_m2: np.ndarray) -> tuple[np.ndarray, bool]:
+    """Achievable torque for the desired ``T_ref`` in field ``B`` (same axes) and whether it saturated."""
+    B2 = float(B @ B)
+    if not B2 > 0:
+        return np.zeros(3), bool(np.any(T_ref != 0))
+    if saturation == "per_path":
+        m = cross3(B, T_ref) / B2
+        mc = np.clip(m, -m_max_A_m2, m_max_A_m2)
+        return cross3(mc, B), bool(np.any(np.abs(m) > m_max_A_m2))
+    b = B / math.sqrt(B2)
+    T_perp = T_ref - b * float(b @ T_ref)
+    cap = cap_N_m if saturation == "norm" else cap_N_m * math.sqrt(B2) / B_ref_T
+    n = math.sqrt(float(T_perp @ T_perp))
+    if n > cap:
+        return T_perp * (cap / n), True
+    return T_perp, False
+
+
+@dataclass
+class PitchCommand:
+    """Held output of :class:`ReflectorPitchController` (body frame unless named).
+
+    ``torque_body`` T_act [N m]; ``T_ref_body`` [N m]; ``saturated``; ``q_e`` (4,); ``q_ref`` (4,);
+    ``psi_ref``, ``psi_dot_ref`` [rad, rad/s]; ``psi_ddot_ref`` [rad/s²]; ``B_world`` [T].
+    """
+
+    torque_body: np.ndarray
+    T_ref_body: np.ndarray
+    saturated: bool
+    q_e: np.ndarray
+    q_ref: np.ndarray
+    psi_ref: float
+    psi_dot_ref: float
+    psi_ddot_ref: float
+    B_world: np.ndarray
+
+
+class ReflectorPitchController:
+    """Pitch tracking of spec §6.5, run every integration step (zero-order hold).
+
+    Args:
+      orbit: the kinematic orbit (field, steering law).
+      inertia_kg_m2: principal moments (I₁, I₂, I₃) [kg m²] (gains, feed-forward).
+      omega_n_rad_s, zeta: closed-loop bandwidth and damping of the gain design.
+      rate_term: ``"absolute"`` (as printed) or ``"error"``.
+      feedforward: add ``𝓘 α_ref``.
+      saturation: ``"norm"``, ``"field_scaled"`` or ``"per_path"``.
+      cap_N_m: torque cap T_max [N m].
+      B_ref_T: reference field of the cap [T].
+      m_max_A_m2: (3,) per-path dipole limits (x-coil, y-coil, in-plane loop) [A m²].
+      body_id: the plate body (reads ``state.xquat``, ``state.omega`` (world)).
+      period_s: controller period [s].
+    """
+
+    def __init__(self, *, orbit: ReflectorOrbit, inertia_kg_m2: Sequence[float], omega_n_rad_s: float, zeta: float,
+                 rate_term: Literal["absolute", "error"], feedforward: bool,
+                 saturation: Literal["norm", "field_scaled", "per_path"], cap_N_m: float, B_ref_T: float,
+                 m_max_A_m2: Sequence[float], body_id: int, period_s: float) -> None:
+        if rate_term not in ("absolute", "error"):
+            raise ValueError(f"rate_term: must be 'absolute' or 'error', got {rate_term!r}")
+        if saturation not in ("norm", "field_scaled", "per_path"):
+            raise ValueError(f"saturation: must be 'norm', 'field_scaled' or 'per_path', got {saturation!r}")
+        if not (math.isfinite(cap_N_m) and cap_N_m > 0):
+            raise ValueError(f"cap_N_m: must be > 0, got {cap_N_m!r}")
+        self.orbit = orbit
+        self.steering = SteeringReference(orbit)
+        self.inertia = np.asarray(inertia_kg_m2, dtype=float)
+        self.Pq, self.Pw = pitch_gains(self.inertia, omega_n_rad_s=omega_n_rad_s, zeta=zeta)
+        self.rate_term = rate_term
+        self.feedforward = bool(feedforward)
+        self.saturation = saturation
+        self.cap = float(cap_N_m)
+        self.B_ref = float(B_ref_T)
+        self.m_max = np.asarray(m_max_A_m2, dtype=float)
+        self.body_id = int(body_id)
+        self.period_s = float(period_s)
+        self.last: PitchCommand | None = None
+
+    def reference_torque(self, q: np.ndarray, omega_body: np.ndarray, t: float):
+        """``(T_ref_b, q_e, steering state)`` at time ``t`` for attitude ``q`` and body rate ω_b."""
+        ref = self.steering.at(t)
+        q_e = error_quaternion(ref.q_ref, q)
+        w_err = omega_body
+        if self.rate_term == "error" or self.feedforward:
+            Re = quat_to_matrix(q_e)          # current body → reference body
+            yb = Re[1]                         # Reᵀ ŷ: the reference pitch axis in current body axes
+            if self.rate_term == "error":
+                w_err = omega_body - (-ref.psi_dot) * yb
+        T = -self.Pq * q_e[1:] - self.Pw * w_err
+        if self.feedforward:
+            T = T + self.inertia * ((-ref.psi_ddot) * yb)
+        return T, q_e, ref
+
+    def update(self, state) -> PitchCommand:
+        q = state.xquat[self.body_id]
+        R = quat_to_matrix(q)
+        w_b = R.T @ state.omega[self.body_id]
+        T_ref, q_e, ref = self.reference_torque(q, w_b, state.t)
+        B_w = self.orbit.field(state.t)
+        T_act, sat = project_and_saturate(T_ref, R.T @ B_w, saturation=self.saturation, cap_N_m=self.cap,
+                                          B_ref_T=self.B_ref, m_max_A_m2=self.m_max)
+        self.last = PitchCommand(torque_body=T_act, T_ref_body=T_ref, saturated=sat, q_e=q_e, q_ref=ref.q_ref,
+                                 psi_ref=ref.psi_c, psi_dot_ref=ref.psi_dot, psi_ddot_ref=ref.psi_ddot, B_world=B_w)
+        return self.last
