@@ -365,6 +365,17 @@ class RunScene:
             self.top_bodies = bodies
             self.top_geoms = m.body_geomadr[bodies].astype(np.int64)
 
+        # Static strut colours (e.g. current loops coloured by axis): manifest render.strut_colours
+        # = [{"struts": [...], "rgba": [r, g, b, a]}, ...], drawn 2.5× wider.
+        widen = np.zeros(m.ntendon, bool)
+        for entry in (run.manifest.get("render", {}) or {}).get("strut_colours", []) or []:
+            idx = np.asarray(entry.get("struts", []), dtype=np.int64)
+            if idx.size and (idx.min() < 0 or idx.max() >= m.ntendon):
+                raise ValueError(f"{run.run_dir / 'manifest.json'}: render.strut_colours: strut index "
+                                 f"out of range (model has {m.ntendon} tendons)")
+            m.tendon_rgba[idx] = np.asarray(entry["rgba"], dtype=float)
+            widen[idx] = True
+        m.tendon_width[widen] *= 2.5
         # Render-only size floors, based on the original sizes.
         self._tendon_rgba0 = m.tendon_rgba.copy()
         self._tendon_width0 = m.tendon_width.copy()

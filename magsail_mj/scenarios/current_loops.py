@@ -573,7 +573,7 @@ class LoopsScenario:
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
         from magsail_mj.scenarios.current_loops_plots import loops_plots
 
-        return loops_plots(self, run_dir, series, result.records.get("qpos"))
+        return loops_plots(self, run_dir, {**result.records, **series}, result.records.get("qpos"))
 
     def render_info(self) -> dict[str, Any]:
         r = self.cfg.render
@@ -581,16 +581,17 @@ class LoopsScenario:
         info = {
             "title": f"current loops {self.cfg.scenario}: {self.cfg.description}".strip(": "),
             "overlay": (["strain_energy_J", "rotation_angle_deg"] if self.cfg.scenario == "sweep"
-                        else ["error_angle_deg", "strain_energy_J"]),
+                        else ["error_angle_deg"] if self.rigid else ["error_angle_deg", "strain_energy_J"]),
             "camera": {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
                        "distance_m": r.distance_factor * self.cfg.lattice.side_m},
             "exaggeration": r.exaggeration, "fps": r.fps, "max_frames": r.max_frames,
         }
         if not self.rigid:
             info["top_nodes"] = lat.top_nodes.tolist()
-            info["loops"] = [{"name": c.name, "axis": int(c.axis),
-                              "struts": [int(s) for s in np.unique(c.strut_index(lat))]}
-                             for c in self.lm.circuits]
+            rgba = {0: [0.85, 0.15, 0.1, 1.0], 1: [0.1, 0.7, 0.2, 1.0], 2: [0.15, 0.35, 0.95, 1.0]}
+            info["strut_colours"] = [{"name": c.name, "axis": int(c.axis), "rgba": rgba[int(c.axis)],
+                                      "struts": [int(s) for s in np.unique(c.strut_index(lat))]}
+                                     for c in self.lm.circuits]
         return info
 
     def manifest_extra(self) -> dict[str, Any]:
