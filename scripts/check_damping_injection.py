@@ -271,8 +271,8 @@ def cost_table(args) -> list[dict]:
                "mj_step_passive_f32_ms": t_pass, "xfrc_step_ms": t_mj + t32,
                "f32_force_rel_err": err32}
         rows.append(row)
-        print("  cost " + json.dumps({k_: (round(v, 4) if isinstance(v, float) else v) for k_, v in row.items()}),
-              flush=True)
+        print("  cost " + json.dumps({k_: (float(f"{v:.4g}") if isinstance(v, float) else v)
+                                     for k_, v in row.items()}), flush=True)
     return rows
 
 
