@@ -12,6 +12,8 @@ its axis limited to ``m_max = T_max / B_ref`` (§3.6; ``T_max`` from
 * ``"pitch"`` — Scenario B (§6): polar dawn–dusk orbit, dipole field Eq. 11, steering law
   (:mod:`magsail_mj.control.reflector_steering`), quaternion feedback with projection ⟂ B and
   saturation (:mod:`magsail_mj.control.reflector_pitch`); optional gravity-gradient torque (B5).
+* ``"pitch_caps"`` — case B3: the whole cap sweep with bisection in one run
+  (:mod:`magsail_mj.scenarios.reflector_caps`).
 
 Configs live at ``models/reflector/<id>.toml`` (``detumble``, ``tracking_100g``, ``tracking_10g``
 and the §8.1 variants under ``detumble/`` and ``pitch/``). Torques enter through
@@ -184,7 +186,7 @@ class ReflectorConfig(StrictModel):
 
     concept: Literal["reflector"]
     scenario: str = Field(pattern=r"^[a-z0-9_]+(/[a-z0-9_]+)*$")
-    kind: Literal["detumble", "pitch"]
+    kind: Literal["detumble", "pitch", "pitch_caps"]
     description: str = ""
     variant: str = "baseline"
     sim: SimConfig
@@ -361,6 +363,13 @@ class ReflectorScenario:
     def simulation(self) -> Simulation:
         from magsail_mj.loads.body_torque import HeldBodyTorqueLoad, OrbitGravityGradientLoad
 
+        if self.cfg.kind == "pitch_caps":
+            from magsail_mj.scenarios.reflector_caps import CapSweepRunner
+
+            if self.cfg.gravity.gg_torque:
+                raise ValueError("gravity.gg_torque: the B3 cap sweep runs without the gravity gradient")
+            self.runner = CapSweepRunner(self)
+            return self.runner
         self.controller = ctl = self.make_controller()
         b = self.idx.plate
         loads: list[Any] = [HeldBodyTorqueLoad(b)]
@@ -397,14 +406,18 @@ class ReflectorScenario:
 
     # -------------------------------------------------------------- outputs
     def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        from magsail_mj.scenarios.reflector_caps import caps_outputs
         from magsail_mj.scenarios.reflector_metrics import detumble_outputs, pitch_outputs
 
-        return (detumble_outputs if self.cfg.kind == "detumble" else pitch_outputs)(self, result)
+        fn = {"detumble": detumble_outputs, "pitch": pitch_outputs, "pitch_caps": caps_outputs}[self.cfg.kind]
+        return fn(self, result)
 
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
+        from magsail_mj.scenarios.reflector_caps import caps_plots
         from magsail_mj.scenarios.reflector_plots import detumble_plots, pitch_plots
 
-        return (detumble_plots if self.cfg.kind == "detumble" else pitch_plots)(self, run_dir, series)
+        fn = {"detumble": detumble_plots, "pitch": pitch_plots, "pitch_caps": caps_plots}[self.cfg.kind]
+        return fn(self, run_dir, series)
 
     def render_info(self) -> dict[str, Any]:
         r, cfg = self.cfg.render, self.cfg

@@ -208,8 +208,9 @@ def pitch_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str,
     beta_act = pitch_angle_from_quaternion(q)
     psi_act = 0.5 * np.pi - beta_act
     psi_ref = rec["psi_ref_rad"]
-    # same branch as the reference (both start from the principal value; keep them within π)
-    psi_act = psi_act + 2 * np.pi * np.round((psi_ref - psi_act) / (2 * np.pi))
+    # same branch as the reference at the first record (both start from the principal value), then
+    # each is unwrapped on its own, so a lost track shows as a growing difference of whole turns
+    psi_act = psi_act + 2 * np.pi * np.round((psi_ref[0] - psi_act[0]) / (2 * np.pi))
     dpsi = np.angle(np.exp(1j * (psi_act - psi_ref)))
     T_ref = rec["T_ref_body_N_m"]
     T_act = rec["torque_body_N_m"]
