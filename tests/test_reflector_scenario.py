@@ -203,3 +203,24 @@ def test_gravity_gradient_load_matches_body_axes_formula():
         n2 = 3.986004418e14 / np.linalg.norm(r) ** 3
         T_b = 3 * n2 * np.cross(rb, sc.inertia * rb)
         assert np.allclose(R.T @ load.torque_world(st), T_b, rtol=1e-9, atol=1e-12)
+
+
+def test_b3_cap_sweep_runs_the_grid_and_reports_the_minimum_caps(tmp_path):
+    cfg = load_config(REPO / "models" / "reflector" / "pitch" / "b3_caps_sigma10.toml",
+                      ["sim.duration_s=40", "sim.progress=false"])
+    out = run_scenario(cfg, tmp_path / "run")
+    s = json.loads((out.run_dir / "summary.json").read_text())
+    assert s["runs"] == 17                                    # 0.25·2^(k/2), k = 0…16; the smallest passes
+    assert s["cap_min_err_below_5deg_N_m"] == pytest.approx(0.25)
+    assert s["cap_min_err_below_1deg_N_m"] == pytest.approx(0.25)
+    assert (out.run_dir / "caps.png").is_file()
+
+
+def test_cap_sweep_watchdog_stops_a_failing_run():
+    from magsail_mj.scenarios.reflector_caps import CapSweepRunner, cap_grid
+
+    assert cap_grid()[[0, -1]].tolist() == [0.25, 64.0]
+    cfg = load_config(TRACK100, ["sim.duration_s=600", "sim.progress=false"])
+    runner = CapSweepRunner(build_scenario(cfg))
+    r = runner._one(1.125, 0.01)                              # 0.01° cannot be held: stopped early
+    assert not r.passed and r.t_stop_s < 600 and r.err_max_rad > 0.01 * math.pi / 180
