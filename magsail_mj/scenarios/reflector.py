@@ -423,7 +423,7 @@ class ReflectorScenario:
         r, cfg = self.cfg.render, self.cfg
         frames = int(min(r.max_frames, max(2, round(cfg.sim.duration_s / cfg.sim.timestep_s / cfg.sim.record_every))))
         cam: dict[str, float] = {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
-                                 "distance_m": r.distance_m or 2.4 * cfg.plate.side_m}
+                                 "distance_m": r.distance_m or (3.0 if cfg.kind == "detumble" else 2.4) * cfg.plate.side_m}
         if cfg.kind == "detumble":
             title = f"reflector {cfg.scenario}: B-dot ({cfg.control.law}, ω_k = {cfg.control.omega_k_rad_s:g} rad/s)"
             overlay = ["time_h", "omega_norm_rad_s", "torque_norm_Nm", "currents_A"]
