@@ -276,8 +276,8 @@ def pitch_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str,
         "torque_ff_peak_N_m": float(ref["torque_ff"].max()),
         "torque_ff_peak_sigma100_N_m": float(ref["torque_ff_sigma100"].max()),
         "torque_ff_peak_sigma10_N_m": float(ref["torque_ff_sigma10"].max()),
-        "passes_ff_over_cap": int(sum(1 for p in passes if p[
-            "minutes_above_cap_sigma100" if sc.cfg.plate.areal_density_kg_m2 >= 0.1 - 1e-12 else "minutes_above_cap_sigma10"] > 0)),
+        "passes_ff_over_cap": int(sum(1 for _, _, a, b in pass_windows(sc, float(ref["t"][-1]))
+                                      if np.any((ref["torque_ff"] > cap) & (ref["t"] >= a) & (ref["t"] <= b)))),
         "psi_dot_peak_rad_s": float(np.max(np.abs(ref["psi_dot"]))),
         "psi_ddot_peak_rad_s2": float(np.max(np.abs(ref["psi_ddot"]))),
         "tracking_lost_first_s": first_time(t, np.abs(dpsi) > 5 * DEG),
