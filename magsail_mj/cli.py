@@ -175,7 +175,8 @@ def _parser() -> argparse.ArgumentParser:
     sw.add_argument("sweep", help="sweep TOML ([[run]] tables with id and config)")
     sw.add_argument("--out", help="sweep folder (default: runs/<sweep name>)")
     sw.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
-    sw.add_argument("--only", help="run only the ids containing this text")
+    sw.add_argument("--only", action="append", metavar="TEXT",
+                    help="run only the ids containing this text (repeatable: any of them)")
     sw.add_argument("--video", action="store_true", help="render video.mp4 in every run folder")
     sw.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="override a key in every run, e.g. --set sim.duration_s=60")

@@ -43,7 +43,7 @@ from typing import Any, Callable
 from magsail_mj.config import ConfigError, load_config
 from magsail_mj.io import atomic_path, package_versions, to_jsonable, write_json
 
-__all__ = ["SweepRun", "Sweep", "load_sweep", "run_sweep"]
+__all__ = ["SweepRun", "Sweep", "is_sweep_file", "load_sweep", "run_sweep"]
 
 
 @dataclass(frozen=True)
@@ -66,19 +66,26 @@ class Sweep:
     overrides: tuple[str, ...] = field(default_factory=tuple)
 
 
+def is_sweep_file(path: str | Path) -> bool:
+    """True for a sweep file (``[[run]]`` tables and no ``concept``), which lists configs."""
+    tree = tomllib.loads(Path(path).read_text())
+    return "run" in tree and "concept" not in tree
+
+
 def _str_list(value: Any, where: str) -> tuple[str, ...]:
     if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
         raise ConfigError([f"{where}: must be a list of 'key.path=value' strings, got {value!r}"])
     return tuple(value)
 
 
-def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (), only: str | None = None) -> Sweep:
+def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (),
+               only: str | list[str] | tuple[str, ...] | None = None) -> Sweep:
     """Parse and validate a sweep file; every listed config is loaded and validated.
 
     Args:
       path: the sweep TOML.
       extra_overrides: ``key=value`` overrides applied to every run after the file's own.
-      only: keep the runs whose id contains this substring.
+      only: keep the runs whose id contains this substring (or any of these substrings).
     Raises:
       ConfigError: naming the sweep key or the run id with the config's problems.
     """
@@ -95,6 +102,7 @@ def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (), only:
     if not isinstance(entries, list) or not entries:
         raise ConfigError([f"run: must be a non-empty array of [[run]] tables, got {entries!r}"], source=str(path))
     common = _str_list(tree.get("set", []), "set") + tuple(extra_overrides)
+    wanted = None if only is None else ((only,) if isinstance(only, str) else tuple(only))
     runs, problems, seen = [], [], set()
     for n, entry in enumerate(entries):
         where = f"run[{n}]"
@@ -107,7 +115,7 @@ def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (), only:
             problems.append(f"{where}.id: must be a unique relative folder name, got {rid!r}")
             continue
         seen.add(rid)
-        if only is not None and only not in rid:
+        if wanted and not any(w in rid for w in wanted):
             continue
         runs.append(SweepRun(id=rid, config=(path.parent / entry["config"]).resolve(),
                              overrides=common + _str_list(entry.get("set", []), f"{where}.set")))
@@ -121,7 +129,7 @@ def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (), only:
     if problems:
         raise ConfigError(problems, source=str(path))
     if not runs:
-        raise ConfigError([f"only: no run id contains {only!r}"], source=str(path))
+        raise ConfigError([f"only: no run id contains any of {list(wanted or [])!r}"], source=str(path))
     return Sweep(name=str(tree.get("name", path.stem)), path=path, runs=tuple(runs),
                  description=str(tree.get("description", "")), overrides=common)
 

@@ -13,6 +13,7 @@ from pathlib import Path
 from magsail_mj.config import load_config
 from magsail_mj.io import atomic_path
 from magsail_mj.scenarios import build_scenario
+from magsail_mj.sweep import is_sweep_file
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 
@@ -20,14 +21,6 @@ MODELS = Path(__file__).resolve().parents[1] / "models"
 def generated_xml(config: Path) -> str:
     """The MJCF text that `magsail build` writes for ``config``."""
     return build_scenario(load_config(config)).spec.to_xml()
-
-
-def is_sweep_file(path: Path) -> bool:
-    """A sweep file (``[[run]]`` tables, no ``concept``) lists configs; it has no MJCF of its own."""
-    import tomllib
-
-    tree = tomllib.loads(path.read_text())
-    return "run" in tree and "concept" not in tree
 
 
 def main(argv: list[str] | None = None) -> int:

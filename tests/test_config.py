@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from magsail_mj.config import ConfigError, apply_overrides, config_hash, load_config, parse_config
+from magsail_mj.sweep import is_sweep_file, load_sweep
 from tests.conftest import REPO
 
 
@@ -12,7 +13,10 @@ def test_shipped_configs_validate():
     configs = sorted((REPO / "models").rglob("*.toml"))
     assert configs, "no configs shipped in models/"
     for path in configs:
-        load_config(path)
+        if is_sweep_file(path):
+            assert load_sweep(path).runs, path  # validates every config it lists
+        else:
+            load_config(path)
 
 
 def test_bad_value_names_key_value_and_rule(small_truss_tree):

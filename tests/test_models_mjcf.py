@@ -9,7 +9,9 @@ import pytest
 from tests.conftest import REPO
 
 sys.path.insert(0, str(REPO / "scripts"))
-from build_models import generated_xml, is_sweep_file  # noqa: E402
+from build_models import generated_xml  # noqa: E402
+
+from magsail_mj.sweep import is_sweep_file  # noqa: E402
 
 CONFIGS = sorted(p for p in (REPO / "models").rglob("*.toml") if not is_sweep_file(p))
 
