@@ -39,7 +39,7 @@ __all__ = [
     "config_hash",
 ]
 
-Integrator = Literal["RK4", "Euler", "implicitfast", "implicit"]
+Integrator = Literal["RK4", "Euler", "implicitfast", "implicit", "discrete"]
 
 
 class ConfigError(ValueError):
@@ -63,11 +63,16 @@ class SimConfig(StrictModel):
     ``timestep_s`` is MuJoCo's ``opt.timestep``; ``record_every`` keeps every k-th step;
     ``checkpoint_every_s`` writes a resumable checkpoint each so many simulated seconds
     (0 = never); ``max_strain`` is the divergence bound on any strut's |Δl|/l0.
+    ``integrator = "discrete"`` is MuJoCo's position-implicit step (strut springs and dashpots
+    in the metric M + hD + h²K, stable beyond 2/ω_max but with backward-Euler damping of the
+    structural modes); ``solver_tolerance`` is MuJoCo's ``opt.tolerance`` (unset: MuJoCo's
+    1e-8), which also ends that integrator's iterative effective-metric solve.
     """
 
     duration_s: float = Field(gt=0)
     timestep_s: float = Field(gt=0, le=10.0)
     integrator: Integrator = "RK4"
+    solver_tolerance: float | None = Field(default=None, gt=0, lt=1)
     record_every: int = Field(default=10, ge=1)
     seed: int = Field(default=0, ge=0)
     checkpoint_every_s: float = Field(default=0.0, ge=0)

@@ -11,7 +11,9 @@ bang-bang-off torque (τ_max = 0.1 N m about x1 over all top-layer y1-struts, sp
     recorder active, recording every 3 s), for RK4, Euler and implicitfast at 0.1 s, and Euler
     and implicitfast at 0.12, 0.15, 0.2, 0.25 and 0.3 s (the larger steps tried; the explicit strut
     springs bound the stable step by ~2/ω_max, and ω_max, printed below the table, grows with
-    the number of units at fixed d).
+    the number of units at fixed d), and MuJoCo's position-implicit ``discrete`` integrator at
+    0.25, 0.5 and 1 s (stable beyond that bound; its backward-Euler step damps the structural
+    modes, which shows in the SD column).
 
 All in the same process, one after the other. Cost is CPU time of this process per simulated
 second (``time.process_time``; both codes are single-threaded here, and CPU time is far less
@@ -25,7 +27,9 @@ largest node distance at the end of the run (default 300 s), and over the run (b
 every 3 s, a common multiple of the steps) the largest angle of the relative best-fit rotation
 R_a(t)^T R_b(t) (spec §4.1) and the largest top-surface SD difference |SD_b − SD_a| divided by
 the peak SD of (a) (spec §5.1). A row "agrees" when that angle is within 1e-3 rad and the SD
-within 2 % (the tolerances of spec §3.4). The SD is compared relative to its peak, not at each
+within 2 % (the tolerances of spec §3.4); "attitude only" marks a row within the attitude
+tolerance, which is issue 2's criterion for the ≥ 3× target, but not the SD one. Both verdicts
+are printed. The SD is compared relative to its peak, not at each
 instant, because at instants where the SD passes near zero any phase error makes the pointwise
 relative difference meaningless.
 
@@ -59,7 +63,12 @@ CASE_A = Path(__file__).resolve().parents[1] / "models/truss_magnetorquer/dist_v
 """The benchmark model: Case A (EI 1e3, 100 m, 100 kg, calibrated, ζ 0.1), distributed bang-bang torque."""
 
 RUNNER_CASES = [("RK4", 0.1), ("Euler", 0.1), ("implicitfast", 0.1)] + [
-    (integrator, dt) for dt in (0.12, 0.15, 0.2, 0.25, 0.3) for integrator in ("Euler", "implicitfast")]
+    (integrator, dt) for dt in (0.12, 0.15, 0.2, 0.25, 0.3) for integrator in ("Euler", "implicitfast")] + [
+    ("discrete", dt) for dt in (0.25, 0.5, 1.0)]
+DISCRETE_TOLERANCE = 1e-5
+"""``sim.solver_tolerance`` of the ``discrete`` rows: ends MuJoCo's iterative M + hD + h²K solve.
+At 1e-5 the node positions equal those at MuJoCo's default 1e-8 to 3 digits (1 568 nodes,
+60 s) for 70 % of the cost; steps above 1 s trip MuJoCo's ill-conditioning warning."""
 REF_CHUNK_S = 30.0     # reference re-timed over this many simulated seconds before every runner row
 
 
@@ -78,15 +87,22 @@ class Row:
     status: str = "completed"
 
     @property
+    def agrees_attitude(self) -> bool:
+        """Issue 2's criterion: best-fit attitude within 1e-3 rad of the reference."""
+        return self.status == "completed" and self.angle_rad <= ANGLE_TOL_RAD
+
+    @property
     def agrees(self) -> bool:
-        return (self.status == "completed" and self.angle_rad <= ANGLE_TOL_RAD
-                and self.sd_rel <= SD_TOL_REL)
+        """Attitude and surface shape: also the SD within 2 % of its peak (spec §3.4)."""
+        return self.agrees_attitude and self.sd_rel <= SD_TOL_REL
 
 
 def config(units: int, duration: float, integrator: str = "RK4", dt: float = 0.1):
+    extra = [f"sim.solver_tolerance={DISCRETE_TOLERANCE}"] if integrator == "discrete" else []
     return load_config(CASE_A, [f"lattice.units={units}", f"sim.duration_s={duration}",
                                 f"sim.integrator='{integrator}'", f"sim.timestep_s={dt}",
-                                f"sim.record_every={max(1, int(round(SAMPLE_S / dt)))}", "sim.progress=false"])
+                                f"sim.record_every={max(1, int(round(SAMPLE_S / dt)))}", "sim.progress=false",
+                                *extra])
 
 
 def compare(lattice, t_ref: np.ndarray, x_ref: np.ndarray, t: np.ndarray, x: np.ndarray
@@ -182,7 +198,8 @@ def table(rows: list[Row], duration: float) -> str:
     lines = [head, "|" + "---|" * 10]
     for r in rows:
         ref = r.method.startswith("NumPy")
-        agree = "—" if ref else ("yes" if r.agrees else ("no" if r.status == "completed" else r.status))
+        agree = "—" if ref else ("yes" if r.agrees else ("attitude only" if r.agrees_attitude else (
+            "no" if r.status == "completed" else r.status)))
         fmt = (lambda v: "—") if ref or r.status != "completed" else (lambda v: f"{v:.1e}")
         lines.append(f"| {r.nodes} | {r.method} | {r.dt:g} | {r.cpu_per_sim_s * 1e3:.2f} | {r.ratio:.2f} | "
                      f"{r.wall_per_sim_s * 1e3:.2f} | {fmt(r.max_dist_m)} | {fmt(r.angle_rad)} | "
@@ -208,7 +225,6 @@ def main(argv: list[str] | None = None) -> int:
     lines = [table(rows, duration), ""]
     for units in args.units:
         sub = [r for r in rows if r.units == units and not r.method.startswith("NumPy")]
-        ok = [r for r in sub if r.agrees]
         n = sub[0].nodes
         inf = infos[units]
         lines.append(f"- {n} nodes: ω_max = {inf['omega_max_rad_s']:.2f} rad/s (stable explicit step "
@@ -216,15 +232,18 @@ def main(argv: list[str] | None = None) -> int:
                      f"{inf['phi_ref_rad']:.3e} rad at {duration:g} s, peak SD {inf['sd_ref_max_m']:.3e} m; "
                      "reference CPU timings min/median/max "
                      + "/".join(f"{v * 1e3:.1f}" for v in inf["ref_cpu_spread"]) + " ms per simulated s.")
-        if ok:
-            f = min(ok, key=lambda r: r.ratio)
-            verdict = "meets" if 1.0 / f.ratio >= 3.0 else "misses"
-            lines.append(f"- {n} nodes: fastest runner setting that agrees with the NumPy RK4 "
-                         f"(attitude ≤ {ANGLE_TOL_RAD:g} rad, SD ≤ {SD_TOL_REL:.0%}): {f.method} at "
-                         f"{f.dt:g} s, cost {f.ratio:.2f} of the reference per simulated second (CPU time), "
-                         f"i.e. {1.0 / f.ratio:.2f}× cheaper ({verdict} the ≥ 3× target).")
-        else:
-            lines.append(f"- {n} nodes: no runner setting agrees with the NumPy RK4.")
+        for label, ok in ((f"attitude ≤ {ANGLE_TOL_RAD:g} rad (the issue's target)",
+                           [r for r in sub if r.agrees_attitude]),
+                          (f"attitude ≤ {ANGLE_TOL_RAD:g} rad and SD ≤ {SD_TOL_REL:.0%}",
+                           [r for r in sub if r.agrees])):
+            if ok:
+                f = min(ok, key=lambda r: r.ratio)
+                verdict = "meets" if 1.0 / f.ratio >= 3.0 else "misses"
+                lines.append(f"- {n} nodes, {label}: fastest agreeing runner setting {f.method} at "
+                             f"{f.dt:g} s, cost {f.ratio:.2f} of the reference per simulated second "
+                             f"(CPU time), i.e. {1.0 / f.ratio:.2f}× cheaper ({verdict} the ≥ 3× target).")
+            else:
+                lines.append(f"- {n} nodes, {label}: no runner setting agrees with the NumPy RK4.")
     lines.append(f"\n{duration:g} s simulated per row; Python {platform.python_version()}, "
                  f"NumPy {np.__version__}, MuJoCo {__import__('mujoco').__version__}, "
                  f"{platform.processor() or platform.machine()}; best of {max(1, args.repeats)}.")

@@ -11,6 +11,7 @@ INTEGRATORS = {
     "Euler": mujoco.mjtIntegrator.mjINT_EULER,
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
     "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+    "discrete": mujoco.mjtIntegrator.mjINT_DISCRETE,
 }
 
 # No contacts, limits, equalities or friction loss exist in free space: switching their pipeline
@@ -19,7 +20,8 @@ _FREE_SPACE_OFF = ("CONTACT", "CONSTRAINT", "EQUALITY", "FRICTIONLOSS", "LIMIT",
                    "MIDPHASE", "WARMSTART", "ISLAND")
 
 
-def free_space_spec(*, name: str, timestep_s: float, integrator: str) -> mujoco.MjSpec:
+def free_space_spec(*, name: str, timestep_s: float, integrator: str,
+                    solver_tolerance: float | None = None) -> mujoco.MjSpec:
     """An empty MjSpec for a body in free space: no gravity, the constraint pipeline off,
     numbers saved exactly in its XML (``savecompiled = False``)."""
     if integrator not in INTEGRATORS:
@@ -30,6 +32,8 @@ def free_space_spec(*, name: str, timestep_s: float, integrator: str) -> mujoco.
     spec.compiler.savecompiled = False
     spec.option.timestep = timestep_s
     spec.option.integrator = INTEGRATORS[integrator]
+    if solver_tolerance is not None:
+        spec.option.tolerance = solver_tolerance
     spec.option.gravity = [0.0, 0.0, 0.0]
     for flag in _FREE_SPACE_OFF:
         spec.option.disableflags |= int(getattr(mujoco.mjtDisableBit, f"mjDSBL_{flag}"))

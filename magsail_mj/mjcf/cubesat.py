@@ -113,6 +113,7 @@ class CubesatModelParams:
     motor_force_limit_N_m: float = 1.96e-3
     timestep_s: float = 0.1
     integrator: str = "RK4"
+    solver_tolerance: float | None = None
     markers: bool = True
     name: str = "cnusail"
 
@@ -172,7 +173,8 @@ def _quat_z_to(v: np.ndarray) -> list[float]:
 def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpec:
     """Return the ``MjSpec`` of the CNUSAIL-1 cubesat (see the module docstring)."""
     p = params or CubesatModelParams()
-    spec = free_space_spec(name=p.name, timestep_s=p.timestep_s, integrator=p.integrator)
+    spec = free_space_spec(name=p.name, timestep_s=p.timestep_s, integrator=p.integrator,
+                           solver_tolerance=p.solver_tolerance)
     deployed = p.configuration == "deployed"
     reach = (p.sail_side_m / math.sqrt(2.0) + 0.1) if deployed else 0.3
     spec.visual.global_.offwidth = 1920

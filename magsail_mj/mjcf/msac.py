@@ -129,6 +129,7 @@ class MsacModelParams:
     slide_damping_N_s_m: float = 0.0
     timestep_s: float = 5e-6
     integrator: str = "RK4"
+    solver_tolerance: float | None = None
     servo_omega_dt: float = 0.05
     ff_gear: float = 1e6
     name: str = "msac"
@@ -185,7 +186,8 @@ class MsacModelParams:
 def build_msac_spec(params: MsacModelParams) -> mujoco.MjSpec:
     """Return the ``MjSpec`` of the MSAC spacecraft (see module docs)."""
     p = params
-    spec = free_space_spec(name=p.name, timestep_s=p.timestep_s, integrator=p.integrator)
+    spec = free_space_spec(name=p.name, timestep_s=p.timestep_s, integrator=p.integrator,
+                           solver_tolerance=p.solver_tolerance)
     reach = p.hinge_offset_m + 1.05 * p.wing_length_m
     spec.visual.global_.offwidth = 1920
     spec.visual.global_.offheight = 1080

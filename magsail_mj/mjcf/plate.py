@@ -98,6 +98,7 @@ class PlateModelParams:
     coil_columns_drawn: int = 10
     timestep_s: float = 0.1
     integrator: str = "RK4"
+    solver_tolerance: float | None = None
     markers: tuple[MarkerSpec, ...] = field(default_factory=tuple)
     name: str = "reflector_plate"
 
@@ -124,7 +125,8 @@ class PlateModelParams:
 def build_plate_spec(params: PlateModelParams | None = None) -> mujoco.MjSpec:
     """Return the ``MjSpec`` of the reflector plate (see the module docstring)."""
     p = params or PlateModelParams()
-    spec = free_space_spec(name=p.name, timestep_s=p.timestep_s, integrator=p.integrator)
+    spec = free_space_spec(name=p.name, timestep_s=p.timestep_s, integrator=p.integrator,
+                           solver_tolerance=p.solver_tolerance)
     d = p.side_m
     spec.visual.global_.offwidth = 1920
     spec.visual.global_.offheight = 1080

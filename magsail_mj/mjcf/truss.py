@@ -37,6 +37,7 @@ class TrussModelOptions:
     Attributes:
       timestep_s: MuJoCo ``opt.timestep``.
       integrator: one of :data:`INTEGRATORS`.
+      solver_tolerance: MuJoCo ``opt.tolerance`` (``None``: MuJoCo's default).
       fixed_nodes: node indices welded to the world (no joints), e.g. a clamped edge.
       node_damping_1_s: extra viscous damping per node, ``a = −c v`` (joint damping ``c m``).
       node_radius_m: radius of the visual node spheres (default: 4 % of the cube edge).
@@ -46,6 +47,7 @@ class TrussModelOptions:
 
     timestep_s: float = 0.1
     integrator: str = "RK4"
+    solver_tolerance: float | None = None
     fixed_nodes: tuple[int, ...] = ()
     node_damping_1_s: float = 0.0
     node_radius_m: float | None = None
@@ -94,6 +96,8 @@ def build_truss_spec(
     spec.compiler.savecompiled = False  # numbers saved exactly, explicit inertials kept
     spec.option.timestep = options.timestep_s
     spec.option.integrator = INTEGRATORS[options.integrator]
+    if options.solver_tolerance is not None:
+        spec.option.tolerance = options.solver_tolerance
     spec.option.gravity = [0.0, 0.0, 0.0]
     spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
     spec.visual.global_.offwidth = 1920

@@ -347,7 +347,7 @@ def _model_params(cfg: CnusailConfig):
         sail_centre_m=tuple(sc.r_cp_m), rotor_mass_kg=w.rotor_mass_kg, rotor_spin_inertia_kg_m2=w.rotor_inertia_kg_m2,
         rotor_transverse_inertia_kg_m2=w.rotor_transverse_inertia_kg_m2, wheel_damping_N_m_s=w.K_B_N_m_s,
         motor_force_limit_N_m=10.0 * w.torque_max_N_m, timestep_s=cfg.sim.timestep_s,
-        integrator=cfg.sim.integrator, markers=cfg.render.markers, name=f"cnusail_{cfg.scenario}")
+        integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance, markers=cfg.render.markers, name=f"cnusail_{cfg.scenario}")
 
 
 @dataclass

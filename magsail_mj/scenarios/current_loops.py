@@ -298,6 +298,7 @@ def make_loops_model(cfg: CurrentLoopsConfig) -> LoopsModel:
     circuits = make_circuits(lat, cfg.loops.expanded())
     currents, sizing = loop_currents(cfg)
     opts = TrussModelOptions(timestep_s=cfg.sim.timestep_s, integrator=cfg.sim.integrator,
+                             solver_tolerance=cfg.sim.solver_tolerance,
                              name=f"current_loops_{cfg.scenario}")
     spec = build_truss_spec(lat, masses=masses, stiffness=k, damping=0.0, options=opts)
     for flag in ("CONSTRAINT", "EQUALITY", "FRICTIONLOSS", "LIMIT"):
@@ -311,7 +312,7 @@ def rigid_plate_spec(cfg: CurrentLoopsConfig, inertia: np.ndarray, mass: float) 
     from magsail_mj.mjcf.common import free_space_spec
 
     spec = free_space_spec(name="current_loops_slew_rigid", timestep_s=cfg.sim.timestep_s,
-                           integrator=cfg.sim.integrator)
+                           integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance)
     D = cfg.lattice.side_m
     w = D / cfg.lattice.units
     spec.stat.extent = float(D)

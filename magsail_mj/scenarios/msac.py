@@ -236,7 +236,7 @@ def make_params(cfg: MsacConfig) -> MsacModelParams:
         wing_mass_kg=w.areal_density_kg_m2 * w.length_m * w.width_m, hinge_offset_m=w.hinge_offset_m,
         layout=w.layout, root_mass_kg=w.root_mass_kg, root_inertia_kg_m2=w.root_inertia_kg_m2,
         slide_stiffness_N_m=w.slide_stiffness_N_m, timestep_s=cfg.sim.timestep_s,
-        integrator=cfg.sim.integrator, servo_omega_dt=cfg.drive.servo_omega_dt,
+        integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance, servo_omega_dt=cfg.drive.servo_omega_dt,
         name=f"msac_{cfg.scenario}")
 
 

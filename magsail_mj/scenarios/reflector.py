@@ -290,7 +290,7 @@ class ReflectorScenario:
             side_m=cfg.plate.side_m, cell_m=cfg.plate.cell_m, depth_m=cfg.plate.depth_m,
             areal_density_kg_m2=cfg.plate.areal_density_kg_m2, inertia_thickness_m=cfg.plate.inertia_thickness_m,
             coil_pitch_cells=cfg.coil.pitch_cells, zloop_side_m=self.cap.zloop_side_m, timestep_s=cfg.sim.timestep_s,
-            integrator=cfg.sim.integrator, markers=_markers(cfg.kind),
+            integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance, markers=_markers(cfg.kind),
             name=f"reflector_{cfg.scenario.replace('/', '_')}")
         self.spec = build_plate_spec(self.params)
         self.model = self.spec.compile()

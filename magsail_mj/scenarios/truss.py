@@ -353,6 +353,7 @@ def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: floa
     m_p = total / lat.n_nodes
     gamma = strut_damping(lat, k, zeta=cfg.damping.zeta_strut, particle_mass_kg=m_p)
     opts = TrussModelOptions(timestep_s=cfg.sim.timestep_s, integrator=cfg.sim.integrator,
+                             solver_tolerance=cfg.sim.solver_tolerance,
                              fixed_nodes=tuple(int(i) for i in fixed_nodes),
                              node_damping_1_s=node_damping_1_s, name=f"truss_{cfg.scenario}")
     spec = build_truss_spec(lat, masses=masses, stiffness=k, damping=gamma, options=opts)
