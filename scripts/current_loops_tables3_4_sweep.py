@@ -11,8 +11,8 @@ such) and writes into the sweep folder:
 * ``ratios_s4.md``: max U_B / max U_A and max U_D / max U_C for each N and EI;
 * ``fig_strain_energy_A.png`` (geometry A, all nine runs) and ``fig_strain_energy_BCD.png``
   (B, C_y, D_y at EI = 1e4);
-* with ``--videos``: side-by-side MP4s A vs B and C_y vs D_y at EI = 1e4, N = 19, and geometry
-  A at EI = 1e3 vs 1e5 (N = 19).
+* with ``--videos``: side-by-side MP4s A vs B and C_y vs D_y at EI = 1e4, and geometry A at
+  EI = 1e3 vs 1e5, all at N = ``--video-units`` (default 19; 12 when only the N = 12 runs exist).
 """
 
 from __future__ import annotations
@@ -48,6 +48,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sweep", default="runs/current_loops/sweep36", help="sweep output folder")
     ap.add_argument("--videos", action="store_true", help="also render the side-by-side MP4s")
+    ap.add_argument("--video-units", type=int, default=19, choices=UNITS, help="N of the video runs (default 19)")
     args = ap.parse_args(argv)
     sweep = Path(args.sweep)
     runs = {(g, N, E): _load(sweep, g, N, E) for g in GEOMS for N in UNITS for E in EIS}
@@ -121,9 +122,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.videos:
         from magsail_mj.render import render_run
 
-        pairs = [(("a", 19, "1e4"), ("b", 19, "1e4"), "video_A_vs_B_n19_ei1e4.mp4"),
-                 (("cy", 19, "1e4"), ("dy", 19, "1e4"), "video_Cy_vs_Dy_n19_ei1e4.mp4"),
-                 (("a", 19, "1e3"), ("a", 19, "1e5"), "video_A_ei1e3_vs_ei1e5_n19.mp4")]
+        n = args.video_units
+        pairs = [(("a", n, "1e4"), ("b", n, "1e4"), f"video_A_vs_B_n{n}_ei1e4.mp4"),
+                 (("cy", n, "1e4"), ("dy", n, "1e4"), f"video_Cy_vs_Dy_n{n}_ei1e4.mp4"),
+                 (("a", n, "1e3"), ("a", n, "1e5"), f"video_A_ei1e3_vs_ei1e5_n{n}.mp4")]
         for left, right, name in pairs:
             if runs[left] is None or runs[right] is None:
                 print(f"skipped {name}: a run is missing")
