@@ -10,6 +10,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any, Callable
 
 __all__ = ["main"]
 
@@ -64,20 +65,31 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_scaling_magnetorquer(args: argparse.Namespace) -> int:
-    from magsail_mj.analysis.scaling import scaling_report
+def _print_report(make: Callable[[], Any], options: dict[str, str] | None = None) -> int:
+    """Print the report ``make()`` as one JSON line (exit 0); a ``ValueError`` is printed as
+    ``error: ...`` on stderr with its leading key renamed by ``options`` to the command-line
+    option (exit 2)."""
     from magsail_mj.io import to_jsonable
 
-    side = args.side_m[0] if len(args.side_m) == 1 else args.side_m
-    kappa = args.kappa[0] if len(args.kappa) == 1 else args.kappa
+    options = options or {}
     try:
-        report = scaling_report(side, kappa, altitude_km=args.altitude_km, total_kg=args.total_kg,
-                                rod_mass_kg=args.rod_mass_kg)
+        report = make()
     except ValueError as err:
-        print(f"error: {err}", file=sys.stderr)
+        msg = str(err)
+        name = msg.split(":", 1)[0]
+        print(f"error: {options.get(name, name)}{msg[len(name):]}", file=sys.stderr)
         return 2
     print(json.dumps(to_jsonable(report)))
     return 0
+
+
+def _cmd_scaling_magnetorquer(args: argparse.Namespace) -> int:
+    from magsail_mj.analysis.scaling import scaling_report
+
+    side = args.side_m[0] if len(args.side_m) == 1 else args.side_m
+    kappa = args.kappa[0] if len(args.kappa) == 1 else args.kappa
+    return _print_report(lambda: scaling_report(side, kappa, altitude_km=args.altitude_km, total_kg=args.total_kg,
+                                                rod_mass_kg=args.rod_mass_kg))
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
@@ -97,45 +109,29 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 def _cmd_scaling_loops(args: argparse.Namespace) -> int:
     from magsail_mj.analysis.loop_scaling import loop_sizing, scaling_table
-    from magsail_mj.io import to_jsonable
 
     options = {"geometry": "--geometry", "units": "--units", "side_m": "--side-m",
                "areal_density_kg_m2": "--areal-density", "kappa": "--kappa"}
-    try:
+
+    def report():
         if args.table:
-            report = scaling_table(side_m=args.side_m, areal_density_kg_m2=args.areal_density,
-                                   kappa=args.kappa)
-        elif args.geometry is None:
+            return scaling_table(side_m=args.side_m, areal_density_kg_m2=args.areal_density, kappa=args.kappa)
+        if args.geometry is None:
             raise ValueError("geometry: required unless --table is given (one of A, B, C, D)")
-        else:
-            report = loop_sizing(args.geometry, units=args.units, side_m=args.side_m,
-                                 areal_density_kg_m2=args.areal_density, kappa=args.kappa)
-    except ValueError as err:
-        msg = str(err)
-        name = msg.split(":", 1)[0]
-        print(f"error: {options.get(name, name)}{msg[len(name):]}", file=sys.stderr)
-        return 2
-    print(json.dumps(to_jsonable(report)))
-    return 0
+        return loop_sizing(args.geometry, units=args.units, side_m=args.side_m,
+                           areal_density_kg_m2=args.areal_density, kappa=args.kappa)
+
+    return _print_report(report, options)
 
 
 def _cmd_torque_coil(args: argparse.Namespace) -> int:
     from magsail_mj.analysis.coil_torque import coil_torque_report
-    from magsail_mj.io import to_jsonable
 
     options = {"side_m": "--side-m", "segment_m": "--segment-m", "depth_m": "--depth-m", "current_A": "--current-a",
                "field_T": "--field-t", "pitch_cells": "--pitch-cells", "rows": "--rows"}
-    try:
-        report = coil_torque_report(side_m=args.side_m, segment_m=args.segment_m, depth_m=args.depth_m,
-                                    current_A=args.current_a, field_T=args.field_t, pitch_cells=args.pitch_cells,
-                                    rows=args.rows)
-    except ValueError as err:
-        msg = str(err)
-        name = msg.split(":", 1)[0]
-        print(f"error: {options.get(name, name)}{msg[len(name):]}", file=sys.stderr)
-        return 2
-    print(json.dumps(to_jsonable(report)))
-    return 0
+    return _print_report(lambda: coil_torque_report(
+        side_m=args.side_m, segment_m=args.segment_m, depth_m=args.depth_m, current_A=args.current_a,
+        field_T=args.field_t, pitch_cells=args.pitch_cells, rows=args.rows), options)
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -21,6 +21,7 @@ import copy
 import hashlib
 import importlib
 import json
+import math
 import tomllib
 from pathlib import Path
 from typing import Any, Callable, Literal
@@ -31,6 +32,9 @@ __all__ = [
     "ConfigError",
     "StrictModel",
     "SimConfig",
+    "LatticeRenderConfig",
+    "normalised",
+    "check_finite_fields",
     "register_concept",
     "concept_models",
     "load_config",
@@ -86,6 +90,39 @@ class SimConfig(StrictModel):
                 f"timestep_s ({self.timestep_s}) must not exceed duration_s ({self.duration_s})"
             )
         return self
+
+
+class LatticeRenderConfig(StrictModel):
+    """``[render]`` of the lattice concepts (truss, current loops): video options; the defaults are
+    the truss's, a concept overrides its own in a subclass."""
+
+    exaggeration: float = Field(default=1.0, gt=0)
+    azimuth_deg: float = 180.0
+    elevation_deg: float = -30.0
+    distance_factor: float = Field(default=1.6, gt=0)
+    fps: int = Field(default=30, ge=1, le=120)
+    max_frames: int = Field(default=450, ge=2)
+
+
+def normalised(v: tuple[float, ...], what: str) -> tuple[float, ...]:
+    """``v / |v|`` for a field validator; a zero ``v`` is a ``must be a non-zero {what}`` error."""
+    n = math.sqrt(sum(c * c for c in v))
+    if not n > 0:
+        raise ValueError(f"must be a non-zero {what}")
+    return tuple(c / n for c in v)
+
+
+def check_finite_fields(obj: Any, *, positive: tuple[str, ...] = (), non_negative: tuple[str, ...] = ()) -> None:
+    """Raise ``ValueError`` naming the first attribute of ``obj`` in ``positive`` that is not a
+    finite number > 0, then the first in ``non_negative`` that is not a finite number >= 0."""
+    for name in positive:
+        v = getattr(obj, name)
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"{name}: must be a finite number > 0, got {v!r}")
+    for name in non_negative:
+        v = getattr(obj, name)
+        if not (math.isfinite(v) and v >= 0):
+            raise ValueError(f"{name}: must be a finite number >= 0, got {v!r}")
 
 
 _REGISTRY: dict[str, type[BaseModel]] = {}

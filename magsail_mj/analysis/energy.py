@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from magsail_mj.estimation._arrays import as_index_array, as_point_series, map_time_blocks
+from magsail_mj.estimation._arrays import as_index_array, as_masses, as_point_series, map_time_blocks
 
 __all__ = [
     "strut_lengths",
@@ -135,17 +135,6 @@ class KineticEnergySplit(NamedTuple):
     omega: np.ndarray
 
 
-def _masses(masses: object, n: int) -> np.ndarray:
-    m = np.asarray(masses, dtype=float)
-    if m.ndim == 0:
-        m = np.full(n, float(m))
-    if m.shape != (n,):
-        raise ValueError(f"masses: expected a scalar or shape ({n},), got {m.shape}")
-    if np.any(m < 0) or not m.sum() > 0:
-        raise ValueError("masses: must be >= 0 with a positive total")
-    return m
-
-
 def kinetic_energy_split(
     pos: np.ndarray, vel: np.ndarray, masses: float | np.ndarray
 ) -> KineticEnergySplit:
@@ -175,7 +164,7 @@ def kinetic_energy_split(
     v = as_point_series(vel, "vel", n=x.shape[-2])
     if v.shape != x.shape:
         raise ValueError(f"vel: expected shape {x.shape} (as pos), got {v.shape}")
-    m = _masses(masses, x.shape[-2])
+    m = as_masses(masses, "masses", x.shape[-2])
     return map_time_blocks(lambda xb, vb: _ke_split(xb, vb, m), (x, v), 12 * x.shape[-2])
 
 

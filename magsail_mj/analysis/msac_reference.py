@@ -52,6 +52,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from magsail_mj.config import check_finite_fields
 from magsail_mj.control.msac_cycle import CyclePath, cycle_state_scalar
 
 __all__ = [
@@ -91,14 +92,8 @@ class PlanarMsac:
     root_inertia_kg_m2: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("bus_izz_kg_m2", "wing_mass_kg", "wing_length_m"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"{name}: must be a finite number > 0, got {v!r}")
-        for name in ("wing_icm_kg_m2", "hinge_offset_m", "root_mass_kg", "root_inertia_kg_m2"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"{name}: must be a finite number >= 0, got {v!r}")
+        check_finite_fields(self, positive=("bus_izz_kg_m2", "wing_mass_kg", "wing_length_m"),
+                            non_negative=("wing_icm_kg_m2", "hinge_offset_m", "root_mass_kg", "root_inertia_kg_m2"))
         if int(self.n_wings) != self.n_wings or self.n_wings < 1:
             raise ValueError(f"n_wings: must be an integer >= 1, got {self.n_wings!r}")
 

@@ -25,17 +25,9 @@ from typing import Literal
 
 import numpy as np
 
-from magsail_mj.control.reflector_pitch import cross3, quat_to_matrix
+from magsail_mj.control.reflector_pitch import cross3, quat_to_matrix, saturate_norm
 
 __all__ = ["BdotCommand", "PlateBdotController", "saturate_norm", "cross3"]
-
-
-def saturate_norm(v: np.ndarray, cap: float) -> tuple[np.ndarray, bool]:
-    """``sat_c(v) = v · min(1, c/|v|)`` and whether it clipped."""
-    n = math.sqrt(float(v @ v))
-    if n > cap:
-        return v * (cap / n), True
-    return v, False
 
 
 @dataclass

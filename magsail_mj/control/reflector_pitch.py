@@ -43,7 +43,7 @@ def cross3(a, b) -> np.ndarray:
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 __all__ = ["PitchCommand", "ReflectorPitchController", "pitch_gains", "project_and_saturate",
-           "error_quaternion", "quat_to_matrix"]
+           "error_quaternion", "quat_to_matrix", "saturate_norm"]
 
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
@@ -63,6 +63,14 @@ def error_quaternion(q_ref: np.ndarray, q_t: np.ndarray) -> np.ndarray:
                    w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
                    w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
     return -qe if qe[0] < 0 else qe
+
+
+def saturate_norm(v: np.ndarray, cap: float) -> tuple[np.ndarray, bool]:
+    """``sat_c(v) = v · min(1, c/|v|)`` and whether it clipped."""
+    n = math.sqrt(float(v @ v))
+    if n > cap:
+        return v * (cap / n), True
+    return v, False
 
 
 def pitch_gains(inertia: Sequence[float], *, omega_n_rad_s: float, zeta: float) -> tuple[np.ndarray, np.ndarray]:
@@ -87,10 +95,7 @@ def project_and_saturate(T_ref: np.ndarray, B: np.ndarray, *,
     b = B / math.sqrt(B2)
     T_perp = T_ref - b * float(b @ T_ref)
     cap = cap_N_m if saturation == "norm" else cap_N_m * math.sqrt(B2) / B_ref_T
-    n = math.sqrt(float(T_perp @ T_perp))
-    if n > cap:
-        return T_perp * (cap / n), True
-    return T_perp, False
+    return saturate_norm(T_perp, cap)
 
 
 @dataclass

@@ -16,7 +16,7 @@ Defaults follow the truss spec §9.2/§11 (800 km polar orbit needs ``altitude_k
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
@@ -35,6 +35,7 @@ __all__ = [
     "GravityConfig",
     "EnvironmentConfig",
     "check_environment",
+    "environment_problems",
 ]
 
 Vec3 = tuple[float, float, float]
@@ -236,10 +237,7 @@ class EnvironmentConfig(StrictModel):
 
     @model_validator(mode="after")
     def _consistent(self) -> "EnvironmentConfig":
-        problems = check_environment(
-            orbit=self.orbit, field=self.field, atmosphere=self.atmosphere, sun=self.sun,
-            srp=self.srp, drag=self.drag, gravity=self.gravity,
-        )
+        problems = environment_problems(self)
         if problems:
             raise ValueError("; ".join(problems))
         return self
@@ -280,4 +278,12 @@ def check_environment(
     if srp.enabled and sun.model == "none":
         out.append("srp.enabled: needs sun.model = 'ephemeris' or 'fixed'")
     return out
+
+
+def environment_problems(tables: Any) -> list[str]:
+    """:func:`check_environment` of the seven tables that ``tables`` carries as attributes
+    (``orbit``, ``field``, ``atmosphere``, ``sun``, ``srp``, ``drag``, ``gravity``): an
+    :class:`EnvironmentConfig` or a concept config that holds them at its top level."""
+    return check_environment(orbit=tables.orbit, field=tables.field, atmosphere=tables.atmosphere,
+                             sun=tables.sun, srp=tables.srp, drag=tables.drag, gravity=tables.gravity)
 

@@ -13,6 +13,7 @@ __all__ = [
     "as_point_series",
     "as_rotations",
     "as_index_array",
+    "as_masses",
     "time_chunks",
     "map_time_blocks",
 ]
@@ -63,6 +64,19 @@ def as_index_array(x: object, name: str, *, width: int, n_nodes: int) -> np.ndar
             f"{name}: node indices must lie in [0, {n_nodes}), got range [{a.min()}, {a.max()}]"
         )
     return a
+
+
+def as_masses(x: object, name: str, n: int, *, sign_error: str | None = None) -> np.ndarray:
+    """Return ``x`` (a scalar for all, or ``(n,)``) as float64 masses ``(n,)``, all ``>= 0`` with a
+    positive sum; ``sign_error`` replaces the message ``<name>: must be >= 0 with a positive total``."""
+    m = np.asarray(x, dtype=float)
+    if m.ndim == 0:
+        m = np.full(n, float(m))
+    if m.shape != (n,):
+        raise ValueError(f"{name}: expected a scalar or shape ({n},), got {m.shape}")
+    if np.any(m < 0) or not m.sum() > 0:
+        raise ValueError(sign_error or f"{name}: must be >= 0 with a positive total")
+    return m
 
 
 def time_chunks(n_steps: int, per_step_elems: int, *, max_elems: int = 1 << 22) -> list[slice]:

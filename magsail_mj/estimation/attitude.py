@@ -19,7 +19,7 @@ from typing import Literal, NamedTuple
 
 import numpy as np
 
-from ._arrays import as_point_series, as_points, as_rotations
+from ._arrays import as_masses, as_point_series, as_points, as_rotations
 
 __all__ = [
     "best_fit_rotation",
@@ -465,13 +465,7 @@ def particle_inertia(p: np.ndarray, m: float | np.ndarray) -> ParticleInertia:
     """
     pp = as_point_series(p, "p")
     n = pp.shape[-2]
-    mm = np.asarray(m, dtype=float)
-    if mm.ndim == 0:
-        mm = np.full(n, float(mm))
-    if mm.shape != (n,):
-        raise ValueError(f"m: expected a scalar or shape ({n},), got {mm.shape}")
-    if np.any(mm < 0) or not mm.sum() > 0:
-        raise ValueError("m: masses must be >= 0 with a positive total")
+    mm = as_masses(m, "m", n, sign_error="m: masses must be >= 0 with a positive total")
     M = float(mm.sum())
     com = np.einsum("n,...nj->...j", mm, pp) / M
     r = pp - com[..., None, :]

@@ -18,7 +18,7 @@ and its spring constant ``k_s = EA / l0_s``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Callable, Literal
 
 import numpy as np
 
@@ -29,6 +29,7 @@ __all__ = [
     "axial_rigidity_from_EI",
     "stiffness_matrix",
     "node_index",
+    "strain_check",
 ]
 
 # Strut kinds, in the order they are generated.
@@ -147,6 +148,22 @@ class Lattice:
         flip = vol < 0
         tets[flip] = tets[flip][:, [0, 2, 1, 3]]
         return tets
+
+
+def strain_check(lattice: Lattice, *, body_offset: int = 1) -> Callable[[np.ndarray], tuple[float, int]]:
+    """The run's divergence check (``Simulation.strain_check``): ``pos`` (nbody, 3) world body
+    positions → (largest strut strain |l/l0 − 1|, its strut index); node ``i`` is body
+    ``i + body_offset``."""
+    a, b = lattice.struts[:, 0] + body_offset, lattice.struts[:, 1] + body_offset
+    l0 = lattice.rest_length
+
+    def check(pos: np.ndarray) -> tuple[float, int]:
+        r = pos[b] - pos[a]
+        eps = np.abs(np.sqrt(np.einsum("ij,ij->i", r, r)) / l0 - 1.0)
+        s = int(np.argmax(eps))
+        return float(eps[s]), s
+
+    return check
 
 
 def make_lattice(*, units: int, side_m: float, diagonals: Literal["parity", "X"] = "parity") -> Lattice:

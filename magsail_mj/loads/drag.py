@@ -15,15 +15,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from magsail_mj.environment.frames import quat_to_mat
 from magsail_mj.environment.surfaces import CellGeometry, FacetSet, drag_forces
 
 from .base import StepState
+from .facets import RigidFacetLoad
 
 __all__ = ["RigidDragLoad", "LatticeDragLoad"]
 
 
-class RigidDragLoad:
+class RigidDragLoad(RigidFacetLoad):
     """Drag on the facets of one rigid body.
 
     Args:
@@ -38,28 +38,16 @@ class RigidDragLoad:
                  apply_force: bool = True) -> None:
         if not drag_coefficient > 0:
             raise ValueError(f"drag_coefficient: must be > 0, got {drag_coefficient!r}")
-        self.body_id = int(body_id)
-        self.facets = facets
+        super().__init__(body_id, facets, apply_force=apply_force)
         self.cd = float(drag_coefficient)
-        self.apply_force = bool(apply_force)
 
-    def wrench_world(self, state: StepState) -> tuple[np.ndarray, np.ndarray]:
-        """(force, torque about the centre of mass) in world axes [N, N m]."""
-        env = state.env
-        rho = env.density_kg_m3
-        if rho == 0.0:
-            return np.zeros(3), np.zeros(3)
-        R = quat_to_mat(state.xquat[self.body_id])
+    def _scale(self, env) -> float:
+        return env.density_kg_m3
+
+    def _facet_forces(self, state: StepState, normals: np.ndarray, rho: float) -> np.ndarray:
         f = self.facets
-        V = env.v_rel_eci + state.vel[self.body_id]
-        F = drag_forces(f.normal @ R.T, f.area, V, rho, self.cd, f.two_sided)
-        return F.sum(axis=0), np.cross(f.centre @ R.T, F).sum(axis=0)
-
-    def add(self, state: StepState, xfrc: np.ndarray) -> None:
-        F, tau = self.wrench_world(state)
-        if self.apply_force:
-            xfrc[self.body_id, :3] += F
-        xfrc[self.body_id, 3:] += tau
+        V = state.env.v_rel_eci + state.vel[self.body_id]
+        return drag_forces(normals, f.area, V, rho, self.cd, f.two_sided)
 
 
 class LatticeDragLoad:

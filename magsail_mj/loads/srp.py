@@ -18,21 +18,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from magsail_mj.environment.frames import quat_to_mat
 from magsail_mj.environment.surfaces import (
     CellGeometry,
-    FacetSet,
     Optics,
     srp_forces,
     uniform_srp_constants,
 )
 
 from .base import StepState
+from .facets import RigidFacetLoad
 
 __all__ = ["RigidSRPLoad", "LatticeSRPLoad"]
 
 
-class RigidSRPLoad:
+class RigidSRPLoad(RigidFacetLoad):
     """SRP on the facets of one rigid body.
 
     Args:
@@ -43,28 +42,12 @@ class RigidSRPLoad:
 
     name = "srp"
 
-    def __init__(self, body_id: int, facets: FacetSet, *, apply_force: bool = True) -> None:
-        self.body_id = int(body_id)
-        self.facets = facets
-        self.apply_force = bool(apply_force)
+    def _scale(self, env) -> float:
+        return env.srp_pressure_N_m2
 
-    def wrench_world(self, state: StepState) -> tuple[np.ndarray, np.ndarray]:
-        """(force, torque about the centre of mass) in world axes [N, N m]."""
-        env = state.env
-        P = env.srp_pressure_N_m2
-        if P == 0.0:
-            return np.zeros(3), np.zeros(3)
-        R = quat_to_mat(state.xquat[self.body_id])
+    def _facet_forces(self, state: StepState, normals: np.ndarray, P: float) -> np.ndarray:
         f = self.facets
-        F = srp_forces(f.normal @ R.T, f.area, env.sun_eci, P, f.coeffs, f.two_sided)
-        tau = np.cross(f.centre @ R.T, F).sum(axis=0)
-        return F.sum(axis=0), tau
-
-    def add(self, state: StepState, xfrc: np.ndarray) -> None:
-        F, tau = self.wrench_world(state)
-        if self.apply_force:
-            xfrc[self.body_id, :3] += F
-        xfrc[self.body_id, 3:] += tau
+        return srp_forces(normals, f.area, state.env.sun_eci, P, f.coeffs, f.two_sided)
 
 
 class LatticeSRPLoad:

@@ -46,7 +46,7 @@ from typing import Literal
 import mujoco
 import numpy as np
 
-from magsail_mj.mjcf.common import INTEGRATORS, free_space_spec
+from magsail_mj.mjcf.common import INTEGRATORS, add_marker_body, add_sun_light, free_space_spec, set_view
 
 __all__ = [
     "CubesatModelParams",
@@ -177,12 +177,7 @@ def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpe
                            solver_tolerance=p.solver_tolerance)
     deployed = p.configuration == "deployed"
     reach = (p.sail_side_m / math.sqrt(2.0) + 0.1) if deployed else 0.3
-    spec.visual.global_.offwidth = 1920
-    spec.visual.global_.offheight = 1080
-    spec.visual.headlight.diffuse = [0.35, 0.35, 0.35]
-    spec.visual.headlight.ambient = [0.25, 0.25, 0.25]
-    spec.stat.extent = float(2 * reach)
-    spec.stat.center = [0.0, 0.0, 0.0]
+    set_view(spec, extent=2 * reach, headlight_diffuse=[0.35, 0.35, 0.35], headlight_ambient=[0.25, 0.25, 0.25])
     nogeo = dict(contype=0, conaffinity=0, mass=0)
 
     wb = spec.worldbody
@@ -251,12 +246,7 @@ def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpe
     if p.markers:
         L = 1.15 * reach
         for name in MARKER_NAMES:
-            mk = wb.add_body(name=name)
-            mk.add_joint(name=f"{name}_ball", type=mujoco.mjtJoint.mjJNT_BALL)
-            mk.explicitinertial = True
-            mk.mass = 1e-3
-            mk.ipos = [0.0, 0.0, 0.0]
-            mk.inertia = [1e-6, 1e-6, 1e-6]
+            mk = add_marker_body(wb, name)
             rgba = list(_MARKER_RGBA[name])
             mk.add_geom(name=f"{name}_shaft", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                         fromto=[0, 0, 0.55 * L, 0, 0, 0.95 * L], size=[0.008 * max(1.0, reach), 0, 0],
@@ -264,9 +254,7 @@ def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpe
             mk.add_geom(name=f"{name}_head", type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=[0, 0, L],
                         size=[0.03 * max(1.0, reach), 0, 0], rgba=rgba, group=2, **nogeo)
             if name == "mk_sun":
-                mk.add_light(name="sun_light", pos=[0, 0, 3 * L], dir=[0, 0, -1],
-                             type=int(mujoco.mjtLightType.mjLIGHT_DIRECTIONAL), diffuse=[0.75, 0.75, 0.7],
-                             castshadow=False)
+                add_sun_light(mk, height=3 * L, diffuse=[0.75, 0.75, 0.7])
     return spec
 
 

@@ -69,7 +69,8 @@ from typing import Literal
 import mujoco
 import numpy as np
 
-from magsail_mj.mjcf.common import INTEGRATORS, free_space_spec
+from magsail_mj.config import check_finite_fields
+from magsail_mj.mjcf.common import INTEGRATORS, free_space_spec, set_view
 
 __all__ = [
     "MsacModelParams",
@@ -135,16 +136,11 @@ class MsacModelParams:
     name: str = "msac"
 
     def __post_init__(self) -> None:
-        positive = ("bus_mass_kg", "wing_length_m", "wing_width_m", "wing_thickness_m", "wing_mass_kg",
-                    "root_mass_kg", "root_inertia_kg_m2", "timestep_s", "servo_omega_dt", "ff_gear")
-        for name in positive:
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"{name}: must be a finite number > 0, got {v!r}")
-        for name in ("hinge_offset_m", "slide_stiffness_N_m", "hinge_damping_N_m_s", "slide_damping_N_s_m"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v >= 0):
-                raise ValueError(f"{name}: must be a finite number >= 0, got {v!r}")
+        check_finite_fields(
+            self,
+            positive=("bus_mass_kg", "wing_length_m", "wing_width_m", "wing_thickness_m", "wing_mass_kg",
+                      "root_mass_kg", "root_inertia_kg_m2", "timestep_s", "servo_omega_dt", "ff_gear"),
+            non_negative=("hinge_offset_m", "slide_stiffness_N_m", "hinge_damping_N_m_s", "slide_damping_N_s_m"))
         if len(self.bus_size_m) != 3 or any(not (np.isfinite(x) and x > 0) for x in self.bus_size_m):
             raise ValueError(f"bus_size_m: need three lengths > 0, got {self.bus_size_m!r}")
         if self.layout not in ("point_symmetric", "mirror"):
@@ -189,10 +185,7 @@ def build_msac_spec(params: MsacModelParams) -> mujoco.MjSpec:
     spec = free_space_spec(name=p.name, timestep_s=p.timestep_s, integrator=p.integrator,
                            solver_tolerance=p.solver_tolerance)
     reach = p.hinge_offset_m + 1.05 * p.wing_length_m
-    spec.visual.global_.offwidth = 1920
-    spec.visual.global_.offheight = 1080
-    spec.stat.extent = float(2 * reach)
-    spec.stat.center = [0.0, 0.0, 0.0]
+    set_view(spec, extent=2 * reach)
 
     wb = spec.worldbody
     wb.add_light(name="sun", pos=[0, 0, 4 * reach], dir=[0, 0, -1],

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from magsail_mj.mjcf.common import INTEGRATORS, free_space_spec
+from magsail_mj.mjcf.common import INTEGRATORS, add_marker_body, add_sun_light, free_space_spec, set_view
 
 __all__ = ["PlateModelParams", "MarkerSpec", "plate_mass_properties", "build_plate_spec", "plate_indices",
            "PlateIndices"]
@@ -128,12 +128,7 @@ def build_plate_spec(params: PlateModelParams | None = None) -> mujoco.MjSpec:
     spec = free_space_spec(name=p.name, timestep_s=p.timestep_s, integrator=p.integrator,
                            solver_tolerance=p.solver_tolerance)
     d = p.side_m
-    spec.visual.global_.offwidth = 1920
-    spec.visual.global_.offheight = 1080
-    spec.visual.headlight.diffuse = [0.6, 0.6, 0.6]
-    spec.visual.headlight.ambient = [0.3, 0.3, 0.3]
-    spec.stat.extent = float(2.0 * d)
-    spec.stat.center = [0.0, 0.0, 0.0]
+    set_view(spec, extent=2.0 * d, headlight_diffuse=[0.6, 0.6, 0.6], headlight_ambient=[0.3, 0.3, 0.3])
     nogeo = dict(contype=0, conaffinity=0, mass=0)
     box, cap = mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_CAPSULE
 
@@ -174,12 +169,7 @@ def build_plate_spec(params: PlateModelParams | None = None) -> mujoco.MjSpec:
                    rgba=list(_NORMAL_RGBA), group=2, **nogeo)
 
     for mk in p.markers:
-        body = spec.worldbody.add_body(name=mk.name)
-        body.add_joint(name=f"{mk.name}_ball", type=mujoco.mjtJoint.mjJNT_BALL)
-        body.explicitinertial = True
-        body.mass = 1e-3
-        body.ipos = [0.0, 0.0, 0.0]
-        body.inertia = [1e-6, 1e-6, 1e-6]
+        body = add_marker_body(spec.worldbody, mk.name)
         Lm = mk.length_rel * d
         if mk.kind == "arrow":
             body.add_geom(name=f"{mk.name}_shaft", type=cap, fromto=[0, 0, 0.15 * d, 0, 0, Lm],
@@ -192,9 +182,7 @@ def build_plate_spec(params: PlateModelParams | None = None) -> mujoco.MjSpec:
         else:
             raise ValueError(f"markers[{mk.name}].kind: must be 'arrow' or 'line', got {mk.kind!r}")
         if mk.name == "mk_sun":
-            body.add_light(name="sun_light", pos=[0, 0, 3 * d], dir=[0, 0, -1],
-                           type=int(mujoco.mjtLightType.mjLIGHT_DIRECTIONAL), diffuse=[0.7, 0.7, 0.6],
-                           castshadow=False)
+            add_sun_light(body, height=3 * d, diffuse=[0.7, 0.7, 0.6])
     return spec
 
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from magsail_mj.mjcf.common import INTEGRATORS
+from magsail_mj.mjcf.common import INTEGRATORS, set_view
 
 from magsail_mj.geometry.lattice import Lattice
 
@@ -100,12 +100,9 @@ def build_truss_spec(
         spec.option.tolerance = options.solver_tolerance
     spec.option.gravity = [0.0, 0.0, 0.0]
     spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
-    spec.visual.global_.offwidth = 1920
-    spec.visual.global_.offheight = 1080
+    set_view(spec, extent=lattice.side_m)
     spec.visual.map.znear = 0.01
     spec.visual.map.zfar = 50.0
-    spec.stat.extent = float(lattice.side_m)
-    spec.stat.center = [0.0, 0.0, 0.0]
 
     spec.worldbody.add_light(name="sun", pos=[0, 0, 3 * lattice.side_m], dir=[0, 0, -1],
                              type=int(mujoco.mjtLightType.mjLIGHT_DIRECTIONAL), diffuse=[0.8, 0.8, 0.8])

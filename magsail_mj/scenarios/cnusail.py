@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
-from magsail_mj.config import SimConfig, StrictModel, register_concept
+from magsail_mj.config import SimConfig, StrictModel, normalised, register_concept
 from magsail_mj.environment.config import (
     AtmosphereConfig, DragConfig, EnvironmentConfig, FieldConfig, GravityConfig, OrbitConfig, SRPConfig,
     SunConfig,
@@ -221,10 +221,7 @@ class InitialConfig(StrictModel):
     @field_validator("q_err0_wxyz")
     @classmethod
     def _normalise(cls, v):
-        n = math.sqrt(sum(c * c for c in v))
-        if not n > 0:
-            raise ValueError("must be a non-zero quaternion [w, x, y, z]")
-        return tuple(c / n for c in v)
+        return normalised(v, "quaternion [w, x, y, z]")
 
 
 class AnalysisConfig(StrictModel):
@@ -304,10 +301,9 @@ class CnusailConfig(StrictModel):
 
     @model_validator(mode="after")
     def _consistent(self) -> "CnusailConfig":
-        from magsail_mj.environment.config import check_environment
+        from magsail_mj.environment.config import environment_problems
 
-        problems = check_environment(orbit=self.orbit, field=self.field, atmosphere=self.atmosphere, sun=self.sun,
-                                     srp=self.srp, drag=self.drag, gravity=self.gravity)
+        problems = environment_problems(self)
         if self.gravity.tidal:
             problems.append("gravity.tidal: the cubesat is one rigid body at the world origin; use "
                             "gravity.classical_torque = true (spec §4.3) and tidal = false")

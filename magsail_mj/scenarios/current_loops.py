@@ -29,9 +29,9 @@ import mujoco
 import numpy as np
 from pydantic import Field, model_validator
 
-from magsail_mj.config import SimConfig, StrictModel, register_concept
+from magsail_mj.config import LatticeRenderConfig, SimConfig, StrictModel, register_concept
 from magsail_mj.environment.config import EnvironmentConfig, FieldConfig, GravityConfig, OrbitConfig
-from magsail_mj.geometry.lattice import Lattice, make_lattice
+from magsail_mj.geometry.lattice import Lattice, make_lattice, strain_check
 from magsail_mj.geometry.truss_properties import strut_stiffness
 from magsail_mj.mjcf.truss import TrussModelOptions, build_truss_spec
 from magsail_mj.scenarios import register_builder
@@ -164,14 +164,12 @@ class ClassificationConfig(StrictModel):
     collapse_thickness_units: float = Field(default=5.0, gt=0)
 
 
-class LoopsRenderConfig(StrictModel):
+class LoopsRenderConfig(LatticeRenderConfig):
     """``[render]``: video options."""
 
-    exaggeration: float = Field(default=1.0, gt=0)
     azimuth_deg: float = 135.0
     elevation_deg: float = -25.0
     distance_factor: float = Field(default=1.9, gt=0)
-    fps: int = Field(default=30, ge=1, le=120)
     max_frames: int = Field(default=400, ge=2)
 
 
@@ -224,11 +222,9 @@ class CurrentLoopsConfig(StrictModel):
                 raise ValueError(f"field.model {self.field.model!r} is sampled along the orbit: "
                                  "set orbit.enabled = true or use 'constant'")
         if self.orbit.enabled:
-            from magsail_mj.environment.config import check_environment
+            from magsail_mj.environment.config import environment_problems
 
-            env = self.environment_config()
-            problems = check_environment(orbit=env.orbit, field=env.field, atmosphere=env.atmosphere, sun=env.sun,
-                                         srp=env.srp, drag=env.drag, gravity=env.gravity)
+            problems = environment_problems(self.environment_config())
             if problems:
                 raise ValueError("; ".join(problems))
         return self
@@ -547,21 +543,10 @@ class LoopsScenario:
         loads = self.loads()
         if self.cfg.scenario != "sweep":
             self.controller = self.make_controller()
-        strain_check = None
-        if not self.rigid:
-            lat = self.lm.lattice
-            a, b = lat.struts[:, 0] + 1, lat.struts[:, 1] + 1
-            l0 = lat.rest_length
-
-            def strain_check(pos: np.ndarray) -> tuple[float, int]:
-                r = pos[b] - pos[a]
-                eps = np.abs(np.sqrt(np.einsum("ij,ij->i", r, r)) / l0 - 1.0)
-                s = int(np.argmax(eps))
-                return float(eps[s]), s
-
+        check = None if self.rigid else strain_check(self.lm.lattice)
         sim = Simulation(model=self.model, duration_s=self.cfg.sim.duration_s, loads=loads,
                          controller=self.controller, environment=self.environment, probes=probes(self),
-                         record_every=self.cfg.sim.record_every, strain_check=strain_check,
+                         record_every=self.cfg.sim.record_every, strain_check=check,
                          max_strain=self.cfg.sim.max_strain, checkpoint_every_s=self.cfg.sim.checkpoint_every_s)
         return sim
 

@@ -15,22 +15,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from magsail_mj.io import atomic_path
+from magsail_mj.scenarios.truss_plots import save_figure
 
 if TYPE_CHECKING:
     from magsail_mj.scenarios.msac import MsacConfig, MsacScenario
 
 __all__ = ["msac_plots", "sweep_plot", "save_figure"]
-
-
-def save_figure(fig, path: Path) -> Path:
-    """Save a matplotlib figure atomically as PNG and close it."""
-    import matplotlib.pyplot as plt
-
-    with atomic_path(path, suffix=".png") as tmp:
-        fig.savefig(tmp, dpi=120, bbox_inches="tight", format="png")
-    plt.close(fig)
-    return path
 
 
 def _plt():

@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
-from magsail_mj.config import SimConfig, StrictModel, register_concept
+from magsail_mj.config import SimConfig, StrictModel, normalised, register_concept
 from magsail_mj.scenarios import register_builder
 from magsail_mj.sim import RunResult, Simulation
 
@@ -111,10 +111,7 @@ class FieldConfig(StrictModel):
     @field_validator("direction")
     @classmethod
     def _unit(cls, v):
-        n = math.sqrt(sum(c * c for c in v))
-        if not n > 0:
-            raise ValueError("must be a non-zero vector")
-        return tuple(c / n for c in v)
+        return normalised(v, "vector")
 
 
 class ControlConfig(StrictModel):
@@ -158,10 +155,7 @@ class InitialConfig(StrictModel):
     @field_validator("q0_wxyz")
     @classmethod
     def _normalise(cls, v):
-        n = math.sqrt(sum(c * c for c in v))
-        if not n > 0:
-            raise ValueError("must be a non-zero quaternion [w, x, y, z]")
-        return tuple(c / n for c in v)
+        return normalised(v, "quaternion [w, x, y, z]")
 
 
 class GravityConfig(StrictModel):

@@ -52,6 +52,14 @@ def _dt_weights(t: np.ndarray) -> np.ndarray:
     return np.append(dt, dt[-1])
 
 
+def _plate_records(sc: "ReflectorScenario", result: RunResult):
+    """``(records, t, qpos, q, ω)``: the records, their times, a copy of ``qpos`` (the markers are
+    written into it), the plate quaternions (a view of that copy) and the body rates."""
+    rec = result.records
+    qpos = rec["qpos"].copy()
+    return rec, rec["t"], qpos, qpos[:, sc.idx.q_quat], rec["qvel"][:, sc.idx.v_ang]
+
+
 def _set_markers(sc: "ReflectorScenario", qpos: np.ndarray, directions: dict[str, np.ndarray]) -> None:
     for name, vec in directions.items():
         qa = sc.idx.marker_qpos.get(name)
@@ -75,11 +83,7 @@ def _set_markers(sc: "ReflectorScenario", qpos: np.ndarray, directions: dict[str
 
 def detumble_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Summary and series of a Scenario A run."""
-    rec = result.records
-    t = rec["t"]
-    qpos = rec["qpos"].copy()
-    q = qpos[:, sc.idx.q_quat]
-    w = rec["qvel"][:, sc.idx.v_ang]
+    rec, t, qpos, q, w = _plate_records(sc, result)
     R = quat_to_mat(q)
     I = sc.inertia
     h_b = w * I
@@ -197,11 +201,7 @@ def pass_table(sc: "ReflectorScenario", ref: dict[str, np.ndarray]) -> list[dict
 
 def pitch_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Summary and series of a Scenario B run."""
-    rec = result.records
-    t = rec["t"]
-    qpos = rec["qpos"].copy()
-    q = qpos[:, sc.idx.q_quat]
-    w = rec["qvel"][:, sc.idx.v_ang]
+    rec, t, qpos, q, w = _plate_records(sc, result)
     o = sc.orbit
     q_e = rec["q_e"]
     err = 2.0 * np.arccos(np.clip(np.abs(q_e[:, 0]), 0.0, 1.0))

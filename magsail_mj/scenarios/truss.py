@@ -22,13 +22,13 @@ import mujoco
 import numpy as np
 from pydantic import Field, model_validator
 
-from magsail_mj.config import SimConfig, StrictModel, register_concept
+from magsail_mj.config import LatticeRenderConfig, SimConfig, StrictModel, register_concept
 from magsail_mj.control.profiles import torque_profile
 from magsail_mj.environment.config import (
     AtmosphereConfig, DragConfig, EnvironmentConfig, FieldConfig, GravityConfig, OrbitConfig, SRPConfig,
     SunConfig,
 )
-from magsail_mj.geometry.lattice import Lattice, make_lattice
+from magsail_mj.geometry.lattice import Lattice, make_lattice, strain_check
 from magsail_mj.geometry.truss_properties import (
     clamped_nodes, loaded_nodes, node_masses, strut_damping, strut_stiffness,
 )
@@ -219,15 +219,8 @@ class CantileverConfig(StrictModel):
     settle_damping_1_s: float | None = Field(default=None, gt=0)
 
 
-class RenderConfig(StrictModel):
+class RenderConfig(LatticeRenderConfig):
     """``[render]``: video options."""
-
-    exaggeration: float = Field(default=1.0, gt=0)
-    azimuth_deg: float = 180.0
-    elevation_deg: float = -30.0
-    distance_factor: float = Field(default=1.6, gt=0)
-    fps: int = Field(default=30, ge=1, le=120)
-    max_frames: int = Field(default=450, ge=2)
 
 
 @register_concept("truss_magnetorquer")
@@ -316,10 +309,9 @@ class TrussConfig(StrictModel):
         if (self.maneuver.q0_wxyz is not None and "q0_wxyz" in self.initial.model_fields_set
                 and not np.allclose(self.maneuver.q0_wxyz, self.initial.q0_wxyz)):
             raise ValueError("maneuver.q0_wxyz and initial.q0_wxyz differ: give the initial attitude once")
-        from magsail_mj.environment.config import check_environment
+        from magsail_mj.environment.config import environment_problems
 
-        problems = check_environment(orbit=self.orbit, field=self.field, atmosphere=self.atmosphere, sun=self.sun,
-                                     srp=self.srp, drag=self.drag, gravity=self.gravity)
+        problems = environment_problems(self)
         if problems:
             raise ValueError("; ".join(problems))
         return self
@@ -487,16 +479,6 @@ class TrussScenario:
         data.qvel[:] = (np.cross(w, p - pc) @ R.T).ravel()
 
     def simulation(self) -> Simulation:
-        lat = self.tm.lattice
-        a, b = lat.struts[:, 0] + 1, lat.struts[:, 1] + 1
-        l0 = lat.rest_length
-
-        def strain_check(pos: np.ndarray) -> tuple[float, int]:
-            r = pos[b] - pos[a]
-            eps = np.abs(np.sqrt(np.einsum("ij,ij->i", r, r)) / l0 - 1.0)
-            s = int(np.argmax(eps))
-            return float(eps[s]), s
-
         probes: dict[str, Any] = {"qpos": lambda s, d: d.qpos}
         loads = self.loads()
         if self.torque_load is not None:
@@ -511,7 +493,7 @@ class TrussScenario:
         return Simulation(model=self.model, duration_s=self.cfg.sim.duration_s, loads=loads,
                           controller=self.controller,
                           probes=probes, record_every=self.cfg.sim.record_every,
-                          strain_check=strain_check, max_strain=self.cfg.sim.max_strain,
+                          strain_check=strain_check(self.tm.lattice), max_strain=self.cfg.sim.max_strain,
                           environment=self.environment,
                           checkpoint_every_s=self.cfg.sim.checkpoint_every_s, init=self.init_state)
 
