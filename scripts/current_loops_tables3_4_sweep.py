@@ -96,28 +96,24 @@ def main(argv: list[str] | None = None) -> int:
         z = np.load(s["_dir"] / "timeseries.npz")
         ax.plot(z["t"], z["strain_energy_J"], lw=0.8, label=label)
 
-    fig, axs = plt.subplots(3, 3, figsize=(11, 8), sharex=True)
-    for i, N in enumerate(UNITS):
-        for j, E in enumerate(EIS):
-            panel(axs[i, j], ("a", N, E), f"A N={N} EI={E}")
-            axs[i, j].set_title(f"A: N = {N}, EI = {E} N m²", fontsize=9)
-            axs[i, j].set_ylabel("U [J]")
-    for ax in axs[-1]:
-        ax.set_xlabel("t [s]")
-    fig.tight_layout()
-    fig.savefig(sweep / "fig_strain_energy_A.png", dpi=110)
-    plt.close(fig)
-    fig, axs = plt.subplots(3, 3, figsize=(11, 8), sharex=True)
-    for i, g in enumerate(("b", "cy", "dy")):
-        for j, N in enumerate(UNITS):
-            panel(axs[i, j], (g, N, "1e4"), f"{GEOMS[g]} N={N}")
-            axs[i, j].set_title(f"{GEOMS[g]}: N = {N}, EI = 1e4 N m²", fontsize=9)
-            axs[i, j].set_ylabel("U [J]")
-    for ax in axs[-1]:
-        ax.set_xlabel("t [s]")
-    fig.tight_layout()
-    fig.savefig(sweep / "fig_strain_energy_BCD.png", dpi=110)
-    plt.close(fig)
+    def grid(cells, name: str) -> None:
+        """3 × 3 U(t) panels; ``cells[i][j]`` = (run key, legend label, panel title)."""
+        fig, axs = plt.subplots(3, 3, figsize=(11, 8), sharex=True)
+        for i, row in enumerate(cells):
+            for j, (key, label, title) in enumerate(row):
+                panel(axs[i, j], key, label)
+                axs[i, j].set_title(title, fontsize=9)
+                axs[i, j].set_ylabel("U [J]")
+        for ax in axs[-1]:
+            ax.set_xlabel("t [s]")
+        fig.tight_layout()
+        fig.savefig(sweep / name, dpi=110)
+        plt.close(fig)
+
+    grid([[(("a", N, E), f"A N={N} EI={E}", f"A: N = {N}, EI = {E} N m²") for E in EIS] for N in UNITS],
+         "fig_strain_energy_A.png")
+    grid([[((g, N, "1e4"), f"{GEOMS[g]} N={N}", f"{GEOMS[g]}: N = {N}, EI = 1e4 N m²") for N in UNITS]
+          for g in ("b", "cy", "dy")], "fig_strain_energy_BCD.png")
 
     if args.videos:
         from magsail_mj.render import render_run

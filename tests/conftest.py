@@ -1,10 +1,11 @@
-"""Shared test helpers: a small, fast truss config."""
+"""Shared test helpers: a small, fast truss config; the two-layer lattice point set."""
 
 from __future__ import annotations
 
 import copy
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
@@ -28,3 +29,11 @@ SMALL_TRUSS = {
 def small_truss_tree() -> dict:
     """A raw config tree of a 3 × 3-cube truss (32 nodes) with a distributed torque."""
     return copy.deepcopy(SMALL_TRUSS)
+
+
+def lattice_points(N: int, d: float) -> np.ndarray:
+    """Reference coordinates p_ijk = (i a - d/2, j a - d/2, (k - 1/2) a), index k N^2 + j N + i
+    (the two-layer N x N lattice of the truss spec §2.1, built without the lattice module)."""
+    a = d / (N - 1)
+    k, j, i = np.meshgrid(np.arange(2), np.arange(N), np.arange(N), indexing="ij")
+    return np.stack([i * a - d / 2, j * a - d / 2, (k - 0.5) * a], axis=-1).reshape(-1, 3)

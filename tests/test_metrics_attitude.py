@@ -1,6 +1,6 @@
 """Best-fit rotation, SO(3) log/exp, body rates, Euler angles, quaternions, inertia (spec §4,
-§10 item 5). Point sets are built here (two-layer N x N lattice of §2.1), independent of the
-lattice module.
+§10 item 5). Point sets: the two-layer N x N lattice of §2.1 (``tests.conftest.lattice_points``),
+independent of the lattice module.
 
 Tolerances. The Kabsch solution is the polar factor of H = P'^T Q'; its sensitivity to a
 perturbation dH is about |dH| / (sigma_2 + sigma_3), and for the lattice sigma_2 + sigma_3 is of
@@ -33,13 +33,7 @@ from magsail_mj.estimation import (
     so3_log,
     vee,
 )
-
-
-def lattice_points(N: int, d: float) -> np.ndarray:
-    """Reference coordinates p_ijk = (i a - d/2, j a - d/2, (k - 1/2) a), index k N^2 + j N + i."""
-    a = d / (N - 1)
-    k, j, i = np.meshgrid(np.arange(2), np.arange(N), np.arange(N), indexing="ij")
-    return np.stack([i * a - d / 2, j * a - d / 2, (k - 0.5) * a], axis=-1).reshape(-1, 3)
+from tests.conftest import lattice_points
 
 
 P20 = lattice_points(20, 75.0)

@@ -1,9 +1,10 @@
 """Strain energy, strut strain, relative kinetic energy, inverted cells (spec §5.3).
 
-Point sets and struts are built here: the two-layer §2.1 lattice and, as struts, every node
-pair closer than 1.01 a sqrt(2) (cube edges plus both face diagonals), which does not depend on
-the lattice module. Energies are compared with closed forms to 1e-12 relative (rounding of
-sums over a few thousand terms); "zero to rounding" means below 1e-12 of the total energy.
+Point sets and struts are built without the lattice module: the two-layer §2.1 lattice
+(``tests.conftest.lattice_points``) and, as struts, every node pair closer than 1.01 a sqrt(2)
+(cube edges plus both face diagonals). Energies are compared with closed forms to 1e-12 relative
+(rounding of sums over a few thousand terms); "zero to rounding" means below 1e-12 of the total
+energy.
 """
 
 from __future__ import annotations
@@ -28,12 +29,7 @@ from magsail_mj.analysis.energy import (
     strut_strain,
 )
 from magsail_mj.estimation._arrays import map_time_blocks
-
-
-def lattice_points(N: int, d: float) -> np.ndarray:
-    a = d / (N - 1)
-    k, j, i = np.meshgrid(np.arange(2), np.arange(N), np.arange(N), indexing="ij")
-    return np.stack([i * a - d / 2, j * a - d / 2, (k - 0.5) * a], axis=-1).reshape(-1, 3)
+from tests.conftest import lattice_points
 
 
 N, D = 8, 20.0
