@@ -217,12 +217,14 @@ class Simulation:
         kin = self.kin
         bad0 = int(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number)
         wall0 = time.perf_counter()
+        wall_before = float(loop.get("wall_s", 0.0))  # wall time of the segments before a resume
         step = start
         try:
             for step in range(start, stop_step + 1):
                 t = step * dt
                 if ckpt is not None and step > start and (
                         (ckpt_every and step % ckpt_every == 0) or step == stop_step < self.n_steps):
+                    loop["wall_s"] = wall_before + time.perf_counter() - wall0
                     self._checkpoint(ckpt, step, loop)
                 if step == stop_step < self.n_steps:
                     status, message = "stopped", f"stopped at t = {t:.3f} s (stop_after_s)"
@@ -268,4 +270,4 @@ class Simulation:
                 bar.close()
         out = {name: np.asarray(vals) for name, vals in records.items()}
         return RunResult(records=out, status=status, message=message, t_end_s=step * dt,
-                         steps=step - start, wall_time_s=time.perf_counter() - wall0)
+                         steps=step - start, wall_time_s=wall_before + time.perf_counter() - wall0)

@@ -58,6 +58,23 @@ def test_resume_equals_uninterrupted(tmp_path, small_truss_tree):
     assert resumed["phi_final_rad"] == full["phi_final_rad"]
 
 
+def test_resumed_wall_time_counts_every_segment(tmp_path, small_truss_tree):
+    """A resumed run reports the wall time of all its segments, not only the last one: the
+    first segment (80 % of the steps) is stored in the checkpoint and added to the second."""
+    import pickle
+
+    from magsail_mj.scenarios import build_scenario
+
+    cfg = _cfg(small_truss_tree, "sim.duration_s=10.0")
+    ckpt = tmp_path / "ckpt.pkl"
+    build_scenario(cfg).simulation().run(checkpoint_path=ckpt, stop_after_s=8.0)
+    first = pickle.loads(ckpt.read_bytes())["loop"]["wall_s"]
+    resumed = build_scenario(cfg).simulation().run(checkpoint_path=ckpt, resume=True)
+    assert first > 0.0
+    assert resumed.status == "completed"
+    assert resumed.wall_time_s > first
+
+
 def test_same_config_same_numbers(tmp_path, small_truss_tree):
     cfg = _cfg(small_truss_tree, "sim.duration_s=3.0")
     run_scenario(cfg, tmp_path / "a")
