@@ -12,11 +12,12 @@ the N1/N2 allocation and cached Lloyd selections, 9 000 s. Every row runs the wh
    backward-Euler step damps the structural modes, see the lattice benchmark).
 
 Each row prints wall and CPU time, cost per simulated second, its ratio to the NumPy RK4
-reference, its summary figures and their differences from row 1, and the largest best-fit
-attitude difference from row 1 over the run (node positions sampled every 1 s). A row is
-**equivalent** to the spec's when that attitude difference is ≤ 1e-3 rad (spec §3.4) and
-``time_rates_below_1e-3_s``, ``surface_sd_max_m`` and ``edge_angle_max_deg`` are within 2 % and
-``saturation_fraction`` within 0.02 of row 1's.
+reference, its summary figures, and the largest best-fit attitude difference from row 1 over the
+run (node positions sampled every 1 s). Two verdicts per row: **figures** — the scenario's
+deliverables ``time_rates_below_1e-3_s``, ``surface_sd_max_m`` and ``edge_angle_max_deg`` within
+2 % and ``saturation_fraction`` within 0.02 of row 1's; **trajectory** — also the attitude within
+1e-3 rad of row 1's at every sample (the tolerance of spec §3.4, set there for a 300 s open-loop
+run; over 9 000 s of a tumbling body, ~100 rad of rotation, it asks for 1e-5 relative phase).
 
 The reference is a plain NumPy RK4 (:mod:`magsail_mj.reference.numpy_rk4`) of the same model:
 same lattice, masses, springs and dashpots, the same tidal and rod loads evaluated at every RK
@@ -72,7 +73,11 @@ class Row:
     t: np.ndarray = field(repr=False, default=None)
     R: np.ndarray = field(repr=False, default=None)
     angle_rad: float = 0.0
-    equivalent: bool = True
+    figures_ok: bool = True
+
+    @property
+    def trajectory_ok(self) -> bool:
+        return self.figures_ok and self.angle_rad <= ANGLE_TOL_RAD
 
 
 def scenario(duration: float, overrides: list[str], cache_dir: str):
@@ -140,7 +145,7 @@ def numpy_reference_cost(duration: float, cache_dir: str) -> float:
 def compare(row: Row, spec: Row) -> None:
     common, ia, ib = np.intersect1d(np.round(spec.t, 6), np.round(row.t, 6), return_indices=True)
     row.angle_rad = float(np.max(rotation_angle(row.R[ib], relative_to=spec.R[ia]))) if common.size else np.inf
-    ok = row.angle_rad <= ANGLE_TOL_RAD and row.t_end_s >= spec.t_end_s - 1e-6
+    ok = row.t_end_s >= spec.t_end_s - 1e-6
     for key in COMPARED:
         a, b = spec.summary.get(key), row.summary.get(key)
         missing = lambda v: v is None or (isinstance(v, float) and not np.isfinite(v))  # noqa: E731
@@ -150,21 +155,22 @@ def compare(row: Row, spec: Row) -> None:
             ok = ok and abs(b - a) <= SAT_TOL
         else:
             ok = ok and abs(b - a) <= REL_TOL * abs(a)
-    row.equivalent = bool(ok)
+    row.figures_ok = bool(ok)
 
 
 def table(rows: list[Row], ref_cost: float, duration: float) -> str:
     fmt = lambda v: "—" if v is None else (f"{v:.4g}" if isinstance(v, float) else str(v))  # noqa: E731
     head = ("| setting | wall [s] | CPU [s] | CPU ms per sim. s | cost / NumPy RK4 | "
-            + " | ".join(f"`{k}`" for k in COMPARED) + " | max attitude diff. [rad] | equivalent |")
-    lines = [head, "|" + "---|" * (7 + len(COMPARED))]
+            + " | ".join(f"`{k}`" for k in COMPARED) + " | max attitude diff. [rad] | figures | trajectory |")
+    lines = [head, "|" + "---|" * (8 + len(COMPARED))]
     lines.append(f"| NumPy RK4 0.1 s (reference) | — | — | {ref_cost * 1e3:.1f} | 1.00 | "
-                 + " | ".join("—" for _ in COMPARED) + " | — | — |")
+                 + " | ".join("—" for _ in COMPARED) + " | — | — | — |")
+    yes = lambda r, ok: "—" if r is rows[0] else ("yes" if ok else "no")  # noqa: E731
     for r in rows:
         per = r.cpu_s / max(r.t_end_s, 1e-9)
         lines.append(f"| {r.label} | {r.wall_s:.1f} | {r.cpu_s:.1f} | {per * 1e3:.2f} | {per / ref_cost:.2f} | "
                      + " | ".join(fmt(r.summary.get(k)) for k in COMPARED)
-                     + f" | {r.angle_rad:.1e} | {'—' if r is rows[0] else ('yes' if r.equivalent else 'no')} |")
+                     + f" | {r.angle_rad:.1e} | {yes(r, r.figures_ok)} | {yes(r, r.trajectory_ok)} |")
     return "\n".join(lines)
 
 
@@ -195,12 +201,14 @@ def main(argv: list[str] | None = None) -> int:
         r = rows[-1]
         log(f"{label}: wall {r.wall_s:.1f} s, CPU {r.cpu_s:.1f} s, attitude diff {r.angle_rad:.1e} rad, "
             + ", ".join(f"{k} {r.summary.get(k)}" for k in COMPARED))
-    fastest = min((r for r in rows if r.equivalent), key=lambda r: r.wall_s)
+    lines = [table(rows, ref_cost, args.duration), ""]
+    for what, ok in (("figures", lambda r: r.figures_ok), ("trajectory", lambda r: r.trajectory_ok)):
+        f = min((r for r in rows if ok(r)), key=lambda r: r.wall_s)
+        lines.append(f"- Fastest setting equal to the spec's RK4 0.1 s in {what}: {f.label}, {f.wall_s:.1f} s wall "
+                     f"for {args.duration:g} s simulated ({'meets' if f.wall_s <= 30.0 else 'misses'} the ≤ 30 s "
+                     f"target), cost {f.cpu_s / max(f.t_end_s, 1e-9) / ref_cost:.2f} of the NumPy RK4 reference.")
     text = "\n".join([
-        table(rows, ref_cost, args.duration), "",
-        f"- Fastest setting equivalent to the spec's RK4 0.1 s (attitude ≤ {ANGLE_TOL_RAD:g} rad, figures "
-        f"within {REL_TOL:.0%}, saturation within {SAT_TOL}): {fastest.label}, {fastest.wall_s:.1f} s wall "
-        f"for {args.duration:g} s simulated ({'meets' if fastest.wall_s <= 30.0 else 'misses'} the ≤ 30 s target).",
+        *lines,
         f"- {args.duration:g} s per row; reference over {args.ref_duration:g} s; Python {platform.python_version()}, "
         f"NumPy {np.__version__}, MuJoCo {__import__('mujoco').__version__}.",
     ])
