@@ -24,6 +24,7 @@ __all__ = [
     "atomic_path",
     "write_json",
     "write_npz",
+    "print_report",
     "package_versions",
     "prepare_run_dir",
     "RunDirError",
@@ -82,6 +83,14 @@ def write_json(path: str | Path, obj: Any) -> Path:
     with atomic_path(path) as tmp:
         tmp.write_text(json.dumps(to_jsonable(obj), indent=2, sort_keys=False) + "\n")
     return Path(path)
+
+
+def print_report(text: str, out: str | Path | None = None) -> None:
+    """Print a report (a benchmark table) and, when ``out`` is given, also write it there atomically."""
+    print(text)
+    if out is not None:
+        with atomic_path(out) as tmp:
+            Path(tmp).write_text(text + "\n")
 
 
 def write_npz(path: str | Path, **arrays: np.ndarray) -> Path:

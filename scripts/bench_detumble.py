@@ -45,6 +45,7 @@ import magsail_mj  # noqa: F401  (GL backend before mujoco)
 import numpy as np
 
 from magsail_mj.config import load_config
+from magsail_mj.io import print_report
 from magsail_mj.estimation.attitude import best_fit_rotation, rotation_angle
 from magsail_mj.loads.base import StepState
 from magsail_mj.reference.numpy_rk4 import SpringMassLattice
@@ -212,9 +213,7 @@ def main(argv: list[str] | None = None) -> int:
         f"- {args.duration:g} s per row; reference over {args.ref_duration:g} s; Python {platform.python_version()}, "
         f"NumPy {np.__version__}, MuJoCo {__import__('mujoco').__version__}.",
     ])
-    print(text)
-    if args.out is not None:
-        args.out.write_text(text + "\n")
+    print_report(text, args.out)
     return 0
 
 

@@ -51,6 +51,7 @@ import numpy as np
 
 from magsail_mj.analysis.flatness import surface_sd
 from magsail_mj.config import load_config
+from magsail_mj.io import print_report
 from magsail_mj.estimation.attitude import best_fit_rotation, rotation_angle
 from magsail_mj.reference.numpy_rk4 import from_truss_scenario, rk4_run
 from magsail_mj.scenarios.truss import build_truss_scenario
@@ -248,9 +249,7 @@ def main(argv: list[str] | None = None) -> int:
                  f"NumPy {np.__version__}, MuJoCo {__import__('mujoco').__version__}, "
                  f"{platform.processor() or platform.machine()}; best of {max(1, args.repeats)}.")
     text = "\n".join(lines)
-    print(text)
-    if args.out is not None:
-        args.out.write_text(text + "\n")
+    print_report(text, args.out)
     return 0
 
 

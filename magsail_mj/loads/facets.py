@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 import numpy as np
 
 from magsail_mj.environment.frames import quat_to_mat
@@ -13,7 +15,7 @@ from .base import StepState
 __all__ = ["RigidFacetLoad"]
 
 
-class RigidFacetLoad:
+class RigidFacetLoad(ABC):
     """Base of a surface load on the facets of one rigid body.
 
     A subclass gives ``_scale``, the per-step scale of its force law (ρ or the SRP pressure;
@@ -31,11 +33,13 @@ class RigidFacetLoad:
         self.facets = facets
         self.apply_force = bool(apply_force)
 
+    @abstractmethod
     def _scale(self, env) -> float:
-        raise NotImplementedError
+        """Per-step scale of the force law (0 = no load this step)."""
 
+    @abstractmethod
     def _facet_forces(self, state: StepState, normals: np.ndarray, scale: float) -> np.ndarray:
-        raise NotImplementedError
+        """(nfacet, 3) world forces from the world facet normals."""
 
     def wrench_world(self, state: StepState) -> tuple[np.ndarray, np.ndarray]:
         """(force, torque about the centre of mass) in world axes [N, N m]."""
