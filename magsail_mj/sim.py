@@ -87,6 +87,15 @@ class BodyKinematics:
         self.free_q = np.array(free_q, dtype=int)
         self.free_v = np.array(free_v, dtype=int)
         self.other = np.array(other, dtype=int)
+        # a lattice's particles are usually bodies 1 … n with qpos/qvel 0 … 3n − 1: plain views
+        self._part_block = None
+        if self.part_body.size:
+            n, b0 = self.part_body.size, int(self.part_body[0])
+            q0, v0 = int(self.part_q[0, 0]), int(self.part_v[0, 0])
+            if (np.array_equal(self.part_body, np.arange(b0, b0 + n))
+                    and np.array_equal(self.part_q.ravel(), np.arange(q0, q0 + 3 * n))
+                    and np.array_equal(self.part_v.ravel(), np.arange(v0, v0 + 3 * n))):
+                self._part_block = (slice(b0, b0 + n), slice(q0, q0 + 3 * n), slice(v0, v0 + 3 * n), n)
         self.pos = np.zeros((nb, 3))
         self.pos[:] = model.body_pos
         self.vel = np.zeros((nb, 3))
@@ -100,7 +109,11 @@ class BodyKinematics:
             mujoco.mj_kinematics(self.model, data)
             self.pos[self.other] = data.xpos[self.other]
             self.xquat[self.other] = data.xquat[self.other]
-        if self.part_body.size:
+        if self._part_block is not None:
+            bs, qs, vs, n = self._part_block
+            np.add(self.pos0[bs], data.qpos[qs].reshape(n, 3), out=self.pos[bs])
+            self.vel[bs] = data.qvel[vs].reshape(n, 3)
+        elif self.part_body.size:
             self.pos[self.part_body] = self.pos0[self.part_body] + data.qpos[self.part_q]
             self.vel[self.part_body] = data.qvel[self.part_v]
         for b, qa, va in zip(self.free_body, self.free_q, self.free_v):
@@ -233,7 +246,8 @@ class Simulation:
                 state = StepState(t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega,
                                   env=self.environment.sample(t) if self.environment is not None else None,
                                   ctrl=loop["cmd"])
-                if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+                # one sum each: a NaN or Inf anywhere makes it non-finite (as would |x| > 1e300)
+                if not math.isfinite(float(d.qpos.sum()) + float(d.qvel.sum())):
                     raise DivergenceError(f"state is not finite at t = {t:.3f} s")
                 if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > bad0:
                     raise DivergenceError(f"MuJoCo flagged an unstable acceleration at t = {t:.3f} s")

@@ -332,7 +332,15 @@ def test_disk_cache_and_parallel_precompute(tmp_path, small_selector):
     for c in (3, 8, 20):
         np.testing.assert_array_equal(b.selected(0, c), small_selector.selected(0, c))
         np.testing.assert_array_equal(b.selected(1, c), small_selector.selected(1, c))
-    assert b.stats["disk_hits"] == 3 and b.stats["lloyd_runs"] == 0
+    # precompute also snapped both families: b reads the six selections, no generators, no Lloyd
+    assert b.stats["snap_disk_hits"] == 6 and b.stats["disk_hits"] == 0 and b.stats["lloyd_runs"] == 0
+    assert len(list(a.cache_dir.glob("sites_*/n*.npy"))) == 6
+    # without the snapped files the generators come from disk and are snapped again, identically
+    for f in a.cache_dir.glob("sites_*/n*.npy"):
+        f.unlink()
+    b2 = LloydSelector(sites, region=region, seed=11, tol_rel=1e-4, cache_dir=tmp_path)
+    np.testing.assert_array_equal(b2.selected(1, 8), small_selector.selected(1, 8))
+    assert b2.stats["disk_hits"] == 1 and b2.stats["snap_disk_hits"] == 0 and b2.stats["lloyd_runs"] == 0
     c = LloydSelector(sites, region=region, seed=11, tol_rel=1e-5, cache_dir=tmp_path)
     assert c.cache_dir != a.cache_dir
     assert c.cache_key() != a.cache_key()                  # keyed by tolerance (and seed, region)

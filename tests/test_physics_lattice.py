@@ -533,3 +533,25 @@ def test_reference_from_scenario_with_initial_attitude_and_rate(small_truss_tree
     assert np.abs(x0 - sc.tm.lattice.nodes).max() > 0.1 * a   # really rotated
     x, _, _ = rk4_run(system, x0, v0, dt=0.1, duration=10.0, external=external)
     np.testing.assert_allclose(x, x_mj[-1], rtol=0, atol=tol * a)
+
+
+@pytest.mark.parametrize("fixed", [(), (0, 5)])
+def test_body_kinematics_equals_mujoco_kinematics(fixed):
+    """BodyKinematics (plain views for a free lattice, index arrays when nodes are clamped) reads
+    the same node positions and velocities as MuJoCo's own kinematics."""
+    from magsail_mj.sim import BodyKinematics
+
+    lat, m, k, model = small_model(units=2, fixed=fixed)
+    d = mujoco.MjData(model)
+    rng = np.random.default_rng(3)
+    d.qpos[:] = rng.normal(scale=0.1, size=model.nq)
+    d.qvel[:] = rng.normal(scale=0.1, size=model.nv)
+    kin = BodyKinematics(model)
+    assert (kin._part_block is not None) == (not fixed)
+    kin.update(d)
+    mujoco.mj_forward(model, d)
+    np.testing.assert_array_equal(kin.pos[1:], d.xpos[1:])
+    vel = np.zeros((model.nbody, 6))
+    for b in range(1, model.nbody):
+        mujoco.mj_objectVelocity(model, d, mujoco.mjtObj.mjOBJ_BODY, b, vel[b], 0)
+    np.testing.assert_allclose(kin.vel[1:], vel[1:, 3:], rtol=0, atol=1e-15)

@@ -222,3 +222,27 @@ def test_load_off_and_bad_inputs():
         MagnetorquerRodLoad(lat, m_rod_Am2=(1.0, 2.0, 3.0))
     with pytest.raises(ValueError, match="B_eci"):
         MagnetorquerRodLoad(lat, m_rod_Am2=1.0, B_eci=[1.0, 2.0])
+
+
+def test_held_command_is_reused_and_changes_are_seen():
+    """Between control samples the same command is held: its dipoles are reused; a new command,
+    or the same polarity array changed in place, gives the forces of the new polarities."""
+    lat = make_lattice(units=3, side_m=6.0)
+    B = np.array([1e-5, -2e-5, 3e-5])
+    load = MagnetorquerRodLoad(lat, m_rod_Am2=2.0, B_eci=B)
+    rng = np.random.default_rng(5)
+    pos = lat.nodes + rng.normal(scale=0.05, size=lat.nodes.shape)
+    pol = rng.integers(-1, 2, size=load.n_rods).astype(np.int8)
+    st_ = _state(pos, pol)
+    for _ in range(2):  # second call: the held dipoles
+        x = np.zeros((lat.n_nodes + 1, 6))
+        load.add(st_, x)
+        np.testing.assert_allclose(x, _plain_reference_xfrc(load, st_.pos, pol, B), rtol=1e-12, atol=1e-20)
+    pol[:] = -pol                          # same array, new values
+    x = np.zeros((lat.n_nodes + 1, 6))
+    load.add(st_, x)
+    np.testing.assert_allclose(x, _plain_reference_xfrc(load, st_.pos, pol, B), rtol=1e-12, atol=1e-20)
+    pol2 = np.zeros_like(pol)              # a new command with every rod off
+    x = np.zeros((lat.n_nodes + 1, 6))
+    load.add(_state(pos, pol2), x)
+    assert np.all(x == 0) and not load.last_polarity.any()

@@ -25,6 +25,7 @@ import numpy as np
 
 from magsail_mj.control.allocation import TorqueDistributor
 from magsail_mj.control.rod_attitude import RodAttitudeController
+from magsail_mj.vec3 import cross3
 
 __all__ = ["bdot_torque", "BdotRodController"]
 
@@ -41,6 +42,8 @@ def bdot_torque(omega_body: np.ndarray, B_body: np.ndarray, *, k_Nms_per_T2: flo
         raise ValueError(f"k_Nms_per_T2: must be a number >= 0 N m s/T², got {k_Nms_per_T2!r}")
     w = np.asarray(omega_body, dtype=float)
     B = np.asarray(B_body, dtype=float)
+    if w.shape == (3,) and B.shape == (3,):  # the per-sample path
+        return k_Nms_per_T2 * cross3(cross3(w, B), B)
     return k_Nms_per_T2 * np.cross(np.cross(w, B), B)
 
 

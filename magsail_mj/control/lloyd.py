@@ -448,8 +448,10 @@ class LloydSelector:
       region: ``(x_min, y_min, x_max, y_max)`` covered by the array.
       seed: seed of the initial generators (default ``sim.seed``).
       tol_rel, max_iter: Lloyd stopping rule (see :func:`lloyd`).
-      cache_dir: optional folder of the on-disk cache; one ``.npz`` per count under a
-        sub-folder named by a hash of (region, seed, tol_rel, max_iter, algorithm version).
+      cache_dir: optional folder of the on-disk cache; one ``.npz`` of generators per count
+        under a sub-folder named by a hash of (region, seed, tol_rel, max_iter, algorithm
+        version), and beside them one ``.npy`` of snapped site indices per (family, count) under
+        ``sites_<hash of the family's sites>/`` (the snap is a linear assignment, ~2 ms).
 
     The families' rods are numbered consecutively (family 0 first), as in
     :class:`magsail_mj.loads.magnetorquer_rods.RodArray`; :meth:`polarity` returns the int8
@@ -476,10 +478,13 @@ class LloydSelector:
         self.tol_rel = float(tol_rel)
         self.max_iter = int(max_iter)
         self.cache_dir = None if cache_dir is None else Path(cache_dir) / f"lloyd_{self.cache_key()}"
+        self._sites_key = [hashlib.sha256(np.ascontiguousarray(f).tobytes()).hexdigest()[:16]
+                           for f in fams]
         self._gen: dict[int, LloydResult] = {}
         self._sel: dict[tuple[int, int], np.ndarray] = {}
         self._global: dict[tuple[int, int], np.ndarray] = {}
-        self.stats = {"lloyd_runs": 0, "lloyd_time_s": 0.0, "disk_hits": 0, "snap_time_s": 0.0}
+        self.stats = {"lloyd_runs": 0, "lloyd_time_s": 0.0, "disk_hits": 0, "snap_time_s": 0.0,
+                      "snap_disk_hits": 0}
 
     def cache_key(self) -> str:
         """Hash of what the generators depend on (region, seed, tolerance, cap, algorithm)."""
@@ -490,6 +495,29 @@ class LloydSelector:
     # -- generators
     def _disk_path(self, count: int) -> Path | None:
         return None if self.cache_dir is None else self.cache_dir / f"n{count:05d}.npz"
+
+    def _snap_path(self, family: int, count: int) -> Path | None:
+        if self.cache_dir is None:
+            return None
+        return self.cache_dir / f"sites_{self._sites_key[family]}" / f"n{count:05d}.npy"
+
+    def _snapped(self, family: int, count: int) -> np.ndarray:
+        """Snapped selection of ``count`` sites of ``family``: from disk, else snapped and stored."""
+        path = self._snap_path(family, count)
+        if path is not None and path.exists():
+            self.stats["snap_disk_hits"] += 1
+            return np.load(path).astype(np.int64, copy=False)
+        gen = self.result(count).generators
+        t0 = time.perf_counter()
+        sel = snap_to_sites(gen, self.sites[family])
+        self.stats["snap_time_s"] += time.perf_counter() - t0
+        if path is not None:
+            from magsail_mj.io import atomic_path
+
+            with atomic_path(path, suffix=".npy") as tmp:
+                with open(tmp, "wb") as fh:
+                    np.save(fh, sel)
+        return sel
 
     def _store(self, count: int, res: LloydResult) -> None:
         self._gen[count] = res
@@ -570,10 +598,7 @@ class LloydSelector:
             if count == self.n_sites[family]:  # every site: no Lloyd run needed
                 sel = np.arange(count, dtype=np.int64)
             else:
-                gen = self.result(count).generators
-                t0 = time.perf_counter()
-                sel = snap_to_sites(gen, self.sites[family])
-                self.stats["snap_time_s"] += time.perf_counter() - t0
+                sel = self._snapped(family, count)
             sel.setflags(write=False)
             self._sel[key] = sel
         return sel

@@ -35,6 +35,7 @@ from magsail_mj.control.allocation import TorqueDistributor
 from magsail_mj.control.rod_attitude import RodAttitudeController
 from magsail_mj.environment.constants import MU_EARTH
 from magsail_mj.estimation.attitude import quat_from_matrix
+from magsail_mj.vec3 import cross3
 
 __all__ = [
     "quat_multiply",
@@ -100,7 +101,7 @@ def gg_compensation_torque(r_body: np.ndarray, inertia: np.ndarray, *, mu: float
     r2 = float(r @ r)
     if not r2 > 0:
         raise ValueError("r_body: the centre of mass must not be at the Earth's centre")
-    return -3.0 * mu / (r2 * r2 * np.sqrt(r2)) * np.cross(r, I @ r)
+    return -3.0 * mu / (r2 * r2 * np.sqrt(r2)) * cross3(r, I @ r)
 
 
 def quaternion_feedback_torque(q_e: np.ndarray, omega_body: np.ndarray, *, Pq_Nm: Sequence[float],

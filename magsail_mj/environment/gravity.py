@@ -11,6 +11,8 @@ import math
 
 import numpy as np
 
+from magsail_mj.vec3 import cross3
+
 from .constants import J2_EARTH, MU_EARTH, R_J2
 
 __all__ = [
@@ -137,4 +139,6 @@ def gravity_gradient_torque(
     r = np.asarray(r, dtype=float)
     rn = np.linalg.norm(r)
     u = r / rn
+    if u.shape == (3,):
+        return 3.0 * mu / rn**3 * cross3(u, np.asarray(inertia, dtype=float) @ u)
     return 3.0 * mu / rn**3 * np.cross(u, np.asarray(inertia, dtype=float) @ u)

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 from typing import Literal, NamedTuple
 
+import math
+
 import numpy as np
 
 from ._arrays import as_masses, as_point_series, as_points, as_rotations
@@ -129,6 +131,8 @@ class BestFitRotation:
 
     def __call__(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         qq = q if isinstance(q, np.ndarray) and q.dtype == np.float64 else None
+        if qq is not None and qq.shape == (self.n, 3):
+            return self._single(qq)
         if qq is None or qq.ndim not in (2, 3) or qq.shape[-2:] != (self.n, 3):
             qq = as_point_series(q, "q", n=self.n, min_points=3)
         q_bar = self._w @ qq
@@ -150,6 +154,20 @@ class BestFitRotation:
         R = V @ Ut
         d = q_bar - R @ self.p_bar
         return R, d
+
+    def _single(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """One (n, 3) configuration: the same steps as the batched path with fewer array calls
+        (this runs at every control sample)."""
+        q_bar = self._w @ q
+        H = self._pcT @ q - np.outer(self._pc_sum, q_bar)
+        if not math.isfinite(float(H.sum())):  # a NaN, or an Inf (alone or with −Inf)
+            raise ValueError("q: contains NaN or Inf")
+        U, _, Vt = np.linalg.svd(H)
+        R = Vt.T @ U.T
+        if np.linalg.det(R) < 0.0:
+            Vt[2] *= -1.0
+            R = Vt.T @ U.T
+        return R, q_bar - R @ self.p_bar
 
 
 # --------------------------------------------------------------------------------------------

@@ -37,6 +37,7 @@ import numpy as np
 
 from magsail_mj.geometry.lattice import Lattice
 from magsail_mj.loads.base import StepState
+from magsail_mj.vec3 import cross3
 
 __all__ = [
     "RodArray",
@@ -144,7 +145,7 @@ def rod_pair_forces(r_i: np.ndarray, r_j: np.ndarray, dipole: np.ndarray, B: np.
     r2 = np.einsum("ij,ij->i", r, r)
     k = np.asarray(dipole, dtype=float) / (r2 * np.sqrt(r2))
     if B.ndim == 1:
-        out = np.multiply.outer(k * r2, B)
+        out = (k * r2)[:, None] * B
         rB = r @ B
     else:
         out = (k * r2)[:, None] * B
@@ -194,6 +195,8 @@ class MagnetorquerRodLoad:
         self._ji = np.concatenate([self.j, self.i])
         self._inc = None
         self.last_polarity = np.zeros(self.rods.n_rods, dtype=np.int8)
+        self._held_source: np.ndarray | None = None
+        self._held_dip: np.ndarray | None = None
 
     @classmethod
     def from_basis(cls, lattice: Lattice, *, kappa_Am2_per_kg: float, rod_mass_kg: float,
@@ -257,7 +260,7 @@ class MagnetorquerRodLoad:
 
         Equal to the moment of all force pairs about any point (each pair is a pure couple).
         """
-        return np.cross(self.total_dipole_world(state.pos, self.polarity(state)), self.field(state))
+        return cross3(self.total_dipole_world(state.pos, self.polarity(state)), self.field(state))
 
     def forces(self, pos: np.ndarray, polarity, B: np.ndarray) -> np.ndarray:
         """(n_rods, 3) forces ``F_j`` on the far end of every rod (``F_i = −F_j``) [N]."""
@@ -284,15 +287,30 @@ class MagnetorquerRodLoad:
         Vectorised over every rod (off rods have zero dipole): one gather of the end positions,
         the §3.2 pair, and one sparse product with the ±1 rod–body incidence matrix.
         """
-        pol = self.polarity(state)
-        self.last_polarity = pol.astype(np.int8, copy=True)
-        if not pol.any():
+        dip = self._held_dipoles(state)
+        if dip is None:
             return
         B = self.field(state)
         n = self.n_rods
         ends = state.pos.take(self._ji, axis=0)           # rows: r_j of every rod, then r_i
-        F = rod_pair_forces(ends[n:], ends[:n], pol * self.m_of_rod, B)
+        F = rod_pair_forces(ends[n:], ends[:n], dip, B)
         xfrc[:, :3] += self._incidence(xfrc.shape[0]) @ F
+
+    def _held_dipoles(self, state: StepState) -> np.ndarray | None:
+        """Signed dipoles ``s m_f`` of the held command (``None`` when every rod is off).
+
+        The command is held between control samples, so its validation and the dipole vector
+        are redone only when the polarity differs from the last one seen.
+        """
+        ctrl = state.ctrl
+        pol = ctrl.get("polarity") if isinstance(ctrl, dict) else getattr(ctrl, "polarity", None)
+        if pol is not None and pol is self._held_source and np.array_equal(pol, self.last_polarity):
+            return self._held_dip
+        pol = self.polarity(state)
+        self.last_polarity = pol.astype(np.int8, copy=True)
+        self._held_source = pol if ctrl is not None else None
+        self._held_dip = pol * self.m_of_rod if pol.any() else None
+        return self._held_dip
 
     def activity(self, n_tendons: int) -> np.ndarray:
         """(n_tendons,) int8 polarity of the rod in each strut (tendon ``s`` = strut ``s``), for rendering."""

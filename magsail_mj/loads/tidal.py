@@ -86,7 +86,7 @@ class TidalGravityLoad:
         r2 = float(r @ r)
         _, f = _q_and_f(r, x, r2)
         k = (self.mu / (r2 * math.sqrt(r2))) * self._m_col[:, 0] / (1.0 + f)
-        F = np.multiply.outer(k * f, r)
+        F = (k * f)[:, None] * r
         F -= k[:, None] * x
         xfrc[self._sel, :3] += F
 

@@ -47,6 +47,7 @@ from magsail_mj.estimation.attitude import (
 )
 from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad
 from magsail_mj.sim import RunResult
+from magsail_mj.vec3 import cross3, moment_sum
 
 if TYPE_CHECKING:
     from magsail_mj.scenarios.truss import TrussScenario
@@ -160,12 +161,12 @@ def orbital_probes(sc: "TrussScenario") -> dict[str, Any]:
         x = s.pos[1:n_nodes + 1]
         F = masses[:, None] * tidal.accelerations(np.asarray(s.env.r_ref_eci, dtype=float), x)
         xc = w_com @ x
-        return s.ctrl.R.T @ np.cross(x - xc, F).sum(axis=0)
+        return s.ctrl.R.T @ moment_sum(x - xc, F)
 
     def t_gg_rigid(s, d):
         r_b = s.ctrl.R.T @ (np.asarray(s.env.r_ref_eci, dtype=float) + s.ctrl.com_world)
         r2 = float(r_b @ r_b)
-        return 3.0 * mu / (r2 * r2 * math.sqrt(r2)) * np.cross(r_b, inertia @ r_b)
+        return 3.0 * mu / (r2 * r2 * math.sqrt(r2)) * cross3(r_b, inertia @ r_b)
 
     def activity(s, d):
         out = np.zeros(ntendon, dtype=np.int8)
