@@ -329,3 +329,20 @@ def test_invalid_inputs_are_rejected():
         node_masses(lat, total_kg=1.0, central_fraction=1.0)
     with pytest.raises(ValueError, match="calibration"):
         calibration_factor(lat, "magic")
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.integers(1, 4), st.integers(0, 2**32 - 1), st.floats(1e-4, 0.9))
+def test_strain_check_finds_the_largest_strain(units, seed, scale):
+    """The run's divergence check equals max |l/l0 − 1| over the struts written out plainly."""
+    from magsail_mj.geometry.lattice import strain_check
+
+    lat = make_lattice(units=units, side_m=3.0 * units)
+    rng = np.random.default_rng(seed)
+    x = lat.nodes + rng.normal(scale=scale * lat.cube_edge_m / 4, size=lat.nodes.shape)
+    pos = np.vstack([np.full(3, 7.0), x])  # body 0 is the world
+    eps = np.array([abs(np.linalg.norm(x[j] - x[i]) / l0 - 1.0)
+                    for (i, j), l0 in zip(lat.struts, lat.rest_length)])
+    value, strut = strain_check(lat)(pos)
+    assert value == pytest.approx(eps.max(), rel=1e-12, abs=1e-15)
+    assert eps[strut] == pytest.approx(eps.max(), rel=1e-12, abs=1e-15)

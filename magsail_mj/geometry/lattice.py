@@ -17,6 +17,7 @@ and its spring constant ``k_s = EA / l0_s``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Callable, Literal
 
@@ -155,13 +156,16 @@ def strain_check(lattice: Lattice, *, body_offset: int = 1) -> Callable[[np.ndar
     positions → (largest strut strain |l/l0 − 1|, its strut index); node ``i`` is body
     ``i + body_offset``."""
     a, b = lattice.struts[:, 0] + body_offset, lattice.struts[:, 1] + body_offset
-    l0 = lattice.rest_length
+    inv_l0_sq = 1.0 / lattice.rest_length**2
 
     def check(pos: np.ndarray) -> tuple[float, int]:
-        r = pos[b] - pos[a]
-        eps = np.abs(np.sqrt(np.einsum("ij,ij->i", r, r)) / l0 - 1.0)
-        s = int(np.argmax(eps))
-        return float(eps[s]), s
+        # (l/l0)² of every strut; the largest |l/l0 − 1| is at its largest or smallest value
+        r = pos.take(b, axis=0)
+        r -= pos.take(a, axis=0)
+        ratio2 = np.einsum("ij,ij->i", r, r) * inv_l0_sq
+        i_max, i_min = int(np.argmax(ratio2)), int(np.argmin(ratio2))
+        stretch, squeeze = math.sqrt(ratio2[i_max]) - 1.0, 1.0 - math.sqrt(ratio2[i_min])
+        return (stretch, i_max) if stretch >= squeeze else (squeeze, i_min)
 
     return check
 
