@@ -2,6 +2,7 @@
 
     models/truss_magnetorquer/{detumble,slew_i,slew_ii,slew_iii,slew_iv,gg_ablation_slew_i}.toml
     models/truss_magnetorquer/sensitivity/<base>_<changed key>.toml      (§9.4 variants, §9.6)
+    models/truss_magnetorquer/sweep_ablation_sensitivity.toml            (§9.5 + §9.6 as a sweep)
 
     python scripts/make_truss_orbital_configs.py && python scripts/build_models.py
 
@@ -212,6 +213,17 @@ def main() -> None:
         tag = f"sensitivity: {name}"
         text = text.replace('\ndescription = "', f'\ndescription = "[{tag}] ', 1)
         files[f"sensitivity/{name}.toml"] = text
+    runs = ["gg_ablation_slew_i", *(f"sensitivity/{name}" for name in sens)]
+    files["sweep_ablation_sensitivity.toml"] = "\n".join([
+        "# The gravity-gradient ablation (§9.5) and the sensitivity runs (§9.6, §9.4 variants) as one sweep.",
+        "# magsail sweep models/truss_magnetorquer/sweep_ablation_sensitivity.toml --workers 2 \\",
+        "#     --out runs/truss_orbital/sweep_ablation_sensitivity",
+        "# (scripts/truss_orbital.py --all runs the same configs and tabulates the slew/detumble keys.)",
+        'name = "sweep_ablation_sensitivity"',
+        'description = "truss-magnetorquer-array §9.5 ablation and §9.6 sensitivity runs"',
+        *(f'\n[[run]]\nid = "{rid}"\nconfig = "{rid}.toml"' for rid in runs),
+        "",
+    ])
     for rel, text in files.items():
         path = OUT / rel
         path.parent.mkdir(parents=True, exist_ok=True)
