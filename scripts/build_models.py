@@ -7,7 +7,9 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from magsail_mj.config import load_config
@@ -23,6 +25,54 @@ def generated_xml(config: Path) -> str:
     return build_scenario(load_config(config)).spec.to_xml()
 
 
+# Numbers in the MJCF come out of floating-point sums whose last bits depend on the machine's
+# SIMD paths (e.g. 0.9041597208106965 here, ...6572 elsewhere: 4e-14 relative). A relative
+# tolerance of 1e-9 is five orders above that noise and far below any real parameter change.
+MJCF_RTOL = 1e-9
+
+
+def _same_value(a: str, b: str, rtol: float) -> bool:
+    if a == b:
+        return True
+    xs, ys = a.split(), b.split()
+    if len(xs) != len(ys):
+        return False
+    for x, y in zip(xs, ys):
+        if x == y:
+            continue
+        try:
+            fx, fy = float(x), float(y)
+        except ValueError:
+            return False
+        if not math.isclose(fx, fy, rel_tol=rtol, abs_tol=rtol * 1e-3):
+            return False
+    return True
+
+
+def mjcf_difference(committed: str, generated: str, *, rtol: float = MJCF_RTOL) -> str | None:
+    """First difference between two MJCF texts, or None when they agree.
+
+    Element tags, order, attribute names and text must match exactly; numeric attribute values
+    (also space-separated vectors) must agree to ``rtol`` relative.
+    """
+    a_root, b_root = ET.fromstring(committed), ET.fromstring(generated)
+    a_all, b_all = list(a_root.iter()), list(b_root.iter())
+    if len(a_all) != len(b_all):
+        return f"{len(a_all)} elements committed, {len(b_all)} generated"
+    for a, b in zip(a_all, b_all):
+        where = f"<{a.tag} name={a.get('name')!r}>"
+        if a.tag != b.tag:
+            return f"{where}: tag {a.tag!r} vs {b.tag!r}"
+        if a.attrib.keys() != b.attrib.keys():
+            return f"{where}: attributes {sorted(a.attrib)} vs {sorted(b.attrib)}"
+        for key, value in a.attrib.items():
+            if not _same_value(value, b.attrib[key], rtol):
+                return f"{where}: {key}={value!r} vs {b.attrib[key]!r}"
+        if (a.text or "").strip() != (b.text or "").strip():
+            return f"{where}: text differs"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="only compare, write nothing")
@@ -33,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
             continue
         xml = generated_xml(config)
         target = config.with_suffix(".xml")
-        if target.exists() and target.read_text() == xml:
+        if target.exists() and mjcf_difference(target.read_text(), xml) is None:
             continue
         stale.append(target)
         if not args.check:
