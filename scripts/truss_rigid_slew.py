@@ -1,0 +1,91 @@
+"""Rigid-body counterparts of the orbital truss slews (diagnostic, spec §9.4).
+
+Each id is a config stem under models/truss_magnetorquer/ (``sensitivity/<name>`` allowed). The
+scenario's controller, allocation, Lloyd selection, rod dipoles, IGRF field and orbit are kept;
+the lattice becomes one rigid body with the particle inertia and the classical gravity-gradient
+torque (:mod:`magsail_mj.analysis.rigid_truss_orbital`). A slew that fails here as on the
+flexible lattice fails because of the law, its gains or the manoeuvre definition.
+
+    python scripts/truss_rigid_slew.py slew_i slew_iii slew_iv          # 15 120 s each
+    python scripts/truss_rigid_slew.py slew_iii --duration 3600 --out /tmp/rigid.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from magsail_mj.analysis.rigid_truss_orbital import simulate_rigid
+from magsail_mj.config import load_config
+from magsail_mj.estimation.attitude import particle_inertia
+from magsail_mj.io import atomic_path
+from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenarios.truss_orbital import first_time_below, make_controller, stay_time_below, tumbled
+
+MODELS = Path(__file__).resolve().parents[1] / "models" / "truss_magnetorquer"
+
+
+def rigid_slew(config_id: str, *, duration_s: float | None, gravity_gradient: bool) -> dict:
+    """Run one slew config rigidly; its summary figures (same definitions as the flexible run)."""
+    sc = build_scenario(load_config(MODELS / f"{config_id}.toml"))
+    cfg = sc.cfg
+    if cfg.control.kind != "quat_pd":
+        raise SystemExit(f"{config_id}: control.kind is {cfg.control.kind!r}; only slews (quat_pd) run here")
+    controller = make_controller(sc)
+    duration = float(duration_s if duration_s is not None else cfg.sim.duration_s)
+    t0 = time.perf_counter()
+    run = simulate_rigid(controller=controller, rod_load=sc.rod_load, environment=sc.environment,
+                         nodes_body=sc.tm.lattice.nodes, masses=sc.tm.masses,
+                         inertia=particle_inertia(sc.tm.lattice.nodes, sc.tm.masses).tensor,
+                         q0_wxyz=np.asarray(cfg.q0_wxyz), omega0_body=np.asarray(cfg.initial.omega0_rad_s),
+                         q_ref_wxyz=np.asarray(cfg.maneuver.q_ref_wxyz), duration_s=duration,
+                         dt=cfg.sim.timestep_s, gravity_gradient=gravity_gradient)
+    err = np.radians(run.err_deg)
+    w_norm = np.linalg.norm(run.omega, axis=1)
+    steps = np.arange(1800.0, run.t[-1] + 1e-9, 1800.0)
+    return {
+        "id": config_id,
+        "gravity_gradient": gravity_gradient,
+        "duration_s": duration,
+        "final_error_deg": float(run.err_deg[-1]),
+        "settle_time_s": stay_time_below(run.t, err, math.radians(5.0)),
+        "t_err_below_5deg_first_s": first_time_below(run.t, err, math.radians(5.0)),
+        "tumbled": tumbled(err, w_norm),
+        "saturation_fraction": float(controller.stats[3] / max(controller.stats[0], 1)),
+        "err_at_0p5h_steps_deg": [round(float(np.interp(s, run.t, run.err_deg)), 1) for s in steps],
+        "T_mag_max_Nm": float(np.linalg.norm(run.T_mag, axis=1).max()),
+        "T_gg_max_Nm": float(np.linalg.norm(run.T_gg, axis=1).max()),
+        "wall_time_s": time.perf_counter() - t0,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("ids", nargs="+", help="slew config stems (e.g. slew_iii sensitivity/slew_iv_q_ref_Ry_minus90)")
+    ap.add_argument("--duration", type=float, default=None, help="simulated seconds (default: the config's)")
+    ap.add_argument("--no-gg", action="store_true", help="drop the gravity-gradient torque")
+    ap.add_argument("--out", type=Path, default=None, help="also write the figures as JSON here")
+    args = ap.parse_args(argv)
+    for config_id in args.ids:
+        if not (MODELS / f"{config_id}.toml").exists():
+            print(f"error: ids: no config models/truss_magnetorquer/{config_id}.toml", file=sys.stderr)
+            return 2
+    rows = []
+    for config_id in args.ids:
+        row = rigid_slew(config_id, duration_s=args.duration, gravity_gradient=not args.no_gg)
+        rows.append(row)
+        print(json.dumps(row))
+    if args.out is not None:
+        with atomic_path(args.out) as tmp:
+            tmp.write_text(json.dumps(rows, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
