@@ -8,6 +8,7 @@ flexible lattice fails because of the law, its gains or the manoeuvre definition
 
     python scripts/truss_rigid_slew.py slew_i slew_iii slew_iv          # 15 120 s each
     python scripts/truss_rigid_slew.py slew_iii --duration 3600 --out /tmp/rigid.json
+    python scripts/truss_rigid_slew.py slew_iii --actuation ideal_perp_B   # unsaturated, T ⊥ B
 """
 
 from __future__ import annotations
@@ -31,7 +32,8 @@ from magsail_mj.scenarios.truss_orbital import first_time_below, make_controller
 MODELS = Path(__file__).resolve().parents[1] / "models" / "truss_magnetorquer"
 
 
-def rigid_slew(config_id: str, *, duration_s: float | None, gravity_gradient: bool) -> dict:
+def rigid_slew(config_id: str, *, duration_s: float | None, gravity_gradient: bool,
+               actuation: str = "rods") -> dict:
     """Run one slew config rigidly; its summary figures (same definitions as the flexible run)."""
     sc = build_scenario(load_config(MODELS / f"{config_id}.toml"))
     cfg = sc.cfg
@@ -45,13 +47,14 @@ def rigid_slew(config_id: str, *, duration_s: float | None, gravity_gradient: bo
                          inertia=particle_inertia(sc.tm.lattice.nodes, sc.tm.masses).tensor,
                          q0_wxyz=np.asarray(cfg.q0_wxyz), omega0_body=np.asarray(cfg.initial.omega0_rad_s),
                          q_ref_wxyz=np.asarray(cfg.maneuver.q_ref_wxyz), duration_s=duration,
-                         dt=cfg.sim.timestep_s, gravity_gradient=gravity_gradient)
+                         dt=cfg.sim.timestep_s, gravity_gradient=gravity_gradient, actuation=actuation)
     err = np.radians(run.err_deg)
     w_norm = np.linalg.norm(run.omega, axis=1)
     steps = np.arange(1800.0, run.t[-1] + 1e-9, 1800.0)
     return {
         "id": config_id,
         "gravity_gradient": gravity_gradient,
+        "actuation": actuation,
         "duration_s": duration,
         "final_error_deg": float(run.err_deg[-1]),
         "settle_time_s": stay_time_below(run.t, err, math.radians(5.0)),
@@ -70,6 +73,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("ids", nargs="+", help="slew config stems (e.g. slew_iii sensitivity/slew_iv_q_ref_Ry_minus90)")
     ap.add_argument("--duration", type=float, default=None, help="simulated seconds (default: the config's)")
     ap.add_argument("--no-gg", action="store_true", help="drop the gravity-gradient torque")
+    ap.add_argument("--actuation", choices=("rods", "ideal", "ideal_perp_B"), default="rods",
+                    help="rods (the scenario's), ideal (T_ref itself) or ideal_perp_B (T_ref less its part along B)")
     ap.add_argument("--out", type=Path, default=None, help="also write the figures as JSON here")
     args = ap.parse_args(argv)
     for config_id in args.ids:
@@ -78,7 +83,8 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     rows = []
     for config_id in args.ids:
-        row = rigid_slew(config_id, duration_s=args.duration, gravity_gradient=not args.no_gg)
+        row = rigid_slew(config_id, duration_s=args.duration, gravity_gradient=not args.no_gg,
+                         actuation=args.actuation)
         rows.append(row)
         print(json.dumps(row))
     if args.out is not None:

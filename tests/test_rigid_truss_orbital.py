@@ -104,3 +104,23 @@ def test_quaternion_matrix_is_a_rotation():
     R = quat_to_matrix_wxyz(q)
     np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-15)
     np.testing.assert_allclose(R @ [0, 0, 1.0], [-1.0, 0, 0], atol=1e-15)  # slew III target: z1 → −x
+
+
+def test_ideal_perp_b_actuation_applies_no_torque_along_b():
+    # With T_ref along B the ⊥B actuator applies nothing: the body stays at rest; "ideal" turns it.
+    nodes, J = _setup()
+    B = np.array([0.0, 0.0, 3e-5])
+
+    class _AlongB(_HeldPolarity):
+        def update(self, state):
+            cmd = super().update(state)
+            cmd.torque_ref_body = np.array([0.0, 0.0, 1e-3])
+            return cmd
+
+    kw = dict(rod_load=_UniformDipoleLoad([0, 0, 0], nodes), environment=_environment(B, [7e6, 0, 0]),
+              nodes_body=nodes, masses=np.ones(len(nodes)), inertia=J, q0_wxyz=np.array([1.0, 0, 0, 0]),
+              omega0_body=np.zeros(3), duration_s=10.0, dt=0.1, gravity_gradient=False)
+    perp = simulate_rigid(controller=_AlongB(None), actuation="ideal_perp_B", **kw)
+    ideal = simulate_rigid(controller=_AlongB(None), actuation="ideal", **kw)
+    assert np.max(np.abs(perp.omega)) < 1e-15
+    np.testing.assert_allclose(ideal.omega[-1], [0.0, 0.0, 1e-3 * 10.0 / 45.0], rtol=1e-9)

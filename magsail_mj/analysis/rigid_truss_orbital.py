@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from types import SimpleNamespace
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -49,12 +49,16 @@ def quat_to_matrix_wxyz(q: np.ndarray) -> np.ndarray:
 
 
 def rigid_rhs(q: np.ndarray, w: np.ndarray, *, J: np.ndarray, J_inv: np.ndarray, m_body: np.ndarray,
-              B_eci: np.ndarray, r_ref_eci: np.ndarray, mu: float, gravity_gradient: bool
+              B_eci: np.ndarray, r_ref_eci: np.ndarray, mu: float, gravity_gradient: bool,
+              T_held_body: np.ndarray | None = None
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(q̇, ω̇, T_mag_body, T_gg_body)`` of the module equations; ``m_body`` in body axes [A m²]."""
+    """``(q̇, ω̇, T_ctrl_body, T_gg_body)`` of the module equations; ``m_body`` in body axes [A m²].
+
+    ``T_held_body`` (N m, body axes) replaces the dipole torque ``m × B`` when given (the ideal
+    actuators of :func:`simulate_rigid`).
+    """
     R = quat_to_matrix_wxyz(q)
-    B_b = R.T @ B_eci
-    T_mag = np.cross(m_body, B_b)
+    T_mag = np.cross(m_body, R.T @ B_eci) if T_held_body is None else T_held_body
     if gravity_gradient:
         T_gg = gravity_gradient_torque(R.T @ r_ref_eci, J, mu=mu)
     else:
@@ -72,7 +76,7 @@ class RigidRun:
       t: (T,) times [s]; q: (T, 4) attitude (w, x, y, z), body → ECI; omega: (T, 3) body rate
       [rad/s]; err_deg: (T,) error angle to the target [deg] (NaN without a target);
       saturated: (T,) either family saturated at the control sample; T_mag, T_gg: (T, 3) body
-      torques [N m]; T_ref: (T, 3) reference torque [N m].
+      torques [N m] (T_mag: the control torque actually applied); T_ref: (T, 3) reference torque [N m].
     """
 
     t: np.ndarray
@@ -88,7 +92,8 @@ class RigidRun:
 def simulate_rigid(*, controller: Any, rod_load: Any, environment: Any, nodes_body: np.ndarray,
                    masses: np.ndarray, inertia: np.ndarray, q0_wxyz: np.ndarray, omega0_body: np.ndarray,
                    duration_s: float, dt: float = 0.1, q_ref_wxyz: np.ndarray | None = None,
-                   gravity_gradient: bool = True, record_every_s: float = 10.0) -> RigidRun:
+                   gravity_gradient: bool = True, record_every_s: float = 10.0,
+                   actuation: Literal["rods", "ideal", "ideal_perp_B"] = "rods") -> RigidRun:
     """Run the rigid body with ``controller`` (a :class:`RodAttitudeController`) for ``duration_s``.
 
     Args:
@@ -102,7 +107,13 @@ def simulate_rigid(*, controller: Any, rod_load: Any, environment: Any, nodes_bo
       q0_wxyz, omega0_body: initial attitude and body rate.
       q_ref_wxyz: target attitude for the recorded error angle (``None``: no error angle).
       gravity_gradient: include the gravity-gradient torque.
+      actuation: ``"rods"`` — the torque ``m × B`` of the held rod polarities (the scenario's
+        actuators); ``"ideal"`` — the reference torque ``T_ref`` itself, held over the step (any
+        direction, no saturation); ``"ideal_perp_B"`` — ``T_ref`` less its component along
+        ``B`` (what an unsaturated dipole actuator can make, ``T ⊥ B``).
     """
+    if actuation not in ("rods", "ideal", "ideal_perp_B"):
+        raise ValueError(f"actuation: must be 'rods', 'ideal' or 'ideal_perp_B', got {actuation!r}")
     if dt <= 0 or duration_s <= 0:
         raise ValueError(f"dt and duration_s must be > 0, got dt={dt}, duration_s={duration_s}")
     J = np.asarray(inertia, dtype=float)
@@ -123,7 +134,14 @@ def simulate_rigid(*, controller: Any, rod_load: Any, environment: Any, nodes_bo
         pos = np.vstack([np.zeros(3), p_c @ R.T])  # body 0 is the world, as in MuJoCo's xpos
         cmd = controller.update(SimpleNamespace(t=t, pos=pos, env=env0))
         m_body = R.T @ rod_load.total_dipole_world(pos, cmd.polarity)
-        kw = dict(J=J, J_inv=J_inv, m_body=m_body, mu=mu, gravity_gradient=gravity_gradient)
+        T_held = None
+        if actuation != "rods":
+            T_held = np.array(cmd.torque_ref_body, dtype=float)
+            if actuation == "ideal_perp_B":
+                b = R.T @ env0.B_eci
+                T_held -= (T_held @ b) / (b @ b) * b
+        kw = dict(J=J, J_inv=J_inv, m_body=m_body, mu=mu, gravity_gradient=gravity_gradient,
+                  T_held_body=T_held)
         if k % every == 0:
             _, _, T_mag, T_gg = rigid_rhs(q, w, B_eci=env0.B_eci, r_ref_eci=env0.r_ref_eci, **kw)
             err = (math.degrees(2 * math.atan2(np.linalg.norm(error_quaternion(q_ref_wxyz, q)[1:]),
