@@ -3,7 +3,8 @@
 A run folder holds ``model.xml`` (the MJCF of the run), ``timeseries.npz`` (the records and
 derived series), ``summary.json`` (flat key figures, SI units in the names), ``manifest.json``
 (config, its hash, seed, package versions, status, file list; written last), the plots
-(``*.png``), ``checkpoint.pkl`` when checkpointing, and ``video.mp4`` when asked.
+(``*.png``), ``checkpoint.pkl`` with its record segments ``checkpoint.records*.pkl`` when
+checkpointing, and ``video.mp4`` when asked.
 """
 
 from __future__ import annotations

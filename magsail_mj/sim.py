@@ -15,8 +15,11 @@ exceeds the configured bound stops the run: :class:`RunResult` then carries ``st
 "diverged"``, the time and the cause, and everything recorded up to that point.
 
 Checkpoints (every ``checkpoint_every_s`` simulated seconds) hold the full MuJoCo integration
-state, the controller object, the held command and the records; ``resume=True`` restarts from
-the last one and gives the same numbers as an uninterrupted run.
+state, the controller object and the held command; the records made since the previous
+checkpoint go to a segment file beside it (``<stem>.records0000.pkl``, ``…0001`` …) and leave
+memory, so a checkpoint costs the same at every time of a long run instead of rewriting all
+records so far. ``resume=True`` restarts from the last checkpoint (its list of segments) and
+gives the same numbers as an uninterrupted run; the result joins the segments and the tail.
 """
 
 from __future__ import annotations
@@ -184,6 +187,16 @@ class Simulation:
 
     # ------------------------------------------------------------------ checkpoints
     def _checkpoint(self, path: Path, step: int, loop: dict) -> None:
+        records = loop["records"]
+        if records["t"]:
+            name = f"{path.stem}.records{len(loop['segments']):04d}.pkl"
+            with atomic_path(path.with_name(name)) as tmp:
+                with open(tmp, "wb") as fh:
+                    pickle.dump({k: np.asarray(v) for k, v in records.items()}, fh,
+                                protocol=pickle.HIGHEST_PROTOCOL)
+            loop["segments"].append(name)
+            for values in records.values():
+                values.clear()
         state = np.empty(mujoco.mj_stateSize(self.model, _STATE_SPEC))
         mujoco.mj_getState(self.model, self.data, state, _STATE_SPEC)
         blob = {"step": step, "state": state, "loop": loop}
@@ -210,7 +223,7 @@ class Simulation:
         m, d = self.model, self.data
         dt = m.opt.timestep
         ckpt = Path(checkpoint_path) if checkpoint_path else None
-        loop = {"records": {name: [] for name in ["t", *self.probes]}, "cmd": None,
+        loop = {"records": {name: [] for name in ["t", *self.probes]}, "segments": [], "cmd": None,
                 "n_ctrl": 0, "controller": self.controller}
         start = 0
         if resume:
@@ -282,6 +295,23 @@ class Simulation:
         finally:
             if bar is not None:
                 bar.close()
-        out = {name: np.asarray(vals) for name, vals in records.items()}
+        out = _joined_records(records, loop.get("segments", []), ckpt.parent if ckpt is not None else None)
         return RunResult(records=out, status=status, message=message, t_end_s=step * dt,
                          steps=step - start, wall_time_s=wall_before + time.perf_counter() - wall0)
+
+
+def _joined_records(tail: dict[str, list], segments: Sequence[str], folder: Path | None) -> dict[str, np.ndarray]:
+    """The records of a run: its checkpoint segments (in order) followed by the in-memory tail."""
+    if not segments:
+        return {name: np.asarray(vals) for name, vals in tail.items()}
+    parts = []
+    for name in segments:
+        with open(Path(folder) / name, "rb") as fh:
+            parts.append(pickle.load(fh))
+    out = {}
+    for key, vals in tail.items():
+        pieces = [part[key] for part in parts]
+        if vals:
+            pieces.append(np.asarray(vals))
+        out[key] = np.concatenate(pieces, axis=0)
+    return out

@@ -133,3 +133,24 @@ def test_controller_sampled_at_every_period_without_drift(period, dt, duration):
     assert times.size == expected.size
     # each sample falls on the first step at or after k·period
     np.testing.assert_allclose(times, np.ceil(expected / dt - 1e-6) * dt, atol=1e-9)
+
+
+def test_checkpoints_stream_records_to_segments(tmp_path, small_truss_tree):
+    """Each checkpoint moves the records made since the last one to a segment file, so the
+    checkpoint itself holds no records; the run's result joins the segments and the tail."""
+    import pickle
+
+    from magsail_mj.scenarios import build_scenario
+
+    cfg = _cfg(small_truss_tree, "sim.duration_s=10.0", "sim.checkpoint_every_s=2.0")
+    plain = build_scenario(cfg).simulation().run()
+    ckpt = tmp_path / "ckpt.pkl"
+    streamed = build_scenario(cfg).simulation().run(checkpoint_path=ckpt)
+    loop = pickle.loads(ckpt.read_bytes())["loop"]
+    # checkpoints at 2, 4, 6, 8 and 10 s (the last step is a multiple too; its record follows it)
+    assert loop["segments"] == [f"ckpt.records{i:04d}.pkl" for i in range(5)]
+    assert all(len(v) == 0 for v in loop["records"].values())
+    assert all((tmp_path / name).exists() for name in loop["segments"])
+    assert plain.records.keys() == streamed.records.keys()
+    for key in plain.records:
+        assert np.array_equal(plain.records[key], streamed.records[key]), key
