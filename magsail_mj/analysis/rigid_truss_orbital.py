@@ -33,19 +33,10 @@ from typing import Any, Literal
 import numpy as np
 
 from magsail_mj.control.quaternion_feedback import error_quaternion, quat_multiply
+from magsail_mj.control.reflector_pitch import quat_to_matrix as quat_to_matrix_wxyz
 from magsail_mj.environment.gravity import gravity_gradient_torque
 
 __all__ = ["RigidRun", "quat_to_matrix_wxyz", "rigid_rhs", "simulate_rigid"]
-
-
-def quat_to_matrix_wxyz(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix (body → world) of a unit quaternion ``(w, x, y, z)``."""
-    w, x, y, z = q
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
 
 
 def rigid_rhs(q: np.ndarray, w: np.ndarray, *, J: np.ndarray, J_inv: np.ndarray, m_body: np.ndarray,
