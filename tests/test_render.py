@@ -425,3 +425,22 @@ def test_diverged_run_is_rendered_up_to_the_blow_up(tmp_path):
     assert run.t.size == T_FRAMES - 2 and run.qpos.shape[0] == T_FRAMES - 2
     assert run.strut_activity.shape[0] == T_FRAMES - 2
     assert run.series["surface_sd_m"].shape == (T_FRAMES - 2,)
+
+
+def test_inset_plots_the_named_series_up_to_the_frame(tmp_path, gl):
+    """manifest.render.inset draws the series' history in the lower left corner; the curve grows
+    with time (later frames have more plot pixels there); a bad name is refused by name."""
+    write_truss_run(tmp_path / "run", activity=False)
+    plain = read_mp4(render_run(tmp_path / "run", tmp_path / "plain.mp4", width=W, height=H))
+    manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    manifest["render"]["inset"] = "surface_sd_m"
+    (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
+    v = read_mp4(render_run(tmp_path / "run", tmp_path / "inset.mp4", width=W, height=H))
+    corner = (slice(H // 2, H), slice(0, W // 2))
+    assert np.abs(v[0][corner].astype(int) - plain[0][corner]).mean() > 5   # the box is drawn
+    curve = [int(np.count_nonzero((f[corner][..., 0] > 180) & (f[corner][..., 2] < 120))) for f in v]
+    assert curve[-1] > curve[0] + 20, curve                                 # orange line grows
+    manifest["render"]["inset"] = "qpos"
+    (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(ValueError, match="inset"):
+        load_run(tmp_path / "run")

@@ -2,8 +2,9 @@
 
 A run folder holds ``model.xml``, ``timeseries.npz`` (``t`` (T,), ``qpos`` (T, nq), optional
 ``strut_activity`` (T, ntendon) int8 in {-1, 0, +1}, optional scalar series) and
-``manifest.json`` whose ``render`` table gives ``title``, ``top_nodes``, ``overlay``, ``camera``
-and ``exaggeration`` (all optional). See the README (Rendering videos).
+``manifest.json`` whose ``render`` table gives ``title``, ``top_nodes``, ``overlay``, ``inset``
+(one scalar series drawn as a small plot of its history up to the frame's time), ``camera`` and
+``exaggeration`` (all optional). See the README (Rendering videos).
 
 Per frame: the recorded ``qpos`` is set, positions are computed (``mj_kinematics``,
 ``mj_comPos``, ``mj_camlight``, ``mj_tendon``; no dynamics), struts (tendons) are coloured
@@ -92,6 +93,7 @@ class RunData:
       qpos: (T, nq) MuJoCo ``qpos`` at each record.
       strut_activity: (T, ntendon) int8 in {-1, 0, +1}, or ``None``.
       series: overlay series named in ``manifest.render.overlay``, each (T,) or (T, k).
+      inset: ``(name, values (T,))`` of ``manifest.render.inset``, or ``None``.
       title: ``manifest.render.title`` (default: the folder name).
       top_nodes: node indices of the top layer (body = node + 1), or ``None``.
       camera: ``manifest.render.camera`` (keys from ``azimuth_deg``, ``elevation_deg``,
@@ -111,6 +113,7 @@ class RunData:
     camera: dict[str, float]
     exaggeration: float | None
     manifest: dict = field(repr=False)
+    inset: tuple[str, np.ndarray] | None = None
 
 
 def _check_camera(camera: object, what: str) -> dict[str, float]:
@@ -215,6 +218,14 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir") -> RunData:
                              f"or ({T}, k), got {s.shape} {s.dtype}")
         series[str(name)] = s
 
+    inset = render.get("inset")
+    if inset is not None:
+        values = np.asarray(arrays[inset]) if isinstance(inset, str) and inset in arrays else None
+        if values is None or values.shape != (T,) or not np.issubdtype(values.dtype, np.number):
+            raise ValueError(f"{where}.inset: expected the name of a numeric ({T},) series in "
+                             f"{where_ts}, got {inset!r}")
+        inset = (inset, values.astype(float))
+
     top = render.get("top_nodes")
     if top is not None:
         top = np.asarray(top)
@@ -237,7 +248,7 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir") -> RunData:
     return RunData(run_dir=run_dir, model_xml=paths["model.xml"], t=t, qpos=qpos,
                    strut_activity=activity, series=series, title=str(title), top_nodes=top,
                    camera=_check_camera(render.get("camera"), f"{where}.camera"),
-                   exaggeration=exaggeration, manifest=manifest)
+                   exaggeration=exaggeration, manifest=manifest, inset=inset)
 
 
 # --------------------------------------------------------------------------- timeline
@@ -655,10 +666,40 @@ def _format_length(x: float) -> str:
     return f"{x:.3g} m"
 
 
+def _draw_inset(draw, *, box: tuple[float, float, float, float], t: np.ndarray, values: np.ndarray,
+                upto: int, name: str, font, ink: dict) -> None:
+    """A small plot of ``values`` against ``t`` up to record ``upto`` inside ``box`` (x0, y0, x1, y1).
+
+    The axes span the whole run (so the curve grows from left to right); the current value is a
+    dot; the frame shows the series name and its range.
+    """
+    x0, y0, x1, y1 = box
+    draw.rectangle(box, fill=(0, 0, 0), outline=(160, 160, 160))
+    finite = values[np.isfinite(values)]
+    if finite.size == 0 or t[-1] <= t[0]:
+        return
+    lo, hi = float(finite.min()), float(finite.max())
+    if hi <= lo:
+        lo, hi = lo - 0.5, hi + 0.5
+    inner = 4
+    xs = x0 + inner + (t[:upto + 1] - t[0]) / (t[-1] - t[0]) * (x1 - x0 - 2 * inner)
+    ys = y1 - inner - (values[:upto + 1] - lo) / (hi - lo) * (y1 - y0 - 2 * inner)
+    ok = np.isfinite(ys)
+    points = list(zip(xs[ok].tolist(), ys[ok].tolist()))
+    if len(points) > 1:
+        draw.line(points, fill=(255, 200, 60), width=2)
+    if points:
+        px, py = points[-1]
+        draw.ellipse([px - 3, py - 3, px + 3, py + 3], fill=(255, 80, 60))
+    draw.text((x0 + inner, y0 + inner), f"{name}: {lo:.3g} … {hi:.3g}", font=font, **ink)
+
+
 def _draw_overlay(image: np.ndarray, *, title: str, time_s: float, ended: bool,
                   values: Sequence[str], exaggeration: float, label: str | None,
-                  height_limit_m: float | None, cmap: str, activity: bool) -> np.ndarray:
-    """Title, clock, series values, exaggeration note, height colour bar, activity legend, label."""
+                  height_limit_m: float | None, cmap: str, activity: bool,
+                  inset: tuple[str, np.ndarray, np.ndarray, int] | None = None) -> np.ndarray:
+    """Title, clock, series values, exaggeration note, height colour bar, activity legend, label,
+    and the ``inset`` plot ``(name, t, values, record index)`` in the lower left corner."""
     from PIL import Image, ImageDraw
 
     h, w = image.shape[:2]
@@ -678,6 +719,11 @@ def _draw_overlay(image: np.ndarray, *, title: str, time_s: float, ended: bool,
         y += size + pad // 2
     if exaggeration != 1.0:
         draw.text((pad, h - pad - size), f"×{exaggeration:g} exaggerated", font=small, **ink)
+    if inset is not None:
+        name, t_all, v_all, upto = inset
+        bottom = h - 2 * pad - size
+        _draw_inset(draw, box=(pad, bottom - h // 4, pad + w // 3, bottom), t=t_all, values=v_all,
+                    upto=upto, name=name, font=small, ink=ink)
     if activity:
         x = w - pad
         for text, rgba in (("strut −", ACTIVE_NEG_RGBA), ("strut +", ACTIVE_POS_RGBA)):
@@ -783,7 +829,8 @@ def render_frames(
                     values=[_format_value(n, s[i]) for n, s in run.series.items()],
                     exaggeration=k, label=label,
                     height_limit_m=limit if scene.top_bodies is not None else None,
-                    cmap=height_cmap, activity=run.strut_activity is not None))
+                    cmap=height_cmap, activity=run.strut_activity is not None,
+                    inset=(run.inset[0], run.t, run.inset[1], i) if run.inset is not None else None))
             yield panels[0] if len(panels) == 1 else np.concatenate(panels, axis=1)
 
 

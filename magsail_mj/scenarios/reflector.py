@@ -431,7 +431,9 @@ class ReflectorScenario:
             markers = {"mk_sun": "Sun direction +y (yellow)", "mk_ground": "towards the ground point (blue)",
                        "mk_field": "magnetic field (magenta)", "mk_ref_line": "reference grey line (white)",
                        "grey_line": "actual grey line (dark grey)", "normal": "plate normal (blue)"}
-        return {"title": title, "overlay": overlay, "camera": cam, "fps": r.fps, "max_frames": frames,
+        inset = "omega_norm_rad_s" if cfg.kind == "detumble" else "err_deg"   # §6.7: error inset
+        return {"title": title, "overlay": overlay, "inset": inset, "camera": cam, "fps": r.fps,
+                "max_frames": frames,
                 "markers": markers}
 
     def manifest_extra(self) -> dict[str, Any]:

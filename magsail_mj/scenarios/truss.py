@@ -533,6 +533,8 @@ class TrussScenario:
             "overlay": (["surface_sd_m", "torque_cmd_x1_Nm"] if self.cfg.scenario == "dist_vs_central"
                         else _orbital_overlay(self.cfg) if self.cfg.scenario in ORBITAL_SCENARIOS
                         else ["surface_sd_m"]),
+            **({"inset": "error_angle_deg" if self.cfg.scenario == "slew" else "omega_norm_rad_s"}
+               if self.cfg.scenario in ORBITAL_SCENARIOS else {}),
             "camera": {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
                        "distance_m": r.distance_factor * self.cfg.lattice.side_m},
             "exaggeration": r.exaggeration,
