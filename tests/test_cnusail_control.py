@@ -17,8 +17,9 @@ from magsail_mj.control.cnusail_modes import (
 )
 from magsail_mj.control.eigenaxis import (
     attitude_matrix, eigen_angle, eigen_axis_gains, eigen_axis_torque, error_quaternion, paper_error_quaternion,
-    quat_conj, quat_from_paper, quat_mul, quat_to_paper, rate_error,
+    quat_from_paper, quat_to_paper, rate_error,
 )
+from magsail_mj.quaternion import quat_conj, quat_mul
 from magsail_mj.control.pd import pd_torque
 from magsail_mj.control.unloading import UnloadingLogic, unloading_dipole
 from magsail_mj.estimation.attitude import matrix_from_quat

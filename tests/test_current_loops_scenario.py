@@ -12,8 +12,9 @@ from hypothesis import given, settings, strategies as st
 from magsail_mj.analysis.rigid_reference import pendulum_period, rigid_dipole_attitude
 from magsail_mj.config import ConfigError, load_config
 from magsail_mj.control.loop_attitude import (
-    LoopAttitudeController, allocate_currents, quat_mul, rigid_velocity_fit,
+    LoopAttitudeController, allocate_currents, rigid_velocity_fit,
 )
+from magsail_mj.quaternion import quat_mul
 from magsail_mj.estimation.attitude import matrix_from_quat, so3_exp
 
 MODELS = Path(__file__).resolve().parents[1] / "models" / "current_loops"

@@ -14,7 +14,7 @@ from scipy.integrate import solve_ivp
 
 from magsail_mj.config import ConfigError, load_config, parse_config
 from magsail_mj.control.reflector_bdot import PlateBdotController
-from magsail_mj.control.reflector_pitch import quat_to_matrix
+from magsail_mj.quaternion import quat_to_matrix
 from magsail_mj.mjcf.plate import PlateModelParams, build_plate_spec, plate_mass_properties
 from magsail_mj.run import run_scenario
 from magsail_mj.scenarios import build_scenario

@@ -9,9 +9,8 @@ import numpy as np
 import pytest
 from scipy.integrate import simpson
 
-from magsail_mj.control.reflector_pitch import (
-    error_quaternion, pitch_gains, project_and_saturate, quat_to_matrix, ReflectorPitchController,
-)
+from magsail_mj.control.reflector_pitch import ReflectorPitchController, pitch_gains, project_and_saturate
+from magsail_mj.quaternion import error_quaternion, quat_to_matrix
 from magsail_mj.control.reflector_steering import (
     ReflectorOrbit, SteeringReference, pitch_angle_from_quaternion, pitch_reference_quaternion,
 )

@@ -20,10 +20,12 @@ from magsail_mj.config import ConfigError, apply_overrides, parse_config
 from magsail_mj.control.allocation import TorqueDistributor
 from magsail_mj.control.bdot_flexible import BdotRodController, bdot_torque
 from magsail_mj.control.quaternion_feedback import (
-    QuaternionFeedbackRodController, error_quaternion, gg_compensation_torque, quat_conjugate,
-    quat_multiply, quaternion_feedback_torque,
+    QuaternionFeedbackRodController, gg_compensation_torque, quaternion_feedback_torque,
 )
 from magsail_mj.environment.constants import MU_EARTH
+from magsail_mj.quaternion import error_quaternion
+from magsail_mj.quaternion import quat_conj as quat_conjugate
+from magsail_mj.quaternion import quat_mul as quat_multiply
 from magsail_mj.environment.gravity import gravity_gradient_torque, tidal_acceleration
 from magsail_mj.estimation.attitude import matrix_from_quat, particle_inertia, quat_from_matrix, so3_exp
 from magsail_mj.geometry.lattice import make_lattice

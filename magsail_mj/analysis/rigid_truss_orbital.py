@@ -32,8 +32,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from magsail_mj.control.quaternion_feedback import error_quaternion, quat_multiply
-from magsail_mj.control.reflector_pitch import quat_to_matrix as quat_to_matrix_wxyz
+from magsail_mj.quaternion import error_quaternion, quat_mul
+from magsail_mj.quaternion import quat_to_matrix as quat_to_matrix_wxyz
 from magsail_mj.environment.gravity import gravity_gradient_torque
 
 __all__ = ["RigidRun", "quat_to_matrix_wxyz", "rigid_rhs", "simulate_rigid"]
@@ -55,7 +55,7 @@ def rigid_rhs(q: np.ndarray, w: np.ndarray, *, J: np.ndarray, J_inv: np.ndarray,
     else:
         T_gg = np.zeros(3)
     w_dot = J_inv @ (T_mag + T_gg - np.cross(w, J @ w))
-    q_dot = 0.5 * quat_multiply(q, np.array([0.0, w[0], w[1], w[2]]))
+    q_dot = 0.5 * quat_mul(q, np.array([0.0, w[0], w[1], w[2]]))
     return q_dot, w_dot, T_mag, T_gg
 
 

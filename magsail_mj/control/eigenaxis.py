@@ -50,9 +50,9 @@ from typing import Literal
 
 import numpy as np
 
+from magsail_mj.quaternion import quat_conj, quat_mul
+
 __all__ = [
-    "quat_mul",
-    "quat_conj",
     "quat_to_paper",
     "quat_from_paper",
     "attitude_matrix",
@@ -69,23 +69,6 @@ __all__ = [
 ]
 
 GyroComp = Literal["Iw", "Iw+hw", "none"]
-
-
-def quat_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product p ⊗ q of scalar-first quaternions (as ``mju_mulQuat``)."""
-    w1, x1, y1, z1 = p
-    w2, x2, y2, z2 = q
-    return np.array([
-        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-    ])
-
-
-def quat_conj(p: np.ndarray) -> np.ndarray:
-    """Conjugate [w, −x, −y, −z]."""
-    return np.array([p[0], -p[1], -p[2], -p[3]], dtype=float)
 
 
 def quat_to_paper(p: np.ndarray) -> np.ndarray:

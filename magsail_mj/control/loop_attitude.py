@@ -28,20 +28,10 @@ from typing import Literal
 import numpy as np
 
 from magsail_mj.estimation.attitude import BestFitRotation, quat_from_matrix
+from magsail_mj.quaternion import quat_conj, quat_mul
 
-__all__ = ["LoopCommand", "LoopAttitudeController", "quat_mul", "quat_conj", "allocate_currents",
+__all__ = ["LoopCommand", "LoopAttitudeController", "allocate_currents",
            "rigid_velocity_fit"]
-
-
-def quat_conj(q: np.ndarray) -> np.ndarray:
-    """Conjugate of a scalar-first quaternion."""
-    return np.array([q[0], -q[1], -q[2], -q[3]])
-
-
-def quat_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product ``p ⊗ q`` (scalar first)."""
-    pw, pv, qw, qv = p[0], p[1:], q[0], q[1:]
-    return np.concatenate([[pw * qw - pv @ qv], pw * qv + qw * pv + np.cross(pv, qv)])
 
 
 def rigid_velocity_fit(x: np.ndarray, v: np.ndarray, m: np.ndarray) -> np.ndarray:

@@ -35,34 +35,14 @@ from magsail_mj.control.allocation import TorqueDistributor
 from magsail_mj.control.rod_attitude import RodAttitudeController
 from magsail_mj.environment.constants import MU_EARTH
 from magsail_mj.estimation.attitude import quat_from_matrix
+from magsail_mj.quaternion import error_quaternion
 from magsail_mj.vec3 import cross3
 
 __all__ = [
-    "quat_multiply",
-    "quat_conjugate",
-    "error_quaternion",
     "gg_compensation_torque",
     "quaternion_feedback_torque",
     "QuaternionFeedbackRodController",
 ]
-
-
-def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product ``p ⊗ q`` of scalar-first quaternions (``(..., 4)``, broadcast)."""
-    p = np.asarray(p, dtype=float)
-    q = np.asarray(q, dtype=float)
-    pw, px, py, pz = np.moveaxis(p, -1, 0)
-    qw, qx, qy, qz = np.moveaxis(q, -1, 0)
-    return np.stack([pw * qw - px * qx - py * qy - pz * qz,
-                     pw * qx + px * qw + py * qz - pz * qy,
-                     pw * qy - px * qz + py * qw + pz * qx,
-                     pw * qz + px * qy - py * qx + pz * qw], axis=-1)
-
-
-def quat_conjugate(q: np.ndarray) -> np.ndarray:
-    """``q* = [w, −x, −y, −z]`` (the inverse of a unit quaternion)."""
-    q = np.asarray(q, dtype=float)
-    return q * np.array([1.0, -1.0, -1.0, -1.0])
 
 
 def _unit_quat(q: Sequence[float], name: str) -> np.ndarray:
@@ -70,17 +50,6 @@ def _unit_quat(q: Sequence[float], name: str) -> np.ndarray:
     if a.shape != (4,) or not np.all(np.isfinite(a)) or not np.linalg.norm(a) > 0:
         raise ValueError(f"{name}: expected a non-zero quaternion [w, x, y, z], got {q!r}")
     return a / np.linalg.norm(a)
-
-
-def error_quaternion(q_ref: np.ndarray, q_t: np.ndarray) -> np.ndarray:
-    r"""``q_e = q_ref* ⊗ q_t`` with ``q_{e,0} ≥ 0`` (spec §9.4, §12 item O2); ``(..., 4)``.
-
-    Its vector part is ``sin(θ/2) â`` with ``â`` the axis (body components) and ``θ ∈ [0, π]`` the
-    angle of the rotation that takes the target attitude to the current one; the attitude error
-    angle is ``2 arccos q_{e,0}``.
-    """
-    qe = quat_multiply(quat_conjugate(q_ref), q_t)
-    return np.where(qe[..., :1] < 0.0, -qe, qe)
 
 
 def gg_compensation_torque(r_body: np.ndarray, inertia: np.ndarray, *, mu: float = MU_EARTH) -> np.ndarray:

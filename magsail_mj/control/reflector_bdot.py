@@ -25,9 +25,11 @@ from typing import Literal
 
 import numpy as np
 
-from magsail_mj.control.reflector_pitch import cross3, quat_to_matrix, saturate_norm
+from magsail_mj.control.reflector_pitch import saturate_norm
+from magsail_mj.quaternion import quat_to_matrix
+from magsail_mj.vec3 import cross3
 
-__all__ = ["BdotCommand", "PlateBdotController", "saturate_norm", "cross3"]
+__all__ = ["BdotCommand", "PlateBdotController"]
 
 
 @dataclass

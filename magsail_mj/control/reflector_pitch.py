@@ -34,35 +34,12 @@ from typing import Literal, Sequence
 import numpy as np
 
 from magsail_mj.control.reflector_steering import ReflectorOrbit, SteeringReference
+from magsail_mj.quaternion import error_quaternion, quat_to_matrix
+from magsail_mj.vec3 import cross3
 
-
-def cross3(a, b) -> np.ndarray:
-    """``a × b`` of two 3-vectors, written out (cheaper than ``np.cross`` per call)."""
-    a0, a1, a2 = a
-    b0, b1, b2 = b
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 __all__ = ["PitchCommand", "ReflectorPitchController", "pitch_gains", "project_and_saturate",
-           "error_quaternion", "quat_to_matrix", "saturate_norm"]
-
-
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix (3, 3) of a unit scalar-first quaternion (body → world)."""
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
-
-def error_quaternion(q_ref: np.ndarray, q_t: np.ndarray) -> np.ndarray:
-    """``q_e = q_ref* ⊗ q_t`` with a non-negative scalar part (current attitude relative to the reference)."""
-    w1, x1, y1, z1 = q_ref[0], -q_ref[1], -q_ref[2], -q_ref[3]
-    w2, x2, y2, z2 = q_t
-    qe = np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-                   w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                   w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-                   w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
-    return -qe if qe[0] < 0 else qe
+           "saturate_norm"]
 
 
 def saturate_norm(v: np.ndarray, cap: float) -> tuple[np.ndarray, bool]:

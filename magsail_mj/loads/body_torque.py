@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from magsail_mj.control.reflector_pitch import quat_to_matrix
+from magsail_mj.quaternion import quat_to_matrix
 from magsail_mj.environment.gravity import gravity_gradient_torque
 
 from .base import StepState

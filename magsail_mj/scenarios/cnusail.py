@@ -418,7 +418,8 @@ class CnusailScenario:
         p_b = p_c ⊗ p_e with p_c the initial command (nadir for detumbling), and ω from
         ``initial.omega0_deg_s`` or from ω_e(0) = 0."""
         from magsail_mj.control.cnusail_modes import Mode, command_quaternion
-        from magsail_mj.control.eigenaxis import orbital_rate, quat_mul, rate_error
+        from magsail_mj.control.eigenaxis import orbital_rate, rate_error
+        from magsail_mj.quaternion import quat_mul
 
         c = self.cfg.control
         env0 = self.environment.sample(0.0)

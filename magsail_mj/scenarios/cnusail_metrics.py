@@ -98,7 +98,7 @@ def disturbance_orbit_profile(sc, mode: str, *, n: int = 600, offset_deg: float 
     about the body y axis (0: exactly; then the gravity gradient vanishes, the principal axes being
     on R's axes), at times (n,)."""
     from magsail_mj.control.cnusail_modes import Mode, command_quaternion
-    from magsail_mj.control.eigenaxis import quat_mul
+    from magsail_mj.quaternion import quat_mul
     from magsail_mj.loads.base import StepState
 
     env = sc.environment

@@ -38,14 +38,13 @@ import numpy as np
 
 from magsail_mj.control.allocation import TorqueDistributor, allocation_mode_difference
 from magsail_mj.control.bdot_flexible import BdotRodController
-from magsail_mj.control.quaternion_feedback import (
-    QuaternionFeedbackRodController, error_quaternion, quat_conjugate, quat_multiply,
-)
+from magsail_mj.control.quaternion_feedback import QuaternionFeedbackRodController
 from magsail_mj.control.rod_attitude import ProfileRodController, RodAttitudeController
 from magsail_mj.estimation.attitude import (
     euler_zyx, matrix_from_quat, particle_inertia, quat_from_matrix, rotation_angle,
 )
 from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad
+from magsail_mj.quaternion import error_quaternion, quat_conj, quat_mul
 from magsail_mj.sim import RunResult
 from magsail_mj.vec3 import cross3, moment_sum
 
@@ -273,14 +272,14 @@ def slew_axis_angle(q_t: np.ndarray, q0: np.ndarray, q_ref: np.ndarray) -> tuple
 
     Returns ``(angle (T,), Θ, â)`` [rad].
     """
-    qs = quat_multiply(quat_conjugate(q0), q_ref)
+    qs = quat_mul(quat_conj(q0), q_ref)
     qs = -qs if qs[0] < 0 else qs
     sn = float(np.linalg.norm(qs[1:]))
     if not sn > 1e-12:
         return np.zeros(len(q_t)), 0.0, np.array([1.0, 0.0, 0.0])
     axis = qs[1:] / sn
     theta = 2.0 * math.atan2(sn, float(qs[0]))
-    qr = quat_multiply(quat_conjugate(q0), q_t)
+    qr = quat_mul(quat_conj(q0), q_t)
     qr = np.where(qr[..., :1] < 0, -qr, qr)
     return 2.0 * np.arctan2(qr[..., 1:] @ axis, qr[..., 0]), theta, axis
 
