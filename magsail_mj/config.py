@@ -5,14 +5,23 @@ A scenario is a TOML file with a top-level ``concept`` key (``truss_magnetorquer
 experiment. Each concept registers a pydantic model (``register_concept``) that describes its
 tables. Loading:
 
-1. read the TOML file (``tomllib``);
+1. read the TOML file (``tomllib``; a folder, an unreadable, binary or non-UTF-8 file is a
+   :class:`ConfigError`);
 2. apply ``--set key.path=value`` overrides (the value is parsed as a TOML literal, so
    ``sim.duration_s=60`` gives a float and ``actuators.placement=central`` a string);
 3. validate the whole tree against the concept's model. Unknown keys are errors.
 
+Validation is strict (every :class:`StrictModel`): numbers must be finite (no ``nan``/``inf``
+unless a key documents otherwise), a boolean is never a number, a string is never a number or a
+boolean, a float is never an integer (a TOML integer for a float key is fine), and TOML arrays
+fill the fixed-length vectors (``tuple``) of the schemas. Bounds are what the physics and MuJoCo
+need (masses and inertias above :data:`MJ_MINVAL`, time steps at least :data:`MIN_TIMESTEP_S`,
+derived quantities finite); how much memory a config needs is checked elsewhere (the CLI).
+
 Any failure raises :class:`ConfigError`, whose message names every offending key path, the
-value given and what is allowed, e.g. ``lattice.units: must be an integer >= 1, got 0``.
-Nothing is built or written before validation passes.
+value given and what is allowed, e.g. ``lattice.units: must be an integer >= 1, got 0``; all
+problems of a file and its overrides are reported at once. Nothing is built or written before
+validation passes.
 """
 
 from __future__ import annotations
@@ -22,28 +31,48 @@ import hashlib
 import importlib
 import json
 import math
+import re
 import tomllib
+import types
+import typing
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 __all__ = [
+    "MIN_TIMESTEP_S",
+    "MJ_MINVAL",
+    "PRESENTATION_KEYS",
     "ConfigError",
-    "StrictModel",
-    "SimConfig",
+    "ConfigProblem",
     "LatticeRenderConfig",
-    "normalised",
-    "check_finite_fields",
-    "register_concept",
-    "concept_models",
-    "load_config",
-    "parse_config",
+    "SimConfig",
+    "StrictModel",
     "apply_overrides",
+    "check_finite_fields",
+    "concept_models",
     "config_hash",
+    "finite_product",
+    "load_config",
+    "normalised",
+    "numbers_hash",
+    "parse_config",
+    "register_concept",
 ]
 
 Integrator = Literal["RK4", "Euler", "implicitfast", "implicit", "discrete"]
+
+MJ_MINVAL = 1e-15
+"""MuJoCo's ``mjMINVAL``: a body mass or principal inertia at or below it is treated as zero
+(the model fails to compile or to step), so every mass and inertia a config implies must exceed it."""
+
+MIN_TIMESTEP_S = 1e-9
+"""Smallest accepted ``sim.timestep_s`` [s]."""
+
+PRESENTATION_KEYS = ("sim.progress", "sim.duration_s", "sim.checkpoint_every_s", "render")
+"""Keys that do not change the numbers of a run up to a given time (left out of :func:`numbers_hash`)."""
 
 
 class ConfigError(ValueError):
@@ -55,40 +84,85 @@ class ConfigError(ValueError):
         super().__init__(head + ":\n  " + "\n  ".join(self.problems))
 
 
-class StrictModel(BaseModel):
-    """Base of every config table: unknown keys are errors, assignments are validated."""
+class ConfigProblem(ValueError):
+    """A validator's complaint about ``key`` (a dotted path relative to the table it validates).
 
-    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False)
+    Raised inside a pydantic validator, it is reported as ``<table path>.<key>: <message>``, so a
+    table's model validator names the full key path of the offending key. ``others`` are further
+    keys of the same table involved in the problem; they are named too (``also: table.k``).
+    """
+
+    def __init__(self, key: str, message: str, *, others: tuple[str, ...] = ()):
+        self.key = key
+        self.message = message
+        self.others = tuple(others)
+        super().__init__(f"{key}: {message}")
+
+
+def _is_tuple_annotation(annotation: Any) -> bool:
+    """True when ``annotation`` is a ``tuple[...]`` or an optional/union containing one."""
+    origin = typing.get_origin(annotation)
+    if origin is tuple:
+        return True
+    if origin in (typing.Union, types.UnionType):
+        return any(_is_tuple_annotation(a) for a in typing.get_args(annotation))
+    return False
+
+
+class StrictModel(BaseModel):
+    """Base of every config table: unknown keys are errors, assignments are validated, types are
+    strict (no bool/str → number, no str → bool, no float → int) and numbers finite
+    (``allow_inf_nan=False``). A TOML array given for a ``tuple[...]`` key (a fixed-length vector)
+    is accepted as that tuple; its items are still checked strictly."""
+
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False, strict=True,
+                              allow_inf_nan=False)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _arrays_as_tuples(cls, data: Any) -> Any:
+        if not isinstance(data, dict):
+            return data
+        names = [n for n, f in cls.model_fields.items()
+                 if isinstance(data.get(n), list) and _is_tuple_annotation(f.annotation)]
+        if not names:
+            return data
+        return {**data, **{n: tuple(data[n]) for n in names}}
 
 
 class SimConfig(StrictModel):
     """The ``[sim]`` table every scenario has.
 
-    ``timestep_s`` is MuJoCo's ``opt.timestep``; ``record_every`` keeps every k-th step;
-    ``checkpoint_every_s`` writes a resumable checkpoint each so many simulated seconds
-    (0 = never); ``max_strain`` is the divergence bound on any strut's |Δl|/l0.
-    ``integrator = "discrete"`` is MuJoCo's position-implicit step (strut springs and dashpots
-    in the metric M + hD + h²K, stable beyond 2/ω_max but with backward-Euler damping of the
-    structural modes); ``solver_tolerance`` is MuJoCo's ``opt.tolerance`` (unset: MuJoCo's
-    1e-8), which also ends that integrator's iterative effective-metric solve.
+    ``timestep_s`` is MuJoCo's ``opt.timestep`` (at least 1e-9 s, at most 10 s);
+    ``duration_s`` the simulated time (at least one time step); ``record_every`` keeps every k-th
+    step; ``checkpoint_every_s`` writes a resumable checkpoint each so many simulated seconds
+    (0 = never, else at least one time step); ``max_strain`` is the divergence bound on any
+    strut's |Δl|/l0. ``integrator = "discrete"`` is MuJoCo's position-implicit step (strut
+    springs and dashpots in the metric M + hD + h²K, stable beyond 2/ω_max but with
+    backward-Euler damping of the structural modes); ``solver_tolerance`` is MuJoCo's
+    ``opt.tolerance`` (unset: MuJoCo's 1e-8), which also ends that integrator's iterative
+    effective-metric solve. ``progress`` only shows a progress bar.
     """
 
     duration_s: float = Field(gt=0)
-    timestep_s: float = Field(gt=0, le=10.0)
+    timestep_s: float = Field(ge=MIN_TIMESTEP_S, le=10.0)
     integrator: Integrator = "RK4"
     solver_tolerance: float | None = Field(default=None, gt=0, lt=1)
     record_every: int = Field(default=10, ge=1)
-    seed: int = Field(default=0, ge=0)
+    seed: int = Field(default=0, ge=0, lt=2**63)
     checkpoint_every_s: float = Field(default=0.0, ge=0)
     max_strain: float = Field(default=0.5, gt=0)
     progress: bool = True
 
     @model_validator(mode="after")
-    def _step_fits(self) -> "SimConfig":
+    def _step_fits(self) -> SimConfig:
         if self.timestep_s > self.duration_s:
-            raise ValueError(
-                f"timestep_s ({self.timestep_s}) must not exceed duration_s ({self.duration_s})"
-            )
+            raise ConfigProblem("duration_s", f"must be at least one time step, timestep_s = {self.timestep_s} s, "
+                                f"got {self.duration_s!r}", others=("timestep_s",))
+        if 0 < self.checkpoint_every_s < self.timestep_s:
+            raise ConfigProblem("checkpoint_every_s", "must be 0 (never) or at least one time step, "
+                                f"timestep_s = {self.timestep_s} s, got {self.checkpoint_every_s!r}",
+                                others=("timestep_s",))
         return self
 
 
@@ -105,11 +179,27 @@ class LatticeRenderConfig(StrictModel):
 
 
 def normalised(v: tuple[float, ...], what: str) -> tuple[float, ...]:
-    """``v / |v|`` for a field validator; a zero ``v`` is a ``must be a non-zero {what}`` error."""
-    n = math.sqrt(sum(c * c for c in v))
-    if not n > 0:
+    """``v / |v|`` for a field validator; a zero ``v`` is a ``must be a non-zero {what}`` error.
+
+    The norm is computed without overflow (``math.hypot``), so huge finite components are fine."""
+    n = math.hypot(*v)
+    if not (n > 0 and math.isfinite(n)):
         raise ValueError(f"must be a non-zero {what}")
     return tuple(c / n for c in v)
+
+
+def finite_product(key: str, *factors: float, what: str, minimum: float = 0.0) -> float:
+    """The product of ``factors`` (a quantity derived from several keys, e.g. a node mass), or a
+    :class:`ConfigProblem` on ``key`` when it overflows float64 or is not above ``minimum``
+    (e.g. :data:`MJ_MINVAL` for what MuJoCo receives as a mass or inertia)."""
+    value = 1.0
+    for f in factors:
+        value *= f
+    if not math.isfinite(value):
+        raise ConfigProblem(key, f"makes the {what} overflow float64 (got {value!r})")
+    if not value > minimum:
+        raise ConfigProblem(key, f"makes the {what} {value:.6g}, which must be > {minimum:g}")
+    return value
 
 
 def check_finite_fields(obj: Any, *, positive: tuple[str, ...] = (), non_negative: tuple[str, ...] = ()) -> None:
@@ -157,27 +247,119 @@ def concept_models() -> dict[str, type[BaseModel]]:
     return dict(_REGISTRY)
 
 
-def _format_error(err: dict[str, Any]) -> str:
-    loc = ".".join(str(part) for part in err.get("loc", ()) if not str(part).startswith("function-"))
+# ------------------------------------------------------------------------ error formatting
+
+_TYPE_MESSAGES = {
+    "float_type": "must be a number (not a string or a boolean)",
+    "int_type": "must be an integer (not a float, a string or a boolean)",
+    "int_from_float": "must be an integer (not a float)",
+    "bool_type": "must be true or false (a boolean, not a string or a number)",
+    "string_type": "must be a string",
+    "finite_number": "must be a finite number",
+    "tuple_type": "must be an array",
+    "list_type": "must be an array",
+    "model_type": "must be a table",
+    "model_attributes_type": "must be a table",
+    "dict_type": "must be a table",
+}
+_KEYED = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z0-9_]+)*): (.*)$", re.DOTALL)
+_UNION_TAG = re.compile(r"[\[\]()<>, ]|^(float|int|str|bool|none|list|tuple|dict)$")
+
+
+def _loc_path(loc: tuple) -> str:
+    """``('sim', 'duration_s')`` → ``sim.duration_s``; list indices as ``[i]``; union tags and
+    validator names dropped."""
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif not _UNION_TAG.search(str(part)) and not str(part).startswith("function-"):
+            out += f".{part}" if out else str(part)
+    return out
+
+
+def _join(loc: str, key: str) -> str:
+    return f"{loc}.{key}" if loc else key
+
+
+def _got(value: Any) -> str:
+    return "" if isinstance(value, dict) else f", got {value!r}"
+
+
+def _bound_message(kind: str, ctx: dict) -> str:
+    sign = {"greater_than_equal": ">=", "greater_than": ">", "less_than": "<", "less_than_equal": "<="}[kind]
+    bound = next(iter(ctx.values())) if ctx else "?"
+    noun = "an integer" if isinstance(bound, int) and not isinstance(bound, bool) else "a number"
+    return f"must be {noun} {sign} {bound}"
+
+
+def _value_error_lines(loc: str, err: dict[str, Any]) -> list[str]:
+    """Lines of a validator's ``ValueError``: a :class:`ConfigProblem` names its key under ``loc``;
+    a message ``key: text`` (or several joined by ``; ``) is read the same way."""
+    exc = (err.get("ctx") or {}).get("error")
+    if isinstance(exc, ConfigProblem):
+        also = ", ".join(_join(loc, k) for k in exc.others)
+        return [f"{_join(loc, exc.key)}: {exc.message}" + (f" (see also {also})" if also else "")]
+    msg = str(err.get("msg", "invalid value")).removeprefix("Value error, ")
+    parts = msg.split("; ")
+    if len(parts) > 1 and all(_KEYED.match(p) for p in parts):
+        return [f"{_join(loc, m.group(1))}: {m.group(2)}" for m in map(_KEYED.match, parts)]
+    m = _KEYED.match(msg)
+    if m:
+        return [f"{_join(loc, m.group(1))}: {m.group(2)}"]
+    where = f"{loc}: " if loc else ""
+    return [f"{where}{msg}" + _got(err.get("input")) if "input" in err else f"{where}{msg}"]
+
+
+def _format_error(err: dict[str, Any]) -> list[str]:
+    """The ``key.path: what is wrong, got value`` line(s) of one pydantic error."""
+    loc = _loc_path(tuple(err.get("loc", ())))
     kind = err.get("type", "")
     value = err.get("input")
     ctx = err.get("ctx") or {}
     if kind == "extra_forbidden":
-        return f"{loc}: unknown key (not part of this table), got {value!r}"
+        return [f"{loc}: unknown key (not part of this table){_got(value)}"]
     if kind == "missing":
-        return f"{loc}: required key is missing"
+        return [f"{loc}: required key is missing"]
     if kind == "literal_error":
-        return f"{loc}: must be one of {ctx.get('expected')}, got {value!r}"
+        return [f"{loc}: must be one of {ctx.get('expected')}{_got(value)}"]
     if kind in ("greater_than_equal", "greater_than", "less_than", "less_than_equal"):
-        sign = {"greater_than_equal": ">=", "greater_than": ">",
-                "less_than": "<", "less_than_equal": "<="}[kind]
-        bound = next(iter(ctx.values())) if ctx else "?"
-        noun = "an integer" if isinstance(bound, int) and not isinstance(bound, bool) else "a number"
-        return f"{loc}: must be {noun} {sign} {bound}, got {value!r}"
-    msg = err.get("msg", "invalid value")
-    msg = msg.removeprefix("Value error, ")
+        return [f"{loc}: {_bound_message(kind, ctx)}{_got(value)}"]
+    if kind in _TYPE_MESSAGES:
+        return [f"{loc}: {_TYPE_MESSAGES[kind]}{_got(value)}"]
+    if kind in ("too_short", "too_long"):
+        return [f"{loc}: {err.get('msg', 'wrong length')}{_got(value)}"]
+    if kind == "value_error":
+        return _value_error_lines(loc, err)
+    msg = str(err.get("msg", "invalid value")).removeprefix("Value error, ")
     where = f"{loc}: " if loc else ""
-    return f"{where}{msg}, got {value!r}" if "input" in err and not isinstance(value, dict) else f"{where}{msg}"
+    return [f"{where}{msg}{_got(value)}" if "input" in err else f"{where}{msg}"]
+
+
+def _is_union_error(err: dict[str, Any]) -> bool:
+    return any(isinstance(p, str) and _UNION_TAG.search(p) for p in err.get("loc", ()))
+
+
+def _problems(err: ValidationError) -> list[str]:
+    """Every line of a ValidationError; the failed alternatives of a union key (such as
+    ``float | list[float]``) are merged into one ``key: must be ... — or: ...`` line."""
+    out: list[str] = []
+    unions: dict[str, list[str]] = {}
+    for e in err.errors():
+        for line in _format_error(e):
+            key, _, rest = line.partition(": ")
+            if _is_union_error(e):
+                if key not in unions:
+                    unions[key] = []
+                    out.append(key)
+                if rest not in unions[key]:
+                    unions[key].append(rest)
+            elif line not in out:
+                out.append(line)
+    return [f"{line}: " + " — or: ".join(unions[line]) if line in unions else line for line in out]
+
+
+# ------------------------------------------------------------------------ loading
 
 
 def _parse_literal(text: str) -> Any:
@@ -188,64 +370,149 @@ def _parse_literal(text: str) -> Any:
         return text
 
 
-def apply_overrides(tree: dict[str, Any], overrides: list[str] | tuple[str, ...]) -> dict[str, Any]:
-    """Return a copy of ``tree`` with ``key.path=value`` overrides applied.
-
-    Raises ConfigError naming the override when it is not of the form ``a.b=value``.
-    """
+def _override_problems(tree: dict[str, Any], overrides: list[str] | tuple[str, ...]) -> tuple[dict[str, Any], list[str]]:
+    """``tree`` with the well-formed overrides applied, and a line per malformed one."""
     out = copy.deepcopy(tree)
     problems = []
     for item in overrides:
-        if "=" not in item:
+        if not isinstance(item, str) or "=" not in item:
             problems.append(f"--set {item!r}: must look like key.path=value")
             continue
         key, text = item.split("=", 1)
-        parts = [p for p in key.strip().split(".") if p]
-        if not parts:
-            problems.append(f"--set {item!r}: empty key path")
+        parts = [p.strip() for p in key.strip().split(".")]
+        if not key.strip() or not all(parts):
+            problems.append(f"--set {item!r}: empty key path or empty part in {key.strip()!r}")
             continue
         node = out
-        for part in parts[:-1]:
+        for i, part in enumerate(parts[:-1]):
             child = node.setdefault(part, {})
             if not isinstance(child, dict):
-                problems.append(f"--set {item!r}: {part} is a value, not a table")
+                problems.append(f"--set {item!r}: {'.'.join(parts[:i + 1])} is a value, not a table, "
+                                f"so it has no key {parts[i + 1]!r}")
                 break
             node = child
         else:
             node[parts[-1]] = _parse_literal(text.strip())
+    return out, problems
+
+
+def apply_overrides(tree: dict[str, Any], overrides: list[str] | tuple[str, ...]) -> dict[str, Any]:
+    """Return a copy of ``tree`` with ``key.path=value`` overrides applied.
+
+    Raises ConfigError naming every override that is not of the form ``a.b=value`` or that goes
+    through a value (``sim.duration_s.x=1``). :func:`load_config` instead reports these together
+    with the validation problems of the rest.
+    """
+    out, problems = _override_problems(tree, overrides)
     if problems:
         raise ConfigError(problems)
     return out
 
 
-def parse_config(tree: dict[str, Any], *, source: str | None = None) -> BaseModel:
-    """Validate a raw config tree against its concept's schema."""
+def _validate(tree: dict[str, Any]) -> tuple[BaseModel | None, list[str]]:
+    """Validate ``tree``; the model, or the problem lines. Any exception a validator raises
+    (e.g. an OverflowError) becomes a problem line naming what was validated."""
     models = concept_models()
     concept = tree.get("concept")
-    if concept not in models:
-        raise ConfigError(
-            [f"concept: must be one of {sorted(models)}, got {concept!r}"], source=source
-        )
+    if not isinstance(concept, str) or concept not in models:
+        return None, [f"concept: must be one of {sorted(models)}, got {concept!r}"]
     try:
-        return models[concept].model_validate(tree)
+        return models[concept].model_validate(tree), []
     except ValidationError as err:
-        raise ConfigError([_format_error(e) for e in err.errors()], source=source) from None
+        return None, _problems(err)
+    except (ArithmeticError, TypeError, ValueError, IndexError, KeyError) as err:
+        line = (f"{concept} config: a validator failed on these values ({type(err).__name__}: {err}); "
+                "check the numbers for extreme magnitudes")
+        return None, [line]
+
+
+def parse_config(tree: dict[str, Any], *, source: str | None = None) -> BaseModel:
+    """Validate a raw config tree against its concept's schema (ConfigError on any problem)."""
+    if not isinstance(tree, dict):
+        raise ConfigError([f"the config must be a table, got {type(tree).__name__}"], source=source)
+    cfg, problems = _validate(tree)
+    if problems:
+        raise ConfigError(problems, source=source)
+    return cfg
+
+
+def _read_tree(path: Path) -> dict[str, Any]:
+    """The TOML tree of ``path``; ConfigError for a missing path, a folder, an unreadable,
+    non-UTF-8 or invalid file."""
+    if path.is_dir():
+        raise ConfigError([f"config {str(path)!r} is a folder, not a config file"])
+    if not path.exists():
+        raise ConfigError([f"config file {str(path)!r} does not exist"])
+    try:
+        raw = path.read_bytes()
+    except OSError as err:
+        raise ConfigError([f"config file {str(path)!r} cannot be read: {err.strerror or err}"]) from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as err:
+        line = (f"config file {str(path)!r} is not UTF-8 text (a binary file?): byte {err.start} "
+                f"is {raw[err.start:err.start + 1]!r}")
+        raise ConfigError([line]) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError([f"not valid TOML: {err}"], source=str(path)) from None
+
+
+def _mark_override_keys(problems: list[str], overrides: list[str] | tuple[str, ...]) -> list[str]:
+    """Say which unknown keys came from ``--set``."""
+    keys = {item.split("=", 1)[0].strip(): item for item in overrides if isinstance(item, str) and "=" in item}
+    out = []
+    for line in problems:
+        key, _, rest = line.partition(": ")
+        if key in keys and rest.startswith("unknown key"):
+            line = f"{key}: unknown key given by --set {keys[key]!r} (not part of this table)"
+        out.append(line)
+    return out
 
 
 def load_config(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> BaseModel:
-    """Load, override and validate the scenario config at ``path``."""
+    """Load, override and validate the scenario config at ``path``.
+
+    Malformed overrides and the validation problems of the rest are reported together in one
+    :class:`ConfigError`.
+    """
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError([f"config file {str(path)!r} does not exist"])
-    try:
-        tree = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as err:
-        raise ConfigError([f"not valid TOML: {err}"], source=str(path)) from None
-    tree = apply_overrides(tree, overrides)
-    return parse_config(tree, source=str(path))
+    tree = _read_tree(path)
+    tree, problems = _override_problems(tree, overrides)
+    cfg, more = _validate(tree)
+    problems += _mark_override_keys(more, overrides)
+    if problems:
+        raise ConfigError(problems, source=str(path))
+    return cfg
+
+
+def _canonical_hash(tree: Any) -> str:
+    text = json.dumps(tree, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def config_hash(cfg: BaseModel) -> str:
     """SHA-256 of the validated config (canonical JSON): the run's identity in manifests."""
-    text = json.dumps(cfg.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()
+    return _canonical_hash(cfg.model_dump(mode="json"))
+
+
+def numbers_hash(cfg: BaseModel) -> str:
+    """SHA-256 of the validated config's canonical JSON without the presentation keys
+    :data:`PRESENTATION_KEYS` (``sim.progress``, ``sim.duration_s``, ``sim.checkpoint_every_s``
+    and the whole ``render`` table).
+
+    Two configs with the same ``numbers_hash`` compute the same numbers up to the shorter
+    duration, so a checkpoint written under one may be resumed under the other (extending
+    ``sim.duration_s`` on resume stays allowed); any other change (a gain, a mass, the time step,
+    the seed) changes it.
+    """
+    tree = cfg.model_dump(mode="json")
+    for key in PRESENTATION_KEYS:
+        *parents, last = key.split(".")
+        node = tree
+        for part in parents:
+            node = node.get(part, {}) if isinstance(node, dict) else {}
+        if isinstance(node, dict):
+            node.pop(last, None)
+    return _canonical_hash(tree)
