@@ -10,22 +10,28 @@ Each step ``k`` (time ``t = k·δt``):
    initial state);
 4. ``mj_step`` integrates one step with the model's integrator (loads held over the step).
 
-A step whose state is not finite, that MuJoCo flags as unstable, or whose strut strain
-exceeds the configured bound stops the run: :class:`RunResult` then carries ``status =
-"diverged"``, the time and the cause, and everything recorded up to that point.
+After every step the state is checked (:mod:`magsail_mj.divergence`: MuJoCo's automatic reset
+is off, its bad-state warnings and a finiteness check of ``qpos``/``qvel``): a bad state stops the
+run with ``status = "diverged"`` and the simulated time of the first bad state, within one step.
+A strut strain above ``max_strain`` (checked at record steps) stops it with ``status =
+"structure_failed"``: the structure failed, the numbers up to then are valid. Either way
+:class:`RunResult` keeps everything recorded up to that point.
 
-Checkpoints (every ``checkpoint_every_s`` simulated seconds) hold the full MuJoCo integration
-state, the controller object and the held command; the records made since the previous
-checkpoint go to a segment file beside it (``<stem>.records0000.pkl``, ``…0001`` …) and leave
-memory, so a checkpoint costs the same at every time of a long run instead of rewriting all
-records so far. ``resume=True`` restarts from the last checkpoint (its list of segments) and
-gives the same numbers as an uninterrupted run; the result joins the segments and the tail.
+Checkpoints (every ``checkpoint_every_s`` simulated seconds) are data only
+(:mod:`magsail_mj.checkpoint`, a NumPy ``.npz`` read without pickles): MuJoCo's integration
+state, the held command, and every value of the controller, loads, environment and probes that
+changed since the build, with the run's identity (hash of the number-changing config keys,
+versions). The records made since the previous checkpoint go to a segment file beside it
+(``<stem>.records0000.npz``, ``…0001`` …) and leave memory, so a checkpoint costs the same at every
+time of a long run. ``resume=True`` rebuilds nothing itself: the caller builds the same
+scenario, and the checkpoint's values are written into it; a checkpoint of another config or
+build is refused (:class:`~magsail_mj.checkpoint.CheckpointError`). The resumed run gives the
+same numbers as an uninterrupted one; the result joins the segments and the tail.
 """
 
 from __future__ import annotations
 
 import math
-import pickle
 import sys
 import time
 from dataclasses import dataclass, field
@@ -34,11 +40,18 @@ from typing import Any, Callable, Protocol, Sequence
 
 import mujoco
 import numpy as np
+from tqdm import tqdm
 
-from magsail_mj.io import atomic_path
+from magsail_mj.checkpoint import (
+    CheckpointError, StateWalker, check_identity, read_arrays, read_checkpoint, restore_state, run_identity,
+    write_arrays, write_checkpoint,
+)
+from magsail_mj.divergence import (
+    DivergenceError, StructureFailure, WarningWatch, disable_autoreset, route_mujoco_warnings,
+)
 from magsail_mj.loads.base import Load, StepState
 
-__all__ = ["Controller", "BodyKinematics", "Simulation", "RunResult", "DivergenceError"]
+__all__ = ["Controller", "BodyKinematics", "Simulation", "RunResult", "DivergenceError", "StructureFailure"]
 
 _STATE_SPEC = mujoco.mjtState.mjSTATE_INTEGRATION
 
@@ -49,10 +62,6 @@ class Controller(Protocol):
     period_s: float
 
     def update(self, state: StepState) -> Any: ...
-
-
-class DivergenceError(RuntimeError):
-    """Raised inside the loop when the state blows up; the runner turns it into a result."""
 
 
 class BodyKinematics:
@@ -134,7 +143,8 @@ class RunResult:
     """What a run produced.
 
     ``records`` maps probe names to arrays stacked over record times (first axis), with ``t``.
-    ``status`` is ``"completed"``, ``"diverged"`` or ``"stopped"`` (``stop_after_s`` reached).
+    ``status`` is ``"completed"``, ``"diverged"``, ``"structure_failed"`` or ``"stopped"``
+    (``stop_after_s`` reached).
     """
 
     records: dict[str, np.ndarray]
@@ -162,6 +172,8 @@ class Simulation:
       max_strain: divergence bound on strut strain.
       checkpoint_every_s: checkpoint interval in simulated seconds (0 = none).
       init: function(data) setting the initial state (qpos, qvel, time) before the run.
+      identity: what a checkpoint of this run must match (:func:`~magsail_mj.checkpoint.run_identity`;
+        the runner of a config sets the config's hash).
     """
 
     model: mujoco.MjModel
@@ -175,40 +187,58 @@ class Simulation:
     max_strain: float = 0.5
     checkpoint_every_s: float = 0.0
     init: Callable[[mujoco.MjData], None] | None = None
+    identity: dict[str, Any] = field(default_factory=lambda: run_identity(None))
 
     def __post_init__(self) -> None:
         if self.record_every < 1:
             raise ValueError(f"record_every: must be >= 1, got {self.record_every}")
+        route_mujoco_warnings()
+        disable_autoreset(self.model)
         self.data = mujoco.MjData(self.model)
         if self.init is not None:
             self.init(self.data)
         self.kin = BodyKinematics(self.model)
         self.n_steps = int(round(self.duration_s / self.model.opt.timestep))
+        self.walker = self._state_walker()
+        self.walker.baseline()
 
     # ------------------------------------------------------------------ checkpoints
+    def _state_walker(self) -> StateWalker:
+        """The Python-side state of the run: controller, loads, environment and probes."""
+        return StateWalker({"controller": self.controller, "loads": list(self.loads),
+                            "environment": self.environment, "probes": dict(self.probes)})
+
     def _checkpoint(self, path: Path, step: int, loop: dict) -> None:
         records = loop["records"]
         if records["t"]:
-            name = f"{path.stem}.records{len(loop['segments']):04d}.pkl"
-            with atomic_path(path.with_name(name)) as tmp:
-                with open(tmp, "wb") as fh:
-                    pickle.dump({k: np.asarray(v) for k, v in records.items()}, fh,
-                                protocol=pickle.HIGHEST_PROTOCOL)
+            name = f"{path.stem}.records{len(loop['segments']):04d}.npz"
+            write_arrays(path.with_name(name), {k: np.asarray(v) for k, v in records.items()})
             loop["segments"].append(name)
             for values in records.values():
                 values.clear()
         state = np.empty(mujoco.mj_stateSize(self.model, _STATE_SPEC))
         mujoco.mj_getState(self.model, self.data, state, _STATE_SPEC)
-        blob = {"step": step, "state": state, "loop": loop}
-        with atomic_path(path) as tmp:
-            with open(tmp, "wb") as fh:
-                pickle.dump(blob, fh, protocol=pickle.HIGHEST_PROTOCOL)
+        header = {**self.identity, "step": step, "t_s": step * self.model.opt.timestep,
+                  "segments": loop["segments"], "n_ctrl": loop["n_ctrl"], "wall_s": loop.get("wall_s", 0.0)}
+        self.walker.roots["cmd"] = loop["cmd"]
+        write_checkpoint(path, header, self.walker, {"mj_state": state})
 
     def _restore(self, path: Path) -> tuple[int, dict]:
-        with open(path, "rb") as fh:
-            blob = pickle.load(fh)
-        mujoco.mj_setState(self.model, self.data, blob["state"], _STATE_SPEC)
-        return blob["step"], blob["loop"]
+        header, arrays, extra = read_checkpoint(path)
+        check_identity(header, self.identity, path=path)
+        if "mj_state" not in extra or extra["mj_state"].shape != (mujoco.mj_stateSize(self.model, _STATE_SPEC),):
+            raise CheckpointError(f"checkpoint: {path} holds no MuJoCo state of this model")
+        step = int(header["step"])
+        if step > self.n_steps:
+            raise CheckpointError(f"checkpoint: {path} is at t = {header['t_s']:g} s, beyond sim.duration_s = "
+                                  f"{self.duration_s:g} s (a resume may extend a run, not shorten it)")
+        self.walker.roots["cmd"] = None
+        restore_state(self.walker, header["state_tree"], arrays)
+        self.controller = self.walker.roots["controller"]
+        mujoco.mj_setState(self.model, self.data, extra["mj_state"], _STATE_SPEC)
+        loop = {"records": {name: [] for name in ["t", *self.probes]}, "segments": list(header["segments"]),
+                "cmd": self.walker.roots["cmd"], "n_ctrl": int(header["n_ctrl"]), "wall_s": float(header["wall_s"])}
+        return step, loop
 
     # ------------------------------------------------------------------ loop
     def run(
@@ -219,33 +249,31 @@ class Simulation:
         resume: bool = False,
         stop_after_s: float | None = None,
     ) -> RunResult:
-        """Run to ``duration_s`` (or until divergence / ``stop_after_s``)."""
+        """Run to ``duration_s`` (or until divergence, structural failure or ``stop_after_s``)."""
         m, d = self.model, self.data
         dt = m.opt.timestep
         ckpt = Path(checkpoint_path) if checkpoint_path else None
-        loop = {"records": {name: [] for name in ["t", *self.probes]}, "segments": [], "cmd": None,
-                "n_ctrl": 0, "controller": self.controller}
+        loop = {"records": {name: [] for name in ["t", *self.probes]}, "segments": [], "cmd": None, "n_ctrl": 0}
         start = 0
         if resume:
-            if ckpt is None or not ckpt.exists():
-                raise FileNotFoundError(f"resume: no checkpoint at {ckpt}")
+            if ckpt is None:
+                raise CheckpointError("resume: no checkpoint path given")
             start, loop = self._restore(ckpt)
-            self.controller = loop["controller"]
         records = loop["records"]
         ckpt_every = (int(round(self.checkpoint_every_s / dt)) if self.checkpoint_every_s > 0 else 0)
         stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(round(stop_after_s / dt)))
         bar = None
         if progress and self.n_steps > 2000:
-            from tqdm import tqdm
             bar = tqdm(total=self.n_steps, initial=start, unit="step", file=sys.stderr,
                        mininterval=1.0, leave=False)
         status, message = "completed", ""
         kin = self.kin
-        bad0 = int(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number)
+        watch = WarningWatch(d)
         wall0 = time.perf_counter()
         wall_before = float(loop.get("wall_s", 0.0))  # wall time of the segments before a resume
         step = start
         try:
+            watch.check(step * dt)
             for step in range(start, stop_step + 1):
                 t = step * dt
                 if ckpt is not None and step > start and (
@@ -253,17 +281,12 @@ class Simulation:
                     loop["wall_s"] = wall_before + time.perf_counter() - wall0
                     self._checkpoint(ckpt, step, loop)
                 if step == stop_step < self.n_steps:
-                    status, message = "stopped", f"stopped at t = {t:.3f} s (stop_after_s)"
+                    status, message = "stopped", f"stopped at t = {t:.6g} s (stop_after_s)"
                     break
                 kin.update(d)
                 state = StepState(t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega,
                                   env=self.environment.sample(t) if self.environment is not None else None,
                                   ctrl=loop["cmd"])
-                # one sum each: a NaN or Inf anywhere makes it non-finite (as would |x| > 1e300)
-                if not math.isfinite(float(d.qpos.sum()) + float(d.qvel.sum())):
-                    raise DivergenceError(f"state is not finite at t = {t:.3f} s")
-                if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > bad0:
-                    raise DivergenceError(f"MuJoCo flagged an unstable acceleration at t = {t:.3f} s")
                 # sample k is due at k·period (computed, not accumulated, so no sample is ever
                 # skipped by round-off); the step is due when t has reached it within 1e-6 δt
                 if self.controller is not None and t >= loop["n_ctrl"] * self.controller.period_s - 1e-6 * dt:
@@ -275,10 +298,10 @@ class Simulation:
                 if step % self.record_every == 0 or step == self.n_steps:
                     if self.strain_check is not None:
                         strain, strut = self.strain_check(kin.pos)
-                        if strain > self.max_strain:
-                            raise DivergenceError(
-                                f"strut {strut} strain {strain:.3g} exceeds max_strain "
-                                f"{self.max_strain:g} at t = {t:.3f} s")
+                        if not strain <= self.max_strain:
+                            raise StructureFailure(
+                                f"strut {strut} strain {strain:.3g} exceeds sim.max_strain "
+                                f"{self.max_strain:g} at t = {t:.6g} s")
                     records["t"].append(t)
                     for name, probe in self.probes.items():
                         records[name].append(np.array(probe(state, d), copy=True))
@@ -288,10 +311,18 @@ class Simulation:
                 for load in self.loads:
                     load.add(state, d.xfrc_applied)
                 mujoco.mj_step(m, d)
+                # every step: a NaN/Inf anywhere makes the sum non-finite; MuJoCo's own checks
+                # (|q| > 1e10, bad qacc/ctrl) are read from its warning counters
+                if not math.isfinite(float(d.qpos.sum()) + float(d.qvel.sum())):
+                    raise DivergenceError(f"state is not finite at t = {t + dt:.6g} s (after the step from "
+                                          f"t = {t:.6g} s)")
+                watch.check(t + dt)
                 if bar is not None and (step + 1) % 100 == 0:
                     bar.update(100)
         except DivergenceError as err:
             status, message = "diverged", str(err)
+        except StructureFailure as err:
+            status, message = "structure_failed", str(err)
         finally:
             if bar is not None:
                 bar.close()
@@ -304,10 +335,7 @@ def _joined_records(tail: dict[str, list], segments: Sequence[str], folder: Path
     """The records of a run: its checkpoint segments (in order) followed by the in-memory tail."""
     if not segments:
         return {name: np.asarray(vals) for name, vals in tail.items()}
-    parts = []
-    for name in segments:
-        with open(Path(folder) / name, "rb") as fh:
-            parts.append(pickle.load(fh))
+    parts = [read_arrays(Path(folder) / name)[1] for name in segments]
     out = {}
     for key, vals in tail.items():
         pieces = [part[key] for part in parts]

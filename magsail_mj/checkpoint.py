@@ -1,0 +1,498 @@
+"""Data-only checkpoints: the state of live Python objects as arrays and plain scalars.
+
+A run is rebuilt from its config on resume, so every object (controller, loads, environment,
+probes) exists again in its freshly built state. A checkpoint therefore stores only what the
+run has *changed* since the build, as data:
+
+* :class:`StateWalker` walks the attributes of the run's objects (objects of ``magsail_mj``
+  classes, lists, tuples, dicts, NumPy arrays, Python and NumPy scalars, NumPy random
+  generators). Everything else (MuJoCo model and data, configs, functions, paths, sparse
+  matrices) is configuration the build recreates and is not walked. A leaf is named by its
+  attribute path from the root (``controller.fit.R_prev``), and the same object reached twice
+  is stored once.
+* At build time :meth:`StateWalker.baseline` records a digest of every leaf; a checkpoint
+  stores the leaves whose digest changed and, for the unchanged ones, only the digest, which
+  the resume checks against the rebuilt object (a different build is refused, not mixed).
+* :func:`restore_state` writes the stored values back into the rebuilt objects, in place
+  where the shape allows (so objects sharing an array keep sharing it). A value that did not
+  exist at build (``None`` then, an object now) is re-created only from a ``magsail_mj``
+  class named in the file, filled attribute by attribute; no code from the file is run.
+
+:func:`write_checkpoint` / :func:`read_checkpoint` store a header (JSON) and arrays in one
+NumPy ``.npz`` file read with ``allow_pickle=False``: a checkpoint can be opened from any
+source without running its code.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib
+import inspect
+import json
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel
+
+from magsail_mj.io import RunDirError, atomic_path, package_versions
+
+__all__ = [
+    "CheckpointError",
+    "StateWalker",
+    "check_identity",
+    "read_arrays",
+    "read_checkpoint",
+    "restore_state",
+    "run_identity",
+    "write_arrays",
+    "write_checkpoint",
+]
+
+_FORMAT = "magsail_mj checkpoint 1"
+_SCALARS = (bool, int, float, str, type(None))
+
+
+class CheckpointError(RunDirError):
+    """A checkpoint is missing, unreadable, or belongs to another config or build."""
+
+
+def _is_walked_object(obj: Any) -> bool:
+    """Objects of the package's own classes (configs excluded: the build recreates them)."""
+    module = type(obj).__module__ or ""
+    return (module.startswith("magsail_mj.") and not isinstance(obj, (type, BaseModel))
+            and (hasattr(obj, "__dict__") or dataclasses.is_dataclass(obj)))
+
+
+def _attributes(obj: Any) -> dict[str, Any]:
+    if hasattr(obj, "__dict__"):
+        return vars(obj)
+    return {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)}
+
+
+def _digest(value: Any) -> str:
+    h = hashlib.blake2b(digest_size=16)
+    if isinstance(value, np.ndarray):
+        h.update(f"{value.dtype.str}{value.shape}".encode())
+        h.update(np.ascontiguousarray(value).tobytes())
+    else:
+        h.update(json.dumps(value, sort_keys=True).encode())
+    return h.hexdigest()
+
+
+def _key_text(key: Any) -> str | None:
+    """A dict key as JSON text (str, int, float, bool, None and tuples of them), else None."""
+    def plain(k: Any) -> bool:
+        return isinstance(k, _SCALARS) or (isinstance(k, tuple) and all(plain(x) for x in k))
+    return json.dumps(key) if plain(key) else None
+
+
+def _key_value(text: str) -> Any:
+    def tup(v: Any) -> Any:
+        return tuple(tup(x) for x in v) if isinstance(v, list) else v
+    return tup(json.loads(text))
+
+
+class StateWalker:
+    """The walkable state below named roots (see module docs).
+
+    Args:
+      roots: name → object (e.g. ``{"controller": ctl, "loads": [...], "probes": [...]}``);
+        functions among them are walked through their closure cells.
+    """
+
+    def __init__(self, roots: dict[str, Any]):
+        self.roots = roots
+        self._base: dict[str, str] = {}
+
+    # ------------------------------------------------------------------ walking
+    def nodes(self) -> dict[str, dict[str, Any]]:
+        """Path → node description; leaves carry ``value`` (array or JSON scalar)."""
+        out: dict[str, dict[str, Any]] = {}
+        seen: dict[int, str] = {}
+        for name, root in self.roots.items():
+            self._walk(root, name, out, seen)
+        return out
+
+    def _walk(self, obj: Any, path: str, out: dict, seen: dict[int, str]) -> None:
+        if isinstance(obj, (np.ndarray, list, tuple, dict)) or _is_walked_object(obj) \
+                or isinstance(obj, np.random.Generator) or callable(obj):
+            if id(obj) in seen:
+                out[path] = {"kind": "alias", "of": seen[id(obj)]}
+                return
+            seen[id(obj)] = path
+        if isinstance(obj, np.ndarray):
+            if obj.dtype.hasobject:
+                return
+            out[path] = {"kind": "array", "value": obj}
+        elif isinstance(obj, np.generic):
+            out[path] = {"kind": "scalar", "value": obj.item()}
+        elif isinstance(obj, _SCALARS):
+            out[path] = {"kind": "scalar", "value": obj}
+        elif isinstance(obj, np.random.Generator):
+            out[path] = {"kind": "rng", "value": _jsonable_rng(obj.bit_generator.state)}
+        elif isinstance(obj, (list, tuple)):
+            out[path] = {"kind": type(obj).__name__, "len": len(obj)}
+            for i, item in enumerate(obj):
+                self._walk(item, f"{path}[{i}]", out, seen)
+        elif isinstance(obj, dict):
+            keys = [_key_text(k) for k in obj]
+            if None in keys:
+                return
+            out[path] = {"kind": "dict", "keys": keys}
+            for text, item in zip(keys, obj.values()):
+                self._walk(item, f"{path}{{{text}}}", out, seen)
+        elif _is_walked_object(obj):
+            cls = type(obj)
+            out[path] = {"kind": "object", "class": f"{cls.__module__}:{cls.__qualname__}"}
+            for attr, item in _attributes(obj).items():
+                self._walk(item, f"{path}.{attr}", out, seen)
+        elif inspect.ismethod(obj):
+            self._walk(obj.__self__, f"{path}<__self__>", out, seen)
+        elif callable(obj) and getattr(obj, "__closure__", None):
+            names = obj.__code__.co_freevars
+            for cell_name, cell in zip(names, obj.__closure__):
+                try:
+                    value = cell.cell_contents
+                except ValueError:
+                    continue
+                self._walk(value, f"{path}<{cell_name}>", out, seen)
+
+    # ------------------------------------------------------------------ baseline and snapshot
+    def baseline(self) -> None:
+        """Record the digest of every leaf as built (call right after building)."""
+        self._base = {p: _digest(n["value"]) for p, n in self.nodes().items() if "value" in n}
+
+    def snapshot(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """``(tree, arrays)``: the node descriptions (JSON-able) and the changed arrays."""
+        tree, arrays = {}, {}
+        for path, node in self.nodes().items():
+            node = dict(node)
+            if "value" in node:
+                value = node.pop("value")
+                digest = _digest(value)
+                if self._base.get(path) == digest:
+                    node["same_as_built"] = digest
+                elif node["kind"] == "array":
+                    node["array"] = f"s{len(arrays):05d}"
+                    arrays[node["array"]] = np.array(value, copy=True)
+                else:
+                    node["value"] = value
+            tree[path] = node
+        return tree, arrays
+
+
+def _jsonable_rng(state: Any) -> Any:
+    if isinstance(state, dict):
+        return {k: _jsonable_rng(v) for k, v in state.items()}
+    if isinstance(state, np.ndarray):
+        return {"__array__": state.tolist(), "dtype": state.dtype.str}
+    return state
+
+
+def _rng_state(data: Any) -> Any:
+    if isinstance(data, dict) and "__array__" in data:
+        return np.array(data["__array__"], dtype=data["dtype"])
+    if isinstance(data, dict):
+        return {k: _rng_state(v) for k, v in data.items()}
+    return data
+
+
+# ---------------------------------------------------------------------- restoring
+def _split(path: str) -> list[tuple[str, Any]]:
+    """``a.b[2]{"k"}<c>`` → [("root","a"), ("attr","b"), ("item",2), ("key","k"), ("cell","c")]."""
+    parts: list[tuple[str, Any]] = []
+    i, n = 0, len(path)
+    j = i
+    while j < n and path[j] not in ".[{<":
+        j += 1
+    parts.append(("root", path[:j]))
+    i = j
+    while i < n:
+        c = path[i]
+        if c == ".":
+            j = i + 1
+            while j < n and path[j] not in ".[{<":
+                j += 1
+            parts.append(("attr", path[i + 1:j]))
+        elif c == "[":
+            j = path.index("]", i)
+            parts.append(("item", int(path[i + 1:j])))
+            j += 1
+        elif c == "{":
+            depth, j = 0, i
+            while True:  # JSON key text may itself hold braces in strings; match the closing one
+                if path[j] == "{":
+                    depth += 1
+                elif path[j] == "}":
+                    depth -= 1
+                    if depth == 0:
+                        break
+                j += 1
+            parts.append(("key", _key_value(path[i + 1:j])))
+            j += 1
+        elif c == "<":
+            j = path.index(">", i)
+            parts.append(("cell", path[i + 1:j]))
+            j += 1
+        else:
+            raise CheckpointError(f"checkpoint: malformed state path {path!r}")
+        i = j
+    return parts
+
+
+def _get(parent: Any, part: tuple[str, Any]) -> Any:
+    kind, key = part
+    if kind == "attr":
+        return getattr(parent, key)
+    if kind in ("item", "key"):
+        return parent[key]
+    if key == "__self__":
+        return parent.__self__
+    names = parent.__code__.co_freevars
+    return parent.__closure__[names.index(key)].cell_contents
+
+
+def _set(parent: Any, part: tuple[str, Any], value: Any) -> None:
+    kind, key = part
+    if kind == "attr":
+        object.__setattr__(parent, key, value)
+    elif kind in ("item", "key"):
+        parent[key] = value
+    else:
+        names = parent.__code__.co_freevars
+        parent.__closure__[names.index(key)].cell_contents = value
+
+
+def _new_object(class_name: str) -> Any:
+    module_name, _, qualname = class_name.partition(":")
+    if not module_name.startswith("magsail_mj.") or "<" in qualname:
+        raise CheckpointError(f"checkpoint: refuses to create an object of {class_name!r}")
+    cls: Any = importlib.import_module(module_name)
+    for attr in qualname.split("."):
+        cls = getattr(cls, attr)
+    return cls.__new__(cls)
+
+
+def _fresh(node: dict[str, Any], arrays: dict[str, np.ndarray]) -> Any:
+    kind = node["kind"]
+    if kind == "object":
+        return _new_object(node["class"])
+    if kind == "list":
+        return [None] * node["len"]
+    if kind == "tuple":
+        return [None] * node["len"]  # filled, then frozen into a tuple by _freeze_tuples
+    if kind == "dict":
+        return {_key_value(k): None for k in node["keys"]}
+    if kind == "array":
+        return np.array(arrays[node["array"]], copy=True)
+    if kind == "rng":
+        rng = np.random.default_rng()
+        rng.bit_generator.state = _rng_state(node["value"])
+        return rng
+    return node.get("value")
+
+
+def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
+    """Write a :meth:`StateWalker.snapshot` back into the walker's (freshly built) roots.
+
+    Raises:
+      CheckpointError: a leaf recorded as unchanged differs from the rebuilt one, or a path of the
+        checkpoint cannot be reached.
+    """
+    built = walker.nodes()
+    roots = dict(walker.roots)
+    placed: dict[str, Any] = {}
+    tuples: list[str] = []
+    for path, node in tree.items():  # parents come before children (walk order)
+        parts = _split(path)
+        if len(parts) == 1:
+            parent, part = roots, ("key", parts[0][1])
+        else:
+            parent_path = path[:len(path) - len(_last_text(path))]
+            parent = placed[parent_path] if parent_path in placed else _resolve(roots, parts[:-1])
+            part = parts[-1]
+        if "same_as_built" in node:
+            have = built.get(path)
+            if have is None or "value" not in have or _digest(have["value"]) != node["same_as_built"]:
+                raise CheckpointError(f"checkpoint: {path} differs from the rebuilt run (another build or config)")
+            continue
+        kind = node["kind"]
+        if kind == "alias":
+            value = placed[node["of"]] if node["of"] in placed else _resolve(roots, _split(node["of"]))
+            _set(parent, part, value)
+            continue
+        current = _try_get(parent, part)
+        if kind == "array":
+            new = arrays[node["array"]]
+            if isinstance(current, np.ndarray) and current.shape == new.shape and current.dtype == new.dtype \
+                    and current.flags.writeable:
+                np.copyto(current, new)
+                placed[path] = current
+                continue
+            value = _fresh(node, arrays)
+        elif kind == "scalar":
+            value = node["value"]
+        elif kind == "rng":
+            if isinstance(current, np.random.Generator):
+                current.bit_generator.state = _rng_state(node["value"])
+                placed[path] = current
+                continue
+            value = _fresh(node, arrays)
+        elif kind == "object":
+            cls = node["class"]
+            if current is not None and f"{type(current).__module__}:{type(current).__qualname__}" == cls:
+                placed[path] = current
+                continue
+            value = _fresh(node, arrays)
+        elif kind in ("list", "dict"):
+            if isinstance(current, (list, dict)) and kind == type(current).__name__:
+                _reshape_container(current, node)
+                placed[path] = current
+                continue
+            value = _fresh(node, arrays)
+        elif kind == "tuple":
+            value = _fresh(node, arrays)
+            if isinstance(current, tuple) and len(current) == node["len"]:
+                value[:] = list(current)
+            tuples.append(path)
+        else:
+            raise CheckpointError(f"checkpoint: unknown node kind {kind!r} at {path}")
+        _set(parent, part, value)
+        placed[path] = value
+    for path in reversed(tuples):  # innermost first
+        parts = _split(path)
+        parent = roots if len(parts) == 1 else _resolve(roots, parts[:-1])
+        part = ("key", parts[0][1]) if len(parts) == 1 else parts[-1]
+        _set(parent, part, tuple(_get(parent, part)))
+    walker.roots.update(roots)
+
+
+def _last_text(path: str) -> str:
+    """The text of the last path element (``.attr``, ``[i]``, ``{key}`` or ``<cell>``)."""
+    if path.endswith("]"):
+        return path[path.rindex("["):]
+    if path.endswith(">"):
+        return path[path.rindex("<"):]
+    if path.endswith("}"):
+        depth, j = 0, len(path) - 1
+        while True:
+            if path[j] == "}":
+                depth += 1
+            elif path[j] == "{":
+                depth -= 1
+                if depth == 0:
+                    return path[j:]
+            j -= 1
+    cut = max(path.rfind("."), 0)
+    return path[cut:] if path[cut] == "." else path
+
+
+def _resolve(roots: dict[str, Any], parts: list[tuple[str, Any]]) -> Any:
+    try:
+        obj = roots[parts[0][1]]
+        for part in parts[1:]:
+            obj = _get(obj, part)
+    except (AttributeError, KeyError, IndexError, TypeError, ValueError) as err:
+        raise CheckpointError(f"checkpoint: cannot reach {parts!r} in the rebuilt run ({err})") from None
+    return obj
+
+
+def _try_get(parent: Any, part: tuple[str, Any]) -> Any:
+    try:
+        return _get(parent, part)
+    except (AttributeError, KeyError, IndexError, TypeError, ValueError):
+        return None
+
+
+def _reshape_container(current: Any, node: dict[str, Any]) -> None:
+    """Make a rebuilt list/dict the length/key set of the checkpoint before its items are set."""
+    if isinstance(current, list):
+        del current[node["len"]:]
+        current.extend([None] * (node["len"] - len(current)))
+    else:
+        keys = [_key_value(k) for k in node["keys"]]
+        for k in [k for k in current if k not in keys]:
+            del current[k]
+        for k in keys:
+            current.setdefault(k, None)
+
+
+# ---------------------------------------------------------------------- files
+def write_arrays(path: Path, arrays: dict[str, np.ndarray], *, header: dict[str, Any] | None = None) -> None:
+    """Write arrays (and an optional JSON header) to an ``.npz``, atomically, without pickles."""
+    payload = {k: np.asarray(v) for k, v in arrays.items()}
+    for k, v in payload.items():
+        if v.dtype.hasobject:
+            raise TypeError(f"arrays[{k!r}]: object arrays cannot be stored data-only")
+    if header is not None:
+        payload["__header__"] = np.array(json.dumps(header))
+    with atomic_path(path, suffix=".npz") as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, **payload)
+
+
+def read_arrays(path: Path) -> tuple[dict[str, Any] | None, dict[str, np.ndarray]]:
+    """Read an ``.npz`` written by :func:`write_arrays` (``allow_pickle=False``).
+
+    Raises:
+      CheckpointError: the file is missing, truncated or not such a file.
+    """
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            arrays = {k: npz[k] for k in npz.files}
+    except FileNotFoundError:
+        raise CheckpointError(f"checkpoint: {path} does not exist") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as err:
+        raise CheckpointError(f"checkpoint: {path} is unreadable or truncated ({type(err).__name__}: {err})") from None
+    header = None
+    if "__header__" in arrays:
+        try:
+            header = json.loads(str(arrays.pop("__header__")))
+        except ValueError as err:
+            raise CheckpointError(f"checkpoint: {path} has a corrupt header ({err})") from None
+    return header, arrays
+
+
+def write_checkpoint(path: Path, header: dict[str, Any], walker: StateWalker,
+                     extra_arrays: dict[str, np.ndarray]) -> None:
+    """Write a checkpoint: ``header`` (JSON scalars), the walker's snapshot and ``extra_arrays``."""
+    tree, arrays = walker.snapshot()
+    write_arrays(path, {**arrays, **{f"x_{k}": v for k, v in extra_arrays.items()}},
+                 header={"format": _FORMAT, **header, "state_tree": tree})
+
+
+def read_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """``(header, state_arrays, extra_arrays)`` of a checkpoint written by :func:`write_checkpoint`."""
+    header, arrays = read_arrays(path)
+    if header is None or header.get("format") != _FORMAT or "state_tree" not in header:
+        raise CheckpointError(f"checkpoint: {path} is not a {_FORMAT!r} file")
+    extra = {k[2:]: v for k, v in arrays.items() if k.startswith("x_")}
+    state = {k: v for k, v in arrays.items() if not k.startswith("x_")}
+    for node in header["state_tree"].values():
+        if node.get("kind") == "array" and "array" in node and node["array"] not in state:
+            raise CheckpointError(f"checkpoint: {path} lacks array {node['array']!r} (truncated?)")
+    return header, state, extra
+
+
+def run_identity(numbers_hash: str | None) -> dict[str, Any]:
+    """What a checkpoint must match to be resumed: the hash of every config key that changes the
+    numbers (see :func:`magsail_mj.config.numbers_hash`) and the versions of magsail_mj, MuJoCo
+    and NumPy."""
+    versions = package_versions()
+    return {"numbers_hash": numbers_hash, "versions": {k: versions[k] for k in ("magsail_mj", "mujoco", "numpy")}}
+
+
+def check_identity(header: dict[str, Any], identity: dict[str, Any], *, path: Path) -> None:
+    """Raise :class:`CheckpointError` listing what differs between a checkpoint and this run."""
+    problems = []
+    if header.get("numbers_hash") != identity.get("numbers_hash"):
+        problems.append("the config differs in keys that change the numbers (only sim.duration_s, "
+                        "sim.checkpoint_every_s, sim.progress and [render] may change on resume)")
+    have, want = header.get("versions") or {}, identity.get("versions") or {}
+    for name in sorted(set(have) | set(want)):
+        if have.get(name) != want.get(name):
+            problems.append(f"{name} {have.get(name)} made the checkpoint, this is {want.get(name)}")
+    if problems:
+        raise CheckpointError(f"--resume: checkpoint {path} belongs to another run: " + "; ".join(problems))
