@@ -42,6 +42,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 __all__ = [
+    "MAX_STEPS",
     "MIN_TIMESTEP_S",
     "MJ_MINVAL",
     "PRESENTATION_KEYS",
@@ -52,6 +53,7 @@ __all__ = [
     "StrictModel",
     "apply_overrides",
     "check_finite_fields",
+    "check_lattice_numbers",
     "concept_models",
     "config_hash",
     "finite_product",
@@ -70,6 +72,9 @@ MJ_MINVAL = 1e-15
 
 MIN_TIMESTEP_S = 1e-9
 """Smallest accepted ``sim.timestep_s`` [s]."""
+
+MAX_STEPS = float(2**63)
+"""Upper bound of every count a config implies (time steps, cells, samples): a 64-bit integer."""
 
 PRESENTATION_KEYS = ("sim.progress", "sim.duration_s", "sim.checkpoint_every_s", "render")
 """Keys that do not change the numbers of a run up to a given time (left out of :func:`numbers_hash`)."""
@@ -159,6 +164,10 @@ class SimConfig(StrictModel):
         if self.timestep_s > self.duration_s:
             raise ConfigProblem("duration_s", f"must be at least one time step, timestep_s = {self.timestep_s} s, "
                                 f"got {self.duration_s!r}", others=("timestep_s",))
+        if self.duration_s / self.timestep_s >= MAX_STEPS:
+            raise ConfigProblem("duration_s", f"needs duration_s / timestep_s = {self.duration_s / self.timestep_s:.3g} "
+                                f"steps, more than a 64-bit step counter holds ({MAX_STEPS:.3g}), got {self.duration_s!r}",
+                                others=("timestep_s",))
         if 0 < self.checkpoint_every_s < self.timestep_s:
             raise ConfigProblem("checkpoint_every_s", "must be 0 (never) or at least one time step, "
                                 f"timestep_s = {self.timestep_s} s, got {self.checkpoint_every_s!r}",
@@ -188,18 +197,41 @@ def normalised(v: tuple[float, ...], what: str) -> tuple[float, ...]:
     return tuple(c / n for c in v)
 
 
-def finite_product(key: str, *factors: float, what: str, minimum: float = 0.0) -> float:
+def finite_product(key: str, *factors: float, what: str, minimum: float = 0.0,
+                   others: tuple[str, ...] = ()) -> float:
     """The product of ``factors`` (a quantity derived from several keys, e.g. a node mass), or a
-    :class:`ConfigProblem` on ``key`` when it overflows float64 or is not above ``minimum``
-    (e.g. :data:`MJ_MINVAL` for what MuJoCo receives as a mass or inertia)."""
+    :class:`ConfigProblem` on ``key`` (and ``others``) when it overflows float64 or is not above
+    ``minimum`` (e.g. :data:`MJ_MINVAL` for what MuJoCo receives as a mass or inertia)."""
     value = 1.0
     for f in factors:
         value *= f
     if not math.isfinite(value):
-        raise ConfigProblem(key, f"makes the {what} overflow float64 (got {value!r})")
+        raise ConfigProblem(key, f"makes the {what} overflow float64", others=others)
     if not value > minimum:
-        raise ConfigProblem(key, f"makes the {what} {value:.6g}, which must be > {minimum:g}")
+        raise ConfigProblem(key, f"makes the {what} {value:.6g}, which must be > {minimum:g}", others=others)
     return value
+
+
+def check_lattice_numbers(*, units: int, side_m: float, total_kg: float, EI_Nm2: float, zeta: float,
+                          keys: dict[str, str], node_mass_fraction: float = 1.0) -> None:
+    """The numbers MuJoCo receives from a spring–mass lattice config, checked before building.
+
+    ``units`` cubes per side of ``side_m`` [m], two layers of (units + 1)² particles sharing
+    ``node_mass_fraction`` × ``total_kg``, strut EA = 2 EI / ((units + 1) w²) with w = side/units,
+    dashpot 2 ζ √(k m / 2), visual node spheres of radius 0.04 w carrying the particle mass (so the
+    particle inertia 0.4 m (0.04 w)² must exceed :data:`MJ_MINVAL` too). ``keys`` maps ``side``,
+    ``mass``, ``EI``, ``zeta`` to the config keys named in a :class:`ConfigProblem`.
+    """
+    n = units + 1
+    w = finite_product(keys["side"], side_m, 1.0 / units, what="cube edge w = side / units")
+    m = finite_product(keys["mass"], total_kg, node_mass_fraction / (2 * n * n), minimum=MJ_MINVAL,
+                       what="particle mass (MuJoCo needs > mjMINVAL)", others=(keys["side"],))
+    finite_product(keys["mass"], 0.4 * m, 0.04 * w, 0.04 * w, minimum=MJ_MINVAL,
+                   what="particle inertia 0.4 m (0.04 w)² (MuJoCo needs > mjMINVAL)", others=(keys["side"],))
+    k = finite_product(keys["EI"], 2.0 * EI_Nm2 / n, 1.0 / w, 1.0 / w, 1.0 / w,
+                       what="strut stiffness EA / w", others=(keys["side"],))
+    finite_product(keys["zeta"], 2.0 * zeta, math.sqrt(k) * math.sqrt(m / 2.0), minimum=-1.0,
+                   what="strut damping 2 ζ √(k m / 2)", others=(keys["EI"], keys["mass"]))
 
 
 def check_finite_fields(obj: Any, *, positive: tuple[str, ...] = (), non_negative: tuple[str, ...] = ()) -> None:

@@ -14,6 +14,7 @@ Spec: truss-magnetorquer-array.md. Scenarios handled here:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -22,15 +23,34 @@ import mujoco
 import numpy as np
 from pydantic import Field, model_validator
 
-from magsail_mj.config import LatticeRenderConfig, SimConfig, StrictModel, register_concept
+from magsail_mj.config import (
+    MJ_MINVAL,
+    ConfigProblem,
+    LatticeRenderConfig,
+    SimConfig,
+    StrictModel,
+    check_lattice_numbers,
+    finite_product,
+    register_concept,
+)
 from magsail_mj.control.profiles import torque_profile
 from magsail_mj.environment.config import (
-    AtmosphereConfig, DragConfig, EnvironmentConfig, FieldConfig, GravityConfig, OrbitConfig, SRPConfig,
+    AtmosphereConfig,
+    DragConfig,
+    EnvironmentConfig,
+    FieldConfig,
+    GravityConfig,
+    OrbitConfig,
+    SRPConfig,
     SunConfig,
 )
 from magsail_mj.geometry.lattice import Lattice, make_lattice, strain_check
 from magsail_mj.geometry.truss_properties import (
-    clamped_nodes, loaded_nodes, node_masses, strut_damping, strut_stiffness,
+    clamped_nodes,
+    loaded_nodes,
+    node_masses,
+    strut_damping,
+    strut_stiffness,
 )
 from magsail_mj.loads.point_force import NodeForceLoad
 from magsail_mj.loads.strut_torque import StrutTorqueLoad
@@ -55,8 +75,10 @@ class LatticeConfig(StrictModel):
 
 
 class PointMass(StrictModel):
+    """An extra particle mass ``kg`` [kg] on lattice node ``node`` (0 .. n_nodes − 1)."""
+
     node: int = Field(ge=0)
-    kg: float = Field(gt=0)
+    kg: float = Field(gt=MJ_MINVAL)
 
 
 class MassConfig(StrictModel):
@@ -66,12 +88,13 @@ class MassConfig(StrictModel):
     areal_density_kg_m2: float | None = Field(default=None, gt=0)
     central_fraction: float = Field(default=0.0, ge=0, lt=1)
     central_nodes: Literal["cube8"] = "cube8"
-    point_masses: list[PointMass] = []
+    point_masses: list[PointMass] = Field(default_factory=list)
 
     @model_validator(mode="after")
-    def _one_mass(self) -> "MassConfig":
+    def _one_mass(self) -> MassConfig:
         if (self.total_kg is None) == (self.areal_density_kg_m2 is None):
-            raise ValueError("give exactly one of total_kg and areal_density_kg_m2")
+            raise ConfigProblem("total_kg", "give exactly one of total_kg and areal_density_kg_m2",
+                                others=("areal_density_kg_m2",))
         return self
 
 
@@ -108,7 +131,7 @@ class ActuatorsConfig(StrictModel):
     rod_dipole_basis: Literal["per_family", "total"] = "per_family"
 
     @model_validator(mode="after")
-    def _rods(self) -> "ActuatorsConfig":
+    def _rods(self) -> ActuatorsConfig:
         if self.kind == "magnetorquer":
             if self.rod_mass_kg is None:
                 raise ValueError("rod_mass_kg is required when kind = 'magnetorquer'")
@@ -154,7 +177,7 @@ class ControlConfig(StrictModel):
     low_authority_threshold_Nm: float = Field(default=0.02, ge=0)
 
     @model_validator(mode="after")
-    def _gains(self) -> "ControlConfig":
+    def _gains(self) -> ControlConfig:
         for name in ("Pq_Nm", "Pw_Nms"):
             if any(not (g >= 0) for g in getattr(self, name)):
                 raise ValueError(f"{name}: gains must be >= 0, got {getattr(self, name)!r}")
@@ -167,9 +190,9 @@ Quat = tuple[float, float, float, float]
 
 
 def _check_unit_quat(q: Quat | None, name: str) -> None:
-    if q is not None and abs(float(np.linalg.norm(q)) - 1.0) > 1e-4:
+    if q is not None and abs(math.hypot(*q) - 1.0) > 1e-4:
         raise ValueError(f"{name}: must be a unit quaternion [w, x, y, z] (|q| within 1e-4 of 1), "
-                         f"got norm {np.linalg.norm(q):.6g}")
+                         f"got norm {math.hypot(*q):.6g}")
 
 
 class ManeuverConfig(StrictModel):
@@ -183,7 +206,7 @@ class ManeuverConfig(StrictModel):
     q_ref_wxyz: Quat | None = None
 
     @model_validator(mode="after")
-    def _unit(self) -> "ManeuverConfig":
+    def _unit(self) -> ManeuverConfig:
         _check_unit_quat(self.q0_wxyz, "q0_wxyz")
         _check_unit_quat(self.q_ref_wxyz, "q_ref_wxyz")
         return self
@@ -206,9 +229,9 @@ class InitialConfig(StrictModel):
     omega0_rad_s: Vec3 = (0.0, 0.0, 0.0)
 
     @model_validator(mode="after")
-    def _unit_quaternion(self) -> "InitialConfig":
-        if abs(np.linalg.norm(self.q0_wxyz) - 1.0) > 1e-6:
-            raise ValueError(f"q0_wxyz: must be a unit quaternion, got norm {np.linalg.norm(self.q0_wxyz):.6g}")
+    def _unit_quaternion(self) -> InitialConfig:
+        if abs(math.hypot(*self.q0_wxyz) - 1.0) > 1e-6:
+            raise ValueError(f"q0_wxyz: must be a unit quaternion, got norm {math.hypot(*self.q0_wxyz):.6g}")
         return self
 
 
@@ -254,7 +277,8 @@ class TrussConfig(StrictModel):
     def total_mass_kg(self) -> float:
         """Total mass [kg] (``total_kg`` or areal density × side²)."""
         m = self.mass
-        return m.total_kg if m.total_kg is not None else m.areal_density_kg_m2 * self.lattice.side_m**2
+        side = self.lattice.side_m
+        return m.total_kg if m.total_kg is not None else m.areal_density_kg_m2 * side * side
 
     @property
     def q0_wxyz(self) -> Quat:
@@ -286,7 +310,7 @@ class TrussConfig(StrictModel):
                                  srp=self.srp, drag=self.drag, gravity=self.gravity)
 
     @model_validator(mode="after")
-    def _tables_for_scenario(self) -> "TrussConfig":
+    def _tables_for_scenario(self) -> TrussConfig:
         if self.scenario == "dist_vs_central" and (self.actuators is None or self.profile is None):
             raise ValueError("scenario 'dist_vs_central' needs the [actuators] and [profile] tables")
         if self.scenario == "cantilever" and self.cantilever is None:
@@ -304,8 +328,10 @@ class TrussConfig(StrictModel):
                                  f"got {self.scenario!r}")
             total = self.total_mass_kg
             if self.actuators.rod_mass_kg > total:
-                raise ValueError(f"actuators.rod_mass_kg: {self.actuators.rod_mass_kg} kg exceeds the total "
-                                 f"mass {total} kg (the rods are part of it, §12 S4)")
+                raise ConfigProblem("actuators.rod_mass_kg", f"{self.actuators.rod_mass_kg} kg exceeds the total "
+                                    f"mass {total} kg (the rods are part of it, §12 S4)", others=(self._mass_key,))
+            finite_product("actuators.kappa_Am2_per_kg", self.actuators.kappa_Am2_per_kg, self.actuators.rod_mass_kg,
+                           what="rod dipole κ M", others=("actuators.rod_mass_kg",))
         if (self.maneuver.q0_wxyz is not None and "q0_wxyz" in self.initial.model_fields_set
                 and not np.allclose(self.maneuver.q0_wxyz, self.initial.q0_wxyz)):
             raise ValueError("maneuver.q0_wxyz and initial.q0_wxyz differ: give the initial attitude once")
@@ -314,6 +340,33 @@ class TrussConfig(StrictModel):
         problems = environment_problems(self)
         if problems:
             raise ValueError("; ".join(problems))
+        return self
+
+    @property
+    def _mass_key(self) -> str:
+        return "mass.total_kg" if self.mass.total_kg is not None else "mass.areal_density_kg_m2"
+
+    @model_validator(mode="after")
+    def _numbers(self) -> TrussConfig:
+        """What MuJoCo receives (particle masses and inertias, spring and dashpot constants) must
+        be finite and above mjMINVAL; so must the cantilever settle damping."""
+        total = finite_product(self._mass_key, self.total_mass_kg, what="total mass", others=("lattice.side_m",))
+        fraction = 1.0 - self.mass.central_fraction
+        check_lattice_numbers(units=self.lattice.units, side_m=self.lattice.side_m, total_kg=total,
+                              EI_Nm2=self.stiffness.EI_Nm2, zeta=self.damping.zeta_strut,
+                              node_mass_fraction=fraction,
+                              keys={"side": "lattice.side_m", "mass": self._mass_key, "EI": "stiffness.EI_Nm2",
+                                    "zeta": "damping.zeta_strut"})
+        n_nodes = 2 * (self.lattice.units + 1) ** 2
+        for i, p in enumerate(self.mass.point_masses):
+            if p.node >= n_nodes:
+                raise ConfigProblem(f"mass.point_masses[{i}].node", f"must be a node index below {n_nodes} "
+                                    f"(the lattice's nodes), got {p.node}")
+        if self.scenario == "cantilever" and self.cantilever is not None:
+            c = self.cantilever
+            omega = first_cantilever_omega(self) if c.settle_damping_1_s is None else c.settle_damping_1_s
+            finite_product("cantilever.settle_damping_1_s", 2.0 * omega, total, what="node damping",
+                           minimum=-1.0, others=("stiffness.EI_Nm2", self._mass_key))
         return self
 
 
@@ -583,7 +636,7 @@ def build_truss_scenario(cfg: TrussConfig) -> TrussScenario:
 
 def first_cantilever_omega(cfg: TrussConfig) -> float:
     """ω₁ = 1.875² √(EI / (ρ_L L⁴)) with ρ_L = M/d (spec §2.7) [rad/s]."""
-    total = cfg.mass.total_kg if cfg.mass.total_kg is not None else cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
+    total = cfg.total_mass_kg
     L = cfg.lattice.side_m
-    return 1.875**2 * np.sqrt(cfg.stiffness.EI_Nm2 / (total / L * L**4))
+    return 1.875**2 * math.sqrt(cfg.stiffness.EI_Nm2 / (total / L) / L / L / L / L)
 
