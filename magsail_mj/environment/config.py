@@ -16,24 +16,25 @@ Defaults follow the truss spec §9.2/§11 (800 km polar orbit needs ``altitude_k
 
 from __future__ import annotations
 
+import math
 from typing import Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from magsail_mj.config import StrictModel
+from magsail_mj.config import MIN_TIMESTEP_S, ConfigProblem, StrictModel, finite_product
 
 from .constants import J2_EARTH, MU_EARTH, OMEGA_EARTH, P_SUN_1AU
 from .timeutil import parse_epoch
 
 __all__ = [
-    "OrbitConfig",
-    "FieldConfig",
     "AtmosphereConfig",
-    "SunConfig",
-    "SRPConfig",
     "DragConfig",
-    "GravityConfig",
     "EnvironmentConfig",
+    "FieldConfig",
+    "GravityConfig",
+    "OrbitConfig",
+    "SRPConfig",
+    "SunConfig",
     "check_environment",
     "environment_problems",
 ]
@@ -57,7 +58,9 @@ class OrbitConfig(StrictModel):
     ``inclination_deg``, ``raan_deg`` **or** ``ltdn_h`` (local time of the descending node at
     the epoch, CNUSAIL spec §5.1), ``arg_perigee_deg``. Start: ``arg_lat0_deg`` (argument of
     latitude u0 = ω + ν0) **or** ``true_anomaly0_deg``; neither means u0 = 0 (ascending node).
-    ``enabled = false`` means free space (no orbit; the world is inertial).
+    ``enabled = false`` means free space (no orbit; the world is inertial). Every number is
+    finite; the orbit's perigee must clear ``R_E_km`` and its period 2π √(a³/μ) must be a finite
+    number of seconds.
     """
 
     enabled: bool = True
@@ -84,23 +87,31 @@ class OrbitConfig(StrictModel):
         return _check_iso(v)
 
     @model_validator(mode="after")
-    def _consistent(self) -> "OrbitConfig":
+    def _consistent(self) -> OrbitConfig:
         if self.altitude_km is not None and self.semi_major_axis_km is not None:
-            raise ValueError("altitude_km and semi_major_axis_km both given: give exactly one")
+            raise ConfigProblem("altitude_km", "altitude_km and semi_major_axis_km both given: give exactly one",
+                                others=("semi_major_axis_km",))
         if self.raan_deg is not None and self.ltdn_h is not None:
-            raise ValueError("raan_deg and ltdn_h both given: give exactly one")
+            raise ConfigProblem("raan_deg", "raan_deg and ltdn_h both given: give exactly one", others=("ltdn_h",))
         if self.arg_lat0_deg is not None and self.true_anomaly0_deg is not None:
-            raise ValueError("arg_lat0_deg and true_anomaly0_deg both given: give exactly one")
+            raise ConfigProblem("arg_lat0_deg", "arg_lat0_deg and true_anomaly0_deg both given: give exactly one",
+                                others=("true_anomaly0_deg",))
         if not self.enabled:
             return self
         if self.altitude_km is None and self.semi_major_axis_km is None:
-            raise ValueError("altitude_km or semi_major_axis_km is required when enabled = true")
-        a = self.semi_major_axis_km_value
+            raise ConfigProblem("altitude_km", "altitude_km or semi_major_axis_km is required when enabled = true",
+                                others=("semi_major_axis_km",))
+        size = "semi_major_axis_km" if self.semi_major_axis_km is not None else "altitude_km"
+        a = finite_product(size, self.semi_major_axis_km_value, what="semi-major axis", others=("R_E_km",))
         if a * (1.0 - self.eccentricity) <= self.R_E_km:
-            raise ValueError(
-                f"perigee radius a(1 - e) = {a * (1 - self.eccentricity):.1f} km must exceed "
-                f"R_E_km = {self.R_E_km} km"
-            )
+            raise ConfigProblem(size, f"the perigee radius a(1 - e) = {a * (1 - self.eccentricity):.6g} km must "
+                                f"exceed R_E_km = {self.R_E_km:.6g} km", others=("eccentricity", "R_E_km"))
+        a_m = a * 1e3
+        finite_product(size, a_m, a_m, a_m / self.mu_m3_s2, what="orbital period 2π √(a³/μ)",
+                       others=("mu_m3_s2",))
+        r_j2 = self.j2_radius_km * 1e3
+        finite_product("j2_radius_km", self.J2 + 1.0, self.mu_m3_s2, r_j2, r_j2, minimum=-1.0,
+                       what="J2 term J2 μ R²", others=("J2", "mu_m3_s2"))
         return self
 
     @property
@@ -128,7 +139,8 @@ class FieldConfig(StrictModel):
     * ``none``: B = 0.
 
     ``sample_step_s`` is the step of the environment's precompute grid for every channel
-    (orbit, field, Sun, MSIS density).
+    (orbit, field, Sun, MSIS density), between 1e-9 s and 600 s. ``B0_T`` R³ (R in m) must be
+    a finite number.
     """
 
     model: FieldModel = "igrf"
@@ -137,7 +149,7 @@ class FieldConfig(StrictModel):
     R_ref_km: float | None = Field(default=None, gt=0)
     igrf_max_degree: int = Field(default=13, ge=1, le=13)
     igrf_date: str | None = None
-    sample_step_s: float = Field(default=10.0, gt=0, le=600)
+    sample_step_s: float = Field(default=10.0, ge=MIN_TIMESTEP_S, le=600)
 
     @field_validator("igrf_date")
     @classmethod
@@ -145,15 +157,19 @@ class FieldConfig(StrictModel):
         return None if v is None else _check_iso(v)
 
     @model_validator(mode="after")
-    def _consistent(self) -> "FieldConfig":
+    def _consistent(self) -> FieldConfig:
         if self.model == "constant" and self.constant_T is None:
             raise ValueError("constant_T (3 components in tesla) is required when model = 'constant'")
         if self.model != "constant" and self.constant_T is not None:
             raise ValueError(f"constant_T is only used with model = 'constant', not {self.model!r}")
         dipoles = ("dipole", "tilted_dipole", "planar_dipole")
         if self.model not in dipoles and (self.B0_T is not None or self.R_ref_km is not None):
-            raise ValueError(f"B0_T and R_ref_km are only used with model in {list(dipoles)}, "
-                             f"not {self.model!r}")
+            raise ConfigProblem("B0_T" if self.B0_T is not None else "R_ref_km",
+                                f"B0_T and R_ref_km are only used with model in {list(dipoles)}, not {self.model!r}",
+                                others=("model",))
+        if self.R_ref_km is not None:
+            r = self.R_ref_km * 1e3
+            finite_product("R_ref_km", self.B0_T or 1.0, r, r, r, what="dipole moment B0 R³", others=("B0_T",))
         return self
 
 
@@ -187,12 +203,12 @@ class SunConfig(StrictModel):
     shadow: Literal["cylindrical", "none"] = "cylindrical"
 
     @model_validator(mode="after")
-    def _consistent(self) -> "SunConfig":
+    def _consistent(self) -> SunConfig:
         if self.model == "fixed":
             if self.direction_eci is None:
                 raise ValueError("direction_eci is required when model = 'fixed'")
-            if sum(c * c for c in self.direction_eci) == 0:
-                raise ValueError("direction_eci must not be the zero vector")
+            if not math.hypot(*self.direction_eci) > 0:
+                raise ValueError("direction_eci: must not be the zero vector")
         elif self.direction_eci is not None:
             raise ValueError(f"direction_eci is only used with model = 'fixed', not {self.model!r}")
         return self
@@ -236,7 +252,7 @@ class EnvironmentConfig(StrictModel):
     gravity: GravityConfig = GravityConfig(tidal=False)
 
     @model_validator(mode="after")
-    def _consistent(self) -> "EnvironmentConfig":
+    def _consistent(self) -> EnvironmentConfig:
         problems = environment_problems(self)
         if problems:
             raise ValueError("; ".join(problems))
