@@ -29,7 +29,8 @@ import mujoco
 import numpy as np
 from pydantic import Field, model_validator
 
-from magsail_mj.config import LatticeRenderConfig, SimConfig, StrictModel, register_concept
+from magsail_mj.config import ConfigProblem, LatticeRenderConfig, SimConfig, StrictModel, register_concept
+from magsail_mj.config import check_lattice_numbers, finite_product
 from magsail_mj.environment.config import EnvironmentConfig, FieldConfig, GravityConfig, OrbitConfig
 from magsail_mj.geometry.lattice import Lattice, make_lattice, strain_check
 from magsail_mj.geometry.truss_properties import strut_stiffness
@@ -101,7 +102,7 @@ class LoopsCircuitConfig(StrictModel):
     sizing_units: int | None = Field(default=None, ge=1)
 
     @model_validator(mode="after")
-    def _names(self) -> "LoopsCircuitConfig":
+    def _names(self) -> LoopsCircuitConfig:
         names = self.expanded()
         bad = [c for c in names if c not in CIRCUIT_NAMES]
         if bad:
@@ -147,10 +148,10 @@ class LoopsControlConfig(StrictModel):
     period_s: float | None = Field(default=None, gt=0)
 
     @model_validator(mode="after")
-    def _unit(self) -> "LoopsControlConfig":
-        if abs(float(np.linalg.norm(self.q_target)) - 1.0) > 1e-4:
+    def _unit(self) -> LoopsControlConfig:
+        if abs(math.hypot(*self.q_target) - 1.0) > 1e-4:
             raise ValueError(f"q_target: must be a unit quaternion [w, x, y, z], got norm "
-                             f"{np.linalg.norm(self.q_target):.6g}")
+                             f"{math.hypot(*self.q_target):.6g}")
         return self
 
 
@@ -195,7 +196,7 @@ class CurrentLoopsConfig(StrictModel):
     gravity: GravityConfig = GravityConfig(tidal=False)
 
     @model_validator(mode="after")
-    def _tables(self) -> "CurrentLoopsConfig":
+    def _tables(self) -> CurrentLoopsConfig:
         sc = self.scenario
         if sc == "sweep":
             if self.orbit.enabled:
@@ -228,6 +229,37 @@ class CurrentLoopsConfig(StrictModel):
             if problems:
                 raise ValueError("; ".join(problems))
         return self
+
+    @model_validator(mode="after")
+    def _numbers(self) -> CurrentLoopsConfig:
+        """What MuJoCo receives (particle masses and inertias, spring constants) must be finite and
+        above mjMINVAL, and the circuit currents (Eq.-9 sizing or fixed) finite."""
+        side = self.lattice.side_m
+        total = finite_product("mass.areal_density_kg_m2", self.mass.areal_density_kg_m2, side, side,
+                               what="total mass σ D²", others=("lattice.side_m",))
+        check_lattice_numbers(units=self.lattice.units, side_m=side, total_kg=total, EI_Nm2=self.stiffness.EI_N_m2,
+                              zeta=0.0, keys={"side": "lattice.side_m", "mass": "mass.areal_density_kg_m2",
+                                              "EI": "stiffness.EI_N_m2", "zeta": "stiffness.EI_N_m2"})
+        self._check_currents()
+        return self
+
+    def _check_currents(self) -> None:
+        """The circuit currents must come out finite (the Eq.-9 sizing has no solution for
+        geometry A beyond its fold, and extreme constants overflow)."""
+        if self.loops.sizing == "fixed":
+            return
+        inputs = {"lattice.side_m": self.lattice.side_m, "mass.areal_density_kg_m2": self.mass.areal_density_kg_m2,
+                  "loops.kappa": self.loops.kappa,
+                  **{f"thermal.{k}": v for k, v in self.thermal.model_dump().items()}}
+        listed = ", ".join(f"{k} = {v!r}" for k, v in inputs.items())
+        try:
+            with np.errstate(all="ignore"):
+                currents, _ = loop_currents(self)
+        except (ArithmeticError, ValueError) as err:
+            raise ConfigProblem("loops.sizing", f"the Eq.-9 sizing fails ({err}) for {listed}") from None
+        if not np.all(np.isfinite(currents)) or not np.all(currents > 0):
+            raise ConfigProblem("loops.sizing", f"the Eq.-9 sizing gives currents {currents.tolist()} A "
+                                f"(must be finite and > 0) for {listed}")
 
     def environment_config(self) -> EnvironmentConfig:
         from magsail_mj.environment.config import AtmosphereConfig, DragConfig, SRPConfig, SunConfig
