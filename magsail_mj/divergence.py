@@ -14,8 +14,9 @@ therefore
   simulated time of the first bad state and the cause.
 
 A strut strain above the configured bound (``sim.max_strain``) is a *structural failure*
-(:class:`StructureFailure`): the numbers up to it are valid and the run reports it as such; it
-is not a numerical divergence.
+(:class:`StructureFailure`), and a scenario may end on another condition it studies (a
+:class:`StudiedFailure`, e.g. :class:`TrackingLost`): the numbers up to it are valid and the run
+reports that status; it is not a numerical divergence.
 
 MuJoCo's warning texts are routed to Python's :mod:`logging` (logger ``magsail_mj.mujoco``)
 instead of MuJoCo's default, which also appends them to ``MUJOCO_LOG.TXT`` in the current folder.
@@ -26,8 +27,12 @@ from __future__ import annotations
 import logging
 
 import mujoco
+import numpy as np
 
-__all__ = ["DivergenceError", "StructureFailure", "WarningWatch", "disable_autoreset", "route_mujoco_warnings"]
+__all__ = ["DivergenceError", "StudiedFailure", "check_inner_run", "StructureFailure", "TrackingLost", "WarningWatch",
+           "disable_autoreset", "first_bad_row", "route_mujoco_warnings"]
+
+_MAX_VALUE = 1e10  # MuJoCo's mjMAXVAL: its bound on |qpos|, |qvel|, |qacc| and |ctrl|
 
 _LOG = logging.getLogger("magsail_mj.mujoco")
 
@@ -44,8 +49,40 @@ class DivergenceError(RuntimeError):
     """The simulated state went bad (not finite, or flagged by MuJoCo); message: time and cause."""
 
 
-class StructureFailure(RuntimeError):
+class StudiedFailure(RuntimeError):
+    """A failure a scenario is built to find (its numbers up to then are valid); the run ends
+    with status :attr:`status`."""
+
+    status = "failed_condition"
+
+
+class StructureFailure(StudiedFailure):
     """A strut exceeded the configured strain bound: the structure failed (not a divergence)."""
+
+    status = "structure_failed"
+
+
+class TrackingLost(StudiedFailure):
+    """A tracking error passed the scenario's watchdog limit (the reflector capability search)."""
+
+    status = "tracking_lost"
+
+
+def check_inner_run(status: str, message: str, *, where: str) -> None:
+    """For runners made of inner runs (a sweep inside a scenario): an inner run that diverged
+    raises :class:`DivergenceError` naming ``where``; one that was interrupted re-raises the
+    interrupt. Completed runs and studied failures pass."""
+    if status == "interrupted":
+        raise KeyboardInterrupt(f"{where}: {message}")
+    if status == "diverged":
+        raise DivergenceError(f"{where}: {message}")
+
+
+def first_bad_row(states: np.ndarray) -> int | None:
+    """Index of the first row of ``states`` (n, k) holding a value that is not finite or above
+    MuJoCo's 1e10 bound, or ``None``."""
+    bad = ~(np.abs(states) <= _MAX_VALUE).all(axis=1)
+    return int(np.argmax(bad)) if bad.any() else None
 
 
 def _log_warning(text: str) -> None:
@@ -77,8 +114,8 @@ class WarningWatch:
                 if s.number > n0]
 
     def check(self, t_s: float) -> None:
-        """Raise :class:`DivergenceError` if a bad-state warning was raised; ``t_s`` is the time
-        the state was checked at."""
+        """Raise :class:`DivergenceError` if a bad-state warning was raised; ``t_s`` is the time of
+        the state MuJoCo checked (the start of the step it was raised in)."""
         for w, s, n0 in zip(BAD_STATE_WARNINGS, self._stats, self._start):
             if s.number > n0:
                 raise DivergenceError(f"MuJoCo {w.name.removeprefix('mjWARN_')} at t = {t_s:.6g} s: "

@@ -16,7 +16,7 @@ import sys
 import tempfile
 from importlib import metadata
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -112,20 +112,66 @@ def package_versions() -> dict[str, str]:
     return out
 
 
-def prepare_run_dir(out_dir: str | Path, *, overwrite: bool = False, resume: bool = False) -> Path:
-    """Create ``out_dir`` or check it may be reused.
+def prepare_run_dir(out_dir: str | Path, *, overwrite: bool = False, resume: bool = False,
+                    check: Callable[[Path], None] | None = None) -> Path:
+    """Create ``out_dir`` or check it may be reused; nothing is written before every check passed.
 
-    A folder that already holds a ``manifest.json`` belongs to an earlier run: it is reused only
-    with ``overwrite=True`` or ``resume=True``; otherwise :class:`RunDirError` names it, so
-    nothing the user had is overwritten silently.
+    A folder that already holds a ``manifest.json`` or a checkpoint belongs to an earlier run: it
+    is reused only with ``overwrite=True`` (the earlier run's files — those its manifest lists, its
+    checkpoint and record segments, plots and video — are removed first, so no file of it stays
+    beside the new ones) or ``resume=True``; otherwise :class:`RunDirError` names it, so nothing
+    the user had is overwritten silently. ``check(folder)`` runs after these checks and before
+    anything is created (the resume check).
     """
+    if str(out_dir).strip() == "":
+        raise RunDirError("--out: must name a folder, got an empty path")
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise RunDirError(f"--out {out}: exists and is not a folder")
-    if (out / "manifest.json").exists() and not (overwrite or resume):
+    for parent in out.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise RunDirError(f"--out {out}: {parent} is a file, not a folder")
+            break
+    earlier = (out / "manifest.json").exists() or any(out.glob("checkpoint*.npz")) if out.is_dir() else False
+    if resume and overwrite:
+        raise RunDirError("--resume and --overwrite: choose one")
+    if earlier and not (overwrite or resume):
         raise RunDirError(
-            f"--out {out}: holds an earlier run (manifest.json); pass --overwrite to replace it "
+            f"--out {out}: holds an earlier run (manifest.json or checkpoint); pass --overwrite to replace it "
             "or --resume to continue it"
         )
-    out.mkdir(parents=True, exist_ok=True)
+    if resume and not out.is_dir():
+        raise RunDirError(f"--resume: {out} does not exist")
+    if check is not None:
+        check(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / f".write-test-{os.getpid()}"
+        probe.touch()
+        probe.unlink()
+    except OSError as err:
+        raise RunDirError(f"--out {out}: cannot write there ({err.strerror or err})") from None
+    if overwrite and earlier:
+        _remove_earlier_run(out)
     return out
+
+
+_RUN_FILE_PATTERNS = ("manifest.json", "summary.json", "timeseries.npz", "model.xml", "video.mp4", "*.png",
+                      "checkpoint*.npz", "checkpoint*.pkl")
+
+
+def _remove_earlier_run(out: Path) -> None:
+    """Delete the files of the run in ``out`` (its manifest's list and the run file patterns)."""
+    names: set[str] = set()
+    try:
+        listed = json.loads((out / "manifest.json").read_text()).get("files", {})
+        names.update(n for n in listed if isinstance(n, str) and "/" not in n and not n.startswith("."))
+    except (OSError, ValueError, AttributeError):
+        pass
+    for pattern in _RUN_FILE_PATTERNS:
+        names.update(p.name for p in out.glob(pattern))
+    for name in sorted(names, key=lambda n: n == "manifest.json"):  # the manifest goes last
+        path = out / name
+        if path.is_file():
+            path.unlink()

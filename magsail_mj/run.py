@@ -1,10 +1,25 @@
 """Config → run folder: build, simulate, post-process, write outputs atomically.
 
 A run folder holds ``model.xml`` (the MJCF of the run), ``timeseries.npz`` (the records and
-derived series), ``summary.json`` (flat key figures, SI units in the names), ``manifest.json``
-(config, its hash, seed, package versions, status, file list; written last), the plots
-(``*.png``), ``checkpoint.pkl`` with its record segments ``checkpoint.records*.pkl`` when
-checkpointing, and ``video.mp4`` when asked.
+derived series), ``summary.json`` (flat key figures, SI units in the names, with ``status`` and
+``status_message``), ``manifest.json`` (config, its hashes, seed, package versions, thread
+settings, status, file list with SHA-256; written last), the plots (``*.png``),
+``checkpoint.npz`` with its record segments ``checkpoint.records*.npz`` when checkpointing, and
+``video.mp4`` when asked.
+
+Guarantees:
+
+* Nothing is written before the config is valid, the scenario is built and the folder is
+  usable; a ``resume`` is checked completely (checkpoint readable, same number-changing config
+  keys, same magsail_mj/MuJoCo/NumPy versions, not beyond the new duration) before anything in the
+  folder is touched.
+* ``manifest.json`` is written last and only states what is true: while the video is rendered it
+  says ``"rendering"``; a video that fails makes the run ``"failed"``.
+* Every run uses one BLAS/OpenMP thread (threadpoolctl), whatever started it, so the numbers
+  do not depend on the entry point or the machine's core count; the settings are in the
+  manifest.
+* An interrupt (Ctrl-C) during the simulation keeps what was recorded: the outputs are written
+  with status ``"interrupted"`` and :class:`RunInterrupted` is raised.
 """
 
 from __future__ import annotations
@@ -14,13 +29,18 @@ import hashlib
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+from threadpoolctl import threadpool_info, threadpool_limits
 
-from magsail_mj.config import config_hash
+from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
+from magsail_mj.config import config_hash, numbers_hash
 from magsail_mj.io import package_versions, prepare_run_dir, write_json, write_npz, atomic_path
+from magsail_mj.render import render_run
 from magsail_mj.scenarios import build_scenario
 
-__all__ = ["run_scenario", "RunOutcome"]
+__all__ = ["run_scenario", "RunOutcome", "RunInterrupted", "CHECKPOINT_NAME"]
+
+#: the checkpoint file of a run folder
+CHECKPOINT_NAME = "checkpoint.npz"
 
 
 class RunOutcome(dict):
@@ -30,12 +50,38 @@ class RunOutcome(dict):
     status: str
 
 
+class RunInterrupted(KeyboardInterrupt):
+    """The run was interrupted; its outputs up to then are written with status ``interrupted``."""
+
+    def __init__(self, outcome: RunOutcome):
+        super().__init__(outcome.get("status_message", "interrupted"))
+        self.outcome = outcome
+
+
 def _sha256(path: Path) -> str:
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
+
+
+def thread_settings() -> list[dict[str, Any]]:
+    """The native thread pools (BLAS, OpenMP) and their current thread counts."""
+    return [{k: info.get(k) for k in ("user_api", "internal_api", "num_threads", "version")}
+            for info in threadpool_info()]
+
+
+def check_resume(run_dir: Path, identity: dict[str, Any], n_steps: int) -> None:
+    """Refuse a resume before anything is written: the checkpoint must exist, be readable, belong
+    to this config and these versions, and not lie beyond the run's duration."""
+    ckpt = Path(run_dir) / CHECKPOINT_NAME
+    header, _, _ = read_checkpoint(ckpt)
+    check_identity(header, identity, path=ckpt)
+    step = int(header.get("step", -1))
+    if not 0 <= step <= n_steps:
+        raise CheckpointError(f"--resume: checkpoint {ckpt} is at t = {header.get('t_s')} s, beyond "
+                              f"sim.duration_s (a resume may extend a run, not shorten it)")
 
 
 def run_scenario(
@@ -52,24 +98,39 @@ def run_scenario(
 
     Args:
       cfg: validated config (see :func:`magsail_mj.config.load_config`).
-      out_dir: run folder; an earlier run there is replaced only with ``overwrite`` or continued
-        with ``resume`` (from ``checkpoint.pkl``).
+      out_dir: run folder; an earlier run there is replaced only with ``overwrite`` (its files are
+        removed first) or continued with ``resume`` (from ``checkpoint.npz``).
       video: also render ``video.mp4``.
       progress: show a progress bar (default: ``cfg.sim.progress``).
       stop_after_s: stop early at this simulated time, leaving a checkpoint (used to test resume).
+
+    Raises:
+      RunDirError: the folder cannot be used (holds a run and neither ``overwrite`` nor
+        ``resume``; the resume is refused — :class:`~magsail_mj.checkpoint.CheckpointError`).
+      RunInterrupted: Ctrl-C during the simulation (outputs written with status ``interrupted``).
     """
-    run_dir = prepare_run_dir(out_dir, overwrite=overwrite, resume=resume)
+    with threadpool_limits(limits=1):
+        return _run(cfg, Path(out_dir), video=video, resume=resume, overwrite=overwrite,
+                    progress=cfg.sim.progress if progress is None else progress, stop_after_s=stop_after_s)
+
+
+def _run(cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool, progress: bool,
+         stop_after_s: float | None) -> RunOutcome:
     scenario = build_scenario(cfg)
+    sim = scenario.simulation()
+    identity = run_identity(numbers_hash(cfg))
+    if hasattr(sim, "identity"):
+        sim.identity = identity
+    run_dir = prepare_run_dir(out_dir, overwrite=overwrite, resume=resume,
+                              check=(lambda d: check_resume(d, identity, _n_steps(cfg))) if resume else None)
     with atomic_path(run_dir / "model.xml") as tmp:
         tmp.write_text(scenario.spec.to_xml())
-    sim = scenario.simulation()
-    ckpt = run_dir / "checkpoint.pkl" if (cfg.sim.checkpoint_every_s > 0 or stop_after_s is not None or resume) else None
-    result = sim.run(progress=cfg.sim.progress if progress is None else progress,
-                     checkpoint_path=ckpt, resume=resume, stop_after_s=stop_after_s)
+    ckpt = run_dir / CHECKPOINT_NAME if (cfg.sim.checkpoint_every_s > 0 or stop_after_s is not None or resume) else None
+    result = sim.run(progress=progress, checkpoint_path=ckpt, resume=resume, stop_after_s=stop_after_s)
     summary, series = scenario.postprocess(result)
     series = {"t": result.records["t"], **series}
     write_npz(run_dir / "timeseries.npz", **{**result.records, **series})
-    summary = {"scenario": cfg.scenario, **summary}
+    summary = {"scenario": cfg.scenario, **summary, "status": result.status, "status_message": result.message}
     write_json(run_dir / "summary.json", summary)
     plots = scenario.plots(run_dir, result, series)
     files = ["model.xml", "timeseries.npz", "summary.json", *[p.name for p in plots]]
@@ -79,25 +140,44 @@ def run_scenario(
         "scenario": cfg.scenario,
         "config": cfg.model_dump(mode="json"),
         "config_hash": config_hash(cfg),
+        "numbers_hash": identity["numbers_hash"],
         "seed": cfg.sim.seed,
         "versions": package_versions(),
+        "threads": thread_settings(),
         "status": result.status,
         "status_message": result.message,
+        "t_end_s": result.t_end_s,
         "steps": result.steps,
         "wall_time_s": result.wall_time_s,
         "render": scenario.render_info(),
         **scenario.manifest_extra(),
     }
     manifest["files"] = {name: _sha256(run_dir / name) for name in files}
-    write_json(run_dir / "manifest.json", manifest)
-    if video:
-        from magsail_mj.render import render_run
-
+    status = result.status
+    if video and status != "interrupted":
+        write_json(run_dir / "manifest.json", {**manifest, "status": "rendering",
+                                               "status_message": "video.mp4 is being rendered"})
         info = manifest["render"]
-        render_run(run_dir, run_dir / "video.mp4", fps=info.get("fps", 30), max_frames=info.get("max_frames", 600))
-        manifest["files"]["video.mp4"] = _sha256(run_dir / "video.mp4")
-        write_json(run_dir / "manifest.json", manifest)
-    out = RunOutcome(summary)
+        try:
+            render_run(run_dir, run_dir / "video.mp4", fps=info.get("fps", 30), max_frames=info.get("max_frames", 600))
+        except KeyboardInterrupt:
+            write_json(run_dir / "manifest.json", {**manifest, "status": "interrupted",
+                                                   "status_message": "interrupted while rendering video.mp4"})
+            raise
+        except Exception as err:  # noqa: BLE001 - the run's numbers stay; the run is marked failed
+            status = "failed"
+            manifest.update(status=status, status_message=f"video.mp4 could not be rendered: "
+                                                          f"{type(err).__name__}: {err}")
+        else:
+            manifest["files"]["video.mp4"] = _sha256(run_dir / "video.mp4")
+    write_json(run_dir / "manifest.json", manifest)
+    out = RunOutcome({**summary, "status": status, "status_message": manifest["status_message"]})
     out.run_dir = run_dir
-    out.status = result.status
+    out.status = status
+    if status == "interrupted":
+        raise RunInterrupted(out)
     return out
+
+
+def _n_steps(cfg: Any) -> int:
+    return int(round(cfg.sim.duration_s / cfg.sim.timestep_s))

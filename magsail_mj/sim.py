@@ -47,7 +47,7 @@ from magsail_mj.checkpoint import (
     write_arrays, write_checkpoint,
 )
 from magsail_mj.divergence import (
-    DivergenceError, StructureFailure, WarningWatch, disable_autoreset, route_mujoco_warnings,
+    DivergenceError, StructureFailure, StudiedFailure, WarningWatch, disable_autoreset, route_mujoco_warnings,
 )
 from magsail_mj.loads.base import Load, StepState
 
@@ -143,8 +143,8 @@ class RunResult:
     """What a run produced.
 
     ``records`` maps probe names to arrays stacked over record times (first axis), with ``t``.
-    ``status`` is ``"completed"``, ``"diverged"``, ``"structure_failed"`` or ``"stopped"``
-    (``stop_after_s`` reached).
+    ``status`` is ``"completed"``, ``"diverged"``, ``"structure_failed"``, ``"stopped"``
+    (``stop_after_s`` reached) or ``"interrupted"`` (Ctrl-C: the records up to then are kept).
     """
 
     records: dict[str, np.ndarray]
@@ -311,18 +311,24 @@ class Simulation:
                 for load in self.loads:
                     load.add(state, d.xfrc_applied)
                 mujoco.mj_step(m, d)
-                # every step: a NaN/Inf anywhere makes the sum non-finite; MuJoCo's own checks
-                # (|q| > 1e10, bad qacc/ctrl) are read from its warning counters
+                # every step: MuJoCo checks the state it steps from (|q|, |v| > 1e10 or not
+                # finite, bad qacc/ctrl), so a warning of this step dates the bad state at t;
+                # a NaN/Inf in the new state makes the sum non-finite, dated t + δt
+                watch.check(t)
                 if not math.isfinite(float(d.qpos.sum()) + float(d.qvel.sum())):
                     raise DivergenceError(f"state is not finite at t = {t + dt:.6g} s (after the step from "
                                           f"t = {t:.6g} s)")
-                watch.check(t + dt)
                 if bar is not None and (step + 1) % 100 == 0:
                     bar.update(100)
         except DivergenceError as err:
             status, message = "diverged", str(err)
-        except StructureFailure as err:
-            status, message = "structure_failed", str(err)
+        except StudiedFailure as err:
+            status, message = err.status, str(err)
+        except KeyboardInterrupt:
+            status, message = "interrupted", f"interrupted at t = {step * dt:.6g} s"
+            n = min(len(v) for v in records.values())  # a record interrupted half-way is dropped
+            for values in records.values():
+                del values[n:]
         finally:
             if bar is not None:
                 bar.close()

@@ -568,6 +568,15 @@ class SweepRunner:
             pc = point_config(cfg, sw.keys, values, cycles=sw.cycles, keep_steps_per_cycle=sw.keep_steps_per_cycle)
             sc = MsacScenario(cfg=pc)
             res = sc.simulation().run(progress=False)
+            if res.status != "completed":  # a point that went bad ends the sweep with its status
+                if res.status == "interrupted":
+                    raise KeyboardInterrupt(res.message)
+                if first is None:
+                    first = res
+                return RunResult(records=first.records, status=res.status,
+                                 message=f"sweep point {dict(zip(sw.keys, values))}: {res.message}",
+                                 t_end_s=float(res.t_end_s), steps=steps + res.steps,
+                                 wall_time_s=time.perf_counter() - wall0)
             summ, _ = sc.postprocess(res)
             steps += res.steps
             if first is None:

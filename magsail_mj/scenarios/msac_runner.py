@@ -36,15 +36,20 @@ a spurious bus rate of ~0.5 % of the secular rate. The runner therefore projects
 onto zero total momentum at every chunk boundary (every ``chunk_cycles`` cycles, default 0.2 s)
 and reports how much it removed.
 
-Long runs checkpoint (pickle of the state and the accumulators at chunk boundaries) and resume
-exactly: chunked rollouts restart from the full physics state, so a resumed run equals an
-uninterrupted one.
+Long runs checkpoint (data only, :mod:`magsail_mj.checkpoint`: the physics state, the replay
+table and the accumulators at chunk boundaries, with the run's identity) and resume exactly:
+chunked rollouts restart from the full physics state, so a resumed run equals an uninterrupted
+one. A checkpoint of another config or build is refused.
+
+Divergence: MuJoCo's automatic reset is off (:mod:`magsail_mj.divergence`), so a bad step stays
+in the rolled-out states; after each chunk the first state that is not finite or above 1e10 (or a
+control that is) is found and the run ends ``"diverged"`` at its time, keeping the records up to
+it.
 """
 
 from __future__ import annotations
 
 import math
-import pickle
 import sys
 import time
 from dataclasses import dataclass, field
@@ -59,7 +64,10 @@ from magsail_mj.control.msac_cycle import CyclePath, cycle_state
 from magsail_mj.control.msac_drive import (
     ComputedTorque, desired_shape, replay_table, servo_rates, set_initial_state, steps_per_cycle,
 )
-from magsail_mj.io import atomic_path
+from magsail_mj.checkpoint import (
+    CheckpointError, StateWalker, check_identity, read_checkpoint, restore_state, run_identity, write_checkpoint,
+)
+from magsail_mj.divergence import disable_autoreset, first_bad_row, route_mujoco_warnings
 from magsail_mj.mjcf.msac import shape_indices
 from magsail_mj.sim import RunResult
 
@@ -131,6 +139,7 @@ class MsacRunner:
     lowpass_cutoff_hz: float = 10.0
     checkpoint_every_s: float = 0.0
     momentum_projection: bool = True
+    identity: dict[str, Any] = field(default_factory=lambda: run_identity(None))
 
     def __post_init__(self) -> None:
         if self.method not in ("replay", "computed_torque"):
@@ -140,6 +149,8 @@ class MsacRunner:
         if int(self.chunk_cycles) != self.chunk_cycles or self.chunk_cycles < 1:
             raise ValueError(f"chunk_cycles: must be an integer >= 1, got {self.chunk_cycles!r}")
         m = self.model
+        route_mujoco_warnings()
+        disable_autoreset(m)
         self.dt = float(m.opt.timestep)
         self.N = steps_per_cycle(self.path, self.dt)
         self.n_steps = int(round(self.duration_s / self.dt))
@@ -246,11 +257,19 @@ class MsacRunner:
         return out
 
     # ------------------------------------------------------------------ checkpoints
-    def _save(self, path: Path, k: int, state: np.ndarray, acc: _Acc) -> None:
-        blob = {"k": k, "state": state, "acc": acc, "table": self.table}
-        with atomic_path(path) as tmp:
-            with open(tmp, "wb") as fh:
-                pickle.dump(blob, fh, protocol=pickle.HIGHEST_PROTOCOL)
+    def _save(self, path: Path, k: int, state: np.ndarray, acc: _Acc, walker: StateWalker) -> None:
+        walker.roots.update(acc=acc, table=self.table)
+        write_checkpoint(path, {**self.identity, "k": k, "t_s": k * self.dt}, walker, {"state": state})
+
+    def _load(self, path: Path, walker: StateWalker) -> tuple[int, np.ndarray, _Acc]:
+        header, arrays, extra = read_checkpoint(path)
+        check_identity(header, self.identity, path=path)
+        k = int(header["k"])
+        if "state" not in extra or extra["state"].shape != (self.nstate,) or not 0 <= k <= self.n_steps:
+            raise CheckpointError(f"checkpoint: {path} does not hold a state of this model within sim.duration_s")
+        restore_state(walker, header["state_tree"], arrays)
+        self.table = walker.roots["table"]
+        return k, extra["state"], walker.roots["acc"]
 
     # ------------------------------------------------------------------ run
     def run(self, *, progress: bool = False, checkpoint_path: str | Path | None = None,
@@ -263,12 +282,13 @@ class MsacRunner:
         wall0 = time.perf_counter()
         data = mujoco.MjData(m)
         ckpt = Path(checkpoint_path) if checkpoint_path else None
+        self.table = None
+        walker = StateWalker({"acc": _Acc(), "table": None})
+        walker.baseline()
         if resume:
-            if ckpt is None or not ckpt.exists():
-                raise FileNotFoundError(f"resume: no checkpoint at {ckpt}")
-            with open(ckpt, "rb") as fh:
-                blob = pickle.load(fh)
-            k, state, acc, self.table = blob["k"], blob["state"], blob["acc"], blob["table"]
+            if ckpt is None:
+                raise CheckpointError("resume: no checkpoint path given")
+            k, state, acc = self._load(ckpt, walker)
         else:
             set_initial_state(m, data, self.path)
             state = np.empty(self.nstate)
@@ -325,13 +345,17 @@ class MsacRunner:
                         mujoco.mj_getState(m, data, post[i], _FP)
                 S = np.vstack([state[None], post[:-1]])
                 warned = [w.name.removeprefix("mjWARN_") for w in _WARNINGS if data.warning[w].number > warn0[w]]
-                if warned or not np.all(np.isfinite(post)) or abs(post[-1, 0] - (k + n) * dt) > 1e-6 * max(1.0, (k + n) * dt):
-                    bad = int(np.argmax(~np.isfinite(post).all(axis=1) | (np.diff(np.concatenate([[state[0]], post[:, 0]])) <= 0)))
+                bad_state, bad_ctrl = first_bad_row(post[:, 1:]), first_bad_row(ctrl)
+                if warned or bad_state is not None or bad_ctrl is not None:
+                    # post[i] is the state at step k + i + 1; a bad control acts from step k + i
+                    cands = [i + 1 for i in (bad_state,) if i is not None] + [i for i in (bad_ctrl,) if i is not None]
+                    bad = min(cands) if cands else n
                     status = "diverged"
-                    message = (f"MuJoCo warning {', '.join(warned) or 'none'}; state not finite or stepping stopped "
-                               f"at t = {(k + bad) * dt:.6f} s (BADCTRL: a control above 1e10 or not finite, "
-                               f"raise the ff gear)")
-                    self._process(acc, k, S[:bad + 1], sens[:bad + 1], ctrl[:bad + 1])
+                    cause = "a control is not finite or above 1e10 (raise the ff gear)" if bad_ctrl is not None \
+                        and bad == bad_ctrl else "the state is not finite or above 1e10"
+                    message = (f"diverged at t = {(k + bad) * dt:.6g} s: {cause}"
+                               + (f" (MuJoCo warnings {', '.join(warned)})" if warned else ""))
+                    self._process(acc, k, S[:bad], sens[:bad], ctrl[:bad])
                     k += bad
                     break
                 self._process(acc, k, S, sens, ctrl)
@@ -342,7 +366,7 @@ class MsacRunner:
                 if bar is not None:
                     bar.update(n)
                 if ckpt is not None and next_ck is not None and k >= next_ck and k < self.n_steps:
-                    self._save(ckpt, k, state, acc)
+                    self._save(ckpt, k, state, acc, walker)
                     next_ck = (k // ck_every + 1) * ck_every
         finally:
             pool.close()
@@ -353,7 +377,7 @@ class MsacRunner:
         if status == "completed" and k < self.n_steps:
             status, message = "stopped", f"stopped at t = {k * dt:.6f} s (stop_after_s)"
             if ckpt is not None:
-                self._save(ckpt, k, state, acc)
+                self._save(ckpt, k, state, acc, walker)
         if status == "completed":
             # the final state (t = duration) as a last sample: sensors from mj_forward
             mujoco.mj_setState(m, data, state, _FP)

@@ -22,7 +22,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from magsail_mj.sim import DivergenceError, RunResult, Simulation
+from magsail_mj.divergence import DivergenceError, TrackingLost, check_inner_run
+from magsail_mj.sim import RunResult, Simulation
 
 if TYPE_CHECKING:
     from magsail_mj.scenarios.reflector import ReflectorScenario
@@ -51,7 +52,7 @@ class _Watchdog:
         err = 2.0 * math.acos(min(1.0, abs(float(cmd.q_e[0]))))
         self.err_max = max(self.err_max, err)
         if err > self.limit:
-            raise DivergenceError(f"tracking error {math.degrees(err):.3f}° above {math.degrees(self.limit):g}° "
+            raise TrackingLost(f"tracking error {math.degrees(err):.3f}° above {math.degrees(self.limit):g}° "
                                   f"at t = {state.t:.1f} s")
         return cmd
 
@@ -87,13 +88,12 @@ class CapSweepRunner:
                          controller=dog, probes={}, record_every=10 ** 9, init=sc.init_state)
         t0 = time.perf_counter()
         res = sim.run()
+        check_inner_run(res.status, res.message, where=f"cap {cap:g} N m, limit {limit_deg:g}°")
         return CapRun(cap_N_m=float(cap), limit_deg=limit_deg, passed=res.status == "completed",
                       err_max_rad=dog.err_max, t_stop_s=res.t_end_s, wall_s=time.perf_counter() - t0)
 
-    def run(self, *, progress: bool = False, checkpoint_path: Any = None, resume: bool = False,
-            stop_after_s: float | None = None) -> RunResult:
-        wall0 = time.perf_counter()
-        runs: list[CapRun] = []
+    def _search(self, runs: list[CapRun], *, progress: bool) -> None:
+        """The grid, then a bisection per threshold; appends every run to ``runs``."""
         hi_thr = max(self.thresholds_deg)
         grid = cap_grid()
         # grid sweep with the loosest watchdog: every run yields err_max for all thresholds
@@ -103,7 +103,6 @@ class CapSweepRunner:
                 r = runs[-1]
                 print(f"cap {cap:8.4g} N m: {'pass' if r.passed else 'fail'} {math.degrees(r.err_max_rad):.3f}°",
                       flush=True)
-        self.minimum: dict[float, float | None] = {}
         for thr in sorted(self.thresholds_deg, reverse=True):
             def ok(r: CapRun) -> bool:
                 return r.passed and r.err_max_rad <= thr * DEG
@@ -126,6 +125,18 @@ class CapSweepRunner:
                 else:
                     lo = mid
             self.minimum[thr] = hi
+
+    def run(self, *, progress: bool = False, checkpoint_path: Any = None, resume: bool = False,
+            stop_after_s: float | None = None) -> RunResult:
+        wall0 = time.perf_counter()
+        runs: list[CapRun] = []
+        grid = cap_grid()
+        self.minimum: dict[float, float | None] = {}
+        status, message = "completed", ""
+        try:
+            self._search(runs, progress=progress)
+        except DivergenceError as err:
+            status, message = "diverged", str(err)
         self.runs = runs
         self.monotonic = {thr: bool(np.all(np.diff([float(r.passed and r.err_max_rad <= thr * DEG)
                                                    for r in runs[: grid.size]]) >= 0))
@@ -140,7 +151,8 @@ class CapSweepRunner:
                "passed": np.array([r.passed for r in runs], dtype=np.int8),
                "err_max_rad": np.array([r.err_max_rad for r in runs]), "t_stop_s": np.array([r.t_stop_s for r in runs]),
                "wall_s": np.array([r.wall_s for r in runs])}
-        return RunResult(records=rec, status="completed", message=f"B3 cap sweep: {len(runs)} runs",
+        message = message or f"B3 cap sweep: {len(runs)} runs"
+        return RunResult(records=rec, status=status, message=message,
                          t_end_s=float(self.sc.cfg.sim.duration_s), steps=0, wall_time_s=time.perf_counter() - wall0)
 
 
