@@ -36,7 +36,7 @@ from scipy.spatial.transform import Rotation  # noqa: E402
 from magsail_mj.geometry.lattice import make_lattice  # noqa: E402
 from magsail_mj.mjcf.truss import build_truss_spec  # noqa: E402
 from magsail_mj.render import backend  # noqa: E402
-from magsail_mj.render.compose import RunScene, frame_plan, load_run, render_run  # noqa: E402
+from magsail_mj.render.compose import RenderError, RunScene, frame_plan, load_run, render_run  # noqa: E402
 from magsail_mj.render.video import Mp4Writer, read_mp4, video_codec  # noqa: E402
 
 W, H = 320, 180          # small frames keep software rendering fast
@@ -399,12 +399,16 @@ def test_render_errors_name_the_argument(tmp_path):
         render_run(tmp_path / "run", tmp_path / "x.mp4", width=321)
     with pytest.raises(ValueError, match="out_path"):
         render_run(tmp_path / "run", tmp_path / "x.gif")
-    with pytest.raises(FileNotFoundError, match="compare"):
+    with pytest.raises(RenderError, match="compare: no such folder"):
         render_run(tmp_path / "run", tmp_path / "x.mp4", compare=tmp_path / "missing")
     manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
-    manifest["render"]["overlay"] = ["no_such_series_m"]
+    manifest["render"]["overlay"] = ["no_such_series_m", "surface_sd_m"]
     (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
-    with pytest.raises(ValueError, match="no_such_series_m"):
+    with pytest.warns(RuntimeWarning, match="no_such_series_m"):     # drawn without it
+        assert list(load_run(tmp_path / "run").series) == ["surface_sd_m"]
+    manifest["render"]["overlay"] = "surface_sd_m"
+    (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(RenderError, match="overlay: expected a list"):
         load_run(tmp_path / "run")
     manifest["render"]["overlay"] = []
     manifest["render"]["camera"] = {"zoom": 2}

@@ -29,22 +29,31 @@ import math
 import os
 import re
 import warnings
+import zipfile
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
+from typing import Self
 
 import numpy as np
 
 from magsail_mj.render.backend import ensure_gl_backend, make_renderer
 from magsail_mj.render.video import Mp4Writer
+from magsail_mj.resources import (
+    check_memory,
+    mjcf_model_bytes,
+    npz_array_bytes,
+    render_bytes,
+)
 
 __all__ = [
     "ACTIVE_NEG_RGBA",
     "ACTIVE_POS_RGBA",
-    "CameraView",
     "DEFAULT_AZIMUTH_DEG",
     "DEFAULT_ELEVATION_DEG",
+    "CameraView",
+    "RenderError",
     "RunData",
     "RunScene",
     "frame_plan",
@@ -82,6 +91,11 @@ _UNITS = [  # (name suffix, printed unit), longest first
 # --------------------------------------------------------------------------- run loading
 
 
+class RenderError(ValueError):
+    """A render input is invalid: an argument, a run folder or one of its files (the message
+    starts with the argument's name, e.g. ``run_dir: ...``, ``out_path: ...``)."""
+
+
 @dataclass(frozen=True)
 class RunData:
     """The contents of a run folder that rendering needs.
@@ -99,7 +113,8 @@ class RunData:
       camera: ``manifest.render.camera`` (keys from ``azimuth_deg``, ``elevation_deg``,
         ``distance_m``).
       exaggeration: ``manifest.render.exaggeration`` or ``None``.
-      manifest: the whole manifest.
+      manifest: the whole manifest (``{}`` when the render table was given instead).
+      strut_colours: ``render.strut_colours`` entries ``{"struts": [...], "rgba": [r, g, b, a]}``.
     """
 
     run_dir: Path
@@ -114,78 +129,134 @@ class RunData:
     exaggeration: float | None
     manifest: dict = field(repr=False)
     inset: tuple[str, np.ndarray] | None = None
+    strut_colours: tuple = ()
 
 
 def _check_camera(camera: object, what: str) -> dict[str, float]:
     if camera is None:
         return {}
     if not isinstance(camera, Mapping):
-        raise ValueError(f"{what}: expected a mapping with keys {_CAMERA_KEYS}, got {camera!r}")
+        raise RenderError(f"{what}: expected a mapping with keys {_CAMERA_KEYS}, got {camera!r}")
     out: dict[str, float] = {}
     for key, value in camera.items():
         if key not in _CAMERA_KEYS:
-            raise ValueError(f"{what}: unknown key {key!r}; allowed: {_CAMERA_KEYS}")
+            raise RenderError(f"{what}: unknown key {key!r}; allowed: {_CAMERA_KEYS}")
         if value is None:
             continue
         try:
             v = float(value)
         except (TypeError, ValueError):
-            raise ValueError(f"{what}.{key}: expected a number, got {value!r}") from None
+            raise RenderError(f"{what}.{key}: expected a number, got {value!r}") from None
         if not math.isfinite(v) or (key == "distance_m" and v <= 0):
-            raise ValueError(f"{what}.{key}: must be finite{' and > 0' if key == 'distance_m' else ''}, "
+            raise RenderError(f"{what}.{key}: must be finite{' and > 0' if key == 'distance_m' else ''}, "
                              f"got {value!r}")
         out[key] = v
     return out
 
 
-def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir") -> RunData:
+def _read_manifest(path: Path, *, name: str, required: bool) -> dict:
+    """The run's ``manifest.json`` as a dict (``{}`` when absent and not ``required``)."""
+    if not path.is_file():
+        if required:
+            raise RenderError(f"{name}: {str(path)!r} is missing (not a run folder?)")
+        return {}
+    try:
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise RenderError(f"{name}: {str(path)!r} is not valid JSON ({exc})") from None
+    except OSError as exc:
+        raise RenderError(f"{name}: cannot read {str(path)!r} ({exc.strerror or exc})") from None
+    if not isinstance(manifest, dict):
+        raise RenderError(f"{name}: {str(path)!r} must hold a JSON object, got {type(manifest).__name__}")
+    return manifest
+
+
+def _read_series(path: Path, *, name: str) -> dict[str, np.ndarray]:
+    """All arrays of the run's ``timeseries.npz`` (no pickles); a file that is not a readable
+    ``.npz`` is a :class:`RenderError`."""
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            if not hasattr(npz, "files"):
+                raise RenderError(f"{name}: {str(path)!r} is a single array, not an .npz archive")
+            return {key: npz[key] for key in npz.files}
+    except RenderError:
+        raise
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+        raise RenderError(f"{name}: cannot read {str(path)!r} as an .npz archive "
+                          f"({type(exc).__name__}: {exc})") from None
+
+
+def _overlay_names(overlay: object, arrays: Mapping[str, np.ndarray], *, where: str,
+                   where_ts: str) -> list[str]:
+    """The overlay series to draw: names absent from the time series are skipped with a warning
+    (a scenario may list a series that its kind does not record); a non-list is an error."""
+    if overlay is None:
+        return []
+    if isinstance(overlay, str) or not isinstance(overlay, Sequence):
+        raise RenderError(f"{where}.overlay: expected a list of series names, got {overlay!r}")
+    present = [str(n) for n in overlay if isinstance(n, str) and n in arrays]
+    missing = [n for n in overlay if not (isinstance(n, str) and n in arrays)]
+    if missing:
+        warnings.warn(f"{where}.overlay: series {missing} not in {where_ts} (has {sorted(arrays)}); "
+                      "drawn without them", RuntimeWarning, stacklevel=3)
+    return present
+
+
+def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir",
+             render_info: Mapping | None = None) -> RunData:
     """Read and validate a run folder (``model.xml``, ``timeseries.npz``, ``manifest.json``).
 
     Args:
       run_dir: the folder.
       name: the argument name used in error messages (e.g. ``"compare"``).
+      render_info: the render table to use instead of the manifest's ``render`` entry; then
+        ``manifest.json`` is optional (a run renders its video before it writes its manifest).
 
     Raises:
-      FileNotFoundError: a file is missing (its path is named).
-      ValueError: a series or manifest entry has the wrong shape or value (its name is given).
+      RenderError: the folder or a file is missing or unreadable, or a series or render entry has
+        the wrong shape or value (the message names the argument, the file and the entry).
     """
+    if not str(os.fspath(run_dir)).strip():
+        raise RenderError(f"{name}: must be a run folder, got an empty path")
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
-        raise FileNotFoundError(f"{name}: no such folder {str(run_dir)!r}")
-    paths = {name: run_dir / name for name in ("model.xml", "timeseries.npz", "manifest.json")}
-    for path in paths.values():
-        if not path.is_file():
-            raise FileNotFoundError(f"{name}: {str(path)!r} is missing")
-    try:
-        manifest = json.loads(paths["manifest.json"].read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{paths['manifest.json']}: not valid JSON ({exc})") from None
-    render = manifest.get("render") or {}
+        what = "is a file, not a run folder" if run_dir.exists() else "no such folder"
+        raise RenderError(f"{name}: {what}: {str(run_dir)!r}")
+    paths = {key: run_dir / key for key in ("model.xml", "timeseries.npz", "manifest.json")}
+    for key in ("model.xml", "timeseries.npz"):
+        if not paths[key].is_file():
+            raise RenderError(f"{name}: {str(paths[key])!r} is missing (not a run folder?)")
+    manifest = _read_manifest(paths["manifest.json"], name=name, required=render_info is None)
+    render = manifest.get("render") if render_info is None else render_info
+    render = render or {}
     if not isinstance(render, Mapping):
-        raise ValueError(f"{paths['manifest.json']}: 'render' must be an object, got {render!r}")
-    where = f"{paths['manifest.json']}: render"
+        raise RenderError(f"{name}: {paths['manifest.json']}: 'render' must be an object, got {render!r}")
+    where = f"{name}: {paths['manifest.json']}: render"
 
-    with np.load(paths["timeseries.npz"], allow_pickle=False) as npz:
-        arrays = {key: npz[key] for key in npz.files}
-    where_ts = str(paths["timeseries.npz"])
+    arrays = _read_series(paths["timeseries.npz"], name=name)
+    where_ts = f"{name}: {paths['timeseries.npz']}"
     for key in ("t", "qpos"):
         if key not in arrays:
-            raise ValueError(f"{where_ts}: series {key!r} is missing (has {sorted(arrays)})")
-    t = np.asarray(arrays["t"], dtype=float)
-    qpos = np.asarray(arrays["qpos"], dtype=float)
+            raise RenderError(f"{where_ts}: series {key!r} is missing (has {sorted(arrays)[:20]}); "
+                              "a run without recorded positions (qpos) has no motion to render")
+    try:
+        t = np.asarray(arrays["t"], dtype=float)
+        qpos = np.asarray(arrays["qpos"], dtype=float)
+    except (TypeError, ValueError):
+        raise RenderError(f"{where_ts}: 't' and 'qpos' must be numeric") from None
     if t.ndim != 1 or t.size == 0:
-        raise ValueError(f"{where_ts}: 't' must have shape (T,) with T >= 1, got {t.shape}")
+        raise RenderError(f"{where_ts}: 't' must have shape (T,) with T >= 1, got {t.shape}")
     if not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0):
-        raise ValueError(f"{where_ts}: 't' must be finite and non-decreasing")
+        raise RenderError(f"{where_ts}: 't' must be finite and non-decreasing")
     T = t.size
     if qpos.ndim != 2 or qpos.shape[0] != T:
-        raise ValueError(f"{where_ts}: 'qpos' must have shape ({T}, nq), got {qpos.shape}")
+        raise RenderError(f"{where_ts}: 'qpos' must have shape ({T}, nq), got {qpos.shape}")
 
     finite = np.isfinite(qpos).all(axis=1)
     if not finite.all():   # a diverged run keeps what was recorded: render up to the blow-up
         first = int(np.argmin(finite))
         if first == 0:
-            raise ValueError(f"{where_ts}: 'qpos' is non-finite from the first record on")
+            raise RenderError(f"{where_ts}: 'qpos' is non-finite from the first record on")
         warnings.warn(f"{where_ts}: 'qpos' is non-finite from record {first} "
                       f"(t = {t[first]:g} s); rendering the {first} records before it",
                       RuntimeWarning, stacklevel=2)
@@ -198,41 +269,42 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir") -> RunData:
     if activity is not None:
         activity = np.asarray(activity)
         if activity.ndim != 2 or activity.shape[0] != T:
-            raise ValueError(f"{where_ts}: 'strut_activity' must have shape ({T}, ntendon), "
+            raise RenderError(f"{where_ts}: 'strut_activity' must have shape ({T}, ntendon), "
                              f"got {activity.shape}")
         if activity.size and not np.all(np.isin(activity, (-1, 0, 1))):
-            raise ValueError(f"{where_ts}: 'strut_activity' values must be -1, 0 or +1")
+            raise RenderError(f"{where_ts}: 'strut_activity' values must be -1, 0 or +1")
         activity = activity.astype(np.int8)
 
-    overlay = render.get("overlay") or []
-    if isinstance(overlay, str) or not isinstance(overlay, Sequence):
-        raise ValueError(f"{where}.overlay: expected a list of series names, got {overlay!r}")
     series: dict[str, np.ndarray] = {}
-    for name in overlay:
-        if name not in arrays:
-            raise ValueError(f"{where}.overlay: series {name!r} is not in {where_ts} "
-                             f"(has {sorted(arrays)})")
-        s = np.asarray(arrays[name])
+    for key in _overlay_names(render.get("overlay"), arrays, where=where, where_ts=where_ts):
+        s = np.asarray(arrays[key])
         if s.ndim not in (1, 2) or s.shape[0] != T or not np.issubdtype(s.dtype, np.number):
-            raise ValueError(f"{where}.overlay: series {name!r} must be numeric with shape ({T},) "
-                             f"or ({T}, k), got {s.shape} {s.dtype}")
-        series[str(name)] = s
+            raise RenderError(f"{where}.overlay: series {key!r} must be numeric with shape ({T},) "
+                              f"or ({T}, k), got {s.shape} {s.dtype}")
+        series[key] = s
 
     inset = render.get("inset")
+    if isinstance(inset, str) and inset not in arrays:
+        warnings.warn(f"{where}.inset: series {inset!r} not in {where_ts}; drawn without the inset",
+                      RuntimeWarning, stacklevel=2)
+        inset = None
     if inset is not None:
         values = np.asarray(arrays[inset]) if isinstance(inset, str) and inset in arrays else None
         if values is None or values.shape != (T,) or not np.issubdtype(values.dtype, np.number):
-            raise ValueError(f"{where}.inset: expected the name of a numeric ({T},) series in "
-                             f"{where_ts}, got {inset!r}")
+            raise RenderError(f"{where}.inset: expected the name of a numeric ({T},) series in "
+                              f"{where_ts}, got {inset!r}")
         inset = (inset, values.astype(float))
 
     top = render.get("top_nodes")
     if top is not None:
-        top = np.asarray(top)
+        try:
+            top = np.asarray(top)
+        except (TypeError, ValueError):
+            top = np.zeros((0,))
         if top.ndim != 1 or top.size < 3 or not np.issubdtype(top.dtype, np.integer) \
                 or np.any(top < 0) or np.unique(top).size != top.size:
-            raise ValueError(f"{where}.top_nodes: expected >= 3 distinct node indices >= 0, "
-                             f"got {render.get('top_nodes')!r:.200}")
+            raise RenderError(f"{where}.top_nodes: expected >= 3 distinct node indices >= 0, "
+                              f"got {render.get('top_nodes')!r:.200}")
         top = top.astype(np.int64)
 
     exaggeration = render.get("exaggeration")
@@ -240,15 +312,35 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir") -> RunData:
         try:
             exaggeration = float(exaggeration)
         except (TypeError, ValueError):
-            raise ValueError(f"{where}.exaggeration: expected a number, got {exaggeration!r}") from None
+            raise RenderError(f"{where}.exaggeration: expected a number, got {exaggeration!r}") from None
         if not (math.isfinite(exaggeration) and exaggeration > 0):
-            raise ValueError(f"{where}.exaggeration: must be > 0, got {exaggeration!r}")
+            raise RenderError(f"{where}.exaggeration: must be > 0, got {exaggeration!r}")
 
     title = render.get("title") or run_dir.resolve().name
+    colours = render.get("strut_colours") or ()
+    if isinstance(colours, (str, Mapping)) or not isinstance(colours, Sequence):
+        raise RenderError(f"{where}.strut_colours: expected a list of {{struts, rgba}} tables, got {colours!r:.200}")
     return RunData(run_dir=run_dir, model_xml=paths["model.xml"], t=t, qpos=qpos,
                    strut_activity=activity, series=series, title=str(title), top_nodes=top,
                    camera=_check_camera(render.get("camera"), f"{where}.camera"),
-                   exaggeration=exaggeration, manifest=manifest, inset=inset)
+                   exaggeration=exaggeration, manifest=manifest, inset=inset,
+                   strut_colours=tuple(colours))
+
+
+def _strut_colours(entries: Sequence, *, where: str, ntendon: int) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """``(strut indices, rgba)`` of each ``render.strut_colours`` entry, checked against the model."""
+    for k, entry in enumerate(entries):
+        try:
+            idx = np.asarray(entry.get("struts", []), dtype=np.int64).reshape(-1)
+            rgba = np.asarray(entry["rgba"], dtype=float)
+        except (AttributeError, KeyError, TypeError, ValueError):
+            raise RenderError(f"{where}[{k}]: expected {{struts: [indices], rgba: [r, g, b, a]}}, "
+                              f"got {entry!r:.200}") from None
+        if rgba.shape != (4,) or not np.all(np.isfinite(rgba)):
+            raise RenderError(f"{where}[{k}].rgba: expected 4 finite numbers, got {entry['rgba']!r:.100}")
+        if idx.size and (idx.min() < 0 or idx.max() >= ntendon):
+            raise RenderError(f"{where}[{k}]: strut index out of range (model has {ntendon} tendons)")
+        yield idx, rgba
 
 
 # --------------------------------------------------------------------------- timeline
@@ -271,7 +363,7 @@ def frame_plan(times: Sequence[np.ndarray], *, max_frames: int
       run, (F,) bool, True where the frame time lies after the run's last record.
     """
     if int(max_frames) != max_frames or max_frames < 1:
-        raise ValueError(f"max_frames: must be an integer >= 1, got {max_frames!r}")
+        raise RenderError(f"max_frames: must be an integer >= 1, got {max_frames!r}")
     spans = [float(t[-1] - t[0]) for t in times]
     base = int(np.argmax(spans))
     n = len(times[base])
@@ -339,7 +431,7 @@ class RunScene:
         try:
             self.model = mujoco.MjModel.from_xml_path(str(run.model_xml))
         except Exception as exc:
-            raise ValueError(f"{run.model_xml}: cannot load the model ({exc})") from exc
+            raise RenderError(f"{run.model_xml}: cannot load the model ({exc})") from exc
         m = self.model
         self.data = mujoco.MjData(m)
         q = m.vis.quality
@@ -349,10 +441,10 @@ class RunScene:
         if not antialias:
             q.offsamples = 0
         if run.qpos.shape[1] != m.nq:
-            raise ValueError(f"{run.run_dir / 'timeseries.npz'}: 'qpos' has {run.qpos.shape[1]} "
+            raise RenderError(f"{run.run_dir / 'timeseries.npz'}: 'qpos' has {run.qpos.shape[1]} "
                              f"columns, the model has nq = {m.nq}")
         if run.strut_activity is not None and run.strut_activity.shape[1] != m.ntendon:
-            raise ValueError(f"{run.run_dir / 'timeseries.npz'}: 'strut_activity' has "
+            raise RenderError(f"{run.run_dir / 'timeseries.npz'}: 'strut_activity' has "
                              f"{run.strut_activity.shape[1]} columns, the model has "
                              f"{m.ntendon} tendons")
 
@@ -367,11 +459,11 @@ class RunScene:
             bodies = run.top_nodes + 1
             bad = bodies[bodies >= m.nbody]
             if bad.size:
-                raise ValueError(f"{run.run_dir / 'manifest.json'}: render.top_nodes: node "
+                raise RenderError(f"{run.run_dir / 'manifest.json'}: render.top_nodes: node "
                                  f"{int(bad[0]) - 1} does not exist (model has {m.nbody - 1} bodies)")
             nogeom = bodies[m.body_geomnum[bodies] < 1]
             if nogeom.size:
-                raise ValueError(f"{run.run_dir / 'manifest.json'}: render.top_nodes: node "
+                raise RenderError(f"{run.run_dir / 'manifest.json'}: render.top_nodes: node "
                                  f"{int(nogeom[0]) - 1} has no geom to colour")
             self.top_bodies = bodies
             self.top_geoms = m.body_geomadr[bodies].astype(np.int64)
@@ -379,12 +471,9 @@ class RunScene:
         # Static strut colours (e.g. current loops coloured by axis): manifest render.strut_colours
         # = [{"struts": [...], "rgba": [r, g, b, a]}, ...], drawn 2.5× wider.
         widen = np.zeros(m.ntendon, bool)
-        for entry in (run.manifest.get("render", {}) or {}).get("strut_colours", []) or []:
-            idx = np.asarray(entry.get("struts", []), dtype=np.int64)
-            if idx.size and (idx.min() < 0 or idx.max() >= m.ntendon):
-                raise ValueError(f"{run.run_dir / 'manifest.json'}: render.strut_colours: strut index "
-                                 f"out of range (model has {m.ntendon} tendons)")
-            m.tendon_rgba[idx] = np.asarray(entry["rgba"], dtype=float)
+        for idx, rgba in _strut_colours(run.strut_colours, where=f"{run.run_dir / 'manifest.json'}: "
+                                        "render.strut_colours", ntendon=m.ntendon):
+            m.tendon_rgba[idx] = rgba
             widen[idx] = True
         m.tendon_width[widen] *= 2.5
         # Render-only size floors, based on the original sizes.
@@ -411,7 +500,7 @@ class RunScene:
 
     # -- lifecycle
 
-    def __enter__(self) -> "RunScene":
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -455,11 +544,11 @@ class RunScene:
         indices = np.asarray(indices, dtype=np.int64)
         if indices.ndim != 1 or indices.size == 0 or indices.min() < 0 \
                 or indices.max() >= self.run.t.size:
-            raise ValueError(f"indices: expected (F,) record indices in [0, {self.run.t.size})")
+            raise RenderError(f"indices: expected (F,) record indices in [0, {self.run.t.size})")
         if not (math.isfinite(exaggeration) and exaggeration > 0):
-            raise ValueError(f"exaggeration: must be > 0, got {exaggeration!r}")
+            raise RenderError(f"exaggeration: must be > 0, got {exaggeration!r}")
         if exaggeration != 1.0 and self.node_bodies.size < 3:
-            raise ValueError("exaggeration: needs a flexible structure (>= 3 node bodies named "
+            raise RenderError("exaggeration: needs a flexible structure (>= 3 node bodies named "
                              "n0, n1, ... as build_truss_spec makes them); this model has "
                              f"{self.node_bodies.size}")
         m, d = self.model, self.data
@@ -479,7 +568,7 @@ class RunScene:
                     self.radius_m = float(m.stat.extent) or 1.0
         if not np.all(np.isfinite(xpos)):
             bad = indices[np.flatnonzero(~np.isfinite(xpos).all(axis=(1, 2)))[0]]
-            raise ValueError(f"{self.run.run_dir / 'timeseries.npz'}: non-finite positions at "
+            raise RenderError(f"{self.run.run_dir / 'timeseries.npz'}: non-finite positions at "
                              f"record {int(bad)} (t = {self.run.t[bad]:g} s)")
         self._indices = indices
         self._centroid = xpos[:, 1:].mean(axis=1) if m.nbody > 1 else np.zeros((F, 3))
@@ -568,7 +657,7 @@ class RunScene:
         if self._indices is None:
             raise RuntimeError("RunScene.render: call prepare() first")
         if not 0 <= frame < self._indices.size:
-            raise ValueError(f"frame: must be in [0, {self._indices.size}), got {frame!r}")
+            raise RenderError(f"frame: must be in [0, {self._indices.size}), got {frame!r}")
         m, d = self.model, self.data
         if self._renderer is None:
             max_geom = max(10000, 2 * (m.ngeom + m.nwrap + m.ntendon) + 1000)
@@ -623,7 +712,7 @@ def _colormap(name: str):
     try:
         return matplotlib.colormaps[name]
     except KeyError:
-        raise ValueError(f"height_cmap: unknown matplotlib colormap {name!r}") from None
+        raise RenderError(f"height_cmap: unknown matplotlib colormap {name!r}") from None
 
 
 @lru_cache(maxsize=16)
@@ -707,7 +796,7 @@ def _draw_overlay(image: np.ndarray, *, title: str, time_s: float, ended: bool,
     big, small = _font(round(size * 1.25)), _font(size)
     img = Image.fromarray(image)
     draw = ImageDraw.Draw(img)
-    ink = dict(fill=(255, 255, 255), stroke_width=max(1, size // 9), stroke_fill=(0, 0, 0))
+    ink = {"fill": (255, 255, 255), "stroke_width": max(1, size // 9), "stroke_fill": (0, 0, 0)}
     pad = size // 2
     y = pad
     draw.text((pad, y), title, font=big, **ink)
@@ -755,6 +844,66 @@ def _draw_overlay(image: np.ndarray, *, title: str, time_s: float, ended: bool,
     return np.asarray(img)
 
 
+# --------------------------------------------------------------------------- argument checks
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+
+
+def _check_int(name: str, value: object, *, minimum: int, even: bool = False) -> int:
+    """``value`` as an int >= ``minimum`` (even when ``even``), else a :class:`RenderError` naming it."""
+    ok = _is_number(value) and math.isfinite(float(value)) and float(value) == int(value)
+    if not ok or int(value) < minimum or (even and int(value) % 2):
+        kind = "an even integer" if even else "an integer"
+        raise RenderError(f"{name}: must be {kind} >= {minimum}"
+                          f"{' (H.264 yuv420p)' if even else ''}, got {value!r}")
+    return int(value)
+
+
+def _check_out_path(out_path: str | os.PathLike) -> Path:
+    """The output video path: non-empty, ``.mp4``, not a folder, below a writable folder (or one
+    that can be created: its nearest existing ancestor is a writable folder)."""
+    text = os.fspath(out_path)
+    if not str(text).strip():
+        raise RenderError("out_path: must be a file path ending in '.mp4', got an empty path")
+    out = Path(out_path)
+    if out.suffix.lower() != ".mp4":
+        raise RenderError(f"out_path: only MP4 video (H.264) is written; the path must end in '.mp4', "
+                          f"got {str(out)!r}")
+    if out.is_dir():
+        raise RenderError(f"out_path: {str(out)!r} is a folder; give a file path ending in '.mp4'")
+    for parent in out.absolute().parents:
+        if not parent.exists():
+            continue
+        if not parent.is_dir():
+            raise RenderError(f"out_path: {str(parent)!r} is a file, so {str(out)!r} cannot be written below it")
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise RenderError(f"out_path: folder {str(parent)!r} is not writable")
+        break
+    return out
+
+
+def _check_render_memory(run_dirs: Sequence[Path], *, max_frames: int, width: int, height: int) -> None:
+    """Refuse a render whose estimated memory (:func:`magsail_mj.resources.render_bytes`) is above
+    the limit, before anything is loaded. Files that cannot be sized are left to :func:`load_run`."""
+    series = model = 0.0
+    nbody = 1
+    for folder in run_dirs:
+        npz, xml = folder / "timeseries.npz", folder / "model.xml"
+        try:
+            series += npz_array_bytes(npz) if npz.is_file() else 0.0
+            if xml.is_file():
+                m_bytes, m_body = mjcf_model_bytes(xml)
+                model, nbody = model + m_bytes, max(nbody, m_body)
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile):
+            continue
+    estimate = render_bytes(frames=max_frames, width=width, height=height, panels=len(run_dirs),
+                            nbody=nbody, series_bytes=series, model_bytes=model)
+    check_memory(estimate, what=f"render {', '.join(str(p) for p in run_dirs)} ({max_frames} frames of "
+                                f"{width} x {height} px)")
+
+
 # --------------------------------------------------------------------------- public API
 
 
@@ -779,6 +928,7 @@ def render_frames(
     camera: Mapping[str, float] | None = None,
     height_cmap: str = DEFAULT_HEIGHT_CMAP,
     antialias: bool = True,
+    render_info: Mapping | None = None,
 ) -> Iterator[np.ndarray]:
     """Yield the finished video frames of a run (or of two runs side by side).
 
@@ -787,19 +937,20 @@ def render_frames(
     is exhausted or closed.
     """
     for name, value in (("width", width), ("height", height)):
-        if int(value) != value or value < 16:
-            raise ValueError(f"{name}: must be an integer >= 16, got {value!r}")
-    if exaggeration is not None and not (math.isfinite(exaggeration) and exaggeration > 0):
-        raise ValueError(f"exaggeration: must be > 0, got {exaggeration!r}")
+        _check_int(name, value, minimum=16)
+    if exaggeration is not None and not (_is_number(exaggeration) and math.isfinite(exaggeration)
+                                         and exaggeration > 0):
+        raise RenderError(f"exaggeration: must be > 0, got {exaggeration!r}")
     _colormap(height_cmap)
     ensure_gl_backend()
     run_dirs = [Path(run_dir)] + ([Path(compare)] if compare is not None else [])
-    runs = [load_run(p, name=n) for p, n in zip(run_dirs, ("run_dir", "compare"))]
+    runs = [load_run(p, name=n, render_info=info)
+            for p, n, info in zip(run_dirs, ("run_dir", "compare"), (render_info, None))]
     if labels is None:
         labels = [r.run_dir.resolve().name for r in runs] if len(runs) > 1 else [None]
     else:
         if isinstance(labels, str) or len(labels) != len(runs):
-            raise ValueError(f"labels: expected {len(runs)} label(s), one per run, got {labels!r}")
+            raise RenderError(f"labels: expected {len(runs)} label(s), one per run, got {labels!r}")
         labels = [str(x) for x in labels]
     frame_t, indices, ended = frame_plan([r.t for r in runs], max_frames=max_frames)
 
@@ -850,6 +1001,7 @@ def render_run(
     antialias: bool = True,
     crf: float = 20.0,
     progress: bool = False,
+    render_info: Mapping | None = None,
 ) -> Path:
     """Render a run folder to a browser-playable MP4 (H.264, yuv420p), written atomically.
 
@@ -874,27 +1026,32 @@ def render_run(
       antialias: 4x multisampling; ``False`` renders about twice as fast in software.
       crf: x264 quality (lower is better and larger).
       progress: show a tqdm progress bar.
+      render_info: the render table of ``run_dir`` (title, overlay, camera, ...) to use instead of
+        its manifest's ``render`` entry; ``manifest.json`` is then optional (``run_scenario``
+        renders the video before it writes the manifest).
 
     Returns:
       the path of the written video.
 
     Raises:
-      FileNotFoundError: a run folder or one of its files is missing.
-      ValueError: an argument or a run file is invalid (named in the message).
+      RenderError: an argument, a run folder or one of its files is missing or invalid (the
+        message starts with the argument's name), or the render needs more memory than
+        :func:`magsail_mj.resources.check_memory` allows
+        (:class:`magsail_mj.resources.MemoryLimitError`, also a ``ValueError``).
       magsail_mj.render.backend.GLBackendError: no OpenGL backend works.
     """
-    out_path = Path(out_path)
+    out_path = _check_out_path(out_path)
     n_panels = 1 if compare is None else 2
     for name, value in (("width", width), ("height", height)):
-        if int(value) != value or value < 16 or int(value) % 2:
-            raise ValueError(f"{name}: must be an even integer >= 16 (H.264 yuv420p), got {value!r}")
-    if not fps > 0:
-        raise ValueError(f"fps: must be > 0, got {fps!r}")
-    if out_path.suffix.lower() != ".mp4":
-        raise ValueError(f"out_path: must end in '.mp4', got {str(out_path)!r}")
+        _check_int(name, value, minimum=16, even=True)
+    _check_int("max_frames", max_frames, minimum=1)
+    if not (_is_number(fps) and math.isfinite(fps) and fps > 0):
+        raise RenderError(f"fps: must be a finite number > 0, got {fps!r}")
+    run_dirs = [Path(run_dir)] + ([Path(compare)] if compare is not None else [])
+    _check_render_memory(run_dirs, max_frames=int(max_frames), width=int(width), height=int(height))
     frames = render_frames(run_dir, compare=compare, labels=labels, width=width, height=height,
                            max_frames=max_frames, exaggeration=exaggeration, camera=camera,
-                           height_cmap=height_cmap, antialias=antialias)
+                           height_cmap=height_cmap, antialias=antialias, render_info=render_info)
     with contextlib.closing(frames):
         iterator: Iterator[np.ndarray] = frames
         if progress:

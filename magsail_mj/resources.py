@@ -1,0 +1,326 @@
+"""Memory bounds: estimate what an input needs before allocating it, refuse it above a limit.
+
+Every ``magsail`` verb estimates, from its validated inputs and without building anything, the
+memory the work will allocate, and calls :func:`check_memory`, which raises
+:class:`MemoryLimitError` (a ``ValueError``; the CLI exits 2) when the estimate is above the
+limit. The limit is, in order: the ``limit`` argument; the value set by :func:`memory_limit`
+(the CLI's ``--memory-limit``); the environment variable ``MAGSAIL_MEMORY_LIMIT``; the memory
+the machine has available now (``MemAvailable`` of ``/proc/meminfo``). A limit is a number of
+bytes (suffixes ``K``, ``M``, ``G``, ``T`` in powers of 1024 accepted) or ``auto`` (available
+memory).
+
+Estimates:
+
+* :func:`estimate_model_bytes` — the MuJoCo model and data of a config. MuJoCo's default arena
+  (``MjData.narena``) grows with the square of the degrees of freedom ``nv``; the constants of
+  :func:`mujoco_bytes` are fitted to ``MjModel.nbuffer + MjData.nbuffer + MjData.narena`` of the
+  shipped truss and current-loop lattices (N = 3 … 30, nv = 96 … 5766: within 3 %) and of the
+  rigid reflector, CNUSAIL and MSAC models (≈ 14.7 MB). Lattice node and strut counts come from
+  ``lattice.units`` by formula (:func:`lattice_counts`), the reflector's coil paths from
+  ``plate.side_m / plate.cell_m`` (:func:`coil_report_bytes`).
+* :func:`estimate_run_bytes` — the model plus the records of a run, ``duration / timestep /
+  record_every`` records of :func:`record_bytes` each (kept as per-record arrays, then stacked).
+* :func:`coil_report_bytes` — the coil paths of ``magsail torque coil`` (their node counts by
+  :func:`magsail_mj.geometry.reflector_coil.coil_node_count`).
+* :func:`render_bytes` — a video render: the per-frame position arrays, the frames in flight,
+  the run's time series and the model.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import re
+import zipfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from magsail_mj.geometry.reflector_coil import coil_node_count
+
+__all__ = [
+    "ENV_VAR",
+    "MemoryLimitError",
+    "available_memory_bytes",
+    "check_memory",
+    "coil_report_bytes",
+    "estimate_model_bytes",
+    "estimate_run_bytes",
+    "format_bytes",
+    "lattice_counts",
+    "memory_limit",
+    "memory_limit_bytes",
+    "mjcf_counts",
+    "mjcf_model_bytes",
+    "mujoco_bytes",
+    "npz_array_bytes",
+    "parse_memory_limit",
+    "record_bytes",
+    "render_bytes",
+]
+
+#: Environment variable holding the default limit (bytes, with optional K/M/G/T suffix, or "auto").
+ENV_VAR = "MAGSAIL_MEMORY_LIMIT"
+
+# MjModel + MjData + default arena [bytes] ≈ BASE + PER_DOF nv + PER_DOF2 nv² (+ PER_TENDON, PER_BODY
+# for the buffers), least-squares fit of 12 real builds (MuJoCo 4.0; see the module docstring).
+_BASE_BYTES = 13.7e6
+_PER_DOF = 53.3e3
+_PER_DOF2 = 40.0
+_PER_BODY = 4.0e3
+_PER_TENDON = 0.4e3
+# Python-side bytes per coil-path node (fitted with tracemalloc: the estimate is 1.14 × the measured
+# peak at d/L = 100 … 200): the tuples of coil_y's list, and the float arrays of the paths.
+_COIL_LIST_NODE = 96
+_COIL_ARRAY_NODE = 48
+_SUFFIX = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
+_LIMIT_RE = re.compile(r"\s*(\d+(?:\.\d*)?(?:[eE]\d+)?)\s*([KMGT]?)(?:i?B)?\s*\Z", re.IGNORECASE)
+_override: int | None = None
+
+
+class MemoryLimitError(ValueError):
+    """The memory an input needs (estimated before allocating it) is above the limit."""
+
+
+# --------------------------------------------------------------------------- the limit
+
+
+def available_memory_bytes() -> int:
+    """Memory available for new allocations now [bytes]: ``MemAvailable`` of ``/proc/meminfo``,
+    else free physical pages (``os.sysconf``), else 4 GiB when neither can be read."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (OSError, ValueError, AttributeError):
+        return 4 << 30
+
+
+def parse_memory_limit(text: str, *, what: str = "--memory-limit") -> int | None:
+    """Parse a limit: ``auto`` → ``None`` (available memory), else bytes (``2G``, ``512M``,
+    ``1e9``) → int >= 1. ``what`` names the option in the error."""
+    text = str(text)
+    if text.strip().lower() == "auto":
+        return None
+    match = _LIMIT_RE.match(text)
+    if match is None:
+        raise ValueError(f"{what}: expected a number of bytes (suffix K, M, G or T allowed) or 'auto', "
+                         f"got {text!r}")
+    value = float(match.group(1)) * _SUFFIX[match.group(2).upper()]
+    if not (math.isfinite(value) and 1 <= value < 2 ** 63):
+        raise ValueError(f"{what}: must be between 1 byte and 8 EiB, got {text!r}")
+    return int(value)
+
+
+@contextlib.contextmanager
+def memory_limit(limit: int | None) -> Iterator[None]:
+    """Within the block, :func:`check_memory` uses ``limit`` [bytes] (``None``: no override)."""
+    global _override
+    if limit is not None and (int(limit) != limit or limit < 1):
+        raise ValueError(f"limit: must be an integer >= 1 byte or None, got {limit!r}")
+    previous, _override = _override, (None if limit is None else int(limit))
+    try:
+        yield
+    finally:
+        _override = previous
+
+
+def memory_limit_bytes(limit: int | None = None) -> int:
+    """The limit in force [bytes]: ``limit``, else :func:`memory_limit`'s, else ``$MAGSAIL_MEMORY_LIMIT``,
+    else :func:`available_memory_bytes`."""
+    if limit is not None:
+        if int(limit) != limit or limit < 1:
+            raise ValueError(f"limit: must be an integer >= 1 byte, got {limit!r}")
+        return int(limit)
+    if _override is not None:
+        return _override
+    env = os.environ.get(ENV_VAR, "").strip()
+    parsed = parse_memory_limit(env, what=ENV_VAR) if env else None
+    return available_memory_bytes() if parsed is None else parsed
+
+
+def format_bytes(n: float) -> str:
+    """``1.5 GiB``-style text of a byte count."""
+    n = float(n)
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if abs(n) < 1024 or unit == "PiB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.3g} {unit}"
+        n /= 1024
+    return f"{n:.3g} EiB"  # pragma: no cover - unreachable
+
+
+def check_memory(estimate_bytes: float, *, what: str, limit: int | None = None) -> int:
+    """Refuse work whose estimated memory is above the limit.
+
+    Args:
+      estimate_bytes: the estimate [bytes] (may be huge or ``inf``; never allocated).
+      what: what needs it, named in the message (e.g. ``"torque coil --side-m 1e6 --segment-m 0.001"``).
+      limit: limit [bytes] (default: :func:`memory_limit_bytes`).
+
+    Returns:
+      the estimate, as an int (``estimate_bytes`` rounded up).
+
+    Raises:
+      MemoryLimitError: the estimate is above the limit (message: the estimate, the limit, and how
+        to change the limit).
+    """
+    lim = memory_limit_bytes(limit)
+    est = float(estimate_bytes)
+    if math.isnan(est) or est < 0:
+        raise ValueError(f"estimate_bytes: must be >= 0, got {estimate_bytes!r}")
+    if est > lim:
+        raise MemoryLimitError(
+            f"{what}: needs about {format_bytes(est)} of memory (estimated before allocating), above the "
+            f"limit of {format_bytes(lim)}; make the input smaller, or raise the limit with "
+            f"--memory-limit BYTES or {ENV_VAR}")
+    return math.ceil(est)
+
+
+# --------------------------------------------------------------------------- estimates
+
+
+def lattice_counts(units: int, *, diagonals: str = "parity") -> tuple[int, int]:
+    """``(nodes, struts)`` of the two-layer lattice of ``units`` × ``units`` cubes
+    (:func:`magsail_mj.geometry.lattice.make_lattice`), by formula, without building it.
+
+    With ``n = units``, ``N = n + 1``: nodes ``2 N²``; struts ``4 n N`` cube edges in x and y,
+    ``N²`` verticals and one diagonal per face (``2 n²`` top/bottom, ``2 n N`` vertical faces),
+    two per face with ``diagonals = "X"``.
+    """
+    n = int(units)
+    if n != units or n < 1:
+        raise ValueError(f"units: must be an integer >= 1, got {units!r}")
+    N = n + 1
+    faces = 2 * n * n + 2 * n * N
+    return 2 * N * N, 4 * n * N + N * N + faces * (2 if diagonals == "X" else 1)
+
+
+def mujoco_bytes(*, nv: int, nbody: int, ntendon: int = 0) -> float:
+    """MjModel + MjData (with MuJoCo's default arena) of a model with ``nv`` degrees of freedom,
+    ``nbody`` bodies and ``ntendon`` tendons [bytes] (fit; see the module docstring)."""
+    nv, nbody, ntendon = float(nv), float(nbody), float(ntendon)
+    return _BASE_BYTES + _PER_DOF * nv + _PER_DOF2 * nv * nv + _PER_BODY * nbody + _PER_TENDON * ntendon
+
+
+def coil_report_bytes(*, side_m: float, segment_m: float, pitch_cells: int = 2,
+                      rows: int | None = None) -> float:
+    """Peak memory of the coil paths of :func:`magsail_mj.analysis.coil_torque.coil_torque_report`
+    [bytes]: y-, x-coil, the p = 1 and rows + 1 variants and two square loops, estimated from their
+    node counts. ``inf`` when ``side_m / segment_m`` overflows."""
+    ratio = float(side_m) / float(segment_m)
+    if not math.isfinite(ratio) or ratio > 1e15:
+        return math.inf
+    n = max(1, round(ratio))
+    p = max(1, int(pitch_cells))
+    n_row = n if rows is None else max(1, int(rows))
+    counts = [coil_node_count(n, p=p, n_row=n_row), coil_node_count(n, p=p, n_row=n_row),
+              coil_node_count(n, p=1, n_row=n_row), coil_node_count(n, p=p, n_row=n + 1), 4 * n + 1, 4 * n + 1]
+    counts = [max(c, 1) for c in counts]
+    return float(_COIL_ARRAY_NODE * sum(counts) + _COIL_LIST_NODE * max(counts))
+
+
+def _model_counts(cfg: Any) -> tuple[int, int, int]:
+    """``(nv, nbody, ntendon)`` a validated config implies, from its size keys only."""
+    concept = getattr(cfg, "concept", "")
+    lattice = getattr(cfg, "lattice", None)
+    rigid = concept == "current_loops" and getattr(cfg, "scenario", "") == "slew_rigid"
+    if concept in ("truss_magnetorquer", "current_loops") and lattice is not None and not rigid:
+        nodes, struts = lattice_counts(lattice.units, diagonals=getattr(lattice, "diagonals", "parity"))
+        return 3 * nodes + 6, nodes + 1, struts
+    return 24, 10, 0            # the rigid models: a bus with a few bodies (reflector, CNUSAIL, MSAC)
+
+
+def estimate_model_bytes(cfg: Any) -> float:
+    """Memory the model of a validated config needs [bytes], without building it: MuJoCo's model,
+    data and arena from the implied counts, plus the reflector's coil paths."""
+    nv, nbody, ntendon = _model_counts(cfg)
+    total = mujoco_bytes(nv=nv, nbody=nbody, ntendon=ntendon)
+    plate, coil = getattr(cfg, "plate", None), getattr(cfg, "coil", None)
+    if getattr(cfg, "concept", "") == "reflector" and plate is not None and coil is not None:
+        total += coil_report_bytes(side_m=plate.side_m, segment_m=plate.cell_m,
+                                   pitch_cells=coil.pitch_cells, rows=coil.rows)
+    return total
+
+
+def record_bytes(cfg: Any) -> float:
+    """Bytes per record of a run: ``qpos``, ``qvel`` and one value per tendon (8 bytes each) and the
+    per-record overhead of the probe arrays (2 KiB), counted twice (lists, then stacked)."""
+    nv, _, ntendon = _model_counts(cfg)
+    return 2.0 * (8.0 * (2 * nv + 1 + ntendon) + 2048.0)
+
+
+def _record_count(cfg: Any) -> float:
+    sim = getattr(cfg, "sim", None)
+    if sim is None or getattr(cfg, "kind", None) == "lifetime":   # no MuJoCo records
+        return 0.0
+    every = float(getattr(sim, "record_every", 1) or 1)
+    return float(sim.duration_s) / float(sim.timestep_s) / every + 1.0
+
+
+def estimate_run_bytes(cfg: Any) -> float:
+    """Memory a run of a validated config needs [bytes]: :func:`estimate_model_bytes` plus the records
+    (``duration_s / timestep_s / record_every`` records of :func:`record_bytes`)."""
+    return estimate_model_bytes(cfg) + _record_count(cfg) * record_bytes(cfg)
+
+
+def render_bytes(*, frames: int, width: int, height: int, panels: int = 1, nbody: int = 1,
+                 series_bytes: float = 0.0, model_bytes: float = 0.0) -> float:
+    """Memory of a video render [bytes]: per frame the body positions, centroids and node shifts
+    (``3 × nbody × 3 × 8`` bytes per panel), four RGB frames of ``width × height × panels`` in
+    flight (render, overlay, side-by-side, encoder pipe), the run's time series and the model(s)."""
+    frame = 3.0 * width * height * panels
+    per_frame = 3.0 * nbody * 3 * 8 * panels
+    return float(frames) * per_frame + 4.0 * frame + float(series_bytes) + float(model_bytes)
+
+
+_MJCF_TOKENS = ("<body", "<joint", "<freejoint", 'type="ball"', 'type="free"', "<spatial", "<fixed")
+
+
+def mjcf_counts(path: str | os.PathLike, *, chunk: int = 1 << 24) -> dict[str, int]:
+    """Counts of the MJCF tokens that size a model (``<body``, ``<joint``, ``<freejoint``, ball and free
+    joint types, ``<spatial``, ``<fixed``) in the file at ``path``, read in chunks (memory stays flat)."""
+    counts = dict.fromkeys(_MJCF_TOKENS, 0)
+    keep = max(len(t) for t in _MJCF_TOKENS) - 1
+    tail = ""
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        while block := fh.read(chunk):
+            text = tail + block
+            for token in _MJCF_TOKENS:   # a token straddling the boundary is counted in the next block
+                counts[token] += text.count(token) - tail.count(token)
+            tail = text[-keep:]
+    return counts
+
+
+def mjcf_model_bytes(path: str | os.PathLike) -> tuple[float, int]:
+    """``(bytes, nbody)``: :func:`mujoco_bytes` of the MJCF file at ``path`` from :func:`mjcf_counts`
+    (``nv`` = 6 per free joint, 3 per ball joint, 1 per other joint)."""
+    c = mjcf_counts(path)
+    free = c["<freejoint"] + c['type="free"']
+    nv = 6 * free + 2 * c['type="ball"'] + c["<joint"]
+    nbody = c["<body"] + 1
+    return mujoco_bytes(nv=nv, nbody=nbody, ntendon=c["<spatial"] + c["<fixed"]), nbody
+
+
+def npz_array_bytes(path: str | os.PathLike) -> float:
+    """Sum of the array sizes in a ``.npz`` file [bytes], from the headers (nothing is loaded).
+    A member whose header cannot be read counts as its compressed size."""
+    total = 0.0
+    with zipfile.ZipFile(Path(path)) as zf:
+        for info in zf.infolist():
+            try:
+                with zf.open(info) as fh:
+                    major, _ = np.lib.format.read_magic(fh)
+                    read = np.lib.format.read_array_header_1_0 if major == 1 else np.lib.format.read_array_header_2_0
+                    shape, _, dtype = read(fh)
+                total += float(np.prod(shape, dtype=float)) * np.dtype(dtype).itemsize
+            except (ValueError, OSError, EOFError, TypeError):
+                total += float(info.compress_size)
+    return total
