@@ -12,58 +12,143 @@ A sweep file is a TOML document listing scenario configs::
     set = []                                # optional per-run overrides
 
 Every config is loaded and validated before anything is written (a bad one names its run id,
-key, value and what is allowed). Runs then go to a :class:`~concurrent.futures.ProcessPoolExecutor`
-with ``workers`` processes, each run into its own folder ``OUT/<id>`` through
-:func:`magsail_mj.run.run_scenario`. A run that raises or diverges is recorded with its
-message; the others go on. A run whose folder already holds a finished manifest is skipped
-unless ``overwrite`` (so an interrupted sweep continues where it stopped).
+key, value and what is allowed); run ids must name distinct, non-nested folders below the sweep
+folder (``""``, ``"."``, ``"a/.."``, ``"a"`` beside ``"a/"`` are refused with the run index).
 
-The sweep folder receives ``sweep_summary.json`` (one record per run: id, status, wall time
-and every scalar of its ``summary.json``), ``sweep_summary.csv`` (the same as a table) and
-``sweep_manifest.json`` (sweep file, its hash, overrides, package versions, total wall time),
-all written atomically.
+Each run goes to its own fresh ``spawn`` process (at most ``workers`` at a time) and writes the
+folder ``OUT/<id>`` through :func:`magsail_mj.run.run_scenario`. A run that raises, diverges or
+whose video fails is recorded with its status and message; the others go on.
+
+Guarantees:
+
+* **Reuse only of what is valid now.** A run folder is reused (not rerun) only when its
+  ``manifest.json`` has a finished status (completed, structure_failed, diverged), the
+  ``config_hash`` of the config the sweep would run now (same overrides), every file it lists with
+  the recorded sha256, and ``video.mp4`` when a video is asked. Anything else is rerun into that
+  folder. ``overwrite`` reruns every selected run.
+* **Summaries merge.** ``sweep_summary.json``/``.csv`` always list every run of the sweep file:
+  runs outside ``only`` keep their record when their folder is still valid, else ``not_run``.
+* **Interrupts stop promptly.** SIGINT or SIGTERM cancels the runs not started, stops the running
+  workers (SIGTERM, then SIGKILL after a grace time), writes the summaries (stopped runs
+  ``interrupted``, unstarted ones ``not_run``) and raises :class:`SweepInterrupted`.
+* **No orphans, no concurrent sweeps.** Workers die with the sweep process (``PR_SET_PDEATHSIG``
+  on Linux, a parent-pid watch elsewhere); the sweep folder is locked (``fcntl.flock`` on
+  ``.sweep.lock``, shared with the workers, released by the kernel when the last one dies), and a
+  second sweep into a locked folder raises :class:`~magsail_mj.io.RunDirError`.
+
+The sweep folder receives ``sweep_summary.json`` (one record per run), ``sweep_summary.csv``
+(the same as a table, each column once) and ``sweep_manifest.json`` (sweep file, its hash,
+overrides, workers, worker thread settings, package versions, wall time), written atomically in
+that order.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import ctypes
 import datetime as _dt
 import hashlib
 import io
 import json
 import multiprocessing
+import multiprocessing.connection
 import os
+import signal
+import sys
+import threading
 import time
 import tomllib
-from concurrent.futures import ProcessPoolExecutor, as_completed
+import traceback
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from multiprocessing import reduction
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Self
 
-from magsail_mj.config import ConfigError, load_config
-from magsail_mj.io import atomic_path, package_versions, to_jsonable, write_json
+from magsail_mj.config import ConfigError, config_hash, load_config
+from magsail_mj.io import (
+    RunDirError,
+    atomic_path,
+    package_versions,
+    to_jsonable,
+    write_json,
+)
 
-__all__ = ["SweepRun", "Sweep", "is_sweep_file", "load_sweep", "run_sweep"]
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - not on Linux/macOS
+    fcntl = None  # type: ignore[assignment]
+
+__all__ = [
+    "FINISHED",
+    "Sweep",
+    "SweepInterrupted",
+    "SweepRun",
+    "is_sweep_file",
+    "load_sweep",
+    "run_sweep",
+    "sweep_exit_code",
+]
+
+FINISHED = ("completed", "structure_failed", "diverged")
+"""Run statuses whose folder is a final result (reused by a later sweep when still valid)."""
+
+LOCK_NAME = ".sweep.lock"
+_OUTPUTS = ("sweep_summary.json", "sweep_summary.csv", "sweep_manifest.json")
+_RESERVED = (*_OUTPUTS, LOCK_NAME)
+_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+_SWEEP_COLUMNS = ("id", "status", "reused", "wall_time_s", "message")
+_SUMMARY_DUPLICATES = ("status_message",)  # the run's own message: the sweep's "message" column says it
+_PR_SET_PDEATHSIG = 1
+_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """The sweep was stopped by SIGINT/SIGTERM after writing its summaries (the CLI exits 130).
+
+    ``records`` holds the summary records written (empty when raised before the summaries).
+    """
+
+    def __init__(self, signum: int | None = None, records: list[dict[str, Any]] | None = None):
+        name = signal.Signals(signum).name if signum else "interrupt"
+        super().__init__(f"sweep interrupted by {name}")
+        self.signum = signum
+        self.records = list(records or [])
 
 
 @dataclass(frozen=True)
 class SweepRun:
-    """One entry of a sweep: its id (run folder name), config path and overrides."""
+    """One entry of a sweep: its id (run folder, normalised), config path and overrides.
+
+    ``config_hash`` is the hash of the config as it would run now (empty when it does not load);
+    ``selected`` is False for runs outside ``only``; ``problem`` says why an unselected config
+    does not load.
+    """
 
     id: str
     config: Path
     overrides: tuple[str, ...] = ()
+    config_hash: str = ""
+    selected: bool = True
+    problem: str = ""
 
 
 @dataclass(frozen=True)
 class Sweep:
-    """A parsed sweep file."""
+    """A parsed sweep file: every run it lists (``runs``) and the ``only`` filter."""
 
     name: str
     path: Path
     runs: tuple[SweepRun, ...]
     description: str = ""
     overrides: tuple[str, ...] = field(default_factory=tuple)
+    only: tuple[str, ...] | None = None
+
+    @property
+    def selected(self) -> tuple[SweepRun, ...]:
+        """The runs this call runs (all of them unless ``only`` was given)."""
+        return tuple(r for r in self.runs if r.selected)
 
 
 def is_sweep_file(path: str | Path) -> bool:
@@ -72,112 +157,587 @@ def is_sweep_file(path: str | Path) -> bool:
     return "run" in tree and "concept" not in tree
 
 
+# ---------------------------------------------------------------------------------------------
+# Loading and validation
+
+
 def _str_list(value: Any, where: str) -> tuple[str, ...]:
     if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
         raise ConfigError([f"{where}: must be a list of 'key.path=value' strings, got {value!r}"])
     return tuple(value)
 
 
-def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (),
-               only: str | list[str] | tuple[str, ...] | None = None) -> Sweep:
-    """Parse and validate a sweep file; every listed config is loaded and validated.
+def _normalise_id(raw: Any) -> str:
+    """The run folder of an id, normalised (``a//b/`` → ``a/b``); ValueError says what is wrong."""
+    if not isinstance(raw, str):
+        raise TypeError("must be a string")
+    if any(ord(c) < 32 or ord(c) == 127 or c == "\\" for c in raw):
+        raise ValueError("must not contain control characters or backslashes")
+    if raw.startswith("/"):
+        raise ValueError("must be relative to the sweep folder, not absolute")
+    parts = [p for p in raw.split("/") if p not in ("", ".")]
+    if ".." in parts:
+        raise ValueError("must not contain '..'")
+    if not parts:
+        raise ValueError("names the sweep folder itself; give each run its own folder")
+    if parts[0] in _RESERVED:
+        raise ValueError(f"is reserved for the sweep's own files ({', '.join(_RESERVED)})")
+    return "/".join(parts)
 
-    Args:
-      path: the sweep TOML.
-      extra_overrides: ``key=value`` overrides applied to every run after the file's own.
-      only: keep the runs whose id contains this substring (or any of these substrings).
-    Raises:
-      ConfigError: naming the sweep key or the run id with the config's problems.
-    """
-    path = Path(path)
-    try:
-        tree = tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as err:
-        raise ConfigError([f"{path}: {err}"]) from None
+
+def _check_ids(entries: list[Any]) -> tuple[dict[int, str], list[str]]:
+    """Normalised id per entry index, and the problems (bad, duplicate or nested ids)."""
+    ids: dict[int, str] = {}
+    problems: list[str] = []
+    for n, entry in enumerate(entries):
+        if not isinstance(entry, dict) or set(entry) - {"id", "config", "set"} or "id" not in entry \
+                or "config" not in entry:
+            problems.append(f"run[{n}]: needs 'id' and 'config' (optional 'set'), got {entry!r}")
+            continue
+        try:
+            ids[n] = _normalise_id(entry["id"])
+        except (TypeError, ValueError) as err:
+            problems.append(f"run[{n}].id: {entry['id']!r} {err}")
+    first: dict[str, int] = {}
+    for n, rid in ids.items():
+        other = first.setdefault(rid.casefold(), n)
+        if other != n:
+            problems.append(f"run[{n}].id: {entries[n]['id']!r} names the same folder {rid!r} as "
+                            f"run[{other}].id {entries[other]['id']!r}")
+    for n, rid in ids.items():
+        parts = rid.split("/")
+        for k in range(1, len(parts)):
+            outer = first.get("/".join(parts[:k]).casefold())
+            if outer is not None:
+                problems.append(f"run[{n}].id: {entries[n]['id']!r} lies inside the folder of "
+                                f"run[{outer}].id {entries[outer]['id']!r}")
+    return ids, problems
+
+
+def _check_header(tree: dict[str, Any], path: Path) -> tuple[str, str]:
+    """The sweep's name and description; ConfigError for unknown keys or a name unfit as a folder."""
     unknown = sorted(set(tree) - {"name", "description", "set", "run"})
     if unknown:
         raise ConfigError([f"{k}: unknown sweep key (allowed: name, description, set, run)" for k in unknown],
                           source=str(path))
+    name = tree.get("name", path.stem)
+    if not isinstance(name, str) or not name.strip() or name in (".", "..") or "/" in name or "\\" in name \
+            or any(ord(c) < 32 for c in name):
+        problem = f"name: must be a plain folder name (the default output folder runs/<name>), got {name!r}"
+        raise ConfigError([problem], source=str(path))
+    description = tree.get("description", "")
+    if not isinstance(description, str):
+        raise ConfigError([f"description: must be a string, got {description!r}"], source=str(path))
+    return name, description
+
+
+def _only_terms(only: str | list[str] | tuple[str, ...] | None) -> tuple[str, ...] | None:
+    if only is None:
+        return None
+    terms = (only,) if isinstance(only, str) else tuple(only)
+    if not terms or not all(isinstance(t, str) for t in terms):
+        raise ConfigError([f"only: must be a string or a non-empty list of strings, got {only!r}"])
+    return terms
+
+
+def _load_run(rid: str, config: Path, overrides: tuple[str, ...], selected: bool) -> tuple[SweepRun, list[str]]:
+    """The run with the hash of its config now; the config's problems (fatal only when selected)."""
+    try:
+        digest, problems = config_hash(load_config(config, list(overrides))), []
+    except ConfigError as err:
+        digest, problems = "", [f"{rid}: {p}" for p in err.problems]
+    except OSError as err:
+        digest, problems = "", [f"{rid}: config {config}: {err}"]
+    run = SweepRun(id=rid, config=config, overrides=overrides, config_hash=digest, selected=selected,
+                   problem="; ".join(problems))
+    return run, problems if selected else []
+
+
+def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (),
+               only: str | list[str] | tuple[str, ...] | None = None) -> Sweep:
+    """Parse and validate a sweep file; every listed config is loaded and its hash computed.
+
+    Args:
+      path: the sweep TOML.
+      extra_overrides: ``key=value`` overrides applied to every run after the file's own.
+      only: select the runs whose id contains this substring (or any of these substrings);
+        the others stay in ``runs`` (for the merged summary) with ``selected=False``, and a
+        config of theirs that does not load is not an error.
+    Raises:
+      ConfigError: naming the sweep key, or the run index and id, with the problems.
+    """
+    path = Path(path)
+    try:
+        tree = tomllib.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
+        raise ConfigError([f"{path}: {err}"]) from None
+    name, description = _check_header(tree, path)
     entries = tree.get("run")
     if not isinstance(entries, list) or not entries:
         raise ConfigError([f"run: must be a non-empty array of [[run]] tables, got {entries!r}"], source=str(path))
     common = _str_list(tree.get("set", []), "set") + tuple(extra_overrides)
-    wanted = None if only is None else ((only,) if isinstance(only, str) else tuple(only))
-    runs, problems, seen = [], [], set()
-    for n, entry in enumerate(entries):
-        where = f"run[{n}]"
-        if not isinstance(entry, dict) or set(entry) - {"id", "config", "set"} or "id" not in entry \
-                or "config" not in entry:
-            problems.append(f"{where}: needs 'id' and 'config' (optional 'set'), got {entry!r}")
+    wanted = _only_terms(only)
+    ids, problems = _check_ids(entries)
+    runs = []
+    for n, rid in ids.items():
+        config = entries[n]["config"]
+        if not isinstance(config, str) or not config:
+            problems.append(f"run[{n}].config: must be a path string, got {config!r}")
             continue
-        rid = str(entry["id"])
-        if rid in seen or ".." in Path(rid).parts or Path(rid).is_absolute():
-            problems.append(f"{where}.id: must be a unique relative folder name, got {rid!r}")
-            continue
-        seen.add(rid)
-        if wanted and not any(w in rid for w in wanted):
-            continue
-        runs.append(SweepRun(id=rid, config=(path.parent / entry["config"]).resolve(),
-                             overrides=common + _str_list(entry.get("set", []), f"{where}.set")))
-    for run in runs:
         try:
-            load_config(run.config, list(run.overrides))
+            overrides = common + _str_list(entries[n].get("set", []), f"run[{n}].set")
         except ConfigError as err:
-            problems.extend(f"{run.id}: {p}" for p in err.problems)
-        except OSError as err:
-            problems.append(f"{run.id}: config {run.config}: {err}")
+            problems.extend(err.problems)
+            continue
+        selected = wanted is None or any(w in rid for w in wanted)
+        run, errors = _load_run(rid, (path.parent / config).resolve(), overrides, selected)
+        runs.append(run)
+        problems.extend(errors)
     if problems:
         raise ConfigError(problems, source=str(path))
-    if not runs:
+    if not any(r.selected for r in runs):
         raise ConfigError([f"only: no run id contains any of {list(wanted or [])!r}"], source=str(path))
-    return Sweep(name=str(tree.get("name", path.stem)), path=path, runs=tuple(runs),
-                 description=str(tree.get("description", "")), overrides=common)
+    return Sweep(name=name, path=path, runs=tuple(runs), description=description, overrides=common, only=wanted)
 
 
-def _finished(run_dir: Path) -> bool:
+# ---------------------------------------------------------------------------------------------
+# Which run folders are still valid
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _check_files(run_dir: Path, files: Any, *, video: bool) -> str:
+    """Why the files listed in a manifest do not match the folder ("" when they all do)."""
+    if not isinstance(files, dict) or "summary.json" not in files:
+        return "manifest.json lists no files (summary.json missing from its file list)"
+    if video and "video.mp4" not in files:
+        return "no video.mp4 in the run (a video is asked)"
+    for name, digest in files.items():
+        rel = Path(str(name))
+        if rel.is_absolute() or ".." in rel.parts:
+            return f"manifest.json lists a file outside the run folder: {name!r}"
+        try:
+            actual = _sha256(run_dir / rel)
+        except OSError:
+            return f"{name} is missing"
+        if actual != digest:
+            return f"{name} changed since the run (sha256 differs from manifest.json)"
+    return ""
+
+
+def _folder_check(run_dir: Path, *, config_hash: str, video: bool) -> tuple[dict[str, Any] | None, str]:
+    """``(manifest, "")`` when ``run_dir`` holds a finished, intact run of this config; else ``(None, why)``."""
     try:
         manifest = json.loads((run_dir / "manifest.json").read_text())
+    except FileNotFoundError:
+        return None, "no finished run in its folder (no manifest.json)"
+    except (OSError, ValueError) as err:
+        return None, f"manifest.json unreadable ({type(err).__name__})"
+    if not isinstance(manifest, dict):
+        return None, "manifest.json is not an object"
+    if not config_hash:
+        return None, "its config does not load now"
+    if manifest.get("config_hash") != config_hash:
+        return None, "its config changed since (config_hash differs: other file contents or --set)"
+    if manifest.get("status") not in FINISHED:
+        return None, f"its status {manifest.get('status')!r} is not a finished one {FINISHED}"
+    why = _check_files(run_dir, manifest.get("files"), video=video)
+    return (None, why) if why else (manifest, "")
+
+
+def _record(run: SweepRun, *, status: str, message: str, wall_time_s: float | None = None,
+            reused: bool = False, summary: dict[str, Any] | None = None) -> dict[str, Any]:
+    return {"id": run.id, "config": str(run.config), "config_hash": run.config_hash, "selected": run.selected,
+            "status": status, "message": message, "reused": reused, "wall_time_s": wall_time_s,
+            "summary": summary or {}}
+
+
+def _reused_record(run: SweepRun, run_dir: Path, manifest: dict[str, Any]) -> dict[str, Any] | None:
+    """The record of a valid earlier run (None when its summary does not parse)."""
+    try:
+        summary = json.loads((run_dir / "summary.json").read_text())
     except (OSError, ValueError):
-        return False
-    return manifest.get("status") in ("completed", "diverged")
+        return None
+    if not isinstance(summary, dict):
+        return None
+    return _record(run, status=str(manifest["status"]), message=str(manifest.get("status_message") or ""),
+                   wall_time_s=manifest.get("wall_time_s"), reused=True, summary=summary)
 
 
-def _run_one(run: SweepRun, out_dir: str, video: bool, overwrite: bool) -> dict[str, Any]:
-    """Worker body: one run into its folder; never raises (failures become records)."""
+def _plan(sweep: Sweep, out: Path, *, video: bool, overwrite: bool,
+          log: Callable[[str], None] | None) -> tuple[dict[str, dict[str, Any]], list[SweepRun]]:
+    """Records of the runs not to run now (reused or not run), and the runs to run."""
+    records: dict[str, dict[str, Any]] = {}
+    todo: list[SweepRun] = []
+    for run in sweep.runs:
+        if run.selected and overwrite:
+            todo.append(run)
+            continue
+        manifest, why = _folder_check(out / run.id, config_hash=run.config_hash, video=video and run.selected)
+        rec = _reused_record(run, out / run.id, manifest) if manifest else None
+        if rec is not None:
+            records[run.id] = rec
+        elif run.selected:
+            todo.append(run)
+            if log and (out / run.id / "manifest.json").exists():
+                log(f"  {run.id}: rerun: {why}")
+        else:
+            records[run.id] = _record(run, status="not_run",
+                                      message=f"not selected in this call; {run.problem or why}")
+    return records, todo
+
+
+# ---------------------------------------------------------------------------------------------
+# Worker process
+
+
+def _run_one(run: SweepRun, out_dir: str | Path, *, video: bool) -> dict[str, Any]:
+    """One run into ``out_dir/<id>`` (replacing what is there); never raises an ``Exception``.
+
+    The record says ``failed`` with the reason when the run raises (the video included) or when
+    its folder does not verify afterwards; a KeyboardInterrupt propagates.
+    """
+    # the simulation stack is imported in the worker only
     from magsail_mj.run import run_scenario
 
     t0 = time.perf_counter()
-    record: dict[str, Any] = {"id": run.id, "config": str(run.config)}
+    run_dir = Path(out_dir) / run.id
+    record = _record(run, status="failed", message="")
     try:
         cfg = load_config(run.config, list(run.overrides))
-        outcome = run_scenario(cfg, Path(out_dir) / run.id, video=video, overwrite=overwrite, progress=False)
-        record.update(status=outcome.status, message=outcome.get("status_message", ""))
-        record["summary"] = to_jsonable(dict(outcome))
+        record["config_hash"] = config_hash(cfg)
+        (run_dir / "manifest.json").unlink(missing_ok=True)  # a stopped rerun must not look finished
+        outcome = run_scenario(cfg, run_dir, video=video, overwrite=True, progress=False)
+        record.update(status=str(outcome.status), message=str(outcome.get("status_message") or ""),
+                      summary=to_jsonable(dict(outcome)))
+        if outcome.status in FINISHED:
+            _, why = _folder_check(run_dir, config_hash=record["config_hash"], video=video)
+            if why:
+                record.update(status="failed", message=f"run folder does not verify after the run: {why}")
     except Exception as err:  # noqa: BLE001 - one failing run must not lose the others
-        record.update(status="failed", message=f"{type(err).__name__}: {err}")
+        record.update(status="failed", message=f"{type(err).__name__}: {err}",
+                      traceback=traceback.format_exc(limit=-8))
     record["wall_time_s"] = time.perf_counter() - t0
     return record
 
 
-def _scalar_columns(records: list[dict[str, Any]]) -> list[str]:
+def _adopt_fd(dup: Any) -> int:
+    """Unpickle side of :class:`_SharedFd`: the inherited descriptor number."""
+    return dup.detach()
+
+
+class _SharedFd:
+    """A descriptor handed to a spawned worker (same open file, so the worker shares its flock)."""
+
+    def __init__(self, fd: int):
+        self.fd = fd
+
+    def __reduce__(self):
+        return (_adopt_fd, (reduction.DupFd(self.fd),))
+
+
+def _set_parent_death_signal(signum: int) -> bool:
+    """Ask Linux to send ``signum`` to this process when its parent dies; False where unavailable."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(_PR_SET_PDEATHSIG, int(signum), 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def _watch_parent(parent_pid: int, *, period_s: float = 0.5, grace_s: float = 5.0) -> None:
+    """Worker thread: once the parent is gone, stop this worker (SIGTERM), then exit hard."""
+    while os.getppid() == parent_pid:
+        time.sleep(period_s)
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(grace_s)
+    os._exit(1)
+
+
+def _on_sigterm(signum: int, frame: Any) -> None:
+    """Worker SIGTERM handler: stop the run (once) as a Ctrl-C would."""
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    raise KeyboardInterrupt(f"worker stopped by {signal.Signals(signum).name}")
+
+
+def _guard_worker(parent_pid: int) -> None:
+    """Worker set-up: the sweep process handles Ctrl-C; SIGTERM or the parent's death stops the run."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the terminal's Ctrl-C: the parent decides
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    _set_parent_death_signal(signal.SIGTERM)
+    threading.Thread(target=_watch_parent, args=(parent_pid,), name="parent-watch", daemon=True).start()
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)  # blocked by the parent around the start
+
+
+def _worker_main(run: SweepRun, out_dir: str, video: bool, conn: Any, lock_fd: int, parent_pid: int) -> None:
+    """Process target: run one entry and send its record to the parent (keeps ``lock_fd`` open)."""
+    t0 = time.perf_counter()
+    try:
+        _guard_worker(parent_pid)
+        record = _run_one(run, out_dir, video=video)
+    except KeyboardInterrupt as err:
+        record = _record(run, status="interrupted", message=f"stopped while running ({err})",
+                         wall_time_s=time.perf_counter() - t0)
+    try:
+        conn.send(record)
+    except (OSError, KeyboardInterrupt):  # the parent is gone or stopping us: nothing to report to
+        pass
+
+
+# ---------------------------------------------------------------------------------------------
+# Parent side: lock, signals, scheduling
+
+
+@contextlib.contextmanager
+def _sweep_lock(out: Path) -> Iterator[int]:
+    """Hold ``out/.sweep.lock`` exclusively; RunDirError when another sweep (or its workers) holds it."""
+    path = out / LOCK_NAME
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        if fcntl is not None:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.pread(fd, 100, 0).decode(errors="replace").strip() or "?"
+                raise RunDirError(f"--out {out}: another sweep is running in this folder (lock {path} held by "
+                                  f"pid {holder} or its worker processes); wait for it or choose another --out")
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        yield fd
+    finally:
+        os.close(fd)
+
+
+class _Interrupts:
+    """SIGINT/SIGTERM raise :class:`SweepInterrupted`, or are remembered inside :meth:`deferred`."""
+
+    def __init__(self) -> None:
+        self.pending: int | None = None
+        self._deferring = False
+        self._previous: dict[int, Any] = {}
+
+    def __enter__(self) -> Self:
+        if threading.current_thread() is threading.main_thread():
+            for signum in _SIGNALS:
+                if signal.getsignal(signum) is not signal.SIG_IGN:  # e.g. SIGINT of a background job
+                    self._previous[signum] = signal.signal(signum, self._handle)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for signum, previous in self._previous.items():
+            signal.signal(signum, signal.SIG_DFL if previous is None else previous)
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        if self._deferring:
+            self.pending = self.pending or signum
+            return
+        raise SweepInterrupted(signum)
+
+    @contextlib.contextmanager
+    def deferred(self, *, check: bool = True) -> Iterator[None]:
+        """Hold signals back during the block (and from a child started in it); raise after if ``check``."""
+        self._deferring = True
+        signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
+        try:
+            yield
+        finally:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)  # runs the handler of a held-back signal
+            self._deferring = False
+        if check and self.pending:
+            raise SweepInterrupted(self.pending)
+
+
+@dataclass
+class _Job:
+    run: SweepRun
+    process: Any
+    conn: Any
+    t0: float
+    record: dict[str, Any] | None = None
+
+
+class _Workers:
+    """At most ``workers`` runs at a time, each in a fresh spawn process."""
+
+    def __init__(self, *, workers: int, out: Path, video: bool, lock_fd: int, interrupts: _Interrupts):
+        self.workers, self.out, self.video = workers, out, video
+        self.lock_fd, self.interrupts = lock_fd, interrupts
+        self.ctx = multiprocessing.get_context("spawn")
+        self.active: list[_Job] = []
+
+    def start(self, run: SweepRun) -> None:
+        """Start ``run`` in a new worker (signals held back until it is registered)."""
+        with self.interrupts.deferred():
+            reader, writer = self.ctx.Pipe(duplex=False)
+            proc = self.ctx.Process(target=_worker_main, name=f"sweep:{run.id}", daemon=False,
+                                    args=(run, str(self.out), self.video, writer, _SharedFd(self.lock_fd),
+                                          os.getpid()))
+            with _worker_env():
+                proc.start()
+            writer.close()
+            self.active.append(_Job(run=run, process=proc, conn=reader, t0=time.perf_counter()))
+
+    def wait(self, timeout: float | None = None) -> list[dict[str, Any]]:
+        """Block until a worker reports or ends (or ``timeout``); the records of the ended ones."""
+        handles = [j.process.sentinel for j in self.active] + [j.conn for j in self.active if j.record is None]
+        if handles:
+            multiprocessing.connection.wait(handles, timeout)
+        done = []
+        for job in list(self.active):
+            self._receive(job)
+            if not job.process.is_alive():
+                done.append(self._finish(job))
+        return done
+
+    @staticmethod
+    def _receive(job: _Job) -> None:
+        try:
+            if job.record is None and job.conn.poll():
+                job.record = job.conn.recv()
+        except (EOFError, OSError):
+            pass
+
+    def _finish(self, job: _Job) -> dict[str, Any]:
+        job.process.join()
+        self._receive(job)
+        job.conn.close()
+        self.active.remove(job)
+        if job.record is not None:
+            return job.record
+        code = job.process.exitcode
+        how = f"signal {signal.Signals(-code).name}" if code and code < 0 else f"exit code {code}"
+        return _record(job.run, status="failed", message=f"worker process ended without a result ({how})",
+                       wall_time_s=time.perf_counter() - job.t0)
+
+    def stop(self, *, grace_s: float) -> list[dict[str, Any]]:
+        """Stop every running worker (SIGTERM, SIGKILL after ``grace_s``); their records."""
+        for job in self.active:
+            if job.process.is_alive():
+                job.process.terminate()
+        deadline = time.monotonic() + grace_s
+        records = []
+        while self.active and time.monotonic() < deadline:
+            records += self.wait(timeout=max(0.0, deadline - time.monotonic()))
+        for job in list(self.active):
+            job.process.kill()
+            records.append(self._finish(job))
+        return [r if r["status"] in FINISHED else {**r, "status": "interrupted",
+                                                    "message": r["message"] or "stopped while running"}
+                for r in records]
+
+
+@contextlib.contextmanager
+def _worker_env() -> Iterator[None]:
+    """One BLAS thread per worker unless the user set one (environment seen by a spawned worker)."""
+    added = [v for v in _THREAD_VARS if v not in os.environ]
+    for var in added:
+        os.environ[var] = "1"
+    try:
+        yield
+    finally:
+        for var in added:
+            os.environ.pop(var, None)
+
+
+def _thread_settings() -> dict[str, str]:
+    return {var: os.environ.get(var, "1") for var in _THREAD_VARS}
+
+
+def _log_record(log: Callable[[str], None] | None, rec: dict[str, Any]) -> None:
+    if log:
+        wall = rec.get("wall_time_s")
+        took = f" in {wall:.1f} s" if isinstance(wall, (int, float)) else ""
+        extra = f" ({rec['message']})" if rec["status"] != "completed" and rec["message"] else ""
+        log(f"  {rec['id']}: {rec['status']}{took}{extra}")
+
+
+def _execute(todo: list[SweepRun], pool: _Workers, records: dict[str, dict[str, Any]],
+             log: Callable[[str], None] | None) -> None:
+    """Run ``todo`` on ``pool``, filling ``records`` as runs end."""
+    queue = list(todo)
+    while queue or pool.active:
+        while queue and len(pool.active) < pool.workers:
+            pool.start(queue.pop(0))
+        for rec in pool.wait():
+            records[rec["id"]] = rec
+            _log_record(log, rec)
+
+
+def _interrupted(todo: list[SweepRun], pool: _Workers, records: dict[str, dict[str, Any]], *,
+                 grace_s: float, log: Callable[[str], None] | None) -> None:
+    """After SIGINT/SIGTERM: stop the workers, mark the stopped runs and those never started."""
+    if log:
+        log(f"sweep interrupted: stopping {len(pool.active)} running runs")
+    for rec in pool.stop(grace_s=grace_s):
+        records[rec["id"]] = rec
+        _log_record(log, rec)
+    for run in todo:
+        records.setdefault(run.id, _record(run, status="not_run", message="not started: the sweep was interrupted"))
+
+
+# ---------------------------------------------------------------------------------------------
+# Outputs
+
+
+def _table(records: list[dict[str, Any]]) -> str:
+    """CSV text: the sweep columns, then every scalar of the run summaries not already a column."""
+    skip = set(_SWEEP_COLUMNS) | set(_SUMMARY_DUPLICATES)
     cols: list[str] = []
     for rec in records:
         for key, value in rec.get("summary", {}).items():
-            if key not in cols and (value is None or isinstance(value, (int, float, str, bool))):
+            if key not in skip and key not in cols and (value is None or isinstance(value, (int, float, str, bool))):
                 cols.append(key)
-    return cols
-
-
-def _write_table(path: Path, records: list[dict[str, Any]]) -> None:
-    cols = _scalar_columns(records)
     buf = io.StringIO()
     writer = csv.writer(buf)
-    writer.writerow(["id", "status", "wall_time_s", *cols])
+    writer.writerow([*_SWEEP_COLUMNS, *cols])
     for rec in records:
         s = rec.get("summary", {})
-        writer.writerow([rec["id"], rec["status"], f"{rec['wall_time_s']:.1f}", *[s.get(c, "") for c in cols]])
-    with atomic_path(path) as tmp:
-        tmp.write_text(buf.getvalue())
+        wall = rec.get("wall_time_s")
+        writer.writerow([rec["id"], rec["status"], rec["reused"],
+                         f"{wall:.1f}" if isinstance(wall, (int, float)) else "",
+                         rec["message"], *[s.get(c, "") for c in cols]])
+    return buf.getvalue()
+
+
+def _write_outputs(out: Path, sweep: Sweep, ordered: list[dict[str, Any]], meta: dict[str, Any]) -> None:
+    """Summaries, then the manifest (last), each atomically."""
+    write_json(out / "sweep_summary.json", ordered)
+    with atomic_path(out / "sweep_summary.csv") as tmp:
+        tmp.write_text(_table(ordered))
+    write_json(out / "sweep_manifest.json", {
+        "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "sweep": str(sweep.path), "sweep_hash": hashlib.sha256(sweep.path.read_bytes()).hexdigest(),
+        "name": sweep.name, "description": sweep.description, "overrides": list(sweep.overrides),
+        "only": None if sweep.only is None else list(sweep.only), **meta,
+        "runs": {r["id"]: r["status"] for r in ordered}, "versions": package_versions(),
+    })
+
+
+def _remove_stale_temporaries(out: Path) -> None:
+    """Temporary files of sweep outputs left by a killed sweep (we hold the lock: none is ours)."""
+    for name in _OUTPUTS:
+        for tmp in out.glob(f".{name}.*"):
+            tmp.unlink(missing_ok=True)
+
+
+def sweep_exit_code(records: list[dict[str, Any]]) -> int:
+    """Exit status of a sweep call from its records (runs selected in this call only).
+
+    1 when a selected run failed or ended otherwise unfinished, else 3 when one diverged, else 0
+    (completed and structure_failed are successes).
+    """
+    statuses = [r["status"] for r in records if r.get("selected", True)]
+    if any(s not in FINISHED for s in statuses):
+        return 1
+    return 3 if "diverged" in statuses else 0
 
 
 def run_sweep(
@@ -188,53 +748,56 @@ def run_sweep(
     video: bool = False,
     overwrite: bool = False,
     log: Callable[[str], None] | None = print,
+    grace_s: float = 5.0,
 ) -> list[dict[str, Any]]:
-    """Run every entry of ``sweep`` into ``out_dir/<id>`` with ``workers`` processes.
+    """Run the selected entries of ``sweep`` into ``out_dir/<id>`` with up to ``workers`` processes.
 
-    Returns one record per run (``id``, ``status`` ∈ completed/diverged/stopped/failed/skipped,
-    ``message``, ``wall_time_s``, ``summary``), also written to ``sweep_summary.json``/``.csv``.
+    Returns one record per run of the sweep file, in file order (``id``, ``status`` ∈ completed,
+    structure_failed, diverged, stopped, failed, interrupted, not_run; ``message``, ``reused``,
+    ``selected``, ``config_hash``, ``wall_time_s``, ``summary``), also written to
+    ``sweep_summary.json``/``.csv``.
+
+    Raises:
+      ValueError: ``workers`` is not an integer >= 1.
+      RunDirError: ``out_dir`` is not a folder, or another sweep runs in it.
+      SweepInterrupted: on SIGINT/SIGTERM, after writing the summaries (``.records``).
     """
-    if int(workers) != workers or workers < 1:
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers: must be an integer >= 1, got {workers!r}")
     out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise RunDirError(f"--out {out}: exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    records: dict[str, dict[str, Any]] = {}
-    todo = []
-    for run in sweep.runs:
-        if not overwrite and _finished(out / run.id):
-            summary = json.loads((out / run.id / "summary.json").read_text())
-            records[run.id] = {"id": run.id, "config": str(run.config), "status": "skipped",
-                               "message": "finished earlier (use overwrite to rerun)", "wall_time_s": 0.0,
-                               "summary": summary}
-        else:
-            todo.append(run)
+    with _sweep_lock(out) as lock_fd, _Interrupts() as interrupts:
+        _remove_stale_temporaries(out)
+        records, todo = _plan(sweep, out, video=video, overwrite=overwrite, log=log)
+        if log:
+            log(f"sweep {sweep.name}: {len(todo)} runs to do, {len(records)} not run now "
+                f"({sum(r['reused'] for r in records.values())} valid earlier), {workers} workers")
+        pool = _Workers(workers=workers, out=out, video=video, lock_fd=lock_fd, interrupts=interrupts)
+        stopped: SweepInterrupted | None = None
+        try:
+            _execute(todo, pool, records, log)
+        except KeyboardInterrupt as err:
+            stopped = err if isinstance(err, SweepInterrupted) else SweepInterrupted(signal.SIGINT)
+        except BaseException:
+            pool.stop(grace_s=grace_s)  # no worker outlives a sweep that fails itself
+            raise
+        with interrupts.deferred(check=False):
+            if stopped is not None:
+                _interrupted(todo, pool, records, grace_s=grace_s, log=log)
+            ordered = [records[r.id] for r in sweep.runs]
+            wall = time.perf_counter() - t0
+            _write_outputs(out, sweep, ordered, {
+                "selected": [r.id for r in sweep.selected], "workers": workers, "video": video,
+                "overwrite": overwrite, "start_method": "spawn", "process_per_run": True,
+                "worker_thread_env": _thread_settings(), "interrupted": stopped is not None, "wall_time_s": wall,
+            })
     if log:
-        log(f"sweep {sweep.name}: {len(todo)} runs to do, {len(records)} already finished, {workers} workers")
-    # Fresh interpreters ("spawn") with one BLAS thread each: the workers already share the cores,
-    # and extra BLAS threads made the damping mat-vec 2–5× slower on a loaded machine.
-    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(var, "1")
-    with ProcessPoolExecutor(max_workers=int(workers), mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = {pool.submit(_run_one, run, str(out), video, overwrite): run for run in todo}
-        for fut in as_completed(futures):
-            rec = fut.result()
-            records[rec["id"]] = rec
-            if log:
-                log(f"  {rec['id']}: {rec['status']} in {rec['wall_time_s']:.1f} s"
-                    + (f" ({rec['message']})" if rec["status"] not in ("completed", "skipped") else ""))
-    ordered = [records[r.id] for r in sweep.runs]
-    wall = time.perf_counter() - t0
-    write_json(out / "sweep_summary.json", ordered)
-    _write_table(out / "sweep_summary.csv", ordered)
-    digest = hashlib.sha256(sweep.path.read_bytes()).hexdigest()
-    write_json(out / "sweep_manifest.json", {
-        "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "sweep": str(sweep.path), "sweep_hash": digest, "name": sweep.name, "description": sweep.description,
-        "overrides": list(sweep.overrides), "workers": int(workers), "wall_time_s": wall,
-        "runs": {r["id"]: r["status"] for r in ordered}, "versions": package_versions(),
-    })
-    if log:
-        counts = {s: sum(r["status"] == s for r in ordered) for s in {r["status"] for r in ordered}}
+        counts = {s: sum(r["status"] == s for r in ordered) for s in sorted({r["status"] for r in ordered})}
         log(f"sweep {sweep.name}: {counts} in {wall:.1f} s wall -> {out}")
+    if stopped is not None:
+        stopped.records = ordered
+        raise stopped
     return ordered
