@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
-from magsail_mj.config import SimConfig, StrictModel, normalised, register_concept
+from magsail_mj.config import MJ_MINVAL, ConfigProblem, SimConfig, StrictModel, normalised, register_concept
 from magsail_mj.environment.config import (
     AtmosphereConfig, DragConfig, EnvironmentConfig, FieldConfig, GravityConfig, OrbitConfig, SRPConfig,
     SunConfig,
@@ -67,7 +67,7 @@ class SpacecraftConfig(StrictModel):
     """
 
     configuration: Literal["stowed", "deployed"] = "deployed"
-    mass_kg: float = Field(default=4.0, gt=0)
+    mass_kg: float = Field(default=4.0, gt=MJ_MINVAL)
     inertia_kg_m2: Vec3 | None = None
     r_cp_m: Vec3 = (0.01, 0.01, 0.10)
     bus_centroid_m: Vec3 | None = None
@@ -79,8 +79,8 @@ class SpacecraftConfig(StrictModel):
     @field_validator("inertia_kg_m2")
     @classmethod
     def _positive(cls, v):
-        if v is not None and min(v) <= 0:
-            raise ValueError("every principal moment must be > 0 kg m²")
+        if v is not None and min(v) <= MJ_MINVAL:
+            raise ValueError(f"every principal moment must be > {MJ_MINVAL:g} kg m² (mjMINVAL)")
         return v
 
     @property
@@ -114,9 +114,10 @@ class MtqConfig(StrictModel):
         return np.asarray(self.dipole_max_A_m2 or MTQ_LIMIT_SETS[self.limits], dtype=float)
 
     @model_validator(mode="after")
-    def _check(self) -> "MtqConfig":
+    def _check(self) -> MtqConfig:
         if self.blank_s >= self.cycle_s:
-            raise ValueError(f"blank_s ({self.blank_s}) must be shorter than cycle_s ({self.cycle_s})")
+            raise ConfigProblem("blank_s", f"must be shorter than cycle_s = {self.cycle_s!r} s, got {self.blank_s!r}",
+                                others=("cycle_s",))
         if self.dipole_max_A_m2 is not None and min(self.dipole_max_A_m2) <= 0:
             raise ValueError("dipole_max_A_m2: every limit must be > 0")
         return self
@@ -124,13 +125,13 @@ class MtqConfig(StrictModel):
 
 class WheelsConfig(StrictModel):
     """``[actuators.wheels]`` (spec §4.2, E-4): rotor (Table 4, §4.3), limits, DC-motor constants
-    (assumed, §4.2) and the driver model."""
+    (assumed, §4.2) and the driver model. Rotor masses and inertias exceed mjMINVAL (1e-15)."""
 
     model: Literal["dc_motor", "ideal"] = "dc_motor"
     electrical: Literal["quasi_static", "substep"] = "quasi_static"
-    rotor_inertia_kg_m2: float = Field(default=4.5e-6, gt=0)
-    rotor_transverse_inertia_kg_m2: float = Field(default=2.25e-6, gt=0)
-    rotor_mass_kg: float = Field(default=0.03, gt=0)
+    rotor_inertia_kg_m2: float = Field(default=4.5e-6, gt=MJ_MINVAL)
+    rotor_transverse_inertia_kg_m2: float = Field(default=2.25e-6, gt=MJ_MINVAL)
+    rotor_mass_kg: float = Field(default=0.03, gt=MJ_MINVAL)
     torque_max_N_m: float = Field(default=1.96e-4, gt=0)
     speed_max_rpm: float = Field(default=7000.0, gt=0)
     K_M_N_m_A: float = Field(default=6.0e-3, gt=0)
@@ -300,7 +301,7 @@ class CnusailConfig(StrictModel):
                                  srp=self.srp, drag=self.drag, gravity=self.gravity)
 
     @model_validator(mode="after")
-    def _consistent(self) -> "CnusailConfig":
+    def _consistent(self) -> CnusailConfig:
         from magsail_mj.environment.config import environment_problems
 
         problems = environment_problems(self)
@@ -315,19 +316,46 @@ class CnusailConfig(StrictModel):
                    ("actuators.mtq.blank_s", self.actuators.mtq.blank_s))
         for key, value in (periods if self.kind == "attitude" else ()):
             n = value / dt
-            if abs(n - round(n)) > 1e-9 * max(1.0, n) or (value > 0 and round(n) < 1):
+            if not math.isfinite(n) or abs(n - round(n)) > 1e-9 * max(1.0, n) or (value > 0 and round(n) < 1):
                 problems.append(f"{key}: its period {value:g} s must be a whole multiple of sim.timestep_s = {dt:g} s")
         m = self.control.modes
         if m.detumble_exit_deg_s > m.detumble_entry_deg_s:
-            problems.append("control.modes.detumble_exit_deg_s: must not exceed detumble_entry_deg_s")
+            problems.append("control.modes.detumble_exit_deg_s: must not exceed "
+                            f"control.modes.detumble_entry_deg_s = {m.detumble_entry_deg_s!r}, got {m.detumble_exit_deg_s!r}")
         if m.enabled and self.control.mode == "bdot":
             problems.append("control.mode: with control.modes.enabled give the pointing law ('eigen_axis' or 'pd')")
         u = self.control.unloading
         if u.off_rpm is not None and u.off_rpm > u.threshold_rpm:
-            problems.append("control.unloading.off_rpm: must not exceed threshold_rpm")
+            problems.append("control.unloading.off_rpm: must not exceed control.unloading.threshold_rpm = "
+                            f"{u.threshold_rpm!r}, got {u.off_rpm!r}")
+        problems += self._mass_problems()
         if problems:
             raise ValueError("; ".join(problems))
         return self
+
+    def _mass_problems(self) -> list[str]:
+        """The MuJoCo bodies of the attitude model (spec §3): the hub carries m − 3 m_r and
+        I − (J_s + 2 J_t) on every axis, which must exceed mjMINVAL and satisfy the triangle
+        inequality (the rotors add their own mass and inertia)."""
+        sc, w = self.spacecraft, self.actuators.wheels
+        inertia_key = "spacecraft.inertia_kg_m2" if sc.inertia_kg_m2 is not None else "spacecraft.configuration"
+        rotors = "actuators.wheels.rotor_inertia_kg_m2, actuators.wheels.rotor_transverse_inertia_kg_m2"
+        out = []
+        hub_mass = sc.mass_kg - 3.0 * w.rotor_mass_kg
+        if not hub_mass > MJ_MINVAL:
+            out.append(f"spacecraft.mass_kg: must exceed the three rotors' actuators.wheels.rotor_mass_kg × 3 = "
+                       f"{3.0 * w.rotor_mass_kg:g} kg by more than {MJ_MINVAL:g} kg, got {sc.mass_kg!r}")
+        rotor_sum = w.rotor_inertia_kg_m2 + 2.0 * w.rotor_transverse_inertia_kg_m2
+        hub = [i - rotor_sum for i in sc.inertia]
+        if not min(hub) > MJ_MINVAL:
+            out.append(f"{inertia_key}: every moment must exceed the rotors' J_s + 2 J_t = {rotor_sum:g} kg m² "
+                       f"({rotors}) by more than {MJ_MINVAL:g}, got {list(sc.inertia)}")
+        else:
+            a, b, c = hub
+            if a + b < c or b + c < a or a + c < b:
+                out.append(f"{inertia_key}: the hub inertia (moments minus the rotors' J_s + 2 J_t, {rotors}) "
+                           f"{hub} violates the triangle inequality, got {list(sc.inertia)}")
+        return out
 
 
 # ---------------------------------------------------------------------------------- scenario
