@@ -294,7 +294,7 @@ _TYPE_MESSAGES = {
     "model_attributes_type": "must be a table",
     "dict_type": "must be a table",
 }
-_KEYED = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z0-9_]+)*): (.*)$", re.DOTALL)
+_KEYED = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z0-9_]+|\[\d+\])*): (.*)$", re.DOTALL)
 _UNION_TAG = re.compile(r"[\[\]()<>, ]|^(float|int|str|bool|none|list|tuple|dict)$")
 
 

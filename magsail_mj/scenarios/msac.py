@@ -34,7 +34,8 @@ from magsail_mj.analysis.msac_post import (
 from magsail_mj.analysis.msac_reference import (
     PlanarMsac, exact_rotation_path, exact_rotation_samples, lumped_theta, wing_inertias,
 )
-from magsail_mj.config import SimConfig, StrictModel, parse_config, register_concept
+from magsail_mj.config import MAX_STEPS, MJ_MINVAL, ConfigError, ConfigProblem, SimConfig, StrictModel
+from magsail_mj.config import parse_config, register_concept
 from magsail_mj.control.msac_cycle import CyclePath, cycle_state
 from magsail_mj.control.msac_drive import steps_per_cycle
 from magsail_mj.mjcf.msac import MsacModelParams, build_msac_spec
@@ -74,7 +75,7 @@ class BusConfig(StrictModel):
     inertia_scale: float = Field(default=1.0, gt=0)
 
     @model_validator(mode="after")
-    def _positive(self) -> "BusConfig":
+    def _positive(self) -> BusConfig:
         if any(not x > 0 for x in self.size_m):
             raise ValueError(f"size_m: every edge must be > 0, got {list(self.size_m)}")
         return self
@@ -84,7 +85,9 @@ class WingsConfig(StrictModel):
     """``[wings]``: two rigid wings, each one rigid slide + one hinge (spec §5.2, §5.4).
 
     ``hinge_offset_m`` is ``r0`` (default: the ±X face of the 2 m bus). ``layout = "mirror"``
-    only for the negative test T4. ``root_*``: the hinge-body placeholder inertial.
+    only for the negative test T4. ``root_*``: the hinge-body placeholder inertial (above
+    mjMINVAL = 1e-15). The wing mass σ ℓ w and its plate inertias must exceed mjMINVAL too
+    (checked with the whole config).
     """
 
     count: Literal[2] = 2
@@ -96,8 +99,8 @@ class WingsConfig(StrictModel):
     hinge_offset_m: float = Field(default=1.0, ge=0)
     extension_model: Literal["rigid_slide"] = "rigid_slide"
     slide_stiffness_N_m: float = Field(default=0.0, ge=0)
-    root_mass_kg: float = Field(default=1e-3, gt=0)
-    root_inertia_kg_m2: float = Field(default=1e-6, gt=0)
+    root_mass_kg: float = Field(default=1e-3, gt=MJ_MINVAL)
+    root_inertia_kg_m2: float = Field(default=1e-6, gt=MJ_MINVAL)
 
 
 class CycleConfig(StrictModel):
@@ -118,7 +121,7 @@ class CycleConfig(StrictModel):
     pattern: Literal["msac", "reversed", "bend_only", "extend_only"] = "msac"
 
     @model_validator(mode="after")
-    def _fractions(self) -> "CycleConfig":
+    def _fractions(self) -> CycleConfig:
         if any(not f > 0 for f in self.phase_fractions) or abs(sum(self.phase_fractions) - 1) > 1e-9:
             raise ValueError(f"phase_fractions: need four values > 0 summing to 1, got {list(self.phase_fractions)}")
         return self
@@ -178,7 +181,7 @@ class SweepConfig(StrictModel):
     keep_steps_per_cycle: bool = True
 
     @model_validator(mode="after")
-    def _shapes(self) -> "SweepConfig":
+    def _shapes(self) -> SweepConfig:
         for i, p in enumerate(self.points):
             if len(p) != len(self.keys):
                 raise ValueError(f"points[{i}]: needs {len(self.keys)} value(s) for keys {self.keys}, got {p!r}")
@@ -202,17 +205,78 @@ class MsacConfig(StrictModel):
     sweep: SweepConfig | None = None
 
     @model_validator(mode="after")
-    def _consistent(self) -> "MsacConfig":
+    def _consistent(self) -> MsacConfig:
         if (self.scenario == "sweep") != (self.sweep is not None):
-            raise ValueError("a [sweep] table goes with scenario = 'sweep' and only with it")
+            raise ConfigProblem("scenario", "a [sweep] table goes with scenario = 'sweep' and only with it",
+                                others=("sweep",))
         if self.scenario != "lumped":
-            steps_per_cycle(make_path(self), self.sim.timestep_s)
+            self._check_steps_per_cycle()
         if self.sweep is not None:
             flat = _flatten(self.model_dump(mode="json", exclude={"sweep"}))
             bad = [k for k in self.sweep.keys if k not in flat]
             if bad:
                 raise ValueError(f"sweep.keys: {bad} are not config keys (e.g. 'cycle.extension_frac')")
+            self._check_points()
         return self
+
+    def _check_points(self) -> None:
+        """Every sweep point must give a valid multibody config (validated as it will be run)."""
+        sw = self.sweep
+        problems = []
+        for i, values in enumerate(sw.points):
+            try:
+                point_config(self, sw.keys, values, cycles=sw.cycles, keep_steps_per_cycle=sw.keep_steps_per_cycle)
+            except ConfigError as err:
+                problems += [f"sweep.points[{i}]: {line}" for line in err.problems]
+        if problems:
+            raise ValueError("; ".join(problems))
+
+    def _check_steps_per_cycle(self) -> None:
+        """The cycle period 1/f must be a whole number (>= 4) of time steps, fewer than 2⁶³."""
+        ratio = (1.0 / self.cycle.frequency_Hz) / self.sim.timestep_s
+        if not ratio < MAX_STEPS:
+            raise ConfigProblem("sim.timestep_s", f"the cycle period 1/cycle.frequency_Hz is {ratio:.3g} time steps, "
+                                f"more than a 64-bit step counter holds, got {self.sim.timestep_s!r}",
+                                others=("cycle.frequency_Hz",))
+        try:
+            steps_per_cycle(make_path(self), self.sim.timestep_s)
+        except ValueError as err:
+            raise ConfigProblem("sim.timestep_s", str(err).removeprefix("timestep_s: "),
+                                others=("cycle.frequency_Hz",)) from None
+
+    @model_validator(mode="after")
+    def _numbers(self) -> MsacConfig:
+        """The bodies MuJoCo receives (bus box, wing plates, hinge bodies) need masses and
+        principal inertias above mjMINVAL and finite, and the joint servo gains J ω_s² finite."""
+        b, w = self.bus, self.wings
+        bus_keys = ("bus.size_m", "bus.inertia_scale")
+        a, bb, c = b.size_m
+        for name, (p, q) in zip("xyz", ((bb, c), (a, c), (a, bb))):
+            _positive_product("bus.mass_kg", b.mass_kg / 12.0 * b.inertia_scale, p * p + q * q,
+                              what=f"bus inertia I_{name}", others=bus_keys)
+        wing_keys = ("wings.length_m", "wings.width_m", "wings.thickness_m")
+        m = _positive_product("wings.areal_density_kg_m2", w.areal_density_kg_m2, w.length_m * w.width_m,
+                              what="wing mass σ ℓ w", others=wing_keys)
+        l, wd, t = w.length_m, w.width_m, w.thickness_m
+        for name, (p, q) in zip("xyz", ((t, wd), (l, wd), (l, t))):
+            _positive_product("wings.areal_density_kg_m2", m / 12.0, p * p + q * q,
+                              what=f"wing inertia I_{name}", others=wing_keys)
+        omega = self.drive.servo_omega_dt / self.sim.timestep_s
+        hinge = m * (l * l + t * t) / 12.0 + m * (l / 2) * (l / 2)
+        _positive_product("drive.servo_omega_dt", max(hinge, m, 1.0), 2.0 * omega * omega, what="servo gain J ω_s²",
+                          others=("sim.timestep_s", "wings.areal_density_kg_m2", *wing_keys))
+        return self
+
+
+def _positive_product(key: str, a: float, b: float, *, what: str, others: tuple[str, ...]) -> float:
+    """``a · b``: a :class:`ConfigProblem` on ``key`` when it is not finite or not above mjMINVAL."""
+    value = a * b
+    if not math.isfinite(value):
+        raise ConfigProblem(key, f"makes the {what} overflow float64", others=others)
+    if not value > MJ_MINVAL:
+        raise ConfigProblem(key, f"makes the {what} {value:.6g}, which must be > {MJ_MINVAL:g} (mjMINVAL)",
+                            others=others)
+    return value
 
 
 # ---------------------------------------------------------------------------------- model
@@ -265,10 +329,10 @@ def point_config(cfg: MsacConfig, keys: list[str], values: list[Any], *, cycles:
         parts = key.split(".")
         for part in parts[:-1]:
             if part not in node or not isinstance(node[part], dict):
-                raise ValueError(f"sweep.keys: {key!r} is not a config key")
+                raise ConfigError([f"sweep.keys: {key!r} is not a config key"], source="sweep point")
             node = node[part]
         if parts[-1] not in node:
-            raise ValueError(f"sweep.keys: {key!r} is not a config key")
+            raise ConfigError([f"sweep.keys: {key!r} is not a config key"], source="sweep point")
         node[parts[-1]] = value
     f = float(tree["cycle"]["frequency_Hz"])
     if keep_steps_per_cycle:
