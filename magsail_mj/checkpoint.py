@@ -134,7 +134,9 @@ class StateWalker:
         elif isinstance(obj, np.random.Generator):
             out[path] = {"kind": "rng", "value": _jsonable_rng(obj.bit_generator.state)}
         elif isinstance(obj, (list, tuple)):
-            out[path] = {"kind": type(obj).__name__, "len": len(obj)}
+            out[path] = {"kind": "list" if isinstance(obj, list) else "tuple", "len": len(obj)}
+            if type(obj) not in (list, tuple):
+                out[path]["class"] = f"{type(obj).__module__}:{type(obj).__qualname__}"
             for i, item in enumerate(obj):
                 self._walk(item, f"{path}[{i}]", out, seen)
         elif isinstance(obj, dict):
@@ -276,6 +278,19 @@ def _new_object(class_name: str) -> Any:
     return cls.__new__(cls)
 
 
+def _named_tuple(class_name: str) -> Any:
+    """A tuple subclass (a named tuple) of the package, by its recorded name."""
+    module_name, _, qualname = class_name.partition(":")
+    if not module_name.startswith("magsail_mj.") or "<" in qualname:
+        raise CheckpointError(f"checkpoint: refuses to create a tuple of {class_name!r}")
+    cls: Any = importlib.import_module(module_name)
+    for attr in qualname.split("."):
+        cls = getattr(cls, attr)
+    if not (isinstance(cls, type) and issubclass(cls, tuple) and hasattr(cls, "_make")):
+        raise CheckpointError(f"checkpoint: {class_name!r} is not a named tuple")
+    return cls
+
+
 def _fresh(node: dict[str, Any], arrays: dict[str, np.ndarray]) -> Any:
     kind = node["kind"]
     if kind == "object":
@@ -366,7 +381,9 @@ def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, n
         parts = _split(path)
         parent = roots if len(parts) == 1 else _resolve(roots, parts[:-1])
         part = ("key", parts[0][1]) if len(parts) == 1 else parts[-1]
-        _set(parent, part, tuple(_get(parent, part)))
+        items = _get(parent, part)
+        cls_name = tree[path].get("class")
+        _set(parent, part, _named_tuple(cls_name)._make(items) if cls_name else tuple(items))
     walker.roots.update(roots)
 
 

@@ -259,16 +259,19 @@ class MsacRunner:
     # ------------------------------------------------------------------ checkpoints
     def _save(self, path: Path, k: int, state: np.ndarray, acc: _Acc, walker: StateWalker) -> None:
         walker.roots.update(acc=acc, table=self.table)
-        write_checkpoint(path, {**self.identity, "k": k, "t_s": k * self.dt}, walker, {"state": state})
+        header = {**self.identity, "step": k, "t_s": k * self.dt, "wall_s": self._wall_before + time.perf_counter()
+                  - self._wall0}
+        write_checkpoint(path, header, walker, {"state": state})
 
     def _load(self, path: Path, walker: StateWalker) -> tuple[int, np.ndarray, _Acc]:
         header, arrays, extra = read_checkpoint(path)
         check_identity(header, self.identity, path=path)
-        k = int(header["k"])
+        k = int(header["step"])
         if "state" not in extra or extra["state"].shape != (self.nstate,) or not 0 <= k <= self.n_steps:
             raise CheckpointError(f"checkpoint: {path} does not hold a state of this model within sim.duration_s")
         restore_state(walker, header["state_tree"], arrays)
         self.table = walker.roots["table"]
+        self._wall_before = float(header.get("wall_s", 0.0))
         return k, extra["state"], walker.roots["acc"]
 
     # ------------------------------------------------------------------ run
@@ -279,7 +282,8 @@ class MsacRunner:
 
         m = self.model
         dt, N = self.dt, self.N
-        wall0 = time.perf_counter()
+        wall0 = self._wall0 = time.perf_counter()
+        self._wall_before = 0.0
         data = mujoco.MjData(m)
         ckpt = Path(checkpoint_path) if checkpoint_path else None
         self.table = None
@@ -387,7 +391,7 @@ class MsacRunner:
         records = self._records(acc)
         records["run_replay_settle_change"] = np.array(self.table.settle_change if self.table else np.nan)
         return RunResult(records=records, status=status, message=message, t_end_s=k * dt,
-                         steps=k - k_start, wall_time_s=time.perf_counter() - wall0)
+                         steps=k - k_start, wall_time_s=self._wall_before + time.perf_counter() - wall0)
 
     def _process_final(self, acc: _Acc, k: int, state: np.ndarray, sens: np.ndarray, ctrl: np.ndarray) -> None:
         """Add the end state to the strobe (if a cycle start) and the records (always)."""
