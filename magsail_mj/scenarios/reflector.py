@@ -33,7 +33,16 @@ import mujoco
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
-from magsail_mj.config import SimConfig, StrictModel, normalised, register_concept
+from magsail_mj.config import (
+    MAX_STEPS,
+    MJ_MINVAL,
+    ConfigProblem,
+    SimConfig,
+    StrictModel,
+    finite_product,
+    normalised,
+    register_concept,
+)
 from magsail_mj.scenarios import register_builder
 from magsail_mj.sim import RunResult, Simulation
 
@@ -68,7 +77,9 @@ ASSUMPTIONS = {
 
 class PlateConfig(StrictModel):
     """``[plate]``: side d, cell edge L, depth h (default L, A1), areal density σ, and the thickness t
-    used in the in-plane moments (default h; spec §4 caution)."""
+    used in the in-plane moments (default h; spec §4 caution). d must be a whole number n >= 2 of
+    cells L; the plate mass σ d² and its moments σ d² (d² + t²)/12, σ d⁴/6 must be finite and above
+    mjMINVAL (1e-15)."""
 
     side_m: float = Field(default=100.0, gt=0)
     cell_m: float = Field(default=1.0, gt=0)
@@ -77,10 +88,28 @@ class PlateConfig(StrictModel):
     inertia_thickness_m: float | None = Field(default=None, gt=0)
 
     @model_validator(mode="after")
-    def _whole_cells(self) -> "PlateConfig":
-        n = round(self.side_m / self.cell_m)
+    def _whole_cells(self) -> PlateConfig:
+        ratio = self.side_m / self.cell_m
+        if not ratio < MAX_STEPS:
+            raise ConfigProblem("side_m", f"side_m / cell_m = {ratio:.3g} cells per side is more than a 64-bit "
+                                f"count holds, got {self.side_m!r}", others=("cell_m",))
+        n = round(ratio)
         if n < 2 or abs(n * self.cell_m - self.side_m) > 1e-9 * self.side_m:
-            raise ValueError(f"side_m ({self.side_m}) must be a whole multiple (>= 2) of cell_m ({self.cell_m})")
+            raise ConfigProblem("side_m", f"must be a whole multiple (>= 2) of cell_m = {self.cell_m!r}, "
+                                f"got {self.side_m!r}", others=("cell_m",))
+        return self
+
+    @model_validator(mode="after")
+    def _mass_properties(self) -> PlateConfig:
+        d = self.side_m
+        t = self.depth if self.inertia_thickness_m is None else self.inertia_thickness_m
+        t_key = "inertia_thickness_m" if self.inertia_thickness_m is not None else "depth_m"
+        m = finite_product("areal_density_kg_m2", self.areal_density_kg_m2, d, d, minimum=MJ_MINVAL,
+                           what="plate mass σ d² (MuJoCo needs > mjMINVAL)", others=("side_m",))
+        finite_product("areal_density_kg_m2", m / 12.0, d * d + t * t, minimum=MJ_MINVAL,
+                       what="in-plane moment m (d² + t²)/12", others=("side_m", t_key))
+        finite_product("areal_density_kg_m2", m / 6.0, d, d, minimum=MJ_MINVAL,
+                       what="normal moment m d²/6", others=("side_m",))
         return self
 
     @property
@@ -137,13 +166,23 @@ class ControlConfig(StrictModel):
 
 class OrbitConfig(StrictModel):
     """``[orbit]`` (Scenario B, §4, §6.1): altitude, Earth radius (A4), μ, ground-point rate (A5),
-    nominal run length in orbits (sets the overhead time t_m = n_orbits T_orb / 2)."""
+    nominal run length in orbits (sets the overhead time t_m = n_orbits T_orb / 2); the period and
+    the run length must be finite."""
 
     altitude_km: float = Field(default=800.0, gt=0)
     R_e_km: float = Field(default=6371.0, gt=0)
     mu_m3_s2: float = Field(default=3.986004418e14, gt=0)
     omega_e_rad_s: float = Field(default=2 * math.pi / 86400.0, ge=0)
     n_orbits: float = Field(default=10.0, gt=0)
+
+    @model_validator(mode="after")
+    def _period(self) -> OrbitConfig:
+        r = (self.altitude_km + self.R_e_km) * 1e3
+        period = finite_product("altitude_km", r, r, r / self.mu_m3_s2, what="orbital period 2π √(r³/μ)",
+                                others=("R_e_km", "mu_m3_s2"))
+        finite_product("n_orbits", self.n_orbits, 2.0 * math.pi * math.sqrt(period), what="nominal run length",
+                       others=("altitude_km", "mu_m3_s2"))
+        return self
 
 
 class InitialConfig(StrictModel):
@@ -194,7 +233,7 @@ class ReflectorConfig(StrictModel):
     render: RenderConfig = RenderConfig()
 
     @model_validator(mode="after")
-    def _consistent(self) -> "ReflectorConfig":
+    def _consistent(self) -> ReflectorConfig:
         problems = []
         c = self.control
         if self.kind == "detumble":
