@@ -38,6 +38,7 @@ from pydantic import Field, ValidationError, model_validator
 
 from magsail_mj.config import ConfigError, StrictModel
 from magsail_mj.environment.constants import B0_DIPOLE, MU_EARTH, R_E_TRUSS
+from magsail_mj.resources import check_memory
 
 __all__ = [
     "plate_inertia",
@@ -63,6 +64,28 @@ def _positive(name: str, value) -> np.ndarray:
 
 def _out(v: np.ndarray):
     return float(v) if np.ndim(v) == 0 else v
+
+
+def require_finite(report: dict, *, inputs: dict) -> dict:
+    """Return ``report`` if every number in it is finite, else raise ``ValueError`` naming the
+    first non-finite key and the ``inputs`` (``{name: value}``): no report carries a non-finite
+    number it was asked to compute (``None`` entries, meaning "not applicable", are allowed)."""
+    for key, value in report.items():
+        if value is None or isinstance(value, (str, bool)):
+            continue
+        if isinstance(value, dict):
+            require_finite(value, inputs=inputs)
+            continue
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            continue
+        if not np.all(np.isfinite(arr)):
+            names = ", ".join(inputs)
+            given = ", ".join(f"{k} = {v!r}" for k, v in inputs.items())
+            raise ValueError(f"{names}: the result {key} is not finite for {given} "
+                             "(the inputs are outside the range where it can be computed)")
+    return report
 
 
 def plate_inertia(total_kg: float, side_m: float) -> np.ndarray:
@@ -172,6 +195,7 @@ def scaling_report(side_m: float | Sequence[float], kappa: float | Sequence[floa
     k = _positive("kappa", kappa)
     if d.ndim > 1 or k.ndim > 1:
         raise ValueError("side_m, kappa: expected numbers or flat lists of numbers")
+    check_memory(8.0 * 6 * (d.size * k.size + d.size + k.size), what=f"scaling: {d.size} sides x {k.size} kappas")
     alt = float(np.asarray(altitude_km, dtype=float))
     if not (math.isfinite(alt) and alt >= 0):
         raise ValueError(f"altitude_km: must be finite and >= 0, got {altitude_km!r}")
@@ -179,6 +203,15 @@ def scaling_report(side_m: float | Sequence[float], kappa: float | Sequence[floa
     Mt = float(np.asarray(rod_mass_kg, dtype=float))
     if not (math.isfinite(Mt) and 0 <= Mt <= M):
         raise ValueError(f"rod_mass_kg: must be between 0 and total_kg ({M}), got {rod_mass_kg!r}")
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
+        report = _scaling_figures(d, k, alt=alt, M=M, Mt=Mt, mu=mu, B0_T=B0_T, R_E_m=R_E_m)
+    return require_finite(report, inputs={"side_m": side_m, "kappa": kappa, "altitude_km": altitude_km,
+                                          "total_kg": total_kg, "rod_mass_kg": rod_mass_kg})
+
+
+def _scaling_figures(d: np.ndarray, k: np.ndarray, *, alt: float, M: float, Mt: float, mu: float,
+                     B0_T: float, R_E_m: float) -> dict:
+    """The figures of :func:`scaling_report` for checked inputs (may hold inf/NaN on overflow)."""
     r = R_E_m + alt * 1e3
     B = dipole_field_magnitude(r, B0_T=B0_T, R_E_m=R_E_m)
     if d.ndim == 0 and k.ndim == 0:
@@ -215,7 +248,8 @@ def scaling_report(side_m: float | Sequence[float], kappa: float | Sequence[floa
 
 class ScalingInputs(StrictModel):
     """Inputs of the ``scaling`` figure (the ``[scaling]`` table of
-    ``models/truss_magnetorquer/scaling.toml``; defaults are the spec's §8 and §9.1 values)."""
+    ``models/truss_magnetorquer/scaling.toml``; defaults are the spec's §8 and §9.1 values).
+    Strict like every config table: finite numbers, no strings or booleans for numbers."""
 
     kappas_Am2_per_kg: list[float] = Field(default=[10.0, 50.0, 100.0, 200.0], min_length=1)
     side_min_m: float = Field(default=1.0, gt=0)
@@ -232,11 +266,11 @@ class ScalingInputs(StrictModel):
     R_E_km: float = Field(default=R_E_TRUSS / 1e3, gt=0)
 
     @model_validator(mode="after")
-    def _consistent(self) -> "ScalingInputs":
+    def _consistent(self) -> ScalingInputs:
         if self.side_max_m <= self.side_min_m:
-            raise ValueError(f"side_max_m ({self.side_max_m}) must exceed side_min_m ({self.side_min_m})")
+            raise ValueError(f"side_max_m: must exceed side_min_m = {self.side_min_m!r}, got {self.side_max_m!r}")
         if self.rod_mass_kg > self.total_kg:
-            raise ValueError(f"rod_mass_kg ({self.rod_mass_kg}) must not exceed total_kg ({self.total_kg})")
+            raise ValueError(f"rod_mass_kg: must not exceed total_kg = {self.total_kg!r}, got {self.rod_mass_kg!r}")
         if any(k <= 0 for k in self.kappas_Am2_per_kg):
             raise ValueError("kappas_Am2_per_kg: every value must be > 0")
         if any(d <= 0 for d in self.table_sides_m):
