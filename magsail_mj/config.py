@@ -352,6 +352,9 @@ def _format_error(err: dict[str, Any]) -> list[str]:
     if kind == "extra_forbidden":
         return [f"{loc}: unknown key (not part of this table){_got(value)}"]
     if kind == "missing":
+        raw = tuple(err.get("loc", ()))
+        if raw and isinstance(raw[-1], int):
+            return [f"{_loc_path(raw[:-1])}: too few items (item [{raw[-1]}] is missing)"]
         return [f"{loc}: required key is missing"]
     if kind == "literal_error":
         return [f"{loc}: must be one of {ctx.get('expected')}{_got(value)}"]
