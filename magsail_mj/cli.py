@@ -1,86 +1,321 @@
 """``magsail`` command line: build | validate | run | render | sweep | scaling | torque.
 
-Exit codes: 0 success, 2 invalid input (config, arguments, run folder), 3 the simulation
-diverged (its outputs up to the divergence are still written).
+Every verb checks its inputs where it uses them (paths, numbers, the memory the input needs) and
+reports a problem as one line ``error: <what>`` on stderr, never a traceback; the exit status
+follows :data:`EXIT_CODES`. ``MAGSAIL_DEBUG=1`` adds the traceback of an unexpected error.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
 import json
+import math
+import os
+import pickle
+import signal
 import sys
+import threading
+import traceback
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, NoReturn
 
-__all__ = ["main"]
+from magsail_mj.config import ConfigError, load_config
+from magsail_mj.io import RunDirError, atomic_path, to_jsonable
+from magsail_mj.resources import (
+    ENV_VAR,
+    MemoryLimitError,
+    check_memory,
+    estimate_model_bytes,
+    estimate_run_bytes,
+    memory_limit,
+    parse_memory_limit,
+    render_bytes,
+)
+
+__all__ = ["EXIT_CODES", "CliInputError", "main"]
+
+EXIT_CODES = """\
+exit status:
+  0    success
+  1    a run or an output failed for another reason (e.g. the video could not be
+       rendered, a sweep run failed)
+  2    invalid input, or a refused resume or output folder ('error: ...' on stderr,
+       naming the option or key and the value)
+  3    the simulation diverged (its outputs up to the divergence are written)
+  130  interrupted (Ctrl-C / SIGINT or SIGTERM); the run folder is left consistent
+  sweep: non-zero when any run failed (1) or diverged (3)
+
+memory: every verb estimates the memory its input needs before allocating it and refuses
+  (exit 2) above --memory-limit BYTES|auto (or $MAGSAIL_MEMORY_LIMIT; default: the
+  machine's available memory)."""
+
+DEBUG_ENV = "MAGSAIL_DEBUG"
+# errno values of an OSError that mean: this path cannot be used as given (exit 2).
+_PATH_ERRNOS = {errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.EACCES, errno.EPERM, errno.EROFS,
+                errno.EEXIST, errno.ENAMETOOLONG, errno.ELOOP, errno.EINVAL}
+_SMALL_REPORT_BYTES = 1 << 20     # analytic reports of fixed size (loop sizing, the §7.2 table)
+
+
+class CliInputError(ValueError):
+    """A command-line input is invalid (the message names the option or argument)."""
+
+
+class _UsageError(CliInputError):
+    """argparse refused the command line."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are raised (``error: ...``, exit 2 in :func:`main`) rather than
+    printed by argparse with the program name in front."""
+
+    def error(self, message: str) -> NoReturn:
+        """``argument --x: msg`` becomes ``--x: msg``; other messages are prefixed by the program."""
+        if message.startswith("argument ") and ": " in message:
+            name, rest = message[len("argument "):].split(": ", 1)
+            raise _UsageError(f"{name.split('/')[-1]}: {rest} (see {self.prog} --help)")
+        raise _UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+
+# --------------------------------------------------------------------------- argument types
+
+
+def _number(text: str, *, what: str) -> float:
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r} (not finite)")
+    return value
+
+
+def _positive(text: str) -> float:
+    """A finite number > 0 (a physical size, mass, current, field)."""
+    value = _number(text, what="a finite number > 0")
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+    return value
+
+
+def _non_negative(text: str) -> float:
+    """A finite number >= 0."""
+    value = _number(text, what="a finite number >= 0")
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
+    return value
+
+
+def _count(text: str) -> int:
+    """An integer >= 1 (a count)."""
+    try:
+        value = int(text)
+    except (TypeError, ValueError):
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
+
+
+def _memory(text: str) -> int | None:
+    try:
+        return parse_memory_limit(text, what="--memory-limit")
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err).split(": ", 1)[-1]) from None
+
+
+# --------------------------------------------------------------------------- path checks
+
+
+def _non_empty(path: str | None, option: str) -> Path:
+    if path is None or not str(path).strip():
+        raise CliInputError(f"{option}: must be a path, got an empty string {path!r}")
+    if "\x00" in str(path):
+        raise CliInputError(f"{option}: must not contain a NUL character, got {path!r}")
+    return Path(path)
+
+
+def _input_file(path: str, option: str) -> Path:
+    """An existing, readable regular file."""
+    p = _non_empty(path, option)
+    if not p.exists():
+        raise CliInputError(f"{option}: no such file {str(p)!r}")
+    if not p.is_file():
+        raise CliInputError(f"{option}: {str(p)!r} is not a regular file")
+    if not os.access(p, os.R_OK):
+        raise CliInputError(f"{option}: {str(p)!r} is not readable (permission denied)")
+    return p
+
+
+def _writable_parent(p: Path, option: str) -> None:
+    """The nearest existing ancestor of ``p`` is a writable folder (so ``p`` can be created)."""
+    for parent in p.absolute().parents:
+        if not parent.exists():
+            continue
+        if not parent.is_dir():
+            raise CliInputError(f"{option}: {str(parent)!r} is a file, so {str(p)!r} cannot be created below it")
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise CliInputError(f"{option}: folder {str(parent)!r} is not writable (permission denied)")
+        return
+
+
+def _output_dir(path: str | None, option: str) -> Path:
+    """A folder that exists and is writable, or can be created."""
+    p = _non_empty(path, option)
+    if p.exists():
+        if not p.is_dir():
+            raise CliInputError(f"{option}: {str(p)!r} exists and is not a folder")
+        if not os.access(p, os.W_OK | os.X_OK):
+            raise CliInputError(f"{option}: folder {str(p)!r} is not writable (permission denied)")
+        return p
+    _writable_parent(p, option)
+    return p
+
+
+def _output_file(path: str | None, option: str) -> Path:
+    """A file path that is not a folder, below a writable (or creatable) folder."""
+    p = _non_empty(path, option)
+    if p.is_dir():
+        raise CliInputError(f"{option}: {str(p)!r} is a folder; give a file path")
+    if p.exists() and not os.access(p, os.W_OK) and not os.access(p.parent, os.W_OK):
+        raise CliInputError(f"{option}: {str(p)!r} is not writable (permission denied)")
+    _writable_parent(p, option)
+    return p
+
+
+def _load(args: argparse.Namespace) -> Any:
+    """The validated config of ``args.config`` with ``--set`` overrides (ConfigError or CliInputError)."""
+    path = _input_file(args.config, "config")
+    try:
+        return load_config(path, args.set)
+    except UnicodeDecodeError:
+        raise CliInputError(f"config: {str(path)!r} is not a UTF-8 text (TOML) file") from None
+
+
+# --------------------------------------------------------------------------- verbs
+
+
+def _print_json(obj: Any, *, what: str, indent: int | None = None) -> None:
+    """Print ``obj`` as JSON; a non-finite number in it is an error naming ``what``."""
+    bad = _non_finite(obj)
+    if bad is not None:
+        raise CliInputError(f"{what}: the result {bad[0]} is not finite ({bad[1]!r}); the inputs are outside "
+                            "the range where it can be computed")
+    print(json.dumps(to_jsonable(obj), indent=indent, allow_nan=False))
+
+
+def _non_finite(obj: Any, key: str = "") -> tuple[str, float] | None:
+    """``(key path, value)`` of the first non-finite float in a JSON-like tree, else None."""
+    if isinstance(obj, Mapping):
+        for k, v in obj.items():
+            found = _non_finite(v, f"{key}.{k}" if key else str(k))
+            if found:
+                return found
+    elif isinstance(obj, (list, tuple)):
+        for i, v in enumerate(obj):
+            found = _non_finite(v, f"{key}[{i}]")
+            if found:
+                return found
+    elif isinstance(obj, float) and not math.isfinite(obj):
+        return key, obj
+    elif hasattr(obj, "dtype") and hasattr(obj, "tolist"):
+        return _non_finite(obj.tolist(), key)
+    return None
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
-    from magsail_mj.config import load_config
-    from magsail_mj.io import atomic_path
     from magsail_mj.scenarios import build_scenario
 
-    cfg = load_config(args.config, args.set)
+    out = _output_file(args.output, "--output") if args.output is not None else None
+    cfg = _load(args)
+    out = out or Path(args.config).with_suffix(".xml")
+    check_memory(estimate_model_bytes(cfg), what=f"build {args.config}")
     scenario = build_scenario(cfg)
-    out = Path(args.output) if args.output else Path(args.config).with_suffix(".xml")
     with atomic_path(out) as tmp:
         tmp.write_text(scenario.spec.to_xml())
     size = scenario.manifest_extra().get("model_size", {})
-    print(json.dumps({"mjcf": str(out), **size}))
+    _print_json({"mjcf": str(out), **size}, what="build")
     return 0
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from magsail_mj.config import load_config
-
-    cfg = load_config(args.config, args.set)
-    print(json.dumps({"config": args.config, "concept": cfg.concept, "scenario": cfg.scenario, "valid": True}))
+    cfg = _load(args)
+    estimate = check_memory(estimate_run_bytes(cfg), what=f"validate {args.config}: a run")
+    _print_json({"config": args.config, "concept": cfg.concept, "scenario": cfg.scenario, "valid": True,
+                 "memory_estimate_bytes": estimate}, what="validate")
     return 0
+
+
+def _video_bytes(cfg: Any) -> float:
+    """Memory of rendering the run's video (the render table's frame count, 960 × 540 px)."""
+    r = getattr(cfg, "render", None)
+    frames = int(getattr(r, "max_frames", 600) or 600)
+    return render_bytes(frames=frames, width=960, height=540, model_bytes=estimate_model_bytes(cfg))
+
+
+_RUN_EXIT = {"diverged": 3, "failed": 1, "interrupted": 130}
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from magsail_mj.config import load_config
-    from magsail_mj.io import to_jsonable
     from magsail_mj.run import run_scenario
 
-    cfg = load_config(args.config, args.set)
-    outcome = run_scenario(cfg, args.out, video=args.video, resume=args.resume, overwrite=args.overwrite,
-                           progress=False if args.no_progress else None)
+    out = _output_dir(args.out, "--out")
+    if args.resume and not out.is_dir():
+        raise CliInputError(f"--resume: there is no run folder {str(out)!r} to resume")
+    cfg = _load(args)
+    estimate = estimate_run_bytes(cfg) + (_video_bytes(cfg) if args.video else 0.0)
+    check_memory(estimate, what=f"run {args.config}{' with --video' if args.video else ''}")
+    try:
+        outcome = run_scenario(cfg, out, video=args.video, resume=args.resume, overwrite=args.overwrite,
+                               progress=False if args.no_progress else None)
+    except (EOFError, pickle.UnpicklingError) as err:
+        if not args.resume:
+            raise
+        raise CliInputError(f"--resume: the checkpoint in {str(out)!r} is unreadable "
+                            f"({type(err).__name__}: {err})") from None
     print(json.dumps(to_jsonable(dict(outcome)), indent=2))
     print(f"run folder: {outcome.run_dir}", file=sys.stderr)
-    if args.video:
+    if args.video and (outcome.run_dir / "video.mp4").is_file():
         print(f"video: {outcome.run_dir / 'video.mp4'}", file=sys.stderr)
-    if outcome.status == "diverged":
-        print(f"error: simulation diverged: {outcome.get('status_message')}", file=sys.stderr)
-        return 3
-    return 0
+    status = getattr(outcome, "status", "completed")
+    code = _RUN_EXIT.get(status, 0)
+    if code:
+        print(f"error: run {status}: {outcome.get('status_message', '')}", file=sys.stderr)
+    return code
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
     from magsail_mj.render import render_run
 
-    out = render_run(Path(args.run_dir), Path(args.output), compare=Path(args.compare) if args.compare else None,
+    out = render_run(_non_empty(args.run_dir, "RUN_DIR"), _non_empty(args.output, "--output"),
+                     compare=_non_empty(args.compare, "--compare") if args.compare is not None else None,
                      labels=args.labels)
     print(str(out))
     return 0
 
 
-def _print_report(make: Callable[[], Any], options: dict[str, str] | None = None) -> int:
-    """Print the report ``make()`` as one JSON line (exit 0); a ``ValueError`` is printed as
-    ``error: ...`` on stderr with its leading key renamed by ``options`` to the command-line
-    option (exit 2)."""
-    from magsail_mj.io import to_jsonable
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from magsail_mj.sweep import load_sweep, run_sweep, sweep_exit_code
 
-    options = options or {}
+    path = _input_file(args.sweep, "SWEEP")
+    out = _output_dir(args.out, "--out") if args.out is not None else None
     try:
-        report = make()
-    except ValueError as err:
-        msg = str(err)
-        name = msg.split(":", 1)[0]
-        print(f"error: {options.get(name, name)}{msg[len(name):]}", file=sys.stderr)
-        return 2
-    print(json.dumps(to_jsonable(report)))
-    return 0
+        sweep = load_sweep(path, extra_overrides=tuple(args.set), only=args.only)
+    except UnicodeDecodeError:
+        raise CliInputError(f"SWEEP: {str(path)!r} is not a UTF-8 text (TOML) file") from None
+    out = out or _output_dir(str(Path("runs") / sweep.name), "--out")
+    biggest = 0.0
+    for run in sweep.selected:
+        biggest = max(biggest, estimate_run_bytes(load_config(run.config, list(run.overrides))))
+    workers = min(args.workers, max(1, len(sweep.selected)))
+    check_memory(workers * biggest, what=f"sweep {args.sweep} ({workers} worker(s), largest run)")
+    records = run_sweep(sweep, out, workers=args.workers, video=args.video, overwrite=args.overwrite,
+                        log=lambda line: print(line, file=sys.stderr))
+    print(json.dumps({"sweep": sweep.name, "out": str(out),
+                      "status": {r["id"]: r["status"] for r in records}}, indent=2))
+    return sweep_exit_code(records)
 
 
 def _cmd_scaling_magnetorquer(args: argparse.Namespace) -> int:
@@ -88,141 +323,237 @@ def _cmd_scaling_magnetorquer(args: argparse.Namespace) -> int:
 
     side = args.side_m[0] if len(args.side_m) == 1 else args.side_m
     kappa = args.kappa[0] if len(args.kappa) == 1 else args.kappa
-    return _print_report(lambda: scaling_report(side, kappa, altitude_km=args.altitude_km, total_kg=args.total_kg,
-                                                rod_mass_kg=args.rod_mass_kg))
-
-
-def _cmd_sweep(args: argparse.Namespace) -> int:
-    from magsail_mj.sweep import load_sweep, run_sweep
-
-    if args.workers < 1:
-        print(f"error: --workers: must be >= 1, got {args.workers}", file=sys.stderr)
-        return 2
-    sweep = load_sweep(args.sweep, extra_overrides=tuple(args.set), only=args.only)
-    out = Path(args.out) if args.out else Path("runs") / sweep.name
-    records = run_sweep(sweep, out, workers=args.workers, video=args.video, overwrite=args.overwrite,
-                        log=lambda line: print(line, file=sys.stderr))
-    print(json.dumps({"sweep": sweep.name, "out": str(out),
-                      "status": {r["id"]: r["status"] for r in records}}, indent=2))
-    return 1 if any(r["status"] == "failed" for r in records) else 0
+    report = scaling_report(side, kappa, altitude_km=args.altitude_km, total_kg=args.total_kg,
+                            rod_mass_kg=args.rod_mass_kg)
+    _print_json(report, what="--side-m, --kappa, --altitude-km, --total-kg, --rod-mass-kg")
+    return 0
 
 
 def _cmd_scaling_loops(args: argparse.Namespace) -> int:
     from magsail_mj.analysis.loop_scaling import loop_sizing, scaling_table
 
-    options = {"geometry": "--geometry", "units": "--units", "side_m": "--side-m",
-               "areal_density_kg_m2": "--areal-density", "kappa": "--kappa"}
-
-    def report():
-        if args.table:
-            return scaling_table(side_m=args.side_m, areal_density_kg_m2=args.areal_density, kappa=args.kappa)
-        if args.geometry is None:
-            raise ValueError("geometry: required unless --table is given (one of A, B, C, D)")
-        return loop_sizing(args.geometry, units=args.units, side_m=args.side_m,
-                           areal_density_kg_m2=args.areal_density, kappa=args.kappa)
-
-    return _print_report(report, options)
+    check_memory(_SMALL_REPORT_BYTES, what="scaling loops")
+    if args.table:
+        report = scaling_table(side_m=args.side_m, areal_density_kg_m2=args.areal_density, kappa=args.kappa)
+    elif args.geometry is None:
+        raise CliInputError("--geometry: required unless --table is given (one of A, B, C, D)")
+    else:
+        report = loop_sizing(args.geometry, units=args.units, side_m=args.side_m,
+                             areal_density_kg_m2=args.areal_density, kappa=args.kappa)
+    _print_json(report, what="--geometry, --units, --side-m, --areal-density, --kappa")
+    return 0
 
 
 def _cmd_torque_coil(args: argparse.Namespace) -> int:
     from magsail_mj.analysis.coil_torque import coil_torque_report
 
-    options = {"side_m": "--side-m", "segment_m": "--segment-m", "depth_m": "--depth-m", "current_A": "--current-a",
-               "field_T": "--field-t", "pitch_cells": "--pitch-cells", "rows": "--rows"}
-    return _print_report(lambda: coil_torque_report(
-        side_m=args.side_m, segment_m=args.segment_m, depth_m=args.depth_m, current_A=args.current_a,
-        field_T=args.field_t, pitch_cells=args.pitch_cells, rows=args.rows), options)
+    report = coil_torque_report(side_m=args.side_m, segment_m=args.segment_m, depth_m=args.depth_m,
+                                current_A=args.current_a, field_T=args.field_t, pitch_cells=args.pitch_cells,
+                                rows=args.rows)
+    _print_json(report, what="--side-m, --segment-m, --depth-m, --current-a, --field-t, --pitch-cells, --rows")
+    return 0
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="magsail", description=__doc__.splitlines()[0])
-    sub = p.add_subparsers(dest="command", required=True)
+# --------------------------------------------------------------------------- parser
 
-    b = sub.add_parser("build", help="write the MJCF of a config and print the model size")
-    b.add_argument("config")
-    b.add_argument("-o", "--output", help="MJCF path (default: next to the config, same stem)")
-    b.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
-    b.set_defaults(fn=_cmd_build)
 
-    v = sub.add_parser("validate", help="check a config and exit")
-    v.add_argument("config")
-    v.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
-    v.set_defaults(fn=_cmd_validate)
-
-    r = sub.add_parser("run", help="simulate a config into a run folder")
-    r.add_argument("config")
-    r.add_argument("--out", required=True, help="run folder")
-    r.add_argument("--video", action="store_true", help="also render video.mp4")
-    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a config key, e.g. --set sim.duration_s=60")
-    r.add_argument("--resume", action="store_true", help="continue from the folder's checkpoint")
-    r.add_argument("--overwrite", action="store_true", help="replace an earlier run in --out")
-    r.add_argument("--no-progress", action="store_true")
-    r.set_defaults(fn=_cmd_run)
-
-    rr = sub.add_parser("render", help="render a run folder to MP4 (optionally side by side)")
-    rr.add_argument("run_dir")
-    rr.add_argument("-o", "--output", required=True)
-    rr.add_argument("--compare", help="second run folder, shown on the right")
-    rr.add_argument("--labels", nargs=2, metavar=("LEFT", "RIGHT"))
-    rr.set_defaults(fn=_cmd_render)
-
-    sw = sub.add_parser("sweep", help="run every config of a sweep file in parallel worker processes")
-    sw.add_argument("sweep", help="sweep TOML ([[run]] tables with id and config)")
-    sw.add_argument("--out", help="sweep folder (default: runs/<sweep name>)")
-    sw.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
-    sw.add_argument("--only", action="append", metavar="TEXT",
-                    help="run only the ids containing this text (repeatable: any of them)")
-    sw.add_argument("--video", action="store_true", help="render video.mp4 in every run folder")
-    sw.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                    help="override a key in every run, e.g. --set sim.duration_s=60")
-    sw.add_argument("--overwrite", action="store_true", help="rerun runs that already finished")
-    sw.set_defaults(fn=_cmd_sweep)
-
-    sc = sub.add_parser("scaling", help="analytic scaling laws (one JSON object on stdout)")
-    scs = sc.add_subparsers(dest="law", required=True)
-    mt = scs.add_parser("magnetorquer", help="rod mass fraction λ_f(d, κ_τ) (truss spec §8)")
-    mt.add_argument("--side-m", type=float, nargs="+", required=True, help="plate side(s) d [m]")
-    mt.add_argument("--kappa", type=float, nargs="+", required=True, help="dipole per rod mass κ_τ [A m²/kg]")
-    mt.add_argument("--altitude-km", type=float, default=800.0)
-    mt.add_argument("--total-kg", type=float, default=200.0)
-    mt.add_argument("--rod-mass-kg", type=float, default=100.0)
-    mt.set_defaults(fn=_cmd_scaling_magnetorquer)
-    lo = scs.add_parser("loops", help="current-loop sizing: Eq.-9 current, wire, λ_f, power (current-loops §3)")
-    lo.add_argument("--geometry", help="loop geometry A, B, C or D (Cx/Cy/Dx/Dy accepted)")
-    lo.add_argument("--units", type=int, default=19, help="cubic units per side N (default 19)")
-    lo.add_argument("--side-m", type=float, default=250.0, help="plate side D [m] (default 250)")
-    lo.add_argument("--areal-density", type=float, default=0.1, metavar="KG_M2",
-                    help="areal density σ_A [kg/m²] (default 0.1)")
-    lo.add_argument("--kappa", type=float, default=15.0,
-                    help="geometry A rim-inertia factor κ = 12 k_c − 1 (paper 15, physical 1)")
-    lo.add_argument("--table", action="store_true",
-                    help="print the §7.2 scaling object (A–D × N = 12, 19, 27) instead of one sizing")
-    lo.set_defaults(fn=_cmd_scaling_loops)
-    tq = sub.add_parser("torque", help="analytic actuator torques (one JSON object on stdout)")
-    tqs = tq.add_subparsers(dest="actuator", required=True)
-    tc = tqs.add_parser("coil", help="reflector coil paths: capability T_max, torque vectors (reflector spec §3.6)")
-    tc.add_argument("--side-m", type=float, default=100.0, help="structure side d [m] (default 100)")
-    tc.add_argument("--segment-m", type=float, default=1.0, help="segment length = cell edge L [m] (default 1)")
-    tc.add_argument("--depth-m", type=float, default=None, help="lattice depth h [m] (default L, A1)")
-    tc.add_argument("--current-a", type=float, default=10.0, help="maximum current I_max [A] (default 10)")
-    tc.add_argument("--field-t", type=float, default=30e-6, help="reference field B_ref [T] (default 30e-6)")
-    tc.add_argument("--pitch-cells", type=int, default=2, help="coil column pitch p [cells] (default 2, A2)")
-    tc.add_argument("--rows", type=int, default=None, help="3/4 turns per column N_row (default d/L)")
-    tc.set_defaults(fn=_cmd_torque_coil)
+def _verb(sub: Any, name: str, help_text: str, fn: Callable[[argparse.Namespace], int],
+          options: Mapping[str, str] | None = None) -> argparse.ArgumentParser:
+    """A sub-command with the exit-status epilog, the ``--memory-limit`` option, its function and
+    the map from library argument names to its options (used to name options in errors)."""
+    p = sub.add_parser(name, help=help_text, description=help_text, epilog=EXIT_CODES,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--memory-limit", type=_memory, default=argparse.SUPPRESS, metavar="BYTES|auto",
+                   help=f"refuse inputs needing more memory (default: ${ENV_VAR}, else the available memory)")
+    p.set_defaults(fn=fn, options=dict(options or {}))
     return p
 
 
-def main(argv: list[str] | None = None) -> int:
-    from magsail_mj.config import ConfigError
-    from magsail_mj.io import RunDirError
+def _set_option(p: argparse.ArgumentParser, help_text: str = "override a config key, e.g. --set sim.duration_s=60") -> None:
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=help_text)
 
-    args = _parser().parse_args(argv)
+
+def _add_run_verbs(sub: Any) -> None:
+    b = _verb(sub, "build", "write the MJCF of a config and print the model size", _cmd_build)
+    b.add_argument("config")
+    b.add_argument("-o", "--output", help="MJCF path (default: next to the config, same stem)")
+    _set_option(b)
+
+    v = _verb(sub, "validate", "check a config (and the memory a run of it needs) and exit", _cmd_validate)
+    v.add_argument("config")
+    _set_option(v)
+
+    r = _verb(sub, "run", "simulate a config into a run folder", _cmd_run)
+    r.add_argument("config")
+    r.add_argument("--out", required=True, help="run folder")
+    r.add_argument("--video", action="store_true", help="also render video.mp4")
+    _set_option(r)
+    r.add_argument("--resume", action="store_true", help="continue from the folder's checkpoint")
+    r.add_argument("--overwrite", action="store_true", help="replace an earlier run in --out")
+    r.add_argument("--no-progress", action="store_true")
+
+    rr = _verb(sub, "render", "render a run folder to MP4 (optionally side by side)", _cmd_render,
+               {"run_dir": "RUN_DIR", "out_path": "--output", "compare": "--compare", "labels": "--labels"})
+    rr.add_argument("run_dir")
+    rr.add_argument("-o", "--output", required=True, help="video path; only .mp4 (H.264) is written")
+    rr.add_argument("--compare", help="second run folder, shown on the right")
+    rr.add_argument("--labels", nargs=2, metavar=("LEFT", "RIGHT"))
+
+    sw = _verb(sub, "sweep", "run every config of a sweep file in parallel worker processes", _cmd_sweep,
+               {"workers": "--workers", "only": "--only"})
+    sw.add_argument("sweep", help="sweep TOML ([[run]] tables with id and config)")
+    sw.add_argument("--out", help="sweep folder (default: runs/<sweep name>)")
+    sw.add_argument("--workers", type=_count, default=1, help="worker processes (default 1)")
+    sw.add_argument("--only", action="append", metavar="TEXT",
+                    help="run only the ids containing this text (repeatable: any of them)")
+    sw.add_argument("--video", action="store_true", help="render video.mp4 in every run folder")
+    _set_option(sw, "override a key in every run, e.g. --set sim.duration_s=60")
+    sw.add_argument("--overwrite", action="store_true", help="rerun runs that already finished")
+
+
+def _add_analytic_verbs(sub: Any) -> None:
+    sc = sub.add_parser("scaling", help="analytic scaling laws (one JSON object on stdout)", epilog=EXIT_CODES,
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    scs = sc.add_subparsers(dest="law", required=True)
+    mt = _verb(scs, "magnetorquer", "rod mass fraction λ_f(d, κ_τ) (truss spec §8)", _cmd_scaling_magnetorquer,
+               {"side_m": "--side-m", "kappa": "--kappa", "altitude_km": "--altitude-km",
+                "total_kg": "--total-kg", "rod_mass_kg": "--rod-mass-kg"})
+    mt.add_argument("--side-m", type=_positive, nargs="+", required=True, help="plate side(s) d [m]")
+    mt.add_argument("--kappa", type=_positive, nargs="+", required=True, help="dipole per rod mass κ_τ [A m²/kg]")
+    mt.add_argument("--altitude-km", type=_non_negative, default=800.0)
+    mt.add_argument("--total-kg", type=_positive, default=200.0)
+    mt.add_argument("--rod-mass-kg", type=_non_negative, default=100.0)
+
+    lo = _verb(scs, "loops", "current-loop sizing: Eq.-9 current, wire, λ_f, power (current-loops §3)",
+               _cmd_scaling_loops, {"geometry": "--geometry", "units": "--units", "side_m": "--side-m",
+                                    "areal_density_kg_m2": "--areal-density", "kappa": "--kappa"})
+    lo.add_argument("--geometry", help="loop geometry A, B, C or D (Cx/Cy/Dx/Dy accepted)")
+    lo.add_argument("--units", type=_count, default=19, help="cubic units per side N (default 19)")
+    lo.add_argument("--side-m", type=_positive, default=250.0, help="plate side D [m] (default 250)")
+    lo.add_argument("--areal-density", type=_positive, default=0.1, metavar="KG_M2",
+                    help="areal density σ_A [kg/m²] (default 0.1)")
+    lo.add_argument("--kappa", type=_non_negative, default=15.0,
+                    help="geometry A rim-inertia factor κ = 12 k_c − 1 (paper 15, physical 1)")
+    lo.add_argument("--table", action="store_true",
+                    help="print the §7.2 scaling object (A–D × N = 12, 19, 27) instead of one sizing")
+
+    tq = sub.add_parser("torque", help="analytic actuator torques (one JSON object on stdout)", epilog=EXIT_CODES,
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    tqs = tq.add_subparsers(dest="actuator", required=True)
+    tc = _verb(tqs, "coil", "reflector coil paths: capability T_max, torque vectors (reflector spec §3.6)",
+               _cmd_torque_coil, {"side_m": "--side-m", "segment_m": "--segment-m", "depth_m": "--depth-m",
+                                  "current_A": "--current-a", "field_T": "--field-t",
+                                  "pitch_cells": "--pitch-cells", "rows": "--rows"})
+    tc.add_argument("--side-m", type=_positive, default=100.0, help="structure side d [m] (default 100)")
+    tc.add_argument("--segment-m", type=_positive, default=1.0, help="segment length = cell edge L [m] (default 1)")
+    tc.add_argument("--depth-m", type=_positive, default=None, help="lattice depth h [m] (default L, A1)")
+    tc.add_argument("--current-a", type=_positive, default=10.0, help="maximum current I_max [A] (default 10)")
+    tc.add_argument("--field-t", type=_positive, default=30e-6, help="reference field B_ref [T] (default 30e-6)")
+    tc.add_argument("--pitch-cells", type=_count, default=2, help="coil column pitch p [cells] (default 2, A2)")
+    tc.add_argument("--rows", type=_count, default=None, help="3/4 turns per column N_row (default d/L)")
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="magsail", description=__doc__.splitlines()[0], epilog=EXIT_CODES,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--memory-limit", type=_memory, default=None, metavar="BYTES|auto",
+                   help=f"refuse inputs needing more memory than this (suffix K, M, G, T; default: ${ENV_VAR}, "
+                        "else the machine's available memory)")
+    sub = p.add_subparsers(dest="command", required=True)
+    _add_run_verbs(sub)
+    _add_analytic_verbs(sub)
+    return p
+
+
+# --------------------------------------------------------------------------- main
+
+
+@contextlib.contextmanager
+def _sigterm_interrupts() -> Iterator[None]:
+    """Within the block, SIGTERM raises KeyboardInterrupt (as Ctrl-C does), in the main thread only."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def _raise(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    previous = signal.signal(signal.SIGTERM, _raise)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _error(message: str, code: int) -> int:
+    print(f"error: {message}", file=sys.stderr)
+    return code
+
+
+def _named(message: str, options: Mapping[str, str]) -> str:
+    """``message`` with its leading library argument name (``side_m: ...``) renamed to the option."""
+    name = message.split(":", 1)[0]
+    return f"{options[name]}{message[len(name):]}" if name in options else message
+
+
+def _user_paths(args: argparse.Namespace) -> list[Path]:
+    names = ("config", "output", "out", "run_dir", "compare", "sweep")
+    return [Path(v).absolute() for n in names if isinstance(v := getattr(args, n, None), str) and v.strip()]
+
+
+def _is_user_path_error(err: OSError, args: argparse.Namespace) -> bool:
+    """True when ``err`` is about a path the user gave (or one below or beside it) and says the path
+    cannot be used as given (missing, not a folder, permission, read-only, ...)."""
+    if err.errno not in _PATH_ERRNOS or not err.filename:
+        return False
+    try:
+        failed = Path(os.fsdecode(err.filename)).absolute()
+    except (TypeError, ValueError):
+        return False
+    for user in _user_paths(args):
+        if failed == user or user in failed.parents or failed in user.parents or failed.parent == user.parent:
+            return True
+    return False
+
+
+def _dispatch(args: argparse.Namespace) -> int:
+    """Run the verb, mapping its exceptions to exit statuses (see :data:`EXIT_CODES`)."""
+    from magsail_mj.render.backend import GLBackendError
+
+    options = getattr(args, "options", {})
     try:
         return args.fn(args)
-    except (ConfigError, RunDirError) as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+    except (ConfigError, RunDirError, MemoryLimitError, CliInputError) as err:
+        return _error(_named(str(err), options), 2)
+    except GLBackendError as err:
+        return _error(f"the video could not be rendered: {err}", 1)
+    except OSError as err:
+        text = f"{err.filename!s}: {err.strerror}" if err.filename and err.strerror else str(err)
+        if _is_user_path_error(err, args):
+            return _error(text, 2)
+        return _error(f"output failed: {type(err).__name__}: {text}", 1)
+    except ValueError as err:
+        return _error(_named(str(err), options), 2)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run ``magsail`` with ``argv`` (default ``sys.argv[1:]``) and return the exit status."""
+    try:
+        args = _parser().parse_args(argv)
+    except _UsageError as err:
+        return _error(str(err), 2)
+    except SystemExit as exit_:        # --help
+        return exit_.code if isinstance(exit_.code, int) else 0
+    try:
+        with memory_limit(args.memory_limit), _sigterm_interrupts():
+            return _dispatch(args)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except Exception as err:  # noqa: BLE001 - the last line of defence: no traceback unless asked
+        if os.environ.get(DEBUG_ENV, "").strip() not in ("", "0"):
+            traceback.print_exc()
+        return _error(f"internal error: {type(err).__name__}: {err}", 1)
 
 
 if __name__ == "__main__":

@@ -40,8 +40,24 @@ def test_torque_coil_bad_option_exits_2_and_names_it(capsys, argv, option):
     assert option in err
 
 
-def test_torque_coil_non_number_is_an_argparse_error(capsys):
-    with pytest.raises(SystemExit) as exc:
-        main(["torque", "coil", "--field-t", "abc"])
-    assert exc.value.code == 2
-    assert "--field-t" in capsys.readouterr().err
+def test_torque_coil_non_number_exits_2_naming_the_option(capsys):
+    assert main(["torque", "coil", "--field-t", "abc"]) == 2
+    assert capsys.readouterr().err.startswith("error: --field-t: expected a finite number > 0, got 'abc'")
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "0", "-1e-300"])
+def test_torque_coil_non_finite_or_non_positive_exits_2(capsys, value):
+    assert main(["torque", "coil", f"--segment-m={value}"]) == 2
+    cap = capsys.readouterr()
+    assert cap.out == "" and cap.err.startswith("error: --segment-m:") and value in cap.err
+
+
+def test_torque_coil_huge_input_is_refused_before_allocating(capsys):
+    """1e6 m of 1 mm segments (1e9 cells per side, ~1e18 path nodes) is refused at once with the
+    estimate and the limit; the defaults pass under a 1 GiB limit."""
+    assert main(["torque", "coil", "--side-m", "1e6", "--segment-m", "1e-3"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: coil paths of side_m = 1000000.0 m") and "needs about" in err and "limit of" in err
+    assert main(["--memory-limit", "1G", "torque", "coil"]) == 0
+    assert main(["--memory-limit", "1M", "torque", "coil"]) == 2
+    assert "limit of 1 MiB" in capsys.readouterr().err

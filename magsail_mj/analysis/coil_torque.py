@@ -30,18 +30,20 @@ from typing import Any
 
 import numpy as np
 
+from magsail_mj.analysis.scaling import require_finite
 from magsail_mj.geometry.reflector_coil import CoilPath, coil_x, coil_y, square_loop
+from magsail_mj.resources import check_memory, coil_report_bytes
 
 __all__ = [
-    "segment_torques",
-    "path_torque",
-    "torque_matrix",
-    "net_force",
-    "closed_lead_dipole",
     "capability",
-    "loop_side_for_capability",
-    "path_report",
+    "closed_lead_dipole",
     "coil_torque_report",
+    "loop_side_for_capability",
+    "net_force",
+    "path_report",
+    "path_torque",
+    "segment_torques",
+    "torque_matrix",
 ]
 
 # the component and field direction of each path's capability metric (§3.6):
@@ -158,16 +160,53 @@ def coil_torque_report(*, side_m: float = 100.0, segment_m: float = 1.0, depth_m
     component of the y-coil's closed-lead dipole for the positive, +y-dipole current). The nested
     ``paths`` table holds :func:`path_report` of each path.
 
-    Raises ValueError naming the argument for a bad value.
+    Raises ValueError naming the argument for a bad value, a non-finite result, or
+    :class:`magsail_mj.resources.MemoryLimitError` when the paths would need more memory than the
+    limit (estimated from their node counts before any is built).
     """
+    inputs = {"side_m": side_m, "segment_m": segment_m, "depth_m": depth_m, "current_A": current_A,
+              "field_T": field_T, "pitch_cells": pitch_cells, "rows": rows}
+    h, n = _check_report_inputs(**inputs)
+    check_memory(coil_report_bytes(side_m=side_m, segment_m=segment_m, pitch_cells=pitch_cells, rows=rows),
+                 what=f"coil paths of side_m = {side_m!r} m with segment_m = {segment_m!r} m "
+                      f"({n} cells per side, pitch_cells = {pitch_cells!r}, rows = {rows!r})")
+    with np.errstate(over="ignore", invalid="ignore", under="ignore"):
+        return require_finite(_coil_report(side_m=side_m, segment_m=segment_m, h=h, n=n, current_A=current_A,
+                                           field_T=field_T, pitch_cells=pitch_cells, rows=rows),
+                              inputs={k: v for k, v in inputs.items() if v is not None})
+
+
+def _check_report_inputs(*, side_m: float, segment_m: float, depth_m: float | None, current_A: float,
+                         field_T: float, pitch_cells: int, rows: int | None) -> tuple[float, int]:
+    """``(depth h, cells per side n)`` after checking every argument (names the bad one)."""
     for name, v in (("side_m", side_m), ("segment_m", segment_m), ("current_A", current_A), ("field_T", field_T)):
-        if not (np.isfinite(v) and v > 0):
-            raise ValueError(f"{name}: must be > 0, got {v!r}")
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
+                or not (np.isfinite(v) and v > 0):
+            raise ValueError(f"{name}: must be a finite number > 0, got {v!r}")
     h = segment_m if depth_m is None else depth_m
-    if not (np.isfinite(h) and h > 0):
-        raise ValueError(f"depth_m: must be > 0, got {depth_m!r}")
-    n = round(side_m / segment_m)
-    kw = dict(current_A=current_A, field_T=field_T)
+    if isinstance(h, bool) or not isinstance(h, (int, float, np.integer, np.floating)) or not (np.isfinite(h) and h > 0):
+        raise ValueError(f"depth_m: must be a finite number > 0, got {depth_m!r}")
+    for name, v in (("pitch_cells", pitch_cells), ("rows", rows)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1):
+            raise ValueError(f"{name}: must be an integer >= 1, got {v!r}")
+    ratio = side_m / segment_m
+    if not np.isfinite(ratio) or ratio > 1e15:
+        raise ValueError(f"side_m: {side_m!r} m is {ratio:.3g} segments of segment_m = {segment_m!r} m; "
+                         "too many to build a path")
+    n = round(ratio)
+    if n < 1 or abs(n * segment_m - side_m) > 1e-9 * side_m:
+        raise ValueError(f"side_m: must be a whole multiple of segment_m = {segment_m!r} m, got {side_m!r}")
+    if pitch_cells > n:
+        raise ValueError(f"pitch_cells: {pitch_cells} exceeds the {n} cells per side")
+    if rows is not None and rows > n + 1:
+        raise ValueError(f"rows: must be at most {n + 1} (n + 1 row planes), got {rows!r}")
+    return float(h), int(n)
+
+
+def _coil_report(*, side_m: float, segment_m: float, h: float, n: int, current_A: float, field_T: float,
+                 pitch_cells: int, rows: int | None) -> dict[str, Any]:
+    """The figures of :func:`coil_torque_report` for checked inputs."""
+    kw = {"current_A": current_A, "field_T": field_T}
     ycoil = CoilPath("ycoil", coil_y(side_m, segment_m, h, p=pitch_cells, n_row=rows), axis=1, s_path=-1)
     xcoil = CoilPath("xcoil", coil_x(side_m, segment_m, h, p=pitch_cells, n_row=rows), axis=0, s_path=+1)
     T_y = capability(ycoil, **kw)

@@ -45,43 +45,46 @@ Table-1 form with ``n = ceil(N/2)`` loops even for odd ``N`` (§9 item 15).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass
-from typing import Iterable, Literal
+from typing import Literal
 
 import numpy as np
 from scipy.optimize import brentq
 
+from magsail_mj.analysis.scaling import require_finite
+
 __all__ = [
-    "ThermalConstants",
     "DEFAULT_CONSTANTS",
     "GEOMETRIES",
     "NoLoopSolution",
-    "normalize_geometry",
+    "ThermalConstants",
     "b_loop_count",
-    "table1",
+    "c1",
+    "conductor_mass",
+    "dipole_max",
+    "field_magnitude",
+    "fold_A",
     "geometry_factor",
     "geometry_factor_b_loops",
-    "c1",
-    "field_magnitude",
     "gravity_gradient_torque_max",
-    "required_current",
-    "dipole_max",
-    "wire_diameter",
-    "conductor_mass",
+    "h_A",
     "joule_power",
-    "radiated_power",
     "lambda_f",
     "lambda_f_chain",
-    "side_max",
     "lambda_u_A",
-    "fold_A",
-    "h_A",
+    "loop_sizing",
+    "normalize_geometry",
+    "radiated_power",
+    "required_current",
+    "scaling_table",
+    "side_max",
     "solve_lambda_A",
+    "sunlight_diameter_ratio",
+    "table1",
     "trace_branches_A",
     "uniform_curves",
-    "loop_sizing",
-    "scaling_table",
-    "sunlight_diameter_ratio",
+    "wire_diameter",
 ]
 
 GEOMETRIES: tuple[str, ...] = ("A", "B", "C", "D")
@@ -541,7 +544,8 @@ def loop_sizing(geometry: str, *, units: int, side_m: float, areal_density_kg_m2
            "conductor_mass_kg": ch["conductor_mass_kg"]}
     if g == "A":
         out.update(kappa=k, branch="light", lambda_u=lambda_u_A(D, s, constants=constants))
-    return out
+    return require_finite(out, inputs={"geometry": geometry, "units": units, "side_m": side_m,
+                                       "areal_density_kg_m2": areal_density_kg_m2, "kappa": kappa})
 
 
 def scaling_table(*, side_m: float = 250.0, areal_density_kg_m2: float = 0.1, kappa: float = 15.0,
@@ -568,7 +572,8 @@ def scaling_table(*, side_m: float = 250.0, areal_density_kg_m2: float = 0.1, ka
     out.update(c1_per_m_per_cbrt_kg=c1(constants), kappa=_kappa(kappa), A_lambda_fold=lam_star,
                side_m=float(side_m), areal_density_kg_m2=s,
                A_side_fold_m=(h_star / (4.0 * c1(constants) * np.cbrt(s))) ** 0.6)
-    return out
+    return require_finite(out, inputs={"side_m": side_m, "areal_density_kg_m2": areal_density_kg_m2,
+                                       "kappa": kappa})
 
 
 def sunlight_diameter_ratio(constants: ThermalConstants = DEFAULT_CONSTANTS) -> float:
