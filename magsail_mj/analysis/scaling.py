@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 import tomllib
 from pathlib import Path
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from pydantic import Field, ValidationError, model_validator
@@ -41,17 +41,18 @@ from magsail_mj.environment.constants import B0_DIPOLE, MU_EARTH, R_E_TRUSS
 from magsail_mj.resources import check_memory
 
 __all__ = [
-    "plate_inertia",
+    "ScalingInputs",
+    "actuator_torque_max",
+    "dipole_field_magnitude",
     "gravity_gradient_torque",
     "gravity_gradient_torque_max",
-    "dipole_field_magnitude",
-    "actuator_torque_max",
-    "rod_mass_fraction",
-    "side_at_rod_mass_fraction",
-    "scaling_report",
-    "ScalingInputs",
     "load_scaling_inputs",
+    "plate_inertia",
+    "require_finite",
+    "rod_mass_fraction",
+    "scaling_report",
     "scaling_tables",
+    "side_at_rod_mass_fraction",
 ]
 
 
