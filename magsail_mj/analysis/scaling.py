@@ -30,8 +30,8 @@ from __future__ import annotations
 
 import math
 import tomllib
-from pathlib import Path
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 from pydantic import Field, ValidationError, model_validator
@@ -303,7 +303,7 @@ def scaling_tables(inputs: ScalingInputs) -> dict:
     at the design point ``T_grav_max_Nm``, ``T_ac_max_Nm``, ``B_dipole_T``,
     ``lambda_f_design_required``, ``lambda_f_design``, ``authority_margin``, plus the inputs.
     """
-    kw = dict(mu=inputs.mu_m3_s2, B0_T=inputs.B0_T, R_E_m=inputs.R_E_km * 1e3)
+    kw = {"mu": inputs.mu_m3_s2, "B0_T": inputs.B0_T, "R_E_m": inputs.R_E_km * 1e3}
     lam = {f"kappa={k:g}": {f"d={d:g}": float(rod_mass_fraction(d, k, **kw)) for d in inputs.table_sides_m}
            for k in inputs.kappas_Am2_per_kg}
     d1 = {f"kappa={k:g}": float(side_at_rod_mass_fraction(1.0, k, **kw)) for k in inputs.kappas_Am2_per_kg}
