@@ -44,6 +44,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
+import zipfile
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -439,6 +440,37 @@ def _lloyd_job(args):
     return count, lloyd(count, region=region, seed=seed, tol_rel=tol_rel, max_iter=max_iter)
 
 
+def _read_cache(path: Path | None, read):
+    """``read(path)`` of a cache file, or ``None`` when there is none or it is unreadable, truncated or
+    of the wrong shape; such a file is deleted so that it is computed again and rewritten."""
+    if path is None or not path.is_file():
+        return None
+    try:
+        return read(path)
+    except (OSError, ValueError, KeyError, EOFError, TypeError, zipfile.BadZipFile):
+        path.unlink(missing_ok=True)
+        return None
+
+
+def _valid_selection(sel: np.ndarray, count: int, n_sites: int) -> np.ndarray:
+    """A cached snapped selection: ``count`` distinct site indices in ``[0, n_sites)``."""
+    sel = np.asarray(sel)
+    if sel.shape != (count,) or not np.issubdtype(sel.dtype, np.integer) or \
+            (count and (sel.min() < 0 or sel.max() >= n_sites)) or np.unique(sel).size != count:
+        raise ValueError(f"cached selection: expected {count} distinct indices below {n_sites}")
+    return sel.astype(np.int64, copy=False)
+
+
+def _load_result(path: Path, count: int) -> LloydResult:
+    """A cached Lloyd result of ``count`` finite (count, 2) generators."""
+    with np.load(path, allow_pickle=False) as z:
+        res = LloydResult(np.asarray(z["generators"], dtype=float), int(z["iterations"]), bool(z["converged"]),
+                          float(z["max_move"]), float(z["time_s"]))
+    if res.generators.shape != (count, 2) or not np.all(np.isfinite(res.generators)):
+        raise ValueError(f"cached generators: expected a finite ({count}, 2) array")
+    return res
+
+
 class LloydSelector:
     """Cached rod selection for arrays of site families sharing one region (spec §7.4).
 
@@ -504,9 +536,11 @@ class LloydSelector:
     def _snapped(self, family: int, count: int) -> np.ndarray:
         """Snapped selection of ``count`` sites of ``family``: from disk, else snapped and stored."""
         path = self._snap_path(family, count)
-        if path is not None and path.exists():
+        cached = _read_cache(path, lambda p: _valid_selection(np.load(p, allow_pickle=False), count,
+                                                              self.n_sites[family]))
+        if cached is not None:
             self.stats["snap_disk_hits"] += 1
-            return np.load(path).astype(np.int64, copy=False)
+            return cached
         gen = self.result(count).generators
         t0 = time.perf_counter()
         sel = snap_to_sites(gen, self.sites[family])
@@ -542,10 +576,8 @@ class LloydSelector:
         if res is not None:
             return res
         path = self._disk_path(count)
-        if path is not None and path.exists():
-            with np.load(path) as z:
-                res = LloydResult(z["generators"], int(z["iterations"]), bool(z["converged"]),
-                                  float(z["max_move"]), float(z["time_s"]))
+        res = _read_cache(path, lambda p: _load_result(p, count))
+        if res is not None:
             self.stats["disk_hits"] += 1
             self._gen[count] = res
             return res
