@@ -1,0 +1,167 @@
+"""Hostile config values: every numeric leaf of the shipped configs set to non-finite, zero,
+negative, huge, tiny and wrongly typed values.
+
+The contract (``magsail_mj.config``): either :func:`load_config` / :func:`parse_config` raises a
+``ConfigError`` whose message names the key path, or the value is valid and the scenario builds
+(``build_scenario``) without any exception and without an overflow warning.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import tomllib
+import warnings
+from pathlib import Path
+from typing import Any
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from magsail_mj.config import ConfigError, apply_overrides, parse_config
+from magsail_mj.scenarios import build_scenario
+from magsail_mj.sweep import is_sweep_file
+from tests.conftest import REPO
+
+# One shipped config per concept, with overrides that make a build take well under a second.
+FUZZED = {
+    "truss_magnetorquer": ("models/truss_magnetorquer/detumble.toml", ["lattice.units=3", "sim.duration_s=20.0"]),
+    "current_loops": ("models/current_loops/slew.toml", ["lattice.units=3", "sim.duration_s=20.0"]),
+    "reflector": ("models/reflector/detumble.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),
+    "cnusail": ("models/cnusail/detumble_pre.toml", ["sim.duration_s=20.0"]),
+    "msac": ("models/msac/paper_1khz.toml", ["sim.duration_s=0.01"]),
+}
+
+HOSTILE: list[Any] = [math.nan, math.inf, -math.inf, 0, -1, 1e300, -1e300, 1e-300, "x", True, [1.0], {}]
+
+# Keys whose schema documents that they accept infinity (none today).
+ALLOW_INFINITY: set[str] = set()
+
+Leaf = tuple[tuple[str, ...], int | None]
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def numeric_leaves(tree: dict[str, Any], prefix: tuple[str, ...] = ()) -> list[Leaf]:
+    """``(key path, index)`` of every number in ``tree``: scalars (index None) and the items of
+    arrays of numbers."""
+    out: list[Leaf] = []
+    for key, value in tree.items():
+        path = (*prefix, key)
+        if isinstance(value, dict):
+            out += numeric_leaves(value, path)
+        elif _is_number(value):
+            out.append((path, None))
+        elif isinstance(value, list) and value and all(_is_number(v) for v in value):
+            out += [(path, i) for i in range(len(value))]
+    return out
+
+
+def with_leaf(tree: dict[str, Any], leaf: Leaf, value: Any) -> dict[str, Any]:
+    """A deep copy of ``tree`` with ``leaf`` set to ``value``."""
+    out = copy.deepcopy(tree)
+    path, index = leaf
+    node = out
+    for part in path[:-1]:
+        node = node[part]
+    if index is None:
+        node[path[-1]] = value
+    else:
+        node[path[-1]][index] = value
+    return out
+
+
+def leaf_name(leaf: Leaf) -> str:
+    """The key path a ConfigError must name (``initial.omega0_rad_s`` for an array item)."""
+    return ".".join(leaf[0])
+
+
+def _base_tree(concept: str) -> dict[str, Any]:
+    path, overrides = FUZZED[concept]
+    return apply_overrides(tomllib.loads((REPO / path).read_text()), overrides)
+
+
+BASES = {concept: _base_tree(concept) for concept in FUZZED}
+LEAVES = {concept: numeric_leaves(tree) for concept, tree in BASES.items()}
+
+
+def check_named_or_builds(tree: dict[str, Any], leaf: Leaf, value: Any) -> str:
+    """The contract for one hostile value: ``"refused"`` or ``"built"``; fails otherwise."""
+    key = leaf_name(leaf)
+    try:
+        cfg = parse_config(with_leaf(tree, leaf, value))
+    except ConfigError as err:
+        assert key in str(err), f"{key} = {value!r}: the error does not name the key:\n{err}"
+        return "refused"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # overflow in a derived quantity
+        build_scenario(cfg)
+    return "built"
+
+
+@pytest.mark.parametrize("concept", sorted(FUZZED))
+def test_fuzzed_configs_build_unchanged(concept):
+    cfg = parse_config(BASES[concept])
+    assert build_scenario(cfg).spec is not None
+    assert len(LEAVES[concept]) >= 5, LEAVES[concept]
+
+
+def _fuzz(concept: str):
+    @settings(max_examples=100, deadline=None, derandomize=True,
+              suppress_health_check=[HealthCheck.too_slow])
+    @given(index=st.integers(0, len(LEAVES[concept]) - 1), value=st.sampled_from(HOSTILE))
+    def run(index: int, value: Any) -> None:
+        check_named_or_builds(BASES[concept], LEAVES[concept][index], value)
+
+    return run
+
+
+@pytest.mark.parametrize("concept", sorted(FUZZED))
+def test_hostile_leaf_is_named_or_builds(concept):
+    _fuzz(concept)()
+
+
+@pytest.mark.parametrize("concept", sorted(FUZZED))
+def test_extremes_of_every_leaf_named_or_build(concept):
+    """Deterministic sweep of the values that broke the schema before (huge and tiny magnitudes
+    overflow or underflow derived masses, inertias and counts)."""
+    outcomes = {"refused": 0, "built": 0}
+    for leaf in LEAVES[concept]:
+        for value in (1e300, 1e-300, -1):
+            outcomes[check_named_or_builds(BASES[concept], leaf, value)] += 1
+    assert outcomes["refused"] > 0 and outcomes["built"] > 0, outcomes
+
+
+def _shipped_configs() -> list[Path]:
+    return [p for p in sorted((REPO / "models").rglob("*.toml")) if not is_sweep_file(p)]
+
+
+def test_every_numeric_leaf_of_every_shipped_config_refuses_non_finite():
+    configs = _shipped_configs()
+    assert len(configs) > 50
+    checked = 0
+    for path in configs:
+        tree = tomllib.loads(path.read_text())
+        for leaf in numeric_leaves(tree):
+            key = leaf_name(leaf)
+            if key in ALLOW_INFINITY:
+                continue
+            for value in (math.nan, math.inf, -math.inf):
+                with pytest.raises(ConfigError) as err:
+                    parse_config(with_leaf(tree, leaf, value))
+                assert key in str(err.value), f"{path.relative_to(REPO)}: {key} = {value}:\n{err.value}"
+                line = next(ln for ln in err.value.problems if key in ln)
+                assert "must" in line, line
+                checked += 1
+    assert checked > 3000, checked
+
+
+@pytest.mark.parametrize("value", ["2", True, [2.0], {"a": 1}])
+def test_wrong_types_are_never_coerced(value):
+    tree = BASES["truss_magnetorquer"]
+    for leaf in [(("sim", "duration_s"), None), (("lattice", "units"), None), (("initial", "omega0_rad_s"), 0)]:
+        with pytest.raises(ConfigError, match=leaf_name(leaf).replace(".", r"\.")):
+            parse_config(with_leaf(tree, leaf, value))
