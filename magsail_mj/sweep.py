@@ -91,8 +91,11 @@ __all__ = [
     "sweep_exit_code",
 ]
 
-FINISHED = ("completed", "structure_failed", "diverged")
-"""Run statuses whose folder is a final result (reused by a later sweep when still valid)."""
+FINISHED = ("completed", "structure_failed", "tracking_lost", "failed_condition", "diverged")
+"""Run statuses whose folder is a final result (reused by a later sweep when still valid): completed,
+the studied failures (:class:`magsail_mj.divergence.StudiedFailure` statuses) and diverged."""
+
+_SUCCESS = ("completed", "structure_failed", "tracking_lost", "failed_condition")
 
 LOCK_NAME = ".sweep.lock"
 _OUTPUTS = ("sweep_summary.json", "sweep_summary.csv", "sweep_manifest.json")
@@ -484,8 +487,10 @@ def _worker_main(run: SweepRun, out_dir: str, video: bool, conn: Any, lock_fd: i
         _guard_worker(parent_pid)
         record = _run_one(run, out_dir, video=video)
     except KeyboardInterrupt as err:
+        outcome = getattr(err, "outcome", None)  # RunInterrupted: the outputs up to then are written
         record = _record(run, status="interrupted", message=f"stopped while running ({err})",
-                         wall_time_s=time.perf_counter() - t0)
+                         wall_time_s=time.perf_counter() - t0,
+                         summary=to_jsonable(dict(outcome)) if isinstance(outcome, dict) else None)
     try:
         conn.send(record)
     except (OSError, KeyboardInterrupt):  # the parent is gone or stopping us: nothing to report to
@@ -732,12 +737,12 @@ def sweep_exit_code(records: list[dict[str, Any]]) -> int:
     """Exit status of a sweep call from its records (runs selected in this call only).
 
     1 when a selected run failed or ended otherwise unfinished, else 3 when one diverged, else 0
-    (completed and structure_failed are successes).
+    (completed and the studied failures such as structure_failed are successes).
     """
     statuses = [r["status"] for r in records if r.get("selected", True)]
     if any(s not in FINISHED for s in statuses):
         return 1
-    return 3 if "diverged" in statuses else 0
+    return 0 if all(s in _SUCCESS for s in statuses) else 3
 
 
 def run_sweep(

@@ -1,0 +1,361 @@
+"""Hostile sweeps: interrupts, kill -9 of the parent, two sweeps in one folder, stale results,
+``--only`` summaries, failed videos, run ids that escape or collide, exit codes."""
+
+from __future__ import annotations
+
+import fcntl
+import hashlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import magsail_mj.run
+from magsail_mj.cli import main
+from magsail_mj.config import ConfigError
+from magsail_mj.divergence import StudiedFailure
+from magsail_mj.io import RunDirError
+from magsail_mj.sweep import (
+    FINISHED,
+    LOCK_NAME,
+    _folder_check,
+    _normalise_id,
+    _plan,
+    _run_one,
+    _sweep_lock,
+    load_sweep,
+    run_sweep,
+    sweep_exit_code,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+CFG_A = ROOT / "models" / "current_loops" / "sweep" / "a_n12_ei1e3.toml"
+FAST = ["lattice.units=3", "sim.duration_s=2.0", "sim.record_every=10", "sim.progress=false"]
+# ~100k RK4 steps: tens of seconds, far longer than any test waits for it
+SLOW = ["lattice.units=3", "sim.duration_s=100.0", "sim.timestep_s=0.001", "sim.record_every=1000",
+        "sim.progress=false"]
+DRIVER = """
+import sys
+from magsail_mj.sweep import SweepInterrupted, load_sweep, run_sweep, sweep_exit_code
+sweep = load_sweep(sys.argv[1])
+try:
+    records = run_sweep(sweep, sys.argv[2], workers=int(sys.argv[3]), log=None)
+except SweepInterrupted:
+    sys.exit(130)
+sys.exit(sweep_exit_code(records))
+"""
+
+
+def _sweep_file(tmp_path: Path, ids: list[str], common: list[str], name: str = "hostile") -> Path:
+    runs = "".join(f'\n[[run]]\nid = {json.dumps(rid)}\nconfig = "{CFG_A}"\n' for rid in ids)
+    path = tmp_path / f"{name}.toml"
+    path.write_text(f'name = "{name}"\nset = {json.dumps(common)}\n{runs}')
+    return path
+
+
+def _children(pid: int) -> dict[int, str]:
+    """Live child processes of ``pid``: pid → command line."""
+    out = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit() and _alive(int(entry.name)):
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+                cmd = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+            except OSError:
+                continue
+            if int(fields[1]) == pid:
+                out[int(entry.name)] = cmd
+    return out
+
+
+def _alive(pid: int) -> bool:
+    """True while ``pid`` runs (a zombie has ended: it holds no files any more)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return False
+    return state not in ("Z", "X")
+
+
+def _wait_for(predicate, timeout_s: float, what: str) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+        time.sleep(0.05)
+
+
+def _workers_of(pid: int) -> dict[int, str]:
+    return {p: c for p, c in _children(pid).items() if "spawn_main" in c}
+
+
+def _stray_files(out: Path) -> list[Path]:
+    """Hidden (temporary) files under ``out`` other than the sweep lock."""
+    return [p for p in out.rglob(".*") if p.name != LOCK_NAME]
+
+
+# --------------------------------------------------------------------------------------------------
+# interrupts, kill -9, the folder lock (real subprocesses)
+
+
+@pytest.mark.parametrize(("signum", "workers"), [(signal.SIGINT, 1), (signal.SIGTERM, 2)])
+def test_interrupt_stops_promptly_writes_summary_and_locks_folder(tmp_path, capsys, signum, workers):
+    sweep = _sweep_file(tmp_path, ["slow/a", "slow/b"], SLOW)
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-c", DRIVER, str(sweep), str(out), str(workers)], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        started = ["slow/a", "slow/b"][:workers]
+        _wait_for(lambda: all((out / r / "model.xml").exists() for r in started), 90, "the runs to start")
+        workers_seen = _workers_of(proc.pid)
+        assert len(workers_seen) == workers
+        # a second sweep into the running sweep's folder is refused (exit 2), naming the folder
+        assert main(["sweep", str(sweep), "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert "another sweep is running" in err and str(out) in err
+        t0 = time.monotonic()
+        proc.send_signal(signum)
+        _, stderr = proc.communicate(timeout=30)
+        took = time.monotonic() - t0
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, stderr
+    assert took < 12, f"the sweep took {took:.1f} s to stop"
+    assert "Traceback" not in stderr
+    assert not any(_alive(p) for p in workers_seen)
+    records = {r["id"]: r for r in json.loads((out / "sweep_summary.json").read_text())}
+    expected = {"slow/a": "interrupted", "slow/b": "interrupted" if workers == 2 else "not_run"}
+    assert {k: r["status"] for k, r in records.items()} == expected
+    manifest = json.loads((out / "sweep_manifest.json").read_text())
+    assert manifest["interrupted"] is True and manifest["runs"] == expected
+    assert _stray_files(out) == []
+    run_manifest = out / "slow" / "a" / "manifest.json"
+    if run_manifest.exists():  # the stopped run's folder is consistent and never counts as finished
+        assert json.loads(run_manifest.read_text())["status"] not in FINISHED
+
+
+def test_kill9_of_the_parent_takes_the_workers_down_and_frees_the_folder(tmp_path):
+    sweep = _sweep_file(tmp_path, ["slow/a", "slow/b"], SLOW)
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.cli", "sweep", str(sweep), "--out", str(out),
+                             "--workers", "2"], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        _wait_for(lambda: all((out / r / "model.xml").exists() for r in ("slow/a", "slow/b")), 90,
+                  "both runs to start")
+        workers = _workers_of(proc.pid)
+        assert len(workers) == 2
+        proc.kill()
+        proc.wait(timeout=10)
+        t0 = time.monotonic()
+        while any(_alive(p) for p in workers):
+            # while an orphaned worker lives, the folder stays locked: a restart never races it
+            try:
+                with _sweep_lock(out):
+                    assert not any(_alive(p) for p in workers), "lock free while a worker still runs"
+            except RunDirError:
+                pass
+            assert time.monotonic() - t0 < 10, "orphaned workers still run 10 s after kill -9"
+            time.sleep(0.05)
+    finally:
+        proc.kill()
+        for pid in _workers_of(proc.pid):
+            os.kill(pid, signal.SIGKILL)
+    with _sweep_lock(out):  # released by the kernel: no stale lock
+        pass
+
+
+def test_folder_lock_is_refused_in_process(tmp_path, capsys):
+    sweep = _sweep_file(tmp_path, ["x"], FAST)
+    out = tmp_path / "out"
+    out.mkdir()
+    fd = os.open(out / LOCK_NAME, os.O_RDWR | os.O_CREAT)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        assert main(["sweep", str(sweep), "--out", str(out)]) == 2
+        assert "another sweep is running" in capsys.readouterr().err
+    finally:
+        os.close(fd)
+    assert not (out / "x").exists()
+    file_out = tmp_path / "a_file"
+    file_out.write_text("")
+    with pytest.raises(RunDirError, match="not a folder"):
+        run_sweep(load_sweep(sweep), file_out, log=None)
+
+
+def test_a_worker_killed_mid_run_is_recorded_failed(tmp_path):
+    sweep = load_sweep(_sweep_file(tmp_path, ["slow/a"], SLOW))
+    out = tmp_path / "out"
+    box = {}
+    thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, log=None)))
+    thread.start()
+    try:
+        _wait_for(lambda: (out / "slow" / "a" / "model.xml").exists(), 90, "the run to start")
+        (pid,) = _workers_of(os.getpid())
+        os.kill(pid, signal.SIGKILL)
+    finally:
+        thread.join(timeout=60)
+    (record,) = box["records"]
+    assert record["status"] == "failed" and "SIGKILL" in record["message"]
+    assert sweep_exit_code(box["records"]) == 1
+
+
+# --------------------------------------------------------------------------------------------------
+# reuse only of valid results, merged summaries, failed videos
+
+
+def test_stale_results_are_rerun_and_only_merges_the_summary(tmp_path):
+    path = _sweep_file(tmp_path, ["m/a", "m/b"], FAST)
+    out = tmp_path / "out"
+
+    def summary():
+        return {r["id"]: r for r in json.loads((out / "sweep_summary.json").read_text())}
+
+    first = run_sweep(load_sweep(path, only="m/a"), out, log=None)
+    assert [(r["id"], r["status"], r["reused"]) for r in first] == [("m/a", "completed", False),
+                                                                    ("m/b", "not_run", False)]
+    assert sweep_exit_code(first) == 0  # a run outside --only does not count
+    run_sweep(load_sweep(path, only="m/b"), out, log=None)
+    merged = summary()
+    assert (merged["m/a"]["status"], merged["m/a"]["reused"]) == ("completed", True)
+    assert (merged["m/b"]["status"], merged["m/b"]["reused"]) == ("completed", False)
+    # another --set changes the config hash: m/a reruns under the new value, m/b is no longer valid
+    run_sweep(load_sweep(path, extra_overrides=("sim.duration_s=3.0",), only="m/a"), out, log=None)
+    merged = summary()
+    assert (merged["m/a"]["status"], merged["m/a"]["reused"]) == ("completed", False)
+    assert merged["m/a"]["summary"]["t_end_s"] == pytest.approx(3.0)
+    assert merged["m/b"]["status"] == "not_run" and "config changed" in merged["m/b"]["message"]
+    header = (out / "sweep_summary.csv").read_text().splitlines()[0].split(",")
+    assert len(header) == len(set(header)) and header.count("status") == 1 and header.count("wall_time_s") == 1
+    # the same call again reuses m/a; a tampered file makes it rerun
+    sweep3 = load_sweep(path, extra_overrides=("sim.duration_s=3.0",))
+    records, todo = _plan(sweep3, out, video=False, overwrite=False, log=None)
+    assert records["m/a"]["reused"] and [r.id for r in todo] == ["m/b"]
+    assert [r.id for r in _plan(sweep3, out, video=False, overwrite=True, log=None)[1]] == ["m/a", "m/b"]
+    a_hash = sweep3.runs[0].config_hash
+    with open(out / "m" / "a" / "timeseries.npz", "ab") as fh:
+        fh.write(b"\0")
+    assert "timeseries.npz changed" in _folder_check(out / "m" / "a", config_hash=a_hash, video=False)[1]
+
+
+def test_folder_check_reasons(tmp_path):
+    run_dir = tmp_path / "r"
+    run_dir.mkdir()
+    assert "no manifest.json" in _folder_check(run_dir, config_hash="h", video=False)[1]
+    (run_dir / "summary.json").write_text("{}")
+    digest = hashlib.sha256(b"{}").hexdigest()
+
+    def check(manifest, *, video=False, config_hash="h"):
+        (run_dir / "manifest.json").write_text(json.dumps(manifest))
+        return _folder_check(run_dir, config_hash=config_hash, video=video)[1]
+
+    good = {"config_hash": "h", "status": "completed", "files": {"summary.json": digest}}
+    assert check(good) == ""
+    assert "config changed" in check({**good, "config_hash": "other"})
+    assert "does not load" in check(good, config_hash="")
+    for status in ("interrupted", "failed", "stopped", "rendering", None):
+        assert "not a finished one" in check({**good, "status": status})
+    assert "no video.mp4" in check(good, video=True)
+    assert "summary.json missing" in check({**good, "files": {}})
+    assert "outside the run folder" in check({**good, "files": {"summary.json": digest, "../x": digest}})
+    assert "model.xml is missing" in check({**good, "files": {"summary.json": digest, "model.xml": digest}})
+    assert "changed since the run" in check({**good, "files": {"summary.json": "0" * 64}})
+    (run_dir / "manifest.json").write_text("[1, 2")
+    assert "unreadable" in _folder_check(run_dir, config_hash="h", video=False)[1]
+
+
+def test_failed_video_means_failed_and_is_never_reused(tmp_path, monkeypatch):
+    def no_video(*args, **kwargs):
+        raise RuntimeError("ffmpeg exploded")
+
+    monkeypatch.setattr(magsail_mj.run, "render_run", no_video)
+    sweep = load_sweep(_sweep_file(tmp_path, ["v"], FAST))
+    out = tmp_path / "out"
+    record = _run_one(sweep.runs[0], out, video=True)
+    assert record["status"] == "failed" and "ffmpeg exploded" in record["message"]
+    _, todo = _plan(sweep, out, video=True, overwrite=False, log=None)
+    assert [r.id for r in todo] == ["v"]
+
+
+# --------------------------------------------------------------------------------------------------
+# run ids, the sweep name, exit codes
+
+
+@pytest.mark.parametrize(("ids", "bad"), [
+    (["."], "run[0].id: '.'"),
+    ([""], "run[0].id: ''"),
+    (["./"], "run[0].id: './'"),
+    (["a/.."], "run[0].id: 'a/..'"),
+    (["/abs"], "run[0].id: '/abs'"),
+    (["a", "a/"], "run[1].id: 'a/'"),
+    (["a", "./a"], "run[1].id: './a'"),
+    (["A", "a"], "run[1].id: 'a'"),
+    (["a", "a/b"], "run[1].id: 'a/b'"),
+    (["sweep_summary.json"], "run[0].id: 'sweep_summary.json'"),
+    ([LOCK_NAME], f"run[0].id: '{LOCK_NAME}'"),
+    (["tab\there"], "run[0].id: 'tab\\there'"),
+])
+def test_bad_run_ids_are_refused_naming_index_and_id(tmp_path, ids, bad):
+    with pytest.raises(ConfigError) as err:
+        load_sweep(_sweep_file(tmp_path, ids, FAST))
+    assert bad in str(err.value)
+
+
+def test_non_string_id_and_unsafe_sweep_name_are_refused(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(f'name = "n"\n[[run]]\nid = 3\nconfig = "{CFG_A}"\n')
+    with pytest.raises(ConfigError, match=r"run\[0\]\.id: 3 must be a string"):
+        load_sweep(path)
+    for name in ("../escape", ".", "", "a/b"):
+        path.write_text(f'name = {json.dumps(name)}\n[[run]]\nid = "x"\nconfig = "{CFG_A}"\n')
+        with pytest.raises(ConfigError, match="name: must be a plain folder name"):
+            load_sweep(path)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.sampled_from(["a", "b", ".", "/", "\\", " ", "\t", "..", "sweep_summary.json", "é"]),
+                max_size=10).map("".join))
+def test_normalised_ids_stay_strictly_inside_the_sweep_folder(raw):
+    root = Path("/sweep/root")
+    try:
+        rid = _normalise_id(raw)
+    except (TypeError, ValueError):
+        return
+    target = Path(os.path.normpath(root / rid))
+    assert target != root and root in target.parents
+    assert _normalise_id(rid) == rid  # idempotent: one folder, one spelling
+
+
+def test_unselected_runs_with_broken_configs_do_not_block_only(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(f'name = "n"\nset = {json.dumps(FAST)}\n[[run]]\nid = "good"\nconfig = "{CFG_A}"\n'
+                    f'[[run]]\nid = "broken"\nconfig = "{CFG_A}"\nset = ["lattice.units=-1"]\n')
+    with pytest.raises(ConfigError, match="broken: lattice.units"):
+        load_sweep(path)
+    sweep = load_sweep(path, only="good")
+    assert [(r.id, r.selected, bool(r.config_hash)) for r in sweep.runs] == [("good", True, True),
+                                                                            ("broken", False, False)]
+
+
+def test_exit_code_and_finished_statuses():
+    def recs(*statuses, selected=True):
+        return [{"status": s, "selected": selected} for s in statuses]
+
+    assert sweep_exit_code(recs("completed", "structure_failed")) == 0
+    assert sweep_exit_code(recs("completed", "diverged")) == 3
+    assert sweep_exit_code(recs("diverged", "failed")) == 1
+    assert sweep_exit_code(recs("interrupted")) == 1
+    assert sweep_exit_code(recs("completed") + recs("failed", "not_run", selected=False)) == 0
+    studied, stack = set(), [StudiedFailure]
+    while stack:
+        cls = stack.pop()
+        studied.add(cls.status)
+        stack.extend(cls.__subclasses__())
+    assert studied <= set(FINISHED), "a studied-failure status is missing from sweep.FINISHED"
