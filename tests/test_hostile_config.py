@@ -33,6 +33,22 @@ FUZZED = {
     "msac": ("models/msac/paper_1khz.toml", ["sim.duration_s=0.01"]),
 }
 
+# Further scenario kinds, swept deterministically with the extreme values.
+EXTRA = {
+    "truss_cantilever": ("models/truss_magnetorquer/cantilever.toml", ["lattice.units=3"]),
+    "truss_dist_vs_central": ("models/truss_magnetorquer/dist_vs_central/case_a_central_bangbang.toml",
+                              ["lattice.units=3"]),
+    "truss_slew": ("models/truss_magnetorquer/slew_i.toml", ["lattice.units=3", "sim.duration_s=20.0"]),
+    "loops_sweep": ("models/current_loops/sweep/a_n12_ei1e3.toml", ["lattice.units=3"]),
+    "loops_slew_rigid": ("models/current_loops/slew_rigid.toml", ["lattice.units=3", "sim.duration_s=20.0"]),
+    "reflector_pitch": ("models/reflector/tracking_10g.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),
+    "reflector_caps": ("models/reflector/pitch/b3_caps_sigma10.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),
+    "cnusail_lifetime": ("models/cnusail/lifetime.toml", []),
+    "cnusail_nadir": ("models/cnusail/nadir_post.toml", ["sim.duration_s=20.0"]),
+    "msac_lumped": ("models/msac/lumped.toml", []),
+    "msac_sweep": ("models/msac/sweeps/stroke.toml", ["sim.duration_s=0.01"]),
+}
+
 HOSTILE: list[Any] = [math.nan, math.inf, -math.inf, 0, -1, 1e300, -1e300, 1e-300, "x", True, [1.0], {}]
 
 # Keys whose schema documents that they accept infinity (none today).
@@ -79,13 +95,12 @@ def leaf_name(leaf: Leaf) -> str:
     return ".".join(leaf[0])
 
 
-def _base_tree(concept: str) -> dict[str, Any]:
-    path, overrides = FUZZED[concept]
+def _base_tree(path: str, overrides: list[str]) -> dict[str, Any]:
     return apply_overrides(tomllib.loads((REPO / path).read_text()), overrides)
 
 
-BASES = {concept: _base_tree(concept) for concept in FUZZED}
-LEAVES = {concept: numeric_leaves(tree) for concept, tree in BASES.items()}
+BASES = {name: _base_tree(*where) for name, where in {**FUZZED, **EXTRA}.items()}
+LEAVES = {name: numeric_leaves(tree) for name, tree in BASES.items()}
 
 
 def check_named_or_builds(tree: dict[str, Any], leaf: Leaf, value: Any) -> str:
@@ -102,7 +117,7 @@ def check_named_or_builds(tree: dict[str, Any], leaf: Leaf, value: Any) -> str:
     return "built"
 
 
-@pytest.mark.parametrize("concept", sorted(FUZZED))
+@pytest.mark.parametrize("concept", sorted(BASES))
 def test_fuzzed_configs_build_unchanged(concept):
     cfg = parse_config(BASES[concept])
     assert build_scenario(cfg).spec is not None
@@ -124,13 +139,13 @@ def test_hostile_leaf_is_named_or_builds(concept):
     _fuzz(concept)()
 
 
-@pytest.mark.parametrize("concept", sorted(FUZZED))
+@pytest.mark.parametrize("concept", sorted(BASES))
 def test_extremes_of_every_leaf_named_or_build(concept):
     """Deterministic sweep of the values that broke the schema before (huge and tiny magnitudes
     overflow or underflow derived masses, inertias and counts)."""
     outcomes = {"refused": 0, "built": 0}
     for leaf in LEAVES[concept]:
-        for value in (1e300, 1e-300, -1):
+        for value in (1e300, 1e-300, -1, 0):
             outcomes[check_named_or_builds(BASES[concept], leaf, value)] += 1
     assert outcomes["refused"] > 0 and outcomes["built"] > 0, outcomes
 
