@@ -46,7 +46,14 @@ BAD_STATE_WARNINGS = {
 
 
 class DivergenceError(RuntimeError):
-    """The simulated state went bad (not finite, or flagged by MuJoCo); message: time and cause."""
+    """The simulated state went bad (not finite, or flagged by MuJoCo); message: time and cause.
+
+    ``t_s`` is the simulated time of the first bad state when known (records from it on are not
+    valid numbers)."""
+
+    def __init__(self, message: str, t_s: float | None = None):
+        super().__init__(message)
+        self.t_s = t_s
 
 
 class StudiedFailure(RuntimeError):
@@ -81,7 +88,10 @@ def check_inner_run(status: str, message: str, *, where: str) -> None:
 def first_bad_row(states: np.ndarray) -> int | None:
     """Index of the first row of ``states`` (n, k) holding a value that is not finite or above
     MuJoCo's 1e10 bound, or ``None``."""
-    bad = ~(np.abs(states) <= _MAX_VALUE).all(axis=1)
+    states = np.asarray(states)
+    if states.size == 0:
+        return None
+    bad = ~(np.abs(states.reshape(len(states), -1)) <= _MAX_VALUE).all(axis=1)
     return int(np.argmax(bad)) if bad.any() else None
 
 
@@ -119,4 +129,4 @@ class WarningWatch:
         for w, s, n0 in zip(BAD_STATE_WARNINGS, self._stats, self._start):
             if s.number > n0:
                 raise DivergenceError(f"MuJoCo {w.name.removeprefix('mjWARN_')} at t = {t_s:.6g} s: "
-                                      f"{BAD_STATE_WARNINGS[w]}")
+                                      f"{BAD_STATE_WARNINGS[w]}", t_s)

@@ -13,8 +13,8 @@ Guarantees:
   usable; a ``resume`` is checked completely (checkpoint readable, same number-changing config
   keys, same magsail_mj/MuJoCo/NumPy versions, not beyond the new duration) before anything in the
   folder is touched.
-* ``manifest.json`` is written last and only states what is true: while the video is rendered it
-  says ``"rendering"``; a video that fails makes the run ``"failed"``.
+* ``manifest.json`` is written last (after the video) and only states what is true: a video that
+  fails makes the run ``"failed"`` (its numbers stay in the folder).
 * Every run uses one BLAS/OpenMP thread (threadpoolctl), whatever started it, so the numbers
   do not depend on the entry point or the machine's core count; the settings are in the
   manifest.
@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import hashlib
+import json
 from pathlib import Path
 from typing import Any
 
@@ -68,8 +69,9 @@ def _sha256(path: Path) -> str:
 
 def thread_settings() -> list[dict[str, Any]]:
     """The native thread pools (BLAS, OpenMP) and their current thread counts."""
-    return [{k: info.get(k) for k in ("user_api", "internal_api", "num_threads", "version")}
-            for info in threadpool_info()]
+    pools = [{k: info.get(k) for k in ("user_api", "internal_api", "num_threads", "version")}
+             for info in threadpool_info()]
+    return sorted(pools, key=lambda p: json.dumps(p, sort_keys=True))
 
 
 def check_resume(run_dir: Path, identity: dict[str, Any], n_steps: int) -> None:
@@ -127,12 +129,9 @@ def _run(cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool,
         tmp.write_text(scenario.spec.to_xml())
     ckpt = run_dir / CHECKPOINT_NAME if (cfg.sim.checkpoint_every_s > 0 or stop_after_s is not None or resume) else None
     result = sim.run(progress=progress, checkpoint_path=ckpt, resume=resume, stop_after_s=stop_after_s)
-    summary, series = scenario.postprocess(result)
-    series = {"t": result.records["t"], **series}
-    write_npz(run_dir / "timeseries.npz", **{**result.records, **series})
+    summary, series, plots = _outputs(scenario, result, run_dir)
     summary = {"scenario": cfg.scenario, **summary, "status": result.status, "status_message": result.message}
     write_json(run_dir / "summary.json", summary)
-    plots = scenario.plots(run_dir, result, series)
     files = ["model.xml", "timeseries.npz", "summary.json", *[p.name for p in plots]]
     manifest = {
         "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
@@ -155,11 +154,10 @@ def _run(cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool,
     manifest["files"] = {name: _sha256(run_dir / name) for name in files}
     status = result.status
     if video and status != "interrupted":
-        write_json(run_dir / "manifest.json", {**manifest, "status": "rendering",
-                                               "status_message": "video.mp4 is being rendered"})
         info = manifest["render"]
         try:
-            render_run(run_dir, run_dir / "video.mp4", fps=info.get("fps", 30), max_frames=info.get("max_frames", 600))
+            render_run(run_dir, run_dir / "video.mp4", fps=info.get("fps", 30), max_frames=info.get("max_frames", 600),
+                       render_info=info)
         except KeyboardInterrupt:
             write_json(run_dir / "manifest.json", {**manifest, "status": "interrupted",
                                                    "status_message": "interrupted while rendering video.mp4"})
@@ -177,6 +175,32 @@ def _run(cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool,
     if status == "interrupted":
         raise RunInterrupted(out)
     return out
+
+
+def _outputs(scenario: Any, result: Any, run_dir: Path) -> tuple[dict[str, Any], dict[str, Any], list[Path]]:
+    """Summary, series and plots of a run; ``timeseries.npz`` is written here.
+
+    A run that did not complete may have too few records for the scenario's metrics (a state
+    that was bad from the start has none): its records are still written, and the summary then
+    holds ``postprocess_error`` instead of metrics. A completed run's post-processing errors
+    propagate (they are bugs, not outcomes)."""
+    try:
+        summary, series = scenario.postprocess(result)
+    except Exception as err:  # noqa: BLE001 - only for runs that did not complete, see above
+        if result.status == "completed":
+            raise
+        write_npz(run_dir / "timeseries.npz", **result.records)
+        return {"t_end_s": result.t_end_s, "postprocess_error": f"{type(err).__name__}: {err}"}, {}, []
+    series = {"t": result.records["t"], **series}
+    write_npz(run_dir / "timeseries.npz", **{**result.records, **series})
+    try:
+        plots = scenario.plots(run_dir, result, series)
+    except Exception as err:  # noqa: BLE001 - same rule as above
+        if result.status == "completed":
+            raise
+        summary = {**summary, "plots_error": f"{type(err).__name__}: {err}"}
+        plots = []
+    return summary, series, plots
 
 
 def _n_steps(cfg: Any) -> int:

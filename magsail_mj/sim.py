@@ -322,6 +322,10 @@ class Simulation:
                     bar.update(100)
         except DivergenceError as err:
             status, message = "diverged", str(err)
+            if err.t_s is not None:  # a record of the bad state itself is not a valid number
+                n = int(np.searchsorted(np.asarray(records["t"]), err.t_s - 1e-9 * dt))
+                for values in records.values():
+                    del values[n:]
         except StudiedFailure as err:
             status, message = err.status, str(err)
         except KeyboardInterrupt:

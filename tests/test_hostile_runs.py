@@ -1,0 +1,339 @@
+"""Runs that go bad are reported as bad: divergence, resume, checkpoints, interrupts.
+
+Each test is a promise of the README's "Guarantees" section, tried the way a careless or hostile
+user would: blow-ups that MuJoCo would silently reset, resumes under another config, foreign or
+truncated checkpoints, Ctrl-C in the middle of a run.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import math
+import os
+import pickle
+import re
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from magsail_mj.checkpoint import CheckpointError, read_checkpoint
+from magsail_mj.cli import main
+from magsail_mj.config import apply_overrides, load_config, parse_config
+from magsail_mj.divergence import first_bad_row
+from magsail_mj.loads.base import StepState
+from magsail_mj.run import RunInterrupted, run_scenario
+from magsail_mj.sim import Simulation
+from magsail_mj.sweep import load_sweep, run_sweep
+from tests.conftest import REPO
+
+MODELS = REPO / "models"
+QUIET = ["--no-progress"]
+
+
+def _cfg(tree, *overrides):
+    return parse_config(apply_overrides(tree, list(overrides)))
+
+
+def _folder_digest(folder: Path) -> dict[str, str]:
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir()) if p.is_file()}
+
+
+def _mujoco_times(caplog) -> list[float]:
+    """Times MuJoCo itself printed in its bad-state warnings (``... Time = 12.0000.``)."""
+    return [float(m) for r in caplog.records if r.name == "magsail_mj.mujoco"
+            for m in re.findall(r"Time = ([0-9]+(?:\.[0-9]+)?)", r.getMessage())]
+
+
+# ---------------------------------------------------------------------------------- divergence
+@pytest.mark.parametrize("dt", [3.0, 5.0])
+def test_truss_blow_up_is_diverged_at_the_first_bad_state(tmp_path, capsys, caplog, dt):
+    """The 75 m truss at a time step far beyond its stability limit: MuJoCo would reset the state
+    and the run would 'complete'; here it ends with exit 3 at the time MuJoCo first flagged."""
+    caplog.set_level(logging.WARNING, logger="magsail_mj.mujoco")
+    rc = main(["run", str(MODELS / "truss_magnetorquer/detumble.toml"), "--out", str(tmp_path / "x"),
+               "--set", "sim.duration_s=300", "--set", f"sim.timestep_s={dt}", *QUIET])
+    assert rc == 3
+    summary = json.loads((tmp_path / "x/summary.json").read_text())
+    manifest = json.loads((tmp_path / "x/manifest.json").read_text())
+    assert summary["status"] == manifest["status"] == "diverged"
+    t_div = float(re.search(r"t = ([0-9.eE+-]+) s", manifest["status_message"]).group(1))
+    first = min(_mujoco_times(caplog))
+    assert abs(t_div - first) <= dt * (1 + 1e-9), (t_div, first)
+    ts = np.load(tmp_path / "x/timeseries.npz")
+    assert ts["t"][-1] < t_div and first_bad_row(ts["qpos"]) is None
+    assert "diverged" in capsys.readouterr().err
+
+
+def test_reflector_absurd_spin_is_not_a_perfect_detumble(tmp_path):
+    cfg = load_config(MODELS / "reflector/detumble.toml",
+                      ["sim.duration_s=2", "initial.omega0_rad_s=[2e10, 0.0, 0.0]", "sim.progress=false"])
+    out = run_scenario(cfg, tmp_path / "y")
+    assert out.status == "diverged" and out["status_message"]
+    assert "t = 0 s" in out["status_message"]
+
+
+class _PoisonLoad:
+    """Adds a NaN force from ``t_bad`` on (a load bug or a bad environment sample)."""
+
+    def __init__(self, t_bad: float):
+        self.t_bad = t_bad
+
+    def add(self, state: StepState, xfrc: np.ndarray) -> None:
+        if state.t >= self.t_bad - 1e-12:
+            xfrc[1, 0] += math.nan
+
+
+class _HugeLoad(_PoisonLoad):
+    def add(self, state: StepState, xfrc: np.ndarray) -> None:
+        if state.t >= self.t_bad - 1e-12:
+            xfrc[1, 0] += 1e300
+
+
+_FREE_BODY = """<mujoco><option timestep="0.01" integrator="RK4" gravity="0 0 0"/>
+<worldbody><body><freejoint/><geom size="0.1" mass="1"/></body></worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("load_cls", [_PoisonLoad, _HugeLoad])
+@pytest.mark.parametrize("t_bad", [0.0, 0.37, 0.99])
+def test_bad_load_is_dated_within_one_step(load_cls, t_bad):
+    model = mujoco.MjModel.from_xml_string(_FREE_BODY)
+    probes = {"qpos": lambda s, d: d.qpos.copy()}
+    res = Simulation(model=model, duration_s=1.0, loads=[load_cls(t_bad)], probes=probes, record_every=1).run()
+    assert res.status == "diverged"
+    t_rep = float(re.search(r"t = ([0-9.eE+-]+) s", res.message).group(1))
+    assert t_bad - 1e-9 <= t_rep <= t_bad + 0.01 + 1e-9, (t_rep, res.message)
+    assert first_bad_row(res.records["qpos"]) is None, "a bad state was recorded as valid"
+    assert model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_AUTORESET
+
+
+def test_mujoco_log_file_is_not_written_to_the_working_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    model = mujoco.MjModel.from_xml_string(_FREE_BODY)
+    res = Simulation(model=model, duration_s=0.2, loads=[_HugeLoad(0.0)]).run()
+    assert res.status == "diverged"
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+
+
+def test_every_runner_reports_a_message(tmp_path):
+    """A state bad from the first step: the run is diverged with a message, and the summary says
+    why there are no metrics instead of failing."""
+    cfg = load_config(MODELS / "cnusail/detumble_pre.toml",
+                      ["sim.duration_s=1", "initial.omega0_deg_s=[1e15, 0.0, 0.0]", "sim.progress=false"])
+    out = run_scenario(cfg, tmp_path / "c")
+    summary = json.loads((out.run_dir / "summary.json").read_text())
+    assert summary["status"] == out.status == "diverged"
+    assert "t = 0 s" in summary["status_message"] and summary["postprocess_error"]
+
+
+def test_msac_rollout_divergence_is_dated_and_keeps_records(tmp_path, monkeypatch):
+    """A control above MuJoCo's bound inside the natively rolled-out cycle (which MuJoCo would zero
+    and go on): the MSAC runner ends diverged at that step and keeps the states before it."""
+    from magsail_mj.scenarios import msac_runner
+
+    original = msac_runner.replay_table
+    bad_step = 37
+
+    def poisoned(*args, **kwargs):
+        table = original(*args, **kwargs)
+        table.ctrl = table.ctrl.copy()
+        table.ctrl[bad_step, 0] = 1e11
+        return table
+
+    monkeypatch.setattr(msac_runner, "replay_table", poisoned)
+    cfg = load_config(MODELS / "msac/paper_1khz.toml", ["sim.duration_s=0.004", "sim.record_every=1",
+                                                       "sim.progress=false"])
+    out = run_scenario(cfg, tmp_path / "m")
+    assert out.status == "diverged"
+    t_rep = float(re.search(r"t = ([0-9.eE+-]+) s", out["status_message"]).group(1))
+    assert t_rep == pytest.approx(bad_step * 5e-6, abs=5e-6)
+    ts = np.load(tmp_path / "m/timeseries.npz")
+    assert first_bad_row(ts["qpos"]) is None and ts["t"][-1] < t_rep
+
+
+# ---------------------------------------------------------------------------------- resume
+def test_resume_with_another_config_is_refused_and_touches_nothing(tmp_path, small_truss_tree):
+    cfg = _cfg(small_truss_tree, "sim.duration_s=6.0", "sim.checkpoint_every_s=2.0")
+    run_scenario(cfg, tmp_path / "r", stop_after_s=3.0)
+    before = _folder_digest(tmp_path / "r")
+    for change in ("profile.tau_max_Nm=0.02", "sim.timestep_s=0.05", "sim.seed=3", "damping.zeta_strut=0.2"):
+        with pytest.raises(CheckpointError, match="another run"):
+            run_scenario(_cfg(small_truss_tree, "sim.duration_s=6.0", "sim.checkpoint_every_s=2.0", change),
+                         tmp_path / "r", resume=True)
+        assert _folder_digest(tmp_path / "r") == before, change
+
+
+def test_resume_may_extend_the_duration_and_change_presentation_keys(tmp_path, small_truss_tree):
+    base = ("sim.checkpoint_every_s=2.0",)
+    full = run_scenario(_cfg(small_truss_tree, "sim.duration_s=8.0", *base), tmp_path / "full")
+    run_scenario(_cfg(small_truss_tree, "sim.duration_s=4.0", *base), tmp_path / "ext")
+    # the finished 4 s run left a checkpoint at 4 s; extending to 8 s continues it
+    resumed = run_scenario(_cfg(small_truss_tree, "sim.duration_s=8.0", "sim.progress=true", *base),
+                           tmp_path / "ext", resume=True, progress=False)
+    a, b = np.load(tmp_path / "full/timeseries.npz"), np.load(tmp_path / "ext/timeseries.npz")
+    assert np.array_equal(a["t"], b["t"]) and np.array_equal(a["qpos"], b["qpos"])
+    assert resumed.status == full.status == "completed"
+
+
+def test_resume_cannot_shorten_a_run(tmp_path, small_truss_tree):
+    cfg = _cfg(small_truss_tree, "sim.duration_s=6.0", "sim.checkpoint_every_s=2.0")
+    run_scenario(cfg, tmp_path / "r", stop_after_s=5.0)
+    with pytest.raises(CheckpointError, match="beyond"):
+        run_scenario(_cfg(small_truss_tree, "sim.duration_s=3.0", "sim.checkpoint_every_s=2.0"), tmp_path / "r",
+                     resume=True)
+
+
+def _cli_run(tmp_path, name, *extra):
+    return main(["run", str(MODELS / "truss_magnetorquer/dist_vs_central/case_c_central_bangbang.toml"),
+                 "--out", str(tmp_path / name), "--set", "sim.duration_s=2", "--set", "lattice.units=3",
+                 "--set", "sim.checkpoint_every_s=1", *QUIET, *extra])
+
+
+def test_cli_resume_without_checkpoint_keeps_a_finished_run(tmp_path, capsys):
+    assert _cli_run(tmp_path, "done") == 0
+    for p in (tmp_path / "done").glob("checkpoint*"):
+        p.unlink()
+    before = _folder_digest(tmp_path / "done")
+    assert _cli_run(tmp_path, "done", "--resume") == 2
+    assert "error:" in capsys.readouterr().err
+    assert _folder_digest(tmp_path / "done") == before
+
+
+def test_cli_resume_of_missing_folder_creates_nothing(tmp_path, capsys):
+    assert _cli_run(tmp_path, "never", "--resume") == 2
+    assert not (tmp_path / "never").exists()
+    assert "error:" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("damage", ["truncate", "garbage", "pickle", "empty"])
+def test_cli_resume_of_a_damaged_checkpoint_is_refused(tmp_path, capsys, damage):
+    assert _cli_run(tmp_path, "r") == 0
+    ckpt = tmp_path / "r/checkpoint.npz"
+    data = ckpt.read_bytes()
+    ckpt.write_bytes({"truncate": data[: len(data) // 2], "garbage": os.urandom(4096),
+                      "pickle": pickle.dumps({"step": 1, "state": np.zeros(3)}), "empty": b""}[damage])
+    before = _folder_digest(tmp_path / "r")
+    assert _cli_run(tmp_path, "r", "--resume") == 2
+    assert "checkpoint" in capsys.readouterr().err
+    assert _folder_digest(tmp_path / "r") == before
+
+
+def test_checkpoint_is_data_only(tmp_path, small_truss_tree):
+    """No pickles: every array of a checkpoint and its record segments loads with allow_pickle=False."""
+    cfg = _cfg(small_truss_tree, "sim.duration_s=4.0", "sim.checkpoint_every_s=1.0")
+    run_scenario(cfg, tmp_path / "r", stop_after_s=3.0)
+    files = sorted((tmp_path / "r").glob("checkpoint*.npz"))
+    assert len(files) >= 2 and not list((tmp_path / "r").glob("*.pkl"))
+    for path in files:
+        with np.load(path, allow_pickle=False) as npz:
+            for key in npz.files:
+                assert not npz[key].dtype.hasobject
+    header, _, _ = read_checkpoint(tmp_path / "r/checkpoint.npz")
+    assert header["versions"]["mujoco"] == mujoco.__version__ and len(header["numbers_hash"]) == 64
+
+
+def test_checkpoint_refuses_to_create_foreign_classes(tmp_path, small_truss_tree):
+    """A checkpoint can name only the package's own classes; anything else is refused."""
+    cfg = _cfg(small_truss_tree, "sim.duration_s=4.0", "sim.checkpoint_every_s=1.0")
+    run_scenario(cfg, tmp_path / "r", stop_after_s=3.0)
+    ckpt = tmp_path / "r/checkpoint.npz"
+    with np.load(ckpt, allow_pickle=False) as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    header = json.loads(str(arrays["__header__"]))
+    header["state_tree"]["controller"] = {"kind": "object", "class": "os:system"}
+    arrays["__header__"] = np.array(json.dumps(header))
+    with open(ckpt, "wb") as fh:
+        np.savez(fh, **arrays)
+    with pytest.raises(CheckpointError):
+        run_scenario(cfg, tmp_path / "r", resume=True)
+
+
+# Resumed runs equal uninterrupted ones for a scenario of every concept, including the state
+# that lives outside MuJoCo (controller memories, work ledgers, estimators).
+RESUME_CASES = [
+    ("cnusail/nadir_pre.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
+    ("current_loops/slew.toml", ["sim.duration_s=12", "lattice.units=3", "sim.checkpoint_every_s=4"], 6.0),
+    ("reflector/tracking_10g.toml", ["sim.duration_s=100", "sim.checkpoint_every_s=25"], 60.0),
+    ("truss_magnetorquer/slew_i.toml", ["sim.duration_s=12", "lattice.units=3", "sim.checkpoint_every_s=4"], 6.0),
+    ("msac/paper_1khz.toml", ["sim.duration_s=0.3", "sim.checkpoint_every_s=0.2"], 0.2),
+]
+
+
+@pytest.mark.parametrize("name,overrides,cut", RESUME_CASES, ids=[c[0] for c in RESUME_CASES])
+def test_resumed_run_equals_uninterrupted(tmp_path, name, overrides, cut):
+    cfg = load_config(MODELS / name, [*overrides, "sim.progress=false"])
+    full = run_scenario(cfg, tmp_path / "full")
+    run_scenario(cfg, tmp_path / "cut", stop_after_s=cut)
+    resumed = run_scenario(cfg, tmp_path / "cut", resume=True)
+    a, b = np.load(tmp_path / "full/timeseries.npz"), np.load(tmp_path / "cut/timeseries.npz")
+    assert sorted(a.files) == sorted(b.files)
+    for key in a.files:
+        assert np.array_equal(a[key], b[key], equal_nan=True), key
+    timing = {"wall_time_s", "step_cost_us", "steps", "wall_time_per_step_s", "status_message"}
+    for key, value in full.items():
+        if key not in timing:
+            assert json.dumps(value) == json.dumps(resumed[key]), key
+
+
+# ---------------------------------------------------------------------------------- interrupts
+class _InterruptAt:
+    def __init__(self, t: float):
+        self.t = t
+
+    def add(self, state: StepState, xfrc: np.ndarray) -> None:
+        if state.t >= self.t:
+            raise KeyboardInterrupt
+
+
+def test_interrupt_keeps_the_records_and_says_interrupted(tmp_path, small_truss_tree, monkeypatch):
+    from magsail_mj.scenarios import truss
+
+    cfg = _cfg(small_truss_tree, "sim.duration_s=6.0")
+    original = truss.TrussScenario.simulation
+
+    def interrupted_simulation(self):
+        sim = original(self)
+        sim.loads = [*sim.loads, _InterruptAt(2.0)]
+        return sim
+
+    monkeypatch.setattr(truss.TrussScenario, "simulation", interrupted_simulation)
+    with pytest.raises(RunInterrupted) as info:
+        run_scenario(cfg, tmp_path / "i")
+    assert info.value.outcome.status == "interrupted"
+    manifest = json.loads((tmp_path / "i/manifest.json").read_text())
+    assert manifest["status"] == "interrupted" and "t = 2" in manifest["status_message"]
+    ts = np.load(tmp_path / "i/timeseries.npz")
+    assert ts["t"][-1] <= 2.0 and len({len(ts[k]) for k in ("t", "qpos")}) == 1
+    assert not [p for p in (tmp_path / "i").iterdir() if p.name.startswith(".")]
+
+
+# ---------------------------------------------------------------------------------- folders
+def test_overwrite_removes_the_earlier_runs_files(tmp_path, small_truss_tree):
+    run_scenario(_cfg(small_truss_tree, "sim.duration_s=2.0", "sim.checkpoint_every_s=1.0"), tmp_path / "o")
+    (tmp_path / "o/notes.txt").write_text("mine")
+    stale = tmp_path / "o/snapshot_from_before.png"
+    stale.write_bytes(b"png")
+    run_scenario(_cfg(small_truss_tree, "sim.duration_s=2.0"), tmp_path / "o", overwrite=True)
+    names = {p.name for p in (tmp_path / "o").iterdir()}
+    assert not [n for n in names if n.startswith("checkpoint")] and "snapshot_from_before.png" not in names
+    assert "notes.txt" in names, "a file the run did not make was removed"
+
+
+# ---------------------------------------------------------------------------------- entry points
+def test_run_and_sweep_give_identical_numbers(tmp_path):
+    cfg_path = MODELS / "current_loops/sweep/a_n12_ei1e3.toml"
+    overrides = ["lattice.units=3", "sim.duration_s=4.0", "sim.progress=false"]
+    run_scenario(load_config(cfg_path, overrides), tmp_path / "run")
+    sweep_file = tmp_path / "s.toml"
+    sweep_file.write_text(f'name = "one"\nset = {json.dumps(overrides)}\n\n[[run]]\nid = "a"\nconfig = "{cfg_path}"\n')
+    records = run_sweep(load_sweep(sweep_file), tmp_path / "sweep", workers=1, log=None)
+    assert records[0]["status"] == "completed"
+    a, b = np.load(tmp_path / "run/timeseries.npz"), np.load(tmp_path / "sweep/a/timeseries.npz")
+    for key in a.files:
+        assert np.array_equal(a[key], b[key], equal_nan=True), key
+    ma = json.loads((tmp_path / "run/manifest.json").read_text())
+    mb = json.loads((tmp_path / "sweep/a/manifest.json").read_text())
+    assert ma["threads"] and all(p["num_threads"] == 1 for p in ma["threads"]) and ma["threads"] == mb["threads"]
