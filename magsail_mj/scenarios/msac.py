@@ -227,7 +227,8 @@ class MsacConfig(StrictModel):
             try:
                 point_config(self, sw.keys, values, cycles=sw.cycles, keep_steps_per_cycle=sw.keep_steps_per_cycle)
             except ConfigError as err:
-                problems += [f"sweep.points[{i}]: {line}" for line in err.problems]
+                problems += [f"sweep.points[{i}]: {line} (from sweep.keys = {sw.keys}, values {values}, "
+                             f"sweep.cycles = {sw.cycles})" for line in err.problems]
         if problems:
             raise ValueError("; ".join(problems))
 
