@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import pytest
 
-from magsail_mj.config import ConfigError, apply_overrides, config_hash, load_config, parse_config
+from magsail_mj.config import (
+    ConfigError,
+    apply_overrides,
+    config_hash,
+    load_config,
+    numbers_hash,
+    parse_config,
+)
 from magsail_mj.sweep import is_sweep_file, load_sweep
 from tests.conftest import REPO
 
@@ -87,3 +94,132 @@ def test_hash_changes_with_content(small_truss_tree):
     a = config_hash(parse_config(small_truss_tree))
     small_truss_tree["sim"]["seed"] = 1
     assert config_hash(parse_config(small_truss_tree)) != a
+
+
+# ----------------------------------------------------------------------------- strict values
+
+TRUSS = REPO / "models/truss_magnetorquer/detumble.toml"
+
+
+@pytest.mark.parametrize("override, key", [
+    ('sim.duration_s="2"', "sim.duration_s"),
+    ("sim.duration_s=true", "sim.duration_s"),
+    ('sim.progress="no"', "sim.progress"),
+    ("sim.progress=1", "sim.progress"),
+    ("lattice.units=3.0", "lattice.units"),
+    ("lattice.units=true", "lattice.units"),
+    ('initial.omega0_rad_s=[0.01, "0", 0.0]', r"initial.omega0_rad_s\[1\]"),
+])
+def test_types_are_strict(override, key):
+    with pytest.raises(ConfigError, match=key):
+        load_config(TRUSS, [override])
+
+
+def test_toml_int_for_float_and_arrays_for_vectors_are_fine():
+    cfg = load_config(TRUSS, ["sim.duration_s=60", "initial.omega0_rad_s=[0, 0, 1]"])
+    assert cfg.sim.duration_s == 60.0
+    assert cfg.initial.omega0_rad_s == (0, 0, 1)
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+def test_non_finite_time_step_says_finite(value):
+    with pytest.raises(ConfigError, match=r"sim\.timestep_s: must be a finite number"):
+        load_config(TRUSS, [f"sim.timestep_s={value}"])
+
+
+def test_time_step_bounds_and_checkpoint_period():
+    with pytest.raises(ConfigError, match=r"sim\.timestep_s: must be a number >= 1e-09"):
+        load_config(TRUSS, ["sim.timestep_s=1e-12"])
+    with pytest.raises(ConfigError, match=r"sim\.checkpoint_every_s: must be 0 \(never\) or at least one time step"):
+        load_config(TRUSS, ["sim.checkpoint_every_s=0.01"])
+    assert load_config(TRUSS, ["sim.checkpoint_every_s=0"]).sim.checkpoint_every_s == 0
+    assert load_config(TRUSS, ["sim.checkpoint_every_s=0.1"]).sim.checkpoint_every_s == 0.1
+    with pytest.raises(ConfigError, match=r"sim\.duration_s: must be at least one time step"):
+        load_config(TRUSS, ["sim.duration_s=0.01"])
+    with pytest.raises(ConfigError, match=r"sim\.duration_s: needs .* steps, more than a 64-bit step counter"):
+        load_config(TRUSS, ["sim.duration_s=1e300"])
+
+
+@pytest.mark.parametrize("path, override, key", [
+    ("models/reflector/detumble.toml", "plate.side_m=inf", "plate.side_m"),
+    ("models/reflector/detumble.toml", "plate.side_m=1e300", "plate.side_m"),
+    ("models/reflector/detumble.toml", "plate.cell_m=1e-300", "plate.side_m"),
+    ("models/cnusail/detumble_pre.toml", "actuators.mtq.cycle_s=inf", "actuators.mtq.cycle_s"),
+    ("models/cnusail/detumble_pre.toml", "actuators.mtq.cycle_s=1e-300", "actuators.mtq.cycle_s"),
+    ("models/cnusail/detumble_pre.toml", "spacecraft.mass_kg=1e-300", "spacecraft.mass_kg"),
+    ("models/cnusail/detumble_pre.toml", "actuators.wheels.rotor_inertia_kg_m2=1e300", "rotor_inertia_kg_m2"),
+    ("models/truss_magnetorquer/detumble.toml", "mass.total_kg=1e-300", "mass.total_kg"),
+    ("models/truss_magnetorquer/detumble.toml", "lattice.side_m=1e300", "lattice.side_m"),
+    ("models/truss_magnetorquer/detumble.toml", "orbit.altitude_km=1e300", "orbit.altitude_km"),
+    ("models/current_loops/slew.toml", "mass.areal_density_kg_m2=1e-300", "mass.areal_density_kg_m2"),
+    ("models/msac/paper_1khz.toml", "wings.length_m=1e-300", "wings.length_m"),
+    ("models/msac/paper_1khz.toml", "bus.size_m=[1e300, 2.0, 3.0]", "bus.size_m"),
+])
+def test_extreme_magnitudes_are_config_errors_naming_the_key(path, override, key):
+    """Overflow or values MuJoCo cannot take (mass below mjMINVAL) are refused at validation."""
+    with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
+        load_config(REPO / path, [override])
+
+
+def test_msac_step_error_names_the_full_key():
+    with pytest.raises(ConfigError) as err:
+        load_config(REPO / "models/msac/paper_1khz.toml", ["sim.timestep_s=3e-6"])
+    assert err.value.problems[0].startswith("sim.timestep_s: the cycle period")
+    assert "cycle.frequency_Hz" in err.value.problems[0]
+
+
+def test_msac_sweep_points_are_validated_at_load():
+    with pytest.raises(ConfigError) as err:
+        load_config(REPO / "models/msac/sweeps/stroke.toml", ['sweep.points=[["x"], [1e300]]'])
+    assert [p.split(":")[0] for p in err.value.problems] == ["sweep.points[0]", "sweep.points[1]"]
+    assert "cycle.bend_b_deg" in err.value.problems[0]
+
+
+# ----------------------------------------------------------------------------- overrides and files
+
+
+def test_override_syntax_and_validation_problems_reported_together():
+    with pytest.raises(ConfigError) as err:
+        load_config(TRUSS, ["foo", "lattice.units=0", "sim.duration_s.x=1", "sim.bogus=1"])
+    text = str(err.value)
+    assert "--set 'foo': must look like key.path=value" in text
+    assert "lattice.units: must be an integer >= 1, got 0" in text
+    assert "sim.duration_s is a value, not a table" in text
+    assert "sim.bogus: unknown key given by --set 'sim.bogus=1'" in text
+    assert len(err.value.problems) == 4
+
+
+def test_folder_binary_non_utf8_and_unreadable_configs(tmp_path, monkeypatch):
+    with pytest.raises(ConfigError, match="is a folder, not a config file"):
+        load_config(tmp_path)
+    binary = tmp_path / "binary.toml"
+    binary.write_bytes(b"\x00\x01\x02\xff\xfe")
+    with pytest.raises(ConfigError, match="not UTF-8"):
+        load_config(binary)
+    nul = tmp_path / "nul.toml"
+    nul.write_bytes(b"concept = 1\x00\n")
+    with pytest.raises(ConfigError, match="not valid TOML"):
+        load_config(nul)
+    locked = tmp_path / "locked.toml"
+    locked.write_text(TRUSS.read_text())
+
+    def refuse(self):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(type(locked), "read_bytes", refuse)
+    with pytest.raises(ConfigError, match="cannot be read: Permission denied"):
+        load_config(locked)
+
+
+# ----------------------------------------------------------------------------- numbers_hash
+
+
+def test_numbers_hash_ignores_presentation_keys_only():
+    base = load_config(TRUSS)
+    same = load_config(TRUSS, ["sim.progress=false", "sim.duration_s=18000", "sim.checkpoint_every_s=600",
+                               "render.fps=12", "render.exaggeration=3.0"])
+    assert numbers_hash(same) == numbers_hash(base)
+    assert config_hash(same) != config_hash(base)
+    for change in ["control.k_bdot_Nms_per_T2=2e12", "sim.timestep_s=0.05", "sim.seed=3", "mass.total_kg=201.0"]:
+        assert numbers_hash(load_config(TRUSS, [change])) != numbers_hash(base), change
+    assert len(numbers_hash(base)) == 64
