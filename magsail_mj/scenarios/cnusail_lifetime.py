@@ -55,7 +55,11 @@ class _LifetimeRun:
         t0 = time.perf_counter()
         records = self.sc.compute()
         wall = time.perf_counter() - t0
-        return RunResult(records=records, status="completed", message="", t_end_s=float(records["t"][-1]),
+        status, message = "completed", ""
+        bad = [k for k, v in records.items() if np.asarray(v).dtype.kind == "f" and not np.isfinite(v).all()]
+        if bad:  # the same rule as every runner: a non-finite number is a divergence, never a result
+            status, message = "diverged", f"decay propagation produced non-finite values in {', '.join(bad)}"
+        return RunResult(records=records, status=status, message=message, t_end_s=float(records["t"][-1]),
                          steps=self.sc.n_runs, wall_time_s=wall)
 
 
