@@ -80,6 +80,9 @@ _MIN_PX = {"tendon": 0.5, "active": 1.25, "top_node": 4.0}  # minimum radii [px]
 # and struts a few pixels wide look the same.
 _LOD_MIN_OBJECTS = 500
 _LOD_SLICES, _LOD_STACKS = 6, 4
+# Smallest height range of the node colour scale, relative to the structure's radius: below it the
+# heights are rounding noise of a rigid motion, not a shape.
+_HEIGHT_FLOOR = 1e-9
 _NODE_NAME = re.compile(r"n(\d+)\Z")
 _UNITS = [  # (name suffix, printed unit), longest first
     ("_rad_s", "rad/s"), ("_deg_s", "°/s"), ("_Am2", "A·m²"), ("_Nm", "N·m"), ("_rpm", "rpm"),
@@ -585,7 +588,8 @@ class RunScene:
                     if orient[f] @ orient[f - 1] < 0:
                         orient[f] = -orient[f]
             self._heights = surface_heights(top, orient=orient)
-            self.height_limit_m = float(np.max(np.abs(self._heights)))
+            # Heights at rounding-noise level (a rigid motion) map to the neutral middle colour.
+            self.height_limit_m = max(float(np.max(np.abs(self._heights))), _HEIGHT_FLOOR * self.radius_m)
         else:
             self._heights = None
             self.height_limit_m = 0.0
@@ -861,6 +865,15 @@ def _check_int(name: str, value: object, *, minimum: int, even: bool = False) ->
     return int(value)
 
 
+def _run_dirs(run_dir: str | os.PathLike, compare: str | os.PathLike | None) -> list[Path]:
+    """``[run_dir]`` or ``[run_dir, compare]`` as paths; an empty path is a :class:`RenderError`
+    (``Path("")`` would silently mean the current folder)."""
+    for name, value in (("run_dir", run_dir), ("compare", compare)):
+        if value is not None and not str(os.fspath(value)).strip():
+            raise RenderError(f"{name}: must be a run folder, got an empty path")
+    return [Path(run_dir)] + ([Path(compare)] if compare is not None else [])
+
+
 def _check_out_path(out_path: str | os.PathLike) -> Path:
     """The output video path: non-empty, ``.mp4``, not a folder, below a writable folder (or one
     that can be created: its nearest existing ancestor is a writable folder)."""
@@ -943,7 +956,7 @@ def render_frames(
         raise RenderError(f"exaggeration: must be > 0, got {exaggeration!r}")
     _colormap(height_cmap)
     ensure_gl_backend()
-    run_dirs = [Path(run_dir)] + ([Path(compare)] if compare is not None else [])
+    run_dirs = _run_dirs(run_dir, compare)
     runs = [load_run(p, name=n, render_info=info)
             for p, n, info in zip(run_dirs, ("run_dir", "compare"), (render_info, None))]
     if labels is None:
@@ -1047,7 +1060,7 @@ def render_run(
     _check_int("max_frames", max_frames, minimum=1)
     if not (_is_number(fps) and math.isfinite(fps) and fps > 0):
         raise RenderError(f"fps: must be a finite number > 0, got {fps!r}")
-    run_dirs = [Path(run_dir)] + ([Path(compare)] if compare is not None else [])
+    run_dirs = _run_dirs(run_dir, compare)
     _check_render_memory(run_dirs, max_frames=int(max_frames), width=int(width), height=int(height))
     frames = render_frames(run_dir, compare=compare, labels=labels, width=width, height=height,
                            max_frames=max_frames, exaggeration=exaggeration, camera=camera,
