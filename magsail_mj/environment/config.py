@@ -149,7 +149,14 @@ class FieldConfig(StrictModel):
     R_ref_km: float | None = Field(default=None, gt=0)
     igrf_max_degree: int = Field(default=13, ge=1, le=13)
     igrf_date: str | None = None
-    sample_step_s: float = Field(default=10.0, ge=MIN_TIMESTEP_S, le=600)
+    sample_step_s: float = Field(default=10.0, gt=0, le=600)
+
+    @field_validator("sample_step_s")
+    @classmethod
+    def _step_not_tiny(cls, v: float) -> float:
+        if v < MIN_TIMESTEP_S:
+            raise ValueError(f"must be a number >= {MIN_TIMESTEP_S:g} s")
+        return v
 
     @field_validator("igrf_date")
     @classmethod
