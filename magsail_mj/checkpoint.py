@@ -86,7 +86,10 @@ def _key_text(key: Any) -> str | None:
     """A dict key as JSON text (str, int, float, bool, None and tuples of them), else None."""
     def plain(k: Any) -> bool:
         return isinstance(k, _SCALARS) or (isinstance(k, tuple) and all(plain(x) for x in k))
-    return json.dumps(key) if plain(key) else None
+    if not plain(key):
+        return None
+    # braces inside string keys are escaped so that a path's {…} segments nest unambiguously
+    return json.dumps(key).replace("{", "\\u007b").replace("}", "\\u007d")
 
 
 def _key_value(text: str) -> Any:
@@ -224,15 +227,7 @@ def _split(path: str) -> list[tuple[str, Any]]:
             parts.append(("item", int(path[i + 1:j])))
             j += 1
         elif c == "{":
-            depth, j = 0, i
-            while True:  # JSON key text may itself hold braces in strings; match the closing one
-                if path[j] == "{":
-                    depth += 1
-                elif path[j] == "}":
-                    depth -= 1
-                    if depth == 0:
-                        break
-                j += 1
+            j = path.index("}", i)  # key texts hold no braces (escaped by _key_text)
             parts.append(("key", _key_value(path[i + 1:j])))
             j += 1
         elif c == "<":
@@ -394,15 +389,7 @@ def _last_text(path: str) -> str:
     if path.endswith(">"):
         return path[path.rindex("<"):]
     if path.endswith("}"):
-        depth, j = 0, len(path) - 1
-        while True:
-            if path[j] == "}":
-                depth += 1
-            elif path[j] == "{":
-                depth -= 1
-                if depth == 0:
-                    return path[j:]
-            j -= 1
+        return path[path.rindex("{"):]
     cut = max(path.rfind("."), 0)
     return path[cut:] if path[cut] == "." else path
 

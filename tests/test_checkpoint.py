@@ -1,0 +1,105 @@
+"""Data-only checkpoints: a snapshot written into a rebuilt object tree gives back the saved state."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from magsail_mj.checkpoint import (
+    CheckpointError, StateWalker, read_arrays, read_checkpoint, restore_state, write_arrays, write_checkpoint,
+)
+from magsail_mj.estimation.attitude import BestFitRotation
+
+_scalars = st.one_of(st.none(), st.booleans(), st.integers(-10**6, 10**6),
+                     st.floats(allow_nan=False, allow_infinity=False), st.text(max_size=5))
+_keys = st.one_of(st.text(alphabet="ab{}[]<>.\"\\ ", max_size=4), st.integers(-5, 5))
+_arrays = st.builds(lambda shape, seed: np.random.default_rng(seed).normal(size=shape),
+                    st.lists(st.integers(0, 3), min_size=0, max_size=3).map(tuple), st.integers(0, 1000))
+_leaves = st.one_of(_scalars, _arrays)
+_trees = st.recursive(_leaves, lambda children: st.one_of(
+    st.lists(children, max_size=4),
+    st.dictionaries(_keys, children, max_size=4)), max_leaves=12)
+
+
+def _equal(a, b) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape \
+            and np.array_equal(a, b)
+    if isinstance(a, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b))
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
+    return type(a) is type(b) and a == b
+
+
+@settings(max_examples=150, deadline=None)
+@given(built=_trees, changed=_trees)
+def test_restore_gives_back_any_changed_state(built, changed):
+    """Build a tree, let the 'run' replace it by another one, checkpoint, rebuild and restore."""
+    live = {"state": copy.deepcopy(built)}
+    walker = StateWalker(live)
+    walker.baseline()
+    live["state"] = copy.deepcopy(changed)
+    tree, arrays = walker.snapshot()
+    rebuilt = StateWalker({"state": copy.deepcopy(built)})
+    rebuilt.baseline()
+    restore_state(rebuilt, tree, arrays)
+    assert _equal(rebuilt.roots["state"], changed)
+
+
+def test_arrays_are_restored_in_place_and_aliases_kept():
+    shared = np.zeros(4)
+    roots = {"a": {"x": shared}, "b": [shared]}
+    walker = StateWalker(roots)
+    walker.baseline()
+    shared[:] = [1, 2, 3, 4]
+    tree, arrays = walker.snapshot()
+    fresh_shared = np.zeros(4)
+    fresh = StateWalker({"a": {"x": fresh_shared}, "b": [fresh_shared]})
+    restore_state(fresh, tree, arrays)
+    assert fresh.roots["a"]["x"] is fresh_shared and fresh.roots["b"][0] is fresh_shared
+    assert np.array_equal(fresh_shared, [1, 2, 3, 4])
+
+
+def test_package_objects_and_rng_state_round_trip(tmp_path):
+    rng = np.random.default_rng(7)
+    fit = BestFitRotation(np.random.default_rng(1).normal(size=(6, 3)))
+    walker = StateWalker({"fit": fit, "rng": rng, "late": None})
+    walker.baseline()
+    rng.normal(size=5)
+    walker.roots["late"] = BestFitRotation(np.eye(3))  # an object created during the run
+    write_checkpoint(tmp_path / "c.npz", {"step": 3}, walker, {"mj_state": np.arange(3.0)})
+    header, arrays, extra = read_checkpoint(tmp_path / "c.npz")
+    fresh = StateWalker({"fit": BestFitRotation(np.random.default_rng(1).normal(size=(6, 3))),
+                         "rng": np.random.default_rng(7), "late": None})
+    restore_state(fresh, header["state_tree"], arrays)
+    assert fresh.roots["rng"].normal() == rng.normal()
+    assert isinstance(fresh.roots["late"], BestFitRotation)
+    assert np.array_equal(extra["mj_state"], np.arange(3.0)) and header["step"] == 3
+
+
+def test_a_different_build_is_refused():
+    walker = StateWalker({"k": np.ones(3), "n": [1]})
+    walker.baseline()
+    walker.roots["n"][0] = 2
+    tree, arrays = walker.snapshot()
+    other = StateWalker({"k": np.full(3, 2.0), "n": [1]})  # a constant that differs: another build
+    with pytest.raises(CheckpointError, match="differs from the rebuilt run"):
+        restore_state(other, tree, arrays)
+
+
+def test_files_hold_no_pickles(tmp_path):
+    write_arrays(tmp_path / "a.npz", {"x": np.arange(4)}, header={"k": [1, "two"]})
+    header, arrays = read_arrays(tmp_path / "a.npz")
+    assert header == {"k": [1, "two"]} and np.array_equal(arrays["x"], np.arange(4))
+    with pytest.raises(TypeError, match="object arrays"):
+        write_arrays(tmp_path / "b.npz", {"x": np.array([object()])})
+    (tmp_path / "c.npz").write_bytes(b"not a zip")
+    with pytest.raises(CheckpointError, match="unreadable or truncated"):
+        read_arrays(tmp_path / "c.npz")
+    with pytest.raises(CheckpointError, match="does not exist"):
+        read_arrays(tmp_path / "missing.npz")
