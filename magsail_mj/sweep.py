@@ -29,7 +29,7 @@ Guarantees:
 * **Summaries merge.** ``sweep_summary.json``/``.csv`` always list every run of the sweep file:
   runs outside ``only`` keep their record when their folder is still valid, else ``not_run``.
 * **Interrupts stop promptly.** SIGINT or SIGTERM cancels the runs not started, stops the running
-  workers (SIGTERM, then SIGKILL after a grace time), writes the summaries (stopped runs
+  workers (SIGTERM; SIGKILL after a grace time or at a second interrupt), writes the summaries (stopped runs
   ``interrupted``, unstarted ones ``not_run``) and raises :class:`SweepInterrupted`.
 * **No orphans, no concurrent sweeps.** Workers die with the sweep process (``PR_SET_PDEATHSIG``
   on Linux, a parent-pid watch elsewhere); the sweep folder is locked (``fcntl.flock`` on
@@ -62,7 +62,7 @@ import tomllib
 import traceback
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from multiprocessing import reduction
+from multiprocessing import reduction, resource_tracker
 from pathlib import Path
 from typing import Any, Self
 
@@ -406,13 +406,13 @@ def _run_one(run: SweepRun, out_dir: str | Path, *, video: bool) -> dict[str, An
     The record says ``failed`` with the reason when the run raises (the video included) or when
     its folder does not verify afterwards; a KeyboardInterrupt propagates.
     """
-    # the simulation stack is imported in the worker only
-    from magsail_mj.run import run_scenario
-
     t0 = time.perf_counter()
     run_dir = Path(out_dir) / run.id
     record = _record(run, status="failed", message="")
     try:
+        # the simulation stack is imported in the worker only (an import failure is this run's failure)
+        from magsail_mj.run import run_scenario
+
         cfg = load_config(run.config, list(run.overrides))
         record["config_hash"] = config_hash(cfg)
         (run_dir / "manifest.json").unlink(missing_ok=True)  # a stopped rerun must not look finished
@@ -456,7 +456,7 @@ def _set_parent_death_signal(signum: int) -> bool:
         return False
 
 
-def _watch_parent(parent_pid: int, *, period_s: float = 0.5, grace_s: float = 5.0) -> None:
+def _watch_parent(parent_pid: int, *, period_s: float = 0.5, grace_s: float = 10.0) -> None:
     """Worker thread: once the parent is gone, stop this worker (SIGTERM), then exit hard."""
     while os.getppid() == parent_pid:
         time.sleep(period_s)
@@ -465,9 +465,14 @@ def _watch_parent(parent_pid: int, *, period_s: float = 0.5, grace_s: float = 5.
     os._exit(1)
 
 
+_STOP = threading.Event()
+"""Set in a worker once it was asked to stop (SIGTERM from the sweep, or its parent died)."""
+
+
 def _on_sigterm(signum: int, frame: Any) -> None:
     """Worker SIGTERM handler: stop the run (once) as a Ctrl-C would."""
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    _STOP.set()
     raise KeyboardInterrupt(f"worker stopped by {signal.Signals(signum).name}")
 
 
@@ -480,17 +485,25 @@ def _guard_worker(parent_pid: int) -> None:
     signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)  # blocked by the parent around the start
 
 
+def _stopped_record(run: SweepRun, err: BaseException, *, wall_time_s: float) -> dict[str, Any]:
+    """The record of a run that raised past :func:`_run_one` (an interrupt, or an exit)."""
+    if isinstance(err, KeyboardInterrupt):
+        outcome = getattr(err, "outcome", None)  # RunInterrupted: the outputs up to then are written
+        return _record(run, status="interrupted", message=f"stopped while running ({err})", wall_time_s=wall_time_s,
+                       summary=to_jsonable(dict(outcome)) if isinstance(outcome, dict) else None)
+    return _record(run, status="failed", message=f"{type(err).__name__}: {err}", wall_time_s=wall_time_s)
+
+
 def _worker_main(run: SweepRun, out_dir: str, video: bool, conn: Any, lock_fd: int, parent_pid: int) -> None:
     """Process target: run one entry and send its record to the parent (keeps ``lock_fd`` open)."""
     t0 = time.perf_counter()
     try:
         _guard_worker(parent_pid)
         record = _run_one(run, out_dir, video=video)
-    except KeyboardInterrupt as err:
-        outcome = getattr(err, "outcome", None)  # RunInterrupted: the outputs up to then are written
-        record = _record(run, status="interrupted", message=f"stopped while running ({err})",
-                         wall_time_s=time.perf_counter() - t0,
-                         summary=to_jsonable(dict(outcome)) if isinstance(outcome, dict) else None)
+    except BaseException as err:  # noqa: BLE001 - a worker reports what stopped it, never a traceback
+        record = _stopped_record(run, err, wall_time_s=time.perf_counter() - t0)
+    if _STOP.is_set() and record["status"] not in FINISHED:  # e.g. a C extension turned the interrupt into an error
+        record.update(status="interrupted", message=f"stopped while running ({record['message']})")
     try:
         conn.send(record)
     except (OSError, KeyboardInterrupt):  # the parent is gone or stopping us: nothing to report to
@@ -526,6 +539,7 @@ class _Interrupts:
 
     def __init__(self) -> None:
         self.pending: int | None = None
+        self.received = 0  # signals seen while deferring (a second Ctrl-C hurries the stop)
         self._deferring = False
         self._previous: dict[int, Any] = {}
 
@@ -543,18 +557,25 @@ class _Interrupts:
     def _handle(self, signum: int, frame: Any) -> None:
         if self._deferring:
             self.pending = self.pending or signum
+            self.received += 1
             return
         raise SweepInterrupted(signum)
 
     @contextlib.contextmanager
-    def deferred(self, *, check: bool = True) -> Iterator[None]:
-        """Hold signals back during the block (and from a child started in it); raise after if ``check``."""
+    def deferred(self, *, check: bool = True, block: bool = False) -> Iterator[None]:
+        """Remember signals during the block instead of raising; raise after it if ``check``.
+
+        ``block`` also holds them back in the kernel (pending, delivered after the block), for
+        a block that changes their dispositions (:func:`_sigint_ignored_by_child`).
+        """
         self._deferring = True
-        signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
+        if block:
+            signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
         try:
             yield
         finally:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)  # runs the handler of a held-back signal
+            if block:
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)  # runs the handler of a held-back signal
             self._deferring = False
         if check and self.pending:
             raise SweepInterrupted(self.pending)
@@ -580,12 +601,12 @@ class _Workers:
 
     def start(self, run: SweepRun) -> None:
         """Start ``run`` in a new worker (signals held back until it is registered)."""
-        with self.interrupts.deferred():
+        with self.interrupts.deferred(block=True):
             reader, writer = self.ctx.Pipe(duplex=False)
             proc = self.ctx.Process(target=_worker_main, name=f"sweep:{run.id}", daemon=False,
                                     args=(run, str(self.out), self.video, writer, _SharedFd(self.lock_fd),
                                           os.getpid()))
-            with _worker_env():
+            with _worker_env(), _sigint_ignored_by_child():
                 proc.start()
             writer.close()
             self.active.append(_Job(run=run, process=proc, conn=reader, t0=time.perf_counter()))
@@ -623,20 +644,41 @@ class _Workers:
                        wall_time_s=time.perf_counter() - job.t0)
 
     def stop(self, *, grace_s: float) -> list[dict[str, Any]]:
-        """Stop every running worker (SIGTERM, SIGKILL after ``grace_s``); their records."""
+        """Stop every running worker: SIGTERM, then SIGKILL after ``grace_s`` or at a further
+        SIGINT/SIGTERM; their records."""
         for job in self.active:
             if job.process.is_alive():
                 job.process.terminate()
         deadline = time.monotonic() + grace_s
+        seen = self.interrupts.received
         records = []
-        while self.active and time.monotonic() < deadline:
-            records += self.wait(timeout=max(0.0, deadline - time.monotonic()))
+        while self.active and time.monotonic() < deadline and self.interrupts.received == seen:
+            records += self.wait(timeout=min(0.2, max(0.0, deadline - time.monotonic())))
         for job in list(self.active):
             job.process.kill()
             records.append(self._finish(job))
         return [r if r["status"] in FINISHED else {**r, "status": "interrupted",
                                                     "message": r["message"] or "stopped while running"}
                 for r in records]
+
+
+@contextlib.contextmanager
+def _sigint_ignored_by_child() -> Iterator[None]:
+    """Start a child that ignores SIGINT from its first instruction (a terminal's Ctrl-C reaches
+    the whole process group; only the sweep process handles it, never a worker still importing).
+
+    The caller holds SIGINT blocked meanwhile (:meth:`_Interrupts.deferred`), so a Ctrl-C in this
+    window stays pending for the sweep process instead of being lost.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    resource_tracker.ensure_running()  # its start unblocks SIGINT: do it before ignoring
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)  # an ignored signal stays ignored across exec
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_DFL if previous is None else previous)
 
 
 @contextlib.contextmanager
@@ -680,7 +722,7 @@ def _interrupted(todo: list[SweepRun], pool: _Workers, records: dict[str, dict[s
                  grace_s: float, log: Callable[[str], None] | None) -> None:
     """After SIGINT/SIGTERM: stop the workers, mark the stopped runs and those never started."""
     if log:
-        log(f"sweep interrupted: stopping {len(pool.active)} running runs")
+        log(f"sweep interrupted: stopping {len(pool.active)} running runs (interrupt again to kill them now)")
     for rec in pool.stop(grace_s=grace_s):
         records[rec["id"]] = rec
         _log_record(log, rec)
@@ -753,7 +795,7 @@ def run_sweep(
     video: bool = False,
     overwrite: bool = False,
     log: Callable[[str], None] | None = print,
-    grace_s: float = 5.0,
+    grace_s: float = 10.0,
 ) -> list[dict[str, Any]]:
     """Run the selected entries of ``sweep`` into ``out_dir/<id>`` with up to ``workers`` processes.
 
@@ -761,6 +803,9 @@ def run_sweep(
     structure_failed, diverged, stopped, failed, interrupted, not_run; ``message``, ``reused``,
     ``selected``, ``config_hash``, ``wall_time_s``, ``summary``), also written to
     ``sweep_summary.json``/``.csv``.
+
+    ``grace_s`` is how long stopped workers may take to write their outputs after an interrupt
+    before they are killed (a second interrupt kills them at once).
 
     Raises:
       ValueError: ``workers`` is not an integer >= 1.

@@ -108,10 +108,11 @@ def _stray_files(out: Path) -> list[Path]:
 
 @pytest.mark.parametrize(("signum", "workers"), [(signal.SIGINT, 1), (signal.SIGTERM, 2)])
 def test_interrupt_stops_promptly_writes_summary_and_locks_folder(tmp_path, capsys, signum, workers):
+    """SIGINT goes to the whole process group (a terminal's Ctrl-C), SIGTERM to the sweep process only."""
     sweep = _sweep_file(tmp_path, ["slow/a", "slow/b"], SLOW)
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-c", DRIVER, str(sweep), str(out), str(workers)], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
         started = ["slow/a", "slow/b"][:workers]
         _wait_for(lambda: all((out / r / "model.xml").exists() for r in started), 90, "the runs to start")
@@ -122,7 +123,10 @@ def test_interrupt_stops_promptly_writes_summary_and_locks_folder(tmp_path, caps
         err = capsys.readouterr().err
         assert "another sweep is running" in err and str(out) in err
         t0 = time.monotonic()
-        proc.send_signal(signum)
+        if signum == signal.SIGINT:
+            os.killpg(proc.pid, signum)
+        else:
+            proc.send_signal(signum)
         _, stderr = proc.communicate(timeout=30)
         took = time.monotonic() - t0
     finally:
