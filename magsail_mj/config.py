@@ -455,10 +455,47 @@ def _validate(tree: dict[str, Any]) -> tuple[BaseModel | None, list[str]]:
         return models[concept].model_validate(tree), []
     except ValidationError as err:
         return None, _problems(err)
-    except (ArithmeticError, TypeError, ValueError, IndexError, KeyError) as err:
-        line = (f"{concept} config: a validator failed on these values ({type(err).__name__}: {err}); "
-                "check the numbers for extreme magnitudes")
+    except (ArithmeticError, TypeError, ValueError, IndexError, KeyError, AttributeError) as err:
+        where = _locate_crash(models[concept], tree)
+        value = _dig(tree, where)
+        shown = f" = {value!r}" if where else ""
+        line = (f"{where or concept + ' config'}: its validator failed ({type(err).__name__}: {err}) on "
+                f"{where or 'the config'}{shown}; check these numbers for extreme magnitudes")
         return None, [line]
+
+
+def _table_model(annotation: Any) -> type[BaseModel] | None:
+    """The config table class in a field annotation (``X`` or ``X | None``), if any."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in typing.get_args(annotation):
+        found = _table_model(arg)
+        if found is not None:
+            return found
+    return None
+
+
+def _locate_crash(model: type[BaseModel], data: dict[str, Any], prefix: str = "") -> str:
+    """The dotted path of the deepest table of ``data`` whose own validation raises something
+    other than a ValidationError ("" when only the whole config does)."""
+    for key, value in data.items():
+        sub = _table_model(model.model_fields[key].annotation) if key in model.model_fields else None
+        if sub is None or not isinstance(value, dict):
+            continue
+        try:
+            sub.model_validate(value)
+        except ValidationError:
+            continue
+        except Exception:  # noqa: BLE001 - locating the validator that crashed
+            return _locate_crash(sub, value, f"{prefix}{key}.") or f"{prefix}{key}"
+    return prefix.rstrip(".")
+
+
+def _dig(tree: dict[str, Any], path: str) -> Any:
+    node: Any = tree
+    for part in path.split(".") if path else ():
+        node = node.get(part) if isinstance(node, dict) else None
+    return node
 
 
 def parse_config(tree: dict[str, Any], *, source: str | None = None) -> BaseModel:

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
-import pytest
+import math
 
+import pytest
+from pydantic import model_validator
+
+import magsail_mj.config as config_module
 from magsail_mj.config import (
     ConfigError,
+    StrictModel,
     apply_overrides,
     config_hash,
     load_config,
@@ -223,3 +228,29 @@ def test_numbers_hash_ignores_presentation_keys_only():
     for change in ["control.k_bdot_Nms_per_T2=2e12", "sim.timestep_s=0.05", "sim.seed=3", "mass.total_kg=201.0"]:
         assert numbers_hash(load_config(TRUSS, [change])) != numbers_hash(base), change
     assert len(numbers_hash(base)) == 64
+
+
+class _Crashy(StrictModel):
+    """A table whose validator overflows (what round(inf) did before finite numbers were required)."""
+
+    x: float = 1.0
+
+    @model_validator(mode="after")
+    def _boom(self) -> _Crashy:
+        if self.x > 1e200:
+            math.exp(self.x)
+        return self
+
+
+class _CrashyConfig(StrictModel):
+    concept: str
+    table: _Crashy = _Crashy()
+
+
+def test_any_validator_exception_becomes_a_config_error_naming_the_table(monkeypatch):
+    monkeypatch.setitem(config_module._REGISTRY, "crashy", _CrashyConfig)
+    assert parse_config({"concept": "crashy", "table": {"x": 2.0}}).table.x == 2.0
+    with pytest.raises(ConfigError) as err:
+        parse_config({"concept": "crashy", "table": {"x": 1e300}})
+    assert err.value.problems[0].startswith("table: its validator failed (OverflowError")
+    assert "{'x': 1e+300}" in err.value.problems[0]
