@@ -537,8 +537,9 @@ def _mark_override_keys(problems: list[str], overrides: list[str] | tuple[str, .
     out = []
     for line in problems:
         key, _, rest = line.partition(": ")
-        if key in keys and rest.startswith("unknown key"):
-            line = f"{key}: unknown key given by --set {keys[key]!r} (not part of this table)"
+        given = [item for k, item in keys.items() if k == key or k.startswith(key + ".")]
+        if given and rest.startswith("unknown key"):
+            line = f"{key}: unknown key given by --set {given[0]!r} (not part of this table)"
         out.append(line)
     return out
 
