@@ -502,7 +502,7 @@ def _worker_main(run: SweepRun, out_dir: str, video: bool, conn: Any, lock_fd: i
         record = _run_one(run, out_dir, video=video)
     except BaseException as err:  # noqa: BLE001 - a worker reports what stopped it, never a traceback
         record = _stopped_record(run, err, wall_time_s=time.perf_counter() - t0)
-    if _STOP.is_set() and record["status"] not in FINISHED:  # e.g. a C extension turned the interrupt into an error
+    if _STOP.is_set() and record["status"] not in (*FINISHED, "interrupted"):  # e.g. an interrupt turned error
         record.update(status="interrupted", message=f"stopped while running ({record['message']})")
     try:
         conn.send(record)
@@ -540,7 +540,7 @@ class _Interrupts:
     def __init__(self) -> None:
         self.pending: int | None = None
         self.received = 0  # signals seen while deferring (a second Ctrl-C hurries the stop)
-        self._deferring = False
+        self._depth = 0
         self._previous: dict[int, Any] = {}
 
     def __enter__(self) -> Self:
@@ -555,20 +555,25 @@ class _Interrupts:
             signal.signal(signum, signal.SIG_DFL if previous is None else previous)
 
     def _handle(self, signum: int, frame: Any) -> None:
-        if self._deferring:
+        if self._depth:
             self.pending = self.pending or signum
             self.received += 1
             return
         raise SweepInterrupted(signum)
 
+    def raise_pending(self) -> None:
+        """Raise :class:`SweepInterrupted` for a signal remembered during a deferred block."""
+        if self.pending:
+            raise SweepInterrupted(self.pending)
+
     @contextlib.contextmanager
-    def deferred(self, *, check: bool = True, block: bool = False) -> Iterator[None]:
-        """Remember signals during the block instead of raising; raise after it if ``check``.
+    def deferred(self, *, block: bool = False) -> Iterator[None]:
+        """Remember signals during the block instead of raising (nestable).
 
         ``block`` also holds them back in the kernel (pending, delivered after the block), for
         a block that changes their dispositions (:func:`_sigint_ignored_by_child`).
         """
-        self._deferring = True
+        self._depth += 1
         if block:
             signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
         try:
@@ -576,9 +581,7 @@ class _Interrupts:
         finally:
             if block:
                 signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)  # runs the handler of a held-back signal
-            self._deferring = False
-        if check and self.pending:
-            raise SweepInterrupted(self.pending)
+            self._depth -= 1
 
 
 @dataclass
@@ -591,16 +594,21 @@ class _Job:
 
 
 class _Workers:
-    """At most ``workers`` runs at a time, each in a fresh spawn process."""
+    """At most ``workers`` runs at a time, each in a fresh spawn process; ended runs go to ``records``."""
 
-    def __init__(self, *, workers: int, out: Path, video: bool, lock_fd: int, interrupts: _Interrupts):
+    def __init__(self, *, workers: int, out: Path, video: bool, lock_fd: int, interrupts: _Interrupts,
+                 records: dict[str, dict[str, Any]], log: Callable[[str], None] | None):
         self.workers, self.out, self.video = workers, out, video
         self.lock_fd, self.interrupts = lock_fd, interrupts
+        self.records, self.log = records, log
         self.ctx = multiprocessing.get_context("spawn")
         self.active: list[_Job] = []
+        self.stopping = False
 
     def start(self, run: SweepRun) -> None:
         """Start ``run`` in a new worker (signals held back until it is registered)."""
+        if threading.current_thread() is threading.main_thread():
+            resource_tracker.ensure_running()  # its first start unblocks SIGINT/SIGTERM: not in the block below
         with self.interrupts.deferred(block=True):
             reader, writer = self.ctx.Pipe(duplex=False)
             proc = self.ctx.Process(target=_worker_main, name=f"sweep:{run.id}", daemon=False,
@@ -611,55 +619,56 @@ class _Workers:
             writer.close()
             self.active.append(_Job(run=run, process=proc, conn=reader, t0=time.perf_counter()))
 
-    def wait(self, timeout: float | None = None) -> list[dict[str, Any]]:
-        """Block until a worker reports or ends (or ``timeout``); the records of the ended ones."""
+    def collect(self, timeout: float | None = None) -> None:
+        """Block until a worker reports or ends (or ``timeout``); record the runs that ended."""
         handles = [j.process.sentinel for j in self.active] + [j.conn for j in self.active if j.record is None]
         if handles:
             multiprocessing.connection.wait(handles, timeout)
-        done = []
-        for job in list(self.active):
-            self._receive(job)
-            if not job.process.is_alive():
-                done.append(self._finish(job))
-        return done
+        with self.interrupts.deferred():  # a record is never half stored
+            for job in list(self.active):
+                self._receive(job)
+                if not job.process.is_alive():
+                    self._finish(job)
 
     @staticmethod
     def _receive(job: _Job) -> None:
         try:
             if job.record is None and job.conn.poll():
                 job.record = job.conn.recv()
-        except (EOFError, OSError):
-            pass
+        except Exception:  # noqa: BLE001 - a cut or garbled message: the run ended without a result
+            job.record = None
 
-    def _finish(self, job: _Job) -> dict[str, Any]:
+    def _finish(self, job: _Job) -> None:
         job.process.join()
         self._receive(job)
         job.conn.close()
         self.active.remove(job)
-        if job.record is not None:
-            return job.record
-        code = job.process.exitcode
-        how = f"signal {signal.Signals(-code).name}" if code and code < 0 else f"exit code {code}"
-        return _record(job.run, status="failed", message=f"worker process ended without a result ({how})",
-                       wall_time_s=time.perf_counter() - job.t0)
+        rec = job.record
+        if rec is None:
+            code = job.process.exitcode
+            how = f"signal {signal.Signals(-code).name}" if code and code < 0 else f"exit code {code}"
+            rec = _record(job.run, status="failed", message=f"worker process ended without a result ({how})",
+                          wall_time_s=time.perf_counter() - job.t0)
+        if self.stopping and rec["status"] not in FINISHED:
+            rec = {**rec, "status": "interrupted", "message": rec["message"] or "stopped while running"}
+        self.records[rec["id"]] = rec
+        _log_record(self.log, rec)
 
-    def stop(self, *, grace_s: float) -> list[dict[str, Any]]:
+    def stop(self, *, grace_s: float) -> None:
         """Stop every running worker: SIGTERM, then SIGKILL after ``grace_s`` or at a further
-        SIGINT/SIGTERM; their records."""
-        for job in self.active:
-            if job.process.is_alive():
-                job.process.terminate()
-        deadline = time.monotonic() + grace_s
-        seen = self.interrupts.received
-        records = []
-        while self.active and time.monotonic() < deadline and self.interrupts.received == seen:
-            records += self.wait(timeout=min(0.2, max(0.0, deadline - time.monotonic())))
-        for job in list(self.active):
-            job.process.kill()
-            records.append(self._finish(job))
-        return [r if r["status"] in FINISHED else {**r, "status": "interrupted",
-                                                    "message": r["message"] or "stopped while running"}
-                for r in records]
+        SIGINT/SIGTERM; record them (``interrupted`` unless they had just finished)."""
+        self.stopping = True
+        with self.interrupts.deferred():
+            for job in self.active:
+                if job.process.is_alive():
+                    job.process.terminate()
+            deadline = time.monotonic() + grace_s
+            seen = self.interrupts.received
+            while self.active and time.monotonic() < deadline and self.interrupts.received == seen:
+                self.collect(timeout=min(0.2, max(0.0, deadline - time.monotonic())))
+            for job in list(self.active):
+                job.process.kill()
+                self._finish(job)
 
 
 @contextlib.contextmanager
@@ -706,28 +715,41 @@ def _log_record(log: Callable[[str], None] | None, rec: dict[str, Any]) -> None:
         log(f"  {rec['id']}: {rec['status']}{took}{extra}")
 
 
-def _execute(todo: list[SweepRun], pool: _Workers, records: dict[str, dict[str, Any]],
-             log: Callable[[str], None] | None) -> None:
-    """Run ``todo`` on ``pool``, filling ``records`` as runs end."""
+def _execute(todo: list[SweepRun], pool: _Workers) -> None:
+    """Run ``todo`` on ``pool`` (its records fill as runs end)."""
     queue = list(todo)
     while queue or pool.active:
         while queue and len(pool.active) < pool.workers:
             pool.start(queue.pop(0))
-        for rec in pool.wait():
-            records[rec["id"]] = rec
-            _log_record(log, rec)
+            pool.interrupts.raise_pending()
+        pool.collect()
+        pool.interrupts.raise_pending()
 
 
-def _interrupted(todo: list[SweepRun], pool: _Workers, records: dict[str, dict[str, Any]], *,
-                 grace_s: float, log: Callable[[str], None] | None) -> None:
+def _interrupted(todo: list[SweepRun], pool: _Workers, *, grace_s: float) -> None:
     """After SIGINT/SIGTERM: stop the workers, mark the stopped runs and those never started."""
-    if log:
-        log(f"sweep interrupted: stopping {len(pool.active)} running runs (interrupt again to kill them now)")
-    for rec in pool.stop(grace_s=grace_s):
-        records[rec["id"]] = rec
-        _log_record(log, rec)
+    if pool.log:
+        pool.log(f"sweep interrupted: stopping {len(pool.active)} running runs (interrupt again to kill them now)")
+    pool.stop(grace_s=grace_s)
     for run in todo:
-        records.setdefault(run.id, _record(run, status="not_run", message="not started: the sweep was interrupted"))
+        pool.records.setdefault(run.id, _record(run, status="not_run",
+                                                message="not started: the sweep was interrupted"))
+
+
+def _run_pool(todo: list[SweepRun], pool: _Workers, *, grace_s: float) -> SweepInterrupted | None:
+    """Run ``todo``; on SIGINT/SIGTERM stop and return the interrupt (other errors: stop, re-raise)."""
+    try:
+        _execute(todo, pool)
+    except KeyboardInterrupt as err:
+        stopped = err if isinstance(err, SweepInterrupted) else SweepInterrupted(signal.SIGINT)
+    except BaseException:
+        pool.stop(grace_s=grace_s)  # no worker outlives a sweep that fails itself
+        raise
+    else:
+        return None
+    with pool.interrupts.deferred():
+        _interrupted(todo, pool, grace_s=grace_s)
+    return stopped
 
 
 # ---------------------------------------------------------------------------------------------
@@ -825,18 +847,10 @@ def run_sweep(
         if log:
             log(f"sweep {sweep.name}: {len(todo)} runs to do, {len(records)} not run now "
                 f"({sum(r['reused'] for r in records.values())} valid earlier), {workers} workers")
-        pool = _Workers(workers=workers, out=out, video=video, lock_fd=lock_fd, interrupts=interrupts)
-        stopped: SweepInterrupted | None = None
-        try:
-            _execute(todo, pool, records, log)
-        except KeyboardInterrupt as err:
-            stopped = err if isinstance(err, SweepInterrupted) else SweepInterrupted(signal.SIGINT)
-        except BaseException:
-            pool.stop(grace_s=grace_s)  # no worker outlives a sweep that fails itself
-            raise
-        with interrupts.deferred(check=False):
-            if stopped is not None:
-                _interrupted(todo, pool, records, grace_s=grace_s, log=log)
+        pool = _Workers(workers=workers, out=out, video=video, lock_fd=lock_fd, interrupts=interrupts,
+                        records=records, log=log)
+        stopped = _run_pool(todo, pool, grace_s=grace_s)
+        with interrupts.deferred():  # the summaries are written whole, whatever arrives now
             ordered = [records[r.id] for r in sweep.runs]
             wall = time.perf_counter() - t0
             _write_outputs(out, sweep, ordered, {
