@@ -468,3 +468,14 @@ def test_fuzz_any_command_line(capsys, argv):
     if "--help" in argv or "-h" in argv:
         return
     call(capsys, ["--memory-limit", "64M", *argv])
+
+
+def test_valid_inputs_still_succeed(capsys, arena, tmp_path):
+    """The checks refuse nothing valid: every verb with a small valid input exits 0."""
+    for argv in (["validate", CONFIG, *TINY], ["build", CONFIG, "-o", str(tmp_path / "m.xml"), *TINY],
+                 ["sweep", str(arena.sweep), "--out", str(tmp_path / "sw")],
+                 ["scaling", "magnetorquer", "--side-m", "75", "100", "--kappa", "100"],
+                 ["scaling", "loops", "--table"], ["torque", "coil", "--side-m", "20"]):
+        rc, out, err = call(capsys, argv)
+        assert rc == 0, (argv, err)
+    assert _strict_json(out)["T_max_ycoil_N_m"] > 0
