@@ -18,6 +18,7 @@ import signal
 import sys
 import threading
 import traceback
+import warnings
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, NoReturn
@@ -485,6 +486,18 @@ def _sigterm_interrupts() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+@contextlib.contextmanager
+def _plain_warnings() -> Iterator[None]:
+    """Within the block, a warning prints as one line ``warning: <message>`` on stderr (no source line)."""
+    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+             file: Any = None, line: str | None = None) -> None:
+        print(f"warning: {message}", file=sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
+
+
 def _error(message: str, code: int) -> int:
     print(f"error: {message}", file=sys.stderr)
     return code
@@ -545,7 +558,7 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exit_:        # --help
         return exit_.code if isinstance(exit_.code, int) else 0
     try:
-        with memory_limit(args.memory_limit), _sigterm_interrupts():
+        with memory_limit(args.memory_limit), _sigterm_interrupts(), _plain_warnings():
             return _dispatch(args)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

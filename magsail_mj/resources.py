@@ -262,7 +262,10 @@ def _record_count(cfg: Any) -> float:
     if sim is None or getattr(cfg, "kind", None) == "lifetime":   # no MuJoCo records
         return 0.0
     every = float(getattr(sim, "record_every", 1) or 1)
-    return float(sim.duration_s) / float(sim.timestep_s) / every + 1.0
+    duration, step = float(sim.duration_s), float(sim.timestep_s)
+    if not (step > 0 and every > 0) or math.isnan(duration):
+        return math.inf
+    return max(duration, 0.0) / step / every + 1.0
 
 
 def estimate_run_bytes(cfg: Any) -> float:
