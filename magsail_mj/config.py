@@ -61,7 +61,9 @@ __all__ = [
     "normalised",
     "numbers_hash",
     "parse_config",
+    "read_toml",
     "register_concept",
+    "validation_problems",
 ]
 
 Integrator = Literal["RK4", "Euler", "implicitfast", "implicit", "discrete"]
@@ -375,6 +377,13 @@ def _is_union_error(err: dict[str, Any]) -> bool:
     return any(isinstance(p, str) and _UNION_TAG.search(p) for p in err.get("loc", ()))
 
 
+def validation_problems(err: ValidationError, *, prefix: str = "") -> list[str]:
+    """The ``key.path: what is wrong, got value`` lines of a pydantic ``ValidationError`` raised by
+    a :class:`StrictModel`, each key path prefixed with ``prefix`` (e.g. ``"scaling."`` for a table
+    validated on its own), formatted as :func:`load_config` reports them."""
+    return [f"{prefix}{line}" for line in _problems(err)]
+
+
 def _problems(err: ValidationError) -> list[str]:
     """Every line of a ValidationError; the failed alternatives of a union key (such as
     ``float | list[float]``) are merged into one ``key: must be ... — or: ...`` line."""
@@ -506,6 +515,12 @@ def parse_config(tree: dict[str, Any], *, source: str | None = None) -> BaseMode
     if problems:
         raise ConfigError(problems, source=source)
     return cfg
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """The TOML tree of the file at ``path``; :class:`ConfigError` (never another exception) for a
+    missing path, a folder, an unreadable, binary, non-UTF-8 or invalid TOML file."""
+    return _read_tree(Path(path))
 
 
 def _read_tree(path: Path) -> dict[str, Any]:

@@ -5,17 +5,20 @@ from __future__ import annotations
 import math
 
 import pytest
-from pydantic import model_validator
+from pydantic import ValidationError, model_validator
 
 import magsail_mj.config as config_module
 from magsail_mj.config import (
     ConfigError,
+    SimConfig,
     StrictModel,
     apply_overrides,
     config_hash,
     load_config,
     numbers_hash,
     parse_config,
+    read_toml,
+    validation_problems,
 )
 from magsail_mj.sweep import is_sweep_file, load_sweep
 from tests.conftest import REPO
@@ -254,3 +257,20 @@ def test_any_validator_exception_becomes_a_config_error_naming_the_table(monkeyp
         parse_config({"concept": "crashy", "table": {"x": 1e300}})
     assert err.value.problems[0].startswith("table: its validator failed (OverflowError")
     assert "{'x': 1e+300}" in err.value.problems[0]
+
+
+def test_read_toml_and_validation_problems_for_other_loaders(tmp_path):
+    """Public helpers for loaders of other TOML tables (sweep files, scaling inputs)."""
+    with pytest.raises(ConfigError, match="is a folder"):
+        read_toml(tmp_path)
+    bad = tmp_path / "latin1.toml"
+    bad.write_bytes(b'name = "caf\xe9"\n')
+    with pytest.raises(ConfigError, match="not UTF-8"):
+        read_toml(bad)
+    assert read_toml(TRUSS)["concept"] == "truss_magnetorquer"
+    with pytest.raises(ValidationError) as err:
+        SimConfig.model_validate({"duration_s": "2", "timestep_s": math.nan})
+    assert validation_problems(err.value, prefix="sim.") == [
+        "sim.duration_s: must be a number (not a string or a boolean), got '2'",
+        "sim.timestep_s: must be a finite number, got nan",
+    ]
