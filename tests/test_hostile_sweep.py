@@ -42,16 +42,6 @@ FAST = ["lattice.units=3", "sim.duration_s=2.0", "sim.record_every=10", "sim.pro
 # ~100k RK4 steps: tens of seconds, far longer than any test waits for it
 SLOW = ["lattice.units=3", "sim.duration_s=100.0", "sim.timestep_s=0.001", "sim.record_every=1000",
         "sim.progress=false"]
-DRIVER = """
-import sys
-from magsail_mj.sweep import SweepInterrupted, load_sweep, run_sweep, sweep_exit_code
-sweep = load_sweep(sys.argv[1])
-try:
-    records = run_sweep(sweep, sys.argv[2], workers=int(sys.argv[3]), log=None)
-except SweepInterrupted:
-    sys.exit(130)
-sys.exit(sweep_exit_code(records))
-"""
 
 
 def _sweep_file(tmp_path: Path, ids: list[str], common: list[str], name: str = "hostile") -> Path:
@@ -111,8 +101,9 @@ def test_interrupt_stops_promptly_writes_summary_and_locks_folder(tmp_path, caps
     """SIGINT goes to the whole process group (a terminal's Ctrl-C), SIGTERM to the sweep process only."""
     sweep = _sweep_file(tmp_path, ["slow/a", "slow/b"], SLOW)
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-c", DRIVER, str(sweep), str(out), str(workers)], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.cli", "sweep", str(sweep), "--out", str(out),
+                             "--workers", str(workers)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
     try:
         started = ["slow/a", "slow/b"][:workers]
         _wait_for(lambda: all((out / r / "model.xml").exists() for r in started), 90, "the runs to start")
@@ -198,11 +189,12 @@ def test_a_worker_killed_mid_run_is_recorded_failed(tmp_path):
     sweep = load_sweep(_sweep_file(tmp_path, ["slow/a"], SLOW))
     out = tmp_path / "out"
     box = {}
+    before = set(_workers_of(os.getpid()))  # spawn children of earlier tests, if any
     thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, log=None)))
     thread.start()
     try:
         _wait_for(lambda: (out / "slow" / "a" / "model.xml").exists(), 90, "the run to start")
-        (pid,) = _workers_of(os.getpid())
+        (pid,) = set(_workers_of(os.getpid())) - before
         os.kill(pid, signal.SIGKILL)
     finally:
         thread.join(timeout=60)
