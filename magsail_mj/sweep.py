@@ -415,7 +415,7 @@ def _run_one(run: SweepRun, out_dir: str | Path, *, video: bool) -> dict[str, An
 
         cfg = load_config(run.config, list(run.overrides))
         record["config_hash"] = config_hash(cfg)
-        (run_dir / "manifest.json").unlink(missing_ok=True)  # a stopped rerun must not look finished
+        # overwrite: the earlier run's files go first (its manifest last), so a stopped rerun never looks finished
         outcome = run_scenario(cfg, run_dir, video=video, overwrite=True, progress=False)
         record.update(status=str(outcome.status), message=str(outcome.get("status_message") or ""),
                       summary=to_jsonable(dict(outcome)))
