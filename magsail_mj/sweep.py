@@ -22,7 +22,8 @@ whose video fails is recorded with its status and message; the others go on.
 Guarantees:
 
 * **Reuse only of what is valid now.** A run folder is reused (not rerun) only when its
-  ``manifest.json`` has a finished status (completed, structure_failed, diverged), the
+  ``manifest.json`` has a finished status (:data:`FINISHED`: completed, a studied failure such as
+  structure_failed, or diverged), the
   ``config_hash`` of the config the sweep would run now (same overrides), every file it lists with
   the recorded sha256, and ``video.mp4`` when a video is asked. Anything else is rerun into that
   folder. ``overwrite`` reruns every selected run.
@@ -35,6 +36,11 @@ Guarantees:
   on Linux, a parent-pid watch elsewhere); the sweep folder is locked (``fcntl.flock`` on
   ``.sweep.lock``, shared with the workers, released by the kernel when the last one dies), and a
   second sweep into a locked folder raises :class:`~magsail_mj.io.RunDirError`.
+
+* **Failed means failed.** A run whose video (or anything else) failed has status ``failed`` and
+  a message saying why; so has a run whose folder does not verify right after it ran. Only
+  :data:`FINISHED` folders are ever reused. :func:`sweep_exit_code` gives 1 when a run of this
+  call failed or was stopped, else 3 when one diverged, else 0.
 
 The sweep folder receives ``sweep_summary.json`` (one record per run), ``sweep_summary.csv``
 (the same as a table, each column once) and ``sweep_manifest.json`` (sweep file, its hash,
@@ -482,7 +488,7 @@ def _guard_worker(parent_pid: int) -> None:
     signal.signal(signal.SIGTERM, _on_sigterm)
     _set_parent_death_signal(signal.SIGTERM)
     threading.Thread(target=_watch_parent, args=(parent_pid,), name="parent-watch", daemon=True).start()
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)  # blocked by the parent around the start
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)  # should a start method pass on the parent's mask
 
 
 def _stopped_record(run: SweepRun, err: BaseException, *, wall_time_s: float) -> dict[str, Any]:
