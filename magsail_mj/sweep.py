@@ -64,7 +64,6 @@ import signal
 import sys
 import threading
 import time
-import tomllib
 import traceback
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -72,7 +71,7 @@ from multiprocessing import reduction, resource_tracker
 from pathlib import Path
 from typing import Any, Self
 
-from magsail_mj.config import ConfigError, config_hash, load_config
+from magsail_mj.config import ConfigError, config_hash, load_config, read_toml
 from magsail_mj.io import (
     RunDirError,
     atomic_path,
@@ -161,8 +160,12 @@ class Sweep:
 
 
 def is_sweep_file(path: str | Path) -> bool:
-    """True for a sweep file (``[[run]]`` tables and no ``concept``), which lists configs."""
-    tree = tomllib.loads(Path(path).read_text())
+    """True for a sweep file (``[[run]]`` tables and no ``concept``), which lists configs.
+
+    Raises:
+      ConfigError: the path is missing, a folder, unreadable or not TOML.
+    """
+    tree = read_toml(path)
     return "run" in tree and "concept" not in tree
 
 
@@ -276,10 +279,7 @@ def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (),
       ConfigError: naming the sweep key, or the run index and id, with the problems.
     """
     path = Path(path)
-    try:
-        tree = tomllib.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
-        raise ConfigError([f"{path}: {err}"]) from None
+    tree = read_toml(path)
     name, description = _check_header(tree, path)
     entries = tree.get("run")
     if not isinstance(entries, list) or not entries:
