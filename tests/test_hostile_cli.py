@@ -479,3 +479,20 @@ def test_valid_inputs_still_succeed(capsys, arena, tmp_path):
         rc, out, err = call(capsys, argv)
         assert rc == 0, (argv, err)
     assert _strict_json(out)["T_max_ycoil_N_m"] > 0
+
+
+def test_corrupt_modes_cache_is_recomputed_and_rewritten(tmp_path):
+    from magsail_mj.analysis.modes import lattice_modes
+    from magsail_mj.geometry.lattice import make_lattice
+
+    lat = make_lattice(units=2, side_m=1.0)
+    args = (lat.nodes, lat.struts, np.ones(lat.n_struts), np.ones(lat.n_nodes))
+    first = lattice_modes(*args, cache_dir=tmp_path)
+    (cache,) = tmp_path.glob("*.npz")
+    size = cache.stat().st_size
+    for corrupt in (cache.read_bytes()[:60], b"garbage", b""):
+        cache.write_bytes(corrupt)
+        again = lattice_modes(*args, cache_dir=tmp_path)
+        assert np.allclose(again.omega, first.omega) and cache.stat().st_size == size
+    np.savez(cache, eigvals=np.ones(3), phi=np.ones((3, 3)))              # a readable file of the wrong shape
+    assert np.allclose(lattice_modes(*args, cache_dir=tmp_path).omega, first.omega)

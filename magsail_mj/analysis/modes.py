@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -195,11 +196,14 @@ def lattice_modes(
     path = modes_cache_dir(cache_dir) / f"modes_{nodes.shape[0]}n_{key}.npz"
     lam = psi = None
     if use_cache and path.exists():
+        ndof = 3 * nodes.shape[0]
         try:
-            with np.load(path) as z:
+            with np.load(path, allow_pickle=False) as z:
                 lam, psi = z["eigvals"], z["phi"]
-        except (OSError, KeyError, ValueError):
-            lam = psi = None                             # unreadable cache: recompute
+            if lam.shape != (ndof,) or psi.shape != (ndof, ndof) or not np.all(np.isfinite(lam)):
+                raise ValueError(f"{path}: cached modes of the wrong shape")
+        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
+            lam = psi = None                             # unreadable/truncated cache: recompute, rewrite
     if lam is None:
         lam, psi = _solve(nodes, struts, kn, mn)
         if use_cache:
