@@ -180,9 +180,7 @@ def _output_file(path: str | None, option: str) -> Path:
     p = _non_empty(path, option)
     if p.is_dir():
         raise CliInputError(f"{option}: {str(p)!r} is a folder; give a file path")
-    if p.exists() and not os.access(p, os.W_OK) and not os.access(p.parent, os.W_OK):
-        raise CliInputError(f"{option}: {str(p)!r} is not writable (permission denied)")
-    _writable_parent(p, option)
+    _writable_parent(p, option)       # the file is replaced by a rename in its folder
     return p
 
 
