@@ -496,3 +496,22 @@ def test_corrupt_modes_cache_is_recomputed_and_rewritten(tmp_path):
         assert np.allclose(again.omega, first.omega) and cache.stat().st_size == size
     np.savez(cache, eigvals=np.ones(3), phi=np.ones((3, 3)))              # a readable file of the wrong shape
     assert np.allclose(lattice_modes(*args, cache_dir=tmp_path).omega, first.omega)
+
+
+def test_os_errors_about_user_paths_exit_2_others_1(capsys, monkeypatch, tmp_path):
+    import errno
+
+    target = tmp_path / "out" / "m.xml"
+
+    def denied(args):
+        raise PermissionError(errno.EACCES, "Permission denied", str(target.parent / ".m.xml.tmp"))
+
+    def disk_full(args):
+        raise OSError(errno.ENOSPC, "No space left on device", "/var/somewhere/else")
+
+    monkeypatch.setattr(cli, "_cmd_build", denied)
+    rc, _, err = call(capsys, ["build", CONFIG, "-o", str(target)])
+    assert rc == 2 and err.startswith("error: ") and "Permission denied" in err
+    monkeypatch.setattr(cli, "_cmd_build", disk_full)
+    rc, _, err = call(capsys, ["build", CONFIG, "-o", str(target)])
+    assert rc == 1 and err.startswith("error: output failed: OSError") and "No space left" in err
