@@ -25,6 +25,7 @@ from typing import Any, NoReturn
 
 from magsail_mj.config import ConfigError, load_config
 from magsail_mj.io import RunDirError, atomic_path, to_jsonable
+from magsail_mj.render.backend import GLBackendError
 from magsail_mj.resources import (
     ENV_VAR,
     MemoryLimitError,
@@ -529,8 +530,6 @@ def _is_user_path_error(err: OSError, args: argparse.Namespace) -> bool:
 
 def _dispatch(args: argparse.Namespace) -> int:
     """Run the verb, mapping its exceptions to exit statuses (see :data:`EXIT_CODES`)."""
-    from magsail_mj.render.backend import GLBackendError
-
     options = getattr(args, "options", {})
     try:
         return args.fn(args)

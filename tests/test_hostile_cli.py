@@ -16,6 +16,7 @@ from magsail_mj.render.backend import ensure_gl_backend
 
 ensure_gl_backend()
 
+import errno
 import json
 import os
 import signal
@@ -32,9 +33,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from magsail_mj import cli
+from magsail_mj.analysis.modes import lattice_modes
 from magsail_mj.cli import EXIT_CODES, main
 from magsail_mj.config import load_config
 from magsail_mj.control.lloyd import LloydSelector
+from magsail_mj.geometry.lattice import make_lattice
 from magsail_mj.resources import (
     ENV_VAR,
     MemoryLimitError,
@@ -46,6 +49,7 @@ from magsail_mj.resources import (
     memory_limit_bytes,
     parse_memory_limit,
 )
+from magsail_mj.run import run_scenario
 from magsail_mj.scenarios import build_scenario
 
 REPO = Path(__file__).resolve().parents[1]
@@ -160,8 +164,6 @@ def test_memory_limit_sources_and_parsing(monkeypatch):
 
 
 def test_lattice_counts_match_the_lattice_builder():
-    from magsail_mj.geometry.lattice import make_lattice
-
     for units in (1, 2, 5):
         for diagonals in ("parity", "X"):
             lat = make_lattice(units=units, side_m=1.0, diagonals=diagonals)
@@ -299,8 +301,6 @@ def test_render_errors_exit_2(capsys, arena, tmp_path):
 
 
 def test_truncated_checkpoint_refuses_resume(capsys, tmp_path):
-    from magsail_mj.run import run_scenario
-
     sets = ["lattice.units=3", "sim.duration_s=0.4", "sim.record_every=1"]
     out = tmp_path / "run"
     run_scenario(load_config(CONFIG, sets), out, stop_after_s=0.2, progress=False)
@@ -482,9 +482,6 @@ def test_valid_inputs_still_succeed(capsys, arena, tmp_path):
 
 
 def test_corrupt_modes_cache_is_recomputed_and_rewritten(tmp_path):
-    from magsail_mj.analysis.modes import lattice_modes
-    from magsail_mj.geometry.lattice import make_lattice
-
     lat = make_lattice(units=2, side_m=1.0)
     args = (lat.nodes, lat.struts, np.ones(lat.n_struts), np.ones(lat.n_nodes))
     first = lattice_modes(*args, cache_dir=tmp_path)
@@ -499,8 +496,6 @@ def test_corrupt_modes_cache_is_recomputed_and_rewritten(tmp_path):
 
 
 def test_os_errors_about_user_paths_exit_2_others_1(capsys, monkeypatch, tmp_path):
-    import errno
-
     target = tmp_path / "out" / "m.xml"
 
     def denied(args):

@@ -33,6 +33,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from magsail_mj.config import load_config
 from magsail_mj.geometry.lattice import make_lattice
 from magsail_mj.mjcf.truss import build_truss_spec
 from magsail_mj.render import backend
@@ -44,6 +45,8 @@ from magsail_mj.render.compose import (
     render_run,
 )
 from magsail_mj.render.video import Mp4Writer, read_mp4, video_codec
+from magsail_mj.resources import MemoryLimitError, memory_limit
+from magsail_mj.run import run_scenario
 
 W, H = 320, 180          # small frames keep software rendering fast
 T_FRAMES = 9             # records: activity 0 (0-2), +1 (3-5), -1 (6-8)
@@ -487,9 +490,6 @@ SCENARIO_KINDS = [
 def test_every_scenario_kind_renders_its_video(tmp_path, gl, kind, config, overrides):
     """A short run of each scenario kind with video=True writes a playable video.mp4 (the truss
     cantilever used to fail: its render table names an overlay series it does not record)."""
-    from magsail_mj.config import load_config
-    from magsail_mj.run import run_scenario
-
     cfg = load_config(REPO / config, overrides)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -532,8 +532,6 @@ def test_render_output_path_is_checked_before_rendering(tmp_path):
 
 def test_render_memory_is_estimated_before_loading(tmp_path):
     """A render needing more than the limit is refused with the estimate and the limit."""
-    from magsail_mj.resources import MemoryLimitError, memory_limit
-
     write_truss_run(tmp_path / "run")
     with memory_limit(1 << 20), pytest.raises(MemoryLimitError, match=r"render .*needs about .*limit of 1 MiB"):
         render_run(tmp_path / "run", tmp_path / "x.mp4", width=W, height=H)
