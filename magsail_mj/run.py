@@ -33,8 +33,8 @@ from typing import Any
 from threadpoolctl import threadpool_info, threadpool_limits
 
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
-from magsail_mj.config import config_hash, numbers_hash
-from magsail_mj.io import package_versions, prepare_run_dir, write_json, write_npz, atomic_path
+from magsail_mj.config import ConfigError, config_hash, numbers_hash
+from magsail_mj.io import atomic_path, package_versions, prepare_run_dir, write_json, write_npz
 from magsail_mj.render import render_run
 from magsail_mj.scenarios import build_scenario
 
@@ -119,6 +119,8 @@ def run_scenario(
 def _run(cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool, progress: bool,
          stop_after_s: float | None) -> RunOutcome:
     scenario = build_scenario(cfg)
+    if video and "video" in scenario.render_info():  # a scenario without motion says why
+        raise ConfigError([f"--video: scenario {cfg.scenario!r} cannot be rendered: {scenario.render_info()['video']}"])
     sim = scenario.simulation()
     identity = run_identity(numbers_hash(cfg))
     if hasattr(sim, "identity"):

@@ -474,10 +474,7 @@ SCENARIO_KINDS = [
     ("reflector/pitch_caps", "models/reflector/pitch/b3_caps_sigma10.toml", ["sim.duration_s=2", "sim.record_every=1"]),
     ("current_loops/sweep", "models/current_loops/sweep/a_n12_ei1e3.toml", _FAST_LATTICE),
     ("current_loops/slew", "models/current_loops/slew.toml", _FAST_LATTICE),
-    pytest.param("current_loops/slew_rigid", "models/current_loops/slew_rigid.toml", _FAST_LATTICE,
-                 marks=pytest.mark.xfail(reason="scenarios/current_loops.py: the rigid plate's explicit inertial "
-                                                "has no ipos, so spec.to_xml() writes <inertial> without pos and "
-                                                "model.xml does not load (fix: body.ipos = [0, 0, 0])")),
+    ("current_loops/slew_rigid", "models/current_loops/slew_rigid.toml", _FAST_LATTICE),
     ("truss/dist_vs_central", "models/truss_magnetorquer/dist_vs_central/case_a_central_bangbang.toml", _FAST_LATTICE),
     ("truss/cantilever", "models/truss_magnetorquer/cantilever.toml", _FAST_LATTICE),
     ("truss/free", "models/truss_magnetorquer/libration.toml", _FAST_LATTICE),

@@ -234,7 +234,8 @@ class LifetimeScenario:
         return out
 
     def render_info(self) -> dict[str, Any]:
-        return {"title": "CNUSAIL-1 lifetime (no attitude simulation)", "overlay": []}
+        return {"title": "CNUSAIL-1 lifetime (no attitude simulation)", "overlay": [],
+                "video": "the lifetime analysis propagates orbits only; it has no motion to render"}
 
     def manifest_extra(self) -> dict[str, Any]:
         return {"kind": "lifetime", "runs": self.n_runs, "notes": self.notes}

@@ -352,6 +352,7 @@ def rigid_plate_spec(cfg: CurrentLoopsConfig, inertia: np.ndarray, mass: float) 
     body = spec.worldbody.add_body(name="plate", pos=[0, 0, 0])
     body.add_freejoint(name="plate_free")
     body.explicitinertial = True
+    body.ipos = [0.0, 0.0, 0.0]  # without it to_xml() drops the explicit inertial (MuJoCo 4)
     body.mass = float(mass)
     body.fullinertia = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
     body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[D / 2, D / 2, w / 2], contype=0, conaffinity=0,

@@ -585,6 +585,7 @@ class TrussScenario:
             "top_nodes": top.tolist(),
             "overlay": (["surface_sd_m", "torque_cmd_x1_Nm"] if self.cfg.scenario == "dist_vs_central"
                         else _orbital_overlay(self.cfg) if self.cfg.scenario in ORBITAL_SCENARIOS
+                        else ["tip_deflection_m"] if self.cfg.scenario == "cantilever"
                         else ["surface_sd_m"]),
             **({"inset": "error_angle_deg" if self.cfg.scenario == "slew" else "omega_norm_rad_s"}
                if self.cfg.scenario in ORBITAL_SCENARIOS else {}),
