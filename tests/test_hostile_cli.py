@@ -23,6 +23,7 @@ import signal
 import subprocess
 import sys
 import time
+import tracemalloc
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -36,6 +37,7 @@ from magsail_mj import cli
 from magsail_mj.analysis.modes import lattice_modes
 from magsail_mj.cli import EXIT_CODES, main
 from magsail_mj.config import load_config
+from magsail_mj.environment.environment import Environment
 from magsail_mj.control.lloyd import LloydSelector
 from magsail_mj.geometry.lattice import make_lattice
 from magsail_mj.resources import (
@@ -43,7 +45,9 @@ from magsail_mj.resources import (
     MemoryLimitError,
     available_memory_bytes,
     check_memory,
+    environment_bytes,
     estimate_model_bytes,
+    estimate_run_bytes,
     lattice_counts,
     memory_limit,
     memory_limit_bytes,
@@ -183,6 +187,21 @@ def test_model_estimate_within_a_factor_3_of_mujoco(config, overrides):
     data = mujoco.MjData(model)
     measured = model.nbuffer + data.nbuffer + data.narena
     assert measured / 3 <= estimate <= 3 * measured, (estimate, measured)
+
+
+def test_environment_grid_estimate_against_tracemalloc():
+    """The orbital environment grid (IGRF along the orbit) is part of the model estimate: within a
+    factor 2 of the measured peak for 2 000 rows, and a 1e11 s orbit is refused before any grid."""
+    cfg = load_config(REPO / "models/truss_magnetorquer/detumble.toml", ["sim.duration_s=20000"])
+    tracemalloc.start()
+    Environment.from_config(cfg.environment_config(), duration_s=cfg.sim.duration_s)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak / 2 <= environment_bytes(cfg) <= 2 * peak, (environment_bytes(cfg), peak)
+    long = load_config(REPO / "models/truss_magnetorquer/detumble.toml",
+                       ["sim.duration_s=1e11", "sim.timestep_s=10", "sim.record_every=1000000000"])
+    with pytest.raises(MemoryLimitError, match="needs about"):
+        check_memory(estimate_run_bytes(long), what="run", limit=1e12)
 
 
 def test_huge_lattice_is_refused_fast_without_allocating(capsys):

@@ -29,14 +29,13 @@ Spec: truss-magnetorquer-array.md §8 (paper Sec. 4.1, Eqs. 14–17; §12 items 
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 from pydantic import Field, ValidationError, model_validator
 
-from magsail_mj.config import ConfigError, StrictModel
+from magsail_mj.config import ConfigError, StrictModel, read_toml, validation_problems
 from magsail_mj.environment.constants import B0_DIPOLE, MU_EARTH, R_E_TRUSS
 from magsail_mj.resources import check_memory
 
@@ -282,17 +281,14 @@ class ScalingInputs(StrictModel):
 def load_scaling_inputs(path: str | Path) -> ScalingInputs:
     """Read and validate the ``[scaling]`` table of a TOML file (other top-level keys ignored)."""
     path = Path(path)
-    with open(path, "rb") as fh:
-        tree = tomllib.load(fh)
+    tree = read_toml(path)
     table = tree.get("scaling", {})
     if not isinstance(table, dict):
         raise ConfigError([f"scaling: must be a table, got {table!r}"], source=str(path))
     try:
         return ScalingInputs.model_validate(table)
     except ValidationError as err:
-        problems = [f"scaling.{'.'.join(str(p) for p in e['loc'])}: {e['msg']}, got {e.get('input')!r}"
-                    for e in err.errors()]
-        raise ConfigError(problems, source=str(path)) from None
+        raise ConfigError(validation_problems(err, prefix="scaling."), source=str(path)) from None
 
 
 def scaling_tables(inputs: ScalingInputs) -> dict:
