@@ -200,7 +200,7 @@ def averaged_decay(*, a0_m: float, e0: float, bstar: float, rho_fn: DensityModel
     perigee.terminal = True
     perigee.direction = -1
     sol = solve_ivp(rhs, (0.0, t_max_s), [a0_m, e0], method="RK45", rtol=1e-8, atol=[1e-3, 1e-12],
-                    events=perigee, dense_output=True, first_step=3600.0)
+                    events=perigee, dense_output=True, first_step=min(3600.0, 0.1 * t_max_s))
     if sol.status == -1:
         raise RuntimeError(f"averaged decay failed: {sol.message}")
     hit = len(sol.t_events[0]) > 0
