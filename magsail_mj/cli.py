@@ -369,7 +369,8 @@ def _verb(sub: Any, name: str, help_text: str, fn: Callable[[argparse.Namespace]
     return p
 
 
-def _set_option(p: argparse.ArgumentParser, help_text: str = "override a config key, e.g. --set sim.duration_s=60") -> None:
+def _set_option(p: argparse.ArgumentParser,
+                help_text: str = "override a config key, e.g. --set sim.duration_s=60") -> None:
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=help_text)
 
 

@@ -167,8 +167,10 @@ class SimConfig(StrictModel):
             raise ConfigProblem("duration_s", f"must be at least one time step, timestep_s = {self.timestep_s} s, "
                                 f"got {self.duration_s!r}", others=("timestep_s",))
         if self.duration_s / self.timestep_s >= MAX_STEPS:
-            raise ConfigProblem("duration_s", f"needs duration_s / timestep_s = {self.duration_s / self.timestep_s:.3g} "
-                                f"steps, more than a 64-bit step counter holds ({MAX_STEPS:.3g}), got {self.duration_s!r}",
+            raise ConfigProblem("duration_s",
+                                f"needs duration_s / timestep_s = {self.duration_s / self.timestep_s:.3g} "
+                                f"steps, more than a 64-bit step counter holds ({MAX_STEPS:.3g}), "
+                                f"got {self.duration_s!r}",
                                 others=("timestep_s",))
         if 0 < self.checkpoint_every_s < self.timestep_s:
             raise ConfigProblem("checkpoint_every_s", "must be 0 (never) or at least one time step, "
@@ -414,7 +416,8 @@ def _parse_literal(text: str) -> Any:
         return text
 
 
-def _override_problems(tree: dict[str, Any], overrides: list[str] | tuple[str, ...]) -> tuple[dict[str, Any], list[str]]:
+def _override_problems(tree: dict[str, Any],
+                       overrides: list[str] | tuple[str, ...]) -> tuple[dict[str, Any], list[str]]:
     """``tree`` with the well-formed overrides applied, and a line per malformed one."""
     out = copy.deepcopy(tree)
     problems = []

@@ -12,9 +12,9 @@ Writes into ``--out`` (default ``runs/allocation_demo``):
   ``lloyd_tol_rel``, ``lloyd_time_s``, ``snap_time_s``, ``nn_spacing_cv`` plus the covering
   radius (largest distance from a point of the square to the nearest active site; the
   nearest-neighbour CV is a weak evenness measure at 72 % occupancy of a grid), the same two
-  figures for the random start snapped, the seed, the machine and the Fig. 15 numbers; with ``--bench-truss`` also the cost of one control call
-  (allocation + cached Lloyd look-up) on the 75 m truss's 380 + 380 rods and the one-off cost
-  of the Lloyd runs of every count.
+  figures for the random start snapped, the seed, the machine and the Fig. 15 numbers; with
+  ``--bench-truss`` also the cost of one control call (allocation + cached Lloyd look-up) on
+  the 75 m truss's 380 + 380 rods and the one-off cost of the Lloyd runs of every count.
 
     python scripts/allocation_demo.py
     python scripts/allocation_demo.py --bench-truss --workers 2 --cache-dir runs/lloyd_cache

@@ -261,7 +261,8 @@ def main(argv: list[str] | None = None) -> int:
     for what, ok in (("figures", lambda r: r.figures_ok), ("trajectory", lambda r: r.trajectory_ok)):
         f = min((r for r in rows if ok(r)), key=lambda r: r.wall_s)
         lines.append(f"- Fastest setting equal to the spec's RK4 0.1 s in {what}: {f.label}, {f.wall_s:.1f} s wall "
-                     f"for {args.duration:g} s simulated ({verdict(f.wall_s)}), cost {f.cpu_s / max(f.t_end_s, 1e-9) / ref_cost:.2f} of the NumPy RK4 reference.")
+                     f"for {args.duration:g} s simulated ({verdict(f.wall_s)}), "
+                     f"cost {f.cpu_s / max(f.t_end_s, 1e-9) / ref_cost:.2f} of the NumPy RK4 reference.")
     if args.profile >= 0:
         label, overrides = ROWS[args.profile]
         lines += ["", profile_row(label, overrides, args.duration, args.cache_dir), ""]

@@ -60,7 +60,8 @@ ANGLE_TOL_RAD = 1e-3   # spec §3.4: attitude angles within 1e-3 rad
 SD_TOL_REL = 0.02      # spec §3.4: surface SD within 2 %
 SAMPLE_S = 3.0         # comparison sampling period: a multiple of every step tried (0.1 … 0.3 s)
 
-CASE_A = Path(__file__).resolve().parents[1] / "models/truss_magnetorquer/dist_vs_central/case_a_distributed_bangbang.toml"
+CASE_A = (Path(__file__).resolve().parents[1]
+          / "models/truss_magnetorquer/dist_vs_central/case_a_distributed_bangbang.toml")
 """The benchmark model: Case A (EI 1e3, 100 m, 100 kg, calibrated, ζ 0.1), distributed bang-bang torque."""
 
 RUNNER_CASES = [("RK4", 0.1), ("Euler", 0.1), ("implicitfast", 0.1)] + [

@@ -158,7 +158,9 @@ def run_reference(lat, m, k, damping, lorentz_f, metrics, dt, duration, record_e
     for step in range(n_steps + 1):
         if step % record_every == 0:
             R, U = metrics(x)
-            ts.append(step * dt); Rs.append(R); Us.append(U)
+            ts.append(step * dt)
+            Rs.append(R)
+            Us.append(U)
         if step == n_steps:
             break
         x, v = system.rk4_step(step * dt, x, v, dt, external)

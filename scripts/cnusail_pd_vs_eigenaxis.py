@@ -71,7 +71,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.video:
         from magsail_mj.render import render_run
 
-        render_run(out / "pd", out / "pd_vs_eigenaxis.mp4", compare=out / "eigen_axis", labels=["PD (S5a)", "eigen-axis (S5b)"],
+        render_run(out / "pd", out / "pd_vs_eigenaxis.mp4", compare=out / "eigen_axis",
+                   labels=["PD (S5a)", "eigen-axis (S5b)"],
                    fps=30, max_frames=json.loads((out / "pd" / "manifest.json").read_text())["render"]["max_frames"])
     return 0
 

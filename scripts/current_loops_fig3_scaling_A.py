@@ -1,4 +1,6 @@
-"""Geometry A (one perimeter loop) against plate size, both branches (current-loops spec §3 item 2, §7.3 ``fig3_scaling_A``).
+"""Geometry A (one perimeter loop) against plate size, both branches.
+
+Current-loops spec §3 item 2, §7.3 ``fig3_scaling_A``.
 
 The rim conductor's inertia makes ``λ_f = λ_u (1 + κ λ_f)^{4/3}`` implicit. Each branch is traced
 by its parameter ``λ ∈ (0, 1]`` (:func:`magsail_mj.analysis.loop_scaling.trace_branches_A`):
@@ -75,13 +77,14 @@ def figure(path: Path, data: dict[float, dict[str, np.ndarray]], kappa: float) -
         ax.grid(True, which="both", alpha=0.25)
     axes[0, 0].axhline(1.0, color="k", lw=0.8, ls=":")
     axes[0, 0].set_ylim(1e-6, 2.0)
-    axes[0, 0].text(0.97, 0.55, "no solution beyond the fold\n(λ_u > h* = (3/κ)·4^(-4/3))", transform=axes[0, 0].transAxes,
-                    ha="right", fontsize=8, color="0.35")
+    axes[0, 0].text(0.97, 0.55, "no solution beyond the fold\n(λ_u > h* = (3/κ)·4^(-4/3))",
+                    transform=axes[0, 0].transAxes, ha="right", fontsize=8, color="0.35")
     for ax in axes[1]:
         ax.set_xlabel("plate side D [m]")
     from matplotlib.lines import Line2D
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    handles += [Line2D([], [], ls="", marker="o", mfc="white", color="k"), Line2D([], [], ls="", marker="*", color="k", ms=10)]
+    handles += [Line2D([], [], ls="", marker="o", mfc="white", color="k"),
+                Line2D([], [], ls="", marker="*", color="k", ms=10)]
     labels += [f"fold λ* = 3/κ = {lam_star:.3g}", "λ_f = 1"]
     axes[0, 0].legend(handles, labels, fontsize=7, loc="lower right")
     fig.suptitle(f"Geometry A (perimeter loop), κ = {kappa:g}: λ_f = λ_u (1 + κ λ_f)^(4/3), both branches")

@@ -28,8 +28,8 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIGS = REPO / "models" / "truss_magnetorquer" / "dist_vs_central"
-KEYS = ("status", "t_end_s", "rotation_x1_final_rad", "phi_rigid_final_rad", "off_axis_rotation_max_rad", "omega1_peak_rad_s",
-        "surface_sd_max_m", "t_surface_sd_max_s", "strain_energy_max_J", "strut_strain_max",
+KEYS = ("status", "t_end_s", "rotation_x1_final_rad", "phi_rigid_final_rad", "off_axis_rotation_max_rad",
+        "omega1_peak_rad_s", "surface_sd_max_m", "t_surface_sd_max_s", "strain_energy_max_J", "strut_strain_max",
         "surface_sd_after_off_mean_m", "failed")
 
 
@@ -142,7 +142,8 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{run.name}: FAILED: {err}", file=sys.stderr)
                 continue
             summaries[run.name] = summary
-            print(f"{run.name}: {summary['status']}, φ_end = {summary.get('rotation_x1_final_rad', float('nan')):.4g} rad, "
+            print(f"{run.name}: {summary['status']}, "
+                  f"φ_end = {summary.get('rotation_x1_final_rad', float('nan')):.4g} rad, "
                   f"max SD = {summary['surface_sd_max_m']:.4g} m ({summary['wall_time_s']:.0f} s)", file=sys.stderr)
     table = comparison_table(summaries)
     (out / "comparison.md").write_text(table)

@@ -32,7 +32,8 @@ HEADER = """\
 """
 
 
-def _sweep(title: str, section: str, circuit: str, N: int, EI: float, dt: float, field: tuple[float, float, float]) -> str:
+def _sweep(title: str, section: str, circuit: str, N: int, EI: float, dt: float,
+           field: tuple[float, float, float]) -> str:
     rec = int(round(RECORD_INTERVAL_S / dt))
     return HEADER.format(title=title, section=section) + f"""\
 # Field: uniform, constant, 27.7 μT (the paper's tabulated value, §9 item 4), along {field_name(field)}.

@@ -58,7 +58,8 @@ def sweep_text(name: str) -> str:
     lines = [f"description = {json.dumps(desc)}" if ln.startswith("description = ") else ln for ln in lines]
     head = (f"# MSAC sweep '{name}' (spec msac.md §8 F6/F7), written by scripts/msac_make_sweep_configs.py.\n"
             f"# Base: {BASE}.toml (all other tables equal it); each point runs [sweep].cycles cycles with\n"
-            f"# the base's 200 steps per cycle. Run: magsail run models/msac/sweeps/{name}.toml --out runs/msac/sweeps/{name}\n")
+            f"# the base's 200 steps per cycle. "
+            f"Run: magsail run models/msac/sweeps/{name}.toml --out runs/msac/sweeps/{name}\n")
     sweep = ["", "[sweep]", f"base = {json.dumps(BASE)}", f"keys = {toml_value(keys)}",
              f"points = {toml_value(points)}", "cycles = 20", "keep_steps_per_cycle = true", ""]
     return head + "\n".join(lines).rstrip() + "\n" + "\n".join(sweep)

@@ -1,6 +1,7 @@
 """MSAC videos (spec msac.md §8): V1 slow-motion cycles, V2 time-lapse of the 600 s run.
 
-    python scripts/msac_videos.py v1 runs/msac/slow_1hz            # after: magsail run models/msac/slow_1hz.toml --out runs/msac/slow_1hz
+    # after: magsail run models/msac/slow_1hz.toml --out runs/msac/slow_1hz
+    python scripts/msac_videos.py v1 runs/msac/slow_1hz
     python scripts/msac_videos.py v2 runs/msac/paper_1khz          # after the 600 s run
 
 Both are rendered with :func:`magsail_mj.render.render_run` from a *render folder* written next

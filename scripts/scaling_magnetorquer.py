@@ -50,7 +50,8 @@ def figure(path: Path, inputs: ScalingInputs, tables: dict) -> Path:
     ax.plot([dd], [tables["lambda_f_design_required"]], "o", color="tab:red", ms=8,
             label=f"needed at d = {dd:g} m, κτ = {kd:g}: λf = {tables['lambda_f_design_required']:.3f}")
     ax.plot([dd], [tables["lambda_f_design"]], "*", color="tab:red", ms=13,
-            label=f"design: {inputs.rod_mass_kg:g} of {inputs.total_kg:g} kg in rods (λf = {tables['lambda_f_design']:.2f})")
+            label=f"design: {inputs.rod_mass_kg:g} of {inputs.total_kg:g} kg in rods "
+                  f"(λf = {tables['lambda_f_design']:.2f})")
     ax.axvline(dd, color="tab:red", lw=0.6, alpha=0.5)
     ax.set_yscale("log")
     ax.set_xlim(inputs.side_min_m, inputs.side_max_m)

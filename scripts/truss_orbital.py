@@ -34,9 +34,12 @@ DEFAULT_IDS = ["detumble", "slew_i", "slew_ii", "slew_iii", "slew_iv"]
 
 DETUMBLE_COLUMNS = [
     ("t_end_s", "t_end [s]"), ("time_rates_below_1e-3_s", "rates stay < 1e-3 from [s]"),
-    ("t_rates_below_threshold_first_s", "first < 1e-3 [s]"), ("omega_rms_last_1800s_rad_s", "ω rms last 30 min [rad/s]"),
-    ("surface_sd_max_m", "σ_SD max [m]"), ("t_surface_sd_max_s", "at [s]"), ("edge_angle_max_deg", "edge angle max [°]"),
-    ("saturation_fraction", "saturated (either)"), ("sat_fraction_family1", "sat. x1"), ("sat_fraction_family2", "sat. y1"),
+    ("t_rates_below_threshold_first_s", "first < 1e-3 [s]"),
+    ("omega_rms_last_1800s_rad_s", "ω rms last 30 min [rad/s]"),
+    ("surface_sd_max_m", "σ_SD max [m]"), ("t_surface_sd_max_s", "at [s]"),
+    ("edge_angle_max_deg", "edge angle max [°]"),
+    ("saturation_fraction", "saturated (either)"), ("sat_fraction_family1", "sat. x1"),
+    ("sat_fraction_family2", "sat. y1"),
     ("strut_strain_max", "max strain"), ("failed", "failed"), ("wall_time_s", "wall [s]"),
 ]
 SLEW_COLUMNS = [

@@ -3,10 +3,19 @@
 from __future__ import annotations
 
 import copy
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from magsail_mj.render.backend import ensure_gl_backend
+
+# The GL backend must be chosen before any test module imports mujoco (MUJOCO_GL is read at
+# import time); pytest imports this conftest before it collects the test modules.
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", RuntimeWarning)
+    ensure_gl_backend()
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -64,7 +64,8 @@ def test_rod_torques_and_their_dot_product_t2(B):
 
 
 @settings(max_examples=100, deadline=None)
-@given(B=vec, which=st.sampled_from([0, 1]), T_dir=vec, n=st.floats(0.0, 50.0), mode=st.sampled_from(["paper", "exact"]))
+@given(B=vec, which=st.sampled_from([0, 1]), T_dir=vec, n=st.floats(0.0, 50.0),
+       mode=st.sampled_from(["paper", "exact"]))
 def test_unsaturated_error_bound_with_orthogonal_rod_torques(B, which, T_dir, n, mode):
     """T_ref ⟂ B, τ1 ⟂ τ2 (B ⟂ x̂1 or ŷ1), unsaturated: |T − T_ref| ≤ ½(|τ1| + |τ2|)."""
     B = np.array(B, float)

@@ -143,7 +143,8 @@ def test_short_slew_run_end_to_end(tmp_path):
 def test_detumble_blanking_window_and_bdot_sign():
     """Detumble run recorded every step: the magnetorquer torque is zero in the last 0.2 s of every
     2 s cycle and the rotational energy falls."""
-    cfg = parse_config(_tree(sim={"duration_s": 20.0, "record_every": 1}, control={"mode": "bdot", "bdot_gain_A_m2_s_T": 3e4},
+    cfg = parse_config(_tree(sim={"duration_s": 20.0, "record_every": 1},
+                             control={"mode": "bdot", "bdot_gain_A_m2_s_T": 3e4},
                              spacecraft={"configuration": "stowed"}, initial={"omega0_deg_s": [6.0, -7.0, 3.0]}))
     sc = build_scenario(cfg)
     res = sc.simulation().run()

@@ -11,11 +11,8 @@ keeps the analytic verbs from spending seconds on valid but large inputs.
 
 from __future__ import annotations
 
-# The GL backend is chosen before mujoco is imported (MUJOCO_GL is read at import time).
-from magsail_mj.render.backend import ensure_gl_backend
-
-ensure_gl_backend()
-
+# The GL backend is chosen before mujoco is imported (MUJOCO_GL is read at import time): pytest
+# imports tests/conftest.py, which calls ensure_gl_backend(), before it imports this module.
 import errno
 import json
 import os

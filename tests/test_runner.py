@@ -77,7 +77,8 @@ def test_same_config_same_numbers(tmp_path, small_truss_tree):
     cfg = _cfg(small_truss_tree, "sim.duration_s=3.0")
     run_scenario(cfg, tmp_path / "a")
     run_scenario(cfg, tmp_path / "b")
-    assert np.array_equal(np.load(tmp_path / "a/timeseries.npz")["qpos"], np.load(tmp_path / "b/timeseries.npz")["qpos"])
+    assert np.array_equal(np.load(tmp_path / "a/timeseries.npz")["qpos"],
+                          np.load(tmp_path / "b/timeseries.npz")["qpos"])
 
 
 def test_structural_failure_stops_with_time_and_cause_and_keeps_records(tmp_path, small_truss_tree):

@@ -384,7 +384,8 @@ def test_small_orbital_runs_resume_and_summaries(tmp_path, monkeypatch):
         assert key in full, key
     assert 0.0 <= full["saturation_fraction"] <= 1.0 and full["control_samples"] == 61
     ts = np.load(tmp_path / "full/timeseries.npz")
-    assert ts["strut_activity"].shape == (13, make_lattice(units=3, side_m=12.0).n_struts) and set(np.unique(ts["strut_activity"])) <= {-1, 0, 1}
+    assert (ts["strut_activity"].shape == (13, make_lattice(units=3, side_m=12.0).n_struts)
+            and set(np.unique(ts["strut_activity"])) <= {-1, 0, 1})
     np.testing.assert_allclose(ts["torque_ac_body_Nm"], ts["torque_alloc_body_Nm"], atol=0.02 * np.abs(
         ts["torque_alloc_body_Nm"]).max())
     assert {"body_rates.png", "attitude.png", "rod_counts.png", "torques.png", "surface_angle_map.png",

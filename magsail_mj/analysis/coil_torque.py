@@ -184,7 +184,8 @@ def _check_report_inputs(*, side_m: float, segment_m: float, depth_m: float | No
                 or not (np.isfinite(v) and v > 0):
             raise ValueError(f"{name}: must be a finite number > 0, got {v!r}")
     h = segment_m if depth_m is None else depth_m
-    if isinstance(h, bool) or not isinstance(h, (int, float, np.integer, np.floating)) or not (np.isfinite(h) and h > 0):
+    if (isinstance(h, bool) or not isinstance(h, (int, float, np.integer, np.floating))
+            or not (np.isfinite(h) and h > 0)):
         raise ValueError(f"depth_m: must be a finite number > 0, got {depth_m!r}")
     for name, v in (("pitch_cells", pitch_cells), ("rows", rows)):
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1):

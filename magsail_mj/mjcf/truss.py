@@ -3,11 +3,11 @@
 One body per node, placed at its reference position, with three world-aligned slide joints
 (x, y, z): a particle has no rotational state, and slide joints give 3 dofs per node where a
 free joint would give 6 (measured: see README, "Design choices"). Mass is carried by each node's
-tiny, non-colliding sphere geom (its rotational inertia is irrelevant: no rotational dofs). One spatial tendon per strut between the
-node sites, with its own ``stiffness`` k, ``damping`` γ and ``springlength`` l0: MuJoCo's
-passive tendon force ``−k (L − l0) − γ L̇`` along the tendon is exactly the two-sided
-spring–dashpot law of truss-magnetorquer-array.md §2.4. Gravity is off and contacts are
-disabled; every external force enters through ``xfrc_applied``.
+tiny, non-colliding sphere geom (its rotational inertia is irrelevant: no rotational dofs). One
+spatial tendon per strut between the node sites, with its own ``stiffness`` k, ``damping`` γ
+and ``springlength`` l0: MuJoCo's passive tendon force ``−k (L − l0) − γ L̇`` along the tendon
+is exactly the two-sided spring–dashpot law of truss-magnetorquer-array.md §2.4. Gravity is off
+and contacts are disabled; every external force enters through ``xfrc_applied``.
 
 Node ``i`` is body ``i + 1`` (body 0 is the world), and its x/y/z joints are ``qpos[3i:3i+3]``
 for free nodes (clamped nodes have no joints; :func:`node_qpos_index` maps them).

@@ -259,7 +259,8 @@ class LifetimeConfig(StrictModel):
     area_deorbit_m2: float = Field(default=4.0, gt=0)
     area_tumbling_m2: float = Field(default=2.035, gt=0)
     methods_cowell: list[Literal["nadir", "deorbit", "tumbling"]] = ["deorbit", "tumbling"]
-    atmospheres: list[Literal["exp", "msis_low", "msis_mid", "msis_high"]] = ["exp", "msis_low", "msis_mid", "msis_high"]
+    atmospheres: list[Literal["exp", "msis_low", "msis_mid", "msis_high"]] = [
+        "exp", "msis_low", "msis_mid", "msis_high"]
     stop_altitude_km: float = Field(default=120.0, gt=0)
     cowell_max_days: float = Field(default=1000.0, gt=0)
     cowell_rtol: float = Field(default=1e-9, gt=0, lt=1e-3)
@@ -321,7 +322,8 @@ class CnusailConfig(StrictModel):
         m = self.control.modes
         if m.detumble_exit_deg_s > m.detumble_entry_deg_s:
             problems.append("control.modes.detumble_exit_deg_s: must not exceed "
-                            f"control.modes.detumble_entry_deg_s = {m.detumble_entry_deg_s!r}, got {m.detumble_exit_deg_s!r}")
+                            f"control.modes.detumble_entry_deg_s = {m.detumble_entry_deg_s!r}, "
+                            f"got {m.detumble_exit_deg_s!r}")
         if m.enabled and self.control.mode == "bdot":
             problems.append("control.mode: with control.modes.enabled give the pointing law ('eigen_axis' or 'pd')")
         u = self.control.unloading
@@ -371,7 +373,8 @@ def _model_params(cfg: CnusailConfig):
         sail_centre_m=tuple(sc.r_cp_m), rotor_mass_kg=w.rotor_mass_kg, rotor_spin_inertia_kg_m2=w.rotor_inertia_kg_m2,
         rotor_transverse_inertia_kg_m2=w.rotor_transverse_inertia_kg_m2, wheel_damping_N_m_s=w.K_B_N_m_s,
         motor_force_limit_N_m=10.0 * w.torque_max_N_m, timestep_s=cfg.sim.timestep_s,
-        integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance, markers=cfg.render.markers, name=f"cnusail_{cfg.scenario}")
+        integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance, markers=cfg.render.markers,
+        name=f"cnusail_{cfg.scenario}")
 
 
 @dataclass

@@ -254,10 +254,13 @@ def attitude_outputs(sc, result: RunResult) -> tuple[dict[str, Any], dict[str, n
             summary["steady_rate_error_max_rad_s"] = None
         for j, a in enumerate("xyz"):
             summary[f"wheel_speed_max_{a}_rad_s"] = float(np.max(np.abs(wM[:, j])))
-            summary[f"wheel_time_at_speed_limit_{a}_s"] = float(np.sum(np.abs(wM[:, j]) >= 0.999 * motor.speed_max_rad_s) * dt_rec)
-            summary[f"wheel_time_above_unload_{a}_s"] = float(np.sum(np.abs(wM[:, j]) > c.unloading.threshold_rpm * RPM) * dt_rec)
+            summary[f"wheel_time_at_speed_limit_{a}_s"] = float(
+                np.sum(np.abs(wM[:, j]) >= 0.999 * motor.speed_max_rad_s) * dt_rec)
+            summary[f"wheel_time_above_unload_{a}_s"] = float(
+                np.sum(np.abs(wM[:, j]) > c.unloading.threshold_rpm * RPM) * dt_rec)
             summary[f"unload_on_time_{a}_s"] = float(np.sum(mask[:, j]) * dt_rec)
-        summary["torque_saturated_time_s"] = float(np.sum(np.any(np.abs(rec["u_cmd_N_m"]) > motor.torque_max_N_m, axis=1)) * dt_rec)
+        summary["torque_saturated_time_s"] = float(
+            np.sum(np.any(np.abs(rec["u_cmd_N_m"]) > motor.torque_max_N_m, axis=1)) * dt_rec)
         un = np.linalg.norm(dip, axis=1)
         summary["unload_dipole_max_A_m2"] = float(un[mask.any(axis=1)].max()) if mask.any() else 0.0
         summary["wheel_momentum_max_N_m_s"] = float(np.max(np.abs(wM)) * motor.spin_inertia_kg_m2)

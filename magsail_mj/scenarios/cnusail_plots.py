@@ -19,7 +19,8 @@ if TYPE_CHECKING:
 __all__ = ["attitude_plots", "disturbance_orbit_figure", "lifetime_plots"]
 
 _AX = ("x", "y", "z")
-_SRC_LABEL = {"gravity_gradient": "gravity gradient", "drag": "drag", "srp": "SRP", "residual_dipole": "residual dipole"}
+_SRC_LABEL = {"gravity_gradient": "gravity gradient", "drag": "drag", "srp": "SRP",
+              "residual_dipole": "residual dipole"}
 
 
 def _plt():
@@ -144,7 +145,8 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
                 ax.axvline(m, color="m", ls=":", lw=0.8)
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8)
-        axes[0].set_title(title + ": attitude error" + (" (dotted: manoeuvre start / gain recalculation)" if marks else ""))
+        axes[0].set_title(title + ": attitude error"
+                          + (" (dotted: manoeuvre start / gain recalculation)" if marks else ""))
         axes[1].set_xlabel("time [min]")
         out.append(save_figure(fig, run_dir / "attitude_error.png"))
 

@@ -169,7 +169,8 @@ def _classify(sc, rho_max: float, strain_max: float, h_max: float, dev_max: floa
     c = sc.cfg.classification
     D = sc.cfg.lattice.side_m
     w = D / sc.cfg.lattice.units
-    if rho_max > c.collapse_residual_frac * D or strain_max > c.collapse_strain or h_max > c.collapse_thickness_units * w:
+    if (rho_max > c.collapse_residual_frac * D or strain_max > c.collapse_strain
+            or h_max > c.collapse_thickness_units * w):
         return "collapsed"
     if rho_max < c.rigid_residual_frac * D and dev_max <= np.radians(c.rigid_angle_tol_deg):
         return "rigid_like"
@@ -239,7 +240,6 @@ def _sweep_metrics(sc, rec) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
 
 
 def _slew_metrics(sc, rec) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    cfg = sc.cfg
     t = rec["t"]
     qe = rec["q_err"]
     err = 2.0 * np.arccos(np.clip(np.abs(qe[:, 0]), 0.0, 1.0))

@@ -301,8 +301,8 @@ def make_params(cfg: MsacConfig) -> MsacModelParams:
         wing_mass_kg=w.areal_density_kg_m2 * w.length_m * w.width_m, hinge_offset_m=w.hinge_offset_m,
         layout=w.layout, root_mass_kg=w.root_mass_kg, root_inertia_kg_m2=w.root_inertia_kg_m2,
         slide_stiffness_N_m=w.slide_stiffness_N_m, timestep_s=cfg.sim.timestep_s,
-        integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance, servo_omega_dt=cfg.drive.servo_omega_dt,
-        name=f"msac_{cfg.scenario}")
+        integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance,
+        servo_omega_dt=cfg.drive.servo_omega_dt, name=f"msac_{cfg.scenario}")
 
 
 def planar_model(params: MsacModelParams, *, inertia_scale: float = 1.0) -> PlanarMsac:
@@ -538,7 +538,8 @@ def multibody_summary(sc: MsacScenario, result: RunResult, ref: dict[str, float]
         one_period = inc.mean / T
         if result.t_end_s >= cfg.post.min_filter_duration_s and "omega_z_filtered_rad_s" in rec:
             filt = filtered_rate(rec["omega_filt_t"], rec["omega_z_filtered_rad_s"], edge_s=cfg.post.edge_discard_s)
-            method = f"butterworth order {cfg.post.lowpass_order}, {cfg.post.lowpass_cutoff_Hz:g} Hz, zero phase, {cfg.post.edge_discard_s:g} s edges"
+            method = (f"butterworth order {cfg.post.lowpass_order}, {cfg.post.lowpass_cutoff_Hz:g} Hz, zero phase, "
+                      f"{cfg.post.edge_discard_s:g} s edges")
         else:
             filt, method = one_period, "one-period average (run shorter than min_filter_duration_s)"
         out.update({
@@ -551,7 +552,8 @@ def multibody_summary(sc: MsacScenario, result: RunResult, ref: dict[str, float]
             "rate_one_period_mean_rad_s": one_period,
             "rate_estimates_rel_diff": abs(slope - filt) / abs(slope) if slope else float("nan"),
             "mujoco_vs_exact_rel_diff": (inc.mean - exact) / abs(exact) if exact else float("nan"),
-            "mujoco_vs_eq6_rel_diff": ((inc.mean - ref["theta_gamma_eq6_model_rad"]) / abs(ref["theta_gamma_eq6_model_rad"])
+            "mujoco_vs_eq6_rel_diff": ((inc.mean - ref["theta_gamma_eq6_model_rad"])
+                                       / abs(ref["theta_gamma_eq6_model_rad"])
                                        if ref["theta_gamma_eq6_model_rad"] else float("nan")),
             "secular_rate_rad_s": slope,
         })

@@ -125,7 +125,8 @@ def msac_plots(sc: "MsacScenario", run_dir: Path, s: dict[str, Any]) -> list[Pat
     if "omega_z_filtered_rad_s" in s and np.isfinite(s["omega_z_filtered_rad_s"]).any():
         fig, ax = plt.subplots(figsize=(9, 4))
         ax.plot(s["omega_filt_t"], s["omega_z_filtered_rad_s"], "C0-", lw=1,
-                label=f"ω_z, Butterworth {cfg.post.lowpass_order}th order {cfg.post.lowpass_cutoff_Hz:g} Hz, zero phase")
+                label=f"ω_z, Butterworth {cfg.post.lowpass_order}th order {cfg.post.lowpass_cutoff_Hz:g} Hz, "
+                      "zero phase")
         if summary:
             ax.axhline(summary.get("predicted_rate_exact_rad_s", np.nan), color="k", ls="--", lw=1, label="exact model")
         e = cfg.post.edge_discard_s

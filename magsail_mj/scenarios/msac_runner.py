@@ -166,7 +166,8 @@ class MsacRunner:
         w = int(round(self.window_s / self.dt))
         mid = int(round(self.n_steps / 2 / self.N)) * self.N
         end = max(0, (self.n_steps - w) // self.N * self.N)
-        ranges = sorted({(0, min(w, self.n_steps)), (mid, min(mid + w, self.n_steps)), (end, min(end + w, self.n_steps))})
+        ranges = sorted({(0, min(w, self.n_steps)), (mid, min(mid + w, self.n_steps)),
+                         (end, min(end + w, self.n_steps))})
         merged: list[list[int]] = []
         for a, b in ranges:
             if a >= b:

@@ -456,7 +456,8 @@ class ReflectorScenario:
         r, cfg = self.cfg.render, self.cfg
         frames = int(min(r.max_frames, max(2, round(cfg.sim.duration_s / cfg.sim.timestep_s / cfg.sim.record_every))))
         cam: dict[str, float] = {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
-                                 "distance_m": r.distance_m or (3.0 if cfg.kind == "detumble" else 2.4) * cfg.plate.side_m}
+                                 "distance_m": (r.distance_m
+                                                or (3.0 if cfg.kind == "detumble" else 2.4) * cfg.plate.side_m)}
         if cfg.kind == "detumble":
             title = f"reflector {cfg.scenario}: B-dot ({cfg.control.law}, ω_k = {cfg.control.omega_k_rad_s:g} rad/s)"
             overlay = ["time_h", "omega_norm_rad_s", "torque_norm_Nm", "currents_A"]
@@ -485,7 +486,8 @@ class ReflectorScenario:
             "mass_kg": self.mass_kg,
             "inertia_kg_m2": self.inertia.tolist(),
             "inertia_thickness_m": self.params.thickness,
-            "coil_capability": {"T_max_ycoil_N_m": self.cap.T_max_ycoil_N_m, "T_max_xcoil_N_m": self.cap.T_max_xcoil_N_m,
+            "coil_capability": {"T_max_ycoil_N_m": self.cap.T_max_ycoil_N_m,
+                                "T_max_xcoil_N_m": self.cap.T_max_xcoil_N_m,
                                 "T_max_zloop_N_m": self.cap.T_max_zloop_N_m, "zloop_side_m": self.cap.zloop_side_m,
                                 "m_max_A_m2": self.cap.m_max_A_m2.tolist(), "cap_N_m": self.cap.cap_N_m},
             "assumptions": ASSUMPTIONS,
