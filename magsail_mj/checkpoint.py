@@ -25,6 +25,7 @@ source without running its code.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import hashlib
 import importlib
@@ -109,6 +110,7 @@ class StateWalker:
     def __init__(self, roots: dict[str, Any]):
         self.roots = roots
         self._base: dict[str, str] = {}
+        self._base_values: dict[str, Any] = {}
 
     # ------------------------------------------------------------------ walking
     def nodes(self) -> dict[str, dict[str, Any]]:
@@ -167,8 +169,11 @@ class StateWalker:
 
     # ------------------------------------------------------------------ baseline and snapshot
     def baseline(self) -> None:
-        """Record the digest of every leaf as built (call right after building)."""
-        self._base = {p: _digest(n["value"]) for p, n in self.nodes().items() if "value" in n}
+        """Record every leaf as built, its digest and a copy (call right after building): a
+        snapshot then stores only what changed, and a restore can put back what changed later."""
+        leaves = {p: n["value"] for p, n in self.nodes().items() if "value" in n}
+        self._base = {p: _digest(v) for p, v in leaves.items()}
+        self._base_values = {p: copy.deepcopy(v) for p, v in leaves.items()}
 
     def snapshot(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         """``(tree, arrays)``: the node descriptions (JSON-able) and the changed arrays."""
@@ -306,12 +311,18 @@ def _fresh(node: dict[str, Any], arrays: dict[str, np.ndarray]) -> Any:
 
 
 def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
-    """Write a :meth:`StateWalker.snapshot` back into the walker's (freshly built) roots.
+    """Write a :meth:`StateWalker.snapshot` back into the walker's roots.
+
+    The roots may be freshly built (a resume) or live objects of the same build that ran on (a
+    ``set_state``): leaves the snapshot records as unchanged since the build get their build
+    values back where they changed since.
 
     Raises:
-      CheckpointError: a leaf recorded as unchanged differs from the rebuilt one, or a path of the
-        checkpoint cannot be reached.
+      CheckpointError: a leaf recorded as unchanged differs from this walker's build (another build
+        or config), or a path of the checkpoint cannot be reached.
     """
+    if not walker._base:  # never baselined: the objects as they are now are the build
+        walker.baseline()
     built = walker.nodes()
     roots = dict(walker.roots)
     placed: dict[str, Any] = {}
@@ -325,9 +336,11 @@ def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, n
             parent = placed[parent_path] if parent_path in placed else _resolve(roots, parts[:-1])
             part = parts[-1]
         if "same_as_built" in node:
+            if walker._base.get(path) != node["same_as_built"]:
+                raise CheckpointError(f"checkpoint: {path} differs from the rebuilt run (another build or config)")
             have = built.get(path)
             if have is None or "value" not in have or _digest(have["value"]) != node["same_as_built"]:
-                raise CheckpointError(f"checkpoint: {path} differs from the rebuilt run (another build or config)")
+                _put_back(parent, part, walker._base_values[path])  # changed since the build: put it back
             continue
         kind = node["kind"]
         if kind == "alias":
@@ -380,6 +393,18 @@ def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, n
         cls_name = tree[path].get("class")
         _set(parent, part, _named_tuple(cls_name)._make(items) if cls_name else tuple(items))
     walker.roots.update(roots)
+
+
+def _put_back(parent: Any, part: tuple[str, Any], value: Any) -> None:
+    """Write a leaf's value as built (in place for an array of the same shape)."""
+    current = _try_get(parent, part)
+    if isinstance(value, np.ndarray) and isinstance(current, np.ndarray) and current.shape == value.shape \
+            and current.dtype == value.dtype and current.flags.writeable:
+        np.copyto(current, value)
+    elif isinstance(value, dict) and isinstance(current, np.random.Generator):  # an RNG's state
+        current.bit_generator.state = _rng_state(value)
+    else:
+        _set(parent, part, copy.deepcopy(value))
 
 
 def _last_text(path: str) -> str:
@@ -459,10 +484,10 @@ def read_arrays(path: Path) -> tuple[dict[str, Any] | None, dict[str, np.ndarray
     return header, arrays
 
 
-def write_checkpoint(path: Path, header: dict[str, Any], walker: StateWalker,
+def write_checkpoint(path: Path, header: dict[str, Any], *, tree: dict[str, Any], arrays: dict[str, np.ndarray],
                      extra_arrays: dict[str, np.ndarray]) -> None:
-    """Write a checkpoint: ``header`` (JSON scalars), the walker's snapshot and ``extra_arrays``."""
-    tree, arrays = walker.snapshot()
+    """Write a checkpoint: ``header`` (JSON scalars), a :meth:`StateWalker.snapshot` (``tree``,
+    ``arrays``) and ``extra_arrays`` (e.g. MuJoCo's state)."""
     write_arrays(path, {**arrays, **{f"x_{k}": v for k, v in extra_arrays.items()}},
                  header={"format": _FORMAT, **header, "state_tree": tree})
 

@@ -83,11 +83,15 @@ class BodyKinematics:
             jn, ja = model.body_jntnum[b], model.body_jntadr[b]
             types = model.jnt_type[ja:ja + jn] if jn else []
             if jn == 1 and types[0] == mujoco.mjtJoint.mjJNT_FREE:
-                free_body.append(b); free_q.append(model.jnt_qposadr[ja]); free_v.append(model.jnt_dofadr[ja])
+                free_body.append(b)
+                free_q.append(model.jnt_qposadr[ja])
+                free_v.append(model.jnt_dofadr[ja])
             elif (jn == 3 and np.all(types == mujoco.mjtJoint.mjJNT_SLIDE)
                   and np.allclose(model.jnt_axis[ja:ja + 3], np.eye(3))
                   and model.body_parentid[b] == 0 and np.allclose(model.body_quat[b], [1, 0, 0, 0])):
-                part_body.append(b); part_q.append(model.jnt_qposadr[ja]); part_v.append(model.jnt_dofadr[ja])
+                part_body.append(b)
+                part_q.append(model.jnt_qposadr[ja])
+                part_v.append(model.jnt_dofadr[ja])
             elif jn == 0 and model.body_parentid[b] == 0:
                 continue  # welded to the world: fixed pose, zero velocity
             else:
@@ -201,29 +205,98 @@ class Simulation:
         self.n_steps = int(round(self.duration_s / self.model.opt.timestep))
         self.walker = self._state_walker()
         self.walker.baseline()
+        self._checkpoint_folder: Path | None = None
+        self._begin(0, self._new_loop())
+        self._initial = self.get_state()
+
+    # ------------------------------------------------------------------ state
+    def _new_loop(self) -> dict[str, Any]:
+        return {"records": {name: [] for name in ["t", *self.probes]}, "segments": [], "cmd": None, "n_ctrl": 0}
+
+    def _begin(self, step: int, loop: dict[str, Any]) -> None:
+        """Make ``step`` the current step with the bookkeeping ``loop`` (records, held command)."""
+        self._loop = loop
+        self.step_index = step
+        self.status, self.message = "running", ""
+        self._wall_s = float(loop.get("wall_s", 0.0))
+        self._watch = WarningWatch(self.data)
+
+    @property
+    def time(self) -> float:
+        """Simulated time of the current state [s] (``step_index · δt``)."""
+        return self.step_index * self.model.opt.timestep
+
+    def records(self) -> dict[str, np.ndarray]:
+        """The records so far (``t`` and every probe), stacked over record times."""
+        folder = self._checkpoint_folder
+        return _joined_records(self._loop["records"], self._loop["segments"], folder)
+
+    def get_state(self) -> dict[str, Any]:
+        """The whole state as plain data: MuJoCo's integration state, the step, the controller's
+        sample count, the record count, and the snapshot of the Python-side state (a JSON-able
+        ``python_tree`` and its ``python_arrays``; see :mod:`magsail_mj.checkpoint`)."""
+        mj_state = np.empty(mujoco.mj_stateSize(self.model, _STATE_SPEC))
+        mujoco.mj_getState(self.model, self.data, mj_state, _STATE_SPEC)
+        self.walker.roots["cmd"] = self._loop["cmd"]
+        tree, arrays = self.walker.snapshot()
+        n_records = self._segment_records() + len(self._loop["records"]["t"])
+        return {"step": self.step_index, "n_ctrl": self._loop["n_ctrl"], "mj_state": mj_state,
+                "n_records": n_records, "python_tree": tree, "python_arrays": arrays}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Continue from a state of :meth:`get_state` (of this simulation or one built from the same
+        config): the following steps equal those that followed the state's own. Records made after
+        the state (in memory) are dropped; the status is ``running`` again."""
+        mj_state = np.asarray(state["mj_state"], dtype=float)
+        if mj_state.shape != (mujoco.mj_stateSize(self.model, _STATE_SPEC),):
+            raise ValueError(f"state: 'mj_state' has shape {mj_state.shape}, not this model's")
+        step = int(state["step"])
+        if not 0 <= step <= self.n_steps:
+            raise ValueError(f"state: step {step} is outside 0 … {self.n_steps}")
+        restore_state(self.walker, state["python_tree"], state["python_arrays"])
+        self.controller = self.walker.roots["controller"]
+        mujoco.mj_setState(self.model, self.data, mj_state, _STATE_SPEC)
+        loop = self._loop
+        loop["cmd"], loop["n_ctrl"] = self.walker.roots["cmd"], int(state["n_ctrl"])
+        keep = int(state.get("n_records", self._segment_records() + len(loop["records"]["t"])))
+        for values in loop["records"].values():
+            del values[max(0, keep - self._segment_records()):]
+        self.step_index = step
+        self.status, self.message = "running", ""
+        self._watch = WarningWatch(self.data)
+
+    def _segment_records(self) -> int:
+        return self._loop.get("segment_records", 0)
+
+    def reset(self) -> None:
+        """Back to the initial state of the build (t = 0, no records)."""
+        self.set_state(self._initial)
+        self._begin(0, self._new_loop())
 
     # ------------------------------------------------------------------ checkpoints
     def _state_walker(self) -> StateWalker:
         """The Python-side state of the run: controller, loads, environment and probes."""
         return StateWalker({"controller": self.controller, "loads": list(self.loads),
-                            "environment": self.environment, "probes": dict(self.probes)})
+                            "environment": self.environment, "probes": dict(self.probes), "cmd": None})
 
-    def _checkpoint(self, path: Path, step: int, loop: dict) -> None:
+    def _checkpoint(self, path: Path, step: int) -> None:
+        loop = self._loop
         records = loop["records"]
         if records["t"]:
             name = f"{path.stem}.records{len(loop['segments']):04d}.npz"
             write_arrays(path.with_name(name), {k: np.asarray(v) for k, v in records.items()})
             loop["segments"].append(name)
+            loop["segment_records"] = self._segment_records() + len(records["t"])
             for values in records.values():
                 values.clear()
-        state = np.empty(mujoco.mj_stateSize(self.model, _STATE_SPEC))
-        mujoco.mj_getState(self.model, self.data, state, _STATE_SPEC)
+        state = self.get_state()
         header = {**self.identity, "step": step, "t_s": step * self.model.opt.timestep,
-                  "segments": loop["segments"], "n_ctrl": loop["n_ctrl"], "wall_s": loop.get("wall_s", 0.0)}
-        self.walker.roots["cmd"] = loop["cmd"]
-        write_checkpoint(path, header, self.walker, {"mj_state": state})
+                  "segments": loop["segments"], "segment_records": self._segment_records(),
+                  "n_ctrl": loop["n_ctrl"], "wall_s": self._wall_s}
+        write_checkpoint(path, header, tree=state["python_tree"], arrays=state["python_arrays"],
+                         extra_arrays={"mj_state": state["mj_state"]})
 
-    def _restore(self, path: Path) -> tuple[int, dict]:
+    def _restore(self, path: Path) -> None:
         header, arrays, extra = read_checkpoint(path)
         check_identity(header, self.identity, path=path)
         if "mj_state" not in extra or extra["mj_state"].shape != (mujoco.mj_stateSize(self.model, _STATE_SPEC),):
@@ -232,15 +305,26 @@ class Simulation:
         if step > self.n_steps:
             raise CheckpointError(f"checkpoint: {path} is at t = {header['t_s']:g} s, beyond sim.duration_s = "
                                   f"{self.duration_s:g} s (a resume may extend a run, not shorten it)")
-        self.walker.roots["cmd"] = None
-        restore_state(self.walker, header["state_tree"], arrays)
-        self.controller = self.walker.roots["controller"]
-        mujoco.mj_setState(self.model, self.data, extra["mj_state"], _STATE_SPEC)
-        loop = {"records": {name: [] for name in ["t", *self.probes]}, "segments": list(header["segments"]),
-                "cmd": self.walker.roots["cmd"], "n_ctrl": int(header["n_ctrl"]), "wall_s": float(header["wall_s"])}
-        return step, loop
+        loop = self._new_loop()
+        loop.update(segments=list(header["segments"]), segment_records=int(header.get("segment_records", 0)),
+                    wall_s=float(header["wall_s"]))
+        self._loop = loop
+        self.set_state({"step": step, "n_ctrl": int(header["n_ctrl"]), "mj_state": extra["mj_state"],
+                        "n_records": loop["segment_records"], "python_tree": header["state_tree"],
+                        "python_arrays": arrays})
+        self._wall_s = loop["wall_s"]
 
-    # ------------------------------------------------------------------ loop
+    # ------------------------------------------------------------------ stepping
+    def step(self, n: int = 1) -> str:
+        """Advance ``n`` physics steps (controller samples, records and loads as in :meth:`run`;
+        never beyond ``duration_s``) and return the status: ``running`` while steps remain, else
+        how the run ended."""
+        if int(n) != n or n < 1:
+            raise ValueError(f"n: must be an integer >= 1, got {n!r}")
+        if self.status == "running":
+            self._advance(min(self.step_index + int(n), self.n_steps))
+        return self.status
+
     def run(
         self,
         *,
@@ -249,39 +333,53 @@ class Simulation:
         resume: bool = False,
         stop_after_s: float | None = None,
     ) -> RunResult:
-        """Run to ``duration_s`` (or until divergence, structural failure or ``stop_after_s``)."""
-        m, d = self.model, self.data
-        dt = m.opt.timestep
+        """Run from the current state to ``duration_s`` (or until divergence, structural failure,
+        interrupt or ``stop_after_s``), checkpointing every ``checkpoint_every_s``."""
+        dt = self.model.opt.timestep
         ckpt = Path(checkpoint_path) if checkpoint_path else None
-        loop = {"records": {name: [] for name in ["t", *self.probes]}, "segments": [], "cmd": None, "n_ctrl": 0}
-        start = 0
+        self._checkpoint_folder = ckpt.parent if ckpt is not None else None
         if resume:
             if ckpt is None:
                 raise CheckpointError("resume: no checkpoint path given")
-            start, loop = self._restore(ckpt)
-        records = loop["records"]
+            self._restore(ckpt)
+        start = self.step_index
         ckpt_every = (int(round(self.checkpoint_every_s / dt)) if self.checkpoint_every_s > 0 else 0)
         stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(round(stop_after_s / dt)))
         bar = None
         if progress and self.n_steps > 2000:
-            bar = tqdm(total=self.n_steps, initial=start, unit="step", file=sys.stderr,
-                       mininterval=1.0, leave=False)
-        status, message = "completed", ""
-        kin = self.kin
-        watch = WarningWatch(d)
+            bar = tqdm(total=self.n_steps, initial=start, unit="step", file=sys.stderr, mininterval=1.0, leave=False)
+        try:
+            if self.status == "running":
+                self._advance(stop_step, ckpt=ckpt, ckpt_every=ckpt_every, bar=bar)
+        finally:
+            if bar is not None:
+                bar.close()
+        if self.status == "running":  # stop_after_s reached before the end
+            self.status, self.message = "stopped", f"stopped at t = {self.time:.6g} s (stop_after_s)"
+        return RunResult(records=self.records(), status=self.status, message=self.message, t_end_s=self.time,
+                         steps=self.step_index - start, wall_time_s=self._wall_s)
+
+    def _advance(self, stop_step: int, *, ckpt: Path | None = None, ckpt_every: int = 0, bar: Any = None) -> None:
+        """The step loop from the current step to ``stop_step`` (see the module docs)."""
+        m, d = self.model, self.data
+        dt = m.opt.timestep
+        loop = self._loop
+        records = loop["records"]
+        kin, watch = self.kin, self._watch
+        start = step = self.step_index
         wall0 = time.perf_counter()
-        wall_before = float(loop.get("wall_s", 0.0))  # wall time of the segments before a resume
-        step = start
         try:
             watch.check(step * dt)
             for step in range(start, stop_step + 1):
                 t = step * dt
                 if ckpt is not None and step > start and (
                         (ckpt_every and step % ckpt_every == 0) or step == stop_step < self.n_steps):
-                    loop["wall_s"] = wall_before + time.perf_counter() - wall0
-                    self._checkpoint(ckpt, step, loop)
+                    self._wall_s += time.perf_counter() - wall0
+                    wall0 = time.perf_counter()
+                    loop["wall_s"] = self._wall_s
+                    self.step_index = step
+                    self._checkpoint(ckpt, step)
                 if step == stop_step < self.n_steps:
-                    status, message = "stopped", f"stopped at t = {t:.6g} s (stop_after_s)"
                     break
                 kin.update(d)
                 state = StepState(t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega,
@@ -292,7 +390,8 @@ class Simulation:
                 if self.controller is not None and t >= loop["n_ctrl"] * self.controller.period_s - 1e-6 * dt:
                     loop["cmd"] = self.controller.update(state)
                     state.ctrl = loop["cmd"]
-                    loop["n_ctrl"] = int(np.floor(t / self.controller.period_s + 1e-6 * dt / self.controller.period_s)) + 1
+                    period = self.controller.period_s
+                    loop["n_ctrl"] = int(np.floor(t / period + 1e-6 * dt / period)) + 1
                     if hasattr(loop["cmd"], "apply_ctrl"):
                         loop["cmd"].apply_ctrl(d)
                 if step % self.record_every == 0 or step == self.n_steps:
@@ -306,6 +405,7 @@ class Simulation:
                     for name, probe in self.probes.items():
                         records[name].append(np.array(probe(state, d), copy=True))
                 if step == self.n_steps:
+                    self.status = "completed"
                     break
                 d.xfrc_applied[:] = 0.0
                 for load in self.loads:
@@ -320,25 +420,24 @@ class Simulation:
                                           f"t = {t:.6g} s)")
                 if bar is not None and (step + 1) % 100 == 0:
                     bar.update(100)
+            else:
+                step = stop_step
         except DivergenceError as err:
-            status, message = "diverged", str(err)
+            self.status, self.message = "diverged", str(err)
             if err.t_s is not None:  # a record of the bad state itself is not a valid number
                 n = int(np.searchsorted(np.asarray(records["t"]), err.t_s - 1e-9 * dt))
                 for values in records.values():
                     del values[n:]
         except StudiedFailure as err:
-            status, message = err.status, str(err)
+            self.status, self.message = err.status, str(err)
         except KeyboardInterrupt:
-            status, message = "interrupted", f"interrupted at t = {step * dt:.6g} s"
+            self.status, self.message = "interrupted", f"interrupted at t = {step * dt:.6g} s"
             n = min(len(v) for v in records.values())  # a record interrupted half-way is dropped
             for values in records.values():
                 del values[n:]
         finally:
-            if bar is not None:
-                bar.close()
-        out = _joined_records(records, loop.get("segments", []), ckpt.parent if ckpt is not None else None)
-        return RunResult(records=out, status=status, message=message, t_end_s=step * dt,
-                         steps=step - start, wall_time_s=wall_before + time.perf_counter() - wall0)
+            self.step_index = step
+            self._wall_s += time.perf_counter() - wall0
 
 
 def _joined_records(tail: dict[str, list], segments: Sequence[str], folder: Path | None) -> dict[str, np.ndarray]:

@@ -72,7 +72,9 @@ def test_package_objects_and_rng_state_round_trip(tmp_path):
     walker.baseline()
     rng.normal(size=5)
     walker.roots["late"] = BestFitRotation(np.eye(3))  # an object created during the run
-    write_checkpoint(tmp_path / "c.npz", {"step": 3}, walker, {"mj_state": np.arange(3.0)})
+    tree, arrays = walker.snapshot()
+    write_checkpoint(tmp_path / "c.npz", {"step": 3}, tree=tree, arrays=arrays,
+                     extra_arrays={"mj_state": np.arange(3.0)})
     header, arrays, extra = read_checkpoint(tmp_path / "c.npz")
     fresh = StateWalker({"fit": BestFitRotation(np.random.default_rng(1).normal(size=(6, 3))),
                          "rng": np.random.default_rng(7), "late": None})
@@ -103,3 +105,18 @@ def test_files_hold_no_pickles(tmp_path):
         read_arrays(tmp_path / "c.npz")
     with pytest.raises(CheckpointError, match="does not exist"):
         read_arrays(tmp_path / "missing.npz")
+
+
+def test_restoring_an_early_snapshot_into_live_objects_puts_back_build_values():
+    """set_state semantics: a snapshot taken before a leaf changed restores the build value."""
+    live = {"v": np.zeros(3), "s": [1, "a"], "rng": np.random.default_rng(3)}
+    walker = StateWalker(live)
+    walker.baseline()
+    early_tree, early_arrays = walker.snapshot()
+    draw = np.random.default_rng(3).normal()
+    live["v"][:] = 5.0
+    live["s"][0] = 9
+    live["rng"].normal(size=4)
+    restore_state(walker, early_tree, early_arrays)
+    assert np.array_equal(live["v"], np.zeros(3)) and live["s"] == [1, "a"]
+    assert walker.roots["rng"].normal() == draw

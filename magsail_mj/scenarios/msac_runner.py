@@ -262,7 +262,8 @@ class MsacRunner:
         walker.roots.update(acc=acc, table=self.table)
         header = {**self.identity, "step": k, "t_s": k * self.dt, "wall_s": self._wall_before + time.perf_counter()
                   - self._wall0}
-        write_checkpoint(path, header, walker, {"state": state})
+        tree, arrays = walker.snapshot()
+        write_checkpoint(path, header, tree=tree, arrays=arrays, extra_arrays={"state": state})
 
     def _load(self, path: Path, walker: StateWalker) -> tuple[int, np.ndarray, _Acc]:
         header, arrays, extra = read_checkpoint(path)
