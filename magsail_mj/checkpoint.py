@@ -324,6 +324,13 @@ def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, n
     if not walker._base:  # never baselined: the objects as they are now are the build
         walker.baseline()
     built = walker.nodes()
+    live_groups, saved_groups = _alias_groups(built), _alias_groups(tree)
+
+    def sole_owner(path: str) -> bool:
+        """True when writing in place into the live object at ``path`` changes nothing the
+        snapshot holds apart (the live object is shared only by paths the snapshot also shares)."""
+        return live_groups.get(path, {path}) <= saved_groups.get(path, {path})
+
     roots = dict(walker.roots)
     placed: dict[str, Any] = {}
     tuples: list[str] = []
@@ -340,7 +347,7 @@ def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, n
                 raise CheckpointError(f"checkpoint: {path} differs from the rebuilt run (another build or config)")
             have = built.get(path)
             if have is None or "value" not in have or _digest(have["value"]) != node["same_as_built"]:
-                _put_back(parent, part, walker._base_values[path])  # changed since the build: put it back
+                _put_back(parent, part, walker._base_values[path], in_place=sole_owner(path))  # changed since
             continue
         kind = node["kind"]
         if kind == "alias":
@@ -351,7 +358,7 @@ def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, n
         if kind == "array":
             new = arrays[node["array"]]
             if isinstance(current, np.ndarray) and current.shape == new.shape and current.dtype == new.dtype \
-                    and current.flags.writeable:
+                    and current.flags.writeable and sole_owner(path):
                 np.copyto(current, new)
                 placed[path] = current
                 continue
@@ -395,11 +402,19 @@ def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, n
     walker.roots.update(roots)
 
 
-def _put_back(parent: Any, part: tuple[str, Any], value: Any) -> None:
-    """Write a leaf's value as built (in place for an array of the same shape)."""
+def _alias_groups(nodes: dict[str, dict[str, Any]]) -> dict[str, set[str]]:
+    """Path → the set of paths that reach the same object (an object and its aliases)."""
+    members: dict[str, set[str]] = {}
+    for path, node in nodes.items():
+        members.setdefault(node["of"] if node.get("kind") == "alias" else path, set()).add(path)
+    return {path: group for group in members.values() for path in group}
+
+
+def _put_back(parent: Any, part: tuple[str, Any], value: Any, *, in_place: bool) -> None:
+    """Write a leaf's value as built (in place for an array of the same shape when ``in_place``)."""
     current = _try_get(parent, part)
-    if isinstance(value, np.ndarray) and isinstance(current, np.ndarray) and current.shape == value.shape \
-            and current.dtype == value.dtype and current.flags.writeable:
+    if in_place and isinstance(value, np.ndarray) and isinstance(current, np.ndarray) \
+            and current.shape == value.shape and current.dtype == value.dtype and current.flags.writeable:
         np.copyto(current, value)
     elif isinstance(value, dict) and isinstance(current, np.random.Generator):  # an RNG's state
         current.bit_generator.state = _rng_state(value)

@@ -13,7 +13,6 @@ import errno
 import json
 import math
 import os
-import pickle
 import signal
 import sys
 import threading
@@ -267,14 +266,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     cfg = _load(args)
     estimate = estimate_run_bytes(cfg) + (_video_bytes(cfg) if args.video else 0.0)
     check_memory(estimate, what=f"run {args.config}{' with --video' if args.video else ''}")
-    try:
-        outcome = run_scenario(cfg, out, video=args.video, resume=args.resume, overwrite=args.overwrite,
-                               progress=False if args.no_progress else None)
-    except (EOFError, pickle.UnpicklingError) as err:
-        if not args.resume:
-            raise
-        raise CliInputError(f"--resume: the checkpoint in {str(out)!r} is unreadable "
-                            f"({type(err).__name__}: {err})") from None
+    if args.stop_after_s is not None and args.stop_after_s >= cfg.sim.duration_s:
+        raise CliInputError(f"--stop-after-s: must be below sim.duration_s = {cfg.sim.duration_s:g}, "
+                            f"got {args.stop_after_s:g}")
+    outcome = run_scenario(cfg, out, video=args.video, resume=args.resume, overwrite=args.overwrite,
+                           progress=False if args.no_progress else None, stop_after_s=args.stop_after_s)
     print(json.dumps(to_jsonable(dict(outcome)), indent=2))
     print(f"run folder: {outcome.run_dir}", file=sys.stderr)
     if args.video and (outcome.run_dir / "video.mp4").is_file():
@@ -392,6 +388,9 @@ def _add_run_verbs(sub: Any) -> None:
     r.add_argument("--resume", action="store_true", help="continue from the folder's checkpoint")
     r.add_argument("--overwrite", action="store_true", help="replace an earlier run in --out")
     r.add_argument("--no-progress", action="store_true")
+    r.add_argument("--stop-after-s", type=_positive, default=None, metavar="T",
+                   help="stop at simulated time T with a checkpoint (status 'stopped', exit 0); "
+                        "continue later with --resume")
 
     rr = _verb(sub, "render", "render a run folder to MP4 (optionally side by side)", _cmd_render,
                {"run_dir": "RUN_DIR", "out_path": "--output", "compare": "--compare", "labels": "--labels"})

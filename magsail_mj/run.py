@@ -32,11 +32,11 @@ from typing import Any
 
 from threadpoolctl import threadpool_info, threadpool_limits
 
+from magsail_mj.api import load
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
 from magsail_mj.config import ConfigError, config_hash, numbers_hash
 from magsail_mj.io import atomic_path, package_versions, prepare_run_dir, write_json, write_npz
 from magsail_mj.render import render_run
-from magsail_mj.scenarios import build_scenario
 
 __all__ = ["run_scenario", "RunOutcome", "RunInterrupted", "CHECKPOINT_NAME"]
 
@@ -118,13 +118,11 @@ def run_scenario(
 
 def _run(cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool, progress: bool,
          stop_after_s: float | None) -> RunOutcome:
-    scenario = build_scenario(cfg)
+    sim = load(cfg)
+    scenario = sim.scenario
     if video and "video" in scenario.render_info():  # a scenario without motion says why
         raise ConfigError([f"--video: scenario {cfg.scenario!r} cannot be rendered: {scenario.render_info()['video']}"])
-    sim = scenario.simulation()
     identity = run_identity(numbers_hash(cfg))
-    if hasattr(sim, "identity"):
-        sim.identity = identity
     run_dir = prepare_run_dir(out_dir, overwrite=overwrite, resume=resume,
                               check=(lambda d: check_resume(d, identity, _n_steps(cfg))) if resume else None)
     with atomic_path(run_dir / "model.xml") as tmp:
