@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 if ! ldconfig -p 2>/dev/null | grep -q libOSMesa; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && command -v sudo >/dev/null && SUDO="sudo"
   echo "setup: installing libosmesa6 (headless rendering)" >&2
-  ($SUDO apt-get update -qq && $SUDO DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6 >/dev/null) \
+  ($SUDO apt-get update -qq && $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6 >/dev/null) \
     || echo "setup: could not install libosmesa6; rendering will try EGL instead" >&2
 fi
 PY=${PYTHON:-python3}
