@@ -122,6 +122,10 @@ def _run(cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool,
     scenario = sim.scenario
     if video and "video" in scenario.render_info():  # a scenario without motion says why
         raise ConfigError([f"--video: scenario {cfg.scenario!r} cannot be rendered: {scenario.render_info()['video']}"])
+    if (resume or stop_after_s is not None) and not getattr(sim, "checkpoints", True):
+        option = "--resume" if resume else "--stop-after-s"
+        raise ConfigError([f"{option}: scenario {cfg.scenario!r} ({type(sim).__name__}) has no checkpoints to stop at "
+                           "or resume from"])
     identity = run_identity(numbers_hash(cfg))
     run_dir = prepare_run_dir(out_dir, overwrite=overwrite, resume=resume,
                               check=(lambda d: check_resume(d, identity, _n_steps(cfg))) if resume else None)

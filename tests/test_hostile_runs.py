@@ -22,7 +22,7 @@ import pytest
 
 from magsail_mj.checkpoint import CheckpointError, read_checkpoint
 from magsail_mj.cli import main
-from magsail_mj.config import apply_overrides, load_config, parse_config
+from magsail_mj.config import ConfigError, apply_overrides, load_config, parse_config
 from magsail_mj.divergence import first_bad_row
 from magsail_mj.loads.base import StepState
 from magsail_mj.run import RunInterrupted, run_scenario
@@ -253,13 +253,36 @@ def test_checkpoint_refuses_to_create_foreign_classes(tmp_path, small_truss_tree
 
 # Resumed runs equal uninterrupted ones for a scenario of every concept, including the state
 # that lives outside MuJoCo (controller memories, work ledgers, estimators).
-RESUME_CASES = [
+_SMALL = ["lattice.units=3"]
+RESUME_CASES = [  # one config of every scenario kind that steps (the others refuse, see below)
+    ("cnusail/detumble_pre.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
     ("cnusail/nadir_pre.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
-    ("current_loops/slew.toml", ["sim.duration_s=12", "lattice.units=3", "sim.checkpoint_every_s=4"], 6.0),
+    ("cnusail/deorbit_recalc.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
+    ("cnusail/pd_vs_eigenaxis.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
+    ("current_loops/slew.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("current_loops/slew_rigid.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("current_loops/sweep/a_n12_ei1e3.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("reflector/detumble.toml", ["sim.duration_s=100", "sim.checkpoint_every_s=25"], 60.0),
     ("reflector/tracking_10g.toml", ["sim.duration_s=100", "sim.checkpoint_every_s=25"], 60.0),
-    ("truss_magnetorquer/slew_i.toml", ["sim.duration_s=12", "lattice.units=3", "sim.checkpoint_every_s=4"], 6.0),
+    ("truss_magnetorquer/cantilever.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("truss_magnetorquer/libration.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("truss_magnetorquer/detumble.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("truss_magnetorquer/slew_i.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("truss_magnetorquer/dist_vs_central/case_c_central_bangbang.toml",
+     ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
     ("msac/paper_1khz.toml", ["sim.duration_s=0.3", "sim.checkpoint_every_s=0.2"], 0.2),
 ]
+NOT_RESUMABLE = ["cnusail/lifetime.toml", "msac/lumped.toml", "msac/sweeps/stroke.toml",
+                 "reflector/pitch/b3_caps_sigma10.toml"]
+
+
+@pytest.mark.parametrize("name", NOT_RESUMABLE)
+def test_kinds_without_checkpoints_refuse_stop_and_resume(tmp_path, name):
+    cfg = load_config(MODELS / name, ["sim.progress=false"])
+    for kwargs in ({"stop_after_s": 1e-3}, {"resume": True}):
+        with pytest.raises(ConfigError, match="no checkpoints"):
+            run_scenario(cfg, tmp_path / "r", **kwargs)
+        assert not (tmp_path / "r").exists()
 
 
 @pytest.mark.parametrize("name,overrides,cut", RESUME_CASES, ids=[c[0] for c in RESUME_CASES])

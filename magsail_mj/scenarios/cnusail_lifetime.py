@@ -50,6 +50,8 @@ class _LifetimeRun:
     """Duck-typed stand-in for :class:`magsail_mj.sim.Simulation`: ``run`` does the analysis."""
 
     sc: "LifetimeScenario"
+    #: an orbit-decay analysis without time steps of its own: no checkpoints, so no stop/resume
+    checkpoints = False
 
     def run(self, **_: Any) -> RunResult:
         t0 = time.perf_counter()

@@ -620,6 +620,8 @@ class SweepRunner:
     """
 
     scenario: MsacScenario
+    #: a sweep of whole runs: no checkpoints, so no stop/resume
+    checkpoints = False
 
     def run(self, *, progress: bool = False, checkpoint_path: Any = None, resume: bool = False,
             stop_after_s: float | None = None) -> RunResult:

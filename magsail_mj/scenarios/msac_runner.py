@@ -450,6 +450,8 @@ class StaticRunner:
 
     model: mujoco.MjModel
     path: CyclePath
+    #: one record, no steps: nothing to stop or resume
+    checkpoints = False
 
     def run(self, *, progress: bool = False, checkpoint_path: Any = None, resume: bool = False,
             stop_after_s: float | None = None) -> RunResult:

@@ -76,6 +76,8 @@ class CapSweepRunner:
     sc: "ReflectorScenario"
     thresholds_deg: tuple[float, ...] = (5.0, 1.0)
     rel_tol: float = 0.01
+    #: a search over many short runs: no checkpoints, so no stop/resume
+    checkpoints = False
 
     def _one(self, cap: float, limit_deg: float) -> CapRun:
         from magsail_mj.loads.body_torque import HeldBodyTorqueLoad

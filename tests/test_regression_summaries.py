@@ -1,0 +1,69 @@
+"""Summaries must not change under a restructuring: short runs against stored references.
+
+``tests/data/regression_summaries.json`` holds the summary of a short run (30 time steps; MSAC: 6
+cycles; the lifetime analysis whole) of every shipped config, stored by
+``scripts/store_regression_summaries.py`` before a change. The default run checks one config of
+every scenario kind; the ``slow`` run checks them all. Floats must agree to 1e-9 relative (the
+order of floating-point operations may change in a refactor; anything beyond is a change of the
+physics), everything else exactly; timing keys are not compared.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+
+import pytest
+
+from tests.conftest import REPO
+
+_spec = importlib.util.spec_from_file_location("store_regression_summaries",
+                                               REPO / "scripts" / "store_regression_summaries.py")
+store = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(store)
+
+STORED = json.loads(store.OUT.read_text())
+ONE_PER_KIND = [
+    "models/cnusail/detumble_pre.toml", "models/cnusail/nadir_pre.toml", "models/cnusail/deorbit_recalc.toml",
+    "models/cnusail/pd_vs_eigenaxis.toml", "models/cnusail/lifetime.toml",
+    "models/current_loops/slew.toml", "models/current_loops/slew_rigid.toml",
+    "models/current_loops/sweep/a_n12_ei1e3.toml",
+    "models/msac/lumped.toml", "models/msac/paper_1khz.toml", "models/msac/sweeps/stroke.toml",
+    "models/reflector/detumble.toml", "models/reflector/tracking_10g.toml",
+    "models/reflector/pitch/b3_caps_sigma10.toml",
+    "models/truss_magnetorquer/cantilever.toml", "models/truss_magnetorquer/libration.toml",
+    "models/truss_magnetorquer/detumble.toml", "models/truss_magnetorquer/slew_i.toml",
+    "models/truss_magnetorquer/dist_vs_central/case_c_central_bangbang.toml",
+]
+
+
+def _check(key: str) -> None:
+    assert key in STORED, f"{key}: no stored summary (run scripts/store_regression_summaries.py --only {key})"
+    now = store.short_summary(REPO / key)
+    problems = store.differences(STORED[key], now)
+    assert not problems, f"{key}:\n  " + "\n  ".join(problems)
+
+
+def test_every_shipped_config_has_a_stored_summary():
+    shipped = {str(p.relative_to(REPO)) for p in store.shipped_configs()}
+    assert shipped <= set(STORED), sorted(shipped - set(STORED))
+
+
+@pytest.mark.parametrize("key", ONE_PER_KIND)
+def test_summary_of_every_scenario_kind_unchanged(key):
+    _check(key)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("key", sorted(STORED))
+def test_summary_of_every_shipped_config_unchanged(key):
+    _check(key)
+
+
+def test_comparison_sees_a_change():
+    """The comparison itself: 1e-9 relative passes, 1e-6 fails, a changed string or key fails."""
+    base = {"a": 1.0, "b": "x", "c": [1.0, 2.0], "d": None}
+    assert not store.differences(base, {"a": 1.0 + 1e-10, "b": "x", "c": [1.0, 2.0], "d": None})
+    assert store.differences(base, {"a": 1.0 + 1e-6, "b": "x", "c": [1.0, 2.0], "d": None})
+    assert store.differences(base, {"a": 1.0, "b": "y", "c": [1.0, 2.0], "d": None})
+    assert store.differences(base, {"a": 1.0, "b": "x", "c": [1.0, 2.0]})
