@@ -23,15 +23,23 @@ particle-set inertia of Eq. 21 (§4.4; §12 item O3: computed, not the printed 1
 which remain selectable). The last term is minus the classical gravity-gradient torque (Eq. 14),
 so a rigid body's gravity-gradient torque is cancelled exactly when the allocation delivers
 ``T_ref``.
+
+:class:`QuaternionPD` is the same feedback without the compensation, written against the typed
+command set: it knows nothing of the spacecraft, reads the attitude and body rate from the
+:class:`~magsail_mj.loads.base.StepState` through an injected attitude sensor and returns a
+:class:`~magsail_mj.commands.BodyTorque` that any body-torque actuator
+(:mod:`magsail_mj.loads.body_torque_actuators`) turns into forces.
 """
 
 from __future__ import annotations
 
-from typing import Any, Literal, Sequence
+from typing import Any, Callable, Literal, Sequence
 
 import numpy as np
 
+from magsail_mj.commands import BodyTorque
 from magsail_mj.control.allocation import TorqueDistributor
+from magsail_mj.control.reflector_pitch import pitch_gains
 from magsail_mj.control.rod_attitude import RodAttitudeController
 from magsail_mj.environment.constants import MU_EARTH
 from magsail_mj.estimation.attitude import quat_from_matrix
@@ -42,6 +50,7 @@ __all__ = [
     "gg_compensation_torque",
     "quaternion_feedback_torque",
     "QuaternionFeedbackRodController",
+    "QuaternionPD",
 ]
 
 
@@ -146,3 +155,67 @@ class QuaternionFeedbackRodController(RodAttitudeController):
             comp = gg_compensation_torque(r_b, self.inertia, mu=self.mu)
         T = quaternion_feedback_torque(q_e, omega_body, Pq_Nm=self.Pq, Pw_Nms=self.Pw, gg_comp_body=comp)
         return T, {"q_err": q_e, "gg_comp_body": comp}
+
+
+AttitudeSensor = Callable[[Any], tuple[np.ndarray, np.ndarray]]
+"""``state → (q_wxyz (4,) body → world, ω (3,) body axes [rad/s])``; see
+:func:`magsail_mj.loads.body_torque_actuators.attitude_sensor`."""
+
+
+def _gain3(value: Sequence[float], name: str) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.any(a < 0):
+        raise ValueError(f"{name}: expected 3 gains >= 0, got {value!r}")
+    return a
+
+
+class QuaternionPD:
+    r"""Body-torque quaternion PD, ``T = −P_q q_{e,vec} − P_ω ω`` [N m] (body axes), as a
+    :class:`~magsail_mj.commands.BodyTorque`.
+
+    It knows nothing of the spacecraft: each sample it asks ``sensor(state)`` for the attitude
+    ``q`` (body → world, scalar first) and the body rate ``ω`` [rad/s], forms
+    ``q_e = q_ref* ⊗ q`` (shortest path, :func:`~magsail_mj.quaternion.error_quaternion`) and calls
+    :func:`quaternion_feedback_torque` (no gravity-gradient term).
+
+    Args:
+      sensor: ``state → (q_wxyz, omega_body_rad_s)`` (a rigid body's or a lattice's best fit).
+      q_ref_wxyz: target attitude (body → world, scalar first; normalised).
+      Pq_Nm: diagonal of ``P_q`` [N m]; Pw_Nms: diagonal of ``P_ω`` [N m s].
+      period_s: control period [s] (the runner holds the command in between).
+
+    Telemetry: ``q_err`` (4,) and ``omega_body`` (3,) of the last sample.
+    """
+
+    law = "quat_pd_body_torque"
+
+    def __init__(self, *, sensor: AttitudeSensor, q_ref_wxyz: Sequence[float], Pq_Nm: Sequence[float],
+                 Pw_Nms: Sequence[float], period_s: float) -> None:
+        if not callable(sensor):
+            raise ValueError(f"sensor: expected a callable state → (q_wxyz, omega_body), got {sensor!r}")
+        if not (np.isfinite(period_s) and period_s > 0):
+            raise ValueError(f"period_s: must be > 0 s, got {period_s!r}")
+        self.sensor = sensor
+        self.q_ref = _unit_quat(q_ref_wxyz, "q_ref_wxyz")
+        self.Pq = _gain3(Pq_Nm, "Pq_Nm")
+        self.Pw = _gain3(Pw_Nms, "Pw_Nms")
+        self.period_s = float(period_s)
+        self.q_err = np.array([1.0, 0.0, 0.0, 0.0])
+        self.omega_body = np.zeros(3)
+
+    @classmethod
+    def from_bandwidth(cls, *, sensor: AttitudeSensor, q_ref_wxyz: Sequence[float],
+                       inertia_kgm2: Sequence[float], omega_n_rad_s: float, zeta: float,
+                       period_s: float) -> "QuaternionPD":
+        """Gains per axis ``P_q = 2 I ω_n²``, ``P_ω = 2 ζ ω_n I`` from principal moments ``inertia_kgm2``
+        [kg m²] (:func:`~magsail_mj.control.reflector_pitch.pitch_gains`)."""
+        Pq, Pw = pitch_gains(inertia_kgm2, omega_n_rad_s=omega_n_rad_s, zeta=zeta)
+        return cls(sensor=sensor, q_ref_wxyz=q_ref_wxyz, Pq_Nm=Pq, Pw_Nms=Pw, period_s=period_s)
+
+    def update(self, state: Any) -> BodyTorque:
+        """One sample: the sensor's attitude and rate → :class:`~magsail_mj.commands.BodyTorque`."""
+        q, omega = self.sensor(state)
+        self.q_err = error_quaternion(self.q_ref, np.asarray(q, dtype=float))
+        self.omega_body = np.asarray(omega, dtype=float)
+        T = quaternion_feedback_torque(self.q_err, self.omega_body, Pq_Nm=self.Pq, Pw_Nms=self.Pw)
+        return BodyTorque(torque_body_Nm=T)
