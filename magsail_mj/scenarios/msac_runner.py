@@ -70,6 +70,8 @@ from magsail_mj.checkpoint import (
 from magsail_mj.divergence import disable_autoreset, first_bad_row, route_mujoco_warnings
 from magsail_mj.mjcf.msac import shape_indices
 from magsail_mj.sim import RunResult
+from mujoco import rollout as mj_rollout
+from tqdm import tqdm
 
 __all__ = ["MsacRunner", "StaticRunner"]
 
@@ -87,6 +89,7 @@ class _Acc:
     win: dict[str, list] = field(default_factory=dict)
     omega_blocks: list = field(default_factory=list)
     block_carry: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cycle_carry: np.ndarray = field(default_factory=lambda: np.zeros(0))
     cyc_min: list = field(default_factory=list)
     cyc_max: list = field(default_factory=list)
     L0: np.ndarray | None = None
@@ -178,6 +181,13 @@ class MsacRunner:
                 merged.append([a, b])
         self.windows = [tuple(r) for r in merged]
         self.table = None
+        self._ct: ComputedTorque | None = None
+        self.data = mujoco.MjData(m)
+        # the Python-side state of a run (baseline: fresh accumulators, no table yet)
+        self._walker = StateWalker({"acc": _Acc(), "table": None, "ct": None})
+        self._walker.baseline()
+        self._checkpoint_folder = None
+        self.reset()
 
     # ------------------------------------------------------------------ chunk bookkeeping
     def _process(self, acc: _Acc, k0: int, S: np.ndarray, sd: np.ndarray, ctrl: np.ndarray) -> None:
@@ -221,13 +231,16 @@ class MsacRunner:
         if nb:
             acc.omega_blocks.append(wz[:nb * self.block].reshape(nb, self.block).mean(axis=1))
         acc.block_carry = wz[nb * self.block:].copy()
-        # per-cycle extremes of the raw ω_z over the complete cycles of this chunk
-        first = (-k0) % self.N
-        ncyc = (n - first) // self.N
+        # per-cycle extremes of the raw ω_z over every cycle completed by this chunk (the part of a
+        # cycle a chunk ends in is carried to the next, so the split of a run into chunks is invisible)
+        seq = np.concatenate([acc.cycle_carry, w_world[:, 2]])
+        first = (-(k0 - acc.cycle_carry.size)) % self.N
+        ncyc = (seq.size - first) // self.N
         if ncyc:
-            blk = w_world[first:first + ncyc * self.N, 2].reshape(ncyc, self.N)
+            blk = seq[first:first + ncyc * self.N].reshape(ncyc, self.N)
             acc.cyc_min.append(blk.min(axis=1))
             acc.cyc_max.append(blk.max(axis=1))
+        acc.cycle_carry = seq[first + ncyc * self.N:].copy()
 
     # ------------------------------------------------------------------ momentum projection
     def _project(self, data: mujoco.MjData, state: np.ndarray, acc: _Acc) -> np.ndarray:
@@ -257,79 +270,148 @@ class MsacRunner:
         acc.proj_count += 1
         return out
 
-    # ------------------------------------------------------------------ checkpoints
-    def _save(self, path: Path, k: int, state: np.ndarray, acc: _Acc, walker: StateWalker) -> None:
-        walker.roots.update(acc=acc, table=self.table)
-        header = {**self.identity, "step": k, "t_s": k * self.dt, "wall_s": self._wall_before + time.perf_counter()
-                  - self._wall0}
-        tree, arrays = walker.snapshot()
-        write_checkpoint(path, header, tree=tree, arrays=arrays, extra_arrays={"state": state})
+    # ------------------------------------------------------------------ state
+    def reset(self) -> None:
+        """Back to t = 0: the cycle's initial state and empty accumulators (a computed replay
+        table is kept: it depends on the model and the cycle only)."""
+        set_initial_state(self.model, self.data, self.path)
+        self._state = np.empty(self.nstate)
+        mujoco.mj_getState(self.model, self.data, self._state, _FP)
+        self.acc = _Acc()
+        self.step_index = 0
+        self._begin()
+        self._wall_s = 0.0
 
-    def _load(self, path: Path, walker: StateWalker) -> tuple[int, np.ndarray, _Acc]:
+    def _begin(self) -> None:
+        self.status, self.message = "running", ""
+        self._warn0 = {w: self.data.warning[w].number for w in _WARNINGS}
+
+    @property
+    def time(self) -> float:
+        """Simulated time of the current state [s]."""
+        return self.step_index * self.dt
+
+    def get_state(self) -> dict[str, Any]:
+        """The whole state as plain data: the step, MuJoCo's full physics state (``mj_state``,
+        ``mjSTATE_FULLPHYSICS``) and the snapshot of the accumulators, replay table and
+        computed-torque state (``python_tree``, ``python_arrays``)."""
+        self._walker.roots.update(acc=self.acc, table=self.table, ct=self._ct)
+        tree, arrays = self._walker.snapshot()
+        return {"step": self.step_index, "mj_state": self._state.copy(), "python_tree": tree,
+                "python_arrays": arrays}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Continue from a state of :meth:`get_state`."""
+        mj_state = np.asarray(state["mj_state"], dtype=float)
+        step = int(state["step"])
+        if mj_state.shape != (self.nstate,) or not 0 <= step <= self.n_steps:
+            raise ValueError(f"state: not a state of this model within sim.duration_s (step {step}, "
+                             f"mj_state shape {mj_state.shape})")
+        self._walker.roots.update(acc=self.acc, table=self.table, ct=self._ct)
+        restore_state(self._walker, state["python_tree"], state["python_arrays"])
+        self.acc, self.table, self._ct = (self._walker.roots[k] for k in ("acc", "table", "ct"))
+        self._state = mj_state.copy()
+        self.step_index = step
+        self._begin()
+
+    def records(self) -> dict[str, np.ndarray]:
+        """The records and run series so far (see module docs)."""
+        records = self._records(self.acc)
+        records["run_replay_settle_change"] = np.array(self.table.settle_change if self.table else np.nan)
+        return records
+
+    # ------------------------------------------------------------------ checkpoints
+    def _save(self, path: Path) -> None:
+        state = self.get_state()
+        header = {**self.identity, "step": state["step"], "t_s": self.time, "wall_s": self._wall_s}
+        write_checkpoint(path, header, tree=state["python_tree"], arrays=state["python_arrays"],
+                         extra_arrays={"state": state["mj_state"]})
+
+    def _load(self, path: Path) -> None:
         header, arrays, extra = read_checkpoint(path)
         check_identity(header, self.identity, path=path)
         k = int(header["step"])
         if "state" not in extra or extra["state"].shape != (self.nstate,) or not 0 <= k <= self.n_steps:
             raise CheckpointError(f"checkpoint: {path} does not hold a state of this model within sim.duration_s")
-        restore_state(walker, header["state_tree"], arrays)
-        self.table = walker.roots["table"]
-        self._wall_before = float(header.get("wall_s", 0.0))
-        return k, extra["state"], walker.roots["acc"]
+        self.set_state({"step": k, "mj_state": extra["state"], "python_tree": header["state_tree"],
+                        "python_arrays": arrays})
+        self._wall_s = float(header.get("wall_s", 0.0))
 
-    # ------------------------------------------------------------------ run
+    # ------------------------------------------------------------------ stepping
+    def _cycle_controls(self) -> np.ndarray:
+        """The (N, nu) controls of one cycle (the replay table's, or the servo set-points with the
+        computed torque added per step); builds the table or the computed-torque law on first use."""
+        m = self.model
+        if self.method == "replay":
+            if self.table is None:
+                self.table = replay_table(m, self.path, omega_c_dt=self.omega_c_dt,
+                                          calibration_cycles=self.calibration_cycles)
+            return self.table.ctrl
+        if self._ct is None:
+            self._ct = ComputedTorque(m, self.path, omega_c_dt=self.omega_c_dt)
+        cyc_ctrl = np.zeros((self.N, self.nu))
+        cyc_ctrl[:, self.ix["servo"]] = servo_rates(m, self.path, self.N)
+        return cyc_ctrl
+
+    def step(self, n: int = 1) -> str:
+        """Advance ``n`` steps (rolled out natively in chunks; never beyond ``duration_s``) and
+        return the status: ``running`` while steps remain, else how the run ended."""
+        if int(n) != n or n < 1:
+            raise ValueError(f"n: must be an integer >= 1, got {n!r}")
+        if self.status == "running":
+            self._advance(min(self.step_index + int(n), self.n_steps))
+        return self.status
+
     def run(self, *, progress: bool = False, checkpoint_path: str | Path | None = None,
             resume: bool = False, stop_after_s: float | None = None) -> RunResult:
-        """Run to ``duration_s`` (or ``stop_after_s``, rounded up to a chunk boundary)."""
-        import scipy.signal  # noqa: F401  (imported before the clock starts: the filter runs at the end)
-
-        m = self.model
-        dt, N = self.dt, self.N
-        wall0 = self._wall0 = time.perf_counter()
-        self._wall_before = 0.0
-        data = mujoco.MjData(m)
+        """Run from the current state to ``duration_s`` (or ``stop_after_s``), checkpointing at the
+        chunk boundaries after every ``checkpoint_every_s``."""
         ckpt = Path(checkpoint_path) if checkpoint_path else None
-        self.table = None
-        walker = StateWalker({"acc": _Acc(), "table": None})
-        walker.baseline()
         if resume:
             if ckpt is None:
                 raise CheckpointError("resume: no checkpoint path given")
-            k, state, acc = self._load(ckpt, walker)
-        else:
-            set_initial_state(m, data, self.path)
-            state = np.empty(self.nstate)
-            mujoco.mj_getState(m, data, state, _FP)
-            acc, k = _Acc(), 0
-            if self.method == "replay":
-                self.table = replay_table(m, self.path, omega_c_dt=self.omega_c_dt,
-                                          calibration_cycles=self.calibration_cycles)
-        k_start = k
-        if self.method == "replay":
-            cyc_ctrl = self.table.ctrl
-        else:
-            ct = ComputedTorque(m, self.path, omega_c_dt=self.omega_c_dt)
-            cyc_ctrl = np.zeros((N, self.nu))
-            cyc_ctrl[:, self.ix["servo"]] = servo_rates(m, self.path, N)
-            m.opt.disableactuator |= 1 << 1     # computed torque alone: servos off
+            self._load(ckpt)
+        k_start = self.step_index
+        stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(math.ceil(stop_after_s / self.dt)))
+        chunk = int(self.chunk_cycles) * self.N
+        bar = None
+        if progress and self.n_steps > 10 * chunk:
+            bar = tqdm(total=self.n_steps, initial=k_start, unit="step", unit_scale=True, file=sys.stderr,
+                       mininterval=5.0, leave=False)
+        try:
+            if self.status == "running":
+                self._advance(stop_step, ckpt=ckpt, bar=bar)
+        finally:
+            if bar is not None:
+                bar.close()
+        if self.status == "running":
+            self.status, self.message = "stopped", f"stopped at t = {self.time:.6f} s (stop_after_s)"
+            if ckpt is not None:
+                self._save(ckpt)
+        return RunResult(records=self.records(), status=self.status, message=self.message, t_end_s=self.time,
+                         steps=self.step_index - k_start, wall_time_s=self._wall_s)
+
+    def _advance(self, stop_step: int, *, ckpt: Path | None = None, bar: Any = None) -> None:
+        """Roll out from the current step to ``stop_step`` in chunks that end at the absolute chunk
+        boundaries (multiples of ``chunk_cycles`` cycles), so the momentum projection and the
+        checkpoints fall on the same steps however the run is split."""
+        m, data = self.model, self.data
+        dt, N = self.dt, self.N
+        wall0 = time.perf_counter()
+        cyc_ctrl = self._cycle_controls()
         chunk = int(self.chunk_cycles) * N
         ctrl_chunk = np.tile(cyc_ctrl, (int(self.chunk_cycles), 1))
-        stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(math.ceil(stop_after_s / dt)))
         ck_every = int(round(self.checkpoint_every_s / dt)) if self.checkpoint_every_s > 0 else 0
+        k, state, acc = self.step_index, self._state, self.acc
         next_ck = (k // ck_every + 1) * ck_every if ck_every else None
         st_buf = np.empty((1, chunk, self.nstate))
         sd_buf = np.empty((1, chunk, m.nsensordata))
-        bar = None
-        if progress and self.n_steps > 10 * chunk:
-            from tqdm import tqdm
-            bar = tqdm(total=self.n_steps, initial=k, unit="step", unit_scale=True, file=sys.stderr,
-                       mininterval=5.0, leave=False)
-        status, message = "completed", ""
-        from mujoco import rollout as mj_rollout
         pool = mj_rollout.Rollout(nthread=0)
-        warn0 = {w: data.warning[w].number for w in _WARNINGS}
+        if self.method == "computed_torque":
+            m.opt.disableactuator |= 1 << 1     # computed torque alone: servos off
         try:
             while k < stop_step:
-                n = min(chunk, stop_step - k)
+                n = min(chunk - k % chunk, stop_step - k)
                 ctrl = ctrl_chunk[(k % N):(k % N) + n] if (k % N) + n <= chunk else \
                     np.tile(cyc_ctrl, (n // N + 2, 1))[(k % N):(k % N) + n]
                 if self.method == "replay":
@@ -342,6 +424,7 @@ class MsacRunner:
                     post = np.empty((n, self.nstate))
                     sens = np.empty((n, m.nsensordata))
                     ctrl = ctrl.copy()
+                    ct = self._ct
                     mujoco.mj_setState(m, data, state, _FP)
                     for i in range(n):
                         ctrl[i, self.ix["ff"]] = ct.torque(data, k + i) / ct.gear
@@ -350,50 +433,47 @@ class MsacRunner:
                         sens[i] = data.sensordata   # computed at the step-start state
                         mujoco.mj_getState(m, data, post[i], _FP)
                 S = np.vstack([state[None], post[:-1]])
-                warned = [w.name.removeprefix("mjWARN_") for w in _WARNINGS if data.warning[w].number > warn0[w]]
+                warned = [w.name.removeprefix("mjWARN_") for w in _WARNINGS
+                          if data.warning[w].number > self._warn0[w]]
                 bad_state, bad_ctrl = first_bad_row(post[:, 1:]), first_bad_row(ctrl)
                 if warned or bad_state is not None or bad_ctrl is not None:
                     # post[i] is the state at step k + i + 1; a bad control acts from step k + i
                     cands = [i + 1 for i in (bad_state,) if i is not None] + [i for i in (bad_ctrl,) if i is not None]
                     bad = min(cands) if cands else n
-                    status = "diverged"
                     cause = "a control is not finite or above 1e10 (raise the ff gear)" if bad_ctrl is not None \
                         and bad == bad_ctrl else "the state is not finite or above 1e10"
-                    message = (f"diverged at t = {(k + bad) * dt:.6g} s: {cause}"
-                               + (f" (MuJoCo warnings {', '.join(warned)})" if warned else ""))
+                    self.status = "diverged"
+                    self.message = (f"diverged at t = {(k + bad) * dt:.6g} s: {cause}"
+                                    + (f" (MuJoCo warnings {', '.join(warned)})" if warned else ""))
                     self._process(acc, k, S[:bad], sens[:bad], ctrl[:bad])
                     k += bad
                     break
                 self._process(acc, k, S, sens, ctrl)
                 state = post[-1].copy()
                 k += n
-                if self.momentum_projection:
+                if self.momentum_projection and (k % chunk == 0 or k == self.n_steps):
                     state = self._project(data, state, acc)
                 if bar is not None:
                     bar.update(n)
-                if ckpt is not None and next_ck is not None and k >= next_ck and k < self.n_steps:
-                    self._save(ckpt, k, state, acc, walker)
+                if ckpt is not None and next_ck is not None and next_ck <= k < self.n_steps:
+                    self.step_index, self._state = k, state
+                    self._wall_s += time.perf_counter() - wall0
+                    wall0 = time.perf_counter()
+                    self._save(ckpt)
                     next_ck = (k // ck_every + 1) * ck_every
+            if self.status == "running" and k == self.n_steps:
+                # the final state (t = duration) as a last sample: sensors from mj_forward
+                mujoco.mj_setState(m, data, state, _FP)
+                data.ctrl[:] = cyc_ctrl[k % N]
+                mujoco.mj_forward(m, data)
+                self._process_final(acc, k, state, data.sensordata.copy(), cyc_ctrl[k % N])
+                self.status = "completed"
         finally:
             pool.close()
-            if bar is not None:
-                bar.close()
             if self.method == "computed_torque":
                 m.opt.disableactuator &= ~(1 << 1)
-        if status == "completed" and k < self.n_steps:
-            status, message = "stopped", f"stopped at t = {k * dt:.6f} s (stop_after_s)"
-            if ckpt is not None:
-                self._save(ckpt, k, state, acc, walker)
-        if status == "completed":
-            # the final state (t = duration) as a last sample: sensors from mj_forward
-            mujoco.mj_setState(m, data, state, _FP)
-            data.ctrl[:] = cyc_ctrl[k % N]
-            mujoco.mj_forward(m, data)
-            self._process_final(acc, k, state, data.sensordata.copy(), cyc_ctrl[k % N])
-        records = self._records(acc)
-        records["run_replay_settle_change"] = np.array(self.table.settle_change if self.table else np.nan)
-        return RunResult(records=records, status=status, message=message, t_end_s=k * dt,
-                         steps=k - k_start, wall_time_s=self._wall_before + time.perf_counter() - wall0)
+            self.step_index, self._state = k, state
+            self._wall_s += time.perf_counter() - wall0
 
     def _process_final(self, acc: _Acc, k: int, state: np.ndarray, sens: np.ndarray, ctrl: np.ndarray) -> None:
         """Add the end state to the strobe (if a cycle start) and the records (always)."""
