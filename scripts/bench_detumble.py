@@ -46,15 +46,13 @@ from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import magsail_mj  # noqa: F401  (GL backend before mujoco)
+import magsail_mj  # first: chooses the GL backend before mujoco is imported
 import numpy as np
 
-from magsail_mj.config import load_config
 from magsail_mj.io import print_report
 from magsail_mj.estimation.attitude import best_fit_rotation, rotation_angle
 from magsail_mj.loads.base import StepState
 from magsail_mj.reference.numpy_rk4 import SpringMassLattice
-from magsail_mj.scenarios import build_scenario
 
 CONFIG = Path(__file__).resolve().parents[1] / "models/truss_magnetorquer/detumble.toml"
 ANGLE_TOL_RAD = 1e-3
@@ -86,17 +84,17 @@ class Row:
         return self.figures_ok and self.angle_rad <= ANGLE_TOL_RAD
 
 
-def scenario(duration: float, overrides: list[str], cache_dir: str):
+def simulation(duration: float, overrides: list[str], cache_dir: str):
+    """The detumble run of one benchmark row, through :func:`magsail_mj.load`."""
     dt = next((float(o.split("=")[1]) for o in overrides if o.startswith("sim.timestep_s=")), 0.1)
-    cfg = load_config(CONFIG, [f"sim.duration_s={duration}", "sim.progress=false", "sim.checkpoint_every_s=0",
-                               f"sim.record_every={max(1, int(round(1.0 / dt)))}",
-                               f"control.cache_dir='{cache_dir}'", *overrides])
-    return build_scenario(cfg)
+    return magsail_mj.load(CONFIG, [f"sim.duration_s={duration}", "sim.progress=false", "sim.checkpoint_every_s=0",
+                         f"sim.record_every={max(1, int(round(1.0 / dt)))}",
+                         f"control.cache_dir='{cache_dir}'", *overrides])
 
 
 def run_row(label: str, overrides: list[str], duration: float, cache_dir: str) -> Row:
-    sc = scenario(duration, overrides, cache_dir)
-    sim = sc.simulation()
+    sim = simulation(duration, overrides, cache_dir)
+    sc = sim.scenario
     c0, w0 = time.process_time(), time.perf_counter()
     res = sim.run()
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
@@ -112,8 +110,7 @@ def profile_row(label: str, overrides: list[str], duration: float, cache_dir: st
     each per call); "loop" is the rest of the runner. Returns a markdown table."""
     import mujoco
 
-    sc = scenario(duration, overrides, cache_dir)
-    sim = sc.simulation()
+    sim = simulation(duration, overrides, cache_dir)
     spent: dict[str, float] = defaultdict(float)
 
     def timed(fn, key):
@@ -153,7 +150,7 @@ def numpy_reference_cost(duration: float, cache_dir: str) -> float:
     """CPU seconds per simulated second of the NumPy RK4 of the same model, loads and controller."""
     from magsail_mj.scenarios.truss_orbital import make_controller
 
-    sc = scenario(duration, [], cache_dir)
+    sc = simulation(duration, [], cache_dir).scenario
     tm, lat = sc.tm, sc.tm.lattice
     system = SpringMassLattice(masses=tm.masses, struts=lat.struts, k=tm.k, l0=lat.rest_length,
                                gamma=tm.gamma)

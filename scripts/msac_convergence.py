@@ -20,7 +20,7 @@ from pathlib import Path
 
 from magsail_mj.config import load_config
 from magsail_mj.io import to_jsonable, write_json
-from magsail_mj.scenarios import build_scenario
+from magsail_mj import load
 
 REPO = Path(__file__).resolve().parents[1]
 KEYS = ("theta_gamma_mujoco_rad", "theta_gamma_mujoco_std_rad", "theta_gamma_first_cycle_rad",
@@ -33,9 +33,9 @@ def run_point(config: Path, timestep_s: float, duration_s: float) -> dict:
     """Run ``config`` at ``timestep_s`` for ``duration_s`` and return the convergence figures."""
     cfg = load_config(config, [f"sim.duration_s={duration_s}", f"sim.timestep_s={timestep_s}",
                                f"sim.record_every={int(round(1e-3 / timestep_s)) * 100}"])
-    sc = build_scenario(cfg)
-    res = sc.simulation().run()
-    summary, _ = sc.postprocess(res)
+    sim = load(cfg)
+    res = sim.run()
+    summary, _ = sim.scenario.postprocess(res)
     return {"timestep_s": timestep_s, **{k: summary[k] for k in KEYS}}
 
 
