@@ -26,9 +26,9 @@ from magsail_mj.loads.body_torque_actuators import (
     CoilBodyTorqueActuator, LatticeAttitude, StrutBodyTorqueActuator, WheelBodyTorqueActuator, attitude_sensor,
     body_torque_actuator, coil_torque,
 )
-from magsail_mj.loads.actuators_cubesat import WheelDriver
+from magsail_mj.loads.actuators_cubesat import MagnetorquerLoad, WheelDriver
 from magsail_mj.loads.base import StepState
-from magsail_mj.quaternion import quat_mul
+from magsail_mj.quaternion import quat_mul, quat_to_matrix
 
 TRUSS = ("models/truss_magnetorquer/slew_i.toml",
          ["lattice.units=3", "sim.duration_s=30", "sim.record_every=1", "initial.q0_wxyz=[0.5, 0.5, 0.5, 0.5]"])
@@ -378,3 +378,19 @@ def test_non_torque_command_is_a_zero_request():
                           ctrl=ctrl)
         act.add(state, xfrc)
         assert not xfrc.any() and not act.delivered_body_Nm.any()
+
+
+def test_magnetic_dipole_command_drives_the_cubesat_magnetorquers():
+    """A MagneticDipole command runs on the cubesat's magnetorquer load: torque = R (m × B_body)."""
+    sim = magsail_mj.load(*CUBESAT)
+    sim.kin.update(sim.data)
+    bus = sim.scenario.idx.bus
+    env = sim.environment.sample(0.0)
+    m = np.array([0.1, -0.05, 0.02])
+    state = StepState(t=0.0, pos=sim.kin.pos, vel=sim.kin.vel, xquat=sim.kin.xquat, omega=sim.kin.omega, env=env,
+                      ctrl=MagneticDipole(dipole_body_Am2=m))
+    R = quat_to_matrix(sim.kin.xquat[bus])
+    expected = R @ np.cross(m, R.T @ np.asarray(env.B_eci))
+    np.testing.assert_allclose(MagnetorquerLoad(bus).torque_world(state), expected, rtol=1e-12,
+                               atol=1e-12 * np.abs(expected).max())
+    assert np.abs(expected).max() > 0

@@ -200,7 +200,9 @@ class MagnetorquerLoad:
     """Adds the magnetorquer torque R M × B_eci on the bus (spec §4.1, paper Eq. 5).
 
     The effective dipole (zero in the blanking window) is read from the held command
-    ``state.ctrl.dipole_body`` [A m², body axes]; no command means no torque.
+    ``state.ctrl.dipole_body`` [A m², body axes] (the CNUSAIL controller's command) or
+    ``state.ctrl.dipole_body_Am2`` (a :class:`~magsail_mj.commands.MagneticDipole`); no command
+    means no torque.
     """
 
     name = "magnetorquer"
@@ -215,6 +217,8 @@ class MagnetorquerLoad:
 
         cmd = state.ctrl
         m = getattr(cmd, "dipole_body", None)
+        if m is None:
+            m = getattr(cmd, "dipole_body_Am2", None)
         if m is None or not (m[0] or m[1] or m[2]):
             return np.zeros(3)
         mujoco.mju_quat2Mat(self._R, state.xquat[self.body_id])
