@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Install everything magsail_mj needs into ./.venv (idempotent):
 #  - libosmesa6 (headless OpenGL for MuJoCo rendering) from Debian when it is missing;
-#  - a virtual environment with the package and its test extras.
+#  - a virtual environment with the package, its test extras and the documentation tools (Sphinx).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if ! ldconfig -p 2>/dev/null | grep -q libOSMesa; then
@@ -13,5 +13,5 @@ fi
 PY=${PYTHON:-python3}
 [ -x .venv/bin/python ] || "$PY" -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip 2>&1 | grep -v "^WARNING: Location" || true
-.venv/bin/python -m pip install -q -e ".[dev]" 2>&1 | grep -v -E "^WARNING: Location|^\s*$" || true
+.venv/bin/python -m pip install -q -e ".[dev,docs]" 2>&1 | grep -v -E "^WARNING: Location|^\s*$" || true
 .venv/bin/python -c "import magsail_mj, mujoco; print('setup: magsail_mj ready, mujoco', mujoco.__version__)" >&2
