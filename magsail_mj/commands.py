@@ -7,25 +7,23 @@ that has an actuator for it (see :mod:`magsail_mj.loads.body_torque_actuators` f
 body-torque actuators of the truss, the cubesat and the reflector).
 
 The command set (frozen dataclasses; every array field is a float or integer copy of what was
-given, checked for shape and finiteness; the frame and the unit are in each field's name):
+given, checked for shape and finiteness, a bad value raising ``ValueError`` that names the field;
+the frame and the unit are in each field's name):
 
-=====================  ======================================  =====================================
-command                field                                   frame, unit
-=====================  ======================================  =====================================
-:class:`BodyTorque`    ``torque_body_Nm`` (3,)                 body axes, N m
-:class:`MagneticDipole` ``dipole_body_Am2`` (3,)               body axes, A m²
-:class:`RodPolarities` ``polarity`` (n_rods,) in {−1, 0, +1}   per rod (the rod's own axis)
-:class:`LoopCurrents`  ``currents_A`` (n_loops,)               per loop or coil path, A
-:class:`WheelTorques`  ``torque_Nm`` (n_wheels,)               motor torque on each rotor about its
-                                                               spin axis, N m
-:class:`WheelVoltages` ``voltage_V`` (n_wheels,)               motor terminal voltage, V
-:class:`JointTargets`  ``targets`` (n,), ``actuator_ids`` (n,)  MuJoCo actuator set points (joint
-                                                               units: m or rad)
-=====================  ======================================  =====================================
+* :class:`BodyTorque` — ``torque_body_Nm`` (3,): body axes, N m;
+* :class:`MagneticDipole` — ``dipole_body_Am2`` (3,): body axes, A m²;
+* :class:`RodPolarities` — ``polarity`` (n_rods,) int8 in {−1, 0, +1}: per rod, along its own axis;
+* :class:`LoopCurrents` — ``currents_A`` (n_loops,): per loop or coil path, A;
+* :class:`WheelTorques` — ``torque_Nm`` (n_wheels,): motor torque on each rotor about its spin axis, N m;
+* :class:`WheelVoltages` — ``voltage_V`` (n_wheels,): motor terminal voltage, V;
+* :class:`JointTargets` — ``targets`` (n,) and ``actuator_ids`` (n,): MuJoCo actuator set points in
+  the joints' units (m or rad), written to ``data.ctrl`` by its ``apply_ctrl``.
 
-Existing controllers keep their own (richer) command objects, whose field names these follow:
-the truss rod controllers' :class:`~magsail_mj.control.rod_attitude.RodCommand` carries
-``polarity``, the reflector B-dot command ``currents_A``, the CNUSAIL command ``dipole_body``.
+Existing controllers keep their own (richer) command objects, whose field names these follow
+where they meet: the truss rod controllers' :class:`~magsail_mj.control.rod_attitude.RodCommand`
+carries ``polarity`` (read by the rod load, so a :class:`RodPolarities` drives it too) and the
+reflector B-dot command ``currents_A``; the cubesat magnetorquer load reads the CNUSAIL command's
+``dipole_body`` or a :class:`MagneticDipole`'s ``dipole_body_Am2``.
 
 :func:`attach` is the documented way to run a controller of this set on a loaded simulation::
 

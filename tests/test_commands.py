@@ -28,6 +28,7 @@ from magsail_mj.loads.body_torque_actuators import (
 )
 from magsail_mj.loads.actuators_cubesat import MagnetorquerLoad, WheelDriver
 from magsail_mj.loads.base import StepState
+from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad
 from magsail_mj.quaternion import quat_mul, quat_to_matrix
 
 TRUSS = ("models/truss_magnetorquer/slew_i.toml",
@@ -394,3 +395,20 @@ def test_magnetic_dipole_command_drives_the_cubesat_magnetorquers():
     np.testing.assert_allclose(MagnetorquerLoad(bus).torque_world(state), expected, rtol=1e-12,
                                atol=1e-12 * np.abs(expected).max())
     assert np.abs(expected).max() > 0
+
+
+def test_rod_polarities_command_drives_the_truss_rods():
+    """A RodPolarities command drives the truss rod load exactly as the rod controllers' command does."""
+    sim = magsail_mj.load(TRUSS[0], ["lattice.units=3", "sim.duration_s=1"])
+    rod = next(x for x in sim.loads if isinstance(x, MagnetorquerRodLoad))
+    sim.kin.update(sim.data)
+    pol = np.resize(np.array([1, -1, 0], dtype=np.int8), rod.n_rods)
+    out = []
+    for ctrl in (RodPolarities(polarity=pol), {"polarity": pol.copy()}):
+        state = StepState(t=0.0, pos=sim.kin.pos, vel=sim.kin.vel, xquat=sim.kin.xquat, omega=sim.kin.omega,
+                          env=sim.environment.sample(0.0), ctrl=ctrl)
+        xfrc = np.zeros((sim.model.nbody, 6))
+        rod.add(state, xfrc)
+        out.append(xfrc)
+    assert np.abs(out[0]).max() > 0
+    np.testing.assert_array_equal(out[0], out[1])
