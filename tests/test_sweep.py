@@ -80,3 +80,50 @@ def test_sweep_cli_errors(tmp_path, capsys):
     bad.write_text('name = "x"\n')
     assert main(["sweep", str(bad)]) == 2
     assert "run: must be a non-empty array" in capsys.readouterr().err
+
+
+def _design_file(tmp_path: Path, body: str) -> Path:
+    path = tmp_path / "design.toml"
+    path.write_text(f'name = "design"\nconfig = "{MODELS / "sweep" / "a_n12_ei1e3.toml"}"\nset = {SMALL}\n{body}')
+    return path
+
+
+def test_grid_is_the_cartesian_product_with_ids_from_the_values(tmp_path):
+    sweep = load_sweep(_design_file(tmp_path, '[grid]\n"stiffness.EI_N_m2" = [1e3, 1e4]\nlattice.units = [3, 4]\n'))
+    assert [r.id for r in sweep.runs] == ["EI_N_m2=1000,units=3", "EI_N_m2=1000,units=4",
+                                          "EI_N_m2=10000,units=3", "EI_N_m2=10000,units=4"]
+    assert sweep.runs[1].params == {"stiffness.EI_N_m2": 1000.0, "lattice.units": 4}
+    assert sweep.runs[1].overrides[-2:] == ("stiffness.EI_N_m2=1000.0", "lattice.units=4")
+    assert len({r.config_hash for r in sweep.runs}) == 4
+
+
+def test_monte_carlo_draws_are_reproducible_and_stable_in_the_sample_count(tmp_path):
+    body = ('[monte_carlo]\nsamples = {n}\nseed = 5\n'
+            '"sim.timestep_s" = {{ dist = "uniform", low = 0.05, high = 0.1 }}\n'
+            '"field.constant_T" = {{ dist = "direction", magnitude = {{ dist = "log-uniform", low = 1e-5, '
+            'high = 1e-4 }} }}\n')
+    three = load_sweep(_design_file(tmp_path, body.format(n=3)))
+    twelve = load_sweep(_design_file(tmp_path, body.format(n=12)))
+    assert [r.id for r in three.runs] == ["s0", "s1", "s2"] and twelve.runs[10].id == "s10"
+    assert [r.params for r in three.runs] == [r.params for r in twelve.runs[:3]]
+    for run in twelve.runs:
+        dt, field = run.params["sim.timestep_s"], run.params["field.constant_T"]
+        assert 0.05 <= dt <= 0.1 and 1e-5 <= sum(x * x for x in field) ** 0.5 <= 1e-4 * (1 + 1e-12)
+    assert len({r.params["sim.timestep_s"] for r in twelve.runs}) == 12
+
+
+def test_design_records_carry_their_params_into_summaries(tmp_path):
+    body = '[monte_carlo]\nsamples = 2\nseed = 1\n"sim.timestep_s" = { dist = "uniform", low = 0.08, high = 0.1 }\n'
+    sweep = load_sweep(_design_file(tmp_path, body))
+    out = tmp_path / "out"
+    records = run_sweep(sweep, out, workers=2, log=None)
+    assert [r["status"] for r in records] == ["completed", "completed"]
+    for rec, run in zip(records, sweep.runs):
+        assert rec["params"] == run.params and rec["config_hash"] == run.config_hash and rec["attempts"] >= 1
+        manifest = json.loads((out / run.id / "manifest.json").read_text())
+        assert manifest["config"]["sim"]["timestep_s"] == run.params["sim.timestep_s"]
+    stored = json.loads((out / "sweep_summary.json").read_text())
+    assert {k for k in ("id", "status", "message", "config_hash", "params", "wall_time_s", "attempts",
+                        "resumed_from_s", "summary")} <= set(stored[0])
+    header = (out / "sweep_summary.csv").read_text().splitlines()[0].split(",")
+    assert "params.sim.timestep_s" in header and len(header) == len(set(header))

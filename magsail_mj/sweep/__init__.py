@@ -71,7 +71,7 @@ from multiprocessing import reduction, resource_tracker
 from pathlib import Path
 from typing import Any, Self
 
-from magsail_mj.config import ConfigError, config_hash, load_config, read_toml
+from magsail_mj.config import ConfigError, apply_overrides, config_hash, load_config, read_toml
 from magsail_mj.io import (
     RunDirError,
     atomic_path,
@@ -79,6 +79,7 @@ from magsail_mj.io import (
     to_jsonable,
     write_json,
 )
+from magsail_mj.sweep.design import design_points
 
 try:
     import fcntl
@@ -107,9 +108,11 @@ _OUTPUTS = ("sweep_summary.json", "sweep_summary.csv", "sweep_manifest.json")
 _RESERVED = (*_OUTPUTS, LOCK_NAME)
 _THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 _SWEEP_COLUMNS = ("id", "status", "reused", "wall_time_s", "message")
+_EXTRA_COLUMNS = ("attempts", "resumed_from_s", "config_hash")
 _SUMMARY_DUPLICATES = ("status_message",)  # the run's own message: the sweep's "message" column says it
 _PR_SET_PDEATHSIG = 1
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_SWEEP_KEYS = ("name", "description", "set", "config", "run", "grid", "monte_carlo")
 
 
 class SweepInterrupted(KeyboardInterrupt):
@@ -131,7 +134,8 @@ class SweepRun:
 
     ``config_hash`` is the hash of the config as it would run now (empty when it does not load);
     ``selected`` is False for runs outside ``only``; ``problem`` says why an unselected config
-    does not load.
+    does not load; ``params`` holds the values this run varies (grid or Monte Carlo values, or
+    the keys of its own ``set``).
     """
 
     id: str
@@ -140,6 +144,7 @@ class SweepRun:
     config_hash: str = ""
     selected: bool = True
     problem: str = ""
+    params: dict[str, Any] = field(default_factory=dict, hash=False)
 
 
 @dataclass(frozen=True)
@@ -160,13 +165,13 @@ class Sweep:
 
 
 def is_sweep_file(path: str | Path) -> bool:
-    """True for a sweep file (``[[run]]`` tables and no ``concept``), which lists configs.
+    """True for a sweep file (``[[run]]``, ``[grid]`` or ``[monte_carlo]`` tables and no ``concept``).
 
     Raises:
       ConfigError: the path is missing, a folder, unreadable or not TOML.
     """
     tree = read_toml(path)
-    return "run" in tree and "concept" not in tree
+    return any(k in tree for k in ("run", "grid", "monte_carlo")) and "concept" not in tree
 
 
 # ---------------------------------------------------------------------------------------------
@@ -228,9 +233,9 @@ def _check_ids(entries: list[Any]) -> tuple[dict[int, str], list[str]]:
 
 def _check_header(tree: dict[str, Any], path: Path) -> tuple[str, str]:
     """The sweep's name and description; ConfigError for unknown keys or a name unfit as a folder."""
-    unknown = sorted(set(tree) - {"name", "description", "set", "run"})
+    unknown = sorted(set(tree) - set(_SWEEP_KEYS))
     if unknown:
-        raise ConfigError([f"{k}: unknown sweep key (allowed: name, description, set, run)" for k in unknown],
+        raise ConfigError([f"{k}: unknown sweep key (allowed: {', '.join(_SWEEP_KEYS)})" for k in unknown],
                           source=str(path))
     name = tree.get("name", path.stem)
     if not isinstance(name, str) or not name.strip() or name in (".", "..") or "/" in name or "\\" in name \
@@ -252,7 +257,8 @@ def _only_terms(only: str | list[str] | tuple[str, ...] | None) -> tuple[str, ..
     return terms
 
 
-def _load_run(rid: str, config: Path, overrides: tuple[str, ...], selected: bool) -> tuple[SweepRun, list[str]]:
+def _load_run(rid: str, config: Path, overrides: tuple[str, ...], selected: bool,
+              params: dict[str, Any]) -> tuple[SweepRun, list[str]]:
     """The run with the hash of its config now; the config's problems (fatal only when selected)."""
     try:
         digest, problems = config_hash(load_config(config, list(overrides))), []
@@ -261,13 +267,57 @@ def _load_run(rid: str, config: Path, overrides: tuple[str, ...], selected: bool
     except OSError as err:
         digest, problems = "", [f"{rid}: config {config}: {err}"]
     run = SweepRun(id=rid, config=config, overrides=overrides, config_hash=digest, selected=selected,
-                   problem="; ".join(problems))
+                   problem="; ".join(problems), params=params)
     return run, problems if selected else []
+
+
+def _set_params(overrides: tuple[str, ...]) -> dict[str, Any]:
+    """The keys and values of a run's own ``set`` overrides (its params in the summaries)."""
+    tree = apply_overrides({}, list(overrides))
+    return _flat_params(tree)
+
+
+def _flat_params(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in tree.items():
+        if isinstance(value, dict):
+            out.update(_flat_params(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = to_jsonable(value)
+    return out
+
+
+def _entries(tree: dict[str, Any], path: Path) -> list[dict[str, Any]]:
+    """The ``[[run]]`` tables, then one entry per ``[grid]`` / ``[monte_carlo]`` point (with ``params``)."""
+    entries = tree.get("run", [])
+    designed = "grid" in tree or "monte_carlo" in tree
+    if not isinstance(entries, list) or not (entries or designed):
+        raise ConfigError([f"run: must be a non-empty array of [[run]] tables (or give [grid] / [monte_carlo]), "
+                           f"got {tree.get('run')!r}"], source=str(path))
+    if not designed:
+        if "config" in tree:
+            raise ConfigError(["config: the base config is used by [grid] / [monte_carlo] only; add one of them "
+                               "or give each [[run]] its config"], source=str(path))
+        return list(entries)
+    base = tree.get("config")
+    if not isinstance(base, str) or not base:
+        raise ConfigError([f"config: [grid] / [monte_carlo] need the base config path, got {base!r}"],
+                          source=str(path))
+    try:
+        points = design_points(tree)
+    except ConfigError as err:
+        raise ConfigError(err.problems, source=str(path)) from None
+    return [*entries, *({"id": p.id, "config": base, "set": list(p.overrides), "params": p.params} for p in points)]
 
 
 def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (),
                only: str | list[str] | tuple[str, ...] | None = None) -> Sweep:
     """Parse and validate a sweep file; every listed config is loaded and its hash computed.
+
+    Runs come from the ``[[run]]`` tables (id, config, set) and from the ``[grid]`` /
+    ``[monte_carlo]`` tables over the base ``config`` (:mod:`magsail_mj.sweep.design`). The
+    overrides of a run apply in this order: the file's ``set``, the run's own ``set`` or its grid
+    and Monte Carlo values, then ``extra_overrides``.
 
     Args:
       path: the sweep TOML.
@@ -281,12 +331,12 @@ def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (),
     path = Path(path)
     tree = read_toml(path)
     name, description = _check_header(tree, path)
-    entries = tree.get("run")
-    if not isinstance(entries, list) or not entries:
-        raise ConfigError([f"run: must be a non-empty array of [[run]] tables, got {entries!r}"], source=str(path))
-    common = _str_list(tree.get("set", []), "set") + tuple(extra_overrides)
+    entries = _entries(tree, path)
+    common = _str_list(tree.get("set", []), "set")
+    extra = tuple(extra_overrides)
     wanted = _only_terms(only)
-    ids, problems = _check_ids(entries)
+    ids, problems = _check_ids([{k: v for k, v in e.items() if k != "params"} if isinstance(e, dict) else e
+                                for e in entries])
     runs = []
     for n, rid in ids.items():
         config = entries[n]["config"]
@@ -294,19 +344,21 @@ def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (),
             problems.append(f"run[{n}].config: must be a path string, got {config!r}")
             continue
         try:
-            overrides = common + _str_list(entries[n].get("set", []), f"run[{n}].set")
+            own = _str_list(entries[n].get("set", []), f"run[{n}].set")
+            params = entries[n]["params"] if "params" in entries[n] else _set_params(own)
         except ConfigError as err:
-            problems.extend(err.problems)
+            problems.extend(f"run[{n}].set: {p}" if p.startswith("--set") else p for p in err.problems)
             continue
         selected = wanted is None or any(w in rid for w in wanted)
-        run, errors = _load_run(rid, (path.parent / config).resolve(), overrides, selected)
+        run, errors = _load_run(rid, (path.parent / config).resolve(), common + own + extra, selected, params)
         runs.append(run)
         problems.extend(errors)
     if problems:
         raise ConfigError(problems, source=str(path))
     if not any(r.selected for r in runs):
         raise ConfigError([f"only: no run id contains any of {list(wanted or [])!r}"], source=str(path))
-    return Sweep(name=name, path=path, runs=tuple(runs), description=description, overrides=common, only=wanted)
+    return Sweep(name=name, path=path, runs=tuple(runs), description=description, overrides=common + extra,
+                 only=wanted)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -361,9 +413,12 @@ def _folder_check(run_dir: Path, *, config_hash: str, video: bool) -> tuple[dict
 
 
 def _record(run: SweepRun, *, status: str, message: str, wall_time_s: float | None = None,
-            reused: bool = False, summary: dict[str, Any] | None = None) -> dict[str, Any]:
-    return {"id": run.id, "config": str(run.config), "config_hash": run.config_hash, "selected": run.selected,
-            "status": status, "message": message, "reused": reused, "wall_time_s": wall_time_s,
+            reused: bool = False, summary: dict[str, Any] | None = None, attempts: int = 0,
+            resumed_from_s: float | None = None) -> dict[str, Any]:
+    """A sweep summary record (one per run of the sweep file)."""
+    return {"id": run.id, "status": status, "message": message, "config_hash": run.config_hash,
+            "params": dict(run.params), "wall_time_s": wall_time_s, "attempts": attempts,
+            "resumed_from_s": resumed_from_s, "reused": reused, "selected": run.selected, "config": str(run.config),
             "summary": summary or {}}
 
 
@@ -414,7 +469,7 @@ def _run_one(run: SweepRun, out_dir: str | Path, *, video: bool) -> dict[str, An
     """
     t0 = time.perf_counter()
     run_dir = Path(out_dir) / run.id
-    record = _record(run, status="failed", message="")
+    record = _record(run, status="failed", message="", attempts=1)
     try:
         # the simulation stack is imported in the worker only (an import failure is this run's failure)
         from magsail_mj.run import run_scenario
@@ -762,23 +817,34 @@ def _run_pool(todo: list[SweepRun], pool: _Workers, *, grace_s: float) -> SweepI
 # Outputs
 
 
+def _cell(value: Any) -> Any:
+    """A CSV cell: scalars as they are, vectors and tables as JSON, None as empty."""
+    if value is None:
+        return ""
+    return value if isinstance(value, (int, float, str, bool)) else json.dumps(value)
+
+
 def _table(records: list[dict[str, Any]]) -> str:
-    """CSV text: the sweep columns, then every scalar of the run summaries not already a column."""
-    skip = set(_SWEEP_COLUMNS) | set(_SUMMARY_DUPLICATES)
+    """CSV text: the sweep columns, ``params.<key>`` per varied key, then every scalar of the run
+    summaries not already a column."""
+    skip = set(_SWEEP_COLUMNS) | set(_EXTRA_COLUMNS) | set(_SUMMARY_DUPLICATES)
+    params: list[str] = []
     cols: list[str] = []
     for rec in records:
+        params.extend(k for k in rec.get("params", {}) if k not in params)
         for key, value in rec.get("summary", {}).items():
             if key not in skip and key not in cols and (value is None or isinstance(value, (int, float, str, bool))):
                 cols.append(key)
     buf = io.StringIO()
     writer = csv.writer(buf)
-    writer.writerow([*_SWEEP_COLUMNS, *cols])
+    writer.writerow([*_SWEEP_COLUMNS, *_EXTRA_COLUMNS, *(f"params.{k}" for k in params), *cols])
     for rec in records:
-        s = rec.get("summary", {})
+        s, p = rec.get("summary", {}), rec.get("params", {})
         wall = rec.get("wall_time_s")
         writer.writerow([rec["id"], rec["status"], rec["reused"],
-                         f"{wall:.1f}" if isinstance(wall, (int, float)) else "",
-                         rec["message"], *[s.get(c, "") for c in cols]])
+                         f"{wall:.1f}" if isinstance(wall, (int, float)) else "", rec["message"],
+                         *[_cell(rec.get(c)) for c in _EXTRA_COLUMNS],
+                         *[_cell(p.get(k)) for k in params], *[_cell(s.get(c)) for c in cols]])
     return buf.getvalue()
 
 

@@ -1,0 +1,295 @@
+"""Run designs of a sweep file: ``[grid]`` (Cartesian product) and ``[monte_carlo]`` (random draws).
+
+Both tables vary keys of one base config (the sweep file's top-level ``config``)::
+
+    config = "sweep/a_n12_ei1e3.toml"
+
+    [grid]                                  # key path -> list of values; every combination runs
+    "lattice.units" = [3, 4]
+    "sim.timestep_s" = [0.01, 0.005]        # ids: "units=3,timestep_s=0.01", ...
+
+    [monte_carlo]
+    samples = 200
+    seed = 7
+    "sim.duration_s" = { dist = "uniform", low = 50, high = 60 }
+    "orbit.epoch" = { dist = "epoch", start = "2016-01-01T00:00:00Z", end = "2017-01-01T00:00:00Z" }
+    "initial.omega_rad_s" = { dist = "direction", magnitude = { dist = "log-uniform", low = 1e-3, high = 1e-1 } }
+
+Distributions (a table with ``dist``): ``uniform`` (low, high), ``normal`` (mean, std),
+``log-uniform`` (low > 0, high), ``choice`` (values), ``direction`` (a 3-vector: a direction
+uniform on the unit sphere times ``magnitude``, a number or a scalar distribution) and ``epoch``
+(start, end: a UTC instant uniform in the range, whole seconds, written ``YYYY-MM-DDTHH:MM:SSZ``).
+
+Draws are reproducible and stable: the value of key ``k`` in sample ``i`` comes from its own
+generator seeded with ``(seed, i, hash(k))``, so it depends neither on ``samples`` nor on the
+other keys (adding samples or keys keeps the earlier draws, hence their config hashes and results).
+With both tables, every grid point gets every sample (ids ``<grid id>/s<i>``).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import itertools
+import json
+import math
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from magsail_mj.config import ConfigError
+
+__all__ = ["DesignPoint", "grid_points", "monte_carlo_points", "design_points", "toml_literal"]
+
+DISTRIBUTIONS = ("uniform", "normal", "log-uniform", "choice", "direction", "epoch")
+_DIST_KEYS = {
+    "uniform": {"low", "high"},
+    "normal": {"mean", "std"},
+    "log-uniform": {"low", "high"},
+    "choice": {"values"},
+    "direction": {"magnitude"},
+    "epoch": {"start", "end"},
+}
+_ID_UNSAFE = re.compile(r"[^A-Za-z0-9._+-]")
+
+
+@dataclass(frozen=True)
+class DesignPoint:
+    """One generated run: its id, its varied values (key path -> value) and their overrides."""
+
+    id: str
+    params: dict[str, Any]
+
+    @property
+    def overrides(self) -> tuple[str, ...]:
+        """``key=value`` overrides setting the point's values (TOML literals)."""
+        return tuple(f"{key}={toml_literal(value)}" for key, value in self.params.items())
+
+
+def toml_literal(value: Any) -> str:
+    """``value`` written as a TOML literal that reads back as the same value.
+
+    Raises:
+      ValueError: a value TOML cannot hold (None, an unknown type).
+    """
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        x = float(value)
+        return ("nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")) if not math.isfinite(x) else repr(x)
+    if isinstance(value, str):
+        return json.dumps(value)  # a TOML basic string (JSON escapes are TOML escapes)
+    if isinstance(value, (_dt.datetime, _dt.date, _dt.time)):
+        return value.isoformat()
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(toml_literal(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{json.dumps(str(k))} = {toml_literal(v)}" for k, v in value.items()) + "}"
+    raise ValueError(f"cannot be written as a TOML value: {value!r}")
+
+
+def _jsonable(value: Any) -> Any:
+    """A drawn or listed value as JSON data (datetimes as ISO strings)."""
+    if isinstance(value, (_dt.datetime, _dt.date, _dt.time)):
+        return value.isoformat()
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    return value
+
+
+# ---------------------------------------------------------------------------------------------
+# Key paths
+
+
+def _flatten(table: dict[str, Any], *, leaf: Callable[[Any], bool], prefix: str = "") -> dict[str, Any]:
+    """``{"a": {"b": x}}`` -> ``{"a.b": x}``, descending into tables that are not leaves."""
+    out: dict[str, Any] = {}
+    for key, value in table.items():
+        path = f"{prefix}{key}"
+        if isinstance(value, dict) and not leaf(value):
+            out.update(_flatten(value, leaf=leaf, prefix=f"{path}."))
+        else:
+            out[path] = value
+    return out
+
+
+def _short_names(keys: list[str]) -> dict[str, str]:
+    """The last part of each key path, or the whole path where two keys share their last part."""
+    last = [k.rsplit(".", 1)[-1] for k in keys]
+    return {k: (s if last.count(s) == 1 else k) for k, s in zip(keys, last)}
+
+
+def _id_text(value: Any) -> str:
+    """A value as id text: numbers compact, strings with unsafe characters as '-'."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return f"{value:.12g}"
+    if isinstance(value, (list, tuple)):
+        return "x".join(_id_text(v) for v in value)
+    return _ID_UNSAFE.sub("-", str(_jsonable(value))) or "-"
+
+
+# ---------------------------------------------------------------------------------------------
+# Grid
+
+
+def grid_points(table: Any) -> list[DesignPoint]:
+    """Every combination of the ``[grid]`` values, in file order (the last key varies fastest).
+
+    Raises:
+      ConfigError: naming ``grid.<key>`` for a value list that is not a non-empty list, or two
+        points whose ids coincide.
+    """
+    if not isinstance(table, dict) or not table:
+        raise ConfigError([f"grid: must be a table of key.path = [values], got {table!r}"])
+    flat = _flatten(table, leaf=lambda v: False)
+    problems = [f"grid.{k}: must be a non-empty list of values, got {v!r}"
+                for k, v in flat.items() if not isinstance(v, list) or not v]
+    if problems:
+        raise ConfigError(problems)
+    keys = list(flat)
+    short = _short_names(keys)
+    points = []
+    for combo in itertools.product(*(flat[k] for k in keys)):
+        rid = ",".join(f"{short[k]}={_id_text(v)}" for k, v in zip(keys, combo))
+        points.append(DesignPoint(id=rid, params={k: _jsonable(v) for k, v in zip(keys, combo)}))
+    seen: dict[str, DesignPoint] = {}
+    for p in points:
+        if p.id in seen:
+            raise ConfigError([f"grid: the points {seen[p.id].params} and {p.params} get the same id {p.id!r}; "
+                               "give distinct values"])
+        seen[p.id] = p
+    return points
+
+
+# ---------------------------------------------------------------------------------------------
+# Monte Carlo
+
+
+def _number(spec: dict[str, Any], name: str, where: str) -> float:
+    value = spec.get(name)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError([f"{where}.{name}: must be a finite number, got {value!r}"])
+    return float(value)
+
+
+def _instant(value: Any, where: str) -> _dt.datetime:
+    """A UTC instant from a TOML datetime or an ISO-8601 string (naive means UTC)."""
+    if isinstance(value, str):
+        try:
+            value = _dt.datetime.fromisoformat(value.replace("Z", "+00:00"))
+        except ValueError:
+            raise ConfigError([f"{where}: must be an ISO-8601 date-time, got {value!r}"]) from None
+    if isinstance(value, _dt.date) and not isinstance(value, _dt.datetime):
+        value = _dt.datetime(value.year, value.month, value.day)
+    if not isinstance(value, _dt.datetime):
+        raise ConfigError([f"{where}: must be a date-time, got {value!r}"])
+    return value.replace(tzinfo=_dt.UTC) if value.tzinfo is None else value.astimezone(_dt.UTC)
+
+
+def _check_distribution(spec: Any, where: str, *, scalar: bool = False) -> None:
+    """ConfigError naming ``where`` when ``spec`` is not a valid distribution table."""
+    if not isinstance(spec, dict) or spec.get("dist") not in DISTRIBUTIONS:
+        got = spec.get("dist") if isinstance(spec, dict) else spec
+        raise ConfigError([f"{where}.dist: must be one of {list(DISTRIBUTIONS)}, got {got!r}"])
+    dist = spec["dist"]
+    unknown = sorted(set(spec) - _DIST_KEYS[dist] - {"dist"})
+    missing = sorted(_DIST_KEYS[dist] - set(spec))
+    if unknown or missing:
+        raise ConfigError([f"{where}: dist {dist!r} takes {sorted(_DIST_KEYS[dist])}"
+                           + (f"; unknown {unknown}" if unknown else "") + (f"; missing {missing}" if missing else "")])
+    if scalar and dist in ("direction", "epoch", "choice"):
+        raise ConfigError([f"{where}.dist: must be a scalar distribution (uniform, normal, log-uniform), got {dist!r}"])
+    if dist in ("uniform", "log-uniform"):
+        low, high = _number(spec, "low", where), _number(spec, "high", where)
+        if high < low or (dist == "log-uniform" and low <= 0):
+            need = "0 < low <= high" if dist == "log-uniform" else "low <= high"
+            raise ConfigError([f"{where}: needs {need}, got low={low!r}, high={high!r}"])
+    elif dist == "normal":
+        _number(spec, "mean", where)
+        if _number(spec, "std", where) < 0:
+            raise ConfigError([f"{where}.std: must be >= 0, got {spec['std']!r}"])
+    elif dist == "choice":
+        if not isinstance(spec["values"], list) or not spec["values"]:
+            raise ConfigError([f"{where}.values: must be a non-empty list, got {spec['values']!r}"])
+    elif dist == "direction":
+        magnitude = spec["magnitude"]
+        if isinstance(magnitude, dict):
+            _check_distribution(magnitude, f"{where}.magnitude", scalar=True)
+        elif isinstance(magnitude, bool) or not isinstance(magnitude, (int, float)) or not math.isfinite(magnitude):
+            raise ConfigError([f"{where}.magnitude: must be a number or a scalar distribution, got {magnitude!r}"])
+    else:
+        start, end = _instant(spec["start"], f"{where}.start"), _instant(spec["end"], f"{where}.end")
+        if end < start:
+            raise ConfigError([f"{where}: end {spec['end']!r} lies before start {spec['start']!r}"])
+
+
+def _draw(spec: dict[str, Any], rng: np.random.Generator) -> Any:
+    """One value of a checked distribution."""
+    dist = spec["dist"]
+    if dist == "uniform":
+        return float(rng.uniform(spec["low"], spec["high"]))
+    if dist == "normal":
+        return float(rng.normal(spec["mean"], spec["std"]))
+    if dist == "log-uniform":
+        return float(math.exp(rng.uniform(math.log(spec["low"]), math.log(spec["high"]))))
+    if dist == "choice":
+        return _jsonable(spec["values"][int(rng.integers(len(spec["values"])))])
+    if dist == "direction":
+        v = rng.normal(size=3)
+        while np.linalg.norm(v) < 1e-12:  # measure zero; keeps the direction defined
+            v = rng.normal(size=3)
+        magnitude = spec["magnitude"]
+        size = _draw(magnitude, rng) if isinstance(magnitude, dict) else float(magnitude)
+        return [float(x) for x in v / np.linalg.norm(v) * size]
+    start, end = _instant(spec["start"], "start"), _instant(spec["end"], "end")
+    seconds = int(rng.integers(0, int((end - start).total_seconds()) + 1))
+    return (start + _dt.timedelta(seconds=seconds)).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def _key_seed(key: str) -> int:
+    return int.from_bytes(hashlib.sha256(key.encode()).digest()[:8], "little")
+
+
+def monte_carlo_points(table: Any) -> list[DesignPoint]:
+    """The ``samples`` draws of ``[monte_carlo]`` (ids ``s000`` ... with the width of the count).
+
+    Raises:
+      ConfigError: naming ``monte_carlo.samples``, ``.seed`` or ``monte_carlo.<key>`` and what is allowed.
+    """
+    if not isinstance(table, dict):
+        raise ConfigError([f"monte_carlo: must be a table (samples, seed, key.path = {{dist = ...}}), got {table!r}"])
+    samples, seed = table.get("samples"), table.get("seed", 0)
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        raise ConfigError([f"monte_carlo.samples: must be an integer >= 1, got {samples!r}"])
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ConfigError([f"monte_carlo.seed: must be an integer >= 0, got {seed!r}"])
+    specs = _flatten({k: v for k, v in table.items() if k not in ("samples", "seed")}, leaf=lambda v: "dist" in v)
+    if not specs:
+        raise ConfigError(["monte_carlo: names no key to draw (key.path = { dist = ... })"])
+    for key, spec in specs.items():
+        _check_distribution(spec, f"monte_carlo.{key}")
+    width = len(str(samples - 1))
+    return [DesignPoint(id=f"s{i:0{width}d}",
+                        params={k: _draw(s, np.random.default_rng([seed, i, _key_seed(k)])) for k, s in specs.items()})
+            for i in range(samples)]
+
+
+def design_points(tree: dict[str, Any]) -> list[DesignPoint]:
+    """The runs of a sweep file's ``[grid]`` and ``[monte_carlo]`` tables (none without them)."""
+    grid = grid_points(tree["grid"]) if "grid" in tree else None
+    mc = monte_carlo_points(tree["monte_carlo"]) if "monte_carlo" in tree else None
+    if grid is None or mc is None:
+        return grid or mc or []
+    both = sorted(set(grid[0].params) & set(mc[0].params))
+    if both:
+        raise ConfigError([f"monte_carlo.{k}: also varied by grid.{k}; vary a key in one table only" for k in both])
+    return [DesignPoint(id=f"{g.id}/{m.id}", params={**g.params, **m.params}) for g in grid for m in mc]
