@@ -1,0 +1,22 @@
+"""The examples run as shipped (short durations) and do what they say."""
+
+from __future__ import annotations
+
+import importlib.util
+
+from tests.conftest import REPO
+
+
+def _example(name: str):
+    spec = importlib.util.spec_from_file_location(name, REPO / "examples" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_custom_controller_damps_the_tumble(monkeypatch, capsys):
+    monkeypatch.chdir(REPO)
+    out = _example("custom_controller").main(30.0)
+    assert out["status"] == "completed"
+    assert out["rate_end_deg_s"] < 0.9 * out["rate_start_deg_s"]
+    assert "rate_end_deg_s" in capsys.readouterr().out
