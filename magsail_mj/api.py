@@ -13,6 +13,11 @@ refuse another config. Scenarios stepped in Python return a :class:`magsail_mj.s
 (``reset``, ``step``, ``run``, ``get_state``, ``set_state``, ``time``, ``model``, ``data``,
 ``records()``); the natively rolled-out MSAC cycle, the scenario-level searches (reflector cap
 search, MSAC sweeps) and the lifetime analysis return runners with ``run()``.
+
+To run a controller of your own, build a new simulation with it and its actuators through
+:func:`magsail_mj.commands.attach` (``examples/custom_controller.py``); assigning
+``sim.controller`` is not enough, because ``reset`` and ``set_state`` restore the controller the
+simulation was built with.
 """
 
 from __future__ import annotations
