@@ -120,6 +120,17 @@ def _count(text: str) -> int:
     return value
 
 
+def _count_or_zero(text: str) -> int:
+    """An integer >= 0."""
+    try:
+        value = int(text)
+    except (TypeError, ValueError):
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return value
+
+
 def _memory(text: str) -> int | None:
     try:
         return parse_memory_limit(text, what="--memory-limit")
@@ -292,23 +303,56 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _sweep_engine(args: argparse.Namespace) -> Any:
+    """The Dask cluster of ``--cluster`` (jobs not yet submitted), else None; CliInputError for
+    options that do not fit together."""
+    from magsail_mj.sweep import make_cluster
+
+    queue_opts = {"--jobs": args.jobs, "--cores-per-job": args.cores_per_job, "--memory-per-job": args.memory_per_job,
+                  "--walltime": args.walltime, "--queue": args.queue, "--account": args.account}
+    given = [opt for opt, value in queue_opts.items() if value is not None]
+    if args.scheduler is not None and args.cluster is not None:
+        raise CliInputError(f"--scheduler {args.scheduler!r} and --cluster {args.cluster!r}: choose one")
+    if args.cluster is None:
+        if given:
+            raise CliInputError(f"{given[0]}: only with --cluster slurm|pbs")
+        return None
+    if args.workers != 1:
+        raise CliInputError(f"--workers {args.workers}: not with --cluster (use --jobs and --cores-per-job)")
+    return make_cluster(args.cluster, cores_per_job=args.cores_per_job or 1,
+                        memory_per_job=args.memory_per_job or "4GB", walltime=args.walltime or "01:00:00",
+                        queue=args.queue, account=args.account)
+
+
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from magsail_mj.sweep import load_sweep, run_sweep, sweep_exit_code
 
     path = _input_file(args.sweep, "SWEEP")
     out = _output_dir(args.out, "--out") if args.out is not None else None
+    if args.scheduler is not None and not args.scheduler.strip():
+        raise CliInputError(f"--scheduler: must be a scheduler address such as tcp://127.0.0.1:8786, "
+                            f"got {args.scheduler!r}")
     try:
         sweep = load_sweep(path, extra_overrides=tuple(args.set), only=args.only)
     except UnicodeDecodeError:
         raise CliInputError(f"SWEEP: {str(path)!r} is not a UTF-8 text (TOML) file") from None
     out = out or _output_dir(str(Path("runs") / sweep.name), "--out")
-    biggest = 0.0
-    for run in sweep.selected:
-        biggest = max(biggest, estimate_run_bytes(load_config(run.config, list(run.overrides))))
-    workers = min(args.workers, max(1, len(sweep.selected)))
-    check_memory(workers * biggest, what=f"sweep {args.sweep} ({workers} worker(s), largest run)")
-    records = run_sweep(sweep, out, workers=args.workers, video=args.video, overwrite=args.overwrite,
-                        log=lambda line: print(line, file=sys.stderr))
+    cluster = _sweep_engine(args)
+    if args.scheduler is None and cluster is None:  # runs on this machine: they must fit its memory
+        biggest = 0.0
+        for run in sweep.selected:
+            biggest = max(biggest, estimate_run_bytes(load_config(run.config, list(run.overrides))))
+        workers = min(args.workers, max(1, len(sweep.selected)))
+        check_memory(workers * biggest, what=f"sweep {args.sweep} ({workers} worker(s), largest run)")
+    try:
+        if cluster is not None:
+            cluster.adapt(minimum_jobs=args.jobs or 1, maximum_jobs=args.jobs or 1)  # jobs that end are replaced
+        records = run_sweep(sweep, out, workers=args.workers, video=args.video, overwrite=args.overwrite,
+                            scheduler=args.scheduler, cluster=cluster, retries=args.retries,
+                            log=lambda line: print(line, file=sys.stderr))
+    finally:
+        if cluster is not None:
+            cluster.close()
     print(json.dumps({"sweep": sweep.name, "out": str(out),
                       "status": {r["id"]: r["status"] for r in records}}, indent=2))
     return sweep_exit_code(records)
@@ -399,16 +443,29 @@ def _add_run_verbs(sub: Any) -> None:
     rr.add_argument("--compare", help="second run folder, shown on the right")
     rr.add_argument("--labels", nargs=2, metavar=("LEFT", "RIGHT"))
 
-    sw = _verb(sub, "sweep", "run every config of a sweep file in parallel worker processes", _cmd_sweep,
-               {"workers": "--workers", "only": "--only"})
-    sw.add_argument("sweep", help="sweep TOML ([[run]] tables with id and config)")
+    sw = _verb(sub, "sweep", "run every run of a sweep file ([[run]], [grid], [monte_carlo]) on Dask", _cmd_sweep,
+               {"workers": "--workers", "only": "--only", "retries": "--retries", "scheduler": "--scheduler"})
+    sw.add_argument("sweep", help="sweep TOML ([[run]] tables with id and config, or [grid] / [monte_carlo])")
     sw.add_argument("--out", help="sweep folder (default: runs/<sweep name>)")
-    sw.add_argument("--workers", type=_count, default=1, help="worker processes (default 1)")
+    sw.add_argument("--workers", type=_count, default=1,
+                    help="worker processes of the local Dask cluster, one thread each (default 1)")
     sw.add_argument("--only", action="append", metavar="TEXT",
                     help="run only the ids containing this text (repeatable: any of them)")
     sw.add_argument("--video", action="store_true", help="render video.mp4 in every run folder")
     _set_option(sw, "override a key in every run, e.g. --set sim.duration_s=60")
     sw.add_argument("--overwrite", action="store_true", help="rerun runs that already finished")
+    sw.add_argument("--retries", type=_count_or_zero, default=2,
+                    help="retries of a run whose process was killed (default 2; a retry resumes from its checkpoint)")
+    sw.add_argument("--scheduler", metavar="ADDRESS",
+                    help="run on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (see docs/sweeps.md)")
+    sw.add_argument("--cluster", choices=("slurm", "pbs"),
+                    help="start Dask workers as batch jobs through dask-jobqueue (extra 'cluster')")
+    sw.add_argument("--jobs", type=_count, help="--cluster: number of batch jobs (default 1)")
+    sw.add_argument("--cores-per-job", type=_count, help="--cluster: worker processes (cores) per job (default 1)")
+    sw.add_argument("--memory-per-job", metavar="SIZE", help="--cluster: memory per job, e.g. 16GB (default 4GB)")
+    sw.add_argument("--walltime", metavar="HH:MM:SS", help="--cluster: wall time per job (default 01:00:00)")
+    sw.add_argument("--queue", help="--cluster: partition (SLURM) or queue (PBS)")
+    sw.add_argument("--account", help="--cluster: account to charge")
 
 
 def _add_analytic_verbs(sub: Any) -> None:

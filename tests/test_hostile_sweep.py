@@ -26,6 +26,8 @@ from magsail_mj.io import RunDirError
 from magsail_mj.sweep import (
     FINISHED,
     LOCK_NAME,
+    RUNS_LOCK,
+    STATE_DIR,
     _folder_check,
     _normalise_id,
     _plan,
@@ -88,8 +90,22 @@ def _workers_of(pid: int) -> dict[int, str]:
 
 
 def _stray_files(out: Path) -> list[Path]:
-    """Hidden (temporary) files under ``out`` other than the sweep lock."""
-    return [p for p in out.rglob(".*") if p.name != LOCK_NAME]
+    """Hidden (temporary) files under ``out`` other than the sweep lock and the run-lock file of
+    its state folder (the per-call state, attempt counters and stop requests, must be gone)."""
+    state = out / STATE_DIR
+    stray = [p for p in out.rglob(".*") if p.name != LOCK_NAME and p != state and state not in p.parents]
+    return stray + [p for p in state.iterdir() if p.name != RUNS_LOCK] if state.is_dir() else stray
+
+
+def _run_processes(pid: int) -> dict[int, str]:
+    """Run processes (``python -m magsail_mj.sweep``) among the descendants of ``pid``."""
+    found, stack = {}, [pid]
+    while stack:
+        for child, cmd in _children(stack.pop()).items():
+            stack.append(child)
+            if "-m magsail_mj.sweep" in cmd:
+                found[child] = cmd
+    return found
 
 
 # --------------------------------------------------------------------------------------------------
@@ -163,8 +179,20 @@ def test_kill9_of_the_parent_takes_the_workers_down_and_frees_the_folder(tmp_pat
         proc.kill()
         for pid in _workers_of(proc.pid):
             os.kill(pid, signal.SIGKILL)
-    with _sweep_lock(out):  # released by the kernel: no stale lock
-        pass
+
+    def lock_free() -> bool:
+        try:
+            with _sweep_lock(out):
+                return True
+        except RunDirError:
+            return False
+
+    # the run processes (in their own sessions) got SIGTERM from the kernel when their worker died:
+    # they write their interrupted outputs, then release their run locks; no stale lock stays
+    _wait_for(lock_free, 15, "the run processes of the killed sweep to end and free the folder")
+    run_manifest = out / "slow" / "a" / "manifest.json"
+    if run_manifest.exists():
+        assert json.loads(run_manifest.read_text())["status"] not in FINISHED
 
 
 def test_folder_lock_is_refused_in_process(tmp_path, capsys):
@@ -185,21 +213,21 @@ def test_folder_lock_is_refused_in_process(tmp_path, capsys):
         run_sweep(load_sweep(sweep), file_out, log=None)
 
 
-def test_a_worker_killed_mid_run_is_recorded_failed(tmp_path):
+def test_a_run_process_killed_mid_run_is_recorded_failed_when_no_retry_is_left(tmp_path):
     sweep = load_sweep(_sweep_file(tmp_path, ["slow/a"], SLOW))
     out = tmp_path / "out"
     box = {}
-    before = set(_workers_of(os.getpid()))  # spawn children of earlier tests, if any
-    thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, log=None)))
+    before = set(_run_processes(os.getpid()))  # run processes of earlier tests, if any
+    thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, log=None, retries=0)))
     thread.start()
     try:
         _wait_for(lambda: (out / "slow" / "a" / "model.xml").exists(), 90, "the run to start")
-        (pid,) = set(_workers_of(os.getpid())) - before
+        (pid,) = set(_run_processes(os.getpid())) - before
         os.kill(pid, signal.SIGKILL)
     finally:
         thread.join(timeout=60)
     (record,) = box["records"]
-    assert record["status"] == "failed" and "SIGKILL" in record["message"]
+    assert record["status"] == "failed" and "SIGKILL" in record["message"] and record["attempts"] == 1
     assert sweep_exit_code(box["records"]) == 1
 
 

@@ -52,65 +52,76 @@ from __future__ import annotations
 
 import contextlib
 import csv
-import ctypes
 import datetime as _dt
 import hashlib
 import io
 import json
-import multiprocessing
-import multiprocessing.connection
+import logging
 import os
+import re
+import shutil
 import signal
 import sys
 import threading
 import time
-import traceback
+import uuid
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from multiprocessing import reduction, resource_tracker
 from pathlib import Path
 from typing import Any, Self
 
+from dask.utils import parse_bytes
+from distributed import Client, LocalCluster, Nanny, as_completed
+
 from magsail_mj.config import ConfigError, apply_overrides, config_hash, load_config, read_toml
-from magsail_mj.io import (
-    RunDirError,
-    atomic_path,
-    package_versions,
-    to_jsonable,
-    write_json,
+from magsail_mj.io import RunDirError, atomic_path, package_versions, to_jsonable, write_json
+from magsail_mj.sweep.common import (
+    _SUCCESS,
+    FINISHED,
+    LOCK_NAME,
+    RUNS_LOCK,
+    STATE_DIR,
+    SweepRun,
+    _folder_check,
+    _record,
+    runs_running,
 )
 from magsail_mj.sweep.design import design_points
+from magsail_mj.sweep.runner import IgnoreSigint, request_stop, run_one, supervise
 
 try:
     import fcntl
 except ImportError:  # pragma: no cover - not on Linux/macOS
     fcntl = None  # type: ignore[assignment]
 
+try:
+    import dask_jobqueue
+except ImportError:  # the optional extra "cluster"
+    dask_jobqueue = None  # type: ignore[assignment]
+
 __all__ = [
     "FINISHED",
+    "LOCK_NAME",
+    "RUNS_LOCK",
+    "STATE_DIR",
     "Sweep",
     "SweepInterrupted",
     "SweepRun",
     "is_sweep_file",
     "load_sweep",
+    "make_cluster",
     "run_sweep",
     "sweep_exit_code",
 ]
 
-FINISHED = ("completed", "structure_failed", "tracking_lost", "failed_condition", "diverged")
-"""Run statuses whose folder is a final result (reused by a later sweep when still valid): completed,
-the studied failures (:class:`magsail_mj.divergence.StudiedFailure` statuses) and diverged."""
 
-_SUCCESS = ("completed", "structure_failed", "tracking_lost", "failed_condition")
-
-LOCK_NAME = ".sweep.lock"
 _OUTPUTS = ("sweep_summary.json", "sweep_summary.csv", "sweep_manifest.json")
-_RESERVED = (*_OUTPUTS, LOCK_NAME)
+_RESERVED = (*_OUTPUTS, LOCK_NAME, STATE_DIR)
+_run_one = run_one  # one attempt of a run in this process (tests, debugging)
 _THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 _SWEEP_COLUMNS = ("id", "status", "reused", "wall_time_s", "message")
 _EXTRA_COLUMNS = ("attempts", "resumed_from_s", "config_hash")
 _SUMMARY_DUPLICATES = ("status_message",)  # the run's own message: the sweep's "message" column says it
-_PR_SET_PDEATHSIG = 1
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _SWEEP_KEYS = ("name", "description", "set", "config", "run", "grid", "monte_carlo")
 
@@ -127,24 +138,6 @@ class SweepInterrupted(KeyboardInterrupt):
         self.signum = signum
         self.records = list(records or [])
 
-
-@dataclass(frozen=True)
-class SweepRun:
-    """One entry of a sweep: its id (run folder, normalised), config path and overrides.
-
-    ``config_hash`` is the hash of the config as it would run now (empty when it does not load);
-    ``selected`` is False for runs outside ``only``; ``problem`` says why an unselected config
-    does not load; ``params`` holds the values this run varies (grid or Monte Carlo values, or
-    the keys of its own ``set``).
-    """
-
-    id: str
-    config: Path
-    overrides: tuple[str, ...] = ()
-    config_hash: str = ""
-    selected: bool = True
-    problem: str = ""
-    params: dict[str, Any] = field(default_factory=dict, hash=False)
 
 
 @dataclass(frozen=True)
@@ -361,66 +354,6 @@ def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (),
                  only=wanted)
 
 
-# ---------------------------------------------------------------------------------------------
-# Which run folders are still valid
-
-
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
-def _check_files(run_dir: Path, files: Any, *, video: bool) -> str:
-    """Why the files listed in a manifest do not match the folder ("" when they all do)."""
-    if not isinstance(files, dict) or "summary.json" not in files:
-        return "manifest.json lists no files (summary.json missing from its file list)"
-    if video and "video.mp4" not in files:
-        return "no video.mp4 in the run (a video is asked)"
-    for name, digest in files.items():
-        rel = Path(str(name))
-        if rel.is_absolute() or ".." in rel.parts:
-            return f"manifest.json lists a file outside the run folder: {name!r}"
-        try:
-            actual = _sha256(run_dir / rel)
-        except OSError:
-            return f"{name} is missing"
-        if actual != digest:
-            return f"{name} changed since the run (sha256 differs from manifest.json)"
-    return ""
-
-
-def _folder_check(run_dir: Path, *, config_hash: str, video: bool) -> tuple[dict[str, Any] | None, str]:
-    """``(manifest, "")`` when ``run_dir`` holds a finished, intact run of this config; else ``(None, why)``."""
-    try:
-        manifest = json.loads((run_dir / "manifest.json").read_text())
-    except FileNotFoundError:
-        return None, "no finished run in its folder (no manifest.json)"
-    except (OSError, ValueError) as err:
-        return None, f"manifest.json unreadable ({type(err).__name__})"
-    if not isinstance(manifest, dict):
-        return None, "manifest.json is not an object"
-    if not config_hash:
-        return None, "its config does not load now"
-    if manifest.get("config_hash") != config_hash:
-        return None, "its config changed since (config_hash differs: other file contents or --set)"
-    if manifest.get("status") not in FINISHED:
-        return None, f"its status {manifest.get('status')!r} is not a finished one {FINISHED}"
-    why = _check_files(run_dir, manifest.get("files"), video=video)
-    return (None, why) if why else (manifest, "")
-
-
-def _record(run: SweepRun, *, status: str, message: str, wall_time_s: float | None = None,
-            reused: bool = False, summary: dict[str, Any] | None = None, attempts: int = 0,
-            resumed_from_s: float | None = None) -> dict[str, Any]:
-    """A sweep summary record (one per run of the sweep file)."""
-    return {"id": run.id, "status": status, "message": message, "config_hash": run.config_hash,
-            "params": dict(run.params), "wall_time_s": wall_time_s, "attempts": attempts,
-            "resumed_from_s": resumed_from_s, "reused": reused, "selected": run.selected, "config": str(run.config),
-            "summary": summary or {}}
-
 
 def _reused_record(run: SweepRun, run_dir: Path, manifest: dict[str, Any]) -> dict[str, Any] | None:
     """The record of a valid earlier run (None when its summary does not parse)."""
@@ -458,126 +391,13 @@ def _plan(sweep: Sweep, out: Path, *, video: bool, overwrite: bool,
 
 
 # ---------------------------------------------------------------------------------------------
-# Worker process
-
-
-def _run_one(run: SweepRun, out_dir: str | Path, *, video: bool) -> dict[str, Any]:
-    """One run into ``out_dir/<id>`` (replacing what is there); never raises an ``Exception``.
-
-    The record says ``failed`` with the reason when the run raises (the video included) or when
-    its folder does not verify afterwards; a KeyboardInterrupt propagates.
-    """
-    t0 = time.perf_counter()
-    run_dir = Path(out_dir) / run.id
-    record = _record(run, status="failed", message="", attempts=1)
-    try:
-        # the simulation stack is imported in the worker only (an import failure is this run's failure)
-        from magsail_mj.run import run_scenario
-
-        cfg = load_config(run.config, list(run.overrides))
-        record["config_hash"] = config_hash(cfg)
-        # overwrite: the earlier run's files go first (its manifest last), so a stopped rerun never looks finished
-        outcome = run_scenario(cfg, run_dir, video=video, overwrite=True, progress=False)
-        record.update(status=str(outcome.status), message=str(outcome.get("status_message") or ""),
-                      summary=to_jsonable(dict(outcome)))
-        if outcome.status in FINISHED:
-            _, why = _folder_check(run_dir, config_hash=record["config_hash"], video=video)
-            if why:
-                record.update(status="failed", message=f"run folder does not verify after the run: {why}")
-    except Exception as err:  # noqa: BLE001 - one failing run must not lose the others
-        record.update(status="failed", message=f"{type(err).__name__}: {err}",
-                      traceback=traceback.format_exc(limit=-8))
-    record["wall_time_s"] = time.perf_counter() - t0
-    return record
-
-
-def _adopt_fd(dup: Any) -> int:
-    """Unpickle side of :class:`_SharedFd`: the inherited descriptor number."""
-    return dup.detach()
-
-
-class _SharedFd:
-    """A descriptor handed to a spawned worker (same open file, so the worker shares its flock)."""
-
-    def __init__(self, fd: int):
-        self.fd = fd
-
-    def __reduce__(self):
-        return (_adopt_fd, (reduction.DupFd(self.fd),))
-
-
-def _set_parent_death_signal(signum: int) -> bool:
-    """Ask Linux to send ``signum`` to this process when its parent dies; False where unavailable."""
-    if not sys.platform.startswith("linux"):
-        return False
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        return libc.prctl(_PR_SET_PDEATHSIG, int(signum), 0, 0, 0) == 0
-    except (OSError, AttributeError):
-        return False
-
-
-def _watch_parent(parent_pid: int, *, period_s: float = 0.5, grace_s: float = 10.0) -> None:
-    """Worker thread: once the parent is gone, stop this worker (SIGTERM), then exit hard."""
-    while os.getppid() == parent_pid:
-        time.sleep(period_s)
-    os.kill(os.getpid(), signal.SIGTERM)
-    time.sleep(grace_s)
-    os._exit(1)
-
-
-_STOP = threading.Event()
-"""Set in a worker once it was asked to stop (SIGTERM from the sweep, or its parent died)."""
-
-
-def _on_sigterm(signum: int, frame: Any) -> None:
-    """Worker SIGTERM handler: stop the run (once) as a Ctrl-C would."""
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    _STOP.set()
-    raise KeyboardInterrupt(f"worker stopped by {signal.Signals(signum).name}")
-
-
-def _guard_worker(parent_pid: int) -> None:
-    """Worker set-up: the sweep process handles Ctrl-C; SIGTERM or the parent's death stops the run."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the terminal's Ctrl-C: the parent decides
-    signal.signal(signal.SIGTERM, _on_sigterm)
-    _set_parent_death_signal(signal.SIGTERM)
-    threading.Thread(target=_watch_parent, args=(parent_pid,), name="parent-watch", daemon=True).start()
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)  # should a start method pass on the parent's mask
-
-
-def _stopped_record(run: SweepRun, err: BaseException, *, wall_time_s: float) -> dict[str, Any]:
-    """The record of a run that raised past :func:`_run_one` (an interrupt, or an exit)."""
-    if isinstance(err, KeyboardInterrupt):
-        outcome = getattr(err, "outcome", None)  # RunInterrupted: the outputs up to then are written
-        return _record(run, status="interrupted", message=f"stopped while running ({err})", wall_time_s=wall_time_s,
-                       summary=to_jsonable(dict(outcome)) if isinstance(outcome, dict) else None)
-    return _record(run, status="failed", message=f"{type(err).__name__}: {err}", wall_time_s=wall_time_s)
-
-
-def _worker_main(run: SweepRun, out_dir: str, video: bool, conn: Any, lock_fd: int, parent_pid: int) -> None:
-    """Process target: run one entry and send its record to the parent (keeps ``lock_fd`` open)."""
-    t0 = time.perf_counter()
-    try:
-        _guard_worker(parent_pid)
-        record = _run_one(run, out_dir, video=video)
-    except BaseException as err:  # noqa: BLE001 - a worker reports what stopped it, never a traceback
-        record = _stopped_record(run, err, wall_time_s=time.perf_counter() - t0)
-    if _STOP.is_set() and record["status"] not in (*FINISHED, "interrupted"):  # e.g. an interrupt turned error
-        record.update(status="interrupted", message=f"stopped while running ({record['message']})")
-    try:
-        conn.send(record)
-    except (OSError, KeyboardInterrupt):  # the parent is gone or stopping us: nothing to report to
-        pass
-
-
-# ---------------------------------------------------------------------------------------------
-# Parent side: lock, signals, scheduling
+# Client side: lock, signals, the Dask cluster
 
 
 @contextlib.contextmanager
 def _sweep_lock(out: Path) -> Iterator[int]:
-    """Hold ``out/.sweep.lock`` exclusively; RunDirError when another sweep (or its workers) holds it."""
+    """Hold ``out/.sweep.lock`` exclusively; RunDirError when another sweep holds it, or when run
+    processes of an earlier sweep (e.g. one killed with -9) still run in this folder."""
     path = out / LOCK_NAME
     fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
     try:
@@ -587,7 +407,11 @@ def _sweep_lock(out: Path) -> Iterator[int]:
             except BlockingIOError:
                 holder = os.pread(fd, 100, 0).decode(errors="replace").strip() or "?"
                 raise RunDirError(f"--out {out}: another sweep is running in this folder (lock {path} held by "
-                                  f"pid {holder} or its worker processes); wait for it or choose another --out")
+                                  f"pid {holder}); wait for it or choose another --out") from None
+        if runs_running(out):
+            raise RunDirError(f"--out {out}: another sweep is running in this folder (run processes of an "
+                              f"earlier sweep still hold {out / STATE_DIR / RUNS_LOCK}); wait for them to end "
+                              "or choose another --out")
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
         yield fd
@@ -628,122 +452,22 @@ class _Interrupts:
             raise SweepInterrupted(self.pending)
 
     @contextlib.contextmanager
-    def deferred(self, *, block: bool = False) -> Iterator[None]:
-        """Remember signals during the block instead of raising (nestable).
-
-        ``block`` also holds them back in the kernel (pending, delivered after the block), for
-        a block that changes their dispositions (:func:`_sigint_ignored_by_child`).
-        """
+    def deferred(self) -> Iterator[None]:
+        """Remember signals during the block instead of raising (nestable)."""
         self._depth += 1
-        if block:
-            signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
         try:
             yield
         finally:
-            if block:
-                signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)  # runs the handler of a held-back signal
             self._depth -= 1
 
 
-@dataclass
-class _Job:
-    run: SweepRun
-    process: Any
-    conn: Any
-    t0: float
-    record: dict[str, Any] | None = None
-
-
-class _Workers:
-    """At most ``workers`` runs at a time, each in a fresh spawn process; ended runs go to ``records``."""
-
-    def __init__(self, *, workers: int, out: Path, video: bool, lock_fd: int, interrupts: _Interrupts,
-                 records: dict[str, dict[str, Any]], log: Callable[[str], None] | None):
-        self.workers, self.out, self.video = workers, out, video
-        self.lock_fd, self.interrupts = lock_fd, interrupts
-        self.records, self.log = records, log
-        self.ctx = multiprocessing.get_context("spawn")
-        self.active: list[_Job] = []
-        self.stopping = False
-
-    def start(self, run: SweepRun) -> None:
-        """Start ``run`` in a new worker (signals held back until it is registered)."""
-        if threading.current_thread() is threading.main_thread():
-            resource_tracker.ensure_running()  # its first start unblocks SIGINT/SIGTERM: not in the block below
-        with self.interrupts.deferred(block=True):
-            reader, writer = self.ctx.Pipe(duplex=False)
-            proc = self.ctx.Process(target=_worker_main, name=f"sweep:{run.id}", daemon=False,
-                                    args=(run, str(self.out), self.video, writer, _SharedFd(self.lock_fd),
-                                          os.getpid()))
-            with _worker_env(), _sigint_ignored_by_child():
-                proc.start()
-            writer.close()
-            self.active.append(_Job(run=run, process=proc, conn=reader, t0=time.perf_counter()))
-
-    def collect(self, timeout: float | None = None) -> None:
-        """Block until a worker reports or ends (or ``timeout``); record the runs that ended."""
-        handles = [j.process.sentinel for j in self.active] + [j.conn for j in self.active if j.record is None]
-        if handles:
-            multiprocessing.connection.wait(handles, timeout)
-        with self.interrupts.deferred():  # a record is never half stored
-            for job in list(self.active):
-                self._receive(job)
-                if not job.process.is_alive():
-                    self._finish(job)
-
-    @staticmethod
-    def _receive(job: _Job) -> None:
-        try:
-            if job.record is None and job.conn.poll():
-                job.record = job.conn.recv()
-        except Exception:  # noqa: BLE001 - a cut or garbled message: the run ended without a result
-            job.record = None
-
-    def _finish(self, job: _Job) -> None:
-        job.process.join()
-        self._receive(job)
-        job.conn.close()
-        self.active.remove(job)
-        rec = job.record
-        if rec is None:
-            code = job.process.exitcode
-            how = f"signal {signal.Signals(-code).name}" if code and code < 0 else f"exit code {code}"
-            rec = _record(job.run, status="failed", message=f"worker process ended without a result ({how})",
-                          wall_time_s=time.perf_counter() - job.t0)
-        if self.stopping and rec["status"] not in FINISHED:
-            rec = {**rec, "status": "interrupted", "message": rec["message"] or "stopped while running"}
-        self.records[rec["id"]] = rec
-        _log_record(self.log, rec)
-
-    def stop(self, *, grace_s: float) -> None:
-        """Stop every running worker: SIGTERM, then SIGKILL after ``grace_s`` or at a further
-        SIGINT/SIGTERM; record them (``interrupted`` unless they had just finished)."""
-        self.stopping = True
-        with self.interrupts.deferred():
-            for job in self.active:
-                if job.process.is_alive():
-                    job.process.terminate()
-            deadline = time.monotonic() + grace_s
-            seen = self.interrupts.received
-            while self.active and time.monotonic() < deadline and self.interrupts.received == seen:
-                self.collect(timeout=min(0.2, max(0.0, deadline - time.monotonic())))
-            for job in list(self.active):
-                job.process.kill()
-                self._finish(job)
-
-
 @contextlib.contextmanager
-def _sigint_ignored_by_child() -> Iterator[None]:
-    """Start a child that ignores SIGINT from its first instruction (a terminal's Ctrl-C reaches
-    the whole process group; only the sweep process handles it, never a worker still importing).
-
-    The caller holds SIGINT blocked meanwhile (:meth:`_Interrupts.deferred`), so a Ctrl-C in this
-    window stays pending for the sweep process instead of being lost.
-    """
+def _sigint_ignored_by_children() -> Iterator[None]:
+    """Worker processes started in the block ignore SIGINT from their first instruction (a
+    terminal's Ctrl-C reaches the whole process group; only the sweep client handles it)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    resource_tracker.ensure_running()  # its start unblocks SIGINT: do it before ignoring
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)  # an ignored signal stays ignored across exec
     try:
         yield
@@ -753,7 +477,7 @@ def _sigint_ignored_by_child() -> Iterator[None]:
 
 @contextlib.contextmanager
 def _worker_env() -> Iterator[None]:
-    """One BLAS thread per worker unless the user set one (environment seen by a spawned worker)."""
+    """One BLAS thread per worker unless the user set one (environment seen by the worker processes)."""
     added = [v for v in _THREAD_VARS if v not in os.environ]
     for var in added:
         os.environ[var] = "1"
@@ -773,43 +497,179 @@ def _log_record(log: Callable[[str], None] | None, rec: dict[str, Any]) -> None:
         wall = rec.get("wall_time_s")
         took = f" in {wall:.1f} s" if isinstance(wall, (int, float)) else ""
         extra = f" ({rec['message']})" if rec["status"] != "completed" and rec["message"] else ""
-        log(f"  {rec['id']}: {rec['status']}{took}{extra}")
+        again = f", attempt {rec['attempts']}" if (rec.get("attempts") or 0) > 1 else ""
+        resumed = f", resumed from t = {rec['resumed_from_s']:g} s" if rec.get("resumed_from_s") is not None else ""
+        log(f"  {rec['id']}: {rec['status']}{took}{again}{resumed}{extra}")
 
 
-def _execute(todo: list[SweepRun], pool: _Workers) -> None:
-    """Run ``todo`` on ``pool`` (its records fill as runs end)."""
-    queue = list(todo)
-    while queue or pool.active:
-        while queue and len(pool.active) < pool.workers:
-            pool.start(queue.pop(0))
-            pool.interrupts.raise_pending()
-        pool.collect()
-        pool.interrupts.raise_pending()
+@contextlib.contextmanager
+def _dask_client(*, workers: int, scheduler: str | None, cluster: Any | None) -> Iterator[Any]:
+    """A Dask client: on ``scheduler`` (an address), on ``cluster`` (e.g. a dask-jobqueue cluster),
+    else on a LocalCluster of ``workers`` processes with one thread each (closed on exit).
 
-
-def _interrupted(todo: list[SweepRun], pool: _Workers, *, grace_s: float) -> None:
-    """After SIGINT/SIGTERM: stop the workers, mark the stopped runs and those never started."""
-    if pool.log:
-        pool.log(f"sweep interrupted: stopping {len(pool.active)} running runs (interrupt again to kill them now)")
-    pool.stop(grace_s=grace_s)
-    for run in todo:
-        pool.records.setdefault(run.id, _record(run, status="not_run",
-                                                message="not started: the sweep was interrupted"))
-
-
-def _run_pool(todo: list[SweepRun], pool: _Workers, *, grace_s: float) -> SweepInterrupted | None:
-    """Run ``todo``; on SIGINT/SIGTERM stop and return the interrupt (other errors: stop, re-raise)."""
+    Raises:
+      RunDirError: the scheduler cannot be reached (naming ``--scheduler`` and the address).
+    """
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout=15, set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as err:
+            raise RunDirError(f"--scheduler {scheduler!r}: cannot connect to a Dask scheduler there ({err})") from None
+        with contextlib.closing(client):
+            yield client
+        return
+    if cluster is not None:
+        with Client(cluster, set_as_default=False) as client:
+            yield client
+        return
+    with _worker_env(), _sigint_ignored_by_children():
+        local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                             silence_logs=logging.CRITICAL, worker_class=Nanny)
     try:
-        _execute(todo, pool)
-    except KeyboardInterrupt as err:
-        stopped = err if isinstance(err, SweepInterrupted) else SweepInterrupted(signal.SIGINT)
-    except BaseException:
-        pool.stop(grace_s=grace_s)  # no worker outlives a sweep that fails itself
-        raise
-    else:
-        return None
-    with pool.interrupts.deferred():
-        _interrupted(todo, pool, grace_s=grace_s)
+        with Client(local, set_as_default=False) as client:
+            client.register_plugin(IgnoreSigint())
+            yield client
+    finally:
+        local.close(timeout=10)
+
+
+CLUSTER_KINDS = ("slurm", "pbs")
+_WALLTIME = re.compile(r"^(\d+-)?\d{1,3}:\d{2}(:\d{2})?$")
+
+
+def make_cluster(kind: str, *, cores_per_job: int = 1, memory_per_job: str = "4GB", walltime: str = "01:00:00",
+                 queue: str | None = None, account: str | None = None, python: str | None = None) -> Any:
+    """A dask-jobqueue cluster (``kind`` slurm or pbs) whose jobs each run ``cores_per_job`` worker
+    processes with one thread (and one BLAS thread) each; no job is submitted yet (``cluster.scale(jobs=N)``
+    or ``cluster.adapt(...)`` does that; ``cluster.job_script()`` shows the script).
+
+    Raises:
+      ValueError: naming the option (``--cluster``, ``--cores-per-job``, ``--memory-per-job``,
+        ``--walltime``) and the value, or saying that dask-jobqueue is not installed.
+    """
+    if kind not in CLUSTER_KINDS:
+        raise ValueError(f"--cluster: must be one of {', '.join(CLUSTER_KINDS)}, got {kind!r}")
+    if dask_jobqueue is None:
+        raise ValueError("--cluster: needs dask-jobqueue (pip install 'magsail_mj[cluster]')")
+    if isinstance(cores_per_job, bool) or not isinstance(cores_per_job, int) or cores_per_job < 1:
+        raise ValueError(f"--cores-per-job: must be an integer >= 1, got {cores_per_job!r}")
+    try:
+        if parse_bytes(memory_per_job) <= 0:
+            raise ValueError
+    except (ValueError, TypeError):
+        raise ValueError(f"--memory-per-job: must be a memory size such as 16GB, got {memory_per_job!r}") from None
+    if not isinstance(walltime, str) or not _WALLTIME.match(walltime):
+        raise ValueError(f"--walltime: must look like HH:MM:SS (or D-HH:MM:SS), got {walltime!r}")
+    cls = dask_jobqueue.SLURMCluster if kind == "slurm" else dask_jobqueue.PBSCluster
+    threads = [f"export {var}=1" for var in _THREAD_VARS]
+    return cls(cores=cores_per_job, processes=cores_per_job, memory=memory_per_job, walltime=walltime,
+               queue=queue, account=account, python=python or sys.executable, job_script_prologue=threads,
+               job_name="magsail-sweep", silence_logs="error")
+
+
+@dataclass
+class _Call:
+    """One sweep call: what it runs, where, and the records so far."""
+
+    sweep: Sweep
+    out: Path
+    token: str
+    records: dict[str, dict[str, Any]]
+    interrupts: _Interrupts
+    log: Callable[[str], None] | None
+    meta: dict[str, Any]
+    t0: float = field(default_factory=time.perf_counter)
+
+    def store(self, rec: dict[str, Any]) -> None:
+        """Record a finished run and rewrite the summaries (a crash of the client loses nothing finished)."""
+        with self.interrupts.deferred():
+            self.records[rec["id"]] = rec
+            _log_record(self.log, rec)
+            self.write(finished=False)
+
+    def write(self, *, finished: bool, interrupted: bool = False) -> list[dict[str, Any]]:
+        """Write the summaries and the manifest; runs without a record yet are ``not_run`` (pending)."""
+        pending = "pending: the sweep was still running" if not finished else "not started"
+        ordered = [self.records.get(r.id) or _record(r, status="not_run", message=pending) for r in self.sweep.runs]
+        _write_outputs(self.out, self.sweep, ordered, {
+            **self.meta, "finished": finished, "interrupted": interrupted,
+            "wall_time_s": time.perf_counter() - self.t0})
+        return ordered
+
+
+def _future_record(future: Any, run: SweepRun) -> dict[str, Any]:
+    """The record a finished task returned, or a failed record saying why the task failed."""
+    try:
+        return future.result()
+    except Exception as err:  # noqa: BLE001 - KilledWorker (workers died again and again) or a lost task
+        why = "its workers died too often (Dask KilledWorker)" if type(err).__name__ == "KilledWorker" else \
+            f"{type(err).__name__}: {err}"
+        return _record(run, status="failed", message=f"the task failed: {why}", attempts=0)
+
+
+def _submit(client: Any, call: _Call, todo: list[SweepRun], *, video: bool, overwrite: bool,
+            retries: int, grace_s: float) -> dict[Any, SweepRun]:
+    return {client.submit(supervise, run, str(call.out), video=video, fresh=overwrite, token=call.token,
+                          run_retries=retries, grace_s=grace_s, key=f"magsail-run-{call.token}-{n}", pure=False): run
+            for n, run in enumerate(todo)}
+
+
+def _execute(client: Any, futures: dict[Any, SweepRun], call: _Call) -> None:
+    """Store each run's record as its task ends."""
+    for future in as_completed(list(futures), loop=client.loop):
+        call.store(_future_record(future, futures[future]))
+        call.interrupts.raise_pending()
+
+
+def _stop(futures: dict[Any, SweepRun], call: _Call, *, grace_s: float) -> None:
+    """After SIGINT/SIGTERM: ask the supervisors to stop, wait for their records (a further
+    interrupt kills the runs at once), mark the rest ``interrupted``."""
+    if call.log:
+        call.log("sweep interrupted: stopping the running runs (interrupt again to kill them now)")
+    request_stop(call.out, call.token)
+    seen = call.interrupts.received
+    killed = False
+    deadline = time.monotonic() + grace_s + 5.0
+    while time.monotonic() < deadline and not all(f.done() for f in futures):
+        if call.interrupts.received != seen and not killed:
+            request_stop(call.out, call.token, kill=True)
+            killed, deadline = True, min(deadline, time.monotonic() + 3.0)
+        time.sleep(0.1)
+    for future, run in futures.items():
+        if run.id not in call.records:
+            rec = _future_record(future, run) if future.done() else _record(
+                run, status="interrupted", message="stopped while running (no record from its worker)")
+            call.records[run.id] = rec
+            _log_record(call.log, rec)
+
+
+def _run_dask(todo: list[SweepRun], call: _Call, *, workers: int, scheduler: str | None, cluster: Any | None,
+              video: bool, overwrite: bool, retries: int, grace_s: float) -> SweepInterrupted | None:
+    """Run ``todo`` on Dask; on SIGINT/SIGTERM stop and return the interrupt."""
+    futures: dict[Any, SweepRun] = {}
+    stopped: SweepInterrupted | None = None
+    try:
+        with _dask_client(workers=workers, scheduler=scheduler, cluster=cluster) as client:
+            try:
+                call.interrupts.raise_pending()
+                futures = _submit(client, call, todo, video=video, overwrite=overwrite, retries=retries,
+                                  grace_s=grace_s)
+                _execute(client, futures, call)
+            except KeyboardInterrupt as err:
+                stopped = err if isinstance(err, SweepInterrupted) else SweepInterrupted(signal.SIGINT)
+                with call.interrupts.deferred():
+                    _stop(futures, call, grace_s=grace_s)
+            except BaseException:
+                request_stop(call.out, call.token, kill=True)  # no run outlives a sweep that fails itself
+                raise
+            finally:
+                with call.interrupts.deferred():
+                    client.cancel(list(futures), force=True)
+    except KeyboardInterrupt as err:  # while the cluster started or closed
+        stopped = stopped or (err if isinstance(err, SweepInterrupted) else SweepInterrupted(signal.SIGINT))
+    for run in todo:
+        call.records.setdefault(run.id, _record(run, status="not_run",
+                                                message="not started: the sweep was interrupted"))
     return stopped
 
 
@@ -881,6 +741,18 @@ def sweep_exit_code(records: list[dict[str, Any]]) -> int:
     return 0 if all(s in _SUCCESS for s in statuses) else 3
 
 
+def _clear_state(out: Path) -> None:
+    """Remove the per-call state folders (attempt counters, stop requests) of finished calls; the
+    run lock file stays (an orphan run process may hold a lock on it)."""
+    state = out / STATE_DIR
+    if state.is_dir():
+        for child in state.iterdir():
+            if child.is_dir():
+                shutil.rmtree(child, ignore_errors=True)
+            elif child.name != RUNS_LOCK:
+                child.unlink(missing_ok=True)
+
+
 def run_sweep(
     sweep: Sweep,
     out_dir: str | Path,
@@ -890,46 +762,62 @@ def run_sweep(
     overwrite: bool = False,
     log: Callable[[str], None] | None = print,
     grace_s: float = 10.0,
+    scheduler: str | None = None,
+    cluster: Any | None = None,
+    retries: int = 2,
 ) -> list[dict[str, Any]]:
-    """Run the selected entries of ``sweep`` into ``out_dir/<id>`` with up to ``workers`` processes.
+    """Run the selected entries of ``sweep`` into ``out_dir/<id>`` on Dask.
+
+    By default on a LocalCluster of ``workers`` processes (one thread each); on a running Dask
+    scheduler with ``scheduler`` (an address such as ``tcp://host:8786``); or on ``cluster`` (a
+    Dask cluster object, e.g. from :func:`magsail_mj.sweep.make_cluster`). Each run runs in its
+    own process below its worker; a run process killed by a signal is retried up to ``retries``
+    times, and a task whose worker died is rescheduled by Dask; a retried run resumes from its
+    checkpoint when it has one of the same config.
 
     Returns one record per run of the sweep file, in file order (``id``, ``status`` ∈ completed,
-    structure_failed, diverged, stopped, failed, interrupted, not_run; ``message``, ``reused``,
-    ``selected``, ``config_hash``, ``wall_time_s``, ``summary``), also written to
-    ``sweep_summary.json``/``.csv``.
+    structure_failed, diverged, stopped, failed, interrupted, not_run; ``message``,
+    ``config_hash``, ``params``, ``wall_time_s``, ``attempts``, ``resumed_from_s``, ``reused``,
+    ``selected``, ``summary``), also written to ``sweep_summary.json``/``.csv`` as runs finish.
 
-    ``grace_s`` is how long stopped workers may take to write their outputs after an interrupt
+    ``grace_s`` is how long stopped runs may take to write their outputs after an interrupt
     before they are killed (a second interrupt kills them at once).
 
     Raises:
-      ValueError: ``workers`` is not an integer >= 1.
-      RunDirError: ``out_dir`` is not a folder, or another sweep runs in it.
+      ValueError: ``workers`` or ``retries`` is not an integer in range.
+      RunDirError: ``out_dir`` is not a folder, another sweep runs in it, or ``scheduler`` is unreachable.
       SweepInterrupted: on SIGINT/SIGTERM, after writing the summaries (``.records``).
     """
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers: must be an integer >= 1, got {workers!r}")
+    if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
+        raise ValueError(f"retries: must be an integer >= 0, got {retries!r}")
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise RunDirError(f"--out {out}: exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    with _sweep_lock(out) as lock_fd, _Interrupts() as interrupts:
+    out = out.resolve()
+    with _sweep_lock(out), _Interrupts() as interrupts:
         _remove_stale_temporaries(out)
+        _clear_state(out)
         records, todo = _plan(sweep, out, video=video, overwrite=overwrite, log=log)
+        n_workers = min(workers, max(1, len(todo)))
+        engine = scheduler or ("cluster" if cluster is not None else f"LocalCluster({n_workers} workers)")
         if log:
             log(f"sweep {sweep.name}: {len(todo)} runs to do, {len(records)} not run now "
-                f"({sum(r['reused'] for r in records.values())} valid earlier), {workers} workers")
-        pool = _Workers(workers=workers, out=out, video=video, lock_fd=lock_fd, interrupts=interrupts,
-                        records=records, log=log)
-        stopped = _run_pool(todo, pool, grace_s=grace_s)
+                f"({sum(r['reused'] for r in records.values())} valid earlier) on {engine}")
+        call = _Call(sweep=sweep, out=out, token=uuid.uuid4().hex, records=records, interrupts=interrupts, log=log,
+                     meta={"selected": [r.id for r in sweep.selected], "workers": n_workers, "engine": engine,
+                           "video": video, "overwrite": overwrite, "retries": retries, "process_per_run": True,
+                           "worker_thread_env": _thread_settings()})
+        stopped = None
+        if todo:
+            stopped = _run_dask(todo, call, workers=n_workers, scheduler=scheduler, cluster=cluster, video=video,
+                                overwrite=overwrite, retries=retries, grace_s=grace_s)
         with interrupts.deferred():  # the summaries are written whole, whatever arrives now
-            ordered = [records[r.id] for r in sweep.runs]
-            wall = time.perf_counter() - t0
-            _write_outputs(out, sweep, ordered, {
-                "selected": [r.id for r in sweep.selected], "workers": workers, "video": video,
-                "overwrite": overwrite, "start_method": "spawn", "process_per_run": True,
-                "worker_thread_env": _thread_settings(), "interrupted": stopped is not None, "wall_time_s": wall,
-            })
+            ordered = call.write(finished=True, interrupted=stopped is not None)
+            _clear_state(out)
+            wall = time.perf_counter() - call.t0
     if log:
         counts = {s: sum(r["status"] == s for r in ordered) for s in sorted({r["status"] for r in ordered})}
         log(f"sweep {sweep.name}: {counts} in {wall:.1f} s wall -> {out}")

@@ -1,0 +1,310 @@
+"""The worker side of a sweep: a Dask task supervises one run, which runs in its own process.
+
+:func:`supervise` is what the sweep submits to Dask, once per run. It starts the run process
+(``python -m magsail_mj.sweep``, a new session, so a terminal's Ctrl-C reaches the sweep
+client only), waits for its record, and
+
+* retries a run process killed by a signal (out of memory, ``kill``) up to ``retries`` times;
+  every attempt resumes from the run's checkpoint when the folder holds one of the same config;
+* counts attempts in the sweep folder (``.sweep.state/<call>/``), so an attempt started after the
+  Dask worker itself died (Dask reschedules the task on another worker) is counted and resumes too;
+* stops the run process (SIGTERM, then SIGKILL after the grace time) when the sweep client asks
+  (the stop file ``.sweep.state/<call>/stop``).
+
+The run process holds the run's lock (:func:`~magsail_mj.sweep.common.run_lock`) while it runs,
+dies with its supervisor (``PR_SET_PDEATHSIG`` and a parent-pid watch), and turns SIGTERM into an
+interrupt, so a stopped run writes its outputs (status ``interrupted``) and its checkpoint.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import json
+import os
+import pickle
+import select
+import signal
+import subprocess
+import sys
+import threading
+import time
+import traceback
+from pathlib import Path
+from typing import Any
+
+from distributed.diagnostics.plugin import WorkerPlugin
+
+from magsail_mj.checkpoint import check_identity, read_checkpoint, run_identity
+from magsail_mj.config import config_hash, load_config, numbers_hash
+from magsail_mj.io import atomic_path, to_jsonable, write_json
+from magsail_mj.sweep.common import FINISHED, STATE_DIR, SweepRun, _folder_check, _record, run_lock
+
+__all__ = ["supervise", "run_one", "call_dir", "request_stop", "process_main", "IgnoreSigint"]
+
+_PR_SET_PDEATHSIG = 1
+CHECKPOINT_NAME = "checkpoint.npz"
+LOCK_WAIT_S = 60.0
+"""How long a run process waits for an earlier process of the same run (a killed worker's orphan
+writing its interrupted outputs) before it gives up."""
+
+
+# ---------------------------------------------------------------------------------------------
+# One attempt (in the run process)
+
+
+def _checkpoint_time(run_dir: Path, cfg: Any) -> float | None:
+    """Simulated time of the folder's checkpoint when it belongs to this config (else None)."""
+    path = run_dir / CHECKPOINT_NAME
+    if not path.is_file():
+        return None
+    try:
+        header, _, _ = read_checkpoint(path)
+        check_identity(header, run_identity(numbers_hash(cfg)), path=path)
+        return float(header.get("t_s"))
+    except Exception:  # noqa: BLE001 - an unusable checkpoint means a fresh run
+        return None
+
+
+def run_one(run: SweepRun, out_dir: str | Path, *, video: bool, fresh: bool = True) -> dict[str, Any]:
+    """One attempt of a run into ``out_dir/<id>``; never raises an ``Exception``.
+
+    With ``fresh`` the folder's earlier run is replaced; otherwise the run resumes from the
+    folder's checkpoint when it belongs to this config (``resumed_from_s`` says from when), and
+    starts afresh when there is none. The record says ``failed`` with the reason when the run
+    raises (the video included) or when its folder does not verify afterwards; a
+    KeyboardInterrupt propagates.
+    """
+    # the simulation stack is imported here only (an import failure is this run's failure)
+    from magsail_mj.run import run_scenario  # the supervisor (a Dask task) and the client stay light
+
+    t0 = time.perf_counter()
+    run_dir = Path(out_dir) / run.id
+    record = _record(run, status="failed", message="", attempts=1)
+    try:
+        cfg = load_config(run.config, list(run.overrides))
+        record["config_hash"] = config_hash(cfg)
+        t_resume = None if fresh else _checkpoint_time(run_dir, cfg)
+        record["resumed_from_s"] = t_resume
+        # overwrite: the earlier run's files go first (its manifest last), so a stopped rerun never looks finished
+        outcome = run_scenario(cfg, run_dir, video=video, resume=t_resume is not None,
+                               overwrite=t_resume is None, progress=False)
+        record.update(status=str(outcome.status), message=str(outcome.get("status_message") or ""),
+                      summary=to_jsonable(dict(outcome)))
+        if outcome.status in FINISHED:
+            _, why = _folder_check(run_dir, config_hash=record["config_hash"], video=video)
+            if why:
+                record.update(status="failed", message=f"run folder does not verify after the run: {why}")
+    except Exception as err:  # noqa: BLE001 - one failing run must not lose the others
+        record.update(status="failed", message=f"{type(err).__name__}: {err}",
+                      traceback=traceback.format_exc(limit=-8))
+    record["wall_time_s"] = time.perf_counter() - t0
+    return record
+
+
+# ---------------------------------------------------------------------------------------------
+# The run process
+
+
+def _set_parent_death_signal(signum: int) -> bool:
+    """Ask Linux to send ``signum`` to this process when its parent dies; False where unavailable."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(_PR_SET_PDEATHSIG, int(signum), 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def _watch_parent(parent_pid: int, *, period_s: float = 0.5, grace_s: float = 10.0) -> None:
+    """Thread: once the parent is gone, stop this process (SIGTERM), then exit hard."""
+    while os.getppid() == parent_pid:
+        time.sleep(period_s)
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(grace_s)
+    os._exit(1)
+
+
+_STOP = threading.Event()
+"""Set in a run process once it was asked to stop (SIGTERM from its supervisor, or its parent died)."""
+
+
+def _on_sigterm(signum: int, frame: Any) -> None:
+    """SIGTERM handler: stop the run (once) as a Ctrl-C would."""
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    _STOP.set()
+    raise KeyboardInterrupt(f"run process stopped by {signal.Signals(signum).name}")
+
+
+def _guard(parent_pid: int) -> None:
+    """Run-process set-up: SIGINT ignored (the sweep client decides), SIGTERM or the parent's death stops the run."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    _set_parent_death_signal(signal.SIGTERM)
+    threading.Thread(target=_watch_parent, args=(parent_pid,), name="parent-watch", daemon=True).start()
+    if os.getppid() != parent_pid:  # the parent died before the death signal was set
+        os.kill(os.getpid(), signal.SIGTERM)
+
+
+def _stopped_record(run: SweepRun, err: BaseException, *, wall_time_s: float) -> dict[str, Any]:
+    """The record of a run that raised past :func:`run_one` (an interrupt, or an exit)."""
+    if isinstance(err, KeyboardInterrupt):
+        outcome = getattr(err, "outcome", None)  # RunInterrupted: the outputs up to then are written
+        return _record(run, status="interrupted", message=f"stopped while running ({err})", wall_time_s=wall_time_s,
+                       summary=to_jsonable(dict(outcome)) if isinstance(outcome, dict) else None)
+    return _record(run, status="failed", message=f"{type(err).__name__}: {err}", wall_time_s=wall_time_s)
+
+
+def process_main() -> None:
+    """Entry of the run process: the job (pickled) on stdin, its record (JSON) to the result descriptor."""
+    job = pickle.load(sys.stdin.buffer)
+    run: SweepRun = job["run"]
+    t0 = time.perf_counter()
+    try:
+        _guard(job["parent_pid"])
+        with run_lock(Path(job["out"]), run.id, wait_s=LOCK_WAIT_S):
+            record = run_one(run, job["out"], video=job["video"], fresh=job["fresh"])
+    except BaseException as err:  # noqa: BLE001 - a run process reports what stopped it, never a traceback
+        record = _stopped_record(run, err, wall_time_s=time.perf_counter() - t0)
+    if _STOP.is_set() and record["status"] not in (*FINISHED, "interrupted"):  # e.g. an interrupt turned error
+        record.update(status="interrupted", message=f"stopped while running ({record['message']})")
+    try:
+        with os.fdopen(job["result_fd"], "w") as fh:
+            json.dump(record, fh)
+    except (OSError, KeyboardInterrupt, ValueError):  # the supervisor is gone: nothing to report to
+        pass
+
+
+# ---------------------------------------------------------------------------------------------
+# The supervisor (a Dask task)
+
+
+class IgnoreSigint(WorkerPlugin):
+    """Worker plugin of the sweep's own LocalCluster: its worker processes ignore SIGINT (a
+    terminal's Ctrl-C reaches the whole process group; the sweep client stops them itself)."""
+
+    name = "magsail-ignore-sigint"
+
+    def setup(self, worker: Any) -> None:
+        """Ignore SIGINT in this worker process (its event loop runs in the main thread)."""
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def call_dir(out: Path, token: str) -> Path:
+    """The state folder of one sweep call (attempt counters, stop request)."""
+    return out / STATE_DIR / token
+
+
+def request_stop(out: Path, token: str, *, kill: bool = False) -> None:
+    """Ask every supervisor of the call ``token`` to stop its run (``kill``: SIGKILL at once)."""
+    folder = call_dir(out, token)
+    folder.mkdir(parents=True, exist_ok=True)
+    with atomic_path(folder / "stop") as tmp:
+        tmp.write_text("kill" if kill else "stop")
+
+
+def _stop_request(out: Path, token: str) -> str:
+    try:
+        return (call_dir(out, token) / "stop").read_text()
+    except OSError:
+        return ""
+
+
+def _next_attempt(out: Path, token: str, run_id: str) -> int:
+    """Count one more attempt of ``run_id`` in this call (kept in the sweep folder: survives a dead worker)."""
+    folder = call_dir(out, token)
+    path = folder / f"{_safe(run_id)}.json"
+    try:
+        n = int(json.loads(path.read_text())["attempts"]) + 1
+    except (OSError, ValueError, KeyError, TypeError):
+        n = 1
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        write_json(path, {"id": run_id, "attempts": n})
+    except OSError:
+        pass
+    return n
+
+
+def _safe(run_id: str) -> str:
+    return run_id.replace("/", "__")
+
+
+def _start(run: SweepRun, out: Path, *, video: bool, fresh: bool) -> tuple[subprocess.Popen, int]:
+    """Start the run process; returns it and the read end of its result pipe."""
+    read_fd, write_fd = os.pipe()
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.sweep"], stdin=subprocess.PIPE,
+                                pass_fds=(write_fd,), start_new_session=True)
+    finally:
+        os.close(write_fd)
+    job = {"run": run, "out": str(out), "video": video, "fresh": fresh, "parent_pid": os.getpid(),
+           "result_fd": write_fd}
+    try:
+        proc.stdin.write(pickle.dumps(job))
+        proc.stdin.close()
+    except OSError:  # it died at once: its exit status says so
+        pass
+    return proc, read_fd
+
+
+def _wait(proc: subprocess.Popen, read_fd: int, *, out: Path, token: str, grace_s: float) -> tuple[bytes, bool]:
+    """Read the run process's result until it ends; stop it when asked. ``(result, stopped)``."""
+    chunks: list[bytes] = []
+    stopped, deadline = False, None
+    with os.fdopen(read_fd, "rb", buffering=0) as pipe:
+        while True:
+            ready, _, _ = select.select([pipe], [], [], 0.25)
+            if ready:
+                data = pipe.read(65536)
+                if not data:
+                    break
+                chunks.append(data)
+            if proc.poll() is not None and not ready:
+                break
+            request = _stop_request(out, token)
+            if request and not stopped:
+                stopped, deadline = True, time.monotonic() + (0.0 if request == "kill" else grace_s)
+                proc.terminate()
+            if stopped and (time.monotonic() > deadline or _stop_request(out, token) == "kill"):
+                proc.kill()
+    proc.wait()
+    return b"".join(chunks), stopped
+
+
+def _lost(run: SweepRun, proc: subprocess.Popen, attempts: int) -> dict[str, Any]:
+    code = proc.returncode
+    how = f"signal {signal.Signals(-code).name}" if code and code < 0 else f"exit code {code}"
+    return _record(run, status="failed", attempts=attempts,
+                   message=f"run process ended without a result ({how}) in attempt {attempts}")
+
+
+def supervise(run: SweepRun, out_dir: str, *, video: bool, fresh: bool, token: str, run_retries: int,
+              grace_s: float) -> dict[str, Any]:
+    """Dask task: run ``run`` in a run process, retrying (and resuming) one killed by a signal.
+
+    Returns the run's record (``attempts`` counts every attempt of this sweep call, also those
+    of workers that died; ``not_run`` when the sweep was stopped before it started).
+    """
+    out = Path(out_dir)
+    t0 = time.perf_counter()
+    if _stop_request(out, token):
+        return _record(run, status="not_run", message="not started: the sweep was interrupted")
+    while True:
+        attempts = _next_attempt(out, token, run.id)
+        proc, read_fd = _start(run, out, video=video, fresh=fresh and attempts == 1)
+        result, stopped = _wait(proc, read_fd, out=out, token=token, grace_s=grace_s)
+        try:
+            record = json.loads(result.decode()) if result else None
+        except ValueError:
+            record = None
+        killed = proc.returncode is not None and proc.returncode < 0
+        if record is None and killed and not stopped and attempts <= run_retries:
+            continue
+        record = record or _lost(run, proc, attempts)
+        if stopped and record["status"] not in FINISHED:
+            record.update(status="interrupted", message=record["message"] or "stopped while running")
+        record.update(attempts=attempts, wall_time_s=time.perf_counter() - t0)
+        return record
+
