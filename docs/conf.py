@@ -42,6 +42,8 @@ napoleon_numpy_docstring = False
 # such references render as code, without a warning.
 nitpicky = False
 suppress_warnings = ["myst.header"]
+# option names such as --set stay as typed (no en dashes)
+smartquotes = False
 
 html_theme = "furo"
 html_title = "magsail_mj"
