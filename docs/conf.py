@@ -41,7 +41,7 @@ napoleon_numpy_docstring = False
 # Docstrings cross-reference names the API pages do not document (NumPy, MuJoCo, private helpers):
 # such references render as code, without a warning.
 nitpicky = False
-suppress_warnings = ["myst.header"]
+suppress_warnings: list[str] = []
 # option names such as --set stay as typed (no en dashes)
 smartquotes = False
 
