@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Install, then run the default test suite (slow reproductions are deselected; run them with
 # `.venv/bin/pytest -m slow`), then build the documentation with warnings as errors
-# (scripts/build_docs.sh, a few seconds). pytest's exit code 5 ("no tests collected") is a failure here;
-# a failed docs build fails the run too.
+# (scripts/build_docs.sh, a few seconds), and lint with ruff (pyproject.toml). pytest's exit code 5
+# ("no tests collected") is a failure here; a failed docs build or lint fails the run too.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_env.sh || exit 1
@@ -10,4 +10,5 @@ bash scripts/setup_env.sh || exit 1
 rc=$?
 if [ "$rc" -eq 5 ]; then echo "test.sh: no tests were collected" >&2; exit 1; fi
 if ! bash scripts/build_docs.sh; then echo "test.sh: the documentation build failed" >&2; exit 1; fi
+if ! .venv/bin/ruff check .; then echo "test.sh: ruff found problems" >&2; exit 1; fi
 exit "$rc"
