@@ -12,6 +12,7 @@ import subprocess
 import sys
 import threading
 import time
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -33,10 +34,12 @@ from magsail_mj.sweep import (
     _plan,
     _run_one,
     _sweep_lock,
+    is_sweep_file,
     load_sweep,
     run_sweep,
     sweep_exit_code,
 )
+from magsail_mj.sweep.design import DISTRIBUTIONS, grid_points, monte_carlo_points, toml_literal
 
 ROOT = Path(__file__).resolve().parents[1]
 CFG_A = ROOT / "models" / "current_loops" / "sweep" / "a_n12_ei1e3.toml"
@@ -383,3 +386,79 @@ def test_exit_code_and_finished_statuses():
         studied.add(cls.status)
         stack.extend(cls.__subclasses__())
     assert studied <= set(FINISHED), "a studied-failure status is missing from sweep.FINISHED"
+
+
+# --------------------------------------------------------------------------------------------------
+# grids and Monte Carlo designs: any table is either drawn or refused with a ConfigError naming its key
+
+_ANY = st.one_of(st.none(), st.booleans(), st.integers(-10**20, 10**20), st.floats(), st.text(max_size=8),
+                 st.lists(st.floats(), max_size=3), st.sampled_from(["2016-01-01T00:00:00Z", "2016-13-01", ""]))
+_DIST = st.dictionaries(st.sampled_from(["dist", "low", "high", "mean", "std", "values", "magnitude", "start",
+                                         "end", "extra"]), _ANY, max_size=4)
+_SPEC = st.one_of(_DIST, st.builds(lambda d, rest: {**rest, "dist": d}, st.sampled_from(DISTRIBUTIONS + ("x",)),
+                                   st.dictionaries(st.sampled_from(["low", "high", "mean", "std", "values",
+                                                                    "magnitude", "start", "end"]),
+                                                   st.one_of(_ANY, _DIST), max_size=3)))
+
+
+@settings(max_examples=300, deadline=None)
+@given(_SPEC, st.one_of(st.integers(-2, 4), _ANY), st.one_of(st.integers(0, 2**32), _ANY))
+def test_monte_carlo_tables_draw_or_are_refused_by_key(spec, samples, seed):
+    table = {"samples": samples, "seed": seed, "a.b": spec}
+    try:
+        points = monte_carlo_points(table)
+    except ConfigError as err:
+        assert err.problems and all(p.startswith("monte_carlo") for p in err.problems), err.problems
+        return
+    assert len(points) == samples and len({p.id for p in points}) == samples
+    for point in points:
+        (value,) = point.params.values()
+        literal = point.overrides[0].split("=", 1)[1]
+        assert tomllib.loads(f"v = {literal}")["v"] == value or value != value  # NaN only from a NaN input
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.dictionaries(st.text(min_size=1, max_size=6), st.lists(_ANY.filter(lambda v: v is not None), max_size=3),
+                       min_size=1, max_size=3))
+def test_grid_ids_are_distinct_plain_folders_or_refused(grid):
+    try:
+        points = grid_points(grid)
+    except ConfigError as err:
+        assert err.problems and all(p.startswith("grid") for p in err.problems), err.problems
+        return
+    ids = [p.id for p in points]
+    assert len(set(ids)) == len(ids)
+    for rid in ids:
+        assert _normalise_id(rid) == rid and "/" not in rid
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.recursive(st.one_of(st.booleans(), st.integers(), st.floats(allow_nan=False), st.text()),
+                    lambda inner: st.lists(inner, max_size=3), max_leaves=6))
+def test_toml_literals_read_back_as_the_same_value(value):
+    assert tomllib.loads(f"v = {toml_literal(value)}")["v"] == value
+
+
+def test_design_tables_are_checked_before_anything_runs(tmp_path):
+    def load(body: str) -> str:
+        path = tmp_path / "d.toml"
+        path.write_text(f'name = "d"\nconfig = "{CFG_A}"\nset = {json.dumps(FAST)}\n{body}')
+        with pytest.raises(ConfigError) as err:
+            load_sweep(path)
+        return str(err.value)
+
+    assert "monte_carlo.samples: must be an integer >= 1, got 0" in load("[monte_carlo]\nsamples = 0\n")
+    assert "monte_carlo.x.dist: must be one of" in load('[monte_carlo]\nsamples = 2\nx = { dist = "gauss" }\n')
+    assert "needs 0 < low <= high" in load('[monte_carlo]\nsamples = 2\nx = { dist = "log-uniform", low = 0, '
+                                            'high = 1 }\n')
+    assert "grid.lattice.units: must be a non-empty list" in load("[grid]\nlattice.units = 3\n")
+    assert "also varied by grid" in load('[grid]\n"sim.timestep_s" = [0.1]\n[monte_carlo]\nsamples = 1\n'
+                                         '"sim.timestep_s" = { dist = "uniform", low = 0.05, high = 0.1 }\n')
+    # a drawn value the config refuses names the run and the key
+    assert "s0: lattice.units" in load('[monte_carlo]\nsamples = 1\n"lattice.units" = { dist = "uniform", '
+                                       'low = -5.0, high = -4.0 }\n')
+    path = tmp_path / "nobase.toml"
+    path.write_text('name = "d"\n[grid]\n"lattice.units" = [3]\n')
+    with pytest.raises(ConfigError, match="config: \\[grid\\] / \\[monte_carlo\\] need the base config"):
+        load_sweep(path)
+    assert is_sweep_file(path)

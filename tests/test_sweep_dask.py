@@ -17,7 +17,9 @@ import numpy as np
 import pytest
 
 from magsail_mj.cli import main
-from magsail_mj.sweep import load_sweep, make_cluster, run_sweep
+from magsail_mj.config import load_config
+from magsail_mj.run import run_scenario
+from magsail_mj.sweep import SweepRun, load_sweep, make_cluster, run_sweep
 from magsail_mj.sweep.runner import run_one
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -150,3 +152,24 @@ def test_cluster_options_are_checked_before_anything_runs(tmp_path, capsys, args
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert not (out / "x").exists()
+
+
+def test_a_run_resumes_only_from_a_checkpoint_of_its_own_config(tmp_path):
+    small = ["lattice.units=3", "sim.duration_s=3.0", "sim.record_every=5", "sim.checkpoint_every_s=1.0",
+             "sim.progress=false"]
+    run = SweepRun(id="r", config=CFG_A, overrides=tuple(small))
+    run_scenario(load_config(CFG_A, small), tmp_path / "out" / "r", stop_after_s=2.0, progress=False)
+    resumed = run_one(run, tmp_path / "out", video=False, fresh=False)
+    assert resumed["status"] == "completed" and resumed["resumed_from_s"] == pytest.approx(2.0)
+    whole = run_one(run, tmp_path / "whole", video=False, fresh=False)  # no checkpoint there: from the start
+    assert whole["resumed_from_s"] is None
+    with np.load(tmp_path / "out" / "r" / "timeseries.npz") as got, \
+            np.load(tmp_path / "whole" / "r" / "timeseries.npz") as want:
+        assert all(np.array_equal(got[k], want[k], equal_nan=True) for k in want.files)
+    # a checkpoint of another config (another time step changes the numbers) is never resumed
+    other = SweepRun(id="r", config=CFG_A, overrides=(*small, "sim.timestep_s=0.05"))
+    rerun = run_one(other, tmp_path / "out", video=False, fresh=False)
+    assert rerun["status"] == "completed" and rerun["resumed_from_s"] is None
+    # nor one beyond a shortened duration
+    shorter = SweepRun(id="r", config=CFG_A, overrides=(*small, "sim.timestep_s=0.05", "sim.duration_s=1.0"))
+    assert run_one(shorter, tmp_path / "out", video=False, fresh=False)["resumed_from_s"] is None

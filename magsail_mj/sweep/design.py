@@ -82,8 +82,8 @@ def toml_literal(value: Any) -> str:
     if isinstance(value, (float, np.floating)):
         x = float(value)
         return ("nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")) if not math.isfinite(x) else repr(x)
-    if isinstance(value, str):
-        return json.dumps(value)  # a TOML basic string (JSON escapes are TOML escapes)
+    if isinstance(value, str):  # a TOML basic string: JSON escapes are TOML escapes; TOML also escapes DEL
+        return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")
     if isinstance(value, (_dt.datetime, _dt.date, _dt.time)):
         return value.isoformat()
     if isinstance(value, (list, tuple)):
@@ -123,7 +123,7 @@ def _flatten(table: dict[str, Any], *, leaf: Callable[[Any], bool], prefix: str 
 def _short_names(keys: list[str]) -> dict[str, str]:
     """The last part of each key path, or the whole path where two keys share their last part."""
     last = [k.rsplit(".", 1)[-1] for k in keys]
-    return {k: (s if last.count(s) == 1 else k) for k, s in zip(keys, last)}
+    return {k: _ID_UNSAFE.sub("-", s if last.count(s) == 1 else k) for k, s in zip(keys, last)}
 
 
 def _id_text(value: Any) -> str:

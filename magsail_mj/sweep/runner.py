@@ -34,7 +34,7 @@ from typing import Any
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
-from magsail_mj.checkpoint import check_identity, read_checkpoint, run_identity
+from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
 from magsail_mj.config import config_hash, load_config, numbers_hash
 from magsail_mj.io import atomic_path, to_jsonable, write_json
 from magsail_mj.sweep.common import FINISHED, STATE_DIR, SweepRun, _folder_check, _record, run_lock
@@ -60,9 +60,10 @@ def _checkpoint_time(run_dir: Path, cfg: Any) -> float | None:
     try:
         header, _, _ = read_checkpoint(path)
         check_identity(header, run_identity(numbers_hash(cfg)), path=path)
-        return float(header.get("t_s"))
+        t_s = float(header.get("t_s"))
     except Exception:  # noqa: BLE001 - an unusable checkpoint means a fresh run
         return None
+    return t_s if 0.0 <= t_s <= cfg.sim.duration_s else None  # a resume may extend a run, not shorten it
 
 
 def run_one(run: SweepRun, out_dir: str | Path, *, video: bool, fresh: bool = True) -> dict[str, Any]:
@@ -86,8 +87,14 @@ def run_one(run: SweepRun, out_dir: str | Path, *, video: bool, fresh: bool = Tr
         t_resume = None if fresh else _checkpoint_time(run_dir, cfg)
         record["resumed_from_s"] = t_resume
         # overwrite: the earlier run's files go first (its manifest last), so a stopped rerun never looks finished
-        outcome = run_scenario(cfg, run_dir, video=video, resume=t_resume is not None,
-                               overwrite=t_resume is None, progress=False)
+        try:
+            outcome = run_scenario(cfg, run_dir, video=video, resume=t_resume is not None,
+                                   overwrite=t_resume is None, progress=False)
+        except CheckpointError:  # refused before anything was written: run afresh
+            if t_resume is None:
+                raise
+            record["resumed_from_s"] = None
+            outcome = run_scenario(cfg, run_dir, video=video, overwrite=True, progress=False)
         record.update(status=str(outcome.status), message=str(outcome.get("status_message") or ""),
                       summary=to_jsonable(dict(outcome)))
         if outcome.status in FINISHED:
