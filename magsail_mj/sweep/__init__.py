@@ -1,9 +1,9 @@
-"""Sweeps: many independent runs from one sweep file, in parallel worker processes.
+"""Sweeps: many independent runs from one sweep file, on dask.distributed (laptop to cluster).
 
 A sweep file is a TOML document listing scenario configs::
 
     name = "sweep36"
-    description = "current-loops §5: geometries A–D × EI × N"
+    description = "current-loops: geometries A-D x EI x N"
     set = ["sim.record_every=20"]          # optional overrides applied to every run
 
     [[run]]
@@ -11,41 +11,57 @@ A sweep file is a TOML document listing scenario configs::
     config = "sweep/a_n12_ei1e3.toml"       # relative to the sweep file
     set = []                                # optional per-run overrides
 
-Every config is loaded and validated before anything is written (a bad one names its run id,
-key, value and what is allowed); run ids must name distinct, non-nested folders below the sweep
-folder (``""``, ``"."``, ``"a/.."``, ``"a"`` beside ``"a/"`` are refused with the run index).
+or varying keys of one base config (top-level ``config``) with ``[grid]`` and ``[monte_carlo]``
+tables (:mod:`magsail_mj.sweep.design`). Every config is loaded and validated before anything is
+written (a bad one names its run id, key, value and what is allowed); run ids must name distinct,
+non-nested folders below the sweep folder (``""``, ``"."``, ``"a/.."``, ``"a"`` beside ``"a/"``
+are refused with the run index).
 
-Each run goes to its own fresh ``spawn`` process (at most ``workers`` at a time) and writes the
-folder ``OUT/<id>`` through :func:`magsail_mj.run.run_scenario`. A run that raises, diverges or
-whose video fails is recorded with its status and message; the others go on.
+Engine: every run is a Dask task (:func:`magsail_mj.sweep.runner.supervise`) on a LocalCluster of
+``workers`` single-thread processes (default), on a running scheduler (``scheduler``), or on a
+dask-jobqueue cluster (:func:`make_cluster`). The task runs the run in its own process (one BLAS
+thread, :func:`magsail_mj.run.run_scenario` into ``OUT/<id>``), so results do not depend on how a
+worker was started. A run that raises, diverges or whose video fails is recorded with its status
+and message; the others go on.
 
 Guarantees:
 
 * **Reuse only of what is valid now.** A run folder is reused (not rerun) only when its
   ``manifest.json`` has a finished status (:data:`FINISHED`: completed, a studied failure such as
-  structure_failed, or diverged), the
-  ``config_hash`` of the config the sweep would run now (same overrides), every file it lists with
-  the recorded sha256, and ``video.mp4`` when a video is asked. Anything else is rerun into that
-  folder. ``overwrite`` reruns every selected run.
+  structure_failed, or diverged), the ``config_hash`` of the config the sweep would run now (same
+  overrides), every file it lists with the recorded sha256, and ``video.mp4`` when a video is
+  asked. Anything else is rerun into that folder. ``overwrite`` reruns every selected run.
+* **Nothing lost.** A run process killed by a signal (out of memory, ``kill``) is retried up to
+  ``retries`` times; a task whose Dask worker died (killed, a cluster job's wall time) is
+  rescheduled by Dask on another worker. A retried run, and a run whose folder holds the
+  checkpoint of an earlier stopped run, resumes from the checkpoint when it belongs to the same
+  numbers (bit-identical to an uninterrupted run); ``attempts`` and ``resumed_from_s`` say so in
+  its record. The summaries are rewritten as each run finishes, so a crash of the client loses
+  nothing that finished.
 * **Summaries merge.** ``sweep_summary.json``/``.csv`` always list every run of the sweep file:
   runs outside ``only`` keep their record when their folder is still valid, else ``not_run``.
-* **Interrupts stop promptly.** SIGINT or SIGTERM cancels the runs not started, stops the running
-  workers (SIGTERM; SIGKILL after a grace time or at a second interrupt), writes the summaries (stopped runs
-  ``interrupted``, unstarted ones ``not_run``) and raises :class:`SweepInterrupted`.
-* **No orphans, no concurrent sweeps.** Workers die with the sweep process (``PR_SET_PDEATHSIG``
-  on Linux, a parent-pid watch elsewhere); the sweep folder is locked (``fcntl.flock`` on
-  ``.sweep.lock``, shared with the workers, released by the kernel when the last one dies), and a
-  second sweep into a locked folder raises :class:`~magsail_mj.io.RunDirError`.
-
+* **Interrupts stop promptly.** SIGINT or SIGTERM asks every running run to stop (SIGTERM;
+  SIGKILL after a grace time or at a second interrupt), writes the summaries (stopped runs
+  ``interrupted``, unstarted ones ``not_run``), closes the cluster and raises
+  :class:`SweepInterrupted`.
+* **No orphans, no concurrent sweeps.** The LocalCluster's workers die with the sweep process
+  (Dask's parent watch), and every run process dies with its worker (``PR_SET_PDEATHSIG`` on
+  Linux, a parent-pid watch elsewhere), writing its interrupted outputs first. The sweep folder
+  is locked (``fcntl.flock`` on ``.sweep.lock``) and every run process holds a lock of its own
+  run (``.sweep.state/runs.lock``): a second sweep into a folder where a sweep or any run process
+  of one still runs raises :class:`~magsail_mj.io.RunDirError`, and a retried run waits for its
+  orphan to end.
 * **Failed means failed.** A run whose video (or anything else) failed has status ``failed`` and
   a message saying why; so has a run whose folder does not verify right after it ran. Only
   :data:`FINISHED` folders are ever reused. :func:`sweep_exit_code` gives 1 when a run of this
   call failed or was stopped, else 3 when one diverged, else 0.
 
-The sweep folder receives ``sweep_summary.json`` (one record per run), ``sweep_summary.csv``
-(the same as a table, each column once) and ``sweep_manifest.json`` (sweep file, its hash,
-overrides, workers, worker thread settings, package versions, wall time), written atomically in
-that order.
+The sweep folder receives ``sweep_summary.json`` (one record per run: ``id``, ``status``,
+``message``, ``config_hash``, ``params``, ``wall_time_s``, ``attempts``, ``resumed_from_s``,
+``summary`` and more), ``sweep_summary.csv`` (the same as a table: the sweep columns, a
+``params.<key>`` column per varied key, then every scalar of the run summaries, each column once)
+and ``sweep_manifest.json`` (sweep file, its hash, overrides, engine, workers, worker thread
+settings, package versions, wall time), written atomically in that order.
 """
 
 from __future__ import annotations
