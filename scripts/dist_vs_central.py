@@ -1,7 +1,9 @@
 """Reproduce the distributed-vs-centralised torque experiment (truss-magnetorquer-array.md §6).
 
-Runs the configs ``models/truss_magnetorquer/dist_vs_central/case_{a,b,c}_{distributed,central}_
-{bangbang,versine}.toml`` (in parallel worker processes), then writes into ``--out``:
+Runs the selected runs of the sweep file ``models/sweeps/truss_dist_vs_central.toml`` (configs
+``models/truss_magnetorquer/dist_vs_central/case_{a,b,c}_{distributed,central}_{bangbang,versine}.toml``)
+with the sweep engine (:func:`magsail_mj.sweep.run_sweep`: Dask workers, valid earlier runs reused,
+``sweep_summary.json``/``.csv``), then writes into ``--out``:
 
 - one run folder per config (summary.json, timeseries.npz, plots, manifest);
 - ``comparison.md``: the table of summary figures of all runs, plus the central/distributed
@@ -21,25 +23,17 @@ import argparse
 import json
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
 
+from magsail_mj.sweep import FINISHED, load_sweep, run_sweep
+
 REPO = Path(__file__).resolve().parents[1]
-CONFIGS = REPO / "models" / "truss_magnetorquer" / "dist_vs_central"
+SWEEP = REPO / "models" / "sweeps" / "truss_dist_vs_central.toml"
 KEYS = ("status", "t_end_s", "rotation_x1_final_rad", "phi_rigid_final_rad", "off_axis_rotation_max_rad",
         "omega1_peak_rad_s", "surface_sd_max_m", "t_surface_sd_max_s", "strain_energy_max_J", "strut_strain_max",
         "surface_sd_after_off_mean_m", "failed")
-
-
-def _run_one(config: str, out_dir: str, overrides: list[str]) -> tuple[str, dict]:
-    from magsail_mj.config import load_config
-    from magsail_mj.run import run_scenario
-
-    cfg = load_config(config, overrides)
-    summary = run_scenario(cfg, out_dir, overwrite=True, progress=False)
-    return config, dict(summary)
 
 
 def _fmt(v) -> str:
@@ -128,23 +122,16 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(CONFIGS / f"case_{c}_{p}_{prof}.toml", out / f"case_{c}_{p}_{prof}")
-            for c in args.cases for prof in args.profiles for p in ("central", "distributed")]
+    ids = [f"case_{c}_{p}_{prof}" for c in args.cases for prof in args.profiles for p in ("central", "distributed")]
     t0 = time.perf_counter()
-    summaries: dict[str, dict] = {}
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        futures = {pool.submit(_run_one, str(cfg), str(run), args.set): run for cfg, run in jobs}
-        for fut in as_completed(futures):
-            run = futures[fut]
-            try:
-                _, summary = fut.result()
-            except Exception as err:  # one failed run must not lose the others
-                print(f"{run.name}: FAILED: {err}", file=sys.stderr)
-                continue
-            summaries[run.name] = summary
-            print(f"{run.name}: {summary['status']}, "
-                  f"φ_end = {summary.get('rotation_x1_final_rad', float('nan')):.4g} rad, "
-                  f"max SD = {summary['surface_sd_max_m']:.4g} m ({summary['wall_time_s']:.0f} s)", file=sys.stderr)
+    sweep = load_sweep(SWEEP, extra_overrides=tuple(args.set), only=ids)
+    records = run_sweep(sweep, out, workers=args.workers, log=lambda line: print(line, file=sys.stderr))
+    summaries = {r["id"]: r["summary"] for r in records if r["id"] in ids and r["status"] in FINISHED}
+    for name in sorted(summaries):
+        summary = summaries[name]
+        print(f"{name}: {summary['status']}, "
+              f"φ_end = {summary.get('rotation_x1_final_rad', float('nan')):.4g} rad, "
+              f"max SD = {summary['surface_sd_max_m']:.4g} m", file=sys.stderr)
     table = comparison_table(summaries)
     (out / "comparison.md").write_text(table)
     for prof in args.profiles:
@@ -163,7 +150,7 @@ def main(argv: list[str] | None = None) -> int:
     print(table)
     print(json.dumps({"runs": len(summaries), "wall_time_s": round(time.perf_counter() - t0, 1),
                       "comparison": str(out / "comparison.md"), "videos": [str(v) for v in videos]}, indent=2))
-    return 0 if len(summaries) == len(jobs) else 1
+    return 0 if len(summaries) == len(ids) else 1
 
 
 if __name__ == "__main__":
