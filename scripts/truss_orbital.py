@@ -7,29 +7,35 @@ tabulate their summary keys.
     python scripts/truss_orbital.py slew_i --set sim.duration_s=1800 --out runs/short
     python scripts/truss_orbital.py --table-only             # re-tabulate existing run folders
 
-Scenario ids are config stems under models/truss_magnetorquer/ (``sensitivity/<name>`` for the
-§9.6 runs). Each run goes to ``<out>/<id>/`` (a normal run folder: summary.json, timeseries.npz,
-manifest.json, plots, video.mp4 with ``--video``). The script writes ``<out>/summary.md`` (one
-table for detumble-type runs, one for slews) and ``<out>/summary.json`` (id → summary).
-``--set key=value`` applies to every run (e.g. ``sim.duration_s=600`` for a short check; the
-tables then say so in their ``t_end_s`` column). Runs execute in ``--workers`` processes
-(default 2). The first run on a machine without ``runs/lloyd_cache`` computes each new
-Lloyd count once (~1.4 s each) and caches it there.
+Scenario ids are the run ids of the sweep file ``models/sweeps/truss_orbital.toml`` (config
+stems under models/truss_magnetorquer/, ``sensitivity/<name>`` for the §9.6 runs). The selected
+runs go through the sweep engine (:func:`magsail_mj.sweep.run_sweep`: ``--workers`` Dask worker
+processes, default 2; a valid earlier run folder is reused, a stopped one continues from its
+checkpoint, ``--overwrite`` reruns) into ``<out>/<id>/`` (a normal run folder: summary.json,
+timeseries.npz, manifest.json, plots, video.mp4 with ``--video``), with ``sweep_summary.json``/
+``.csv`` beside them. The script writes ``<out>/summary.md`` (one table for detumble-type runs,
+one for slews) and ``<out>/summary.json`` (id → summary). ``--set key=value`` applies to every
+run (e.g. ``sim.duration_s=600`` for a short check; the tables then say so in their ``t_end_s``
+column). The first run on a machine without ``runs/lloyd_cache`` computes each new Lloyd count
+once (~1.4 s each) and caches it there.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
-import time
-import traceback
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
+
+from magsail_mj.config import ConfigError
+from magsail_mj.io import atomic_path, to_jsonable, write_json
+from magsail_mj.sweep import FINISHED, Sweep, load_sweep, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
 MODELS = REPO / "models" / "truss_magnetorquer"
+SWEEP = REPO / "models" / "sweeps" / "truss_orbital.toml"
 DEFAULT_IDS = ["detumble", "slew_i", "slew_ii", "slew_iii", "slew_iv"]
 
 DETUMBLE_COLUMNS = [
@@ -51,32 +57,33 @@ SLEW_COLUMNS = [
 ]
 
 
-def config_path(sid: str) -> Path:
-    """``models/truss_magnetorquer/<sid>.toml`` (ValueError naming ``sid`` when missing)."""
-    path = MODELS / f"{sid}.toml"
-    if not path.is_file():
-        raise ValueError(f"scenario id {sid!r}: no config {path.relative_to(REPO)}")
-    return path
-
-
 def all_ids() -> list[str]:
-    """Default ids, the ablation and every sensitivity config."""
-    sens = sorted(f"sensitivity/{p.stem}" for p in (MODELS / "sensitivity").glob("*.toml")
-                  if "scenario = \"detumble\"" in p.read_text() or "scenario = \"slew\"" in p.read_text())
-    return DEFAULT_IDS + ["gg_ablation_slew_i"] + sens
+    """Every run id of the sweep file: the defaults, the ablation and the sensitivity runs."""
+    return [r.id for r in load_sweep(SWEEP).runs]
 
 
-def run_one(sid: str, out: str, sets: list[str], video: bool, overwrite: bool, resume: bool) -> dict:
-    """Run one scenario into ``<out>/<sid>`` (in a worker process); returns its summary."""
-    from magsail_mj.config import load_config
-    from magsail_mj.run import run_scenario
+def select(ids: list[str], sets: list[str]) -> Sweep:
+    """The sweep file with exactly ``ids`` selected (ValueError naming an unknown id)."""
+    known = all_ids()
+    unknown = [sid for sid in ids if sid not in known]
+    if unknown:
+        raise ValueError(f"scenario id {unknown[0]!r}: not a run of {SWEEP.relative_to(REPO)} "
+                         f"(known: {', '.join(known)})")
+    sweep = load_sweep(SWEEP, extra_overrides=tuple(sets), only=ids)  # ids as substrings: a superset
+    runs = tuple(dataclasses.replace(r, selected=r.id in ids) for r in sweep.runs)
+    return dataclasses.replace(sweep, runs=runs, only=tuple(ids))
 
-    t0 = time.perf_counter()
-    cfg = load_config(config_path(sid), sets)
-    res = run_scenario(cfg, Path(out) / sid, video=video, overwrite=overwrite, resume=resume, progress=False)
-    summary = dict(res)
-    summary["script_wall_time_s"] = time.perf_counter() - t0
-    return summary
+
+def run_all(sweep: Sweep, out: Path, *, workers: int, video: bool, overwrite: bool) -> dict[str, dict]:
+    """Run the selected runs; id → summary (or status and error for a run that did not finish)."""
+    records = run_sweep(sweep, out, workers=workers, video=video, overwrite=overwrite,
+                        log=lambda line: print(line, file=sys.stderr))
+    results = {}
+    for rec in records:
+        if rec["selected"]:
+            ok = rec["status"] in FINISHED
+            results[rec["id"]] = rec["summary"] if ok else {"status": rec["status"], "error": rec["message"]}
+    return results
 
 
 def _fmt(v) -> str:
@@ -128,7 +135,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=2, help="parallel runs (default 2)")
     ap.add_argument("--video", action="store_true", help="render video.mp4 in each run folder")
     ap.add_argument("--overwrite", action="store_true", help="replace earlier run folders")
-    ap.add_argument("--resume", action="store_true", help="continue runs from their checkpoints")
     ap.add_argument("--table-only", action="store_true", help="only tabulate existing run folders")
     args = ap.parse_args(argv)
     if args.workers < 1:
@@ -137,39 +143,22 @@ def main(argv: list[str] | None = None) -> int:
     if args.all and args.ids:
         ids = list(dict.fromkeys(ids + all_ids()))
     try:
-        for sid in ids:
-            config_path(sid)
-    except ValueError as err:
+        sweep = select(ids, args.set)
+    except (ValueError, ConfigError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    results: dict[str, dict] = {}
     if args.table_only:
         results = load_existing(out, ids)
     else:
-        with ProcessPoolExecutor(max_workers=args.workers) as ex:
-            futs = {ex.submit(run_one, sid, str(out), args.set, args.video, args.overwrite, args.resume): sid
-                    for sid in ids}
-            for fut in as_completed(futs):
-                sid = futs[fut]
-                try:
-                    results[sid] = fut.result()
-                    s = results[sid]
-                    print(f"{sid}: {s.get('status')} in {s.get('script_wall_time_s', float('nan')):.0f} s",
-                          file=sys.stderr)
-                except Exception as err:  # keep the other runs going; report at the end
-                    results[sid] = {"status": "error", "error": f"{type(err).__name__}: {err}"}
-                    traceback.print_exc()
-        results = {sid: results[sid] for sid in ids if sid in results}
-    from magsail_mj.io import atomic_path, to_jsonable, write_json
-
+        results = run_all(sweep, out, workers=args.workers, video=args.video, overwrite=args.overwrite)
     write_json(out / "summary.json", to_jsonable(results))
     text = markdown(results, args.set)
     with atomic_path(out / "summary.md") as tmp:
         tmp.write_text(text)
     print(text)
-    return 1 if any(v.get("status") == "error" for v in results.values()) else 0
+    return 1 if any("error" in v for v in results.values()) else 0
 
 
 if __name__ == "__main__":
