@@ -8,6 +8,7 @@ previous version intact.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import json
 import math
 import os
@@ -28,6 +29,9 @@ __all__ = [
     "package_versions",
     "prepare_run_dir",
     "RunDirError",
+    "OutputPathError",
+    "remove_earlier_run",
+    "run_dir_lock",
     "to_jsonable",
 ]
 
@@ -39,10 +43,33 @@ class RunDirError(RuntimeError):
     """The output folder cannot be used (it holds another run and overwriting was not asked)."""
 
 
+class OutputPathError(RunDirError):
+    """An output path names something that is not a regular file (a folder, a device, a pipe)."""
+
+
+@contextlib.contextmanager
+def run_dir_lock(folder: str | Path) -> Iterator[None]:
+    """Hold an exclusive lock on a run folder (``flock`` on the folder itself: no file is made)
+    while a run writes into it; another run into the same folder (a sweep worker, a second
+    ``magsail run``) is refused with :class:`RunDirError`. The kernel drops the lock when the
+    process ends, so none is ever stale."""
+    fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise RunDirError(f"--out {folder}: another run is writing into this folder now") from None
+        yield
+    finally:
+        os.close(fd)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | Path, suffix: str = "") -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success it replaces ``path`` atomically."""
     path = Path(path)
+    if path.exists() and not path.is_file():  # a folder, a device, a pipe: never replaced by a file
+        raise OutputPathError(f"{path}: exists and is not a regular file")
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix, dir=path.parent)
     os.close(fd)
@@ -117,11 +144,11 @@ def prepare_run_dir(out_dir: str | Path, *, overwrite: bool = False, resume: boo
     """Create ``out_dir`` or check it may be reused; nothing is written before every check passed.
 
     A folder that already holds a ``manifest.json`` or a checkpoint belongs to an earlier run: it
-    is reused only with ``overwrite=True`` (the earlier run's files — those its manifest lists, its
-    checkpoint and record segments, plots and video — are removed first, so no file of it stays
-    beside the new ones) or ``resume=True``; otherwise :class:`RunDirError` names it, so nothing
-    the user had is overwritten silently. ``check(folder)`` runs after these checks and before
-    anything is created (the resume check).
+    is reused only with ``overwrite=True`` (the caller then removes the earlier run's files with
+    :func:`remove_earlier_run` once it holds the folder's :func:`run_dir_lock`) or
+    ``resume=True``; otherwise :class:`RunDirError` names it, so nothing the user had is
+    overwritten silently. ``check(folder)`` runs after these checks and before anything is
+    created (the resume check).
     """
     if str(out_dir).strip() == "":
         raise RunDirError("--out: must name a folder, got an empty path")
@@ -152,8 +179,6 @@ def prepare_run_dir(out_dir: str | Path, *, overwrite: bool = False, resume: boo
         probe.unlink()
     except OSError as err:
         raise RunDirError(f"--out {out}: cannot write there ({err.strerror or err})") from None
-    if overwrite and earlier:
-        _remove_earlier_run(out)
     return out
 
 
@@ -161,7 +186,7 @@ _RUN_FILE_PATTERNS = ("manifest.json", "summary.json", "timeseries.npz", "model.
                       "checkpoint*.npz", "checkpoint*.pkl")
 
 
-def _remove_earlier_run(out: Path) -> None:
+def remove_earlier_run(out: Path) -> None:
     """Delete the files of the run in ``out`` (its manifest's list and the run file patterns)."""
     names: set[str] = set()
     try:

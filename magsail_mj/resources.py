@@ -260,6 +260,8 @@ def environment_bytes(cfg: Any) -> float:
     :data:`ENVIRONMENT_ROW_BYTES` (``h = field.sample_step_s``); 0 for configs without one."""
     field, sim = getattr(cfg, "field", None), getattr(cfg, "sim", None)
     step = getattr(field, "sample_step_s", None)
+    if getattr(cfg, "kind", None) == "lifetime":
+        return 0.0  # the lifetime analysis propagates orbit elements; it samples no environment grid
     if not hasattr(cfg, "environment_config") or step is None or sim is None:
         return 0.0
     return (float(sim.duration_s) + 2.0 * float(step)) / float(step) * ENVIRONMENT_ROW_BYTES

@@ -18,24 +18,33 @@ Guarantees:
 * Every run uses one BLAS/OpenMP thread (threadpoolctl), whatever started it, so the numbers
   do not depend on the entry point or the machine's core count; the settings are in the
   manifest.
-* An interrupt (Ctrl-C) during the simulation keeps what was recorded: the outputs are written
-  with status ``"interrupted"`` and :class:`RunInterrupted` is raised.
+* An interrupt (Ctrl-C, SIGTERM) during the simulation keeps what was recorded: the outputs are
+  written with status ``"interrupted"`` and :class:`RunInterrupted` is raised. While the numbers'
+  files (time series, summary, plots, manifest) are written, SIGINT and SIGTERM are held and act
+  when the files are complete; the video can be interrupted at any time.
+* One run at a time per folder: a run holds the folder's lock (:func:`magsail_mj.io.run_dir_lock`)
+  while it writes, so a second run into it (a sweep worker, another ``magsail run``) is refused.
 """
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import hashlib
 import json
+import signal
+import threading
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 from threadpoolctl import threadpool_info, threadpool_limits
 
 from magsail_mj.api import load
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
 from magsail_mj.config import ConfigError, config_hash, numbers_hash
-from magsail_mj.io import atomic_path, package_versions, prepare_run_dir, write_json, write_npz
+from magsail_mj.io import (
+    atomic_path, package_versions, prepare_run_dir, remove_earlier_run, run_dir_lock, write_json, write_npz,
+)
 from magsail_mj.render import render_run
 
 __all__ = ["run_scenario", "RunOutcome", "RunInterrupted", "CHECKPOINT_NAME"]
@@ -129,56 +138,99 @@ def _run(cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool,
     identity = run_identity(numbers_hash(cfg))
     run_dir = prepare_run_dir(out_dir, overwrite=overwrite, resume=resume,
                               check=(lambda d: check_resume(d, identity, _n_steps(cfg))) if resume else None)
+    with run_dir_lock(run_dir):
+        if overwrite:
+            remove_earlier_run(run_dir)
+        return _run_locked(cfg, sim, run_dir, identity, video=video, resume=resume, progress=progress,
+                           stop_after_s=stop_after_s)
+
+
+def _run_locked(cfg: Any, sim: Any, run_dir: Path, identity: dict[str, Any], *, video: bool, resume: bool,
+                progress: bool, stop_after_s: float | None) -> RunOutcome:
+    scenario = sim.scenario
     with atomic_path(run_dir / "model.xml") as tmp:
         tmp.write_text(scenario.spec.to_xml())
     ckpt = run_dir / CHECKPOINT_NAME if (cfg.sim.checkpoint_every_s > 0 or stop_after_s is not None or resume) else None
     result = sim.run(progress=progress, checkpoint_path=ckpt, resume=resume, stop_after_s=stop_after_s)
-    summary, series, plots = _outputs(scenario, result, run_dir)
-    summary = {"scenario": cfg.scenario, **summary, "status": result.status, "status_message": result.message}
-    write_json(run_dir / "summary.json", summary)
-    files = ["model.xml", "timeseries.npz", "summary.json", *[p.name for p in plots]]
-    manifest = {
-        "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "concept": cfg.concept,
-        "scenario": cfg.scenario,
-        "config": cfg.model_dump(mode="json"),
-        "config_hash": config_hash(cfg),
-        "numbers_hash": identity["numbers_hash"],
-        "seed": cfg.sim.seed,
-        "versions": package_versions(),
-        "threads": thread_settings(),
-        "status": result.status,
-        "status_message": result.message,
-        "t_end_s": result.t_end_s,
-        "steps": result.steps,
-        "wall_time_s": result.wall_time_s,
-        "render": scenario.render_info(),
-        **scenario.manifest_extra(),
-    }
-    manifest["files"] = {name: _sha256(run_dir / name) for name in files}
-    status = result.status
-    if video and status != "interrupted":
-        info = manifest["render"]
-        try:
-            render_run(run_dir, run_dir / "video.mp4", fps=info.get("fps", 30), max_frames=info.get("max_frames", 600),
-                       render_info=info)
-        except KeyboardInterrupt:
-            write_json(run_dir / "manifest.json", {**manifest, "status": "interrupted",
-                                                   "status_message": "interrupted while rendering video.mp4"})
-            raise
-        except Exception as err:  # noqa: BLE001 - the run's numbers stay; the run is marked failed
-            status = "failed"
-            manifest.update(status=status, status_message=f"video.mp4 could not be rendered: "
-                                                          f"{type(err).__name__}: {err}")
-        else:
-            manifest["files"]["video.mp4"] = _sha256(run_dir / "video.mp4")
-    write_json(run_dir / "manifest.json", manifest)
-    out = RunOutcome({**summary, "status": status, "status_message": manifest["status_message"]})
+    status, message = result.status, result.message
+    with deferred_interrupts() as pending:  # the numbers' files are written whole, even on Ctrl-C
+        summary, series, plots = _outputs(scenario, result, run_dir)
+        summary = {"scenario": cfg.scenario, **summary, "t_end_s": result.t_end_s, "status": status,
+                   "status_message": message}
+        write_json(run_dir / "summary.json", summary)
+        files = ["model.xml", "timeseries.npz", "summary.json", *[p.name for p in plots]]
+        manifest = {
+            "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "concept": cfg.concept,
+            "scenario": cfg.scenario,
+            "config": cfg.model_dump(mode="json"),
+            "config_hash": config_hash(cfg),
+            "numbers_hash": identity["numbers_hash"],
+            "seed": cfg.sim.seed,
+            "versions": package_versions(),
+            "threads": thread_settings(),
+            "status": status,
+            "status_message": message,
+            "t_end_s": result.t_end_s,
+            "steps": result.steps,
+            "wall_time_s": result.wall_time_s,
+            "render": scenario.render_info(),
+            **scenario.manifest_extra(),
+        }
+        manifest["files"] = {name: _sha256(run_dir / name) for name in files}
+        if not video or status == "interrupted":
+            write_json(run_dir / "manifest.json", manifest)
+    if pending and video and status != "interrupted":  # Ctrl-C while the numbers were written: no video
+        status, message = "interrupted", "interrupted before video.mp4 was rendered (the numbers are complete)"
+        manifest.update(status=status, status_message=message)
+        write_json(run_dir / "manifest.json", manifest)
+    elif video and status != "interrupted":
+        status, message = _render_video(run_dir, manifest)
+        if status == "failed":  # the summary says so too
+            write_json(run_dir / "summary.json", {**summary, "status": status, "status_message": message})
+        write_json(run_dir / "manifest.json", manifest)
+    out = RunOutcome({**summary, "status": status, "status_message": message})
     out.run_dir = run_dir
     out.status = status
-    if status == "interrupted":
+    if status == "interrupted" or pending:
         raise RunInterrupted(out)
     return out
+
+
+def _render_video(run_dir: Path, manifest: dict[str, Any]) -> tuple[str, str]:
+    """Render ``video.mp4`` and update ``manifest`` (files, or status ``failed`` with the reason);
+    an interrupt writes the manifest as ``interrupted`` and propagates."""
+    info = manifest["render"]
+    try:
+        render_run(run_dir, run_dir / "video.mp4", fps=info.get("fps", 30), max_frames=info.get("max_frames", 600),
+                   render_info=info)
+    except KeyboardInterrupt:
+        write_json(run_dir / "manifest.json", {**manifest, "status": "interrupted",
+                                               "status_message": "interrupted while rendering video.mp4"})
+        raise
+    except Exception as err:  # noqa: BLE001 - the run's numbers stay; the run is marked failed
+        manifest.update(status="failed", status_message=f"video.mp4 could not be rendered: {type(err).__name__}: {err}")
+    else:
+        manifest["files"]["video.mp4"] = _sha256(run_dir / "video.mp4")
+    return manifest["status"], manifest["status_message"]
+
+
+@contextlib.contextmanager
+def deferred_interrupts() -> Iterator[list[int]]:
+    """Hold SIGINT and SIGTERM while a block writes files that belong together; yields the list of
+    signals that arrived (empty: none). Outside the main thread signals cannot be held: no-op."""
+    pending: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield pending
+        return
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    for sig in previous:
+        signal.signal(sig, lambda signum, _frame: pending.append(signum))
+    try:
+        yield pending
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 def _outputs(scenario: Any, result: Any, run_dir: Path) -> tuple[dict[str, Any], dict[str, Any], list[Path]]:

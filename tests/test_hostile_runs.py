@@ -61,6 +61,7 @@ def test_truss_blow_up_is_diverged_at_the_first_bad_state(tmp_path, capsys, capl
     manifest = json.loads((tmp_path / "x/manifest.json").read_text())
     assert summary["status"] == manifest["status"] == "diverged"
     t_div = float(re.search(r"t = ([0-9.eE+-]+) s", manifest["status_message"]).group(1))
+    assert summary["t_end_s"] == manifest["t_end_s"] == t_div
     first = min(_mujoco_times(caplog))
     assert abs(t_div - first) <= dt * (1 + 1e-9), (t_div, first)
     ts = np.load(tmp_path / "x/timeseries.npz")
@@ -360,3 +361,74 @@ def test_run_and_sweep_give_identical_numbers(tmp_path):
     ma = json.loads((tmp_path / "run/manifest.json").read_text())
     mb = json.loads((tmp_path / "sweep/a/manifest.json").read_text())
     assert ma["threads"] and all(p["num_threads"] == 1 for p in ma["threads"]) and ma["threads"] == mb["threads"]
+
+
+# ---------------------------------------------------------------------------------- found by a hostile run
+def test_every_shipped_config_validates_within_the_memory_limit(capsys):
+    """``magsail validate`` accepts every shipped config (the lifetime analysis once needed 3 TiB
+    by a memory estimate that counted an environment grid it never builds)."""
+    from magsail_mj.sweep import is_sweep_file
+
+    for path in sorted(MODELS.rglob("*.toml")):
+        if is_sweep_file(path):
+            continue
+        assert main(["validate", str(path)]) == 0, (path, capsys.readouterr().err)
+
+
+def test_outputs_never_replace_a_device_pipe_or_folder(tmp_path, capsys):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    config = str(MODELS / "cnusail/detumble_pre.toml")
+    for target in (fifo, tmp_path):
+        assert main(["build", config, "-o", str(target)]) == 2
+        assert "error:" in capsys.readouterr().err
+    assert fifo.is_fifo()
+
+
+def test_a_folder_with_a_run_in_progress_is_refused(tmp_path, small_truss_tree):
+    from magsail_mj.io import RunDirError, run_dir_lock
+
+    cfg = _cfg(small_truss_tree, "sim.duration_s=1.0")
+    run_scenario(cfg, tmp_path / "busy")
+    before = _folder_digest(tmp_path / "busy")
+    with run_dir_lock(tmp_path / "busy"):  # as a sweep worker or another `magsail run` holds it
+        with pytest.raises(RunDirError, match="another run is writing"):
+            run_scenario(cfg, tmp_path / "busy", overwrite=True)
+    assert _folder_digest(tmp_path / "busy") == before
+
+
+def test_a_failed_video_marks_summary_and_manifest_failed(tmp_path, small_truss_tree, monkeypatch):
+    from magsail_mj import run as run_module
+
+    def broken_renderer(*args, **kwargs):
+        raise RuntimeError("no GL context")
+
+    monkeypatch.setattr(run_module, "render_run", broken_renderer)
+    out = run_scenario(_cfg(small_truss_tree, "sim.duration_s=1.0"), tmp_path / "v", video=True)
+    summary = json.loads((tmp_path / "v/summary.json").read_text())
+    manifest = json.loads((tmp_path / "v/manifest.json").read_text())
+    assert out.status == summary["status"] == manifest["status"] == "failed"
+    assert "no GL context" in summary["status_message"] and "video.mp4" not in manifest["files"]
+
+
+def test_ctrl_c_while_outputs_are_written_leaves_them_whole(tmp_path, small_truss_tree, monkeypatch):
+    """SIGINT during the plots: held until the numbers' files are written, then the run ends as
+    interrupted (exit 130 on the command line) with a complete folder."""
+    import signal
+
+    from magsail_mj.scenarios import truss
+
+    original = truss.TrussScenario.plots
+
+    def plots_then_signal(self, *args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(truss.TrussScenario, "plots", plots_then_signal)
+    with pytest.raises(RunInterrupted):
+        run_scenario(_cfg(small_truss_tree, "sim.duration_s=1.0"), tmp_path / "c")
+    manifest = json.loads((tmp_path / "c/manifest.json").read_text())
+    assert manifest["status"] == "completed"
+    assert set(manifest["files"]) >= {"summary.json", "timeseries.npz", "model.xml"}
+    for name, digest in manifest["files"].items():
+        assert hashlib.sha256((tmp_path / "c" / name).read_bytes()).hexdigest() == digest
