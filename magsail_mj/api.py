@@ -28,7 +28,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from magsail_mj.checkpoint import run_identity
-from magsail_mj.config import apply_overrides, load_config, numbers_hash, parse_config
+from magsail_mj.config import apply_overrides, load_config, numbers_hash, numbers_tree, parse_config
 from magsail_mj.scenarios import build_scenario
 
 __all__ = ["load"]
@@ -52,5 +52,5 @@ def load(config: str | Path | BaseModel, overrides: list[str] | tuple[str, ...] 
     sim = scenario.simulation()
     sim.scenario, sim.cfg = scenario, cfg
     if hasattr(sim, "identity"):
-        sim.identity = run_identity(numbers_hash(cfg))
+        sim.identity = run_identity(numbers_hash(cfg), numbers_tree(cfg))
     return sim

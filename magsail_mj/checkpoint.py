@@ -520,20 +520,37 @@ def read_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, np.ndarray], 
     return header, state, extra
 
 
-def run_identity(numbers_hash: str | None) -> dict[str, Any]:
+def run_identity(numbers_hash: str | None, numbers_config: dict[str, Any] | None = None) -> dict[str, Any]:
     """What a checkpoint must match to be resumed: the hash of every config key that changes the
     numbers (see :func:`magsail_mj.config.numbers_hash`) and the versions of magsail_mj, MuJoCo
-    and NumPy."""
+    and NumPy; ``numbers_config`` (the hashed tree) lets a refusal name the keys that differ."""
     versions = package_versions()
-    return {"numbers_hash": numbers_hash, "versions": {k: versions[k] for k in ("magsail_mj", "mujoco", "numpy")}}
+    out = {"numbers_hash": numbers_hash, "versions": {k: versions[k] for k in ("magsail_mj", "mujoco", "numpy")}}
+    if numbers_config is not None:
+        out["numbers_config"] = numbers_config
+    return out
+
+
+def _differing_keys(a: Any, b: Any, prefix: str = "") -> list[str]:
+    """Key paths whose values differ between two JSON trees."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        out: list[str] = []
+        for key in sorted(set(a) | set(b)):
+            out += _differing_keys(a.get(key), b.get(key), f"{prefix}{key}.")
+        return out
+    return [] if a == b else [f"{prefix.rstrip('.')} (checkpoint {a!r}, now {b!r})"]
 
 
 def check_identity(header: dict[str, Any], identity: dict[str, Any], *, path: Path) -> None:
     """Raise :class:`CheckpointError` listing what differs between a checkpoint and this run."""
     problems = []
     if header.get("numbers_hash") != identity.get("numbers_hash"):
-        problems.append("the config differs in keys that change the numbers (only sim.duration_s, "
-                        "sim.checkpoint_every_s, sim.progress and [render] may change on resume)")
+        keys = _differing_keys(header.get("numbers_config"), identity.get("numbers_config")) \
+            if "numbers_config" in header and "numbers_config" in identity else []
+        problems.append("the config differs in keys that change the numbers"
+                        + (f": {', '.join(keys[:10])}" if keys else "")
+                        + " (only sim.duration_s, sim.checkpoint_every_s, sim.progress and [render] may change "
+                          "on resume)")
     have, want = header.get("versions") or {}, identity.get("versions") or {}
     for name in sorted(set(have) | set(want)):
         if have.get(name) != want.get(name):

@@ -60,6 +60,7 @@ __all__ = [
     "load_config",
     "normalised",
     "numbers_hash",
+    "numbers_tree",
     "parse_config",
     "read_toml",
     "register_concept",
@@ -598,6 +599,12 @@ def numbers_hash(cfg: BaseModel) -> str:
     ``sim.duration_s`` on resume stays allowed); any other change (a gain, a mass, the time step,
     the seed) changes it.
     """
+    return _canonical_hash(numbers_tree(cfg))
+
+
+def numbers_tree(cfg: BaseModel) -> dict[str, Any]:
+    """The validated config as a JSON tree without the presentation keys (what
+    :func:`numbers_hash` hashes)."""
     tree = cfg.model_dump(mode="json")
     for key in PRESENTATION_KEYS:
         *parents, last = key.split(".")
@@ -606,4 +613,4 @@ def numbers_hash(cfg: BaseModel) -> str:
             node = node.get(part, {}) if isinstance(node, dict) else {}
         if isinstance(node, dict):
             node.pop(last, None)
-    return _canonical_hash(tree)
+    return tree

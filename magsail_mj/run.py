@@ -34,14 +34,16 @@ import hashlib
 import json
 import signal
 import threading
+import zipfile
 from pathlib import Path
 from typing import Any, Iterator
 
+import numpy as np
 from threadpoolctl import threadpool_info, threadpool_limits
 
 from magsail_mj.api import load
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
-from magsail_mj.config import ConfigError, config_hash, numbers_hash
+from magsail_mj.config import ConfigError, config_hash, numbers_hash, numbers_tree
 from magsail_mj.io import (
     atomic_path, package_versions, prepare_run_dir, remove_earlier_run, run_dir_lock, write_json, write_npz,
 )
@@ -89,6 +91,15 @@ def check_resume(run_dir: Path, identity: dict[str, Any], n_steps: int) -> None:
     ckpt = Path(run_dir) / CHECKPOINT_NAME
     header, _, _ = read_checkpoint(ckpt)
     check_identity(header, identity, path=ckpt)
+    for name in header.get("segments", []):  # the records before the checkpoint must all be there
+        if not isinstance(name, str) or "/" in name or not (Path(run_dir) / name).is_file():
+            raise CheckpointError(f"--resume: record segment {name!r} of checkpoint {ckpt} is missing")
+        try:
+            with np.load(Path(run_dir) / name, allow_pickle=False) as npz:
+                npz.files  # noqa: B018 - opening the archive's index checks it is whole
+        except (OSError, ValueError, zipfile.BadZipFile) as err:
+            raise CheckpointError(f"--resume: record segment {name!r} of checkpoint {ckpt} is unreadable "
+                                  f"({type(err).__name__}: {err})") from None
     step = int(header.get("step", -1))
     if not 0 <= step <= n_steps:
         raise CheckpointError(f"--resume: checkpoint {ckpt} is at t = {header.get('t_s')} s, beyond "
@@ -135,7 +146,7 @@ def _run(cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool,
         option = "--resume" if resume else "--stop-after-s"
         raise ConfigError([f"{option}: scenario {cfg.scenario!r} ({type(sim).__name__}) has no checkpoints to stop at "
                            "or resume from"])
-    identity = run_identity(numbers_hash(cfg))
+    identity = run_identity(numbers_hash(cfg), numbers_tree(cfg))
     run_dir = prepare_run_dir(out_dir, overwrite=overwrite, resume=resume,
                               check=(lambda d: check_resume(d, identity, _n_steps(cfg))) if resume else None)
     with run_dir_lock(run_dir):

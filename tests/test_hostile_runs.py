@@ -161,7 +161,7 @@ def test_resume_with_another_config_is_refused_and_touches_nothing(tmp_path, sma
     run_scenario(cfg, tmp_path / "r", stop_after_s=3.0)
     before = _folder_digest(tmp_path / "r")
     for change in ("profile.tau_max_Nm=0.02", "sim.timestep_s=0.05", "sim.seed=3", "damping.zeta_strut=0.2"):
-        with pytest.raises(CheckpointError, match="another run"):
+        with pytest.raises(CheckpointError, match=f"another run.*{re.escape(change.split('=')[0])}"):
             run_scenario(_cfg(small_truss_tree, "sim.duration_s=6.0", "sim.checkpoint_every_s=2.0", change),
                          tmp_path / "r", resume=True)
         assert _folder_digest(tmp_path / "r") == before, change
@@ -432,3 +432,13 @@ def test_ctrl_c_while_outputs_are_written_leaves_them_whole(tmp_path, small_trus
     assert set(manifest["files"]) >= {"summary.json", "timeseries.npz", "model.xml"}
     for name, digest in manifest["files"].items():
         assert hashlib.sha256((tmp_path / "c" / name).read_bytes()).hexdigest() == digest
+
+
+def test_resume_with_a_missing_record_segment_is_refused_before_anything(tmp_path, small_truss_tree):
+    cfg = _cfg(small_truss_tree, "sim.duration_s=6.0", "sim.checkpoint_every_s=1.0")
+    run_scenario(cfg, tmp_path / "r", stop_after_s=4.0)
+    (tmp_path / "r/checkpoint.records0001.npz").unlink()
+    before = _folder_digest(tmp_path / "r")
+    with pytest.raises(CheckpointError, match="records0001.npz.*missing"):
+        run_scenario(cfg, tmp_path / "r", resume=True)
+    assert _folder_digest(tmp_path / "r") == before
