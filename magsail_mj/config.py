@@ -413,7 +413,7 @@ def _parse_literal(text: str) -> Any:
     """Parse ``text`` as a TOML value; bare words that are not TOML become strings."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError, ValueError):  # not TOML, nested too deeply, > 4 300 digits
         return text
 
 
@@ -548,6 +548,10 @@ def _read_tree(path: Path) -> dict[str, Any]:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise ConfigError([f"not valid TOML: {err}"], source=str(path)) from None
+    except RecursionError:
+        raise ConfigError(["not a config: arrays or tables nested too deeply to read"], source=str(path)) from None
+    except ValueError as err:  # e.g. an integer of more than 4 300 digits
+        raise ConfigError([f"not a config: a value cannot be read ({err})"], source=str(path)) from None
 
 
 def _mark_override_keys(problems: list[str], overrides: list[str] | tuple[str, ...]) -> list[str]:

@@ -442,3 +442,18 @@ def test_resume_with_a_missing_record_segment_is_refused_before_anything(tmp_pat
     with pytest.raises(CheckpointError, match="records0001.npz.*missing"):
         run_scenario(cfg, tmp_path / "r", resume=True)
     assert _folder_digest(tmp_path / "r") == before
+
+
+def test_unreadable_values_are_config_errors(tmp_path, capsys):
+    deep = tmp_path / "deep.toml"
+    deep.write_text('concept = "cnusail"\nv = ' + "[" * 5000 + "]" * 5000 + "\n")
+    digits = tmp_path / "digits.toml"
+    digits.write_text("[sim]\nseed = " + "9" * 5000 + "\n")
+    for path in (deep, digits):
+        assert main(["validate", str(path)]) == 2
+        assert "error: invalid config" in capsys.readouterr().err
+    config = str(MODELS / "cnusail/detumble_pre.toml")
+    assert main(["validate", config, "--set", "sim.seed=" + "9" * 5000]) == 2
+    assert "sim.seed" in capsys.readouterr().err
+    assert main(["torque", "coil", "--current-a", "1e300", "--field-t", "1e300"]) == 2
+    assert "current_A" in capsys.readouterr().err

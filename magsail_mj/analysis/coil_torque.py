@@ -141,7 +141,8 @@ def path_report(path: CoilPath, *, current_A: float, field_T: float) -> dict[str
     }
     for k, ax in enumerate("xyz"):
         out[f"T_B{ax}_N_m"] = (I * field_T * M[:, k]).tolist()
-    out["singular_values_N_m"] = np.linalg.svd(I * field_T * M, compute_uv=False).tolist()
+    # σ(I B M) = |I B| σ(M): the path's own matrix is decomposed, then scaled (no SVD of overflowed values)
+    out["singular_values_N_m"] = (abs(I * field_T) * np.linalg.svd(M, compute_uv=False)).tolist()
     for k, ax in enumerate("xyz"):
         out[f"net_force_B{ax}_N"] = net_force(path.nodes, field_T * np.eye(3)[k], current=I).tolist()
     out["closed_lead_dipole_A_m2"] = closed_lead_dipole(path.nodes, current=I).tolist()
