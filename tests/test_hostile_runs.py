@@ -457,3 +457,18 @@ def test_unreadable_values_are_config_errors(tmp_path, capsys):
     assert "sim.seed" in capsys.readouterr().err
     assert main(["torque", "coil", "--current-a", "1e300", "--field-t", "1e300"]) == 2
     assert "current_A" in capsys.readouterr().err
+
+
+def test_an_unusable_mujoco_gl_does_not_break_the_verbs(tmp_path):
+    """MuJoCo refuses to import under an invalid MUJOCO_GL; magsail_mj replaces it (warning) so
+    that every verb works and rendering uses a backend that exists."""
+    import subprocess
+    import sys
+
+    env = {**os.environ, "MUJOCO_GL": "bogus"}
+    env.pop("PYOPENGL_PLATFORM", None)
+    proc = subprocess.run([sys.executable, "-m", "magsail_mj.cli", "validate",
+                           str(MODELS / "cnusail/detumble_pre.toml")], env=env, capture_output=True, text=True,
+                          cwd=tmp_path, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr and "MUJOCO_GL='bogus'" in proc.stderr

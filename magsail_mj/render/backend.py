@@ -43,6 +43,9 @@ __all__ = [
 
 #: The headless backends this module chooses between, in fallback order.
 HEADLESS_BACKENDS = ("osmesa", "egl")
+#: the values MuJoCo's GL context accepts on Linux (it raises at import for any other)
+_MUJOCO_GL_VALUES = ("enable", "enabled", "on", "true", "1", "glfw", "", "glx", "egl", "osmesa",
+                     "disable", "disabled", "off", "false", "0")
 
 INSTALL_HINT = (
     "Install the OSMesa software renderer (works without a GPU or display): "
@@ -83,7 +86,9 @@ def ensure_gl_backend() -> str:
     loadable, else to ``"egl"``; ``PYOPENGL_PLATFORM`` is set to the same value (MuJoCo's
     ``mujoco.osmesa``/``mujoco.egl`` modules refuse to load under a different one). A
     ``MUJOCO_GL`` that is already set is kept (``PYOPENGL_PLATFORM`` is filled in for
-    ``osmesa``/``egl`` if unset). Idempotent and cheap (no ``mujoco``/``OpenGL`` import).
+    ``osmesa``/``egl`` if unset), unless MuJoCo could not import under it (a value it does not
+    accept, or ``osmesa`` without ``libOSMesa``): then it is replaced by the choice above, with a
+    :class:`RuntimeWarning`. Idempotent and cheap (no ``mujoco``/``OpenGL`` import).
 
     If ``mujoco`` was already imported, the choice cannot take effect at import time any more;
     a :class:`RuntimeWarning` says so, and :func:`make_renderer` applies the choice when it
@@ -93,11 +98,17 @@ def ensure_gl_backend() -> str:
       the value of ``MUJOCO_GL`` now in effect (lower case).
     """
     current = os.environ.get("MUJOCO_GL", "").strip().lower()
-    if current:
+    unusable = current and (current not in _MUJOCO_GL_VALUES or (current == "osmesa" and not osmesa_available()))
+    if current and not unusable:
         if current in HEADLESS_BACKENDS and not os.environ.get("PYOPENGL_PLATFORM"):
             os.environ["PYOPENGL_PLATFORM"] = current
         return current
     choice = "osmesa" if osmesa_available() else "egl"
+    if unusable:  # MuJoCo would refuse to import under it: every verb would fail, not only rendering
+        warnings.warn(f"MUJOCO_GL={current!r} is not a backend MuJoCo can use here (one of "
+                      f"{', '.join(sorted(set(_MUJOCO_GL_VALUES) - {''}))}; osmesa needs libOSMesa); "
+                      f"using MUJOCO_GL={choice!r}", RuntimeWarning, stacklevel=2)
+        os.environ.pop("PYOPENGL_PLATFORM", None)
     platform = os.environ.get("PYOPENGL_PLATFORM", "").strip().lower()
     if platform and platform != choice:
         warnings.warn(
