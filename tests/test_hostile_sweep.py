@@ -216,21 +216,34 @@ def test_folder_lock_is_refused_in_process(tmp_path, capsys):
         run_sweep(load_sweep(sweep), file_out, log=None)
 
 
-def test_a_run_process_killed_mid_run_is_recorded_failed_when_no_retry_is_left(tmp_path):
-    sweep = load_sweep(_sweep_file(tmp_path, ["slow/a"], SLOW))
+def test_a_killed_run_process_is_retried_from_its_checkpoint_until_no_retry_is_left(tmp_path):
+    """Run "a" is killed once: its retry resumes from the checkpoint and completes. Run "b" is
+    killed in both of its attempts: it fails, naming the signal."""
+    checkpointing = ["lattice.units=3", "sim.duration_s=12.0", "sim.timestep_s=0.001", "sim.record_every=100",
+                     "sim.checkpoint_every_s=1.0", "sim.progress=false"]
+    sweep = load_sweep(_sweep_file(tmp_path, ["a", "b"], checkpointing))
     out = tmp_path / "out"
     box = {}
-    before = set(_run_processes(os.getpid()))  # run processes of earlier tests, if any
-    thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, log=None, retries=0)))
+
+    def run_process(rid: str, exclude: int = 0) -> int:
+        found = [p for p, cmd in _run_processes(os.getpid()).items() if cmd.endswith(f"--run {rid} ") and p != exclude]
+        return found[0] if found else 0
+
+    thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, log=None, workers=2,
+                                                                          retries=1)))
     thread.start()
     try:
-        _wait_for(lambda: (out / "slow" / "a" / "model.xml").exists(), 90, "the run to start")
-        (pid,) = set(_run_processes(os.getpid())) - before
-        os.kill(pid, signal.SIGKILL)
+        _wait_for(lambda: all((out / r / "checkpoint.npz").exists() for r in ("a", "b")), 90, "both checkpoints")
+        first_b = run_process("b")
+        for rid in ("a", "b"):
+            os.kill(run_process(rid), signal.SIGKILL)
+        _wait_for(lambda: run_process("b", exclude=first_b), 60, "the retry of b")
+        os.kill(run_process("b", exclude=first_b), signal.SIGKILL)
     finally:
-        thread.join(timeout=60)
-    (record,) = box["records"]
-    assert record["status"] == "failed" and "SIGKILL" in record["message"] and record["attempts"] == 1
+        thread.join(timeout=90)
+    a, b = box["records"]
+    assert (a["status"], a["attempts"]) == ("completed", 2) and a["resumed_from_s"] > 0
+    assert (b["status"], b["attempts"]) == ("failed", 2) and "SIGKILL" in b["message"]
     assert sweep_exit_code(box["records"]) == 1
 
 

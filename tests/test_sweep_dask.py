@@ -25,8 +25,8 @@ from magsail_mj.sweep.runner import run_one
 ROOT = Path(__file__).resolve().parents[1]
 CFG_A = ROOT / "models" / "current_loops" / "sweep" / "a_n12_ei1e3.toml"
 DASK = Path(sys.executable).with_name("dask")
-# ~25k RK4 steps (a few seconds), a checkpoint every simulated second
-CHECKPOINTING = ["lattice.units=3", "sim.duration_s=25.0", "sim.timestep_s=0.001", "sim.record_every=100",
+# ~12k RK4 steps (a few seconds with the outputs), a checkpoint every simulated second
+CHECKPOINTING = ["lattice.units=3", "sim.duration_s=12.0", "sim.timestep_s=0.001", "sim.record_every=100",
                  "sim.checkpoint_every_s=1.0", "sim.progress=false"]
 
 
@@ -49,15 +49,18 @@ def _parent(pid: int) -> int:
     return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
 
 
-def _run_process_pids() -> list[int]:
-    pids = []
+def _run_processes_below(nannies) -> dict[int, int]:
+    """Run processes (``python -m magsail_mj.sweep``) started by the workers of ``nannies``: pid → nanny."""
+    found = {}
     for entry in Path("/proc").iterdir():
         try:
             if entry.name.isdigit() and b"-m\0magsail_mj.sweep\0" in (entry / "cmdline").read_bytes():
-                pids.append(int(entry.name))
-        except OSError:
+                nanny = _parent(_parent(int(entry.name)))  # run process <- worker process <- `dask worker`
+                if nanny in nannies:
+                    found[int(entry.name)] = nanny
+        except (OSError, IndexError, ValueError):
             continue
-    return pids
+    return found
 
 
 @pytest.fixture
@@ -93,13 +96,10 @@ def test_killed_worker_is_retried_elsewhere_and_resumes_bit_identically(tmp_path
     out = tmp_path / "out"
     box = {}
     thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, scheduler=address, log=None)))
-    before = set(_run_process_pids())
     thread.start()
     try:
         _wait_for(lambda: (out / "ck" / "checkpoint.npz").exists(), 120, "the run's first checkpoint")
-        (pid,) = set(_run_process_pids()) - before
-        nanny = _parent(_parent(pid))  # run process <- Dask worker process <- `dask worker` (nanny)
-        assert nanny in nannies
+        ((pid, nanny),) = _run_processes_below(nannies).items()
         os.killpg(nanny, signal.SIGKILL)  # the whole `dask worker`: nanny and worker process
     finally:
         thread.join(timeout=180)

@@ -242,7 +242,8 @@ def _start(run: SweepRun, out: Path, *, video: bool, fresh: bool) -> tuple[subpr
     """Start the run process; returns it and the read end of its result pipe."""
     read_fd, write_fd = os.pipe()
     try:
-        proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.sweep"], stdin=subprocess.PIPE,
+        # the run id on the command line names the process in ps/top (the job itself comes on stdin)
+        proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.sweep", "--run", run.id], stdin=subprocess.PIPE,
                                 pass_fds=(write_fd,), start_new_session=True)
     finally:
         os.close(write_fd)
