@@ -5,7 +5,15 @@ from magsail_mj.render.backend import ensure_gl_backend as _ensure_gl_backend
 
 _ensure_gl_backend()
 
-from magsail_mj.api import load  # noqa: E402  (after the GL choice above, which must come first)
-
 __all__ = ["load"]
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str):
+    """``magsail_mj.load`` is imported on first use (PEP 562), so that importing the package for
+    its command line stays light until the command has set up its signal handling."""
+    if name == "load":
+        from magsail_mj.api import load
+
+        return load
+    raise AttributeError(f"module 'magsail_mj' has no attribute {name!r}")

@@ -525,21 +525,28 @@ def _parser() -> argparse.ArgumentParser:
 # --------------------------------------------------------------------------- main
 
 
+_SIGNALLED: list[int] = []
+
+
 @contextlib.contextmanager
 def _sigterm_interrupts() -> Iterator[None]:
-    """Within the block, SIGTERM raises KeyboardInterrupt (as Ctrl-C does), in the main thread only."""
+    """Within the block, SIGINT and SIGTERM raise KeyboardInterrupt, in the main thread only, and
+    are remembered in ``_SIGNALLED``: an interrupt that Python swallows (raised inside a weakref
+    callback or a ``__del__``) still ends the verb with exit 130."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def _raise(signum: int, frame: Any) -> None:
+        _SIGNALLED.append(signum)
         raise KeyboardInterrupt(signal.Signals(signum).name)
 
-    previous = signal.signal(signal.SIGTERM, _raise)
+    previous = {sig: signal.signal(sig, _raise) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 @contextlib.contextmanager
@@ -613,7 +620,10 @@ def main(argv: list[str] | None = None) -> int:
         return exit_.code if isinstance(exit_.code, int) else 0
     try:
         with memory_limit(args.memory_limit), _sigterm_interrupts(), _plain_warnings():
-            return _dispatch(args)
+            code = _dispatch(args)
+        if _SIGNALLED:
+            raise KeyboardInterrupt
+        return code
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130

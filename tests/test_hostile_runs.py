@@ -472,3 +472,23 @@ def test_an_unusable_mujoco_gl_does_not_break_the_verbs(tmp_path):
                           cwd=tmp_path, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stderr and "MUJOCO_GL='bogus'" in proc.stderr
+
+
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
+@pytest.mark.parametrize("delay_s", [0.6, 1.2, 2.5])
+def test_a_signal_while_the_command_starts_is_exit_130(tmp_path, signame, delay_s):
+    """Ctrl-C or SIGTERM during the imports (before any verb runs) or in the verb: exit 130, one
+    line, no traceback (it used to kill the process or print an ImportError traceback)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.entry", "run", str(MODELS / "cnusail/detumble_pre.toml"),
+                             "--out", str(tmp_path / "r"), "--set", "sim.duration_s=3000", "--no-progress"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    time.sleep(delay_s)
+    proc.send_signal(getattr(signal, signame))
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, (proc.returncode, err)
+    assert "Traceback" not in err and "interrupted" in err

@@ -1,0 +1,49 @@
+"""The ``magsail`` console command: signals are held from the first instruction.
+
+SIGINT and SIGTERM that arrive while the command imports its modules (about a second: MuJoCo,
+NumPy, pydantic) are held and turn into exit status 130, instead of a traceback from inside an
+import or a process killed by the signal; while a verb runs, :func:`magsail_mj.cli.main` turns
+them into ``KeyboardInterrupt`` (exit 130); after it has ended they are ignored (its status
+stands).
+"""
+
+from __future__ import annotations
+
+import importlib
+import signal
+import sys
+
+__all__ = ["main"]
+
+
+def main() -> int:
+    """Import the command line with signals held, run it, and exit with its status (130 if a
+    signal arrived while held)."""
+    pending: list[int] = []
+
+    def hold(signum: int, _frame: object) -> None:
+        pending.append(signum)
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, hold)
+    try:
+        cli = importlib.import_module("magsail_mj.cli")  # the heavy imports, with signals held
+    except KeyboardInterrupt:
+        pending.append(signal.SIGINT)
+    if pending:
+        print("interrupted", file=sys.stderr)
+        return 130
+    for sig in (signal.SIGINT, signal.SIGTERM):  # the verb installs its own handlers
+        signal.signal(sig, signal.default_int_handler)
+    try:
+        code = cli.main()
+    except KeyboardInterrupt:  # before or after the verb's own handling (argument parsing, exit)
+        print("interrupted", file=sys.stderr)
+        code = 130
+    for sig in (signal.SIGINT, signal.SIGTERM):  # a signal after the verb has ended changes nothing
+        signal.signal(sig, hold)
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())
