@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from magsail_mj.cli import main
-from magsail_mj.config import ConfigError
+from magsail_mj.config import ConfigError, load_config
 from magsail_mj.sweep import load_sweep, run_sweep, sweep_exit_code
 
 MODELS = Path(__file__).resolve().parents[1] / "models" / "current_loops"
@@ -127,3 +127,14 @@ def test_design_records_carry_their_params_into_summaries(tmp_path):
                         "resumed_from_s", "summary")} <= set(stored[0])
     header = (out / "sweep_summary.csv").read_text().splitlines()[0].split(",")
     assert "params.sim.timestep_s" in header and len(header) == len(set(header))
+
+
+def test_grid_with_linked_keys_reproduces_the_36_listed_configs():
+    grid = load_sweep(MODELS.parent / "sweeps" / "current_loops_sweep36_grid.toml")
+    assert len(grid.runs) == 36 and grid.runs[0].id == "circuits=A,units=12,EI_N_m2=1000,timestep_s=0.1,record_every=20"
+    for run in grid.runs:
+        p = run.params
+        stem = f"{p['loops.circuits'][0].lower().replace('_', '')}_n{p['lattice.units']}_ei{p['stiffness.EI_N_m2']:.0e}"
+        listed = load_config(MODELS / "sweep" / f"{stem.replace('e+0', 'e')}.toml").model_dump(mode="json")
+        drawn = load_config(run.config, list(run.overrides)).model_dump(mode="json")
+        assert {**drawn, "description": ""} == {**listed, "description": ""}, run.id

@@ -546,7 +546,10 @@ def _dask_client(*, workers: int, scheduler: str | None, cluster: Any | None) ->
             client.register_plugin(IgnoreSigint())
             yield client
     finally:
-        local.close(timeout=10)
+        try:
+            local.close(timeout=10)
+        except (TimeoutError, OSError, RuntimeError):  # its workers die with this process anyway (parent watch)
+            pass
 
 
 CLUSTER_KINDS = ("slurm", "pbs")

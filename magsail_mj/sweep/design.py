@@ -7,6 +7,7 @@ Both tables vary keys of one base config (the sweep file's top-level ``config``)
     [grid]                                  # key path -> list of values; every combination runs
     "lattice.units" = [3, 4]
     "sim.timestep_s" = [0.01, 0.005]        # ids: "units=3,timestep_s=0.01", ...
+    "stiffness.EI_N_m2,sim.record_every" = [[1e3, 20], [1e4, 40]]   # linked: varied together
 
     [monte_carlo]
     samples = 200
@@ -141,26 +142,52 @@ def _id_text(value: Any) -> str:
 # Grid
 
 
-def grid_points(table: Any) -> list[DesignPoint]:
-    """Every combination of the ``[grid]`` values, in file order (the last key varies fastest).
+def _grid_axes(flat: dict[str, Any]) -> list[tuple[list[str], list[tuple[Any, ...]]]]:
+    """Per ``[grid]`` entry its keys (several for linked keys ``"a.b,c.d"``) and value tuples.
 
     Raises:
-      ConfigError: naming ``grid.<key>`` for a value list that is not a non-empty list, or two
-        points whose ids coincide.
+      ConfigError: naming ``grid.<key>`` for values that are not a non-empty list (of lists as
+        long as the linked keys).
+    """
+    axes, problems = [], []
+    for name, values in flat.items():
+        keys = [k.strip() for k in name.split(",")]
+        if not isinstance(values, list) or not values:
+            problems.append(f"grid.{name}: must be a non-empty list of values, got {values!r}")
+        elif len(keys) > 1 and not all(isinstance(v, list) and len(v) == len(keys) for v in values):
+            problems.append(f"grid.{name}: linked keys take a list of [{', '.join(keys)}] lists, got {values!r}")
+        elif not all(keys):
+            problems.append(f"grid.{name}: empty key in a list of linked keys")
+        else:
+            axes.append((keys, [tuple(v) if len(keys) > 1 else (v,) for v in values]))
+    if problems:
+        raise ConfigError(problems)
+    return axes
+
+
+def grid_points(table: Any) -> list[DesignPoint]:
+    """Every combination of the ``[grid]`` values, in file order (the last entry varies fastest).
+
+    An entry whose key lists several key paths separated by commas (``"a.b,c.d" = [[1, 2], [3, 4]]``)
+    varies them together (linked keys, e.g. a stiffness and the time step it needs).
+
+    Raises:
+      ConfigError: naming ``grid.<key>`` for a value list that is not a non-empty list, a key
+        varied twice, or two points whose ids coincide.
     """
     if not isinstance(table, dict) or not table:
         raise ConfigError([f"grid: must be a table of key.path = [values], got {table!r}"])
-    flat = _flatten(table, leaf=lambda v: False)
-    problems = [f"grid.{k}: must be a non-empty list of values, got {v!r}"
-                for k, v in flat.items() if not isinstance(v, list) or not v]
-    if problems:
-        raise ConfigError(problems)
-    keys = list(flat)
+    axes = _grid_axes(_flatten(table, leaf=lambda v: False))
+    keys = [k for axis_keys, _ in axes for k in axis_keys]
+    twice = sorted({k for k in keys if keys.count(k) > 1})
+    if twice:
+        raise ConfigError([f"grid.{k}: varied by more than one grid entry" for k in twice])
     short = _short_names(keys)
     points = []
-    for combo in itertools.product(*(flat[k] for k in keys)):
-        rid = ",".join(f"{short[k]}={_id_text(v)}" for k, v in zip(keys, combo))
-        points.append(DesignPoint(id=rid, params={k: _jsonable(v) for k, v in zip(keys, combo)}))
+    for combo in itertools.product(*(values for _, values in axes)):
+        flat_values = [v for group in combo for v in group]
+        rid = ",".join(f"{short[k]}={_id_text(v)}" for k, v in zip(keys, flat_values))
+        points.append(DesignPoint(id=rid, params={k: _jsonable(v) for k, v in zip(keys, flat_values)}))
     seen: dict[str, DesignPoint] = {}
     for p in points:
         if p.id in seen:
