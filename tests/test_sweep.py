@@ -43,7 +43,19 @@ def test_sweep_runs_in_parallel_and_isolates_a_failure(tmp_path):
     out = tmp_path / "out"
     (out / "bad").mkdir(parents=True)
     (out / "bad" / "blocked").write_text("a file where the run folder should be")
-    records = run_sweep(sweep, out, workers=2, log=None)
+    seen_on_disk = []
+
+    def log(line: str) -> None:  # when a run is logged, the summaries on disk already hold it
+        if line.startswith("  "):
+            on_disk = {r["id"]: r["status"] for r in json.loads((out / "sweep_summary.json").read_text())}
+            finished = json.loads((out / "sweep_manifest.json").read_text())["finished"]
+            seen_on_disk.append((line.split(":")[0].strip(), on_disk, finished))
+
+    records = run_sweep(sweep, out, workers=2, log=log)
+    assert len(seen_on_disk) == 3 and not any(finished for *_, finished in seen_on_disk)
+    for rid, on_disk, _ in seen_on_disk:
+        assert on_disk[rid] in ("completed", "failed")
+    assert "not_run" in seen_on_disk[0][1].values()  # the first record was written while others still ran
     status = {r["id"]: r["status"] for r in records}
     # the run whose folder cannot be made fails (its message says why), the others complete
     assert status == {"ok/a": "completed", "ok/b": "completed", "bad/blocked": "failed"}

@@ -603,8 +603,8 @@ class _Call:
         """Record a finished run and rewrite the summaries (a crash of the client loses nothing finished)."""
         with self.interrupts.deferred():
             self.records[rec["id"]] = rec
-            _log_record(self.log, rec)
             self.write(finished=False)
+            _log_record(self.log, rec)
 
     def write(self, *, finished: bool, interrupted: bool = False) -> list[dict[str, Any]]:
         """Write the summaries and the manifest; runs without a record yet are ``not_run`` (pending)."""

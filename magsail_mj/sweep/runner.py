@@ -19,6 +19,7 @@ interrupt, so a stopped run writes its outputs (status ``interrupted``) and its 
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import json
 import os
 import pickle
@@ -235,7 +236,8 @@ def _next_attempt(out: Path, token: str, run_id: str) -> int:
 
 
 def _safe(run_id: str) -> str:
-    return run_id.replace("/", "__")
+    """A file name standing for ``run_id`` (distinct ids, distinct names)."""
+    return hashlib.sha256(run_id.encode()).hexdigest()[:32]
 
 
 def _start(run: SweepRun, out: Path, *, video: bool, fresh: bool) -> tuple[subprocess.Popen, int]:
