@@ -479,8 +479,10 @@ class _Interrupts:
 
 @contextlib.contextmanager
 def _sigint_ignored_by_children() -> Iterator[None]:
-    """Worker processes started in the block ignore SIGINT from their first instruction (a
-    terminal's Ctrl-C reaches the whole process group; only the sweep client handles it)."""
+    """Worker processes started in the block start with SIGINT ignored (a terminal's Ctrl-C
+    reaches the whole process group; only the sweep client handles it). Dask's worker start-up
+    installs a SIGINT handler of its own later; :class:`~magsail_mj.sweep.runner.IgnoreSigint`
+    ignores it again once the worker runs."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -598,6 +600,7 @@ class _Call:
     log: Callable[[str], None] | None
     meta: dict[str, Any]
     t0: float = field(default_factory=time.perf_counter)
+    settled: bool = True  # False while tasks of this call may still run (their stop request must stay)
 
     def store(self, rec: dict[str, Any]) -> None:
         """Record a finished run and rewrite the summaries (a crash of the client loses nothing finished)."""
@@ -654,6 +657,7 @@ def _stop(futures: dict[Any, SweepRun], call: _Call, *, grace_s: float) -> None:
             request_stop(call.out, call.token, kill=True)
             killed, deadline = True, min(deadline, time.monotonic() + 3.0)
         time.sleep(0.1)
+    call.settled = all(f.done() for f in futures)
     for future, run in futures.items():
         if run.id not in call.records:
             rec = _future_record(future, run) if future.done() else _record(
@@ -680,6 +684,7 @@ def _run_dask(todo: list[SweepRun], call: _Call, *, workers: int, scheduler: str
                     _stop(futures, call, grace_s=grace_s)
             except BaseException:
                 request_stop(call.out, call.token, kill=True)  # no run outlives a sweep that fails itself
+                call.settled = False
                 raise
             finally:
                 with call.interrupts.deferred():
@@ -835,7 +840,8 @@ def run_sweep(
                                 overwrite=overwrite, retries=retries, grace_s=grace_s)
         with interrupts.deferred():  # the summaries are written whole, whatever arrives now
             ordered = call.write(finished=True, interrupted=stopped is not None)
-            _clear_state(out)
+            if call.settled or engine.startswith("LocalCluster"):  # a closed LocalCluster took its runs down
+                _clear_state(out)
             wall = time.perf_counter() - call.t0
     if log:
         counts = {s: sum(r["status"] == s for r in ordered) for s in sorted({r["status"] for r in ordered})}
