@@ -55,9 +55,15 @@ def comparison_table(summaries: dict[str, dict]) -> str:
             continue
         other = name.replace("_central_", "_distributed_")
         if other in summaries:
-            ratio = summaries[name]["surface_sd_max_m"] / summaries[other]["surface_sd_max_m"]
             case, _, prof = name.split("_", 1)[1].partition("_central_")
-            lines.append(f"| {case.upper()} | {prof} | {ratio:.3g} |")
+            failed = [label for label, run in (("central", name), ("distributed", other))
+                      if summaries[run].get("status") != "completed"]
+            if failed:  # a failed structure is reported as failed, never put into a ratio
+                cell = "no ratio: " + ", ".join(f"{label} {summaries[run]['status']}" for label, run in
+                                               (("central", name), ("distributed", other)) if label in failed)
+            else:
+                cell = f"{summaries[name]['surface_sd_max_m'] / summaries[other]['surface_sd_max_m']:.3g}"
+            lines.append(f"| {case.upper()} | {prof} | {cell} |")
     return "\n".join(lines) + "\n"
 
 
