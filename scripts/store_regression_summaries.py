@@ -82,9 +82,10 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def differences(expected: dict[str, Any], actual: dict[str, Any], *, rel: float = 1e-9) -> list[str]:
-    """Keys whose values differ (floats beyond ``rel`` relative, anything else not equal)."""
+    """Stored keys whose values differ now (floats beyond ``rel`` relative, anything else not
+    equal) or that are gone; keys added since the summaries were stored are allowed."""
     out = []
-    for key in sorted(set(expected) | set(actual)):
+    for key in sorted(expected):
         a, b = expected.get(key, "<missing>"), actual.get(key, "<missing>")
         if not _close(a, b, rel):
             out.append(f"{key}: stored {a!r}, now {b!r}")

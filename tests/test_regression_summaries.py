@@ -5,7 +5,8 @@ cycles; the lifetime analysis whole) of every shipped config, stored by
 ``scripts/store_regression_summaries.py`` before a change. The default run checks one config of
 every scenario kind; the ``slow`` run checks them all. Floats must agree to 1e-9 relative (the
 order of floating-point operations may change in a refactor; anything beyond is a change of the
-physics), everything else exactly; timing keys are not compared.
+physics), everything else exactly; timing keys are not compared, and keys added to a summary since
+the references were stored are allowed (a removed or changed key is not).
 """
 
 from __future__ import annotations
@@ -66,4 +67,5 @@ def test_comparison_sees_a_change():
     assert not store.differences(base, {"a": 1.0 + 1e-10, "b": "x", "c": [1.0, 2.0], "d": None})
     assert store.differences(base, {"a": 1.0 + 1e-6, "b": "x", "c": [1.0, 2.0], "d": None})
     assert store.differences(base, {"a": 1.0, "b": "y", "c": [1.0, 2.0], "d": None})
-    assert store.differences(base, {"a": 1.0, "b": "x", "c": [1.0, 2.0]})
+    assert store.differences(base, {"a": 1.0, "b": "x", "c": [1.0, 2.0]})  # a key gone
+    assert not store.differences(base, {**base, "new_key_s": 3.0})  # an addition is allowed
