@@ -81,26 +81,27 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def differences(expected: dict[str, Any], actual: dict[str, Any], *, rel: float = 1e-9) -> list[str]:
+def differences(expected: dict[str, Any], actual: dict[str, Any], *, rel: float = 1e-9,
+                abs_tol: float = 1e-300) -> list[str]:
     """Stored keys whose values differ now (floats beyond ``rel`` relative, anything else not
     equal) or that are gone; keys added since the summaries were stored are allowed."""
     out = []
     for key in sorted(expected):
         a, b = expected.get(key, "<missing>"), actual.get(key, "<missing>")
-        if not _close(a, b, rel):
+        if not _close(a, b, rel, abs_tol):
             out.append(f"{key}: stored {a!r}, now {b!r}")
     return out
 
 
-def _close(a: Any, b: Any, rel: float) -> bool:
+def _close(a: Any, b: Any, rel: float, abs_tol: float) -> bool:
     if isinstance(a, bool) or isinstance(b, bool) or a is None or b is None:
         return a == b
     if isinstance(a, (int, float)) and isinstance(b, (int, float)):
-        return math.isclose(a, b, rel_tol=rel, abs_tol=1e-300)
+        return math.isclose(a, b, rel_tol=rel, abs_tol=abs_tol)
     if isinstance(a, list) and isinstance(b, list):
-        return len(a) == len(b) and all(_close(x, y, rel) for x, y in zip(a, b))
+        return len(a) == len(b) and all(_close(x, y, rel, abs_tol) for x, y in zip(a, b))
     if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(_close(a[k], b[k], rel) for k in a)
+        return a.keys() == b.keys() and all(_close(a[k], b[k], rel, abs_tol) for k in a)
     return a == b
 
 
