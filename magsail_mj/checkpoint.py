@@ -268,24 +268,25 @@ def _set(parent: Any, part: tuple[str, Any], value: Any) -> None:
         parent.__closure__[names.index(key)].cell_contents = value
 
 
-def _new_object(class_name: str) -> Any:
+def _package_class(class_name: str) -> Any:
+    """A class of the package by its recorded ``module:qualname``; any other name is refused."""
     module_name, _, qualname = class_name.partition(":")
     if not module_name.startswith("magsail_mj.") or "<" in qualname:
         raise CheckpointError(f"checkpoint: refuses to create an object of {class_name!r}")
     cls: Any = importlib.import_module(module_name)
     for attr in qualname.split("."):
         cls = getattr(cls, attr)
+    return cls
+
+
+def _new_object(class_name: str) -> Any:
+    cls = _package_class(class_name)
     return cls.__new__(cls)
 
 
 def _named_tuple(class_name: str) -> Any:
     """A tuple subclass (a named tuple) of the package, by its recorded name."""
-    module_name, _, qualname = class_name.partition(":")
-    if not module_name.startswith("magsail_mj.") or "<" in qualname:
-        raise CheckpointError(f"checkpoint: refuses to create a tuple of {class_name!r}")
-    cls: Any = importlib.import_module(module_name)
-    for attr in qualname.split("."):
-        cls = getattr(cls, attr)
+    cls = _package_class(class_name)
     if not (isinstance(cls, type) and issubclass(cls, tuple) and hasattr(cls, "_make")):
         raise CheckpointError(f"checkpoint: {class_name!r} is not a named tuple")
     return cls

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
-import hashlib
 import json
 import signal
 import threading
@@ -45,7 +44,8 @@ from magsail_mj.api import load
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
 from magsail_mj.config import ConfigError, config_hash, numbers_hash, numbers_tree
 from magsail_mj.io import (
-    atomic_path, package_versions, prepare_run_dir, remove_earlier_run, run_dir_lock, write_json, write_npz,
+    atomic_path, file_sha256, package_versions, prepare_run_dir, remove_earlier_run, run_dir_lock, write_json,
+    write_npz,
 )
 from magsail_mj.render import render_run
 
@@ -69,13 +69,6 @@ class RunInterrupted(KeyboardInterrupt):
         super().__init__(outcome.get("status_message", "interrupted"))
         self.outcome = outcome
 
-
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 def thread_settings() -> list[dict[str, Any]]:
@@ -188,7 +181,7 @@ def _run_locked(cfg: Any, sim: Any, run_dir: Path, identity: dict[str, Any], *, 
             "render": scenario.render_info(),
             **scenario.manifest_extra(),
         }
-        manifest["files"] = {name: _sha256(run_dir / name) for name in files}
+        manifest["files"] = {name: file_sha256(run_dir / name) for name in files}
         if not video or status == "interrupted":
             write_json(run_dir / "manifest.json", manifest)
     if pending and video and status != "interrupted":  # Ctrl-C while the numbers were written: no video
@@ -222,7 +215,7 @@ def _render_video(run_dir: Path, manifest: dict[str, Any]) -> tuple[str, str]:
     except Exception as err:  # noqa: BLE001 - the run's numbers stay; the run is marked failed
         manifest.update(status="failed", status_message=f"video.mp4 could not be rendered: {type(err).__name__}: {err}")
     else:
-        manifest["files"]["video.mp4"] = _sha256(run_dir / "video.mp4")
+        manifest["files"]["video.mp4"] = file_sha256(run_dir / "video.mp4")
     return manifest["status"], manifest["status_message"]
 
 

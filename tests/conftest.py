@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import time
 import warnings
 from pathlib import Path
 
@@ -46,3 +47,12 @@ def lattice_points(N: int, d: float) -> np.ndarray:
     a = d / (N - 1)
     k, j, i = np.meshgrid(np.arange(2), np.arange(N), np.arange(N), indexing="ij")
     return np.stack([i * a - d / 2, j * a - d / 2, (k - 0.5) * a], axis=-1).reshape(-1, 3)
+
+
+def wait_for(predicate, timeout_s: float, what: str) -> None:
+    """Poll ``predicate()`` every 50 ms until it is true; fail naming ``what`` after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+        time.sleep(0.05)

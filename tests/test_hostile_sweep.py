@@ -40,6 +40,7 @@ from magsail_mj.sweep import (
     sweep_exit_code,
 )
 from magsail_mj.sweep.design import DISTRIBUTIONS, grid_points, monte_carlo_points, toml_literal
+from tests.conftest import wait_for
 
 ROOT = Path(__file__).resolve().parents[1]
 CFG_A = ROOT / "models" / "current_loops" / "sweep" / "a_n12_ei1e3.toml"
@@ -80,14 +81,6 @@ def _alive(pid: int) -> bool:
     return state not in ("Z", "X")
 
 
-def _wait_for(predicate, timeout_s: float, what: str) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
-        time.sleep(0.05)
-
-
 def _workers_of(pid: int) -> dict[int, str]:
     return {p: c for p, c in _children(pid).items() if "spawn_main" in c}
 
@@ -125,7 +118,7 @@ def test_interrupt_stops_promptly_writes_summary_and_locks_folder(tmp_path, caps
                             text=True, start_new_session=True)
     try:
         started = ["slow/a", "slow/b"][:workers]
-        _wait_for(lambda: all((out / r / "model.xml").exists() for r in started), 90, "the runs to start")
+        wait_for(lambda: all((out / r / "model.xml").exists() for r in started), 90, "the runs to start")
         workers_seen = _workers_of(proc.pid)
         assert len(workers_seen) == workers
         # a second sweep into the running sweep's folder is refused (exit 2), naming the folder
@@ -162,7 +155,7 @@ def test_kill9_of_the_parent_takes_the_workers_down_and_frees_the_folder(tmp_pat
     proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.cli", "sweep", str(sweep), "--out", str(out),
                              "--workers", "2"], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        _wait_for(lambda: all((out / r / "model.xml").exists() for r in ("slow/a", "slow/b")), 90,
+        wait_for(lambda: all((out / r / "model.xml").exists() for r in ("slow/a", "slow/b")), 90,
                   "both runs to start")
         workers = _workers_of(proc.pid)
         assert len(workers) == 2
@@ -192,7 +185,7 @@ def test_kill9_of_the_parent_takes_the_workers_down_and_frees_the_folder(tmp_pat
 
     # the run processes (in their own sessions) got SIGTERM from the kernel when their worker died:
     # they write their interrupted outputs, then release their run locks; no stale lock stays
-    _wait_for(lock_free, 15, "the run processes of the killed sweep to end and free the folder")
+    wait_for(lock_free, 15, "the run processes of the killed sweep to end and free the folder")
     run_manifest = out / "slow" / "a" / "manifest.json"
     if run_manifest.exists():
         assert json.loads(run_manifest.read_text())["status"] not in FINISHED
@@ -233,11 +226,11 @@ def test_a_killed_run_process_is_retried_from_its_checkpoint_until_no_retry_is_l
                                                                           retries=1)))
     thread.start()
     try:
-        _wait_for(lambda: all((out / r / "checkpoint.npz").exists() for r in ("a", "b")), 90, "both checkpoints")
+        wait_for(lambda: all((out / r / "checkpoint.npz").exists() for r in ("a", "b")), 90, "both checkpoints")
         first_b = run_process("b")
         for rid in ("a", "b"):
             os.kill(run_process(rid), signal.SIGKILL)
-        _wait_for(lambda: run_process("b", exclude=first_b), 60, "the retry of b")
+        wait_for(lambda: run_process("b", exclude=first_b), 60, "the retry of b")
         os.kill(run_process("b", exclude=first_b), signal.SIGKILL)
     finally:
         thread.join(timeout=90)

@@ -10,7 +10,6 @@ import signal
 import subprocess
 import sys
 import threading
-import time
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +20,7 @@ from magsail_mj.config import load_config
 from magsail_mj.run import run_scenario
 from magsail_mj.sweep import SweepRun, load_sweep, make_cluster, run_sweep
 from magsail_mj.sweep.runner import run_one
+from tests.conftest import wait_for
 
 ROOT = Path(__file__).resolve().parents[1]
 CFG_A = ROOT / "models" / "current_loops" / "sweep" / "a_n12_ei1e3.toml"
@@ -35,14 +35,6 @@ def _sweep_file(tmp_path: Path, ids: list[str], common: list[str]) -> Path:
     path = tmp_path / "dask.toml"
     path.write_text(f'name = "dask"\nset = {json.dumps(common)}\n{runs}')
     return path
-
-
-def _wait_for(predicate, timeout_s: float, what: str) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
-        time.sleep(0.05)
 
 
 def _parent(pid: int) -> int:
@@ -75,7 +67,7 @@ def dask_cluster(tmp_path):
     procs = [subprocess.Popen([str(DASK), "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
                                "--scheduler-file", str(info)], **common)]
     try:
-        _wait_for(info.exists, 60, "the scheduler")
+        wait_for(info.exists, 60, "the scheduler")
         address = json.loads(info.read_text())["address"]
         for name in ("w1", "w2"):
             procs.append(subprocess.Popen([str(DASK), "worker", address, "--nthreads", "1", "--nworkers", "1",
@@ -98,7 +90,7 @@ def test_killed_worker_is_retried_elsewhere_and_resumes_bit_identically(tmp_path
     thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, scheduler=address, log=None)))
     thread.start()
     try:
-        _wait_for(lambda: (out / "ck" / "checkpoint.npz").exists(), 120, "the run's first checkpoint")
+        wait_for(lambda: (out / "ck" / "checkpoint.npz").exists(), 120, "the run's first checkpoint")
         ((pid, nanny),) = _run_processes_below(nannies).items()
         os.killpg(nanny, signal.SIGKILL)  # the whole `dask worker`: nanny and worker process
     finally:

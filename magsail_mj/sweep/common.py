@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from magsail_mj.io import RunDirError
+from magsail_mj.io import RunDirError, file_sha256
 
 try:
     import fcntl
@@ -52,13 +52,6 @@ class SweepRun:
 
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
 
 def _check_files(run_dir: Path, files: Any, *, video: bool) -> str:
     """Why the files listed in a manifest do not match the folder ("" when they all do)."""
@@ -71,7 +64,7 @@ def _check_files(run_dir: Path, files: Any, *, video: bool) -> str:
         if rel.is_absolute() or ".." in rel.parts:
             return f"manifest.json lists a file outside the run folder: {name!r}"
         try:
-            actual = _sha256(run_dir / rel)
+            actual = file_sha256(run_dir / rel)
         except OSError:
             return f"{name} is missing"
         if actual != digest:
