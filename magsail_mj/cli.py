@@ -628,6 +628,9 @@ def main(argv: list[str] | None = None) -> int:
         print("interrupted", file=sys.stderr)
         return 130
     except Exception as err:  # noqa: BLE001 - the last line of defence: no traceback unless asked
+        if _SIGNALLED:  # an interrupt turned into another error (e.g. inside an extension's import)
+            print("interrupted", file=sys.stderr)
+            return 130
         if os.environ.get(DEBUG_ENV, "").strip() not in ("", "0"):
             traceback.print_exc()
         return _error(f"internal error: {type(err).__name__}: {err}", 1)

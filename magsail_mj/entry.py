@@ -26,8 +26,9 @@ def main() -> int:
 
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, hold)
-    try:
-        cli = importlib.import_module("magsail_mj.cli")  # the heavy imports, with signals held
+    try:  # the heavy imports (MuJoCo's extension, NumPy, pydantic, the runner), with signals held
+        cli = importlib.import_module("magsail_mj.cli")
+        importlib.import_module("magsail_mj.run")
     except KeyboardInterrupt:
         pending.append(signal.SIGINT)
     if pending:
@@ -40,8 +41,9 @@ def main() -> int:
     except KeyboardInterrupt:  # before or after the verb's own handling (argument parsing, exit)
         print("interrupted", file=sys.stderr)
         code = 130
-    for sig in (signal.SIGINT, signal.SIGTERM):  # a signal after the verb has ended changes nothing
-        signal.signal(sig, hold)
+    finally:  # a signal after the verb has ended changes nothing, also while the interpreter exits
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
     return code
 
 

@@ -356,7 +356,10 @@ class Simulation:
                 bar.close()
         if self.status == "running":  # stop_after_s reached before the end
             self.status, self.message = "stopped", f"stopped at t = {self.time:.6g} s (stop_after_s)"
-        return RunResult(records=self.records(), status=self.status, message=self.message, t_end_s=self.time,
+        records = self.records()
+        if self.status == "completed":
+            self.status, self.message = _non_finite_records(records) or (self.status, self.message)
+        return RunResult(records=records, status=self.status, message=self.message, t_end_s=self.time,
                          steps=self.step_index - start, wall_time_s=self._wall_s)
 
     def _advance(self, stop_step: int, *, ckpt: Path | None = None, ckpt_every: int = 0, bar: Any = None) -> None:
@@ -395,15 +398,15 @@ class Simulation:
                     if hasattr(loop["cmd"], "apply_ctrl"):
                         loop["cmd"].apply_ctrl(d)
                 if step % self.record_every == 0 or step == self.n_steps:
-                    if self.strain_check is not None:
+                    records["t"].append(t)
+                    for name, probe in self.probes.items():
+                        records[name].append(np.array(probe(state, d), copy=True))
+                    if self.strain_check is not None:  # the failing state is valid: it is recorded first
                         strain, strut = self.strain_check(kin.pos)
                         if not strain <= self.max_strain:
                             raise StructureFailure(
                                 f"strut {strut} strain {strain:.3g} exceeds sim.max_strain "
                                 f"{self.max_strain:g} at t = {t:.6g} s")
-                    records["t"].append(t)
-                    for name, probe in self.probes.items():
-                        records[name].append(np.array(probe(state, d), copy=True))
                 if step == self.n_steps:
                     self.status = "completed"
                     break
@@ -438,6 +441,22 @@ class Simulation:
         finally:
             self.step_index = step
             self._wall_s += time.perf_counter() - wall0
+
+
+def _non_finite_records(records: dict[str, np.ndarray]) -> tuple[str, str] | None:
+    """``("failed", why)`` when a recorded series holds a value that is not finite (a probe that
+    overflowed although the state stayed finite, e.g. an input near the float64 limit), else None."""
+    t = records.get("t")
+    for name, values in records.items():
+        values = np.asarray(values)
+        if values.dtype.kind in "fc" and not np.isfinite(values).all():
+            when = ""
+            if t is not None and values.ndim and len(t) == len(values):
+                rows = ~np.isfinite(values.reshape(len(values), -1)).all(axis=1)
+                when = f" from t = {t[int(np.argmax(rows))]:.6g} s"
+            return "failed", (f"the recorded series {name!r} is not finite{when} although the state stayed finite "
+                              "(an input too large for float64?)")
+    return None
 
 
 def _joined_records(tail: dict[str, list], segments: Sequence[str], folder: Path | None) -> dict[str, np.ndarray]:

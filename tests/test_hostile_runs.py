@@ -475,7 +475,7 @@ def test_an_unusable_mujoco_gl_does_not_break_the_verbs(tmp_path):
 
 
 @pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
-@pytest.mark.parametrize("delay_s", [0.6, 1.2, 2.5])
+@pytest.mark.parametrize("delay_s", [0.6, 1.2, 2.5, 4.5])
 def test_a_signal_while_the_command_starts_is_exit_130(tmp_path, signame, delay_s):
     """Ctrl-C or SIGTERM during the imports (before any verb runs) or in the verb: exit 130, one
     line, no traceback (it used to kill the process or print an ImportError traceback)."""
@@ -492,3 +492,22 @@ def test_a_signal_while_the_command_starts_is_exit_130(tmp_path, signame, delay_
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, (proc.returncode, err)
     assert "Traceback" not in err and "interrupted" in err
+
+
+def test_signals_after_the_verb_are_ignored_while_the_command_exits(monkeypatch, capsys):
+    """After the verb has ended its status stands: SIGINT and SIGTERM are ignored from then on, also
+    while the interpreter shuts down (a late signal used to kill the process, exit -2/-15)."""
+    import signal
+    import sys
+
+    from magsail_mj import entry
+
+    saved = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    monkeypatch.setattr(sys, "argv", ["magsail", "validate", str(MODELS / "cnusail/detumble_pre.toml")])
+    try:
+        assert entry.main() == 0
+        assert all(signal.getsignal(sig) is signal.SIG_IGN for sig in saved)
+    finally:
+        for sig, handler in saved.items():
+            signal.signal(sig, handler)
+    assert '"valid": true' in capsys.readouterr().out
