@@ -551,7 +551,9 @@ def _read_tree(path: Path) -> dict[str, Any]:
     except RecursionError:
         raise ConfigError(["not a config: arrays or tables nested too deeply to read"], source=str(path)) from None
     except ValueError as err:  # e.g. an integer of more than 4 300 digits
-        raise ConfigError([f"not a config: a value cannot be read ({err})"], source=str(path)) from None
+        where = next((f"line {n}: {line.split('=', 1)[0].strip()!r}: " for n, line in enumerate(text.splitlines(), 1)
+                      if re.search(r"\d{4300}", line)), "")
+        raise ConfigError([f"not a config: {where}a value cannot be read ({err})"], source=str(path)) from None
 
 
 def _mark_override_keys(problems: list[str], overrides: list[str] | tuple[str, ...]) -> list[str]:

@@ -190,8 +190,9 @@ def _run_locked(cfg: Any, sim: Any, run_dir: Path, identity: dict[str, Any], *, 
         write_json(run_dir / "manifest.json", manifest)
     elif video and status != "interrupted":
         status, message = _render_video(run_dir, manifest)
-        if status == "failed":  # the summary says so too
+        if status == "failed":  # the summary says so too (and the manifest lists its new digest)
             write_json(run_dir / "summary.json", {**summary, "status": status, "status_message": message})
+            manifest["files"]["summary.json"] = file_sha256(run_dir / "summary.json")
         write_json(run_dir / "manifest.json", manifest)
     out = RunOutcome({**summary, "status": status, "status_message": message})
     out.run_dir = run_dir

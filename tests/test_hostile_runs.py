@@ -409,6 +409,8 @@ def test_a_failed_video_marks_summary_and_manifest_failed(tmp_path, small_truss_
     manifest = json.loads((tmp_path / "v/manifest.json").read_text())
     assert out.status == summary["status"] == manifest["status"] == "failed"
     assert "no GL context" in summary["status_message"] and "video.mp4" not in manifest["files"]
+    for name, digest in manifest["files"].items():  # the manifest is written last and stays true
+        assert hashlib.sha256((tmp_path / "v" / name).read_bytes()).hexdigest() == digest, name
 
 
 def test_ctrl_c_while_outputs_are_written_leaves_them_whole(tmp_path, small_truss_tree, monkeypatch):
