@@ -334,6 +334,7 @@ def test_failed_video_means_failed_and_is_never_reused(tmp_path, monkeypatch):
     (["sweep_summary.json"], "run[0].id: 'sweep_summary.json'"),
     ([LOCK_NAME], f"run[0].id: '{LOCK_NAME}'"),
     (["tab\there"], "run[0].id: 'tab\\there'"),
+    (["x" * 300], "run[0].id: '" + "x" * 300 + "'"),
 ])
 def test_bad_run_ids_are_refused_naming_index_and_id(tmp_path, ids, bad):
     with pytest.raises(ConfigError) as err:

@@ -193,6 +193,9 @@ def _str_list(value: Any, where: str) -> tuple[str, ...]:
     return tuple(value)
 
 
+_NAME_MAX = 255  # bytes in one folder name (Linux, macOS)
+
+
 def _normalise_id(raw: Any) -> str:
     """The run folder of an id, normalised (``a//b/`` → ``a/b``); ValueError says what is wrong."""
     if not isinstance(raw, str):
@@ -208,6 +211,9 @@ def _normalise_id(raw: Any) -> str:
         raise ValueError("names the sweep folder itself; give each run its own folder")
     if parts[0] in _RESERVED:
         raise ValueError(f"is reserved for the sweep's own files ({', '.join(_RESERVED)})")
+    long = [p for p in parts if len(p.encode()) > _NAME_MAX]
+    if long:
+        raise ValueError(f"has a folder name of {len(long[0].encode())} bytes; file systems allow {_NAME_MAX}")
     return "/".join(parts)
 
 
