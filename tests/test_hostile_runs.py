@@ -513,3 +513,10 @@ def test_signals_after_the_verb_are_ignored_while_the_command_exits(monkeypatch,
         for sig, handler in saved.items():
             signal.signal(sig, handler)
     assert '"valid": true' in capsys.readouterr().out
+
+
+def test_scaling_table_memory_is_estimated_first(capsys):
+    sides = [str(10 + i) for i in range(1000)]
+    kappas = [str(1 + 0.1 * i) for i in range(1000)]
+    assert main(["--memory-limit", "100M", "scaling", "magnetorquer", "--side-m", *sides, "--kappa", *kappas]) == 2
+    assert "1000 × 1000 table" in capsys.readouterr().err
