@@ -159,6 +159,10 @@ def _run_locked(cfg: Any, sim: Any, run_dir: Path, identity: dict[str, Any], *, 
     status, message = result.status, result.message
     with deferred_interrupts() as pending:  # the numbers' files are written whole, even on Ctrl-C
         summary, series, plots = _outputs(scenario, result, run_dir)
+        overflowed = [k for k, v in series.items() if np.asarray(v).dtype.kind == "f" and np.isinf(v).any()]
+        if status == "completed" and overflowed:  # NaN may mark an undefined value; ±inf never is a number
+            status, message = "failed", (f"the derived series {', '.join(map(repr, overflowed))} overflowed to "
+                                         "infinity although the state stayed finite (an input too large for float64?)")
         summary = {"scenario": cfg.scenario, **summary, "t_end_s": result.t_end_s, "status": status,
                    "status_message": message}
         write_json(run_dir / "summary.json", summary)

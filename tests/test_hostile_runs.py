@@ -520,3 +520,16 @@ def test_scaling_table_memory_is_estimated_first(capsys):
     kappas = [str(1 + 0.1 * i) for i in range(1000)]
     assert main(["--memory-limit", "100M", "scaling", "magnetorquer", "--side-m", *sides, "--kappa", *kappas]) == 2
     assert "1000 × 1000 table" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name,overrides,series", [
+    ("truss_magnetorquer/detumble.toml", ["lattice.units=3", "mass.total_kg=1e300"], "torque_gg_rigid_body_Nm"),
+    ("reflector/pitch/b4_wn0p2_sigma10.toml", ["control.zeta=1e300"], "T_ref_norm_N_m"),
+])
+def test_overflowed_numbers_are_never_completed(tmp_path, name, overrides, series):
+    """Inputs near the float64 limit that leave the state finite but overflow a recorded or derived
+    series: the run is failed (exit 1), naming the series, not completed."""
+    cfg = load_config(MODELS / name, ["sim.duration_s=2", "sim.progress=false", *overrides])
+    out = run_scenario(cfg, tmp_path / "o")
+    assert out.status == "failed" and series in out["status_message"]
+    assert json.loads((tmp_path / "o/manifest.json").read_text())["status"] == "failed"
