@@ -110,26 +110,25 @@ def _non_negative(text: str) -> float:
     return value
 
 
-def _count(text: str) -> int:
-    """An integer >= 1 (a count)."""
+def _integer_at_least(text: str, low: int) -> int:
+    """An integer >= ``low``; argparse's type error otherwise."""
     try:
         value = int(text)
     except (TypeError, ValueError):
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected an integer >= {low}, got {text!r}") from None
+    if value < low:
+        raise argparse.ArgumentTypeError(f"must be an integer >= {low}, got {text!r}")
     return value
+
+
+def _count(text: str) -> int:
+    """An integer >= 1 (a count)."""
+    return _integer_at_least(text, 1)
 
 
 def _count_or_zero(text: str) -> int:
     """An integer >= 0."""
-    try:
-        value = int(text)
-    except (TypeError, ValueError):
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
-    return value
+    return _integer_at_least(text, 0)
 
 
 def _memory(text: str) -> int | None:
