@@ -91,6 +91,7 @@ from distributed import Client, LocalCluster, Nanny, as_completed
 
 from magsail_mj.config import ConfigError, apply_overrides, config_hash, load_config, read_toml
 from magsail_mj.io import RunDirError, atomic_path, package_versions, to_jsonable, write_json
+from magsail_mj.run import deferred_interrupts
 from magsail_mj.sweep.common import (
     _SUCCESS,
     FINISHED,
@@ -546,10 +547,14 @@ def _dask_client(*, workers: int, scheduler: str | None, cluster: Any | None) ->
         with Client(cluster, set_as_default=False) as client:
             yield client
         return
-    with _worker_env(), _sigint_ignored_by_children():
+    # a signal while the cluster starts would leave it half-built (its finaliser then fails with a
+    # traceback): it is held until the cluster exists and is delivered again inside the try below
+    with _worker_env(), _sigint_ignored_by_children(), deferred_interrupts() as pending:
         local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                              silence_logs=logging.CRITICAL, worker_class=Nanny)
     try:
+        if pending:
+            signal.raise_signal(pending[0])
         with Client(local, set_as_default=False) as client:
             client.register_plugin(IgnoreSigint())
             yield client
