@@ -10,6 +10,7 @@ stands).
 from __future__ import annotations
 
 import importlib
+import os
 import signal
 import sys
 
@@ -31,9 +32,10 @@ def main() -> int:
         importlib.import_module("magsail_mj.run")
     except KeyboardInterrupt:
         pending.append(signal.SIGINT)
-    if pending:
-        print("interrupted", file=sys.stderr)
-        return 130
+    if pending:  # nothing has been written yet: leave at once, without the interpreter's clean-up
+        print("interrupted", file=sys.stderr, flush=True)
+        sys.stdout.flush()
+        os._exit(130)
     for sig in (signal.SIGINT, signal.SIGTERM):  # the verb installs its own handlers
         signal.signal(sig, signal.default_int_handler)
     try:
