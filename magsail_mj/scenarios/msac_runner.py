@@ -67,7 +67,7 @@ from magsail_mj.control.msac_drive import (
 from magsail_mj.checkpoint import (
     CheckpointError, StateWalker, check_identity, read_checkpoint, restore_state, run_identity, write_checkpoint,
 )
-from magsail_mj.divergence import disable_autoreset, first_bad_row, route_mujoco_warnings
+from magsail_mj.divergence import WarningWatch, disable_autoreset, first_bad_row, route_mujoco_warnings
 from magsail_mj.mjcf.msac import shape_indices
 from magsail_mj.sim import RunResult
 from mujoco import rollout as mj_rollout
@@ -76,8 +76,6 @@ from tqdm import tqdm
 __all__ = ["MsacRunner", "StaticRunner"]
 
 _FP = mujoco.mjtState.mjSTATE_FULLPHYSICS
-_WARNINGS = (mujoco.mjtWarning.mjWARN_BADCTRL, mujoco.mjtWarning.mjWARN_BADQACC,
-             mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL)
 
 
 @dataclass
@@ -284,7 +282,7 @@ class MsacRunner:
 
     def _begin(self) -> None:
         self.status, self.message = "running", ""
-        self._warn0 = {w: self.data.warning[w].number for w in _WARNINGS}
+        self._watch = WarningWatch(self.data)
 
     @property
     def time(self) -> float:
@@ -433,8 +431,7 @@ class MsacRunner:
                         sens[i] = data.sensordata   # computed at the step-start state
                         mujoco.mj_getState(m, data, post[i], _FP)
                 S = np.vstack([state[None], post[:-1]])
-                warned = [w.name.removeprefix("mjWARN_") for w in _WARNINGS
-                          if data.warning[w].number > self._warn0[w]]
+                warned = self._watch.raised()
                 bad_state, bad_ctrl = first_bad_row(post[:, 1:]), first_bad_row(ctrl)
                 if warned or bad_state is not None or bad_ctrl is not None:
                     # post[i] is the state at step k + i + 1; a bad control acts from step k + i
