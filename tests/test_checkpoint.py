@@ -120,3 +120,26 @@ def test_restoring_an_early_snapshot_into_live_objects_puts_back_build_values():
     restore_state(walker, early_tree, early_arrays)
     assert np.array_equal(live["v"], np.zeros(3)) and live["s"] == [1, "a"]
     assert walker.roots["rng"].normal() == draw
+
+
+
+def test_cli_stop_then_resume_in_new_processes_is_bitwise(tmp_path):
+    """Stop and resume from the command line, each in its own process (a checkpoint must not depend on
+    the memory a build happened to get: scratch buffers made with np.empty once refused this resume)."""
+    import subprocess
+    import sys
+
+    from tests.conftest import REPO
+
+    def magsail(*args):
+        config = str(REPO / "models/cnusail/nadir_pre.toml")
+        return subprocess.run([sys.executable, "-m", "magsail_mj.entry", "run", config, "--set", "sim.duration_s=40",
+                               "--no-progress", *args], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+
+    assert magsail("--out", str(tmp_path / "full")).returncode == 0
+    assert magsail("--out", str(tmp_path / "cut"), "--stop-after-s", "20").returncode == 0
+    resumed = magsail("--out", str(tmp_path / "cut"), "--resume")
+    assert resumed.returncode == 0, resumed.stderr
+    a, b = np.load(tmp_path / "full/timeseries.npz"), np.load(tmp_path / "cut/timeseries.npz")
+    assert sorted(a.files) == sorted(b.files)
+    assert all(np.array_equal(a[k], b[k], equal_nan=True) for k in a.files)

@@ -286,7 +286,7 @@ class CnusailController:
         self.I_w = self.driver.p.spin_inertia_kg_m2
         self.rng = np.random.default_rng(params.seed)
         self.cmd = CnusailCommand(self)
-        self._R = np.empty(9)
+        self._R = np.zeros(9)  # scratch for mju_quat2Mat; zeros keep every build identical
         self._zero3 = np.zeros(3)
         self._last_att = -1
         self._last_mtq = -1

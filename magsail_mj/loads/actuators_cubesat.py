@@ -209,7 +209,7 @@ class MagnetorquerLoad:
 
     def __init__(self, body_id: int) -> None:
         self.body_id = int(body_id)
-        self._R = np.empty(9)
+        self._R = np.zeros(9)  # scratch for mju_quat2Mat; zeros keep every build identical
 
     def torque_world(self, state: StepState) -> np.ndarray:
         """World-frame torque [N m] at this state."""

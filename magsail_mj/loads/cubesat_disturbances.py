@@ -108,7 +108,7 @@ class CubesatDisturbanceLoad:
             self._sail = srp_facets
         self._key: tuple | None = None
         self._torques = np.zeros((4, 3))
-        self._R = np.empty(9)
+        self._R = np.zeros(9)  # scratch for mju_quat2Mat; zeros keep every build identical
 
     @property
     def reference_loads(self) -> list:
