@@ -3,6 +3,10 @@
 Every verb checks its inputs where it uses them (paths, numbers, the memory the input needs) and
 reports a problem as one line ``error: <what>`` on stderr, never a traceback; the exit status
 follows :data:`EXIT_CODES`. ``MAGSAIL_DEBUG=1`` adds the traceback of an unexpected error.
+
+Messages go through :mod:`logging` (logger ``magsail_mj`` and its children) to stderr: warnings
+and errors by default, ``-v`` adds progress messages (INFO), ``-vv`` debugging detail (DEBUG).
+Results (JSON, paths) go to stdout. ``python -m magsail_mj`` is the same command.
 """
 
 from __future__ import annotations
@@ -11,6 +15,7 @@ import argparse
 import contextlib
 import errno
 import json
+import logging
 import math
 import os
 import signal
@@ -19,11 +24,16 @@ import threading
 import traceback
 import warnings
 from collections.abc import Callable, Iterator, Mapping
+from importlib import metadata
 from pathlib import Path
 from typing import Any, NoReturn
 
+from magsail_mj.analysis.coil_torque import coil_torque_report
+from magsail_mj.analysis.loop_scaling import loop_sizing, scaling_table
+from magsail_mj.analysis.scaling import scaling_report
 from magsail_mj.config import ConfigError, load_config
 from magsail_mj.io import RunDirError, atomic_path, to_jsonable
+from magsail_mj.render import render_run
 from magsail_mj.render.backend import GLBackendError
 from magsail_mj.resources import (
     ENV_VAR,
@@ -35,6 +45,9 @@ from magsail_mj.resources import (
     parse_memory_limit,
     render_bytes,
 )
+from magsail_mj.run import run_scenario
+from magsail_mj.scenarios import build_scenario
+from magsail_mj.sweep import load_sweep, make_cluster, run_sweep, sweep_exit_code
 
 __all__ = ["EXIT_CODES", "CliInputError", "main"]
 
@@ -53,7 +66,14 @@ memory: every verb estimates the memory its input needs before allocating it and
   (exit 2) above --memory-limit BYTES|auto (or $MAGSAIL_MEMORY_LIMIT; default: the
   machine's available memory)."""
 
+DESCRIPTION = ("magsail: spacecraft geometry configs (TOML) to MuJoCo models and attitude-control runs "
+               "in orbit. 'python -m magsail_mj' is the same command.")
 DEBUG_ENV = "MAGSAIL_DEBUG"
+LOG = logging.getLogger("magsail_mj")
+# -v count → level of the ``magsail_mj`` logger (quiet by default: warnings and errors only)
+_LEVELS = (logging.WARNING, logging.INFO, logging.DEBUG)
+# the packages whose versions ``--version`` prints
+_VERSION_PACKAGES = ("magsail_mj", "mujoco", "numpy")
 # errno values of an OSError that mean: this path cannot be used as given (exit 2).
 _PATH_ERRNOS = {errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.EACCES, errno.EPERM, errno.EROFS,
                 errno.EEXIST, errno.ENAMETOOLONG, errno.ELOOP, errno.EINVAL}
@@ -79,6 +99,71 @@ class _Parser(argparse.ArgumentParser):
             name, rest = message[len("argument "):].split(": ", 1)
             raise _UsageError(f"{name.split('/')[-1]}: {rest} (see {self.prog} --help)")
         raise _UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+
+# --------------------------------------------------------------------------- logging, version
+
+
+class _StderrHandler(logging.StreamHandler):
+    """A handler that writes to the ``sys.stderr`` of the moment (so a replaced stderr, as under
+    pytest's ``capsys``, receives the messages)."""
+
+    def __init__(self) -> None:
+        super().__init__(sys.stderr)
+
+    @property
+    def stream(self) -> Any:
+        """The current ``sys.stderr``."""
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value: Any) -> None:
+        """Ignored: the stream is always the current ``sys.stderr``."""
+
+
+class _Formatter(logging.Formatter):
+    """``error: <msg>`` / ``warning: <msg>`` for WARNING and above, the bare message below."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        """One line per record; the level name in lower case in front of warnings and errors."""
+        text = record.getMessage()
+        if record.exc_info:
+            text = f"{text}\n{self.formatException(record.exc_info)}"
+        if record.levelno >= logging.WARNING:
+            return f"{record.levelname.lower()}: {text}"
+        return text
+
+
+@contextlib.contextmanager
+def _logging_to_stderr(*, verbosity: int) -> Iterator[None]:
+    """Within the block, the ``magsail_mj`` logger writes to stderr at the level of ``verbosity``
+    (0: WARNING, 1: INFO, 2 or more: DEBUG); its earlier level, handlers and propagation are
+    restored afterwards."""
+    handler = _StderrHandler()
+    handler.setFormatter(_Formatter())
+    saved = (LOG.level, LOG.propagate)
+    LOG.setLevel(_LEVELS[min(max(verbosity, 0), len(_LEVELS) - 1)])
+    LOG.propagate = False
+    LOG.addHandler(handler)
+    try:
+        yield
+    finally:
+        LOG.removeHandler(handler)
+        LOG.setLevel(saved[0])
+        LOG.propagate = saved[1]
+
+
+def version_text() -> str:
+    """``magsail <version> (mujoco <v>, numpy <v>, Python <v>)``: the installed distributions'
+    versions (``not installed`` for a missing one)."""
+    found = {}
+    for name in _VERSION_PACKAGES:
+        try:
+            found[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            found[name] = "not installed"
+    others = ", ".join(f"{name} {found[name]}" for name in _VERSION_PACKAGES[1:])
+    return f"magsail {found['magsail_mj']} ({others}, Python {sys.version.split()[0]})"
 
 
 # --------------------------------------------------------------------------- argument types
@@ -236,8 +321,6 @@ def _non_finite(obj: Any, key: str = "") -> tuple[str, float] | None:
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
-    from magsail_mj.scenarios import build_scenario
-
     out = _output_file(args.output, "--output") if args.output is not None else None
     cfg = _load(args)
     out = out or Path(args.config).with_suffix(".xml")
@@ -269,8 +352,6 @@ _RUN_EXIT = {"diverged": 3, "failed": 1, "interrupted": 130}
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from magsail_mj.run import run_scenario
-
     out = _output_dir(args.out, "--out")
     if args.resume and not out.is_dir():
         raise CliInputError(f"--resume: there is no run folder {str(out)!r} to resume")
@@ -283,19 +364,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
     outcome = run_scenario(cfg, out, video=args.video, resume=args.resume, overwrite=args.overwrite,
                            progress=False if args.no_progress else None, stop_after_s=args.stop_after_s)
     print(json.dumps(to_jsonable(dict(outcome)), indent=2))
-    print(f"run folder: {outcome.run_dir}", file=sys.stderr)
+    LOG.info("run folder: %s", outcome.run_dir)
     if args.video and (outcome.run_dir / "video.mp4").is_file():
-        print(f"video: {outcome.run_dir / 'video.mp4'}", file=sys.stderr)
+        LOG.info("video: %s", outcome.run_dir / "video.mp4")
     status = getattr(outcome, "status", "completed")
     code = _RUN_EXIT.get(status, 0)
     if code:
-        print(f"error: run {status}: {outcome.get('status_message', '')}", file=sys.stderr)
+        LOG.error("run %s: %s", status, outcome.get("status_message", ""))
     return code
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    from magsail_mj.render import render_run
-
     out = render_run(_non_empty(args.run_dir, "RUN_DIR"), _non_empty(args.output, "--output"),
                      compare=_non_empty(args.compare, "--compare") if args.compare is not None else None,
                      labels=args.labels)
@@ -306,8 +385,6 @@ def _cmd_render(args: argparse.Namespace) -> int:
 def _sweep_engine(args: argparse.Namespace) -> Any:
     """The Dask cluster of ``--cluster`` (jobs not yet submitted), else None; CliInputError for
     options that do not fit together."""
-    from magsail_mj.sweep import make_cluster
-
     queue_opts = {"--jobs": args.jobs, "--cores-per-job": args.cores_per_job, "--memory-per-job": args.memory_per_job,
                   "--walltime": args.walltime, "--queue": args.queue, "--account": args.account}
     given = [opt for opt, value in queue_opts.items() if value is not None]
@@ -325,8 +402,6 @@ def _sweep_engine(args: argparse.Namespace) -> Any:
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from magsail_mj.sweep import load_sweep, run_sweep, sweep_exit_code
-
     path = _input_file(args.sweep, "SWEEP")
     out = _output_dir(args.out, "--out") if args.out is not None else None
     if args.scheduler is not None and not args.scheduler.strip():
@@ -349,7 +424,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             cluster.adapt(minimum_jobs=args.jobs or 1, maximum_jobs=args.jobs or 1)  # jobs that end are replaced
         records = run_sweep(sweep, out, workers=args.workers, video=args.video, overwrite=args.overwrite,
                             scheduler=args.scheduler, cluster=cluster, retries=args.retries,
-                            log=lambda line: print(line, file=sys.stderr))
+                            log=LOG.info)
     finally:
         if cluster is not None:
             cluster.close()
@@ -359,8 +434,6 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def _cmd_scaling_magnetorquer(args: argparse.Namespace) -> int:
-    from magsail_mj.analysis.scaling import scaling_report
-
     # the report is a len(side) × len(kappa) table of λ_f, built as floats, Python objects and JSON
     # text: 172–178 bytes per entry measured (max RSS over the base process, 1e6 and 9e6 entries)
     check_memory(_SCALING_ENTRY_BYTES * len(args.side_m) * len(args.kappa) + _SMALL_REPORT_BYTES,
@@ -374,8 +447,6 @@ def _cmd_scaling_magnetorquer(args: argparse.Namespace) -> int:
 
 
 def _cmd_scaling_loops(args: argparse.Namespace) -> int:
-    from magsail_mj.analysis.loop_scaling import loop_sizing, scaling_table
-
     check_memory(_SMALL_REPORT_BYTES, what="scaling loops")
     if args.table:
         report = scaling_table(side_m=args.side_m, areal_density_kg_m2=args.areal_density, kappa=args.kappa)
@@ -389,8 +460,6 @@ def _cmd_scaling_loops(args: argparse.Namespace) -> int:
 
 
 def _cmd_torque_coil(args: argparse.Namespace) -> int:
-    from magsail_mj.analysis.coil_torque import coil_torque_report
-
     report = coil_torque_report(side_m=args.side_m, segment_m=args.segment_m, depth_m=args.depth_m,
                                 current_A=args.current_a, field_T=args.field_t, pitch_cells=args.pitch_cells,
                                 rows=args.rows)
@@ -409,8 +478,19 @@ def _verb(sub: Any, name: str, help_text: str, fn: Callable[[argparse.Namespace]
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--memory-limit", type=_memory, default=argparse.SUPPRESS, metavar="BYTES|auto",
                    help=f"refuse inputs needing more memory (default: ${ENV_VAR}, else the available memory)")
+    _verbose_option(p, default=argparse.SUPPRESS)
     p.set_defaults(fn=fn, options=dict(options or {}))
     return p
+
+
+def _verbose_option(p: argparse.ArgumentParser, *, default: Any) -> None:
+    """``-v/--verbose`` (repeatable): more messages on stderr."""
+    p.add_argument("-v", "--verbose", action="count", default=default,
+                   help="more messages on stderr: -v progress (INFO), -vv debugging detail (DEBUG); "
+                        "default: warnings and errors only")
+
+
+_CONFIG_HELP = "config TOML file (see the config reference: docs/reference/config.md)"
 
 
 def _set_option(p: argparse.ArgumentParser,
@@ -420,32 +500,33 @@ def _set_option(p: argparse.ArgumentParser,
 
 def _add_run_verbs(sub: Any) -> None:
     b = _verb(sub, "build", "write the MJCF of a config and print the model size", _cmd_build)
-    b.add_argument("config")
+    b.add_argument("config", help=_CONFIG_HELP)
     b.add_argument("-o", "--output", help="MJCF path (default: next to the config, same stem)")
     _set_option(b)
 
     v = _verb(sub, "validate", "check a config (and the memory a run of it needs) and exit", _cmd_validate)
-    v.add_argument("config")
+    v.add_argument("config", help=_CONFIG_HELP)
     _set_option(v)
 
     r = _verb(sub, "run", "simulate a config into a run folder", _cmd_run)
-    r.add_argument("config")
+    r.add_argument("config", help=_CONFIG_HELP)
     r.add_argument("--out", required=True, help="run folder")
     r.add_argument("--video", action="store_true", help="also render video.mp4")
     _set_option(r)
     r.add_argument("--resume", action="store_true", help="continue from the folder's checkpoint")
     r.add_argument("--overwrite", action="store_true", help="replace an earlier run in --out")
-    r.add_argument("--no-progress", action="store_true")
+    r.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     r.add_argument("--stop-after-s", type=_positive, default=None, metavar="T",
                    help="stop at simulated time T with a checkpoint (status 'stopped', exit 0); "
                         "continue later with --resume")
 
     rr = _verb(sub, "render", "render a run folder to MP4 (optionally side by side)", _cmd_render,
                {"run_dir": "RUN_DIR", "out_path": "--output", "compare": "--compare", "labels": "--labels"})
-    rr.add_argument("run_dir")
+    rr.add_argument("run_dir", help="run folder written by 'magsail run' (left side when comparing)")
     rr.add_argument("-o", "--output", required=True, help="video path; only .mp4 (H.264) is written")
     rr.add_argument("--compare", help="second run folder, shown on the right")
-    rr.add_argument("--labels", nargs=2, metavar=("LEFT", "RIGHT"))
+    rr.add_argument("--labels", nargs=2, metavar=("LEFT", "RIGHT"),
+                    help="captions of the left and right run (default: the run folders' names)")
 
     sw = _verb(sub, "sweep", "run every run of a sweep file ([[run]], [grid], [monte_carlo]) on Dask", _cmd_sweep,
                {"workers": "--workers", "only": "--only", "retries": "--retries", "scheduler": "--scheduler"})
@@ -475,15 +556,18 @@ def _add_run_verbs(sub: Any) -> None:
 def _add_analytic_verbs(sub: Any) -> None:
     sc = sub.add_parser("scaling", help="analytic scaling laws (one JSON object on stdout)", epilog=EXIT_CODES,
                         formatter_class=argparse.RawDescriptionHelpFormatter)
-    scs = sc.add_subparsers(dest="law", required=True)
+    _verbose_option(sc, default=argparse.SUPPRESS)
+    scs = sc.add_subparsers(dest="law", required=True, metavar="LAW", help="the scaling law")
     mt = _verb(scs, "magnetorquer", "rod mass fraction λ_f(d, κ_τ) (truss spec §8)", _cmd_scaling_magnetorquer,
                {"side_m": "--side-m", "kappa": "--kappa", "altitude_km": "--altitude-km",
                 "total_kg": "--total-kg", "rod_mass_kg": "--rod-mass-kg"})
     mt.add_argument("--side-m", type=_positive, nargs="+", required=True, help="plate side(s) d [m]")
     mt.add_argument("--kappa", type=_positive, nargs="+", required=True, help="dipole per rod mass κ_τ [A m²/kg]")
-    mt.add_argument("--altitude-km", type=_non_negative, default=800.0)
-    mt.add_argument("--total-kg", type=_positive, default=200.0)
-    mt.add_argument("--rod-mass-kg", type=_non_negative, default=100.0)
+    mt.add_argument("--altitude-km", type=_non_negative, default=800.0,
+                    help="circular orbit altitude [km], sets the field strength (default 800)")
+    mt.add_argument("--total-kg", type=_positive, default=200.0, help="spacecraft total mass [kg] (default 200)")
+    mt.add_argument("--rod-mass-kg", type=_non_negative, default=100.0,
+                    help="mass of all magnetorquer rods [kg] (default 100)")
 
     lo = _verb(scs, "loops", "current-loop sizing: Eq.-9 current, wire, λ_f, power (current-loops §3)",
                _cmd_scaling_loops, {"geometry": "--geometry", "units": "--units", "side_m": "--side-m",
@@ -500,7 +584,8 @@ def _add_analytic_verbs(sub: Any) -> None:
 
     tq = sub.add_parser("torque", help="analytic actuator torques (one JSON object on stdout)", epilog=EXIT_CODES,
                         formatter_class=argparse.RawDescriptionHelpFormatter)
-    tqs = tq.add_subparsers(dest="actuator", required=True)
+    _verbose_option(tq, default=argparse.SUPPRESS)
+    tqs = tq.add_subparsers(dest="actuator", required=True, metavar="ACTUATOR", help="the actuator")
     tc = _verb(tqs, "coil", "reflector coil paths: capability T_max, torque vectors (reflector spec §3.6)",
                _cmd_torque_coil, {"side_m": "--side-m", "segment_m": "--segment-m", "depth_m": "--depth-m",
                                   "current_A": "--current-a", "field_T": "--field-t",
@@ -515,12 +600,15 @@ def _add_analytic_verbs(sub: Any) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="magsail", description=__doc__.splitlines()[0], epilog=EXIT_CODES,
+    p = _Parser(prog="magsail", description=DESCRIPTION, epilog=EXIT_CODES,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--memory-limit", type=_memory, default=None, metavar="BYTES|auto",
                    help=f"refuse inputs needing more memory than this (suffix K, M, G, T; default: ${ENV_VAR}, "
                         "else the machine's available memory)")
-    sub = p.add_subparsers(dest="command", required=True)
+    p.add_argument("--version", action="version", version=version_text(),
+                   help="print the versions of magsail_mj, MuJoCo, NumPy and Python and exit")
+    _verbose_option(p, default=0)
+    sub = p.add_subparsers(dest="command", required=True, metavar="VERB", help="what to do (VERB --help for more)")
     _add_run_verbs(sub)
     _add_analytic_verbs(sub)
     return p
@@ -555,10 +643,10 @@ def _sigterm_interrupts() -> Iterator[None]:
 
 @contextlib.contextmanager
 def _plain_warnings() -> Iterator[None]:
-    """Within the block, a warning prints as one line ``warning: <message>`` on stderr (no source line)."""
+    """Within the block, a warning is logged as one line ``warning: <message>`` (no source line)."""
     def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
              file: Any = None, line: str | None = None) -> None:
-        print(f"warning: {message}", file=sys.stderr)
+        LOG.warning("%s", message)
 
     with warnings.catch_warnings():
         warnings.showwarning = show
@@ -566,7 +654,8 @@ def _plain_warnings() -> Iterator[None]:
 
 
 def _error(message: str, code: int) -> int:
-    print(f"error: {message}", file=sys.stderr)
+    """Log ``error: <message>`` and return the exit status ``code``."""
+    LOG.error("%s", message)
     return code
 
 
@@ -616,12 +705,20 @@ def _dispatch(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Run ``magsail`` with ``argv`` (default ``sys.argv[1:]``) and return the exit status."""
+    with _logging_to_stderr(verbosity=0):
+        return _main(argv)
+
+
+def _main(argv: list[str] | None) -> int:
+    """:func:`main` with the logging to stderr set up (WARNING until ``-v`` is parsed)."""
     try:
         args = _parser().parse_args(argv)
     except _UsageError as err:
         return _error(str(err), 2)
-    except SystemExit as exit_:        # --help
+    except SystemExit as exit_:        # --help, --version
         return exit_.code if isinstance(exit_.code, int) else 0
+    verbosity = getattr(args, "verbose", 0)
+    LOG.setLevel(_LEVELS[min(verbosity, len(_LEVELS) - 1)])
     try:
         with memory_limit(args.memory_limit), _sigterm_interrupts(), _plain_warnings():
             code = _dispatch(args)
@@ -635,10 +732,9 @@ def main(argv: list[str] | None = None) -> int:
         if _SIGNALLED:  # an interrupt turned into another error (e.g. inside an extension's import)
             print("interrupted", file=sys.stderr)
             return 130
-        if os.environ.get(DEBUG_ENV, "").strip() not in ("", "0"):
+        if os.environ.get(DEBUG_ENV, "").strip() not in ("", "0") or verbosity >= 2:
             traceback.print_exc()
         return _error(f"internal error: {type(err).__name__}: {err}", 1)
-
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -9,7 +9,6 @@ stands).
 
 from __future__ import annotations
 
-import importlib
 import os
 import signal
 import sys
@@ -28,8 +27,8 @@ def main() -> int:
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, hold)
     try:  # the heavy imports (MuJoCo's extension, NumPy, pydantic, the runner), with signals held
-        cli = importlib.import_module("magsail_mj.cli")
-        importlib.import_module("magsail_mj.run")
+        # imported here, not at module top, so that signals are held while they load
+        from magsail_mj import cli
     except KeyboardInterrupt:
         pending.append(signal.SIGINT)
     if pending:  # nothing has been written yet: leave at once, without the interpreter's clean-up
