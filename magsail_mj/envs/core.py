@@ -1,0 +1,509 @@
+r"""dm_control environments of the attitude scenarios: Physics, Task base, registry.
+
+The split follows dm_control (``dm_control.rl.control``):
+
+* :class:`SimulationPhysics` — the simulator: a :class:`magsail_mj.sim.Simulation` built by
+  :func:`magsail_mj.load` from a config and re-built by :func:`magsail_mj.commands.attach` with an
+  :class:`ActionController`. Every load and every probe of the scenario is kept, so the scenario's
+  own post-processing (``sim.scenario.postprocess``) applies to an environment's run.
+* :class:`AttitudeTask` — actions, observations, reward, termination and episode start.
+* ``dm_control.rl.control.Environment`` — ``control_timestep`` (the shipped controller's period)
+  and ``time_limit`` (the scenario's ``sim.duration_s``).
+
+Timing. The simulation samples its controller at ``t_k = k · period`` (zero-order hold). An
+environment step of ``control_timestep = period`` runs ``n = period/δt`` physics steps; its first
+physics step samples the :class:`ActionController`, which turns the action set by
+:meth:`AttitudeTask.before_step` into the scenario's own command from the state at ``t_k`` (the
+state the observation of the previous time step described). The command is held over the
+environment step, exactly as in ``magsail run``.
+
+Termination. A diverged simulation (status ``"diverged"``) or a failed structure (strut strain
+above ``sim.max_strain``, status ``"structure_failed"``) ends the episode with discount 0; the
+time limit ends it with discount 1 (dm_control's rule). :meth:`SimulationPhysics.check_divergence`
+raises :class:`dm_control.rl.control.PhysicsError` on a diverged simulation.
+
+Reward (every task; the terms a task lacks are 0):
+
+.. math::
+
+   r = -\bigl(w_\theta (\theta/\pi)^2 + w_\omega (|\omega|/\omega_s)^2
+        + w_u \overline{(u/u_{max})^2} + w_\varepsilon (\varepsilon_{max}/\varepsilon_{fail})^2\bigr)
+
+with θ the pointing error angle [rad] (``2 acos |q_e,w|``, ``q_e = q_ref* ⊗ q``), ω the body
+rate [rad/s] and ω_s the task's rate scale [rad/s], ``u/u_max`` the action normalised by its
+bounds (mean of squares over the components), ε_max the largest strut strain and ε_fail
+``sim.max_strain``; the weights ``w_*`` are task options (``reward_weights``).
+"""
+
+from __future__ import annotations
+
+import collections
+import copy
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+import dm_env
+import numpy as np
+from dm_control.rl import control
+from dm_env import specs
+
+import magsail_mj
+from magsail_mj.commands import attach
+from magsail_mj.config import apply_overrides, load_config, parse_config
+from magsail_mj.loads.base import StepState
+from magsail_mj.sim import RunResult, Simulation
+
+__all__ = [
+    "ActionController",
+    "SimulationPhysics",
+    "AttitudeTask",
+    "RewardWeights",
+    "TaskEntry",
+    "register",
+    "load",
+    "list_tasks",
+    "task_entry",
+    "shipped_policy",
+    "make_environment",
+    "pointing_error_rad",
+    "as_random_state",
+    "REPO_ROOT",
+]
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+"""The repository root: shipped configs are ``REPO_ROOT / "models" / ...``."""
+
+ENDING_STATUSES = ("diverged", "structure_failed", "failed", "interrupted")
+"""Simulation statuses that end an episode with discount 0."""
+
+
+# =========================================================================== controller
+
+
+class ActionController:
+    """The controller of an environment's simulation: it returns the task's action as the
+    scenario's command.
+
+    ``update(state)`` is called by the runner every ``period_s`` (zero-order hold); it returns
+    ``convert(state, action)`` with the action last set by the task (``action``), and keeps that
+    command in ``command`` (what the loads hold until the next sample).
+
+    Args:
+      period_s: sample period [s] (the shipped controller's period).
+      convert: ``(state, action) → command`` of the scenario's own command type.
+      action: the initial action (the task's neutral action, e.g. zero torque).
+    """
+
+    def __init__(self, *, period_s: float, convert: Callable[[StepState, np.ndarray], Any],
+                 action: np.ndarray) -> None:
+        if not (math.isfinite(period_s) and period_s > 0):
+            raise ValueError(f"period_s: must be > 0 s, got {period_s!r}")
+        self.period_s = float(period_s)
+        self.convert = convert
+        self.action = np.array(action, dtype=float, copy=True)
+        self.command: Any = None
+
+    def update(self, state: StepState) -> Any:
+        """The command of the current action at ``state``."""
+        self.command = self.convert(state, self.action)
+        return self.command
+
+
+# =========================================================================== physics
+
+
+class SimulationPhysics(control.Physics):
+    """dm_control ``Physics`` over a :class:`magsail_mj.sim.Simulation`.
+
+    Args:
+      base: the simulation of the config as built by :func:`magsail_mj.load` (left unstepped).
+      controller: the :class:`ActionController` put on the spacecraft in place of the shipped
+        controller; the scenario's loads (actuators included, they read the command) and probes are
+        all kept.
+
+    ``sim`` is the simulation the environment steps; ``scenario`` and ``cfg`` are the base's.
+    """
+
+    def __init__(self, base: Simulation, controller: ActionController) -> None:
+        if not isinstance(base, Simulation):
+            raise TypeError(f"base: expected a stepped magsail_mj.sim.Simulation, got {type(base).__name__}")
+        self.base = base
+        self.controller = controller
+        self.sim = attach(base, controller, [], keep_load=lambda load: True, keep_probes=tuple(base.probes))
+        self.scenario = base.scenario
+        self.cfg = base.cfg
+
+    # ------------------------------------------------------------------ dm_control Physics
+    def step(self, n_sub_steps: int = 1) -> None:
+        """Advance ``n_sub_steps`` physics steps (never beyond the scenario's duration)."""
+        self.sim.step(int(n_sub_steps))
+
+    def time(self) -> float:
+        """Simulated time [s]."""
+        return self.sim.time
+
+    def timestep(self) -> float:
+        """Physics time step δt [s]."""
+        return float(self.sim.model.opt.timestep)
+
+    def reset(self) -> None:
+        """Back to the build's initial state (t = 0, no records)."""
+        self.sim.reset()
+
+    def after_reset(self) -> None:
+        """Nothing to recompute: the runner refreshes kinematics at each step."""
+
+    def check_divergence(self) -> None:
+        """Raise :class:`dm_control.rl.control.PhysicsError` when the simulation diverged."""
+        if self.sim.status == "diverged":
+            raise control.PhysicsError(self.sim.message)
+
+    check_invalid_state = check_divergence
+
+    def get_state(self) -> dict[str, Any]:
+        """The simulation's whole state (:meth:`magsail_mj.sim.Simulation.get_state`, a dict)."""
+        return self.sim.get_state()
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Continue from a state of :meth:`get_state`."""
+        self.sim.set_state(state)
+
+    def flat_state(self) -> np.ndarray:
+        """MuJoCo's integration state as a flat float64 array (a copy)."""
+        return np.array(self.sim.get_state()["mj_state"], dtype=float)
+
+    # ------------------------------------------------------------------ helpers
+    @property
+    def model(self) -> Any:
+        return self.sim.model
+
+    @property
+    def data(self) -> Any:
+        return self.sim.data
+
+    @property
+    def status(self) -> str:
+        return self.sim.status
+
+    def step_state(self) -> StepState:
+        """What the runner's next step will see at the current time: body kinematics, the
+        environment sample at ``t`` and the held command (the StepState of :mod:`magsail_mj.sim`)."""
+        sim = self.sim
+        sim.kin.update(sim.data)
+        t = sim.time
+        env = sim.environment.sample(t) if sim.environment is not None else None
+        kin = sim.kin
+        return StepState(t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega, env=env,
+                         ctrl=self.controller.command)
+
+    def result(self) -> RunResult:
+        """The run so far as a :class:`~magsail_mj.sim.RunResult` (for ``scenario.postprocess``)."""
+        sim = self.sim
+        status = sim.status if sim.status != "running" else "stopped"
+        return RunResult(records=sim.records(), status=status, message=sim.message, t_end_s=sim.time,
+                         steps=sim.step_index, wall_time_s=float(sim._wall_s))
+
+    def summary(self) -> dict[str, Any]:
+        """The scenario's summary figures of the run so far (``scenario.postprocess``)."""
+        return self.scenario.postprocess(self.result())[0]
+
+
+# =========================================================================== task
+
+
+@dataclass(frozen=True)
+class RewardWeights:
+    """Weights of the reward terms (module docstring): pointing ``w_theta``, rate ``w_omega``,
+    effort ``w_u``, strain ``w_strain`` (all ≥ 0, dimensionless)."""
+
+    w_theta: float = 1.0
+    w_omega: float = 1.0
+    w_u: float = 0.01
+    w_strain: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("w_theta", "w_omega", "w_u", "w_strain"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"reward_weights.{name}: must be a finite number >= 0, got {value!r}")
+
+
+def as_random_state(random: int | np.random.RandomState | None) -> np.random.RandomState:
+    """dm_control's seeding: a seed, a ``RandomState`` (used as is) or ``None`` (fresh entropy)."""
+    if isinstance(random, np.random.RandomState):
+        return random
+    if random is None or isinstance(random, (int, np.integer)):
+        return np.random.RandomState(random)
+    raise TypeError(f"random: expected an int seed, a numpy.random.RandomState or None, got {type(random).__name__}")
+
+
+def pointing_error_rad(q_wxyz: np.ndarray, q_ref_wxyz: np.ndarray) -> float:
+    """θ = 2 acos |q_e,w| with ``q_e = q_ref* ⊗ q`` [rad], in [0, π]: the scalar part of the error
+    quaternion is the dot product ``q_ref · q``."""
+    c = abs(float(np.dot(np.asarray(q_wxyz, dtype=float), np.asarray(q_ref_wxyz, dtype=float))))
+    return 2.0 * math.acos(min(1.0, c))
+
+
+class AttitudeTask(control.Task):
+    """Base of the attitude tasks (module docstring): seeding, episode start, termination, reward.
+
+    Args:
+      random: seed or ``numpy.random.RandomState`` (dm_control's convention) for the episode start.
+      randomize: draw the episode start from the task's documented ranges (True) or keep the
+        config's initial state (False).
+      reward_weights: :class:`RewardWeights` or a mapping of its fields.
+
+    Subclasses set ``action_names``, ``action_low``, ``action_high`` (``_set_action_bounds``) and
+    implement :meth:`convert` (action → the scenario's command), :meth:`observe` (named arrays),
+    :meth:`reward_terms` and :meth:`draw_start` (write a drawn initial state into the physics).
+    """
+
+    rate_scale_rad_s: float = 1e-2
+
+    def __init__(self, random: int | np.random.RandomState | None = None, *, randomize: bool = True,
+                 reward_weights: RewardWeights | Mapping[str, float] | None = None) -> None:
+        super().__init__()
+        self._random = as_random_state(random)
+        self.randomize = bool(randomize)
+        if reward_weights is None:
+            reward_weights = RewardWeights()
+        elif not isinstance(reward_weights, RewardWeights):
+            reward_weights = RewardWeights(**dict(reward_weights))
+        self.weights = reward_weights
+        self.action_names: tuple[str, ...] = ()
+        self.action_low = np.zeros(0)
+        self.action_high = np.zeros(0)
+        self.start: dict[str, Any] = {}
+        self._last_action = np.zeros(0)
+
+    @property
+    def random(self) -> np.random.RandomState:
+        """The task's random state (dm_control's ``Task.random``)."""
+        return self._random
+
+    # ------------------------------------------------------------------ actions
+    def _set_action_bounds(self, names: Sequence[str], low: np.ndarray, high: np.ndarray) -> None:
+        low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
+        if low.shape != (len(names),) or high.shape != low.shape or np.any(~(low <= high)):
+            raise ValueError(f"action bounds: expected {len(names)} pairs low <= high, got {low!r}, {high!r}")
+        self.action_names = tuple(names)
+        self.action_low, self.action_high = low, high
+        self._last_action = np.zeros(len(names))
+
+    def neutral_action(self) -> np.ndarray:
+        """The action of no actuation (zeros clipped into the bounds)."""
+        return np.clip(np.zeros(len(self.action_names)), self.action_low, self.action_high)
+
+    def action_spec(self, physics: SimulationPhysics) -> specs.BoundedArray:
+        return specs.BoundedArray(shape=(len(self.action_names),), dtype=np.float64, minimum=self.action_low,
+                                  maximum=self.action_high, name=",".join(self.action_names))
+
+    def before_step(self, action: Any, physics: SimulationPhysics) -> None:
+        """Clip the action into its bounds (the hardware's limits) and hand it to the controller."""
+        a = np.asarray(action, dtype=float).reshape(-1)
+        if a.shape != self.action_low.shape:
+            raise ValueError(f"action: expected shape {self.action_low.shape}, got {np.shape(action)}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action: every component must be finite, got {action!r}")
+        a = np.clip(a, self.action_low, self.action_high)
+        physics.controller.action[:] = a
+        self._last_action = a
+
+    converter: Any = None
+    """Object whose ``command(state, action)`` returns the scenario's command for ``action`` at
+    ``state`` (subclasses set it). It becomes part of the simulation's controller, so its state is
+    checkpointed and restored by ``reset`` with the simulation's."""
+
+    # ------------------------------------------------------------------ episode
+    def initialize_episode(self, physics: SimulationPhysics) -> None:
+        """Reset has put the build's initial state back; draw a start when ``randomize``."""
+        physics.controller.action[:] = self.neutral_action()
+        self._last_action = self.neutral_action()
+        self.start = self.draw_start(physics) if self.randomize else {}
+
+    def draw_start(self, physics: SimulationPhysics) -> dict[str, Any]:
+        """Write a drawn initial state into ``physics`` and return what was drawn (subclass)."""
+        return {}
+
+    # ------------------------------------------------------------------ observations and reward
+    def observe(self, physics: SimulationPhysics, state: StepState) -> dict[str, np.ndarray]:
+        """Named observation arrays at ``state`` (subclass)."""
+        raise NotImplementedError
+
+    def get_observation(self, physics: SimulationPhysics) -> collections.OrderedDict:
+        obs = self.observe(physics, physics.step_state())
+        return collections.OrderedDict((k, np.asarray(v, dtype=np.float64).reshape(np.shape(v)))
+                                       for k, v in obs.items())
+
+    def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
+        """``theta_rad``, ``omega_rad_s``, ``strain`` (ε_max/ε_fail) of the current state (subclass;
+        missing terms count 0)."""
+        return {}
+
+    def effort(self) -> float:
+        """Mean of squares of the last action normalised by its bounds, in [0, 1]."""
+        if not self._last_action.size:
+            return 0.0
+        scale = np.maximum(np.abs(self.action_low), np.abs(self.action_high))
+        u = np.divide(self._last_action, scale, out=np.zeros_like(self._last_action), where=scale > 0)
+        return float(np.mean(u * u))
+
+    def get_reward(self, physics: SimulationPhysics) -> float:
+        """The reward of the module docstring."""
+        terms = self.reward_terms(physics)
+        w = self.weights
+        theta = terms.get("theta_rad", 0.0) / math.pi
+        rate = terms.get("omega_rad_s", 0.0) / self.rate_scale_rad_s
+        strain = terms.get("strain", 0.0)
+        return -float(w.w_theta * theta * theta + w.w_omega * rate * rate + w.w_u * self.effort()
+                      + w.w_strain * strain * strain)
+
+    def get_termination(self, physics: SimulationPhysics) -> float | None:
+        """0.0 on divergence or structural failure, 1.0 when the simulation reached its duration,
+        else None (the time limit itself is the Environment's)."""
+        status = physics.status
+        if status in ENDING_STATUSES or status == "structure_failed":
+            return 0.0
+        if status == "completed":
+            return 1.0
+        return None
+
+    # ------------------------------------------------------------------ binding
+    period_s: float = 0.0
+    """Controller period [s]: the shipped controller's (subclasses set it from the built simulation)."""
+
+    def bind(self, physics: SimulationPhysics) -> None:
+        """Called once the physics exists (subclasses may keep references)."""
+        self.physics = physics
+
+    # ------------------------------------------------------------------ shipped controller
+    def fresh_shipped_controller(self, physics: SimulationPhysics) -> Any:
+        """A copy of the shipped controller as built (the base simulation is never stepped, so its
+        controller is in its initial state)."""
+        return copy.deepcopy(physics.base.controller)
+
+    def shipped_action(self, physics: SimulationPhysics, controller: Any, state: StepState) -> np.ndarray:
+        """The action that makes :meth:`convert` give the shipped controller's command at
+        ``state`` (subclass; ``controller`` is a fresh copy of the shipped controller)."""
+        raise NotImplementedError
+
+
+# =========================================================================== registry
+
+
+@dataclass(frozen=True)
+class TaskEntry:
+    """A registered task: its name, shipped config, the factory and which configs it serves."""
+
+    name: str
+    config: Path
+    factory: Callable[..., control.Environment]
+    matches: Callable[[Any], bool]
+    doc: str = ""
+
+
+_REGISTRY: dict[str, TaskEntry] = {}
+
+
+def register(name: str, *, config: str | Path, matches: Callable[[Any], bool]) -> Callable:
+    """Decorator registering ``factory(cfg, overrides, random, **options) → Environment`` as task
+    ``name`` with its shipped ``config`` (relative to the repository root) and the predicate of
+    the configs it serves (a config's concept/scenario)."""
+    if "/" not in name:
+        raise ValueError(f"name: expected '<concept>/<task>', got {name!r}")
+
+    def wrap(factory: Callable[..., control.Environment]) -> Callable[..., control.Environment]:
+        _REGISTRY[name] = TaskEntry(name=name, config=REPO_ROOT / config, factory=factory, matches=matches,
+                                    doc=(factory.__doc__ or "").strip())
+        return factory
+
+    return wrap
+
+
+def list_tasks() -> list[str]:
+    """Names of the registered tasks (``<concept>/<task>``), sorted."""
+    return sorted(_REGISTRY)
+
+
+def task_entry(name: str) -> TaskEntry:
+    """The registered task ``name`` (``ValueError`` naming the known ones otherwise)."""
+    if name not in _REGISTRY:
+        raise ValueError(f"task: unknown environment {name!r}; known: {', '.join(list_tasks())}")
+    return _REGISTRY[name]
+
+
+def _entry_for_config(cfg: Any, source: str) -> TaskEntry:
+    for name in list_tasks():
+        if _REGISTRY[name].matches(cfg):
+            return _REGISTRY[name]
+    raise ValueError(f"config: {source} (concept {getattr(cfg, 'concept', None)!r}, scenario "
+                     f"{getattr(cfg, 'scenario', None)!r}) has no environment; known tasks: {', '.join(list_tasks())}")
+
+
+def load(config: str | Path | Any, overrides: Sequence[str] = (), random: int | np.random.RandomState | None = None,
+         **task_options: Any) -> control.Environment:
+    """The environment of ``config``: a registered task name (``"cnusail/detumble"`` → its shipped
+    config), a config file path or a validated config; ``overrides`` as ``--set``; ``random`` seeds
+    the task; ``task_options`` go to the task (see each task's docstring)."""
+    if isinstance(config, str) and config in _REGISTRY:
+        entry = _REGISTRY[config]
+        cfg = load_config(entry.config, list(overrides))
+    elif isinstance(config, (str, Path)):
+        cfg = load_config(config, list(overrides))
+        entry = _entry_for_config(cfg, str(config))
+    else:
+        cfg = (parse_config(apply_overrides(config.model_dump(mode="json"), list(overrides)))
+               if overrides else config)
+        entry = _entry_for_config(cfg, "the given config")
+    return entry.factory(cfg, random=random, **task_options)
+
+
+def make_environment(cfg: Any, task_cls: type[AttitudeTask], *, random: Any = None,
+                     period_s: float | None = None, time_limit_s: float | None = None,
+                     **task_options: Any) -> control.Environment:
+    """Build ``cfg``'s simulation, the task and the Environment (``control_timestep`` = the
+    controller period, ``time_limit`` = ``sim.duration_s`` unless given)."""
+    base = magsail_mj.load(cfg)
+    task = task_cls(base, random=random, **task_options)
+    period = float(period_s if period_s is not None else task.period_s)
+    controller = ActionController(period_s=period, convert=task.converter.command, action=task.neutral_action())
+    physics = SimulationPhysics(base, controller)
+    task.bind(physics)
+    limit = float(time_limit_s if time_limit_s is not None else base.duration_s)
+    return control.Environment(physics, task, time_limit=limit, control_timestep=period)
+
+
+# =========================================================================== shipped policy
+
+
+class _ShippedPolicy:
+    """The shipped controller as a policy: at each time step, a fresh-per-episode copy of the
+    scenario's controller samples the physics state and the task maps its command to an action."""
+
+    def __init__(self, env: control.Environment) -> None:
+        self.env = env
+        self.physics: SimulationPhysics = env.physics
+        self.task: AttitudeTask = env.task
+        self._template = self.physics.base.controller
+        if self._template is None:
+            raise ValueError(f"env: the scenario of {type(self.task).__name__} has no shipped controller")
+        self.controller: Any = None
+
+    def __call__(self, time_step: dm_env.TimeStep) -> np.ndarray:
+        if time_step.first() or self.controller is None:
+            self.controller = self.task.fresh_shipped_controller(self.physics)
+        return self.task.shipped_action(self.physics, self.controller, self.physics.step_state())
+
+
+def shipped_policy(env: control.Environment) -> Callable[[dm_env.TimeStep], np.ndarray]:
+    """The scenario's own controller as a policy ``time_step → action``: run through ``env`` it
+    gives the figures of ``magsail run`` of the same config (the episode must start from the
+    config's state, ``randomize=False``)."""
+    return _ShippedPolicy(env)
+
+
+def list_names() -> list[str]:
+    """Alias of :func:`list_tasks`."""
+    return list_tasks()

@@ -1,0 +1,257 @@
+r"""Environments of the truss with magnetorquer rods: ``truss/detumble`` and ``truss/slew_I`` … ``IV``.
+
+Spacecraft: the flexible 75 m truss (particles joined by struts) with magnetorquer rods in the
+top-layer x1/y1 struts (``scenarios/truss_orbital``). The shipped controllers (B-dot, quaternion
+feedback) compute a reference torque ``T_ref`` (body axes) that the §7.3 allocation turns into
+signed rod counts ``(N1, N2)`` and the §7.4 Lloyd selection into rod polarities.
+
+Actions (``action`` task option):
+
+* ``"torque"`` (default) — ``T_ref`` [N m], body axes, (3,), through the rod allocation; bounds
+  ``±T_max`` per axis with ``T_max = (N_max,1 m_1 + N_max,2 m_2) · B_bound`` (the torque of every
+  rod of both families in a field of ``B_bound = 1e-4 T``, above any LEO field; larger requests
+  saturate in the allocation as they do for the shipped controllers).
+* ``"rods"`` — signed rod counts ``(N1, N2)`` of the two families, bounds ``±N_max,f``; rounded
+  half away from zero to integers, then the Lloyd selection gives the polarities.
+
+Observations (flight estimator: the best-fit rotation of the particle positions, §4.1, and its
+backward-difference rate over the last control period, §4.2):
+
+* ``attitude_wxyz`` (4,) body → world quaternion of the best-fit frame;
+* ``body_rate_rad_s`` (3,) estimated body rate (the episode's initial rate before the first period);
+* ``field_body_T`` (3,) geomagnetic field at the reference point, body axes [T];
+* ``target_wxyz`` (4,) the slew target (slews only);
+* ``surface_sd_m`` (1,) top-surface standard deviation about its best-fit plane [m] and
+  ``strain_max`` (1,) largest |strut strain| (structural health), refreshed every
+  ``health_every`` environment steps (default 10) and held in between.
+
+Reward (``magsail_mj.envs.core``): θ is the error angle to the slew target (0 for the detumble),
+ω = |body_rate_rad_s|, ω_s = 1e-3 rad/s (the §9.3 detumble threshold), effort of the normalised
+action, strain ε_max/``sim.max_strain``.
+
+Episode start (``randomize=True``): rates uniform per body axis in ``±rate_range_rad_s``
+(default 0.01 rad/s, the detumble's initial magnitude; slews: 1e-4 rad/s); attitude: the config's
+initial attitude turned by a rotation about a uniformly drawn axis through an angle uniform in
+``[0, attitude_range_deg]`` (detumble default 180°, slews 10°); rigid, unstressed start as the
+scenario's own. The epoch is the config's.
+
+``control_timestep`` = ``control.period_s`` (default δt); ``time_limit`` = ``sim.duration_s``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from magsail_mj.analysis.flatness import surface_sd
+from magsail_mj.control.allocation import Allocation, rod_torques, round_half_away
+from magsail_mj.control.rod_attitude import RodAttitudeController, RodCommand
+from magsail_mj.envs.core import (
+    AttitudeTask, SimulationPhysics, make_environment, pointing_error_rad, register,
+)
+from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step
+from magsail_mj.loads.base import StepState
+from magsail_mj.quaternion import error_quaternion, quat_from_axis_angle, quat_from_matrix, quat_mul, quat_to_matrix
+
+__all__ = ["TrussAttitudeTask", "ActionRodController", "B_BOUND_T", "random_turn"]
+
+B_BOUND_T = 1e-4
+"""Field magnitude bounding the torque action [T] (above any LEO geomagnetic field)."""
+
+
+class ActionRodController(RodAttitudeController):
+    """The shipped rod controllers' estimation and allocation with the reference torque given.
+
+    ``reference_torque`` returns ``request`` (set by :meth:`command` from the action) and, for a
+    slew, ``extra["q_err"] = q_ref* ⊗ q`` as the quaternion feedback law records it. ``rods`` mode
+    bypasses the allocation: the signed counts select the rods directly.
+    """
+
+    def __init__(self, *, shipped: RodAttitudeController, reference_nodes: np.ndarray, q_ref_wxyz: np.ndarray | None,
+                 mode: str) -> None:
+        super().__init__(reference_nodes=reference_nodes, masses=shipped.masses,
+                         node_bodies=shipped.node_bodies, distributor=shipped.distributor,
+                         period_s=shipped.period_s, omega0_body=shipped.omega0_body,
+                         rate_method=shipped.rate_method)
+        self.q_ref = None if q_ref_wxyz is None else np.asarray(q_ref_wxyz, dtype=float)
+        self.mode = mode
+        self.request = np.zeros(3)
+
+    def reference_torque(self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray,
+                         com_world: np.ndarray, env: Any) -> tuple[np.ndarray, dict[str, Any]]:
+        """``(request, extra)``; extra holds ``q_err`` (4,) for a slew and ``gg_comp_body`` zeros."""
+        extra: dict[str, Any] = {}
+        if self.q_ref is not None:
+            extra = {"q_err": error_quaternion(self.q_ref, quat_from_matrix(R)), "gg_comp_body": np.zeros(3)}
+        return self.request.copy(), extra
+
+    def command(self, state: StepState, action: np.ndarray) -> RodCommand:
+        """The :class:`RodCommand` of ``action`` at ``state`` (torque or signed rod counts)."""
+        if self.mode == "torque":
+            self.request[:] = action
+            return self.update(state)
+        return self._rods_command(state, action)
+
+    def _rods_command(self, state: StepState, action: np.ndarray) -> RodCommand:
+        R, omega, xc = self.estimate(state)
+        B_body = R.T @ np.asarray(state.env.B_eci, dtype=float)
+        n1, n2 = (int(round_half_away(float(a))) for a in action)
+        t1, t2 = rod_torques(B_body, m_rod_Am2=self.distributor.m_rod_Am2)
+        al = Allocation(N1=n1, N2=n2, x1=float(n1), x2=float(n2), mode="direct", clipped1=False, clipped2=False,
+                        tau1_body=tuple(t1.tolist()), tau2_body=tuple(t2.tolist()))
+        polarity = self.distributor.selector.polarity((n1, n2))
+        self._count(al)
+        T = al.torque_body
+        extra = self.reference_torque(t=float(state.t), R=R, omega_body=omega, B_body=B_body, com_world=xc,
+                                      env=state.env)[1]
+        return RodCommand(t=float(state.t), polarity=polarity, torque_ref_body=T, torque_alloc_body=T.copy(),
+                          N1=n1, N2=n2, clipped1=False, clipped2=False, R=R, omega_body=omega, B_body=B_body,
+                          com_world=xc, extra=extra, counts=self.stats.copy())
+
+
+def random_turn(rng: np.random.RandomState, max_angle_rad: float) -> np.ndarray:
+    """Quaternion of a rotation about a uniformly drawn axis (unit sphere) through an angle uniform
+    in ``[0, max_angle_rad]``."""
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    return quat_from_axis_angle(axis, rng.uniform(0.0, max_angle_rad))
+
+
+class TrussAttitudeTask(AttitudeTask):
+    """Detumble or slew of the truss with magnetorquer rods (module docstring: action, observation,
+    reward, episode start).
+
+    Args:
+      base: the config's simulation (:func:`magsail_mj.load`).
+      random, randomize, reward_weights: see :class:`~magsail_mj.envs.core.AttitudeTask`.
+      action: ``"torque"`` (default) or ``"rods"``.
+      rate_range_rad_s: half-width of the initial rate draw per axis [rad/s].
+      attitude_range_deg: largest angle of the initial attitude turn [deg].
+      health_every: environment steps between refreshes of the structural-health observations.
+    """
+
+    rate_scale_rad_s = 1e-3
+
+    def __init__(self, base: Any, random: Any = None, *, action: str = "torque", randomize: bool = True,
+                 rate_range_rad_s: float | None = None, attitude_range_deg: float | None = None,
+                 health_every: int = 10, reward_weights: Any = None) -> None:
+        super().__init__(random, randomize=randomize, reward_weights=reward_weights)
+        if action not in ("torque", "rods"):
+            raise ValueError(f"action: must be 'torque' or 'rods', got {action!r}")
+        if int(health_every) != health_every or health_every < 1:
+            raise ValueError(f"health_every: must be an integer >= 1, got {health_every!r}")
+        sc = base.scenario
+        self.cfg, self.scenario = base.cfg, sc
+        shipped = base.controller
+        self.slew = self.cfg.scenario == "slew"
+        self.q_ref = np.asarray(shipped.q_ref, dtype=float) if self.slew else None
+        self.period_s = float(shipped.period_s)
+        self.converter = ActionRodController(shipped=shipped, reference_nodes=sc.tm.lattice.nodes,
+                                              q_ref_wxyz=self.q_ref, mode=action)
+        self.mode = action
+        default_rate, default_angle = (1e-4, 10.0) if self.slew else (0.01, 180.0)
+        self.rate_range = float(default_rate if rate_range_rad_s is None else rate_range_rad_s)
+        self.attitude_range = math.radians(default_angle if attitude_range_deg is None else attitude_range_deg)
+        for name, value in (("rate_range_rad_s", self.rate_range), ("attitude_range_deg", self.attitude_range)):
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name}: must be a finite number >= 0, got {value!r}")
+        self.health_every = int(health_every)
+        self.fit = BestFitRotation(sc.tm.lattice.nodes)
+        self.node_slice = slice(1, sc.tm.lattice.n_nodes + 1)
+        self.top = np.asarray(sc.tm.lattice.top_nodes) + 1
+        n_max = np.asarray(shipped.distributor.n_max, dtype=float)
+        if action == "torque":
+            t_max = float(n_max @ np.asarray(shipped.distributor.m_rod_Am2)) * B_BOUND_T
+            self._set_action_bounds(("T_x_Nm", "T_y_Nm", "T_z_Nm"), np.full(3, -t_max), np.full(3, t_max))
+        else:
+            self._set_action_bounds(("N1", "N2"), -n_max, n_max)
+        self._obs_memory: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ episode start
+    def initialize_episode(self, physics: SimulationPhysics) -> None:
+        super().initialize_episode(physics)
+        omega0 = self.start.get("omega0_body_rad_s", np.asarray(self.cfg.initial.omega0_rad_s, dtype=float))
+        self._obs_memory = {"R": None, "t": 0.0, "omega": np.array(omega0, dtype=float), "health": None,
+                            "n": 0}
+
+    def draw_start(self, physics: SimulationPhysics) -> dict[str, Any]:
+        """Rates uniform in ±rate_range per axis, attitude q0 ⊗ turn; rigid start (as the scenario's
+        ``init_state``: x_i = p_c + R (p_i − p_c), v_i = R (ω × (p_i − p_c)))."""
+        rng = self.random
+        omega = rng.uniform(-self.rate_range, self.rate_range, size=3)
+        q = quat_mul(np.asarray(self.cfg.q0_wxyz, dtype=float), random_turn(rng, self.attitude_range))
+        q = q / np.linalg.norm(q)
+        R = quat_to_matrix(q)
+        tm = self.scenario.tm
+        p = tm.lattice.nodes
+        pc = np.average(p, axis=0, weights=tm.masses)
+        data = physics.data
+        n = 3 * tm.lattice.n_nodes
+        data.qpos[:n] = ((p - pc) @ R.T + pc - p).ravel()
+        data.qvel[:n] = (np.cross(omega, p - pc) @ R.T).ravel()
+        self.converter.omega0_body[:] = omega
+        return {"omega0_body_rad_s": omega, "q0_wxyz": q}
+
+    # ------------------------------------------------------------------ observations
+    def _estimate(self, state: StepState) -> tuple[np.ndarray, np.ndarray]:
+        mem = self._obs_memory
+        R, _ = self.fit(state.pos[self.node_slice])
+        if mem["R"] is not None and state.t > mem["t"]:
+            mem["omega"] = body_rate_step(mem["R"], R, state.t - mem["t"], method="log")
+        if mem["R"] is None or state.t > mem["t"]:
+            mem["R"], mem["t"] = R, float(state.t)
+        return R, mem["omega"]
+
+    def _health(self, physics: SimulationPhysics, state: StepState) -> tuple[float, float]:
+        mem = self._obs_memory
+        if mem["health"] is None or mem["n"] % self.health_every == 0:
+            strain, _ = physics.sim.strain_check(state.pos)
+            mem["health"] = (surface_sd(state.pos[self.top]), float(strain))
+        mem["n"] += 1
+        return mem["health"]
+
+    def observe(self, physics: SimulationPhysics, state: StepState) -> dict[str, np.ndarray]:
+        R, omega = self._estimate(state)
+        obs = {"attitude_wxyz": quat_from_matrix(R), "body_rate_rad_s": np.array(omega),
+               "field_body_T": R.T @ np.asarray(state.env.B_eci, dtype=float)}
+        if self.slew:
+            obs["target_wxyz"] = self.q_ref.copy()
+        sd, strain = self._health(physics, state)
+        obs["surface_sd_m"] = np.array([sd])
+        obs["strain_max"] = np.array([strain])
+        self._last_obs = obs
+        return obs
+
+    def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
+        obs = self._last_obs
+        theta = pointing_error_rad(obs["attitude_wxyz"], self.q_ref) if self.slew else 0.0
+        return {"theta_rad": theta, "omega_rad_s": float(np.linalg.norm(obs["body_rate_rad_s"])),
+                "strain": float(obs["strain_max"][0]) / physics.sim.max_strain}
+
+    # ------------------------------------------------------------------ shipped controller
+    def shipped_action(self, physics: SimulationPhysics, controller: Any, state: StepState) -> np.ndarray:
+        """Torque mode: the shipped ``T_ref``; rods mode: the shipped signed counts ``(N1, N2)``."""
+        cmd = controller.update(state)
+        if self.mode == "torque":
+            return np.asarray(cmd.torque_ref_body, dtype=float)
+        return np.array([cmd.N1, cmd.N2], dtype=float)
+
+
+def _is_truss(kind: str):
+    def matches(cfg: Any) -> bool:
+        return getattr(cfg, "concept", None) == "truss_magnetorquer" and getattr(cfg, "scenario", None) == kind
+    return matches
+
+
+def _factory(cfg: Any, *, random: Any = None, **options: Any):
+    return make_environment(cfg, TrussAttitudeTask, random=random, **options)
+
+
+for _name, _config, _kind in (("truss/detumble", "models/truss_magnetorquer/detumble.toml", "detumble"),
+                              ("truss/slew_I", "models/truss_magnetorquer/slew_i.toml", "slew"),
+                              ("truss/slew_II", "models/truss_magnetorquer/slew_ii.toml", "slew"),
+                              ("truss/slew_III", "models/truss_magnetorquer/slew_iii.toml", "slew"),
+                              ("truss/slew_IV", "models/truss_magnetorquer/slew_iv.toml", "slew")):
+    register(_name, config=_config, matches=_is_truss(_kind))(_factory)
