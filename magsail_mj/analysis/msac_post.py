@@ -23,6 +23,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from scipy.signal import butter, sosfiltfilt
+
+from magsail_mj.quaternion import quat_to_matrix
 
 __all__ = [
     "yaw_from_quat",
@@ -65,9 +68,7 @@ def omega_world(quat: np.ndarray, omega_body: np.ndarray) -> np.ndarray:
 
     MuJoCo's free-joint ``qvel[3:6]`` is the angular velocity in body axes (spec §5.4).
     """
-    from magsail_mj.estimation.attitude import matrix_from_quat
-
-    R = matrix_from_quat(np.asarray(quat, dtype=float))
+    R = quat_to_matrix(np.asarray(quat, dtype=float), normalise=True)
     return np.einsum("...ij,...j->...i", R, np.asarray(omega_body, dtype=float))
 
 
@@ -144,8 +145,6 @@ def lowpass(x: np.ndarray, *, fs_hz: float, cutoff_hz: float, order: int = 4) ->
       order: filter order of the single pass (the forward–backward result has twice the
         attenuation slope and zero phase).
     """
-    from scipy.signal import butter, sosfiltfilt
-
     if not (fs_hz > 0 and 0 < cutoff_hz < fs_hz / 2):
         raise ValueError(f"cutoff_hz: must lie in (0, fs_hz/2) = (0, {fs_hz / 2:g}), got {cutoff_hz!r}")
     if int(order) != order or order < 1:

@@ -58,7 +58,7 @@ from magsail_mj.control.eigenaxis import (
 )
 from magsail_mj.control.pd import pd_torque
 from magsail_mj.control.unloading import UnloadingLogic, unloading_dipole
-from magsail_mj.estimation.attitude import quat_from_matrix
+from magsail_mj.quaternion import quat_from_matrix
 from magsail_mj.loads.actuators_cubesat import MagnetorquerCycle, WheelDriver, saturate_per_axis, saturate_uniform
 
 __all__ = [

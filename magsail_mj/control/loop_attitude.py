@@ -27,7 +27,8 @@ from typing import Literal
 
 import numpy as np
 
-from magsail_mj.estimation.attitude import BestFitRotation, quat_from_matrix
+from magsail_mj.estimation.attitude import BestFitRotation
+from magsail_mj.quaternion import quat_from_matrix
 from magsail_mj.quaternion import quat_conj, quat_mul
 
 __all__ = ["LoopCommand", "LoopAttitudeController", "allocate_currents",

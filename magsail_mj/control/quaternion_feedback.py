@@ -42,7 +42,7 @@ from magsail_mj.control.allocation import TorqueDistributor
 from magsail_mj.control.reflector_pitch import pitch_gains
 from magsail_mj.control.rod_attitude import RodAttitudeController
 from magsail_mj.environment.constants import MU_EARTH
-from magsail_mj.estimation.attitude import quat_from_matrix
+from magsail_mj.quaternion import quat_from_matrix
 from magsail_mj.quaternion import error_quaternion
 from magsail_mj.vec3 import cross3
 

@@ -43,6 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from magsail_mj.quaternion import quat_from_axis_angle
+
 __all__ = ["ReflectorOrbit", "SteeringState", "SteeringReference", "pitch_reference_quaternion",
            "pitch_angle_from_quaternion"]
 
@@ -184,9 +186,7 @@ class SteeringReference:
 
 def pitch_reference_quaternion(beta):
     """``q = [cos(β/2), 0, sin(β/2), 0]``: rotation by β about +y (scalar first), (..., 4)."""
-    b = np.asarray(beta, dtype=float)
-    z = np.zeros_like(b)
-    return np.stack([np.cos(b / 2), z, np.sin(b / 2), z], axis=-1)
+    return quat_from_axis_angle(np.array([0.0, 1.0, 0.0]), beta)
 
 
 def pitch_angle_from_quaternion(q: np.ndarray) -> np.ndarray:

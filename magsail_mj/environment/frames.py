@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from magsail_mj.quaternion import quat_to_matrix
+
 __all__ = [
     "rot_z",
     "eci_to_ecef",
@@ -116,16 +118,7 @@ def lvlh_frame(r: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def quat_to_mat(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) of scalar-first unit quaternions ``[w, x, y, z]`` (..., 4)
-    (body → world, MuJoCo's ``xmat`` layout). The quaternion is normalised first."""
-    q = np.asarray(q, dtype=float)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-        ],
-        -2,
-    )
+    """Alias of :func:`magsail_mj.quaternion.quat_to_matrix` with ``normalise=True`` (body → world
+    rotation matrices (..., 3, 3) of scalar-first quaternions (..., 4)); kept until its callers
+    import the quaternion module."""
+    return quat_to_matrix(q, normalise=True)

@@ -21,7 +21,8 @@ import math
 
 import numpy as np
 
-from ._arrays import as_masses, as_point_series, as_points, as_rotations
+from magsail_mj.estimation._arrays import as_masses, as_point_series, as_points, as_rotations
+from magsail_mj.quaternion import quat_from_matrix, quat_to_matrix
 
 __all__ = [
     "best_fit_rotation",
@@ -398,49 +399,11 @@ def rotation_angle(R: np.ndarray, *, relative_to: np.ndarray | None = None) -> n
 # --------------------------------------------------------------------------------------------
 # quaternions (scalar-first [w, x, y, z])
 # --------------------------------------------------------------------------------------------
-def quat_from_matrix(R: np.ndarray) -> np.ndarray:
-    r"""Unit quaternion ``[w, x, y, z]`` (``(..., 4)``, scalar first, ``w >= 0``) of ``R``.
-
-    Uses the symmetric 4×4 matrix :math:`K = 4\,q q^{\mathsf T}` built from the entries of ``R``
-    (Shepperd / Bar-Itzhack) and its column with the largest diagonal entry, which is
-    well-conditioned for every rotation. The sign is fixed so that ``w >= 0``.
-    """
-    R = as_rotations(R, "R")
-    r00, r01, r02 = R[..., 0, 0], R[..., 0, 1], R[..., 0, 2]
-    r10, r11, r12 = R[..., 1, 0], R[..., 1, 1], R[..., 1, 2]
-    r20, r21, r22 = R[..., 2, 0], R[..., 2, 1], R[..., 2, 2]
-    K = np.stack(
-        [
-            np.stack([1 + r00 + r11 + r22, r21 - r12, r02 - r20, r10 - r01], -1),
-            np.stack([r21 - r12, 1 + r00 - r11 - r22, r01 + r10, r02 + r20], -1),
-            np.stack([r02 - r20, r01 + r10, 1 - r00 + r11 - r22, r12 + r21], -1),
-            np.stack([r10 - r01, r02 + r20, r12 + r21, 1 - r00 - r11 + r22], -1),
-        ],
-        axis=-2,
-    )
-    m = np.argmax(np.diagonal(K, axis1=-2, axis2=-1), axis=-1)
-    col = np.take_along_axis(K, m[..., None, None].repeat(4, axis=-2), axis=-1)[..., 0]
-    q = col / np.linalg.norm(col, axis=-1, keepdims=True)
-    return np.where(q[..., :1] < 0, -q, q)
-
-
 def matrix_from_quat(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix ``(..., 3, 3)`` of quaternions ``[w, x, y, z]`` (normalised first)."""
-    q = np.asarray(q, dtype=float)
-    if q.shape[-1:] != (4,):
-        raise ValueError(f"q: expected shape (..., 4) [w, x, y, z], got {q.shape}")
-    nrm = np.linalg.norm(q, axis=-1, keepdims=True)
-    if np.any(~(nrm > 0)):
-        raise ValueError("q: quaternions must have a finite, non-zero norm")
-    w, x, y, z = np.moveaxis(q / nrm, -1, 0)
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-        ],
-        axis=-2,
-    )
+    """Rotation matrix ``(..., 3, 3)`` of quaternions ``[w, x, y, z]`` (normalised first): alias of
+    :func:`magsail_mj.quaternion.quat_to_matrix` with ``normalise=True``, kept for its callers.
+    ``quat_from_matrix`` is :func:`magsail_mj.quaternion.quat_from_matrix` (re-exported)."""
+    return quat_to_matrix(q, normalise=True)
 
 
 # --------------------------------------------------------------------------------------------

@@ -41,12 +41,12 @@ from typing import Any, Callable, Literal, Sequence
 import numpy as np
 
 from magsail_mj.control.reflector_pitch import project_and_saturate
-from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step, quat_from_matrix
+from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step
 from magsail_mj.geometry.lattice import Lattice
 from magsail_mj.loads.actuators_cubesat import WheelDriver
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.strut_torque import StrutTorqueLoad
-from magsail_mj.quaternion import quat_to_matrix
+from magsail_mj.quaternion import quat_from_matrix, quat_to_matrix
 from magsail_mj.vec3 import cross3, moment_sum
 
 __all__ = [

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from magsail_mj.environment.frames import quat_to_mat
+from magsail_mj.quaternion import quat_to_matrix
 
 from .base import StepState
 
@@ -31,7 +31,7 @@ class ResidualDipoleLoad:
         self.dipole_body = D
 
     def torque_world(self, state: StepState) -> np.ndarray:
-        D_w = quat_to_mat(state.xquat[self.body_id]) @ self.dipole_body
+        D_w = quat_to_matrix(state.xquat[self.body_id], normalise=True) @ self.dipole_body
         return np.cross(D_w, state.env.B_eci)
 
     def add(self, state: StepState, xfrc: np.ndarray) -> None:

@@ -7,7 +7,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from magsail_mj.environment.frames import quat_to_mat
+from magsail_mj.quaternion import quat_to_matrix
 from magsail_mj.environment.surfaces import FacetSet
 
 from .base import StepState
@@ -46,7 +46,7 @@ class RigidFacetLoad(ABC):
         scale = self._scale(state.env)
         if scale == 0.0:
             return np.zeros(3), np.zeros(3)
-        R = quat_to_mat(state.xquat[self.body_id])
+        R = quat_to_matrix(state.xquat[self.body_id], normalise=True)
         f = self.facets
         F = self._facet_forces(state, f.normal @ R.T, scale)
         return F.sum(axis=0), np.cross(f.centre @ R.T, F).sum(axis=0)

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from magsail_mj.environment.constants import J2_EARTH, MU_EARTH, R_J2
-from magsail_mj.environment.frames import quat_to_mat
+from magsail_mj.quaternion import quat_to_matrix
 from magsail_mj.environment.gravity import _q_and_f, gravity_gradient_torque, tidal_acceleration
 
 from .base import StepState
@@ -115,7 +115,7 @@ class GravityGradientTorqueLoad:
 
     def torque_world(self, state: StepState) -> np.ndarray:
         """The world-frame torque [N m] at this state."""
-        R = quat_to_mat(state.xquat[self.body_id])
+        R = quat_to_matrix(state.xquat[self.body_id], normalise=True)
         I_w = R @ self.inertia_body @ R.T
         r = state.env.r_ref_eci + state.pos[self.body_id]
         return gravity_gradient_torque(r, I_w, mu=self.mu)

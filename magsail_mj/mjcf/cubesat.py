@@ -47,6 +47,7 @@ import mujoco
 import numpy as np
 
 from magsail_mj.mjcf.common import INTEGRATORS, add_marker_body, add_sun_light, free_space_spec, set_view
+from magsail_mj.quaternion import quat_z_to
 
 __all__ = [
     "CubesatModelParams",
@@ -156,20 +157,6 @@ class CubesatModelParams:
         return d
 
 
-def _quat_z_to(v: np.ndarray) -> list[float]:
-    """Scalar-first quaternion rotating +z onto the unit vector ``v`` (for capsule/cylinder geoms)."""
-    v = np.asarray(v, dtype=float)
-    v = v / np.linalg.norm(v)
-    z = np.array([0.0, 0.0, 1.0])
-    c = float(z @ v)
-    if c < -1.0 + 1e-12:
-        return [0.0, 1.0, 0.0, 0.0]
-    axis = np.cross(z, v)
-    w = math.sqrt(0.5 * (1.0 + c))
-    xyz = axis / (2.0 * w)
-    return [w, *xyz.tolist()]
-
-
 def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpec:
     """Return the ``MjSpec`` of the CNUSAIL-1 cubesat (see the module docstring)."""
     p = params or CubesatModelParams()
@@ -228,7 +215,7 @@ def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpe
         rw.inertia = p.rotor_inertia(k)
         # rotor disc (visual) offset along its axis so the three do not overlap, and a tick
         off = np.array(axis) * 0.03
-        q = _quat_z_to(np.array(axis))
+        q = quat_z_to(np.array(axis))
         rw.add_geom(name=f"{name}_disc", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[r_rotor, 0.004, 0],
                     pos=off.tolist(), quat=q, rgba=list(_ROTOR_RGBA), group=1, **nogeo)
         perp = np.roll(np.array(axis), 1)
