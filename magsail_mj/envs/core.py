@@ -42,6 +42,7 @@ import copy
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any, Callable, Mapping, Sequence
 
 import dm_env
@@ -97,16 +98,28 @@ class ActionController:
     """
 
     def __init__(self, *, period_s: float, convert: Callable[[StepState, np.ndarray], Any],
-                 action: np.ndarray) -> None:
+                 action: np.ndarray, end_time_s: float = math.inf) -> None:
         if not (math.isfinite(period_s) and period_s > 0):
             raise ValueError(f"period_s: must be > 0 s, got {period_s!r}")
         self.period_s = float(period_s)
         self.convert = convert
         self.action = np.array(action, dtype=float, copy=True)
         self.command: Any = None
+        self.end_time_s = float(end_time_s)
+        # not part of the simulation's state (the checkpoint walker skips namespaces): a callable
+        # ``state → action`` for the sample at the run's end (see ``update``)
+        self.hooks = SimpleNamespace(final_action=None)
 
     def update(self, state: StepState) -> Any:
-        """The command of the current action at ``state``."""
+        """The command of the current action at ``state``.
+
+        The sample at the run's end (``t = end_time_s``, followed by the final record and no
+        dynamics) falls inside the last environment step, after the last action: its command is
+        made from the held action, or from ``hooks.final_action(state)`` when set (the shipped
+        policy sets it, so that its run records the final sample as ``magsail run`` does)."""
+        final = self.hooks.final_action
+        if final is not None and state.t >= self.end_time_s - 1e-9 * self.period_s:
+            self.action[:] = final(state)
         self.command = self.convert(state, self.action)
         return self.command
 
@@ -300,16 +313,27 @@ class AttitudeTask(control.Task):
         return specs.BoundedArray(shape=(len(self.action_names),), dtype=np.float64, minimum=self.action_low,
                                   maximum=self.action_high, name=",".join(self.action_names))
 
+    clip_actions: bool = True
+    """Clip actions into the spec's bounds (True), or hand them on as given (False: for actions whose
+    actuator saturates them itself, e.g. a torque request through an allocation)."""
+
     def before_step(self, action: Any, physics: SimulationPhysics) -> None:
-        """Clip the action into its bounds (the hardware's limits) and hand it to the controller."""
+        """Hand the action (:meth:`prepare_action`) to the controller."""
+        a = self.prepare_action(action)
+        physics.controller.action[:] = a
+        self._last_action = a
+
+    def prepare_action(self, action: Any) -> np.ndarray:
+        """The action as a float array, checked, clipped into its bounds (the hardware's limits)
+        unless ``clip_actions`` is False."""
         a = np.asarray(action, dtype=float).reshape(-1)
         if a.shape != self.action_low.shape:
             raise ValueError(f"action: expected shape {self.action_low.shape}, got {np.shape(action)}")
         if not np.all(np.isfinite(a)):
             raise ValueError(f"action: every component must be finite, got {action!r}")
-        a = np.clip(a, self.action_low, self.action_high)
-        physics.controller.action[:] = a
-        self._last_action = a
+        if self.clip_actions:
+            a = np.clip(a, self.action_low, self.action_high)
+        return a
 
     converter: Any = None
     """Object whose ``command(state, action)`` returns the scenario's command for ``action`` at
@@ -320,6 +344,7 @@ class AttitudeTask(control.Task):
     def initialize_episode(self, physics: SimulationPhysics) -> None:
         """Reset has put the build's initial state back; draw a start when ``randomize``."""
         physics.controller.action[:] = self.neutral_action()
+        physics.controller.hooks.final_action = None
         self._last_action = self.neutral_action()
         self.start = self.draw_start(physics) if self.randomize else {}
 
@@ -468,7 +493,8 @@ def make_environment(cfg: Any, task_cls: type[AttitudeTask], *, random: Any = No
     base = magsail_mj.load(cfg)
     task = task_cls(base, random=random, **task_options)
     period = float(period_s if period_s is not None else task.period_s)
-    controller = ActionController(period_s=period, convert=task.converter.command, action=task.neutral_action())
+    controller = ActionController(period_s=period, convert=task.converter.command, action=task.neutral_action(),
+                                  end_time_s=base.n_steps * float(base.model.opt.timestep))
     physics = SimulationPhysics(base, controller)
     task.bind(physics)
     limit = float(time_limit_s if time_limit_s is not None else base.duration_s)
@@ -494,7 +520,11 @@ class _ShippedPolicy:
     def __call__(self, time_step: dm_env.TimeStep) -> np.ndarray:
         if time_step.first() or self.controller is None:
             self.controller = self.task.fresh_shipped_controller(self.physics)
+            self.physics.controller.hooks.final_action = self._final_action
         return self.task.shipped_action(self.physics, self.controller, self.physics.step_state())
+
+    def _final_action(self, state: StepState) -> np.ndarray:
+        return self.task.prepare_action(self.task.shipped_action(self.physics, self.controller, state))
 
 
 def shipped_policy(env: control.Environment) -> Callable[[dm_env.TimeStep], np.ndarray]:

@@ -9,8 +9,9 @@ Actions (``action`` task option):
 
 * ``"torque"`` (default) — ``T_ref`` [N m], body axes, (3,), through the rod allocation; bounds
   ``±T_max`` per axis with ``T_max = (N_max,1 m_1 + N_max,2 m_2) · B_bound`` (the torque of every
-  rod of both families in a field of ``B_bound = 1e-4 T``, above any LEO field; larger requests
-  saturate in the allocation as they do for the shipped controllers).
+  rod of both families in a field of ``B_bound = 1e-4 T``, above any LEO field). A request beyond
+  the bounds is not clipped: the allocation saturates it (every rod of a family on) exactly as it
+  saturates the shipped controllers' requests (the B-dot law asks for tens of N m).
 * ``"rods"`` — signed rod counts ``(N1, N2)`` of the two families, bounds ``±N_max,f``; rounded
   half away from zero to integers, then the Lloyd selection gives the polarities.
 
@@ -162,6 +163,7 @@ class TrussAttitudeTask(AttitudeTask):
         self.node_slice = slice(1, sc.tm.lattice.n_nodes + 1)
         self.top = np.asarray(sc.tm.lattice.top_nodes) + 1
         n_max = np.asarray(shipped.distributor.n_max, dtype=float)
+        self.clip_actions = action == "rods"
         if action == "torque":
             t_max = float(n_max @ np.asarray(shipped.distributor.m_rod_Am2)) * B_BOUND_T
             self._set_action_bounds(("T_x_Nm", "T_y_Nm", "T_z_Nm"), np.full(3, -t_max), np.full(3, t_max))
