@@ -1,0 +1,452 @@
+r"""dm_control environments of the CNUSAIL-1 cubesat: detumble, nadir slew, deorbit slew.
+
+Tasks (``magsail_mj.envs.load("cnusail/<task>")`` or any CNUSAIL attitude config; the task follows the
+config's ``control.mode``/``control.command``):
+
+* ``cnusail/detumble`` — default config ``detumble_post.toml`` (S2); shipped law B-dot, wheels idle
+  (``control.mode = "bdot"``);
+* ``cnusail/nadir`` — ``nadir_post.toml`` (S4); eigen-axis (or PD) nadir slew with unloading;
+* ``cnusail/deorbit`` — ``deorbit.toml`` (S6); eigen-axis deorbit slew with unloading.
+
+Action (``dm_env.specs.BoundedArray``, float64, bounded as the hardware is):
+
+* detumble, ``action="dipole"`` (default): ``m`` (3,) magnetorquer dipole [A m², body axes], each
+  axis within ``±actuators.mtq`` limits; the wheels are idle (current command 0, E-15);
+* pointing, ``action="torque_dipole"`` (default): ``u`` (3,) body-torque request of the wheels
+  [N m, ±(τ_max + K_B Ω_max), beyond which the current command saturates alike] through the wheel
+  driver (``i_c = clip((−u + K_B ω_M)/K_M, ±i_max)``, spec §4.2 step 2) and ``m`` (3,);
+* any task, ``action="current_dipole"``: the wheel motor current commands ``i_c`` (3,) [A, ±i_max]
+  (the motor torque commands [N m, ±τ_max] for ``actuators.wheels.model = "ideal"``) and ``m`` (3,).
+
+The wheel command is taken at the control sample and held (the driver's per-step part, voltage clip,
+back-EMF and speed limiter, runs every dynamics step); the dipole is latched at each magnetorquer
+cycle boundary (every ``actuators.mtq.cycle_s``) from the latest action and is zero in the last
+``blank_s`` of the cycle (magnetometer blanking), as on the spacecraft.
+
+Observations (float64 arrays, as the flight software reads them):
+``time_s`` (1,) [s since the epoch], ``attitude_wxyz`` (4,) (bus → ECI, the quaternion the controller
+reads), ``body_rate_rad_s`` (3,) (gyro, with ``control.sensors.gyro_noise_rad_s`` white noise),
+``field_body_T`` (3,) (magnetometer ``Aᵀ B_eci``, with ``control.sensors.magnetometer_noise_T``),
+``wheel_speed_rad_s`` (3,) (rotor speeds relative to the bus), ``orbit_position_eci_m`` and
+``orbit_velocity_eci_m_s`` (3,) (reference orbit, for the command frames), ``pointing_error_wxyz``
+(4,) (body relative to the task's command frame; nadir for the detumble) and ``rate_error_rad_s``
+(3,) (``ω_e = ω − A(q_e)[0, −ω_o, 0]ᵀ``). The cubesat is rigid: no structural-health observation.
+
+Reward per control step: the formula of :mod:`magsail_mj.envs.core`,
+``r = −(w_θ (θ/π)² + w_ω (ω/ω_s)² + w_u mean((a/a_max)²))``, with, for the detumble, ``θ = 0``,
+``ω = ‖ω_body‖`` (true rate) and ``ω_s`` = ``analysis.detumble_threshold_deg_s`` (0.3 °/s); for the
+pointing tasks ``θ = θ_e`` (eigen-angle of the pointing error), ``ω = ‖ω_e‖`` and ``ω_s`` =
+``control.slew_rate_max_deg_s`` (0.3 °/s); ``a/a_max`` is the action normalised by its bounds.
+
+Termination: a diverged simulation ends the episode with discount 0; the time limit (``sim.duration_s``)
+with discount 1. ``control_timestep`` = the attitude-law period ``1/control.rate_Hz`` (the shipped
+controller runs its wheel driver every dynamics step; the environment's plant does that part, see
+:class:`CubesatActuators`).
+
+Episode start (``randomize=True``, drawn from the task's ``random``): detumble, body rate uniform per
+axis in ``±rate_range_deg_s`` (default: the largest component of ``initial.omega0_deg_s``) and the
+attitude uniform over SO(3); pointing, the attitude error uniform over SO(3) with ``ω_e(0) = 0``;
+the epoch is the config's (the orbit tables are built for it). ``randomize=False`` keeps the
+config's initial state, so an episode of :func:`magsail_mj.envs.shipped_policy` equals ``magsail run``.
+
+The records of the environment's simulation carry the probes of the scenario's own run (``qpos``,
+``qvel``, ``mode``, ``p_e``, ``theta_e_rad``, ``omega_e_rad_s``, ``u_cmd_N_m``, ``T_M_N_m``,
+``dipole_cmd_A_m2``, ``unload_mask``, ``torque_dist_body_N_m``, ``torque_mtq_body_N_m``), so
+``sim.scenario.postprocess`` applies to them; ``p_e``/``θ_e``/``ω_e`` are computed by the plant from
+the true state at the control samples, ``mode`` is the task's, and ``unload_mask`` marks the wheels the
+configured unloading logic would unload (above ``control.unloading.threshold_rpm``), evaluated at the
+magnetorquer cycle boundaries, whatever the policy commands.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+from types import SimpleNamespace
+from typing import Any, Callable
+
+import mujoco
+import numpy as np
+from dm_control.rl import control
+
+from magsail_mj.commands import attach
+from magsail_mj.control.cnusail_modes import CnusailController, Mode, command_quaternion
+from magsail_mj.control.eigenaxis import eigen_angle, error_quaternion, orbital_rate, rate_error
+from magsail_mj.control.unloading import UnloadingLogic
+from magsail_mj.envs.core import ActionController, AttitudeTask, SimulationPhysics, register
+from magsail_mj.loads.actuators_cubesat import MagnetorquerLoad, saturate_per_axis
+from magsail_mj.loads.base import StepState
+from magsail_mj.quaternion import quat_mul
+from magsail_mj.sim import Simulation
+
+import magsail_mj
+
+__all__ = ["CubesatCommand", "CubesatConverter", "CubesatActuators", "CubesatPhysics", "CubesatTask",
+           "make_cubesat_environment", "task_mode", "ACTIONS"]
+
+DEG = math.pi / 180.0
+ACTIONS = ("dipole", "torque_dipole", "current_dipole")
+"""The action kinds (module docstring)."""
+
+
+# ------------------------------------------------------------------------------------ plant side
+
+
+@dataclass(frozen=True, eq=False)
+class CubesatCommand:
+    """One action as the plant receives it: ``wheel`` (3,) in the unit of ``wheel_kind``
+    (``"idle"``: ignored; ``"body_torque"``: N m; ``"current"``: A, or N m for ideal wheels) and
+    ``dipole_body_Am2`` (3,) [A m², body axes]."""
+
+    wheel: np.ndarray
+    dipole_body_Am2: np.ndarray
+    wheel_kind: str
+
+
+class CubesatConverter:
+    """Action → :class:`CubesatCommand` (a new command object at every controller sample)."""
+
+    def __init__(self, action: str) -> None:
+        self.action = action
+
+    def command(self, state: StepState, action: np.ndarray) -> CubesatCommand:
+        a = np.array(action, dtype=float)
+        if self.action == "dipole":
+            return CubesatCommand(np.zeros(3), a[:3], "idle")
+        kind = "body_torque" if self.action == "torque_dipole" else "current"
+        return CubesatCommand(a[:3].copy(), a[3:6].copy(), kind)
+
+
+class CubesatActuators:
+    """Wheels and magnetorquers driven by a :class:`CubesatCommand` (a load of the simulation).
+
+    Every dynamics step ``k`` (time ``t = k δt``), before the step, with ``ω_M`` the wheel speeds:
+
+    1. a command not seen before (a controller sample): the wheel command ``c`` is formed
+       (``body_torque``: the driver's ``i_c = clip((−u + K_B ω_M)/K_M, ±i_max)``; ``current``: the
+       action; ``idle``: 0) and held, and the pointing telemetry ``p_e = p_c* ⊗ p_b``, ``θ_e``,
+       ``ω_e`` is computed against the task's command frame from the true state;
+    2. at a magnetorquer cycle boundary the latest command's dipole, clipped per axis to the limits,
+       is latched; the effective dipole is the latched one while the coils are on, 0 while blanked;
+       on the pointing tasks the wheels marked for unloading are updated from ``ω_M`` by the
+       configured activation logic (``control.unloading``: per axis above ``threshold_rpm``, with its
+       hysteresis), a record of the wheel momentum whatever the policy commands;
+    3. the motor torques ``T_M = driver.motor_torque(c, ω_M, δt)`` go to ``data.ctrl`` and the torque
+       ``R m × B_eci`` (world axes) to the bus in ``xfrc_applied``.
+    """
+
+    name = "cubesat_actuators"
+
+    def __init__(self, scenario: Any, *, mode: Mode, driver: Any) -> None:
+        cfg = scenario.cfg
+        self.idx = scenario.idx
+        self.mode = int(mode)
+        self.driver = driver
+        self.dt_s = float(cfg.sim.timestep_s)
+        self.steps_cycle = int(round(cfg.actuators.mtq.cycle_s / self.dt_s))
+        self.steps_on = self.steps_cycle - int(round(cfg.actuators.mtq.blank_s / self.dt_s))
+        self.limits_Am2 = cfg.actuators.mtq.limit_vector
+        self.shortest = bool(cfg.control.shortest_rotation)
+        self.mtq = MagnetorquerLoad(self.idx.bus)
+        u = cfg.control.unloading
+        self.unload = (UnloadingLogic(on_rpm=u.threshold_rpm, off_rpm=u.off_rpm)
+                       if u.enabled and self.mode != Mode.DETUMBLE else None)
+        self.unload_mask = np.zeros(3, dtype=bool)
+        # the MjData lives outside the checkpointed state (a namespace is not walked)
+        self.mj = SimpleNamespace(data=None)
+        self.last_command: CubesatCommand | None = None
+        self.wheel_cmd = np.zeros(3)
+        self.u = np.zeros(3)
+        self.dipole_held = np.zeros(3)
+        self.dipole_body = np.zeros(3)
+        self.T_M = np.zeros(3)
+        self.p_e = np.array([1.0, 0.0, 0.0, 0.0])
+        self.theta_e = 0.0
+        self.omega_e = np.zeros(3)
+        self.last_cycle = -1
+        self.k_done = -1
+
+    def bind(self, data: mujoco.MjData) -> None:
+        self.mj.data = data
+
+    def add(self, state: StepState, xfrc: np.ndarray) -> None:
+        self.sync(state)
+        self.mtq.add(SimpleNamespace(ctrl=self, xquat=state.xquat, env=state.env), xfrc)
+
+    def sync(self, state: StepState) -> None:
+        """Steps 1–3 of the class docstring for the step of ``state``, once per step (the probes call
+        it too: a record of step k shows the values the step uses, as the flight controller's do)."""
+        k = int(round(state.t / self.dt_s))
+        if k == self.k_done:
+            return
+        self.k_done = k
+        d, idx = self.mj.data, self.idx
+        omega_M = d.qvel[idx.wheel_qvel]
+        cmd = state.ctrl
+        if cmd is not None and cmd is not self.last_command:
+            self.last_command = cmd
+            self._take(cmd, omega_M, state, d)
+        i_cycle = k // self.steps_cycle
+        if cmd is not None and i_cycle > self.last_cycle:
+            self.last_cycle = i_cycle
+            self.dipole_held = saturate_per_axis(cmd.dipole_body_Am2, self.limits_Am2)
+            if self.unload is not None:
+                self.unload_mask = self.unload.update(omega_M)
+        self.dipole_body = self.dipole_held if k % self.steps_cycle < self.steps_on else np.zeros(3)
+        self.T_M = self.driver.motor_torque(self.wheel_cmd, omega_M, self.dt_s)
+        d.ctrl[idx.wheel_act] = self.T_M
+
+    def _take(self, cmd: CubesatCommand, omega_M: np.ndarray, state: StepState, d: mujoco.MjData) -> None:
+        if cmd.wheel_kind == "body_torque":
+            self.u = cmd.wheel.copy()
+            self.wheel_cmd = self.driver.command(self.u, omega_M)
+        elif cmd.wheel_kind == "current":
+            self.wheel_cmd = cmd.wheel.copy()
+            self.u = np.zeros(3)
+        else:
+            self.wheel_cmd = self.driver.idle_command()
+            self.u = np.zeros(3)
+        r, v = state.env.r_ref_eci, state.env.v_ref_eci
+        self.p_e = error_quaternion(command_quaternion(self.mode, r, v), d.qpos[self.idx.q_quat].copy(),
+                                    shortest=self.shortest)
+        self.theta_e = float(eigen_angle(self.p_e))
+        self.omega_e = rate_error(d.qvel[self.idx.v_ang].copy(), self.p_e, orbital_rate(r, v))
+
+    def probes(self) -> dict[str, Callable[[StepState, mujoco.MjData], Any]]:
+        """The scenario's probe names, read from this plant (module docstring)."""
+        idx = self.idx
+
+        def mtq_body(state: StepState, d: mujoco.MjData) -> np.ndarray:
+            self.sync(state)
+            R = np.empty(9)
+            mujoco.mju_quat2Mat(R, d.qpos[idx.q_quat])
+            return np.cross(self.dipole_body, R.reshape(3, 3).T @ state.env.B_eci)
+
+        def read(name: str) -> Callable[[StepState, mujoco.MjData], Any]:
+            def probe(state: StepState, d: mujoco.MjData) -> Any:
+                self.sync(state)
+                return getattr(self, name)
+            return probe
+
+        return {
+            "mode": read("mode"),
+            "p_e": read("p_e"),
+            "theta_e_rad": read("theta_e"),
+            "omega_e_rad_s": read("omega_e"),
+            "u_cmd_N_m": read("u"),
+            "T_M_N_m": read("T_M"),
+            "dipole_cmd_A_m2": read("dipole_held"),
+            "unload_mask": lambda s, d: read("unload_mask")(s, d).astype(np.int8),
+            "torque_mtq_body_N_m": mtq_body,
+        }
+
+
+class CubesatPhysics(SimulationPhysics):
+    """:class:`~magsail_mj.envs.core.SimulationPhysics` of the cubesat: the scenario's simulation with
+    its flight controller replaced by the :class:`~magsail_mj.envs.core.ActionController` and its
+    magnetorquer load by :class:`CubesatActuators` (which also drives the wheel motors every step);
+    the disturbance load and the ``qpos``/``qvel``/``torque_dist_body_N_m`` probes are kept."""
+
+    def __init__(self, base: Simulation, controller: ActionController, actuators: CubesatActuators) -> None:
+        if not isinstance(base, Simulation):
+            raise TypeError(f"base: expected a stepped magsail_mj.sim.Simulation, got {type(base).__name__}")
+        self.base = base
+        self.controller = controller
+        self.actuators = actuators
+        self.sim = attach(base, controller, actuators, keep_probes=("qpos", "qvel", "torque_dist_body_N_m"))
+        self.scenario = base.scenario
+        self.cfg = base.cfg
+
+
+# ------------------------------------------------------------------------------------ task
+
+
+def _random_quaternion(random: np.random.RandomState) -> np.ndarray:
+    """A rotation uniform over SO(3): a normalised 4-D Gaussian sample, scalar-first, w ≥ 0."""
+    q = random.normal(size=4)
+    q /= np.linalg.norm(q)
+    return q if q[0] >= 0 else -q
+
+
+def task_mode(cfg: Any) -> Mode:
+    """The task of a CNUSAIL attitude config: B-dot → DETUMBLE, else its pointing command."""
+    c = cfg.control
+    if c.mode == "bdot":
+        return Mode.DETUMBLE
+    return Mode.DEORBIT if c.command == "deorbit" else Mode.NADIR
+
+
+class CubesatTask(AttitudeTask):
+    """Detumble or pointing task of the cubesat (module docstring: action, observation, reward).
+
+    Args:
+      base: the config's simulation (:func:`magsail_mj.load`).
+      random, randomize, reward_weights: see :class:`~magsail_mj.envs.core.AttitudeTask`.
+      action: ``"dipole"`` (detumble default), ``"torque_dipole"`` (pointing default) or
+        ``"current_dipole"``.
+      rate_range_deg_s: detumble start rate range per axis [°/s] (None: the largest component of
+        ``initial.omega0_deg_s``).
+    """
+
+    def __init__(self, base: Any, random: Any = None, *, action: str | None = None, randomize: bool = True,
+                 rate_range_deg_s: float | None = None, reward_weights: Any = None) -> None:
+        super().__init__(random, randomize=randomize, reward_weights=reward_weights)
+        cfg = base.cfg
+        self.cfg, self.scenario = cfg, base.scenario
+        self.mode = task_mode(cfg)
+        action = action or ("dipole" if self.mode == Mode.DETUMBLE else "torque_dipole")
+        if action not in ACTIONS:
+            raise ValueError(f"action: must be one of {', '.join(ACTIONS)}, got {action!r}")
+        if rate_range_deg_s is None:
+            omega0 = cfg.initial.omega0_deg_s
+            rate_range_deg_s = float(np.max(np.abs(omega0))) if omega0 is not None else 0.0
+        if not (math.isfinite(rate_range_deg_s) and rate_range_deg_s >= 0):
+            raise ValueError(f"rate_range_deg_s: must be a finite number >= 0, got {rate_range_deg_s!r}")
+        self.action, self.rate_range_deg_s = action, float(rate_range_deg_s)
+        self.period_s = 1.0 / cfg.control.rate_Hz
+        self.rate_scale_rad_s = (cfg.analysis.detumble_threshold_deg_s if self.mode == Mode.DETUMBLE
+                                 else cfg.control.slew_rate_max_deg_s) * DEG
+        self.converter = CubesatConverter(action)
+        m_max = cfg.actuators.mtq.limit_vector
+        m_names = ("m_x_Am2", "m_y_Am2", "m_z_Am2")
+        motor = cfg.actuators.wheels.motor_params()
+        if action == "dipole":
+            self._set_action_bounds(m_names, -m_max, m_max)
+            return
+        if action == "torque_dipole":
+            w_max = motor.torque_max_N_m + motor.K_B_N_m_s * motor.speed_max_rad_s
+            names = ("u_x_Nm", "u_y_Nm", "u_z_Nm")
+        elif cfg.actuators.wheels.model == "ideal":
+            w_max, names = motor.torque_max_N_m, ("T_c_1_Nm", "T_c_2_Nm", "T_c_3_Nm")
+        else:
+            w_max, names = motor.current_max_A, ("i_c_1_A", "i_c_2_A", "i_c_3_A")
+        lo = np.concatenate([np.full(3, -w_max), -m_max])
+        self._set_action_bounds(names + m_names, lo, -lo)
+
+    # -------------------------------------------------------------- episode start
+    def draw_start(self, physics: SimulationPhysics) -> dict[str, Any]:
+        """Attitude uniform over SO(3) relative to the task's command frame at t = 0; detumble: rates
+        uniform per axis in ±rate_range_deg_s; pointing: ω_e(0) = 0. Wheel speeds as configured."""
+        sc = self.scenario
+        _, _, wM = sc.initial_state()
+        env0 = sc.environment.sample(0.0)
+        r, v = env0.r_ref_eci, env0.v_ref_eci
+        p_e = _random_quaternion(self.random)
+        p_b = quat_mul(command_quaternion(self.mode, r, v), p_e)
+        p_b = p_b / np.linalg.norm(p_b)
+        if self.mode == Mode.DETUMBLE:
+            w = self.random.uniform(-self.rate_range_deg_s, self.rate_range_deg_s, 3) * DEG
+        else:
+            w = -rate_error(np.zeros(3), p_e, orbital_rate(r, v))
+        d, idx = physics.data, sc.idx
+        d.qpos[idx.q_quat] = p_b
+        d.qvel[idx.v_ang] = w
+        d.qvel[idx.wheel_qvel] = wM
+        return {"q0_wxyz": p_b, "omega0_body_rad_s": w}
+
+    # -------------------------------------------------------------- observation, reward
+    def observe(self, physics: SimulationPhysics, state: StepState) -> dict[str, np.ndarray]:
+        d, idx, cfg = physics.data, self.scenario.idx, self.cfg
+        q = d.qpos[idx.q_quat].copy()
+        omega = d.qvel[idx.v_ang].copy()
+        R = np.empty(9)
+        mujoco.mju_quat2Mat(R, q)
+        B = R.reshape(3, 3).T @ state.env.B_eci
+        s = cfg.control.sensors
+        if s.gyro_noise_rad_s > 0:
+            omega = omega + self.random.normal(0.0, s.gyro_noise_rad_s, 3)
+        if s.magnetometer_noise_T > 0:
+            B = B + self.random.normal(0.0, s.magnetometer_noise_T, 3)
+        r, v = np.array(state.env.r_ref_eci, dtype=float), np.array(state.env.v_ref_eci, dtype=float)
+        p_e = error_quaternion(command_quaternion(self.mode, r, v), q, shortest=cfg.control.shortest_rotation)
+        omega_e = rate_error(omega, p_e, orbital_rate(r, v))
+        self._terms = {"theta_rad": 0.0 if self.mode == Mode.DETUMBLE else float(eigen_angle(p_e)),
+                       "omega_rad_s": float(np.linalg.norm(omega if self.mode == Mode.DETUMBLE else omega_e))}
+        return {"time_s": np.array([state.t]), "attitude_wxyz": q, "body_rate_rad_s": omega, "field_body_T": B,
+                "wheel_speed_rad_s": d.qvel[idx.wheel_qvel].copy(), "orbit_position_eci_m": r,
+                "orbit_velocity_eci_m_s": v, "pointing_error_wxyz": p_e, "rate_error_rad_s": omega_e}
+
+    def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
+        return dict(self._terms)
+
+    # -------------------------------------------------------------- shipped controller
+    def fresh_shipped_controller(self, physics: SimulationPhysics) -> CnusailController:
+        """A copy of the scenario's flight controller as built; it becomes ``scenario.controller``, so
+        the scenario's post-processing reads its events (manoeuvre starts, gain recalculations)."""
+        ctl = copy.deepcopy(physics.base.controller)
+        self.scenario.controller = ctl
+        return ctl
+
+    def shipped_action(self, physics: SimulationPhysics, controller: CnusailController,
+                       state: StepState) -> np.ndarray:
+        """The flight controller's samples due at ``state`` (attitude law, B-dot/unloading), from the
+        state it reads in ``magsail run`` (true attitude, rate and wheel speeds with its own sensor
+        noise), as this task's action: the held dipole, with the body-torque request ``u`` for
+        ``torque_dipole``."""
+        ctl, d, p = controller, physics.data, controller.p
+        if self.action == "current_dipole":
+            raise ValueError("action: the shipped law commands body torques; use action='torque_dipole' "
+                             "(pointing) or 'dipole' (detumble) to run it")
+        k = int(round(state.t / p.timestep_s))
+        omega_M = d.qvel[ctl.wheel_qvel]
+        i_att, i_mtq = k // ctl.n_att, k // p.mtq_cycle.steps_per_cycle
+        att, mtq = i_att > ctl._last_att, i_mtq > ctl._last_mtq
+        ctl._last_att, ctl._last_mtq = max(ctl._last_att, i_att), max(ctl._last_mtq, i_mtq)
+        q = d.qpos[ctl.q_quat].copy()
+        if att:
+            omega = d.qvel[ctl.v_ang].copy()
+            if p.gyro_noise_rad_s > 0:
+                omega = omega + ctl.rng.normal(0.0, p.gyro_noise_rad_s, 3)
+            ctl._attitude_sample(state.t, q, omega, omega_M, state.env)
+        if mtq:
+            mujoco.mju_quat2Mat(ctl._R, q)
+            ctl._mtq_sample(state.t, ctl._R.reshape(3, 3), omega_M, state.env)
+        if self.action == "dipole":
+            return ctl.dipole_held.copy()
+        return np.concatenate([ctl.u, ctl.dipole_held])
+
+
+# ------------------------------------------------------------------------------------ building
+
+
+def make_cubesat_environment(cfg: Any, *, random: Any = None, **options: Any) -> control.Environment:
+    """The environment of a CNUSAIL attitude config (``options`` go to :class:`CubesatTask`):
+    ``control_timestep`` = ``1/control.rate_Hz``, ``time_limit`` = ``sim.duration_s``."""
+    if getattr(cfg, "concept", None) != "cnusail" or getattr(cfg, "kind", None) != "attitude":
+        raise ValueError(f"config: expected a CNUSAIL attitude config, got concept {getattr(cfg, 'concept', None)!r}, "
+                         f"kind {getattr(cfg, 'kind', None)!r}")
+    base = magsail_mj.load(cfg)
+    task = CubesatTask(base, random=random, **options)
+    controller = ActionController(period_s=task.period_s, convert=task.converter.command,
+                                  action=task.neutral_action(),
+                                  end_time_s=base.n_steps * float(base.model.opt.timestep))
+    actuators = CubesatActuators(base.scenario, mode=task.mode, driver=base.controller.driver)
+    physics = CubesatPhysics(base, controller, actuators)
+    task.bind(physics)
+    return control.Environment(physics, task, time_limit=float(base.duration_s), control_timestep=task.period_s)
+
+
+def _is_cnusail(mode: Mode):
+    def matches(cfg: Any) -> bool:
+        return (getattr(cfg, "concept", None) == "cnusail" and getattr(cfg, "kind", None) == "attitude"
+                and task_mode(cfg) == mode)
+    return matches
+
+
+@register("cnusail/detumble", config="models/cnusail/detumble_post.toml", matches=_is_cnusail(Mode.DETUMBLE))
+def detumble(cfg: Any, *, random: Any = None, **options: Any) -> control.Environment:
+    """CNUSAIL-1 B-dot detumble (S1/S2): dipole action, wheels idle."""
+    return make_cubesat_environment(cfg, random=random, **options)
+
+
+@register("cnusail/nadir", config="models/cnusail/nadir_post.toml", matches=_is_cnusail(Mode.NADIR))
+def nadir(cfg: Any, *, random: Any = None, **options: Any) -> control.Environment:
+    """CNUSAIL-1 nadir slew (S3–S5): body-torque request through the wheels + unloading dipole."""
+    return make_cubesat_environment(cfg, random=random, **options)
+
+
+@register("cnusail/deorbit", config="models/cnusail/deorbit.toml", matches=_is_cnusail(Mode.DEORBIT))
+def deorbit(cfg: Any, *, random: Any = None, **options: Any) -> control.Environment:
+    """CNUSAIL-1 deorbit slew (S6/S7): body-torque request through the wheels + unloading dipole."""
+    return make_cubesat_environment(cfg, random=random, **options)
