@@ -56,12 +56,17 @@ Guarantees:
   :data:`FINISHED` folders are ever reused. :func:`sweep_exit_code` gives 1 when a run of this
   call failed or was stopped, else 3 when one diverged, else 0.
 
-The sweep folder receives ``sweep_summary.json`` (one record per run: ``id``, ``status``,
-``message``, ``config_hash``, ``params``, ``wall_time_s``, ``attempts``, ``resumed_from_s``,
-``summary`` and more), ``sweep_summary.csv`` (the same as a table: the sweep columns, a
+The sweep folder receives ``sweep_summary.json`` (one record per run with exactly the keys
+:data:`RECORD_KEYS`: ``id``, ``status``, ``message``, ``config_hash``, ``params`` (the grid or
+drawn values), ``wall_time_s``, ``attempts``, ``resumed_from_s``, ``summary`` (the run's
+summary.json)), ``sweep_summary.csv`` (the same as a table: the sweep columns, a
 ``params.<key>`` column per varied key, then every scalar of the run summaries, each column once)
 and ``sweep_manifest.json`` (sweep file, its hash, overrides, engine, workers, worker thread
-settings, package versions, wall time), written atomically in that order.
+settings, package versions, wall time, the reused runs), written atomically in that order. Every
+run folder also holds ``params.json`` (its id, params, config, overrides and config hash).
+While runs go, a progress bar on stderr (:mod:`magsail_mj.sweep.progress`) counts the runs done,
+running and failed and gives the Dask dashboard address; :mod:`magsail_mj.sweep.report` writes
+the tables and plots of a finished sweep.
 """
 
 from __future__ import annotations
@@ -104,6 +109,7 @@ from magsail_mj.sweep.common import (
     runs_running,
 )
 from magsail_mj.sweep.design import design_points
+from magsail_mj.sweep.progress import SweepProgress, dashboard_address, running_tasks
 from magsail_mj.sweep.runner import IgnoreSigint, request_stop, run_one, supervise
 
 try:
@@ -112,12 +118,20 @@ except ImportError:  # pragma: no cover - not on Linux/macOS
     fcntl = None  # type: ignore[assignment]
 
 try:
+    import bokeh  # noqa: F401 - only whether the Dask dashboard can be served
+except ImportError:
+    _DASHBOARD = False
+else:
+    _DASHBOARD = True
+
+try:
     import dask_jobqueue
 except ImportError:  # the optional extra "cluster"
     dask_jobqueue = None  # type: ignore[assignment]
 
 __all__ = [
     "FINISHED",
+    "RECORD_KEYS",
     "LOCK_NAME",
     "RUNS_LOCK",
     "STATE_DIR",
@@ -140,7 +154,12 @@ _SWEEP_COLUMNS = ("id", "status", "reused", "wall_time_s", "message")
 _EXTRA_COLUMNS = ("attempts", "resumed_from_s", "config_hash")
 _SUMMARY_DUPLICATES = ("status_message",)  # the run's own message: the sweep's "message" column says it
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
-_SWEEP_KEYS = ("name", "description", "set", "config", "run", "grid", "monte_carlo")
+_SWEEP_KEYS = ("name", "description", "set", "config", "run", "grid", "monte_carlo", "report")
+RECORD_KEYS = ("id", "status", "message", "config_hash", "params", "wall_time_s", "attempts", "resumed_from_s",
+               "summary")
+"""The keys of a ``sweep_summary.json`` record, exactly (the returned records also hold ``reused``,
+``selected`` and ``config``; the CSV and the manifest say which runs were reused)."""
+_POLL_S = 0.5  # how often the progress bar asks the scheduler what runs
 
 
 class SweepInterrupted(KeyboardInterrupt):
@@ -261,6 +280,12 @@ def _check_header(tree: dict[str, Any], path: Path) -> tuple[str, str]:
     description = tree.get("description", "")
     if not isinstance(description, str):
         raise ConfigError([f"description: must be a string, got {description!r}"], source=str(path))
+    report = tree.get("report", {})
+    figures = report.get("figures", ["-"]) if isinstance(report, dict) else None
+    if set(report or {}) - {"figures"} or not isinstance(figures, list) or not figures \
+            or not all(isinstance(f, str) for f in figures):
+        raise ConfigError([f"report: must be a table with 'figures', a non-empty list of summary keys "
+                           f"(magsail report), got {report!r}"], source=str(path))
     return name, description
 
 
@@ -550,7 +575,8 @@ def _dask_client(*, workers: int, scheduler: str | None, cluster: Any | None) ->
     # a signal while the cluster starts would leave it half-built (its finaliser then fails with a
     # traceback): it is held until the cluster exists and is delivered again inside the try below
     with _worker_env(), _sigint_ignored_by_children(), deferred_interrupts() as pending:
-        local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+        local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                             dashboard_address=":0" if _DASHBOARD else None,
                              silence_logs=logging.CRITICAL, worker_class=Nanny)
     try:
         if pending:
@@ -610,6 +636,7 @@ class _Call:
     interrupts: _Interrupts
     log: Callable[[str], None] | None
     meta: dict[str, Any]
+    progress: SweepProgress | None = None
     t0: float = field(default_factory=time.perf_counter)
     settled: bool = True  # False while tasks of this call may still run (their stop request must stay)
 
@@ -619,6 +646,8 @@ class _Call:
             self.records[rec["id"]] = rec
             self.write(finished=False)
             _log_record(self.log, rec)
+            if self.progress is not None:
+                self.progress.finished(rec["status"])
 
     def write(self, *, finished: bool, interrupted: bool = False) -> list[dict[str, Any]]:
         """Write the summaries and the manifest; runs without a record yet are ``not_run`` (pending)."""
@@ -648,10 +677,25 @@ def _submit(client: Any, call: _Call, todo: list[SweepRun], *, video: bool, over
 
 
 def _execute(client: Any, futures: dict[Any, SweepRun], call: _Call) -> None:
-    """Store each run's record as its task ends."""
-    for future in as_completed(list(futures), loop=client.loop):
-        call.store(_future_record(future, futures[future]))
-        call.interrupts.raise_pending()
+    """Store each run's record as its task ends (the progress bar asks the scheduler meanwhile
+    how many runs are being processed)."""
+    progress = call.progress if call.progress is not None and call.progress.enabled else None
+    if progress is None:
+        for future in as_completed(list(futures), loop=client.loop):
+            call.store(_future_record(future, futures[future]))
+            call.interrupts.raise_pending()
+        return
+    progress.set_dashboard(dashboard_address(client))
+    prefix = f"magsail-run-{call.token}-"
+    pending = as_completed(list(futures), loop=client.loop)
+    while not pending.is_empty():
+        if not pending.has_ready():
+            progress.set_running(running_tasks(client, prefix))
+            time.sleep(_POLL_S)
+            continue
+        for future in pending.next_batch(block=False):
+            call.store(_future_record(future, futures[future]))
+            call.interrupts.raise_pending()
 
 
 def _stop(futures: dict[Any, SweepRun], call: _Call, *, grace_s: float) -> None:
@@ -745,7 +789,7 @@ def _table(records: list[dict[str, Any]]) -> str:
 
 def _write_outputs(out: Path, sweep: Sweep, ordered: list[dict[str, Any]], meta: dict[str, Any]) -> None:
     """Summaries, then the manifest (last), each atomically."""
-    write_json(out / "sweep_summary.json", ordered)
+    write_json(out / "sweep_summary.json", [_summary_record(r) for r in ordered])
     with atomic_path(out / "sweep_summary.csv") as tmp:
         tmp.write_text(_table(ordered))
     write_json(out / "sweep_manifest.json", {
@@ -753,8 +797,18 @@ def _write_outputs(out: Path, sweep: Sweep, ordered: list[dict[str, Any]], meta:
         "sweep": str(sweep.path), "sweep_hash": hashlib.sha256(sweep.path.read_bytes()).hexdigest(),
         "name": sweep.name, "description": sweep.description, "overrides": list(sweep.overrides),
         "only": None if sweep.only is None else list(sweep.only), **meta,
-        "runs": {r["id"]: r["status"] for r in ordered}, "versions": package_versions(),
+        "runs": {r["id"]: r["status"] for r in ordered}, "reused": [r["id"] for r in ordered if r.get("reused")],
+        "versions": package_versions(),
     })
+
+
+def _summary_record(rec: dict[str, Any]) -> dict[str, Any]:
+    """The ``sweep_summary.json`` record of a run: exactly :data:`RECORD_KEYS` (params and summary
+    default to empty tables)."""
+    out = {key: rec.get(key) for key in RECORD_KEYS}
+    out["params"] = rec.get("params") or {}
+    out["summary"] = rec.get("summary") or {}
+    return out
 
 
 def _remove_stale_temporaries(out: Path) -> None:
@@ -800,6 +854,7 @@ def run_sweep(
     scheduler: str | None = None,
     cluster: Any | None = None,
     retries: int = 2,
+    progress: bool | None = None,
 ) -> list[dict[str, Any]]:
     """Run the selected entries of ``sweep`` into ``out_dir/<id>`` on Dask.
 
@@ -816,7 +871,10 @@ def run_sweep(
     ``selected``, ``summary``), also written to ``sweep_summary.json``/``.csv`` as runs finish.
 
     ``grace_s`` is how long stopped runs may take to write their outputs after an interrupt
-    before they are killed (a second interrupt kills them at once).
+    before they are killed (a second interrupt kills them at once). ``progress`` draws the
+    sweep-level bar on stderr (runs done / running / failed, the Dask dashboard address;
+    :class:`~magsail_mj.sweep.progress.SweepProgress`): None (default) when stderr is a terminal,
+    False never (``--no-progress``).
 
     Raises:
       ValueError: ``workers`` or ``retries`` is not an integer in range.
@@ -847,8 +905,12 @@ def run_sweep(
                            "worker_thread_env": _thread_settings()})
         stopped = None
         if todo:
-            stopped = _run_dask(todo, call, workers=n_workers, scheduler=scheduler, cluster=cluster, video=video,
-                                overwrite=overwrite, retries=retries, grace_s=grace_s)
+            call.progress = SweepProgress(total=len(todo), enabled=progress)
+            try:
+                stopped = _run_dask(todo, call, workers=n_workers, scheduler=scheduler, cluster=cluster, video=video,
+                                    overwrite=overwrite, retries=retries, grace_s=grace_s)
+            finally:
+                call.progress.close()
         with interrupts.deferred():  # the summaries are written whole, whatever arrives now
             ordered = call.write(finished=True, interrupted=stopped is not None)
             if call.settled or engine.startswith("LocalCluster"):  # a closed LocalCluster took its runs down

@@ -105,8 +105,24 @@ def run_one(run: SweepRun, out_dir: str | Path, *, video: bool, fresh: bool = Tr
     except Exception as err:  # noqa: BLE001 - one failing run must not lose the others
         record.update(status="failed", message=f"{type(err).__name__}: {err}",
                       traceback=traceback.format_exc(limit=-8))
+    _write_params(run, run_dir, record["config_hash"])
     record["wall_time_s"] = time.perf_counter() - t0
     return record
+
+
+PARAMS_NAME = "params.json"
+
+
+def _write_params(run: SweepRun, run_dir: Path, digest: str) -> None:
+    """``params.json`` in the run folder: the run's id, varied values (grid or drawn), config,
+    overrides and config hash (beside the run's own manifest; nothing when the folder is absent)."""
+    if not run_dir.is_dir():
+        return
+    try:
+        write_json(run_dir / PARAMS_NAME, {"id": run.id, "params": dict(run.params), "config": str(run.config),
+                                           "overrides": list(run.overrides), "config_hash": digest})
+    except OSError:  # the record says what ran; a read-only folder must not fail the run
+        pass
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,0 +1,396 @@
+"""The report of a finished sweep: comparison tables and plots from its ``sweep_summary.json``.
+
+``write_report(sweep_dir)`` writes into ``sweep_dir/report/``:
+
+* **grid** (``[grid]`` or ``[[run]]`` sweeps): ``report.md`` and ``report.csv``, one row per run
+  with its varied values, its status and the chosen summary figures, and ``<key>.png`` per
+  varied key: each figure (a panel) against that key, one marker series per combination of
+  the other keys. A run that failed has no point (its row says why).
+* **Monte Carlo** (``[monte_carlo]`` sweeps): ``report.md`` and ``percentiles.csv``, per
+  chosen figure the number of runs, how many reached a value (finite), never did (the run
+  completed but the figure is None, e.g. ``|ω|`` never stayed below a threshold within the run)
+  and failed (any status but a success), the share reached, and the 5/50/95 % percentiles;
+  ``<figure>.png`` per figure: a histogram of the reached values and the empirical CDF.
+
+Runs that failed or never reached a value are not dropped: they count in every denominator, as
+``+inf`` in the percentiles (a percentile beyond the share reached is written ``never``), and
+the CDF ends at the share reached. With ``x_1 ≤ … ≤ x_n`` the values of the ``n`` runs (never
+and failed as ``+inf``), the empirical CDF is ``F(x) = #{i : x_i ≤ x} / n`` and the ``p`` %
+percentile is ``x_k`` with ``k = ⌈p n / 100⌉`` (the inverted CDF, no interpolation).
+
+The figures are the sweep file's ``[report] figures`` list, else (grid) every numeric scalar of
+the run summaries that varies across runs, or (Monte Carlo) every one ending in ``_s``.
+``magsail report SWEEP_DIR`` (:func:`add_arguments`, :func:`main`) and ``python -m
+magsail_mj.sweep.report SWEEP_DIR`` run it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from magsail_mj.config import ConfigError, read_toml
+from magsail_mj.io import atomic_path
+from magsail_mj.sweep.common import _SUCCESS
+
+__all__ = ["PERCENTILES", "write_report", "figure_stats", "add_arguments", "main", "ReportError"]
+
+PERCENTILES = (5.0, 50.0, 95.0)
+REPORT_DIR = "report"
+_MAX_PANELS = 12  # figures per grid plot (a larger list is split over several files)
+_DPI = 80
+
+
+class ReportError(ValueError):
+    """The folder holds no sweep results (or a bad ``[report]`` table); the message names the path or key."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Inputs
+
+
+def _load(sweep_dir: Path) -> tuple[list[dict[str, Any]], dict[str, Any], dict[str, Any]]:
+    """Records, manifest, and the sweep file's tree (empty when the file is gone)."""
+    try:
+        records = json.loads((sweep_dir / "sweep_summary.json").read_text())
+    except FileNotFoundError:
+        raise ReportError(f"SWEEP_DIR: {str(sweep_dir)!r} holds no sweep_summary.json (not a sweep folder)") from None
+    except (OSError, ValueError) as err:
+        raise ReportError(f"SWEEP_DIR: {sweep_dir / 'sweep_summary.json'} is unreadable ({err})") from None
+    if not isinstance(records, list) or not all(isinstance(r, dict) and "id" in r for r in records):
+        raise ReportError(f"SWEEP_DIR: {sweep_dir / 'sweep_summary.json'} is not a list of run records")
+    try:
+        manifest = json.loads((sweep_dir / "sweep_manifest.json").read_text())
+    except (OSError, ValueError):
+        manifest = {}
+    try:
+        tree = read_toml(manifest["sweep"]) if manifest.get("sweep") else {}
+    except (ConfigError, OSError):
+        tree = {}
+    return records, manifest, tree
+
+
+def _report_options(tree: dict[str, Any]) -> list[str] | None:
+    """The ``[report] figures`` list of the sweep file (None when absent)."""
+    table = tree.get("report", {})
+    if not isinstance(table, dict):
+        raise ReportError(f"report: must be a table, got {table!r}")
+    figures = table.get("figures")
+    if figures is None:
+        return None
+    if not isinstance(figures, list) or not figures or not all(isinstance(f, str) for f in figures):
+        raise ReportError(f"report.figures: must be a non-empty list of summary keys, got {figures!r}")
+    return figures
+
+
+def _number(value: Any) -> float | None:
+    """A finite float of a summary value, None otherwise (None, a string, a vector, NaN)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    return float(value) if math.isfinite(value) else None
+
+
+def _numeric_keys(records: list[dict[str, Any]]) -> list[str]:
+    """Summary keys that are a number in at least one run, in first-seen order."""
+    keys: list[str] = []
+    for rec in records:
+        for key, value in (rec.get("summary") or {}).items():
+            if key not in keys and _number(value) is not None:
+                keys.append(key)
+    return keys
+
+
+def _default_figures(records: list[dict[str, Any]], *, monte_carlo: bool) -> list[str]:
+    keys = _numeric_keys(records)
+    if monte_carlo:
+        return [k for k in keys if k.endswith("_s") and k != "wall_time_s"]
+    varying = []
+    for key in keys:
+        values = {_number((r.get("summary") or {}).get(key)) for r in records}
+        if len(values) > 1:
+            varying.append(key)
+    return varying
+
+
+def _ok(rec: dict[str, Any]) -> bool:
+    return rec.get("status") in _SUCCESS
+
+
+# ---------------------------------------------------------------------------------------------
+# Monte Carlo
+
+
+def figure_stats(records: list[dict[str, Any]], figure: str,
+                 percentiles: Sequence[float] = PERCENTILES) -> dict[str, Any]:
+    """Counts, share reached and percentiles of one summary figure over every run.
+
+    A run counts as ``failed`` when its status is not a success, ``never`` when it succeeded but
+    the figure is not a finite number, else ``reached``. Percentiles use every run, failed and
+    never as +inf (inverted empirical CDF, ``x_k`` with ``k = ⌈p n/100⌉``); ``None`` stands for
+    +inf in the result. ``share_reached = reached / n``.
+    """
+    values = []
+    failed = never = 0
+    for rec in records:
+        if not _ok(rec):
+            failed += 1
+            values.append(math.inf)
+            continue
+        x = _number((rec.get("summary") or {}).get(figure))
+        if x is None:
+            never += 1
+            values.append(math.inf)
+        else:
+            values.append(x)
+    n = len(values)
+    arr = np.sort(np.asarray(values, dtype=float))
+    pct = {}
+    for p in percentiles:
+        k = max(1, math.ceil(p * n / 100.0)) if n else 0
+        v = float(arr[k - 1]) if n else math.inf
+        pct[f"p{p:g}"] = v if math.isfinite(v) else None
+    reached = n - failed - never
+    return {"figure": figure, "n": n, "reached": reached, "never": never, "failed": failed,
+            "share_reached": reached / n if n else None, "percentiles": pct,
+            "min": float(arr[0]) if reached else None, "max": float(arr[reached - 1]) if reached else None}
+
+
+def _fmt(value: Any) -> str:
+    if value is None:
+        return "never"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+def _mc_plot(records: list[dict[str, Any]], figure: str, stats: dict[str, Any], path: Path) -> None:
+    """Histogram of the reached values and the empirical CDF over every run (percentiles marked)."""
+    reached = np.sort([x for r in records if _ok(r)
+                       and (x := _number((r.get("summary") or {}).get(figure))) is not None])
+    fig = Figure(figsize=(9.0, 3.4), dpi=_DPI)
+    ax_h, ax_c = fig.subplots(1, 2)
+    n = stats["n"]
+    if reached.size:
+        ax_h.hist(reached, bins=min(30, max(5, int(math.sqrt(reached.size)) + 1)), color="tab:blue")
+        steps = np.arange(1, reached.size + 1) / n
+        ax_c.step(np.concatenate([[reached[0]], reached]), np.concatenate([[0.0], steps]), where="post")
+    ax_c.axhline(stats["share_reached"] or 0.0, color="grey", ls="--", lw=0.8,
+                 label=f"share reached {100 * (stats['share_reached'] or 0):.1f} %")
+    for name, value in stats["percentiles"].items():
+        if value is not None:
+            for ax in (ax_h, ax_c):
+                ax.axvline(value, color="tab:red", ls=":", lw=0.9)
+            ax_c.annotate(name, (value, 0.02), color="tab:red", fontsize=7, rotation=90)
+    ax_h.set_title(f"{stats['reached']} reached, {stats['never']} never, {stats['failed']} failed (n = {n})",
+                   fontsize=9)
+    ax_h.set_xlabel(figure, fontsize=8)
+    ax_h.set_ylabel("runs")
+    ax_c.set_xlabel(figure, fontsize=8)
+    ax_c.set_ylabel("F(x) over all runs")
+    ax_c.set_ylim(0.0, 1.02)
+    ax_c.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+
+
+def _mc_report(records: list[dict[str, Any]], figures: list[str], out: Path, title: str) -> list[Path]:
+    stats = [figure_stats(records, f) for f in figures]
+    names = [f"p{p:g}" for p in PERCENTILES]
+    buf = io.StringIO()
+    writer = csv.writer(buf)
+    writer.writerow(["figure", "n", "reached", "never", "failed", "share_reached", *names, "min", "max"])
+    for s in stats:
+        writer.writerow([s["figure"], s["n"], s["reached"], s["never"], s["failed"], s["share_reached"],
+                         *["never" if s["percentiles"][k] is None else s["percentiles"][k] for k in names],
+                         "" if s["min"] is None else s["min"], "" if s["max"] is None else s["max"]])
+    paths = [out / "percentiles.csv"]
+    with atomic_path(paths[0]) as tmp:
+        tmp.write_text(buf.getvalue())
+    lines = [f"# {title}: Monte Carlo report", "",
+             f"{len(records)} runs; statuses: {_status_counts(records)}. Failed runs and runs that never reach "
+             "a value count in every share and as +inf in the percentiles (`never`).", "",
+             "| figure | n | reached | never | failed | share reached | " + " | ".join(names) + " |",
+             "|---|---|---|---|---|---|" + "---|" * len(names)]
+    for s in stats:
+        lines.append(f"| `{s['figure']}` | {s['n']} | {s['reached']} | {s['never']} | {s['failed']} | "
+                     f"{100 * (s['share_reached'] or 0):.1f} % | "
+                     + " | ".join(_fmt(s["percentiles"][k]) for k in names) + " |")
+    lines.append("")
+    for s in stats:
+        png = out / f"{_file_name(s['figure'])}.png"
+        _mc_plot(records, s["figure"], s, png)
+        paths.append(png)
+        lines += [f"![{s['figure']}]({png.name})", ""]
+    paths.append(_write_md(out, lines))
+    return paths
+
+
+# ---------------------------------------------------------------------------------------------
+# Grid
+
+
+def _grid_keys(records: list[dict[str, Any]]) -> list[str]:
+    keys: list[str] = []
+    for rec in records:
+        keys.extend(k for k in (rec.get("params") or {}) if k not in keys)
+    return keys
+
+
+def _label(value: Any) -> str:
+    return json.dumps(value) if isinstance(value, (list, dict)) else str(value)
+
+
+def _axis(values: list[Any]) -> tuple[list[float], list[str] | None]:
+    """Positions of the values on the x axis: the numbers themselves, or the category index."""
+    if all(_number(v) is not None for v in values):
+        return [float(v) for v in values], None
+    cats = list(dict.fromkeys(_label(v) for v in values))
+    return [float(cats.index(_label(v))) for v in values], cats
+
+
+def _grid_plot(records: list[dict[str, Any]], key: str, others: list[str], figures: list[str], path: Path) -> None:
+    """Each figure (a panel) against ``key``; one series per combination of the other keys."""
+    cols = min(3, len(figures))
+    rows = math.ceil(len(figures) / cols)
+    fig = Figure(figsize=(4.0 * cols, 2.8 * rows), dpi=_DPI)
+    axes = np.atleast_1d(fig.subplots(rows, cols)).ravel()
+    runs = [r for r in records if _ok(r) and key in (r.get("params") or {})]
+    xs, cats = _axis([r["params"][key] for r in runs])
+    groups: dict[str, list[int]] = {}
+    for i, rec in enumerate(runs):
+        name = ", ".join(f"{k.split('.')[-1]}={_label(rec['params'].get(k))}" for k in others) or key
+        groups.setdefault(name, []).append(i)
+    for ax, figure in zip(axes, figures, strict=False):
+        for name, idx in groups.items():
+            pts = sorted((xs[i], y) for i in idx if (y := _number(runs[i]["summary"].get(figure))) is not None)
+            if pts:
+                ax.plot(*zip(*pts, strict=True), marker="o", ms=3, lw=0.8, label=name)
+        ax.set_title(figure, fontsize=8)
+        ax.set_xlabel(key, fontsize=8)
+        if cats is not None:
+            ax.set_xticks(range(len(cats)), cats, fontsize=7, rotation=30)
+    for ax in axes[len(figures):]:
+        ax.set_visible(False)
+    if 1 < len(groups) <= 8:
+        axes[0].legend(fontsize=6)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+
+
+def _grid_report(records: list[dict[str, Any]], figures: list[str], out: Path, title: str) -> list[Path]:
+    keys = _grid_keys(records)
+    head = ["id", "status", *keys, *figures]
+    rows = [[r["id"], r.get("status", ""), *[_label(r.get("params", {}).get(k, "")) for k in keys],
+             *[_fmt(v) if (v := _number((r.get("summary") or {}).get(f))) is not None else "" for f in figures]]
+            for r in records]
+    buf = io.StringIO()
+    writer = csv.writer(buf)
+    writer.writerow(head)
+    writer.writerows(rows)
+    paths = [out / "report.csv"]
+    with atomic_path(paths[0]) as tmp:
+        tmp.write_text(buf.getvalue())
+    lines = [f"# {title}: grid report", "", f"{len(records)} runs; statuses: {_status_counts(records)}. "
+             "Failed runs keep their row (empty figures) and have no point in the plots.", "",
+             "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |" for row in rows]
+    lines.append("")
+    for key in keys:
+        others = [k for k in keys if k != key]
+        for part in range(0, len(figures), _MAX_PANELS):
+            suffix = f"_{part // _MAX_PANELS + 1}" if len(figures) > _MAX_PANELS else ""
+            png = out / f"{_file_name(key)}{suffix}.png"
+            _grid_plot(records, key, others, figures[part:part + _MAX_PANELS], png)
+            paths.append(png)
+            lines += [f"![{key}]({png.name})", ""]
+    paths.append(_write_md(out, lines))
+    return paths
+
+
+# ---------------------------------------------------------------------------------------------
+# Entry points
+
+
+def _status_counts(records: list[dict[str, Any]]) -> str:
+    counts: dict[str, int] = {}
+    for rec in records:
+        counts[str(rec.get("status"))] = counts.get(str(rec.get("status")), 0) + 1
+    return ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
+
+
+def _file_name(key: str) -> str:
+    return "".join(c if c.isalnum() or c in "._-" else "_" for c in key)
+
+
+def _write_md(out: Path, lines: list[str]) -> Path:
+    path = out / "report.md"
+    with atomic_path(path) as tmp:
+        tmp.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def write_report(sweep_dir: str | Path, *, figures: Sequence[str] | None = None) -> list[Path]:
+    """Write the report of the sweep in ``sweep_dir`` into ``sweep_dir/report/``; return its files.
+
+    A Monte Carlo report when the sweep file has ``[monte_carlo]`` (or, without the file, the run
+    ids are the sample ids ``s<i>``), else a grid report. ``figures`` (summary keys) overrides the
+    sweep file's ``[report] figures`` and the defaults (module docstring).
+
+    Raises:
+      ReportError: ``sweep_dir`` holds no readable ``sweep_summary.json``, the ``[report]`` table is
+        malformed, a figure is no summary key of any run, or there is no figure to report.
+    """
+    root = Path(sweep_dir)
+    records, manifest, tree = _load(root)
+    if not records:
+        raise ReportError(f"SWEEP_DIR: {str(root)!r} lists no runs")
+    monte_carlo = "monte_carlo" in tree if tree else all(str(r["id"]).rsplit("/", 1)[-1][:1] == "s"
+                                                         and str(r["id"]).rsplit("/", 1)[-1][1:].isdigit()
+                                                         for r in records)
+    chosen = list(figures) if figures else _report_options(tree) or _default_figures(records, monte_carlo=monte_carlo)
+    known = {k for r in records for k in (r.get("summary") or {})}
+    unknown = [f for f in chosen if f not in known] if known else []
+    if unknown:
+        raise ReportError(f"figures: {unknown!r} not in any run summary (e.g. {sorted(known)[:8]!r})")
+    if not chosen:
+        raise ReportError(f"figures: no numeric summary figure to report in {str(root)!r} (no run completed?)")
+    out = root / REPORT_DIR
+    out.mkdir(exist_ok=True)
+    title = str(manifest.get("name") or root.name)
+    return (_mc_report if monte_carlo else _grid_report)(records, chosen, out, title)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``magsail report``: ``SWEEP_DIR`` and ``--figure KEY`` (repeatable)."""
+    parser.add_argument("sweep_dir", metavar="SWEEP_DIR", help="folder of a finished sweep (sweep_summary.json)")
+    parser.add_argument("--figure", action="append", default=None, metavar="KEY",
+                        help="summary key to report (repeatable; default: the sweep file's [report] figures)")
+
+
+def main(args: argparse.Namespace) -> int:
+    """``magsail report``: write the report, print its files; 2 with ``error: …`` on a bad folder or figure."""
+    try:
+        paths = write_report(args.sweep_dir, figures=args.figure)
+    except ReportError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    print(json.dumps({"report": [str(p) for p in paths]}, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    _parser = argparse.ArgumentParser(prog="python -m magsail_mj.sweep.report", description=__doc__.splitlines()[0])
+    add_arguments(_parser)
+    sys.exit(main(_parser.parse_args()))
