@@ -39,6 +39,8 @@ from __future__ import annotations
 
 import collections
 import copy
+import functools
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,9 +53,11 @@ from dm_control.rl import control
 from dm_env import specs
 
 import magsail_mj
+from magsail_mj.checkpoint import StateWalker
 from magsail_mj.commands import attach
 from magsail_mj.config import apply_overrides, load_config, parse_config
 from magsail_mj.loads.base import StepState
+from magsail_mj.quaternion import quat_from_axis_angle, quat_mul, quat_to_matrix
 from magsail_mj.sim import RunResult, Simulation
 
 __all__ = [
@@ -70,6 +74,9 @@ __all__ = [
     "make_environment",
     "pointing_error_rad",
     "as_random_state",
+    "set_rigid_motion",
+    "random_turn",
+    "draw_rigid_start",
     "REPO_ROOT",
 ]
 
@@ -127,6 +134,19 @@ class ActionController:
 # =========================================================================== physics
 
 
+def _unaliased_probes(sim: Simulation) -> dict[str, Any]:
+    """``sim``'s probes, those that reach an object already walked through a bound method's
+    ``__self__`` wrapped in a :func:`functools.partial` (which the checkpoint walker does not
+    enter): ``magsail_mj.checkpoint.restore_state`` cannot write such an alias back, so ``reset``
+    would fail (e.g. the current-loops work probe, a closure over a load's bound method). The
+    objects they reach are loads, walked through the loads."""
+    nodes = StateWalker({"controller": sim.controller, "loads": list(sim.loads), "environment": sim.environment,
+                         "probes": dict(sim.probes)}).nodes()
+    bad = {path for path, node in nodes.items() if node.get("kind") == "alias" and path.endswith("<__self__>")}
+    return {name: functools.partial(probe) if any(p.startswith(f"probes{{{json.dumps(name)}}}") for p in bad)
+            else probe for name, probe in sim.probes.items()}
+
+
 class SimulationPhysics(control.Physics):
     """dm_control ``Physics`` over a :class:`magsail_mj.sim.Simulation`.
 
@@ -144,6 +164,7 @@ class SimulationPhysics(control.Physics):
             raise TypeError(f"base: expected a stepped magsail_mj.sim.Simulation, got {type(base).__name__}")
         self.base = base
         self.controller = controller
+        base.probes = _unaliased_probes(base)
         self.sim = attach(base, controller, [], keep_load=lambda load: True, keep_probes=tuple(base.probes))
         self.scenario = base.scenario
         self.cfg = base.cfg
@@ -221,6 +242,53 @@ class SimulationPhysics(control.Physics):
     def summary(self) -> dict[str, Any]:
         """The scenario's summary figures of the run so far (``scenario.postprocess``)."""
         return self.scenario.postprocess(self.result())[0]
+
+
+# =========================================================================== episode start
+
+
+def set_rigid_motion(physics: SimulationPhysics, *, q_wxyz: np.ndarray, omega_body_rad_s: np.ndarray,
+                     masses: np.ndarray | None = None) -> None:
+    r"""Write a rigid motion into the physics' current state (at rest otherwise, undeformed).
+
+    Particle bodies (three slide joints): ``x_i = c + R (p_i − c)``, ``v_i = R (ω × (p_i − c))``
+    with ``p_i`` the model's reference positions, ``c`` their centre of mass (``masses``, default
+    the model's body masses) and ``R`` the rotation of ``q_wxyz`` (body → world). Free bodies: the
+    orientation ``q_wxyz`` (position kept) and the body-axes rate ω [rad/s] (MuJoCo's free-joint
+    angular velocity is in body axes), no linear velocity.
+    """
+    q = np.asarray(q_wxyz, dtype=float)
+    q = q / np.linalg.norm(q)
+    w = np.asarray(omega_body_rad_s, dtype=float)
+    R = quat_to_matrix(q)
+    kin, data = physics.sim.kin, physics.data
+    if kin.part_body.size:
+        p = kin.pos0[kin.part_body]
+        m = physics.model.body_mass[kin.part_body] if masses is None else np.asarray(masses, dtype=float)
+        c = np.average(p, axis=0, weights=m)
+        data.qpos[kin.part_q] = (p - c) @ R.T + c - p
+        data.qvel[kin.part_v] = np.cross(w, p - c) @ R.T
+    for qa, va in zip(kin.free_q, kin.free_v):
+        data.qpos[qa + 3:qa + 7] = q
+        data.qvel[va:va + 3] = 0.0
+        data.qvel[va + 3:va + 6] = w
+
+
+def random_turn(rng: np.random.RandomState, max_angle_rad: float) -> np.ndarray:
+    """Quaternion of a rotation about a uniformly drawn axis (unit sphere) through an angle uniform
+    in ``[0, max_angle_rad]``."""
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    return quat_from_axis_angle(axis, rng.uniform(0.0, max_angle_rad))
+
+
+def draw_rigid_start(rng: np.random.RandomState, *, q0_wxyz: np.ndarray, rate_range_rad_s: float,
+                     attitude_range_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(q, ω)``: ``q = q0 ⊗ turn`` (:func:`random_turn` within ``attitude_range_rad``) and body
+    rates uniform in ``±rate_range_rad_s`` per axis [rad/s] (the rates are drawn first)."""
+    omega = rng.uniform(-rate_range_rad_s, rate_range_rad_s, size=3)
+    q = quat_mul(np.asarray(q0_wxyz, dtype=float), random_turn(rng, attitude_range_rad))
+    return q / np.linalg.norm(q), omega
 
 
 # =========================================================================== task

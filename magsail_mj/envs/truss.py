@@ -50,13 +50,14 @@ from magsail_mj.analysis.flatness import surface_sd
 from magsail_mj.control.allocation import Allocation, rod_torques, round_half_away
 from magsail_mj.control.rod_attitude import RodAttitudeController, RodCommand
 from magsail_mj.envs.core import (
-    AttitudeTask, SimulationPhysics, make_environment, pointing_error_rad, register,
+    AttitudeTask, SimulationPhysics, draw_rigid_start, make_environment, pointing_error_rad, register,
+    set_rigid_motion,
 )
 from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step
 from magsail_mj.loads.base import StepState
-from magsail_mj.quaternion import error_quaternion, quat_from_axis_angle, quat_from_matrix, quat_mul, quat_to_matrix
+from magsail_mj.quaternion import error_quaternion, quat_from_matrix
 
-__all__ = ["TrussAttitudeTask", "ActionRodController", "B_BOUND_T", "random_turn"]
+__all__ = ["TrussAttitudeTask", "ActionRodController", "B_BOUND_T"]
 
 B_BOUND_T = 1e-4
 """Field magnitude bounding the torque action [T] (above any LEO geomagnetic field)."""
@@ -110,14 +111,6 @@ class ActionRodController(RodAttitudeController):
         return RodCommand(t=float(state.t), polarity=polarity, torque_ref_body=T, torque_alloc_body=T.copy(),
                           N1=n1, N2=n2, clipped1=False, clipped2=False, R=R, omega_body=omega, B_body=B_body,
                           com_world=xc, extra=extra, counts=self.stats.copy())
-
-
-def random_turn(rng: np.random.RandomState, max_angle_rad: float) -> np.ndarray:
-    """Quaternion of a rotation about a uniformly drawn axis (unit sphere) through an angle uniform
-    in ``[0, max_angle_rad]``."""
-    axis = rng.normal(size=3)
-    axis /= np.linalg.norm(axis)
-    return quat_from_axis_angle(axis, rng.uniform(0.0, max_angle_rad))
 
 
 class TrussAttitudeTask(AttitudeTask):
@@ -181,18 +174,9 @@ class TrussAttitudeTask(AttitudeTask):
     def draw_start(self, physics: SimulationPhysics) -> dict[str, Any]:
         """Rates uniform in ±rate_range per axis, attitude q0 ⊗ turn; rigid start (as the scenario's
         ``init_state``: x_i = p_c + R (p_i − p_c), v_i = R (ω × (p_i − p_c)))."""
-        rng = self.random
-        omega = rng.uniform(-self.rate_range, self.rate_range, size=3)
-        q = quat_mul(np.asarray(self.cfg.q0_wxyz, dtype=float), random_turn(rng, self.attitude_range))
-        q = q / np.linalg.norm(q)
-        R = quat_to_matrix(q)
-        tm = self.scenario.tm
-        p = tm.lattice.nodes
-        pc = np.average(p, axis=0, weights=tm.masses)
-        data = physics.data
-        n = 3 * tm.lattice.n_nodes
-        data.qpos[:n] = ((p - pc) @ R.T + pc - p).ravel()
-        data.qvel[:n] = (np.cross(omega, p - pc) @ R.T).ravel()
+        q, omega = draw_rigid_start(self.random, q0_wxyz=np.asarray(self.cfg.q0_wxyz, dtype=float),
+                                    rate_range_rad_s=self.rate_range, attitude_range_rad=self.attitude_range)
+        set_rigid_motion(physics, q_wxyz=q, omega_body_rad_s=omega, masses=self.scenario.tm.masses)
         self.converter.omega0_body[:] = omega
         return {"omega0_body_rad_s": omega, "q0_wxyz": q}
 
