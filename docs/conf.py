@@ -2,8 +2,10 @@
 
 Build: ``bash scripts/build_docs.sh`` (``sphinx-build -W --keep-going -b html docs docs/_build/html``).
 The config and CLI references are generated at build time by ``_ext/magsail_refs.py`` from the
-pydantic schemas and the argparse parser, so they cannot drift from the code. Nothing here runs a
-simulation.
+pydantic schemas and the argparse parser, so they cannot drift from the code. The example gallery
+(``gallery/``, generated, not in git) is built by sphinx-gallery from ``examples/gallery/plot_*.py``:
+each script runs once per build (seconds: small lattices, short durations) and its figures are
+captured; nothing here runs a long simulation.
 """
 
 from __future__ import annotations
@@ -25,10 +27,28 @@ extensions = [
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
     "magsail_refs",
+    "sphinx_gallery.gen_gallery",
 ]
 
-source_suffix = {".md": "markdown"}
-exclude_patterns = ["_build", "reference/_generated", "Thumbs.db", ".DS_Store"]
+source_suffix = {".md": "markdown", ".rst": "restructuredtext"}  # .rst: the generated gallery pages
+exclude_patterns = ["_build", "reference/_generated", "gallery/*.ipynb", "Thumbs.db", ".DS_Store"]
+
+sphinx_gallery_conf = {
+    "examples_dirs": str(DOCS.parent / "examples" / "gallery"),
+    "gallery_dirs": "gallery",
+    "filename_pattern": r"plot_",             # every plot_*.py runs at each build
+    "ignore_pattern": r"__init__\.py",
+    "within_subsection_order": "FileNameSortKey",
+    "image_scrapers": ("matplotlib",),
+    "download_all_examples": False,
+    "remove_config_comments": True,
+    "abort_on_example_error": True,            # a failing example fails the build
+    "show_memory": False,
+    "show_signature": False,
+    "min_reported_time": 1,
+    "reset_modules": ("matplotlib",),
+    "write_computation_times": True,
+}
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
 
