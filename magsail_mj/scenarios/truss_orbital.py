@@ -1,16 +1,18 @@
 r"""Orbital rod-array scenarios of the truss concept: ``detumble`` (§9.3) and ``slew`` (§9.4–9.6).
 
-Spec: truss-magnetorquer-array.md §9 (resolutions cited by their §12 item). The scenario object
-is :class:`magsail_mj.scenarios.truss.TrussScenario`; this module supplies, for the scenario kinds
-``"detumble"`` and ``"slew"``:
+Spec: truss-magnetorquer-array.md §9 (resolutions cited by their §12 item). The tasks are
+:class:`magsail_mj.scenarios.truss_tasks.DetumbleTask` and
+:class:`~magsail_mj.scenarios.truss_tasks.SlewTask`; this module supplies them, from plain data
+(config tables, the :class:`~magsail_mj.scenarios.truss_model.TrussModel`, records), never the
+task object:
 
 * the **rod load** (:func:`make_rod_load`, §3.2, §9.1, §12 O4/S4) and the **controller**
-  (:func:`make_controller`: B-dot, §9.3, or quaternion feedback with gravity-gradient
+  (:func:`rod_controller`: B-dot, §9.3, or quaternion feedback with gravity-gradient
   compensation, §9.4, §12 O2/O3/O9; both feed the §7.3 allocation and the §7.4 Lloyd selection,
   every ``control.period_s``, default every step, §12 O6);
 * the **probes** recorded every ``sim.record_every`` steps (:func:`orbital_probes`);
-* the **post-processing** into ``summary.json`` keys and time series (:func:`orbital_summary`)
-  and the **plots** (:func:`orbital_plots`).
+* the **post-processing** into ``summary.json`` keys and time series (:func:`orbital_summary`,
+  then :func:`detumble_keys` or :func:`slew_keys`) and the **plots** (:func:`orbital_plots`).
 
 Frames: the world is the orbit-following frame (axes = ECI); ``R`` is the best-fit body → world
 rotation of the controller (§4.1), body components are ``Rᵀ v``. Units SI; angles in radians in
@@ -32,10 +34,12 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
+from matplotlib import colormaps
 
+from magsail_mj.analysis.surface_angle import local_surface_angle
 from magsail_mj.control.allocation import TorqueDistributor, allocation_mode_difference
 from magsail_mj.control.bdot_flexible import BdotRodController
 from magsail_mj.control.quaternion_feedback import QuaternionFeedbackRodController
@@ -44,21 +48,31 @@ from magsail_mj.estimation.attitude import (
     euler_zyx, matrix_from_quat, particle_inertia, quat_from_matrix, rotation_angle,
 )
 from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad
+from magsail_mj.loads.tidal import TidalGravityLoad
+from magsail_mj.plotting import new_figure, save_figure
 from magsail_mj.quaternion import error_quaternion, quat_conj, quat_mul
+from magsail_mj.scenarios.truss_config import (
+    ActuatorsConfig,
+    ManeuverConfig,
+    ProfileConfig,
+    TrussConfig,
+    TrussControlConfig,
+)
+from magsail_mj.scenarios.truss_metrics import PROFILE_AXES, common_summary, lvlh_attitude
+from magsail_mj.scenarios.truss_model import TrussModel
 from magsail_mj.sim import RunResult
 from magsail_mj.vec3 import cross3, moment_sum
-
-if TYPE_CHECKING:
-    from magsail_mj.scenarios.truss import TrussScenario
 
 __all__ = [
     "RATE_THRESHOLD_RAD_S",
     "make_rod_load",
     "controller_inertia",
     "make_distributor",
-    "make_controller",
+    "rod_controller",
     "orbital_probes",
     "orbital_summary",
+    "detumble_keys",
+    "slew_keys",
     "orbital_plots",
     "orbital_manifest",
     "first_time_below",
@@ -82,69 +96,86 @@ LOW_AUTHORITY_RATIO = 0.1
 # =========================================================================== building blocks
 
 
-def make_rod_load(sc: "TrussScenario") -> MagnetorquerRodLoad:
+def make_rod_load(actuators: ActuatorsConfig, tm: TrussModel) -> MagnetorquerRodLoad:
     """Rods in all top-layer x1/y1 struts, dipole from the §9.1 basis (§12 O4), field from
     ``state.env.B_eci`` (the field at the reference point, applied uniformly, §9.2)."""
-    a = sc.cfg.actuators
-    return MagnetorquerRodLoad.from_basis(sc.tm.lattice, kappa_Am2_per_kg=a.kappa_Am2_per_kg,
+    a = actuators
+    return MagnetorquerRodLoad.from_basis(tm.lattice, kappa_Am2_per_kg=a.kappa_Am2_per_kg,
                                           rod_mass_kg=a.rod_mass_kg, basis=a.rod_dipole_basis)
 
 
-def controller_inertia(sc: "TrussScenario") -> np.ndarray:
+def controller_inertia(control: TrussControlConfig | None, tm: TrussModel) -> np.ndarray:
     """(3, 3) inertia of the gravity-gradient compensation [kg m²]: Eq. 21 of the undeformed
     particle set (§4.4), or ``diag(control.gg_comp_inertia_kgm2)`` (as-printed variant, §12 O3)."""
-    c = sc.cfg.control
-    if c is not None and c.gg_comp_inertia_kgm2 is not None:
-        return np.diag(np.asarray(c.gg_comp_inertia_kgm2, dtype=float))
-    return particle_inertia(sc.tm.lattice.nodes, sc.tm.masses).tensor
+    if control is not None and control.gg_comp_inertia_kgm2 is not None:
+        return np.diag(np.asarray(control.gg_comp_inertia_kgm2, dtype=float))
+    return particle_inertia(tm.lattice.nodes, tm.masses).tensor
 
 
-def make_distributor(sc: "TrussScenario", rod_load: MagnetorquerRodLoad) -> TorqueDistributor:
-    """§7.3 allocation + §7.4 Lloyd selection (seed ``control.lloyd.seed`` or ``sim.seed``)."""
-    c = sc.cfg.control
-    seed = c.lloyd.seed if c.lloyd.seed is not None else sc.cfg.sim.seed
+def lloyd_seed(control: TrussControlConfig, sim_seed: int) -> int:
+    """Seed of the §7.4 Lloyd selection: ``control.lloyd.seed``, else ``sim.seed``."""
+    return control.lloyd.seed if control.lloyd.seed is not None else sim_seed
+
+
+def make_distributor(control: TrussControlConfig, rod_load: MagnetorquerRodLoad, *,
+                     sim_seed: int) -> TorqueDistributor:
+    """§7.3 allocation + §7.4 Lloyd selection (seed :func:`lloyd_seed`)."""
+    c = control
     return TorqueDistributor.for_rods(rod_load.rods, m_rod_Am2=rod_load.m_rod_Am2, mode=c.allocation,
-                                      seed=seed, tol_rel=c.lloyd.tol_rel, max_iter=c.lloyd.max_iter,
-                                      cache_dir=c.cache_dir or None)
+                                      seed=lloyd_seed(c, sim_seed), tol_rel=c.lloyd.tol_rel,
+                                      max_iter=c.lloyd.max_iter, cache_dir=c.cache_dir or None)
 
 
-def make_controller(sc: "TrussScenario") -> RodAttitudeController:
-    """The ``[control]`` law of the scenario, feeding the rod allocation."""
-    cfg, tm = sc.cfg, sc.tm
+def rod_controller(cfg: TrussConfig, tm: TrussModel, rod_load: MagnetorquerRodLoad, *,
+                   mu_m3_s2: float) -> RodAttitudeController:
+    """The ``[control]`` law (``control.kind``: B-dot, quaternion feedback or the open-loop
+    ``[profile]``) feeding the rod allocation, sampled every ``control.period_s`` (default: every
+    step); ``mu_m3_s2`` [m³/s²] is the gravitational parameter of the gravity-gradient compensation."""
     c = cfg.control
-    if sc.rod_load is None:
-        sc.rod_load = make_rod_load(sc)
     common = dict(reference_nodes=tm.lattice.nodes, masses=tm.masses,
-                  distributor=make_distributor(sc, sc.rod_load),
+                  distributor=make_distributor(c, rod_load, sim_seed=cfg.sim.seed),
                   period_s=c.period_s if c.period_s is not None else cfg.sim.timestep_s,
                   omega0_body=cfg.initial.omega0_rad_s, rate_method=c.rate_method)
-    if c.kind == "bdot":
-        return BdotRodController(k_Nms_per_T2=c.k_bdot_Nms_per_T2, **common)
-    if c.kind == "quat_pd":
-        q_ref = cfg.maneuver.q_ref_wxyz if cfg.maneuver.q_ref_wxyz is not None else cfg.q0_wxyz
-        return QuaternionFeedbackRodController(q_ref_wxyz=q_ref, inertia_kgm2=controller_inertia(sc),
-                                               Pq_Nm=c.Pq_Nm, Pw_Nms=c.Pw_Nms, gg_comp=c.gg_comp,
-                                               mu=sc.environment.mu, **common)
-    p = cfg.profile
+    return _CONTROL_LAWS[c.kind](cfg, tm, mu_m3_s2, common)
+
+
+def _bdot(cfg: TrussConfig, tm: TrussModel, mu_m3_s2: float, common: dict[str, Any]) -> RodAttitudeController:
+    return BdotRodController(k_Nms_per_T2=cfg.control.k_bdot_Nms_per_T2, **common)
+
+
+def _quat_pd(cfg: TrussConfig, tm: TrussModel, mu_m3_s2: float, common: dict[str, Any]) -> RodAttitudeController:
+    c = cfg.control
+    q_ref = cfg.maneuver.q_ref_wxyz if cfg.maneuver.q_ref_wxyz is not None else cfg.q0_wxyz
+    return QuaternionFeedbackRodController(q_ref_wxyz=q_ref, inertia_kgm2=controller_inertia(c, tm),
+                                           Pq_Nm=c.Pq_Nm, Pw_Nms=c.Pw_Nms, gg_comp=c.gg_comp,
+                                           mu=mu_m3_s2, **common)
+
+
+def _open_loop(cfg: TrussConfig, tm: TrussModel, mu_m3_s2: float, common: dict[str, Any]) -> RodAttitudeController:
+    p: ProfileConfig = cfg.profile
     return ProfileRodController(kind=p.kind, tau_max_Nm=p.tau_max_Nm, t_end_s=p.t_end_s, t_v_s=p.t_v_s,
-                                axis={"x1": 0, "y1": 1, "z1": 2}[p.axis], **common)
+                                axis=PROFILE_AXES[p.axis], **common)
 
 
-def orbital_probes(sc: "TrussScenario") -> dict[str, Any]:
+_CONTROL_LAWS = {"bdot": _bdot, "quat_pd": _quat_pd, "open_loop": _open_loop}
+"""``control.kind`` → controller factory (the config schema allows exactly these keys)."""
+
+
+def orbital_probes(tm: TrussModel, rod: MagnetorquerRodLoad, tidal: TidalGravityLoad | None, *, ntendon: int,
+                   mu_m3_s2: float, q_err: bool) -> dict[str, Any]:
     """Probes of the orbital runs (recorded every ``sim.record_every`` steps; module docstring).
 
     All read the held command ``state.ctrl`` (a :class:`~magsail_mj.control.rod_attitude.RodCommand`)
     rather than the controller object, so they stay right after a resume from a checkpoint.
+    ``tidal`` is the tidal gravity load (``None``: T_gg = 0); ``ntendon`` the model's tendon count;
+    ``q_err``: record the quaternion-feedback error quaternion too (``control.kind = "quat_pd"``).
     """
-    rod = sc.rod_load
-    tidal = sc.tidal_load
-    n_nodes = sc.tm.lattice.n_nodes
-    masses = sc.tm.masses
+    n_nodes = tm.lattice.n_nodes
+    masses = tm.masses
     w_com = masses / masses.sum()
     n1 = rod.rods.n_per_family[0]
-    ntendon = sc.model.ntendon
-    inertia = particle_inertia(sc.tm.lattice.nodes, masses).tensor
-    mu = sc.environment.mu
+    inertia = particle_inertia(tm.lattice.nodes, masses).tensor
+    mu = mu_m3_s2
 
     def counts(s, d):
         pol = s.ctrl.polarity
@@ -190,27 +221,26 @@ def orbital_probes(sc: "TrussScenario") -> dict[str, Any]:
         "r_ref_eci_m": lambda s, d: s.env.r_ref_eci,
         "strut_activity": activity,
     }
-    if sc.cfg.control.kind == "quat_pd":
+    if q_err:
         probes["q_err"] = lambda s, d: s.ctrl.extra["q_err"]
     return probes
 
 
-def orbital_manifest(sc: "TrussScenario") -> dict[str, Any]:
+def orbital_manifest(cfg: TrussConfig, tm: TrussModel, rod: MagnetorquerRodLoad) -> dict[str, Any]:
     """Manifest entries of the orbital runs: rods, control law, inertia used, Lloyd settings."""
-    c, a = sc.cfg.control, sc.cfg.actuators
-    rod = sc.rod_load if sc.rod_load is not None else make_rod_load(sc)
+    c, a = cfg.control, cfg.actuators
     return {
         "rods_per_family": list(rod.rods.n_per_family),
         "rod_dipole_Am2": list(rod.m_rod_Am2),
         "rod_dipole_basis": a.rod_dipole_basis,
         "control_kind": c.kind,
-        "control_period_s": c.period_s if c.period_s is not None else sc.cfg.sim.timestep_s,
+        "control_period_s": c.period_s if c.period_s is not None else cfg.sim.timestep_s,
         "allocation_mode": c.allocation,
-        "lloyd_seed": c.lloyd.seed if c.lloyd.seed is not None else sc.cfg.sim.seed,
+        "lloyd_seed": lloyd_seed(c, cfg.sim.seed),
         "lloyd_tol_rel": c.lloyd.tol_rel,
         "lloyd_cache_dir": c.cache_dir,
-        "gg_comp_inertia_kgm2": np.diag(controller_inertia(sc)).tolist(),
-        "initial_q0_wxyz": list(sc.cfg.q0_wxyz),
+        "gg_comp_inertia_kgm2": np.diag(controller_inertia(c, tm)).tolist(),
+        "initial_q0_wxyz": list(cfg.q0_wxyz),
     }
 
 
@@ -307,22 +337,23 @@ def _cumtrapz(y: np.ndarray, t: np.ndarray) -> np.ndarray:
 # =========================================================================== post-processing
 
 
-def orbital_summary(sc: "TrussScenario", result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Summary keys and derived series of a ``detumble`` or ``slew`` run (spec §9.3–9.4, §11).
+def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: np.ndarray, result: RunResult, *, environment: Any,
+                    rod: MagnetorquerRodLoad) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Summary keys and derived series common to ``detumble`` and ``slew`` runs (spec §9.3–9.4, §11).
 
-    Common to both: §11 "all dynamic runs" keys (from :mod:`~magsail_mj.scenarios.truss_metrics`),
-    the local surface angle at the time of maximum σ_SD (§5.2; ``edge_angle_max_deg``), Euler
-    angles of the best-fit rotation, |B| and the angle between B and the plate normal,
-    saturation fractions, integrals of |T_ac| and |N1| + |N2|, the paper-vs-exact allocation
-    comparison over the recorded samples (§7.3, ``alloc_*``), and the orbit description.
+    §11 "all dynamic runs" keys (:func:`~magsail_mj.scenarios.truss_metrics.common_summary`), the
+    local surface angle at the time of maximum σ_SD (§5.2; ``edge_angle_max_deg``), Euler angles of
+    the best-fit rotation, |B| and the angle between B and the plate normal, saturation fractions,
+    integrals of |T_ac| and |N1| + |N2|, the paper-vs-exact allocation comparison over the recorded
+    samples (§7.3, ``alloc_*``), and the orbit description (``environment.summary()``). ``pos``:
+    node positions (T, n, 3) [m]; the kind's own keys come from :func:`detumble_keys` or
+    :func:`slew_keys`.
     """
-    from magsail_mj.analysis.surface_angle import local_surface_angle
-    from magsail_mj.scenarios.truss_metrics import _common, lvlh_attitude
-
-    summary, series, pos = _common(sc, result)
-    cfg, lat, rec = sc.cfg, sc.tm.lattice, result.records
+    summary, series = common_summary(tm, pos, result, max_strain=cfg.sim.max_strain,
+                                     zeta_strut=cfg.damping.zeta_strut)
+    lat, rec = tm.lattice, result.records
     t = rec["t"]
-    summary.update(sc.environment.summary())
+    summary.update(environment.summary())
     if t.size < 2:
         return summary, series
     R = rec["R_est"]
@@ -343,7 +374,7 @@ def orbital_summary(sc: "TrussScenario", result: RunResult) -> tuple[dict[str, A
         B_normal_angle_rad=np.arccos(np.clip(cosBn, -1.0, 1.0)), N1=N[:, 0], N2=N[:, 1],
         int_T_ac_Nms=_cumtrapz(T_ac_norm, t), int_N_abs_s=_cumtrapz(N_abs, t),
     )
-    series.update(lvlh_attitude(sc.environment, t, R))
+    series.update(lvlh_attitude(environment, t, R))
 
     # saturation (§9.3): exact fractions from the controller's cumulative counters
     cnt = rec["control_counts"][-1].astype(float)
@@ -359,10 +390,10 @@ def orbital_summary(sc: "TrussScenario", result: RunResult) -> tuple[dict[str, A
     top = pos[kmax, lat.top_nodes] - ang.centroid
     series.update(surface_angle_map_rad=ang.alpha, surface_angle_u_m=ang.u, surface_angle_v_m=ang.v,
                   shape_at_max_sd_uvw_m=np.stack([top @ ang.e_u, top @ ang.e_v, top @ ang.normal], axis=1))
-    inertia = particle_inertia(lat.nodes, sc.tm.masses)
+    inertia = particle_inertia(lat.nodes, tm.masses)
     B_body = rec["B_body_T"]
-    m_rod = sc.rod_load.m_rod_Am2
-    n_max = sc.rod_load.rods.n_per_family
+    m_rod = rod.m_rod_Am2
+    n_max = rod.rods.n_per_family
     alloc = allocation_mode_difference(T_ref, B_body, m_rod_Am2=m_rod, n_max=n_max)
     summary.update({
         "control_kind": cfg.control.kind,
@@ -385,22 +416,19 @@ def orbital_summary(sc: "TrussScenario", result: RunResult) -> tuple[dict[str, A
         "B_norm_min_T": float(B_norm.min()), "B_norm_max_T": float(B_norm.max()),
         **{f"alloc_{k}": v for k, v in alloc.items()},
     })
-    if cfg.scenario == "detumble":
-        summary.update(_detumble_keys(sc, t, omega, w_norm, inertia.tensor))
-    else:
-        more_s, more_k = _slew_keys(sc, rec, t, w_norm, T_ac_norm, T_ref)
-        series.update(more_s)
-        summary.update(more_k)
     return summary, series
 
 
-def _detumble_keys(sc: "TrussScenario", t: np.ndarray, omega: np.ndarray, w_norm: np.ndarray,
-                   inertia: np.ndarray) -> dict[str, Any]:
-    """§9.3 metrics: time all three rates fall / stay below 1e-3 rad/s, residual rates, H0."""
+def detumble_keys(t: np.ndarray, omega: np.ndarray, *, inertia_kgm2: np.ndarray,
+                  omega0_body: np.ndarray) -> dict[str, Any]:
+    """§9.3 metrics of body rates ``omega`` (T, 3) [rad/s] at times ``t`` [s]: time all three rates
+    fall / stay below 1e-3 rad/s, residual rates over the last 1800 s, and the initial angular
+    momentum H0 = |I ω0| [N m s] (``inertia_kgm2`` (3, 3), ``omega0_body`` [rad/s])."""
+    w_norm = np.linalg.norm(omega, axis=1)
     wmax = np.max(np.abs(omega), axis=1)
     thr = RATE_THRESHOLD_RAD_S
     last = t >= t[-1] - 1800.0
-    w0 = np.asarray(sc.cfg.initial.omega0_rad_s, dtype=float)
+    w0 = np.asarray(omega0_body, dtype=float)
     stay = stay_time_below(t, wmax, thr)
     return {
         "rate_threshold_rad_s": thr,
@@ -410,18 +438,23 @@ def _detumble_keys(sc: "TrussScenario", t: np.ndarray, omega: np.ndarray, w_norm
         "omega_rms_last_1800s_rad_s": float(np.sqrt(np.mean(w_norm[last] ** 2))),
         "omega_final_rad_s": omega[-1].tolist(),
         "omega_norm_max_rad_s": float(w_norm.max()),
-        "H0_Nms": float(np.linalg.norm(inertia @ w0)),
+        "H0_Nms": float(np.linalg.norm(inertia_kgm2 @ w0)),
     }
 
 
-def _slew_keys(sc: "TrussScenario", rec: dict[str, np.ndarray], t: np.ndarray, w_norm: np.ndarray,
-               T_ac_norm: np.ndarray, T_ref: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """§9.4 metrics: error thresholds and settling, overshoot about the slew axis, tumbling,
-    effort, low-authority time."""
-    cfg = sc.cfg
-    q0 = np.asarray(cfg.q0_wxyz, dtype=float)
+def slew_keys(rec: dict[str, np.ndarray], *, q0_wxyz: tuple[float, ...], maneuver: ManeuverConfig,
+              low_authority_threshold_Nm: float) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """§9.4 metrics of the records ``rec`` (best-fit rotation ``R_est``, estimated body rate,
+    reference and actual rod torques): error thresholds and settling, overshoot about the slew axis
+    from ``q0_wxyz`` to ``maneuver.q_ref_wxyz``, tumbling, low-authority time (|T_ac| below 10 % of
+    |T_ref| while |T_ref| > ``low_authority_threshold_Nm`` [N m]). Returns ``(series, keys)``."""
+    t = rec["t"]
+    w_norm = np.linalg.norm(rec["omega_est_body_rad_s"], axis=1)
+    T_ac_norm = np.linalg.norm(rec["torque_ac_body_Nm"], axis=1)
+    T_ref = rec["torque_ref_body_Nm"]
+    q0 = np.asarray(q0_wxyz, dtype=float)
     q0 /= np.linalg.norm(q0)
-    q_ref = np.asarray(cfg.maneuver.q_ref_wxyz, dtype=float)
+    q_ref = np.asarray(maneuver.q_ref_wxyz, dtype=float)
     q_ref /= np.linalg.norm(q_ref)
     q_t = quat_from_matrix(rec["R_est"])
     q_e = error_quaternion(q_ref, q_t)
@@ -429,7 +462,7 @@ def _slew_keys(sc: "TrussScenario", rec: dict[str, np.ndarray], t: np.ndarray, w
     about, theta_s, axis = slew_axis_angle(q_t, q0, q_ref)
     d5, d2 = math.radians(5.0), math.radians(2.0)
     steps = np.arange(1800.0, t[-1] + 1e-9, 1800.0)
-    thr = cfg.control.low_authority_threshold_Nm
+    thr = low_authority_threshold_Nm
     T_ref_norm = np.linalg.norm(T_ref, axis=1)
     low = (T_ref_norm > thr) & (T_ac_norm < LOW_AUTHORITY_RATIO * T_ref_norm)
     dt_rec = float(t[1] - t[0])
@@ -461,8 +494,8 @@ def _slew_keys(sc: "TrussScenario", rec: dict[str, np.ndarray], t: np.ndarray, w
 # =========================================================================== plots
 
 
-def orbital_plots(sc: "TrussScenario", run_dir: Path, result: RunResult,
-                  series: dict[str, np.ndarray]) -> list[Path]:
+def orbital_plots(run_dir: Path, records: dict[str, np.ndarray], series: dict[str, np.ndarray], *, title: str,
+                  nodes_per_side: int, side_m: float) -> list[Path]:
     """The §9.3/§9.4 figures of a run (PNG, written atomically); returns their paths.
 
     ``body_rates.png`` (components, and |ω_i| on a log scale with the 1e-3 rad/s line),
@@ -472,26 +505,19 @@ def orbital_plots(sc: "TrussScenario", run_dir: Path, result: RunResult,
     Fig. 23c, with T_ref dotted), ``field.png`` (|B| and the angle between B and the plate
     normal), ``surface_sd.png`` (σ_SD and strain energy), ``effort.png`` (cumulative ∫|T_ac| dt
     and ∫(|N1|+|N2|) dt), ``surface_angle_map.png`` and ``shape_at_max_sd.png`` (local surface
-    angle and the top-layer shape at the time of maximum σ_SD).
+    angle and the top-layer shape at the time of maximum σ_SD, exaggerated to 10 % of ``side_m``).
+    ``records``: the run's probe records; ``nodes_per_side``: of the lattice's top layer.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from magsail_mj.scenarios.truss_plots import save_figure
-
     t = series["t"]
     if "omega_body_rad_s" not in series:
         return []
-    rec = result.records
+    rec = records
     th = t / 3600.0
-    title = f"{sc.cfg.scenario}: {sc.cfg.description}".strip(": ")
     out: list[Path] = []
     comp = ("x1", "y1", "z1")
     colours = ("C0", "C1", "C2")
 
-    fig, axs = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
+    fig, axs = new_figure(2, 1, figsize=(9, 7), sharex=True)
     w = series["omega_body_rad_s"]
     for i in range(3):
         axs[0].plot(th, w[:, i], color=colours[i], lw=0.8, label=f"ω{i + 1}")
@@ -504,7 +530,7 @@ def orbital_plots(sc: "TrussScenario", run_dir: Path, result: RunResult,
     out.append(save_figure(fig, run_dir / "body_rates.png"))
 
     slew = "error_angle_rad" in series
-    fig, axs = plt.subplots(3 if slew else 2, 1, figsize=(9, 9 if slew else 6.5), sharex=True)
+    fig, axs = new_figure(3 if slew else 2, 1, figsize=(9, 9 if slew else 6.5), sharex=True)
     for key, label, c in (("psi_rad", "ψ (z)", "C0"), ("theta_rad", "θ (y)", "C1"), ("phi_rad", "φ (x)", "C2")):
         axs[0].plot(th, np.degrees(series[key]), color=c, label=label)
     axs[0].set(ylabel="ZYX Euler angles [deg]", title=title + " — attitude (body → ECI)")
@@ -522,7 +548,7 @@ def orbital_plots(sc: "TrussScenario", run_dir: Path, result: RunResult,
     axs[-1].set_xlabel("t [h]")
     out.append(save_figure(fig, run_dir / "attitude.png"))
 
-    fig, axs = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    fig, axs = new_figure(2, 1, figsize=(9, 6.5), sharex=True)
     axs[0].plot(th, series["N1"], "C0", lw=0.6, label="N1 (x1 rods)")
     axs[0].plot(th, series["N2"], "C1", lw=0.6, label="N2 (y1 rods)")
     axs[0].set(ylabel="signed active rods", title=title + " — active rods per family (sign = polarity)")
@@ -535,7 +561,7 @@ def orbital_plots(sc: "TrussScenario", run_dir: Path, result: RunResult,
     axs[1].legend(ncol=4)
     out.append(save_figure(fig, run_dir / "rod_counts.png"))
 
-    fig, ax = plt.subplots(figsize=(9, 4.5))
+    fig, ax = new_figure(figsize=(9, 4.5))
     T_ac, T_gg, T_ref = rec["torque_ac_body_Nm"], rec["torque_gg_body_Nm"], rec["torque_ref_body_Nm"]
     lim = 1.2 * max(float(np.max(np.abs(T_ac))), float(np.max(np.abs(T_gg))), 1e-6)
     for i in range(3):
@@ -549,21 +575,21 @@ def orbital_plots(sc: "TrussScenario", run_dir: Path, result: RunResult,
     ax.legend(ncol=3, fontsize=7)
     out.append(save_figure(fig, run_dir / "torques.png"))
 
-    fig, axs = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
+    fig, axs = new_figure(2, 1, figsize=(9, 5.5), sharex=True)
     axs[0].plot(th, series["B_norm_T"] * 1e6)
     axs[0].set(ylabel="|B| [µT]", title=title + " — geomagnetic field at the centre of mass")
     axs[1].plot(th, np.degrees(series["B_normal_angle_rad"]))
     axs[1].set(xlabel="t [h]", ylabel="angle(B, plate normal) [deg]")
     out.append(save_figure(fig, run_dir / "field.png"))
 
-    fig, axs = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
+    fig, axs = new_figure(2, 1, figsize=(9, 5.5), sharex=True)
     axs[0].plot(th, series["surface_sd_m"] * 1e3)
     axs[0].set(ylabel="surface SD [mm]", title=title + " — flatness and strain energy")
     axs[1].plot(th, series["strain_energy_J"])
     axs[1].set(xlabel="t [h]", ylabel="strain energy [J]")
     out.append(save_figure(fig, run_dir / "surface_sd.png"))
 
-    fig, axs = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
+    fig, axs = new_figure(2, 1, figsize=(9, 5.5), sharex=True)
     axs[0].plot(th, series["int_T_ac_Nms"])
     axs[0].set(ylabel="∫|T_ac| dt [N m s]", title=title + " — cumulative control effort")
     axs[1].plot(th, series["int_N_abs_s"])
@@ -571,7 +597,7 @@ def orbital_plots(sc: "TrussScenario", run_dir: Path, result: RunResult,
     out.append(save_figure(fig, run_dir / "effort.png"))
 
     k = int(np.nanargmax(series["surface_sd_m"]))
-    fig, ax = plt.subplots(figsize=(6.5, 5.5))
+    fig, ax = new_figure(figsize=(6.5, 5.5))
     im = ax.pcolormesh(series["surface_angle_u_m"], series["surface_angle_v_m"],
                        np.degrees(series["surface_angle_map_rad"]), shading="auto", cmap="viridis")
     fig.colorbar(im, ax=ax, label="local surface angle [deg]")
@@ -580,13 +606,12 @@ def orbital_plots(sc: "TrussScenario", run_dir: Path, result: RunResult,
     out.append(save_figure(fig, run_dir / "surface_angle_map.png"))
 
     uvw = series["shape_at_max_sd_uvw_m"]
-    n = sc.tm.lattice.nodes_per_side
-    fig = plt.figure(figsize=(8, 6))
-    ax = fig.add_subplot(projection="3d")
+    n = nodes_per_side
+    fig, ax = new_figure(figsize=(8, 6), subplot_kw={"projection": "3d"})
     wmax = max(float(np.max(np.abs(uvw[:, 2]))), 1e-12)
-    exag = 0.1 * sc.cfg.lattice.side_m / wmax
+    exag = 0.1 * side_m / wmax
     U, V, W = (uvw[:, i].reshape(n, n) for i in range(3))
-    surf = ax.plot_surface(U, V, W * exag, facecolors=plt.cm.PuOr_r(0.5 + 0.5 * W / wmax), shade=False,
+    surf = ax.plot_surface(U, V, W * exag, facecolors=colormaps["PuOr_r"](0.5 + 0.5 * W / wmax), shade=False,
                            rstride=1, cstride=1, linewidth=0.3, edgecolor="k")
     del surf
     ax.set(xlabel="u [m]", ylabel="v [m]", zlabel=f"w × {exag:.3g} [m]",
