@@ -18,67 +18,99 @@ the work ledger (Lorentz work and damping work, exact for forces held over a ste
 
 Slews add the attitude error ``2 arccos|q_e,w|``, currents, saturation, commanded and achieved
 dipole, magnetic and gravity-gradient torques about the centre of mass.
+
+Every function takes the data it needs (the :class:`~magsail_mj.scenarios.current_loops_model.LoopsModel`,
+node positions ``x`` (T, n, 3) [m], the records, config values), never the task object.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
-from magsail_mj.estimation.attitude import BestFitRotation, rotation_angle
+from magsail_mj.analysis.modes import Modes
+from magsail_mj.analysis.rigid_reference import rigid_dipole_attitude
+from magsail_mj.estimation.attitude import BestFitRotation, euler_zyx, matrix_from_quat, rotation_angle
+from magsail_mj.loads.lorentz import CircuitSegments, LorentzLoad, lorentz_node_forces, self_field_max_T
+from magsail_mj.loads.tidal import GravityGradientTorqueLoad, TidalGravityLoad
+from magsail_mj.scenarios.current_loops_config import ClassificationConfig
+from magsail_mj.scenarios.current_loops_model import LoopsModel
+from magsail_mj.sim import RunResult
 
-__all__ = ["probes", "postprocess", "first_time_below", "structural_series"]
+__all__ = [
+    "flexible_probes", "rigid_probes", "slew_probes", "flexible_torque_probe", "rigid_torque_probe",
+    "base_summary", "sweep_metrics", "slew_metrics", "slew_structure", "classify", "first_time_below",
+    "structural_series",
+]
 
 N_MODAL = 10
 
+Probe = Callable[[Any, Any], np.ndarray]
+Metrics = tuple[dict[str, Any], dict[str, np.ndarray]]
 
-def probes(sc) -> dict[str, Any]:
-    """Recorder probes of a current-loops scenario."""
-    out: dict[str, Any] = {}
-    if sc.rigid:
-        out["qpos"] = lambda s, d: d.qpos
-        out["qvel"] = lambda s, d: d.qvel
-    else:
-        nb = sc.node_bodies
-        m = sc.lm.masses
-        out["qpos"] = lambda s, d: d.qpos
-        out["kinetic_energy_J"] = lambda s, d: 0.5 * float(m @ np.einsum("ij,ij->i", s.vel[nb], s.vel[nb]))
-        if sc.ledger is not None:
-            led = sc.ledger
-            out["work_J"] = lambda s, d: led.values(s.pos)
-    if sc.cfg.scenario != "sweep":
-        out["currents_A"] = lambda s, d: s.ctrl.currents_A if s.ctrl is not None else np.zeros(3)
-        out["currents_axis_A"] = lambda s, d: s.ctrl.currents_axis_A if s.ctrl is not None else np.zeros(3)
-        out["saturated"] = lambda s, d: s.ctrl.saturated if s.ctrl is not None else np.zeros(3, bool)
-        out["q"] = lambda s, d: s.ctrl.q if s.ctrl is not None else np.array([1.0, 0, 0, 0])
-        out["q_err"] = lambda s, d: s.ctrl.q_err if s.ctrl is not None else np.array([1.0, 0, 0, 0])
-        out["omega_body_rad_s"] = lambda s, d: s.ctrl.omega_body if s.ctrl is not None else np.zeros(3)
-        out["torque_ref_body_Nm"] = lambda s, d: s.ctrl.torque_ref_body if s.ctrl is not None else np.zeros(3)
-        out["dipole_cmd_body_Am2"] = lambda s, d: s.ctrl.dipole_cmd_body if s.ctrl is not None else np.zeros(3)
-        out["B_body_T"] = lambda s, d: s.ctrl.B_body if s.ctrl is not None else np.zeros(3)
-        out["torques_world_Nm"] = _torque_probe(sc)
+
+# =========================================================================== probes
+
+
+def flexible_probes(node_bodies: np.ndarray, masses: np.ndarray, work: Callable[[np.ndarray], np.ndarray] | None
+                    ) -> dict[str, Probe]:
+    """``qpos``, kinetic energy ½ Σ m_i |v_i|² [J] and, with a ``work`` ledger (positions →
+    works [J]), the work of the watched loads."""
+    nb, m = node_bodies, masses
+    out: dict[str, Probe] = {
+        "qpos": lambda s, d: d.qpos,
+        "kinetic_energy_J": lambda s, d: 0.5 * float(m @ np.einsum("ij,ij->i", s.vel[nb], s.vel[nb])),
+    }
+    if work is not None:
+        out["work_J"] = lambda s, d: work(s.pos)
     return out
 
 
-def _torque_probe(sc):
-    """(2, 3): magnetic and gravity-gradient torque about the CM (world axes) at this state."""
-    if sc.rigid:
-        def probe(s, d):
-            mag = sc.rigid_torque.last_torque if s.ctrl is not None else np.zeros(3)
-            gg = sc.gg_load.torque_world(s) if sc.gg_load is not None else np.zeros(3)
-            if s.ctrl is not None:
-                from magsail_mj.estimation.attitude import matrix_from_quat
+def rigid_probes() -> dict[str, Probe]:
+    """``qpos`` and ``qvel`` of the rigid surrogate."""
+    return {"qpos": lambda s, d: d.qpos, "qvel": lambda s, d: d.qvel}
 
-                R = matrix_from_quat(s.xquat[1])
-                B = sc.field_fixed if sc.field_fixed is not None else s.env.B_eci
-                mag = np.cross(R @ (np.asarray(s.ctrl.currents_A) @ sc.areas0), B)
-            return np.stack([mag, gg])
-        return probe
 
-    from magsail_mj.loads.lorentz import lorentz_node_forces
+def slew_probes(torque_probe: Probe) -> dict[str, Probe]:
+    """The slew controller's held command (currents, saturation, attitude, rates, torque and dipole
+    commands, field in body axes; neutral values before the first command) and the torques."""
+    return {
+        "currents_A": lambda s, d: s.ctrl.currents_A if s.ctrl is not None else np.zeros(3),
+        "currents_axis_A": lambda s, d: s.ctrl.currents_axis_A if s.ctrl is not None else np.zeros(3),
+        "saturated": lambda s, d: s.ctrl.saturated if s.ctrl is not None else np.zeros(3, bool),
+        "q": lambda s, d: s.ctrl.q if s.ctrl is not None else np.array([1.0, 0, 0, 0]),
+        "q_err": lambda s, d: s.ctrl.q_err if s.ctrl is not None else np.array([1.0, 0, 0, 0]),
+        "omega_body_rad_s": lambda s, d: s.ctrl.omega_body if s.ctrl is not None else np.zeros(3),
+        "torque_ref_body_Nm": lambda s, d: s.ctrl.torque_ref_body if s.ctrl is not None else np.zeros(3),
+        "dipole_cmd_body_Am2": lambda s, d: s.ctrl.dipole_cmd_body if s.ctrl is not None else np.zeros(3),
+        "B_body_T": lambda s, d: s.ctrl.B_body if s.ctrl is not None else np.zeros(3),
+        "torques_world_Nm": torque_probe,
+    }
 
-    nb, m = sc.node_bodies, sc.lm.masses
+
+def rigid_torque_probe(areas_body_m2: np.ndarray, field_world_T: np.ndarray | None,
+                       gg_load: GravityGradientTorqueLoad | None) -> Probe:
+    """(2, 3): magnetic torque ``(R Σ I_L a_L) × B`` and gravity-gradient torque (world axes) of the
+    rigid surrogate (body 1); ``areas_body_m2`` (L, 3) vector areas, ``field_world_T`` the fixed
+    field (``None``: the orbit's ``B_eci``)."""
+    def probe(s, d):
+        mag = np.zeros(3)
+        gg = gg_load.torque_world(s) if gg_load is not None else np.zeros(3)
+        if s.ctrl is not None:
+            R = matrix_from_quat(s.xquat[1])
+            B = field_world_T if field_world_T is not None else s.env.B_eci
+            mag = np.cross(R @ (np.asarray(s.ctrl.currents_A) @ areas_body_m2), B)
+        return np.stack([mag, gg])
+
+    return probe
+
+
+def flexible_torque_probe(node_bodies: np.ndarray, masses: np.ndarray, lorentz: LorentzLoad,
+                          segments: CircuitSegments, tidal: TidalGravityLoad | None) -> Probe:
+    """(2, 3): Lorentz torque Σ (x_i − c) × F_i and tidal torque Σ (x_i − c) × m_i a_i about the
+    centre of mass ``c`` (world axes) at this state."""
+    nb, m = node_bodies, masses
 
     def probe(s, d):
         x = s.pos[nb]
@@ -86,15 +118,18 @@ def _torque_probe(sc):
         r = x - c
         mag = np.zeros(3)
         if s.ctrl is not None:
-            B = sc.lorentz.field(s)
-            mag = np.cross(r, lorentz_node_forces(x, sc.segments, s.ctrl.currents_A, B)).sum(axis=0)
+            B = lorentz.field(s)
+            mag = np.cross(r, lorentz_node_forces(x, segments, s.ctrl.currents_A, B)).sum(axis=0)
         gg = np.zeros(3)
-        if sc.tidal is not None:
-            a = sc.tidal.accelerations(np.asarray(s.env.r_ref_eci), x)
+        if tidal is not None:
+            a = tidal.accelerations(np.asarray(s.env.r_ref_eci), x)
             gg = np.cross(r, m[:, None] * a).sum(axis=0)
         return np.stack([mag, gg])
 
     return probe
+
+
+# =========================================================================== metrics
 
 
 def first_time_below(t: np.ndarray, x: np.ndarray, level: float) -> float | None:
@@ -103,10 +138,12 @@ def first_time_below(t: np.ndarray, x: np.ndarray, level: float) -> float | None
     return float(t[idx[0]]) if idx.size else None
 
 
-def structural_series(sc, x: np.ndarray) -> dict[str, np.ndarray]:
+def structural_series(lm: LoopsModel, x: np.ndarray, *, modes: Callable[[], Modes] | None = None
+                      ) -> dict[str, np.ndarray]:
     """Strain energy, best fit, thickness, residual, strain and modal amplitudes of positions ``x``
-    (T, n, 3)."""
-    lat = sc.lm.lattice
+    (T, n, 3); ``modes`` gives the lattice's modes (their amplitudes are a diagnostic: left out when
+    the modes cannot be had)."""
+    lat = lm.lattice
     p0 = lat.nodes
     R, dvec = BestFitRotation(p0)(x)
     c = x.mean(axis=1)
@@ -115,7 +152,7 @@ def structural_series(sc, x: np.ndarray) -> dict[str, np.ndarray]:
     a, b = lat.struts[:, 0], lat.struts[:, 1]
     L = np.linalg.norm(x[:, b] - x[:, a], axis=2)
     dL = L - lat.rest_length
-    U = 0.5 * (sc.lm.k * dL**2).sum(axis=1)
+    U = 0.5 * (lm.k * dL**2).sum(axis=1)
     out = {
         "strain_energy_J": U,
         "rotation_angle_rad": rotation_angle(R),
@@ -124,8 +161,10 @@ def structural_series(sc, x: np.ndarray) -> dict[str, np.ndarray]:
         "rigid_fit_residual_m": np.sqrt((u**2).sum(axis=2).mean(axis=1)),
         "strut_strain_max": np.abs(dL / lat.rest_length).max(axis=1),
     }
+    if modes is None:
+        return out
     try:
-        md = sc.modes()
+        md = modes()
         sl = md.elastic
         phi = md.phi[:, sl.start:sl.start + N_MODAL]
         q = (u.reshape(u.shape[0], -1) * md.mass_diag) @ phi
@@ -136,39 +175,24 @@ def structural_series(sc, x: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
-def _node_positions(sc, qpos: np.ndarray) -> np.ndarray:
-    from magsail_mj.mjcf.truss import node_positions_from_qpos
-
-    return node_positions_from_qpos(sc.model, qpos, n_nodes=sc.lm.lattice.n_nodes)
-
-
 def _at(t: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     i = int(np.argmax(y))
     return float(y[i]), float(t[i])
 
 
-def postprocess(sc, result) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    cfg = sc.cfg
-    rec = result.records
-    t = rec["t"]
-    summary: dict[str, Any] = {"status": result.status, "status_message": result.message,
-                               "t_end_s": result.t_end_s, "wall_time_s": result.wall_time_s}
-    series: dict[str, np.ndarray] = {}
-    if len(t) == 0:
-        return summary, series
-    if cfg.scenario == "sweep":
-        s, ser = _sweep_metrics(sc, rec)
-    else:
-        s, ser = _slew_metrics(sc, rec)
-    summary.update(s)
-    series.update(ser)
-    return summary, series
+def base_summary(result: RunResult) -> dict[str, Any]:
+    """Status, message, end time [s] and wall time [s] of a run."""
+    return {"status": result.status, "status_message": result.message,
+            "t_end_s": result.t_end_s, "wall_time_s": result.wall_time_s}
 
 
-def _classify(sc, rho_max: float, strain_max: float, h_max: float, dev_max: float) -> str:
-    c = sc.cfg.classification
-    D = sc.cfg.lattice.side_m
-    w = D / sc.cfg.lattice.units
+def classify(c: ClassificationConfig, *, side_m: float, units: int, rho_max: float, strain_max: float,
+             h_max: float, dev_max: float) -> str:
+    """§4.6: ``collapsed`` if ρ_max > f_c D or the strain > ε_c or h_max > n_c w (w = D / N);
+    ``rigid_like`` if ρ_max < f_r D and the rotation stays within the angle tolerance of the rigid
+    reference (``dev_max`` [rad]); else ``flexible``."""
+    D = side_m
+    w = D / units
     if (rho_max > c.collapse_residual_frac * D or strain_max > c.collapse_strain
             or h_max > c.collapse_thickness_units * w):
         return "collapsed"
@@ -177,20 +201,23 @@ def _classify(sc, rho_max: float, strain_max: float, h_max: float, dev_max: floa
     return "flexible"
 
 
-def _sweep_metrics(sc, rec) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    from magsail_mj.analysis.rigid_reference import rigid_dipole_attitude
-    from magsail_mj.loads.lorentz import self_field_max_T
-
-    cfg, lat = sc.cfg, sc.lm.lattice
+def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], x: np.ndarray, st: dict[str, np.ndarray], *,
+                  inertia_kgm2: np.ndarray, areas_body_m2: np.ndarray, field_world_T: np.ndarray,
+                  work_names: list[str], segments: CircuitSegments, stability_product_max: float,
+                  classification: ClassificationConfig, side_m: float, units: int) -> Metrics:
+    """§5 metrics of a constant-current run in the fixed field ``field_world_T`` [T]: the rigid
+    reference with the realised dipole m = Σ I_L a_L [A m²], the flexible run's deviation from it,
+    the dipole–field angle at the time of maximum strain energy, the energy balance
+    E_kin + U − W_Lorentz − W_damping (relative to max |W_Lorentz|; ``work_names`` order the
+    recorded ``work_J`` columns), the self-field estimate and the classification (:func:`classify`).
+    ``st``: :func:`structural_series` of the node positions ``x``."""
     t = rec["t"]
-    x = _node_positions(sc, rec["qpos"])
-    st = structural_series(sc, x)
     U = st["strain_energy_J"]
-    B = sc.field_fixed
-    I = sc.lm.currents_A
-    m_body = I @ sc.areas0
+    B = field_world_T
+    I = lm.currents_A
+    m_body = I @ areas_body_m2
     # rigid reference with the realised dipole
-    R_rig, _ = rigid_dipole_attitude(t, inertia=sc.inertia.tensor, dipole_body=m_body, field_world=B)
+    R_rig, _ = rigid_dipole_attitude(t, inertia=inertia_kgm2, dipole_body=m_body, field_world=B)
     ang_rig = rotation_angle(R_rig)
     ang = st["rotation_angle_rad"]
     dev = rotation_angle(st["R_bestfit"], relative_to=R_rig)
@@ -202,7 +229,7 @@ def _sweep_metrics(sc, rec) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     iU = int(np.argmax(U))
     ke = rec["kinetic_energy_J"]
     work = rec.get("work_J")
-    names = list(sc.ledger.watched) if sc.ledger is not None else []
+    names = work_names
     W_L = work[:, names.index("lorentz")] if work is not None and "lorentz" in names else np.zeros_like(t)
     W_D = work[:, names.index("damping")] if work is not None and "damping" in names else np.zeros_like(t)
     residual = ke + U - W_L - W_D
@@ -227,9 +254,10 @@ def _sweep_metrics(sc, rec) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         "energy_balance_rel_err": float(np.abs(residual).max() / scale),
         "lorentz_work_final_J": float(W_L[-1]),
         "damping_work_final_J": float(W_D[-1]),
-        "stability_product_max": (sc.damping_info()["stability_product_max"] if cfg.damping.enabled else 0.0),
-        "self_field_max_T": float(self_field_max_T(lat.nodes, sc.segments, I)),
-        "classification": _classify(sc, rho_max, strain_max, h_max, dev_max),
+        "stability_product_max": stability_product_max,
+        "self_field_max_T": float(self_field_max_T(lm.lattice.nodes, segments, I)),
+        "classification": classify(classification, side_m=side_m, units=units, rho_max=rho_max,
+                                   strain_max=strain_max, h_max=h_max, dev_max=dev_max),
     }
     series = {k: v for k, v in st.items() if k != "R_bestfit"}
     series.update(rotation_angle_deg=np.degrees(ang), rigid_rotation_angle_rad=ang_rig,
@@ -239,7 +267,10 @@ def _sweep_metrics(sc, rec) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     return summary, series
 
 
-def _slew_metrics(sc, rec) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def slew_metrics(rec: dict[str, np.ndarray], *, areas_body_m2: np.ndarray) -> Metrics:
+    """§6 attitude metrics of a slew: error 2 arccos|q_e,w| [rad], times below 5° and 2°, largest
+    error after first reaching 5°, saturation fraction, torques, achieved dipole Σ I_L a_L [A m²]
+    and the largest current per axis [A]."""
     t = rec["t"]
     qe = rec["q_err"]
     err = 2.0 * np.arccos(np.clip(np.abs(qe[:, 0]), 0.0, 1.0))
@@ -256,7 +287,7 @@ def _slew_metrics(sc, rec) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     mag = np.linalg.norm(torques[:, 0], axis=1)
     gg = np.linalg.norm(torques[:, 1], axis=1)
     I = rec["currents_axis_A"]
-    m_ach = np.einsum("tl,lj->tj", rec["currents_A"], sc.areas0)
+    m_ach = np.einsum("tl,lj->tj", rec["currents_A"], areas_body_m2)
     summary: dict[str, Any] = {
         "t_err_below_5deg_s": t5, "t_err_below_2deg_s": t2,
         "err_max_after_settle_rad": err_after, "t_err_max_after_settle_s": t_err_after,
@@ -270,22 +301,23 @@ def _slew_metrics(sc, rec) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     }
     series = {"error_angle_rad": err, "error_angle_deg": np.degrees(err), "mag_torque_world_Nm": torques[:, 0],
               "gg_torque_world_Nm": torques[:, 1], "dipole_achieved_body_Am2": m_ach}
-    from magsail_mj.estimation.attitude import euler_zyx, matrix_from_quat
-
     try:
         eul = euler_zyx(matrix_from_quat(rec["q"]))
         series["euler_zyx_rad"] = np.stack(eul, axis=-1) if isinstance(eul, tuple) else eul
     except Exception:  # noqa: BLE001 - a plotting aid only
         pass
-    if not sc.rigid:
-        x = _node_positions(sc, rec["qpos"])
-        st = structural_series(sc, x)
-        U = st["strain_energy_J"]
-        U_max, t_U = _at(t, U)
-        summary.update(strain_energy_max_J=U_max, t_strain_energy_max_s=t_U, time_strain_max_s=t_U,
-                       rigid_fit_residual_max_m=float(st["rigid_fit_residual_m"].max()),
-                       strut_strain_max=float(st["strut_strain_max"].max()),
-                       thickness_max_m=float(st["thickness_m"].max()))
-        series.update({k: v for k, v in st.items() if k != "R_bestfit"})
-        series["snapshot_index"] = np.array(int(np.argmax(U)))
+    return summary, series
+
+
+def slew_structure(t: np.ndarray, st: dict[str, np.ndarray]) -> Metrics:
+    """Structural keys of a flexible slew from :func:`structural_series` ``st``: largest strain
+    energy [J] and its time [s], residual [m], strut strain, thickness [m]; the snapshot index."""
+    U = st["strain_energy_J"]
+    U_max, t_U = _at(t, U)
+    summary = dict(strain_energy_max_J=U_max, t_strain_energy_max_s=t_U, time_strain_max_s=t_U,
+                   rigid_fit_residual_max_m=float(st["rigid_fit_residual_m"].max()),
+                   strut_strain_max=float(st["strut_strain_max"].max()),
+                   thickness_max_m=float(st["thickness_m"].max()))
+    series = {k: v for k, v in st.items() if k != "R_bestfit"}
+    series["snapshot_index"] = np.array(int(np.argmax(U)))
     return summary, series

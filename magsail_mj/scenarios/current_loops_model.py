@@ -1,0 +1,88 @@
+"""Model builder of the current-loops concept: config → lattice, masses, springs, circuits → MjSpec.
+
+Spec current-loops.md §1–§3. The lattice and its springs are the truss concept's
+(:mod:`magsail_mj.geometry.lattice`, :func:`magsail_mj.geometry.truss_properties.strut_stiffness`,
+:func:`magsail_mj.mjcf.truss.build_truss_spec`) with uniform particle masses and no tendon
+damping; the circuits are :mod:`magsail_mj.geometry.current_loops`. ``slew_rigid`` uses one free
+body with the undeformed lattice's inertia (:func:`rigid_plate_spec`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from magsail_mj.geometry.current_loops import Circuit
+from magsail_mj.geometry.current_loops import circuits as make_circuits
+from magsail_mj.geometry.lattice import Lattice, make_lattice
+from magsail_mj.geometry.truss_properties import strut_stiffness
+from magsail_mj.mjcf.common import free_space_spec
+from magsail_mj.mjcf.truss import TrussModelOptions, build_truss_spec
+from magsail_mj.scenarios.current_loops_config import CurrentLoopsConfig, loop_currents
+
+__all__ = ["LoopsModel", "make_loops_model", "rigid_plate_spec", "loop_currents"]
+
+
+@dataclass
+class LoopsModel:
+    """Everything derived from the structural and loop tables of a config.
+
+    ``masses`` (n,) [kg] equal particle masses σ D² / n; ``k`` (S,) spring constants [N/m];
+    ``EA_N`` the strut axial stiffness [N]; ``circuits`` in config order with their full currents
+    ``currents_A`` [A] and ``sizing`` records; ``spec`` the flexible lattice's MjSpec.
+    """
+
+    lattice: Lattice
+    masses: np.ndarray
+    k: np.ndarray
+    EA_N: float
+    calibration_factor: float
+    circuits: list[Circuit]
+    currents_A: np.ndarray
+    sizing: list[dict[str, Any]]
+    spec: mujoco.MjSpec
+
+
+def make_loops_model(cfg: CurrentLoopsConfig) -> LoopsModel:
+    """Lattice, masses, springs, circuits, currents and the MjSpec (no tendon damping)."""
+    lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
+    M = cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
+    masses = np.full(lat.n_nodes, M / lat.n_nodes)
+    k, c = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_N_m2, calibration=cfg.stiffness.calibration)
+    EA = float(k[0] * lat.rest_length[0])
+    circuits = make_circuits(lat, cfg.loops.expanded())
+    currents, sizing = loop_currents(cfg)
+    opts = TrussModelOptions(timestep_s=cfg.sim.timestep_s, integrator=cfg.sim.integrator,
+                             solver_tolerance=cfg.sim.solver_tolerance,
+                             name=f"current_loops_{cfg.scenario}")
+    spec = build_truss_spec(lat, masses=masses, stiffness=k, damping=0.0, options=opts)
+    for flag in ("CONSTRAINT", "EQUALITY", "FRICTIONLOSS", "LIMIT"):
+        spec.option.disableflags |= int(getattr(mujoco.mjtDisableBit, f"mjDSBL_{flag}"))
+    return LoopsModel(lattice=lat, masses=masses, k=k, EA_N=EA, calibration_factor=c, circuits=circuits,
+                      currents_A=currents, sizing=sizing, spec=spec)
+
+
+def rigid_plate_spec(cfg: CurrentLoopsConfig, inertia: np.ndarray, mass: float) -> mujoco.MjSpec:
+    """One free body with the undeformed lattice's inertia tensor (``slew_rigid``)."""
+    spec = free_space_spec(name="current_loops_slew_rigid", timestep_s=cfg.sim.timestep_s,
+                           integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance)
+    D = cfg.lattice.side_m
+    w = D / cfg.lattice.units
+    spec.stat.extent = float(D)
+    spec.visual.map.zfar = 50.0
+    spec.visual.global_.offwidth = 1920
+    spec.visual.global_.offheight = 1080
+    spec.worldbody.add_light(name="sun", pos=[0, 0, 3 * D], dir=[0, 0, -1],
+                             type=int(mujoco.mjtLightType.mjLIGHT_DIRECTIONAL), diffuse=[0.8, 0.8, 0.8])
+    body = spec.worldbody.add_body(name="plate", pos=[0, 0, 0])
+    body.add_freejoint(name="plate_free")
+    body.explicitinertial = True
+    body.ipos = [0.0, 0.0, 0.0]  # without it to_xml() drops the explicit inertial (MuJoCo 4)
+    body.mass = float(mass)
+    body.fullinertia = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+    body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[D / 2, D / 2, w / 2], contype=0, conaffinity=0,
+                  mass=0.0, density=0.0, rgba=[0.75, 0.75, 0.8, 0.6])
+    return spec
