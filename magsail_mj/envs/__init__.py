@@ -14,10 +14,11 @@ from __future__ import annotations
 
 from magsail_mj.envs import current_loops, reflector, truss  # noqa: F401  (registers the tasks)
 from magsail_mj.envs.core import (
-    ActionController, AttitudeTask, RewardWeights, SimulationPhysics, list_tasks, load, register, shipped_policy,
+    ActionController, AttitudeTask, RewardWeights, SimulationPhysics, list_tasks, load, register, run_episode,
+    shipped_policy, summary_mismatches,
 )
 
-__all__ = ["load", "list", "shipped_policy", "register", "ActionController", "AttitudeTask", "RewardWeights",
-           "SimulationPhysics"]
+__all__ = ["load", "list", "shipped_policy", "run_episode", "summary_mismatches", "register", "ActionController",
+           "AttitudeTask", "RewardWeights", "SimulationPhysics"]
 
 list = list_tasks  # noqa: A001  (the issue's name: ``magsail_mj.envs.list()``)

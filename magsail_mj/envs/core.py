@@ -78,6 +78,9 @@ __all__ = [
     "random_turn",
     "draw_rigid_start",
     "REPO_ROOT",
+    "run_episode",
+    "summary_mismatches",
+    "WALL_CLOCK_KEYS",
 ]
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
@@ -602,6 +605,40 @@ def shipped_policy(env: control.Environment) -> Callable[[dm_env.TimeStep], np.n
     return _ShippedPolicy(env)
 
 
-def list_names() -> list[str]:
-    """Alias of :func:`list_tasks`."""
-    return list_tasks()
+
+def run_episode(env: control.Environment, policy: Callable[[dm_env.TimeStep], Any]) -> tuple[float, int]:
+    """Reset ``env`` and run ``policy`` (``time_step → action``) to the episode's end; returns the
+    undiscounted return and the number of environment steps."""
+    time_step = env.reset()
+    total, n = 0.0, 0
+    while not time_step.last():
+        time_step = env.step(policy(time_step))
+        total += float(time_step.reward)
+        n += 1
+    return total, n
+
+
+WALL_CLOCK_KEYS = ("wall_time_s", "step_cost_us")
+"""Summary keys that measure the computer, not the run (left out of comparisons)."""
+
+
+def summary_mismatches(reference: Mapping[str, Any], got: Mapping[str, Any], *, rel: float = 1e-9) -> list[str]:
+    """Keys of ``reference`` whose value ``got`` lacks or differs from: numbers beyond ``rel``
+    relative (``|a − b| ≤ rel · |a|``; NaN equals NaN, equal infinities match), anything else
+    unequal; the wall-clock keys (:data:`WALL_CLOCK_KEYS`) are skipped."""
+    out = []
+    for key, a in reference.items():
+        if key in WALL_CLOCK_KEYS:
+            continue
+        if key not in got:
+            out.append(f"{key}: missing")
+            continue
+        b = got[key]
+        if isinstance(a, (int, float, np.number)) and not isinstance(a, bool):
+            a, b = float(a), float(b)
+            same = a == b or (math.isnan(a) and math.isnan(b)) or abs(a - b) <= rel * abs(a)
+        else:
+            same = bool(np.all(np.asarray(a, dtype=object) == np.asarray(b, dtype=object))) if a is not b else True
+        if not same:
+            out.append(f"{key}: {a!r} != {b!r}")
+    return out
