@@ -38,6 +38,11 @@ from magsail_mj.control.lloyd import (
     voronoi_cells,
 )
 from magsail_mj.io import write_json
+import matplotlib.pyplot as plt
+from magsail_mj.plotting import save_figure
+from matplotlib.collections import PolyCollection
+from magsail_mj.geometry.lattice import make_lattice
+from magsail_mj.loads.magnetorquer_rods import rod_array, rod_dipole_Am2
 
 UNIT = (0.0, 0.0, 1.0, 1.0)
 
@@ -85,14 +90,6 @@ def fig15_example() -> dict:
 
 
 def figure(path: Path, *, pts21: np.ndarray, demo: dict, fig15: dict) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.collections import PolyCollection
-
-    from magsail_mj.scenarios.truss_plots import save_figure
-
     fig, axs = plt.subplots(1, 3, figsize=(17, 5.6))
     ax = axs[0]
     ax.add_collection(PolyCollection(voronoi_cells(pts21, UNIT), facecolors="none", edgecolors="0.3", lw=0.8))
@@ -142,9 +139,6 @@ def figure(path: Path, *, pts21: np.ndarray, demo: dict, fig15: dict) -> Path:
 def bench_truss(*, seed: int, tol_rel: float, max_iter: int, workers: int, cache_dir: str | None,
                 n_calls: int) -> dict:
     """Per-call cost of allocation + selection on the 75 m truss (380 + 380 rods)."""
-    from magsail_mj.geometry.lattice import make_lattice
-    from magsail_mj.loads.magnetorquer_rods import rod_array, rod_dipole_Am2
-
     rods = rod_array(make_lattice(units=19, side_m=75.0))
     m = rod_dipole_Am2(kappa_Am2_per_kg=100.0, rod_mass_kg=100.0, rods_per_family=rods.n_per_family)
     dist = TorqueDistributor.for_rods(rods, m_rod_Am2=m, seed=seed, tol_rel=tol_rel, max_iter=max_iter,

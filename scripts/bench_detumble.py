@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import magsail_mj  # first: chooses the GL backend before mujoco is imported
+import mujoco
 import numpy as np
 
 from magsail_mj.io import print_report
@@ -108,8 +109,6 @@ def profile_row(label: str, overrides: list[str], duration: float, cache_dir: st
     """Where one setting's step time goes: every load, the controller, MuJoCo's step, the state
     read-out, the environment sample, probes and strain check timed by wrappers (about 0.3 µs
     each per call); "loop" is the rest of the runner. Returns a markdown table."""
-    import mujoco
-
     sim = simulation(duration, overrides, cache_dir)
     spent: dict[str, float] = defaultdict(float)
 
@@ -148,16 +147,12 @@ def profile_row(label: str, overrides: list[str], duration: float, cache_dir: st
 
 def numpy_reference_cost(duration: float, cache_dir: str) -> float:
     """CPU seconds per simulated second of the NumPy RK4 of the same model, loads and controller."""
-    from magsail_mj.scenarios.truss_orbital import make_controller
-
     sc = simulation(duration, [], cache_dir).scenario
     tm, lat = sc.tm, sc.tm.lattice
     system = SpringMassLattice(masses=tm.masses, struts=lat.struts, k=tm.k, l0=lat.rest_length,
                                gamma=tm.gamma)
     loads = sc.loads()
-    controller = make_controller(sc)
-    import mujoco
-
+    controller = sc.make_controller()
     data = mujoco.MjData(sc.model)
     sc.init_state(data)
     x = sc.node_positions(data.qpos[None])[0]

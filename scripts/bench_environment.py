@@ -25,11 +25,14 @@ import argparse
 import json
 import platform
 import time
+from dataclasses import replace
 from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 
+import magsail_mj
+from magsail_mj.config import load_config
 from magsail_mj.environment import AtmosphereConfig, Environment, FieldConfig, OrbitConfig, SunConfig
 from magsail_mj.environment.constants import MU_EARTH
 from magsail_mj.environment.field import igrf_eci
@@ -41,6 +44,7 @@ from magsail_mj.loads.drag import LatticeDragLoad
 from magsail_mj.loads.srp import LatticeSRPLoad
 from magsail_mj.loads.tidal import TidalGravityLoad
 from magsail_mj.reference.numpy_rk4 import SpringMassLattice
+from magsail_mj.sim import Simulation
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -75,15 +79,15 @@ def numpy_rhs_factory(p0: np.ndarray, struts: np.ndarray, k_edge: float, gamma: 
 
 def mujoco_step_costs(steps: int) -> dict[str, float]:
     """Runner cost per step of the 75 m orbital lattice (libration config, MuJoCo RK4 at 0.1 s):
-    bare (no loads, no environment) and with all environment loads (tidal, SRP, drag), in one run."""
-    from magsail_mj.config import load_config
-    from magsail_mj.scenarios import build_scenario
-    from magsail_mj.sim import Simulation
+    bare (no loads, no environment) and with all environment loads (tidal, SRP, drag), in one run.
 
+    The model, its initial state and its environment come from :func:`magsail_mj.load`; the two
+    timed simulations are built on that model with only the loads compared (none, or the
+    environment loads), so that the difference is the loads' cost alone."""
     cfg = load_config(REPO / "models/truss_magnetorquer/libration.toml",
                       ["srp.enabled=true", "drag.enabled=true", "atmosphere.model='exponential'",
                        "sun.model='ephemeris'", f"sim.duration_s={steps * 0.1}", "sim.progress=false"])
-    sc = build_scenario(cfg)
+    sc = magsail_mj.load(cfg).scenario
     out = {}
     for name, loads, env in (("bare", [], None), ("env_loads", sc.environment_loads(), sc.environment)):
         times = []
@@ -140,8 +144,6 @@ def main() -> None:
     pos = np.vstack([np.zeros(3), x])
     vel = np.vstack([np.zeros(3), v])
     s = env10.sample(1000.0)
-    from dataclasses import replace
-
     s = replace(s, in_shadow=False, srp_pressure_N_m2=4.563e-6, density_kg_m3=1e-14)
     state = StepState(t=1000.0, pos=pos, vel=vel, xquat=np.tile([1.0, 0, 0, 0], (len(pos), 1)),
                       omega=np.zeros_like(pos), env=s)

@@ -47,14 +47,18 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import mujoco
 import numpy as np
+from scipy.sparse import diags
+from scipy.sparse.linalg import eigsh
 
+import magsail_mj
 from magsail_mj.analysis.flatness import surface_sd
 from magsail_mj.config import load_config
-from magsail_mj.io import print_report
 from magsail_mj.estimation.attitude import best_fit_rotation, rotation_angle
+from magsail_mj.geometry.lattice import stiffness_matrix
+from magsail_mj.io import print_report
 from magsail_mj.reference.numpy_rk4 import from_truss_scenario, rk4_run
-from magsail_mj.scenarios.truss import build_truss_scenario
 
 ANGLE_TOL_RAD = 1e-3   # spec §3.4: attitude angles within 1e-3 rad
 SD_TOL_REL = 0.02      # spec §3.4: surface SD within 2 %
@@ -130,18 +134,13 @@ def compare(lattice, t_ref: np.ndarray, x_ref: np.ndarray, t: np.ndarray, x: np.
 
 def omega_max(tm) -> float:
     """Highest natural frequency √λ_max(M⁻¹K) of the free lattice [rad/s] (linear, undamped)."""
-    from scipy.sparse import diags
-    from scipy.sparse.linalg import eigsh
-
-    from magsail_mj.geometry.lattice import stiffness_matrix
-
     K = stiffness_matrix(tm.lattice.nodes, tm.lattice.struts, tm.k)
     s = diags(np.repeat(1.0 / np.sqrt(tm.masses), 3))
     return float(np.sqrt(eigsh(s @ K @ s, k=1, which="LA", return_eigenvectors=False)[0]))
 
 
 def bench_units(units: int, duration: float, repeats: int, log) -> tuple[list[Row], dict]:
-    sc = build_truss_scenario(config(units, duration))
+    sc = magsail_mj.load(config(units, duration)).scenario
     lat = sc.tm.lattice
     system, external, x0, v0 = from_truss_scenario(sc)
     cpu, wall = np.inf, np.inf
@@ -168,8 +167,8 @@ def bench_units(units: int, duration: float, repeats: int, log) -> tuple[list[Ro
         ref_wall = min(ref_wall, (time.perf_counter() - w0) / chunk)
         cpu, wall, status = np.inf, np.inf, "completed"
         for _ in range(repeats):
-            sc_b = build_truss_scenario(config(units, duration, integrator, dt))
-            sim = sc_b.simulation()
+            sim = magsail_mj.load(config(units, duration, integrator, dt))
+            sc_b = sim.scenario
             c0, w0 = time.process_time(), time.perf_counter()
             res = sim.run(progress=False)
             c1, w1 = time.process_time() - c0, time.perf_counter() - w0
@@ -247,7 +246,7 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 lines.append(f"- {n} nodes, {label}: no runner setting agrees with the NumPy RK4.")
     lines.append(f"\n{duration:g} s simulated per row; Python {platform.python_version()}, "
-                 f"NumPy {np.__version__}, MuJoCo {__import__('mujoco').__version__}, "
+                 f"NumPy {np.__version__}, MuJoCo {mujoco.__version__}, "
                  f"{platform.processor() or platform.machine()}; best of {max(1, args.repeats)}.")
     text = "\n".join(lines)
     print_report(text, args.out)

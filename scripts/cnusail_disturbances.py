@@ -16,29 +16,27 @@ import json
 import sys
 from pathlib import Path
 
+import numpy as np
+
+import magsail_mj
+from magsail_mj.io import write_json
+from magsail_mj.loads.cubesat_disturbances import SOURCES
+from magsail_mj.plotting import save_figure
+from magsail_mj.scenarios.cnusail_metrics import disturbance_orbit_profile
+from magsail_mj.scenarios.cnusail_plots import disturbance_orbit_figure
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def main(argv: list[str] | None = None) -> int:
-    import magsail_mj  # noqa: F401
-    import numpy as np
-
-    from magsail_mj.config import load_config
-    from magsail_mj.io import write_json
-    from magsail_mj.loads.cubesat_disturbances import SOURCES
-    from magsail_mj.scenarios import build_scenario
-    from magsail_mj.scenarios.cnusail_metrics import disturbance_orbit_profile
-    from magsail_mj.scenarios.cnusail_plots import disturbance_orbit_figure
-    from magsail_mj.scenarios.truss_plots import save_figure
-
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--config", default=str(ROOT / "models" / "cnusail" / "nadir_post.toml"))
     ap.add_argument("--out", default=str(ROOT / "runs" / "cnusail" / "disturbances"))
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     ap.add_argument("--samples", type=int, default=1200)
     args = ap.parse_args(argv)
-    cfg = load_config(args.config, args.set)
-    sc = build_scenario(cfg)
+    sim = magsail_mj.load(args.config, args.set)
+    sc, cfg = sim.scenario, sim.cfg
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     series, peaks = {}, {}

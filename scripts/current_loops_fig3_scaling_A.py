@@ -24,6 +24,9 @@ import numpy as np
 
 from magsail_mj.analysis.loop_scaling import fold_A, trace_branches_A
 from magsail_mj.io import write_npz
+import matplotlib.pyplot as plt
+from magsail_mj.plotting import save_figure
+from matplotlib.lines import Line2D
 
 PANELS = (("lambda_f", "conductor mass fraction λ_f", 1.0),
           ("wire_diameter_m", "wire diameter d [m]", 1.0),
@@ -42,13 +45,6 @@ def curves(sigmas_kg_m2: list[float], kappa: float) -> dict[float, dict[str, np.
 
 
 def figure(path: Path, data: dict[float, dict[str, np.ndarray]], kappa: float) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from magsail_mj.scenarios.truss_plots import save_figure
-
     lam_star = fold_A(kappa)[0]
     fig, axes = plt.subplots(2, 2, figsize=(11, 8), sharex=True)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -81,7 +77,6 @@ def figure(path: Path, data: dict[float, dict[str, np.ndarray]], kappa: float) -
                     transform=axes[0, 0].transAxes, ha="right", fontsize=8, color="0.35")
     for ax in axes[1]:
         ax.set_xlabel("plate side D [m]")
-    from matplotlib.lines import Line2D
     handles, labels = axes[0, 0].get_legend_handles_labels()
     handles += [Line2D([], [], ls="", marker="o", mfc="white", color="k"),
                 Line2D([], [], ls="", marker="*", color="k", ms=10)]

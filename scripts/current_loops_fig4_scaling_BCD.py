@@ -21,6 +21,9 @@ import numpy as np
 
 from magsail_mj.analysis.loop_scaling import side_max, uniform_curves
 from magsail_mj.io import write_npz
+import matplotlib.pyplot as plt
+from magsail_mj.plotting import save_figure
+from magsail_mj.analysis.loop_scaling import radiated_power, required_current, table1, wire_diameter
 
 GEOMS = ("B", "C", "D")
 PANELS = (("lambda_f", "conductor mass fraction λ_f"), ("wire_diameter_m", "wire diameter d [m]"),
@@ -37,14 +40,6 @@ def curves(units: int, sigmas_kg_m2: list[float], side_m: np.ndarray) -> dict:
 
 
 def figure(path: Path, res: dict, units: int, sigmas: list[float]) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from magsail_mj.analysis.loop_scaling import required_current, table1, wire_diameter, radiated_power
-    from magsail_mj.scenarios.truss_plots import save_figure
-
     colors = dict(zip(GEOMS, ("tab:blue", "tab:green", "tab:red")))
     fig, axes = plt.subplots(2, 2, figsize=(11, 8), sharex=True)
     for (g, s), c in res["curves"].items():

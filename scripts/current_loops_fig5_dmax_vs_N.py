@@ -23,6 +23,8 @@ import numpy as np
 
 from magsail_mj.analysis.loop_scaling import c1, fold_A, geometry_factor_b_loops, side_max
 from magsail_mj.io import atomic_path, write_npz
+import matplotlib.pyplot as plt
+from magsail_mj.plotting import save_figure
 
 
 def dmax_table(counts: np.ndarray, sigma: float, kappa: float) -> dict[str, np.ndarray | float]:
@@ -41,13 +43,6 @@ def dmax_table(counts: np.ndarray, sigma: float, kappa: float) -> dict[str, np.n
 
 
 def figure(path: Path, counts: np.ndarray, tables: dict[float, dict], kappa: float) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from magsail_mj.scenarios.truss_plots import save_figure
-
     fig, axes = plt.subplots(1, len(tables), figsize=(4.6 * len(tables), 4.6), squeeze=False, sharey=False)
     for ax, (s, t) in zip(axes[0], tables.items()):
         ax.plot(counts, t["B_vs_n"], "-", color="tab:blue", label="B against loop count n")

@@ -17,6 +17,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import matplotlib.pyplot as plt
 
 KEYS = ("time_to_target_s", "t_err_below_2deg_s", "attitude_error_max_after_target_deg", "t_err_max_after_settle_s",
         "err_final_rad", "saturation_fraction", "mag_torque_max_N_m", "gg_torque_max_N_m", "strain_energy_max_J",
@@ -29,10 +30,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rigid", default="runs/current_loops/slew_rigid")
     args = ap.parse_args(argv)
     flex, rigid = Path(args.flex), Path(args.rigid)
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     zf = np.load(flex / "timeseries.npz")
     zr = np.load(rigid / "timeseries.npz") if (rigid / "timeseries.npz").exists() else None

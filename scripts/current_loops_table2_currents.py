@@ -29,6 +29,8 @@ from magsail_mj.analysis.loop_scaling import (
     GEOMETRIES, c1, loop_sizing, scaling_table, sunlight_diameter_ratio,
 )
 from magsail_mj.io import atomic_path, write_json
+import matplotlib.pyplot as plt
+from magsail_mj.plotting import save_figure
 
 UNITS = (12, 19, 27)
 COLUMNS = ("geometry", "units", "current_A", "wire_diameter_m", "lambda_f", "power_per_area_W_m2",
@@ -54,13 +56,6 @@ def table_md(table: list[dict], side_m: float, sigma: float, kappa: float) -> st
 
 
 def figure(path: Path, table: list[dict]) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from magsail_mj.scenarios.truss_plots import save_figure
-
     panels = [("current_A", "current I [A]", 1.0), ("wire_diameter_m", "wire diameter d [mm]", 1e3),
               ("lambda_f", "conductor mass fraction λ_f [%]", 100.0),
               ("power_per_area_W_m2", "Joule power P_J/D² [W/m²]", 1.0)]

@@ -22,6 +22,8 @@ import json
 from pathlib import Path
 
 import numpy as np
+import matplotlib.pyplot as plt
+from magsail_mj.render import render_run
 
 GEOMS = {"a": "A", "b": "B", "cy": "C_y", "dy": "D_y"}
 UNITS = (12, 19, 27)
@@ -83,11 +85,6 @@ def main(argv: list[str] | None = None) -> int:
 
     (sweep / "ratios_s4.md").write_text("\n".join(ratio("b", "a") + [""] + ratio("dy", "cy")) + "\n")
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     def panel(ax, key, label):
         s = runs[key]
         if s is None:
@@ -116,8 +113,6 @@ def main(argv: list[str] | None = None) -> int:
           for g in ("b", "cy", "dy")], "fig_strain_energy_BCD.png")
 
     if args.videos:
-        from magsail_mj.render import render_run
-
         n = args.video_units
         pairs = [(("a", n, "1e4"), ("b", n, "1e4"), f"video_A_vs_B_n{n}_ei1e4.mp4"),
                  (("cy", n, "1e4"), ("dy", n, "1e4"), f"video_Cy_vs_Dy_n{n}_ei1e4.mp4"),

@@ -29,16 +29,11 @@ from magsail_mj.analysis.scaling import (
     ScalingInputs, load_scaling_inputs, rod_mass_fraction, scaling_tables,
 )
 from magsail_mj.io import atomic_path, to_jsonable, write_json
+import matplotlib.pyplot as plt
+from magsail_mj.plotting import save_figure
 
 
 def figure(path: Path, inputs: ScalingInputs, tables: dict) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from magsail_mj.scenarios.truss_plots import save_figure
-
     kw = dict(mu=inputs.mu_m3_s2, B0_T=inputs.B0_T, R_E_m=inputs.R_E_km * 1e3)
     d = np.linspace(inputs.side_min_m, inputs.side_max_m, inputs.n_points)
     fig, ax = plt.subplots(figsize=(7.5, 5))

@@ -22,12 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
+import magsail_mj
 from magsail_mj.analysis.rigid_truss_orbital import simulate_rigid
-from magsail_mj.config import load_config
 from magsail_mj.estimation.attitude import particle_inertia
 from magsail_mj.io import atomic_path
-from magsail_mj.scenarios import build_scenario
-from magsail_mj.scenarios.truss_orbital import first_time_below, make_controller, stay_time_below, tumbled
+from magsail_mj.scenarios.truss_orbital import first_time_below, stay_time_below, tumbled
 
 MODELS = Path(__file__).resolve().parents[1] / "models" / "truss_magnetorquer"
 
@@ -35,11 +34,11 @@ MODELS = Path(__file__).resolve().parents[1] / "models" / "truss_magnetorquer"
 def rigid_slew(config_id: str, *, duration_s: float | None, gravity_gradient: bool,
                actuation: str = "rods") -> dict:
     """Run one slew config rigidly; its summary figures (same definitions as the flexible run)."""
-    sc = build_scenario(load_config(MODELS / f"{config_id}.toml"))
+    sc = magsail_mj.load(MODELS / f"{config_id}.toml").scenario   # the scenario with its rod load wired
     cfg = sc.cfg
     if cfg.control.kind != "quat_pd":
         raise SystemExit(f"{config_id}: control.kind is {cfg.control.kind!r}; only slews (quat_pd) run here")
-    controller = make_controller(sc)
+    controller = sc.make_controller()
     duration = float(duration_s if duration_s is not None else cfg.sim.duration_s)
     t0 = time.perf_counter()
     run = simulate_rigid(controller=controller, rod_load=sc.rod_load, environment=sc.environment,
