@@ -28,18 +28,18 @@ from __future__ import annotations
 
 import copy
 import hashlib
-import importlib
 import json
 import math
 import re
 import tomllib
 import types
 import typing
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from magsail_mj.concepts import config_schemas, register_config
 
 __all__ = [
     "MAX_STEPS",
@@ -252,36 +252,14 @@ def check_finite_fields(obj: Any, *, positive: tuple[str, ...] = (), non_negativ
             raise ValueError(f"{name}: must be a finite number >= 0, got {v!r}")
 
 
-_REGISTRY: dict[str, type[BaseModel]] = {}
-_CONCEPT_MODULES = {
-    "truss_magnetorquer": "magsail_mj.scenarios.truss",
-    "current_loops": "magsail_mj.scenarios.current_loops",
-    "reflector": "magsail_mj.scenarios.reflector",
-    "cnusail": "magsail_mj.scenarios.cnusail",
-    "msac": "magsail_mj.scenarios.msac",
-}
-
-
-def register_concept(name: str) -> Callable[[type[BaseModel]], type[BaseModel]]:
-    """Class decorator: make ``cls`` the schema of configs whose ``concept`` is ``name``."""
-
-    def wrap(cls: type[BaseModel]) -> type[BaseModel]:
-        _REGISTRY[name] = cls
-        return cls
-
-    return wrap
+register_concept = register_config
+"""Class decorator ``@register_concept(name)``: the concept registry's
+:func:`magsail_mj.concepts.register_config` (kept under this name for the concept modules)."""
 
 
 def concept_models() -> dict[str, type[BaseModel]]:
-    """All registered concept schemas (imports the concept modules that exist)."""
-    for name, module in _CONCEPT_MODULES.items():
-        if name not in _REGISTRY:
-            try:
-                importlib.import_module(module)
-            except ModuleNotFoundError as err:
-                if err.name != module:
-                    raise
-    return dict(_REGISTRY)
+    """All registered concept schemas, by concept name (discovers the concept packages first)."""
+    return config_schemas()
 
 
 # ------------------------------------------------------------------------ error formatting

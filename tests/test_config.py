@@ -7,7 +7,7 @@ import math
 import pytest
 from pydantic import ValidationError, model_validator
 
-import magsail_mj.config as config_module
+import magsail_mj.concepts as concepts_registry
 from magsail_mj.config import (
     ConfigError,
     SimConfig,
@@ -251,7 +251,7 @@ class _CrashyConfig(StrictModel):
 
 
 def test_any_validator_exception_becomes_a_config_error_naming_the_table(monkeypatch):
-    monkeypatch.setitem(config_module._REGISTRY, "crashy", _CrashyConfig)
+    monkeypatch.setitem(concepts_registry.CONFIG_SCHEMAS, "crashy", _CrashyConfig)
     assert parse_config({"concept": "crashy", "table": {"x": 2.0}}).table.x == 2.0
     with pytest.raises(ConfigError) as err:
         parse_config({"concept": "crashy", "table": {"x": 1e300}})

@@ -47,9 +47,9 @@ from typing import Callable
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from magsail_mj.environment.atmosphere import exponential_density, exponential_density_scalar
+from magsail_mj.environment.atmosphere import exponential_density, exponential_density_scalar, msis_density
 from magsail_mj.environment.constants import J2_EARTH, MU_EARTH, OMEGA_EARTH, R_J2
-from magsail_mj.environment.orbit import OrbitalElements, elements_to_state, state_to_elements
+from magsail_mj.environment.orbit import OrbitalElements, ReferenceOrbit, elements_to_state, state_to_elements
 
 __all__ = [
     "ATMOSPHERES",
@@ -82,8 +82,6 @@ def msis_mean_profile(*, epoch: datetime, f107: float, f107a: float, ap: float,
 
     Raises ImportError naming the ``msis`` extra when pymsis is missing.
     """
-    from magsail_mj.environment.atmosphere import msis_density
-
     alt = np.arange(100.0, 1001.0, 10.0) if alt_km is None else np.asarray(alt_km, dtype=float)
     lat = np.arange(-80.0, 80.1, 10.0)
     lon = np.arange(0.0, 360.0, 30.0)
@@ -277,8 +275,6 @@ def geometric_mean_elements(elements: OrbitalElements, *, mu: float = MU_EARTH, 
     offset: with it the averaged and Cowell lifetimes of the deorbit regime agree within 2–5 %
     (without J2 in the Cowell run they agree to 0.1 %, tested).
     """
-    from magsail_mj.environment.orbit import ReferenceOrbit
-
     T = elements.period(mu)
     orb = ReferenceOrbit(elements, mu=mu, propagator="j2", duration=1.05 * T, J2=J2, R_j2=R_j2)
     r, _ = orb.state(np.linspace(0.0, T, n, endpoint=False))

@@ -42,8 +42,10 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
+from scipy import linalg
 
 from magsail_mj.geometry.lattice import stiffness_matrix
+from magsail_mj.io import atomic_path
 
 __all__ = [
     "MODE_COUNTING",
@@ -152,8 +154,6 @@ def _key(nodes, struts, kn, mn, n_rigid) -> str:
 
 
 def _solve(nodes, struts, kn, mn) -> tuple[np.ndarray, np.ndarray]:
-    from scipy import linalg
-
     K = stiffness_matrix(nodes, struts, kn).toarray()
     s = 1.0 / np.sqrt(np.repeat(mn, 3))
     A = K * s[:, None] * s[None, :]
@@ -207,8 +207,6 @@ def lattice_modes(
     if lam is None:
         lam, psi = _solve(nodes, struts, kn, mn)
         if use_cache:
-            from magsail_mj.io import atomic_path
-
             with atomic_path(path) as tmp:
                 with open(tmp, "wb") as fh:
                     np.savez(fh, eigvals=lam, phi=psi)

@@ -43,7 +43,7 @@ from scipy.spatial import ConvexHull, Delaunay, cKDTree
 
 from magsail_mj.estimation._arrays import as_points, as_rotations
 
-from .flatness import average_plane
+from magsail_mj.analysis.flatness import average_plane
 
 __all__ = ["SurfaceAngle", "plane_frame", "local_surface_angle"]
 

@@ -52,7 +52,9 @@ from typing import Iterable, Sequence
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
-from scipy.spatial import Delaunay, Voronoi
+from scipy.spatial import Delaunay, Voronoi, cKDTree
+
+from magsail_mj.io import atomic_path
 
 __all__ = [
     "Region",
@@ -546,8 +548,6 @@ class LloydSelector:
         sel = snap_to_sites(gen, self.sites[family])
         self.stats["snap_time_s"] += time.perf_counter() - t0
         if path is not None:
-            from magsail_mj.io import atomic_path
-
             with atomic_path(path, suffix=".npy") as tmp:
                 with open(tmp, "wb") as fh:
                     np.save(fh, sel)
@@ -557,8 +557,6 @@ class LloydSelector:
         self._gen[count] = res
         path = self._disk_path(count)
         if path is not None and not path.exists():
-            from magsail_mj.io import atomic_path
-
             with atomic_path(path, suffix=".npz") as tmp:
                 with open(tmp, "wb") as fh:
                     np.savez(fh, generators=res.generators, iterations=res.iterations,
@@ -656,8 +654,6 @@ class LloydSelector:
 
 def nn_spacing_cv(points: np.ndarray) -> float:
     """Coefficient of variation (std/mean) of the nearest-neighbour distances of ``points``."""
-    from scipy.spatial import cKDTree
-
     P = np.asarray(points, dtype=float)
     if P.shape[0] < 2:
         return float("nan")
@@ -669,8 +665,6 @@ def nn_spacing_cv(points: np.ndarray) -> float:
 def covering_radius(points: np.ndarray, region: Sequence[float], *, samples_per_side: int = 201) -> float:
     """Largest distance from a point of ``region`` to the nearest of ``points`` (evenness measure),
     evaluated on a ``samples_per_side²`` grid including the boundary."""
-    from scipy.spatial import cKDTree
-
     x0, y0, x1, y1 = as_region(region)
     P = np.asarray(points, dtype=float)
     if P.shape[0] == 0:

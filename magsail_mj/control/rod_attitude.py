@@ -32,6 +32,7 @@ from typing import Any, Literal, Sequence
 import numpy as np
 
 from magsail_mj.control.allocation import Allocation, TorqueDistributor
+from magsail_mj.control.profiles import torque_profile
 from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step
 
 __all__ = ["RodCommand", "RodAttitudeController", "ProfileRodController"]
@@ -238,8 +239,6 @@ class ProfileRodController(RodAttitudeController):
 
     def reference_torque(self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray,
                          com_world: np.ndarray, env: Any) -> tuple[np.ndarray, dict[str, Any]]:
-        from magsail_mj.control.profiles import torque_profile
-
         T = np.zeros(3)
         T[self.axis] = float(torque_profile(self.profile["kind"], t, tau_max=self.profile["tau_max"],
                                             t_end=self.profile["t_end"], t_v=self.profile["t_v"]))

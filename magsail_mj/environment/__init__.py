@@ -4,7 +4,7 @@ The runtime entry point is :class:`Environment` (precompute along the reference 
 ``sample(t)`` per step in O(1)); its config tables live in :mod:`.config`.
 """
 
-from .config import (
+from magsail_mj.environment.config import (
     AtmosphereConfig,
     DragConfig,
     EnvironmentConfig,
@@ -15,8 +15,8 @@ from .config import (
     SunConfig,
     check_environment,
 )
-from .environment import Environment, EnvSample, elements_from_config
-from .orbit import OrbitalElements, ReferenceOrbit
+from magsail_mj.environment.environment import Environment, EnvSample, elements_from_config
+from magsail_mj.environment.orbit import OrbitalElements, ReferenceOrbit
 
 __all__ = [
     "AtmosphereConfig",

@@ -23,8 +23,8 @@ from pydantic import Field, field_validator, model_validator
 
 from magsail_mj.config import MIN_TIMESTEP_S, ConfigProblem, StrictModel, finite_product
 
-from .constants import J2_EARTH, MU_EARTH, OMEGA_EARTH, P_SUN_1AU
-from .timeutil import parse_epoch
+from magsail_mj.environment.constants import J2_EARTH, MU_EARTH, OMEGA_EARTH, P_SUN_1AU
+from magsail_mj.environment.timeutil import parse_epoch
 
 __all__ = [
     "AtmosphereConfig",

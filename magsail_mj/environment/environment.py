@@ -27,8 +27,8 @@ from datetime import datetime
 
 import numpy as np
 
-from .atmosphere import _as_datetime64, ecef_to_geodetic, exponential_density_scalar, msis_density
-from .config import (
+from magsail_mj.environment.atmosphere import _as_datetime64, ecef_to_geodetic, exponential_density_scalar, msis_density
+from magsail_mj.environment.config import (
     AtmosphereConfig,
     DragConfig,
     EnvironmentConfig,
@@ -39,19 +39,19 @@ from .config import (
     SunConfig,
     check_environment,
 )
-from .constants import AU
-from .field import (
+from magsail_mj.environment.constants import AU
+from magsail_mj.environment.field import (
     aligned_dipole_field,
     igrf_dipole,
     igrf_eci,
     planar_dipole_field,
     tilted_dipole_field_eci,
 )
-from .frames import eci_to_ecef
-from .interp import CubicTable
-from .orbit import OrbitalElements, ReferenceOrbit, raan_from_ltdn
-from .sun import sun_position_eci, sun_right_ascension
-from .timeutil import gmst_rad, gmst_rate_rad_s, julian_date, parse_epoch
+from magsail_mj.environment.frames import eci_to_ecef
+from magsail_mj.environment.interp import CubicTable
+from magsail_mj.environment.orbit import OrbitalElements, ReferenceOrbit, raan_from_ltdn
+from magsail_mj.environment.sun import sun_position_eci, sun_right_ascension
+from magsail_mj.environment.timeutil import gmst_rad, gmst_rate_rad_s, julian_date, parse_epoch
 
 __all__ = ["EnvSample", "Environment", "elements_from_config"]
 

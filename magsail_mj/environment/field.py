@@ -28,9 +28,11 @@ from datetime import datetime, timezone
 from functools import lru_cache
 
 import numpy as np
+import ppigrf
 
-from .constants import R_IGRF
-from .frames import cartesian_to_spherical, ecef_to_eci, eci_to_ecef, spherical_vector_to_cartesian
+from magsail_mj.environment.constants import R_IGRF
+from magsail_mj.environment.frames import (cartesian_to_spherical, ecef_to_eci, eci_to_ecef,
+                                          spherical_vector_to_cartesian)
 
 __all__ = [
     "igrf_ecef",
@@ -57,8 +59,6 @@ def igrf_ecef(r_ecef: np.ndarray, date: datetime, *, max_degree: int = 13) -> np
 
     Vectorised: one ``ppigrf.igrf_gc`` call per chunk of up to 8000 points.
     """
-    import ppigrf
-
     r_ecef = np.atleast_2d(np.asarray(r_ecef, dtype=float))
     rad, colat, lon = cartesian_to_spherical(r_ecef)
     colat_deg = np.clip(np.degrees(colat), _POLE_GUARD_DEG, 180.0 - _POLE_GUARD_DEG)
@@ -83,8 +83,6 @@ def igrf_eci(r_eci: np.ndarray, gmst: np.ndarray, date: datetime, *, max_degree:
 
 @lru_cache(maxsize=32)
 def _dipole_coeffs_cached(date: datetime) -> tuple[float, float, float]:
-    import ppigrf
-
     # Degree-1 field at r = a on the equator at longitude 0 (r̂ = x̂): B = 3 (g⃗·x̂) x̂ − g⃗ =
     # (2 g11, −h11, −g10) in ECEF, with ê_r = x̂, ê_θ = −ẑ, ê_φ = ŷ there.
     Br, Bt, Bp = ppigrf.igrf_gc(R_IGRF / 1e3, 90.0, 0.0, date, max_degree=1)

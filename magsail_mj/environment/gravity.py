@@ -13,7 +13,7 @@ import numpy as np
 
 from magsail_mj.vec3 import cross3
 
-from .constants import J2_EARTH, MU_EARTH, R_J2
+from magsail_mj.environment.constants import J2_EARTH, MU_EARTH, R_J2
 
 __all__ = [
     "point_mass_acceleration",

@@ -21,8 +21,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from .constants import J2_EARTH, MU_EARTH, R_J2
-from .gravity import gravity_acceleration
+from magsail_mj.environment.constants import J2_EARTH, MU_EARTH, R_J2
+from magsail_mj.environment.gravity import gravity_acceleration
 
 __all__ = [
     "OrbitalElements",

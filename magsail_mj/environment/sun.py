@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .constants import AU
-from .timeutil import J2000_JD
+from magsail_mj.environment.constants import AU
+from magsail_mj.environment.timeutil import J2000_JD
 
 __all__ = ["sun_position_eci", "sun_right_ascension", "in_cylindrical_shadow"]
 

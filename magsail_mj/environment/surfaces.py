@@ -32,6 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.sparse import csr_matrix
 
 __all__ = [
     "Optics",
@@ -236,8 +237,6 @@ def quad_area_vectors(p: np.ndarray, cells: np.ndarray) -> np.ndarray:
 def cell_node_matrix(cells: np.ndarray, nrows: int, *, offset: int = 0):
     """Sparse (nrows, ncell) matrix S with S[cells[c, k] + offset, c] = ¼: ``S @ F_cell`` shares
     each cell's force equally among its four corners (scatter without Python loops)."""
-    from scipy.sparse import csr_matrix
-
     cells = np.asarray(cells, dtype=np.int64)
     ncell = len(cells)
     rows = cells.ravel() + offset

@@ -1,6 +1,6 @@
 """Attitude estimation of flexible bodies: best-fit rotation, body rates, Euler angles."""
 
-from .attitude import (
+from magsail_mj.estimation.attitude import (
     BestFitRotation,
     ParticleInertia,
     best_fit_rotation,

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Literal
 
 import numpy as np
+from scipy import sparse
 
 __all__ = [
     "STRUT_KINDS",
@@ -252,8 +253,6 @@ def stiffness_matrix(positions: np.ndarray, struts: np.ndarray, k: np.ndarray):
     ``+`` on the diagonal blocks, ``−`` on the off-diagonal ones. Unstressed springs only
     (no geometric stiffness), which is the linearisation about the stress-free lattice.
     """
-    from scipy import sparse
-
     e = positions[struts[:, 1]] - positions[struts[:, 0]]
     e /= np.linalg.norm(e, axis=1, keepdims=True)
     blocks = np.asarray(k)[:, None, None] * e[:, :, None] * e[:, None, :]   # (S,3,3)

@@ -66,9 +66,10 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal
 
+import mujoco
 import numpy as np
 
-from .base import StepState
+from magsail_mj.loads.base import StepState
 
 __all__ = [
     "MTQ_LIMIT_SETS",
@@ -213,8 +214,6 @@ class MagnetorquerLoad:
 
     def torque_world(self, state: StepState) -> np.ndarray:
         """World-frame torque [N m] at this state."""
-        import mujoco
-
         cmd = state.ctrl
         m = getattr(cmd, "dipole_body", None)
         if m is None:

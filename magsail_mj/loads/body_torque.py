@@ -12,7 +12,7 @@ import numpy as np
 from magsail_mj.quaternion import quat_to_matrix
 from magsail_mj.environment.gravity import gravity_gradient_torque
 
-from .base import StepState
+from magsail_mj.loads.base import StepState
 
 __all__ = ["HeldBodyTorqueLoad", "OrbitGravityGradientLoad"]
 

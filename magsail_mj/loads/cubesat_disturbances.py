@@ -23,15 +23,16 @@ from __future__ import annotations
 
 from typing import Literal
 
+import mujoco
 import numpy as np
 
 from magsail_mj.environment.surfaces import FacetSet, Optics
 
-from .base import StepState
-from .dipole import ResidualDipoleLoad
-from .drag import RigidDragLoad
-from .srp import RigidSRPLoad
-from .tidal import GravityGradientTorqueLoad
+from magsail_mj.loads.base import StepState
+from magsail_mj.loads.dipole import ResidualDipoleLoad
+from magsail_mj.loads.drag import RigidDragLoad
+from magsail_mj.loads.srp import RigidSRPLoad
+from magsail_mj.loads.tidal import GravityGradientTorqueLoad
 
 __all__ = ["SOURCES", "cubesat_drag_facets", "cubesat_sail_facets", "CubesatDisturbanceLoad"]
 
@@ -127,8 +128,6 @@ class CubesatDisturbanceLoad:
 
     def rotation(self, state: StepState) -> np.ndarray:
         """Body → world rotation matrix of the bus at ``state``."""
-        import mujoco
-
         mujoco.mju_quat2Mat(self._R, state.xquat[self.body_id])
         return self._R.reshape(3, 3).copy()
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from magsail_mj.quaternion import quat_to_matrix
 
-from .base import StepState
+from magsail_mj.loads.base import StepState
 
 __all__ = ["ResidualDipoleLoad"]
 

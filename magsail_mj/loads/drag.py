@@ -17,8 +17,8 @@ import numpy as np
 
 from magsail_mj.environment.surfaces import CellGeometry, FacetSet, drag_forces
 
-from .base import StepState
-from .facets import RigidFacetLoad
+from magsail_mj.loads.base import StepState
+from magsail_mj.loads.facets import RigidFacetLoad
 
 __all__ = ["RigidDragLoad", "LatticeDragLoad"]
 

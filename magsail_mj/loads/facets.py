@@ -10,7 +10,7 @@ import numpy as np
 from magsail_mj.quaternion import quat_to_matrix
 from magsail_mj.environment.surfaces import FacetSet
 
-from .base import StepState
+from magsail_mj.loads.base import StepState
 
 __all__ = ["RigidFacetLoad"]
 

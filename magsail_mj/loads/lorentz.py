@@ -28,7 +28,7 @@ import numpy as np
 
 from magsail_mj.geometry.current_loops import Circuit
 
-from .base import StepState
+from magsail_mj.loads.base import StepState
 
 __all__ = [
     "MU0",

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from typing import Literal, Sequence
 
 import numpy as np
+from scipy import sparse
 
 from magsail_mj.geometry.lattice import Lattice
 from magsail_mj.loads.base import StepState
@@ -270,8 +271,6 @@ class MagnetorquerRodLoad:
     def _incidence(self, nbody: int):
         """(nbody, n_rods) sparse matrix with +1 at (j_r, r) and −1 at (i_r, r), built once."""
         if self._inc is None or self._inc.shape[0] != nbody:
-            from scipy import sparse
-
             if max(self.i.max(), self.j.max()) >= nbody:
                 raise ValueError(f"xfrc: has {nbody} bodies, the rods need body {max(self.i.max(), self.j.max())}")
             n = self.n_rods

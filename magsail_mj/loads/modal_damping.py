@@ -43,7 +43,8 @@ from typing import Iterator, Literal
 import mujoco
 import numpy as np
 
-from magsail_mj.analysis.modes import LowRankCaughey, Modes
+from magsail_mj.analysis.modes import (LowRankCaughey, Modes, caughey_low_rank, caughey_matrix, damping_ratios,
+                                       lattice_modes)
 from magsail_mj.loads.base import StepState
 
 __all__ = ["ModalDampingLoad", "weighted_best_fit_rotation", "passive_damping", "PassiveDamping"]
@@ -146,9 +147,6 @@ class ModalDampingLoad:
         ``form="low_rank"`` (only sensible with ``"capped_rayleigh"``) returns a load applying
         the low-rank part only; the model then needs tendon damping ``load.tendon_damping(k)``.
         """
-        from magsail_mj.analysis.modes import (caughey_low_rank, caughey_matrix, damping_ratios,
-                                               lattice_modes)
-
         if form not in ("dense", "low_rank"):
             raise ValueError(f"form: must be 'dense' or 'low_rank', got {form!r}")
         if modes is None:

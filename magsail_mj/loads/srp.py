@@ -25,8 +25,8 @@ from magsail_mj.environment.surfaces import (
     uniform_srp_constants,
 )
 
-from .base import StepState
-from .facets import RigidFacetLoad
+from magsail_mj.loads.base import StepState
+from magsail_mj.loads.facets import RigidFacetLoad
 
 __all__ = ["RigidSRPLoad", "LatticeSRPLoad"]
 

@@ -29,6 +29,7 @@ from typing import Callable
 
 import numpy as np
 
+from magsail_mj.estimation.attitude import best_fit_rotation
 from magsail_mj.geometry.lattice import Lattice
 from magsail_mj.loads.base import StepState
 
@@ -116,7 +117,6 @@ class StrutTorqueLoad:
         if self.torque_axis == "local":
             n = (pos[self.i_top] - pos[self.i_bot]) + (pos[self.j_top] - pos[self.j_bot])
         else:
-            from magsail_mj.estimation.attitude import best_fit_rotation
             R, _ = best_fit_rotation(self._ref, pos[self.body_offset:self.body_offset + self._ref.shape[0]])
             n = np.broadcast_to(R[:, 2], (self.struts.size, 3))
         a, c = self.strut_torques(tau)

@@ -24,7 +24,7 @@ from magsail_mj.environment.constants import J2_EARTH, MU_EARTH, R_J2
 from magsail_mj.quaternion import quat_to_matrix
 from magsail_mj.environment.gravity import _q_and_f, gravity_gradient_torque, tidal_acceleration
 
-from .base import StepState
+from magsail_mj.loads.base import StepState
 
 __all__ = ["TidalGravityLoad", "GravityGradientTorqueLoad", "gravity_gradient_torque"]
 

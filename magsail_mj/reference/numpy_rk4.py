@@ -28,8 +28,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable
 
+import mujoco
 import numpy as np
 
+from magsail_mj.mjcf.truss import node_positions_from_qpos
 from magsail_mj.loads.base import Load, StepState
 
 __all__ = ["SpringMassLattice", "spring_forces", "load_forces_from", "rk4_run", "from_truss_scenario",
@@ -208,10 +210,6 @@ def from_truss_scenario(scenario) -> tuple[SpringMassLattice, ExternalForce | No
     do not share load state. Returns ``(system, external, x0, v0)`` with the initial state the
     runner starts from (``scenario.init_state`` applied to a fresh ``MjData``).
     """
-    import mujoco
-
-    from magsail_mj.mjcf.truss import node_positions_from_qpos
-
     tm = scenario.tm
     lat = tm.lattice
     system = SpringMassLattice(masses=tm.masses, struts=lat.struts, k=tm.k, l0=lat.rest_length,

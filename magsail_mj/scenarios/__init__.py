@@ -1,17 +1,20 @@
 """Scenario wiring: config → model, loads, controller, probes → summary, series and plots.
 
-Each concept module registers its config schema (:func:`magsail_mj.config.register_concept`)
-and a builder in :data:`BUILDERS` that turns a validated config into a :class:`Scenario`.
+Each concept registers its config schema (:func:`magsail_mj.config.register_concept`) and its
+task classes (:func:`magsail_mj.concepts.register_task`) or one builder (:func:`register_builder`,
+kept here as the registry's :func:`magsail_mj.concepts.register_builder`; :data:`BUILDERS` is the
+registry's dict). :func:`build_scenario` turns a validated config into a :class:`Scenario`.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Callable, Protocol
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
 
+from magsail_mj.concepts import BUILDERS, build_task, register_builder
 from magsail_mj.sim import RunResult, Simulation
 
 __all__ = ["Scenario", "BUILDERS", "register_builder", "build_scenario"]
@@ -40,26 +43,6 @@ class Scenario(Protocol):
     def manifest_extra(self) -> dict[str, Any]: ...
 
 
-BUILDERS: dict[str, Callable[[Any], Scenario]] = {}
-
-
-def register_builder(concept: str) -> Callable[[Callable[[Any], Scenario]], Callable[[Any], Scenario]]:
-    """Decorator registering the scenario builder of ``concept``."""
-
-    def wrap(fn: Callable[[Any], Scenario]) -> Callable[[Any], Scenario]:
-        BUILDERS[concept] = fn
-        return fn
-
-    return wrap
-
-
 def build_scenario(cfg: Any) -> Scenario:
-    """Build the scenario object of a validated config."""
-    from magsail_mj.config import concept_models
-
-    concept_models()  # imports the concept modules, which register their builders
-    try:
-        builder = BUILDERS[cfg.concept]
-    except KeyError:
-        raise ValueError(f"concept: no scenario builder for {cfg.concept!r}") from None
-    return builder(cfg)
+    """Build the scenario object of a validated config (:func:`magsail_mj.concepts.build_task`)."""
+    return build_task(cfg)

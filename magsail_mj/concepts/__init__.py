@@ -1,0 +1,157 @@
+"""Concept registry and discovery: a concept is a package under ``magsail_mj.concepts``.
+
+A concept package registers, when imported,
+
+- its config schema, ``@register_config("<concept>")`` on the pydantic model of its TOML files
+  (``kind_key`` names the config field that selects the scenario kind, ``"scenario"`` by default);
+- its tasks, ``@register_task("<concept>", "<kind>")`` on one class per scenario kind, keyed by
+  ``(concept, kind)``; a class is built from a validated config by ``cls.from_config(cfg)`` when
+  it has that class method, else by ``cls(cfg)``;
+- or, instead of task classes, one builder ``@register_builder("<concept>")`` (``cfg → task``).
+
+:func:`discover` imports every subpackage of ``magsail_mj.concepts`` (``pkgutil``), so a new
+concept is added by adding a package: no existing module names it. This module imports no
+concept and no other part of magsail_mj (the framework imports it, never the reverse).
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+__all__ = [
+    "CONFIG_SCHEMAS",
+    "KIND_KEYS",
+    "TASKS",
+    "BUILDERS",
+    "register_config",
+    "register_task",
+    "register_builder",
+    "discover",
+    "config_schemas",
+    "task_kinds",
+    "build_task",
+]
+
+T = TypeVar("T")
+
+CONFIG_SCHEMAS: dict[str, type] = {}
+"""Concept name → pydantic model of its config files."""
+
+KIND_KEYS: dict[str, str] = {}
+"""Concept name → config field holding the scenario kind (``"scenario"`` unless registered)."""
+
+TASKS: dict[tuple[str, str], type] = {}
+"""``(concept, scenario kind)`` → task class."""
+
+BUILDERS: dict[str, Callable[[Any], Any]] = {}
+"""Concept name → builder ``cfg → task`` (concepts that dispatch on their kind themselves)."""
+
+# legacy-layout: begin (the move script deletes this block: concepts then live only here)
+_LEGACY_PACKAGES = ("magsail_mj.scenarios",)
+"""Packages whose modules are imported too while concept modules still live outside this one."""
+# legacy-layout: end
+
+
+def register_config(concept: str, *, kind_key: str = "scenario") -> Callable[[type[T]], type[T]]:
+    """Class decorator: make ``cls`` the config schema of ``concept``; ``kind_key`` names its kind field."""
+    _check_name("concept", concept)
+    _check_name("kind_key", kind_key)
+
+    def wrap(cls: type[T]) -> type[T]:
+        CONFIG_SCHEMAS[concept] = cls
+        KIND_KEYS[concept] = kind_key
+        return cls
+
+    return wrap
+
+
+def register_task(concept: str, kind: str) -> Callable[[type[T]], type[T]]:
+    """Class decorator: make ``cls`` the task of scenario kind ``kind`` of ``concept``."""
+    _check_name("concept", concept)
+    _check_name("kind", kind)
+
+    def wrap(cls: type[T]) -> type[T]:
+        TASKS[(concept, kind)] = cls
+        return cls
+
+    return wrap
+
+
+def register_builder(concept: str) -> Callable[[Callable[[Any], T]], Callable[[Any], T]]:
+    """Decorator: make ``fn(cfg) → task`` the builder of every scenario kind of ``concept``."""
+    _check_name("concept", concept)
+
+    def wrap(fn: Callable[[Any], T]) -> Callable[[Any], T]:
+        BUILDERS[concept] = fn
+        return fn
+
+    return wrap
+
+
+def _check_name(arg: str, value: object) -> None:
+    if not isinstance(value, str) or not value.isidentifier():
+        raise ValueError(f"{arg}: must be an identifier string, got {value!r}")
+
+
+def _import_children(package: str, *, packages_only: bool) -> None:
+    """Import the direct children of ``package`` (a missing package is skipped)."""
+    try:
+        pkg = importlib.import_module(package)
+    except ModuleNotFoundError as err:
+        if err.name != package:
+            raise
+        return
+    for info in pkgutil.iter_modules(getattr(pkg, "__path__", ()), prefix=package + "."):
+        if info.name.rpartition(".")[2].startswith("_") or (packages_only and not info.ispkg):
+            continue
+        importlib.import_module(info.name)
+
+
+_discovered = False
+
+
+def discover() -> None:
+    """Import every concept package (each registers itself) once per process."""
+    global _discovered
+    if _discovered:
+        return
+    _import_children(__name__, packages_only=True)
+    for legacy in _LEGACY_PACKAGES:
+        _import_children(legacy, packages_only=False)
+    _discovered = True
+
+
+def config_schemas() -> dict[str, type]:
+    """All concept config schemas after :func:`discover`, by concept name."""
+    discover()
+    return dict(CONFIG_SCHEMAS)
+
+
+def task_kinds(concept: str) -> list[str]:
+    """Scenario kinds registered with a task class for ``concept`` (after :func:`discover`)."""
+    discover()
+    return sorted(kind for (c, kind) in TASKS if c == concept)
+
+
+def build_task(cfg: Any) -> Any:
+    """The task of a validated config: ``TASKS[(cfg.concept, kind)]``, else ``BUILDERS[cfg.concept]``.
+
+    ``kind`` is the config field named by the concept's ``kind_key``. A ``ValueError`` names
+    ``concept`` or the kind field when nothing is registered for them.
+    """
+    discover()
+    concept = cfg.concept
+    key = KIND_KEYS.get(concept, "scenario")
+    kind = getattr(cfg, key, None)
+    cls = TASKS.get((concept, kind))
+    if cls is not None:
+        make = getattr(cls, "from_config", None)
+        return make(cfg) if callable(make) else cls(cfg)
+    if concept in BUILDERS:
+        return BUILDERS[concept](cfg)
+    if any(c == concept for (c, _) in TASKS):
+        raise ValueError(f"{key}: no {concept} task {kind!r}; known {task_kinds(concept)}")
+    raise ValueError(f"concept: no scenario builder for {concept!r}")
