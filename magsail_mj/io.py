@@ -14,6 +14,7 @@ import json
 import math
 import os
 import platform
+import shutil
 import sys
 import tempfile
 from importlib import metadata
@@ -108,12 +109,24 @@ def to_jsonable(value: Any) -> Any:
 
 
 def file_sha256(path: str | Path) -> str:
-    """SHA-256 of a file's bytes (read in 1 MiB blocks), hex."""
+    """SHA-256 of a file's bytes (read in 1 MiB blocks), hex. Of a folder (a Zarr store): of its
+    files in sorted order of their relative paths, each as ``path\0size\0bytes``."""
     h = hashlib.sha256()
+    path = Path(path)
+    if path.is_dir():
+        for item in sorted(p for p in path.rglob("*") if p.is_file()):
+            rel = item.relative_to(path).as_posix()
+            h.update(f"{rel}\0{item.stat().st_size}\0".encode())
+            _hash_bytes(h, item)
+        return h.hexdigest()
+    _hash_bytes(h, path)
+    return h.hexdigest()
+
+
+def _hash_bytes(h: Any, path: Path) -> None:
     with open(path, "rb") as fh:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
             h.update(chunk)
-    return h.hexdigest()
 
 
 def write_json(path: str | Path, obj: Any) -> Path:
@@ -193,12 +206,13 @@ def prepare_run_dir(out_dir: str | Path, *, overwrite: bool = False, resume: boo
     return out
 
 
-_RUN_FILE_PATTERNS = ("manifest.json", "summary.json", "timeseries.npz", "model.xml", "video.mp4", "*.png",
-                      "checkpoint*.npz", "checkpoint*.pkl")
+_RUN_FILE_PATTERNS = ("manifest.json", "summary.json", "timeseries.npz", "timeseries.zarr", "timeseries.nc",
+                      "model.xml", "video.mp4", "*.png", "checkpoint*.npz", "checkpoint*.pkl", "checkpoint*.zarr")
 
 
 def remove_earlier_run(out: Path) -> None:
-    """Delete the files of the run in ``out`` (its manifest's list and the run file patterns)."""
+    """Delete the files of the run in ``out`` (its manifest's list and the run file patterns; a
+    record store, a folder, is removed whole)."""
     names: set[str] = set()
     try:
         listed = json.loads((out / "manifest.json").read_text()).get("files", {})
@@ -211,3 +225,5 @@ def remove_earlier_run(out: Path) -> None:
         path = out / name
         if path.is_file():
             path.unlink()
+        elif path.is_dir() and name.endswith(".zarr"):
+            shutil.rmtree(path)

@@ -1,11 +1,14 @@
 """Config → run folder: build, simulate, post-process, write outputs atomically.
 
-A run folder holds ``model.xml`` (the MJCF of the run), ``timeseries.npz`` (the records and
-derived series), ``summary.json`` (flat key figures, SI units in the names, with ``status`` and
+A run folder holds ``model.xml`` (the MJCF of the run), ``timeseries.zarr`` (the records,
+streamed in chunks during the run, and the derived series in its group ``series``; labelled
+data, see :mod:`magsail_mj.records`; ``magsail export`` writes it as ``.npz`` or netCDF),
+``summary.json`` (flat key figures, SI units in the names, with ``status`` and
 ``status_message``), ``manifest.json`` (config, its hashes, seed, package versions, thread
-settings, status, file list with SHA-256; written last), the plots (``*.png``),
-``checkpoint.npz`` with its record segments ``checkpoint.records*.npz`` when checkpointing, and
-``video.mp4`` when asked.
+settings, status, file list with SHA-256 — of a store: of its files' names and bytes; written
+last), the plots (``*.png``), ``checkpoint.npz`` when checkpointing (no records: their count),
+and ``video.mp4`` when asked. While :data:`WRITE_NPZ_COPY` is on, ``timeseries.npz`` (the store
+exported, streamed chunk by chunk) is written too, for readers of the earlier layout.
 
 Guarantees:
 
@@ -31,9 +34,9 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import json
+import shutil
 import signal
 import threading
-import zipfile
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -43,9 +46,12 @@ from threadpoolctl import threadpool_info, threadpool_limits
 from magsail_mj.api import load
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
 from magsail_mj.config import ConfigError, config_hash, numbers_hash, numbers_tree
+from magsail_mj.export import write_npz_streamed
 from magsail_mj.io import (
     atomic_path, file_sha256, package_versions, prepare_run_dir, remove_earlier_run, run_dir_lock, write_json,
-    write_npz,
+)
+from magsail_mj.records import (
+    SERIES_GROUP, STORE_NAME, RecordStoreError, StoreRecords, open_records, store_length, update_attrs, write_group,
 )
 from magsail_mj.render import render_run
 
@@ -53,6 +59,8 @@ __all__ = ["run_scenario", "RunOutcome", "RunInterrupted", "CHECKPOINT_NAME"]
 
 #: the checkpoint file of a run folder
 CHECKPOINT_NAME = "checkpoint.npz"
+#: also write ``timeseries.npz`` (exported from the store) for readers of the earlier layout
+WRITE_NPZ_COPY = True
 
 
 class RunOutcome(dict):
@@ -84,15 +92,16 @@ def check_resume(run_dir: Path, identity: dict[str, Any], n_steps: int) -> None:
     ckpt = Path(run_dir) / CHECKPOINT_NAME
     header, _, _ = read_checkpoint(ckpt)
     check_identity(header, identity, path=ckpt)
-    for name in header.get("segments", []):  # the records before the checkpoint must all be there
-        if not isinstance(name, str) or "/" in name or not (Path(run_dir) / name).is_file():
-            raise CheckpointError(f"--resume: record segment {name!r} of checkpoint {ckpt} is missing")
-        try:
-            with np.load(Path(run_dir) / name, allow_pickle=False) as npz:
-                npz.files  # noqa: B018 - opening the archive's index checks it is whole
-        except (OSError, ValueError, zipfile.BadZipFile) as err:
-            raise CheckpointError(f"--resume: record segment {name!r} of checkpoint {ckpt} is unreadable "
-                                  f"({type(err).__name__}: {err})") from None
+    n_records = header.get("n_records")
+    if not isinstance(n_records, int) or header.get("records_store") != STORE_NAME:
+        raise CheckpointError(f"--resume: checkpoint {ckpt} names no record count in {STORE_NAME} "
+                              "(a checkpoint of an older version)")
+    try:  # the records before the checkpoint must all be there
+        held = store_length(Path(run_dir) / STORE_NAME)
+    except RecordStoreError as err:
+        raise CheckpointError(f"--resume: {err} (checkpoint {ckpt} needs its {n_records} records)") from None
+    if held < n_records:
+        raise CheckpointError(f"--resume: {STORE_NAME} holds {held} records, checkpoint {ckpt} needs {n_records}")
     step = int(header.get("step", -1))
     if not 0 <= step <= n_steps:
         raise CheckpointError(f"--resume: checkpoint {ckpt} is at t = {header.get('t_s')} s, beyond "
@@ -155,9 +164,16 @@ def _run_locked(cfg: Any, sim: Any, run_dir: Path, identity: dict[str, Any], *, 
     with atomic_path(run_dir / "model.xml") as tmp:
         tmp.write_text(scenario.spec.to_xml())
     ckpt = run_dir / CHECKPOINT_NAME if (cfg.sim.checkpoint_every_s > 0 or stop_after_s is not None or resume) else None
-    result = sim.run(progress=progress, checkpoint_path=ckpt, resume=resume, stop_after_s=stop_after_s)
+    store = run_dir / STORE_NAME
+    attrs = store_attrs(cfg, identity)
+    if getattr(sim, "streams_records", False):
+        result = sim.run(progress=progress, checkpoint_path=ckpt, resume=resume, stop_after_s=stop_after_s,
+                         records_path=store, records_attrs=attrs)
+    else:
+        result = sim.run(progress=progress, checkpoint_path=ckpt, resume=resume, stop_after_s=stop_after_s)
     status, message = result.status, result.message
     with deferred_interrupts() as pending:  # the numbers' files are written whole, even on Ctrl-C
+        result = _stored(result, store, attrs)
         summary, series, plots = _outputs(scenario, result, run_dir)
         overflowed = [k for k, v in series.items() if np.asarray(v).dtype.kind == "f" and np.isinf(v).any()]
         if status == "completed" and overflowed:  # NaN may mark an undefined value; ±inf never is a number
@@ -166,7 +182,10 @@ def _run_locked(cfg: Any, sim: Any, run_dir: Path, identity: dict[str, Any], *, 
         summary = {"scenario": cfg.scenario, **summary, "t_end_s": result.t_end_s, "status": status,
                    "status_message": message}
         write_json(run_dir / "summary.json", summary)
-        files = ["model.xml", "timeseries.npz", "summary.json", *[p.name for p in plots]]
+        update_attrs(store, {"status": status, "status_message": message, "t_end_s": result.t_end_s})
+        files = ["model.xml", STORE_NAME, "summary.json", *[p.name for p in plots]]
+        if WRITE_NPZ_COPY:
+            files.insert(2, "timeseries.npz")
         manifest = {
             "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
             "concept": cfg.concept,
@@ -242,8 +261,46 @@ def deferred_interrupts() -> Iterator[list[int]]:
             signal.signal(sig, handler)
 
 
+def store_attrs(cfg: Any, identity: dict[str, Any]) -> dict[str, Any]:
+    """The attributes of a run's record store: concept, scenario, config and numbers hashes, and
+    the package versions (one ``version_<package>`` string each, so netCDF can hold them)."""
+    versions = {f"version_{k.replace('-', '_')}": str(v) for k, v in package_versions().items()}
+    return {"concept": cfg.concept, "scenario": cfg.scenario, "config_hash": config_hash(cfg),
+            "numbers_hash": identity["numbers_hash"], **versions}
+
+
+def _stored(result: Any, store: Path, attrs: dict[str, Any]) -> Any:
+    """The result with its records in ``store``: a runner that streams has written them (its
+    end-of-run arrays, ``extra``, are added); the others' records are written now."""
+    records = result.records
+    if isinstance(records, StoreRecords):
+        if records.extra:
+            write_group(store, records.extra)
+        result.records = open_records(store.parent)
+        return result
+    n_time = len(records["t"]) if "t" in records and np.ndim(records["t"]) == 1 else None
+    if store.exists():
+        shutil.rmtree(store)
+    write_group(store, records, n_time=n_time, attrs=attrs)
+    result.records = open_records(store.parent)
+    return result
+
+
+def _npz_members(run_dir: Path) -> dict[str, Any]:
+    """The arrays of ``timeseries.npz`` (records, then series replacing records of the same name) as lazy
+    Zarr arrays, for :func:`~magsail_mj.export.write_npz_streamed`."""
+    records = open_records(run_dir)
+    members = {name: records.array(name) for name in records}
+    try:
+        series = open_records(run_dir, group=SERIES_GROUP)
+    except (RecordStoreError, KeyError):
+        return members
+    members.update({name: series.array(name) for name in series})
+    return members
+
+
 def _outputs(scenario: Any, result: Any, run_dir: Path) -> tuple[dict[str, Any], dict[str, Any], list[Path]]:
-    """Summary, series and plots of a run; ``timeseries.npz`` is written here.
+    """Summary, series and plots of a run; the series go to the store's group ``series`` here.
 
     A run that did not complete may have too few records for the scenario's metrics (a state
     that was bad from the start has none): its records are still written, and the summary then
@@ -254,10 +311,13 @@ def _outputs(scenario: Any, result: Any, run_dir: Path) -> tuple[dict[str, Any],
     except Exception as err:  # noqa: BLE001 - only for runs that did not complete, see above
         if result.status == "completed":
             raise
-        write_npz(run_dir / "timeseries.npz", **result.records)
+        if WRITE_NPZ_COPY:
+            write_npz_streamed(run_dir / "timeseries.npz", _npz_members(run_dir))
         return {"t_end_s": result.t_end_s, "postprocess_error": f"{type(err).__name__}: {err}"}, {}, []
     series = {"t": result.records["t"], **series}
-    write_npz(run_dir / "timeseries.npz", **{**result.records, **series})
+    write_group(run_dir / STORE_NAME, series, group=SERIES_GROUP, n_time=len(series["t"]))
+    if WRITE_NPZ_COPY:   # plots of the earlier layout read timeseries.npz (records and series)
+        write_npz_streamed(run_dir / "timeseries.npz", _npz_members(run_dir))
     try:
         plots = scenario.plots(run_dir, result, series)
     except Exception as err:  # noqa: BLE001 - same rule as above

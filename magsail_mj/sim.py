@@ -17,16 +17,23 @@ A strut strain above ``max_strain`` (checked at record steps) stops it with ``st
 "structure_failed"``: the structure failed, the numbers up to then are valid. Either way
 :class:`RunResult` keeps everything recorded up to that point.
 
+Records go to a :class:`~magsail_mj.records.Recorder`: a fixed buffer of one chunk per probe,
+streamed to a Zarr store when :meth:`Simulation.run` is given ``records_path`` (a run folder's
+``timeseries.zarr``; a checkpointed run without it streams to ``<checkpoint stem>.records.zarr``
+beside the checkpoint), so record memory stays flat in run length; without a store (stepping
+through the API, environments) the chunks stay in memory.
+
 Checkpoints (every ``checkpoint_every_s`` simulated seconds) are data only
 (:mod:`magsail_mj.checkpoint`, a NumPy ``.npz`` read without pickles): MuJoCo's integration
 state, the held command, and every value of the controller, loads, environment and probes that
 changed since the build, with the run's identity (hash of the number-changing config keys,
-versions). The records made since the previous checkpoint go to a segment file beside it
-(``<stem>.records0000.npz``, ``…0001`` …) and leave memory, so a checkpoint costs the same at every
-time of a long run. ``resume=True`` rebuilds nothing itself: the caller builds the same
-scenario, and the checkpoint's values are written into it; a checkpoint of another config or
-build is refused (:class:`~magsail_mj.checkpoint.CheckpointError`). The resumed run gives the
-same numbers as an uninterrupted one; the result joins the segments and the tail.
+versions). A checkpoint carries no records: its header holds the record count and the store's
+name, and the store is flushed when it is written, so a checkpoint costs the same at every time
+of a long run. ``resume=True`` rebuilds nothing itself: the caller builds the same scenario, the
+checkpoint's values are written into it and the store is cut to the checkpoint's record count;
+a checkpoint of another config or build is refused
+(:class:`~magsail_mj.checkpoint.CheckpointError`). The resumed run gives the same numbers as an
+uninterrupted one.
 """
 
 from __future__ import annotations
@@ -36,20 +43,20 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Protocol, Sequence
+from typing import Any, Callable, Mapping, Protocol, Sequence
 
 import mujoco
 import numpy as np
 from tqdm import tqdm
 
 from magsail_mj.checkpoint import (
-    CheckpointError, StateWalker, check_identity, read_arrays, read_checkpoint, restore_state, run_identity,
-    write_arrays, write_checkpoint,
+    CheckpointError, StateWalker, check_identity, read_checkpoint, restore_state, run_identity, write_checkpoint,
 )
 from magsail_mj.divergence import (
     DivergenceError, StructureFailure, StudiedFailure, WarningWatch, disable_autoreset, route_mujoco_warnings,
 )
 from magsail_mj.loads.base import Load, StepState
+from magsail_mj.records import Recorder, RecordStoreError
 
 __all__ = ["Controller", "BodyKinematics", "Simulation", "RunResult", "DivergenceError", "StructureFailure"]
 
@@ -146,12 +153,14 @@ class BodyKinematics:
 class RunResult:
     """What a run produced.
 
-    ``records`` maps probe names to arrays stacked over record times (first axis), with ``t``.
+    ``records`` maps probe names to arrays stacked over record times (first axis), with ``t``
+    (a dict in memory, or a read-only :class:`~magsail_mj.records.StoreRecords` reading each
+    variable from the run's store on first access).
     ``status`` is ``"completed"``, ``"diverged"``, ``"structure_failed"``, ``"stopped"``
     (``stop_after_s`` reached) or ``"interrupted"`` (Ctrl-C: the records up to then are kept).
     """
 
-    records: dict[str, np.ndarray]
+    records: Mapping[str, np.ndarray]
     status: str
     message: str
     t_end_s: float
@@ -180,6 +189,9 @@ class Simulation:
         the runner of a config sets the config's hash).
     """
 
+    #: records stream to a store given to :meth:`run` (``records_path``)
+    streams_records = True
+
     model: mujoco.MjModel
     duration_s: float
     loads: Sequence[Load] = ()
@@ -205,13 +217,13 @@ class Simulation:
         self.n_steps = int(round(self.duration_s / self.model.opt.timestep))
         self.walker = self._state_walker()
         self.walker.baseline()
-        self._checkpoint_folder: Path | None = None
+        self.recorder = Recorder(["t", *self.probes])
         self._begin(0, self._new_loop())
         self._initial = self.get_state()
 
     # ------------------------------------------------------------------ state
     def _new_loop(self) -> dict[str, Any]:
-        return {"records": {name: [] for name in ["t", *self.probes]}, "segments": [], "cmd": None, "n_ctrl": 0}
+        return {"cmd": None, "n_ctrl": 0}
 
     def _begin(self, step: int, loop: dict[str, Any]) -> None:
         """Make ``step`` the current step with the bookkeeping ``loop`` (records, held command)."""
@@ -226,10 +238,10 @@ class Simulation:
         """Simulated time of the current state [s] (``step_index · δt``)."""
         return self.step_index * self.model.opt.timestep
 
-    def records(self) -> dict[str, np.ndarray]:
-        """The records so far (``t`` and every probe), stacked over record times."""
-        folder = self._checkpoint_folder
-        return _joined_records(self._loop["records"], self._loop["segments"], folder)
+    def records(self) -> Mapping[str, np.ndarray]:
+        """The records so far (``t`` and every probe), stacked over record times (from the store
+        when the run streams to one, read lazily)."""
+        return self.recorder.arrays()
 
     def get_state(self) -> dict[str, Any]:
         """The whole state as plain data: MuJoCo's integration state, the step, the controller's
@@ -239,14 +251,14 @@ class Simulation:
         mujoco.mj_getState(self.model, self.data, mj_state, _STATE_SPEC)
         self.walker.roots["cmd"] = self._loop["cmd"]
         tree, arrays = self.walker.snapshot()
-        n_records = self._segment_records() + len(self._loop["records"]["t"])
+        n_records = len(self.recorder)
         return {"step": self.step_index, "n_ctrl": self._loop["n_ctrl"], "mj_state": mj_state,
                 "n_records": n_records, "python_tree": tree, "python_arrays": arrays}
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Continue from a state of :meth:`get_state` (of this simulation or one built from the same
         config): the following steps equal those that followed the state's own. Records made after
-        the state (in memory) are dropped; the status is ``running`` again."""
+        the state are dropped (from the store too); the status is ``running`` again."""
         mj_state = np.asarray(state["mj_state"], dtype=float)
         if mj_state.shape != (mujoco.mj_stateSize(self.model, _STATE_SPEC),):
             raise ValueError(f"state: 'mj_state' has shape {mj_state.shape}, not this model's")
@@ -258,19 +270,16 @@ class Simulation:
         mujoco.mj_setState(self.model, self.data, mj_state, _STATE_SPEC)
         loop = self._loop
         loop["cmd"], loop["n_ctrl"] = self.walker.roots["cmd"], int(state["n_ctrl"])
-        keep = int(state.get("n_records", self._segment_records() + len(loop["records"]["t"])))
-        for values in loop["records"].values():
-            del values[max(0, keep - self._segment_records()):]
+        keep = int(state.get("n_records", len(self.recorder)))
+        self.recorder.truncate(min(keep, len(self.recorder)))
         self.step_index = step
         self.status, self.message = "running", ""
         self._watch = WarningWatch(self.data)
 
-    def _segment_records(self) -> int:
-        return self._loop.get("segment_records", 0)
-
     def reset(self) -> None:
         """Back to the initial state of the build (t = 0, no records)."""
         self.set_state(self._initial)
+        self.recorder.truncate(0)
         self._begin(0, self._new_loop())
 
     # ------------------------------------------------------------------ checkpoints
@@ -281,22 +290,16 @@ class Simulation:
 
     def _checkpoint(self, path: Path, step: int) -> None:
         loop = self._loop
-        records = loop["records"]
-        if records["t"]:
-            name = f"{path.stem}.records{len(loop['segments']):04d}.npz"
-            write_arrays(path.with_name(name), {k: np.asarray(v) for k, v in records.items()})
-            loop["segments"].append(name)
-            loop["segment_records"] = self._segment_records() + len(records["t"])
-            for values in records.values():
-                values.clear()
+        self.recorder.flush()   # the store holds every record the checkpoint counts
         state = self.get_state()
+        store = self.recorder.path
         header = {**self.identity, "step": step, "t_s": step * self.model.opt.timestep,
-                  "segments": loop["segments"], "segment_records": self._segment_records(),
+                  "n_records": state["n_records"], "records_store": store.name if store is not None else None,
                   "n_ctrl": loop["n_ctrl"], "wall_s": self._wall_s}
         write_checkpoint(path, header, tree=state["python_tree"], arrays=state["python_arrays"],
                          extra_arrays={"mj_state": state["mj_state"]})
 
-    def _restore(self, path: Path) -> None:
+    def _restore(self, path: Path, records_path: Path | None) -> None:
         header, arrays, extra = read_checkpoint(path)
         check_identity(header, self.identity, path=path)
         if "mj_state" not in extra or extra["mj_state"].shape != (mujoco.mj_stateSize(self.model, _STATE_SPEC),):
@@ -305,12 +308,20 @@ class Simulation:
         if step > self.n_steps:
             raise CheckpointError(f"checkpoint: {path} is at t = {header['t_s']:g} s, beyond sim.duration_s = "
                                   f"{self.duration_s:g} s (a resume may extend a run, not shorten it)")
+        if "n_records" not in header:
+            raise CheckpointError(f"checkpoint: {path} holds no record count (a checkpoint of an older version)")
+        n_records = int(header["n_records"])
+        if records_path is None:
+            raise CheckpointError(f"checkpoint: {path} needs its record store (records_path)")
+        try:
+            self.recorder.open_store(records_path, n_records)
+        except RecordStoreError as err:
+            raise CheckpointError(f"checkpoint: {path}: {err}") from None
         loop = self._new_loop()
-        loop.update(segments=list(header["segments"]), segment_records=int(header.get("segment_records", 0)),
-                    wall_s=float(header["wall_s"]))
+        loop.update(wall_s=float(header["wall_s"]))
         self._loop = loop
         self.set_state({"step": step, "n_ctrl": int(header["n_ctrl"]), "mj_state": extra["mj_state"],
-                        "n_records": loop["segment_records"], "python_tree": header["state_tree"],
+                        "n_records": n_records, "python_tree": header["state_tree"],
                         "python_arrays": arrays})
         self._wall_s = loop["wall_s"]
 
@@ -332,16 +343,25 @@ class Simulation:
         checkpoint_path: str | Path | None = None,
         resume: bool = False,
         stop_after_s: float | None = None,
+        records_path: str | Path | None = None,
+        records_attrs: dict[str, Any] | None = None,
     ) -> RunResult:
         """Run from the current state to ``duration_s`` (or until divergence, structural failure,
-        interrupt or ``stop_after_s``), checkpointing every ``checkpoint_every_s``."""
+        interrupt or ``stop_after_s``), checkpointing every ``checkpoint_every_s``.
+
+        Records stream to the Zarr store ``records_path`` (created, or continued on ``resume``),
+        with ``records_attrs`` as its attributes; a checkpointed run without it streams to
+        ``<checkpoint stem>.records.zarr`` beside the checkpoint."""
         dt = self.model.opt.timestep
         ckpt = Path(checkpoint_path) if checkpoint_path else None
-        self._checkpoint_folder = ckpt.parent if ckpt is not None else None
+        store = Path(records_path) if records_path else (
+            ckpt.with_name(f"{ckpt.stem}.records.zarr") if ckpt is not None else None)
         if resume:
             if ckpt is None:
                 raise CheckpointError("resume: no checkpoint path given")
-            self._restore(ckpt)
+            self._restore(ckpt, store)
+        elif store is not None and self.recorder.path != store:
+            self.recorder.create_store(store, attrs=records_attrs)
         start = self.step_index
         ckpt_every = (int(round(self.checkpoint_every_s / dt)) if self.checkpoint_every_s > 0 else 0)
         stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(round(stop_after_s / dt)))
@@ -356,9 +376,9 @@ class Simulation:
                 bar.close()
         if self.status == "running":  # stop_after_s reached before the end
             self.status, self.message = "stopped", f"stopped at t = {self.time:.6g} s (stop_after_s)"
-        records = self.records()
         if self.status == "completed":
-            self.status, self.message = _non_finite_records(records) or (self.status, self.message)
+            self.status, self.message = _non_finite_records(self.recorder) or (self.status, self.message)
+        records = self.records()
         return RunResult(records=records, status=self.status, message=self.message, t_end_s=self.time,
                          steps=self.step_index - start, wall_time_s=self._wall_s)
 
@@ -367,7 +387,7 @@ class Simulation:
         m, d = self.model, self.data
         dt = m.opt.timestep
         loop = self._loop
-        records = loop["records"]
+        recorder = self.recorder
         kin, watch = self.kin, self._watch
         start = step = self.step_index
         wall0 = time.perf_counter()
@@ -398,9 +418,9 @@ class Simulation:
                     if hasattr(loop["cmd"], "apply_ctrl"):
                         loop["cmd"].apply_ctrl(d)
                 if step % self.record_every == 0 or step == self.n_steps:
-                    records["t"].append(t)
-                    for name, probe in self.probes.items():
-                        records[name].append(np.array(probe(state, d), copy=True))
+                    values = {name: probe(state, d) for name, probe in self.probes.items()}
+                    values["t"] = t
+                    recorder.append(values)
                     if self.strain_check is not None:  # the failing state is valid: it is recorded first
                         strain, strut = self.strain_check(kin.pos)
                         if not strain <= self.max_strain:
@@ -428,46 +448,24 @@ class Simulation:
         except DivergenceError as err:
             self.status, self.message = "diverged", str(err)
             if err.t_s is not None:  # a record of the bad state itself is not a valid number
-                n = int(np.searchsorted(np.asarray(records["t"]), err.t_s - 1e-9 * dt))
-                for values in records.values():
-                    del values[n:]
+                recorder.truncate(int(np.searchsorted(recorder.column("t"), err.t_s - 1e-9 * dt)))
         except StudiedFailure as err:
             self.status, self.message = err.status, str(err)
         except KeyboardInterrupt:
             self.status, self.message = "interrupted", f"interrupted at t = {step * dt:.6g} s"
-            n = min(len(v) for v in records.values())  # a record interrupted half-way is dropped
-            for values in records.values():
-                del values[n:]
+            # a record interrupted half-way never counted (Recorder.append)
         finally:
             self.step_index = step
             self._wall_s += time.perf_counter() - wall0
 
 
-def _non_finite_records(records: dict[str, np.ndarray]) -> tuple[str, str] | None:
+def _non_finite_records(recorder: Recorder) -> tuple[str, str] | None:
     """``("failed", why)`` when a recorded series holds a value that is not finite (a probe that
-    overflowed although the state stayed finite, e.g. an input near the float64 limit), else None."""
-    t = records.get("t")
-    for name, values in records.items():
-        values = np.asarray(values)
-        if values.dtype.kind in "fc" and not np.isfinite(values).all():
-            when = ""
-            if t is not None and values.ndim and len(t) == len(values):
-                rows = ~np.isfinite(values.reshape(len(values), -1)).all(axis=1)
-                when = f" from t = {t[int(np.argmax(rows))]:.6g} s"
-            return "failed", (f"the recorded series {name!r} is not finite{when} although the state stayed finite "
-                              "(an input too large for float64?)")
-    return None
-
-
-def _joined_records(tail: dict[str, list], segments: Sequence[str], folder: Path | None) -> dict[str, np.ndarray]:
-    """The records of a run: its checkpoint segments (in order) followed by the in-memory tail."""
-    if not segments:
-        return {name: np.asarray(vals) for name, vals in tail.items()}
-    parts = [read_arrays(Path(folder) / name)[1] for name in segments]
-    out = {}
-    for key, vals in tail.items():
-        pieces = [part[key] for part in parts]
-        if vals:
-            pieces.append(np.asarray(vals))
-        out[key] = np.concatenate(pieces, axis=0)
-    return out
+    overflowed although the state stayed finite, e.g. an input near the float64 limit), else None.
+    The recorder checks each chunk as it is completed, so nothing is read back."""
+    bad = recorder.non_finite()
+    if bad is None:
+        return None
+    name, t = bad
+    return "failed", (f"the recorded series {name!r} is not finite from t = {t:.6g} s although the state stayed "
+                      "finite (an input too large for float64?)")

@@ -10,6 +10,7 @@ import pytest
 from magsail_mj.checkpoint import read_checkpoint
 from magsail_mj.config import apply_overrides, parse_config
 from magsail_mj.io import RunDirError
+from magsail_mj.records import StoreRecords
 from magsail_mj.run import run_scenario
 from magsail_mj.scenarios import build_scenario
 
@@ -136,17 +137,20 @@ def test_controller_sampled_at_every_period_without_drift(period, dt, duration):
     np.testing.assert_allclose(times, np.ceil(expected / dt - 1e-6) * dt, atol=1e-9)
 
 
-def test_checkpoints_stream_records_to_segments(tmp_path, small_truss_tree):
-    """Each checkpoint moves the records made since the last one to a segment file, so the
-    checkpoint itself holds no records; the run's result joins the segments and the tail."""
+def test_checkpoints_stream_records_to_store(tmp_path, small_truss_tree):
+    """A checkpointed run streams its records to a Zarr store beside the checkpoint; the
+    checkpoint holds only their count (the records before it: every 5th step of 0 … 95 at the
+    last checkpoint, t = 10 s = the end, whose record follows it); the run's result reads the
+    store and equals the run kept in memory bitwise."""
     cfg = _cfg(small_truss_tree, "sim.duration_s=10.0", "sim.checkpoint_every_s=2.0")
     plain = build_scenario(cfg).simulation().run()
     ckpt = tmp_path / "ckpt.npz"
     streamed = build_scenario(cfg).simulation().run(checkpoint_path=ckpt)
-    header, _, _ = read_checkpoint(ckpt)
-    # checkpoints at 2, 4, 6, 8 and 10 s (the last step is a multiple too; its record follows it)
-    assert header["segments"] == [f"ckpt.records{i:04d}.npz" for i in range(5)]
-    assert all((tmp_path / name).exists() for name in header["segments"])
+    header, arrays, extra = read_checkpoint(ckpt)
+    assert header["n_records"] == 20 and header["records_store"] == "ckpt.records.zarr"
+    assert "segments" not in header and not list(tmp_path.glob("ckpt.records*.npz"))
+    assert (tmp_path / "ckpt.records.zarr").is_dir() and len(streamed.records["t"]) == 21
+    assert isinstance(streamed.records, StoreRecords) and isinstance(plain.records, dict)
     assert plain.records.keys() == streamed.records.keys()
     for key in plain.records:
         assert np.array_equal(plain.records[key], streamed.records[key]), key

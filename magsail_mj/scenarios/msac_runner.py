@@ -36,10 +36,15 @@ a spurious bus rate of ~0.5 % of the secular rate. The runner therefore projects
 onto zero total momentum at every chunk boundary (every ``chunk_cycles`` cycles, default 0.2 s)
 and reports how much it removed.
 
+The ``records`` go to a :class:`~magsail_mj.records.Recorder` (chunk buffers, streamed to the
+run's Zarr store when :meth:`MsacRunner.run` is given ``records_path``); the other series are
+bounded (windows) or one value per cycle and stay in memory.
+
 Long runs checkpoint (data only, :mod:`magsail_mj.checkpoint`: the physics state, the replay
-table and the accumulators at chunk boundaries, with the run's identity) and resume exactly:
-chunked rollouts restart from the full physics state, so a resumed run equals an uninterrupted
-one. A checkpoint of another config or build is refused.
+table, the accumulators and the record count at chunk boundaries, with the run's identity) and
+resume exactly: the record store is cut to the checkpoint's count and chunked rollouts restart
+from the full physics state, so a resumed run equals an uninterrupted one. A checkpoint of
+another config or build is refused.
 
 Divergence: MuJoCo's automatic reset is off (:mod:`magsail_mj.divergence`), so a bad step stays
 in the rolled-out states; after each chunk the first state that is not finite or above 1e10 (or a
@@ -54,7 +59,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, Mapping
 
 import mujoco
 import numpy as np
@@ -69,6 +74,7 @@ from magsail_mj.checkpoint import (
 )
 from magsail_mj.divergence import WarningWatch, disable_autoreset, first_bad_row, route_mujoco_warnings
 from magsail_mj.mjcf.msac import shape_indices
+from magsail_mj.records import Recorder, RecordStoreError, StoreRecords
 from magsail_mj.sim import RunResult
 from mujoco import rollout as mj_rollout
 from tqdm import tqdm
@@ -76,13 +82,15 @@ from tqdm import tqdm
 __all__ = ["MsacRunner", "StaticRunner"]
 
 _FP = mujoco.mjtState.mjSTATE_FULLPHYSICS
+#: the variables of the records (``t`` first)
+RECORD_NAMES = ["t", "qpos", "qvel", "omega_world_rad_s", "angmom_N_m_s", "joint_force", "phase"]
 
 
 @dataclass
 class _Acc:
-    """Accumulators of one run (lists of per-chunk arrays and running maxima)."""
+    """Accumulators of one run (lists of per-chunk arrays and running maxima; the records are in
+    the runner's :class:`~magsail_mj.records.Recorder`)."""
 
-    rec: dict[str, list] = field(default_factory=dict)
     strobe: dict[str, list] = field(default_factory=dict)
     win: dict[str, list] = field(default_factory=dict)
     omega_blocks: list = field(default_factory=list)
@@ -142,6 +150,9 @@ class MsacRunner:
     momentum_projection: bool = True
     identity: dict[str, Any] = field(default_factory=lambda: run_identity(None))
 
+    #: records stream to a store given to :meth:`run` (``records_path``)
+    streams_records = True
+
     def __post_init__(self) -> None:
         if self.method not in ("replay", "computed_torque"):
             raise ValueError(f"method: must be 'replay' or 'computed_torque', got {self.method!r}")
@@ -184,7 +195,7 @@ class MsacRunner:
         # the Python-side state of a run (baseline: fresh accumulators, no table yet)
         self._walker = StateWalker({"acc": _Acc(), "table": None, "ct": None})
         self._walker.baseline()
-        self._checkpoint_folder = None
+        self.recorder = Recorder(list(RECORD_NAMES))
         self.reset()
 
     # ------------------------------------------------------------------ chunk bookkeeping
@@ -215,9 +226,9 @@ class MsacRunner:
             acc.add(acc.strobe, strobe_t=t[sel], strobe_quat=qpos[sel, 3:7], strobe_shape=qpos[sel][:, ix["qpos"]])
         sel = steps % self.record_every == 0
         if sel.any():
-            acc.add(acc.rec, t=t[sel], qpos=qpos[sel], qvel=qvel[sel], omega_world_rad_s=w_world[sel],
-                    angmom_N_m_s=L[sel], joint_force=frc[sel],
-                    phase=cycle_state(self.path, t[sel]).phase + 1)
+            self.recorder.extend(dict(t=t[sel], qpos=qpos[sel], qvel=qvel[sel], omega_world_rad_s=w_world[sel],
+                                      angmom_N_m_s=L[sel], joint_force=frc[sel],
+                                      phase=cycle_state(self.path, t[sel]).phase + 1))
         for wid, (a, b) in enumerate(self.windows):
             sel = (steps >= a) & (steps < b)
             if sel.any():
@@ -276,6 +287,7 @@ class MsacRunner:
         self._state = np.empty(self.nstate)
         mujoco.mj_getState(self.model, self.data, self._state, _FP)
         self.acc = _Acc()
+        self.recorder.truncate(0)
         self.step_index = 0
         self._begin()
         self._wall_s = 0.0
@@ -295,8 +307,8 @@ class MsacRunner:
         computed-torque state (``python_tree``, ``python_arrays``)."""
         self._walker.roots.update(acc=self.acc, table=self.table, ct=self._ct)
         tree, arrays = self._walker.snapshot()
-        return {"step": self.step_index, "mj_state": self._state.copy(), "python_tree": tree,
-                "python_arrays": arrays}
+        return {"step": self.step_index, "mj_state": self._state.copy(), "n_records": len(self.recorder),
+                "python_tree": tree, "python_arrays": arrays}
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Continue from a state of :meth:`get_state`."""
@@ -309,30 +321,45 @@ class MsacRunner:
         restore_state(self._walker, state["python_tree"], state["python_arrays"])
         self.acc, self.table, self._ct = (self._walker.roots[k] for k in ("acc", "table", "ct"))
         self._state = mj_state.copy()
+        self.recorder.truncate(min(int(state.get("n_records", len(self.recorder))), len(self.recorder)))
         self.step_index = step
         self._begin()
 
-    def records(self) -> dict[str, np.ndarray]:
-        """The records and run series so far (see module docs)."""
-        records = self._records(self.acc)
-        records["run_replay_settle_change"] = np.array(self.table.settle_change if self.table else np.nan)
-        return records
+    def records(self) -> Mapping[str, np.ndarray]:
+        """The records and run series so far (see module docs): a dict, or, when the records
+        stream to a store, a :class:`~magsail_mj.records.StoreRecords` reading them lazily with the
+        other series in memory (``extra``)."""
+        series = self._records(self.acc)
+        series["run_replay_settle_change"] = np.array(self.table.settle_change if self.table else np.nan)
+        records = self.recorder.arrays()
+        if isinstance(records, StoreRecords):
+            return StoreRecords(records.path, extra=series)
+        return {**records, **series}
 
     # ------------------------------------------------------------------ checkpoints
     def _save(self, path: Path) -> None:
+        self.recorder.flush()   # the store holds every record the checkpoint counts
         state = self.get_state()
-        header = {**self.identity, "step": state["step"], "t_s": self.time, "wall_s": self._wall_s}
+        store = self.recorder.path
+        header = {**self.identity, "step": state["step"], "t_s": self.time, "wall_s": self._wall_s,
+                  "n_records": state["n_records"], "records_store": store.name if store is not None else None}
         write_checkpoint(path, header, tree=state["python_tree"], arrays=state["python_arrays"],
                          extra_arrays={"state": state["mj_state"]})
 
-    def _load(self, path: Path) -> None:
+    def _load(self, path: Path, store: Path | None) -> None:
         header, arrays, extra = read_checkpoint(path)
         check_identity(header, self.identity, path=path)
         k = int(header["step"])
         if "state" not in extra or extra["state"].shape != (self.nstate,) or not 0 <= k <= self.n_steps:
             raise CheckpointError(f"checkpoint: {path} does not hold a state of this model within sim.duration_s")
-        self.set_state({"step": k, "mj_state": extra["state"], "python_tree": header["state_tree"],
-                        "python_arrays": arrays})
+        if "n_records" not in header or store is None:
+            raise CheckpointError(f"checkpoint: {path} holds no record count or has no record store")
+        try:
+            self.recorder.open_store(store, int(header["n_records"]))
+        except RecordStoreError as err:
+            raise CheckpointError(f"checkpoint: {path}: {err}") from None
+        self.set_state({"step": k, "mj_state": extra["state"], "n_records": int(header["n_records"]),
+                        "python_tree": header["state_tree"], "python_arrays": arrays})
         self._wall_s = float(header.get("wall_s", 0.0))
 
     # ------------------------------------------------------------------ stepping
@@ -361,14 +388,21 @@ class MsacRunner:
         return self.status
 
     def run(self, *, progress: bool = False, checkpoint_path: str | Path | None = None,
-            resume: bool = False, stop_after_s: float | None = None) -> RunResult:
+            resume: bool = False, stop_after_s: float | None = None, records_path: str | Path | None = None,
+            records_attrs: dict[str, Any] | None = None) -> RunResult:
         """Run from the current state to ``duration_s`` (or ``stop_after_s``), checkpointing at the
-        chunk boundaries after every ``checkpoint_every_s``."""
+        chunk boundaries after every ``checkpoint_every_s``; records stream to ``records_path`` (a
+        checkpointed run without it: ``<checkpoint stem>.records.zarr``), as in
+        :meth:`magsail_mj.sim.Simulation.run`."""
         ckpt = Path(checkpoint_path) if checkpoint_path else None
+        store = Path(records_path) if records_path else (
+            ckpt.with_name(f"{ckpt.stem}.records.zarr") if ckpt is not None else None)
         if resume:
             if ckpt is None:
                 raise CheckpointError("resume: no checkpoint path given")
-            self._load(ckpt)
+            self._load(ckpt, store)
+        elif store is not None and self.recorder.path != store:
+            self.recorder.create_store(store, attrs=records_attrs)
         k_start = self.step_index
         stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(math.ceil(stop_after_s / self.dt)))
         chunk = int(self.chunk_cycles) * self.N
@@ -479,18 +513,17 @@ class MsacRunner:
         t = np.array([k * self.dt])
         if k % self.N == 0:
             acc.add(acc.strobe, strobe_t=t, strobe_quat=qpos[None, 3:7], strobe_shape=qpos[None, ix["qpos"]])
-        acc.add(acc.rec, t=t, qpos=qpos[None], qvel=qvel[None], omega_world_rad_s=sens[None, ix["angvel"]],
-                angmom_N_m_s=sens[None, ix["angmom"]], joint_force=sens[None, ix["frc"]],
-                phase=cycle_state(self.path, t).phase + 1)
+        self.recorder.extend(dict(t=t, qpos=qpos[None], qvel=qvel[None], omega_world_rad_s=sens[None, ix["angvel"]],
+                                  angmom_N_m_s=sens[None, ix["angmom"]], joint_force=sens[None, ix["frc"]],
+                                  phase=cycle_state(self.path, t).phase + 1))
         dL = sens[ix["angmom"]] - acc.L0
         acc.drift_max = max(acc.drift_max, float(np.linalg.norm(dL)))
         acc.drift_z_max = max(acc.drift_z_max, float(abs(dL[2])))
 
     def _records(self, acc: _Acc) -> dict[str, np.ndarray]:
-        """Concatenate the accumulators into the run's record arrays (see module docs)."""
+        """Concatenate the accumulators into the run's series other than the records (see module docs)."""
         cat = lambda parts: np.concatenate(parts) if parts else np.zeros(0)  # noqa: E731
         out: dict[str, np.ndarray] = {}
-        out.update({k: cat(v) for k, v in acc.rec.items()})
         out.update({k: cat(v) for k, v in acc.strobe.items()})
         out.update({k: cat(v) for k, v in acc.win.items()})
         wz = cat(acc.omega_blocks)

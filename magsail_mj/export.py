@@ -1,0 +1,150 @@
+"""``magsail export RUN_DIR --format npz|netcdf [--out PATH]``: a run's record store in other formats.
+
+A run folder keeps its records and derived series in ``timeseries.zarr``
+(:mod:`magsail_mj.records`: the records in the root group, the derived series of
+post-processing in the group ``series``). Export writes
+
+* ``npz``: one NumPy ``.npz`` archive holding every root variable and every series (a series
+  replaces a record of the same name, as the ``timeseries.npz`` of earlier versions did), each
+  array streamed chunk by chunk from the store into its archive member, so the memory used is one
+  chunk whatever the run's length; read it with ``numpy.load(path, allow_pickle=False)``;
+* ``netcdf``: one netCDF-4 file with the root group's variables, dimensions and attributes, and the
+  series in the netCDF group ``series`` (written by :mod:`xarray` through dask, chunk by chunk).
+
+Arrays are written bit for bit (float64 stays float64). Errors name the argument and exit with
+status 2; the output is written to a temporary file and moved into place.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import zipfile
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+import numpy as np
+import xarray as xr
+
+from magsail_mj.io import atomic_path
+from magsail_mj.records import SERIES_GROUP, STORE_NAME, RecordStoreError, StoreRecords, open_records
+
+__all__ = ["add_arguments", "main", "export_run", "write_npz_streamed", "read_timeseries", "FORMATS"]
+
+#: output formats and their file suffixes
+FORMATS = {"npz": ".npz", "netcdf": ".nc"}
+
+
+class ExportError(ValueError):
+    """An export argument is unusable (the message names it)."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """Add the ``export`` verb's arguments to ``parser``."""
+    parser.add_argument("run_dir", metavar="RUN_DIR", help=f"run folder holding {STORE_NAME}")
+    parser.add_argument("--format", dest="format", default="npz",
+                        help="output format: npz or netcdf (default npz)")
+    parser.add_argument("--out", default=None,
+                        help="output file (default RUN_DIR/timeseries.npz or RUN_DIR/timeseries.nc)")
+    return parser
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run the ``export`` verb; 0 on success, 2 on an unusable argument (``error: …`` on stderr)."""
+    try:
+        out = export_run(args.run_dir, fmt=args.format, out=args.out)
+    except (ExportError, RecordStoreError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    print(out)
+    return 0
+
+
+def export_run(run_dir: str | Path, *, fmt: str, out: str | Path | None = None) -> Path:
+    """Write the store of ``run_dir`` as ``fmt`` (``npz`` or ``netcdf``) to ``out`` and return it."""
+    if fmt not in FORMATS:
+        raise ExportError(f"--format: must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    if not str(run_dir).strip():
+        raise ExportError("RUN_DIR: must name a run folder, got an empty path")
+    folder = Path(run_dir)
+    if not folder.is_dir():
+        raise ExportError(f"RUN_DIR: {folder} is {'a file, not a folder' if folder.exists() else 'missing'}")
+    if not (folder / STORE_NAME).is_dir():
+        raise ExportError(f"RUN_DIR: {folder} holds no {STORE_NAME} (not a run folder, or a run of an older version)")
+    target = Path(out) if out is not None else folder / f"timeseries{FORMATS[fmt]}"
+    if out is not None and (not str(out).strip() or target.is_dir()):
+        raise ExportError(f"--out: must name a file, got {str(out)!r}")
+    if not target.parent.is_dir():
+        raise ExportError(f"--out: folder {target.parent} does not exist")
+    records = open_records(folder)
+    series = _series(folder)
+    if fmt == "npz":
+        write_npz_streamed(target, _merged(records, series))
+    else:
+        _write_netcdf(folder / STORE_NAME, target, has_series=series is not None)
+    return target
+
+
+def _series(folder: Path) -> StoreRecords | None:
+    try:
+        return open_records(folder, group=SERIES_GROUP)
+    except (RecordStoreError, KeyError):
+        return None
+
+
+def _merged(records: StoreRecords, series: StoreRecords | None) -> dict[str, Any]:
+    """name → lazy Zarr array: the records, then the series (a series replaces a record)."""
+    out: dict[str, Any] = {name: records.array(name) for name in records if name not in records.extra}
+    if series is not None:
+        out.update({name: series.array(name) for name in series})
+    return out
+
+
+def _blocks(array: Any) -> Iterable[np.ndarray]:
+    """The rows of a (lazy) array in blocks of its chunk length along the first axis."""
+    if array.ndim == 0:
+        yield np.asarray(array[...])
+        return
+    step = int(array.chunks[0]) if getattr(array, "chunks", None) else max(1, len(array))
+    for a in range(0, array.shape[0], max(1, step)):
+        yield np.asarray(array[a:a + step])
+
+
+def write_npz_streamed(path: str | Path, arrays: Mapping[str, Any]) -> Path:
+    """Write ``arrays`` (NumPy or Zarr arrays) to a compressed ``.npz`` atomically, each member
+    streamed block by block along its first axis (memory: one block).
+
+    Each member is a ``.npy`` (format 1.0 or 2.0 header, C order) inside a ZIP64 archive, exactly
+    what :func:`numpy.savez_compressed` writes, so :func:`numpy.load` reads it."""
+    with atomic_path(path, suffix=".npz") as tmp:
+        with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED, allowZip64=True) as zf:
+            for name, array in arrays.items():
+                dtype = np.dtype(array.dtype)
+                header = {"descr": np.lib.format.dtype_to_descr(dtype), "fortran_order": False,
+                          "shape": tuple(int(s) for s in array.shape)}
+                with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
+                    np.lib.format.write_array_header_2_0(fh, header)
+                    for block in _blocks(array):
+                        fh.write(np.ascontiguousarray(block, dtype=dtype).tobytes())
+    return Path(path)
+
+
+def _write_netcdf(store: Path, target: Path, *, has_series: bool) -> None:
+    """The root group and the ``series`` group as one netCDF-4 file (dask streams the chunks)."""
+    with atomic_path(target, suffix=".nc") as tmp:
+        with xr.open_zarr(store, consolidated=True) as ds:
+            ds.to_netcdf(tmp, mode="w")
+        if has_series:
+            with xr.open_zarr(store, group=SERIES_GROUP, consolidated=True) as ds:
+                ds.to_netcdf(tmp, mode="a", group=SERIES_GROUP)
+
+
+def read_timeseries(run_dir: str | Path) -> dict[str, np.ndarray]:
+    """Every record and series of a run folder as NumPy arrays (the series replacing records of
+    the same name): what ``timeseries.npz`` held. Loads everything; for analysis scripts."""
+    records = open_records(run_dir)
+    series = _series(Path(run_dir))
+    out = {name: records[name] for name in records}
+    if series is not None:
+        out.update({name: series[name] for name in series})
+    return out
