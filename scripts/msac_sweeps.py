@@ -1,11 +1,14 @@
 """MSAC sensitivity sweeps (F6) and actuator design chart (F7), spec msac.md §4, §8.
 
-    python scripts/msac_sweeps.py                      # all models/msac/sweeps/*.toml -> runs/msac/sweeps/
-    python scripts/msac_sweeps.py --only stroke extension
+    python scripts/msac_sweeps.py                      # all runs of the sweep file -> runs/msac/sweeps/
+    python scripts/msac_sweeps.py --only stroke extension --workers 2
 
-Each sweep config runs through ``magsail_mj.run.run_scenario`` into ``runs/msac/sweeps/<name>/``
-(its own ``sweep.png`` and ``summary.json``: per point Eq. (6), the exact planar model and MuJoCo,
-secular rates, peak hinge torque and slide force). This script then draws
+The sweep configs (``models/msac/sweeps/*.toml``) are the runs of the sweep file
+``models/sweeps/msac_sensitivity.toml``; they run through the sweep engine
+(:func:`magsail_mj.sweep.run_sweep`: ``--workers`` Dask worker processes, valid earlier runs
+reused) into ``runs/msac/sweeps/<name>/`` (its own ``sweep.png`` and ``summary.json``: per point
+Eq. (6), the exact planar model and MuJoCo, secular rates, peak hinge torque and slide force),
+with ``sweep_summary.json``/``.csv`` beside them. This script then draws
 
 * ``F6_sensitivity.png``: one panel per sweep, the per-cycle rotation θ_γ from Eq. (6) (model
   inertias), the exact model and MuJoCo (20 cycles per point, first excluded);
@@ -34,25 +37,37 @@ from pathlib import Path
 
 import numpy as np
 
-from magsail_mj.config import load_config
+from magsail_mj.config import ConfigError, load_config
 from magsail_mj.io import to_jsonable, write_json
-from magsail_mj.run import run_scenario
+from magsail_mj.sweep import FINISHED, load_sweep, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
-SWEEPS = REPO / "models" / "msac" / "sweeps"
+SWEEP_FILE = REPO / "models" / "sweeps" / "msac_sensitivity.toml"
 PIEZO_PEAK_FORCE_N = 200.0          # spec §4: one multilayer PZT chip
 
 
-def run_sweeps(names: list[str], out: Path) -> dict[str, dict]:
-    """Run the named sweep configs; return ``{name: summary}``."""
-    results = {}
-    for name in names:
-        cfg = load_config(SWEEPS / f"{name}.toml")
-        t0 = time.perf_counter()
-        summary = run_scenario(cfg, out / name, overwrite=True, progress=False)
-        print(f"{name}: {len(cfg.sweep.points)} points in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-        results[name] = dict(summary)
-    return results
+def run_sweeps(names: list[str] | None, out: Path, *, workers: int = 2) -> dict[str, dict]:
+    """Run the named runs of the sweep file (all when None) on Dask; return ``{name: summary}``.
+
+    Raises:
+      SystemExit: a name is no run of the sweep file, or a run did not finish (its message).
+    """
+    try:
+        sweep = load_sweep(SWEEP_FILE, only=names)
+    except ConfigError as err:
+        raise SystemExit(f"error: {err}") from None
+    ids = [r.id for r in sweep.runs]
+    unknown = sorted(set(names or []) - set(ids))
+    if unknown:
+        raise SystemExit(f"error: --only: {unknown} are no runs of {SWEEP_FILE} ({', '.join(ids)})")
+    t0 = time.perf_counter()
+    records = run_sweep(sweep, out, workers=workers, log=lambda line: print(line, file=sys.stderr))
+    print(f"{len(sweep.selected)} sweeps in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    chosen = [r for r in records if names is None or r["id"] in names]
+    bad = [f"{r['id']}: {r['status']} {r['message']}" for r in chosen if r["status"] not in FINISHED]
+    if bad:
+        raise SystemExit("error: runs did not finish: " + "; ".join(bad))
+    return {r["id"]: r["summary"] for r in chosen}
 
 
 def _labels(summary: dict) -> list[str]:
@@ -159,11 +174,11 @@ def f7_figure(results: dict[str, dict], path: Path) -> tuple[Path, dict]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", nargs="*", help="sweep names (default: all)")
+    ap.add_argument("--only", nargs="*", help="run ids of models/sweeps/msac_sensitivity.toml (default: all)")
     ap.add_argument("--out", type=Path, default=REPO / "runs/msac/sweeps")
+    ap.add_argument("--workers", type=int, default=2, help="Dask worker processes (default 2)")
     a = ap.parse_args(argv)
-    names = a.only or sorted(p.stem for p in SWEEPS.glob("*.toml"))
-    results = run_sweeps(names, a.out)
+    results = run_sweeps(a.only or None, a.out, workers=a.workers)
     f6 = f6_figure(results, a.out / "F6_sensitivity.png")
     f7, data = f7_figure(results, a.out / "F7_design_chart.png")
     table = {name: {k: v for k, v in s.items() if k.startswith("sweep_")} for name, s in results.items()}

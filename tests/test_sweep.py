@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from magsail_mj.cli import main
@@ -150,3 +151,49 @@ def test_grid_with_linked_keys_reproduces_the_36_listed_configs():
         listed = load_config(MODELS / "sweep" / f"{stem.replace('e+0', 'e')}.toml").model_dump(mode="json")
         drawn = load_config(run.config, list(run.overrides)).model_dump(mode="json")
         assert {**drawn, "description": ""} == {**listed, "description": ""}, run.id
+
+
+SWEEPS = MODELS.parent / "sweeps"
+
+
+def test_every_sweep_file_loads_and_the_msac_sweep_covers_every_msac_sweep_config():
+    for path in sorted(SWEEPS.glob("*.toml")):
+        assert load_sweep(path).runs, path.name
+    msac = load_sweep(SWEEPS / "msac_sensitivity.toml")
+    configs = sorted((MODELS.parent / "msac" / "sweeps").glob("*.toml"))
+    assert sorted(r.config for r in msac.runs) == [c.resolve() for c in configs]
+    assert [r.id for r in msac.runs] == [c.stem for c in configs]
+
+
+def test_monte_carlo_detumble_file_is_the_issue_design():
+    """200 samples; |omega0| uniform in 2-10 deg/s in a uniform direction; epoch uniform over 2016;
+    K and the orbit phase as shipped; 3 orbits of T = 2 pi sqrt(a^3 / mu) each."""
+    path = MODELS.parent / "cnusail" / "monte_carlo_detumble.toml"
+    sweep = load_sweep(path)
+    shipped = load_config(MODELS.parent / "cnusail" / "detumble_pre.toml")
+    assert len(sweep.runs) == 200 and {tuple(r.params) for r in sweep.runs} == {("initial.omega0_deg_s", "orbit.epoch")}
+    rates = np.array([r.params["initial.omega0_deg_s"] for r in sweep.runs])
+    mags = np.linalg.norm(rates, axis=1)
+    assert mags.min() >= 2.0 and mags.max() <= 10.0 * (1 + 1e-12)
+    # uniform magnitude: mean 6 deg/s, std 8/sqrt(12) = 2.31; mean of 200 within 4 standard errors
+    assert abs(mags.mean() - 6.0) < 4 * 2.31 / np.sqrt(200)
+    # uniform direction: the mean unit vector of 200 has norm ~ sqrt(1/200) = 0.07 (bound 0.25)
+    assert np.linalg.norm((rates / mags[:, None]).mean(axis=0)) < 0.25
+    epochs = sorted(r.params["orbit.epoch"] for r in sweep.runs)
+    assert epochs[0] >= "2016-01-01T00:00:00Z" and epochs[-1] < "2017-01-01T00:00:00Z"
+    one = load_config(sweep.runs[0].config, list(sweep.runs[0].overrides))
+    mu_m3_s2 = 3.986004418e14
+    period_s = 2 * np.pi * np.sqrt((one.orbit.semi_major_axis_km * 1e3) ** 3 / mu_m3_s2)
+    assert one.sim.duration_s == pytest.approx(3 * period_s, abs=1.0)  # 17 347.5 s, E-9 period 5 782.5 s
+    assert one.control.bdot_gain_A_m2_s_T == shipped.control.bdot_gain_A_m2_s_T == 3.0e4
+    assert one.orbit.true_anomaly0_deg == shipped.orbit.true_anomaly0_deg
+    assert one.sim.checkpoint_every_s > 0
+
+
+def test_sweep_command_exits_1_when_a_run_failed(tmp_path, capsys):
+    out = tmp_path / "out"
+    (out / "bad").mkdir(parents=True)
+    (out / "bad" / "blocked").write_text("a file where the run folder should be")
+    assert main(["sweep", str(_sweep_file(tmp_path)), "--out", str(out), "--workers", "2"]) == 1
+    status = json.loads(capsys.readouterr().out)["status"]
+    assert status == {"ok/a": "completed", "ok/b": "completed", "bad/blocked": "failed"}

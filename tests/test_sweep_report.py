@@ -30,8 +30,9 @@ def test_figure_stats_counts_failed_and_never_runs_and_uses_the_inverted_cdf():
     # 17 runs reach 1..17, 2 completed runs never do, 1 run failed: n = 20
     records = [_rec(i, "completed", float(i + 1)) for i in range(17)]
     records += [_rec(17, "completed", None), _rec(18, "structure_failed", None), _rec(19, "failed", 3.0)]
+    records += [_rec(20, "not_run", None), _rec(21, "interrupted", 2.0)]  # the sweep stopped first: left out
     s = figure_stats(records, "t_s")
-    assert (s["n"], s["reached"], s["never"], s["failed"]) == (20, 17, 2, 1)
+    assert (s["n"], s["reached"], s["never"], s["failed"], s["not_run"]) == (20, 17, 2, 1, 2)
     assert s["share_reached"] == pytest.approx(17 / 20, abs=0)
     # k = ceil(p n / 100): p5 -> x_1 = 1, p50 -> x_10 = 10, p95 -> x_19 = +inf (never)
     assert s["percentiles"] == {"p5": 1.0, "p50": 10.0, "p95": None}
@@ -90,7 +91,7 @@ def test_monte_carlo_report_of_a_real_sweep(tmp_path):
     # the mix the draw gives: some runs start below 1 deg/s (reached at t = 0), none gets below 0.3 in 20 s
     reached_1 = int(rows["detumble_time_below_1p0dps_s"]["reached"])
     assert 0 < reached_1 < 4 and int(rows["detumble_time_below_0p3dps_s"]["never"]) == 4
-    assert "| `detumble_time_below_0p3dps_s` | 4 | 0 | 4 | 0 | 0.0 % | never | never | never |" in \
+    assert "| `detumble_time_below_0p3dps_s` | 4 | 0 | 4 | 0 | 0 | 0.0 % | never | never | never |" in \
         (out / "report" / "report.md").read_text()
 
 

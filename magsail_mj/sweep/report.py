@@ -14,7 +14,10 @@
 
 Runs that failed or never reached a value are not dropped: they count in every denominator, as
 ``+inf`` in the percentiles (a percentile beyond the share reached is written ``never``), and
-the CDF ends at the share reached. With ``x_1 ≤ … ≤ x_n`` the values of the ``n`` runs (never
+the CDF ends at the share reached. Runs the sweep did not run to their end because the sweep was
+stopped (``not_run``, ``interrupted``) are no results: they are left out of ``n`` and counted
+apart (``not_run``), so the report of a stopped sweep is that of the samples that ran.
+With ``x_1 ≤ … ≤ x_n`` the values of the ``n`` runs (never
 and failed as ``+inf``), the empirical CDF is ``F(x) = #{i : x_i ≤ x} / n`` and the ``p`` %
 percentile is ``x_k`` with ``k = ⌈p n / 100⌉`` (the inverted CDF, no interpolation).
 
@@ -47,6 +50,7 @@ __all__ = ["PERCENTILES", "write_report", "figure_stats", "add_arguments", "main
 
 PERCENTILES = (5.0, 50.0, 95.0)
 REPORT_DIR = "report"
+_NOT_RUN = ("not_run", "interrupted")  # the sweep stopped before the run ended: no result either way
 _MAX_PANELS = 12  # figures per grid plot (a larger list is split over several files)
 _DPI = 80
 
@@ -135,13 +139,17 @@ def figure_stats(records: list[dict[str, Any]], figure: str,
     """Counts, share reached and percentiles of one summary figure over every run.
 
     A run counts as ``failed`` when its status is not a success, ``never`` when it succeeded but
-    the figure is not a finite number, else ``reached``. Percentiles use every run, failed and
+    the figure is not a finite number, else ``reached``; ``not_run`` and ``interrupted`` runs
+    (the sweep stopped first) are left out of ``n`` and counted as ``not_run``. Percentiles use every run, failed and
     never as +inf (inverted empirical CDF, ``x_k`` with ``k = ⌈p n/100⌉``); ``None`` stands for
     +inf in the result. ``share_reached = reached / n``.
     """
     values = []
-    failed = never = 0
+    failed = never = not_run = 0
     for rec in records:
+        if rec.get("status") in _NOT_RUN:
+            not_run += 1
+            continue
         if not _ok(rec):
             failed += 1
             values.append(math.inf)
@@ -160,7 +168,7 @@ def figure_stats(records: list[dict[str, Any]], figure: str,
         v = float(arr[k - 1]) if n else math.inf
         pct[f"p{p:g}"] = v if math.isfinite(v) else None
     reached = n - failed - never
-    return {"figure": figure, "n": n, "reached": reached, "never": never, "failed": failed,
+    return {"figure": figure, "n": n, "reached": reached, "never": never, "failed": failed, "not_run": not_run,
             "share_reached": reached / n if n else None, "percentiles": pct,
             "min": float(arr[0]) if reached else None, "max": float(arr[reached - 1]) if reached else None}
 
@@ -209,9 +217,9 @@ def _mc_report(records: list[dict[str, Any]], figures: list[str], out: Path, tit
     names = [f"p{p:g}" for p in PERCENTILES]
     buf = io.StringIO()
     writer = csv.writer(buf)
-    writer.writerow(["figure", "n", "reached", "never", "failed", "share_reached", *names, "min", "max"])
+    writer.writerow(["figure", "n", "reached", "never", "failed", "not_run", "share_reached", *names, "min", "max"])
     for s in stats:
-        writer.writerow([s["figure"], s["n"], s["reached"], s["never"], s["failed"], s["share_reached"],
+        writer.writerow([s["figure"], s["n"], s["reached"], s["never"], s["failed"], s["not_run"], s["share_reached"],
                          *["never" if s["percentiles"][k] is None else s["percentiles"][k] for k in names],
                          "" if s["min"] is None else s["min"], "" if s["max"] is None else s["max"]])
     paths = [out / "percentiles.csv"]
@@ -219,11 +227,12 @@ def _mc_report(records: list[dict[str, Any]], figures: list[str], out: Path, tit
         tmp.write_text(buf.getvalue())
     lines = [f"# {title}: Monte Carlo report", "",
              f"{len(records)} runs; statuses: {_status_counts(records)}. Failed runs and runs that never reach "
-             "a value count in every share and as +inf in the percentiles (`never`).", "",
-             "| figure | n | reached | never | failed | share reached | " + " | ".join(names) + " |",
-             "|---|---|---|---|---|---|" + "---|" * len(names)]
+             "a value count in every share and as +inf in the percentiles (`never`); runs the sweep did not "
+             "run to their end (not_run, interrupted) are left out of n.", "",
+             "| figure | n | reached | never | failed | not run | share reached | " + " | ".join(names) + " |",
+             "|---|---|---|---|---|---|---|" + "---|" * len(names)]
     for s in stats:
-        lines.append(f"| `{s['figure']}` | {s['n']} | {s['reached']} | {s['never']} | {s['failed']} | "
+        lines.append(f"| `{s['figure']}` | {s['n']} | {s['reached']} | {s['never']} | {s['failed']} | {s['not_run']} | "
                      f"{100 * (s['share_reached'] or 0):.1f} % | "
                      + " | ".join(_fmt(s["percentiles"][k]) for k in names) + " |")
     lines.append("")
