@@ -18,9 +18,9 @@ from __future__ import annotations
 from magsail_mj.geometry.current_loops import CIRCUIT_NAMES
 from magsail_mj.scenarios.current_loops_config import CurrentLoopsConfig, loop_currents
 from magsail_mj.scenarios.current_loops_model import LoopsModel, make_loops_model, rigid_plate_spec
-from magsail_mj.scenarios.current_loops_tasks import TASKS, LoopsScenario, build_loops_scenario
+from magsail_mj.scenarios.current_loops_tasks import LoopsScenario, build_loops_scenario
 
 __all__ = [
-    "CIRCUIT_NAMES", "TASKS", "CurrentLoopsConfig", "LoopsScenario", "build_loops_scenario", "LoopsModel",
+    "CIRCUIT_NAMES", "CurrentLoopsConfig", "LoopsScenario", "build_loops_scenario", "LoopsModel",
     "make_loops_model", "rigid_plate_spec", "loop_currents",
 ]

@@ -15,6 +15,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from magsail_mj.analysis.loop_scaling import ThermalConstants, loop_sizing
+from magsail_mj.concepts import register_config
 from magsail_mj.config import (
     ConfigProblem,
     LatticeRenderConfig,
@@ -22,7 +23,6 @@ from magsail_mj.config import (
     StrictModel,
     check_lattice_numbers,
     finite_product,
-    register_concept,
 )
 from magsail_mj.environment.config import (
     AtmosphereConfig,
@@ -178,7 +178,7 @@ class LoopsRenderConfig(LatticeRenderConfig):
     max_frames: int = Field(default=400, ge=2)
 
 
-@register_concept("current_loops")
+@register_config("current_loops")
 class CurrentLoopsConfig(StrictModel):
     """A current-loops scenario config (``models/current_loops/*.toml``)."""
 

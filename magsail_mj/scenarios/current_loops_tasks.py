@@ -3,18 +3,19 @@
 Spec: current-loops.md. :class:`LoopsScenario` is the shared base (model, environment, fixed
 field, runner, outputs); :class:`FlexibleLoopsTask` adds the flexible plate's loads (Lorentz
 forces §4.5, tidal gravity, Caughey modal damping §4.4, work ledger), strain check and structural
-post-processing. Each kind is registered under its name in :data:`TASKS`:
+post-processing. Each kind is registered by name (:func:`magsail_mj.concepts.register_task`):
 
 ==============  ======================  ===================================================
 ``scenario``    class                   what it runs
 ==============  ======================  ===================================================
-``sweep``       :class:`SweepTask`      free flexible plate, constant currents, fixed field (§5)
-``slew``        :class:`SlewTask`       flexible plate in orbit under quaternion PD (§6)
-``slew_rigid``  :class:`RigidSlewTask`  the rigid-body surrogate of the slew (§6)
+``sweep``       :class:`LoopsSweepTask`      free flexible plate, constant currents, fixed field (§5)
+``slew``        :class:`LoopsSlewTask`       flexible plate in orbit under quaternion PD (§6)
+``slew_rigid``  :class:`LoopsRigidSlewTask`  the rigid-body surrogate of the slew (§6)
 ==============  ======================  ===================================================
 
-:func:`build_loops_scenario` looks the class up by ``cfg.scenario`` once; nothing else
-dispatches on the scenario name. Frames: world = free space or the orbit-following frame (axes =
+Registration is :func:`magsail_mj.concepts.register_task` keyed by ``("current_loops", scenario)``;
+:func:`magsail_mj.concepts.build_task` (and :func:`build_loops_scenario`) looks the class up once; nothing
+else dispatches on the scenario name. Frames: world = free space or the orbit-following frame (axes =
 ECI); body = the best-fit rotation (flexible) or the rigid body's frame. Units SI.
 """
 
@@ -22,13 +23,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, ClassVar
+from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
 
 from magsail_mj.analysis.modes import Modes, damping_ratios, lattice_modes
 from magsail_mj.control.loop_attitude import LoopAttitudeController
+from magsail_mj.concepts import build_task, register_task
 from magsail_mj.environment.constants import MU_EARTH
 from magsail_mj.environment.environment import Environment
 from magsail_mj.estimation.attitude import matrix_from_quat, particle_inertia
@@ -39,7 +41,6 @@ from magsail_mj.loads.lorentz import CircuitSegments, LorentzLoad
 from magsail_mj.loads.modal_damping import ModalDampingLoad
 from magsail_mj.loads.tidal import GravityGradientTorqueLoad, TidalGravityLoad
 from magsail_mj.mjcf.truss import node_positions_from_qpos
-from magsail_mj.scenarios import register_builder
 from magsail_mj.scenarios.current_loops_config import CurrentLoopsConfig
 from magsail_mj.scenarios.current_loops_metrics import (
     base_summary,
@@ -58,26 +59,11 @@ from magsail_mj.scenarios.current_loops_plots import slew_plots, structural_plot
 from magsail_mj.sim import RunResult, Simulation
 
 __all__ = [
-    "TASKS", "register_task", "build_loops_scenario", "LoopsScenario", "FlexibleLoopsTask", "SweepTask",
-    "SlewTask", "RigidSlewTask", "WorkLedger", "RigidLoopTorqueLoad", "slew_controller",
+    "build_loops_scenario", "LoopsScenario", "FlexibleLoopsTask", "LoopsSweepTask",
+    "LoopsSlewTask", "LoopsRigidSlewTask", "WorkLedger", "RigidLoopTorqueLoad", "slew_controller",
 ]
 
 Summary = tuple[dict[str, Any], dict[str, np.ndarray]]
-
-TASKS: dict[str, type[LoopsScenario]] = {}
-"""``scenario`` name → task class (filled by :func:`register_task`)."""
-
-
-def register_task(name: str) -> Callable[[type[LoopsScenario]], type[LoopsScenario]]:
-    """Class decorator: make ``cls`` the task of configs whose ``scenario`` is ``name``."""
-
-    def wrap(cls: type[LoopsScenario]) -> type[LoopsScenario]:
-        TASKS[name] = cls
-        cls.kind = name
-        return cls
-
-    return wrap
-
 
 # ---------------------------------------------------------------------------------- loads
 
@@ -226,7 +212,6 @@ class LoopsScenario:
     lm: LoopsModel
     spec: mujoco.MjSpec = field(init=False)
 
-    kind: ClassVar[str] = ""
     OVERLAY: ClassVar[tuple[str, ...]] = ()
     """Series printed on each video frame."""
 
@@ -452,8 +437,8 @@ class FlexibleLoopsTask(LoopsScenario):
         return {"damping": self.damping_info()} if self.cfg.damping.enabled else {}
 
 
-@register_task("sweep")
-class SweepTask(FlexibleLoopsTask):
+@register_task("current_loops", "sweep")
+class LoopsSweepTask(FlexibleLoopsTask):
     """§5: the free flexible plate in a uniform constant field, constant circuit currents (the
     Eq.-9 sizing by default), compared with the rigid body carrying the realised dipole."""
 
@@ -478,8 +463,8 @@ class SweepTask(FlexibleLoopsTask):
         return [*self.structural_figures(run_dir, series, qpos), *sweep_plots(run_dir, series)]
 
 
-@register_task("slew")
-class SlewTask(FlexibleLoopsTask):
+@register_task("current_loops", "slew")
+class LoopsSlewTask(FlexibleLoopsTask):
     """§6: the flexible plate in orbit under quaternion PD with the corrected dipole command and
     per-axis current allocation over the circuits (one per axis)."""
 
@@ -504,8 +489,8 @@ class SlewTask(FlexibleLoopsTask):
         return [*self.structural_figures(run_dir, series, qpos), *slew_plots(run_dir, series)]
 
 
-@register_task("slew_rigid")
-class RigidSlewTask(LoopsScenario):
+@register_task("current_loops", "slew_rigid")
+class LoopsRigidSlewTask(LoopsScenario):
     """§6: the rigid-body surrogate of the slew: one body with the undeformed lattice's inertia,
     dipole torque (R Σ I_L a_L) × B, classical gravity-gradient torque (``gravity.tidal``)."""
 
@@ -545,11 +530,7 @@ class RigidSlewTask(LoopsScenario):
         return {"rigid_inertia_kg_m2": self.inertia.tensor.tolist()}
 
 
-@register_builder("current_loops")
 def build_loops_scenario(cfg: CurrentLoopsConfig) -> LoopsScenario:
-    """The task of a current-loops config: the class registered for ``cfg.scenario`` in :data:`TASKS`."""
-    try:
-        task = TASKS[cfg.scenario]
-    except KeyError:
-        raise ValueError(f"scenario: no current-loops task {cfg.scenario!r}; known {sorted(TASKS)}") from None
-    return task.from_config(cfg)
+    """The task of a current-loops config: the class registered for ``(cfg.concept, cfg.scenario)`` in
+    :data:`magsail_mj.concepts.TASKS` (:func:`magsail_mj.concepts.build_task`)."""
+    return build_task(cfg)

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 from magsail_mj.scenarios.truss_config import ORBITAL_SCENARIOS, TrussConfig, first_cantilever_omega
 from magsail_mj.scenarios.truss_model import TrussModel, actuated_struts, make_cantilever_model, make_truss_model
-from magsail_mj.scenarios.truss_tasks import TASKS, TrussScenario, build_truss_scenario
+from magsail_mj.scenarios.truss_tasks import TrussScenario, build_truss_scenario
 
 __all__ = [
-    "ORBITAL_SCENARIOS", "TASKS", "TrussConfig", "TrussScenario", "build_truss_scenario", "TrussModel",
+    "ORBITAL_SCENARIOS", "TrussConfig", "TrussScenario", "build_truss_scenario", "TrussModel",
     "make_truss_model", "make_cantilever_model", "actuated_struts", "first_cantilever_omega",
 ]

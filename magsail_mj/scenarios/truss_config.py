@@ -13,6 +13,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, model_validator
 
+from magsail_mj.concepts import register_config
 from magsail_mj.config import (
     MJ_MINVAL,
     ConfigProblem,
@@ -21,7 +22,6 @@ from magsail_mj.config import (
     StrictModel,
     check_lattice_numbers,
     finite_product,
-    register_concept,
 )
 from magsail_mj.environment.config import (
     AtmosphereConfig,
@@ -227,7 +227,7 @@ class TrussRenderConfig(LatticeRenderConfig):
     """``[render]``: video options."""
 
 
-@register_concept("truss_magnetorquer")
+@register_config("truss_magnetorquer")
 class TrussConfig(StrictModel):
     """A truss scenario config (``models/truss_magnetorquer/*.toml``)."""
 

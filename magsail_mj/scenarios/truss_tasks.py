@@ -2,7 +2,7 @@
 
 Spec: truss-magnetorquer-array.md. :class:`TrussScenario` is the shared base (model, environment
 loads, rigid initial state, runner, render and manifest entries); each subclass adds what its
-kind needs and is registered under the kind's name in :data:`TASKS`:
+kind needs and is registered by name (:func:`magsail_mj.concepts.register_task`):
 
 ============================  ==========================  ===========================================
 ``scenario``                  class                       what it runs
@@ -14,8 +14,9 @@ kind needs and is registered under the kind's name in :data:`TASKS`:
 ``slew``                      :class:`SlewTask`           rod array under quaternion PD (§9.4–9.6)
 ============================  ==========================  ===========================================
 
-:func:`build_truss_scenario` looks the class up by ``cfg.scenario`` once; nothing else
-dispatches on the scenario name. Frames: world = the orbit-following frame (axes = ECI) or free
+Registration is :func:`magsail_mj.concepts.register_task` keyed by ``("truss_magnetorquer", scenario)``;
+:func:`magsail_mj.concepts.build_task` (and :func:`build_truss_scenario`) looks the class up once; nothing
+else dispatches on the scenario name. Frames: world = the orbit-following frame (axes = ECI) or free
 space; body = the best-fit rotation of the lattice (§4.1). Units SI.
 """
 
@@ -30,6 +31,7 @@ import numpy as np
 
 from magsail_mj.control.profiles import torque_profile
 from magsail_mj.control.rod_attitude import RodAttitudeController
+from magsail_mj.concepts import build_task, register_task
 from magsail_mj.environment.environment import Environment
 from magsail_mj.environment.surfaces import lattice_top_cells
 from magsail_mj.estimation.attitude import matrix_from_quat, particle_inertia
@@ -42,7 +44,6 @@ from magsail_mj.loads.srp import LatticeSRPLoad
 from magsail_mj.loads.strut_torque import StrutTorqueLoad
 from magsail_mj.loads.tidal import TidalGravityLoad
 from magsail_mj.mjcf.truss import node_positions_from_qpos
-from magsail_mj.scenarios import register_builder
 from magsail_mj.scenarios.truss_config import TrussConfig
 from magsail_mj.scenarios.truss_metrics import (
     PROFILE_AXES,
@@ -65,26 +66,11 @@ from magsail_mj.scenarios.truss_plots import cantilever_plot, truss_plots
 from magsail_mj.sim import RunResult, Simulation
 
 __all__ = [
-    "TASKS", "register_task", "build_truss_scenario", "TrussScenario", "DistVsCentralTask", "CantileverTask",
+    "build_truss_scenario", "TrussScenario", "DistVsCentralTask", "CantileverTask",
     "FreeTask", "OrbitalTrussTask", "DetumbleTask", "SlewTask",
 ]
 
 Summary = tuple[dict[str, Any], dict[str, np.ndarray]]
-
-TASKS: dict[str, type[TrussScenario]] = {}
-"""``scenario`` name → task class (filled by :func:`register_task`)."""
-
-
-def register_task(name: str) -> Callable[[type[TrussScenario]], type[TrussScenario]]:
-    """Class decorator: make ``cls`` the task of configs whose ``scenario`` is ``name``."""
-
-    def wrap(cls: type[TrussScenario]) -> type[TrussScenario]:
-        TASKS[name] = cls
-        cls.kind = name
-        return cls
-
-    return wrap
-
 
 @dataclass
 class TrussScenario:
@@ -100,7 +86,6 @@ class TrussScenario:
     tm: TrussModel
     spec: mujoco.MjSpec = field(init=False)
 
-    kind: ClassVar[str] = ""
     OVERLAY: ClassVar[tuple[str, ...]] = ("surface_sd_m",)
     """Series printed on each video frame."""
     INSET: ClassVar[str | None] = None
@@ -254,7 +239,7 @@ class TrussScenario:
                                zeta_strut=cfg.damping.zeta_strut, environment=self.environment)
 
 
-@register_task("free")
+@register_task("truss_magnetorquer", "free")
 class FreeTask(TrussScenario):
     """The lattice with no actuator: momentum/energy checks and environment-only runs (libration)."""
 
@@ -265,7 +250,7 @@ class FreeTask(TrussScenario):
         return truss_plots(run_dir, series, title=self.title)
 
 
-@register_task("dist_vs_central")
+@register_task("truss_magnetorquer", "dist_vs_central")
 class DistVsCentralTask(TrussScenario):
     """§6: open-loop torque profile about ``profile.axis``, distributed over every top-layer strut
     of the family or concentrated in the central cube (``actuators.placement``), compared with the
@@ -315,7 +300,7 @@ class DistVsCentralTask(TrussScenario):
         return truss_plots(run_dir, series, title=self.title)
 
 
-@register_task("cantilever")
+@register_task("truss_magnetorquer", "cantilever")
 class CantileverTask(TrussScenario):
     """§2.7: the lattice clamped along its i = 0 edge, a tip load ``cantilever.load_N`` on the free
     edge, settled with node damping; compared with the linear solve and the beam formula."""
@@ -390,7 +375,7 @@ class OrbitalTrussTask(TrussScenario):
         return orbital_manifest(self.cfg, self.tm, self.rods())
 
 
-@register_task("detumble")
+@register_task("truss_magnetorquer", "detumble")
 class DetumbleTask(OrbitalTrussTask):
     """§9.3: B-dot (or the open-loop profile) from the initial body rate; rates below 1e-3 rad/s."""
 
@@ -404,7 +389,7 @@ class DetumbleTask(OrbitalTrussTask):
         return keys, {}
 
 
-@register_task("slew")
+@register_task("truss_magnetorquer", "slew")
 class SlewTask(OrbitalTrussTask):
     """§9.4–9.6: quaternion feedback (or the open-loop profile) from ``q0`` to ``maneuver.q_ref_wxyz``."""
 
@@ -418,11 +403,7 @@ class SlewTask(OrbitalTrussTask):
         return keys, more_series
 
 
-@register_builder("truss_magnetorquer")
 def build_truss_scenario(cfg: TrussConfig) -> TrussScenario:
-    """The task of a truss config: the class registered for ``cfg.scenario`` in :data:`TASKS`."""
-    try:
-        task = TASKS[cfg.scenario]
-    except KeyError:
-        raise ValueError(f"scenario: no truss task {cfg.scenario!r}; known {sorted(TASKS)}") from None
-    return task.from_config(cfg)
+    """The task of a truss config: the class registered for ``(cfg.concept, cfg.scenario)`` in
+    :data:`magsail_mj.concepts.TASKS` (:func:`magsail_mj.concepts.build_task`)."""
+    return build_task(cfg)

@@ -1,0 +1,51 @@
+"""Current-loops concept layout: one task class per scenario kind, registered by name; no import
+cycle, imports at module top; metrics and plots import no task module (each check can fail)."""
+
+from __future__ import annotations
+
+import typing
+
+import pytest
+
+from magsail_mj.concepts import task_kinds
+from magsail_mj.config import load_config
+from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenarios import current_loops_tasks as ct
+from magsail_mj.scenarios.current_loops_config import CurrentLoopsConfig
+from tests.conftest import REPO
+from tests.test_truss_tasks import concept_graph, find_cycle
+
+LOOPS_MODULES = ("current_loops", "current_loops_config", "current_loops_model", "current_loops_tasks",
+                 "current_loops_metrics", "current_loops_plots")
+KIND_CONFIGS = {
+    "sweep": ("models/current_loops/sweep/a_n12_ei1e3.toml", ct.LoopsSweepTask),
+    "slew": ("models/current_loops/slew.toml", ct.LoopsSlewTask),
+    "slew_rigid": ("models/current_loops/slew_rigid.toml", ct.LoopsRigidSlewTask),
+}
+
+
+def test_registered_kinds_are_the_schema_scenarios():
+    kinds = typing.get_args(CurrentLoopsConfig.model_fields["scenario"].annotation)
+    assert sorted(kinds) == task_kinds("current_loops")
+
+
+@pytest.mark.parametrize("kind", sorted(KIND_CONFIGS))
+def test_every_kind_builds_its_own_class(kind):
+    path, cls = KIND_CONFIGS[kind]
+    cfg = load_config(REPO / path, ["lattice.units=3", "sim.duration_s=2"])
+    assert cfg.scenario == kind
+    sc = build_scenario(cfg)
+    assert type(sc) is cls and isinstance(sc, ct.LoopsScenario)
+    info = sc.render_info()
+    assert info["overlay"] == list(cls.OVERLAY)
+    # the rigid surrogate is one free body (7 qpos); the flexible plate has 3 per particle
+    assert sc.model.nq == (7 if cls is ct.LoopsRigidSlewTask else 3 * sc.lm.lattice.n_nodes)
+    assert ("strut_colours" in info) == issubclass(cls, ct.FlexibleLoopsTask)
+
+
+def test_loops_modules_form_a_dag_with_imports_at_top():
+    graph, problems = concept_graph(LOOPS_MODULES)
+    assert not problems, problems
+    assert find_cycle(graph) is None, find_cycle(graph)
+    for name in ("current_loops_metrics", "current_loops_plots", "current_loops_model", "current_loops_config"):
+        assert not graph[name] & {"current_loops", "current_loops_tasks"}, (name, graph[name])
