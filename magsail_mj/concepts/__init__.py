@@ -119,8 +119,8 @@ def discover() -> None:
     if _discovered:
         return
     _import_children(__name__, packages_only=True)
-    for legacy in _LEGACY_PACKAGES:
-        _import_children(legacy, packages_only=False)
+    for legacy in _LEGACY_PACKAGES:  # legacy-layout
+        _import_children(legacy, packages_only=False)  # legacy-layout
     _discovered = True
 
 
