@@ -12,7 +12,7 @@
 
 from __future__ import annotations
 
-from magsail_mj.envs import current_loops, reflector, truss  # noqa: F401  (registers the tasks)
+from magsail_mj.envs import cnusail, current_loops, msac, reflector, truss  # noqa: F401  (registers the tasks)
 from magsail_mj.envs.core import (
     ActionController, AttitudeTask, RewardWeights, SimulationPhysics, list_tasks, load, register, run_episode,
     shipped_policy, summary_mismatches,

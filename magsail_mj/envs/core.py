@@ -361,6 +361,8 @@ class AttitudeTask(control.Task):
         self.action_high = np.zeros(0)
         self.start: dict[str, Any] = {}
         self._last_action = np.zeros(0)
+        self._previous_obs: collections.OrderedDict | None = None
+        self._obs_cache: tuple[int, collections.OrderedDict] | None = None
 
     @property
     def random(self) -> np.random.RandomState:
@@ -416,6 +418,7 @@ class AttitudeTask(control.Task):
         """Reset has put the build's initial state back; draw a start when ``randomize``."""
         physics.controller.action[:] = self.neutral_action()
         physics.controller.hooks.final_action = None
+        self._obs_cache = None
         self._last_action = self.neutral_action()
         self.start = self.draw_start(physics) if self.randomize else {}
 
@@ -429,13 +432,29 @@ class AttitudeTask(control.Task):
         raise NotImplementedError
 
     def get_observation(self, physics: SimulationPhysics) -> collections.OrderedDict:
-        obs = self.observe(physics, physics.step_state())
-        return collections.OrderedDict((k, np.asarray(v, dtype=np.float64).reshape(np.shape(v)))
-                                       for k, v in obs.items())
+        """The named observation arrays (float64); after a divergence (the state is not finite) the
+        previous observation's arrays filled with NaN."""
+        return collections.OrderedDict((k, v.copy()) for k, v in self.current_observation(physics).items())
+
+    def current_observation(self, physics: SimulationPhysics) -> collections.OrderedDict:
+        """The observation of the current step, computed once per step (the reward, which dm_control
+        asks for first, and the observation share it)."""
+        key = physics.sim.step_index
+        if self._obs_cache is not None and self._obs_cache[0] == key:
+            return self._obs_cache[1]
+        if physics.status == "diverged" and self._previous_obs is not None:
+            out = collections.OrderedDict((k, np.full_like(v, np.nan)) for k, v in self._previous_obs.items())
+        else:
+            obs = self.observe(physics, physics.step_state())
+            out = collections.OrderedDict((k, np.array(v, dtype=np.float64).reshape(np.shape(v)))
+                                          for k, v in obs.items())
+            self._previous_obs = out
+        self._obs_cache = (key, out)
+        return out
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
-        """``theta_rad``, ``omega_rad_s``, ``strain`` (ε_max/ε_fail) of the current state (subclass;
-        missing terms count 0)."""
+        """``theta_rad``, ``omega_rad_s``, ``strain`` (ε_max/ε_fail) of the current step (subclass;
+        missing terms count 0). :meth:`current_observation` is already computed when it is called."""
         return {}
 
     def effort(self) -> float:
@@ -447,7 +466,10 @@ class AttitudeTask(control.Task):
         return float(np.mean(u * u))
 
     def get_reward(self, physics: SimulationPhysics) -> float:
-        """The reward of the module docstring."""
+        """The reward of the module docstring (NaN after a divergence)."""
+        if physics.status == "diverged":
+            return math.nan
+        self.current_observation(physics)
         terms = self.reward_terms(physics)
         w = self.weights
         theta = terms.get("theta_rad", 0.0) / math.pi
@@ -543,8 +565,8 @@ def load(config: str | Path | Any, overrides: Sequence[str] = (), random: int | 
     """The environment of ``config``: a registered task name (``"cnusail/detumble"`` → its shipped
     config), a config file path or a validated config; ``overrides`` as ``--set``; ``random`` seeds
     the task; ``task_options`` go to the task (see each task's docstring)."""
-    if isinstance(config, str) and config in _REGISTRY:
-        entry = _REGISTRY[config]
+    if isinstance(config, str) and (config in _REGISTRY or not (config.endswith(".toml") or Path(config).exists())):
+        entry = task_entry(config)
         cfg = load_config(entry.config, list(overrides))
     elif isinstance(config, (str, Path)):
         cfg = load_config(config, list(overrides))

@@ -202,11 +202,10 @@ class LoopsSlewTask(AttitudeTask):
             mem["n"] += 1
             obs["surface_sd_m"] = np.array([mem["health"][0]])
             obs["strain_max"] = np.array([mem["health"][1]])
-        self._last_obs = obs
         return obs
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
-        obs = self._last_obs
+        obs = self.current_observation(physics)
         terms = {"theta_rad": pointing_error_rad(obs["attitude_wxyz"], self.q_ref),
                  "omega_rad_s": float(np.linalg.norm(obs["body_rate_rad_s"]))}
         if "strain_max" in obs:

@@ -164,11 +164,11 @@ class ReflectorDetumbleTask(AttitudeTask):
         q, R, w = _plate_pose(state, self.body)
         obs = {"attitude_wxyz": np.array(q, dtype=float), "body_rate_rad_s": w,
                "field_body_T": np.asarray(self.converter.law.field_body(state.t, R), dtype=float)}
-        self._last_obs = obs
         return obs
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
-        return {"omega_rad_s": float(np.linalg.norm(self._last_obs["body_rate_rad_s"]))}
+        obs = self.current_observation(physics)
+        return {"omega_rad_s": float(np.linalg.norm(obs["body_rate_rad_s"]))}
 
     def shipped_action(self, physics: SimulationPhysics, controller: Any, state: StepState) -> np.ndarray:
         """Currents mode: the shipped coil currents (``dipole`` law); torque mode: the shipped law's
@@ -232,11 +232,10 @@ class ReflectorPitchTask(AttitudeTask):
                "field_body_T": R.T @ self.converter.law.orbit.field(state.t),
                "target_wxyz": np.asarray(ref.q_ref, dtype=float),
                "target_rate_rad_s": np.array([0.0, -ref.psi_dot, 0.0])}
-        self._last_obs = obs
         return obs
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
-        obs = self._last_obs
+        obs = self.current_observation(physics)
         return {"theta_rad": pointing_error_rad(obs["attitude_wxyz"], obs["target_wxyz"]),
                 "omega_rad_s": float(np.linalg.norm(obs["body_rate_rad_s"] - obs["target_rate_rad_s"]))}
 

@@ -207,11 +207,10 @@ class TrussAttitudeTask(AttitudeTask):
         sd, strain = self._health(physics, state)
         obs["surface_sd_m"] = np.array([sd])
         obs["strain_max"] = np.array([strain])
-        self._last_obs = obs
         return obs
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
-        obs = self._last_obs
+        obs = self.current_observation(physics)
         theta = pointing_error_rad(obs["attitude_wxyz"], self.q_ref) if self.slew else 0.0
         return {"theta_rad": theta, "omega_rad_s": float(np.linalg.norm(obs["body_rate_rad_s"])),
                 "strain": float(obs["strain_max"][0]) / physics.sim.max_strain}
