@@ -202,7 +202,8 @@ def test_state_round_trip_continues_identically() -> None:
 
 def test_summary_mismatches_reports_what_differs() -> None:
     ref = {"a_s": 1.0, "b": float("nan"), "c": "x", "wall_time_s": 3.0, "d": 2.0}
-    assert summary_mismatches(ref, {"a_s": 1.0 + 1e-12, "b": float("nan"), "c": "x", "wall_time_s": 9.0, "d": 2.0}) == []
+    same = {"a_s": 1.0 + 1e-12, "b": float("nan"), "c": "x", "wall_time_s": 9.0, "d": 2.0}
+    assert summary_mismatches(ref, same) == []
     bad = summary_mismatches(ref, {"a_s": 1.0 + 1e-6, "b": 0.0, "c": "y"})
     assert [line.split(":")[0] for line in bad] == ["a_s", "b", "c", "d"]
 
