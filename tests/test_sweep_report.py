@@ -106,8 +106,10 @@ set = ["lattice.units=3", "sim.duration_s=2.0", "sim.record_every=10", "sim.prog
 "sim.timestep_s" = [0.01, 0.02]
 ''')
     out = tmp_path / "out"
-    records = run_sweep(load_sweep(path), out, workers=2, log=None, progress=False)
+    records = run_sweep(load_sweep(path), out, workers=2, log=None, progress=True)
     assert [r["status"] for r in records] == ["completed"] * 4
+    bar = capsys.readouterr().err  # the sweep-level bar, asked for although stderr is no terminal here
+    assert "4/4" in bar and "failed 0" in bar and "dashboard " in bar
     parser = argparse.ArgumentParser()
     add_arguments(parser)
     assert main(parser.parse_args([str(out)])) == 0
