@@ -1,10 +1,15 @@
 """Render a run folder (or two, side by side) into an MP4.
 
-A run folder holds ``model.xml``, ``timeseries.npz`` (``t`` (T,), ``qpos`` (T, nq), optional
-``strut_activity`` (T, ntendon) int8 in {-1, 0, +1}, optional scalar series) and
+A run folder holds ``model.xml``, ``timeseries.zarr`` (or, from earlier versions and scripts,
+``timeseries.npz``) with ``t`` (T,), ``qpos`` (T, nq), optional ``strut_activity`` (T, ntendon)
+int8 in {-1, 0, +1} and optional scalar series, and
 ``manifest.json`` whose ``render`` table gives ``title``, ``top_nodes``, ``overlay``, ``inset``
 (one scalar series drawn as a small plot of its history up to the frame's time), ``camera`` and
 ``exaggeration`` (all optional). See the README (Rendering videos).
+
+The frames of ``qpos`` and ``strut_activity`` are read from the store when drawn (a chunk at a
+time, :class:`Frames`), so the memory of a render does not grow with the run's length; the checks
+of the whole series (finite, values in {-1, 0, +1}) read them chunk by chunk.
 
 Per frame: the recorded ``qpos`` is set, positions are computed (``mj_kinematics``,
 ``mj_comPos``, ``mj_camlight``, ``mj_tendon``; no dynamics), struts (tendons) are coloured
@@ -34,10 +39,11 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
-from typing import Self
+from typing import Any, Self
 
 import numpy as np
 
+from magsail_mj.records import SERIES_GROUP, STORE_NAME, RecordStoreError, open_records
 from magsail_mj.render.backend import ensure_gl_backend, make_renderer
 from magsail_mj.render.video import Mp4Writer
 from magsail_mj.resources import (
@@ -107,8 +113,8 @@ class RunData:
       run_dir: the folder.
       model_xml: path of ``model.xml``.
       t: (T,) record times [s], non-decreasing.
-      qpos: (T, nq) MuJoCo ``qpos`` at each record.
-      strut_activity: (T, ntendon) int8 in {-1, 0, +1}, or ``None``.
+      qpos: (T, nq) MuJoCo ``qpos`` at each record (an array, or :class:`Frames` reading a store).
+      strut_activity: (T, ntendon) int8 in {-1, 0, +1} (array or :class:`Frames`), or ``None``.
       series: overlay series named in ``manifest.render.overlay``, each (T,) or (T, k).
       inset: ``(name, values (T,))`` of ``manifest.render.inset``, or ``None``.
       title: ``manifest.render.title`` (default: the folder name).
@@ -123,8 +129,8 @@ class RunData:
     run_dir: Path
     model_xml: Path
     t: np.ndarray
-    qpos: np.ndarray
-    strut_activity: np.ndarray | None
+    qpos: Any
+    strut_activity: Any
     series: dict[str, np.ndarray]
     title: str
     top_nodes: np.ndarray | None
@@ -189,6 +195,73 @@ def _read_series(path: Path, *, name: str) -> dict[str, np.ndarray]:
                           f"({type(exc).__name__}: {exc})") from None
 
 
+class Frames:
+    """Rows of a stored (T, n) series read on demand: ``frames[i]`` reads the chunk holding row
+    ``i`` (kept until a row of another chunk is asked), ``blocks()`` yields the rows chunk by
+    chunk; ``T`` may be cut below the stored length (:meth:`head`)."""
+
+    def __init__(self, array: Any, *, dtype: Any, rows: int | None = None):
+        self.array = array
+        self.dtype = np.dtype(dtype)
+        self.step = int(array.chunks[0]) if getattr(array, "chunks", None) else max(1, int(array.shape[0]))
+        self.shape = (int(array.shape[0]) if rows is None else int(rows), *(int(s) for s in array.shape[1:]))
+        self.ndim = len(self.shape)
+        self._cached: tuple[int, np.ndarray] | None = None
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __getitem__(self, i: int) -> np.ndarray:
+        i = int(i)
+        if not 0 <= i < self.shape[0]:
+            raise IndexError(f"row {i} outside 0 … {self.shape[0] - 1}")
+        a = i // self.step * self.step
+        if self._cached is None or self._cached[0] != a:
+            self._cached = (a, np.asarray(self.array[a:min(a + self.step, self.shape[0])], dtype=self.dtype))
+        return self._cached[1][i - a]
+
+    def blocks(self) -> Iterator[tuple[int, np.ndarray]]:
+        """``(first row, rows)`` of each chunk, in order."""
+        for a in range(0, self.shape[0], self.step):
+            yield a, np.asarray(self.array[a:min(a + self.step, self.shape[0])], dtype=self.dtype)
+
+    def head(self, rows: int) -> "Frames":
+        """The first ``rows`` rows."""
+        return Frames(self.array, dtype=self.dtype, rows=rows)
+
+
+def _read_store(run_dir: Path, *, name: str) -> dict[str, Any]:
+    """name → lazy Zarr array of the run's ``timeseries.zarr`` (records, then derived series)."""
+    try:
+        records = open_records(run_dir)
+        arrays: dict[str, Any] = {key: records.array(key) for key in records}
+        try:
+            series = open_records(run_dir, group=SERIES_GROUP)
+        except (RecordStoreError, KeyError):
+            return arrays
+        arrays.update({key: series.array(key) for key in series})
+        return arrays
+    except RecordStoreError as exc:
+        raise RenderError(f"{name}: {exc}") from None
+
+
+def _finite_rows(qpos: Any) -> tuple[int, int]:
+    """``(T, first non-finite row or T)`` of an array or :class:`Frames`, chunk by chunk."""
+    if isinstance(qpos, Frames):
+        for a, rows in qpos.blocks():
+            ok = np.isfinite(rows).all(axis=1)
+            if not ok.all():
+                return qpos.shape[0], a + int(np.argmin(ok))
+        return qpos.shape[0], qpos.shape[0]
+    ok = np.isfinite(qpos).all(axis=1)
+    return ok.size, ok.size if ok.all() else int(np.argmin(ok))
+
+
+def _activity_values_ok(activity: Any) -> bool:
+    blocks = activity.blocks() if isinstance(activity, Frames) else [(0, activity)]
+    return all(not rows.size or np.all(np.isin(rows, (-1, 0, 1))) for _, rows in blocks)
+
+
 def _overlay_names(overlay: object, arrays: Mapping[str, np.ndarray], *, where: str,
                    where_ts: str) -> list[str]:
     """The overlay series to draw: names absent from the time series are skipped with a warning
@@ -207,7 +280,8 @@ def _overlay_names(overlay: object, arrays: Mapping[str, np.ndarray], *, where: 
 
 def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir",
              render_info: Mapping | None = None) -> RunData:
-    """Read and validate a run folder (``model.xml``, ``timeseries.npz``, ``manifest.json``).
+    """Read and validate a run folder (``model.xml``, ``timeseries.zarr`` or ``timeseries.npz``,
+    ``manifest.json``); ``qpos`` and ``strut_activity`` are read lazily from a store.
 
     Args:
       run_dir: the folder.
@@ -226,8 +300,11 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir",
         what = "is a file, not a run folder" if run_dir.exists() else "no such folder"
         raise RenderError(f"{name}: {what}: {str(run_dir)!r}")
     paths = {key: run_dir / key for key in ("model.xml", "timeseries.npz", "manifest.json")}
+    stored = (run_dir / STORE_NAME).is_dir()
+    if stored:
+        paths["timeseries.npz"] = run_dir / STORE_NAME
     for key in ("model.xml", "timeseries.npz"):
-        if not paths[key].is_file():
+        if not (paths[key].is_dir() if key == "timeseries.npz" and stored else paths[key].is_file()):
             raise RenderError(f"{name}: {str(paths[key])!r} is missing (not a run folder?)")
     manifest = _read_manifest(paths["manifest.json"], name=name, required=render_info is None)
     render = manifest.get("render") if render_info is None else render_info
@@ -236,15 +313,20 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir",
         raise RenderError(f"{name}: {paths['manifest.json']}: 'render' must be an object, got {render!r}")
     where = f"{name}: {paths['manifest.json']}: render"
 
-    arrays = _read_series(paths["timeseries.npz"], name=name)
+    arrays = _read_store(run_dir, name=name) if stored else _read_series(paths["timeseries.npz"], name=name)
     where_ts = f"{name}: {paths['timeseries.npz']}"
     for key in ("t", "qpos"):
         if key not in arrays:
             raise RenderError(f"{where_ts}: series {key!r} is missing (has {sorted(arrays)[:20]}); "
                               "a run without recorded positions (qpos) has no motion to render")
     try:
-        t = np.asarray(arrays["t"], dtype=float)
-        qpos = np.asarray(arrays["qpos"], dtype=float)
+        t = np.asarray(arrays["t"][...], dtype=float)
+        if stored:
+            if arrays["qpos"].dtype.kind not in "biuf":
+                raise TypeError("qpos")
+            qpos = Frames(arrays["qpos"], dtype=float)
+        else:
+            qpos = np.asarray(arrays["qpos"], dtype=float)
     except (TypeError, ValueError):
         raise RenderError(f"{where_ts}: 't' and 'qpos' must be numeric") from None
     if t.ndim != 1 or t.size == 0:
@@ -255,28 +337,30 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir",
     if qpos.ndim != 2 or qpos.shape[0] != T:
         raise RenderError(f"{where_ts}: 'qpos' must have shape ({T}, nq), got {qpos.shape}")
 
-    finite = np.isfinite(qpos).all(axis=1)
-    if not finite.all():   # a diverged run keeps what was recorded: render up to the blow-up
-        first = int(np.argmin(finite))
+    n_rows, first = _finite_rows(qpos)
+    if first < n_rows:   # a diverged run keeps what was recorded: render up to the blow-up
         if first == 0:
             raise RenderError(f"{where_ts}: 'qpos' is non-finite from the first record on")
         warnings.warn(f"{where_ts}: 'qpos' is non-finite from record {first} "
                       f"(t = {t[first]:g} s); rendering the {first} records before it",
                       RuntimeWarning, stacklevel=2)
         T = first
-        t, qpos = t[:T], qpos[:T]
-        arrays = {k: (v[:T] if np.ndim(v) >= 1 and len(v) == finite.size else v)
+        t = t[:T]
+        qpos = qpos.head(T) if isinstance(qpos, Frames) else qpos[:T]
+        arrays = {k: (v[:T] if np.ndim(v) >= 1 and np.shape(v)[0] == n_rows else v)
                   for k, v in arrays.items()}
 
     activity = arrays.get("strut_activity")
     if activity is not None:
-        activity = np.asarray(activity)
+        if not stored:
+            activity = np.asarray(activity)
         if activity.ndim != 2 or activity.shape[0] != T:
             raise RenderError(f"{where_ts}: 'strut_activity' must have shape ({T}, ntendon), "
                              f"got {activity.shape}")
-        if activity.size and not np.all(np.isin(activity, (-1, 0, 1))):
+        activity = Frames(activity, dtype=np.int8, rows=T) if stored else activity
+        if not _activity_values_ok(activity):
             raise RenderError(f"{where_ts}: 'strut_activity' values must be -1, 0 or +1")
-        activity = activity.astype(np.int8)
+        activity = activity if stored else activity.astype(np.int8)
 
     series: dict[str, np.ndarray] = {}
     for key in _overlay_names(render.get("overlay"), arrays, where=where, where_ts=where_ts):
