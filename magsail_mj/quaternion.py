@@ -11,6 +11,7 @@ The one home of the quaternion algebra (controllers, loads, estimators, metrics,
   the unit axis ``n̂`` (right hand);
 - :func:`quat_to_axis_angle` — its inverse, ``θ = 2 atan2(|v|, w) ∈ [0, π]`` after ``w ≥ 0``;
 - :func:`quat_z_to` — the shortest rotation taking ``+z`` onto a direction (geom orientation);
+  :func:`direction_quaternions` — the same for a ``(T, 3)`` series of directions (markers);
 - :func:`error_quaternion` — ``q_e = q_ref* ⊗ q`` with ``q_{e,0} ≥ 0`` (shortest rotation from the
   reference to the current attitude; its angle is ``2 atan2(|q_e,vec|, q_e,0)``).
 
@@ -34,6 +35,7 @@ __all__ = [
     "quat_from_axis_angle",
     "quat_to_axis_angle",
     "quat_z_to",
+    "direction_quaternions",
     "error_quaternion",
 ]
 
@@ -167,6 +169,28 @@ def quat_z_to(v: np.ndarray) -> list[float]:
     w = math.sqrt(0.5 * (1.0 + c))
     xyz = axis / (2.0 * w)
     return [w, *xyz.tolist()]
+
+
+def direction_quaternions(d: np.ndarray) -> np.ndarray:
+    """(T, 4) quaternions rotating ``+z`` onto the directions ``d`` (T, 3) (normalised here).
+
+    ``q = [w, −d̂_y/(2w), d̂_x/(2w), 0]`` with ``w = √((1 + d̂_z)/2)`` (the rotation about
+    ``ẑ × d̂``), renormalised; directions with ``w ≤ 10⁻⁸`` (antiparallel to ``+z``) take the half
+    turn about ``+x``, ``[0, 1, 0, 0]``; a zero direction gives the identity.
+    """
+    d = np.asarray(d, dtype=float)
+    if d.ndim != 2 or d.shape[1] != 3:
+        raise ValueError(f"d: expected shape (T, 3), got {d.shape}")
+    d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+    c = d[:, 2]
+    w = np.sqrt(np.maximum(0.5 * (1.0 + c), 0.0))
+    q = np.zeros((len(d), 4))
+    ok = w > 1e-8
+    q[ok, 0] = w[ok]
+    q[ok, 1] = -d[ok, 1] / (2 * w[ok])
+    q[ok, 2] = d[ok, 0] / (2 * w[ok])
+    q[~ok] = [0.0, 1.0, 0.0, 0.0]
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
 
 
 def error_quaternion(q_ref: np.ndarray, q: np.ndarray) -> np.ndarray:

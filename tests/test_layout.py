@@ -228,6 +228,7 @@ def test_a_new_concept_package_is_discovered_without_editing_anything(tmp_path, 
         "        self.cfg = cfg\n",
         encoding="utf-8",
     )
+    (pkg / "extra.py").write_text("VALUE = 7\n", encoding="utf-8")
     monkeypatch.setattr(registry, "__path__", [*registry.__path__, str(tmp_path)])
     monkeypatch.setattr(registry, "_discovered", False)
     for table in ("CONFIG_SCHEMAS", "KIND_KEYS", "TASKS"):   # registrations vanish with the test
@@ -239,11 +240,14 @@ def test_a_new_concept_package_is_discovered_without_editing_anything(tmp_path, 
         cfg = schemas["zz_layout_demo"]()
         task = registry.build_task(cfg)
         assert type(task).__name__ == "SpinTask" and task.cfg is cfg
+        extra = registry.concept_modules("extra")
+        assert list(extra) == ["zz_layout_demo"] and extra["zz_layout_demo"].VALUE == 7
         cfg.kind = "tumble"
         with pytest.raises(ValueError, match=r"^kind: no zz_layout_demo task 'tumble'; known \['spin'\]"):
             registry.build_task(cfg)
     finally:
-        sys.modules.pop("magsail_mj.concepts.zz_layout_demo", None)
+        for name in ("magsail_mj.concepts.zz_layout_demo.extra", "magsail_mj.concepts.zz_layout_demo"):
+            sys.modules.pop(name, None)
 
 
 def test_registry_rejects_bad_names_and_unknown_concepts():

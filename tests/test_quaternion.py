@@ -16,6 +16,7 @@ from magsail_mj.estimation.attitude import matrix_from_quat
 from magsail_mj.mjcf.cubesat import quat_z_to as cubesat_quat_z_to
 from magsail_mj.quaternion import (
     error_quaternion,
+    direction_quaternions,
     quat_conj,
     quat_from_axis_angle,
     quat_from_matrix,
@@ -100,6 +101,16 @@ def test_z_to_rotates_z_onto_the_direction(v):
         np.testing.assert_allclose(quat_to_matrix(q)[:, 2], d / np.linalg.norm(d), atol=1e-12)
 
 
+@settings(max_examples=40, deadline=None)
+@given(arrays(np.float64, (5, 3), elements=st.floats(-2, 2)).filter(lambda v: np.all(np.linalg.norm(v, axis=1) > 0.1)))
+def test_direction_quaternions_rotate_z_onto_each_direction(d):
+    """R(q_t) ẑ = d̂_t for every row (tol 1e-12), antiparallel rows included; unit quaternions."""
+    d = np.vstack([d, [0.0, 0.0, -1.5]])
+    q = direction_quaternions(d)
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-15)
+    np.testing.assert_allclose(quat_to_matrix(q)[:, :, 2], d / np.linalg.norm(d, axis=1, keepdims=True), atol=1e-12)
+
+
 def test_aliases_and_errors_name_their_argument():
     """The aliases kept for callers equal the one implementation bit for bit; bad input names its argument."""
     q = np.array([0.3, -0.2, 0.9, 0.1])
@@ -115,3 +126,5 @@ def test_aliases_and_errors_name_their_argument():
         quat_from_matrix(np.eye(2))
     with pytest.raises(ValueError, match="^axis: "):
         quat_from_axis_angle(np.zeros(3), 1.0)
+    with pytest.raises(ValueError, match="^d: "):
+        direction_quaternions(np.zeros(3))

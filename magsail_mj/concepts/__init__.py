@@ -17,8 +17,10 @@ concept and no other part of magsail_mj (the framework imports it, never the rev
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import pkgutil
 from collections.abc import Callable
+from types import ModuleType
 from typing import Any, TypeVar
 
 __all__ = [
@@ -30,6 +32,7 @@ __all__ = [
     "register_task",
     "register_builder",
     "discover",
+    "concept_modules",
     "config_schemas",
     "task_kinds",
     "build_task",
@@ -122,6 +125,25 @@ def discover() -> None:
     for legacy in _LEGACY_PACKAGES:  # legacy-layout
         _import_children(legacy, packages_only=False)  # legacy-layout
     _discovered = True
+
+
+def concept_modules(leaf: str) -> dict[str, ModuleType]:
+    """The module ``<concept>.<leaf>`` of every concept package that has one, by concept name.
+
+    For a framework part that collects one optional module per concept (``env`` for the
+    control-suite environments) without naming the concepts.
+    """
+    _check_name("leaf", leaf)
+    found = {}
+    pkg = importlib.import_module(__name__)
+    for info in pkgutil.iter_modules(pkg.__path__, prefix=__name__ + "."):
+        concept = info.name.rpartition(".")[2]
+        if not info.ispkg or concept.startswith("_"):
+            continue
+        name = f"{info.name}.{leaf}"
+        if importlib.util.find_spec(name) is not None:
+            found[concept] = importlib.import_module(name)
+    return found
 
 
 def config_schemas() -> dict[str, type]:
