@@ -1,7 +1,9 @@
 r"""S8 of the CNUSAIL spec (§10): orbital lifetime for the three attitude regimes, as a scenario.
 
-There is no MuJoCo integration: :meth:`LifetimeScenario.simulation` returns a small runner whose
-``run`` calls the SciPy propagators of :mod:`magsail_mj.analysis.lifetime` (Cowell for the regimes
+There is no MuJoCo integration: :meth:`LifetimeTask.simulation` returns a
+:class:`LifetimeRunner` (the same ``run()`` → :class:`magsail_mj.sim.RunResult` interface as
+:class:`magsail_mj.sim.Simulation`, no time steps of its own) whose ``run`` calls the SciPy
+propagators of :mod:`magsail_mj.analysis.lifetime` (Cowell for the regimes
 in ``lifetime.methods_cowell``, orbit-averaged for every regime) for every atmosphere in
 ``lifetime.atmospheres`` (the MSIS cases are skipped, with a note in the summary, when pymsis is not
 installed), plus the comparison set: generic 3U cubesats in circular orbits and the flown sail
@@ -29,9 +31,17 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from magsail_mj.analysis.lifetime import averaged_decay, cowell_decay, density_model, geometric_mean_elements
+from magsail_mj.environment.environment import elements_from_config
+from magsail_mj.environment.timeutil import julian_date, parse_epoch
+from magsail_mj.io import atomic_path, write_json
+from magsail_mj.mjcf.cubesat import build_cubesat_spec
+from magsail_mj.scenarios.cnusail_config import CnusailConfig
+from magsail_mj.scenarios.cnusail_model import model_params
+from magsail_mj.scenarios.cnusail_plots import lifetime_plots
 from magsail_mj.sim import RunResult
 
-__all__ = ["LifetimeScenario", "REFERENCE_SAILS"]
+__all__ = ["LifetimeTask", "LifetimeRunner", "REFERENCE_SAILS"]
 
 DAY = 86400.0
 REFERENCE_SAILS: tuple[dict[str, Any], ...] = (
@@ -46,10 +56,12 @@ REFERENCE_SAILS: tuple[dict[str, Any], ...] = (
 
 
 @dataclass
-class _LifetimeRun:
-    """Duck-typed stand-in for :class:`magsail_mj.sim.Simulation`: ``run`` does the analysis."""
+class LifetimeRunner:
+    """The runner of a lifetime task: ``run`` does the analysis (:meth:`LifetimeTask.compute`) and
+    returns its records as a :class:`magsail_mj.sim.RunResult` (``status`` ``"diverged"`` when a
+    propagation produced a non-finite number)."""
 
-    sc: "LifetimeScenario"
+    sc: LifetimeTask
     #: an orbit-decay analysis without time steps of its own: no checkpoints, so no stop/resume
     checkpoints = False
 
@@ -66,19 +78,14 @@ class _LifetimeRun:
 
 
 @dataclass
-class LifetimeScenario:
+class LifetimeTask:
     """The S8 analysis of a ``kind = "lifetime"`` CNUSAIL config (module docstring)."""
 
-    cfg: Any
+    cfg: CnusailConfig
     spec: mujoco.MjSpec = field(init=False)
 
     def __post_init__(self) -> None:
-        from magsail_mj.environment.environment import elements_from_config
-        from magsail_mj.environment.timeutil import julian_date, parse_epoch
-        from magsail_mj.mjcf.cubesat import build_cubesat_spec
-        from magsail_mj.scenarios.cnusail import _model_params
-
-        self.spec = build_cubesat_spec(_model_params(self.cfg))
+        self.spec = build_cubesat_spec(model_params(self.cfg))
         o = self.cfg.orbit
         self.epoch = parse_epoch(o.epoch)
         self.elements = elements_from_config(o, jd0=julian_date(self.epoch))
@@ -89,8 +96,8 @@ class LifetimeScenario:
         self.notes: list[str] = []
         self.n_runs = 0
 
-    def simulation(self) -> _LifetimeRun:
-        return _LifetimeRun(self)
+    def simulation(self) -> LifetimeRunner:
+        return LifetimeRunner(self)
 
     # -------------------------------------------------------------- analysis
     def _areas(self) -> dict[str, float]:
@@ -101,10 +108,8 @@ class LifetimeScenario:
         return self.cfg.drag.drag_coefficient * area / (mass or self.cfg.spacecraft.mass_kg)
 
     def compute(self) -> dict[str, np.ndarray]:
-        from magsail_mj.analysis.lifetime import (
-            averaged_decay, cowell_decay, density_model, geometric_mean_elements,
-        )
-
+        """Run every decay propagation; returns the records (time, mean-altitude, perigee and apogee
+        series of each run [s, m]) and fills ``table``, ``comparison`` and ``notes``."""
         cfg, L = self.cfg, self.cfg.lifetime
         stop = L.stop_altitude_km * 1e3
         el = self.elements
@@ -219,9 +224,6 @@ class LifetimeScenario:
         return s, {}
 
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
-        from magsail_mj.io import atomic_path, write_json
-        from magsail_mj.scenarios.cnusail_plots import lifetime_plots
-
         out = []
         path = run_dir / "lifetime_table.csv"
         with atomic_path(path, suffix=".csv") as tmp:

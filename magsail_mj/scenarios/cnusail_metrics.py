@@ -51,6 +51,13 @@ from typing import Any
 
 import numpy as np
 
+from magsail_mj.control.cnusail_modes import CnusailController, Mode, command_quaternion
+from magsail_mj.estimation.attitude import euler_zyx, matrix_from_quat
+from magsail_mj.loads.actuators_cubesat import mtq_power
+from magsail_mj.loads.base import StepState
+from magsail_mj.loads.cubesat_disturbances import SOURCES
+from magsail_mj.quaternion import quat_mul
+from magsail_mj.scenarios.cnusail_model import CnusailModel
 from magsail_mj.sim import RunResult
 
 __all__ = ["attitude_outputs", "time_stays_below", "disturbance_orbit_profile", "direction_quaternions"]
@@ -86,21 +93,17 @@ def direction_quaternions(d: np.ndarray) -> np.ndarray:
 
 def _euler_321_deg(p_e: np.ndarray) -> np.ndarray:
     """3-2-1 (yaw, pitch, roll) angles [deg] of the error rotations (body relative to command)."""
-    from magsail_mj.estimation.attitude import euler_zyx, matrix_from_quat
-
     psi, theta, phi = euler_zyx(matrix_from_quat(p_e))
     return np.degrees(np.stack([psi, theta, phi], axis=1))
 
 
-def disturbance_orbit_profile(sc, mode: str, *, n: int = 600, offset_deg: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def disturbance_orbit_profile(sc: CnusailModel, mode: str, *, n: int = 600, offset_deg: float = 0.0
+                              ) -> tuple[np.ndarray, np.ndarray]:
     """Disturbance torques (n, 4, 3) [N m, body axes, rows = SOURCES] over one orbit from t = 0 with
     the body held in the ``mode`` attitude (``"nadir"`` or ``"deorbit"``), turned by ``offset_deg``
     about the body y axis (0: exactly; then the gravity gradient vanishes, the principal axes being
-    on R's axes), at times (n,)."""
-    from magsail_mj.control.cnusail_modes import Mode, command_quaternion
-    from magsail_mj.quaternion import quat_mul
-    from magsail_mj.loads.base import StepState
-
+    on R's axes), at times (n,). ``sc``: the built cubesat (an attitude task exposes the same
+    ``environment``, ``orbit_period_s``, ``model``, ``idx`` and ``disturbances``)."""
     env = sc.environment
     T = min(sc.orbit_period_s, env.t_max)
     ts = np.linspace(0.0, T, n)
@@ -121,13 +124,10 @@ def disturbance_orbit_profile(sc, mode: str, *, n: int = 600, offset_deg: float 
     return ts, out
 
 
-def attitude_outputs(sc, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """(summary, series) of an attitude run (module docstring)."""
-    from magsail_mj.control.cnusail_modes import Mode
-    from magsail_mj.estimation.attitude import matrix_from_quat
-    from magsail_mj.loads.actuators_cubesat import mtq_power
-    from magsail_mj.loads.cubesat_disturbances import SOURCES
-
+def attitude_outputs(sc: CnusailModel, result: RunResult, *, controller: CnusailController | None
+                     ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """(summary, series) of an attitude run (module docstring) of the built cubesat ``sc`` whose
+    flight controller was ``controller`` (its events and duty cycle; ``None``: not run)."""
     cfg, rec, idx = sc.cfg, result.records, sc.idx
     t = rec["t"]
     n = len(t)
@@ -208,7 +208,7 @@ def attitude_outputs(sc, result: RunResult) -> tuple[dict[str, Any], dict[str, n
         summary["rate_mean_last_orbit_rad_s"] = float(np.mean(w_norm[last]))
         last2 = t >= t[-1] - 2 * period
         summary["rate_ptp_last_two_orbits_rad_s"] = float(np.ptp(w_norm[last2]))
-        duty = sc.controller.p.mtq_cycle.duty if sc.controller is not None else 1.0
+        duty = controller.p.mtq_cycle.duty if controller is not None else 1.0
         summary["mtq_energy_J"] = float(np.sum(power.sum(axis=1)) * dt_rec * duty)
         summary["mtq_dipole_max_A_m2"] = float(np.max(np.abs(dip))) if n else 0.0
 
@@ -275,10 +275,10 @@ def attitude_outputs(sc, result: RunResult) -> tuple[dict[str, Any], dict[str, n
                 win = (t >= t[i]) & (t <= t[i] + 0.5 * period)
                 summary[f"error_max_after_perigee_{kk}_rad"] = float(theta[win].max())
                 summary[f"perigee_{kk}_time_s"] = float(t[i])
-            events = sc.controller.events if sc.controller is not None else []
+            events = controller.events if controller is not None else []
             summary["gain_recalc_count"] = sum(1 for e in events if e["kind"] == "gain_recalc")
-        if sc.controller is not None:
-            ms = [e for e in sc.controller.events if e["kind"] == "manoeuvre_start"]
+        if controller is not None:
+            ms = [e for e in controller.events if e["kind"] == "manoeuvre_start"]
             if ms:
                 summary["eigen_angle_gain_ref_rad"] = ms[0]["theta_clamped_rad"]
 
@@ -299,6 +299,6 @@ def attitude_outputs(sc, result: RunResult) -> tuple[dict[str, Any], dict[str, n
     modes = rec["mode"].astype(int)
     for m in Mode:
         summary[f"time_in_{m.name.lower()}_s"] = float(np.sum(modes == int(m)) * dt_rec)
-    if sc.controller is not None:
-        summary["event_count"] = len(sc.controller.events)
+    if controller is not None:
+        summary["event_count"] = len(controller.events)
     return summary, series

@@ -6,15 +6,15 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from magsail_mj.io import write_json
-from magsail_mj.scenarios.truss_plots import save_figure
-
-if TYPE_CHECKING:
-    from magsail_mj.scenarios.cnusail import CnusailScenario
+from magsail_mj.loads.cubesat_disturbances import SOURCES
+from magsail_mj.plotting import new_figure, save_figure
+from magsail_mj.scenarios.cnusail_config import CnusailConfig
 
 __all__ = ["attitude_plots", "disturbance_orbit_figure", "lifetime_plots"]
 
@@ -23,26 +23,15 @@ _SRC_LABEL = {"gravity_gradient": "gravity gradient", "drag": "drag", "srp": "SR
               "residual_dipole": "residual dipole"}
 
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def _hlines(ax, values, **kw) -> None:
     for v in values:
         ax.axhline(v, color=kw.get("color", "k"), ls="--", lw=0.8, alpha=0.6)
 
 
-def disturbance_orbit_figure(series: dict[str, np.ndarray], period_s: float, title: str):
-    """Figure: ‖T‖ of each disturbance source over one orbit, nadir and deorbit attitudes."""
-    from magsail_mj.loads.cubesat_disturbances import SOURCES
-
-    plt = _plt()
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharey=True)
+def disturbance_orbit_figure(series: dict[str, np.ndarray], period_s: float, title: str) -> Figure:
+    """Figure: ‖T‖ [N m] of each disturbance source over one orbit (time in orbits of ``period_s``
+    [s]), nadir and deorbit attitudes."""
+    fig, axes = new_figure(1, 2, figsize=(12, 4.2), sharey=True)
     for ax, m in zip(axes, ("nadir", "deorbit")):
         ts = series[f"dist_orbit_t_{m}_s"]
         tq = series[f"dist_orbit_{m}_N_m"]
@@ -65,14 +54,13 @@ def disturbance_orbit_figure(series: dict[str, np.ndarray], period_s: float, tit
     return fig
 
 
-def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.ndarray]) -> list[Path]:
-    """Write the run's figures and ``events.json`` into ``run_dir``; return their paths."""
-    plt = _plt()
-    cfg = sc.cfg
+def attitude_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: CnusailConfig, orbit_period_s: float,
+                   events: list[dict[str, Any]]) -> list[Path]:
+    """Write the run's figures and ``events.json`` (the controller's ``events``) into ``run_dir``;
+    return their paths. Time axes in orbits of ``orbit_period_s`` [s] (detumbling) or minutes."""
     t = series["t"]
-    period = sc.orbit_period_s
+    period = orbit_period_s
     out: list[Path] = []
-    events: list[dict[str, Any]] = sc.controller.events if sc.controller is not None else []
     out.append(write_json(run_dir / "events.json", {"count": len(events), "events": events}))
     title = f"CNUSAIL-1 {cfg.scenario} ({cfg.spacecraft.configuration}, {cfg.control.mode})"
     npz = np.load(run_dir / "timeseries.npz")
@@ -83,7 +71,7 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
 
     if cfg.control.mode == "bdot" or cfg.control.modes.enabled:
         x = t / period
-        fig, ax = plt.subplots(figsize=(9, 4.5))
+        fig, ax = new_figure(figsize=(9, 4.5))
         w = series["omega_body_rad_s"] * deg
         for j in range(3):
             ax.plot(x, w[:, j], lw=0.7, label=f"ω_{_AX[j]}")
@@ -95,7 +83,7 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
         ax.grid(alpha=0.3)
         out.append(save_figure(fig, run_dir / "rates.png"))
 
-        fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
+        fig, axes = new_figure(3, 1, figsize=(9, 7), sharex=True)
         dip = rec["dipole_cmd_A_m2"]
         for j, ax in enumerate(axes):
             ax.plot(x, dip[:, j], lw=0.6)
@@ -106,7 +94,7 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
         axes[-1].set_xlabel("time [orbits]")
         out.append(save_figure(fig, run_dir / "dipole.png"))
 
-        fig, ax = plt.subplots(figsize=(9, 4))
+        fig, ax = new_figure(figsize=(9, 4))
         P = series["mtq_power_W"]
         for j in range(3):
             ax.plot(x, P[:, j], lw=0.6, label=f"axis {_AX[j]}")
@@ -117,7 +105,7 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
         ax.grid(alpha=0.3)
         out.append(save_figure(fig, run_dir / "mtq_power.png"))
 
-        fig, ax = plt.subplots(figsize=(9, 4))
+        fig, ax = new_figure(figsize=(9, 4))
         B = series["B_body_T"] * 1e6
         for j in range(3):
             ax.plot(x, B[:, j], lw=0.6, label=f"B_{_AX[j]}")
@@ -131,7 +119,7 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
         x = t / 60.0
         marks = [e["t_s"] / 60.0 for e in events if e["kind"] in ("gain_recalc", "manoeuvre_start", "mode")]
         thr = cfg.analysis.pointing_threshold_deg
-        fig, axes = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
+        fig, axes = new_figure(2, 1, figsize=(9, 7), sharex=True)
         axes[0].plot(x, series["theta_e_deg"], "k", label="θ_e (eigen-angle)")
         axes[0].axhspan(-thr, thr, color="g", alpha=0.15)
         axes[0].set_ylabel("θ_e [deg]")
@@ -150,7 +138,7 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
         axes[1].set_xlabel("time [min]")
         out.append(save_figure(fig, run_dir / "attitude_error.png"))
 
-        fig, ax = plt.subplots(figsize=(9, 4.5))
+        fig, ax = new_figure(figsize=(9, 4.5))
         we = rec["omega_e_rad_s"] * deg
         for j in range(3):
             ax.plot(x, we[:, j], lw=0.7, label=f"ω_e,{_AX[j]}")
@@ -163,7 +151,7 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
         ax.grid(alpha=0.3)
         out.append(save_figure(fig, run_dir / "rate_error.png"))
 
-        fig, ax = plt.subplots(figsize=(9, 4.5))
+        fig, ax = new_figure(figsize=(9, 4.5))
         rpm = series["wheel_speed_rpm"]
         for j in range(3):
             ax.plot(x, rpm[:, j], lw=0.8, label=f"wheel {_AX[j]}")
@@ -176,7 +164,7 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
         ax.grid(alpha=0.3)
         out.append(save_figure(fig, run_dir / "wheel_speeds.png"))
 
-        fig, axes = plt.subplots(3, 1, figsize=(9, 7.5), sharex=True)
+        fig, axes = new_figure(3, 1, figsize=(9, 7.5), sharex=True)
         u = rec["u_cmd_N_m"]
         wt = series["wheel_torque_body_N_m"]
         tau = wheels.torque_max_N_m
@@ -191,7 +179,7 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
         axes[-1].set_xlabel("time [min]")
         out.append(save_figure(fig, run_dir / "torques.png"))
 
-        fig, ax = plt.subplots(figsize=(9, 4))
+        fig, ax = new_figure(figsize=(9, 4))
         dip = rec["dipole_cmd_A_m2"]
         for j in range(3):
             ax.plot(x, dip[:, j], lw=0.8, label=f"m_{_AX[j]}")
@@ -207,7 +195,7 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
             out.append(save_figure(fig, run_dir / "disturbances_orbit.png"))
 
         if cfg.control.command == "deorbit" or cfg.control.modes.deorbit_at_s is not None:
-            fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+            fig, axes = new_figure(3, 1, figsize=(9, 8), sharex=True)
             axes[0].plot(x, series["altitude_m"] / 1e3, "b")
             axes[0].set_ylabel("altitude [km]", color="b")
             a2 = axes[0].twinx()
@@ -227,10 +215,8 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
             out.append(save_figure(fig, run_dir / "deorbit_flow.png"))
 
     # disturbance torques along the run, every mode
-    from magsail_mj.loads.cubesat_disturbances import SOURCES
-
     x = t / (period if cfg.control.mode == "bdot" else 60.0)
-    fig, ax = plt.subplots(figsize=(9, 4.5))
+    fig, ax = new_figure(figsize=(9, 4.5))
     dist = rec["torque_dist_body_N_m"]
     for k, src in enumerate(SOURCES):
         mag = np.linalg.norm(dist[:, k], axis=1)
@@ -248,9 +234,8 @@ def attitude_plots(sc: "CnusailScenario", run_dir: Path, series: dict[str, np.nd
 def lifetime_plots(run_dir: Path, series: dict[str, np.ndarray], table: list[dict[str, Any]],
                    comparison: dict[str, Any], title: str) -> list[Path]:
     """S8: altitude vs time for the three regimes (one plot) and the lifetime comparison chart."""
-    plt = _plt()
     out: list[Path] = []
-    fig, ax = plt.subplots(figsize=(10, 5))
+    fig, ax = new_figure(figsize=(10, 5))
     colours = {"nadir": "tab:blue", "deorbit": "tab:red", "tumbling": "tab:green"}
     for reg in ("nadir", "deorbit", "tumbling"):
         for method, ls in (("cowell", "-"), ("averaged", "--")):
@@ -272,7 +257,7 @@ def lifetime_plots(run_dir: Path, series: dict[str, np.ndarray], table: list[dic
     ax.grid(alpha=0.3)
     out.append(save_figure(fig, run_dir / "altitude_decay.png"))
 
-    fig, ax = plt.subplots(figsize=(10, 5.5))
+    fig, ax = new_figure(figsize=(10, 5.5))
     g = comparison["generic"]
     capped = np.asarray(g.get("reached_cap", [False] * len(g["altitude_km"])), dtype=bool)
     alt, days = np.asarray(g["altitude_km"], float), np.asarray(g["lifetime_days"], float)
