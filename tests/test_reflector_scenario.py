@@ -221,6 +221,6 @@ def test_cap_sweep_watchdog_stops_a_failing_run():
 
     assert cap_grid()[[0, -1]].tolist() == [0.25, 64.0]
     cfg = load_config(TRACK100, ["sim.duration_s=600", "sim.progress=false"])
-    runner = CapSweepRunner(build_scenario(cfg))
+    runner = CapSweepRunner(build_scenario(cfg).plate)
     r = runner._one(1.125, 0.01)                              # 0.01° cannot be held: stopped early
     assert not r.passed and r.t_stop_s < 600 and r.err_max_rad > 0.01 * math.pi / 180

@@ -18,15 +18,16 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from magsail_mj.divergence import DivergenceError, TrackingLost, check_inner_run
+from magsail_mj.loads.body_torque import HeldBodyTorqueLoad
+from magsail_mj.plotting import new_figure, save_figure
+from magsail_mj.scenarios.reflector_model import ReflectorModel
 from magsail_mj.sim import RunResult, Simulation
-
-if TYPE_CHECKING:
-    from magsail_mj.scenarios.reflector import ReflectorScenario
 
 __all__ = ["CapSweepRunner", "cap_grid", "caps_outputs", "caps_plots"]
 
@@ -71,23 +72,32 @@ class CapRun:
 class CapSweepRunner:
     """Runs the B3 sweep (module docstring) and returns a :class:`RunResult` whose records are one
     row per run: ``t`` (run index), ``cap_N_m``, ``limit_deg``, ``passed``, ``err_max_rad``,
-    ``t_stop_s``, ``wall_s``, and ``qpos`` (the initial state, for the run-folder contract)."""
+    ``t_stop_s``, ``wall_s``, and ``qpos`` (the initial state, for the run-folder contract).
 
-    sc: "ReflectorScenario"
+    Every run is a :class:`magsail_mj.sim.Simulation` of ``plate`` (the built pitch model) with its
+    pitch controller behind the watchdog; the runner has no step loop of its own."""
+
+    plate: ReflectorModel
     thresholds_deg: tuple[float, ...] = (5.0, 1.0)
     rel_tol: float = 0.01
     #: a search over many short runs: no checkpoints, so no stop/resume
     checkpoints = False
 
-    def _one(self, cap: float, limit_deg: float) -> CapRun:
-        from magsail_mj.loads.body_torque import HeldBodyTorqueLoad
+    def _init_state(self, data) -> None:
+        self.plate.write_state(data, *self.plate.pitch_initial_state())
 
-        sc = self.sc
-        ctl = sc.make_controller()
+    def simulation(self, cap: float, limit_deg: float) -> tuple[Simulation, _Watchdog]:
+        """One run of the sweep: cap ``cap`` [N m], stopped above ``limit_deg`` [deg]."""
+        p = self.plate
+        ctl = p.pitch_controller()
         ctl.cap = float(cap)
         dog = _Watchdog(ctl, limit_deg * DEG)
-        sim = Simulation(model=sc.model, duration_s=sc.cfg.sim.duration_s, loads=[HeldBodyTorqueLoad(sc.idx.plate)],
-                         controller=dog, probes={}, record_every=10 ** 9, init=sc.init_state)
+        sim = Simulation(model=p.model, duration_s=p.cfg.sim.duration_s, loads=[HeldBodyTorqueLoad(p.idx.plate)],
+                         controller=dog, probes={}, record_every=10 ** 9, init=self._init_state)
+        return sim, dog
+
+    def _one(self, cap: float, limit_deg: float) -> CapRun:
+        sim, dog = self.simulation(cap, limit_deg)
         t0 = time.perf_counter()
         res = sim.run()
         check_inner_run(res.status, res.message, where=f"cap {cap:g} N m, limit {limit_deg:g}°")
@@ -143,11 +153,8 @@ class CapSweepRunner:
         self.monotonic = {thr: bool(np.all(np.diff([float(r.passed and r.err_max_rad <= thr * DEG)
                                                    for r in runs[: grid.size]]) >= 0))
                           for thr in self.thresholds_deg}
-        data_qpos = np.zeros((len(runs), self.sc.model.nq))
-        q0, _ = self.sc.initial_state()
-        data_qpos[:, self.sc.idx.q_quat] = q0
-        for qa in self.sc.idx.marker_qpos.values():
-            data_qpos[:, qa] = 1.0
+        q0, _ = self.plate.pitch_initial_state()
+        data_qpos = self.plate.qpos_rows(q0, len(runs))
         rec = {"t": np.arange(len(runs), dtype=float), "qpos": data_qpos,
                "cap_N_m": np.array([r.cap_N_m for r in runs]), "limit_deg": np.array([r.limit_deg for r in runs]),
                "passed": np.array([r.passed for r in runs], dtype=np.int8),
@@ -155,19 +162,20 @@ class CapSweepRunner:
                "wall_s": np.array([r.wall_s for r in runs])}
         message = message or f"B3 cap sweep: {len(runs)} runs"
         return RunResult(records=rec, status=status, message=message,
-                         t_end_s=float(self.sc.cfg.sim.duration_s), steps=0, wall_time_s=time.perf_counter() - wall0)
+                         t_end_s=float(self.plate.cfg.sim.duration_s), steps=0, wall_time_s=time.perf_counter() - wall0)
 
 
-def caps_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def caps_outputs(runner: CapSweepRunner, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Summary of a B3 sweep: ``cap_min_err_below_5deg_N_m``, ``cap_min_err_below_1deg_N_m`` and the run table."""
-    runner = sc.runner
+    p = runner.plate
+    cfg = p.cfg
     rec = result.records
     summary: dict[str, Any] = {
         "status": result.status, "wall_time_s": result.wall_time_s, "runs": int(rec["t"].size),
-        "areal_density_kg_m2": sc.cfg.plate.areal_density_kg_m2, "variant": sc.cfg.variant,
-        "rate_term": sc.cfg.control.rate_term, "saturation": sc.cfg.control.saturation_mode,
-        "orbit_period_s": sc.orbit.period_s, "t_mid_s": sc.orbit.t_m_s,
-        "cap_geometric_N_m": sc.cap.T_max_ycoil_N_m,
+        "areal_density_kg_m2": cfg.plate.areal_density_kg_m2, "variant": cfg.variant,
+        "rate_term": cfg.control.rate_term, "saturation": cfg.control.saturation_mode,
+        "orbit_period_s": p.orbit.period_s, "t_mid_s": p.orbit.t_m_s,
+        "cap_geometric_N_m": p.cap.T_max_ycoil_N_m,
         "cap_min_err_below_5deg_N_m": runner.minimum.get(5.0),
         "cap_min_err_below_1deg_N_m": runner.minimum.get(1.0),
         "grid_monotonic_5deg": runner.monotonic.get(5.0), "grid_monotonic_1deg": runner.monotonic.get(1.0),
@@ -177,30 +185,22 @@ def caps_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str, 
     return summary, series
 
 
-def caps_plots(sc: "ReflectorScenario", run_dir, series: dict[str, np.ndarray]) -> list:
-    """``caps.png``: maximum error (up to the stop) against the cap, pass/fail, thresholds."""
-    from pathlib import Path
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from magsail_mj.scenarios.truss_plots import save_figure
-
-    rec = sc.runner
-    fig, ax = plt.subplots(figsize=(8, 4.5))
-    for r in rec.runs:
+def caps_plots(run_dir: Path, *, runs: list[CapRun], minimum: dict[float, float | None], T_max_N_m: float,
+               areal_density_kg_m2: float) -> list[Path]:
+    """``caps.png``: maximum error [deg] (up to the stop) against the cap [N m], pass/fail, the
+    thresholds, the minimum caps found and the geometric coil capability ``T_max_N_m``."""
+    fig, ax = new_figure(figsize=(8, 4.5))
+    for r in runs:
         ax.loglog(r.cap_N_m, max(math.degrees(r.err_max_rad), 1e-4), "o" if r.passed else "x",
                   color="C2" if r.passed else "C3", ms=5)
     for thr in (5.0, 1.0):
         ax.axhline(thr, color="k", ls="--", lw=0.8)
-        c = rec.minimum.get(thr)
+        c = minimum.get(thr)
         if c is not None:
             ax.axvline(c, color="C0", ls=":", lw=1.0)
             ax.text(c, thr * 1.15, f" {c:.3g} N m", color="C0", fontsize=8)
-    ax.axvline(sc.cap.T_max_ycoil_N_m, color="C1", lw=1.0, label=f"coil T_max {sc.cap.T_max_ycoil_N_m:.3g} N m")
+    ax.axvline(T_max_N_m, color="C1", lw=1.0, label=f"coil T_max {T_max_N_m:.3g} N m")
     ax.set_xlabel("torque cap [N m]"), ax.set_ylabel("max attitude error up to the stop [deg]")
-    ax.set_title(f"B3 cap sweep, σ = {1e3 * sc.cfg.plate.areal_density_kg_m2:g} g/m² (o pass, x stopped)")
+    ax.set_title(f"B3 cap sweep, σ = {1e3 * areal_density_kg_m2:g} g/m² (o pass, x stopped)")
     ax.grid(alpha=0.3, which="both"), ax.legend()
     return [save_figure(fig, Path(run_dir) / "caps.png")]

@@ -3,6 +3,9 @@ r"""Reflector post-processing: derived series and the flat ``summary.json`` keys
 Records are taken every ``sim.record_every`` steps; "first time" metrics are the first record at
 which the condition holds (``None`` if never).
 
+Functions take the built plate (:class:`magsail_mj.scenarios.reflector_model.ReflectorModel`:
+config, indices, inertia, capability, orbit) and the run's records.
+
 Detumble (§5.5): ``t_omega_below_1e-{2,3,4}_s`` (first |ω| below 10⁻², 10⁻³, 10⁻⁴ rad/s; the issue's
 ``time_rate_below_1e-3_s`` equals the middle one), ``omega_final_rad_s``,
 ``sat_fraction_{x,y}coil``, ``t_min_one_cap_s = |h₀| / T_max`` and ``t_min_two_caps_s =
@@ -21,17 +24,16 @@ equator crossing on the +x side, ``t_k = t_m + k T_orb``, clipped to the run.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from magsail_mj.control.reflector_steering import pitch_angle_from_quaternion
 from magsail_mj.environment.frames import quat_to_mat
+from magsail_mj.mjcf.plate import plate_mass_properties
 from magsail_mj.scenarios.cnusail_metrics import direction_quaternions
+from magsail_mj.scenarios.reflector_model import ReflectorModel
 from magsail_mj.sim import RunResult
-
-if TYPE_CHECKING:
-    from magsail_mj.scenarios.reflector import ReflectorScenario
 
 __all__ = ["detumble_outputs", "pitch_outputs", "first_time", "pass_table", "reference_products"]
 
@@ -52,17 +54,17 @@ def _dt_weights(t: np.ndarray) -> np.ndarray:
     return np.append(dt, dt[-1])
 
 
-def _plate_records(sc: "ReflectorScenario", result: RunResult):
+def _plate_records(plate: ReflectorModel, result: RunResult):
     """``(records, t, qpos, q, ω)``: the records, their times, a copy of ``qpos`` (the markers are
     written into it), the plate quaternions (a view of that copy) and the body rates."""
     rec = result.records
     qpos = rec["qpos"].copy()
-    return rec, rec["t"], qpos, qpos[:, sc.idx.q_quat], rec["qvel"][:, sc.idx.v_ang]
+    return rec, rec["t"], qpos, qpos[:, plate.idx.q_quat], rec["qvel"][:, plate.idx.v_ang]
 
 
-def _set_markers(sc: "ReflectorScenario", qpos: np.ndarray, directions: dict[str, np.ndarray]) -> None:
+def _set_markers(plate: ReflectorModel, qpos: np.ndarray, directions: dict[str, np.ndarray]) -> None:
     for name, vec in directions.items():
-        qa = sc.idx.marker_qpos.get(name)
+        qa = plate.idx.marker_qpos.get(name)
         if qa is None:
             continue
         v = np.asarray(vec, dtype=float)
@@ -81,11 +83,11 @@ def _set_markers(sc: "ReflectorScenario", qpos: np.ndarray, directions: dict[str
 # ------------------------------------------------------------------------------ detumble
 
 
-def detumble_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def detumble_outputs(plate: ReflectorModel, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Summary and series of a Scenario A run."""
-    rec, t, qpos, q, w = _plate_records(sc, result)
+    rec, t, qpos, q, w = _plate_records(plate, result)
     R = quat_to_mat(q)
-    I = sc.inertia
+    I = plate.inertia
     h_b = w * I
     h_w = np.einsum("tij,tj->ti", R, h_b)
     B_b = rec["B_body_T"]
@@ -98,7 +100,7 @@ def detumble_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[s
     h_norm = np.linalg.norm(h_w, axis=1)
     h_along = np.einsum("ti,ti->t", h_w, b_hat)
     sat = rec["saturated"].astype(bool)
-    _set_markers(sc, qpos, {"mk_field": B_w, "mk_omega": w_w, "mk_torque": T_w})
+    _set_markers(plate, qpos, {"mk_field": B_w, "mk_omega": w_w, "mk_torque": T_w})
     series = {
         "qpos": qpos,
         "time_h": t / 3600.0,
@@ -115,15 +117,15 @@ def detumble_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[s
         "currents_A": rec["currents_A"],
         "B_world_T": B_w,
     }
-    cap = sc.cap.cap_N_m
+    cap = plate.cap.cap_N_m
     h0 = float(h_norm[0])
     summary: dict[str, Any] = {
         "status": result.status, "t_end_s": result.t_end_s, "wall_time_s": result.wall_time_s,
         "step_cost_us": 1e6 * result.wall_time_s / max(result.steps, 1),
-        "variant": sc.cfg.variant, "law": sc.cfg.control.law, "field_frame": sc.cfg.field.frame,
-        "omega_k_rad_s": sc.cfg.control.omega_k_rad_s, "bdot_gain": sc.bdot_gain(),
-        "T_max_N_m": cap, "m_max_A_m2": float(sc.cap.m_max_A_m2[1]),
-        "mass_kg": sc.mass_kg, "inertia_kg_m2": sc.inertia.tolist(),
+        "variant": plate.cfg.variant, "law": plate.cfg.control.law, "field_frame": plate.cfg.field.frame,
+        "omega_k_rad_s": plate.cfg.control.omega_k_rad_s, "bdot_gain": plate.bdot_gain(),
+        "T_max_N_m": cap, "m_max_A_m2": float(plate.cap.m_max_A_m2[1]),
+        "mass_kg": plate.mass_kg, "inertia_kg_m2": plate.inertia.tolist(),
         "omega_initial_rad_s": float(w_norm[0]),
     }
     for exp in (2, 3, 4):
@@ -145,28 +147,26 @@ def detumble_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[s
 # ------------------------------------------------------------------------------ pitch
 
 
-def reference_products(sc: "ReflectorScenario", *, dt_s: float = 1.0) -> dict[str, np.ndarray]:
+def reference_products(plate: ReflectorModel, *, dt_s: float = 1.0) -> dict[str, np.ndarray]:
     """Reference-only series over the nominal run ``[0, n_orbits T_orb]`` on a ``dt_s`` grid (§6.7):
     ``t``, ``psi_c``, ``psi_wrapped``, ``psi_dot``, ``psi_ddot``, ``B`` (world, Eq. 11), and the
     feed-forward pitch torque ``I₂ |ψ̈|`` for σ = 100 and 10 g/m² (``torque_ff_sigma100``,
     ``torque_ff_sigma10``) and for the run's own density (``torque_ff``)."""
-    from magsail_mj.mjcf.plate import plate_mass_properties
-
-    o = sc.orbit
-    t_f = sc.cfg.orbit.n_orbits * o.period_s
+    o = plate.orbit
+    t_f = plate.cfg.orbit.n_orbits * o.period_s
     t = np.arange(0.0, t_f + 0.5 * dt_s, dt_s)
     out: dict[str, np.ndarray] = {"t": t, **o.psi_series(t), "B": o.field(t)}
-    p = sc.cfg.plate
+    p = plate.cfg.plate
     for label, sigma in (("sigma100", 0.1), ("sigma10", 0.01)):
-        _, I = plate_mass_properties(side_m=p.side_m, areal_density_kg_m2=sigma, thickness_m=sc.params.thickness)
+        _, I = plate_mass_properties(side_m=p.side_m, areal_density_kg_m2=sigma, thickness_m=plate.params.thickness)
         out[f"torque_ff_{label}"] = I[1] * np.abs(out["psi_ddot"])
-    out["torque_ff"] = sc.inertia[1] * np.abs(out["psi_ddot"])
+    out["torque_ff"] = plate.inertia[1] * np.abs(out["psi_ddot"])
     return out
 
 
-def pass_windows(sc: "ReflectorScenario", t_end: float) -> list[tuple[int, float, float, float]]:
+def pass_windows(plate: ReflectorModel, t_end: float) -> list[tuple[int, float, float, float]]:
     """``(k, t_k, start, end)`` of each pass whose window meets ``[0, t_end]``."""
-    o = sc.orbit
+    o = plate.orbit
     T = o.period_s
     k_lo = math.floor((0.0 - o.t_m_s) / T - 0.5) + 1
     k_hi = math.ceil((t_end - o.t_m_s) / T + 0.5) - 1
@@ -179,14 +179,14 @@ def pass_windows(sc: "ReflectorScenario", t_end: float) -> list[tuple[int, float
     return out
 
 
-def pass_table(sc: "ReflectorScenario", ref: dict[str, np.ndarray]) -> list[dict[str, Any]]:
+def pass_table(plate: ReflectorModel, ref: dict[str, np.ndarray]) -> list[dict[str, Any]]:
     """Per-pass table of the reference (§6.7): pass index k (0 = overhead), equator-crossing time,
     peak |ψ̇|, peak |ψ̈|, peak required torque I₂|ψ̈| and minutes above the cap, for both densities."""
     t = ref["t"]
     dt = _dt_weights(t)
-    cap = sc.cap.cap_N_m
+    cap = plate.cap.cap_N_m
     rows = []
-    for k, tk, a, b in pass_windows(sc, float(t[-1])):
+    for k, tk, a, b in pass_windows(plate, float(t[-1])):
         sel = (t >= a) & (t < b) if b < t[-1] else (t >= a) & (t <= b)
         row = {"pass": k, "t_equator_s": tk, "t_equator_h": tk / 3600.0,
                "psi_dot_peak_rad_s": float(np.max(np.abs(ref["psi_dot"][sel]))),
@@ -199,10 +199,12 @@ def pass_table(sc: "ReflectorScenario", ref: dict[str, np.ndarray]) -> list[dict
     return rows
 
 
-def pitch_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Summary and series of a Scenario B run."""
-    rec, t, qpos, q, w = _plate_records(sc, result)
-    o = sc.orbit
+def pitch_outputs(plate: ReflectorModel, result: RunResult, *, ref: dict[str, np.ndarray] | None = None
+                  ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Summary and series of a Scenario B run; ``ref``: :func:`reference_products` of ``plate``
+    (computed when not given)."""
+    rec, t, qpos, q, w = _plate_records(plate, result)
+    o = plate.orbit
     q_e = rec["q_e"]
     err = 2.0 * np.arccos(np.clip(np.abs(q_e[:, 0]), 0.0, 1.0))
     beta_act = pitch_angle_from_quaternion(q)
@@ -215,14 +217,14 @@ def pitch_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str,
     T_ref = rec["T_ref_body_N_m"]
     T_act = rec["torque_body_N_m"]
     sat = rec["saturated"].astype(bool)
-    cap = sc.cap.cap_N_m
+    cap = plate.cap.cap_N_m
     r_w = o.position(t)
     R_g = o.ground_point(t)
     B_w = rec["B_world_T"]
     R = quat_to_mat(q)
-    _set_markers(sc, qpos, {"mk_sun": np.tile([0.0, 1.0, 0.0], (t.size, 1)), "mk_ground": R_g - r_w,
+    _set_markers(plate, qpos, {"mk_sun": np.tile([0.0, 1.0, 0.0], (t.size, 1)), "mk_ground": R_g - r_w,
                             "mk_field": B_w})
-    qa = sc.idx.marker_qpos.get("mk_ref_line")
+    qa = plate.idx.marker_qpos.get("mk_ref_line")
     if qa is not None:
         qpos[:, qa:qa + 4] = rec["q_ref"]
     series = {
@@ -250,9 +252,8 @@ def pitch_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str,
         "ground_world_m": R_g,
         "plate_normal_world": R[:, :, 2],
     }
-    ref = reference_products(sc)
-    passes = pass_table(sc, ref)
-    windows = pass_windows(sc, float(t[-1]))
+    ref = reference_products(plate) if ref is None else ref
+    windows = pass_windows(plate, float(t[-1]))
     over_cap = sum(1 for _, _, a, b in windows
                    if np.any((series["T_ref_norm_N_m"] > cap * (1 + 1e-9)) & (t >= a) & (t <= b)))
     sat_passes = sum(1 for _, _, a, b in windows if np.any(sat & (t >= a) & (t <= b)))
@@ -260,12 +261,13 @@ def pitch_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str,
     summary: dict[str, Any] = {
         "status": result.status, "t_end_s": result.t_end_s, "wall_time_s": result.wall_time_s,
         "step_cost_us": 1e6 * result.wall_time_s / max(result.steps, 1),
-        "variant": sc.cfg.variant, "rate_term": sc.cfg.control.rate_term, "feedforward": sc.cfg.control.feedforward,
-        "saturation": sc.cfg.control.saturation_mode, "omega_n_rad_s": sc.cfg.control.omega_n_rad_s,
-        "areal_density_kg_m2": sc.cfg.plate.areal_density_kg_m2, "mass_kg": sc.mass_kg,
-        "inertia_kg_m2": sc.inertia.tolist(), "cap_N_m": cap,
+        "variant": plate.cfg.variant, "rate_term": plate.cfg.control.rate_term,
+        "feedforward": plate.cfg.control.feedforward,
+        "saturation": plate.cfg.control.saturation_mode, "omega_n_rad_s": plate.cfg.control.omega_n_rad_s,
+        "areal_density_kg_m2": plate.cfg.plate.areal_density_kg_m2, "mass_kg": plate.mass_kg,
+        "inertia_kg_m2": plate.inertia.tolist(), "cap_N_m": cap,
         "orbit_period_s": o.period_s, "orbit_radius_m": o.r_m, "mean_motion_rad_s": o.n_rad_s, "t_mid_s": o.t_m_s,
-        "run_length_nominal_s": sc.cfg.orbit.n_orbits * o.period_s,
+        "run_length_nominal_s": plate.cfg.orbit.n_orbits * o.period_s,
         "t_err_above_1deg_s": first_time(t, err > 1 * DEG),
         "t_err_above_5deg_s": first_time(t, err > 5 * DEG),
         "time_err_above_5deg_s": float(np.sum(dtw[err > 5 * DEG])),
@@ -276,7 +278,7 @@ def pitch_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str,
         "torque_ff_peak_N_m": float(ref["torque_ff"].max()),
         "torque_ff_peak_sigma100_N_m": float(ref["torque_ff_sigma100"].max()),
         "torque_ff_peak_sigma10_N_m": float(ref["torque_ff_sigma10"].max()),
-        "passes_ff_over_cap": int(sum(1 for _, _, a, b in pass_windows(sc, float(ref["t"][-1]))
+        "passes_ff_over_cap": int(sum(1 for _, _, a, b in pass_windows(plate, float(ref["t"][-1]))
                                       if np.any((ref["torque_ff"] > cap) & (ref["t"] >= a) & (ref["t"] <= b)))),
         "psi_dot_peak_rad_s": float(np.max(np.abs(ref["psi_dot"]))),
         "psi_ddot_peak_rad_s2": float(np.max(np.abs(ref["psi_ddot"]))),
@@ -299,5 +301,4 @@ def pitch_outputs(sc: "ReflectorScenario", result: RunResult) -> tuple[dict[str,
              "beta_ref": "rad", "B": "T", "torque_ff_sigma100": "N_m", "torque_ff_sigma10": "N_m", "torque_ff": "N_m"}
     for key, unit in units.items():
         series[f"ref_{key}_{unit}"] = ref[key]
-    sc.passes = passes
     return summary, series

@@ -14,50 +14,40 @@ densities, log, with the cap), ``field.png`` (B_x, B_z, |B| along the orbit), ``
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
 from magsail_mj.io import write_json
-from magsail_mj.scenarios.truss_plots import save_figure
-
-if TYPE_CHECKING:
-    from magsail_mj.scenarios.reflector import ReflectorScenario
+from magsail_mj.plotting import new_figure, save_figure
+from magsail_mj.scenarios.reflector_config import ReflectorConfig
 
 __all__ = ["detumble_plots", "pitch_plots"]
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def _positive(x: np.ndarray) -> np.ndarray:
     return np.where(x > 0, x, np.nan)
 
 
-def detumble_plots(sc: "ReflectorScenario", run_dir: Path, series: dict[str, np.ndarray]) -> list[Path]:
-    """Scenario A figures (module docstring)."""
-    plt = _plt()
+def detumble_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: ReflectorConfig, cap_N_m: float
+                   ) -> list[Path]:
+    """Scenario A figures (module docstring) of the series of
+    :func:`magsail_mj.scenarios.reflector_metrics.detumble_outputs`; ``cap_N_m``: per-path torque cap."""
     run_dir = Path(run_dir)
     th = series["time_h"]
-    cap = sc.cap.cap_N_m
-    label = f"{sc.cfg.scenario} ({sc.cfg.control.law}, ω_k = {sc.cfg.control.omega_k_rad_s:g} rad/s, " \
-            f"field {sc.cfg.field.frame})"
+    cap = cap_N_m
+    label = f"{cfg.scenario} ({cfg.control.law}, ω_k = {cfg.control.omega_k_rad_s:g} rad/s, " \
+            f"field {cfg.field.frame})"
     out = []
 
-    fig, ax = plt.subplots(figsize=(9, 4))
+    fig, ax = new_figure(figsize=(9, 4))
     for k, c in enumerate("xyz"):
         ax.plot(th, series["omega_body_rad_s"][:, k], label=f"ω_{c}")
     ax.set_xlabel("time [h]"), ax.set_ylabel("body rate [rad/s]"), ax.set_title(label)
     ax.grid(alpha=0.3), ax.legend()
     out.append(save_figure(fig, run_dir / "body_rates.png"))
 
-    fig, ax = plt.subplots(figsize=(9, 4))
+    fig, ax = new_figure(figsize=(9, 4))
     ax.semilogy(th, _positive(series["omega_norm_rad_s"]))
     for v in (1e-2, 1e-3, 1e-4):
         ax.axhline(v, color="k", ls="--", lw=0.7, alpha=0.5)
@@ -66,7 +56,7 @@ def detumble_plots(sc: "ReflectorScenario", run_dir: Path, series: dict[str, np.
     out.append(save_figure(fig, run_dir / "omega_norm.png"))
 
     T = np.asarray(series["torque_body_N_m"]) if "torque_body_N_m" in series else None
-    fig, ax = plt.subplots(figsize=(9, 4))
+    fig, ax = new_figure(figsize=(9, 4))
     if T is not None:
         for k, c in enumerate("xyz"):
             ax.plot(th, T[:, k], lw=0.8, label=f"T_{c}")
@@ -78,12 +68,12 @@ def detumble_plots(sc: "ReflectorScenario", run_dir: Path, series: dict[str, np.
     ax.grid(alpha=0.3), ax.legend()
     out.append(save_figure(fig, run_dir / "torque.png"))
 
-    fig, ax = plt.subplots(figsize=(9, 4))
+    fig, ax = new_figure(figsize=(9, 4))
     cur = series.get("currents_A")
     if cur is not None:
         ax.plot(th, cur[:, 0], label="x-coil")
         ax.plot(th, cur[:, 1], label="y-coil")
-    I_max = sc.cfg.coil.I_max_A
+    I_max = cfg.coil.I_max_A
     for v in (I_max, -I_max):
         ax.axhline(v, color="r", ls="--", lw=0.8)
     ax.set_xlabel("time [h]"), ax.set_ylabel("path current [A]")
@@ -91,7 +81,7 @@ def detumble_plots(sc: "ReflectorScenario", run_dir: Path, series: dict[str, np.
     ax.grid(alpha=0.3), ax.legend()
     out.append(save_figure(fig, run_dir / "currents.png"))
 
-    fig, ax = plt.subplots(figsize=(9, 4))
+    fig, ax = new_figure(figsize=(9, 4))
     h = series["h_norm_N_m_s"]
     t = th * 3600.0
     ax.plot(th, h, label="|h|")
@@ -103,19 +93,22 @@ def detumble_plots(sc: "ReflectorScenario", run_dir: Path, series: dict[str, np.
     return out
 
 
-def pitch_plots(sc: "ReflectorScenario", run_dir: Path, series: dict[str, np.ndarray]) -> list[Path]:
-    """Scenario B figures and ``passes.json`` (module docstring)."""
-    plt = _plt()
+def pitch_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: ReflectorConfig, cap_N_m: float,
+                orbit_period_s: float, t_m_s: float, passes: list[dict[str, Any]]) -> list[Path]:
+    """Scenario B figures (module docstring) of the series of
+    :func:`magsail_mj.scenarios.reflector_metrics.pitch_outputs`, and ``passes.json`` with the pass
+    table ``passes`` (:func:`magsail_mj.scenarios.reflector_metrics.pass_table`), the cap [N m],
+    the orbit period [s] and the overhead time ``t_m_s`` [s]."""
     run_dir = Path(run_dir)
     th = series["time_h"]
-    cap = sc.cap.cap_N_m
-    sigma = 1e3 * sc.cfg.plate.areal_density_kg_m2
-    label = f"{sc.cfg.scenario}: σ = {sigma:g} g/m², rate term {sc.cfg.control.rate_term}" + \
-            (", feed-forward" if sc.cfg.control.feedforward else "") + f", cap {cap:.3g} N m"
+    cap = cap_N_m
+    sigma = 1e3 * cfg.plate.areal_density_kg_m2
+    label = f"{cfg.scenario}: σ = {sigma:g} g/m², rate term {cfg.control.rate_term}" + \
+            (", feed-forward" if cfg.control.feedforward else "") + f", cap {cap:.3g} N m"
     out = []
     psi_ref = np.radians(series["psi_ref_deg"])
 
-    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
+    fig, axes = new_figure(3, 1, figsize=(10, 9), sharex=True)
     ax = axes[0]
     ax.plot(th, np.degrees(psi_ref), "k", lw=1.2, label="ψ_ref (unwrapped)")
     ax.plot(th, series["psi_act_deg"], "C1--", lw=1.0, label="ψ actual")
@@ -130,7 +123,7 @@ def pitch_plots(sc: "ReflectorScenario", run_dir: Path, series: dict[str, np.nda
     ax.set_ylabel("ψ̇ [deg/s]"), ax.set_xlabel("time [h]"), ax.set_title("(b)"), ax.legend(), ax.grid(alpha=0.3)
     out.append(save_figure(fig, run_dir / "psi_tracking.png"))
 
-    fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    fig, axes = new_figure(2, 1, figsize=(10, 6), sharex=True)
     axes[0].plot(th, series["err_deg"])
     axes[0].set_ylabel("attitude error [deg]"), axes[0].set_title(label)
     axes[1].semilogy(th, _positive(series["err_deg"]))
@@ -141,7 +134,7 @@ def pitch_plots(sc: "ReflectorScenario", run_dir: Path, series: dict[str, np.nda
         a.grid(alpha=0.3, which="both")
     out.append(save_figure(fig, run_dir / "attitude_error.png"))
 
-    fig, ax = plt.subplots(figsize=(10, 4))
+    fig, ax = new_figure(figsize=(10, 4))
     ax.plot(th, series["T_ref_norm_N_m"], lw=0.9, label="|T_ref|")
     ax.plot(th, series["T_act_norm_N_m"], "--", lw=0.9, label="|T_act|")
     ax.axhline(cap, color="r", ls="--", lw=0.8, label="cap")
@@ -150,7 +143,7 @@ def pitch_plots(sc: "ReflectorScenario", run_dir: Path, series: dict[str, np.nda
     out.append(save_figure(fig, run_dir / "torque.png"))
 
     rt = series["ref_t_s"] / 3600.0
-    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+    fig, axes = new_figure(3, 1, figsize=(10, 8), sharex=True)
     axes[0].plot(rt, np.degrees(series["ref_psi_c_rad"]))
     axes[0].set_ylabel("ψ_c [deg]")
     axes[1].plot(rt, np.degrees(series["ref_psi_dot_rad_s"]))
@@ -162,7 +155,7 @@ def pitch_plots(sc: "ReflectorScenario", run_dir: Path, series: dict[str, np.nda
         a.grid(alpha=0.3)
     out.append(save_figure(fig, run_dir / "reference.png"))
 
-    fig, ax = plt.subplots(figsize=(10, 4))
+    fig, ax = new_figure(figsize=(10, 4))
     ax.semilogy(rt, _positive(series["ref_torque_ff_sigma100_N_m"]), label="I₂|ψ̈|, σ = 100 g/m²")
     ax.semilogy(rt, _positive(series["ref_torque_ff_sigma10_N_m"]), label="I₂|ψ̈|, σ = 10 g/m²")
     ax.axhline(cap, color="r", ls="--", lw=0.9, label=f"cap {cap:.3g} N m")
@@ -170,7 +163,7 @@ def pitch_plots(sc: "ReflectorScenario", run_dir: Path, series: dict[str, np.nda
     ax.grid(alpha=0.3, which="both"), ax.legend()
     out.append(save_figure(fig, run_dir / "feedforward_torque.png"))
 
-    fig, ax = plt.subplots(figsize=(10, 4))
+    fig, ax = new_figure(figsize=(10, 4))
     B = series["ref_B_T"] * 1e6
     ax.plot(rt, B[:, 0], label="B_x")
     ax.plot(rt, B[:, 2], label="B_z")
@@ -180,7 +173,6 @@ def pitch_plots(sc: "ReflectorScenario", run_dir: Path, series: dict[str, np.nda
     out.append(save_figure(fig, run_dir / "field.png"))
 
     path = run_dir / "passes.json"
-    write_json(path, {"cap_N_m": cap, "orbit_period_s": sc.orbit.period_s, "t_m_s": sc.orbit.t_m_s,
-                      "passes": getattr(sc, "passes", [])})
+    write_json(path, {"cap_N_m": cap, "orbit_period_s": orbit_period_s, "t_m_s": t_m_s, "passes": passes})
     out.append(path)
     return out
