@@ -108,11 +108,11 @@ def test_multibody_run_folder(tmp_path):
 
 def test_lumped_scenario_summary(tmp_path):
     from magsail_mj.analysis.msac_reference import exact_rotation_path, lumped_theta
-    from magsail_mj.scenarios.msac import MsacScenario
+    from magsail_mj.scenarios.msac import build_msac_scenario
 
     cfg = load_config(MODELS / "lumped.toml")
     out = run_scenario(cfg, tmp_path / "lumped", progress=False)
-    sc = MsacScenario(cfg=cfg)
+    sc = build_msac_scenario(cfg)
     P = sc.planar
     c_e, c_c = 0.08 + 4.0, 4.0
     I_e, I_c = P.wing_icm_kg_m2 + 60 * c_e**2, P.wing_icm_kg_m2 + 60 * c_c**2

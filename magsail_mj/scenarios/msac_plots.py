@@ -11,39 +11,31 @@ for sweeps ``sweep.png`` (F6 panel of one swept key).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+import mujoco
 import numpy as np
 
-from magsail_mj.scenarios.truss_plots import save_figure
+from magsail_mj.analysis.msac_post import yaw_from_quat
+from magsail_mj.control.msac_cycle import CyclePath
+from magsail_mj.estimation.attitude import euler_zyx, matrix_from_quat
+from magsail_mj.mjcf.msac import shape_indices
+from magsail_mj.plotting import new_figure, save_figure
+from magsail_mj.scenarios.msac_config import MsacConfig
 
-if TYPE_CHECKING:
-    from magsail_mj.scenarios.msac import MsacConfig, MsacScenario
-
+# save_figure stays importable from here until scripts/msac_sweeps.py takes it from magsail_mj.plotting
 __all__ = ["msac_plots", "sweep_plot", "save_figure"]
 
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def msac_plots(sc: "MsacScenario", run_dir: Path, s: dict[str, Any]) -> list[Path]:
-    """Write F1–F5 and the increments plot of a multibody run; return their paths."""
-    from magsail_mj.analysis.msac_post import yaw_from_quat
-    from magsail_mj.estimation.attitude import euler_zyx, matrix_from_quat
-    from magsail_mj.mjcf.msac import shape_indices
-
-    plt = _plt()
-    cfg = sc.cfg
+def msac_plots(run_dir: Path, s: dict[str, Any], *, cfg: MsacConfig, path: CyclePath, model: mujoco.MjModel
+               ) -> list[Path]:
+    """Write F1–F5 and the increments plot of a multibody run; return their paths. ``s``: the
+    records and series of the run plus ``_summary`` (its summary); ``path``: its cycle; ``model``:
+    its MuJoCo model (shape joint addresses)."""
     out: list[Path] = []
     title = f"MSAC {cfg.description}".strip()
-    T = sc.path.period_s
-    qa = shape_indices(sc.model)["qpos"]
+    T = path.period_s
+    qa = shape_indices(model)["qpos"]
     summary = s.get("_summary", {})
 
     # ---- F1: three cycles at full rate (the first window, else the records)
@@ -57,7 +49,7 @@ def msac_plots(sc: "MsacScenario", run_dir: Path, s: dict[str, Any]) -> list[Pat
     if src is not None and src[0].size > 2:
         t, q = src
         yaw = np.unwrap(yaw_from_quat(q[:, 3:7]))
-        fig, ax = plt.subplots(figsize=(9, 4.5))
+        fig, ax = new_figure(figsize=(9, 4.5))
         ax.plot(t / T, np.degrees(q[:, qa[0]]), "k:", lw=1.5, label="φ, wing bend [deg]")
         ax.set_xlabel("t / Δt [cycles]")
         ax.set_ylabel("φ [deg]")
@@ -66,7 +58,7 @@ def msac_plots(sc: "MsacScenario", run_dir: Path, s: dict[str, Any]) -> list[Pat
         ax2.plot(t / T, 1e3 * (yaw - yaw[0]), "C3-", lw=1.8, label="bus yaw ψ − ψ₀ [mrad]")
         ax2.set_ylabel("s [mm], ψ − ψ₀ [mrad]")
         for k in range(int(np.ceil(t[-1] / T - 1e-9))):
-            for b in sc.path.phase_bounds_s[:-1]:
+            for b in path.phase_bounds_s[:-1]:
                 ax.axvline(k + b / T, color="0.85", lw=0.8, zorder=0)
         h1, l1 = ax.get_legend_handles_labels()
         h2, l2 = ax2.get_legend_handles_labels()
@@ -79,7 +71,7 @@ def msac_plots(sc: "MsacScenario", run_dir: Path, s: dict[str, Any]) -> list[Pat
     if s["t"].size > 1:
         R = matrix_from_quat(s["qpos"][:, 3:7])
         psi, theta, phi = euler_zyx(R)
-        fig, axs = plt.subplots(4, 1, figsize=(9, 9), sharex=True)
+        fig, axs = new_figure(4, 1, figsize=(9, 9), sharex=True)
         for ax, val, lab in zip(axs, (psi, theta, phi), ("rotation angle 1 (yaw, Z)", "angle 2 (pitch, Y)",
                                                           "angle 3 (roll, X)")):
             ax.plot(s["t"], val, ",", color="C0") if val.size > 5000 else ax.plot(s["t"], val, "C0-", lw=0.8)
@@ -94,7 +86,7 @@ def msac_plots(sc: "MsacScenario", run_dir: Path, s: dict[str, Any]) -> list[Pat
         out.append(save_figure(fig, run_dir / "attitude_angles.png"))
 
     # ---- F3: raw ω in world axes
-    fig, axs = plt.subplots(2, 1, figsize=(9, 7))
+    fig, axs = new_figure(2, 1, figsize=(9, 7))
     if "omega_z_cycle_min_rad_s" in s and s["omega_z_cycle_min_rad_s"].size:
         tc = np.arange(s["omega_z_cycle_min_rad_s"].size) * T
         axs[0].fill_between(tc, s["omega_z_cycle_min_rad_s"], s["omega_z_cycle_max_rad_s"], color="C0",
@@ -123,7 +115,7 @@ def msac_plots(sc: "MsacScenario", run_dir: Path, s: dict[str, Any]) -> list[Pat
 
     # ---- F4: filtered ω_z
     if "omega_z_filtered_rad_s" in s and np.isfinite(s["omega_z_filtered_rad_s"]).any():
-        fig, ax = plt.subplots(figsize=(9, 4))
+        fig, ax = new_figure(figsize=(9, 4))
         ax.plot(s["omega_filt_t"], s["omega_z_filtered_rad_s"], "C0-", lw=1,
                 label=f"ω_z, Butterworth {cfg.post.lowpass_order}th order {cfg.post.lowpass_cutoff_Hz:g} Hz, "
                       "zero phase")
@@ -149,7 +141,7 @@ def msac_plots(sc: "MsacScenario", run_dir: Path, s: dict[str, Any]) -> list[Pat
         names = ["slope of yaw", "filtered mean ω_z", "Eq. (7) lumped", "exact model"]
         vals = [summary["rate_slope_rad_s"], summary["rate_filtered_mean_rad_s"],
                 summary["omega_gamma_eq7_rad_s"], summary["predicted_rate_exact_rad_s"]]
-        fig, ax = plt.subplots(figsize=(7, 4))
+        fig, ax = new_figure(figsize=(7, 4))
         bars = ax.bar(names, vals, color=["C0", "C0", "C7", "k"])
         for b, v in zip(bars, vals):
             ax.text(b.get_x() + b.get_width() / 2, v, f"{v:.5g}", ha="center", va="bottom", fontsize=8)
@@ -158,7 +150,7 @@ def msac_plots(sc: "MsacScenario", run_dir: Path, s: dict[str, Any]) -> list[Pat
         out.append(save_figure(fig, run_dir / "rate_comparison.png"))
     if "strobe_increment_rad" in s and s["strobe_increment_rad"].size:
         inc = s["strobe_increment_rad"]
-        fig, ax = plt.subplots(figsize=(9, 4))
+        fig, ax = new_figure(figsize=(9, 4))
         k = np.arange(1, inc.size + 1)
         ax.plot(k, inc, "C0.", ms=2, label="MuJoCo per-cycle rotation θ_γ,k")
         if summary:
@@ -172,13 +164,12 @@ def msac_plots(sc: "MsacScenario", run_dir: Path, s: dict[str, Any]) -> list[Pat
     return out
 
 
-def sweep_plot(cfg: "MsacConfig", run_dir: Path, s: dict[str, Any]) -> Path:
+def sweep_plot(cfg: MsacConfig, run_dir: Path, s: dict[str, Any]) -> Path:
     """F6 panel of one sweep: per-cycle rotation (Eq. 6, exact, MuJoCo) against the swept value."""
-    plt = _plt()
     sw = cfg.sweep
     x = np.arange(len(sw.points))
     labels = [", ".join(f"{v}" for v in p) for p in sw.points]
-    fig, axs = plt.subplots(1, 2, figsize=(11, 4))
+    fig, axs = new_figure(1, 2, figsize=(11, 4))
     for key, style, lab in (("sweep_theta_gamma_eq6_model_rad", "C7s--", "Eq. (6), model inertias"),
                             ("sweep_theta_gamma_exact_rad", "ko-", "exact planar model"),
                             ("sweep_theta_gamma_mujoco_rad", "C3x", "MuJoCo")):
