@@ -29,6 +29,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from magsail_mj.analysis.energy import strain_energy, strut_strain
 from magsail_mj.analysis.modes import Modes
 from magsail_mj.analysis.rigid_reference import rigid_dipole_attitude
 from magsail_mj.estimation.attitude import BestFitRotation, euler_zyx, matrix_from_quat, rotation_angle
@@ -140,8 +141,9 @@ def first_time_below(t: np.ndarray, x: np.ndarray, level: float) -> float | None
 
 def structural_series(lm: LoopsModel, x: np.ndarray, *, modes: Callable[[], Modes] | None = None
                       ) -> dict[str, np.ndarray]:
-    """Strain energy, best fit, thickness, residual, strain and modal amplitudes of positions ``x``
-    (T, n, 3); ``modes`` gives the lattice's modes (their amplitudes are a diagnostic: left out when
+    """Strain energy ½ Σ k (|r_j − r_i| − L)² [J] and largest strut strain
+    (:mod:`magsail_mj.analysis.energy`), best fit, thickness, residual and modal amplitudes of
+    positions ``x`` (T, n, 3) [m]; ``modes`` gives the lattice's modes (their amplitudes are a diagnostic: left out when
     the modes cannot be had)."""
     lat = lm.lattice
     p0 = lat.nodes
@@ -149,17 +151,13 @@ def structural_series(lm: LoopsModel, x: np.ndarray, *, modes: Callable[[], Mode
     c = x.mean(axis=1)
     xb = np.einsum("tji,tnj->tni", R, x - c[:, None, :])        # R^T (x - c)
     u = xb - (p0 - p0.mean(axis=0))
-    a, b = lat.struts[:, 0], lat.struts[:, 1]
-    L = np.linalg.norm(x[:, b] - x[:, a], axis=2)
-    dL = L - lat.rest_length
-    U = 0.5 * (lm.k * dL**2).sum(axis=1)
     out = {
-        "strain_energy_J": U,
+        "strain_energy_J": strain_energy(x, lat.struts, lm.k, lat.rest_length),
         "rotation_angle_rad": rotation_angle(R),
         "R_bestfit": R,
         "thickness_m": xb[:, :, 2].max(axis=1) - xb[:, :, 2].min(axis=1),
         "rigid_fit_residual_m": np.sqrt((u**2).sum(axis=2).mean(axis=1)),
-        "strut_strain_max": np.abs(dL / lat.rest_length).max(axis=1),
+        "strut_strain_max": np.abs(strut_strain(x, lat.struts, lat.rest_length)).max(axis=1),
     }
     if modes is None:
         return out
