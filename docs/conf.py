@@ -47,7 +47,8 @@ sphinx_gallery_conf = {
     "show_signature": False,
     "min_reported_time": 1,
     "reset_modules": ("matplotlib",),
-    "write_computation_times": True,
+    # the timing pages need jQuery/DataTables, which furo does not ship (a JavaScript error there)
+    "write_computation_times": False,
 }
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
