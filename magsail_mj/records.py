@@ -83,7 +83,8 @@ def units_of(name: str) -> tuple[str, str]:
     name that leaves a non-empty quantity name: ``omega_body_rad_s`` → ``("rad/s", "omega body")``,
     ``torque_gg_world_N_m`` → ``("N m", …)``, ``psi_ddot_ref_rad_s2`` → ``("rad/s²", …)``,
     ``angmom_N_m_s`` → ``("N m s", …)``, ``dipole_cmd_A_m2`` → ``("A m²", …)``. ``s``/``s2``
-    right after ``rad``, ``deg``, ``m`` or ``km`` divide (a rate); elsewhere tokens multiply.
+    right after a first token ``rad``, ``deg``, ``m`` or ``km`` divide (a rate); elsewhere tokens
+    multiply.
     A name without a suffix has units ``"1"`` (dimensionless, a count or a flag); ``t``,
     ``qpos`` and ``qvel`` are named explicitly.
     """
@@ -98,7 +99,7 @@ def units_of(name: str) -> tuple[str, str]:
         return "1", name.replace("_", " ")
     out: list[str] = []
     for i, tok in enumerate(tokens):
-        if tok in ("s", "s2") and i > 0 and tokens[i - 1] in _RATE_TOKENS:
+        if tok in ("s", "s2") and i == 1 and tokens[0] in _RATE_TOKENS:
             out[-1] += "/" + _UNIT_TOKENS[tok]
         else:
             out.append(_UNIT_TOKENS[tok])
