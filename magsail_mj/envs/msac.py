@@ -25,8 +25,8 @@ the shape vector ``(φ, s, φ, s)``):
 A new cycle gets its replay table: the computed-torque calibration of
 :func:`~magsail_mj.control.msac_drive.replay_table` (``drive.calibration_cycles`` cycles in Python,
 cached per cycle; ``feedforward=False`` skips it and drives with the servos alone). When the
-cycle's start point ``(φa, s_e)`` changes, the servo set-points move to it during the first
-dynamics step of the next cycle.
+cycle's start point ``(φa, s_e)`` changes, the servo set-points move to it linearly over the next
+cycle (they stay continuous).
 
 Observations: ``time_s`` (1,); ``bus_attitude_wxyz`` (4,) (bus → world); ``bus_yaw_rad`` (1,)
 (continuous yaw about world Z); ``bus_rate_rad_s`` (3,) (bus angular velocity, body axes);
@@ -125,13 +125,15 @@ class MsacPhysics(control.Physics):
         return self._tables[key]
 
     def set_cycle(self, path: CyclePath) -> None:
-        """Drive ``path`` from the next step on; a new start point moves the servo set-points there
-        during the first dynamics step."""
+        """Drive ``path`` from the next step on. A new start point ``(φa, s_e)`` is reached smoothly:
+        during the next cycle the servo set-points are the new path's plus the old-minus-new start
+        offset fading linearly to zero (set-point rates ``+ (new − old)/Δt``), so they stay
+        continuous."""
         (p0, s0), (q0, r0) = self.path.initial, path.initial
         if (p0, s0) != (q0, r0):
             bump = np.zeros(self.model.nu)
-            bump[self.ix["servo"]] = np.array([q0 - p0, r0 - s0, q0 - p0, r0 - s0]) / self.timestep()
-            self._bump = bump
+            bump[self.ix["servo"]] = np.array([q0 - p0, r0 - s0, q0 - p0, r0 - s0]) / path.period_s
+            self._bump = bump if self._bump is None else self._bump + bump
         self.path = path
         self.runner.table = self.table(path)
 
@@ -141,15 +143,15 @@ class MsacPhysics(control.Physics):
         runner = self.runner
         if self._bump is not None and runner.status == "running":
             table = runner.table
-            first = dataclasses.replace(table, ctrl=table.ctrl.copy())
-            first.ctrl[runner.step_index % runner.N] += self._bump
+            first = dataclasses.replace(table, ctrl=table.ctrl + self._bump)
             self._bump = None
+            m = min(n, runner.N - runner.step_index % runner.N)
             runner.table = first
             try:
-                runner.step(1)
+                runner.step(m)
             finally:
                 runner.table = table
-            n -= 1
+            n -= m
         if n > 0:
             runner.step(n)
 

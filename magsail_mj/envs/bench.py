@@ -1,0 +1,108 @@
+"""Speed of the environments: cost per simulated second through ``dm_control`` against the plain run.
+
+For each concept, one task with its shipped config (and the overrides of :data:`CASES`, which keep
+the measurement short) is run twice in the same process:
+
+* plain: ``magsail_mj.load(config, overrides).run()`` — the runner with the shipped controller;
+* environment: ``magsail_mj.envs.load(task, overrides, randomize=False)`` driven by
+  :func:`magsail_mj.envs.shipped_policy` (the same controller, the same physics) from reset to the
+  end of the episode.
+
+The cost of each is its wall time divided by the simulated time; the ratio environment/plain is the
+overhead of the environment (the target is ≤ 1.25). Builds are not timed. Each measurement is
+repeated ``repeats`` times, alternating plain and environment, and the smallest wall time of each is
+kept (the least disturbed by other work on the machine). The environments compute every observation
+the shipped controller uses at every step; the truss's structural-health observations are
+refreshed at their documented lower rate.
+
+    .venv/bin/python scripts/bench_envs.py [--concepts cnusail msac] [--repeats 3]
+
+prints one JSON object: concept → task, overrides, simulated time, the two costs [s per simulated
+s], environment steps and the ratio (or ``error`` when a case could not run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from typing import Any, Sequence
+
+import magsail_mj
+from magsail_mj import envs
+from magsail_mj.envs import cnusail, msac  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
+from magsail_mj.envs.core import task_entry
+
+__all__ = ["CASES", "measure", "main"]
+
+CASES: dict[str, tuple[str, tuple[str, ...], dict[str, Any]]] = {
+    "truss_magnetorquer": ("truss/detumble", ("lattice.units=3", "sim.duration_s=60"), {}),
+    "current_loops": ("current_loops/slew", ("sim.duration_s=20",), {}),
+    "reflector": ("reflector/detumble", ("sim.duration_s=60",), {}),
+    "cnusail": ("cnusail/detumble", ("sim.duration_s=600",), {}),
+    "msac": ("msac/cycle", ("sim.duration_s=0.2",), {}),
+    "msac_20_cycles_per_step": ("msac/cycle", ("sim.duration_s=0.2",), {"cycles_per_step": 20}),
+}
+"""Concept → (task, overrides, task options) of the measurement. MSAC is measured at one cycle per
+environment step (its default) and at 20: the runner's fixed cost per ``step`` call (it re-tiles the
+control table of a whole rollout chunk, ``drive.chunk_cycles`` cycles, at every call) is spread
+over more dynamics steps."""
+
+
+def _plain(task: str, overrides: Sequence[str]) -> tuple[float, float]:
+    sim = magsail_mj.load(task_entry(task).config, list(overrides))
+    t0 = time.perf_counter()
+    result = sim.run()
+    wall = time.perf_counter() - t0
+    if result.status != "completed":
+        raise RuntimeError(f"plain run of {task} ended {result.status!r}: {result.message}")
+    return wall, float(result.t_end_s)
+
+
+def _environment(task: str, overrides: Sequence[str], options: dict[str, Any]) -> tuple[float, float, int]:
+    env = envs.load(task, list(overrides), randomize=False, **options)
+    policy = envs.shipped_policy(env)
+    t0 = time.perf_counter()
+    ts = env.reset()
+    steps = 0
+    while not ts.last():
+        ts = env.step(policy(ts))
+        steps += 1
+    wall = time.perf_counter() - t0
+    return wall, float(env.physics.time()), steps
+
+
+def measure(concept: str, *, repeats: int = 3) -> dict[str, Any]:
+    """The costs and their ratio for ``concept`` (:data:`CASES`)."""
+    if concept not in CASES:
+        raise ValueError(f"concept: expected one of {', '.join(CASES)}, got {concept!r}")
+    if int(repeats) != repeats or repeats < 1:
+        raise ValueError(f"repeats: must be an integer >= 1, got {repeats!r}")
+    task, overrides, options = CASES[concept]
+    plain, env = [], []
+    for _ in range(int(repeats)):
+        plain.append(_plain(task, overrides))
+        env.append(_environment(task, overrides, options))
+    wall_p, sim_p = min(plain)
+    wall_e, sim_e, steps = min(env)
+    cost_p, cost_e = wall_p / sim_p, wall_e / sim_e
+    return {"task": task, "overrides": list(overrides), "options": options, "simulated_s": sim_e,
+            "env_steps": steps, "plain_s_per_sim_s": cost_p, "env_s_per_sim_s": cost_e, "ratio": cost_e / cost_p,
+            "repeats": int(repeats)}
+
+
+def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
+    ap = argparse.ArgumentParser(description="environment overhead per concept (JSON)")
+    ap.add_argument("--concepts", nargs="*", default=list(CASES), choices=list(CASES))
+    ap.add_argument("--repeats", type=int, default=3)
+    args = ap.parse_args(argv)
+    out: dict[str, Any] = {}
+    for concept in args.concepts:
+        try:
+            out[concept] = measure(concept, repeats=args.repeats)
+        except Exception as err:  # a case that cannot run is reported, the others still measured
+            out[concept] = {"task": CASES[concept][0], "error": f"{type(err).__name__}: {err}"}
+        print(json.dumps({concept: out[concept]}), file=sys.stderr, flush=True)
+    print(json.dumps(out, indent=1))
+    return out

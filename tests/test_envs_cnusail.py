@@ -1,0 +1,176 @@
+"""CNUSAIL environments: dm_env conformance, the shipped controller as a policy (= magsail run),
+seeding, and the plant's wheel/magnetorquer actuation against independent computations."""
+
+from __future__ import annotations
+
+import functools
+import math
+import unittest
+
+import mujoco
+import numpy as np
+import pytest
+from dm_control.rl import control
+from dm_env import test_utils
+
+import magsail_mj
+from magsail_mj import envs
+from magsail_mj.envs import cnusail  # noqa: F401  (registers the CNUSAIL tasks)
+from magsail_mj.envs.core import RewardWeights
+
+TIMING_KEYS = {"wall_time_s", "step_cost_us", "wall_time_per_step_s"}
+
+
+@functools.lru_cache(maxsize=None)
+def _built(task: str, overrides: tuple[str, ...]) -> control.Environment:
+    return envs.load(task, list(overrides), random=0)
+
+
+def fresh(task: str, overrides: tuple[str, ...]) -> control.Environment:
+    """A new Environment around a cached physics and task (a build takes seconds)."""
+    env = _built(task, overrides)
+    return control.Environment(env.physics, env.task, time_limit=env.physics.cfg.sim.duration_s,
+                               control_timestep=env.control_timestep())
+
+
+class DetumbleConformance(test_utils.EnvironmentTestMixin, unittest.TestCase):
+    def make_object_under_test(self):
+        return fresh("cnusail/detumble", ("sim.duration_s=5",))
+
+
+class NadirConformance(test_utils.EnvironmentTestMixin, unittest.TestCase):
+    def make_object_under_test(self):
+        return fresh("cnusail/nadir", ("sim.duration_s=5",))
+
+
+class DeorbitConformance(test_utils.EnvironmentTestMixin, unittest.TestCase):
+    def make_object_under_test(self):
+        return fresh("cnusail/deorbit", ("sim.duration_s=5",))
+
+
+def assert_same_summary(ref: dict, got: dict, *, rtol: float = 1e-9) -> int:
+    """Every summary figure of ``ref`` (timings excepted) equal in ``got`` to ``rtol``; returns the
+    number of figures compared."""
+    n = 0
+    for key, want in ref.items():
+        if key in TIMING_KEYS:
+            continue
+        assert key in got, key
+        have = got[key]
+        if isinstance(want, float) and isinstance(have, float):
+            if math.isnan(want):
+                assert math.isnan(have), key
+            else:
+                assert abs(have - want) <= rtol * max(abs(want), abs(have)), (key, want, have)
+        else:
+            assert have == want, (key, want, have)
+        n += 1
+    return n
+
+
+def shipped_summary(config: str, overrides: list[str], **options) -> dict:
+    env = envs.load(config, overrides, randomize=False, **options)
+    policy = envs.shipped_policy(env)
+    ts = env.reset()
+    while not ts.last():
+        ts = env.step(policy(ts))
+    assert ts.discount == 1.0
+    return env.physics.summary()
+
+
+@pytest.mark.parametrize("config, duration_s", [
+    ("models/cnusail/detumble_post.toml", 20),
+    ("models/cnusail/nadir_post.toml", 40),      # the unloading turns on at t ≈ 33 s
+    ("models/cnusail/deorbit_recalc.toml", 20),
+])
+def test_shipped_policy_gives_magsail_run_summary(config, duration_s):
+    overrides = [f"sim.duration_s={duration_s}"]
+    sim = magsail_mj.load(config, overrides)
+    ref, _ = sim.scenario.postprocess(sim.run())
+    got = shipped_summary(config, overrides)
+    assert assert_same_summary(ref, got) > 40
+
+
+def test_task_follows_config_and_lists():
+    names = envs.list()
+    for name in ("cnusail/detumble", "cnusail/nadir", "cnusail/deorbit"):
+        assert name in names
+    env = _built("cnusail/nadir", ("sim.duration_s=5",))
+    assert env.control_timestep() == pytest.approx(1.0 / env.physics.cfg.control.rate_Hz)
+    spec = env.action_spec()
+    assert spec.shape == (6,)
+    motor = env.physics.cfg.actuators.wheels.motor_params()
+    assert spec.maximum[0] == pytest.approx(motor.torque_max_N_m + motor.K_B_N_m_s * motor.speed_max_rad_s)
+    np.testing.assert_array_equal(spec.maximum[3:], env.physics.cfg.actuators.mtq.limit_vector)
+    with pytest.raises(ValueError, match="action"):
+        envs.load("cnusail/detumble", ["sim.duration_s=5"], action="wheels")
+
+
+def test_same_seed_same_first_observation():
+    first = []
+    for seed in (7, 7, 8):
+        env = fresh("cnusail/detumble", ("sim.duration_s=5",))
+        env.task._random = np.random.RandomState(seed)
+        first.append(env.reset().observation)
+    for key in first[0]:
+        np.testing.assert_array_equal(first[0][key], first[1][key])
+    assert not np.array_equal(first[0]["body_rate_rad_s"], first[2]["body_rate_rad_s"])
+    # a rate drawn within ±rate_range per axis
+    rng = envs.load("cnusail/detumble", ["sim.duration_s=5"], random=7).task.rate_range_deg_s
+    assert np.all(np.abs(np.degrees(first[0]["body_rate_rad_s"])) <= rng)
+
+
+def test_wheel_currents_give_the_motor_torque():
+    """``current_dipole``: T_M = K_M (V − K_b ω_M)/R with V = clip(R i_c + K_b ω_M, ±V_max) every step."""
+    env = envs.load("cnusail/detumble", ["sim.duration_s=3", "sim.record_every=1"], randomize=False,
+                    action="current_dipole")
+    motor = env.physics.cfg.actuators.wheels.motor_params()
+    i_c = np.array([0.5, -0.3, 0.1]) * motor.current_max_A
+    ts = env.reset()
+    while not ts.last():
+        ts = env.step(np.concatenate([i_c, np.zeros(3)]))
+    rec = env.physics.sim.records()
+    w = rec["qvel"][:, env.physics.scenario.idx.wheel_qvel]
+    V = np.clip(motor.R_ohm * i_c + motor.K_b_V_s_rad * w, -motor.V_max_V, motor.V_max_V)
+    want = motor.K_M_N_m_A * (V - motor.K_b_V_s_rad * w) / motor.R_ohm
+    np.testing.assert_allclose(rec["T_M_N_m"], want, rtol=1e-12, atol=1e-18)
+    assert np.all(np.abs(w[-1]) > 0)       # the wheels spun up
+
+
+def test_dipole_latched_per_cycle_and_blanked():
+    """The dipole of the action at a cycle boundary acts for cycle_s − blank_s, then 0; an action
+    between boundaries waits for the next one. Torque = m × Aᵀ B_eci (body axes)."""
+    env = envs.load("cnusail/detumble", ["sim.duration_s=4", "sim.record_every=1"], randomize=False)
+    cfg = env.physics.cfg
+    m = [np.array([0.1, -0.05, 0.02]), np.array([-0.2, 0.2, -0.1]), np.array([0.03, 0.04, -0.05]),
+         np.zeros(3)]
+    env.reset()
+    for a in m:
+        env.step(a)
+    rec = env.physics.sim.records()
+    t = rec["t"]
+    on = (t % cfg.actuators.mtq.cycle_s) < cfg.actuators.mtq.cycle_s - cfg.actuators.mtq.blank_s - 1e-9
+    latched = np.where((t < 2.0 - 1e-9)[:, None], m[0], m[2])
+    np.testing.assert_array_equal(rec["dipole_cmd_A_m2"][:-1], latched[:-1])
+    q = rec["qpos"][:, env.physics.scenario.idx.q_quat]
+    B_eci = np.array([env.physics.sim.environment.sample(float(x)).B_eci for x in t])
+    R = np.empty((len(t), 9))
+    for k in range(len(t)):
+        mujoco.mju_quat2Mat(R[k], q[k])
+    B_body = np.einsum("kji,kj->ki", R.reshape(-1, 3, 3), B_eci)
+    want = np.where(on[:, None], np.cross(latched, B_body), 0.0)
+    np.testing.assert_allclose(rec["torque_mtq_body_N_m"][:-1], want[:-1], rtol=1e-12, atol=1e-20)
+    assert np.count_nonzero(~on[:-1]) == 4        # 1.8, 1.9, 3.8, 3.9 s
+
+
+def test_detumble_reward_formula():
+    weights = RewardWeights(w_theta=1.0, w_omega=0.5, w_u=0.2)
+    env = envs.load("cnusail/detumble", ["sim.duration_s=3"], randomize=False, reward_weights=weights)
+    cfg = env.physics.cfg
+    a = np.array([0.1, -0.1, 0.05])
+    env.reset()
+    ts = env.step(a)
+    w_s = math.radians(cfg.analysis.detumble_threshold_deg_s)
+    effort = float(np.mean((a / cfg.actuators.mtq.limit_vector) ** 2))
+    rate = float(np.linalg.norm(ts.observation["body_rate_rad_s"]))
+    assert ts.reward == pytest.approx(-(0.5 * (rate / w_s) ** 2 + 0.2 * effort), rel=1e-12)
