@@ -1,4 +1,4 @@
-"""``magsail`` command line: build | validate | run | render | sweep | scaling | torque.
+"""``magsail`` command line: build | validate | run | render | export | sweep | report | scaling | torque.
 
 Every verb checks its inputs where it uses them (paths, numbers, the memory the input needs) and
 reports a problem as one line ``error: <what>`` on stderr, never a traceback; the exit status
@@ -32,6 +32,8 @@ from magsail_mj.analysis.coil_torque import coil_torque_report
 from magsail_mj.analysis.loop_scaling import loop_sizing, scaling_table
 from magsail_mj.analysis.scaling import scaling_report
 from magsail_mj.config import ConfigError, load_config
+from magsail_mj.export import add_arguments as add_export_arguments
+from magsail_mj.export import main as export_main
 from magsail_mj.io import RunDirError, atomic_path, to_jsonable
 from magsail_mj.render import render_run
 from magsail_mj.render.backend import GLBackendError
@@ -48,6 +50,8 @@ from magsail_mj.resources import (
 from magsail_mj.run import run_scenario
 from magsail_mj.scenarios import build_scenario
 from magsail_mj.sweep import load_sweep, make_cluster, run_sweep, sweep_exit_code
+from magsail_mj.sweep.report import add_arguments as add_report_arguments
+from magsail_mj.sweep.report import main as report_main
 
 __all__ = ["EXIT_CODES", "CliInputError", "main"]
 
@@ -382,6 +386,16 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_export(args: argparse.Namespace) -> int:
+    """``magsail export``: :func:`magsail_mj.export.main`."""
+    return export_main(args)
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    """``magsail report``: :func:`magsail_mj.sweep.report.main`."""
+    return report_main(args)
+
+
 def _sweep_engine(args: argparse.Namespace) -> Any:
     """The Dask cluster of ``--cluster`` (jobs not yet submitted), else None; CliInputError for
     options that do not fit together."""
@@ -528,6 +542,10 @@ def _add_run_verbs(sub: Any) -> None:
     rr.add_argument("--labels", nargs=2, metavar=("LEFT", "RIGHT"),
                     help="captions of the left and right run (default: the run folders' names)")
 
+    ex = _verb(sub, "export", "write a run folder's records (timeseries.zarr) as .npz or netCDF", _cmd_export,
+               {"run_dir": "RUN_DIR", "fmt": "--format", "out": "--out"})
+    add_export_arguments(ex)
+
     sw = _verb(sub, "sweep", "run every run of a sweep file ([[run]], [grid], [monte_carlo]) on Dask", _cmd_sweep,
                {"workers": "--workers", "only": "--only", "retries": "--retries", "scheduler": "--scheduler"})
     sw.add_argument("sweep", help="sweep TOML ([[run]] tables with id and config, or [grid] / [monte_carlo])")
@@ -551,6 +569,10 @@ def _add_run_verbs(sub: Any) -> None:
     sw.add_argument("--walltime", metavar="HH:MM:SS", help="--cluster: wall time per job (default 01:00:00)")
     sw.add_argument("--queue", help="--cluster: partition (SLURM) or queue (PBS)")
     sw.add_argument("--account", help="--cluster: account to charge")
+
+    rp = _verb(sub, "report", "summarise a finished sweep folder: tables and figures of its runs' summaries",
+               _cmd_report, {"sweep_dir": "SWEEP_DIR", "figures": "--figure"})
+    add_report_arguments(rp)
 
 
 def _add_analytic_verbs(sub: Any) -> None:
@@ -666,7 +688,7 @@ def _named(message: str, options: Mapping[str, str]) -> str:
 
 
 def _user_paths(args: argparse.Namespace) -> list[Path]:
-    names = ("config", "output", "out", "run_dir", "compare", "sweep")
+    names = ("config", "output", "out", "run_dir", "compare", "sweep", "sweep_dir")
     return [Path(v).absolute() for n in names if isinstance(v := getattr(args, n, None), str) and v.strip()]
 
 

@@ -17,6 +17,7 @@ import warnings
 from importlib import metadata
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from magsail_mj import cli
@@ -153,3 +154,23 @@ def test_cli_reference_lists_every_verb_and_every_exit_status():
         assert f"`{parser.prog}`" in page, parser.prog
     for line in EXIT_CODES.splitlines():
         assert line.strip() in page, line
+
+
+def test_export_verb_writes_the_records_and_refuses_a_bad_format(tmp_path, capsys):
+    run = tmp_path / "run"
+    assert main(["run", CONFIG, "--out", str(run), *TINY]) == 0
+    capsys.readouterr()
+    assert main(["export", str(run), "--format", "npz", "--out", str(tmp_path / "r.npz")]) == 0
+    assert capsys.readouterr().out.strip() == str(tmp_path / "r.npz")
+    with np.load(tmp_path / "r.npz", allow_pickle=False) as npz:
+        t_s = npz["t"]
+    assert t_s[0] == 0.0 and t_s[-1] == pytest.approx(1.0)
+    assert main(["export", str(run), "--format", "hdf9"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "hdf9" in err
+
+
+def test_report_verb_refuses_a_folder_that_is_not_a_sweep(tmp_path, capsys):
+    assert main(["report", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: SWEEP_DIR") and "sweep_summary.json" in err
