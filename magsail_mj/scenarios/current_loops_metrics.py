@@ -36,7 +36,7 @@ from magsail_mj.estimation.attitude import BestFitRotation, euler_zyx, matrix_fr
 from magsail_mj.loads.lorentz import CircuitSegments, LorentzLoad, lorentz_node_forces, self_field_max_T
 from magsail_mj.loads.tidal import GravityGradientTorqueLoad, TidalGravityLoad
 from magsail_mj.scenarios.current_loops_config import ClassificationConfig
-from magsail_mj.scenarios.current_loops_model import LoopsModel
+from magsail_mj.scenarios.current_loops_model import LoopsModel, WorkLedger
 from magsail_mj.sim import RunResult
 
 __all__ = [
@@ -54,17 +54,16 @@ Metrics = tuple[dict[str, Any], dict[str, np.ndarray]]
 # =========================================================================== probes
 
 
-def flexible_probes(node_bodies: np.ndarray, masses: np.ndarray, work: Callable[[np.ndarray], np.ndarray] | None
-                    ) -> dict[str, Probe]:
-    """``qpos``, kinetic energy ½ Σ m_i |v_i|² [J] and, with a ``work`` ledger (positions →
-    works [J]), the work of the watched loads."""
+def flexible_probes(node_bodies: np.ndarray, masses: np.ndarray, ledger: WorkLedger | None) -> dict[str, Probe]:
+    """``qpos``, kinetic energy ½ Σ m_i |v_i|² [J] and, with a work ``ledger``, the work [J] of
+    the loads it watches (up to the current positions)."""
     nb, m = node_bodies, masses
     out: dict[str, Probe] = {
         "qpos": lambda s, d: d.qpos,
         "kinetic_energy_J": lambda s, d: 0.5 * float(m @ np.einsum("ij,ij->i", s.vel[nb], s.vel[nb])),
     }
-    if work is not None:
-        out["work_J"] = lambda s, d: work(s.pos)
+    if ledger is not None:
+        out["work_J"] = lambda s, d: ledger.values(s.pos)
     return out
 
 

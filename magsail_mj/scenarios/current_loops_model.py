@@ -4,7 +4,8 @@ Spec current-loops.md §1–§3. The lattice and its springs are the truss conce
 (:mod:`magsail_mj.geometry.lattice`, :func:`magsail_mj.geometry.truss_properties.strut_stiffness`,
 :func:`magsail_mj.mjcf.truss.build_truss_spec`) with uniform particle masses and no tendon
 damping; the circuits are :mod:`magsail_mj.geometry.current_loops`. ``slew_rigid`` uses one free
-body with the undeformed lattice's inertia (:func:`rigid_plate_spec`).
+body with the undeformed lattice's inertia (:func:`rigid_plate_spec`). Also here: the concept's
+own loads (the work ledger, held-force wrapper and the rigid surrogate's dipole torque).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from magsail_mj.estimation.attitude import matrix_from_quat
 from magsail_mj.geometry.current_loops import Circuit
 from magsail_mj.geometry.current_loops import circuits as make_circuits
 from magsail_mj.geometry.lattice import Lattice, make_lattice
@@ -23,7 +25,8 @@ from magsail_mj.mjcf.common import free_space_spec
 from magsail_mj.mjcf.truss import TrussModelOptions, build_truss_spec
 from magsail_mj.scenarios.current_loops_config import CurrentLoopsConfig, loop_currents
 
-__all__ = ["LoopsModel", "make_loops_model", "rigid_plate_spec", "loop_currents"]
+__all__ = ["LoopsModel", "make_loops_model", "rigid_plate_spec", "loop_currents", "WorkLedger", "HeldForces",
+           "RigidLoopTorqueLoad"]
 
 
 @dataclass
@@ -86,3 +89,78 @@ def rigid_plate_spec(cfg: CurrentLoopsConfig, inertia: np.ndarray, mass: float) 
     body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[D / 2, D / 2, w / 2], contype=0, conaffinity=0,
                   mass=0.0, density=0.0, rgba=[0.75, 0.75, 0.8, 0.6])
     return spec
+
+
+# ---------------------------------------------------------------------------------- loads
+
+
+class WorkLedger:
+    """Work done by held nodal forces: ``W += F_{k−1} · (x_k − x_{k−1})`` (exact for forces held
+    over the step). Put it after the loads it watches; they expose ``last_forces`` (n, 3)."""
+
+    name = "work_ledger"
+
+    def __init__(self, watched: dict[str, Any], node_bodies: np.ndarray):
+        self.watched = watched
+        self.node_bodies = node_bodies
+        self.work = {k: 0.0 for k in watched}
+        self._x = None
+        self._f: dict[str, np.ndarray] = {}
+
+    def add(self, state, xfrc: np.ndarray) -> None:
+        x = state.pos[self.node_bodies]
+        if self._x is not None:
+            dx = x - self._x
+            for k, f in self._f.items():
+                self.work[k] += float(np.einsum("ij,ij->", f, dx))
+        self._x = x.copy()
+        for k, load in self.watched.items():
+            f = getattr(load, "last_forces", None)
+            if f is not None:
+                self._f[k] = np.array(f, copy=True)
+
+    def values(self, pos: np.ndarray | None = None) -> np.ndarray:
+        """Work of every watched load up to now; with the current positions ``pos`` (all bodies)
+        the last held step is included (the recorder samples before the loads run)."""
+        out = np.array([self.work[k] for k in self.watched])
+        if pos is not None and self._x is not None:
+            dx = pos[self.node_bodies] - self._x
+            out += [float(np.einsum("ij,ij->", self._f[k], dx)) if k in self._f else 0.0 for k in self.watched]
+        return out
+
+
+class HeldForces:
+    """Wraps a load with a ``forces(pos, vel)`` method; keeps ``last_forces`` for the ledger."""
+
+    def __init__(self, load, body_offset: int = 1):
+        self.load = load
+        self.name = load.name
+        self.n = load.n
+        self._sl = slice(body_offset, body_offset + load.n)
+        self.last_forces = np.zeros((load.n, 3))
+
+    def add(self, state, xfrc: np.ndarray) -> None:
+        self.last_forces = self.load.forces(state.pos[self._sl], state.vel[self._sl])
+        xfrc[self._sl, :3] += self.last_forces
+
+
+class RigidLoopTorqueLoad:
+    """Dipole torque of the loops on the rigid surrogate: ``T = (R Σ_L I_L a_L) × B`` (world)."""
+
+    name = "rigid_loop_torque"
+
+    def __init__(self, body_id: int, areas_body: np.ndarray, field_world: np.ndarray | None = None):
+        self.body_id = int(body_id)
+        self.areas_body = np.asarray(areas_body, dtype=float)  # (L, 3)
+        self.field_world = field_world
+        self.last_torque = np.zeros(3)
+
+    def add(self, state, xfrc: np.ndarray) -> None:
+        cmd = state.ctrl
+        if cmd is None:
+            return
+        R = matrix_from_quat(state.xquat[self.body_id])
+        m_world = R @ (np.asarray(cmd.currents_A) @ self.areas_body)
+        B = self.field_world if self.field_world is not None else state.env.B_eci
+        self.last_torque = np.cross(m_world, B)
+        xfrc[self.body_id, 3:] += self.last_torque

@@ -54,91 +54,23 @@ from magsail_mj.scenarios.current_loops_metrics import (
     structural_series,
     sweep_metrics,
 )
-from magsail_mj.scenarios.current_loops_model import LoopsModel, make_loops_model, rigid_plate_spec
+from magsail_mj.scenarios.current_loops_model import (
+    HeldForces,
+    LoopsModel,
+    RigidLoopTorqueLoad,
+    WorkLedger,
+    make_loops_model,
+    rigid_plate_spec,
+)
 from magsail_mj.scenarios.current_loops_plots import slew_plots, structural_plots, sweep_plots
 from magsail_mj.sim import RunResult, Simulation
 
 __all__ = [
     "build_loops_scenario", "LoopsScenario", "FlexibleLoopsTask", "LoopsSweepTask",
-    "LoopsSlewTask", "LoopsRigidSlewTask", "WorkLedger", "RigidLoopTorqueLoad", "slew_controller",
+    "LoopsSlewTask", "LoopsRigidSlewTask", "slew_controller",
 ]
 
 Summary = tuple[dict[str, Any], dict[str, np.ndarray]]
-
-# ---------------------------------------------------------------------------------- loads
-
-
-class WorkLedger:
-    """Work done by held nodal forces: ``W += F_{k−1} · (x_k − x_{k−1})`` (exact for forces held
-    over the step). Put it after the loads it watches; they expose ``last_forces`` (n, 3)."""
-
-    name = "work_ledger"
-
-    def __init__(self, watched: dict[str, Any], node_bodies: np.ndarray):
-        self.watched = watched
-        self.node_bodies = node_bodies
-        self.work = {k: 0.0 for k in watched}
-        self._x = None
-        self._f: dict[str, np.ndarray] = {}
-
-    def add(self, state, xfrc: np.ndarray) -> None:
-        x = state.pos[self.node_bodies]
-        if self._x is not None:
-            dx = x - self._x
-            for k, f in self._f.items():
-                self.work[k] += float(np.einsum("ij,ij->", f, dx))
-        self._x = x.copy()
-        for k, load in self.watched.items():
-            f = getattr(load, "last_forces", None)
-            if f is not None:
-                self._f[k] = np.array(f, copy=True)
-
-    def values(self, pos: np.ndarray | None = None) -> np.ndarray:
-        """Work of every watched load up to now; with the current positions ``pos`` (all bodies)
-        the last held step is included (the recorder samples before the loads run)."""
-        out = np.array([self.work[k] for k in self.watched])
-        if pos is not None and self._x is not None:
-            dx = pos[self.node_bodies] - self._x
-            out += [float(np.einsum("ij,ij->", self._f[k], dx)) if k in self._f else 0.0 for k in self.watched]
-        return out
-
-
-class _HeldForces:
-    """Wraps a load with a ``forces(pos, vel)`` method; keeps ``last_forces`` for the ledger."""
-
-    def __init__(self, load, body_offset: int = 1):
-        self.load = load
-        self.name = load.name
-        self.n = load.n
-        self._sl = slice(body_offset, body_offset + load.n)
-        self.last_forces = np.zeros((load.n, 3))
-
-    def add(self, state, xfrc: np.ndarray) -> None:
-        self.last_forces = self.load.forces(state.pos[self._sl], state.vel[self._sl])
-        xfrc[self._sl, :3] += self.last_forces
-
-
-class RigidLoopTorqueLoad:
-    """Dipole torque of the loops on the rigid surrogate: ``T = (R Σ_L I_L a_L) × B`` (world)."""
-
-    name = "rigid_loop_torque"
-
-    def __init__(self, body_id: int, areas_body: np.ndarray, field_world: np.ndarray | None = None):
-        self.body_id = int(body_id)
-        self.areas_body = np.asarray(areas_body, dtype=float)  # (L, 3)
-        self.field_world = field_world
-        self.last_torque = np.zeros(3)
-
-    def add(self, state, xfrc: np.ndarray) -> None:
-        cmd = state.ctrl
-        if cmd is None:
-            return
-        R = matrix_from_quat(state.xquat[self.body_id])
-        m_world = R @ (np.asarray(cmd.currents_A) @ self.areas_body)
-        B = self.field_world if self.field_world is not None else state.env.B_eci
-        self.last_torque = np.cross(m_world, B)
-        xfrc[self.body_id, 3:] += self.last_torque
-
 
 class _RigidWrapper:
     """Runs a :class:`LoopAttitudeController` on a free body's pose and rate (``slew_rigid``)."""
@@ -338,7 +270,7 @@ class FlexibleLoopsTask(LoopsScenario):
 
     def __post_init__(self) -> None:
         self.lorentz: LorentzLoad | None = None
-        self.damping_load: _HeldForces | None = None
+        self.damping_load: HeldForces | None = None
         self.ledger: WorkLedger | None = None
         self.tidal: TidalGravityLoad | None = None
         self._modes: Modes | None = None
@@ -388,7 +320,7 @@ class FlexibleLoopsTask(LoopsScenario):
             out.append(self.tidal)
         if cfg.damping.enabled:
             d = cfg.damping
-            self.damping_load = _HeldForces(ModalDampingLoad.for_lattice(
+            self.damping_load = HeldForces(ModalDampingLoad.for_lattice(
                 nodes=lat.nodes, struts=lat.struts, k=self.lm.k, masses=self.lm.masses, schedule=d.schedule,
                 xi_low=d.xi_low, n_low=d.n_low, xi_cap=d.xi_cap, frame=d.frame))
             out.append(self.damping_load)
@@ -399,7 +331,7 @@ class FlexibleLoopsTask(LoopsScenario):
 
     def probes(self) -> dict[str, Any]:
         return flexible_probes(self.node_bodies, self.lm.masses,
-                               self.ledger.values if self.ledger is not None else None)
+                               self.ledger)
 
     def strain_check(self) -> Any:
         return strain_check(self.lm.lattice)
