@@ -51,6 +51,7 @@ from magsail_mj.loads.modal_damping import ModalDampingLoad, passive_damping  # 
 from magsail_mj.mjcf.truss import TrussModelOptions, build_truss_spec  # noqa: E402
 from magsail_mj.reference.numpy_rk4 import SpringMassLattice  # noqa: E402
 from magsail_mj.sim import Simulation  # noqa: E402
+from magsail_mj.analysis.modes import caughey_matrix  # noqa: E402
 
 try:  # the current-loop modules (another part of the project); a local fallback otherwise
     from magsail_mj.geometry.current_loops import circuit as _circuit
@@ -233,7 +234,6 @@ def injection_check(args) -> dict:
 
 
 def _gamma64(load: ModalDampingLoad) -> np.ndarray:
-    from magsail_mj.analysis.modes import caughey_matrix
     return caughey_matrix(load.modes, load.ratios)
 
 

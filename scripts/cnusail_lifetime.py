@@ -14,14 +14,14 @@ import csv
 import sys
 from pathlib import Path
 
+import magsail_mj  # noqa: F401  (chooses the GL backend before mujoco is imported)
+from magsail_mj.config import load_config
+from magsail_mj.run import run_scenario
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def main(argv: list[str] | None = None) -> int:
-    import magsail_mj  # noqa: F401
-    from magsail_mj.config import load_config
-    from magsail_mj.run import run_scenario
-
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(ROOT / "runs" / "cnusail" / "lifetime"))
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")

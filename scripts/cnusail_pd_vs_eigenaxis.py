@@ -16,6 +16,16 @@ import json
 import sys
 from pathlib import Path
 
+import matplotlib.pyplot as plt
+import numpy as np
+
+import magsail_mj  # noqa: F401  (chooses the GL backend before mujoco is imported)
+from magsail_mj.config import load_config
+from magsail_mj.io import write_json
+from magsail_mj.plotting import save_figure
+from magsail_mj.render import render_run
+from magsail_mj.run import run_scenario
+
 ROOT = Path(__file__).resolve().parents[1]
 KEYS = ("slew_time_s", "slew_time_ideal_s", "max_slew_rate_deg_s", "time_rate_above_1p05_limit_s",
         "axis_deviation_max_rad", "pointing_error_max_deg", "wheel_speed_max_rpm", "torque_saturated_time_s",
@@ -23,14 +33,6 @@ KEYS = ("slew_time_s", "slew_time_ideal_s", "max_slew_rate_deg_s", "time_rate_ab
 
 
 def main(argv: list[str] | None = None) -> int:
-    import magsail_mj  # noqa: F401
-    import numpy as np
-
-    from magsail_mj.config import load_config
-    from magsail_mj.io import write_json
-    from magsail_mj.run import run_scenario
-    from magsail_mj.scenarios.truss_plots import save_figure
-
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(ROOT / "runs" / "cnusail" / "pd_vs_eigenaxis_cmp"))
     ap.add_argument("--video", action="store_true")
@@ -44,11 +46,6 @@ def main(argv: list[str] | None = None) -> int:
     table = {law: {k: res[law].get(k) for k in KEYS} for law in res}
     write_json(out / "comparison.json", table)
     print(json.dumps(table, indent=2))
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
     for law, ls in (("pd", "--"), ("eigen_axis", "-")):
@@ -69,8 +66,6 @@ def main(argv: list[str] | None = None) -> int:
     axes[0].set_title("CNUSAIL-1 S5: 108° slew, PD (S5a) vs eigen-axis (S5b)")
     save_figure(fig, out / "comparison.png")
     if args.video:
-        from magsail_mj.render import render_run
-
         render_run(out / "pd", out / "pd_vs_eigenaxis.mp4", compare=out / "eigen_axis",
                    labels=["PD (S5a)", "eigen-axis (S5b)"],
                    fps=30, max_frames=json.loads((out / "pd" / "manifest.json").read_text())["render"]["max_frames"])

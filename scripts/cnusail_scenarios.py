@@ -23,6 +23,10 @@ import json
 import sys
 from pathlib import Path
 
+import magsail_mj  # noqa: F401  (chooses the GL backend before mujoco is imported)
+from magsail_mj.config import load_config
+from magsail_mj.run import run_scenario
+
 ROOT = Path(__file__).resolve().parents[1]
 IDS = ("detumble_pre", "detumble_post", "nadir_pre", "nadir_post", "pd_vs_eigenaxis", "deorbit", "deorbit_recalc",
        "lifetime")
@@ -35,10 +39,6 @@ KEYS = ("detumble_time_s", "slew_time_s", "max_slew_rate_deg_s", "pointing_error
 
 
 def main(argv: list[str] | None = None) -> int:
-    import magsail_mj  # noqa: F401  (chooses the GL backend before mujoco is imported)
-    from magsail_mj.config import load_config
-    from magsail_mj.run import run_scenario
-
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("ids", nargs="*", help="scenario ids (default with --all: every one)")
     ap.add_argument("--all", action="store_true", help="run every scenario")

@@ -30,9 +30,11 @@ import math
 import sys
 from pathlib import Path
 
+import mujoco
 import numpy as np
 
 from magsail_mj.io import write_json, write_npz
+from magsail_mj.render import render_run
 
 #: drawn thickness of the wing panels in the videos [m] (the model's is 0.03 m; see _render_model)
 PANEL_DRAWN_M = 0.25
@@ -47,8 +49,6 @@ def _load(run: Path) -> tuple[dict, dict[str, np.ndarray], dict]:
 
 
 def _slide_columns(model_xml: Path) -> np.ndarray:
-    import mujoco
-
     m = mujoco.MjModel.from_xml_path(str(model_xml))
     return np.array([m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j)] for j in ("w1_ext", "w2_ext")])
 
@@ -57,8 +57,6 @@ def _render_model(run: Path, rdir: Path, *, panel_thickness_m: float) -> None:
     """Copy the run's model into ``rdir`` with the wing panels *drawn* ``panel_thickness_m``
     thick: seen from straight above, a 3 cm panel is a hairline. The panel geoms carry no mass
     (the wings' inertials are explicit), so only the picture changes."""
-    import mujoco
-
     spec = mujoco.MjSpec.from_file(str(run / "model.xml"))
     for name in ("w1_panel", "w2_panel"):
         g = spec.geom(name)
@@ -68,8 +66,6 @@ def _render_model(run: Path, rdir: Path, *, panel_thickness_m: float) -> None:
 
 def make_v1(run: Path, out: Path, *, cycles: int, exaggerate: float | None) -> Path:
     """Render V1 (see module docs) and return the video path."""
-    from magsail_mj.render import render_run
-
     man, ts, summ = _load(run)
     f = man["config"]["cycle"]["frequency_Hz"]
     k = exaggerate if exaggerate is not None else man["config"]["render"]["extension_exaggeration"]
@@ -95,8 +91,6 @@ def make_v1(run: Path, out: Path, *, cycles: int, exaggerate: float | None) -> P
 
 def make_v2(run: Path, out: Path, *, max_deg_per_frame: float, max_frames: int, fps: float) -> Path:
     """Render V2 (see module docs) and return the video path."""
-    from magsail_mj.render import render_run
-
     man, ts, summ = _load(run)
     t, qpos, yaw = ts["t"], ts["qpos"], ts["yaw_unwrapped_rad"]
     f = man["config"]["cycle"]["frequency_Hz"]

@@ -8,8 +8,9 @@ Two analytic results, no simulation.
 side ``d`` [m] and mass ``M`` [kg] on a circular orbit of radius ``r`` [m] is
 ``T_gg = μ M d² / (8 r³)`` [N·m]; rods of dipole-to-mass ratio ``κ`` [A·m²/kg] and mass
 ``M_τ`` in the dipole field ``B = B0 (R_E / r)³`` [T] give at most ``T_ac = κ M_τ B``. Matching
-the two asks for the rod mass fraction ``λ_f = M_τ / M = μ d² / (8 r³ κ B)``, which grows with
-``d²``: :func:`magsail_mj.analysis.scaling.scaling_report` (also ``magsail scaling magnetorquer``).
+the two asks for the rod mass fraction ``λ_f = M_τ / M = μ d² / (8 r³ κ B) = μ d² / (8 κ B0 R_E³)``:
+the orbit radius cancels, and ``λ_f`` grows with ``d²``
+(:func:`magsail_mj.analysis.scaling.scaling_report`, also ``magsail scaling magnetorquer``).
 
 **Current loop around the rim** (current-loops concept, geometry A). The conductor's own inertia
 makes the needed mass fraction implicit, ``λ_f = λ_u (1 + κ λ_f)^{4/3}``: below the fold
@@ -37,7 +38,7 @@ ax.axhline(1.0, color="k", lw=0.8, ls=":", label="λ_f = 1 (all mass in rods)")
 ax.axhline(0.5, color="0.5", lw=0.8, ls="--", label="λ_f = 0.5 (the truss's design)")
 ax.set_xlabel("plate side d [m]")
 ax.set_ylabel("rod mass fraction λ_f [-]")
-ax.set_title(f"magnetorquer rods against gravity gradient, {ALTITUDE_KM:g} km circular orbit", fontsize=10)
+ax.set_title("magnetorquer rods against gravity gradient (any circular orbit)", fontsize=10)
 ax.grid(True, which="both", alpha=0.25)
 ax.legend(fontsize=8)
 
