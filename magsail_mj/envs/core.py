@@ -359,6 +359,7 @@ class AttitudeTask(control.Task):
         self.action_names: tuple[str, ...] = ()
         self.action_low = np.zeros(0)
         self.action_high = np.zeros(0)
+        self._inv_scale: list[float] = []
         self.start: dict[str, Any] = {}
         self._last_action = np.zeros(0)
         self._previous_obs: collections.OrderedDict | None = None
@@ -376,6 +377,9 @@ class AttitudeTask(control.Task):
             raise ValueError(f"action bounds: expected {len(names)} pairs low <= high, got {low!r}, {high!r}")
         self.action_names = tuple(names)
         self.action_low, self.action_high = low, high
+        self._low_list, self._high_list = low.tolist(), high.tolist()
+        scale = np.maximum(np.abs(low), np.abs(high))
+        self._inv_scale = [1.0 / x if x > 0 else 0.0 for x in scale.tolist()]
         self._last_action = np.zeros(len(names))
 
     def neutral_action(self) -> np.ndarray:
@@ -402,11 +406,12 @@ class AttitudeTask(control.Task):
         a = np.asarray(action, dtype=float).reshape(-1)
         if a.shape != self.action_low.shape:
             raise ValueError(f"action: expected shape {self.action_low.shape}, got {np.shape(action)}")
-        if not np.all(np.isfinite(a)):
+        values = a.tolist()  # a few components: plain floats are faster than NumPy calls here
+        if not all(map(math.isfinite, values)):
             raise ValueError(f"action: every component must be finite, got {action!r}")
         if self.clip_actions:
-            a = np.clip(a, self.action_low, self.action_high)
-        return a
+            values = [min(max(v, lo), hi) for v, lo, hi in zip(values, self._low_list, self._high_list)]
+        return np.array(values)
 
     converter: Any = None
     """Object whose ``command(state, action)`` returns the scenario's command for ``action`` at
@@ -427,7 +432,12 @@ class AttitudeTask(control.Task):
         return {}
 
     # ------------------------------------------------------------------ observations and reward
-    def observe(self, physics: SimulationPhysics, state: StepState) -> dict[str, np.ndarray]:
+    needs_step_state: bool = True
+    """Whether :meth:`observe` reads the runner's :class:`StepState` (body kinematics and the
+    environment sample at the current time, built by :meth:`SimulationPhysics.step_state`); a task
+    that reads ``physics.data`` itself sets it False and is passed ``None``."""
+
+    def observe(self, physics: SimulationPhysics, state: StepState | None) -> dict[str, np.ndarray]:
         """Named observation arrays at ``state`` (subclass)."""
         raise NotImplementedError
 
@@ -445,9 +455,8 @@ class AttitudeTask(control.Task):
         if physics.status == "diverged" and self._previous_obs is not None:
             out = collections.OrderedDict((k, np.full_like(v, np.nan)) for k, v in self._previous_obs.items())
         else:
-            obs = self.observe(physics, physics.step_state())
-            out = collections.OrderedDict((k, np.array(v, dtype=np.float64).reshape(np.shape(v)))
-                                          for k, v in obs.items())
+            obs = self.observe(physics, physics.step_state() if self.needs_step_state else None)
+            out = collections.OrderedDict((k, np.asarray(v, dtype=np.float64)) for k, v in obs.items())
             self._previous_obs = out
         self._obs_cache = (key, out)
         return out
@@ -458,12 +467,12 @@ class AttitudeTask(control.Task):
         return {}
 
     def effort(self) -> float:
-        """Mean of squares of the last action normalised by its bounds, in [0, 1]."""
-        if not self._last_action.size:
+        """Mean of squares of the last action normalised by its bounds (``a / max(|low|, |high|)``;
+        in [0, 1] for an action within its bounds)."""
+        n = len(self._inv_scale)
+        if not n:
             return 0.0
-        scale = np.maximum(np.abs(self.action_low), np.abs(self.action_high))
-        u = np.divide(self._last_action, scale, out=np.zeros_like(self._last_action), where=scale > 0)
-        return float(np.mean(u * u))
+        return sum((a * k) ** 2 for a, k in zip(self._last_action.tolist(), self._inv_scale)) / n
 
     def get_reward(self, physics: SimulationPhysics) -> float:
         """The reward of the module docstring (NaN after a divergence)."""

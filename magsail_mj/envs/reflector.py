@@ -117,6 +117,14 @@ class ActionPitchConverter:
                             psi_ref=ref.psi_c, psi_dot_ref=ref.psi_dot, psi_ddot_ref=ref.psi_ddot, B_world=B_w)
 
 
+def _plate_observation(physics: SimulationPhysics, idx: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(q, R, ω_b)`` of the plate read from ``qpos``/``qvel`` (the free joint's angular velocity
+    is in body axes): what the controllers read, without the runner's kinematics pass."""
+    q = physics.data.qpos[idx.q_quat]
+    q = q / math.sqrt(float(q @ q))
+    return q, quat_to_matrix(q), np.array(physics.data.qvel[idx.v_ang], dtype=float)
+
+
 def _check_ranges(**ranges: float) -> None:
     for name, value in ranges.items():
         if not (math.isfinite(value) and value >= 0):
@@ -160,15 +168,18 @@ class ReflectorDetumbleTask(AttitudeTask):
         self.scenario.plate.write_state(physics.data, q, omega)
         return {"omega0_body_rad_s": omega, "q0_wxyz": q}
 
-    def observe(self, physics: SimulationPhysics, state: StepState) -> dict[str, np.ndarray]:
-        q, R, w = _plate_pose(state, self.body)
-        obs = {"attitude_wxyz": np.array(q, dtype=float), "body_rate_rad_s": w,
-               "field_body_T": np.asarray(self.converter.law.field_body(state.t, R), dtype=float)}
+    needs_step_state = False
+
+    def observe(self, physics: SimulationPhysics, state: None) -> dict[str, np.ndarray]:
+        q, R, w = _plate_observation(physics, self.scenario.plate.idx)
+        obs = {"attitude_wxyz": q, "body_rate_rad_s": w,
+               "field_body_T": np.asarray(self.converter.law.field_body(physics.time(), R), dtype=float)}
         return obs
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
         obs = self.current_observation(physics)
-        return {"omega_rad_s": float(np.linalg.norm(obs["body_rate_rad_s"]))}
+        w = obs["body_rate_rad_s"]
+        return {"omega_rad_s": math.sqrt(float(w @ w))}
 
     def shipped_action(self, physics: SimulationPhysics, controller: Any, state: StepState) -> np.ndarray:
         """Currents mode: the shipped coil currents (``dipole`` law); torque mode: the shipped law's
@@ -225,19 +236,22 @@ class ReflectorPitchTask(AttitudeTask):
         self.scenario.plate.write_state(physics.data, q, omega)
         return {"omega0_body_rad_s": omega, "q0_wxyz": q}
 
-    def observe(self, physics: SimulationPhysics, state: StepState) -> dict[str, np.ndarray]:
-        q, R, w = _plate_pose(state, self.body)
-        ref = self.steering.at(state.t)
-        obs = {"attitude_wxyz": np.array(q, dtype=float), "body_rate_rad_s": w,
-               "field_body_T": R.T @ self.converter.law.orbit.field(state.t),
+    needs_step_state = False
+
+    def observe(self, physics: SimulationPhysics, state: None) -> dict[str, np.ndarray]:
+        q, R, w = _plate_observation(physics, self.scenario.plate.idx)
+        t = physics.time()
+        ref = self.steering.at(t)
+        obs = {"attitude_wxyz": q, "body_rate_rad_s": w, "field_body_T": R.T @ self.converter.law.orbit.field(t),
                "target_wxyz": np.asarray(ref.q_ref, dtype=float),
                "target_rate_rad_s": np.array([0.0, -ref.psi_dot, 0.0])}
         return obs
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
         obs = self.current_observation(physics)
+        dw = obs["body_rate_rad_s"] - obs["target_rate_rad_s"]
         return {"theta_rad": pointing_error_rad(obs["attitude_wxyz"], obs["target_wxyz"]),
-                "omega_rad_s": float(np.linalg.norm(obs["body_rate_rad_s"] - obs["target_rate_rad_s"]))}
+                "omega_rad_s": math.sqrt(float(dw @ dw))}
 
     def shipped_action(self, physics: SimulationPhysics, controller: Any, state: StepState) -> np.ndarray:
         """The shipped ``T_ref``."""
