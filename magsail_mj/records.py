@@ -173,6 +173,8 @@ class Recorder:
         counts only once all its values are stored (an interrupt half-way leaves none of it)."""
         if not self.buffers:
             self._allocate({k: np.asarray(values[k]) for k in self.names})
+        elif self.n - self.base == self.chunk:   # a chunk whose hand-over was interrupted
+            self._chunk_full()
         i = self.n - self.base
         for name in self.names:
             value = values[name]
@@ -197,6 +199,8 @@ class Recorder:
             self._allocate({k: v[0] for k, v in cols.items()})
         done = 0
         while done < total:
+            if self.n - self.base == self.chunk:
+                self._chunk_full()
             i = self.n - self.base
             take = min(self.chunk - i, total - done)
             for name, v in cols.items():
