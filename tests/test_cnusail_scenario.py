@@ -10,10 +10,24 @@ import magsail_mj  # noqa: F401  (before mujoco: GL backend choice)
 import numpy as np
 import pytest
 
-from magsail_mj.config import ConfigError, parse_config
+from magsail_mj.analysis.lifetime import (
+    averaged_decay,
+    averaged_rates,
+    circular_da_dt,
+    cowell_decay,
+    density_model,
+    geometric_mean_elements,
+)
+from magsail_mj.concepts import TASKS
+from magsail_mj.config import ConfigError, load_config, parse_config
+from magsail_mj.environment.orbit import OrbitalElements
+from magsail_mj.estimation.attitude import matrix_from_quat
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.cubesat_disturbances import CubesatDisturbanceLoad, cubesat_drag_facets, cubesat_sail_facets
+from magsail_mj.run import run_scenario
 from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenarios.cnusail_metrics import disturbance_orbit_profile
+from magsail_mj.scenarios.cnusail_tasks import AttitudeTask, LifetimeTask
 from tests.conftest import REPO
 
 DEG = math.pi / 180
@@ -71,8 +85,6 @@ def test_disturbance_fast_path_equals_project_loads(configuration):
 
 def test_gravity_gradient_vanishes_in_nadir_attitude():
     """Principal axes aligned with R: no gravity-gradient torque (spec §13 item 6)."""
-    from magsail_mj.scenarios.cnusail_metrics import disturbance_orbit_profile
-
     sc = build_scenario(parse_config(_tree(sim={"duration_s": 600.0})))
     _, tq = disturbance_orbit_profile(sc, "nadir", n=20)
     _, tq_d = disturbance_orbit_profile(sc, "deorbit", n=20)
@@ -97,8 +109,6 @@ def test_config_validation_messages():
 
 
 def test_scenario_configs_load_with_spec_values():
-    from magsail_mj.config import load_config
-
     ids = ["detumble_pre", "detumble_post", "nadir_pre", "nadir_post", "pd_vs_eigenaxis", "deorbit",
            "deorbit_recalc", "lifetime"]
     cfgs = {i: load_config(REPO / "models" / "cnusail" / f"{i}.toml") for i in ids}
@@ -114,8 +124,6 @@ def test_scenario_configs_load_with_spec_values():
 # ------------------------------------------------------------------ runs
 
 def test_short_slew_run_end_to_end(tmp_path):
-    from magsail_mj.run import run_scenario
-
     cfg = parse_config(_tree())
     out = run_scenario(cfg, tmp_path / "run", progress=False)
     assert out.status == "completed"
@@ -134,7 +142,6 @@ def test_short_slew_run_end_to_end(tmp_path):
     # the display markers were filled in: the Sun arrow points at the Sun
     sc = build_scenario(cfg)
     qa = sc.idx.marker_qpos["mk_sun"]
-    from magsail_mj.estimation.attitude import matrix_from_quat
     z = matrix_from_quat(ts["qpos"][:, qa:qa + 4])[:, :, 2]
     sun = sc.environment.sample_many(ts["t"])["sun_eci"]
     np.testing.assert_allclose(np.einsum("ti,ti->t", z, sun), 1.0, atol=1e-9)
@@ -164,8 +171,6 @@ def test_detumble_blanking_window_and_bdot_sign():
 # ------------------------------------------------------------------ lifetime (§10, §13.11)
 
 def test_averaged_decay_matches_circular_closed_form():
-    from magsail_mj.analysis.lifetime import averaged_rates, circular_da_dt, density_model
-
     rho = density_model("exp")
     a = 6378137.0 + 500e3
     da, de = averaged_rates(a, 0.0, bstar=1.1, rho_fn=rho, R_E=6378137.0)
@@ -180,9 +185,6 @@ def test_cowell_vs_averaged_deorbit_regime():
     """Deorbit regime (B* = 2.2 m²/kg), exponential atmosphere: Cowell (two-body + J2 + drag,
     co-rotating atmosphere) vs orbit-averaged from the J2 orbit's perigee/apogee radii agree within
     5 % (spec §10; measured 4.2 %, of which ≈ 2 % is the co-rotating atmosphere)."""
-    from magsail_mj.analysis.lifetime import averaged_decay, cowell_decay, density_model, geometric_mean_elements
-    from magsail_mj.environment.orbit import OrbitalElements
-
     R_E = 6378137.0
     el = OrbitalElements(**_EL)
     rho = density_model("exp")
@@ -197,12 +199,17 @@ def test_cowell_vs_averaged_deorbit_regime():
 def test_cowell_vs_averaged_same_assumptions():
     """With J2 off and an inertial atmosphere (the averaged model's assumptions) the two agree
     within 0.5 % (measured 0.07 %): the averaging itself is accurate."""
-    from magsail_mj.analysis.lifetime import averaged_decay, cowell_decay, density_model
-    from magsail_mj.environment.orbit import OrbitalElements
-
     R_E = 6378137.0
     el = OrbitalElements(**_EL)
     rho = density_model("exp")
     plain = averaged_decay(a0_m=el.a, e0=el.e, bstar=2.2, rho_fn=rho, R_E=R_E)
     cow2 = cowell_decay(elements=el, bstar=2.2, rho_fn=rho, R_E=R_E, j2=False, corotating=False)
     assert abs(plain.lifetime_s / cow2.lifetime_s - 1) < 0.005
+
+
+@pytest.mark.parametrize("name, cls", [("nadir_pre", AttitudeTask), ("lifetime", LifetimeTask)])
+def test_every_kind_builds_its_registered_task_class(name, cls):
+    """One task class per ``kind``, registered under ``("cnusail", kind)`` and found by build_scenario."""
+    cfg = load_config(REPO / "models" / "cnusail" / f"{name}.toml")
+    assert TASKS[("cnusail", cfg.kind)] is cls
+    assert type(build_scenario(cfg)) is cls

@@ -10,8 +10,13 @@ import tomllib
 import numpy as np
 import pytest
 
+from magsail_mj.analysis.msac_reference import exact_rotation_path, lumped_theta
+from magsail_mj.concepts import TASKS
 from magsail_mj.config import ConfigError, load_config, parse_config
 from magsail_mj.run import run_scenario
+from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenarios.msac import build_msac_scenario
+from magsail_mj.scenarios.msac_tasks import LumpedTask, MultibodyTask, SweepTask
 from tests.conftest import REPO
 
 MODELS = REPO / "models" / "msac"
@@ -107,9 +112,6 @@ def test_multibody_run_folder(tmp_path):
 
 
 def test_lumped_scenario_summary(tmp_path):
-    from magsail_mj.analysis.msac_reference import exact_rotation_path, lumped_theta
-    from magsail_mj.scenarios.msac import build_msac_scenario
-
     cfg = load_config(MODELS / "lumped.toml")
     out = run_scenario(cfg, tmp_path / "lumped", progress=False)
     sc = build_msac_scenario(cfg)
@@ -136,3 +138,12 @@ def test_sweep_scenario(tmp_path):
     assert th.shape == (2,) and np.all(np.abs(th / ex - 1) < 5e-3)
     # per-cycle rotation flat in frequency, rate proportional to it (T6)
     assert out["sweep_secular_rate_rad_s"][1] / out["sweep_secular_rate_rad_s"][0] == pytest.approx(100, rel=5e-3)
+
+
+@pytest.mark.parametrize("path, cls", [
+    ("lumped.toml", LumpedTask), ("slow_1hz.toml", MultibodyTask), (SWEEPS[0].relative_to(MODELS), SweepTask)])
+def test_every_kind_builds_its_registered_task_class(path, cls):
+    """One task class per ``scenario``, registered under ``("msac", scenario)`` and found by build_scenario."""
+    cfg = load_config(MODELS / path)
+    assert TASKS[("msac", cfg.scenario)] is cls
+    assert type(build_scenario(cfg)) is cls

@@ -21,6 +21,8 @@ from magsail_mj.config import load_config
 from magsail_mj.control.msac_drive import set_initial_state
 from magsail_mj.mjcf.msac import MsacModelParams, build_msac_spec, shape_indices
 from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenarios.msac_model import planar_model
+from magsail_mj.scenarios.msac_runner import MsacRunner
 from tests.conftest import REPO
 
 MODELS = REPO / "models" / "msac"
@@ -76,8 +78,6 @@ def test_point_symmetry_keeps_the_centre_of_mass_at_the_bus_centre():
 
 def test_planar_momentum_formula_matches_mujoco():
     # the exact model's L = D ψ̇ + N_φ φ̇ + N_s ṡ against MuJoCo's subtree_angmom at random states
-    from magsail_mj.scenarios.msac import planar_model
-
     p = MsacModelParams()
     P = planar_model(p)
     m = build_msac_spec(p).compile()
@@ -224,8 +224,6 @@ def test_chunked_rollout_equals_one_chunk_and_resume_equals_uninterrupted(tmp_pa
 
 def test_divergence_is_reported_not_silent():
     # a gear of 1 puts the ~1e10 N m feed-forward torque above MuJoCo's control bound
-    from magsail_mj.scenarios.msac_runner import MsacRunner
-
     cfg = load_config(MODELS / "paper_1khz.toml", ["sim.duration_s=0.004", "cycle.frequency_Hz=4000.0",
                                                    "sim.timestep_s=1.25e-6"])
     sc = build_scenario(cfg)

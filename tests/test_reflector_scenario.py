@@ -12,12 +12,17 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from magsail_mj.concepts import TASKS
 from magsail_mj.config import ConfigError, load_config, parse_config
 from magsail_mj.control.reflector_bdot import PlateBdotController
-from magsail_mj.quaternion import quat_to_matrix
+from magsail_mj.loads.base import StepState
+from magsail_mj.loads.body_torque import OrbitGravityGradientLoad
 from magsail_mj.mjcf.plate import PlateModelParams, build_plate_spec, plate_mass_properties
+from magsail_mj.quaternion import quat_to_matrix
 from magsail_mj.run import run_scenario
 from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenarios.reflector_caps import CapSweepRunner, cap_grid
+from magsail_mj.scenarios.reflector_tasks import DetumbleTask, PitchCapsTask, PitchTask
 from tests.conftest import REPO
 
 DETUMBLE = REPO / "models" / "reflector" / "detumble.toml"
@@ -184,9 +189,6 @@ def test_pitch_smoke_run_summary_keys(tmp_path):
 
 
 def test_gravity_gradient_load_matches_body_axes_formula():
-    from magsail_mj.loads.base import StepState
-    from magsail_mj.loads.body_torque import OrbitGravityGradientLoad
-
     cfg = load_config(TRACK100, ["gravity.gg_torque=true", "sim.duration_s=10"])
     sc = build_scenario(cfg)
     rng = np.random.default_rng(2)
@@ -217,10 +219,18 @@ def test_b3_cap_sweep_runs_the_grid_and_reports_the_minimum_caps(tmp_path):
 
 
 def test_cap_sweep_watchdog_stops_a_failing_run():
-    from magsail_mj.scenarios.reflector_caps import CapSweepRunner, cap_grid
-
     assert cap_grid()[[0, -1]].tolist() == [0.25, 64.0]
     cfg = load_config(TRACK100, ["sim.duration_s=600", "sim.progress=false"])
     runner = CapSweepRunner(build_scenario(cfg).plate)
     r = runner._one(1.125, 0.01)                              # 0.01° cannot be held: stopped early
     assert not r.passed and r.t_stop_s < 600 and r.err_max_rad > 0.01 * math.pi / 180
+
+
+@pytest.mark.parametrize("path, cls", [
+    ("detumble.toml", DetumbleTask), ("tracking_100g.toml", PitchTask), ("pitch/b3_caps_sigma10.toml", PitchCapsTask)])
+def test_every_kind_builds_its_registered_task_class(path, cls):
+    """One task class per ``kind``, registered under ``("reflector", kind)`` and found by build_scenario."""
+    cfg = load_config(REPO / "models" / "reflector" / path, ["sim.duration_s=10"])
+    assert TASKS[("reflector", cfg.kind)] is cls
+    task = build_scenario(cfg)
+    assert type(task) is cls and task.plate.cfg is cfg

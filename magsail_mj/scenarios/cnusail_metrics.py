@@ -56,11 +56,11 @@ from magsail_mj.estimation.attitude import euler_zyx, matrix_from_quat
 from magsail_mj.loads.actuators_cubesat import mtq_power
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.cubesat_disturbances import SOURCES
-from magsail_mj.quaternion import quat_mul
+from magsail_mj.quaternion import direction_quaternions, quat_mul
 from magsail_mj.scenarios.cnusail_model import CnusailModel
 from magsail_mj.sim import RunResult
 
-__all__ = ["attitude_outputs", "time_stays_below", "disturbance_orbit_profile", "direction_quaternions"]
+__all__ = ["attitude_outputs", "time_stays_below", "disturbance_orbit_profile"]
 
 DEG = math.pi / 180.0
 RPM = 2.0 * math.pi / 60.0
@@ -74,21 +74,6 @@ def time_stays_below(t: np.ndarray, x: np.ndarray, threshold: float) -> float | 
         return float(t[0])
     k = int(above[-1])
     return None if k == len(t) - 1 else float(t[k + 1])
-
-
-def direction_quaternions(d: np.ndarray) -> np.ndarray:
-    """(T, 4) scalar-first quaternions rotating +z onto the unit directions ``d`` (T, 3) (marker
-    bodies). Antiparallel directions take a rotation of π about x."""
-    d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
-    c = d[:, 2]
-    w = np.sqrt(np.maximum(0.5 * (1.0 + c), 0.0))
-    q = np.zeros((len(d), 4))
-    ok = w > 1e-8
-    q[ok, 0] = w[ok]
-    q[ok, 1] = -d[ok, 1] / (2 * w[ok])
-    q[ok, 2] = d[ok, 0] / (2 * w[ok])
-    q[~ok] = [0.0, 1.0, 0.0, 0.0]
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
 
 
 def _euler_321_deg(p_e: np.ndarray) -> np.ndarray:

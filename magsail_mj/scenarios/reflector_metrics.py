@@ -31,7 +31,7 @@ import numpy as np
 from magsail_mj.control.reflector_steering import pitch_angle_from_quaternion
 from magsail_mj.environment.frames import quat_to_mat
 from magsail_mj.mjcf.plate import plate_mass_properties
-from magsail_mj.scenarios.cnusail_metrics import direction_quaternions
+from magsail_mj.quaternion import direction_quaternions
 from magsail_mj.scenarios.reflector_model import ReflectorModel
 from magsail_mj.sim import RunResult
 
