@@ -248,8 +248,10 @@ def test_stale_results_are_rerun_and_only_merges_the_summary(tmp_path):
     path = _sweep_file(tmp_path, ["m/a", "m/b"], FAST)
     out = tmp_path / "out"
 
-    def summary():
-        return {r["id"]: r for r in json.loads((out / "sweep_summary.json").read_text())}
+    def summary():  # the records on disk, with whether each was reused (the manifest lists the reused runs)
+        reused = set(json.loads((out / "sweep_manifest.json").read_text())["reused"])
+        stored = json.loads((out / "sweep_summary.json").read_text())
+        return {r["id"]: {**r, "reused": r["id"] in reused} for r in stored}
 
     first = run_sweep(load_sweep(path, only="m/a"), out, log=None)
     assert [(r["id"], r["status"], r["reused"]) for r in first] == [("m/a", "completed", False),
