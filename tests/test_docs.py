@@ -124,3 +124,38 @@ def test_cli_reference_names_every_verb_and_option():
             for opt in action.option_strings:
                 if opt not in ("-h", "--help"):
                     assert f"`{opt}`" in page, f"{parser.prog} {opt}"
+
+
+GALLERY = ROOT / "examples" / "gallery"
+_SIM_BUILDERS = re.compile(r"\b(build_scenario|build_truss_scenario|Simulation)\(|\.simulation\(\)")
+# a scenario built from a config, bypassing magsail_mj.load (a bare runner on a hand-made model,
+# as in the damping and environment benchmarks, is not a config's simulation)
+_SCENARIO_BUILDERS = re.compile(r"\b(build_scenario|build_truss_scenario)\(|\.simulation\(\)")
+
+
+def test_gallery_examples_have_a_title_and_build_simulations_through_load():
+    examples = sorted(GALLERY.glob("plot_*.py"))
+    assert len(examples) >= 5 and (GALLERY / "README.rst").is_file()
+    for example in examples:
+        text = example.read_text()
+        title = text.split('"""')[1].strip().splitlines()
+        assert len(title) >= 2 and set(title[1]) == {"="} and len(title[1]) >= len(title[0]), example.name
+        assert not _SIM_BUILDERS.search(text), f"{example.name} builds a simulation without magsail_mj.load"
+        if ".run()" in text:
+            assert "magsail_mj.load(" in text, example.name
+
+
+def test_scripts_build_simulations_through_load():
+    # build_models.py writes MJCF only (as `magsail build`): it needs the model builder, not a simulation
+    offenders = [p.name for p in sorted((ROOT / "scripts").glob("*.py"))
+                 if p.name != "build_models.py" and _SCENARIO_BUILDERS.search(p.read_text())]
+    assert not offenders, f"scripts that build a simulation without magsail_mj.load: {offenders}"
+
+
+def test_gallery_is_in_the_site_and_linked_from_the_concept_pages():
+    assert "gallery/index" in (DOCS / "index.md").read_text()
+    linked = {m for page in (DOCS / "concepts").glob("*.md")
+              for m in re.findall(r"\.\./gallery/(plot_\w+)", page.read_text())}
+    examples = {p.stem for p in GALLERY.glob("plot_*.py")}
+    assert linked <= examples, f"concept pages link missing gallery entries: {sorted(linked - examples)}"
+    assert linked, "no concept page links the gallery"
