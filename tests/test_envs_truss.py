@@ -14,7 +14,7 @@ from dm_env import test_utils
 
 from magsail_mj import envs
 from magsail_mj.config import load_config
-from magsail_mj.estimation.attitude import BestFitRotation
+from magsail_mj.estimation.attitude import BestFitRotation, so3_exp
 from magsail_mj.quaternion import quat_from_matrix
 
 SMALL = ["lattice.units=3", 'control.cache_dir=""']
@@ -109,3 +109,15 @@ def test_health_observations_are_held_between_refreshes() -> None:
     # refreshed at observations 0, 5, 10 …: steps 1–4 repeat the reset's value, 5–9 the fifth's
     assert len(set(seen[:4])) == 1 and len(set(seen[4:9])) == 1 and seen[4] != seen[3]
     assert math.isfinite(seen[0])
+
+
+def test_rate_from_rotations_is_the_log_map_rate() -> None:
+    """R = R0 · exp(ω̂ δt) gives back ω (body axes) for small and large turns (rotation vector of
+    the turn divided by δt)."""
+    rng = np.random.RandomState(2)
+    R0 = so3_exp(rng.normal(size=3))
+    for angle in (1e-7, 1e-3, 0.5, 2.5):
+        axis = rng.normal(size=3)
+        w = angle * axis / np.linalg.norm(axis) / 0.1
+        got = envs.truss.rate_from_rotations(R0, R0 @ so3_exp(w * 0.1), 0.1)
+        np.testing.assert_allclose(got, w, rtol=1e-9, atol=1e-15)

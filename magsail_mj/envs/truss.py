@@ -57,10 +57,26 @@ from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step
 from magsail_mj.loads.base import StepState
 from magsail_mj.quaternion import error_quaternion, quat_from_matrix
 
-__all__ = ["TrussAttitudeTask", "ActionRodController", "B_BOUND_T"]
+__all__ = ["TrussAttitudeTask", "ActionRodController", "B_BOUND_T", "rate_from_rotations"]
 
 B_BOUND_T = 1e-4
 """Field magnitude bounding the torque action [T] (above any LEO geomagnetic field)."""
+
+
+def rate_from_rotations(R_prev: np.ndarray, R: np.ndarray, dt: float) -> np.ndarray:
+    """Backward-difference body rate [rad/s] of two body → world rotations ``dt`` apart (§4.2):
+    ``ω = θ/sin θ · vee(M)/δt`` with ``M = R_prevᵀ R``, ``θ = atan2(|vee M|, (tr M − 1)/2)`` (series
+    ``1 + θ²/6 + 7θ⁴/360`` below 1e-4 rad); beyond 120° the general log of
+    :func:`~magsail_mj.estimation.attitude.body_rate_step`."""
+    M = R_prev.T @ R
+    s = 0.5 * np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]])
+    c = 0.5 * (M[0, 0] + M[1, 1] + M[2, 2] - 1.0)
+    if c < -0.5:
+        return body_rate_step(R_prev, R, dt, method="log")
+    sn = math.sqrt(float(s @ s))
+    th = math.atan2(sn, c)
+    f = 1.0 + th * th / 6.0 + 7.0 * th**4 / 360.0 if th < 1e-4 else th / sn
+    return s * (f / dt)
 
 
 class ActionRodController(RodAttitudeController):
@@ -185,7 +201,7 @@ class TrussAttitudeTask(AttitudeTask):
         mem = self._obs_memory
         R, _ = self.fit(state.pos[self.node_slice])
         if mem["R"] is not None and state.t > mem["t"]:
-            mem["omega"] = body_rate_step(mem["R"], R, state.t - mem["t"], method="log")
+            mem["omega"] = rate_from_rotations(mem["R"], R, state.t - mem["t"])
         if mem["R"] is None or state.t > mem["t"]:
             mem["R"], mem["t"] = R, float(state.t)
         return R, mem["omega"]
