@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from magsail_mj.cli import main
-from magsail_mj.config import ConfigError, load_config
+from magsail_mj.config import ConfigError, load_config, read_toml
 from magsail_mj.sweep import load_sweep, run_sweep, sweep_exit_code
 
 MODELS = Path(__file__).resolve().parents[1] / "models" / "current_loops"
@@ -197,3 +197,13 @@ def test_sweep_command_exits_1_when_a_run_failed(tmp_path, capsys):
     assert main(["sweep", str(_sweep_file(tmp_path)), "--out", str(out), "--workers", "2"]) == 1
     status = json.loads(capsys.readouterr().out)["status"]
     assert status == {"ok/a": "completed", "ok/b": "completed", "bad/blocked": "failed"}
+
+
+def test_truss_orbital_sweep_lists_every_orbital_truss_config():
+    """The configs the removed generator wrote (§9 detumble, slews, ablation, sensitivity) are all runs."""
+    truss = MODELS.parent / "truss_magnetorquer"
+    tree = read_toml(SWEEPS / "truss_orbital.toml")
+    listed = {(SWEEPS / r["config"]).resolve() for r in tree["run"]}
+    stems = ("detumble", "slew_i", "slew_ii", "slew_iii", "slew_iv", "gg_ablation_slew_i")
+    expected = {(truss / f"{s}.toml").resolve() for s in stems} | set((truss / "sensitivity").glob("*.toml"))
+    assert expected and expected <= listed
