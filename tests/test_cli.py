@@ -174,3 +174,11 @@ def test_report_verb_refuses_a_folder_that_is_not_a_sweep(tmp_path, capsys):
     assert main(["report", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: SWEEP_DIR") and "sweep_summary.json" in err
+
+
+def test_guarantees_page_lists_the_same_exit_statuses():
+    page = (ROOT / "docs" / "guarantees.md").read_text()
+    table = {int(m) for m in re.findall(r"^\| (\d+) \|", page, flags=re.MULTILINE)}
+    assert table == EXIT_STATUSES
+    assert "1 when any run of the call failed, was interrupted or stopped, else 3 when any" in page
+    assert "sweep: 1 when any run failed, was interrupted or stopped, else 3 when any diverged" in EXIT_CODES
