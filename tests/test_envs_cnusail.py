@@ -100,7 +100,15 @@ def test_task_follows_config_and_lists():
     spec = env.action_spec()
     assert spec.shape == (6,)
     motor = env.physics.cfg.actuators.wheels.motor_params()
-    assert spec.maximum[0] == pytest.approx(motor.torque_max_N_m + motor.K_B_N_m_s * motor.speed_max_rad_s)
+    u_max = motor.K_M_N_m_A * motor.current_max_A + 2 * motor.K_B_N_m_s * motor.speed_max_rad_s
+    assert spec.maximum[0] == pytest.approx(u_max)
+    # a request beyond the bound gives the wheel command of the clipped request (clipping is harmless)
+    driver = env.physics.base.controller.driver
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        u = rng.uniform(-5, 5, 3) * u_max
+        w = rng.uniform(-1, 1, 3) * motor.speed_max_rad_s
+        np.testing.assert_array_equal(driver.command(u, w), driver.command(np.clip(u, -u_max, u_max), w))
     np.testing.assert_array_equal(spec.maximum[3:], env.physics.cfg.actuators.mtq.limit_vector)
     with pytest.raises(ValueError, match="action"):
         envs.load("cnusail/detumble", ["sim.duration_s=5"], action="wheels")

@@ -13,8 +13,8 @@ Action (``dm_env.specs.BoundedArray``, float64, bounded as the hardware is):
 * detumble, ``action="dipole"`` (default): ``m`` (3,) magnetorquer dipole [A m², body axes], each
   axis within ``±actuators.mtq`` limits; the wheels are idle (current command 0, E-15);
 * pointing, ``action="torque_dipole"`` (default): ``u`` (3,) body-torque request of the wheels
-  [N m, ±(τ_max + K_B Ω_max), beyond which the current command saturates alike] through the wheel
-  driver (``i_c = clip((−u + K_B ω_M)/K_M, ±i_max)``, spec §4.2 step 2) and ``m`` (3,);
+  [N m, ±(K_M i_max + 2 K_B Ω_max), beyond which the current command saturates alike] through the
+  wheel driver (``i_c = clip((−u + K_B ω_M)/K_M, ±i_max)``, spec §4.2 step 2) and ``m`` (3,);
 * any task, ``action="current_dipole"``: the wheel motor current commands ``i_c`` (3,) [A, ±i_max]
   (the motor torque commands [N m, ±τ_max] for ``actuators.wheels.model = "ideal"``) and ``m`` (3,).
 
@@ -315,7 +315,11 @@ class CubesatTask(AttitudeTask):
             self._set_action_bounds(m_names, -m_max, m_max)
             return
         if action == "torque_dipole":
-            w_max = motor.torque_max_N_m + motor.K_B_N_m_s * motor.speed_max_rad_s
+            # beyond K_M i_max + K_B |ω_M| the driver's current command saturates alike (|ω_M| stays
+            # near Ω_max under the speed limiter; 2 Ω_max leaves margin), so clipping there changes nothing
+            t_max = (motor.torque_max_N_m if cfg.actuators.wheels.model == "ideal"
+                     else motor.K_M_N_m_A * motor.current_max_A)
+            w_max = t_max + 2.0 * motor.K_B_N_m_s * motor.speed_max_rad_s
             names = ("u_x_Nm", "u_y_Nm", "u_z_Nm")
         elif cfg.actuators.wheels.model == "ideal":
             w_max, names = motor.torque_max_N_m, ("T_c_1_Nm", "T_c_2_Nm", "T_c_3_Nm")
