@@ -34,10 +34,11 @@ Observations: ``time_s`` (1,); ``bus_attitude_wxyz`` (4,) (bus → world); ``bus
 rad/s, m/s); ``cycle_targets`` (4,) (the cycle being driven) and ``phase_fractions`` (4,). The wings
 are rigid: no structural-health observation.
 
-Reward per step: ``r = d Δψ/|θ_ref| − w_u mean((a/a_max)²)``, with ``Δψ`` the yaw turned during the
-step, ``d = ±1`` the task's direction (task option ``direction``; default the sign of the
-configured cycle's rotation) and ``θ_ref`` = ``cycles_per_step`` × the exact per-cycle rotation of
-the configured cycle (spec §3.3), so the shipped cycle earns about 1 per step.
+Reward per step: ``r = d Δψ/|θ_ref| − w_u mean(((a − a_0)/(a_max − a_min))²)``, with ``Δψ`` the yaw
+turned during the step, ``d = ±1`` the task's direction (task option ``direction``; default the sign of
+the configured cycle's rotation), ``θ_ref`` = ``cycles_per_step`` × the exact per-cycle rotation of the
+configured cycle (spec §3.3), so the settled shipped cycle earns 1 per step, and ``a_0`` the configured
+cycle's action (``w_u`` of the task's ``reward_weights``).
 
 Termination: a diverged rollout ends the episode with discount 0; the time limit (``sim.duration_s``)
 with discount 1. ``control_timestep`` = ``cycles_per_step`` cycle periods (default 1).
