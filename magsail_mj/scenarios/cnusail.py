@@ -37,7 +37,8 @@ from __future__ import annotations
 
 from magsail_mj.scenarios.cnusail_config import DEFAULT_BUS_CENTROID, TABLE2_INERTIA, CnusailConfig
 from magsail_mj.scenarios.cnusail_model import CnusailModel, model_params
-from magsail_mj.scenarios.cnusail_tasks import AttitudeTask, LifetimeTask, build_cnusail_scenario
+from magsail_mj.scenarios.cnusail_lifetime import LifetimeTask
+from magsail_mj.scenarios.cnusail_tasks import AttitudeTask, build_cnusail_scenario
 
 __all__ = ["CnusailConfig", "CnusailModel", "AttitudeTask", "LifetimeTask", "build_cnusail_scenario",
            "model_params", "TABLE2_INERTIA", "DEFAULT_BUS_CENTROID"]

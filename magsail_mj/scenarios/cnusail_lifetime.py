@@ -32,6 +32,7 @@ import mujoco
 import numpy as np
 
 from magsail_mj.analysis.lifetime import averaged_decay, cowell_decay, density_model, geometric_mean_elements
+from magsail_mj.concepts import register_task
 from magsail_mj.environment.environment import elements_from_config
 from magsail_mj.environment.timeutil import julian_date, parse_epoch
 from magsail_mj.io import atomic_path, write_json
@@ -77,6 +78,7 @@ class LifetimeRunner:
                          steps=self.sc.n_runs, wall_time_s=wall)
 
 
+@register_task("cnusail", "lifetime")
 @dataclass
 class LifetimeTask:
     """The S8 analysis of a ``kind = "lifetime"`` CNUSAIL config (module docstring)."""

@@ -32,9 +32,6 @@ from magsail_mj.sim import RunResult, Simulation
 
 __all__ = ["AttitudeTask", "LifetimeTask", "build_cnusail_scenario"]
 
-register_task("cnusail", "lifetime")(LifetimeTask)
-
-
 @register_task("cnusail", "attitude")
 class AttitudeTask:
     """A CNUSAIL attitude run (S1–S7): the built cubesat (``cubesat``; ``spec``, ``model``, ``idx``,
