@@ -171,6 +171,7 @@ class SimulationPhysics(control.Physics):
         self.sim = attach(base, controller, [], keep_load=lambda load: True, keep_probes=tuple(base.probes))
         self.scenario = base.scenario
         self.cfg = base.cfg
+        self._state_cache: tuple[tuple[int, float, float], StepState] | None = None
 
     # ------------------------------------------------------------------ dm_control Physics
     def step(self, n_sub_steps: int = 1) -> None:
@@ -226,14 +227,25 @@ class SimulationPhysics(control.Physics):
 
     def step_state(self) -> StepState:
         """What the runner's next step will see at the current time: body kinematics, the
-        environment sample at ``t`` and the held command (the StepState of :mod:`magsail_mj.sim`)."""
+        environment sample at ``t`` and the held command (the StepState of :mod:`magsail_mj.sim`).
+
+        Built once per state (the policy and the observation of one step share it): it is kept
+        while the step index and the sums of ``qpos`` and ``qvel`` stay the same."""
         sim = self.sim
-        sim.kin.update(sim.data)
+        data = sim.data
+        key = (sim.step_index, float(data.qpos.sum()), float(data.qvel.sum()))
+        if self._state_cache is not None and self._state_cache[0] == key:
+            state = self._state_cache[1]
+            state.ctrl = self.controller.command
+            return state
+        sim.kin.update(data)
         t = sim.time
         env = sim.environment.sample(t) if sim.environment is not None else None
         kin = sim.kin
-        return StepState(t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega, env=env,
-                         ctrl=self.controller.command)
+        state = StepState(t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega, env=env,
+                          ctrl=self.controller.command)
+        self._state_cache = (key, state)
+        return state
 
     def result(self) -> RunResult:
         """The run so far as a :class:`~magsail_mj.sim.RunResult` (for ``scenario.postprocess``)."""
