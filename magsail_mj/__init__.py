@@ -1,12 +1,17 @@
 """magsail_mj: spacecraft geometry configs → MuJoCo models → attitude-control rollouts in orbit."""
 
+from importlib import metadata as _metadata
+
 # Must run before anything imports mujoco: MuJoCo reads MUJOCO_GL when it is first imported.
 from magsail_mj.render.backend import ensure_gl_backend as _ensure_gl_backend
 
 _ensure_gl_backend()
 
 __all__ = ["load"]
-__version__ = "0.1.0"
+try:  # the installed distribution's version (pyproject.toml), as `magsail --version` prints it
+    __version__ = _metadata.version("magsail_mj")
+except _metadata.PackageNotFoundError:  # a source tree that was never installed
+    __version__ = "0+unknown"
 
 
 def __getattr__(name: str):
