@@ -162,6 +162,8 @@ class SimulationPhysics(control.Physics):
     ``sim`` is the simulation the environment steps; ``scenario`` and ``cfg`` are the base's.
     """
 
+    _state_cache: tuple[tuple[int, float, float], StepState] | None = None
+
     def __init__(self, base: Simulation, controller: ActionController) -> None:
         if not isinstance(base, Simulation):
             raise TypeError(f"base: expected a stepped magsail_mj.sim.Simulation, got {type(base).__name__}")
@@ -171,7 +173,6 @@ class SimulationPhysics(control.Physics):
         self.sim = attach(base, controller, [], keep_load=lambda load: True, keep_probes=tuple(base.probes))
         self.scenario = base.scenario
         self.cfg = base.cfg
-        self._state_cache: tuple[tuple[int, float, float], StepState] | None = None
 
     # ------------------------------------------------------------------ dm_control Physics
     def step(self, n_sub_steps: int = 1) -> None:
