@@ -39,6 +39,7 @@ for law in LAWS:
 # Error angle, body rate and axis deviation
 # -----------------------------------------
 # Green band: the 5° pointing window; red dotted line: the 0.3 °/s rate limit of the eigen-axis law.
+# The axis deviation is defined while the spacecraft slews (the series ends when the slew does).
 
 fig, axes = plt.subplots(3, 1, figsize=(7, 7.5), sharex=True)
 for law, (label, style) in LAWS.items():
@@ -51,7 +52,7 @@ axes[0].axhspan(0.0, 5.0, color="g", alpha=0.15, label="within 5°")
 axes[1].axhline(0.3, color="r", ls=":", lw=0.8, label="0.3 °/s limit")
 axes[0].set_ylabel("error angle θ_e [deg]")
 axes[1].set_ylabel("body rate |ω| [°/s]")
-axes[2].set_ylabel("rotation axis vs\ninitial eigen-axis [deg]")
+axes[2].set_ylabel("rotation axis vs initial\neigen-axis [deg] (while slewing)")
 axes[2].set_xlabel("time [min]")
 for ax in axes:
     ax.grid(alpha=0.3)
