@@ -159,3 +159,14 @@ def test_gallery_is_in_the_site_and_linked_from_the_concept_pages():
     examples = {p.stem for p in GALLERY.glob("plot_*.py")}
     assert linked <= examples, f"concept pages link missing gallery entries: {sorted(linked - examples)}"
     assert linked, "no concept page links the gallery"
+
+
+def test_pages_name_only_scripts_and_examples_that_exist():
+    missing = set()
+    for page in DOCS.rglob("*.md"):
+        if "_build" in page.parts or "gallery" in page.parts:
+            continue
+        for path in re.findall(r"\b((?:scripts|examples)/[\w/.-]+\.(?:py|sh))\b", page.read_text()):
+            if not (ROOT / path).is_file():
+                missing.add(f"{page.relative_to(ROOT)}: {path}")
+    assert not missing, f"pages name files that do not exist: {sorted(missing)}"
