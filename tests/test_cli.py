@@ -182,3 +182,11 @@ def test_guarantees_page_lists_the_same_exit_statuses():
     assert table == EXIT_STATUSES
     assert "1 when any run of the call failed, was interrupted or stopped, else 3 when any" in page
     assert "sweep: 1 when any run failed, was interrupted or stopped, else 3 when any diverged" in EXIT_CODES
+
+
+def test_getting_started_lists_every_verb_of_the_parser():
+    page = (ROOT / "docs" / "getting-started.md").read_text()
+    listed = set(re.findall(r"^magsail (\w+)\s", page, flags=re.MULTILINE))
+    verbs = {name for action in cli._parser()._actions if isinstance(action, argparse._SubParsersAction)
+             for name in action.choices}
+    assert listed == verbs, f"getting-started lists {sorted(listed)}, the parser has {sorted(verbs)}"
