@@ -122,7 +122,12 @@ def test_verbosity_sets_the_logger_level(monkeypatch, capsys, flags, level):
 
 def test_verbose_option_after_the_verb(monkeypatch, capsys):
     seen = {}
-    monkeypatch.setattr(cli, "_cmd_validate", lambda args: seen.setdefault("level", LOG.getEffectiveLevel()) and 0)
+
+    def fake_validate(args):
+        seen["level"] = LOG.getEffectiveLevel()
+        return 0
+
+    monkeypatch.setattr(cli, "_cmd_validate", fake_validate)
     assert main(["validate", CONFIG, "-v"]) == 0
     assert seen["level"] == logging.INFO
 
