@@ -21,6 +21,9 @@ Two checks, over every ``*.html`` page of the build folder:
    even where the MP4 was chosen), that the browser can play at least one source, and that no
    JavaScript exception was thrown.
 
+Sphinx does not delete the pages of a removed document from the build folder, and they are checked
+too: remove ``docs/_build`` for a check of the current pages only (CI builds into a fresh clone).
+
 Exit status: 0 every check passed; 1 a check failed (each failure on one line of stderr);
 2 invalid input (no such folder, no Chromium where the browser check was asked for).
 """
