@@ -36,14 +36,17 @@ from magsail_mj.environment.config import (
 )
 
 __all__ = [
-    "ORBITAL_SCENARIOS", "TrussConfig", "LatticeConfig", "MassConfig", "PointMass", "StiffnessConfig",
-    "DampingConfig", "ActuatorsConfig", "LloydConfig", "TrussControlConfig", "ManeuverConfig", "ProfileConfig",
-    "TrussInitialConfig", "CantileverConfig", "TrussRenderConfig", "first_cantilever_omega",
+    "ORBITAL_SCENARIOS", "ORBITAL_CONTROL_KINDS", "TrussConfig", "LatticeConfig", "MassConfig", "PointMass",
+    "StiffnessConfig", "DampingConfig", "ActuatorsConfig", "LloydConfig", "TrussControlConfig", "ManeuverConfig",
+    "ProfileConfig", "TrussInitialConfig", "CantileverConfig", "TrussRenderConfig", "first_cantilever_omega",
 ]
 
 Vec3 = tuple[float, float, float]
 
-ORBITAL_SCENARIOS = ("detumble", "slew")
+ORBITAL_CONTROL_KINDS = {"detumble": ("bdot", "open_loop"), "slew": ("quat_pd", "open_loop")}
+"""Scenario kinds driven by the magnetorquer rod array in orbit (spec §9.3–9.6) → the
+``control.kind`` values each takes."""
+ORBITAL_SCENARIOS = tuple(ORBITAL_CONTROL_KINDS)
 """Scenario kinds driven by the magnetorquer rod array in orbit (spec §9.3–9.6)."""
 
 
@@ -274,7 +277,7 @@ class TrussConfig(StrictModel):
             raise ValueError(f"scenario {sc!r} needs the [control] table")
         if not self.orbit.enabled or self.field.model == "none":
             raise ValueError(f"scenario {sc!r} needs orbit.enabled = true and a field model other than 'none'")
-        want = {"detumble": ("bdot", "open_loop"), "slew": ("quat_pd", "open_loop")}[sc]
+        want = ORBITAL_CONTROL_KINDS[sc]
         if self.control.kind not in want:
             raise ValueError(f"control.kind: scenario {sc!r} takes {list(want)}, got {self.control.kind!r}")
         if self.control.kind == "open_loop" and self.profile is None:

@@ -27,7 +27,12 @@ __all__ = ["TrussModel", "make_truss_model", "make_cantilever_model", "actuated_
 
 @dataclass
 class TrussModel:
-    """Everything derived from the structural tables of a config."""
+    """Everything derived from the structural tables of a config.
+
+    ``masses`` (n,) particle masses [kg]; ``k`` (S,) strut spring constants [N/m] (calibrated by
+    ``calibration_factor``); ``gamma`` the strut dashpot constant [N s/m]; ``particle_mass_kg``
+    M / n [kg]; ``total_kg`` M [kg]; ``spec`` the MjSpec; ``fixed_nodes`` the clamped nodes.
+    """
 
     lattice: Lattice
     masses: np.ndarray
