@@ -14,6 +14,7 @@ import pytest
 from dm_control.rl import control
 
 from magsail_mj import envs
+from magsail_mj.config import load_config
 from magsail_mj.control.loop_attitude import rigid_velocity_fit
 from magsail_mj.envs.core import REPO_ROOT, draw_rigid_start, set_rigid_motion, summary_mismatches
 from magsail_mj.estimation.attitude import BestFitRotation
@@ -217,3 +218,22 @@ def test_first_time_step_has_no_reward_and_specs_match() -> None:
     for key, value in ts.observation.items():
         assert value.dtype == np.float64 and spec[key].shape == value.shape
     assert env.action_spec().name == "I_C_x_A,I_C_y_A,I_B_A"
+
+
+@pytest.mark.parametrize("name", ["truss/slew_I", "current_loops/slew", "reflector/pitch_tracking"])
+def test_a_second_episode_repeats_the_first(name: str) -> None:
+    """reset() restores the whole simulation (controller memory, loads, records): the shipped
+    policy's second episode on the same environment has the first one's summary exactly."""
+    env = envs.load(name, small(name), randomize=False)
+    policy = envs.shipped_policy(env)
+    first = (envs.run_episode(env, policy), env.physics.summary())
+    second = (envs.run_episode(env, policy), env.physics.summary())
+    assert first[0] == second[0]
+    assert summary_mismatches(first[1], second[1], rel=0.0) == []
+
+
+def test_a_validated_config_with_overrides_is_accepted() -> None:
+    cfg = load_config(REPO_ROOT / "models/reflector/detumble.toml")
+    env = envs.load(cfg, ["sim.duration_s=1"], randomize=False)
+    assert type(env.task).__name__ == "ReflectorDetumbleTask"
+    assert envs.run_episode(env, lambda ts: np.zeros(2))[1] == 10
