@@ -5,6 +5,7 @@ start. Small lattices (3 × 3 cubes) and short runs (2–10 s at δt = 0.1 s).""
 from __future__ import annotations
 
 import math
+from datetime import datetime, timedelta
 
 import magsail_mj
 import numpy as np
@@ -121,3 +122,23 @@ def test_rate_from_rotations_is_the_log_map_rate() -> None:
         w = angle * axis / np.linalg.norm(axis) / 0.1
         got = envs.truss.rate_from_rotations(R0, R0 @ so3_exp(w * 0.1), 0.1)
         np.testing.assert_allclose(got, w, rtol=1e-9, atol=1e-15)
+
+
+def test_epoch_draw_rebuilds_the_orbit_at_a_seeded_epoch() -> None:
+    """epoch_range_s: each episode's epoch is orbit.epoch + U(0, range), drawn first from the task's
+    random state; the same seed gives the same epoch and field, the field differs from the
+    config epoch's, and the episode runs on the rebuilt simulation."""
+    runs = [envs.load("truss/detumble", SHORT, random=3, epoch_range_s=86400.0) for _ in range(2)]
+    first = [env.reset().observation for env in runs]
+    epochs = [env.task.start["epoch"] for env in runs]
+    assert epochs[0] == epochs[1] == runs[0].physics.cfg.orbit.epoch
+    offset = datetime.fromisoformat(epochs[0]) - datetime.fromisoformat("2020-01-01T00:00:00+00:00")
+    assert timedelta(0) <= offset <= timedelta(days=1)
+    np.testing.assert_array_equal(first[0]["field_body_T"], first[1]["field_body_T"])
+    plain = envs.load("truss/detumble", SHORT, random=3).reset().observation
+    assert not np.allclose(plain["field_body_T"], first[0]["field_body_T"])
+    _, n = envs.run_episode(runs[0], lambda ts: np.zeros(3))
+    assert n == 20 and runs[0].physics.status == "completed"
+    assert runs[0].task.start["epoch"] != epochs[0]  # the second episode drew its own epoch
+    with pytest.raises(ValueError, match="epoch_range_s: this config has no orbit"):
+        envs.load("reflector/detumble", ["sim.duration_s=2"], epoch_range_s=10.0)

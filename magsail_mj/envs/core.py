@@ -43,6 +43,7 @@ import functools
 import json
 import math
 from dataclasses import dataclass
+from datetime import timedelta
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any, Callable, Mapping, Sequence
@@ -56,6 +57,7 @@ import magsail_mj
 from magsail_mj.checkpoint import StateWalker
 from magsail_mj.commands import attach
 from magsail_mj.config import apply_overrides, load_config, parse_config
+from magsail_mj.environment.timeutil import parse_epoch
 from magsail_mj.loads.base import StepState
 from magsail_mj.quaternion import quat_from_axis_angle, quat_mul, quat_to_matrix
 from magsail_mj.sim import RunResult, Simulation
@@ -79,6 +81,7 @@ __all__ = [
     "draw_rigid_start",
     "REPO_ROOT",
     "run_episode",
+    "redraw_epoch",
     "summary_mismatches",
     "WALL_CLOCK_KEYS",
 ]
@@ -433,12 +436,17 @@ class AttitudeTask(control.Task):
 
     # ------------------------------------------------------------------ episode
     def initialize_episode(self, physics: SimulationPhysics) -> None:
-        """Reset has put the build's initial state back; draw a start when ``randomize``."""
+        """Reset has put the build's initial state back; with ``epoch_range_s`` > 0 the simulation
+        is rebuilt at a drawn epoch (:func:`redraw_epoch`, drawn first); a start is drawn when
+        ``randomize``."""
+        epoch = redraw_epoch(self, physics) if self.epoch_range_s > 0 else None
         physics.controller.action[:] = self.neutral_action()
         physics.controller.hooks.final_action = None
         self._obs_cache = None
         self._last_action = self.neutral_action()
         self.start = self.draw_start(physics) if self.randomize else {}
+        if epoch is not None:
+            self.start["epoch"] = epoch
 
     def draw_start(self, physics: SimulationPhysics) -> dict[str, Any]:
         """Write a drawn initial state into ``physics`` and return what was drawn (subclass)."""
@@ -511,6 +519,9 @@ class AttitudeTask(control.Task):
         return None
 
     # ------------------------------------------------------------------ binding
+    epoch_range_s: float = 0.0
+    """Width of the epoch draw [s] (task option of :func:`make_environment`; 0: the config's epoch)."""
+
     period_s: float = 0.0
     """Controller period [s]: the shipped controller's (subclasses set it from the built simulation)."""
 
@@ -605,15 +616,43 @@ def make_environment(cfg: Any, task_cls: type[AttitudeTask], *, random: Any = No
                      **task_options: Any) -> control.Environment:
     """Build ``cfg``'s simulation, the task and the Environment (``control_timestep`` = the
     controller period, ``time_limit`` = ``sim.duration_s`` unless given)."""
+    epoch_range_s = float(task_options.pop("epoch_range_s", 0.0))
+    if not (math.isfinite(epoch_range_s) and epoch_range_s >= 0):
+        raise ValueError(f"epoch_range_s: must be a finite number >= 0 s, got {epoch_range_s!r}")
+    if epoch_range_s > 0 and not getattr(getattr(cfg, "orbit", None), "enabled", False):
+        raise ValueError("epoch_range_s: this config has no orbit (orbit.enabled = true) whose epoch could be drawn")
     base = magsail_mj.load(cfg)
     task = task_cls(base, random=random, **task_options)
+    task.epoch_range_s = epoch_range_s
+    task._build = (cfg, task_cls, dict(task_options), period_s)
     period = float(period_s if period_s is not None else task.period_s)
-    controller = ActionController(period_s=period, convert=task.converter.command, action=task.neutral_action(),
-                                  end_time_s=base.n_steps * float(base.model.opt.timestep))
-    physics = SimulationPhysics(base, controller)
+    physics = SimulationPhysics(base, _action_controller(task, base, period))
     task.bind(physics)
     limit = float(time_limit_s if time_limit_s is not None else base.duration_s)
     return control.Environment(physics, task, time_limit=limit, control_timestep=period)
+
+
+def _action_controller(task: AttitudeTask, base: Simulation, period_s: float) -> ActionController:
+    return ActionController(period_s=period_s, convert=task.converter.command, action=task.neutral_action(),
+                            end_time_s=base.n_steps * float(base.model.opt.timestep))
+
+
+def redraw_epoch(task: AttitudeTask, physics: SimulationPhysics) -> str:
+    """Rebuild the episode's simulation at an epoch ``orbit.epoch + U(0, epoch_range_s)`` drawn with
+    the task's random state (the orbit, field and Sun tables are built for the epoch): the physics
+    and the task are re-initialised in place (the Environment keeps both objects). Returns the
+    drawn epoch (ISO 8601)."""
+    cfg0, task_cls, options, period_s = task._build
+    epoch = parse_epoch(cfg0.orbit.epoch) + timedelta(seconds=float(task.random.uniform(0.0, task.epoch_range_s)))
+    iso = epoch.isoformat()
+    cfg = parse_config(apply_overrides(cfg0.model_dump(mode="json"), [f"orbit.epoch={json.dumps(iso)}"]))
+    base = magsail_mj.load(cfg)
+    fresh = task_cls(base, random=task.random, **options)
+    task.__dict__.update({k: v for k, v in fresh.__dict__.items() if k not in ("_random", "epoch_range_s", "_build")})
+    period = float(period_s if period_s is not None else task.period_s)
+    physics.__init__(base, _action_controller(task, base, period))
+    task.bind(physics)
+    return iso
 
 
 # =========================================================================== shipped policy

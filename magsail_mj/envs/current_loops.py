@@ -28,7 +28,8 @@ strain (flexible).
 
 Episode start (``randomize=True``): identity attitude (the scenario's) turned by up to
 ``attitude_range_deg`` (default 10°) about a uniform axis; rates uniform in ``±rate_range_rad_s``
-(default 1e-4 rad/s); rigid, unstressed. The epoch is the config's.
+(default 1e-4 rad/s); rigid, unstressed. The epoch is the config's, or, with the task option
+``epoch_range_s`` > 0, ``orbit.epoch`` + U(0, epoch_range_s) drawn first (rebuilt each episode).
 
 ``control_timestep`` = ``control.period_s`` (default δt); ``time_limit`` = ``sim.duration_s``.
 """

@@ -30,7 +30,8 @@ Episode start (``randomize=True``): detumble: rates uniform in ``±rate_range_ra
 (default 0.07 rad/s, the config's |ω0| = 0.1 rad/s), attitude the config's turned by up to
 ``attitude_range_deg`` (default 180°); pitch tracking: the reference start ``(q_ref(0), ω_ref(0))``
 turned by up to ``attitude_range_deg`` (default 5°) with rates ``ω_ref(0)`` plus uniform
-``±rate_range_rad_s`` (default 1e-4 rad/s). The epoch (orbit phase) is the config's.
+``±rate_range_rad_s`` (default 1e-4 rad/s). The orbit phase is the config's (the reflector's
+kinematic orbit has no calendar epoch; ``epoch_range_s`` is refused).
 
 ``control_timestep`` = ``sim.timestep_s`` (the controllers run every step); ``time_limit`` =
 ``sim.duration_s``.

@@ -34,7 +34,8 @@ Episode start (``randomize=True``): rates uniform per body axis in ``±rate_rang
 (default 0.01 rad/s, the detumble's initial magnitude; slews: 1e-4 rad/s); attitude: the config's
 initial attitude turned by a rotation about a uniformly drawn axis through an angle uniform in
 ``[0, attitude_range_deg]`` (detumble default 180°, slews 10°); rigid, unstressed start as the
-scenario's own. The epoch is the config's.
+scenario's own. The epoch is the config's, or, with the task option ``epoch_range_s`` > 0,
+``orbit.epoch`` + U(0, epoch_range_s) drawn first (the simulation is rebuilt for it each episode).
 
 ``control_timestep`` = ``control.period_s`` (default δt); ``time_limit`` = ``sim.duration_s``.
 """
