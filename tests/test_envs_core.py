@@ -237,3 +237,35 @@ def test_a_validated_config_with_overrides_is_accepted() -> None:
     env = envs.load(cfg, ["sim.duration_s=1"], randomize=False)
     assert type(env.task).__name__ == "ReflectorDetumbleTask"
     assert envs.run_episode(env, lambda ts: np.zeros(2))[1] == 10
+
+
+def _attitude_kind(cfg) -> bool:
+    """The attitude-control scenarios of the truss, current-loop and reflector concepts: a closed
+    loop the environment replaces (not the structural load cases, free drift, open-loop torque
+    profiles, structural sweeps or the reflector's cap search)."""
+    if cfg.concept == "truss_magnetorquer":
+        return cfg.scenario in ("detumble", "slew")
+    if cfg.concept == "current_loops":
+        return cfg.scenario in ("slew", "slew_rigid")
+    return cfg.concept == "reflector" and cfg.kind in ("detumble", "pitch")
+
+
+def test_every_shipped_attitude_config_of_these_concepts_has_an_environment() -> None:
+    """Every config file under models/ of the three concepts: an attitude scenario is served by a
+    task of its concept, any other kind is refused (no build: the registry's match only)."""
+    served, refused = 0, 0
+    for folder in ("truss_magnetorquer", "current_loops", "reflector"):
+        for path in sorted((REPO_ROOT / "models" / folder).rglob("*.toml")):
+            try:
+                cfg = load_config(path)
+            except ValueError:
+                continue  # a sweep file, not a run config
+            if _attitude_kind(cfg):
+                entry = envs.core.entry_for_config(cfg, str(path))
+                assert entry.name.split("/")[0] == folder.replace("_magnetorquer", ""), path
+                served += 1
+            else:
+                with pytest.raises(ValueError, match="has no environment"):
+                    envs.core.entry_for_config(cfg, str(path))
+                refused += 1
+    assert served >= 25 and refused >= 20

@@ -72,6 +72,7 @@ __all__ = [
     "load",
     "list_tasks",
     "task_entry",
+    "entry_for_config",
     "shipped_policy",
     "make_environment",
     "pointing_error_rad",
@@ -585,7 +586,9 @@ def task_entry(name: str) -> TaskEntry:
     return _REGISTRY[name]
 
 
-def _entry_for_config(cfg: Any, source: str) -> TaskEntry:
+def entry_for_config(cfg: Any, source: str) -> TaskEntry:
+    """The task serving the validated config ``cfg`` (``ValueError`` naming ``source`` and the
+    known tasks when none does)."""
     for name in list_tasks():
         if _REGISTRY[name].matches(cfg):
             return _REGISTRY[name]
@@ -603,11 +606,11 @@ def load(config: str | Path | Any, overrides: Sequence[str] = (), random: int | 
         cfg = load_config(entry.config, list(overrides))
     elif isinstance(config, (str, Path)):
         cfg = load_config(config, list(overrides))
-        entry = _entry_for_config(cfg, str(config))
+        entry = entry_for_config(cfg, str(config))
     else:
         cfg = (parse_config(apply_overrides(config.model_dump(mode="json"), list(overrides)))
                if overrides else config)
-        entry = _entry_for_config(cfg, "the given config")
+        entry = entry_for_config(cfg, "the given config")
     return entry.factory(cfg, random=random, **task_options)
 
 
