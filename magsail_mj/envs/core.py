@@ -163,7 +163,9 @@ class SimulationPhysics(control.Physics):
         controller; the scenario's loads (actuators included, they read the command) and probes are
         all kept.
 
-    ``sim`` is the simulation the environment steps; ``scenario`` and ``cfg`` are the base's.
+    ``sim`` is the simulation the environment steps; ``scenario`` and ``cfg`` are the base's. The
+    base's probes that reach a load through a bound method are wrapped first
+    (:func:`_unaliased_probes`), so that ``reset`` can restore the state.
     """
 
     _state_cache: tuple[tuple[int, float, float], StepState] | None = None
