@@ -64,7 +64,7 @@ exit status:
        naming the option or key and the value)
   3    the simulation diverged (its outputs up to the divergence are written)
   130  interrupted (Ctrl-C / SIGINT or SIGTERM); the run folder is left consistent
-  sweep: 1 when any run failed, was interrupted or stopped, else 3 when any diverged
+  sweep: non-zero when any run failed, was interrupted or stopped (1), else when any diverged (3)
   export, report: 2 when the folder is not a run folder / a finished sweep folder
 
 memory: every verb estimates the memory its input needs before allocating it and refuses
