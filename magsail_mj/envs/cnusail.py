@@ -153,8 +153,10 @@ class CubesatActuators:
         self.unload = (UnloadingLogic(on_rpm=u.threshold_rpm, off_rpm=u.off_rpm)
                        if u.enabled and self.mode != Mode.DETUMBLE else None)
         self.unload_mask = np.zeros(3, dtype=bool)
-        # the MjData lives outside the checkpointed state (a namespace is not walked)
+        # the MjData and the command-frame cache live outside the checkpointed state (a namespace is
+        # not walked)
         self.mj = SimpleNamespace(data=None)
+        self.frames = SimpleNamespace(t=math.nan, p_c=None, w_o=0.0)
         self.last_command: CubesatCommand | None = None
         self.wheel_cmd = np.zeros(3)
         self.u = np.zeros(3)
@@ -207,11 +209,19 @@ class CubesatActuators:
         else:
             self.wheel_cmd = self.driver.idle_command()
             self.u = np.zeros(3)
-        r, v = state.env.r_ref_eci, state.env.v_ref_eci
-        self.p_e = error_quaternion(command_quaternion(self.mode, r, v), d.qpos[self.idx.q_quat].copy(),
-                                    shortest=self.shortest)
+        p_c, w_o = self.frame(state.t, state.env.r_ref_eci, state.env.v_ref_eci)
+        self.p_e = error_quaternion(p_c, d.qpos[self.idx.q_quat].copy(), shortest=self.shortest)
         self.theta_e = float(eigen_angle(self.p_e))
-        self.omega_e = rate_error(d.qvel[self.idx.v_ang].copy(), self.p_e, orbital_rate(r, v))
+        self.omega_e = rate_error(d.qvel[self.idx.v_ang].copy(), self.p_e, w_o)
+
+    def frame(self, t: float, r: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, float]:
+        """The task's command quaternion ``p_c`` (command → ECI) and the orbital rate ``ω_o = |r × v|/|r|²``
+        [rad/s] at time ``t`` [s] for the reference orbit ``r``, ``v`` (kept for the latest ``t``: the
+        observation and the plant use the same instant)."""
+        f = self.frames
+        if f.t != t:
+            f.t, f.p_c, f.w_o = t, command_quaternion(self.mode, r, v), orbital_rate(r, v)
+        return f.p_c, f.w_o
 
     def probes(self) -> dict[str, Callable[[StepState, mujoco.MjData], Any]]:
         """The scenario's probe names, read from this plant (module docstring)."""
@@ -350,29 +360,47 @@ class CubesatTask(AttitudeTask):
         return {"q0_wxyz": p_b, "omega0_body_rad_s": w}
 
     # -------------------------------------------------------------- observation, reward
-    def observe(self, physics: SimulationPhysics, state: StepState) -> dict[str, np.ndarray]:
-        d, idx, cfg = physics.data, self.scenario.idx, self.cfg
+    def _truth(self, physics: SimulationPhysics, state: StepState) -> dict[str, Any]:
+        """The true attitude quantities of ``state`` (once per state: the reward and the observation
+        of a time step share them)."""
+        d, idx = physics.data, self.scenario.idx
+        key = (physics.sim.step_index, float(d.qpos.sum()), float(d.qvel.sum()))
+        if self._truth_cache is not None and self._truth_cache[0] == key:
+            return self._truth_cache[1]
         q = d.qpos[idx.q_quat].copy()
-        omega = d.qvel[idx.v_ang].copy()
         R = np.empty(9)
         mujoco.mju_quat2Mat(R, q)
-        B = R.reshape(3, 3).T @ state.env.B_eci
-        s = cfg.control.sensors
+        r, v = np.array(state.env.r_ref_eci, dtype=float), np.array(state.env.v_ref_eci, dtype=float)
+        p_c, w_o = physics.actuators.frame(state.t, state.env.r_ref_eci, state.env.v_ref_eci)
+        p_e = error_quaternion(p_c, q, shortest=self.cfg.control.shortest_rotation)
+        omega = d.qvel[idx.v_ang].copy()
+        truth = {"q": q, "omega": omega, "B": R.reshape(3, 3).T @ state.env.B_eci, "r": r, "v": v, "p_e": p_e,
+                 "w_o": w_o, "omega_e": rate_error(omega, p_e, w_o)}
+        self._truth_cache = (key, truth)
+        return truth
+
+    _truth_cache: tuple[tuple[int, float, float], dict[str, Any]] | None = None
+
+    def observe(self, physics: SimulationPhysics, state: StepState) -> dict[str, np.ndarray]:
+        x = self._truth(physics, state)
+        omega, B, omega_e = x["omega"], x["B"], x["omega_e"]
+        s = self.cfg.control.sensors
         if s.gyro_noise_rad_s > 0:
             omega = omega + self.random.normal(0.0, s.gyro_noise_rad_s, 3)
+            omega_e = rate_error(omega, x["p_e"], x["w_o"])
         if s.magnetometer_noise_T > 0:
             B = B + self.random.normal(0.0, s.magnetometer_noise_T, 3)
-        r, v = np.array(state.env.r_ref_eci, dtype=float), np.array(state.env.v_ref_eci, dtype=float)
-        p_e = error_quaternion(command_quaternion(self.mode, r, v), q, shortest=cfg.control.shortest_rotation)
-        omega_e = rate_error(omega, p_e, orbital_rate(r, v))
-        self._terms = {"theta_rad": 0.0 if self.mode == Mode.DETUMBLE else float(eigen_angle(p_e)),
-                       "omega_rad_s": float(np.linalg.norm(omega if self.mode == Mode.DETUMBLE else omega_e))}
-        return {"time_s": np.array([state.t]), "attitude_wxyz": q, "body_rate_rad_s": omega, "field_body_T": B,
-                "wheel_speed_rad_s": d.qvel[idx.wheel_qvel].copy(), "orbit_position_eci_m": r,
-                "orbit_velocity_eci_m_s": v, "pointing_error_wxyz": p_e, "rate_error_rad_s": omega_e}
+        return {"time_s": np.array([state.t]), "attitude_wxyz": x["q"].copy(), "body_rate_rad_s": omega.copy(),
+                "field_body_T": B.copy(), "wheel_speed_rad_s": physics.data.qvel[self.scenario.idx.wheel_qvel].copy(),
+                "orbit_position_eci_m": x["r"].copy(), "orbit_velocity_eci_m_s": x["v"].copy(),
+                "pointing_error_wxyz": x["p_e"].copy(), "rate_error_rad_s": omega_e.copy()}
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
-        return dict(self._terms)
+        """θ_e and ‖ω‖ (detumble) or ‖ω_e‖ (pointing) of the true state after the step."""
+        x = self._truth(physics, physics.step_state())
+        if self.mode == Mode.DETUMBLE:
+            return {"theta_rad": 0.0, "omega_rad_s": float(np.linalg.norm(x["omega"]))}
+        return {"theta_rad": float(eigen_angle(x["p_e"])), "omega_rad_s": float(np.linalg.norm(x["omega_e"]))}
 
     # -------------------------------------------------------------- shipped controller
     def fresh_shipped_controller(self, physics: SimulationPhysics) -> CnusailController:
