@@ -279,6 +279,8 @@ class Recorder:
             return np.zeros(0)
         tail = self.buffers[name][:self.n - self.base]
         if self.group is not None:
+            if not self.base:   # nothing handed to the store yet (its arrays may not exist)
+                return tail.copy()
             return np.concatenate([self.group[name][:self.base], tail])
         return np.concatenate([*(c[name] for c in self.chunks), tail])
 

@@ -221,3 +221,14 @@ def test_resume_cuts_the_store_to_the_checkpoint_count(tmp_path, small_truss_tre
     for group in (None, SERIES_GROUP):
         a, b = open_records(full.run_dir, group=group), open_records(cut, group=group)
         _equal(dict(a), dict(b))
+
+
+def test_column_before_the_first_chunk_reaches_the_store(tmp_path):
+    """A run that diverges before its first chunk is stored searches its times in the buffer."""
+    rec = Recorder(["t", "x"])
+    rec.create_store(tmp_path / "s.zarr")
+    for k in range(3):
+        rec.append({"t": 0.1 * k, "x": float(k)})
+    assert np.array_equal(rec.column("t"), [0.0, 0.1, 0.2])
+    rec.truncate(int(np.searchsorted(rec.column("t"), 0.15)))
+    assert np.array_equal(rec.arrays()["x"], [0.0, 1.0])
