@@ -48,9 +48,9 @@ CASES: dict[str, tuple[str, tuple[str, ...], dict[str, Any]]] = {
 """Concept → (task, overrides, task options) of the measurement. The truss is measured with the
 shipped lattice and with a 3-unit one (whose steps cost little, so the environment's fixed cost per
 step weighs more). MSAC is measured at one cycle per
-environment step (its default) and at 20: the runner's fixed cost per ``step`` call (it re-tiles the
-control table of a whole rollout chunk, ``drive.chunk_cycles`` cycles, at every call) is spread
-over more dynamics steps."""
+environment step (its default) and at 20: the runner's fixed cost per ``step`` call (a
+``mujoco.rollout`` call, the re-tiled control table of a whole rollout chunk and the chunk
+bookkeeping) is spread over more dynamics steps."""
 
 
 def _plain(task: str, overrides: Sequence[str]) -> tuple[float, float]:
