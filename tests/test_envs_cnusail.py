@@ -6,6 +6,7 @@ from __future__ import annotations
 import functools
 import math
 import unittest
+from datetime import datetime, timedelta
 
 import mujoco
 import numpy as np
@@ -182,3 +183,26 @@ def test_detumble_reward_formula():
     effort = float(np.mean((a / cfg.actuators.mtq.limit_vector) ** 2))
     rate = float(np.linalg.norm(ts.observation["body_rate_rad_s"]))
     assert ts.reward == pytest.approx(-(0.5 * (rate / w_s) ** 2 + 0.2 * effort), rel=1e-12)
+
+
+def test_epoch_draw_is_seeded_and_within_range():
+    """``epoch_range_s``: the episode's epoch is drawn in [orbit.epoch, orbit.epoch + range] from the
+    task's seed; the simulation is rebuilt for it (the reference orbit at t = 0 moves with it)."""
+    starts, first = [], []
+    for seed in (5, 5):
+        env = envs.load("cnusail/detumble", ["sim.duration_s=3"], random=seed, epoch_range_s=86400.0)
+        first.append(env.reset().observation)
+        starts.append(env.task.start["epoch"])
+        ts = env.step(np.zeros(3))
+        assert ts.mid() and env.physics.sim.cfg.orbit.epoch == starts[-1]
+    assert starts[0] == starts[1]
+    for key in first[0]:
+        np.testing.assert_array_equal(first[0][key], first[1][key])
+    epoch0 = datetime.fromisoformat(_built("cnusail/detumble", ("sim.duration_s=5",)).physics.cfg.orbit.epoch
+                                    .replace("Z", "+00:00"))
+    drawn = datetime.fromisoformat(starts[0])
+    assert epoch0 < drawn <= epoch0 + timedelta(days=1)
+    plain = envs.load("cnusail/detumble", ["sim.duration_s=3"], random=5).reset().observation
+    assert not np.allclose(plain["orbit_position_eci_m"], first[0]["orbit_position_eci_m"])
+    with pytest.raises(ValueError, match="epoch_range_s"):
+        envs.load("cnusail/detumble", ["sim.duration_s=3"], epoch_range_s=-1.0)

@@ -46,8 +46,10 @@ controller runs its wheel driver every dynamics step; the environment's plant do
 Episode start (``randomize=True``, drawn from the task's ``random``): detumble, body rate uniform per
 axis in ``±rate_range_deg_s`` (default: the largest component of ``initial.omega0_deg_s``) and the
 attitude uniform over SO(3); pointing, the attitude error uniform over SO(3) with ``ω_e(0) = 0``;
-the epoch is the config's (the orbit tables are built for it). ``randomize=False`` keeps the
-config's initial state, so an episode of :func:`magsail_mj.envs.shipped_policy` equals ``magsail run``.
+the epoch is the config's unless the ``epoch_range_s`` option (> 0) draws it per episode uniformly in
+``[orbit.epoch, orbit.epoch + epoch_range_s]`` (the simulation is rebuilt for it, which takes about a
+second). ``randomize=False`` keeps the config's initial state, so an episode of
+:func:`magsail_mj.envs.shipped_policy` equals ``magsail run``.
 
 The records of the environment's simulation carry the probes of the scenario's own run (``qpos``,
 ``qvel``, ``mode``, ``p_e``, ``theta_e_rad``, ``omega_e_rad_s``, ``u_cmd_N_m``, ``T_M_N_m``,
@@ -61,8 +63,10 @@ magnetorquer cycle boundaries, whatever the policy commands.
 from __future__ import annotations
 
 import copy
+import json
 import math
 from dataclasses import dataclass
+from datetime import timedelta
 from types import SimpleNamespace
 from typing import Any, Callable
 
@@ -75,6 +79,7 @@ from magsail_mj.control.cnusail_modes import CnusailController, Mode, command_qu
 from magsail_mj.control.eigenaxis import eigen_angle, error_quaternion, orbital_rate, rate_error
 from magsail_mj.control.unloading import UnloadingLogic
 from magsail_mj.envs.core import ActionController, AttitudeTask, SimulationPhysics, register
+from magsail_mj.environment.timeutil import parse_epoch
 from magsail_mj.loads.actuators_cubesat import MagnetorquerLoad, saturate_per_axis
 from magsail_mj.loads.base import StepState
 from magsail_mj.quaternion import quat_mul
@@ -339,6 +344,31 @@ class CubesatTask(AttitudeTask):
         self._set_action_bounds(names + m_names, lo, -lo)
 
     # -------------------------------------------------------------- episode start
+    epoch_draw: tuple[float, Any, dict[str, Any]] | None = None
+    """``(epoch_range_s, config, task options)`` when the epoch is drawn per episode."""
+
+    def initialize_episode(self, physics: SimulationPhysics) -> None:
+        """With an epoch draw the simulation is first rebuilt at the drawn epoch (:meth:`redraw_epoch`);
+        then the start of :class:`~magsail_mj.envs.core.AttitudeTask`."""
+        epoch = self.redraw_epoch(physics) if self.epoch_draw is not None else None
+        super().initialize_episode(physics)
+        if epoch is not None:
+            self.start["epoch"] = epoch
+
+    def redraw_epoch(self, physics: SimulationPhysics) -> str:
+        """Rebuild ``physics`` (in place: the Environment keeps the object) for the epoch
+        ``orbit.epoch + U(0, epoch_range_s)`` drawn with the task's random state; returns it (ISO 8601)."""
+        width, cfg0, options = self.epoch_draw
+        epoch = parse_epoch(cfg0.orbit.epoch) + timedelta(seconds=float(self.random.uniform(0.0, width)))
+        iso = epoch.isoformat()
+        base = magsail_mj.load(cfg0, [f"orbit.epoch={json.dumps(iso)}"])
+        fresh = CubesatTask(base, random=self.random, **options)
+        self.__dict__.update({k: v for k, v in fresh.__dict__.items() if k not in ("_random", "epoch_draw")})
+        self._truth_cache = None
+        physics.__init__(base, *_parts(base, self))
+        self.bind(physics)
+        return iso
+
     def draw_start(self, physics: SimulationPhysics) -> dict[str, Any]:
         """Attitude uniform over SO(3) relative to the task's command frame at t = 0; detumble: rates
         uniform per axis in ±rate_range_deg_s; pointing: ω_e(0) = 0. Wheel speeds as configured."""
@@ -442,19 +472,30 @@ class CubesatTask(AttitudeTask):
 # ------------------------------------------------------------------------------------ building
 
 
-def make_cubesat_environment(cfg: Any, *, random: Any = None, **options: Any) -> control.Environment:
-    """The environment of a CNUSAIL attitude config (``options`` go to :class:`CubesatTask`):
-    ``control_timestep`` = ``1/control.rate_Hz``, ``time_limit`` = ``sim.duration_s``."""
-    if getattr(cfg, "concept", None) != "cnusail" or getattr(cfg, "kind", None) != "attitude":
-        raise ValueError(f"config: expected a CNUSAIL attitude config, got concept {getattr(cfg, 'concept', None)!r}, "
-                         f"kind {getattr(cfg, 'kind', None)!r}")
-    base = magsail_mj.load(cfg)
-    task = CubesatTask(base, random=random, **options)
+def _parts(base: Simulation, task: CubesatTask) -> tuple[ActionController, CubesatActuators]:
     controller = ActionController(period_s=task.period_s, convert=task.converter.command,
                                   action=task.neutral_action(),
                                   end_time_s=base.n_steps * float(base.model.opt.timestep))
-    actuators = CubesatActuators(base.scenario, mode=task.mode, driver=base.controller.driver)
-    physics = CubesatPhysics(base, controller, actuators)
+    return controller, CubesatActuators(base.scenario, mode=task.mode, driver=base.controller.driver)
+
+
+def make_cubesat_environment(cfg: Any, *, random: Any = None, epoch_range_s: float = 0.0,
+                             **options: Any) -> control.Environment:
+    """The environment of a CNUSAIL attitude config (``options`` go to :class:`CubesatTask`):
+    ``control_timestep`` = ``1/control.rate_Hz``, ``time_limit`` = ``sim.duration_s``.
+    ``epoch_range_s`` > 0: each episode starts at the epoch ``orbit.epoch + U(0, epoch_range_s)``
+    (drawn first, from the task's ``random``; the simulation is rebuilt for it, its orbit, field and
+    Sun tables being built for the epoch)."""
+    if getattr(cfg, "concept", None) != "cnusail" or getattr(cfg, "kind", None) != "attitude":
+        raise ValueError(f"config: expected a CNUSAIL attitude config, got concept {getattr(cfg, 'concept', None)!r}, "
+                         f"kind {getattr(cfg, 'kind', None)!r}")
+    epoch_range_s = float(epoch_range_s)
+    if not (math.isfinite(epoch_range_s) and epoch_range_s >= 0):
+        raise ValueError(f"epoch_range_s: must be a finite number >= 0 s, got {epoch_range_s!r}")
+    base = magsail_mj.load(cfg)
+    task = CubesatTask(base, random=random, **options)
+    task.epoch_draw = (epoch_range_s, cfg, dict(options)) if epoch_range_s > 0 else None
+    physics = CubesatPhysics(base, *_parts(base, task))
     task.bind(physics)
     return control.Environment(physics, task, time_limit=float(base.duration_s), control_timestep=task.period_s)
 
