@@ -3,7 +3,8 @@
 Checks (each can fail): the registered kinds are exactly the schema's ``scenario`` values; a
 config of every kind builds its own class; the concept's modules import each other in one
 direction only (a DAG), with every import at module top and none under ``TYPE_CHECKING``;
-metrics and plots modules import no task module.
+metrics and plots modules import no task module; the orbital metrics work on plain arrays
+(an exponential decay of the rates against its analytic threshold time).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import ast
 import typing
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from magsail_mj.concepts import task_kinds
@@ -19,6 +21,7 @@ from magsail_mj.config import load_config
 from magsail_mj.scenarios import build_scenario
 from magsail_mj.scenarios import truss_tasks as tt
 from magsail_mj.scenarios.truss_config import TrussConfig
+from magsail_mj.scenarios.truss_orbital import detumble_keys
 from tests.conftest import REPO
 
 SCEN = REPO / "magsail_mj" / "scenarios"
@@ -115,3 +118,20 @@ def test_truss_modules_form_a_dag_with_imports_at_top():
     assert find_cycle(graph) is None, find_cycle(graph)
     for name in ("truss_metrics", "truss_orbital", "truss_plots", "truss_model", "truss_config"):
         assert not graph[name] & {"truss", "truss_tasks"}, (name, graph[name])
+
+
+def test_detumble_keys_of_an_exponential_decay():
+    """Rates ω_i(t) = ω0_i e^{−t/τ}: all three fall below 1e-3 rad/s at t* = τ ln(max|ω0| / 1e-3)
+    (first sample at or after t*, so within one sample of 1 s) and stay there; H0 = |I ω0|."""
+    tau = 300.0
+    t = np.arange(0.0, 3000.0, 1.0)
+    w0 = np.array([0.02, -0.01, 0.005])
+    omega = w0[None, :] * np.exp(-t / tau)[:, None]
+    inertia = np.diag([2.0e6, 3.0e6, 4.0e6])
+    keys = detumble_keys(t, omega, inertia_kgm2=inertia, omega0_body=w0)
+    t_star = tau * np.log(0.02 / 1e-3)
+    assert t_star <= keys["t_rates_below_threshold_first_s"] < t_star + 1.0
+    assert keys["t_rates_below_threshold_stay_s"] == keys["t_rates_below_threshold_first_s"]
+    assert keys["H0_Nms"] == pytest.approx(np.linalg.norm(inertia @ w0), rel=1e-12)
+    assert keys["omega_norm_max_rad_s"] == pytest.approx(np.linalg.norm(w0), rel=1e-12)
+    np.testing.assert_allclose(keys["omega_final_rad_s"], w0 * np.exp(-t[-1] / tau), rtol=1e-12)
