@@ -16,7 +16,9 @@ from dm_env import test_utils
 import magsail_mj
 from magsail_mj import envs
 from magsail_mj.analysis.msac_reference import exact_rotation_path
-from magsail_mj.envs import msac  # noqa: F401  (registers the MSAC task)
+from magsail_mj.config import load_config
+from magsail_mj.envs import cnusail, msac  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
+from magsail_mj.envs.core import REPO_ROOT, entry_for_config
 
 SLOW = "models/msac/slow_1hz.toml"          # 200 steps per 1 s cycle: cheap cycles
 TIMING_KEYS = {"wall_time_s", "step_cost_us", "wall_time_per_step_s"}
@@ -134,3 +136,30 @@ def test_same_seed_same_first_observation_and_bounds():
     np.testing.assert_allclose(spec.maximum[:2], np.pi / 2)
     with pytest.raises(ValueError, match="cycles_per_step"):
         envs.load(SLOW, ["sim.duration_s=3"], cycles_per_step=0)
+
+
+def test_every_shipped_cnusail_and_msac_config_is_served_or_refused():
+    """Every config file of the two concepts: CNUSAIL attitude configs are served by the task of
+    their law/command, MSAC multibody configs by ``msac/cycle``; the lifetime analysis, the analytic
+    ``lumped`` scenario and the sweeps are refused (the registry's match only, no build)."""
+    served, refused = {}, 0
+    for folder in ("cnusail", "msac"):
+        for path in sorted((REPO_ROOT / "models" / folder).rglob("*.toml")):
+            try:
+                cfg = load_config(path)
+            except ValueError:
+                continue  # a sweep-of-runs file, not a run config
+            attitude = (cfg.kind == "attitude") if folder == "cnusail" else (cfg.scenario == "multibody")
+            if attitude:
+                name = entry_for_config(cfg, str(path)).name
+                assert name.startswith(folder + "/"), path
+                if folder == "cnusail":
+                    want = "detumble" if cfg.control.mode == "bdot" else cfg.control.command
+                    assert name == f"cnusail/{want}", path
+                served[name] = served.get(name, 0) + 1
+            else:
+                with pytest.raises(ValueError, match="has no environment"):
+                    entry_for_config(cfg, str(path))
+                refused += 1
+    assert served["cnusail/detumble"] >= 2 and served["cnusail/nadir"] >= 3 and served["cnusail/deorbit"] >= 2
+    assert served["msac/cycle"] >= 5 and refused >= 3
