@@ -48,7 +48,6 @@ _SIZING_GEOMETRY = {"A": "A", "B": "B", "C_x": "C", "C_y": "C", "D_x": "D", "D_y
 """Circuit name → geometry of the Eq.-9 sizing (analysis.loop_scaling)."""
 
 
-
 class LoopsLatticeConfig(StrictModel):
     """``[lattice]``: ``units`` = N cubes per side (N + 1 nodes per side), side D [m]."""
 

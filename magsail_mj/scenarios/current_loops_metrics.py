@@ -211,8 +211,8 @@ def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], x: np.ndarray, st:
     t = rec["t"]
     U = st["strain_energy_J"]
     B = field_world_T
-    I = lm.currents_A
-    m_body = I @ areas_body_m2
+    currents = lm.currents_A
+    m_body = currents @ areas_body_m2
     # rigid reference with the realised dipole
     R_rig, _ = rigid_dipole_attitude(t, inertia=inertia_kgm2, dipole_body=m_body, field_world=B)
     ang_rig = rotation_angle(R_rig)
@@ -236,7 +236,7 @@ def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], x: np.ndarray, st:
     h_max = float(st["thickness_m"].max())
     dev_max = float(dev.max())
     summary = {
-        "current_A": float(I[0]) if I.size == 1 else [float(v) for v in I],
+        "current_A": float(currents[0]) if currents.size == 1 else [float(v) for v in currents],
         "dipole_realised_A_m2": float(np.linalg.norm(m_body)),
         "strain_energy_max_J": U_max,
         "t_strain_energy_max_s": t_U,
@@ -252,7 +252,7 @@ def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], x: np.ndarray, st:
         "lorentz_work_final_J": float(W_L[-1]),
         "damping_work_final_J": float(W_D[-1]),
         "stability_product_max": stability_product_max,
-        "self_field_max_T": float(self_field_max_T(lm.lattice.nodes, segments, I)),
+        "self_field_max_T": float(self_field_max_T(lm.lattice.nodes, segments, currents)),
         "classification": classify(classification, side_m=side_m, units=units, rho_max=rho_max,
                                    strain_max=strain_max, h_max=h_max, dev_max=dev_max),
     }
@@ -283,7 +283,7 @@ def slew_metrics(rec: dict[str, np.ndarray], *, areas_body_m2: np.ndarray) -> Me
     torques = rec["torques_world_Nm"]
     mag = np.linalg.norm(torques[:, 0], axis=1)
     gg = np.linalg.norm(torques[:, 1], axis=1)
-    I = rec["currents_axis_A"]
+    currents_axis = rec["currents_axis_A"]
     m_ach = np.einsum("tl,lj->tj", rec["currents_A"], areas_body_m2)
     summary: dict[str, Any] = {
         "t_err_below_5deg_s": t5, "t_err_below_2deg_s": t2,
@@ -294,7 +294,7 @@ def slew_metrics(rec: dict[str, np.ndarray], *, areas_body_m2: np.ndarray) -> Me
         # issue #5 item 6 names
         "time_to_target_s": t5,
         "attitude_error_max_after_target_deg": None if err_after is None else float(np.degrees(err_after)),
-        "current_max_A": [float(v) for v in np.abs(I).max(axis=0)],
+        "current_max_A": [float(v) for v in np.abs(currents_axis).max(axis=0)],
     }
     series = {"error_angle_rad": err, "error_angle_deg": np.degrees(err), "mag_torque_world_Nm": torques[:, 0],
               "gg_torque_world_Nm": torques[:, 1], "dipole_achieved_body_Am2": m_ach}

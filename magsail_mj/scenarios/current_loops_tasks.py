@@ -72,6 +72,7 @@ __all__ = [
 
 Summary = tuple[dict[str, Any], dict[str, np.ndarray]]
 
+
 class _RigidWrapper:
     """Runs a :class:`LoopAttitudeController` on a free body's pose and rate (``slew_rigid``)."""
 

@@ -72,6 +72,7 @@ __all__ = [
 
 Summary = tuple[dict[str, Any], dict[str, np.ndarray]]
 
+
 @dataclass
 class TrussScenario:
     """A truss run: the model plus its loads, probes and post-processing (base of every task).
