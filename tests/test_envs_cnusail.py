@@ -16,6 +16,8 @@ from dm_env import test_utils
 
 import magsail_mj
 from magsail_mj import envs
+from magsail_mj.control.cnusail_modes import command_quaternion
+from magsail_mj.control.eigenaxis import orbital_rate
 from magsail_mj.envs import cnusail  # noqa: F401  (registers the CNUSAIL tasks)
 from magsail_mj.envs.core import RewardWeights
 
@@ -206,3 +208,15 @@ def test_epoch_draw_is_seeded_and_within_range():
     assert not np.allclose(plain["orbit_position_eci_m"], first[0]["orbit_position_eci_m"])
     with pytest.raises(ValueError, match="epoch_range_s"):
         envs.load("cnusail/detumble", ["sim.duration_s=3"], epoch_range_s=-1.0)
+
+
+def test_command_frame_matches_the_flight_software():
+    """The plant's scalar command frame equals the controller's command quaternion and orbital rate
+    (to round-off, 1e-14) for random orbits, all three modes."""
+    rng = np.random.default_rng(1)
+    for _ in range(300):
+        r, v = rng.normal(size=3) * 7.0e6, rng.normal(size=3) * 7.5e3
+        for mode in (0, 1, 2):
+            q, w_o = cnusail.command_frame(mode, r, v)
+            np.testing.assert_allclose(q, command_quaternion(mode, r, v), rtol=0, atol=1e-14)
+            assert w_o == pytest.approx(orbital_rate(r, v), rel=1e-14)

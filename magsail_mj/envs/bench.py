@@ -8,17 +8,19 @@ the measurement short) is run twice in the same process:
   :func:`magsail_mj.envs.shipped_policy` (the same controller, the same physics) from reset to the
   end of the episode.
 
-The cost of each is its wall time divided by the simulated time; the ratio environment/plain is the
-overhead of the environment (the target is ≤ 1.25). Builds are not timed. Each measurement is
-repeated ``repeats`` times, alternating plain and environment, and the smallest wall time of each is
-kept (the least disturbed by other work on the machine). The environments compute every observation
+The cost of each is its CPU time (``time.process_time``: the rollouts run in the calling thread)
+divided by the simulated time; ``ratio`` = environment/plain is the overhead of the environment (the
+target is ≤ 1.25). The wall-clock costs and their ratio are given too (``wall_ratio``); on a shared
+machine they move with its load, the CPU times much less. Builds are not timed. Each measurement is
+repeated ``repeats`` times, alternating plain and environment, and the smallest time of each is kept.
+The environments compute every observation
 the shipped controller uses at every step; the truss's structural-health observations are
 refreshed at their documented lower rate.
 
     .venv/bin/python scripts/bench_envs.py [--concepts cnusail msac] [--repeats 3]
 
-prints one JSON object: concept → task, overrides, simulated time, the two costs [s per simulated
-s], environment steps and the ratio (or ``error`` when a case could not run).
+prints one JSON object: concept → task, overrides, simulated time, environment steps, the CPU and
+wall costs [s per simulated s] and their ratios (or ``error`` when a case could not run).
 """
 
 from __future__ import annotations
@@ -53,27 +55,27 @@ environment step (its default) and at 20: the runner's fixed cost per ``step`` c
 bookkeeping) is spread over more dynamics steps."""
 
 
-def _plain(task: str, overrides: Sequence[str]) -> tuple[float, float]:
+def _plain(task: str, overrides: Sequence[str]) -> tuple[float, float, float]:
     sim = magsail_mj.load(task_entry(task).config, list(overrides))
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     result = sim.run()
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     if result.status != "completed":
         raise RuntimeError(f"plain run of {task} ended {result.status!r}: {result.message}")
-    return wall, float(result.t_end_s)
+    return wall, cpu, float(result.t_end_s)
 
 
-def _environment(task: str, overrides: Sequence[str], options: dict[str, Any]) -> tuple[float, float, int]:
+def _environment(task: str, overrides: Sequence[str], options: dict[str, Any]) -> tuple[float, float, float, int]:
     env = envs.load(task, list(overrides), randomize=False, **options)
     policy = envs.shipped_policy(env)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     ts = env.reset()
     steps = 0
     while not ts.last():
         ts = env.step(policy(ts))
         steps += 1
-    wall = time.perf_counter() - t0
-    return wall, float(env.physics.time()), steps
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return wall, cpu, float(env.physics.time()), steps
 
 
 def measure(concept: str, *, repeats: int = 3) -> dict[str, Any]:
@@ -87,11 +89,12 @@ def measure(concept: str, *, repeats: int = 3) -> dict[str, Any]:
     for _ in range(int(repeats)):
         plain.append(_plain(task, overrides))
         env.append(_environment(task, overrides, options))
-    wall_p, sim_p = min(plain)
-    wall_e, sim_e, steps = min(env)
-    cost_p, cost_e = wall_p / sim_p, wall_e / sim_e
+    sim_p, sim_e, steps = plain[0][2], env[0][2], env[0][3]
+    wall_p, wall_e = min(p[0] for p in plain) / sim_p, min(e[0] for e in env) / sim_e
+    cpu_p, cpu_e = min(p[1] for p in plain) / sim_p, min(e[1] for e in env) / sim_e
     return {"task": task, "overrides": list(overrides), "options": options, "simulated_s": sim_e,
-            "env_steps": steps, "plain_s_per_sim_s": cost_p, "env_s_per_sim_s": cost_e, "ratio": cost_e / cost_p,
+            "env_steps": steps, "plain_cpu_s_per_sim_s": cpu_p, "env_cpu_s_per_sim_s": cpu_e, "ratio": cpu_e / cpu_p,
+            "plain_wall_s_per_sim_s": wall_p, "env_wall_s_per_sim_s": wall_e, "wall_ratio": wall_e / wall_p,
             "repeats": int(repeats)}
 
 
