@@ -13,9 +13,8 @@ divided by the simulated time; ``ratio`` = environment/plain is the overhead of 
 target is ≤ 1.25). The wall-clock costs and their ratio are given too (``wall_ratio``); on a shared
 machine they move with its load, the CPU times much less. Builds are not timed. Each measurement is
 repeated ``repeats`` times, alternating plain and environment, and the smallest time of each is kept.
-The environments compute every observation
-the shipped controller uses at every step; the truss's structural-health observations are
-refreshed at their documented lower rate.
+The environments compute every observation the shipped controller uses at every step; the truss's
+structural-health observations are refreshed at their documented lower rate.
 
     .venv/bin/python scripts/bench_envs.py [--concepts cnusail msac] [--repeats 3]
 
