@@ -8,18 +8,24 @@ the measurement short) is run twice in the same process:
   :func:`magsail_mj.envs.shipped_policy` (the same controller, the same physics) from reset to the
   end of the episode.
 
-The cost of each is its CPU time (``time.process_time``: the rollouts run in the calling thread)
-divided by the simulated time; ``ratio`` = environment/plain is the overhead of the environment (the
-target is ≤ 1.25). The wall-clock costs and their ratio are given too (``wall_ratio``); on a shared
-machine they move with its load, the CPU times much less. Builds are not timed. Each measurement is
-repeated ``repeats`` times, alternating plain and environment, and the smallest time of each is kept.
-The environments compute every observation the shipped controller uses at every step; the truss's
-structural-health observations are refreshed at their documented lower rate.
+The cost of each is its CPU time (``time.process_time``: the rollouts run in the calling thread) divided
+by the simulated time; ``ratio`` = environment/plain is the overhead of the environment (the target is ≤
+1.25). The shipped policy computes the shipped controller's command from the state (the runner's
+kinematics and environment sample, then the controller: the work the plain run does inside its step),
+which the environment then turns back into the command from the action: its own CPU time is measured
+around each policy call, and ``ratio_without_policy`` = (environment − policy)/plain is the
+environment's overhead alone, the cost of an agent's policy left out. The wall-clock costs and their
+ratio are given too (``wall_ratio``); on a shared machine they move with its load, the CPU times much
+less. Builds are not timed. Each measurement is repeated ``repeats`` times, alternating plain and
+environment, and the smallest time of each is kept. The environments compute every observation the
+shipped controller uses at every step; the truss's structural-health observations are refreshed at their
+documented lower rate.
 
     .venv/bin/python scripts/bench_envs.py [--concepts cnusail msac] [--repeats 3]
 
 prints one JSON object: concept → task, overrides, simulated time, environment steps, the CPU and
-wall costs [s per simulated s] and their ratios (or ``error`` when a case could not run).
+wall costs [s per simulated s] and their ratios, the policy's own share left out in
+``ratio_without_policy`` (or ``error`` when a case could not run).
 """
 
 from __future__ import annotations
@@ -64,17 +70,22 @@ def _plain(task: str, overrides: Sequence[str]) -> tuple[float, float, float]:
     return wall, cpu, float(result.t_end_s)
 
 
-def _environment(task: str, overrides: Sequence[str], options: dict[str, Any]) -> tuple[float, float, float, int]:
+def _environment(task: str, overrides: Sequence[str],
+                 options: dict[str, Any]) -> tuple[float, float, float, int, float]:
     env = envs.load(task, list(overrides), randomize=False, **options)
     policy = envs.shipped_policy(env)
-    t0, c0 = time.perf_counter(), time.process_time()
+    clock = time.process_time
+    t0, c0 = time.perf_counter(), clock()
     ts = env.reset()
-    steps = 0
+    steps, policy_cpu = 0, 0.0
     while not ts.last():
-        ts = env.step(policy(ts))
+        p0 = clock()
+        action = policy(ts)
+        policy_cpu += clock() - p0
+        ts = env.step(action)
         steps += 1
-    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    return wall, cpu, float(env.physics.time()), steps
+    wall, cpu = time.perf_counter() - t0, clock() - c0
+    return wall, cpu, float(env.physics.time()), steps, policy_cpu
 
 
 def measure(concept: str, *, repeats: int = 3) -> dict[str, Any]:
@@ -91,8 +102,10 @@ def measure(concept: str, *, repeats: int = 3) -> dict[str, Any]:
     sim_p, sim_e, steps = plain[0][2], env[0][2], env[0][3]
     wall_p, wall_e = min(p[0] for p in plain) / sim_p, min(e[0] for e in env) / sim_e
     cpu_p, cpu_e = min(p[1] for p in plain) / sim_p, min(e[1] for e in env) / sim_e
+    cpu_x = min(e[1] - e[4] for e in env) / sim_e
     return {"task": task, "overrides": list(overrides), "options": options, "simulated_s": sim_e,
             "env_steps": steps, "plain_cpu_s_per_sim_s": cpu_p, "env_cpu_s_per_sim_s": cpu_e, "ratio": cpu_e / cpu_p,
+            "env_cpu_s_per_sim_s_without_policy": cpu_x, "ratio_without_policy": cpu_x / cpu_p,
             "plain_wall_s_per_sim_s": wall_p, "env_wall_s_per_sim_s": wall_e, "wall_ratio": wall_e / wall_p,
             "repeats": int(repeats)}
 

@@ -383,6 +383,7 @@ class AttitudeTask(control.Task):
         self._last_action = np.zeros(0)
         self._previous_obs: collections.OrderedDict | None = None
         self._obs_cache: tuple[int, collections.OrderedDict] | None = None
+        self._handed_out: int | None = None
 
     @property
     def random(self) -> np.random.RandomState:
@@ -446,6 +447,7 @@ class AttitudeTask(control.Task):
         physics.controller.action[:] = self.neutral_action()
         physics.controller.hooks.final_action = None
         self._obs_cache = None
+        self._handed_out = None
         self._last_action = self.neutral_action()
         self.start = self.draw_start(physics) if self.randomize else {}
         if epoch is not None:
@@ -467,22 +469,36 @@ class AttitudeTask(control.Task):
 
     def get_observation(self, physics: SimulationPhysics) -> collections.OrderedDict:
         """The named observation arrays (float64); after a divergence (the state is not finite) the
-        previous observation's arrays filled with NaN."""
-        return collections.OrderedDict((k, v.copy()) for k, v in self.current_observation(physics).items())
+        previous observation's arrays filled with NaN.
+
+        The first call of a step hands out the step's own arrays (dm_control asks for the reward
+        first, so nothing of the task reads them afterwards: no copy on the per-step path); a
+        further call in the same step gets copies."""
+        obs = self.current_observation(physics)
+        key = self._obs_cache[0]
+        if self._handed_out == key:
+            return collections.OrderedDict((k, v.copy()) for k, v in obs.items())
+        self._handed_out = key
+        return obs
 
     def current_observation(self, physics: SimulationPhysics) -> collections.OrderedDict:
         """The observation of the current step, computed once per step (the reward, which dm_control
         asks for first, and the observation share it)."""
         key = physics.sim.step_index
-        if self._obs_cache is not None and self._obs_cache[0] == key:
-            return self._obs_cache[1]
+        cache = self._obs_cache
+        if cache is not None and cache[0] == key:
+            return cache[1]
         if physics.status == "diverged" and self._previous_obs is not None:
             out = collections.OrderedDict((k, np.full_like(v, np.nan)) for k, v in self._previous_obs.items())
         else:
             obs = self.observe(physics, physics.step_state() if self.needs_step_state else None)
-            out = collections.OrderedDict((k, np.asarray(v, dtype=np.float64)) for k, v in obs.items())
+            for k, v in obs.items():  # most tasks return float64 arrays already: no conversion then
+                if type(v) is not np.ndarray or v.dtype != np.float64:
+                    obs[k] = np.asarray(v, dtype=np.float64)
+            out = collections.OrderedDict(obs)
             self._previous_obs = out
         self._obs_cache = (key, out)
+        self._handed_out = None
         return out
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
@@ -515,6 +531,8 @@ class AttitudeTask(control.Task):
         """0.0 on divergence or structural failure, 1.0 when the simulation reached its duration,
         else None (the time limit itself is the Environment's)."""
         status = physics.status
+        if status == "running":
+            return None
         if status in ENDING_STATUSES or status == "structure_failed":
             return 0.0
         if status == "completed":

@@ -193,7 +193,7 @@ class LoopsSlewTask(AttitudeTask):
 
     def observe(self, physics: SimulationPhysics, state: StepState) -> dict[str, np.ndarray]:
         R, q, w = self._attitude(state)
-        obs = {"attitude_wxyz": q, "body_rate_rad_s": np.asarray(w, dtype=float),
+        obs = {"attitude_wxyz": q.copy(), "body_rate_rad_s": np.array(w, dtype=float),
                "field_body_T": R.T @ self.converter.law.field(state), "target_wxyz": self.q_ref.copy()}
         if not self.rigid:
             mem = self._memory

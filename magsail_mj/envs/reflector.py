@@ -121,9 +121,10 @@ class ActionPitchConverter:
 def _plate_observation(physics: SimulationPhysics, idx: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(q, R, ω_b)`` of the plate read from ``qpos``/``qvel`` (the free joint's angular velocity
     is in body axes): what the controllers read, without the runner's kinematics pass."""
-    q = physics.data.qpos[idx.q_quat]
+    data = physics.data
+    q = data.qpos[idx.q_quat]
     q = q / math.sqrt(float(q @ q))
-    return q, quat_to_matrix(q), np.array(physics.data.qvel[idx.v_ang], dtype=float)
+    return q, quat_to_matrix(q), data.qvel[idx.v_ang].copy()
 
 
 def _check_ranges(**ranges: float) -> None:
@@ -173,9 +174,8 @@ class ReflectorDetumbleTask(AttitudeTask):
 
     def observe(self, physics: SimulationPhysics, state: None) -> dict[str, np.ndarray]:
         q, R, w = _plate_observation(physics, self.scenario.plate.idx)
-        obs = {"attitude_wxyz": q, "body_rate_rad_s": w,
-               "field_body_T": np.asarray(self.converter.law.field_body(physics.time(), R), dtype=float)}
-        return obs
+        return {"attitude_wxyz": q, "body_rate_rad_s": w,
+                "field_body_T": self.converter.law.field_body(physics.sim.time, R)}
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
         obs = self.current_observation(physics)
@@ -244,7 +244,7 @@ class ReflectorPitchTask(AttitudeTask):
         t = physics.time()
         ref = self.steering.at(t)
         obs = {"attitude_wxyz": q, "body_rate_rad_s": w, "field_body_T": R.T @ self.converter.law.orbit.field(t),
-               "target_wxyz": np.asarray(ref.q_ref, dtype=float),
+               "target_wxyz": np.array(ref.q_ref, dtype=float),
                "target_rate_rad_s": np.array([0.0, -ref.psi_dot, 0.0])}
         return obs
 
