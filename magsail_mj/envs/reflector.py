@@ -76,8 +76,7 @@ class ActionBdotConverter:
 
     def command(self, state: StepState, action: np.ndarray) -> BdotCommand:
         law = self.law
-        _, R, _ = _plate_pose(state, law.body_id)
-        B_b = law.field_body(state.t, R)
+        B_b = law.field_body(state.t, quat_to_matrix(state.xquat[law.body_id]))
         if self.mode == "currents":
             currents = np.array(action, dtype=float)
             m = np.array([law.m_max * currents[0] / law.I_max, law.m_max * currents[1] / law.I_max, 0.0])
