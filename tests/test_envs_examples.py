@@ -34,11 +34,28 @@ def test_random_policy_runs_episodes(monkeypatch, capsys):
 
 
 def test_same_law_three_concepts(monkeypatch, capsys):
+    """The example runs the law on the three spacecraft and reports the torque delivered against the
+    torque requested. Every mean cosine lies in [−1, 1] (1e-12 for round-off). The reflector's coils
+    deliver the pitch request as asked (the dipole field of the planar orbit lies in the orbit plane,
+    so the request about the pitch axis, the orbit normal, is ⟂ B and the projection leaves it
+    unchanged; the cap is not reached): mean cosine 1 and equal mean magnitudes to 1e-9. The cubesat's wheel driver
+    delivers along the request: mean cosine ≥ 0.9999. The rods deliver only a part of the
+    truss's request (the allocation saturates): mean delivered < mean requested."""
     monkeypatch.chdir(REPO)
     rows = _example("same_law_three_concepts").main(["--duration-s", "10", "--units", "3"])
     assert len(rows) == 3
     assert all(r["status"] == "completed" for r in rows)
-    assert len(capsys.readouterr().out.splitlines()) == 3
+    printed = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [p["spacecraft"] for p in printed] == [r["spacecraft"] for r in rows] == ["truss", "cubesat", "reflector"]
+    by = {r["spacecraft"]: r for r in rows}
+    for r in rows:
+        assert abs(r["mean_cos_request_delivered"]) <= 1.0 + 1e-12, r
+        assert r["mean_request_Nm"] > 0 and r["mean_delivered_Nm"] > 0, r
+    reflector, cubesat, truss = by["reflector"], by["cubesat"], by["truss"]
+    assert abs(reflector["mean_cos_request_delivered"] - 1.0) <= 1e-9
+    assert math.isclose(reflector["mean_delivered_Nm"], reflector["mean_request_Nm"], rel_tol=1e-9)
+    assert cubesat["mean_cos_request_delivered"] >= 0.9999
+    assert truss["mean_delivered_Nm"] < truss["mean_request_Nm"]
 
 
 def test_search_gains_reports_best_against_shipped(monkeypatch, capsys):
