@@ -16,7 +16,7 @@ from dm_env import test_utils
 from magsail_mj import envs
 from magsail_mj.config import load_config
 from magsail_mj.estimation.attitude import BestFitRotation, so3_exp
-from magsail_mj.quaternion import quat_from_matrix
+from magsail_mj.quaternion import quat_from_matrix, quat_to_matrix
 
 SMALL = ["lattice.units=3", 'control.cache_dir=""']
 SHORT = [*SMALL, "sim.duration_s=2"]
@@ -142,3 +142,41 @@ def test_epoch_draw_rebuilds_the_orbit_at_a_seeded_epoch() -> None:
     assert runs[0].task.start["epoch"] != epochs[0]  # the second episode drew its own epoch
     with pytest.raises(ValueError, match="epoch_range_s: this config has no orbit"):
         envs.load("reflector/detumble", ["sim.duration_s=2"], epoch_range_s=10.0)
+
+
+def test_quat_of_rotation_equals_quat_from_matrix():
+    """The observation's scalar quaternion of a rotation matrix is the vectorised
+    ``quat_from_matrix`` (same Shepperd construction and operation order): equal to 1e-15 (observed
+    bit-equal) on random rotations, near-180° turns (the other diagonal entries of K chosen) included."""
+    rng = np.random.default_rng(3)
+    quats = rng.normal(size=(400, 4))
+    quats[::4] = [0.0, 1.0, 0.0, 0.0] + 1e-9 * rng.normal(size=(100, 4))
+    quats[1::4] = [0.0, 0.0, 0.6, -0.8] + 1e-9 * rng.normal(size=(100, 4))
+    quats /= np.linalg.norm(quats, axis=1, keepdims=True)
+    for q in quats:
+        R = quat_to_matrix(q)
+        a, b = envs.truss.quat_of_rotation(R), quat_from_matrix(R)
+        assert a[0] >= 0.0
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-15)
+
+
+def test_reused_fit_repeats_only_for_equal_positions():
+    """``ReusedFit`` returns the wrapped fit's result for equal positions (copies, so a caller
+    mutating one does not change the next), and fits again when a position changes."""
+    rng = np.random.default_rng(4)
+    nodes = rng.normal(size=(8, 3))
+    fit = BestFitRotation(nodes)
+    reused = envs.truss.ReusedFit(fit)
+    pos = nodes @ quat_to_matrix(np.array([0.9, 0.1, -0.3, 0.2]) / math.sqrt(0.95)).T + 1.0
+    R1, d1 = reused(pos)
+    R_ref, d_ref = fit(pos)
+    np.testing.assert_array_equal(R1, R_ref)
+    np.testing.assert_array_equal(d1, d_ref)
+    R1[:] = 0.0
+    R2, _ = reused(pos.copy())
+    np.testing.assert_array_equal(R2, R_ref)
+    moved = pos.copy()
+    moved[0, 0] += 1e-3
+    R3, _ = reused(moved)
+    np.testing.assert_array_equal(R3, fit(moved)[0])
+    assert not np.array_equal(R3, R_ref)
