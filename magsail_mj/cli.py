@@ -52,6 +52,7 @@ from magsail_mj.scenarios import build_scenario
 from magsail_mj.sweep import load_sweep, make_cluster, run_sweep, sweep_exit_code
 from magsail_mj.sweep.report import add_arguments as add_report_arguments
 from magsail_mj.sweep.report import main as report_main
+from magsail_mj.sweep.report import ReportError, write_report
 
 __all__ = ["EXIT_CODES", "CliInputError", "main"]
 
@@ -439,13 +440,22 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             cluster.adapt(minimum_jobs=args.jobs or 1, maximum_jobs=args.jobs or 1)  # jobs that end are replaced
         records = run_sweep(sweep, out, workers=args.workers, video=args.video, overwrite=args.overwrite,
                             scheduler=args.scheduler, cluster=cluster, retries=args.retries,
-                            log=LOG.info)
+                            log=LOG.info, progress=False if args.no_progress else None)
     finally:
         if cluster is not None:
             cluster.close()
-    print(json.dumps({"sweep": sweep.name, "out": str(out),
-                      "status": {r["id"]: r["status"] for r in records}}, indent=2))
-    return sweep_exit_code(records)
+    result: dict[str, Any] = {"sweep": sweep.name, "out": str(out),
+                              "status": {r["id"]: r["status"] for r in records}}
+    code = sweep_exit_code(records)
+    if args.report:
+        try:
+            result["report"] = [str(p) for p in write_report(out)]
+        except ReportError as err:  # e.g. no run finished with a figure to report: the runs stay as they are
+            LOG.error("report: %s", err)
+            result["report_error"] = str(err)
+            code = code or 1
+    print(json.dumps(result, indent=2))
+    return code
 
 
 def _cmd_scaling_magnetorquer(args: argparse.Namespace) -> int:
@@ -558,6 +568,10 @@ def _add_run_verbs(sub: Any) -> None:
     sw.add_argument("--video", action="store_true", help="render video.mp4 in every run folder")
     _set_option(sw, "override a key in every run, e.g. --set sim.duration_s=60")
     sw.add_argument("--overwrite", action="store_true", help="rerun runs that already finished")
+    sw.add_argument("--no-progress", action="store_true",
+                    help="no sweep progress bar on stderr (it shows only on a terminal anyway)")
+    sw.add_argument("--report", action="store_true",
+                    help="after the runs, write the sweep report (tables and figures) into OUT/report")
     sw.add_argument("--retries", type=_count_or_zero, default=2,
                     help="retries of a run whose process was killed (default 2; a retry resumes from its checkpoint)")
     sw.add_argument("--scheduler", metavar="ADDRESS",

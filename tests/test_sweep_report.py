@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from magsail_mj.cli import main as cli_main
 from magsail_mj.sweep import RECORD_KEYS, load_sweep, run_sweep
 from magsail_mj.sweep.progress import SweepProgress
 from magsail_mj.sweep.report import ReportError, add_arguments, figure_stats, main, write_report
@@ -148,3 +149,19 @@ def test_progress_bar_counts_runs_and_is_off_unless_asked():
         p.close()
         assert not p.enabled
     assert quiet.getvalue() == ""
+
+
+def test_sweep_command_writes_its_report_with_report_option(tmp_path, capsys):
+    """``magsail sweep … --report --no-progress``: the runs, then the report listed in the printed JSON;
+    no progress bar on stderr."""
+    out = tmp_path / "out"
+    rc = cli_main(["sweep", str(_mc_sweep(tmp_path)), "--out", str(out), "--workers", "2", "--report",
+                   "--no-progress"])
+    captured = capsys.readouterr()
+    assert rc == 0, captured.err
+    printed = json.loads(captured.out)
+    assert set(printed["status"].values()) == {"completed"}
+    names = {Path(p).name for p in printed["report"]}
+    assert "report.md" in names and all(Path(p).is_file() for p in printed["report"])
+    assert any(name.startswith("detumble_time_below_1p0dps_s") for name in names)  # its figures
+    assert "dashboard" not in captured.err
