@@ -1,4 +1,4 @@
-"""Reproduce the distributed-vs-centralised torque experiment (truss-magnetorquer-array.md §6).
+"""Reproduce the distributed-vs-centralised torque experiment of the truss magnetorquer paper.
 
 Runs the selected runs of the sweep file ``models/sweeps/truss_dist_vs_central.toml`` (configs
 ``models/truss_magnetorquer/dist_vs_central/case_{a,b,c}_{distributed,central}_{bangbang,versine}.toml``)
@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from magsail_mj.control.profiles import bang_bang_off, versine
+from magsail_mj.plotting import new_figure, save_figure
 from magsail_mj.sweep import FINISHED, load_sweep, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
@@ -69,14 +71,7 @@ def comparison_table(summaries: dict[str, dict]) -> str:
 
 def case_figure(out: Path, profile: str, cases: list[str]) -> Path:
     """φ, ω₁ and surface SD vs time for each case, central and distributed side by side."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from magsail_mj.scenarios.truss_plots import save_figure
-
-    fig, axs = plt.subplots(3, len(cases), figsize=(5 * len(cases), 8), squeeze=False, sharex=True)
+    fig, axs = new_figure(3, len(cases), figsize=(5 * len(cases), 8), squeeze=False, sharex=True)
     for col, case in enumerate(cases):
         for place, style in (("central", "-"), ("distributed", "-")):
             run = out / f"case_{case}_{place}_{profile}"
@@ -99,16 +94,9 @@ def case_figure(out: Path, profile: str, cases: list[str]) -> Path:
 
 
 def profile_figure(out: Path) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from magsail_mj.control.profiles import bang_bang_off, versine
-    from magsail_mj.scenarios.truss_plots import save_figure
 
     t = np.linspace(0, 1800, 3601)
-    fig, ax = plt.subplots(figsize=(7, 3.5))
+    fig, ax = new_figure(figsize=(7, 3.5))
     ax.plot(t, bang_bang_off(t, tau_max=0.1, t_end=1800), label="bang-bang-off")
     ax.plot(t, versine(t, tau_max=0.1, t_end=1800), label="versine (Eq. 9, corrected)")
     ax.set(xlabel="t [s]", ylabel="τ about x1 [N m]")

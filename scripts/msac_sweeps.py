@@ -39,6 +39,8 @@ import numpy as np
 
 from magsail_mj.config import ConfigError, load_config
 from magsail_mj.io import to_jsonable, write_json
+from magsail_mj.plotting import new_figure, save_figure
+from magsail_mj.scenarios.msac import MsacScenario, point_config
 from magsail_mj.sweep import FINISHED, load_sweep, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
@@ -76,17 +78,10 @@ def _labels(summary: dict) -> list[str]:
 
 
 def f6_figure(results: dict[str, dict], path: Path) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from magsail_mj.scenarios.msac_plots import save_figure
-
     names = [n for n in results if n != "amplification"]
     cols = 4
     rows = math.ceil(len(names) / cols)
-    fig, axs = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.6 * rows), squeeze=False)
+    fig, axs = new_figure(rows, cols, figsize=(4.2 * cols, 3.6 * rows), squeeze=False)
     for ax, name in zip(axs.flat, names):
         s = results[name]
         x = np.arange(len(s["sweep_points"]))
@@ -108,7 +103,6 @@ def f6_figure(results: dict[str, dict], path: Path) -> Path:
 
 def design_curves(a: np.ndarray) -> dict[str, np.ndarray]:
     """Exact and Eq. (7) secular rates along the scaling model ``ε = 0.1 %·a``, ``f = 4 kHz/a``."""
-    from magsail_mj.scenarios.msac import MsacScenario, point_config
 
     base = load_config(REPO / "models/msac/paper_1khz.toml")
     exact, eq7 = [], []
@@ -121,7 +115,6 @@ def design_curves(a: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def operating_point(ext: float, f: float) -> dict:
-    from magsail_mj.scenarios.msac import MsacScenario, point_config
 
     base = load_config(REPO / "models/msac/paper_1khz.toml")
     cfg = point_config(base, ["cycle.extension_frac", "cycle.frequency_Hz"], [ext, f], cycles=3)
@@ -129,17 +122,10 @@ def operating_point(ext: float, f: float) -> dict:
 
 
 def f7_figure(results: dict[str, dict], path: Path) -> tuple[Path, dict]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from magsail_mj.scenarios.msac_plots import save_figure
-
     a = np.geomspace(1, 50, 60)
     cur = design_curves(a)
     op_a, op_b = operating_point(1e-3, 4000.0), operating_point(1e-2, 1000.0)
-    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8, 8), sharex=True)
+    fig, (ax, ax2) = new_figure(2, 1, figsize=(8, 8), sharex=True)
     ax.plot(a, cur["rate_exact_rad_s"], "k-", label="exact planar model")
     ax.plot(a, cur["rate_eq7_rad_s"], "--", color="0.5", label="Eq. (7) lumped")
     data = {"curves": cur, "op_a": op_a, "op_b": op_b}
