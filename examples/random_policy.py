@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from magsail_mj import envs
-from magsail_mj.envs import cnusail, msac  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
+from magsail_mj.concepts.cnusail import env as cnusail  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
+from magsail_mj.concepts.msac import env as msac  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
 
 
 def run_random(env: Any, *, seed: int = 0, max_steps: int | None = None) -> dict[str, Any]:

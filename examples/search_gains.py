@@ -31,10 +31,10 @@ from scipy.optimize import minimize_scalar
 
 from magsail_mj import envs
 from magsail_mj.control.bdot import make_bdot
-from magsail_mj.envs import cnusail  # noqa: F401  (registers the CNUSAIL tasks)
+from magsail_mj.concepts.cnusail import env as cnusail  # noqa: F401  (registers the CNUSAIL tasks)
 from magsail_mj.loads.actuators_cubesat import saturate_per_axis
 
-DEFAULT_CONFIG = "models/cnusail/detumble_pre.toml"
+DEFAULT_CONFIG = "magsail_mj/concepts/cnusail/configs/detumble_pre.toml"
 
 
 class BdotPolicy:

@@ -1,7 +1,7 @@
 """``magsail_mj.load``: from a config to a simulation ready to reset, step, run and checkpoint.
 
     import magsail_mj
-    sim = magsail_mj.load("models/cnusail/detumble_pre.toml", ["sim.duration_s=60"])
+    sim = magsail_mj.load("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", ["sim.duration_s=60"])
     sim.step(100)                # 100 physics steps (controller, loads and records as in run)
     state = sim.get_state()      # plain arrays and scalars
     result = sim.run()           # on to sim.duration_s
@@ -29,7 +29,7 @@ from pydantic import BaseModel
 
 from magsail_mj.checkpoint import run_identity
 from magsail_mj.config import apply_overrides, load_config, numbers_hash, numbers_tree, parse_config
-from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenario import build_scenario
 
 __all__ = ["load"]
 

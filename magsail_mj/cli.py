@@ -48,7 +48,7 @@ from magsail_mj.resources import (
     render_bytes,
 )
 from magsail_mj.run import run_scenario
-from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenario import build_scenario
 from magsail_mj.sweep import load_sweep, make_cluster, run_sweep, sweep_exit_code
 from magsail_mj.sweep.report import add_arguments as add_report_arguments
 from magsail_mj.sweep.report import main as report_main

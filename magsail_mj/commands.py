@@ -32,7 +32,7 @@ reflector B-dot command ``currents_A``; the cubesat magnetorquer load reads the 
     from magsail_mj.control.quaternion_feedback import QuaternionPD
     from magsail_mj.loads.body_torque_actuators import attitude_sensor, body_torque_actuator
 
-    sim = magsail_mj.load("models/cnusail/nadir_post.toml", ["sim.duration_s=60"])
+    sim = magsail_mj.load("magsail_mj/concepts/cnusail/configs/nadir_post.toml", ["sim.duration_s=60"])
     pd = QuaternionPD(sensor=attitude_sensor(sim), q_ref_wxyz=(1, 0, 0, 0), Pq_Nm=(1e-3,) * 3,
                       Pw_Nms=(1e-2,) * 3, period_s=0.1)
     sim2 = attach(sim, pd, body_torque_actuator(sim))

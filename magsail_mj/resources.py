@@ -189,7 +189,7 @@ def check_memory(estimate_bytes: float, *, what: str, limit: int | None = None) 
 
 def lattice_counts(units: int, *, diagonals: str = "parity") -> tuple[int, int]:
     """``(nodes, struts)`` of the two-layer lattice of ``units`` × ``units`` cubes
-    (:func:`magsail_mj.geometry.lattice.make_lattice`), by formula, without building it.
+    (:func:`magsail_mj.lattice.geometry.make_lattice`), by formula, without building it.
 
     With ``n = units``, ``N = n + 1``: nodes ``2 N²``; struts ``4 n N`` cube edges in x and y,
     ``N²`` verticals and one diagonal per face (``2 n²`` top/bottom, ``2 n N`` vertical faces),

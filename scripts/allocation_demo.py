@@ -41,7 +41,7 @@ from magsail_mj.io import write_json
 import matplotlib.pyplot as plt
 from magsail_mj.plotting import save_figure
 from matplotlib.collections import PolyCollection
-from magsail_mj.geometry.lattice import make_lattice
+from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.loads.magnetorquer_rods import rod_array, rod_dipole_Am2
 
 UNIT = (0.0, 0.0, 1.0, 1.0)

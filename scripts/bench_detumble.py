@@ -1,6 +1,6 @@
 """Headline benchmark (issue 4, item 6): the 2.5 h B-dot detumble of the 75 m truss.
 
-The scenario is ``models/truss_magnetorquer/detumble.toml``: 800 particles, 3 402 struts, 760
+The scenario is ``magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml``: 800 particles, 3 402 struts, 760
 magnetorquer rods, IGRF along an 800 km polar orbit, tidal gravity on every particle, B-dot with
 the N1/N2 allocation and cached Lloyd selections, 9 000 s. Every row runs the whole scenario
 (all loads, the controller, probes and recorder) through :class:`magsail_mj.sim.Simulation`:
@@ -55,7 +55,7 @@ from magsail_mj.estimation.attitude import best_fit_rotation, rotation_angle
 from magsail_mj.loads.base import StepState
 from magsail_mj.reference.numpy_rk4 import SpringMassLattice
 
-CONFIG = Path(__file__).resolve().parents[1] / "models/truss_magnetorquer/detumble.toml"
+CONFIG = Path(__file__).resolve().parents[1] / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml"
 ANGLE_TOL_RAD = 1e-3
 REL_TOL = 0.02
 SAT_TOL = 0.02

@@ -38,7 +38,7 @@ from magsail_mj.environment.constants import MU_EARTH
 from magsail_mj.environment.field import igrf_eci
 from magsail_mj.environment.surfaces import Optics, lattice_top_cells
 from magsail_mj.environment.timeutil import gmst_rad
-from magsail_mj.geometry.lattice import make_lattice
+from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.drag import LatticeDragLoad
 from magsail_mj.loads.srp import LatticeSRPLoad
@@ -84,7 +84,7 @@ def mujoco_step_costs(steps: int) -> dict[str, float]:
     The model, its initial state and its environment come from :func:`magsail_mj.load`; the two
     timed simulations are built on that model with only the loads compared (none, or the
     environment loads), so that the difference is the loads' cost alone."""
-    cfg = load_config(REPO / "models/truss_magnetorquer/libration.toml",
+    cfg = load_config(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/libration.toml",
                       ["srp.enabled=true", "drag.enabled=true", "atmosphere.model='exponential'",
                        "sun.model='ephemeris'", f"sim.duration_s={steps * 0.1}", "sim.progress=false"])
     sc = magsail_mj.load(cfg).scenario

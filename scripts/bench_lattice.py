@@ -56,7 +56,7 @@ import magsail_mj
 from magsail_mj.analysis.flatness import surface_sd
 from magsail_mj.config import load_config
 from magsail_mj.estimation.attitude import best_fit_rotation, rotation_angle
-from magsail_mj.geometry.lattice import stiffness_matrix
+from magsail_mj.lattice.geometry import stiffness_matrix
 from magsail_mj.io import print_report
 from magsail_mj.reference.numpy_rk4 import from_truss_scenario, rk4_run
 
@@ -65,7 +65,7 @@ SD_TOL_REL = 0.02      # spec §3.4: surface SD within 2 %
 SAMPLE_S = 3.0         # comparison sampling period: a multiple of every step tried (0.1 … 0.3 s)
 
 CASE_A = (Path(__file__).resolve().parents[1]
-          / "models/truss_magnetorquer/dist_vs_central/case_a_distributed_bangbang.toml")
+          / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_distributed_bangbang.toml")
 """The benchmark model: Case A (EI 1e3, 100 m, 100 kg, calibrated, ζ 0.1), distributed bang-bang torque."""
 
 RUNNER_CASES = [("RK4", 0.1), ("Euler", 0.1), ("implicitfast", 0.1)] + [

@@ -14,10 +14,10 @@ from pathlib import Path
 
 from magsail_mj.config import load_config
 from magsail_mj.io import atomic_path
-from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenario import build_scenario
 from magsail_mj.sweep import is_sweep_file
 
-MODELS = Path(__file__).resolve().parents[1] / "models"
+MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts"
 
 
 def generated_xml(config: Path) -> str:

@@ -42,20 +42,20 @@ import magsail_mj  # noqa: E402,F401  (GL backend before mujoco)
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from magsail_mj.analysis.modes import stability_products  # noqa: E402
+from magsail_mj.lattice.modes import stability_products  # noqa: E402
 from magsail_mj.estimation.attitude import rotation_angle  # noqa: E402
-from magsail_mj.geometry.lattice import make_lattice  # noqa: E402
-from magsail_mj.geometry.truss_properties import strut_stiffness  # noqa: E402
+from magsail_mj.lattice.geometry import make_lattice  # noqa: E402
+from magsail_mj.lattice.properties import strut_stiffness  # noqa: E402
 from magsail_mj.io import write_json  # noqa: E402
-from magsail_mj.loads.modal_damping import ModalDampingLoad, passive_damping  # noqa: E402
-from magsail_mj.mjcf.truss import TrussModelOptions, build_truss_spec  # noqa: E402
+from magsail_mj.lattice.modal_damping import ModalDampingLoad, passive_damping  # noqa: E402
+from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec  # noqa: E402
 from magsail_mj.reference.numpy_rk4 import SpringMassLattice  # noqa: E402
 from magsail_mj.sim import Simulation  # noqa: E402
-from magsail_mj.analysis.modes import caughey_matrix  # noqa: E402
+from magsail_mj.lattice.modes import caughey_matrix  # noqa: E402
 
 try:  # the current-loop modules (another part of the project); a local fallback otherwise
     from magsail_mj.geometry.current_loops import circuit as _circuit
-    from magsail_mj.loads.lorentz import CircuitSegments, LorentzLoad, lorentz_node_forces
+    from magsail_mj.concepts.current_loops.lorentz import CircuitSegments, LorentzLoad, lorentz_node_forces
     HAVE_LORENTZ = True
 except ImportError:  # pragma: no cover
     HAVE_LORENTZ = False

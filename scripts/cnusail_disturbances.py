@@ -1,13 +1,13 @@
 """Disturbance torques on CNUSAIL-1 over one orbit, body held exactly in the nadir and in the
 deorbit attitude (CNUSAIL spec §6; issue item 2): gravity gradient, drag, SRP, residual dipole.
 
-    python scripts/cnusail_disturbances.py [--config models/cnusail/nadir_post.toml] [--out runs/cnusail/disturbances]
+    python scripts/cnusail_disturbances.py [--config magsail_mj/concepts/cnusail/configs/nadir_post.toml] [--out runs/cnusail/disturbances]
 
 No attitude simulation: the environment of the config (J2 orbit, IGRF, Sun, exponential
 atmosphere) is sampled along one orbit and the disturbance load is evaluated at the two commanded
 attitudes. Writes ``disturbances_orbit.png`` and ``disturbances_orbit.json`` (peak |T| per source
 and mode) and prints the peaks.
-"""
+"""  # noqa: E501
 
 from __future__ import annotations
 
@@ -20,17 +20,17 @@ import numpy as np
 
 import magsail_mj
 from magsail_mj.io import write_json
-from magsail_mj.loads.cubesat_disturbances import SOURCES
+from magsail_mj.concepts.cnusail.disturbances import SOURCES
 from magsail_mj.plotting import save_figure
-from magsail_mj.scenarios.cnusail_metrics import disturbance_orbit_profile
-from magsail_mj.scenarios.cnusail_plots import disturbance_orbit_figure
+from magsail_mj.concepts.cnusail.metrics import disturbance_orbit_profile
+from magsail_mj.concepts.cnusail.plots import disturbance_orbit_figure
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--config", default=str(ROOT / "models" / "cnusail" / "nadir_post.toml"))
+    ap.add_argument("--config", default=str(ROOT / "magsail_mj" / "concepts" / "cnusail" / "configs" / "nadir_post.toml"))  # noqa: E501
     ap.add_argument("--out", default=str(ROOT / "runs" / "cnusail" / "disturbances"))
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     ap.add_argument("--samples", type=int, default=1200)

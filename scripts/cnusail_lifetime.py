@@ -3,7 +3,7 @@ random tumbling; Cowell and orbit-averaged propagation; exponential and NRLMSISE
 
     python scripts/cnusail_lifetime.py [--out runs/cnusail/lifetime] [--set lifetime.atmospheres='["exp"]']
 
-Same as ``magsail run models/cnusail/lifetime.toml --out runs/cnusail/lifetime``; prints the
+Same as ``magsail run magsail_mj/concepts/cnusail/configs/lifetime.toml --out runs/cnusail/lifetime``; prints the
 lifetime table (days). The MSIS cases need ``pip install 'magsail_mj[msis]'`` (skipped otherwise).
 """
 
@@ -26,7 +26,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=str(ROOT / "runs" / "cnusail" / "lifetime"))
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = ap.parse_args(argv)
-    cfg = load_config(ROOT / "models" / "cnusail" / "lifetime.toml", args.set)
+    cfg = load_config(ROOT / "magsail_mj" / "concepts" / "cnusail" / "configs" / "lifetime.toml", args.set)
     out = run_scenario(cfg, args.out, overwrite=True, progress=False)
     with open(out.run_dir / "lifetime_table.csv") as fh:
         rows = list(csv.DictReader(fh))

@@ -2,7 +2,7 @@
 
     python scripts/cnusail_pd_vs_eigenaxis.py [--out runs/cnusail/pd_vs_eigenaxis_cmp] [--video]
 
-Runs ``models/cnusail/pd_vs_eigenaxis.toml`` twice (``control.mode = "pd"`` and ``"eigen_axis"``,
+Runs ``magsail_mj/concepts/cnusail/configs/pd_vs_eigenaxis.toml`` twice (``control.mode = "pd"`` and ``"eigen_axis"``,
 everything else equal: same k = 2ω_n², c = 2ζω_n, wheels, limits, disturbances), writes both run
 folders, an overlay figure of the error histories and of the rotation-axis deviation from the
 initial eigen-axis (``comparison.png``), ``comparison.json`` with both summaries side by side and,
@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     res = {}
     for law in ("pd", "eigen_axis"):
-        cfg = load_config(ROOT / "models" / "cnusail" / "pd_vs_eigenaxis.toml", [*args.set, f"control.mode={law}"])
+        cfg = load_config(ROOT / "magsail_mj" / "concepts" / "cnusail" / "configs" / "pd_vs_eigenaxis.toml", [*args.set, f"control.mode={law}"])  # noqa: E501
         res[law] = run_scenario(cfg, out / law, overwrite=True, progress=False, video=args.video)
     table = {law: {k: res[law].get(k) for k in KEYS} for law in res}
     write_json(out / "comparison.json", table)

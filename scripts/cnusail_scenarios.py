@@ -12,7 +12,7 @@ One line per scenario (run folder ``runs/cnusail/<id>`` by default):
     python scripts/cnusail_scenarios.py lifetime              # S8  orbital lifetime (scripts/cnusail_lifetime.py)
     python scripts/cnusail_scenarios.py --all [--video]       # all of them
 
-Each is the same as ``magsail run models/cnusail/<id>.toml --out runs/cnusail/<id>``; ``--set``
+Each is the same as ``magsail run magsail_mj/concepts/cnusail/configs/<id>.toml --out runs/cnusail/<id>``; ``--set``
 overrides config keys (e.g. ``--set sim.duration_s=600`` for a quick look).
 """
 
@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("give scenario ids or --all")
     table = {}
     for sid in ids:
-        cfg = load_config(ROOT / "models" / "cnusail" / f"{sid}.toml", args.set)
+        cfg = load_config(ROOT / "magsail_mj" / "concepts" / "cnusail" / "configs" / f"{sid}.toml", args.set)
         out = run_scenario(cfg, Path(args.out) / sid, overwrite=True, progress=False,
                            video=args.video and cfg.kind == "attitude")
         table[sid] = {k: out[k] for k in KEYS if k in out}

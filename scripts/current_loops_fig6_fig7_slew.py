@@ -1,7 +1,7 @@
 """Slew outputs of current-loops §6 (S5): flexible run against its rigid-body surrogate.
 
-    magsail run models/current_loops/slew.toml --out runs/current_loops/slew --video
-    magsail run models/current_loops/slew_rigid.toml --out runs/current_loops/slew_rigid
+    magsail run magsail_mj/concepts/current_loops/configs/slew.toml --out runs/current_loops/slew --video
+    magsail run magsail_mj/concepts/current_loops/configs/slew_rigid.toml --out runs/current_loops/slew_rigid
     python scripts/current_loops_fig6_fig7_slew.py
 
 Writes into the flexible run folder ``fig6_attitude_vs_rigid.png`` (attitude error of both on a

@@ -1,6 +1,6 @@
 """Sweep outputs of current-loops §5 (S4): summary table, U(t) panels, ratio tables, videos.
 
-    magsail sweep models/current_loops/sweep36.toml --workers 2 --out runs/current_loops/sweep36
+    magsail sweep magsail_mj/concepts/current_loops/configs/sweep36.toml --workers 2 --out runs/current_loops/sweep36
     python scripts/current_loops_tables3_4_sweep.py --sweep runs/current_loops/sweep36 [--videos]
 
 Reads every run folder ``sweep/<g>_n<N>_ei<E>`` that exists (runs not done yet are listed as

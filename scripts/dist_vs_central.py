@@ -1,7 +1,7 @@
 """Reproduce the distributed-vs-centralised torque experiment of the truss magnetorquer paper.
 
 Runs the selected runs of the sweep file ``models/sweeps/truss_dist_vs_central.toml`` (configs
-``models/truss_magnetorquer/dist_vs_central/case_{a,b,c}_{distributed,central}_{bangbang,versine}.toml``)
+``magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_{a,b,c}_{distributed,central}_{bangbang,versine}.toml``)
 with the sweep engine (:func:`magsail_mj.sweep.run_sweep`: Dask workers, valid earlier runs reused,
 ``sweep_summary.json``/``.csv``), then writes into ``--out``:
 
@@ -15,7 +15,7 @@ with the sweep engine (:func:`magsail_mj.sweep.run_sweep`: Dask workers, valid e
 
     python scripts/dist_vs_central.py                               # all twelve
     python scripts/dist_vs_central.py --cases c --profiles bangbang --video   # the main job
-"""
+"""  # noqa: E501
 
 from __future__ import annotations
 

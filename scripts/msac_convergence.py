@@ -3,7 +3,7 @@
     python scripts/msac_convergence.py                       # 2 s of the 1 kHz case at 5 µs, 2.5 µs (and 10 µs)
     python scripts/msac_convergence.py --duration 10 --out runs/msac/convergence.json
 
-For each time step it runs ``models/msac/paper_1khz.toml`` (replay drive, RK4) for ``--duration``
+For each time step it runs ``magsail_mj/concepts/msac/configs/paper_1khz.toml`` (replay drive, RK4) for ``--duration``
 seconds and reports the mean per-cycle rotation (first cycle excluded), its spread, the
 relative difference to the exact planar model, the angular-momentum drift the integrator makes
 between momentum projections (``angmom_drift_max_N_m_s``) and its rate before projection, and
@@ -41,7 +41,7 @@ def run_point(config: Path, timestep_s: float, duration_s: float) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--config", type=Path, default=REPO / "models/msac/paper_1khz.toml")
+    ap.add_argument("--config", type=Path, default=REPO / "magsail_mj/concepts/msac/configs/paper_1khz.toml")
     ap.add_argument("--duration", type=float, default=2.0, help="simulated seconds per time step")
     ap.add_argument("--timesteps", type=float, nargs="+", default=[1e-5, 5e-6, 2.5e-6])
     ap.add_argument("--out", type=Path, default=REPO / "runs/msac/convergence.json")

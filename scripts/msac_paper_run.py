@@ -4,9 +4,9 @@
     python scripts/msac_paper_run.py --duration 10 --out runs/msac/paper_1khz_10s
     python scripts/msac_paper_run.py --video                    # also V2 (time-lapse) from the run
 
-Equivalent to ``magsail run models/msac/paper_1khz.toml --out runs/msac/paper_1khz`` plus timing:
+Equivalent to ``magsail run magsail_mj/concepts/msac/configs/paper_1khz.toml --out runs/msac/paper_1khz`` plus timing:
 the MuJoCo stepping runs natively through ``mujoco.rollout`` in chunks of 200 cycles (no
-Python per step; see ``magsail_mj/scenarios/msac_runner.py``), checkpointing every 20 simulated
+Python per step; see ``magsail_mj/concepts/msac/runner.py``), checkpointing every 20 simulated
 seconds so an interrupted run continues with ``--resume``. Prints one JSON object: the key
 figures of ``summary.json`` (MuJoCo vs exact vs lumped per-cycle rotation and secular rates,
 angular-momentum drift, actuator loads) and the wall times (total, stepping, per step).
@@ -45,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     overrides = ["sim.checkpoint_every_s=20"]
     if a.duration is not None:
         overrides.append(f"sim.duration_s={a.duration}")
-    cfg = load_config(REPO / "models/msac/paper_1khz.toml", overrides)
+    cfg = load_config(REPO / "magsail_mj/concepts/msac/configs/paper_1khz.toml", overrides)
     t0 = time.perf_counter()
     summary = run_scenario(cfg, a.out, overwrite=not a.resume, resume=a.resume, progress=True)
     total = time.perf_counter() - t0

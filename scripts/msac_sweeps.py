@@ -3,7 +3,7 @@
     python scripts/msac_sweeps.py                      # all runs of the sweep file -> runs/msac/sweeps/
     python scripts/msac_sweeps.py --only stroke extension --workers 2
 
-The sweep configs (``models/msac/sweeps/*.toml``) are the runs of the sweep file
+The sweep configs (``magsail_mj/concepts/msac/configs/sweeps/*.toml``) are the runs of the sweep file
 ``models/sweeps/msac_sensitivity.toml``; they run through the sweep engine
 (:func:`magsail_mj.sweep.run_sweep`: ``--workers`` Dask worker processes, valid earlier runs
 reused) into ``runs/msac/sweeps/<name>/`` (its own ``sweep.png`` and ``summary.json``: per point
@@ -40,7 +40,7 @@ import numpy as np
 from magsail_mj.config import ConfigError, load_config
 from magsail_mj.io import to_jsonable, write_json
 from magsail_mj.plotting import new_figure, save_figure
-from magsail_mj.scenarios.msac import MsacScenario, point_config
+from magsail_mj.concepts.msac import MsacScenario, point_config
 from magsail_mj.sweep import FINISHED, load_sweep, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
@@ -104,7 +104,7 @@ def f6_figure(results: dict[str, dict], path: Path) -> Path:
 def design_curves(a: np.ndarray) -> dict[str, np.ndarray]:
     """Exact and Eq. (7) secular rates along the scaling model ``ε = 0.1 %·a``, ``f = 4 kHz/a``."""
 
-    base = load_config(REPO / "models/msac/paper_1khz.toml")
+    base = load_config(REPO / "magsail_mj/concepts/msac/configs/paper_1khz.toml")
     exact, eq7 = [], []
     for ai in a:
         cfg = point_config(base, ["cycle.extension_frac", "cycle.frequency_Hz"], [1e-3 * ai, 4000.0 / ai], cycles=3)
@@ -116,7 +116,7 @@ def design_curves(a: np.ndarray) -> dict[str, np.ndarray]:
 
 def operating_point(ext: float, f: float) -> dict:
 
-    base = load_config(REPO / "models/msac/paper_1khz.toml")
+    base = load_config(REPO / "magsail_mj/concepts/msac/configs/paper_1khz.toml")
     cfg = point_config(base, ["cycle.extension_frac", "cycle.frequency_Hz"], [ext, f], cycles=3)
     return MsacScenario(cfg=cfg).references()
 

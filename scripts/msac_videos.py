@@ -1,6 +1,6 @@
 """MSAC videos (spec msac.md §8): V1 slow-motion cycles, V2 time-lapse of the 600 s run.
 
-    # after: magsail run models/msac/slow_1hz.toml --out runs/msac/slow_1hz
+    # after: magsail run magsail_mj/concepts/msac/configs/slow_1hz.toml --out runs/msac/slow_1hz
     python scripts/msac_videos.py v1 runs/msac/slow_1hz
     python scripts/msac_videos.py v2 runs/msac/paper_1khz          # after the 600 s run
 

@@ -10,11 +10,11 @@ Writes into ``--out`` (default ``runs/scaling``):
   truss at 800 km — and the inputs;
 - ``table.md``: the same as a Markdown table.
 
-Inputs: the ``[scaling]`` table of ``--config`` (e.g. ``models/truss_magnetorquer/scaling.toml``)
+Inputs: the ``[scaling]`` table of ``--config`` (e.g. ``magsail_mj/concepts/truss_magnetorquer/configs/scaling.toml``)
 or the spec's defaults (:class:`magsail_mj.analysis.scaling.ScalingInputs`).
 
-    python scripts/scaling_magnetorquer.py [--config models/truss_magnetorquer/scaling.toml] [--out DIR]
-"""
+    python scripts/scaling_magnetorquer.py [--config magsail_mj/concepts/truss_magnetorquer/configs/scaling.toml] [--out DIR]
+"""  # noqa: E501
 
 from __future__ import annotations
 

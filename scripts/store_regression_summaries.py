@@ -34,7 +34,7 @@ TIMING_KEYS = ("wall_time_s", "step_cost_us", "wall_time_per_step_s", "steps_per
 
 def shipped_configs() -> list[Path]:
     """Every scenario config under ``models/`` (sweep files excluded), sorted."""
-    return sorted(p for p in (REPO / "models").rglob("*.toml") if not is_sweep_file(p))
+    return sorted(p for p in (REPO / "magsail_mj" / "concepts").rglob("*.toml") if not is_sweep_file(p))
 
 
 def short_overrides(path: Path) -> list[str]:

@@ -8,7 +8,7 @@ tabulate their summary keys.
     python scripts/truss_orbital.py --table-only             # re-tabulate existing run folders
 
 Scenario ids are the run ids of the sweep file ``models/sweeps/truss_orbital.toml`` (config
-stems under models/truss_magnetorquer/, ``sensitivity/<name>`` for the §9.6 runs). The selected
+stems under magsail_mj/concepts/truss_magnetorquer/configs/, ``sensitivity/<name>`` for the §9.6 runs). The selected
 runs go through the sweep engine (:func:`magsail_mj.sweep.run_sweep`: ``--workers`` Dask worker
 processes, default 2; a valid earlier run folder is reused, a stopped one continues from its
 checkpoint, ``--overwrite`` reruns) into ``<out>/<id>/`` (a normal run folder: summary.json,
@@ -34,7 +34,7 @@ from magsail_mj.io import atomic_path, to_jsonable, write_json
 from magsail_mj.sweep import FINISHED, Sweep, load_sweep, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
-MODELS = REPO / "models" / "truss_magnetorquer"
+MODELS = REPO / "magsail_mj" / "concepts" / "truss_magnetorquer" / "configs"
 SWEEP = REPO / "models" / "sweeps" / "truss_orbital.toml"
 DEFAULT_IDS = ["detumble", "slew_i", "slew_ii", "slew_iii", "slew_iv"]
 

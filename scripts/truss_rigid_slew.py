@@ -1,9 +1,9 @@
 """Rigid-body counterparts of the orbital truss slews (diagnostic, spec §9.4).
 
-Each id is a config stem under models/truss_magnetorquer/ (``sensitivity/<name>`` allowed). The
+Each id is a config stem under magsail_mj/concepts/truss_magnetorquer/configs/ (``sensitivity/<name>`` allowed). The
 scenario's controller, allocation, Lloyd selection, rod dipoles, IGRF field and orbit are kept;
 the lattice becomes one rigid body with the particle inertia and the classical gravity-gradient
-torque (:mod:`magsail_mj.analysis.rigid_truss_orbital`). A slew that fails here as on the
+torque (:mod:`magsail_mj.concepts.truss_magnetorquer.rigid_orbital`). A slew that fails here as on the
 flexible lattice fails because of the law, its gains or the manoeuvre definition.
 
     python scripts/truss_rigid_slew.py slew_i slew_iii slew_iv          # 15 120 s each
@@ -23,12 +23,12 @@ from pathlib import Path
 import numpy as np
 
 import magsail_mj
-from magsail_mj.analysis.rigid_truss_orbital import simulate_rigid
+from magsail_mj.concepts.truss_magnetorquer.rigid_orbital import simulate_rigid
 from magsail_mj.estimation.attitude import particle_inertia
 from magsail_mj.io import atomic_path
-from magsail_mj.scenarios.truss_orbital import first_time_below, stay_time_below, tumbled
+from magsail_mj.concepts.truss_magnetorquer.orbital import first_time_below, stay_time_below, tumbled
 
-MODELS = Path(__file__).resolve().parents[1] / "models" / "truss_magnetorquer"
+MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "truss_magnetorquer" / "configs"
 
 
 def rigid_slew(config_id: str, *, duration_s: float | None, gravity_gradient: bool,
@@ -78,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     for config_id in args.ids:
         if not (MODELS / f"{config_id}.toml").exists():
-            print(f"error: ids: no config models/truss_magnetorquer/{config_id}.toml", file=sys.stderr)
+            print(f"error: ids: no config magsail_mj/concepts/truss_magnetorquer/configs/{config_id}.toml", file=sys.stderr)  # noqa: E501
             return 2
     rows = []
     for config_id in args.ids:

@@ -132,7 +132,7 @@ def test_cli_stop_then_resume_in_new_processes_is_bitwise(tmp_path):
     from tests.conftest import REPO
 
     def magsail(*args):
-        config = str(REPO / "models/cnusail/nadir_pre.toml")
+        config = str(REPO / "magsail_mj/concepts/cnusail/configs/nadir_pre.toml")
         return subprocess.run([sys.executable, "-m", "magsail_mj.entry", "run", config, "--set", "sim.duration_s=40",
                                "--no-progress", *args], capture_output=True, text=True, cwd=tmp_path, timeout=300)
 

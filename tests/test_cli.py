@@ -25,7 +25,7 @@ from magsail_mj.cli import EXIT_CODES, LOG, main
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS_EXT = ROOT / "docs" / "_ext"
-CONFIG = str(ROOT / "models/cnusail/detumble_pre.toml")
+CONFIG = str(ROOT / "magsail_mj/concepts/cnusail/configs/detumble_pre.toml")
 TINY = ["--set", "sim.duration_s=1", "--no-progress"]
 EXIT_STATUSES = {0, 1, 2, 3, 130}
 sys.path.insert(0, str(DOCS_EXT))

@@ -16,7 +16,7 @@ from magsail_mj.loads.actuators_cubesat import (
     mtq_power, rod_demagnetising_factor, rod_dipole, saturate_per_axis, saturate_uniform,
 )
 from magsail_mj.loads.base import StepState
-from magsail_mj.mjcf.cubesat import CubesatModelParams, build_cubesat_spec, cubesat_indices
+from magsail_mj.concepts.cnusail.mjcf import CubesatModelParams, build_cubesat_spec, cubesat_indices
 
 
 # ------------------------------------------------------------------ magnetorquers (§4.1)

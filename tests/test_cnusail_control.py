@@ -12,16 +12,16 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from magsail_mj.control.bdot import BdotFiltered, BdotFiniteDifference, make_bdot
-from magsail_mj.control.cnusail_modes import (
+from magsail_mj.concepts.cnusail.modes import (
     Mode, ModeLogicParams, ModeManager, command_quaternion, deorbit_command_matrix, nadir_command_matrix,
 )
-from magsail_mj.control.eigenaxis import (
+from magsail_mj.concepts.cnusail.eigenaxis import (
     attitude_matrix, eigen_angle, eigen_axis_gains, eigen_axis_torque, error_quaternion, paper_error_quaternion,
     quat_from_paper, quat_to_paper, rate_error,
 )
 from magsail_mj.quaternion import quat_conj, quat_mul
-from magsail_mj.control.pd import pd_torque
-from magsail_mj.control.unloading import UnloadingLogic, unloading_dipole
+from magsail_mj.concepts.cnusail.pd import pd_torque
+from magsail_mj.concepts.cnusail.unloading import UnloadingLogic, unloading_dipole
 from magsail_mj.estimation.attitude import matrix_from_quat
 
 DEG = math.pi / 180

@@ -10,7 +10,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from magsail_mj.quaternion import quat_mul
-from magsail_mj.mjcf.cubesat import CubesatModelParams, build_cubesat_spec, cubesat_indices
+from magsail_mj.concepts.cnusail.mjcf import CubesatModelParams, build_cubesat_spec, cubesat_indices
 
 TABLE2 = {"stowed": (0.0506, 0.0506, 0.010), "deployed": (0.3104, 0.3121, 0.5757)}
 

@@ -10,7 +10,7 @@ import magsail_mj  # noqa: F401  (before mujoco: GL backend choice)
 import numpy as np
 import pytest
 
-from magsail_mj.analysis.lifetime import (
+from magsail_mj.concepts.cnusail.orbit_decay import (
     averaged_decay,
     averaged_rates,
     circular_da_dt,
@@ -23,11 +23,11 @@ from magsail_mj.config import ConfigError, load_config, parse_config
 from magsail_mj.environment.orbit import OrbitalElements
 from magsail_mj.estimation.attitude import matrix_from_quat
 from magsail_mj.loads.base import StepState
-from magsail_mj.loads.cubesat_disturbances import CubesatDisturbanceLoad, cubesat_drag_facets, cubesat_sail_facets
+from magsail_mj.concepts.cnusail.disturbances import CubesatDisturbanceLoad, cubesat_drag_facets, cubesat_sail_facets
 from magsail_mj.run import run_scenario
-from magsail_mj.scenarios import build_scenario
-from magsail_mj.scenarios.cnusail_metrics import disturbance_orbit_profile
-from magsail_mj.scenarios.cnusail_tasks import AttitudeTask, LifetimeTask
+from magsail_mj.scenario import build_scenario
+from magsail_mj.concepts.cnusail.metrics import disturbance_orbit_profile
+from magsail_mj.concepts.cnusail.tasks import AttitudeTask, LifetimeTask
 from tests.conftest import REPO
 
 DEG = math.pi / 180
@@ -111,7 +111,7 @@ def test_config_validation_messages():
 def test_scenario_configs_load_with_spec_values():
     ids = ["detumble_pre", "detumble_post", "nadir_pre", "nadir_post", "pd_vs_eigenaxis", "deorbit",
            "deorbit_recalc", "lifetime"]
-    cfgs = {i: load_config(REPO / "models" / "cnusail" / f"{i}.toml") for i in ids}
+    cfgs = {i: load_config(REPO / "magsail_mj" / "concepts" / "cnusail" / "configs" / f"{i}.toml") for i in ids}
     assert cfgs["detumble_pre"].control.bdot_gain_A_m2_s_T == 3e4
     assert cfgs["detumble_post"].initial.omega0_deg_s == (2.0, -7.0, 1.0)
     assert cfgs["deorbit_recalc"].control.gain_recalc and not cfgs["deorbit"].control.gain_recalc
@@ -210,6 +210,6 @@ def test_cowell_vs_averaged_same_assumptions():
 @pytest.mark.parametrize("name, cls", [("nadir_pre", AttitudeTask), ("lifetime", LifetimeTask)])
 def test_every_kind_builds_its_registered_task_class(name, cls):
     """One task class per ``kind``, registered under ``("cnusail", kind)`` and found by build_scenario."""
-    cfg = load_config(REPO / "models" / "cnusail" / f"{name}.toml")
+    cfg = load_config(REPO / "magsail_mj" / "concepts" / "cnusail" / "configs" / f"{name}.toml")
     assert TASKS[("cnusail", cfg.kind)] is cls
     assert type(build_scenario(cfg)) is cls

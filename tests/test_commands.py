@@ -31,10 +31,10 @@ from magsail_mj.loads.base import StepState
 from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad
 from magsail_mj.quaternion import quat_mul, quat_to_matrix
 
-TRUSS = ("models/truss_magnetorquer/slew_i.toml",
+TRUSS = ("magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml",
          ["lattice.units=3", "sim.duration_s=30", "sim.record_every=1", "initial.q0_wxyz=[0.5, 0.5, 0.5, 0.5]"])
-CUBESAT = ("models/cnusail/nadir_post.toml", ["sim.duration_s=30", "sim.record_every=1"])
-REFLECTOR = ("models/reflector/tracking_10g.toml", ["sim.duration_s=150", "sim.record_every=1"])
+CUBESAT = ("magsail_mj/concepts/cnusail/configs/nadir_post.toml", ["sim.duration_s=30", "sim.record_every=1"])
+REFLECTOR = ("magsail_mj/concepts/reflector/configs/tracking_10g.toml", ["sim.duration_s=150", "sim.record_every=1"])
 
 
 def _rot_x(deg: float) -> np.ndarray:
@@ -200,7 +200,7 @@ def test_reflector_saturates_at_the_coil_cap():
 
 def test_reflector_detumble_config_uses_per_path_limits():
     """A B-dot config's box saturation becomes the per-path dipole clip."""
-    sim = magsail_mj.load("models/reflector/detumble.toml", ["sim.duration_s=1"])
+    sim = magsail_mj.load("magsail_mj/concepts/reflector/configs/detumble.toml", ["sim.duration_s=1"])
     act = body_torque_actuator(sim)
     assert act.limits["saturation"] == "per_path"
     np.testing.assert_array_equal(act.limits["m_max_A_m2"], sim.scenario.cap.m_max_A_m2)

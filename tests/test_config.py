@@ -25,7 +25,7 @@ from tests.conftest import REPO
 
 
 def test_shipped_configs_validate():
-    configs = sorted((REPO / "models").rglob("*.toml"))
+    configs = sorted((REPO / "magsail_mj" / "concepts").rglob("*.toml"))
     assert configs, "no configs shipped in models/"
     for path in configs:
         if is_sweep_file(path):
@@ -87,7 +87,7 @@ def test_overrides_are_typed_and_validated(small_truss_tree):
 
 
 def test_load_config_overrides_and_missing_file(tmp_path):
-    path = REPO / "models/truss_magnetorquer/dist_vs_central/case_c_central_bangbang.toml"
+    path = REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml"
     cfg = load_config(path, ["sim.duration_s=60"])
     assert cfg.sim.duration_s == 60.0
     with pytest.raises(ConfigError, match="does not exist"):
@@ -106,7 +106,7 @@ def test_hash_changes_with_content(small_truss_tree):
 
 # ----------------------------------------------------------------------------- strict values
 
-TRUSS = REPO / "models/truss_magnetorquer/detumble.toml"
+TRUSS = REPO / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml"
 
 
 @pytest.mark.parametrize("override, key", [
@@ -149,19 +149,19 @@ def test_time_step_bounds_and_checkpoint_period():
 
 
 @pytest.mark.parametrize("path, override, key", [
-    ("models/reflector/detumble.toml", "plate.side_m=inf", "plate.side_m"),
-    ("models/reflector/detumble.toml", "plate.side_m=1e300", "plate.side_m"),
-    ("models/reflector/detumble.toml", "plate.cell_m=1e-300", "plate.side_m"),
-    ("models/cnusail/detumble_pre.toml", "actuators.mtq.cycle_s=inf", "actuators.mtq.cycle_s"),
-    ("models/cnusail/detumble_pre.toml", "actuators.mtq.cycle_s=1e-300", "actuators.mtq.cycle_s"),
-    ("models/cnusail/detumble_pre.toml", "spacecraft.mass_kg=1e-300", "spacecraft.mass_kg"),
-    ("models/cnusail/detumble_pre.toml", "actuators.wheels.rotor_inertia_kg_m2=1e300", "rotor_inertia_kg_m2"),
-    ("models/truss_magnetorquer/detumble.toml", "mass.total_kg=1e-300", "mass.total_kg"),
-    ("models/truss_magnetorquer/detumble.toml", "lattice.side_m=1e300", "lattice.side_m"),
-    ("models/truss_magnetorquer/detumble.toml", "orbit.altitude_km=1e300", "orbit.altitude_km"),
-    ("models/current_loops/slew.toml", "mass.areal_density_kg_m2=1e-300", "mass.areal_density_kg_m2"),
-    ("models/msac/paper_1khz.toml", "wings.length_m=1e-300", "wings.length_m"),
-    ("models/msac/paper_1khz.toml", "bus.size_m=[1e300, 2.0, 3.0]", "bus.size_m"),
+    ("magsail_mj/concepts/reflector/configs/detumble.toml", "plate.side_m=inf", "plate.side_m"),
+    ("magsail_mj/concepts/reflector/configs/detumble.toml", "plate.side_m=1e300", "plate.side_m"),
+    ("magsail_mj/concepts/reflector/configs/detumble.toml", "plate.cell_m=1e-300", "plate.side_m"),
+    ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "actuators.mtq.cycle_s=inf", "actuators.mtq.cycle_s"),
+    ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "actuators.mtq.cycle_s=1e-300", "actuators.mtq.cycle_s"),
+    ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "spacecraft.mass_kg=1e-300", "spacecraft.mass_kg"),
+    ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "actuators.wheels.rotor_inertia_kg_m2=1e300", "rotor_inertia_kg_m2"),  # noqa: E501
+    ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", "mass.total_kg=1e-300", "mass.total_kg"),
+    ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", "lattice.side_m=1e300", "lattice.side_m"),
+    ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", "orbit.altitude_km=1e300", "orbit.altitude_km"),
+    ("magsail_mj/concepts/current_loops/configs/slew.toml", "mass.areal_density_kg_m2=1e-300", "mass.areal_density_kg_m2"),  # noqa: E501
+    ("magsail_mj/concepts/msac/configs/paper_1khz.toml", "wings.length_m=1e-300", "wings.length_m"),
+    ("magsail_mj/concepts/msac/configs/paper_1khz.toml", "bus.size_m=[1e300, 2.0, 3.0]", "bus.size_m"),
 ])
 def test_extreme_magnitudes_are_config_errors_naming_the_key(path, override, key):
     """Overflow or values MuJoCo cannot take (mass below mjMINVAL) are refused at validation."""
@@ -171,14 +171,14 @@ def test_extreme_magnitudes_are_config_errors_naming_the_key(path, override, key
 
 def test_msac_step_error_names_the_full_key():
     with pytest.raises(ConfigError) as err:
-        load_config(REPO / "models/msac/paper_1khz.toml", ["sim.timestep_s=3e-6"])
+        load_config(REPO / "magsail_mj/concepts/msac/configs/paper_1khz.toml", ["sim.timestep_s=3e-6"])
     assert err.value.problems[0].startswith("sim.timestep_s: the cycle period")
     assert "cycle.frequency_Hz" in err.value.problems[0]
 
 
 def test_msac_sweep_points_are_validated_at_load():
     with pytest.raises(ConfigError) as err:
-        load_config(REPO / "models/msac/sweeps/stroke.toml", ['sweep.points=[["x"], [1e300]]'])
+        load_config(REPO / "magsail_mj/concepts/msac/configs/sweeps/stroke.toml", ['sweep.points=[["x"], [1e300]]'])
     assert [p.split(":")[0] for p in err.value.problems] == ["sweep.points[0]", "sweep.points[1]"]
     assert "cycle.bend_b_deg" in err.value.problems[0]
 

@@ -16,7 +16,7 @@ import pytest
 from magsail_mj.geometry.current_loops import (
     CIRCUIT_NAMES, SECTION5_SET, Circuit, circuit, circuit_from_path, circuits, expand_names,
 )
-from magsail_mj.geometry.lattice import STRUT_KINDS, make_lattice
+from magsail_mj.lattice.geometry import STRUT_KINDS, make_lattice
 
 # spec §2.7, realised lattice values: N -> {name: (vector area [D²], wire length [D])}
 TABLE = {

@@ -9,15 +9,15 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from magsail_mj.analysis.rigid_reference import pendulum_period, rigid_dipole_attitude
+from magsail_mj.concepts.current_loops.rigid_reference import pendulum_period, rigid_dipole_attitude
 from magsail_mj.config import ConfigError, load_config
-from magsail_mj.control.loop_attitude import (
+from magsail_mj.concepts.current_loops.attitude import (
     LoopAttitudeController, allocate_currents, rigid_velocity_fit,
 )
 from magsail_mj.quaternion import quat_mul
 from magsail_mj.estimation.attitude import matrix_from_quat, so3_exp
 
-MODELS = Path(__file__).resolve().parents[1] / "models" / "current_loops"
+MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "current_loops" / "configs"
 
 
 # ------------------------------------------------------------------ rigid reference (spec §8.6)

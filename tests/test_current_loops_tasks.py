@@ -9,18 +9,18 @@ import pytest
 
 from magsail_mj.concepts import task_kinds
 from magsail_mj.config import load_config
-from magsail_mj.scenarios import build_scenario
-from magsail_mj.scenarios import current_loops_tasks as ct
-from magsail_mj.scenarios.current_loops_config import CurrentLoopsConfig
+from magsail_mj.scenario import build_scenario
+from magsail_mj.concepts.current_loops import tasks as ct
+from magsail_mj.concepts.current_loops.config import CurrentLoopsConfig
 from tests.conftest import REPO
 from tests.test_truss_tasks import concept_graph, find_cycle
 
 LOOPS_MODULES = ("current_loops", "current_loops_config", "current_loops_model", "current_loops_tasks",
                  "current_loops_metrics", "current_loops_plots")
 KIND_CONFIGS = {
-    "sweep": ("models/current_loops/sweep/a_n12_ei1e3.toml", ct.LoopsSweepTask),
-    "slew": ("models/current_loops/slew.toml", ct.LoopsSlewTask),
-    "slew_rigid": ("models/current_loops/slew_rigid.toml", ct.LoopsRigidSlewTask),
+    "sweep": ("magsail_mj/concepts/current_loops/configs/sweep/a_n12_ei1e3.toml", ct.LoopsSweepTask),
+    "slew": ("magsail_mj/concepts/current_loops/configs/slew.toml", ct.LoopsSlewTask),
+    "slew_rigid": ("magsail_mj/concepts/current_loops/configs/slew_rigid.toml", ct.LoopsRigidSlewTask),
 }
 
 

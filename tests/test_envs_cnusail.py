@@ -16,9 +16,9 @@ from dm_env import test_utils
 
 import magsail_mj
 from magsail_mj import envs
-from magsail_mj.control.cnusail_modes import command_quaternion
-from magsail_mj.control.eigenaxis import orbital_rate
-from magsail_mj.envs import cnusail  # noqa: F401  (registers the CNUSAIL tasks)
+from magsail_mj.concepts.cnusail.modes import command_quaternion
+from magsail_mj.concepts.cnusail.eigenaxis import orbital_rate
+from magsail_mj.concepts.cnusail import env as cnusail  # noqa: F401  (registers the CNUSAIL tasks)
 from magsail_mj.envs.core import RewardWeights
 
 TIMING_KEYS = {"wall_time_s", "step_cost_us", "wall_time_per_step_s"}
@@ -82,9 +82,9 @@ def shipped_summary(config: str, overrides: list[str], **options) -> dict:
 
 
 @pytest.mark.parametrize("config, duration_s", [
-    ("models/cnusail/detumble_post.toml", 20),
-    ("models/cnusail/nadir_post.toml", 40),      # the unloading turns on at t ≈ 33 s
-    ("models/cnusail/deorbit_recalc.toml", 20),
+    ("magsail_mj/concepts/cnusail/configs/detumble_post.toml", 20),
+    ("magsail_mj/concepts/cnusail/configs/nadir_post.toml", 40),      # the unloading turns on at t ≈ 33 s
+    ("magsail_mj/concepts/cnusail/configs/deorbit_recalc.toml", 20),
 ])
 def test_shipped_policy_gives_magsail_run_summary(config, duration_s):
     overrides = [f"sim.duration_s={duration_s}"]

@@ -15,7 +15,7 @@ from dm_control.rl import control
 
 from magsail_mj import envs
 from magsail_mj.config import load_config
-from magsail_mj.control.loop_attitude import rigid_velocity_fit
+from magsail_mj.concepts.current_loops.attitude import rigid_velocity_fit
 from magsail_mj.envs.core import REPO_ROOT, draw_rigid_start, set_rigid_motion, summary_mismatches
 from magsail_mj.estimation.attitude import BestFitRotation
 from magsail_mj.quaternion import quat_from_matrix
@@ -45,7 +45,7 @@ def test_every_task_config_exists() -> None:
 
 def test_load_by_name_and_by_path_give_the_same_task() -> None:
     by_name = envs.load("truss/detumble", TRUSS, randomize=False)
-    by_path = envs.load(REPO_ROOT / "models/truss_magnetorquer/detumble.toml", TRUSS, randomize=False)
+    by_path = envs.load(REPO_ROOT / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", TRUSS, randomize=False)  # noqa: E501
     assert type(by_name.task) is type(by_path.task)
     a, b = by_name.reset().observation, by_path.reset().observation
     assert a.keys() == b.keys()
@@ -57,7 +57,7 @@ def test_unknown_name_and_unserved_config_are_refused_by_name() -> None:
     with pytest.raises(ValueError, match="task: unknown environment 'truss/nope'"):
         envs.load("truss/nope")
     with pytest.raises(ValueError, match="config: .*cantilever.*has no environment"):
-        envs.load(REPO_ROOT / "models/truss_magnetorquer/cantilever.toml", ["lattice.units=3"])
+        envs.load(REPO_ROOT / "magsail_mj/concepts/truss_magnetorquer/configs/cantilever.toml", ["lattice.units=3"])
 
 
 def test_bad_task_options_name_the_option() -> None:
@@ -233,7 +233,7 @@ def test_a_second_episode_repeats_the_first(name: str) -> None:
 
 
 def test_a_validated_config_with_overrides_is_accepted() -> None:
-    cfg = load_config(REPO_ROOT / "models/reflector/detumble.toml")
+    cfg = load_config(REPO_ROOT / "magsail_mj/concepts/reflector/configs/detumble.toml")
     env = envs.load(cfg, ["sim.duration_s=1"], randomize=False)
     assert type(env.task).__name__ == "ReflectorDetumbleTask"
     assert envs.run_episode(env, lambda ts: np.zeros(2))[1] == 10
@@ -255,7 +255,7 @@ def test_every_shipped_attitude_config_of_these_concepts_has_an_environment() ->
     task of its concept, any other kind is refused (no build: the registry's match only)."""
     served, refused = 0, 0
     for folder in ("truss_magnetorquer", "current_loops", "reflector"):
-        for path in sorted((REPO_ROOT / "models" / folder).rglob("*.toml")):
+        for path in sorted((REPO_ROOT / "magsail_mj" / "concepts" / folder).rglob("*.toml")):
             try:
                 cfg = load_config(path)
             except ValueError:

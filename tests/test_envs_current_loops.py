@@ -1,4 +1,4 @@
-"""Current-loop environment (magsail_mj.envs.current_loops): dm_env contract, the shipped slew
+"""Current-loop environment (magsail_mj.concepts.current_loops.env): dm_env contract, the shipped slew
 controller as a policy in both action modes (same summary as the run, 1e-9 relative), flexible
 and rigid variants. 3 × 3-cube lattice, 2–10 s."""
 
@@ -15,7 +15,7 @@ from magsail_mj.config import load_config
 from magsail_mj.envs.core import REPO_ROOT
 
 SHORT = ["lattice.units=3", "sim.duration_s=2"]
-RIGID = REPO_ROOT / "models/current_loops/slew_rigid.toml"
+RIGID = REPO_ROOT / "magsail_mj/concepts/current_loops/configs/slew_rigid.toml"
 
 
 class _Sequence:
@@ -37,9 +37,9 @@ class LoopsRigidSlewTorqueEnvTest(_Sequence, test_utils.EnvironmentTestMixin, ab
 
 
 @pytest.mark.parametrize(("config", "overrides", "action"), [
-    ("models/current_loops/slew.toml", ["lattice.units=3", "sim.duration_s=10"], "currents"),
-    ("models/current_loops/slew.toml", ["lattice.units=3", "sim.duration_s=10"], "torque"),
-    ("models/current_loops/slew_rigid.toml", ["sim.duration_s=10"], "currents"),
+    ("magsail_mj/concepts/current_loops/configs/slew.toml", ["lattice.units=3", "sim.duration_s=10"], "currents"),
+    ("magsail_mj/concepts/current_loops/configs/slew.toml", ["lattice.units=3", "sim.duration_s=10"], "torque"),
+    ("magsail_mj/concepts/current_loops/configs/slew_rigid.toml", ["sim.duration_s=10"], "currents"),
 ])
 def test_shipped_controller_through_the_environment_gives_the_run_summary(config: str, overrides: list[str],
                                                                            action: str) -> None:

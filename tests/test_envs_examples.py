@@ -9,7 +9,8 @@ import math
 import numpy as np
 
 from magsail_mj import envs
-from magsail_mj.envs import cnusail, msac  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
+from magsail_mj.concepts.cnusail import env as cnusail  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
+from magsail_mj.concepts.msac import env as msac  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
 from tests.conftest import REPO
 
 
@@ -24,13 +25,13 @@ def test_random_policy_runs_episodes(monkeypatch, capsys):
     monkeypatch.chdir(REPO)
     module = _example("random_policy")
     rows = module.main(["cnusail/detumble", "--set", "sim.duration_s=3"])
-    rows += module.main(["models/msac/slow_1hz.toml", "--set", "sim.duration_s=2", "--seed", "1"])
+    rows += module.main(["magsail_mj/concepts/msac/configs/slow_1hz.toml", "--set", "sim.duration_s=2", "--seed", "1"])
     assert [r["steps"] for r in rows] == [3, 2]
     for row in rows:
         assert row["last"] and row["discount"] == 1.0
         assert math.isfinite(row["return"]) and row["wall_per_step_s"] > 0
     printed = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
-    assert [p["env"] for p in printed] == ["cnusail/detumble", "models/msac/slow_1hz.toml"]
+    assert [p["env"] for p in printed] == ["cnusail/detumble", "magsail_mj/concepts/msac/configs/slow_1hz.toml"]
 
 
 def test_same_law_three_concepts(monkeypatch, capsys):
@@ -60,7 +61,7 @@ def test_same_law_three_concepts(monkeypatch, capsys):
 
 def test_search_gains_reports_best_against_shipped(monkeypatch, capsys):
     monkeypatch.chdir(REPO)
-    out = _example("search_gains").main(["--config", "models/cnusail/detumble_pre.toml", "--duration-s", "30",
+    out = _example("search_gains").main(["--config", "magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "--duration-s", "30",  # noqa: E501
                                          "--evaluations", "3"])
     ev = out["evaluations"]
     assert 2 <= len(ev) <= 4
@@ -75,7 +76,7 @@ def test_search_gains_law_with_shipped_gain_is_the_shipped_bdot(monkeypatch):
     the flight controller does (same MuJoCo trajectory)."""
     monkeypatch.chdir(REPO)
     module = _example("search_gains")
-    env = envs.load("models/cnusail/detumble_pre.toml", ["sim.duration_s=30"], randomize=False)
+    env = envs.load("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", ["sim.duration_s=30"], randomize=False)
     trajectories = []
     for policy in (module.BdotPolicy(env, env.physics.cfg.control.bdot_gain_A_m2_s_T), envs.shipped_policy(env)):
         ts = env.reset()

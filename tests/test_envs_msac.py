@@ -15,12 +15,13 @@ from dm_env import test_utils
 
 import magsail_mj
 from magsail_mj import envs
-from magsail_mj.analysis.msac_reference import exact_rotation_path
+from magsail_mj.concepts.msac.reference import exact_rotation_path
 from magsail_mj.config import load_config
-from magsail_mj.envs import cnusail, msac  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
+from magsail_mj.concepts.cnusail import env as cnusail  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
+from magsail_mj.concepts.msac import env as msac  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
 from magsail_mj.envs.core import REPO_ROOT, entry_for_config
 
-SLOW = "models/msac/slow_1hz.toml"          # 200 steps per 1 s cycle: cheap cycles
+SLOW = "magsail_mj/concepts/msac/configs/slow_1hz.toml"          # 200 steps per 1 s cycle: cheap cycles
 TIMING_KEYS = {"wall_time_s", "step_cost_us", "wall_time_per_step_s"}
 
 
@@ -63,7 +64,7 @@ def _compare(ref: dict, got: dict, rtol: float = 1e-9) -> int:
 @pytest.mark.parametrize("config, duration, action", [
     (SLOW, "3", "joint_targets"),
     (SLOW, "3", "phase_timing"),
-    ("models/msac/paper_1khz.toml", "0.01", "joint_targets"),
+    ("magsail_mj/concepts/msac/configs/paper_1khz.toml", "0.01", "joint_targets"),
 ])
 def test_configured_cycle_gives_magsail_run_summary(config, duration, action):
     overrides = [f"sim.duration_s={duration}"]
@@ -144,7 +145,7 @@ def test_every_shipped_cnusail_and_msac_config_is_served_or_refused():
     ``lumped`` scenario and the sweeps are refused (the registry's match only, no build)."""
     served, refused = {}, 0
     for folder in ("cnusail", "msac"):
-        for path in sorted((REPO_ROOT / "models" / folder).rglob("*.toml")):
+        for path in sorted((REPO_ROOT / "magsail_mj" / "concepts" / folder).rglob("*.toml")):
             try:
                 cfg = load_config(path)
             except ValueError:

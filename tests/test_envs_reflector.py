@@ -1,4 +1,4 @@
-"""Reflector environments (magsail_mj.envs.reflector): dm_env contract, the shipped B-dot laws and
+"""Reflector environments (magsail_mj.concepts.reflector.env): dm_env contract, the shipped B-dot laws and
 the pitch controller as policies (same summary as the run, 1e-9 relative), the coil actions.
 Short runs (2–100 s)."""
 
@@ -34,13 +34,13 @@ class ReflectorPitchEnvTest(_Sequence, test_utils.EnvironmentTestMixin, absltest
 
 
 @pytest.mark.parametrize(("config", "duration", "action"), [
-    ("models/reflector/detumble.toml", 20, "currents"),
-    ("models/reflector/detumble/norm_cap.toml", 20, "torque"),
-    ("models/reflector/detumble/printed_law.toml", 20, "torque"),
-    ("models/reflector/detumble/body_field.toml", 20, "currents"),
-    ("models/reflector/tracking_100g.toml", 100, "torque"),
-    ("models/reflector/tracking_10g.toml", 100, "torque"),
-    ("models/reflector/pitch/b4_rate_error_ff_sigma10.toml", 100, "torque"),
+    ("magsail_mj/concepts/reflector/configs/detumble.toml", 20, "currents"),
+    ("magsail_mj/concepts/reflector/configs/detumble/norm_cap.toml", 20, "torque"),
+    ("magsail_mj/concepts/reflector/configs/detumble/printed_law.toml", 20, "torque"),
+    ("magsail_mj/concepts/reflector/configs/detumble/body_field.toml", 20, "currents"),
+    ("magsail_mj/concepts/reflector/configs/tracking_100g.toml", 100, "torque"),
+    ("magsail_mj/concepts/reflector/configs/tracking_10g.toml", 100, "torque"),
+    ("magsail_mj/concepts/reflector/configs/pitch/b4_rate_error_ff_sigma10.toml", 100, "torque"),
 ])
 def test_shipped_controller_through_the_environment_gives_the_run_summary(config: str, duration: int,
                                                                            action: str) -> None:

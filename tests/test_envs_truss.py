@@ -1,4 +1,4 @@
-"""Truss environments (magsail_mj.envs.truss): dm_env contract, shipped controllers as policies
+"""Truss environments (magsail_mj.concepts.truss_magnetorquer.env): dm_env contract, shipped controllers as policies
 (same summary as the run of the config, 1e-9 relative), the signed-rod-count action, the episode
 start. Small lattices (3 × 3 cubes) and short runs (2–10 s at δt = 0.1 s)."""
 

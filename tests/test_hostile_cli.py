@@ -31,12 +31,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from magsail_mj import cli
-from magsail_mj.analysis.modes import lattice_modes
+from magsail_mj.lattice.modes import lattice_modes
 from magsail_mj.cli import EXIT_CODES, main
 from magsail_mj.config import load_config
 from magsail_mj.environment.environment import Environment
 from magsail_mj.control.lloyd import LloydSelector
-from magsail_mj.geometry.lattice import make_lattice
+from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.resources import (
     ENV_VAR,
     MemoryLimitError,
@@ -51,10 +51,10 @@ from magsail_mj.resources import (
     parse_memory_limit,
 )
 from magsail_mj.run import run_scenario
-from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenario import build_scenario
 
 REPO = Path(__file__).resolve().parents[1]
-CONFIG = str(REPO / "models/truss_magnetorquer/dist_vs_central/case_a_central_bangbang.toml")
+CONFIG = str(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml")
 TINY = ["--set", "lattice.units=3", "--set", "sim.duration_s=0.2", "--set", "sim.record_every=1"]
 JSON_VERBS = ("build", "validate", "run", "sweep", "scaling", "torque")
 FUZZ = settings(max_examples=25, deadline=None, derandomize=True,
@@ -172,9 +172,9 @@ def test_lattice_counts_match_the_lattice_builder():
 
 
 @pytest.mark.parametrize("config, overrides", [
-    ("models/truss_magnetorquer/detumble.toml", ["lattice.units=8"]),
-    ("models/current_loops/slew.toml", ["lattice.units=12"]),
-    ("models/reflector/detumble.toml", []),
+    ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", ["lattice.units=8"]),
+    ("magsail_mj/concepts/current_loops/configs/slew.toml", ["lattice.units=12"]),
+    ("magsail_mj/concepts/reflector/configs/detumble.toml", []),
 ])
 def test_model_estimate_within_a_factor_3_of_mujoco(config, overrides):
     """estimate_model_bytes (from the config alone) against MjModel + MjData + arena of the build."""
@@ -189,13 +189,13 @@ def test_model_estimate_within_a_factor_3_of_mujoco(config, overrides):
 def test_environment_grid_estimate_against_tracemalloc():
     """The orbital environment grid (IGRF along the orbit) is part of the model estimate: within a
     factor 2 of the measured peak for 2 000 rows, and a 1e11 s orbit is refused before any grid."""
-    cfg = load_config(REPO / "models/truss_magnetorquer/detumble.toml", ["sim.duration_s=20000"])
+    cfg = load_config(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", ["sim.duration_s=20000"])
     tracemalloc.start()
     Environment.from_config(cfg.environment_config(), duration_s=cfg.sim.duration_s)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak / 2 <= environment_bytes(cfg) <= 2 * peak, (environment_bytes(cfg), peak)
-    long = load_config(REPO / "models/truss_magnetorquer/detumble.toml",
+    long = load_config(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
                        ["sim.duration_s=1e11", "sim.timestep_s=10", "sim.record_every=1000000000"])
     with pytest.raises(MemoryLimitError, match="needs about"):
         check_memory(estimate_run_bytes(long), what="run", limit=1e12)
@@ -261,7 +261,7 @@ def test_unreadable_config_exits_2(capsys, arena, tmp_path):
 
 
 def test_output_paths_are_checked(capsys, arena):
-    committed = (REPO / "models/truss_magnetorquer/dist_vs_central/case_a_central_bangbang.xml")
+    committed = (REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.xml")
     before = committed.read_bytes() if committed.exists() else None
     cases = [
         (["build", CONFIG, "-o", "", *TINY], "--output: must be a path"),

@@ -20,33 +20,33 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from magsail_mj.config import ConfigError, apply_overrides, parse_config
-from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenario import build_scenario
 from magsail_mj.sweep import is_sweep_file
 from tests.conftest import REPO
 
 # One shipped config per concept, with overrides that make a build take well under a second.
 FUZZED = {
-    "truss_magnetorquer": ("models/truss_magnetorquer/detumble.toml", ["lattice.units=3", "sim.duration_s=20.0"]),
-    "current_loops": ("models/current_loops/slew.toml", ["lattice.units=3", "sim.duration_s=20.0"]),
-    "reflector": ("models/reflector/detumble.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),
-    "cnusail": ("models/cnusail/detumble_pre.toml", ["sim.duration_s=20.0"]),
-    "msac": ("models/msac/paper_1khz.toml", ["sim.duration_s=0.01"]),
+    "truss_magnetorquer": ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", ["lattice.units=3", "sim.duration_s=20.0"]),  # noqa: E501
+    "current_loops": ("magsail_mj/concepts/current_loops/configs/slew.toml", ["lattice.units=3", "sim.duration_s=20.0"]),  # noqa: E501
+    "reflector": ("magsail_mj/concepts/reflector/configs/detumble.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),
+    "cnusail": ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", ["sim.duration_s=20.0"]),
+    "msac": ("magsail_mj/concepts/msac/configs/paper_1khz.toml", ["sim.duration_s=0.01"]),
 }
 
 # Further scenario kinds, swept deterministically with the extreme values.
 EXTRA = {
-    "truss_cantilever": ("models/truss_magnetorquer/cantilever.toml", ["lattice.units=3"]),
-    "truss_dist_vs_central": ("models/truss_magnetorquer/dist_vs_central/case_a_central_bangbang.toml",
+    "truss_cantilever": ("magsail_mj/concepts/truss_magnetorquer/configs/cantilever.toml", ["lattice.units=3"]),
+    "truss_dist_vs_central": ("magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml",  # noqa: E501
                               ["lattice.units=3"]),
-    "truss_slew": ("models/truss_magnetorquer/slew_i.toml", ["lattice.units=3", "sim.duration_s=20.0"]),
-    "loops_sweep": ("models/current_loops/sweep/a_n12_ei1e3.toml", ["lattice.units=3"]),
-    "loops_slew_rigid": ("models/current_loops/slew_rigid.toml", ["lattice.units=3", "sim.duration_s=20.0"]),
-    "reflector_pitch": ("models/reflector/tracking_10g.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),
-    "reflector_caps": ("models/reflector/pitch/b3_caps_sigma10.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),
-    "cnusail_lifetime": ("models/cnusail/lifetime.toml", []),
-    "cnusail_nadir": ("models/cnusail/nadir_post.toml", ["sim.duration_s=20.0"]),
-    "msac_lumped": ("models/msac/lumped.toml", []),
-    "msac_sweep": ("models/msac/sweeps/stroke.toml", ["sim.duration_s=0.01"]),
+    "truss_slew": ("magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml", ["lattice.units=3", "sim.duration_s=20.0"]),  # noqa: E501
+    "loops_sweep": ("magsail_mj/concepts/current_loops/configs/sweep/a_n12_ei1e3.toml", ["lattice.units=3"]),
+    "loops_slew_rigid": ("magsail_mj/concepts/current_loops/configs/slew_rigid.toml", ["lattice.units=3", "sim.duration_s=20.0"]),  # noqa: E501
+    "reflector_pitch": ("magsail_mj/concepts/reflector/configs/tracking_10g.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),  # noqa: E501
+    "reflector_caps": ("magsail_mj/concepts/reflector/configs/pitch/b3_caps_sigma10.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),  # noqa: E501
+    "cnusail_lifetime": ("magsail_mj/concepts/cnusail/configs/lifetime.toml", []),
+    "cnusail_nadir": ("magsail_mj/concepts/cnusail/configs/nadir_post.toml", ["sim.duration_s=20.0"]),
+    "msac_lumped": ("magsail_mj/concepts/msac/configs/lumped.toml", []),
+    "msac_sweep": ("magsail_mj/concepts/msac/configs/sweeps/stroke.toml", ["sim.duration_s=0.01"]),
 }
 
 HOSTILE: list[Any] = [math.nan, math.inf, -math.inf, 0, -1, 1e300, -1e300, 1e-300, "x", True, [1.0], {}]
@@ -151,7 +151,7 @@ def test_extremes_of_every_leaf_named_or_build(concept):
 
 
 def _shipped_configs() -> list[Path]:
-    return [p for p in sorted((REPO / "models").rglob("*.toml")) if not is_sweep_file(p)]
+    return [p for p in sorted((REPO / "magsail_mj" / "concepts").rglob("*.toml")) if not is_sweep_file(p)]
 
 
 def test_every_numeric_leaf_of_every_shipped_config_refuses_non_finite():

@@ -30,7 +30,7 @@ from magsail_mj.sim import Simulation
 from magsail_mj.sweep import load_sweep, run_sweep
 from tests.conftest import REPO
 
-MODELS = REPO / "models"
+MODELS = REPO / "magsail_mj" / "concepts"
 QUIET = ["--no-progress"]
 
 
@@ -54,7 +54,7 @@ def _mujoco_times(stderr: str) -> list[float]:
 def test_truss_blow_up_is_diverged_at_the_first_bad_state(tmp_path, capsys, dt):
     """The 75 m truss at a time step far beyond its stability limit: MuJoCo would reset the state
     and the run would 'complete'; here it ends with exit 3 at the time MuJoCo first flagged."""
-    rc = main(["run", str(MODELS / "truss_magnetorquer/detumble.toml"), "--out", str(tmp_path / "x"),
+    rc = main(["run", str(MODELS / "truss_magnetorquer/configs/detumble.toml"), "--out", str(tmp_path / "x"),
                "--set", "sim.duration_s=300", "--set", f"sim.timestep_s={dt}", *QUIET])
     assert rc == 3
     summary = json.loads((tmp_path / "x/summary.json").read_text())
@@ -71,7 +71,7 @@ def test_truss_blow_up_is_diverged_at_the_first_bad_state(tmp_path, capsys, dt):
 
 
 def test_reflector_absurd_spin_is_not_a_perfect_detumble(tmp_path):
-    cfg = load_config(MODELS / "reflector/detumble.toml",
+    cfg = load_config(MODELS / "reflector/configs/detumble.toml",
                       ["sim.duration_s=2", "initial.omega0_rad_s=[2e10, 0.0, 0.0]", "sim.progress=false"])
     out = run_scenario(cfg, tmp_path / "y")
     assert out.status == "diverged" and out["status_message"]
@@ -123,7 +123,7 @@ def test_mujoco_log_file_is_not_written_to_the_working_folder(tmp_path, monkeypa
 def test_every_runner_reports_a_message(tmp_path):
     """A state bad from the first step: the run is diverged with a message, and the summary says
     why there are no metrics instead of failing."""
-    cfg = load_config(MODELS / "cnusail/detumble_pre.toml",
+    cfg = load_config(MODELS / "cnusail/configs/detumble_pre.toml",
                       ["sim.duration_s=1", "initial.omega0_deg_s=[1e15, 0.0, 0.0]", "sim.progress=false"])
     out = run_scenario(cfg, tmp_path / "c")
     summary = json.loads((out.run_dir / "summary.json").read_text())
@@ -134,7 +134,7 @@ def test_every_runner_reports_a_message(tmp_path):
 def test_msac_rollout_divergence_is_dated_and_keeps_records(tmp_path, monkeypatch):
     """A control above MuJoCo's bound inside the natively rolled-out cycle (which MuJoCo would zero
     and go on): the MSAC runner ends diverged at that step and keeps the states before it."""
-    from magsail_mj.scenarios import msac_runner
+    from magsail_mj.concepts.msac import runner as msac_runner
 
     original = msac_runner.replay_table
     bad_step = 37
@@ -146,7 +146,7 @@ def test_msac_rollout_divergence_is_dated_and_keeps_records(tmp_path, monkeypatc
         return table
 
     monkeypatch.setattr(msac_runner, "replay_table", poisoned)
-    cfg = load_config(MODELS / "msac/paper_1khz.toml", ["sim.duration_s=0.004", "sim.record_every=1",
+    cfg = load_config(MODELS / "msac/configs/paper_1khz.toml", ["sim.duration_s=0.004", "sim.record_every=1",
                                                        "sim.progress=false"])
     out = run_scenario(cfg, tmp_path / "m")
     assert out.status == "diverged"
@@ -189,7 +189,7 @@ def test_resume_cannot_shorten_a_run(tmp_path, small_truss_tree):
 
 
 def _cli_run(tmp_path, name, *extra):
-    return main(["run", str(MODELS / "truss_magnetorquer/dist_vs_central/case_c_central_bangbang.toml"),
+    return main(["run", str(MODELS / "truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml"),
                  "--out", str(tmp_path / name), "--set", "sim.duration_s=2", "--set", "lattice.units=3",
                  "--set", "sim.checkpoint_every_s=1", *QUIET, *extra])
 
@@ -257,25 +257,25 @@ def test_checkpoint_refuses_to_create_foreign_classes(tmp_path, small_truss_tree
 # that lives outside MuJoCo (controller memories, work ledgers, estimators).
 _SMALL = ["lattice.units=3"]
 RESUME_CASES = [  # one config of every scenario kind that steps (the others refuse, see below)
-    ("cnusail/detumble_pre.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
-    ("cnusail/nadir_pre.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
-    ("cnusail/deorbit_recalc.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
-    ("cnusail/pd_vs_eigenaxis.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
-    ("current_loops/slew.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
-    ("current_loops/slew_rigid.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
-    ("current_loops/sweep/a_n12_ei1e3.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
-    ("reflector/detumble.toml", ["sim.duration_s=100", "sim.checkpoint_every_s=25"], 60.0),
-    ("reflector/tracking_10g.toml", ["sim.duration_s=100", "sim.checkpoint_every_s=25"], 60.0),
-    ("truss_magnetorquer/cantilever.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
-    ("truss_magnetorquer/libration.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
-    ("truss_magnetorquer/detumble.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
-    ("truss_magnetorquer/slew_i.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
-    ("truss_magnetorquer/dist_vs_central/case_c_central_bangbang.toml",
+    ("cnusail/configs/detumble_pre.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
+    ("cnusail/configs/nadir_pre.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
+    ("cnusail/configs/deorbit_recalc.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
+    ("cnusail/configs/pd_vs_eigenaxis.toml", ["sim.duration_s=40", "sim.checkpoint_every_s=10"], 25.0),
+    ("current_loops/configs/slew.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("current_loops/configs/slew_rigid.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("current_loops/configs/sweep/a_n12_ei1e3.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("reflector/configs/detumble.toml", ["sim.duration_s=100", "sim.checkpoint_every_s=25"], 60.0),
+    ("reflector/configs/tracking_10g.toml", ["sim.duration_s=100", "sim.checkpoint_every_s=25"], 60.0),
+    ("truss_magnetorquer/configs/cantilever.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("truss_magnetorquer/configs/libration.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("truss_magnetorquer/configs/detumble.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("truss_magnetorquer/configs/slew_i.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    ("truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml",
      ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
-    ("msac/paper_1khz.toml", ["sim.duration_s=0.3", "sim.checkpoint_every_s=0.2"], 0.2),
+    ("msac/configs/paper_1khz.toml", ["sim.duration_s=0.3", "sim.checkpoint_every_s=0.2"], 0.2),
 ]
-NOT_RESUMABLE = ["cnusail/lifetime.toml", "msac/lumped.toml", "msac/sweeps/stroke.toml",
-                 "reflector/pitch/b3_caps_sigma10.toml"]
+NOT_RESUMABLE = ["cnusail/configs/lifetime.toml", "msac/configs/lumped.toml", "msac/configs/sweeps/stroke.toml",
+                 "reflector/configs/pitch/b3_caps_sigma10.toml"]
 
 
 @pytest.mark.parametrize("name", NOT_RESUMABLE)
@@ -314,7 +314,7 @@ class _InterruptAt:
 
 
 def test_interrupt_keeps_the_records_and_says_interrupted(tmp_path, small_truss_tree, monkeypatch):
-    from magsail_mj.scenarios import truss
+    from magsail_mj.concepts import truss_magnetorquer as truss
 
     cfg = _cfg(small_truss_tree, "sim.duration_s=6.0")
     original = truss.TrussScenario.simulation
@@ -349,7 +349,7 @@ def test_overwrite_removes_the_earlier_runs_files(tmp_path, small_truss_tree):
 
 # ---------------------------------------------------------------------------------- entry points
 def test_run_and_sweep_give_identical_numbers(tmp_path):
-    cfg_path = MODELS / "current_loops/sweep/a_n12_ei1e3.toml"
+    cfg_path = MODELS / "current_loops/configs/sweep/a_n12_ei1e3.toml"
     overrides = ["lattice.units=3", "sim.duration_s=4.0", "sim.progress=false"]
     run_scenario(load_config(cfg_path, overrides), tmp_path / "run")
     sweep_file = tmp_path / "s.toml"
@@ -379,7 +379,7 @@ def test_every_shipped_config_validates_within_the_memory_limit(capsys):
 def test_outputs_never_replace_a_device_pipe_or_folder(tmp_path, capsys):
     fifo = tmp_path / "pipe"
     os.mkfifo(fifo)
-    config = str(MODELS / "cnusail/detumble_pre.toml")
+    config = str(MODELS / "cnusail/configs/detumble_pre.toml")
     for target in (fifo, tmp_path):
         assert main(["build", config, "-o", str(target)]) == 2
         assert "error:" in capsys.readouterr().err
@@ -419,7 +419,7 @@ def test_ctrl_c_while_outputs_are_written_leaves_them_whole(tmp_path, small_trus
     interrupted (exit 130 on the command line) with a complete folder."""
     import signal
 
-    from magsail_mj.scenarios import truss
+    from magsail_mj.concepts import truss_magnetorquer as truss
 
     original = truss.TrussScenario.plots
 
@@ -455,7 +455,7 @@ def test_unreadable_values_are_config_errors(tmp_path, capsys):
     for path in (deep, digits):
         assert main(["validate", str(path)]) == 2
         assert "error: invalid config" in capsys.readouterr().err
-    config = str(MODELS / "cnusail/detumble_pre.toml")
+    config = str(MODELS / "cnusail/configs/detumble_pre.toml")
     assert main(["validate", config, "--set", "sim.seed=" + "9" * 5000]) == 2
     assert "sim.seed" in capsys.readouterr().err
     assert main(["torque", "coil", "--current-a", "1e300", "--field-t", "1e300"]) == 2
@@ -471,7 +471,7 @@ def test_an_unusable_mujoco_gl_does_not_break_the_verbs(tmp_path):
     env = {**os.environ, "MUJOCO_GL": "bogus"}
     env.pop("PYOPENGL_PLATFORM", None)
     proc = subprocess.run([sys.executable, "-m", "magsail_mj.cli", "validate",
-                           str(MODELS / "cnusail/detumble_pre.toml")], env=env, capture_output=True, text=True,
+                           str(MODELS / "cnusail/configs/detumble_pre.toml")], env=env, capture_output=True, text=True,
                           cwd=tmp_path, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stderr and "MUJOCO_GL='bogus'" in proc.stderr
@@ -487,7 +487,7 @@ def test_a_signal_while_the_command_starts_is_exit_130(tmp_path, signame, delay_
     import sys
     import time
 
-    proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.entry", "run", str(MODELS / "cnusail/detumble_pre.toml"),
+    proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.entry", "run", str(MODELS / "cnusail/configs/detumble_pre.toml"),  # noqa: E501
                              "--out", str(tmp_path / "r"), "--set", "sim.duration_s=3000", "--no-progress"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
     time.sleep(delay_s)
@@ -506,7 +506,7 @@ def test_signals_after_the_verb_are_ignored_while_the_command_exits(monkeypatch,
     from magsail_mj import entry
 
     saved = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
-    monkeypatch.setattr(sys, "argv", ["magsail", "validate", str(MODELS / "cnusail/detumble_pre.toml")])
+    monkeypatch.setattr(sys, "argv", ["magsail", "validate", str(MODELS / "cnusail/configs/detumble_pre.toml")])
     try:
         assert entry.main() == 0
         assert all(signal.getsignal(sig) is signal.SIG_IGN for sig in saved)
@@ -524,8 +524,8 @@ def test_scaling_table_memory_is_estimated_first(capsys):
 
 
 @pytest.mark.parametrize("name,overrides,series", [
-    ("truss_magnetorquer/detumble.toml", ["lattice.units=3", "mass.total_kg=1e300"], "torque_gg_rigid_body_Nm"),
-    ("reflector/pitch/b4_wn0p2_sigma10.toml", ["control.zeta=1e300"], "T_ref_norm_N_m"),
+    ("truss_magnetorquer/configs/detumble.toml", ["lattice.units=3", "mass.total_kg=1e300"], "torque_gg_rigid_body_Nm"),
+    ("reflector/configs/pitch/b4_wn0p2_sigma10.toml", ["control.zeta=1e300"], "T_ref_norm_N_m"),
 ])
 def test_overflowed_numbers_are_never_completed(tmp_path, name, overrides, series):
     """Inputs near the float64 limit that leave the state finite but overflow a recorded or derived

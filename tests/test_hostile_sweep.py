@@ -43,7 +43,7 @@ from magsail_mj.sweep.design import DISTRIBUTIONS, grid_points, monte_carlo_poin
 from tests.conftest import wait_for
 
 ROOT = Path(__file__).resolve().parents[1]
-CFG_A = ROOT / "models" / "current_loops" / "sweep" / "a_n12_ei1e3.toml"
+CFG_A = ROOT / "magsail_mj" / "concepts" / "current_loops" / "configs" / "sweep" / "a_n12_ei1e3.toml"
 FAST = ["lattice.units=3", "sim.duration_s=2.0", "sim.record_every=10", "sim.progress=false"]
 # ~100k RK4 steps: tens of seconds, far longer than any test waits for it
 SLOW = ["lattice.units=3", "sim.duration_s=100.0", "sim.timestep_s=0.001", "sim.record_every=1000",

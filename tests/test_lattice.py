@@ -19,16 +19,16 @@ from hypothesis import strategies as st
 
 from magsail_mj.config import load_config
 from magsail_mj.estimation.attitude import particle_inertia
-from magsail_mj.geometry.lattice import (
+from magsail_mj.lattice.geometry import (
     STRUT_KINDS, axial_rigidity_from_EI, make_lattice, node_index, stiffness_matrix,
 )
-from magsail_mj.geometry.truss_properties import (
+from magsail_mj.lattice.properties import (
     calibration_factor, cantilever_linear, central_cube_nodes, node_masses, strut_damping,
     strut_stiffness,
 )
-from magsail_mj.scenarios.truss import make_truss_model
+from magsail_mj.concepts.truss_magnetorquer import make_truss_model
 
-REPO_MODELS = Path(__file__).resolve().parents[1] / "models" / "truss_magnetorquer"
+REPO_MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "truss_magnetorquer" / "configs"
 
 
 def close_to_printed(value: float, printed: str) -> bool:
@@ -335,7 +335,7 @@ def test_invalid_inputs_are_rejected():
 @given(st.integers(1, 4), st.integers(0, 2**32 - 1), st.floats(1e-4, 0.9))
 def test_strain_check_finds_the_largest_strain(units, seed, scale):
     """The run's divergence check equals max |l/l0 − 1| over the struts written out plainly."""
-    from magsail_mj.geometry.lattice import strain_check
+    from magsail_mj.lattice.geometry import strain_check
 
     lat = make_lattice(units=units, side_m=3.0 * units)
     rng = np.random.default_rng(seed)

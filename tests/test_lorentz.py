@@ -18,9 +18,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from magsail_mj.geometry.current_loops import CIRCUIT_NAMES, circuits
-from magsail_mj.geometry.lattice import make_lattice
+from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.loads.base import Load, StepState
-from magsail_mj.loads.lorentz import (
+from magsail_mj.concepts.current_loops.lorentz import (
     MU0, CircuitSegments, LorentzLoad, lorentz_node_forces, lorentz_wrench, self_field_max_T,
     total_dipole, vector_areas,
 )

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from magsail_mj.analysis.surface_angle import local_surface_angle, plane_frame
+from magsail_mj.concepts.truss_magnetorquer.surface_angle import local_surface_angle, plane_frame
 
 
 def top_layer(N: int, d: float) -> np.ndarray:

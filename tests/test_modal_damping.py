@@ -11,16 +11,16 @@ import mujoco
 import numpy as np
 import pytest
 
-from magsail_mj.analysis.modes import (
+from magsail_mj.lattice.modes import (
     SCHEDULES, caughey_low_rank, caughey_matrix, damping_ratios, lattice_modes, modes_cache_dir,
     schedule_record, stability_products,
 )
 from magsail_mj.estimation.attitude import so3_exp
-from magsail_mj.geometry.lattice import make_lattice, stiffness_matrix
-from magsail_mj.geometry.truss_properties import strut_stiffness
+from magsail_mj.lattice.geometry import make_lattice, stiffness_matrix
+from magsail_mj.lattice.properties import strut_stiffness
 from magsail_mj.loads.base import StepState
-from magsail_mj.loads.modal_damping import ModalDampingLoad, passive_damping
-from magsail_mj.mjcf.truss import TrussModelOptions, build_truss_spec
+from magsail_mj.lattice.modal_damping import ModalDampingLoad, passive_damping
+from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec
 
 SIDE = 60.0
 SIGMA = 0.1

@@ -13,10 +13,10 @@ from build_models import generated_xml, mjcf_difference  # noqa: E402
 
 from magsail_mj.sweep import is_sweep_file  # noqa: E402
 
-CONFIGS = sorted(p for p in (REPO / "models").rglob("*.toml") if not is_sweep_file(p))
+CONFIGS = sorted(p for p in (REPO / "magsail_mj" / "concepts").rglob("*.toml") if not is_sweep_file(p))
 
 
-@pytest.mark.parametrize("config", CONFIGS, ids=lambda p: str(p.relative_to(REPO / "models")))
+@pytest.mark.parametrize("config", CONFIGS, ids=lambda p: str(p.relative_to(REPO / "magsail_mj" / "concepts")))
 def test_committed_mjcf_is_current(config):
     xml = config.with_suffix(".xml")
     assert xml.exists(), f"{xml} is missing: run python scripts/build_models.py"
@@ -42,7 +42,7 @@ def test_build_cli_prints_model_size(tmp_path, capsys):
     from magsail_mj.cli import main
 
     out = tmp_path / "m.xml"
-    rc = main(["build", str(REPO / "models/truss_magnetorquer/dist_vs_central/case_a_central_bangbang.toml"),
+    rc = main(["build", str(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml"),  # noqa: E501
                "-o", str(out)])
     assert rc == 0
     info = json.loads(capsys.readouterr().out)

@@ -10,16 +10,16 @@ import tomllib
 import numpy as np
 import pytest
 
-from magsail_mj.analysis.msac_reference import exact_rotation_path, lumped_theta
+from magsail_mj.concepts.msac.reference import exact_rotation_path, lumped_theta
 from magsail_mj.concepts import TASKS
 from magsail_mj.config import ConfigError, load_config, parse_config
 from magsail_mj.run import run_scenario
-from magsail_mj.scenarios import build_scenario
-from magsail_mj.scenarios.msac import build_msac_scenario
-from magsail_mj.scenarios.msac_tasks import LumpedTask, MultibodyTask, SweepTask
+from magsail_mj.scenario import build_scenario
+from magsail_mj.concepts.msac import build_msac_scenario
+from magsail_mj.concepts.msac.tasks import LumpedTask, MultibodyTask, SweepTask
 from tests.conftest import REPO
 
-MODELS = REPO / "models" / "msac"
+MODELS = REPO / "magsail_mj" / "concepts" / "msac" / "configs"
 SWEEPS = sorted((MODELS / "sweeps").glob("*.toml"))
 ISSUE_KEYS = ("secular_rate_rad_s", "predicted_rate_lumped_rad_s", "predicted_rate_exact_rad_s",
               "net_rotation_rad", "angular_momentum_drift")

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from magsail_mj.control.msac_cycle import CyclePath, blend, cycle_state, cycle_state_scalar
+from magsail_mj.concepts.msac.cycle import CyclePath, blend, cycle_state, cycle_state_scalar
 
 BLENDS = ("min_jerk", "cubic", "cosine")
 PATTERNS = ("msac", "reversed", "bend_only", "extend_only")

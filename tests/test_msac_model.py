@@ -18,14 +18,14 @@ import numpy as np
 import pytest
 
 from magsail_mj.config import load_config
-from magsail_mj.control.msac_drive import set_initial_state
-from magsail_mj.mjcf.msac import MsacModelParams, build_msac_spec, shape_indices
-from magsail_mj.scenarios import build_scenario
-from magsail_mj.scenarios.msac_model import planar_model
-from magsail_mj.scenarios.msac_runner import MsacRunner
+from magsail_mj.concepts.msac.drive import set_initial_state
+from magsail_mj.concepts.msac.mjcf import MsacModelParams, build_msac_spec, shape_indices
+from magsail_mj.scenario import build_scenario
+from magsail_mj.concepts.msac.model import planar_model
+from magsail_mj.concepts.msac.runner import MsacRunner
 from tests.conftest import REPO
 
-MODELS = REPO / "models" / "msac"
+MODELS = REPO / "magsail_mj" / "concepts" / "msac" / "configs"
 
 
 def run(config: str, *overrides: str):

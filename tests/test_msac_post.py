@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from magsail_mj.analysis.msac_post import (
+from magsail_mj.concepts.msac.metrics import (
     block_average, cycle_increments, filtered_rate, lowpass, omega_world, secular_rate_fit,
     unwrapped_yaw, yaw_from_quat,
 )

@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from magsail_mj.analysis.msac_reference import (
+from magsail_mj.concepts.msac.reference import (
     PlanarMsac, exact_rotation_ode, exact_rotation_path, exact_rotation_samples, lumped_rate,
     lumped_theta, wing_inertias,
 )
-from magsail_mj.control.msac_cycle import CyclePath, cycle_state
+from magsail_mj.concepts.msac.cycle import CyclePath, cycle_state
 
 M, L, T = 60.0, 8.0, 0.03
 ICM = M * (L * L + T * T) / 12

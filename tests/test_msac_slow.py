@@ -9,10 +9,10 @@ from __future__ import annotations
 import pytest
 
 from magsail_mj.config import load_config
-from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenario import build_scenario
 from tests.conftest import REPO
 
-CONFIG = REPO / "models" / "msac" / "paper_1khz.toml"
+CONFIG = REPO / "magsail_mj" / "concepts" / "msac" / "configs" / "paper_1khz.toml"
 
 
 def _run(duration_s: float) -> dict:

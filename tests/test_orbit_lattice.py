@@ -33,14 +33,14 @@ def _rigid_reference(env, R0, w0_body, inertia, t_eval):
 
 
 def test_stiff_lattice_librates_like_rigid_body(tmp_path):
-    tree = load_config(REPO / "models/truss_magnetorquer/libration.toml").model_dump(mode="json")
+    tree = load_config(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/libration.toml").model_dump(mode="json")
     # Small and stiff: 4 × 4 × 2 nodes, bending stiffness high enough that it stays nearly rigid.
     tree = apply_overrides(tree, ["lattice.units=3", "stiffness.EI_Nm2=2e4", "sim.duration_s=600",
                                   "sim.record_every=50", "sim.progress=false", "damping.zeta_strut=0.5"])
     cfg = parse_config(tree)
     out = run_scenario(cfg, tmp_path / "run")
     ts = np.load(tmp_path / "run/timeseries.npz")
-    from magsail_mj.scenarios import build_scenario
+    from magsail_mj.scenario import build_scenario
 
     sc = build_scenario(cfg)
     from magsail_mj.estimation.attitude import particle_inertia

@@ -1,6 +1,6 @@
 """Physics of the MuJoCo lattice model (spec §2.4, §2.7, §3.1, §3.4, §10 items 2 and 4).
 
-The model is the real one (``magsail_mj.mjcf.truss.build_truss_spec``, or a scenario built from
+The model is the real one (``magsail_mj.lattice.mjcf.build_truss_spec``, or a scenario built from
 a config), on small lattices so that the default run stays fast. Momentum and energy are
 computed here from ``qpos``/``qvel`` and the node positions, independently of the model code.
 
@@ -26,18 +26,18 @@ from hypothesis import strategies as st
 from magsail_mj.analysis.flatness import surface_sd
 from magsail_mj.config import apply_overrides, load_config, parse_config
 from magsail_mj.estimation.attitude import best_fit_rotation, particle_inertia, rotation_angle
-from magsail_mj.geometry.lattice import make_lattice
-from magsail_mj.geometry.truss_properties import (
+from magsail_mj.lattice.geometry import make_lattice
+from magsail_mj.lattice.properties import (
     cantilever_linear, clamped_nodes, node_masses, strut_damping, strut_stiffness,
 )
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.strut_torque import StrutTorqueLoad
-from magsail_mj.mjcf.truss import TrussModelOptions, build_truss_spec, node_positions_from_qpos
+from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec, node_positions_from_qpos
 from magsail_mj.reference.numpy_rk4 import SpringMassLattice, from_truss_scenario, rk4_run
-from magsail_mj.scenarios.truss import actuated_struts, build_truss_scenario
+from magsail_mj.concepts.truss_magnetorquer import actuated_struts, build_truss_scenario
 from magsail_mj.sim import Simulation
 
-MODELS = Path(__file__).resolve().parents[1] / "models" / "truss_magnetorquer"
+MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "truss_magnetorquer" / "configs"
 
 
 def small_model(*, units=2, side=10.0, EI=100.0, total=2.0, diagonals="parity", gamma=0.0,

@@ -7,7 +7,7 @@ import pytest
 from scipy.integrate import quad
 
 from magsail_mj.control.profiles import bang_bang_off, torque_profile, versine
-from magsail_mj.scenarios.truss_metrics import rigid_response
+from magsail_mj.concepts.truss_magnetorquer.metrics import rigid_response
 
 T_END, TAU = 1800.0, 0.1
 T_V, T_MINUS, T_ZERO = T_END / 10, T_END / 3, 2 * T_END / 3

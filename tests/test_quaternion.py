@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from magsail_mj.environment.frames import quat_to_mat
 from magsail_mj.estimation.attitude import matrix_from_quat
-from magsail_mj.mjcf.cubesat import quat_z_to as cubesat_quat_z_to
+from magsail_mj.concepts.cnusail.mjcf import quat_z_to as cubesat_quat_z_to
 from magsail_mj.quaternion import (
     error_quaternion,
     direction_quaternions,

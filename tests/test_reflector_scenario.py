@@ -14,19 +14,19 @@ from scipy.integrate import solve_ivp
 
 from magsail_mj.concepts import TASKS
 from magsail_mj.config import ConfigError, load_config, parse_config
-from magsail_mj.control.reflector_bdot import PlateBdotController
+from magsail_mj.concepts.reflector.bdot import PlateBdotController
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.body_torque import OrbitGravityGradientLoad
-from magsail_mj.mjcf.plate import PlateModelParams, build_plate_spec, plate_mass_properties
+from magsail_mj.concepts.reflector.mjcf import PlateModelParams, build_plate_spec, plate_mass_properties
 from magsail_mj.quaternion import quat_to_matrix
 from magsail_mj.run import run_scenario
-from magsail_mj.scenarios import build_scenario
-from magsail_mj.scenarios.reflector_caps import CapSweepRunner, cap_grid
-from magsail_mj.scenarios.reflector_tasks import DetumbleTask, PitchCapsTask, PitchTask
+from magsail_mj.scenario import build_scenario
+from magsail_mj.concepts.reflector.caps import CapSweepRunner, cap_grid
+from magsail_mj.concepts.reflector.tasks import DetumbleTask, PitchCapsTask, PitchTask
 from tests.conftest import REPO
 
-DETUMBLE = REPO / "models" / "reflector" / "detumble.toml"
-TRACK100 = REPO / "models" / "reflector" / "tracking_100g.toml"
+DETUMBLE = REPO / "magsail_mj" / "concepts" / "reflector" / "configs" / "detumble.toml"
+TRACK100 = REPO / "magsail_mj" / "concepts" / "reflector" / "configs" / "tracking_100g.toml"
 
 
 def test_plate_inertia_with_thickness_and_round_trip():
@@ -208,7 +208,7 @@ def test_gravity_gradient_load_matches_body_axes_formula():
 
 
 def test_b3_cap_sweep_runs_the_grid_and_reports_the_minimum_caps(tmp_path):
-    cfg = load_config(REPO / "models" / "reflector" / "pitch" / "b3_caps_sigma10.toml",
+    cfg = load_config(REPO / "magsail_mj" / "concepts" / "reflector" / "configs" / "pitch" / "b3_caps_sigma10.toml",
                       ["sim.duration_s=40", "sim.progress=false"])
     out = run_scenario(cfg, tmp_path / "run")
     s = json.loads((out.run_dir / "summary.json").read_text())
@@ -230,7 +230,7 @@ def test_cap_sweep_watchdog_stops_a_failing_run():
     ("detumble.toml", DetumbleTask), ("tracking_100g.toml", PitchTask), ("pitch/b3_caps_sigma10.toml", PitchCapsTask)])
 def test_every_kind_builds_its_registered_task_class(path, cls):
     """One task class per ``kind``, registered under ``("reflector", kind)`` and found by build_scenario."""
-    cfg = load_config(REPO / "models" / "reflector" / path, ["sim.duration_s=10"])
+    cfg = load_config(REPO / "magsail_mj" / "concepts" / "reflector" / "configs" / path, ["sim.duration_s=10"])
     assert TASKS[("reflector", cfg.kind)] is cls
     task = build_scenario(cfg)
     assert type(task) is cls and task.plate.cfg is cfg

@@ -25,16 +25,16 @@ _spec.loader.exec_module(store)
 
 STORED = json.loads(store.OUT.read_text())
 ONE_PER_KIND = [
-    "models/cnusail/detumble_pre.toml", "models/cnusail/nadir_pre.toml", "models/cnusail/deorbit_recalc.toml",
-    "models/cnusail/pd_vs_eigenaxis.toml", "models/cnusail/lifetime.toml",
-    "models/current_loops/slew.toml", "models/current_loops/slew_rigid.toml",
-    "models/current_loops/sweep/a_n12_ei1e3.toml",
-    "models/msac/lumped.toml", "models/msac/paper_1khz.toml", "models/msac/sweeps/stroke.toml",
-    "models/reflector/detumble.toml", "models/reflector/tracking_10g.toml",
-    "models/reflector/pitch/b3_caps_sigma10.toml",
-    "models/truss_magnetorquer/cantilever.toml", "models/truss_magnetorquer/libration.toml",
-    "models/truss_magnetorquer/detumble.toml", "models/truss_magnetorquer/slew_i.toml",
-    "models/truss_magnetorquer/dist_vs_central/case_c_central_bangbang.toml",
+    "magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "magsail_mj/concepts/cnusail/configs/nadir_pre.toml", "magsail_mj/concepts/cnusail/configs/deorbit_recalc.toml",  # noqa: E501
+    "magsail_mj/concepts/cnusail/configs/pd_vs_eigenaxis.toml", "magsail_mj/concepts/cnusail/configs/lifetime.toml",
+    "magsail_mj/concepts/current_loops/configs/slew.toml", "magsail_mj/concepts/current_loops/configs/slew_rigid.toml",
+    "magsail_mj/concepts/current_loops/configs/sweep/a_n12_ei1e3.toml",
+    "magsail_mj/concepts/msac/configs/lumped.toml", "magsail_mj/concepts/msac/configs/paper_1khz.toml", "magsail_mj/concepts/msac/configs/sweeps/stroke.toml",  # noqa: E501
+    "magsail_mj/concepts/reflector/configs/detumble.toml", "magsail_mj/concepts/reflector/configs/tracking_10g.toml",
+    "magsail_mj/concepts/reflector/configs/pitch/b3_caps_sigma10.toml",
+    "magsail_mj/concepts/truss_magnetorquer/configs/cantilever.toml", "magsail_mj/concepts/truss_magnetorquer/configs/libration.toml",  # noqa: E501
+    "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", "magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml",  # noqa: E501
+    "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml",
 ]
 
 
@@ -44,7 +44,7 @@ ONE_PER_KIND = [
 #: fresh checkout), and figures at round-off level (an energy-balance error of 4e-12) change by
 #: percents; 1e-6 relative or 1e-9 absolute still catches any change of the physics.
 EIGEN_REL, EIGEN_ABS = 1e-6, 1e-9
-EIGEN_CONFIGS = ("models/current_loops/slew.toml", "models/current_loops/sweep")
+EIGEN_CONFIGS = ("magsail_mj/concepts/current_loops/configs/slew.toml", "magsail_mj/concepts/current_loops/configs/sweep")  # noqa: E501
 
 
 def _check(key: str) -> None:

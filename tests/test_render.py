@@ -34,8 +34,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from magsail_mj.config import load_config
-from magsail_mj.geometry.lattice import make_lattice
-from magsail_mj.mjcf.truss import build_truss_spec
+from magsail_mj.lattice.geometry import make_lattice
+from magsail_mj.lattice.mjcf import build_truss_spec
 from magsail_mj.render import backend
 from magsail_mj.render.compose import (
     RenderError,
@@ -465,21 +465,21 @@ def test_inset_plots_the_named_series_up_to_the_frame(tmp_path, gl):
 _FAST_LATTICE = ["lattice.units=3", "sim.duration_s=0.5", "sim.record_every=2"]
 #: One shipped config per scenario kind (``scenario``/``kind`` in models/**/*.toml), cut to a few steps.
 SCENARIO_KINDS = [
-    ("cnusail/attitude", "models/cnusail/detumble_pre.toml", ["sim.duration_s=1"]),
-    ("msac/lumped", "models/msac/lumped.toml", []),
-    ("msac/multibody", "models/msac/paper_1khz.toml", ["sim.duration_s=0.02", "sim.record_every=200"]),
-    ("msac/sweep", "models/msac/sweeps/stroke.toml", ["sim.duration_s=0.02", "sim.record_every=200"]),
-    ("reflector/detumble", "models/reflector/detumble.toml", ["sim.duration_s=2", "sim.record_every=2"]),
-    ("reflector/pitch", "models/reflector/tracking_10g.toml", ["sim.duration_s=2", "sim.record_every=1"]),
-    ("reflector/pitch_caps", "models/reflector/pitch/b3_caps_sigma10.toml", ["sim.duration_s=2", "sim.record_every=1"]),
-    ("current_loops/sweep", "models/current_loops/sweep/a_n12_ei1e3.toml", _FAST_LATTICE),
-    ("current_loops/slew", "models/current_loops/slew.toml", _FAST_LATTICE),
-    ("current_loops/slew_rigid", "models/current_loops/slew_rigid.toml", _FAST_LATTICE),
-    ("truss/dist_vs_central", "models/truss_magnetorquer/dist_vs_central/case_a_central_bangbang.toml", _FAST_LATTICE),
-    ("truss/cantilever", "models/truss_magnetorquer/cantilever.toml", _FAST_LATTICE),
-    ("truss/free", "models/truss_magnetorquer/libration.toml", _FAST_LATTICE),
-    ("truss/detumble", "models/truss_magnetorquer/detumble.toml", _FAST_LATTICE),
-    ("truss/slew", "models/truss_magnetorquer/slew_i.toml", _FAST_LATTICE),
+    ("cnusail/attitude", "magsail_mj/concepts/cnusail/configs/detumble_pre.toml", ["sim.duration_s=1"]),
+    ("msac/lumped", "magsail_mj/concepts/msac/configs/lumped.toml", []),
+    ("msac/multibody", "magsail_mj/concepts/msac/configs/paper_1khz.toml", ["sim.duration_s=0.02", "sim.record_every=200"]),  # noqa: E501
+    ("msac/sweep", "magsail_mj/concepts/msac/configs/sweeps/stroke.toml", ["sim.duration_s=0.02", "sim.record_every=200"]),  # noqa: E501
+    ("reflector/detumble", "magsail_mj/concepts/reflector/configs/detumble.toml", ["sim.duration_s=2", "sim.record_every=2"]),  # noqa: E501
+    ("reflector/pitch", "magsail_mj/concepts/reflector/configs/tracking_10g.toml", ["sim.duration_s=2", "sim.record_every=1"]),  # noqa: E501
+    ("reflector/pitch_caps", "magsail_mj/concepts/reflector/configs/pitch/b3_caps_sigma10.toml", ["sim.duration_s=2", "sim.record_every=1"]),  # noqa: E501
+    ("current_loops/sweep", "magsail_mj/concepts/current_loops/configs/sweep/a_n12_ei1e3.toml", _FAST_LATTICE),
+    ("current_loops/slew", "magsail_mj/concepts/current_loops/configs/slew.toml", _FAST_LATTICE),
+    ("current_loops/slew_rigid", "magsail_mj/concepts/current_loops/configs/slew_rigid.toml", _FAST_LATTICE),
+    ("truss/dist_vs_central", "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml", _FAST_LATTICE),  # noqa: E501
+    ("truss/cantilever", "magsail_mj/concepts/truss_magnetorquer/configs/cantilever.toml", _FAST_LATTICE),
+    ("truss/free", "magsail_mj/concepts/truss_magnetorquer/configs/libration.toml", _FAST_LATTICE),
+    ("truss/detumble", "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", _FAST_LATTICE),
+    ("truss/slew", "magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml", _FAST_LATTICE),
 ]
 
 

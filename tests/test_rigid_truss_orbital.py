@@ -8,7 +8,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from magsail_mj.analysis.rigid_truss_orbital import quat_to_matrix_wxyz, rigid_rhs, simulate_rigid
+from magsail_mj.concepts.truss_magnetorquer.rigid_orbital import quat_to_matrix_wxyz, rigid_rhs, simulate_rigid
 from magsail_mj.environment.gravity import MU_EARTH
 
 

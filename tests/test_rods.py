@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from magsail_mj.geometry.lattice import make_lattice
+from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.loads.base import Load, StepState
 from magsail_mj.loads.magnetorquer_rods import (
     MagnetorquerRodLoad, rod_array, rod_dipole_Am2, rod_pair_forces,

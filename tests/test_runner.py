@@ -12,7 +12,7 @@ from magsail_mj.config import apply_overrides, parse_config
 from magsail_mj.io import RunDirError
 from magsail_mj.records import StoreRecords
 from magsail_mj.run import run_scenario
-from magsail_mj.scenarios import build_scenario
+from magsail_mj.scenario import build_scenario
 
 
 def _cfg(tree, *overrides):
@@ -99,7 +99,7 @@ def test_cli_reports_bad_config_before_writing(tmp_path, capsys):
     from magsail_mj.cli import main
     from tests.conftest import REPO
 
-    cfg = REPO / "models/truss_magnetorquer/dist_vs_central/case_c_central_bangbang.toml"
+    cfg = REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml"
     rc = main(["run", str(cfg), "--out", str(tmp_path / "run"), "--set", "sim.timestep_s=0"])
     assert rc == 2
     err = capsys.readouterr().err

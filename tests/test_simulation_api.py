@@ -15,14 +15,14 @@ from magsail_mj.config import ConfigError, load_config
 from magsail_mj.sim import Simulation
 from tests.conftest import REPO
 
-MODELS = REPO / "models"
+MODELS = REPO / "magsail_mj" / "concepts"
 SMALL = ["lattice.units=3"]
 # one Python-stepped scenario of every concept that has one
 STEPPED = [
-    ("cnusail/nadir_pre.toml", ["sim.duration_s=30"]),
-    ("current_loops/slew.toml", ["sim.duration_s=8", *SMALL]),
-    ("reflector/tracking_10g.toml", ["sim.duration_s=60"]),
-    ("truss_magnetorquer/slew_i.toml", ["sim.duration_s=8", *SMALL]),
+    ("cnusail/configs/nadir_pre.toml", ["sim.duration_s=30"]),
+    ("current_loops/configs/slew.toml", ["sim.duration_s=8", *SMALL]),
+    ("reflector/configs/tracking_10g.toml", ["sim.duration_s=60"]),
+    ("truss_magnetorquer/configs/slew_i.toml", ["sim.duration_s=8", *SMALL]),
 ]
 
 
@@ -74,7 +74,7 @@ def test_stepping_in_any_chunks_equals_one_run(chunks):
 
 
 def test_step_past_the_end_stops_at_the_duration():
-    sim = magsail_mj.load(MODELS / "cnusail/detumble_pre.toml", ["sim.duration_s=2"])
+    sim = magsail_mj.load(MODELS / "cnusail/configs/detumble_pre.toml", ["sim.duration_s=2"])
     assert sim.step(5) == "running"
     assert sim.step(10**6) == "completed" and sim.time == pytest.approx(2.0)
     assert sim.step(1) == "completed"
@@ -83,16 +83,16 @@ def test_step_past_the_end_stops_at_the_duration():
 
 
 def test_load_takes_a_path_or_a_config_with_overrides():
-    cfg = load_config(MODELS / "cnusail/detumble_pre.toml")
+    cfg = load_config(MODELS / "cnusail/configs/detumble_pre.toml")
     sim = magsail_mj.load(cfg, ["sim.duration_s=3"])
     assert sim.duration_s == 3.0 and sim.cfg.sim.duration_s == 3.0 and sim.scenario.cfg is sim.cfg
     assert len(sim.identity["numbers_hash"]) == 64
     with pytest.raises(ConfigError, match="sim.duration_s"):
-        magsail_mj.load(MODELS / "cnusail/detumble_pre.toml", ["sim.duration_s=nan"])
+        magsail_mj.load(MODELS / "cnusail/configs/detumble_pre.toml", ["sim.duration_s=nan"])
 
 
 def test_cli_stop_after_then_resume_equals_uninterrupted(tmp_path, capsys):
-    config = str(MODELS / "truss_magnetorquer/slew_i.toml")
+    config = str(MODELS / "truss_magnetorquer/configs/slew_i.toml")
     common = ["--set", "lattice.units=3", "--set", "sim.duration_s=6", "--no-progress"]
     assert main(["run", config, "--out", str(tmp_path / "full"), *common]) == 0
     assert main(["run", config, "--out", str(tmp_path / "cut"), *common, "--stop-after-s", "2.5"]) == 0
@@ -108,8 +108,8 @@ def test_cli_stop_after_then_resume_equals_uninterrupted(tmp_path, capsys):
 def test_native_msac_runner_has_the_same_interface():
     """The natively rolled-out MSAC cycle: step in any chunks, get/set state, reset — bitwise."""
     overrides = ["sim.duration_s=0.006", "sim.record_every=20"]
-    whole = magsail_mj.load(MODELS / "msac/paper_1khz.toml", overrides).run()
-    sim = magsail_mj.load(MODELS / "msac/paper_1khz.toml", overrides)
+    whole = magsail_mj.load(MODELS / "msac/configs/paper_1khz.toml", overrides).run()
+    sim = magsail_mj.load(MODELS / "msac/configs/paper_1khz.toml", overrides)
     assert sim.time == 0.0 and sim.step(137) == "running"
     state = sim.get_state()
     sim.step(311)
@@ -128,7 +128,7 @@ def test_msac_stop_anywhere_then_resume_equals_uninterrupted(tmp_path):
     """A stop between chunk boundaries no longer moves the momentum projection: bitwise resume."""
     from magsail_mj.run import run_scenario
 
-    cfg = load_config(MODELS / "msac/paper_1khz.toml", ["sim.duration_s=0.01", "sim.progress=false"])
+    cfg = load_config(MODELS / "msac/configs/paper_1khz.toml", ["sim.duration_s=0.01", "sim.progress=false"])
     run_scenario(cfg, tmp_path / "full")
     run_scenario(cfg, tmp_path / "cut", stop_after_s=0.0037)
     run_scenario(cfg, tmp_path / "cut", resume=True)

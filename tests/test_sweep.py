@@ -12,7 +12,7 @@ from magsail_mj.cli import main
 from magsail_mj.config import ConfigError, load_config, read_toml
 from magsail_mj.sweep import load_sweep, run_sweep, sweep_exit_code
 
-MODELS = Path(__file__).resolve().parents[1] / "models" / "current_loops"
+MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "current_loops" / "configs"
 SMALL = '["lattice.units=3", "sim.duration_s=4.0", "sim.record_every=10", "sim.progress=false"]'
 
 
@@ -143,7 +143,7 @@ def test_design_records_carry_their_params_into_summaries(tmp_path):
 
 
 def test_grid_with_linked_keys_reproduces_the_36_listed_configs():
-    grid = load_sweep(MODELS.parent / "sweeps" / "current_loops_sweep36_grid.toml")
+    grid = load_sweep(MODELS.parents[3] / "models" / "sweeps" / "current_loops_sweep36_grid.toml")
     assert len(grid.runs) == 36 and grid.runs[0].id == "circuits=A,units=12,EI_N_m2=1000,timestep_s=0.1,record_every=20"
     for run in grid.runs:
         p = run.params
@@ -153,14 +153,14 @@ def test_grid_with_linked_keys_reproduces_the_36_listed_configs():
         assert {**drawn, "description": ""} == {**listed, "description": ""}, run.id
 
 
-SWEEPS = MODELS.parent / "sweeps"
+SWEEPS = MODELS.parents[3] / "models" / "sweeps"
 
 
 def test_every_sweep_file_loads_and_the_msac_sweep_covers_every_msac_sweep_config():
     for path in sorted(SWEEPS.glob("*.toml")):
         assert load_sweep(path).runs, path.name
     msac = load_sweep(SWEEPS / "msac_sensitivity.toml")
-    configs = sorted((MODELS.parent / "msac" / "sweeps").glob("*.toml"))
+    configs = sorted((MODELS.parents[1] / "msac" / "configs" / "sweeps").glob("*.toml"))
     assert sorted(r.config for r in msac.runs) == [c.resolve() for c in configs]
     assert [r.id for r in msac.runs] == [c.stem for c in configs]
 
@@ -168,9 +168,9 @@ def test_every_sweep_file_loads_and_the_msac_sweep_covers_every_msac_sweep_confi
 def test_monte_carlo_detumble_file_is_the_issue_design():
     """200 samples; |omega0| uniform in 2-10 deg/s in a uniform direction; epoch uniform over 2016;
     K and the orbit phase as shipped; 3 orbits of T = 2 pi sqrt(a^3 / mu) each."""
-    path = MODELS.parent / "cnusail" / "monte_carlo_detumble.toml"
+    path = MODELS.parents[1] / "cnusail" / "configs" / "monte_carlo_detumble.toml"
     sweep = load_sweep(path)
-    shipped = load_config(MODELS.parent / "cnusail" / "detumble_pre.toml")
+    shipped = load_config(MODELS.parents[1] / "cnusail" / "configs" / "detumble_pre.toml")
     assert len(sweep.runs) == 200 and {tuple(r.params) for r in sweep.runs} == {("initial.omega0_deg_s", "orbit.epoch")}
     rates = np.array([r.params["initial.omega0_deg_s"] for r in sweep.runs])
     mags = np.linalg.norm(rates, axis=1)
@@ -201,7 +201,7 @@ def test_sweep_command_exits_1_when_a_run_failed(tmp_path, capsys):
 
 def test_truss_orbital_sweep_lists_every_orbital_truss_config():
     """The configs the removed generator wrote (§9 detumble, slews, ablation, sensitivity) are all runs."""
-    truss = MODELS.parent / "truss_magnetorquer"
+    truss = MODELS.parents[1] / "truss_magnetorquer" / "configs"
     tree = read_toml(SWEEPS / "truss_orbital.toml")
     listed = {(SWEEPS / r["config"]).resolve() for r in tree["run"]}
     stems = ("detumble", "slew_i", "slew_ii", "slew_iii", "slew_iv", "gg_ablation_slew_i")

@@ -23,7 +23,7 @@ from magsail_mj.sweep.runner import run_one
 from tests.conftest import wait_for
 
 ROOT = Path(__file__).resolve().parents[1]
-CFG_A = ROOT / "models" / "current_loops" / "sweep" / "a_n12_ei1e3.toml"
+CFG_A = ROOT / "magsail_mj" / "concepts" / "current_loops" / "configs" / "sweep" / "a_n12_ei1e3.toml"
 DASK = Path(sys.executable).with_name("dask")
 # ~12k RK4 steps (a few seconds with the outputs), a checkpoint every simulated second
 CHECKPOINTING = ["lattice.units=3", "sim.duration_s=12.0", "sim.timestep_s=0.001", "sim.record_every=100",

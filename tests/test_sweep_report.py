@@ -19,8 +19,8 @@ from magsail_mj.sweep.progress import SweepProgress
 from magsail_mj.sweep.report import ReportError, add_arguments, figure_stats, main, write_report
 
 ROOT = Path(__file__).resolve().parents[1]
-CNUSAIL = ROOT / "models" / "cnusail" / "detumble_pre.toml"
-LOOPS = ROOT / "models" / "current_loops" / "sweep" / "a_n12_ei1e3.toml"
+CNUSAIL = ROOT / "magsail_mj" / "concepts" / "cnusail" / "configs" / "detumble_pre.toml"
+LOOPS = ROOT / "magsail_mj" / "concepts" / "current_loops" / "configs" / "sweep" / "a_n12_ei1e3.toml"
 
 
 def _rec(i: int, status: str, value: float | None) -> dict:

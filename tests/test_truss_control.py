@@ -28,10 +28,10 @@ from magsail_mj.quaternion import quat_conj as quat_conjugate
 from magsail_mj.quaternion import quat_mul as quat_multiply
 from magsail_mj.environment.gravity import gravity_gradient_torque, tidal_acceleration
 from magsail_mj.estimation.attitude import matrix_from_quat, particle_inertia, quat_from_matrix, so3_exp
-from magsail_mj.geometry.lattice import make_lattice
+from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.magnetorquer_rods import rod_array
-from magsail_mj.scenarios.truss_orbital import (
+from magsail_mj.concepts.truss_magnetorquer.orbital import (
     dominant_period, first_time_below, slew_axis_angle, stay_time_below, true_intervals, tumbled,
 )
 
@@ -390,7 +390,7 @@ def test_small_orbital_runs_resume_and_summaries(tmp_path, monkeypatch):
         ts["torque_alloc_body_Nm"]).max())
     assert {"body_rates.png", "attitude.png", "rod_counts.png", "torques.png", "surface_angle_map.png",
             "shape_at_max_sd.png"} <= {p.name for p in (tmp_path / "full").iterdir()}
-    from magsail_mj.scenarios.truss import TrussScenario
+    from magsail_mj.concepts.truss_magnetorquer import TrussScenario
 
     monkeypatch.setattr(TrussScenario, "plots", lambda self, run_dir, result, series: [])  # plots: once is enough
     run_scenario(cfg, tmp_path / "cut", stop_after_s=3.0)
@@ -421,7 +421,7 @@ def test_detumble_75m_first_15_minutes(tmp_path):
     from magsail_mj.run import run_scenario
     from tests.conftest import REPO
 
-    cfg = load_config(REPO / "models/truss_magnetorquer/detumble.toml",
+    cfg = load_config(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
                       ["sim.duration_s=900", "sim.checkpoint_every_s=0", "sim.progress=false"])
     s = run_scenario(cfg, tmp_path / "run")
     ts = np.load(tmp_path / "run/timeseries.npz")
@@ -440,7 +440,7 @@ def test_slew_i_75m_first_25_minutes(tmp_path):
     from magsail_mj.run import run_scenario
     from tests.conftest import REPO
 
-    cfg = load_config(REPO / "models/truss_magnetorquer/slew_i.toml",
+    cfg = load_config(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml",
                       ["sim.duration_s=1500", "sim.checkpoint_every_s=0", "sim.progress=false"])
     s = run_scenario(cfg, tmp_path / "run")
     assert s["err_initial_rad"] == pytest.approx(math.pi / 2, abs=1e-9)

@@ -18,22 +18,22 @@ import pytest
 
 from magsail_mj.concepts import task_kinds
 from magsail_mj.config import load_config
-from magsail_mj.scenarios import build_scenario
-from magsail_mj.scenarios import truss_tasks as tt
-from magsail_mj.scenarios.truss_config import TrussConfig
-from magsail_mj.scenarios.truss_orbital import detumble_keys
+from magsail_mj.scenario import build_scenario
+from magsail_mj.concepts.truss_magnetorquer import tasks as tt
+from magsail_mj.concepts.truss_magnetorquer.config import TrussConfig
+from magsail_mj.concepts.truss_magnetorquer.orbital import detumble_keys
 from tests.conftest import REPO
 
 SCEN = REPO / "magsail_mj" / "scenarios"
 TRUSS_MODULES = ("truss", "truss_config", "truss_model", "truss_tasks", "truss_metrics", "truss_orbital",
                  "truss_plots")
 KIND_CONFIGS = {
-    "cantilever": ("models/truss_magnetorquer/cantilever.toml", tt.CantileverTask),
-    "free": ("models/truss_magnetorquer/libration.toml", tt.FreeTask),
-    "dist_vs_central": ("models/truss_magnetorquer/dist_vs_central/case_c_central_bangbang.toml",
+    "cantilever": ("magsail_mj/concepts/truss_magnetorquer/configs/cantilever.toml", tt.CantileverTask),
+    "free": ("magsail_mj/concepts/truss_magnetorquer/configs/libration.toml", tt.FreeTask),
+    "dist_vs_central": ("magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml",
                         tt.DistVsCentralTask),
-    "detumble": ("models/truss_magnetorquer/detumble.toml", tt.DetumbleTask),
-    "slew": ("models/truss_magnetorquer/slew_i.toml", tt.SlewTask),
+    "detumble": ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", tt.DetumbleTask),
+    "slew": ("magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml", tt.SlewTask),
 }
 
 
@@ -59,13 +59,13 @@ def module_imports(path: Path) -> tuple[set[str], list[str]]:
 
 
 def concept_graph(modules: tuple[str, ...]) -> tuple[dict[str, set[str]], list[str]]:
-    """Import edges among ``modules`` (names under magsail_mj.scenarios) and the problems found."""
+    """Import edges among ``modules`` (names under magsail_mj.scenario) and the problems found."""
     graph: dict[str, set[str]] = {}
     problems: list[str] = []
     for name in modules:
         top, bad = module_imports(SCEN / f"{name}.py")
         problems += bad
-        graph[name] = {m.rpartition(".")[2] for m in top if m.startswith("magsail_mj.scenarios.")} & set(modules)
+        graph[name] = {m.rpartition(".")[2] for m in top if m.startswith("magsail_mj.scenario.")} & set(modules)
     return graph, problems
 
 

@@ -8,7 +8,7 @@ to 0.3 °/s and keeps the rotation about the initial eigen-axis. Everything else
 ``k = 2ω_n²``, ``c = 2ζω_n``, wheel limits, disturbances).
 
 The two runs go through :func:`magsail_mj.load`. **Reduced duration**: 900 s of the 5782 s (one
-orbit) of ``models/cnusail/pd_vs_eigenaxis.toml``; the slew itself ends within it. The full runs,
+orbit) of ``magsail_mj/concepts/cnusail/configs/pd_vs_eigenaxis.toml``; the slew itself ends within it. The full runs,
 with run folders and a side-by-side video, are made by ``scripts/cnusail_pd_vs_eigenaxis.py``.
 """
 
@@ -21,8 +21,8 @@ import magsail_mj
 
 # the repository root: the nearest folder from here upwards that holds models/ (the docs build
 # runs this script in examples/gallery, a reader from the root)
-ROOT = next(folder for folder in (Path.cwd(), *Path.cwd().parents) if (folder / "models").is_dir())
-CONFIG = ROOT / "models" / "cnusail" / "pd_vs_eigenaxis.toml"
+ROOT = next(folder for folder in (Path.cwd(), *Path.cwd().parents) if (folder / "magsail_mj" / "concepts").is_dir())
+CONFIG = ROOT / "magsail_mj" / "concepts" / "cnusail" / "configs" / "pd_vs_eigenaxis.toml"
 LAWS = {"pd": ("PD", "C1--"), "eigen_axis": ("eigen-axis", "C0-")}
 
 results = {}

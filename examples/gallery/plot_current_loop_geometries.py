@@ -10,7 +10,7 @@ alternately on the top and bottom layer; **C_x / C_y** one D × w loop in every 
 normal to x / y, all in series; **D_x / D_y** one continuous winding of 3/4 turns per lattice
 plane with a unit step to the next.
 
-This example builds a 6 × 6 unit lattice of side 250 m (:func:`magsail_mj.geometry.lattice.make_lattice`)
+This example builds a 6 × 6 unit lattice of side 250 m (:func:`magsail_mj.lattice.geometry.make_lattice`)
 and its circuits (:func:`magsail_mj.geometry.current_loops.circuits`), prints each circuit's vector
 area in units of D² and its wire length in units of D, and draws four of them; the depth is drawn
 3 times its size so that the loops through it can be seen.
@@ -22,7 +22,7 @@ from matplotlib.lines import Line2D
 from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
 from magsail_mj.geometry.current_loops import circuits
-from magsail_mj.geometry.lattice import make_lattice
+from magsail_mj.lattice.geometry import make_lattice
 
 UNITS, SIDE_M, Z_SCALE = 6, 250.0, 3.0
 AXIS_COLOURS = ("tab:red", "tab:green", "tab:blue")

@@ -23,8 +23,8 @@ import magsail_mj
 
 # the repository root: the nearest folder from here upwards that holds models/ (the docs build
 # runs this script in examples/gallery, a reader from the root)
-ROOT = next(folder for folder in (Path.cwd(), *Path.cwd().parents) if (folder / "models").is_dir())
-CASES = ROOT / "models" / "truss_magnetorquer" / "dist_vs_central"
+ROOT = next(folder for folder in (Path.cwd(), *Path.cwd().parents) if (folder / "magsail_mj" / "concepts").is_dir())
+CASES = ROOT / "magsail_mj" / "concepts" / "truss_magnetorquer" / "configs" / "dist_vs_central"
 REDUCED = ["lattice.units=7", "sim.duration_s=300", "profile.t_end_s=300"]
 
 results = {}

@@ -248,7 +248,7 @@ def _scaling_figures(d: np.ndarray, k: np.ndarray, *, alt: float, M: float, Mt: 
 
 class ScalingInputs(StrictModel):
     """Inputs of the ``scaling`` figure (the ``[scaling]`` table of
-    ``models/truss_magnetorquer/scaling.toml``; defaults are the spec's §8 and §9.1 values).
+    ``magsail_mj/concepts/truss_magnetorquer/configs/scaling.toml``; defaults are the spec's §8 and §9.1 values).
     Strict like every config table: finite numbers, no strings or booleans for numbers."""
 
     kappas_Am2_per_kg: list[float] = Field(default=[10.0, 50.0, 100.0, 200.0], min_length=1)

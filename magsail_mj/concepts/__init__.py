@@ -52,11 +52,6 @@ TASKS: dict[tuple[str, str], type] = {}
 BUILDERS: dict[str, Callable[[Any], Any]] = {}
 """Concept name → builder ``cfg → task`` (concepts that dispatch on their kind themselves)."""
 
-# legacy-layout: begin (the move script deletes this block: concepts then live only here)
-_LEGACY_PACKAGES = ("magsail_mj.scenarios",)
-"""Packages whose modules are imported too while concept modules still live outside this one."""
-# legacy-layout: end
-
 
 def register_config(concept: str, *, kind_key: str = "scenario") -> Callable[[type[T]], type[T]]:
     """Class decorator: make ``cls`` the config schema of ``concept``; ``kind_key`` names its kind field."""
@@ -122,8 +117,6 @@ def discover() -> None:
     if _discovered:
         return
     _import_children(__name__, packages_only=True)
-    for legacy in _LEGACY_PACKAGES:  # legacy-layout
-        _import_children(legacy, packages_only=False)  # legacy-layout
     _discovered = True
 
 

@@ -12,7 +12,11 @@
 
 from __future__ import annotations
 
-from magsail_mj.envs import cnusail, current_loops, msac, reflector, truss  # noqa: F401  (registers the tasks)
+from magsail_mj.concepts.cnusail import env as cnusail  # noqa: F401  (registers the tasks)
+from magsail_mj.concepts.current_loops import env as current_loops  # noqa: F401  (registers the tasks)
+from magsail_mj.concepts.msac import env as msac  # noqa: F401  (registers the tasks)
+from magsail_mj.concepts.reflector import env as reflector  # noqa: F401  (registers the tasks)
+from magsail_mj.concepts.truss_magnetorquer import env as truss  # noqa: F401  (registers the tasks)
 from magsail_mj.envs.core import (
     ActionController, AttitudeTask, RewardWeights, SimulationPhysics, list_tasks, load, register, run_episode,
     shipped_policy, summary_mismatches,

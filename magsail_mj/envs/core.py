@@ -88,7 +88,7 @@ __all__ = [
 ]
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
-"""The repository root: shipped configs are ``REPO_ROOT / "models" / ...``."""
+"""The repository root: shipped configs are ``REPO_ROOT / "magsail_mj" / "concepts" / ...``."""
 
 ENDING_STATUSES = ("diverged", "structure_failed", "failed", "interrupted")
 """Simulation statuses that end an episode with discount 0."""

@@ -37,7 +37,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from magsail_mj.geometry.lattice import STRUT_KINDS, Lattice
+from magsail_mj.lattice.geometry import STRUT_KINDS, Lattice
 
 __all__ = [
     "CIRCUIT_NAMES",

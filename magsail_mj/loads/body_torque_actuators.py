@@ -42,7 +42,7 @@ import numpy as np
 
 from magsail_mj.control.reflector_pitch import project_and_saturate
 from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step
-from magsail_mj.geometry.lattice import Lattice
+from magsail_mj.lattice.geometry import Lattice
 from magsail_mj.loads.actuators_cubesat import WheelDriver
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.strut_torque import StrutTorqueLoad

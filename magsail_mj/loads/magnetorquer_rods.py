@@ -36,7 +36,7 @@ from typing import Literal, Sequence
 import numpy as np
 from scipy import sparse
 
-from magsail_mj.geometry.lattice import Lattice
+from magsail_mj.lattice.geometry import Lattice
 from magsail_mj.loads.base import StepState
 from magsail_mj.vec3 import cross3
 

@@ -30,7 +30,7 @@ from typing import Callable
 import numpy as np
 
 from magsail_mj.estimation.attitude import best_fit_rotation
-from magsail_mj.geometry.lattice import Lattice
+from magsail_mj.lattice.geometry import Lattice
 from magsail_mj.loads.base import StepState
 
 __all__ = ["StrutTorqueLoad", "strut_couple_forces"]

@@ -31,7 +31,7 @@ from typing import Callable
 import mujoco
 import numpy as np
 
-from magsail_mj.mjcf.truss import node_positions_from_qpos
+from magsail_mj.lattice.mjcf import node_positions_from_qpos
 from magsail_mj.loads.base import Load, StepState
 
 __all__ = ["SpringMassLattice", "spring_forces", "load_forces_from", "rk4_run", "from_truss_scenario",
@@ -205,7 +205,7 @@ def from_truss_scenario(scenario) -> tuple[SpringMassLattice, ExternalForce | No
     """The reference system of a truss scenario: same lattice, masses, k, γ, clamps, loads and
     environment.
 
-    ``scenario`` is a :class:`magsail_mj.scenarios.truss.TrussScenario`. Its loads are built
+    ``scenario`` is a :class:`magsail_mj.concepts.truss_magnetorquer.TrussScenario`. Its loads are built
     afresh (``scenario.loads()``), so the reference and a runner built from the same scenario
     do not share load state. Returns ``(system, external, x0, v0)`` with the initial state the
     runner starts from (``scenario.init_state`` applied to a fresh ``MjData``).

@@ -1,0 +1,403 @@
+r"""CNUSAIL-1 attitude control: command frames, mode logic and the sampled flight controller.
+
+Source: CNUSAIL spec §7 (control laws), §7.6 (sampling), §8 (mode logic), errata E-15, E-17,
+E-19; CNUSAIL-1 paper §5.
+
+Command frames (spec §8), as body → world rotation matrices (columns = command axes in ECI):
+
+* nadir: the orbital frame R, ẑ_R = r̂, ŷ_R = (v × r)/|v × r|, x̂_R = ŷ_R × ẑ_R (≈ −v̂) (E-3);
+* deorbit: R turned by −90° about ŷ_R (active): x̂_C = ẑ_R, ŷ_C = ŷ_R, ẑ_C = −x̂_R ≈ +v̂, so the sail
+  front face looks along the flight direction. From the nadir attitude the error is the paper's
+  [0, 0.7071, 0, 0.7071] (scalar-last), E-19.
+
+Mode logic (spec §8; :class:`ModeManager`)::
+
+    any mode: |ω| > 1 °/s                      → DETUMBLE (B-dot, wheels idle, E-15)
+    DETUMBLE: |ω| < ω_exit for t_dwell         → NADIR (eigen-axis/PD + unloading)
+              (0.3 °/s for 60 s, E-17)            (DEORBIT instead once t ≥ t_deorbit)
+    NADIR:    t ≥ t_deorbit (end-of-mission)    → DEORBIT (eigen-axis + unloading + recalculation)
+
+Stand-alone scenarios run one mode with switching disabled (``enabled = False``).
+
+The controller (:class:`CnusailController`) is a :class:`magsail_mj.sim.Controller` sampled every
+dynamics step (``period_s`` = δt); inside it keeps the spec's rates with integer step counts:
+
+* attitude law (and wheel-driver steps 1–2: current command, zero-order hold) every
+  ``attitude_period_s`` (1 s; 0.1 s option) — mode logic runs at the same samples;
+* magnetorquer cycle (B-dot or unloading) every 2 s with the blanking window
+  (:class:`~magsail_mj.loads.actuators_cubesat.MagnetorquerCycle`);
+* wheel-driver steps 3–4 (voltage clip, armature current, speed limiter) every dynamics step,
+  written to ``data.ctrl`` (motor torques T_M) through the command's ``apply_ctrl``.
+
+Its command object carries ``dipole_body`` (the effective dipole, zero while blanked) for
+:class:`~magsail_mj.loads.actuators_cubesat.MagnetorquerLoad`. Sensors are ideal (true attitude,
+rate, field and wheel speeds) unless noise is configured: white Gaussian magnetometer noise
+[T, per axis] and gyro noise [rad/s, per axis], seeded.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import IntEnum
+from typing import Any, Literal
+
+import mujoco
+import numpy as np
+
+from magsail_mj.control.bdot import make_bdot
+from magsail_mj.concepts.cnusail.eigenaxis import (
+    EigenAxisGains,
+    GyroComp,
+    eigen_angle,
+    eigen_axis_gains,
+    eigen_axis_torque,
+    error_quaternion,
+    orbital_rate,
+    rate_error,
+)
+from magsail_mj.concepts.cnusail.pd import pd_torque
+from magsail_mj.concepts.cnusail.unloading import UnloadingLogic, unloading_dipole
+from magsail_mj.quaternion import quat_from_matrix
+from magsail_mj.loads.actuators_cubesat import MagnetorquerCycle, WheelDriver, saturate_per_axis, saturate_uniform
+
+__all__ = [
+    "Mode",
+    "nadir_command_matrix",
+    "deorbit_command_matrix",
+    "command_quaternion",
+    "ModeLogicParams",
+    "ModeManager",
+    "CnusailControlParams",
+    "CnusailController",
+    "CnusailCommand",
+]
+
+DEG = math.pi / 180.0
+
+
+class Mode(IntEnum):
+    """Attitude-control modes (spec §8)."""
+
+    DETUMBLE = 0
+    NADIR = 1
+    DEORBIT = 2
+
+
+def nadir_command_matrix(r: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Body → world matrix of the nadir command (frame R, spec §2.1 with E-3): columns x̂_R, ŷ_R, ẑ_R."""
+    z = r / np.linalg.norm(r)
+    y = np.cross(v, r)
+    y = y / np.linalg.norm(y)
+    x = np.cross(y, z)
+    return np.column_stack([x, y, z])
+
+
+def deorbit_command_matrix(r: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Body → world matrix of the deorbit command (spec §8): columns ẑ_R, ŷ_R, −x̂_R."""
+    M = nadir_command_matrix(r, v)
+    return np.column_stack([M[:, 2], M[:, 1], -M[:, 0]])
+
+
+def command_quaternion(mode: Mode | int, r: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Scalar-first command quaternion (command → world) of ``mode`` (DETUMBLE uses nadir)."""
+    M = deorbit_command_matrix(r, v) if int(mode) == Mode.DEORBIT else nadir_command_matrix(r, v)
+    return quat_from_matrix(M)
+
+
+@dataclass(frozen=True)
+class ModeLogicParams:
+    """Mode-switching thresholds (spec §8, E-17).
+
+    Attributes:
+      enabled: switch modes (False: stay in the initial mode).
+      detumble_entry_rad_s: |ω| above which DETUMBLE is entered (1 °/s).
+      detumble_exit_rad_s: |ω| below which the exit dwell runs (0.3 °/s).
+      dwell_s: how long |ω| must stay below the exit threshold (60 s).
+      deorbit_at_s: end-of-mission command time [s] (None: never).
+    """
+
+    enabled: bool = False
+    detumble_entry_rad_s: float = 1.0 * DEG
+    detumble_exit_rad_s: float = 0.3 * DEG
+    dwell_s: float = 60.0
+    deorbit_at_s: float | None = None
+
+    def __post_init__(self) -> None:
+        if not 0 < self.detumble_exit_rad_s <= self.detumble_entry_rad_s:
+            raise ValueError("detumble_exit_rad_s: must be > 0 and <= detumble_entry_rad_s, got "
+                             f"{self.detumble_exit_rad_s!r} (entry {self.detumble_entry_rad_s!r})")
+        if self.dwell_s < 0:
+            raise ValueError(f"dwell_s: must be >= 0, got {self.dwell_s!r}")
+
+
+class ModeManager:
+    """The mode state machine of spec §8 (module docstring), evaluated at attitude samples."""
+
+    def __init__(self, params: ModeLogicParams, *, initial: Mode) -> None:
+        self.p = params
+        self.mode = Mode(initial)
+        self._below_since: float | None = None
+
+    def update(self, t: float, omega_norm: float) -> tuple[Mode, bool]:
+        """New mode at time ``t`` [s] for the measured body-rate norm [rad/s]; returns
+        ``(mode, changed)``."""
+        if not self.p.enabled:
+            return self.mode, False
+        old = self.mode
+        p = self.p
+        deorbit_due = p.deorbit_at_s is not None and t >= p.deorbit_at_s
+        if omega_norm > p.detumble_entry_rad_s:
+            self.mode = Mode.DETUMBLE
+            self._below_since = None
+        elif self.mode == Mode.DETUMBLE:
+            if omega_norm < p.detumble_exit_rad_s:
+                if self._below_since is None:
+                    self._below_since = t
+                if t - self._below_since >= p.dwell_s:
+                    self.mode = Mode.DEORBIT if deorbit_due else Mode.NADIR
+            else:
+                self._below_since = None
+        elif self.mode == Mode.NADIR and deorbit_due:
+            self.mode = Mode.DEORBIT
+        return self.mode, self.mode != old
+
+
+@dataclass
+class CnusailControlParams:
+    """Everything the flight controller needs (SI units; spec §7, §4).
+
+    Attributes:
+      timestep_s: dynamics step δt.
+      law: pointing law ``"eigen_axis"`` or ``"pd"`` (stand-alone ``"bdot"`` means detumbling).
+      command: stand-alone pointing command ``"nadir"`` or ``"deorbit"``.
+      attitude_period_s: attitude-law sample period (1 s).
+      mtq_cycle: magnetorquer cycle with blanking.
+      mtq_limits_A_m2: (3,) dipole limits.
+      bdot_form, bdot_gain, bdot_omega_c_rad_s: B-dot law (§7.1).
+      omega_n_rad_s, zeta, rate_max_rad_s, clamp_min, gyro_comp, shortest_rotation: eigen-axis (§7.2).
+      recalc_enabled, recalc_margin_rad: deorbit gain recalculation (§7.5).
+      unloading_enabled, k_rw_per_s, unload_on_rpm, unload_off_rpm: unloading (§7.4).
+      inertia_kg_m2: (3, 3) spacecraft inertia J used by the laws.
+      wheel_driver: the wheel driver (motor model and limits).
+      modes: mode-switching parameters.
+      magnetometer_noise_T, gyro_noise_rad_s: sensor noise σ per axis (0 = ideal).
+      seed: noise seed.
+    """
+
+    timestep_s: float
+    law: Literal["bdot", "eigen_axis", "pd"]
+    command: Literal["nadir", "deorbit"] = "nadir"
+    attitude_period_s: float = 1.0
+    mtq_cycle: MagnetorquerCycle = field(default_factory=MagnetorquerCycle)
+    mtq_limits_A_m2: np.ndarray = field(default_factory=lambda: np.array([0.2, 0.2, 0.1]))
+    bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
+    bdot_gain: float = 5.0e4
+    bdot_omega_c_rad_s: float = 0.5
+    omega_n_rad_s: float = 0.02
+    zeta: float = 0.9
+    rate_max_rad_s: float = 0.3 * DEG
+    clamp_min: float = 0.1
+    gyro_comp: GyroComp = "Iw"
+    shortest_rotation: bool = True
+    recalc_enabled: bool = False
+    recalc_margin_rad: float = 20.0 * DEG
+    unloading_enabled: bool = True
+    k_rw_per_s: float = 0.005
+    unload_on_rpm: float = 3000.0
+    unload_off_rpm: float | None = None
+    inertia_kg_m2: np.ndarray = field(default_factory=lambda: np.diag([0.3104, 0.3121, 0.5757]))
+    wheel_driver: WheelDriver = field(default_factory=WheelDriver)
+    modes: ModeLogicParams = field(default_factory=ModeLogicParams)
+    magnetometer_noise_T: float = 0.0
+    gyro_noise_rad_s: float = 0.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.law not in ("bdot", "eigen_axis", "pd"):
+            raise ValueError(f"law: must be 'bdot', 'eigen_axis' or 'pd', got {self.law!r}")
+        if self.command not in ("nadir", "deorbit"):
+            raise ValueError(f"command: must be 'nadir' or 'deorbit', got {self.command!r}")
+        n = self.attitude_period_s / self.timestep_s
+        if not self.attitude_period_s > 0 or abs(n - round(n)) > 1e-9 * max(1.0, n):
+            raise ValueError(f"attitude_period_s: must be a positive whole multiple of the timestep "
+                             f"{self.timestep_s} s, got {self.attitude_period_s!r}")
+        if abs(self.mtq_cycle.timestep_s - self.timestep_s) > 1e-12:
+            raise ValueError(f"mtq_cycle: its timestep_s {self.mtq_cycle.timestep_s} must equal "
+                             f"timestep_s {self.timestep_s}")
+        if self.modes.enabled and self.law == "bdot":
+            raise ValueError("law: with mode switching enabled, give the pointing law ('eigen_axis' or 'pd'); "
+                             "B-dot is the detumbling mode's law")
+        for key in ("magnetometer_noise_T", "gyro_noise_rad_s"):
+            if getattr(self, key) < 0:
+                raise ValueError(f"{key}: must be >= 0, got {getattr(self, key)!r}")
+        self.mtq_limits_A_m2 = np.asarray(self.mtq_limits_A_m2, dtype=float).reshape(3)
+        self.inertia_kg_m2 = np.asarray(self.inertia_kg_m2, dtype=float).reshape(3, 3)
+
+    @property
+    def initial_mode(self) -> Mode:
+        if self.law == "bdot":
+            return Mode.DETUMBLE
+        return Mode.DEORBIT if self.command == "deorbit" else Mode.NADIR
+
+
+class CnusailCommand:
+    """The held command: the effective magnetorquer dipole (``dipole_body`` [A m²], body axes,
+    zero while blanked) and, through :meth:`apply_ctrl`, the per-step wheel-driver update."""
+
+    def __init__(self, controller: "CnusailController") -> None:
+        self.controller = controller
+        self.dipole_body = np.zeros(3)
+        self.state: Any = None
+
+    def apply_ctrl(self, data: mujoco.MjData) -> None:
+        self.controller.step(self.state, data)
+
+
+class CnusailController:
+    """The CNUSAIL-1 flight controller (module docstring).
+
+    Args:
+      params: :class:`CnusailControlParams`.
+      q_quat, v_ang: the bus quaternion qpos slice and body-rate qvel slice.
+      wheel_qvel: (3,) qvel indices of the wheel hinges (relative speeds ω_M).
+      wheel_act: (3,) actuator ids of the wheel motors.
+
+    Telemetry (updated every step, read by probes): ``mode``, ``p_e`` (error quaternion w.r.t.
+    the active command; nadir in DETUMBLE), ``theta_e``, ``omega_e``, ``u`` (commanded body torque),
+    ``wheel_cmd`` (held current [A] or torque [N m] command), ``T_M`` (motor torques),
+    ``dipole_held`` (last commanded dipole), ``unload_mask``, ``B_meas`` (last magnetometer
+    reading), ``gains``, ``theta_ref``, ``events`` (manoeuvre starts, gain recalculations, mode
+    changes: dicts with ``t_s``, ``kind``, ``theta_rad`` …).
+    """
+
+    def __init__(self, params: CnusailControlParams, *, q_quat: slice, v_ang: slice, wheel_qvel, wheel_act) -> None:
+        self.p = params
+        self.period_s = params.timestep_s
+        self.q_quat, self.v_ang = q_quat, v_ang
+        self.wheel_qvel = np.asarray(wheel_qvel, dtype=int)
+        self.wheel_act = np.asarray(wheel_act, dtype=int)
+        self.n_att = int(round(params.attitude_period_s / params.timestep_s))
+        self.modes = ModeManager(params.modes, initial=params.initial_mode)
+        self.bdot = make_bdot(params.bdot_form, gain=params.bdot_gain, sample_period_s=params.mtq_cycle.cycle_s,
+                              omega_c_rad_s=params.bdot_omega_c_rad_s)
+        self.unload = UnloadingLogic(on_rpm=params.unload_on_rpm, off_rpm=params.unload_off_rpm)
+        self.driver = params.wheel_driver
+        self.I_w = self.driver.p.spin_inertia_kg_m2
+        self.rng = np.random.default_rng(params.seed)
+        self.cmd = CnusailCommand(self)
+        self._R = np.zeros(9)  # scratch for mju_quat2Mat; zeros keep every build identical
+        self._zero3 = np.zeros(3)
+        self._last_att = -1
+        self._last_mtq = -1
+        # telemetry
+        self.mode = self.modes.mode
+        self.p_e = np.array([1.0, 0.0, 0.0, 0.0])
+        self.theta_e = 0.0
+        self.omega_e = np.zeros(3)
+        self.u = np.zeros(3)
+        self.wheel_cmd = self.driver.idle_command()
+        self.T_M = np.zeros(3)
+        self.dipole_held = np.zeros(3)
+        self.unload_mask = np.zeros(3, dtype=bool)
+        self.B_meas = np.zeros(3)
+        self.gains: EigenAxisGains | None = None
+        self.theta_ref = math.nan
+        self.events: list[dict[str, Any]] = []
+        self._start_pending = params.initial_mode != Mode.DETUMBLE
+
+    # ---------------------------------------------------------------- runner protocol
+    def update(self, state) -> CnusailCommand:
+        """Runner hook (every step): remember the state; :meth:`CnusailCommand.apply_ctrl` does the work."""
+        self.cmd.state = state
+        return self.cmd
+
+    def step(self, state, data: mujoco.MjData) -> None:
+        """One dynamics step: attitude sample and magnetorquer cycle when due, then the wheel
+        driver's per-step part (spec §4.2 steps 3–4) into ``data.ctrl``."""
+        p = self.p
+        k = int(round(state.t / p.timestep_s))
+        omega_M = data.qvel[self.wheel_qvel]
+        cycle = p.mtq_cycle
+        # a sample is due when a sample boundary was reached since the last call (robust to a
+        # runner that skips a step of this every-step controller)
+        i_att, i_mtq = k // self.n_att, k // cycle.steps_per_cycle
+        att, mtq = i_att > self._last_att, i_mtq > self._last_mtq
+        self._last_att, self._last_mtq = max(self._last_att, i_att), max(self._last_mtq, i_mtq)
+        if att or mtq:
+            q = data.qpos[self.q_quat].copy()
+            env = state.env
+            if att:
+                omega = data.qvel[self.v_ang].copy()
+                if p.gyro_noise_rad_s > 0:
+                    omega = omega + self.rng.normal(0.0, p.gyro_noise_rad_s, 3)
+                self._attitude_sample(state.t, q, omega, omega_M, env)
+            if mtq:
+                mujoco.mju_quat2Mat(self._R, q)
+                self._mtq_sample(state.t, self._R.reshape(3, 3), omega_M, env)
+        self.cmd.dipole_body = self.dipole_held if cycle.is_on(k) else self._zero3
+        self.T_M = self.driver.motor_torque(self.wheel_cmd, omega_M, p.timestep_s)
+        data.ctrl[self.wheel_act] = self.T_M
+
+    # ---------------------------------------------------------------- samples
+    def _attitude_sample(self, t: float, q: np.ndarray, omega: np.ndarray, omega_M: np.ndarray, env) -> None:
+        p = self.p
+        old = self.modes.mode
+        mode, changed = self.modes.update(t, float(np.linalg.norm(omega)))
+        self.mode = mode
+        if changed:
+            self.events.append({"t_s": t, "kind": "mode", "from": old.name, "to": mode.name})
+            if mode == Mode.DETUMBLE:
+                self.bdot.reset()
+        r, v = env.r_ref_eci, env.v_ref_eci
+        p_c = command_quaternion(mode, r, v)
+        p_e = error_quaternion(p_c, q, shortest=p.shortest_rotation)
+        self.p_e = p_e
+        self.theta_e = float(eigen_angle(p_e))
+        self.omega_e = rate_error(omega, p_e, orbital_rate(r, v))
+        if mode == Mode.DETUMBLE:
+            self.u = np.zeros(3)
+            self.wheel_cmd = self.driver.idle_command()
+            self._start_pending = True
+            return
+        q_e = p_e[1:]
+        if self._start_pending or changed:
+            self._set_gains(t, q_e, "manoeuvre_start")
+            self.theta_ref = self.theta_e
+            self._start_pending = False
+        elif (p.recalc_enabled and mode == Mode.DEORBIT and self.theta_e > self.theta_ref + p.recalc_margin_rad):
+            self._set_gains(t, q_e, "gain_recalc")
+            self.theta_ref = self.theta_e
+        J = p.inertia_kg_m2
+        h_w = self.I_w * omega_M
+        if p.law == "pd":
+            self.u = pd_torque(q_e, self.omega_e, J, k=self.gains.k, c=self.gains.c)
+        else:
+            self.u = eigen_axis_torque(q_e, self.omega_e, omega, J, self.gains, gyro_comp=p.gyro_comp, h_w=h_w)
+        self.wheel_cmd = self.driver.command(self.u, omega_M)
+
+    def _set_gains(self, t: float, q_e: np.ndarray, kind: str) -> None:
+        p = self.p
+        self.gains = eigen_axis_gains(q_e, omega_n_rad_s=p.omega_n_rad_s, zeta=p.zeta, rate_max_rad_s=p.rate_max_rad_s,
+                                      clamp_min=p.clamp_min)
+        self.events.append({"t_s": t, "kind": kind, "theta_rad": self.theta_e, "q_e": q_e.tolist(),
+                            "mode": self.mode.name, **self.gains.as_dict()})
+
+    def _mtq_sample(self, t: float, R: np.ndarray, omega_M: np.ndarray, env) -> None:
+        p = self.p
+        B = R.T @ env.B_eci
+        if p.magnetometer_noise_T > 0:
+            B = B + self.rng.normal(0.0, p.magnetometer_noise_T, 3)
+        self.B_meas = B
+        m_bdot = self.bdot.update(B)
+        if self.mode == Mode.DETUMBLE:
+            self.unload_mask = np.zeros(3, dtype=bool)
+            self.dipole_held = saturate_per_axis(m_bdot, p.mtq_limits_A_m2)
+        elif p.unloading_enabled:
+            self.unload_mask = self.unload.update(omega_M)
+            dh = np.where(self.unload_mask, self.I_w * omega_M, 0.0)
+            m = unloading_dipole(dh, B, k_rw=p.k_rw_per_s) if self.unload_mask.any() else np.zeros(3)
+            self.dipole_held = saturate_uniform(m, p.mtq_limits_A_m2)
+        else:
+            self.unload_mask = np.zeros(3, dtype=bool)
+            self.dipole_held = np.zeros(3)

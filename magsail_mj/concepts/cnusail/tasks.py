@@ -1,0 +1,131 @@
+r"""CNUSAIL tasks: one class per scenario kind (config key ``kind``), registered by name.
+
+* ``"attitude"`` → :class:`AttitudeTask`: S1–S7, B-dot detumbling, eigen-axis / PD slews, deorbit
+  attitude, mode logic (``control.mode``, ``control.command``, ``control.modes``).
+* ``"lifetime"`` → :class:`magsail_mj.concepts.cnusail.lifetime.LifetimeTask`: S8, orbit decay of
+  the three attitude regimes (SciPy propagators, no MuJoCo run).
+
+Each class is registered with :func:`magsail_mj.concepts.register_task` keyed by
+``("cnusail", kind)``; :func:`magsail_mj.concepts.build_task` looks it up once. The attitude task runs
+through :class:`magsail_mj.sim.Simulation`; the lifetime task's runner
+(:class:`magsail_mj.concepts.cnusail.lifetime.LifetimeRunner`) has the same ``run()`` interface.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from magsail_mj.concepts import build_task, register_task
+from magsail_mj.concepts.cnusail.modes import CnusailController
+from magsail_mj.loads.actuators_cubesat import MagnetorquerLoad
+from magsail_mj.concepts.cnusail.config import CnusailConfig
+from magsail_mj.concepts.cnusail.lifetime import LifetimeTask
+from magsail_mj.concepts.cnusail.metrics import attitude_outputs
+from magsail_mj.concepts.cnusail.model import CnusailModel
+from magsail_mj.concepts.cnusail.plots import attitude_plots
+from magsail_mj.sim import RunResult, Simulation
+
+__all__ = ["AttitudeTask", "LifetimeTask", "build_cnusail_scenario"]
+
+@register_task("cnusail", "attitude")
+class AttitudeTask:
+    """A CNUSAIL attitude run (S1–S7): the built cubesat (``cubesat``; ``spec``, ``model``, ``idx``,
+    ``environment``, ``orbit_period_s``, ``inertia``, ``disturbances`` from it), the magnetorquer
+    load, the flight controller, probes and outputs."""
+
+    def __init__(self, cfg: CnusailConfig) -> None:
+        self.cfg = cfg
+        self.cubesat = c = CnusailModel(cfg)
+        self.params, self.spec, self.model, self.idx = c.params, c.spec, c.model, c.idx
+        self.environment, self.orbit_period_s = c.environment, c.orbit_period_s
+        self.inertia, self.disturbances = c.inertia, c.disturbances
+        self.controller: CnusailController | None = None
+
+    def make_controller(self) -> CnusailController:
+        return self.cubesat.make_controller()
+
+    def initial_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(p_b (4,), ω_body (3,) [rad/s], ω_M (3,) [rad/s]) at t = 0 (see :meth:`CnusailModel.initial_state`)."""
+        return self.cubesat.initial_state()
+
+    def init_state(self, data: mujoco.MjData) -> None:
+        self.cubesat.init_state(data)
+
+    def simulation(self) -> Simulation:
+        self.controller = ctl = self.make_controller()
+        dist = self.disturbances
+        mtq = MagnetorquerLoad(self.idx.bus)
+        idx = self.idx
+
+        def mtq_body(state, d):
+            m = state.ctrl.dipole_body if state.ctrl is not None else np.zeros(3)
+            R = np.empty(9)
+            mujoco.mju_quat2Mat(R, d.qpos[idx.q_quat])
+            return np.cross(m, R.reshape(3, 3).T @ state.env.B_eci)
+
+        probes = {
+            "qpos": lambda s, d: d.qpos,
+            "qvel": lambda s, d: d.qvel,
+            "mode": lambda s, d: int(ctl.mode),
+            "p_e": lambda s, d: ctl.p_e,
+            "theta_e_rad": lambda s, d: ctl.theta_e,
+            "omega_e_rad_s": lambda s, d: ctl.omega_e,
+            "u_cmd_N_m": lambda s, d: ctl.u,
+            "T_M_N_m": lambda s, d: ctl.T_M,
+            "dipole_cmd_A_m2": lambda s, d: ctl.dipole_held,
+            "unload_mask": lambda s, d: ctl.unload_mask.astype(np.int8),
+            "torque_dist_body_N_m": lambda s, d: dist.torques_body(s),
+            "torque_mtq_body_N_m": mtq_body,
+        }
+        return Simulation(model=self.model, duration_s=self.cfg.sim.duration_s, loads=[dist, mtq], controller=ctl,
+                          environment=self.environment, probes=probes, record_every=self.cfg.sim.record_every,
+                          checkpoint_every_s=self.cfg.sim.checkpoint_every_s, init=self.init_state)
+
+    # -------------------------------------------------------------- outputs
+    def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        return attitude_outputs(self.cubesat, result, controller=self.controller)
+
+    def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
+        events = self.controller.events if self.controller is not None else []
+        return attitude_plots(run_dir, series, cfg=self.cfg, orbit_period_s=self.orbit_period_s, events=events)
+
+    def render_info(self) -> dict[str, Any]:
+        r = self.cfg.render
+        frames = int(min(r.max_frames, max(2, math.ceil(self.cfg.sim.duration_s / r.time_lapse * r.fps))))
+        cam: dict[str, float] = {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg}
+        if r.distance_m is not None:
+            cam["distance_m"] = r.distance_m
+        law = {"bdot": "B-dot", "eigen_axis": "eigen-axis", "pd": "PD"}[self.cfg.control.mode]
+        return {
+            "title": f"CNUSAIL-1 {self.cfg.scenario} ({self.cfg.spacecraft.configuration}, {law})",
+            "overlay": ["mode", "theta_e_deg", "omega_norm_deg_s", "wheel_speed_rpm"],
+            "camera": cam,
+            "fps": r.fps,
+            "max_frames": frames,
+            "markers": {"mk_sun": "Sun (yellow)", "mk_vel": "velocity (green)", "mk_nadir": "nadir (blue)",
+                        "mk_field": "magnetic field (magenta)", "axis_x/y/z": "body axes red/green/blue",
+                        "sail_front": "sail front face +z (gold)", "sail_back": "sail back face (silver)"},
+        }
+
+    def manifest_extra(self) -> dict[str, Any]:
+        m = self.model
+        return {
+            "model_size": {"bodies": int(m.nbody), "dofs": int(m.nv), "actuators": int(m.nu)},
+            "integrator": self.cfg.sim.integrator,
+            "timestep_s": self.cfg.sim.timestep_s,
+            "orbit_period_s": self.orbit_period_s,
+            "composite_inertia_kg_m2": list(self.cfg.spacecraft.inertia),
+            "hub_inertia_kg_m2": self.params.hub_inertia_kg_m2.tolist(),
+            "events": len(self.controller.events) if self.controller is not None else 0,
+        }
+
+
+def build_cnusail_scenario(cfg: CnusailConfig) -> AttitudeTask | LifetimeTask:
+    """Task object of a CNUSAIL config: the class registered for ``("cnusail", cfg.kind)``
+    (:func:`magsail_mj.concepts.build_task`)."""
+    return build_task(cfg)

@@ -1,0 +1,26 @@
+"""Current loops built into the flexible truss (``current_loops``), spec current-loops.md.
+
+Importing this module registers the concept: its config schema
+(:mod:`magsail_mj.concepts.current_loops.config`, :class:`CurrentLoopsConfig`) and its tasks, one
+class per scenario kind (:mod:`magsail_mj.concepts.current_loops.tasks`: ``sweep`` §5, ``slew``
+§6, ``slew_rigid`` §6). The model builder is :mod:`magsail_mj.concepts.current_loops.model`;
+probes and metrics :mod:`~magsail_mj.concepts.current_loops.metrics`, plots
+:mod:`~magsail_mj.concepts.current_loops.plots`.
+
+The lattice, masses and tendon springs are those of the truss concept (§1: uniform particle
+masses, ``EA_c = 2 EI / ((N+1) w²)``, ``calibration = "formula"`` by default). Elastic forces
+are MuJoCo spring tendons (no tendon damping); Lorentz forces (§4.5), modal damping (§4.4) and
+tidal gravity are loads written into ``xfrc_applied``.
+"""
+
+from __future__ import annotations
+
+from magsail_mj.geometry.current_loops import CIRCUIT_NAMES
+from magsail_mj.concepts.current_loops.config import CurrentLoopsConfig, loop_currents
+from magsail_mj.concepts.current_loops.model import LoopsModel, make_loops_model, rigid_plate_spec
+from magsail_mj.concepts.current_loops.tasks import LoopsScenario, build_loops_scenario
+
+__all__ = [
+    "CIRCUIT_NAMES", "CurrentLoopsConfig", "LoopsScenario", "build_loops_scenario", "LoopsModel",
+    "make_loops_model", "rigid_plate_spec", "loop_currents",
+]

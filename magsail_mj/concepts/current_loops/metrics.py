@@ -1,0 +1,322 @@
+r"""Probes and metrics of the current-loops runs (current-loops spec §4.6, §5, §6, §7.2).
+
+Flexible runs record the node positions (every ``record_every`` steps), the kinetic energy and
+the work ledger (Lorentz work and damping work, exact for forces held over a step). From them:
+
+* strain energy ``U(t) = Σ ½ k (|r_j − r_i| − L)²``;
+* best-fit rotation ``R_θ(t)`` (Kabsch, uniform masses) and its angle; body-frame displacement
+  ``u = R_θᵀ(r − c) − (r₀ − c₀)``; thickness ``h = max z_b − min z_b``; rigid-fit residual
+  ``ρ = √mean|u|²``; largest strut strain;
+* modal amplitudes ``q_n = φ_nᵀ M u`` of the first elastic modes, normalised by their overall max;
+* angle between the circuits' dipole axis (body) and the field;
+* energy balance ``E_kin + U − W_Lorentz − W_damping`` relative to the largest ``|W_Lorentz|``;
+* the rigid-body reference (:mod:`magsail_mj.concepts.current_loops.rigid_reference`) with the realised
+  dipole, its rotation angle and the flexible run's largest deviation from it;
+* classification (§4.6, thresholds in ``[classification]``): *collapsed* if ρ_max > 0.1 D, or
+  the largest strain > 0.5, or h_max > 5 w; *rigid_like* if ρ_max < 0.005 D and the rotation
+  stays within 3° of the rigid reference; otherwise *flexible*.
+
+Slews add the attitude error ``2 arccos|q_e,w|``, currents, saturation, commanded and achieved
+dipole, magnetic and gravity-gradient torques about the centre of mass.
+
+Every function takes the data it needs (the :class:`~magsail_mj.concepts.current_loops.model.LoopsModel`,
+node positions ``x`` (T, n, 3) [m], the records, config values), never the task object.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import numpy as np
+
+from magsail_mj.analysis.energy import strain_energy, strut_strain
+from magsail_mj.lattice.modes import Modes
+from magsail_mj.concepts.current_loops.rigid_reference import rigid_dipole_attitude
+from magsail_mj.estimation.attitude import BestFitRotation, euler_zyx, matrix_from_quat, rotation_angle
+from magsail_mj.concepts.current_loops.lorentz import (
+    CircuitSegments, LorentzLoad, lorentz_node_forces, self_field_max_T,
+)
+from magsail_mj.loads.tidal import GravityGradientTorqueLoad, TidalGravityLoad
+from magsail_mj.concepts.current_loops.config import ClassificationConfig
+from magsail_mj.concepts.current_loops.model import LoopsModel, WorkLedger
+from magsail_mj.sim import RunResult
+
+__all__ = [
+    "flexible_probes", "rigid_probes", "slew_probes", "flexible_torque_probe", "rigid_torque_probe",
+    "base_summary", "sweep_metrics", "slew_metrics", "slew_structure", "classify", "first_time_below",
+    "structural_series",
+]
+
+N_MODAL = 10
+
+Probe = Callable[[Any, Any], np.ndarray]
+Metrics = tuple[dict[str, Any], dict[str, np.ndarray]]
+
+
+# =========================================================================== probes
+
+
+def flexible_probes(node_bodies: np.ndarray, masses: np.ndarray, ledger: WorkLedger | None) -> dict[str, Probe]:
+    """``qpos``, kinetic energy ½ Σ m_i |v_i|² [J] and, with a work ``ledger``, the work [J] of
+    the loads it watches (up to the current positions)."""
+    nb, m = node_bodies, masses
+    out: dict[str, Probe] = {
+        "qpos": lambda s, d: d.qpos,
+        "kinetic_energy_J": lambda s, d: 0.5 * float(m @ np.einsum("ij,ij->i", s.vel[nb], s.vel[nb])),
+    }
+    if ledger is not None:
+        out["work_J"] = lambda s, d: ledger.values(s.pos)
+    return out
+
+
+def rigid_probes() -> dict[str, Probe]:
+    """``qpos`` and ``qvel`` of the rigid surrogate."""
+    return {"qpos": lambda s, d: d.qpos, "qvel": lambda s, d: d.qvel}
+
+
+def slew_probes(torque_probe: Probe) -> dict[str, Probe]:
+    """The slew controller's held command (currents, saturation, attitude, rates, torque and dipole
+    commands, field in body axes; neutral values before the first command) and the torques."""
+    return {
+        "currents_A": lambda s, d: s.ctrl.currents_A if s.ctrl is not None else np.zeros(3),
+        "currents_axis_A": lambda s, d: s.ctrl.currents_axis_A if s.ctrl is not None else np.zeros(3),
+        "saturated": lambda s, d: s.ctrl.saturated if s.ctrl is not None else np.zeros(3, bool),
+        "q": lambda s, d: s.ctrl.q if s.ctrl is not None else np.array([1.0, 0, 0, 0]),
+        "q_err": lambda s, d: s.ctrl.q_err if s.ctrl is not None else np.array([1.0, 0, 0, 0]),
+        "omega_body_rad_s": lambda s, d: s.ctrl.omega_body if s.ctrl is not None else np.zeros(3),
+        "torque_ref_body_Nm": lambda s, d: s.ctrl.torque_ref_body if s.ctrl is not None else np.zeros(3),
+        "dipole_cmd_body_Am2": lambda s, d: s.ctrl.dipole_cmd_body if s.ctrl is not None else np.zeros(3),
+        "B_body_T": lambda s, d: s.ctrl.B_body if s.ctrl is not None else np.zeros(3),
+        "torques_world_Nm": torque_probe,
+    }
+
+
+def rigid_torque_probe(areas_body_m2: np.ndarray, field_world_T: np.ndarray | None,
+                       gg_load: GravityGradientTorqueLoad | None) -> Probe:
+    """(2, 3): magnetic torque ``(R Σ I_L a_L) × B`` and gravity-gradient torque (world axes) of the
+    rigid surrogate (body 1); ``areas_body_m2`` (L, 3) vector areas, ``field_world_T`` the fixed
+    field (``None``: the orbit's ``B_eci``)."""
+    def probe(s, d):
+        mag = np.zeros(3)
+        gg = gg_load.torque_world(s) if gg_load is not None else np.zeros(3)
+        if s.ctrl is not None:
+            R = matrix_from_quat(s.xquat[1])
+            B = field_world_T if field_world_T is not None else s.env.B_eci
+            mag = np.cross(R @ (np.asarray(s.ctrl.currents_A) @ areas_body_m2), B)
+        return np.stack([mag, gg])
+
+    return probe
+
+
+def flexible_torque_probe(node_bodies: np.ndarray, masses: np.ndarray, lorentz: LorentzLoad,
+                          segments: CircuitSegments, tidal: TidalGravityLoad | None) -> Probe:
+    """(2, 3): Lorentz torque Σ (x_i − c) × F_i and tidal torque Σ (x_i − c) × m_i a_i about the
+    centre of mass ``c`` (world axes) at this state."""
+    nb, m = node_bodies, masses
+
+    def probe(s, d):
+        x = s.pos[nb]
+        c = (m @ x) / m.sum()
+        r = x - c
+        mag = np.zeros(3)
+        if s.ctrl is not None:
+            B = lorentz.field(s)
+            mag = np.cross(r, lorentz_node_forces(x, segments, s.ctrl.currents_A, B)).sum(axis=0)
+        gg = np.zeros(3)
+        if tidal is not None:
+            a = tidal.accelerations(np.asarray(s.env.r_ref_eci), x)
+            gg = np.cross(r, m[:, None] * a).sum(axis=0)
+        return np.stack([mag, gg])
+
+    return probe
+
+
+# =========================================================================== metrics
+
+
+def first_time_below(t: np.ndarray, x: np.ndarray, level: float) -> float | None:
+    """First time ``x`` is below ``level`` (``None`` if never)."""
+    idx = np.flatnonzero(x < level)
+    return float(t[idx[0]]) if idx.size else None
+
+
+def structural_series(lm: LoopsModel, x: np.ndarray, *, modes: Callable[[], Modes] | None = None
+                      ) -> dict[str, np.ndarray]:
+    """Strain energy ½ Σ k (|r_j − r_i| − L)² [J] and largest strut strain
+    (:mod:`magsail_mj.analysis.energy`), best fit, thickness, residual and modal amplitudes of
+    positions ``x`` (T, n, 3) [m]; ``modes`` gives the lattice's modes (their amplitudes are a diagnostic: left out when
+    the modes cannot be had)."""
+    lat = lm.lattice
+    p0 = lat.nodes
+    R, dvec = BestFitRotation(p0)(x)
+    c = x.mean(axis=1)
+    xb = np.einsum("tji,tnj->tni", R, x - c[:, None, :])        # R^T (x - c)
+    u = xb - (p0 - p0.mean(axis=0))
+    out = {
+        "strain_energy_J": strain_energy(x, lat.struts, lm.k, lat.rest_length),
+        "rotation_angle_rad": rotation_angle(R),
+        "R_bestfit": R,
+        "thickness_m": xb[:, :, 2].max(axis=1) - xb[:, :, 2].min(axis=1),
+        "rigid_fit_residual_m": np.sqrt((u**2).sum(axis=2).mean(axis=1)),
+        "strut_strain_max": np.abs(strut_strain(x, lat.struts, lat.rest_length)).max(axis=1),
+    }
+    if modes is None:
+        return out
+    try:
+        md = modes()
+        sl = md.elastic
+        phi = md.phi[:, sl.start:sl.start + N_MODAL]
+        q = (u.reshape(u.shape[0], -1) * md.mass_diag) @ phi
+        out["modal_amplitude"] = q / max(np.abs(q).max(), 1e-300)
+        out["modal_omega_rad_s"] = md.omega[sl.start:sl.start + N_MODAL]
+    except Exception:  # noqa: BLE001 - modes are a diagnostic; never lose a run for them
+        pass
+    return out
+
+
+def _at(t: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    i = int(np.argmax(y))
+    return float(y[i]), float(t[i])
+
+
+def base_summary(result: RunResult) -> dict[str, Any]:
+    """Status, message, end time [s] and wall time [s] of a run."""
+    return {"status": result.status, "status_message": result.message,
+            "t_end_s": result.t_end_s, "wall_time_s": result.wall_time_s}
+
+
+def classify(c: ClassificationConfig, *, side_m: float, units: int, rho_max: float, strain_max: float,
+             h_max: float, dev_max: float) -> str:
+    """§4.6: ``collapsed`` if ρ_max > f_c D or the strain > ε_c or h_max > n_c w (w = D / N);
+    ``rigid_like`` if ρ_max < f_r D and the rotation stays within the angle tolerance of the rigid
+    reference (``dev_max`` [rad]); else ``flexible``."""
+    D = side_m
+    w = D / units
+    if (rho_max > c.collapse_residual_frac * D or strain_max > c.collapse_strain
+            or h_max > c.collapse_thickness_units * w):
+        return "collapsed"
+    if rho_max < c.rigid_residual_frac * D and dev_max <= np.radians(c.rigid_angle_tol_deg):
+        return "rigid_like"
+    return "flexible"
+
+
+def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], x: np.ndarray, st: dict[str, np.ndarray], *,
+                  inertia_kgm2: np.ndarray, areas_body_m2: np.ndarray, field_world_T: np.ndarray,
+                  work_names: list[str], segments: CircuitSegments, stability_product_max: float,
+                  classification: ClassificationConfig, side_m: float, units: int) -> Metrics:
+    """§5 metrics of a constant-current run in the fixed field ``field_world_T`` [T]: the rigid
+    reference with the realised dipole m = Σ I_L a_L [A m²], the flexible run's deviation from it,
+    the dipole–field angle at the time of maximum strain energy, the energy balance
+    E_kin + U − W_Lorentz − W_damping (relative to max |W_Lorentz|; ``work_names`` order the
+    recorded ``work_J`` columns), the self-field estimate and the classification (:func:`classify`).
+    ``st``: :func:`structural_series` of the node positions ``x``."""
+    t = rec["t"]
+    U = st["strain_energy_J"]
+    B = field_world_T
+    currents = lm.currents_A
+    m_body = currents @ areas_body_m2
+    # rigid reference with the realised dipole
+    R_rig, _ = rigid_dipole_attitude(t, inertia=inertia_kgm2, dipole_body=m_body, field_world=B)
+    ang_rig = rotation_angle(R_rig)
+    ang = st["rotation_angle_rad"]
+    dev = rotation_angle(st["R_bestfit"], relative_to=R_rig)
+    # dipole–field angle: realised dipole direction in the world
+    m_world = np.einsum("tij,j->ti", st["R_bestfit"], m_body)
+    cosang = m_world @ B / (np.linalg.norm(m_world, axis=1) * np.linalg.norm(B))
+    dip_field = np.arccos(np.clip(cosang, -1, 1))
+    U_max, t_U = _at(t, U)
+    iU = int(np.argmax(U))
+    ke = rec["kinetic_energy_J"]
+    work = rec.get("work_J")
+    names = work_names
+    W_L = work[:, names.index("lorentz")] if work is not None and "lorentz" in names else np.zeros_like(t)
+    W_D = work[:, names.index("damping")] if work is not None and "damping" in names else np.zeros_like(t)
+    residual = ke + U - W_L - W_D
+    scale = max(np.abs(W_L).max(), 1e-300)
+    rho_max = float(st["rigid_fit_residual_m"].max())
+    strain_max = float(st["strut_strain_max"].max())
+    h_max = float(st["thickness_m"].max())
+    dev_max = float(dev.max())
+    summary = {
+        "current_A": float(currents[0]) if currents.size == 1 else [float(v) for v in currents],
+        "dipole_realised_A_m2": float(np.linalg.norm(m_body)),
+        "strain_energy_max_J": U_max,
+        "t_strain_energy_max_s": t_U,
+        "thickness_max_m": h_max,
+        "rigid_fit_residual_max_m": rho_max,
+        "strut_strain_max": strain_max,
+        "rotation_angle_max_rad": float(ang.max()),
+        "rotation_angle_final_rad": float(ang[-1]),
+        "rigid_rotation_angle_final_rad": float(ang_rig[-1]),
+        "rotation_dev_from_rigid_max_rad": dev_max,
+        "dipole_field_angle_at_Umax_rad": float(dip_field[iU]),
+        "energy_balance_rel_err": float(np.abs(residual).max() / scale),
+        "lorentz_work_final_J": float(W_L[-1]),
+        "damping_work_final_J": float(W_D[-1]),
+        "stability_product_max": stability_product_max,
+        "self_field_max_T": float(self_field_max_T(lm.lattice.nodes, segments, currents)),
+        "classification": classify(classification, side_m=side_m, units=units, rho_max=rho_max,
+                                   strain_max=strain_max, h_max=h_max, dev_max=dev_max),
+    }
+    series = {k: v for k, v in st.items() if k != "R_bestfit"}
+    series.update(rotation_angle_deg=np.degrees(ang), rigid_rotation_angle_rad=ang_rig,
+                  rotation_dev_from_rigid_rad=dev, dipole_field_angle_rad=dip_field,
+                  energy_residual_J=residual, lorentz_work_J=W_L, damping_work_J=W_D,
+                  dipole_world_Am2=m_world, snapshot_index=np.array(iU))
+    return summary, series
+
+
+def slew_metrics(rec: dict[str, np.ndarray], *, areas_body_m2: np.ndarray) -> Metrics:
+    """§6 attitude metrics of a slew: error 2 arccos|q_e,w| [rad], times below 5° and 2°, largest
+    error after first reaching 5°, saturation fraction, torques, achieved dipole Σ I_L a_L [A m²]
+    and the largest current per axis [A]."""
+    t = rec["t"]
+    qe = rec["q_err"]
+    err = 2.0 * np.arccos(np.clip(np.abs(qe[:, 0]), 0.0, 1.0))
+    t5 = first_time_below(t, err, np.radians(5.0))
+    t2 = first_time_below(t, err, np.radians(2.0))
+    after = t >= t5 if t5 is not None else np.zeros_like(t, dtype=bool)
+    if np.any(after):
+        i = np.flatnonzero(after)[np.argmax(err[after])]
+        err_after, t_err_after = float(err[i]), float(t[i])
+    else:
+        err_after, t_err_after = None, None
+    sat = rec["saturated"].astype(bool)
+    torques = rec["torques_world_Nm"]
+    mag = np.linalg.norm(torques[:, 0], axis=1)
+    gg = np.linalg.norm(torques[:, 1], axis=1)
+    currents_axis = rec["currents_axis_A"]
+    m_ach = np.einsum("tl,lj->tj", rec["currents_A"], areas_body_m2)
+    summary: dict[str, Any] = {
+        "t_err_below_5deg_s": t5, "t_err_below_2deg_s": t2,
+        "err_max_after_settle_rad": err_after, "t_err_max_after_settle_s": t_err_after,
+        "err_final_rad": float(err[-1]),
+        "saturation_fraction": float(np.mean(np.any(sat, axis=1))),
+        "mag_torque_max_N_m": float(mag.max()), "gg_torque_max_N_m": float(gg.max()),
+        # issue #5 item 6 names
+        "time_to_target_s": t5,
+        "attitude_error_max_after_target_deg": None if err_after is None else float(np.degrees(err_after)),
+        "current_max_A": [float(v) for v in np.abs(currents_axis).max(axis=0)],
+    }
+    series = {"error_angle_rad": err, "error_angle_deg": np.degrees(err), "mag_torque_world_Nm": torques[:, 0],
+              "gg_torque_world_Nm": torques[:, 1], "dipole_achieved_body_Am2": m_ach}
+    try:
+        eul = euler_zyx(matrix_from_quat(rec["q"]))
+        series["euler_zyx_rad"] = np.stack(eul, axis=-1) if isinstance(eul, tuple) else eul
+    except Exception:  # noqa: BLE001 - a plotting aid only
+        pass
+    return summary, series
+
+
+def slew_structure(t: np.ndarray, st: dict[str, np.ndarray]) -> Metrics:
+    """Structural keys of a flexible slew from :func:`structural_series` ``st``: largest strain
+    energy [J] and its time [s], residual [m], strut strain, thickness [m]; the snapshot index."""
+    U = st["strain_energy_J"]
+    U_max, t_U = _at(t, U)
+    summary = dict(strain_energy_max_J=U_max, t_strain_energy_max_s=t_U, time_strain_max_s=t_U,
+                   rigid_fit_residual_max_m=float(st["rigid_fit_residual_m"].max()),
+                   strut_strain_max=float(st["strut_strain_max"].max()),
+                   thickness_max_m=float(st["thickness_m"].max()))
+    series = {k: v for k, v in st.items() if k != "R_bestfit"}
+    series["snapshot_index"] = np.array(int(np.argmax(U)))
+    return summary, series

@@ -1,0 +1,319 @@
+r"""Config schema of the MSAC concept (``magsail_mj/concepts/msac/configs/*.toml``): pydantic models of ``[bus]``,
+``[wings]``, ``[cycle]``, ``[drive]``, ``[post]``, ``[render]`` and ``[sweep]``, the cross-table
+checks of a scenario kind (``scenario`` = ``"lumped"``, ``"multibody"`` or ``"sweep"``), the
+paper's stated inputs (:data:`PAPER_VALUES`), the cycle of a config (:func:`make_path`) and the
+configs of sweep points (:func:`point_config`).
+
+Units SI; config angles in degrees at the edge (``*_deg``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+from pydantic import Field, model_validator
+
+from magsail_mj.concepts import register_config
+from magsail_mj.config import (
+    MAX_STEPS,
+    MJ_MINVAL,
+    ConfigError,
+    ConfigProblem,
+    SimConfig,
+    StrictModel,
+    parse_config,
+)
+from magsail_mj.concepts.msac.cycle import CyclePath
+from magsail_mj.concepts.msac.drive import steps_per_cycle
+
+__all__ = ["MsacConfig", "BusConfig", "WingsConfig", "CycleConfig", "DriveConfig", "PostConfig", "MsacRenderConfig",
+           "SweepConfig", "PAPER_VALUES", "PLACEHOLDERS", "make_path", "point_config", "flatten_keys"]
+
+Vec3 = tuple[float, float, float]
+
+#: Inputs the paper states (spec §5.1); every other physical parameter is a placeholder (§5.2).
+PAPER_VALUES: dict[str, Any] = {
+    "wings.length_m": 8.0,
+    "wings.width_m": 3.0,
+    "wings.count": 2,
+    "cycle.frequency_Hz": 1000.0,
+    "cycle.bend_a_deg": 10.0,
+    "cycle.extension_frac": 0.01,
+    "cycle.contraction_frac": 0.0,
+    "sim.duration_s": 600.0,
+}
+PLACEHOLDERS = ("bus.mass_kg", "bus.size_m", "bus.inertia_scale", "wings.thickness_m",
+                "wings.areal_density_kg_m2", "wings.hinge_offset_m", "cycle.bend_b_deg",
+                "cycle.phase_fractions", "cycle.blend", "wings.slide_stiffness_N_m",
+                "wings.root_mass_kg", "wings.root_inertia_kg_m2")
+
+
+
+
+class BusConfig(StrictModel):
+    """``[bus]``: uniform box (spec §5.2 placeholders).
+
+    ``inertia_scale`` multiplies all three box moments (only ``I_zz`` enters the planar motion;
+    scaling all three keeps the inertia physically valid, e.g. ×1000 for the lumped limit T5).
+    """
+
+    mass_kg: float = Field(default=3000.0, gt=0)
+    size_m: Vec3 = (2.0, 2.0, 3.0)
+    inertia_scale: float = Field(default=1.0, gt=0)
+
+    @model_validator(mode="after")
+    def _positive(self) -> BusConfig:
+        if any(not x > 0 for x in self.size_m):
+            raise ValueError(f"size_m: every edge must be > 0, got {list(self.size_m)}")
+        return self
+
+
+class WingsConfig(StrictModel):
+    """``[wings]``: two rigid wings, each one rigid slide + one hinge (spec §5.2, §5.4).
+
+    ``hinge_offset_m`` is ``r0`` (default: the ±X face of the 2 m bus). ``layout = "mirror"``
+    only for the negative test T4. ``root_*``: the hinge-body placeholder inertial (above
+    mjMINVAL = 1e-15). The wing mass σ ℓ w and its plate inertias must exceed mjMINVAL too
+    (checked with the whole config).
+    """
+
+    count: Literal[2] = 2
+    layout: Literal["point_symmetric", "mirror"] = "point_symmetric"
+    length_m: float = Field(default=8.0, gt=0)
+    width_m: float = Field(default=3.0, gt=0)
+    thickness_m: float = Field(default=0.03, gt=0)
+    areal_density_kg_m2: float = Field(default=2.5, gt=0)
+    hinge_offset_m: float = Field(default=1.0, ge=0)
+    extension_model: Literal["rigid_slide"] = "rigid_slide"
+    slide_stiffness_N_m: float = Field(default=0.0, ge=0)
+    root_mass_kg: float = Field(default=1e-3, gt=MJ_MINVAL)
+    root_inertia_kg_m2: float = Field(default=1e-6, gt=MJ_MINVAL)
+
+
+class CycleConfig(StrictModel):
+    """``[cycle]``: the four-phase path (spec §2, §5.5).
+
+    ``s_e = extension_frac·ℓ``, ``s_c = −contraction_frac·ℓ`` (the rest length is ``s = 0``).
+    ``phase_fractions`` are ``(t_be, t_c, t_bc, t_e)/Δt``. ``pattern`` selects the T2/T3 test
+    paths (``msac``, ``reversed``, ``bend_only``, ``extend_only``).
+    """
+
+    frequency_Hz: float = Field(default=1000.0, gt=0)
+    bend_a_deg: float = Field(default=10.0, ge=-90, le=90)
+    bend_b_deg: float = Field(default=-10.0, ge=-90, le=90)
+    extension_frac: float = Field(default=0.01, ge=0, le=0.5)
+    contraction_frac: float = Field(default=0.0, ge=0, le=0.5)
+    phase_fractions: tuple[float, float, float, float] = (0.4, 0.1, 0.4, 0.1)
+    blend: Literal["min_jerk", "cubic", "cosine"] = "min_jerk"
+    pattern: Literal["msac", "reversed", "bend_only", "extend_only"] = "msac"
+
+    @model_validator(mode="after")
+    def _fractions(self) -> CycleConfig:
+        if any(not f > 0 for f in self.phase_fractions) or abs(sum(self.phase_fractions) - 1) > 1e-9:
+            raise ValueError(f"phase_fractions: need four values > 0 summing to 1, got {list(self.phase_fractions)}")
+        return self
+
+
+class DriveConfig(StrictModel):
+    """``[drive]`` (spec §5.3–5.4): ``replay`` = native rollout of a recorded settled
+    computed-torque cycle plus joint servos; ``computed_torque`` = Python loop per step.
+    ``momentum_projection``: zero the total momentum every ``chunk_cycles`` cycles, removing
+    RK4's drift (see :mod:`magsail_mj.concepts.msac.runner`)."""
+
+    method: Literal["replay", "computed_torque"] = "replay"
+    omega_c_dt: float = Field(default=0.2, gt=0, le=1.0)
+    servo_omega_dt: float = Field(default=0.05, gt=0, le=0.5)
+    calibration_cycles: int = Field(default=3, ge=2)
+    chunk_cycles: int = Field(default=200, ge=1)
+    momentum_projection: bool = True
+
+
+class PostConfig(StrictModel):
+    """``[post]`` (spec §6): discarded start-up cycles, low-pass filter, edge discard, windows."""
+
+    discard_cycles: int = Field(default=1, ge=0)
+    lowpass_order: int = Field(default=4, ge=1, le=10)
+    lowpass_cutoff_Hz: float = Field(default=10.0, gt=0)
+    edge_discard_s: float = Field(default=1.0, ge=0)
+    min_filter_duration_s: float = Field(default=5.0, gt=0)
+    window_s: float = Field(default=0.02, gt=0)
+    omega_sample_Hz: float = Field(default=20000.0, gt=0)
+
+
+class MsacRenderConfig(StrictModel):
+    """``[render]``: camera looking down world Z (elevation −89.9° avoids the pole), video
+    options and the *visual-only* exaggeration of the extension used by the V1 video."""
+
+    azimuth_deg: float = 90.0
+    elevation_deg: float = -89.9
+    distance_m: float | None = Field(default=None, gt=0)
+    fps: int = Field(default=30, ge=1, le=120)
+    max_frames: int = Field(default=600, ge=2)
+    extension_exaggeration: float = Field(default=10.0, ge=1)
+
+
+class SweepConfig(StrictModel):
+    """``[sweep]``: ``keys`` are dotted config keys; each entry of ``points`` gives their values.
+
+    ``base`` names the scenario id the sweep starts from (``magsail_mj/concepts/msac/configs/<base>.toml``; a test
+    checks the file's other tables equal it). ``cycles`` sets each point's duration;
+    ``keep_steps_per_cycle`` rescales ``sim.timestep_s`` with the cycle period so that every
+    point has the base's steps per cycle (frequency sweeps, spec T6).
+    """
+
+    base: str
+    keys: list[str] = Field(min_length=1)
+    points: list[list[Any]] = Field(min_length=1)
+    cycles: int = Field(default=20, ge=3)
+    keep_steps_per_cycle: bool = True
+
+    @model_validator(mode="after")
+    def _shapes(self) -> SweepConfig:
+        for i, p in enumerate(self.points):
+            if len(p) != len(self.keys):
+                raise ValueError(f"points[{i}]: needs {len(self.keys)} value(s) for keys {self.keys}, got {p!r}")
+        return self
+
+
+@register_config("msac")
+class MsacConfig(StrictModel):
+    """An MSAC scenario config (``magsail_mj/concepts/msac/configs/*.toml``)."""
+
+    concept: Literal["msac"]
+    scenario: Literal["lumped", "multibody", "sweep"]
+    description: str = ""
+    sim: SimConfig
+    bus: BusConfig = BusConfig()
+    wings: WingsConfig = WingsConfig()
+    cycle: CycleConfig = CycleConfig()
+    drive: DriveConfig = DriveConfig()
+    post: PostConfig = PostConfig()
+    render: MsacRenderConfig = MsacRenderConfig()
+    sweep: SweepConfig | None = None
+
+    @model_validator(mode="after")
+    def _consistent(self) -> MsacConfig:
+        if (self.scenario == "sweep") != (self.sweep is not None):
+            raise ConfigProblem("scenario", "a [sweep] table goes with scenario = 'sweep' and only with it",
+                                others=("sweep",))
+        if self.scenario != "lumped":
+            self._check_steps_per_cycle()
+        if self.sweep is not None:
+            flat = flatten_keys(self.model_dump(mode="json", exclude={"sweep"}))
+            bad = [k for k in self.sweep.keys if k not in flat]
+            if bad:
+                raise ValueError(f"sweep.keys: {bad} are not config keys (e.g. 'cycle.extension_frac')")
+            self._check_points()
+        return self
+
+    def _check_points(self) -> None:
+        """Every sweep point must give a valid multibody config (validated as it will be run)."""
+        sw = self.sweep
+        problems = []
+        for i, values in enumerate(sw.points):
+            try:
+                point_config(self, sw.keys, values, cycles=sw.cycles, keep_steps_per_cycle=sw.keep_steps_per_cycle)
+            except ConfigError as err:
+                problems += [f"sweep.points[{i}]: {line} (from sweep.keys = {sw.keys}, values {values}, "
+                             f"sweep.cycles = {sw.cycles})" for line in err.problems]
+        if problems:
+            raise ValueError("; ".join(problems))
+
+    def _check_steps_per_cycle(self) -> None:
+        """The cycle period 1/f must be a whole number (>= 4) of time steps, fewer than 2⁶³."""
+        ratio = (1.0 / self.cycle.frequency_Hz) / self.sim.timestep_s
+        if not ratio < MAX_STEPS:
+            raise ConfigProblem("sim.timestep_s", f"the cycle period 1/cycle.frequency_Hz is {ratio:.3g} time steps, "
+                                f"more than a 64-bit step counter holds, got {self.sim.timestep_s!r}",
+                                others=("cycle.frequency_Hz",))
+        try:
+            steps_per_cycle(make_path(self), self.sim.timestep_s)
+        except ValueError as err:
+            raise ConfigProblem("sim.timestep_s", str(err).removeprefix("timestep_s: "),
+                                others=("cycle.frequency_Hz",)) from None
+
+    @model_validator(mode="after")
+    def _numbers(self) -> MsacConfig:
+        """The bodies MuJoCo receives (bus box, wing plates, hinge bodies) need masses and
+        principal inertias above mjMINVAL and finite, and the joint servo gains J ω_s² finite."""
+        b, w = self.bus, self.wings
+        bus_keys = ("bus.size_m", "bus.inertia_scale")
+        a, bb, c = b.size_m
+        for name, (p, q) in zip("xyz", ((bb, c), (a, c), (a, bb))):
+            _positive_product("bus.mass_kg", b.mass_kg / 12.0 * b.inertia_scale, p * p + q * q,
+                              what=f"bus inertia I_{name}", others=bus_keys)
+        wing_keys = ("wings.length_m", "wings.width_m", "wings.thickness_m")
+        m = _positive_product("wings.areal_density_kg_m2", w.areal_density_kg_m2, w.length_m * w.width_m,
+                              what="wing mass σ ℓ w", others=wing_keys)
+        l, wd, t = w.length_m, w.width_m, w.thickness_m
+        for name, (p, q) in zip("xyz", ((t, wd), (l, wd), (l, t))):
+            _positive_product("wings.areal_density_kg_m2", m / 12.0, p * p + q * q,
+                              what=f"wing inertia I_{name}", others=wing_keys)
+        omega = self.drive.servo_omega_dt / self.sim.timestep_s
+        hinge = m * (l * l + t * t) / 12.0 + m * (l / 2) * (l / 2)
+        _positive_product("drive.servo_omega_dt", max(hinge, m, 1.0), 2.0 * omega * omega, what="servo gain J ω_s²",
+                          others=("sim.timestep_s", "wings.areal_density_kg_m2", *wing_keys))
+        return self
+
+
+def _positive_product(key: str, a: float, b: float, *, what: str, others: tuple[str, ...]) -> float:
+    """``a · b``: a :class:`ConfigProblem` on ``key`` when it is not finite or not above mjMINVAL."""
+    value = a * b
+    if not math.isfinite(value):
+        raise ConfigProblem(key, f"makes the {what} overflow float64", others=others)
+    if not value > MJ_MINVAL:
+        raise ConfigProblem(key, f"makes the {what} {value:.6g}, which must be > {MJ_MINVAL:g} (mjMINVAL)",
+                            others=others)
+    return value
+
+
+def make_path(cfg: MsacConfig) -> CyclePath:
+    """The cycle of a config (spec §2): ``φa``, ``φb`` from degrees, ``s`` from fractions of ℓ."""
+    c, l = cfg.cycle, cfg.wings.length_m
+    return CyclePath(phi_a_rad=math.radians(c.bend_a_deg), phi_b_rad=math.radians(c.bend_b_deg),
+                     s_e_m=c.extension_frac * l, s_c_m=-c.contraction_frac * l,
+                     period_s=1.0 / c.frequency_Hz, fractions=tuple(c.phase_fractions),
+                     blend=c.blend, pattern=c.pattern)
+
+
+def point_config(cfg: MsacConfig, keys: list[str], values: list[Any], *, cycles: int | None = None,
+                 keep_steps_per_cycle: bool = True) -> MsacConfig:
+    """A multibody config: ``cfg`` with ``keys`` set to ``values`` (validated).
+
+    With ``cycles``, ``sim.duration_s`` becomes ``cycles/f``; with ``keep_steps_per_cycle`` the
+    timestep is rescaled so that the steps per cycle of ``cfg`` are kept.
+    """
+    tree = cfg.model_dump(mode="json")
+    tree.pop("sweep", None)
+    tree["scenario"] = "multibody"
+    n_base = int(round(1.0 / (cfg.cycle.frequency_Hz * cfg.sim.timestep_s)))
+    for key, value in zip(keys, values):
+        node = tree
+        parts = key.split(".")
+        for part in parts[:-1]:
+            if part not in node or not isinstance(node[part], dict):
+                raise ConfigError([f"sweep.keys: {key!r} is not a config key"], source="sweep point")
+            node = node[part]
+        if parts[-1] not in node:
+            raise ConfigError([f"sweep.keys: {key!r} is not a config key"], source="sweep point")
+        node[parts[-1]] = value
+    f = float(tree["cycle"]["frequency_Hz"])
+    if keep_steps_per_cycle:
+        tree["sim"]["timestep_s"] = 1.0 / (f * n_base)
+    if cycles is not None:
+        tree["sim"]["duration_s"] = cycles / f
+        tree["sim"]["record_every"] = n_base
+    return parse_config(tree, source="sweep point")
+
+
+def flatten_keys(tree: dict, prefix: str = "") -> dict[str, Any]:
+    """``{dotted.key: value}`` of a nested table (``{"a": {"b": 1}}`` → ``{"a.b": 1}``)."""
+    out = {}
+    for k, v in tree.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(flatten_keys(v, key + "."))
+        else:
+            out[key] = v
+    return out

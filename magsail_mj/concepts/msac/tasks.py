@@ -1,0 +1,326 @@
+r"""MSAC tasks: one class per scenario kind (config key ``scenario``), registered by name.
+
+* ``"lumped"`` → :class:`LumpedTask`: analytic only, Eqs. (6)–(7) (with the §3.2 sign
+  correction) and the exact planar model (§3.3); no MuJoCo steps
+  (:class:`magsail_mj.concepts.msac.runner.StaticRunner`).
+* ``"multibody"`` → :class:`MultibodyTask`: the MuJoCo model driven along the cycle by the
+  native-rollout / computed-torque runner (:class:`magsail_mj.concepts.msac.runner.MsacRunner`).
+* ``"sweep"`` → :class:`SweepTask`: a base config plus a ``[sweep]`` table; :class:`SweepRunner`
+  runs a :class:`MultibodyTask` per point (F6, F7).
+
+Each class is registered with :func:`magsail_mj.concepts.register_task` keyed by
+``("msac", scenario)``; :func:`magsail_mj.concepts.build_task` looks it up once.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from magsail_mj.concepts.msac.metrics import cycle_increments, filtered_rate, secular_rate_fit, unwrapped_yaw
+from magsail_mj.concepts.msac.reference import exact_rotation_samples
+from magsail_mj.concepts import build_task, register_task
+from magsail_mj.concepts.msac.mjcf import shape_indices
+from magsail_mj.concepts.msac.config import PAPER_VALUES, PLACEHOLDERS, MsacConfig, flatten_keys, point_config
+from magsail_mj.concepts.msac.model import MsacModel
+from magsail_mj.concepts.msac.plots import msac_plots, sweep_plot
+from magsail_mj.concepts.msac.runner import MsacRunner, StaticRunner
+from magsail_mj.sim import RunResult
+
+__all__ = ["MsacTask", "LumpedTask", "MultibodyTask", "SweepTask", "SweepRunner", "build_msac_scenario",
+           "multibody_summary"]
+
+
+class MsacTask:
+    """What every MSAC task shares: the built MSAC (``msac``; ``params``, ``path``, ``spec``,
+    ``model``, ``planar`` from it), the analytic references, the video settings and the manifest.
+    Subclasses set the runner, the outputs and the video overlay."""
+
+    #: series shown over the video
+    overlay: tuple[str, ...] = ()
+
+    def __init__(self, cfg: MsacConfig) -> None:
+        self.cfg = cfg
+        self.msac = MsacModel(cfg)
+        self.params, self.path, self.spec = self.msac.params, self.msac.path, self.msac.spec
+        self.model, self.planar = self.msac.model, self.msac.planar
+        self.runner: Any = None
+        self.last_summary: dict[str, Any] = {}
+
+    def references(self) -> dict[str, float]:
+        """Analytic summary entries (see :meth:`MsacModel.references`)."""
+        return self.msac.references()
+
+    def simulation(self) -> Any:
+        raise NotImplementedError
+
+    def summarise(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        raise NotImplementedError
+
+    def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """Summary (spec §8 and issue keys) and derived series (yaw, increments)."""
+        summary, series = self.summarise(result)
+        self.last_summary = summary
+        return summary, series
+
+    def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
+        return []
+
+    def render_info(self) -> dict[str, Any]:
+        r, cfg = self.cfg.render, self.cfg
+        reach = cfg.wings.hinge_offset_m + cfg.wings.length_m
+        return {
+            "title": f"MSAC {cfg.scenario}: {cfg.description}".strip(": ")[:80],
+            "overlay": list(self.overlay),
+            "camera": {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
+                       "distance_m": r.distance_m or 2.6 * reach},
+            "fps": r.fps,
+            "max_frames": r.max_frames,
+            "extension_exaggeration": r.extension_exaggeration,
+        }
+
+    def manifest_extra(self) -> dict[str, Any]:
+        cfg = self.cfg
+        flat = flatten_keys(cfg.model_dump(mode="json"))
+        table = {}
+        for key in list(PAPER_VALUES) + list(PLACEHOLDERS):
+            if key not in flat:
+                continue
+            v = flat[key]
+            if key in PAPER_VALUES:
+                src = "paper" if v == PAPER_VALUES[key] else f"config (paper: {PAPER_VALUES[key]})"
+            else:
+                src = "placeholder"
+            table[key] = {"value": v, "source": src}
+        m = self.model
+        return {
+            "model_size": {"bodies": int(m.nbody), "dofs": int(m.nv), "actuators": int(m.nu)},
+            "parameters": table,
+            "solver": {"integrator": cfg.sim.integrator, "timestep_s": cfg.sim.timestep_s,
+                       "steps_per_cycle": int(round(1 / (cfg.cycle.frequency_Hz * cfg.sim.timestep_s))),
+                       "drive": cfg.drive.method, "omega_c_dt": cfg.drive.omega_c_dt,
+                       "servo_omega_dt": cfg.drive.servo_omega_dt,
+                       "disableflags": int(m.opt.disableflags)},
+        }
+
+
+def multibody_summary(sc: MsacModel, result: RunResult, ref: dict[str, float]
+                      ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Summary of a multibody run of the built MSAC ``sc`` (spec §6, §8): stroboscopic increments,
+    two secular-rate estimates, angular-momentum drift, peak actuator loads, tracking error;
+    ``ref``: the analytic references (:meth:`MsacModel.references`)."""
+    cfg, rec = sc.cfg, result.records
+    T = sc.path.period_s
+    out: dict[str, Any] = dict(ref)
+    series: dict[str, np.ndarray] = {}
+    yaw_rec = unwrapped_yaw(rec["qpos"][:, 3:7]) if rec["qpos"].shape[0] else np.zeros(0)
+    series["yaw_unwrapped_rad"] = yaw_rec
+    st, sq = rec.get("strobe_t", np.zeros(0)), rec.get("strobe_quat", np.zeros((0, 4)))
+    yaw = unwrapped_yaw(sq) if sq.shape[0] else np.zeros(0)
+    series["strobe_yaw_unwrapped_rad"] = yaw
+    disc = cfg.post.discard_cycles
+    cycles = max(0, yaw.size - 1)
+    out.update({"cycles_simulated": cycles, "simulated_time_s": result.t_end_s,
+                "steps": result.steps, "wall_time_s": result.wall_time_s,
+                "wall_time_per_step_s": result.wall_time_s / max(result.steps, 1),
+                "timestep_s": cfg.sim.timestep_s, "steps_per_cycle": int(rec["run_steps_per_cycle"]),
+                "drive_method": cfg.drive.method, "status": result.status})
+    exact = ref["theta_gamma_exact_rad"]
+    if cycles > disc:
+        inc = cycle_increments(yaw, discard=disc)
+        series["strobe_increment_rad"] = inc.increments
+        kept_t, kept_y = st[disc:], yaw[disc:]
+        slope, _ = secular_rate_fit(kept_t, kept_y)
+        one_period = inc.mean / T
+        if result.t_end_s >= cfg.post.min_filter_duration_s and "omega_z_filtered_rad_s" in rec:
+            filt = filtered_rate(rec["omega_filt_t"], rec["omega_z_filtered_rad_s"], edge_s=cfg.post.edge_discard_s)
+            method = (f"butterworth order {cfg.post.lowpass_order}, {cfg.post.lowpass_cutoff_Hz:g} Hz, zero phase, "
+                      f"{cfg.post.edge_discard_s:g} s edges")
+        else:
+            filt, method = one_period, "one-period average (run shorter than min_filter_duration_s)"
+        out.update({
+            "theta_gamma_mujoco_rad": inc.mean,
+            "theta_gamma_mujoco_std_rad": inc.std,
+            "theta_gamma_first_cycle_rad": inc.first,
+            "rate_slope_rad_s": slope,
+            "rate_filtered_mean_rad_s": filt,
+            "rate_filtered_method": method,
+            "rate_one_period_mean_rad_s": one_period,
+            "rate_estimates_rel_diff": abs(slope - filt) / abs(slope) if slope else float("nan"),
+            "mujoco_vs_exact_rel_diff": (inc.mean - exact) / abs(exact) if exact else float("nan"),
+            "mujoco_vs_eq6_rel_diff": ((inc.mean - ref["theta_gamma_eq6_model_rad"])
+                                       / abs(ref["theta_gamma_eq6_model_rad"])
+                                       if ref["theta_gamma_eq6_model_rad"] else float("nan")),
+            "secular_rate_rad_s": slope,
+        })
+    else:
+        for key in ("theta_gamma_mujoco_rad", "theta_gamma_mujoco_std_rad", "theta_gamma_first_cycle_rad",
+                    "rate_slope_rad_s", "rate_filtered_mean_rad_s", "rate_estimates_rel_diff",
+                    "mujoco_vs_exact_rel_diff", "secular_rate_rad_s"):
+            out[key] = float("nan")
+    yaw_end = float(yaw_rec[-1] - yaw_rec[0]) if yaw_rec.size else float("nan")
+    out["yaw_unwrapped_final_rad"] = yaw_end
+    out["net_rotation_rad"] = yaw_end
+    out["angmom_drift_max_N_m_s"] = float(rec["run_angmom_drift_max_N_m_s"])
+    out["angmom_drift_z_max_N_m_s"] = float(rec["run_angmom_drift_z_max_N_m_s"])
+    out["angular_momentum_drift"] = out["angmom_drift_max_N_m_s"] / ref["angmom_scale_N_m_s"]
+    out["hinge_torque_peak_N_m"] = float(rec["run_hinge_torque_peak_N_m"])
+    out["slide_force_peak_N"] = float(rec["run_slide_force_peak_N"])
+    track = rec["run_tracking_error_max"]
+    out["tracking_error_bend_max_rad"] = float(max(track[0], track[2]))
+    out["tracking_error_slide_max_m"] = float(max(track[1], track[3]))
+    out["replay_settle_change"] = float(rec["run_replay_settle_change"])
+    proj = rec["run_momentum_projection_sum"]
+    out["momentum_projection_count"] = int(rec["run_momentum_projection_count"])
+    out["momentum_projection_max_N_m_s"] = float(rec["run_momentum_projection_max"])
+    # the signed drift the projection removed, per simulated second (the rotational part of
+    # the free joint's momentum, about the bus centre, body Z = world Z in planar motion)
+    out["angmom_drift_rate_unprojected_N_m_s_per_s"] = float(proj[5]) / max(result.t_end_s, 1e-300)
+    # exact model along the achieved shape path of one cycle of the last full-rate window
+    out["theta_gamma_exact_achieved_rad"] = float("nan")
+    N = int(rec["run_steps_per_cycle"])
+    if "win_t" in rec and rec["win_t"].size:
+        wid = rec["win_id"]
+        last = wid == wid.max()
+        wt, wq = rec["win_t"][last], rec["win_qpos"][last]
+        k0 = np.rint(wt / cfg.sim.timestep_s).astype(np.int64)
+        starts = np.flatnonzero(k0 % N == 0)
+        if starts.size and starts[0] + N < wt.size and starts[0] >= 0:
+            i0 = starts[0]
+            qa = shape_indices(sc.model)["qpos"]
+            seg = wq[i0:i0 + N + 1]
+            out["theta_gamma_exact_achieved_rad"] = float(
+                exact_rotation_samples(sc.planar, seg[:, qa[0]], seg[:, qa[1]])[-1])
+    return out, series
+
+
+@register_task("msac", "lumped")
+class LumpedTask(MsacTask):
+    """Analytic only: the references of the configured geometry; the runner takes no MuJoCo step."""
+
+    def simulation(self) -> StaticRunner:
+        self.runner = StaticRunner(self.model, self.path)
+        return self.runner
+
+    def summarise(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        return {**self.references(), "simulated_time_s": 0.0, "wall_time_s": result.wall_time_s}, {}
+
+
+@register_task("msac", "multibody")
+class MultibodyTask(MsacTask):
+    """The MuJoCo model driven along the cycle (native rollout or computed torque, ``drive.method``)."""
+
+    overlay = ("yaw_unwrapped_rad", "phase")
+
+    def simulation(self) -> MsacRunner:
+        cfg, p = self.cfg, self.cfg.post
+        self.runner = MsacRunner(
+            model=self.model, path=self.path, duration_s=cfg.sim.duration_s, method=cfg.drive.method,
+            record_every=cfg.sim.record_every, omega_c_dt=cfg.drive.omega_c_dt,
+            calibration_cycles=cfg.drive.calibration_cycles, chunk_cycles=cfg.drive.chunk_cycles,
+            window_s=p.window_s, omega_sample_hz=p.omega_sample_Hz, lowpass_order=p.lowpass_order,
+            lowpass_cutoff_hz=p.lowpass_cutoff_Hz, checkpoint_every_s=cfg.sim.checkpoint_every_s,
+            momentum_projection=cfg.drive.momentum_projection)
+        return self.runner
+
+    def summarise(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        return multibody_summary(self.msac, result, self.references())
+
+    def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
+        return msac_plots(run_dir, {**result.records, **series, "_summary": self.last_summary}, cfg=self.cfg,
+                          path=self.path, model=self.model)
+
+
+@register_task("msac", "sweep")
+class SweepTask(MsacTask):
+    """Every point of ``[sweep]`` as a multibody run plus its references (:class:`SweepRunner`)."""
+
+    def simulation(self) -> SweepRunner:
+        self.runner = SweepRunner(self.cfg)
+        return self.runner
+
+    def summarise(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        return self.runner.postprocess(result)
+
+    def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
+        return [sweep_plot(self.cfg, run_dir, {**result.records, **series})]
+
+
+def build_msac_scenario(cfg: MsacConfig) -> MsacTask:
+    """Task object of an MSAC config: the class registered for ``("msac", cfg.scenario)``
+    (:func:`magsail_mj.concepts.build_task`)."""
+    return build_task(cfg)
+
+
+@dataclass
+class SweepRunner:
+    """Runs every point of a ``[sweep]`` config ``cfg``: a :class:`MultibodyTask` of each point
+    (:func:`magsail_mj.concepts.msac.config.point_config`) run through its own runner, then its
+    summary.
+
+    ``records`` hold the first point's ``t``/``qpos`` (so the run folder renders) and, per
+    point, ``sweep_*`` arrays: the swept values, the per-cycle rotation from Eq. (6), the exact
+    model and MuJoCo, the secular rates, the peak hinge torque and slide force, and the
+    wall time.
+    """
+
+    cfg: MsacConfig
+    #: a sweep of whole runs: no checkpoints, so no stop/resume
+    checkpoints = False
+
+    def run(self, *, progress: bool = False, checkpoint_path: Any = None, resume: bool = False,
+            stop_after_s: float | None = None) -> RunResult:
+        cfg = self.cfg
+        sw = cfg.sweep
+        wall0 = time.perf_counter()
+        rows: list[dict[str, Any]] = []
+        first = None
+        steps = 0
+        for values in sw.points:
+            pc = point_config(cfg, sw.keys, values, cycles=sw.cycles, keep_steps_per_cycle=sw.keep_steps_per_cycle)
+            sc = MultibodyTask(pc)
+            res = sc.simulation().run(progress=False)
+            if res.status != "completed":  # a point that went bad ends the sweep with its status
+                if res.status == "interrupted":
+                    raise KeyboardInterrupt(res.message)
+                if first is None:
+                    first = res
+                return RunResult(records=first.records, status=res.status,
+                                 message=f"sweep point {dict(zip(sw.keys, values))}: {res.message}",
+                                 t_end_s=float(res.t_end_s), steps=steps + res.steps,
+                                 wall_time_s=time.perf_counter() - wall0)
+            summ, _ = sc.postprocess(res)
+            steps += res.steps
+            if first is None:
+                first = res
+            rows.append(summ)
+        keys = ("theta_gamma_eq6_model_rad", "theta_gamma_eq6_stretch_rad", "theta_gamma_exact_rad",
+                "theta_gamma_mujoco_rad", "theta_gamma_mujoco_std_rad", "mujoco_vs_exact_rel_diff",
+                "predicted_rate_lumped_rad_s", "predicted_rate_exact_rad_s", "secular_rate_rad_s",
+                "hinge_torque_peak_N_m", "slide_force_peak_N", "angular_momentum_drift",
+                "cycle_frequency_Hz", "timestep_s", "wall_time_s")
+        records = {"t": first.records["t"], "qpos": first.records["qpos"]}
+        for k in keys:
+            records[f"sweep_{k}"] = np.array([r[k] for r in rows], dtype=float)
+        for j, key in enumerate(sw.keys):
+            vals = [p[j] for p in sw.points]
+            arr = np.array(vals, dtype=float)
+            records[f"sweep_value_{j}"] = arr
+        return RunResult(records=records, status="completed", message=f"{len(rows)} sweep points",
+                         t_end_s=float(first.t_end_s), steps=steps, wall_time_s=time.perf_counter() - wall0)
+
+    def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        rec, sw = result.records, self.cfg.sweep
+        summ: dict[str, Any] = {"sweep_base": sw.base, "sweep_keys": list(sw.keys),
+                                "sweep_points": [list(p) for p in sw.points], "sweep_cycles": sw.cycles,
+                                "wall_time_s": result.wall_time_s}
+        for k, v in rec.items():
+            if k.startswith("sweep_") and not k.startswith("sweep_value"):
+                summ[k] = v.tolist()
+        d = np.abs(rec["sweep_mujoco_vs_exact_rel_diff"])
+        summ["sweep_mujoco_vs_exact_rel_diff_max"] = float(np.nanmax(d)) if d.size else float("nan")
+        return summ, {}

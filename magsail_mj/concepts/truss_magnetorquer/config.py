@@ -1,0 +1,359 @@
+"""Config schema of the flexible truss concept (``truss_magnetorquer``), spec truss-magnetorquer-array.md.
+
+Scenario kinds (``scenario``): ``dist_vs_central`` (§6), ``cantilever`` (§2.7), ``free``,
+``detumble`` (§9.3) and ``slew`` (§9.4–9.6); their tasks are in
+:mod:`magsail_mj.concepts.truss_magnetorquer.tasks`. Keys in SI units (suffixes name them).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from magsail_mj.concepts import register_config
+from magsail_mj.config import (
+    MJ_MINVAL,
+    ConfigProblem,
+    LatticeRenderConfig,
+    SimConfig,
+    StrictModel,
+    check_lattice_numbers,
+    finite_product,
+)
+from magsail_mj.environment.config import (
+    AtmosphereConfig,
+    DragConfig,
+    EnvironmentConfig,
+    FieldConfig,
+    GravityConfig,
+    OrbitConfig,
+    SRPConfig,
+    SunConfig,
+    environment_problems,
+)
+
+__all__ = [
+    "ORBITAL_SCENARIOS", "ORBITAL_CONTROL_KINDS", "TrussConfig", "LatticeConfig", "MassConfig", "PointMass",
+    "StiffnessConfig", "DampingConfig", "ActuatorsConfig", "LloydConfig", "TrussControlConfig", "ManeuverConfig",
+    "ProfileConfig", "TrussInitialConfig", "CantileverConfig", "TrussRenderConfig", "first_cantilever_omega",
+]
+
+Vec3 = tuple[float, float, float]
+
+ORBITAL_CONTROL_KINDS = {"detumble": ("bdot", "open_loop"), "slew": ("quat_pd", "open_loop")}
+"""Scenario kinds driven by the magnetorquer rod array in orbit (spec §9.3–9.6) → the
+``control.kind`` values each takes."""
+ORBITAL_SCENARIOS = tuple(ORBITAL_CONTROL_KINDS)
+"""Scenario kinds driven by the magnetorquer rod array in orbit (spec §9.3–9.6)."""
+
+
+class LatticeConfig(StrictModel):
+    """``[lattice]``: ``units`` cubes per side (N = units + 1 nodes per side, spec §12 E2)."""
+
+    units: int = Field(ge=1, le=200)
+    side_m: float = Field(gt=0)
+    diagonals: Literal["parity", "X"] = "parity"
+
+
+class PointMass(StrictModel):
+    """An extra particle mass ``kg`` [kg] on lattice node ``node`` (0 .. n_nodes − 1)."""
+
+    node: int = Field(ge=0)
+    kg: float = Field(gt=MJ_MINVAL)
+
+
+class MassConfig(StrictModel):
+    """``[mass]``: total mass (``total_kg`` or ``areal_density_kg_m2`` × side²), spec §2.3."""
+
+    total_kg: float | None = Field(default=None, gt=0)
+    areal_density_kg_m2: float | None = Field(default=None, gt=0)
+    central_fraction: float = Field(default=0.0, ge=0, lt=1)
+    central_nodes: Literal["cube8"] = "cube8"
+    point_masses: list[PointMass] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _one_mass(self) -> MassConfig:
+        if (self.total_kg is None) == (self.areal_density_kg_m2 is None):
+            raise ConfigProblem("total_kg", "give exactly one of total_kg and areal_density_kg_m2",
+                                others=("areal_density_kg_m2",))
+        return self
+
+
+class StiffnessConfig(StrictModel):
+    """``[stiffness]``: target plate bending stiffness and its mapping (spec §2.5, §2.7)."""
+
+    EI_Nm2: float = Field(gt=0)
+    calibration: Literal["cantilever", "formula"] = "cantilever"
+
+
+class DampingConfig(StrictModel):
+    """``[damping]``: strut damping ratio ζ_s (spec §2.6, §12 S5)."""
+
+    zeta_strut: float = Field(default=0.1, ge=0)
+
+
+class ActuatorsConfig(StrictModel):
+    """``[actuators]``: generic strut torquers (spec §3.1, §6.2) or magnetorquer rods (§3.2, §9.1).
+
+    ``kind = "generic"`` uses ``placement``, ``central_pair``, ``torque_axis``.
+    ``kind = "magnetorquer"``: rods in every top-layer x1- and y1-strut (§7.1, §12 O5), dipole
+    from ``kappa_Am2_per_kg`` [A m²/kg] × ``rod_mass_kg`` [kg] shared per ``rod_dipole_basis``
+    (``"per_family"``: κ_τ M_τ per family, 26.32 A m² per rod for the §9.1 truss; ``"total"``: κ_τ M_τ
+    over both families, 13.16 A m²; §12 item O4). The rod mass is part of ``mass.total_kg``,
+    spread uniformly over the particles (§12 item S4).
+    """
+
+    kind: Literal["generic", "magnetorquer"] = "generic"
+    placement: Literal["distributed", "central"] = "distributed"
+    central_pair: Literal["top", "diagonal"] = "top"
+    torque_axis: Literal["local", "bestfit"] = "local"
+    kappa_Am2_per_kg: float = Field(default=100.0, gt=0)
+    rod_mass_kg: float | None = Field(default=None, gt=0)
+    rod_dipole_basis: Literal["per_family", "total"] = "per_family"
+
+    @model_validator(mode="after")
+    def _rods(self) -> ActuatorsConfig:
+        if self.kind == "magnetorquer":
+            if self.rod_mass_kg is None:
+                raise ValueError("rod_mass_kg is required when kind = 'magnetorquer'")
+            if self.placement != "distributed":
+                raise ValueError("placement: magnetorquer rods sit in every top-layer strut; "
+                                 f"only 'distributed' is allowed, got {self.placement!r}")
+        return self
+
+
+class LloydConfig(StrictModel):
+    """``[control.lloyd]``: rod selection (spec §7.4); ``seed`` absent = ``sim.seed``."""
+
+    seed: int | None = Field(default=None, ge=0)
+    tol_rel: float = Field(default=1e-6, gt=0, lt=1)
+    max_iter: int = Field(default=10_000, ge=1)
+
+
+class TrussControlConfig(StrictModel):
+    """``[control]`` of the orbital rod-array scenarios (spec §9.3–9.4, §11).
+
+    ``kind``: ``"bdot"`` (§9.3, gain ``k_bdot_Nms_per_T2``), ``"quat_pd"`` (§9.4: diagonal gains
+    ``Pq_Nm``, ``Pw_Nms``; gravity-gradient compensation ``gg_comp`` with the Eq. 21 inertia, or
+    ``gg_comp_inertia_kgm2`` when given, e.g. the printed ``[1893, 1893, 2867]``, §12 O3) or
+    ``"open_loop"`` (the ``[profile]`` torque through the allocation).
+    ``period_s``: control period (absent = every integration step, §12 O6).
+    ``rate_method``: backward-difference form of §4.2. ``allocation``: §7.3 mode (§12 T5).
+    ``cache_dir``: on-disk Lloyd cache (relative paths from the working directory; ``""`` = none);
+    a count missing there costs one Lloyd run (~1.4 s) the first time it is commanded.
+    ``low_authority_threshold_Nm``: |T_ref| above which low delivered torque is reported (§9.4).
+    """
+
+    kind: Literal["bdot", "quat_pd", "open_loop"]
+    period_s: float | None = Field(default=None, gt=0)
+    rate_method: Literal["log", "first_order"] = "log"
+    k_bdot_Nms_per_T2: float = Field(default=1e12, ge=0)
+    Pq_Nm: Vec3 = (10.0, 50.0, 1.0)
+    Pw_Nms: Vec3 = (1600.0, 8000.0, 800.0)
+    gg_comp: bool = True
+    gg_comp_inertia_kgm2: Vec3 | None = None
+    allocation: Literal["paper", "exact"] = "paper"
+    lloyd: LloydConfig = LloydConfig()
+    cache_dir: str = "runs/lloyd_cache"
+    low_authority_threshold_Nm: float = Field(default=0.02, ge=0)
+
+    @model_validator(mode="after")
+    def _gains(self) -> TrussControlConfig:
+        for name in ("Pq_Nm", "Pw_Nms"):
+            if any(not (g >= 0) for g in getattr(self, name)):
+                raise ValueError(f"{name}: gains must be >= 0, got {getattr(self, name)!r}")
+        if self.gg_comp_inertia_kgm2 is not None and any(not (v > 0) for v in self.gg_comp_inertia_kgm2):
+            raise ValueError(f"gg_comp_inertia_kgm2: moments must be > 0 kg m², got {self.gg_comp_inertia_kgm2!r}")
+        return self
+
+
+Quat = tuple[float, float, float, float]
+
+
+def _check_unit_quat(q: Quat | None, name: str) -> None:
+    if q is not None and abs(math.hypot(*q) - 1.0) > 1e-4:
+        raise ValueError(f"{name}: must be a unit quaternion [w, x, y, z] (|q| within 1e-4 of 1), "
+                         f"got norm {math.hypot(*q):.6g}")
+
+
+class ManeuverConfig(StrictModel):
+    """``[maneuver]`` (spec §9.4, §11): initial and target attitude, body → inertial, scalar first.
+
+    ``q0_wxyz`` (when given) is the initial attitude and replaces ``initial.q0_wxyz``;
+    ``q_ref_wxyz`` is the slew target. Both are normalised before use.
+    """
+
+    q0_wxyz: Quat | None = None
+    q_ref_wxyz: Quat | None = None
+
+    @model_validator(mode="after")
+    def _unit(self) -> ManeuverConfig:
+        _check_unit_quat(self.q0_wxyz, "q0_wxyz")
+        _check_unit_quat(self.q_ref_wxyz, "q_ref_wxyz")
+        return self
+
+
+class ProfileConfig(StrictModel):
+    """``[profile]``: open-loop torque about body ``axis`` (spec §6.3–6.4)."""
+
+    kind: Literal["bang_bang_off", "versine"]
+    tau_max_Nm: float = Field(ge=0)
+    t_end_s: float = Field(gt=0)
+    t_v_s: float | None = Field(default=None, gt=0)
+    axis: Literal["x1", "y1", "z1"] = "x1"
+
+
+class TrussInitialConfig(StrictModel):
+    """``[initial]``: rigid initial attitude (body → world, scalar-first) and body rate."""
+
+    q0_wxyz: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
+    omega0_rad_s: Vec3 = (0.0, 0.0, 0.0)
+
+    @model_validator(mode="after")
+    def _unit_quaternion(self) -> TrussInitialConfig:
+        if abs(math.hypot(*self.q0_wxyz) - 1.0) > 1e-6:
+            raise ValueError(f"q0_wxyz: must be a unit quaternion, got norm {math.hypot(*self.q0_wxyz):.6g}")
+        return self
+
+
+class CantileverConfig(StrictModel):
+    """``[cantilever]`` (spec §2.7): tip load and the settle damping (default 2 ω₁)."""
+
+    load_N: float = Field(gt=0)
+    settle_damping_1_s: float | None = Field(default=None, gt=0)
+
+
+class TrussRenderConfig(LatticeRenderConfig):
+    """``[render]``: video options."""
+
+
+@register_config("truss_magnetorquer")
+class TrussConfig(StrictModel):
+    """A truss scenario config (``magsail_mj/concepts/truss_magnetorquer/configs/*.toml``)."""
+
+    concept: Literal["truss_magnetorquer"]
+    scenario: Literal["dist_vs_central", "cantilever", "free", "detumble", "slew"]
+    description: str = ""
+    sim: SimConfig
+    lattice: LatticeConfig
+    mass: MassConfig
+    stiffness: StiffnessConfig
+    damping: DampingConfig = DampingConfig()
+    actuators: ActuatorsConfig | None = None
+    profile: ProfileConfig | None = None
+    initial: TrussInitialConfig = TrussInitialConfig()
+    cantilever: CantileverConfig | None = None
+    control: TrussControlConfig | None = None
+    maneuver: ManeuverConfig = ManeuverConfig()
+    render: TrussRenderConfig = TrussRenderConfig()
+    orbit: OrbitConfig = OrbitConfig(enabled=False)
+    field: FieldConfig = FieldConfig(model="none")
+    atmosphere: AtmosphereConfig = AtmosphereConfig(model="none")
+    sun: SunConfig = SunConfig(model="none")
+    srp: SRPConfig = SRPConfig()
+    drag: DragConfig = DragConfig()
+    gravity: GravityConfig = GravityConfig(tidal=False)
+
+    @property
+    def total_mass_kg(self) -> float:
+        """Total mass [kg] (``total_kg`` or areal density × side²)."""
+        m = self.mass
+        side = self.lattice.side_m
+        return m.total_kg if m.total_kg is not None else m.areal_density_kg_m2 * side * side
+
+    @property
+    def q0_wxyz(self) -> Quat:
+        """Initial attitude: ``maneuver.q0_wxyz`` when given, else ``initial.q0_wxyz``."""
+        return self.maneuver.q0_wxyz if self.maneuver.q0_wxyz is not None else self.initial.q0_wxyz
+
+    def _check_orbital(self) -> None:
+        sc = self.scenario
+        if self.actuators is None or self.actuators.kind != "magnetorquer":
+            raise ValueError(f"scenario {sc!r} needs [actuators] with kind = 'magnetorquer'")
+        if self.control is None:
+            raise ValueError(f"scenario {sc!r} needs the [control] table")
+        if not self.orbit.enabled or self.field.model == "none":
+            raise ValueError(f"scenario {sc!r} needs orbit.enabled = true and a field model other than 'none'")
+        want = ORBITAL_CONTROL_KINDS[sc]
+        if self.control.kind not in want:
+            raise ValueError(f"control.kind: scenario {sc!r} takes {list(want)}, got {self.control.kind!r}")
+        if self.control.kind == "open_loop" and self.profile is None:
+            raise ValueError("control.kind: 'open_loop' needs the [profile] table")
+        if sc == "slew" and self.maneuver.q_ref_wxyz is None:
+            raise ValueError("scenario 'slew' needs maneuver.q_ref_wxyz (target attitude)")
+        if self.control.period_s is not None and self.control.period_s < self.sim.timestep_s * (1 - 1e-9):
+            raise ValueError(f"control.period_s: must be >= sim.timestep_s = {self.sim.timestep_s} s, "
+                             f"got {self.control.period_s}")
+
+    def environment_config(self) -> EnvironmentConfig:
+        """The environment tables as one validated :class:`EnvironmentConfig`."""
+        return EnvironmentConfig(orbit=self.orbit, field=self.field, atmosphere=self.atmosphere, sun=self.sun,
+                                 srp=self.srp, drag=self.drag, gravity=self.gravity)
+
+    @model_validator(mode="after")
+    def _tables_for_scenario(self) -> TrussConfig:
+        if self.scenario == "dist_vs_central" and (self.actuators is None or self.profile is None):
+            raise ValueError("scenario 'dist_vs_central' needs the [actuators] and [profile] tables")
+        if self.scenario == "cantilever" and self.cantilever is None:
+            raise ValueError("scenario 'cantilever' needs the [cantilever] table")
+        if self.scenario == "cantilever" and self.orbit.enabled:
+            raise ValueError("scenario 'cantilever' runs in free space: set orbit.enabled = false")
+        if self.scenario in ORBITAL_SCENARIOS:
+            self._check_orbital()
+        elif self.control is not None:
+            raise ValueError(f"control: the [control] table is used by the scenarios {list(ORBITAL_SCENARIOS)}, "
+                             f"not {self.scenario!r}")
+        if self.actuators is not None and self.actuators.kind == "magnetorquer":
+            if self.scenario not in ORBITAL_SCENARIOS:
+                raise ValueError(f"actuators.kind: 'magnetorquer' needs scenario in {list(ORBITAL_SCENARIOS)}, "
+                                 f"got {self.scenario!r}")
+            total = self.total_mass_kg
+            if self.actuators.rod_mass_kg > total:
+                raise ConfigProblem("actuators.rod_mass_kg", f"{self.actuators.rod_mass_kg} kg exceeds the total "
+                                    f"mass {total} kg (the rods are part of it, §12 S4)", others=(self._mass_key,))
+            finite_product("actuators.kappa_Am2_per_kg", self.actuators.kappa_Am2_per_kg, self.actuators.rod_mass_kg,
+                           what="rod dipole κ M", others=("actuators.rod_mass_kg",))
+        if (self.maneuver.q0_wxyz is not None and "q0_wxyz" in self.initial.model_fields_set
+                and not np.allclose(self.maneuver.q0_wxyz, self.initial.q0_wxyz)):
+            raise ValueError("maneuver.q0_wxyz and initial.q0_wxyz differ: give the initial attitude once")
+        problems = environment_problems(self)
+        if problems:
+            raise ValueError("; ".join(problems))
+        return self
+
+    @property
+    def _mass_key(self) -> str:
+        return "mass.total_kg" if self.mass.total_kg is not None else "mass.areal_density_kg_m2"
+
+    @model_validator(mode="after")
+    def _numbers(self) -> TrussConfig:
+        """What MuJoCo receives (particle masses and inertias, spring and dashpot constants) must
+        be finite and above mjMINVAL; so must the cantilever settle damping."""
+        total = finite_product(self._mass_key, self.total_mass_kg, what="total mass", others=("lattice.side_m",))
+        fraction = 1.0 - self.mass.central_fraction
+        check_lattice_numbers(units=self.lattice.units, side_m=self.lattice.side_m, total_kg=total,
+                              EI_Nm2=self.stiffness.EI_Nm2, zeta=self.damping.zeta_strut,
+                              node_mass_fraction=fraction,
+                              keys={"side": "lattice.side_m", "mass": self._mass_key, "EI": "stiffness.EI_Nm2",
+                                    "zeta": "damping.zeta_strut"})
+        n_nodes = 2 * (self.lattice.units + 1) ** 2
+        for i, p in enumerate(self.mass.point_masses):
+            if p.node >= n_nodes:
+                raise ConfigProblem(f"mass.point_masses[{i}].node", f"must be a node index below {n_nodes} "
+                                    f"(the lattice's nodes), got {p.node}")
+        if self.scenario == "cantilever" and self.cantilever is not None:
+            c = self.cantilever
+            omega = first_cantilever_omega(self) if c.settle_damping_1_s is None else c.settle_damping_1_s
+            finite_product("cantilever.settle_damping_1_s", 2.0 * omega, total, what="node damping",
+                           minimum=-1.0, others=("stiffness.EI_Nm2", self._mass_key))
+        return self
+
+
+def first_cantilever_omega(cfg: TrussConfig) -> float:
+    """ω₁ = 1.875² √(EI / (ρ_L L⁴)) with ρ_L = M/d (spec §2.7) [rad/s]."""
+    total = cfg.total_mass_kg
+    L = cfg.lattice.side_m
+    return 1.875**2 * math.sqrt(cfg.stiffness.EI_Nm2 / (total / L) / L / L / L / L)

@@ -1,0 +1,211 @@
+"""Post-processing of truss runs into summary figures and time series (spec §4–§6, §2.7).
+
+Every function takes the data it needs (the :class:`~magsail_mj.concepts.truss_magnetorquer.model.TrussModel`,
+node positions ``pos`` (T, n, 3) [m] in the world frame, the run's records, config values), never
+the scenario object. Body frame: the best-fit rotation ``R`` (body → world) of the lattice (§4.1).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy.integrate import cumulative_trapezoid
+
+from magsail_mj.analysis.energy import strain_energy, structural_failure
+from magsail_mj.analysis.flatness import surface_sd
+from magsail_mj.concepts.truss_magnetorquer.surface_angle import local_surface_angle
+from magsail_mj.control.profiles import torque_profile
+from magsail_mj.environment.frames import lvlh_frame
+from magsail_mj.estimation.attitude import best_fit_rotation, body_rates, euler_zyx, particle_inertia
+from magsail_mj.lattice.properties import cantilever_linear, loaded_nodes, strut_stiffness
+from magsail_mj.concepts.truss_magnetorquer.config import ProfileConfig
+from magsail_mj.concepts.truss_magnetorquer.model import TrussModel
+from magsail_mj.sim import RunResult
+
+__all__ = ["common_summary", "dynamic_summary", "profile_response", "cantilever_summary", "lvlh_attitude",
+           "rigid_response", "PROFILE_AXES"]
+
+PROFILE_AXES = {"x1": 0, "y1": 1, "z1": 2}
+"""Body axis index of a ``profile.axis`` name."""
+
+
+def rigid_response(kind: str, t: np.ndarray, *, tau_max: float, t_end: float, t_v: float | None,
+                   inertia: float, dt_fine: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
+    """Rigid-body angle and rate about the torque axis: ω = ∫τ/I dt, φ = ∫ω dt (from rest).
+
+    Integrated by the trapezoid rule on a ``dt_fine`` grid (exact for the piecewise-constant
+    bang-bang profile up to the breakpoints' grid alignment) and sampled at ``t``.
+    """
+    tf = np.arange(0.0, float(np.max(t)) + dt_fine, dt_fine)
+    tau = torque_profile(kind, tf, tau_max=tau_max, t_end=t_end, t_v=t_v)
+    w = cumulative_trapezoid(tau / inertia, tf, initial=0.0)
+    phi = cumulative_trapezoid(w, tf, initial=0.0)
+    return np.interp(t, tf, phi), np.interp(t, tf, w)
+
+
+def common_summary(tm: TrussModel, pos: np.ndarray, result: RunResult, *, max_strain: float,
+                   zeta_strut: float) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """§11 "all dynamic runs" keys: status, surface SD σ_SD of the top layer [m], strain energy
+    Σ ½ k (|r_j − r_i| − L)² [J], largest strut strain, structural failure (strain above
+    ``max_strain`` or an inverted cube), damping constants; series ``surface_sd_m``,
+    ``strain_energy_J``, ``strut_strain_max``."""
+    lat = tm.lattice
+    t = result.records["t"]
+    top = lat.top_nodes
+    sd = surface_sd(pos[:, top])
+    energy = strain_energy(pos, lat.struts, tm.k, lat.rest_length)
+    fail = structural_failure(pos, lat.struts, lat.rest_length, tets=lat.cube_tetrahedra(),
+                              reference=lat.nodes, strain_limit=max_strain)
+    failed_idx = np.flatnonzero(fail.failed)
+    kmax = int(np.nanargmax(sd)) if sd.size else 0
+    summary: dict[str, Any] = {
+        "status": result.status,
+        "status_message": result.message,
+        "t_end_s": float(t[-1]) if t.size else 0.0,
+        "surface_sd_max_m": float(np.nanmax(sd)) if sd.size else float("nan"),
+        "t_surface_sd_max_s": float(t[kmax]) if t.size else float("nan"),
+        "strain_energy_max_J": float(np.nanmax(energy)) if energy.size else float("nan"),
+        "strut_strain_max": float(np.nanmax(fail.max_abs_strain)) if t.size else float("nan"),
+        "failed": bool(failed_idx.size > 0 or result.status == "diverged"),
+        "t_failed_s": float(t[failed_idx[0]]) if failed_idx.size else float("nan"),
+        "gamma_Ns_m": float(tm.gamma),
+        "zeta_strut": float(zeta_strut),
+        "stiffness_calibration_factor": float(tm.calibration_factor),
+        "wall_time_s": float(result.wall_time_s),
+    }
+    series = {"surface_sd_m": sd, "strain_energy_J": energy, "strut_strain_max": fail.max_abs_strain}
+    return summary, series
+
+
+def dynamic_summary(tm: TrussModel, pos: np.ndarray, result: RunResult, *, omega0_body: np.ndarray,
+                    max_strain: float, zeta_strut: float,
+                    environment: Any = None) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Summary of a dynamic run (``dist_vs_central`` and ``free``), spec §6.6 and §11.
+
+    Attitude from the best-fit rotation ``R`` (ZYX Euler angles ψ, θ, φ [rad]), body rates ω
+    [rad/s] by backward differences (``omega0_body`` at the first sample), the local surface angle
+    at the time of maximum σ_SD (§5.2) and, with an ``environment``, the LVLH attitude
+    (:func:`lvlh_attitude`).
+    """
+    summary, series = common_summary(tm, pos, result, max_strain=max_strain, zeta_strut=zeta_strut)
+    lat = tm.lattice
+    t = result.records["t"]
+    if t.size < 2:
+        return summary, series
+    R, _ = best_fit_rotation(lat.nodes, pos)
+    psi, theta, phi = euler_zyx(R, unwrap=True)
+    dt_rec = float(t[1] - t[0])
+    omega = body_rates(R, dt_rec, omega0=np.asarray(omega0_body))
+    inertia = particle_inertia(lat.nodes, tm.masses)
+    series.update(psi_rad=psi, theta_rad=theta, phi_rad=phi, omega_body_rad_s=omega,
+                  R_body_to_world=R)
+    summary.update({
+        "rotation_x1_final_rad": float(phi[-1]),
+        "phi_final_rad": float(phi[-1]),
+        "off_axis_rotation_max_rad": float(max(np.max(np.abs(psi)), np.max(np.abs(theta)))),
+        "psi_peak_abs_rad": float(np.max(np.abs(psi))),
+        "theta_peak_abs_rad": float(np.max(np.abs(theta))),
+        "omega1_peak_rad_s": float(np.max(np.abs(omega[:, 0]))),
+        "I_kgm2": inertia.moments.tolist(),
+    })
+    kmax = int(np.nanargmax(series["surface_sd_m"]))
+    ang = local_surface_angle(pos[kmax, lat.top_nodes], R[kmax], nodes_per_side=lat.nodes_per_side)
+    series.update(surface_angle_map_rad=ang.alpha, surface_angle_u_m=ang.u, surface_angle_v_m=ang.v)
+    summary.update({
+        "surface_angle_median_rad": float(ang.median), "surface_angle_p95_rad": float(ang.p95),
+        "surface_angle_max_rad": float(ang.max), "surface_angle_edge_max_rad": float(ang.edge_max),
+    })
+    if environment is not None:
+        summary.update(environment.summary())
+        series.update(lvlh_attitude(environment, t, R))
+        summary["normal_to_orbit_normal_max_rad"] = float(np.max(series["normal_to_orbit_normal_rad"]))
+    return summary, series
+
+
+def profile_response(profile: ProfileConfig, t: np.ndarray, surface_sd_m: np.ndarray, *, inertia_kgm2: float,
+                     torque_cmd_body_Nm: np.ndarray) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """The open-loop torque run against the rigid body (spec §6.6): rigid angle and rate about the
+    profile axis (:func:`rigid_response` with the moment ``inertia_kgm2`` [kg m²]) and σ_SD after the
+    torque is off (t > 2 t_end / 3): mean, peak-to-peak [m] and linear slope [m/s]."""
+    p = profile
+    ang_rigid, rate_rigid = rigid_response(p.kind, t, tau_max=p.tau_max_Nm, t_end=p.t_end_s, t_v=p.t_v_s,
+                                           inertia=inertia_kgm2)
+    series = {"phi_rigid_rad": ang_rigid, "omega_rigid_rad_s": rate_rigid,
+              "torque_cmd_x1_Nm": torque_cmd_body_Nm[:, 0]}
+    summary: dict[str, Any] = {"phi_rigid_final_rad": float(ang_rigid[-1])}
+    t_off = 2.0 * p.t_end_s / 3.0
+    after = t > t_off
+    if np.count_nonzero(after) >= 2:
+        sd_after = surface_sd_m[after]
+        summary.update({
+            "surface_sd_after_off_mean_m": float(np.mean(sd_after)),
+            "surface_sd_after_off_p2p_m": float(np.ptp(sd_after)),
+            "surface_sd_after_off_slope_m_per_s": float(np.polyfit(t[after], sd_after, 1)[0]),
+        })
+    else:
+        summary.update({k: float("nan") for k in ("surface_sd_after_off_mean_m", "surface_sd_after_off_p2p_m",
+                                                  "surface_sd_after_off_slope_m_per_s")})
+    return summary, series
+
+
+def lvlh_attitude(environment, t: np.ndarray, R: np.ndarray) -> dict[str, np.ndarray]:
+    """Attitude relative to the reference orbit's LVLH frame (x̂ = r̂, ẑ = orbit normal ĥ).
+
+    ``R_lvlh = L R`` with ``L`` the ECI → LVLH rotation; its ZYX angles (yaw ψ about ĥ, pitch,
+    roll), and the angle between the plate normal (body z1) and ĥ.
+    """
+    samples = environment.sample_many(t)
+    L = lvlh_frame(samples["r_ref_eci"], samples["v_ref_eci"])
+    R_lvlh = L @ R
+    yaw, pitch, roll = euler_zyx(R_lvlh, unwrap=True)
+    cos_n = np.clip(np.einsum("ti,ti->t", R[:, :, 2], L[:, 2, :]), -1.0, 1.0)
+    return {"lvlh_yaw_rad": yaw, "lvlh_pitch_rad": pitch, "lvlh_roll_rad": roll,
+            "normal_to_orbit_normal_rad": np.arccos(cos_n), "r_ref_eci_m": samples["r_ref_eci"]}
+
+
+def cantilever_summary(tm: TrussModel, pos: np.ndarray, result: RunResult, *, load_N: float, EI_Nm2: float,
+                       calibration: str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Cantilever check (spec §2.7): linear solve (formula and calibrated) vs the MuJoCo settle.
+
+    Tip load ``load_N`` [N] on the free edge, target ``EI_Nm2`` [N m²]; the beam deflection is
+    δ = P L³ / (3 EI) and the effective stiffness EI_eff = P L³ / (3 δ).
+    """
+    lat = tm.lattice
+    P = load_N
+    EI = EI_Nm2
+    k_formula = tm.k / tm.calibration_factor
+    formula = cantilever_linear(lat, k_formula, load_N=P)
+    used = cantilever_linear(lat, tm.k, load_N=P)
+    # The calibrated spring constants exactly as the reproduction runs get them (factor from the
+    # cached unit-size solve of ``calibration_factor``), so this checks that the factor carries
+    # over to this d and EI; scaling k_formula by EI/EI_eff of this very solve would give 1 by
+    # construction and test nothing.
+    k_calibrated, _ = strut_stiffness(lat, EI_Nm2=EI, calibration="cantilever")
+    calibrated = cantilever_linear(lat, k_calibrated, load_N=P)
+    t = result.records["t"]
+    tip = loaded_nodes(lat)
+    tip_z = -np.mean(pos[:, tip, 2] - lat.nodes[tip, 2], axis=1)
+    speed = np.abs(np.gradient(tip_z, t)) if t.size > 2 else np.array([np.nan])
+    delta_mj = float(tip_z[-1])
+    summary = {
+        "status": result.status,
+        "status_message": result.message,
+        "EI_target_Nm2": EI,
+        "EI_eff_formula_Nm2": formula.EI_eff_Nm2,
+        "EI_ratio_formula": formula.EI_eff_Nm2 / EI,
+        "stiffness_calibration": calibration,
+        "stiffness_calibration_factor": EI / formula.EI_eff_Nm2,
+        "EI_ratio_calibrated": calibrated.EI_eff_Nm2 / EI,
+        "beam_deflection_m": P * lat.side_m**3 / (3 * EI),
+        "tip_deflection_linear_m": used.tip_deflection_m,
+        "tip_deflection_mujoco_m": delta_mj,
+        "EI_eff_mujoco_Nm2": P * lat.side_m**3 / (3 * delta_mj) if delta_mj > 0 else float("nan"),
+        "EI_ratio_mujoco": P * lat.side_m**3 / (3 * delta_mj) / EI if delta_mj > 0 else float("nan"),
+        "linear_vs_mujoco_rel_diff": abs(delta_mj - used.tip_deflection_m) / used.tip_deflection_m,
+        "tip_speed_final_m_s": float(speed[-1]),
+        "settled": bool(speed[-1] < 1e-6 * max(delta_mj, 1e-300)),
+        "tip_deflection_over_side": delta_mj / lat.side_m,
+        "wall_time_s": result.wall_time_s,
+    }
+    return summary, {"tip_deflection_m": tip_z}

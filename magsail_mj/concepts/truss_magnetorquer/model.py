@@ -1,0 +1,99 @@
+"""Model builder of the flexible truss concept: config → lattice → masses, springs → MjSpec.
+
+Spec truss-magnetorquer-array.md §2 (lattice, masses, stiffness, damping) and §6.2 (torquer
+struts). The lattice assembly itself is :mod:`magsail_mj.lattice.geometry`; the MjSpec is
+:func:`magsail_mj.lattice.mjcf.build_truss_spec`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from magsail_mj.lattice.geometry import Lattice, make_lattice
+from magsail_mj.lattice.properties import (
+    clamped_nodes,
+    node_masses,
+    strut_damping,
+    strut_stiffness,
+)
+from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec
+from magsail_mj.concepts.truss_magnetorquer.config import ActuatorsConfig, TrussConfig, first_cantilever_omega
+
+__all__ = ["TrussModel", "make_truss_model", "make_cantilever_model", "actuated_struts"]
+
+
+@dataclass
+class TrussModel:
+    """Everything derived from the structural tables of a config.
+
+    ``masses`` (n,) particle masses [kg]; ``k`` (S,) strut spring constants [N/m] (calibrated by
+    ``calibration_factor``); ``gamma`` the strut dashpot constant [N s/m]; ``particle_mass_kg``
+    M / n [kg]; ``total_kg`` M [kg]; ``spec`` the MjSpec; ``fixed_nodes`` the clamped nodes.
+    """
+
+    lattice: Lattice
+    masses: np.ndarray
+    k: np.ndarray
+    gamma: float
+    calibration_factor: float
+    particle_mass_kg: float
+    total_kg: float
+    spec: mujoco.MjSpec
+    fixed_nodes: tuple[int, ...] = ()
+
+
+def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: float = 0.0) -> TrussModel:
+    """Lattice, masses, spring constants, damping and the MjSpec of a config."""
+    lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
+    total = cfg.mass.total_kg if cfg.mass.total_kg is not None else cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
+    masses = node_masses(lat, total_kg=total, central_fraction=cfg.mass.central_fraction,
+                         point_masses=[(p.node, p.kg) for p in cfg.mass.point_masses])
+    k, c = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_Nm2, calibration=cfg.stiffness.calibration)
+    m_p = total / lat.n_nodes
+    gamma = strut_damping(lat, k, zeta=cfg.damping.zeta_strut, particle_mass_kg=m_p)
+    opts = TrussModelOptions(timestep_s=cfg.sim.timestep_s, integrator=cfg.sim.integrator,
+                             solver_tolerance=cfg.sim.solver_tolerance,
+                             fixed_nodes=tuple(int(i) for i in fixed_nodes),
+                             node_damping_1_s=node_damping_1_s, name=f"truss_{cfg.scenario}")
+    spec = build_truss_spec(lat, masses=masses, stiffness=k, damping=gamma, options=opts)
+    return TrussModel(lattice=lat, masses=masses, k=k, gamma=gamma, calibration_factor=c,
+                      particle_mass_kg=m_p, total_kg=total, spec=spec, fixed_nodes=tuple(fixed_nodes))
+
+
+def actuated_struts(lat: Lattice, act: ActuatorsConfig, axis: str) -> np.ndarray:
+    """Struts carrying torquers (spec §6.2): a family of top-layer edges, or the central cube's.
+
+    Torque about x1 comes from y1-struts and about y1 from x1-struts (§12 S6); about z1 both
+    families act. ``central_pair="diagonal"`` takes the i0 top strut and the i0+1 bottom strut.
+    """
+    kinds = {"x1": ["y_edge"], "y1": ["x_edge"], "z1": ["x_edge", "y_edge"]}[axis]
+    if act.placement == "distributed":
+        return np.concatenate([lat.struts_of_kind(kd, layer=1) for kd in kinds])
+    n = lat.units
+    i0 = (n - 1) // 2
+    out = []
+    for kd in kinds:
+        for s in lat.struts_of_kind(kd):
+            a, b = lat.ijk[lat.struts[s]]
+            lo = np.minimum(a, b)
+            if kd == "y_edge" and lo[1] == i0 and lo[0] in (i0, i0 + 1):
+                want_k = 1 if act.central_pair == "top" or lo[0] == i0 else 0
+                if lo[2] == want_k:
+                    out.append(s)
+            if kd == "x_edge" and lo[0] == i0 and lo[1] in (i0, i0 + 1):
+                want_k = 1 if act.central_pair == "top" or lo[1] == i0 else 0
+                if lo[2] == want_k:
+                    out.append(s)
+    return np.array(sorted(out), dtype=int)
+
+
+def make_cantilever_model(cfg: TrussConfig) -> TrussModel:
+    """The model with its i = 0 edge clamped and node damping ``cantilever.settle_damping_1_s``
+    [1/s] (default 2 ω₁, :func:`~magsail_mj.concepts.truss_magnetorquer.config.first_cantilever_omega`), spec §2.7."""
+    lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
+    c = cfg.cantilever
+    damping = c.settle_damping_1_s if c.settle_damping_1_s is not None else 2.0 * first_cantilever_omega(cfg)
+    return make_truss_model(cfg, fixed_nodes=clamped_nodes(lat), node_damping_1_s=damping)
