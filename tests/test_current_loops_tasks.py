@@ -13,10 +13,7 @@ from magsail_mj.scenario import build_scenario
 from magsail_mj.concepts.current_loops import tasks as ct
 from magsail_mj.concepts.current_loops.config import CurrentLoopsConfig
 from tests.conftest import REPO
-from tests.test_truss_tasks import concept_graph, find_cycle
 
-LOOPS_MODULES = ("current_loops", "current_loops_config", "current_loops_model", "current_loops_tasks",
-                 "current_loops_metrics", "current_loops_plots")
 KIND_CONFIGS = {
     "sweep": ("magsail_mj/concepts/current_loops/configs/sweep/a_n12_ei1e3.toml", ct.LoopsSweepTask),
     "slew": ("magsail_mj/concepts/current_loops/configs/slew.toml", ct.LoopsSlewTask),
@@ -41,11 +38,3 @@ def test_every_kind_builds_its_own_class(kind):
     # the rigid surrogate is one free body (7 qpos); the flexible plate has 3 per particle
     assert sc.model.nq == (7 if cls is ct.LoopsRigidSlewTask else 3 * sc.lm.lattice.n_nodes)
     assert ("strut_colours" in info) == issubclass(cls, ct.FlexibleLoopsTask)
-
-
-def test_loops_modules_form_a_dag_with_imports_at_top():
-    graph, problems = concept_graph(LOOPS_MODULES)
-    assert not problems, problems
-    assert find_cycle(graph) is None, find_cycle(graph)
-    for name in ("current_loops_metrics", "current_loops_plots", "current_loops_model", "current_loops_config"):
-        assert not graph[name] & {"current_loops", "current_loops_tasks"}, (name, graph[name])

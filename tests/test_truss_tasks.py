@@ -9,9 +9,7 @@ metrics and plots modules import no task module; the orbital metrics work on pla
 
 from __future__ import annotations
 
-import ast
 import typing
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,9 +22,6 @@ from magsail_mj.concepts.truss_magnetorquer.config import TrussConfig
 from magsail_mj.concepts.truss_magnetorquer.orbital import detumble_keys
 from tests.conftest import REPO
 
-SCEN = REPO / "magsail_mj" / "scenarios"
-TRUSS_MODULES = ("truss", "truss_config", "truss_model", "truss_tasks", "truss_metrics", "truss_orbital",
-                 "truss_plots")
 KIND_CONFIGS = {
     "cantilever": ("magsail_mj/concepts/truss_magnetorquer/configs/cantilever.toml", tt.CantileverTask),
     "free": ("magsail_mj/concepts/truss_magnetorquer/configs/libration.toml", tt.FreeTask),
@@ -35,66 +30,6 @@ KIND_CONFIGS = {
     "detumble": ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", tt.DetumbleTask),
     "slew": ("magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml", tt.SlewTask),
 }
-
-
-def module_imports(path: Path) -> tuple[set[str], list[str]]:
-    """``(magsail_mj modules imported at module top, problems)``: an import inside a function or
-    class, or under ``if TYPE_CHECKING``, is a problem (named with its line)."""
-    tree = ast.parse(path.read_text())
-    top: set[str] = set()
-    problems: list[str] = []
-    for node in tree.body:
-        if isinstance(node, ast.ImportFrom) and node.module:
-            top.add(node.module)
-        elif isinstance(node, ast.Import):
-            top.update(a.name for a in node.names)
-        elif isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
-            problems.append(f"{path.name}:{node.lineno}: TYPE_CHECKING block")
-    for node in ast.walk(tree):
-        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
-            for inner in ast.walk(node):
-                if isinstance(inner, (ast.Import, ast.ImportFrom)):
-                    problems.append(f"{path.name}:{inner.lineno}: import inside {node.name}")
-    return top, problems
-
-
-def concept_graph(modules: tuple[str, ...]) -> tuple[dict[str, set[str]], list[str]]:
-    """Import edges among ``modules`` (names under magsail_mj.scenario) and the problems found."""
-    graph: dict[str, set[str]] = {}
-    problems: list[str] = []
-    for name in modules:
-        top, bad = module_imports(SCEN / f"{name}.py")
-        problems += bad
-        graph[name] = {m.rpartition(".")[2] for m in top if m.startswith("magsail_mj.scenario.")} & set(modules)
-    return graph, problems
-
-
-def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
-    """A cycle of ``graph`` as a list of nodes, or ``None`` (depth-first search)."""
-    state: dict[str, int] = {}
-    stack: list[str] = []
-
-    def visit(n: str) -> list[str] | None:
-        state[n] = 1
-        stack.append(n)
-        for m in sorted(graph.get(n, ())):
-            if state.get(m) == 1:
-                return stack[stack.index(m):] + [m]
-            if m not in state and (found := visit(m)):
-                return found
-        stack.pop()
-        state[n] = 2
-        return None
-
-    for n in sorted(graph):
-        if n not in state and (found := visit(n)):
-            return found
-    return None
-
-
-def test_cycle_finder_sees_a_cycle():
-    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
-    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": set()}) is None
 
 
 def test_registered_kinds_are_the_schema_scenarios():
@@ -110,14 +45,6 @@ def test_every_kind_builds_its_own_class(kind):
     sc = build_scenario(cfg)
     assert type(sc) is cls and isinstance(sc, tt.TrussScenario)
     assert sc.render_info()["overlay"] == list(cls.OVERLAY)
-
-
-def test_truss_modules_form_a_dag_with_imports_at_top():
-    graph, problems = concept_graph(TRUSS_MODULES)
-    assert not problems, problems
-    assert find_cycle(graph) is None, find_cycle(graph)
-    for name in ("truss_metrics", "truss_orbital", "truss_plots", "truss_model", "truss_config"):
-        assert not graph[name] & {"truss", "truss_tasks"}, (name, graph[name])
 
 
 def test_detumble_keys_of_an_exponential_decay():
