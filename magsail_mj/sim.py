@@ -353,15 +353,8 @@ class Simulation:
         with ``records_attrs`` as its attributes; a checkpointed run without it streams to
         ``<checkpoint stem>.records.zarr`` beside the checkpoint."""
         dt = self.model.opt.timestep
-        ckpt = Path(checkpoint_path) if checkpoint_path else None
-        store = Path(records_path) if records_path else (
-            ckpt.with_name(f"{ckpt.stem}.records.zarr") if ckpt is not None else None)
-        if resume:
-            if ckpt is None:
-                raise CheckpointError("resume: no checkpoint path given")
-            self._restore(ckpt, store)
-        elif store is not None and self.recorder.path != store:
-            self.recorder.create_store(store, attrs=records_attrs)
+        ckpt = open_run_records(self.recorder, checkpoint_path=checkpoint_path, records_path=records_path,
+                                records_attrs=records_attrs, restore=self._restore if resume else None)
         start = self.step_index
         ckpt_every = (int(round(self.checkpoint_every_s / dt)) if self.checkpoint_every_s > 0 else 0)
         stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(round(stop_after_s / dt)))
@@ -457,6 +450,31 @@ class Simulation:
         finally:
             self.step_index = step
             self._wall_s += time.perf_counter() - wall0
+
+
+def open_run_records(recorder: Recorder, *, checkpoint_path: str | Path | None, records_path: str | Path | None,
+                     records_attrs: dict[str, Any] | None,
+                     restore: Callable[[Path, Path | None], None] | None) -> Path | None:
+    """Start a run's records: return the checkpoint path (or ``None``).
+
+    The store is ``records_path``, else ``<checkpoint stem>.records.zarr`` beside a checkpoint, else
+    none (records stay in memory). With ``restore`` (a resume), ``restore(checkpoint, store)``
+    continues the checkpointed run and its store; otherwise a new store is created with
+    ``records_attrs`` unless the recorder already writes to it.
+
+    Raises:
+      CheckpointError: a resume without a checkpoint path.
+    """
+    ckpt = Path(checkpoint_path) if checkpoint_path else None
+    store = Path(records_path) if records_path else (
+        ckpt.with_name(f"{ckpt.stem}.records.zarr") if ckpt is not None else None)
+    if restore is not None:
+        if ckpt is None:
+            raise CheckpointError("resume: no checkpoint path given")
+        restore(ckpt, store)
+    elif store is not None and recorder.path != store:
+        recorder.create_store(store, attrs=records_attrs)
+    return ckpt
 
 
 def _non_finite_records(recorder: Recorder) -> tuple[str, str] | None:

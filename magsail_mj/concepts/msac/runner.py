@@ -75,7 +75,7 @@ from magsail_mj.checkpoint import (
 from magsail_mj.divergence import WarningWatch, disable_autoreset, first_bad_row, route_mujoco_warnings
 from magsail_mj.concepts.msac.mjcf import shape_indices
 from magsail_mj.records import Recorder, RecordStoreError, StoreRecords
-from magsail_mj.sim import RunResult
+from magsail_mj.sim import RunResult, open_run_records
 from mujoco import rollout as mj_rollout
 from tqdm import tqdm
 
@@ -394,15 +394,8 @@ class MsacRunner:
         chunk boundaries after every ``checkpoint_every_s``; records stream to ``records_path`` (a
         checkpointed run without it: ``<checkpoint stem>.records.zarr``), as in
         :meth:`magsail_mj.sim.Simulation.run`."""
-        ckpt = Path(checkpoint_path) if checkpoint_path else None
-        store = Path(records_path) if records_path else (
-            ckpt.with_name(f"{ckpt.stem}.records.zarr") if ckpt is not None else None)
-        if resume:
-            if ckpt is None:
-                raise CheckpointError("resume: no checkpoint path given")
-            self._load(ckpt, store)
-        elif store is not None and self.recorder.path != store:
-            self.recorder.create_store(store, attrs=records_attrs)
+        ckpt = open_run_records(self.recorder, checkpoint_path=checkpoint_path, records_path=records_path,
+                                records_attrs=records_attrs, restore=self._load if resume else None)
         k_start = self.step_index
         stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(math.ceil(stop_after_s / self.dt)))
         chunk = int(self.chunk_cycles) * self.N
