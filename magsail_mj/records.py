@@ -488,6 +488,23 @@ def open_records(run_dir: str | Path, *, group: str | None = None) -> StoreRecor
         raise RecordStoreError(f"run_dir: {path} is unreadable ({type(err).__name__}: {err})") from None
 
 
+def lazy_arrays(run_dir: str | Path) -> dict[str, Any]:
+    """name → lazy Zarr array of a run folder's ``timeseries.zarr``: the records, then the derived
+    series of group ``series`` (replacing records of the same name; none when the group is absent).
+
+    Raises:
+      RecordStoreError: the folder holds no readable store.
+    """
+    records = open_records(run_dir)
+    arrays: dict[str, Any] = {name: records.array(name) for name in records}
+    try:
+        series = open_records(run_dir, group=SERIES_GROUP)
+    except (RecordStoreError, KeyError):
+        return arrays
+    arrays.update({name: series.array(name) for name in series})
+    return arrays
+
+
 def write_group(path: str | Path, arrays: Mapping[str, Any], *, group: str | None = None,
                 n_time: int | None = None, attrs: dict[str, Any] | None = None) -> None:
     """Write whole arrays into the store at ``path`` (its root, or ``group`` replaced whole):

@@ -51,7 +51,8 @@ from magsail_mj.io import (
     atomic_path, file_sha256, package_versions, prepare_run_dir, remove_earlier_run, run_dir_lock, write_json,
 )
 from magsail_mj.records import (
-    SERIES_GROUP, STORE_NAME, RecordStoreError, StoreRecords, open_records, store_length, update_attrs, write_group,
+    SERIES_GROUP, STORE_NAME, RecordStoreError, StoreRecords, lazy_arrays, open_records, store_length, update_attrs,
+    write_group,
 )
 from magsail_mj.render import render_run
 
@@ -289,14 +290,7 @@ def _stored(result: Any, store: Path, attrs: dict[str, Any]) -> Any:
 def _npz_members(run_dir: Path) -> dict[str, Any]:
     """The arrays of ``timeseries.npz`` (records, then series replacing records of the same name) as lazy
     Zarr arrays, for :func:`~magsail_mj.export.write_npz_streamed`."""
-    records = open_records(run_dir)
-    members = {name: records.array(name) for name in records}
-    try:
-        series = open_records(run_dir, group=SERIES_GROUP)
-    except (RecordStoreError, KeyError):
-        return members
-    members.update({name: series.array(name) for name in series})
-    return members
+    return lazy_arrays(run_dir)
 
 
 def _outputs(scenario: Any, result: Any, run_dir: Path) -> tuple[dict[str, Any], dict[str, Any], list[Path]]:

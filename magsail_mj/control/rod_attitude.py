@@ -35,7 +35,7 @@ from magsail_mj.control.allocation import Allocation, TorqueDistributor
 from magsail_mj.control.profiles import torque_profile
 from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step
 
-__all__ = ["RodCommand", "RodAttitudeController", "ProfileRodController"]
+__all__ = ["RodCommand", "RodAttitudeController", "ProfileRodController", "step_rate"]
 
 
 @dataclass
@@ -76,7 +76,7 @@ class RodCommand:
     counts: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=np.int64))
 
 
-def _rate(R_prev: np.ndarray, R: np.ndarray, dt: float, method: str) -> np.ndarray:
+def step_rate(R_prev: np.ndarray, R: np.ndarray, dt: float, method: str) -> np.ndarray:
     """Backward-difference body rate of one step (§4.2), as
     :func:`~magsail_mj.estimation.attitude.body_rate_step` but with a scalar fast path.
 
@@ -176,7 +176,7 @@ class RodAttitudeController(abc.ABC):
             omega = self.omega0_body.copy()
         else:
             dt = float(state.t) - self._t_prev
-            omega = _rate(self._R_prev, R, dt, self.rate_method) if dt > 0 else np.zeros(3)
+            omega = step_rate(self._R_prev, R, dt, self.rate_method) if dt > 0 else np.zeros(3)
         self._R_prev = R
         self._t_prev = float(state.t)
         return R, omega, self._w_com @ pos

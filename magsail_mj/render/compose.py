@@ -43,7 +43,7 @@ from typing import Any, Self
 
 import numpy as np
 
-from magsail_mj.records import SERIES_GROUP, STORE_NAME, RecordStoreError, open_records
+from magsail_mj.records import STORE_NAME, RecordStoreError, lazy_arrays
 from magsail_mj.render.backend import ensure_gl_backend, make_renderer
 from magsail_mj.render.video import Mp4Writer
 from magsail_mj.resources import (
@@ -233,14 +233,7 @@ class Frames:
 def _read_store(run_dir: Path, *, name: str) -> dict[str, Any]:
     """name → lazy Zarr array of the run's ``timeseries.zarr`` (records, then derived series)."""
     try:
-        records = open_records(run_dir)
-        arrays: dict[str, Any] = {key: records.array(key) for key in records}
-        try:
-            series = open_records(run_dir, group=SERIES_GROUP)
-        except (RecordStoreError, KeyError):
-            return arrays
-        arrays.update({key: series.array(key) for key in series})
-        return arrays
+        return lazy_arrays(run_dir)
     except RecordStoreError as exc:
         raise RenderError(f"{name}: {exc}") from None
 

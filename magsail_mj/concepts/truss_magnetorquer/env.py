@@ -50,12 +50,12 @@ import numpy as np
 
 from magsail_mj.analysis.flatness import surface_sd
 from magsail_mj.control.allocation import Allocation, rod_torques, round_half_away
-from magsail_mj.control.rod_attitude import RodAttitudeController, RodCommand
+from magsail_mj.control.rod_attitude import RodAttitudeController, RodCommand, step_rate
 from magsail_mj.envs.core import (
     AttitudeTask, SimulationPhysics, draw_rigid_start, make_environment, pointing_error_rad, register,
     set_rigid_motion,
 )
-from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step
+from magsail_mj.estimation.attitude import BestFitRotation
 from magsail_mj.loads.base import StepState
 from magsail_mj.quaternion import error_quaternion, quat_from_matrix
 
@@ -67,19 +67,10 @@ B_BOUND_T = 1e-4
 
 
 def rate_from_rotations(R_prev: np.ndarray, R: np.ndarray, dt: float) -> np.ndarray:
-    """Backward-difference body rate [rad/s] of two body → world rotations ``dt`` apart (§4.2):
-    ``ω = θ/sin θ · vee(M)/δt`` with ``M = R_prevᵀ R``, ``θ = atan2(|vee M|, (tr M − 1)/2)`` (series
-    ``1 + θ²/6 + 7θ⁴/360`` below 1e-4 rad); beyond 120° the general log of
-    :func:`~magsail_mj.estimation.attitude.body_rate_step`."""
-    M = R_prev.T @ R
-    s = 0.5 * np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]])
-    c = 0.5 * (M[0, 0] + M[1, 1] + M[2, 2] - 1.0)
-    if c < -0.5:
-        return body_rate_step(R_prev, R, dt, method="log")
-    sn = math.sqrt(float(s @ s))
-    th = math.atan2(sn, c)
-    f = 1.0 + th * th / 6.0 + 7.0 * th**4 / 360.0 if th < 1e-4 else th / sn
-    return s * (f / dt)
+    """Backward-difference body rate [rad/s] of two body → world rotations ``dt`` apart, as the rod
+    controllers estimate it (:func:`magsail_mj.control.rod_attitude.step_rate`, method ``log``:
+    ``ω = θ/sin θ · vee(R_prevᵀ R)/δt``)."""
+    return step_rate(R_prev, R, dt, "log")
 
 
 def quat_of_rotation(R: np.ndarray) -> np.ndarray:
