@@ -124,11 +124,6 @@ except ImportError:
 else:
     _DASHBOARD = True
 
-try:
-    import dask_jobqueue
-except ImportError:  # the optional extra "cluster"
-    dask_jobqueue = None  # type: ignore[assignment]
-
 __all__ = [
     "FINISHED",
     "RECORD_KEYS",
@@ -607,8 +602,17 @@ def make_cluster(kind: str, *, cores_per_job: int = 1, memory_per_job: str = "4G
     """
     if kind not in CLUSTER_KINDS:
         raise ValueError(f"--cluster: must be one of {', '.join(CLUSTER_KINDS)}, got {kind!r}")
-    if dask_jobqueue is None:
-        raise ValueError("--cluster: needs dask-jobqueue (pip install 'magsail_mj[cluster]')")
+    # imported here, its single entry point: importing dask_jobqueue replaces the process's SIGINT
+    # handler with one that exits with status 0, so it must not be imported at start-up (a Ctrl-C
+    # while the command starts would end it "successfully"); the handlers are put back
+    saved = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        import dask_jobqueue
+    except ImportError:  # the optional extra "cluster"
+        raise ValueError("--cluster: needs dask-jobqueue (pip install 'magsail_mj[cluster]')") from None
+    finally:
+        for sig, handler in saved.items():
+            signal.signal(sig, handler)
     if isinstance(cores_per_job, bool) or not isinstance(cores_per_job, int) or cores_per_job < 1:
         raise ValueError(f"--cores-per-job: must be an integer >= 1, got {cores_per_job!r}")
     try:
