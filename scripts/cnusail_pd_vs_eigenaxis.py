@@ -21,6 +21,7 @@ import numpy as np
 
 import magsail_mj  # noqa: F401  (chooses the GL backend before mujoco is imported)
 from magsail_mj.config import load_config
+from magsail_mj.export import read_timeseries
 from magsail_mj.io import write_json
 from magsail_mj.plotting import save_figure
 from magsail_mj.render import render_run
@@ -49,7 +50,7 @@ def main(argv: list[str] | None = None) -> int:
 
     fig, axes = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
     for law, ls in (("pd", "--"), ("eigen_axis", "-")):
-        ts = np.load(out / law / "timeseries.npz")
+        ts = read_timeseries(out / law)
         x = ts["t"] / 60
         axes[0].plot(x, ts["theta_e_deg"], ls, label=law)
         axes[1].plot(x, np.degrees(np.linalg.norm(ts["omega_e_rad_s"], axis=1)), ls, label=law)

@@ -19,9 +19,19 @@ from pathlib import Path
 import numpy as np
 import matplotlib.pyplot as plt
 
+from magsail_mj.records import STORE_NAME, lazy_arrays
+
 KEYS = ("time_to_target_s", "t_err_below_2deg_s", "attitude_error_max_after_target_deg", "t_err_max_after_settle_s",
         "err_final_rad", "saturation_fraction", "mag_torque_max_N_m", "gg_torque_max_N_m", "strain_energy_max_J",
         "time_strain_max_s")
+SERIES = ("t", "error_angle_deg", "mag_torque_world_Nm", "gg_torque_world_Nm", "strain_energy_J", "modal_amplitude")
+
+
+def read_series(run_dir: Path, names: tuple[str, ...] = SERIES) -> dict[str, np.ndarray]:
+    """The named records/series of a run folder's ``timeseries.zarr`` that it holds, as NumPy arrays
+    (only these are read: a long lattice run's ``qpos`` stays on disk)."""
+    arrays = lazy_arrays(run_dir)
+    return {name: arrays[name][...] for name in names if name in arrays}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -31,8 +41,8 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     flex, rigid = Path(args.flex), Path(args.rigid)
 
-    zf = np.load(flex / "timeseries.npz")
-    zr = np.load(rigid / "timeseries.npz") if (rigid / "timeseries.npz").exists() else None
+    zf = read_series(flex)
+    zr = read_series(rigid) if (rigid / STORE_NAME).is_dir() else None
     fig, ax = plt.subplots(figsize=(8, 4))
     ax.semilogy(zf["t"], np.maximum(zf["error_angle_deg"], 1e-3), "k", label="flexible lattice (N = 19)")
     if zr is not None:

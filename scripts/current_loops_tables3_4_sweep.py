@@ -21,8 +21,8 @@ import argparse
 import json
 from pathlib import Path
 
-import numpy as np
 import matplotlib.pyplot as plt
+from magsail_mj.records import lazy_arrays
 from magsail_mj.render import render_run
 
 GEOMS = {"a": "A", "b": "B", "cy": "C_y", "dy": "D_y"}
@@ -90,8 +90,8 @@ def main(argv: list[str] | None = None) -> int:
         if s is None:
             ax.text(0.5, 0.5, "not run", ha="center", transform=ax.transAxes)
             return
-        z = np.load(s["_dir"] / "timeseries.npz")
-        ax.plot(z["t"], z["strain_energy_J"], lw=0.8, label=label)
+        z = lazy_arrays(s["_dir"])   # the two series only, read from the run's record store
+        ax.plot(z["t"][:], z["strain_energy_J"][:], lw=0.8, label=label)
 
     def grid(cells, name: str) -> None:
         """3 × 3 U(t) panels; ``cells[i][j]`` = (run key, legend label, panel title)."""

@@ -5,7 +5,7 @@ Runs the selected runs of the sweep file ``models/sweeps/truss_dist_vs_central.t
 with the sweep engine (:func:`magsail_mj.sweep.run_sweep`: Dask workers, valid earlier runs reused,
 ``sweep_summary.json``/``.csv``), then writes into ``--out``:
 
-- one run folder per config (summary.json, timeseries.npz, plots, manifest);
+- one run folder per config (summary.json, timeseries.zarr, plots, manifest);
 - ``comparison.md``: the table of summary figures of all runs, plus the central/distributed
   ratio of the maximum surface SD per case and profile;
 - ``<profile>_cases.png``: φ, ω₁ and surface SD vs time, central and distributed, per case,
@@ -29,9 +29,13 @@ import numpy as np
 
 from magsail_mj.control.profiles import bang_bang_off, versine
 from magsail_mj.plotting import new_figure, save_figure
+from magsail_mj.records import STORE_NAME, lazy_arrays
+from magsail_mj.render import render_run
 from magsail_mj.sweep import FINISHED, load_sweep, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
+#: the series of a case figure, read from each run's record store
+CASE_SERIES = ("t", "phi_rad", "omega_body_rad_s", "surface_sd_m", "phi_rigid_rad", "omega_rigid_rad_s")
 SWEEP = REPO / "models" / "sweeps" / "truss_dist_vs_central.toml"
 KEYS = ("status", "t_end_s", "rotation_x1_final_rad", "phi_rigid_final_rad", "off_axis_rotation_max_rad",
         "omega1_peak_rad_s", "surface_sd_max_m", "t_surface_sd_max_s", "strain_energy_max_J", "strut_strain_max",
@@ -75,9 +79,10 @@ def case_figure(out: Path, profile: str, cases: list[str]) -> Path:
     for col, case in enumerate(cases):
         for place, style in (("central", "-"), ("distributed", "-")):
             run = out / f"case_{case}_{place}_{profile}"
-            if not (run / "timeseries.npz").exists():
+            if not (run / STORE_NAME).is_dir():
                 continue
-            ts = np.load(run / "timeseries.npz")
+            stored = lazy_arrays(run)   # the figure's series only (not the lattice's qpos)
+            ts = {name: stored[name][...] for name in CASE_SERIES}
             axs[0, col].plot(ts["t"], ts["phi_rad"], style, label=place)
             axs[1, col].plot(ts["t"], ts["omega_body_rad_s"][:, 0], style, label=place)
             axs[2, col].plot(ts["t"], ts["surface_sd_m"], style, label=place)
@@ -133,8 +138,6 @@ def main(argv: list[str] | None = None) -> int:
     profile_figure(out)
     videos = []
     if args.video:
-        from magsail_mj.render import render_run
-
         for c in args.cases:
             for prof in args.profiles:
                 central, dist = out / f"case_{c}_central_{prof}", out / f"case_{c}_distributed_{prof}"

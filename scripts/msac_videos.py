@@ -6,7 +6,8 @@
 
 Both are rendered with :func:`magsail_mj.render.render_run` from a *render folder* written next
 to the run (``<run>/render_v1``, ``<run>/render_v2``): ``model.xml``, ``manifest.json`` and a
-``timeseries.npz`` holding the frames to show.
+a record store ``timeseries.zarr`` holding the frames to show (written with
+:func:`magsail_mj.records.write_group`; the run's own store is read, never changed).
 
 * **V1**: the first ``--cycles`` (default 3) cycles of a low-frequency run, every record a frame,
   camera looking down world Z. The slide coordinates are multiplied by ``--exaggerate``
@@ -27,13 +28,16 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shutil
 import sys
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from magsail_mj.io import write_json, write_npz
+from magsail_mj.export import read_timeseries
+from magsail_mj.io import write_json
+from magsail_mj.records import STORE_NAME, write_group
 from magsail_mj.render import render_run
 
 #: drawn thickness of the wing panels in the videos [m] (the model's is 0.03 m; see _render_model)
@@ -42,10 +46,19 @@ PANEL_DRAWN_M = 0.25
 
 def _load(run: Path) -> tuple[dict, dict[str, np.ndarray], dict]:
     man = json.loads((run / "manifest.json").read_text())
-    with np.load(run / "timeseries.npz") as z:
-        ts = {k: z[k] for k in z.files}
+    ts = read_timeseries(run)
     summ = json.loads((run / "summary.json").read_text())
     return man, ts, summ
+
+
+def _write_frames(rdir: Path, **arrays: np.ndarray) -> Path:
+    """The render folder's record store ``rdir/timeseries.zarr`` holding exactly ``arrays``
+    (time ``t`` [s] first axis of each; an earlier store there is replaced whole)."""
+    store = rdir / STORE_NAME
+    if store.exists():
+        shutil.rmtree(store)
+    write_group(store, arrays, n_time=len(arrays["t"]))
+    return store
 
 
 def _slide_columns(model_xml: Path) -> np.ndarray:
@@ -77,8 +90,7 @@ def make_v1(run: Path, out: Path, *, cycles: int, exaggerate: float | None) -> P
     rdir.mkdir(exist_ok=True)
     _render_model(run, rdir, panel_thickness_m=PANEL_DRAWN_M)
     yaw = ts["yaw_unwrapped_rad"][sel]
-    write_npz(rdir / "timeseries.npz", t=ts["t"][sel], qpos=qpos, bus_yaw_rad=yaw - yaw[0],
-              phase=ts["phase"][sel].astype(float))
+    _write_frames(rdir, t=ts["t"][sel], qpos=qpos, bus_yaw_rad=yaw - yaw[0], phase=ts["phase"][sel].astype(float))
     render = dict(man["render"])
     render["title"] = f"MSAC at {f:g} Hz: slide drawn ×{k:g}, bend true"
     render["overlay"] = ["bus_yaw_rad", "phase"]
@@ -105,7 +117,7 @@ def make_v2(run: Path, out: Path, *, max_deg_per_frame: float, max_frames: int, 
     rdir = run / "render_v2"
     rdir.mkdir(exist_ok=True)
     _render_model(run, rdir, panel_thickness_m=PANEL_DRAWN_M)
-    write_npz(rdir / "timeseries.npz", t=t[idx], qpos=qpos[idx], bus_yaw_rad=yaw[idx] - yaw[0])
+    _write_frames(rdir, t=t[idx], qpos=qpos[idx], bus_yaw_rad=yaw[idx] - yaw[0])
     cyc = int(round((t[idx[1]] - t[idx[0]]) / T)) if idx.size > 1 else 0
     render = dict(man["render"])
     render["title"] = f"MSAC {f:g} Hz time-lapse: stroboscopic frame every {cyc} cycles"

@@ -12,7 +12,7 @@ stems under magsail_mj/concepts/truss_magnetorquer/configs/, ``sensitivity/<name
 runs go through the sweep engine (:func:`magsail_mj.sweep.run_sweep`: ``--workers`` Dask worker
 processes, default 2; a valid earlier run folder is reused, a stopped one continues from its
 checkpoint, ``--overwrite`` reruns) into ``<out>/<id>/`` (a normal run folder: summary.json,
-timeseries.npz, manifest.json, plots, video.mp4 with ``--video``), with ``sweep_summary.json``/
+timeseries.zarr, manifest.json, plots, video.mp4 with ``--video``), with ``sweep_summary.json``/
 ``.csv`` beside them. The script writes ``<out>/summary.md`` (one table for detumble-type runs,
 one for slews) and ``<out>/summary.json`` (id → summary). ``--set key=value`` applies to every
 run (e.g. ``sim.duration_s=600`` for a short check; the tables then say so in their ``t_end_s``
