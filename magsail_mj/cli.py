@@ -1,4 +1,4 @@
-"""``magsail`` command line: build | validate | run | render | export | sweep | report | scaling | torque.
+"""``magsail`` command line: build | validate | run | bench | render | export | sweep | report | scaling | torque.
 
 Every verb checks its inputs where it uses them (paths, numbers, the memory the input needs) and
 reports a problem as one line ``error: <what>`` on stderr, never a traceback; the exit status
@@ -31,6 +31,7 @@ from typing import Any, NoReturn
 from magsail_mj.analysis.coil_torque import coil_torque_report
 from magsail_mj.analysis.loop_scaling import loop_sizing, scaling_table
 from magsail_mj.analysis.scaling import scaling_report
+from magsail_mj.bench import BenchRunError, bench
 from magsail_mj.config import ConfigError, load_config
 from magsail_mj.export import add_arguments as add_export_arguments
 from magsail_mj.export import main as export_main
@@ -380,6 +381,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return code
 
 
+def _cmd_bench(args: argparse.Namespace) -> int:
+    """``magsail bench``: :func:`magsail_mj.bench.bench`, one JSON object on stdout; a pass that
+    diverged exits 3, one that failed otherwise 1."""
+    if args.duration_s is not None:
+        args.set = [*args.set, f"sim.duration_s={args.duration_s!r}"]
+    cfg = _load(args)
+    check_memory(estimate_run_bytes(cfg), what=f"bench {args.config}: a run")
+    try:
+        result = bench(cfg, repeat=args.repeat)
+    except BenchRunError as err:
+        return _error(str(err), 3 if err.status == "diverged" else 1)
+    _print_json({"config": args.config, **result}, what="bench")
+    return 0
+
+
 def _cmd_render(args: argparse.Namespace) -> int:
     out = render_run(_non_empty(args.run_dir, "RUN_DIR"), _non_empty(args.output, "--output"),
                      compare=_non_empty(args.compare, "--compare") if args.compare is not None else None,
@@ -544,6 +560,15 @@ def _add_run_verbs(sub: Any) -> None:
     r.add_argument("--stop-after-s", type=_positive, default=None, metavar="T",
                    help="stop at simulated time T with a checkpoint (status 'stopped', exit 0); "
                         "continue later with --resume")
+
+    bn = _verb(sub, "bench", "time a config's step loop against MuJoCo's bare mj_step (one JSON object on stdout)",
+               _cmd_bench, {"duration_s": "--duration-s", "repeat": "--repeat"})
+    bn.add_argument("config", help=_CONFIG_HELP)
+    bn.add_argument("--duration-s", type=_positive, default=None, metavar="T",
+                    help="simulated seconds per timed pass (default: the config's sim.duration_s)")
+    bn.add_argument("--repeat", type=_count, default=1, metavar="N",
+                    help="timed all-in and bare passes; the medians are reported (default 1)")
+    _set_option(bn)
 
     rr = _verb(sub, "render", "render a run folder to MP4 (optionally side by side)", _cmd_render,
                {"run_dir": "RUN_DIR", "out_path": "--output", "compare": "--compare", "labels": "--labels"})

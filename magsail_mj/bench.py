@@ -1,0 +1,332 @@
+r"""``magsail bench``: the cost of a config's step loop, against MuJoCo's bare step of the same model.
+
+:func:`bench` builds the config's simulation through :func:`magsail_mj.load` (the
+:class:`~magsail_mj.sim.Simulation` of the Python-stepped scenarios, the MSAC runner with the same
+interface) and measures, on one process with one BLAS thread:
+
+1. **all-in** (``us_per_step``): wall time of the step loop of ``run()`` (the runner's
+   ``wall_time_s``: every per-step part, records streamed to a temporary Zarr store as ``magsail
+   run`` does) divided by the steps it took, for ``repeat`` fresh builds; the median is reported,
+   every pass in ``us_per_step_runs``. The one-off cost of the call around the loop (creating the
+   store, reading the records back) is ``run_setup_s`` [s] (median);
+2. **bare step** (``mj_step_us``): a copy of the model and a new ``MjData`` set to the run's
+   initial physics state (``time``, ``qpos``, ``qvel``, ``act``; no ``ctrl``, no applied forces),
+   stepped the same number of times by ``mujoco.mj_step(m, d)`` from Python, same integrator and
+   timestep, no loads, controller or callbacks; median of ``repeat`` passes, each pass right after
+   its all-in pass. ``mj_step_native_us`` is the same steps in one ``mj_step(m, d, nstep)`` call
+   (MuJoCo's floor, without the per-call binding cost);
+3. **ratio** ``ratio_to_mj_step = us_per_step / mj_step_us``;
+4. **parts** (``parts_us``, µs per step): a further, instrumented pass in which every load's
+   ``add`` (``load: <name>``), the controller (``update`` and the held command's ``apply_ctrl``),
+   the environment sample, the state read-out (``kinematics``), the probes, the recorder, the
+   strain check and ``mujoco.mj_step`` are timed by wrappers (``time.perf_counter`` around each
+   call, ≈ 0.1–0.3 µs of overhead per call, counted in the part); ``loop`` is the rest of the
+   instrumented pass (the runner's own bookkeeping, divergence checks, the wrappers' calls, and
+   for the MSAC runner the native rollout). The parts sum to ``instrumented_us_per_step``; the
+   all-in figure comes from the uninstrumented passes, so the wrappers do not perturb it;
+5. ``steps_per_s = 10⁶ / us_per_step``, ``realtime_factor = δt / (us_per_step · 10⁻⁶ s)``
+   (simulated seconds per wall second) and ``peak_rss_mb`` (the process's peak resident set,
+   ``resource.getrusage``, MiB).
+
+Timings are wall-clock and depend on the machine and its load: compare ratios measured in the
+same call, never absolute times across machines.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import platform
+import resource
+import statistics
+import sys
+import tempfile
+import time
+from collections import defaultdict
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import mujoco
+import numpy as np
+from pydantic import BaseModel
+from threadpoolctl import threadpool_limits
+
+from magsail_mj.api import load
+from magsail_mj.config import apply_overrides, load_config, parse_config
+
+__all__ = ["bench", "BenchRunError", "PART_NAMES"]
+
+PART_NAMES = ("controller", "environment", "kinematics", "probes", "recorder", "strain_check", "mj_step", "loop")
+"""The parts of :func:`bench`'s breakdown besides the loads (``load: <name>``)."""
+
+_PHYSICS = mujoco.mjtState.mjSTATE_PHYSICS
+
+
+class BenchRunError(RuntimeError):
+    """A benchmark pass did not complete (``status``: ``diverged``, ``failed``, ``structure_failed`` …)."""
+
+    def __init__(self, status: str, message: str) -> None:
+        super().__init__(f"the benchmarked run ended {status!r}: {message}")
+        self.status = status
+
+
+# ------------------------------------------------------------------------------------ inputs
+
+
+def _config(config: str | Path | BaseModel, overrides: Sequence[str], duration_s: float | None) -> BaseModel:
+    """The validated config with ``overrides`` and, when given, ``sim.duration_s = duration_s``."""
+    extra = list(overrides) + ([f"sim.duration_s={float(duration_s)!r}"] if duration_s is not None else [])
+    if isinstance(config, BaseModel):
+        return parse_config(apply_overrides(config.model_dump(mode="json"), extra)) if extra else config
+    return load_config(config, extra)
+
+
+def _check_options(duration_s: float | None, repeat: int) -> None:
+    if duration_s is not None:
+        if isinstance(duration_s, bool) or not isinstance(duration_s, (int, float)) or not (
+                np.isfinite(duration_s) and duration_s > 0):
+            raise ValueError(f"duration_s: must be a finite number > 0 s, got {duration_s!r}")
+    if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
+        raise ValueError(f"repeat: must be an integer >= 1, got {repeat!r}")
+
+
+def _build(cfg: BaseModel) -> Any:
+    """The config's stepped runner; refuses scenario kinds without one."""
+    sim = load(cfg)
+    missing = [a for a in ("model", "data", "run", "n_steps") if not hasattr(sim, a)]
+    if missing:
+        raise ValueError(f"config: scenario {getattr(cfg, 'scenario', '?')!r} (kind {getattr(cfg, 'kind', '?')!r}, "
+                         f"runner {type(sim).__name__}) has no stepped MuJoCo run to benchmark")
+    return sim
+
+
+# ------------------------------------------------------------------------------------ passes
+
+
+def _timed_run(sim: Any, store: Path) -> tuple[float, float, int]:
+    """``sim.run()`` streaming to ``store``: the wall seconds of its step loop (the runner's
+    ``wall_time_s``), of the whole call (with the store's creation and the final read-out), and
+    the steps taken."""
+    t0 = time.perf_counter()
+    result = sim.run(records_path=store)
+    wall = time.perf_counter() - t0
+    if result.status != "completed":
+        raise BenchRunError(result.status, result.message)
+    return float(result.wall_time_s), wall, int(result.steps)
+
+
+def _bare_step_s(model: mujoco.MjModel, physics_state: np.ndarray, n: int) -> tuple[float, float]:
+    """Seconds per bare ``mj_step`` of a model copy from ``physics_state``: per Python call, and
+    in one native ``nstep`` call."""
+    m = copy.deepcopy(model)
+    d = mujoco.MjData(m)
+    out = []
+    for native in (False, True):
+        mujoco.mj_resetData(m, d)
+        mujoco.mj_setState(m, d, physics_state, _PHYSICS)
+        step = mujoco.mj_step
+        t0 = time.perf_counter()
+        if native:
+            step(m, d, n)
+        else:
+            for _ in range(n):
+                step(m, d)
+        out.append((time.perf_counter() - t0) / n)
+    return out[0], out[1]
+
+
+def _physics_state(sim: Any) -> np.ndarray:
+    state = np.empty(mujoco.mj_stateSize(sim.model, _PHYSICS))
+    mujoco.mj_getState(sim.model, sim.data, state, _PHYSICS)
+    return state
+
+
+# ------------------------------------------------------------------------------------ instrumentation
+
+
+class _Clock:
+    """Seconds spent per part, accumulated by wrappers."""
+
+    def __init__(self) -> None:
+        self.spent: dict[str, float] = defaultdict(float)
+
+    def wrap(self, fn: Callable[..., Any], part: str) -> Callable[..., Any]:
+        spent = self.spent
+        clock = time.perf_counter
+
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            t0 = clock()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                spent[part] += clock() - t0
+        return timed
+
+
+class _TimedLoad:
+    """A load whose ``add`` is timed; other attributes are the load's."""
+
+    def __init__(self, load_: Any, clock: _Clock, part: str) -> None:
+        self._load = load_
+        self.add = clock.wrap(load_.add, part)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._load, name)
+
+
+class _TimedCommand:
+    """A held command whose ``apply_ctrl`` (when it has one) is timed as the controller's."""
+
+    def __init__(self, cmd: Any, clock: _Clock) -> None:
+        self._cmd, self._clock = cmd, clock
+
+    def __getattr__(self, name: str) -> Any:
+        value = getattr(self._cmd, name)
+        return self._clock.wrap(value, "controller") if name == "apply_ctrl" else value
+
+
+class _TimedController:
+    """A controller whose ``update`` is timed; its commands are wrapped in :class:`_TimedCommand`."""
+
+    def __init__(self, controller: Any, clock: _Clock) -> None:
+        self._controller, self._clock = controller, clock
+        self._update = clock.wrap(controller.update, "controller")
+
+    def update(self, state: Any) -> Any:
+        cmd = self._update(state)
+        return _TimedCommand(cmd, self._clock) if cmd is not None else None
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._controller, name)
+
+
+class _TimedEnvironment:
+    def __init__(self, env: Any, clock: _Clock) -> None:
+        self._env = env
+        self.sample = clock.wrap(env.sample, "environment")
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._env, name)
+
+
+def _load_parts(loads: Sequence[Any]) -> list[str]:
+    """``load: <name>`` per load (``#2``, ``#3`` … for repeated names)."""
+    names: list[str] = []
+    for ld in loads:
+        base = f"load: {getattr(ld, 'name', type(ld).__name__)}"
+        name, k = base, 1
+        while name in names:
+            k += 1
+            name = f"{base} #{k}"
+        names.append(name)
+    return names
+
+
+def _instrument(sim: Any, clock: _Clock) -> list[str]:
+    """Wrap the parts the runner has (a Simulation has all, the MSAC runner a recorder); returns
+    the part names."""
+    parts: list[str] = []
+    loads = list(getattr(sim, "loads", ()) or ())
+    if loads:
+        names = _load_parts(loads)
+        sim.loads = [_TimedLoad(ld, clock, n) for ld, n in zip(loads, names)]
+        parts += names
+    if getattr(sim, "controller", None) is not None:
+        sim.controller = _TimedController(sim.controller, clock)
+        parts.append("controller")
+    if getattr(sim, "environment", None) is not None:
+        sim.environment = _TimedEnvironment(sim.environment, clock)
+        parts.append("environment")
+    if getattr(sim, "kin", None) is not None:
+        sim.kin.update = clock.wrap(sim.kin.update, "kinematics")
+        parts.append("kinematics")
+    if getattr(sim, "probes", None):
+        sim.probes = {k: clock.wrap(p, "probes") for k, p in sim.probes.items()}
+        parts.append("probes")
+    rec = getattr(sim, "recorder", None)
+    if rec is not None:
+        for method in ("append", "extend"):
+            if hasattr(rec, method):
+                setattr(rec, method, clock.wrap(getattr(rec, method), "recorder"))
+        parts.append("recorder")
+    if getattr(sim, "strain_check", None) is not None:
+        sim.strain_check = clock.wrap(sim.strain_check, "strain_check")
+        parts.append("strain_check")
+    return parts + ["mj_step"]
+
+
+def _parts_pass(cfg: BaseModel, store: Path) -> tuple[dict[str, float], float]:
+    """The instrumented pass: µs per step of every part (``loop`` = the rest) and in all."""
+    sim = _build(cfg)
+    clock = _Clock()
+    parts = _instrument(sim, clock)
+    mj_step = mujoco.mj_step
+    mujoco.mj_step = clock.wrap(mj_step, "mj_step")
+    try:
+        wall, _, steps = _timed_run(sim, store)
+    finally:
+        mujoco.mj_step = mj_step
+    n = max(steps, 1)
+    out = {p: clock.spent.get(p, 0.0) / n * 1e6 for p in parts}
+    out["loop"] = wall / n * 1e6 - sum(out.values())
+    return out, wall / n * 1e6
+
+
+# ------------------------------------------------------------------------------------ entry
+
+
+def bench(config: str | Path | BaseModel, *, overrides: Sequence[str] = (), duration_s: float | None = None,
+          repeat: int = 1) -> dict[str, Any]:
+    """Benchmark the step loop of ``config`` (module docstring); returns a JSON-able dict.
+
+    Args:
+      config: config path, or a validated config.
+      overrides: ``"key=value"`` strings as ``--set``.
+      duration_s: simulated time per pass [s] (default: the config's ``sim.duration_s``).
+      repeat: all-in and bare passes (medians reported); the instrumented pass runs once.
+
+    Raises:
+      ValueError: a bad option (named), or a scenario kind without a stepped run (``config``);
+      ConfigError: the config with the overrides is invalid;
+      BenchRunError: a pass did not complete (diverged, failed).
+    """
+    _check_options(duration_s, repeat)
+    cfg = _config(config, overrides, duration_s)
+    with threadpool_limits(limits=1), tempfile.TemporaryDirectory(prefix="magsail_bench_") as tmp:
+        all_in, bare, native, setup = [], [], [], []
+        for i in range(repeat):
+            sim = _build(cfg)
+            physics = _physics_state(sim)
+            wall, call, steps = _timed_run(sim, Path(tmp) / f"pass{i}.zarr")
+            all_in.append(wall / steps)
+            setup.append(call - wall)
+            per_call, per_native = _bare_step_s(sim.model, physics, steps)
+            bare.append(per_call)
+            native.append(per_native)
+        model = sim.model
+        del sim
+        parts, instrumented = _parts_pass(cfg, Path(tmp) / "parts.zarr")
+    return _report(cfg, model, steps=steps, all_in=all_in, bare=bare, native=native, parts=parts,
+                   instrumented_us=instrumented, setup_s=statistics.median(setup))
+
+
+def _report(cfg: BaseModel, model: mujoco.MjModel, *, steps: int, all_in: list[float], bare: list[float],
+            native: list[float], parts: dict[str, float], instrumented_us: float,
+            setup_s: float) -> dict[str, Any]:
+    us = statistics.median(all_in) * 1e6
+    mj_us = statistics.median(bare) * 1e6
+    dt = float(model.opt.timestep)
+    integrator = mujoco.mjtIntegrator(model.opt.integrator).name.removeprefix("mjINT_")
+    return {
+        "concept": getattr(cfg, "concept", None), "scenario": getattr(cfg, "scenario", None),
+        "kind": getattr(cfg, "kind", None), "steps": steps, "timestep_s": dt, "integrator": integrator,
+        "duration_s": steps * dt, "repeat": len(all_in),
+        "us_per_step": us, "mj_step_us": mj_us, "ratio_to_mj_step": us / mj_us,
+        "mj_step_native_us": statistics.median(native) * 1e6,
+        "parts_us": parts, "instrumented_us_per_step": instrumented_us, "run_setup_s": setup_s,
+        "steps_per_s": 1e6 / us, "realtime_factor": dt / (us * 1e-6),
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "us_per_step_runs": [x * 1e6 for x in all_in], "mj_step_us_runs": [x * 1e6 for x in bare],
+        "platform": {"python": platform.python_version(), "mujoco": mujoco.__version__, "numpy": np.__version__,
+                     "machine": platform.machine(), "cpus": os.cpu_count(), "system": sys.platform},
+    }
