@@ -43,6 +43,21 @@ def test_every_task_config_exists() -> None:
         assert envs.core.task_entry(name).config.is_file(), name
 
 
+def test_discovery_registers_every_concept_env_module_and_names_it_by_domain() -> None:
+    """Each task is registered by the ``env`` module of a concept package (found by discovery, no
+    concept named in magsail_mj.envs); ``envs.<domain>`` and ``envs.<concept>`` are that module."""
+    modules = envs.ENV_MODULES
+    assert modules and all(m.__name__ == f"magsail_mj.concepts.{c}.env" for c, m in modules.items())
+    for name in envs.list():
+        module = getattr(envs, name.partition("/")[0])
+        assert module.__name__ == envs.core.task_entry(name).factory.__module__, name
+        assert module in modules.values()
+    assert envs.truss is envs.truss_magnetorquer is modules["truss_magnetorquer"]
+    with pytest.raises(AttributeError, match="'zz_nope'"):
+        envs.zz_nope  # noqa: B018
+    assert not hasattr(envs, "__wrapped__")
+
+
 def test_load_by_name_and_by_path_give_the_same_task() -> None:
     by_name = envs.load("truss/detumble", TRUSS, randomize=False)
     by_path = envs.load(REPO_ROOT / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", TRUSS, randomize=False)  # noqa: E501

@@ -188,10 +188,7 @@ def test_imports_at_module_top(name):
     assert not inner, "imports inside functions:\n" + "\n".join(inner)
 
 
-PENDING_CONCEPT_IMPORTS = {
-    "magsail_mj.envs": "imports each concept's env module by name (concepts.concept_modules('env') finds them)",
-    "magsail_mj.envs.bench": "imports the CNUSAIL and MSAC env modules by name",
-}
+PENDING_CONCEPT_IMPORTS: dict[str, str] = {}
 """Framework modules that still import concept modules (expected failures until their owners switch
 to discovery; an entry is removed once its module passes)."""
 

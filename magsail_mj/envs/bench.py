@@ -38,8 +38,6 @@ from typing import Any, Sequence
 
 import magsail_mj
 from magsail_mj import envs
-from magsail_mj.concepts.cnusail import env as cnusail  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
-from magsail_mj.concepts.msac import env as msac  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
 from magsail_mj.envs.core import task_entry
 
 __all__ = ["CASES", "measure", "main"]
