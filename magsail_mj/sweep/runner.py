@@ -38,6 +38,7 @@ from distributed.diagnostics.plugin import WorkerPlugin
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
 from magsail_mj.config import config_hash, load_config, numbers_hash
 from magsail_mj.io import atomic_path, to_jsonable, write_json
+from magsail_mj.run import run_scenario
 from magsail_mj.sweep.common import FINISHED, STATE_DIR, SweepRun, _folder_check, _record, run_lock
 
 __all__ = ["supervise", "run_one", "call_dir", "request_stop", "process_main", "IgnoreSigint"]
@@ -76,9 +77,6 @@ def run_one(run: SweepRun, out_dir: str | Path, *, video: bool, fresh: bool = Tr
     raises (the video included) or when its folder does not verify afterwards; a
     KeyboardInterrupt propagates.
     """
-    # the simulation stack is imported here only (an import failure is this run's failure)
-    from magsail_mj.run import run_scenario  # the supervisor (a Dask task) and the client stay light
-
     t0 = time.perf_counter()
     run_dir = Path(out_dir) / run.id
     record = _record(run, status="failed", message="", attempts=1)
