@@ -37,6 +37,7 @@ bounds (mean of squares over the components), ε_max the largest strut strain an
 
 from __future__ import annotations
 
+import abc
 import collections
 import copy
 import functools
@@ -359,8 +360,12 @@ class AttitudeTask(control.Task):
       reward_weights: :class:`RewardWeights` or a mapping of its fields.
 
     Subclasses set ``action_names``, ``action_low``, ``action_high`` (``_set_action_bounds``) and
-    implement :meth:`convert` (action → the scenario's command), :meth:`observe` (named arrays),
-    :meth:`reward_terms` and :meth:`draw_start` (write a drawn initial state into the physics).
+    ``converter`` (over a :class:`SimulationPhysics`: ``command(state, action)`` gives the
+    scenario's command), implement the abstract methods :meth:`observe` (named arrays) and
+    :meth:`shipped_action` (the shipped controller's command as an action) — a subclass without
+    either cannot be instantiated (``TypeError`` naming the method) — and override
+    :meth:`reward_terms` and :meth:`draw_start` (write a drawn initial state into the physics)
+    where the task has them.
     """
 
     rate_scale_rad_s: float = 1e-2
@@ -463,9 +468,9 @@ class AttitudeTask(control.Task):
     environment sample at the current time, built by :meth:`SimulationPhysics.step_state`); a task
     that reads ``physics.data`` itself sets it False and is passed ``None``."""
 
+    @abc.abstractmethod
     def observe(self, physics: SimulationPhysics, state: StepState | None) -> dict[str, np.ndarray]:
         """Named observation arrays at ``state`` (subclass)."""
-        raise NotImplementedError
 
     def get_observation(self, physics: SimulationPhysics) -> collections.OrderedDict:
         """The named observation arrays (float64); after a divergence (the state is not finite) the
@@ -556,10 +561,10 @@ class AttitudeTask(control.Task):
         controller is in its initial state)."""
         return copy.deepcopy(physics.base.controller)
 
+    @abc.abstractmethod
     def shipped_action(self, physics: SimulationPhysics, controller: Any, state: StepState) -> np.ndarray:
         """The action that makes :meth:`convert` give the shipped controller's command at
         ``state`` (subclass; ``controller`` is a fresh copy of the shipped controller)."""
-        raise NotImplementedError
 
 
 # =========================================================================== registry

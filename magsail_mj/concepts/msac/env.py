@@ -308,6 +308,12 @@ class MsacCycleTask(AttitudeTask):
 
     # ------------------------------------------------------------------ observation, reward
     def get_observation(self, physics: MsacPhysics) -> OrderedDict:
+        """The named arrays of :meth:`observe` (no step state: the physics is read directly)."""
+        return self.observe(physics, None)
+
+    def observe(self, physics: MsacPhysics, state: None) -> OrderedDict:
+        """Time, bus attitude, unwrapped yaw (advanced here: once per step) and rate, the shape
+        coordinates and the driven cycle."""
         q, v = physics.qpos(), physics.qvel()
         ix = physics.ix
         psi = float(yaw_from_quat(q[3:7][None])[0])

@@ -20,6 +20,7 @@ Each class is registered with :func:`magsail_mj.concepts.register_task` keyed by
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from pathlib import Path
 from typing import Any, Callable
 
@@ -47,11 +48,12 @@ from magsail_mj.sim import RunResult, Simulation
 __all__ = ["ReflectorTask", "DetumbleTask", "PitchTask", "PitchCapsTask", "build_reflector_scenario"]
 
 
-class ReflectorTask:
+class ReflectorTask(ABC):
     """What every reflector task shares: the built plate (``plate``; ``spec``, ``model``, ``idx``,
     ``inertia``, ``mass_kg``, ``cap``, ``params`` from it), the held-torque load, the state writer
-    and the manifest. Subclasses set the marker set, the controller, the initial state, the probes,
-    the outputs and the render text."""
+    and the manifest. Subclasses set the marker set, the probes and the outputs, and implement the
+    abstract :meth:`make_controller`, :meth:`initial_state` and :meth:`render_text` (a subclass
+    without one of them cannot be instantiated: ``TypeError`` naming it)."""
 
     markers: tuple[MarkerSpec, ...] = ()
     #: free-camera distance in plate sides
@@ -74,12 +76,13 @@ class ReflectorTask:
         return self.plate.orbit
 
     # -------------------------------------------------------------- parts
+    @abstractmethod
     def make_controller(self) -> Any:
-        raise NotImplementedError
+        """The kind's controller (``update(state)`` → a command with ``torque_body`` [N·m], body axes)."""
 
+    @abstractmethod
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         """``(q0, ω0_body [rad/s])`` at t = 0."""
-        raise NotImplementedError
 
     def init_state(self, data: mujoco.MjData) -> None:
         self.plate.write_state(data, *self.initial_state())
@@ -102,9 +105,9 @@ class ReflectorTask:
                           checkpoint_every_s=sim.checkpoint_every_s, init=self.init_state)
 
     # -------------------------------------------------------------- outputs
+    @abstractmethod
     def render_text(self) -> dict[str, Any]:
         """``title``, ``overlay``, ``inset`` and ``markers`` of the video."""
-        raise NotImplementedError
 
     def render_info(self) -> dict[str, Any]:
         r, cfg = self.cfg.render, self.cfg

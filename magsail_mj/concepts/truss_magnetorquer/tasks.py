@@ -22,6 +22,7 @@ space; body = the best-fit rotation of the lattice (§4.1). Units SI.
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, ClassVar
@@ -76,13 +77,14 @@ Summary = tuple[dict[str, Any], dict[str, np.ndarray]]
 
 
 @dataclass
-class TrussScenario:
+class TrussScenario(ABC):
     """A truss run: the model plus its loads, probes and post-processing (base of every task).
 
-    Subclasses override the hooks :meth:`task_loads`, :meth:`make_controller`, :meth:`task_probes`,
-    :meth:`postprocess`, :meth:`task_plots`, :meth:`task_manifest` and the render overlay
-    :attr:`OVERLAY` / :attr:`INSET`; :meth:`simulation`, :meth:`plots`, :meth:`render_info` and
-    :meth:`manifest_extra` are the same for every kind.
+    Subclasses implement the abstract :meth:`postprocess` and :meth:`task_plots` (a subclass
+    without one of them cannot be instantiated: ``TypeError`` naming it), override the hooks
+    :meth:`task_loads`, :meth:`make_controller`, :meth:`task_probes`, :meth:`task_manifest` and
+    the render overlay :attr:`OVERLAY` / :attr:`INSET` where the kind has them; :meth:`simulation`,
+    :meth:`plots`, :meth:`render_info` and :meth:`manifest_extra` are the same for every kind.
     """
 
     cfg: TrussConfig
@@ -189,13 +191,13 @@ class TrussScenario:
         """(T, n, 3) node positions from recorded qpos (clamped nodes stay at reference)."""
         return node_positions_from_qpos(self.model, qpos, n_nodes=self.tm.lattice.n_nodes)
 
+    @abstractmethod
     def postprocess(self, result: RunResult) -> Summary:
         """Summary keys and derived series of the run (the kind's)."""
-        raise NotImplementedError(f"{type(self).__name__}: no postprocess")
 
+    @abstractmethod
     def task_plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
         """The kind's PNG figures."""
-        raise NotImplementedError(f"{type(self).__name__}: no plots")
 
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
         """Write the run's figures into ``run_dir``; returns their paths."""
@@ -335,7 +337,8 @@ class CantileverTask(TrussScenario):
 class OrbitalTrussTask(TrussScenario):
     """The 75 m truss in orbit with magnetorquer rods in its top-layer struts (§9): the rod load,
     the ``[control]`` law through the §7.3 allocation, the orbital probes, summary and plots
-    (:mod:`magsail_mj.concepts.truss_magnetorquer.orbital`). Subclasses add the kind's own metrics."""
+    (:mod:`magsail_mj.concepts.truss_magnetorquer.orbital`). Subclasses add the kind's own metrics
+    (the abstract :meth:`kind_metrics`)."""
 
     def rods(self) -> MagnetorquerRodLoad:
         """The rod load (built once and kept: the controller and the probes share it)."""
@@ -356,9 +359,9 @@ class OrbitalTrussTask(TrussScenario):
         return orbital_probes(self.tm, self.rods(), self.tidal_load, ntendon=self.model.ntendon,
                               mu_m3_s2=self.environment.mu, q_err=self.cfg.control.kind == "quat_pd")
 
+    @abstractmethod
     def kind_metrics(self, records: dict[str, np.ndarray], series: dict[str, np.ndarray]) -> Summary:
         """The kind's own ``(keys, series)`` from the records and the common series."""
-        raise NotImplementedError(f"{type(self).__name__}: no kind metrics")
 
     def postprocess(self, result: RunResult) -> Summary:
         summary, series = orbital_summary(self.cfg, self.tm, self.node_positions(result.records["qpos"]), result,
