@@ -4,8 +4,14 @@ A run folder holds ``model.xml``, ``timeseries.zarr`` (or, from earlier versions
 ``timeseries.npz``) with ``t`` (T,), ``qpos`` (T, nq), optional ``strut_activity`` (T, ntendon)
 int8 in {-1, 0, +1} and optional scalar series, and
 ``manifest.json`` whose ``render`` table gives ``title``, ``top_nodes``, ``overlay``, ``inset``
-(one scalar series drawn as a small plot of its history up to the frame's time), ``camera`` and
-``exaggeration`` (all optional). See the README (Rendering videos).
+(one scalar series drawn as a small plot of its history up to the frame's time), ``camera``,
+``exaggeration``, and what the legend and the overlay lines say: ``markers`` (model object name
+pattern → meaning), ``overlay_names`` (series → readable name), ``overlay_units`` (series →
+unit, where the name's suffix has none), ``overlay_labels`` (series → {integer value → meaning},
+for enumerations such as a controller mode), ``activity_labels`` (``"1"``/``"-1"`` → meaning of
+the strut activity colours) and ``strut_colours`` (all optional). The manifest's (or else the
+record store's) ``scenario`` and ``config_hash`` are printed in the lower right corner. See
+``docs/rendering.md``.
 
 The frames of ``qpos`` and ``strut_activity`` are read from the store when drawn (a chunk at a
 time, :class:`Frames`), so the memory of a render does not grow with the run's length; the checks
@@ -15,7 +21,8 @@ Per frame: the recorded ``qpos`` is set, positions are computed (``mj_kinematics
 ``mj_comPos``, ``mj_camlight``, ``mj_tendon``; no dynamics), struts (tendons) are coloured
 from ``strut_activity`` through ``model.tendon_rgba``, top-layer nodes are coloured by their
 height above the top layer's total-least-squares plane through ``model.geom_rgba``, and the
-image from :class:`mujoco.Renderer` gets a text overlay drawn with PIL.
+image from :class:`mujoco.Renderer` gets the overlay of :mod:`magsail_mj.render.overlay` (title,
+time, values with units, legend of every colour shown, colour bar, inset, run identity).
 
 Camera: a free camera whose ``lookat`` follows the centroid of the body positions, with a fixed
 azimuth/elevation in the world (inertial-axes) frame and a fixed distance derived from the
@@ -37,14 +44,25 @@ import warnings
 import zipfile
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
 from typing import Any, Self
 
+import mujoco
 import numpy as np
+from tqdm import tqdm
 
-from magsail_mj.records import STORE_NAME, RecordStoreError, lazy_arrays
+from magsail_mj.analysis.flatness import average_plane, surface_heights
+from magsail_mj.records import STORE_NAME, RecordStoreError, lazy_arrays, open_records
 from magsail_mj.render.backend import ensure_gl_backend, make_renderer
+from magsail_mj.render.overlay import (
+    ColourBar,
+    Inset,
+    LegendEntry,
+    OverlayError,
+    colormap,
+    draw_overlay,
+    format_value,
+)
 from magsail_mj.render.video import Mp4Writer
 from magsail_mj.resources import (
     check_memory,
@@ -55,6 +73,7 @@ from magsail_mj.resources import (
 
 __all__ = [
     "ACTIVE_NEG_RGBA",
+    "FrameOptions",
     "ACTIVE_POS_RGBA",
     "DEFAULT_AZIMUTH_DEG",
     "DEFAULT_ELEVATION_DEG",
@@ -90,11 +109,11 @@ _LOD_SLICES, _LOD_STACKS = 6, 4
 # heights are rounding noise of a rigid motion, not a shape.
 _HEIGHT_FLOOR = 1e-9
 _NODE_NAME = re.compile(r"n(\d+)\Z")
-_UNITS = [  # (name suffix, printed unit), longest first
-    ("_rad_s", "rad/s"), ("_deg_s", "°/s"), ("_Am2", "A·m²"), ("_Nm", "N·m"), ("_rpm", "rpm"),
-    ("_rad", "rad"), ("_deg", "°"), ("_kg", "kg"), ("_m", "m"), ("_s", "s"), ("_N", "N"),
-    ("_A", "A"), ("_T", "T"), ("_J", "J"), ("_W", "W"),
-]
+#: default meaning of the strut activity colours (``render.activity_labels`` replaces them)
+_ACTIVITY_TEXT = {"1": "actuated strut, + sign", "-1": "actuated strut, − sign"}
+_AXES = "xyz"
+#: digits of the config hash printed in the corner
+_HASH_DIGITS = 12
 
 
 # --------------------------------------------------------------------------- run loading
@@ -123,7 +142,15 @@ class RunData:
         ``distance_m``).
       exaggeration: ``manifest.render.exaggeration`` or ``None``.
       manifest: the whole manifest (``{}`` when the render table was given instead).
-      strut_colours: ``render.strut_colours`` entries ``{"struts": [...], "rgba": [r, g, b, a]}``.
+      strut_colours: ``render.strut_colours`` entries ``{"struts": [...], "rgba": [r, g, b, a]}``
+        (optional ``label``, or ``axis`` 0/1/2 of a current loop, for the legend).
+      names: ``render.overlay_names``: series → readable name.
+      units: ``render.overlay_units``: series → printed unit.
+      labels: ``render.overlay_labels``: series → {integer value as a string → meaning}.
+      markers: ``render.markers``: model object name pattern → meaning (legend rows).
+      activity_labels: ``render.activity_labels``: ``"1"``/``"-1"`` → meaning of the strut
+        activity colours.
+      identity: ``scenario <name> · config <hash[:12]>`` (empty when neither is known).
     """
 
     run_dir: Path
@@ -139,6 +166,12 @@ class RunData:
     manifest: dict = field(repr=False)
     inset: tuple[str, np.ndarray] | None = None
     strut_colours: tuple = ()
+    names: dict[str, str] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
+    labels: dict[str, dict[str, str]] = field(default_factory=dict)
+    markers: dict[str, str] = field(default_factory=dict)
+    activity_labels: dict[str, str] = field(default_factory=dict)
+    identity: str = ""
 
 
 def _check_camera(camera: object, what: str) -> dict[str, float]:
@@ -400,11 +433,50 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir",
     colours = render.get("strut_colours") or ()
     if isinstance(colours, (str, Mapping)) or not isinstance(colours, Sequence):
         raise RenderError(f"{where}.strut_colours: expected a list of {{struts, rgba}} tables, got {colours!r:.200}")
+    labels = _text_table(render.get("overlay_labels"), f"{where}.overlay_labels", nested=True)
     return RunData(run_dir=run_dir, model_xml=paths["model.xml"], t=t, qpos=qpos,
                    strut_activity=activity, series=series, title=str(title), top_nodes=top,
                    camera=_check_camera(render.get("camera"), f"{where}.camera"),
                    exaggeration=exaggeration, manifest=manifest, inset=inset,
-                   strut_colours=tuple(colours))
+                   strut_colours=tuple(colours),
+                   names=_text_table(render.get("overlay_names"), f"{where}.overlay_names"),
+                   units=_text_table(render.get("overlay_units"), f"{where}.overlay_units"),
+                   labels=labels, markers=_text_table(render.get("markers"), f"{where}.markers"),
+                   activity_labels=_text_table(render.get("activity_labels"), f"{where}.activity_labels"),
+                   identity=_identity(manifest, run_dir if stored else None))
+
+
+def _text_table(table: object, where: str, *, nested: bool = False) -> dict:
+    """A render table of texts (``{key: text}``; ``nested``: ``{key: {value: text}}``) with string
+    keys and values; ``None`` is empty; anything else is a :class:`RenderError` naming ``where``."""
+    if table is None:
+        return {}
+    if not isinstance(table, Mapping):
+        raise RenderError(f"{where}: expected a table, got {table!r:.200}")
+    out: dict = {}
+    for key, value in table.items():
+        if nested:
+            out[str(key)] = _text_table(value, f"{where}.{key}")
+        elif isinstance(value, (str, int, float)) and not isinstance(value, bool):
+            out[str(key)] = str(value)
+        else:
+            raise RenderError(f"{where}.{key}: expected a text, got {value!r:.200}")
+    return out
+
+
+def _identity(manifest: Mapping, run_dir: Path | None) -> str:
+    """``scenario <name> · config <first 12 hex digits>`` from the manifest, else from the record
+    store's attributes (a run renders its video before it writes its manifest); ``""`` if unknown."""
+    scenario, digest = manifest.get("scenario"), manifest.get("config_hash")
+    if (scenario is None or digest is None) and run_dir is not None:
+        try:
+            attrs = open_records(run_dir).attrs
+        except (RecordStoreError, KeyError):
+            attrs = {}
+        scenario = scenario if scenario is not None else attrs.get("scenario")
+        digest = digest if digest is not None else attrs.get("config_hash")
+    parts = [f"scenario {scenario}"] if scenario else []
+    return " · ".join(parts + ([f"config {str(digest)[:_HASH_DIGITS]}"] if digest else []))
 
 
 def _strut_colours(entries: Sequence, *, where: str, ntendon: int) -> Iterator[tuple[np.ndarray, np.ndarray]]:
@@ -504,8 +576,6 @@ class RunScene:
     """
 
     def __init__(self, run: RunData, *, width: int, height: int, antialias: bool = True) -> None:
-        import mujoco
-
         self.run = run
         self.width, self.height = int(width), int(height)
         try:
@@ -556,6 +626,7 @@ class RunScene:
             m.tendon_rgba[idx] = rgba
             widen[idx] = True
         m.tendon_width[widen] *= 2.5
+        self._widened = widen
         # Render-only size floors, based on the original sizes.
         self._tendon_rgba0 = m.tendon_rgba.copy()
         self._tendon_width0 = m.tendon_width.copy()
@@ -578,6 +649,26 @@ class RunScene:
         self._camera.type = int(mujoco.mjtCamera.mjCAMERA_FREE)
         self._configured_distance: float | None = None
 
+    # -- legend
+
+    def legend(self) -> list[LegendEntry]:
+        """The legend rows of this run: each ``render.markers`` entry that names objects of the
+        model (with their colours), the ``render.strut_colours`` colours, and the strut activity
+        colours (``render.activity_labels``, else "actuated strut, ± sign") with the idle strut
+        colour."""
+        run, m = self.run, self.model
+        colours = _ModelColours(m)
+        rows = [e for key, text in run.markers.items() if (e := colours.entry(key, text)) is not None]
+        rows += _strut_colour_entries(run.strut_colours)
+        if run.strut_activity is not None:
+            text = {**_ACTIVITY_TEXT, **run.activity_labels}
+            rows += [LegendEntry((tuple(ACTIVE_POS_RGBA[:3]),), text["1"]),
+                     LegendEntry((tuple(ACTIVE_NEG_RGBA[:3]),), text["-1"])]
+            idle = _unique_rgb(self._tendon_rgba0[~self._widened], most=1)
+            if idle:
+                rows.append(LegendEntry(idle, "strut, not actuated"))
+        return rows
+
     # -- lifecycle
 
     def __enter__(self) -> Self:
@@ -595,16 +686,12 @@ class RunScene:
     # -- kinematics
 
     def _positions(self, qpos: np.ndarray) -> None:
-        import mujoco
-
         m, d = self.model, self.data
         d.qpos[:] = qpos
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
 
     def _finish_positions(self) -> None:
-        import mujoco
-
         m, d = self.model, self.data
         mujoco.mj_camlight(m, d)
         if m.nflex:
@@ -619,8 +706,6 @@ class RunScene:
           exaggeration: factor k on each node's out-of-plane deviation (see module docs);
             needs at least 3 truss nodes when k != 1.
         """
-        from magsail_mj.analysis.flatness import average_plane, surface_heights
-
         indices = np.asarray(indices, dtype=np.int64)
         if indices.ndim != 1 or indices.size == 0 or indices.min() < 0 \
                 or indices.max() >= self.run.t.size:
@@ -699,8 +784,6 @@ class RunScene:
 
     def _configure(self, distance: float) -> None:
         """Clipping planes and render-only size floors for a camera ``distance`` [m]."""
-        import mujoco
-
         if self._configured_distance == distance:
             return
         m = self.model
@@ -733,8 +816,6 @@ class RunScene:
         Returns:
           (height, width, 3) uint8 image.
         """
-        import mujoco
-
         if self._indices is None:
             raise RuntimeError("RunScene.render: call prepare() first")
         if not 0 <= frame < self._indices.size:
@@ -783,146 +864,87 @@ class RunScene:
         return self._renderer.render()
 
 
-# --------------------------------------------------------------------------- 2-D overlay
+# --------------------------------------------------------------------------- legend
 
 
-@lru_cache(maxsize=8)
 def _colormap(name: str):
-    import matplotlib
-
+    """The matplotlib colormap ``name`` (a :class:`RenderError` naming ``height_cmap`` if unknown)."""
     try:
-        return matplotlib.colormaps[name]
-    except KeyError:
-        raise RenderError(f"height_cmap: unknown matplotlib colormap {name!r}") from None
+        return colormap(name)
+    except OverlayError as exc:
+        raise RenderError(str(exc)) from None
 
 
-@lru_cache(maxsize=16)
-def _font(size: int):
-    """DejaVu Sans (shipped with matplotlib; has ×, ±, ², °) at ``size`` px."""
-    from PIL import ImageFont
-
-    try:
-        import matplotlib
-
-        path = Path(matplotlib.get_data_path()) / "fonts" / "ttf" / "DejaVuSans.ttf"
-        return ImageFont.truetype(str(path), size)
-    except (OSError, ImportError):
-        return ImageFont.load_default(size=size)
+def _unique_rgb(rgba: np.ndarray, *, most: int = 3) -> tuple[tuple[float, float, float], ...]:
+    """The distinct visible colours (alpha > 0) of the rows of ``rgba`` (n, 4), in order, at most ``most``."""
+    out: list[tuple[float, float, float]] = []
+    for row in np.asarray(rgba, dtype=float).reshape(-1, 4):
+        colour = tuple(round(float(c), 3) for c in row[:3])
+        if row[3] > 0 and colour not in out:
+            out.append(colour)  # type: ignore[arg-type]
+    return tuple(out[:most])  # type: ignore[return-value]
 
 
-@lru_cache(maxsize=8)
-def _colour_bar(cmap: str, height: int, width: int):
-    """Vertical colour bar image, top = colormap end (positive heights)."""
-    from PIL import Image
-
-    colours = (_colormap(cmap)(np.linspace(1.0, 0.0, height))[:, :3] * 255).astype(np.uint8)
-    return Image.fromarray(np.ascontiguousarray(np.repeat(colours[:, None, :], width, axis=1)))
-
-
-def _format_value(name: str, value: np.ndarray) -> str:
-    unit = next((u for suffix, u in _UNITS if name.endswith(suffix)), "")
-    v = np.atleast_1d(np.asarray(value, dtype=float))
-    text = f"{v[0]:.4g}" if v.size == 1 else "[" + ", ".join(f"{x:.3g}" for x in v) + "]"
-    return f"{name} = {text}{' ' + unit if unit else ''}"
+def _marker_parts(key: str, exists) -> list[str]:
+    """The object names of a ``render.markers`` key: ``"ycoil/xcoil"`` → ``ycoil``, ``xcoil``;
+    a later part that names nothing by itself replaces the tail of the first
+    (``"axis_x/y/z"`` → ``axis_x``, ``axis_y``, ``axis_z``)."""
+    first, *rest = key.split("/")
+    parts = [first]
+    for part in rest:
+        parts.append(part if exists(part) or len(part) >= len(first) else first[:len(first) - len(part)] + part)
+    return parts
 
 
-def _format_length(x: float) -> str:
-    if x == 0:
-        return "0 m"
-    if abs(x) < 1e-3:
-        return f"{x * 1e6:.3g} µm"
-    if abs(x) < 1:
-        return f"{x * 1e3:.3g} mm"
-    return f"{x:.3g} m"
+class _ModelColours:
+    """The colours of a model's named objects, for the legend: geoms, sites and tendons named
+    ``name`` or ``name_<anything>``, and the geoms of a body named ``name``."""
+
+    _KINDS = (("geom", mujoco.mjtObj.mjOBJ_GEOM, "ngeom", "geom_rgba"),
+              ("site", mujoco.mjtObj.mjOBJ_SITE, "nsite", "site_rgba"),
+              ("tendon", mujoco.mjtObj.mjOBJ_TENDON, "ntendon", "tendon_rgba"))
+
+    def __init__(self, model: mujoco.MjModel) -> None:
+        self.model = model
+        self.names = {kind: [mujoco.mj_id2name(model, obj, i) or "" for i in range(getattr(model, n))]
+                      for kind, obj, n, _ in self._KINDS}
+        self.bodies = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or "": b for b in range(model.nbody)}
+
+    def rgba(self, name: str) -> np.ndarray:
+        """(n, 4) colours of the objects that ``name`` names (none: shape (0, 4))."""
+        rows = []
+        for kind, _, _, attr in self._KINDS:
+            colours = getattr(self.model, attr)
+            rows += [colours[i] for i, n in enumerate(self.names[kind]) if n == name or n.startswith(name + "_")]
+        body = self.bodies.get(name)
+        if body is not None and body > 0:
+            rows += list(self.model.geom_rgba[self.model.geom_bodyid == body])
+        return np.asarray(rows, dtype=float).reshape(-1, 4)
+
+    def entry(self, key: str, text: str) -> LegendEntry | None:
+        """The legend row of a ``render.markers`` entry (``None``: no object of the model matches)."""
+        parts = _marker_parts(key, lambda n: self.rgba(n).size > 0)
+        colours = _unique_rgb(np.concatenate([self.rgba(p) for p in parts]))
+        return LegendEntry(colours, text) if colours else None
 
 
-def _draw_inset(draw, *, box: tuple[float, float, float, float], t: np.ndarray, values: np.ndarray,
-                upto: int, name: str, font, ink: dict) -> None:
-    """A small plot of ``values`` against ``t`` up to record ``upto`` inside ``box`` (x0, y0, x1, y1).
-
-    The axes span the whole run (so the curve grows from left to right); the current value is a
-    dot; the frame shows the series name and its range.
-    """
-    x0, y0, x1, y1 = box
-    draw.rectangle(box, fill=(0, 0, 0), outline=(160, 160, 160))
-    finite = values[np.isfinite(values)]
-    if finite.size == 0 or t[-1] <= t[0]:
-        return
-    lo, hi = float(finite.min()), float(finite.max())
-    if hi <= lo:
-        lo, hi = lo - 0.5, hi + 0.5
-    inner = 4
-    xs = x0 + inner + (t[:upto + 1] - t[0]) / (t[-1] - t[0]) * (x1 - x0 - 2 * inner)
-    ys = y1 - inner - (values[:upto + 1] - lo) / (hi - lo) * (y1 - y0 - 2 * inner)
-    ok = np.isfinite(ys)
-    points = list(zip(xs[ok].tolist(), ys[ok].tolist()))
-    if len(points) > 1:
-        draw.line(points, fill=(255, 200, 60), width=2)
-    if points:
-        px, py = points[-1]
-        draw.ellipse([px - 3, py - 3, px + 3, py + 3], fill=(255, 80, 60))
-    draw.text((x0 + inner, y0 + inner), f"{name}: {lo:.3g} … {hi:.3g}", font=font, **ink)
-
-
-def _draw_overlay(image: np.ndarray, *, title: str, time_s: float, ended: bool,
-                  values: Sequence[str], exaggeration: float, label: str | None,
-                  height_limit_m: float | None, cmap: str, activity: bool,
-                  inset: tuple[str, np.ndarray, np.ndarray, int] | None = None) -> np.ndarray:
-    """Title, clock, series values, exaggeration note, height colour bar, activity legend, label,
-    and the ``inset`` plot ``(name, t, values, record index)`` in the lower left corner."""
-    from PIL import Image, ImageDraw
-
-    h, w = image.shape[:2]
-    size = max(10, round(h / 30))
-    big, small = _font(round(size * 1.25)), _font(size)
-    img = Image.fromarray(image)
-    draw = ImageDraw.Draw(img)
-    ink = {"fill": (255, 255, 255), "stroke_width": max(1, size // 9), "stroke_fill": (0, 0, 0)}
-    pad = size // 2
-    y = pad
-    draw.text((pad, y), title, font=big, **ink)
-    y += round(size * 1.25) + pad
-    draw.text((pad, y), f"t = {time_s:.1f} s" + ("  (run ended)" if ended else ""), font=small, **ink)
-    y += size + pad // 2
-    for line in values:
-        draw.text((pad, y), line, font=small, **ink)
-        y += size + pad // 2
-    if exaggeration != 1.0:
-        draw.text((pad, h - pad - size), f"×{exaggeration:g} exaggerated", font=small, **ink)
-    if inset is not None:
-        name, t_all, v_all, upto = inset
-        bottom = h - 2 * pad - size
-        _draw_inset(draw, box=(pad, bottom - h // 4, pad + w // 3, bottom), t=t_all, values=v_all,
-                    upto=upto, name=name, font=small, ink=ink)
-    if activity:
-        x = w - pad
-        for text, rgba in (("strut −", ACTIVE_NEG_RGBA), ("strut +", ACTIVE_POS_RGBA)):
-            tw = draw.textlength(text, font=small)
-            x -= tw
-            draw.text((x, h - pad - size), text, font=small, **ink)
-            x -= size + pad // 2
-            draw.rectangle([x, h - pad - size, x + size * 0.8, h - pad - size * 0.2],
-                           fill=tuple(int(255 * c) for c in rgba[:3]))
-            x -= pad
-    if height_limit_m is not None:
-        bar_h, bar_w = h // 3, max(6, size // 2)
-        x0, y0 = w - pad - bar_w, (h - bar_h) // 2
-        img.paste(_colour_bar(cmap, bar_h, bar_w), (x0, y0))
-        for frac, value in ((0.0, height_limit_m), (0.5, 0.0), (1.0, -height_limit_m)):
-            text = ("+" if value > 0 else "−" if value < 0 else "") + _format_length(abs(value))
-            tw = draw.textlength(text, font=small)
-            draw.text((x0 - pad - tw, y0 + frac * bar_h - size / 2), text, font=small, **ink)
-        caption = "height above top plane"
-        tw = draw.textlength(caption, font=small)
-        if tw > w / 4:
-            caption = "height"
-            tw = draw.textlength(caption, font=small)
-        draw.text((w - pad - tw, y0 - size - pad), caption, font=small, **ink)
-    if label:
-        tw = draw.textlength(label, font=big)
-        bottom_row = size + pad if (activity or exaggeration != 1.0) else 0
-        draw.text(((w - tw) / 2, h - pad - round(size * 1.25) - bottom_row), label, font=big, **ink)
-    return np.asarray(img)
+def _strut_colour_entries(entries: Sequence[Mapping]) -> list[LegendEntry]:
+    """One legend row per colour of ``render.strut_colours``: its ``label``, else the current-loop
+    axis (``x-loop circuits (4)``), else its ``name``."""
+    groups: dict[tuple, list[Mapping]] = {}
+    for entry in entries:
+        groups.setdefault(tuple(np.round(np.asarray(entry["rgba"], float)[:3], 3)), []).append(entry)
+    rows = []
+    for colour, members in groups.items():
+        first = members[0]
+        if first.get("label"):
+            text = str(first["label"])
+        elif first.get("axis") in (0, 1, 2):
+            text = f"{_AXES[int(first['axis'])]}-loop circuit" + (f"s ({len(members)})" if len(members) > 1 else "")
+        else:
+            text = ", ".join(str(m.get("name", "?")) for m in members[:3]) + (" …" if len(members) > 3 else "")
+        rows.append(LegendEntry((colour,), text))
+    return rows
 
 
 # --------------------------------------------------------------------------- argument checks
@@ -997,6 +1019,53 @@ def _check_render_memory(run_dirs: Sequence[Path], *, max_frames: int, width: in
 # --------------------------------------------------------------------------- public API
 
 
+@dataclass(frozen=True, kw_only=True)
+class FrameOptions:
+    """What the frames of a render show: the options of :func:`render_frames` and
+    :func:`render_run` (besides the output ones).
+
+    Attributes:
+      compare: a second run folder, rendered beside the first with the same camera and frame
+        times; the frames are then ``2 * width`` wide.
+      labels: one label per panel (default with ``compare``: the run folder names; without:
+        none).
+      width: width of one panel [px] (even for a video).
+      height: height [px] (even for a video).
+      max_frames: the recorded frames are subsampled uniformly to at most this many.
+      exaggeration: out-of-plane exaggeration factor k (default: manifest
+        ``render.exaggeration``, else 1). Each truss node's deviation from the best-fit plane
+        of all nodes, less its layer's mean (so the layer spacing is kept), is multiplied by k.
+      camera: ``{"azimuth_deg", "elevation_deg", "distance_m"}`` (any subset) overriding the
+        manifest's ``render.camera`` and the defaults (azimuth 180°, elevation −30°, distance
+        from the structure's size), MuJoCo free-camera convention.
+      height_cmap: matplotlib diverging colormap for top-node heights.
+      antialias: 4x multisampling; ``False`` renders about twice as fast in software.
+      render_info: the render table of the run (title, overlay, camera, ...) to use instead of
+        its manifest's ``render`` entry; ``manifest.json`` is then optional (``run_scenario``
+        renders the video before it writes the manifest).
+    """
+
+    compare: str | os.PathLike | None = None
+    labels: Sequence[str] | None = None
+    width: int = 960
+    height: int = 540
+    max_frames: int = 600
+    exaggeration: float | None = None
+    camera: Mapping[str, float] | None = None
+    height_cmap: str = DEFAULT_HEIGHT_CMAP
+    antialias: bool = True
+    render_info: Mapping | None = None
+
+
+def _frame_options(options: Mapping[str, Any]) -> FrameOptions:
+    """``options`` as :class:`FrameOptions`; an unknown name is a :class:`RenderError` naming it."""
+    allowed = FrameOptions.__dataclass_fields__
+    unknown = sorted(set(options) - set(allowed))
+    if unknown:
+        raise RenderError(f"{unknown[0]}: unknown render option; allowed: {', '.join(allowed)}")
+    return FrameOptions(**options)
+
+
 def _resolve_view(runs: Sequence[RunData], camera: Mapping | None,
                   scenes: Sequence[RunScene]) -> CameraView:
     settings = {**runs[0].camera, **_check_camera(camera, "camera")}
@@ -1006,47 +1075,53 @@ def _resolve_view(runs: Sequence[RunData], camera: Mapping | None,
                       distance_m=float(distance))
 
 
-def render_frames(
-    run_dir: str | os.PathLike,
-    *,
-    compare: str | os.PathLike | None = None,
-    labels: Sequence[str] | None = None,
-    width: int = 960,
-    height: int = 540,
-    max_frames: int = 600,
-    exaggeration: float | None = None,
-    camera: Mapping[str, float] | None = None,
-    height_cmap: str = DEFAULT_HEIGHT_CMAP,
-    antialias: bool = True,
-    render_info: Mapping | None = None,
-) -> Iterator[np.ndarray]:
+def _panel_labels(runs: Sequence[RunData], labels: Sequence[str] | None) -> list[str | None]:
+    if labels is None:
+        return [r.run_dir.resolve().name for r in runs] if len(runs) > 1 else [None]
+    if isinstance(labels, str) or len(labels) != len(runs):
+        raise RenderError(f"labels: expected {len(runs)} label(s), one per run, got {labels!r}")
+    return [str(x) for x in labels]
+
+
+def _compose(run: RunData, scene: RunScene, image: np.ndarray, *, record: int, ended: bool, legend: list[LegendEntry],
+             exaggeration: float, label: str | None, bar: ColourBar | None) -> np.ndarray:
+    """One panel: the rendered ``image`` of record ``record`` with its overlay."""
+    return draw_overlay(
+        image, title=run.title, time_s=float(run.t[record]), ended=ended,
+        values=[format_value(n, s[record], names=run.names, units=run.units, labels=run.labels)
+                for n, s in run.series.items()],
+        legend=legend, identity=run.identity, exaggeration=exaggeration, label=label,
+        colour_bar=bar if scene.top_bodies is not None else None,
+        inset=Inset(run.inset[0], run.t, run.inset[1], record) if run.inset is not None else None,
+        names=run.names, units=run.units)
+
+
+def render_frames(run_dir: str | os.PathLike, **options: Any) -> Iterator[np.ndarray]:
     """Yield the finished video frames of a run (or of two runs side by side).
 
-    Same arguments as :func:`render_run` (without the output options). Each frame is
-    ``(height, width * n_runs, 3)`` uint8. The OpenGL contexts are released when the generator
-    is exhausted or closed.
+    ``options``: the fields of :class:`FrameOptions` (``compare``, ``labels``, ``width``,
+    ``height``, ``max_frames``, ``exaggeration``, ``camera``, ``height_cmap``, ``antialias``,
+    ``render_info``). Each frame is ``(height, width * n_runs, 3)`` uint8. The OpenGL contexts
+    are released when the generator is exhausted or closed.
     """
-    for name, value in (("width", width), ("height", height)):
+    opt = _frame_options(options)
+    for name, value in (("width", opt.width), ("height", opt.height)):
         _check_int(name, value, minimum=16)
+    exaggeration = opt.exaggeration
     if exaggeration is not None and not (_is_number(exaggeration) and math.isfinite(exaggeration)
                                          and exaggeration > 0):
         raise RenderError(f"exaggeration: must be > 0, got {exaggeration!r}")
-    _colormap(height_cmap)
+    _colormap(opt.height_cmap)
     ensure_gl_backend()
-    run_dirs = _run_dirs(run_dir, compare)
+    run_dirs = _run_dirs(run_dir, opt.compare)
     runs = [load_run(p, name=n, render_info=info)
-            for p, n, info in zip(run_dirs, ("run_dir", "compare"), (render_info, None))]
-    if labels is None:
-        labels = [r.run_dir.resolve().name for r in runs] if len(runs) > 1 else [None]
-    else:
-        if isinstance(labels, str) or len(labels) != len(runs):
-            raise RenderError(f"labels: expected {len(runs)} label(s), one per run, got {labels!r}")
-        labels = [str(x) for x in labels]
-    frame_t, indices, ended = frame_plan([r.t for r in runs], max_frames=max_frames)
+            for p, n, info in zip(run_dirs, ("run_dir", "compare"), (opt.render_info, None))]
+    labels = _panel_labels(runs, opt.labels)
+    frame_t, indices, ended = frame_plan([r.t for r in runs], max_frames=opt.max_frames)
 
     with contextlib.ExitStack() as stack:
-        scenes = [stack.enter_context(RunScene(r, width=int(width), height=int(height),
-                                                    antialias=antialias))
+        scenes = [stack.enter_context(RunScene(r, width=int(opt.width), height=int(opt.height),
+                                               antialias=opt.antialias))
                   for r in runs]
         ks = []
         for run, scene, idx in zip(runs, scenes, indices):
@@ -1057,68 +1132,35 @@ def render_frames(
                 k = 1.0
             scene.prepare(idx, exaggeration=k)
             ks.append(k)
-        view = _resolve_view(runs, camera, scenes)
+        view = _resolve_view(runs, opt.camera, scenes)
         limits = [s.height_limit_m for s in scenes if s.top_bodies is not None]
-        limit = max(limits) if limits else None
+        bar = ColourBar(opt.height_cmap, max(limits)) if limits else None
+        legends = [scene.legend() for scene in scenes]
         for f in range(frame_t.size):
-            panels = []
-            for run, scene, idx, end, k, label in zip(runs, scenes, indices, ended, ks, labels):
-                image = scene.render(f, view=view, height_limit_m=limit, cmap=height_cmap)
-                i = int(idx[f])
-                panels.append(_draw_overlay(
-                    image, title=run.title, time_s=float(run.t[i]), ended=bool(end[f]),
-                    values=[_format_value(n, s[i]) for n, s in run.series.items()],
-                    exaggeration=k, label=label,
-                    height_limit_m=limit if scene.top_bodies is not None else None,
-                    cmap=height_cmap, activity=run.strut_activity is not None,
-                    inset=(run.inset[0], run.t, run.inset[1], i) if run.inset is not None else None))
+            panels = [_compose(run, scene, scene.render(f, view=view, height_limit_m=bar and bar.limit_m,
+                                                        cmap=opt.height_cmap),
+                               record=int(idx[f]), ended=bool(end[f]), legend=legend, exaggeration=k, label=label,
+                               bar=bar)
+                      for run, scene, idx, end, k, label, legend in zip(runs, scenes, indices, ended, ks, labels,
+                                                                        legends)]
             yield panels[0] if len(panels) == 1 else np.concatenate(panels, axis=1)
 
 
-def render_run(
-    run_dir: str | os.PathLike,
-    out_path: str | os.PathLike,
-    *,
-    compare: str | os.PathLike | None = None,
-    labels: Sequence[str] | None = None,
-    fps: float = 30,
-    width: int = 960,
-    height: int = 540,
-    max_frames: int = 600,
-    exaggeration: float | None = None,
-    camera: Mapping[str, float] | None = None,
-    height_cmap: str = DEFAULT_HEIGHT_CMAP,
-    antialias: bool = True,
-    crf: float = 20.0,
-    progress: bool = False,
-    render_info: Mapping | None = None,
-) -> Path:
+def render_run(run_dir: str | os.PathLike, out_path: str | os.PathLike, *, fps: float = 30, crf: float = 20.0,
+               progress: bool = False, **options: Any) -> Path:
     """Render a run folder to a browser-playable MP4 (H.264, yuv420p), written atomically.
 
     Args:
-      run_dir: run folder (``model.xml``, ``timeseries.npz``, ``manifest.json``).
+      run_dir: run folder (``model.xml``, ``timeseries.zarr`` or ``timeseries.npz``,
+        ``manifest.json``).
       out_path: output ``.mp4`` path (folder created if missing; replaced atomically).
-      compare: a second run folder, rendered beside the first with the same camera and frame
-        times; the video is then ``2 * width`` wide.
-      labels: one label per panel (default with ``compare``: the run folder names; without:
-        none).
       fps: playback frames per second.
-      width: width of one panel [px], even.
-      height: height [px], even.
-      max_frames: the recorded frames are subsampled uniformly to at most this many.
-      exaggeration: out-of-plane exaggeration factor k (default: manifest
-        ``render.exaggeration``, else 1). Each truss node's deviation from the best-fit plane
-        of all nodes, less its layer's mean (so the layer spacing is kept), is multiplied by k.
-      camera: ``{"azimuth_deg", "elevation_deg", "distance_m"}`` (any subset) overriding the
-        manifest's ``render.camera`` and the defaults (azimuth 180°, elevation −30°, distance
-        from the structure's size), MuJoCo free-camera convention.
-      height_cmap: matplotlib diverging colormap for top-node heights.
-      antialias: 4x multisampling; ``False`` renders about twice as fast in software.
       crf: x264 quality (lower is better and larger).
       progress: show a tqdm progress bar.
-      render_info: the render table of ``run_dir`` (title, overlay, camera, ...) to use instead of
-        its manifest's ``render`` entry; ``manifest.json`` is then optional (``run_scenario``
-        renders the video before it writes the manifest).
+      options: what the frames show, the fields of :class:`FrameOptions`: ``compare``,
+        ``labels``, ``width`` (960, even), ``height`` (540, even), ``max_frames`` (600),
+        ``exaggeration``, ``camera``, ``height_cmap`` (``"PuOr_r"``), ``antialias`` (True),
+        ``render_info``.
 
     Returns:
       the path of the written video.
@@ -1131,24 +1173,21 @@ def render_run(
       magsail_mj.render.backend.GLBackendError: no OpenGL backend works.
     """
     out_path = _check_out_path(out_path)
-    n_panels = 1 if compare is None else 2
-    for name, value in (("width", width), ("height", height)):
+    opt = _frame_options(options)
+    n_panels = 1 if opt.compare is None else 2
+    for name, value in (("width", opt.width), ("height", opt.height)):
         _check_int(name, value, minimum=16, even=True)
-    _check_int("max_frames", max_frames, minimum=1)
+    _check_int("max_frames", opt.max_frames, minimum=1)
     if not (_is_number(fps) and math.isfinite(fps) and fps > 0):
         raise RenderError(f"fps: must be a finite number > 0, got {fps!r}")
-    run_dirs = _run_dirs(run_dir, compare)
-    _check_render_memory(run_dirs, max_frames=int(max_frames), width=int(width), height=int(height))
-    frames = render_frames(run_dir, compare=compare, labels=labels, width=width, height=height,
-                           max_frames=max_frames, exaggeration=exaggeration, camera=camera,
-                           height_cmap=height_cmap, antialias=antialias, render_info=render_info)
+    run_dirs = _run_dirs(run_dir, opt.compare)
+    _check_render_memory(run_dirs, max_frames=int(opt.max_frames), width=int(opt.width), height=int(opt.height))
+    frames = render_frames(run_dir, **options)
     with contextlib.closing(frames):
         iterator: Iterator[np.ndarray] = frames
         if progress:
-            from tqdm import tqdm
-
             iterator = tqdm(frames, desc=f"render {Path(run_dir).name}", unit="frame")
-        with Mp4Writer(out_path, width=int(width) * n_panels, height=int(height), fps=fps,
+        with Mp4Writer(out_path, width=int(opt.width) * n_panels, height=int(opt.height), fps=fps,
                        crf=crf) as writer:
             for frame in iterator:
                 writer.add(frame)

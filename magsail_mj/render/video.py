@@ -17,6 +17,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from types import TracebackType
 
+import imageio_ffmpeg
+import mediapy
 import numpy as np
 
 __all__ = ["Mp4Writer", "ffmpeg_exe", "read_mp4", "video_codec", "write_mp4"]
@@ -27,9 +29,6 @@ _CONFIGURED = False
 def ffmpeg_exe() -> str:
     """Path of the ``imageio-ffmpeg`` ffmpeg binary, also registered with :mod:`mediapy`."""
     global _CONFIGURED
-    import imageio_ffmpeg
-    import mediapy
-
     exe = imageio_ffmpeg.get_ffmpeg_exe()
     if not _CONFIGURED:
         mediapy.set_ffmpeg(exe)
@@ -76,8 +75,6 @@ class Mp4Writer:
         self._writer = None
 
     def __enter__(self) -> "Mp4Writer":
-        import mediapy
-
         ffmpeg_exe()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._tmp = self.path.with_name(f".{self.path.stem}.{uuid.uuid4().hex[:8]}.tmp.mp4")
@@ -158,8 +155,6 @@ def read_mp4(path: str | os.PathLike) -> np.ndarray:
     Uses ``imageio_ffmpeg.read_frames``: ``mediapy.read_video`` 1.2.7 passes ``-vsync``, which
     the ffmpeg 9 binary of ``imageio-ffmpeg`` 0.8 no longer accepts.
     """
-    import imageio_ffmpeg
-
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"path: no such file {str(path)!r}")

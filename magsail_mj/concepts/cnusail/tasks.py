@@ -21,7 +21,7 @@ import mujoco
 import numpy as np
 
 from magsail_mj.concepts import build_task, register_task
-from magsail_mj.concepts.cnusail.modes import CnusailController
+from magsail_mj.concepts.cnusail.modes import CnusailController, Mode
 from magsail_mj.loads.actuators_cubesat import MagnetorquerLoad
 from magsail_mj.concepts.cnusail.config import CnusailConfig
 from magsail_mj.concepts.cnusail.lifetime import LifetimeTask
@@ -104,13 +104,27 @@ class AttitudeTask:
         return {
             "title": f"CNUSAIL-1 {self.cfg.scenario} ({self.cfg.spacecraft.configuration}, {law})",
             "overlay": ["mode", "theta_e_deg", "omega_norm_deg_s", "wheel_speed_rpm"],
+            "overlay_names": {"mode": "mode", "theta_e_deg": "attitude error θ_e", "omega_norm_deg_s": "body rate |ω|",
+                              "wheel_speed_rpm": "wheel speeds"},
+            "overlay_labels": {"mode": self.mode_labels()},
             "camera": cam,
             "fps": r.fps,
             "max_frames": frames,
-            "markers": {"mk_sun": "Sun (yellow)", "mk_vel": "velocity (green)", "mk_nadir": "nadir (blue)",
-                        "mk_field": "magnetic field (magenta)", "axis_x/y/z": "body axes red/green/blue",
-                        "sail_front": "sail front face +z (gold)", "sail_back": "sail back face (silver)"},
+            "markers": {"mk_sun": "Sun direction", "mk_vel": "orbital velocity direction",
+                        "mk_nadir": "nadir direction", "mk_field": "magnetic field direction",
+                        "axis_x/y/z": "body axes x, y, z",
+                        "sail_front": "sail front face (+z side)", "sail_back": "sail back face", "boom": "sail booms",
+                        "bus_box": "bus (3U cubesat)", "rw_x_tick/y_tick/z_tick": "reaction-wheel rotor marks"},
         }
+
+    def mode_labels(self) -> dict[str, str]:
+        """What each value of the recorded ``mode`` (:class:`~magsail_mj.concepts.cnusail.modes.Mode`)
+        means in this run, for the video overlay: 0 B-dot detumbling, 1 nadir pointing and 2 deorbit
+        attitude with the configured pointing law (none named for a B-dot-only run)."""
+        law = {"eigen_axis": ", eigen-axis law", "pd": ", PD law"}.get(self.cfg.control.mode, "")
+        return {str(int(Mode.DETUMBLE)): "detumbling (B-dot, wheels idle)",
+                str(int(Mode.NADIR)): f"nadir pointing{law}",
+                str(int(Mode.DEORBIT)): f"deorbit attitude (sail face forward){law}"}
 
     def manifest_extra(self) -> dict[str, Any]:
         m = self.model

@@ -32,7 +32,7 @@ from magsail_mj.concepts.msac.runner import MsacRunner, StaticRunner
 from magsail_mj.sim import RunResult
 
 __all__ = ["MsacTask", "LumpedTask", "MultibodyTask", "SweepTask", "SweepRunner", "build_msac_scenario",
-           "multibody_summary"]
+           "multibody_summary", "phase_labels"]
 
 
 class MsacTask:
@@ -76,6 +76,10 @@ class MsacTask:
         return {
             "title": f"MSAC {cfg.scenario}: {cfg.description}".strip(": ")[:80],
             "overlay": list(self.overlay),
+            "overlay_names": {"yaw_unwrapped_rad": "bus yaw ψ (unwrapped)", "phase": "cycle phase"},
+            "overlay_labels": {"phase": phase_labels(self.path.waypoints)},
+            "markers": {"w1_panel": "wing 1", "w2_panel": "wing 2", "bus_box": "bus",
+                        "bus_tag": "bus tag (shows the bus's own turn)", "world_marker": "fixed world marker (+X)"},
             "camera": {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
                        "distance_m": r.distance_m or 2.6 * reach},
             "fps": r.fps,
@@ -106,6 +110,27 @@ class MsacTask:
                        "servo_omega_dt": cfg.drive.servo_omega_dt,
                        "disableflags": int(m.opt.disableflags)},
         }
+
+
+def phase_labels(waypoints: np.ndarray) -> dict[str, str]:
+    """What the shape does in each recorded ``phase`` (1 … 4: segment k of the cycle from waypoint
+    k − 1 to k of ``waypoints`` (5, 2) = ``(φ [rad], s [m])``, the first repeated), for the video
+    overlay: ``bend``/``bend back`` when φ moves away from/back to its first value, with the slide
+    state (extended at the first waypoint's s, else contracted), ``extend``/``contract`` when s
+    moves, ``hold`` when neither does."""
+    w = np.asarray(waypoints, dtype=float)
+    phi_a, s_e = w[0]
+    out = {}
+    for k in range(w.shape[0] - 1):
+        (phi0, s0), (phi1, s1) = w[k], w[k + 1]
+        moves = []
+        if phi1 != phi0:
+            slide = "extended" if s0 == s_e else "contracted"
+            moves.append(("bend back" if phi1 == phi_a else "bend") + f" ({slide})")
+        if s1 != s0:
+            moves.append("extend" if s1 == s_e else "contract")
+        out[str(k + 1)] = f"{k + 1} of {w.shape[0] - 1}, " + (" and ".join(moves) or "hold")
+    return out
 
 
 def multibody_summary(sc: MsacModel, result: RunResult, ref: dict[str, float]
