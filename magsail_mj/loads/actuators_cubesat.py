@@ -70,6 +70,7 @@ import mujoco
 import numpy as np
 
 from magsail_mj.loads.base import StepState
+from magsail_mj.vec3 import cross_f, mat_vec_f
 
 __all__ = [
     "MTQ_LIMIT_SETS",
@@ -214,19 +215,27 @@ class MagnetorquerLoad:
 
     def torque_world(self, state: StepState) -> np.ndarray:
         """World-frame torque [N m] at this state."""
+        return np.array(self._torque(state))
+
+    def _torque(self, state: StepState) -> tuple[float, float, float]:
+        """(R m) × B_eci in plain floats (:mod:`magsail_mj.vec3`); zeros without a dipole."""
         cmd = state.ctrl
         m = getattr(cmd, "dipole_body", None)
         if m is None:
             m = getattr(cmd, "dipole_body_Am2", None)
         if m is None or not (m[0] or m[1] or m[2]):
-            return np.zeros(3)
+            return (0.0, 0.0, 0.0)
         mujoco.mju_quat2Mat(self._R, state.xquat[self.body_id])
-        a = self._R.reshape(3, 3) @ m
-        b = state.env.B_eci
-        return np.array((a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]))
+        m = m.tolist() if isinstance(m, np.ndarray) else m
+        return cross_f(mat_vec_f(self._R.tolist(), m), state.env.B_eci.tolist())
 
     def add(self, state: StepState, xfrc: np.ndarray) -> None:
-        xfrc[self.body_id, 3:] += self.torque_world(state)
+        T = self._torque(state)
+        if T[0] or T[1] or T[2]:
+            i = self.body_id
+            xfrc[i, 3] += T[0]
+            xfrc[i, 4] += T[1]
+            xfrc[i, 5] += T[2]
 
 
 # ----------------------------------------------------------------------------- wheels
@@ -365,14 +374,15 @@ class WheelDriver:
         return self.limit_speed(T, w)
 
     def _quasi_static_torque(self, cmd, omega_M) -> np.ndarray:
-        """Steps 3–4 with L → 0 in scalar arithmetic (the per-step fast path; same equations)."""
+        """Steps 3–4 with L → 0 in plain floats (the per-step fast path; same equations)."""
         p = self.p
         R, Kb, KM, KB, Vm, wmax = p.R_ohm, p.K_b_V_s_rad, p.K_M_N_m_A, p.K_B_N_m_s, p.V_max_V, p.speed_max_rad_s
-        out = np.empty(3)
-        cur = np.empty(3)
+        c = cmd.tolist() if isinstance(cmd, np.ndarray) else cmd
+        ws = omega_M.tolist() if isinstance(omega_M, np.ndarray) else omega_M
+        out, cur = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
         for j in range(3):
-            w = float(omega_M[j])
-            V = R * float(cmd[j]) + Kb * w
+            w = ws[j]
+            V = R * c[j] + Kb * w
             V = Vm if V > Vm else (-Vm if V < -Vm else V)
             i = (V - Kb * w) / R
             T = KM * i
@@ -380,8 +390,8 @@ class WheelDriver:
                 T = KB * w
             cur[j] = i
             out[j] = T
-        self.current_A = cur
-        return out
+        self.current_A = np.array(cur)
+        return np.array(out)
 
     def _substep_mean_current(self, V: np.ndarray, w: np.ndarray, dt: float) -> np.ndarray:
         p = self.p

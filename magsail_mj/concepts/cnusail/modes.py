@@ -278,6 +278,13 @@ class CnusailController:
         self.wheel_qvel = np.asarray(wheel_qvel, dtype=int)
         self.wheel_act = np.asarray(wheel_act, dtype=int)
         self.n_att = int(round(params.attitude_period_s / params.timestep_s))
+        # per-step constants: the step, the cycle in steps, and the wheels' qvel / ctrl as slices
+        # where contiguous (a slice reads and writes without NumPy's fancy-index path)
+        self._dt = float(params.timestep_s)
+        self._n_cycle = params.mtq_cycle.steps_per_cycle
+        self._n_on = params.mtq_cycle.steps_on
+        self._wheel_v = _slice_if_contiguous(self.wheel_qvel)
+        self._wheel_u = _slice_if_contiguous(self.wheel_act)
         self.modes = ModeManager(params.modes, initial=params.initial_mode)
         self.bdot = make_bdot(params.bdot_form, gain=params.bdot_gain, sample_period_s=params.mtq_cycle.cycle_s,
                               omega_c_rad_s=params.bdot_omega_c_rad_s)
@@ -315,29 +322,32 @@ class CnusailController:
     def step(self, state, data: mujoco.MjData) -> None:
         """One dynamics step: attitude sample and magnetorquer cycle when due, then the wheel
         driver's per-step part (spec §4.2 steps 3–4) into ``data.ctrl``."""
-        p = self.p
-        k = int(round(state.t / p.timestep_s))
-        omega_M = data.qvel[self.wheel_qvel]
-        cycle = p.mtq_cycle
+        k = int(round(state.t / self._dt))
         # a sample is due when a sample boundary was reached since the last call (robust to a
         # runner that skips a step of this every-step controller)
-        i_att, i_mtq = k // self.n_att, k // cycle.steps_per_cycle
+        i_att, i_mtq = k // self.n_att, k // self._n_cycle
+        if i_att > self._last_att or i_mtq > self._last_mtq:
+            self._samples(state, data, i_att, i_mtq)
+        self.cmd.dipole_body = self.dipole_held if k % self._n_cycle < self._n_on else self._zero3
+        self.T_M = self.driver.motor_torque(self.wheel_cmd, data.qvel[self._wheel_v].tolist(), self._dt)
+        data.ctrl[self._wheel_u] = self.T_M
+
+    def _samples(self, state, data: mujoco.MjData, i_att: int, i_mtq: int) -> None:
+        """The attitude sample (``i_att`` new) and the magnetorquer sample (``i_mtq`` new) of this step."""
+        p = self.p
         att, mtq = i_att > self._last_att, i_mtq > self._last_mtq
         self._last_att, self._last_mtq = max(self._last_att, i_att), max(self._last_mtq, i_mtq)
-        if att or mtq:
-            q = data.qpos[self.q_quat].copy()
-            env = state.env
-            if att:
-                omega = data.qvel[self.v_ang].copy()
-                if p.gyro_noise_rad_s > 0:
-                    omega = omega + self.rng.normal(0.0, p.gyro_noise_rad_s, 3)
-                self._attitude_sample(state.t, q, omega, omega_M, env)
-            if mtq:
-                mujoco.mju_quat2Mat(self._R, q)
-                self._mtq_sample(state.t, self._R.reshape(3, 3), omega_M, env)
-        self.cmd.dipole_body = self.dipole_held if cycle.is_on(k) else self._zero3
-        self.T_M = self.driver.motor_torque(self.wheel_cmd, omega_M, p.timestep_s)
-        data.ctrl[self.wheel_act] = self.T_M
+        omega_M = data.qvel[self.wheel_qvel]
+        q = data.qpos[self.q_quat].copy()
+        env = state.env
+        if att:
+            omega = data.qvel[self.v_ang].copy()
+            if p.gyro_noise_rad_s > 0:
+                omega = omega + self.rng.normal(0.0, p.gyro_noise_rad_s, 3)
+            self._attitude_sample(state.t, q, omega, omega_M, env)
+        if mtq:
+            mujoco.mju_quat2Mat(self._R, q)
+            self._mtq_sample(state.t, self._R.reshape(3, 3), omega_M, env)
 
     # ---------------------------------------------------------------- samples
     def _attitude_sample(self, t: float, q: np.ndarray, omega: np.ndarray, omega_M: np.ndarray, env) -> None:
@@ -401,3 +411,10 @@ class CnusailController:
         else:
             self.unload_mask = np.zeros(3, dtype=bool)
             self.dipole_held = np.zeros(3)
+
+
+def _slice_if_contiguous(index: np.ndarray) -> slice | np.ndarray:
+    """``slice(i₀, i₀ + n)`` when ``index`` is ``i₀, i₀ + 1, …``, else ``index`` itself."""
+    if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
+        return slice(int(index[0]), int(index[0]) + int(index.size))
+    return index
