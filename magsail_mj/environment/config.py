@@ -3,9 +3,11 @@
 
 Each table is a :class:`magsail_mj.config.StrictModel` (unknown keys are errors). Keys carry their
 unit (``_km``, ``_deg``, ``_s``, ``_T``, ``_h``). A concept schema embeds the tables it needs,
-e.g. ``orbit: OrbitConfig = OrbitConfig(enabled=False)``; :class:`EnvironmentConfig` groups them
-and checks that they fit together (:func:`check_environment`), and
-:meth:`magsail_mj.environment.Environment.from_config` builds the runtime object.
+e.g. ``orbit: OrbitConfig = OrbitConfig(enabled=False)``, or inherits all seven with the
+free-space defaults from :class:`EnvironmentTables`; :class:`EnvironmentConfig` groups them and
+checks that they fit together (:func:`check_environment`), :func:`environment_config_of` gathers
+a concept config's tables into one, and :meth:`magsail_mj.environment.Environment.from_config`
+builds the runtime object.
 
 Defaults follow the truss spec §9.2/§11 (800 km polar orbit needs ``altitude_km = 800``,
 ``inclination_deg = 90``, ``raan_deg = 90``; R_E = 6370 km, §12 item O8; epoch
@@ -30,12 +32,15 @@ __all__ = [
     "AtmosphereConfig",
     "DragConfig",
     "EnvironmentConfig",
+    "EnvironmentTables",
+    "ENVIRONMENT_TABLES",
     "FieldConfig",
     "GravityConfig",
     "OrbitConfig",
     "SRPConfig",
     "SunConfig",
     "check_environment",
+    "environment_config_of",
     "environment_problems",
 ]
 
@@ -247,8 +252,15 @@ class GravityConfig(StrictModel):
     classical_torque: bool = False
 
 
-class EnvironmentConfig(StrictModel):
-    """All environment tables together; validated for consistency (:func:`check_environment`)."""
+ENVIRONMENT_TABLES = ("orbit", "field", "atmosphere", "sun", "srp", "drag", "gravity")
+"""The names of the environment tables (fields of :class:`EnvironmentTables`)."""
+
+
+class EnvironmentTables(StrictModel):
+    """The seven environment tables with the defaults of free space (no orbit, field, atmosphere,
+    Sun, SRP, drag or tidal gravity). A concept schema that takes all seven with these defaults
+    inherits them (its TOML files then have ``[orbit]``, ``[field]``, … at the top level); the
+    consistency check stays the schema's own (:func:`environment_problems`)."""
 
     orbit: OrbitConfig = OrbitConfig(enabled=False)
     field: FieldConfig = FieldConfig(model="none")
@@ -257,6 +269,14 @@ class EnvironmentConfig(StrictModel):
     srp: SRPConfig = SRPConfig()
     drag: DragConfig = DragConfig()
     gravity: GravityConfig = GravityConfig(tidal=False)
+
+    def environment_config(self) -> EnvironmentConfig:
+        """The environment tables as one validated :class:`EnvironmentConfig`."""
+        return environment_config_of(self)
+
+
+class EnvironmentConfig(EnvironmentTables):
+    """All environment tables together; validated for consistency (:func:`check_environment`)."""
 
     @model_validator(mode="after")
     def _consistent(self) -> EnvironmentConfig:
@@ -301,6 +321,13 @@ def check_environment(
     if srp.enabled and sun.model == "none":
         out.append("srp.enabled: needs sun.model = 'ephemeris' or 'fixed'")
     return out
+
+
+def environment_config_of(config: Any) -> EnvironmentConfig:
+    """The environment tables of ``config`` (those of :data:`ENVIRONMENT_TABLES` it has as
+    attributes, such as a concept config's top-level tables) as one validated
+    :class:`EnvironmentConfig`; a table ``config`` lacks takes :class:`EnvironmentTables`' default."""
+    return EnvironmentConfig(**{name: getattr(config, name) for name in ENVIRONMENT_TABLES if hasattr(config, name)})
 
 
 def environment_problems(tables: Any) -> list[str]:

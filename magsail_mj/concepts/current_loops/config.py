@@ -25,15 +25,7 @@ from magsail_mj.config import (
     finite_product,
 )
 from magsail_mj.environment.config import (
-    AtmosphereConfig,
-    DragConfig,
-    EnvironmentConfig,
-    FieldConfig,
-    GravityConfig,
-    OrbitConfig,
-    SRPConfig,
-    SunConfig,
-    environment_problems,
+    EnvironmentConfig, FieldConfig, GravityConfig, OrbitConfig, environment_config_of, environment_problems,
 )
 from magsail_mj.geometry.current_loops import AXIS_OF, CIRCUIT_NAMES, COMPOSITES
 
@@ -261,10 +253,9 @@ class CurrentLoopsConfig(StrictModel):
                                 f"(must be finite and > 0) for {listed}")
 
     def environment_config(self) -> EnvironmentConfig:
-        """The environment tables as one :class:`EnvironmentConfig` (no atmosphere, sun, SRP or drag)."""
-        return EnvironmentConfig(orbit=self.orbit, field=self.field, atmosphere=AtmosphereConfig(model="none"),
-                                 sun=SunConfig(model="none"), srp=SRPConfig(), drag=DragConfig(),
-                                 gravity=self.gravity)
+        """The environment tables as one :class:`EnvironmentConfig` (no atmosphere, sun, SRP or drag:
+        their free-space defaults)."""
+        return environment_config_of(self)
 
 
 def loop_currents(cfg: CurrentLoopsConfig) -> tuple[np.ndarray, list[dict[str, Any]]]:

@@ -23,22 +23,13 @@ from magsail_mj.config import (
     check_lattice_numbers,
     finite_product,
 )
-from magsail_mj.environment.config import (
-    AtmosphereConfig,
-    DragConfig,
-    EnvironmentConfig,
-    FieldConfig,
-    GravityConfig,
-    OrbitConfig,
-    SRPConfig,
-    SunConfig,
-    environment_problems,
-)
+from magsail_mj.environment.config import EnvironmentTables, environment_problems
 
 __all__ = [
-    "ORBITAL_SCENARIOS", "ORBITAL_CONTROL_KINDS", "TrussConfig", "LatticeConfig", "MassConfig", "PointMass",
-    "StiffnessConfig", "DampingConfig", "ActuatorsConfig", "LloydConfig", "TrussControlConfig", "ManeuverConfig",
-    "ProfileConfig", "TrussInitialConfig", "CantileverConfig", "TrussRenderConfig", "first_cantilever_omega",
+    "ORBITAL_SCENARIOS", "ORBITAL_CONTROL_KINDS", "TrussConfig", "TrussTables", "LatticeConfig", "MassConfig",
+    "PointMass", "StiffnessConfig", "DampingConfig", "ActuatorsConfig", "LloydConfig", "TrussControlConfig",
+    "ManeuverConfig", "ProfileConfig", "TrussInitialConfig", "CantileverConfig", "TrussRenderConfig",
+    "first_cantilever_omega",
 ]
 
 Vec3 = tuple[float, float, float]
@@ -230,9 +221,8 @@ class TrussRenderConfig(LatticeRenderConfig):
     """``[render]``: video options."""
 
 
-@register_config("truss_magnetorquer")
-class TrussConfig(StrictModel):
-    """A truss scenario config (``magsail_mj/concepts/truss_magnetorquer/configs/*.toml``)."""
+class TrussTables(StrictModel):
+    """The truss's own keys and tables (:class:`TrussConfig` adds the environment tables)."""
 
     concept: Literal["truss_magnetorquer"]
     scenario: Literal["dist_vs_central", "cantilever", "free", "detumble", "slew"]
@@ -249,13 +239,15 @@ class TrussConfig(StrictModel):
     control: TrussControlConfig | None = None
     maneuver: ManeuverConfig = ManeuverConfig()
     render: TrussRenderConfig = TrussRenderConfig()
-    orbit: OrbitConfig = OrbitConfig(enabled=False)
-    field: FieldConfig = FieldConfig(model="none")
-    atmosphere: AtmosphereConfig = AtmosphereConfig(model="none")
-    sun: SunConfig = SunConfig(model="none")
-    srp: SRPConfig = SRPConfig()
-    drag: DragConfig = DragConfig()
-    gravity: GravityConfig = GravityConfig(tidal=False)
+
+
+# pydantic lists the fields of the last base first: the truss's own keys, then the environment
+# tables (the order of the keys in dumps, the config reference and the validation messages)
+@register_config("truss_magnetorquer")
+class TrussConfig(EnvironmentTables, TrussTables):
+    """A truss scenario config (``magsail_mj/concepts/truss_magnetorquer/configs/*.toml``): the keys
+    of :class:`TrussTables`, then the environment tables ``[orbit]`` … ``[gravity]``
+    (:class:`~magsail_mj.environment.config.EnvironmentTables`: free space unless set)."""
 
     @property
     def total_mass_kg(self) -> float:
@@ -287,11 +279,6 @@ class TrussConfig(StrictModel):
         if self.control.period_s is not None and self.control.period_s < self.sim.timestep_s * (1 - 1e-9):
             raise ValueError(f"control.period_s: must be >= sim.timestep_s = {self.sim.timestep_s} s, "
                              f"got {self.control.period_s}")
-
-    def environment_config(self) -> EnvironmentConfig:
-        """The environment tables as one validated :class:`EnvironmentConfig`."""
-        return EnvironmentConfig(orbit=self.orbit, field=self.field, atmosphere=self.atmosphere, sun=self.sun,
-                                 srp=self.srp, drag=self.drag, gravity=self.gravity)
 
     @model_validator(mode="after")
     def _tables_for_scenario(self) -> TrussConfig:
