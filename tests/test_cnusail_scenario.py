@@ -22,6 +22,7 @@ from magsail_mj.concepts import TASKS
 from magsail_mj.config import ConfigError, load_config, parse_config
 from magsail_mj.environment.orbit import OrbitalElements
 from magsail_mj.estimation.attitude import matrix_from_quat
+from magsail_mj.export import read_timeseries
 from magsail_mj.loads.base import StepState
 from magsail_mj.concepts.cnusail.disturbances import CubesatDisturbanceLoad, cubesat_drag_facets, cubesat_sail_facets
 from magsail_mj.run import run_scenario
@@ -138,7 +139,7 @@ def test_short_slew_run_end_to_end(tmp_path):
     assert "theta_e_deg" in man["render"]["overlay"]
     for png in ("attitude_error.png", "wheel_speeds.png", "torques.png", "rate_error.png", "disturbances.png"):
         assert (tmp_path / "run" / png).is_file()
-    ts = np.load(tmp_path / "run" / "timeseries.npz")
+    ts = read_timeseries(tmp_path / "run")
     # the display markers were filled in: the Sun arrow points at the Sun
     sc = build_scenario(cfg)
     qa = sc.idx.marker_qpos["mk_sun"]

@@ -16,6 +16,7 @@ from magsail_mj.concepts.current_loops.attitude import (
 )
 from magsail_mj.quaternion import quat_mul
 from magsail_mj.estimation.attitude import matrix_from_quat, so3_exp
+from magsail_mj.records import STORE_NAME
 
 MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "current_loops" / "configs"
 
@@ -151,7 +152,8 @@ def test_sweep_run_energy_balance_and_rigid_reference(tmp_path):
     assert out["rotation_dev_from_rigid_max_rad"] < 1e-3 * max(out["rotation_angle_max_rad"], 1e-6) + 1e-7
     assert out["classification"] == "rigid_like"
     assert out["dipole_realised_A_m2"] > 0 and out["self_field_max_T"] < 1e-5
-    for name in ("summary.json", "timeseries.npz", "manifest.json", "strain_energy.png",
+    assert (out.run_dir / STORE_NAME).is_dir()
+    for name in ("summary.json", "manifest.json", "strain_energy.png",
                  "snapshot_max_strain.png", "rotation.png"):
         assert (out.run_dir / name).exists()
 

@@ -11,7 +11,7 @@ import xarray as xr
 
 from magsail_mj import export
 from magsail_mj.config import apply_overrides, parse_config
-from magsail_mj.records import SERIES_GROUP, STORE_NAME, open_records
+from magsail_mj.records import SERIES_GROUP, STORE_NAME, lazy_arrays, open_records
 from magsail_mj.run import run_scenario
 from tests.conftest import SMALL_TRUSS  # the 3 × 3-cube truss of the other run tests
 
@@ -42,6 +42,18 @@ def test_npz_round_trip_equals_the_store_bitwise(run_dir, tmp_path, capsys):
         assert sorted(npz.files) == sorted(want)
         for name, value in want.items():
             _bitwise(npz[name], value, name)
+
+
+def test_readers_of_the_store_equal_the_npz_export_bitwise(run_dir, tmp_path):
+    """What analysis code reads (read_timeseries eagerly, records.lazy_arrays lazily) holds the same
+    names and arrays, bit for bit, as the npz that ``magsail export`` writes."""
+    out = export.export_run(run_dir, fmt="npz", out=tmp_path / "x.npz")
+    eager, lazy = export.read_timeseries(run_dir), lazy_arrays(run_dir)
+    with np.load(out, allow_pickle=False) as npz:
+        assert sorted(eager) == sorted(lazy) == sorted(npz.files)
+        for name in npz.files:
+            _bitwise(eager[name], npz[name], name)
+            _bitwise(lazy[name][...], npz[name], name)
 
 
 def test_streamed_npz_of_many_blocks_reads_back(tmp_path):

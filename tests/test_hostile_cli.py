@@ -31,12 +31,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from magsail_mj import cli
+from magsail_mj.export import read_timeseries
 from magsail_mj.lattice.modes import lattice_modes
 from magsail_mj.cli import EXIT_CODES, main
 from magsail_mj.config import load_config
 from magsail_mj.environment.environment import Environment
 from magsail_mj.control.lloyd import LloydSelector
 from magsail_mj.lattice.geometry import make_lattice
+from magsail_mj.records import STORE_NAME, write_group
 from magsail_mj.resources import (
     ENV_VAR,
     MemoryLimitError,
@@ -299,8 +301,8 @@ def test_render_errors_exit_2(capsys, arena, tmp_path):
     no_qpos.mkdir()
     for name in ("model.xml", "manifest.json"):
         (no_qpos / name).write_bytes((arena.run / name).read_bytes())
-    with np.load(arena.run / "timeseries.npz") as npz:
-        np.savez(no_qpos / "timeseries.npz", **{k: v for k, v in npz.items() if k != "qpos"})
+    arrays = {k: v for k, v in read_timeseries(arena.run).items() if k != "qpos"}
+    write_group(no_qpos / STORE_NAME, arrays, n_time=len(arrays["t"]))   # a record store without positions
     cases = [
         ([str(tmp_path / "missing"), "-o", str(tmp_path / "v.mp4")], "RUN_DIR: no such folder"),
         ([str(no_qpos), "-o", str(tmp_path / "v.mp4")], "series 'qpos' is missing"),

@@ -23,8 +23,10 @@ from magsail_mj.checkpoint import CheckpointError, read_checkpoint
 from magsail_mj.cli import main
 from magsail_mj.config import ConfigError, apply_overrides, load_config, parse_config
 from magsail_mj.divergence import first_bad_row
+from magsail_mj.export import read_timeseries
 from magsail_mj.io import file_sha256
 from magsail_mj.loads.base import StepState
+from magsail_mj.records import STORE_NAME
 from magsail_mj.run import RunInterrupted, run_scenario
 from magsail_mj.sim import Simulation
 from magsail_mj.sweep import load_sweep, run_sweep
@@ -65,7 +67,7 @@ def test_truss_blow_up_is_diverged_at_the_first_bad_state(tmp_path, capsys, dt):
     err = capsys.readouterr().err
     first = min(_mujoco_times(err))
     assert abs(t_div - first) <= dt * (1 + 1e-9), (t_div, first)
-    ts = np.load(tmp_path / "x/timeseries.npz")
+    ts = read_timeseries(tmp_path / "x")
     assert ts["t"][-1] < t_div and first_bad_row(ts["qpos"]) is None
     assert "diverged" in err
 
@@ -152,7 +154,7 @@ def test_msac_rollout_divergence_is_dated_and_keeps_records(tmp_path, monkeypatc
     assert out.status == "diverged"
     t_rep = float(re.search(r"t = ([0-9.eE+-]+) s", out["status_message"]).group(1))
     assert t_rep == pytest.approx(bad_step * 5e-6, abs=5e-6)
-    ts = np.load(tmp_path / "m/timeseries.npz")
+    ts = read_timeseries(tmp_path / "m")
     assert first_bad_row(ts["qpos"]) is None and ts["t"][-1] < t_rep
 
 
@@ -175,7 +177,7 @@ def test_resume_may_extend_the_duration_and_change_presentation_keys(tmp_path, s
     # the finished 4 s run left a checkpoint at 4 s; extending to 8 s continues it
     resumed = run_scenario(_cfg(small_truss_tree, "sim.duration_s=8.0", "sim.progress=true", *base),
                            tmp_path / "ext", resume=True, progress=False)
-    a, b = np.load(tmp_path / "full/timeseries.npz"), np.load(tmp_path / "ext/timeseries.npz")
+    a, b = read_timeseries(tmp_path / "full"), read_timeseries(tmp_path / "ext")
     assert np.array_equal(a["t"], b["t"]) and np.array_equal(a["qpos"], b["qpos"])
     assert resumed.status == full.status == "completed"
 
@@ -293,9 +295,9 @@ def test_resumed_run_equals_uninterrupted(tmp_path, name, overrides, cut):
     full = run_scenario(cfg, tmp_path / "full")
     run_scenario(cfg, tmp_path / "cut", stop_after_s=cut)
     resumed = run_scenario(cfg, tmp_path / "cut", resume=True)
-    a, b = np.load(tmp_path / "full/timeseries.npz"), np.load(tmp_path / "cut/timeseries.npz")
-    assert sorted(a.files) == sorted(b.files)
-    for key in a.files:
+    a, b = read_timeseries(tmp_path / "full"), read_timeseries(tmp_path / "cut")
+    assert sorted(a) == sorted(b)
+    for key in a:
         assert np.array_equal(a[key], b[key], equal_nan=True), key
     timing = {"wall_time_s", "step_cost_us", "steps", "wall_time_per_step_s", "status_message"}
     for key, value in full.items():
@@ -330,7 +332,7 @@ def test_interrupt_keeps_the_records_and_says_interrupted(tmp_path, small_truss_
     assert info.value.outcome.status == "interrupted"
     manifest = json.loads((tmp_path / "i/manifest.json").read_text())
     assert manifest["status"] == "interrupted" and "t = 2" in manifest["status_message"]
-    ts = np.load(tmp_path / "i/timeseries.npz")
+    ts = read_timeseries(tmp_path / "i")
     assert ts["t"][-1] <= 2.0 and len({len(ts[k]) for k in ("t", "qpos")}) == 1
     assert not [p for p in (tmp_path / "i").iterdir() if p.name.startswith(".")]
 
@@ -356,8 +358,8 @@ def test_run_and_sweep_give_identical_numbers(tmp_path):
     sweep_file.write_text(f'name = "one"\nset = {json.dumps(overrides)}\n\n[[run]]\nid = "a"\nconfig = "{cfg_path}"\n')
     records = run_sweep(load_sweep(sweep_file), tmp_path / "sweep", workers=1, log=None)
     assert records[0]["status"] == "completed"
-    a, b = np.load(tmp_path / "run/timeseries.npz"), np.load(tmp_path / "sweep/a/timeseries.npz")
-    for key in a.files:
+    a, b = read_timeseries(tmp_path / "run"), read_timeseries(tmp_path / "sweep/a")
+    for key in a:
         assert np.array_equal(a[key], b[key], equal_nan=True), key
     ma = json.loads((tmp_path / "run/manifest.json").read_text())
     mb = json.loads((tmp_path / "sweep/a/manifest.json").read_text())
@@ -432,7 +434,7 @@ def test_ctrl_c_while_outputs_are_written_leaves_them_whole(tmp_path, small_trus
         run_scenario(_cfg(small_truss_tree, "sim.duration_s=1.0"), tmp_path / "c")
     manifest = json.loads((tmp_path / "c/manifest.json").read_text())
     assert manifest["status"] == "completed"
-    assert set(manifest["files"]) >= {"summary.json", "timeseries.npz", "model.xml"}
+    assert set(manifest["files"]) >= {"summary.json", STORE_NAME, "model.xml"}
     for name, digest in manifest["files"].items():
         assert file_sha256(tmp_path / "c" / name) == digest, name
 

@@ -24,6 +24,7 @@ from magsail_mj.cli import main
 from magsail_mj.config import ConfigError
 from magsail_mj.divergence import StudiedFailure
 from magsail_mj.io import RunDirError
+from magsail_mj.records import STORE_NAME
 from magsail_mj.sweep import (
     FINISHED,
     LOCK_NAME,
@@ -275,9 +276,16 @@ def test_stale_results_are_rerun_and_only_merges_the_summary(tmp_path):
     assert records["m/a"]["reused"] and [r.id for r in todo] == ["m/b"]
     assert [r.id for r in _plan(sweep3, out, video=False, overwrite=True, log=None)[1]] == ["m/a", "m/b"]
     a_hash = sweep3.runs[0].config_hash
-    with open(out / "m" / "a" / "timeseries.npz", "ab") as fh:
-        fh.write(b"\0")
-    assert "timeseries.npz changed" in _folder_check(out / "m" / "a", config_hash=a_hash, video=False)[1]
+    assert _folder_check(out / "m" / "a", config_hash=a_hash, video=False)[1] == ""
+    # one byte of one chunk of the record store flipped in place (same size, same name): detected
+    chunk = min((out / "m" / "a" / STORE_NAME / "qpos").rglob("c/*/*"), key=lambda c: c.as_posix())
+    original = chunk.read_bytes()
+    chunk.write_bytes(original[:len(original) // 2] + bytes([original[len(original) // 2] ^ 0xFF])
+                      + original[len(original) // 2 + 1:])
+    assert f"{STORE_NAME} changed" in _folder_check(out / "m" / "a", config_hash=a_hash, video=False)[1]
+    assert [r.id for r in _plan(sweep3, out, video=False, overwrite=False, log=None)[1]] == ["m/a", "m/b"]
+    chunk.write_bytes(original)   # restored: valid again
+    assert _folder_check(out / "m" / "a", config_hash=a_hash, video=False)[1] == ""
 
 
 def test_folder_check_reasons(tmp_path):

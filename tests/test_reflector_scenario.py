@@ -15,10 +15,12 @@ from scipy.integrate import solve_ivp
 from magsail_mj.concepts import TASKS
 from magsail_mj.config import ConfigError, load_config, parse_config
 from magsail_mj.concepts.reflector.bdot import PlateBdotController
+from magsail_mj.export import read_timeseries
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.body_torque import OrbitGravityGradientLoad
 from magsail_mj.concepts.reflector.mjcf import PlateModelParams, build_plate_spec, plate_mass_properties
 from magsail_mj.quaternion import quat_to_matrix
+from magsail_mj.records import STORE_NAME
 from magsail_mj.run import run_scenario
 from magsail_mj.scenario import build_scenario
 from magsail_mj.concepts.reflector.caps import CapSweepRunner, cap_grid
@@ -157,7 +159,8 @@ def test_detumble_smoke_run_writes_the_run_folder(tmp_path):
     cfg = load_config(DETUMBLE, ["sim.duration_s=120", "sim.timestep_s=0.5", "sim.record_every=4",
                                  "sim.progress=false", "render.max_frames=3"])
     out = run_scenario(cfg, tmp_path / "run", video=True)
-    for name in ("summary.json", "timeseries.npz", "manifest.json", "model.xml", "video.mp4", "omega_norm.png",
+    assert (out.run_dir / STORE_NAME).is_dir()
+    for name in ("summary.json", "manifest.json", "model.xml", "video.mp4", "omega_norm.png",
                  "body_rates.png", "torque.png", "currents.png", "momentum.png"):
         assert (out.run_dir / name).is_file(), name
     s = json.loads((out.run_dir / "summary.json").read_text())
@@ -181,11 +184,11 @@ def test_pitch_smoke_run_summary_keys(tmp_path):
         assert key in s
     assert s["tracking_lost_first_s"] is None and s["err_max_rad"] < 5 * math.pi / 180
     assert (out.run_dir / "passes.json").is_file() and (out.run_dir / "psi_tracking.png").is_file()
-    with np.load(out.run_dir / "timeseries.npz") as ts:
-        for key in ("t", "theta_rad", "phi_rad", "B_world_T", "q_wxyz", "omega_body_rad_s", "psi_ref_rad",
-                    "psi_dot_ref_rad_s", "psi_act_rad", "psi_dot_act_rad_s", "T_ref_body_N_m", "torque_body_N_m",
-                    "saturated", "err_rad"):
-            assert key in ts.files, key
+    ts = read_timeseries(out.run_dir)
+    for key in ("t", "theta_rad", "phi_rad", "B_world_T", "q_wxyz", "omega_body_rad_s", "psi_ref_rad",
+                "psi_dot_ref_rad_s", "psi_act_rad", "psi_dot_act_rad_s", "T_ref_body_N_m", "torque_body_N_m",
+                "saturated", "err_rad"):
+        assert key in ts, key
 
 
 def test_gravity_gradient_load_matches_body_axes_formula():

@@ -9,8 +9,9 @@ import pytest
 
 from magsail_mj.checkpoint import read_checkpoint
 from magsail_mj.config import apply_overrides, parse_config
+from magsail_mj.export import read_timeseries
 from magsail_mj.io import RunDirError
-from magsail_mj.records import StoreRecords
+from magsail_mj.records import STORE_NAME, StoreRecords
 from magsail_mj.run import run_scenario
 from magsail_mj.scenario import build_scenario
 
@@ -22,16 +23,16 @@ def _cfg(tree, *overrides):
 def test_run_folder_contents(tmp_path, small_truss_tree):
     out = run_scenario(_cfg(small_truss_tree), tmp_path / "run")
     files = {p.name for p in (tmp_path / "run").iterdir()}
-    assert {"model.xml", "timeseries.npz", "summary.json", "manifest.json", "euler_angles.png",
+    assert {"model.xml", STORE_NAME, "summary.json", "manifest.json", "euler_angles.png",
             "body_rates.png", "surface_sd.png"} <= files
     assert not [f for f in files if f.startswith(".")], "temporary files left behind"
     manifest = json.loads((tmp_path / "run/manifest.json").read_text())
     assert manifest["config_hash"] and manifest["versions"]["mujoco"].startswith("4.")
-    assert set(manifest["files"]) >= {"model.xml", "timeseries.npz", "summary.json"}
+    assert set(manifest["files"]) >= {"model.xml", STORE_NAME, "summary.json"}
     summary = json.loads((tmp_path / "run/summary.json").read_text())
     for key in ("rotation_x1_final_rad", "off_axis_rotation_max_rad", "surface_sd_max_m", "strain_energy_max_J"):
         assert np.isfinite(summary[key]), key
-    ts = np.load(tmp_path / "run/timeseries.npz")
+    ts = read_timeseries(tmp_path / "run")
     # record_every = 5 steps of 0.1 s over 20 s: 41 samples including t = 0 and t = 20 s
     assert ts["t"].shape == (41,) and ts["qpos"].shape == (41, 96)
     assert out.status == "completed"
@@ -51,11 +52,11 @@ def test_resume_equals_uninterrupted(tmp_path, small_truss_tree):
     cfg = _cfg(small_truss_tree, "sim.checkpoint_every_s=4.0")
     full = run_scenario(cfg, tmp_path / "full")
     run_scenario(cfg, tmp_path / "cut", stop_after_s=9.0)
-    cut = np.load(tmp_path / "cut/timeseries.npz")
+    cut = read_timeseries(tmp_path / "cut")
     assert cut["t"][-1] < 9.0
     resumed = run_scenario(cfg, tmp_path / "cut", resume=True)
-    a = np.load(tmp_path / "full/timeseries.npz")
-    b = np.load(tmp_path / "cut/timeseries.npz")
+    a = read_timeseries(tmp_path / "full")
+    b = read_timeseries(tmp_path / "cut")
     assert np.array_equal(a["t"], b["t"])
     assert np.array_equal(a["qpos"], b["qpos"]), "resumed run differs from the uninterrupted one"
     assert resumed["phi_final_rad"] == full["phi_final_rad"]
@@ -78,8 +79,8 @@ def test_same_config_same_numbers(tmp_path, small_truss_tree):
     cfg = _cfg(small_truss_tree, "sim.duration_s=3.0")
     run_scenario(cfg, tmp_path / "a")
     run_scenario(cfg, tmp_path / "b")
-    assert np.array_equal(np.load(tmp_path / "a/timeseries.npz")["qpos"],
-                          np.load(tmp_path / "b/timeseries.npz")["qpos"])
+    assert np.array_equal(read_timeseries(tmp_path / "a")["qpos"],
+                          read_timeseries(tmp_path / "b")["qpos"])
 
 
 def test_structural_failure_stops_with_time_and_cause_and_keeps_records(tmp_path, small_truss_tree):
@@ -89,7 +90,7 @@ def test_structural_failure_stops_with_time_and_cause_and_keeps_records(tmp_path
     out = run_scenario(cfg, tmp_path / "run")
     assert out.status == "structure_failed"
     assert "strain" in out["status_message"] and "t = " in out["status_message"]
-    ts = np.load(tmp_path / "run/timeseries.npz")
+    ts = read_timeseries(tmp_path / "run")
     assert 1 < ts["t"].size < 201 and np.isfinite(ts["qpos"]).all()
     manifest = json.loads((tmp_path / "run/manifest.json").read_text())
     assert manifest["status"] == "structure_failed"

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 import magsail_mj
 from magsail_mj.cli import main
 from magsail_mj.config import ConfigError, load_config
+from magsail_mj.export import read_timeseries
 from magsail_mj.sim import Simulation
 from tests.conftest import REPO
 
@@ -99,8 +100,8 @@ def test_cli_stop_after_then_resume_equals_uninterrupted(tmp_path, capsys):
     stopped = json.loads((tmp_path / "cut/manifest.json").read_text())
     assert stopped["status"] == "stopped" and (tmp_path / "cut/checkpoint.npz").is_file()
     assert main(["run", config, "--out", str(tmp_path / "cut"), *common, "--resume"]) == 0
-    a, b = np.load(tmp_path / "full/timeseries.npz"), np.load(tmp_path / "cut/timeseries.npz")
-    assert sorted(a.files) == sorted(b.files) and all(np.array_equal(a[k], b[k], equal_nan=True) for k in a.files)
+    a, b = read_timeseries(tmp_path / "full"), read_timeseries(tmp_path / "cut")
+    assert sorted(a) == sorted(b) and all(np.array_equal(a[k], b[k], equal_nan=True) for k in a)
     assert main(["run", config, "--out", str(tmp_path / "x"), *common, "--stop-after-s", "60"]) == 2
     assert "--stop-after-s" in capsys.readouterr().err
 
@@ -132,5 +133,5 @@ def test_msac_stop_anywhere_then_resume_equals_uninterrupted(tmp_path):
     run_scenario(cfg, tmp_path / "full")
     run_scenario(cfg, tmp_path / "cut", stop_after_s=0.0037)
     run_scenario(cfg, tmp_path / "cut", resume=True)
-    a, b = np.load(tmp_path / "full/timeseries.npz"), np.load(tmp_path / "cut/timeseries.npz")
-    assert all(np.array_equal(a[k], b[k], equal_nan=True) for k in a.files)
+    a, b = read_timeseries(tmp_path / "full"), read_timeseries(tmp_path / "cut")
+    assert all(np.array_equal(a[k], b[k], equal_nan=True) for k in a)

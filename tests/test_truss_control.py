@@ -23,6 +23,7 @@ from magsail_mj.control.quaternion_feedback import (
     QuaternionFeedbackRodController, gg_compensation_torque, quaternion_feedback_torque,
 )
 from magsail_mj.environment.constants import MU_EARTH
+from magsail_mj.export import read_timeseries
 from magsail_mj.quaternion import error_quaternion
 from magsail_mj.quaternion import quat_conj as quat_conjugate
 from magsail_mj.quaternion import quat_mul as quat_multiply
@@ -383,7 +384,7 @@ def test_small_orbital_runs_resume_and_summaries(tmp_path, monkeypatch):
                 "sat_fraction_family1", "t_rates_below_threshold_first_s", "H0_Nms", "strut_strain_max"):
         assert key in full, key
     assert 0.0 <= full["saturation_fraction"] <= 1.0 and full["control_samples"] == 61
-    ts = np.load(tmp_path / "full/timeseries.npz")
+    ts = read_timeseries(tmp_path / "full")
     assert (ts["strut_activity"].shape == (13, make_lattice(units=3, side_m=12.0).n_struts)
             and set(np.unique(ts["strut_activity"])) <= {-1, 0, 1})
     np.testing.assert_allclose(ts["torque_ac_body_Nm"], ts["torque_alloc_body_Nm"], atol=0.02 * np.abs(
@@ -395,7 +396,7 @@ def test_small_orbital_runs_resume_and_summaries(tmp_path, monkeypatch):
     monkeypatch.setattr(TrussScenario, "plots", lambda self, run_dir, result, series: [])  # plots: once is enough
     run_scenario(cfg, tmp_path / "cut", stop_after_s=3.0)
     run_scenario(cfg, tmp_path / "cut", resume=True)
-    a, b = np.load(tmp_path / "full/timeseries.npz"), np.load(tmp_path / "cut/timeseries.npz")
+    a, b = read_timeseries(tmp_path / "full"), read_timeseries(tmp_path / "cut")
     for key in ("qpos", "N_signed", "torque_ref_body_Nm", "control_counts"):
         assert np.array_equal(a[key], b[key]), key
 
@@ -424,7 +425,7 @@ def test_detumble_75m_first_15_minutes(tmp_path):
     cfg = load_config(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
                       ["sim.duration_s=900", "sim.checkpoint_every_s=0", "sim.progress=false"])
     s = run_scenario(cfg, tmp_path / "run")
-    ts = np.load(tmp_path / "run/timeseries.npz")
+    ts = read_timeseries(tmp_path / "run")
     I = np.diag(s["I_kgm2"])
     H_end = np.linalg.norm(I @ ts["omega_est_body_rad_s"][-1])
     assert s["H0_Nms"] == pytest.approx(1274.3, rel=1e-3)
@@ -445,6 +446,6 @@ def test_slew_i_75m_first_25_minutes(tmp_path):
     s = run_scenario(cfg, tmp_path / "run")
     assert s["err_initial_rad"] == pytest.approx(math.pi / 2, abs=1e-9)
     assert s["final_error_deg"] < 60.0 and not s["tumbled"]
-    ts = np.load(tmp_path / "run/timeseries.npz")
+    ts = read_timeseries(tmp_path / "run")
     d = ts["torque_ac_body_Nm"] - ts["torque_alloc_body_Nm"]
     assert np.abs(d).max() < 0.1 * np.abs(ts["torque_alloc_body_Nm"]).max()
