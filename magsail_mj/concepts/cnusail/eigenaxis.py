@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, Sequence
 
 import numpy as np
 
@@ -60,6 +60,9 @@ __all__ = [
     "error_quaternion",
     "eigen_angle",
     "rate_error",
+    "error_quaternion_f",
+    "eigen_angle_f",
+    "rate_error_f",
     "orbital_rate",
     "EigenAxisGains",
     "eigen_axis_gains",
@@ -132,6 +135,37 @@ def rate_error(omega_body: np.ndarray, p_e: np.ndarray, omega_o: float) -> np.nd
     # column 1 of A(q_e) = row 1 of R(p_e)
     col = np.array([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)])
     return np.asarray(omega_body, dtype=float) + omega_o * col
+
+
+def error_quaternion_f(p_c: Sequence[float], p_b: Sequence[float], *, shortest: bool = True
+                       ) -> tuple[float, float, float, float]:
+    """:func:`error_quaternion` of single quaternions in plain floats (the controller's per-sample
+    path): p_e = p_c* ⊗ p_b / |p_c* ⊗ p_b|, sign flipped when ``shortest`` and w < 0."""
+    w1, x1, y1, z1 = p_c
+    x1, y1, z1 = -x1, -y1, -z1
+    w2, x2, y2, z2 = p_b
+    w = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2
+    x = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2
+    y = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2
+    z = w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    if shortest and w < 0:
+        n = -n
+    return (w / n, x / n, y / n, z / n)
+
+
+def eigen_angle_f(p_e: Sequence[float]) -> float:
+    """:func:`eigen_angle` of one quaternion in plain floats: 2 atan2(√(x² + y² + z²), |w|) [rad]."""
+    w, x, y, z = p_e
+    return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
+
+
+def rate_error_f(omega_body: Sequence[float], p_e: Sequence[float], omega_o: float) -> np.ndarray:
+    """:func:`rate_error` from plain floats: ω_e = ω + ω_o (2(xy + wz), 1 − 2(x² + z²), 2(yz − wx))."""
+    w, x, y, z = p_e
+    o0, o1, o2 = omega_body
+    return np.array((o0 + omega_o * (2 * (x * y + w * z)), o1 + omega_o * (1 - 2 * (x * x + z * z)),
+                     o2 + omega_o * (2 * (y * z - w * x))))
 
 
 @dataclass(frozen=True)

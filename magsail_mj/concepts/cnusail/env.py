@@ -75,7 +75,7 @@ import numpy as np
 from dm_control.rl import control
 
 from magsail_mj.commands import attach
-from magsail_mj.concepts.cnusail.modes import CnusailController, Mode, command_quaternion
+from magsail_mj.concepts.cnusail.modes import CnusailController, Mode, command_frame, command_quaternion
 from magsail_mj.concepts.cnusail.eigenaxis import eigen_angle, error_quaternion, orbital_rate, rate_error
 from magsail_mj.concepts.cnusail.unloading import UnloadingLogic
 from magsail_mj.envs.core import ActionController, AttitudeTask, SimulationPhysics, register
@@ -121,36 +121,6 @@ class CubesatConverter:
             return CubesatCommand(np.zeros(3), a[:3], "idle")
         kind = "body_torque" if self.action == "torque_dipole" else "current"
         return CubesatCommand(a[:3].copy(), a[3:6].copy(), kind)
-
-
-def command_frame(mode: int, r: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, float]:
-    """Command quaternion (command → ECI, scalar-first, ``w ≥ 0``) and orbital rate ``ω_o = |r × v|/|r|²``
-    [rad/s] for the reference position ``r`` [m] and velocity ``v`` [m/s] (ECI), in scalar arithmetic.
-
-    Nadir frame R: ``ẑ = r̂``, ``ŷ = (v × r)/|v × r|``, ``x̂ = ŷ × ẑ``; deorbit: columns ``(ẑ, ŷ, −x̂)``
-    (:mod:`magsail_mj.concepts.cnusail.modes`; DETUMBLE uses nadir). The quaternion is Shepperd's:
-    the column of ``K = 4 q qᵀ`` with the largest diagonal entry, normalised, sign ``w ≥ 0`` (as
-    :func:`magsail_mj.quaternion.quat_from_matrix`, here without array overhead: the plant and the
-    observation evaluate it at every control step).
-    """
-    rx, ry, rz = (float(a) for a in r)
-    vx, vy, vz = (float(a) for a in v)
-    rn = math.sqrt(rx * rx + ry * ry + rz * rz)
-    z = (rx / rn, ry / rn, rz / rn)
-    hx, hy, hz = vy * rz - vz * ry, vz * rx - vx * rz, vx * ry - vy * rx      # v × r
-    hn = math.sqrt(hx * hx + hy * hy + hz * hz)
-    y = (hx / hn, hy / hn, hz / hn)
-    x = (y[1] * z[2] - y[2] * z[1], y[2] * z[0] - y[0] * z[2], y[0] * z[1] - y[1] * z[0])
-    cols = (z, y, (-x[0], -x[1], -x[2])) if int(mode) == Mode.DEORBIT else (x, y, z)
-    (r00, r10, r20), (r01, r11, r21), (r02, r12, r22) = cols
-    K = ((1 + r00 + r11 + r22, r21 - r12, r02 - r20, r10 - r01),
-         (r21 - r12, 1 + r00 - r11 - r22, r01 + r10, r02 + r20),
-         (r02 - r20, r01 + r10, 1 - r00 + r11 - r22, r12 + r21),
-         (r10 - r01, r02 + r20, r12 + r21, 1 - r00 - r11 + r22))
-    col = K[max(range(4), key=lambda i: K[i][i])]
-    n = math.sqrt(sum(c * c for c in col))
-    q = np.array(col) / n
-    return (-q if q[0] < 0 else q), hn / (rn * rn)
 
 
 class CubesatActuators:

@@ -49,12 +49,11 @@ from magsail_mj.control.bdot import make_bdot
 from magsail_mj.concepts.cnusail.eigenaxis import (
     EigenAxisGains,
     GyroComp,
-    eigen_angle,
+    eigen_angle_f,
     eigen_axis_gains,
     eigen_axis_torque,
-    error_quaternion,
-    orbital_rate,
-    rate_error,
+    error_quaternion_f,
+    rate_error_f,
 )
 from magsail_mj.concepts.cnusail.pd import pd_torque
 from magsail_mj.concepts.cnusail.unloading import UnloadingLogic, unloading_dipole
@@ -66,6 +65,7 @@ __all__ = [
     "nadir_command_matrix",
     "deorbit_command_matrix",
     "command_quaternion",
+    "command_frame",
     "ModeLogicParams",
     "ModeManager",
     "CnusailControlParams",
@@ -103,6 +103,36 @@ def command_quaternion(mode: Mode | int, r: np.ndarray, v: np.ndarray) -> np.nda
     """Scalar-first command quaternion (command → world) of ``mode`` (DETUMBLE uses nadir)."""
     M = deorbit_command_matrix(r, v) if int(mode) == Mode.DEORBIT else nadir_command_matrix(r, v)
     return quat_from_matrix(M)
+
+
+def command_frame(mode: int, r: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, float]:
+    """Command quaternion (command → ECI, scalar-first, ``w ≥ 0``) and orbital rate ``ω_o = |r × v|/|r|²``
+    [rad/s] for the reference position ``r`` [m] and velocity ``v`` [m/s] (ECI), in scalar arithmetic.
+
+    Nadir frame R: ``ẑ = r̂``, ``ŷ = (v × r)/|v × r|``, ``x̂ = ŷ × ẑ``; deorbit: columns ``(ẑ, ŷ, −x̂)``
+    (DETUMBLE uses nadir). The quaternion is Shepperd's: the column of ``K = 4 q qᵀ`` with the
+    largest diagonal entry, normalised, sign ``w ≥ 0`` (as :func:`command_quaternion` through
+    :func:`magsail_mj.quaternion.quat_from_matrix`, here without array overhead: the flight
+    controller, the environments' plant and their observations evaluate it at every attitude sample).
+    """
+    rx, ry, rz = (float(a) for a in r)
+    vx, vy, vz = (float(a) for a in v)
+    rn = math.sqrt(rx * rx + ry * ry + rz * rz)
+    z = (rx / rn, ry / rn, rz / rn)
+    hx, hy, hz = vy * rz - vz * ry, vz * rx - vx * rz, vx * ry - vy * rx      # v × r
+    hn = math.sqrt(hx * hx + hy * hy + hz * hz)
+    y = (hx / hn, hy / hn, hz / hn)
+    x = (y[1] * z[2] - y[2] * z[1], y[2] * z[0] - y[0] * z[2], y[0] * z[1] - y[1] * z[0])
+    cols = (z, y, (-x[0], -x[1], -x[2])) if int(mode) == Mode.DEORBIT else (x, y, z)
+    (r00, r10, r20), (r01, r11, r21), (r02, r12, r22) = cols
+    K = ((1 + r00 + r11 + r22, r21 - r12, r02 - r20, r10 - r01),
+         (r21 - r12, 1 + r00 - r11 - r22, r01 + r10, r02 + r20),
+         (r02 - r20, r01 + r10, 1 - r00 + r11 - r22, r12 + r21),
+         (r10 - r01, r02 + r20, r12 + r21, 1 - r00 - r11 + r22))
+    col = K[max(range(4), key=lambda i: K[i][i])]
+    n = math.sqrt(sum(c * c for c in col))
+    q = np.array(col) / n
+    return (-q if q[0] < 0 else q), hn / (rn * rn)
 
 
 @dataclass(frozen=True)
@@ -353,24 +383,25 @@ class CnusailController:
     def _attitude_sample(self, t: float, q: np.ndarray, omega: np.ndarray, omega_M: np.ndarray, env) -> None:
         p = self.p
         old = self.modes.mode
-        mode, changed = self.modes.update(t, float(np.linalg.norm(omega)))
+        om = omega.tolist()
+        mode, changed = self.modes.update(t, math.sqrt(om[0] * om[0] + om[1] * om[1] + om[2] * om[2]))
         self.mode = mode
         if changed:
             self.events.append({"t_s": t, "kind": "mode", "from": old.name, "to": mode.name})
             if mode == Mode.DETUMBLE:
                 self.bdot.reset()
-        r, v = env.r_ref_eci, env.v_ref_eci
-        p_c = command_quaternion(mode, r, v)
-        p_e = error_quaternion(p_c, q, shortest=p.shortest_rotation)
-        self.p_e = p_e
-        self.theta_e = float(eigen_angle(p_e))
-        self.omega_e = rate_error(omega, p_e, orbital_rate(r, v))
+        # the telemetry in plain floats (:func:`command_frame`, the ``*_f`` forms of eigenaxis)
+        p_c, w_o = command_frame(mode, env.r_ref_eci, env.v_ref_eci)
+        p_e = error_quaternion_f(p_c.tolist(), q.tolist(), shortest=p.shortest_rotation)
+        self.p_e = np.array(p_e)
+        self.theta_e = eigen_angle_f(p_e)
+        self.omega_e = rate_error_f(om, p_e, w_o)
         if mode == Mode.DETUMBLE:
             self.u = np.zeros(3)
             self.wheel_cmd = self.driver.idle_command()
             self._start_pending = True
             return
-        q_e = p_e[1:]
+        q_e = self.p_e[1:]
         if self._start_pending or changed:
             self._set_gains(t, q_e, "manoeuvre_start")
             self.theta_ref = self.theta_e
