@@ -1,0 +1,84 @@
+"""The CNUSAIL stowed detumble: the project's step loop against the Basilisk rebuild, back to back.
+
+The peer is the independent Basilisk rebuild of ``detumble_pre.toml`` in
+``/work/shared/peers/basilisk`` (its README: rigid hub, point mass + J2, WMM field, B-dot as a
+Basilisk Python module, ``MtbEffector``, gravity gradient; RK4 at 0.1 s). It needs ``bsk`` 2.12.1
+in a separate environment (never a dependency of this package)::
+
+    python3 -m venv /tmp/bsk && /tmp/bsk/bin/pip install bsk==2.12.1 numpy matplotlib
+
+Each round runs, for the same simulated duration and step, first the peer (its own timer around
+``ExecuteSimulation``: the whole loop with its recorders) in a subprocess, then
+:func:`magsail_mj.bench.bench` of the project config with the sources the peer does not model
+switched off (drag, SRP, residual dipole: the comparison of the peer's README); ``--rounds``
+rounds alternate the two, and the medians are compared. Prints one JSON object:
+``project_us_per_step``, ``basilisk_us_per_step``, ``cost_ratio`` (project / Basilisk, per
+simulated second as both take the same steps; the issue's target is ≤ 0.5), and the project's
+``ratio_to_mj_step`` (target ≤ 3) with its parts.
+
+    python scripts/bench_cubesat_vs_basilisk.py --duration 1800 --rounds 3
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from magsail_mj.bench import bench
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIG = ROOT / "magsail_mj/concepts/cnusail/configs/detumble_pre.toml"
+PEER_DIR = Path("/work/shared/peers/basilisk")
+SAME_PHYSICS = ("drag.enabled=false", "srp.enabled=false", "spacecraft.residual_dipole_A_m2=[0.0, 0.0, 0.0]")
+"""The overrides that leave the physics the peer models (its README)."""
+
+
+def peer_us_per_step(python: str, peer_dir: Path, duration_s: float) -> float:
+    """µs per step of one run of the Basilisk rebuild (its timer around ``ExecuteSimulation``)."""
+    with tempfile.TemporaryDirectory(prefix="bsk_bench_") as out:
+        proc = subprocess.run([python, str(peer_dir / "bsk_detumble.py"), "--out", out, "--duration", repr(duration_s)],
+                              capture_output=True, text=True, check=False)
+        if proc.returncode != 0:
+            raise RuntimeError(f"--bsk-python: the peer run failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
+        info = json.loads((Path(out) / "bsk_info.json").read_text())
+    return info["wall_s"] / info["steps"] * 1e6
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--duration", type=float, default=1800.0, help="simulated seconds per run (default 1800)")
+    ap.add_argument("--rounds", type=int, default=3, help="alternating rounds; medians compared (default 3)")
+    ap.add_argument("--bsk-python", default=os.environ.get("BSK_PYTHON", "/tmp/bsk/bin/python"),
+                    help="Python of the environment with bsk 2.12.1 (default $BSK_PYTHON or /tmp/bsk/bin/python)")
+    ap.add_argument("--peer-dir", type=Path, default=PEER_DIR, help="folder of bsk_detumble.py")
+    args = ap.parse_args(argv)
+    if not (args.duration > 0 and args.rounds >= 1):
+        ap.error("--duration must be > 0 and --rounds >= 1")
+    if not Path(args.bsk_python).is_file():
+        ap.error(f"--bsk-python: no such interpreter {args.bsk_python!r} (see the module docstring)")
+    peer, ours, ratios, runs = [], [], [], []
+    for _ in range(args.rounds):
+        peer.append(peer_us_per_step(args.bsk_python, args.peer_dir, args.duration))
+        r = bench(CONFIG, overrides=SAME_PHYSICS, duration_s=args.duration)
+        ours.append(r["us_per_step"])
+        ratios.append(r["ratio_to_mj_step"])
+        runs.append(r)
+    mid = runs[sorted(range(len(ours)), key=ours.__getitem__)[len(ours) // 2]]
+    out = {"duration_s": args.duration, "steps": mid["steps"], "rounds": args.rounds,
+           "project_us_per_step": statistics.median(ours), "basilisk_us_per_step": statistics.median(peer),
+           "cost_ratio": statistics.median(ours) / statistics.median(peer),
+           "ratio_to_mj_step": statistics.median(ratios), "project_runs_us": ours, "basilisk_runs_us": peer,
+           "project_parts_us": mid["parts_us"], "mj_step_us": mid["mj_step_us"], "platform": mid["platform"],
+           "overrides": list(SAME_PHYSICS)}
+    print(json.dumps(out, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
