@@ -5,22 +5,122 @@ target folder moved into place), so a reader never sees half a picture and a cra
 previous file. :func:`new_figure` builds a :class:`matplotlib.figure.Figure` without pyplot's
 global figure list, so a plot module needs no backend selection (``matplotlib.use("Agg")``) and
 leaves an interactive session's backend alone.
+
+Readability rules (:func:`figure_problems`), checked by :func:`save_figure` when the environment
+variable ``MAGSAIL_CHECK_FIGURES`` is ``1`` (the tests set it): every axis with data has a label
+(an axis sharing a labelled axis may leave it to that one; a categorical axis is named by its
+ticks), every label carries a unit in square brackets or a short one in parentheses at its end
+(``[N m]``, ``[°/s]``, ``(km)``; ``[–]`` for a pure number), except the dimensionless labels of
+:data:`DIMENSIONLESS_LABELS`; a panel with several labelled artists has them in a legend (its own,
+another panel's or the figure's); several unlabelled lines of different colours in one panel are
+an error (a reader cannot tell them apart).
 """
 
 from __future__ import annotations
 
+import os
+import re
 from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
+from matplotlib.axes import Axes
+from matplotlib.axis import Axis
+from matplotlib.category import UnitData
+from matplotlib.colors import to_hex
 from matplotlib.figure import Figure
 
 from magsail_mj.io import atomic_path
 
-__all__ = ["save_figure", "new_figure", "PNG_DPI"]
+__all__ = ["save_figure", "new_figure", "figure_problems", "FigureCheckError", "DIMENSIONLESS_LABELS",
+           "CHECK_ENV", "PNG_DPI"]
 
 PNG_DPI = 120
 """Resolution of every saved figure [dots per inch]."""
+
+CHECK_ENV = "MAGSAIL_CHECK_FIGURES"
+"""Environment variable: ``1`` makes :func:`save_figure` refuse a figure with :func:`figure_problems`."""
+
+DIMENSIONLESS_LABELS = frozenset({
+    "max strut strain",                              # ΔL/L of the most strained strut
+    "q̂_n",                                           # modal amplitudes normalised by their largest value
+    "cycle k",                                       # cycle count
+    "|ẑ_B · V̂| (projected area fraction)",           # cosine between sail normal and flight direction
+    "signed active rods",                            # rod count times polarity
+    "rods on",                                       # rod count
+    "runs",                                          # a histogram's run count (sweep report)
+    "F(x) over all runs",                            # an empirical distribution function (sweep report)
+})
+"""Axis labels of dimensionless quantities (ratios, counts, normalised amplitudes), accepted
+without a unit."""
+
+#: a unit: a bracketed group anywhere, or a short parenthesised group at the end of the label
+_UNIT = re.compile(r"\[[^\]]+\]|\([^()]{1,12}\)\s*$")
+
+
+class FigureCheckError(ValueError):
+    """A figure breaks a readability rule (:func:`figure_problems`); the message lists each problem."""
+
+
+def _axis_problem(ax: Axes, axis: Axis, which: str) -> str | None:
+    """The problem of one axis (``which`` = ``"x"``, ``"y"`` or ``"z"``) of ``ax``, or ``None``."""
+    if isinstance(axis.units, UnitData):   # categorical: the tick labels name the categories
+        return None
+    label = axis.get_label().get_text().strip()
+    if not label:
+        shared = getattr(ax, f"get_shared_{which}_axes", None)
+        siblings = shared().get_siblings(ax) if shared is not None else [ax]
+        if any(getattr(s, f"get_{which}label")().strip() for s in siblings if s is not ax):
+            return None
+        return f"{which} axis has no label"
+    if label in DIMENSIONLESS_LABELS or _UNIT.search(label):
+        return None
+    return f"{which} label {label!r} has no unit in [brackets] or (parentheses)"
+
+
+def _has_data(ax: Axes) -> bool:
+    return bool(ax.lines or ax.collections or ax.patches or ax.images)
+
+
+def _legend_texts(fig: Figure) -> set[str]:
+    legends = list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+    return {t.get_text() for leg in legends for t in leg.get_texts()}
+
+
+def _legend_problems(ax: Axes, shown: set[str]) -> list[str]:
+    """Several labelled artists, some missing from every legend; unlabelled data lines of several colours."""
+    problems = []
+    _, labels = ax.get_legend_handles_labels()
+    missing = [lab for lab in labels if lab not in shown]
+    if len(labels) > 1 and missing:
+        problems.append(f"labelled artists without a legend: {missing}")
+    unlabelled = {to_hex(line.get_color()) for line in ax.lines
+                  if line.get_label().startswith("_") and line.get_transform() is ax.transData}
+    if len(unlabelled) > 1:
+        problems.append(f"{len(unlabelled)} unlabelled line colours {sorted(unlabelled)} (no legend can name them)")
+    return problems
+
+
+def figure_problems(fig: Figure) -> list[str]:
+    """What makes ``fig`` unreadable without the docs (module docstring); ``[]`` when nothing.
+
+    Each problem names its panel (number and title) and axis."""
+    problems = []
+    shown = _legend_texts(fig)
+    for k, ax in enumerate(fig.axes):
+        if not ax.get_visible() or not ax.axison:
+            continue
+        where = f"panel {k}" + (f" ({ax.get_title()!r})" if ax.get_title() else "")
+        bar = getattr(ax, "_colorbar", None)
+        if bar is not None:
+            axes = [(ax.yaxis, "y")] if bar.orientation == "vertical" else [(ax.xaxis, "x")]
+        elif _has_data(ax):
+            axes = [(ax.xaxis, "x"), (ax.yaxis, "y")] + ([(ax.zaxis, "z")] if hasattr(ax, "zaxis") else [])
+        else:
+            continue
+        problems += [f"{where}: {p}" for axis, which in axes if (p := _axis_problem(ax, axis, which))]
+        problems += [f"{where}: {p}" for p in _legend_problems(ax, shown)]
+    return problems
 
 
 def save_figure(fig: Figure, path: Path) -> Path:
@@ -29,8 +129,15 @@ def save_figure(fig: Figure, path: Path) -> Path:
     The file is written under a temporary name in ``path``'s folder and renamed into place.
     Closing releases a pyplot-managed figure (a figure from :func:`new_figure` is not in pyplot's
     list, and closing it is a no-op).
+
+    Raises:
+      FigureCheckError: ``MAGSAIL_CHECK_FIGURES=1`` and the figure breaks a readability rule
+        (:func:`figure_problems`); nothing is written.
     """
     path = Path(path)
+    if os.environ.get(CHECK_ENV, "") == "1" and (problems := figure_problems(fig)):
+        plt.close(fig)
+        raise FigureCheckError(f"{path.name}: " + "; ".join(problems))
     with atomic_path(path, suffix=".png") as tmp:
         fig.savefig(tmp, dpi=PNG_DPI, bbox_inches="tight", format="png")
     plt.close(fig)

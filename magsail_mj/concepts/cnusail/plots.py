@@ -5,6 +5,8 @@ recalculations with time, angle and gains)."""
 from __future__ import annotations
 
 import math
+from collections import ChainMap
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -19,13 +21,34 @@ from magsail_mj.concepts.cnusail.config import CnusailConfig
 __all__ = ["attitude_plots", "disturbance_orbit_figure", "lifetime_plots"]
 
 _AX = ("x", "y", "z")
+DEG = 180.0 / math.pi
 _SRC_LABEL = {"gravity_gradient": "gravity gradient", "drag": "drag", "srp": "SRP",
               "residual_dipole": "residual dipole"}
 
 
-def _hlines(ax, values, **kw) -> None:
-    for v in values:
-        ax.axhline(v, color=kw.get("color", "k"), ls="--", lw=0.8, alpha=0.6)
+def _hlines(ax, values, *, color: str = "k", label: str | None = None) -> None:
+    """Dashed horizontal reference lines at ``values``; the first one carries ``label`` (legend)."""
+    for k, v in enumerate(values):
+        ax.axhline(v, color=color, ls="--", lw=0.8, alpha=0.6, label=label if k == 0 else None)
+
+
+def _components_figure(path: Path, x: np.ndarray, v: np.ndarray, *, names: tuple[str, ...], xlabel: str, ylabel: str,
+                       title: str, total: tuple[np.ndarray, str] | None = None,
+                       limits: tuple[tuple[list[float], str, str], ...] = (), lw: float = 0.6) -> Path:
+    """One panel of the three columns of ``v`` (n, 3) against ``x``, named ``names``, with an
+    optional ``total`` (values, label) in black and dashed reference lines ``limits`` ((values,
+    colour, label), ...); written to ``path``."""
+    fig, ax = new_figure(figsize=(9, 4.5))
+    for j in range(3):
+        ax.plot(x, v[:, j], lw=lw, label=names[j])
+    if total is not None:
+        ax.plot(x, total[0], "k", lw=1.0, label=total[1])
+    for values, colour, label in limits:
+        _hlines(ax, values, color=colour, label=label)
+    ax.set(xlabel=xlabel, ylabel=ylabel, title=title)
+    ax.legend(ncol=3, fontsize=8)
+    ax.grid(alpha=0.3)
+    return save_figure(fig, path)
 
 
 def disturbance_orbit_figure(series: dict[str, np.ndarray], period_s: float, title: str) -> Figure:
@@ -54,168 +77,158 @@ def disturbance_orbit_figure(series: dict[str, np.ndarray], period_s: float, tit
     return fig
 
 
-def attitude_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: CnusailConfig, orbit_period_s: float,
-                   events: list[dict[str, Any]]) -> list[Path]:
+def attitude_plots(run_dir: Path, series: dict[str, np.ndarray], *, records: Mapping[str, np.ndarray],
+                   cfg: CnusailConfig, orbit_period_s: float, events: list[dict[str, Any]]) -> list[Path]:
     """Write the run's figures and ``events.json`` (the controller's ``events``) into ``run_dir``;
-    return their paths. Time axes in orbits of ``orbit_period_s`` [s] (detumbling) or minutes."""
-    t = series["t"]
-    period = orbit_period_s
-    out: list[Path] = []
-    out.append(write_json(run_dir / "events.json", {"count": len(events), "events": events}))
+    return their paths. ``records``: the run's records (a series of the same name replaces a
+    record). Time axes in orbits of ``orbit_period_s`` [s] (detumbling) or minutes."""
+    out: list[Path] = [write_json(run_dir / "events.json", {"count": len(events), "events": events})]
+    rec = ChainMap(series, records)
     title = f"CNUSAIL-1 {cfg.scenario} ({cfg.spacecraft.configuration}, {cfg.control.mode})"
-    npz = np.load(run_dir / "timeseries.npz")
-    rec = {k: npz[k] for k in npz.files}
-    deg = 180.0 / math.pi
-    limits = cfg.actuators.mtq.limit_vector
-    wheels = cfg.actuators.wheels
-
     if cfg.control.mode == "bdot" or cfg.control.modes.enabled:
-        x = t / period
-        fig, ax = new_figure(figsize=(9, 4.5))
-        w = series["omega_body_rad_s"] * deg
-        for j in range(3):
-            ax.plot(x, w[:, j], lw=0.7, label=f"ω_{_AX[j]}")
-        ax.plot(x, series["omega_norm_deg_s"], "k", lw=1.2, label="|ω|")
-        _hlines(ax, [1.0, -1.0], color="r")
-        _hlines(ax, [cfg.analysis.detumble_threshold_deg_s], color="g")
-        ax.set(xlabel="time [orbits]", ylabel="body rate [°/s]", title=title + ": body rates")
-        ax.legend(ncol=4, fontsize=8)
-        ax.grid(alpha=0.3)
-        out.append(save_figure(fig, run_dir / "rates.png"))
-
-        fig, axes = new_figure(3, 1, figsize=(9, 7), sharex=True)
-        dip = rec["dipole_cmd_A_m2"]
-        for j, ax in enumerate(axes):
-            ax.plot(x, dip[:, j], lw=0.6)
-            _hlines(ax, [limits[j], -limits[j]], color="r")
-            ax.set_ylabel(f"M_{_AX[j]} [A m²]")
-            ax.grid(alpha=0.3)
-        axes[0].set_title(title + ": magnetorquer dipole commands")
-        axes[-1].set_xlabel("time [orbits]")
-        out.append(save_figure(fig, run_dir / "dipole.png"))
-
-        fig, ax = new_figure(figsize=(9, 4))
-        P = series["mtq_power_W"]
-        for j in range(3):
-            ax.plot(x, P[:, j], lw=0.6, label=f"axis {_AX[j]}")
-        ax.plot(x, P.sum(axis=1), "k", lw=0.8, label="total")
-        _hlines(ax, [cfg.actuators.mtq.power_max_W], color="r")
-        ax.set(xlabel="time [orbits]", ylabel="power [W]", title=title + ": magnetorquer power (assumed model)")
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-        out.append(save_figure(fig, run_dir / "mtq_power.png"))
-
-        fig, ax = new_figure(figsize=(9, 4))
-        B = series["B_body_T"] * 1e6
-        for j in range(3):
-            ax.plot(x, B[:, j], lw=0.6, label=f"B_{_AX[j]}")
-        ax.plot(x, np.linalg.norm(B, axis=1), "k", lw=0.8, label="|B|")
-        ax.set(xlabel="time [orbits]", ylabel="field [µT]", title=title + ": geomagnetic field, body axes")
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-        out.append(save_figure(fig, run_dir / "field_body.png"))
-
+        out += _detumble_plots(run_dir, rec, cfg=cfg, x=series["t"] / orbit_period_s, title=title)
     if cfg.control.mode in ("eigen_axis", "pd"):
-        x = t / 60.0
-        marks = [e["t_s"] / 60.0 for e in events if e["kind"] in ("gain_recalc", "manoeuvre_start", "mode")]
-        thr = cfg.analysis.pointing_threshold_deg
-        fig, axes = new_figure(2, 1, figsize=(9, 7), sharex=True)
-        axes[0].plot(x, series["theta_e_deg"], "k", label="θ_e (eigen-angle)")
-        axes[0].axhspan(-thr, thr, color="g", alpha=0.15)
-        axes[0].set_ylabel("θ_e [deg]")
-        e321 = series["error_321_deg"]
-        for j, name in enumerate(("yaw (3)", "pitch (2)", "roll (1)")):
-            axes[1].plot(x, e321[:, j], lw=0.8, label=name)
-        axes[1].axhspan(-thr, thr, color="g", alpha=0.15)
-        axes[1].set_ylabel("3-2-1 error angles [deg]")
-        for ax in axes:
-            for m in marks:
-                ax.axvline(m, color="m", ls=":", lw=0.8)
-            ax.grid(alpha=0.3)
-            ax.legend(fontsize=8)
-        axes[0].set_title(title + ": attitude error"
-                          + (" (dotted: manoeuvre start / gain recalculation)" if marks else ""))
-        axes[1].set_xlabel("time [min]")
-        out.append(save_figure(fig, run_dir / "attitude_error.png"))
+        out += _pointing_plots(run_dir, rec, cfg=cfg, orbit_period_s=orbit_period_s, events=events, title=title)
+    out.append(_disturbance_plot(run_dir, rec, cfg=cfg, orbit_period_s=orbit_period_s, title=title))
+    return out
 
-        fig, ax = new_figure(figsize=(9, 4.5))
-        we = rec["omega_e_rad_s"] * deg
-        for j in range(3):
-            ax.plot(x, we[:, j], lw=0.7, label=f"ω_e,{_AX[j]}")
-        ax.plot(x, np.linalg.norm(we, axis=1), "k", lw=1.0, label="|ω_e|")
-        rmax = cfg.control.slew_rate_max_deg_s
-        _hlines(ax, [0.1, -0.1], color="g")
-        _hlines(ax, [rmax, -rmax], color="r")
-        ax.set(xlabel="time [min]", ylabel="rate error [°/s]", title=title + ": rate error (±0.1 green, ±θ̇_max red)")
-        ax.legend(ncol=4, fontsize=8)
+
+def _detumble_plots(run_dir: Path, rec: Mapping[str, np.ndarray], *, cfg: CnusailConfig, x: np.ndarray,
+                    title: str) -> list[Path]:
+    """Body rates, magnetorquer dipoles, magnetorquer power and the field in body axes against
+    ``x`` [orbits]."""
+    limits = cfg.actuators.mtq.limit_vector
+    thr = cfg.analysis.detumble_threshold_deg_s
+    out = [_components_figure(
+        run_dir / "rates.png", x, rec["omega_body_rad_s"] * DEG, names=tuple(f"ω_{a}" for a in _AX),
+        total=(rec["omega_norm_deg_s"], "|ω|"), xlabel="time [orbits]", ylabel="body rate [°/s]",
+        title=title + ": body rates", lw=0.7,
+        limits=(([1.0, -1.0], "r", "±1 °/s (detumbling entry)"), ([thr], "g", f"{thr:g} °/s (detumbled)")))]
+
+    fig, axes = new_figure(3, 1, figsize=(9, 7), sharex=True)
+    dip = rec["dipole_cmd_A_m2"]
+    for j, ax in enumerate(axes):
+        ax.plot(x, dip[:, j], lw=0.6, label="commanded (held) dipole")
+        _hlines(ax, [limits[j], -limits[j]], color="r", label="±dipole limit")
+        ax.set_ylabel(f"M_{_AX[j]} [A m²]")
         ax.grid(alpha=0.3)
-        out.append(save_figure(fig, run_dir / "rate_error.png"))
+    axes[0].legend(fontsize=8)
+    axes[0].set_title(title + ": magnetorquer dipole commands")
+    axes[-1].set_xlabel("time [orbits]")
+    out.append(save_figure(fig, run_dir / "dipole.png"))
 
-        fig, ax = new_figure(figsize=(9, 4.5))
-        rpm = series["wheel_speed_rpm"]
-        for j in range(3):
-            ax.plot(x, rpm[:, j], lw=0.8, label=f"wheel {_AX[j]}")
-        thr_rpm = cfg.control.unloading.threshold_rpm
-        _hlines(ax, [thr_rpm, -thr_rpm], color="orange")
-        _hlines(ax, [wheels.speed_max_rpm, -wheels.speed_max_rpm], color="r")
-        ax.set(xlabel="time [min]", ylabel="relative wheel speed [rpm]",
-               title=title + f": wheel speeds (±{thr_rpm:g} unloading, ±{wheels.speed_max_rpm:g} limit)")
+    P = rec["mtq_power_W"]
+    out.append(_components_figure(
+        run_dir / "mtq_power.png", x, P, names=tuple(f"axis {a}" for a in _AX), total=(P.sum(axis=1), "total"),
+        xlabel="time [orbits]", ylabel="power [W]", title=title + ": magnetorquer power (assumed model)",
+        limits=(([cfg.actuators.mtq.power_max_W], "r", "power limit"),)))
+    B = rec["B_body_T"] * 1e6
+    out.append(_components_figure(
+        run_dir / "field_body.png", x, B, names=tuple(f"B_{a}" for a in _AX), total=(np.linalg.norm(B, axis=1), "|B|"),
+        xlabel="time [orbits]", ylabel="field [µT]", title=title + ": geomagnetic field, body axes"))
+    return out
+
+
+def _event_lines(axes, marks: list[float]) -> None:
+    """Magenta dotted lines at the event times ``marks`` [min] on every panel (one legend entry)."""
+    for ax in axes:
+        for k, m in enumerate(marks):
+            ax.axvline(m, color="m", ls=":", lw=0.8, label="manoeuvre start / gain recalculation" if k == 0 else None)
+        ax.grid(alpha=0.3)
+
+
+def _pointing_plots(run_dir: Path, rec: Mapping[str, np.ndarray], *, cfg: CnusailConfig, orbit_period_s: float,
+                    events: list[dict[str, Any]], title: str) -> list[Path]:
+    """Attitude error, rate error, wheel speeds, torques, unloading dipole, the orbit's
+    disturbances and (deorbit) the sail-to-flow geometry against time [min]."""
+    x = rec["t"] / 60.0
+    marks = [e["t_s"] / 60.0 for e in events if e["kind"] in ("gain_recalc", "manoeuvre_start", "mode")]
+    thr = cfg.analysis.pointing_threshold_deg
+    wheels = cfg.actuators.wheels
+    out = []
+    fig, axes = new_figure(2, 1, figsize=(9, 7), sharex=True)
+    axes[0].plot(x, rec["theta_e_deg"], "k", label="θ_e (eigen-angle)")
+    axes[0].set_ylabel("θ_e [deg]")
+    for j, name in enumerate(("yaw (3)", "pitch (2)", "roll (1)")):
+        axes[1].plot(x, rec["error_321_deg"][:, j], lw=0.8, label=name)
+    axes[1].set_ylabel("3-2-1 error angles [deg]")
+    for ax in axes:
+        ax.axhspan(-thr, thr, color="g", alpha=0.15, label=f"±{thr:g}° pointing threshold")
+    _event_lines(axes, marks)
+    for ax in axes:
         ax.legend(fontsize=8)
+    axes[0].set_title(title + ": attitude error")
+    axes[1].set_xlabel("time [min]")
+    out.append(save_figure(fig, run_dir / "attitude_error.png"))
+
+    we = rec["omega_e_rad_s"] * DEG
+    rmax = cfg.control.slew_rate_max_deg_s
+    out.append(_components_figure(
+        run_dir / "rate_error.png", x, we, names=tuple(f"ω_e,{a}" for a in _AX),
+        total=(np.linalg.norm(we, axis=1), "|ω_e|"), xlabel="time [min]", ylabel="rate error [°/s]",
+        title=title + ": rate error", lw=0.7,
+        limits=(([0.1, -0.1], "g", "±0.1 °/s"), ([rmax, -rmax], "r", "±θ̇_max (slew rate limit)"))))
+    thr_rpm = cfg.control.unloading.threshold_rpm
+    out.append(_components_figure(
+        run_dir / "wheel_speeds.png", x, rec["wheel_speed_rpm"], names=tuple(f"wheel {a}" for a in _AX),
+        xlabel="time [min]", ylabel="relative wheel speed [rpm]", title=title + ": wheel speeds", lw=0.8,
+        limits=(([thr_rpm, -thr_rpm], "orange", f"±{thr_rpm:g} rpm (unloading)"),
+                ([wheels.speed_max_rpm, -wheels.speed_max_rpm], "r", f"±{wheels.speed_max_rpm:g} rpm (limit)"))))
+
+    fig, axes = new_figure(3, 1, figsize=(9, 7.5), sharex=True)
+    tau = wheels.torque_max_N_m
+    for j, ax in enumerate(axes):
+        ax.plot(x, rec["u_cmd_N_m"][:, j], lw=0.8, label="commanded u")
+        ax.plot(x, rec["wheel_torque_body_N_m"][:, j], lw=0.8, ls="--", label="delivered by wheel")
+        _hlines(ax, [tau, -tau], color="r", label="±τ_max")
+        ax.set_ylabel(f"{_AX[j]} [N m]")
         ax.grid(alpha=0.3)
-        out.append(save_figure(fig, run_dir / "wheel_speeds.png"))
+    axes[0].legend(fontsize=8)
+    axes[0].set_title(title + ": control torque")
+    axes[-1].set_xlabel("time [min]")
+    out.append(save_figure(fig, run_dir / "torques.png"))
 
-        fig, axes = new_figure(3, 1, figsize=(9, 7.5), sharex=True)
-        u = rec["u_cmd_N_m"]
-        wt = series["wheel_torque_body_N_m"]
-        tau = wheels.torque_max_N_m
-        for j, ax in enumerate(axes):
-            ax.plot(x, u[:, j], lw=0.8, label="commanded u")
-            ax.plot(x, wt[:, j], lw=0.8, ls="--", label="delivered by wheel")
-            _hlines(ax, [tau, -tau], color="r")
-            ax.set_ylabel(f"{_AX[j]} [N m]")
-            ax.grid(alpha=0.3)
-        axes[0].legend(fontsize=8)
-        axes[0].set_title(title + ": control torque (±τ_max dashed)")
-        axes[-1].set_xlabel("time [min]")
-        out.append(save_figure(fig, run_dir / "torques.png"))
+    limit = cfg.actuators.mtq.limit_vector.max()
+    out.append(_components_figure(
+        run_dir / "unloading.png", x, rec["dipole_cmd_A_m2"], names=tuple(f"m_{a}" for a in _AX),
+        xlabel="time [min]", ylabel="dipole [A m²]", title=title + ": unloading dipole", lw=0.8,
+        limits=(([limit, -limit], "r", "±dipole limit"),)))
 
-        fig, ax = new_figure(figsize=(9, 4))
-        dip = rec["dipole_cmd_A_m2"]
-        for j in range(3):
-            ax.plot(x, dip[:, j], lw=0.8, label=f"m_{_AX[j]}")
-        _hlines(ax, [limits.max(), -limits.max()], color="r")
-        ax.set(xlabel="time [min]", ylabel="dipole [A m²]", title=title + ": unloading dipole")
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-        out.append(save_figure(fig, run_dir / "unloading.png"))
+    if "dist_orbit_nadir_N_m" in rec:
+        fig = disturbance_orbit_figure(rec, orbit_period_s, f"CNUSAIL-1 {cfg.spacecraft.configuration}: "
+                                                            "disturbance torques over one orbit")
+        out.append(save_figure(fig, run_dir / "disturbances_orbit.png"))
+    if cfg.control.command == "deorbit" or cfg.control.modes.deorbit_at_s is not None:
+        out.append(_deorbit_plot(run_dir, rec, x=x, marks=marks, title=title))
+    return out
 
-        if "dist_orbit_nadir_N_m" in series:
-            fig = disturbance_orbit_figure(series, period, f"CNUSAIL-1 {cfg.spacecraft.configuration}: "
-                                                           "disturbance torques over one orbit")
-            out.append(save_figure(fig, run_dir / "disturbances_orbit.png"))
 
-        if cfg.control.command == "deorbit" or cfg.control.modes.deorbit_at_s is not None:
-            fig, axes = new_figure(3, 1, figsize=(9, 8), sharex=True)
-            axes[0].plot(x, series["altitude_m"] / 1e3, "b")
-            axes[0].set_ylabel("altitude [km]", color="b")
-            a2 = axes[0].twinx()
-            a2.semilogy(x, series["density_kg_m3"], "r", lw=0.8)
-            a2.set_ylabel("density [kg/m³]", color="r")
-            axes[1].plot(x, np.abs(series["sail_flow_cos"]), "k")
-            axes[1].set_ylabel("|ẑ_B · V̂| (projected area fraction)")
-            axes[2].plot(x, series["sail_normal_flow_angle_deg"], "k")
-            axes[2].axhline(5.0, color="g", ls="--", lw=0.8)
-            axes[2].set_ylabel("sail normal to flow [deg]")
-            for ax in axes:
-                for m in marks:
-                    ax.axvline(m, color="m", ls=":", lw=0.8)
-                ax.grid(alpha=0.3)
-            axes[0].set_title(title + ": orbit and sail-to-flow geometry")
-            axes[-1].set_xlabel("time [min]")
-            out.append(save_figure(fig, run_dir / "deorbit_flow.png"))
+def _deorbit_plot(run_dir: Path, rec: Mapping[str, np.ndarray], *, x: np.ndarray, marks: list[float],
+                  title: str) -> Path:
+    """Altitude and density, projected sail area fraction and the sail-normal-to-flow angle [min]."""
+    fig, axes = new_figure(3, 1, figsize=(9, 8), sharex=True)
+    axes[0].plot(x, rec["altitude_m"] / 1e3, "b")
+    axes[0].set_ylabel("altitude [km]", color="b")
+    a2 = axes[0].twinx()
+    a2.semilogy(x, rec["density_kg_m3"], "r", lw=0.8)
+    a2.set_ylabel("density [kg/m³]", color="r")
+    axes[1].plot(x, np.abs(rec["sail_flow_cos"]), "k")
+    axes[1].set_ylabel("|ẑ_B · V̂| (projected area fraction)")
+    axes[2].plot(x, rec["sail_normal_flow_angle_deg"], "k")
+    axes[2].axhline(5.0, color="g", ls="--", lw=0.8, label="5° (deorbit pointing goal)")
+    axes[2].set_ylabel("sail normal to flow [deg]")
+    _event_lines(axes, marks)
+    axes[2].legend(fontsize=8)
+    axes[0].set_title(title + ": orbit and sail-to-flow geometry")
+    axes[-1].set_xlabel("time [min]")
+    return save_figure(fig, run_dir / "deorbit_flow.png")
 
-    # disturbance torques along the run, every mode
-    x = t / (period if cfg.control.mode == "bdot" else 60.0)
+
+def _disturbance_plot(run_dir: Path, rec: Mapping[str, np.ndarray], *, cfg: CnusailConfig, orbit_period_s: float,
+                      title: str) -> Path:
+    """|torque| of each disturbance source and of the magnetorquers along the run (every mode)."""
+    bdot = cfg.control.mode == "bdot"
+    x = rec["t"] / (orbit_period_s if bdot else 60.0)
     fig, ax = new_figure(figsize=(9, 4.5))
     dist = rec["torque_dist_body_N_m"]
     for k, src in enumerate(SOURCES):
@@ -223,12 +236,11 @@ def attitude_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: Cnusail
         ax.semilogy(x, np.where(mag > 0, mag, np.nan), lw=0.7, label=_SRC_LABEL[src])
     mag = np.linalg.norm(rec["torque_mtq_body_N_m"], axis=1)
     ax.semilogy(x, np.where(mag > 0, mag, np.nan), lw=0.5, alpha=0.6, label="magnetorquer")
-    ax.set(xlabel="time [orbits]" if cfg.control.mode == "bdot" else "time [min]", ylabel="|torque| [N m]",
+    ax.set(xlabel="time [orbits]" if bdot else "time [min]", ylabel="|torque| [N m]",
            title=title + ": disturbance torques by source")
     ax.legend(fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
-    out.append(save_figure(fig, run_dir / "disturbances.png"))
-    return out
+    return save_figure(fig, run_dir / "disturbances.png")
 
 
 def lifetime_plots(run_dir: Path, series: dict[str, np.ndarray], table: list[dict[str, Any]],
@@ -250,7 +262,7 @@ def lifetime_plots(run_dir: Path, series: dict[str, np.ndarray], table: list[dic
             ax.fill_between(td, series[f"perigee_{key}_m"] / 1e3, series[f"apogee_{key}_m"] / 1e3,
                             color=colours[reg], alpha=0.08 if method == "cowell" else 0.04)
     ax.set_xscale("symlog", linthresh=10.0)
-    ax.axhline(120.0, color="k", ls=":", lw=0.8)
+    ax.axhline(120.0, color="k", ls=":", lw=0.8, label="120 km (re-entry)")
     ax.set(xlabel="time [days] (linear to 10, log beyond)", ylabel="altitude [km]",
            title=title + ": orbit decay, exponential atmosphere (bands: perigee–apogee)")
     ax.legend(fontsize=7, ncol=2)

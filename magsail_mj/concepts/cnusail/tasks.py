@@ -92,7 +92,8 @@ class AttitudeTask:
 
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
         events = self.controller.events if self.controller is not None else []
-        return attitude_plots(run_dir, series, cfg=self.cfg, orbit_period_s=self.orbit_period_s, events=events)
+        return attitude_plots(run_dir, series, records=result.records, cfg=self.cfg, orbit_period_s=self.orbit_period_s,
+                              events=events)
 
     def render_info(self) -> dict[str, Any]:
         r = self.cfg.render

@@ -108,7 +108,7 @@ def sweep_plots(run_dir: Path, series: dict[str, np.ndarray]) -> list[Path]:
     ax.plot(t, series["lorentz_work_J"], label="Lorentz work")
     ax.plot(t, -series["damping_work_J"], label="damping dissipation")
     ax.plot(t, series["energy_residual_J"], label="E_kin + U − W (residual)")
-    ax.set(xlabel="t [s]", ylabel="[J]", title="energy balance")
+    ax.set(xlabel="t [s]", ylabel="energy [J]", title="energy balance")
     ax.legend(fontsize=8)
     out.append(_save(fig, run_dir / "energy_balance.png"))
     return out
@@ -122,10 +122,11 @@ def slew_plots(run_dir: Path, series: dict[str, np.ndarray]) -> list[Path]:
     t = series["t"]
     out = []
     fig, axs = new_figure(2, 1, figsize=(7, 6), sharex=True)
-    axs[0].semilogy(t, np.maximum(series["error_angle_deg"], 1e-3), "k")
+    axs[0].semilogy(t, np.maximum(series["error_angle_deg"], 1e-3), "k", label="attitude error")
     for lvl in (5, 2):
-        axs[0].axhline(lvl, ls=":", c="grey")
+        axs[0].axhline(lvl, ls=":", c="grey", label="5° and 2° levels" if lvl == 5 else None)
     axs[0].set_ylabel("attitude error [deg]")
+    axs[0].legend(fontsize=8)
     if "euler_zyx_rad" in series:
         e = np.unwrap(series["euler_zyx_rad"], axis=0)
         for k, lab in enumerate(("ψ (z)", "θ (y)", "φ (x)")):
@@ -134,17 +135,20 @@ def slew_plots(run_dir: Path, series: dict[str, np.ndarray]) -> list[Path]:
     axs[1].set(xlabel="t [s]", ylabel="Euler ZYX [deg]")
     out.append(_save(fig, run_dir / "attitude.png"))
     fig, ax = new_figure(figsize=(7, 3.5))
-    ax.plot(t, series["omega_body_rad_s"])
+    for k, lab in enumerate("xyz"):
+        ax.plot(t, series["omega_body_rad_s"][:, k], label=f"ω_{lab}")
     ax.set(xlabel="t [s]", ylabel="ω body [rad/s]", title="body rates")
+    ax.legend(fontsize=8)
     out.append(_save(fig, run_dir / "rates.png"))
     fig, axs = new_figure(3, 1, figsize=(7, 7), sharex=True)
     cur = series["currents_axis_A"]
     sat = series["saturated"].astype(bool)
     for k, lab in enumerate("xyz"):
-        axs[k].plot(t, cur[:, k], c=LOOP_COLOURS[k])
-        axs[k].plot(t[sat[:, k]], cur[sat[:, k], k], "k.", ms=1.5)
+        axs[k].plot(t, cur[:, k], c=LOOP_COLOURS[k], label=f"{lab}-loop current")
+        axs[k].plot(t[sat[:, k]], cur[sat[:, k], k], "k.", ms=1.5, label="saturated")
         axs[k].set_ylabel(f"I_{lab} [A]")
-    axs[2].set_xlabel("t [s] (dots: saturated)")
+        axs[k].legend(fontsize=8, markerscale=4)
+    axs[2].set_xlabel("t [s]")
     out.append(_save(fig, run_dir / "currents.png"))
     fig, axs = new_figure(3, 1, figsize=(7, 7), sharex=True)
     for k, lab in enumerate("xyz"):

@@ -21,6 +21,7 @@ from magsail_mj.concepts.msac.cycle import CyclePath
 from magsail_mj.estimation.attitude import euler_zyx, matrix_from_quat
 from magsail_mj.concepts.msac.mjcf import shape_indices
 from magsail_mj.plotting import new_figure, save_figure
+from magsail_mj.records import units_of
 from magsail_mj.concepts.msac.config import MsacConfig
 
 # save_figure stays importable from here until scripts/msac_sweeps.py takes it from magsail_mj.plotting
@@ -164,6 +165,12 @@ def msac_plots(run_dir: Path, s: dict[str, Any], *, cfg: MsacConfig, path: Cycle
     return out
 
 
+def _key_with_unit(key: str) -> str:
+    """A swept config key with the unit of its SI suffix, ``wings.length_m [m]`` (``[–]`` without one)."""
+    unit = units_of(key.rpartition(".")[2])[0]
+    return f"{key} [{'–' if unit == '1' else unit}]"
+
+
 def sweep_plot(cfg: MsacConfig, run_dir: Path, s: dict[str, Any]) -> Path:
     """F6 panel of one sweep: per-cycle rotation (Eq. 6, exact, MuJoCo) against the swept value."""
     sw = cfg.sweep
@@ -180,7 +187,7 @@ def sweep_plot(cfg: MsacConfig, run_dir: Path, s: dict[str, Any]) -> Path:
     axs[1].set_ylabel("secular rate [rad/s]")
     for ax in axs:
         ax.set_xticks(x, labels, rotation=30, fontsize=8)
-        ax.set_xlabel(" + ".join(sw.keys))
+        ax.set_xlabel(" + ".join(_key_with_unit(k) for k in sw.keys))
         ax.legend(fontsize=8)
     fig.suptitle(f"F6 sweep of {', '.join(sw.keys)} (base {sw.base}, {sw.cycles} cycles per point)", fontsize=10)
     return save_figure(fig, run_dir / "sweep.png")
