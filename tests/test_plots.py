@@ -128,10 +128,11 @@ PLOTTING_RUNS = [
     ("reflector/pitch/b3_caps_sigma10.toml", ["sim.duration_s=20"]),
     ("msac/paper_1khz.toml", ["sim.duration_s=0.01", "sim.record_every=100"]),
     ("msac/sweeps/stroke.toml", ["sim.duration_s=0.01", "sim.record_every=100"]),
+    pytest.param("cnusail/lifetime.toml", [], marks=pytest.mark.slow),   # 40 s: the whole decay analysis
 ]
 
 
-@pytest.mark.parametrize("config, overrides", PLOTTING_RUNS, ids=[c for c, _ in PLOTTING_RUNS])
+@pytest.mark.parametrize("config, overrides", PLOTTING_RUNS)
 def test_every_figure_of_a_run_is_readable(tmp_path, monkeypatch, config, overrides):
     monkeypatch.setenv(CHECK_ENV, "1")
     concept, _, rest = config.partition("/")

@@ -533,3 +533,121 @@ def test_render_memory_is_estimated_before_loading(tmp_path):
     with memory_limit(1 << 20), pytest.raises(MemoryLimitError, match=r"render .*needs about .*limit of 1 MiB"):
         render_run(tmp_path / "run", tmp_path / "x.mp4", width=W, height=H)
     assert not (tmp_path / "x.mp4").exists()
+
+
+# --------------------------------------------------------------------------- legend and overlay text
+
+
+def test_overlay_values_have_names_units_and_enumeration_meanings():
+    from magsail_mj.render.overlay import format_time, format_value, series_name_unit
+
+    assert series_name_unit("omega_norm_deg_s") == ("omega norm", "°/s")
+    assert series_name_unit("wheel_speed_rpm") == ("wheel speed", "rpm")
+    assert series_name_unit("time_h") == ("time", "h")
+    assert series_name_unit("phase") == ("phase", "")
+    assert format_value("surface_sd_m", 5.1e-4) == "surface sd = 510 µm"
+    assert format_value("torque_norm_Nm", 2.5) == "torque norm = 2.5 N m"
+    assert format_value("theta_e_deg", 12.5, names={"theta_e_deg": "attitude error θ_e"}) == \
+        "attitude error θ_e = 12.5°"
+    assert format_value("wheel_speed_rpm", [1.0, -2.0, 3.0]) == "wheel speed (x, y, z) = [1, -2, 3] rpm"
+    labels = {"mode": {"0": "detumbling", "1": "nadir pointing"}}
+    assert format_value("mode", 1, labels=labels) == "mode: nadir pointing"
+    assert format_value("mode", 7, labels=labels) == "mode = 7"            # not in the table: the number
+    assert format_value("count", 3, units={"count": "rods"}) == "count = 3 rods"
+    assert format_time(5.0) == "t = 5 s" and format_time(600.0) == "t = 600.0 s (10.0 min)"
+    assert format_time(7200.0) == "t = 7200.0 s (2.00 h)"
+
+
+def test_cnusail_mode_and_msac_phase_are_printed_by_name():
+    """Every value of the CNUSAIL controller's Mode and of the MSAC cycle phase has a meaning in
+    the task's render table (the recorded 'mode' and 'phase' series are enumerations)."""
+    from magsail_mj.concepts import build_task
+    from magsail_mj.concepts.cnusail.modes import Mode
+    from magsail_mj.render.overlay import format_value
+
+    cn = build_task(load_config(REPO / "magsail_mj/concepts/cnusail/configs/deorbit_recalc.toml"))
+    info = cn.render_info()
+    texts = {m: format_value("mode", int(m), names=info["overlay_names"], labels=info["overlay_labels"])
+             for m in Mode}
+    assert texts[Mode.DETUMBLE] == "mode: detumbling (B-dot, wheels idle)"
+    assert texts[Mode.NADIR] == "mode: nadir pointing, eigen-axis law"
+    assert texts[Mode.DEORBIT].startswith("mode: deorbit attitude")
+    ms = build_task(load_config(REPO / "magsail_mj/concepts/msac/configs/paper_1khz.toml"))
+    phases = ms.render_info()["overlay_labels"]["phase"]
+    assert phases == {"1": "1 of 4, bend (extended)", "2": "2 of 4, contract",
+                      "3": "3 of 4, bend back (contracted)", "4": "4 of 4, extend"}
+
+
+def test_every_marker_of_a_deployed_cnusail_and_msac_names_model_objects():
+    """The legend rows come from the model: each render.markers key of the CNUSAIL (deployed) and
+    MSAC tasks matches objects of the task's model, with their colours (body axes: three)."""
+    from magsail_mj.concepts import build_task
+    from magsail_mj.render.compose import _ModelColours
+
+    for config in ("cnusail/configs/deorbit_recalc.toml", "msac/configs/paper_1khz.toml"):
+        task = build_task(load_config(REPO / "magsail_mj/concepts" / config))
+        colours = _ModelColours(task.model)
+        for key, text in task.render_info()["markers"].items():
+            entry = colours.entry(key, text)
+            assert entry is not None, (config, key)
+            assert entry.text == text and 1 <= len(entry.colours) <= 3
+    cn = build_task(load_config(REPO / "magsail_mj/concepts/cnusail/configs/deorbit_recalc.toml"))
+    axes = _ModelColours(cn.model).entry("axis_x/y/z", "body axes")
+    rgba = {n: tuple(round(float(c), 3) for c in cn.model.geom(n).rgba[:3]) for n in ("axis_x", "axis_y", "axis_z")}
+    assert axes.colours == (rgba["axis_x"], rgba["axis_y"], rgba["axis_z"])
+    assert _ModelColours(cn.model).entry("no_such_object", "x") is None
+
+
+def test_render_tables_are_checked_by_name(tmp_path):
+    write_truss_run(tmp_path / "run")
+    manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    manifest["render"]["overlay_labels"] = {"mode": "detumbling"}
+    (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(RenderError, match=r"render.overlay_labels.mode: expected a table"):
+        load_run(tmp_path / "run")
+    manifest["render"]["overlay_labels"] = {"mode": {0: "detumbling"}}
+    manifest["render"]["markers"] = {"n0": ["not", "a", "text"]}
+    (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(RenderError, match=r"render.markers.n0: expected a text"):
+        load_run(tmp_path / "run")
+    manifest["render"]["markers"] = {"n0": "first node"}
+    (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
+    run = load_run(tmp_path / "run")
+    assert run.labels == {"mode": {"0": "detumbling"}} and run.markers == {"n0": "first node"}
+    assert run.identity == "scenario render_test · config test"
+
+
+def test_identity_comes_from_the_record_store_before_the_manifest_exists(tmp_path):
+    """A run renders its video before it writes manifest.json: the scenario and the config hash in
+    the corner are then read from the record store's attributes (first 12 hex digits)."""
+    from magsail_mj.records import STORE_NAME, write_group
+
+    write_rigid_run(tmp_path / "run")
+    with np.load(tmp_path / "run" / "timeseries.npz") as npz:
+        arrays = dict(npz)
+    (tmp_path / "run" / "timeseries.npz").unlink()
+    (tmp_path / "run" / "manifest.json").unlink()
+    write_group(tmp_path / "run" / STORE_NAME, arrays, n_time=arrays["t"].size,
+                attrs={"scenario": "slew", "config_hash": "0123456789abcdef" * 4})
+    run = load_run(tmp_path / "run", render_info={"title": "x"})
+    assert run.identity == "scenario slew · config 0123456789ab"
+
+
+def _swatch_pixels(frame: np.ndarray, rgb: tuple[float, float, float], region) -> int:
+    target = np.array([round(255 * c) for c in rgb])
+    return int(np.count_nonzero(np.abs(frame[region].astype(int) - target).max(axis=-1) < 12))
+
+
+def test_legend_shows_a_swatch_of_each_marker_colour(tmp_path, gl):
+    """A render.markers entry draws a swatch of its object's colour in the top right corner; the
+    frame without the entry has no swatch there."""
+    from magsail_mj.render.compose import render_frames
+
+    write_rigid_run(tmp_path / "rigid")
+    region = (slice(0, 540 // 2), slice(960 // 2, 960))
+    panel_colour = (0.2, 0.3, 0.8)                           # the rigid satellite's panels
+    plain = next(render_frames(tmp_path / "rigid", max_frames=1, camera={"distance_m": 50.0}))
+    keyed = next(render_frames(tmp_path / "rigid", max_frames=1, camera={"distance_m": 50.0},
+                               render_info={"title": "rigid sat", "markers": {"bus": "bus and panels"}}))
+    # a 14 px square at 960 x 540 (196 px; the far-away model itself shows a few of that colour)
+    assert _swatch_pixels(keyed, panel_colour, region) >= _swatch_pixels(plain, panel_colour, region) + 100
