@@ -3,7 +3,6 @@ seeding, and the plant's wheel/magnetorquer actuation against independent comput
 
 from __future__ import annotations
 
-import functools
 import math
 import unittest
 from datetime import datetime, timedelta
@@ -11,74 +10,31 @@ from datetime import datetime, timedelta
 import mujoco
 import numpy as np
 import pytest
-from dm_control.rl import control
 from dm_env import test_utils
 
-import magsail_mj
 from magsail_mj import envs
 from magsail_mj.concepts.cnusail.modes import command_quaternion
 from magsail_mj.concepts.cnusail.eigenaxis import orbital_rate
-from magsail_mj.concepts.cnusail import env as cnusail  # noqa: F401  (registers the CNUSAIL tasks)
+from magsail_mj.concepts.cnusail import env as cnusail
 from magsail_mj.envs.core import RewardWeights
+from tests.envs_shared import assert_shipped_policy_gives_the_run_summary, built_environment, fresh_environment
 
-TIMING_KEYS = {"wall_time_s", "step_cost_us", "wall_time_per_step_s"}
-
-
-@functools.lru_cache(maxsize=None)
-def _built(task: str, overrides: tuple[str, ...]) -> control.Environment:
-    return envs.load(task, list(overrides), random=0)
-
-
-def fresh(task: str, overrides: tuple[str, ...]) -> control.Environment:
-    """A new Environment around a cached physics and task (a build takes seconds)."""
-    env = _built(task, overrides)
-    return control.Environment(env.physics, env.task, time_limit=env.physics.cfg.sim.duration_s,
-                               control_timestep=env.control_timestep())
+DETUMBLE_5S = ("cnusail/detumble", ("sim.duration_s=5",))
 
 
 class DetumbleConformance(test_utils.EnvironmentTestMixin, unittest.TestCase):
     def make_object_under_test(self):
-        return fresh("cnusail/detumble", ("sim.duration_s=5",))
+        return fresh_environment(*DETUMBLE_5S)
 
 
 class NadirConformance(test_utils.EnvironmentTestMixin, unittest.TestCase):
     def make_object_under_test(self):
-        return fresh("cnusail/nadir", ("sim.duration_s=5",))
+        return fresh_environment("cnusail/nadir", ("sim.duration_s=5",))
 
 
 class DeorbitConformance(test_utils.EnvironmentTestMixin, unittest.TestCase):
     def make_object_under_test(self):
-        return fresh("cnusail/deorbit", ("sim.duration_s=5",))
-
-
-def assert_same_summary(ref: dict, got: dict, *, rtol: float = 1e-9) -> int:
-    """Every summary figure of ``ref`` (timings excepted) equal in ``got`` to ``rtol``; returns the
-    number of figures compared."""
-    n = 0
-    for key, want in ref.items():
-        if key in TIMING_KEYS:
-            continue
-        assert key in got, key
-        have = got[key]
-        if isinstance(want, float) and isinstance(have, float):
-            if math.isnan(want):
-                assert math.isnan(have), key
-            else:
-                assert abs(have - want) <= rtol * max(abs(want), abs(have)), (key, want, have)
-        else:
-            assert have == want, (key, want, have)
-        n += 1
-    return n
-
-
-def shipped_summary(config: str, overrides: list[str], **options) -> dict:
-    env = envs.load(config, overrides, randomize=False, **options)
-    policy = envs.shipped_policy(env)
-    ts = env.reset()
-    while not ts.last():
-        ts = env.step(policy(ts))
-    assert ts.discount == 1.0
-    return env.physics.summary()
+        return fresh_environment("cnusail/deorbit", ("sim.duration_s=5",))
 
 
 @pytest.mark.parametrize("config, duration_s", [
@@ -87,18 +43,15 @@ def shipped_summary(config: str, overrides: list[str], **options) -> dict:
     ("magsail_mj/concepts/cnusail/configs/deorbit_recalc.toml", 20),
 ])
 def test_shipped_policy_gives_magsail_run_summary(config, duration_s):
-    overrides = [f"sim.duration_s={duration_s}"]
-    sim = magsail_mj.load(config, overrides)
-    ref, _ = sim.scenario.postprocess(sim.run())
-    got = shipped_summary(config, overrides)
-    assert assert_same_summary(ref, got) > 40
+    ref, _ = assert_shipped_policy_gives_the_run_summary(config, [f"sim.duration_s={duration_s}"])
+    assert len(ref) > 40
 
 
 def test_task_follows_config_and_lists():
     names = envs.list()
     for name in ("cnusail/detumble", "cnusail/nadir", "cnusail/deorbit"):
         assert name in names
-    env = _built("cnusail/nadir", ("sim.duration_s=5",))
+    env = built_environment("cnusail/nadir", ("sim.duration_s=5",))
     assert env.control_timestep() == pytest.approx(1.0 / env.physics.cfg.control.rate_Hz)
     spec = env.action_spec()
     assert spec.shape == (6,)
@@ -120,7 +73,7 @@ def test_task_follows_config_and_lists():
 def test_same_seed_same_first_observation():
     first = []
     for seed in (7, 7, 8):
-        env = fresh("cnusail/detumble", ("sim.duration_s=5",))
+        env = fresh_environment(*DETUMBLE_5S)
         env.task._random = np.random.RandomState(seed)
         first.append(env.reset().observation)
     for key in first[0]:
@@ -200,8 +153,7 @@ def test_epoch_draw_is_seeded_and_within_range():
     assert starts[0] == starts[1]
     for key in first[0]:
         np.testing.assert_array_equal(first[0][key], first[1][key])
-    epoch0 = datetime.fromisoformat(_built("cnusail/detumble", ("sim.duration_s=5",)).physics.cfg.orbit.epoch
-                                    .replace("Z", "+00:00"))
+    epoch0 = datetime.fromisoformat(built_environment(*DETUMBLE_5S).physics.cfg.orbit.epoch.replace("Z", "+00:00"))
     drawn = datetime.fromisoformat(starts[0])
     assert epoch0 < drawn <= epoch0 + timedelta(days=1)
     plain = envs.load("cnusail/detumble", ["sim.duration_s=3"], random=5).reset().observation

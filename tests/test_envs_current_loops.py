@@ -4,26 +4,21 @@ and rigid variants. 3 × 3-cube lattice, 2–10 s."""
 
 from __future__ import annotations
 
-import magsail_mj
 import numpy as np
 import pytest
 from absl.testing import absltest
 from dm_env import test_utils
 
 from magsail_mj import envs
-from magsail_mj.config import load_config
 from magsail_mj.envs.core import REPO_ROOT
+from tests.envs_shared import RandomActions, assert_shipped_policy_gives_the_run_summary
 
 SHORT = ["lattice.units=3", "sim.duration_s=2"]
 RIGID = REPO_ROOT / "magsail_mj/concepts/current_loops/configs/slew_rigid.toml"
 
 
-class _Sequence:
-    def make_action_sequence(self):
-        spec = self.environment.action_spec()
-        rng = np.random.RandomState(0)
-        for _ in range(90):  # two 40-step episodes and part of a third
-            yield rng.uniform(spec.minimum, spec.maximum)
+class _Sequence(RandomActions):
+    action_count = 90  # two 40-step episodes and part of a third
 
 
 class LoopsSlewCurrentsEnvTest(_Sequence, test_utils.EnvironmentTestMixin, absltest.TestCase):
@@ -43,11 +38,7 @@ class LoopsRigidSlewTorqueEnvTest(_Sequence, test_utils.EnvironmentTestMixin, ab
 ])
 def test_shipped_controller_through_the_environment_gives_the_run_summary(config: str, overrides: list[str],
                                                                            action: str) -> None:
-    env = envs.load(REPO_ROOT / config, overrides, randomize=False, action=action)
-    envs.run_episode(env, envs.shipped_policy(env))
-    sim = magsail_mj.load(load_config(REPO_ROOT / config, overrides))
-    ref = sim.scenario.postprocess(sim.run())[0]
-    assert envs.summary_mismatches(ref, env.physics.summary(), rel=1e-9) == []
+    ref, _ = assert_shipped_policy_gives_the_run_summary(REPO_ROOT / config, overrides, action=action)
     assert len(ref) > 10
 
 

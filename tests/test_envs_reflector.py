@@ -4,31 +4,22 @@ Short runs (2–100 s)."""
 
 from __future__ import annotations
 
-import magsail_mj
 import numpy as np
 import pytest
 from absl.testing import absltest
 from dm_env import test_utils
 
 from magsail_mj import envs
-from magsail_mj.config import load_config
 from magsail_mj.envs.core import REPO_ROOT
+from tests.envs_shared import RandomActions, assert_shipped_policy_gives_the_run_summary
 
 
-class _Sequence:
-    def make_action_sequence(self):
-        spec = self.environment.action_spec()
-        rng = np.random.RandomState(0)
-        for _ in range(50):
-            yield rng.uniform(spec.minimum, spec.maximum)
-
-
-class ReflectorDetumbleEnvTest(_Sequence, test_utils.EnvironmentTestMixin, absltest.TestCase):
+class ReflectorDetumbleEnvTest(RandomActions, test_utils.EnvironmentTestMixin, absltest.TestCase):
     def make_object_under_test(self):
         return envs.load("reflector/detumble", ["sim.duration_s=2"], random=0)
 
 
-class ReflectorPitchEnvTest(_Sequence, test_utils.EnvironmentTestMixin, absltest.TestCase):
+class ReflectorPitchEnvTest(RandomActions, test_utils.EnvironmentTestMixin, absltest.TestCase):
     def make_object_under_test(self):
         return envs.load("reflector/pitch_tracking", ["sim.duration_s=10"], random=0)
 
@@ -44,12 +35,8 @@ class ReflectorPitchEnvTest(_Sequence, test_utils.EnvironmentTestMixin, absltest
 ])
 def test_shipped_controller_through_the_environment_gives_the_run_summary(config: str, duration: int,
                                                                            action: str) -> None:
-    overrides = [f"sim.duration_s={duration}"]
-    env = envs.load(REPO_ROOT / config, overrides, randomize=False, action=action)
-    envs.run_episode(env, envs.shipped_policy(env))
-    sim = magsail_mj.load(load_config(REPO_ROOT / config, overrides))
-    ref = sim.scenario.postprocess(sim.run())[0]
-    assert envs.summary_mismatches(ref, env.physics.summary(), rel=1e-9) == []
+    ref, _ = assert_shipped_policy_gives_the_run_summary(REPO_ROOT / config, [f"sim.duration_s={duration}"],
+                                                         action=action)
     assert len(ref) > 10
 
 

@@ -17,47 +17,27 @@ from magsail_mj import envs
 from magsail_mj.config import load_config
 from magsail_mj.estimation.attitude import BestFitRotation, so3_exp
 from magsail_mj.quaternion import quat_from_matrix, quat_to_matrix
+from tests.envs_shared import RandomActions, assert_shipped_policy_gives_the_run_summary
 
 SMALL = ["lattice.units=3", 'control.cache_dir=""']
-SHORT = [*SMALL, "sim.duration_s=2"]
+SHORT = [*SMALL, "sim.duration_s=2"]   # 20 steps: the 50 conformance actions span two episodes and part of a third
 
 
-class _Sequence:
-    """50 random in-bounds actions: two whole 20-step episodes and part of a third."""
-
-    def make_action_sequence(self):
-        spec = self.environment.action_spec()
-        rng = np.random.RandomState(0)
-        for _ in range(50):
-            yield rng.uniform(spec.minimum, spec.maximum)
-
-
-class TrussDetumbleTorqueEnvTest(_Sequence, test_utils.EnvironmentTestMixin, absltest.TestCase):
+class TrussDetumbleTorqueEnvTest(RandomActions, test_utils.EnvironmentTestMixin, absltest.TestCase):
     def make_object_under_test(self):
         return envs.load("truss/detumble", SHORT, random=0)
 
 
-class TrussSlewRodsEnvTest(_Sequence, test_utils.EnvironmentTestMixin, absltest.TestCase):
+class TrussSlewRodsEnvTest(RandomActions, test_utils.EnvironmentTestMixin, absltest.TestCase):
     def make_object_under_test(self):
         return envs.load("truss/slew_III", SHORT, random=0, action="rods")
-
-
-def _run_summary(name: str, overrides: list[str]) -> dict:
-    """The summary ``magsail run`` writes for the config (its simulation run, then the scenario's
-    post-processing)."""
-    sim = magsail_mj.load(load_config(envs.core.task_entry(name).config, overrides))
-    return sim.scenario.postprocess(sim.run())[0]
 
 
 @pytest.mark.parametrize("name", ["truss/detumble", "truss/slew_I", "truss/slew_II", "truss/slew_III",
                                   "truss/slew_IV"])
 def test_shipped_controller_through_the_environment_gives_the_run_summary(name: str) -> None:
-    overrides = [*SMALL, "sim.duration_s=6"]
-    env = envs.load(name, overrides, randomize=False)
-    envs.run_episode(env, envs.shipped_policy(env))
-    got = env.physics.summary()
-    ref = _run_summary(name, overrides)
-    assert envs.summary_mismatches(ref, got, rel=1e-9) == []
+    ref, _ = assert_shipped_policy_gives_the_run_summary(name, [*SMALL, "sim.duration_s=6"],
+                                                         reference=envs.core.task_entry(name).config)
     assert len(ref) > 20
 
 

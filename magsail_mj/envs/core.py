@@ -83,6 +83,7 @@ __all__ = [
     "draw_rigid_start",
     "REPO_ROOT",
     "run_episode",
+    "run_so_far",
     "redraw_epoch",
     "summary_mismatches",
     "WALL_CLOCK_KEYS",
@@ -257,14 +258,22 @@ class SimulationPhysics(control.Physics):
 
     def result(self) -> RunResult:
         """The run so far as a :class:`~magsail_mj.sim.RunResult` (for ``scenario.postprocess``)."""
-        sim = self.sim
-        status = sim.status if sim.status != "running" else "stopped"
-        return RunResult(records=sim.records(), status=status, message=sim.message, t_end_s=sim.time,
-                         steps=sim.step_index, wall_time_s=float(sim._wall_s))
+        return run_so_far(self.sim)
 
     def summary(self) -> dict[str, Any]:
         """The scenario's summary figures of the run so far (``scenario.postprocess``)."""
         return self.scenario.postprocess(self.result())[0]
+
+
+def run_so_far(runner: Any) -> RunResult:
+    """The run of a stepped ``runner`` so far as a :class:`~magsail_mj.sim.RunResult` (what
+    ``scenario.postprocess`` takes): its records, status (``"stopped"`` while still running),
+    message, time [s], steps taken and wall time [s]. ``runner`` is a
+    :class:`~magsail_mj.sim.Simulation` or a concept's own runner with the same attributes
+    (``records()``, ``status``, ``message``, ``time``, ``step_index``, ``_wall_s``)."""
+    status = runner.status if runner.status != "running" else "stopped"
+    return RunResult(records=runner.records(), status=status, message=runner.message, t_end_s=runner.time,
+                     steps=runner.step_index, wall_time_s=float(runner._wall_s))
 
 
 # =========================================================================== episode start
@@ -729,7 +738,7 @@ def run_episode(env: control.Environment, policy: Callable[[dm_env.TimeStep], An
     return total, n
 
 
-WALL_CLOCK_KEYS = ("wall_time_s", "step_cost_us")
+WALL_CLOCK_KEYS = ("wall_time_s", "step_cost_us", "wall_time_per_step_s")
 """Summary keys that measure the computer, not the run (left out of comparisons)."""
 
 

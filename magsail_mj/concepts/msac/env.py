@@ -70,7 +70,7 @@ import magsail_mj
 from magsail_mj.concepts.msac.metrics import yaw_from_quat
 from magsail_mj.concepts.msac.cycle import CyclePath
 from magsail_mj.concepts.msac.drive import ReplayTable, replay_table, servo_rates
-from magsail_mj.envs.core import AttitudeTask, register
+from magsail_mj.envs.core import AttitudeTask, register, run_so_far
 from magsail_mj.concepts.msac.mjcf import shape_indices
 from magsail_mj.sim import RunResult
 
@@ -207,10 +207,7 @@ class MsacPhysics(control.Physics):
 
     def result(self) -> RunResult:
         """The run so far as a :class:`~magsail_mj.sim.RunResult` (for ``scenario.postprocess``)."""
-        r = self.runner
-        status = r.status if r.status != "running" else "stopped"
-        return RunResult(records=r.records(), status=status, message=r.message, t_end_s=r.time,
-                         steps=r.step_index, wall_time_s=float(r._wall_s))
+        return run_so_far(self.runner)
 
     def summary(self) -> dict[str, Any]:
         """The scenario's summary figures of the run so far."""
