@@ -87,6 +87,13 @@ def _legend_texts(fig: Figure) -> set[str]:
     return {t.get_text() for leg in legends for t in leg.get_texts()}
 
 
+def _flatten(items: Any) -> list[Any]:
+    """The artists of a container (nested tuples: an error bar's line, caps and bars)."""
+    if isinstance(items, (tuple, list)):
+        return [a for item in items for a in _flatten(item)]
+    return [] if items is None else [items]
+
+
 def _legend_problems(ax: Axes, shown: set[str]) -> list[str]:
     """Several labelled artists, some missing from every legend; unlabelled data lines of several colours."""
     problems = []
@@ -94,8 +101,9 @@ def _legend_problems(ax: Axes, shown: set[str]) -> list[str]:
     missing = [lab for lab in labels if lab not in shown]
     if len(labels) > 1 and missing:
         problems.append(f"labelled artists without a legend: {missing}")
-    unlabelled = {to_hex(line.get_color()) for line in ax.lines
-                  if line.get_label().startswith("_") and line.get_transform() is ax.transData}
+    named = {id(a) for c in ax.containers if not c.get_label().startswith("_") for a in _flatten(c)}
+    unlabelled = {to_hex(line.get_color()) for line in ax.lines if line.get_label().startswith("_")
+                  and line.get_transform() is ax.transData and id(line) not in named}
     if len(unlabelled) > 1:
         problems.append(f"{len(unlabelled)} unlabelled line colours {sorted(unlabelled)} (no legend can name them)")
     return problems

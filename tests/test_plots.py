@@ -143,3 +143,17 @@ def test_every_figure_of_a_run_is_readable(tmp_path, monkeypatch, config, overri
         outcome = run_scenario(cfg, tmp_path / "run", progress=False)
     assert outcome.status == "completed", outcome.get("status_message")
     assert list((tmp_path / "run").glob("*.png")), "no figure written"
+
+
+def test_error_bars_are_named_by_their_label():
+    fig, ax = new_figure()
+    for k, colour in enumerate(("C0", "C1", "C2")):
+        ax.errorbar([k], [1.0], xerr=[[0.1], [0.2]], fmt="s", color=colour, capsize=4, label=f"case {k}")
+    ax.set(xlabel="altitude [km]", ylabel="lifetime [days]")
+    ax.legend()
+    assert figure_problems(fig) == []
+    fig, ax = new_figure()
+    for k, colour in enumerate(("C0", "C1")):
+        ax.errorbar([k], [1.0], xerr=[[0.1], [0.2]], fmt="s", color=colour)
+    ax.set(xlabel="altitude [km]", ylabel="lifetime [days]")
+    assert any("unlabelled line colours" in p for p in figure_problems(fig))
