@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import ast
 import sys
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -169,11 +170,7 @@ def _params(names: list[str], pending: dict[str, str]) -> list:
             for n in names]
 
 
-PENDING_IN_FUNCTION = {
-    "magsail_mj.render.compose": "mujoco, matplotlib, PIL, tqdm and analysis.flatness imported in functions",
-    "magsail_mj.render.video": "imageio_ffmpeg and mediapy imported in functions",
-    "magsail_mj.sweep.runner": "magsail_mj.run imported in a function",
-}
+PENDING_IN_FUNCTION: dict[str, str] = {}
 """Modules of this layout that still import inside functions (cleaned by their owners; each
 entry is an expected failure until then, and is removed once its module passes)."""
 
@@ -222,6 +219,17 @@ def test_concept_registers_its_schema_and_tasks(concept):
     assert concept in registry.config_schemas()
     assert registry.task_kinds(concept) or concept in registry.BUILDERS
     assert registry.concept_modules("tasks")[concept].__name__ == f"{CONCEPTS}.{concept}.tasks"
+
+
+@pytest.mark.parametrize("concept", CONCEPT_NAMES)
+def test_registered_task_kinds_are_the_schema_kinds(concept):
+    """Every value of the config's kind field (a ``Literal``) has its task class, and no other
+    kind is registered (a concept with a builder instead serves every kind itself)."""
+    if concept in registry.BUILDERS:
+        pytest.skip(f"{concept} builds its tasks with a builder")
+    schema = registry.config_schemas()[concept]
+    kinds = typing.get_args(schema.model_fields[registry.KIND_KEYS[concept]].annotation)
+    assert kinds and sorted(kinds) == registry.task_kinds(concept)
 
 
 def test_a_new_concept_package_is_discovered_without_editing_anything(tmp_path, monkeypatch):

@@ -1,26 +1,20 @@
-"""Truss concept layout: one task class per scenario kind, registered by name; no import cycle.
+"""Truss tasks: one task class per scenario kind.
 
-Checks (each can fail): the registered kinds are exactly the schema's ``scenario`` values; a
-config of every kind builds its own class; the concept's modules import each other in one
-direction only (a DAG), with every import at module top and none under ``TYPE_CHECKING``;
-metrics and plots modules import no task module; the orbital metrics work on plain arrays
-(an exponential decay of the rates against its analytic threshold time).
+Checks (each can fail): a config of every kind builds its own class; the orbital metrics work on
+plain arrays (an exponential decay of the rates against its analytic threshold time). That the
+registered kinds are the schema's and the package layout are checked for every concept by
+tests/test_layout.py.
 """
 
 from __future__ import annotations
 
-import typing
-
 import numpy as np
 import pytest
 
-from magsail_mj.concepts import task_kinds
-from magsail_mj.config import load_config
-from magsail_mj.scenario import build_scenario
 from magsail_mj.concepts.truss_magnetorquer import tasks as tt
-from magsail_mj.concepts.truss_magnetorquer.config import TrussConfig
 from magsail_mj.concepts.truss_magnetorquer.orbital import detumble_keys
 from tests.conftest import REPO
+from tests.tasks_shared import built_kind
 
 KIND_CONFIGS = {
     "cantilever": ("magsail_mj/concepts/truss_magnetorquer/configs/cantilever.toml", tt.CantileverTask),
@@ -32,19 +26,10 @@ KIND_CONFIGS = {
 }
 
 
-def test_registered_kinds_are_the_schema_scenarios():
-    kinds = typing.get_args(TrussConfig.model_fields["scenario"].annotation)
-    assert sorted(kinds) == task_kinds("truss_magnetorquer")
-
-
 @pytest.mark.parametrize("kind", sorted(KIND_CONFIGS))
 def test_every_kind_builds_its_own_class(kind):
     path, cls = KIND_CONFIGS[kind]
-    cfg = load_config(REPO / path, ["lattice.units=3", "sim.duration_s=2"])
-    assert cfg.scenario == kind
-    sc = build_scenario(cfg)
-    assert type(sc) is cls and isinstance(sc, tt.TrussScenario)
-    assert sc.render_info()["overlay"] == list(cls.OVERLAY)
+    built_kind(REPO / path, kind=kind, cls=cls, base=tt.TrussScenario)
 
 
 def test_detumble_keys_of_an_exponential_decay():
