@@ -44,6 +44,8 @@ __all__ = [
     "write_group",
     "update_attrs",
     "store_length",
+    "lazy_record",
+    "row_blocks",
     "STORE_NAME",
     "SERIES_GROUP",
 ]
@@ -53,6 +55,9 @@ STORE_NAME = "timeseries.zarr"
 #: the group of a run's store holding the derived series of post-processing
 SERIES_GROUP = "series"
 _FORMAT = "magsail_mj records 1"
+
+#: the most bytes of a block of rows that :func:`row_blocks` reads at once
+BLOCK_BYTES = 8 * 2**20
 
 #: unit tokens of the name suffixes (``_rad_s`` → rad/s, ``_N_m`` → N m, ``_A_m2`` → A m²)
 _UNIT_TOKENS = {
@@ -455,6 +460,9 @@ class StoreRecords(Mapping):
             self._cache[name] = np.asarray(self._group[name][...])
         return self._cache[name]
 
+    def __contains__(self, name: object) -> bool:   # without reading the variable (Mapping's default would)
+        return name in self._extra or name in self._names
+
     def __iter__(self) -> Iterator[str]:
         yield from self._names
         yield from (k for k in self._extra if k not in self._names)
@@ -551,3 +559,31 @@ def store_length(path: str | Path) -> int:
         return int(group["t"].shape[0]) if "t" in group else 0
     except (OSError, ValueError, KeyError, zarr.errors.BaseZarrError) as err:  # type: ignore[attr-defined]
         raise RecordStoreError(f"record store {path} is unreadable ({type(err).__name__}: {err})") from None
+
+
+def lazy_record(records: Mapping[str, Any], name: str) -> Any:
+    """``records[name]`` without reading it: the stored Zarr array of :class:`StoreRecords` (slicing
+    reads), otherwise the array itself (in-memory records)."""
+    return records.array(name) if isinstance(records, StoreRecords) else records[name]
+
+
+def row_blocks(array: Any, *, budget_bytes: int = BLOCK_BYTES) -> Iterator[np.ndarray]:
+    """Consecutive blocks of rows of a ``(T, ...)`` array as NumPy arrays, in order, each of at most
+    ``budget_bytes`` (but at least one row; for a Zarr array a whole number of its chunks when a
+    chunk fits): post-processing of a long run then holds one block, not the run.
+
+    Raises:
+      ValueError: ``budget_bytes`` is not positive, or ``array`` has no rows axis.
+    """
+    if budget_bytes <= 0:
+        raise ValueError(f"budget_bytes: must be positive, got {budget_bytes}")
+    shape = tuple(array.shape)
+    if not shape:
+        raise ValueError("array: a block of rows needs at least one axis, got a scalar")
+    row_bytes = max(1, int(np.prod(shape[1:], dtype=np.int64)) * np.dtype(array.dtype).itemsize)
+    step = max(1, budget_bytes // row_bytes)
+    chunk = getattr(array, "chunks", None)
+    if chunk and isinstance(chunk[0], int) and chunk[0] <= step:
+        step -= step % chunk[0]
+    for start in range(0, shape[0], step):
+        yield np.asarray(array[start:start + step])

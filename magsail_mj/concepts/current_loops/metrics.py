@@ -39,6 +39,7 @@ from magsail_mj.concepts.current_loops.lorentz import (
 from magsail_mj.loads.tidal import GravityGradientTorqueLoad, TidalGravityLoad
 from magsail_mj.concepts.current_loops.config import ClassificationConfig
 from magsail_mj.concepts.current_loops.model import LoopsModel, WorkLedger
+from magsail_mj.records import BLOCK_BYTES, row_blocks
 from magsail_mj.sim import RunResult
 
 __all__ = [
@@ -140,15 +141,52 @@ def first_time_below(t: np.ndarray, x: np.ndarray, level: float) -> float | None
     return float(t[idx[0]]) if idx.size else None
 
 
-def structural_series(lm: LoopsModel, x: np.ndarray, *, modes: Callable[[], Modes] | None = None
-                      ) -> dict[str, np.ndarray]:
+def structural_series(lm: LoopsModel, x: Any, *, modes: Callable[[], Modes] | None = None,
+                      positions: Callable[[np.ndarray], np.ndarray] | None = None,
+                      budget_bytes: int = BLOCK_BYTES) -> dict[str, np.ndarray]:
     """Strain energy ½ Σ k (|r_j − r_i| − L)² [J] and largest strut strain
     (:mod:`magsail_mj.analysis.energy`), best fit, thickness, residual and modal amplitudes of
-    positions ``x`` (T, n, 3) [m]; ``modes`` gives the lattice's modes (their amplitudes are a diagnostic: left out when
-    the modes cannot be had)."""
+    node positions ``x`` (T, n, 3) [m] or, with ``positions``, of records ``x`` (T, …) — e.g. the
+    recorded qpos as a lazy Zarr array — that ``positions`` turns into node positions.
+
+    Every series is a function of one record, so they are computed over blocks of rows of at most
+    ``budget_bytes`` (:func:`~magsail_mj.records.row_blocks`): the memory of post-processing does
+    not grow with the run's length. ``modes`` gives the lattice's modes (their amplitudes, normalised
+    by their largest magnitude over the run, are a diagnostic: left out when the modes cannot be had).
+
+    Raises:
+      ValueError: ``x`` has no rows.
+    """
+    md = _modes_or_none(modes)
+    to_x = positions if positions is not None else np.asarray
+    blocks = [_structural_block(lm, to_x(block), md) for block in row_blocks(x, budget_bytes=budget_bytes)]
+    if not blocks:
+        raise ValueError("x: no records to compute structural series from")
+    out = {key: np.concatenate([b[key] for b in blocks]) for key in blocks[0]}
+    if md is not None and "modal_amplitude" in out:
+        q = out["modal_amplitude"]
+        out["modal_amplitude"] = q / max(np.abs(q).max(), 1e-300)
+        sl = md.elastic
+        out["modal_omega_rad_s"] = md.omega[sl.start:sl.start + N_MODAL]
+    return out
+
+
+def _modes_or_none(modes: Callable[[], Modes] | None) -> Modes | None:
+    """The lattice's modes, or None when none are asked for or they cannot be had."""
+    if modes is None:
+        return None
+    try:
+        return modes()
+    except Exception:  # noqa: BLE001 - modes are a diagnostic; never lose a run for them
+        return None
+
+
+def _structural_block(lm: LoopsModel, x: np.ndarray, md: Modes | None) -> dict[str, np.ndarray]:
+    """:func:`structural_series` of one block of node positions ``x`` (B, n, 3) [m]; the modal
+    amplitudes ``φᵀ M u`` are not yet normalised."""
     lat = lm.lattice
     p0 = lat.nodes
-    R, dvec = BestFitRotation(p0)(x)
+    R, _ = BestFitRotation(p0)(x)
     c = x.mean(axis=1)
     xb = np.einsum("tji,tnj->tni", R, x - c[:, None, :])        # R^T (x - c)
     u = xb - (p0 - p0.mean(axis=0))
@@ -160,17 +198,13 @@ def structural_series(lm: LoopsModel, x: np.ndarray, *, modes: Callable[[], Mode
         "rigid_fit_residual_m": np.sqrt((u**2).sum(axis=2).mean(axis=1)),
         "strut_strain_max": np.abs(strut_strain(x, lat.struts, lat.rest_length)).max(axis=1),
     }
-    if modes is None:
-        return out
-    try:
-        md = modes()
-        sl = md.elastic
-        phi = md.phi[:, sl.start:sl.start + N_MODAL]
-        q = (u.reshape(u.shape[0], -1) * md.mass_diag) @ phi
-        out["modal_amplitude"] = q / max(np.abs(q).max(), 1e-300)
-        out["modal_omega_rad_s"] = md.omega[sl.start:sl.start + N_MODAL]
-    except Exception:  # noqa: BLE001 - modes are a diagnostic; never lose a run for them
-        pass
+    if md is not None:
+        try:
+            sl = md.elastic
+            phi = md.phi[:, sl.start:sl.start + N_MODAL]
+            out["modal_amplitude"] = (u.reshape(u.shape[0], -1) * md.mass_diag) @ phi
+        except Exception:  # noqa: BLE001 - as above
+            pass
     return out
 
 
@@ -200,7 +234,7 @@ def classify(c: ClassificationConfig, *, side_m: float, units: int, rho_max: flo
     return "flexible"
 
 
-def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], x: np.ndarray, st: dict[str, np.ndarray], *,
+def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], st: dict[str, np.ndarray], *,
                   inertia_kgm2: np.ndarray, areas_body_m2: np.ndarray, field_world_T: np.ndarray,
                   work_names: list[str], segments: CircuitSegments, stability_product_max: float,
                   classification: ClassificationConfig, side_m: float, units: int) -> Metrics:
@@ -209,7 +243,7 @@ def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], x: np.ndarray, st:
     the dipole–field angle at the time of maximum strain energy, the energy balance
     E_kin + U − W_Lorentz − W_damping (relative to max |W_Lorentz|; ``work_names`` order the
     recorded ``work_J`` columns), the self-field estimate and the classification (:func:`classify`).
-    ``st``: :func:`structural_series` of the node positions ``x``."""
+    ``st``: :func:`structural_series` of the recorded node positions."""
     t = rec["t"]
     U = st["strain_energy_J"]
     B = field_world_T

@@ -21,6 +21,9 @@ ECI); body = the best-fit rotation (flexible) or the rigid body's frame. Units S
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+from collections import ChainMap
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
@@ -41,6 +44,7 @@ from magsail_mj.concepts.current_loops.lorentz import CircuitSegments, LorentzLo
 from magsail_mj.lattice.modal_damping import ModalDampingLoad
 from magsail_mj.loads.tidal import GravityGradientTorqueLoad, TidalGravityLoad
 from magsail_mj.lattice.mjcf import node_positions_from_qpos
+from magsail_mj.records import lazy_record
 from magsail_mj.concepts.current_loops.config import CurrentLoopsConfig
 from magsail_mj.concepts.current_loops.metrics import (
     base_summary,
@@ -133,7 +137,7 @@ def slew_controller(cfg: CurrentLoopsConfig, lm: LoopsModel, *,
 
 
 @dataclass
-class LoopsScenario:
+class LoopsScenario(ABC):
     """A current-loops run: model, loads, controller, probes and post-processing (base of every task).
 
     Subclasses provide :meth:`build_spec`, :meth:`loads`, :meth:`probes`, :meth:`metrics`,
@@ -167,22 +171,22 @@ class LoopsScenario:
         """The task of a validated config, with its model."""
         return cls(cfg=cfg, lm=make_loops_model(cfg))
 
+    @abstractmethod
     def build_spec(self) -> mujoco.MjSpec:
         """The MjSpec the run integrates."""
-        raise NotImplementedError(f"{type(self).__name__}: no spec")
 
     # -------------------------------------------------------------- runner
+    @abstractmethod
     def loads(self) -> list:
         """Every load of the run, built afresh."""
-        raise NotImplementedError(f"{type(self).__name__}: no loads")
 
     def make_controller(self) -> Any:
         """The run's controller (none by default: constant currents)."""
         return None
 
+    @abstractmethod
     def probes(self) -> dict[str, Any]:
         """Recorder probes of the run."""
-        raise NotImplementedError(f"{type(self).__name__}: no probes")
 
     def strain_check(self) -> Any:
         """The runner's strut strain check (none by default)."""
@@ -198,9 +202,9 @@ class LoopsScenario:
                           max_strain=self.cfg.sim.max_strain, checkpoint_every_s=self.cfg.sim.checkpoint_every_s)
 
     # -------------------------------------------------------------- outputs
+    @abstractmethod
     def metrics(self, rec: dict[str, np.ndarray]) -> Summary:
         """The kind's summary keys and series from the records (at least one sample)."""
-        raise NotImplementedError(f"{type(self).__name__}: no metrics")
 
     def postprocess(self, result: RunResult) -> Summary:
         """Status keys, then the kind's metrics (none for a run without samples)."""
@@ -213,13 +217,15 @@ class LoopsScenario:
         series.update(ser)
         return summary, series
 
+    @abstractmethod
     def task_plots(self, run_dir: Path, series: dict[str, np.ndarray], qpos: np.ndarray | None) -> list[Path]:
         """The kind's PNG figures from records and series together (``qpos``: the recorded qpos)."""
-        raise NotImplementedError(f"{type(self).__name__}: no plots")
 
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
         """Write the run's figures into ``run_dir``; returns their paths."""
-        return self.task_plots(Path(run_dir), {**result.records, **series}, result.records.get("qpos"))
+        records = result.records
+        qpos = lazy_record(records, "qpos") if "qpos" in records else None
+        return self.task_plots(Path(run_dir), ChainMap(series, records), qpos)
 
     def render_extra(self) -> dict[str, Any]:
         """The kind's additions to the ``render`` entry."""
@@ -341,9 +347,10 @@ class FlexibleLoopsTask(LoopsScenario):
         """(…, n, 3) node positions [m] from recorded qpos."""
         return node_positions_from_qpos(self.model, qpos, n_nodes=self.lm.lattice.n_nodes)
 
-    def structure(self, rec: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """:func:`~magsail_mj.concepts.current_loops.metrics.structural_series` of the recorded positions."""
-        return structural_series(self.lm, self.node_positions(rec["qpos"]), modes=self.modes)
+    def structure(self, rec: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        """:func:`~magsail_mj.concepts.current_loops.metrics.structural_series` of the recorded positions,
+        read block by block from the records (a run's store is never loaded whole)."""
+        return structural_series(self.lm, lazy_record(rec, "qpos"), modes=self.modes, positions=self.node_positions)
 
     def structural_figures(self, run_dir: Path, series: dict[str, np.ndarray],
                            qpos: np.ndarray | None) -> list[Path]:
@@ -382,10 +389,9 @@ class LoopsSweepTask(FlexibleLoopsTask):
 
     def metrics(self, rec: dict[str, np.ndarray]) -> Summary:
         cfg = self.cfg
-        x = self.node_positions(rec["qpos"])
-        st = structural_series(self.lm, x, modes=self.modes)
+        st = self.structure(rec)
         stability = self.damping_info()["stability_product_max"] if cfg.damping.enabled else 0.0
-        return sweep_metrics(self.lm, rec, x, st, inertia_kgm2=self.inertia.tensor, areas_body_m2=self.areas0,
+        return sweep_metrics(self.lm, rec, st, inertia_kgm2=self.inertia.tensor, areas_body_m2=self.areas0,
                              field_world_T=self.field_fixed,
                              work_names=list(self.ledger.watched) if self.ledger is not None else [],
                              segments=self.segments, stability_product_max=stability,
