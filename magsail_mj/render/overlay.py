@@ -158,11 +158,21 @@ def format_time(t_s: float) -> str:
     return text
 
 
+def _digits(x: float, significant: int) -> str:
+    """``x`` with ``significant`` digits, positional between 10⁻³ and 10⁶ (``2460``, not ``2.46e+03``)."""
+    if x == 0 or not np.isfinite(x) or not 1e-3 <= abs(x) < 1e6:
+        return f"{x:.{significant}g}"
+    return np.format_float_positional(x, precision=significant, unique=False, fractional=False, trim="-")
+
+
+def _with_unit(text: str, unit: str) -> str:
+    return text + ("" if not unit else unit if unit.startswith("°") else " " + unit)
+
+
 def _number(x: float, unit: str) -> str:
     if unit == "m" and np.isfinite(x):
         return format_length(float(x))
-    text = f"{x:.4g}"
-    return text + ("" if not unit else unit if unit.startswith("°") else " " + unit)
+    return _with_unit(_digits(x, 4), unit)
 
 
 def format_value(name: str, value: Any, *, names: Mapping[str, str] | None = None,
@@ -187,8 +197,7 @@ def format_value(name: str, value: Any, *, names: Mapping[str, str] | None = Non
     head = f"{readable} {_XYZ}" if v.size == 3 else readable
     if unit == "m" and np.all(np.isfinite(v)):
         return f"{head} = [" + ", ".join(format_length(float(x)) for x in v) + "]"
-    text = "[" + ", ".join(f"{x:.3g}" for x in v) + "]"
-    return f"{head} = {text}" + ("" if not unit else unit if unit.startswith("°") else " " + unit)
+    return f"{head} = " + _with_unit("[" + ", ".join(_digits(float(x), 3) for x in v) + "]", unit)
 
 
 # --------------------------------------------------------------------------- drawing
