@@ -21,6 +21,7 @@ _EXPORTS = {
     "video_codec": "video",
     "write_mp4": "video",
     "CameraView": "compose",
+    "FrameOptions": "compose",
     "RenderError": "compose",
     "RunData": "compose",
     "RunScene": "compose",
