@@ -10,12 +10,16 @@ import zarr
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from magsail_mj.analysis.energy import structural_failure
 from magsail_mj.concepts.current_loops.metrics import structural_series
+from magsail_mj.concepts.truss_magnetorquer.metrics import common_summary
 from magsail_mj.config import load_config
 from magsail_mj.concepts import build_task
+from magsail_mj.lattice.trajectory import NodeTrajectory
 from magsail_mj.records import StoreRecords, lazy_record, row_blocks, write_group
 from tests.conftest import REPO
 
+TRUSS = REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml"
 SWEEP = REPO / "magsail_mj/concepts/current_loops/configs/sweep/a_n12_ei1e3.toml"
 
 
@@ -69,9 +73,63 @@ def test_structural_series_over_blocks_equal_the_whole():
     whole = structural_series(task.lm, x, modes=task.modes)
     assert "modal_amplitude" in whole and np.abs(whole["modal_amplitude"]).max() == pytest.approx(1.0)
     for rows in (1, 3):
-        blocked = structural_series(task.lm, qpos, modes=task.modes, positions=task.node_positions,
-                                    budget_bytes=rows * qpos.shape[1] * 8)
+        trajectory = NodeTrajectory(qpos, task.node_positions, budget_bytes=rows * qpos.shape[1] * 8)
+        blocked = structural_series(task.lm, trajectory, modes=task.modes)
         assert set(blocked) == set(whole)
         for key, value in whole.items():
             np.testing.assert_allclose(blocked[key], value, rtol=1e-12, atol=1e-15 * np.abs(value).max(),
                                        err_msg=key)
+
+
+def test_trajectory_map_joins_arrays_tuples_named_tuples_and_mappings():
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal((11, 4, 3))
+    trajectory = NodeTrajectory.of_positions(x, budget_bytes=2 * x[0].nbytes)       # blocks of 2 records
+    assert len(list(trajectory.blocks())) == 6 and len(trajectory) == 11
+    np.testing.assert_array_equal(trajectory.map(lambda b: b.sum(axis=(1, 2))), x.sum(axis=(1, 2)))
+    check = trajectory.map(lambda b: structural_failure(b, np.array([[0, 1], [2, 3]]), 1.0))
+    whole = structural_failure(x, np.array([[0, 1], [2, 3]]), 1.0)
+    assert type(check) is type(whole)
+    for a, b in zip(check, whole):
+        np.testing.assert_array_equal(a, b)
+    joined = trajectory.map(lambda b: {"first": b[:, 0], "norm": np.linalg.norm(b, axis=2)})
+    np.testing.assert_array_equal(joined["norm"], np.linalg.norm(x, axis=2))
+    pair = trajectory.map(lambda b: (b[:, 1], b[:, 2, 0]))
+    np.testing.assert_array_equal(pair[1], x[:, 2, 0])
+    np.testing.assert_array_equal(trajectory.at(-1), x[-1])
+    np.testing.assert_array_equal(trajectory.at(4), x[4])
+
+
+def test_trajectory_refuses_bad_arguments():
+    with pytest.raises(ValueError, match="positions"):
+        NodeTrajectory.of_positions(np.zeros((3, 4)))
+    with pytest.raises(ValueError, match="budget_bytes"):
+        NodeTrajectory(np.zeros((3, 6)), np.asarray, budget_bytes=0)
+    with pytest.raises(ValueError, match="records"):
+        NodeTrajectory(np.float64(0.0), np.asarray)
+    with pytest.raises(IndexError, match="k: record 3"):
+        NodeTrajectory.of_positions(np.zeros((3, 2, 3))).at(3)
+    with pytest.raises(ValueError, match="no records"):
+        NodeTrajectory.of_positions(np.zeros((0, 2, 3))).map(np.asarray)
+
+
+def test_truss_summary_from_blocks_equals_the_whole(tmp_path):
+    """A 1 s free truss run (6 units): the §11 keys and series from the run's store read in blocks
+    of 3 records equal those from the whole position array: each is a function of one record, but
+    NumPy's vectorised sums over the struts may group terms differently for another array shape,
+    so values agree to a few ulp (1e-13 relative), not always bitwise."""
+    task = build_task(load_config(TRUSS, ["lattice.units=6", "sim.duration_s=1", "sim.record_every=1"]))
+    result = task.simulation().run()
+    t = result.records["t"]
+    qpos = np.asarray(result.records["qpos"])
+    whole = common_summary(task.tm, task.node_positions(qpos), result, max_strain=0.5, zeta_strut=0.01)
+    blocked_positions = NodeTrajectory(qpos, task.node_positions, budget_bytes=3 * qpos.shape[1] * 8)
+    blocked = common_summary(task.tm, blocked_positions, result, max_strain=0.5, zeta_strut=0.01)
+    assert len(t) > 6 and whole[0].keys() == blocked[0].keys()
+    for key, value in whole[0].items():
+        if isinstance(value, float):
+            np.testing.assert_allclose(blocked[0][key], value, rtol=1e-13, err_msg=key)
+        else:
+            assert blocked[0][key] == value, key
+    for key in whole[1]:
+        np.testing.assert_allclose(blocked[1][key], whole[1][key], rtol=1e-13, err_msg=key)

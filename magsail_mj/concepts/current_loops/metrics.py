@@ -31,6 +31,7 @@ import numpy as np
 
 from magsail_mj.analysis.energy import strain_energy, strut_strain
 from magsail_mj.lattice.modes import Modes
+from magsail_mj.lattice.trajectory import NodeTrajectory, as_trajectory
 from magsail_mj.concepts.current_loops.rigid_reference import rigid_dipole_attitude
 from magsail_mj.estimation.attitude import BestFitRotation, euler_zyx, matrix_from_quat, rotation_angle
 from magsail_mj.concepts.current_loops.lorentz import (
@@ -39,7 +40,6 @@ from magsail_mj.concepts.current_loops.lorentz import (
 from magsail_mj.loads.tidal import GravityGradientTorqueLoad, TidalGravityLoad
 from magsail_mj.concepts.current_loops.config import ClassificationConfig
 from magsail_mj.concepts.current_loops.model import LoopsModel, WorkLedger
-from magsail_mj.records import BLOCK_BYTES, row_blocks
 from magsail_mj.sim import RunResult
 
 __all__ = [
@@ -141,28 +141,23 @@ def first_time_below(t: np.ndarray, x: np.ndarray, level: float) -> float | None
     return float(t[idx[0]]) if idx.size else None
 
 
-def structural_series(lm: LoopsModel, x: Any, *, modes: Callable[[], Modes] | None = None,
-                      positions: Callable[[np.ndarray], np.ndarray] | None = None,
-                      budget_bytes: int = BLOCK_BYTES) -> dict[str, np.ndarray]:
+def structural_series(lm: LoopsModel, positions: NodeTrajectory | np.ndarray, *,
+                      modes: Callable[[], Modes] | None = None) -> dict[str, np.ndarray]:
     """Strain energy ½ Σ k (|r_j − r_i| − L)² [J] and largest strut strain
     (:mod:`magsail_mj.analysis.energy`), best fit, thickness, residual and modal amplitudes of
-    node positions ``x`` (T, n, 3) [m] or, with ``positions``, of records ``x`` (T, …) — e.g. the
-    recorded qpos as a lazy Zarr array — that ``positions`` turns into node positions.
+    node positions (T, n, 3) [m]: an array, or a :class:`~magsail_mj.lattice.trajectory.NodeTrajectory`
+    reading the recorded qpos block by block.
 
-    Every series is a function of one record, so they are computed over blocks of rows of at most
-    ``budget_bytes`` (:func:`~magsail_mj.records.row_blocks`): the memory of post-processing does
-    not grow with the run's length. ``modes`` gives the lattice's modes (their amplitudes, normalised
-    by their largest magnitude over the run, are a diagnostic: left out when the modes cannot be had).
+    Every series is a function of one record, so they are computed block by block: the memory of
+    post-processing does not grow with the run's length. ``modes`` gives the lattice's modes
+    (their amplitudes, normalised by their largest magnitude over the run, are a diagnostic: left
+    out when the modes cannot be had).
 
     Raises:
-      ValueError: ``x`` has no rows.
+      ValueError: there are no records.
     """
     md = _modes_or_none(modes)
-    to_x = positions if positions is not None else np.asarray
-    blocks = [_structural_block(lm, to_x(block), md) for block in row_blocks(x, budget_bytes=budget_bytes)]
-    if not blocks:
-        raise ValueError("x: no records to compute structural series from")
-    out = {key: np.concatenate([b[key] for b in blocks]) for key in blocks[0]}
+    out = as_trajectory(positions).map(lambda x: _structural_block(lm, x, md))
     if md is not None and "modal_amplitude" in out:
         q = out["modal_amplitude"]
         out["modal_amplitude"] = q / max(np.abs(q).max(), 1e-300)

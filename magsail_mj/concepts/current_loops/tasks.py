@@ -44,6 +44,7 @@ from magsail_mj.concepts.current_loops.lorentz import CircuitSegments, LorentzLo
 from magsail_mj.lattice.modal_damping import ModalDampingLoad
 from magsail_mj.loads.tidal import GravityGradientTorqueLoad, TidalGravityLoad
 from magsail_mj.lattice.mjcf import node_positions_from_qpos
+from magsail_mj.lattice.trajectory import NodeTrajectory
 from magsail_mj.records import lazy_record
 from magsail_mj.concepts.current_loops.config import CurrentLoopsConfig
 from magsail_mj.concepts.current_loops.metrics import (
@@ -350,7 +351,8 @@ class FlexibleLoopsTask(LoopsScenario):
     def structure(self, rec: Mapping[str, Any]) -> dict[str, np.ndarray]:
         """:func:`~magsail_mj.concepts.current_loops.metrics.structural_series` of the recorded positions,
         read block by block from the records (a run's store is never loaded whole)."""
-        return structural_series(self.lm, lazy_record(rec, "qpos"), modes=self.modes, positions=self.node_positions)
+        return structural_series(self.lm, NodeTrajectory(lazy_record(rec, "qpos"), self.node_positions),
+                                 modes=self.modes)
 
     def structural_figures(self, run_dir: Path, series: dict[str, np.ndarray],
                            qpos: np.ndarray | None) -> list[Path]:

@@ -1,8 +1,10 @@
 """Post-processing of truss runs into summary figures and time series (spec §4–§6, §2.7).
 
 Every function takes the data it needs (the :class:`~magsail_mj.concepts.truss_magnetorquer.model.TrussModel`,
-node positions ``pos`` (T, n, 3) [m] in the world frame, the run's records, config values), never
-the scenario object. Body frame: the best-fit rotation ``R`` (body → world) of the lattice (§4.1).
+node positions ``pos`` (T, n, 3) [m] in the world frame — an array, or a
+:class:`~magsail_mj.lattice.trajectory.NodeTrajectory` that reads the recorded qpos block by block —
+the run's records, config values), never the scenario object. Body frame: the best-fit rotation
+``R`` (body → world) of the lattice (§4.1).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from magsail_mj.concepts.truss_magnetorquer.surface_angle import local_surface_a
 from magsail_mj.control.profiles import torque_profile
 from magsail_mj.environment.frames import lvlh_frame
 from magsail_mj.estimation.attitude import best_fit_rotation, body_rates, euler_zyx, particle_inertia
+from magsail_mj.lattice.trajectory import NodeTrajectory, as_trajectory
 from magsail_mj.lattice.properties import cantilever_linear, loaded_nodes, strut_stiffness
 from magsail_mj.concepts.truss_magnetorquer.config import ProfileConfig
 from magsail_mj.concepts.truss_magnetorquer.model import TrussModel
@@ -44,7 +47,7 @@ def rigid_response(kind: str, t: np.ndarray, *, tau_max: float, t_end: float, t_
     return np.interp(t, tf, phi), np.interp(t, tf, w)
 
 
-def common_summary(tm: TrussModel, pos: np.ndarray, result: RunResult, *, max_strain: float,
+def common_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *, max_strain: float,
                    zeta_strut: float) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """§11 "all dynamic runs" keys: status, surface SD σ_SD of the top layer [m], strain energy
     Σ ½ k (|r_j − r_i| − L)² [J], largest strut strain, structural failure (strain above
@@ -53,11 +56,20 @@ def common_summary(tm: TrussModel, pos: np.ndarray, result: RunResult, *, max_st
     lat = tm.lattice
     t = result.records["t"]
     top = lat.top_nodes
-    sd = surface_sd(pos[:, top])
-    energy = strain_energy(pos, lat.struts, tm.k, lat.rest_length)
-    fail = structural_failure(pos, lat.struts, lat.rest_length, tets=lat.cube_tetrahedra(),
-                              reference=lat.nodes, strain_limit=max_strain)
-    failed_idx = np.flatnonzero(fail.failed)
+    tets = lat.cube_tetrahedra()
+
+    def per_record(x: np.ndarray) -> dict[str, np.ndarray]:
+        check = structural_failure(x, lat.struts, lat.rest_length, tets=tets, reference=lat.nodes,
+                                   strain_limit=max_strain)
+        return {"sd": np.atleast_1d(surface_sd(x[:, top])),
+                "energy": strain_energy(x, lat.struts, tm.k, lat.rest_length),
+                "failed": check.failed, "max_abs_strain": check.max_abs_strain}
+
+    per = as_trajectory(pos).map(per_record) if t.size else {k: np.zeros(0) for k in
+                                                             ("sd", "energy", "failed", "max_abs_strain")}
+    sd, energy = per["sd"], per["energy"]
+    fail = per
+    failed_idx = np.flatnonzero(fail["failed"])
     kmax = int(np.nanargmax(sd)) if sd.size else 0
     summary: dict[str, Any] = {
         "status": result.status,
@@ -66,7 +78,7 @@ def common_summary(tm: TrussModel, pos: np.ndarray, result: RunResult, *, max_st
         "surface_sd_max_m": float(np.nanmax(sd)) if sd.size else float("nan"),
         "t_surface_sd_max_s": float(t[kmax]) if t.size else float("nan"),
         "strain_energy_max_J": float(np.nanmax(energy)) if energy.size else float("nan"),
-        "strut_strain_max": float(np.nanmax(fail.max_abs_strain)) if t.size else float("nan"),
+        "strut_strain_max": float(np.nanmax(fail["max_abs_strain"])) if t.size else float("nan"),
         "failed": bool(failed_idx.size > 0 or result.status == "diverged"),
         "t_failed_s": float(t[failed_idx[0]]) if failed_idx.size else float("nan"),
         "gamma_Ns_m": float(tm.gamma),
@@ -74,11 +86,11 @@ def common_summary(tm: TrussModel, pos: np.ndarray, result: RunResult, *, max_st
         "stiffness_calibration_factor": float(tm.calibration_factor),
         "wall_time_s": float(result.wall_time_s),
     }
-    series = {"surface_sd_m": sd, "strain_energy_J": energy, "strut_strain_max": fail.max_abs_strain}
+    series = {"surface_sd_m": sd, "strain_energy_J": energy, "strut_strain_max": fail["max_abs_strain"]}
     return summary, series
 
 
-def dynamic_summary(tm: TrussModel, pos: np.ndarray, result: RunResult, *, omega0_body: np.ndarray,
+def dynamic_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *, omega0_body: np.ndarray,
                     max_strain: float, zeta_strut: float,
                     environment: Any = None) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Summary of a dynamic run (``dist_vs_central`` and ``free``), spec §6.6 and §11.
@@ -93,7 +105,7 @@ def dynamic_summary(tm: TrussModel, pos: np.ndarray, result: RunResult, *, omega
     t = result.records["t"]
     if t.size < 2:
         return summary, series
-    R, _ = best_fit_rotation(lat.nodes, pos)
+    R = as_trajectory(pos).map(lambda x: best_fit_rotation(lat.nodes, x)[0])
     psi, theta, phi = euler_zyx(R, unwrap=True)
     dt_rec = float(t[1] - t[0])
     omega = body_rates(R, dt_rec, omega0=np.asarray(omega0_body))
@@ -110,7 +122,8 @@ def dynamic_summary(tm: TrussModel, pos: np.ndarray, result: RunResult, *, omega
         "I_kgm2": inertia.moments.tolist(),
     })
     kmax = int(np.nanargmax(series["surface_sd_m"]))
-    ang = local_surface_angle(pos[kmax, lat.top_nodes], R[kmax], nodes_per_side=lat.nodes_per_side)
+    ang = local_surface_angle(as_trajectory(pos).at(kmax)[lat.top_nodes], R[kmax],
+                              nodes_per_side=lat.nodes_per_side)
     series.update(surface_angle_map_rad=ang.alpha, surface_angle_u_m=ang.u, surface_angle_v_m=ang.v)
     summary.update({
         "surface_angle_median_rad": float(ang.median), "surface_angle_p95_rad": float(ang.p95),
@@ -164,8 +177,8 @@ def lvlh_attitude(environment, t: np.ndarray, R: np.ndarray) -> dict[str, np.nda
             "normal_to_orbit_normal_rad": np.arccos(cos_n), "r_ref_eci_m": samples["r_ref_eci"]}
 
 
-def cantilever_summary(tm: TrussModel, pos: np.ndarray, result: RunResult, *, load_N: float, EI_Nm2: float,
-                       calibration: str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def cantilever_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *, load_N: float,
+                       EI_Nm2: float, calibration: str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Cantilever check (spec §2.7): linear solve (formula and calibrated) vs the MuJoCo settle.
 
     Tip load ``load_N`` [N] on the free edge, target ``EI_Nm2`` [N m²]; the beam deflection is
@@ -185,7 +198,7 @@ def cantilever_summary(tm: TrussModel, pos: np.ndarray, result: RunResult, *, lo
     calibrated = cantilever_linear(lat, k_calibrated, load_N=P)
     t = result.records["t"]
     tip = loaded_nodes(lat)
-    tip_z = -np.mean(pos[:, tip, 2] - lat.nodes[tip, 2], axis=1)
+    tip_z = as_trajectory(pos).map(lambda x: -np.mean(x[:, tip, 2] - lat.nodes[tip, 2], axis=1))
     speed = np.abs(np.gradient(tip_z, t)) if t.size > 2 else np.array([np.nan])
     delta_mj = float(tip_z[-1])
     summary = {

@@ -47,6 +47,7 @@ from magsail_mj.control.rod_attitude import ProfileRodController, RodAttitudeCon
 from magsail_mj.estimation.attitude import (
     euler_zyx, matrix_from_quat, particle_inertia, quat_from_matrix, rotation_angle,
 )
+from magsail_mj.lattice.trajectory import NodeTrajectory, as_trajectory
 from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad
 from magsail_mj.loads.tidal import TidalGravityLoad
 from magsail_mj.plotting import new_figure, save_figure
@@ -337,8 +338,8 @@ def _cumtrapz(y: np.ndarray, t: np.ndarray) -> np.ndarray:
 # =========================================================================== post-processing
 
 
-def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: np.ndarray, result: RunResult, *, environment: Any,
-                    rod: MagnetorquerRodLoad) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *,
+                    environment: Any, rod: MagnetorquerRodLoad) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Summary keys and derived series common to ``detumble`` and ``slew`` runs (spec §9.3–9.4, §11).
 
     §11 "all dynamic runs" keys (:func:`~magsail_mj.concepts.truss_magnetorquer.metrics.common_summary`), the
@@ -346,7 +347,8 @@ def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: np.ndarray, result: R
     the best-fit rotation, |B| and the angle between B and the plate normal, saturation fractions,
     integrals of |T_ac| and |N1| + |N2|, the paper-vs-exact allocation comparison over the recorded
     samples (§7.3, ``alloc_*``), and the orbit description (``environment.summary()``). ``pos``:
-    node positions (T, n, 3) [m]; the kind's own keys come from :func:`detumble_keys` or
+    node positions (T, n, 3) [m] (an array, or a :class:`~magsail_mj.lattice.trajectory.NodeTrajectory`
+    reading the recorded qpos block by block); the kind's own keys come from :func:`detumble_keys` or
     :func:`slew_keys`.
     """
     summary, series = common_summary(tm, pos, result, max_strain=cfg.sim.max_strain,
@@ -386,8 +388,9 @@ def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: np.ndarray, result: R
 
     # surface angle and shape at max SD (§5.2)
     kmax = int(np.nanargmax(series["surface_sd_m"]))
-    ang = local_surface_angle(pos[kmax, lat.top_nodes], R[kmax], nodes_per_side=lat.nodes_per_side)
-    top = pos[kmax, lat.top_nodes] - ang.centroid
+    at_max = as_trajectory(pos).at(kmax)[lat.top_nodes]
+    ang = local_surface_angle(at_max, R[kmax], nodes_per_side=lat.nodes_per_side)
+    top = at_max - ang.centroid
     series.update(surface_angle_map_rad=ang.alpha, surface_angle_u_m=ang.u, surface_angle_v_m=ang.v,
                   shape_at_max_sd_uvw_m=np.stack([top @ ang.e_u, top @ ang.e_v, top @ ang.normal], axis=1))
     inertia = particle_inertia(lat.nodes, tm.masses)

@@ -23,6 +23,7 @@ space; body = the best-fit rotation of the lattice (§4.1). Units SI.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, ClassVar
@@ -45,6 +46,7 @@ from magsail_mj.loads.srp import LatticeSRPLoad
 from magsail_mj.loads.strut_torque import StrutTorqueLoad
 from magsail_mj.loads.tidal import TidalGravityLoad
 from magsail_mj.lattice.mjcf import node_positions_from_qpos
+from magsail_mj.lattice.trajectory import NodeTrajectory
 from magsail_mj.concepts.truss_magnetorquer.config import TrussConfig
 from magsail_mj.concepts.truss_magnetorquer.metrics import (
     PROFILE_AXES,
@@ -66,6 +68,7 @@ from magsail_mj.concepts.truss_magnetorquer.orbital import (
     slew_keys,
 )
 from magsail_mj.concepts.truss_magnetorquer.plots import cantilever_plot, truss_plots
+from magsail_mj.records import lazy_record
 from magsail_mj.sim import RunResult, Simulation
 
 __all__ = [
@@ -191,6 +194,11 @@ class TrussScenario(ABC):
         """(T, n, 3) node positions from recorded qpos (clamped nodes stay at reference)."""
         return node_positions_from_qpos(self.model, qpos, n_nodes=self.tm.lattice.n_nodes)
 
+    def trajectory(self, records: Mapping[str, Any]) -> NodeTrajectory:
+        """The run's node positions, read from the recorded qpos block by block (a run's store is
+        never loaded whole)."""
+        return NodeTrajectory(lazy_record(records, "qpos"), self.node_positions)
+
     @abstractmethod
     def postprocess(self, result: RunResult) -> Summary:
         """Summary keys and derived series of the run (the kind's)."""
@@ -239,7 +247,7 @@ class TrussScenario(ABC):
     # -------------------------------------------------------------- shared post-processing
     def _dynamic_summary(self, result: RunResult) -> Summary:
         cfg = self.cfg
-        return dynamic_summary(self.tm, self.node_positions(result.records["qpos"]), result,
+        return dynamic_summary(self.tm, self.trajectory(result.records), result,
                                omega0_body=np.asarray(cfg.initial.omega0_rad_s), max_strain=cfg.sim.max_strain,
                                zeta_strut=cfg.damping.zeta_strut, environment=self.environment)
 
@@ -324,7 +332,7 @@ class CantileverTask(TrussScenario):
 
     def postprocess(self, result: RunResult) -> Summary:
         cfg = self.cfg
-        return cantilever_summary(self.tm, self.node_positions(result.records["qpos"]), result,
+        return cantilever_summary(self.tm, self.trajectory(result.records), result,
                                   load_N=cfg.cantilever.load_N, EI_Nm2=cfg.stiffness.EI_Nm2,
                                   calibration=cfg.stiffness.calibration)
 
@@ -364,7 +372,7 @@ class OrbitalTrussTask(TrussScenario):
         """The kind's own ``(keys, series)`` from the records and the common series."""
 
     def postprocess(self, result: RunResult) -> Summary:
-        summary, series = orbital_summary(self.cfg, self.tm, self.node_positions(result.records["qpos"]), result,
+        summary, series = orbital_summary(self.cfg, self.tm, self.trajectory(result.records), result,
                                           environment=self.environment, rod=self.rods())
         if result.records["t"].size < 2:
             return summary, series
