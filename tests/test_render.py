@@ -36,6 +36,7 @@ from scipy.spatial.transform import Rotation
 from magsail_mj.config import load_config
 from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.lattice.mjcf import build_truss_spec
+from magsail_mj.plotting import CHECK_ENV
 from magsail_mj.render import backend
 from magsail_mj.render.compose import (
     RenderError,
@@ -484,9 +485,11 @@ SCENARIO_KINDS = [
 
 
 @pytest.mark.parametrize("kind, config, overrides", SCENARIO_KINDS)
-def test_every_scenario_kind_renders_its_video(tmp_path, gl, kind, config, overrides):
+def test_every_scenario_kind_renders_its_video(tmp_path, gl, monkeypatch, kind, config, overrides):
     """A short run of each scenario kind with video=True writes a playable video.mp4 (the truss
-    cantilever used to fail: its render table names an overlay series it does not record)."""
+    cantilever used to fail: its render table names an overlay series it does not record) and
+    figures that pass the readability check (tests/test_plots.py; the run fails on a bad one)."""
+    monkeypatch.setenv(CHECK_ENV, "1")
     cfg = load_config(REPO / config, overrides)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
