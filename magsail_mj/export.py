@@ -5,7 +5,7 @@ A run folder keeps its records and derived series in ``timeseries.zarr``
 post-processing in the group ``series``). Export writes
 
 * ``npz``: one NumPy ``.npz`` archive holding every root variable and every series (a series
-  replaces a record of the same name, as the ``timeseries.npz`` of earlier versions did), each
+  replaces a record of the same name, as :func:`read_timeseries` does), each
   array streamed chunk by chunk from the store into its archive member, so the memory used is one
   chunk whatever the run's length; read it with ``numpy.load(path, allow_pickle=False)``;
 * ``netcdf``: one netCDF-4 file with the root group's variables, dimensions and attributes, and the
@@ -27,7 +27,7 @@ import numpy as np
 import xarray as xr
 
 from magsail_mj.io import atomic_path
-from magsail_mj.records import SERIES_GROUP, STORE_NAME, RecordStoreError, StoreRecords, open_records
+from magsail_mj.records import SERIES_GROUP, STORE_NAME, RecordStoreError, StoreRecords, lazy_arrays, open_records
 
 __all__ = ["add_arguments", "main", "export_run", "write_npz_streamed", "read_timeseries", "FORMATS"]
 
@@ -76,12 +76,11 @@ def export_run(run_dir: str | Path, *, fmt: str, out: str | Path | None = None) 
         raise ExportError(f"--out: must name a file, got {str(out)!r}")
     if not target.parent.is_dir():
         raise ExportError(f"--out: folder {target.parent} does not exist")
-    records = open_records(folder)
-    series = _series(folder)
     if fmt == "npz":
-        write_npz_streamed(target, _merged(records, series))
+        write_npz_streamed(target, lazy_arrays(folder))
     else:
-        _write_netcdf(folder / STORE_NAME, target, has_series=series is not None)
+        open_records(folder)   # an unreadable store is refused before anything is written
+        _write_netcdf(folder / STORE_NAME, target, has_series=_series(folder) is not None)
     return target
 
 
@@ -90,14 +89,6 @@ def _series(folder: Path) -> StoreRecords | None:
         return open_records(folder, group=SERIES_GROUP)
     except (RecordStoreError, KeyError):
         return None
-
-
-def _merged(records: StoreRecords, series: StoreRecords | None) -> dict[str, Any]:
-    """name → lazy Zarr array: the records, then the series (a series replaces a record)."""
-    out: dict[str, Any] = {name: records.array(name) for name in records if name not in records.extra}
-    if series is not None:
-        out.update({name: series.array(name) for name in series})
-    return out
 
 
 def _blocks(array: Any) -> Iterable[np.ndarray]:
@@ -141,10 +132,7 @@ def _write_netcdf(store: Path, target: Path, *, has_series: bool) -> None:
 
 def read_timeseries(run_dir: str | Path) -> dict[str, np.ndarray]:
     """Every record and series of a run folder as NumPy arrays (the series replacing records of
-    the same name): what ``timeseries.npz`` held. Loads everything; for analysis scripts."""
-    records = open_records(run_dir)
-    series = _series(Path(run_dir))
-    out = {name: records[name] for name in records}
-    if series is not None:
-        out.update({name: series[name] for name in series})
-    return out
+    the same name): the arrays of ``magsail export --format npz``, read from the store without a
+    copy. Loads everything; a script that needs a few arrays of a long run reads them lazily
+    (:func:`magsail_mj.records.lazy_arrays`)."""
+    return {name: np.asarray(array[...]) for name, array in lazy_arrays(run_dir).items()}
