@@ -16,7 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from magsail_mj.records import BLOCK_BYTES, row_blocks
+from magsail_mj import records as _records
+from magsail_mj.records import row_blocks
 
 __all__ = ["NodeTrajectory", "as_trajectory"]
 
@@ -28,11 +29,13 @@ class NodeTrajectory:
     Args:
       records: the recorded array (NumPy, or a lazy Zarr array of the run's store).
       to_positions: records (B, …) → node positions (B, n, 3) [m]; also used for one record.
-      budget_bytes: the most bytes of records read at once (at least one record is read).
+      budget_bytes: the most bytes of records read at once (at least one record is read; default
+        :data:`magsail_mj.records.BLOCK_BYTES`).
     """
 
     def __init__(self, records: Any, to_positions: Callable[[np.ndarray], np.ndarray], *,
-                 budget_bytes: int = BLOCK_BYTES):
+                 budget_bytes: int | None = None):
+        budget_bytes = _records.BLOCK_BYTES if budget_bytes is None else budget_bytes
         if budget_bytes <= 0:
             raise ValueError(f"budget_bytes: must be positive, got {budget_bytes}")
         if len(getattr(records, "shape", ())) < 1:
@@ -42,7 +45,7 @@ class NodeTrajectory:
         self.budget_bytes = int(budget_bytes)
 
     @classmethod
-    def of_positions(cls, positions: np.ndarray, *, budget_bytes: int = BLOCK_BYTES) -> NodeTrajectory:
+    def of_positions(cls, positions: np.ndarray, *, budget_bytes: int | None = None) -> NodeTrajectory:
         """A trajectory of positions already in memory, (T, n, 3) [m]."""
         positions = np.asarray(positions)
         if positions.ndim != 3 or positions.shape[-1] != 3:
