@@ -58,14 +58,19 @@ class LoopsStiffnessConfig(StrictModel):
     """``[stiffness]``: plate EI [N m²] and its calibration (§1; §9 item 12).
 
     ``calibration = "formula"`` (reproduction default) uses ``EA_c = 2EI/((N+1)w²)`` unchanged;
-    ``"cantilever"`` scales it by EI/EI_eff of the cantilever test (sensitivity). The elastic
-    forces are exact tendon springs (``form = "tendon"``), which to first order equal the
-    co-rotational linear form of §4.1.
+    ``"cantilever"`` scales it by EI/EI_eff of the cantilever test (sensitivity). ``form``: the
+    elastic forces. ``"tendon"`` (default): exact tendon springs, which to first order equal the
+    co-rotational linear form of §4.1. ``"corotational"``: that linear form,
+    ``F = −R̃ K [R̃ᵀ(r − c) − (r₀ − c₀)]`` (cross-check). ``"paper_literal"``: the paper's Eq. 12 as
+    printed, ``F = −K (r − R̃ r₀)`` with the unrotated K of the undeformed lattice (sensitivity
+    only; valid for small rotations). The two linear forms are loads
+    (:class:`~magsail_mj.lattice.linear_stiffness.LinearStiffnessLoad`); the MuJoCo tendons then
+    have zero stiffness.
     """
 
     EI_N_m2: float = Field(gt=0)
     calibration: Literal["formula", "cantilever"] = "formula"
-    form: Literal["tendon"] = "tendon"
+    form: Literal["tendon", "corotational", "paper_literal"] = "tendon"
 
 
 class LoopsDampingConfig(StrictModel):

@@ -237,7 +237,9 @@ def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], st: dict[str, np.n
     reference with the realised dipole m = Σ I_L a_L [A m²], the flexible run's deviation from it,
     the dipole–field angle at the time of maximum strain energy, the energy balance
     E_kin + U − W_Lorentz − W_damping (relative to max |W_Lorentz|; ``work_names`` order the
-    recorded ``work_J`` columns), the self-field estimate and the classification (:func:`classify`).
+    recorded ``work_J`` columns; with a linear stiffness load, named ``"stiffness"``, its work
+    −W_stiffness takes the place of U, the printed Eq. 12 having no potential), the self-field
+    estimate and the classification (:func:`classify`).
     ``st``: :func:`structural_series` of the recorded node positions."""
     t = rec["t"]
     U = st["strain_energy_J"]
@@ -260,7 +262,10 @@ def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], st: dict[str, np.n
     names = work_names
     W_L = work[:, names.index("lorentz")] if work is not None and "lorentz" in names else np.zeros_like(t)
     W_D = work[:, names.index("damping")] if work is not None and "damping" in names else np.zeros_like(t)
-    residual = ke + U - W_L - W_D
+    linear = work is not None and "stiffness" in names
+    W_K = work[:, names.index("stiffness")] if linear else None
+    # a linear stiffness load (stiffness.form) has no potential: its work replaces the strain energy
+    residual = ke - W_L - W_D - W_K if linear else ke + U - W_L - W_D
     scale = max(np.abs(W_L).max(), 1e-300)
     rho_max = float(st["rigid_fit_residual_m"].max())
     strain_max = float(st["strut_strain_max"].max())
@@ -282,6 +287,7 @@ def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], st: dict[str, np.n
         "energy_balance_rel_err": float(np.abs(residual).max() / scale),
         "lorentz_work_final_J": float(W_L[-1]),
         "damping_work_final_J": float(W_D[-1]),
+        **({"stiffness_work_final_J": float(W_K[-1])} if linear else {}),
         "stability_product_max": stability_product_max,
         "self_field_max_T": float(self_field_max_T(lm.lattice.nodes, segments, currents)),
         "classification": classify(classification, side_m=side_m, units=units, rho_max=rho_max,

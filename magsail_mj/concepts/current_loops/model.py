@@ -50,7 +50,12 @@ class LoopsModel:
 
 
 def make_loops_model(cfg: CurrentLoopsConfig) -> LoopsModel:
-    """Lattice, masses, springs, circuits, currents and the MjSpec (no tendon damping)."""
+    """Lattice, masses, springs, circuits, currents and the MjSpec (no tendon damping).
+
+    ``k`` always holds the spring constants (modes, strain energy); the MjSpec's tendons carry
+    them only for ``stiffness.form = "tendon"`` and have zero stiffness for the linear forms,
+    whose forces are a load (:class:`~magsail_mj.lattice.linear_stiffness.LinearStiffnessLoad`).
+    """
     lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
     M = cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
     masses = np.full(lat.n_nodes, M / lat.n_nodes)
@@ -61,7 +66,8 @@ def make_loops_model(cfg: CurrentLoopsConfig) -> LoopsModel:
     opts = TrussModelOptions(timestep_s=cfg.sim.timestep_s, integrator=cfg.sim.integrator,
                              solver_tolerance=cfg.sim.solver_tolerance,
                              name=f"current_loops_{cfg.scenario}")
-    spec = build_truss_spec(lat, masses=masses, stiffness=k, damping=0.0, options=opts)
+    tendon_k = k if cfg.stiffness.form == "tendon" else np.zeros_like(k)  # linear forms: a load
+    spec = build_truss_spec(lat, masses=masses, stiffness=tendon_k, damping=0.0, options=opts)
     for flag in ("CONSTRAINT", "EQUALITY", "FRICTIONLOSS", "LIMIT"):
         spec.option.disableflags |= int(getattr(mujoco.mjtDisableBit, f"mjDSBL_{flag}"))
     return LoopsModel(lattice=lat, masses=masses, k=k, EA_N=EA, calibration_factor=c, circuits=circuits,

@@ -41,6 +41,7 @@ from magsail_mj.geometry.current_loops import AXIS_OF
 from magsail_mj.lattice.geometry import strain_check
 from magsail_mj.lattice.properties import _ratio_formula
 from magsail_mj.concepts.current_loops.lorentz import CircuitSegments, LorentzLoad
+from magsail_mj.lattice.linear_stiffness import LinearStiffnessLoad
 from magsail_mj.lattice.modal_damping import ModalDampingLoad
 from magsail_mj.loads.tidal import GravityGradientTorqueLoad, TidalGravityLoad
 from magsail_mj.lattice.mjcf import node_positions_from_qpos
@@ -257,6 +258,7 @@ class LoopsScenario(ABC):
             "EA_c_N": self.lm.EA_N,
             "stiffness_calibration": self.cfg.stiffness.calibration,
             "stiffness_calibration_factor": self.lm.calibration_factor,
+            "stiffness_form": self.cfg.stiffness.form,
             "EI_eff_over_EI_formula_cantilever": float(_ratio_formula(lat.units, lat.diagonals)),
             "particle_mass_kg": float(self.lm.masses[0]),
             "circuits": [{"name": c.name, "axis": int(c.axis), "segments": int(len(c.src)),
@@ -272,13 +274,15 @@ class LoopsScenario(ABC):
 
 
 class FlexibleLoopsTask(LoopsScenario):
-    """The flexible plate: tendon springs, Lorentz forces on the circuits' struts, tidal gravity
+    """The flexible plate: tendon springs (or the linear stiffness load of ``stiffness.form``),
+    Lorentz forces on the circuits' struts, tidal gravity
     (``gravity.tidal``), Caughey modal damping (``[damping]``) and the work ledger; structural
     series (strain energy, best fit, thickness, residual, modal amplitudes) and plots."""
 
     def __post_init__(self) -> None:
         self.lorentz: LorentzLoad | None = None
         self.damping_load: HeldForces | None = None
+        self.stiffness_load: LinearStiffnessLoad | None = None
         self.ledger: WorkLedger | None = None
         self.tidal: TidalGravityLoad | None = None
         self._modes: Modes | None = None
@@ -323,6 +327,11 @@ class FlexibleLoopsTask(LoopsScenario):
                                    B_world=self.field_fixed)
         out: list = [self.lorentz]
         watched: dict[str, Any] = {"lorentz": self.lorentz}
+        if cfg.stiffness.form != "tendon":
+            self.stiffness_load = LinearStiffnessLoad(nodes=lat.nodes, struts=lat.struts, k=self.lm.k,
+                                                      masses=self.lm.masses, form=cfg.stiffness.form)
+            out.append(self.stiffness_load)
+            watched["stiffness"] = self.stiffness_load
         if cfg.gravity.tidal:
             self.tidal = TidalGravityLoad.from_environment(self.environment, self.node_bodies, self.lm.masses)
             out.append(self.tidal)
