@@ -95,6 +95,11 @@ class ActuatorsConfig(StrictModel):
     (``"per_family"``: κ_τ M_τ per family, 26.32 A m² per rod for the §9.1 truss; ``"total"``: κ_τ M_τ
     over both families, 13.16 A m²; §12 item O4). The rod mass is part of ``mass.total_kg``,
     spread uniformly over the particles (§12 item S4).
+    ``force_pair``: how a rod's couple reaches the strut's end particles
+    (:mod:`~magsail_mj.concepts.truss_magnetorquer.force_pair`): ``"corrected"`` (default) the pair
+    perpendicular to the strut whose moment is ``m × B``; ``"printed"`` the paper's Eq. 4 as printed
+    (moment ``−m × B`` and an axial tension ``−m·B / (2r)``); ``"printed_sign_fixed"`` Eq. 4 with its
+    sign corrected (moment ``m × B`` and an axial tension ``+m·B / (2r)``). Paper-literal variants only.
     """
 
     kind: Literal["generic", "magnetorquer"] = "generic"
@@ -104,6 +109,7 @@ class ActuatorsConfig(StrictModel):
     kappa_Am2_per_kg: float = Field(default=100.0, gt=0)
     rod_mass_kg: float | None = Field(default=None, gt=0)
     rod_dipole_basis: Literal["per_family", "total"] = "per_family"
+    force_pair: Literal["corrected", "printed", "printed_sign_fixed"] = "corrected"
 
     @model_validator(mode="after")
     def _rods(self) -> ActuatorsConfig:
@@ -113,6 +119,9 @@ class ActuatorsConfig(StrictModel):
             if self.placement != "distributed":
                 raise ValueError("placement: magnetorquer rods sit in every top-layer strut; "
                                  f"only 'distributed' is allowed, got {self.placement!r}")
+        elif self.force_pair != "corrected":
+            raise ValueError(f"force_pair: the rod force pair needs kind = 'magnetorquer', got "
+                             f"force_pair = {self.force_pair!r} with kind = {self.kind!r}")
         return self
 
 

@@ -59,6 +59,7 @@ from magsail_mj.concepts.truss_magnetorquer.config import (
     TrussConfig,
     TrussControlConfig,
 )
+from magsail_mj.concepts.truss_magnetorquer.force_pair import VariantPairRodLoad
 from magsail_mj.concepts.truss_magnetorquer.metrics import PROFILE_AXES, common_summary, lvlh_attitude
 from magsail_mj.concepts.truss_magnetorquer.model import TrussModel
 from magsail_mj.sim import RunResult
@@ -97,12 +98,14 @@ LOW_AUTHORITY_RATIO = 0.1
 # =========================================================================== building blocks
 
 
-def make_rod_load(actuators: ActuatorsConfig, tm: TrussModel) -> MagnetorquerRodLoad:
+def make_rod_load(actuators: ActuatorsConfig, tm: TrussModel) -> VariantPairRodLoad:
     """Rods in all top-layer x1/y1 struts, dipole from the §9.1 basis (§12 O4), field from
-    ``state.env.B_eci`` (the field at the reference point, applied uniformly, §9.2)."""
+    ``state.env.B_eci`` (the field at the reference point, applied uniformly, §9.2), force pair
+    ``actuators.force_pair`` (:mod:`~magsail_mj.concepts.truss_magnetorquer.force_pair`)."""
     a = actuators
-    return MagnetorquerRodLoad.from_basis(tm.lattice, kappa_Am2_per_kg=a.kappa_Am2_per_kg,
-                                          rod_mass_kg=a.rod_mass_kg, basis=a.rod_dipole_basis)
+    return VariantPairRodLoad.from_variant(tm.lattice, kappa_Am2_per_kg=a.kappa_Am2_per_kg,
+                                           rod_mass_kg=a.rod_mass_kg, basis=a.rod_dipole_basis,
+                                           force_pair=a.force_pair)
 
 
 def controller_inertia(control: TrussControlConfig | None, tm: TrussModel) -> np.ndarray:
@@ -234,6 +237,7 @@ def orbital_manifest(cfg: TrussConfig, tm: TrussModel, rod: MagnetorquerRodLoad)
         "rods_per_family": list(rod.rods.n_per_family),
         "rod_dipole_Am2": list(rod.m_rod_Am2),
         "rod_dipole_basis": a.rod_dipole_basis,
+        "rod_force_pair": a.force_pair,
         "control_kind": c.kind,
         "control_period_s": c.period_s if c.period_s is not None else cfg.sim.timestep_s,
         "allocation_mode": c.allocation,
