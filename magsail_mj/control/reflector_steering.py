@@ -114,6 +114,8 @@ class ReflectorOrbit:
 
     def field(self, t) -> np.ndarray:
         """Dipole field ``B`` at the reflector (Eq. 11), world axes [T], (..., 3)."""
+        if isinstance(t, float):
+            return np.array(self._field_scalar(t))
         th = self.theta(t)
         k = self.B0_T * (self.R_e_m / self.r_m) ** 3
         Br, Bt = -2.0 * k * np.sin(th), -k * np.cos(th)
@@ -121,17 +123,34 @@ class ReflectorOrbit:
         return np.stack([Br * c - Bt * s, np.zeros_like(th), Br * s + Bt * c], axis=-1)
 
     def rates(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``(ε, ψ̇, ψ̈, Q)``: wrapped ``ε = atan2(a, b)`` [rad], Eq. 13 [rad/s], ψ̈ [rad/s²], Q [m²]."""
-        th, ph = self.theta(t), self.phi(t)
-        r, Re, n, we = self.r_m, self.R_e_m, self.n_rad_s, self.omega_e_rad_s
-        st, ct, sp, cp = np.sin(th), np.cos(th), np.sin(ph), np.cos(ph)
+        """``(ε, ψ̇, ψ̈, Q)``: wrapped ``ε = atan2(a, b)`` [rad], Eq. 13 [rad/s], ψ̈ [rad/s²], Q [m²].
+
+        A Python float ``t`` is evaluated with :mod:`math` (the per-step path: the same operations
+        in the same order, floats returned)."""
+        scalar = isinstance(t, float)
+        sin, cos, atan2 = (math.sin, math.cos, math.atan2) if scalar else (np.sin, np.cos, np.arctan2)
+        n = self.n_rad_s
+        if scalar:
+            th, ph = n * (t - self.t_m_s), self.omega_e_rad_s * (t - self.t_m_s)
+        else:
+            th, ph = self.theta(t), self.phi(t)
+        r, Re, we = self.r_m, self.R_e_m, self.omega_e_rad_s
+        st, ct, sp, cp = sin(th), cos(th), sin(ph), cos(ph)
         a = r * ct - Re * cp
         b = r * st
         P = -r * Re * we * sp * st + r * n * (r - Re * cp * ct)
         Q = a * a + b * b
         Pd = r * Re * (n * n - we * we) * st * cp
-        Qd = -Re * Re * we * np.sin(2 * ph) + 2 * r * Re * (n * st * cp + we * sp * ct)
-        return np.arctan2(a, b), P / Q, (Pd * Q - P * Qd) / (Q * Q), Q
+        Qd = -Re * Re * we * sin(2 * ph) + 2 * r * Re * (n * st * cp + we * sp * ct)
+        return atan2(a, b), P / Q, (Pd * Q - P * Qd) / (Q * Q), Q
+
+    def _field_scalar(self, t: float) -> tuple[float, float, float]:
+        """:meth:`field` at one float time, with :mod:`math` (same operations)."""
+        th = self.n_rad_s * (t - self.t_m_s)
+        k = self.B0_T * (self.R_e_m / self.r_m) ** 3
+        s, c = math.sin(th), math.cos(th)
+        Br, Bt = -2.0 * k * s, -k * c
+        return (Br * c - Bt * s, 0.0, Br * s + Bt * c)
 
     def psi_series(self, t: np.ndarray) -> dict[str, np.ndarray]:
         """Vectorised reference over increasing times ``t``: ``psi_c`` (continuous, unwrapped),
@@ -186,6 +205,10 @@ class SteeringReference:
 
 def pitch_reference_quaternion(beta):
     """``q = [cos(β/2), 0, sin(β/2), 0]``: rotation by β about +y (scalar first), (..., 4)."""
+    if isinstance(beta, float):    # the per-step path: as quat_from_axis_angle, without array overhead
+        h = 0.5 * beta
+        s = math.sin(h)
+        return np.array((math.cos(h), s * 0.0, s * 1.0, s * 0.0))
     return quat_from_axis_angle(np.array([0.0, 1.0, 0.0]), beta)
 
 
