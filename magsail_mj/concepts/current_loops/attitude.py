@@ -3,9 +3,17 @@ r"""Quaternion PD with current-loop allocation (current-loops spec §6, Eqs. 18�
 Each control sample, from the particle positions and velocities (or a rigid body's state):
 
 1. attitude ``R`` = mass-weighted best-fit rotation of the nodes against the undeformed lattice
-   (§4.3), ``q`` its quaternion with sign continuity; body rate from the least-squares
-   rigid-velocity fit ``ω = J_c⁻¹ H_c`` about the centre of mass, rotated into body axes
-   (proposed, §6 item 1);
+   (§4.3), ``q`` its quaternion with sign continuity; body rate (``rate_estimator``):
+
+   * ``"velocity_fit"`` (default): the least-squares rigid-velocity fit ``ω = J_c⁻¹ H_c`` of the
+     particle velocities about the centre of mass, rotated into body axes (proposed, §6 item 1;
+     the rigid surrogate uses its body rate);
+   * ``"finite_difference"``: the backward difference of the estimated attitude,
+     ``ω_k = vee(log(R_{k−1}ᵀ R_k)) / (t_k − t_{k−1})`` (body axes), from positions only. Exact
+     for a constant body rate; for a varying rate it is the mean rate over the last sample
+     period, so it lags: ``|ω_k − ω(t_k)| ≤ ½ Δt max|ω̇|`` for a rotation about a fixed axis.
+     The first sample, with no earlier attitude, returns the known initial rate, zero (the
+     plate starts at rest, §6);
 2. error ``q_e = q_d* ⊗ q`` (negated when its scalar part is negative), vector part ``q_ev``;
 3. ``T_ref = −k_p q_ev − k_ω ω`` in body axes (Eq. 18);
 4. dipole command ``m_d = B_b × T_ref / |B_b|²`` (Eq. 19 with ``|B|²``, spec §9 item 9);
@@ -27,12 +35,14 @@ from typing import Literal
 
 import numpy as np
 
-from magsail_mj.estimation.attitude import BestFitRotation
+from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step
 from magsail_mj.quaternion import quat_from_matrix
 from magsail_mj.quaternion import quat_conj, quat_mul
 
 __all__ = ["LoopCommand", "LoopAttitudeController", "allocate_currents",
-           "rigid_velocity_fit"]
+           "rigid_velocity_fit", "RATE_ESTIMATORS"]
+
+RATE_ESTIMATORS = ("velocity_fit", "finite_difference")
 
 
 def rigid_velocity_fit(x: np.ndarray, v: np.ndarray, m: np.ndarray) -> np.ndarray:
@@ -99,12 +109,14 @@ class LoopAttitudeController:
       I_max_A: (3,) full currents of the x, y, z circuits.
       allocation: ``"paper_clip"`` or ``"direction_preserving"``.
       field_world: fixed world field [T], or ``None`` to read ``state.env.B_eci``.
+      rate_estimator: ``"velocity_fit"`` (default) or ``"finite_difference"`` (module docstring).
     """
 
     def __init__(self, *, period_s: float, p_ref: np.ndarray, masses: np.ndarray, node_bodies: np.ndarray,
                  q_target: np.ndarray, kp_N_m: float, kw_N_m_s: float, m_max_A_m2: float,
                  I_max_A: np.ndarray, allocation: Literal["paper_clip", "direction_preserving"] = "paper_clip",
-                 field_world: np.ndarray | None = None):
+                 field_world: np.ndarray | None = None,
+                 rate_estimator: Literal["velocity_fit", "finite_difference"] = "velocity_fit"):
         if not period_s > 0:
             raise ValueError(f"period_s: must be > 0, got {period_s!r}")
         self.period_s = float(period_s)
@@ -122,16 +134,38 @@ class LoopAttitudeController:
         allocate_currents(np.zeros(3), m_max=1.0, I_max=np.ones(3), mode=allocation)  # validates
         self.field_world = None if field_world is None else np.asarray(field_world, dtype=float)
         self._q_prev = np.array([1.0, 0.0, 0.0, 0.0])
+        if rate_estimator not in RATE_ESTIMATORS:
+            raise ValueError(f"rate_estimator: must be one of {RATE_ESTIMATORS}, got {rate_estimator!r}")
+        self.rate_estimator = rate_estimator
+        self._R_prev = np.eye(3)
+        self._t_prev = 0.0
+        self._have_prev = False
+        self._omega_fd = np.zeros(3)
 
-    def attitude(self, x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(R, q, ω_body)`` of the node set (sign-continuous quaternion)."""
+    def attitude(self, x: np.ndarray, v: np.ndarray, *, t: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(R, q, ω_body)`` of the node set at time ``t`` [s] (sign-continuous quaternion; ``t``
+        is used by the finite-difference rate only)."""
         R, _ = self.fit(x)
         q = quat_from_matrix(R)
         if q @ self._q_prev < 0:
             q = -q
         self._q_prev = q
-        omega_body = R.T @ rigid_velocity_fit(x, v, self.masses)
-        return R, q, omega_body
+        if self.rate_estimator == "velocity_fit":
+            return R, q, R.T @ rigid_velocity_fit(x, v, self.masses)
+        return R, q, self.body_rate(R, t=t, measured_body=np.zeros(3))
+
+    def body_rate(self, R: np.ndarray, *, t: float, measured_body: np.ndarray) -> np.ndarray:
+        """Body rate [rad/s] of the estimator: ``measured_body`` (the velocity fit, or a rigid
+        body's rate) for ``"velocity_fit"``; the backward difference of ``R`` (body → world) against
+        the previous sample for ``"finite_difference"`` (zero at the first sample; a repeated time
+        returns the previous estimate)."""
+        if self.rate_estimator == "velocity_fit":
+            return np.asarray(measured_body, dtype=float)
+        if self._have_prev and t > self._t_prev:
+            self._omega_fd = body_rate_step(self._R_prev, R, t - self._t_prev)
+        if not self._have_prev or t > self._t_prev:
+            self._R_prev, self._t_prev, self._have_prev = np.array(R, dtype=float), float(t), True
+        return self._omega_fd.copy()
 
     def command(self, R: np.ndarray, q: np.ndarray, omega_body: np.ndarray, B_world: np.ndarray) -> LoopCommand:
         """Eqs. 18–20 for a given attitude, body rate and world field."""
@@ -152,5 +186,5 @@ class LoopAttitudeController:
     def update(self, state) -> LoopCommand:
         x = state.pos[self.node_bodies]
         v = state.vel[self.node_bodies]
-        R, q, w = self.attitude(x, v)
+        R, q, w = self.attitude(x, v, t=state.t)
         return self.command(R, q, w, self.field(state))

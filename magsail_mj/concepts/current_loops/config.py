@@ -139,13 +139,17 @@ class ThermalTable(StrictModel):
 
 
 class LoopsControlConfig(StrictModel):
-    """``[control]`` of the slews (§6): Eq. 18 gains, target, allocation, sample period."""
+    """``[control]`` of the slews (§6): Eq. 18 gains, target, allocation, sample period and the
+    body-rate estimator (``"velocity_fit"``: least-squares rigid-velocity fit of the particle
+    velocities, default; ``"finite_difference"``: backward difference of the estimated attitude,
+    :mod:`magsail_mj.concepts.current_loops.attitude`)."""
 
     kp_N_m: float = Field(default=600.0, ge=0)
     kw_N_m_s: float = Field(default=4e5, ge=0)
     q_target: Quat = (math.cos(math.pi / 4), 0.0, math.sin(math.pi / 4), 0.0)
     allocation: Literal["paper_clip", "direction_preserving"] = "paper_clip"
     period_s: float | None = Field(default=None, gt=0)
+    rate_estimator: Literal["velocity_fit", "finite_difference"] = "velocity_fit"
 
     @model_validator(mode="after")
     def _unit(self) -> LoopsControlConfig:

@@ -80,13 +80,13 @@ class ActionLoopController:
         """``(R, q, ω_body)`` as the shipped controller estimates them (sign-continuous ``q``)."""
         law = self.law
         if not self.rigid:
-            return law.attitude(state.pos[law.node_bodies], state.vel[law.node_bodies])
+            return law.attitude(state.pos[law.node_bodies], state.vel[law.node_bodies], t=state.t)
         q = np.asarray(state.xquat[1], dtype=float)
         if q @ law._q_prev < 0:
             q = -q
         law._q_prev = q
         R = matrix_from_quat(q)
-        return R, q, R.T @ state.omega[1]
+        return R, q, law.body_rate(R, t=state.t, measured_body=R.T @ state.omega[1])
 
     def command(self, state: StepState, action: np.ndarray) -> LoopCommand:
         """The :class:`LoopCommand` of ``action`` (currents in config order, or ``T_ref``)."""

@@ -92,7 +92,7 @@ class _RigidWrapper:
             q = -q
         self.ctrl._q_prev = q
         R = matrix_from_quat(q)
-        omega_body = R.T @ state.omega[1]
+        omega_body = self.ctrl.body_rate(R, t=state.t, measured_body=R.T @ state.omega[1])
         return self.ctrl.command(R, q, omega_body, self.ctrl.field(state))
 
 
@@ -131,7 +131,8 @@ def slew_controller(cfg: CurrentLoopsConfig, lm: LoopsModel, *,
     ctrl = LoopAttitudeController(period_s=period, p_ref=lm.lattice.nodes, masses=lm.masses,
                                   node_bodies=np.arange(lm.lattice.n_nodes) + 1, q_target=np.asarray(c.q_target),
                                   kp_N_m=c.kp_N_m, kw_N_m_s=c.kw_N_m_s, m_max_A_m2=m_max, I_max_A=I_max,
-                                  allocation=c.allocation, field_world=field_world_T)
+                                  allocation=c.allocation, field_world=field_world_T,
+                                  rate_estimator=c.rate_estimator)
     return ctrl, order
 
 
