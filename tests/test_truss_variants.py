@@ -22,7 +22,13 @@ from magsail_mj.config import ConfigError, apply_overrides, parse_config
 from magsail_mj.concepts.truss_magnetorquer.force_pair import (
     VariantPairRodLoad, couple_sign, pair_forces, printed_pair_forces,
 )
+from magsail_mj.concepts.truss_magnetorquer.model import make_truss_model
+from magsail_mj.concepts.truss_magnetorquer.twist import (
+    diagonal_struts, first_twist_mode, low_modes, plate_twist_lambda, plate_twist_omega, twist_shares,
+)
 from magsail_mj.lattice.geometry import make_lattice
+from magsail_mj.lattice.modes import lattice_modes
+from magsail_mj.lattice.properties import cantilever_linear, strut_stiffness
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad, rod_pair_forces
 
@@ -170,3 +176,73 @@ def test_force_pair_config_and_manifest(tmp_path):
     ts = read_timeseries(tmp_path / "p")
     promised = ts["torque_alloc_body_Nm"]
     np.testing.assert_allclose(ts["torque_ac_body_Nm"], -promised, atol=0.02 * np.abs(promised).max())
+
+
+# ----------------------------------------------------------------------------------- twist stiffness
+
+def test_plate_twist_lambda_against_leissa_and_one_term_rayleigh():
+    """Free square Kirchhoff plate, twist mode: λ = ω d² √(ρ_A/D). One Ritz term (w = xy) is the
+    closed form √(288 (1 − ν)) to 1e-12; the converged value at ν = 0.3 is Leissa's 13.468
+    (tabulated to 5 digits: 4e-5 relative) and lies below the one-term bound."""
+    for nu in (0.0, 0.3, 0.45):
+        assert plate_twist_lambda(nu, n_terms=1) == pytest.approx(np.sqrt(288 * (1 - nu)), rel=1e-12)
+    lam = plate_twist_lambda(0.3)
+    assert lam == pytest.approx(13.468, rel=4e-5)
+    assert plate_twist_lambda(0.3, n_terms=6) == pytest.approx(lam, rel=1e-6)
+    assert plate_twist_omega(EI_Nm2=1e3, total_kg=200.0, side_m=75.0) == pytest.approx(
+        lam * np.sqrt(1e3 / (200.0 * 75.0**3)), rel=1e-12)
+    with pytest.raises(ValueError, match="nu"):
+        plate_twist_lambda(0.6)
+
+
+def test_low_modes_equal_the_dense_modes():
+    """The sparse shift-invert modes equal magsail_mj.lattice.modes (dense LAPACK) on a 4 × 4
+    lattice: frequencies 1e-8 relative, shapes up to sign 1e-6, M-orthonormal 1e-10; the first
+    elastic mode of the shipped lattice pattern is the twist (share > 0.99)."""
+    lat = make_lattice(units=4, side_m=16.0)
+    k, _ = strut_stiffness(lat, EI_Nm2=50.0, calibration="cantilever")
+    m = np.linspace(0.5, 1.5, lat.n_nodes)
+    sparse_modes = low_modes(lat.nodes, lat.struts, k, m, n_elastic=8)
+    dense = lattice_modes(lat.nodes, lat.struts, k, m, use_cache=False)
+    np.testing.assert_allclose(sparse_modes.omega[6:], dense.omega[6:14], rtol=1e-8)
+    for j in range(6, 14):
+        if abs(dense.omega[j + 1] - dense.omega[j]) > 1e-6 * dense.omega[j] and \
+                abs(dense.omega[j] - dense.omega[j - 1]) > 1e-6 * dense.omega[j]:
+            a, b = sparse_modes.phi[:, j], dense.phi[:, j]
+            np.testing.assert_allclose(a * np.sign(a @ b), b, atol=1e-6 * np.abs(b).max())
+    gram = sparse_modes.phi.T @ (np.repeat(m, 3)[:, None] * sparse_modes.phi)
+    np.testing.assert_allclose(gram, np.eye(gram.shape[0]), atol=1e-10)
+    lat19 = make_lattice(units=19, side_m=75.0)
+    k19, _ = strut_stiffness(lat19, EI_Nm2=1e3, calibration="cantilever")
+    m19 = np.full(lat19.n_nodes, 0.25)
+    modes19 = low_modes(lat19.nodes, lat19.struts, k19, m19, n_elastic=4)
+    col, w = first_twist_mode(modes19, lat19.nodes, m19)
+    assert col == 6 and w == pytest.approx(0.0357, abs=1e-4)
+    assert twist_shares(modes19.phi[:, 6], lat19.nodes, m19)[0] > 0.99
+
+
+@pytest.mark.parametrize("diagonals", ["parity", "X"])
+def test_plate_twist_variant_matches_the_plate_and_keeps_EI(diagonals):
+    """stiffness.twist = "plate" on a 7 × 7 lattice: the first twist mode of the model's springs
+    has the plate's frequency (1e-4 relative; Brent's tolerance is 1e-6 in log ρ), the linear
+    cantilever still gives EI (1e-9 relative, the spec's calibration tolerance is 2 %), only the
+    face diagonals change relative to the edges, and the default is the shipped lattice exactly."""
+    tree = {"concept": "truss_magnetorquer", "scenario": "free", "sim": {"duration_s": 1.0, "timestep_s": 0.1},
+            "lattice": {"units": 7, "side_m": 28.0, "diagonals": diagonals}, "mass": {"total_kg": 30.0},
+            "stiffness": {"EI_Nm2": 200.0}}
+    base = make_truss_model(parse_config(copy.deepcopy(tree)))
+    ref_k, _ = strut_stiffness(base.lattice, EI_Nm2=200.0, calibration="cantilever")
+    np.testing.assert_array_equal(base.k, ref_k)
+    cfg = parse_config(apply_overrides(copy.deepcopy(tree), ["stiffness.twist=plate"]))
+    tm = make_truss_model(cfg)
+    lat = tm.lattice
+    target = plate_twist_omega(EI_Nm2=200.0, total_kg=30.0, side_m=28.0, nu=0.3)
+    _, w = first_twist_mode(low_modes(lat.nodes, lat.struts, tm.k, tm.masses, n_elastic=6), lat.nodes, tm.masses)
+    assert w == pytest.approx(target, rel=1e-4)
+    assert cantilever_linear(lat, tm.k, load_N=1e-3).EI_eff_Nm2 == pytest.approx(200.0, rel=1e-9)
+    diag = diagonal_struts(lat)
+    per_unit = tm.k * lat.rest_length
+    assert np.ptp(per_unit[diag]) < 1e-9 * per_unit.max() and np.ptp(per_unit[~diag]) < 1e-9 * per_unit.max()
+    assert per_unit[diag][0] / per_unit[~diag][0] == pytest.approx(tm.twist_diagonal_ratio, rel=1e-12)
+    with pytest.raises(ConfigError, match="twist"):
+        parse_config(apply_overrides(copy.deepcopy(tree), ["stiffness.twist=plate", "stiffness.calibration=formula"]))

@@ -74,10 +74,26 @@ class MassConfig(StrictModel):
 
 
 class StiffnessConfig(StrictModel):
-    """``[stiffness]``: target plate bending stiffness and its mapping (spec §2.5, §2.7)."""
+    """``[stiffness]``: target plate bending stiffness and its mapping (spec §2.5, §2.7).
+
+    ``twist``: ``"lattice"`` (default) keeps every strut at the same EA, so the twist stiffness is
+    whatever the strut pattern gives; ``"plate"`` (a sensitivity variant) scales the face diagonals
+    against the cube edges so that the first twist mode has the frequency of a Kirchhoff plate with
+    ``D = EI/d`` and Poisson's ratio ``poisson_ratio``, keeping the cantilever ``EI``
+    (:mod:`~magsail_mj.concepts.truss_magnetorquer.twist`; needs ``calibration = "cantilever"``).
+    """
 
     EI_Nm2: float = Field(gt=0)
     calibration: Literal["cantilever", "formula"] = "cantilever"
+    twist: Literal["lattice", "plate"] = "lattice"
+    poisson_ratio: float = Field(default=0.3, gt=-1.0, le=0.5)
+
+    @model_validator(mode="after")
+    def _twist(self) -> StiffnessConfig:
+        if self.twist == "plate" and self.calibration != "cantilever":
+            raise ValueError(f"twist: 'plate' keeps the cantilever EI and needs calibration = 'cantilever', "
+                             f"got calibration = {self.calibration!r}")
+        return self
 
 
 class DampingConfig(StrictModel):

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from magsail_mj.lattice.geometry import Lattice, make_lattice
+from magsail_mj.lattice.geometry import Lattice, axial_rigidity_from_EI, make_lattice
 from magsail_mj.lattice.properties import (
     clamped_nodes,
     node_masses,
@@ -20,9 +20,12 @@ from magsail_mj.lattice.properties import (
     strut_stiffness,
 )
 from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec
-from magsail_mj.concepts.truss_magnetorquer.config import ActuatorsConfig, TrussConfig, first_cantilever_omega
+from magsail_mj.concepts.truss_magnetorquer.config import (
+    ActuatorsConfig, StiffnessConfig, TrussConfig, first_cantilever_omega,
+)
+from magsail_mj.concepts.truss_magnetorquer.twist import diagonal_struts, twist_scaling
 
-__all__ = ["TrussModel", "make_truss_model", "make_cantilever_model", "actuated_struts"]
+__all__ = ["TrussModel", "make_truss_model", "make_cantilever_model", "actuated_struts", "spring_constants"]
 
 
 @dataclass
@@ -31,7 +34,9 @@ class TrussModel:
 
     ``masses`` (n,) particle masses [kg]; ``k`` (S,) strut spring constants [N/m] (calibrated by
     ``calibration_factor``); ``gamma`` the strut dashpot constant [N s/m]; ``particle_mass_kg``
-    M / n [kg]; ``total_kg`` M [kg]; ``spec`` the MjSpec; ``fixed_nodes`` the clamped nodes.
+    M / n [kg]; ``total_kg`` M [kg]; ``spec`` the MjSpec; ``fixed_nodes`` the clamped nodes;
+    ``twist_diagonal_ratio`` the face diagonals' spring constant per unit EA/l0 over the edges'
+    (1 unless ``stiffness.twist = "plate"``).
     """
 
     lattice: Lattice
@@ -43,6 +48,7 @@ class TrussModel:
     total_kg: float
     spec: mujoco.MjSpec
     fixed_nodes: tuple[int, ...] = ()
+    twist_diagonal_ratio: float = 1.0
 
 
 def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: float = 0.0) -> TrussModel:
@@ -51,7 +57,7 @@ def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: floa
     total = cfg.mass.total_kg if cfg.mass.total_kg is not None else cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
     masses = node_masses(lat, total_kg=total, central_fraction=cfg.mass.central_fraction,
                          point_masses=[(p.node, p.kg) for p in cfg.mass.point_masses])
-    k, c = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_Nm2, calibration=cfg.stiffness.calibration)
+    k, c, ratio = spring_constants(lat, cfg.stiffness)
     m_p = total / lat.n_nodes
     gamma = strut_damping(lat, k, zeta=cfg.damping.zeta_strut, particle_mass_kg=m_p)
     opts = TrussModelOptions(timestep_s=cfg.sim.timestep_s, integrator=cfg.sim.integrator,
@@ -60,7 +66,25 @@ def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: floa
                              node_damping_1_s=node_damping_1_s, name=f"truss_{cfg.scenario}")
     spec = build_truss_spec(lat, masses=masses, stiffness=k, damping=gamma, options=opts)
     return TrussModel(lattice=lat, masses=masses, k=k, gamma=gamma, calibration_factor=c,
-                      particle_mass_kg=m_p, total_kg=total, spec=spec, fixed_nodes=tuple(fixed_nodes))
+                      particle_mass_kg=m_p, total_kg=total, spec=spec, fixed_nodes=tuple(fixed_nodes),
+                      twist_diagonal_ratio=ratio)
+
+
+def spring_constants(lat: Lattice, stiffness: StiffnessConfig) -> tuple[np.ndarray, float, float]:
+    """Strut spring constants [N/m], the overall calibration factor ``c`` and the diagonal ratio ρ.
+
+    ``twist = "lattice"``: ``k_s = c EA / l0_s`` (spec §2.5, §2.7). ``twist = "plate"``:
+    ``k_s = c EA / l0_s · (ρ on face diagonals, 1 on edges)`` with ρ and c of
+    :func:`~magsail_mj.concepts.truss_magnetorquer.twist.twist_scaling` (plate twist frequency,
+    cantilever EI kept).
+    """
+    if stiffness.twist == "lattice":
+        k, c = strut_stiffness(lat, EI_Nm2=stiffness.EI_Nm2, calibration=stiffness.calibration)
+        return k, c, 1.0
+    ts = twist_scaling(lat.units, lat.diagonals, float(stiffness.poisson_ratio))
+    EA = axial_rigidity_from_EI(stiffness.EI_Nm2, nodes_per_side=lat.nodes_per_side, cube_edge_m=lat.cube_edge_m)
+    k = ts.scale * EA / lat.rest_length * np.where(diagonal_struts(lat), ts.ratio, 1.0)
+    return k, ts.scale, ts.ratio
 
 
 def actuated_struts(lat: Lattice, act: ActuatorsConfig, axis: str) -> np.ndarray:

@@ -238,6 +238,8 @@ def orbital_manifest(cfg: TrussConfig, tm: TrussModel, rod: MagnetorquerRodLoad)
         "rod_dipole_Am2": list(rod.m_rod_Am2),
         "rod_dipole_basis": a.rod_dipole_basis,
         "rod_force_pair": a.force_pair,
+        "stiffness_twist": cfg.stiffness.twist,
+        "twist_diagonal_ratio": tm.twist_diagonal_ratio,
         "control_kind": c.kind,
         "control_period_s": c.period_s if c.period_s is not None else cfg.sim.timestep_s,
         "allocation_mode": c.allocation,
