@@ -56,6 +56,10 @@ from scipy.spatial import Delaunay, Voronoi, cKDTree
 
 from magsail_mj.io import atomic_path
 
+#: the selections of the shipped configs, computed once (``scripts/ship_lloyd_selections.py``) and
+#: installed with the package; :class:`LloydSelector` reads them after its own cache, never writes them
+SHIPPED_DIR = Path(__file__).resolve().parent.parent / "data" / "lloyd"
+
 __all__ = [
     "Region",
     "LloydResult",
@@ -442,15 +446,17 @@ def _lloyd_job(args):
     return count, lloyd(count, region=region, seed=seed, tol_rel=tol_rel, max_iter=max_iter)
 
 
-def _read_cache(path: Path | None, read):
+def _read_cache(path: Path | None, read, *, delete_bad: bool = True):
     """``read(path)`` of a cache file, or ``None`` when there is none or it is unreadable, truncated or
-    of the wrong shape; such a file is deleted so that it is computed again and rewritten."""
+    of the wrong shape; such a file is deleted (``delete_bad``) so that it is computed again and
+    rewritten (the shipped, read-only selections are never deleted, only passed over)."""
     if path is None or not path.is_file():
         return None
     try:
         return read(path)
     except (OSError, ValueError, KeyError, EOFError, TypeError, zipfile.BadZipFile):
-        path.unlink(missing_ok=True)
+        if delete_bad:
+            path.unlink(missing_ok=True)
         return None
 
 
@@ -486,6 +492,9 @@ class LloydSelector:
         under a sub-folder named by a hash of (region, seed, tol_rel, max_iter, algorithm
         version), and beside them one ``.npy`` of snapped site indices per (family, count) under
         ``sites_<hash of the family's sites>/`` (the snap is a linear assignment, ~2 ms).
+      shipped_dir: a read-only folder of the same layout consulted after ``cache_dir`` (default
+        :data:`SHIPPED_DIR`, the selections of the shipped configs installed with the package, so
+        a fresh checkout runs them without minutes of Lloyd iterations; ``None``: none).
 
     The families' rods are numbered consecutively (family 0 first), as in
     :class:`magsail_mj.loads.magnetorquer_rods.RodArray`; :meth:`polarity` returns the int8
@@ -493,7 +502,8 @@ class LloydSelector:
     """
 
     def __init__(self, sites: Sequence[np.ndarray], *, region: Sequence[float], seed: int = 0,
-                 tol_rel: float = 1e-6, max_iter: int = 10_000, cache_dir: str | Path | None = None):
+                 tol_rel: float = 1e-6, max_iter: int = 10_000, cache_dir: str | Path | None = None,
+                 shipped_dir: str | Path | None = SHIPPED_DIR):
         self.region = as_region(region)
         _check_lloyd_options(tol_rel, max_iter)
         if int(seed) != seed or seed < 0:
@@ -512,13 +522,14 @@ class LloydSelector:
         self.tol_rel = float(tol_rel)
         self.max_iter = int(max_iter)
         self.cache_dir = None if cache_dir is None else Path(cache_dir) / f"lloyd_{self.cache_key()}"
+        self.shipped_dir = None if shipped_dir is None else Path(shipped_dir) / f"lloyd_{self.cache_key()}"
         self._sites_key = [hashlib.sha256(np.ascontiguousarray(f).tobytes()).hexdigest()[:16]
                            for f in fams]
         self._gen: dict[int, LloydResult] = {}
         self._sel: dict[tuple[int, int], np.ndarray] = {}
         self._global: dict[tuple[int, int], np.ndarray] = {}
         self.stats = {"lloyd_runs": 0, "lloyd_time_s": 0.0, "disk_hits": 0, "snap_time_s": 0.0,
-                      "snap_disk_hits": 0}
+                      "snap_disk_hits": 0, "shipped_hits": 0}
 
     def cache_key(self) -> str:
         """Hash of what the generators depend on (region, seed, tolerance, cap, algorithm)."""
@@ -527,21 +538,33 @@ class LloydSelector:
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
     # -- generators
-    def _disk_path(self, count: int) -> Path | None:
-        return None if self.cache_dir is None else self.cache_dir / f"n{count:05d}.npz"
+    def _disk_path(self, count: int, *, shipped: bool = False) -> Path | None:
+        root = self.shipped_dir if shipped else self.cache_dir
+        return None if root is None else root / f"n{count:05d}.npz"
 
-    def _snap_path(self, family: int, count: int) -> Path | None:
-        if self.cache_dir is None:
-            return None
-        return self.cache_dir / f"sites_{self._sites_key[family]}" / f"n{count:05d}.npy"
+    def _snap_path(self, family: int, count: int, *, shipped: bool = False) -> Path | None:
+        root = self.shipped_dir if shipped else self.cache_dir
+        return None if root is None else root / f"sites_{self._sites_key[family]}" / f"n{count:05d}.npy"
+
+    def _on_disk(self, count: int) -> bool:
+        """Whether the generators of ``count`` are in the cache or among the shipped ones."""
+        paths = (self._disk_path(count), self._disk_path(count, shipped=True))
+        return any(p is not None and p.is_file() for p in paths)
 
     def _snapped(self, family: int, count: int) -> np.ndarray:
         """Snapped selection of ``count`` sites of ``family``: from disk, else snapped and stored."""
         path = self._snap_path(family, count)
-        cached = _read_cache(path, lambda p: _valid_selection(np.load(p, allow_pickle=False), count,
-                                                              self.n_sites[family]))
+
+        def read(p: Path) -> np.ndarray:
+            return _valid_selection(np.load(p, allow_pickle=False), count, self.n_sites[family])
+
+        cached = _read_cache(path, read)
         if cached is not None:
             self.stats["snap_disk_hits"] += 1
+            return cached
+        cached = _read_cache(self._snap_path(family, count, shipped=True), read, delete_bad=False)
+        if cached is not None:
+            self.stats["shipped_hits"] += 1
             return cached
         gen = self.result(count).generators
         t0 = time.perf_counter()
@@ -579,6 +602,11 @@ class LloydSelector:
             self.stats["disk_hits"] += 1
             self._gen[count] = res
             return res
+        res = _read_cache(self._disk_path(count, shipped=True), lambda p: _load_result(p, count), delete_bad=False)
+        if res is not None:
+            self.stats["shipped_hits"] += 1
+            self._gen[count] = res
+            return res
         res = lloyd(count, region=self.region, seed=self.seed, tol_rel=self.tol_rel, max_iter=self.max_iter)
         self.stats["lloyd_runs"] += 1
         self.stats["lloyd_time_s"] += res.time_s
@@ -598,7 +626,7 @@ class LloydSelector:
         # A count equal to every family's size selects all sites and needs no Lloyd run; the
         # largest counts go first so that the worker processes finish together.
         todo = sorted({c for c in wanted if any(c < n for n in self.n_sites)}, reverse=True)
-        todo = [c for c in todo if c not in self._gen and not ((p := self._disk_path(c)) and p.exists())]
+        todo = [c for c in todo if c not in self._gen and not self._on_disk(c)]
         if workers == 1 or len(todo) < 2:
             for c in todo:
                 self.result(c)
