@@ -272,7 +272,7 @@ def _draw_inset(draw: ImageDraw.ImageDraw, inset: Inset, *, box: tuple[float, fl
     ``box`` (x0, y0, x1, y1) [px].
 
     The axes span the whole run (so the curve grows from left to right); the current value is a
-    dot; the frame shows the series name, its range with its unit, and the time span.
+    dot; a line above the box gives the series name, its range with its unit and the time span.
     """
     x0, y0, x1, y1 = box
     t, values, upto = inset.t, inset.values, inset.upto
@@ -294,11 +294,10 @@ def _draw_inset(draw: ImageDraw.ImageDraw, inset: Inset, *, box: tuple[float, fl
         px, py = points[-1]
         draw.ellipse([px - 3, py - 3, px + 3, py + 3], fill=(255, 80, 60))
     readable, unit = series_name_unit(inset.name, names=names, units=units)
-    draw.text((x0 + inner, y0 + inner), f"{readable}: {_number(lo, unit)} … {_number(hi, unit)}",
-              font=font, **ink)
-    span = f"t = {t[0]:.4g} … {t[-1]:.4g} s"
-    size = font.size if hasattr(font, "size") else 10
-    draw.text((x0 + inner, y1 - inner - size), span, font=font, fill=(170, 170, 170))
+    header = f"{readable}: {_number(lo, unit)} … {_number(hi, unit)} over t = {t[0]:.4g} … {t[-1]:.4g} s"
+    size = int(getattr(font, "size", 10))
+    header_font = _fit_font(draw, header, size, 1.5 * (x1 - x0))
+    draw.text((x0, y0 - int(getattr(header_font, "size", size)) - 3), header, font=header_font, **ink)
 
 
 def draw_overlay(image: np.ndarray, *, title: str, time_s: float, ended: bool, values: Sequence[str],
