@@ -1,11 +1,12 @@
 """The performance table of the docs: ``magsail bench`` of one config per concept.
 
-Runs :func:`magsail_mj.bench.bench` (the function behind ``magsail bench``) on the configs of
-:data:`ROWS`, each for its stated simulated duration with ``--repeat`` timed passes (medians), and
-writes into ``--out`` (default ``docs/_static/bench``):
+Runs ``magsail bench`` (``python -m magsail_mj bench``, one process per config, so that
+``peak_rss_mb`` is the config's own) on the configs of :data:`ROWS`, each for its stated simulated
+duration with ``--repeat`` timed passes (medians), and writes into ``--out`` (default
+``docs/_static/bench``):
 
-* ``bench.json`` — every bench object as printed by ``magsail bench``, with the machine's load
-  average before and after;
+* ``bench.json`` — every JSON object ``magsail bench`` printed, with the time and the machine's
+  load average before and after (``--only`` replaces the rows of those concepts, keeps the others);
 * ``bench_table.csv`` — the table that ``docs/performance.md`` includes (``csv-table``).
 
 The docs build only reads these files; rerun this script (minutes) to measure again:
@@ -20,11 +21,10 @@ import argparse
 import csv
 import json
 import os
+import subprocess
 import sys
 import time
 from pathlib import Path
-
-from magsail_mj.bench import bench
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "_static" / "bench"
@@ -55,6 +55,16 @@ def table_row(concept: str, config: str, r: dict) -> list[str]:
             _top_parts(r["parts_us"])]
 
 
+def run_bench(config: str, duration_s: float, repeat: int) -> dict:
+    """The JSON object of ``magsail bench CONFIG --duration-s T --repeat N`` (a fresh process)."""
+    cmd = [sys.executable, "-m", "magsail_mj", "bench", str(ROOT / config), "--duration-s", repr(duration_s),
+           "--repeat", str(repeat)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{config}: magsail bench exited {proc.returncode}: {proc.stderr.strip()}")
+    return json.loads(proc.stdout)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", type=Path, default=OUT, help="folder of bench.json and bench_table.csv")
@@ -64,22 +74,26 @@ def main(argv: list[str] | None = None) -> int:
     if args.repeat < 1:
         ap.error(f"--repeat: must be >= 1, got {args.repeat}")
     rows = [r for r in ROWS if not args.only or r[0] in args.only]
-    load_before = os.getloadavg()
-    results = []
+    results = {}
     for concept, config, duration in rows:
         t0 = time.perf_counter()
-        r = bench(ROOT / config, duration_s=duration, repeat=args.repeat)
+        load_before = os.getloadavg()
+        r = run_bench(config, duration, args.repeat)
         print(f"{concept}: {r['us_per_step']:.3g} µs/step, {r['ratio_to_mj_step']:.2f}× mj_step "
               f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
-        results.append({"concept": concept, "config": config, **r})
+        results[concept] = {"concept": concept, **r, "config": config, "repeat": args.repeat,
+                            "measured": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                            "load_average_before": load_before, "load_average_after": os.getloadavg()}
     args.out.mkdir(parents=True, exist_ok=True)
-    doc = {"measured": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "repeat": args.repeat,
-           "load_average_before": load_before, "load_average_after": os.getloadavg(), "rows": results}
-    (args.out / "bench.json").write_text(json.dumps(doc, indent=1) + "\n")
+    path = args.out / "bench.json"
+    if args.only and path.is_file():    # keep the rows of the concepts not measured now
+        results = {**{r["concept"]: r for r in json.loads(path.read_text())["rows"]}, **results}
+    ordered = [results[c] for c, _, _ in ROWS if c in results]
+    path.write_text(json.dumps({"rows": ordered}, indent=1) + "\n")
     with (args.out / "bench_table.csv").open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(HEADER)
-        for res in results:
+        for res in ordered:
             w.writerow(table_row(res["concept"], res["config"], res))
     print(str(args.out / "bench_table.csv"))
     return 0
