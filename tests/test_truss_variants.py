@@ -15,6 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from scipy.spatial.transform import Rotation
 
 from magsail_mj.export import read_timeseries
 from magsail_mj.run import run_scenario
@@ -22,11 +23,14 @@ from magsail_mj.config import ConfigError, apply_overrides, parse_config
 from magsail_mj.concepts.truss_magnetorquer.force_pair import (
     VariantPairRodLoad, couple_sign, pair_forces, printed_pair_forces,
 )
+from magsail_mj.concepts.truss_magnetorquer.metrics import (
+    dashpot_matrix, modal_damping_ratios, modal_energies, surface_twist_share,
+)
 from magsail_mj.concepts.truss_magnetorquer.model import make_truss_model
 from magsail_mj.concepts.truss_magnetorquer.twist import (
     diagonal_struts, first_twist_mode, low_modes, plate_twist_lambda, plate_twist_omega, twist_shares,
 )
-from magsail_mj.lattice.geometry import make_lattice
+from magsail_mj.lattice.geometry import make_lattice, stiffness_matrix
 from magsail_mj.lattice.modes import lattice_modes
 from magsail_mj.lattice.properties import cantilever_linear, strut_stiffness
 from magsail_mj.loads.base import StepState
@@ -246,3 +250,73 @@ def test_plate_twist_variant_matches_the_plate_and_keeps_EI(diagonals):
     assert per_unit[diag][0] / per_unit[~diag][0] == pytest.approx(tm.twist_diagonal_ratio, rel=1e-12)
     with pytest.raises(ConfigError, match="twist"):
         parse_config(apply_overrides(copy.deepcopy(tree), ["stiffness.twist=plate", "stiffness.calibration=formula"]))
+
+
+# ----------------------------------------------------------------------------------- modal metrics
+
+def _small_modes(n_elastic=8):
+    lat = make_lattice(units=4, side_m=16.0)
+    k, _ = strut_stiffness(lat, EI_Nm2=50.0, calibration="cantilever")
+    m = np.full(lat.n_nodes, 0.3)
+    return lat, k, m, low_modes(lat.nodes, lat.struts, k, m, n_elastic=n_elastic)
+
+
+def test_modal_damping_ratios_of_rayleigh_damping():
+    """C = αM + βK gives ζ_n = α/(2ω_n) + βω_n/2 (1e-9 relative); strut dashpots γ_s = β k_s are
+    C = βK, so ζ_n = βω_n/2; the shipped truss's uniform γ gives ratios that the same formula
+    with the edge stiffness bounds (the diagonals are stiffer per unit γ)."""
+    lat, k, m, modes = _small_modes()
+    omega, phi = modes.elastic(8)
+    K = stiffness_matrix(lat.nodes, lat.struts, k)
+    M = np.diag(np.repeat(m, 3))
+    alpha, beta = 1e-3, 0.02
+    np.testing.assert_allclose(modal_damping_ratios(omega, phi, alpha * M + beta * K.toarray()),
+                               alpha / (2 * omega) + beta * omega / 2, rtol=1e-9)
+    np.testing.assert_allclose(modal_damping_ratios(omega, phi, dashpot_matrix(lat.nodes, lat.struts, beta * k)),
+                               beta * omega / 2, rtol=1e-9)
+    gamma = 0.05
+    zeta = modal_damping_ratios(omega, phi, dashpot_matrix(lat.nodes, lat.struts, gamma))
+    assert np.all(zeta > 0)
+    assert np.all(zeta <= gamma / k.min() * omega / 2 * (1 + 1e-9))
+    assert np.all(zeta >= gamma / k.max() * omega / 2 * (1 - 1e-9))
+
+
+def test_modal_energies_recover_mode_amplitudes_under_rigid_motion():
+    """x = R (p + Σ a_n φ_n) + d: the energies are ½ ω_n² a_n² (2e-5 relative, the best fit's
+    second-order coupling at these amplitudes) for any rigid R, d."""
+    lat, k, m, modes = _small_modes()
+    omega, phi = modes.elastic(5)
+    a = np.array([3e-3, -2e-3, 1e-3, 5e-4, -4e-3]) * np.sqrt(m.sum())
+    x_body = lat.nodes + (phi @ a).reshape(-1, 3)
+    R = Rotation.from_rotvec([0.4, -1.1, 0.7]).as_matrix()
+    x = x_body @ R.T + np.array([3.0, -2.0, 7.0])
+    np.testing.assert_allclose(modal_energies(lat.nodes, x, m, omega, phi), 0.5 * omega**2 * a**2, rtol=2e-5)
+
+
+def test_surface_twist_share():
+    """A pure saddle uv has share 1, the other saddle u² − v² share 0 (1e-12), a mix the energy
+    fraction of its uv part; the sign and the amplitude do not matter."""
+    g = np.linspace(-1.0, 1.0, 9)
+    u, v = (a.ravel() for a in np.meshgrid(g, g))
+    s = u * v
+    c = u**2 - v**2
+    assert surface_twist_share(np.column_stack([u, v, -3e-3 * s])) == pytest.approx(1.0, abs=1e-12)
+    assert surface_twist_share(np.column_stack([u, v, 2.0 * c])) == pytest.approx(0.0, abs=1e-12)
+    w = 2.0 * s + 1.0 * (c - c.mean())
+    want = 4.0 * np.sum(s**2) / (4.0 * np.sum(s**2) + np.sum((c - c.mean()) ** 2))
+    assert surface_twist_share(np.column_stack([u, v, w])) == pytest.approx(want, rel=1e-12)
+
+
+def test_orbital_run_reports_the_modal_keys(tmp_path):
+    """A 2 s detumble of the small truss reports five modal frequencies equal to the lattice's
+    modes (1e-9), damping ratios from the run's γ, energies at max SD and the twist share."""
+    cfg = small_orbital()
+    summary = run_scenario(cfg, tmp_path / "run")
+    tm = make_truss_model(cfg)
+    modes = low_modes(tm.lattice.nodes, tm.lattice.struts, tm.k, tm.masses, n_elastic=5)
+    omega, phi = modes.elastic(5)
+    np.testing.assert_allclose(summary["modal_omega_first5_rad_s"], omega, rtol=1e-9)
+    C = dashpot_matrix(tm.lattice.nodes, tm.lattice.struts, tm.gamma)
+    np.testing.assert_allclose(summary["modal_damping_ratio_first5"], modal_damping_ratios(omega, phi, C), rtol=1e-9)
+    assert len(summary["modal_energy_at_max_sd_J"]) == 5 and min(summary["modal_energy_at_max_sd_J"]) >= 0
+    assert 0.0 <= summary["twist_share_at_max_sd"] <= 1.0

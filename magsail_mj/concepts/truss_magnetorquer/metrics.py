@@ -20,13 +20,17 @@ from magsail_mj.concepts.truss_magnetorquer.surface_angle import local_surface_a
 from magsail_mj.control.profiles import torque_profile
 from magsail_mj.environment.frames import lvlh_frame
 from magsail_mj.estimation.attitude import best_fit_rotation, body_rates, euler_zyx, particle_inertia
+from magsail_mj.lattice.geometry import stiffness_matrix
 from magsail_mj.lattice.trajectory import NodeTrajectory, as_trajectory
 from magsail_mj.lattice.properties import cantilever_linear, loaded_nodes, strut_stiffness
 from magsail_mj.concepts.truss_magnetorquer.config import ProfileConfig
 from magsail_mj.concepts.truss_magnetorquer.model import TrussModel
+from magsail_mj.concepts.truss_magnetorquer.twist import low_modes, twist_shares
 from magsail_mj.sim import RunResult
 
-__all__ = ["common_summary", "dynamic_summary", "profile_response", "cantilever_summary", "lvlh_attitude",
+__all__ = ["common_summary", "dashpot_matrix", "modal_damping_ratios", "modal_energies", "surface_twist_share",
+           "modal_keys", "N_MODES_REPORTED", "surface_uvw", "dynamic_summary", "profile_response",
+           "cantilever_summary", "lvlh_attitude",
            "rigid_response", "PROFILE_AXES"]
 
 PROFILE_AXES = {"x1": 0, "y1": 1, "z1": 2}
@@ -45,6 +49,71 @@ def rigid_response(kind: str, t: np.ndarray, *, tau_max: float, t_end: float, t_
     w = cumulative_trapezoid(tau / inertia, tf, initial=0.0)
     phi = cumulative_trapezoid(w, tf, initial=0.0)
     return np.interp(t, tf, phi), np.interp(t, tf, w)
+
+
+N_MODES_REPORTED = 5
+"""Elastic modes in the modal summary keys (``modal_*_first5``, ``modal_energy_at_max_sd_J``)."""
+
+
+def dashpot_matrix(nodes: np.ndarray, struts: np.ndarray, gamma: float | np.ndarray):
+    """(3n, 3n) sparse damping matrix ``C`` of axial strut dashpots ``γ_s (ṙ·ê) ê`` linearised
+    about ``nodes``: the stiffness-matrix assembly with ``γ`` in place of ``k`` [N s/m]."""
+    g = np.broadcast_to(np.asarray(gamma, dtype=float), (np.asarray(struts).shape[0],))
+    return stiffness_matrix(np.asarray(nodes, dtype=float), np.asarray(struts), g)
+
+
+def modal_damping_ratios(omega: np.ndarray, phi: np.ndarray, C) -> np.ndarray:
+    """ζ_n = φ_nᵀ C φ_n / (2 ω_n) of mass-normalised modes (``phi`` (3n, K), ``omega`` (K,) > 0
+    [rad/s]) under the damping matrix ``C`` (3n × 3n, dense or sparse) [N s/m]: the damping ratio
+    each mode has when the off-diagonal modal damping is neglected (exact for proportional ``C``)."""
+    phi = np.asarray(phi, dtype=float)
+    c_nn = np.einsum("ij,ij->j", phi, np.asarray(C @ phi))
+    return c_nn / (2.0 * np.asarray(omega, dtype=float))
+
+
+def modal_energies(nodes: np.ndarray, x: np.ndarray, masses: np.ndarray, omega: np.ndarray,
+                   phi: np.ndarray) -> np.ndarray:
+    """Strain energy ``½ ω_n² q_n²`` [J] of each mass-normalised mode in the shape ``x`` (n, 3) [m].
+
+    The deformation is taken in the best-fit body frame (§4.1, ``x ≈ R p + d``):
+    ``δ_i = Rᵀ (x_i − d) − p_i``, and ``q_n = φ_nᵀ M δ`` (``M`` = diag of ``masses`` [kg]). For a
+    small deformation the energies of all modes add up to the lattice's strain energy.
+    """
+    R, d = best_fit_rotation(nodes, x)
+    delta = ((np.asarray(x) - d) @ R - nodes).ravel()
+    q = (np.repeat(np.asarray(masses, dtype=float), 3) * delta) @ phi
+    return 0.5 * np.asarray(omega) ** 2 * q**2
+
+
+def surface_twist_share(uvw: np.ndarray) -> float:
+    """Share of the top layer's out-of-plane mean square (σ_SD²) in the twist saddle ``u v``.
+
+    ``uvw`` (N², 3): the nodes in the average-plane frame (``u, v`` in plane along the projected
+    body x1, y1 [m]; ``w`` the height, zero mean). With ``s = u v − mean(u v)``:
+    ``share = (Σ w s)² / (Σ w² Σ s²)`` ∈ [0, 1] (1 for a pure twist, 0 for a shape orthogonal to it).
+    """
+    u, v, w = (np.asarray(uvw, dtype=float)[:, i] for i in range(3))
+    s = u * v - np.mean(u * v)
+    den = float(np.sum(w * w) * np.sum(s * s))
+    return float(np.sum(w * s) ** 2 / den) if den > 0 else float("nan")
+
+
+def modal_keys(tm: TrussModel, x_at_max: np.ndarray | None) -> dict[str, Any]:
+    """Modal summary keys of a free lattice: frequencies [rad/s] and damping ratios (the strut
+    dashpots ``γ`` of the run) of the first five elastic modes, their twist shares and, with the
+    node positions ``x_at_max`` (n, 3) at the time of maximum σ_SD, their strain energies [J]."""
+    lat = tm.lattice
+    modes = low_modes(lat.nodes, lat.struts, tm.k, tm.masses, n_elastic=N_MODES_REPORTED)
+    omega, phi = modes.elastic(N_MODES_REPORTED)
+    zeta = modal_damping_ratios(omega, phi, dashpot_matrix(lat.nodes, lat.struts, tm.gamma))
+    out: dict[str, Any] = {
+        "modal_omega_first5_rad_s": omega.tolist(),
+        "modal_damping_ratio_first5": zeta.tolist(),
+        "modal_twist_share_first5": twist_shares(phi, lat.nodes, tm.masses).tolist(),
+    }
+    if x_at_max is not None:
+        out["modal_energy_at_max_sd_J"] = modal_energies(lat.nodes, x_at_max, tm.masses, omega, phi).tolist()
+    return out
 
 
 def common_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *, max_strain: float,
@@ -86,8 +155,17 @@ def common_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: Run
         "stiffness_calibration_factor": float(tm.calibration_factor),
         "wall_time_s": float(result.wall_time_s),
     }
+    summary.update(modal_keys(tm, as_trajectory(pos).at(kmax) if t.size else None))
     series = {"surface_sd_m": sd, "strain_energy_J": energy, "strut_strain_max": fail["max_abs_strain"]}
     return summary, series
+
+
+def surface_uvw(top: np.ndarray, ang: Any) -> np.ndarray:
+    """(N², 3) top-layer nodes ``top`` [m] in the average-plane frame of the surface angle ``ang``
+    (:func:`~magsail_mj.concepts.truss_magnetorquer.surface_angle.local_surface_angle`): ``u, v``
+    along its in-plane axes, ``w`` along its normal, from its centroid [m]."""
+    rel = np.asarray(top) - ang.centroid
+    return np.stack([rel @ ang.e_u, rel @ ang.e_v, rel @ ang.normal], axis=1)
 
 
 def dynamic_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *, omega0_body: np.ndarray,
@@ -122,10 +200,11 @@ def dynamic_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: Ru
         "I_kgm2": inertia.moments.tolist(),
     })
     kmax = int(np.nanargmax(series["surface_sd_m"]))
-    ang = local_surface_angle(as_trajectory(pos).at(kmax)[lat.top_nodes], R[kmax],
-                              nodes_per_side=lat.nodes_per_side)
+    top = as_trajectory(pos).at(kmax)[lat.top_nodes]
+    ang = local_surface_angle(top, R[kmax], nodes_per_side=lat.nodes_per_side)
     series.update(surface_angle_map_rad=ang.alpha, surface_angle_u_m=ang.u, surface_angle_v_m=ang.v)
     summary.update({
+        "twist_share_at_max_sd": surface_twist_share(surface_uvw(top, ang)),
         "surface_angle_median_rad": float(ang.median), "surface_angle_p95_rad": float(ang.p95),
         "surface_angle_max_rad": float(ang.max), "surface_angle_edge_max_rad": float(ang.edge_max),
     })

@@ -60,7 +60,9 @@ from magsail_mj.concepts.truss_magnetorquer.config import (
     TrussControlConfig,
 )
 from magsail_mj.concepts.truss_magnetorquer.force_pair import VariantPairRodLoad
-from magsail_mj.concepts.truss_magnetorquer.metrics import PROFILE_AXES, common_summary, lvlh_attitude
+from magsail_mj.concepts.truss_magnetorquer.metrics import (
+    PROFILE_AXES, common_summary, lvlh_attitude, surface_twist_share, surface_uvw,
+)
 from magsail_mj.concepts.truss_magnetorquer.model import TrussModel
 from magsail_mj.sim import RunResult
 from magsail_mj.vec3 import cross3, moment_sum
@@ -396,9 +398,9 @@ def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: NodeTrajectory | np.n
     kmax = int(np.nanargmax(series["surface_sd_m"]))
     at_max = as_trajectory(pos).at(kmax)[lat.top_nodes]
     ang = local_surface_angle(at_max, R[kmax], nodes_per_side=lat.nodes_per_side)
-    top = at_max - ang.centroid
+    uvw = surface_uvw(at_max, ang)
     series.update(surface_angle_map_rad=ang.alpha, surface_angle_u_m=ang.u, surface_angle_v_m=ang.v,
-                  shape_at_max_sd_uvw_m=np.stack([top @ ang.e_u, top @ ang.e_v, top @ ang.normal], axis=1))
+                  shape_at_max_sd_uvw_m=uvw)
     inertia = particle_inertia(lat.nodes, tm.masses)
     B_body = rec["B_body_T"]
     m_rod = rod.m_rod_Am2
@@ -414,6 +416,7 @@ def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: NodeTrajectory | np.n
         "surface_angle_median_rad": float(ang.median), "surface_angle_p95_rad": float(ang.p95),
         "surface_angle_max_rad": float(ang.max), "surface_angle_edge_max_rad": float(ang.edge_max),
         "edge_angle_max_deg": math.degrees(float(ang.edge_max)),
+        "twist_share_at_max_sd": surface_twist_share(uvw),
         "surface_sd_period_s": dominant_period(t, series["surface_sd_m"]),
         "I_kgm2": inertia.moments.tolist(),
         "rod_dipole_Am2": list(m_rod),
