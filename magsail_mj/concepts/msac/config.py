@@ -27,7 +27,8 @@ from magsail_mj.config import (
 from magsail_mj.concepts.msac.cycle import CyclePath
 from magsail_mj.concepts.msac.drive import steps_per_cycle
 
-__all__ = ["MsacConfig", "BusConfig", "WingsConfig", "CycleConfig", "DriveConfig", "PostConfig", "MsacRenderConfig",
+__all__ = ["MsacConfig", "BusConfig", "WingsConfig", "CycleConfig", "DriveConfig", "ActuatorsConfig", "PostConfig",
+           "MsacRenderConfig",
            "SweepConfig", "PAPER_VALUES", "PLACEHOLDERS", "make_path", "point_config", "flatten_keys"]
 
 Vec3 = tuple[float, float, float]
@@ -42,11 +43,14 @@ PAPER_VALUES: dict[str, Any] = {
     "cycle.extension_frac": 0.01,
     "cycle.contraction_frac": 0.0,
     "sim.duration_s": 600.0,
+    "actuators.chip_force_N": 200.0,
+    "actuators.slide_chips": 4,
+    "actuators.hinge_chips": 2,
 }
 PLACEHOLDERS = ("bus.mass_kg", "bus.size_m", "bus.inertia_scale", "wings.thickness_m",
                 "wings.areal_density_kg_m2", "wings.hinge_offset_m", "cycle.bend_b_deg",
                 "cycle.phase_fractions", "cycle.blend", "wings.slide_stiffness_N_m",
-                "wings.root_mass_kg", "wings.root_inertia_kg_m2")
+                "wings.root_mass_kg", "wings.root_inertia_kg_m2", "actuators.hinge_lever_arm_m")
 
 
 
@@ -116,17 +120,60 @@ class CycleConfig(StrictModel):
 
 
 class DriveConfig(StrictModel):
-    """``[drive]`` (spec §5.3–5.4): ``replay`` = native rollout of a recorded settled
-    computed-torque cycle plus joint servos; ``computed_torque`` = Python loop per step.
-    ``momentum_projection``: zero the total momentum every ``chunk_cycles`` cycles, removing
-    RK4's drift (see :mod:`magsail_mj.concepts.msac.runner`)."""
+    """``[drive]`` (spec §5.3–5.4): ``held_torque`` = native rollout of the settled
+    computed-torque cycle's torques, each held over its step, with a once-per-cycle trim and no
+    servos (momentum conserved to round-off, :mod:`magsail_mj.concepts.msac.drive`); ``replay`` =
+    the same torques plus joint servos, which leak momentum under RK4; ``computed_torque`` =
+    Python loop per step. ``momentum_projection``: zero the total momentum every
+    ``chunk_cycles`` cycles (see :mod:`magsail_mj.concepts.msac.runner`); unset = on for
+    ``replay`` only (:attr:`projection`)."""
 
-    method: Literal["replay", "computed_torque"] = "replay"
+    method: Literal["replay", "computed_torque", "held_torque"] = "replay"
     omega_c_dt: float = Field(default=0.2, gt=0, le=1.0)
     servo_omega_dt: float = Field(default=0.05, gt=0, le=0.5)
     calibration_cycles: int = Field(default=3, ge=2)
     chunk_cycles: int = Field(default=200, ge=1)
-    momentum_projection: bool = True
+    momentum_projection: bool | None = None
+
+    @property
+    def projection(self) -> bool:
+        """Whether the runner projects the momentum: ``momentum_projection``, or when unset, on
+        for the servo ``replay`` (its leak) and off for the torque drives (which conserve it)."""
+        return self.method == "replay" if self.momentum_projection is None else self.momentum_projection
+
+
+class ActuatorsConfig(StrictModel):
+    r"""``[actuators]``: what the shape-joint actuators of one wing can deliver (the paper's
+    piezo drive, spec §4), to judge the demand of the prescribed motion.
+
+    The paper's simple actuator embeds four multilayer piezo chips (extension only, 200 N peak
+    each) in a bar: all four extend it (``slide_chips = 4``), two adjacent ones bend it
+    (``hinge_chips = 2``). The bending chips act at ``hinge_lever_arm_m`` from the bar's
+    neutral axis (not in the paper: placeholder, half the 3 cm panel thickness). A lever of
+    ``amplification`` ``a`` multiplies the stroke by ``a`` and divides the force by ``a`` (the
+    paper's amplified actuator: ``a ≈ 50``). ``units`` actuators act in parallel on each joint.
+
+    .. math::
+        F_{max} = \frac{n_{units}\, n_{slide}\, F_{chip}}{a}, \qquad
+        τ_{max} = \frac{n_{units}\, n_{hinge}\, F_{chip}\, r_{arm}}{a}
+    """
+
+    chip_force_N: float = Field(default=200.0, gt=0)
+    slide_chips: int = Field(default=4, ge=1)
+    hinge_chips: int = Field(default=2, ge=1)
+    hinge_lever_arm_m: float = Field(default=0.015, gt=0)
+    amplification: float = Field(default=1.0, gt=0)
+    units: int = Field(default=1, ge=1)
+
+    @property
+    def slide_force_max_N(self) -> float:
+        """Force capacity of one wing's slide [N] (class docs)."""
+        return self.units * self.slide_chips * self.chip_force_N / self.amplification
+
+    @property
+    def hinge_torque_max_N_m(self) -> float:
+        """Torque capacity of one wing's hinge [N m] (class docs)."""
+        return self.units * self.hinge_chips * self.chip_force_N * self.hinge_lever_arm_m / self.amplification
 
 
 class PostConfig(StrictModel):
@@ -188,6 +235,7 @@ class MsacConfig(StrictModel):
     wings: WingsConfig = WingsConfig()
     cycle: CycleConfig = CycleConfig()
     drive: DriveConfig = DriveConfig()
+    actuators: ActuatorsConfig = ActuatorsConfig()
     post: PostConfig = PostConfig()
     render: MsacRenderConfig = MsacRenderConfig()
     sweep: SweepConfig | None = None

@@ -37,6 +37,7 @@ __all__ = [
     "lowpass",
     "filtered_rate",
     "omega_world",
+    "max_cycle_rate",
 ]
 
 
@@ -160,3 +161,42 @@ def filtered_rate(t: np.ndarray, omega_f: np.ndarray, *, edge_s: float) -> float
     if not keep.any():
         raise ValueError(f"edge_s: {edge_s} s leaves no samples of a {t[-1] - t[0]:g} s series")
     return float(w[keep].mean())
+
+
+def max_cycle_rate(force: np.ndarray, static: np.ndarray, capacity: np.ndarray, *, rate_hz: float) -> float:
+    r"""Largest cycle rate [Hz] at which a prescribed path's actuator demand stays within capacity.
+
+    Traversing a fixed path ``q(τ)``, ``τ = f t``, at rate ``f`` scales every velocity with
+    ``f`` and every acceleration with ``f²``; with zero momentum the bus's motion is fixed by the
+    shape's, so the inertial and velocity-product joint forces scale with ``g = (f/f_0)²``. A
+    spring force depends on ``q`` only. From samples of the demand at rate ``f_0``,
+
+    .. math::
+        F(t; f) = (F_0(t) − S(t))\, g + S(t), \qquad |F(t; f)| \le C ,
+
+    bounds ``g`` to an interval for each sample (all of ``g ≥ 0`` when its inertial part is zero
+    and ``|S| ≤ C``, none when ``|S| > C``); their intersection is an interval
+    ``[g_lo, g_hi]`` and the result is ``f_0 √g_hi`` (``inf`` when unbounded, 0 when empty).
+
+    Args:
+      force: (T, J) demand ``F_0`` of each joint at the sampled times, at rate ``rate_hz``.
+      static: (T, J) its rate-independent part ``S`` (e.g. the slide spring force).
+      capacity: (J,) ``C > 0`` of each joint.
+      rate_hz: ``f_0`` [Hz].
+    """
+    F, S = np.asarray(force, dtype=float), np.asarray(static, dtype=float)
+    C = np.broadcast_to(np.asarray(capacity, dtype=float), F.shape[-1:])
+    if F.ndim != 2 or S.shape != F.shape:
+        raise ValueError(f"force, static: expected equal shapes (T, J), got {F.shape}, {S.shape}")
+    if not (np.all(C > 0) and rate_hz > 0):
+        raise ValueError(f"capacity, rate_hz: must be > 0, got {C.tolist()}, {rate_hz!r}")
+    a, b = F - S, S
+    if np.any(np.abs(b[a == 0]) > np.broadcast_to(C, F.shape)[a == 0]):
+        return 0.0
+    nz = a != 0
+    ends = np.stack([(-C - b)[nz] / a[nz], (C - b)[nz] / a[nz]])
+    lo = float(max(0.0, ends.min(axis=0).max(initial=0.0)))
+    hi = float(ends.max(axis=0).min(initial=np.inf))
+    if lo > hi:
+        return 0.0
+    return float(rate_hz * np.sqrt(hi))

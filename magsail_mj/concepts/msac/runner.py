@@ -28,13 +28,19 @@ vectorised:
   projection at chunk boundaries (``run_momentum_projection_*``, see :meth:`MsacRunner._project`).
 
 Angular momentum. The exact dynamics conserve the total momentum (every drive force is an
-internal joint force), and the computed-torque loop keeps it to round-off (measured drift
-7·10⁻⁸ N m s per simulated second). With the joint servos of the replay, RK4 lets it drift
-steadily: measured 0.08 N m s per simulated second at δt = 5 µs (0.01 at δt/2), i.e. about
-2·10⁻⁸ of the momentum the wings exchange with the bus each stroke, but over 600 s it would add
-a spurious bus rate of ~0.5 % of the secular rate. The runner therefore projects the state back
-onto zero total momentum at every chunk boundary (every ``chunk_cycles`` cycles, default 0.2 s)
-and reports how much it removed.
+internal joint force). The computed-torque loop and ``method="held_torque"`` (native rollout of
+held torques, trimmed once per cycle, see :mod:`magsail_mj.concepts.msac.drive`) apply only
+forces held over each step and keep it to round-off (measured ~2·10⁻⁹ N m s per cycle, 2·10⁻⁶
+per simulated second). With the joint servos of the replay, RK4 lets it drift steadily:
+measured 0.08 N m s per simulated second at δt = 5 µs, i.e. about 2·10⁻⁸ of the momentum the
+wings exchange with the bus each stroke, but over 600 s it would add a spurious bus rate of
+~0.5 % of the secular rate. For the replay the runner therefore projects the state back onto
+zero total momentum at every chunk boundary (every ``chunk_cycles`` cycles, default 0.2 s) and
+reports how much it removed; the stroboscopic series keeps the momentum at every cycle start
+(``strobe_angmom_N_m_s``) for the spurious-yaw estimate of the summary.
+
+Actuator demand: the running sums of the squared joint forces give their RMS
+(``run_joint_force_rms``, per joint, over every step).
 
 The ``records`` go to a :class:`~magsail_mj.records.Recorder` (chunk buffers, streamed to the
 run's Zarr store when :meth:`MsacRunner.run` is given ``records_path``); the other series are
@@ -67,7 +73,8 @@ import numpy as np
 from magsail_mj.concepts.msac.metrics import lowpass
 from magsail_mj.concepts.msac.cycle import CyclePath, cycle_state
 from magsail_mj.concepts.msac.drive import (
-    ComputedTorque, desired_shape, replay_table, servo_rates, set_initial_state, steps_per_cycle,
+    ComputedTorque, HeldTorqueTable, desired_shape, held_torque_table, replay_table, servo_rates, set_initial_state,
+    shape_vector, steps_per_cycle,
 )
 from magsail_mj.checkpoint import (
     CheckpointError, StateWalker, check_identity, read_checkpoint, restore_state, run_identity, write_checkpoint,
@@ -84,6 +91,8 @@ __all__ = ["MsacRunner", "StaticRunner"]
 _FP = mujoco.mjtState.mjSTATE_FULLPHYSICS
 #: the variables of the records (``t`` first)
 RECORD_NAMES = ["t", "qpos", "qvel", "omega_world_rad_s", "angmom_N_m_s", "joint_force", "phase"]
+#: the drive methods (``drive.method``)
+METHODS = ("replay", "computed_torque", "held_torque")
 
 
 @dataclass
@@ -104,6 +113,8 @@ class _Acc:
     hinge_peak: float = 0.0
     slide_peak: float = 0.0
     track_max: np.ndarray = field(default_factory=lambda: np.zeros(4))
+    frc_sq_sum: np.ndarray = field(default_factory=lambda: np.zeros(4))
+    frc_count: int = 0
     proj_sum: np.ndarray = field(default_factory=lambda: np.zeros(6))
     proj_max: float = 0.0
     proj_count: int = 0
@@ -121,7 +132,8 @@ class MsacRunner:
       model: compiled MSAC model (owned by the runner; ``opt`` is used as set).
       path: the prescribed cycle.
       duration_s: simulated time [s].
-      method: ``replay`` (native rollout) or ``computed_torque`` (Python per step).
+      method: ``held_torque`` (native rollout of held torques, trimmed once per cycle),
+        ``replay`` (native rollout with joint servos) or ``computed_torque`` (Python per step).
       record_every: record decimation [steps].
       omega_c_dt: computed-torque bandwidth ``ω_c δt``.
       calibration_cycles: computed-torque cycles before the replay table is taken.
@@ -137,7 +149,7 @@ class MsacRunner:
     model: mujoco.MjModel
     path: CyclePath
     duration_s: float
-    method: Literal["replay", "computed_torque"] = "replay"
+    method: Literal["replay", "computed_torque", "held_torque"] = "replay"
     record_every: int = 200
     omega_c_dt: float = 0.2
     calibration_cycles: int = 3
@@ -154,8 +166,8 @@ class MsacRunner:
     streams_records = True
 
     def __post_init__(self) -> None:
-        if self.method not in ("replay", "computed_torque"):
-            raise ValueError(f"method: must be 'replay' or 'computed_torque', got {self.method!r}")
+        if self.method not in METHODS:
+            raise ValueError(f"method: must be one of {list(METHODS)}, got {self.method!r}")
         if int(self.record_every) != self.record_every or self.record_every < 1:
             raise ValueError(f"record_every: must be an integer >= 1, got {self.record_every!r}")
         if int(self.chunk_cycles) != self.chunk_cycles or self.chunk_cycles < 1:
@@ -218,12 +230,15 @@ class MsacRunner:
         acc.drift_z_max = max(acc.drift_z_max, float(np.abs(dL[:, 2]).max()))
         acc.hinge_peak = max(acc.hinge_peak, float(np.abs(frc[:, [0, 2]]).max()))
         acc.slide_peak = max(acc.slide_peak, float(np.abs(frc[:, [1, 3]]).max()))
+        acc.frc_sq_sum = acc.frc_sq_sum + (frc * frc).sum(axis=0)
+        acc.frc_count += n
         err = np.abs(qpos[:, ix["qpos"]] - self.q_des_cycle[steps % self.N])
         acc.track_max = np.maximum(acc.track_max, err.max(axis=0))
 
         sel = steps % self.N == 0
         if sel.any():
-            acc.add(acc.strobe, strobe_t=t[sel], strobe_quat=qpos[sel, 3:7], strobe_shape=qpos[sel][:, ix["qpos"]])
+            acc.add(acc.strobe, strobe_t=t[sel], strobe_quat=qpos[sel, 3:7], strobe_shape=qpos[sel][:, ix["qpos"]],
+                    strobe_angmom_N_m_s=L[sel])
         sel = steps % self.record_every == 0
         if sel.any():
             self.recorder.extend(dict(t=t[sel], qpos=qpos[sel], qvel=qvel[sel], omega_world_rad_s=w_world[sel],
@@ -372,6 +387,11 @@ class MsacRunner:
                 self.table = replay_table(m, self.path, omega_c_dt=self.omega_c_dt,
                                           calibration_cycles=self.calibration_cycles)
             return self.table.ctrl
+        if self.method == "held_torque":
+            if self.table is None:
+                self.table = held_torque_table(m, self.path, omega_c_dt=self.omega_c_dt,
+                                               calibration_cycles=self.calibration_cycles)
+            return self.table.ctrl
         if self._ct is None:
             self._ct = ComputedTorque(m, self.path, omega_c_dt=self.omega_c_dt)
         cyc_ctrl = np.zeros((self.N, self.nu))
@@ -432,8 +452,8 @@ class MsacRunner:
         st_buf = np.empty((1, chunk, self.nstate))
         sd_buf = np.empty((1, chunk, m.nsensordata))
         pool = mj_rollout.Rollout(nthread=0)
-        if self.method == "computed_torque":
-            m.opt.disableactuator |= 1 << 1     # computed torque alone: servos off
+        if self.method != "replay":
+            m.opt.disableactuator |= 1 << 1     # computed or held torque alone: servos off
         try:
             while k < stop_step:
                 n = min(chunk - k % chunk, stop_step - k)
@@ -445,6 +465,8 @@ class MsacRunner:
                     pool.rollout(m, data, state[None], ctrl[None], state=st, sensordata=sd)
                     post = st[0]
                     sens = sd[0]
+                elif self.method == "held_torque":
+                    ctrl, post, sens = self._held_segment(pool, state, k, ctrl)
                 else:
                     post = np.empty((n, self.nstate))
                     sens = np.empty((n, m.nsensordata))
@@ -494,10 +516,34 @@ class MsacRunner:
                 self.status = "completed"
         finally:
             pool.close()
-            if self.method == "computed_torque":
+            if self.method != "replay":
                 m.opt.disableactuator &= ~(1 << 1)
             self.step_index, self._state = k, state
             self._wall_s += time.perf_counter() - wall0
+
+    def _held_segment(self, pool: Any, state: np.ndarray, k: int, ctrl: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Roll out steps ``k … k+n−1`` (``n = len(ctrl)``) of the ``held_torque`` drive from
+        ``state``, one cycle at a time: at every cycle start the trim of that cycle is set from
+        the shape vector (:meth:`HeldTorqueTable.trim`) and its held torques added to the nominal
+        controls. Returns the controls applied, the states after each step and the sensors."""
+        table: HeldTorqueTable = self.table
+        m, N = self.model, self.N
+        gear = m.actuator_gear[self.ix["ff"], 0]
+        ctrl = ctrl.copy()
+        post = np.empty((ctrl.shape[0], self.nstate))
+        sens = np.empty((ctrl.shape[0], m.nsensordata))
+        i = 0
+        while i < ctrl.shape[0]:
+            j = min(ctrl.shape[0], i + N - (k + i) % N)
+            if (k + i) % N == 0:
+                table.trim(shape_vector(m, state))
+            ctrl[i:j, self.ix["ff"]] += table.trim_torque()[(k + i) % N:(k + i) % N + j - i] / gear
+            st, sd = pool.rollout(m, self.data, state[None], ctrl[None, i:j])
+            post[i:j], sens[i:j] = st[0], sd[0]
+            state = st[0, -1]
+            i = j
+        return ctrl, post, sens
 
     def _process_final(self, acc: _Acc, k: int, state: np.ndarray, sens: np.ndarray, ctrl: np.ndarray) -> None:
         """Add the end state to the strobe (if a cycle start) and the records (always)."""
@@ -505,7 +551,8 @@ class MsacRunner:
         qpos, qvel = state[1:1 + nq], state[1 + nq:1 + nq + nv]
         t = np.array([k * self.dt])
         if k % self.N == 0:
-            acc.add(acc.strobe, strobe_t=t, strobe_quat=qpos[None, 3:7], strobe_shape=qpos[None, ix["qpos"]])
+            acc.add(acc.strobe, strobe_t=t, strobe_quat=qpos[None, 3:7], strobe_shape=qpos[None, ix["qpos"]],
+                    strobe_angmom_N_m_s=sens[None, ix["angmom"]])
         self.recorder.extend(dict(t=t, qpos=qpos[None], qvel=qvel[None], omega_world_rad_s=sens[None, ix["angvel"]],
                                   angmom_N_m_s=sens[None, ix["angmom"]], joint_force=sens[None, ix["frc"]],
                                   phase=cycle_state(self.path, t).phase + 1))
@@ -539,6 +586,7 @@ class MsacRunner:
         out["run_angmom_drift_z_max_N_m_s"] = np.array(acc.drift_z_max)
         out["run_hinge_torque_peak_N_m"] = np.array(acc.hinge_peak)
         out["run_slide_force_peak_N"] = np.array(acc.slide_peak)
+        out["run_joint_force_rms"] = np.sqrt(acc.frc_sq_sum / max(acc.frc_count, 1))
         out["run_tracking_error_max"] = acc.track_max.copy()
         out["run_steps_per_cycle"] = np.array(self.N)
         out["run_momentum_projection_sum"] = acc.proj_sum.copy()

@@ -21,7 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from magsail_mj.concepts.msac.metrics import cycle_increments, filtered_rate, secular_rate_fit, unwrapped_yaw
+from magsail_mj.concepts.msac.metrics import (
+    cycle_increments, filtered_rate, max_cycle_rate, secular_rate_fit, unwrapped_yaw,
+)
+from magsail_mj.concepts.msac.cycle import cycle_state
 from magsail_mj.concepts.msac.reference import exact_rotation_samples
 from magsail_mj.concepts import build_task, register_task
 from magsail_mj.concepts.msac.mjcf import shape_indices
@@ -107,6 +110,7 @@ class MsacTask:
             "solver": {"integrator": cfg.sim.integrator, "timestep_s": cfg.sim.timestep_s,
                        "steps_per_cycle": int(round(1 / (cfg.cycle.frequency_Hz * cfg.sim.timestep_s))),
                        "drive": cfg.drive.method, "omega_c_dt": cfg.drive.omega_c_dt,
+                       "momentum_projection": cfg.drive.projection,
                        "servo_omega_dt": cfg.drive.servo_omega_dt,
                        "disableflags": int(m.opt.disableflags)},
         }
@@ -130,6 +134,73 @@ def phase_labels(waypoints: np.ndarray) -> dict[str, str]:
         if s1 != s0:
             moves.append("extend" if s1 == s_e else "contract")
         out[str(k + 1)] = f"{k + 1} of {w.shape[0] - 1}, " + (" and ".join(moves) or "hold")
+    return out
+
+
+def momentum_yaw_error(sc: MsacModel, rec: Any, rotation_rad: float) -> dict[str, float]:
+    r"""The bus rotation that the drift of the total angular momentum adds to a run.
+
+    With total momentum ``L`` the bus turns at ``ψ̇ = (L − N_φ φ̇ − N_s ṡ)/D(φ, s)`` (the exact
+    planar model), so a drift ``δL`` adds ``δψ̇ = δL/D``. Over a cycle this is ``δL·T·⟨1/D⟩``
+    (``⟨1/D⟩``: the mean of ``1/D`` along the prescribed path), and over the run, with ``δL_k``
+    the drift at the cycle starts (``strobe_angmom_N_m_s``, z),
+
+    .. math::
+        δψ = T⟨1/D⟩ \sum_k \tfrac12(δL_k + δL_{k+1}) .
+
+    Returns ``angmom_spurious_yaw_rad`` and ``angmom_spurious_yaw_rel`` (``|δψ|`` over the
+    run's net rotation ``|rotation_rad|``); NaN without two cycle starts.
+    """
+    L = rec.get("strobe_angmom_N_m_s", np.zeros((0, 3)))
+    if L.shape[0] < 2:
+        return {"angmom_spurious_yaw_rad": float("nan"), "angmom_spurious_yaw_rel": float("nan")}
+    T = sc.path.period_s
+    st = cycle_state(sc.path, np.linspace(0.0, T, 2001))
+    inv_D = float(np.mean(1.0 / sc.planar.inertia_sum(st.phi, st.s)))
+    dL = L[:, 2] - L[0, 2]
+    err = T * inv_D * float(np.sum(0.5 * (dL[1:] + dL[:-1])))
+    rel = abs(err) / abs(rotation_rad) if rotation_rad else float("nan")
+    return {"angmom_spurious_yaw_rad": err, "angmom_spurious_yaw_rel": rel}
+
+
+def actuation_summary(sc: MsacModel, rec: Any) -> dict[str, Any]:
+    r"""What the drive demands of the shape actuators against what the configured ones deliver.
+
+    ``hinge_torque_rms_N_m``/``slide_force_rms_N``: RMS over every step and both wings of the
+    total actuator force on the joints; the peaks (``hinge_torque_peak_N_m``, ``slide_force_peak_N``)
+    come with the run. Capacities ``hinge_torque_max_N_m``/``slide_force_max_N`` from
+    ``[actuators]``; ``actuation_feasible`` when both peaks are within them;
+    ``actuation_capacity_ratio`` = min(capacity/peak). ``max_cycle_rate_Hz``: the largest rate
+    of the same path the capacities allow (:func:`~magsail_mj.concepts.msac.metrics.max_cycle_rate`:
+    inertial demand ∝ rate², the slide spring's ``k_s s`` rate-independent), from the last
+    full-rate window's steps after the discarded start-up cycles (NaN if none).
+    """
+    cfg = sc.cfg
+    rms = np.asarray(rec["run_joint_force_rms"], dtype=float)
+    cap_h, cap_s = cfg.actuators.hinge_torque_max_N_m, cfg.actuators.slide_force_max_N
+    peak_h, peak_s = float(rec["run_hinge_torque_peak_N_m"]), float(rec["run_slide_force_peak_N"])
+    out: dict[str, Any] = {
+        "hinge_torque_rms_N_m": float(np.sqrt(0.5 * (rms[0] ** 2 + rms[2] ** 2))),
+        "slide_force_rms_N": float(np.sqrt(0.5 * (rms[1] ** 2 + rms[3] ** 2))),
+        "hinge_torque_max_N_m": cap_h,
+        "slide_force_max_N": cap_s,
+        "actuation_feasible": bool(peak_h <= cap_h and peak_s <= cap_s),
+        "actuation_capacity_ratio": min(cap_h / peak_h if peak_h else float("inf"),
+                                        cap_s / peak_s if peak_s else float("inf")),
+        "max_cycle_rate_Hz": float("nan"),
+    }
+    if "win_t" not in rec or not rec["win_t"].size:
+        return out
+    wid, wt = rec["win_id"], rec["win_t"]
+    keep = (wid == wid.max()) & (wt >= cfg.post.discard_cycles * sc.path.period_s - 0.5 * cfg.sim.timestep_s)
+    if not keep.any():
+        return out
+    F = rec["win_joint_force"][keep]
+    qa = shape_indices(sc.model)["qpos"]
+    S = np.zeros_like(F)
+    S[:, [1, 3]] = cfg.wings.slide_stiffness_N_m * rec["win_qpos"][keep][:, qa[[1, 3]]]
+    out["max_cycle_rate_Hz"] = max_cycle_rate(F, S, np.array([cap_h, cap_s, cap_h, cap_s]),
+                                              rate_hz=cfg.cycle.frequency_Hz)
     return out
 
 
@@ -205,6 +276,8 @@ def multibody_summary(sc: MsacModel, result: RunResult, ref: dict[str, float]
     # the signed drift the projection removed, per simulated second (the rotational part of
     # the free joint's momentum, about the bus centre, body Z = world Z in planar motion)
     out["angmom_drift_rate_unprojected_N_m_s_per_s"] = float(proj[5]) / max(result.t_end_s, 1e-300)
+    out.update(momentum_yaw_error(sc, rec, yaw_end))
+    out.update(actuation_summary(sc, rec))
     # exact model along the achieved shape path of one cycle of the last full-rate window
     out["theta_gamma_exact_achieved_rad"] = float("nan")
     N = int(rec["run_steps_per_cycle"])
@@ -249,7 +322,7 @@ class MultibodyTask(MsacTask):
             calibration_cycles=cfg.drive.calibration_cycles, chunk_cycles=cfg.drive.chunk_cycles,
             window_s=p.window_s, omega_sample_hz=p.omega_sample_Hz, lowpass_order=p.lowpass_order,
             lowpass_cutoff_hz=p.lowpass_cutoff_Hz, checkpoint_every_s=cfg.sim.checkpoint_every_s,
-            momentum_projection=cfg.drive.momentum_projection)
+            momentum_projection=cfg.drive.projection)
         return self.runner
 
     def summarise(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -327,6 +400,7 @@ class SweepRunner:
                 "theta_gamma_mujoco_rad", "theta_gamma_mujoco_std_rad", "mujoco_vs_exact_rel_diff",
                 "predicted_rate_lumped_rad_s", "predicted_rate_exact_rad_s", "secular_rate_rad_s",
                 "hinge_torque_peak_N_m", "slide_force_peak_N", "angular_momentum_drift",
+                "hinge_torque_rms_N_m", "slide_force_rms_N", "max_cycle_rate_Hz", "angmom_spurious_yaw_rel",
                 "cycle_frequency_Hz", "timestep_s", "wall_time_s")
         records = {"t": first.records["t"], "qpos": first.records["qpos"]}
         for k in keys:
