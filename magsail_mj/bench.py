@@ -95,8 +95,9 @@ def _build(cfg: BaseModel) -> Any:
     sim = load(cfg)
     missing = [a for a in ("model", "data", "run", "n_steps") if not hasattr(sim, a)]
     if missing:
-        raise ValueError(f"config: scenario {getattr(cfg, 'scenario', '?')!r} (kind {getattr(cfg, 'kind', '?')!r}, "
-                         f"runner {type(sim).__name__}) has no stepped MuJoCo run to benchmark")
+        kind = f"kind {cfg.kind!r}, " if getattr(cfg, "kind", None) else ""
+        raise ValueError(f"config: scenario {getattr(cfg, 'scenario', '?')!r} ({kind}runner {type(sim).__name__}) "
+                         "has no stepped MuJoCo run to benchmark")
     return sim
 
 
@@ -186,15 +187,22 @@ class _TimedCommand:
 
 
 class _TimedController:
-    """A controller whose ``update`` is timed; its commands are wrapped in :class:`_TimedCommand`."""
+    """A controller whose ``update`` is timed; a command with ``apply_ctrl`` is wrapped in a
+    :class:`_TimedCommand` (one wrapper per command object, so a load that compares commands by
+    identity sees the same changes), any other command is passed on as it is."""
 
     def __init__(self, controller: Any, clock: _Clock) -> None:
         self._controller, self._clock = controller, clock
         self._update = clock.wrap(controller.update, "controller")
+        self._last: tuple[Any, Any] = (None, None)
 
     def update(self, state: Any) -> Any:
         cmd = self._update(state)
-        return _TimedCommand(cmd, self._clock) if cmd is not None else None
+        if not hasattr(cmd, "apply_ctrl"):
+            return cmd
+        if self._last[0] is not cmd:
+            self._last = (cmd, _TimedCommand(cmd, self._clock))
+        return self._last[1]
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._controller, name)
