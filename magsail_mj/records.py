@@ -63,7 +63,8 @@ BLOCK_BYTES = 8 * 2**20
 _UNIT_TOKENS = {
     "m": "m", "km": "km", "m2": "m²", "m3": "m³", "s": "s", "s2": "s²", "rad": "rad", "deg": "deg",
     "N": "N", "Nm": "N m", "A": "A", "kg": "kg", "J": "J", "W": "W", "T": "T", "nT": "nT", "Pa": "Pa",
-    "Hz": "Hz", "K": "K", "V": "V", "C": "C", "ohm": "Ω",
+    "Hz": "Hz", "K": "K", "V": "V", "C": "C", "ohm": "Ω", "h": "h", "rpm": "rpm",
+    "Am2": "A m²",
 }
 #: tokens a following ``_s``/``_s2`` divides (a rate: rad/s, m/s², deg/s)
 _RATE_TOKENS = {"rad", "deg", "m", "km"}

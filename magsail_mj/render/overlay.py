@@ -15,7 +15,7 @@ Layout of one panel (``h`` px high, text size ``s = max(10, round(h / 30))`` px)
   config hash>``.
 
 Units of the printed values come from the series' name suffix
-(:func:`magsail_mj.records.units_of`, plus ``_rpm`` and ``_h``), degrees as ``°``; lengths
+(:func:`magsail_mj.records.units_of`), degrees as ``°``; lengths
 in metres are printed with an SI prefix (µm, mm, m).
 """
 
@@ -45,8 +45,6 @@ __all__ = [
     "series_name_unit",
 ]
 
-#: suffix tokens that :func:`magsail_mj.records.units_of` does not know → printed unit
-_EXTRA_UNITS = {"rpm": "rpm", "h": "h", "Am2": "A m²"}
 #: printed form of a unit (degrees as the degree sign)
 _UNIT_TEXT = {"deg": "°", "deg/s": "°/s", "deg/s²": "°/s²", "1": ""}
 #: components of a 3-vector series
@@ -122,13 +120,10 @@ def series_name_unit(name: str, *, names: Mapping[str, str] | None = None,
 
     The name is ``names[name]`` if given, else the quantity part of ``name`` with spaces
     (``omega_norm_rad_s`` → ``omega norm``); the unit is ``units[name]`` if given, else the one
-    of the name's SI suffix (:func:`magsail_mj.records.units_of`; also ``_rpm``, ``_h``),
+    of the name's SI suffix (:func:`magsail_mj.records.units_of`),
     degrees printed as ``°``, ``""`` for a dimensionless series.
     """
     unit, long_name = units_of(name)
-    head, _, last = name.rpartition("_")
-    if unit == "1" and head and last in _EXTRA_UNITS:
-        unit, long_name = _EXTRA_UNITS[last], head.replace("_", " ")
     if units and name in units:
         unit = str(units[name])
     if names and name in names:
