@@ -260,10 +260,12 @@ def servo_rates(model: mujoco.MjModel, path: CyclePath, n_steps: int) -> np.ndar
     return np.diff(u, axis=0) / dt
 
 
-def shape_vector(model: mujoco.MjModel, state: np.ndarray) -> np.ndarray:
+def shape_vector(model: mujoco.MjModel, state: np.ndarray, *, ix: dict[str, np.ndarray] | None = None
+                 ) -> np.ndarray:
     """``x = (q_s, q̇_s)`` (8,) of a full physics state (``mjSTATE_FULLPHYSICS``: time, qpos,
-    qvel, …): the four shape joint positions [rad, m] and velocities [rad/s, m/s]."""
-    ix = shape_indices(model)
+    qvel, …): the four shape joint positions [rad, m] and velocities [rad/s, m/s]. ``ix``: the
+    model's :func:`shape_indices` (looked up when not given)."""
+    ix = shape_indices(model) if ix is None else ix
     nq = model.nq
     return np.concatenate([state[1 + ix["qpos"]], state[1 + nq + ix["dof"]]])
 

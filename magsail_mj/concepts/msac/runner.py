@@ -537,7 +537,7 @@ class MsacRunner:
         while i < ctrl.shape[0]:
             j = min(ctrl.shape[0], i + N - (k + i) % N)
             if (k + i) % N == 0:
-                table.trim(shape_vector(m, state))
+                table.trim(shape_vector(m, state, ix=self.ix))
             ctrl[i:j, self.ix["ff"]] += table.trim_torque()[(k + i) % N:(k + i) % N + j - i] / gear
             st, sd = pool.rollout(m, self.data, state[None], ctrl[None, i:j])
             post[i:j], sens[i:j] = st[0], sd[0]
