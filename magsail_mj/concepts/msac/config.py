@@ -143,8 +143,8 @@ class DriveConfig(StrictModel):
 
 
 class ActuatorsConfig(StrictModel):
-    r"""``[actuators]``: what the shape-joint actuators of one wing can deliver (the paper's
-    piezo drive, spec §4), to judge the demand of the prescribed motion.
+    """``[actuators]``: what the shape-joint actuators of one wing can deliver (the paper's piezo
+    drive), to judge the demand of the prescribed motion.
 
     The paper's simple actuator embeds four multilayer piezo chips (extension only, 200 N peak
     each) in a bar: all four extend it (``slide_chips = 4``), two adjacent ones bend it
@@ -152,10 +152,8 @@ class ActuatorsConfig(StrictModel):
     neutral axis (not in the paper: placeholder, half the 3 cm panel thickness). A lever of
     ``amplification`` ``a`` multiplies the stroke by ``a`` and divides the force by ``a`` (the
     paper's amplified actuator: ``a ≈ 50``). ``units`` actuators act in parallel on each joint.
-
-    .. math::
-        F_{max} = \frac{n_{units}\, n_{slide}\, F_{chip}}{a}, \qquad
-        τ_{max} = \frac{n_{units}\, n_{hinge}\, F_{chip}\, r_{arm}}{a}
+    Capacities: slide ``F_max = units · slide_chips · chip_force_N / a`` [N], hinge
+    ``τ_max = units · hinge_chips · chip_force_N · hinge_lever_arm_m / a`` [N m].
     """
 
     chip_force_N: float = Field(default=200.0, gt=0)
