@@ -119,8 +119,9 @@ def modal_keys(tm: TrussModel, x_at_max: np.ndarray | None) -> dict[str, Any]:
 def common_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *, max_strain: float,
                    zeta_strut: float) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """§11 "all dynamic runs" keys: status, surface SD σ_SD of the top layer [m], strain energy
-    Σ ½ k (|r_j − r_i| − L)² [J], largest strut strain, structural failure (strain above
-    ``max_strain`` or an inverted cube), damping constants; series ``surface_sd_m``,
+    Σ ½ k (|r_j − r_i| − L)² [J], largest strut strain, structural failure (``failed``: a recorded
+    strain above ``max_strain`` or an inverted cube, or the run ended ``structure_failed`` or
+    ``diverged``), damping constants, the modal keys (:func:`modal_keys`); series ``surface_sd_m``,
     ``strain_energy_J``, ``strut_strain_max``."""
     lat = tm.lattice
     t = result.records["t"]
@@ -148,7 +149,7 @@ def common_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: Run
         "t_surface_sd_max_s": float(t[kmax]) if t.size else float("nan"),
         "strain_energy_max_J": float(np.nanmax(energy)) if energy.size else float("nan"),
         "strut_strain_max": float(np.nanmax(fail["max_abs_strain"])) if t.size else float("nan"),
-        "failed": bool(failed_idx.size > 0 or result.status == "diverged"),
+        "failed": bool(failed_idx.size > 0 or result.status in ("diverged", "structure_failed")),
         "t_failed_s": float(t[failed_idx[0]]) if failed_idx.size else float("nan"),
         "gamma_Ns_m": float(tm.gamma),
         "zeta_strut": float(zeta_strut),
