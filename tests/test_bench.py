@@ -25,21 +25,22 @@ KEYS = {"us_per_step": float, "mj_step_us": float, "ratio_to_mj_step": float, "p
         "mj_step_native_us": float, "instrumented_us_per_step": float, "us_per_step_runs": list,
         "mj_step_us_runs": list, "timestep_s": float, "duration_s": float, "run_setup_s": float}
 
-# the instrumented pass adds a wrapper call (≈ 0.1–0.3 µs) per timed part and call; on a shared
-# machine passes also differ by load. Bound: it costs at most this many times the all-in median.
+# the instrumented pass adds a wrapper call (≈ 0.1–0.3 µs quiet, ≈ 1 µs on a loaded machine) per
+# timed part and call (≈ 10 per cubesat step of ≈ 60–300 µs); on a shared machine passes also
+# differ by load. Bound: it costs at most this many times the slowest all-in pass.
 INSTRUMENTED_SLACK = 5.0
 
 
 @pytest.fixture(scope="module")
 def cubesat() -> dict:
-    return bench(CUBESAT, duration_s=3.0, repeat=3)
+    return bench(CUBESAT, duration_s=10.0, repeat=3)
 
 
 def test_keys_and_types(cubesat):
     for key, kind in KEYS.items():
         assert isinstance(cubesat[key], kind), key
     json.dumps(cubesat, allow_nan=False)   # JSON-able, finite
-    assert cubesat["steps"] == 30 and cubesat["duration_s"] == pytest.approx(3.0, rel=1e-12)
+    assert cubesat["steps"] == 100 and cubesat["duration_s"] == pytest.approx(10.0, rel=1e-12)
     assert len(cubesat["us_per_step_runs"]) == len(cubesat["mj_step_us_runs"]) == 3
     assert cubesat["integrator"] == "RK4" and cubesat["timestep_s"] == 0.1
 
@@ -66,7 +67,7 @@ def test_parts_of_the_cubesat(cubesat):
     # fit in it (the loop remainder is not negative)
     assert sum(parts.values()) == pytest.approx(total, rel=1e-9)
     assert sum(measured.values()) <= total * (1 + 1e-12)
-    assert total <= INSTRUMENTED_SLACK * cubesat["us_per_step"]
+    assert total <= INSTRUMENTED_SLACK * max(cubesat["us_per_step_runs"])
 
 
 def test_msac_runner_has_the_same_report():
