@@ -59,8 +59,10 @@ eigenvalue of modulus ~1.3 (an e-fold in ~4 cycles). So once per cycle, at the c
 the runner adds a *trim*: torques held over ``P`` pieces of the cycle on each joint,
 ``u = −B⁺ (x_end⁰ − x⁰ + A (x − x⁰))``, which brings the shape vector ``x = (q_s, q̇_s)`` back
 to the orbit start ``x⁰`` at the end of the cycle (deadbeat to first order; ``B = ∂x_end/∂u``,
-both by central differences of one-cycle rollouts). Every force is then a held internal joint
-force; measured drift ~1.4·10⁻⁹ N m s per cycle at δt = 5 µs (−3·10⁻⁶ at 10 µs, 6·10⁻⁹ at
+both by central differences of one-cycle rollouts). The run's first ``calibration_cycles``
+cycles are the computed-torque loop itself from the rest state (the steps of the calibration), so
+the held replay starts exactly on the orbit and the trims stay at round-off (~10⁻⁹ of their
+unit). Every force is then a held internal joint force; measured drift ~1.4·10⁻⁹ N m s per cycle at δt = 5 µs (−3·10⁻⁶ at 10 µs, 6·10⁻⁹ at
 2.5 µs: round-off), the shape on the orbit to ~10⁻¹¹ after the first cycle.
 """
 

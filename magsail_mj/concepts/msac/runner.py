@@ -39,6 +39,10 @@ zero total momentum at every chunk boundary (every ``chunk_cycles`` cycles, defa
 reports how much it removed; the stroboscopic series keeps the momentum at every cycle start
 (``strobe_angmom_N_m_s``) for the spurious-yaw estimate of the summary.
 
+With ``method="held_torque"`` the first ``calibration_cycles`` cycles of a run are the per-step
+computed-torque loop from the rest state, the same steps the held-torque table was calibrated
+on, so that the native held replay continues exactly from its orbit start.
+
 Actuator demand: the running sums of the squared joint forces give their RMS
 (``run_joint_force_rms``, per joint, over every step).
 
@@ -203,6 +207,8 @@ class MsacRunner:
         self.windows = [tuple(r) for r in merged]
         self.table = None
         self._ct: ComputedTorque | None = None
+        #: held_torque: the first calibration cycles run the computed-torque loop (see _advance)
+        self._ct_steps = int(self.calibration_cycles) * self.N if self.method == "held_torque" else 0
         self.data = mujoco.MjData(m)
         # the Python-side state of a run (baseline: fresh accumulators, no table yet)
         self._walker = StateWalker({"acc": _Acc(), "table": None, "ct": None})
@@ -457,6 +463,9 @@ class MsacRunner:
         try:
             while k < stop_step:
                 n = min(chunk - k % chunk, stop_step - k)
+                start_up = self.method == "held_torque" and k < self._ct_steps
+                if start_up:
+                    n = min(n, self._ct_steps - k)
                 ctrl = ctrl_chunk[(k % N):(k % N) + n] if (k % N) + n <= chunk else \
                     np.tile(cyc_ctrl, (n // N + 2, 1))[(k % N):(k % N) + n]
                 if self.method == "replay":
@@ -465,20 +474,10 @@ class MsacRunner:
                     pool.rollout(m, data, state[None], ctrl[None], state=st, sensordata=sd)
                     post = st[0]
                     sens = sd[0]
-                elif self.method == "held_torque":
+                elif self.method == "held_torque" and not start_up:
                     ctrl, post, sens = self._held_segment(pool, state, k, ctrl)
                 else:
-                    post = np.empty((n, self.nstate))
-                    sens = np.empty((n, m.nsensordata))
-                    ctrl = ctrl.copy()
-                    ct = self._ct
-                    mujoco.mj_setState(m, data, state, _FP)
-                    for i in range(n):
-                        ctrl[i, self.ix["ff"]] = ct.torque(data, k + i) / ct.gear
-                        data.ctrl[:] = ctrl[i]
-                        mujoco.mj_step(m, data)
-                        sens[i] = data.sensordata   # computed at the step-start state
-                        mujoco.mj_getState(m, data, post[i], _FP)
+                    ctrl, post, sens = self._ct_segment(state, k, ctrl)
                 S = np.vstack([state[None], post[:-1]])
                 warned = self._watch.raised()
                 bad_state, bad_ctrl = first_bad_row(post[:, 1:]), first_bad_row(ctrl)
@@ -520,6 +519,27 @@ class MsacRunner:
                 m.opt.disableactuator &= ~(1 << 1)
             self.step_index, self._state = k, state
             self._wall_s += time.perf_counter() - wall0
+
+    def _ct_segment(self, state: np.ndarray, k: int, ctrl: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Steps ``k … k+n−1`` (``n = len(ctrl)``) of the per-step computed-torque loop from
+        ``state`` (servos off): the controls applied, the states after each step and the sensors
+        (computed at each step-start state)."""
+        m, data = self.model, self.data
+        if self._ct is None:
+            self._ct = ComputedTorque(m, self.path, omega_c_dt=self.omega_c_dt)
+        ct = self._ct
+        n = ctrl.shape[0]
+        post = np.empty((n, self.nstate))
+        sens = np.empty((n, m.nsensordata))
+        ctrl = ctrl.copy()
+        mujoco.mj_setState(m, data, state, _FP)
+        for i in range(n):
+            ctrl[i, self.ix["ff"]] = ct.torque(data, k + i) / ct.gear
+            data.ctrl[:] = ctrl[i]
+            mujoco.mj_step(m, data)
+            sens[i] = data.sensordata
+            mujoco.mj_getState(m, data, post[i], _FP)
+        return ctrl, post, sens
 
     def _held_segment(self, pool: Any, state: np.ndarray, k: int, ctrl: np.ndarray
                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
