@@ -51,6 +51,8 @@ def load(config: str | Path | BaseModel, overrides: list[str] | tuple[str, ...] 
     scenario = build_scenario(cfg)
     sim = scenario.simulation()
     sim.scenario, sim.cfg = scenario, cfg
+    if hasattr(sim, "timing"):
+        sim.timing.mode = cfg.sim.load_timing
     if hasattr(sim, "identity"):
         sim.identity = run_identity(numbers_hash(cfg), numbers_tree(cfg))
     return sim

@@ -149,7 +149,9 @@ class SimConfig(StrictModel):
     springs and dashpots in the metric M + hD + h²K, stable beyond 2/ω_max but with
     backward-Euler damping of the structural modes); ``solver_tolerance`` is MuJoCo's
     ``opt.tolerance`` (unset: MuJoCo's 1e-8), which also ends that integrator's iterative
-    effective-metric solve. ``progress`` only shows a progress bar.
+    effective-metric solve. ``load_timing`` says when the loads see the state: ``"start"``
+    (held at the step's start value: first order in the time step) or ``"midpoint"`` (predicted at
+    mid-step: second order; see :mod:`magsail_mj.sim`). ``progress`` only shows a progress bar.
     """
 
     duration_s: float = Field(gt=0)
@@ -160,6 +162,7 @@ class SimConfig(StrictModel):
     seed: int = Field(default=0, ge=0, lt=2**63)
     checkpoint_every_s: float = Field(default=0.0, ge=0)
     max_strain: float = Field(default=0.5, gt=0)
+    load_timing: Literal["start", "midpoint"] = "start"
     progress: bool = True
 
     @model_validator(mode="after")

@@ -10,6 +10,17 @@ Each step ``k`` (time ``t = k·δt``):
    initial state);
 4. ``mj_step`` integrates one step with the model's integrator (loads held over the step).
 
+Load timing (:class:`LoadTiming`, ``sim.load_timing``): with ``"start"`` (the default) the loads
+see the state at ``t``, so a load that depends on the state (a dipole torque m × B(q), tidal
+gravity) is held at its start-of-step value and the run converges to first order in ``δt``
+whatever the integrator. With ``"midpoint"`` they see a prediction of the state at ``t + δt/2``
+(positions advanced by ``δt/2`` with the velocity extrapolated to ``t + δt/4``, velocities
+extrapolated to ``t + δt/2`` from this and the previous step, the environment sampled at
+``t + δt/2``): the held wrench is then the midpoint-rule value, and the run converges to second
+order. Either way the loads add into ``xfrc_applied`` before ``mj_step`` (one door, no MuJoCo
+callbacks). A load may declare ``at_step_start = True`` (stiff velocity feedback such as modal
+damping, for which an extrapolated velocity could cost stability) to keep the start state.
+
 After every step the state is checked (:mod:`magsail_mj.divergence`: MuJoCo's automatic reset
 is off, its bad-state warnings and a finiteness check of ``qpos``/``qvel``): a bad state stops the
 run with ``status = "diverged"`` and the simulated time of the first bad state, within one step.
@@ -58,7 +69,11 @@ from magsail_mj.divergence import (
 from magsail_mj.loads.base import Load, StepState
 from magsail_mj.records import Recorder, RecordStoreError
 
-__all__ = ["Controller", "BodyKinematics", "Simulation", "RunResult", "DivergenceError", "StructureFailure"]
+__all__ = ["Controller", "BodyKinematics", "LoadTiming", "Simulation", "RunResult", "DivergenceError",
+           "StructureFailure", "LOAD_TIMINGS"]
+
+#: when the loads see the state: at the step's start, or predicted at its middle (see the module docs)
+LOAD_TIMINGS = ("start", "midpoint")
 
 _STATE_SPEC = mujoco.mjtState.mjSTATE_INTEGRATION
 
@@ -169,6 +184,43 @@ class RunResult:
 
 
 @dataclass
+class LoadTiming:
+    """When the loads see the state (``mode``: one of :data:`LOAD_TIMINGS`), and the velocity of the
+    previous step that the midpoint prediction extrapolates from (part of the run's state: it is
+    checkpointed, and ``primed`` is False until a step has been taken).
+
+    Attributes:
+      mode: ``"start"`` or ``"midpoint"``.
+      qvel_prev: (nv,) ``qvel`` at the start of the previous step.
+      primed: whether ``qvel_prev`` holds a step (the first prediction uses ``qvel`` alone).
+    """
+
+    mode: str
+    qvel_prev: np.ndarray
+    primed: bool = False
+
+    def __post_init__(self) -> None:
+        if self.mode not in LOAD_TIMINGS:
+            raise ValueError(f"load_timing: must be one of {LOAD_TIMINGS}, got {self.mode!r}")
+
+    def predict(self, m: mujoco.MjModel, d: mujoco.MjData, scratch: mujoco.MjData, dt: float) -> None:
+        """Write the predicted state at ``t + δt/2`` into ``scratch.qpos``/``scratch.qvel`` and keep
+        this step's ``qvel`` for the next prediction.
+
+        ``q(t + δt/2) = q ⊕ (δt/2)·v(t + δt/4)`` (``mj_integratePos``: quaternions on the sphere),
+        ``v(t + δt/4) ≈ v + (v − v_prev)/4`` and ``v(t + δt/2) ≈ v + (v − v_prev)/2``: errors
+        O(δt²) in the state, so the held wrench is the midpoint value to O(δt²) and a step's error
+        is O(δt³)."""
+        v = d.qvel
+        dv = (v - self.qvel_prev) if self.primed else np.zeros_like(v)
+        scratch.qpos[:] = d.qpos
+        mujoco.mj_integratePos(m, scratch.qpos, v + 0.25 * dv, 0.5 * dt)
+        np.add(v, 0.5 * dv, out=scratch.qvel)
+        self.qvel_prev[:] = v
+        self.primed = True
+
+
+@dataclass
 class Simulation:
     """A model with its loads, controller, environment and probes, ready to run.
 
@@ -185,6 +237,7 @@ class Simulation:
       max_strain: divergence bound on strut strain.
       checkpoint_every_s: checkpoint interval in simulated seconds (0 = none).
       init: function(data) setting the initial state (qpos, qvel, time) before the run.
+      load_timing: ``"start"`` or ``"midpoint"`` (see the module docs; ``sim.load_timing``).
       identity: what a checkpoint of this run must match (:func:`~magsail_mj.checkpoint.run_identity`;
         the runner of a config sets the config's hash).
     """
@@ -203,6 +256,7 @@ class Simulation:
     max_strain: float = 0.5
     checkpoint_every_s: float = 0.0
     init: Callable[[mujoco.MjData], None] | None = None
+    load_timing: str = "start"
     identity: dict[str, Any] = field(default_factory=lambda: run_identity(None))
 
     def __post_init__(self) -> None:
@@ -214,6 +268,9 @@ class Simulation:
         if self.init is not None:
             self.init(self.data)
         self.kin = BodyKinematics(self.model)
+        self.timing = LoadTiming(self.load_timing, np.zeros(self.model.nv))
+        self._mid_data = mujoco.MjData(self.model)      # the predicted mid-step state (scratch)
+        self._mid_kin = BodyKinematics(self.model)
         self.n_steps = int(round(self.duration_s / self.model.opt.timestep))
         self.walker = self._state_walker()
         self.walker.baseline()
@@ -286,7 +343,8 @@ class Simulation:
     def _state_walker(self) -> StateWalker:
         """The Python-side state of the run: controller, loads, environment and probes."""
         return StateWalker({"controller": self.controller, "loads": list(self.loads),
-                            "environment": self.environment, "probes": dict(self.probes), "cmd": None})
+                            "environment": self.environment, "probes": dict(self.probes), "cmd": None,
+                            "timing": self.timing})
 
     def _checkpoint(self, path: Path, step: int) -> None:
         loop = self._loop
@@ -382,6 +440,7 @@ class Simulation:
         loop = self._loop
         recorder = self.recorder
         kin, watch = self.kin, self._watch
+        midpoint = self.timing.mode == "midpoint"
         start = step = self.step_index
         wall0 = time.perf_counter()
         try:
@@ -424,8 +483,13 @@ class Simulation:
                     self.status = "completed"
                     break
                 d.xfrc_applied[:] = 0.0
-                for load in self.loads:
-                    load.add(state, d.xfrc_applied)
+                if midpoint:
+                    mid = self._mid_state(t, state)
+                    for load in self.loads:
+                        load.add(state if getattr(load, "at_step_start", False) else mid, d.xfrc_applied)
+                else:
+                    for load in self.loads:
+                        load.add(state, d.xfrc_applied)
                 mujoco.mj_step(m, d)
                 # every step: MuJoCo checks the state it steps from (|q|, |v| > 1e10 or not
                 # finite, bad qacc/ctrl), so a warning of this step dates the bad state at t;
@@ -451,6 +515,17 @@ class Simulation:
             self.step_index = step
             self._wall_s += time.perf_counter() - wall0
 
+
+    def _mid_state(self, t: float, state: StepState) -> StepState:
+        """What the loads see with ``load_timing = "midpoint"``: the state predicted at ``t + δt/2``
+        (:meth:`LoadTiming.predict`), its body kinematics and the environment then."""
+        dt = self.model.opt.timestep
+        self.timing.predict(self.model, self.data, self._mid_data, dt)
+        k = self._mid_kin
+        k.update(self._mid_data)
+        env = self.environment.sample(t + 0.5 * dt) if self.environment is not None else None
+        return StepState(t=t + 0.5 * dt, pos=k.pos, vel=k.vel, xquat=k.xquat, omega=k.omega, env=env,
+                         ctrl=state.ctrl)
 
 def open_run_records(recorder: Recorder, *, checkpoint_path: str | Path | None, records_path: str | Path | None,
                      records_attrs: dict[str, Any] | None,
