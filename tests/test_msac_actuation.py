@@ -3,7 +3,7 @@ projection, and what the prescribed motion demands of its actuators (hinge torqu
 against the configured piezo capacity.
 
 Measured at the production step (5 µs, 200 steps per 1 ms cycle), no projection: held torque
-drifts ~1.4e-9 N m s per cycle (the servo replay 8e-5, computed torque ~2e-9); the recorded held
+drifts ~1.3e-9 N m s per cycle (the servo replay 8e-5, computed torque ~2e-9); the recorded held
 torques equal mj_inverse of the prescribed motion at the step midpoints within 1.2e-3 (hinge)
 and 7.2e-3 (slide) of the peak, an error that falls with δt; the peaks scale with the cycle rate
 squared to round-off. Runs are 4–100 cycles (≤ 2 s each).

@@ -62,7 +62,7 @@ to the orbit start ``x⁰`` at the end of the cycle (deadbeat to first order; ``
 both by central differences of one-cycle rollouts). The run's first ``calibration_cycles``
 cycles are the computed-torque loop itself from the rest state (the steps of the calibration), so
 the held replay starts exactly on the orbit and the trims stay at round-off (~10⁻⁹ of their
-unit). Every force is then a held internal joint force; measured drift ~1.3·10⁻⁹ N m s per
+unit). Every force is then a held internal joint force; measured drift ~1.2·10⁻⁹ N m s per
 cycle at δt = 5 µs over 10⁴ cycles (−3·10⁻⁶ at 10 µs, 6·10⁻⁹ at 2.5 µs: round-off), the shape
 on the orbit to ~10⁻¹¹.
 """
