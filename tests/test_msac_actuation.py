@@ -73,7 +73,8 @@ def test_held_torque_conserves_momentum_without_projection(held):
 
 def test_servo_replay_leaks_what_the_held_torque_does_not(held):
     # the old drive, projection off: its servos leak ~0.08 N m s per simulated second
-    _, res, s = run("sim.duration_s=0.02", "sim.record_every=2000", "drive.momentum_projection=false")
+    _, res, s = run("sim.duration_s=0.02", "sim.record_every=2000", "drive.method='replay'",
+                    "drive.momentum_projection=false")
     L = res.records["strobe_angmom_N_m_s"][:, 2]
     leak_replay = abs(L[-1] - L[1]) / (L.size - 2)
     Lh = held[1].records["strobe_angmom_N_m_s"][:, 2]
