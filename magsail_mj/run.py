@@ -7,8 +7,8 @@ data, see :mod:`magsail_mj.records`; ``magsail export`` writes it as ``.npz`` or
 ``status_message``), ``manifest.json`` (config, its hashes, seed, package versions, thread
 settings, status, file list with SHA-256 — of a store: of its files' names and bytes; written
 last), the plots (``*.png``), ``checkpoint.npz`` when checkpointing (no records: their count),
-and ``video.mp4`` when asked. While :data:`WRITE_NPZ_COPY` is on, ``timeseries.npz`` (the store
-exported, streamed chunk by chunk) is written too, for readers of the earlier layout.
+and ``video.mp4`` when asked. No other copy of the records is written: analysis code reads the
+store (:func:`magsail_mj.export.read_timeseries`, :func:`magsail_mj.records.lazy_arrays`).
 
 Guarantees:
 
@@ -46,13 +46,11 @@ from threadpoolctl import threadpool_info, threadpool_limits
 from magsail_mj.api import load
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
 from magsail_mj.config import ConfigError, config_hash, numbers_hash, numbers_tree
-from magsail_mj.export import write_npz_streamed
 from magsail_mj.io import (
     atomic_path, file_sha256, package_versions, prepare_run_dir, remove_earlier_run, run_dir_lock, write_json,
 )
 from magsail_mj.records import (
-    SERIES_GROUP, STORE_NAME, RecordStoreError, StoreRecords, lazy_arrays, open_records, store_length, update_attrs,
-    write_group,
+    SERIES_GROUP, STORE_NAME, RecordStoreError, StoreRecords, open_records, store_length, update_attrs, write_group,
 )
 from magsail_mj.render import render_run
 
@@ -60,8 +58,6 @@ __all__ = ["run_scenario", "RunOutcome", "RunInterrupted", "CHECKPOINT_NAME"]
 
 #: the checkpoint file of a run folder
 CHECKPOINT_NAME = "checkpoint.npz"
-#: also write ``timeseries.npz`` (exported from the store) for readers of the earlier layout
-WRITE_NPZ_COPY = True
 
 
 class RunOutcome(dict):
@@ -185,8 +181,6 @@ def _run_locked(cfg: Any, sim: Any, run_dir: Path, identity: dict[str, Any], *, 
         write_json(run_dir / "summary.json", summary)
         update_attrs(store, {"status": status, "status_message": message, "t_end_s": result.t_end_s})
         files = ["model.xml", STORE_NAME, "summary.json", *[p.name for p in plots]]
-        if WRITE_NPZ_COPY:
-            files.insert(2, "timeseries.npz")
         manifest = {
             "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
             "concept": cfg.concept,
@@ -287,12 +281,6 @@ def _stored(result: Any, store: Path, attrs: dict[str, Any]) -> Any:
     return result
 
 
-def _npz_members(run_dir: Path) -> dict[str, Any]:
-    """The arrays of ``timeseries.npz`` (records, then series replacing records of the same name) as lazy
-    Zarr arrays, for :func:`~magsail_mj.export.write_npz_streamed`."""
-    return lazy_arrays(run_dir)
-
-
 def _outputs(scenario: Any, result: Any, run_dir: Path) -> tuple[dict[str, Any], dict[str, Any], list[Path]]:
     """Summary, series and plots of a run; the series go to the store's group ``series`` here.
 
@@ -305,13 +293,9 @@ def _outputs(scenario: Any, result: Any, run_dir: Path) -> tuple[dict[str, Any],
     except Exception as err:  # noqa: BLE001 - only for runs that did not complete, see above
         if result.status == "completed":
             raise
-        if WRITE_NPZ_COPY:
-            write_npz_streamed(run_dir / "timeseries.npz", _npz_members(run_dir))
         return {"t_end_s": result.t_end_s, "postprocess_error": f"{type(err).__name__}: {err}"}, {}, []
     series = {"t": result.records["t"], **series}
     write_group(run_dir / STORE_NAME, series, group=SERIES_GROUP, n_time=len(series["t"]))
-    if WRITE_NPZ_COPY:   # plots of the earlier layout read timeseries.npz (records and series)
-        write_npz_streamed(run_dir / "timeseries.npz", _npz_members(run_dir))
     try:
         plots = scenario.plots(run_dir, result, series)
     except Exception as err:  # noqa: BLE001 - same rule as above

@@ -28,7 +28,9 @@ def test_run_folder_contents(tmp_path, small_truss_tree):
     assert not [f for f in files if f.startswith(".")], "temporary files left behind"
     manifest = json.loads((tmp_path / "run/manifest.json").read_text())
     assert manifest["config_hash"] and manifest["versions"]["mujoco"].startswith("4.")
-    assert set(manifest["files"]) >= {"model.xml", STORE_NAME, "summary.json"}
+    pngs = {name for name in files if name.endswith(".png")}
+    assert set(manifest["files"]) == {"model.xml", STORE_NAME, "summary.json", *pngs}
+    assert not files & {"timeseries.npz", "timeseries.nc"}, "the records are kept in the store only"
     summary = json.loads((tmp_path / "run/summary.json").read_text())
     for key in ("rotation_x1_final_rad", "off_axis_rotation_max_rad", "surface_sd_max_m", "strain_energy_max_J"):
         assert np.isfinite(summary[key]), key
