@@ -144,7 +144,9 @@ def low_modes(nodes: np.ndarray, struts: np.ndarray, k: np.ndarray, masses: np.n
     """The ``n_rigid`` rigid and the lowest ``n_elastic`` elastic modes (module docstring).
 
     Shift-invert about ``σ = −10⁻⁶ ω_ref²`` (``ω_ref² = max k / mean m``), so the singular free
-    stiffness is factorised safely; the rigid modes' round-off eigenvalues are clamped to 0.
+    stiffness is factorised safely; the rigid modes' round-off eigenvalues are clamped to 0. The
+    Lanczos start vector is fixed, so equal inputs give bit-equal modes (within a repeated
+    frequency the basis is one arbitrary but reproducible choice).
     """
     masses = np.asarray(masses, dtype=float)
     K = stiffness_matrix(np.asarray(nodes, dtype=float), np.asarray(struts), np.asarray(k, dtype=float)).tocsc()
@@ -152,7 +154,8 @@ def low_modes(nodes: np.ndarray, struts: np.ndarray, k: np.ndarray, masses: np.n
     M = sparse.diags(m3).tocsc()
     scale = float(np.max(k)) / float(np.mean(masses))
     n = min(n_rigid + n_elastic, K.shape[0] - 1)
-    lam, phi = eigsh(K, k=n, M=M, sigma=-1e-6 * scale, which="LM")
+    v0 = np.random.default_rng(0).standard_normal(K.shape[0])  # fixed start: the same modes every call
+    lam, phi = eigsh(K, k=n, M=M, sigma=-1e-6 * scale, which="LM", v0=v0)
     order = np.argsort(lam)
     lam, phi = lam[order], phi[:, order]
     phi = phi / np.sqrt(np.einsum("i,ij,ij->j", m3, phi, phi))[None, :]
