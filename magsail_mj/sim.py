@@ -125,6 +125,10 @@ class BodyKinematics:
         self.free_q = np.array(free_q, dtype=int)
         self.free_v = np.array(free_v, dtype=int)
         self.other = np.array(other, dtype=int)
+        # contiguous body ranges are read through slices (NumPy's fancy indexing costs µs per call)
+        self._other = _slice_if_contiguous(self.other)
+        self._free = [(int(b), int(q), int(v)) for b, q, v in zip(free_body, free_q, free_v)]
+        self._R = np.zeros(9)
         # a lattice's particles are usually bodies 1 … n with qpos/qvel 0 … 3n − 1: plain views
         self._part_block = None
         if self.part_body.size:
@@ -145,8 +149,9 @@ class BodyKinematics:
         """Refresh ``pos``, ``vel``, ``xquat``, ``omega`` from ``data.qpos``/``data.qvel``."""
         if self.other.size:
             mujoco.mj_kinematics(self.model, data)
-            self.pos[self.other] = data.xpos[self.other]
-            self.xquat[self.other] = data.xquat[self.other]
+            o = self._other
+            self.pos[o] = data.xpos[o]
+            self.xquat[o] = data.xquat[o]
         if self._part_block is not None:
             bs, qs, vs, n = self._part_block
             np.add(self.pos0[bs], data.qpos[qs].reshape(n, 3), out=self.pos[bs])
@@ -154,14 +159,28 @@ class BodyKinematics:
         elif self.part_body.size:
             self.pos[self.part_body] = self.pos0[self.part_body] + data.qpos[self.part_q]
             self.vel[self.part_body] = data.qvel[self.part_v]
-        for b, qa, va in zip(self.free_body, self.free_q, self.free_v):
-            self.pos[b] = data.qpos[qa:qa + 3]
-            q = data.qpos[qa + 3:qa + 7]
-            self.xquat[b] = q / np.linalg.norm(q)
-            self.vel[b] = data.qvel[va:va + 3]
-            R = np.empty(9)
-            mujoco.mju_quat2Mat(R, self.xquat[b])
-            self.omega[b] = R.reshape(3, 3) @ data.qvel[va + 3:va + 6]
+        R = self._R
+        for b, qa, va in self._free:     # plain floats: a NumPy call on a 4-vector costs more than its arithmetic
+            qp = data.qpos[qa:qa + 7].tolist()
+            w, x, y, z = qp[3:]
+            n = math.sqrt(w * w + x * x + y * y + z * z)
+            q = self.xquat[b]
+            q[:] = (w / n, x / n, y / n, z / n)
+            self.pos[b] = qp[:3]
+            qv = data.qvel[va:va + 6].tolist()
+            self.vel[b] = qv[:3]
+            mujoco.mju_quat2Mat(R, q)
+            r = R.tolist()
+            a0, a1, a2 = qv[3:]
+            self.omega[b] = (r[0] * a0 + r[1] * a1 + r[2] * a2, r[3] * a0 + r[4] * a1 + r[5] * a2,
+                             r[6] * a0 + r[7] * a1 + r[8] * a2)
+
+
+def _slice_if_contiguous(index: np.ndarray) -> slice | np.ndarray:
+    """``slice(i0, i0 + n)`` when ``index`` is ``i0, i0 + 1, …``, else ``index``."""
+    if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
+        return slice(int(index[0]), int(index[0]) + int(index.size))
+    return index
 
 
 @dataclass
@@ -441,6 +460,9 @@ class Simulation:
         recorder = self.recorder
         kin, watch = self.kin, self._watch
         midpoint = self.timing.mode == "midpoint"
+        start_loads = any(getattr(load, "at_step_start", False) for load in self.loads)
+        qpos, qvel = d.qpos, d.qvel
+        small = m.nq + m.nv <= 64     # summing a short state as Python floats is 3x cheaper than two reductions
         start = step = self.step_index
         wall0 = time.perf_counter()
         try:
@@ -456,20 +478,26 @@ class Simulation:
                     self._checkpoint(ckpt, step)
                 if step == stop_step < self.n_steps:
                     break
-                kin.update(d)
-                state = StepState(t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega,
-                                  env=self.environment.sample(t) if self.environment is not None else None,
-                                  ctrl=loop["cmd"])
                 # sample k is due at k·period (computed, not accumulated, so no sample is ever
                 # skipped by round-off); the step is due when t has reached it within 1e-6 δt
-                if self.controller is not None and t >= loop["n_ctrl"] * self.controller.period_s - 1e-6 * dt:
+                due = self.controller is not None and t >= loop["n_ctrl"] * self.controller.period_s - 1e-6 * dt
+                recording = step % self.record_every == 0 or step == self.n_steps
+                # the start state is read when something uses it (with mid-step loads, only
+                # the controller, the probes, the strain check and start-of-step loads do)
+                at_t = not midpoint or due or recording or start_loads
+                if at_t:
+                    kin.update(d)
+                env_t = self.environment.sample(t) if self.environment is not None and at_t else None
+                state = StepState(t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega, env=env_t,
+                                  ctrl=loop["cmd"])
+                if due:
                     loop["cmd"] = self.controller.update(state)
                     state.ctrl = loop["cmd"]
                     period = self.controller.period_s
                     loop["n_ctrl"] = int(np.floor(t / period + 1e-6 * dt / period)) + 1
                     if hasattr(loop["cmd"], "apply_ctrl"):
                         loop["cmd"].apply_ctrl(d)
-                if step % self.record_every == 0 or step == self.n_steps:
+                if recording:
                     values = {name: probe(state, d) for name, probe in self.probes.items()}
                     values["t"] = t
                     recorder.append(values)
@@ -495,7 +523,8 @@ class Simulation:
                 # finite, bad qacc/ctrl), so a warning of this step dates the bad state at t;
                 # a NaN/Inf in the new state makes the sum non-finite, dated t + δt
                 watch.check(t)
-                if not math.isfinite(float(d.qpos.sum()) + float(d.qvel.sum())):
+                if not math.isfinite(sum(qpos.tolist()) + sum(qvel.tolist()) if small
+                                     else float(qpos.sum()) + float(qvel.sum())):
                     raise DivergenceError(f"state is not finite at t = {t + dt:.6g} s (after the step from "
                                           f"t = {t:.6g} s)")
                 if bar is not None and (step + 1) % 100 == 0:

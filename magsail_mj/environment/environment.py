@@ -56,7 +56,7 @@ from magsail_mj.environment.timeutil import gmst_rad, gmst_rate_rad_s, julian_da
 __all__ = ["EnvSample", "Environment", "elements_from_config"]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class EnvSample:
     """The environment at one time ``t`` [s since the epoch]; vectors in ECI = world axes.
 
