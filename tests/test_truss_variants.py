@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import json
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -27,6 +28,7 @@ from magsail_mj.concepts.truss_magnetorquer.metrics import (
     dashpot_matrix, modal_damping_ratios, modal_energies, surface_twist_share,
 )
 from magsail_mj.concepts.truss_magnetorquer.model import make_truss_model
+from magsail_mj.concepts.truss_magnetorquer.rigid_orbital import simulate_rigid
 from magsail_mj.concepts.truss_magnetorquer.twist import (
     diagonal_struts, first_twist_mode, low_modes, plate_twist_lambda, plate_twist_omega, twist_shares,
 )
@@ -320,3 +322,35 @@ def test_orbital_run_reports_the_modal_keys(tmp_path):
     np.testing.assert_allclose(summary["modal_damping_ratio_first5"], modal_damping_ratios(omega, phi, C), rtol=1e-9)
     assert len(summary["modal_energy_at_max_sd_J"]) == 5 and min(summary["modal_energy_at_max_sd_J"]) >= 0
     assert 0.0 <= summary["twist_share_at_max_sd"] <= 1.0
+
+
+class _HeldPolarity:
+    """Controller stand-in: always the same rod polarity."""
+
+    def __init__(self, polarity):
+        self.polarity = polarity
+
+    def update(self, state):
+        return SimpleNamespace(polarity=self.polarity, clipped1=False, clipped2=False, torque_ref_body=np.zeros(3))
+
+
+def test_rigid_counterpart_turns_the_printed_torque_around():
+    """The rigid run's magnetic torque with the printed pair is minus the corrected one at the
+    same state (1e-15 N m absolute) and equals −Σ m × B of the rods (1e-12 relative)."""
+    lat = make_lattice(units=3, side_m=12.0)
+    pol = np.random.default_rng(5).integers(-1, 2, 24)
+    B = np.array([2e-5, -1e-5, 3e-5])
+    sample = SimpleNamespace(B_eci=B, r_ref_eci=np.array([7.17e6, 0.0, 0.0]))
+    env = SimpleNamespace(mu=3.986004418e14, sample=lambda t: sample)
+    T = {}
+    for kind in ("corrected", "printed"):
+        load = VariantPairRodLoad(lat, m_rod_Am2=(5.0, 7.0), force_pair=kind)
+        run = simulate_rigid(controller=_HeldPolarity(pol), rod_load=load, environment=env, nodes_body=lat.nodes,
+                             masses=np.ones(lat.n_nodes), inertia=np.diag([30.0, 30.0, 60.0]),
+                             q0_wxyz=np.array([1.0, 0, 0, 0]), omega0_body=np.zeros(3), duration_s=1.0,
+                             record_every_s=1.0, gravity_gradient=False)
+        T[kind] = run.T_mag[0]
+    m = VariantPairRodLoad(lat, m_rod_Am2=(5.0, 7.0)).total_dipole_world(
+        np.vstack([np.zeros(3), lat.nodes - lat.nodes.mean(axis=0)]), pol)
+    np.testing.assert_allclose(T["printed"], -T["corrected"], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(T["printed"], -np.cross(m, B), rtol=1e-12)

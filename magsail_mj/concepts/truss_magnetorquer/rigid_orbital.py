@@ -35,6 +35,7 @@ import numpy as np
 from magsail_mj.quaternion import error_quaternion, quat_mul
 from magsail_mj.quaternion import quat_to_matrix as quat_to_matrix_wxyz
 from magsail_mj.environment.gravity import gravity_gradient_torque
+from magsail_mj.concepts.truss_magnetorquer.force_pair import VariantPairRodLoad
 
 __all__ = ["RigidRun", "quat_to_matrix_wxyz", "rigid_rhs", "simulate_rigid"]
 
@@ -90,7 +91,8 @@ def simulate_rigid(*, controller: Any, rod_load: Any, environment: Any, nodes_bo
     Args:
       controller: updated every step with a state holding the rigid particle positions.
       rod_load: the :class:`MagnetorquerRodLoad` whose ``total_dipole_world`` turns a polarity
-        into the total dipole.
+        into the total dipole (a :class:`~magsail_mj.concepts.truss_magnetorquer.force_pair.VariantPairRodLoad`
+        with the printed pair turns the torque around, as its force pairs do).
       environment: :class:`~magsail_mj.environment.environment.Environment` (``sample(t)``).
       nodes_body: (n, 3) undeformed particle coordinates (the controller's reference nodes);
         particle ``i`` is body ``i + 1`` (body 0 is the world).
@@ -107,6 +109,7 @@ def simulate_rigid(*, controller: Any, rod_load: Any, environment: Any, nodes_bo
         raise ValueError(f"actuation: must be 'rods', 'ideal' or 'ideal_perp_B', got {actuation!r}")
     if dt <= 0 or duration_s <= 0:
         raise ValueError(f"dt and duration_s must be > 0, got dt={dt}, duration_s={duration_s}")
+    sign = rod_load.sign if isinstance(rod_load, VariantPairRodLoad) else 1.0  # −1: the printed pair
     J = np.asarray(inertia, dtype=float)
     J_inv = np.linalg.inv(J)
     m = np.asarray(masses, dtype=float) * np.ones(len(nodes_body))
@@ -124,7 +127,7 @@ def simulate_rigid(*, controller: Any, rod_load: Any, environment: Any, nodes_bo
         R = quat_to_matrix_wxyz(q)
         pos = np.vstack([np.zeros(3), p_c @ R.T])  # body 0 is the world, as in MuJoCo's xpos
         cmd = controller.update(SimpleNamespace(t=t, pos=pos, env=env0))
-        m_body = R.T @ rod_load.total_dipole_world(pos, cmd.polarity)
+        m_body = sign * (R.T @ rod_load.total_dipole_world(pos, cmd.polarity))
         T_held = None
         if actuation != "rods":
             T_held = np.array(cmd.torque_ref_body, dtype=float)
