@@ -61,7 +61,7 @@ def _printed_by_hand(r_i, r_j, m_d, B):
     return np.array(out)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(VEC, VEC, arrays(float, 5, elements=FINITE), FIELD)
 def test_printed_pair_is_eq4_as_printed(r_i, r_j, m_d, B):
     """The vectorised printed pair equals Eq. 4 written out per rod (1e-12 relative)."""
@@ -75,7 +75,7 @@ def test_printed_pair_is_eq4_as_printed(r_i, r_j, m_d, B):
     np.testing.assert_array_less(np.abs(got - want) / scale, 1e-12)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(VEC, VEC, arrays(float, 5, elements=FINITE), FIELD)
 def test_pair_algebra_of_the_three_variants(r_i, r_j, m_d, B):
     """Moment about the strut midpoint, net force and axial part of each variant (1e-12 relative
