@@ -8,8 +8,10 @@ import mujoco
 import numpy as np
 import pytest
 
+import magsail_mj
 from magsail_mj.quaternion import quat_conj, quat_mul
 from magsail_mj.sim import LoadTiming, Simulation
+from tests.conftest import REPO
 
 DIPOLE_BODY_A_M2 = np.array([0.0, 0.0, 1.0])
 FIELD_WORLD_T = np.array([1.0, 0.0, 0.0])
@@ -99,3 +101,21 @@ def test_a_load_may_keep_the_start_state():
 def test_unknown_load_timing_is_refused_by_name():
     with pytest.raises(ValueError, match="load_timing: must be one of"):
         LoadTiming("middle", np.zeros(6))
+
+
+def _cnusail_rate_deg_s(timing: str, dt: float) -> float:
+    sim = magsail_mj.load(REPO / "magsail_mj/concepts/cnusail/configs/detumble_pre.toml",
+                          ["sim.duration_s=600", f"sim.timestep_s={dt}", f"sim.load_timing={timing}",
+                           f"sim.record_every={int(round(10 / dt))}"])
+    sim.run()
+    return float(np.degrees(np.linalg.norm(sim.data.qvel[3:6])))
+
+
+def test_cnusail_detumble_with_midpoint_loads_matches_a_fine_step():
+    """The stowed CNUSAIL B-dot detumble, |ω| after 600 s: mid-step loads at δt = 0.1 s match
+    δt = 0.0125 s within 0.02 % (measured 1.8e-4 %), where start-of-step loads at 0.1 s are off by
+    about 0.04 % (first order: the rod torque m × B(q) held at the start attitude while the
+    spacecraft turns 0.8° per step)."""
+    fine = _cnusail_rate_deg_s("midpoint", 0.0125)
+    assert abs(_cnusail_rate_deg_s("midpoint", 0.1) / fine - 1) < 2e-4
+    assert abs(_cnusail_rate_deg_s("start", 0.1) / fine - 1) > 2e-4
