@@ -48,6 +48,13 @@ from magsail_mj.sim import RunResult, Simulation
 __all__ = ["ReflectorTask", "DetumbleTask", "PitchTask", "PitchCapsTask", "build_reflector_scenario"]
 
 
+#: readable names of the reflector's overlay series (units come from their suffixes)
+OVERLAY_NAMES = {
+    "omega_norm_rad_s": "body rate |ω|", "torque_norm_Nm": "coil torque |T|",
+    "currents_A": "path currents (x-coil, y-coil)", "psi_ref_deg": "pitch reference ψ_ref",
+    "psi_act_deg": "pitch ψ", "err_deg": "pointing error", "torque_pitch_Nm": "pitch torque",
+}
+
 class ReflectorTask(ABC):
     """What every reflector task shares: the built plate (``plate``; ``spec``, ``model``, ``idx``,
     ``inertia``, ``mass_kg``, ``cap``, ``params`` from it), the held-torque load, the state writer
@@ -116,7 +123,8 @@ class ReflectorTask(ABC):
                                  "distance_m": r.distance_m or self.camera_distance_sides * cfg.plate.side_m}
         text = self.render_text()
         return {"title": text["title"], "overlay": text["overlay"], "inset": text["inset"], "camera": cam,
-                "fps": r.fps, "max_frames": frames, "markers": text["markers"]}
+                "fps": r.fps, "max_frames": frames, "markers": text["markers"],
+                "overlay_names": {**OVERLAY_NAMES, **text.get("overlay_names", {})}}
 
     def manifest_kind(self) -> dict[str, Any]:
         """Manifest entries of the scenario kind."""
@@ -178,11 +186,11 @@ class DetumbleTask(ReflectorTask):
         cfg = self.cfg
         return {"title": f"reflector {cfg.scenario}: B-dot ({cfg.control.law}, "
                          f"ω_k = {cfg.control.omega_k_rad_s:g} rad/s)",
-                "overlay": ["time_h", "omega_norm_rad_s", "torque_norm_Nm", "currents_A"],
+                "overlay": ["omega_norm_rad_s", "torque_norm_Nm", "currents_A"],
                 "inset": "omega_norm_rad_s",
                 "markers": {"mk_field": "magnetic field (magenta)", "mk_omega": "angular velocity (green)",
                             "mk_torque": "torque (red)", "ycoil/xcoil": "coil columns (orange/cyan, every k-th)",
-                            "zloop": "in-plane loop (magenta)", "normal": "plate normal (blue)"}}
+                            "zloop": "in-plane loop (violet)", "normal": "plate normal (blue)"}}
 
     def manifest_kind(self) -> dict[str, Any]:
         return {"bdot_gain": self.bdot_gain()}
@@ -239,7 +247,7 @@ class PitchTask(ReflectorTask):
         cfg = self.cfg
         return {"title": f"reflector {cfg.scenario}: σ = {1e3 * cfg.plate.areal_density_kg_m2:g} g/m², "
                          f"{cfg.control.rate_term} rate term",
-                "overlay": ["time_h", "psi_ref_deg", "psi_act_deg", "err_deg", "torque_pitch_Nm"],
+                "overlay": ["psi_ref_deg", "psi_act_deg", "err_deg", "torque_pitch_Nm"],
                 "inset": "err_deg",   # §6.7: error inset
                 "markers": {"mk_sun": "Sun direction +y (yellow)", "mk_ground": "towards the ground point (blue)",
                             "mk_field": "magnetic field (magenta)", "mk_ref_line": "reference grey line (white)",
