@@ -8,6 +8,7 @@ from scipy.integrate import solve_ivp
 
 from magsail_mj.config import apply_overrides, load_config, parse_config
 from magsail_mj.estimation.attitude import matrix_from_quat
+from magsail_mj.export import read_timeseries
 from magsail_mj.loads.tidal import gravity_gradient_torque
 from magsail_mj.run import run_scenario
 from tests.conftest import REPO
@@ -39,7 +40,7 @@ def test_stiff_lattice_librates_like_rigid_body(tmp_path):
                                   "sim.record_every=50", "sim.progress=false", "damping.zeta_strut=0.5"])
     cfg = parse_config(tree)
     out = run_scenario(cfg, tmp_path / "run")
-    ts = np.load(tmp_path / "run/timeseries.npz")
+    ts = read_timeseries(tmp_path / "run")
     from magsail_mj.scenario import build_scenario
 
     sc = build_scenario(cfg)

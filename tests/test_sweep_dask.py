@@ -17,6 +17,7 @@ import pytest
 
 from magsail_mj.cli import main
 from magsail_mj.config import load_config
+from magsail_mj.export import read_timeseries
 from magsail_mj.run import run_scenario
 from magsail_mj.sweep import SweepRun, load_sweep, make_cluster, run_sweep
 from magsail_mj.sweep.runner import run_one
@@ -104,10 +105,10 @@ def test_killed_worker_is_retried_elsewhere_and_resumes_bit_identically(tmp_path
     # the same run uninterrupted, here in this process: records bit-identical
     reference = run_one(sweep.runs[0], tmp_path / "ref", video=False)
     assert reference["status"] == "completed" and reference["resumed_from_s"] is None
-    with np.load(out / "ck" / "timeseries.npz") as got, np.load(tmp_path / "ref" / "ck" / "timeseries.npz") as want:
-        assert sorted(got.files) == sorted(want.files)
-        for key in want.files:
-            assert np.array_equal(got[key], want[key], equal_nan=True), key
+    got, want = read_timeseries(out / "ck"), read_timeseries(tmp_path / "ref" / "ck")
+    assert sorted(got) == sorted(want)
+    for key in want:
+        assert np.array_equal(got[key], want[key], equal_nan=True), key
     got, want = (json.loads((d / "ck" / "summary.json").read_text()) for d in (out, tmp_path / "ref"))
     assert {k: v for k, v in got.items() if k != "wall_time_s"} == {k: v for k, v in want.items()
                                                                      if k != "wall_time_s"}
@@ -155,9 +156,8 @@ def test_a_run_resumes_only_from_a_checkpoint_of_its_own_config(tmp_path):
     assert resumed["status"] == "completed" and resumed["resumed_from_s"] == pytest.approx(2.0)
     whole = run_one(run, tmp_path / "whole", video=False, fresh=False)  # no checkpoint there: from the start
     assert whole["resumed_from_s"] is None
-    with np.load(tmp_path / "out" / "r" / "timeseries.npz") as got, \
-            np.load(tmp_path / "whole" / "r" / "timeseries.npz") as want:
-        assert all(np.array_equal(got[k], want[k], equal_nan=True) for k in want.files)
+    got, want = read_timeseries(tmp_path / "out" / "r"), read_timeseries(tmp_path / "whole" / "r")
+    assert sorted(got) == sorted(want) and all(np.array_equal(got[k], want[k], equal_nan=True) for k in want)
     # a checkpoint of another config (another time step changes the numbers) is never resumed
     other = SweepRun(id="r", config=CFG_A, overrides=(*small, "sim.timestep_s=0.05"))
     rerun = run_one(other, tmp_path / "out", video=False, fresh=False)
