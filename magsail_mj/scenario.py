@@ -25,9 +25,9 @@ class Scenario(Protocol):
 
     ``spec``: the MjSpec (its XML is the model of record). ``simulation()`` builds the runner.
     ``postprocess(result)`` returns ``(summary, series)``: flat summary keys with SI units in
-    their names, and extra time series to store in ``timeseries.npz``. ``plots(run_dir, result,
-    series)`` writes PNG files and returns their paths. ``render_info()`` goes to the manifest's
-    ``render`` entry.
+    their names, and derived time series (stored in the group ``series`` of the run's
+    ``timeseries.zarr``). ``plots(run_dir, result, series)`` writes PNG files and returns their
+    paths. ``render_info()`` goes to the manifest's ``render`` entry.
     """
 
     spec: mujoco.MjSpec

@@ -16,7 +16,7 @@ Outputs: ``summary.json`` with ``lifetime_{regime}_{method}_{atm}_s`` and ``…_
 nadir, deorbit, tumbling; method ∈ cowell, averaged; atm ∈ exp, msis_low, msis_mid, msis_high),
 ``lifetime_{regime}_days`` (Cowell where run, else averaged; exponential atmosphere),
 ``cowell_vs_averaged_{regime}_{atm}_rel_diff``; ``lifetime_table.csv``; ``comparison.json``;
-``timeseries.npz`` with each run's time, mean-altitude, perigee and apogee series; the plots
+``timeseries.zarr`` with each run's time, mean-altitude, perigee and apogee series; the plots
 ``altitude_decay.png`` and ``lifetime_comparison.png``.
 """
 
