@@ -20,25 +20,23 @@ import json
 import time
 from pathlib import Path
 
-import magsail_mj  # noqa: F401  (chooses the GL backend before mujoco is imported)
+import magsail_mj
 import numpy as np
 
 from magsail_mj.concepts.msac.cycle import cycle_state
 from magsail_mj.concepts.msac.metrics import secular_rate_fit
-from magsail_mj.config import load_config
-from magsail_mj.scenario import build_scenario
 
 CONFIG = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "msac" / "configs" / "paper_1khz.toml"
 
 
 def drift_row(*, method: str, timestep_s: float, cycles: int, extrapolate_s: float) -> dict[str, float | str]:
     """One run without projection: drift per cycle and the spurious yaw it adds."""
-    cfg = load_config(CONFIG, [f"sim.duration_s={cycles * 1e-3}", f"sim.timestep_s={timestep_s}",
-                               "sim.record_every=1000000", "drive.momentum_projection=false",
-                               f"drive.method='{method}'", f"drive.chunk_cycles={min(cycles, 200)}"])
-    task = build_scenario(cfg)
+    sim = magsail_mj.load(CONFIG, [f"sim.duration_s={cycles * 1e-3}", f"sim.timestep_s={timestep_s}",
+                                   "sim.record_every=1000000", "drive.momentum_projection=false",
+                                   f"drive.method='{method}'", f"drive.chunk_cycles={min(cycles, 200)}"])
+    task = sim.scenario
     t0 = time.perf_counter()
-    res = task.simulation().run()
+    res = sim.run()
     wall = time.perf_counter() - t0
     summary, _ = task.postprocess(res)
     L = res.records["strobe_angmom_N_m_s"][:, 2]
