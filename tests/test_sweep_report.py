@@ -28,16 +28,19 @@ def _rec(i: int, status: str, value: float | None) -> dict:
 
 
 def test_figure_stats_counts_failed_and_never_runs_and_uses_the_inverted_cdf():
-    # 17 runs reach 1..17, 2 completed runs never do, 1 run failed: n = 20
-    records = [_rec(i, "completed", float(i + 1)) for i in range(17)]
-    records += [_rec(17, "completed", None), _rec(18, "structure_failed", None), _rec(19, "failed", 3.0)]
+    # 16 runs reach 1..16, 1 completed run never does, 3 failed (one status failed, one studied
+    # structure failure, one completed run whose summary says its structure failed): n = 20
+    records = [_rec(i, "completed", float(i + 1)) for i in range(16)]
+    crushed = _rec(16, "completed", 0.5)
+    crushed["summary"]["failed"] = True          # its 0.5 must not enter the percentiles
+    records += [crushed, _rec(17, "completed", None), _rec(18, "structure_failed", 0.1), _rec(19, "failed", 3.0)]
     records += [_rec(20, "not_run", None), _rec(21, "interrupted", 2.0)]  # the sweep stopped first: left out
     s = figure_stats(records, "t_s")
-    assert (s["n"], s["reached"], s["never"], s["failed"], s["not_run"]) == (20, 17, 2, 1, 2)
-    assert s["share_reached"] == pytest.approx(17 / 20, abs=0)
-    # k = ceil(p n / 100): p5 -> x_1 = 1, p50 -> x_10 = 10, p95 -> x_19 = +inf (never)
+    assert (s["n"], s["reached"], s["never"], s["failed"], s["not_run"]) == (20, 16, 1, 3, 2)
+    assert s["share_reached"] == pytest.approx(16 / 20, abs=0)
+    # k = ceil(p n / 100): p5 -> x_1 = 1, p50 -> x_10 = 10, p95 -> x_19 = +inf (never or failed)
     assert s["percentiles"] == {"p5": 1.0, "p50": 10.0, "p95": None}
-    assert (s["min"], s["max"]) == (1.0, 17.0)
+    assert (s["min"], s["max"]) == (1.0, 16.0)
 
 
 def _mc_sweep(tmp_path: Path) -> Path:

@@ -9,7 +9,8 @@
 * **Monte Carlo** (``[monte_carlo]`` sweeps): ``report.md`` and ``percentiles.csv``, per
   chosen figure the number of runs, how many reached a value (finite), never did (the run
   completed but the figure is None, e.g. ``|ω|`` never stayed below a threshold within the run)
-  and failed (any status but a success), the share reached, and the 5/50/95 % percentiles;
+  and failed (any run that did not complete, or whose structure failed), the share reached, and
+  the 5/50/95 % percentiles;
   ``<figure>.png`` per figure: a histogram of the reached values and the empirical CDF.
 
 Runs that failed or never reached a value are not dropped: they count in every denominator, as
@@ -44,7 +45,6 @@ from matplotlib.figure import Figure
 
 from magsail_mj.config import ConfigError, read_toml
 from magsail_mj.io import atomic_path
-from magsail_mj.sweep.common import _SUCCESS
 
 __all__ = ["PERCENTILES", "write_report", "figure_stats", "add_arguments", "main", "ReportError"]
 
@@ -127,7 +127,10 @@ def _default_figures(records: list[dict[str, Any]], *, monte_carlo: bool) -> lis
 
 
 def _ok(rec: dict[str, Any]) -> bool:
-    return rec.get("status") in _SUCCESS
+    """A run whose numbers enter figures and statistics: completed, and its structure did not fail
+    (a studied failure such as ``structure_failed``, or a summary saying ``failed``, is reported
+    as failed, never averaged in)."""
+    return rec.get("status") == "completed" and (rec.get("summary") or {}).get("failed") is not True
 
 
 # ---------------------------------------------------------------------------------------------
@@ -138,11 +141,13 @@ def figure_stats(records: list[dict[str, Any]], figure: str,
                  percentiles: Sequence[float] = PERCENTILES) -> dict[str, Any]:
     """Counts, share reached and percentiles of one summary figure over every run.
 
-    A run counts as ``failed`` when its status is not a success, ``never`` when it succeeded but
-    the figure is not a finite number, else ``reached``; ``not_run`` and ``interrupted`` runs
-    (the sweep stopped first) are left out of ``n`` and counted as ``not_run``. Percentiles use every run, failed and
-    never as +inf (inverted empirical CDF, ``x_k`` with ``k = ⌈p n/100⌉``); ``None`` stands for
-    +inf in the result. ``share_reached = reached / n``.
+    A run counts as ``failed`` when it did not complete or its structure failed (status
+    ``structure_failed`` or the other studied failures, or a summary with ``failed = true``),
+    ``never`` when it completed but the figure is not a finite number, else ``reached``;
+    ``not_run`` and ``interrupted`` runs (the sweep stopped first) are left out of ``n`` and
+    counted as ``not_run``. Percentiles use every run, failed and never as +inf (inverted
+    empirical CDF, ``x_k`` with ``k = ⌈p n/100⌉``); ``None`` stands for +inf in the result.
+    ``share_reached = reached / n``.
     """
     values = []
     failed = never = not_run = 0
