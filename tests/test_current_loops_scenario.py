@@ -127,7 +127,7 @@ def test_sweep_config_rejects_orbit_and_names_the_key():
 
 def test_every_current_loops_config_loads():
     configs = [p for p in MODELS.rglob("*.toml") if p.name != "sweep36.toml"]
-    assert len(configs) == 36 + 2 + 2
+    assert len(configs) == 36 + 2 + 2 + 3      # sweep, slews, mirror sweep, paper-literal variants
     for p in configs:
         load_config(p)
 
