@@ -176,6 +176,10 @@ def _run_locked(cfg: Any, sim: Any, run_dir: Path, identity: dict[str, Any], *, 
         if status == "completed" and overflowed:  # NaN may mark an undefined value; ±inf never is a number
             status, message = "failed", (f"the derived series {', '.join(map(repr, overflowed))} overflowed to "
                                          "infinity although the state stayed finite (an input too large for float64?)")
+        if status == "completed" and summary.get("failed") is True:  # found by post-processing (inverted cells)
+            status, message = "structure_failed", (f"the structure failed at t = {summary.get('t_failed_s')} s "
+                                                   "(post-processing found inverted cells or a strut strain "
+                                                   "beyond sim.max_strain)")
         summary = {"scenario": cfg.scenario, **summary, "t_end_s": result.t_end_s, "status": status,
                    "status_message": message}
         write_json(run_dir / "summary.json", summary)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from magsail_mj.checkpoint import read_checkpoint
+from magsail_mj.concepts.truss_magnetorquer import metrics as truss_metrics
 from magsail_mj.config import apply_overrides, parse_config
 from magsail_mj.export import read_timeseries
 from magsail_mj.io import RunDirError
@@ -157,3 +158,25 @@ def test_checkpoints_stream_records_to_store(tmp_path, small_truss_tree):
     assert plain.records.keys() == streamed.records.keys()
     for key in plain.records:
         assert np.array_equal(plain.records[key], streamed.records[key]), key
+
+
+def test_a_structure_failure_found_by_post_processing_is_the_run_status(tmp_path, small_truss_tree, monkeypatch):
+    """Inverted cells seen only by post-processing (the run's strain check saw none) make the run
+    ``structure_failed`` in the summary, the manifest and the store: never a completed run with a
+    failed structure inside (so no table averages it in)."""
+    real = truss_metrics.structural_failure
+
+    def inverted_from_the_third_record(pos, *args, **kwargs):
+        check = real(pos, *args, **kwargs)
+        failed = np.zeros(np.shape(check.failed), dtype=bool)
+        failed[..., 2:] = True
+        return check._replace(failed=failed, n_inverted=failed.astype(np.int64))
+
+    monkeypatch.setattr(truss_metrics, "structural_failure", inverted_from_the_third_record)
+    out = run_scenario(_cfg(small_truss_tree, "sim.duration_s=2.0", "sim.record_every=5"), tmp_path / "run")
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    assert out.status == summary["status"] == manifest["status"] == "structure_failed"
+    assert summary["failed"] is True and summary["t_failed_s"] == pytest.approx(1.0)
+    assert "t = 1.0 s" in summary["status_message"] and "inverted cells" in summary["status_message"]
+    assert StoreRecords(tmp_path / "run" / STORE_NAME).attrs["status"] == "structure_failed"
