@@ -34,6 +34,20 @@ SMALL_TRUSS = {
     "profile": {"kind": "bang_bang_off", "tau_max_Nm": 0.01, "t_end_s": 20.0},
 }
 
+SMALL_ORBITAL_TRUSS = {
+    "concept": "truss_magnetorquer", "scenario": "detumble", "description": "small orbital truss",
+    "sim": {"duration_s": 6.0, "timestep_s": 0.1, "integrator": "RK4", "record_every": 5, "seed": 0,
+            "progress": False, "checkpoint_every_s": 2.0},
+    "lattice": {"units": 3, "side_m": 12.0}, "mass": {"total_kg": 8.0},
+    "stiffness": {"EI_Nm2": 50.0}, "damping": {"zeta_strut": 0.1},
+    "actuators": {"kind": "magnetorquer", "kappa_Am2_per_kg": 100.0, "rod_mass_kg": 2.0},
+    "initial": {"omega0_rad_s": [0.01, 0.007, 0.0]},
+    "orbit": {"enabled": True, "altitude_km": 800.0, "inclination_deg": 90.0, "raan_deg": 90.0},
+    "field": {"model": "dipole"}, "gravity": {"tidal": True},
+    "control": {"kind": "bdot", "k_bdot_Nms_per_T2": 1e12, "cache_dir": ""},
+}
+"""A raw config tree of a 3 × 3-cube truss in an 800 km polar orbit, rods under B-dot (6 s)."""
+
 
 @pytest.fixture
 def small_truss_tree() -> dict:

@@ -35,6 +35,7 @@ from magsail_mj.loads.magnetorquer_rods import rod_array
 from magsail_mj.concepts.truss_magnetorquer.orbital import (
     dominant_period, first_time_below, slew_axis_angle, stay_time_below, true_intervals, tumbled,
 )
+from tests.conftest import SMALL_ORBITAL_TRUSS
 
 PQ = (10.0, 50.0, 1.0)            # paper's gains (§9.4)
 PW = (1600.0, 8000.0, 800.0)
@@ -329,18 +330,7 @@ def test_slew_axis_angle_and_tumble_flag():
 
 # ----------------------------------------------------------------------------------- configs and a small run
 
-SMALL_ORBITAL = {
-    "concept": "truss_magnetorquer", "scenario": "detumble", "description": "small orbital truss",
-    "sim": {"duration_s": 6.0, "timestep_s": 0.1, "integrator": "RK4", "record_every": 5, "seed": 0,
-            "progress": False, "checkpoint_every_s": 2.0},
-    "lattice": {"units": 3, "side_m": 12.0}, "mass": {"total_kg": 8.0},
-    "stiffness": {"EI_Nm2": 50.0}, "damping": {"zeta_strut": 0.1},
-    "actuators": {"kind": "magnetorquer", "kappa_Am2_per_kg": 100.0, "rod_mass_kg": 2.0},
-    "initial": {"omega0_rad_s": [0.01, 0.007, 0.0]},
-    "orbit": {"enabled": True, "altitude_km": 800.0, "inclination_deg": 90.0, "raan_deg": 90.0},
-    "field": {"model": "dipole"}, "gravity": {"tidal": True},
-    "control": {"kind": "bdot", "k_bdot_Nms_per_T2": 1e12, "cache_dir": ""},
-}
+SMALL_ORBITAL = SMALL_ORBITAL_TRUSS
 
 
 def _orbital(*overrides, tree=None):

@@ -37,6 +37,7 @@ from magsail_mj.lattice.modes import lattice_modes
 from magsail_mj.lattice.properties import cantilever_linear, strut_stiffness
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad, rod_pair_forces
+from tests.conftest import SMALL_ORBITAL_TRUSS
 
 FINITE = st.floats(-10.0, 10.0, allow_nan=False).filter(lambda x: x == 0 or abs(x) > 1e-6)
 FIELD = arrays(float, 3, elements=st.floats(-1e-4, 1e-4).filter(lambda x: x == 0 or abs(x) > 1e-12))
@@ -149,18 +150,8 @@ def test_variant_load_adds_its_pairs_and_reports_its_torque(kind):
         np.testing.assert_array_equal(x2, xfrc)
 
 
-SMALL_ORBITAL = {
-    "concept": "truss_magnetorquer", "scenario": "detumble", "description": "small orbital truss",
-    "sim": {"duration_s": 2.0, "timestep_s": 0.1, "integrator": "RK4", "record_every": 5, "seed": 0,
-            "progress": False},
-    "lattice": {"units": 3, "side_m": 12.0}, "mass": {"total_kg": 8.0},
-    "stiffness": {"EI_Nm2": 50.0}, "damping": {"zeta_strut": 0.1},
-    "actuators": {"kind": "magnetorquer", "kappa_Am2_per_kg": 100.0, "rod_mass_kg": 2.0},
-    "initial": {"omega0_rad_s": [0.01, 0.007, 0.0]},
-    "orbit": {"enabled": True, "altitude_km": 800.0, "inclination_deg": 90.0, "raan_deg": 90.0},
-    "field": {"model": "dipole"}, "gravity": {"tidal": True},
-    "control": {"kind": "bdot", "k_bdot_Nms_per_T2": 1e12, "cache_dir": ""},
-}
+SMALL_ORBITAL = {**SMALL_ORBITAL_TRUSS,
+                 "sim": {**SMALL_ORBITAL_TRUSS["sim"], "duration_s": 2.0, "checkpoint_every_s": 0.0}}
 
 
 def small_orbital(*overrides):
