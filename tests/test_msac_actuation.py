@@ -27,6 +27,7 @@ from magsail_mj.concepts.msac.tasks import actuation_summary
 from magsail_mj.config import load_config
 from magsail_mj.scenario import build_scenario
 from tests.conftest import REPO
+from tests.test_msac_model import run as run_config
 
 MODELS = REPO / "magsail_mj" / "concepts" / "msac" / "configs"
 HELD = "drive.method='held_torque'"
@@ -34,12 +35,7 @@ HELD = "drive.method='held_torque'"
 
 def run(*overrides: str, config: str = "paper_1khz.toml"):
     """Build, run and post-process a config (no files); return (task, result, summary)."""
-    cfg = load_config(MODELS / config, list(overrides))
-    task = build_scenario(cfg)
-    res = task.simulation().run()
-    summary, _ = task.postprocess(res)
-    assert res.status == "completed", res.message
-    return task, res, summary
+    return run_config(config, *overrides)
 
 
 @pytest.fixture(scope="module")
