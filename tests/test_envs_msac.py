@@ -41,7 +41,10 @@ class PhaseTimingConformance(test_utils.EnvironmentTestMixin, unittest.TestCase)
     ("magsail_mj/concepts/msac/configs/paper_1khz.toml", "0.01", "joint_targets"),
 ])
 def test_configured_cycle_gives_magsail_run_summary(config, duration, action):
-    ref, steps = assert_shipped_policy_gives_the_run_summary(config, [f"sim.duration_s={duration}"], action=action)
+    """The environment drives the servo replay (its actions are joint targets): with the configured
+    cycle it gives the summary of ``magsail run`` with that drive."""
+    overrides = [f"sim.duration_s={duration}", "drive.method='replay'"]
+    ref, steps = assert_shipped_policy_gives_the_run_summary(config, overrides, action=action)
     assert steps == round(float(duration) * load_config(config).cycle.frequency_Hz)
     assert len(ref) > 40
 

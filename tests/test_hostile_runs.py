@@ -135,7 +135,8 @@ def test_every_runner_reports_a_message(tmp_path):
 
 def test_msac_rollout_divergence_is_dated_and_keeps_records(tmp_path, monkeypatch):
     """A control above MuJoCo's bound inside the natively rolled-out cycle (which MuJoCo would zero
-    and go on): the MSAC runner ends diverged at that step and keeps the states before it."""
+    and go on; the servo replay's table): the MSAC runner ends diverged at that step and keeps the
+    states before it."""
     from magsail_mj.concepts.msac import runner as msac_runner
 
     original = msac_runner.replay_table
@@ -149,7 +150,7 @@ def test_msac_rollout_divergence_is_dated_and_keeps_records(tmp_path, monkeypatc
 
     monkeypatch.setattr(msac_runner, "replay_table", poisoned)
     cfg = load_config(MODELS / "msac/configs/paper_1khz.toml", ["sim.duration_s=0.004", "sim.record_every=1",
-                                                       "sim.progress=false"])
+                                                       "sim.progress=false", "drive.method='replay'"])
     out = run_scenario(cfg, tmp_path / "m")
     assert out.status == "diverged"
     t_rep = float(re.search(r"t = ([0-9.eE+-]+) s", out["status_message"]).group(1))

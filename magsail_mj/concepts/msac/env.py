@@ -350,10 +350,15 @@ class MsacCycleTask(AttitudeTask):
 def make_msac_environment(cfg: Any, *, random: Any = None, feedforward: bool = True,
                           **options: Any) -> control.Environment:
     """The environment of an MSAC multibody config (``options`` go to :class:`MsacCycleTask`):
-    ``control_timestep`` = ``cycles_per_step`` cycle periods, ``time_limit`` = ``sim.duration_s``."""
+    ``control_timestep`` = ``cycles_per_step`` cycle periods, ``time_limit`` = ``sim.duration_s``.
+    Its actions are joint targets, so it always drives the servo ``replay`` (``drive.method`` of
+    the config is replaced; ``magsail run`` of the same config with ``drive.method = "replay"`` gives
+    the same numbers)."""
     if getattr(cfg, "concept", None) != "msac" or getattr(cfg, "scenario", None) != "multibody":
         raise ValueError(f"config: expected an MSAC multibody config, got concept {getattr(cfg, 'concept', None)!r}, "
                          f"scenario {getattr(cfg, 'scenario', None)!r}")
+    if cfg.drive.method != "replay":   # the actions are joint targets: the servo replay drives them
+        cfg = cfg.model_copy(update={"drive": cfg.drive.model_copy(update={"method": "replay"})})
     runner = magsail_mj.load(cfg)
     physics = MsacPhysics(runner, feedforward=feedforward)
     task = MsacCycleTask(runner, random=random, **options)

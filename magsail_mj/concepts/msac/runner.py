@@ -236,7 +236,9 @@ class MsacRunner:
         acc.drift_z_max = max(acc.drift_z_max, float(np.abs(dL[:, 2]).max()))
         acc.hinge_peak = max(acc.hinge_peak, float(np.abs(frc[:, [0, 2]]).max()))
         acc.slide_peak = max(acc.slide_peak, float(np.abs(frc[:, [1, 3]]).max()))
-        acc.frc_sq_sum = acc.frc_sq_sum + (frc * frc).sum(axis=0)
+        # a strict left fold over the steps (not a pairwise sum per chunk), so the total does not
+        # depend on where chunks start: a run stopped mid-chunk and resumed sums the same way
+        acc.frc_sq_sum = np.add.accumulate(np.vstack([acc.frc_sq_sum[None], frc * frc]), axis=0)[-1]
         acc.frc_count += n
         err = np.abs(qpos[:, ix["qpos"]] - self.q_des_cycle[steps % self.N])
         acc.track_max = np.maximum(acc.track_max, err.max(axis=0))
