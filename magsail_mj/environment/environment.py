@@ -311,6 +311,8 @@ class Environment:
             out.update({
                 "orbit_semi_major_axis_m": el.a,
                 "orbit_altitude_m": el.a - self.R_E,
+                "orbit_perigee_altitude_m": el.a * (1.0 - el.e) - self.R_E,
+                "orbit_apogee_altitude_m": el.a * (1.0 + el.e) - self.R_E,
                 "orbit_eccentricity": el.e,
                 "orbit_inclination_rad": el.i,
                 "orbit_raan_rad": el.raan,

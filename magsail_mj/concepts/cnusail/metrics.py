@@ -266,6 +266,10 @@ def attitude_outputs(sc: CnusailModel, result: RunResult, *, controller: Cnusail
             ms = [e for e in controller.events if e["kind"] == "manoeuvre_start"]
             if ms:
                 summary["eigen_angle_gain_ref_rad"] = ms[0]["theta_clamped_rad"]
+                # the gain clamp (components of |q_e0| below the floor raised to it): the eigen-angle
+                # the gains were computed from vs the true one, and whether the clamp acted
+                summary["eigen_angle_gain_true_rad"] = ms[0]["theta_true_rad"]
+                summary["eigen_gain_clamped"] = bool(ms[0]["theta_clamped_rad"] != ms[0]["theta_true_rad"])
 
         if cfg.analysis.disturbance_orbit:
             for m in ("nadir", "deorbit"):
