@@ -37,6 +37,7 @@ from magsail_mj.lattice.modes import lattice_modes
 from magsail_mj.lattice.properties import cantilever_linear, strut_stiffness
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad, rod_pair_forces
+from magsail_mj.concepts.truss_magnetorquer.orbital import saturation_phases
 from tests.conftest import SMALL_ORBITAL_TRUSS
 
 FINITE = st.floats(-10.0, 10.0, allow_nan=False).filter(lambda x: x == 0 or abs(x) > 1e-6)
@@ -345,3 +346,20 @@ def test_rigid_counterpart_turns_the_printed_torque_around():
         np.vstack([np.zeros(3), lat.nodes - lat.nodes.mean(axis=0)]), pol)
     np.testing.assert_allclose(T["printed"], -T["corrected"], rtol=0, atol=1e-15)
     np.testing.assert_allclose(T["printed"], -np.cross(m, B), rtol=1e-12)
+
+
+def test_saturation_phases_of_a_detumble():
+    """Records every 10 s over 3 h: family 1 saturated for the first 40 min, family 2 in two later
+    bursts (4 000–4 300 s and 6 000–6 900 s): share 40/60 in the first hour, the longest later burst
+    900 + 10 s starting at 6 000 s; no later burst gives None."""
+    t = np.arange(0.0, 10800.0, 10.0)
+    sat = np.zeros((t.size, 2), dtype=bool)
+    sat[t < 2400, 0] = True
+    sat[(t >= 4000) & (t <= 4300), 1] = True
+    sat[(t >= 6000) & (t <= 6900), 1] = True
+    keys = saturation_phases(t, sat)
+    assert keys["saturation_share_first_hour"] == pytest.approx(2400 / 3600)
+    assert keys["saturation_burst_after_first_hour_s"] == pytest.approx(910.0)
+    assert keys["saturation_burst_start_s"] == 6000.0
+    quiet = saturation_phases(t, sat & (t[:, None] < 3600))
+    assert quiet["saturation_burst_after_first_hour_s"] is None and quiet["saturation_burst_start_s"] is None

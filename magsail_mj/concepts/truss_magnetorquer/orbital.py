@@ -77,6 +77,7 @@ __all__ = [
     "orbital_summary",
     "detumble_keys",
     "slew_keys",
+    "saturation_phases",
     "orbital_plots",
     "orbital_manifest",
     "first_time_below",
@@ -285,6 +286,27 @@ def true_intervals(t: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return np.stack([t[start], t[end]], axis=1)
 
 
+def saturation_phases(t: np.ndarray, saturated: np.ndarray, *, split_s: float = 3600.0) -> dict[str, Any]:
+    """The detumble's two saturation phases (the paper's "saturated through most of the first
+    hour" and "a later burst"): the share of recorded samples before ``split_s`` [s] with either
+    rod family saturated, and the longest run of saturated samples starting at or after
+    ``split_s`` — its duration [s] (last − first saturated sample plus one record interval) and
+    start [s]; ``None`` when there is none. ``saturated``: (T, families) booleans at times ``t``."""
+    t = np.asarray(t, dtype=float)
+    sat = np.asarray(saturated, dtype=bool).reshape(len(t), -1).any(axis=1)
+    early = t < split_s
+    dt_rec = float(t[1] - t[0]) if t.size > 1 else 0.0
+    runs = true_intervals(t, sat)
+    late = runs[runs[:, 0] >= split_s] if runs.size else runs
+    out: dict[str, Any] = {"saturation_share_first_hour": float(sat[early].mean()) if early.any() else None,
+                           "saturation_burst_after_first_hour_s": None, "saturation_burst_start_s": None}
+    if late.size:
+        k = int(np.argmax(late[:, 1] - late[:, 0]))
+        out["saturation_burst_after_first_hour_s"] = float(late[k, 1] - late[k, 0] + dt_rec)
+        out["saturation_burst_start_s"] = float(late[k, 0])
+    return out
+
+
 def dominant_period(t: np.ndarray, x: np.ndarray) -> float:
     """Period [s] of the largest non-zero-frequency FFT peak of ``x`` (uniform ``t``), linear
     trend removed; NaN for fewer than 8 samples or a constant signal."""
@@ -393,6 +415,7 @@ def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: NodeTrajectory | np.n
     intervals = [np.column_stack([iv, np.full(len(iv), f + 1)]) for f in (0, 1)
                  for iv in [true_intervals(t, sat[:, f])]]
     series["saturation_intervals"] = np.concatenate(intervals) if intervals else np.zeros((0, 3))
+    summary.update(saturation_phases(t, sat))
 
     # surface angle and shape at max SD (§5.2)
     kmax = int(np.nanargmax(series["surface_sd_m"]))
