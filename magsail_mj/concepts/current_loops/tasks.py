@@ -243,6 +243,8 @@ class LoopsScenario(ABC):
             "camera": {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
                        "distance_m": r.distance_factor * self.cfg.lattice.side_m},
             "exaggeration": r.exaggeration, "fps": r.fps, "max_frames": r.max_frames,
+            "overlay_names": {"error_angle_deg": "attitude error", "strain_energy_J": "strain energy",
+                              "rotation_angle_deg": "rotation angle"},
         }
         info.update(self.render_extra())
         return info

@@ -79,6 +79,15 @@ __all__ = [
 Summary = tuple[dict[str, Any], dict[str, np.ndarray]]
 
 
+#: readable names of the truss's overlay series (units come from their suffixes)
+OVERLAY_NAMES = {
+    "surface_sd_m": "surface SD", "torque_cmd_x1_Nm": "commanded torque about x₁",
+    "tip_deflection_m": "tip deflection", "omega_body_rad_s": "body rates",
+    "omega_norm_rad_s": "body rate |ω|", "error_angle_deg": "attitude error",
+    "N1": "active rods, family 1", "N2": "active rods, family 2",
+}
+
+
 @dataclass
 class TrussScenario(ABC):
     """A truss run: the model plus its loads, probes and post-processing (base of every task).
@@ -98,6 +107,8 @@ class TrussScenario(ABC):
     """Series printed on each video frame."""
     INSET: ClassVar[str | None] = None
     """Series drawn as the video's inset plot (``None``: no inset)."""
+    ACTIVITY_LABELS: ClassVar[dict[str, str]] = {}
+    """Meaning of the strut activity colours ``"1"``/``"-1"`` (empty: the renderer's default)."""
 
     def __post_init__(self) -> None:
         self.spec = self.tm.spec
@@ -224,6 +235,9 @@ class TrussScenario(ABC):
             "exaggeration": r.exaggeration,
             "fps": r.fps,
             "max_frames": r.max_frames,
+            "overlay_names": dict(OVERLAY_NAMES),
+            "overlay_units": {"N1": "rods", "N2": "rods"},
+            **({"activity_labels": dict(self.ACTIVITY_LABELS)} if self.ACTIVITY_LABELS else {}),
         }
 
     def task_manifest(self) -> dict[str, Any]:
@@ -270,6 +284,7 @@ class DistVsCentralTask(TrussScenario):
     rigid body."""
 
     OVERLAY = ("surface_sd_m", "torque_cmd_x1_Nm")
+    ACTIVITY_LABELS = {"1": "strut couple, + sign", "-1": "strut couple, − sign"}
 
     def _profile_command(self) -> Callable[[Any], np.ndarray]:
         """τ(t) [N m], body components: the ``[profile]`` about its axis."""
@@ -347,6 +362,8 @@ class OrbitalTrussTask(TrussScenario):
     the ``[control]`` law through the §7.3 allocation, the orbital probes, summary and plots
     (:mod:`magsail_mj.concepts.truss_magnetorquer.orbital`). Subclasses add the kind's own metrics
     (the abstract :meth:`kind_metrics`)."""
+
+    ACTIVITY_LABELS = {"1": "rod on, dipole along the strut", "-1": "rod on, dipole reversed"}
 
     def rods(self) -> MagnetorquerRodLoad:
         """The rod load (built once and kept: the controller and the probes share it)."""
