@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import pytest
 
+from magsail_mj.concepts.current_loops.tasks import LoopsScenario
+from magsail_mj.concepts.msac.tasks import MsacTask
 from magsail_mj.concepts.reflector.tasks import ReflectorTask
 from magsail_mj.concepts.truss_magnetorquer.tasks import OrbitalTrussTask, TrussScenario
 from magsail_mj.envs.core import AttitudeTask
@@ -15,6 +17,8 @@ HOOKS = {
     ReflectorTask: {"make_controller", "initial_state", "render_text"},
     TrussScenario: {"postprocess", "task_plots"},
     OrbitalTrussTask: {"kind_metrics"},
+    LoopsScenario: {"build_spec", "loads", "probes", "metrics", "task_plots"},
+    MsacTask: {"simulation", "summarise"},
 }
 """Base class → its abstract hooks."""
 

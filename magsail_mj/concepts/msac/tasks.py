@@ -15,6 +15,7 @@ Each class is registered with :func:`magsail_mj.concepts.register_task` keyed by
 from __future__ import annotations
 
 import time
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -38,7 +39,7 @@ __all__ = ["MsacTask", "LumpedTask", "MultibodyTask", "SweepTask", "SweepRunner"
            "multibody_summary", "phase_labels"]
 
 
-class MsacTask:
+class MsacTask(ABC):
     """What every MSAC task shares: the built MSAC (``msac``; ``params``, ``path``, ``spec``,
     ``model``, ``planar`` from it), the analytic references, the video settings and the manifest.
     Subclasses set the runner, the outputs and the video overlay."""
@@ -58,11 +59,13 @@ class MsacTask:
         """Analytic summary entries (see :meth:`MsacModel.references`)."""
         return self.msac.references()
 
+    @abstractmethod
     def simulation(self) -> Any:
-        raise NotImplementedError
+        """The kind's runner (``run()`` → :class:`~magsail_mj.sim.RunResult`)."""
 
+    @abstractmethod
     def summarise(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        raise NotImplementedError
+        """The kind's summary keys and derived series from a run's result."""
 
     def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         """Summary (spec §8 and issue keys) and derived series (yaw, increments)."""
