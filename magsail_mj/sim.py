@@ -460,7 +460,8 @@ class Simulation:
         recorder = self.recorder
         kin, watch = self.kin, self._watch
         midpoint = self.timing.mode == "midpoint"
-        start_loads = any(getattr(load, "at_step_start", False) for load in self.loads)
+        load_starts = [(load, bool(getattr(load, "at_step_start", False))) for load in self.loads]
+        start_loads = any(at_start for _, at_start in load_starts)
         qpos, qvel = d.qpos, d.qvel
         small = m.nq + m.nv <= 64     # summing a short state as Python floats is 3x cheaper than two reductions
         start = step = self.step_index
@@ -513,8 +514,8 @@ class Simulation:
                 d.xfrc_applied[:] = 0.0
                 if midpoint:
                     mid = self._mid_state(t, state)
-                    for load in self.loads:
-                        load.add(state if getattr(load, "at_step_start", False) else mid, d.xfrc_applied)
+                    for load, at_start in load_starts:
+                        load.add(state if at_start else mid, d.xfrc_applied)
                 else:
                     for load in self.loads:
                         load.add(state, d.xfrc_applied)
