@@ -36,13 +36,13 @@ exclude_patterns = ["_build", "reference/_generated", "gallery/*.ipynb", "Thumbs
 sphinx_gallery_conf = {
     "examples_dirs": str(DOCS.parent / "examples" / "gallery"),
     "gallery_dirs": "gallery",
-    "filename_pattern": r"plot_",             # every plot_*.py runs at each build
+    "filename_pattern": r"plot_",  # every plot_*.py runs at each build
     "ignore_pattern": r"__init__\.py",
     "within_subsection_order": "FileNameSortKey",
     "image_scrapers": ("matplotlib",),
     "download_all_examples": False,
     "remove_config_comments": True,
-    "abort_on_example_error": True,            # a failing example fails the build
+    "abort_on_example_error": True,  # a failing example fails the build
     "show_memory": False,
     "show_signature": False,
     "min_reported_time": 1,

@@ -31,8 +31,11 @@ def main(duration_s: float = 120.0) -> dict:
     sim = magsail_mj.load("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", [f"sim.duration_s={duration_s}"])
     run = attach(sim, RateDamper(attitude_sensor(sim), gain_Nms=5e-3), body_torque_actuator(sim)).run()
     rate = np.linalg.norm(run.records["qvel"][:, 3:6], axis=1)
-    out = {"status": run.status, "rate_start_deg_s": float(np.degrees(rate[0])),
-           "rate_end_deg_s": float(np.degrees(rate[-1]))}
+    out = {
+        "status": run.status,
+        "rate_start_deg_s": float(np.degrees(rate[0])),
+        "rate_end_deg_s": float(np.degrees(rate[-1])),
+    }
     print(out)
     return out
 

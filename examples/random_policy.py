@@ -35,9 +35,14 @@ def run_random(env: Any, *, seed: int = 0, max_steps: int | None = None) -> dict
         ret += float(ts.reward)
         steps += 1
     wall = time.perf_counter() - wall0
-    return {"steps": steps, "return": ret, "simulated_s": float(env.physics.time()),
-            "wall_per_step_s": wall / max(steps, 1), "last": bool(ts.last()),
-            "discount": None if ts.discount is None else float(ts.discount)}
+    return {
+        "steps": steps,
+        "return": ret,
+        "simulated_s": float(env.physics.time()),
+        "wall_per_step_s": wall / max(steps, 1),
+        "last": bool(ts.last()),
+        "discount": None if ts.discount is None else float(ts.discount),
+    }
 
 
 def main(argv: list[str] | None = None) -> list[dict[str, Any]]:

@@ -81,9 +81,14 @@ def drive(name: str, *, duration_s: float, units: int) -> dict[str, Any]:
     if name == "truss":
         overrides += [f"lattice.units={units}"]
     env = envs.load(task, overrides, randomize=False, **options)
-    pd = QuaternionPD.from_bandwidth(sensor=error_sensor, q_ref_wxyz=(1.0, 0.0, 0.0, 0.0),
-                                     inertia_kgm2=principal_inertia(env), omega_n_rad_s=omega_n, zeta=ZETA,
-                                     period_s=env.control_timestep())
+    pd = QuaternionPD.from_bandwidth(
+        sensor=error_sensor,
+        q_ref_wxyz=(1.0, 0.0, 0.0, 0.0),
+        inertia_kgm2=principal_inertia(env),
+        omega_n_rad_s=omega_n,
+        zeta=ZETA,
+        period_s=env.control_timestep(),
+    )
     wall0 = time.perf_counter()
     total, steps = envs.run_episode(env, lambda ts: torque_action(env, pd.update(ts.observation).torque_body_Nm))
     wall = time.perf_counter() - wall0
@@ -93,11 +98,18 @@ def drive(name: str, *, duration_s: float, units: int) -> dict[str, Any]:
     both = (n_req > 0) & (n_del > 0)
     cos = np.einsum("ij,ij->i", req[both], dlv[both]) / (n_req[both] * n_del[both])
     q_e, _ = error_sensor(env.task.current_observation(env.physics))
-    return {"spacecraft": name, "task": task, "steps": steps, "wall_per_step_ms": 1e3 * wall / max(steps, 1),
-            "return": total, "final_error_deg": math.degrees(2 * math.acos(min(1.0, abs(float(q_e[0]))))),
-            "mean_request_Nm": float(n_req.mean()), "mean_delivered_Nm": float(n_del.mean()),
-            "mean_cos_request_delivered": float(cos.mean()) if cos.size else float("nan"),
-            "status": env.physics.status}
+    return {
+        "spacecraft": name,
+        "task": task,
+        "steps": steps,
+        "wall_per_step_ms": 1e3 * wall / max(steps, 1),
+        "return": total,
+        "final_error_deg": math.degrees(2 * math.acos(min(1.0, abs(float(q_e[0]))))),
+        "mean_request_Nm": float(n_req.mean()),
+        "mean_delivered_Nm": float(n_del.mean()),
+        "mean_cos_request_delivered": float(cos.mean()) if cos.size else float("nan"),
+        "status": env.physics.status,
+    }
 
 
 def main(argv: list[str] | None = None) -> list[dict[str, Any]]:

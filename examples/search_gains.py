@@ -52,8 +52,12 @@ class BdotPolicy:
     def __call__(self, time_step: Any) -> np.ndarray:
         c = self.cfg.control
         if self.law is None or time_step.first():
-            self.law = make_bdot(c.bdot_form, gain=self.gain, sample_period_s=self.cfg.actuators.mtq.cycle_s,
-                                 omega_c_rad_s=c.bdot_omega_c_rad_s)
+            self.law = make_bdot(
+                c.bdot_form,
+                gain=self.gain,
+                sample_period_s=self.cfg.actuators.mtq.cycle_s,
+                omega_c_rad_s=c.bdot_omega_c_rad_s,
+            )
             self.m = np.zeros(3)
         obs = time_step.observation
         k = int(round(float(obs["time_s"][0]) / self.dt_s))
@@ -90,21 +94,34 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     def score(gain: float) -> float:
         t, w_end = detumble_time(env, gain)
         value = t if t is not None else args.duration_s * (1.0 + w_end / threshold)
-        evaluated.append({"gain_A_m2_s_T": gain, "detumble_time_s": t, "rate_end_deg_s": math.degrees(w_end),
-                          "score_s": value})
+        evaluated.append(
+            {"gain_A_m2_s_T": gain, "detumble_time_s": t, "rate_end_deg_s": math.degrees(w_end), "score_s": value}
+        )
         print(json.dumps(evaluated[-1]), file=sys.stderr, flush=True)
         return value
 
     shipped = cfg.control.bdot_gain_A_m2_s_T
     score(shipped)
-    res = minimize_scalar(lambda x: score(10.0 ** x), bounds=(args.log10_low, args.log10_high), method="bounded",
-                          options={"maxiter": max(1, args.evaluations - 1), "xatol": 0.02})
+    res = minimize_scalar(
+        lambda x: score(10.0**x),
+        bounds=(args.log10_low, args.log10_high),
+        method="bounded",
+        options={"maxiter": max(1, args.evaluations - 1), "xatol": 0.02},
+    )
     best = min(evaluated, key=lambda e: e["score_s"])
-    out = {"config": args.config, "duration_s": args.duration_s, "overrides": args.set,
-           "shipped_gain_A_m2_s_T": shipped, "shipped_detumble_time_s": evaluated[0]["detumble_time_s"],
-           "best_gain_A_m2_s_T": best["gain_A_m2_s_T"], "best_detumble_time_s": best["detumble_time_s"],
-           "best_score_s": best["score_s"], "optimizer_converged": bool(res.success),
-           "evaluations": evaluated, "wall_s": time.perf_counter() - wall0}
+    out = {
+        "config": args.config,
+        "duration_s": args.duration_s,
+        "overrides": args.set,
+        "shipped_gain_A_m2_s_T": shipped,
+        "shipped_detumble_time_s": evaluated[0]["detumble_time_s"],
+        "best_gain_A_m2_s_T": best["gain_A_m2_s_T"],
+        "best_detumble_time_s": best["detumble_time_s"],
+        "best_score_s": best["score_s"],
+        "optimizer_converged": bool(res.success),
+        "evaluations": evaluated,
+        "wall_s": time.perf_counter() - wall0,
+    }
     print(json.dumps(out, indent=1))
     return out
 

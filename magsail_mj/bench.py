@@ -83,8 +83,11 @@ def _config(config: str | Path | BaseModel, overrides: Sequence[str], duration_s
 
 def _check_options(duration_s: float | None, repeat: int) -> None:
     if duration_s is not None:
-        if isinstance(duration_s, bool) or not isinstance(duration_s, (int, float)) or not (
-                np.isfinite(duration_s) and duration_s > 0):
+        if (
+            isinstance(duration_s, bool)
+            or not isinstance(duration_s, (int, float))
+            or not (np.isfinite(duration_s) and duration_s > 0)
+        ):
             raise ValueError(f"duration_s: must be a finite number > 0 s, got {duration_s!r}")
     if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
         raise ValueError(f"repeat: must be an integer >= 1, got {repeat!r}")
@@ -96,8 +99,10 @@ def _build(cfg: BaseModel) -> Any:
     missing = [a for a in ("model", "data", "run", "n_steps") if not hasattr(sim, a)]
     if missing:
         kind = f"kind {cfg.kind!r}, " if getattr(cfg, "kind", None) else ""
-        raise ValueError(f"config: scenario {getattr(cfg, 'scenario', '?')!r} ({kind}runner {type(sim).__name__}) "
-                         "has no stepped MuJoCo run to benchmark")
+        raise ValueError(
+            f"config: scenario {getattr(cfg, 'scenario', '?')!r} ({kind}runner {type(sim).__name__}) "
+            "has no stepped MuJoCo run to benchmark"
+        )
     return sim
 
 
@@ -161,6 +166,7 @@ class _Clock:
                 return fn(*args, **kwargs)
             finally:
                 spent[part] += clock() - t0
+
         return timed
 
 
@@ -283,8 +289,9 @@ def _parts_pass(cfg: BaseModel, store: Path) -> tuple[dict[str, float], float]:
 # ------------------------------------------------------------------------------------ entry
 
 
-def bench(config: str | Path | BaseModel, *, overrides: Sequence[str] = (), duration_s: float | None = None,
-          repeat: int = 1) -> dict[str, Any]:
+def bench(
+    config: str | Path | BaseModel, *, overrides: Sequence[str] = (), duration_s: float | None = None, repeat: int = 1
+) -> dict[str, Any]:
     """Benchmark the step loop of ``config`` (module docstring); returns a JSON-able dict.
 
     Args:
@@ -314,27 +321,62 @@ def bench(config: str | Path | BaseModel, *, overrides: Sequence[str] = (), dura
         model = sim.model
         del sim
         parts, instrumented = _parts_pass(cfg, Path(tmp) / "parts.zarr")
-    return _report(cfg, model, steps=steps, all_in=all_in, bare=bare, native=native, parts=parts,
-                   instrumented_us=instrumented, setup_s=statistics.median(setup))
+    return _report(
+        cfg,
+        model,
+        steps=steps,
+        all_in=all_in,
+        bare=bare,
+        native=native,
+        parts=parts,
+        instrumented_us=instrumented,
+        setup_s=statistics.median(setup),
+    )
 
 
-def _report(cfg: BaseModel, model: mujoco.MjModel, *, steps: int, all_in: list[float], bare: list[float],
-            native: list[float], parts: dict[str, float], instrumented_us: float,
-            setup_s: float) -> dict[str, Any]:
+def _report(
+    cfg: BaseModel,
+    model: mujoco.MjModel,
+    *,
+    steps: int,
+    all_in: list[float],
+    bare: list[float],
+    native: list[float],
+    parts: dict[str, float],
+    instrumented_us: float,
+    setup_s: float,
+) -> dict[str, Any]:
     us = statistics.median(all_in) * 1e6
     mj_us = statistics.median(bare) * 1e6
     dt = float(model.opt.timestep)
     integrator = mujoco.mjtIntegrator(model.opt.integrator).name.removeprefix("mjINT_")
     return {
-        "concept": getattr(cfg, "concept", None), "scenario": getattr(cfg, "scenario", None),
-        "kind": getattr(cfg, "kind", None), "steps": steps, "timestep_s": dt, "integrator": integrator,
-        "duration_s": steps * dt, "repeat": len(all_in),
-        "us_per_step": us, "mj_step_us": mj_us, "ratio_to_mj_step": us / mj_us,
+        "concept": getattr(cfg, "concept", None),
+        "scenario": getattr(cfg, "scenario", None),
+        "kind": getattr(cfg, "kind", None),
+        "steps": steps,
+        "timestep_s": dt,
+        "integrator": integrator,
+        "duration_s": steps * dt,
+        "repeat": len(all_in),
+        "us_per_step": us,
+        "mj_step_us": mj_us,
+        "ratio_to_mj_step": us / mj_us,
         "mj_step_native_us": statistics.median(native) * 1e6,
-        "parts_us": parts, "instrumented_us_per_step": instrumented_us, "run_setup_s": setup_s,
-        "steps_per_s": 1e6 / us, "realtime_factor": dt / (us * 1e-6),
+        "parts_us": parts,
+        "instrumented_us_per_step": instrumented_us,
+        "run_setup_s": setup_s,
+        "steps_per_s": 1e6 / us,
+        "realtime_factor": dt / (us * 1e-6),
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-        "us_per_step_runs": [x * 1e6 for x in all_in], "mj_step_us_runs": [x * 1e6 for x in bare],
-        "platform": {"python": platform.python_version(), "mujoco": mujoco.__version__, "numpy": np.__version__,
-                     "machine": platform.machine(), "cpus": os.cpu_count(), "system": sys.platform},
+        "us_per_step_runs": [x * 1e6 for x in all_in],
+        "mj_step_us_runs": [x * 1e6 for x in bare],
+        "platform": {
+            "python": platform.python_version(),
+            "mujoco": mujoco.__version__,
+            "numpy": np.__version__,
+            "machine": platform.machine(),
+            "cpus": os.cpu_count(),
+            "system": sys.platform,
+        },
     }

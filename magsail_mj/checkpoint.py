@@ -63,8 +63,11 @@ class CheckpointError(RunDirError):
 def _is_walked_object(obj: Any) -> bool:
     """Objects of the package's own classes (configs excluded: the build recreates them)."""
     module = type(obj).__module__ or ""
-    return (module.startswith("magsail_mj.") and not isinstance(obj, (type, BaseModel))
-            and (hasattr(obj, "__dict__") or dataclasses.is_dataclass(obj)))
+    return (
+        module.startswith("magsail_mj.")
+        and not isinstance(obj, (type, BaseModel))
+        and (hasattr(obj, "__dict__") or dataclasses.is_dataclass(obj))
+    )
 
 
 def _attributes(obj: Any) -> dict[str, Any]:
@@ -85,8 +88,10 @@ def _digest(value: Any) -> str:
 
 def _key_text(key: Any) -> str | None:
     """A dict key as JSON text (str, int, float, bool, None and tuples of them), else None."""
+
     def plain(k: Any) -> bool:
         return isinstance(k, _SCALARS) or (isinstance(k, tuple) and all(plain(x) for x in k))
+
     if not plain(key):
         return None
     # braces inside string keys are escaped so that a path's {…} segments nest unambiguously
@@ -96,6 +101,7 @@ def _key_text(key: Any) -> str | None:
 def _key_value(text: str) -> Any:
     def tup(v: Any) -> Any:
         return tuple(tup(x) for x in v) if isinstance(v, list) else v
+
     return tup(json.loads(text))
 
 
@@ -122,8 +128,12 @@ class StateWalker:
         return out
 
     def _walk(self, obj: Any, path: str, out: dict, seen: dict[int, str]) -> None:
-        if isinstance(obj, (np.ndarray, list, tuple, dict)) or _is_walked_object(obj) \
-                or isinstance(obj, np.random.Generator) or callable(obj):
+        if (
+            isinstance(obj, (np.ndarray, list, tuple, dict))
+            or _is_walked_object(obj)
+            or isinstance(obj, np.random.Generator)
+            or callable(obj)
+        ):
             if id(obj) in seen:
                 out[path] = {"kind": "alias", "of": seen[id(obj)]}
                 return
@@ -226,18 +236,18 @@ def _split(path: str) -> list[tuple[str, Any]]:
             j = i + 1
             while j < n and path[j] not in ".[{<":
                 j += 1
-            parts.append(("attr", path[i + 1:j]))
+            parts.append(("attr", path[i + 1 : j]))
         elif c == "[":
             j = path.index("]", i)
-            parts.append(("item", int(path[i + 1:j])))
+            parts.append(("item", int(path[i + 1 : j])))
             j += 1
         elif c == "{":
             j = path.index("}", i)  # key texts hold no braces (escaped by _key_text)
-            parts.append(("key", _key_value(path[i + 1:j])))
+            parts.append(("key", _key_value(path[i + 1 : j])))
             j += 1
         elif c == "<":
             j = path.index(">", i)
-            parts.append(("cell", path[i + 1:j]))
+            parts.append(("cell", path[i + 1 : j]))
             j += 1
         else:
             raise CheckpointError(f"checkpoint: malformed state path {path!r}")
@@ -340,7 +350,7 @@ def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, n
         if len(parts) == 1:
             parent, part = roots, ("key", parts[0][1])
         else:
-            parent_path = path[:len(path) - len(_last_text(path))]
+            parent_path = path[: len(path) - len(_last_text(path))]
             parent = placed[parent_path] if parent_path in placed else _resolve(roots, parts[:-1])
             part = parts[-1]
         if "same_as_built" in node:
@@ -358,8 +368,13 @@ def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, n
         current = _try_get(parent, part)
         if kind == "array":
             new = arrays[node["array"]]
-            if isinstance(current, np.ndarray) and current.shape == new.shape and current.dtype == new.dtype \
-                    and current.flags.writeable and sole_owner(path):
+            if (
+                isinstance(current, np.ndarray)
+                and current.shape == new.shape
+                and current.dtype == new.dtype
+                and current.flags.writeable
+                and sole_owner(path)
+            ):
                 np.copyto(current, new)
                 placed[path] = current
                 continue
@@ -414,8 +429,14 @@ def _alias_groups(nodes: dict[str, dict[str, Any]]) -> dict[str, set[str]]:
 def _put_back(parent: Any, part: tuple[str, Any], value: Any, *, in_place: bool) -> None:
     """Write a leaf's value as built (in place for an array of the same shape when ``in_place``)."""
     current = _try_get(parent, part)
-    if in_place and isinstance(value, np.ndarray) and isinstance(current, np.ndarray) \
-            and current.shape == value.shape and current.dtype == value.dtype and current.flags.writeable:
+    if (
+        in_place
+        and isinstance(value, np.ndarray)
+        and isinstance(current, np.ndarray)
+        and current.shape == value.shape
+        and current.dtype == value.dtype
+        and current.flags.writeable
+    ):
         np.copyto(current, value)
     elif isinstance(value, dict) and isinstance(current, np.random.Generator):  # an RNG's state
         current.bit_generator.state = _rng_state(value)
@@ -426,11 +447,11 @@ def _put_back(parent: Any, part: tuple[str, Any], value: Any, *, in_place: bool)
 def _last_text(path: str) -> str:
     """The text of the last path element (``.attr``, ``[i]``, ``{key}`` or ``<cell>``)."""
     if path.endswith("]"):
-        return path[path.rindex("["):]
+        return path[path.rindex("[") :]
     if path.endswith(">"):
-        return path[path.rindex("<"):]
+        return path[path.rindex("<") :]
     if path.endswith("}"):
-        return path[path.rindex("{"):]
+        return path[path.rindex("{") :]
     cut = max(path.rfind("."), 0)
     return path[cut:] if path[cut] == "." else path
 
@@ -455,7 +476,7 @@ def _try_get(parent: Any, part: tuple[str, Any]) -> Any:
 def _reshape_container(current: Any, node: dict[str, Any]) -> None:
     """Make a rebuilt list/dict the length/key set of the checkpoint before its items are set."""
     if isinstance(current, list):
-        del current[node["len"]:]
+        del current[node["len"] :]
         current.extend([None] * (node["len"] - len(current)))
     else:
         keys = [_key_value(k) for k in node["keys"]]
@@ -500,12 +521,21 @@ def read_arrays(path: Path) -> tuple[dict[str, Any] | None, dict[str, np.ndarray
     return header, arrays
 
 
-def write_checkpoint(path: Path, header: dict[str, Any], *, tree: dict[str, Any], arrays: dict[str, np.ndarray],
-                     extra_arrays: dict[str, np.ndarray]) -> None:
+def write_checkpoint(
+    path: Path,
+    header: dict[str, Any],
+    *,
+    tree: dict[str, Any],
+    arrays: dict[str, np.ndarray],
+    extra_arrays: dict[str, np.ndarray],
+) -> None:
     """Write a checkpoint: ``header`` (JSON scalars), a :meth:`StateWalker.snapshot` (``tree``,
     ``arrays``) and ``extra_arrays`` (e.g. MuJoCo's state)."""
-    write_arrays(path, {**arrays, **{f"x_{k}": v for k, v in extra_arrays.items()}},
-                 header={"format": _FORMAT, **header, "state_tree": tree})
+    write_arrays(
+        path,
+        {**arrays, **{f"x_{k}": v for k, v in extra_arrays.items()}},
+        header={"format": _FORMAT, **header, "state_tree": tree},
+    )
 
 
 def read_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, np.ndarray], dict[str, np.ndarray]]:
@@ -546,12 +576,17 @@ def check_identity(header: dict[str, Any], identity: dict[str, Any], *, path: Pa
     """Raise :class:`CheckpointError` listing what differs between a checkpoint and this run."""
     problems = []
     if header.get("numbers_hash") != identity.get("numbers_hash"):
-        keys = _differing_keys(header.get("numbers_config"), identity.get("numbers_config")) \
-            if "numbers_config" in header and "numbers_config" in identity else []
-        problems.append("the config differs in keys that change the numbers"
-                        + (f": {', '.join(keys[:10])}" if keys else "")
-                        + " (only sim.duration_s, sim.checkpoint_every_s, sim.progress and [render] may change "
-                          "on resume)")
+        keys = (
+            _differing_keys(header.get("numbers_config"), identity.get("numbers_config"))
+            if "numbers_config" in header and "numbers_config" in identity
+            else []
+        )
+        problems.append(
+            "the config differs in keys that change the numbers"
+            + (f": {', '.join(keys[:10])}" if keys else "")
+            + " (only sim.duration_s, sim.checkpoint_every_s, sim.progress and [render] may change "
+            "on resume)"
+        )
     have, want = header.get("versions") or {}, identity.get("versions") or {}
     for name in sorted(set(have) | set(want)):
         if have.get(name) != want.get(name):

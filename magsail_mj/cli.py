@@ -73,8 +73,10 @@ memory: every verb estimates the memory its input needs before allocating it and
   (exit 2) above --memory-limit BYTES|auto (or $MAGSAIL_MEMORY_LIMIT; default: the
   machine's available memory)."""
 
-DESCRIPTION = ("magsail: spacecraft geometry configs (TOML) to MuJoCo models and attitude-control runs "
-               "in orbit. 'python -m magsail_mj' is the same command.")
+DESCRIPTION = (
+    "magsail: spacecraft geometry configs (TOML) to MuJoCo models and attitude-control runs "
+    "in orbit. 'python -m magsail_mj' is the same command."
+)
 DEBUG_ENV = "MAGSAIL_DEBUG"
 LOG = logging.getLogger("magsail_mj")
 # -v count → level of the ``magsail_mj`` logger (quiet by default: warnings and errors only)
@@ -82,10 +84,20 @@ _LEVELS = (logging.WARNING, logging.INFO, logging.DEBUG)
 # the packages whose versions ``--version`` prints
 _VERSION_PACKAGES = ("magsail_mj", "mujoco", "numpy")
 # errno values of an OSError that mean: this path cannot be used as given (exit 2).
-_PATH_ERRNOS = {errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.EACCES, errno.EPERM, errno.EROFS,
-                errno.EEXIST, errno.ENAMETOOLONG, errno.ELOOP, errno.EINVAL}
-_SMALL_REPORT_BYTES = 1 << 20     # analytic reports of fixed size (loop sizing, the §7.2 table)
-_SCALING_ENTRY_BYTES = 200        # one entry of the λ_f(d, κ) table, see _cmd_scaling_magnetorquer
+_PATH_ERRNOS = {
+    errno.ENOENT,
+    errno.ENOTDIR,
+    errno.EISDIR,
+    errno.EACCES,
+    errno.EPERM,
+    errno.EROFS,
+    errno.EEXIST,
+    errno.ENAMETOOLONG,
+    errno.ELOOP,
+    errno.EINVAL,
+}
+_SMALL_REPORT_BYTES = 1 << 20  # analytic reports of fixed size (loop sizing, the §7.2 table)
+_SCALING_ENTRY_BYTES = 200  # one entry of the λ_f(d, κ) table, see _cmd_scaling_magnetorquer
 
 
 class CliInputError(ValueError):
@@ -103,7 +115,7 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         """``argument --x: msg`` becomes ``--x: msg``; other messages are prefixed by the program."""
         if message.startswith("argument ") and ": " in message:
-            name, rest = message[len("argument "):].split(": ", 1)
+            name, rest = message[len("argument ") :].split(": ", 1)
             raise _UsageError(f"{name.split('/')[-1]}: {rest} (see {self.prog} --help)")
         raise _UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
 
@@ -283,7 +295,7 @@ def _output_file(path: str | None, option: str) -> Path:
     p = _non_empty(path, option)
     if p.is_dir():
         raise CliInputError(f"{option}: {str(p)!r} is a folder; give a file path")
-    _writable_parent(p, option)       # the file is replaced by a rename in its folder
+    _writable_parent(p, option)  # the file is replaced by a rename in its folder
     return p
 
 
@@ -303,8 +315,10 @@ def _print_json(obj: Any, *, what: str, indent: int | None = None) -> None:
     """Print ``obj`` as JSON; a non-finite number in it is an error naming ``what``."""
     bad = _non_finite(obj)
     if bad is not None:
-        raise CliInputError(f"{what}: the result {bad[0]} is not finite ({bad[1]!r}); the inputs are outside "
-                            "the range where it can be computed")
+        raise CliInputError(
+            f"{what}: the result {bad[0]} is not finite ({bad[1]!r}); the inputs are outside "
+            "the range where it can be computed"
+        )
     print(json.dumps(to_jsonable(obj), indent=indent, allow_nan=False))
 
 
@@ -343,8 +357,16 @@ def _cmd_build(args: argparse.Namespace) -> int:
 def _cmd_validate(args: argparse.Namespace) -> int:
     cfg = _load(args)
     estimate = check_memory(estimate_run_bytes(cfg), what=f"validate {args.config}: a run")
-    _print_json({"config": args.config, "concept": cfg.concept, "scenario": cfg.scenario, "valid": True,
-                 "memory_estimate_bytes": estimate}, what="validate")
+    _print_json(
+        {
+            "config": args.config,
+            "concept": cfg.concept,
+            "scenario": cfg.scenario,
+            "valid": True,
+            "memory_estimate_bytes": estimate,
+        },
+        what="validate",
+    )
     return 0
 
 
@@ -366,10 +388,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
     estimate = estimate_run_bytes(cfg) + (_video_bytes(cfg) if args.video else 0.0)
     check_memory(estimate, what=f"run {args.config}{' with --video' if args.video else ''}")
     if args.stop_after_s is not None and args.stop_after_s >= cfg.sim.duration_s:
-        raise CliInputError(f"--stop-after-s: must be below sim.duration_s = {cfg.sim.duration_s:g}, "
-                            f"got {args.stop_after_s:g}")
-    outcome = run_scenario(cfg, out, video=args.video, resume=args.resume, overwrite=args.overwrite,
-                           progress=False if args.no_progress else None, stop_after_s=args.stop_after_s)
+        raise CliInputError(
+            f"--stop-after-s: must be below sim.duration_s = {cfg.sim.duration_s:g}, got {args.stop_after_s:g}"
+        )
+    outcome = run_scenario(
+        cfg,
+        out,
+        video=args.video,
+        resume=args.resume,
+        overwrite=args.overwrite,
+        progress=False if args.no_progress else None,
+        stop_after_s=args.stop_after_s,
+    )
     print(json.dumps(to_jsonable(dict(outcome)), indent=2))
     LOG.info("run folder: %s", outcome.run_dir)
     if args.video and (outcome.run_dir / "video.mp4").is_file():
@@ -397,9 +427,12 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    out = render_run(_non_empty(args.run_dir, "RUN_DIR"), _non_empty(args.output, "--output"),
-                     compare=_non_empty(args.compare, "--compare") if args.compare is not None else None,
-                     labels=args.labels)
+    out = render_run(
+        _non_empty(args.run_dir, "RUN_DIR"),
+        _non_empty(args.output, "--output"),
+        compare=_non_empty(args.compare, "--compare") if args.compare is not None else None,
+        labels=args.labels,
+    )
     print(str(out))
     return 0
 
@@ -417,8 +450,14 @@ def _cmd_report(args: argparse.Namespace) -> int:
 def _sweep_engine(args: argparse.Namespace) -> Any:
     """The Dask cluster of ``--cluster`` (jobs not yet submitted), else None; CliInputError for
     options that do not fit together."""
-    queue_opts = {"--jobs": args.jobs, "--cores-per-job": args.cores_per_job, "--memory-per-job": args.memory_per_job,
-                  "--walltime": args.walltime, "--queue": args.queue, "--account": args.account}
+    queue_opts = {
+        "--jobs": args.jobs,
+        "--cores-per-job": args.cores_per_job,
+        "--memory-per-job": args.memory_per_job,
+        "--walltime": args.walltime,
+        "--queue": args.queue,
+        "--account": args.account,
+    }
     given = [opt for opt, value in queue_opts.items() if value is not None]
     if args.scheduler is not None and args.cluster is not None:
         raise CliInputError(f"--scheduler {args.scheduler!r} and --cluster {args.cluster!r}: choose one")
@@ -428,17 +467,23 @@ def _sweep_engine(args: argparse.Namespace) -> Any:
         return None
     if args.workers != 1:
         raise CliInputError(f"--workers {args.workers}: not with --cluster (use --jobs and --cores-per-job)")
-    return make_cluster(args.cluster, cores_per_job=args.cores_per_job or 1,
-                        memory_per_job=args.memory_per_job or "4GB", walltime=args.walltime or "01:00:00",
-                        queue=args.queue, account=args.account)
+    return make_cluster(
+        args.cluster,
+        cores_per_job=args.cores_per_job or 1,
+        memory_per_job=args.memory_per_job or "4GB",
+        walltime=args.walltime or "01:00:00",
+        queue=args.queue,
+        account=args.account,
+    )
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     path = _input_file(args.sweep, "SWEEP")
     out = _output_dir(args.out, "--out") if args.out is not None else None
     if args.scheduler is not None and not args.scheduler.strip():
-        raise CliInputError(f"--scheduler: must be a scheduler address such as tcp://127.0.0.1:8786, "
-                            f"got {args.scheduler!r}")
+        raise CliInputError(
+            f"--scheduler: must be a scheduler address such as tcp://127.0.0.1:8786, got {args.scheduler!r}"
+        )
     try:
         sweep = load_sweep(path, extra_overrides=tuple(args.set), only=args.only)
     except UnicodeDecodeError:
@@ -454,14 +499,22 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     try:
         if cluster is not None:
             cluster.adapt(minimum_jobs=args.jobs or 1, maximum_jobs=args.jobs or 1)  # jobs that end are replaced
-        records = run_sweep(sweep, out, workers=args.workers, video=args.video, overwrite=args.overwrite,
-                            scheduler=args.scheduler, cluster=cluster, retries=args.retries,
-                            log=LOG.info, progress=False if args.no_progress else None)
+        records = run_sweep(
+            sweep,
+            out,
+            workers=args.workers,
+            video=args.video,
+            overwrite=args.overwrite,
+            scheduler=args.scheduler,
+            cluster=cluster,
+            retries=args.retries,
+            log=LOG.info,
+            progress=False if args.no_progress else None,
+        )
     finally:
         if cluster is not None:
             cluster.close()
-    result: dict[str, Any] = {"sweep": sweep.name, "out": str(out),
-                              "status": {r["id"]: r["status"] for r in records}}
+    result: dict[str, Any] = {"sweep": sweep.name, "out": str(out), "status": {r["id"]: r["status"] for r in records}}
     code = sweep_exit_code(records)
     if args.report:
         try:
@@ -477,12 +530,15 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 def _cmd_scaling_magnetorquer(args: argparse.Namespace) -> int:
     # the report is a len(side) × len(kappa) table of λ_f, built as floats, Python objects and JSON
     # text: 172–178 bytes per entry measured (max RSS over the base process, 1e6 and 9e6 entries)
-    check_memory(_SCALING_ENTRY_BYTES * len(args.side_m) * len(args.kappa) + _SMALL_REPORT_BYTES,
-                 what=f"scaling magnetorquer ({len(args.side_m)} × {len(args.kappa)} table)")
+    check_memory(
+        _SCALING_ENTRY_BYTES * len(args.side_m) * len(args.kappa) + _SMALL_REPORT_BYTES,
+        what=f"scaling magnetorquer ({len(args.side_m)} × {len(args.kappa)} table)",
+    )
     side = args.side_m[0] if len(args.side_m) == 1 else args.side_m
     kappa = args.kappa[0] if len(args.kappa) == 1 else args.kappa
-    report = scaling_report(side, kappa, altitude_km=args.altitude_km, total_kg=args.total_kg,
-                            rod_mass_kg=args.rod_mass_kg)
+    report = scaling_report(
+        side, kappa, altitude_km=args.altitude_km, total_kg=args.total_kg, rod_mass_kg=args.rod_mass_kg
+    )
     _print_json(report, what="--side-m, --kappa, --altitude-km, --total-kg, --rod-mass-kg")
     return 0
 
@@ -494,16 +550,27 @@ def _cmd_scaling_loops(args: argparse.Namespace) -> int:
     elif args.geometry is None:
         raise CliInputError("--geometry: required unless --table is given (one of A, B, C, D)")
     else:
-        report = loop_sizing(args.geometry, units=args.units, side_m=args.side_m,
-                             areal_density_kg_m2=args.areal_density, kappa=args.kappa)
+        report = loop_sizing(
+            args.geometry,
+            units=args.units,
+            side_m=args.side_m,
+            areal_density_kg_m2=args.areal_density,
+            kappa=args.kappa,
+        )
     _print_json(report, what="--geometry, --units, --side-m, --areal-density, --kappa")
     return 0
 
 
 def _cmd_torque_coil(args: argparse.Namespace) -> int:
-    report = coil_torque_report(side_m=args.side_m, segment_m=args.segment_m, depth_m=args.depth_m,
-                                current_A=args.current_a, field_T=args.field_t, pitch_cells=args.pitch_cells,
-                                rows=args.rows)
+    report = coil_torque_report(
+        side_m=args.side_m,
+        segment_m=args.segment_m,
+        depth_m=args.depth_m,
+        current_A=args.current_a,
+        field_T=args.field_t,
+        pitch_cells=args.pitch_cells,
+        rows=args.rows,
+    )
     _print_json(report, what="--side-m, --segment-m, --depth-m, --current-a, --field-t, --pitch-cells, --rows")
     return 0
 
@@ -511,14 +578,29 @@ def _cmd_torque_coil(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------- parser
 
 
-def _verb(sub: Any, name: str, help_text: str, fn: Callable[[argparse.Namespace], int],
-          options: Mapping[str, str] | None = None) -> argparse.ArgumentParser:
+def _verb(
+    sub: Any,
+    name: str,
+    help_text: str,
+    fn: Callable[[argparse.Namespace], int],
+    options: Mapping[str, str] | None = None,
+) -> argparse.ArgumentParser:
     """A sub-command with the exit-status epilog, the ``--memory-limit`` option, its function and
     the map from library argument names to its options (used to name options in errors)."""
-    p = sub.add_parser(name, help=help_text, description=help_text, epilog=EXIT_CODES,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--memory-limit", type=_memory, default=argparse.SUPPRESS, metavar="BYTES|auto",
-                   help=f"refuse inputs needing more memory (default: ${ENV_VAR}, else the available memory)")
+    p = sub.add_parser(
+        name,
+        help=help_text,
+        description=help_text,
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--memory-limit",
+        type=_memory,
+        default=argparse.SUPPRESS,
+        metavar="BYTES|auto",
+        help=f"refuse inputs needing more memory (default: ${ENV_VAR}, else the available memory)",
+    )
     _verbose_option(p, default=argparse.SUPPRESS)
     p.set_defaults(fn=fn, options=dict(options or {}))
     return p
@@ -526,16 +608,22 @@ def _verb(sub: Any, name: str, help_text: str, fn: Callable[[argparse.Namespace]
 
 def _verbose_option(p: argparse.ArgumentParser, *, default: Any) -> None:
     """``-v/--verbose`` (repeatable): more messages on stderr."""
-    p.add_argument("-v", "--verbose", action="count", default=default,
-                   help="more messages on stderr: -v progress (INFO), -vv debugging detail (DEBUG); "
-                        "default: warnings and errors only")
+    p.add_argument(
+        "-v",
+        "--verbose",
+        action="count",
+        default=default,
+        help="more messages on stderr: -v progress (INFO), -vv debugging detail (DEBUG); "
+        "default: warnings and errors only",
+    )
 
 
 _CONFIG_HELP = "config TOML file (see the config reference: docs/reference/config.md)"
 
 
-def _set_option(p: argparse.ArgumentParser,
-                help_text: str = "override a config key, e.g. --set sim.duration_s=60") -> None:
+def _set_option(
+    p: argparse.ArgumentParser, help_text: str = "override a config key, e.g. --set sim.duration_s=60"
+) -> None:
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=help_text)
 
 
@@ -557,52 +645,114 @@ def _add_run_verbs(sub: Any) -> None:
     r.add_argument("--resume", action="store_true", help="continue from the folder's checkpoint")
     r.add_argument("--overwrite", action="store_true", help="replace an earlier run in --out")
     r.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
-    r.add_argument("--stop-after-s", type=_positive, default=None, metavar="T",
-                   help="stop at simulated time T with a checkpoint (status 'stopped', exit 0); "
-                        "continue later with --resume")
+    r.add_argument(
+        "--stop-after-s",
+        type=_positive,
+        default=None,
+        metavar="T",
+        help="stop at simulated time T with a checkpoint (status 'stopped', exit 0); continue later with --resume",
+    )
 
-    bn = _verb(sub, "bench", "time a config's step loop against MuJoCo's bare mj_step (one JSON object on stdout)",
-               _cmd_bench, {"duration_s": "--duration-s", "repeat": "--repeat"})
+    bn = _verb(
+        sub,
+        "bench",
+        "time a config's step loop against MuJoCo's bare mj_step (one JSON object on stdout)",
+        _cmd_bench,
+        {"duration_s": "--duration-s", "repeat": "--repeat"},
+    )
     bn.add_argument("config", help=_CONFIG_HELP)
-    bn.add_argument("--duration-s", type=_positive, default=None, metavar="T",
-                    help="simulated seconds per timed pass (default: the config's sim.duration_s)")
-    bn.add_argument("--repeat", type=_count, default=1, metavar="N",
-                    help="timed all-in and bare passes; the medians are reported (default 1)")
+    bn.add_argument(
+        "--duration-s",
+        type=_positive,
+        default=None,
+        metavar="T",
+        help="simulated seconds per timed pass (default: the config's sim.duration_s)",
+    )
+    bn.add_argument(
+        "--repeat",
+        type=_count,
+        default=1,
+        metavar="N",
+        help="timed all-in and bare passes; the medians are reported (default 1)",
+    )
     _set_option(bn)
 
-    rr = _verb(sub, "render", "render a run folder to MP4 (optionally side by side)", _cmd_render,
-               {"run_dir": "RUN_DIR", "out_path": "--output", "compare": "--compare", "labels": "--labels"})
+    rr = _verb(
+        sub,
+        "render",
+        "render a run folder to MP4 (optionally side by side)",
+        _cmd_render,
+        {"run_dir": "RUN_DIR", "out_path": "--output", "compare": "--compare", "labels": "--labels"},
+    )
     rr.add_argument("run_dir", help="run folder written by 'magsail run' (left side when comparing)")
     rr.add_argument("-o", "--output", required=True, help="video path; only .mp4 (H.264) is written")
     rr.add_argument("--compare", help="second run folder, shown on the right")
-    rr.add_argument("--labels", nargs=2, metavar=("LEFT", "RIGHT"),
-                    help="captions of the left and right run (default: the run folders' names)")
+    rr.add_argument(
+        "--labels",
+        nargs=2,
+        metavar=("LEFT", "RIGHT"),
+        help="captions of the left and right run (default: the run folders' names)",
+    )
 
-    ex = _verb(sub, "export", "write a run folder's records (timeseries.zarr) as .npz or netCDF", _cmd_export,
-               {"run_dir": "RUN_DIR", "fmt": "--format", "out": "--out"})
+    ex = _verb(
+        sub,
+        "export",
+        "write a run folder's records (timeseries.zarr) as .npz or netCDF",
+        _cmd_export,
+        {"run_dir": "RUN_DIR", "fmt": "--format", "out": "--out"},
+    )
     add_export_arguments(ex)
 
-    sw = _verb(sub, "sweep", "run every run of a sweep file ([[run]], [grid], [monte_carlo]) on Dask", _cmd_sweep,
-               {"workers": "--workers", "only": "--only", "retries": "--retries", "scheduler": "--scheduler"})
+    sw = _verb(
+        sub,
+        "sweep",
+        "run every run of a sweep file ([[run]], [grid], [monte_carlo]) on Dask",
+        _cmd_sweep,
+        {"workers": "--workers", "only": "--only", "retries": "--retries", "scheduler": "--scheduler"},
+    )
     sw.add_argument("sweep", help="sweep TOML ([[run]] tables with id and config, or [grid] / [monte_carlo])")
     sw.add_argument("--out", help="sweep folder (default: runs/<sweep name>)")
-    sw.add_argument("--workers", type=_count, default=1,
-                    help="worker processes of the local Dask cluster, one thread each (default 1)")
-    sw.add_argument("--only", action="append", metavar="TEXT",
-                    help="run only the ids containing this text (repeatable: any of them)")
+    sw.add_argument(
+        "--workers",
+        type=_count,
+        default=1,
+        help="worker processes of the local Dask cluster, one thread each (default 1)",
+    )
+    sw.add_argument(
+        "--only",
+        action="append",
+        metavar="TEXT",
+        help="run only the ids containing this text (repeatable: any of them)",
+    )
     sw.add_argument("--video", action="store_true", help="render video.mp4 in every run folder")
     _set_option(sw, "override a key in every run, e.g. --set sim.duration_s=60")
     sw.add_argument("--overwrite", action="store_true", help="rerun runs that already finished")
-    sw.add_argument("--no-progress", action="store_true",
-                    help="no sweep progress bar on stderr (it shows only on a terminal anyway)")
-    sw.add_argument("--report", action="store_true",
-                    help="after the runs, write the sweep report (tables and figures) into OUT/report")
-    sw.add_argument("--retries", type=_count_or_zero, default=2,
-                    help="retries of a run whose process was killed (default 2; a retry resumes from its checkpoint)")
-    sw.add_argument("--scheduler", metavar="ADDRESS",
-                    help="run on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (see docs/sweeps.md)")
-    sw.add_argument("--cluster", choices=("slurm", "pbs"),
-                    help="start Dask workers as batch jobs through dask-jobqueue (extra 'cluster')")
+    sw.add_argument(
+        "--no-progress",
+        action="store_true",
+        help="no sweep progress bar on stderr (it shows only on a terminal anyway)",
+    )
+    sw.add_argument(
+        "--report",
+        action="store_true",
+        help="after the runs, write the sweep report (tables and figures) into OUT/report",
+    )
+    sw.add_argument(
+        "--retries",
+        type=_count_or_zero,
+        default=2,
+        help="retries of a run whose process was killed (default 2; a retry resumes from its checkpoint)",
+    )
+    sw.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (see docs/sweeps.md)",
+    )
+    sw.add_argument(
+        "--cluster",
+        choices=("slurm", "pbs"),
+        help="start Dask workers as batch jobs through dask-jobqueue (extra 'cluster')",
+    )
     sw.add_argument("--jobs", type=_count, help="--cluster: number of batch jobs (default 1)")
     sw.add_argument("--cores-per-job", type=_count, help="--cluster: worker processes (cores) per job (default 1)")
     sw.add_argument("--memory-per-job", metavar="SIZE", help="--cluster: memory per job, e.g. 16GB (default 4GB)")
@@ -610,48 +760,105 @@ def _add_run_verbs(sub: Any) -> None:
     sw.add_argument("--queue", help="--cluster: partition (SLURM) or queue (PBS)")
     sw.add_argument("--account", help="--cluster: account to charge")
 
-    rp = _verb(sub, "report", "summarise a finished sweep folder: tables and figures of its runs' summaries",
-               _cmd_report, {"sweep_dir": "SWEEP_DIR", "figures": "--figure"})
+    rp = _verb(
+        sub,
+        "report",
+        "summarise a finished sweep folder: tables and figures of its runs' summaries",
+        _cmd_report,
+        {"sweep_dir": "SWEEP_DIR", "figures": "--figure"},
+    )
     add_report_arguments(rp)
 
 
 def _add_analytic_verbs(sub: Any) -> None:
-    sc = sub.add_parser("scaling", help="analytic scaling laws (one JSON object on stdout)", epilog=EXIT_CODES,
-                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    sc = sub.add_parser(
+        "scaling",
+        help="analytic scaling laws (one JSON object on stdout)",
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     _verbose_option(sc, default=argparse.SUPPRESS)
     scs = sc.add_subparsers(dest="law", required=True, metavar="LAW", help="the scaling law")
-    mt = _verb(scs, "magnetorquer", "rod mass fraction λ_f(d, κ_τ) (truss spec §8)", _cmd_scaling_magnetorquer,
-               {"side_m": "--side-m", "kappa": "--kappa", "altitude_km": "--altitude-km",
-                "total_kg": "--total-kg", "rod_mass_kg": "--rod-mass-kg"})
+    mt = _verb(
+        scs,
+        "magnetorquer",
+        "rod mass fraction λ_f(d, κ_τ) (truss spec §8)",
+        _cmd_scaling_magnetorquer,
+        {
+            "side_m": "--side-m",
+            "kappa": "--kappa",
+            "altitude_km": "--altitude-km",
+            "total_kg": "--total-kg",
+            "rod_mass_kg": "--rod-mass-kg",
+        },
+    )
     mt.add_argument("--side-m", type=_positive, nargs="+", required=True, help="plate side(s) d [m]")
     mt.add_argument("--kappa", type=_positive, nargs="+", required=True, help="dipole per rod mass κ_τ [A m²/kg]")
-    mt.add_argument("--altitude-km", type=_non_negative, default=800.0,
-                    help="circular orbit altitude [km], sets the field strength (default 800)")
+    mt.add_argument(
+        "--altitude-km",
+        type=_non_negative,
+        default=800.0,
+        help="circular orbit altitude [km], sets the field strength (default 800)",
+    )
     mt.add_argument("--total-kg", type=_positive, default=200.0, help="spacecraft total mass [kg] (default 200)")
-    mt.add_argument("--rod-mass-kg", type=_non_negative, default=100.0,
-                    help="mass of all magnetorquer rods [kg] (default 100)")
+    mt.add_argument(
+        "--rod-mass-kg", type=_non_negative, default=100.0, help="mass of all magnetorquer rods [kg] (default 100)"
+    )
 
-    lo = _verb(scs, "loops", "current-loop sizing: Eq.-9 current, wire, λ_f, power (current-loops §3)",
-               _cmd_scaling_loops, {"geometry": "--geometry", "units": "--units", "side_m": "--side-m",
-                                    "areal_density_kg_m2": "--areal-density", "kappa": "--kappa"})
+    lo = _verb(
+        scs,
+        "loops",
+        "current-loop sizing: Eq.-9 current, wire, λ_f, power (current-loops §3)",
+        _cmd_scaling_loops,
+        {
+            "geometry": "--geometry",
+            "units": "--units",
+            "side_m": "--side-m",
+            "areal_density_kg_m2": "--areal-density",
+            "kappa": "--kappa",
+        },
+    )
     lo.add_argument("--geometry", help="loop geometry A, B, C or D (Cx/Cy/Dx/Dy accepted)")
     lo.add_argument("--units", type=_count, default=19, help="cubic units per side N (default 19)")
     lo.add_argument("--side-m", type=_positive, default=250.0, help="plate side D [m] (default 250)")
-    lo.add_argument("--areal-density", type=_positive, default=0.1, metavar="KG_M2",
-                    help="areal density σ_A [kg/m²] (default 0.1)")
-    lo.add_argument("--kappa", type=_non_negative, default=15.0,
-                    help="geometry A rim-inertia factor κ = 12 k_c − 1 (paper 15, physical 1)")
-    lo.add_argument("--table", action="store_true",
-                    help="print the §7.2 scaling object (A–D × N = 12, 19, 27) instead of one sizing")
+    lo.add_argument(
+        "--areal-density", type=_positive, default=0.1, metavar="KG_M2", help="areal density σ_A [kg/m²] (default 0.1)"
+    )
+    lo.add_argument(
+        "--kappa",
+        type=_non_negative,
+        default=15.0,
+        help="geometry A rim-inertia factor κ = 12 k_c − 1 (paper 15, physical 1)",
+    )
+    lo.add_argument(
+        "--table",
+        action="store_true",
+        help="print the §7.2 scaling object (A–D × N = 12, 19, 27) instead of one sizing",
+    )
 
-    tq = sub.add_parser("torque", help="analytic actuator torques (one JSON object on stdout)", epilog=EXIT_CODES,
-                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    tq = sub.add_parser(
+        "torque",
+        help="analytic actuator torques (one JSON object on stdout)",
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     _verbose_option(tq, default=argparse.SUPPRESS)
     tqs = tq.add_subparsers(dest="actuator", required=True, metavar="ACTUATOR", help="the actuator")
-    tc = _verb(tqs, "coil", "reflector coil paths: capability T_max, torque vectors (reflector spec §3.6)",
-               _cmd_torque_coil, {"side_m": "--side-m", "segment_m": "--segment-m", "depth_m": "--depth-m",
-                                  "current_A": "--current-a", "field_T": "--field-t",
-                                  "pitch_cells": "--pitch-cells", "rows": "--rows"})
+    tc = _verb(
+        tqs,
+        "coil",
+        "reflector coil paths: capability T_max, torque vectors (reflector spec §3.6)",
+        _cmd_torque_coil,
+        {
+            "side_m": "--side-m",
+            "segment_m": "--segment-m",
+            "depth_m": "--depth-m",
+            "current_A": "--current-a",
+            "field_T": "--field-t",
+            "pitch_cells": "--pitch-cells",
+            "rows": "--rows",
+        },
+    )
     tc.add_argument("--side-m", type=_positive, default=100.0, help="structure side d [m] (default 100)")
     tc.add_argument("--segment-m", type=_positive, default=1.0, help="segment length = cell edge L [m] (default 1)")
     tc.add_argument("--depth-m", type=_positive, default=None, help="lattice depth h [m] (default L, A1)")
@@ -662,13 +869,23 @@ def _add_analytic_verbs(sub: Any) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="magsail", description=DESCRIPTION, epilog=EXIT_CODES,
-                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--memory-limit", type=_memory, default=None, metavar="BYTES|auto",
-                   help=f"refuse inputs needing more memory than this (suffix K, M, G, T; default: ${ENV_VAR}, "
-                        "else the machine's available memory)")
-    p.add_argument("--version", action="version", version=version_text(),
-                   help="print the versions of magsail_mj, MuJoCo, NumPy and Python and exit")
+    p = _Parser(
+        prog="magsail", description=DESCRIPTION, epilog=EXIT_CODES, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    p.add_argument(
+        "--memory-limit",
+        type=_memory,
+        default=None,
+        metavar="BYTES|auto",
+        help=f"refuse inputs needing more memory than this (suffix K, M, G, T; default: ${ENV_VAR}, "
+        "else the machine's available memory)",
+    )
+    p.add_argument(
+        "--version",
+        action="version",
+        version=version_text(),
+        help="print the versions of magsail_mj, MuJoCo, NumPy and Python and exit",
+    )
     _verbose_option(p, default=0)
     sub = p.add_subparsers(dest="command", required=True, metavar="VERB", help="what to do (VERB --help for more)")
     _add_run_verbs(sub)
@@ -706,8 +923,15 @@ def _sigterm_interrupts() -> Iterator[None]:
 @contextlib.contextmanager
 def _plain_warnings() -> Iterator[None]:
     """Within the block, a warning is logged as one line ``warning: <message>`` (no source line)."""
-    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
-             file: Any = None, line: str | None = None) -> None:
+
+    def show(
+        message: Warning | str,
+        category: type[Warning],
+        filename: str,
+        lineno: int,
+        file: Any = None,
+        line: str | None = None,
+    ) -> None:
         LOG.warning("%s", message)
 
     with warnings.catch_warnings():
@@ -724,7 +948,7 @@ def _error(message: str, code: int) -> int:
 def _named(message: str, options: Mapping[str, str]) -> str:
     """``message`` with its leading library argument name (``side_m: ...``) renamed to the option."""
     name = message.split(":", 1)[0]
-    return f"{options[name]}{message[len(name):]}" if name in options else message
+    return f"{options[name]}{message[len(name) :]}" if name in options else message
 
 
 def _user_paths(args: argparse.Namespace) -> list[Path]:
@@ -777,7 +1001,7 @@ def _main(argv: list[str] | None) -> int:
         args = _parser().parse_args(argv)
     except _UsageError as err:
         return _error(str(err), 2)
-    except SystemExit as exit_:        # --help, --version
+    except SystemExit as exit_:  # --help, --version
         return exit_.code if isinstance(exit_.code, int) else 0
     verbosity = getattr(args, "verbose", 0)
     LOG.setLevel(_LEVELS[min(verbosity, len(_LEVELS) - 1)])
@@ -797,6 +1021,7 @@ def _main(argv: list[str] | None) -> int:
         if os.environ.get(DEBUG_ENV, "").strip() not in ("", "0") or verbosity >= 2:
             traceback.print_exc()
         return _error(f"internal error: {type(err).__name__}: {err}", 1)
+
 
 if __name__ == "__main__":
     sys.exit(main())

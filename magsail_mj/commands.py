@@ -191,9 +191,14 @@ def _is_environment_load(load: Load) -> bool:
     return not isinstance(load, COMMAND_DRIVEN_LOADS)
 
 
-def attach(sim: Simulation, controller: Controller, actuators: Load | Sequence[Load], *,
-           keep_load: Callable[[Load], bool] = _is_environment_load,
-           keep_probes: Sequence[str] = KEPT_PROBES) -> Simulation:
+def attach(
+    sim: Simulation,
+    controller: Controller,
+    actuators: Load | Sequence[Load],
+    *,
+    keep_load: Callable[[Load], bool] = _is_environment_load,
+    keep_probes: Sequence[str] = KEPT_PROBES,
+) -> Simulation:
     """A new simulation of ``sim``'s spacecraft run by ``controller`` through ``actuators``.
 
     The new simulation shares ``sim``'s compiled model, initial state, environment, strain check,
@@ -213,8 +218,9 @@ def attach(sim: Simulation, controller: Controller, actuators: Load | Sequence[L
     if not isinstance(sim, Simulation):
         raise TypeError(f"sim: expected a stepped magsail_mj.sim.Simulation, got {type(sim).__name__}")
     if not (callable(getattr(controller, "update", None)) and getattr(controller, "period_s", 0) > 0):
-        raise TypeError(f"controller: expected an object with update(state) and period_s > 0, "
-                        f"got {type(controller).__name__}")
+        raise TypeError(
+            f"controller: expected an object with update(state) and period_s > 0, got {type(controller).__name__}"
+        )
     acts = [actuators] if callable(getattr(actuators, "add", None)) else list(actuators)
     for a in acts:
         if not callable(getattr(a, "add", None)):
@@ -222,8 +228,7 @@ def attach(sim: Simulation, controller: Controller, actuators: Load | Sequence[L
     probes = {name: sim.probes[name] for name in keep_probes if name in sim.probes}
     for a in acts:
         probes.update(a.probes() if callable(getattr(a, "probes", None)) else {})
-    new = dataclasses.replace(sim, controller=controller, loads=[*filter(keep_load, sim.loads), *acts],
-                              probes=probes)
+    new = dataclasses.replace(sim, controller=controller, loads=[*filter(keep_load, sim.loads), *acts], probes=probes)
     for a in acts:
         if callable(getattr(a, "bind", None)):
             a.bind(new.data)

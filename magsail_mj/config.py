@@ -123,16 +123,18 @@ class StrictModel(BaseModel):
     (``allow_inf_nan=False``). A TOML array given for a ``tuple[...]`` key (a fixed-length vector)
     is accepted as that tuple; its items are still checked strictly."""
 
-    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False, strict=True,
-                              allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False, strict=True, allow_inf_nan=False)
 
     @model_validator(mode="before")
     @classmethod
     def _arrays_as_tuples(cls, data: Any) -> Any:
         if not isinstance(data, dict):
             return data
-        names = [n for n, f in cls.model_fields.items()
-                 if isinstance(data.get(n), list) and _is_tuple_annotation(f.annotation)]
+        names = [
+            n
+            for n, f in cls.model_fields.items()
+            if isinstance(data.get(n), list) and _is_tuple_annotation(f.annotation)
+        ]
         if not names:
             return data
         return {**data, **{n: tuple(data[n]) for n in names}}
@@ -168,18 +170,26 @@ class SimConfig(StrictModel):
     @model_validator(mode="after")
     def _step_fits(self) -> SimConfig:
         if self.timestep_s > self.duration_s:
-            raise ConfigProblem("duration_s", f"must be at least one time step, timestep_s = {self.timestep_s} s, "
-                                f"got {self.duration_s!r}", others=("timestep_s",))
+            raise ConfigProblem(
+                "duration_s",
+                f"must be at least one time step, timestep_s = {self.timestep_s} s, got {self.duration_s!r}",
+                others=("timestep_s",),
+            )
         if self.duration_s / self.timestep_s >= MAX_STEPS:
-            raise ConfigProblem("duration_s",
-                                f"needs duration_s / timestep_s = {self.duration_s / self.timestep_s:.3g} "
-                                f"steps, more than a 64-bit step counter holds ({MAX_STEPS:.3g}), "
-                                f"got {self.duration_s!r}",
-                                others=("timestep_s",))
+            raise ConfigProblem(
+                "duration_s",
+                f"needs duration_s / timestep_s = {self.duration_s / self.timestep_s:.3g} "
+                f"steps, more than a 64-bit step counter holds ({MAX_STEPS:.3g}), "
+                f"got {self.duration_s!r}",
+                others=("timestep_s",),
+            )
         if 0 < self.checkpoint_every_s < self.timestep_s:
-            raise ConfigProblem("checkpoint_every_s", "must be 0 (never) or at least one time step, "
-                                f"timestep_s = {self.timestep_s} s, got {self.checkpoint_every_s!r}",
-                                others=("timestep_s",))
+            raise ConfigProblem(
+                "checkpoint_every_s",
+                "must be 0 (never) or at least one time step, "
+                f"timestep_s = {self.timestep_s} s, got {self.checkpoint_every_s!r}",
+                others=("timestep_s",),
+            )
         return self
 
 
@@ -205,8 +215,7 @@ def normalised(v: tuple[float, ...], what: str) -> tuple[float, ...]:
     return tuple(c / n for c in v)
 
 
-def finite_product(key: str, *factors: float, what: str, minimum: float = 0.0,
-                   others: tuple[str, ...] = ()) -> float:
+def finite_product(key: str, *factors: float, what: str, minimum: float = 0.0, others: tuple[str, ...] = ()) -> float:
     """The product of ``factors`` (a quantity derived from several keys, e.g. a node mass), or a
     :class:`ConfigProblem` on ``key`` (and ``others``) when it overflows float64 or is not above
     ``minimum`` (e.g. :data:`MJ_MINVAL` for what MuJoCo receives as a mass or inertia)."""
@@ -220,8 +229,16 @@ def finite_product(key: str, *factors: float, what: str, minimum: float = 0.0,
     return value
 
 
-def check_lattice_numbers(*, units: int, side_m: float, total_kg: float, EI_Nm2: float, zeta: float,
-                          keys: dict[str, str], node_mass_fraction: float = 1.0) -> None:
+def check_lattice_numbers(
+    *,
+    units: int,
+    side_m: float,
+    total_kg: float,
+    EI_Nm2: float,
+    zeta: float,
+    keys: dict[str, str],
+    node_mass_fraction: float = 1.0,
+) -> None:
     """The numbers MuJoCo receives from a spring–mass lattice config, checked before building.
 
     ``units`` cubes per side of ``side_m`` [m], two layers of (units + 1)² particles sharing
@@ -232,14 +249,34 @@ def check_lattice_numbers(*, units: int, side_m: float, total_kg: float, EI_Nm2:
     """
     n = units + 1
     w = finite_product(keys["side"], side_m, 1.0 / units, what="cube edge w = side / units")
-    m = finite_product(keys["mass"], total_kg, node_mass_fraction / (2 * n * n), minimum=MJ_MINVAL,
-                       what="particle mass (MuJoCo needs > mjMINVAL)", others=(keys["side"],))
-    finite_product(keys["mass"], 0.4 * m, 0.04 * w, 0.04 * w, minimum=MJ_MINVAL,
-                   what="particle inertia 0.4 m (0.04 w)² (MuJoCo needs > mjMINVAL)", others=(keys["side"],))
-    k = finite_product(keys["EI"], 2.0 * EI_Nm2 / n, 1.0 / w, 1.0 / w, 1.0 / w,
-                       what="strut stiffness EA / w", others=(keys["side"],))
-    finite_product(keys["zeta"], 2.0 * zeta, math.sqrt(k) * math.sqrt(m / 2.0), minimum=-1.0,
-                   what="strut damping 2 ζ √(k m / 2)", others=(keys["EI"], keys["mass"]))
+    m = finite_product(
+        keys["mass"],
+        total_kg,
+        node_mass_fraction / (2 * n * n),
+        minimum=MJ_MINVAL,
+        what="particle mass (MuJoCo needs > mjMINVAL)",
+        others=(keys["side"],),
+    )
+    finite_product(
+        keys["mass"],
+        0.4 * m,
+        0.04 * w,
+        0.04 * w,
+        minimum=MJ_MINVAL,
+        what="particle inertia 0.4 m (0.04 w)² (MuJoCo needs > mjMINVAL)",
+        others=(keys["side"],),
+    )
+    k = finite_product(
+        keys["EI"], 2.0 * EI_Nm2 / n, 1.0 / w, 1.0 / w, 1.0 / w, what="strut stiffness EA / w", others=(keys["side"],)
+    )
+    finite_product(
+        keys["zeta"],
+        2.0 * zeta,
+        math.sqrt(k) * math.sqrt(m / 2.0),
+        minimum=-1.0,
+        what="strut damping 2 ζ √(k m / 2)",
+        others=(keys["EI"], keys["mass"]),
+    )
 
 
 def check_finite_fields(obj: Any, *, positive: tuple[str, ...] = (), non_negative: tuple[str, ...] = ()) -> None:
@@ -398,8 +435,9 @@ def _parse_literal(text: str) -> Any:
         return text
 
 
-def _override_problems(tree: dict[str, Any],
-                       overrides: list[str] | tuple[str, ...]) -> tuple[dict[str, Any], list[str]]:
+def _override_problems(
+    tree: dict[str, Any], overrides: list[str] | tuple[str, ...]
+) -> tuple[dict[str, Any], list[str]]:
     """``tree`` with the well-formed overrides applied, and a line per malformed one."""
     out = copy.deepcopy(tree)
     problems = []
@@ -416,8 +454,10 @@ def _override_problems(tree: dict[str, Any],
         for i, part in enumerate(parts[:-1]):
             child = node.setdefault(part, {})
             if not isinstance(child, dict):
-                problems.append(f"--set {item!r}: {'.'.join(parts[:i + 1])} is a value, not a table, "
-                                f"so it has no key {parts[i + 1]!r}")
+                problems.append(
+                    f"--set {item!r}: {'.'.join(parts[: i + 1])} is a value, not a table, "
+                    f"so it has no key {parts[i + 1]!r}"
+                )
                 break
             node = child
         else:
@@ -453,8 +493,10 @@ def _validate(tree: dict[str, Any]) -> tuple[BaseModel | None, list[str]]:
         where = _locate_crash(models[concept], tree)
         value = _dig(tree, where)
         shown = f" = {value!r}" if where else ""
-        line = (f"{where or concept + ' config'}: its validator failed ({type(err).__name__}: {err}) on "
-                f"{where or 'the config'}{shown}; check these numbers for extreme magnitudes")
+        line = (
+            f"{where or concept + ' config'}: its validator failed ({type(err).__name__}: {err}) on "
+            f"{where or 'the config'}{shown}; check these numbers for extreme magnitudes"
+        )
         return None, [line]
 
 
@@ -522,8 +564,10 @@ def _read_tree(path: Path) -> dict[str, Any]:
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as err:
-        line = (f"config file {str(path)!r} is not UTF-8 text (a binary file?): byte {err.start} "
-                f"is {raw[err.start:err.start + 1]!r}")
+        line = (
+            f"config file {str(path)!r} is not UTF-8 text (a binary file?): byte {err.start} "
+            f"is {raw[err.start : err.start + 1]!r}"
+        )
         raise ConfigError([line]) from None
     try:
         return tomllib.loads(text)
@@ -532,8 +576,14 @@ def _read_tree(path: Path) -> dict[str, Any]:
     except RecursionError:
         raise ConfigError(["not a config: arrays or tables nested too deeply to read"], source=str(path)) from None
     except ValueError as err:  # e.g. an integer of more than 4 300 digits
-        where = next((f"line {n}: {line.split('=', 1)[0].strip()!r}: " for n, line in enumerate(text.splitlines(), 1)
-                      if re.search(r"\d{4300}", line)), "")
+        where = next(
+            (
+                f"line {n}: {line.split('=', 1)[0].strip()!r}: "
+                for n, line in enumerate(text.splitlines(), 1)
+                if re.search(r"\d{4300}", line)
+            ),
+            "",
+        )
         raise ConfigError([f"not a config: {where}a value cannot be read ({err})"], source=str(path)) from None
 
 

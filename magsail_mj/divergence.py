@@ -29,8 +29,17 @@ import logging
 import mujoco
 import numpy as np
 
-__all__ = ["DivergenceError", "StudiedFailure", "check_inner_run", "StructureFailure", "TrackingLost", "WarningWatch",
-           "disable_autoreset", "first_bad_row", "route_mujoco_warnings"]
+__all__ = [
+    "DivergenceError",
+    "StudiedFailure",
+    "check_inner_run",
+    "StructureFailure",
+    "TrackingLost",
+    "WarningWatch",
+    "disable_autoreset",
+    "first_bad_row",
+    "route_mujoco_warnings",
+]
 
 _MAX_VALUE = 1e10  # MuJoCo's mjMAXVAL: its bound on |qpos|, |qvel|, |qacc| and |ctrl|
 
@@ -120,13 +129,17 @@ class WarningWatch:
 
     def raised(self) -> list[str]:
         """Names of the bad-state warnings raised since this watch began."""
-        return [w.name.removeprefix("mjWARN_") for w, s, n0 in zip(BAD_STATE_WARNINGS, self._stats, self._start)
-                if s.number > n0]
+        return [
+            w.name.removeprefix("mjWARN_")
+            for w, s, n0 in zip(BAD_STATE_WARNINGS, self._stats, self._start)
+            if s.number > n0
+        ]
 
     def check(self, t_s: float) -> None:
         """Raise :class:`DivergenceError` if a bad-state warning was raised; ``t_s`` is the time of
         the state MuJoCo checked (the start of the step it was raised in)."""
         for w, s, n0 in zip(BAD_STATE_WARNINGS, self._stats, self._start):
             if s.number > n0:
-                raise DivergenceError(f"MuJoCo {w.name.removeprefix('mjWARN_')} at t = {t_s:.6g} s: "
-                                      f"{BAD_STATE_WARNINGS[w]}", t_s)
+                raise DivergenceError(
+                    f"MuJoCo {w.name.removeprefix('mjWARN_')} at t = {t_s:.6g} s: {BAD_STATE_WARNINGS[w]}", t_s
+                )

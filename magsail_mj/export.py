@@ -42,10 +42,10 @@ class ExportError(ValueError):
 def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     """Add the ``export`` verb's arguments to ``parser``."""
     parser.add_argument("run_dir", metavar="RUN_DIR", help=f"run folder holding {STORE_NAME}")
-    parser.add_argument("--format", dest="format", default="npz",
-                        help="output format: npz or netcdf (default npz)")
-    parser.add_argument("--out", default=None,
-                        help="output file (default RUN_DIR/timeseries.npz or RUN_DIR/timeseries.nc)")
+    parser.add_argument("--format", dest="format", default="npz", help="output format: npz or netcdf (default npz)")
+    parser.add_argument(
+        "--out", default=None, help="output file (default RUN_DIR/timeseries.npz or RUN_DIR/timeseries.nc)"
+    )
     return parser
 
 
@@ -79,7 +79,7 @@ def export_run(run_dir: str | Path, *, fmt: str, out: str | Path | None = None) 
     if fmt == "npz":
         write_npz_streamed(target, lazy_arrays(folder))
     else:
-        open_records(folder)   # an unreadable store is refused before anything is written
+        open_records(folder)  # an unreadable store is refused before anything is written
         _write_netcdf(folder / STORE_NAME, target, has_series=_series(folder) is not None)
     return target
 
@@ -98,7 +98,7 @@ def _blocks(array: Any) -> Iterable[np.ndarray]:
         return
     step = int(array.chunks[0]) if getattr(array, "chunks", None) else max(1, len(array))
     for a in range(0, array.shape[0], max(1, step)):
-        yield np.asarray(array[a:a + step])
+        yield np.asarray(array[a : a + step])
 
 
 def write_npz_streamed(path: str | Path, arrays: Mapping[str, Any]) -> Path:
@@ -111,8 +111,11 @@ def write_npz_streamed(path: str | Path, arrays: Mapping[str, Any]) -> Path:
         with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED, allowZip64=True) as zf:
             for name, array in arrays.items():
                 dtype = np.dtype(array.dtype)
-                header = {"descr": np.lib.format.dtype_to_descr(dtype), "fortran_order": False,
-                          "shape": tuple(int(s) for s in array.shape)}
+                header = {
+                    "descr": np.lib.format.dtype_to_descr(dtype),
+                    "fortran_order": False,
+                    "shape": tuple(int(s) for s in array.shape),
+                }
                 with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
                     np.lib.format.write_array_header_2_0(fh, header)
                     for block in _blocks(array):

@@ -38,8 +38,18 @@ __all__ = [
     "to_jsonable",
 ]
 
-_VERSIONED = ("magsail_mj", "mujoco", "dm-control", "numpy", "scipy", "ppigrf", "mediapy",
-              "imageio-ffmpeg", "matplotlib", "pydantic")
+_VERSIONED = (
+    "magsail_mj",
+    "mujoco",
+    "dm-control",
+    "numpy",
+    "scipy",
+    "ppigrf",
+    "mediapy",
+    "imageio-ffmpeg",
+    "matplotlib",
+    "pydantic",
+)
 
 
 class RunDirError(RuntimeError):
@@ -163,8 +173,9 @@ def package_versions() -> dict[str, str]:
     return out
 
 
-def prepare_run_dir(out_dir: str | Path, *, overwrite: bool = False, resume: bool = False,
-                    check: Callable[[Path], None] | None = None) -> Path:
+def prepare_run_dir(
+    out_dir: str | Path, *, overwrite: bool = False, resume: bool = False, check: Callable[[Path], None] | None = None
+) -> Path:
     """Create ``out_dir`` or check it may be reused; nothing is written before every check passed.
 
     A folder that already holds a ``manifest.json`` or a checkpoint belongs to an earlier run: it
@@ -206,8 +217,19 @@ def prepare_run_dir(out_dir: str | Path, *, overwrite: bool = False, resume: boo
     return out
 
 
-_RUN_FILE_PATTERNS = ("manifest.json", "summary.json", "timeseries.npz", "timeseries.zarr", "timeseries.nc",
-                      "model.xml", "video.mp4", "*.png", "checkpoint*.npz", "checkpoint*.pkl", "checkpoint*.zarr")
+_RUN_FILE_PATTERNS = (
+    "manifest.json",
+    "summary.json",
+    "timeseries.npz",
+    "timeseries.zarr",
+    "timeseries.nc",
+    "model.xml",
+    "video.mp4",
+    "*.png",
+    "checkpoint*.npz",
+    "checkpoint*.pkl",
+    "checkpoint*.zarr",
+)
 
 
 def remove_earlier_run(out: Path) -> None:

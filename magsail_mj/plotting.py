@@ -32,8 +32,15 @@ from matplotlib.figure import Figure
 
 from magsail_mj.io import atomic_path
 
-__all__ = ["save_figure", "new_figure", "figure_problems", "FigureCheckError", "DIMENSIONLESS_LABELS",
-           "CHECK_ENV", "PNG_DPI"]
+__all__ = [
+    "save_figure",
+    "new_figure",
+    "figure_problems",
+    "FigureCheckError",
+    "DIMENSIONLESS_LABELS",
+    "CHECK_ENV",
+    "PNG_DPI",
+]
 
 PNG_DPI = 120
 """Resolution of every saved figure [dots per inch]."""
@@ -41,16 +48,18 @@ PNG_DPI = 120
 CHECK_ENV = "MAGSAIL_CHECK_FIGURES"
 """Environment variable: ``1`` makes :func:`save_figure` refuse a figure with :func:`figure_problems`."""
 
-DIMENSIONLESS_LABELS = frozenset({
-    "max strut strain",                              # ΔL/L of the most strained strut
-    "q̂_n",                                           # modal amplitudes normalised by their largest value
-    "cycle k",                                       # cycle count
-    "|ẑ_B · V̂| (projected area fraction)",           # cosine between sail normal and flight direction
-    "signed active rods",                            # rod count times polarity
-    "rods on",                                       # rod count
-    "runs",                                          # a histogram's run count (sweep report)
-    "F(x) over all runs",                            # an empirical distribution function (sweep report)
-})
+DIMENSIONLESS_LABELS = frozenset(
+    {
+        "max strut strain",  # ΔL/L of the most strained strut
+        "q̂_n",  # modal amplitudes normalised by their largest value
+        "cycle k",  # cycle count
+        "|ẑ_B · V̂| (projected area fraction)",  # cosine between sail normal and flight direction
+        "signed active rods",  # rod count times polarity
+        "rods on",  # rod count
+        "runs",  # a histogram's run count (sweep report)
+        "F(x) over all runs",  # an empirical distribution function (sweep report)
+    }
+)
 """Axis labels of dimensionless quantities (ratios, counts, normalised amplitudes), accepted
 without a unit."""
 
@@ -64,7 +73,7 @@ class FigureCheckError(ValueError):
 
 def _axis_problem(ax: Axes, axis: Axis, which: str) -> str | None:
     """The problem of one axis (``which`` = ``"x"``, ``"y"`` or ``"z"``) of ``ax``, or ``None``."""
-    if isinstance(axis.units, UnitData):   # categorical: the tick labels name the categories
+    if isinstance(axis.units, UnitData):  # categorical: the tick labels name the categories
         return None
     label = axis.get_label().get_text().strip()
     if not label:
@@ -102,8 +111,11 @@ def _legend_problems(ax: Axes, shown: set[str]) -> list[str]:
     if len(labels) > 1 and missing:
         problems.append(f"labelled artists without a legend: {missing}")
     named = {id(a) for c in ax.containers if not c.get_label().startswith("_") for a in _flatten(c)}
-    unlabelled = {to_hex(line.get_color()) for line in ax.lines if line.get_label().startswith("_")
-                  and line.get_transform() is ax.transData and id(line) not in named}
+    unlabelled = {
+        to_hex(line.get_color())
+        for line in ax.lines
+        if line.get_label().startswith("_") and line.get_transform() is ax.transData and id(line) not in named
+    }
     if len(unlabelled) > 1:
         problems.append(f"{len(unlabelled)} unlabelled line colours {sorted(unlabelled)} (no legend can name them)")
     return problems
@@ -152,8 +164,9 @@ def save_figure(fig: Figure, path: Path) -> Path:
     return path
 
 
-def new_figure(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float] = (7.0, 4.0),
-               **subplot_kw: Any) -> tuple[Figure, Any]:
+def new_figure(
+    nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float] = (7.0, 4.0), **subplot_kw: Any
+) -> tuple[Figure, Any]:
     """A figure and its axes (as ``plt.subplots``) outside pyplot's state; ``figsize`` in inches.
 
     ``subplot_kw`` goes to :meth:`matplotlib.figure.Figure.subplots` (``sharex``, ``squeeze``,

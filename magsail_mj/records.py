@@ -61,9 +61,30 @@ BLOCK_BYTES = 8 * 2**20
 
 #: unit tokens of the name suffixes (``_rad_s`` → rad/s, ``_N_m`` → N m, ``_A_m2`` → A m²)
 _UNIT_TOKENS = {
-    "m": "m", "km": "km", "m2": "m²", "m3": "m³", "s": "s", "s2": "s²", "rad": "rad", "deg": "deg",
-    "N": "N", "Nm": "N m", "A": "A", "kg": "kg", "J": "J", "W": "W", "T": "T", "nT": "nT", "Pa": "Pa",
-    "Hz": "Hz", "K": "K", "V": "V", "C": "C", "ohm": "Ω", "h": "h", "rpm": "rpm",
+    "m": "m",
+    "km": "km",
+    "m2": "m²",
+    "m3": "m³",
+    "s": "s",
+    "s2": "s²",
+    "rad": "rad",
+    "deg": "deg",
+    "N": "N",
+    "Nm": "N m",
+    "A": "A",
+    "kg": "kg",
+    "J": "J",
+    "W": "W",
+    "T": "T",
+    "nT": "nT",
+    "Pa": "Pa",
+    "Hz": "Hz",
+    "K": "K",
+    "V": "V",
+    "C": "C",
+    "ohm": "Ω",
+    "h": "h",
+    "rpm": "rpm",
     "Am2": "A m²",
 }
 #: tokens a following ``_s``/``_s2`` divides (a rate: rad/s, m/s², deg/s)
@@ -71,8 +92,10 @@ _RATE_TOKENS = {"rad", "deg", "m", "km"}
 #: variables whose name carries no suffix
 _KNOWN = {
     "t": ("s", "simulated time"),
-    "qpos": ("m, rad, 1 (per joint: slide position, hinge angle, free-joint quaternion)",
-             "MuJoCo generalised positions qpos"),
+    "qpos": (
+        "m, rad, 1 (per joint: slide position, hinge angle, free-joint quaternion)",
+        "MuJoCo generalised positions qpos",
+    ),
     "qvel": ("m/s, rad/s (per degree of freedom)", "MuJoCo generalised velocities qvel"),
 }
 _KNOWN_DIMS = {"qpos": ("qpos_index",), "qvel": ("qvel_index",)}
@@ -151,21 +174,20 @@ class Recorder:
       min_chunk, max_chunk: bounds of the chunk length [records].
     """
 
-    def __init__(self, names: list[str], *, chunk_bytes: int = 1 << 22, min_chunk: int = 16,
-                 max_chunk: int = 4096):
+    def __init__(self, names: list[str], *, chunk_bytes: int = 1 << 22, min_chunk: int = 16, max_chunk: int = 4096):
         if not names or names[0] != "t":
             raise ValueError(f"names: must start with 't', got {names[:3]!r}")
         if len(set(names)) != len(names):
             raise ValueError(f"names: repeated variable names in {names!r}")
         self.names = list(names)
         self.chunk_bytes, self.min_chunk, self.max_chunk = int(chunk_bytes), int(min_chunk), int(max_chunk)
-        self.chunk = 0                    # records per chunk (0: no record yet)
-        self.n = 0                        # records so far
-        self.base = 0                     # record index of the buffer's first row (a multiple of chunk)
-        self.written = 0                  # records in the store (store mode)
-        self.checked = 0                  # records checked for non-finite values
+        self.chunk = 0  # records per chunk (0: no record yet)
+        self.n = 0  # records so far
+        self.base = 0  # record index of the buffer's first row (a multiple of chunk)
+        self.written = 0  # records in the store (store mode)
+        self.checked = 0  # records checked for non-finite values
         self.buffers: dict[str, np.ndarray] = {}
-        self.chunks: list[dict[str, np.ndarray]] = []   # full chunks (memory mode)
+        self.chunks: list[dict[str, np.ndarray]] = []  # full chunks (memory mode)
         self.first_bad: dict[str, tuple[int, float]] = {}
         self.path: Path | None = None
         self.group: zarr.Group | None = None
@@ -179,7 +201,7 @@ class Recorder:
         counts only once all its values are stored (an interrupt half-way leaves none of it)."""
         if not self.buffers:
             self._allocate({k: np.asarray(values[k]) for k in self.names})
-        elif self.n - self.base == self.chunk:   # a chunk whose hand-over was interrupted
+        elif self.n - self.base == self.chunk:  # a chunk whose hand-over was interrupted
             self._chunk_full()
         i = self.n - self.base
         for name in self.names:
@@ -215,7 +237,7 @@ class Recorder:
                     buf = self._promote(name, v.dtype)
                 if v.shape[1:] != buf.shape[1:]:
                     raise ValueError(f"columns[{name!r}]: records of shape {v.shape[1:]}, earlier {buf.shape[1:]}")
-                buf[i:i + take] = v[done:done + take]
+                buf[i : i + take] = v[done : done + take]
             self.n += take
             done += take
             if self.n - self.base == self.chunk:
@@ -276,18 +298,19 @@ class Recorder:
         if not self.buffers:
             return {name: np.zeros(0) for name in self.names}
         tail = self.n - self.base
-        return {name: np.concatenate([*(c[name] for c in self.chunks), self.buffers[name][:tail]])
-                for name in self.names}
+        return {
+            name: np.concatenate([*(c[name] for c in self.chunks), self.buffers[name][:tail]]) for name in self.names
+        }
 
     def column(self, name: str) -> np.ndarray:
         """One variable's records so far (``t`` for a search by time)."""
         if not self.buffers:
             return np.zeros(0)
-        tail = self.buffers[name][:self.n - self.base]
+        tail = self.buffers[name][: self.n - self.base]
         if self.group is not None:
-            if not self.base:   # nothing handed to the store yet (its arrays may not exist)
+            if not self.base:  # nothing handed to the store yet (its arrays may not exist)
                 return tail.copy()
-            return np.concatenate([self.group[name][:self.base], tail])
+            return np.concatenate([self.group[name][: self.base], tail])
         return np.concatenate([*(c[name] for c in self.chunks), tail])
 
     def non_finite(self) -> tuple[str, float] | None:
@@ -319,10 +342,10 @@ class Recorder:
             self.written = n
         else:
             keep = base // self.chunk
-            rows = {k: self.chunks[keep][k][:n - base] for k in self.names} if keep < len(self.chunks) else {}
+            rows = {k: self.chunks[keep][k][: n - base] for k in self.names} if keep < len(self.chunks) else {}
             del self.chunks[keep:]
         for k, buf in self.buffers.items():
-            buf[:n - base] = rows[k] if rows else buf[:n - base]
+            buf[: n - base] = rows[k] if rows else buf[: n - base]
         self.base, self.n = base, n
 
     # ------------------------------------------------------------------ the store
@@ -340,7 +363,7 @@ class Recorder:
             for name, buf in self.buffers.items():
                 arr = self._create_array(name, buf.shape[1:], buf.dtype, self.base)
                 for j, part in enumerate(self.chunks):
-                    arr[j * self.chunk:(j + 1) * self.chunk] = part[name]
+                    arr[j * self.chunk : (j + 1) * self.chunk] = part[name]
             self.chunks = []
             self.written = self.base
         _consolidate(path)
@@ -357,8 +380,10 @@ class Recorder:
         short = {k: n for k, n in lengths.items() if n < n_records}
         missing = [k for k in self.names if k not in lengths]
         if n_records and (missing or short):
-            raise RecordStoreError(f"record store {path}: holds fewer records than the checkpoint's {n_records} "
-                                   f"(missing {missing}, short {short})")
+            raise RecordStoreError(
+                f"record store {path}: holds fewer records than the checkpoint's {n_records} "
+                f"(missing {missing}, short {short})"
+            )
         self.group, self.path = group, path
         self.buffers, self.chunks, self.first_bad = {}, [], {}
         self.n = self.base = self.written = self.checked = 0
@@ -371,7 +396,7 @@ class Recorder:
         self._resize(n_records)
         self.base = n_records // self.chunk * self.chunk
         for k in self.names:
-            self.buffers[k][:n_records - self.base] = group[k][self.base:n_records]
+            self.buffers[k][: n_records - self.base] = group[k][self.base : n_records]
         self.n = self.written = n_records
         self.checked = 0
         self._scan_store()
@@ -383,7 +408,7 @@ class Recorder:
             if arr.dtype.kind not in "fc":
                 continue
             for a in range(0, self.written, self.chunk):
-                rows = arr[a:min(a + self.chunk, self.written)]
+                rows = arr[a : min(a + self.chunk, self.written)]
                 ok = np.isfinite(rows.reshape(len(rows), -1)).all(axis=1)
                 if not ok.all():
                     j = a + int(np.argmin(ok))
@@ -393,9 +418,14 @@ class Recorder:
 
     def _create_array(self, name: str, shape: tuple[int, ...], dtype: Any, length: int) -> Any:
         return self.group.create_array(
-            name, shape=(length, *shape), chunks=(self.chunk, *(max(1, s) for s in shape)), dtype=dtype,
-            dimension_names=("time", *dims_of(name, shape)), attributes=_attributes(name, timed=True),
-            fill_value=np.zeros((), dtype=dtype).item())
+            name,
+            shape=(length, *shape),
+            chunks=(self.chunk, *(max(1, s) for s in shape)),
+            dtype=dtype,
+            dimension_names=("time", *dims_of(name, shape)),
+            attributes=_attributes(name, timed=True),
+            fill_value=np.zeros((), dtype=dtype).item(),
+        )
 
     def _resize(self, n: int) -> None:
         for name in self.names:
@@ -413,9 +443,9 @@ class Recorder:
             if arr.shape[0] != self.n:
                 arr.resize((self.n, *arr.shape[1:]))
             if lo == self.base and self.n - self.base == self.chunk:
-                arr[self.base:self.n] = buf   # a whole chunk: written without reading it back
+                arr[self.base : self.n] = buf  # a whole chunk: written without reading it back
             else:
-                arr[lo:self.n] = buf[lo - self.base:self.n - self.base]
+                arr[lo : self.n] = buf[lo - self.base : self.n - self.base]
         self.written = self.n
 
     def flush(self) -> None:
@@ -425,9 +455,15 @@ class Recorder:
         if not self.buffers:
             for name in self.names:
                 if name not in self.group:
-                    self.group.create_array(name, shape=(0,), chunks=(self.min_chunk,), dtype="f8",
-                                            dimension_names=("time",), attributes=_attributes(name, timed=True),
-                                            fill_value=0.0)
+                    self.group.create_array(
+                        name,
+                        shape=(0,),
+                        chunks=(self.min_chunk,),
+                        dtype="f8",
+                        dimension_names=("time",),
+                        attributes=_attributes(name, timed=True),
+                        fill_value=0.0,
+                    )
         elif self.written < self.n or any(self.group[k].shape[0] != self.n for k in self.names if k in self.group):
             self._write()
         _consolidate(self.path)
@@ -461,7 +497,7 @@ class StoreRecords(Mapping):
             self._cache[name] = np.asarray(self._group[name][...])
         return self._cache[name]
 
-    def __contains__(self, name: object) -> bool:   # without reading the variable (Mapping's default would)
+    def __contains__(self, name: object) -> bool:  # without reading the variable (Mapping's default would)
         return name in self._extra or name in self._names
 
     def __iter__(self) -> Iterator[str]:
@@ -514,8 +550,14 @@ def lazy_arrays(run_dir: str | Path) -> dict[str, Any]:
     return arrays
 
 
-def write_group(path: str | Path, arrays: Mapping[str, Any], *, group: str | None = None,
-                n_time: int | None = None, attrs: dict[str, Any] | None = None) -> None:
+def write_group(
+    path: str | Path,
+    arrays: Mapping[str, Any],
+    *,
+    group: str | None = None,
+    n_time: int | None = None,
+    attrs: dict[str, Any] | None = None,
+) -> None:
     """Write whole arrays into the store at ``path`` (its root, or ``group`` replaced whole):
     arrays whose first axis has ``n_time`` rows get the dimension ``time`` (coordinate ``t``),
     the others ``<name>_dim<i>``; units and long names as for records. Variables already in the
@@ -536,10 +578,15 @@ def write_group(path: str | Path, arrays: Mapping[str, Any], *, group: str | Non
         dims = ("time", *dims_of(name, v.shape[1:])) if timed else tuple(f"{name}_dim{i}" for i in range(v.ndim))
         if name in target:
             del target[name]
-        arr = target.create_array(name, shape=v.shape, chunks=tuple(max(1, min(s, 4096)) for s in v.shape),
-                                  dtype=v.dtype, dimension_names=dims,
-                                  attributes=_attributes(name, timed=timed and "t" in arrays),
-                                  fill_value=None if v.dtype.kind in "U" else np.zeros((), v.dtype).item())
+        arr = target.create_array(
+            name,
+            shape=v.shape,
+            chunks=tuple(max(1, min(s, 4096)) for s in v.shape),
+            dtype=v.dtype,
+            dimension_names=dims,
+            attributes=_attributes(name, timed=timed and "t" in arrays),
+            fill_value=None if v.dtype.kind in "U" else np.zeros((), v.dtype).item(),
+        )
         arr[...] = v
     _consolidate(Path(path))
 
@@ -587,4 +634,4 @@ def row_blocks(array: Any, *, budget_bytes: int = BLOCK_BYTES) -> Iterator[np.nd
     if chunk and isinstance(chunk[0], int) and chunk[0] <= step:
         step -= step % chunk[0]
     for start in range(0, shape[0], step):
-        yield np.asarray(array[start:start + step])
+        yield np.asarray(array[start : start + step])

@@ -112,10 +112,9 @@ def parse_memory_limit(text: str, *, what: str = "--memory-limit") -> int | None
         return None
     match = _LIMIT_RE.match(text)
     if match is None:
-        raise ValueError(f"{what}: expected a number of bytes (suffix K, M, G or T allowed) or 'auto', "
-                         f"got {text!r}")
+        raise ValueError(f"{what}: expected a number of bytes (suffix K, M, G or T allowed) or 'auto', got {text!r}")
     value = float(match.group(1)) * _SUFFIX[match.group(2).upper()]
-    if not (math.isfinite(value) and 1 <= value < 2 ** 63):
+    if not (math.isfinite(value) and 1 <= value < 2**63):
         raise ValueError(f"{what}: must be between 1 byte and 8 EiB, got {text!r}")
     return int(value)
 
@@ -180,7 +179,8 @@ def check_memory(estimate_bytes: float, *, what: str, limit: int | None = None) 
         raise MemoryLimitError(
             f"{what}: needs about {format_bytes(est)} of memory (estimated before allocating), above the "
             f"limit of {format_bytes(lim)}; make the input smaller, or raise the limit with "
-            f"--memory-limit BYTES or {ENV_VAR}")
+            f"--memory-limit BYTES or {ENV_VAR}"
+        )
     return math.ceil(est)
 
 
@@ -210,8 +210,7 @@ def mujoco_bytes(*, nv: int, nbody: int, ntendon: int = 0) -> float:
     return _BASE_BYTES + _PER_DOF * nv + _PER_DOF2 * nv * nv + _PER_BODY * nbody + _PER_TENDON * ntendon
 
 
-def coil_report_bytes(*, side_m: float, segment_m: float, pitch_cells: int = 2,
-                      rows: int | None = None) -> float:
+def coil_report_bytes(*, side_m: float, segment_m: float, pitch_cells: int = 2, rows: int | None = None) -> float:
     """Peak memory of the coil paths of :func:`magsail_mj.analysis.coil_torque.coil_torque_report`
     [bytes]: y-, x-coil, the p = 1 and rows + 1 variants and two square loops, estimated from their
     node counts. ``inf`` when ``side_m / segment_m`` overflows."""
@@ -221,8 +220,14 @@ def coil_report_bytes(*, side_m: float, segment_m: float, pitch_cells: int = 2,
     n = max(1, round(ratio))
     p = max(1, int(pitch_cells))
     n_row = n if rows is None else max(1, int(rows))
-    counts = [coil_node_count(n, p=p, n_row=n_row), coil_node_count(n, p=p, n_row=n_row),
-              coil_node_count(n, p=1, n_row=n_row), coil_node_count(n, p=p, n_row=n + 1), 4 * n + 1, 4 * n + 1]
+    counts = [
+        coil_node_count(n, p=p, n_row=n_row),
+        coil_node_count(n, p=p, n_row=n_row),
+        coil_node_count(n, p=1, n_row=n_row),
+        coil_node_count(n, p=p, n_row=n + 1),
+        4 * n + 1,
+        4 * n + 1,
+    ]
     counts = [max(c, 1) for c in counts]
     return float(_COIL_ARRAY_NODE * sum(counts) + _COIL_LIST_NODE * max(counts))
 
@@ -235,7 +240,7 @@ def _model_counts(cfg: Any) -> tuple[int, int, int]:
     if concept in ("truss_magnetorquer", "current_loops") and lattice is not None and not rigid:
         nodes, struts = lattice_counts(lattice.units, diagonals=getattr(lattice, "diagonals", "parity"))
         return 3 * nodes + 6, nodes + 1, struts
-    return 24, 10, 0            # the rigid models: a bus with a few bodies (reflector, CNUSAIL, MSAC)
+    return 24, 10, 0  # the rigid models: a bus with a few bodies (reflector, CNUSAIL, MSAC)
 
 
 def estimate_model_bytes(cfg: Any) -> float:
@@ -245,8 +250,9 @@ def estimate_model_bytes(cfg: Any) -> float:
     total = mujoco_bytes(nv=nv, nbody=nbody, ntendon=ntendon)
     plate, coil = getattr(cfg, "plate", None), getattr(cfg, "coil", None)
     if getattr(cfg, "concept", "") == "reflector" and plate is not None and coil is not None:
-        total += coil_report_bytes(side_m=plate.side_m, segment_m=plate.cell_m,
-                                   pitch_cells=coil.pitch_cells, rows=coil.rows)
+        total += coil_report_bytes(
+            side_m=plate.side_m, segment_m=plate.cell_m, pitch_cells=coil.pitch_cells, rows=coil.rows
+        )
     return total + environment_bytes(cfg)
 
 
@@ -276,7 +282,7 @@ def record_bytes(cfg: Any) -> float:
 
 def _record_count(cfg: Any) -> float:
     sim = getattr(cfg, "sim", None)
-    if sim is None or getattr(cfg, "kind", None) == "lifetime":   # no MuJoCo records
+    if sim is None or getattr(cfg, "kind", None) == "lifetime":  # no MuJoCo records
         return 0.0
     every = float(getattr(sim, "record_every", 1) or 1)
     duration, step = float(sim.duration_s), float(sim.timestep_s)
@@ -291,8 +297,16 @@ def estimate_run_bytes(cfg: Any) -> float:
     return estimate_model_bytes(cfg) + _record_count(cfg) * record_bytes(cfg)
 
 
-def render_bytes(*, frames: int, width: int, height: int, panels: int = 1, nbody: int = 1,
-                 series_bytes: float = 0.0, model_bytes: float = 0.0) -> float:
+def render_bytes(
+    *,
+    frames: int,
+    width: int,
+    height: int,
+    panels: int = 1,
+    nbody: int = 1,
+    series_bytes: float = 0.0,
+    model_bytes: float = 0.0,
+) -> float:
     """Memory of a video render [bytes]: per frame the body positions, centroids and node shifts
     (``3 × nbody × 3 × 8`` bytes per panel), four RGB frames of ``width × height × panels`` in
     flight (render, overlay, side-by-side, encoder pipe), the run's time series and the model(s)."""
@@ -313,7 +327,7 @@ def mjcf_counts(path: str | os.PathLike, *, chunk: int = 1 << 24) -> dict[str, i
     with open(path, encoding="utf-8", errors="replace") as fh:
         while block := fh.read(chunk):
             text = tail + block
-            for token in _MJCF_TOKENS:   # a token straddling the boundary is counted in the next block
+            for token in _MJCF_TOKENS:  # a token straddling the boundary is counted in the next block
                 counts[token] += text.count(token) - tail.count(token)
             tail = text[-keep:]
     return counts

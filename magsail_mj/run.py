@@ -47,10 +47,23 @@ from magsail_mj.api import load
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
 from magsail_mj.config import ConfigError, config_hash, numbers_hash, numbers_tree
 from magsail_mj.io import (
-    atomic_path, file_sha256, package_versions, prepare_run_dir, remove_earlier_run, run_dir_lock, write_json,
+    atomic_path,
+    file_sha256,
+    package_versions,
+    prepare_run_dir,
+    remove_earlier_run,
+    run_dir_lock,
+    write_json,
 )
 from magsail_mj.records import (
-    SERIES_GROUP, STORE_NAME, RecordStoreError, StoreRecords, open_records, store_length, update_attrs, write_group,
+    SERIES_GROUP,
+    STORE_NAME,
+    RecordStoreError,
+    StoreRecords,
+    open_records,
+    store_length,
+    update_attrs,
+    write_group,
 )
 from magsail_mj.render import render_run
 
@@ -75,11 +88,11 @@ class RunInterrupted(KeyboardInterrupt):
         self.outcome = outcome
 
 
-
 def thread_settings() -> list[dict[str, Any]]:
     """The native thread pools (BLAS, OpenMP) and their current thread counts."""
-    pools = [{k: info.get(k) for k in ("user_api", "internal_api", "num_threads", "version")}
-             for info in threadpool_info()]
+    pools = [
+        {k: info.get(k) for k in ("user_api", "internal_api", "num_threads", "version")} for info in threadpool_info()
+    ]
     return sorted(pools, key=lambda p: json.dumps(p, sort_keys=True))
 
 
@@ -91,8 +104,9 @@ def check_resume(run_dir: Path, identity: dict[str, Any], n_steps: int) -> None:
     check_identity(header, identity, path=ckpt)
     n_records = header.get("n_records")
     if not isinstance(n_records, int) or header.get("records_store") != STORE_NAME:
-        raise CheckpointError(f"--resume: checkpoint {ckpt} names no record count in {STORE_NAME} "
-                              "(a checkpoint of an older version)")
+        raise CheckpointError(
+            f"--resume: checkpoint {ckpt} names no record count in {STORE_NAME} (a checkpoint of an older version)"
+        )
     try:  # the records before the checkpoint must all be there
         held = store_length(Path(run_dir) / STORE_NAME)
     except RecordStoreError as err:
@@ -101,8 +115,10 @@ def check_resume(run_dir: Path, identity: dict[str, Any], n_steps: int) -> None:
         raise CheckpointError(f"--resume: {STORE_NAME} holds {held} records, checkpoint {ckpt} needs {n_records}")
     step = int(header.get("step", -1))
     if not 0 <= step <= n_steps:
-        raise CheckpointError(f"--resume: checkpoint {ckpt} is at t = {header.get('t_s')} s, beyond "
-                              f"sim.duration_s (a resume may extend a run, not shorten it)")
+        raise CheckpointError(
+            f"--resume: checkpoint {ckpt} is at t = {header.get('t_s')} s, beyond "
+            f"sim.duration_s (a resume may extend a run, not shorten it)"
+        )
 
 
 def run_scenario(
@@ -131,32 +147,55 @@ def run_scenario(
       RunInterrupted: Ctrl-C during the simulation (outputs written with status ``interrupted``).
     """
     with threadpool_limits(limits=1):
-        return _run(cfg, Path(out_dir), video=video, resume=resume, overwrite=overwrite,
-                    progress=cfg.sim.progress if progress is None else progress, stop_after_s=stop_after_s)
+        return _run(
+            cfg,
+            Path(out_dir),
+            video=video,
+            resume=resume,
+            overwrite=overwrite,
+            progress=cfg.sim.progress if progress is None else progress,
+            stop_after_s=stop_after_s,
+        )
 
 
-def _run(cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool, progress: bool,
-         stop_after_s: float | None) -> RunOutcome:
+def _run(
+    cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool, progress: bool, stop_after_s: float | None
+) -> RunOutcome:
     sim = load(cfg)
     scenario = sim.scenario
     if video and "video" in scenario.render_info():  # a scenario without motion says why
         raise ConfigError([f"--video: scenario {cfg.scenario!r} cannot be rendered: {scenario.render_info()['video']}"])
     if (resume or stop_after_s is not None) and not getattr(sim, "checkpoints", True):
         option = "--resume" if resume else "--stop-after-s"
-        raise ConfigError([f"{option}: scenario {cfg.scenario!r} ({type(sim).__name__}) has no checkpoints to stop at "
-                           "or resume from"])
+        raise ConfigError(
+            [f"{option}: scenario {cfg.scenario!r} ({type(sim).__name__}) has no checkpoints to stop at or resume from"]
+        )
     identity = run_identity(numbers_hash(cfg), numbers_tree(cfg))
-    run_dir = prepare_run_dir(out_dir, overwrite=overwrite, resume=resume,
-                              check=(lambda d: check_resume(d, identity, _n_steps(cfg))) if resume else None)
+    run_dir = prepare_run_dir(
+        out_dir,
+        overwrite=overwrite,
+        resume=resume,
+        check=(lambda d: check_resume(d, identity, _n_steps(cfg))) if resume else None,
+    )
     with run_dir_lock(run_dir):
         if overwrite:
             remove_earlier_run(run_dir)
-        return _run_locked(cfg, sim, run_dir, identity, video=video, resume=resume, progress=progress,
-                           stop_after_s=stop_after_s)
+        return _run_locked(
+            cfg, sim, run_dir, identity, video=video, resume=resume, progress=progress, stop_after_s=stop_after_s
+        )
 
 
-def _run_locked(cfg: Any, sim: Any, run_dir: Path, identity: dict[str, Any], *, video: bool, resume: bool,
-                progress: bool, stop_after_s: float | None) -> RunOutcome:
+def _run_locked(
+    cfg: Any,
+    sim: Any,
+    run_dir: Path,
+    identity: dict[str, Any],
+    *,
+    video: bool,
+    resume: bool,
+    progress: bool,
+    stop_after_s: float | None,
+) -> RunOutcome:
     scenario = sim.scenario
     with atomic_path(run_dir / "model.xml") as tmp:
         tmp.write_text(scenario.spec.to_xml())
@@ -164,8 +203,14 @@ def _run_locked(cfg: Any, sim: Any, run_dir: Path, identity: dict[str, Any], *, 
     store = run_dir / STORE_NAME
     attrs = store_attrs(cfg, identity)
     if getattr(sim, "streams_records", False):
-        result = sim.run(progress=progress, checkpoint_path=ckpt, resume=resume, stop_after_s=stop_after_s,
-                         records_path=store, records_attrs=attrs)
+        result = sim.run(
+            progress=progress,
+            checkpoint_path=ckpt,
+            resume=resume,
+            stop_after_s=stop_after_s,
+            records_path=store,
+            records_attrs=attrs,
+        )
     else:
         result = sim.run(progress=progress, checkpoint_path=ckpt, resume=resume, stop_after_s=stop_after_s)
     status, message = result.status, result.message
@@ -174,14 +219,29 @@ def _run_locked(cfg: Any, sim: Any, run_dir: Path, identity: dict[str, Any], *, 
         summary, series, plots = _outputs(scenario, result, run_dir)
         overflowed = [k for k, v in series.items() if np.asarray(v).dtype.kind == "f" and np.isinf(v).any()]
         if status == "completed" and overflowed:  # NaN may mark an undefined value; ±inf never is a number
-            status, message = "failed", (f"the derived series {', '.join(map(repr, overflowed))} overflowed to "
-                                         "infinity although the state stayed finite (an input too large for float64?)")
+            status, message = (
+                "failed",
+                (
+                    f"the derived series {', '.join(map(repr, overflowed))} overflowed to "
+                    "infinity although the state stayed finite (an input too large for float64?)"
+                ),
+            )
         if status == "completed" and summary.get("failed") is True:  # found by post-processing (inverted cells)
-            status, message = "structure_failed", (f"the structure failed at t = {summary.get('t_failed_s')} s "
-                                                   "(post-processing found inverted cells or a strut strain "
-                                                   "beyond sim.max_strain)")
-        summary = {"scenario": cfg.scenario, **summary, "t_end_s": result.t_end_s, "status": status,
-                   "status_message": message}
+            status, message = (
+                "structure_failed",
+                (
+                    f"the structure failed at t = {summary.get('t_failed_s')} s "
+                    "(post-processing found inverted cells or a strut strain "
+                    "beyond sim.max_strain)"
+                ),
+            )
+        summary = {
+            "scenario": cfg.scenario,
+            **summary,
+            "t_end_s": result.t_end_s,
+            "status": status,
+            "status_message": message,
+        }
         write_json(run_dir / "summary.json", summary)
         update_attrs(store, {"status": status, "status_message": message, "t_end_s": result.t_end_s})
         files = ["model.xml", STORE_NAME, "summary.json", *[p.name for p in plots]]
@@ -229,11 +289,18 @@ def _render_video(run_dir: Path, manifest: dict[str, Any]) -> tuple[str, str]:
     an interrupt writes the manifest as ``interrupted`` and propagates."""
     info = manifest["render"]
     try:
-        render_run(run_dir, run_dir / "video.mp4", fps=info.get("fps", 30), max_frames=info.get("max_frames", 600),
-                   render_info=info)
+        render_run(
+            run_dir,
+            run_dir / "video.mp4",
+            fps=info.get("fps", 30),
+            max_frames=info.get("max_frames", 600),
+            render_info=info,
+        )
     except KeyboardInterrupt:
-        write_json(run_dir / "manifest.json", {**manifest, "status": "interrupted",
-                                               "status_message": "interrupted while rendering video.mp4"})
+        write_json(
+            run_dir / "manifest.json",
+            {**manifest, "status": "interrupted", "status_message": "interrupted while rendering video.mp4"},
+        )
         raise
     except Exception as err:  # noqa: BLE001 - the run's numbers stay; the run is marked failed
         manifest.update(status="failed", status_message=f"video.mp4 could not be rendered: {type(err).__name__}: {err}")
@@ -264,8 +331,13 @@ def store_attrs(cfg: Any, identity: dict[str, Any]) -> dict[str, Any]:
     """The attributes of a run's record store: concept, scenario, config and numbers hashes, and
     the package versions (one ``version_<package>`` string each, so netCDF can hold them)."""
     versions = {f"version_{k.replace('-', '_')}": str(v) for k, v in package_versions().items()}
-    return {"concept": cfg.concept, "scenario": cfg.scenario, "config_hash": config_hash(cfg),
-            "numbers_hash": identity["numbers_hash"], **versions}
+    return {
+        "concept": cfg.concept,
+        "scenario": cfg.scenario,
+        "config_hash": config_hash(cfg),
+        "numbers_hash": identity["numbers_hash"],
+        **versions,
+    }
 
 
 def _stored(result: Any, store: Path, attrs: dict[str, Any]) -> Any:

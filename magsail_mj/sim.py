@@ -61,16 +61,35 @@ import numpy as np
 from tqdm import tqdm
 
 from magsail_mj.checkpoint import (
-    CheckpointError, StateWalker, check_identity, read_checkpoint, restore_state, run_identity, write_checkpoint,
+    CheckpointError,
+    StateWalker,
+    check_identity,
+    read_checkpoint,
+    restore_state,
+    run_identity,
+    write_checkpoint,
 )
 from magsail_mj.divergence import (
-    DivergenceError, StructureFailure, StudiedFailure, WarningWatch, disable_autoreset, route_mujoco_warnings,
+    DivergenceError,
+    StructureFailure,
+    StudiedFailure,
+    WarningWatch,
+    disable_autoreset,
+    route_mujoco_warnings,
 )
 from magsail_mj.loads.base import Load, StepState
 from magsail_mj.records import Recorder, RecordStoreError
 
-__all__ = ["Controller", "BodyKinematics", "LoadTiming", "Simulation", "RunResult", "DivergenceError",
-           "StructureFailure", "LOAD_TIMINGS"]
+__all__ = [
+    "Controller",
+    "BodyKinematics",
+    "LoadTiming",
+    "Simulation",
+    "RunResult",
+    "DivergenceError",
+    "StructureFailure",
+    "LOAD_TIMINGS",
+]
 
 #: when the loads see the state: at the step's start, or predicted at its middle (see the module docs)
 LOAD_TIMINGS = ("start", "midpoint")
@@ -103,14 +122,18 @@ class BodyKinematics:
         other = []
         for b in range(1, nb):
             jn, ja = model.body_jntnum[b], model.body_jntadr[b]
-            types = model.jnt_type[ja:ja + jn] if jn else []
+            types = model.jnt_type[ja : ja + jn] if jn else []
             if jn == 1 and types[0] == mujoco.mjtJoint.mjJNT_FREE:
                 free_body.append(b)
                 free_q.append(model.jnt_qposadr[ja])
                 free_v.append(model.jnt_dofadr[ja])
-            elif (jn == 3 and np.all(types == mujoco.mjtJoint.mjJNT_SLIDE)
-                  and np.allclose(model.jnt_axis[ja:ja + 3], np.eye(3))
-                  and model.body_parentid[b] == 0 and np.allclose(model.body_quat[b], [1, 0, 0, 0])):
+            elif (
+                jn == 3
+                and np.all(types == mujoco.mjtJoint.mjJNT_SLIDE)
+                and np.allclose(model.jnt_axis[ja : ja + 3], np.eye(3))
+                and model.body_parentid[b] == 0
+                and np.allclose(model.body_quat[b], [1, 0, 0, 0])
+            ):
                 part_body.append(b)
                 part_q.append(model.jnt_qposadr[ja])
                 part_v.append(model.jnt_dofadr[ja])
@@ -134,9 +157,11 @@ class BodyKinematics:
         if self.part_body.size:
             n, b0 = self.part_body.size, int(self.part_body[0])
             q0, v0 = int(self.part_q[0, 0]), int(self.part_v[0, 0])
-            if (np.array_equal(self.part_body, np.arange(b0, b0 + n))
-                    and np.array_equal(self.part_q.ravel(), np.arange(q0, q0 + 3 * n))
-                    and np.array_equal(self.part_v.ravel(), np.arange(v0, v0 + 3 * n))):
+            if (
+                np.array_equal(self.part_body, np.arange(b0, b0 + n))
+                and np.array_equal(self.part_q.ravel(), np.arange(q0, q0 + 3 * n))
+                and np.array_equal(self.part_v.ravel(), np.arange(v0, v0 + 3 * n))
+            ):
                 self._part_block = (slice(b0, b0 + n), slice(q0, q0 + 3 * n), slice(v0, v0 + 3 * n), n)
         self.pos = np.zeros((nb, 3))
         self.pos[:] = model.body_pos
@@ -160,20 +185,23 @@ class BodyKinematics:
             self.pos[self.part_body] = self.pos0[self.part_body] + data.qpos[self.part_q]
             self.vel[self.part_body] = data.qvel[self.part_v]
         R = self._R
-        for b, qa, va in self._free:     # plain floats: a NumPy call on a 4-vector costs more than its arithmetic
-            qp = data.qpos[qa:qa + 7].tolist()
+        for b, qa, va in self._free:  # plain floats: a NumPy call on a 4-vector costs more than its arithmetic
+            qp = data.qpos[qa : qa + 7].tolist()
             w, x, y, z = qp[3:]
             n = math.sqrt(w * w + x * x + y * y + z * z)
             q = self.xquat[b]
             q[:] = (w / n, x / n, y / n, z / n)
             self.pos[b] = qp[:3]
-            qv = data.qvel[va:va + 6].tolist()
+            qv = data.qvel[va : va + 6].tolist()
             self.vel[b] = qv[:3]
             mujoco.mju_quat2Mat(R, q)
             r = R.tolist()
             a0, a1, a2 = qv[3:]
-            self.omega[b] = (r[0] * a0 + r[1] * a1 + r[2] * a2, r[3] * a0 + r[4] * a1 + r[5] * a2,
-                             r[6] * a0 + r[7] * a1 + r[8] * a2)
+            self.omega[b] = (
+                r[0] * a0 + r[1] * a1 + r[2] * a2,
+                r[3] * a0 + r[4] * a1 + r[5] * a2,
+                r[6] * a0 + r[7] * a1 + r[8] * a2,
+            )
 
 
 def _slice_if_contiguous(index: np.ndarray) -> slice | np.ndarray:
@@ -288,7 +316,7 @@ class Simulation:
             self.init(self.data)
         self.kin = BodyKinematics(self.model)
         self.timing = LoadTiming(self.load_timing, np.zeros(self.model.nv))
-        self._mid_data = mujoco.MjData(self.model)      # the predicted mid-step state (scratch)
+        self._mid_data = mujoco.MjData(self.model)  # the predicted mid-step state (scratch)
         self._mid_kin = BodyKinematics(self.model)
         self.n_steps = int(round(self.duration_s / self.model.opt.timestep))
         self.walker = self._state_walker()
@@ -328,8 +356,14 @@ class Simulation:
         self.walker.roots["cmd"] = self._loop["cmd"]
         tree, arrays = self.walker.snapshot()
         n_records = len(self.recorder)
-        return {"step": self.step_index, "n_ctrl": self._loop["n_ctrl"], "mj_state": mj_state,
-                "n_records": n_records, "python_tree": tree, "python_arrays": arrays}
+        return {
+            "step": self.step_index,
+            "n_ctrl": self._loop["n_ctrl"],
+            "mj_state": mj_state,
+            "n_records": n_records,
+            "python_tree": tree,
+            "python_arrays": arrays,
+        }
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Continue from a state of :meth:`get_state` (of this simulation or one built from the same
@@ -361,20 +395,38 @@ class Simulation:
     # ------------------------------------------------------------------ checkpoints
     def _state_walker(self) -> StateWalker:
         """The Python-side state of the run: controller, loads, environment and probes."""
-        return StateWalker({"controller": self.controller, "loads": list(self.loads),
-                            "environment": self.environment, "probes": dict(self.probes), "cmd": None,
-                            "timing": self.timing})
+        return StateWalker(
+            {
+                "controller": self.controller,
+                "loads": list(self.loads),
+                "environment": self.environment,
+                "probes": dict(self.probes),
+                "cmd": None,
+                "timing": self.timing,
+            }
+        )
 
     def _checkpoint(self, path: Path, step: int) -> None:
         loop = self._loop
-        self.recorder.flush()   # the store holds every record the checkpoint counts
+        self.recorder.flush()  # the store holds every record the checkpoint counts
         state = self.get_state()
         store = self.recorder.path
-        header = {**self.identity, "step": step, "t_s": step * self.model.opt.timestep,
-                  "n_records": state["n_records"], "records_store": store.name if store is not None else None,
-                  "n_ctrl": loop["n_ctrl"], "wall_s": self._wall_s}
-        write_checkpoint(path, header, tree=state["python_tree"], arrays=state["python_arrays"],
-                         extra_arrays={"mj_state": state["mj_state"]})
+        header = {
+            **self.identity,
+            "step": step,
+            "t_s": step * self.model.opt.timestep,
+            "n_records": state["n_records"],
+            "records_store": store.name if store is not None else None,
+            "n_ctrl": loop["n_ctrl"],
+            "wall_s": self._wall_s,
+        }
+        write_checkpoint(
+            path,
+            header,
+            tree=state["python_tree"],
+            arrays=state["python_arrays"],
+            extra_arrays={"mj_state": state["mj_state"]},
+        )
 
     def _restore(self, path: Path, records_path: Path | None) -> None:
         header, arrays, extra = read_checkpoint(path)
@@ -383,8 +435,10 @@ class Simulation:
             raise CheckpointError(f"checkpoint: {path} holds no MuJoCo state of this model")
         step = int(header["step"])
         if step > self.n_steps:
-            raise CheckpointError(f"checkpoint: {path} is at t = {header['t_s']:g} s, beyond sim.duration_s = "
-                                  f"{self.duration_s:g} s (a resume may extend a run, not shorten it)")
+            raise CheckpointError(
+                f"checkpoint: {path} is at t = {header['t_s']:g} s, beyond sim.duration_s = "
+                f"{self.duration_s:g} s (a resume may extend a run, not shorten it)"
+            )
         if "n_records" not in header:
             raise CheckpointError(f"checkpoint: {path} holds no record count (a checkpoint of an older version)")
         n_records = int(header["n_records"])
@@ -397,9 +451,16 @@ class Simulation:
         loop = self._new_loop()
         loop.update(wall_s=float(header["wall_s"]))
         self._loop = loop
-        self.set_state({"step": step, "n_ctrl": int(header["n_ctrl"]), "mj_state": extra["mj_state"],
-                        "n_records": n_records, "python_tree": header["state_tree"],
-                        "python_arrays": arrays})
+        self.set_state(
+            {
+                "step": step,
+                "n_ctrl": int(header["n_ctrl"]),
+                "mj_state": extra["mj_state"],
+                "n_records": n_records,
+                "python_tree": header["state_tree"],
+                "python_arrays": arrays,
+            }
+        )
         self._wall_s = loop["wall_s"]
 
     # ------------------------------------------------------------------ stepping
@@ -430,10 +491,15 @@ class Simulation:
         with ``records_attrs`` as its attributes; a checkpointed run without it streams to
         ``<checkpoint stem>.records.zarr`` beside the checkpoint."""
         dt = self.model.opt.timestep
-        ckpt = open_run_records(self.recorder, checkpoint_path=checkpoint_path, records_path=records_path,
-                                records_attrs=records_attrs, restore=self._restore if resume else None)
+        ckpt = open_run_records(
+            self.recorder,
+            checkpoint_path=checkpoint_path,
+            records_path=records_path,
+            records_attrs=records_attrs,
+            restore=self._restore if resume else None,
+        )
         start = self.step_index
-        ckpt_every = (int(round(self.checkpoint_every_s / dt)) if self.checkpoint_every_s > 0 else 0)
+        ckpt_every = int(round(self.checkpoint_every_s / dt)) if self.checkpoint_every_s > 0 else 0
         stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(round(stop_after_s / dt)))
         bar = None
         if progress and self.n_steps > 2000:
@@ -449,8 +515,14 @@ class Simulation:
         if self.status == "completed":
             self.status, self.message = _non_finite_records(self.recorder) or (self.status, self.message)
         records = self.records()
-        return RunResult(records=records, status=self.status, message=self.message, t_end_s=self.time,
-                         steps=self.step_index - start, wall_time_s=self._wall_s)
+        return RunResult(
+            records=records,
+            status=self.status,
+            message=self.message,
+            t_end_s=self.time,
+            steps=self.step_index - start,
+            wall_time_s=self._wall_s,
+        )
 
     def _advance(self, stop_step: int, *, ckpt: Path | None = None, ckpt_every: int = 0, bar: Any = None) -> None:
         """The step loop from the current step to ``stop_step`` (see the module docs)."""
@@ -463,15 +535,18 @@ class Simulation:
         load_starts = [(load, bool(getattr(load, "at_step_start", False))) for load in self.loads]
         start_loads = any(at_start for _, at_start in load_starts)
         qpos, qvel = d.qpos, d.qvel
-        small = m.nq + m.nv <= 64     # summing a short state as Python floats is 3x cheaper than two reductions
+        small = m.nq + m.nv <= 64  # summing a short state as Python floats is 3x cheaper than two reductions
         start = step = self.step_index
         wall0 = time.perf_counter()
         try:
             watch.check(step * dt)
             for step in range(start, stop_step + 1):
                 t = step * dt
-                if ckpt is not None and step > start and (
-                        (ckpt_every and step % ckpt_every == 0) or step == stop_step < self.n_steps):
+                if (
+                    ckpt is not None
+                    and step > start
+                    and ((ckpt_every and step % ckpt_every == 0) or step == stop_step < self.n_steps)
+                ):
                     self._wall_s += time.perf_counter() - wall0
                     wall0 = time.perf_counter()
                     loop["wall_s"] = self._wall_s
@@ -489,8 +564,9 @@ class Simulation:
                 if at_t:
                     kin.update(d)
                 env_t = self.environment.sample(t) if self.environment is not None and at_t else None
-                state = StepState(t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega, env=env_t,
-                                  ctrl=loop["cmd"])
+                state = StepState(
+                    t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega, env=env_t, ctrl=loop["cmd"]
+                )
                 if due:
                     loop["cmd"] = self.controller.update(state)
                     state.ctrl = loop["cmd"]
@@ -507,7 +583,8 @@ class Simulation:
                         if not strain <= self.max_strain:
                             raise StructureFailure(
                                 f"strut {strut} strain {strain:.3g} exceeds sim.max_strain "
-                                f"{self.max_strain:g} at t = {t:.6g} s")
+                                f"{self.max_strain:g} at t = {t:.6g} s"
+                            )
                 if step == self.n_steps:
                     self.status = "completed"
                     break
@@ -524,10 +601,12 @@ class Simulation:
                 # finite, bad qacc/ctrl), so a warning of this step dates the bad state at t;
                 # a NaN/Inf in the new state makes the sum non-finite, dated t + δt
                 watch.check(t)
-                if not math.isfinite(sum(qpos.tolist()) + sum(qvel.tolist()) if small
-                                     else float(qpos.sum()) + float(qvel.sum())):
-                    raise DivergenceError(f"state is not finite at t = {t + dt:.6g} s (after the step from "
-                                          f"t = {t:.6g} s)")
+                if not math.isfinite(
+                    sum(qpos.tolist()) + sum(qvel.tolist()) if small else float(qpos.sum()) + float(qvel.sum())
+                ):
+                    raise DivergenceError(
+                        f"state is not finite at t = {t + dt:.6g} s (after the step from t = {t:.6g} s)"
+                    )
                 if bar is not None and (step + 1) % 100 == 0:
                     bar.update(100)
             else:
@@ -545,7 +624,6 @@ class Simulation:
             self.step_index = step
             self._wall_s += time.perf_counter() - wall0
 
-
     def _mid_state(self, t: float, state: StepState) -> StepState:
         """What the loads see with ``load_timing = "midpoint"``: the state predicted at ``t + δt/2``
         (:meth:`LoadTiming.predict`), its body kinematics and the environment then."""
@@ -554,12 +632,17 @@ class Simulation:
         k = self._mid_kin
         k.update(self._mid_data)
         env = self.environment.sample(t + 0.5 * dt) if self.environment is not None else None
-        return StepState(t=t + 0.5 * dt, pos=k.pos, vel=k.vel, xquat=k.xquat, omega=k.omega, env=env,
-                         ctrl=state.ctrl)
+        return StepState(t=t + 0.5 * dt, pos=k.pos, vel=k.vel, xquat=k.xquat, omega=k.omega, env=env, ctrl=state.ctrl)
 
-def open_run_records(recorder: Recorder, *, checkpoint_path: str | Path | None, records_path: str | Path | None,
-                     records_attrs: dict[str, Any] | None,
-                     restore: Callable[[Path, Path | None], None] | None) -> Path | None:
+
+def open_run_records(
+    recorder: Recorder,
+    *,
+    checkpoint_path: str | Path | None,
+    records_path: str | Path | None,
+    records_attrs: dict[str, Any] | None,
+    restore: Callable[[Path, Path | None], None] | None,
+) -> Path | None:
     """Start a run's records: return the checkpoint path (or ``None``).
 
     The store is ``records_path``, else ``<checkpoint stem>.records.zarr`` beside a checkpoint, else
@@ -571,8 +654,11 @@ def open_run_records(recorder: Recorder, *, checkpoint_path: str | Path | None, 
       CheckpointError: a resume without a checkpoint path.
     """
     ckpt = Path(checkpoint_path) if checkpoint_path else None
-    store = Path(records_path) if records_path else (
-        ckpt.with_name(f"{ckpt.stem}.records.zarr") if ckpt is not None else None)
+    store = (
+        Path(records_path)
+        if records_path
+        else (ckpt.with_name(f"{ckpt.stem}.records.zarr") if ckpt is not None else None)
+    )
     if restore is not None:
         if ckpt is None:
             raise CheckpointError("resume: no checkpoint path given")
@@ -590,5 +676,7 @@ def _non_finite_records(recorder: Recorder) -> tuple[str, str] | None:
     if bad is None:
         return None
     name, t = bad
-    return "failed", (f"the recorded series {name!r} is not finite from t = {t:.6g} s although the state stayed "
-                      "finite (an input too large for float64?)")
+    return "failed", (
+        f"the recorded series {name!r} is not finite from t = {t:.6g} s although the state stayed "
+        "finite (an input too large for float64?)"
+    )

@@ -64,12 +64,10 @@ def mat_vec_f(R: Sequence[float], v: Sequence[float]) -> Vec3:
     """``R v`` for the row-major entries ``R = (R₀₀, R₀₁, R₀₂, R₁₀, …, R₂₂)``: ``(R v)_i = Σ_j R_ij v_j``
     (body → world for the rotation of a body's quaternion)."""
     v0, v1, v2 = v
-    return (R[0] * v0 + R[1] * v1 + R[2] * v2, R[3] * v0 + R[4] * v1 + R[5] * v2,
-            R[6] * v0 + R[7] * v1 + R[8] * v2)
+    return (R[0] * v0 + R[1] * v1 + R[2] * v2, R[3] * v0 + R[4] * v1 + R[5] * v2, R[6] * v0 + R[7] * v1 + R[8] * v2)
 
 
 def mat_t_vec_f(R: Sequence[float], v: Sequence[float]) -> Vec3:
     """``Rᵀ v`` (``= v R``, world → body for a rotation): ``(Rᵀ v)_j = Σ_i R_ij v_i``."""
     v0, v1, v2 = v
-    return (R[0] * v0 + R[3] * v1 + R[6] * v2, R[1] * v0 + R[4] * v1 + R[7] * v2,
-            R[2] * v0 + R[5] * v1 + R[8] * v2)
+    return (R[0] * v0 + R[3] * v1 + R[6] * v2, R[1] * v0 + R[4] * v1 + R[7] * v2, R[2] * v0 + R[5] * v1 + R[8] * v2)

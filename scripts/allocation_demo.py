@@ -34,7 +34,12 @@ import numpy as np
 
 from magsail_mj.control.allocation import TorqueDistributor, allocate
 from magsail_mj.control.lloyd import (
-    LloydSelector, covering_radius, initial_generators, lloyd, nn_spacing_cv, snap_to_sites,
+    LloydSelector,
+    covering_radius,
+    initial_generators,
+    lloyd,
+    nn_spacing_cv,
+    snap_to_sites,
     voronoi_cells,
 )
 from magsail_mj.io import write_json
@@ -58,8 +63,12 @@ def machine() -> dict:
                     break
     except OSError:
         pass
-    return {"cpu": cpu, "cpu_count": os.cpu_count(), "python": platform.python_version(),
-            "platform": platform.platform()}
+    return {
+        "cpu": cpu,
+        "cpu_count": os.cpu_count(),
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+    }
 
 
 def demo_array(*, n_side: int, n_active: int, seed: int, tol_rel: float, max_iter: int) -> dict:
@@ -71,8 +80,13 @@ def demo_array(*, n_side: int, n_active: int, seed: int, tol_rel: float, max_ite
     t0 = time.perf_counter()
     chosen = snap_to_sites(res.generators, sites)
     snap_s = time.perf_counter() - t0
-    return {"sites": sites, "result": res, "chosen": chosen, "snap_time_s": snap_s,
-            "initial": initial_generators(n_active, UNIT, seed=seed)}
+    return {
+        "sites": sites,
+        "result": res,
+        "chosen": chosen,
+        "snap_time_s": snap_s,
+        "initial": initial_generators(n_active, UNIT, seed=seed),
+    }
 
 
 def fig15_example() -> dict:
@@ -83,10 +97,18 @@ def fig15_example() -> dict:
     t1, t2 = np.asarray(al0.tau1_body), np.asarray(al0.tau2_body)
     T_ref = 2.2 * t1 + 1.85 * t2
     al = allocate(T_ref, B, m_rod_Am2=m_rod, n_max=10)
-    return {"B_body_T": B, "m_rod_Am2": m_rod, "tau1_Nm": t1, "tau2_Nm": t2, "T_ref_Nm": T_ref,
-            "N1": al.N1, "N2": al.N2, "T_Nm": al.torque_body,
-            "error_Nm": float(np.linalg.norm(al.torque_body - T_ref)),
-            "bound_Nm": 0.5 * float(np.linalg.norm(t1) + np.linalg.norm(t2))}
+    return {
+        "B_body_T": B,
+        "m_rod_Am2": m_rod,
+        "tau1_Nm": t1,
+        "tau2_Nm": t2,
+        "T_ref_Nm": T_ref,
+        "N1": al.N1,
+        "N2": al.N2,
+        "T_Nm": al.torque_body,
+        "error_Nm": float(np.linalg.norm(al.torque_body - T_ref)),
+        "bound_Nm": 0.5 * float(np.linalg.norm(t1) + np.linalg.norm(t2)),
+    }
 
 
 def figure(path: Path, *, pts21: np.ndarray, demo: dict, fig15: dict) -> Path:
@@ -98,8 +120,7 @@ def figure(path: Path, *, pts21: np.ndarray, demo: dict, fig15: dict) -> Path:
 
     ax = axs[1]
     res, sites, chosen = demo["result"], demo["sites"], demo["chosen"]
-    ax.add_collection(PolyCollection(voronoi_cells(res.generators, UNIT), facecolors="none",
-                                     edgecolors="0.45", lw=0.8))
+    ax.add_collection(PolyCollection(voronoi_cells(res.generators, UNIT), facecolors="none", edgecolors="0.45", lw=0.8))
     off = np.setdiff1d(np.arange(len(sites)), chosen)
     ax.plot(sites[off, 0], sites[off, 1], "s", mfc="none", mec="0.6", ms=7, label="site (off)")
     ax.plot(sites[chosen, 0], sites[chosen, 1], "s", color="tab:red", ms=7, label="site (on)")
@@ -122,8 +143,12 @@ def figure(path: Path, *, pts21: np.ndarray, demo: dict, fig15: dict) -> Path:
     ii, jj = np.meshgrid(np.arange(-1, 4), np.arange(-1, 4))
     grid = np.array([P(i * t1 + j * t2) for i, j in zip(ii.ravel(), jj.ravel())])
     ax.plot(grid[:, 0], grid[:, 1], ".", color="0.7", label="N1 τ1 + N2 τ2 (integers)")
-    for v, c, lab in ((t1, "tab:blue", "τ1 = m x̂1 × B"), (t2, "tab:green", "τ2 = m ŷ1 × B"),
-                      (Tr, "k", "T_ref"), (T, "tab:red", f"N1 τ1 + N2 τ2, N1={fig15['N1']}, N2={fig15['N2']}")):
+    for v, c, lab in (
+        (t1, "tab:blue", "τ1 = m x̂1 × B"),
+        (t2, "tab:green", "τ2 = m ŷ1 × B"),
+        (Tr, "k", "T_ref"),
+        (T, "tab:red", f"N1 τ1 + N2 τ2, N1={fig15['N1']}, N2={fig15['N2']}"),
+    ):
         p = P(v)
         ax.annotate("", xy=p, xytext=(0, 0), arrowprops=dict(arrowstyle="->", color=c, lw=1.8))
         ax.plot([], [], color=c, label=lab)
@@ -136,13 +161,13 @@ def figure(path: Path, *, pts21: np.ndarray, demo: dict, fig15: dict) -> Path:
     return save_figure(fig, path)
 
 
-def bench_truss(*, seed: int, tol_rel: float, max_iter: int, workers: int, cache_dir: str | None,
-                n_calls: int) -> dict:
+def bench_truss(*, seed: int, tol_rel: float, max_iter: int, workers: int, cache_dir: str | None, n_calls: int) -> dict:
     """Per-call cost of allocation + selection on the 75 m truss (380 + 380 rods)."""
     rods = rod_array(make_lattice(units=19, side_m=75.0))
     m = rod_dipole_Am2(kappa_Am2_per_kg=100.0, rod_mass_kg=100.0, rods_per_family=rods.n_per_family)
-    dist = TorqueDistributor.for_rods(rods, m_rod_Am2=m, seed=seed, tol_rel=tol_rel, max_iter=max_iter,
-                                      cache_dir=cache_dir)
+    dist = TorqueDistributor.for_rods(
+        rods, m_rod_Am2=m, seed=seed, tol_rel=tol_rel, max_iter=max_iter, cache_dir=cache_dir
+    )
     sel: LloydSelector = dist.selector
     t0 = time.perf_counter()
     sel.precompute(workers=workers)
@@ -155,7 +180,7 @@ def bench_truss(*, seed: int, tol_rel: float, max_iter: int, workers: int, cache
     Bs = (20e-6 + 25e-6 * rng.random((n_calls, 1))) * u / np.linalg.norm(u, axis=1, keepdims=True)
     v = rng.normal(size=(n_calls, 3))
     Ts = 10 ** rng.uniform(-4, 0, (n_calls, 1)) * v / np.linalg.norm(v, axis=1, keepdims=True)
-    for k in range(min(n_calls, 200)):                       # warm-up
+    for k in range(min(n_calls, 200)):  # warm-up
         dist(Ts[k], Bs[k])
     per = np.empty(n_calls)
     for k in range(n_calls):
@@ -195,25 +220,29 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-iter", type=int, default=10_000)
     ap.add_argument("--n-side", type=int, default=10, help="demonstration array is n × n")
     ap.add_argument("--n-active", type=int, default=72)
-    ap.add_argument("--bench-truss", action="store_true",
-                    help="also time allocation + selection on the 380 + 380 rods of the 75 m truss")
+    ap.add_argument(
+        "--bench-truss",
+        action="store_true",
+        help="also time allocation + selection on the 380 + 380 rods of the 75 m truss",
+    )
     ap.add_argument("--workers", type=int, default=1, help="processes for the truss precompute")
     ap.add_argument("--cache-dir", default=None, help="on-disk Lloyd cache for --bench-truss")
     ap.add_argument("--n-calls", type=int, default=20_000)
     args = ap.parse_args(argv)
     if not 0 <= args.n_active <= args.n_side**2:
-        ap.error(f"--n-active: must be between 0 and {args.n_side ** 2}, got {args.n_active}")
+        ap.error(f"--n-active: must be between 0 and {args.n_side**2}, got {args.n_active}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
 
     pts21 = initial_generators(21, UNIT, seed=args.seed)
-    demo = demo_array(n_side=args.n_side, n_active=args.n_active, seed=args.seed, tol_rel=args.tol_rel,
-                      max_iter=args.max_iter)
+    demo = demo_array(
+        n_side=args.n_side, n_active=args.n_active, seed=args.seed, tol_rel=args.tol_rel, max_iter=args.max_iter
+    )
     f15 = fig15_example()
     figure(out / "allocation_demo.png", pts21=pts21, demo=demo, fig15=f15)
     res = demo["result"]
     sites = demo["sites"]
-    rand = snap_to_sites(demo["initial"], sites)   # the random start snapped, for comparison
+    rand = snap_to_sites(demo["initial"], sites)  # the random start snapped, for comparison
     summary = {
         "n_sites": int(args.n_side**2),
         "n_active": int(args.n_active),
@@ -234,12 +263,22 @@ def main(argv: list[str] | None = None) -> int:
         "machine": machine(),
     }
     if args.bench_truss:
-        summary["truss_bench"] = bench_truss(seed=args.seed, tol_rel=args.tol_rel, max_iter=args.max_iter,
-                                             workers=args.workers, cache_dir=args.cache_dir,
-                                             n_calls=args.n_calls)
+        summary["truss_bench"] = bench_truss(
+            seed=args.seed,
+            tol_rel=args.tol_rel,
+            max_iter=args.max_iter,
+            workers=args.workers,
+            cache_dir=args.cache_dir,
+            n_calls=args.n_calls,
+        )
     write_json(out / "summary.json", summary)
-    print(json.dumps({k: v for k, v in summary.items() if k not in ("chosen_sites", "fig15", "machine")},
-                     default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o), indent=1))
+    print(
+        json.dumps(
+            {k: v for k, v in summary.items() if k not in ("chosen_sites", "fig15", "machine")},
+            default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o),
+            indent=1,
+        )
+    )
     return 0
 
 

@@ -42,8 +42,12 @@ SAME_PHYSICS = ("drag.enabled=false", "srp.enabled=false", "spacecraft.residual_
 def peer_us_per_step(python: str, peer_dir: Path, duration_s: float) -> float:
     """µs per step of one run of the Basilisk rebuild (its timer around ``ExecuteSimulation``)."""
     with tempfile.TemporaryDirectory(prefix="bsk_bench_") as out:
-        proc = subprocess.run([python, str(peer_dir / "bsk_detumble.py"), "--out", out, "--duration", repr(duration_s)],
-                              capture_output=True, text=True, check=False)
+        proc = subprocess.run(
+            [python, str(peer_dir / "bsk_detumble.py"), "--out", out, "--duration", repr(duration_s)],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
         if proc.returncode != 0:
             raise RuntimeError(f"--bsk-python: the peer run failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
         info = json.loads((Path(out) / "bsk_info.json").read_text())
@@ -54,8 +58,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--duration", type=float, default=1800.0, help="simulated seconds per run (default 1800)")
     ap.add_argument("--rounds", type=int, default=3, help="alternating rounds; medians compared (default 3)")
-    ap.add_argument("--bsk-python", default=os.environ.get("BSK_PYTHON", "/tmp/bsk/bin/python"),
-                    help="Python of the environment with bsk 2.12.1 (default $BSK_PYTHON or /tmp/bsk/bin/python)")
+    ap.add_argument(
+        "--bsk-python",
+        default=os.environ.get("BSK_PYTHON", "/tmp/bsk/bin/python"),
+        help="Python of the environment with bsk 2.12.1 (default $BSK_PYTHON or /tmp/bsk/bin/python)",
+    )
     ap.add_argument("--peer-dir", type=Path, default=PEER_DIR, help="folder of bsk_detumble.py")
     args = ap.parse_args(argv)
     if not (args.duration > 0 and args.rounds >= 1):
@@ -70,12 +77,21 @@ def main(argv: list[str] | None = None) -> int:
         ratios.append(r["ratio_to_mj_step"])
         runs.append(r)
     mid = runs[sorted(range(len(ours)), key=ours.__getitem__)[len(ours) // 2]]
-    out = {"duration_s": args.duration, "steps": mid["steps"], "rounds": args.rounds,
-           "project_us_per_step": statistics.median(ours), "basilisk_us_per_step": statistics.median(peer),
-           "cost_ratio": statistics.median(ours) / statistics.median(peer),
-           "ratio_to_mj_step": statistics.median(ratios), "project_runs_us": ours, "basilisk_runs_us": peer,
-           "project_parts_us": mid["parts_us"], "mj_step_us": mid["mj_step_us"], "platform": mid["platform"],
-           "overrides": list(SAME_PHYSICS)}
+    out = {
+        "duration_s": args.duration,
+        "steps": mid["steps"],
+        "rounds": args.rounds,
+        "project_us_per_step": statistics.median(ours),
+        "basilisk_us_per_step": statistics.median(peer),
+        "cost_ratio": statistics.median(ours) / statistics.median(peer),
+        "ratio_to_mj_step": statistics.median(ratios),
+        "project_runs_us": ours,
+        "basilisk_runs_us": peer,
+        "project_parts_us": mid["parts_us"],
+        "mj_step_us": mid["mj_step_us"],
+        "platform": mid["platform"],
+        "overrides": list(SAME_PHYSICS),
+    }
     print(json.dumps(out, indent=1))
     return 0
 

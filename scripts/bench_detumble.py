@@ -88,9 +88,17 @@ class Row:
 def simulation(duration: float, overrides: list[str], cache_dir: str):
     """The detumble run of one benchmark row, through :func:`magsail_mj.load`."""
     dt = next((float(o.split("=")[1]) for o in overrides if o.startswith("sim.timestep_s=")), 0.1)
-    return magsail_mj.load(CONFIG, [f"sim.duration_s={duration}", "sim.progress=false", "sim.checkpoint_every_s=0",
-                         f"sim.record_every={max(1, int(round(1.0 / dt)))}",
-                         f"control.cache_dir='{cache_dir}'", *overrides])
+    return magsail_mj.load(
+        CONFIG,
+        [
+            f"sim.duration_s={duration}",
+            "sim.progress=false",
+            "sim.checkpoint_every_s=0",
+            f"sim.record_every={max(1, int(round(1.0 / dt)))}",
+            f"control.cache_dir='{cache_dir}'",
+            *overrides,
+        ],
+    )
 
 
 def run_row(label: str, overrides: list[str], duration: float, cache_dir: str) -> Row:
@@ -119,6 +127,7 @@ def profile_row(label: str, overrides: list[str], duration: float, cache_dir: st
                 return fn(*args, **kwargs)
             finally:
                 spent[key] += time.perf_counter() - t0
+
         return wrapper
 
     for load in sim.loads:
@@ -138,8 +147,12 @@ def profile_row(label: str, overrides: list[str], duration: float, cache_dir: st
         mujoco.mj_step = mj_step
     n = max(res.steps, 1)
     spent["loop (runner)"] = wall - sum(spent.values())
-    lines = [f"Profile of {label} ({n} steps, {wall:.1f} s wall, {wall / n * 1e3:.3f} ms per step):", "",
-             "| part | µs per step | share |", "|---|---|---|"]
+    lines = [
+        f"Profile of {label} ({n} steps, {wall:.1f} s wall, {wall / n * 1e3:.3f} ms per step):",
+        "",
+        "| part | µs per step | share |",
+        "|---|---|---|",
+    ]
     for key, v in sorted(spent.items(), key=lambda kv: -kv[1]):
         lines.append(f"| {key} | {v / n * 1e6:.1f} | {v / wall:.0%} |")
     return "\n".join(lines)
@@ -149,8 +162,7 @@ def numpy_reference_cost(duration: float, cache_dir: str) -> float:
     """CPU seconds per simulated second of the NumPy RK4 of the same model, loads and controller."""
     sc = simulation(duration, [], cache_dir).scenario
     tm, lat = sc.tm, sc.tm.lattice
-    system = SpringMassLattice(masses=tm.masses, struts=lat.struts, k=tm.k, l0=lat.rest_length,
-                               gamma=tm.gamma)
+    system = SpringMassLattice(masses=tm.masses, struts=lat.struts, k=tm.k, l0=lat.rest_length, gamma=tm.gamma)
     loads = sc.loads()
     controller = sc.make_controller()
     data = mujoco.MjData(sc.model)
@@ -175,8 +187,9 @@ def numpy_reference_cost(duration: float, cache_dir: str) -> float:
     for step in range(int(round(duration / dt))):
         t = step * dt
         pos[1:], vel[1:] = x, v
-        cmd = controller.update(StepState(t=t, pos=pos, vel=vel, xquat=xquat, omega=omega,
-                                          env=sc.environment.sample(t), ctrl=cmd))
+        cmd = controller.update(
+            StepState(t=t, pos=pos, vel=vel, xquat=xquat, omega=omega, env=sc.environment.sample(t), ctrl=cmd)
+        )
         x, v = system.rk4_step(t, x, v, dt, external)
     if not np.all(np.isfinite(x)):
         raise RuntimeError("NumPy reference diverged")
@@ -201,17 +214,25 @@ def compare(row: Row, spec: Row) -> None:
 
 def table(rows: list[Row], ref_cost: float, duration: float) -> str:
     fmt = lambda v: "—" if v is None else (f"{v:.4g}" if isinstance(v, float) else str(v))  # noqa: E731
-    head = ("| setting | wall [s] | CPU [s] | CPU ms per sim. s | cost / NumPy RK4 | "
-            + " | ".join(f"`{k}`" for k in COMPARED) + " | max attitude diff. [rad] | figures | trajectory |")
+    head = (
+        "| setting | wall [s] | CPU [s] | CPU ms per sim. s | cost / NumPy RK4 | "
+        + " | ".join(f"`{k}`" for k in COMPARED)
+        + " | max attitude diff. [rad] | figures | trajectory |"
+    )
     lines = [head, "|" + "---|" * (8 + len(COMPARED))]
-    lines.append(f"| NumPy RK4 0.1 s (reference) | — | — | {ref_cost * 1e3:.1f} | 1.00 | "
-                 + " | ".join("—" for _ in COMPARED) + " | — | — | — |")
+    lines.append(
+        f"| NumPy RK4 0.1 s (reference) | — | — | {ref_cost * 1e3:.1f} | 1.00 | "
+        + " | ".join("—" for _ in COMPARED)
+        + " | — | — | — |"
+    )
     yes = lambda r, ok: "—" if r is rows[0] else ("yes" if ok else "no")  # noqa: E731
     for r in rows:
         per = r.cpu_s / max(r.t_end_s, 1e-9)
-        lines.append(f"| {r.label} | {r.wall_s:.1f} | {r.cpu_s:.1f} | {per * 1e3:.2f} | {per / ref_cost:.2f} | "
-                     + " | ".join(fmt(r.summary.get(k)) for k in COMPARED)
-                     + f" | {r.angle_rad:.1e} | {yes(r, r.figures_ok)} | {yes(r, r.trajectory_ok)} |")
+        lines.append(
+            f"| {r.label} | {r.wall_s:.1f} | {r.cpu_s:.1f} | {per * 1e3:.2f} | {per / ref_cost:.2f} | "
+            + " | ".join(fmt(r.summary.get(k)) for k in COMPARED)
+            + f" | {r.angle_rad:.1e} | {yes(r, r.figures_ok)} | {yes(r, r.trajectory_ok)} |"
+        )
     return "\n".join(lines)
 
 
@@ -223,8 +244,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-warm", action="store_true", help="skip the untimed cache-warming pass")
     ap.add_argument("--rows", type=int, nargs="+", default=list(range(len(ROWS))), help="row numbers (0 = spec)")
     ap.add_argument("--out", type=Path, default=None, help="also write the markdown table here")
-    ap.add_argument("--profile", type=int, default=1, metavar="ROW",
-                    help="row to profile after the table (default 1, Euler 0.25 s; -1: none)")
+    ap.add_argument(
+        "--profile",
+        type=int,
+        default=1,
+        metavar="ROW",
+        help="row to profile after the table (default 1, Euler 0.25 s; -1: none)",
+    )
     args = ap.parse_args(argv)
     if 0 not in args.rows:
         ap.error("--rows: must include 0 (the spec setting every row is compared with)")
@@ -242,9 +268,12 @@ def main(argv: list[str] | None = None) -> int:
         if i:
             compare(rows[-1], rows[0])
         r = rows[-1]
-        log(f"{label}: wall {r.wall_s:.1f} s, CPU {r.cpu_s:.1f} s, attitude diff {r.angle_rad:.1e} rad, "
-            + ", ".join(f"{k} {r.summary.get(k)}" for k in COMPARED))
+        log(
+            f"{label}: wall {r.wall_s:.1f} s, CPU {r.cpu_s:.1f} s, attitude diff {r.angle_rad:.1e} rad, "
+            + ", ".join(f"{k} {r.summary.get(k)}" for k in COMPARED)
+        )
     lines = [table(rows, ref_cost, args.duration), ""]
+
     def verdict(wall: float) -> str:
         if args.duration != 9000.0:
             return "the ≤ 30 s target is for the full 9 000 s"
@@ -252,17 +281,22 @@ def main(argv: list[str] | None = None) -> int:
 
     for what, ok in (("figures", lambda r: r.figures_ok), ("trajectory", lambda r: r.trajectory_ok)):
         f = min((r for r in rows if ok(r)), key=lambda r: r.wall_s)
-        lines.append(f"- Fastest setting equal to the spec's RK4 0.1 s in {what}: {f.label}, {f.wall_s:.1f} s wall "
-                     f"for {args.duration:g} s simulated ({verdict(f.wall_s)}), "
-                     f"cost {f.cpu_s / max(f.t_end_s, 1e-9) / ref_cost:.2f} of the NumPy RK4 reference.")
+        lines.append(
+            f"- Fastest setting equal to the spec's RK4 0.1 s in {what}: {f.label}, {f.wall_s:.1f} s wall "
+            f"for {args.duration:g} s simulated ({verdict(f.wall_s)}), "
+            f"cost {f.cpu_s / max(f.t_end_s, 1e-9) / ref_cost:.2f} of the NumPy RK4 reference."
+        )
     if args.profile >= 0:
         label, overrides = ROWS[args.profile]
         lines += ["", profile_row(label, overrides, args.duration, args.cache_dir), ""]
-    text = "\n".join([
-        *lines,
-        f"- {args.duration:g} s per row; reference over {args.ref_duration:g} s; Python {platform.python_version()}, "
-        f"NumPy {np.__version__}, MuJoCo {__import__('mujoco').__version__}.",
-    ])
+    text = "\n".join(
+        [
+            *lines,
+            f"- {args.duration:g} s per row; reference over {args.ref_duration:g} s; "
+            f"Python {platform.python_version()}, "
+            f"NumPy {np.__version__}, MuJoCo {__import__('mujoco').__version__}.",
+        ]
+    )
     print_report(text, args.out)
     return 0
 

@@ -72,8 +72,7 @@ def lattice():
 def numpy_rhs_factory(p0: np.ndarray, struts: np.ndarray, k_edge: float, gamma: float, m: float):
     """Plain NumPy spring–dashpot forces of the reference integrator (same EA on every strut)."""
     l0 = np.linalg.norm(p0[struts[:, 1]] - p0[struts[:, 0]], axis=1)
-    system = SpringMassLattice(masses=np.full(len(p0), m), struts=struts, k=k_edge * l0.min() / l0, l0=l0,
-                               gamma=gamma)
+    system = SpringMassLattice(masses=np.full(len(p0), m), struts=struts, k=k_edge * l0.min() / l0, l0=l0, gamma=gamma)
     return system.forces
 
 
@@ -84,20 +83,33 @@ def mujoco_step_costs(steps: int) -> dict[str, float]:
     The model, its initial state and its environment come from :func:`magsail_mj.load`; the two
     timed simulations are built on that model with only the loads compared (none, or the
     environment loads), so that the difference is the loads' cost alone."""
-    cfg = load_config(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/libration.toml",
-                      ["srp.enabled=true", "drag.enabled=true", "atmosphere.model='exponential'",
-                       "sun.model='ephemeris'", f"sim.duration_s={steps * 0.1}", "sim.progress=false"])
+    cfg = load_config(
+        REPO / "magsail_mj/concepts/truss_magnetorquer/configs/libration.toml",
+        [
+            "srp.enabled=true",
+            "drag.enabled=true",
+            "atmosphere.model='exponential'",
+            "sun.model='ephemeris'",
+            f"sim.duration_s={steps * 0.1}",
+            "sim.progress=false",
+        ],
+    )
     sc = magsail_mj.load(cfg).scenario
     out = {}
     for name, loads, env in (("bare", [], None), ("env_loads", sc.environment_loads(), sc.environment)):
         times = []
         for _ in range(2):
-            sim = Simulation(model=sc.model, duration_s=cfg.sim.duration_s, loads=loads, environment=env,
-                             record_every=10**9, init=sc.init_state)
+            sim = Simulation(
+                model=sc.model,
+                duration_s=cfg.sim.duration_s,
+                loads=loads,
+                environment=env,
+                record_every=10**9,
+                init=sc.init_state,
+            )
             times.append(sim.run().wall_time_s / steps)
         out[f"mujoco_rk4_step_{name}_ms"] = min(times) * 1e3
-    out["env_loads_added_fraction_of_step"] = (out["mujoco_rk4_step_env_loads_ms"] / out["mujoco_rk4_step_bare_ms"]
-                                               - 1.0)
+    out["env_loads_added_fraction_of_step"] = out["mujoco_rk4_step_env_loads_ms"] / out["mujoco_rk4_step_bare_ms"] - 1.0
     out["env_loads"] = [type(ld).__name__ for ld in sc.environment_loads()]
     return out
 
@@ -107,12 +119,15 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=2000, help="calls per timing round")
     ap.add_argument("--steps", type=int, default=600, help="MuJoCo steps per runner timing")
     args = ap.parse_args()
-    out: dict[str, object] = {"machine": platform.processor() or platform.machine(),
-                              "python": platform.python_version()}
+    out: dict[str, object] = {
+        "machine": platform.processor() or platform.machine(),
+        "python": platform.python_version(),
+    }
 
     # 1. IGRF precompute
-    env10 = Environment(orbit=ORBIT, field=FieldConfig(), atmosphere=AtmosphereConfig(), sun=SunConfig(),
-                        duration_s=9000.0)
+    env10 = Environment(
+        orbit=ORBIT, field=FieldConfig(), atmosphere=AtmosphereConfig(), sun=SunConfig(), duration_s=9000.0
+    )
     t = np.arange(0.0, 9000.0 + 1.0, 1.0)
     r, _ = env10.orbit.state(t)
     g = gmst_rad(env10.jd0 + t / 86400)
@@ -127,8 +142,13 @@ def main() -> None:
     out["igrf_scalar_call_ms"] = (time.perf_counter() - t0) / 5 * 1e3
     for step in (1.0, 10.0):
         t0 = time.perf_counter()
-        Environment(orbit=ORBIT, field=FieldConfig(sample_step_s=step), atmosphere=AtmosphereConfig(),
-                    sun=SunConfig(), duration_s=9000.0)
+        Environment(
+            orbit=ORBIT,
+            field=FieldConfig(sample_step_s=step),
+            atmosphere=AtmosphereConfig(),
+            sun=SunConfig(),
+            duration_s=9000.0,
+        )
         out[f"environment_build_2p5h_{int(step)}s_s"] = time.perf_counter() - t0
 
     # 2. sample(t)
@@ -145,8 +165,9 @@ def main() -> None:
     vel = np.vstack([np.zeros(3), v])
     s = env10.sample(1000.0)
     s = replace(s, in_shadow=False, srp_pressure_N_m2=4.563e-6, density_kg_m3=1e-14)
-    state = StepState(t=1000.0, pos=pos, vel=vel, xquat=np.tile([1.0, 0, 0, 0], (len(pos), 1)),
-                      omega=np.zeros_like(pos), env=s)
+    state = StepState(
+        t=1000.0, pos=pos, vel=vel, xquat=np.tile([1.0, 0, 0, 0], (len(pos), 1)), omega=np.zeros_like(pos), env=s
+    )
     xfrc = np.zeros((len(pos), 6))
     cells = lattice_top_cells(N)
     loads = {
@@ -163,8 +184,10 @@ def main() -> None:
 
     def naive_tidal():
         R = r_ref + x
-        xfrc[1:, :3] += m_col * (-MU_EARTH * R / np.linalg.norm(R, axis=1, keepdims=True) ** 3
-                                 + MU_EARTH * r_ref / np.linalg.norm(r_ref) ** 3)
+        xfrc[1:, :3] += m_col * (
+            -MU_EARTH * R / np.linalg.norm(R, axis=1, keepdims=True) ** 3
+            + MU_EARTH * r_ref / np.linalg.norm(r_ref) ** 3
+        )
 
     out["baseline_naive_tidal_us"] = _best(naive_tidal, args.repeat) * 1e6
     rhs = numpy_rhs_factory(p, struts, k_edge=1.6258, gamma=0.090, m=MASS)

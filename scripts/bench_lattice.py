@@ -60,22 +60,26 @@ from magsail_mj.lattice.geometry import stiffness_matrix
 from magsail_mj.io import print_report
 from magsail_mj.reference.numpy_rk4 import from_truss_scenario, rk4_run
 
-ANGLE_TOL_RAD = 1e-3   # spec §3.4: attitude angles within 1e-3 rad
-SD_TOL_REL = 0.02      # spec §3.4: surface SD within 2 %
-SAMPLE_S = 3.0         # comparison sampling period: a multiple of every step tried (0.1 … 0.3 s)
+ANGLE_TOL_RAD = 1e-3  # spec §3.4: attitude angles within 1e-3 rad
+SD_TOL_REL = 0.02  # spec §3.4: surface SD within 2 %
+SAMPLE_S = 3.0  # comparison sampling period: a multiple of every step tried (0.1 … 0.3 s)
 
-CASE_A = (Path(__file__).resolve().parents[1]
-          / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_distributed_bangbang.toml")
+CASE_A = (
+    Path(__file__).resolve().parents[1]
+    / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_distributed_bangbang.toml"
+)
 """The benchmark model: Case A (EI 1e3, 100 m, 100 kg, calibrated, ζ 0.1), distributed bang-bang torque."""
 
-RUNNER_CASES = [("RK4", 0.1), ("Euler", 0.1), ("implicitfast", 0.1)] + [
-    (integrator, dt) for dt in (0.12, 0.15, 0.2, 0.25, 0.3) for integrator in ("Euler", "implicitfast")] + [
-    ("discrete", dt) for dt in (0.25, 0.5, 1.0)]
+RUNNER_CASES = (
+    [("RK4", 0.1), ("Euler", 0.1), ("implicitfast", 0.1)]
+    + [(integrator, dt) for dt in (0.12, 0.15, 0.2, 0.25, 0.3) for integrator in ("Euler", "implicitfast")]
+    + [("discrete", dt) for dt in (0.25, 0.5, 1.0)]
+)
 DISCRETE_TOLERANCE = 1e-5
 """``sim.solver_tolerance`` of the ``discrete`` rows: ends MuJoCo's iterative M + hD + h²K solve.
 At 1e-5 the node positions equal those at MuJoCo's default 1e-8 to 3 digits (1 568 nodes,
 60 s) for 70 % of the cost; steps above 1 s trip MuJoCo's ill-conditioning warning."""
-REF_CHUNK_S = 30.0     # reference re-timed over this many simulated seconds before every runner row
+REF_CHUNK_S = 30.0  # reference re-timed over this many simulated seconds before every runner row
 
 
 @dataclass
@@ -105,14 +109,21 @@ class Row:
 
 def config(units: int, duration: float, integrator: str = "RK4", dt: float = 0.1):
     extra = [f"sim.solver_tolerance={DISCRETE_TOLERANCE}"] if integrator == "discrete" else []
-    return load_config(CASE_A, [f"lattice.units={units}", f"sim.duration_s={duration}",
-                                f"sim.integrator='{integrator}'", f"sim.timestep_s={dt}",
-                                f"sim.record_every={max(1, int(round(SAMPLE_S / dt)))}", "sim.progress=false",
-                                *extra])
+    return load_config(
+        CASE_A,
+        [
+            f"lattice.units={units}",
+            f"sim.duration_s={duration}",
+            f"sim.integrator='{integrator}'",
+            f"sim.timestep_s={dt}",
+            f"sim.record_every={max(1, int(round(SAMPLE_S / dt)))}",
+            "sim.progress=false",
+            *extra,
+        ],
+    )
 
 
-def compare(lattice, t_ref: np.ndarray, x_ref: np.ndarray, t: np.ndarray, x: np.ndarray
-            ) -> tuple[float, float, float]:
+def compare(lattice, t_ref: np.ndarray, x_ref: np.ndarray, t: np.ndarray, x: np.ndarray) -> tuple[float, float, float]:
     """Agreement of a run ``(t, x)`` with the reference ``(t_ref, x_ref)`` (``x``: (T, n, 3)).
 
     Returns (max node distance at the last common time [m], max over common times of the
@@ -146,18 +157,24 @@ def bench_units(units: int, duration: float, repeats: int, log) -> tuple[list[Ro
     cpu, wall = np.inf, np.inf
     for _ in range(repeats):
         c0, w0 = time.process_time(), time.perf_counter()
-        _, _, rec = rk4_run(system, x0, v0, dt=0.1, duration=duration, external=external,
-                            record_every=int(round(SAMPLE_S / 0.1)))
+        _, _, rec = rk4_run(
+            system, x0, v0, dt=0.1, duration=duration, external=external, record_every=int(round(SAMPLE_S / 0.1))
+        )
         cpu, wall = min(cpu, time.process_time() - c0), min(wall, time.perf_counter() - w0)
     ref_samples = [cpu / duration]
     ref_wall = wall / duration
     t_ref, x_ref = rec["t"], rec["x"]
     R_ref, _ = best_fit_rotation(lat.nodes, x_ref[-1])
     sd_ref = surface_sd(x_ref[:, lat.top_nodes])
-    info = {"phi_ref_rad": float(rotation_angle(R_ref)), "sd_ref_max_m": float(np.max(sd_ref)),
-            "omega_max_rad_s": omega_max(sc.tm)}
-    log(f"units {units}: NumPy RK4 {ref_samples[0] * 1e3:.2f} ms CPU per simulated s; rotation "
-        f"{info['phi_ref_rad']:.4f} rad at {duration:g} s, peak SD {info['sd_ref_max_m']:.3e} m")
+    info = {
+        "phi_ref_rad": float(rotation_angle(R_ref)),
+        "sd_ref_max_m": float(np.max(sd_ref)),
+        "omega_max_rad_s": omega_max(sc.tm),
+    }
+    log(
+        f"units {units}: NumPy RK4 {ref_samples[0] * 1e3:.2f} ms CPU per simulated s; rotation "
+        f"{info['phi_ref_rad']:.4f} rad at {duration:g} s, peak SD {info['sd_ref_max_m']:.3e} m"
+    )
     chunk = min(duration, REF_CHUNK_S)
     rows = []
     for integrator, dt in RUNNER_CASES:
@@ -172,7 +189,7 @@ def bench_units(units: int, duration: float, repeats: int, log) -> tuple[list[Ro
             c0, w0 = time.process_time(), time.perf_counter()
             res = sim.run(progress=False)
             c1, w1 = time.process_time() - c0, time.perf_counter() - w0
-            t_done = max(res.t_end_s, dt)            # a diverged run: cost per second reached
+            t_done = max(res.t_end_s, dt)  # a diverged run: cost per second reached
             cpu, wall = min(cpu, c1 / t_done), min(wall, w1 / t_done)
             status = res.status
         row = Row(units, lat.n_nodes, f"MuJoCo runner, {integrator}", dt, wall, cpu, status=status)
@@ -181,9 +198,11 @@ def bench_units(units: int, duration: float, repeats: int, log) -> tuple[list[Ro
             row.max_dist_m, row.angle_rad, row.sd_rel = compare(lat, t_ref, x_ref, res.records["t"], x)
         else:
             row.max_dist_m = row.angle_rad = row.sd_rel = float("nan")
-        log(f"  {integrator:12s} dt={dt:.2f}: {cpu * 1e3:7.2f} ms CPU/s ({wall * 1e3:7.2f} wall; "
+        log(
+            f"  {integrator:12s} dt={dt:.2f}: {cpu * 1e3:7.2f} ms CPU/s ({wall * 1e3:7.2f} wall; "
             f"reference chunk {ref_samples[-1] * 1e3:.2f})  max dist {row.max_dist_m:.2e} m  angle "
-            f"{row.angle_rad:.2e} rad  SD {row.sd_rel:.2e}  {status} {res.message}")
+            f"{row.angle_rad:.2e} rad  SD {row.sd_rel:.2e}  {status} {res.message}"
+        )
         rows.append(row)
     ref_cost = min(ref_samples)
     for row in rows:
@@ -194,17 +213,28 @@ def bench_units(units: int, duration: float, repeats: int, log) -> tuple[list[Ro
 
 
 def table(rows: list[Row], duration: float) -> str:
-    head = ("| nodes | method | δt [s] | CPU per sim. s [ms] | cost / NumPy RK4 | wall per sim. s [ms] | "
-            f"max node dist. at {duration:g} s [m] | max attitude diff. [rad] | max SD diff. / peak SD | agrees |")
+    head = (
+        "| nodes | method | δt [s] | CPU per sim. s [ms] | cost / NumPy RK4 | wall per sim. s [ms] | "
+        f"max node dist. at {duration:g} s [m] | max attitude diff. [rad] | max SD diff. / peak SD | agrees |"
+    )
     lines = [head, "|" + "---|" * 10]
     for r in rows:
         ref = r.method.startswith("NumPy")
-        agree = "—" if ref else ("yes" if r.agrees else ("attitude only" if r.agrees_attitude else (
-            "no" if r.status == "completed" else r.status)))
+        agree = (
+            "—"
+            if ref
+            else (
+                "yes"
+                if r.agrees
+                else ("attitude only" if r.agrees_attitude else ("no" if r.status == "completed" else r.status))
+            )
+        )
         fmt = (lambda v: "—") if ref or r.status != "completed" else (lambda v: f"{v:.1e}")
-        lines.append(f"| {r.nodes} | {r.method} | {r.dt:g} | {r.cpu_per_sim_s * 1e3:.2f} | {r.ratio:.2f} | "
-                     f"{r.wall_per_sim_s * 1e3:.2f} | {fmt(r.max_dist_m)} | {fmt(r.angle_rad)} | "
-                     f"{fmt(r.sd_rel)} | {agree} |")
+        lines.append(
+            f"| {r.nodes} | {r.method} | {r.dt:g} | {r.cpu_per_sim_s * 1e3:.2f} | {r.ratio:.2f} | "
+            f"{r.wall_per_sim_s * 1e3:.2f} | {fmt(r.max_dist_m)} | {fmt(r.angle_rad)} | "
+            f"{fmt(r.sd_rel)} | {agree} |"
+        )
     return "\n".join(lines)
 
 
@@ -228,26 +258,33 @@ def main(argv: list[str] | None = None) -> int:
         sub = [r for r in rows if r.units == units and not r.method.startswith("NumPy")]
         n = sub[0].nodes
         inf = infos[units]
-        lines.append(f"- {n} nodes: ω_max = {inf['omega_max_rad_s']:.2f} rad/s (stable explicit step "
-                     f"< ~{2.0 / inf['omega_max_rad_s']:.2f} s without damping); reference rotation "
-                     f"{inf['phi_ref_rad']:.3e} rad at {duration:g} s, peak SD {inf['sd_ref_max_m']:.3e} m; "
-                     "reference CPU timings min/median/max "
-                     + "/".join(f"{v * 1e3:.1f}" for v in inf["ref_cpu_spread"]) + " ms per simulated s.")
-        for label, ok in ((f"attitude ≤ {ANGLE_TOL_RAD:g} rad (the issue's target)",
-                           [r for r in sub if r.agrees_attitude]),
-                          (f"attitude ≤ {ANGLE_TOL_RAD:g} rad and SD ≤ {SD_TOL_REL:.0%}",
-                           [r for r in sub if r.agrees])):
+        lines.append(
+            f"- {n} nodes: ω_max = {inf['omega_max_rad_s']:.2f} rad/s (stable explicit step "
+            f"< ~{2.0 / inf['omega_max_rad_s']:.2f} s without damping); reference rotation "
+            f"{inf['phi_ref_rad']:.3e} rad at {duration:g} s, peak SD {inf['sd_ref_max_m']:.3e} m; "
+            "reference CPU timings min/median/max "
+            + "/".join(f"{v * 1e3:.1f}" for v in inf["ref_cpu_spread"])
+            + " ms per simulated s."
+        )
+        for label, ok in (
+            (f"attitude ≤ {ANGLE_TOL_RAD:g} rad (the issue's target)", [r for r in sub if r.agrees_attitude]),
+            (f"attitude ≤ {ANGLE_TOL_RAD:g} rad and SD ≤ {SD_TOL_REL:.0%}", [r for r in sub if r.agrees]),
+        ):
             if ok:
                 f = min(ok, key=lambda r: r.ratio)
                 verdict = "meets" if 1.0 / f.ratio >= 3.0 else "misses"
-                lines.append(f"- {n} nodes, {label}: fastest agreeing runner setting {f.method} at "
-                             f"{f.dt:g} s, cost {f.ratio:.2f} of the reference per simulated second "
-                             f"(CPU time), i.e. {1.0 / f.ratio:.2f}× cheaper ({verdict} the ≥ 3× target).")
+                lines.append(
+                    f"- {n} nodes, {label}: fastest agreeing runner setting {f.method} at "
+                    f"{f.dt:g} s, cost {f.ratio:.2f} of the reference per simulated second "
+                    f"(CPU time), i.e. {1.0 / f.ratio:.2f}× cheaper ({verdict} the ≥ 3× target)."
+                )
             else:
                 lines.append(f"- {n} nodes, {label}: no runner setting agrees with the NumPy RK4.")
-    lines.append(f"\n{duration:g} s simulated per row; Python {platform.python_version()}, "
-                 f"NumPy {np.__version__}, MuJoCo {mujoco.__version__}, "
-                 f"{platform.processor() or platform.machine()}; best of {max(1, args.repeats)}.")
+    lines.append(
+        f"\n{duration:g} s simulated per row; Python {platform.python_version()}, "
+        f"NumPy {np.__version__}, MuJoCo {mujoco.__version__}, "
+        f"{platform.processor() or platform.machine()}; best of {max(1, args.repeats)}."
+    )
     text = "\n".join(lines)
     print_report(text, args.out)
     return 0

@@ -38,8 +38,18 @@ ROWS: tuple[tuple[str, str, float], ...] = (
 )
 """(concept, config, simulated seconds per pass)."""
 
-HEADER = ("concept", "config", "steps × δt (integrator)", "all-in µs/step", "mj_step µs", "all-in / mj_step",
-          "steps/s", "realtime factor", "peak RSS MiB", "largest parts (µs/step)")
+HEADER = (
+    "concept",
+    "config",
+    "steps × δt (integrator)",
+    "all-in µs/step",
+    "mj_step µs",
+    "all-in / mj_step",
+    "steps/s",
+    "realtime factor",
+    "peak RSS MiB",
+    "largest parts (µs/step)",
+)
 
 
 def _top_parts(parts: dict[str, float], n: int = 3) -> str:
@@ -49,16 +59,33 @@ def _top_parts(parts: dict[str, float], n: int = 3) -> str:
 
 def table_row(concept: str, config: str, r: dict) -> list[str]:
     """One CSV row of a bench object."""
-    return [concept, Path(config).name, f"{r['steps']} × {r['timestep_s']:g} s ({r['integrator']})",
-            f"{r['us_per_step']:.3g}", f"{r['mj_step_us']:.3g}", f"{r['ratio_to_mj_step']:.2f}",
-            f"{r['steps_per_s']:.4g}", f"{r['realtime_factor']:.4g}", f"{r['peak_rss_mb']:.0f}",
-            _top_parts(r["parts_us"])]
+    return [
+        concept,
+        Path(config).name,
+        f"{r['steps']} × {r['timestep_s']:g} s ({r['integrator']})",
+        f"{r['us_per_step']:.3g}",
+        f"{r['mj_step_us']:.3g}",
+        f"{r['ratio_to_mj_step']:.2f}",
+        f"{r['steps_per_s']:.4g}",
+        f"{r['realtime_factor']:.4g}",
+        f"{r['peak_rss_mb']:.0f}",
+        _top_parts(r["parts_us"]),
+    ]
 
 
 def run_bench(config: str, duration_s: float, repeat: int) -> dict:
     """The JSON object of ``magsail bench CONFIG --duration-s T --repeat N`` (a fresh process)."""
-    cmd = [sys.executable, "-m", "magsail_mj", "bench", str(ROOT / config), "--duration-s", repr(duration_s),
-           "--repeat", str(repeat)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "magsail_mj",
+        "bench",
+        str(ROOT / config),
+        "--duration-s",
+        repr(duration_s),
+        "--repeat",
+        str(repeat),
+    ]
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise RuntimeError(f"{config}: magsail bench exited {proc.returncode}: {proc.stderr.strip()}")
@@ -79,14 +106,24 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         load_before = os.getloadavg()
         r = run_bench(config, duration, args.repeat)
-        print(f"{concept}: {r['us_per_step']:.3g} µs/step, {r['ratio_to_mj_step']:.2f}× mj_step "
-              f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
-        results[concept] = {"concept": concept, **r, "config": config, "repeat": args.repeat,
-                            "measured": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-                            "load_average_before": load_before, "load_average_after": os.getloadavg()}
+        print(
+            f"{concept}: {r['us_per_step']:.3g} µs/step, {r['ratio_to_mj_step']:.2f}× mj_step "
+            f"({time.perf_counter() - t0:.0f} s)",
+            file=sys.stderr,
+            flush=True,
+        )
+        results[concept] = {
+            "concept": concept,
+            **r,
+            "config": config,
+            "repeat": args.repeat,
+            "measured": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+            "load_average_before": load_before,
+            "load_average_after": os.getloadavg(),
+        }
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "bench.json"
-    if args.only and path.is_file():    # keep the rows of the concepts not measured now
+    if args.only and path.is_file():  # keep the rows of the concepts not measured now
         results = {**{r["concept"]: r for r in json.loads(path.read_text())["rows"]}, **results}
     ordered = [results[c] for c, _, _ in ROWS if c in results]
     path.write_text(json.dumps({"rows": ordered}, indent=1) + "\n")

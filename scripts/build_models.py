@@ -1,7 +1,7 @@
 """Regenerate the MJCF of every scenario config in models/ (written next to it, same stem).
 
-    python scripts/build_models.py            # write all
-    python scripts/build_models.py --check    # exit 1 if any committed MJCF differs
+python scripts/build_models.py            # write all
+python scripts/build_models.py --check    # exit 1 if any committed MJCF differs
 """
 
 from __future__ import annotations

@@ -56,6 +56,7 @@ from magsail_mj.lattice.modes import caughey_matrix  # noqa: E402
 try:  # the current-loop modules (another part of the project); a local fallback otherwise
     from magsail_mj.geometry.current_loops import circuit as _circuit
     from magsail_mj.concepts.current_loops.lorentz import CircuitSegments, LorentzLoad, lorentz_node_forces
+
     HAVE_LORENTZ = True
 except ImportError:  # pragma: no cover
     HAVE_LORENTZ = False
@@ -70,8 +71,12 @@ def perimeter_segments(lat):
     n = lat.units
     N = n + 1
     top = N * N
-    ring = ([(i, 0) for i in range(n)] + [(n, j) for j in range(n)]
-            + [(i, n) for i in range(n, 0, -1)] + [(0, j) for j in range(n, 0, -1)])
+    ring = (
+        [(i, 0) for i in range(n)]
+        + [(n, j) for j in range(n)]
+        + [(i, n) for i in range(n, 0, -1)]
+        + [(0, j) for j in range(n, 0, -1)]
+    )
     idx = np.array([top + j * N + i for i, j in ring])
     return idx, np.roll(idx, -1)
 
@@ -92,15 +97,16 @@ class _LocalLorentz:
         return F
 
     def add(self, state, xfrc):
-        xfrc[1:self.n + 1, :3] += self.node_forces(state.pos[1:self.n + 1])
+        xfrc[1 : self.n + 1, :3] += self.node_forces(state.pos[1 : self.n + 1])
 
 
 def build(units: int, EI: float, dt: float, current_A: float):
     lat = make_lattice(units=units, side_m=SIDE_M)
     k, _ = strut_stiffness(lat, EI_Nm2=EI, calibration="formula")
     m = np.full(lat.n_nodes, SIGMA * SIDE_M**2 / lat.n_nodes)
-    model = build_truss_spec(lat, masses=m, stiffness=k, damping=0.0,
-                             options=TrussModelOptions(timestep_s=dt, integrator="RK4")).compile()
+    model = build_truss_spec(
+        lat, masses=m, stiffness=k, damping=0.0, options=TrussModelOptions(timestep_s=dt, integrator="RK4")
+    ).compile()
     if HAVE_LORENTZ:
         segs = CircuitSegments([_circuit(lat, "A")])
         lorentz = LorentzLoad(segs, n_nodes=lat.n_nodes, currents_A=[current_A], B_world=B_T)
@@ -128,8 +134,13 @@ class Metrics:
 
 
 def run_mujoco(model, lat, loads, metrics, duration, record_every, *, passive_load=None):
-    sim = Simulation(model=model, duration_s=duration, loads=loads, record_every=record_every,
-                     probes={"x": lambda s, d: s.pos[1:lat.n_nodes + 1]})
+    sim = Simulation(
+        model=model,
+        duration_s=duration,
+        loads=loads,
+        record_every=record_every,
+        probes={"x": lambda s, d: s.pos[1 : lat.n_nodes + 1]},
+    )
     c0, w0 = time.process_time(), time.perf_counter()
     if passive_load is None:
         res = sim.run()
@@ -142,8 +153,15 @@ def run_mujoco(model, lat, loads, metrics, duration, record_every, *, passive_lo
     if res.status != "completed":
         raise RuntimeError(f"MuJoCo run {res.status}: {res.message}")
     Rs, Us = zip(*(metrics(x) for x in res.records["x"]))
-    return {"t": res.records["t"], "R": np.array(Rs), "U": np.array(Us), "cpu_s": cpu, "wall_s": wall,
-            "steps": res.steps, "passive_calls": calls}
+    return {
+        "t": res.records["t"],
+        "R": np.array(Rs),
+        "U": np.array(Us),
+        "cpu_s": cpu,
+        "wall_s": wall,
+        "steps": res.steps,
+        "passive_calls": calls,
+    }
 
 
 def run_reference(lat, m, k, damping, lorentz_f, metrics, dt, duration, record_every):
@@ -166,8 +184,7 @@ def run_reference(lat, m, k, damping, lorentz_f, metrics, dt, duration, record_e
             break
         x, v = system.rk4_step(step * dt, x, v, dt, external)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-    return {"t": np.array(ts), "R": np.array(Rs), "U": np.array(Us), "cpu_s": cpu, "wall_s": wall,
-            "steps": n_steps}
+    return {"t": np.array(ts), "R": np.array(Rs), "U": np.array(Us), "cpu_s": cpu, "wall_s": wall, "steps": n_steps}
 
 
 def compare(run, ref):
@@ -176,22 +193,27 @@ def compare(run, ref):
     th, th_ref = rotation_angle(run["R"]), rotation_angle(ref["R"])
     rel = rotation_angle(run["R"], relative_to=ref["R"])
     Umax, Umax_ref = float(run["U"].max()), float(ref["U"].max())
-    return {"angle_err_max_rad": float(np.max(np.abs(th - th_ref))),
-            "rel_rotation_max_rad": float(rel.max()),
-            "U_max_J": Umax, "U_max_rel_err": abs(Umax - Umax_ref) / Umax_ref,
-            "t_U_max_s": float(run["t"][np.argmax(run["U"])]),
-            "angle_end_rad": float(th[-1]),
-            "cpu_ms_per_step": 1e3 * run["cpu_s"] / run["steps"],
-            "wall_ms_per_step": 1e3 * run["wall_s"] / run["steps"],
-            "passes": bool(np.max(np.abs(th - th_ref)) <= 1e-3 and rel.max() <= 1e-3
-                           and abs(Umax - Umax_ref) <= 0.02 * Umax_ref)}
+    return {
+        "angle_err_max_rad": float(np.max(np.abs(th - th_ref))),
+        "rel_rotation_max_rad": float(rel.max()),
+        "U_max_J": Umax,
+        "U_max_rel_err": abs(Umax - Umax_ref) / Umax_ref,
+        "t_U_max_s": float(run["t"][np.argmax(run["U"])]),
+        "angle_end_rad": float(th[-1]),
+        "cpu_ms_per_step": 1e3 * run["cpu_s"] / run["steps"],
+        "wall_ms_per_step": 1e3 * run["wall_s"] / run["steps"],
+        "passes": bool(
+            np.max(np.abs(th - th_ref)) <= 1e-3 and rel.max() <= 1e-3 and abs(Umax - Umax_ref) <= 0.02 * Umax_ref
+        ),
+    }
 
 
 def injection_check(args) -> dict:
     lat, k, m, model, lorentz, lorentz_f = build(args.units, args.EI, args.dt, args.current_A)
     t0 = time.perf_counter()
-    dmp = ModalDampingLoad.for_lattice(nodes=lat.nodes, struts=lat.struts, k=k, masses=m,
-                                       schedule="paper_max", dtype=np.float32)
+    dmp = ModalDampingLoad.for_lattice(
+        nodes=lat.nodes, struts=lat.struts, k=k, masses=m, schedule="paper_max", dtype=np.float32
+    )
     t_build = time.perf_counter() - t0
     dmp64 = None
     if args.ref_dtype == "float64" or args.xfrc64:
@@ -200,36 +222,55 @@ def injection_check(args) -> dict:
     metrics = Metrics(lat, k, dmp)
     stab = stability_products(dmp.modes.omega, dmp.ratios, dt=args.dt)
     rec = max(1, int(round(args.record_s / args.dt)))
-    print(f"N = {args.units}: {lat.n_nodes} nodes, {lat.n_struts} struts, {3 * lat.n_nodes} DOF; "
-          f"modes + gamma {t_build:.1f} s; omega_max = {dmp.modes.omega[-1]:.4f} rad/s; "
-          f"2 xi omega_max dt = {stab.damping_product:.3f}", flush=True)
-    out = {"units": args.units, "EI_Nm2": args.EI, "dt_s": args.dt, "duration_s": args.duration_s,
-           "current_A": args.current_A, "B_T": B_T.tolist(), "lorentz_module": HAVE_LORENTZ,
-           "ref_gamma_dtype": args.ref_dtype, "omega_max_rad_s": float(dmp.modes.omega[-1]),
-           **stab.as_dict(), "runs": {}}
+    print(
+        f"N = {args.units}: {lat.n_nodes} nodes, {lat.n_struts} struts, {3 * lat.n_nodes} DOF; "
+        f"modes + gamma {t_build:.1f} s; omega_max = {dmp.modes.omega[-1]:.4f} rad/s; "
+        f"2 xi omega_max dt = {stab.damping_product:.3f}",
+        flush=True,
+    )
+    out = {
+        "units": args.units,
+        "EI_Nm2": args.EI,
+        "dt_s": args.dt,
+        "duration_s": args.duration_s,
+        "current_A": args.current_A,
+        "B_T": B_T.tolist(),
+        "lorentz_module": HAVE_LORENTZ,
+        "ref_gamma_dtype": args.ref_dtype,
+        "omega_max_rad_s": float(dmp.modes.omega[-1]),
+        **stab.as_dict(),
+        "runs": {},
+    }
     runs = {}
     runs["ref"] = run_reference(lat, m, k, ref_load, lorentz_f, metrics, args.dt, args.duration_s, rec)
     print(f"  ref     done: {runs['ref']['wall_s']:.0f} s wall", flush=True)
     runs["xfrc"] = run_mujoco(model, lat, [lorentz, dmp], metrics, args.duration_s, rec)
     print(f"  xfrc    done: {runs['xfrc']['wall_s']:.0f} s wall", flush=True)
     runs["passive"] = run_mujoco(model, lat, [lorentz], metrics, args.duration_s, rec, passive_load=dmp)
-    print(f"  passive done: {runs['passive']['wall_s']:.0f} s wall "
-          f"({runs['passive']['passive_calls']} callback calls)", flush=True)
+    print(
+        f"  passive done: {runs['passive']['wall_s']:.0f} s wall ({runs['passive']['passive_calls']} callback calls)",
+        flush=True,
+    )
     if args.xfrc64:
         runs["xfrc_f64"] = run_mujoco(model, lat, [lorentz, dmp64], metrics, args.duration_s, rec)
     ref = runs["ref"]
-    out["ref"] = {"U_max_J": float(ref["U"].max()), "t_U_max_s": float(ref["t"][np.argmax(ref["U"])]),
-                  "angle_end_rad": float(rotation_angle(ref["R"][-1])),
-                  "cpu_ms_per_step": 1e3 * ref["cpu_s"] / ref["steps"],
-                  "wall_ms_per_step": 1e3 * ref["wall_s"] / ref["steps"]}
+    out["ref"] = {
+        "U_max_J": float(ref["U"].max()),
+        "t_U_max_s": float(ref["t"][np.argmax(ref["U"])]),
+        "angle_end_rad": float(rotation_angle(ref["R"][-1])),
+        "cpu_ms_per_step": 1e3 * ref["cpu_s"] / ref["steps"],
+        "wall_ms_per_step": 1e3 * ref["wall_s"] / ref["steps"],
+    }
     for name, r in runs.items():
         if name != "ref":
             out["runs"][name] = compare(r, ref)
     if args.xfrc64:
         out["xfrc_f32_vs_f64_rel_rotation_max_rad"] = float(
-            rotation_angle(runs["xfrc"]["R"], relative_to=runs["xfrc_f64"]["R"]).max())
+            rotation_angle(runs["xfrc"]["R"], relative_to=runs["xfrc_f64"]["R"]).max()
+        )
         out["xfrc_f32_vs_f64_U_max_rel"] = float(
-            abs(runs["xfrc"]["U"].max() - runs["xfrc_f64"]["U"].max()) / runs["xfrc_f64"]["U"].max())
+            abs(runs["xfrc"]["U"].max() - runs["xfrc_f64"]["U"].max()) / runs["xfrc_f64"]["U"].max()
+        )
     return out
 
 
@@ -268,13 +309,23 @@ def cost_table(args) -> list[dict]:
         t_fit = _best_cpu(lambda: d32.rotation(pos), n)
         with passive_damping(model, d32):
             t_pass = _best_cpu(lambda: mujoco.mj_step(model, data), n)
-        row = {"units": units, "dof": 3 * lat.n_nodes, "gamma_MB_f32": d32._dense.nbytes / 2**20,
-               "mj_step_ms": t_mj, "damping_f32_ms": t32, "damping_f64_ms": t64, "best_fit_ms": t_fit,
-               "mj_step_passive_f32_ms": t_pass, "xfrc_step_ms": t_mj + t32,
-               "f32_force_rel_err": err32}
+        row = {
+            "units": units,
+            "dof": 3 * lat.n_nodes,
+            "gamma_MB_f32": d32._dense.nbytes / 2**20,
+            "mj_step_ms": t_mj,
+            "damping_f32_ms": t32,
+            "damping_f64_ms": t64,
+            "best_fit_ms": t_fit,
+            "mj_step_passive_f32_ms": t_pass,
+            "xfrc_step_ms": t_mj + t32,
+            "f32_force_rel_err": err32,
+        }
         rows.append(row)
-        print("  cost " + json.dumps({k_: (float(f"{v:.4g}") if isinstance(v, float) else v)
-                                     for k_, v in row.items()}), flush=True)
+        print(
+            "  cost " + json.dumps({k_: (float(f"{v:.4g}") if isinstance(v, float) else v) for k_, v in row.items()}),
+            flush=True,
+        )
     return rows
 
 
@@ -301,13 +352,19 @@ def main(argv=None) -> int:
     if not args.skip_check:
         c = result["check"]
         for name, r in c["runs"].items():
-            print(f"VERDICT {name:8s} N={c['units']} {c['duration_s']:.0f} s: "
-                  f"{'PASS' if r['passes'] else 'FAIL'}  angle err {r['angle_err_max_rad']:.2e} rad "
-                  f"(rel. rotation {r['rel_rotation_max_rad']:.2e}), max U {r['U_max_J']:.4g} J "
-                  f"(rel. err {100 * r['U_max_rel_err']:.3f} %), {r['wall_ms_per_step']:.2f} ms/step wall")
+            print(
+                f"VERDICT {name:8s} N={c['units']} {c['duration_s']:.0f} s: "
+                f"{'PASS' if r['passes'] else 'FAIL'}  angle err {r['angle_err_max_rad']:.2e} rad "
+                f"(rel. rotation {r['rel_rotation_max_rad']:.2e}), max U {r['U_max_J']:.4g} J "
+                f"(rel. err {100 * r['U_max_rel_err']:.3f} %), {r['wall_ms_per_step']:.2f} ms/step wall"
+            )
         ok = c["runs"]["xfrc"]["passes"]
-        print("VERDICT: default xfrc injection " + ("PASSES" if ok else "FAILS") + " the §4.4 check"
-              + ("" if ok else "; use the passive callback"))
+        print(
+            "VERDICT: default xfrc injection "
+            + ("PASSES" if ok else "FAILS")
+            + " the §4.4 check"
+            + ("" if ok else "; use the passive callback")
+        )
     if args.out:
         write_json(args.out, result)
     return 0

@@ -56,8 +56,15 @@ from websockets.sync.client import connect
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_SITE = ROOT / "docs" / "_build" / "html"
 DEFAULT_CHROMIUM = "/usr/bin/chromium"
-_LINK_ATTRS = {"a": ("href",), "img": ("src",), "source": ("src",), "video": ("src", "poster"),
-               "link": ("href",), "script": ("src",), "iframe": ("src",)}
+_LINK_ATTRS = {
+    "a": ("href",),
+    "img": ("src",),
+    "source": ("src",),
+    "video": ("src", "poster"),
+    "link": ("href",),
+    "script": ("src",),
+    "iframe": ("src",),
+}
 _DEVTOOLS_URL = re.compile(r"DevTools listening on (ws://\S+)")
 
 # Runs in each page after its load event; returns a JSON text (see the module docstring).
@@ -187,8 +194,9 @@ def check_links(site: Path) -> LinkReport:
             if fragment and target.suffix == ".html":
                 anchors = (parsed.get(target) or _parse(target)).anchors
                 if fragment not in anchors:
-                    report.problems.append(f"{where}: <{tag} {attr}={value!r}>: no anchor #{fragment} in "
-                                           f"{target.relative_to(site)}")
+                    report.problems.append(
+                        f"{where}: <{tag} {attr}={value!r}>: no anchor #{fragment} in {target.relative_to(site)}"
+                    )
     return report
 
 
@@ -220,9 +228,20 @@ def serve(site: Path) -> Iterator[str]:
 def chromium(binary: str, *, timeout_s: float) -> Iterator[str]:
     """Start headless Chromium with a DevTools port; yields the browser's websocket URL."""
     profile = tempfile.mkdtemp(prefix="magsail_docs_chromium_")
-    cmd = [binary, "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-           "--no-first-run", "--no-default-browser-check", "--mute-audio", "--autoplay-policy=no-user-gesture-required",
-           f"--user-data-dir={profile}", "--remote-debugging-port=0", "about:blank"]
+    cmd = [
+        binary,
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-dev-shm-usage",
+        "--no-first-run",
+        "--no-default-browser-check",
+        "--mute-audio",
+        "--autoplay-policy=no-user-gesture-required",
+        f"--user-data-dir={profile}",
+        "--remote-debugging-port=0",
+        "about:blank",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
         url = _devtools_url(proc, timeout_s=timeout_s)
@@ -269,8 +288,14 @@ class DevTools:
         self.ids = itertools.count(1)
         self.events: list[dict[str, Any]] = []
 
-    def call(self, method: str, params: dict[str, Any] | None = None, *, session: str | None = None,
-             timeout_s: float | None = None) -> dict[str, Any]:
+    def call(
+        self,
+        method: str,
+        params: dict[str, Any] | None = None,
+        *,
+        session: str | None = None,
+        timeout_s: float | None = None,
+    ) -> dict[str, Any]:
         """Send one command and return its ``result`` (events that arrive meanwhile are kept)."""
         msg_id = next(self.ids)
         message: dict[str, Any] = {"id": msg_id, "method": method, "params": params or {}}
@@ -306,26 +331,34 @@ def _page_problems(where: str, result: dict[str, Any], exceptions: list[str]) ->
     """One message per failed check of a page's :data:`PAGE_CHECK_JS` result."""
     problems = [f"{where}: JavaScript exception: {text}" for text in exceptions]
     if not result.get("title") or result.get("textLength", 0) < 20:
-        problems.append(f"{where}: the page did not render (title {result.get('title')!r}, "
-                        f"{result.get('textLength', 0)} characters of text)")
+        problems.append(
+            f"{where}: the page did not render (title {result.get('title')!r}, "
+            f"{result.get('textLength', 0)} characters of text)"
+        )
     problems += [f"{where}: image did not load: {img['src']}" for img in result.get("images", []) if not img["ok"]]
     for video in result.get("videos", []):
         name = video["currentSrc"] or (video["sources"][0]["src"] if video["sources"] else "<video>")
         if video["readyState"] < 1 or not video["duration"] > 0 or video["error"]:
-            problems.append(f"{where}: video did not load: {name} (readyState {video['readyState']}, "
-                            f"duration {video['duration']}, error {video['error']})")
+            problems.append(
+                f"{where}: video did not load: {name} (readyState {video['readyState']}, "
+                f"duration {video['duration']}, error {video['error']})"
+            )
         if video["sources"] and not any(source["canPlay"] for source in video["sources"]):
             problems.append(f"{where}: the browser can play none of the sources of {name}")
         for source in video["sources"]:
             expected = source["type"].split(";")[0].strip()
             if source["canPlay"] and (source["readyState"] < 1 or not source["duration"] > 0 or source["error"]):
-                problems.append(f"{where}: video source {source['src']} did not load on its own (readyState "
-                                f"{source['readyState']}, duration {source['duration']}, error {source['error']})")
+                problems.append(
+                    f"{where}: video source {source['src']} did not load on its own (readyState "
+                    f"{source['readyState']}, duration {source['duration']}, error {source['error']})"
+                )
             if source["status"] != 200:
                 problems.append(f"{where}: video source {source['src']}: HTTP {source['status']}")
             elif expected and source["contentType"].split(";")[0].strip() != expected:
-                problems.append(f"{where}: video source {source['src']}: served as {source['contentType']!r}, "
-                                f"the page says {expected!r}")
+                problems.append(
+                    f"{where}: video source {source['src']}: served as {source['contentType']!r}, "
+                    f"the page says {expected!r}"
+                )
     return problems
 
 
@@ -342,14 +375,18 @@ class BrowserReport:
     problems: list[str] = field(default_factory=list)
 
 
-def check_in_browser(site: Path, *, binary: str = DEFAULT_CHROMIUM, timeout_s: float = 30.0,
-                     pages: list[Path] | None = None) -> BrowserReport:
+def check_in_browser(
+    site: Path, *, binary: str = DEFAULT_CHROMIUM, timeout_s: float = 30.0, pages: list[Path] | None = None
+) -> BrowserReport:
     """Open every page of ``site`` (or ``pages``) in headless Chromium and check it (module docstring)."""
     site = site.resolve()
     report = BrowserReport()
     todo = pages if pages is not None else sorted(site.rglob("*.html"))
-    with (serve(site) as base, chromium(binary, timeout_s=timeout_s) as ws_url,
-          connect(ws_url, max_size=None, open_timeout=timeout_s) as ws):
+    with (
+        serve(site) as base,
+        chromium(binary, timeout_s=timeout_s) as ws_url,
+        connect(ws_url, max_size=None, open_timeout=timeout_s) as ws,
+    ):
         tools = DevTools(ws, timeout_s=timeout_s)
         target = tools.call("Target.createTarget", {"url": "about:blank"})["targetId"]
         session = tools.call("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
@@ -379,13 +416,20 @@ def _open(tools: DevTools, session: str, url: str, *, timeout_s: float) -> tuple
         return {}, [f"navigation failed: {nav['errorText']}"]
     if tools.wait_event("Page.loadEventFired", session=session, timeout_s=timeout_s) is None:
         return {}, [f"no load event within {timeout_s:g} s"]
-    value = tools.call("Runtime.evaluate", {"expression": PAGE_CHECK_JS, "awaitPromise": True,
-                                            "returnByValue": True}, session=session, timeout_s=timeout_s + 30)
+    value = tools.call(
+        "Runtime.evaluate",
+        {"expression": PAGE_CHECK_JS, "awaitPromise": True, "returnByValue": True},
+        session=session,
+        timeout_s=timeout_s + 30,
+    )
     if "exceptionDetails" in value:
         return {}, [f"the page check failed: {value['exceptionDetails'].get('text')}"]
-    exceptions = [e["params"]["exceptionDetails"].get("exception", {}).get("description")
-                  or e["params"]["exceptionDetails"].get("text", "")
-                  for e in tools.events if e.get("method") == "Runtime.exceptionThrown"]
+    exceptions = [
+        e["params"]["exceptionDetails"].get("exception", {}).get("description")
+        or e["params"]["exceptionDetails"].get("text", "")
+        for e in tools.events
+        if e.get("method") == "Runtime.exceptionThrown"
+    ]
     return json.loads(value["result"]["value"]), exceptions
 
 
@@ -395,32 +439,43 @@ def _open(tools: DevTools, session: str, url: str, *, timeout_s: float) -> tuple
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("site", nargs="?", default=str(DEFAULT_SITE), help="built HTML folder (default docs/_build/html)")
-    ap.add_argument("--chromium", default=os.environ.get("CHROMIUM", DEFAULT_CHROMIUM),
-                    help="Chromium binary (default $CHROMIUM, else /usr/bin/chromium)")
+    ap.add_argument(
+        "--chromium",
+        default=os.environ.get("CHROMIUM", DEFAULT_CHROMIUM),
+        help="Chromium binary (default $CHROMIUM, else /usr/bin/chromium)",
+    )
     ap.add_argument("--links-only", action="store_true", help="only the static link check (no browser)")
     ap.add_argument("--timeout-s", type=float, default=30.0, help="seconds to wait for a page or a video (default 30)")
     args = ap.parse_args(argv)
     site = Path(args.site)
     if not (site / "index.html").is_file():
-        print(f"error: site: no index.html in {str(site)!r} (build the docs first: bash scripts/build_docs.sh)",
-              file=sys.stderr)
+        print(
+            f"error: site: no index.html in {str(site)!r} (build the docs first: bash scripts/build_docs.sh)",
+            file=sys.stderr,
+        )
         return 2
     if not args.links_only and shutil.which(args.chromium) is None:
-        print(f"error: --chromium: no browser at {args.chromium!r} (apt-get install chromium, or --links-only)",
-              file=sys.stderr)
+        print(
+            f"error: --chromium: no browser at {args.chromium!r} (apt-get install chromium, or --links-only)",
+            file=sys.stderr,
+        )
         return 2
     t0 = time.perf_counter()
     links = check_links(site)
     problems = list(links.problems)
-    line = (f"links: {links.pages} pages, {links.internal} internal links and anchors checked, "
-            f"{links.external} external not followed, {len(links.problems)} broken")
+    line = (
+        f"links: {links.pages} pages, {links.internal} internal links and anchors checked, "
+        f"{links.external} external not followed, {len(links.problems)} broken"
+    )
     if not args.links_only:
         browser = check_in_browser(site, binary=args.chromium, timeout_s=args.timeout_s)
         problems += browser.problems
-        line += (f"; browser: {browser.pages} pages, {browser.images} images, {browser.videos} videos "
-                 f"({browser.sources} sources; loaded on their own: "
-                 f"{', '.join(f'{n} {t}' for t, n in sorted(browser.playable.items())) or 'none'}), "
-                 f"{len(browser.problems)} problems")
+        line += (
+            f"; browser: {browser.pages} pages, {browser.images} images, {browser.videos} videos "
+            f"({browser.sources} sources; loaded on their own: "
+            f"{', '.join(f'{n} {t}' for t, n in sorted(browser.playable.items())) or 'none'}), "
+            f"{len(browser.problems)} problems"
+        )
     for problem in problems:
         print(f"error: {problem}", file=sys.stderr)
     print(f"{line} ({time.perf_counter() - t0:.0f} s)")

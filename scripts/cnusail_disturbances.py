@@ -30,7 +30,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--config", default=str(ROOT / "magsail_mj" / "concepts" / "cnusail" / "configs" / "nadir_post.toml"))  # noqa: E501
+    ap.add_argument(
+        "--config", default=str(ROOT / "magsail_mj" / "concepts" / "cnusail" / "configs" / "nadir_post.toml")
+    )  # noqa: E501
     ap.add_argument("--out", default=str(ROOT / "runs" / "cnusail" / "disturbances"))
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     ap.add_argument("--samples", type=int, default=1200)
@@ -46,13 +48,16 @@ def main(argv: list[str] | None = None) -> int:
         series[f"dist_orbit_{mode}_gg_5deg_N_m"] = disturbance_orbit_profile(sc, mode, n=200, offset_deg=5.0)[1][:, 0]
         series[f"dist_orbit_t_{mode}_gg_5deg_s"] = np.linspace(0.0, ts[-1], 200)
         peaks[f"gravity_gradient_5deg_off_max_{mode}_N_m"] = float(
-            np.max(np.linalg.norm(series[f"dist_orbit_{mode}_gg_5deg_N_m"], axis=1)))
+            np.max(np.linalg.norm(series[f"dist_orbit_{mode}_gg_5deg_N_m"], axis=1))
+        )
         for k, src in enumerate(SOURCES):
             peaks[f"{src}_max_{mode}_N_m"] = float(np.max(np.linalg.norm(tq[:, k], axis=1)))
     save_figure(
-        disturbance_orbit_figure(series, sc.orbit_period_s,
-                                 f"CNUSAIL-1 {cfg.spacecraft.configuration}: disturbance torques over one orbit"),
-        out / "disturbances_orbit.png")
+        disturbance_orbit_figure(
+            series, sc.orbit_period_s, f"CNUSAIL-1 {cfg.spacecraft.configuration}: disturbance torques over one orbit"
+        ),
+        out / "disturbances_orbit.png",
+    )
     write_json(out / "disturbances_orbit.json", peaks)
     print(json.dumps(peaks, indent=2))
     return 0

@@ -28,9 +28,18 @@ from magsail_mj.render import render_run
 from magsail_mj.run import run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
-KEYS = ("slew_time_s", "slew_time_ideal_s", "max_slew_rate_deg_s", "time_rate_above_1p05_limit_s",
-        "axis_deviation_max_rad", "pointing_error_max_deg", "wheel_speed_max_rpm", "torque_saturated_time_s",
-        "unloading_active_fraction", "eigen_angle_initial_deg")
+KEYS = (
+    "slew_time_s",
+    "slew_time_ideal_s",
+    "max_slew_rate_deg_s",
+    "time_rate_above_1p05_limit_s",
+    "axis_deviation_max_rad",
+    "pointing_error_max_deg",
+    "wheel_speed_max_rpm",
+    "torque_saturated_time_s",
+    "unloading_active_fraction",
+    "eigen_angle_initial_deg",
+)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -42,7 +51,10 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     res = {}
     for law in ("pd", "eigen_axis"):
-        cfg = load_config(ROOT / "magsail_mj" / "concepts" / "cnusail" / "configs" / "pd_vs_eigenaxis.toml", [*args.set, f"control.mode={law}"])  # noqa: E501
+        cfg = load_config(
+            ROOT / "magsail_mj" / "concepts" / "cnusail" / "configs" / "pd_vs_eigenaxis.toml",
+            [*args.set, f"control.mode={law}"],
+        )  # noqa: E501
         res[law] = run_scenario(cfg, out / law, overwrite=True, progress=False, video=args.video)
     table = {law: {k: res[law].get(k) for k in KEYS} for law in res}
     write_json(out / "comparison.json", table)
@@ -67,9 +79,14 @@ def main(argv: list[str] | None = None) -> int:
     axes[0].set_title("CNUSAIL-1 S5: 108° slew, PD (S5a) vs eigen-axis (S5b)")
     save_figure(fig, out / "comparison.png")
     if args.video:
-        render_run(out / "pd", out / "pd_vs_eigenaxis.mp4", compare=out / "eigen_axis",
-                   labels=["PD (S5a)", "eigen-axis (S5b)"],
-                   fps=30, max_frames=json.loads((out / "pd" / "manifest.json").read_text())["render"]["max_frames"])
+        render_run(
+            out / "pd",
+            out / "pd_vs_eigenaxis.mp4",
+            compare=out / "eigen_axis",
+            labels=["PD (S5a)", "eigen-axis (S5b)"],
+            fps=30,
+            max_frames=json.loads((out / "pd" / "manifest.json").read_text())["render"]["max_frames"],
+        )
     return 0
 
 

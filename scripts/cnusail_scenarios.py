@@ -28,14 +28,40 @@ from magsail_mj.config import load_config
 from magsail_mj.run import run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
-IDS = ("detumble_pre", "detumble_post", "nadir_pre", "nadir_post", "pd_vs_eigenaxis", "deorbit", "deorbit_recalc",
-       "lifetime")
-KEYS = ("detumble_time_s", "slew_time_s", "max_slew_rate_deg_s", "pointing_error_max_deg", "wheel_speed_max_rpm",
-        "unloading_active_fraction", "eigen_angle_initial_deg", "slew_time_ideal_s", "axis_deviation_max_rad",
-        "detumble_time_below_1p0dps_s", "rate_mean_last_orbit_rad_s", "mtq_energy_J", "sail_area_mean_m2",
-        "fraction_normal_within_5deg_of_flow", "gain_recalc_count", "error_max_after_perigee_1_rad",
-        "error_max_after_perigee_2_rad", "lifetime_nadir_days", "lifetime_deorbit_days", "lifetime_tumbling_days",
-        "step_cost_us", "wall_time_s")
+IDS = (
+    "detumble_pre",
+    "detumble_post",
+    "nadir_pre",
+    "nadir_post",
+    "pd_vs_eigenaxis",
+    "deorbit",
+    "deorbit_recalc",
+    "lifetime",
+)
+KEYS = (
+    "detumble_time_s",
+    "slew_time_s",
+    "max_slew_rate_deg_s",
+    "pointing_error_max_deg",
+    "wheel_speed_max_rpm",
+    "unloading_active_fraction",
+    "eigen_angle_initial_deg",
+    "slew_time_ideal_s",
+    "axis_deviation_max_rad",
+    "detumble_time_below_1p0dps_s",
+    "rate_mean_last_orbit_rad_s",
+    "mtq_energy_J",
+    "sail_area_mean_m2",
+    "fraction_normal_within_5deg_of_flow",
+    "gain_recalc_count",
+    "error_max_after_perigee_1_rad",
+    "error_max_after_perigee_2_rad",
+    "lifetime_nadir_days",
+    "lifetime_deorbit_days",
+    "lifetime_tumbling_days",
+    "step_cost_us",
+    "wall_time_s",
+)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -52,8 +78,9 @@ def main(argv: list[str] | None = None) -> int:
     table = {}
     for sid in ids:
         cfg = load_config(ROOT / "magsail_mj" / "concepts" / "cnusail" / "configs" / f"{sid}.toml", args.set)
-        out = run_scenario(cfg, Path(args.out) / sid, overwrite=True, progress=False,
-                           video=args.video and cfg.kind == "attitude")
+        out = run_scenario(
+            cfg, Path(args.out) / sid, overwrite=True, progress=False, video=args.video and cfg.kind == "attitude"
+        )
         table[sid] = {k: out[k] for k in KEYS if k in out}
         print(json.dumps({sid: table[sid]}), flush=True)
     return 0

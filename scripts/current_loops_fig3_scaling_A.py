@@ -28,10 +28,12 @@ import matplotlib.pyplot as plt
 from magsail_mj.plotting import save_figure
 from matplotlib.lines import Line2D
 
-PANELS = (("lambda_f", "conductor mass fraction λ_f", 1.0),
-          ("wire_diameter_m", "wire diameter d [m]", 1.0),
-          ("current_A", "current I [A]", 1.0),
-          ("power_per_area_W_m2", "Joule power P_J/D² [W/m²]", 1.0))
+PANELS = (
+    ("lambda_f", "conductor mass fraction λ_f", 1.0),
+    ("wire_diameter_m", "wire diameter d [m]", 1.0),
+    ("current_A", "current I [A]", 1.0),
+    ("power_per_area_W_m2", "Joule power P_J/D² [W/m²]", 1.0),
+)
 D_RANGE_M = (10.0, 1e5)
 
 
@@ -57,11 +59,21 @@ def figure(path: Path, data: dict[float, dict[str, np.ndarray]], kappa: float) -
         i_one = int(np.argmin(np.abs(c["lambda_f"] - 1.0)))
         for ax, (key, label, scale) in zip(axes.ravel(), PANELS):
             y = c[key] * scale
-            ax.plot(c["side_m"][light_idx], y[light_idx], "-", color=col,
-                    label=f"σ_A = {s * 1e3:g} g/m², light" if key == "lambda_f" else None)
+            ax.plot(
+                c["side_m"][light_idx],
+                y[light_idx],
+                "-",
+                color=col,
+                label=f"σ_A = {s * 1e3:g} g/m², light" if key == "lambda_f" else None,
+            )
             if heavy.any():
-                ax.plot(c["side_m"][heavy_idx], y[heavy_idx], "--", color=col,
-                        label=f"σ_A = {s * 1e3:g} g/m², heavy" if key == "lambda_f" else None)
+                ax.plot(
+                    c["side_m"][heavy_idx],
+                    y[heavy_idx],
+                    "--",
+                    color=col,
+                    label=f"σ_A = {s * 1e3:g} g/m², heavy" if key == "lambda_f" else None,
+                )
             if lam_star <= 1.0:
                 ax.plot(c["side_m"][i_star], y[i_star], "o", color=col, mfc="white", ms=7)
             ax.plot(c["side_m"][i_one], y[i_one], "*", color=col, ms=12)
@@ -73,13 +85,22 @@ def figure(path: Path, data: dict[float, dict[str, np.ndarray]], kappa: float) -
         ax.grid(True, which="both", alpha=0.25)
     axes[0, 0].axhline(1.0, color="k", lw=0.8, ls=":")
     axes[0, 0].set_ylim(1e-6, 2.0)
-    axes[0, 0].text(0.97, 0.55, "no solution beyond the fold\n(λ_u > h* = (3/κ)·4^(-4/3))",
-                    transform=axes[0, 0].transAxes, ha="right", fontsize=8, color="0.35")
+    axes[0, 0].text(
+        0.97,
+        0.55,
+        "no solution beyond the fold\n(λ_u > h* = (3/κ)·4^(-4/3))",
+        transform=axes[0, 0].transAxes,
+        ha="right",
+        fontsize=8,
+        color="0.35",
+    )
     for ax in axes[1]:
         ax.set_xlabel("plate side D [m]")
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    handles += [Line2D([], [], ls="", marker="o", mfc="white", color="k"),
-                Line2D([], [], ls="", marker="*", color="k", ms=10)]
+    handles += [
+        Line2D([], [], ls="", marker="o", mfc="white", color="k"),
+        Line2D([], [], ls="", marker="*", color="k", ms=10),
+    ]
     labels += [f"fold λ* = 3/κ = {lam_star:.3g}", "λ_f = 1"]
     axes[0, 0].legend(handles, labels, fontsize=7, loc="lower right")
     fig.suptitle(f"Geometry A (perimeter loop), κ = {kappa:g}: λ_f = λ_u (1 + κ λ_f)^(4/3), both branches")
@@ -101,14 +122,17 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     arrays = {f"{k}_s{s * 1e3:g}": v for s, c in data.items() for k, v in c.items()}
-    write_npz(out / "fig3_scaling_A.npz", kappa=np.array(args.kappa),
-              areal_density_kg_m2=np.array(list(data)), **arrays)
+    write_npz(
+        out / "fig3_scaling_A.npz", kappa=np.array(args.kappa), areal_density_kg_m2=np.array(list(data)), **arrays
+    )
     figure(out / "fig3_scaling_A.png", data, args.kappa)
     for s, c in data.items():
         i_star = int(np.argmax(c["side_m"]))
         i_one = int(np.argmin(np.abs(c["lambda_f"] - 1.0)))
-        print(f"σ_A = {s * 1e3:g} g/m²: fold at D = {c['side_m'][i_star]:.1f} m (λ_f = {c['lambda_f'][i_star]:.3g}); "
-              f"λ_f = 1 at D = {c['side_m'][i_one]:.1f} m")
+        print(
+            f"σ_A = {s * 1e3:g} g/m²: fold at D = {c['side_m'][i_star]:.1f} m (λ_f = {c['lambda_f'][i_star]:.3g}); "
+            f"λ_f = 1 at D = {c['side_m'][i_one]:.1f} m"
+        )
     print(f"wrote {out}/fig3_scaling_A.{{png,npz}}", file=sys.stderr)
     return 0
 

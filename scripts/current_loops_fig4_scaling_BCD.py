@@ -26,15 +26,22 @@ from magsail_mj.plotting import save_figure
 from magsail_mj.analysis.loop_scaling import radiated_power, required_current, table1, wire_diameter
 
 GEOMS = ("B", "C", "D")
-PANELS = (("lambda_f", "conductor mass fraction λ_f"), ("wire_diameter_m", "wire diameter d [m]"),
-          ("current_A", "current I [A]"), ("power_per_area_W_m2", "Joule power P_J/D² [W/m²]"))
+PANELS = (
+    ("lambda_f", "conductor mass fraction λ_f"),
+    ("wire_diameter_m", "wire diameter d [m]"),
+    ("current_A", "current I [A]"),
+    ("power_per_area_W_m2", "Joule power P_J/D² [W/m²]"),
+)
 STYLES = ("-", "--", ":", "-.")
 
 
 def curves(units: int, sigmas_kg_m2: list[float], side_m: np.ndarray) -> dict:
     """``{(g, σ): curves}`` and ``{(g, σ): D_max}``."""
-    data = {(g, s): uniform_curves(g, units=units, side_m=side_m, areal_density_kg_m2=s)
-            for g in GEOMS for s in sigmas_kg_m2}
+    data = {
+        (g, s): uniform_curves(g, units=units, side_m=side_m, areal_density_kg_m2=s)
+        for g in GEOMS
+        for s in sigmas_kg_m2
+    }
     dmax = {(g, s): side_max(g, units=units, areal_density_kg_m2=s) for g in GEOMS for s in sigmas_kg_m2}
     return {"curves": data, "side_max_m": dmax}
 
@@ -49,11 +56,20 @@ def figure(path: Path, res: dict, units: int, sigmas: list[float]) -> Path:
         area, length = table1(g, units, Dm)
         I_m = required_current(area, Dm, s)
         d_m = wire_diameter(I_m)
-        at_max = {"lambda_f": 1.0, "current_A": I_m, "wire_diameter_m": d_m,
-                  "power_per_area_W_m2": radiated_power(d_m, length) / Dm ** 2}
+        at_max = {
+            "lambda_f": 1.0,
+            "current_A": I_m,
+            "wire_diameter_m": d_m,
+            "power_per_area_W_m2": radiated_power(d_m, length) / Dm**2,
+        }
         for ax, (key, label) in zip(axes.ravel(), PANELS):
-            ax.plot(c["side_m"][ok], c[key][ok], style, color=colors[g],
-                    label=f"{g}, σ_A = {s * 1e3:g} g/m²" if key == "lambda_f" else None)
+            ax.plot(
+                c["side_m"][ok],
+                c[key][ok],
+                style,
+                color=colors[g],
+                label=f"{g}, σ_A = {s * 1e3:g} g/m²" if key == "lambda_f" else None,
+            )
             ax.plot(c["side_m"][~ok], c[key][~ok], style, color=colors[g], alpha=0.25)
             ax.plot(Dm, at_max[key], "*", color=colors[g], ms=10)
     for ax, (key, label) in zip(axes.ravel(), PANELS):

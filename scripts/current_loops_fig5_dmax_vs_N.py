@@ -95,9 +95,13 @@ def main(argv: list[str] | None = None) -> int:
     figure(out / "fig5_dmax_vs_N.png", counts, tables, args.kappa)
     for s, t in tables.items():
         sel = [i for i, n in enumerate(counts) if n in (12, 19, 27)]
-        print(f"σ_A = {s * 1e3:g} g/m²: " + "; ".join(
-            f"N = {counts[i]}: B {t['B_vs_N'][i]:.0f} m, C {t['C'][i]:.0f} m, D {t['D'][i]:.0f} m" for i in sel)
-            + f"; A uniform {t['A_uniform']:.0f} m, A fold {t['A_fold']:.0f} m")
+        print(
+            f"σ_A = {s * 1e3:g} g/m²: "
+            + "; ".join(
+                f"N = {counts[i]}: B {t['B_vs_N'][i]:.0f} m, C {t['C'][i]:.0f} m, D {t['D'][i]:.0f} m" for i in sel
+            )
+            + f"; A uniform {t['A_uniform']:.0f} m, A fold {t['A_fold']:.0f} m"
+        )
     print(f"wrote {out}/fig5_dmax_vs_N.{{png,npz,csv}}", file=sys.stderr)
     return 0
 

@@ -21,9 +21,18 @@ import matplotlib.pyplot as plt
 
 from magsail_mj.records import STORE_NAME, lazy_arrays
 
-KEYS = ("time_to_target_s", "t_err_below_2deg_s", "attitude_error_max_after_target_deg", "t_err_max_after_settle_s",
-        "err_final_rad", "saturation_fraction", "mag_torque_max_N_m", "gg_torque_max_N_m", "strain_energy_max_J",
-        "time_strain_max_s")
+KEYS = (
+    "time_to_target_s",
+    "t_err_below_2deg_s",
+    "attitude_error_max_after_target_deg",
+    "t_err_max_after_settle_s",
+    "err_final_rad",
+    "saturation_fraction",
+    "mag_torque_max_N_m",
+    "gg_torque_max_N_m",
+    "strain_energy_max_J",
+    "time_strain_max_s",
+)
 SERIES = ("t", "error_angle_deg", "mag_torque_world_Nm", "gg_torque_world_Nm", "strain_energy_J", "modal_amplitude")
 
 

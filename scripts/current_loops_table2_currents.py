@@ -26,46 +26,69 @@ from pathlib import Path
 import numpy as np
 
 from magsail_mj.analysis.loop_scaling import (
-    GEOMETRIES, c1, loop_sizing, scaling_table, sunlight_diameter_ratio,
+    GEOMETRIES,
+    c1,
+    loop_sizing,
+    scaling_table,
+    sunlight_diameter_ratio,
 )
 from magsail_mj.io import atomic_path, write_json
 import matplotlib.pyplot as plt
 from magsail_mj.plotting import save_figure
 
 UNITS = (12, 19, 27)
-COLUMNS = ("geometry", "units", "current_A", "wire_diameter_m", "lambda_f", "power_per_area_W_m2",
-           "dipole_max_A_m2", "area_m2", "path_length_m", "conductor_mass_kg")
+COLUMNS = (
+    "geometry",
+    "units",
+    "current_A",
+    "wire_diameter_m",
+    "lambda_f",
+    "power_per_area_W_m2",
+    "dipole_max_A_m2",
+    "area_m2",
+    "path_length_m",
+    "conductor_mass_kg",
+)
 
 
 def rows(side_m: float, sigma: float, kappa: float) -> list[dict]:
     """One :func:`loop_sizing` dict per geometry and ``N``."""
-    return [loop_sizing(g, units=N, side_m=side_m, areal_density_kg_m2=sigma, kappa=kappa)
-            for g in GEOMETRIES for N in UNITS]
+    return [
+        loop_sizing(g, units=N, side_m=side_m, areal_density_kg_m2=sigma, kappa=kappa)
+        for g in GEOMETRIES
+        for N in UNITS
+    ]
 
 
 def table_md(table: list[dict], side_m: float, sigma: float, kappa: float) -> str:
-    lines = [f"D = {side_m:g} m, σ_A = {sigma * 1e3:g} g/m², κ = {kappa:g} (A, light branch), "
-             f"C1 = {c1():.5e} m⁻¹ kg^(-1/3)", "",
-             "| geometry | N | I [A] | d [mm] | λ_f [%] | P_J/D² [W/m²] | m_max [A m²] | l [m] |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"D = {side_m:g} m, σ_A = {sigma * 1e3:g} g/m², κ = {kappa:g} (A, light branch), C1 = {c1():.5e} m⁻¹ kg^(-1/3)",
+        "",
+        "| geometry | N | I [A] | d [mm] | λ_f [%] | P_J/D² [W/m²] | m_max [A m²] | l [m] |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in table:
-        lines.append(f"| {r['geometry']} | {r['units']} | {r['current_A']:.2f} | {r['wire_diameter_m'] * 1e3:.3f} "
-                     f"| {r['lambda_f'] * 100:.3f} | {r['power_per_area_W_m2']:.3f} "
-                     f"| {r['dipole_max_A_m2']:.4e} | {r['path_length_m']:.0f} |")
+        lines.append(
+            f"| {r['geometry']} | {r['units']} | {r['current_A']:.2f} | {r['wire_diameter_m'] * 1e3:.3f} "
+            f"| {r['lambda_f'] * 100:.3f} | {r['power_per_area_W_m2']:.3f} "
+            f"| {r['dipole_max_A_m2']:.4e} | {r['path_length_m']:.0f} |"
+        )
     return "\n".join(lines) + "\n"
 
 
 def figure(path: Path, table: list[dict]) -> Path:
-    panels = [("current_A", "current I [A]", 1.0), ("wire_diameter_m", "wire diameter d [mm]", 1e3),
-              ("lambda_f", "conductor mass fraction λ_f [%]", 100.0),
-              ("power_per_area_W_m2", "Joule power P_J/D² [W/m²]", 1.0)]
+    panels = [
+        ("current_A", "current I [A]", 1.0),
+        ("wire_diameter_m", "wire diameter d [mm]", 1e3),
+        ("lambda_f", "conductor mass fraction λ_f [%]", 100.0),
+        ("power_per_area_W_m2", "Joule power P_J/D² [W/m²]", 1.0),
+    ]
     fig, axes = plt.subplots(2, 2, figsize=(10, 7))
     x = np.arange(len(GEOMETRIES))
     width = 0.26
     for ax, (key, label, scale) in zip(axes.ravel(), panels):
         for j, N in enumerate(UNITS):
-            vals = [scale * next(r[key] for r in table if r["geometry"] == g and r["units"] == N)
-                    for g in GEOMETRIES]
+            vals = [scale * next(r[key] for r in table if r["geometry"] == g and r["units"] == N) for g in GEOMETRIES]
             bars = ax.bar(x + (j - 1) * width, vals, width, label=f"N = {N}")
             ax.bar_label(bars, fmt="%.3g", fontsize=6, padding=1)
         ax.set_xticks(x, GEOMETRIES)

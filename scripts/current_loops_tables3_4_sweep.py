@@ -55,25 +55,55 @@ def main(argv: list[str] | None = None) -> int:
     sweep = Path(args.sweep)
     runs = {(g, N, E): _load(sweep, g, N, E) for g in GEOMS for N in UNITS for E in EIS}
 
-    cols = ["run", "geometry", "N", "EI", "status", "U_max_J", "t_U_max_s", "h_max_m", "rho_max_m",
-            "strain_max", "rot_final_rad", "rot_dev_rigid_max_rad", "class", "wall_s"]
+    cols = [
+        "run",
+        "geometry",
+        "N",
+        "EI",
+        "status",
+        "U_max_J",
+        "t_U_max_s",
+        "h_max_m",
+        "rho_max_m",
+        "strain_max",
+        "rot_final_rad",
+        "rot_dev_rigid_max_rad",
+        "class",
+        "wall_s",
+    ]
     rows = []
     for (g, N, E), s in runs.items():
         if s is None:
             rows.append([f"{g}_n{N}_ei{E}", GEOMS[g], N, E, "not run"] + [None] * 9)
             continue
-        rows.append([f"{g}_n{N}_ei{E}", GEOMS[g], N, E, s.get("status"), s.get("strain_energy_max_J"),
-                     s.get("t_strain_energy_max_s"), s.get("thickness_max_m"), s.get("rigid_fit_residual_max_m"),
-                     s.get("strut_strain_max"), s.get("rotation_angle_final_rad"),
-                     s.get("rotation_dev_from_rigid_max_rad"), s.get("classification"), s.get("_wall_s")])
+        rows.append(
+            [
+                f"{g}_n{N}_ei{E}",
+                GEOMS[g],
+                N,
+                E,
+                s.get("status"),
+                s.get("strain_energy_max_J"),
+                s.get("t_strain_energy_max_s"),
+                s.get("thickness_max_m"),
+                s.get("rigid_fit_residual_max_m"),
+                s.get("strut_strain_max"),
+                s.get("rotation_angle_final_rad"),
+                s.get("rotation_dev_from_rigid_max_rad"),
+                s.get("classification"),
+                s.get("_wall_s"),
+            ]
+        )
     md = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     md += ["| " + " | ".join(_fmt(v) for v in r) + " |" for r in rows]
     (sweep / "table_s4.md").write_text("\n".join(md) + "\n")
     (sweep / "table_s4.csv").write_text("\n".join(",".join(_fmt(v) for v in r) for r in [cols, *rows]) + "\n")
 
     def ratio(num: str, den: str) -> list[str]:
-        out = [f"| max U_{GEOMS[num]} / max U_{GEOMS[den]} | " + " | ".join(f"EI={E}" for E in EIS) + " |",
-               "|---|" + "---|" * len(EIS)]
+        out = [
+            f"| max U_{GEOMS[num]} / max U_{GEOMS[den]} | " + " | ".join(f"EI={E}" for E in EIS) + " |",
+            "|---|" + "---|" * len(EIS),
+        ]
         for N in UNITS:
             vals = []
             for E in EIS:
@@ -90,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
         if s is None:
             ax.text(0.5, 0.5, "not run", ha="center", transform=ax.transAxes)
             return
-        z = lazy_arrays(s["_dir"])   # the two series only, read from the run's record store
+        z = lazy_arrays(s["_dir"])  # the two series only, read from the run's record store
         ax.plot(z["t"][:], z["strain_energy_J"][:], lw=0.8, label=label)
 
     def grid(cells, name: str) -> None:
@@ -107,16 +137,25 @@ def main(argv: list[str] | None = None) -> int:
         fig.savefig(sweep / name, dpi=110)
         plt.close(fig)
 
-    grid([[(("a", N, E), f"A N={N} EI={E}", f"A: N = {N}, EI = {E} N m²") for E in EIS] for N in UNITS],
-         "fig_strain_energy_A.png")
-    grid([[((g, N, "1e4"), f"{GEOMS[g]} N={N}", f"{GEOMS[g]}: N = {N}, EI = 1e4 N m²") for N in UNITS]
-          for g in ("b", "cy", "dy")], "fig_strain_energy_BCD.png")
+    grid(
+        [[(("a", N, E), f"A N={N} EI={E}", f"A: N = {N}, EI = {E} N m²") for E in EIS] for N in UNITS],
+        "fig_strain_energy_A.png",
+    )
+    grid(
+        [
+            [((g, N, "1e4"), f"{GEOMS[g]} N={N}", f"{GEOMS[g]}: N = {N}, EI = 1e4 N m²") for N in UNITS]
+            for g in ("b", "cy", "dy")
+        ],
+        "fig_strain_energy_BCD.png",
+    )
 
     if args.videos:
         n = args.video_units
-        pairs = [(("a", n, "1e4"), ("b", n, "1e4"), f"video_A_vs_B_n{n}_ei1e4.mp4"),
-                 (("cy", n, "1e4"), ("dy", n, "1e4"), f"video_Cy_vs_Dy_n{n}_ei1e4.mp4"),
-                 (("a", n, "1e3"), ("a", n, "1e5"), f"video_A_ei1e3_vs_ei1e5_n{n}.mp4")]
+        pairs = [
+            (("a", n, "1e4"), ("b", n, "1e4"), f"video_A_vs_B_n{n}_ei1e4.mp4"),
+            (("cy", n, "1e4"), ("dy", n, "1e4"), f"video_Cy_vs_Dy_n{n}_ei1e4.mp4"),
+            (("a", n, "1e3"), ("a", n, "1e5"), f"video_A_ei1e3_vs_ei1e5_n{n}.mp4"),
+        ]
         for left, right, name in pairs:
             if runs[left] is None or runs[right] is None:
                 print(f"skipped {name}: a run is missing")

@@ -37,9 +37,20 @@ REPO = Path(__file__).resolve().parents[1]
 #: the series of a case figure, read from each run's record store
 CASE_SERIES = ("t", "phi_rad", "omega_body_rad_s", "surface_sd_m", "phi_rigid_rad", "omega_rigid_rad_s")
 SWEEP = REPO / "models" / "sweeps" / "truss_dist_vs_central.toml"
-KEYS = ("status", "t_end_s", "rotation_x1_final_rad", "phi_rigid_final_rad", "off_axis_rotation_max_rad",
-        "omega1_peak_rad_s", "surface_sd_max_m", "t_surface_sd_max_s", "strain_energy_max_J", "strut_strain_max",
-        "surface_sd_after_off_mean_m", "failed")
+KEYS = (
+    "status",
+    "t_end_s",
+    "rotation_x1_final_rad",
+    "phi_rigid_final_rad",
+    "off_axis_rotation_max_rad",
+    "omega1_peak_rad_s",
+    "surface_sd_max_m",
+    "t_surface_sd_max_s",
+    "strain_energy_max_J",
+    "strut_strain_max",
+    "surface_sd_after_off_mean_m",
+    "failed",
+)
 
 
 def _fmt(v) -> str:
@@ -62,11 +73,17 @@ def comparison_table(summaries: dict[str, dict]) -> str:
         other = name.replace("_central_", "_distributed_")
         if other in summaries:
             case, _, prof = name.split("_", 1)[1].partition("_central_")
-            failed = [label for label, run in (("central", name), ("distributed", other))
-                      if summaries[run].get("status") != "completed"]
+            failed = [
+                label
+                for label, run in (("central", name), ("distributed", other))
+                if summaries[run].get("status") != "completed"
+            ]
             if failed:  # a failed structure is reported as failed, never put into a ratio
-                cell = "no ratio: " + ", ".join(f"{label} {summaries[run]['status']}" for label, run in
-                                               (("central", name), ("distributed", other)) if label in failed)
+                cell = "no ratio: " + ", ".join(
+                    f"{label} {summaries[run]['status']}"
+                    for label, run in (("central", name), ("distributed", other))
+                    if label in failed
+                )
             else:
                 cell = f"{summaries[name]['surface_sd_max_m'] / summaries[other]['surface_sd_max_m']:.3g}"
             lines.append(f"| {case.upper()} | {prof} | {cell} |")
@@ -81,7 +98,7 @@ def case_figure(out: Path, profile: str, cases: list[str]) -> Path:
             run = out / f"case_{case}_{place}_{profile}"
             if not (run / STORE_NAME).is_dir():
                 continue
-            stored = lazy_arrays(run)   # the figure's series only (not the lattice's qpos)
+            stored = lazy_arrays(run)  # the figure's series only (not the lattice's qpos)
             ts = {name: stored[name][...] for name in CASE_SERIES}
             axs[0, col].plot(ts["t"], ts["phi_rad"], style, label=place)
             axs[1, col].plot(ts["t"], ts["omega_body_rad_s"][:, 0], style, label=place)
@@ -116,8 +133,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--profiles", nargs="+", default=["bangbang", "versine"], choices=["bangbang", "versine"])
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--video", action="store_true", help="render the side-by-side MP4s")
-    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                    help="override for every run, e.g. --set sim.duration_s=120")
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override for every run, e.g. --set sim.duration_s=120",
+    )
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -128,9 +150,12 @@ def main(argv: list[str] | None = None) -> int:
     summaries = {r["id"]: r["summary"] for r in records if r["id"] in ids and r["status"] in FINISHED}
     for name in sorted(summaries):
         summary = summaries[name]
-        print(f"{name}: {summary['status']}, "
-              f"φ_end = {summary.get('rotation_x1_final_rad', float('nan')):.4g} rad, "
-              f"max SD = {summary['surface_sd_max_m']:.4g} m", file=sys.stderr)
+        print(
+            f"{name}: {summary['status']}, "
+            f"φ_end = {summary.get('rotation_x1_final_rad', float('nan')):.4g} rad, "
+            f"max SD = {summary['surface_sd_max_m']:.4g} m",
+            file=sys.stderr,
+        )
     table = comparison_table(summaries)
     (out / "comparison.md").write_text(table)
     for prof in args.profiles:
@@ -142,11 +167,28 @@ def main(argv: list[str] | None = None) -> int:
             for prof in args.profiles:
                 central, dist = out / f"case_{c}_central_{prof}", out / f"case_{c}_distributed_{prof}"
                 if central.name in summaries and dist.name in summaries:
-                    videos.append(render_run(central, out / f"case_{c}_{prof}_side_by_side.mp4", compare=dist,
-                                             labels=["centralised", "distributed"], max_frames=360, fps=30))
+                    videos.append(
+                        render_run(
+                            central,
+                            out / f"case_{c}_{prof}_side_by_side.mp4",
+                            compare=dist,
+                            labels=["centralised", "distributed"],
+                            max_frames=360,
+                            fps=30,
+                        )
+                    )
     print(table)
-    print(json.dumps({"runs": len(summaries), "wall_time_s": round(time.perf_counter() - t0, 1),
-                      "comparison": str(out / "comparison.md"), "videos": [str(v) for v in videos]}, indent=2))
+    print(
+        json.dumps(
+            {
+                "runs": len(summaries),
+                "wall_time_s": round(time.perf_counter() - t0, 1),
+                "comparison": str(out / "comparison.md"),
+                "videos": [str(v) for v in videos],
+            },
+            indent=2,
+        )
+    )
     return 0 if len(summaries) == len(ids) else 1
 
 

@@ -25,9 +25,31 @@ def to_webm(mp4: Path, *, crf: int) -> Path:
     """Encode ``mp4`` as VP9 WebM beside it (written under a temporary name, then renamed)."""
     out = mp4.with_suffix(".webm")
     tmp = mp4.with_suffix(".tmp.webm")
-    cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-loglevel", "error", "-y", "-i", str(mp4),
-           "-an", "-c:v", "libvpx-vp9", "-b:v", "0", "-crf", str(crf), "-row-mt", "1", "-deadline", "good",
-           "-cpu-used", "4", "-pix_fmt", "yuv420p", str(tmp)]
+    cmd = [
+        imageio_ffmpeg.get_ffmpeg_exe(),
+        "-hide_banner",
+        "-loglevel",
+        "error",
+        "-y",
+        "-i",
+        str(mp4),
+        "-an",
+        "-c:v",
+        "libvpx-vp9",
+        "-b:v",
+        "0",
+        "-crf",
+        str(crf),
+        "-row-mt",
+        "1",
+        "-deadline",
+        "good",
+        "-cpu-used",
+        "4",
+        "-pix_fmt",
+        "yuv420p",
+        str(tmp),
+    ]
     subprocess.run(cmd, check=True)
     tmp.replace(out)
     return out
@@ -35,8 +57,12 @@ def to_webm(mp4: Path, *, crf: int) -> Path:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--crf", type=int, default=50,
-                    help="VP9 constant quality, 0 (best) to 63 (default 50: about the size of the MP4)")
+    ap.add_argument(
+        "--crf",
+        type=int,
+        default=50,
+        help="VP9 constant quality, 0 (best) to 63 (default 50: about the size of the MP4)",
+    )
     ap.add_argument("--force", action="store_true", help="re-encode WebM files that are newer than their MP4")
     args = ap.parse_args(argv)
     if not 0 <= args.crf <= 63:
@@ -47,8 +73,10 @@ def main(argv: list[str] | None = None) -> int:
         if webm.exists() and webm.stat().st_mtime >= mp4.stat().st_mtime and not args.force:
             continue
         out = to_webm(mp4, crf=args.crf)
-        print(f"{out.relative_to(STATIC.parents[1])}: {out.stat().st_size / 1e3:.0f} kB "
-              f"(MP4 {mp4.stat().st_size / 1e3:.0f} kB)")
+        print(
+            f"{out.relative_to(STATIC.parents[1])}: {out.stat().st_size / 1e3:.0f} kB "
+            f"(MP4 {mp4.stat().st_size / 1e3:.0f} kB)"
+        )
     return 0
 
 

@@ -30,9 +30,12 @@ def measure_one(config: str, out: str, overrides: list[str]) -> dict:
     cfg = load_config(config, overrides)
     t0 = time.perf_counter()
     outcome = run_scenario(cfg, out, overwrite=True, progress=False)
-    return {"status": outcome.status, "wall_s": round(time.perf_counter() - t0, 2),
-            "records": int(round(cfg.sim.duration_s / cfg.sim.timestep_s / cfg.sim.record_every)),
-            "peak_rss_MiB": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)}
+    return {
+        "status": outcome.status,
+        "wall_s": round(time.perf_counter() - t0, 2),
+        "records": int(round(cfg.sim.duration_s / cfg.sim.timestep_s / cfg.sim.record_every)),
+        "peak_rss_MiB": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -40,9 +43,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("config", help="config file (TOML)")
     parser.add_argument("--duration-s", type=float, required=True, help="the shorter duration D [s]")
     parser.add_argument("--factor", type=float, default=4.0, help="the longer run lasts factor x D (default 4)")
-    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                        help="config override, as on the magsail command line (repeatable)")
-    parser.add_argument("--one", metavar="OUT_DIR", help=argparse.SUPPRESS)   # internal: one case here
+    parser.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="config override, as on the magsail command line (repeatable)",
+    )
+    parser.add_argument("--one", metavar="OUT_DIR", help=argparse.SUPPRESS)  # internal: one case here
     args = parser.parse_args(argv)
     if args.duration_s <= 0 or args.factor <= 0:
         parser.error("--duration-s and --factor: must be positive")
@@ -53,13 +62,29 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for duration in (args.duration_s, args.factor * args.duration_s):
-            cmd = [sys.executable, __file__, args.config, "--duration-s", str(duration), "--one",
-                   str(Path(tmp) / f"run_{duration:g}"), *[f"--set={o}" for o in args.overrides]]
+            cmd = [
+                sys.executable,
+                __file__,
+                args.config,
+                "--duration-s",
+                str(duration),
+                "--one",
+                str(Path(tmp) / f"run_{duration:g}"),
+                *[f"--set={o}" for o in args.overrides],
+            ]
             line = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout.strip().splitlines()[-1]
             rows.append({"duration_s": duration, **json.loads(line)})
             print(json.dumps(rows[-1]), flush=True)
-    print(json.dumps({"config": args.config, "overrides": args.overrides, "factor": args.factor,
-                      "peak_ratio": round(rows[1]["peak_rss_MiB"] / rows[0]["peak_rss_MiB"], 3)}))
+    print(
+        json.dumps(
+            {
+                "config": args.config,
+                "overrides": args.overrides,
+                "factor": args.factor,
+                "peak_ratio": round(rows[1]["peak_rss_MiB"] / rows[0]["peak_rss_MiB"], 3),
+            }
+        )
+    )
     return 0
 
 

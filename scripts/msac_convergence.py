@@ -23,16 +23,34 @@ from magsail_mj.io import to_jsonable, write_json
 from magsail_mj import load
 
 REPO = Path(__file__).resolve().parents[1]
-KEYS = ("theta_gamma_mujoco_rad", "theta_gamma_mujoco_std_rad", "theta_gamma_first_cycle_rad",
-        "theta_gamma_exact_rad", "mujoco_vs_exact_rel_diff", "angmom_drift_max_N_m_s", "angular_momentum_drift",
-        "angmom_drift_rate_unprojected_N_m_s_per_s", "tracking_error_bend_max_rad", "tracking_error_slide_max_m",
-        "cycles_simulated", "steps", "wall_time_s", "wall_time_per_step_s")
+KEYS = (
+    "theta_gamma_mujoco_rad",
+    "theta_gamma_mujoco_std_rad",
+    "theta_gamma_first_cycle_rad",
+    "theta_gamma_exact_rad",
+    "mujoco_vs_exact_rel_diff",
+    "angmom_drift_max_N_m_s",
+    "angular_momentum_drift",
+    "angmom_drift_rate_unprojected_N_m_s_per_s",
+    "tracking_error_bend_max_rad",
+    "tracking_error_slide_max_m",
+    "cycles_simulated",
+    "steps",
+    "wall_time_s",
+    "wall_time_per_step_s",
+)
 
 
 def run_point(config: Path, timestep_s: float, duration_s: float) -> dict:
     """Run ``config`` at ``timestep_s`` for ``duration_s`` and return the convergence figures."""
-    cfg = load_config(config, [f"sim.duration_s={duration_s}", f"sim.timestep_s={timestep_s}",
-                               f"sim.record_every={int(round(1e-3 / timestep_s)) * 100}"])
+    cfg = load_config(
+        config,
+        [
+            f"sim.duration_s={duration_s}",
+            f"sim.timestep_s={timestep_s}",
+            f"sim.record_every={int(round(1e-3 / timestep_s)) * 100}",
+        ],
+    )
     sim = load(cfg)
     res = sim.run()
     summary, _ = sim.scenario.postprocess(res)
@@ -53,8 +71,14 @@ def main(argv: list[str] | None = None) -> int:
         half = dt / 2
         if half in by_dt:
             th, th2 = by_dt[dt]["theta_gamma_mujoco_rad"], by_dt[half]["theta_gamma_mujoco_rad"]
-            pairs.append({"dt_s": dt, "dt_half_s": half, "rel_diff": (th - th2) / abs(th2),
-                          "pass_0.5_percent": abs(th - th2) / abs(th2) < 5e-3})
+            pairs.append(
+                {
+                    "dt_s": dt,
+                    "dt_half_s": half,
+                    "rel_diff": (th - th2) / abs(th2),
+                    "pass_0.5_percent": abs(th - th2) / abs(th2) < 5e-3,
+                }
+            )
     out = {"config": str(a.config), "duration_s": a.duration, "points": points, "dt_vs_half": pairs}
     write_json(a.out, out)
     print(json.dumps(to_jsonable(out), indent=2))

@@ -31,9 +31,17 @@ CONFIG = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "msac
 
 def drift_row(*, method: str, timestep_s: float, cycles: int, extrapolate_s: float) -> dict[str, float | str]:
     """One run without projection: drift per cycle and the spurious yaw it adds."""
-    sim = magsail_mj.load(CONFIG, [f"sim.duration_s={cycles * 1e-3}", f"sim.timestep_s={timestep_s}",
-                                   "sim.record_every=1000000", "drive.momentum_projection=false",
-                                   f"drive.method='{method}'", f"drive.chunk_cycles={min(cycles, 200)}"])
+    sim = magsail_mj.load(
+        CONFIG,
+        [
+            f"sim.duration_s={cycles * 1e-3}",
+            f"sim.timestep_s={timestep_s}",
+            "sim.record_every=1000000",
+            "drive.momentum_projection=false",
+            f"drive.method='{method}'",
+            f"drive.chunk_cycles={min(cycles, 200)}",
+        ],
+    )
     task = sim.scenario
     t0 = time.perf_counter()
     res = sim.run()
@@ -45,11 +53,17 @@ def drift_row(*, method: str, timestep_s: float, cycles: int, extrapolate_s: flo
     st = cycle_state(task.path, np.linspace(0.0, T, 2001))
     inv_D = float(np.mean(1.0 / task.planar.inertia_sum(st.phi, st.s)))
     rotation = abs(summary["theta_gamma_mujoco_rad"]) / T * extrapolate_s
-    return {"method": method, "timestep_s": timestep_s, "cycles": cycles,
-            "drift_per_cycle_N_m_s": per_cycle, "spurious_yaw_rel": summary["angmom_spurious_yaw_rel"],
-            "spurious_yaw_rel_extrapolated": abs(per_cycle / T) * extrapolate_s ** 2 / 2 * inv_D / rotation,
-            "theta_gamma_mujoco_rad": summary["theta_gamma_mujoco_rad"], "wall_s": wall,
-            "wall_per_step_s": wall / max(res.steps, 1)}
+    return {
+        "method": method,
+        "timestep_s": timestep_s,
+        "cycles": cycles,
+        "drift_per_cycle_N_m_s": per_cycle,
+        "spurious_yaw_rel": summary["angmom_spurious_yaw_rel"],
+        "spurious_yaw_rel_extrapolated": abs(per_cycle / T) * extrapolate_s**2 / 2 * inv_D / rotation,
+        "theta_gamma_mujoco_rad": summary["theta_gamma_mujoco_rad"],
+        "wall_s": wall,
+        "wall_per_step_s": wall / max(res.steps, 1),
+    }
 
 
 def main() -> None:

@@ -25,14 +25,34 @@ from magsail_mj.io import to_jsonable
 from magsail_mj.run import run_scenario
 
 REPO = Path(__file__).resolve().parents[1]
-KEYS = ("theta_gamma_mujoco_rad", "theta_gamma_mujoco_std_rad", "theta_gamma_first_cycle_rad",
-        "theta_gamma_exact_rad", "theta_gamma_eq6_model_rad", "theta_gamma_eq6_stretch_rad",
-        "mujoco_vs_exact_rel_diff", "secular_rate_rad_s", "rate_slope_rad_s", "rate_filtered_mean_rad_s",
-        "rate_estimates_rel_diff", "predicted_rate_exact_rad_s", "predicted_rate_lumped_rad_s",
-        "net_rotation_rad", "angular_momentum_drift", "angmom_drift_max_N_m_s",
-        "angmom_drift_rate_unprojected_N_m_s_per_s", "hinge_torque_peak_N_m", "slide_force_peak_N",
-        "tracking_error_bend_max_rad", "tracking_error_slide_max_m", "cycles_simulated", "simulated_time_s",
-        "steps", "wall_time_s", "wall_time_per_step_s")
+KEYS = (
+    "theta_gamma_mujoco_rad",
+    "theta_gamma_mujoco_std_rad",
+    "theta_gamma_first_cycle_rad",
+    "theta_gamma_exact_rad",
+    "theta_gamma_eq6_model_rad",
+    "theta_gamma_eq6_stretch_rad",
+    "mujoco_vs_exact_rel_diff",
+    "secular_rate_rad_s",
+    "rate_slope_rad_s",
+    "rate_filtered_mean_rad_s",
+    "rate_estimates_rel_diff",
+    "predicted_rate_exact_rad_s",
+    "predicted_rate_lumped_rad_s",
+    "net_rotation_rad",
+    "angular_momentum_drift",
+    "angmom_drift_max_N_m_s",
+    "angmom_drift_rate_unprojected_N_m_s_per_s",
+    "hinge_torque_peak_N_m",
+    "slide_force_peak_N",
+    "tracking_error_bend_max_rad",
+    "tracking_error_slide_max_m",
+    "cycles_simulated",
+    "simulated_time_s",
+    "steps",
+    "wall_time_s",
+    "wall_time_per_step_s",
+)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -57,8 +77,9 @@ def main(argv: list[str] | None = None) -> int:
         from msac_videos import make_v2
 
         t1 = time.perf_counter()
-        out["video_v2"] = str(make_v2(summary.run_dir, summary.run_dir / "v2.mp4", max_deg_per_frame=20.0,
-                                      max_frames=3000, fps=60.0))
+        out["video_v2"] = str(
+            make_v2(summary.run_dir, summary.run_dir / "v2.mp4", max_deg_per_frame=20.0, max_frames=3000, fps=60.0)
+        )
         out["video_wall_time_s"] = time.perf_counter() - t1
     print(json.dumps(to_jsonable(out), indent=2))
     return 0 if summary.status == "completed" else 3

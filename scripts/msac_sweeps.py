@@ -45,7 +45,7 @@ from magsail_mj.sweep import FINISHED, load_sweep, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
 SWEEP_FILE = REPO / "models" / "sweeps" / "msac_sensitivity.toml"
-PIEZO_PEAK_FORCE_N = 200.0          # spec §4: one multilayer PZT chip
+PIEZO_PEAK_FORCE_N = 200.0  # spec §4: one multilayer PZT chip
 
 
 def run_sweeps(names: list[str] | None, out: Path, *, workers: int = 2) -> dict[str, dict]:
@@ -73,8 +73,10 @@ def run_sweeps(names: list[str] | None, out: Path, *, workers: int = 2) -> dict[
 
 
 def _labels(summary: dict) -> list[str]:
-    return [", ".join(f"{v:g}" if isinstance(v, (int, float)) else "/".join(f"{x:g}" for x in v) for v in p)
-            for p in summary["sweep_points"]]
+    return [
+        ", ".join(f"{v:g}" if isinstance(v, (int, float)) else "/".join(f"{x:g}" for x in v) for v in p)
+        for p in summary["sweep_points"]
+    ]
 
 
 def f6_figure(results: dict[str, dict], path: Path) -> Path:
@@ -93,7 +95,7 @@ def f6_figure(results: dict[str, dict], path: Path) -> Path:
         ax.set_yscale("log")
         ax.set_ylabel("θ_γ per cycle [rad]", fontsize=8)
         ax.grid(alpha=0.3)
-    for ax in list(axs.flat)[len(names):]:
+    for ax in list(axs.flat)[len(names) :]:
         ax.axis("off")
     axs.flat[0].legend(fontsize=8)
     fig.suptitle("F6 MSAC sensitivity of the per-cycle rotation (base: paper_1khz; 20 cycles per point)", fontsize=11)
@@ -135,13 +137,35 @@ def f7_figure(results: dict[str, dict], path: Path) -> tuple[Path, dict]:
         ax.plot(a_pts, s["sweep_secular_rate_rad_s"], "C3x", ms=9, mew=2, label="MuJoCo (20 cycles)")
         ax2.plot(a_pts, s["sweep_hinge_torque_peak_N_m"], "C0o-", label="peak hinge torque [N m]")
         ax2.plot(a_pts, s["sweep_slide_force_peak_N"], "C1s-", label="peak slide force [N]")
-        data["mujoco"] = {"a": a_pts, **{k: s[k] for k in ("sweep_secular_rate_rad_s", "sweep_hinge_torque_peak_N_m",
-                                                            "sweep_slide_force_peak_N", "sweep_theta_gamma_mujoco_rad",
-                                                            "sweep_theta_gamma_exact_rad")}}
-    ax.plot([1], [op_a["predicted_rate_exact_rad_s"]], "D", color="C2", ms=10,
-            label=f"(a) 0.1 % at 4 kHz: {op_a['predicted_rate_exact_rad_s']:.3g} rad/s")
-    ax.plot([10], [op_b["predicted_rate_exact_rad_s"]], "*", color="C4", ms=14,
-            label=f"(b) 1 % at 1 kHz (paper): {op_b['predicted_rate_exact_rad_s']:.3g} rad/s")
+        data["mujoco"] = {
+            "a": a_pts,
+            **{
+                k: s[k]
+                for k in (
+                    "sweep_secular_rate_rad_s",
+                    "sweep_hinge_torque_peak_N_m",
+                    "sweep_slide_force_peak_N",
+                    "sweep_theta_gamma_mujoco_rad",
+                    "sweep_theta_gamma_exact_rad",
+                )
+            },
+        }
+    ax.plot(
+        [1],
+        [op_a["predicted_rate_exact_rad_s"]],
+        "D",
+        color="C2",
+        ms=10,
+        label=f"(a) 0.1 % at 4 kHz: {op_a['predicted_rate_exact_rad_s']:.3g} rad/s",
+    )
+    ax.plot(
+        [10],
+        [op_b["predicted_rate_exact_rad_s"]],
+        "*",
+        color="C4",
+        ms=14,
+        label=f"(b) 1 % at 1 kHz (paper): {op_b['predicted_rate_exact_rad_s']:.3g} rad/s",
+    )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylabel("secular rate [rad/s]")
@@ -169,9 +193,20 @@ def main(argv: list[str] | None = None) -> int:
     f7, data = f7_figure(results, a.out / "F7_design_chart.png")
     table = {name: {k: v for k, v in s.items() if k.startswith("sweep_")} for name, s in results.items()}
     write_json(a.out / "F6_F7.json", {"sweeps": table, "design_chart": data})
-    print(json.dumps(to_jsonable({"F6": str(f6), "F7": str(f7),
-                                  "max_mujoco_vs_exact_rel_diff": {n: s["sweep_mujoco_vs_exact_rel_diff_max"]
-                                                                   for n, s in results.items()}}), indent=2))
+    print(
+        json.dumps(
+            to_jsonable(
+                {
+                    "F6": str(f6),
+                    "F7": str(f7),
+                    "max_mujoco_vs_exact_rel_diff": {
+                        n: s["sweep_mujoco_vs_exact_rel_diff_max"] for n, s in results.items()
+                    },
+                }
+            ),
+            indent=2,
+        )
+    )
     return 0
 
 

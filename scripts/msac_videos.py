@@ -97,8 +97,14 @@ def make_v1(run: Path, out: Path, *, cycles: int, exaggerate: float | None) -> P
     render.pop("extension_exaggeration", None)
     write_json(rdir / "manifest.json", {"render": render, "source_run": str(run)})
     cam = render["camera"]
-    return render_run(rdir, out, fps=float(render.get("fps", 30)), max_frames=int(sel.sum()), camera=cam,
-                      labels=["phase 1 bend (extended) · 2 contract · 3 bend back (contracted) · 4 extend"])
+    return render_run(
+        rdir,
+        out,
+        fps=float(render.get("fps", 30)),
+        max_frames=int(sel.sum()),
+        camera=cam,
+        labels=["phase 1 bend (extended) · 2 contract · 3 bend back (contracted) · 4 extend"],
+    )
 
 
 def make_v2(run: Path, out: Path, *, max_deg_per_frame: float, max_frames: int, fps: float) -> Path:
@@ -124,8 +130,14 @@ def make_v2(run: Path, out: Path, *, max_deg_per_frame: float, max_frames: int, 
     render["overlay"] = ["bus_yaw_rad"]
     render.pop("extension_exaggeration", None)
     write_json(rdir / "manifest.json", {"render": render, "source_run": str(run)})
-    return render_run(rdir, out, fps=fps, max_frames=idx.size, camera=render["camera"],
-                      labels=[f"secular rate (slope of the yaw) {summ['secular_rate_rad_s']:.4g} rad/s"])
+    return render_run(
+        rdir,
+        out,
+        fps=fps,
+        max_frames=idx.size,
+        camera=render["camera"],
+        labels=[f"secular rate (slope of the yaw) {summ['secular_rate_rad_s']:.4g} rad/s"],
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -26,7 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from magsail_mj.analysis.scaling import (
-    ScalingInputs, load_scaling_inputs, rod_mass_fraction, scaling_tables,
+    ScalingInputs,
+    load_scaling_inputs,
+    rod_mass_fraction,
+    scaling_tables,
 )
 from magsail_mj.io import atomic_path, to_jsonable, write_json
 import matplotlib.pyplot as plt
@@ -42,11 +45,23 @@ def figure(path: Path, inputs: ScalingInputs, tables: dict) -> Path:
     ax.axhline(1.0, color="k", lw=1, ls="--", label="λf = 1")
     ax.axhline(0.5, color="0.4", lw=1, ls=":", label="λf = 0.5")
     dd, kd = inputs.design_side_m, inputs.design_kappa_Am2_per_kg
-    ax.plot([dd], [tables["lambda_f_design_required"]], "o", color="tab:red", ms=8,
-            label=f"needed at d = {dd:g} m, κτ = {kd:g}: λf = {tables['lambda_f_design_required']:.3f}")
-    ax.plot([dd], [tables["lambda_f_design"]], "*", color="tab:red", ms=13,
-            label=f"design: {inputs.rod_mass_kg:g} of {inputs.total_kg:g} kg in rods "
-                  f"(λf = {tables['lambda_f_design']:.2f})")
+    ax.plot(
+        [dd],
+        [tables["lambda_f_design_required"]],
+        "o",
+        color="tab:red",
+        ms=8,
+        label=f"needed at d = {dd:g} m, κτ = {kd:g}: λf = {tables['lambda_f_design_required']:.3f}",
+    )
+    ax.plot(
+        [dd],
+        [tables["lambda_f_design"]],
+        "*",
+        color="tab:red",
+        ms=13,
+        label=f"design: {inputs.rod_mass_kg:g} of {inputs.total_kg:g} kg in rods "
+        f"(λf = {tables['lambda_f_design']:.2f})",
+    )
     ax.axvline(dd, color="tab:red", lw=0.6, alpha=0.5)
     ax.set_yscale("log")
     ax.set_xlim(inputs.side_min_m, inputs.side_max_m)
@@ -62,17 +77,27 @@ def figure(path: Path, inputs: ScalingInputs, tables: dict) -> Path:
 
 def table_md(inputs: ScalingInputs, tables: dict) -> str:
     sides = inputs.table_sides_m
-    lines = ["| κτ [A m²/kg] | " + " | ".join(f"λf at d = {d:g} m" for d in sides)
-             + " | d at λf = 1 [m] | d at λf = 0.5 [m] |", "|---" * (len(sides) + 3) + "|"]
+    lines = [
+        "| κτ [A m²/kg] | "
+        + " | ".join(f"λf at d = {d:g} m" for d in sides)
+        + " | d at λf = 1 [m] | d at λf = 0.5 [m] |",
+        "|---" * (len(sides) + 3) + "|",
+    ]
     for k in inputs.kappas_Am2_per_kg:
         key = f"kappa={k:g}"
-        lines.append(f"| {k:g} | " + " | ".join(f"{tables['lambda_f'][key][f'd={d:g}']:.4g}" for d in sides)
-                     + f" | {tables['d_at_lambda_f_1_m'][key]:.4g} | {tables['d_at_lambda_f_0p5_m'][key]:.4g} |")
-    lines += ["", f"§9 truss (d = {inputs.design_side_m:g} m, M = {inputs.total_kg:g} kg, "
-                  f"M_τ = {inputs.rod_mass_kg:g} kg, κτ = {inputs.design_kappa_Am2_per_kg:g} A m²/kg, "
-                  f"{inputs.altitude_km:g} km):",
-              f"B = {tables['B_dipole_T']:.4g} T, T_grav,max = {tables['T_grav_max_Nm']:.4g} N m, "
-              f"T_ac,max = {tables['T_ac_max_Nm']:.4g} N m, margin T_ac/T_grav = {tables['authority_margin']:.3g}"]
+        lines.append(
+            f"| {k:g} | "
+            + " | ".join(f"{tables['lambda_f'][key][f'd={d:g}']:.4g}" for d in sides)
+            + f" | {tables['d_at_lambda_f_1_m'][key]:.4g} | {tables['d_at_lambda_f_0p5_m'][key]:.4g} |"
+        )
+    lines += [
+        "",
+        f"§9 truss (d = {inputs.design_side_m:g} m, M = {inputs.total_kg:g} kg, "
+        f"M_τ = {inputs.rod_mass_kg:g} kg, κτ = {inputs.design_kappa_Am2_per_kg:g} A m²/kg, "
+        f"{inputs.altitude_km:g} km):",
+        f"B = {tables['B_dipole_T']:.4g} T, T_grav,max = {tables['T_grav_max_Nm']:.4g} N m, "
+        f"T_ac,max = {tables['T_ac_max_Nm']:.4g} N m, margin T_ac/T_grav = {tables['authority_margin']:.3g}",
+    ]
     return "\n".join(lines) + "\n"
 
 

@@ -24,7 +24,7 @@ from magsail_mj.config import load_config
 from magsail_mj.control.lloyd import SHIPPED_DIR, LloydSelector
 from magsail_mj.sweep import is_sweep_file
 
-ORBITAL_KINDS = ("detumble", "slew")   # the kinds that allocate torque over Lloyd selections
+ORBITAL_KINDS = ("detumble", "slew")  # the kinds that allocate torque over Lloyd selections
 CONFIGS = Path(__file__).resolve().parent.parent / "magsail_mj" / "concepts" / "truss_magnetorquer" / "configs"
 
 
@@ -37,9 +37,15 @@ def selectors() -> dict[str, tuple[LloydSelector, list[str]]]:
             continue
         rods = build_task(cfg).rods().rods
         c = cfg.control
-        sel = LloydSelector([rods.family_sites(0), rods.family_sites(1)], region=rods.region,
-                            seed=lloyd_seed(c, cfg.sim.seed), tol_rel=c.lloyd.tol_rel, max_iter=c.lloyd.max_iter,
-                            cache_dir=SHIPPED_DIR, shipped_dir=None)
+        sel = LloydSelector(
+            [rods.family_sites(0), rods.family_sites(1)],
+            region=rods.region,
+            seed=lloyd_seed(c, cfg.sim.seed),
+            tol_rel=c.lloyd.tol_rel,
+            max_iter=c.lloyd.max_iter,
+            cache_dir=SHIPPED_DIR,
+            shipped_dir=None,
+        )
         key = f"{sel.cache_key()}/{'/'.join(sel._sites_key)}"
         found.setdefault(key, (sel, []))[1].append(str(path.relative_to(CONFIGS)))
     return found
@@ -54,9 +60,18 @@ def main(argv: list[str] | None = None) -> int:
     for key, (sel, users) in selectors().items():
         t0 = time.perf_counter()
         sel.precompute(workers=args.workers)
-        print(json.dumps({"key": key, "counts": max(sel.n_sites) + 1, "configs": len(users),
-                          "lloyd_runs": sel.stats["lloyd_runs"], "wall_s": round(time.perf_counter() - t0, 1)}),
-              flush=True)
+        print(
+            json.dumps(
+                {
+                    "key": key,
+                    "counts": max(sel.n_sites) + 1,
+                    "configs": len(users),
+                    "lloyd_runs": sel.stats["lloyd_runs"],
+                    "wall_s": round(time.perf_counter() - t0, 1),
+                }
+            ),
+            flush=True,
+        )
     return 0
 
 

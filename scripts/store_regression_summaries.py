@@ -81,8 +81,9 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def differences(expected: dict[str, Any], actual: dict[str, Any], *, rel: float = 1e-9,
-                abs_tol: float = 1e-300) -> list[str]:
+def differences(
+    expected: dict[str, Any], actual: dict[str, Any], *, rel: float = 1e-9, abs_tol: float = 1e-300
+) -> list[str]:
     """Stored keys whose values differ now (floats beyond ``rel`` relative, anything else not
     equal) or that are gone; keys added since the summaries were stored are allowed."""
     out = []

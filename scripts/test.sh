@@ -2,8 +2,8 @@
 # Install, then run the default test suite (slow reproductions are deselected; run them with
 # `.venv/bin/pytest -m slow`), then build the documentation with warnings as errors
 # (scripts/build_docs.sh: about a minute, the example gallery runs), check the built site
-# (scripts/check_docs_site.py: links, and every page in headless Chromium; ~15 s), and lint with
-# ruff (pyproject.toml). pytest's exit code 5
+# (scripts/check_docs_site.py: links, and every page in headless Chromium; ~15 s), and lint and
+# format-check with ruff (pyproject.toml). pytest's exit code 5
 # ("no tests collected") is a failure here; a failed docs build or lint fails the run too.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -18,4 +18,5 @@ if [ -x "${CHROMIUM:-/usr/bin/chromium}" ]; then site_check=(); else
 if ! .venv/bin/python scripts/check_docs_site.py docs/_build/html "${site_check[@]}"; then
   echo "test.sh: the documentation site check failed" >&2; exit 1; fi
 if ! .venv/bin/ruff check .; then echo "test.sh: ruff found problems" >&2; exit 1; fi
+if ! .venv/bin/ruff format --check .; then echo "test.sh: files not in ruff format (run ruff format .)" >&2; exit 1; fi
 exit "$rc"

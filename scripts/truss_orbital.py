@@ -39,21 +39,34 @@ SWEEP = REPO / "models" / "sweeps" / "truss_orbital.toml"
 DEFAULT_IDS = ["detumble", "slew_i", "slew_ii", "slew_iii", "slew_iv"]
 
 DETUMBLE_COLUMNS = [
-    ("t_end_s", "t_end [s]"), ("time_rates_below_1e-3_s", "rates stay < 1e-3 from [s]"),
+    ("t_end_s", "t_end [s]"),
+    ("time_rates_below_1e-3_s", "rates stay < 1e-3 from [s]"),
     ("t_rates_below_threshold_first_s", "first < 1e-3 [s]"),
     ("omega_rms_last_1800s_rad_s", "ω rms last 30 min [rad/s]"),
-    ("surface_sd_max_m", "σ_SD max [m]"), ("t_surface_sd_max_s", "at [s]"),
+    ("surface_sd_max_m", "σ_SD max [m]"),
+    ("t_surface_sd_max_s", "at [s]"),
     ("edge_angle_max_deg", "edge angle max [°]"),
-    ("saturation_fraction", "saturated (either)"), ("sat_fraction_family1", "sat. x1"),
+    ("saturation_fraction", "saturated (either)"),
+    ("sat_fraction_family1", "sat. x1"),
     ("sat_fraction_family2", "sat. y1"),
-    ("strut_strain_max", "max strain"), ("failed", "failed"), ("wall_time_s", "wall [s]"),
+    ("strut_strain_max", "max strain"),
+    ("failed", "failed"),
+    ("wall_time_s", "wall [s]"),
 ]
 SLEW_COLUMNS = [
-    ("t_end_s", "t_end [s]"), ("final_error_deg", "final error [°]"), ("settle_time_s", "stays < 5° from [s]"),
-    ("t_err_below_2deg_stay_s", "stays < 2° from [s]"), ("overshoot_deg", "overshoot [°]"),
-    ("surface_sd_max_m", "σ_SD max [m]"), ("tumbled", "tumbled"), ("int_T_ac_Nms", "∫|T_ac| [N m s]"),
-    ("low_authority_time_s", "low authority [s]"), ("saturation_fraction", "saturated"),
-    ("strut_strain_max", "max strain"), ("failed", "failed"), ("wall_time_s", "wall [s]"),
+    ("t_end_s", "t_end [s]"),
+    ("final_error_deg", "final error [°]"),
+    ("settle_time_s", "stays < 5° from [s]"),
+    ("t_err_below_2deg_stay_s", "stays < 2° from [s]"),
+    ("overshoot_deg", "overshoot [°]"),
+    ("surface_sd_max_m", "σ_SD max [m]"),
+    ("tumbled", "tumbled"),
+    ("int_T_ac_Nms", "∫|T_ac| [N m s]"),
+    ("low_authority_time_s", "low authority [s]"),
+    ("saturation_fraction", "saturated"),
+    ("strut_strain_max", "max strain"),
+    ("failed", "failed"),
+    ("wall_time_s", "wall [s]"),
 ]
 
 
@@ -67,8 +80,9 @@ def select(ids: list[str], sets: list[str]) -> Sweep:
     known = all_ids()
     unknown = [sid for sid in ids if sid not in known]
     if unknown:
-        raise ValueError(f"scenario id {unknown[0]!r}: not a run of {SWEEP.relative_to(REPO)} "
-                         f"(known: {', '.join(known)})")
+        raise ValueError(
+            f"scenario id {unknown[0]!r}: not a run of {SWEEP.relative_to(REPO)} (known: {', '.join(known)})"
+        )
     sweep = load_sweep(SWEEP, extra_overrides=tuple(sets), only=ids)  # ids as substrings: a superset
     runs = tuple(dataclasses.replace(r, selected=r.id in ids) for r in sweep.runs)
     return dataclasses.replace(sweep, runs=runs, only=tuple(ids))
@@ -76,8 +90,9 @@ def select(ids: list[str], sets: list[str]) -> Sweep:
 
 def run_all(sweep: Sweep, out: Path, *, workers: int, video: bool, overwrite: bool) -> dict[str, dict]:
     """Run the selected runs; id → summary (or status and error for a run that did not finish)."""
-    records = run_sweep(sweep, out, workers=workers, video=video, overwrite=overwrite,
-                        log=lambda line: print(line, file=sys.stderr))
+    records = run_sweep(
+        sweep, out, workers=workers, video=video, overwrite=overwrite, log=lambda line: print(line, file=sys.stderr)
+    )
     results = {}
     for rec in records:
         if rec["selected"]:
@@ -105,8 +120,12 @@ def markdown(results: dict[str, dict], sets: list[str]) -> str:
         rows = {k: v for k, v in results.items() if v.get("scenario") == kind}
         if not rows:
             continue
-        lines += [f"## {kind}", "", "| id | status | " + " | ".join(h for _, h in cols) + " |",
-                  "|---|---|" + "---|" * len(cols)]
+        lines += [
+            f"## {kind}",
+            "",
+            "| id | status | " + " | ".join(h for _, h in cols) + " |",
+            "|---|---|" + "---|" * len(cols),
+        ]
         for sid, s in rows.items():
             lines.append(f"| {sid} | {s.get('status', '?')} | " + " | ".join(_fmt(s.get(k)) for k, _ in cols) + " |")
         lines.append("")

@@ -31,22 +31,30 @@ from magsail_mj.concepts.truss_magnetorquer.orbital import first_time_below, sta
 MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "truss_magnetorquer" / "configs"
 
 
-def rigid_slew(config_id: str, *, duration_s: float | None, gravity_gradient: bool,
-               actuation: str = "rods") -> dict:
+def rigid_slew(config_id: str, *, duration_s: float | None, gravity_gradient: bool, actuation: str = "rods") -> dict:
     """Run one slew config rigidly; its summary figures (same definitions as the flexible run)."""
-    sc = magsail_mj.load(MODELS / f"{config_id}.toml").scenario   # the scenario with its rod load wired
+    sc = magsail_mj.load(MODELS / f"{config_id}.toml").scenario  # the scenario with its rod load wired
     cfg = sc.cfg
     if cfg.control.kind != "quat_pd":
         raise SystemExit(f"{config_id}: control.kind is {cfg.control.kind!r}; only slews (quat_pd) run here")
     controller = sc.make_controller()
     duration = float(duration_s if duration_s is not None else cfg.sim.duration_s)
     t0 = time.perf_counter()
-    run = simulate_rigid(controller=controller, rod_load=sc.rod_load, environment=sc.environment,
-                         nodes_body=sc.tm.lattice.nodes, masses=sc.tm.masses,
-                         inertia=particle_inertia(sc.tm.lattice.nodes, sc.tm.masses).tensor,
-                         q0_wxyz=np.asarray(cfg.q0_wxyz), omega0_body=np.asarray(cfg.initial.omega0_rad_s),
-                         q_ref_wxyz=np.asarray(cfg.maneuver.q_ref_wxyz), duration_s=duration,
-                         dt=cfg.sim.timestep_s, gravity_gradient=gravity_gradient, actuation=actuation)
+    run = simulate_rigid(
+        controller=controller,
+        rod_load=sc.rod_load,
+        environment=sc.environment,
+        nodes_body=sc.tm.lattice.nodes,
+        masses=sc.tm.masses,
+        inertia=particle_inertia(sc.tm.lattice.nodes, sc.tm.masses).tensor,
+        q0_wxyz=np.asarray(cfg.q0_wxyz),
+        omega0_body=np.asarray(cfg.initial.omega0_rad_s),
+        q_ref_wxyz=np.asarray(cfg.maneuver.q_ref_wxyz),
+        duration_s=duration,
+        dt=cfg.sim.timestep_s,
+        gravity_gradient=gravity_gradient,
+        actuation=actuation,
+    )
     err = np.radians(run.err_deg)
     w_norm = np.linalg.norm(run.omega, axis=1)
     steps = np.arange(1800.0, run.t[-1] + 1e-9, 1800.0)
@@ -72,18 +80,24 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("ids", nargs="+", help="slew config stems (e.g. slew_iii sensitivity/slew_iv_q_ref_Ry_minus90)")
     ap.add_argument("--duration", type=float, default=None, help="simulated seconds (default: the config's)")
     ap.add_argument("--no-gg", action="store_true", help="drop the gravity-gradient torque")
-    ap.add_argument("--actuation", choices=("rods", "ideal", "ideal_perp_B"), default="rods",
-                    help="rods (the scenario's), ideal (T_ref itself) or ideal_perp_B (T_ref less its part along B)")
+    ap.add_argument(
+        "--actuation",
+        choices=("rods", "ideal", "ideal_perp_B"),
+        default="rods",
+        help="rods (the scenario's), ideal (T_ref itself) or ideal_perp_B (T_ref less its part along B)",
+    )
     ap.add_argument("--out", type=Path, default=None, help="also write the figures as JSON here")
     args = ap.parse_args(argv)
     for config_id in args.ids:
         if not (MODELS / f"{config_id}.toml").exists():
-            print(f"error: ids: no config magsail_mj/concepts/truss_magnetorquer/configs/{config_id}.toml", file=sys.stderr)  # noqa: E501
+            print(
+                f"error: ids: no config magsail_mj/concepts/truss_magnetorquer/configs/{config_id}.toml",
+                file=sys.stderr,
+            )  # noqa: E501
             return 2
     rows = []
     for config_id in args.ids:
-        row = rigid_slew(config_id, duration_s=args.duration, gravity_gradient=not args.no_gg,
-                         actuation=args.actuation)
+        row = rigid_slew(config_id, duration_s=args.duration, gravity_gradient=not args.no_gg, actuation=args.actuation)
         rows.append(row)
         print(json.dumps(row))
     if args.out is not None:

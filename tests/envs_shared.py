@@ -38,8 +38,7 @@ def run_summary(config: str | Path, overrides: list[str]) -> dict[str, Any]:
     return sim.scenario.postprocess(sim.run())[0]
 
 
-def shipped_policy_episode(config: str | Path, overrides: list[str], **options: Any) -> tuple[control.Environment,
-                                                                                              int]:
+def shipped_policy_episode(config: str | Path, overrides: list[str], **options: Any) -> tuple[control.Environment, int]:
     """The environment of ``config`` (a task name or a path; start from the config, no draw) after
     one episode driven by the shipped controller (:func:`magsail_mj.envs.shipped_policy`), and the
     number of steps; the episode must end by its time limit (discount 1, not a failure)."""
@@ -53,9 +52,9 @@ def shipped_policy_episode(config: str | Path, overrides: list[str], **options: 
     return env, steps
 
 
-def assert_shipped_policy_gives_the_run_summary(config: str | Path, overrides: list[str], *,
-                                                reference: str | Path | None = None,
-                                                **options: Any) -> tuple[dict[str, Any], int]:
+def assert_shipped_policy_gives_the_run_summary(
+    config: str | Path, overrides: list[str], *, reference: str | Path | None = None, **options: Any
+) -> tuple[dict[str, Any], int]:
     """Assert that the shipped controller through the environment of ``config`` reproduces the
     summary of the run of ``reference`` (a config path; default ``config``) to 1e-9 relative
     (:func:`magsail_mj.envs.summary_mismatches`); returns that summary and the episode's steps."""
@@ -75,5 +74,6 @@ def fresh_environment(config: str, overrides: tuple[str, ...] = (), **options: A
     """A new Environment around the physics and task of :func:`built_environment` (time limit the
     config's ``sim.duration_s``)."""
     env = built_environment(config, tuple(overrides), **options)
-    return control.Environment(env.physics, env.task, time_limit=env.physics.cfg.sim.duration_s,
-                               control_timestep=env.control_timestep())
+    return control.Environment(
+        env.physics, env.task, time_limit=env.physics.cfg.sim.duration_s, control_timestep=env.control_timestep()
+    )

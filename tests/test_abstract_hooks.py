@@ -34,12 +34,15 @@ def test_the_hooks_are_the_abstract_methods(base: type) -> None:
     assert set(base.__abstractmethods__) == HOOKS[base]
 
 
-@pytest.mark.parametrize(("base", "missing"), [(b, m) for b, hooks in HOOKS.items() for m in sorted(hooks)],
-                         ids=lambda x: x if isinstance(x, str) else x.__name__)
+@pytest.mark.parametrize(
+    ("base", "missing"),
+    [(b, m) for b, hooks in HOOKS.items() for m in sorted(hooks)],
+    ids=lambda x: x if isinstance(x, str) else x.__name__,
+)
 def test_a_subclass_without_a_hook_fails_at_construction_naming_it(base: type, missing: str) -> None:
     cls = _missing_one(base, missing)
     with pytest.raises(TypeError, match=rf"abstract .*\b{missing}\b"):
-        cls(None)   # the check precedes __init__: no argument is looked at
+        cls(None)  # the check precedes __init__: no argument is looked at
 
 
 @pytest.mark.parametrize("base", list(HOOKS), ids=lambda c: c.__name__)

@@ -19,12 +19,22 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from magsail_mj.control.allocation import (
-    TorqueDistributor, allocate, allocate_batch, allocation_mode_difference, rod_torques,
+    TorqueDistributor,
+    allocate,
+    allocate_batch,
+    allocation_mode_difference,
+    rod_torques,
     round_half_away,
 )
 from magsail_mj.control.lloyd import (
-    LloydSelector, covering_radius, initial_generators, lloyd, nn_spacing_cv, snap_to_sites,
-    voronoi_cells, voronoi_centroids,
+    LloydSelector,
+    covering_radius,
+    initial_generators,
+    lloyd,
+    nn_spacing_cv,
+    snap_to_sites,
+    voronoi_cells,
+    voronoi_centroids,
 )
 
 unit = st.floats(-1.0, 1.0, allow_nan=False)
@@ -56,7 +66,7 @@ def test_rod_torques_and_their_dot_product_t2(B):
     np.testing.assert_allclose(t1, M_ROD * np.cross([1, 0, 0], B), rtol=0, atol=1e-18)
     np.testing.assert_allclose(t2, M_ROD * np.cross([0, 1, 0], B), rtol=0, atol=1e-18)
     # §7.2 (corrected middle line of Eq. 10): τ1·τ2 = −m² (x̂1·B)(ŷ1·B).
-    assert t1 @ t2 == pytest.approx(-M_ROD**2 * B[0] * B[1], abs=1e-12 * (M_ROD * B_SCALE) ** 2)
+    assert t1 @ t2 == pytest.approx(-(M_ROD**2) * B[0] * B[1], abs=1e-12 * (M_ROD * B_SCALE) ** 2)
     assert abs(t1 @ B) <= 1e-15 * M_ROD * B_SCALE**2 and abs(t2 @ B) <= 1e-15 * M_ROD * B_SCALE**2
 
 
@@ -64,8 +74,9 @@ def test_rod_torques_and_their_dot_product_t2(B):
 
 
 @settings(max_examples=100, deadline=None)
-@given(B=vec, which=st.sampled_from([0, 1]), T_dir=vec, n=st.floats(0.0, 50.0),
-       mode=st.sampled_from(["paper", "exact"]))
+@given(
+    B=vec, which=st.sampled_from([0, 1]), T_dir=vec, n=st.floats(0.0, 50.0), mode=st.sampled_from(["paper", "exact"])
+)
 def test_unsaturated_error_bound_with_orthogonal_rod_torques(B, which, T_dir, n, mode):
     """T_ref ⟂ B, τ1 ⟂ τ2 (B ⟂ x̂1 or ŷ1), unsaturated: |T − T_ref| ≤ ½(|τ1| + |τ2|)."""
     B = np.array(B, float)
@@ -95,7 +106,7 @@ def test_torque_along_field_gives_nothing(B, c, mode):
 def test_saturation_clips_n1_before_n2():
     B = field([0.3, -0.5, 0.8])
     t1, t2 = rod_torques(B, m_rod_Am2=M_ROD)
-    T_ref = 1000.0 * t1 + 0.3 * t2          # far beyond 380 rods of family 1
+    T_ref = 1000.0 * t1 + 0.3 * t2  # far beyond 380 rods of family 1
     al = allocate(T_ref, B, m_rod_Am2=M_ROD, n_max=380)
     assert al.N1 == 380 and al.clipped1
     # N2 uses the clipped N1 (§7.3): residual projection with N1 = 380, not 1000.
@@ -103,7 +114,7 @@ def test_saturation_clips_n1_before_n2():
     assert al.N2 == max(-380, min(380, int(round_half_away(x2))))
     assert al.x2 == pytest.approx(x2, rel=1e-12)
     neg = allocate(-T_ref, B, m_rod_Am2=M_ROD, n_max=380)
-    assert neg.N1 == -380 and neg.clipped1                     # §12 T3: both signs saturate
+    assert neg.N1 == -380 and neg.clipped1  # §12 T3: both signs saturate
     big = allocate(1e6 * np.cross(B, [1.0, 2.0, 0.5]), B, m_rod_Am2=M_ROD, n_max=(380, 200))
     assert abs(big.N1) <= 380 and abs(big.N2) <= 200
     assert abs(big.N2) == 200 and big.clipped2
@@ -128,7 +139,7 @@ def test_exact_mode_reproduces_in_plane_torques(B, x1, x2):
     t1, t2 = rod_torques(B, m_rod_Am2=M_ROD)
     a, b, c = t1 @ t1, t2 @ t2, t1 @ t2
     tiny = 1e-6 * (M_ROD * B_SCALE) ** 2
-    assume(a > tiny and b > tiny and a * b - c * c >= 1e-6 * a * b * 1.01)   # no fallback
+    assume(a > tiny and b > tiny and a * b - c * c >= 1e-6 * a * b * 1.01)  # no fallback
     T_ref = x1 * t1 + x2 * t2
     al = allocate(T_ref, B, m_rod_Am2=M_ROD, n_max=380, mode="exact")
     assert al.mode == "exact"
@@ -155,7 +166,7 @@ def test_paper_mode_is_one_gauss_seidel_sweep_t5():
 
 
 def test_singular_gram_falls_back_and_tiny_torque_gives_zero():
-    B = field([0.6, -0.8, 0.0])                           # field in the plate plane: τ1 ∥ τ2
+    B = field([0.6, -0.8, 0.0])  # field in the plate plane: τ1 ∥ τ2
     T_ref = np.array([0.0, 0.0, 0.05])
     e = allocate(T_ref, B, m_rod_Am2=M_ROD, n_max=380, mode="exact")
     p = allocate(T_ref, B, m_rod_Am2=M_ROD, n_max=380, mode="paper")
@@ -175,8 +186,8 @@ def test_batch_matches_scalar(seed, mode):
     rng = np.random.default_rng(seed)
     K = 40
     B = rng.normal(size=(K, 3)) * B_SCALE
-    B[::7, 2] = 0.0                                       # in-plane fields (fallback)
-    B[::11, 1:] = 0.0                                     # fields along x̂1 (tiny τ1)
+    B[::7, 2] = 0.0  # in-plane fields (fallback)
+    B[::11, 1:] = 0.0  # fields along x̂1 (tiny τ1)
     T = rng.normal(size=(K, 3)) * 10.0 ** rng.uniform(-4, 1, (K, 1))
     m = (M_ROD, 0.7 * M_ROD)
     bt = allocate_batch(T, B, m_rod_Am2=m, n_max=(380, 300), mode=mode)
@@ -185,8 +196,9 @@ def test_batch_matches_scalar(seed, mode):
         assert (al.N1, al.N2) == (bt.N1[k], bt.N2[k])
         assert (al.mode == "exact_fallback") == bool(bt.fallback[k])
         assert (al.clipped1, al.clipped2) == (bt.clipped1[k], bt.clipped2[k])
-    np.testing.assert_allclose(bt.torque_body[0], allocate(T[0], B[0], m_rod_Am2=m, n_max=(380, 300),
-                                                           mode=mode).torque_body, rtol=1e-15)
+    np.testing.assert_allclose(
+        bt.torque_body[0], allocate(T[0], B[0], m_rod_Am2=m, n_max=(380, 300), mode=mode).torque_body, rtol=1e-15
+    )
     d = allocation_mode_difference(T, B, m_rod_Am2=m, n_max=(380, 300))
     assert d["n_samples"] == K and 0 <= d["fraction_counts_differ"] <= 1
     assert d["fraction_exact_fallback"] >= 6 / K
@@ -292,8 +304,8 @@ def test_selection_determinism_counts_and_extremes(small_selector):
             s = sel.selected(f, count)
             assert s.size == count and len(set(s.tolist())) == count
             assert s.min(initial=0) >= 0 and s.max(initial=0) < n
-    assert sel.selected(0, n).tolist() == list(range(n))   # all sites for N_max
-    assert sel.selected(1, 0).size == 0                    # none for 0
+    assert sel.selected(0, n).tolist() == list(range(n))  # all sites for N_max
+    assert sel.selected(1, 0).size == 0  # none for 0
     again = LloydSelector(sel.sites, region=sel.region, seed=11, tol_rel=1e-4)
     for count in (5, 17):
         np.testing.assert_array_equal(again.selected(0, count), sel.selected(0, count))
@@ -320,7 +332,7 @@ def test_polarity_vector_and_distributor(small_selector):
     assert (al.N1, al.N2) == (3, -7)
     assert pol[:n1].sum() == 3 and pol[n1:].sum() == -7
     assert np.count_nonzero(pol) == 10
-    pol, al = dist(1e3 * (t1 + t2), B)                     # saturated: every rod of both families
+    pol, al = dist(1e3 * (t1 + t2), B)  # saturated: every rod of both families
     assert np.all(pol == 1)
 
 
@@ -344,7 +356,7 @@ def test_disk_cache_and_parallel_precompute(tmp_path, small_selector):
     assert b2.stats["disk_hits"] == 1 and b2.stats["snap_disk_hits"] == 0 and b2.stats["lloyd_runs"] == 0
     c = LloydSelector(sites, region=region, seed=11, tol_rel=1e-5, cache_dir=tmp_path)
     assert c.cache_dir != a.cache_dir
-    assert c.cache_key() != a.cache_key()                  # keyed by tolerance (and seed, region)
+    assert c.cache_key() != a.cache_key()  # keyed by tolerance (and seed, region)
     with pytest.raises(ValueError, match="tol_rel"):
         LloydSelector(sites, region=region, tol_rel=0.0)
     with pytest.raises(ValueError, match="region"):
@@ -375,8 +387,15 @@ def test_allocation_demo_script(tmp_path):
     spec.loader.exec_module(mod)
     assert mod.main(["--out", str(tmp_path), "--tol-rel", "1e-4"]) == 0
     summary = json.loads((tmp_path / "summary.json").read_text())
-    for key in ("n_sites", "n_active", "lloyd_iterations", "lloyd_tol_rel", "lloyd_time_s", "snap_time_s",
-                "nn_spacing_cv"):
+    for key in (
+        "n_sites",
+        "n_active",
+        "lloyd_iterations",
+        "lloyd_tol_rel",
+        "lloyd_time_s",
+        "snap_time_s",
+        "nn_spacing_cv",
+    ):
         assert key in summary
     assert summary["n_sites"] == 100 and summary["n_active"] == 72 and summary["lloyd_tol_rel"] == 1e-4
     assert len(set(summary["chosen_sites"])) == 72

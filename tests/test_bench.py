@@ -20,10 +20,23 @@ CUBESAT = str(ROOT / "magsail_mj/concepts/cnusail/configs/detumble_pre.toml")
 LIFETIME = str(ROOT / "magsail_mj/concepts/cnusail/configs/lifetime.toml")
 MSAC = str(ROOT / "magsail_mj/concepts/msac/configs/slow_1hz.toml")
 
-KEYS = {"us_per_step": float, "mj_step_us": float, "ratio_to_mj_step": float, "parts_us": dict,
-        "steps_per_s": float, "realtime_factor": float, "peak_rss_mb": float, "steps": int,
-        "mj_step_native_us": float, "instrumented_us_per_step": float, "us_per_step_runs": list,
-        "mj_step_us_runs": list, "timestep_s": float, "duration_s": float, "run_setup_s": float}
+KEYS = {
+    "us_per_step": float,
+    "mj_step_us": float,
+    "ratio_to_mj_step": float,
+    "parts_us": dict,
+    "steps_per_s": float,
+    "realtime_factor": float,
+    "peak_rss_mb": float,
+    "steps": int,
+    "mj_step_native_us": float,
+    "instrumented_us_per_step": float,
+    "us_per_step_runs": list,
+    "mj_step_us_runs": list,
+    "timestep_s": float,
+    "duration_s": float,
+    "run_setup_s": float,
+}
 
 # the instrumented pass adds a wrapper call (≈ 0.1–0.3 µs quiet, ≈ 1 µs on a loaded machine) per
 # timed part and call (≈ 10 per cubesat step of ≈ 60–300 µs); on a shared machine passes also
@@ -39,7 +52,7 @@ def cubesat() -> dict:
 def test_keys_and_types(cubesat):
     for key, kind in KEYS.items():
         assert isinstance(cubesat[key], kind), key
-    json.dumps(cubesat, allow_nan=False)   # JSON-able, finite
+    json.dumps(cubesat, allow_nan=False)  # JSON-able, finite
     assert cubesat["steps"] == 100 and cubesat["duration_s"] == pytest.approx(10.0, rel=1e-12)
     assert len(cubesat["us_per_step_runs"]) == len(cubesat["mj_step_us_runs"]) == 3
     assert cubesat["integrator"] == "RK4" and cubesat["timestep_s"] == 0.1
@@ -57,8 +70,17 @@ def test_ratio_and_rates_follow_from_the_medians(cubesat):
 
 def test_parts_of_the_cubesat(cubesat):
     parts = cubesat["parts_us"]
-    assert set(parts) == {"load: cubesat_disturbances", "load: magnetorquer", "controller", "environment",
-                          "kinematics", "probes", "recorder", "mj_step", "loop"}
+    assert set(parts) == {
+        "load: cubesat_disturbances",
+        "load: magnetorquer",
+        "controller",
+        "environment",
+        "kinematics",
+        "probes",
+        "recorder",
+        "mj_step",
+        "loop",
+    }
     assert set(parts) - {"load: cubesat_disturbances", "load: magnetorquer"} <= set(PART_NAMES)
     measured = {k: v for k, v in parts.items() if k != "loop"}
     assert all(v > 0 for v in measured.values())
@@ -78,10 +100,16 @@ def test_msac_runner_has_the_same_report():
     assert sum(out["parts_us"].values()) == pytest.approx(out["instrumented_us_per_step"], rel=1e-9)
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    ({"duration_s": -1.0}, "duration_s"), ({"duration_s": math.nan}, "duration_s"),
-    ({"duration_s": "5"}, "duration_s"), ({"repeat": 0}, "repeat"), ({"repeat": 1.5}, "repeat"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"duration_s": -1.0}, "duration_s"),
+        ({"duration_s": math.nan}, "duration_s"),
+        ({"duration_s": "5"}, "duration_s"),
+        ({"repeat": 0}, "repeat"),
+        ({"repeat": 1.5}, "repeat"),
+    ],
+)
 def test_bad_options_are_named(kwargs, name):
     with pytest.raises(ValueError, match=f"^{name}:"):
         bench(CUBESAT, **kwargs)
@@ -102,15 +130,27 @@ def test_cli_prints_one_json_object(capsys):
     assert out.count("\n") == 1
     obj = json.loads(out)
     assert obj["config"] == CUBESAT and obj["steps"] == 20
-    for key in ("us_per_step", "mj_step_us", "ratio_to_mj_step", "parts_us", "steps_per_s", "realtime_factor",
-                "peak_rss_mb"):
+    for key in (
+        "us_per_step",
+        "mj_step_us",
+        "ratio_to_mj_step",
+        "parts_us",
+        "steps_per_s",
+        "realtime_factor",
+        "peak_rss_mb",
+    ):
         assert key in obj
 
 
-@pytest.mark.parametrize("argv, named", [
-    (["--duration-s", "0"], "--duration-s"), (["--duration-s", "x"], "--duration-s"),
-    (["--repeat", "0"], "--repeat"), (["--set", "sim.timestep_s=-1"], "sim.timestep_s"),
-])
+@pytest.mark.parametrize(
+    "argv, named",
+    [
+        (["--duration-s", "0"], "--duration-s"),
+        (["--duration-s", "x"], "--duration-s"),
+        (["--repeat", "0"], "--repeat"),
+        (["--set", "sim.timestep_s=-1"], "sim.timestep_s"),
+    ],
+)
 def test_cli_errors_name_the_option(capsys, argv, named):
     code = main(["bench", CUBESAT, *argv])
     err = capsys.readouterr()
@@ -129,6 +169,7 @@ def test_cli_missing_config_and_lifetime(capsys):
 def test_cli_exit_status_of_a_run_that_did_not_complete(capsys, monkeypatch, status, code):
     def ends(*args, **kwargs):
         raise BenchRunError(status, "at t = 1 s")
+
     monkeypatch.setattr(cli, "bench", ends)
     assert main(["bench", CUBESAT, "--duration-s", "1"]) == code
     err = capsys.readouterr()

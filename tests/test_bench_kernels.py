@@ -18,7 +18,13 @@ from hypothesis.extra.numpy import arrays
 
 from magsail_mj.concepts.cnusail.disturbances import CubesatDisturbanceLoad, cubesat_drag_facets
 from magsail_mj.concepts.cnusail.eigenaxis import (
-    eigen_angle, eigen_angle_f, error_quaternion, error_quaternion_f, orbital_rate, rate_error, rate_error_f,
+    eigen_angle,
+    eigen_angle_f,
+    error_quaternion,
+    error_quaternion_f,
+    orbital_rate,
+    rate_error,
+    rate_error_f,
 )
 from magsail_mj.concepts.cnusail.modes import Mode, command_frame, command_quaternion
 from magsail_mj.loads.actuators_cubesat import MagnetorquerLoad, WheelDriver
@@ -70,7 +76,7 @@ def test_command_frame_equals_command_quaternion_and_orbital_rate(seed, mode):
     r = rng.normal(size=3) * 7e6
     v = np.cross(rng.normal(size=3), r)
     v *= 7.5e3 / np.linalg.norm(v)
-    v += rng.normal(size=3) * 100.0   # not exactly circular
+    v += rng.normal(size=3) * 100.0  # not exactly circular
     q, w_o = command_frame(int(mode), r, v)
     np.testing.assert_allclose(q, command_quaternion(mode, r, v), rtol=0, atol=2e-15)
     assert math.isclose(w_o, orbital_rate(r, v), rel_tol=1e-14)
@@ -89,8 +95,15 @@ class _Env:
 
 def _state(rng: np.random.Generator, ctrl=None) -> StepState:
     xq = np.array([[1.0, 0, 0, 0], _unit_quat(rng)])
-    return StepState(t=float(rng.uniform()), pos=rng.normal(size=(2, 3)), vel=rng.normal(size=(2, 3)), xquat=xq,
-                     omega=np.zeros((2, 3)), env=_Env(rng), ctrl=ctrl)
+    return StepState(
+        t=float(rng.uniform()),
+        pos=rng.normal(size=(2, 3)),
+        vel=rng.normal(size=(2, 3)),
+        xquat=xq,
+        omega=np.zeros((2, 3)),
+        env=_Env(rng),
+        ctrl=ctrl,
+    )
 
 
 def _numpy_disturbances(load: CubesatDisturbanceLoad, s: StepState) -> np.ndarray:
@@ -115,10 +128,17 @@ def _numpy_disturbances(load: CubesatDisturbanceLoad, s: StepState) -> np.ndarra
 @given(seeds)
 def test_disturbance_kernel_equals_numpy_expressions(seed):
     rng = np.random.default_rng(seed)
-    drag = cubesat_drag_facets(configuration="stowed", surfaces="sail+bus", sail_area_m2=4.0, r_cp_m=(0.01, 0.01, 0.1),
-                               bus_size_m=(0.1, 0.1, 0.3), bus_centroid_m=(0.005, 0.005, -0.02))
-    load = CubesatDisturbanceLoad(1, inertia_kg_m2=[0.0506, 0.0506, 0.010], drag_facets=drag, srp_facets=None,
-                                  residual_dipole_A_m2=[2.887e-4] * 3)
+    drag = cubesat_drag_facets(
+        configuration="stowed",
+        surfaces="sail+bus",
+        sail_area_m2=4.0,
+        r_cp_m=(0.01, 0.01, 0.1),
+        bus_size_m=(0.1, 0.1, 0.3),
+        bus_centroid_m=(0.005, 0.005, -0.02),
+    )
+    load = CubesatDisturbanceLoad(
+        1, inertia_kg_m2=[0.0506, 0.0506, 0.010], drag_facets=drag, srp_facets=None, residual_dipole_A_m2=[2.887e-4] * 3
+    )
     s = _state(rng)
     ref = _numpy_disturbances(load, s)
     T = load.torques_body(s)
@@ -139,6 +159,7 @@ def test_magnetorquer_kernel_equals_numpy(seed, as_list):
 
     class Cmd:
         dipole_body = rng.normal(size=3) * 0.1
+
     if as_list:
         Cmd.dipole_body = Cmd.dipole_body.tolist()
     s = _state(rng, ctrl=Cmd())
@@ -164,6 +185,6 @@ def test_quasi_static_wheel_kernel_equals_vector_form(seed):
     V = np.clip(p.R_ohm * cmd + p.K_b_V_s_rad * w, -p.V_max_V, p.V_max_V)
     i = (V - p.K_b_V_s_rad * w) / p.R_ohm
     ref = drv.limit_speed(p.K_M_N_m_A * i, w)
-    np.testing.assert_array_equal(T, ref)     # same operations elementwise: identical
+    np.testing.assert_array_equal(T, ref)  # same operations elementwise: identical
     np.testing.assert_array_equal(drv.current_A, i)
     np.testing.assert_array_equal(drv.motor_torque(cmd, w.tolist(), 0.1), ref)

@@ -27,12 +27,10 @@ SWEEP = REPO / "magsail_mj/concepts/current_loops/configs/sweep/a_n12_ei1e3.toml
 
 
 @settings(max_examples=40, deadline=None)
-@given(rows=st.integers(0, 60), width=st.integers(1, 7), chunk=st.integers(1, 20),
-       budget_rows=st.integers(1, 30))
+@given(rows=st.integers(0, 60), width=st.integers(1, 7), chunk=st.integers(1, 20), budget_rows=st.integers(1, 30))
 def test_row_blocks_cover_every_row_once_in_order(tmp_path_factory, rows, width, chunk, budget_rows):
     data = np.arange(rows * width, dtype=float).reshape(rows, width)
-    z = zarr.create_array(tmp_path_factory.mktemp("z") / "a.zarr", shape=data.shape, chunks=(chunk, width),
-                          dtype=float)
+    z = zarr.create_array(tmp_path_factory.mktemp("z") / "a.zarr", shape=data.shape, chunks=(chunk, width), dtype=float)
     z[...] = data
     budget = budget_rows * width * 8
     for array in (data, z):
@@ -50,11 +48,10 @@ def test_row_blocks_refuse_bad_arguments():
 
 
 def test_asking_for_a_variable_does_not_read_it(tmp_path):
-    write_group(tmp_path / "s.zarr", {"t": np.arange(5) * 0.1, "qpos": np.arange(5.0)[:, None] * np.ones(4)},
-                n_time=5)
+    write_group(tmp_path / "s.zarr", {"t": np.arange(5) * 0.1, "qpos": np.arange(5.0)[:, None] * np.ones(4)}, n_time=5)
     records = StoreRecords(tmp_path / "s.zarr")
     assert "qpos" in records and "nothing" not in records
-    assert not records._cache                                   # nothing was read
+    assert not records._cache  # nothing was read
     lazy = lazy_record(records, "qpos")
     assert isinstance(lazy, zarr.Array) and not records._cache
     np.testing.assert_array_equal(np.asarray(lazy[...])[:, 0], np.arange(5.0))
@@ -71,7 +68,7 @@ def test_structural_series_over_blocks_equal_the_whole():
     nodes = task.lm.lattice.nodes
     cell = task.cfg.lattice.side_m / task.cfg.lattice.units
     x = nodes[None] + 0.01 * cell * rng.standard_normal((9, *nodes.shape))
-    qpos = (x - task.model.body_pos[1:len(nodes) + 1]).reshape(len(x), -1)   # slide coordinates of free nodes
+    qpos = (x - task.model.body_pos[1 : len(nodes) + 1]).reshape(len(x), -1)  # slide coordinates of free nodes
     np.testing.assert_allclose(task.node_positions(qpos), x, atol=1e-12)
     whole = structural_series(task.lm, x, modes=task.modes)
     assert "modal_amplitude" in whole and np.abs(whole["modal_amplitude"]).max() == pytest.approx(1.0)
@@ -80,14 +77,13 @@ def test_structural_series_over_blocks_equal_the_whole():
         blocked = structural_series(task.lm, trajectory, modes=task.modes)
         assert set(blocked) == set(whole)
         for key, value in whole.items():
-            np.testing.assert_allclose(blocked[key], value, rtol=1e-12, atol=1e-15 * np.abs(value).max(),
-                                       err_msg=key)
+            np.testing.assert_allclose(blocked[key], value, rtol=1e-12, atol=1e-15 * np.abs(value).max(), err_msg=key)
 
 
 def test_trajectory_map_joins_arrays_tuples_named_tuples_and_mappings():
     rng = np.random.default_rng(3)
     x = rng.standard_normal((11, 4, 3))
-    trajectory = NodeTrajectory.of_positions(x, budget_bytes=2 * x[0].nbytes)       # blocks of 2 records
+    trajectory = NodeTrajectory.of_positions(x, budget_bytes=2 * x[0].nbytes)  # blocks of 2 records
     assert len(list(trajectory.blocks())) == 6 and len(trajectory) == 11
     np.testing.assert_array_equal(trajectory.map(lambda b: b.sum(axis=(1, 2))), x.sum(axis=(1, 2)))
     check = trajectory.map(lambda b: structural_failure(b, np.array([[0, 1], [2, 3]]), 1.0))
@@ -143,8 +139,8 @@ def _structure_peak_bytes(task, n_records: int, store) -> int:
     rng = np.random.default_rng(n_records)
     nodes = task.lm.lattice.nodes
     x = nodes[None] + 1e-3 * rng.standard_normal((n_records, *nodes.shape))
-    qpos = (x - task.model.body_pos[1:len(nodes) + 1]).reshape(n_records, -1)
-    recorder = Recorder(["t", "qpos"], chunk_bytes=64 * 1024, min_chunk=1)   # chunks of 8 records, as a run's
+    qpos = (x - task.model.body_pos[1 : len(nodes) + 1]).reshape(n_records, -1)
+    recorder = Recorder(["t", "qpos"], chunk_bytes=64 * 1024, min_chunk=1)  # chunks of 8 records, as a run's
     recorder.create_store(store)
     recorder.extend({"t": np.arange(n_records, dtype=float), "qpos": qpos})
     recorder.flush()
@@ -165,6 +161,6 @@ def test_structural_post_processing_memory_is_flat_in_run_length(tmp_path, monke
     Reading the whole of qpos, as before, would peak at about 4x."""
     monkeypatch.setattr(records_module, "BLOCK_BYTES", 64 * 1024)
     task = build_task(load_config(SWEEP, ["sim.duration_s=1"]))
-    task.modes()                                   # the lattice's modes are built once, outside the measure
+    task.modes()  # the lattice's modes are built once, outside the measure
     short, long = (_structure_peak_bytes(task, n, tmp_path / f"s{n}.zarr") for n in (40, 160))
     assert long < 1.2 * short, (short, long)

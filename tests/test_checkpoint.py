@@ -10,26 +10,41 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from magsail_mj.checkpoint import (
-    CheckpointError, StateWalker, read_arrays, read_checkpoint, restore_state, write_arrays, write_checkpoint,
+    CheckpointError,
+    StateWalker,
+    read_arrays,
+    read_checkpoint,
+    restore_state,
+    write_arrays,
+    write_checkpoint,
 )
 from magsail_mj.estimation.attitude import BestFitRotation
 from magsail_mj.export import read_timeseries
 
-_scalars = st.one_of(st.none(), st.booleans(), st.integers(-10**6, 10**6),
-                     st.floats(allow_nan=False, allow_infinity=False), st.text(max_size=5))
-_keys = st.one_of(st.text(alphabet="ab{}[]<>.\"\\ ", max_size=4), st.integers(-5, 5))
-_arrays = st.builds(lambda shape, seed: np.random.default_rng(seed).normal(size=shape),
-                    st.lists(st.integers(0, 3), min_size=0, max_size=3).map(tuple), st.integers(0, 1000))
+_scalars = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(10**6), 10**6),
+    st.floats(allow_nan=False, allow_infinity=False),
+    st.text(max_size=5),
+)
+_keys = st.one_of(st.text(alphabet='ab{}[]<>."\\ ', max_size=4), st.integers(-5, 5))
+_arrays = st.builds(
+    lambda shape, seed: np.random.default_rng(seed).normal(size=shape),
+    st.lists(st.integers(0, 3), min_size=0, max_size=3).map(tuple),
+    st.integers(0, 1000),
+)
 _leaves = st.one_of(_scalars, _arrays)
-_trees = st.recursive(_leaves, lambda children: st.one_of(
-    st.lists(children, max_size=4),
-    st.dictionaries(_keys, children, max_size=4)), max_leaves=12)
+_trees = st.recursive(
+    _leaves,
+    lambda children: st.one_of(st.lists(children, max_size=4), st.dictionaries(_keys, children, max_size=4)),
+    max_leaves=12,
+)
 
 
 def _equal(a, b) -> bool:
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape \
-            and np.array_equal(a, b)
+        return isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape and np.array_equal(a, b)
     if isinstance(a, (list, tuple)):
         return type(a) is type(b) and len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b))
     if isinstance(a, dict):
@@ -74,11 +89,17 @@ def test_package_objects_and_rng_state_round_trip(tmp_path):
     rng.normal(size=5)
     walker.roots["late"] = BestFitRotation(np.eye(3))  # an object created during the run
     tree, arrays = walker.snapshot()
-    write_checkpoint(tmp_path / "c.npz", {"step": 3}, tree=tree, arrays=arrays,
-                     extra_arrays={"mj_state": np.arange(3.0)})
+    write_checkpoint(
+        tmp_path / "c.npz", {"step": 3}, tree=tree, arrays=arrays, extra_arrays={"mj_state": np.arange(3.0)}
+    )
     header, arrays, extra = read_checkpoint(tmp_path / "c.npz")
-    fresh = StateWalker({"fit": BestFitRotation(np.random.default_rng(1).normal(size=(6, 3))),
-                         "rng": np.random.default_rng(7), "late": None})
+    fresh = StateWalker(
+        {
+            "fit": BestFitRotation(np.random.default_rng(1).normal(size=(6, 3))),
+            "rng": np.random.default_rng(7),
+            "late": None,
+        }
+    )
     restore_state(fresh, header["state_tree"], arrays)
     assert fresh.roots["rng"].normal() == rng.normal()
     assert isinstance(fresh.roots["late"], BestFitRotation)
@@ -123,7 +144,6 @@ def test_restoring_an_early_snapshot_into_live_objects_puts_back_build_values():
     assert walker.roots["rng"].normal() == draw
 
 
-
 def test_cli_stop_then_resume_in_new_processes_is_bitwise(tmp_path):
     """Stop and resume from the command line, each in its own process (a checkpoint must not depend on
     the memory a build happened to get: scratch buffers made with np.empty once refused this resume)."""
@@ -134,8 +154,23 @@ def test_cli_stop_then_resume_in_new_processes_is_bitwise(tmp_path):
 
     def magsail(*args):
         config = str(REPO / "magsail_mj/concepts/cnusail/configs/nadir_pre.toml")
-        return subprocess.run([sys.executable, "-m", "magsail_mj.entry", "run", config, "--set", "sim.duration_s=40",
-                               "--no-progress", *args], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+        return subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "magsail_mj.entry",
+                "run",
+                config,
+                "--set",
+                "sim.duration_s=40",
+                "--no-progress",
+                *args,
+            ],
+            capture_output=True,
+            text=True,
+            cwd=tmp_path,
+            timeout=300,
+        )
 
     assert magsail("--out", str(tmp_path / "full")).returncode == 0
     assert magsail("--out", str(tmp_path / "cut"), "--stop-after-s", "20").returncode == 0

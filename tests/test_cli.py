@@ -43,8 +43,9 @@ def _parsers(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
 
 
 def _module_command(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "magsail_mj", *args], capture_output=True, text=True,
-                          cwd=cwd, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "magsail_mj", *args], capture_output=True, text=True, cwd=cwd, timeout=120
+    )
 
 
 def test_every_argument_of_every_verb_has_help_text():
@@ -98,8 +99,10 @@ def test_usage_error_is_one_error_line(capsys):
     assert len(err.strip().splitlines()) == 1
 
 
-@pytest.mark.parametrize("flags, level", [([], logging.WARNING), (["-v"], logging.INFO),
-                                          (["-vv"], logging.DEBUG), (["-v", "-v", "-v"], logging.DEBUG)])
+@pytest.mark.parametrize(
+    "flags, level",
+    [([], logging.WARNING), (["-v"], logging.INFO), (["-vv"], logging.DEBUG), (["-v", "-v", "-v"], logging.DEBUG)],
+)
 def test_verbosity_sets_the_logger_level(monkeypatch, capsys, flags, level):
     seen = {}
 
@@ -186,13 +189,18 @@ def test_guarantees_page_lists_the_same_exit_statuses():
     table = {int(m) for m in re.findall(r"^\| (\d+) \|", page, flags=re.MULTILINE)}
     assert table == EXIT_STATUSES
     assert "1 when any run of the call failed, was interrupted or stopped, else 3 when any" in page
-    assert ("sweep: non-zero when any run failed, was interrupted or stopped (1), else when any diverged (3)"
-            in EXIT_CODES)
+    assert (
+        "sweep: non-zero when any run failed, was interrupted or stopped (1), else when any diverged (3)" in EXIT_CODES
+    )
 
 
 def test_getting_started_lists_every_verb_of_the_parser():
     page = (ROOT / "docs" / "getting-started.md").read_text()
     listed = set(re.findall(r"^magsail (\w+)\s", page, flags=re.MULTILINE))
-    verbs = {name for action in cli._parser()._actions if isinstance(action, argparse._SubParsersAction)
-             for name in action.choices}
+    verbs = {
+        name
+        for action in cli._parser()._actions
+        if isinstance(action, argparse._SubParsersAction)
+        for name in action.choices
+    }
     assert listed == verbs, f"getting-started lists {sorted(listed)}, the parser has {sorted(verbs)}"

@@ -12,8 +12,18 @@ import numpy as np
 import pytest
 
 from magsail_mj.loads.actuators_cubesat import (
-    MTQ_LIMIT_SETS, RPM, DCMotorParams, MagnetorquerCycle, MagnetorquerLoad, WheelDriver, coil_dipole,
-    mtq_power, rod_demagnetising_factor, rod_dipole, saturate_per_axis, saturate_uniform,
+    MTQ_LIMIT_SETS,
+    RPM,
+    DCMotorParams,
+    MagnetorquerCycle,
+    MagnetorquerLoad,
+    WheelDriver,
+    coil_dipole,
+    mtq_power,
+    rod_demagnetising_factor,
+    rod_dipole,
+    saturate_per_axis,
+    saturate_uniform,
 )
 from magsail_mj.loads.base import StepState
 from magsail_mj.concepts.cnusail.mjcf import CubesatModelParams, build_cubesat_spec, cubesat_indices
@@ -21,12 +31,13 @@ from magsail_mj.concepts.cnusail.mjcf import CubesatModelParams, build_cubesat_s
 
 # ------------------------------------------------------------------ magnetorquers (§4.1)
 
+
 def test_dipole_formulas():
     assert coil_dipole(turns=100, current_A=0.1, area_m2=0.065 * 0.075) == pytest.approx(100 * 0.1 * 0.004875)
     Nd = rod_demagnetising_factor(60 / 4)
     assert Nd == pytest.approx(0.032, abs=0.001)
     bracket = rod_dipole(turns=1, current_A=1, radius_m=1 / math.sqrt(math.pi), mu_r=1e4, N_d=Nd)
-    assert 30 < bracket < 33      # ≈ 32 for any permalloy-like μ_r ≳ 1e3 (spec §4.1)
+    assert 30 < bracket < 33  # ≈ 32 for any permalloy-like μ_r ≳ 1e3 (spec §4.1)
     with pytest.raises(ValueError, match="mu_r"):
         rod_dipole(turns=1, current_A=1, radius_m=0.004, mu_r=0.5, N_d=Nd)
 
@@ -37,7 +48,7 @@ def test_saturation_per_axis_and_uniform():
     np.testing.assert_allclose(saturate_per_axis(m, lim), [0.2, -0.05, -0.1])
     u = saturate_uniform(m, lim)
     assert np.max(np.abs(u) / lim) == pytest.approx(1.0)
-    np.testing.assert_allclose(u / np.linalg.norm(u), m / np.linalg.norm(m))    # direction kept
+    np.testing.assert_allclose(u / np.linalg.norm(u), m / np.linalg.norm(m))  # direction kept
     small = np.array([0.01, 0.0, 0.02])
     np.testing.assert_array_equal(saturate_uniform(small, lim), small)
     np.testing.assert_allclose(mtq_power(lim, lim), 0.5)
@@ -68,8 +79,9 @@ def test_magnetorquer_load_is_m_cross_b_in_world_axes():
     q /= np.linalg.norm(q)
     xq = np.tile([1.0, 0, 0, 0], (2, 1))
     xq[1] = q
-    st = StepState(t=0.0, pos=np.zeros((2, 3)), vel=np.zeros((2, 3)), xquat=xq, omega=np.zeros((2, 3)), env=Env(),
-                   ctrl=Cmd())
+    st = StepState(
+        t=0.0, pos=np.zeros((2, 3)), vel=np.zeros((2, 3)), xquat=xq, omega=np.zeros((2, 3)), env=Env(), ctrl=Cmd()
+    )
     R = np.empty(9)
     mujoco.mju_quat2Mat(R, q)
     R = R.reshape(3, 3)
@@ -84,10 +96,16 @@ def test_magnetorquer_load_is_m_cross_b_in_world_axes():
 
 # ------------------------------------------------------------------ DC motor (§4.2, §13 item 9)
 
+
 def _spin_up(driver: WheelDriver, cmd: np.ndarray, *, dt: float, t_end: float, bus_inertia: float = 1e6):
     """MuJoCo run with a (nearly) fixed bus: returns times and wheel-x speeds."""
-    p = CubesatModelParams(inertia_kg_m2=(bus_inertia,) * 3, timestep_s=dt, markers=False,
-                           wheel_damping_N_m_s=driver.p.K_B_N_m_s, motor_force_limit_N_m=1.0)
+    p = CubesatModelParams(
+        inertia_kg_m2=(bus_inertia,) * 3,
+        timestep_s=dt,
+        markers=False,
+        wheel_damping_N_m_s=driver.p.K_B_N_m_s,
+        motor_force_limit_N_m=1.0,
+    )
     m = build_cubesat_spec(p).compile()
     d = mujoco.MjData(m)
     idx = cubesat_indices(m)
@@ -108,7 +126,7 @@ def test_dc_motor_constant_voltage_steady_state_and_time_constant():
     the steady state after 20 τ, 1 % on the 63 % time (RK4 at 1 ms with the torque held per step)."""
     p = DCMotorParams(i_max_A=100.0)
     drv = WheelDriver(p)
-    cmd = np.array([100.0, 0.0, 0.0])          # i_c large: V_in clips to V_max every step
+    cmd = np.array([100.0, 0.0, 0.0])  # i_c large: V_in clips to V_max every step
     tau = p.mechanical_time_constant()
     assert tau == pytest.approx(4.5e-6 * 10 / (6e-3 * 6e-3 + 1e-8 * 10))
     t, w = _spin_up(drv, cmd, dt=1e-3, t_end=20 * tau)
@@ -128,12 +146,12 @@ def test_dc_motor_constant_voltage_steady_state_and_time_constant():
 def test_current_loop_gives_constant_torque_until_the_voltage_limit():
     p = DCMotorParams()
     drv = WheelDriver(p)
-    i_c = drv.command(np.array([-1e-4, 5e-4, 0.0]), np.zeros(3))   # body torque u → T_c = −u
+    i_c = drv.command(np.array([-1e-4, 5e-4, 0.0]), np.zeros(3))  # body torque u → T_c = −u
     np.testing.assert_allclose(i_c, [1e-4 / p.K_M_N_m_A, -p.current_max_A, 0.0])
-    for w in (0.0, 100.0, 300.0):                                   # R i_c + K_b ω < V_max
+    for w in (0.0, 100.0, 300.0):  # R i_c + K_b ω < V_max
         T = drv.motor_torque(np.array([0.02, 0, 0]), np.array([w, 0, 0]), 0.1)
         assert T[0] == pytest.approx(p.K_M_N_m_A * 0.02, rel=1e-12)
-    w = 800.0                                                       # beyond: voltage-limited
+    w = 800.0  # beyond: voltage-limited
     T = WheelDriver(DCMotorParams(speed_max_rpm=1e5)).motor_torque(np.array([0.03, 0, 0]), np.array([w, 0, 0]), 0.1)
     assert T[0] == pytest.approx(p.K_M_N_m_A * (p.V_max_V - p.K_b_V_s_rad * w) / p.R_ohm, rel=1e-12)
 
@@ -148,8 +166,7 @@ def test_speed_limiter_and_ideal_model():
     assert T[2] < 0
     ideal = WheelDriver(p, model="ideal")
     np.testing.assert_allclose(ideal.command(np.array([1e-3, -1e-5, 0]), np.zeros(3)), [-p.torque_max_N_m, 1e-5, 0])
-    np.testing.assert_allclose(drv.body_torque(np.array([1e-4, 0, 0]), np.array([100.0, 0, 0])),
-                               [-(1e-4 - 1e-6), 0, 0])
+    np.testing.assert_allclose(drv.body_torque(np.array([1e-4, 0, 0]), np.array([100.0, 0, 0])), [-(1e-4 - 1e-6), 0, 0])
     with pytest.raises(ValueError, match="model"):
         WheelDriver(p, model="stepper")
 

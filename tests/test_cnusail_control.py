@@ -13,11 +13,23 @@ from scipy.integrate import solve_ivp
 
 from magsail_mj.control.bdot import BdotFiltered, BdotFiniteDifference, make_bdot
 from magsail_mj.concepts.cnusail.modes import (
-    Mode, ModeLogicParams, ModeManager, command_quaternion, deorbit_command_matrix, nadir_command_matrix,
+    Mode,
+    ModeLogicParams,
+    ModeManager,
+    command_quaternion,
+    deorbit_command_matrix,
+    nadir_command_matrix,
 )
 from magsail_mj.concepts.cnusail.eigenaxis import (
-    attitude_matrix, eigen_angle, eigen_axis_gains, eigen_axis_torque, error_quaternion, paper_error_quaternion,
-    quat_from_paper, quat_to_paper, rate_error,
+    attitude_matrix,
+    eigen_angle,
+    eigen_axis_gains,
+    eigen_axis_torque,
+    error_quaternion,
+    paper_error_quaternion,
+    quat_from_paper,
+    quat_to_paper,
+    rate_error,
 )
 from magsail_mj.quaternion import quat_conj, quat_mul
 from magsail_mj.concepts.cnusail.pd import pd_torque
@@ -36,6 +48,7 @@ def _rand_quat():
 
 # ------------------------------------------------------------------ conventions (§2.2–2.4, §13.1)
 
+
 def test_attitude_matrix_is_xmat_transpose_after_reordering():
     for _ in range(20):
         p = _rand_quat()
@@ -49,12 +62,15 @@ def test_eq37_equals_hamilton_error():
     for _ in range(20):
         pc, pb = _rand_quat(), _rand_quat()
         pe = quat_mul(quat_conj(pc), pb)
-        np.testing.assert_allclose(paper_error_quaternion(quat_to_paper(pc), quat_to_paper(pb)), quat_to_paper(pe),
-                                   atol=1e-14)
+        np.testing.assert_allclose(
+            paper_error_quaternion(quat_to_paper(pc), quat_to_paper(pb)), quat_to_paper(pe), atol=1e-14
+        )
         # A(q_e) = A(q) A(q_c)^T
-        np.testing.assert_allclose(attitude_matrix(quat_to_paper(pe)),
-                                   attitude_matrix(quat_to_paper(pb)) @ attitude_matrix(quat_to_paper(pc)).T,
-                                   atol=1e-13)
+        np.testing.assert_allclose(
+            attitude_matrix(quat_to_paper(pe)),
+            attitude_matrix(quat_to_paper(pb)) @ attitude_matrix(quat_to_paper(pc)).T,
+            atol=1e-13,
+        )
 
 
 def test_kinematics_adot():
@@ -62,8 +78,9 @@ def test_kinematics_adot():
     p = _rand_quat()
     w = np.array([0.02, -0.05, 0.03])
     h = 1e-6
-    step = np.concatenate([[math.cos(np.linalg.norm(w) * h / 2)],
-                           math.sin(np.linalg.norm(w) * h / 2) * w / np.linalg.norm(w)])
+    step = np.concatenate(
+        [[math.cos(np.linalg.norm(w) * h / 2)], math.sin(np.linalg.norm(w) * h / 2) * w / np.linalg.norm(w)]
+    )
     A0 = attitude_matrix(quat_to_paper(p))
     A1 = attitude_matrix(quat_to_paper(quat_mul(p, step)))
     skew = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
@@ -78,10 +95,10 @@ def test_deorbit_command_error_from_nadir_attitude():
     pe = error_quaternion(p_c, p_body)
     np.testing.assert_allclose(quat_to_paper(pe), [0.0, math.sqrt(0.5), 0.0, math.sqrt(0.5)], atol=1e-12)
     M = nadir_command_matrix(r, v)
-    np.testing.assert_allclose(M[:, 2], r / np.linalg.norm(r))          # z_R = zenith
-    assert M[:, 0] @ v < 0                                               # x_R ≈ −v̂
+    np.testing.assert_allclose(M[:, 2], r / np.linalg.norm(r))  # z_R = zenith
+    assert M[:, 0] @ v < 0  # x_R ≈ −v̂
     D = deorbit_command_matrix(r, v)
-    assert D[:, 2] @ v / np.linalg.norm(v) > 0.999                        # sail normal along the flight
+    assert D[:, 2] @ v / np.linalg.norm(v) > 0.999  # sail normal along the flight
 
 
 def test_s3_initial_eigen_angle():
@@ -97,18 +114,19 @@ def test_rate_error_zero_for_body_locked_to_command():
     pe = np.array([1.0, 0, 0, 0])
     np.testing.assert_allclose(rate_error(np.array([0, -w_o, 0]), pe, w_o), 0, atol=1e-18)
     pe = _rand_quat()
-    w = -rate_error(np.zeros(3), pe, w_o)        # ω = A(q_e)[0, −ω_o, 0]
+    w = -rate_error(np.zeros(3), pe, w_o)  # ω = A(q_e)[0, −ω_o, 0]
     np.testing.assert_allclose(w, attitude_matrix(quat_to_paper(pe)) @ [0, -w_o, 0], atol=1e-18)
 
 
 # ------------------------------------------------------------------ gains (§7.2, E-13, E-14)
 
+
 def test_eigen_axis_gains_and_clamp():
     q0 = np.array([0.6460, 0.2876, -0.6460])
     g = eigen_axis_gains(q0, omega_n_rad_s=0.02, zeta=0.9, rate_max_rad_s=0.3 * DEG)
     assert g.k == pytest.approx(2 * 0.02**2) and g.c == pytest.approx(2 * 0.9 * 0.02)
-    np.testing.assert_allclose(g.k_i * g.p_i, g.k)                       # K P = k J
-    np.testing.assert_allclose(np.linalg.norm(g.k_i) / g.c, 0.3 * DEG)    # |k|/c = θ̇_max
+    np.testing.assert_allclose(g.k_i * g.p_i, g.k)  # K P = k J
+    np.testing.assert_allclose(np.linalg.norm(g.k_i) / g.c, 0.3 * DEG)  # |k|/c = θ̇_max
     # deorbit case: components below 0.1 are clamped for the gains only
     g2 = eigen_axis_gains(np.array([0.0, 0.7071, 0.0]), omega_n_rad_s=0.02, zeta=0.9, rate_max_rad_s=0.3 * DEG)
     np.testing.assert_allclose(g2.q_ref, [0.1, 0.7071, 0.1])
@@ -170,8 +188,8 @@ def test_eigen_axis_slew_respects_rate_limit_and_axis():
     wn = np.linalg.norm(w, axis=1)
     assert wn.max() <= 1.02 * 0.3 * DEG
     theta = eigen_angle(q)
-    saturated = np.all(np.abs(g.p_i * q[:, 1:]) >= 1.0, axis=1)   # every sat(P q_e) component at ±1
-    cruise = saturated & (t > 5 / g.c)                              # after the 5/c spin-up transient
+    saturated = np.all(np.abs(g.p_i * q[:, 1:]) >= 1.0, axis=1)  # every sat(P q_e) component at ±1
+    cruise = saturated & (t > 5 / g.c)  # after the 5/c spin-up transient
     assert cruise.sum() > 200
     assert np.all(np.abs(wn[cruise] / (0.3 * DEG) - 1) < 0.02)
     e0 = q0[1:] / np.linalg.norm(q0[1:])
@@ -192,6 +210,7 @@ def test_pd_large_slew_exceeds_rate_limit():
 
 
 # ------------------------------------------------------------------ B-dot (§7.1, §13 item 7)
+
 
 def test_bdot_finite_difference_and_first_sample():
     b = BdotFiniteDifference(gain=5e4, sample_period_s=2.0)
@@ -234,9 +253,15 @@ def test_bdot_is_dissipative_in_a_fixed_field(form):
         y = solve_ivp(rhs, (0, 1.8), np.concatenate([q, w]), rtol=1e-10, atol=1e-14).y[:, -1]
         q, w = y[:4] / np.linalg.norm(y[:4]), y[4:]
         # coils off for the last 0.2 s: torque-free
-        y = solve_ivp(lambda _t, y: np.concatenate([0.5 * quat_mul(y[:4], np.concatenate([[0.0], y[4:]])),
-                                                    -np.cross(y[4:], J * y[4:]) / J]),
-                      (0, 0.2), np.concatenate([q, w]), rtol=1e-11, atol=1e-14).y[:, -1]
+        y = solve_ivp(
+            lambda _t, y: np.concatenate(
+                [0.5 * quat_mul(y[:4], np.concatenate([[0.0], y[4:]])), -np.cross(y[4:], J * y[4:]) / J]
+            ),
+            (0, 0.2),
+            np.concatenate([q, w]),
+            rtol=1e-11,
+            atol=1e-14,
+        ).y[:, -1]
         q, w = y[:4] / np.linalg.norm(y[:4]), y[4:]
     e = np.array(energies)
     assert np.all(np.diff(e) <= 1e-12 * e[0])
@@ -252,6 +277,7 @@ def test_bdot_continuous_torque_dissipates():
 
 
 # ------------------------------------------------------------------ unloading (§7.4, §13 item 7)
+
 
 def test_unloading_torque_is_minus_k_dh_perp():
     for _ in range(20):
@@ -275,12 +301,13 @@ def test_unloading_activation_per_axis_with_hysteresis():
 
 # ------------------------------------------------------------------ modes (§8)
 
+
 def test_mode_manager_chain():
     p = ModeLogicParams(enabled=True, dwell_s=60.0, deorbit_at_s=1000.0)
     mm = ModeManager(p, initial=Mode.NADIR)
     assert mm.update(0.0, 2.0 * DEG) == (Mode.DETUMBLE, True)
     assert mm.update(10.0, 0.2 * DEG) == (Mode.DETUMBLE, False)
-    assert mm.update(50.0, 0.4 * DEG)[0] == Mode.DETUMBLE          # dwell restarts
+    assert mm.update(50.0, 0.4 * DEG)[0] == Mode.DETUMBLE  # dwell restarts
     assert mm.update(60.0, 0.2 * DEG)[0] == Mode.DETUMBLE
     assert mm.update(119.0, 0.2 * DEG)[0] == Mode.DETUMBLE
     assert mm.update(120.0, 0.2 * DEG) == (Mode.NADIR, True)

@@ -60,15 +60,17 @@ KB = 1e-8
 def _reference_rhs(torque):
     """Bus + wheels (spec §2.5, E-2/E-7): H = J ω + J_s ω_M (body), J ω̇ + J_s ω̇_M = −ω × H,
     J_s(ω̇ + ω̇_M)_j = T_j − K_B ω_M,j, q̇ = ½ q ⊗ (0, ω)."""
+
     def rhs(_t, y):
         q, w, wM = y[:4], y[4:7], y[7:10]
         H = J * w + JS * wM
-        net = torque - KB * wM                 # rotor net torque about its axis
+        net = torque - KB * wM  # rotor net torque about its axis
         # (J − J_s) ω̇ = −ω × H − net
         wdot = (-np.cross(w, H) - net) / (J - JS)
         wMdot = net / JS - wdot
         qdot = 0.5 * quat_mul(q, np.concatenate([[0.0], w]))
         return np.concatenate([qdot, wdot, wMdot])
+
     return rhs
 
 

@@ -35,16 +35,22 @@ DEG = math.pi / 180
 
 
 def _tree(**over) -> dict:
-    tree = {"concept": "cnusail", "scenario": "test", "sim": {"duration_s": 60.0, "timestep_s": 0.1, "record_every": 10,
-                                                             "progress": False},
-            "control": {"mode": "eigen_axis"}, "initial": {"q_err0_wxyz": [0.2876, 0.6460, 0.2876, -0.6460]},
-            "field": {"model": "tilted_dipole"}, "analysis": {"disturbance_orbit": False}}
+    tree = {
+        "concept": "cnusail",
+        "scenario": "test",
+        "sim": {"duration_s": 60.0, "timestep_s": 0.1, "record_every": 10, "progress": False},
+        "control": {"mode": "eigen_axis"},
+        "initial": {"q_err0_wxyz": [0.2876, 0.6460, 0.2876, -0.6460]},
+        "field": {"model": "tilted_dipole"},
+        "analysis": {"disturbance_orbit": False},
+    }
     for k, v in over.items():
         tree[k] = v if not isinstance(v, dict) else {**tree.get(k, {}), **v}
     return tree
 
 
 # ------------------------------------------------------------------ disturbances
+
 
 class _Env:
     def __init__(self, rng):
@@ -62,16 +68,29 @@ def test_disturbance_fast_path_equals_project_loads(configuration):
     """Body-axes fast path = GravityGradientTorqueLoad + RigidDragLoad + RigidSRPLoad +
     ResidualDipoleLoad in world axes, to 1e-12 relative, at 50 random states (both sail faces lit)."""
     rng = np.random.default_rng(11)
-    drag = cubesat_drag_facets(configuration=configuration, surfaces="sail+bus", sail_area_m2=4.0,
-                               r_cp_m=(0.01, 0.01, 0.1), bus_size_m=(0.1, 0.1, 0.3), bus_centroid_m=(0.0, 0.0, -0.05))
+    drag = cubesat_drag_facets(
+        configuration=configuration,
+        surfaces="sail+bus",
+        sail_area_m2=4.0,
+        r_cp_m=(0.01, 0.01, 0.1),
+        bus_size_m=(0.1, 0.1, 0.3),
+        bus_centroid_m=(0.0, 0.0, -0.05),
+    )
     srp = cubesat_sail_facets(area_m2=4.0, r_cp_m=(0.01, 0.01, 0.1)) if configuration == "deployed" else None
-    load = CubesatDisturbanceLoad(1, inertia_kg_m2=[0.3104, 0.3121, 0.5757], drag_facets=drag, srp_facets=srp,
-                                  residual_dipole_A_m2=[2.887e-4] * 3)
+    load = CubesatDisturbanceLoad(
+        1, inertia_kg_m2=[0.3104, 0.3121, 0.5757], drag_facets=drag, srp_facets=srp, residual_dipole_A_m2=[2.887e-4] * 3
+    )
     for _ in range(50):
         q = rng.normal(size=4)
         xq = np.array([[1.0, 0, 0, 0], q / np.linalg.norm(q)])
-        st = StepState(t=float(rng.uniform()), pos=np.zeros((2, 3)), vel=np.zeros((2, 3)), xquat=xq,
-                       omega=np.zeros((2, 3)), env=_Env(rng))
+        st = StepState(
+            t=float(rng.uniform()),
+            pos=np.zeros((2, 3)),
+            vel=np.zeros((2, 3)),
+            xquat=xq,
+            omega=np.zeros((2, 3)),
+            env=_Env(rng),
+        )
         T = load.torques_world(st)
         for k, ref in enumerate(load.reference_loads):
             x = np.zeros((2, 6))
@@ -90,11 +109,12 @@ def test_gravity_gradient_vanishes_in_nadir_attitude():
     _, tq = disturbance_orbit_profile(sc, "nadir", n=20)
     _, tq_d = disturbance_orbit_profile(sc, "deorbit", n=20)
     assert np.abs(tq[:, 0]).max() < 1e-18
-    assert np.abs(tq_d[:, 0]).max() < 1e-18     # deorbit: also principal axes on R's axes
-    assert np.abs(tq[:, 1]).max() > 0            # drag acts
+    assert np.abs(tq_d[:, 0]).max() < 1e-18  # deorbit: also principal axes on R's axes
+    assert np.abs(tq[:, 1]).max() > 0  # drag acts
 
 
 # ------------------------------------------------------------------ configs
+
 
 def test_config_validation_messages():
     with pytest.raises(ConfigError, match="control.bogus"):
@@ -110,8 +130,16 @@ def test_config_validation_messages():
 
 
 def test_scenario_configs_load_with_spec_values():
-    ids = ["detumble_pre", "detumble_post", "nadir_pre", "nadir_post", "pd_vs_eigenaxis", "deorbit",
-           "deorbit_recalc", "lifetime"]
+    ids = [
+        "detumble_pre",
+        "detumble_post",
+        "nadir_pre",
+        "nadir_post",
+        "pd_vs_eigenaxis",
+        "deorbit",
+        "deorbit_recalc",
+        "lifetime",
+    ]
     cfgs = {i: load_config(REPO / "magsail_mj" / "concepts" / "cnusail" / "configs" / f"{i}.toml") for i in ids}
     assert cfgs["detumble_pre"].control.bdot_gain_A_m2_s_T == 3e4
     assert cfgs["detumble_post"].initial.omega0_deg_s == (2.0, -7.0, 1.0)
@@ -124,12 +152,19 @@ def test_scenario_configs_load_with_spec_values():
 
 # ------------------------------------------------------------------ runs
 
+
 def test_short_slew_run_end_to_end(tmp_path):
     cfg = parse_config(_tree())
     out = run_scenario(cfg, tmp_path / "run", progress=False)
     assert out.status == "completed"
-    for key in ("detumble_time_s", "slew_time_s", "max_slew_rate_deg_s", "pointing_error_max_deg",
-                "wheel_speed_max_rpm", "unloading_active_fraction"):
+    for key in (
+        "detumble_time_s",
+        "slew_time_s",
+        "max_slew_rate_deg_s",
+        "pointing_error_max_deg",
+        "wheel_speed_max_rpm",
+        "unloading_active_fraction",
+    ):
         assert key in out
     assert out["eigen_angle_initial_deg"] == pytest.approx(146.5, abs=0.1)
     assert 0 < out["max_slew_rate_deg_s"] < 0.4
@@ -143,7 +178,7 @@ def test_short_slew_run_end_to_end(tmp_path):
     # the display markers were filled in: the Sun arrow points at the Sun
     sc = build_scenario(cfg)
     qa = sc.idx.marker_qpos["mk_sun"]
-    z = matrix_from_quat(ts["qpos"][:, qa:qa + 4])[:, :, 2]
+    z = matrix_from_quat(ts["qpos"][:, qa : qa + 4])[:, :, 2]
     sun = sc.environment.sample_many(ts["t"])["sun_eci"]
     np.testing.assert_allclose(np.einsum("ti,ti->t", z, sun), 1.0, atol=1e-9)
 
@@ -151,9 +186,14 @@ def test_short_slew_run_end_to_end(tmp_path):
 def test_detumble_blanking_window_and_bdot_sign():
     """Detumble run recorded every step: the magnetorquer torque is zero in the last 0.2 s of every
     2 s cycle and the rotational energy falls."""
-    cfg = parse_config(_tree(sim={"duration_s": 20.0, "record_every": 1},
-                             control={"mode": "bdot", "bdot_gain_A_m2_s_T": 3e4},
-                             spacecraft={"configuration": "stowed"}, initial={"omega0_deg_s": [6.0, -7.0, 3.0]}))
+    cfg = parse_config(
+        _tree(
+            sim={"duration_s": 20.0, "record_every": 1},
+            control={"mode": "bdot", "bdot_gain_A_m2_s_T": 3e4},
+            spacecraft={"configuration": "stowed"},
+            initial={"omega0_deg_s": [6.0, -7.0, 3.0]},
+        )
+    )
     sc = build_scenario(cfg)
     res = sc.simulation().run()
     t = res.records["t"]
@@ -161,7 +201,7 @@ def test_detumble_blanking_window_and_bdot_sign():
     T = np.linalg.norm(res.records["torque_mtq_body_N_m"], axis=1)
     blank = (k % 20) >= 18
     assert np.all(T[blank] == 0.0)
-    assert np.all(T[(~blank) & (k >= 20)] > 0.0)     # first cycle: no derivative yet
+    assert np.all(T[(~blank) & (k >= 20)] > 0.0)  # first cycle: no derivative yet
     assert np.all(T[k < 20] == 0.0)
     J = np.array(cfg.spacecraft.inertia)
     w = res.records["qvel"][:, sc.idx.v_ang]
@@ -170,6 +210,7 @@ def test_detumble_blanking_window_and_bdot_sign():
 
 
 # ------------------------------------------------------------------ lifetime (§10, §13.11)
+
 
 def test_averaged_decay_matches_circular_closed_form():
     rho = density_model("exp")
@@ -220,6 +261,7 @@ def test_orbit_perigee_apogee_and_the_gain_clamp_are_summary_keys():
     """Perigee and apogee altitudes a(1 ∓ e) − R_E (the paper's 450 × 720 km orbit, within 0.1 km);
     the eigen-axis gain clamp is reported: inactive for the shipped floor 0.1 (the gains use the
     true eigen-angle), active with a floor of 0.9 (every |q_e| component raised to it)."""
+
     def summary(*overrides):
         config = REPO / "magsail_mj/concepts/cnusail/configs/nadir_pre.toml"
         sim = magsail_mj.load(config, ["sim.duration_s=2", *overrides])

@@ -19,20 +19,34 @@ from hypothesis import strategies as st
 
 import magsail_mj
 from magsail_mj.commands import (
-    BodyTorque, JointTargets, LoopCurrents, MagneticDipole, RodPolarities, WheelTorques, WheelVoltages, attach,
+    BodyTorque,
+    JointTargets,
+    LoopCurrents,
+    MagneticDipole,
+    RodPolarities,
+    WheelTorques,
+    WheelVoltages,
+    attach,
 )
 from magsail_mj.control.quaternion_feedback import QuaternionPD
 from magsail_mj.loads.body_torque_actuators import (
-    CoilBodyTorqueActuator, LatticeAttitude, StrutBodyTorqueActuator, WheelBodyTorqueActuator, attitude_sensor,
-    body_torque_actuator, coil_torque,
+    CoilBodyTorqueActuator,
+    LatticeAttitude,
+    StrutBodyTorqueActuator,
+    WheelBodyTorqueActuator,
+    attitude_sensor,
+    body_torque_actuator,
+    coil_torque,
 )
 from magsail_mj.loads.actuators_cubesat import MagnetorquerLoad, WheelDriver
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad
 from magsail_mj.quaternion import quat_mul, quat_to_matrix
 
-TRUSS = ("magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml",
-         ["lattice.units=3", "sim.duration_s=30", "sim.record_every=1", "initial.q0_wxyz=[0.5, 0.5, 0.5, 0.5]"])
+TRUSS = (
+    "magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml",
+    ["lattice.units=3", "sim.duration_s=30", "sim.record_every=1", "initial.q0_wxyz=[0.5, 0.5, 0.5, 0.5]"],
+)
 CUBESAT = ("magsail_mj/concepts/cnusail/configs/nadir_post.toml", ["sim.duration_s=30", "sim.record_every=1"])
 REFLECTOR = ("magsail_mj/concepts/reflector/configs/tracking_10g.toml", ["sim.duration_s=150", "sim.record_every=1"])
 
@@ -55,23 +69,39 @@ def _run(config, *, pd_for) -> tuple[object, QuaternionPD, object, dict[str, np.
 
 def _truss_pd(sim) -> QuaternionPD:
     c = sim.cfg.control
-    return QuaternionPD(sensor=attitude_sensor(sim), q_ref_wxyz=sim.cfg.maneuver.q_ref_wxyz, Pq_Nm=c.Pq_Nm,
-                        Pw_Nms=c.Pw_Nms, period_s=0.2)
+    return QuaternionPD(
+        sensor=attitude_sensor(sim),
+        q_ref_wxyz=sim.cfg.maneuver.q_ref_wxyz,
+        Pq_Nm=c.Pq_Nm,
+        Pw_Nms=c.Pw_Nms,
+        period_s=0.2,
+    )
 
 
 def _cubesat_pd(omega_n: float):
     def make(sim) -> QuaternionPD:
-        return QuaternionPD.from_bandwidth(sensor=attitude_sensor(sim), q_ref_wxyz=(1.0, 0.0, 0.0, 0.0),
-                                           inertia_kgm2=np.diag(sim.scenario.inertia), omega_n_rad_s=omega_n,
-                                           zeta=0.7, period_s=1.0)
+        return QuaternionPD.from_bandwidth(
+            sensor=attitude_sensor(sim),
+            q_ref_wxyz=(1.0, 0.0, 0.0, 0.0),
+            inertia_kgm2=np.diag(sim.scenario.inertia),
+            omega_n_rad_s=omega_n,
+            zeta=0.7,
+            period_s=1.0,
+        )
+
     return make
 
 
 def _reflector_pd(sim) -> QuaternionPD:
     q0 = sim.scenario.initial_state()[0]
-    return QuaternionPD.from_bandwidth(sensor=attitude_sensor(sim), q_ref_wxyz=quat_mul(q0, _rot_x(30.0)),
-                                       inertia_kgm2=sim.scenario.inertia, omega_n_rad_s=1e-3, zeta=0.7,
-                                       period_s=0.5)
+    return QuaternionPD.from_bandwidth(
+        sensor=attitude_sensor(sim),
+        q_ref_wxyz=quat_mul(q0, _rot_x(30.0)),
+        inertia_kgm2=sim.scenario.inertia,
+        omega_n_rad_s=1e-3,
+        zeta=0.7,
+        period_s=0.5,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -122,8 +152,14 @@ def test_truss_pair_forces_have_no_net_force():
     act = body_torque_actuator(sim)
     sim.kin.update(sim.data)
     kin_pos = sim.kin.pos.copy()
-    state = StepState(t=0.0, pos=kin_pos, vel=np.zeros_like(kin_pos), xquat=sim.kin.xquat, omega=sim.kin.omega,
-                      ctrl=BodyTorque(torque_body_Nm=[0.3, -0.2, 0.1]))
+    state = StepState(
+        t=0.0,
+        pos=kin_pos,
+        vel=np.zeros_like(kin_pos),
+        xquat=sim.kin.xquat,
+        omega=sim.kin.omega,
+        ctrl=BodyTorque(torque_body_Nm=[0.3, -0.2, 0.1]),
+    )
     xfrc = np.zeros((sim.model.nbody, 6))
     act.add(state, xfrc)
     assert np.abs(xfrc[:, :3].sum(axis=0)).max() < 1e-12
@@ -147,11 +183,11 @@ def test_cubesat_wheels_deliver_the_request_within_their_limits(cubesat_run):
     p = act.driver.p
     tau, KB = p.torque_max_N_m, p.K_B_N_m_s
     req, dl = rec["torque_request_body_Nm"][1:], rec["torque_delivered_body_Nm"][1:]
-    w = rec["qvel"][:-1][:, act.wheel_qvel]            # rotor speeds at the start of each applied step
+    w = rec["qvel"][:-1][:, act.wheel_qvel]  # rotor speeds at the start of each applied step
     expected, at_limit = _wheel_oracle(req, w, p)
     np.testing.assert_allclose(dl, expected, rtol=0, atol=1e-9 * tau)
     linear = ~at_limit & (np.abs(req - KB * w) < tau)
-    np.testing.assert_allclose(dl[linear], req[linear], rtol=1e-9, atol=1e-9 * tau)   # delivered = request
+    np.testing.assert_allclose(dl[linear], req[linear], rtol=1e-9, atol=1e-9 * tau)  # delivered = request
     assert linear.any() and at_limit.any() and (~at_limit & ~linear).any()
     # MuJoCo applied the motor torques the actuator wrote
     np.testing.assert_array_equal(run.data.actuator_force[act.wheel_act], act.wheel_torque_Nm)
@@ -184,10 +220,17 @@ def test_reflector_coils_deliver_only_the_part_normal_to_B(reflector_run):
 
 def test_reflector_saturates_at_the_coil_cap():
     """With large gains the delivered torque is the ⊥-projection scaled to the cap (``norm``)."""
+
     def strong(sim):
-        return QuaternionPD.from_bandwidth(sensor=attitude_sensor(sim), q_ref_wxyz=(1.0, 0.0, 0.0, 0.0),
-                                           inertia_kgm2=sim.scenario.inertia, omega_n_rad_s=0.05, zeta=0.7,
-                                           period_s=0.5)
+        return QuaternionPD.from_bandwidth(
+            sensor=attitude_sensor(sim),
+            q_ref_wxyz=(1.0, 0.0, 0.0, 0.0),
+            inertia_kgm2=sim.scenario.inertia,
+            omega_n_rad_s=0.05,
+            zeta=0.7,
+            period_s=0.5,
+        )
+
     _, _, act, rec = _run((REFLECTOR[0], ["sim.duration_s=10", "sim.record_every=1"]), pd_for=strong)
     cap = act.limits["cap_N_m"]
     dl, req, B = (rec[k][1:] for k in ("torque_delivered_body_Nm", "torque_request_body_Nm", "B_body_T"))
@@ -240,17 +283,22 @@ _LIMITS = dict(cap_N_m=1.0, B_ref_T=30e-6, m_max_A_m2=np.array([4e4, 3e4, 2e4]))
 
 
 @settings(max_examples=300, deadline=None)
-@given(T=_vec, B=_vec, scale_T=st.floats(1e-6, 10.0), scale_B=st.floats(1e-6, 1e-4),
-       mode=st.sampled_from(["norm", "field_scaled", "per_path"]))
+@given(
+    T=_vec,
+    B=_vec,
+    scale_T=st.floats(1e-6, 10.0),
+    scale_B=st.floats(1e-6, 1e-4),
+    mode=st.sampled_from(["norm", "field_scaled", "per_path"]),
+)
 def test_coil_torque_is_never_along_B_and_is_the_projection_when_unsaturated(T, B, scale_T, scale_B, mode):
     T, B = T * scale_T, B * scale_B
     B2 = float(B @ B)
-    if B2 < 1e-20 * scale_B ** 2:
+    if B2 < 1e-20 * scale_B**2:
         return
     m, delivered, saturated = coil_torque(T, B, saturation=mode, **_LIMITS)
     b = B / math.sqrt(B2)
     scale = max(float(np.linalg.norm(T)), 1e-300)
-    assert abs(float(delivered @ b)) <= 1e-12 * scale            # no component along B, ever
+    assert abs(float(delivered @ b)) <= 1e-12 * scale  # no component along B, ever
     np.testing.assert_allclose(delivered, np.cross(m, B), rtol=0, atol=1e-12 * scale)
     perp = T - b * float(b @ T)
     if not saturated:
@@ -273,17 +321,25 @@ def test_wheel_actuator_delivers_clip_of_request(T, scale, w, w_scale):
     """Ideal and DC-motor wheels: delivered = the request within ±τ_max and the speed limit (no
     voltage limit reached: |ω_M| ≤ 750 rad/s per wheel, K_b ω_M + R_M i_max < V_max; the speed
     limit Ω_max = 733 rad/s is)."""
+
     class Data:
         qvel = np.asarray(w) * w_scale
         ctrl = np.zeros(3)
 
     for model in ("ideal", "dc_motor"):
-        act = WheelBodyTorqueActuator(WheelDriver(model=model), wheel_qvel=[0, 1, 2], wheel_act=[0, 1, 2],
-                                      timestep_s=0.1)
+        act = WheelBodyTorqueActuator(
+            WheelDriver(model=model), wheel_qvel=[0, 1, 2], wheel_act=[0, 1, 2], timestep_s=0.1
+        )
         data = Data()
         act.bind(data)
-        state = StepState(t=0.0, pos=np.zeros((1, 3)), vel=np.zeros((1, 3)), xquat=np.zeros((1, 4)),
-                          omega=np.zeros((1, 3)), ctrl=BodyTorque(torque_body_Nm=T * scale))
+        state = StepState(
+            t=0.0,
+            pos=np.zeros((1, 3)),
+            vel=np.zeros((1, 3)),
+            xquat=np.zeros((1, 4)),
+            omega=np.zeros((1, 3)),
+            ctrl=BodyTorque(torque_body_Nm=T * scale),
+        )
         act.add(state, np.zeros((1, 6)))
         expected, _ = _wheel_oracle(T * scale, data.qvel, act.driver.p)
         np.testing.assert_allclose(act.delivered_body_Nm, expected, rtol=1e-9, atol=1e-18)
@@ -300,8 +356,9 @@ def test_lattice_attitude_rate_of_a_rigid_rotation():
         c, s = math.cos(w * t), math.sin(w * t)
         R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         pos = np.vstack([np.zeros(3), p @ R.T])
-        q, omega = sensor(StepState(t=t, pos=pos, vel=np.zeros_like(pos), xquat=np.zeros((11, 4)),
-                                    omega=np.zeros((11, 3))))
+        q, omega = sensor(
+            StepState(t=t, pos=pos, vel=np.zeros_like(pos), xquat=np.zeros((11, 4)), omega=np.zeros((11, 3)))
+        )
         np.testing.assert_allclose(abs(q[0]), math.cos(w * t / 2), atol=1e-12)
         if k:
             np.testing.assert_allclose(omega, [0.0, 0.0, w], atol=1e-12)
@@ -310,18 +367,21 @@ def test_lattice_attitude_rate_of_a_rigid_rotation():
 # ----------------------------------------------------------------------------- hostile inputs
 
 
-@pytest.mark.parametrize("make, key", [
-    (lambda: BodyTorque(torque_body_Nm=[1.0, 2.0]), "torque_body_Nm"),
-    (lambda: BodyTorque(torque_body_Nm=[1.0, math.nan, 0.0]), "torque_body_Nm"),
-    (lambda: BodyTorque(torque_body_Nm="abc"), "torque_body_Nm"),
-    (lambda: MagneticDipole(dipole_body_Am2=[[1.0, 2.0, 3.0]]), "dipole_body_Am2"),
-    (lambda: RodPolarities(polarity=[1, 2, 0]), "polarity"),
-    (lambda: LoopCurrents(currents_A=[]), "currents_A"),
-    (lambda: WheelTorques(torque_Nm=[math.inf]), "torque_Nm"),
-    (lambda: WheelVoltages(voltage_V=None), "voltage_V"),
-    (lambda: JointTargets(targets=[0.1, 0.2], actuator_ids=[0]), "actuator_ids"),
-    (lambda: JointTargets(targets=[0.1], actuator_ids=[-1]), "actuator_ids"),
-])
+@pytest.mark.parametrize(
+    "make, key",
+    [
+        (lambda: BodyTorque(torque_body_Nm=[1.0, 2.0]), "torque_body_Nm"),
+        (lambda: BodyTorque(torque_body_Nm=[1.0, math.nan, 0.0]), "torque_body_Nm"),
+        (lambda: BodyTorque(torque_body_Nm="abc"), "torque_body_Nm"),
+        (lambda: MagneticDipole(dipole_body_Am2=[[1.0, 2.0, 3.0]]), "dipole_body_Am2"),
+        (lambda: RodPolarities(polarity=[1, 2, 0]), "polarity"),
+        (lambda: LoopCurrents(currents_A=[]), "currents_A"),
+        (lambda: WheelTorques(torque_Nm=[math.inf]), "torque_Nm"),
+        (lambda: WheelVoltages(voltage_V=None), "voltage_V"),
+        (lambda: JointTargets(targets=[0.1, 0.2], actuator_ids=[0]), "actuator_ids"),
+        (lambda: JointTargets(targets=[0.1], actuator_ids=[-1]), "actuator_ids"),
+    ],
+)
 def test_bad_commands_name_the_field(make, key):
     with pytest.raises(ValueError, match=key):
         make()
@@ -350,20 +410,35 @@ def test_hostile_attach_and_factories():
     with pytest.raises(ValueError, match="sim"):
         body_torque_actuator(object())
     with pytest.raises(ValueError, match="q_ref_wxyz"):
-        QuaternionPD(sensor=attitude_sensor(sim), q_ref_wxyz=(0, 0, 0, 0), Pq_Nm=(1, 1, 1), Pw_Nms=(1, 1, 1),
-                     period_s=1.0)
+        QuaternionPD(
+            sensor=attitude_sensor(sim), q_ref_wxyz=(0, 0, 0, 0), Pq_Nm=(1, 1, 1), Pw_Nms=(1, 1, 1), period_s=1.0
+        )
     with pytest.raises(ValueError, match="Pw_Nms"):
-        QuaternionPD(sensor=attitude_sensor(sim), q_ref_wxyz=(1, 0, 0, 0), Pq_Nm=(1, 1, 1), Pw_Nms=(1, -1, 1),
-                     period_s=1.0)
+        QuaternionPD(
+            sensor=attitude_sensor(sim), q_ref_wxyz=(1, 0, 0, 0), Pq_Nm=(1, 1, 1), Pw_Nms=(1, -1, 1), period_s=1.0
+        )
     with pytest.raises(ValueError, match="period_s"):
-        QuaternionPD(sensor=attitude_sensor(sim), q_ref_wxyz=(1, 0, 0, 0), Pq_Nm=(1, 1, 1), Pw_Nms=(1, 1, 1),
-                     period_s=0.0)
+        QuaternionPD(
+            sensor=attitude_sensor(sim), q_ref_wxyz=(1, 0, 0, 0), Pq_Nm=(1, 1, 1), Pw_Nms=(1, 1, 1), period_s=0.0
+        )
     with pytest.raises(ValueError, match="saturation"):
-        CoilBodyTorqueActuator(1, field_body=lambda t, R: np.ones(3), saturation="box", cap_N_m=1.0, B_ref_T=1e-5,
-                               m_max_A_m2=(1.0, 1.0, 1.0))
+        CoilBodyTorqueActuator(
+            1,
+            field_body=lambda t, R: np.ones(3),
+            saturation="box",
+            cap_N_m=1.0,
+            B_ref_T=1e-5,
+            m_max_A_m2=(1.0, 1.0, 1.0),
+        )
     unbound = body_torque_actuator(sim)
-    state = StepState(t=0.0, pos=sim.kin.pos, vel=sim.kin.vel, xquat=sim.kin.xquat, omega=sim.kin.omega,
-                      ctrl=BodyTorque(torque_body_Nm=[0.0, 0.0, 1e-5]))
+    state = StepState(
+        t=0.0,
+        pos=sim.kin.pos,
+        vel=sim.kin.vel,
+        xquat=sim.kin.xquat,
+        omega=sim.kin.omega,
+        ctrl=BodyTorque(torque_body_Nm=[0.0, 0.0, 1e-5]),
+    )
     with pytest.raises(RuntimeError, match="attach"):
         unbound.add(state, np.zeros((sim.model.nbody, 6)))
 
@@ -375,8 +450,7 @@ def test_non_torque_command_is_a_zero_request():
     sim.kin.update(sim.data)
     xfrc = np.zeros((sim.model.nbody, 6))
     for ctrl in (None, MagneticDipole(dipole_body_Am2=[1.0, 0.0, 0.0])):
-        state = StepState(t=0.0, pos=sim.kin.pos, vel=sim.kin.vel, xquat=sim.kin.xquat, omega=sim.kin.omega,
-                          ctrl=ctrl)
+        state = StepState(t=0.0, pos=sim.kin.pos, vel=sim.kin.vel, xquat=sim.kin.xquat, omega=sim.kin.omega, ctrl=ctrl)
         act.add(state, xfrc)
         assert not xfrc.any() and not act.delivered_body_Nm.any()
 
@@ -388,12 +462,20 @@ def test_magnetic_dipole_command_drives_the_cubesat_magnetorquers():
     bus = sim.scenario.idx.bus
     env = sim.environment.sample(0.0)
     m = np.array([0.1, -0.05, 0.02])
-    state = StepState(t=0.0, pos=sim.kin.pos, vel=sim.kin.vel, xquat=sim.kin.xquat, omega=sim.kin.omega, env=env,
-                      ctrl=MagneticDipole(dipole_body_Am2=m))
+    state = StepState(
+        t=0.0,
+        pos=sim.kin.pos,
+        vel=sim.kin.vel,
+        xquat=sim.kin.xquat,
+        omega=sim.kin.omega,
+        env=env,
+        ctrl=MagneticDipole(dipole_body_Am2=m),
+    )
     R = quat_to_matrix(sim.kin.xquat[bus])
     expected = R @ np.cross(m, R.T @ np.asarray(env.B_eci))
-    np.testing.assert_allclose(MagnetorquerLoad(bus).torque_world(state), expected, rtol=1e-12,
-                               atol=1e-12 * np.abs(expected).max())
+    np.testing.assert_allclose(
+        MagnetorquerLoad(bus).torque_world(state), expected, rtol=1e-12, atol=1e-12 * np.abs(expected).max()
+    )
     assert np.abs(expected).max() > 0
 
 
@@ -405,8 +487,15 @@ def test_rod_polarities_command_drives_the_truss_rods():
     pol = np.resize(np.array([1, -1, 0], dtype=np.int8), rod.n_rods)
     out = []
     for ctrl in (RodPolarities(polarity=pol), {"polarity": pol.copy()}):
-        state = StepState(t=0.0, pos=sim.kin.pos, vel=sim.kin.vel, xquat=sim.kin.xquat, omega=sim.kin.omega,
-                          env=sim.environment.sample(0.0), ctrl=ctrl)
+        state = StepState(
+            t=0.0,
+            pos=sim.kin.pos,
+            vel=sim.kin.vel,
+            xquat=sim.kin.xquat,
+            omega=sim.kin.omega,
+            env=sim.environment.sample(0.0),
+            ctrl=ctrl,
+        )
         xfrc = np.zeros((sim.model.nbody, 6))
         rod.add(state, xfrc)
         out.append(xfrc)

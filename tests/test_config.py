@@ -74,8 +74,9 @@ def test_unknown_concept(small_truss_tree):
 
 
 def test_overrides_are_typed_and_validated(small_truss_tree):
-    tree = apply_overrides(small_truss_tree, ["sim.duration_s=60", "actuators.placement=central",
-                                              "initial.omega0_rad_s=[0.01, 0.0, 0.0]"])
+    tree = apply_overrides(
+        small_truss_tree, ["sim.duration_s=60", "actuators.placement=central", "initial.omega0_rad_s=[0.01, 0.0, 0.0]"]
+    )
     cfg = parse_config(tree)
     assert cfg.sim.duration_s == 60.0
     assert cfg.actuators.placement == "central"
@@ -109,15 +110,18 @@ def test_hash_changes_with_content(small_truss_tree):
 TRUSS = REPO / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml"
 
 
-@pytest.mark.parametrize("override, key", [
-    ('sim.duration_s="2"', "sim.duration_s"),
-    ("sim.duration_s=true", "sim.duration_s"),
-    ('sim.progress="no"', "sim.progress"),
-    ("sim.progress=1", "sim.progress"),
-    ("lattice.units=3.0", "lattice.units"),
-    ("lattice.units=true", "lattice.units"),
-    ('initial.omega0_rad_s=[0.01, "0", 0.0]', r"initial.omega0_rad_s\[1\]"),
-])
+@pytest.mark.parametrize(
+    "override, key",
+    [
+        ('sim.duration_s="2"', "sim.duration_s"),
+        ("sim.duration_s=true", "sim.duration_s"),
+        ('sim.progress="no"', "sim.progress"),
+        ("sim.progress=1", "sim.progress"),
+        ("lattice.units=3.0", "lattice.units"),
+        ("lattice.units=true", "lattice.units"),
+        ('initial.omega0_rad_s=[0.01, "0", 0.0]', r"initial.omega0_rad_s\[1\]"),
+    ],
+)
 def test_types_are_strict(override, key):
     with pytest.raises(ConfigError, match=key):
         load_config(TRUSS, [override])
@@ -148,21 +152,40 @@ def test_time_step_bounds_and_checkpoint_period():
         load_config(TRUSS, ["sim.duration_s=1e300"])
 
 
-@pytest.mark.parametrize("path, override, key", [
-    ("magsail_mj/concepts/reflector/configs/detumble.toml", "plate.side_m=inf", "plate.side_m"),
-    ("magsail_mj/concepts/reflector/configs/detumble.toml", "plate.side_m=1e300", "plate.side_m"),
-    ("magsail_mj/concepts/reflector/configs/detumble.toml", "plate.cell_m=1e-300", "plate.side_m"),
-    ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "actuators.mtq.cycle_s=inf", "actuators.mtq.cycle_s"),
-    ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "actuators.mtq.cycle_s=1e-300", "actuators.mtq.cycle_s"),
-    ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "spacecraft.mass_kg=1e-300", "spacecraft.mass_kg"),
-    ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "actuators.wheels.rotor_inertia_kg_m2=1e300", "rotor_inertia_kg_m2"),  # noqa: E501
-    ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", "mass.total_kg=1e-300", "mass.total_kg"),
-    ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", "lattice.side_m=1e300", "lattice.side_m"),
-    ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", "orbit.altitude_km=1e300", "orbit.altitude_km"),
-    ("magsail_mj/concepts/current_loops/configs/slew.toml", "mass.areal_density_kg_m2=1e-300", "mass.areal_density_kg_m2"),  # noqa: E501
-    ("magsail_mj/concepts/msac/configs/paper_1khz.toml", "wings.length_m=1e-300", "wings.length_m"),
-    ("magsail_mj/concepts/msac/configs/paper_1khz.toml", "bus.size_m=[1e300, 2.0, 3.0]", "bus.size_m"),
-])
+@pytest.mark.parametrize(
+    "path, override, key",
+    [
+        ("magsail_mj/concepts/reflector/configs/detumble.toml", "plate.side_m=inf", "plate.side_m"),
+        ("magsail_mj/concepts/reflector/configs/detumble.toml", "plate.side_m=1e300", "plate.side_m"),
+        ("magsail_mj/concepts/reflector/configs/detumble.toml", "plate.cell_m=1e-300", "plate.side_m"),
+        ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "actuators.mtq.cycle_s=inf", "actuators.mtq.cycle_s"),
+        (
+            "magsail_mj/concepts/cnusail/configs/detumble_pre.toml",
+            "actuators.mtq.cycle_s=1e-300",
+            "actuators.mtq.cycle_s",
+        ),
+        ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "spacecraft.mass_kg=1e-300", "spacecraft.mass_kg"),
+        (
+            "magsail_mj/concepts/cnusail/configs/detumble_pre.toml",
+            "actuators.wheels.rotor_inertia_kg_m2=1e300",
+            "rotor_inertia_kg_m2",
+        ),  # noqa: E501
+        ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", "mass.total_kg=1e-300", "mass.total_kg"),
+        ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", "lattice.side_m=1e300", "lattice.side_m"),
+        (
+            "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
+            "orbit.altitude_km=1e300",
+            "orbit.altitude_km",
+        ),
+        (
+            "magsail_mj/concepts/current_loops/configs/slew.toml",
+            "mass.areal_density_kg_m2=1e-300",
+            "mass.areal_density_kg_m2",
+        ),  # noqa: E501
+        ("magsail_mj/concepts/msac/configs/paper_1khz.toml", "wings.length_m=1e-300", "wings.length_m"),
+        ("magsail_mj/concepts/msac/configs/paper_1khz.toml", "bus.size_m=[1e300, 2.0, 3.0]", "bus.size_m"),
+    ],
+)
 def test_extreme_magnitudes_are_config_errors_naming_the_key(path, override, key):
     """Overflow or values MuJoCo cannot take (mass below mjMINVAL) are refused at validation."""
     with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
@@ -224,8 +247,16 @@ def test_folder_binary_non_utf8_and_unreadable_configs(tmp_path, monkeypatch):
 
 def test_numbers_hash_ignores_presentation_keys_only():
     base = load_config(TRUSS)
-    same = load_config(TRUSS, ["sim.progress=false", "sim.duration_s=18000", "sim.checkpoint_every_s=600",
-                               "render.fps=12", "render.exaggeration=3.0"])
+    same = load_config(
+        TRUSS,
+        [
+            "sim.progress=false",
+            "sim.duration_s=18000",
+            "sim.checkpoint_every_s=600",
+            "render.fps=12",
+            "render.exaggeration=3.0",
+        ],
+    )
     assert numbers_hash(same) == numbers_hash(base)
     assert config_hash(same) != config_hash(base)
     for change in ["control.k_bdot_Nms_per_T2=2e12", "sim.timestep_s=0.05", "sim.seed=3", "mass.total_kg=201.0"]:

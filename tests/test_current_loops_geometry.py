@@ -14,18 +14,36 @@ import numpy as np
 import pytest
 
 from magsail_mj.geometry.current_loops import (
-    CIRCUIT_NAMES, SECTION5_SET, Circuit, circuit, circuit_from_path, circuits, expand_names,
+    CIRCUIT_NAMES,
+    SECTION5_SET,
+    Circuit,
+    circuit,
+    circuit_from_path,
+    circuits,
+    expand_names,
 )
 from magsail_mj.lattice.geometry import STRUT_KINDS, make_lattice
 
 # spec §2.7, realised lattice values: N -> {name: (vector area [D²], wire length [D])}
 TABLE = {
-    12: {"A": ((0, 0, 1), 4.0), "B": ((0, 0, 2.5278), 14.000), "C_x": ((1.0833, 0, 0), 28.167),
-         "D_x": ((0.8333, 0.0417, 0), 24.667)},
-    19: {"A": ((0, 0, 1), 4.0), "B": ((0, 0, 3.6842), 21.053), "C_x": ((1.0526, 0, 0), 42.105),
-         "D_x": ((0.7895, 0.0277, 0), 34.632)},
-    27: {"A": ((0, 0, 1), 4.0), "B": ((0, 0, 5.0123), 29.037), "C_x": ((1.0370, 0, 0), 58.074),
-         "D_x": ((0.7778, 0.0192, 0), 46.593)},
+    12: {
+        "A": ((0, 0, 1), 4.0),
+        "B": ((0, 0, 2.5278), 14.000),
+        "C_x": ((1.0833, 0, 0), 28.167),
+        "D_x": ((0.8333, 0.0417, 0), 24.667),
+    },
+    19: {
+        "A": ((0, 0, 1), 4.0),
+        "B": ((0, 0, 3.6842), 21.053),
+        "C_x": ((1.0526, 0, 0), 42.105),
+        "D_x": ((0.7895, 0.0277, 0), 34.632),
+    },
+    27: {
+        "A": ((0, 0, 1), 4.0),
+        "B": ((0, 0, 5.0123), 29.037),
+        "C_x": ((1.0370, 0, 0), 58.074),
+        "D_x": ((0.7778, 0.0192, 0), 46.593),
+    },
 }
 MIRROR = {"C_x": "C_y", "D_x": "D_y"}
 SIDES = (12, 19, 27)
@@ -76,8 +94,8 @@ def test_closed_forms(lattice_and_loops):
     top_steps = sum(1 for k in range(n) if (3 * (k + 1)) % 4 in (2, 3))
     a = loops["D_x"].vector_area(lat.nodes)
     np.testing.assert_allclose(a, [turns * D * w, top_steps * w**2, 0.0], rtol=0, atol=1e-12 * D**2)
-    assert abs(a[1] - D**2 / (2 * n)) < 0.6 * w**2            # "about D²/(2N)"
-    if (n + 1) % 4 == 0:                                      # Table-1 turn count for N = 19, 27
+    assert abs(a[1] - D**2 / (2 * n)) < 0.6 * w**2  # "about D²/(2N)"
+    if (n + 1) % 4 == 0:  # Table-1 turn count for N = 19, 27
         assert turns == pytest.approx(0.75 * (n + 1))
     # Table-1 path length (helix only, no return) is the wire minus the return leg
     # (2 ⌈N/2⌉ + N) w: equal for N = 19, 27 and ~2 % more for N = 12 (spec §2.5)
@@ -123,8 +141,8 @@ def test_segments_on_axis_aligned_struts(lattice_and_loops):
         d = np.linalg.norm(lat.nodes[c.dst] - lat.nodes[c.src], axis=1)
         np.testing.assert_allclose(d, w, rtol=1e-12)
         sw = Circuit.strut_index(
-            Circuit(c.name, c.axis, c.wire_src, c.wire_dst, c.wire_count, c.wire_src, c.wire_dst,
-                    c.wire_count), lat)
+            Circuit(c.name, c.axis, c.wire_src, c.wire_dst, c.wire_count, c.wire_src, c.wire_dst, c.wire_count), lat
+        )
         assert np.isin(lat.kind[sw], allowed).all()
 
 
@@ -139,9 +157,9 @@ def test_geometry_details_n12():
         k = min(i, j, 12 - i, 12 - j)
         rings.setdefault(k, set()).add(l)
     assert rings == {k: {1 if k % 2 == 0 else 0} for k in range(6)}
-    assert np.all(ijk[B.src, 2] == ijk[B.dst, 2])        # no verticals in B
+    assert np.all(ijk[B.src, 2] == ijk[B.dst, 2])  # no verticals in B
     D = circuit(lat, "D_x")
-    assert D.mult.max() == 2                               # return doubles plane N's bottom side
+    assert D.mult.max() == 2  # return doubles plane N's bottom side
     assert D.length(lat.nodes) - D.net_length(lat.nodes) == pytest.approx(2 * 6 / 12)  # j_c = 6 cancelled
 
 

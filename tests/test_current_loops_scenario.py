@@ -12,7 +12,9 @@ from hypothesis import given, settings, strategies as st
 from magsail_mj.concepts.current_loops.rigid_reference import pendulum_period, rigid_dipole_attitude
 from magsail_mj.config import ConfigError, load_config
 from magsail_mj.concepts.current_loops.attitude import (
-    LoopAttitudeController, allocate_currents, rigid_velocity_fit,
+    LoopAttitudeController,
+    allocate_currents,
+    rigid_velocity_fit,
 )
 from magsail_mj.quaternion import quat_mul
 from magsail_mj.estimation.attitude import matrix_from_quat, so3_exp
@@ -74,9 +76,17 @@ def test_allocation_clip_and_direction_preserving():
 
 def _controller(**kw):
     p = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-0.1, 0.1)]) * 10.0
-    args = dict(period_s=0.05, p_ref=p, masses=np.ones(len(p)), node_bodies=np.arange(len(p)),
-                q_target=np.array([1.0, 0, 0, 0]), kp_N_m=600.0, kw_N_m_s=4e5, m_max_A_m2=1e6,
-                I_max_A=np.array([10.0, 10.0, 10.0]))
+    args = dict(
+        period_s=0.05,
+        p_ref=p,
+        masses=np.ones(len(p)),
+        node_bodies=np.arange(len(p)),
+        q_target=np.array([1.0, 0, 0, 0]),
+        kp_N_m=600.0,
+        kw_N_m_s=4e5,
+        m_max_A_m2=1e6,
+        I_max_A=np.array([10.0, 10.0, 10.0]),
+    )
     args.update(kw)
     return LoopAttitudeController(**args)
 
@@ -127,7 +137,7 @@ def test_sweep_config_rejects_orbit_and_names_the_key():
 
 def test_every_current_loops_config_loads():
     configs = [p for p in MODELS.rglob("*.toml") if p.name != "sweep36.toml"]
-    assert len(configs) == 36 + 2 + 2 + 3      # sweep, slews, mirror sweep, paper-literal variants
+    assert len(configs) == 36 + 2 + 2 + 3  # sweep, slews, mirror sweep, paper-literal variants
     for p in configs:
         load_config(p)
 
@@ -153,8 +163,7 @@ def test_sweep_run_energy_balance_and_rigid_reference(tmp_path):
     assert out["classification"] == "rigid_like"
     assert out["dipole_realised_A_m2"] > 0 and out["self_field_max_T"] < 1e-5
     assert (out.run_dir / STORE_NAME).is_dir()
-    for name in ("summary.json", "manifest.json", "strain_energy.png",
-                 "snapshot_max_strain.png", "rotation.png"):
+    for name in ("summary.json", "manifest.json", "strain_energy.png", "snapshot_max_strain.png", "rotation.png"):
         assert (out.run_dir / name).exists()
 
 
@@ -168,8 +177,12 @@ def test_mirror_symmetry_c_loops(tmp_path):
     """Spec §8.7: C_x with B ∥ +y mirrors C_y with B ∥ +x (the parity lattice is symmetric under x ↔ y)."""
     a = _run(tmp_path, "cy", [], config="sweep/cy_n12_ei1e3.toml")
     # the mirror config with the same stiffness and step as the C_y run
-    b = _run(tmp_path, "cx", ["stiffness.EI_N_m2=1e3", "sim.timestep_s=0.1", "lattice.units=4"],
-             config="sweep_mirror/cx_n19_ei1e4.toml")
+    b = _run(
+        tmp_path,
+        "cx",
+        ["stiffness.EI_N_m2=1e3", "sim.timestep_s=0.1", "lattice.units=4"],
+        config="sweep_mirror/cx_n19_ei1e4.toml",
+    )
     for key in ("strain_energy_max_J", "rotation_angle_max_rad", "rigid_fit_residual_max_m"):
         # exact mirror up to the float32 rounding of the stored Caughey matrix (measured 5e-9)
         assert math.isclose(a[key], b[key], rel_tol=1e-6), key

@@ -51,7 +51,7 @@ def _dense_K(nodes: np.ndarray) -> np.ndarray:
         c = c / np.linalg.norm(c)
         blk = k * np.outer(c, c)
         for a, b, s in ((i, i, 1), (j, j, 1), (i, j, -1), (j, i, -1)):
-            K[3 * a:3 * a + 3, 3 * b:3 * b + 3] += s * blk
+            K[3 * a : 3 * a + 3, 3 * b : 3 * b + 3] += s * blk
     return K
 
 
@@ -101,9 +101,12 @@ def test_sparse_K_equals_the_strut_by_strut_assembly_and_has_six_rigid_modes():
 
 
 @settings(max_examples=40, deadline=None)
-@given(rotvec=st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3),
-       shift=st.lists(st.floats(-50.0, 50.0), min_size=3, max_size=3),
-       strain=st.floats(0.0, 0.05), seed=st.integers(0, 2**16))
+@given(
+    rotvec=st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3),
+    shift=st.lists(st.floats(-50.0, 50.0), min_size=3, max_size=3),
+    strain=st.floats(0.0, 0.05),
+    seed=st.integers(0, 2**16),
+)
 def test_paper_literal_force_is_minus_K_r_minus_R_r0_on_random_states(rotvec, shift, strain, seed):
     """F = −K (r − R_θ r₀) with K and R_θ computed independently, on random rotated, shifted,
     deformed states; agreement to 1e-9 of the force scale."""
@@ -182,8 +185,8 @@ def test_after_a_rotation_the_printed_form_departs_from_the_springs_at_first_ord
     u = _elastic(3, 1.0)
     eps = 1e-5
     pos = (LAT.nodes + eps * u) @ R.T
-    co = -(K_DENSE @ u.ravel()).reshape(-1, 3) @ R.T * eps                 # −ε R̃ K u
-    lit = -(K_DENSE @ (u @ R.T).ravel()).reshape(-1, 3) * eps              # −ε K R̃ u
+    co = -(K_DENSE @ u.ravel()).reshape(-1, 3) @ R.T * eps  # −ε R̃ K u
+    lit = -(K_DENSE @ (u @ R.T).ravel()).reshape(-1, 3) * eps  # −ε K R̃ u
     tol = 1e-3 * np.abs(co).max()
     np.testing.assert_allclose(_tendon_forces(pos), co, rtol=0, atol=tol)
     np.testing.assert_allclose(_load("corotational").forces(pos), co, rtol=0, atol=tol)
@@ -225,14 +228,21 @@ def test_linear_forms_switch_the_tendon_springs_off():
         model = make_loops_model(cfg).spec.compile()
         assert isinstance(model, mujoco.MjModel)
         k = model.tendon_stiffness
-        assert (np.all(k > 0) if on else np.all(k == 0)), form
+        assert np.all(k > 0) if on else np.all(k == 0), form
 
 
 def test_paper_literal_run_closes_the_energy_balance_with_the_stiffness_work(tmp_path):
     """Lorentz work = kinetic energy − stiffness work − damping work (held forces: exact)."""
-    cfg = load_config(MODELS / "sweep" / "b_n12_ei1e3.toml",
-                      ["lattice.units=3", "sim.duration_s=20.0", "sim.record_every=10", "sim.progress=false",
-                       'stiffness.form="paper_literal"'])
+    cfg = load_config(
+        MODELS / "sweep" / "b_n12_ei1e3.toml",
+        [
+            "lattice.units=3",
+            "sim.duration_s=20.0",
+            "sim.record_every=10",
+            "sim.progress=false",
+            'stiffness.form="paper_literal"',
+        ],
+    )
     out = run_scenario(cfg, tmp_path / "lit", progress=False)
     assert out.status == "completed"
     assert out["energy_balance_rel_err"] < 1e-9
@@ -243,10 +253,18 @@ def test_paper_literal_run_closes_the_energy_balance_with_the_stiffness_work(tmp
 
 
 def _controller(estimator: str, dt: float) -> LoopAttitudeController:
-    return LoopAttitudeController(period_s=dt, p_ref=LAT.nodes, masses=np.ones(LAT.n_nodes),
-                                  node_bodies=np.arange(LAT.n_nodes) + 1, q_target=np.array([1.0, 0, 0, 0]),
-                                  kp_N_m=1.0, kw_N_m_s=1.0, m_max_A_m2=1.0, I_max_A=np.ones(3),
-                                  rate_estimator=estimator)
+    return LoopAttitudeController(
+        period_s=dt,
+        p_ref=LAT.nodes,
+        masses=np.ones(LAT.n_nodes),
+        node_bodies=np.arange(LAT.n_nodes) + 1,
+        q_target=np.array([1.0, 0, 0, 0]),
+        kp_N_m=1.0,
+        kw_N_m_s=1.0,
+        m_max_A_m2=1.0,
+        I_max_A=np.ones(3),
+        rate_estimator=estimator,
+    )
 
 
 def _pose(R: np.ndarray, omega_body: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -303,11 +321,20 @@ def test_slew_controller_takes_the_configured_rate_estimator():
 def test_finite_difference_slew_resumes_from_a_state_exactly():
     """The estimator's memory (previous attitude and time) is part of the run state: continuing
     from a saved state repeats the same steps bit for bit (slew on a 3-unit plate, fixed field)."""
-    sim = magsail_mj.load(MODELS / "slew.toml", ["lattice.units=3", "sim.duration_s=3.0", "sim.progress=false",
-                                                  'control.rate_estimator="finite_difference"',
-                                                  "orbit.enabled=false", 'field.model="constant"',
-                                                  "field.constant_T=[2e-5, 1e-5, 0.0]", "gravity.tidal=false",
-                                                  "sim.checkpoint_every_s=0.0"])
+    sim = magsail_mj.load(
+        MODELS / "slew.toml",
+        [
+            "lattice.units=3",
+            "sim.duration_s=3.0",
+            "sim.progress=false",
+            'control.rate_estimator="finite_difference"',
+            "orbit.enabled=false",
+            'field.model="constant"',
+            "field.constant_T=[2e-5, 1e-5, 0.0]",
+            "gravity.tidal=false",
+            "sim.checkpoint_every_s=0.0",
+        ],
+    )
     sim.step(20)
     state = sim.get_state()
     sim.step(20)

@@ -77,9 +77,18 @@ def test_strip_spec_refs_leaves_no_section_sign():
     assert "§" not in out and "Eq. 8" in out
 
 
-@pytest.mark.parametrize("name, unit", [("side_m", "m"), ("omega0_rad_s", "rad/s"), ("EI_Nm2", "N·m²"),
-                                        ("areal_density_kg_m2", "kg/m²"), ("inertia_kg_m2", "kg·m²"),
-                                        ("altitude_km", "km"), ("units", "—")])
+@pytest.mark.parametrize(
+    "name, unit",
+    [
+        ("side_m", "m"),
+        ("omega0_rad_s", "rad/s"),
+        ("EI_Nm2", "N·m²"),
+        ("areal_density_kg_m2", "kg/m²"),
+        ("inertia_kg_m2", "kg·m²"),
+        ("altitude_km", "km"),
+        ("units", "—"),
+    ],
+)
 def test_unit_from_key_suffix(name, unit):
     assert magsail_refs.unit_of(name) == unit
 
@@ -147,15 +156,19 @@ def test_gallery_examples_have_a_title_and_build_simulations_through_load():
 
 def test_scripts_build_simulations_through_load():
     # build_models.py writes MJCF only (as `magsail build`): it needs the model builder, not a simulation
-    offenders = [p.name for p in sorted((ROOT / "scripts").glob("*.py"))
-                 if p.name != "build_models.py" and _SCENARIO_BUILDERS.search(p.read_text())]
+    offenders = [
+        p.name
+        for p in sorted((ROOT / "scripts").glob("*.py"))
+        if p.name != "build_models.py" and _SCENARIO_BUILDERS.search(p.read_text())
+    ]
     assert not offenders, f"scripts that build a simulation without magsail_mj.load: {offenders}"
 
 
 def test_gallery_is_in_the_site_and_linked_from_the_concept_pages():
     assert "gallery/index" in (DOCS / "index.md").read_text()
-    linked = {m for page in (DOCS / "concepts").glob("*.md")
-              for m in re.findall(r"\.\./gallery/(plot_\w+)", page.read_text())}
+    linked = {
+        m for page in (DOCS / "concepts").glob("*.md") for m in re.findall(r"\.\./gallery/(plot_\w+)", page.read_text())
+    }
     examples = {p.stem for p in GALLERY.glob("plot_*.py")}
     assert linked <= examples, f"concept pages link missing gallery entries: {sorted(linked - examples)}"
     assert linked, "no concept page links the gallery"

@@ -31,7 +31,7 @@ _SOURCE = re.compile(r'<source src="\.\./_static/([\w.-]+)" type="([\w/]+)">')
 def _checker():
     spec = importlib.util.spec_from_file_location("check_docs_site", ROOT / "scripts" / "check_docs_site.py")
     module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module   # its dataclasses look their module up while it loads
+    sys.modules[spec.name] = module  # its dataclasses look their module up while it loads
     spec.loader.exec_module(module)
     return module
 
@@ -45,9 +45,25 @@ def _page(title: str, body: str) -> str:
 
 def _video(path: Path, codec: list[str]) -> None:
     """A 1 s, 64 × 48 test video written by imageio-ffmpeg's ffmpeg."""
-    subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-loglevel", "error", "-y", "-f", "lavfi",
-                    "-i", "testsrc=duration=1:size=64x48:rate=10", "-pix_fmt", "yuv420p", *codec, str(path)],
-                   check=True, timeout=60)
+    subprocess.run(
+        [
+            imageio_ffmpeg.get_ffmpeg_exe(),
+            "-hide_banner",
+            "-loglevel",
+            "error",
+            "-y",
+            "-f",
+            "lavfi",
+            "-i",
+            "testsrc=duration=1:size=64x48:rate=10",
+            "-pix_fmt",
+            "yuv420p",
+            *codec,
+            str(path),
+        ],
+        check=True,
+        timeout=60,
+    )
 
 
 @pytest.fixture
@@ -58,15 +74,25 @@ def site(tmp_path: Path) -> Path:
     _video(tmp_path / "clip.mp4", ["-c:v", "libx264"])
     _video(tmp_path / "clip.webm", ["-c:v", "libvpx-vp9", "-b:v", "0", "-crf", "50"])
     text = "Some text so that the page counts as rendered. " * 3
-    (tmp_path / "index.html").write_text(_page("Index", f"""
+    (tmp_path / "index.html").write_text(
+        _page(
+            "Index",
+            f"""
         <p>{text}</p>
         <img src="good.png" alt="good"> <img src="missing.png" alt="missing">
         <video controls><source src="clip.mp4" type="video/mp4"><source src="clip.webm" type="video/webm"></video>
         <video controls><source src="gone.mp4" type="video/mp4"><source src="gone.webm" type="video/webm"></video>
         <a href="other.html#here">ok</a> <a href="other.html#nowhere">bad anchor</a>
-        <a href="nothing.html">bad page</a> <a href="https://example.org/">external</a> <a href="#">top</a>"""))
-    (tmp_path / "other.html").write_text(_page("Other", f"""
-        <p id="here">{text}</p><script>undefinedFunction();</script>"""))
+        <a href="nothing.html">bad page</a> <a href="https://example.org/">external</a> <a href="#">top</a>""",
+        )
+    )
+    (tmp_path / "other.html").write_text(
+        _page(
+            "Other",
+            f"""
+        <p id="here">{text}</p><script>undefinedFunction();</script>""",
+        )
+    )
     return tmp_path
 
 
@@ -83,8 +109,7 @@ def test_link_check_finds_missing_pages_files_and_anchors(site):
 
 
 def test_link_check_passes_a_clean_page(tmp_path):
-    (tmp_path / "index.html").write_text(_page("A", '<h1 id="top">A</h1><a href="#top">top</a>'
-                                                    '<a href="sub/">sub</a>'))
+    (tmp_path / "index.html").write_text(_page("A", '<h1 id="top">A</h1><a href="#top">top</a><a href="sub/">sub</a>'))
     (tmp_path / "sub").mkdir()
     (tmp_path / "sub" / "index.html").write_text(_page("B", '<a href="../index.html#top">back</a>'))
     report = check_docs_site.check_links(tmp_path)
@@ -101,7 +126,7 @@ def test_browser_check_finds_broken_image_video_and_script_error(site):
     assert "gone.mp4: HTTP 404" in problems and "gone.webm: HTTP 404" in problems
     assert "clip.mp4" not in problems and "clip.webm" not in problems
     assert "other.html: JavaScript exception" in problems and "undefinedFunction" in problems
-    assert report.playable.get("video/webm") == 1   # the WebM loaded on its own
+    assert report.playable.get("video/webm") == 1  # the WebM loaded on its own
 
 
 @needs_chromium
@@ -109,15 +134,24 @@ def test_browser_check_command_exit_status(site, tmp_path_factory):
     clean = tmp_path_factory.mktemp("clean")
     (clean / "index.html").write_text(_page("Clean", "<p>" + "Plain text of a page. " * 5 + "</p>"))
     script = ROOT / "scripts" / "check_docs_site.py"
-    ok = subprocess.run([str(ROOT / ".venv/bin/python"), str(script), str(clean), "--chromium", CHROMIUM],
-                        capture_output=True, text=True, timeout=120)
+    ok = subprocess.run(
+        [str(ROOT / ".venv/bin/python"), str(script), str(clean), "--chromium", CHROMIUM],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert ok.returncode == 0, ok.stderr
     assert "1 pages" in ok.stdout and "0 problems" in ok.stdout
-    bad = subprocess.run([str(ROOT / ".venv/bin/python"), str(script), str(site), "--chromium", CHROMIUM],
-                         capture_output=True, text=True, timeout=120)
+    bad = subprocess.run(
+        [str(ROOT / ".venv/bin/python"), str(script), str(site), "--chromium", CHROMIUM],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert bad.returncode == 1 and bad.stderr.count("error: ") >= 5
-    missing = subprocess.run([str(ROOT / ".venv/bin/python"), str(script), str(clean / "nope")],
-                             capture_output=True, text=True, timeout=60)
+    missing = subprocess.run(
+        [str(ROOT / ".venv/bin/python"), str(script), str(clean / "nope")], capture_output=True, text=True, timeout=60
+    )
     assert missing.returncode == 2 and missing.stderr.startswith("error: site:")
 
 

@@ -38,14 +38,20 @@ from magsail_mj.environment.field import planar_dipole_field
 from magsail_mj.environment.sun import in_cylindrical_shadow
 
 TRUSS_ORBIT = OrbitConfig(altitude_km=800, inclination_deg=90, raan_deg=90)
-CNUSAIL_ORBIT = OrbitConfig(semi_major_axis_km=6963.1, eccentricity=0.01939, inclination_deg=98.0,
-                            ltdn_h=10.5, true_anomaly0_deg=0.0, epoch="2016-01-01T00:00:00Z",
-                            R_E_km=6378.137, propagator="j2")
+CNUSAIL_ORBIT = OrbitConfig(
+    semi_major_axis_km=6963.1,
+    eccentricity=0.01939,
+    inclination_deg=98.0,
+    ltdn_h=10.5,
+    true_anomaly0_deg=0.0,
+    epoch="2016-01-01T00:00:00Z",
+    R_E_km=6378.137,
+    propagator="j2",
+)
 
 
 def _env(orbit=TRUSS_ORBIT, duration=7000.0, **kw):
-    tables = dict(field=FieldConfig(model="dipole", B0_T=3.12e-5), atmosphere=AtmosphereConfig(),
-                  sun=SunConfig())
+    tables = dict(field=FieldConfig(model="dipole", B0_T=3.12e-5), atmosphere=AtmosphereConfig(), sun=SunConfig())
     tables.update(kw)
     return Environment(orbit=orbit, duration_s=duration, **tables)
 
@@ -83,11 +89,15 @@ def test_config_errors_say_what_is_allowed(tree, expect):
 
 
 def test_config_defaults_and_table_round_trip():
-    cfg = EnvironmentConfig.model_validate({
-        "orbit": {"altitude_km": 800, "inclination_deg": 90, "raan_deg": 90},
-        "field": {"model": "igrf"}, "atmosphere": {"model": "exponential"}, "sun": {},
-        "gravity": {"tidal": True},
-    })
+    cfg = EnvironmentConfig.model_validate(
+        {
+            "orbit": {"altitude_km": 800, "inclination_deg": 90, "raan_deg": 90},
+            "field": {"model": "igrf"},
+            "atmosphere": {"model": "exponential"},
+            "sun": {},
+            "gravity": {"tidal": True},
+        }
+    )
     assert cfg.orbit.R_E_km == 6370.0 and cfg.orbit.mu_m3_s2 == 3.986004418e14
     assert cfg.orbit.semi_major_axis_km_value == 7170.0
     assert EnvironmentConfig.model_validate(cfg.model_dump()) == cfg
@@ -135,8 +145,13 @@ def test_sample_span_and_errors():
     with pytest.raises(ValueError, match="duration_s"):
         _env(duration=0.0)
     with pytest.raises(ValueError, match="field.model"):
-        Environment(orbit=OrbitConfig(enabled=False), field=FieldConfig(), atmosphere=AtmosphereConfig(),
-                    sun=SunConfig(), duration_s=10.0)
+        Environment(
+            orbit=OrbitConfig(enabled=False),
+            field=FieldConfig(),
+            atmosphere=AtmosphereConfig(),
+            sun=SunConfig(),
+            duration_s=10.0,
+        )
 
 
 def test_cnusail_orbit_numbers():
@@ -157,9 +172,13 @@ def test_reflector_orbit_and_planar_field():
     """Reflector spec §6.1–6.2: circular polar orbit in the xz plane, r = 6371 + 800 km,
     θ(t) = n t from +x towards +z; the field is Eq. 11 at θ; Sun fixed along +y."""
     orbit = OrbitConfig(altitude_km=800, inclination_deg=90, raan_deg=0, R_E_km=6371.0)
-    env = Environment(orbit=orbit, field=FieldConfig(model="planar_dipole", B0_T=3.12e-5),
-                      atmosphere=AtmosphereConfig(model="none"),
-                      sun=SunConfig(model="fixed", direction_eci=(0, 1, 0)), duration_s=6100.0)
+    env = Environment(
+        orbit=orbit,
+        field=FieldConfig(model="planar_dipole", B0_T=3.12e-5),
+        atmosphere=AtmosphereConfig(model="none"),
+        sun=SunConfig(model="fixed", direction_eci=(0, 1, 0)),
+        duration_s=6100.0,
+    )
     r = 7171e3
     n = math.sqrt(3.986004418e14 / r**3)
     for t in (0.0, 700.0, 3100.0, 6000.0):
@@ -167,13 +186,15 @@ def test_reflector_orbit_and_planar_field():
         s = env.sample(t)
         assert np.allclose(s.r_ref_eci, r * np.array([math.cos(th), 0, math.sin(th)]), atol=1e-3)
         k = 3.12e-5 * (6371 / 7171) ** 3
-        B_ref = -2 * k * math.sin(th) * np.array([math.cos(th), 0, math.sin(th)]) \
-            - k * math.cos(th) * np.array([-math.sin(th), 0, math.cos(th)])
+        B_ref = -2 * k * math.sin(th) * np.array([math.cos(th), 0, math.sin(th)]) - k * math.cos(th) * np.array(
+            [-math.sin(th), 0, math.cos(th)]
+        )
         assert np.allclose(s.B_eci, B_ref, rtol=0, atol=1e-12)
         assert np.allclose(s.sun_eci, [0, 1, 0], atol=1e-4)  # 7e6 m parallax at 1 AU
         assert not s.in_shadow  # dawn–dusk orbit never enters the shadow
-    assert np.allclose(planar_dipole_field(env.sample(10.0).r_ref_eci, B0=3.12e-5, R=6371e3),
-                       env.sample(10.0).B_eci, atol=1e-13)
+    assert np.allclose(
+        planar_dipole_field(env.sample(10.0).r_ref_eci, B0=3.12e-5, R=6371e3), env.sample(10.0).B_eci, atol=1e-13
+    )
 
 
 def test_msis_environment():
@@ -205,9 +226,14 @@ def test_mujoco_dumbbell_in_orbit_following_world():
     </mujoco>"""
     model = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(model)
-    env = Environment(orbit=TRUSS_ORBIT, field=FieldConfig(model="none"),
-                      atmosphere=AtmosphereConfig(model="none"), sun=SunConfig(model="none"),
-                      gravity=GravityConfig(tidal=True), duration_s=6100.0)
+    env = Environment(
+        orbit=TRUSS_ORBIT,
+        field=FieldConfig(model="none"),
+        atmosphere=AtmosphereConfig(model="none"),
+        sun=SunConfig(model="none"),
+        gravity=GravityConfig(tidal=True),
+        duration_s=6100.0,
+    )
     T = env.elements.period()
     r0 = env.sample(0.0).r_ref_eci
     v0 = env.sample(0.0).v_ref_eci
@@ -220,8 +246,7 @@ def test_mujoco_dumbbell_in_orbit_following_world():
     n_steps = int(round(T / model.opt.timestep))
     for _ in range(n_steps):
         data.xfrc_applied[:] = 0.0
-        st_ = StepState(t=data.time, pos=data.xpos, vel=None, xquat=data.xquat, omega=None,
-                        env=env.sample(data.time))
+        st_ = StepState(t=data.time, pos=data.xpos, vel=None, xquat=data.xquat, omega=None, env=env.sample(data.time))
         load.add(st_, data.xfrc_applied)
         mujoco.mj_step(model, data)
     t_end = data.time

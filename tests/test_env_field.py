@@ -40,7 +40,9 @@ EPOCH = datetime(2020, 1, 1)
 def _env(model="igrf", duration=9000.0, **kw):
     return Environment(
         orbit=OrbitConfig(altitude_km=800, inclination_deg=90, raan_deg=90),
-        field=FieldConfig(model=model, **kw), atmosphere=AtmosphereConfig(), sun=SunConfig(),
+        field=FieldConfig(model=model, **kw),
+        atmosphere=AtmosphereConfig(),
+        sun=SunConfig(),
         duration_s=duration,
     )
 
@@ -101,8 +103,13 @@ def test_aligned_dipole_closed_forms():
     # divergence- and curl-free (finite differences, h = 1 m, relative to |B|/r)
     p = np.array([2.1e6, -3.3e6, 5.5e6])
     h = 1.0
-    J = np.stack([(aligned_dipole_field(p + h * e, B0=B0, R=R) - aligned_dipole_field(p - h * e, B0=B0, R=R))
-                  / (2 * h) for e in np.eye(3)], -1)  # J[i, j] = ∂B_i/∂x_j
+    J = np.stack(
+        [
+            (aligned_dipole_field(p + h * e, B0=B0, R=R) - aligned_dipole_field(p - h * e, B0=B0, R=R)) / (2 * h)
+            for e in np.eye(3)
+        ],
+        -1,
+    )  # J[i, j] = ∂B_i/∂x_j
     scale = np.linalg.norm(aligned_dipole_field(p, B0=B0, R=R)) / np.linalg.norm(p)
     assert abs(np.trace(J)) < 1e-8 * scale
     assert np.abs(J - J.T).max() < 1e-8 * scale
@@ -144,16 +151,20 @@ def test_environment_dipole_models(model):
         from magsail_mj.environment.field import tilted_dipole_field_eci
 
         m_hat, _, _ = igrf_dipole(env.epoch)
-        ref = tilted_dipole_field_eci(r[None], np.array([gmst_rad(env.jd0 + t / 86400)]), m_hat,
-                                      B0=3.12e-5, R=6371e3)[0]
+        ref = tilted_dipole_field_eci(r[None], np.array([gmst_rad(env.jd0 + t / 86400)]), m_hat, B0=3.12e-5, R=6371e3)[
+            0
+        ]
     assert np.allclose(s.B_eci, ref, rtol=0, atol=1e-9 * np.linalg.norm(ref))
 
 
 def test_constant_and_no_field():
-    env = Environment(orbit=OrbitConfig(enabled=False),
-                      field=FieldConfig(model="constant", constant_T=(0, 0, 3e-5)),
-                      atmosphere=AtmosphereConfig(model="none"), sun=SunConfig(model="none"),
-                      duration_s=100.0)
+    env = Environment(
+        orbit=OrbitConfig(enabled=False),
+        field=FieldConfig(model="constant", constant_T=(0, 0, 3e-5)),
+        atmosphere=AtmosphereConfig(model="none"),
+        sun=SunConfig(model="none"),
+        duration_s=100.0,
+    )
     s = env.sample(50.0)
     assert np.array_equal(s.B_eci, [0, 0, 3e-5]) and np.all(s.B_dot_eci == 0)
     assert np.all(s.r_ref_eci == 0) and s.density_kg_m3 == 0.0

@@ -70,8 +70,11 @@ def _spec_srp(n, s, A, P, o: Optics):
     return -P * A * cos_a * (kn * n + (1 - r * sp) * sin_a * t)
 
 
-unit = st.tuples(*[st.floats(-1, 1)] * 3).filter(lambda v: sum(c * c for c in v) > 1e-2).map(
-    lambda v: np.array(v) / np.linalg.norm(v))
+unit = (
+    st.tuples(*[st.floats(-1, 1)] * 3)
+    .filter(lambda v: sum(c * c for c in v) > 1e-2)
+    .map(lambda v: np.array(v) / np.linalg.norm(v))
+)
 
 
 @settings(max_examples=80, deadline=None)
@@ -221,7 +224,7 @@ def test_lattice_drag_uses_node_velocity_and_current_geometry():
     assert xf[:, 2].sum() == pytest.approx(-0.5 * 1e-12 * 2.2 * d * d * 7600.0**2, rel=1e-12)
     # stretch the top layer by 10 % in x: area grows by 10 %
     pos2 = pos.copy()
-    pos2[1 + n * n:, 0] *= 1.1
+    pos2[1 + n * n :, 0] *= 1.1
     xf2 = np.zeros((len(pos), 6))
     LatticeDragLoad(cells).add(StepState(0.0, pos2, np.zeros_like(pos), None, None, env), xf2)
     assert xf2[:, 2].sum() == pytest.approx(-0.5 * 1e-12 * 2.2 * 1.1 * d * d * 7500.0**2, rel=1e-12)
@@ -252,9 +255,15 @@ def test_residual_dipole_torque(Ddir, Bdir, qv):
 
 def test_loads_follow_the_protocol_and_accumulate():
     cells = lattice_top_cells(3)
-    loads = [TidalGravityLoad([1], [1.0]), GravityGradientTorqueLoad(1, [1, 2, 3]),
-             RigidSRPLoad(1, FacetSet.plate(area=1.0)), RigidDragLoad(1, FacetSet.plate(area=1.0)),
-             LatticeSRPLoad(cells), LatticeDragLoad(cells), ResidualDipoleLoad(1, [0, 0, 1.0])]
+    loads = [
+        TidalGravityLoad([1], [1.0]),
+        GravityGradientTorqueLoad(1, [1, 2, 3]),
+        RigidSRPLoad(1, FacetSet.plate(area=1.0)),
+        RigidDragLoad(1, FacetSet.plate(area=1.0)),
+        LatticeSRPLoad(cells),
+        LatticeDragLoad(cells),
+        ResidualDipoleLoad(1, [0, 0, 1.0]),
+    ]
     for ld in loads:
         assert isinstance(ld, Load) and isinstance(ld.name, str)
     env = FakeEnv(sun_eci=np.array([0, 0, 1.0]), B_eci=np.array([1e-5, 0, 0]))
@@ -269,8 +278,7 @@ def test_loads_follow_the_protocol_and_accumulate():
     with pytest.raises(ValueError, match="dipole_body"):
         ResidualDipoleLoad(1, [1.0, 2.0])
     with pytest.raises(ValueError, match="optics"):
-        FacetSet(area=[1.0, 2.0], normal=[[0, 0, 1]] * 2, centre=[[0, 0, 0]] * 2, two_sided=True,
-                 optics=[Optics()] * 3)
+        FacetSet(area=[1.0, 2.0], normal=[[0, 0, 1]] * 2, centre=[[0, 0, 0]] * 2, two_sided=True, optics=[Optics()] * 3)
     with pytest.raises(ValueError, match="^r:"):
         Optics(r=1.5)
 

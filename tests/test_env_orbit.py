@@ -76,8 +76,12 @@ def test_kepler_matches_numerical_two_body():
 
 @settings(max_examples=40, deadline=None)
 @given(
-    st.floats(6.6e6, 4.2e7), st.floats(0.001, 0.8), st.floats(0.01, math.pi - 0.01),
-    st.floats(0, 2 * math.pi), st.floats(0, 2 * math.pi), st.floats(0, 2 * math.pi),
+    st.floats(6.6e6, 4.2e7),
+    st.floats(0.001, 0.8),
+    st.floats(0.01, math.pi - 0.01),
+    st.floats(0, 2 * math.pi),
+    st.floats(0, 2 * math.pi),
+    st.floats(0, 2 * math.pi),
 )
 def test_elements_round_trip(a, e, i, raan, argp, nu):
     el = OrbitalElements(a=a, e=e, i=i, raan=raan, argp=argp, nu0=nu)

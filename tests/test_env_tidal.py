@@ -132,8 +132,7 @@ def test_plate_at_45_degrees_tidal_equals_classical(axis):
     assert abs(abs(nrm @ r) / R_ORB - math.cos(math.pi / 4)) < 1e-12
     load = TidalGravityLoad(np.arange(1, len(x) + 1), m)
     xfrc = np.zeros((len(x) + 1, 6))
-    load.add(StepState(t=0.0, pos=np.vstack([np.zeros(3), x]), vel=None, xquat=None, omega=None,
-                       env=_Env(r)), xfrc)
+    load.add(StepState(t=0.0, pos=np.vstack([np.zeros(3), x]), vel=None, xquat=None, omega=None, env=_Env(r)), xfrc)
     tau_tidal = np.cross(x, xfrc[1:, :3]).sum(axis=0)
     tau_classical = gravity_gradient_torque(r, _inertia(x, m))
     assert np.linalg.norm(tau_classical) > 1e-3  # not a trivial zero (≈ 0.1 N m here)
@@ -157,8 +156,9 @@ def test_six_point_masses_reproduce_classical_torque(seed):
     a = tidal_acceleration(r, x)
     tau = np.cross(x, masses[:, None] * a).sum(axis=0)
     quat = q.as_quat(scalar_first=True)
-    st_ = StepState(t=0.0, pos=np.zeros((2, 3)), vel=None, xquat=np.array([[1, 0, 0, 0], quat]),
-                    omega=None, env=_Env(r))
+    st_ = StepState(
+        t=0.0, pos=np.zeros((2, 3)), vel=None, xquat=np.array([[1, 0, 0, 0], quat]), omega=None, env=_Env(r)
+    )
     tau_cl = GravityGradientTorqueLoad(1, I).torque_world(st_)
     assert np.linalg.norm(tau - tau_cl) <= 0.01 * np.linalg.norm(tau_cl)
 
@@ -195,6 +195,7 @@ def _dumbbell_rhs_relative(el, k, L, m):
         ln = np.linalg.norm(d)
         f = k * (ln - L) * d / ln  # on 1, towards 2 when stretched
         return np.r_[v1, v2, a[0] + f / m, a[1] - f / m]
+
     return rhs
 
 
@@ -206,6 +207,7 @@ def _dumbbell_rhs_inertial(k, L, m):
         f = k * (ln - L) * d / ln
         g = point_mass_acceleration(np.stack([R1, R2]))
         return np.r_[V1, V2, g[0] + f / m, g[1] - f / m]
+
     return rhs
 
 
@@ -221,11 +223,11 @@ def test_dumbbell_orbit_following_matches_inertial():
     x1, x2 = -0.5 * L * u, 0.5 * L * u
     t_eval = np.linspace(0, T, 61)
     y0 = np.r_[x1, x2, np.zeros(6)]
-    rel = solve_ivp(_dumbbell_rhs_relative(el, k, L, m), (0, T), y0, method="DOP853",
-                    rtol=1e-13, atol=1e-12, t_eval=t_eval)
+    rel = solve_ivp(
+        _dumbbell_rhs_relative(el, k, L, m), (0, T), y0, method="DOP853", rtol=1e-13, atol=1e-12, t_eval=t_eval
+    )
     Y0 = np.r_[r0 + x1, r0 + x2, v0, v0]
-    ine = solve_ivp(_dumbbell_rhs_inertial(k, L, m), (0, T), Y0, method="DOP853",
-                    rtol=1e-13, atol=1e-9, t_eval=t_eval)
+    ine = solve_ivp(_dumbbell_rhs_inertial(k, L, m), (0, T), Y0, method="DOP853", rtol=1e-13, atol=1e-9, t_eval=t_eval)
     r_ref, _ = kepler_propagate(el, t_eval)
     x_from_eci = np.concatenate([ine.y[:3].T - r_ref, ine.y[3:6].T - r_ref], axis=1)
     x_rel = rel.y[:6].T

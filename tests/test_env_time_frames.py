@@ -105,7 +105,8 @@ def test_spherical_unit_vectors_are_coordinate_derivatives():
     d_r = (spherical_to_cartesian(rad + 1.0, th, ph) - spherical_to_cartesian(rad - 1.0, th, ph)) / 2.0
     d_t = (spherical_to_cartesian(rad, th + h, ph) - spherical_to_cartesian(rad, th - h, ph)) / (2 * h * rad)
     d_p = (spherical_to_cartesian(rad, th, ph + h) - spherical_to_cartesian(rad, th, ph - h)) / (
-        2 * h * rad * math.sin(th))
+        2 * h * rad * math.sin(th)
+    )
     for a, b in ((er, d_r), (et, d_t), (ep, d_p)):
         assert np.allclose(a, b, atol=1e-8)
 

@@ -9,14 +9,29 @@ from magsail_mj.concepts.current_loops.config import CurrentLoopsConfig
 from magsail_mj.concepts.truss_magnetorquer.config import TrussConfig, TrussTables
 from magsail_mj.config import load_config
 from magsail_mj.environment.config import (
-    ENVIRONMENT_TABLES, AtmosphereConfig, DragConfig, EnvironmentConfig, EnvironmentTables, FieldConfig,
-    GravityConfig, OrbitConfig, SRPConfig, SunConfig, environment_config_of,
+    ENVIRONMENT_TABLES,
+    AtmosphereConfig,
+    DragConfig,
+    EnvironmentConfig,
+    EnvironmentTables,
+    FieldConfig,
+    GravityConfig,
+    OrbitConfig,
+    SRPConfig,
+    SunConfig,
+    environment_config_of,
 )
 from tests.conftest import REPO
 
-FREE_SPACE = {"orbit": OrbitConfig(enabled=False), "field": FieldConfig(model="none"),
-              "atmosphere": AtmosphereConfig(model="none"), "sun": SunConfig(model="none"), "srp": SRPConfig(),
-              "drag": DragConfig(), "gravity": GravityConfig(tidal=False)}
+FREE_SPACE = {
+    "orbit": OrbitConfig(enabled=False),
+    "field": FieldConfig(model="none"),
+    "atmosphere": AtmosphereConfig(model="none"),
+    "sun": SunConfig(model="none"),
+    "srp": SRPConfig(),
+    "drag": DragConfig(),
+    "gravity": GravityConfig(tidal=False),
+}
 
 
 def test_the_tables_and_their_free_space_defaults():
@@ -40,9 +55,14 @@ def test_a_truss_config_hands_its_own_tables_on():
 
 
 def test_a_config_without_some_tables_gets_their_free_space_defaults():
-    cfg = load_config(REPO / "magsail_mj/concepts/current_loops/configs/slew.toml",
-                      ["orbit.enabled=true", "field.model='igrf'"])
+    cfg = load_config(
+        REPO / "magsail_mj/concepts/current_loops/configs/slew.toml", ["orbit.enabled=true", "field.model='igrf'"]
+    )
     assert isinstance(cfg, CurrentLoopsConfig) and not hasattr(cfg, "atmosphere")
-    want = EnvironmentConfig(orbit=cfg.orbit, field=cfg.field, gravity=cfg.gravity,
-                             **{k: FREE_SPACE[k] for k in ("atmosphere", "sun", "srp", "drag")})
+    want = EnvironmentConfig(
+        orbit=cfg.orbit,
+        field=cfg.field,
+        gravity=cfg.gravity,
+        **{k: FREE_SPACE[k] for k in ("atmosphere", "sun", "srp", "drag")},
+    )
     assert environment_config_of(cfg) == want == cfg.environment_config()

@@ -37,11 +37,14 @@ class DeorbitConformance(test_utils.EnvironmentTestMixin, unittest.TestCase):
         return fresh_environment("cnusail/deorbit", ("sim.duration_s=5",))
 
 
-@pytest.mark.parametrize("config, duration_s", [
-    ("magsail_mj/concepts/cnusail/configs/detumble_post.toml", 20),
-    ("magsail_mj/concepts/cnusail/configs/nadir_post.toml", 40),      # the unloading turns on at t ≈ 33 s
-    ("magsail_mj/concepts/cnusail/configs/deorbit_recalc.toml", 20),
-])
+@pytest.mark.parametrize(
+    "config, duration_s",
+    [
+        ("magsail_mj/concepts/cnusail/configs/detumble_post.toml", 20),
+        ("magsail_mj/concepts/cnusail/configs/nadir_post.toml", 40),  # the unloading turns on at t ≈ 33 s
+        ("magsail_mj/concepts/cnusail/configs/deorbit_recalc.toml", 20),
+    ],
+)
 def test_shipped_policy_gives_magsail_run_summary(config, duration_s):
     ref, _ = assert_shipped_policy_gives_the_run_summary(config, [f"sim.duration_s={duration_s}"])
     assert len(ref) > 40
@@ -86,8 +89,9 @@ def test_same_seed_same_first_observation():
 
 def test_wheel_currents_give_the_motor_torque():
     """``current_dipole``: T_M = K_M (V − K_b ω_M)/R with V = clip(R i_c + K_b ω_M, ±V_max) every step."""
-    env = envs.load("cnusail/detumble", ["sim.duration_s=3", "sim.record_every=1"], randomize=False,
-                    action="current_dipole")
+    env = envs.load(
+        "cnusail/detumble", ["sim.duration_s=3", "sim.record_every=1"], randomize=False, action="current_dipole"
+    )
     motor = env.physics.cfg.actuators.wheels.motor_params()
     i_c = np.array([0.5, -0.3, 0.1]) * motor.current_max_A
     ts = env.reset()
@@ -98,7 +102,7 @@ def test_wheel_currents_give_the_motor_torque():
     V = np.clip(motor.R_ohm * i_c + motor.K_b_V_s_rad * w, -motor.V_max_V, motor.V_max_V)
     want = motor.K_M_N_m_A * (V - motor.K_b_V_s_rad * w) / motor.R_ohm
     np.testing.assert_allclose(rec["T_M_N_m"], want, rtol=1e-12, atol=1e-18)
-    assert np.all(np.abs(w[-1]) > 0)       # the wheels spun up
+    assert np.all(np.abs(w[-1]) > 0)  # the wheels spun up
 
 
 def test_dipole_latched_per_cycle_and_blanked():
@@ -106,8 +110,7 @@ def test_dipole_latched_per_cycle_and_blanked():
     between boundaries waits for the next one. Torque = m × Aᵀ B_eci (body axes)."""
     env = envs.load("cnusail/detumble", ["sim.duration_s=4", "sim.record_every=1"], randomize=False)
     cfg = env.physics.cfg
-    m = [np.array([0.1, -0.05, 0.02]), np.array([-0.2, 0.2, -0.1]), np.array([0.03, 0.04, -0.05]),
-         np.zeros(3)]
+    m = [np.array([0.1, -0.05, 0.02]), np.array([-0.2, 0.2, -0.1]), np.array([0.03, 0.04, -0.05]), np.zeros(3)]
     env.reset()
     for a in m:
         env.step(a)
@@ -124,7 +127,7 @@ def test_dipole_latched_per_cycle_and_blanked():
     B_body = np.einsum("kji,kj->ki", R.reshape(-1, 3, 3), B_eci)
     want = np.where(on[:, None], np.cross(latched, B_body), 0.0)
     np.testing.assert_allclose(rec["torque_mtq_body_N_m"][:-1], want[:-1], rtol=1e-12, atol=1e-20)
-    assert np.count_nonzero(~on[:-1]) == 4        # 1.8, 1.9, 3.8, 3.9 s
+    assert np.count_nonzero(~on[:-1]) == 4  # 1.8, 1.9, 3.8, 3.9 s
 
 
 def test_detumble_reward_formula():

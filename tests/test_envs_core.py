@@ -22,8 +22,16 @@ from magsail_mj.quaternion import quat_from_matrix
 
 TRUSS = ["lattice.units=3", "sim.duration_s=2", 'control.cache_dir=""']
 PLATE = ["sim.duration_s=2"]
-MINE = ("truss/detumble", "truss/slew_I", "truss/slew_II", "truss/slew_III", "truss/slew_IV", "current_loops/slew",
-        "reflector/detumble", "reflector/pitch_tracking")
+MINE = (
+    "truss/detumble",
+    "truss/slew_I",
+    "truss/slew_II",
+    "truss/slew_III",
+    "truss/slew_IV",
+    "current_loops/slew",
+    "reflector/detumble",
+    "reflector/pitch_tracking",
+)
 SMALL = {"truss": TRUSS, "current_loops": ["lattice.units=3", "sim.duration_s=2"], "reflector": PLATE}
 
 
@@ -60,7 +68,9 @@ def test_discovery_registers_every_concept_env_module_and_names_it_by_domain() -
 
 def test_load_by_name_and_by_path_give_the_same_task() -> None:
     by_name = envs.load("truss/detumble", TRUSS, randomize=False)
-    by_path = envs.load(REPO_ROOT / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", TRUSS, randomize=False)  # noqa: E501
+    by_path = envs.load(
+        REPO_ROOT / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", TRUSS, randomize=False
+    )  # noqa: E501
     assert type(by_name.task) is type(by_path.task)
     a, b = by_name.reset().observation, by_path.reset().observation
     assert a.keys() == b.keys()
@@ -129,8 +139,9 @@ def test_rigid_motion_of_a_lattice_is_what_the_estimators_read() -> None:
     attitude and the least-squares rigid-velocity fit the drawn rate (independent estimators)."""
     env = envs.load("current_loops/slew", ["lattice.units=3", "sim.duration_s=2"], randomize=False)
     env.reset()
-    q, w = draw_rigid_start(np.random.RandomState(0), q0_wxyz=np.array([1.0, 0, 0, 0]), rate_range_rad_s=0.01,
-                            attitude_range_rad=math.pi)
+    q, w = draw_rigid_start(
+        np.random.RandomState(0), q0_wxyz=np.array([1.0, 0, 0, 0]), rate_range_rad_s=0.01, attitude_range_rad=math.pi
+    )
     physics = env.physics
     set_rigid_motion(physics, q_wxyz=q, omega_body_rad_s=w)
     state = physics.step_state()
@@ -185,9 +196,12 @@ def test_reward_is_the_documented_formula() -> None:
     q_ref = np.asarray(obs["target_wxyz"])
     theta = 2 * math.acos(min(1.0, abs(float(q_ref @ obs["attitude_wxyz"]))))
     a_max = task.action_high
-    expected = -(2.0 * (theta / math.pi) ** 2 + 0.5 * (np.linalg.norm(obs["body_rate_rad_s"]) / 1e-3) ** 2
-                 + 0.25 * np.mean((action / a_max) ** 2)
-                 + 3.0 * (obs["strain_max"][0] / env.physics.cfg.sim.max_strain) ** 2)
+    expected = -(
+        2.0 * (theta / math.pi) ** 2
+        + 0.5 * (np.linalg.norm(obs["body_rate_rad_s"]) / 1e-3) ** 2
+        + 0.25 * np.mean((action / a_max) ** 2)
+        + 3.0 * (obs["strain_max"][0] / env.physics.cfg.sim.max_strain) ** 2
+    )
     assert ts.reward == pytest.approx(expected, rel=1e-12)
     assert theta > 0.1  # the slew target is far: the pointing term is exercised
 

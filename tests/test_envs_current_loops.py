@@ -31,13 +31,17 @@ class LoopsRigidSlewTorqueEnvTest(_Sequence, test_utils.EnvironmentTestMixin, ab
         return envs.load(RIGID, ["sim.duration_s=2"], random=0, action="torque")
 
 
-@pytest.mark.parametrize(("config", "overrides", "action"), [
-    ("magsail_mj/concepts/current_loops/configs/slew.toml", ["lattice.units=3", "sim.duration_s=10"], "currents"),
-    ("magsail_mj/concepts/current_loops/configs/slew.toml", ["lattice.units=3", "sim.duration_s=10"], "torque"),
-    ("magsail_mj/concepts/current_loops/configs/slew_rigid.toml", ["sim.duration_s=10"], "currents"),
-])
-def test_shipped_controller_through_the_environment_gives_the_run_summary(config: str, overrides: list[str],
-                                                                           action: str) -> None:
+@pytest.mark.parametrize(
+    ("config", "overrides", "action"),
+    [
+        ("magsail_mj/concepts/current_loops/configs/slew.toml", ["lattice.units=3", "sim.duration_s=10"], "currents"),
+        ("magsail_mj/concepts/current_loops/configs/slew.toml", ["lattice.units=3", "sim.duration_s=10"], "torque"),
+        ("magsail_mj/concepts/current_loops/configs/slew_rigid.toml", ["sim.duration_s=10"], "currents"),
+    ],
+)
+def test_shipped_controller_through_the_environment_gives_the_run_summary(
+    config: str, overrides: list[str], action: str
+) -> None:
     ref, _ = assert_shipped_policy_gives_the_run_summary(REPO_ROOT / config, overrides, action=action)
     assert len(ref) > 10
 

@@ -61,13 +61,21 @@ def test_same_law_three_concepts(monkeypatch, capsys):
 
 def test_search_gains_reports_best_against_shipped(monkeypatch, capsys):
     monkeypatch.chdir(REPO)
-    out = _example("search_gains").main(["--config", "magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "--duration-s", "30",  # noqa: E501
-                                         "--evaluations", "3"])
+    out = _example("search_gains").main(
+        [
+            "--config",
+            "magsail_mj/concepts/cnusail/configs/detumble_pre.toml",
+            "--duration-s",
+            "30",  # noqa: E501
+            "--evaluations",
+            "3",
+        ]
+    )
     ev = out["evaluations"]
     assert 2 <= len(ev) <= 4
     assert ev[0]["gain_A_m2_s_T"] == out["shipped_gain_A_m2_s_T"] == 3.0e4
     assert out["best_score_s"] == min(e["score_s"] for e in ev) <= ev[0]["score_s"]
-    assert all(10 ** 3.5 <= e["gain_A_m2_s_T"] <= 10 ** 5.5 for e in ev)
+    assert all(10**3.5 <= e["gain_A_m2_s_T"] <= 10**5.5 for e in ev)
     assert json.loads(capsys.readouterr().out)["best_gain_A_m2_s_T"] == out["best_gain_A_m2_s_T"]
 
 

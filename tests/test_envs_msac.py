@@ -18,7 +18,7 @@ from magsail_mj.config import load_config
 from magsail_mj.envs.core import REPO_ROOT, entry_for_config
 from tests.envs_shared import assert_shipped_policy_gives_the_run_summary, fresh_environment
 
-SLOW = "magsail_mj/concepts/msac/configs/slow_1hz.toml"          # 200 steps per 1 s cycle: cheap cycles
+SLOW = "magsail_mj/concepts/msac/configs/slow_1hz.toml"  # 200 steps per 1 s cycle: cheap cycles
 
 
 def fresh(action: str) -> control.Environment:
@@ -35,11 +35,14 @@ class PhaseTimingConformance(test_utils.EnvironmentTestMixin, unittest.TestCase)
         return fresh("phase_timing")
 
 
-@pytest.mark.parametrize("config, duration, action", [
-    (SLOW, "3", "joint_targets"),
-    (SLOW, "3", "phase_timing"),
-    ("magsail_mj/concepts/msac/configs/paper_1khz.toml", "0.01", "joint_targets"),
-])
+@pytest.mark.parametrize(
+    "config, duration, action",
+    [
+        (SLOW, "3", "joint_targets"),
+        (SLOW, "3", "phase_timing"),
+        ("magsail_mj/concepts/msac/configs/paper_1khz.toml", "0.01", "joint_targets"),
+    ],
+)
 def test_configured_cycle_gives_magsail_run_summary(config, duration, action):
     """The environment drives the servo replay (its actions are joint targets): with the configured
     cycle it gives the summary of ``magsail run`` with that drive."""

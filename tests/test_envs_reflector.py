@@ -24,19 +24,24 @@ class ReflectorPitchEnvTest(RandomActions, test_utils.EnvironmentTestMixin, absl
         return envs.load("reflector/pitch_tracking", ["sim.duration_s=10"], random=0)
 
 
-@pytest.mark.parametrize(("config", "duration", "action"), [
-    ("magsail_mj/concepts/reflector/configs/detumble.toml", 20, "currents"),
-    ("magsail_mj/concepts/reflector/configs/detumble/norm_cap.toml", 20, "torque"),
-    ("magsail_mj/concepts/reflector/configs/detumble/printed_law.toml", 20, "torque"),
-    ("magsail_mj/concepts/reflector/configs/detumble/body_field.toml", 20, "currents"),
-    ("magsail_mj/concepts/reflector/configs/tracking_100g.toml", 100, "torque"),
-    ("magsail_mj/concepts/reflector/configs/tracking_10g.toml", 100, "torque"),
-    ("magsail_mj/concepts/reflector/configs/pitch/b4_rate_error_ff_sigma10.toml", 100, "torque"),
-])
-def test_shipped_controller_through_the_environment_gives_the_run_summary(config: str, duration: int,
-                                                                           action: str) -> None:
-    ref, _ = assert_shipped_policy_gives_the_run_summary(REPO_ROOT / config, [f"sim.duration_s={duration}"],
-                                                         action=action)
+@pytest.mark.parametrize(
+    ("config", "duration", "action"),
+    [
+        ("magsail_mj/concepts/reflector/configs/detumble.toml", 20, "currents"),
+        ("magsail_mj/concepts/reflector/configs/detumble/norm_cap.toml", 20, "torque"),
+        ("magsail_mj/concepts/reflector/configs/detumble/printed_law.toml", 20, "torque"),
+        ("magsail_mj/concepts/reflector/configs/detumble/body_field.toml", 20, "currents"),
+        ("magsail_mj/concepts/reflector/configs/tracking_100g.toml", 100, "torque"),
+        ("magsail_mj/concepts/reflector/configs/tracking_10g.toml", 100, "torque"),
+        ("magsail_mj/concepts/reflector/configs/pitch/b4_rate_error_ff_sigma10.toml", 100, "torque"),
+    ],
+)
+def test_shipped_controller_through_the_environment_gives_the_run_summary(
+    config: str, duration: int, action: str
+) -> None:
+    ref, _ = assert_shipped_policy_gives_the_run_summary(
+        REPO_ROOT / config, [f"sim.duration_s={duration}"], action=action
+    )
     assert len(ref) > 10
 
 

@@ -20,7 +20,7 @@ from magsail_mj.quaternion import quat_from_matrix, quat_to_matrix
 from tests.envs_shared import RandomActions, assert_shipped_policy_gives_the_run_summary
 
 SMALL = ["lattice.units=3", 'control.cache_dir=""']
-SHORT = [*SMALL, "sim.duration_s=2"]   # 20 steps: the 50 conformance actions span two episodes and part of a third
+SHORT = [*SMALL, "sim.duration_s=2"]  # 20 steps: the 50 conformance actions span two episodes and part of a third
 
 
 class TrussDetumbleTorqueEnvTest(RandomActions, test_utils.EnvironmentTestMixin, absltest.TestCase):
@@ -33,11 +33,11 @@ class TrussSlewRodsEnvTest(RandomActions, test_utils.EnvironmentTestMixin, abslt
         return envs.load("truss/slew_III", SHORT, random=0, action="rods")
 
 
-@pytest.mark.parametrize("name", ["truss/detumble", "truss/slew_I", "truss/slew_II", "truss/slew_III",
-                                  "truss/slew_IV"])
+@pytest.mark.parametrize("name", ["truss/detumble", "truss/slew_I", "truss/slew_II", "truss/slew_III", "truss/slew_IV"])
 def test_shipped_controller_through_the_environment_gives_the_run_summary(name: str) -> None:
-    ref, _ = assert_shipped_policy_gives_the_run_summary(name, [*SMALL, "sim.duration_s=6"],
-                                                         reference=envs.core.task_entry(name).config)
+    ref, _ = assert_shipped_policy_gives_the_run_summary(
+        name, [*SMALL, "sim.duration_s=6"], reference=envs.core.task_entry(name).config
+    )
     assert len(ref) > 20
 
 

@@ -50,7 +50,7 @@ def test_readers_of_the_store_equal_its_groups_bitwise(run_dir):
     for bit, as the two groups read one by one."""
     records, series = open_records(run_dir), open_records(run_dir, group=SERIES_GROUP)
     want = {**{k: records[k] for k in records}, **{k: series[k] for k in series}}
-    assert set(records) - set(series) and set(series) - {"t"}   # both groups contribute
+    assert set(records) - set(series) and set(series) - {"t"}  # both groups contribute
     eager, lazy = export.read_timeseries(run_dir), lazy_arrays(run_dir)
     assert sorted(eager) == sorted(lazy) == sorted(want)
     for name, value in want.items():
@@ -62,11 +62,13 @@ def test_streamed_npz_of_many_blocks_reads_back(tmp_path):
     """An array written in several blocks (chunked along its first axis) is the same array."""
     rng = np.random.default_rng(0)
     a = rng.normal(size=(1000, 7))
+
     class Chunked:  # a minimal lazy array: shape, dtype, chunks, slicing
         shape, dtype, chunks, ndim = a.shape, a.dtype, (64, 7), 2
 
         def __getitem__(self, key):
             return a[key]
+
     export.write_npz_streamed(tmp_path / "c.npz", {"a": Chunked(), "s": np.float64(2.5), "i": np.arange(3)})
     with np.load(tmp_path / "c.npz") as npz:
         _bitwise(npz["a"], a, "a")
@@ -93,15 +95,18 @@ def test_default_output_is_beside_the_store(run_dir):
     assert (run_dir / "timeseries.nc").is_file()
 
 
-@pytest.mark.parametrize("case,argv,match", [
-    ("missing", ["{tmp}/nowhere"], "RUN_DIR: .*nowhere is missing"),
-    ("file", ["{tmp}/afile"], "RUN_DIR: .*afile is a file, not a folder"),
-    ("no store", ["{tmp}"], f"RUN_DIR: .* holds no {STORE_NAME}"),
-    ("empty", [""], "RUN_DIR: must name a run folder"),
-    ("format", ["{run}", "--format", "csv"], "--format: must be one of npz, netcdf, got 'csv'"),
-    ("out dir", ["{run}", "--out", "{tmp}"], "--out: must name a file"),
-    ("out parent", ["{run}", "--out", "{tmp}/no/such/x.npz"], "--out: folder .*no/such does not exist"),
-])
+@pytest.mark.parametrize(
+    "case,argv,match",
+    [
+        ("missing", ["{tmp}/nowhere"], "RUN_DIR: .*nowhere is missing"),
+        ("file", ["{tmp}/afile"], "RUN_DIR: .*afile is a file, not a folder"),
+        ("no store", ["{tmp}"], f"RUN_DIR: .* holds no {STORE_NAME}"),
+        ("empty", [""], "RUN_DIR: must name a run folder"),
+        ("format", ["{run}", "--format", "csv"], "--format: must be one of npz, netcdf, got 'csv'"),
+        ("out dir", ["{run}", "--out", "{tmp}"], "--out: must name a file"),
+        ("out parent", ["{run}", "--out", "{tmp}/no/such/x.npz"], "--out: folder .*no/such does not exist"),
+    ],
+)
 def test_hostile_inputs_exit_2_naming_the_argument(run_dir, tmp_path, capsys, case, argv, match):
     (tmp_path / "afile").write_text("x")
     argv = [a.format(tmp=tmp_path, run=run_dir) for a in argv]

@@ -59,8 +59,12 @@ REPO = Path(__file__).resolve().parents[1]
 CONFIG = str(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml")
 TINY = ["--set", "lattice.units=3", "--set", "sim.duration_s=0.2", "--set", "sim.record_every=1"]
 JSON_VERBS = ("build", "validate", "run", "sweep", "scaling", "torque")
-FUZZ = settings(max_examples=25, deadline=None, derandomize=True,
-                suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+FUZZ = settings(
+    max_examples=25,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 IS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
 
 
@@ -75,8 +79,10 @@ def _in_scratch_folder(tmp_path, monkeypatch):
 
 def _strict_json(text: str):
     """Parse JSON, refusing NaN/Infinity (only finite numbers are allowed)."""
+
     def refuse(token: str):
         raise AssertionError(f"non-finite number {token} in the output")
+
     return json.loads(text, parse_constant=refuse)
 
 
@@ -108,12 +114,22 @@ def arena(tmp_path_factory) -> SimpleNamespace:
     empty_toml = root / "empty.toml"
     empty_toml.write_text("")
     sweep = root / "sweep.toml"
-    sweep.write_text(f'name = "tiny"\n[[run]]\nid = "a"\nconfig = "{CONFIG}"\n'
-                     'set = ["lattice.units=3", "sim.duration_s=0.2", "sim.record_every=1"]\n')
+    sweep.write_text(
+        f'name = "tiny"\n[[run]]\nid = "a"\nconfig = "{CONFIG}"\n'
+        'set = ["lattice.units=3", "sim.duration_s=0.2", "sim.record_every=1"]\n'
+    )
     run = root / "run"
     assert main(["run", CONFIG, "--out", str(run), "--no-progress", *TINY]) == 0
-    return SimpleNamespace(root=root, plain=plain, binary=binary, folder=folder, empty_toml=empty_toml,
-                           sweep=sweep, run=run, below_file=plain / "sub" / "x")
+    return SimpleNamespace(
+        root=root,
+        plain=plain,
+        binary=binary,
+        folder=folder,
+        empty_toml=empty_toml,
+        sweep=sweep,
+        run=run,
+        below_file=plain / "sub" / "x",
+    )
 
 
 def paths(arena: SimpleNamespace, *, suffix: str = "") -> st.SearchStrategy[str]:
@@ -121,18 +137,47 @@ def paths(arena: SimpleNamespace, *, suffix: str = "") -> st.SearchStrategy[str]
     return st.one_of(
         st.sampled_from(["", " ", ".", "..", "/", "\t"]),
         st.text(min_size=1, max_size=12).filter(lambda s: "\x00" not in s),
-        st.sampled_from([str(arena.root / f"missing{suffix}"), str(arena.folder), str(arena.plain),
-                         str(arena.below_file) + suffix, str(arena.binary), str(arena.empty_toml)]),
+        st.sampled_from(
+            [
+                str(arena.root / f"missing{suffix}"),
+                str(arena.folder),
+                str(arena.plain),
+                str(arena.below_file) + suffix,
+                str(arena.binary),
+                str(arena.empty_toml),
+            ]
+        ),
     )
 
 
 NUMBERS = st.one_of(
-    st.floats(min_value=0.5, max_value=500).map(lambda x: repr(round(x, 3))),   # mostly valid
+    st.floats(min_value=0.5, max_value=500).map(lambda x: repr(round(x, 3))),  # mostly valid
     st.integers(min_value=1, max_value=40).map(str),
-    st.sampled_from(["", "nan", "inf", "-inf", "0", "-0", "-1", "1e308", "1e-308", "-1e308", "abc", "1e6",
-                     "0x10", "1_000", " 5", "1e-3", "3", "2.5", "19"]),
+    st.sampled_from(
+        [
+            "",
+            "nan",
+            "inf",
+            "-inf",
+            "0",
+            "-0",
+            "-1",
+            "1e308",
+            "1e-308",
+            "-1e308",
+            "abc",
+            "1e6",
+            "0x10",
+            "1_000",
+            " 5",
+            "1e-3",
+            "3",
+            "2.5",
+            "19",
+        ]
+    ),
     st.floats(allow_nan=True, allow_infinity=True).map(repr),
-    st.integers(min_value=-10**12, max_value=10**12).map(str),
+    st.integers(min_value=-(10**12), max_value=10**12).map(str),
 )
 
 
@@ -155,7 +200,7 @@ def test_memory_limit_sources_and_parsing(monkeypatch):
     monkeypatch.setenv(ENV_VAR, "3M")
     assert memory_limit_bytes() == 3 << 20
     with memory_limit(5 << 20):
-        assert memory_limit_bytes() == 5 << 20          # the CLI option beats the environment
+        assert memory_limit_bytes() == 5 << 20  # the CLI option beats the environment
     monkeypatch.setenv(ENV_VAR, "auto")
     assert memory_limit_bytes() > 0
     monkeypatch.setenv(ENV_VAR, "junk")
@@ -173,11 +218,14 @@ def test_lattice_counts_match_the_lattice_builder():
             assert lattice_counts(units, diagonals=diagonals) == (lat.n_nodes, lat.n_struts)
 
 
-@pytest.mark.parametrize("config, overrides", [
-    ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", ["lattice.units=8"]),
-    ("magsail_mj/concepts/current_loops/configs/slew.toml", ["lattice.units=12"]),
-    ("magsail_mj/concepts/reflector/configs/detumble.toml", []),
-])
+@pytest.mark.parametrize(
+    "config, overrides",
+    [
+        ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", ["lattice.units=8"]),
+        ("magsail_mj/concepts/current_loops/configs/slew.toml", ["lattice.units=12"]),
+        ("magsail_mj/concepts/reflector/configs/detumble.toml", []),
+    ],
+)
 def test_model_estimate_within_a_factor_3_of_mujoco(config, overrides):
     """estimate_model_bytes (from the config alone) against MjModel + MjData + arena of the build."""
     cfg = load_config(REPO / config, overrides)
@@ -197,8 +245,10 @@ def test_environment_grid_estimate_against_tracemalloc():
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak / 2 <= environment_bytes(cfg) <= 2 * peak, (environment_bytes(cfg), peak)
-    long = load_config(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
-                       ["sim.duration_s=1e11", "sim.timestep_s=10", "sim.record_every=1000000000"])
+    long = load_config(
+        REPO / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
+        ["sim.duration_s=1e11", "sim.timestep_s=10", "sim.record_every=1000000000"],
+    )
     with pytest.raises(MemoryLimitError, match="needs about"):
         check_memory(estimate_run_bytes(long), what="run", limit=1e12)
 
@@ -207,8 +257,9 @@ def test_huge_lattice_is_refused_fast_without_allocating(capsys):
     """units = 100000 (schema limit or not) and the schema's largest lattice (200: ~2 TiB of MuJoCo
     arena) are refused in well under a second; the estimate itself needs no build."""
     t0 = time.perf_counter()
-    fake = SimpleNamespace(concept="truss_magnetorquer", scenario="detumble",
-                           lattice=SimpleNamespace(units=100_000, diagonals="parity"))
+    fake = SimpleNamespace(
+        concept="truss_magnetorquer", scenario="detumble", lattice=SimpleNamespace(units=100_000, diagonals="parity")
+    )
     with pytest.raises(MemoryLimitError, match="needs about"):
         check_memory(estimate_model_bytes(fake), what="lattice.units=100000")
     for units in (100_000, 200):
@@ -221,11 +272,16 @@ def test_huge_lattice_is_refused_fast_without_allocating(capsys):
 
 
 def test_memory_limit_option_reaches_every_verb(capsys, arena):
-    for argv in (["validate", CONFIG, *TINY], ["build", CONFIG, "-o", str(arena.root / "m.xml"), *TINY],
-                 ["run", CONFIG, "--out", str(arena.root / "r"), *TINY], ["sweep", str(arena.sweep)],
-                 ["render", str(arena.run), "-o", str(arena.root / "v.mp4")],
-                 ["torque", "coil"], ["scaling", "loops", "--geometry", "B"],
-                 ["scaling", "magnetorquer", "--side-m", "75", "--kappa", "100"]):
+    for argv in (
+        ["validate", CONFIG, *TINY],
+        ["build", CONFIG, "-o", str(arena.root / "m.xml"), *TINY],
+        ["run", CONFIG, "--out", str(arena.root / "r"), *TINY],
+        ["sweep", str(arena.sweep)],
+        ["render", str(arena.run), "-o", str(arena.root / "v.mp4")],
+        ["torque", "coil"],
+        ["scaling", "loops", "--geometry", "B"],
+        ["scaling", "magnetorquer", "--side-m", "75", "--kappa", "100"],
+    ):
         rc, _, err = call(capsys, ["--memory-limit", "100", *argv])
         assert rc == 2 and "limit of 100 B" in err, (argv, err)
         assert not (arena.root / "m.xml").exists() and not (arena.root / "v.mp4").exists()
@@ -235,8 +291,19 @@ def test_memory_limit_option_reaches_every_verb(capsys, arena):
 
 
 def test_help_of_every_verb_shows_the_exit_table(capsys):
-    for argv in ([], ["build"], ["validate"], ["run"], ["render"], ["sweep"], ["scaling"],
-                 ["scaling", "magnetorquer"], ["scaling", "loops"], ["torque"], ["torque", "coil"]):
+    for argv in (
+        [],
+        ["build"],
+        ["validate"],
+        ["run"],
+        ["render"],
+        ["sweep"],
+        ["scaling"],
+        ["scaling", "magnetorquer"],
+        ["scaling", "loops"],
+        ["torque"],
+        ["torque", "coil"],
+    ):
         capsys.readouterr()
         assert main([*argv, "--help"]) == 0
         out = capsys.readouterr().out
@@ -246,8 +313,13 @@ def test_help_of_every_verb_shows_the_exit_table(capsys):
 
 
 def test_bad_config_files_exit_2(capsys, arena):
-    for path, match in ((arena.binary, "not UTF-8"), (arena.folder, "config"), ("", "config: must be a path"),
-                        (arena.below_file, "config"), (arena.root / "missing.toml", "config")):
+    for path, match in (
+        (arena.binary, "not UTF-8"),
+        (arena.folder, "config"),
+        ("", "config: must be a path"),
+        (arena.below_file, "config"),
+        (arena.root / "missing.toml", "config"),
+    ):
         for verb in ("validate", "build"):
             rc, _, err = call(capsys, [verb, str(path)])
             assert rc == 2 and match in err, (path, err)
@@ -263,7 +335,7 @@ def test_unreadable_config_exits_2(capsys, arena, tmp_path):
 
 
 def test_output_paths_are_checked(capsys, arena):
-    committed = (REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.xml")
+    committed = REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.xml"
     before = committed.read_bytes() if committed.exists() else None
     cases = [
         (["build", CONFIG, "-o", "", *TINY], "--output: must be a path"),
@@ -280,7 +352,7 @@ def test_output_paths_are_checked(capsys, arena):
         rc, _, err = call(capsys, argv)
         assert rc == 2 and match in err, (argv, err)
     after = committed.read_bytes() if committed.exists() else None
-    assert after == before                      # build -o '' never falls back to the committed MJCF
+    assert after == before  # build -o '' never falls back to the committed MJCF
 
 
 @pytest.mark.skipif(IS_ROOT, reason="root writes into read-only folders")
@@ -302,7 +374,7 @@ def test_render_errors_exit_2(capsys, arena, tmp_path):
     for name in ("model.xml", "manifest.json"):
         (no_qpos / name).write_bytes((arena.run / name).read_bytes())
     arrays = {k: v for k, v in read_timeseries(arena.run).items() if k != "qpos"}
-    write_group(no_qpos / STORE_NAME, arrays, n_time=len(arrays["t"]))   # a record store without positions
+    write_group(no_qpos / STORE_NAME, arrays, n_time=len(arrays["t"]))  # a record store without positions
     cases = [
         ([str(tmp_path / "missing"), "-o", str(tmp_path / "v.mp4")], "RUN_DIR: no such folder"),
         ([str(no_qpos), "-o", str(tmp_path / "v.mp4")], "series 'qpos' is missing"),
@@ -326,8 +398,10 @@ def test_truncated_checkpoint_refuses_resume(capsys, tmp_path):
     assert checkpoints
     for path in checkpoints:
         path.write_bytes(path.read_bytes()[:50])
-    rc, _, err = call(capsys, ["run", CONFIG, "--out", str(out), "--resume", "--no-progress",
-                               *[x for s in sets for x in ("--set", s)]])
+    rc, _, err = call(
+        capsys,
+        ["run", CONFIG, "--out", str(out), "--resume", "--no-progress", *[x for s in sets for x in ("--set", s)]],
+    )
     assert rc == 2 and "checkpoint" in err
 
 
@@ -337,12 +411,12 @@ def test_corrupt_lloyd_cache_is_recomputed_and_rewritten(tmp_path):
     files = sorted(tmp_path.rglob("*.np[yz]"))
     assert {f.suffix for f in files} == {".npy", ".npz"}
     for f in files:
-        f.write_bytes(f.read_bytes()[:40])                  # truncated
+        f.write_bytes(f.read_bytes()[:40])  # truncated
     again = LloydSelector(sites, region=(0, 0, 1, 1), cache_dir=tmp_path, max_iter=200)
     assert np.array_equal(again.selected(0, 5), first) and again.stats["lloyd_runs"] == 1
     third = LloydSelector(sites, region=(0, 0, 1, 1), cache_dir=tmp_path, max_iter=200)
     assert np.array_equal(third.selected(0, 5), first) and third.stats["snap_disk_hits"] == 1
-    np.save(files[0] if files[0].suffix == ".npy" else files[1], np.array([0, 0, 99]))   # wrong content
+    np.save(files[0] if files[0].suffix == ".npy" else files[1], np.array([0, 0, 99]))  # wrong content
     fourth = LloydSelector(sites, region=(0, 0, 1, 1), cache_dir=tmp_path, max_iter=200)
     assert np.array_equal(fourth.selected(0, 5), first)
 
@@ -375,10 +449,28 @@ def test_interrupt_and_unexpected_errors(capsys, monkeypatch):
 
 def test_sigterm_exits_130_without_traceback(tmp_path):
     """A long run stopped by SIGTERM: exit 130, one line 'interrupted', no traceback."""
-    proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.cli", "run", CONFIG, "--out", str(tmp_path / "r"),
-                             "--no-progress", "--set", "lattice.units=3", "--set", "sim.duration_s=1e5",
-                             "--set", "sim.record_every=100"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "magsail_mj.cli",
+            "run",
+            CONFIG,
+            "--out",
+            str(tmp_path / "r"),
+            "--no-progress",
+            "--set",
+            "lattice.units=3",
+            "--set",
+            "sim.duration_s=1e5",
+            "--set",
+            "sim.record_every=100",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+    )
     try:
         deadline = time.monotonic() + 60
         while not (tmp_path / "r" / "model.xml").exists() and time.monotonic() < deadline:
@@ -403,8 +495,20 @@ def test_fuzz_validate_and_build(capsys, arena, data):
     config = data.draw(st.one_of(st.just(CONFIG), st.just(CONFIG), paths(arena, suffix=".toml")))
     argv = [verb, config]
     for _ in range(data.draw(st.integers(0, 2))):
-        key = data.draw(st.sampled_from(["lattice.units", "sim.duration_s", "sim.timestep_s", "mass.total_kg",
-                                         "stiffness.EI_Nm2", "nope", "", "lattice"]))
+        key = data.draw(
+            st.sampled_from(
+                [
+                    "lattice.units",
+                    "sim.duration_s",
+                    "sim.timestep_s",
+                    "mass.total_kg",
+                    "stiffness.EI_Nm2",
+                    "nope",
+                    "",
+                    "lattice",
+                ]
+            )
+        )
         argv += ["--set", f"{key}={data.draw(NUMBERS)}"]
     if verb == "build":
         out = data.draw(st.one_of(st.just("ok.xml"), paths(arena, suffix=".xml")))
@@ -412,13 +516,27 @@ def test_fuzz_validate_and_build(capsys, arena, data):
     call(capsys, ["--memory-limit", "2G", *argv, *TINY[:2]])
 
 
-@settings(max_examples=6, deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@settings(
+    max_examples=6,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 @given(data=st.data())
 def test_fuzz_run(capsys, arena, data):
     out = data.draw(st.one_of(paths(arena), st.just(str(arena.root / "fuzz_run"))))
-    extra = data.draw(st.sampled_from([[], ["--overwrite"], ["--resume"], ["--set", "sim.timestep_s=nan"],
-                                       ["--set", "sim.duration_s=-1"], ["--set", "sim.record_every=0"]]))
+    extra = data.draw(
+        st.sampled_from(
+            [
+                [],
+                ["--overwrite"],
+                ["--resume"],
+                ["--set", "sim.timestep_s=nan"],
+                ["--set", "sim.duration_s=-1"],
+                ["--set", "sim.record_every=0"],
+            ]
+        )
+    )
     call(capsys, ["--memory-limit", "2G", "run", CONFIG, "--out", out, "--no-progress", *TINY, *extra])
 
 
@@ -434,8 +552,12 @@ def test_fuzz_render(capsys, arena, data):
     assert rc != 0 or Path(out).suffix.lower() == ".mp4"
 
 
-@settings(max_examples=10, deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@settings(
+    max_examples=10,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 @given(data=st.data())
 def test_fuzz_sweep(capsys, arena, data, tmp_path_factory):
     sweep = data.draw(st.one_of(st.just(str(arena.sweep)), paths(arena, suffix=".toml")))
@@ -445,9 +567,11 @@ def test_fuzz_sweep(capsys, arena, data, tmp_path_factory):
 
 
 @FUZZ
-@given(side=st.lists(NUMBERS, min_size=1, max_size=3), kappa=st.lists(NUMBERS, min_size=1, max_size=3),
-       extra=st.lists(st.tuples(st.sampled_from(["--altitude-km", "--total-kg", "--rod-mass-kg"]), NUMBERS),
-                      max_size=2))
+@given(
+    side=st.lists(NUMBERS, min_size=1, max_size=3),
+    kappa=st.lists(NUMBERS, min_size=1, max_size=3),
+    extra=st.lists(st.tuples(st.sampled_from(["--altitude-km", "--total-kg", "--rod-mass-kg"]), NUMBERS), max_size=2),
+)
 def test_fuzz_scaling_magnetorquer(capsys, side, kappa, extra):
     argv = ["scaling", "magnetorquer", "--side-m", *side, "--kappa", *kappa]
     for name, value in extra:
@@ -456,10 +580,13 @@ def test_fuzz_scaling_magnetorquer(capsys, side, kappa, extra):
 
 
 @FUZZ
-@given(geometry=st.one_of(st.sampled_from(["A", "B", "C", "D", "Cx", "Dy", "", "E"]), st.text(max_size=4)),
-       extra=st.lists(st.tuples(st.sampled_from(["--units", "--side-m", "--areal-density", "--kappa"]), NUMBERS),
-                      max_size=3),
-       table=st.booleans())
+@given(
+    geometry=st.one_of(st.sampled_from(["A", "B", "C", "D", "Cx", "Dy", "", "E"]), st.text(max_size=4)),
+    extra=st.lists(
+        st.tuples(st.sampled_from(["--units", "--side-m", "--areal-density", "--kappa"]), NUMBERS), max_size=3
+    ),
+    table=st.booleans(),
+)
 def test_fuzz_scaling_loops(capsys, geometry, extra, table):
     argv = ["scaling", "loops", *opt("--geometry", geometry)] + (["--table"] if table else [])
     for name, value in extra:
@@ -468,8 +595,17 @@ def test_fuzz_scaling_loops(capsys, geometry, extra, table):
 
 
 @FUZZ
-@given(extra=st.lists(st.tuples(st.sampled_from(["--side-m", "--segment-m", "--depth-m", "--current-a", "--field-t",
-                                                 "--pitch-cells", "--rows"]), NUMBERS), max_size=3))
+@given(
+    extra=st.lists(
+        st.tuples(
+            st.sampled_from(
+                ["--side-m", "--segment-m", "--depth-m", "--current-a", "--field-t", "--pitch-cells", "--rows"]
+            ),
+            NUMBERS,
+        ),
+        max_size=3,
+    )
+)
 def test_fuzz_torque_coil(capsys, extra):
     argv = ["torque", "coil"]
     for name, value in extra:
@@ -478,9 +614,34 @@ def test_fuzz_torque_coil(capsys, extra):
 
 
 @FUZZ
-@given(argv=st.lists(st.one_of(st.text(max_size=10), st.sampled_from(
-    ["build", "run", "render", "sweep", "scaling", "torque", "coil", "loops", "--out", "-o", "--set", "--memory-limit",
-     "--workers", "--help-me", "-", "--"])), max_size=5))
+@given(
+    argv=st.lists(
+        st.one_of(
+            st.text(max_size=10),
+            st.sampled_from(
+                [
+                    "build",
+                    "run",
+                    "render",
+                    "sweep",
+                    "scaling",
+                    "torque",
+                    "coil",
+                    "loops",
+                    "--out",
+                    "-o",
+                    "--set",
+                    "--memory-limit",
+                    "--workers",
+                    "--help-me",
+                    "-",
+                    "--",
+                ]
+            ),
+        ),
+        max_size=5,
+    )
+)
 def test_fuzz_any_command_line(capsys, argv):
     """Random words: usage errors are exit 2 with 'error:', never an exception."""
     if "--help" in argv or "-h" in argv:
@@ -490,10 +651,14 @@ def test_fuzz_any_command_line(capsys, argv):
 
 def test_valid_inputs_still_succeed(capsys, arena, tmp_path):
     """The checks refuse nothing valid: every verb with a small valid input exits 0."""
-    for argv in (["validate", CONFIG, *TINY], ["build", CONFIG, "-o", str(tmp_path / "m.xml"), *TINY],
-                 ["sweep", str(arena.sweep), "--out", str(tmp_path / "sw")],
-                 ["scaling", "magnetorquer", "--side-m", "75", "100", "--kappa", "100"],
-                 ["scaling", "loops", "--table"], ["torque", "coil", "--side-m", "20"]):
+    for argv in (
+        ["validate", CONFIG, *TINY],
+        ["build", CONFIG, "-o", str(tmp_path / "m.xml"), *TINY],
+        ["sweep", str(arena.sweep), "--out", str(tmp_path / "sw")],
+        ["scaling", "magnetorquer", "--side-m", "75", "100", "--kappa", "100"],
+        ["scaling", "loops", "--table"],
+        ["torque", "coil", "--side-m", "20"],
+    ):
         rc, out, err = call(capsys, argv)
         assert rc == 0, (argv, err)
     assert _strict_json(out)["T_max_ycoil_N_m"] > 0
@@ -509,7 +674,7 @@ def test_corrupt_modes_cache_is_recomputed_and_rewritten(tmp_path):
         cache.write_bytes(corrupt)
         again = lattice_modes(*args, cache_dir=tmp_path)
         assert np.allclose(again.omega, first.omega) and cache.stat().st_size == size
-    np.savez(cache, eigvals=np.ones(3), phi=np.ones((3, 3)))              # a readable file of the wrong shape
+    np.savez(cache, eigvals=np.ones(3), phi=np.ones((3, 3)))  # a readable file of the wrong shape
     assert np.allclose(lattice_modes(*args, cache_dir=tmp_path).omega, first.omega)
 
 

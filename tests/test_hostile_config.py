@@ -26,8 +26,14 @@ from tests.conftest import REPO
 
 # One shipped config per concept, with overrides that make a build take well under a second.
 FUZZED = {
-    "truss_magnetorquer": ("magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", ["lattice.units=3", "sim.duration_s=20.0"]),  # noqa: E501
-    "current_loops": ("magsail_mj/concepts/current_loops/configs/slew.toml", ["lattice.units=3", "sim.duration_s=20.0"]),  # noqa: E501
+    "truss_magnetorquer": (
+        "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
+        ["lattice.units=3", "sim.duration_s=20.0"],
+    ),  # noqa: E501
+    "current_loops": (
+        "magsail_mj/concepts/current_loops/configs/slew.toml",
+        ["lattice.units=3", "sim.duration_s=20.0"],
+    ),  # noqa: E501
     "reflector": ("magsail_mj/concepts/reflector/configs/detumble.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),
     "cnusail": ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", ["sim.duration_s=20.0"]),
     "msac": ("magsail_mj/concepts/msac/configs/paper_1khz.toml", ["sim.duration_s=0.01"]),
@@ -36,13 +42,27 @@ FUZZED = {
 # Further scenario kinds, swept deterministically with the extreme values.
 EXTRA = {
     "truss_cantilever": ("magsail_mj/concepts/truss_magnetorquer/configs/cantilever.toml", ["lattice.units=3"]),
-    "truss_dist_vs_central": ("magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml",  # noqa: E501
-                              ["lattice.units=3"]),
-    "truss_slew": ("magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml", ["lattice.units=3", "sim.duration_s=20.0"]),  # noqa: E501
+    "truss_dist_vs_central": (
+        "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml",  # noqa: E501
+        ["lattice.units=3"],
+    ),
+    "truss_slew": (
+        "magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml",
+        ["lattice.units=3", "sim.duration_s=20.0"],
+    ),  # noqa: E501
     "loops_sweep": ("magsail_mj/concepts/current_loops/configs/sweep/a_n12_ei1e3.toml", ["lattice.units=3"]),
-    "loops_slew_rigid": ("magsail_mj/concepts/current_loops/configs/slew_rigid.toml", ["lattice.units=3", "sim.duration_s=20.0"]),  # noqa: E501
-    "reflector_pitch": ("magsail_mj/concepts/reflector/configs/tracking_10g.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),  # noqa: E501
-    "reflector_caps": ("magsail_mj/concepts/reflector/configs/pitch/b3_caps_sigma10.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),  # noqa: E501
+    "loops_slew_rigid": (
+        "magsail_mj/concepts/current_loops/configs/slew_rigid.toml",
+        ["lattice.units=3", "sim.duration_s=20.0"],
+    ),  # noqa: E501
+    "reflector_pitch": (
+        "magsail_mj/concepts/reflector/configs/tracking_10g.toml",
+        ["plate.side_m=4.0", "sim.duration_s=20.0"],
+    ),  # noqa: E501
+    "reflector_caps": (
+        "magsail_mj/concepts/reflector/configs/pitch/b3_caps_sigma10.toml",
+        ["plate.side_m=4.0", "sim.duration_s=20.0"],
+    ),  # noqa: E501
     "cnusail_lifetime": ("magsail_mj/concepts/cnusail/configs/lifetime.toml", []),
     "cnusail_nadir": ("magsail_mj/concepts/cnusail/configs/nadir_post.toml", ["sim.duration_s=20.0"]),
     "msac_lumped": ("magsail_mj/concepts/msac/configs/lumped.toml", []),
@@ -125,8 +145,7 @@ def test_fuzzed_configs_build_unchanged(concept):
 
 
 def _fuzz(concept: str):
-    @settings(max_examples=100, deadline=None, derandomize=True,
-              suppress_health_check=[HealthCheck.too_slow])
+    @settings(max_examples=100, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
     @given(index=st.integers(0, len(LEAVES[concept]) - 1), value=st.sampled_from(HOSTILE))
     def run(index: int, value: Any) -> None:
         check_named_or_builds(BASES[concept], LEAVES[concept][index], value)

@@ -47,8 +47,12 @@ def _folder_digest(folder: Path) -> dict[str, str]:
 def _mujoco_times(stderr: str) -> list[float]:
     """Times MuJoCo itself printed in its bad-state warnings (``warning: MuJoCo: ... Time = 12.0000.``,
     routed through logging to the command's stderr)."""
-    return [float(m) for line in stderr.splitlines() if line.startswith("warning: MuJoCo:")
-            for m in re.findall(r"Time = ([0-9]+(?:\.[0-9]+)?)", line)]
+    return [
+        float(m)
+        for line in stderr.splitlines()
+        if line.startswith("warning: MuJoCo:")
+        for m in re.findall(r"Time = ([0-9]+(?:\.[0-9]+)?)", line)
+    ]
 
 
 # ---------------------------------------------------------------------------------- divergence
@@ -56,8 +60,19 @@ def _mujoco_times(stderr: str) -> list[float]:
 def test_truss_blow_up_is_diverged_at_the_first_bad_state(tmp_path, capsys, dt):
     """The 75 m truss at a time step far beyond its stability limit: MuJoCo would reset the state
     and the run would 'complete'; here it ends with exit 3 at the time MuJoCo first flagged."""
-    rc = main(["run", str(MODELS / "truss_magnetorquer/configs/detumble.toml"), "--out", str(tmp_path / "x"),
-               "--set", "sim.duration_s=300", "--set", f"sim.timestep_s={dt}", *QUIET])
+    rc = main(
+        [
+            "run",
+            str(MODELS / "truss_magnetorquer/configs/detumble.toml"),
+            "--out",
+            str(tmp_path / "x"),
+            "--set",
+            "sim.duration_s=300",
+            "--set",
+            f"sim.timestep_s={dt}",
+            *QUIET,
+        ]
+    )
     assert rc == 3
     summary = json.loads((tmp_path / "x/summary.json").read_text())
     manifest = json.loads((tmp_path / "x/manifest.json").read_text())
@@ -73,8 +88,10 @@ def test_truss_blow_up_is_diverged_at_the_first_bad_state(tmp_path, capsys, dt):
 
 
 def test_reflector_absurd_spin_is_not_a_perfect_detumble(tmp_path):
-    cfg = load_config(MODELS / "reflector/configs/detumble.toml",
-                      ["sim.duration_s=2", "initial.omega0_rad_s=[2e10, 0.0, 0.0]", "sim.progress=false"])
+    cfg = load_config(
+        MODELS / "reflector/configs/detumble.toml",
+        ["sim.duration_s=2", "initial.omega0_rad_s=[2e10, 0.0, 0.0]", "sim.progress=false"],
+    )
     out = run_scenario(cfg, tmp_path / "y")
     assert out.status == "diverged" and out["status_message"]
     assert "t = 0 s" in out["status_message"]
@@ -125,8 +142,10 @@ def test_mujoco_log_file_is_not_written_to_the_working_folder(tmp_path, monkeypa
 def test_every_runner_reports_a_message(tmp_path):
     """A state bad from the first step: the run is diverged with a message, and the summary says
     why there are no metrics instead of failing."""
-    cfg = load_config(MODELS / "cnusail/configs/detumble_pre.toml",
-                      ["sim.duration_s=1", "initial.omega0_deg_s=[1e15, 0.0, 0.0]", "sim.progress=false"])
+    cfg = load_config(
+        MODELS / "cnusail/configs/detumble_pre.toml",
+        ["sim.duration_s=1", "initial.omega0_deg_s=[1e15, 0.0, 0.0]", "sim.progress=false"],
+    )
     out = run_scenario(cfg, tmp_path / "c")
     summary = json.loads((out.run_dir / "summary.json").read_text())
     assert summary["status"] == out.status == "diverged"
@@ -149,8 +168,10 @@ def test_msac_rollout_divergence_is_dated_and_keeps_records(tmp_path, monkeypatc
         return table
 
     monkeypatch.setattr(msac_runner, "replay_table", poisoned)
-    cfg = load_config(MODELS / "msac/configs/paper_1khz.toml", ["sim.duration_s=0.004", "sim.record_every=1",
-                                                       "sim.progress=false", "drive.method='replay'"])
+    cfg = load_config(
+        MODELS / "msac/configs/paper_1khz.toml",
+        ["sim.duration_s=0.004", "sim.record_every=1", "sim.progress=false", "drive.method='replay'"],
+    )
     out = run_scenario(cfg, tmp_path / "m")
     assert out.status == "diverged"
     t_rep = float(re.search(r"t = ([0-9.eE+-]+) s", out["status_message"]).group(1))
@@ -166,8 +187,11 @@ def test_resume_with_another_config_is_refused_and_touches_nothing(tmp_path, sma
     before = _folder_digest(tmp_path / "r")
     for change in ("profile.tau_max_Nm=0.02", "sim.timestep_s=0.05", "sim.seed=3", "damping.zeta_strut=0.2"):
         with pytest.raises(CheckpointError, match=f"another run.*{re.escape(change.split('=')[0])}"):
-            run_scenario(_cfg(small_truss_tree, "sim.duration_s=6.0", "sim.checkpoint_every_s=2.0", change),
-                         tmp_path / "r", resume=True)
+            run_scenario(
+                _cfg(small_truss_tree, "sim.duration_s=6.0", "sim.checkpoint_every_s=2.0", change),
+                tmp_path / "r",
+                resume=True,
+            )
         assert _folder_digest(tmp_path / "r") == before, change
 
 
@@ -176,8 +200,12 @@ def test_resume_may_extend_the_duration_and_change_presentation_keys(tmp_path, s
     full = run_scenario(_cfg(small_truss_tree, "sim.duration_s=8.0", *base), tmp_path / "full")
     run_scenario(_cfg(small_truss_tree, "sim.duration_s=4.0", *base), tmp_path / "ext")
     # the finished 4 s run left a checkpoint at 4 s; extending to 8 s continues it
-    resumed = run_scenario(_cfg(small_truss_tree, "sim.duration_s=8.0", "sim.progress=true", *base),
-                           tmp_path / "ext", resume=True, progress=False)
+    resumed = run_scenario(
+        _cfg(small_truss_tree, "sim.duration_s=8.0", "sim.progress=true", *base),
+        tmp_path / "ext",
+        resume=True,
+        progress=False,
+    )
     a, b = read_timeseries(tmp_path / "full"), read_timeseries(tmp_path / "ext")
     assert np.array_equal(a["t"], b["t"]) and np.array_equal(a["qpos"], b["qpos"])
     assert resumed.status == full.status == "completed"
@@ -187,14 +215,28 @@ def test_resume_cannot_shorten_a_run(tmp_path, small_truss_tree):
     cfg = _cfg(small_truss_tree, "sim.duration_s=6.0", "sim.checkpoint_every_s=2.0")
     run_scenario(cfg, tmp_path / "r", stop_after_s=5.0)
     with pytest.raises(CheckpointError, match="beyond"):
-        run_scenario(_cfg(small_truss_tree, "sim.duration_s=3.0", "sim.checkpoint_every_s=2.0"), tmp_path / "r",
-                     resume=True)
+        run_scenario(
+            _cfg(small_truss_tree, "sim.duration_s=3.0", "sim.checkpoint_every_s=2.0"), tmp_path / "r", resume=True
+        )
 
 
 def _cli_run(tmp_path, name, *extra):
-    return main(["run", str(MODELS / "truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml"),
-                 "--out", str(tmp_path / name), "--set", "sim.duration_s=2", "--set", "lattice.units=3",
-                 "--set", "sim.checkpoint_every_s=1", *QUIET, *extra])
+    return main(
+        [
+            "run",
+            str(MODELS / "truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml"),
+            "--out",
+            str(tmp_path / name),
+            "--set",
+            "sim.duration_s=2",
+            "--set",
+            "lattice.units=3",
+            "--set",
+            "sim.checkpoint_every_s=1",
+            *QUIET,
+            *extra,
+        ]
+    )
 
 
 def test_cli_resume_without_checkpoint_keeps_a_finished_run(tmp_path, capsys):
@@ -218,8 +260,14 @@ def test_cli_resume_of_a_damaged_checkpoint_is_refused(tmp_path, capsys, damage)
     assert _cli_run(tmp_path, "r") == 0
     ckpt = tmp_path / "r/checkpoint.npz"
     data = ckpt.read_bytes()
-    ckpt.write_bytes({"truncate": data[: len(data) // 2], "garbage": os.urandom(4096),
-                      "pickle": pickle.dumps({"step": 1, "state": np.zeros(3)}), "empty": b""}[damage])
+    ckpt.write_bytes(
+        {
+            "truncate": data[: len(data) // 2],
+            "garbage": os.urandom(4096),
+            "pickle": pickle.dumps({"step": 1, "state": np.zeros(3)}),
+            "empty": b"",
+        }[damage]
+    )
     before = _folder_digest(tmp_path / "r")
     assert _cli_run(tmp_path, "r", "--resume") == 2
     assert "checkpoint" in capsys.readouterr().err
@@ -273,12 +321,19 @@ RESUME_CASES = [  # one config of every scenario kind that steps (the others ref
     ("truss_magnetorquer/configs/libration.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
     ("truss_magnetorquer/configs/detumble.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
     ("truss_magnetorquer/configs/slew_i.toml", ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
-    ("truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml",
-     ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL], 6.0),
+    (
+        "truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml",
+        ["sim.duration_s=12", "sim.checkpoint_every_s=4", *_SMALL],
+        6.0,
+    ),
     ("msac/configs/paper_1khz.toml", ["sim.duration_s=0.3", "sim.checkpoint_every_s=0.2"], 0.2),
 ]
-NOT_RESUMABLE = ["cnusail/configs/lifetime.toml", "msac/configs/lumped.toml", "msac/configs/sweeps/stroke.toml",
-                 "reflector/configs/pitch/b3_caps_sigma10.toml"]
+NOT_RESUMABLE = [
+    "cnusail/configs/lifetime.toml",
+    "msac/configs/lumped.toml",
+    "msac/configs/sweeps/stroke.toml",
+    "reflector/configs/pitch/b3_caps_sigma10.toml",
+]
 
 
 @pytest.mark.parametrize("name", NOT_RESUMABLE)
@@ -473,9 +528,14 @@ def test_an_unusable_mujoco_gl_does_not_break_the_verbs(tmp_path):
 
     env = {**os.environ, "MUJOCO_GL": "bogus"}
     env.pop("PYOPENGL_PLATFORM", None)
-    proc = subprocess.run([sys.executable, "-m", "magsail_mj.cli", "validate",
-                           str(MODELS / "cnusail/configs/detumble_pre.toml")], env=env, capture_output=True, text=True,
-                          cwd=tmp_path, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "magsail_mj.cli", "validate", str(MODELS / "cnusail/configs/detumble_pre.toml")],
+        env=env,
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stderr and "MUJOCO_GL='bogus'" in proc.stderr
 
@@ -490,9 +550,24 @@ def test_a_signal_while_the_command_starts_is_exit_130(tmp_path, signame, delay_
     import sys
     import time
 
-    proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.entry", "run", str(MODELS / "cnusail/configs/detumble_pre.toml"),  # noqa: E501
-                             "--out", str(tmp_path / "r"), "--set", "sim.duration_s=3000", "--no-progress"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "magsail_mj.entry",
+            "run",
+            str(MODELS / "cnusail/configs/detumble_pre.toml"),  # noqa: E501
+            "--out",
+            str(tmp_path / "r"),
+            "--set",
+            "sim.duration_s=3000",
+            "--no-progress",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=tmp_path,
+    )
     time.sleep(delay_s)
     proc.send_signal(getattr(signal, signame))
     _, err = proc.communicate(timeout=120)
@@ -526,10 +601,17 @@ def test_scaling_table_memory_is_estimated_first(capsys):
     assert "1000 × 1000 table" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("name,overrides,series", [
-    ("truss_magnetorquer/configs/detumble.toml", ["lattice.units=3", "mass.total_kg=1e300"], "torque_gg_rigid_body_Nm"),
-    ("reflector/configs/pitch/b4_wn0p2_sigma10.toml", ["control.zeta=1e300"], "T_ref_norm_N_m"),
-])
+@pytest.mark.parametrize(
+    "name,overrides,series",
+    [
+        (
+            "truss_magnetorquer/configs/detumble.toml",
+            ["lattice.units=3", "mass.total_kg=1e300"],
+            "torque_gg_rigid_body_Nm",
+        ),
+        ("reflector/configs/pitch/b4_wn0p2_sigma10.toml", ["control.zeta=1e300"], "T_ref_norm_N_m"),
+    ],
+)
 def test_overflowed_numbers_are_never_completed(tmp_path, name, overrides, series):
     """Inputs near the float64 limit that leave the state finite but overflow a recorded or derived
     series: the run is failed (exit 1), naming the series, not completed."""

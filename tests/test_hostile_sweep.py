@@ -47,8 +47,13 @@ ROOT = Path(__file__).resolve().parents[1]
 CFG_A = ROOT / "magsail_mj" / "concepts" / "current_loops" / "configs" / "sweep" / "a_n12_ei1e3.toml"
 FAST = ["lattice.units=3", "sim.duration_s=2.0", "sim.record_every=10", "sim.progress=false"]
 # ~100k RK4 steps: tens of seconds, far longer than any test waits for it
-SLOW = ["lattice.units=3", "sim.duration_s=100.0", "sim.timestep_s=0.001", "sim.record_every=1000",
-        "sim.progress=false"]
+SLOW = [
+    "lattice.units=3",
+    "sim.duration_s=100.0",
+    "sim.timestep_s=0.001",
+    "sim.record_every=1000",
+    "sim.progress=false",
+]
 
 
 def _sweep_file(tmp_path: Path, ids: list[str], common: list[str], name: str = "hostile") -> Path:
@@ -114,9 +119,14 @@ def test_interrupt_stops_promptly_writes_summary_and_locks_folder(tmp_path, caps
     """SIGINT goes to the whole process group (a terminal's Ctrl-C), SIGTERM to the sweep process only."""
     sweep = _sweep_file(tmp_path, ["slow/a", "slow/b"], SLOW)
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.cli", "sweep", str(sweep), "--out", str(out),
-                             "--workers", str(workers)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, start_new_session=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "magsail_mj.cli", "sweep", str(sweep), "--out", str(out), "--workers", str(workers)],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     try:
         started = ["slow/a", "slow/b"][:workers]
         wait_for(lambda: all((out / r / "model.xml").exists() for r in started), 90, "the runs to start")
@@ -153,11 +163,14 @@ def test_interrupt_stops_promptly_writes_summary_and_locks_folder(tmp_path, caps
 def test_kill9_of_the_parent_takes_the_workers_down_and_frees_the_folder(tmp_path):
     sweep = _sweep_file(tmp_path, ["slow/a", "slow/b"], SLOW)
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.cli", "sweep", str(sweep), "--out", str(out),
-                             "--workers", "2"], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "magsail_mj.cli", "sweep", str(sweep), "--out", str(out), "--workers", "2"],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
-        wait_for(lambda: all((out / r / "model.xml").exists() for r in ("slow/a", "slow/b")), 90,
-                  "both runs to start")
+        wait_for(lambda: all((out / r / "model.xml").exists() for r in ("slow/a", "slow/b")), 90, "both runs to start")
         workers = _workers_of(proc.pid)
         assert len(workers) == 2
         proc.kill()
@@ -213,8 +226,14 @@ def test_folder_lock_is_refused_in_process(tmp_path, capsys):
 def test_a_killed_run_process_is_retried_from_its_checkpoint_until_no_retry_is_left(tmp_path):
     """Run "a" is killed once: its retry resumes from the checkpoint and completes. Run "b" is
     killed in both of its attempts: it fails, naming the signal."""
-    checkpointing = ["lattice.units=3", "sim.duration_s=12.0", "sim.timestep_s=0.001", "sim.record_every=100",
-                     "sim.checkpoint_every_s=1.0", "sim.progress=false"]
+    checkpointing = [
+        "lattice.units=3",
+        "sim.duration_s=12.0",
+        "sim.timestep_s=0.001",
+        "sim.record_every=100",
+        "sim.checkpoint_every_s=1.0",
+        "sim.progress=false",
+    ]
     sweep = load_sweep(_sweep_file(tmp_path, ["a", "b"], checkpointing))
     out = tmp_path / "out"
     box = {}
@@ -223,8 +242,7 @@ def test_a_killed_run_process_is_retried_from_its_checkpoint_until_no_retry_is_l
         found = [p for p, cmd in _run_processes(os.getpid()).items() if cmd.endswith(f"--run {rid} ") and p != exclude]
         return found[0] if found else 0
 
-    thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, log=None, workers=2,
-                                                                          retries=1)))
+    thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, log=None, workers=2, retries=1)))
     thread.start()
     try:
         wait_for(lambda: all((out / r / "checkpoint.npz").exists() for r in ("a", "b")), 90, "both checkpoints")
@@ -255,8 +273,10 @@ def test_stale_results_are_rerun_and_only_merges_the_summary(tmp_path):
         return {r["id"]: {**r, "reused": r["id"] in reused} for r in stored}
 
     first = run_sweep(load_sweep(path, only="m/a"), out, log=None)
-    assert [(r["id"], r["status"], r["reused"]) for r in first] == [("m/a", "completed", False),
-                                                                    ("m/b", "not_run", False)]
+    assert [(r["id"], r["status"], r["reused"]) for r in first] == [
+        ("m/a", "completed", False),
+        ("m/b", "not_run", False),
+    ]
     assert sweep_exit_code(first) == 0  # a run outside --only does not count
     run_sweep(load_sweep(path, only="m/b"), out, log=None)
     merged = summary()
@@ -280,11 +300,14 @@ def test_stale_results_are_rerun_and_only_merges_the_summary(tmp_path):
     # one byte of one chunk of the record store flipped in place (same size, same name): detected
     chunk = min((out / "m" / "a" / STORE_NAME / "qpos").rglob("c/*/*"), key=lambda c: c.as_posix())
     original = chunk.read_bytes()
-    chunk.write_bytes(original[:len(original) // 2] + bytes([original[len(original) // 2] ^ 0xFF])
-                      + original[len(original) // 2 + 1:])
+    chunk.write_bytes(
+        original[: len(original) // 2]
+        + bytes([original[len(original) // 2] ^ 0xFF])
+        + original[len(original) // 2 + 1 :]
+    )
     assert f"{STORE_NAME} changed" in _folder_check(out / "m" / "a", config_hash=a_hash, video=False)[1]
     assert [r.id for r in _plan(sweep3, out, video=False, overwrite=False, log=None)[1]] == ["m/a", "m/b"]
-    chunk.write_bytes(original)   # restored: valid again
+    chunk.write_bytes(original)  # restored: valid again
     assert _folder_check(out / "m" / "a", config_hash=a_hash, video=False)[1] == ""
 
 
@@ -331,21 +354,24 @@ def test_failed_video_means_failed_and_is_never_reused(tmp_path, monkeypatch):
 # run ids, the sweep name, exit codes
 
 
-@pytest.mark.parametrize(("ids", "bad"), [
-    (["."], "run[0].id: '.'"),
-    ([""], "run[0].id: ''"),
-    (["./"], "run[0].id: './'"),
-    (["a/.."], "run[0].id: 'a/..'"),
-    (["/abs"], "run[0].id: '/abs'"),
-    (["a", "a/"], "run[1].id: 'a/'"),
-    (["a", "./a"], "run[1].id: './a'"),
-    (["A", "a"], "run[1].id: 'a'"),
-    (["a", "a/b"], "run[1].id: 'a/b'"),
-    (["sweep_summary.json"], "run[0].id: 'sweep_summary.json'"),
-    ([LOCK_NAME], f"run[0].id: '{LOCK_NAME}'"),
-    (["tab\there"], "run[0].id: 'tab\\there'"),
-    (["x" * 300], "run[0].id: '" + "x" * 300 + "'"),
-])
+@pytest.mark.parametrize(
+    ("ids", "bad"),
+    [
+        (["."], "run[0].id: '.'"),
+        ([""], "run[0].id: ''"),
+        (["./"], "run[0].id: './'"),
+        (["a/.."], "run[0].id: 'a/..'"),
+        (["/abs"], "run[0].id: '/abs'"),
+        (["a", "a/"], "run[1].id: 'a/'"),
+        (["a", "./a"], "run[1].id: './a'"),
+        (["A", "a"], "run[1].id: 'a'"),
+        (["a", "a/b"], "run[1].id: 'a/b'"),
+        (["sweep_summary.json"], "run[0].id: 'sweep_summary.json'"),
+        ([LOCK_NAME], f"run[0].id: '{LOCK_NAME}'"),
+        (["tab\there"], "run[0].id: 'tab\\there'"),
+        (["x" * 300], "run[0].id: '" + "x" * 300 + "'"),
+    ],
+)
 def test_bad_run_ids_are_refused_naming_index_and_id(tmp_path, ids, bad):
     with pytest.raises(ConfigError) as err:
         load_sweep(_sweep_file(tmp_path, ids, FAST))
@@ -364,8 +390,11 @@ def test_non_string_id_and_unsafe_sweep_name_are_refused(tmp_path):
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.lists(st.sampled_from(["a", "b", ".", "/", "\\", " ", "\t", "..", "sweep_summary.json", "é"]),
-                max_size=10).map("".join))
+@given(
+    st.lists(st.sampled_from(["a", "b", ".", "/", "\\", " ", "\t", "..", "sweep_summary.json", "é"]), max_size=10).map(
+        "".join
+    )
+)
 def test_normalised_ids_stay_strictly_inside_the_sweep_folder(raw):
     root = Path("/sweep/root")
     try:
@@ -379,13 +408,17 @@ def test_normalised_ids_stay_strictly_inside_the_sweep_folder(raw):
 
 def test_unselected_runs_with_broken_configs_do_not_block_only(tmp_path):
     path = tmp_path / "s.toml"
-    path.write_text(f'name = "n"\nset = {json.dumps(FAST)}\n[[run]]\nid = "good"\nconfig = "{CFG_A}"\n'
-                    f'[[run]]\nid = "broken"\nconfig = "{CFG_A}"\nset = ["lattice.units=-1"]\n')
+    path.write_text(
+        f'name = "n"\nset = {json.dumps(FAST)}\n[[run]]\nid = "good"\nconfig = "{CFG_A}"\n'
+        f'[[run]]\nid = "broken"\nconfig = "{CFG_A}"\nset = ["lattice.units=-1"]\n'
+    )
     with pytest.raises(ConfigError, match="broken: lattice.units"):
         load_sweep(path)
     sweep = load_sweep(path, only="good")
-    assert [(r.id, r.selected, bool(r.config_hash)) for r in sweep.runs] == [("good", True, True),
-                                                                            ("broken", False, False)]
+    assert [(r.id, r.selected, bool(r.config_hash)) for r in sweep.runs] == [
+        ("good", True, True),
+        ("broken", False, False),
+    ]
 
 
 def test_exit_code_and_finished_statuses():
@@ -408,14 +441,32 @@ def test_exit_code_and_finished_statuses():
 # --------------------------------------------------------------------------------------------------
 # grids and Monte Carlo designs: any table is either drawn or refused with a ConfigError naming its key
 
-_ANY = st.one_of(st.none(), st.booleans(), st.integers(-10**20, 10**20), st.floats(), st.text(max_size=8),
-                 st.lists(st.floats(), max_size=3), st.sampled_from(["2016-01-01T00:00:00Z", "2016-13-01", ""]))
-_DIST = st.dictionaries(st.sampled_from(["dist", "low", "high", "mean", "std", "values", "magnitude", "start",
-                                         "end", "extra"]), _ANY, max_size=4)
-_SPEC = st.one_of(_DIST, st.builds(lambda d, rest: {**rest, "dist": d}, st.sampled_from(DISTRIBUTIONS + ("x",)),
-                                   st.dictionaries(st.sampled_from(["low", "high", "mean", "std", "values",
-                                                                    "magnitude", "start", "end"]),
-                                                   st.one_of(_ANY, _DIST), max_size=3)))
+_ANY = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(10**20), 10**20),
+    st.floats(),
+    st.text(max_size=8),
+    st.lists(st.floats(), max_size=3),
+    st.sampled_from(["2016-01-01T00:00:00Z", "2016-13-01", ""]),
+)
+_DIST = st.dictionaries(
+    st.sampled_from(["dist", "low", "high", "mean", "std", "values", "magnitude", "start", "end", "extra"]),
+    _ANY,
+    max_size=4,
+)
+_SPEC = st.one_of(
+    _DIST,
+    st.builds(
+        lambda d, rest: {**rest, "dist": d},
+        st.sampled_from(DISTRIBUTIONS + ("x",)),
+        st.dictionaries(
+            st.sampled_from(["low", "high", "mean", "std", "values", "magnitude", "start", "end"]),
+            st.one_of(_ANY, _DIST),
+            max_size=3,
+        ),
+    ),
+)
 
 
 @settings(max_examples=300, deadline=None)
@@ -435,8 +486,14 @@ def test_monte_carlo_tables_draw_or_are_refused_by_key(spec, samples, seed):
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.dictionaries(st.text(min_size=1, max_size=6), st.lists(_ANY.filter(lambda v: v is not None), max_size=3),
-                       min_size=1, max_size=3))
+@given(
+    st.dictionaries(
+        st.text(min_size=1, max_size=6),
+        st.lists(_ANY.filter(lambda v: v is not None), max_size=3),
+        min_size=1,
+        max_size=3,
+    )
+)
 def test_grid_ids_are_distinct_plain_folders_or_refused(grid):
     try:
         points = grid_points(grid)
@@ -450,8 +507,13 @@ def test_grid_ids_are_distinct_plain_folders_or_refused(grid):
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.recursive(st.one_of(st.booleans(), st.integers(), st.floats(allow_nan=False), st.text()),
-                    lambda inner: st.lists(inner, max_size=3), max_leaves=6))
+@given(
+    st.recursive(
+        st.one_of(st.booleans(), st.integers(), st.floats(allow_nan=False), st.text()),
+        lambda inner: st.lists(inner, max_size=3),
+        max_leaves=6,
+    )
+)
 def test_toml_literals_read_back_as_the_same_value(value):
     assert tomllib.loads(f"v = {toml_literal(value)}")["v"] == value
 
@@ -466,14 +528,18 @@ def test_design_tables_are_checked_before_anything_runs(tmp_path):
 
     assert "monte_carlo.samples: must be an integer >= 1, got 0" in load("[monte_carlo]\nsamples = 0\n")
     assert "monte_carlo.x.dist: must be one of" in load('[monte_carlo]\nsamples = 2\nx = { dist = "gauss" }\n')
-    assert "needs 0 < low <= high" in load('[monte_carlo]\nsamples = 2\nx = { dist = "log-uniform", low = 0, '
-                                            'high = 1 }\n')
+    assert "needs 0 < low <= high" in load(
+        '[monte_carlo]\nsamples = 2\nx = { dist = "log-uniform", low = 0, high = 1 }\n'
+    )
     assert "grid.lattice.units: must be a non-empty list" in load("[grid]\nlattice.units = 3\n")
-    assert "also varied by grid" in load('[grid]\n"sim.timestep_s" = [0.1]\n[monte_carlo]\nsamples = 1\n'
-                                         '"sim.timestep_s" = { dist = "uniform", low = 0.05, high = 0.1 }\n')
+    assert "also varied by grid" in load(
+        '[grid]\n"sim.timestep_s" = [0.1]\n[monte_carlo]\nsamples = 1\n'
+        '"sim.timestep_s" = { dist = "uniform", low = 0.05, high = 0.1 }\n'
+    )
     # a drawn value the config refuses names the run and the key
-    assert "s0: lattice.units" in load('[monte_carlo]\nsamples = 1\n"lattice.units" = { dist = "uniform", '
-                                       'low = -5.0, high = -4.0 }\n')
+    assert "s0: lattice.units" in load(
+        '[monte_carlo]\nsamples = 1\n"lattice.units" = { dist = "uniform", low = -5.0, high = -4.0 }\n'
+    )
     path = tmp_path / "nobase.toml"
     path.write_text('name = "d"\n[grid]\n"lattice.units" = [3]\n')
     with pytest.raises(ConfigError, match="config: \\[grid\\] / \\[monte_carlo\\] need the base config"):

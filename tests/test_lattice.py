@@ -20,10 +20,18 @@ from hypothesis import strategies as st
 from magsail_mj.config import load_config
 from magsail_mj.estimation.attitude import particle_inertia
 from magsail_mj.lattice.geometry import (
-    STRUT_KINDS, axial_rigidity_from_EI, make_lattice, node_index, stiffness_matrix,
+    STRUT_KINDS,
+    axial_rigidity_from_EI,
+    make_lattice,
+    node_index,
+    stiffness_matrix,
 )
 from magsail_mj.lattice.properties import (
-    calibration_factor, cantilever_linear, central_cube_nodes, node_masses, strut_damping,
+    calibration_factor,
+    cantilever_linear,
+    central_cube_nodes,
+    node_masses,
+    strut_damping,
     strut_stiffness,
 )
 from magsail_mj.concepts.truss_magnetorquer import make_truss_model
@@ -46,9 +54,15 @@ def test_counts_parity_units_19():
     assert lat.n_nodes == 800 and lat.nodes_per_side == 20
     assert lat.n_struts == 3402
     counts = {name: int(np.sum(lat.kind == i)) for i, name in enumerate(STRUT_KINDS)}
-    assert counts == {"x_edge": 760, "y_edge": 760, "vertical": 400, "xy_diagonal": 722,
-                      "xz_diagonal": 380, "yz_diagonal": 380}
-    for layer in (0, 1):   # 361 top and 361 bottom face diagonals, 380 actuator struts per family
+    assert counts == {
+        "x_edge": 760,
+        "y_edge": 760,
+        "vertical": 400,
+        "xy_diagonal": 722,
+        "xz_diagonal": 380,
+        "yz_diagonal": 380,
+    }
+    for layer in (0, 1):  # 361 top and 361 bottom face diagonals, 380 actuator struts per family
         assert lat.struts_of_kind("xy_diagonal", layer=layer).size == 361
         assert lat.struts_of_kind("y_edge", layer=layer).size == 380
         assert lat.struts_of_kind("x_edge", layer=layer).size == 380
@@ -81,8 +95,7 @@ def test_reference_coordinates_and_index():
     for i, j, k in [(0, 0, 0), (19, 0, 1), (3, 17, 1), (19, 19, 0)]:
         n = int(node_index(i, j, k, N))
         assert tuple(lat.ijk[n]) == (i, j, k)
-        np.testing.assert_allclose(lat.nodes[n], [i * a - 37.5, j * a - 37.5, (k - 0.5) * a], rtol=1e-14,
-                                   atol=1e-12)
+        np.testing.assert_allclose(lat.nodes[n], [i * a - 37.5, j * a - 37.5, (k - 0.5) * a], rtol=1e-14, atol=1e-12)
     np.testing.assert_allclose(lat.nodes.mean(axis=0), 0.0, atol=1e-12)
 
 
@@ -123,7 +136,7 @@ def test_parity_rule_one_diagonal_per_face(units):
     assert len(pairs) == lat.n_struts, "a strut is duplicated"
     faces = _faces(units)
     n = units
-    assert len(faces) == 2 * n * n + 2 * n * (n + 1)   # top/bottom faces + vertical faces
+    assert len(faces) == 2 * n * n + 2 * n * (n + 1)  # top/bottom faces + vertical faces
     parity = lat.ijk.sum(axis=1) % 2
     diag_pairs = {frozenset(p) for p in lat.struts[lat.kind >= STRUT_KINDS.index("xy_diagonal")].tolist()}
     used = set()
@@ -161,8 +174,12 @@ def _rigid_modes(x: np.ndarray) -> np.ndarray:
 
 
 @settings(max_examples=30, deadline=None)
-@given(units=st.integers(1, 5), diagonals=st.sampled_from(["parity", "X"]),
-       side=st.floats(0.5, 200.0), EI=st.floats(1.0, 1e4))
+@given(
+    units=st.integers(1, 5),
+    diagonals=st.sampled_from(["parity", "X"]),
+    side=st.floats(0.5, 200.0),
+    EI=st.floats(1.0, 1e4),
+)
 def test_free_free_stiffness_has_exactly_six_zero_modes(units, diagonals, side, EI):
     """Spec §2.2: the lattice is rigid: the free-free K (dense) has exactly 6 zero eigenvalues.
 
@@ -217,12 +234,16 @@ def test_spring_constants_of_spec_table(case, d, EI, EA, k_edge, k_diag):
     assert close_to_printed(ea, EA)
     edge = lat.kind <= STRUT_KINDS.index("vertical")
     assert close_to_printed(k[edge][0], k_edge) and close_to_printed(k[~edge][0], k_diag)
-    np.testing.assert_allclose(k * lat.rest_length, ea, rtol=1e-12)   # same EA for every strut
+    np.testing.assert_allclose(k * lat.rest_length, ea, rtol=1e-12)  # same EA for every strut
 
 
 # Spec §2.6: γ for ζ_s = 0.1 with formula stiffness (printed to 2 significant figures).
-GAMMA_TABLE = [(100.0, 1e3, 100.0, "0.041"), (100.0, 1e2, 100.0, "0.013"),
-               (100.0, 1e1, 100.0, "0.0041"), (75.0, 1e3, 200.0, "0.090")]
+GAMMA_TABLE = [
+    (100.0, 1e3, 100.0, "0.041"),
+    (100.0, 1e2, 100.0, "0.013"),
+    (100.0, 1e1, 100.0, "0.0041"),
+    (75.0, 1e3, 200.0, "0.090"),
+]
 
 
 @pytest.mark.parametrize("d,EI,M,gamma", GAMMA_TABLE)
@@ -291,7 +312,8 @@ def test_central_case_masses_and_centre_of_mass():
     m = node_masses(lat, total_kg=100.0, central_fraction=1.0 / 3.0)
     centre = central_cube_nodes(lat)
     assert sorted(map(tuple, lat.ijk[centre].tolist())) == sorted(
-        (i, j, k) for i in (9, 10) for j in (9, 10) for k in (0, 1))
+        (i, j, k) for i in (9, 10) for j in (9, 10) for k in (0, 1)
+    )
     others = np.setdiff1d(np.arange(800), centre)
     assert close_to_printed(m[others][0], "0.08333")
     np.testing.assert_allclose(m[others], m[others][0], rtol=1e-15)
@@ -341,8 +363,7 @@ def test_strain_check_finds_the_largest_strain(units, seed, scale):
     rng = np.random.default_rng(seed)
     x = lat.nodes + rng.normal(scale=scale * lat.cube_edge_m / 4, size=lat.nodes.shape)
     pos = np.vstack([np.full(3, 7.0), x])  # body 0 is the world
-    eps = np.array([abs(np.linalg.norm(x[j] - x[i]) / l0 - 1.0)
-                    for (i, j), l0 in zip(lat.struts, lat.rest_length)])
+    eps = np.array([abs(np.linalg.norm(x[j] - x[i]) / l0 - 1.0) for (i, j), l0 in zip(lat.struts, lat.rest_length)])
     value, strut = strain_check(lat)(pos)
     assert value == pytest.approx(eps.max(), rel=1e-12, abs=1e-15)
     assert eps[strut] == pytest.approx(eps.max(), rel=1e-12, abs=1e-15)

@@ -75,7 +75,7 @@ def _targets(node: ast.Import | ast.ImportFrom, mod: Module, known: set[str]) ->
         base = node.module or ""
         if node.level:
             pkg = mod.name.split(".") if mod.path.name == "__init__.py" else mod.name.split(".")[:-1]
-            pkg = pkg[:len(pkg) - node.level + 1]
+            pkg = pkg[: len(pkg) - node.level + 1]
             base = ".".join(pkg + ([base] if base else []))
         names = [f"{base}.{a.name}" if f"{base}.{a.name}" in known else base for a in node.names]
     out = []
@@ -117,8 +117,11 @@ def concept_of(module: str) -> str | None:
     return None
 
 
-CONCEPT_NAMES = sorted(p.name for p in (PACKAGE_DIR / "concepts").iterdir()
-                       if (p / "__init__.py").is_file()) if (PACKAGE_DIR / "concepts").is_dir() else []
+CONCEPT_NAMES = (
+    sorted(p.name for p in (PACKAGE_DIR / "concepts").iterdir() if (p / "__init__.py").is_file())
+    if (PACKAGE_DIR / "concepts").is_dir()
+    else []
+)
 
 
 def find_cycle(graph: dict[str, list[str]]) -> list[str] | None:
@@ -138,7 +141,7 @@ def find_cycle(graph: dict[str, list[str]]) -> list[str] | None:
                 stack.pop()
                 path.pop()
             elif state.get(nxt) == 1:
-                return path[path.index(nxt):] + [nxt]
+                return path[path.index(nxt) :] + [nxt]
             elif nxt not in state:
                 state[nxt] = 1
                 stack.append((nxt, iter(graph[nxt])))
@@ -155,7 +158,7 @@ def test_the_graph_sees_every_module_and_import_kind():
     """Sanity of the AST scan: the package, a function-level import and TYPE_CHECKING blocks count."""
     assert "magsail_mj.concepts" in MODULES and "magsail_mj.config" in MODULES
     assert "magsail_mj.concepts" in GRAPH["magsail_mj.config"]
-    assert any(inner for m in MODULES.values() for _, _, inner in m.imports)   # pymsis at its entry point
+    assert any(inner for m in MODULES.values() for _, _, inner in m.imports)  # pymsis at its entry point
     assert len(MODULES) > 50
 
 
@@ -166,8 +169,9 @@ def test_no_import_cycle():
 
 def _params(names: list[str], pending: dict[str, str]) -> list:
     """``names`` as test parameters, those in ``pending`` marked as expected (non-strict) failures."""
-    return [pytest.param(n, marks=pytest.mark.xfail(reason=pending[n], strict=False)) if n in pending else n
-            for n in names]
+    return [
+        pytest.param(n, marks=pytest.mark.xfail(reason=pending[n], strict=False)) if n in pending else n for n in names
+    ]
 
 
 PENDING_IN_FUNCTION: dict[str, str] = {}
@@ -179,9 +183,11 @@ entry is an expected failure until then, and is removed once its module passes).
 def test_imports_at_module_top(name):
     mod = MODULES[name]
     allowed = ENTRY_POINT_IMPORTS.get(name, set())
-    inner = [f"{mod.path.relative_to(PACKAGE_DIR.parent)}:{line}: {target}"
-             for line, target, in_function in mod.imports
-             if in_function and target.split(".")[0] not in allowed and target not in allowed]
+    inner = [
+        f"{mod.path.relative_to(PACKAGE_DIR.parent)}:{line}: {target}"
+        for line, target, in_function in mod.imports
+        if in_function and target.split(".")[0] not in allowed and target not in allowed
+    ]
     assert not inner, "imports inside functions:\n" + "\n".join(inner)
 
 
@@ -190,8 +196,9 @@ PENDING_CONCEPT_IMPORTS: dict[str, str] = {}
 to discovery; an entry is removed once its module passes)."""
 
 
-@pytest.mark.parametrize("name", _params([n for n in sorted(GRAPH) if concept_of(n) is None and GRAPH[n]],
-                                          PENDING_CONCEPT_IMPORTS))
+@pytest.mark.parametrize(
+    "name", _params([n for n in sorted(GRAPH) if concept_of(n) is None and GRAPH[n]], PENDING_CONCEPT_IMPORTS)
+)
 def test_framework_and_shared_modules_import_no_concept(name):
     bad = [t for t in GRAPH[name] if concept_of(t) is not None]
     assert not bad, f"{name} (framework/shared) imports concept modules: {bad}"
@@ -199,8 +206,13 @@ def test_framework_and_shared_modules_import_no_concept(name):
 
 @pytest.mark.parametrize("concept", CONCEPT_NAMES)
 def test_concepts_import_no_other_concept(concept):
-    bad = [f"{m} → {t}" for m, targets in GRAPH.items() if concept_of(m) == concept
-           for t in targets if concept_of(t) not in (None, concept)]
+    bad = [
+        f"{m} → {t}"
+        for m, targets in GRAPH.items()
+        if concept_of(m) == concept
+        for t in targets
+        if concept_of(t) not in (None, concept)
+    ]
     assert not bad, f"{concept} imports another concept:\n" + "\n".join(bad)
 
 
@@ -251,7 +263,7 @@ def test_a_new_concept_package_is_discovered_without_editing_anything(tmp_path, 
     (pkg / "extra.py").write_text("VALUE = 7\n", encoding="utf-8")
     monkeypatch.setattr(registry, "__path__", [*registry.__path__, str(tmp_path)])
     monkeypatch.setattr(registry, "_discovered", False)
-    for table in ("CONFIG_SCHEMAS", "KIND_KEYS", "TASKS"):   # registrations vanish with the test
+    for table in ("CONFIG_SCHEMAS", "KIND_KEYS", "TASKS"):  # registrations vanish with the test
         monkeypatch.setattr(registry, table, dict(getattr(registry, table)))
     try:
         schemas = registry.config_schemas()

@@ -23,9 +23,13 @@ class DipoleInField:
 
     def add(self, state, xfrc: np.ndarray) -> None:
         w, x, y, z = state.xquat[1]
-        R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                      [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+        R = np.array(
+            [
+                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+            ]
+        )
         xfrc[1, 3:] += np.cross(R @ DIPOLE_BODY_A_M2, FIELD_WORLD_T)
 
 
@@ -42,8 +46,9 @@ def _pendulum(dt: float, timing: str, duration_s: float = 6.0) -> Simulation:
         data.qpos[3:7] = [np.cos(0.6), np.sin(0.6) / np.sqrt(2), np.sin(0.6) / np.sqrt(2), 0.0]
         data.qvel[3:6] = [0.3, -0.2, 0.5]
 
-    return Simulation(model=model, duration_s=duration_s, loads=[DipoleInField()], init=init,
-                      record_every=10**6, load_timing=timing)
+    return Simulation(
+        model=model, duration_s=duration_s, loads=[DipoleInField()], init=init, record_every=10**6, load_timing=timing
+    )
 
 
 def _final_attitude(dt: float, timing: str) -> np.ndarray:
@@ -63,8 +68,10 @@ def test_midpoint_loads_converge_at_second_order_start_loads_at_first():
     loads and by ≈ 4 with mid-step loads (observed orders within 0.25 of 1 and 2). The midpoint
     error at δt = 0.05 s is also at least 20x below the start-of-step one."""
     reference = _final_attitude(0.05 / 32, "midpoint")
-    errors = {timing: [_angle(_final_attitude(dt, timing), reference) for dt in (0.05, 0.025, 0.0125)]
-              for timing in ("start", "midpoint")}
+    errors = {
+        timing: [_angle(_final_attitude(dt, timing), reference) for dt in (0.05, 0.025, 0.0125)]
+        for timing in ("start", "midpoint")
+    }
     for timing, expected in (("start", 1.0), ("midpoint", 2.0)):
         e = errors[timing]
         orders = [np.log2(e[0] / e[1]), np.log2(e[1] / e[2])]
@@ -104,9 +111,15 @@ def test_unknown_load_timing_is_refused_by_name():
 
 
 def _cnusail_rate_deg_s(timing: str, dt: float) -> float:
-    sim = magsail_mj.load(REPO / "magsail_mj/concepts/cnusail/configs/detumble_pre.toml",
-                          ["sim.duration_s=600", f"sim.timestep_s={dt}", f"sim.load_timing={timing}",
-                           f"sim.record_every={int(round(10 / dt))}"])
+    sim = magsail_mj.load(
+        REPO / "magsail_mj/concepts/cnusail/configs/detumble_pre.toml",
+        [
+            "sim.duration_s=600",
+            f"sim.timestep_s={dt}",
+            f"sim.load_timing={timing}",
+            f"sim.record_every={int(round(10 / dt))}",
+        ],
+    )
     sim.run()
     return float(np.degrees(np.linalg.norm(sim.data.qvel[3:6])))
 

@@ -29,10 +29,30 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 from magsail_mj.analysis.loop_scaling import (
-    DEFAULT_CONSTANTS, NoLoopSolution, ThermalConstants, c1, conductor_mass, dipole_max, fold_A,
-    geometry_factor, geometry_factor_b_loops, gravity_gradient_torque_max, h_A, joule_power,
-    lambda_f, lambda_f_chain, lambda_u_A, loop_sizing, radiated_power, required_current,
-    scaling_table, side_max, solve_lambda_A, sunlight_diameter_ratio, table1, trace_branches_A,
+    DEFAULT_CONSTANTS,
+    NoLoopSolution,
+    ThermalConstants,
+    c1,
+    conductor_mass,
+    dipole_max,
+    fold_A,
+    geometry_factor,
+    geometry_factor_b_loops,
+    gravity_gradient_torque_max,
+    h_A,
+    joule_power,
+    lambda_f,
+    lambda_f_chain,
+    lambda_u_A,
+    loop_sizing,
+    radiated_power,
+    required_current,
+    scaling_table,
+    side_max,
+    solve_lambda_A,
+    sunlight_diameter_ratio,
+    table1,
+    trace_branches_A,
     wire_diameter,
 )
 from magsail_mj.cli import main
@@ -43,9 +63,16 @@ K = DEFAULT_CONSTANTS
 
 # ----------------------------------------------------------------------------- constants, Table 1
 
+
 def test_constants_are_the_spec_defaults_and_frozen():
     assert (K.rho_c_kg_m3, K.T_ref_K, K.T_eq_K, K.rho_ref_ohm_m, K.emissivity, K.alpha_per_K) == (
-        8960.0, 293.15, 420.0, 1.68e-8, 0.7, 0.00404)
+        8960.0,
+        293.15,
+        420.0,
+        1.68e-8,
+        0.7,
+        0.00404,
+    )
     assert (K.sigma_B, K.B0_T, K.mu_m3_s2, K.R_E_m) == (5.67e-8, 3.12e-5, 3.986e14, 6370e3)
     assert K.mu0_H_m == pytest.approx(4e-7 * math.pi, rel=1e-15)
     assert K.f_gamma == pytest.approx(1 + 0.00404 * (420 - 293.15), rel=1e-15)
@@ -90,6 +117,7 @@ def test_table1_agrees_with_the_realised_lattice_values_where_the_spec_says_it_d
 
 # ----------------------------------------------------------------------------- closed form = chain
 
+
 @settings(max_examples=200, deadline=None)
 @given(g=st.sampled_from("ABCD"), N=st.integers(1, 80), D=st.floats(1.0, 1e5), s=st.floats(1e-4, 1.0))
 def test_closed_form_lambda_equals_the_chain(g, N, D, s):
@@ -101,9 +129,11 @@ def test_closed_form_lambda_equals_the_chain(g, N, D, s):
     # The heat balance the diameter came from: I² R(Γ_e) = ε σ_B π d l Γ_e⁴ (l cancels).
     area, length = table1(g, N, D)
     assert joule_power(ch["current_A"], ch["wire_diameter_m"], length) == pytest.approx(
-        radiated_power(ch["wire_diameter_m"], length), rel=1e-12)
+        radiated_power(ch["wire_diameter_m"], length), rel=1e-12
+    )
     assert ch["conductor_mass_kg"] == pytest.approx(
-        K.rho_c_kg_m3 * math.pi / 4 * ch["wire_diameter_m"] ** 2 * length, rel=1e-14)
+        K.rho_c_kg_m3 * math.pi / 4 * ch["wire_diameter_m"] ** 2 * length, rel=1e-14
+    )
     assert conductor_mass(ch["wire_diameter_m"], length) == ch["conductor_mass_kg"]
     assert ch["current_A"] * area == pytest.approx(dipole_max(D, s), rel=1e-12)
 
@@ -119,11 +149,13 @@ def test_wire_diameter_carries_the_current_squared():
     """§9 item 1: d ∝ I^{2/3} (the printed Eq. 6 would give d independent of I)."""
     assert wire_diameter(8.0) / wire_diameter(1.0) == pytest.approx(4.0, rel=1e-13)
     d = wire_diameter(10.0)
-    assert K.emissivity * K.sigma_B * math.pi * d * K.T_eq_K ** 4 == pytest.approx(
-        4 * K.rho_ref_ohm_m * 100.0 * K.f_gamma / (math.pi * d * d), rel=1e-12)
+    assert K.emissivity * K.sigma_B * math.pi * d * K.T_eq_K**4 == pytest.approx(
+        4 * K.rho_ref_ohm_m * 100.0 * K.f_gamma / (math.pi * d * d), rel=1e-12
+    )
 
 
 # ----------------------------------------------------------------------------- Eqs. 7–9
+
 
 def _tidal_torque(points_body: np.ndarray, masses: np.ndarray, R: float, theta: float) -> float:
     """Net gravity torque about the centre of mass, exact point-mass gravity, body rotated by θ about y.
@@ -186,12 +218,14 @@ def test_rim_conductor_inertia_of_a_square_wire_is_kappa_one():
     t = -D / 2 + (np.arange(m_side) + 0.5) * D / m_side
     h = np.full(m_side, D / 2)
     z = np.zeros(m_side)
-    wire = np.concatenate([np.stack([t, -h, z], 1), np.stack([h, t, z], 1),
-                           np.stack([-t, h, z], 1), np.stack([-h, -t, z], 1)])
+    wire = np.concatenate(
+        [np.stack([t, -h, z], 1), np.stack([h, t, z], 1), np.stack([-t, h, z], 1), np.stack([-h, -t, z], 1)]
+    )
     mw = np.full(len(wire), Mc / len(wire))
     T = abs(_tidal_torque(np.vstack([pts, wire]), np.concatenate([mp, mw]), R, math.pi / 4))
-    second_moment = ((M - Mc) * D**2 / 12 * (1 - 1 / n**2) + Mc * D**2 / 8
-                     + Mc * D**2 / 24 * (1 - 1 / m_side**2))  # Σ m x², discrete
+    second_moment = (
+        (M - Mc) * D**2 / 12 * (1 - 1 / n**2) + Mc * D**2 / 8 + Mc * D**2 / 24 * (1 - 1 / m_side**2)
+    )  # Σ m x², discrete
     assert T == pytest.approx(3 * K.mu_m3_s2 / (2 * R**3) * second_moment, rel=1e-7)
     # Continuous closed form: the discrete plate's second moment is low by (1 − λ)/n² = 5e-4.
     assert T == pytest.approx(gravity_gradient_torque_max(M, D, R, kappa=1.0, lambda_f=lam), rel=1 / n**2)
@@ -220,6 +254,7 @@ def test_dipole_max_is_common_to_the_uniform_geometries():
 
 
 # ----------------------------------------------------------------------------- geometry A
+
 
 def _quartic_roots(lambda_u: float, kappa: float) -> list[float]:
     """Positive real roots λ of λ = λ_u (1 + κλ)^{4/3} via t³ = 1 + κλ: κλ_u t⁴ − t³ + 1 = 0."""
@@ -299,8 +334,9 @@ def test_trace_branches_round_trip():
         assert r["power_per_area_W_m2"] == pytest.approx(tr["power_per_area_W_m2"][i], rel=1e-9)
     assert D.max() <= scaling_table(areal_density_kg_m2=s)["A_side_fold_m"] * (1 + 1e-12)
     with pytest.raises(NoLoopSolution, match="side_m"):
-        loop_sizing("A", units=1, side_m=1.01 * scaling_table(areal_density_kg_m2=s)["A_side_fold_m"],
-                    areal_density_kg_m2=s)
+        loop_sizing(
+            "A", units=1, side_m=1.01 * scaling_table(areal_density_kg_m2=s)["A_side_fold_m"], areal_density_kg_m2=s
+        )
 
 
 def test_reference_temperature_moves_only_the_A_current():
@@ -318,12 +354,19 @@ def test_reference_temperature_moves_only_the_A_current():
 
 # ----------------------------------------------------------------------------- table, sunlight, errors
 
+
 def test_scaling_table_has_every_spec_key():
     t = scaling_table()
     for g in "ABCD":
         for N in (12, 19, 27):
-            for q in ("current_A", "wire_diameter_m", "lambda_f", "power_per_area_W_m2",
-                      "dipole_max_A_m2", "path_length_m"):
+            for q in (
+                "current_A",
+                "wire_diameter_m",
+                "lambda_f",
+                "power_per_area_W_m2",
+                "dipole_max_A_m2",
+                "path_length_m",
+            ):
                 assert math.isfinite(t[f"{g}_N{N}_{q}"]) and t[f"{g}_N{N}_{q}"] > 0
     assert t["c1_per_m_per_cbrt_kg"] == c1() and t["kappa"] == 15.0 and t["A_lambda_fold"] == 0.2
     assert t["B_N19_current_A"] == pytest.approx(10.0298, rel=1e-5)  # README table
@@ -336,18 +379,27 @@ def test_sunlight_check():
     d = wire_diameter(I)
 
     def balance(x):
-        return (4 * K.rho_ref_ohm_m * K.f_gamma * I * I / (math.pi * x * x) + 1360 * K.emissivity * x
-                - K.emissivity * K.sigma_B * math.pi * x * K.T_eq_K**4)
+        return (
+            4 * K.rho_ref_ohm_m * K.f_gamma * I * I / (math.pi * x * x)
+            + 1360 * K.emissivity * x
+            - K.emissivity * K.sigma_B * math.pi * x * K.T_eq_K**4
+        )
 
     d_sun = brentq(balance, d, 2 * d, xtol=1e-18, rtol=1e-15)
     assert d_sun / d == pytest.approx(sunlight_diameter_ratio(), rel=1e-10)
     assert sunlight_diameter_ratio() == pytest.approx(1.098, abs=1e-3)
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    (dict(units=0), "units"), (dict(units=2.5), "units"), (dict(side_m=-1.0), "side_m"),
-    (dict(areal_density_kg_m2=0.0), "areal_density_kg_m2"), (dict(kappa=-1.0), "kappa"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(units=0), "units"),
+        (dict(units=2.5), "units"),
+        (dict(side_m=-1.0), "side_m"),
+        (dict(areal_density_kg_m2=0.0), "areal_density_kg_m2"),
+        (dict(kappa=-1.0), "kappa"),
+    ],
+)
 def test_bad_arguments_name_themselves(kwargs, name):
     base = dict(units=19, side_m=250.0, areal_density_kg_m2=0.1)
     with pytest.raises(ValueError, match=f"^{name}:"):
@@ -359,13 +411,14 @@ def test_bad_arguments_name_themselves(kwargs, name):
 
 # ----------------------------------------------------------------------------- CLI and scripts
 
+
 def test_cli_prints_one_sizing_as_json(capsys):
-    assert main(["scaling", "loops", "--geometry", "D", "--units", "27", "--side-m", "250",
-                 "--areal-density", "0.1"]) == 0
+    assert (
+        main(["scaling", "loops", "--geometry", "D", "--units", "27", "--side-m", "250", "--areal-density", "0.1"]) == 0
+    )
     out = json.loads(capsys.readouterr().out)
     ref = loop_sizing("D", units=27, side_m=250.0, areal_density_kg_m2=0.1)
-    for key in ("current_A", "wire_diameter_m", "lambda_f", "power_per_area_W_m2", "dipole_max_A_m2",
-                "path_length_m"):
+    for key in ("current_A", "wire_diameter_m", "lambda_f", "power_per_area_W_m2", "dipole_max_A_m2", "path_length_m"):
         assert out[key] == pytest.approx(ref[key], rel=1e-15)
 
 
@@ -376,15 +429,18 @@ def test_cli_table(capsys):
     assert out == pytest.approx(json.loads(json.dumps(scaling_table(kappa=1.0))))
 
 
-@pytest.mark.parametrize("argv, option, value", [
-    (["--geometry", "E"], "--geometry", "'E'"),
-    (["--geometry", "B", "--units", "0"], "--units", "0"),
-    (["--geometry", "C", "--side-m", "-5"], "--side-m", "-5"),
-    (["--geometry", "C", "--areal-density", "0"], "--areal-density", "0"),
-    (["--geometry", "A", "--kappa", "-2"], "--kappa", "-2"),
-    (["--geometry", "A", "--side-m", "5000"], "--side-m", "5000"),
-    ([], "--geometry", "A, B, C, D"),
-])
+@pytest.mark.parametrize(
+    "argv, option, value",
+    [
+        (["--geometry", "E"], "--geometry", "'E'"),
+        (["--geometry", "B", "--units", "0"], "--units", "0"),
+        (["--geometry", "C", "--side-m", "-5"], "--side-m", "-5"),
+        (["--geometry", "C", "--areal-density", "0"], "--areal-density", "0"),
+        (["--geometry", "A", "--kappa", "-2"], "--kappa", "-2"),
+        (["--geometry", "A", "--side-m", "5000"], "--side-m", "5000"),
+        ([], "--geometry", "A, B, C, D"),
+    ],
+)
 def test_cli_bad_option(capsys, argv, option, value):
     assert main(["scaling", "loops", *argv]) == 2
     cap = capsys.readouterr()
@@ -404,12 +460,15 @@ def _script(name: str):
     return mod
 
 
-@pytest.mark.parametrize("name, outputs", [
-    ("current_loops_table2_currents", ("table2_currents.png", "table2_currents.csv", "table2_currents.json")),
-    ("current_loops_fig3_scaling_A", ("fig3_scaling_A.png", "fig3_scaling_A.npz")),
-    ("current_loops_fig4_scaling_BCD", ("fig4_scaling_BCD.png", "fig4_scaling_BCD.npz")),
-    ("current_loops_fig5_dmax_vs_N", ("fig5_dmax_vs_N.png", "fig5_dmax_vs_N.npz", "fig5_dmax_vs_N.csv")),
-])
+@pytest.mark.parametrize(
+    "name, outputs",
+    [
+        ("current_loops_table2_currents", ("table2_currents.png", "table2_currents.csv", "table2_currents.json")),
+        ("current_loops_fig3_scaling_A", ("fig3_scaling_A.png", "fig3_scaling_A.npz")),
+        ("current_loops_fig4_scaling_BCD", ("fig4_scaling_BCD.png", "fig4_scaling_BCD.npz")),
+        ("current_loops_fig5_dmax_vs_N", ("fig5_dmax_vs_N.png", "fig5_dmax_vs_N.npz", "fig5_dmax_vs_N.csv")),
+    ],
+)
 def test_scripts_write_their_outputs(tmp_path, capsys, name, outputs):
     assert _script(name).main(["--out", str(tmp_path)]) == 0
     for f in outputs:

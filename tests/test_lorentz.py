@@ -21,8 +21,14 @@ from magsail_mj.geometry.current_loops import CIRCUIT_NAMES, circuits
 from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.loads.base import Load, StepState
 from magsail_mj.concepts.current_loops.lorentz import (
-    MU0, CircuitSegments, LorentzLoad, lorentz_node_forces, lorentz_wrench, self_field_max_T,
-    total_dipole, vector_areas,
+    MU0,
+    CircuitSegments,
+    LorentzLoad,
+    lorentz_node_forces,
+    lorentz_wrench,
+    self_field_max_T,
+    total_dipole,
+    vector_areas,
 )
 
 NAME_SETS = [["A"], ["B"], ["C_x"], ["C_y"], ["D_x"], ["D_y"], ["F"], ["C_x", "C_y", "B"]]
@@ -48,9 +54,15 @@ def reference_forces(pos, segs, currents_A, B):
 
 
 @settings(max_examples=60, deadline=None)
-@given(units=st.integers(1, 7), names=st.sampled_from(NAME_SETS), seed=st.integers(0, 2**32 - 1),
-       amp=st.floats(0.0, 0.2), side=st.floats(0.5, 300.0), I_scale=st.floats(1e-3, 1e3),
-       B_exp=st.floats(-9.0, -3.0))
+@given(
+    units=st.integers(1, 7),
+    names=st.sampled_from(NAME_SETS),
+    seed=st.integers(0, 2**32 - 1),
+    amp=st.floats(0.0, 0.2),
+    side=st.floats(0.5, 300.0),
+    I_scale=st.floats(1e-3, 1e3),
+    B_exp=st.floats(-9.0, -3.0),
+)
 def test_closed_circuits_zero_force_and_dipole_torque(units, names, seed, amp, side, I_scale, B_exp):
     """Each circuit alone: Σ F = 0 and Σ r_i × F_i = m × B, m = I a(pos), on deformed positions."""
     rng = np.random.default_rng(seed)
@@ -75,8 +87,9 @@ def test_closed_circuits_zero_force_and_dipole_torque(units, names, seed, amp, s
     about = rng.normal(size=3) * side
     force, torque = lorentz_wrench(pos, segs, currents, B, about)
     m = total_dipole(pos, segs, currents)
-    np.testing.assert_allclose(m, (currents[:, None] * a).sum(axis=0), rtol=0,
-                               atol=1e-13 * np.abs(currents[:, None] * a).sum())
+    np.testing.assert_allclose(
+        m, (currents[:, None] * a).sum(axis=0), rtol=0, atol=1e-13 * np.abs(currents[:, None] * a).sum()
+    )
     scale = np.abs(currents[:, None] * a).sum() * np.linalg.norm(B)
     np.testing.assert_allclose(torque, np.cross(m, B), rtol=0, atol=1e-13 * scale)
 
@@ -115,17 +128,17 @@ def test_single_loop_known_forces():
     F = lorentz_node_forces(lat.nodes, segs, [I], [0, 0, Bz])
     # (dl × B) for CCW current in +z field points outward: dl=+x at y=−D/2 → dl × ẑ = −ŷ (outward)
     N = 5
-    k_mid = N * N + 0 * N + 2          # node (2, 0, top): middle of the y = −D/2 side
+    k_mid = N * N + 0 * N + 2  # node (2, 0, top): middle of the y = −D/2 side
     np.testing.assert_allclose(F[k_mid], [0, -I * w * Bz, 0], rtol=1e-14, atol=0)
-    k_corner = N * N                   # node (0, 0, top)
+    k_corner = N * N  # node (0, 0, top)
     np.testing.assert_allclose(F[k_corner], [-0.5 * I * w * Bz, -0.5 * I * w * Bz, 0], rtol=1e-14)
     assert np.all(F[: N * N] == 0)
 
 
 def _state(n_nodes, pos_nodes, *, ctrl=None, env=None, t=0.0):
-    nb = n_nodes + 2                    # world + nodes + one extra body after them
+    nb = n_nodes + 2  # world + nodes + one extra body after them
     pos = np.zeros((nb, 3))
-    pos[1:n_nodes + 1] = pos_nodes
+    pos[1 : n_nodes + 1] = pos_nodes
     pos[-1] = [1e3, 0, 0]
     z = np.zeros((nb, 3))
     return StepState(t=t, pos=pos, vel=z, xquat=np.tile([1.0, 0, 0, 0], (nb, 1)), omega=z, env=env, ctrl=ctrl)
@@ -149,8 +162,9 @@ def test_load_writes_only_node_force_rows():
     assert np.array_equal(load.last_forces, F)
     m = total_dipole(pos, load.segs, [1.0, -2.0, 0.5])
     cm = pos.mean(axis=0)
-    np.testing.assert_allclose(load.torque_about(pos, cm), np.cross(m, [0, 2e-5, 1e-5]),
-                               rtol=0, atol=1e-12 * np.linalg.norm(m) * 2.3e-5)
+    np.testing.assert_allclose(
+        load.torque_about(pos, cm), np.cross(m, [0, 2e-5, 1e-5]), rtol=0, atol=1e-12 * np.linalg.norm(m) * 2.3e-5
+    )
 
 
 def test_load_currents_from_controller_and_field_from_env():

@@ -148,8 +148,7 @@ def test_so3_log_matches_scipy_and_roundtrips():
 
 
 @pytest.mark.parametrize(
-    "theta", [0.0, 1e-12, 1e-8, 1e-5, 1e-4, 0.3, 2.0, np.pi / 2 * 1.9, np.pi - 1e-4,
-              np.pi - 1e-7, np.pi - 1e-10, np.pi]
+    "theta", [0.0, 1e-12, 1e-8, 1e-5, 1e-4, 0.3, 2.0, np.pi / 2 * 1.9, np.pi - 1e-4, np.pi - 1e-7, np.pi - 1e-10, np.pi]
 )
 def test_so3_log_near_zero_and_pi(theta):
     axes = np.random.default_rng(11).normal(size=(50, 3))

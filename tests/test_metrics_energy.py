@@ -57,9 +57,7 @@ def test_uniform_stretch_closed_form():
     assert isinstance(E, float)
     assert E == pytest.approx(E_exact, rel=1e-12)
     # scalar k, and the undeformed lattice has zero energy
-    assert strain_energy(x, STRUTS, 2e3, L0) == pytest.approx(
-        0.5 * 2e3 * (lam - 1) ** 2 * np.sum(L0**2), rel=1e-12
-    )
+    assert strain_energy(x, STRUTS, 2e3, L0) == pytest.approx(0.5 * 2e3 * (lam - 1) ** 2 * np.sum(L0**2), rel=1e-12)
     assert strain_energy(P @ R.T, STRUTS, K, L0) < 1e-20
 
 
@@ -72,9 +70,7 @@ def test_time_series_vectorised_and_blocked(monkeypatch):
     E_exact = 0.5 * ((lams[:, None] - 1.0) ** 2 * L0**2) @ K
     assert np.allclose(E, E_exact, rtol=1e-11, atol=1e-18)
     # blocked evaluation (tiny blocks) gives identical numbers
-    monkeypatch.setattr(
-        energy_mod, "map_time_blocks", functools.partial(map_time_blocks, max_elems=1000)
-    )
+    monkeypatch.setattr(energy_mod, "map_time_blocks", functools.partial(map_time_blocks, max_elems=1000))
     assert np.allclose(strain_energy(x, STRUTS, K, L0), E, rtol=1e-14, atol=0)
     eps = strut_strain(x, STRUTS, L0)
     assert eps.shape == (25, len(STRUTS))
@@ -171,9 +167,7 @@ def test_lattice_tetrahedra_positive_and_inversion():
     assert inv_t.shape == (3, len(tets))
     assert np.array_equal(inv_t[1], inv) and not inv_t[0].any() and not inv_t[2].any()
     flipped = tets[:, [0, 2, 1, 3]]
-    assert np.array_equal(
-        inverted_cells(x, flipped, reference=signed_tet_volumes(P, flipped)), inv
-    )
+    assert np.array_equal(inverted_cells(x, flipped, reference=signed_tet_volumes(P, flipped)), inv)
     with pytest.raises(ValueError, match="reference: expected positions"):
         inverted_cells(x, tets, reference=np.ones(5))
 

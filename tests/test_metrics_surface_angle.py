@@ -103,9 +103,7 @@ def test_gaussian_bump_slope(method, N, tol_abs, tol_rel):
     peak = np.arctan(h / s * np.exp(-0.5))
     assert res.max == pytest.approx(peak, rel=0.03)
     fin = res.alpha[np.isfinite(res.alpha)]
-    assert res.median == pytest.approx(np.median(fin)) and res.p95 == pytest.approx(
-        np.percentile(fin, 95)
-    )
+    assert res.median == pytest.approx(np.median(fin)) and res.p95 == pytest.approx(np.percentile(fin, 95))
 
 
 def test_spline_accounts_for_in_plane_distortion():
@@ -137,9 +135,7 @@ def test_edge_statistics(method):
     # (interpolating cubics overshoot at the kink: up to ~2x the ramp slope)
     assert np.arctan(g) * 0.9 < res.edge_max < np.arctan(g * np.sqrt(2)) * 3.0
     assert res.median < 0.05 * g
-    interior = np.isfinite(res.alpha) & (np.abs(res.u_points) < x0 - 2 * a) & (
-        np.abs(res.v_points) < x0 - 2 * a
-    )
+    interior = np.isfinite(res.alpha) & (np.abs(res.u_points) < x0 - 2 * a) & (np.abs(res.v_points) < x0 - 2 * a)
     assert np.nanmax(res.alpha[interior]) < 0.1 * g
     custom = local_surface_angle(p @ R_TILT.T, R_TILT, method=method, edge_band_m=0.0)
     assert custom.edge_max <= res.edge_max

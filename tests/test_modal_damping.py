@@ -12,8 +12,14 @@ import numpy as np
 import pytest
 
 from magsail_mj.lattice.modes import (
-    SCHEDULES, caughey_low_rank, caughey_matrix, damping_ratios, lattice_modes, modes_cache_dir,
-    schedule_record, stability_products,
+    SCHEDULES,
+    caughey_low_rank,
+    caughey_matrix,
+    damping_ratios,
+    lattice_modes,
+    modes_cache_dir,
+    schedule_record,
+    stability_products,
 )
 from magsail_mj.estimation.attitude import so3_exp
 from magsail_mj.lattice.geometry import make_lattice, stiffness_matrix
@@ -60,12 +66,12 @@ def test_stiffness_symmetric_six_zero_modes_annihilates_rigid(small):
     scale = np.abs(K).max()
     assert np.abs(K - K.T).max() <= 1e-14 * scale
     lam = np.linalg.eigvalsh(K)
-    assert np.all(np.abs(lam[:6]) < 1e-12 * lam[-1])          # six zero eigenvalues
-    assert lam[6] > 1e-6 * lam[-1]                             # and only six
+    assert np.all(np.abs(lam[:6]) < 1e-12 * lam[-1])  # six zero eigenvalues
+    assert lam[6] > 1e-6 * lam[-1]  # and only six
     c = lat.nodes.mean(axis=0)
     for e in np.eye(3):
-        t = np.tile(e, lat.n_nodes)                            # rigid translation
-        w = np.cross(e, lat.nodes - c).ravel()                 # infinitesimal rotation
+        t = np.tile(e, lat.n_nodes)  # rigid translation
+        w = np.cross(e, lat.nodes - c).ravel()  # infinitesimal rotation
         assert np.abs(K @ t).max() <= 1e-12 * scale
         assert np.abs(K @ w).max() <= 1e-12 * scale * SIDE
 
@@ -89,7 +95,7 @@ def test_modes_cache_shared_across_EI_and_env_var(cache, monkeypatch, tmp_path):
     a = lattice_modes(lat.nodes, lat.struts, k, m, cache_dir=tmp_path)
     files = list(tmp_path.glob("modes_*.npz"))
     assert len(files) == 1
-    b = lattice_modes(lat.nodes, lat.struts, 10.0 * k, 2.0 * m, cache_dir=tmp_path)   # cache hit
+    b = lattice_modes(lat.nodes, lat.struts, 10.0 * k, 2.0 * m, cache_dir=tmp_path)  # cache hit
     assert len(list(tmp_path.glob("modes_*.npz"))) == 1 and b.key == a.key
     assert np.allclose(b.omega, a.omega * np.sqrt(5.0), rtol=1e-12)
     c = lattice_modes(lat.nodes, lat.struts, 10.0 * k, 2.0 * m, use_cache=False)
@@ -115,14 +121,14 @@ def test_modes_errors_name_the_argument():
 
 # ----------------------------------------------------------------------------- schedules
 def test_schedules(cache):
-    lat, k, m = _setup(5)                                      # 216 DOF: 210 elastic modes
+    lat, k, m = _setup(5)  # 216 DOF: 210 elastic modes
     modes = lattice_modes(lat.nodes, lat.struts, k, m, cache_dir=cache)
     assert set(SCHEDULES) == {"paper_max", "capped_rayleigh"}
     pm = damping_ratios(modes.omega, schedule="paper_max")
     cr = damping_ratios(modes.omega, schedule="capped_rayleigh")
     for xi in (pm, cr):
-        assert np.all(xi[:6] == 0)                             # rigid modes: no damping
-        assert np.all(xi[6:106] == 0.01)                       # first 100 elastic modes (counted from 1)
+        assert np.all(xi[:6] == 0)  # rigid modes: no damping
+        assert np.all(xi[6:106] == 0.01)  # first 100 elastic modes (counted from 1)
     assert np.all(pm[106:] == 10.0)
     assert np.all((cr[106:] >= 0.02 - 1e-12) & (cr[106:] <= 0.2))
     assert cr[106] == pytest.approx(0.02 * modes.omega[106] / modes.omega[105])
@@ -135,8 +141,7 @@ def test_stability_products(small):
     sp = stability_products(modes.omega, xi, dt=0.05)
     assert sp.damping_product == pytest.approx(2 * 10.0 * modes.omega[-1] * 0.05)
     xi_max = 10.0
-    assert sp.fastest_root_product == pytest.approx(
-        modes.omega[-1] * (xi_max + np.sqrt(xi_max**2 - 1)) * 0.05)
+    assert sp.fastest_root_product == pytest.approx(modes.omega[-1] * (xi_max + np.sqrt(xi_max**2 - 1)) * 0.05)
     assert sp.omega_max_dt == pytest.approx(modes.omega[-1] * 0.05)
 
 
@@ -156,7 +161,7 @@ def test_low_rank_equals_dense(cache):
         xi = damping_ratios(modes.omega, schedule="capped_rayleigh", n_low=n_low)
         dense = caughey_matrix(modes, xi)
         lr = caughey_low_rank(modes, xi, n_low=n_low)
-        assert lr.U.shape[1] == n_low                          # rank n_low correction
+        assert lr.U.shape[1] == n_low  # rank n_low correction
         assert lr.c == pytest.approx(4 * 0.01 / modes.omega[6 + n_low - 1])
         K = stiffness_matrix(lat.nodes, lat.struts, k).toarray()
         assert np.abs(lr.c * K + lr.correction_matrix() - dense).max() < 1e-10 * np.abs(dense).max()
@@ -167,8 +172,16 @@ def test_low_rank_equals_dense(cache):
 def test_low_rank_load_plus_tendon_damping_equals_dense_in_mujoco(cache):
     """Tendon dashpots b = c k (MuJoCo passive) + low-rank load = dense load (undeformed state)."""
     lat, k, m = _setup(4)
-    common = dict(nodes=lat.nodes, struts=lat.struts, k=k, masses=m, schedule="capped_rayleigh",
-                  n_low=30, cache_dir=cache, dtype=np.float64)
+    common = dict(
+        nodes=lat.nodes,
+        struts=lat.struts,
+        k=k,
+        masses=m,
+        schedule="capped_rayleigh",
+        n_low=30,
+        cache_dir=cache,
+        dtype=np.float64,
+    )
     dense = ModalDampingLoad.for_lattice(**common)
     low = ModalDampingLoad.for_lattice(**common, form="low_rank")
     b = low.tendon_damping(k)
@@ -180,7 +193,7 @@ def test_low_rank_load_plus_tendon_damping_equals_dense_in_mujoco(cache):
     F_mj = data.qfrc_passive.reshape(-1, 3) + low.forces(lat.nodes, v)
     F_dense = dense.forces(lat.nodes, v)
     assert np.abs(F_mj - F_dense).max() < 1e-9 * np.abs(F_dense).max()
-    again = ModalDampingLoad.for_lattice(**common, modes=dense.modes)        # precomputed modes
+    again = ModalDampingLoad.for_lattice(**common, modes=dense.modes)  # precomputed modes
     assert np.array_equal(again.forces(lat.nodes, v), F_dense)
     assert np.array_equal(again.last_forces, F_dense)
 
@@ -198,10 +211,10 @@ def test_corotated_gamma_annihilates_rigid_velocity_of_rotated_lattice(small, dt
         pos = lat.nodes @ R.T + d
         c = m @ pos / m.sum()
         w = rng.normal(size=3) * 0.05
-        vel = rng.normal(size=3) + np.cross(w, pos - c)        # rigid velocity field
+        vel = rng.normal(size=3) + np.cross(w, pos - c)  # rigid velocity field
         F = load.forces(pos, vel)
         vmag = np.abs(vel).max()
-        assert np.abs(F).max() < 1e-10 * scale * vmag          # both dtypes (rigid part removed first)
+        assert np.abs(F).max() < 1e-10 * scale * vmag  # both dtypes (rigid part removed first)
         assert abs(load.last_power_W) < 1e-10 * scale * vmag**2 * lat.n_nodes
         assert np.allclose(load.last_R, R, atol=1e-12)
     # the paper's literal inertial form does damp the rotated rigid field
@@ -211,10 +224,10 @@ def test_corotated_gamma_annihilates_rigid_velocity_of_rotated_lattice(small, dt
 
 def test_rigid_90deg_rotation_at_constant_rate_feels_no_damping(small):
     lat, k, m, modes, xi, gamma = small
-    load = ModalDampingLoad(modes=modes, nodes=lat.nodes, gamma=gamma)        # float32 default
+    load = ModalDampingLoad(modes=modes, nodes=lat.nodes, gamma=gamma)  # float32 default
     lit = ModalDampingLoad(modes=modes, nodes=lat.nodes, gamma=gamma, frame="inertial")
     axis = np.array([0.3, 1.0, 0.2]) / np.linalg.norm([0.3, 1.0, 0.2])
-    rate = 0.01                                                # rad/s, 90 deg in 157 s
+    rate = 0.01  # rad/s, 90 deg in 157 s
     xfrc = np.zeros((lat.n_nodes + 1, 6))
     worst, worst_lit = 0.0, 0.0
     ref = np.abs(gamma).max() * rate * SIDE
@@ -222,16 +235,20 @@ def test_rigid_90deg_rotation_at_constant_rate_feels_no_damping(small):
         R = so3_exp(axis * rate * t)
         pos = lat.nodes @ R.T
         vel = np.cross(rate * axis, pos)
-        state = StepState(t=t, pos=np.vstack([np.zeros(3), pos]), vel=np.vstack([np.zeros(3), vel]),
-                          xquat=np.tile([1.0, 0, 0, 0], (lat.n_nodes + 1, 1)),
-                          omega=np.zeros((lat.n_nodes + 1, 3)))
+        state = StepState(
+            t=t,
+            pos=np.vstack([np.zeros(3), pos]),
+            vel=np.vstack([np.zeros(3), vel]),
+            xquat=np.tile([1.0, 0, 0, 0], (lat.n_nodes + 1, 1)),
+            omega=np.zeros((lat.n_nodes + 1, 3)),
+        )
         xfrc[:] = 0.0
         load.add(state, xfrc)
         assert np.all(xfrc[0] == 0) and np.all(xfrc[:, 3:] == 0)
         worst = max(worst, np.abs(xfrc).max())
         worst_lit = max(worst_lit, np.abs(lit.forces(pos, vel)).max())
     assert worst < 1e-10 * ref
-    assert worst_lit > 1e-2 * ref                              # the literal form would damp it
+    assert worst_lit > 1e-2 * ref  # the literal form would damp it
 
 
 def test_force_has_no_net_force_and_power_matches(small):
@@ -254,8 +271,9 @@ def test_force_has_no_net_force_and_power_matches(small):
 # ----------------------------------------------------------------------------- dynamics
 def _perturbed_model(lat, k, m, dt, modes=None, spin=0.002):
     """RK4 truss model with random elastic velocities (rigid part removed) plus a rigid spin."""
-    model = build_truss_spec(lat, masses=m, stiffness=k, damping=0.0,
-                             options=TrussModelOptions(timestep_s=dt, integrator="RK4")).compile()
+    model = build_truss_spec(
+        lat, masses=m, stiffness=k, damping=0.0, options=TrussModelOptions(timestep_s=dt, integrator="RK4")
+    ).compile()
     data = mujoco.MjData(model)
     rng = np.random.default_rng(5)
     v = rng.normal(size=model.nv) * 0.05
@@ -287,8 +305,7 @@ def test_energy_decreases_monotonically_with_damping(small, inject):
 
     def step():
         if inject == "xfrc":
-            data.xfrc_applied[1:, :3] = load.forces(lat.nodes + data.qpos.reshape(-1, 3),
-                                                    data.qvel.reshape(-1, 3))
+            data.xfrc_applied[1:, :3] = load.forces(lat.nodes + data.qpos.reshape(-1, 3), data.qvel.reshape(-1, 3))
         mujoco.mj_step(model, data)
         E.append(_energy(lat, k, m, data))
 
@@ -296,14 +313,14 @@ def test_energy_decreases_monotonically_with_damping(small, inject):
         with passive_damping(model, load) as cb:
             for _ in range(2000):
                 step()
-        assert cb.calls == 4 * 2000                            # once per RK4 stage
+        assert cb.calls == 4 * 2000  # once per RK4 stage
     else:
         for _ in range(2000):
             step()
     E = np.asarray(E)
-    assert np.all(np.diff(E) <= 1e-12 * E[0])                 # monotone
-    assert E[-1] - spin_E < 0.3 * (E[0] - spin_E)              # elastic energy (0.16 measured)
-    assert E[-1] > 0.999 * spin_E                              # the rigid spin is not damped
+    assert np.all(np.diff(E) <= 1e-12 * E[0])  # monotone
+    assert E[-1] - spin_E < 0.3 * (E[0] - spin_E)  # elastic energy (0.16 measured)
+    assert E[-1] > 0.999 * spin_E  # the rigid spin is not damped
     L1 = np.sum(m[:, None] * np.cross(lat.nodes + data.qpos.reshape(-1, 3), data.qvel.reshape(-1, 3)), axis=0)
     assert np.abs(L1 - L0).max() < 1e-2 * np.abs(L0).max()
 
@@ -322,9 +339,9 @@ def test_passive_context_manager_installs_restores_and_ignores_other_models(smal
                 with passive_damping(model, load):
                     pass
             mujoco.mj_step(other, other_data)
-            assert cb.calls == 0                               # not this callback's model
+            assert cb.calls == 0  # not this callback's model
             mujoco.mj_forward(model, data)
             assert cb.calls == 1
             assert np.abs(data.qfrc_passive).max() > 0
             1 / 0
-    assert mujoco.get_mjcb_passive() is None                   # removed, also on error
+    assert mujoco.get_mjcb_passive() is None  # removed, also on error

@@ -22,7 +22,8 @@ def test_committed_mjcf_is_current(config):
     assert xml.exists(), f"{xml} is missing: run python scripts/build_models.py"
     difference = mjcf_difference(xml.read_text(), generated_xml(config))
     assert difference is None, (
-        f"{xml} differs from the generated MJCF ({difference}): run python scripts/build_models.py")
+        f"{xml} differs from the generated MJCF ({difference}): run python scripts/build_models.py"
+    )
 
 
 def test_mjcf_comparison_ignores_rounding_noise_only():
@@ -42,12 +43,19 @@ def test_build_cli_prints_model_size(tmp_path, capsys):
     from magsail_mj.cli import main
 
     out = tmp_path / "m.xml"
-    rc = main(["build", str(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml"),  # noqa: E501
-               "-o", str(out)])
+    rc = main(
+        [
+            "build",
+            str(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml"),  # noqa: E501
+            "-o",
+            str(out),
+        ]
+    )
     assert rc == 0
     info = json.loads(capsys.readouterr().out)
     assert (info["nodes"], info["struts"], info["dofs"]) == (800, 3402, 2400)
     import mujoco
+
     model = mujoco.MjModel.from_xml_path(str(out))
     assert model.ntendon == 3402 and model.nbody == 801
     assert model.opt.gravity.tolist() == [0.0, 0.0, 0.0]

@@ -52,14 +52,14 @@ def test_held_torque_conserves_momentum_without_projection(held):
     assert s["momentum_projection_count"] == 0
     L = res.records["strobe_angmom_N_m_s"][:, 2]
     t = res.records["strobe_t"]
-    rate, _ = secular_rate_fit(t[1:], L[1:])                      # after the start-up cycle
+    rate, _ = secular_rate_fit(t[1:], L[1:])  # after the start-up cycle
     # over the shipped 600 s the secular drift rate r adds δψ = r t²/2 ⟨1/D⟩ of spurious yaw
     st = cycle_state(task.path, np.linspace(0.0, task.path.period_s, 2001))
     inv_D = float(np.mean(1.0 / task.planar.inertia_sum(st.phi, st.s)))
-    spurious_600 = abs(rate) * 600.0 ** 2 / 2 * inv_D
+    spurious_600 = abs(rate) * 600.0**2 / 2 * inv_D
     rotation_600 = abs(s["theta_gamma_mujoco_rad"]) * 1000.0 * 600.0
-    assert spurious_600 < 1e-6 * rotation_600                      # measured ~5e-8 of it
-    assert abs(s["angmom_spurious_yaw_rel"]) < 1e-8                # this run: ~1e-10
+    assert spurious_600 < 1e-6 * rotation_600  # measured ~5e-8 of it
+    assert abs(s["angmom_spurious_yaw_rel"]) < 1e-8  # this run: ~1e-10
     # the periodic in-cycle excursion of L (RK4, returns every cycle) is ~4e-11 of the exchange
     assert s["angular_momentum_drift"] < 1e-9
     # and the motion is the same: per-cycle rotation = exact planar model within 0.5 %
@@ -69,8 +69,9 @@ def test_held_torque_conserves_momentum_without_projection(held):
 
 def test_servo_replay_leaks_what_the_held_torque_does_not(held):
     # the old drive, projection off: its servos leak ~0.08 N m s per simulated second
-    _, res, s = run("sim.duration_s=0.02", "sim.record_every=2000", "drive.method='replay'",
-                    "drive.momentum_projection=false")
+    _, res, s = run(
+        "sim.duration_s=0.02", "sim.record_every=2000", "drive.method='replay'", "drive.momentum_projection=false"
+    )
     L = res.records["strobe_angmom_N_m_s"][:, 2]
     leak_replay = abs(L[-1] - L[1]) / (L.size - 2)
     Lh = held[1].records["strobe_angmom_N_m_s"][:, 2]
@@ -140,14 +141,15 @@ def test_demand_scales_with_the_cycle_rate_squared():
     # the same path at 1 and 2 kHz (same steps per cycle): every force scales with f², and
     # the largest rate the actuators allow is the same number
     _, _, a = run("sim.duration_s=0.004", "post.window_s=0.002", HELD)
-    _, _, b = run("sim.duration_s=0.002", "sim.timestep_s=2.5e-6", "cycle.frequency_Hz=2000.0",
-                  "post.window_s=0.001", HELD)
+    _, _, b = run(
+        "sim.duration_s=0.002", "sim.timestep_s=2.5e-6", "cycle.frequency_Hz=2000.0", "post.window_s=0.001", HELD
+    )
     for key in ("hinge_torque_peak_N_m", "slide_force_peak_N", "hinge_torque_rms_N_m", "slide_force_rms_N"):
         assert b[key] == pytest.approx(4.0 * a[key], rel=1e-9), key
     assert b["max_cycle_rate_Hz"] == pytest.approx(a["max_cycle_rate_Hz"], rel=1e-9)
     # no spring: the limit is f0·√(capacity/peak) of the steady window's worst joint
     assert not a["actuation_feasible"]
-    assert 0 < a["max_cycle_rate_Hz"] < 1.0                  # a few hundredths of a hertz
+    assert 0 < a["max_cycle_rate_Hz"] < 1.0  # a few hundredths of a hertz
 
 
 def with_actuators(msac, *, slide_N: float, hinge_N_m: float):
@@ -173,15 +175,16 @@ def test_feasibility_flag_flips_where_the_capacity_crosses_the_demand(held):
     last = rec["win_id"] == rec["win_id"].max()
     steady = np.abs(rec["win_joint_force"][last]).max(axis=0)
     for k in (0.25, 1.0, 4.0):
-        out = actuation_summary(with_actuators(task.msac, slide_N=k * steady[[1, 3]].max(),
-                                               hinge_N_m=k * steady[[0, 2]].max()), rec)
+        out = actuation_summary(
+            with_actuators(task.msac, slide_N=k * steady[[1, 3]].max(), hinge_N_m=k * steady[[0, 2]].max()), rec
+        )
         assert out["max_cycle_rate_Hz"] == pytest.approx(1000.0 * np.sqrt(k), rel=1e-12)
 
 
 def test_paper_actuator_capacity():
     a = load_config(MODELS / "paper_1khz.toml", []).actuators
-    assert a.slide_force_max_N == 4 * 200.0                       # four 200 N chips extend
-    assert a.hinge_torque_max_N_m == pytest.approx(2 * 200.0 * 0.015)   # two bend, 1.5 cm arm
+    assert a.slide_force_max_N == 4 * 200.0  # four 200 N chips extend
+    assert a.hinge_torque_max_N_m == pytest.approx(2 * 200.0 * 0.015)  # two bend, 1.5 cm arm
     amp = ActuatorsConfig(amplification=50.0, units=3)
     assert amp.slide_force_max_N == pytest.approx(3 * 800.0 / 50.0)
 
@@ -199,7 +202,7 @@ def test_max_cycle_rate_without_spring_is_the_square_root_law():
 
 def test_max_cycle_rate_with_spring_matches_a_scan():
     rng = np.random.default_rng(3)
-    S = np.clip(rng.normal(size=(40, 2)), -3.0, 3.0)             # spring part within capacity
+    S = np.clip(rng.normal(size=(40, 2)), -3.0, 3.0)  # spring part within capacity
     F = S + rng.normal(size=(40, 2)) * 30.0
     C = np.array([5.0, 6.0])
     got = max_cycle_rate(F, S, C, rate_hz=10.0)

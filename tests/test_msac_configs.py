@@ -23,30 +23,67 @@ from tests.conftest import REPO
 
 MODELS = REPO / "magsail_mj" / "concepts" / "msac" / "configs"
 SWEEPS = sorted((MODELS / "sweeps").glob("*.toml"))
-ISSUE_KEYS = ("secular_rate_rad_s", "predicted_rate_lumped_rad_s", "predicted_rate_exact_rad_s",
-              "net_rotation_rad", "angular_momentum_drift")
-SPEC_KEYS = ("bus_mass_kg", "bus_izz_kg_m2", "wing_mass_kg", "wing_I_rest_hinge_kg_m2", "wing_I_e_hinge_kg_m2",
-             "wing_I_c_hinge_kg_m2", "wing_I_rest_centre_kg_m2", "wing_I_e_centre_kg_m2", "wing_I_c_centre_kg_m2",
-             "theta_gamma_eq6_model_rad", "theta_gamma_eq6_stretch_rad", "omega_gamma_eq7_rad_s",
-             "theta_gamma_exact_rad", "theta_gamma_mujoco_rad", "theta_gamma_mujoco_std_rad",
-             "theta_gamma_first_cycle_rad", "rate_slope_rad_s", "rate_filtered_mean_rad_s",
-             "rate_estimates_rel_diff", "mujoco_vs_exact_rel_diff", "angmom_drift_max_N_m_s",
-             "hinge_torque_peak_N_m", "slide_force_peak_N", "yaw_unwrapped_final_rad", "cycles_simulated",
-             "simulated_time_s", "wall_time_s")
+ISSUE_KEYS = (
+    "secular_rate_rad_s",
+    "predicted_rate_lumped_rad_s",
+    "predicted_rate_exact_rad_s",
+    "net_rotation_rad",
+    "angular_momentum_drift",
+)
+SPEC_KEYS = (
+    "bus_mass_kg",
+    "bus_izz_kg_m2",
+    "wing_mass_kg",
+    "wing_I_rest_hinge_kg_m2",
+    "wing_I_e_hinge_kg_m2",
+    "wing_I_c_hinge_kg_m2",
+    "wing_I_rest_centre_kg_m2",
+    "wing_I_e_centre_kg_m2",
+    "wing_I_c_centre_kg_m2",
+    "theta_gamma_eq6_model_rad",
+    "theta_gamma_eq6_stretch_rad",
+    "omega_gamma_eq7_rad_s",
+    "theta_gamma_exact_rad",
+    "theta_gamma_mujoco_rad",
+    "theta_gamma_mujoco_std_rad",
+    "theta_gamma_first_cycle_rad",
+    "rate_slope_rad_s",
+    "rate_filtered_mean_rad_s",
+    "rate_estimates_rel_diff",
+    "mujoco_vs_exact_rel_diff",
+    "angmom_drift_max_N_m_s",
+    "hinge_torque_peak_N_m",
+    "slide_force_peak_N",
+    "yaw_unwrapped_final_rad",
+    "cycles_simulated",
+    "simulated_time_s",
+    "wall_time_s",
+)
 
 
 def test_scenario_ids_of_the_spec_exist():
     for sid in ("lumped", "paper_1khz", "paper_1khz_stroke10", "slow_1hz", "lumped_limit", "mirror_wings"):
         assert (MODELS / f"{sid}.toml").is_file() and (MODELS / f"{sid}.xml").is_file(), sid
-    assert {p.stem for p in SWEEPS} >= {"stroke", "extension", "areal_density", "bus_inertia", "hinge_offset",
-                                        "phase_fractions", "frequency"}
+    assert {p.stem for p in SWEEPS} >= {
+        "stroke",
+        "extension",
+        "areal_density",
+        "bus_inertia",
+        "hinge_offset",
+        "phase_fractions",
+        "frequency",
+    }
 
 
 def test_paper_config_values():
     cfg = load_config(MODELS / "paper_1khz.toml")
     assert (cfg.sim.duration_s, cfg.sim.timestep_s, cfg.sim.integrator) == (600.0, 5e-6, "RK4")
-    assert (cfg.cycle.frequency_Hz, cfg.cycle.bend_a_deg, cfg.cycle.bend_b_deg, cfg.cycle.extension_frac) == \
-        (1000.0, 10.0, -10.0, 0.01)
+    assert (cfg.cycle.frequency_Hz, cfg.cycle.bend_a_deg, cfg.cycle.bend_b_deg, cfg.cycle.extension_frac) == (
+        1000.0,
+        10.0,
+        -10.0,
+        0.01,
+    )
     assert cfg.wings.length_m == 8.0 and cfg.wings.width_m == 3.0
     assert load_config(MODELS / "paper_1khz_stroke10.toml").cycle.bend_b_deg == 0.0
 
@@ -63,13 +100,16 @@ def test_sweep_files_equal_their_base(path):
     assert cfg.scenario == "sweep" and len(cfg.sweep.points) >= 2
 
 
-@pytest.mark.parametrize("override, words", [
-    ("sim.timestep_s=3e-6", ["timestep_s", "integer multiple"]),
-    ("cycle.phase_fractions=[0.5, 0.1, 0.4, 0.1]", ["phase_fractions"]),
-    ("wings.layout='diagonal'", ["wings.layout"]),
-    ("cycle.bogus=1", ["cycle.bogus", "unknown key"]),
-    ("bus.size_m=[2.0, 0.0, 3.0]", ["size_m"]),
-])
+@pytest.mark.parametrize(
+    "override, words",
+    [
+        ("sim.timestep_s=3e-6", ["timestep_s", "integer multiple"]),
+        ("cycle.phase_fractions=[0.5, 0.1, 0.4, 0.1]", ["phase_fractions"]),
+        ("wings.layout='diagonal'", ["wings.layout"]),
+        ("cycle.bogus=1", ["cycle.bogus", "unknown key"]),
+        ("bus.size_m=[2.0, 0.0, 3.0]", ["size_m"]),
+    ],
+)
 def test_bad_values_are_reported_with_their_key(override, words):
     with pytest.raises(ConfigError) as err:
         load_config(MODELS / "paper_1khz.toml", [override])
@@ -96,8 +136,16 @@ def test_multibody_run_folder(tmp_path):
     out = run_scenario(cfg, tmp_path / "run", progress=False)
     run = out.run_dir
     assert (run / STORE_NAME).is_dir()
-    for name in ("model.xml", "summary.json", "manifest.json", "cycle_diagram.png",
-                 "attitude_angles.png", "omega_world.png", "rate_comparison.png", "cycle_increments.png"):
+    for name in (
+        "model.xml",
+        "summary.json",
+        "manifest.json",
+        "cycle_diagram.png",
+        "attitude_angles.png",
+        "omega_world.png",
+        "rate_comparison.png",
+        "cycle_increments.png",
+    ):
         assert (run / name).is_file(), name
     summary = json.loads((run / "summary.json").read_text())
     for key in ISSUE_KEYS + SPEC_KEYS:
@@ -126,7 +174,8 @@ def test_lumped_scenario_summary(tmp_path):
     assert out["predicted_rate_lumped_rad_s"] == pytest.approx(eq6 * 1000.0, rel=1e-12)
     assert out["theta_gamma_exact_rad"] == pytest.approx(exact_rotation_path(P, sc.path.waypoints).sum(), rel=1e-12)
     assert out["theta_gamma_eq6_stretch_rad"] == pytest.approx(
-        (2 * 60 * (8.08**2 - 8.0**2) / 3) * math.radians(20) / 2000.0, rel=1e-12)
+        (2 * 60 * (8.08**2 - 8.0**2) / 3) * math.radians(20) / 2000.0, rel=1e-12
+    )
 
 
 def test_sweep_scenario(tmp_path):
@@ -143,8 +192,10 @@ def test_sweep_scenario(tmp_path):
     assert out["sweep_secular_rate_rad_s"][1] / out["sweep_secular_rate_rad_s"][0] == pytest.approx(100, rel=5e-3)
 
 
-@pytest.mark.parametrize("path, cls", [
-    ("lumped.toml", LumpedTask), ("slow_1hz.toml", MultibodyTask), (SWEEPS[0].relative_to(MODELS), SweepTask)])
+@pytest.mark.parametrize(
+    "path, cls",
+    [("lumped.toml", LumpedTask), ("slow_1hz.toml", MultibodyTask), (SWEEPS[0].relative_to(MODELS), SweepTask)],
+)
 def test_every_kind_builds_its_registered_task_class(path, cls):
     """One task class per ``scenario``, registered under ``("msac", scenario)`` and found by build_scenario."""
     cfg = load_config(MODELS / path)

@@ -15,8 +15,14 @@ PATTERNS = ("msac", "reversed", "bend_only", "extend_only")
 
 
 def path(**kw) -> CyclePath:
-    base = dict(phi_a_rad=math.radians(10), phi_b_rad=math.radians(-10), s_e_m=0.08, s_c_m=0.0,
-                period_s=1e-3, fractions=(0.4, 0.1, 0.4, 0.1))
+    base = dict(
+        phi_a_rad=math.radians(10),
+        phi_b_rad=math.radians(-10),
+        s_e_m=0.08,
+        s_c_m=0.0,
+        period_s=1e-3,
+        fractions=(0.4, 0.1, 0.4, 0.1),
+    )
     base.update(kw)
     return CyclePath(**base)
 
@@ -45,7 +51,7 @@ def test_position_and_velocity_continuous_at_phase_and_cycle_boundaries(bl):
     assert np.allclose(lo.phi, hi.phi, atol=1e-9) and np.allclose(lo.s, hi.s, atol=1e-9)
     assert np.allclose(lo.phi_dot, hi.phi_dot, atol=1e-6 * vmax)
     assert np.allclose(lo.s_dot, hi.s_dot, atol=1e-6 * vmax)
-    if bl == "min_jerk":   # the quintic is also acceleration-continuous (zero at phase ends)
+    if bl == "min_jerk":  # the quintic is also acceleration-continuous (zero at phase ends)
         amax = np.abs(cycle_state(p, np.linspace(0, p.period_s, 4001)).phi_ddot).max()
         assert np.allclose(lo.phi_ddot, hi.phi_ddot, atol=1e-6 * amax)
 
@@ -58,8 +64,9 @@ def test_waypoints_reached_and_velocity_zero_at_phase_ends():
     assert np.allclose(st.phi_dot, 0, atol=1e-9) and np.allclose(st.s_dot, 0, atol=1e-9)
     # Phase I is (phi_a, s_e); the msac loop: bend extended, contract, bend back, extend
     assert p.initial == (math.radians(10), 0.08)
-    assert np.allclose(wp, [[math.radians(10), 0.08], [math.radians(-10), 0.08],
-                            [math.radians(-10), 0.0], [math.radians(10), 0.0]])
+    assert np.allclose(
+        wp, [[math.radians(10), 0.08], [math.radians(-10), 0.08], [math.radians(-10), 0.0], [math.radians(10), 0.0]]
+    )
 
 
 @pytest.mark.parametrize("bl", BLENDS)
@@ -91,14 +98,17 @@ def test_periodic_in_time():
     assert np.all(b.cycle == 7)
 
 
-@pytest.mark.parametrize("kw, word", [
-    (dict(fractions=(0.5, 0.1, 0.4, 0.1)), "fractions"),
-    (dict(fractions=(0.5, 0.0, 0.4, 0.1)), "fractions"),
-    (dict(period_s=0.0), "period_s"),
-    (dict(phi_a_rad=float("nan")), "phi_a_rad"),
-    (dict(blend="linear"), "kind"),
-    (dict(pattern="circle"), "pattern"),
-])
+@pytest.mark.parametrize(
+    "kw, word",
+    [
+        (dict(fractions=(0.5, 0.1, 0.4, 0.1)), "fractions"),
+        (dict(fractions=(0.5, 0.0, 0.4, 0.1)), "fractions"),
+        (dict(period_s=0.0), "period_s"),
+        (dict(phi_a_rad=float("nan")), "phi_a_rad"),
+        (dict(blend="linear"), "kind"),
+        (dict(pattern="circle"), "pattern"),
+    ],
+)
 def test_bad_arguments_are_named(kw, word):
     with pytest.raises(ValueError, match=word):
         path(**kw)

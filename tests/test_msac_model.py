@@ -139,7 +139,7 @@ def test_angular_momentum_conservation(paper):
     # the wings exchange ~5e6 N m s with the bus each stroke; the total stays ~1e-11 of that
     # (measured 4.1e-11; the servo replay leaks ~1e-8 within its projection chunks)
     assert s["angular_momentum_drift"] < 1e-9
-    assert np.max(np.abs(res.records["qvel"][:, :3])) < 1e-6   # the bus does not translate
+    assert np.max(np.abs(res.records["qvel"][:, :3])) < 1e-6  # the bus does not translate
 
 
 def test_shape_tracks_the_prescribed_path(paper):
@@ -147,7 +147,7 @@ def test_shape_tracks_the_prescribed_path(paper):
     # measured 1.1e-5 rad and 1.1e-4 m (0.14 % of the 80 mm stroke): bound at ~5x
     assert s["tracking_error_bend_max_rad"] < 5e-5
     assert s["tracking_error_slide_max_m"] < 5e-4
-    assert s["hinge_torque_peak_N_m"] > 1e9          # enormous, as the spec warns (§5.4)
+    assert s["hinge_torque_peak_N_m"] > 1e9  # enormous, as the spec warns (§5.4)
 
 
 @pytest.mark.parametrize("pattern", ["bend_only", "extend_only"])
@@ -192,8 +192,7 @@ def test_T7_timestep_convergence(paper):
 
 def test_replay_equals_computed_torque_over_100_cycles():
     # spec §5.3: verify the native replay against the per-step computed-torque loop (≥ 100 cycles)
-    _, _, ct = run("paper_1khz.toml", "sim.duration_s=0.101", "drive.method='computed_torque'",
-                   "sim.record_every=2000")
+    _, _, ct = run("paper_1khz.toml", "sim.duration_s=0.101", "drive.method='computed_torque'", "sim.record_every=2000")
     _, _, rp = run("paper_1khz.toml", "sim.duration_s=0.101", "sim.record_every=2000")
     assert ct["cycles_simulated"] == rp["cycles_simulated"] == 101
     assert rp["theta_gamma_mujoco_rad"] == pytest.approx(ct["theta_gamma_mujoco_rad"], rel=5e-3)
@@ -205,12 +204,15 @@ def test_replay_equals_computed_torque_over_100_cycles():
 
 
 def test_chunked_rollout_equals_one_chunk_and_resume_equals_uninterrupted(tmp_path):
-    cfg = load_config(MODELS / "paper_1khz.toml", ["sim.duration_s=0.012", "sim.record_every=50",
-                                                   "drive.momentum_projection=false"])
+    cfg = load_config(
+        MODELS / "paper_1khz.toml", ["sim.duration_s=0.012", "sim.record_every=50", "drive.momentum_projection=false"]
+    )
     sc1 = build_scenario(cfg)
     a = sc1.simulation().run()
-    cfg2 = load_config(MODELS / "paper_1khz.toml", ["sim.duration_s=0.012", "sim.record_every=50",
-                                                    "drive.momentum_projection=false", "drive.chunk_cycles=5"])
+    cfg2 = load_config(
+        MODELS / "paper_1khz.toml",
+        ["sim.duration_s=0.012", "sim.record_every=50", "drive.momentum_projection=false", "drive.chunk_cycles=5"],
+    )
     b = build_scenario(cfg2).simulation().run()
     for key in ("t", "qpos", "strobe_quat", "angmom_N_m_s"):
         assert np.array_equal(a.records[key], b.records[key]), key
@@ -225,21 +227,23 @@ def test_chunked_rollout_equals_one_chunk_and_resume_equals_uninterrupted(tmp_pa
 
 def test_divergence_is_reported_not_silent():
     # a gear of 1 puts the ~1e10 N m feed-forward torque above MuJoCo's control bound
-    cfg = load_config(MODELS / "paper_1khz.toml", ["sim.duration_s=0.004", "cycle.frequency_Hz=4000.0",
-                                                   "sim.timestep_s=1.25e-6"])
+    cfg = load_config(
+        MODELS / "paper_1khz.toml", ["sim.duration_s=0.004", "cycle.frequency_Hz=4000.0", "sim.timestep_s=1.25e-6"]
+    )
     sc = build_scenario(cfg)
     ff = shape_indices(sc.model)["ff"]
     sc.model.actuator_gear[ff, 0] = 1.0
-    runner = MsacRunner(model=sc.model, path=sc.path, duration_s=0.004, method="computed_torque",
-                        record_every=50)
+    runner = MsacRunner(model=sc.model, path=sc.path, duration_s=0.004, method="computed_torque", record_every=50)
     res = runner.run()
     assert res.status == "diverged" and "BADCTRL" in res.message
 
 
 def test_runner_records_match_a_plain_step_loop():
     # the vectorised chunk bookkeeping against mj_step in a Python loop with the same controls
-    cfg = load_config(MODELS / "paper_1khz.toml", ["sim.duration_s=0.003", "sim.record_every=7",
-                                                   "drive.method='replay'", "drive.momentum_projection=false"])
+    cfg = load_config(
+        MODELS / "paper_1khz.toml",
+        ["sim.duration_s=0.003", "sim.record_every=7", "drive.method='replay'", "drive.momentum_projection=false"],
+    )
     sc = build_scenario(cfg)
     runner = sc.simulation()
     res = runner.run()
@@ -252,7 +256,7 @@ def test_runner_records_match_a_plain_step_loop():
     for k in range(n + 1):
         if k < n:
             d.ctrl[:] = runner.table.ctrl[k % N]
-            mujoco.mj_forward(m, d)                    # sensors of the step-start state
+            mujoco.mj_forward(m, d)  # sensors of the step-start state
         if k % N == 0:
             strobe.append(d.qpos[3:7].copy())
         if k % 7 == 0 or k == n:

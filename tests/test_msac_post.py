@@ -9,8 +9,14 @@ import numpy as np
 import pytest
 
 from magsail_mj.concepts.msac.metrics import (
-    block_average, cycle_increments, filtered_rate, lowpass, omega_world, secular_rate_fit,
-    unwrapped_yaw, yaw_from_quat,
+    block_average,
+    cycle_increments,
+    filtered_rate,
+    lowpass,
+    omega_world,
+    secular_rate_fit,
+    unwrapped_yaw,
+    yaw_from_quat,
 )
 from magsail_mj.estimation.attitude import matrix_from_quat
 
@@ -66,7 +72,7 @@ def test_secular_rate_fit_matches_plain_least_squares():
 def test_block_average_matches_loop():
     x = np.random.default_rng(1).normal(size=103)
     got = block_average(x, 10)
-    ref = [sum(x[10 * i:10 * i + 10]) / 10 for i in range(10)]
+    ref = [sum(x[10 * i : 10 * i + 10]) / 10 for i in range(10)]
     assert np.allclose(got, ref, rtol=1e-14)
     with pytest.raises(ValueError, match="block"):
         block_average(x, 0)
@@ -75,8 +81,8 @@ def test_block_average_matches_loop():
 def test_lowpass_is_zero_phase_and_removes_the_cycle():
     fs = 5000.0
     t = np.arange(0, 20.0, 1 / fs)
-    slow = 1.5 + 0.3 * np.sin(2 * np.pi * 0.2 * t)            # far below the 10 Hz cutoff
-    fast = 900.0 * np.sin(2 * np.pi * 1000.0 * t)              # the 1 kHz cycle content
+    slow = 1.5 + 0.3 * np.sin(2 * np.pi * 0.2 * t)  # far below the 10 Hz cutoff
+    fast = 900.0 * np.sin(2 * np.pi * 1000.0 * t)  # the 1 kHz cycle content
     y = lowpass(slow + fast, fs_hz=fs, cutoff_hz=10.0, order=4)
     core = (t > 2) & (t < 18)
     # 1 kHz is attenuated by (10/1000)^8 = 1e-16 twice over; the slow sine passes undelayed

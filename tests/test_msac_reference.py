@@ -9,8 +9,13 @@ import numpy as np
 import pytest
 
 from magsail_mj.concepts.msac.reference import (
-    PlanarMsac, exact_rotation_ode, exact_rotation_path, exact_rotation_samples, lumped_rate,
-    lumped_theta, wing_inertias,
+    PlanarMsac,
+    exact_rotation_ode,
+    exact_rotation_path,
+    exact_rotation_samples,
+    lumped_rate,
+    lumped_theta,
+    wing_inertias,
 )
 from magsail_mj.concepts.msac.cycle import CyclePath, cycle_state
 
@@ -19,8 +24,15 @@ ICM = M * (L * L + T * T) / 12
 
 
 def model(**kw) -> PlanarMsac:
-    base = dict(bus_izz_kg_m2=2000.0, wing_mass_kg=M, wing_length_m=L, wing_icm_kg_m2=ICM,
-                hinge_offset_m=1.0, root_mass_kg=1e-3, root_inertia_kg_m2=1e-6)
+    base = dict(
+        bus_izz_kg_m2=2000.0,
+        wing_mass_kg=M,
+        wing_length_m=L,
+        wing_icm_kg_m2=ICM,
+        hinge_offset_m=1.0,
+        root_mass_kg=1e-3,
+        root_inertia_kg_m2=1e-6,
+    )
     base.update(kw)
     return PlanarMsac(**base)
 
@@ -40,8 +52,10 @@ def test_quadrature_equals_plain_time_integration():
     assert exact_rotation_path(P, p.waypoints, nodes=64).sum() == pytest.approx(quad, rel=1e-13)
 
 
-@pytest.mark.parametrize("bl, fractions", [("cubic", (0.4, 0.1, 0.4, 0.1)), ("cosine", (0.3, 0.2, 0.3, 0.2)),
-                                           ("min_jerk", (0.45, 0.05, 0.25, 0.25))])
+@pytest.mark.parametrize(
+    "bl, fractions",
+    [("cubic", (0.4, 0.1, 0.4, 0.1)), ("cosine", (0.3, 0.2, 0.3, 0.2)), ("min_jerk", (0.45, 0.05, 0.25, 0.25))],
+)
 def test_time_reparametrisation_invariance(bl, fractions):
     # the same closed path traversed with other blends, phase timings and periods: same rotation
     P = model()

@@ -36,8 +36,17 @@ def _rigid_reference(env, R0, w0_body, inertia, t_eval):
 def test_stiff_lattice_librates_like_rigid_body(tmp_path):
     tree = load_config(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/libration.toml").model_dump(mode="json")
     # Small and stiff: 4 × 4 × 2 nodes, bending stiffness high enough that it stays nearly rigid.
-    tree = apply_overrides(tree, ["lattice.units=3", "stiffness.EI_Nm2=2e4", "sim.duration_s=600",
-                                  "sim.record_every=50", "sim.progress=false", "damping.zeta_strut=0.5"])
+    tree = apply_overrides(
+        tree,
+        [
+            "lattice.units=3",
+            "stiffness.EI_Nm2=2e4",
+            "sim.duration_s=600",
+            "sim.record_every=50",
+            "sim.progress=false",
+            "damping.zeta_strut=0.5",
+        ],
+    )
     cfg = parse_config(tree)
     out = run_scenario(cfg, tmp_path / "run")
     ts = read_timeseries(tmp_path / "run")
@@ -47,8 +56,9 @@ def test_stiff_lattice_librates_like_rigid_body(tmp_path):
     from magsail_mj.estimation.attitude import particle_inertia
 
     inertia = particle_inertia(sc.tm.lattice.nodes, sc.tm.masses).tensor
-    R_ref = _rigid_reference(sc.environment, sc.initial_rotation(), np.asarray(cfg.initial.omega0_rad_s),
-                             inertia, ts["t"])
+    R_ref = _rigid_reference(
+        sc.environment, sc.initial_rotation(), np.asarray(cfg.initial.omega0_rad_s), inertia, ts["t"]
+    )
     h = np.cross(ts["r_ref_eci_m"][0], sc.environment.sample(0.0).v_ref_eci)
     h /= np.linalg.norm(h)
     # Angle of the plate normal from the orbit normal: lattice vs rigid body.

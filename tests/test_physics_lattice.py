@@ -28,7 +28,11 @@ from magsail_mj.config import apply_overrides, load_config, parse_config
 from magsail_mj.estimation.attitude import best_fit_rotation, particle_inertia, rotation_angle
 from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.lattice.properties import (
-    cantilever_linear, clamped_nodes, node_masses, strut_damping, strut_stiffness,
+    cantilever_linear,
+    clamped_nodes,
+    node_masses,
+    strut_damping,
+    strut_stiffness,
 )
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.strut_torque import StrutTorqueLoad
@@ -40,16 +44,31 @@ from magsail_mj.sim import Simulation
 MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "truss_magnetorquer" / "configs"
 
 
-def small_model(*, units=2, side=10.0, EI=100.0, total=2.0, diagonals="parity", gamma=0.0,
-                integrator="RK4", dt=0.01, fixed=(), k=None):
+def small_model(
+    *,
+    units=2,
+    side=10.0,
+    EI=100.0,
+    total=2.0,
+    diagonals="parity",
+    gamma=0.0,
+    integrator="RK4",
+    dt=0.01,
+    fixed=(),
+    k=None,
+):
     """(lattice, masses, k, compiled model) of a small free (or clamped) lattice."""
     lat = make_lattice(units=units, side_m=side, diagonals=diagonals)
     if k is None:
         k, _ = strut_stiffness(lat, EI_Nm2=EI)
     m = node_masses(lat, total_kg=total)
-    spec = build_truss_spec(lat, masses=m, stiffness=k, damping=gamma,
-                            options=TrussModelOptions(timestep_s=dt, integrator=integrator,
-                                                      fixed_nodes=tuple(fixed)))
+    spec = build_truss_spec(
+        lat,
+        masses=m,
+        stiffness=k,
+        damping=gamma,
+        options=TrussModelOptions(timestep_s=dt, integrator=integrator, fixed_nodes=tuple(fixed)),
+    )
     return lat, m, k, spec.compile()
 
 
@@ -91,8 +110,7 @@ def randomise(model, data, lat, rng, *, dx=0.05, dv=0.1):
 
 
 @settings(max_examples=20, deadline=None)
-@given(seed=st.integers(0, 2**31 - 1), diagonals=st.sampled_from(["parity", "X"]),
-       clamp=st.booleans())
+@given(seed=st.integers(0, 2**31 - 1), diagonals=st.sampled_from(["parity", "X"]), clamp=st.booleans())
 def test_tendon_force_is_the_spec_strut_law(seed, diagonals, clamp):
     """qfrc_passive = Σ k(r−l0)r̂ + γ(ṙ·r̂)r̂ (spec §2.4) at a random deformed, moving state.
 
@@ -106,8 +124,9 @@ def test_tendon_force_is_the_spec_strut_law(seed, diagonals, clamp):
     gamma = rng.uniform(0.0, 1.0, lat.n_struts)
     m = rng.uniform(0.1, 2.0, lat.n_nodes)
     fixed = clamped_nodes(lat) if clamp else np.zeros(0, int)
-    spec = build_truss_spec(lat, masses=m, stiffness=k, damping=gamma,
-                            options=TrussModelOptions(fixed_nodes=tuple(fixed)))
+    spec = build_truss_spec(
+        lat, masses=m, stiffness=k, damping=gamma, options=TrussModelOptions(fixed_nodes=tuple(fixed))
+    )
     model = spec.compile()
     data = mujoco.MjData(model)
     randomise(model, data, lat, rng, dx=0.07, dv=0.5)
@@ -267,18 +286,18 @@ def test_strut_torquer_undeformed_couple():
     lat = make_lattice(units=5, side_m=20.0)
     y_top = lat.struts_of_kind("y_edge", layer=1)
     x_top = lat.struts_of_kind("x_edge", layer=1)
-    pos = np.vstack([np.zeros(3), lat.nodes])        # node i is body i + 1
-    state = StepState(t=0.0, pos=pos, vel=np.zeros_like(pos), xquat=np.zeros((pos.shape[0], 4)),
-                      omega=np.zeros_like(pos))
+    pos = np.vstack([np.zeros(3), lat.nodes])  # node i is body i + 1
+    state = StepState(
+        t=0.0, pos=pos, vel=np.zeros_like(pos), xquat=np.zeros((pos.shape[0], 4)), omega=np.zeros_like(pos)
+    )
     tau1 = 0.3
     load = StrutTorqueLoad(lat, y_top, command=lambda s: np.array([tau1, 0.0, 0.0]))
     xfrc = np.zeros((lat.n_nodes + 1, 6))
     load.add(state, xfrc)
     ends = lat.struts[y_top]
     r = lat.nodes[ends[:, 1]] - lat.nodes[ends[:, 0]]
-    couple = np.cross(r, load.last_force_j)                 # ℓ ê × F_j about the midpoint
-    np.testing.assert_allclose(couple, np.tile([tau1 / y_top.size, 0, 0], (y_top.size, 1)),
-                               rtol=0, atol=1e-15 * tau1)
+    couple = np.cross(r, load.last_force_j)  # ℓ ê × F_j about the midpoint
+    np.testing.assert_allclose(couple, np.tile([tau1 / y_top.size, 0, 0], (y_top.size, 1)), rtol=0, atol=1e-15 * tau1)
     np.testing.assert_allclose(xfrc[:, :3].sum(axis=0), 0.0, atol=1e-16)
     # total couple of both families for an arbitrary command (τ₂ from x1-struts, τ₃ from both)
     tau = np.array([0.3, -0.2, 0.05])
@@ -291,8 +310,7 @@ def test_strut_torquer_undeformed_couple():
     assert not np.any(xfrc[:, 3:])
 
 
-@pytest.mark.parametrize("placement,pair", [("central", "top"), ("central", "diagonal"),
-                                            ("distributed", "top")])
+@pytest.mark.parametrize("placement,pair", [("central", "top"), ("central", "diagonal"), ("distributed", "top")])
 def test_scenario_actuators_make_the_commanded_couple(placement, pair):
     """§6.2 placements: distributed (380 top y1-struts) and central (2 struts) give couple τ x̂1."""
     cfg = load_config(MODELS / "dist_vs_central/case_a_central_bangbang.toml")
@@ -328,8 +346,9 @@ def test_strut_torquer_on_deformed_lattice(seed, amp):
     tau = rng.normal(size=3)
     load = StrutTorqueLoad(lat, struts, command=lambda s: tau)
     xfrc = np.zeros((lat.n_nodes + 1, 6))
-    state = StepState(t=0.0, pos=pos, vel=np.zeros_like(pos), xquat=np.zeros((pos.shape[0], 4)),
-                      omega=np.zeros_like(pos))
+    state = StepState(
+        t=0.0, pos=pos, vel=np.zeros_like(pos), xquat=np.zeros((pos.shape[0], 4)), omega=np.zeros_like(pos)
+    )
     load.add(state, xfrc)
     F = load.last_force_j
     i, j = lat.struts[struts, 0], lat.struts[struts, 1]
@@ -368,13 +387,17 @@ def test_stiff_lattice_under_distributed_torque_accelerates_at_T_over_I():
     k, _ = strut_stiffness(lat, EI_Nm2=1e3)
     m = node_masses(lat, total_kg=8.0)
     gamma = strut_damping(lat, k, zeta=0.1, particle_mass_kg=m[0])
-    model = build_truss_spec(lat, masses=m, stiffness=k, damping=gamma,
-                             options=TrussModelOptions(timestep_s=0.02, integrator="RK4")).compile()
+    model = build_truss_spec(
+        lat, masses=m, stiffness=k, damping=gamma, options=TrussModelOptions(timestep_s=0.02, integrator="RK4")
+    ).compile()
     T = 0.01
     load = StrutTorqueLoad(lat, lat.struts_of_kind("y_edge", layer=1), command=lambda s: np.array([T, 0, 0]))
-    probes = {"qpos": lambda s, d: d.qpos, "qvel": lambda s, d: d.qvel,
-              "net_force": lambda s, d: d.xfrc_applied[:, :3].sum(axis=0),
-              "abs_force": lambda s, d: np.abs(d.xfrc_applied[:, :3]).sum()}
+    probes = {
+        "qpos": lambda s, d: d.qpos,
+        "qvel": lambda s, d: d.qvel,
+        "net_force": lambda s, d: d.xfrc_applied[:, :3].sum(axis=0),
+        "abs_force": lambda s, d: np.abs(d.xfrc_applied[:, :3]).sum(),
+    }
     res = Simulation(model=model, duration_s=40.0, loads=[load], probes=probes, record_every=25).run()
     assert res.status == "completed"
     t = res.records["t"]
@@ -382,7 +405,7 @@ def test_stiff_lattice_under_distributed_torque_accelerates_at_T_over_I():
     v = res.records["qvel"].reshape(t.size, -1, 3)
     I1 = particle_inertia(lat.nodes, m).moments[0]
     R, _ = best_fit_rotation(lat.nodes, x)
-    phi = np.arctan2(R[:, 2, 1], R[:, 1, 1])                      # rotation about x1
+    phi = np.arctan2(R[:, 2, 1], R[:, 1, 1])  # rotation about x1
     alpha = np.sum(phi * 0.5 * t**2) / np.sum((0.5 * t**2) ** 2)  # least squares φ = ½ α t²
     assert abs(alpha / (T / I1) - 1) < 0.02
     Lx = np.sum(m[None, :] * np.cross(x, v)[..., 0], axis=1)
@@ -390,14 +413,13 @@ def test_stiff_lattice_under_distributed_torque_accelerates_at_T_over_I():
     np.testing.assert_allclose(res.records["net_force"][1:], 0.0, atol=1e-14 * res.records["abs_force"][1:].max())
     P = np.sum(m[None, :, None] * v, axis=1)
     assert np.abs(P).max() < 1e-12 * T * t[-1] / lat.cube_edge_m
-    assert np.abs(rotation_angle(R[-1]) - abs(phi[-1])) < 1e-3 * abs(phi[-1])   # no cross-axis motion
+    assert np.abs(rotation_angle(R[-1]) - abs(phi[-1])) < 1e-3 * abs(phi[-1])  # no cross-axis motion
 
 
 # ------------------------------------------------------------------------------ cantilever
 
 
-CASES = [("A", 100.0, 1e3, 100.0), ("B", 100.0, 1e2, 100.0), ("C", 100.0, 1e1, 100.0),
-         ("orbital", 75.0, 1e3, 200.0)]
+CASES = [("A", 100.0, 1e3, 100.0), ("B", 100.0, 1e2, 100.0), ("C", 100.0, 1e1, 100.0), ("orbital", 75.0, 1e3, 200.0)]
 
 
 @pytest.mark.parametrize("case,d,EI,M", CASES)
@@ -422,9 +444,17 @@ def test_cantilever_mujoco_settle_small_lattice():
     """The cantilever scenario (clamp, tip load, settle damping) on a 4 × 4-cube lattice: the
     MuJoCo settle matches the linear solve within 1 % (spec §2.7) and the tip speed criterion
     is met. ω₁ ≈ 0.2 rad/s, so 150 s (≈ 30/ω₁) of Euler at 0.05 s settle it."""
-    cfg = _cantilever_cfg(MODELS / "cantilever.toml", "lattice.units=4", "lattice.side_m=20.0",
-                          "mass.total_kg=4.0", "stiffness.EI_Nm2=100.0", "cantilever.load_N=0.003",
-                          "sim.timestep_s=0.05", "sim.duration_s=150.0", "sim.progress=false")
+    cfg = _cantilever_cfg(
+        MODELS / "cantilever.toml",
+        "lattice.units=4",
+        "lattice.side_m=20.0",
+        "mass.total_kg=4.0",
+        "stiffness.EI_Nm2=100.0",
+        "cantilever.load_N=0.003",
+        "sim.timestep_s=0.05",
+        "sim.duration_s=150.0",
+        "sim.progress=false",
+    )
     sc = build_truss_scenario(cfg)
     summary, _ = sc.postprocess(sc.simulation().run())
     assert summary["status"] == "completed"
@@ -442,9 +472,14 @@ def test_cantilever_mujoco_settle_cases(case, EI):
     for B and C the load (δ = 0.33 % of d), the step (ω_max ∝ √EI) and the duration (∝ 1/ω₁ ∝
     1/√EI) are scaled so every case takes the same 18 000 Euler steps."""
     s = np.sqrt(1e3 / EI)
-    cfg = _cantilever_cfg(MODELS / "cantilever.toml", f"stiffness.EI_Nm2={EI}",
-                          f"cantilever.load_N={1e-3 * EI / 1e3}", f"sim.timestep_s={0.1 * s}",
-                          f"sim.duration_s={1800.0 * s}", "sim.progress=false")
+    cfg = _cantilever_cfg(
+        MODELS / "cantilever.toml",
+        f"stiffness.EI_Nm2={EI}",
+        f"cantilever.load_N={1e-3 * EI / 1e3}",
+        f"sim.timestep_s={0.1 * s}",
+        f"sim.duration_s={1800.0 * s}",
+        "sim.progress=false",
+    )
     sc = build_truss_scenario(cfg)
     summary, _ = sc.postprocess(sc.simulation().run())
     assert summary["status"] == "completed" and summary["settled"]
@@ -486,7 +521,7 @@ def test_numpy_rk4_reference_agrees_with_mujoco_rk4():
     Ra, _ = best_fit_rotation(lat.nodes, rec["x"])
     Rb, _ = best_fit_rotation(lat.nodes, x_mj)
     assert np.max(rotation_angle(Rb, relative_to=Ra)) < 1e-3
-    assert rotation_angle(Ra[-1]) > 1e-3            # it did rotate: the check is not vacuous
+    assert rotation_angle(Ra[-1]) > 1e-3  # it did rotate: the check is not vacuous
     sda, sdb = surface_sd(rec["x"][:, lat.top_nodes]), surface_sd(x_mj[:, lat.top_nodes])
     assert np.max(np.abs(sdb - sda)) < 0.02 * np.max(sda)
 
@@ -519,10 +554,16 @@ def test_reference_from_scenario_with_initial_attitude_and_rate(small_truss_tree
     With the distributed torque the only difference is the load held over each MuJoCo step vs
     evaluated per RK stage, an O(δt) effect while the lattice spins (measured 7e-6 a at 0.1 s
     and 7e-7 a at 0.01 s; asserted 1e-4 a)."""
-    tree = apply_overrides(small_truss_tree, [
-        "sim.duration_s=10.0", "sim.record_every=100", f"profile.tau_max_Nm={tau_max}",
-        "initial.q0_wxyz=[0.9238795325112867, 0.0, 0.3826834323650898, 0.0]",
-        "initial.omega0_rad_s=[0.01, -0.02, 0.005]"])
+    tree = apply_overrides(
+        small_truss_tree,
+        [
+            "sim.duration_s=10.0",
+            "sim.record_every=100",
+            f"profile.tau_max_Nm={tau_max}",
+            "initial.q0_wxyz=[0.9238795325112867, 0.0, 0.3826834323650898, 0.0]",
+            "initial.omega0_rad_s=[0.01, -0.02, 0.005]",
+        ],
+    )
     sc = build_truss_scenario(parse_config(tree))
     res = sc.simulation().run()
     assert res.status == "completed"
@@ -530,7 +571,7 @@ def test_reference_from_scenario_with_initial_attitude_and_rate(small_truss_tree
     system, external, x0, v0 = from_truss_scenario(sc)
     a = sc.tm.lattice.cube_edge_m
     np.testing.assert_allclose(x0, x_mj[0], rtol=0, atol=1e-12 * a)
-    assert np.abs(x0 - sc.tm.lattice.nodes).max() > 0.1 * a   # really rotated
+    assert np.abs(x0 - sc.tm.lattice.nodes).max() > 0.1 * a  # really rotated
     x, _, _ = rk4_run(system, x0, v0, dt=0.1, duration=10.0, external=external)
     np.testing.assert_allclose(x, x_mj[-1], rtol=0, atol=tol * a)
 

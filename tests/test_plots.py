@@ -39,19 +39,22 @@ def test_a_readable_figure_has_no_problem():
     for ax in axes:
         ax.plot([0, 1], [0, 1], label="measured")
         ax.plot([0, 1], [1, 0], label="model")
-        ax.axhline(0.5, color="r")             # a reference line needs no label
+        ax.axhline(0.5, color="r")  # a reference line needs no label
         ax.set_ylabel("torque [N m]")
-    axes[0].legend()                           # the second panel repeats the same labels
-    axes[1].set_xlabel("time (min)")           # a short unit in parentheses at the end
+    axes[0].legend()  # the second panel repeats the same labels
+    axes[1].set_xlabel("time (min)")  # a short unit in parentheses at the end
     assert figure_problems(fig) == []
 
 
-@pytest.mark.parametrize("labels, problem", [
-    ({"ylabel": "y [m]"}, "x axis has no label"),
-    ({"xlabel": "t [s]"}, "y axis has no label"),
-    ({"xlabel": "time", "ylabel": "y [m]"}, "x label 'time' has no unit"),
-    ({"xlabel": "t [s]", "ylabel": "yaw (unwrapped, about z)"}, "has no unit"),
-])
+@pytest.mark.parametrize(
+    "labels, problem",
+    [
+        ({"ylabel": "y [m]"}, "x axis has no label"),
+        ({"xlabel": "t [s]"}, "y axis has no label"),
+        ({"xlabel": "time", "ylabel": "y [m]"}, "x label 'time' has no unit"),
+        ({"xlabel": "t [s]", "ylabel": "yaw (unwrapped, about z)"}, "has no unit"),
+    ],
+)
 def test_an_axis_without_label_or_unit_is_a_problem(labels, problem):
     fig, ax = _line_figure(**labels)
     ax.legend()
@@ -73,7 +76,7 @@ def test_labelled_lines_need_a_legend_and_colours_need_labels():
     ax.plot([0, 1], [1, 0], label="b")
     assert any("without a legend: ['a', 'b']" in p for p in figure_problems(fig))
     fig, ax = new_figure()
-    ax.plot(np.arange(4), np.ones((4, 3)))     # three colours, no labels
+    ax.plot(np.arange(4), np.ones((4, 3)))  # three colours, no labels
     ax.set(xlabel="t [s]", ylabel="ω [rad/s]")
     assert any("3 unlabelled line colours" in p for p in figure_problems(fig))
 
@@ -83,13 +86,13 @@ def test_shared_twin_categorical_and_colour_bar_axes():
     for ax in axes:
         ax.plot([0, 1], [0, 1])
         ax.set_xlabel("t [s]")
-    axes[0].set_ylabel("y [m]")                # the shared y axis of the second panel
+    axes[0].set_ylabel("y [m]")  # the shared y axis of the second panel
     twin = axes[1].twinx()
     twin.plot([0, 1], [2, 3], "k")
-    twin.set_ylabel("z [m]")                   # its x axis is the panel's
+    twin.set_ylabel("z [m]")  # its x axis is the panel's
     assert figure_problems(fig) == []
     fig, ax = new_figure()
-    ax.bar(["slope", "model"], [1.0, 2.0])     # categories name themselves
+    ax.bar(["slope", "model"], [1.0, 2.0])  # categories name themselves
     ax.set_ylabel("rate [rad/s]")
     assert figure_problems(fig) == []
     fig, ax = new_figure()
@@ -117,7 +120,7 @@ def test_save_figure_refuses_a_bad_figure_only_when_checking(tmp_path, monkeypat
 PLOTTING_RUNS = [
     ("cnusail/pd_vs_eigenaxis.toml", ["sim.duration_s=30"]),
     ("cnusail/deorbit_recalc.toml", ["sim.duration_s=30"]),
-    pytest.param("cnusail/lifetime.toml", [], marks=pytest.mark.slow),   # 40 s: the whole decay analysis
+    pytest.param("cnusail/lifetime.toml", [], marks=pytest.mark.slow),  # 40 s: the whole decay analysis
 ]
 
 
@@ -125,8 +128,9 @@ PLOTTING_RUNS = [
 def test_every_figure_of_a_run_is_readable(tmp_path, monkeypatch, config, overrides):
     monkeypatch.setenv(CHECK_ENV, "1")
     concept, _, rest = config.partition("/")
-    cfg = load_config(CONCEPTS / concept / "configs" / rest,
-                      [*overrides, "sim.progress=false", "sim.checkpoint_every_s=0"])
+    cfg = load_config(
+        CONCEPTS / concept / "configs" / rest, [*overrides, "sim.progress=false", "sim.checkpoint_every_s=0"]
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         outcome = run_scenario(cfg, tmp_path / "run", progress=False)

@@ -27,8 +27,13 @@ def test_versine_runs_plus_one_through_zero_to_minus_one():
 
 
 def test_versine_equals_bang_bang_on_plateaus():
-    t = np.concatenate([np.linspace(T_V + 1, T_MINUS - T_V, 50), np.linspace(T_MINUS + T_V + 1, T_ZERO - T_V, 50),
-                        np.linspace(T_ZERO + 1, T_END, 20)])
+    t = np.concatenate(
+        [
+            np.linspace(T_V + 1, T_MINUS - T_V, 50),
+            np.linspace(T_MINUS + T_V + 1, T_ZERO - T_V, 50),
+            np.linspace(T_ZERO + 1, T_END, 20),
+        ]
+    )
     np.testing.assert_array_equal(versine(t, tau_max=TAU, t_end=T_END), bang_bang_off(t, tau_max=TAU, t_end=T_END))
 
 
@@ -42,8 +47,9 @@ def test_zero_net_impulse(kind):
 
 
 def test_bang_bang_values():
-    np.testing.assert_array_equal(bang_bang_off([0, 600, 600.1, 1200, 1200.1], tau_max=TAU, t_end=T_END),
-                                  [TAU, TAU, -TAU, -TAU, 0.0])
+    np.testing.assert_array_equal(
+        bang_bang_off([0, 600, 600.1, 1200, 1200.1], tau_max=TAU, t_end=T_END), [TAU, TAU, -TAU, -TAU, 0.0]
+    )
 
 
 def test_rigid_response_bang_bang_closed_form():

@@ -26,8 +26,11 @@ from magsail_mj.quaternion import (
     quat_z_to,
 )
 
-quat = st.lists(st.floats(-1, 1), min_size=4, max_size=4).filter(lambda v: np.linalg.norm(v) > 0.1).map(
-    lambda v: np.asarray(v) / np.linalg.norm(v))
+quat = (
+    st.lists(st.floats(-1, 1), min_size=4, max_size=4)
+    .filter(lambda v: np.linalg.norm(v) > 0.1)
+    .map(lambda v: np.asarray(v) / np.linalg.norm(v))
+)
 
 
 @settings(max_examples=60, deadline=None)
@@ -36,7 +39,7 @@ def test_product_matrix_and_error_match_mujoco(p, q):
     ref = np.empty(4)
     mujoco.mju_mulQuat(ref, p, q)
     np.testing.assert_allclose(quat_mul(p, q), ref, atol=1e-15)
-    np.testing.assert_allclose(quat_mul(p[None], q[None])[0], ref, atol=1e-15)   # stacked path
+    np.testing.assert_allclose(quat_mul(p[None], q[None])[0], ref, atol=1e-15)  # stacked path
     mat = np.empty(9)
     mujoco.mju_quat2Mat(mat, q)
     np.testing.assert_allclose(quat_to_matrix(q), mat.reshape(3, 3), atol=1e-14)
@@ -76,8 +79,10 @@ def test_matrix_product_and_inverse_match_scipy_rotation(p, q, r):
 
 
 @settings(max_examples=80, deadline=None)
-@given(arrays(np.float64, 3, elements=st.floats(-2, 2)).filter(lambda v: np.linalg.norm(v) > 0.1),
-       st.floats(-2 * np.pi, 2 * np.pi))
+@given(
+    arrays(np.float64, 3, elements=st.floats(-2, 2)).filter(lambda v: np.linalg.norm(v) > 0.1),
+    st.floats(-2 * np.pi, 2 * np.pi),
+)
 def test_axis_angle_matches_scipy_rotvec(axis, angle):
     """quat_from_axis_angle = Rotation.from_rotvec(θ n̂); quat_to_axis_angle returns θ ∈ [0, π] (tol 1e-12)."""
     n = axis / np.linalg.norm(axis)
@@ -128,8 +133,11 @@ def test_aliases_and_errors_name_their_argument():
     assert np.array_equal(matrix_from_quat(q), quat_to_matrix(q, normalise=True))
     assert cubesat_quat_z_to is quat_z_to
     np.testing.assert_allclose(quat_to_axis_angle(np.array([1.0, 0, 0, 0]))[1], 0.0, atol=0)
-    for bad, fn in ((np.zeros(4), lambda x: quat_to_matrix(x, normalise=True)), (np.zeros(3), quat_to_matrix),
-                    (np.zeros(3), quat_to_axis_angle)):
+    for bad, fn in (
+        (np.zeros(4), lambda x: quat_to_matrix(x, normalise=True)),
+        (np.zeros(3), quat_to_matrix),
+        (np.zeros(3), quat_to_axis_angle),
+    ):
         with pytest.raises(ValueError, match="^q: "):
             fn(bad)
     with pytest.raises(ValueError, match="^R: "):

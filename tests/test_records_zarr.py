@@ -15,7 +15,14 @@ from magsail_mj.checkpoint import read_checkpoint
 from magsail_mj.config import apply_overrides, parse_config
 from magsail_mj.export import read_timeseries
 from magsail_mj.records import (
-    SERIES_GROUP, STORE_NAME, Recorder, StoreRecords, dims_of, open_records, store_length, units_of,
+    SERIES_GROUP,
+    STORE_NAME,
+    Recorder,
+    StoreRecords,
+    dims_of,
+    open_records,
+    store_length,
+    units_of,
 )
 from magsail_mj.run import run_scenario
 
@@ -24,22 +31,25 @@ def _cfg(tree, *overrides):
     return parse_config(apply_overrides(tree, list(overrides)))
 
 
-@pytest.mark.parametrize("name,units,long_name", [
-    ("omega_body_rad_s", "rad/s", "omega body"),
-    ("psi_ddot_ref_rad_s2", "rad/s²", "psi ddot ref"),
-    ("torque_gg_world_N_m", "N m", "torque gg world"),
-    ("torque_cmd_body_Nm", "N m", "torque cmd body"),
-    ("angmom_N_m_s", "N m s", "angmom"),
-    ("dipole_cmd_A_m2", "A m²", "dipole cmd"),
-    ("com_world_m", "m", "com world"),
-    ("strain_energy_J", "J", "strain energy"),
-    ("theta_e_rad", "rad", "theta e"),
-    ("v_m_s", "m/s", "v"),
-    ("t", "s", "simulated time"),
-    ("saturated", "1", "saturated"),
-    ("p_e", "1", "p e"),
-    ("s", "1", "s"),           # a lone token is a name, not a unit
-])
+@pytest.mark.parametrize(
+    "name,units,long_name",
+    [
+        ("omega_body_rad_s", "rad/s", "omega body"),
+        ("psi_ddot_ref_rad_s2", "rad/s²", "psi ddot ref"),
+        ("torque_gg_world_N_m", "N m", "torque gg world"),
+        ("torque_cmd_body_Nm", "N m", "torque cmd body"),
+        ("angmom_N_m_s", "N m s", "angmom"),
+        ("dipole_cmd_A_m2", "A m²", "dipole cmd"),
+        ("com_world_m", "m", "com world"),
+        ("strain_energy_J", "J", "strain energy"),
+        ("theta_e_rad", "rad", "theta e"),
+        ("v_m_s", "m/s", "v"),
+        ("t", "s", "simulated time"),
+        ("saturated", "1", "saturated"),
+        ("p_e", "1", "p e"),
+        ("s", "1", "s"),  # a lone token is a name, not a unit
+    ],
+)
 def test_units_from_si_suffix(name, units, long_name):
     assert units_of(name) == (units, long_name)
 
@@ -58,8 +68,10 @@ NAMES = ["t", "mode", "w_rad_s", "grid_m"]
 def _rows(n, seed=1):
     """n random records of a scalar int, a (3,) and a (2, 5) variable; 80 B for the widest."""
     rng = np.random.default_rng(seed)
-    return [{"t": 0.5 * k, "mode": np.int8(k % 3), "w_rad_s": rng.normal(size=3), "grid_m": rng.normal(size=(2, 5))}
-            for k in range(n)]
+    return [
+        {"t": 0.5 * k, "mode": np.int8(k % 3), "w_rad_s": rng.normal(size=3), "grid_m": rng.normal(size=(2, 5))}
+        for k in range(n)
+    ]
 
 
 def _reference(rows):
@@ -107,7 +119,7 @@ def test_store_continued_from_a_count_equals_uninterrupted(tmp_path):
     b.create_store(tmp_path / "b.zarr")
     for r in rows[:19]:
         b.append(r)
-    b.flush()   # 19 records stored; the checkpoint below says 12
+    b.flush()  # 19 records stored; the checkpoint below says 12
     c = Recorder(NAMES, chunk_bytes=400)
     c.open_store(tmp_path / "b.zarr", 12)
     assert store_length(tmp_path / "b.zarr") == 12

@@ -15,9 +15,19 @@ def test_torque_coil_prints_capability_and_torque_vectors(capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["T_max_ycoil_N_m"] == pytest.approx(0.75 * 20 * 10 * 10 * 30e-6)
     assert out["m_max_A_m2"] == pytest.approx(out["T_max_ycoil_N_m"] / 30e-6)
-    for key in ("T_max_xcoil_N_m", "T_max_zloop_N_m", "zloop_side_m", "T_max_perimeter_loop_N_m",
-                "T_max_ycoil_p1_N_m", "T_max_ycoil_rows_plus1_N_m", "path_length_m", "node_count",
-                "segment_count", "net_force_Bx_N", "closed_lead_dipole_y_A_m2"):
+    for key in (
+        "T_max_xcoil_N_m",
+        "T_max_zloop_N_m",
+        "zloop_side_m",
+        "T_max_perimeter_loop_N_m",
+        "T_max_ycoil_p1_N_m",
+        "T_max_ycoil_rows_plus1_N_m",
+        "path_length_m",
+        "node_count",
+        "segment_count",
+        "net_force_Bx_N",
+        "closed_lead_dipole_y_A_m2",
+    ):
         assert key in out
     for path in ("ycoil", "xcoil", "zloop"):
         for ax in "xyz":
@@ -31,8 +41,15 @@ def test_torque_coil_options_depth_pitch_rows(capsys):
     assert out["T_max_ycoil_N_m"] == pytest.approx(0.75 * 8 * 20 * 10 * 1 * 2 * 30e-6)
 
 
-@pytest.mark.parametrize("argv,option", [(["--side-m", "20.5"], "--side-m"), (["--pitch-cells", "0"], "--pitch-cells"),
-                                         (["--current-a", "-1"], "--current-a"), (["--rows", "0"], "--rows")])
+@pytest.mark.parametrize(
+    "argv,option",
+    [
+        (["--side-m", "20.5"], "--side-m"),
+        (["--pitch-cells", "0"], "--pitch-cells"),
+        (["--current-a", "-1"], "--current-a"),
+        (["--rows", "0"], "--rows"),
+    ],
+)
 def test_torque_coil_bad_option_exits_2_and_names_it(capsys, argv, option):
     rc = main(["torque", "coil", *argv])
     assert rc == 2

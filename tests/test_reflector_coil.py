@@ -7,7 +7,13 @@ import numpy as np
 import pytest
 
 from magsail_mj.analysis.coil_torque import (
-    capability, closed_lead_dipole, coil_torque_report, net_force, path_torque, segment_torques, torque_matrix,
+    capability,
+    closed_lead_dipole,
+    coil_torque_report,
+    net_force,
+    path_torque,
+    segment_torques,
+    torque_matrix,
 )
 from magsail_mj.geometry.reflector_coil import CoilPath, coil_node_count, coil_x, coil_y, square_loop
 
@@ -17,15 +23,25 @@ def _members(nodes: np.ndarray) -> list[tuple]:
     return [tuple(sorted((tuple(p), tuple(q)))) for p, q in zip(a, b)]
 
 
-@pytest.mark.parametrize("d,L,p,n_row", [(10, 1, 2, None), (12, 1, 2, None), (10, 1, 1, None), (10, 1, 2, 11),
-                                         (20, 2, 2, None), (9, 1, 3, None), (100, 1, 2, None)])
+@pytest.mark.parametrize(
+    "d,L,p,n_row",
+    [
+        (10, 1, 2, None),
+        (12, 1, 2, None),
+        (10, 1, 1, None),
+        (10, 1, 2, 11),
+        (20, 2, 2, None),
+        (9, 1, 3, None),
+        (100, 1, 2, None),
+    ],
+)
 def test_coil_segments_axis_aligned_length_L_and_node_count(d, L, p, n_row):
     y = coil_y(d, L, p=p, n_row=n_row)
     n = round(d / L)
     assert y.shape == (coil_node_count(n, p=p, n_row=n_row), 3)
     seg = np.diff(y, axis=0)
     assert np.allclose(np.linalg.norm(seg, axis=1), L, rtol=0, atol=1e-12)
-    assert np.all(np.count_nonzero(np.abs(seg) > 1e-12, axis=1) == 1)      # axis-aligned
+    assert np.all(np.count_nonzero(np.abs(seg) > 1e-12, axis=1) == 1)  # axis-aligned
     # every node is a lattice node inside the structure
     ij = (y[:, :2] + d / 2) / L
     assert np.allclose(ij, np.round(ij)) and ij.min() >= 0 and ij.max() <= n
@@ -43,21 +59,33 @@ def test_baseline_traverses_no_member_twice_and_p1_shares_verticals():
         if m in seen:
             dup.append(m)
         seen.add(m)
-    assert all(abs(a[2] - b[2]) > 0 for a, b in dup)        # only vertical members are shared
+    assert all(abs(a[2] - b[2]) > 0 for a, b in dup)  # only vertical members are shared
 
 
 def test_three_quarter_turn_pattern_and_connector():
-    y = coil_y(6, 1)                                         # 3 columns of 6 rows
+    y = coil_y(6, 1)  # 3 columns of 6 rows
     seg = np.diff(y, axis=0)
     first = seg[:12]
     # sides used cyclically +x, +z, −x | −z, +x, +z | −x, −z, +x | +z, −x, −z, each followed by +y
-    expect = [(1, 0, 0), (0, 0, 1), (-1, 0, 0), (0, 1, 0), (0, 0, -1), (1, 0, 0), (0, 0, 1), (0, 1, 0),
-              (-1, 0, 0), (0, 0, -1), (1, 0, 0), (0, 1, 0)]
+    expect = [
+        (1, 0, 0),
+        (0, 0, 1),
+        (-1, 0, 0),
+        (0, 1, 0),
+        (0, 0, -1),
+        (1, 0, 0),
+        (0, 0, 1),
+        (0, 1, 0),
+        (-1, 0, 0),
+        (0, 0, -1),
+        (1, 0, 0),
+        (0, 1, 0),
+    ]
     assert np.allclose(first, expect)
     # connector: after column 0's last 3/4 turn, two +x segments at constant y and z
     k = 4 * 6 - 1
-    assert np.allclose(seg[k:k + 2], [(1, 0, 0), (1, 0, 0)])
-    assert np.allclose(y[k + 1:k + 3, 1], 2.0)                # last row of column 0: y = −3 + 5
+    assert np.allclose(seg[k : k + 2], [(1, 0, 0), (1, 0, 0)])
+    assert np.allclose(y[k + 1 : k + 3, 1], 2.0)  # last row of column 0: y = −3 + 5
     # column 1 runs towards −y
     assert y[k + 2 + 4 * 5, 1] < y[k + 2, 1]
 
@@ -73,7 +101,7 @@ def test_x_coil_is_y_coil_rotated_and_dipole_signs():
 
 def test_single_closed_turn_gives_m_cross_B():
     L, h, I = 1.0, 0.7, 3.0
-    X, y0 = 2.0, -1.5                                      # off-centre: a closed loop's torque is independent of it
+    X, y0 = 2.0, -1.5  # off-centre: a closed loop's torque is independent of it
     turn = np.array([(X, y0, -h / 2), (X + L, y0, -h / 2), (X + L, y0, h / 2), (X, y0, h / 2), (X, y0, -h / 2)])
     m = closed_lead_dipole(turn, current=I)
     assert np.allclose(m, [0, -I * L * h, 0])
@@ -93,7 +121,7 @@ def test_helix_of_N_turns_gives_axial_dipole_N_I_L_h():
     helix = helix[np.r_[True, np.any(np.diff(helix, axis=0) != 0, axis=1)]]
     B = 30e-6
     T = path_torque(helix, np.array([B, 0, 0]), current=I)
-    assert T[2] == pytest.approx(N * I * L * h * B, rel=1e-12)    # ẑ·T = (m × B)_z = +N I L h B for m = −N I L h ŷ
+    assert T[2] == pytest.approx(N * I * L * h * B, rel=1e-12)  # ẑ·T = (m × B)_z = +N I L h B for m = −N I L h ŷ
 
 
 def test_torque_matrix_equals_eq4_and_is_linear():
@@ -142,21 +170,33 @@ def test_square_loop_closed_ccw_and_capability():
 
 def test_coil_torque_report_keys_and_baseline_values():
     r = coil_torque_report(side_m=100, segment_m=1, current_A=10, field_T=30e-6)
-    keys = ["T_max_ycoil_N_m", "T_max_xcoil_N_m", "T_max_zloop_N_m", "zloop_side_m", "T_max_perimeter_loop_N_m",
-            "T_max_ycoil_p1_N_m", "T_max_ycoil_rows_plus1_N_m", "m_max_A_m2", "path_length_m", "node_count",
-            "segment_count", "net_force_Bx_N", "closed_lead_dipole_y_A_m2"]
+    keys = [
+        "T_max_ycoil_N_m",
+        "T_max_xcoil_N_m",
+        "T_max_zloop_N_m",
+        "zloop_side_m",
+        "T_max_perimeter_loop_N_m",
+        "T_max_ycoil_p1_N_m",
+        "T_max_ycoil_rows_plus1_N_m",
+        "m_max_A_m2",
+        "path_length_m",
+        "node_count",
+        "segment_count",
+        "net_force_Bx_N",
+        "closed_lead_dipole_y_A_m2",
+    ]
     for k in keys:
         assert k in r
     assert r["T_max_ycoil_N_m"] == pytest.approx(1.125)
     assert r["T_max_xcoil_N_m"] == pytest.approx(1.125)
     assert r["m_max_A_m2"] == pytest.approx(37500.0)
-    assert r["zloop_side_m"] == 62.0                       # 62² · 10 A · 30 µT = 1.153 N m, closest to 1.125
+    assert r["zloop_side_m"] == 62.0  # 62² · 10 A · 30 µT = 1.153 N m, closest to 1.125
     assert r["T_max_perimeter_loop_N_m"] == pytest.approx(3.0)
     assert r["T_max_ycoil_p1_N_m"] == pytest.approx(2.25)
     assert r["node_count"] == 20049 and r["segment_count"] == 20048 and r["path_length_m"] == pytest.approx(20048)
-    assert r["closed_lead_dipole_y_A_m2"] > 0             # positive current gives +y
+    assert r["closed_lead_dipole_y_A_m2"] > 0  # positive current gives +y
     y = r["paths"]["ycoil"]
-    assert y["T_Bx_N_m"][2] == pytest.approx(-1.125)      # m ∥ +y, B ∥ x: (m × B)_z = −m B
+    assert y["T_Bx_N_m"][2] == pytest.approx(-1.125)  # m ∥ +y, B ∥ x: (m × B)_z = −m B
     assert len(y["singular_values_N_m"]) == 3
     with pytest.raises(ValueError, match="side_m"):
         coil_torque_report(side_m=100.5, segment_m=1)

@@ -12,7 +12,10 @@ from scipy.integrate import simpson
 from magsail_mj.control.reflector_pitch import ReflectorPitchController, pitch_gains, project_and_saturate
 from magsail_mj.quaternion import error_quaternion, quat_to_matrix
 from magsail_mj.control.reflector_steering import (
-    ReflectorOrbit, SteeringReference, pitch_angle_from_quaternion, pitch_reference_quaternion,
+    ReflectorOrbit,
+    SteeringReference,
+    pitch_angle_from_quaternion,
+    pitch_reference_quaternion,
 )
 
 ORBIT = ReflectorOrbit.from_altitude(altitude_m=800e3)
@@ -21,23 +24,23 @@ T_F = 10 * ORBIT.period_s
 
 def test_orbit_constants_and_phases():
     assert ORBIT.r_m == 7171e3
-    assert ORBIT.period_s == pytest.approx(2 * math.pi * math.sqrt(7171e3 ** 3 / 3.986004418e14))
+    assert ORBIT.period_s == pytest.approx(2 * math.pi * math.sqrt(7171e3**3 / 3.986004418e14))
     assert ORBIT.t_m_s == pytest.approx(T_F / 2)
     # overhead at t_m: reflector and ground point both on +x
     r, R = ORBIT.position(ORBIT.t_m_s), ORBIT.ground_point(ORBIT.t_m_s)
     assert np.allclose(r / np.linalg.norm(r), [1, 0, 0]) and np.allclose(R / np.linalg.norm(R), [1, 0, 0])
     assert ORBIT.theta(0.0) == pytest.approx(-ORBIT.n_rad_s * ORBIT.t_m_s)
-    assert math.cos(ORBIT.theta(0.0)) == pytest.approx(1.0)     # θ₀ ≡ 0 mod 2π
+    assert math.cos(ORBIT.theta(0.0)) == pytest.approx(1.0)  # θ₀ ≡ 0 mod 2π
 
 
 def test_dipole_field_eq11():
     k = 3.12e-5 * (6371e3 / 7171e3) ** 3
-    t = ORBIT.t_m_s + np.array([0.0, 0.25, 0.5, 0.75]) * ORBIT.period_s     # θ = 0, π/2, π, 3π/2
+    t = ORBIT.t_m_s + np.array([0.0, 0.25, 0.5, 0.75]) * ORBIT.period_s  # θ = 0, π/2, π, 3π/2
     B = ORBIT.field(t)
     assert np.allclose(B[:, 1], 0.0)
     assert np.allclose(np.linalg.norm(B, axis=1), [k, 2 * k, k, 2 * k], rtol=1e-12)
-    assert np.allclose(B[0], [0, 0, -k], atol=1e-18)            # equator: B = B_θ ê_θ, ê_θ = ẑ
-    assert np.allclose(B[1], [0, 0, -2 * k], atol=1e-18)        # north pole: B_r ê_r = −2k ẑ
+    assert np.allclose(B[0], [0, 0, -k], atol=1e-18)  # equator: B = B_θ ê_θ, ê_θ = ẑ
+    assert np.allclose(B[1], [0, 0, -2 * k], atol=1e-18)  # north pole: B_r ê_r = −2k ẑ
 
 
 def _times(n=400, seed=0):
@@ -59,7 +62,7 @@ def test_psi_ddot_matches_finite_difference_of_eq13():
     _, pd_p, _, _ = ORBIT.rates(t + h)
     _, pd_m, _, _ = ORBIT.rates(t - h)
     fd = (pd_p - pd_m) / (2 * h)
-    away = np.abs(pdd) > 1e-3 * np.max(np.abs(pdd))             # away from the zero crossings
+    away = np.abs(pdd) > 1e-3 * np.max(np.abs(pdd))  # away from the zero crossings
     assert away.sum() > 300
     assert np.allclose(fd[away], pdd[away], rtol=1e-6, atol=0)
 
@@ -69,7 +72,7 @@ def test_integral_of_psi_dot_equals_change_of_unwrapped_psi():
     s = ORBIT.psi_series(t)
     integral = simpson(s["psi_dot"], x=t)
     assert integral == pytest.approx(s["psi_c"][-1] - s["psi_c"][0], rel=1e-9)
-    assert np.max(np.abs(np.diff(s["psi_c"]))) < 0.01             # continuous: no π or 2π jumps
+    assert np.max(np.abs(np.diff(s["psi_c"]))) < 0.01  # continuous: no π or 2π jumps
 
 
 def test_unwrapped_psi_equals_eq12_modulo_pi_and_online_reference_matches():
@@ -105,9 +108,20 @@ def test_q_ref_puts_the_grey_line_perpendicular_to_r_rad():
 
 
 def _controller(**kw):
-    opts = dict(orbit=ORBIT, inertia_kg_m2=(8.3e5, 8.3e5, 1.67e6), omega_n_rad_s=0.1, zeta=0.7,
-                rate_term="absolute", feedforward=False, saturation="norm", cap_N_m=1e9, B_ref_T=30e-6,
-                m_max_A_m2=(37500.0, 37500.0, 38440.0), body_id=1, period_s=0.5)
+    opts = dict(
+        orbit=ORBIT,
+        inertia_kg_m2=(8.3e5, 8.3e5, 1.67e6),
+        omega_n_rad_s=0.1,
+        zeta=0.7,
+        rate_term="absolute",
+        feedforward=False,
+        saturation="norm",
+        cap_N_m=1e9,
+        B_ref_T=30e-6,
+        m_max_A_m2=(37500.0, 37500.0, 38440.0),
+        body_id=1,
+        period_s=0.5,
+    )
     opts.update(kw)
     return ReflectorPitchController(**opts)
 
@@ -156,8 +170,14 @@ def test_projection_perpendicular_to_B_and_saturation_modes():
             if mode == "field_scaled":
                 assert np.linalg.norm(Ta) <= 1.125 * np.linalg.norm(B) / 30e-6 * (1 + 1e-12)
     # a pure pitch torque is never reduced by the projection when B lies in the xz plane
-    Ta, sat = project_and_saturate(np.array([0.0, 0.7, 0.0]), np.array([2e-5, 0.0, -1e-5]), saturation="norm",
-                                   cap_N_m=1.125, B_ref_T=30e-6, m_max_A_m2=m_max)
+    Ta, sat = project_and_saturate(
+        np.array([0.0, 0.7, 0.0]),
+        np.array([2e-5, 0.0, -1e-5]),
+        saturation="norm",
+        cap_N_m=1.125,
+        B_ref_T=30e-6,
+        m_max_A_m2=m_max,
+    )
     assert np.allclose(Ta, [0, 0.7, 0]) and not sat
     # per-path: the unclipped dipole reproduces the projected torque exactly
     B = np.array([1e-5, 2e-5, -2e-5])

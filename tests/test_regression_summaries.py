@@ -18,22 +18,32 @@ import pytest
 
 from tests.conftest import REPO
 
-_spec = importlib.util.spec_from_file_location("store_regression_summaries",
-                                               REPO / "scripts" / "store_regression_summaries.py")
+_spec = importlib.util.spec_from_file_location(
+    "store_regression_summaries", REPO / "scripts" / "store_regression_summaries.py"
+)
 store = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(store)
 
 STORED = json.loads(store.OUT.read_text())
 ONE_PER_KIND = [
-    "magsail_mj/concepts/cnusail/configs/detumble_pre.toml", "magsail_mj/concepts/cnusail/configs/nadir_pre.toml", "magsail_mj/concepts/cnusail/configs/deorbit_recalc.toml",  # noqa: E501
-    "magsail_mj/concepts/cnusail/configs/pd_vs_eigenaxis.toml", "magsail_mj/concepts/cnusail/configs/lifetime.toml",
-    "magsail_mj/concepts/current_loops/configs/slew.toml", "magsail_mj/concepts/current_loops/configs/slew_rigid.toml",
+    "magsail_mj/concepts/cnusail/configs/detumble_pre.toml",
+    "magsail_mj/concepts/cnusail/configs/nadir_pre.toml",
+    "magsail_mj/concepts/cnusail/configs/deorbit_recalc.toml",  # noqa: E501
+    "magsail_mj/concepts/cnusail/configs/pd_vs_eigenaxis.toml",
+    "magsail_mj/concepts/cnusail/configs/lifetime.toml",
+    "magsail_mj/concepts/current_loops/configs/slew.toml",
+    "magsail_mj/concepts/current_loops/configs/slew_rigid.toml",
     "magsail_mj/concepts/current_loops/configs/sweep/a_n12_ei1e3.toml",
-    "magsail_mj/concepts/msac/configs/lumped.toml", "magsail_mj/concepts/msac/configs/paper_1khz.toml", "magsail_mj/concepts/msac/configs/sweeps/stroke.toml",  # noqa: E501
-    "magsail_mj/concepts/reflector/configs/detumble.toml", "magsail_mj/concepts/reflector/configs/tracking_10g.toml",
+    "magsail_mj/concepts/msac/configs/lumped.toml",
+    "magsail_mj/concepts/msac/configs/paper_1khz.toml",
+    "magsail_mj/concepts/msac/configs/sweeps/stroke.toml",  # noqa: E501
+    "magsail_mj/concepts/reflector/configs/detumble.toml",
+    "magsail_mj/concepts/reflector/configs/tracking_10g.toml",
     "magsail_mj/concepts/reflector/configs/pitch/b3_caps_sigma10.toml",
-    "magsail_mj/concepts/truss_magnetorquer/configs/cantilever.toml", "magsail_mj/concepts/truss_magnetorquer/configs/libration.toml",  # noqa: E501
-    "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", "magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml",  # noqa: E501
+    "magsail_mj/concepts/truss_magnetorquer/configs/cantilever.toml",
+    "magsail_mj/concepts/truss_magnetorquer/configs/libration.toml",  # noqa: E501
+    "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
+    "magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml",  # noqa: E501
     "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml",
 ]
 
@@ -44,7 +54,10 @@ ONE_PER_KIND = [
 #: fresh checkout), and figures at round-off level (an energy-balance error of 4e-12) change by
 #: percents; 1e-6 relative or 1e-9 absolute still catches any change of the physics.
 EIGEN_REL, EIGEN_ABS = 1e-6, 1e-9
-EIGEN_CONFIGS = ("magsail_mj/concepts/current_loops/configs/slew.toml", "magsail_mj/concepts/current_loops/configs/sweep")  # noqa: E501
+EIGEN_CONFIGS = (
+    "magsail_mj/concepts/current_loops/configs/slew.toml",
+    "magsail_mj/concepts/current_loops/configs/sweep",
+)  # noqa: E501
 
 
 def _check(key: str) -> None:

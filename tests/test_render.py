@@ -49,8 +49,8 @@ from magsail_mj.render.video import Mp4Writer, read_mp4, video_codec
 from magsail_mj.resources import MemoryLimitError, memory_limit
 from magsail_mj.run import run_scenario
 
-W, H = 320, 180          # small frames keep software rendering fast
-T_FRAMES = 9             # records: activity 0 (0-2), +1 (3-5), -1 (6-8)
+W, H = 320, 180  # small frames keep software rendering fast
+T_FRAMES = 9  # records: activity 0 (0-2), +1 (3-5), -1 (6-8)
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -73,13 +73,20 @@ def gl() -> str:
     return backend.active_backend()
 
 
-def write_truss_run(folder: Path, *, units: int = 3, side_m: float = 10.0, T: int = T_FRAMES,
-                    duration_s: float = 80.0, bend_m: float = 0.0, activity: bool = True,
-                    title: str = "truss test") -> dict:
+def write_truss_run(
+    folder: Path,
+    *,
+    units: int = 3,
+    side_m: float = 10.0,
+    T: int = T_FRAMES,
+    duration_s: float = 80.0,
+    bend_m: float = 0.0,
+    activity: bool = True,
+    title: str = "truss test",
+) -> dict:
     """A run folder whose plate turns rigidly by 60° about x and 30° about z over the run."""
     lat = make_lattice(units=units, side_m=side_m)
-    spec = build_truss_spec(lat, masses=np.full(lat.n_nodes, 0.1),
-                            stiffness=np.full(lat.n_struts, 1.0), damping=0.01)
+    spec = build_truss_spec(lat, masses=np.full(lat.n_nodes, 0.1), stiffness=np.full(lat.n_struts, 1.0), damping=0.01)
     model = spec.compile()
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "model.xml").write_text(spec.to_xml())
@@ -88,24 +95,30 @@ def write_truss_run(folder: Path, *, units: int = 3, side_m: float = 10.0, T: in
     r2 = (p0[:, 0] ** 2 + p0[:, 1] ** 2) / (side_m / 2) ** 2
     qpos = np.empty((T, model.nq))
     for k, tk in enumerate(t):
-        rot = Rotation.from_euler("xz", [60.0 * tk / duration_s, 30.0 * tk / duration_s],
-                                  degrees=True).as_matrix()
+        rot = Rotation.from_euler("xz", [60.0 * tk / duration_s, 30.0 * tk / duration_s], degrees=True).as_matrix()
         p = p0.copy()
         p[:, 2] += bend_m * r2
         qpos[k] = (p @ rot.T - p0).ravel()
-    arrays = {"t": t, "qpos": qpos, "surface_sd_m": np.linspace(0.0, 0.01, T),
-              "torque_cmd_Nm": np.linspace(-1e-3, 1e-3, T)}
+    arrays = {
+        "t": t,
+        "qpos": qpos,
+        "surface_sd_m": np.linspace(0.0, 0.01, T),
+        "torque_cmd_Nm": np.linspace(-1e-3, 1e-3, T),
+    }
     x_top = lat.struts_of_kind("x_edge", layer=1)
     if activity:
         act = np.zeros((T, lat.n_struts), np.int8)
         third = T // 3
-        act[third:2 * third, x_top] = 1
-        act[2 * third:, x_top] = -1
+        act[third : 2 * third, x_top] = 1
+        act[2 * third :, x_top] = -1
         arrays["strut_activity"] = act
     np.savez(folder / "timeseries.npz", **arrays)
-    manifest = {"config": {"units": units}, "config_hash": "test", "scenario": "render_test",
-                "render": {"title": title, "top_nodes": lat.top_nodes.tolist(),
-                           "overlay": ["surface_sd_m", "torque_cmd_Nm"]}}
+    manifest = {
+        "config": {"units": units},
+        "config_hash": "test",
+        "scenario": "render_test",
+        "render": {"title": title, "top_nodes": lat.top_nodes.tolist(), "overlay": ["surface_sd_m", "torque_cmd_Nm"]},
+    }
     (folder / "manifest.json").write_text(json.dumps(manifest))
     return {"lattice": lat, "t": t, "qpos": qpos}
 
@@ -113,7 +126,8 @@ def write_truss_run(folder: Path, *, units: int = 3, side_m: float = 10.0, T: in
 def write_rigid_run(folder: Path, *, T: int = 6) -> None:
     """A satellite (one free body: bus and two panels) turning about z while drifting along x."""
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "model.xml").write_text(textwrap.dedent("""\
+    (folder / "model.xml").write_text(
+        textwrap.dedent("""\
         <mujoco model="sat">
           <option gravity="0 0 0"/>
           <worldbody>
@@ -125,15 +139,16 @@ def write_rigid_run(folder: Path, *, T: int = 6) -> None:
               <geom type="box" pos="-0.8 0 0" size="0.5 0.3 0.005" rgba="0.2 0.3 0.8 1"/>
             </body>
           </worldbody>
-        </mujoco>"""))
+        </mujoco>""")
+    )
     t = np.linspace(0.0, 10.0, T)
     qpos = np.zeros((T, 7))
     qpos[:, 0] = 0.1 * t
-    qpos[:, 3:] = Rotation.from_euler("z", (9.0 * t)[:, None], degrees=True).as_quat(
-        scalar_first=True)
+    qpos[:, 3:] = Rotation.from_euler("z", (9.0 * t)[:, None], degrees=True).as_quat(scalar_first=True)
     np.savez(folder / "timeseries.npz", t=t, qpos=qpos)
-    (folder / "manifest.json").write_text(json.dumps(
-        {"config": {}, "config_hash": "x", "scenario": "rigid", "render": {"title": "rigid sat"}}))
+    (folder / "manifest.json").write_text(
+        json.dumps({"config": {}, "config_hash": "x", "scenario": "rigid", "render": {"title": "rigid sat"}})
+    )
 
 
 def colour_counts(frame: np.ndarray) -> tuple[int, int]:
@@ -146,11 +161,19 @@ def colour_counts(frame: np.ndarray) -> tuple[int, int]:
 
 def run_python(code: str, **env: str) -> subprocess.CompletedProcess:
     """Run ``code`` in a fresh interpreter (MUJOCO_GL is fixed per process)."""
-    full_env = {k: v for k, v in os.environ.items()
-                if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM", "MUJOCO_EGL_DEVICE_ID")}
+    full_env = {
+        k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM", "MUJOCO_EGL_DEVICE_ID")
+    }
     full_env.update(env)
-    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True,
-                          text=True, env=full_env, cwd=REPO, timeout=120, check=False)
+    return subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        env=full_env,
+        cwd=REPO,
+        timeout=120,
+        check=False,
+    )
 
 
 PROBE = textwrap.dedent("""
@@ -190,7 +213,7 @@ def test_ensure_gl_backend_prefers_osmesa(monkeypatch):
         monkeypatch.delenv("PYOPENGL_PLATFORM", raising=False)
         monkeypatch.setattr(backend, "osmesa_available", lambda present=present: present)
         with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)   # "mujoco already imported"
+            warnings.simplefilter("ignore", RuntimeWarning)  # "mujoco already imported"
             assert backend.ensure_gl_backend() == expected
         assert os.environ["MUJOCO_GL"] == expected
         assert os.environ["PYOPENGL_PLATFORM"] == expected
@@ -312,7 +335,7 @@ def test_mp4_writer_is_atomic(tmp_path):
 
 def test_frame_plan_nearest_and_hold():
     ta = np.linspace(0.0, 100.0, 101)
-    tb = np.linspace(0.0, 40.0, 9)                       # shorter run, coarser records
+    tb = np.linspace(0.0, 40.0, 9)  # shorter run, coarser records
     ft, (ia, ib), (ea, eb) = frame_plan([tb, ta], max_frames=11)
     assert np.allclose(ft, np.linspace(0.0, 100.0, 11))  # the longer run sets the times
     assert np.array_equal(ib, np.arange(0, 101, 10))
@@ -326,7 +349,7 @@ def test_render_truss_run(tmp_path, gl):
     write_truss_run(tmp_path / "run_a")
     out = render_run(tmp_path / "run_a", tmp_path / "videos" / "a.mp4", width=W, height=H, fps=10)
     assert out == tmp_path / "videos" / "a.mp4"
-    assert sorted(p.name for p in out.parent.iterdir()) == ["a.mp4"]     # no temp file left
+    assert sorted(p.name for p in out.parent.iterdir()) == ["a.mp4"]  # no temp file left
     assert video_codec(out) == "h264 yuv420p"
     v = read_mp4(out)
     assert v.shape == (T_FRAMES, H, W, 3)
@@ -339,17 +362,14 @@ def test_render_truss_run(tmp_path, gl):
     assert min(blue[6:9]) > max(blue[:3]) + 30, blue
     assert max(red[6:9]) < min(red[3:6]), red
 
-    v4 = read_mp4(render_run(tmp_path / "run_a", tmp_path / "b.mp4", width=W, height=H,
-                             max_frames=4))
+    v4 = read_mp4(render_run(tmp_path / "run_a", tmp_path / "b.mp4", width=W, height=H, max_frames=4))
     assert v4.shape == (4, H, W, 3)
 
 
 def test_render_side_by_side(tmp_path, gl):
     write_truss_run(tmp_path / "design_a")
-    write_truss_run(tmp_path / "design_b", T=5, duration_s=40.0, activity=False, bend_m=0.3,
-                    title="bent")
-    out = render_run(tmp_path / "design_a", tmp_path / "ab.mp4", compare=tmp_path / "design_b",
-                     width=W, height=H)
+    write_truss_run(tmp_path / "design_b", T=5, duration_s=40.0, activity=False, bend_m=0.3, title="bent")
+    out = render_run(tmp_path / "design_a", tmp_path / "ab.mp4", compare=tmp_path / "design_b", width=W, height=H)
     v = read_mp4(out)
     assert v.shape == (T_FRAMES, H, 2 * W, 3)
     assert video_codec(out) == "h264 yuv420p"
@@ -360,14 +380,27 @@ def test_render_side_by_side(tmp_path, gl):
     # The shorter right run holds its last record once it has ended.
     assert np.abs(right[-1].astype(int) - right[-2]).mean() < 1.0
     with pytest.raises(ValueError, match="labels"):
-        render_run(tmp_path / "design_a", tmp_path / "x.mp4", compare=tmp_path / "design_b",
-                   labels=["only one"], width=W, height=H)
+        render_run(
+            tmp_path / "design_a",
+            tmp_path / "x.mp4",
+            compare=tmp_path / "design_b",
+            labels=["only one"],
+            width=W,
+            height=H,
+        )
 
 
 def test_render_rigid_body_run(tmp_path, gl):
     write_rigid_run(tmp_path / "rigid")
-    v = read_mp4(render_run(tmp_path / "rigid", tmp_path / "r.mp4", width=W, height=H,
-                            camera={"azimuth_deg": 135.0, "elevation_deg": -45.0}))
+    v = read_mp4(
+        render_run(
+            tmp_path / "rigid",
+            tmp_path / "r.mp4",
+            width=W,
+            height=H,
+            camera={"azimuth_deg": 135.0, "elevation_deg": -45.0},
+        )
+    )
     assert v.shape == (6, H, W, 3)
     assert all(f.std() > 10 for f in v)
     assert not np.array_equal(v[0], v[-1])
@@ -388,7 +421,7 @@ def test_exaggeration_scales_out_of_plane_deviation(tmp_path, gl):
         from magsail_mj.render.compose import CameraView
 
         image = scene.render(0, view=CameraView(distance_m=scene.auto_distance_m))
-        z = scene.data.xpos[1:lat.n_nodes + 1, 2].copy()      # record 0: no rotation
+        z = scene.data.xpos[1 : lat.n_nodes + 1, 2].copy()  # record 0: no rotation
         site_z = scene.data.site_xpos[:, 2].copy()
     assert image.std() > 10
     ref = lat.nodes[:, 2]
@@ -398,8 +431,8 @@ def test_exaggeration_scales_out_of_plane_deviation(tmp_path, gl):
         dev = w[layer] - w[layer].mean()
         expected = ref[layer] + w[layer].mean() + k * dev
         assert np.allclose(z[layer], expected, atol=1e-9)
-    assert np.isclose(z[top].mean() - z[bottom].mean(), lat.cube_edge_m)   # thickness kept
-    assert np.allclose(site_z, z)                                          # struts follow
+    assert np.isclose(z[top].mean() - z[bottom].mean(), lat.cube_edge_m)  # thickness kept
+    assert np.allclose(site_z, z)  # struts follow
 
 
 def test_render_errors_name_the_argument(tmp_path):
@@ -413,7 +446,7 @@ def test_render_errors_name_the_argument(tmp_path):
     manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
     manifest["render"]["overlay"] = ["no_such_series_m", "surface_sd_m"]
     (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
-    with pytest.warns(RuntimeWarning, match="no_such_series_m"):     # drawn without it
+    with pytest.warns(RuntimeWarning, match="no_such_series_m"):  # drawn without it
         assert list(load_run(tmp_path / "run").series) == ["surface_sd_m"]
     manifest["render"]["overlay"] = "surface_sd_m"
     (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
@@ -450,11 +483,11 @@ def test_inset_plots_the_named_series_up_to_the_frame(tmp_path, gl):
     (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
     v = read_mp4(render_run(tmp_path / "run", tmp_path / "inset.mp4", width=W, height=H))
     corner = (slice(H // 2, H), slice(0, W // 2))
-    assert np.abs(v[0][corner].astype(int) - plain[0][corner]).mean() > 5   # the box is drawn
+    assert np.abs(v[0][corner].astype(int) - plain[0][corner]).mean() > 5  # the box is drawn
     # orange: red well above blue (the 2 px line's chroma is halved by yuv420p, so no fixed level)
     rgb = [f[corner].astype(int) for f in v]
     curve = [int(np.count_nonzero((c[..., 0] > 140) & (c[..., 0] - c[..., 2] > 60))) for c in rgb]
-    assert curve[-1] > curve[0] + 50, curve                                 # orange line grows
+    assert curve[-1] > curve[0] + 50, curve  # orange line grows
     manifest["render"]["inset"] = "qpos"
     (tmp_path / "run" / "manifest.json").write_text(json.dumps(manifest))
     with pytest.raises(ValueError, match="inset"):
@@ -468,15 +501,39 @@ _FAST_LATTICE = ["lattice.units=3", "sim.duration_s=0.5", "sim.record_every=2"]
 SCENARIO_KINDS = [
     ("cnusail/attitude", "magsail_mj/concepts/cnusail/configs/detumble_pre.toml", ["sim.duration_s=1"]),
     ("msac/lumped", "magsail_mj/concepts/msac/configs/lumped.toml", []),
-    ("msac/multibody", "magsail_mj/concepts/msac/configs/paper_1khz.toml", ["sim.duration_s=0.02", "sim.record_every=200"]),  # noqa: E501
-    ("msac/sweep", "magsail_mj/concepts/msac/configs/sweeps/stroke.toml", ["sim.duration_s=0.02", "sim.record_every=200"]),  # noqa: E501
-    ("reflector/detumble", "magsail_mj/concepts/reflector/configs/detumble.toml", ["sim.duration_s=2", "sim.record_every=2"]),  # noqa: E501
-    ("reflector/pitch", "magsail_mj/concepts/reflector/configs/tracking_10g.toml", ["sim.duration_s=2", "sim.record_every=1"]),  # noqa: E501
-    ("reflector/pitch_caps", "magsail_mj/concepts/reflector/configs/pitch/b3_caps_sigma10.toml", ["sim.duration_s=2", "sim.record_every=1"]),  # noqa: E501
+    (
+        "msac/multibody",
+        "magsail_mj/concepts/msac/configs/paper_1khz.toml",
+        ["sim.duration_s=0.02", "sim.record_every=200"],
+    ),  # noqa: E501
+    (
+        "msac/sweep",
+        "magsail_mj/concepts/msac/configs/sweeps/stroke.toml",
+        ["sim.duration_s=0.02", "sim.record_every=200"],
+    ),  # noqa: E501
+    (
+        "reflector/detumble",
+        "magsail_mj/concepts/reflector/configs/detumble.toml",
+        ["sim.duration_s=2", "sim.record_every=2"],
+    ),  # noqa: E501
+    (
+        "reflector/pitch",
+        "magsail_mj/concepts/reflector/configs/tracking_10g.toml",
+        ["sim.duration_s=2", "sim.record_every=1"],
+    ),  # noqa: E501
+    (
+        "reflector/pitch_caps",
+        "magsail_mj/concepts/reflector/configs/pitch/b3_caps_sigma10.toml",
+        ["sim.duration_s=2", "sim.record_every=1"],
+    ),  # noqa: E501
     ("current_loops/sweep", "magsail_mj/concepts/current_loops/configs/sweep/a_n12_ei1e3.toml", _FAST_LATTICE),
     ("current_loops/slew", "magsail_mj/concepts/current_loops/configs/slew.toml", _FAST_LATTICE),
     ("current_loops/slew_rigid", "magsail_mj/concepts/current_loops/configs/slew_rigid.toml", _FAST_LATTICE),
-    ("truss/dist_vs_central", "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml", _FAST_LATTICE),  # noqa: E501
+    (
+        "truss/dist_vs_central",
+        "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml",
+        _FAST_LATTICE,
+    ),  # noqa: E501
     ("truss/cantilever", "magsail_mj/concepts/truss_magnetorquer/configs/cantilever.toml", _FAST_LATTICE),
     ("truss/free", "magsail_mj/concepts/truss_magnetorquer/configs/libration.toml", _FAST_LATTICE),
     ("truss/detumble", "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", _FAST_LATTICE),
@@ -498,7 +555,7 @@ def test_every_scenario_kind_renders_its_video(tmp_path, gl, monkeypatch, kind, 
     assert video.is_file(), (kind, outcome.status, outcome.get("status_message"))
     frames = read_mp4(video)
     assert frames.shape[0] >= 1 and frames.shape[1:] == (540, 960, 3), frames.shape
-    assert frames.std() > 1.0                                   # not a blank image
+    assert frames.std() > 1.0  # not a blank image
 
 
 def test_run_without_positions_is_refused_by_name(tmp_path):
@@ -520,8 +577,12 @@ def test_render_output_path_is_checked_before_rendering(tmp_path):
     write_truss_run(tmp_path / "run")
     (tmp_path / "file").write_text("x")
     (tmp_path / "dir.mp4").mkdir()
-    for out, match in ((tmp_path / "x.avi", "only MP4"), ("", "empty path"), (tmp_path / "dir.mp4", "is a folder"),
-                       (tmp_path / "file" / "x.mp4", "is a file")):
+    for out, match in (
+        (tmp_path / "x.avi", "only MP4"),
+        ("", "empty path"),
+        (tmp_path / "dir.mp4", "is a folder"),
+        (tmp_path / "file" / "x.mp4", "is a file"),
+    ):
         with pytest.raises(RenderError, match=f"out_path: .*{match}"):
             render_run(tmp_path / "run", out)
     with pytest.raises(RenderError, match="run_dir: must be a run folder, got an empty path"):
@@ -550,12 +611,13 @@ def test_overlay_values_have_names_units_and_enumeration_meanings():
     assert series_name_unit("phase") == ("phase", "")
     assert format_value("surface_sd_m", 5.1e-4) == "surface sd = 510 µm"
     assert format_value("torque_norm_Nm", 2.5) == "torque norm = 2.5 N m"
-    assert format_value("theta_e_deg", 12.5, names={"theta_e_deg": "attitude error θ_e"}) == \
-        "attitude error θ_e = 12.5°"
+    assert (
+        format_value("theta_e_deg", 12.5, names={"theta_e_deg": "attitude error θ_e"}) == "attitude error θ_e = 12.5°"
+    )
     assert format_value("wheel_speed_rpm", [1.0, -2.0, 3.0]) == "wheel speed (x, y, z) = [1, -2, 3] rpm"
     labels = {"mode": {"0": "detumbling", "1": "nadir pointing"}}
     assert format_value("mode", 1, labels=labels) == "mode: nadir pointing"
-    assert format_value("mode", 7, labels=labels) == "mode = 7"            # not in the table: the number
+    assert format_value("mode", 7, labels=labels) == "mode = 7"  # not in the table: the number
     assert format_value("count", 3, units={"count": "rods"}) == "count = 3 rods"
     assert format_time(5.0) == "t = 5 s" and format_time(600.0) == "t = 600.0 s (10.0 min)"
     assert format_time(7200.0) == "t = 7200.0 s (2.00 h)"
@@ -570,15 +632,18 @@ def test_cnusail_mode_and_msac_phase_are_printed_by_name():
 
     cn = build_task(load_config(REPO / "magsail_mj/concepts/cnusail/configs/deorbit_recalc.toml"))
     info = cn.render_info()
-    texts = {m: format_value("mode", int(m), names=info["overlay_names"], labels=info["overlay_labels"])
-             for m in Mode}
+    texts = {m: format_value("mode", int(m), names=info["overlay_names"], labels=info["overlay_labels"]) for m in Mode}
     assert texts[Mode.DETUMBLE] == "mode: detumbling (B-dot, wheels idle)"
     assert texts[Mode.NADIR] == "mode: nadir pointing, eigen-axis law"
     assert texts[Mode.DEORBIT].startswith("mode: deorbit attitude")
     ms = build_task(load_config(REPO / "magsail_mj/concepts/msac/configs/paper_1khz.toml"))
     phases = ms.render_info()["overlay_labels"]["phase"]
-    assert phases == {"1": "1 of 4, bend (extended)", "2": "2 of 4, contract",
-                      "3": "3 of 4, bend back (contracted)", "4": "4 of 4, extend"}
+    assert phases == {
+        "1": "1 of 4, bend (extended)",
+        "2": "2 of 4, contract",
+        "3": "3 of 4, bend back (contracted)",
+        "4": "4 of 4, extend",
+    }
 
 
 def test_every_marker_of_a_deployed_cnusail_and_msac_names_model_objects():
@@ -630,8 +695,12 @@ def test_identity_comes_from_the_record_store_before_the_manifest_exists(tmp_pat
         arrays = dict(npz)
     (tmp_path / "run" / "timeseries.npz").unlink()
     (tmp_path / "run" / "manifest.json").unlink()
-    write_group(tmp_path / "run" / STORE_NAME, arrays, n_time=arrays["t"].size,
-                attrs={"scenario": "slew", "config_hash": "0123456789abcdef" * 4})
+    write_group(
+        tmp_path / "run" / STORE_NAME,
+        arrays,
+        n_time=arrays["t"].size,
+        attrs={"scenario": "slew", "config_hash": "0123456789abcdef" * 4},
+    )
     run = load_run(tmp_path / "run", render_info={"title": "x"})
     assert run.identity == "scenario slew · config 0123456789ab"
 
@@ -648,9 +717,15 @@ def test_legend_shows_a_swatch_of_each_marker_colour(tmp_path, gl):
 
     write_rigid_run(tmp_path / "rigid")
     region = (slice(0, 540 // 2), slice(960 // 2, 960))
-    panel_colour = (0.2, 0.3, 0.8)                           # the rigid satellite's panels
+    panel_colour = (0.2, 0.3, 0.8)  # the rigid satellite's panels
     plain = next(render_frames(tmp_path / "rigid", max_frames=1, camera={"distance_m": 50.0}))
-    keyed = next(render_frames(tmp_path / "rigid", max_frames=1, camera={"distance_m": 50.0},
-                               render_info={"title": "rigid sat", "markers": {"bus": "bus and panels"}}))
+    keyed = next(
+        render_frames(
+            tmp_path / "rigid",
+            max_frames=1,
+            camera={"distance_m": 50.0},
+            render_info={"title": "rigid sat", "markers": {"bus": "bus and panels"}},
+        )
+    )
     # a 14 px square at 960 x 540 (196 px; the far-away model itself shows a few of that colour)
     assert _swatch_pixels(keyed, panel_colour, region) >= _swatch_pixels(plain, panel_colour, region) + 100

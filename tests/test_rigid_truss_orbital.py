@@ -21,8 +21,7 @@ class _HeldPolarity:
 
     def update(self, state):
         self.stats[0] += 1
-        return SimpleNamespace(polarity=self.polarity, clipped1=False, clipped2=False,
-                               torque_ref_body=np.zeros(3))
+        return SimpleNamespace(polarity=self.polarity, clipped1=False, clipped2=False, torque_ref_body=np.zeros(3))
 
 
 class _UniformDipoleLoad:
@@ -53,11 +52,20 @@ def test_torque_free_body_keeps_momentum_and_energy():
     # rates of 0.05 rad/s has a local error ~(ω dt)^5; 2 000 steps keep both within 1e-9.
     nodes, J = _setup()
     w0 = np.array([0.05, -0.03, 0.02])
-    run = simulate_rigid(controller=_HeldPolarity(None), rod_load=_UniformDipoleLoad([0, 0, 0], nodes),
-                         environment=_environment([0, 0, 0], [7e6, 0, 0]), nodes_body=nodes,
-                         masses=np.ones(len(nodes)), inertia=J, q0_wxyz=np.array([1.0, 0, 0, 0]),
-                         omega0_body=w0, duration_s=200.0, dt=0.1, gravity_gradient=False,
-                         record_every_s=1.0)
+    run = simulate_rigid(
+        controller=_HeldPolarity(None),
+        rod_load=_UniformDipoleLoad([0, 0, 0], nodes),
+        environment=_environment([0, 0, 0], [7e6, 0, 0]),
+        nodes_body=nodes,
+        masses=np.ones(len(nodes)),
+        inertia=J,
+        q0_wxyz=np.array([1.0, 0, 0, 0]),
+        omega0_body=w0,
+        duration_s=200.0,
+        dt=0.1,
+        gravity_gradient=False,
+        record_every_s=1.0,
+    )
     H = np.array([quat_to_matrix_wxyz(q) @ (J @ w) for q, w in zip(run.q, run.omega)])
     E = 0.5 * np.einsum("ti,ij,tj->t", run.omega, J, run.omega)
     assert np.max(np.linalg.norm(H - H[0], axis=1)) < 1e-9 * np.linalg.norm(H[0])
@@ -69,11 +77,20 @@ def test_field_only_energy_is_kinetic_plus_dipole_potential():
     # A body-fixed dipole in a uniform field: E = ½ ωᵀJω − m·(Rᵀ B) is conserved (pendulum).
     nodes, J = _setup()
     m, B = np.array([0.0, 0.0, 200.0]), np.array([0.0, 3e-5, 1e-5])
-    run = simulate_rigid(controller=_HeldPolarity(1), rod_load=_UniformDipoleLoad(m, nodes),
-                         environment=_environment(B, [7e6, 0, 0]), nodes_body=nodes,
-                         masses=np.ones(len(nodes)), inertia=J, q0_wxyz=np.array([1.0, 0, 0, 0]),
-                         omega0_body=np.zeros(3), duration_s=300.0, dt=0.1, gravity_gradient=False,
-                         record_every_s=1.0)
+    run = simulate_rigid(
+        controller=_HeldPolarity(1),
+        rod_load=_UniformDipoleLoad(m, nodes),
+        environment=_environment(B, [7e6, 0, 0]),
+        nodes_body=nodes,
+        masses=np.ones(len(nodes)),
+        inertia=J,
+        q0_wxyz=np.array([1.0, 0, 0, 0]),
+        omega0_body=np.zeros(3),
+        duration_s=300.0,
+        dt=0.1,
+        gravity_gradient=False,
+        record_every_s=1.0,
+    )
     U = -np.array([m @ (quat_to_matrix_wxyz(q).T @ B) for q in run.q])
     E = 0.5 * np.einsum("ti,ij,tj->t", run.omega, J, run.omega) + U
     assert np.ptp(U) > 1e-3  # it swings
@@ -81,21 +98,40 @@ def test_field_only_energy_is_kinetic_plus_dipole_potential():
 
 
 @settings(max_examples=30, deadline=None)
-@given(st.lists(st.floats(-1, 1), min_size=4, max_size=4).filter(lambda v: np.linalg.norm(v) > 0.1),
-       st.lists(st.floats(-1, 1), min_size=3, max_size=3))
+@given(
+    st.lists(st.floats(-1, 1), min_size=4, max_size=4).filter(lambda v: np.linalg.norm(v) > 0.1),
+    st.lists(st.floats(-1, 1), min_size=3, max_size=3),
+)
 def test_gravity_gradient_in_rhs_is_the_classical_torque(qv, wv):
     # T_gg = 3μ/r⁵ r_b × J r_b with r_b = Rᵀ r; zero for r along a principal axis.
     q = np.asarray(qv) / np.linalg.norm(qv)
     _, J = _setup()
     r = np.array([0.0, 7.2e6, 1.0e6])
-    _, _, _, T = rigid_rhs(q, np.asarray(wv) * 0.01, J=J, J_inv=np.linalg.inv(J), m_body=np.zeros(3),
-                           B_eci=np.zeros(3), r_ref_eci=r, mu=MU_EARTH, gravity_gradient=True)
+    _, _, _, T = rigid_rhs(
+        q,
+        np.asarray(wv) * 0.01,
+        J=J,
+        J_inv=np.linalg.inv(J),
+        m_body=np.zeros(3),
+        B_eci=np.zeros(3),
+        r_ref_eci=r,
+        mu=MU_EARTH,
+        gravity_gradient=True,
+    )
     r_b = quat_to_matrix_wxyz(q).T @ r
     expected = 3 * MU_EARTH / np.linalg.norm(r_b) ** 5 * np.cross(r_b, J @ r_b)
     np.testing.assert_allclose(T, expected, rtol=1e-9, atol=1e-18)
-    _, _, _, T_axis = rigid_rhs(np.array([1.0, 0, 0, 0]), np.zeros(3), J=J, J_inv=np.linalg.inv(J),
-                                m_body=np.zeros(3), B_eci=np.zeros(3), r_ref_eci=np.array([7e6, 0, 0]),
-                                mu=MU_EARTH, gravity_gradient=True)
+    _, _, _, T_axis = rigid_rhs(
+        np.array([1.0, 0, 0, 0]),
+        np.zeros(3),
+        J=J,
+        J_inv=np.linalg.inv(J),
+        m_body=np.zeros(3),
+        B_eci=np.zeros(3),
+        r_ref_eci=np.array([7e6, 0, 0]),
+        mu=MU_EARTH,
+        gravity_gradient=True,
+    )
     assert np.allclose(T_axis, 0.0)
 
 
@@ -117,9 +153,18 @@ def test_ideal_perp_b_actuation_applies_no_torque_along_b():
             cmd.torque_ref_body = np.array([0.0, 0.0, 1e-3])
             return cmd
 
-    kw = dict(rod_load=_UniformDipoleLoad([0, 0, 0], nodes), environment=_environment(B, [7e6, 0, 0]),
-              nodes_body=nodes, masses=np.ones(len(nodes)), inertia=J, q0_wxyz=np.array([1.0, 0, 0, 0]),
-              omega0_body=np.zeros(3), duration_s=10.0, dt=0.1, gravity_gradient=False)
+    kw = dict(
+        rod_load=_UniformDipoleLoad([0, 0, 0], nodes),
+        environment=_environment(B, [7e6, 0, 0]),
+        nodes_body=nodes,
+        masses=np.ones(len(nodes)),
+        inertia=J,
+        q0_wxyz=np.array([1.0, 0, 0, 0]),
+        omega0_body=np.zeros(3),
+        duration_s=10.0,
+        dt=0.1,
+        gravity_gradient=False,
+    )
     perp = simulate_rigid(controller=_AlongB(None), actuation="ideal_perp_B", **kw)
     ideal = simulate_rigid(controller=_AlongB(None), actuation="ideal", **kw)
     assert np.max(np.abs(perp.omega)) < 1e-15

@@ -17,7 +17,10 @@ from hypothesis import strategies as st
 from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.loads.base import Load, StepState
 from magsail_mj.loads.magnetorquer_rods import (
-    MagnetorquerRodLoad, rod_array, rod_dipole_Am2, rod_pair_forces,
+    MagnetorquerRodLoad,
+    rod_array,
+    rod_dipole_Am2,
+    rod_pair_forces,
 )
 
 finite = st.floats(-1.0, 1.0, allow_nan=False)
@@ -39,8 +42,15 @@ def paper_printed_force_i(r_i, r_j, m, B):
 
 
 @settings(max_examples=300, deadline=None)
-@given(r_i=vec, d=vec, B_dir=vec, B_exp=st.floats(-9, -3), length=st.floats(0.05, 100.0),
-       s=st.sampled_from([-1, 1]), m=st.floats(0.01, 1e3))
+@given(
+    r_i=vec,
+    d=vec,
+    B_dir=vec,
+    B_exp=st.floats(-9, -3),
+    length=st.floats(0.05, 100.0),
+    s=st.sampled_from([-1, 1]),
+    m=st.floats(0.01, 1e3),
+)
 def test_force_pair_torque_force_and_direction(r_i, d, B_dir, B_exp, length, s, m):
     """§10.3: midpoint torque = m × B (1e-12 rel.), zero net force, forces ⟂ strut."""
     r_i = 50.0 * r_i
@@ -96,7 +106,7 @@ def test_rod_array_of_the_20x20_lattice():
     a = 75.0 / 19
     np.testing.assert_allclose(d[:380], np.tile([a, 0, 0], (380, 1)), atol=1e-12)
     np.testing.assert_allclose(d[380:], np.tile([0, a, 0], (380, 1)), atol=1e-12)
-    assert np.all(lat.ijk[rods.ends][..., 2] == 1)                       # top layer
+    assert np.all(lat.ijk[rods.ends][..., 2] == 1)  # top layer
     assert len(set(rods.struts.tolist())) == 760
     # Family 1 sites: a 19 × 20 grid of strut midpoints; family 2: 20 × 19.
     s1, s2 = rods.family_sites(0), rods.family_sites(1)
@@ -110,7 +120,7 @@ def test_rod_dipole_basis_o4():
     tot = rod_dipole_Am2(kappa_Am2_per_kg=100.0, rod_mass_kg=100.0, rods_per_family=(380, 380), basis="total")
     assert per == pytest.approx((10_000 / 380, 10_000 / 380), rel=1e-15)
     assert tot == pytest.approx((10_000 / 760, 10_000 / 760), rel=1e-15)
-    assert round(per[0], 2) == 26.32 and round(tot[0], 2) == 13.16            # spec §9.1 numbers
+    assert round(per[0], 2) == 26.32 and round(tot[0], 2) == 13.16  # spec §9.1 numbers
     with pytest.raises(ValueError, match="basis"):
         rod_dipole_Am2(kappa_Am2_per_kg=1, rod_mass_kg=1, rods_per_family=(1, 1), basis="both")
     with pytest.raises(ValueError, match="kappa_Am2_per_kg"):
@@ -123,8 +133,15 @@ def test_rod_dipole_basis_o4():
 def _state(pos_nodes, polarity=None, *, env=None):
     pos = np.vstack([np.zeros(3), pos_nodes])
     ctrl = None if polarity is None else SimpleNamespace(polarity=polarity)
-    return StepState(t=0.0, pos=pos, vel=np.zeros_like(pos), xquat=np.tile([1.0, 0, 0, 0], (len(pos), 1)),
-                     omega=np.zeros_like(pos), env=env, ctrl=ctrl)
+    return StepState(
+        t=0.0,
+        pos=pos,
+        vel=np.zeros_like(pos),
+        xquat=np.tile([1.0, 0, 0, 0], (len(pos), 1)),
+        omega=np.zeros_like(pos),
+        env=env,
+        ctrl=ctrl,
+    )
 
 
 def _plain_reference_xfrc(load, pos, polarity, B):
@@ -149,8 +166,9 @@ def lat75():
 def test_load_total_torque_equals_sum_m_cross_B(lat75, deform):
     """Σ over nodes of x × F = Σ_r m_r × B (= torque_world); zero net force; matches the loop."""
     rng = np.random.default_rng(7)
-    load = MagnetorquerRodLoad.from_basis(lat75, kappa_Am2_per_kg=100.0, rod_mass_kg=100.0,
-                                          B_eci=[2.1e-5, -1.3e-5, 3.4e-5])
+    load = MagnetorquerRodLoad.from_basis(
+        lat75, kappa_Am2_per_kg=100.0, rod_mass_kg=100.0, B_eci=[2.1e-5, -1.3e-5, 3.4e-5]
+    )
     assert isinstance(load, Load)
     a = lat75.cube_edge_m
     nodes = lat75.nodes + deform * a * rng.normal(size=lat75.nodes.shape)
@@ -192,8 +210,9 @@ def test_load_reads_field_from_environment_and_accumulates():
     live.add(st_, x2)
     np.testing.assert_array_equal(x1, x2)
     assert np.any(x1[:, :3] != 0.25)
-    np.testing.assert_allclose(live.total_dipole_world(st_.pos, pol)[:2],
-                               [2.0 * pol[:12].sum(), 5.0 * pol[12:].sum()], rtol=1e-12)
+    np.testing.assert_allclose(
+        live.total_dipole_world(st_.pos, pol)[:2], [2.0 * pol[:12].sum(), 5.0 * pol[12:].sum()], rtol=1e-12
+    )
     act = live.activity(lat.n_struts)
     assert act.shape == (lat.n_struts,)
     np.testing.assert_array_equal(act[live.rods.struts], pol)
@@ -204,7 +223,7 @@ def test_load_off_and_bad_inputs():
     lat = make_lattice(units=2, side_m=4.0)
     load = MagnetorquerRodLoad(lat, m_rod_Am2=1.0, B_eci=[0, 0, 1e-5])
     x = np.zeros((lat.n_nodes + 1, 6))
-    load.add(_state(lat.nodes, None), x)                      # no command: all rods off
+    load.add(_state(lat.nodes, None), x)  # no command: all rods off
     load.add(_state(lat.nodes, np.zeros(load.n_rods, np.int8)), x)
     assert np.all(x == 0)
     with pytest.raises(ValueError, match="polarity"):
@@ -238,11 +257,11 @@ def test_held_command_is_reused_and_changes_are_seen():
         x = np.zeros((lat.n_nodes + 1, 6))
         load.add(st_, x)
         np.testing.assert_allclose(x, _plain_reference_xfrc(load, st_.pos, pol, B), rtol=1e-12, atol=1e-20)
-    pol[:] = -pol                          # same array, new values
+    pol[:] = -pol  # same array, new values
     x = np.zeros((lat.n_nodes + 1, 6))
     load.add(st_, x)
     np.testing.assert_allclose(x, _plain_reference_xfrc(load, st_.pos, pol, B), rtol=1e-12, atol=1e-20)
-    pol2 = np.zeros_like(pol)              # a new command with every rod off
+    pol2 = np.zeros_like(pol)  # a new command with every rod off
     x = np.zeros((lat.n_nodes + 1, 6))
     load.add(_state(pos, pol2), x)
     assert np.all(x == 0) and not load.last_polarity.any()

@@ -24,8 +24,15 @@ def _cfg(tree, *overrides):
 def test_run_folder_contents(tmp_path, small_truss_tree):
     out = run_scenario(_cfg(small_truss_tree), tmp_path / "run")
     files = {p.name for p in (tmp_path / "run").iterdir()}
-    assert {"model.xml", STORE_NAME, "summary.json", "manifest.json", "euler_angles.png",
-            "body_rates.png", "surface_sd.png"} <= files
+    assert {
+        "model.xml",
+        STORE_NAME,
+        "summary.json",
+        "manifest.json",
+        "euler_angles.png",
+        "body_rates.png",
+        "surface_sd.png",
+    } <= files
     assert not [f for f in files if f.startswith(".")], "temporary files left behind"
     manifest = json.loads((tmp_path / "run/manifest.json").read_text())
     assert manifest["config_hash"] and manifest["versions"]["mujoco"].startswith("4.")
@@ -82,8 +89,7 @@ def test_same_config_same_numbers(tmp_path, small_truss_tree):
     cfg = _cfg(small_truss_tree, "sim.duration_s=3.0")
     run_scenario(cfg, tmp_path / "a")
     run_scenario(cfg, tmp_path / "b")
-    assert np.array_equal(read_timeseries(tmp_path / "a")["qpos"],
-                          read_timeseries(tmp_path / "b")["qpos"])
+    assert np.array_equal(read_timeseries(tmp_path / "a")["qpos"], read_timeseries(tmp_path / "b")["qpos"])
 
 
 def test_structural_failure_stops_with_time_and_cause_and_keeps_records(tmp_path, small_truss_tree):
@@ -120,7 +126,8 @@ def test_controller_sampled_at_every_period_without_drift(period, dt, duration):
 
     model = mujoco.MjModel.from_xml_string(
         f'<mujoco><option timestep="{dt}" gravity="0 0 0"/><worldbody><body>'
-        '<joint type="slide" axis="1 0 0"/><geom size="0.1" mass="1"/></body></worldbody></mujoco>')
+        '<joint type="slide" axis="1 0 0"/><geom size="0.1" mass="1"/></body></worldbody></mujoco>'
+    )
 
     class Counter:
         period_s = period

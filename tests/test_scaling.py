@@ -16,9 +16,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from magsail_mj.analysis.scaling import (
-    ScalingInputs, actuator_torque_max, dipole_field_magnitude, gravity_gradient_torque,
-    gravity_gradient_torque_max, load_scaling_inputs, plate_inertia, rod_mass_fraction,
-    scaling_report, scaling_tables, side_at_rod_mass_fraction,
+    ScalingInputs,
+    actuator_torque_max,
+    dipole_field_magnitude,
+    gravity_gradient_torque,
+    gravity_gradient_torque_max,
+    load_scaling_inputs,
+    plate_inertia,
+    rod_mass_fraction,
+    scaling_report,
+    scaling_tables,
+    side_at_rod_mass_fraction,
 )
 from magsail_mj.config import ConfigError
 from magsail_mj.environment.constants import B0_DIPOLE, MU_EARTH, R_E_TRUSS
@@ -27,8 +35,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 @settings(max_examples=100, deadline=None)
-@given(d=st.floats(0.5, 500.0), kappa=st.floats(1.0, 1000.0), M=st.floats(1.0, 1e5),
-       alt_km=st.floats(200.0, 40_000.0))
+@given(d=st.floats(0.5, 500.0), kappa=st.floats(1.0, 1000.0), M=st.floats(1.0, 1e5), alt_km=st.floats(200.0, 40_000.0))
 def test_closed_form_is_the_ratio_of_the_two_torques(d, kappa, M, alt_km):
     """λ_f = T_grav,max / (κ M B): the same at every radius and mass (§8)."""
     r = R_E_TRUSS + alt_km * 1e3

@@ -28,7 +28,7 @@ config = "{cfg}"
 
 [[run]]
 id = "ok/b"
-config = "{MODELS / 'sweep' / 'b_n12_ei1e3.toml'}"
+config = "{MODELS / "sweep" / "b_n12_ei1e3.toml"}"
 
 [[run]]
 id = "bad/blocked"
@@ -79,8 +79,10 @@ def test_sweep_runs_in_parallel_and_isolates_a_failure(tmp_path):
 
 
 def test_sweep_validates_every_config_before_writing(tmp_path):
-    path = _sweep_file(tmp_path, extra='\n[[run]]\nid = "typo"\nconfig = "' + str(MODELS / "slew.toml")
-                       + '"\nset = ["control.kp=1.0"]\n')
+    path = _sweep_file(
+        tmp_path,
+        extra='\n[[run]]\nid = "typo"\nconfig = "' + str(MODELS / "slew.toml") + '"\nset = ["control.kp=1.0"]\n',
+    )
     with pytest.raises(ConfigError, match="typo: control.kp"):
         load_sweep(path)
     assert not (tmp_path / "out").exists()
@@ -103,18 +105,24 @@ def _design_file(tmp_path: Path, body: str) -> Path:
 
 def test_grid_is_the_cartesian_product_with_ids_from_the_values(tmp_path):
     sweep = load_sweep(_design_file(tmp_path, '[grid]\n"stiffness.EI_N_m2" = [1e3, 1e4]\nlattice.units = [3, 4]\n'))
-    assert [r.id for r in sweep.runs] == ["EI_N_m2=1000,units=3", "EI_N_m2=1000,units=4",
-                                          "EI_N_m2=10000,units=3", "EI_N_m2=10000,units=4"]
+    assert [r.id for r in sweep.runs] == [
+        "EI_N_m2=1000,units=3",
+        "EI_N_m2=1000,units=4",
+        "EI_N_m2=10000,units=3",
+        "EI_N_m2=10000,units=4",
+    ]
     assert sweep.runs[1].params == {"stiffness.EI_N_m2": 1000.0, "lattice.units": 4}
     assert sweep.runs[1].overrides[-2:] == ("stiffness.EI_N_m2=1000.0", "lattice.units=4")
     assert len({r.config_hash for r in sweep.runs}) == 4
 
 
 def test_monte_carlo_draws_are_reproducible_and_stable_in_the_sample_count(tmp_path):
-    body = ('[monte_carlo]\nsamples = {n}\nseed = 5\n'
-            '"sim.timestep_s" = {{ dist = "uniform", low = 0.05, high = 0.1 }}\n'
-            '"field.constant_T" = {{ dist = "direction", magnitude = {{ dist = "log-uniform", low = 1e-5, '
-            'high = 1e-4 }} }}\n')
+    body = (
+        "[monte_carlo]\nsamples = {n}\nseed = 5\n"
+        '"sim.timestep_s" = {{ dist = "uniform", low = 0.05, high = 0.1 }}\n'
+        '"field.constant_T" = {{ dist = "direction", magnitude = {{ dist = "log-uniform", low = 1e-5, '
+        "high = 1e-4 }} }}\n"
+    )
     three = load_sweep(_design_file(tmp_path, body.format(n=3)))
     twelve = load_sweep(_design_file(tmp_path, body.format(n=12)))
     assert [r.id for r in three.runs] == ["s0", "s1", "s2"] and twelve.runs[10].id == "s10"
@@ -136,8 +144,20 @@ def test_design_records_carry_their_params_into_summaries(tmp_path):
         manifest = json.loads((out / run.id / "manifest.json").read_text())
         assert manifest["config"]["sim"]["timestep_s"] == run.params["sim.timestep_s"]
     stored = json.loads((out / "sweep_summary.json").read_text())
-    assert {k for k in ("id", "status", "message", "config_hash", "params", "wall_time_s", "attempts",
-                        "resumed_from_s", "summary")} <= set(stored[0])
+    assert {
+        k
+        for k in (
+            "id",
+            "status",
+            "message",
+            "config_hash",
+            "params",
+            "wall_time_s",
+            "attempts",
+            "resumed_from_s",
+            "summary",
+        )
+    } <= set(stored[0])
     header = (out / "sweep_summary.csv").read_text().splitlines()[0].split(",")
     assert "params.sim.timestep_s" in header and len(header) == len(set(header))
 

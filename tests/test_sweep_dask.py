@@ -27,8 +27,14 @@ ROOT = Path(__file__).resolve().parents[1]
 CFG_A = ROOT / "magsail_mj" / "concepts" / "current_loops" / "configs" / "sweep" / "a_n12_ei1e3.toml"
 DASK = Path(sys.executable).with_name("dask")
 # ~12k RK4 steps (a few seconds with the outputs), a checkpoint every simulated second
-CHECKPOINTING = ["lattice.units=3", "sim.duration_s=12.0", "sim.timestep_s=0.001", "sim.record_every=100",
-                 "sim.checkpoint_every_s=1.0", "sim.progress=false"]
+CHECKPOINTING = [
+    "lattice.units=3",
+    "sim.duration_s=12.0",
+    "sim.timestep_s=0.001",
+    "sim.record_every=100",
+    "sim.checkpoint_every_s=1.0",
+    "sim.progress=false",
+]
 
 
 def _sweep_file(tmp_path: Path, ids: list[str], common: list[str]) -> Path:
@@ -63,16 +69,50 @@ def dask_cluster(tmp_path):
         pytest.skip("the dask command line is not installed")
     info = tmp_path / "scheduler.json"
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    common = {"cwd": ROOT, "env": env, "stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL,
-              "start_new_session": True}
-    procs = [subprocess.Popen([str(DASK), "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                               "--scheduler-file", str(info)], **common)]
+    common = {
+        "cwd": ROOT,
+        "env": env,
+        "stdout": subprocess.DEVNULL,
+        "stderr": subprocess.DEVNULL,
+        "start_new_session": True,
+    }
+    procs = [
+        subprocess.Popen(
+            [
+                str(DASK),
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--no-dashboard",
+                "--scheduler-file",
+                str(info),
+            ],
+            **common,
+        )
+    ]
     try:
         wait_for(info.exists, 60, "the scheduler")
         address = json.loads(info.read_text())["address"]
         for name in ("w1", "w2"):
-            procs.append(subprocess.Popen([str(DASK), "worker", address, "--nthreads", "1", "--nworkers", "1",
-                                           "--no-dashboard", "--name", name], **common))
+            procs.append(
+                subprocess.Popen(
+                    [
+                        str(DASK),
+                        "worker",
+                        address,
+                        "--nthreads",
+                        "1",
+                        "--nworkers",
+                        "1",
+                        "--no-dashboard",
+                        "--name",
+                        name,
+                    ],
+                    **common,
+                )
+            )
         yield address, {p.pid: p for p in procs[1:]}
     finally:
         for proc in procs:
@@ -110,8 +150,7 @@ def test_killed_worker_is_retried_elsewhere_and_resumes_bit_identically(tmp_path
     for key in want:
         assert np.array_equal(got[key], want[key], equal_nan=True), key
     got, want = (json.loads((d / "ck" / "summary.json").read_text()) for d in (out, tmp_path / "ref"))
-    assert {k: v for k, v in got.items() if k != "wall_time_s"} == {k: v for k, v in want.items()
-                                                                     if k != "wall_time_s"}
+    assert {k: v for k, v in got.items() if k != "wall_time_s"} == {k: v for k, v in want.items() if k != "wall_time_s"}
     manifest = json.loads((out / "ck" / "manifest.json").read_text())
     assert manifest["config_hash"] == sweep.runs[0].config_hash
 
@@ -130,15 +169,18 @@ def test_job_scripts_start_single_thread_workers(kind, directive):
     assert "export OPENBLAS_NUM_THREADS=1" in script and "export OMP_NUM_THREADS=1" in script
 
 
-@pytest.mark.parametrize(("args", "message"), [
-    (["--cluster", "slurm", "--walltime", "1h"], "--walltime: must look like HH:MM:SS"),
-    (["--cluster", "pbs", "--memory-per-job", "lots"], "--memory-per-job: must be a memory size"),
-    (["--jobs", "3"], "--jobs: only with --cluster"),
-    (["--cluster", "slurm", "--scheduler", "tcp://127.0.0.1:8786"], "choose one"),
-    (["--cluster", "slurm", "--workers", "4"], "--workers 4: not with --cluster"),
-    (["--scheduler", " "], "--scheduler: must be a scheduler address"),
-    (["--retries", "-1"], "--retries"),
-])
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--cluster", "slurm", "--walltime", "1h"], "--walltime: must look like HH:MM:SS"),
+        (["--cluster", "pbs", "--memory-per-job", "lots"], "--memory-per-job: must be a memory size"),
+        (["--jobs", "3"], "--jobs: only with --cluster"),
+        (["--cluster", "slurm", "--scheduler", "tcp://127.0.0.1:8786"], "choose one"),
+        (["--cluster", "slurm", "--workers", "4"], "--workers 4: not with --cluster"),
+        (["--scheduler", " "], "--scheduler: must be a scheduler address"),
+        (["--retries", "-1"], "--retries"),
+    ],
+)
 def test_cluster_options_are_checked_before_anything_runs(tmp_path, capsys, args, message):
     out = tmp_path / "out"
     assert main(["sweep", str(_sweep_file(tmp_path, ["x"], CHECKPOINTING)), "--out", str(out), *args]) == 2
@@ -148,8 +190,13 @@ def test_cluster_options_are_checked_before_anything_runs(tmp_path, capsys, args
 
 
 def test_a_run_resumes_only_from_a_checkpoint_of_its_own_config(tmp_path):
-    small = ["lattice.units=3", "sim.duration_s=3.0", "sim.record_every=5", "sim.checkpoint_every_s=1.0",
-             "sim.progress=false"]
+    small = [
+        "lattice.units=3",
+        "sim.duration_s=3.0",
+        "sim.record_every=5",
+        "sim.checkpoint_every_s=1.0",
+        "sim.progress=false",
+    ]
     run = SweepRun(id="r", config=CFG_A, overrides=tuple(small))
     run_scenario(load_config(CFG_A, small), tmp_path / "out" / "r", stop_after_s=2.0, progress=False)
     resumed = run_one(run, tmp_path / "out", video=False, fresh=False)

@@ -32,7 +32,7 @@ def test_figure_stats_counts_failed_and_never_runs_and_uses_the_inverted_cdf():
     # structure failure, one completed run whose summary says its structure failed): n = 20
     records = [_rec(i, "completed", float(i + 1)) for i in range(16)]
     crushed = _rec(16, "completed", 0.5)
-    crushed["summary"]["failed"] = True          # its 0.5 must not enter the percentiles
+    crushed["summary"]["failed"] = True  # its 0.5 must not enter the percentiles
     records += [crushed, _rec(17, "completed", None), _rec(18, "structure_failed", 0.1), _rec(19, "failed", 3.0)]
     records += [_rec(20, "not_run", None), _rec(21, "interrupted", 2.0)]  # the sweep stopped first: left out
     s = figure_stats(records, "t_s")
@@ -71,20 +71,29 @@ def test_monte_carlo_report_of_a_real_sweep(tmp_path):
         assert len(rec["params"]["initial.omega0_deg_s"]) == 3
         assert json.loads((out / rec["id"] / "params.json").read_text())["params"] == rec["params"]
     table = list(csv.DictReader(io.StringIO((out / "sweep_summary.csv").read_text())))
-    assert [json.loads(r["params.initial.omega0_deg_s"]) for r in table] == \
-        [r["params"]["initial.omega0_deg_s"] for r in on_disk]
-    assert all(r["detumble_time_below_1p0dps_s"] == str(s["summary"]["detumble_time_below_1p0dps_s"]) or
-               (r["detumble_time_below_1p0dps_s"] == "" and s["summary"]["detumble_time_below_1p0dps_s"] is None)
-               for r, s in zip(table, on_disk, strict=True))
+    assert [json.loads(r["params.initial.omega0_deg_s"]) for r in table] == [
+        r["params"]["initial.omega0_deg_s"] for r in on_disk
+    ]
+    assert all(
+        r["detumble_time_below_1p0dps_s"] == str(s["summary"]["detumble_time_below_1p0dps_s"])
+        or (r["detumble_time_below_1p0dps_s"] == "" and s["summary"]["detumble_time_below_1p0dps_s"] is None)
+        for r, s in zip(table, on_disk, strict=True)
+    )
     paths = write_report(out)
-    assert {p.name for p in paths} == {"percentiles.csv", "report.md", "detumble_time_below_1p0dps_s.png",
-                                       "detumble_time_below_0p3dps_s.png"}
+    assert {p.name for p in paths} == {
+        "percentiles.csv",
+        "report.md",
+        "detumble_time_below_1p0dps_s.png",
+        "detumble_time_below_0p3dps_s.png",
+    }
     assert all(p.stat().st_size > 0 for p in paths)
     rows = {r["figure"]: r for r in csv.DictReader(io.StringIO((out / "report" / "percentiles.csv").read_text()))}
     for figure in ("detumble_time_below_1p0dps_s", "detumble_time_below_0p3dps_s"):
         # an independent computation: numpy's inverted-CDF percentiles over every run, never as +inf
-        values = [math.inf if r["status"] != "completed" or r["summary"][figure] is None else r["summary"][figure]
-                  for r in records]
+        values = [
+            math.inf if r["status"] != "completed" or r["summary"][figure] is None else r["summary"][figure]
+            for r in records
+        ]
         row = rows[figure]
         assert int(row["n"]) == 4 and int(row["reached"]) == sum(map(math.isfinite, values))
         assert int(row["never"]) + int(row["failed"]) == 4 - int(row["reached"])
@@ -95,8 +104,10 @@ def test_monte_carlo_report_of_a_real_sweep(tmp_path):
     # the mix the draw gives: some runs start below 1 deg/s (reached at t = 0), none gets below 0.3 in 20 s
     reached_1 = int(rows["detumble_time_below_1p0dps_s"]["reached"])
     assert 0 < reached_1 < 4 and int(rows["detumble_time_below_0p3dps_s"]["never"]) == 4
-    assert "| `detumble_time_below_0p3dps_s` | 4 | 0 | 4 | 0 | 0 | 0.0 % | never | never | never |" in \
-        (out / "report" / "report.md").read_text()
+    assert (
+        "| `detumble_time_below_0p3dps_s` | 4 | 0 | 4 | 0 | 0 | 0.0 % | never | never | never |"
+        in (out / "report" / "report.md").read_text()
+    )
 
 
 def test_grid_report_of_a_real_sweep_and_the_report_verb(tmp_path, capsys):
@@ -120,8 +131,12 @@ set = ["lattice.units=3", "sim.duration_s=2.0", "sim.record_every=10", "sim.prog
     names = {Path(p).name for p in json.loads(capsys.readouterr().out)["report"]}
     assert {"report.csv", "report.md", "stiffness.EI_N_m2.png", "sim.timestep_s.png"} <= names
     table = list(csv.DictReader(io.StringIO((out / "report" / "report.csv").read_text())))
-    assert [(float(r["stiffness.EI_N_m2"]), float(r["sim.timestep_s"])) for r in table] == \
-        [(1e3, 0.01), (1e3, 0.02), (1e4, 0.01), (1e4, 0.02)]
+    assert [(float(r["stiffness.EI_N_m2"]), float(r["sim.timestep_s"])) for r in table] == [
+        (1e3, 0.01),
+        (1e3, 0.02),
+        (1e4, 0.01),
+        (1e4, 0.02),
+    ]
     figures = [c for c in table[0] if c not in ("id", "status", "stiffness.EI_N_m2", "sim.timestep_s")]
     assert figures  # every figure that varies across the runs, with the run's own value
     for row, rec in zip(table, records, strict=True):
@@ -158,8 +173,7 @@ def test_sweep_command_writes_its_report_with_report_option(tmp_path, capsys):
     """``magsail sweep … --report --no-progress``: the runs, then the report listed in the printed JSON;
     no progress bar on stderr."""
     out = tmp_path / "out"
-    rc = cli_main(["sweep", str(_mc_sweep(tmp_path)), "--out", str(out), "--workers", "2", "--report",
-                   "--no-progress"])
+    rc = cli_main(["sweep", str(_mc_sweep(tmp_path)), "--out", str(out), "--workers", "2", "--report", "--no-progress"])
     captured = capsys.readouterr()
     assert rc == 0, captured.err
     printed = json.loads(captured.out)

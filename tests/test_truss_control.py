@@ -20,7 +20,9 @@ from magsail_mj.config import ConfigError, apply_overrides, parse_config
 from magsail_mj.control.allocation import TorqueDistributor
 from magsail_mj.control.bdot_flexible import BdotRodController, bdot_torque
 from magsail_mj.control.quaternion_feedback import (
-    QuaternionFeedbackRodController, gg_compensation_torque, quaternion_feedback_torque,
+    QuaternionFeedbackRodController,
+    gg_compensation_torque,
+    quaternion_feedback_torque,
 )
 from magsail_mj.environment.constants import MU_EARTH
 from magsail_mj.export import read_timeseries
@@ -33,13 +35,18 @@ from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.magnetorquer_rods import rod_array
 from magsail_mj.concepts.truss_magnetorquer.orbital import (
-    dominant_period, first_time_below, slew_axis_angle, stay_time_below, true_intervals, tumbled,
+    dominant_period,
+    first_time_below,
+    slew_axis_angle,
+    stay_time_below,
+    true_intervals,
+    tumbled,
 )
 from tests.conftest import SMALL_ORBITAL_TRUSS
 
-PQ = (10.0, 50.0, 1.0)            # paper's gains (§9.4)
+PQ = (10.0, 50.0, 1.0)  # paper's gains (§9.4)
 PW = (1600.0, 8000.0, 800.0)
-R_ORB = 7.17e6                    # 800 km orbit radius, R_E = 6370 km (§12 O8)
+R_ORB = 7.17e6  # 800 km orbit radius, R_E = 6370 km (§12 O8)
 N_ORB = math.sqrt(MU_EARTH / R_ORB**3)
 
 
@@ -65,8 +72,7 @@ def rigid_body(torque, inertia: np.ndarray, q0, w0, t_end: float, *, t_eval=None
         dq = 0.5 * quat_multiply(q, np.array([0.0, *w]))
         return np.concatenate([dq, Iinv @ (T - np.cross(w, inertia @ w))])
 
-    return solve_ivp(rhs, (0.0, t_end), np.concatenate([q0, w0]), rtol=1e-9, atol=1e-12, t_eval=t_eval,
-                     method="RK45")
+    return solve_ivp(rhs, (0.0, t_end), np.concatenate([q0, w0]), rtol=1e-9, atol=1e-12, t_eval=t_eval, method="RK45")
 
 
 # ----------------------------------------------------------------------------------- B-dot
@@ -92,11 +98,11 @@ def test_bdot_dissipates_energy_for_any_rate_and_field():
 def test_bdot_detumbles_a_rigid_body_in_a_turning_field():
     """Ideal B-dot on a rigid body (inertia ∝ the 75 m truss): kinetic energy never rises, and
     the rate falls to below 1 % when the field turns (here at 2n about x, as along a polar orbit)."""
-    I = inertia_75m() / 1e5                            # same shape, smaller, for a short time scale
+    I = inertia_75m() / 1e5  # same shape, smaller, for a short time scale
     B0 = 3e-5
 
     def field(t):
-        a = 2.0 * N_ORB * 30.0 * t                     # turns 60 × faster than along the orbit
+        a = 2.0 * N_ORB * 30.0 * t  # turns 60 × faster than along the orbit
         return B0 * np.array([0.1, math.cos(a), math.sin(a)])
 
     def torque(t, q, w):
@@ -170,8 +176,7 @@ def test_gg_compensation_equals_minus_the_classical_torque():
         r *= R_ORB / np.linalg.norm(r)
         A = rng.normal(size=(3, 3))
         I = A @ A.T * 1e5 + np.eye(3) * 1e4
-        np.testing.assert_allclose(gg_compensation_torque(r, I), -gravity_gradient_torque(r, I),
-                                   rtol=1e-12, atol=1e-18)
+        np.testing.assert_allclose(gg_compensation_torque(r, I), -gravity_gradient_torque(r, I), rtol=1e-12, atol=1e-18)
     m = np.array([1.0, 2.0, 3.0])
     r = np.array([1.0, 2.0, 3.0]) * 1e6
     np.testing.assert_allclose(gg_compensation_torque(r, m), gg_compensation_torque(r, np.diag(m)))
@@ -182,7 +187,7 @@ def test_gg_compensation_cancels_the_tidal_torque_of_the_lattice():
     inertia cancels the summed exact tidal torque Σ x_i × m a_tidal(x_i) within 0.5 % (§10.11)."""
     lat = make_lattice(units=19, side_m=75.0)
     m = np.full(lat.n_nodes, 0.25)
-    R = so3_exp(np.array([math.radians(45.0), 0, 0]))         # body → world, plate tilted about x
+    R = so3_exp(np.array([math.radians(45.0), 0, 0]))  # body → world, plate tilted about x
     x = lat.nodes @ R.T
     r_ref = np.array([0.0, R_ORB, 0.0])
     T_tidal = np.cross(x, m[:, None] * tidal_acceleration(r_ref, x)).sum(axis=0)
@@ -204,9 +209,15 @@ def test_gg_compensated_slew_converges_in_orbit():
         def torque(t, q, w):
             R = matrix_from_quat(q)
             r_b = R.T @ r_eci(t)
-            T = quaternion_feedback_torque(error_quaternion(q_ref, q), w, Pq_Nm=PQ, Pw_Nms=PW,
-                                           gg_comp_body=gg_compensation_torque(r_b, I) if gg else None)
+            T = quaternion_feedback_torque(
+                error_quaternion(q_ref, q),
+                w,
+                Pq_Nm=PQ,
+                Pw_Nms=PW,
+                gg_comp_body=gg_compensation_torque(r_b, I) if gg else None,
+            )
             return T + (gravity_gradient_torque(r_b, I) if gg else 0.0)
+
         return torque
 
     q0 = np.array([1.0, 0, 0, 0])
@@ -243,10 +254,16 @@ def test_bdot_rod_controller_estimates_rate_and_dissipates():
     |N1| + |N2| active rods with the signs of N1, N2."""
     w_world = np.array([0.004, -0.002, 0.003])
     lat, dist, state = _small_setup(w_world)
-    c = BdotRodController(reference_nodes=lat.nodes, masses=0.2, distributor=dist, period_s=0.1,
-                          k_Nms_per_T2=1e8, omega0_body=(0.0, 0.0, 0.0))
+    c = BdotRodController(
+        reference_nodes=lat.nodes,
+        masses=0.2,
+        distributor=dist,
+        period_s=0.1,
+        k_Nms_per_T2=1e8,
+        omega0_body=(0.0, 0.0, 0.0),
+    )
     cmd0 = c.update(state(0.0))
-    assert np.array_equal(cmd0.omega_body, np.zeros(3))       # known initial rate at the first sample
+    assert np.array_equal(cmd0.omega_body, np.zeros(3))  # known initial rate at the first sample
     cmd = c.update(state(0.1))
     np.testing.assert_allclose(cmd.omega_body, cmd.R.T @ w_world, rtol=1e-9, atol=1e-15)
     np.testing.assert_allclose(cmd.torque_ref_body, bdot_torque(cmd.omega_body, cmd.B_body, k_Nms_per_T2=1e8))
@@ -255,8 +272,12 @@ def test_bdot_rod_controller_estimates_rate_and_dissipates():
     pol = cmd.polarity
     assert np.count_nonzero(pol[:n1]) == abs(cmd.N1) and np.count_nonzero(pol[n1:]) == abs(cmd.N2)
     assert set(np.unique(pol[:n1][pol[:n1] != 0])) <= {int(np.sign(cmd.N1))}
-    assert list(cmd.counts) == [2, int(cmd0.clipped1) + int(cmd.clipped1), int(cmd0.clipped2) + int(cmd.clipped2),
-                                int(cmd0.clipped1 or cmd0.clipped2) + int(cmd.clipped1 or cmd.clipped2)]
+    assert list(cmd.counts) == [
+        2,
+        int(cmd0.clipped1) + int(cmd.clipped1),
+        int(cmd0.clipped2) + int(cmd.clipped2),
+        int(cmd0.clipped1 or cmd0.clipped2) + int(cmd.clipped1 or cmd.clipped2),
+    ]
 
 
 def test_quaternion_rod_controller_matches_the_law_and_pickles():
@@ -266,14 +287,16 @@ def test_quaternion_rod_controller_matches_the_law_and_pickles():
     R0 = matrix_from_quat(quat_axis((1, 0, 0), 10.0))
     lat, dist, state = _small_setup((0.001, 0.0, 0.0), R0)
     I = particle_inertia(lat.nodes, 0.2).tensor
-    c = QuaternionFeedbackRodController(reference_nodes=lat.nodes, masses=0.2, distributor=dist, period_s=0.1,
-                                        q_ref_wxyz=(1, 0, 0, 0), inertia_kgm2=I)
+    c = QuaternionFeedbackRodController(
+        reference_nodes=lat.nodes, masses=0.2, distributor=dist, period_s=0.1, q_ref_wxyz=(1, 0, 0, 0), inertia_kgm2=I
+    )
     c.update(state(0.0))
     cmd = c.update(state(0.1))
     q_e = error_quaternion(np.array([1.0, 0, 0, 0]), quat_from_matrix(cmd.R))
     r_b = cmd.R.T @ (np.array([0.0, R_ORB, 0.0]) + cmd.com_world)
-    expect = quaternion_feedback_torque(q_e, cmd.omega_body, Pq_Nm=PQ, Pw_Nms=PW,
-                                        gg_comp_body=gg_compensation_torque(r_b, I))
+    expect = quaternion_feedback_torque(
+        q_e, cmd.omega_body, Pq_Nm=PQ, Pw_Nms=PW, gg_comp_body=gg_compensation_torque(r_b, I)
+    )
     np.testing.assert_allclose(cmd.torque_ref_body, expect, rtol=1e-12)
     assert cmd.torque_ref_body[0] < 0
     twin = pickle.loads(pickle.dumps(c))
@@ -289,11 +312,24 @@ def test_rod_controller_argument_errors():
     with pytest.raises(ValueError, match="masses"):
         BdotRodController(reference_nodes=lat.nodes, masses=np.ones(3), distributor=None, period_s=0.1)
     with pytest.raises(ValueError, match="q_ref_wxyz"):
-        QuaternionFeedbackRodController(reference_nodes=lat.nodes, masses=0.2, distributor=None, period_s=0.1,
-                                        q_ref_wxyz=(0, 0, 0, 0), inertia_kgm2=(1, 1, 2))
+        QuaternionFeedbackRodController(
+            reference_nodes=lat.nodes,
+            masses=0.2,
+            distributor=None,
+            period_s=0.1,
+            q_ref_wxyz=(0, 0, 0, 0),
+            inertia_kgm2=(1, 1, 2),
+        )
     with pytest.raises(ValueError, match="Pq_Nm"):
-        QuaternionFeedbackRodController(reference_nodes=lat.nodes, masses=0.2, distributor=None, period_s=0.1,
-                                        q_ref_wxyz=(1, 0, 0, 0), inertia_kgm2=(1, 1, 2), Pq_Nm=(1, -1, 1))
+        QuaternionFeedbackRodController(
+            reference_nodes=lat.nodes,
+            masses=0.2,
+            distributor=None,
+            period_s=0.1,
+            q_ref_wxyz=(1, 0, 0, 0),
+            inertia_kgm2=(1, 1, 2),
+            Pq_Nm=(1, -1, 1),
+        )
 
 
 # ----------------------------------------------------------------------------------- metric helpers
@@ -370,17 +406,33 @@ def test_small_orbital_runs_resume_and_summaries(tmp_path, monkeypatch):
 
     cfg = _orbital()
     full = run_scenario(cfg, tmp_path / "full")
-    for key in ("time_rates_below_1e-3_s", "surface_sd_max_m", "edge_angle_max_deg", "saturation_fraction",
-                "sat_fraction_family1", "t_rates_below_threshold_first_s", "H0_Nms", "strut_strain_max"):
+    for key in (
+        "time_rates_below_1e-3_s",
+        "surface_sd_max_m",
+        "edge_angle_max_deg",
+        "saturation_fraction",
+        "sat_fraction_family1",
+        "t_rates_below_threshold_first_s",
+        "H0_Nms",
+        "strut_strain_max",
+    ):
         assert key in full, key
     assert 0.0 <= full["saturation_fraction"] <= 1.0 and full["control_samples"] == 61
     ts = read_timeseries(tmp_path / "full")
-    assert (ts["strut_activity"].shape == (13, make_lattice(units=3, side_m=12.0).n_struts)
-            and set(np.unique(ts["strut_activity"])) <= {-1, 0, 1})
-    np.testing.assert_allclose(ts["torque_ac_body_Nm"], ts["torque_alloc_body_Nm"], atol=0.02 * np.abs(
-        ts["torque_alloc_body_Nm"]).max())
-    assert {"body_rates.png", "attitude.png", "rod_counts.png", "torques.png", "surface_angle_map.png",
-            "shape_at_max_sd.png"} <= {p.name for p in (tmp_path / "full").iterdir()}
+    assert ts["strut_activity"].shape == (13, make_lattice(units=3, side_m=12.0).n_struts) and set(
+        np.unique(ts["strut_activity"])
+    ) <= {-1, 0, 1}
+    np.testing.assert_allclose(
+        ts["torque_ac_body_Nm"], ts["torque_alloc_body_Nm"], atol=0.02 * np.abs(ts["torque_alloc_body_Nm"]).max()
+    )
+    assert {
+        "body_rates.png",
+        "attitude.png",
+        "rod_counts.png",
+        "torques.png",
+        "surface_angle_map.png",
+        "shape_at_max_sd.png",
+    } <= {p.name for p in (tmp_path / "full").iterdir()}
     from magsail_mj.concepts.truss_magnetorquer import TrussScenario
 
     monkeypatch.setattr(TrussScenario, "plots", lambda self, run_dir, result, series: [])  # plots: once is enough
@@ -390,13 +442,23 @@ def test_small_orbital_runs_resume_and_summaries(tmp_path, monkeypatch):
     for key in ("qpos", "N_signed", "torque_ref_body_Nm", "control_counts"):
         assert np.array_equal(a[key], b[key]), key
 
-    slew = _orbital("scenario=slew", "control.kind=quat_pd", "maneuver.q_ref_wxyz=[0.7071067811865476, "
-                    "-0.7071067811865476, 0.0, 0.0]", "initial.omega0_rad_s=[0.0, 0.0, 0.0]")
+    slew = _orbital(
+        "scenario=slew",
+        "control.kind=quat_pd",
+        "maneuver.q_ref_wxyz=[0.7071067811865476, -0.7071067811865476, 0.0, 0.0]",
+        "initial.omega0_rad_s=[0.0, 0.0, 0.0]",
+    )
     s = run_scenario(slew, tmp_path / "slew")
     assert s["err_initial_rad"] == pytest.approx(math.pi / 2, abs=1e-9)
     assert s["final_error_deg"] < 90.0 and s["tumbled"] is False
-    for key in ("settle_time_s", "overshoot_deg", "t_err_below_2deg_first_s", "int_T_ac_Nms",
-                "low_authority_time_s", "err_at_0p5h_steps_rad"):
+    for key in (
+        "settle_time_s",
+        "overshoot_deg",
+        "t_err_below_2deg_first_s",
+        "int_T_ac_Nms",
+        "low_authority_time_s",
+        "err_at_0p5h_steps_rad",
+    ):
         assert key in s, key
 
 
@@ -412,8 +474,10 @@ def test_detumble_75m_first_15_minutes(tmp_path):
     from magsail_mj.run import run_scenario
     from tests.conftest import REPO
 
-    cfg = load_config(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
-                      ["sim.duration_s=900", "sim.checkpoint_every_s=0", "sim.progress=false"])
+    cfg = load_config(
+        REPO / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
+        ["sim.duration_s=900", "sim.checkpoint_every_s=0", "sim.progress=false"],
+    )
     s = run_scenario(cfg, tmp_path / "run")
     ts = read_timeseries(tmp_path / "run")
     I = np.diag(s["I_kgm2"])
@@ -431,8 +495,10 @@ def test_slew_i_75m_first_25_minutes(tmp_path):
     from magsail_mj.run import run_scenario
     from tests.conftest import REPO
 
-    cfg = load_config(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml",
-                      ["sim.duration_s=1500", "sim.checkpoint_every_s=0", "sim.progress=false"])
+    cfg = load_config(
+        REPO / "magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml",
+        ["sim.duration_s=1500", "sim.checkpoint_every_s=0", "sim.progress=false"],
+    )
     s = run_scenario(cfg, tmp_path / "run")
     assert s["err_initial_rad"] == pytest.approx(math.pi / 2, abs=1e-9)
     assert s["final_error_deg"] < 60.0 and not s["tumbled"]

@@ -22,15 +22,26 @@ from magsail_mj.export import read_timeseries
 from magsail_mj.run import run_scenario
 from magsail_mj.config import ConfigError, apply_overrides, parse_config
 from magsail_mj.concepts.truss_magnetorquer.force_pair import (
-    VariantPairRodLoad, couple_sign, pair_forces, printed_pair_forces,
+    VariantPairRodLoad,
+    couple_sign,
+    pair_forces,
+    printed_pair_forces,
 )
 from magsail_mj.concepts.truss_magnetorquer.metrics import (
-    dashpot_matrix, modal_damping_ratios, modal_energies, surface_twist_share,
+    dashpot_matrix,
+    modal_damping_ratios,
+    modal_energies,
+    surface_twist_share,
 )
 from magsail_mj.concepts.truss_magnetorquer.model import make_truss_model
 from magsail_mj.concepts.truss_magnetorquer.rigid_orbital import simulate_rigid
 from magsail_mj.concepts.truss_magnetorquer.twist import (
-    diagonal_struts, first_twist_mode, low_modes, plate_twist_lambda, plate_twist_omega, twist_shares,
+    diagonal_struts,
+    first_twist_mode,
+    low_modes,
+    plate_twist_lambda,
+    plate_twist_omega,
+    twist_shares,
 )
 from magsail_mj.lattice.geometry import make_lattice, stiffness_matrix
 from magsail_mj.lattice.modes import lattice_modes
@@ -94,8 +105,11 @@ def test_pair_algebra_of_the_three_variants(r_i, r_j, m_d, B):
     m = m_d[:, None] * e
     mxB = np.cross(m, B)
     scale = np.abs(m_d) * np.linalg.norm(B) + 1e-300
-    for kind, sign, tension_sign in (("corrected", 1.0, 0.0), ("printed", -1.0, -1.0),
-                                     ("printed_sign_fixed", 1.0, 1.0)):
+    for kind, sign, tension_sign in (
+        ("corrected", 1.0, 0.0),
+        ("printed", -1.0, -1.0),
+        ("printed_sign_fixed", 1.0, 1.0),
+    ):
         F_j = pair_forces(kind, r_i, r_j, m_d, B)
         F_i = -F_j
         mid = 0.5 * (r_i + r_j)
@@ -106,8 +120,9 @@ def test_pair_algebra_of_the_three_variants(r_i, r_j, m_d, B):
         want = tension_sign * np.einsum("ij,j->i", m, B) / (2.0 * ell)
         np.testing.assert_array_less(np.abs(tension - want) * ell / scale, 1e-12)
         assert couple_sign(kind) == sign
-    np.testing.assert_allclose(pair_forces("corrected", r_i, r_j, m_d, B), rod_pair_forces(r_i, r_j, m_d, B),
-                               rtol=0, atol=0)
+    np.testing.assert_allclose(
+        pair_forces("corrected", r_i, r_j, m_d, B), rod_pair_forces(r_i, r_j, m_d, B), rtol=0, atol=0
+    )
 
 
 def test_printed_is_minus_corrected_plus_axial_pair():
@@ -132,8 +147,14 @@ def test_variant_load_adds_its_pairs_and_reports_its_torque(kind):
     rng = np.random.default_rng(3)
     pos = np.vstack([np.zeros(3), lat.nodes + 0.05 * rng.standard_normal(lat.nodes.shape)])
     pol = rng.integers(-1, 2, load.n_rods)
-    state = StepState(t=0.0, pos=pos, vel=np.zeros_like(pos), xquat=np.zeros((pos.shape[0], 4)),
-                      omega=np.zeros_like(pos), ctrl={"polarity": pol})
+    state = StepState(
+        t=0.0,
+        pos=pos,
+        vel=np.zeros_like(pos),
+        xquat=np.zeros((pos.shape[0], 4)),
+        omega=np.zeros_like(pos),
+        ctrl={"polarity": pol},
+    )
     xfrc = np.zeros((pos.shape[0], 6))
     load.add(state, xfrc)
     F_j = pair_forces(kind, pos[load.i], pos[load.j], pol * load.m_of_rod, load.B_fixed)
@@ -151,8 +172,10 @@ def test_variant_load_adds_its_pairs_and_reports_its_torque(kind):
         np.testing.assert_array_equal(x2, xfrc)
 
 
-SMALL_ORBITAL = {**SMALL_ORBITAL_TRUSS,
-                 "sim": {**SMALL_ORBITAL_TRUSS["sim"], "duration_s": 2.0, "checkpoint_every_s": 0.0}}
+SMALL_ORBITAL = {
+    **SMALL_ORBITAL_TRUSS,
+    "sim": {**SMALL_ORBITAL_TRUSS["sim"], "duration_s": 2.0, "checkpoint_every_s": 0.0},
+}
 
 
 def small_orbital(*overrides):
@@ -166,8 +189,12 @@ def test_force_pair_config_and_manifest(tmp_path):
     with pytest.raises(ConfigError, match="force_pair"):
         small_orbital("actuators.force_pair=halved")
     with pytest.raises(ConfigError, match="force_pair"):
-        parse_config(apply_overrides({**copy.deepcopy(SMALL_ORBITAL), "scenario": "free", "control": None,
-                                      "actuators": {"kind": "generic"}}, ["actuators.force_pair=printed"]))
+        parse_config(
+            apply_overrides(
+                {**copy.deepcopy(SMALL_ORBITAL), "scenario": "free", "control": None, "actuators": {"kind": "generic"}},
+                ["actuators.force_pair=printed"],
+            )
+        )
     run_scenario(small_orbital("actuators.force_pair=printed"), tmp_path / "p")
     manifest = json.loads((tmp_path / "p" / "manifest.json").read_text())
     assert manifest["rod_force_pair"] == "printed"
@@ -177,6 +204,7 @@ def test_force_pair_config_and_manifest(tmp_path):
 
 
 # ----------------------------------------------------------------------------------- twist stiffness
+
 
 def test_plate_twist_lambda_against_leissa_and_one_term_rayleigh():
     """Free square Kirchhoff plate, twist mode: λ = ω d² √(ρ_A/D). One Ritz term (w = xy) is the
@@ -188,7 +216,8 @@ def test_plate_twist_lambda_against_leissa_and_one_term_rayleigh():
     assert lam == pytest.approx(13.468, rel=4e-5)
     assert plate_twist_lambda(0.3, n_terms=6) == pytest.approx(lam, rel=1e-6)
     assert plate_twist_omega(EI_Nm2=1e3, total_kg=200.0, side_m=75.0) == pytest.approx(
-        lam * np.sqrt(1e3 / (200.0 * 75.0**3)), rel=1e-12)
+        lam * np.sqrt(1e3 / (200.0 * 75.0**3)), rel=1e-12
+    )
     with pytest.raises(ValueError, match="nu"):
         plate_twist_lambda(0.6)
 
@@ -204,8 +233,10 @@ def test_low_modes_equal_the_dense_modes():
     dense = lattice_modes(lat.nodes, lat.struts, k, m, use_cache=False)
     np.testing.assert_allclose(sparse_modes.omega[6:], dense.omega[6:14], rtol=1e-8)
     for j in range(6, 14):
-        if abs(dense.omega[j + 1] - dense.omega[j]) > 1e-6 * dense.omega[j] and \
-                abs(dense.omega[j] - dense.omega[j - 1]) > 1e-6 * dense.omega[j]:
+        if (
+            abs(dense.omega[j + 1] - dense.omega[j]) > 1e-6 * dense.omega[j]
+            and abs(dense.omega[j] - dense.omega[j - 1]) > 1e-6 * dense.omega[j]
+        ):
             a, b = sparse_modes.phi[:, j], dense.phi[:, j]
             np.testing.assert_allclose(a * np.sign(a @ b), b, atol=1e-6 * np.abs(b).max())
     gram = sparse_modes.phi.T @ (np.repeat(m, 3)[:, None] * sparse_modes.phi)
@@ -225,9 +256,14 @@ def test_plate_twist_variant_matches_the_plate_and_keeps_EI(diagonals):
     has the plate's frequency (1e-4 relative; Brent's tolerance is 1e-6 in log ρ), the linear
     cantilever still gives EI (1e-9 relative, the spec's calibration tolerance is 2 %), only the
     face diagonals change relative to the edges, and the default is the shipped lattice exactly."""
-    tree = {"concept": "truss_magnetorquer", "scenario": "free", "sim": {"duration_s": 1.0, "timestep_s": 0.1},
-            "lattice": {"units": 7, "side_m": 28.0, "diagonals": diagonals}, "mass": {"total_kg": 30.0},
-            "stiffness": {"EI_Nm2": 200.0}}
+    tree = {
+        "concept": "truss_magnetorquer",
+        "scenario": "free",
+        "sim": {"duration_s": 1.0, "timestep_s": 0.1},
+        "lattice": {"units": 7, "side_m": 28.0, "diagonals": diagonals},
+        "mass": {"total_kg": 30.0},
+        "stiffness": {"EI_Nm2": 200.0},
+    }
     base = make_truss_model(parse_config(copy.deepcopy(tree)))
     ref_k, _ = strut_stiffness(base.lattice, EI_Nm2=200.0, calibration="cantilever")
     np.testing.assert_array_equal(base.k, ref_k)
@@ -248,6 +284,7 @@ def test_plate_twist_variant_matches_the_plate_and_keeps_EI(diagonals):
 
 # ----------------------------------------------------------------------------------- modal metrics
 
+
 def _small_modes(n_elastic=8):
     lat = make_lattice(units=4, side_m=16.0)
     k, _ = strut_stiffness(lat, EI_Nm2=50.0, calibration="cantilever")
@@ -264,10 +301,14 @@ def test_modal_damping_ratios_of_rayleigh_damping():
     K = stiffness_matrix(lat.nodes, lat.struts, k)
     M = np.diag(np.repeat(m, 3))
     alpha, beta = 1e-3, 0.02
-    np.testing.assert_allclose(modal_damping_ratios(omega, phi, alpha * M + beta * K.toarray()),
-                               alpha / (2 * omega) + beta * omega / 2, rtol=1e-9)
-    np.testing.assert_allclose(modal_damping_ratios(omega, phi, dashpot_matrix(lat.nodes, lat.struts, beta * k)),
-                               beta * omega / 2, rtol=1e-9)
+    np.testing.assert_allclose(
+        modal_damping_ratios(omega, phi, alpha * M + beta * K.toarray()),
+        alpha / (2 * omega) + beta * omega / 2,
+        rtol=1e-9,
+    )
+    np.testing.assert_allclose(
+        modal_damping_ratios(omega, phi, dashpot_matrix(lat.nodes, lat.struts, beta * k)), beta * omega / 2, rtol=1e-9
+    )
     gamma = 0.05
     zeta = modal_damping_ratios(omega, phi, dashpot_matrix(lat.nodes, lat.struts, gamma))
     assert np.all(zeta > 0)
@@ -337,13 +378,23 @@ def test_rigid_counterpart_turns_the_printed_torque_around():
     T = {}
     for kind in ("corrected", "printed"):
         load = VariantPairRodLoad(lat, m_rod_Am2=(5.0, 7.0), force_pair=kind)
-        run = simulate_rigid(controller=_HeldPolarity(pol), rod_load=load, environment=env, nodes_body=lat.nodes,
-                             masses=np.ones(lat.n_nodes), inertia=np.diag([30.0, 30.0, 60.0]),
-                             q0_wxyz=np.array([1.0, 0, 0, 0]), omega0_body=np.zeros(3), duration_s=1.0,
-                             record_every_s=1.0, gravity_gradient=False)
+        run = simulate_rigid(
+            controller=_HeldPolarity(pol),
+            rod_load=load,
+            environment=env,
+            nodes_body=lat.nodes,
+            masses=np.ones(lat.n_nodes),
+            inertia=np.diag([30.0, 30.0, 60.0]),
+            q0_wxyz=np.array([1.0, 0, 0, 0]),
+            omega0_body=np.zeros(3),
+            duration_s=1.0,
+            record_every_s=1.0,
+            gravity_gradient=False,
+        )
         T[kind] = run.T_mag[0]
     m = VariantPairRodLoad(lat, m_rod_Am2=(5.0, 7.0)).total_dipole_world(
-        np.vstack([np.zeros(3), lat.nodes - lat.nodes.mean(axis=0)]), pol)
+        np.vstack([np.zeros(3), lat.nodes - lat.nodes.mean(axis=0)]), pol
+    )
     np.testing.assert_allclose(T["printed"], -T["corrected"], rtol=0, atol=1e-15)
     np.testing.assert_allclose(T["printed"], -np.cross(m, B), rtol=1e-12)
 

@@ -27,5 +27,6 @@ def test_moment_sum_is_sum_of_cross_products(n, seed):
     F = rng.normal(scale=1e-3, size=(n, 3))
     ref = np.cross(d, F).sum(axis=0)
     # n terms of size |d||F|: summation order differs, error ~ n eps |d||F|
-    np.testing.assert_allclose(moment_sum(d, F), ref, rtol=0,
-                               atol=10 * n * 1e-16 * np.abs(d).max() * np.abs(F).max() * 3)
+    np.testing.assert_allclose(
+        moment_sum(d, F), ref, rtol=0, atol=10 * n * 1e-16 * np.abs(d).max() * np.abs(F).max() * 3
+    )

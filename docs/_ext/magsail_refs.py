@@ -37,12 +37,39 @@ GENERATED = ("config.md", "cli.md")
 
 # longest suffix first; the unit a key's name ends with (SI, '_per_' reads as '/')
 _UNITS: list[tuple[str, str]] = [
-    ("_V_s_rad", "V·s/rad"), ("_N_m_A", "N·m/A"), ("_N_m_s", "N·m·s"), ("_m3_s2", "m³/s²"),
-    ("_rad_s2", "rad/s²"), ("_rad_s", "rad/s"), ("_deg_s", "deg/s"), ("_A_m2", "A·m²"),
-    ("_N_m2", "N/m²"), ("_Nm2", "N·m²"), ("_kg_m3", "kg/m³"), ("_ohm_m", "Ω·m"), ("_per_K", "1/K"),
-    ("_N_m", "N·m"), ("_m_s", "m/s"), ("_km", "km"), ("_kg", "kg"), ("_deg", "deg"), ("_rpm", "rpm"),
-    ("_sfu", "sfu"), ("_ohm", "Ω"), ("_Hz", "Hz"), ("_s", "s"), ("_m", "m"), ("_T", "T"), ("_A", "A"),
-    ("_K", "K"), ("_W", "W"), ("_V", "V"), ("_H", "H"), ("_h", "h"), ("_N", "N"), ("_J", "J"),
+    ("_V_s_rad", "V·s/rad"),
+    ("_N_m_A", "N·m/A"),
+    ("_N_m_s", "N·m·s"),
+    ("_m3_s2", "m³/s²"),
+    ("_rad_s2", "rad/s²"),
+    ("_rad_s", "rad/s"),
+    ("_deg_s", "deg/s"),
+    ("_A_m2", "A·m²"),
+    ("_N_m2", "N/m²"),
+    ("_Nm2", "N·m²"),
+    ("_kg_m3", "kg/m³"),
+    ("_ohm_m", "Ω·m"),
+    ("_per_K", "1/K"),
+    ("_N_m", "N·m"),
+    ("_m_s", "m/s"),
+    ("_km", "km"),
+    ("_kg", "kg"),
+    ("_deg", "deg"),
+    ("_rpm", "rpm"),
+    ("_sfu", "sfu"),
+    ("_ohm", "Ω"),
+    ("_Hz", "Hz"),
+    ("_s", "s"),
+    ("_m", "m"),
+    ("_T", "T"),
+    ("_A", "A"),
+    ("_K", "K"),
+    ("_W", "W"),
+    ("_V", "V"),
+    ("_H", "H"),
+    ("_h", "h"),
+    ("_N", "N"),
+    ("_J", "J"),
 ]
 _SPEC_REF = re.compile(r"\(?\b(?:the )?spec(?:ification)?\s*§\s*[\w.]+(?:[–-][\w.]+)?(?:,\s*§?[\w.]+)*\)?")
 _BARE_SECTION = re.compile(r"§\s*[0-9]+(?:\.[0-9]+)*(?:[–-][0-9.]+)?")
@@ -171,8 +198,10 @@ def table_rows(cls: type[BaseModel], path: str) -> list[str]:
         described = description_of(name, field, cls)
         if not described and _models_in(field.annotation):
             described = f"the table `[{key}]`, below"
-        rows.append(f"| `{key}` | {_cell(type_name(field.annotation))} | {unit_of(name)} | "
-                    f"{_cell(default_of(field))} | {_cell(bounds_of(field))} | {_cell(described)} |")
+        rows.append(
+            f"| `{key}` | {_cell(type_name(field.annotation))} | {unit_of(name)} | "
+            f"{_cell(default_of(field))} | {_cell(bounds_of(field))} | {_cell(described)} |"
+        )
     return rows
 
 
@@ -207,11 +236,13 @@ def _option_row(action: argparse.Action) -> str:
         meta = " ".join(meta)
     arg = _cell(f"`{meta}`") if meta and action.option_strings else ("positional" if not action.option_strings else "")
     default = action.default if action.default not in (None, argparse.SUPPRESS, False) else ""
-    choices = ", ".join(f"`{c}`" for c in action.choices) if action.choices and not isinstance(
-        action.choices, dict) else ""
+    choices = (
+        ", ".join(f"`{c}`" for c in action.choices) if action.choices and not isinstance(action.choices, dict) else ""
+    )
     help_text = (action.help or "").replace("%(default)s", str(action.default)).replace("%%", "%")
-    extra = "; ".join(x for x in (f"choices: {choices}" if choices else "",
-                                  f"default: `{default}`" if default != "" else "") if x)
+    extra = "; ".join(
+        x for x in (f"choices: {choices}" if choices else "", f"default: `{default}`" if default != "" else "") if x
+    )
     return f"| {names} | {arg} | {_cell(help_text)}{' (' + extra + ')' if extra else ''} |"
 
 
@@ -219,8 +250,7 @@ def _parser_section(parser: argparse.ArgumentParser, title: str, level: str) -> 
     out = [f"{level} {title}", "", "```text", parser.format_usage().strip(), "```", ""]
     if parser.description:
         out += [_cell(parser.description).replace("\\|", "|"), ""]
-    actions = [a for a in parser._actions
-               if not isinstance(a, (argparse._HelpAction, argparse._SubParsersAction))]
+    actions = [a for a in parser._actions if not isinstance(a, (argparse._HelpAction, argparse._SubParsersAction))]
     if actions:
         out += ["| option | argument | meaning |", "|---|---|---|"] + [_option_row(a) for a in actions] + [""]
     for action in parser._actions:

@@ -31,9 +31,11 @@ for law in LAWS:
     run = sim.run()
     summary, series = sim.scenario.postprocess(run)
     results[law] = (run.records["t"], series)
-    print(f"{LAWS[law][0]:10s}: slew time {summary['slew_time_s']:.0f} s, "
-          f"max slew rate {summary['max_slew_rate_deg_s']:.3f} °/s, "
-          f"max axis deviation {np.degrees(summary['axis_deviation_max_rad']):.1f}°")
+    print(
+        f"{LAWS[law][0]:10s}: slew time {summary['slew_time_s']:.0f} s, "
+        f"max slew rate {summary['max_slew_rate_deg_s']:.3f} °/s, "
+        f"max axis deviation {np.degrees(summary['axis_deviation_max_rad']):.1f}°"
+    )
 
 # %%
 # Error angle, body rate and axis deviation

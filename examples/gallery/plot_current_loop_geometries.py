@@ -31,8 +31,10 @@ AXIS_LABELS = ("dipole along x", "dipole along y", "dipole along z")
 lattice = make_lattice(units=UNITS, side_m=SIDE_M)
 for circuit in circuits(lattice, ["A", "B", "C_x", "C_y", "D_x", "D_y"]):
     area_D2 = np.round(circuit.vector_area(lattice.nodes) / SIDE_M**2, 4) + 0.0  # no '-0.0000'
-    print(f"{circuit.name:4s} vector area = ({area_D2[0]:+.4f}, {area_D2[1]:+.4f}, {area_D2[2]:+.4f}) D², "
-          f"wire length = {circuit.length(lattice.nodes) / SIDE_M:.3f} D")
+    print(
+        f"{circuit.name:4s} vector area = ({area_D2[0]:+.4f}, {area_D2[1]:+.4f}, {area_D2[2]:+.4f}) D², "
+        f"wire length = {circuit.length(lattice.nodes) / SIDE_M:.3f} D"
+    )
 
 # %%
 # Four geometries
@@ -50,8 +52,9 @@ for k, name in enumerate(["A", "B", "C_y", "D_y"]):
         widths = np.where(circuit.mult > 1, 2.4, 1.2)
         for width in np.unique(widths):
             sel = widths == width
-            ax.quiver(*start[sel].T, *delta[sel].T, color=AXIS_COLOURS[circuit.axis], linewidths=width,
-                      arrow_length_ratio=0.3)
+            ax.quiver(
+                *start[sel].T, *delta[sel].T, color=AXIS_COLOURS[circuit.axis], linewidths=width, arrow_length_ratio=0.3
+            )
     ax.set_xlim(-SIDE_M / 2, SIDE_M / 2)
     ax.set_ylim(-SIDE_M / 2, SIDE_M / 2)
     ax.set_zlim(scaled[:, 2].min() * 1.3, scaled[:, 2].max() * 1.3)

@@ -21,8 +21,11 @@ from magsail_mj.geometry.reflector_coil import coil_x, coil_y, square_loop
 
 SIDE_M, CELL_M, CURRENT_A, FIELD_T = 20.0, 1.0, 10.0, 30e-6
 report = coil_torque_report(side_m=SIDE_M, segment_m=CELL_M, current_A=CURRENT_A, field_T=FIELD_T)
-paths = {"x-coil": coil_x(SIDE_M, CELL_M), "y-coil": coil_y(SIDE_M, CELL_M),
-         "z-loop": square_loop(report["zloop_side_m"], CELL_M, z=-CELL_M / 2, d=SIDE_M)}
+paths = {
+    "x-coil": coil_x(SIDE_M, CELL_M),
+    "y-coil": coil_y(SIDE_M, CELL_M),
+    "z-loop": square_loop(report["zloop_side_m"], CELL_M, z=-CELL_M / 2, d=SIDE_M),
+}
 for key in sorted(k for k in report if k.startswith("T_max")):
     print(f"{key} = {report[key]:.4g}")
 
@@ -44,9 +47,11 @@ ax.plot(*y_nodes[-1, :2], "rs", label="y-coil last node")
 ax.set_aspect("equal")
 ax.set_xlabel("x [m]")
 ax.set_ylabel("y [m]")
-ax.set_title(f"coil paths, side {SIDE_M:g} m, cell {CELL_M:g} m; "
-             f"T_max,y = {report['T_max_ycoil_N_m']:.3g} N·m at {CURRENT_A:g} A, {FIELD_T * 1e6:g} µT",
-             fontsize=9)
+ax.set_title(
+    f"coil paths, side {SIDE_M:g} m, cell {CELL_M:g} m; "
+    f"T_max,y = {report['T_max_ycoil_N_m']:.3g} N·m at {CURRENT_A:g} A, {FIELD_T * 1e6:g} µT",
+    fontsize=9,
+)
 ax.legend(loc="upper right", fontsize=8)
 
 # %%
@@ -61,8 +66,15 @@ near = (y_nodes[:, 0] < -SIDE_M / 2 + 4.5 * CELL_M) & (y_nodes[:, 1] < -SIDE_M /
 index = np.flatnonzero(near)
 for k, run in enumerate(np.split(index, np.flatnonzero(np.diff(index) > 1) + 1)):
     seg = y_nodes[run]
-    ax3.plot(seg[:, 0], seg[:, 1], seg[:, 2], "-o", ms=3, color=f"C{k % 10}",
-             label="column 0" if k == 0 else ("connector, then column 1" if k == 1 else None))
+    ax3.plot(
+        seg[:, 0],
+        seg[:, 1],
+        seg[:, 2],
+        "-o",
+        ms=3,
+        color=f"C{k % 10}",
+        label="column 0" if k == 0 else ("connector, then column 1" if k == 1 else None),
+    )
 ax3.set_xlabel("x [m]")
 ax3.set_ylabel("y [m]")
 ax3.set_zlabel("z [m]")

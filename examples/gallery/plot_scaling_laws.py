@@ -58,8 +58,13 @@ for k, sigma_g_m2 in enumerate([1.0, 10.0, 100.0]):
     colour = f"C{k}"
     light_idx = np.flatnonzero(~heavy)
     heavy_idx = np.concatenate([light_idx[-1:], np.flatnonzero(heavy)])
-    ax.loglog(branch["side_m"][light_idx], branch["lambda_f"][light_idx], "-", color=colour,
-              label=f"σ_A = {sigma_g_m2:g} g/m²")
+    ax.loglog(
+        branch["side_m"][light_idx],
+        branch["lambda_f"][light_idx],
+        "-",
+        color=colour,
+        label=f"σ_A = {sigma_g_m2:g} g/m²",
+    )
     ax.loglog(branch["side_m"][heavy_idx], branch["lambda_f"][heavy_idx], "--", color=colour)
     i_fold = int(np.argmin(np.abs(branch["lambda_f"] - lam_star)))
     ax.plot(branch["side_m"][i_fold], branch["lambda_f"][i_fold], "o", mfc="white", color=colour)
@@ -70,8 +75,7 @@ ax.set_xlim(10.0, 1e5)
 ax.set_ylim(1e-6, 2.0)
 ax.set_xlabel("plate side D [m]")
 ax.set_ylabel("conductor mass fraction λ_f [-]")
-ax.set_title(f"geometry A (perimeter loop), κ = {KAPPA_RIM:g}: light (solid) and heavy (dashed) branch",
-             fontsize=10)
+ax.set_title(f"geometry A (perimeter loop), κ = {KAPPA_RIM:g}: light (solid) and heavy (dashed) branch", fontsize=10)
 ax.grid(True, which="both", alpha=0.25)
 ax.legend(fontsize=8, loc="lower right")
 plt.show()

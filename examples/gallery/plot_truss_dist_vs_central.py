@@ -33,8 +33,10 @@ for placement in ("central", "distributed"):
     run = sim.run()
     summary, series = sim.scenario.postprocess(run)
     results[placement] = (run.records["t"], series)
-    print(f"{placement:11s}: status {summary['status']}, max surface deviation "
-          f"{summary['surface_sd_max_m']:.3f} m at t = {summary['t_surface_sd_max_s']:.0f} s")
+    print(
+        f"{placement:11s}: status {summary['status']}, max surface deviation "
+        f"{summary['surface_sd_max_m']:.3f} m at t = {summary['t_surface_sd_max_s']:.0f} s"
+    )
 
 # %%
 # Surface deviation and rotation angle
@@ -51,6 +53,5 @@ ax_phi.set_xlabel("time [s]")
 for ax in (ax_sd, ax_phi):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-ax_sd.set_title("truss Case C, reduced to 7 × 7 units, 300 s: same torque, central vs distributed",
-                fontsize=10)
+ax_sd.set_title("truss Case C, reduced to 7 × 7 units, 300 s: same torque, central vs distributed", fontsize=10)
 plt.show()

@@ -103,8 +103,9 @@ def capability(path: CoilPath, *, current_A: float, field_T: float) -> float:
     return float(abs(current_A * field_T * M[comp, e]))
 
 
-def loop_side_for_capability(target_N_m: float, *, side_m: float, segment_m: float, depth_m: float,
-                             current_A: float, field_T: float) -> tuple[float, float]:
+def loop_side_for_capability(
+    target_N_m: float, *, side_m: float, segment_m: float, depth_m: float, current_A: float, field_T: float
+) -> tuple[float, float]:
     """Side [m] of the lattice-aligned square loop (plane z = −h/2, centred) whose capability
     ``|x̂·T(B_ref ŷ)| = I s² B_ref`` is closest to ``target_N_m`` (assumption A3), and that capability.
 
@@ -114,7 +115,7 @@ def loop_side_for_capability(target_N_m: float, *, side_m: float, segment_m: flo
     if k_max < 1:
         raise ValueError(f"side_m: {side_m!r} m holds no centred loop of segment_m = {segment_m!r} m")
     sides = 2 * segment_m * np.arange(1, k_max + 1)
-    caps = current_A * field_T * sides ** 2
+    caps = current_A * field_T * sides**2
     k = int(np.argmin(np.abs(caps - target_N_m)))
     side = float(sides[k])
     loop = CoilPath("zloop", square_loop(side, segment_m, z=-depth_m / 2, d=side_m), axis=2, s_path=+1)
@@ -149,9 +150,16 @@ def path_report(path: CoilPath, *, current_A: float, field_T: float) -> dict[str
     return out
 
 
-def coil_torque_report(*, side_m: float = 100.0, segment_m: float = 1.0, depth_m: float | None = None,
-                       current_A: float = 10.0, field_T: float = 30e-6, pitch_cells: int = 2,
-                       rows: int | None = None) -> dict[str, Any]:
+def coil_torque_report(
+    *,
+    side_m: float = 100.0,
+    segment_m: float = 1.0,
+    depth_m: float | None = None,
+    current_A: float = 10.0,
+    field_T: float = 30e-6,
+    pitch_cells: int = 2,
+    rows: int | None = None,
+) -> dict[str, Any]:
     """The ``coil_torque`` figures of spec §8.2 plus the full per-path report (§3.6, §8.3 item 1).
 
     Flat keys: ``T_max_ycoil_N_m``, ``T_max_xcoil_N_m``, ``T_max_zloop_N_m``, ``zloop_side_m``,
@@ -165,36 +173,70 @@ def coil_torque_report(*, side_m: float = 100.0, segment_m: float = 1.0, depth_m
     :class:`magsail_mj.resources.MemoryLimitError` when the paths would need more memory than the
     limit (estimated from their node counts before any is built).
     """
-    inputs = {"side_m": side_m, "segment_m": segment_m, "depth_m": depth_m, "current_A": current_A,
-              "field_T": field_T, "pitch_cells": pitch_cells, "rows": rows}
+    inputs = {
+        "side_m": side_m,
+        "segment_m": segment_m,
+        "depth_m": depth_m,
+        "current_A": current_A,
+        "field_T": field_T,
+        "pitch_cells": pitch_cells,
+        "rows": rows,
+    }
     h, n = _check_report_inputs(**inputs)
-    check_memory(coil_report_bytes(side_m=side_m, segment_m=segment_m, pitch_cells=pitch_cells, rows=rows),
-                 what=f"coil paths of side_m = {side_m!r} m with segment_m = {segment_m!r} m "
-                      f"({n} cells per side, pitch_cells = {pitch_cells!r}, rows = {rows!r})")
+    check_memory(
+        coil_report_bytes(side_m=side_m, segment_m=segment_m, pitch_cells=pitch_cells, rows=rows),
+        what=f"coil paths of side_m = {side_m!r} m with segment_m = {segment_m!r} m "
+        f"({n} cells per side, pitch_cells = {pitch_cells!r}, rows = {rows!r})",
+    )
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):
-        return require_finite(_coil_report(side_m=side_m, segment_m=segment_m, h=h, n=n, current_A=current_A,
-                                           field_T=field_T, pitch_cells=pitch_cells, rows=rows),
-                              inputs={k: v for k, v in inputs.items() if v is not None})
+        return require_finite(
+            _coil_report(
+                side_m=side_m,
+                segment_m=segment_m,
+                h=h,
+                n=n,
+                current_A=current_A,
+                field_T=field_T,
+                pitch_cells=pitch_cells,
+                rows=rows,
+            ),
+            inputs={k: v for k, v in inputs.items() if v is not None},
+        )
 
 
-def _check_report_inputs(*, side_m: float, segment_m: float, depth_m: float | None, current_A: float,
-                         field_T: float, pitch_cells: int, rows: int | None) -> tuple[float, int]:
+def _check_report_inputs(
+    *,
+    side_m: float,
+    segment_m: float,
+    depth_m: float | None,
+    current_A: float,
+    field_T: float,
+    pitch_cells: int,
+    rows: int | None,
+) -> tuple[float, int]:
     """``(depth h, cells per side n)`` after checking every argument (names the bad one)."""
     for name, v in (("side_m", side_m), ("segment_m", segment_m), ("current_A", current_A), ("field_T", field_T)):
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
-                or not (np.isfinite(v) and v > 0):
+        if (
+            isinstance(v, bool)
+            or not isinstance(v, (int, float, np.integer, np.floating))
+            or not (np.isfinite(v) and v > 0)
+        ):
             raise ValueError(f"{name}: must be a finite number > 0, got {v!r}")
     h = segment_m if depth_m is None else depth_m
-    if (isinstance(h, bool) or not isinstance(h, (int, float, np.integer, np.floating))
-            or not (np.isfinite(h) and h > 0)):
+    if (
+        isinstance(h, bool)
+        or not isinstance(h, (int, float, np.integer, np.floating))
+        or not (np.isfinite(h) and h > 0)
+    ):
         raise ValueError(f"depth_m: must be a finite number > 0, got {depth_m!r}")
     for name, v in (("pitch_cells", pitch_cells), ("rows", rows)):
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1):
             raise ValueError(f"{name}: must be an integer >= 1, got {v!r}")
     ratio = side_m / segment_m
     if not np.isfinite(ratio) or ratio > 1e15:
-        raise ValueError(f"side_m: {side_m!r} m is {ratio:.3g} segments of segment_m = {segment_m!r} m; "
-                         "too many to build a path")
+        raise ValueError(
+            f"side_m: {side_m!r} m is {ratio:.3g} segments of segment_m = {segment_m!r} m; too many to build a path"
+        )
     n = round(ratio)
     if n < 1 or abs(n * segment_m - side_m) > 1e-9 * side_m:
         raise ValueError(f"side_m: must be a whole multiple of segment_m = {segment_m!r} m, got {side_m!r}")
@@ -205,8 +247,17 @@ def _check_report_inputs(*, side_m: float, segment_m: float, depth_m: float | No
     return float(h), int(n)
 
 
-def _coil_report(*, side_m: float, segment_m: float, h: float, n: int, current_A: float, field_T: float,
-                 pitch_cells: int, rows: int | None) -> dict[str, Any]:
+def _coil_report(
+    *,
+    side_m: float,
+    segment_m: float,
+    h: float,
+    n: int,
+    current_A: float,
+    field_T: float,
+    pitch_cells: int,
+    rows: int | None,
+) -> dict[str, Any]:
     """The figures of :func:`coil_torque_report` for checked inputs."""
     kw = {"current_A": current_A, "field_T": field_T}
     ycoil = CoilPath("ycoil", coil_y(side_m, segment_m, h, p=pitch_cells, n_row=rows), axis=1, s_path=-1)
@@ -226,8 +277,13 @@ def _coil_report(*, side_m: float, segment_m: float, h: float, n: int, current_A
     reports = {name: path_report(path, **kw) for name, path in paths.items()}
     y = reports["ycoil"]
     return {
-        "side_m": side_m, "segment_m": segment_m, "depth_m": h, "current_A": current_A, "field_T": field_T,
-        "pitch_cells": pitch_cells, "rows": n if rows is None else rows,
+        "side_m": side_m,
+        "segment_m": segment_m,
+        "depth_m": h,
+        "current_A": current_A,
+        "field_T": field_T,
+        "pitch_cells": pitch_cells,
+        "rows": n if rows is None else rows,
         "T_max_ycoil_N_m": T_y,
         "T_max_xcoil_N_m": reports["xcoil"]["T_max_N_m"],
         "T_max_zloop_N_m": T_z,

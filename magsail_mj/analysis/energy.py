@@ -135,9 +135,7 @@ class KineticEnergySplit(NamedTuple):
     omega: np.ndarray
 
 
-def kinetic_energy_split(
-    pos: np.ndarray, vel: np.ndarray, masses: float | np.ndarray
-) -> KineticEnergySplit:
+def kinetic_energy_split(pos: np.ndarray, vel: np.ndarray, masses: float | np.ndarray) -> KineticEnergySplit:
     r"""Split the kinetic energy into COM, best-fit rigid rotation, and the rest (§5.3).
 
     With :math:`M=\sum m_i`, COM :math:`x_c`, :math:`v_c`, and :math:`r_i = x_i-x_c`,
@@ -196,13 +194,10 @@ def _ke_split(x: np.ndarray, v: np.ndarray, m: np.ndarray) -> KineticEnergySplit
     trans = 0.5 * M * np.sum(vc * vc, axis=-1)
     rot = 0.5 * np.sum(omega * L, axis=-1)
     rel = 0.5 * np.sum(du * du, axis=-1) @ m
-    return KineticEnergySplit(total=total, translational=trans, rotational=rot, relative=rel,
-                              omega=omega)
+    return KineticEnergySplit(total=total, translational=trans, rotational=rot, relative=rel, omega=omega)
 
 
-def relative_kinetic_energy(
-    pos: np.ndarray, vel: np.ndarray, masses: float | np.ndarray
-) -> np.ndarray | float:
+def relative_kinetic_energy(pos: np.ndarray, vel: np.ndarray, masses: float | np.ndarray) -> np.ndarray | float:
     r"""Kinetic energy of the motion relative to the best-fit rigid motion [J] (§5.3).
 
     :math:`\tfrac12\sum_i m_i\lVert v_i - v_c - \omega\times(x_i-x_c)\rVert^2` with
@@ -235,9 +230,7 @@ def _tet_volumes(x: np.ndarray, t: np.ndarray) -> np.ndarray:
     return (a0 * (b1 * c2 - b2 * c1) + a1 * (b2 * c0 - b0 * c2) + a2 * (b0 * c1 - b1 * c0)) / 6.0
 
 
-def inverted_cells(
-    pos: np.ndarray, tets: np.ndarray, *, reference: np.ndarray | None = None
-) -> np.ndarray:
+def inverted_cells(pos: np.ndarray, tets: np.ndarray, *, reference: np.ndarray | None = None) -> np.ndarray:
     r"""Which tetrahedra are turned inside out (§5.3 structural failure flag).
 
     A tetrahedron is inverted when its signed volume (:func:`signed_tet_volumes`) has changed
@@ -266,15 +259,12 @@ def inverted_cells(
             ref_vol = ref
         else:
             raise ValueError(
-                f"reference: expected positions ({x.shape[-2]}, 3) or volumes ({t.shape[0]},), "
-                f"got {ref.shape}"
+                f"reference: expected positions ({x.shape[-2]}, 3) or volumes ({t.shape[0]},), got {ref.shape}"
             )
         ref_sign = np.sign(ref_vol)
         if np.any(ref_sign == 0):
             raise ValueError("reference: contains degenerate (zero-volume) tetrahedra")
-    return map_time_blocks(
-        lambda xb: _tet_volumes(xb, t) * ref_sign <= 0.0, (x,), 12 * t.shape[0]
-    )
+    return map_time_blocks(lambda xb: _tet_volumes(xb, t) * ref_sign <= 0.0, (x,), 12 * t.shape[0])
 
 
 def lattice_cube_tetrahedra(nodes_per_side: int) -> np.ndarray:

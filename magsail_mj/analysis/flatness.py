@@ -19,9 +19,7 @@ from magsail_mj.estimation._arrays import as_point_series
 __all__ = ["average_plane", "surface_heights", "surface_sd"]
 
 
-def average_plane(
-    points: np.ndarray, *, orient: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+def average_plane(points: np.ndarray, *, orient: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     r"""Total-least-squares plane through a point set (§5.1 steps 1–2).
 
     Centroid :math:`\bar x = \frac1n\sum_i x_i`; unit normal :math:`\hat n` = right singular

@@ -143,6 +143,7 @@ class NoLoopSolution(ValueError):
 
 # ----------------------------------------------------------------------------- validation helpers
 
+
 def _positive(name: str, value) -> np.ndarray:
     v = np.asarray(value, dtype=float)
     if v.size == 0 or not np.all(np.isfinite(v)) or np.any(v <= 0):
@@ -166,8 +167,9 @@ def _kappa(kappa) -> float:
     except (TypeError, ValueError):
         raise ValueError(f"kappa: must be a finite number >= 0, got {kappa!r}") from None
     if not math.isfinite(k) or k < 0:
-        raise ValueError(f"kappa: must be a finite number >= 0 (κ = 12 k_c − 1; paper 15, "
-                         f"square perimeter wire 1), got {kappa!r}")
+        raise ValueError(
+            f"kappa: must be a finite number >= 0 (κ = 12 k_c − 1; paper 15, square perimeter wire 1), got {kappa!r}"
+        )
     return k
 
 
@@ -183,6 +185,7 @@ def normalize_geometry(geometry: str) -> str:
 
 
 # ----------------------------------------------------------------------------- Table 1 (§2.7)
+
 
 def b_loop_count(units: int) -> int:
     """Number of concentric loops of geometry B, ``n = ceil(N/2)`` (§2.3)."""
@@ -232,7 +235,7 @@ def geometry_factor(geometry: str, units: int) -> float:
 def geometry_factor_b_loops(n_loops: int) -> float:
     """Geometry B's ``G`` as a function of the loop count ``n`` itself (Fig. 5, "number of coils")::
 
-        G_B(n) = 2 (n+1) / [(n+1)(2n+1)/(6n)]^{4/3}
+    G_B(n) = 2 (n+1) / [(n+1)(2n+1)/(6n)]^{4/3}
     """
     if isinstance(n_loops, bool) or not isinstance(n_loops, (int, np.integer)) or n_loops < 1:
         raise ValueError(f"n_loops: must be an integer >= 1, got {n_loops!r}")
@@ -242,6 +245,7 @@ def geometry_factor_b_loops(n_loops: int) -> float:
 
 # ----------------------------------------------------------------------------- Eqs. 2–11
 
+
 def c1(constants: ThermalConstants = DEFAULT_CONSTANTS) -> float:
     """Scaling constant ``C1`` [m⁻¹ kg^{-1/3}] of ``λ_f = C1 G D^{5/3} σ_A^{1/3}`` (Eq. 11)::
 
@@ -250,9 +254,8 @@ def c1(constants: ThermalConstants = DEFAULT_CONSTANTS) -> float:
     (16384 = 64 · 4096 / 16 collects the ¼ of ``M_c``, the 4/π² of ``d³`` and the 1/8 of Eq. 9.)
     """
     k = constants
-    num = k.mu_m3_s2 ** 4 * k.rho_c_kg_m3 ** 3 * k.rho_ref_ohm_m ** 2 * k.f_gamma ** 2
-    den = (16384.0 * math.pi * k.T_eq_K ** 8 * k.emissivity ** 2 * k.sigma_B ** 2 * k.B0_T ** 4
-           * k.R_E_m ** 12)
+    num = k.mu_m3_s2**4 * k.rho_c_kg_m3**3 * k.rho_ref_ohm_m**2 * k.f_gamma**2
+    den = 16384.0 * math.pi * k.T_eq_K**8 * k.emissivity**2 * k.sigma_B**2 * k.B0_T**4 * k.R_E_m**12
     return (num / den) ** (1.0 / 3.0)
 
 
@@ -262,8 +265,15 @@ def field_magnitude(geocentric_radius_m, *, constants: ThermalConstants = DEFAUL
     return _out(constants.B0_T * (constants.R_E_m / R) ** 3)
 
 
-def gravity_gradient_torque_max(total_kg, side_m, geocentric_radius_m, *, kappa: float = 0.0,
-                                lambda_f=0.0, constants: ThermalConstants = DEFAULT_CONSTANTS):
+def gravity_gradient_torque_max(
+    total_kg,
+    side_m,
+    geocentric_radius_m,
+    *,
+    kappa: float = 0.0,
+    lambda_f=0.0,
+    constants: ThermalConstants = DEFAULT_CONSTANTS,
+):
     """Eq. 8: peak gravity-gradient torque of a square plate, normal at 45° to nadir [N m]::
 
         T_g,max = 3 μ (i3 − i1) / (2 R_o³) = μ M D² (1 + κ λ_f) / (8 R_o³)
@@ -278,7 +288,7 @@ def gravity_gradient_torque_max(total_kg, side_m, geocentric_radius_m, *, kappa:
     lam = np.asarray(lambda_f, dtype=float)
     if not np.all(np.isfinite(lam)) or np.any(lam < 0):
         raise ValueError(f"lambda_f: must be finite and >= 0, got {lambda_f!r}")
-    return _out(constants.mu_m3_s2 * M * D * D * (1.0 + k * lam) / (8.0 * R ** 3))
+    return _out(constants.mu_m3_s2 * M * D * D * (1.0 + k * lam) / (8.0 * R**3))
 
 
 def dipole_max(side_m, areal_density_kg_m2, *, constants: ThermalConstants = DEFAULT_CONSTANTS):
@@ -289,11 +299,19 @@ def dipole_max(side_m, areal_density_kg_m2, *, constants: ThermalConstants = DEF
     D = _positive("side_m", side_m)
     s = _positive("areal_density_kg_m2", areal_density_kg_m2)
     k = constants
-    return _out(k.mu_m3_s2 * s * D ** 4 / (8.0 * k.B0_T * k.R_E_m ** 3))
+    return _out(k.mu_m3_s2 * s * D**4 / (8.0 * k.B0_T * k.R_E_m**3))
 
 
-def required_current(area_m2, side_m, areal_density_kg_m2, *, altitude_m=None, kappa: float = 0.0,
-                     lambda_f=0.0, constants: ThermalConstants = DEFAULT_CONSTANTS):
+def required_current(
+    area_m2,
+    side_m,
+    areal_density_kg_m2,
+    *,
+    altitude_m=None,
+    kappa: float = 0.0,
+    lambda_f=0.0,
+    constants: ThermalConstants = DEFAULT_CONSTANTS,
+):
     """Eq. 9: current whose torque ``I A_e B`` equals ``T_g,max`` [A].
 
     Closed form (``altitude_m=None``)::
@@ -319,14 +337,16 @@ def required_current(area_m2, side_m, areal_density_kg_m2, *, altitude_m=None, k
 def wire_diameter(current_A, *, constants: ThermalConstants = DEFAULT_CONSTANTS):
     """Equilibrium wire diameter [m] (Eq. 6 with ``I²``, §9 item 1)::
 
-        ε σ_B π d Γ_e⁴ = 4 ρ_r f_Γ I² / (π d²)   ⇒   d = [4 ρ_r f_Γ I² / (π² ε σ_B Γ_e⁴)]^{1/3}
+    ε σ_B π d Γ_e⁴ = 4 ρ_r f_Γ I² / (π d²)   ⇒   d = [4 ρ_r f_Γ I² / (π² ε σ_B Γ_e⁴)]^{1/3}
     """
     I = np.asarray(current_A, dtype=float)
     if not np.all(np.isfinite(I)):
         raise ValueError(f"current_A: must be finite, got {current_A!r}")
     k = constants
-    return _out((4.0 * k.rho_ref_ohm_m * k.f_gamma * I * I
-                 / (math.pi ** 2 * k.emissivity * k.sigma_B * k.T_eq_K ** 4)) ** (1.0 / 3.0))
+    return _out(
+        (4.0 * k.rho_ref_ohm_m * k.f_gamma * I * I / (math.pi**2 * k.emissivity * k.sigma_B * k.T_eq_K**4))
+        ** (1.0 / 3.0)
+    )
 
 
 def conductor_mass(wire_diameter_m, length_m, *, constants: ThermalConstants = DEFAULT_CONSTANTS):
@@ -349,11 +369,12 @@ def radiated_power(wire_diameter_m, length_m, *, constants: ThermalConstants = D
     d = np.asarray(wire_diameter_m, dtype=float)
     l = np.asarray(length_m, dtype=float)
     k = constants
-    return _out(k.emissivity * k.sigma_B * math.pi * d * l * k.T_eq_K ** 4)
+    return _out(k.emissivity * k.sigma_B * math.pi * d * l * k.T_eq_K**4)
 
 
-def lambda_f(geometry: str, *, units: int, side_m, areal_density_kg_m2,
-             constants: ThermalConstants = DEFAULT_CONSTANTS):
+def lambda_f(
+    geometry: str, *, units: int, side_m, areal_density_kg_m2, constants: ThermalConstants = DEFAULT_CONSTANTS
+):
     """Closed form ``λ_f = C1 G(N) D^{5/3} σ_A^{1/3}`` (Eq. 11) for uniform mass.
 
     For geometry A this is ``λ_u`` (the uniform-mass value); the sizing value with the rim
@@ -364,26 +385,30 @@ def lambda_f(geometry: str, *, units: int, side_m, areal_density_kg_m2,
     return _out(c1(constants) * geometry_factor(geometry, units) * D ** (5.0 / 3.0) * np.cbrt(s))
 
 
-def lambda_f_chain(geometry: str, *, units: int, side_m: float, areal_density_kg_m2: float,
-                   kappa: float = 0.0, lambda_f_inertia: float = 0.0,
-                   constants: ThermalConstants = DEFAULT_CONSTANTS) -> dict[str, float]:
+def lambda_f_chain(
+    geometry: str,
+    *,
+    units: int,
+    side_m: float,
+    areal_density_kg_m2: float,
+    kappa: float = 0.0,
+    lambda_f_inertia: float = 0.0,
+    constants: ThermalConstants = DEFAULT_CONSTANTS,
+) -> dict[str, float]:
     """Step-by-step ``I → d → M_c → λ_f`` (Eqs. 9, 6, 10, 11), the check of the closed form.
 
     ``kappa`` and ``lambda_f_inertia`` enter the torque as ``(1 + κ λ_f)`` (geometry A); at the
     solution of :func:`solve_lambda_A` the returned ``lambda_f`` reproduces ``lambda_f_inertia``.
     """
     area, length = table1(geometry, units, side_m)
-    I = required_current(area, side_m, areal_density_kg_m2, kappa=kappa, lambda_f=lambda_f_inertia,
-                         constants=constants)
+    I = required_current(area, side_m, areal_density_kg_m2, kappa=kappa, lambda_f=lambda_f_inertia, constants=constants)
     d = wire_diameter(I, constants=constants)
     Mc = conductor_mass(d, length, constants=constants)
     M = float(areal_density_kg_m2) * float(side_m) ** 2
-    return {"current_A": I, "wire_diameter_m": d, "conductor_mass_kg": Mc, "total_mass_kg": M,
-            "lambda_f": Mc / M}
+    return {"current_A": I, "wire_diameter_m": d, "conductor_mass_kg": Mc, "total_mass_kg": M, "lambda_f": Mc / M}
 
 
-def side_max(geometry: str, *, units: int, areal_density_kg_m2,
-             constants: ThermalConstants = DEFAULT_CONSTANTS):
+def side_max(geometry: str, *, units: int, areal_density_kg_m2, constants: ThermalConstants = DEFAULT_CONSTANTS):
     """Largest plate side with ``λ_f ≤ 1``, ``D_max = (C1 G σ_A^{1/3})^{-3/5}`` [m] (uniform mass).
 
     For geometry A this is the uniform-mass value ``λ_u = 1``; with the rim conductor see
@@ -394,6 +419,7 @@ def side_max(geometry: str, *, units: int, areal_density_kg_m2,
 
 
 # ----------------------------------------------------------------------------- geometry A
+
 
 def lambda_u_A(side_m, areal_density_kg_m2, *, constants: ThermalConstants = DEFAULT_CONSTANTS):
     """Uniform-mass fraction of geometry A, ``λ_u = 4 C1 D^{5/3} σ_A^{1/3}``."""
@@ -418,8 +444,7 @@ def fold_A(kappa: float = 15.0) -> tuple[float, float]:
     return lam, lam * 4.0 ** (-4.0 / 3.0)
 
 
-def solve_lambda_A(lambda_u: float, *, kappa: float = 15.0,
-                   branch: Literal["light", "heavy", "both"] = "light"):
+def solve_lambda_A(lambda_u: float, *, kappa: float = 15.0, branch: Literal["light", "heavy", "both"] = "light"):
     """Roots of geometry A's ``λ = λ_u (1 + κλ)^{4/3}`` (§3).
 
     ``branch="light"`` gives the root below the fold ``λ* = 3/κ`` (the sizing value), ``"heavy"``
@@ -443,7 +468,8 @@ def solve_lambda_A(lambda_u: float, *, kappa: float = 15.0,
         raise NoLoopSolution(
             f"lambda_u = {lu:.6g} exceeds the fold h* = (3/κ)·4^(-4/3) = {h_star:.6g} at kappa = {k:g}: "
             "geometry A has no conductor mass fraction that balances the gravity-gradient torque "
-            "(plate too large or too dense)")
+            "(plate too large or too dense)"
+        )
     if lu >= h_star:
         return lam_star if branch != "both" else (lam_star, lam_star)
     x_star = math.log(lam_star)
@@ -466,13 +492,18 @@ def solve_lambda_A(lambda_u: float, *, kappa: float = 15.0,
 def _curves(side_m, current_A, length_m, lam, constants: ThermalConstants) -> dict[str, np.ndarray]:
     d = np.asarray(wire_diameter(current_A, constants=constants))
     P = np.asarray(radiated_power(d, length_m, constants=constants))
-    return {"side_m": np.asarray(side_m, float), "lambda_f": np.asarray(lam, float),
-            "current_A": np.asarray(current_A, float), "wire_diameter_m": d,
-            "power_per_area_W_m2": P / np.asarray(side_m, float) ** 2}
+    return {
+        "side_m": np.asarray(side_m, float),
+        "lambda_f": np.asarray(lam, float),
+        "current_A": np.asarray(current_A, float),
+        "wire_diameter_m": d,
+        "power_per_area_W_m2": P / np.asarray(side_m, float) ** 2,
+    }
 
 
-def trace_branches_A(areal_density_kg_m2: float, *, kappa: float = 15.0, lambdas=None,
-                     constants: ThermalConstants = DEFAULT_CONSTANTS) -> dict[str, np.ndarray]:
+def trace_branches_A(
+    areal_density_kg_m2: float, *, kappa: float = 15.0, lambdas=None, constants: ThermalConstants = DEFAULT_CONSTANTS
+) -> dict[str, np.ndarray]:
     """Both branches of geometry A, parametrised by ``λ`` (§3, Fig. 3)::
 
         λ_u = h(λ),   D = (λ_u / (4 C1 σ_A^{1/3}))^{3/5},   I = I_u(D) (1 + κλ),   d(I),   P_J = ε σ_B π d (4D) Γ_e⁴
@@ -496,20 +527,28 @@ def trace_branches_A(areal_density_kg_m2: float, *, kappa: float = 15.0, lambdas
     return out
 
 
-def uniform_curves(geometry: str, *, units: int, side_m, areal_density_kg_m2,
-                   constants: ThermalConstants = DEFAULT_CONSTANTS) -> dict[str, np.ndarray]:
+def uniform_curves(
+    geometry: str, *, units: int, side_m, areal_density_kg_m2, constants: ThermalConstants = DEFAULT_CONSTANTS
+) -> dict[str, np.ndarray]:
     """``λ_f, I, d, P_J/D²`` against ``side_m`` for a uniform-mass geometry (B, C, D; Fig. 4)."""
     area, length = table1(geometry, units, side_m)
     I = required_current(area, side_m, areal_density_kg_m2, constants=constants)
-    lam = lambda_f(geometry, units=units, side_m=side_m, areal_density_kg_m2=areal_density_kg_m2,
-                   constants=constants)
+    lam = lambda_f(geometry, units=units, side_m=side_m, areal_density_kg_m2=areal_density_kg_m2, constants=constants)
     return _curves(side_m, I, length, lam, constants)
 
 
 # ----------------------------------------------------------------------------- sizing and tables
 
-def loop_sizing(geometry: str, *, units: int, side_m: float, areal_density_kg_m2: float,
-                kappa: float = 15.0, constants: ThermalConstants = DEFAULT_CONSTANTS) -> dict:
+
+def loop_sizing(
+    geometry: str,
+    *,
+    units: int,
+    side_m: float,
+    areal_density_kg_m2: float,
+    kappa: float = 15.0,
+    constants: ThermalConstants = DEFAULT_CONSTANTS,
+) -> dict:
     """Eq.-9 current and thermal sizing of one loop geometry (spec §3 item 1).
 
     Returns a dict with ``current_A`` (A on the light branch), ``wire_diameter_m``, ``lambda_f``,
@@ -532,25 +571,58 @@ def loop_sizing(geometry: str, *, units: int, side_m: float, areal_density_kg_m2
             lam_inertia = solve_lambda_A(lambda_u_A(D, s, constants=constants), kappa=k, branch="light")
         except NoLoopSolution as err:
             d_fold = (fold_A(k)[1] / (4.0 * c1(constants) * np.cbrt(s))) ** 0.6
-            raise NoLoopSolution(f"side_m: {D:g} m is beyond geometry A's fold; at areal_density_kg_m2 = "
-                                 f"{s:g} and kappa = {k:g} the largest plate is {d_fold:.6g} m ({err})") from None
-    ch = lambda_f_chain(g, units=N, side_m=D, areal_density_kg_m2=s, kappa=k if g == "A" else 0.0,
-                        lambda_f_inertia=lam_inertia, constants=constants)
+            raise NoLoopSolution(
+                f"side_m: {D:g} m is beyond geometry A's fold; at areal_density_kg_m2 = "
+                f"{s:g} and kappa = {k:g} the largest plate is {d_fold:.6g} m ({err})"
+            ) from None
+    ch = lambda_f_chain(
+        g,
+        units=N,
+        side_m=D,
+        areal_density_kg_m2=s,
+        kappa=k if g == "A" else 0.0,
+        lambda_f_inertia=lam_inertia,
+        constants=constants,
+    )
     P = radiated_power(ch["wire_diameter_m"], length, constants=constants)
-    out = {"geometry": g, "units": N, "side_m": D, "areal_density_kg_m2": s,
-           "current_A": ch["current_A"], "wire_diameter_m": ch["wire_diameter_m"],
-           "lambda_f": ch["lambda_f"], "power_W": P, "power_per_area_W_m2": P / (D * D),
-           "dipole_max_A_m2": ch["current_A"] * area, "area_m2": area, "path_length_m": length,
-           "conductor_mass_kg": ch["conductor_mass_kg"]}
+    out = {
+        "geometry": g,
+        "units": N,
+        "side_m": D,
+        "areal_density_kg_m2": s,
+        "current_A": ch["current_A"],
+        "wire_diameter_m": ch["wire_diameter_m"],
+        "lambda_f": ch["lambda_f"],
+        "power_W": P,
+        "power_per_area_W_m2": P / (D * D),
+        "dipole_max_A_m2": ch["current_A"] * area,
+        "area_m2": area,
+        "path_length_m": length,
+        "conductor_mass_kg": ch["conductor_mass_kg"],
+    }
     if g == "A":
         out.update(kappa=k, branch="light", lambda_u=lambda_u_A(D, s, constants=constants))
-    return require_finite(out, inputs={"geometry": geometry, "units": units, "side_m": side_m,
-                                       "areal_density_kg_m2": areal_density_kg_m2, "kappa": kappa})
+    return require_finite(
+        out,
+        inputs={
+            "geometry": geometry,
+            "units": units,
+            "side_m": side_m,
+            "areal_density_kg_m2": areal_density_kg_m2,
+            "kappa": kappa,
+        },
+    )
 
 
-def scaling_table(*, side_m: float = 250.0, areal_density_kg_m2: float = 0.1, kappa: float = 15.0,
-                  geometries: Iterable[str] = GEOMETRIES, units: Iterable[int] = (12, 19, 27),
-                  constants: ThermalConstants = DEFAULT_CONSTANTS) -> dict:
+def scaling_table(
+    *,
+    side_m: float = 250.0,
+    areal_density_kg_m2: float = 0.1,
+    kappa: float = 15.0,
+    geometries: Iterable[str] = GEOMETRIES,
+    units: Iterable[int] = (12, 19, 27),
+    constants: ThermalConstants = DEFAULT_CONSTANTS,
+) -> dict:
     """The ``scaling`` object of spec §7.2 (stdout of ``magsail scaling loops --table``).
 
     Keys ``{g}_N{N}_current_A``, ``_wire_diameter_m``, ``_lambda_f``, ``_power_per_area_W_m2``,
@@ -559,21 +631,25 @@ def scaling_table(*, side_m: float = 250.0, areal_density_kg_m2: float = 0.1, ka
     ``areal_density_kg_m2`` and ``A_side_fold_m`` (largest A plate with a solution).
     """
     out: dict = {}
-    keys = ("current_A", "wire_diameter_m", "lambda_f", "power_per_area_W_m2", "dipole_max_A_m2",
-            "path_length_m")
+    keys = ("current_A", "wire_diameter_m", "lambda_f", "power_per_area_W_m2", "dipole_max_A_m2", "path_length_m")
     for g in geometries:
         for N in units:
-            row = loop_sizing(g, units=N, side_m=side_m, areal_density_kg_m2=areal_density_kg_m2,
-                              kappa=kappa, constants=constants)
+            row = loop_sizing(
+                g, units=N, side_m=side_m, areal_density_kg_m2=areal_density_kg_m2, kappa=kappa, constants=constants
+            )
             for key in keys:
                 out[f"{row['geometry']}_N{N}_{key}"] = row[key]
     lam_star, h_star = fold_A(kappa)
     s = float(_positive("areal_density_kg_m2", areal_density_kg_m2))
-    out.update(c1_per_m_per_cbrt_kg=c1(constants), kappa=_kappa(kappa), A_lambda_fold=lam_star,
-               side_m=float(side_m), areal_density_kg_m2=s,
-               A_side_fold_m=(h_star / (4.0 * c1(constants) * np.cbrt(s))) ** 0.6)
-    return require_finite(out, inputs={"side_m": side_m, "areal_density_kg_m2": areal_density_kg_m2,
-                                       "kappa": kappa})
+    out.update(
+        c1_per_m_per_cbrt_kg=c1(constants),
+        kappa=_kappa(kappa),
+        A_lambda_fold=lam_star,
+        side_m=float(side_m),
+        areal_density_kg_m2=s,
+        A_side_fold_m=(h_star / (4.0 * c1(constants) * np.cbrt(s))) ** 0.6,
+    )
+    return require_finite(out, inputs={"side_m": side_m, "areal_density_kg_m2": areal_density_kg_m2, "kappa": kappa})
 
 
 def sunlight_diameter_ratio(constants: ThermalConstants = DEFAULT_CONSTANTS) -> float:
@@ -587,8 +663,9 @@ def sunlight_diameter_ratio(constants: ThermalConstants = DEFAULT_CONSTANTS) -> 
     Raises ``ValueError`` when sunlight alone would exceed the radiated power at ``Γ_e``.
     """
     k = constants
-    ratio = k.solar_flux_W_m2 / (k.sigma_B * math.pi * k.T_eq_K ** 4)
+    ratio = k.solar_flux_W_m2 / (k.sigma_B * math.pi * k.T_eq_K**4)
     if ratio >= 1.0:
-        raise ValueError(f"solar_flux_W_m2: sunlight ({k.solar_flux_W_m2} W/m²) alone heats the wire "
-                         f"above T_eq_K = {k.T_eq_K} K")
+        raise ValueError(
+            f"solar_flux_W_m2: sunlight ({k.solar_flux_W_m2} W/m²) alone heats the wire above T_eq_K = {k.T_eq_K} K"
+        )
     return (1.0 - ratio) ** (-1.0 / 3.0)

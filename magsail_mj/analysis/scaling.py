@@ -83,8 +83,10 @@ def require_finite(report: dict, *, inputs: dict) -> dict:
         if not np.all(np.isfinite(arr)):
             names = ", ".join(inputs)
             given = ", ".join(f"{k} = {v!r}" for k, v in inputs.items())
-            raise ValueError(f"{names}: the result {key} is not finite for {given} "
-                             "(the inputs are outside the range where it can be computed)")
+            raise ValueError(
+                f"{names}: the result {key} is not finite for {given} "
+                "(the inputs are outside the range where it can be computed)"
+            )
     return report
 
 
@@ -145,8 +147,9 @@ def actuator_torque_max(kappa_Am2_per_kg, rod_mass_kg, B_T):
     return _out(k * m * B)
 
 
-def rod_mass_fraction(side_m, kappa_Am2_per_kg, *, mu: float = MU_EARTH, B0_T: float = B0_DIPOLE,
-                      R_E_m: float = R_E_TRUSS):
+def rod_mass_fraction(
+    side_m, kappa_Am2_per_kg, *, mu: float = MU_EARTH, B0_T: float = B0_DIPOLE, R_E_m: float = R_E_TRUSS
+):
     """Rod mass fraction needed to match the peak gravity-gradient torque (§8, Eq. 17):
     ``λ_f = μ d² / (8 B0 R_E³ κ_τ)`` (dimensionless); broadcasts over ``side_m`` and ``kappa``."""
     d = _positive("side_m", side_m)
@@ -157,8 +160,9 @@ def rod_mass_fraction(side_m, kappa_Am2_per_kg, *, mu: float = MU_EARTH, B0_T: f
     return _out(mu * d**2 / (8.0 * B0_T * R_E_m**3 * k))
 
 
-def side_at_rod_mass_fraction(lambda_f, kappa_Am2_per_kg, *, mu: float = MU_EARTH,
-                              B0_T: float = B0_DIPOLE, R_E_m: float = R_E_TRUSS):
+def side_at_rod_mass_fraction(
+    lambda_f, kappa_Am2_per_kg, *, mu: float = MU_EARTH, B0_T: float = B0_DIPOLE, R_E_m: float = R_E_TRUSS
+):
     """Side length [m] at which the needed fraction equals ``lambda_f``:
     ``d = sqrt(8 B0 R_E³ κ_τ λ_f / μ)``; broadcasts."""
     lam = _positive("lambda_f", lambda_f)
@@ -169,9 +173,17 @@ def side_at_rod_mass_fraction(lambda_f, kappa_Am2_per_kg, *, mu: float = MU_EART
     return _out(np.sqrt(8.0 * B0_T * R_E_m**3 * k * lam / mu))
 
 
-def scaling_report(side_m: float | Sequence[float], kappa: float | Sequence[float], *,
-                   altitude_km: float = 800.0, total_kg: float = 200.0, rod_mass_kg: float = 100.0,
-                   mu: float = MU_EARTH, B0_T: float = B0_DIPOLE, R_E_m: float = R_E_TRUSS) -> dict:
+def scaling_report(
+    side_m: float | Sequence[float],
+    kappa: float | Sequence[float],
+    *,
+    altitude_km: float = 800.0,
+    total_kg: float = 200.0,
+    rod_mass_kg: float = 100.0,
+    mu: float = MU_EARTH,
+    B0_T: float = B0_DIPOLE,
+    R_E_m: float = R_E_TRUSS,
+) -> dict:
     """The §8 figures for plate side(s) ``side_m`` [m] and dipole-to-mass ratio(s) ``kappa``
     [A m²/kg], as one flat JSON-ready dict (the output of ``magsail scaling magnetorquer``).
 
@@ -205,20 +217,30 @@ def scaling_report(side_m: float | Sequence[float], kappa: float | Sequence[floa
         raise ValueError(f"rod_mass_kg: must be between 0 and total_kg ({M}), got {rod_mass_kg!r}")
     with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
         report = _scaling_figures(d, k, alt=alt, M=M, Mt=Mt, mu=mu, B0_T=B0_T, R_E_m=R_E_m)
-    return require_finite(report, inputs={"side_m": side_m, "kappa": kappa, "altitude_km": altitude_km,
-                                          "total_kg": total_kg, "rod_mass_kg": rod_mass_kg})
+    return require_finite(
+        report,
+        inputs={
+            "side_m": side_m,
+            "kappa": kappa,
+            "altitude_km": altitude_km,
+            "total_kg": total_kg,
+            "rod_mass_kg": rod_mass_kg,
+        },
+    )
 
 
-def _scaling_figures(d: np.ndarray, k: np.ndarray, *, alt: float, M: float, Mt: float, mu: float,
-                     B0_T: float, R_E_m: float) -> dict:
+def _scaling_figures(
+    d: np.ndarray, k: np.ndarray, *, alt: float, M: float, Mt: float, mu: float, B0_T: float, R_E_m: float
+) -> dict:
     """The figures of :func:`scaling_report` for checked inputs (may hold inf/NaN on overflow)."""
     r = R_E_m + alt * 1e3
     B = dipole_field_magnitude(r, B0_T=B0_T, R_E_m=R_E_m)
     if d.ndim == 0 and k.ndim == 0:
         lam = np.asarray(rod_mass_fraction(d, k, mu=mu, B0_T=B0_T, R_E_m=R_E_m))
     else:
-        lam = np.asarray(rod_mass_fraction(np.atleast_1d(d)[None, :], np.atleast_1d(k)[:, None],
-                                           mu=mu, B0_T=B0_T, R_E_m=R_E_m))
+        lam = np.asarray(
+            rod_mass_fraction(np.atleast_1d(d)[None, :], np.atleast_1d(k)[:, None], mu=mu, B0_T=B0_T, R_E_m=R_E_m)
+        )
     T_grav = np.asarray(gravity_gradient_torque_max(M, d, r, mu=mu))
     T_ac = np.asarray(actuator_torque_max(k, Mt, B))
     lam_design = Mt / M
@@ -300,13 +322,20 @@ def scaling_tables(inputs: ScalingInputs) -> dict:
     ``lambda_f_design_required``, ``lambda_f_design``, ``authority_margin``, plus the inputs.
     """
     kw = {"mu": inputs.mu_m3_s2, "B0_T": inputs.B0_T, "R_E_m": inputs.R_E_km * 1e3}
-    lam = {f"kappa={k:g}": {f"d={d:g}": float(rod_mass_fraction(d, k, **kw)) for d in inputs.table_sides_m}
-           for k in inputs.kappas_Am2_per_kg}
+    lam = {
+        f"kappa={k:g}": {f"d={d:g}": float(rod_mass_fraction(d, k, **kw)) for d in inputs.table_sides_m}
+        for k in inputs.kappas_Am2_per_kg
+    }
     d1 = {f"kappa={k:g}": float(side_at_rod_mass_fraction(1.0, k, **kw)) for k in inputs.kappas_Am2_per_kg}
     d05 = {f"kappa={k:g}": float(side_at_rod_mass_fraction(0.5, k, **kw)) for k in inputs.kappas_Am2_per_kg}
-    design = scaling_report(inputs.design_side_m, inputs.design_kappa_Am2_per_kg,
-                            altitude_km=inputs.altitude_km, total_kg=inputs.total_kg,
-                            rod_mass_kg=inputs.rod_mass_kg, **kw)
+    design = scaling_report(
+        inputs.design_side_m,
+        inputs.design_kappa_Am2_per_kg,
+        altitude_km=inputs.altitude_km,
+        total_kg=inputs.total_kg,
+        rod_mass_kg=inputs.rod_mass_kg,
+        **kw,
+    )
     return {
         "lambda_f": lam,
         "d_at_lambda_f_1_m": d1,

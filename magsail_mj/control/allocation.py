@@ -145,8 +145,14 @@ class Allocation:
         return self.N1 * np.asarray(self.tau1_body) + self.N2 * np.asarray(self.tau2_body)
 
 
-def allocate(T_ref_body, B_body, *, m_rod_Am2: float | Sequence[float], n_max: int | Sequence[int],
-             mode: AllocationMode = "paper") -> Allocation:
+def allocate(
+    T_ref_body,
+    B_body,
+    *,
+    m_rod_Am2: float | Sequence[float],
+    n_max: int | Sequence[int],
+    mode: AllocationMode = "paper",
+) -> Allocation:
     """Signed rod counts ``(N1, N2)`` for the reference torque ``T_ref_body`` (§7.3, Eqs. 11–13).
 
     Args:
@@ -174,8 +180,19 @@ def allocate(T_ref_body, B_body, *, m_rod_Am2: float | Sequence[float], n_max: i
     return _allocate_core(Tx, Ty, Tz, Bx, By, Bz, m1, m2, n1max, n2max, mode == "exact")
 
 
-def _allocate_core(Tx: float, Ty: float, Tz: float, Bx: float, By: float, Bz: float,
-                   m1: float, m2: float, n1max: int, n2max: int, exact: bool) -> Allocation:
+def _allocate_core(
+    Tx: float,
+    Ty: float,
+    Tz: float,
+    Bx: float,
+    By: float,
+    Bz: float,
+    m1: float,
+    m2: float,
+    n1max: int,
+    n2max: int,
+    exact: bool,
+) -> Allocation:
     """The §7.3 arithmetic on plain floats (validated inputs)."""
     t1 = (0.0, -m1 * Bz, m1 * By)
     t2 = (m2 * Bz, 0.0, -m2 * Bx)
@@ -203,8 +220,17 @@ def _allocate_core(Tx: float, Ty: float, Tz: float, Bx: float, By: float, Bz: fl
     x2 = (Tt2 - N1 * c) / b if ok2 else 0.0
     r2 = _rnd(x2)
     N2 = max(-n2max, min(n2max, r2))
-    return Allocation(N1=N1, N2=N2, x1=x1, x2=x2, mode=used, clipped1=abs(r1) > n1max,
-                      clipped2=abs(r2) > n2max, tau1_body=t1, tau2_body=t2)
+    return Allocation(
+        N1=N1,
+        N2=N2,
+        x1=x1,
+        x2=x2,
+        mode=used,
+        clipped1=abs(r1) > n1max,
+        clipped2=abs(r2) > n2max,
+        tau1_body=t1,
+        tau2_body=t2,
+    )
 
 
 @dataclass(frozen=True)
@@ -230,8 +256,14 @@ class AllocationBatch:
         return self.N1[:, None] * self.tau1_body + self.N2[:, None] * self.tau2_body
 
 
-def allocate_batch(T_ref_body, B_body, *, m_rod_Am2: float | Sequence[float],
-                   n_max: int | Sequence[int], mode: AllocationMode = "paper") -> AllocationBatch:
+def allocate_batch(
+    T_ref_body,
+    B_body,
+    *,
+    m_rod_Am2: float | Sequence[float],
+    n_max: int | Sequence[int],
+    mode: AllocationMode = "paper",
+) -> AllocationBatch:
     """:func:`allocate` vectorised over K samples: ``T_ref_body`` and ``B_body`` of shape (K, 3)."""
     _check_mode(mode)
     m1, m2 = _m_pair(m_rod_Am2)
@@ -266,13 +298,22 @@ def allocate_batch(T_ref_body, B_body, *, m_rod_Am2: float | Sequence[float],
         x2 = np.where(ok2, (Tt2 - N1 * c) / np.where(ok2, b, 1.0), 0.0)
     r2 = round_half_away(x2).astype(np.int64)
     N2 = np.clip(r2, -n2max, n2max)
-    return AllocationBatch(N1=N1, N2=N2, x1=x1, x2=x2, fallback=fallback,
-                           clipped1=np.abs(r1) > n1max, clipped2=np.abs(r2) > n2max,
-                           tau1_body=t1, tau2_body=t2)
+    return AllocationBatch(
+        N1=N1,
+        N2=N2,
+        x1=x1,
+        x2=x2,
+        fallback=fallback,
+        clipped1=np.abs(r1) > n1max,
+        clipped2=np.abs(r2) > n2max,
+        tau1_body=t1,
+        tau2_body=t2,
+    )
 
 
-def allocation_mode_difference(T_ref_body, B_body, *, m_rod_Am2: float | Sequence[float],
-                               n_max: int | Sequence[int]) -> dict[str, float]:
+def allocation_mode_difference(
+    T_ref_body, B_body, *, m_rod_Am2: float | Sequence[float], n_max: int | Sequence[int]
+) -> dict[str, float]:
     """How often and by how much the paper and exact modes differ over K samples (§7.3).
 
     Returns flat SI keys: ``n_samples``, ``fraction_counts_differ``, ``fraction_exact_fallback``,
@@ -315,8 +356,7 @@ class TorqueDistributor:
     precomputed or cached on disk); afterwards a call costs a few tens of µs.
     """
 
-    def __init__(self, selector: LloydSelector, *, m_rod_Am2: float | Sequence[float],
-                 mode: AllocationMode = "paper"):
+    def __init__(self, selector: LloydSelector, *, m_rod_Am2: float | Sequence[float], mode: AllocationMode = "paper"):
         _check_mode(mode)
         if len(selector.n_sites) != 2:
             raise ValueError(f"selector: needs two rod families, got {len(selector.n_sites)}")
@@ -326,12 +366,26 @@ class TorqueDistributor:
         self.mode = mode
 
     @classmethod
-    def for_rods(cls, rods, *, m_rod_Am2: float | Sequence[float], mode: AllocationMode = "paper",
-                 seed: int = 0, tol_rel: float = 1e-6, max_iter: int = 10_000,
-                 cache_dir: str | Path | None = None) -> "TorqueDistributor":
+    def for_rods(
+        cls,
+        rods,
+        *,
+        m_rod_Am2: float | Sequence[float],
+        mode: AllocationMode = "paper",
+        seed: int = 0,
+        tol_rel: float = 1e-6,
+        max_iter: int = 10_000,
+        cache_dir: str | Path | None = None,
+    ) -> "TorqueDistributor":
         """Distributor for a :class:`~magsail_mj.loads.magnetorquer_rods.RodArray` (truss rods)."""
-        sel = LloydSelector([rods.family_sites(0), rods.family_sites(1)], region=rods.region,
-                            seed=seed, tol_rel=tol_rel, max_iter=max_iter, cache_dir=cache_dir)
+        sel = LloydSelector(
+            [rods.family_sites(0), rods.family_sites(1)],
+            region=rods.region,
+            seed=seed,
+            tol_rel=tol_rel,
+            max_iter=max_iter,
+            cache_dir=cache_dir,
+        )
         return cls(sel, m_rod_Am2=m_rod_Am2, mode=mode)
 
     def __call__(self, T_ref_body, B_body) -> tuple[np.ndarray, Allocation]:

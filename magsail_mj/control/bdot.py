@@ -93,8 +93,9 @@ class BdotFiltered(BdotFiniteDifference):
         return -self.gain * self.B_dot
 
 
-def make_bdot(form: Literal["finite_difference", "filtered"], *, gain: float, sample_period_s: float,
-              omega_c_rad_s: float = 0.5) -> BdotFiniteDifference:
+def make_bdot(
+    form: Literal["finite_difference", "filtered"], *, gain: float, sample_period_s: float, omega_c_rad_s: float = 0.5
+) -> BdotFiniteDifference:
     """B-dot law of the given ``form`` (``"finite_difference"`` or ``"filtered"``)."""
     if form == "finite_difference":
         return BdotFiniteDifference(gain=gain, sample_period_s=sample_period_s)

@@ -59,18 +59,33 @@ class BdotRodController(RodAttitudeController):
 
     law = "bdot"
 
-    def __init__(self, *, reference_nodes: np.ndarray, masses: np.ndarray | float,
-                 distributor: TorqueDistributor | None, period_s: float, k_Nms_per_T2: float = 1e12,
-                 node_bodies: np.ndarray | None = None, omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
-                 rate_method: Literal["log", "first_order"] = "log") -> None:
-        super().__init__(reference_nodes=reference_nodes, masses=masses, node_bodies=node_bodies,
-                         distributor=distributor, period_s=period_s, omega0_body=omega0_body,
-                         rate_method=rate_method)
+    def __init__(
+        self,
+        *,
+        reference_nodes: np.ndarray,
+        masses: np.ndarray | float,
+        distributor: TorqueDistributor | None,
+        period_s: float,
+        k_Nms_per_T2: float = 1e12,
+        node_bodies: np.ndarray | None = None,
+        omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
+        rate_method: Literal["log", "first_order"] = "log",
+    ) -> None:
+        super().__init__(
+            reference_nodes=reference_nodes,
+            masses=masses,
+            node_bodies=node_bodies,
+            distributor=distributor,
+            period_s=period_s,
+            omega0_body=omega0_body,
+            rate_method=rate_method,
+        )
         if not (np.isfinite(k_Nms_per_T2) and k_Nms_per_T2 >= 0):
             raise ValueError(f"k_Nms_per_T2: must be a number >= 0 N m s/T², got {k_Nms_per_T2!r}")
         self.k = float(k_Nms_per_T2)
 
-    def reference_torque(self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray,
-                         com_world: np.ndarray, env: Any) -> tuple[np.ndarray, dict[str, Any]]:
+    def reference_torque(
+        self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray, com_world: np.ndarray, env: Any
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         """``T_ref = k (ω × B_b) × B_b`` (body components, N m)."""
         return bdot_torque(omega_body, B_body, k_Nms_per_T2=self.k), {}

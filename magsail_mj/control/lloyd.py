@@ -94,8 +94,12 @@ def _mirrors(points: np.ndarray, region: Region) -> list[np.ndarray]:
     """Mirror images of ``points`` across the sides x_min, x_max, y_min, y_max (in that order)."""
     x0, y0, x1, y1 = region
     x, y = points[:, 0], points[:, 1]
-    return [np.column_stack([2 * x0 - x, y]), np.column_stack([2 * x1 - x, y]),
-            np.column_stack([x, 2 * y0 - y]), np.column_stack([x, 2 * y1 - y])]
+    return [
+        np.column_stack([2 * x0 - x, y]),
+        np.column_stack([2 * x1 - x, y]),
+        np.column_stack([x, 2 * y0 - y]),
+        np.column_stack([x, 2 * y1 - y]),
+    ]
 
 
 def _circumcentres(tri_pts: np.ndarray) -> np.ndarray:
@@ -147,8 +151,9 @@ class _CellSolver:
         x0, y0, x1, y1 = region
         self.eps = 1e-12 * max(x1 - x0, y1 - y0)
         # Mirror k maps (x, y) to (sx x + bx, sy y + by): across x_min, x_max, y_min, y_max.
-        self._affine = np.array([[1, 0, 1, 0], [-1, 2 * x0, 1, 0], [-1, 2 * x1, 1, 0],
-                                 [1, 0, -1, 2 * y0], [1, 0, -1, 2 * y1]], dtype=float)
+        self._affine = np.array(
+            [[1, 0, 1, 0], [-1, 2 * x0, 1, 0], [-1, 2 * x1, 1, 0], [1, 0, -1, 2 * y0], [1, 0, -1, 2 * y1]], dtype=float
+        )
 
     def _set_mask(self, mask: np.ndarray) -> None:
         self.mask = mask
@@ -192,7 +197,7 @@ class _CellSolver:
         inner = ~hull
         t_idx, k_idx = np.nonzero(inner)
         nb = Nb[t_idx, k_idx]
-        once = t_idx < nb                      # the in-circle test of an edge is symmetric
+        once = t_idx < nb  # the in-circle test of an edge is symmetric
         t_idx, nb = t_idx[once], nb[once]
         kk = np.argmax(Nb[nb] == t_idx[:, None], axis=1)
         self.opp_t, self.opp_v = t_idx, S[nb, kk]
@@ -284,8 +289,10 @@ class _CellSolver:
         cy = np.bincount(self.pk, my, n)
         if not np.all(area > 0):
             bad = np.flatnonzero(~(area > 0))
-            raise RuntimeError(f"points: generators {bad.tolist()} have empty Voronoi cells "
-                               "(duplicate generators or generators on the region's boundary)")
+            raise RuntimeError(
+                f"points: generators {bad.tolist()} have empty Voronoi cells "
+                "(duplicate generators or generators on the region's boundary)"
+            )
         return np.column_stack([cx / area, cy / area]), area
 
 
@@ -377,9 +384,15 @@ def initial_generators(count: int, region: Sequence[float], *, seed: int) -> np.
     return np.clip(P, (x0 + tiny, y0 + tiny), (x1 - tiny, y1 - tiny))
 
 
-def lloyd(count_or_points: int | np.ndarray, *, region: Sequence[float], seed: int = 0,
-          tol_rel: float = 1e-6, max_iter: int = 10_000,
-          reuse_triangulation: bool = True) -> LloydResult:
+def lloyd(
+    count_or_points: int | np.ndarray,
+    *,
+    region: Sequence[float],
+    seed: int = 0,
+    tol_rel: float = 1e-6,
+    max_iter: int = 10_000,
+    reuse_triangulation: bool = True,
+) -> LloydResult:
     """Lloyd's algorithm in a rectangle (spec §7.4 step 3).
 
     Args:
@@ -463,8 +476,12 @@ def _read_cache(path: Path | None, read, *, delete_bad: bool = True):
 def _valid_selection(sel: np.ndarray, count: int, n_sites: int) -> np.ndarray:
     """A cached snapped selection: ``count`` distinct site indices in ``[0, n_sites)``."""
     sel = np.asarray(sel)
-    if sel.shape != (count,) or not np.issubdtype(sel.dtype, np.integer) or \
-            (count and (sel.min() < 0 or sel.max() >= n_sites)) or np.unique(sel).size != count:
+    if (
+        sel.shape != (count,)
+        or not np.issubdtype(sel.dtype, np.integer)
+        or (count and (sel.min() < 0 or sel.max() >= n_sites))
+        or np.unique(sel).size != count
+    ):
         raise ValueError(f"cached selection: expected {count} distinct indices below {n_sites}")
     return sel.astype(np.int64, copy=False)
 
@@ -472,8 +489,13 @@ def _valid_selection(sel: np.ndarray, count: int, n_sites: int) -> np.ndarray:
 def _load_result(path: Path, count: int) -> LloydResult:
     """A cached Lloyd result of ``count`` finite (count, 2) generators."""
     with np.load(path, allow_pickle=False) as z:
-        res = LloydResult(np.asarray(z["generators"], dtype=float), int(z["iterations"]), bool(z["converged"]),
-                          float(z["max_move"]), float(z["time_s"]))
+        res = LloydResult(
+            np.asarray(z["generators"], dtype=float),
+            int(z["iterations"]),
+            bool(z["converged"]),
+            float(z["max_move"]),
+            float(z["time_s"]),
+        )
     if res.generators.shape != (count, 2) or not np.all(np.isfinite(res.generators)):
         raise ValueError(f"cached generators: expected a finite ({count}, 2) array")
     return res
@@ -501,9 +523,17 @@ class LloydSelector:
     polarity vector over all of them.
     """
 
-    def __init__(self, sites: Sequence[np.ndarray], *, region: Sequence[float], seed: int = 0,
-                 tol_rel: float = 1e-6, max_iter: int = 10_000, cache_dir: str | Path | None = None,
-                 shipped_dir: str | Path | None = SHIPPED_DIR):
+    def __init__(
+        self,
+        sites: Sequence[np.ndarray],
+        *,
+        region: Sequence[float],
+        seed: int = 0,
+        tol_rel: float = 1e-6,
+        max_iter: int = 10_000,
+        cache_dir: str | Path | None = None,
+        shipped_dir: str | Path | None = SHIPPED_DIR,
+    ):
         self.region = as_region(region)
         _check_lloyd_options(tol_rel, max_iter)
         if int(seed) != seed or seed < 0:
@@ -523,18 +553,31 @@ class LloydSelector:
         self.max_iter = int(max_iter)
         self.cache_dir = None if cache_dir is None else Path(cache_dir) / f"lloyd_{self.cache_key()}"
         self.shipped_dir = None if shipped_dir is None else Path(shipped_dir) / f"lloyd_{self.cache_key()}"
-        self._sites_key = [hashlib.sha256(np.ascontiguousarray(f).tobytes()).hexdigest()[:16]
-                           for f in fams]
+        self._sites_key = [hashlib.sha256(np.ascontiguousarray(f).tobytes()).hexdigest()[:16] for f in fams]
         self._gen: dict[int, LloydResult] = {}
         self._sel: dict[tuple[int, int], np.ndarray] = {}
         self._global: dict[tuple[int, int], np.ndarray] = {}
-        self.stats = {"lloyd_runs": 0, "lloyd_time_s": 0.0, "disk_hits": 0, "snap_time_s": 0.0,
-                      "snap_disk_hits": 0, "shipped_hits": 0}
+        self.stats = {
+            "lloyd_runs": 0,
+            "lloyd_time_s": 0.0,
+            "disk_hits": 0,
+            "snap_time_s": 0.0,
+            "snap_disk_hits": 0,
+            "shipped_hits": 0,
+        }
 
     def cache_key(self) -> str:
         """Hash of what the generators depend on (region, seed, tolerance, cap, algorithm)."""
-        blob = json.dumps({"region": list(self.region), "seed": self.seed, "tol_rel": self.tol_rel,
-                           "max_iter": self.max_iter, "algo": _ALGO_VERSION}, sort_keys=True)
+        blob = json.dumps(
+            {
+                "region": list(self.region),
+                "seed": self.seed,
+                "tol_rel": self.tol_rel,
+                "max_iter": self.max_iter,
+                "algo": _ALGO_VERSION,
+            },
+            sort_keys=True,
+        )
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
     # -- generators
@@ -582,8 +625,14 @@ class LloydSelector:
         if path is not None and not path.exists():
             with atomic_path(path, suffix=".npz") as tmp:
                 with open(tmp, "wb") as fh:
-                    np.savez(fh, generators=res.generators, iterations=res.iterations,
-                             converged=res.converged, max_move=res.max_move, time_s=res.time_s)
+                    np.savez(
+                        fh,
+                        generators=res.generators,
+                        iterations=res.iterations,
+                        converged=res.converged,
+                        max_move=res.max_move,
+                        time_s=res.time_s,
+                    )
 
     def _check_count(self, count: int) -> int:
         if int(count) != count or count < 0:
@@ -700,4 +749,3 @@ def covering_radius(points: np.ndarray, region: Sequence[float], *, samples_per_
     gx, gy = np.meshgrid(np.linspace(x0, x1, samples_per_side), np.linspace(y0, y1, samples_per_side))
     d, _ = cKDTree(P).query(np.column_stack([gx.ravel(), gy.ravel()]))
     return float(d.max())
-

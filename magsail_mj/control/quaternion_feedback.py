@@ -82,8 +82,14 @@ def gg_compensation_torque(r_body: np.ndarray, inertia: np.ndarray, *, mu: float
     return -3.0 * mu / (r2 * r2 * np.sqrt(r2)) * cross3(r, I @ r)
 
 
-def quaternion_feedback_torque(q_e: np.ndarray, omega_body: np.ndarray, *, Pq_Nm: Sequence[float],
-                               Pw_Nms: Sequence[float], gg_comp_body: np.ndarray | None = None) -> np.ndarray:
+def quaternion_feedback_torque(
+    q_e: np.ndarray,
+    omega_body: np.ndarray,
+    *,
+    Pq_Nm: Sequence[float],
+    Pw_Nms: Sequence[float],
+    gg_comp_body: np.ndarray | None = None,
+) -> np.ndarray:
     r"""``T_ref = −P_q q_{e,vec} − P_ω ω (+ gg_comp_body)`` [N m], diagonal gains (spec §9.4).
 
     Args:
@@ -92,8 +98,9 @@ def quaternion_feedback_torque(q_e: np.ndarray, omega_body: np.ndarray, *, Pq_Nm
       Pq_Nm: diagonal of ``P_q`` [N m]; Pw_Nms: diagonal of ``P_ω`` [N m s].
       gg_comp_body: (3,) compensation term of :func:`gg_compensation_torque`, or ``None``.
     """
-    T = -np.asarray(Pq_Nm, dtype=float) * np.asarray(q_e, dtype=float)[1:] \
-        - np.asarray(Pw_Nms, dtype=float) * np.asarray(omega_body, dtype=float)
+    T = -np.asarray(Pq_Nm, dtype=float) * np.asarray(q_e, dtype=float)[1:] - np.asarray(
+        Pw_Nms, dtype=float
+    ) * np.asarray(omega_body, dtype=float)
     if gg_comp_body is not None:
         T = T + gg_comp_body
     return T
@@ -117,16 +124,32 @@ class QuaternionFeedbackRodController(RodAttitudeController):
 
     law = "quat_pd"
 
-    def __init__(self, *, reference_nodes: np.ndarray, masses: np.ndarray | float,
-                 distributor: TorqueDistributor | None, period_s: float, q_ref_wxyz: Sequence[float],
-                 inertia_kgm2: Sequence[float] | np.ndarray, Pq_Nm: Sequence[float] = (10.0, 50.0, 1.0),
-                 Pw_Nms: Sequence[float] = (1600.0, 8000.0, 800.0), gg_comp: bool = True,
-                 mu: float = MU_EARTH, node_bodies: np.ndarray | None = None,
-                 omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
-                 rate_method: Literal["log", "first_order"] = "log") -> None:
-        super().__init__(reference_nodes=reference_nodes, masses=masses, node_bodies=node_bodies,
-                         distributor=distributor, period_s=period_s, omega0_body=omega0_body,
-                         rate_method=rate_method)
+    def __init__(
+        self,
+        *,
+        reference_nodes: np.ndarray,
+        masses: np.ndarray | float,
+        distributor: TorqueDistributor | None,
+        period_s: float,
+        q_ref_wxyz: Sequence[float],
+        inertia_kgm2: Sequence[float] | np.ndarray,
+        Pq_Nm: Sequence[float] = (10.0, 50.0, 1.0),
+        Pw_Nms: Sequence[float] = (1600.0, 8000.0, 800.0),
+        gg_comp: bool = True,
+        mu: float = MU_EARTH,
+        node_bodies: np.ndarray | None = None,
+        omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
+        rate_method: Literal["log", "first_order"] = "log",
+    ) -> None:
+        super().__init__(
+            reference_nodes=reference_nodes,
+            masses=masses,
+            node_bodies=node_bodies,
+            distributor=distributor,
+            period_s=period_s,
+            omega0_body=omega0_body,
+            rate_method=rate_method,
+        )
         self.q_ref = _unit_quat(q_ref_wxyz, "q_ref_wxyz")
         for name, g in (("Pq_Nm", Pq_Nm), ("Pw_Nms", Pw_Nms)):
             a = np.asarray(g, dtype=float)
@@ -137,16 +160,19 @@ class QuaternionFeedbackRodController(RodAttitudeController):
         I = np.asarray(inertia_kgm2, dtype=float)
         I = np.diag(I) if I.shape == (3,) else I
         if I.shape != (3, 3) or not np.all(np.isfinite(I)) or not np.allclose(I, I.T):
-            raise ValueError(f"inertia_kgm2: expected 3 moments or a symmetric (3, 3) tensor [kg m²], "
-                             f"got shape {np.shape(inertia_kgm2)}")
+            raise ValueError(
+                f"inertia_kgm2: expected 3 moments or a symmetric (3, 3) tensor [kg m²], "
+                f"got shape {np.shape(inertia_kgm2)}"
+            )
         self.inertia = I
         self.gg_comp = bool(gg_comp)
         if not (np.isfinite(mu) and mu > 0):
             raise ValueError(f"mu: must be > 0 m³/s², got {mu!r}")
         self.mu = float(mu)
 
-    def reference_torque(self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray,
-                         com_world: np.ndarray, env: Any) -> tuple[np.ndarray, dict[str, Any]]:
+    def reference_torque(
+        self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray, com_world: np.ndarray, env: Any
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         """``T_ref`` of the module docstring; ``extra = {"q_err", "gg_comp_body"}``."""
         q_e = error_quaternion(self.q_ref, quat_from_matrix(R))
         comp = np.zeros(3)
@@ -189,8 +215,15 @@ class QuaternionPD:
 
     law = "quat_pd_body_torque"
 
-    def __init__(self, *, sensor: AttitudeSensor, q_ref_wxyz: Sequence[float], Pq_Nm: Sequence[float],
-                 Pw_Nms: Sequence[float], period_s: float) -> None:
+    def __init__(
+        self,
+        *,
+        sensor: AttitudeSensor,
+        q_ref_wxyz: Sequence[float],
+        Pq_Nm: Sequence[float],
+        Pw_Nms: Sequence[float],
+        period_s: float,
+    ) -> None:
         if not callable(sensor):
             raise ValueError(f"sensor: expected a callable state → (q_wxyz, omega_body), got {sensor!r}")
         if not (np.isfinite(period_s) and period_s > 0):
@@ -204,9 +237,16 @@ class QuaternionPD:
         self.omega_body = np.zeros(3)
 
     @classmethod
-    def from_bandwidth(cls, *, sensor: AttitudeSensor, q_ref_wxyz: Sequence[float],
-                       inertia_kgm2: Sequence[float], omega_n_rad_s: float, zeta: float,
-                       period_s: float) -> "QuaternionPD":
+    def from_bandwidth(
+        cls,
+        *,
+        sensor: AttitudeSensor,
+        q_ref_wxyz: Sequence[float],
+        inertia_kgm2: Sequence[float],
+        omega_n_rad_s: float,
+        zeta: float,
+        period_s: float,
+    ) -> "QuaternionPD":
         """Gains per axis ``P_q = 2 I ω_n²``, ``P_ω = 2 ζ ω_n I`` from principal moments ``inertia_kgm2``
         [kg m²] (:func:`~magsail_mj.control.reflector_pitch.pitch_gains`)."""
         Pq, Pw = pitch_gains(inertia_kgm2, omega_n_rad_s=omega_n_rad_s, zeta=zeta)

@@ -38,8 +38,7 @@ from magsail_mj.quaternion import error_quaternion, quat_to_matrix
 from magsail_mj.vec3 import cross3
 
 
-__all__ = ["PitchCommand", "ReflectorPitchController", "pitch_gains", "project_and_saturate",
-           "saturate_norm"]
+__all__ = ["PitchCommand", "ReflectorPitchController", "pitch_gains", "project_and_saturate", "saturate_norm"]
 
 
 def saturate_norm(v: np.ndarray, cap: float) -> tuple[np.ndarray, bool]:
@@ -55,12 +54,18 @@ def pitch_gains(inertia: Sequence[float], *, omega_n_rad_s: float, zeta: float) 
     I = np.asarray(inertia, dtype=float)
     if not (omega_n_rad_s > 0 and zeta > 0):
         raise ValueError(f"omega_n_rad_s, zeta: must be > 0, got {omega_n_rad_s!r}, {zeta!r}")
-    return 2 * I * omega_n_rad_s ** 2, 2 * zeta * omega_n_rad_s * I
+    return 2 * I * omega_n_rad_s**2, 2 * zeta * omega_n_rad_s * I
 
 
-def project_and_saturate(T_ref: np.ndarray, B: np.ndarray, *,
-                         saturation: Literal["norm", "field_scaled", "per_path"], cap_N_m: float,
-                         B_ref_T: float, m_max_A_m2: np.ndarray) -> tuple[np.ndarray, bool]:
+def project_and_saturate(
+    T_ref: np.ndarray,
+    B: np.ndarray,
+    *,
+    saturation: Literal["norm", "field_scaled", "per_path"],
+    cap_N_m: float,
+    B_ref_T: float,
+    m_max_A_m2: np.ndarray,
+) -> tuple[np.ndarray, bool]:
     """Achievable torque for the desired ``T_ref`` in field ``B`` (same axes) and whether it saturated."""
     B2 = float(B @ B)
     if not B2 > 0:
@@ -111,10 +116,22 @@ class ReflectorPitchController:
       period_s: controller period [s].
     """
 
-    def __init__(self, *, orbit: ReflectorOrbit, inertia_kg_m2: Sequence[float], omega_n_rad_s: float, zeta: float,
-                 rate_term: Literal["absolute", "error"], feedforward: bool,
-                 saturation: Literal["norm", "field_scaled", "per_path"], cap_N_m: float, B_ref_T: float,
-                 m_max_A_m2: Sequence[float], body_id: int, period_s: float) -> None:
+    def __init__(
+        self,
+        *,
+        orbit: ReflectorOrbit,
+        inertia_kg_m2: Sequence[float],
+        omega_n_rad_s: float,
+        zeta: float,
+        rate_term: Literal["absolute", "error"],
+        feedforward: bool,
+        saturation: Literal["norm", "field_scaled", "per_path"],
+        cap_N_m: float,
+        B_ref_T: float,
+        m_max_A_m2: Sequence[float],
+        body_id: int,
+        period_s: float,
+    ) -> None:
         if rate_term not in ("absolute", "error"):
             raise ValueError(f"rate_term: must be 'absolute' or 'error', got {rate_term!r}")
         if saturation not in ("norm", "field_scaled", "per_path"):
@@ -141,8 +158,8 @@ class ReflectorPitchController:
         q_e = error_quaternion(ref.q_ref, q)
         w_err = omega_body
         if self.rate_term == "error" or self.feedforward:
-            Re = quat_to_matrix(q_e)          # current body → reference body
-            yb = Re[1]                         # Reᵀ ŷ: the reference pitch axis in current body axes
+            Re = quat_to_matrix(q_e)  # current body → reference body
+            yb = Re[1]  # Reᵀ ŷ: the reference pitch axis in current body axes
             if self.rate_term == "error":
                 w_err = omega_body - (-ref.psi_dot) * yb
         T = -self.Pq * q_e[1:] - self.Pw * w_err
@@ -156,8 +173,18 @@ class ReflectorPitchController:
         w_b = R.T @ state.omega[self.body_id]
         T_ref, q_e, ref = self.reference_torque(q, w_b, state.t)
         B_w = self.orbit.field(state.t)
-        T_act, sat = project_and_saturate(T_ref, R.T @ B_w, saturation=self.saturation, cap_N_m=self.cap,
-                                          B_ref_T=self.B_ref, m_max_A_m2=self.m_max)
-        self.last = PitchCommand(torque_body=T_act, T_ref_body=T_ref, saturated=sat, q_e=q_e, q_ref=ref.q_ref,
-                                 psi_ref=ref.psi_c, psi_dot_ref=ref.psi_dot, psi_ddot_ref=ref.psi_ddot, B_world=B_w)
+        T_act, sat = project_and_saturate(
+            T_ref, R.T @ B_w, saturation=self.saturation, cap_N_m=self.cap, B_ref_T=self.B_ref, m_max_A_m2=self.m_max
+        )
+        self.last = PitchCommand(
+            torque_body=T_act,
+            T_ref_body=T_ref,
+            saturated=sat,
+            q_e=q_e,
+            q_ref=ref.q_ref,
+            psi_ref=ref.psi_c,
+            psi_dot_ref=ref.psi_dot,
+            psi_ddot_ref=ref.psi_ddot,
+            B_world=B_w,
+        )
         return self.last

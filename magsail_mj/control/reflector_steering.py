@@ -45,8 +45,13 @@ import numpy as np
 
 from magsail_mj.quaternion import quat_from_axis_angle
 
-__all__ = ["ReflectorOrbit", "SteeringState", "SteeringReference", "pitch_reference_quaternion",
-           "pitch_angle_from_quaternion"]
+__all__ = [
+    "ReflectorOrbit",
+    "SteeringState",
+    "SteeringReference",
+    "pitch_reference_quaternion",
+    "pitch_angle_from_quaternion",
+]
 
 DAY_S = 86400.0
 
@@ -72,22 +77,35 @@ class ReflectorOrbit:
     B0_T: float = 3.12e-5
 
     @classmethod
-    def from_altitude(cls, *, altitude_m: float, R_e_m: float = 6.371e6, mu_m3_s2: float = 3.986004418e14,
-                      omega_e_rad_s: float = 2 * math.pi / DAY_S, n_orbits: float = 10.0,
-                      B0_T: float = 3.12e-5) -> "ReflectorOrbit":
+    def from_altitude(
+        cls,
+        *,
+        altitude_m: float,
+        R_e_m: float = 6.371e6,
+        mu_m3_s2: float = 3.986004418e14,
+        omega_e_rad_s: float = 2 * math.pi / DAY_S,
+        n_orbits: float = 10.0,
+        B0_T: float = 3.12e-5,
+    ) -> "ReflectorOrbit":
         """Orbit of altitude ``altitude_m`` whose overhead pass is at half of ``n_orbits`` periods."""
         for name, v in (("altitude_m", altitude_m), ("R_e_m", R_e_m), ("mu_m3_s2", mu_m3_s2), ("n_orbits", n_orbits)):
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name}: must be > 0, got {v!r}")
         r = R_e_m + altitude_m
-        n = math.sqrt(mu_m3_s2 / r ** 3)
-        return cls(r_m=r, R_e_m=R_e_m, mu_m3_s2=mu_m3_s2, omega_e_rad_s=omega_e_rad_s,
-                   t_m_s=0.5 * n_orbits * 2 * math.pi / n, B0_T=B0_T)
+        n = math.sqrt(mu_m3_s2 / r**3)
+        return cls(
+            r_m=r,
+            R_e_m=R_e_m,
+            mu_m3_s2=mu_m3_s2,
+            omega_e_rad_s=omega_e_rad_s,
+            t_m_s=0.5 * n_orbits * 2 * math.pi / n,
+            B0_T=B0_T,
+        )
 
     @property
     def n_rad_s(self) -> float:
         """Mean motion ``n = √(μ/r³)`` [rad/s]."""
-        return math.sqrt(self.mu_m3_s2 / self.r_m ** 3)
+        return math.sqrt(self.mu_m3_s2 / self.r_m**3)
 
     @property
     def period_s(self) -> float:
@@ -163,8 +181,7 @@ class ReflectorOrbit:
         eps, pd, pdd, _ = self.rates(t)
         beta = np.unwrap(eps)
         psi_c = 0.5 * np.pi - beta
-        return {"psi_c": psi_c, "psi_wrapped": np.mod(psi_c, np.pi), "psi_dot": pd, "psi_ddot": pdd,
-                "beta_ref": beta}
+        return {"psi_c": psi_c, "psi_wrapped": np.mod(psi_c, np.pi), "psi_dot": pd, "psi_ddot": pdd, "beta_ref": beta}
 
 
 @dataclass
@@ -199,13 +216,18 @@ class SteeringReference:
         else:
             beta = eps + 2 * math.pi * round((self._beta - eps) / (2 * math.pi))
         self._beta = beta
-        return SteeringState(beta_ref=beta, psi_c=0.5 * math.pi - beta, psi_dot=float(pd), psi_ddot=float(pdd),
-                             q_ref=pitch_reference_quaternion(beta))
+        return SteeringState(
+            beta_ref=beta,
+            psi_c=0.5 * math.pi - beta,
+            psi_dot=float(pd),
+            psi_ddot=float(pdd),
+            q_ref=pitch_reference_quaternion(beta),
+        )
 
 
 def pitch_reference_quaternion(beta):
     """``q = [cos(β/2), 0, sin(β/2), 0]``: rotation by β about +y (scalar first), (..., 4)."""
-    if isinstance(beta, float):    # the per-step path: as quat_from_axis_angle, without array overhead
+    if isinstance(beta, float):  # the per-step path: as quat_from_axis_angle, without array overhead
         h = 0.5 * beta
         s = math.sin(h)
         return np.array((math.cos(h), s * 0.0, s * 1.0, s * 0.0))

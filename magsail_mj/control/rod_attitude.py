@@ -122,10 +122,17 @@ class RodAttitudeController(abc.ABC):
     Subclasses implement :meth:`reference_torque`.
     """
 
-    def __init__(self, *, reference_nodes: np.ndarray, masses: np.ndarray | float,
-                 node_bodies: np.ndarray | None = None, distributor: TorqueDistributor | None,
-                 period_s: float, omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
-                 rate_method: Literal["log", "first_order"] = "log") -> None:
+    def __init__(
+        self,
+        *,
+        reference_nodes: np.ndarray,
+        masses: np.ndarray | float,
+        node_bodies: np.ndarray | None = None,
+        distributor: TorqueDistributor | None,
+        period_s: float,
+        omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
+        rate_method: Literal["log", "first_order"] = "log",
+    ) -> None:
         p = np.asarray(reference_nodes, dtype=float)
         if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 3:
             raise ValueError(f"reference_nodes: expected an (n >= 3, 3) array [m], got shape {p.shape}")
@@ -147,8 +154,7 @@ class RodAttitudeController(abc.ABC):
         self.masses = m
         self._w_com = m / m.sum()
         self.node_bodies = nb
-        self._sel: slice | np.ndarray = (slice(int(nb[0]), int(nb[-1]) + 1)
-                                         if np.all(np.diff(nb) == 1) else nb)
+        self._sel: slice | np.ndarray = slice(int(nb[0]), int(nb[-1]) + 1) if np.all(np.diff(nb) == 1) else nb
         self.distributor = distributor
         self.period_s = float(period_s)
         self.omega0_body = _vec3(omega0_body, "omega0_body")
@@ -160,8 +166,9 @@ class RodAttitudeController(abc.ABC):
 
     # ------------------------------------------------------------------ law
     @abc.abstractmethod
-    def reference_torque(self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray,
-                         com_world: np.ndarray, env: Any) -> tuple[np.ndarray, dict[str, Any]]:
+    def reference_torque(
+        self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray, com_world: np.ndarray, env: Any
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         """``(T_ref_body [N m], extra)`` of the control law; each subclass defines it."""
 
     # ------------------------------------------------------------------ one sample
@@ -188,8 +195,9 @@ class RodAttitudeController(abc.ABC):
             raise ValueError("state.env: the rod controllers need an environment sample (B_eci, r_ref_eci)")
         R, omega, xc = self.estimate(state)
         B_body = R.T @ np.asarray(env.B_eci, dtype=float)
-        T_ref, extra = self.reference_torque(t=float(state.t), R=R, omega_body=omega, B_body=B_body,
-                                             com_world=xc, env=env)
+        T_ref, extra = self.reference_torque(
+            t=float(state.t), R=R, omega_body=omega, B_body=B_body, com_world=xc, env=env
+        )
         if self.distributor is None:
             polarity, al = None, None
             T_alloc = np.asarray(T_ref, dtype=float).copy()
@@ -197,12 +205,22 @@ class RodAttitudeController(abc.ABC):
             polarity, al = self.distributor(T_ref, B_body)
             T_alloc = al.torque_body
         self._count(al)
-        return RodCommand(t=float(state.t), polarity=polarity, torque_ref_body=np.asarray(T_ref, dtype=float),
-                          torque_alloc_body=T_alloc, N1=al.N1 if al else 0, N2=al.N2 if al else 0,
-                          clipped1=bool(al.clipped1) if al else False,
-                          clipped2=bool(al.clipped2) if al else False,
-                          R=R, omega_body=omega, B_body=B_body, com_world=xc, extra=extra,
-                          counts=self.stats.copy())
+        return RodCommand(
+            t=float(state.t),
+            polarity=polarity,
+            torque_ref_body=np.asarray(T_ref, dtype=float),
+            torque_alloc_body=T_alloc,
+            N1=al.N1 if al else 0,
+            N2=al.N2 if al else 0,
+            clipped1=bool(al.clipped1) if al else False,
+            clipped2=bool(al.clipped2) if al else False,
+            R=R,
+            omega_body=omega,
+            B_body=B_body,
+            com_world=xc,
+            extra=extra,
+            counts=self.stats.copy(),
+        )
 
     def _count(self, al: Allocation | None) -> None:
         self.stats[0] += 1
@@ -224,22 +242,47 @@ class ProfileRodController(RodAttitudeController):
 
     law = "open_loop"
 
-    def __init__(self, *, reference_nodes: np.ndarray, masses: np.ndarray | float,
-                 distributor: TorqueDistributor | None, period_s: float, kind: str, tau_max_Nm: float,
-                 t_end_s: float, t_v_s: float | None = None, axis: int = 0,
-                 node_bodies: np.ndarray | None = None, omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
-                 rate_method: Literal["log", "first_order"] = "log") -> None:
-        super().__init__(reference_nodes=reference_nodes, masses=masses, node_bodies=node_bodies,
-                         distributor=distributor, period_s=period_s, omega0_body=omega0_body,
-                         rate_method=rate_method)
+    def __init__(
+        self,
+        *,
+        reference_nodes: np.ndarray,
+        masses: np.ndarray | float,
+        distributor: TorqueDistributor | None,
+        period_s: float,
+        kind: str,
+        tau_max_Nm: float,
+        t_end_s: float,
+        t_v_s: float | None = None,
+        axis: int = 0,
+        node_bodies: np.ndarray | None = None,
+        omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
+        rate_method: Literal["log", "first_order"] = "log",
+    ) -> None:
+        super().__init__(
+            reference_nodes=reference_nodes,
+            masses=masses,
+            node_bodies=node_bodies,
+            distributor=distributor,
+            period_s=period_s,
+            omega0_body=omega0_body,
+            rate_method=rate_method,
+        )
         if axis not in (0, 1, 2):
             raise ValueError(f"axis: must be 0, 1 or 2, got {axis!r}")
         self.profile = {"kind": kind, "tau_max": float(tau_max_Nm), "t_end": float(t_end_s), "t_v": t_v_s}
         self.axis = int(axis)
 
-    def reference_torque(self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray,
-                         com_world: np.ndarray, env: Any) -> tuple[np.ndarray, dict[str, Any]]:
+    def reference_torque(
+        self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray, com_world: np.ndarray, env: Any
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         T = np.zeros(3)
-        T[self.axis] = float(torque_profile(self.profile["kind"], t, tau_max=self.profile["tau_max"],
-                                            t_end=self.profile["t_end"], t_v=self.profile["t_v"]))
+        T[self.axis] = float(
+            torque_profile(
+                self.profile["kind"],
+                t,
+                tau_max=self.profile["tau_max"],
+                t_end=self.profile["t_end"],
+                t_v=self.profile["t_v"],
+            )
+        )
         return T, {}

@@ -51,8 +51,7 @@ def _check_iso(v: str) -> str:
     try:
         parse_epoch(v)
     except ValueError:
-        raise ValueError("must be an ISO 8601 UTC date-time within 1900–2100, such as "
-                         "'2020-01-01T00:00:00Z'") from None
+        raise ValueError("must be an ISO 8601 UTC date-time within 1900–2100, such as '2020-01-01T00:00:00Z'") from None
     return v
 
 
@@ -94,29 +93,49 @@ class OrbitConfig(StrictModel):
     @model_validator(mode="after")
     def _consistent(self) -> OrbitConfig:
         if self.altitude_km is not None and self.semi_major_axis_km is not None:
-            raise ConfigProblem("altitude_km", "altitude_km and semi_major_axis_km both given: give exactly one",
-                                others=("semi_major_axis_km",))
+            raise ConfigProblem(
+                "altitude_km",
+                "altitude_km and semi_major_axis_km both given: give exactly one",
+                others=("semi_major_axis_km",),
+            )
         if self.raan_deg is not None and self.ltdn_h is not None:
             raise ConfigProblem("raan_deg", "raan_deg and ltdn_h both given: give exactly one", others=("ltdn_h",))
         if self.arg_lat0_deg is not None and self.true_anomaly0_deg is not None:
-            raise ConfigProblem("arg_lat0_deg", "arg_lat0_deg and true_anomaly0_deg both given: give exactly one",
-                                others=("true_anomaly0_deg",))
+            raise ConfigProblem(
+                "arg_lat0_deg",
+                "arg_lat0_deg and true_anomaly0_deg both given: give exactly one",
+                others=("true_anomaly0_deg",),
+            )
         if not self.enabled:
             return self
         if self.altitude_km is None and self.semi_major_axis_km is None:
-            raise ConfigProblem("altitude_km", "altitude_km or semi_major_axis_km is required when enabled = true",
-                                others=("semi_major_axis_km",))
+            raise ConfigProblem(
+                "altitude_km",
+                "altitude_km or semi_major_axis_km is required when enabled = true",
+                others=("semi_major_axis_km",),
+            )
         size = "semi_major_axis_km" if self.semi_major_axis_km is not None else "altitude_km"
         a = finite_product(size, self.semi_major_axis_km_value, what="semi-major axis", others=("R_E_km",))
         if a * (1.0 - self.eccentricity) <= self.R_E_km:
-            raise ConfigProblem(size, f"the perigee radius a(1 - e) = {a * (1 - self.eccentricity):.6g} km must "
-                                f"exceed R_E_km = {self.R_E_km:.6g} km", others=("eccentricity", "R_E_km"))
+            raise ConfigProblem(
+                size,
+                f"the perigee radius a(1 - e) = {a * (1 - self.eccentricity):.6g} km must "
+                f"exceed R_E_km = {self.R_E_km:.6g} km",
+                others=("eccentricity", "R_E_km"),
+            )
         a_m = a * 1e3
-        finite_product(size, a_m, a_m, a_m / self.mu_m3_s2, what="orbital period 2π √(a³/μ)",
-                       others=("mu_m3_s2",))
+        finite_product(size, a_m, a_m, a_m / self.mu_m3_s2, what="orbital period 2π √(a³/μ)", others=("mu_m3_s2",))
         r_j2 = self.j2_radius_km * 1e3
-        finite_product("j2_radius_km", self.J2 + 1.0, self.mu_m3_s2, r_j2, r_j2, minimum=-1.0,
-                       what="J2 term J2 μ R²", others=("J2", "mu_m3_s2"))
+        finite_product(
+            "j2_radius_km",
+            self.J2 + 1.0,
+            self.mu_m3_s2,
+            r_j2,
+            r_j2,
+            minimum=-1.0,
+            what="J2 term J2 μ R²",
+            others=("J2", "mu_m3_s2"),
+        )
         return self
 
     @property
@@ -176,9 +195,11 @@ class FieldConfig(StrictModel):
             raise ValueError(f"constant_T is only used with model = 'constant', not {self.model!r}")
         dipoles = ("dipole", "tilted_dipole", "planar_dipole")
         if self.model not in dipoles and (self.B0_T is not None or self.R_ref_km is not None):
-            raise ConfigProblem("B0_T" if self.B0_T is not None else "R_ref_km",
-                                f"B0_T and R_ref_km are only used with model in {list(dipoles)}, not {self.model!r}",
-                                others=("model",))
+            raise ConfigProblem(
+                "B0_T" if self.B0_T is not None else "R_ref_km",
+                f"B0_T and R_ref_km are only used with model in {list(dipoles)}, not {self.model!r}",
+                others=("model",),
+            )
         if self.R_ref_km is not None:
             r = self.R_ref_km * 1e3
             finite_product("R_ref_km", self.B0_T or 1.0, r, r, r, what="dipole moment B0 R³", others=("B0_T",))
@@ -300,11 +321,14 @@ def check_environment(
     out: list[str] = []
     if not orbit.enabled:
         if field.model not in ("constant", "none"):
-            out.append(f"field.model: {field.model!r} is evaluated along an orbit; with orbit.enabled = "
-                       "false use 'constant' or 'none'")
+            out.append(
+                f"field.model: {field.model!r} is evaluated along an orbit; with orbit.enabled = "
+                "false use 'constant' or 'none'"
+            )
         if gravity.tidal or gravity.classical_torque or gravity.j2:
-            out.append("gravity: tidal/classical_torque/j2 need orbit.enabled = true "
-                       "(set them to false for free space)")
+            out.append(
+                "gravity: tidal/classical_torque/j2 need orbit.enabled = true (set them to false for free space)"
+            )
         if drag.enabled:
             out.append("drag.enabled: drag needs orbit.enabled = true")
         if atmosphere.model == "msis":
@@ -312,8 +336,7 @@ def check_environment(
         if sun.shadow != "none" and sun.model != "none":
             out.append("sun.shadow: the Earth shadow needs orbit.enabled = true (set sun.shadow = 'none')")
     if gravity.j2 and orbit.propagator != "j2":
-        out.append("gravity.j2: the tidal J2 term needs orbit.propagator = 'j2' (the reference orbit must "
-                   "feel J2 too)")
+        out.append("gravity.j2: the tidal J2 term needs orbit.propagator = 'j2' (the reference orbit must feel J2 too)")
     if gravity.tidal and gravity.classical_torque:
         out.append("gravity: choose tidal (every body) or classical_torque (one rigid body), not both")
     if drag.enabled and atmosphere.model == "none":
@@ -334,6 +357,12 @@ def environment_problems(tables: Any) -> list[str]:
     """:func:`check_environment` of the seven tables that ``tables`` carries as attributes
     (``orbit``, ``field``, ``atmosphere``, ``sun``, ``srp``, ``drag``, ``gravity``): an
     :class:`EnvironmentConfig` or a concept config that holds them at its top level."""
-    return check_environment(orbit=tables.orbit, field=tables.field, atmosphere=tables.atmosphere,
-                             sun=tables.sun, srp=tables.srp, drag=tables.drag, gravity=tables.gravity)
-
+    return check_environment(
+        orbit=tables.orbit,
+        field=tables.field,
+        atmosphere=tables.atmosphere,
+        sun=tables.sun,
+        srp=tables.srp,
+        drag=tables.drag,
+        gravity=tables.gravity,
+    )

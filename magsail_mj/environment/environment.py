@@ -102,8 +102,9 @@ def elements_from_config(orbit: OrbitConfig, *, jd0: float) -> OrbitalElements:
         nu0 = math.radians(orbit.true_anomaly0_deg)
     else:
         nu0 = math.radians(orbit.arg_lat0_deg or 0.0) - argp
-    return OrbitalElements(a=a, e=orbit.eccentricity, i=math.radians(orbit.inclination_deg),
-                           raan=raan, argp=argp, nu0=nu0)
+    return OrbitalElements(
+        a=a, e=orbit.eccentricity, i=math.radians(orbit.inclination_deg), raan=raan, argp=argp, nu0=nu0
+    )
 
 
 class Environment:
@@ -128,14 +129,16 @@ class Environment:
         srp = srp or SRPConfig()
         drag = drag or DragConfig()
         gravity = gravity or GravityConfig(tidal=orbit.enabled)
-        problems = check_environment(orbit=orbit, field=field, atmosphere=atmosphere, sun=sun, srp=srp,
-                                     drag=drag, gravity=gravity)
+        problems = check_environment(
+            orbit=orbit, field=field, atmosphere=atmosphere, sun=sun, srp=srp, drag=drag, gravity=gravity
+        )
         if problems:
             raise ValueError("inconsistent environment config:\n  " + "\n  ".join(problems))
         if not duration_s > 0:
             raise ValueError(f"duration_s: must be > 0 s, got {duration_s!r}")
-        self.cfg = EnvironmentConfig.model_construct(orbit=orbit, field=field, atmosphere=atmosphere,
-                                                     sun=sun, srp=srp, drag=drag, gravity=gravity)
+        self.cfg = EnvironmentConfig.model_construct(
+            orbit=orbit, field=field, atmosphere=atmosphere, sun=sun, srp=srp, drag=drag, gravity=gravity
+        )
         self.duration_s = float(duration_s)
         self.epoch: datetime = parse_epoch(orbit.epoch)
         self.jd0 = julian_date(self.epoch)
@@ -157,8 +160,14 @@ class Environment:
         self.orbit: ReferenceOrbit | None = None
         if orbit.enabled:
             self.elements = elements_from_config(orbit, jd0=self.jd0)
-            self.orbit = ReferenceOrbit(self.elements, mu=self.mu, propagator=orbit.propagator,
-                                        duration=self.t_max, J2=orbit.J2, R_j2=orbit.j2_radius_km * 1e3)
+            self.orbit = ReferenceOrbit(
+                self.elements,
+                mu=self.mu,
+                propagator=orbit.propagator,
+                duration=self.t_max,
+                J2=orbit.J2,
+                R_j2=orbit.j2_radius_km * 1e3,
+            )
             r, v = self.orbit.state(t)
             acc = self.orbit.acceleration(r)
         else:
@@ -185,9 +194,16 @@ class Environment:
         self._msis = atmosphere.model == "msis"
         if self._msis:
             lon, lat, alt_km = ecef_to_geodetic(eci_to_ecef(r, gmst))
-            rho = msis_density(_as_datetime64(self.epoch, t), lon, lat, alt_km, f107=atmosphere.f107_sfu,
-                               f107a=atmosphere.f107a_sfu, ap=atmosphere.ap,
-                               version=atmosphere.msis_version)
+            rho = msis_density(
+                _as_datetime64(self.epoch, t),
+                lon,
+                lat,
+                alt_km,
+                f107=atmosphere.f107_sfu,
+                f107a=atmosphere.f107a_sfu,
+                ap=atmosphere.ap,
+                version=atmosphere.msis_version,
+            )
             tables.append(CubicTable.spline(0.0, h, np.log(rho)[:, None]))
         self._table = CubicTable.concat(tables)
 
@@ -203,11 +219,18 @@ class Environment:
     @classmethod
     def from_config(cls, cfg: EnvironmentConfig, *, duration_s: float) -> "Environment":
         """Build from an :class:`EnvironmentConfig` (validated tables) and the run duration [s]."""
-        return cls(orbit=cfg.orbit, field=cfg.field, atmosphere=cfg.atmosphere, sun=cfg.sun,
-                   srp=cfg.srp, drag=cfg.drag, gravity=cfg.gravity, duration_s=duration_s)
+        return cls(
+            orbit=cfg.orbit,
+            field=cfg.field,
+            atmosphere=cfg.atmosphere,
+            sun=cfg.sun,
+            srp=cfg.srp,
+            drag=cfg.drag,
+            gravity=cfg.gravity,
+            duration_s=duration_s,
+        )
 
-    def _field_on_grid(self, field: FieldConfig, orbit: OrbitConfig, r: np.ndarray,
-                       gmst: np.ndarray) -> np.ndarray:
+    def _field_on_grid(self, field: FieldConfig, orbit: OrbitConfig, r: np.ndarray, gmst: np.ndarray) -> np.ndarray:
         n = len(r)
         model = field.model
         if model == "none":
@@ -240,8 +263,10 @@ class Environment:
         Raises ValueError naming ``t`` when it lies outside [0, t_max].
         """
         if not (-1e-9 <= t <= self.t_max + 1e-9):
-            raise ValueError(f"t: {t!r} s is outside the precomputed span [0, {self.t_max}] s "
-                             "(build the Environment with a longer duration_s)")
+            raise ValueError(
+                f"t: {t!r} s is outside the precomputed span [0, {self.t_max}] s "
+                "(build the Environment with a longer duration_s)"
+            )
         vd = self._table.value_and_derivative_rows(t)
         val = vd[0].tolist()
         rx, ry, rz, vx, vy, vz = val[0:6]
@@ -272,9 +297,19 @@ class Environment:
         else:
             v_rel = np.array((vx, vy, vz))
         return EnvSample(
-            t=float(t), r_ref_eci=vd[0, 0:3], v_ref_eci=vd[0, 3:6], B_eci=vd[0, 6:9], B_dot_eci=vd[1, 6:9],
-            sun_eci=sun, sun_distance_m=dist, in_shadow=shadow, srp_pressure_N_m2=P, density_kg_m3=rho,
-            v_rel_eci=v_rel, altitude_m=alt, gmst_rad=(self._gmst0 + self._gmst_rate * t) % (2.0 * math.pi),
+            t=float(t),
+            r_ref_eci=vd[0, 0:3],
+            v_ref_eci=vd[0, 3:6],
+            B_eci=vd[0, 6:9],
+            B_dot_eci=vd[1, 6:9],
+            sun_eci=sun,
+            sun_distance_m=dist,
+            in_shadow=shadow,
+            srp_pressure_N_m2=P,
+            density_kg_m3=rho,
+            v_rel_eci=v_rel,
+            altitude_m=alt,
+            gmst_rad=(self._gmst0 + self._gmst_rate * t) % (2.0 * math.pi),
         )
 
     def sample_many(self, t: np.ndarray) -> dict[str, np.ndarray]:
@@ -308,18 +343,20 @@ class Environment:
         }
         if self.elements is not None:
             el = self.elements
-            out.update({
-                "orbit_semi_major_axis_m": el.a,
-                "orbit_altitude_m": el.a - self.R_E,
-                "orbit_perigee_altitude_m": el.a * (1.0 - el.e) - self.R_E,
-                "orbit_apogee_altitude_m": el.a * (1.0 + el.e) - self.R_E,
-                "orbit_eccentricity": el.e,
-                "orbit_inclination_rad": el.i,
-                "orbit_raan_rad": el.raan,
-                "orbit_arg_perigee_rad": el.argp,
-                "orbit_true_anomaly0_rad": el.nu0,
-                "orbit_period_s": el.period(self.mu),
-            })
+            out.update(
+                {
+                    "orbit_semi_major_axis_m": el.a,
+                    "orbit_altitude_m": el.a - self.R_E,
+                    "orbit_perigee_altitude_m": el.a * (1.0 - el.e) - self.R_E,
+                    "orbit_apogee_altitude_m": el.a * (1.0 + el.e) - self.R_E,
+                    "orbit_eccentricity": el.e,
+                    "orbit_inclination_rad": el.i,
+                    "orbit_raan_rad": el.raan,
+                    "orbit_arg_perigee_rad": el.argp,
+                    "orbit_true_anomaly0_rad": el.nu0,
+                    "orbit_period_s": el.period(self.mu),
+                }
+            )
         if f.model == "igrf":
             out["field_igrf_max_degree"] = f.igrf_max_degree
         if hasattr(self, "dipole_B0_T"):

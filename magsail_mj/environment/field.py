@@ -31,8 +31,12 @@ import numpy as np
 import ppigrf
 
 from magsail_mj.environment.constants import R_IGRF
-from magsail_mj.environment.frames import (cartesian_to_spherical, ecef_to_eci, eci_to_ecef,
-                                          spherical_vector_to_cartesian)
+from magsail_mj.environment.frames import (
+    cartesian_to_spherical,
+    ecef_to_eci,
+    eci_to_ecef,
+    spherical_vector_to_cartesian,
+)
 
 __all__ = [
     "igrf_ecef",
@@ -68,9 +72,7 @@ def igrf_ecef(r_ecef: np.ndarray, date: datetime, *, max_degree: int = 13) -> np
     for s in range(0, len(r_ecef), _CHUNK):
         sl = slice(s, s + _CHUNK)
         Br, Bt, Bp = ppigrf.igrf_gc(rad[sl] / 1e3, colat_deg[sl], lon_deg[sl], d, max_degree=max_degree)
-        out[sl] = spherical_vector_to_cartesian(
-            Br[0], Bt[0], Bp[0], np.radians(colat_deg[sl]), np.radians(lon_deg[sl])
-        )
+        out[sl] = spherical_vector_to_cartesian(Br[0], Bt[0], Bp[0], np.radians(colat_deg[sl]), np.radians(lon_deg[sl]))
     return out * 1e-9
 
 

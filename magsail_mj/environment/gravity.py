@@ -32,9 +32,7 @@ def point_mass_acceleration(r: np.ndarray, *, mu: float = MU_EARTH) -> np.ndarra
     return -mu * r / rn**3
 
 
-def j2_acceleration(
-    r: np.ndarray, *, mu: float = MU_EARTH, J2: float = J2_EARTH, R: float = R_J2
-) -> np.ndarray:
+def j2_acceleration(r: np.ndarray, *, mu: float = MU_EARTH, J2: float = J2_EARTH, R: float = R_J2) -> np.ndarray:
     """J2 part of the geopotential acceleration (CNUSAIL spec §5.1), ECI = Earth axes along z:
 
     a_J2 = (3/2) J2 μ R² / r⁵ · [x(5z²/r² − 1), y(5z²/r² − 1), z(5z²/r² − 3)].
@@ -124,9 +122,7 @@ def tidal_acceleration_linear(r_ref: np.ndarray, x: np.ndarray, *, mu: float = M
     return mu / rn**3 * (3.0 * (x @ u)[:, None] * u - x)
 
 
-def gravity_gradient_torque(
-    r: np.ndarray, inertia: np.ndarray, *, mu: float = MU_EARTH
-) -> np.ndarray:
+def gravity_gradient_torque(r: np.ndarray, inertia: np.ndarray, *, mu: float = MU_EARTH) -> np.ndarray:
     """Classical gravity-gradient torque on a rigid body about its centre of mass (CNUSAIL Eq. 12):
 
         T = 3μ/|r|³ · û × (I û),   û = r/|r|,

@@ -150,10 +150,13 @@ def state_to_elements(r: np.ndarray, v: np.ndarray, *, mu: float = MU_EARTH) -> 
     # argument of perigee, angle from node to e-vector in the orbit plane
     hx = h / hn[..., None]
     nhat = nvec / np.where(nn > 0, nn, 1.0)[..., None]
-    argp = np.mod(np.arctan2(np.einsum("...i,...i->...", np.cross(nhat, evec), hx),
-                             np.einsum("...i,...i->...", nhat, evec)), two_pi)
-    u = np.mod(np.arctan2(np.einsum("...i,...i->...", np.cross(nhat, r), hx),
-                          np.einsum("...i,...i->...", nhat, r)), two_pi)
+    argp = np.mod(
+        np.arctan2(np.einsum("...i,...i->...", np.cross(nhat, evec), hx), np.einsum("...i,...i->...", nhat, evec)),
+        two_pi,
+    )
+    u = np.mod(
+        np.arctan2(np.einsum("...i,...i->...", np.cross(nhat, r), hx), np.einsum("...i,...i->...", nhat, r)), two_pi
+    )
     nu = np.mod(u - argp, two_pi)
     return {"a": a, "e": e, "i": i, "raan": raan, "argp": argp, "nu": nu, "u": u}
 
@@ -264,8 +267,7 @@ class ReferenceOrbit:
 
         y0 = np.concatenate([self.r0, self.v0])
         atol_v = np.r_[np.full(3, atol), np.full(3, atol * 1e-3)]
-        sol = solve_ivp(rhs, (0.0, duration), y0, method="DOP853", rtol=rtol, atol=atol_v,
-                        dense_output=True)
+        sol = solve_ivp(rhs, (0.0, duration), y0, method="DOP853", rtol=rtol, atol=atol_v, dense_output=True)
         if not sol.success:  # pragma: no cover - DOP853 does not fail on this smooth problem
             raise RuntimeError(f"J2 orbit propagation failed: {sol.message}")
         return sol.sol
@@ -280,8 +282,7 @@ class ReferenceOrbit:
             return kepler_propagate(self.elements, t, mu=self.mu)
         if np.any(t < -1e-9) or np.any(t > self.duration + 1e-9):
             raise ValueError(
-                f"t: must lie within the propagated span [0, {self.duration}] s, got "
-                f"[{t.min()}, {t.max()}]"
+                f"t: must lie within the propagated span [0, {self.duration}] s, got [{t.min()}, {t.max()}]"
             )
         y = self._sol(t.ravel())
         return y[:3].T.reshape(t.shape + (3,)), y[3:].T.reshape(t.shape + (3,))
@@ -292,5 +293,11 @@ class ReferenceOrbit:
 
     def with_elements(self, **changes: float) -> "ReferenceOrbit":
         """A new orbit with some epoch elements replaced (same propagator and span)."""
-        return ReferenceOrbit(replace(self.elements, **changes), mu=self.mu, propagator=self.propagator,
-                              duration=self.duration, J2=self.J2, R_j2=self.R_j2)
+        return ReferenceOrbit(
+            replace(self.elements, **changes),
+            mu=self.mu,
+            propagator=self.propagator,
+            duration=self.duration,
+            J2=self.J2,
+            R_j2=self.R_j2,
+        )

@@ -35,9 +35,7 @@ def sun_position_eci(jd: float | np.ndarray) -> np.ndarray:
     lam = lam_M + np.radians(1.914666471 * np.sin(M) + 0.019994643 * np.sin(2 * M))
     r_au = 1.000140612 - 0.016708617 * np.cos(M) - 0.000139589 * np.cos(2 * M)
     eps = np.radians(23.439291 - 0.0130042 * T)
-    return (r_au * AU)[..., None] * np.stack(
-        [np.cos(lam), np.cos(eps) * np.sin(lam), np.sin(eps) * np.sin(lam)], -1
-    )
+    return (r_au * AU)[..., None] * np.stack([np.cos(lam), np.cos(eps) * np.sin(lam), np.sin(eps) * np.sin(lam)], -1)
 
 
 def sun_right_ascension(jd: float) -> float:

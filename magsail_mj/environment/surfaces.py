@@ -130,11 +130,17 @@ class FacetSet:
         return len(self.area)
 
     @classmethod
-    def plate(cls, *, area: float, normal=(0.0, 0.0, 1.0), centre=(0.0, 0.0, 0.0),
-              optics: Optics | None = None, two_sided: bool = True) -> "FacetSet":
+    def plate(
+        cls,
+        *,
+        area: float,
+        normal=(0.0, 0.0, 1.0),
+        centre=(0.0, 0.0, 0.0),
+        optics: Optics | None = None,
+        two_sided: bool = True,
+    ) -> "FacetSet":
         """One flat plate (a sail membrane by default: two-sided)."""
-        return cls(area=[area], normal=[normal], centre=[centre], two_sided=[two_sided],
-                   optics=[optics or Optics()])
+        return cls(area=[area], normal=[normal], centre=[centre], two_sided=[two_sided], optics=[optics or Optics()])
 
     @classmethod
     def box(cls, *, size, centre=(0.0, 0.0, 0.0), optics: Optics | None = None) -> "FacetSet":
@@ -145,24 +151,30 @@ class FacetSet:
         normals = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
         half = np.array([sx, sx, sy, sy, sz, sz]) / 2
         areas = np.array([sy * sz, sy * sz, sx * sz, sx * sz, sx * sy, sx * sy])
-        return cls(area=areas, normal=normals, centre=c + normals * half[:, None],
-                   two_sided=np.zeros(6, bool), optics=[optics or Optics()] * 6)
+        return cls(
+            area=areas,
+            normal=normals,
+            centre=c + normals * half[:, None],
+            two_sided=np.zeros(6, bool),
+            optics=[optics or Optics()] * 6,
+        )
 
     @classmethod
     def concat(cls, sets: list["FacetSet"]) -> "FacetSet":
         """All facets of several sets (same body)."""
-        return cls(area=np.concatenate([s.area for s in sets]),
-                   normal=np.concatenate([s.normal for s in sets]),
-                   centre=np.concatenate([s.centre for s in sets]),
-                   two_sided=np.concatenate([s.two_sided for s in sets]),
-                   optics=[o for s in sets for o in s.optics])
+        return cls(
+            area=np.concatenate([s.area for s in sets]),
+            normal=np.concatenate([s.normal for s in sets]),
+            centre=np.concatenate([s.centre for s in sets]),
+            two_sided=np.concatenate([s.two_sided for s in sets]),
+            optics=[o for s in sets for o in s.optics],
+        )
 
 
 def optics_arrays(optics: list[Optics]) -> dict[str, np.ndarray]:
     """Per-facet coefficient arrays (r, s, B_f, B_b, e_f, e_b, swap) of a list of :class:`Optics`."""
     keys = ("r", "s", "B_f", "B_b", "e_f", "e_b", "swap_back")
-    return {k: np.array([getattr(o, k) for o in optics], dtype=float if k != "swap_back" else bool)
-            for k in keys}
+    return {k: np.array([getattr(o, k) for o in optics], dtype=float if k != "swap_back" else bool) for k in keys}
 
 
 def srp_forces(

@@ -34,9 +34,7 @@ def parse_epoch(text: str) -> datetime:
       (the range of the Julian-date formula).
     """
     if not isinstance(text, str):
-        raise ValueError(
-            f"epoch: must be an ISO 8601 UTC string such as '2020-01-01T00:00:00Z', got {text!r}"
-        )
+        raise ValueError(f"epoch: must be an ISO 8601 UTC string such as '2020-01-01T00:00:00Z', got {text!r}")
     try:
         dt = datetime.fromisoformat(text.strip().replace("z", "Z"))
     except ValueError:

@@ -22,12 +22,31 @@ from types import ModuleType
 
 from magsail_mj.concepts import concept_modules
 from magsail_mj.envs.core import (
-    ActionController, AttitudeTask, RewardWeights, SimulationPhysics, list_tasks, load, register, run_episode,
-    shipped_policy, summary_mismatches, task_entry,
+    ActionController,
+    AttitudeTask,
+    RewardWeights,
+    SimulationPhysics,
+    list_tasks,
+    load,
+    register,
+    run_episode,
+    shipped_policy,
+    summary_mismatches,
+    task_entry,
 )
 
-__all__ = ["load", "list", "shipped_policy", "run_episode", "summary_mismatches", "register", "ActionController",
-           "AttitudeTask", "RewardWeights", "SimulationPhysics"]
+__all__ = [
+    "load",
+    "list",
+    "shipped_policy",
+    "run_episode",
+    "summary_mismatches",
+    "register",
+    "ActionController",
+    "AttitudeTask",
+    "RewardWeights",
+    "SimulationPhysics",
+]
 
 list = list_tasks  # noqa: A001  (the issue's name: ``magsail_mj.envs.list()``)
 
@@ -45,8 +64,10 @@ def env_module(name: str) -> ModuleType:
         module = by_module.get(task_entry(task).factory.__module__)
         if task.partition("/")[0] == name and module is not None:
             return module
-    raise AttributeError(f"module 'magsail_mj.envs' has no attribute {name!r} (no concept or task domain of "
-                         f"that name: tasks {', '.join(list_tasks())})")
+    raise AttributeError(
+        f"module 'magsail_mj.envs' has no attribute {name!r} (no concept or task domain of "
+        f"that name: tasks {', '.join(list_tasks())})"
+    )
 
 
 def __getattr__(name: str) -> ModuleType:

@@ -69,8 +69,9 @@ def _plain(task: str, overrides: Sequence[str]) -> tuple[float, float, float]:
     return wall, cpu, float(result.t_end_s)
 
 
-def _environment(task: str, overrides: Sequence[str],
-                 options: dict[str, Any]) -> tuple[float, float, float, int, float]:
+def _environment(
+    task: str, overrides: Sequence[str], options: dict[str, Any]
+) -> tuple[float, float, float, int, float]:
     env = envs.load(task, list(overrides), randomize=False, **options)
     policy = envs.shipped_policy(env)
     clock = time.process_time
@@ -102,11 +103,22 @@ def measure(concept: str, *, repeats: int = 3) -> dict[str, Any]:
     wall_p, wall_e = min(p[0] for p in plain) / sim_p, min(e[0] for e in env) / sim_e
     cpu_p, cpu_e = min(p[1] for p in plain) / sim_p, min(e[1] for e in env) / sim_e
     cpu_x = min(e[1] - e[4] for e in env) / sim_e
-    return {"task": task, "overrides": list(overrides), "options": options, "simulated_s": sim_e,
-            "env_steps": steps, "plain_cpu_s_per_sim_s": cpu_p, "env_cpu_s_per_sim_s": cpu_e, "ratio": cpu_e / cpu_p,
-            "env_cpu_s_per_sim_s_without_policy": cpu_x, "ratio_without_policy": cpu_x / cpu_p,
-            "plain_wall_s_per_sim_s": wall_p, "env_wall_s_per_sim_s": wall_e, "wall_ratio": wall_e / wall_p,
-            "repeats": int(repeats)}
+    return {
+        "task": task,
+        "overrides": list(overrides),
+        "options": options,
+        "simulated_s": sim_e,
+        "env_steps": steps,
+        "plain_cpu_s_per_sim_s": cpu_p,
+        "env_cpu_s_per_sim_s": cpu_e,
+        "ratio": cpu_e / cpu_p,
+        "env_cpu_s_per_sim_s_without_policy": cpu_x,
+        "ratio_without_policy": cpu_x / cpu_p,
+        "plain_wall_s_per_sim_s": wall_p,
+        "env_wall_s_per_sim_s": wall_e,
+        "wall_ratio": wall_e / wall_p,
+        "repeats": int(repeats),
+    }
 
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:

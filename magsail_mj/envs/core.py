@@ -113,8 +113,14 @@ class ActionController:
       action: the initial action (the task's neutral action, e.g. zero torque).
     """
 
-    def __init__(self, *, period_s: float, convert: Callable[[StepState, np.ndarray], Any],
-                 action: np.ndarray, end_time_s: float = math.inf) -> None:
+    def __init__(
+        self,
+        *,
+        period_s: float,
+        convert: Callable[[StepState, np.ndarray], Any],
+        action: np.ndarray,
+        end_time_s: float = math.inf,
+    ) -> None:
         if not (math.isfinite(period_s) and period_s > 0):
             raise ValueError(f"period_s: must be > 0 s, got {period_s!r}")
         self.period_s = float(period_s)
@@ -149,11 +155,19 @@ def _unaliased_probes(sim: Simulation) -> dict[str, Any]:
     enter): ``magsail_mj.checkpoint.restore_state`` cannot write such an alias back, so ``reset``
     would fail (e.g. the current-loops work probe, a closure over a load's bound method). The
     objects they reach are loads, walked through the loads."""
-    nodes = StateWalker({"controller": sim.controller, "loads": list(sim.loads), "environment": sim.environment,
-                         "probes": dict(sim.probes)}).nodes()
+    nodes = StateWalker(
+        {
+            "controller": sim.controller,
+            "loads": list(sim.loads),
+            "environment": sim.environment,
+            "probes": dict(sim.probes),
+        }
+    ).nodes()
     bad = {path for path, node in nodes.items() if node.get("kind") == "alias" and path.endswith("<__self__>")}
-    return {name: functools.partial(probe) if any(p.startswith(f"probes{{{json.dumps(name)}}}") for p in bad)
-            else probe for name, probe in sim.probes.items()}
+    return {
+        name: functools.partial(probe) if any(p.startswith(f"probes{{{json.dumps(name)}}}") for p in bad) else probe
+        for name, probe in sim.probes.items()
+    }
 
 
 class SimulationPhysics(control.Physics):
@@ -251,8 +265,9 @@ class SimulationPhysics(control.Physics):
         t = sim.time
         env = sim.environment.sample(t) if sim.environment is not None else None
         kin = sim.kin
-        state = StepState(t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega, env=env,
-                          ctrl=self.controller.command)
+        state = StepState(
+            t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega, env=env, ctrl=self.controller.command
+        )
         self._state_cache = (key, state)
         return state
 
@@ -272,15 +287,22 @@ def run_so_far(runner: Any) -> RunResult:
     :class:`~magsail_mj.sim.Simulation` or a concept's own runner with the same attributes
     (``records()``, ``status``, ``message``, ``time``, ``step_index``, ``_wall_s``)."""
     status = runner.status if runner.status != "running" else "stopped"
-    return RunResult(records=runner.records(), status=status, message=runner.message, t_end_s=runner.time,
-                     steps=runner.step_index, wall_time_s=float(runner._wall_s))
+    return RunResult(
+        records=runner.records(),
+        status=status,
+        message=runner.message,
+        t_end_s=runner.time,
+        steps=runner.step_index,
+        wall_time_s=float(runner._wall_s),
+    )
 
 
 # =========================================================================== episode start
 
 
-def set_rigid_motion(physics: SimulationPhysics, *, q_wxyz: np.ndarray, omega_body_rad_s: np.ndarray,
-                     masses: np.ndarray | None = None) -> None:
+def set_rigid_motion(
+    physics: SimulationPhysics, *, q_wxyz: np.ndarray, omega_body_rad_s: np.ndarray, masses: np.ndarray | None = None
+) -> None:
     r"""Write a rigid motion into the physics' current state (at rest otherwise, undeformed).
 
     Particle bodies (three slide joints): ``x_i = c + R (p_i − c)``, ``v_i = R (ω × (p_i − c))``
@@ -301,9 +323,9 @@ def set_rigid_motion(physics: SimulationPhysics, *, q_wxyz: np.ndarray, omega_bo
         data.qpos[kin.part_q] = (p - c) @ R.T + c - p
         data.qvel[kin.part_v] = np.cross(w, p - c) @ R.T
     for qa, va in zip(kin.free_q, kin.free_v):
-        data.qpos[qa + 3:qa + 7] = q
-        data.qvel[va:va + 3] = 0.0
-        data.qvel[va + 3:va + 6] = w
+        data.qpos[qa + 3 : qa + 7] = q
+        data.qvel[va : va + 3] = 0.0
+        data.qvel[va + 3 : va + 6] = w
 
 
 def random_turn(rng: np.random.RandomState, max_angle_rad: float) -> np.ndarray:
@@ -314,8 +336,9 @@ def random_turn(rng: np.random.RandomState, max_angle_rad: float) -> np.ndarray:
     return quat_from_axis_angle(axis, rng.uniform(0.0, max_angle_rad))
 
 
-def draw_rigid_start(rng: np.random.RandomState, *, q0_wxyz: np.ndarray, rate_range_rad_s: float,
-                     attitude_range_rad: float) -> tuple[np.ndarray, np.ndarray]:
+def draw_rigid_start(
+    rng: np.random.RandomState, *, q0_wxyz: np.ndarray, rate_range_rad_s: float, attitude_range_rad: float
+) -> tuple[np.ndarray, np.ndarray]:
     """``(q, ω)``: ``q = q0 ⊗ turn`` (:func:`random_turn` within ``attitude_range_rad``) and body
     rates uniform in ``±rate_range_rad_s`` per axis [rad/s] (the rates are drawn first)."""
     omega = rng.uniform(-rate_range_rad_s, rate_range_rad_s, size=3)
@@ -379,8 +402,13 @@ class AttitudeTask(control.Task):
 
     rate_scale_rad_s: float = 1e-2
 
-    def __init__(self, random: int | np.random.RandomState | None = None, *, randomize: bool = True,
-                 reward_weights: RewardWeights | Mapping[str, float] | None = None) -> None:
+    def __init__(
+        self,
+        random: int | np.random.RandomState | None = None,
+        *,
+        randomize: bool = True,
+        reward_weights: RewardWeights | Mapping[str, float] | None = None,
+    ) -> None:
         super().__init__()
         self._random = as_random_state(random)
         self.randomize = bool(randomize)
@@ -421,8 +449,13 @@ class AttitudeTask(control.Task):
         return np.clip(np.zeros(len(self.action_names)), self.action_low, self.action_high)
 
     def action_spec(self, physics: SimulationPhysics) -> specs.BoundedArray:
-        return specs.BoundedArray(shape=(len(self.action_names),), dtype=np.float64, minimum=self.action_low,
-                                  maximum=self.action_high, name=",".join(self.action_names))
+        return specs.BoundedArray(
+            shape=(len(self.action_names),),
+            dtype=np.float64,
+            minimum=self.action_low,
+            maximum=self.action_high,
+            name=",".join(self.action_names),
+        )
 
     clip_actions: bool = True
     """Clip actions into the spec's bounds (True), or hand them on as given (False: for actions whose
@@ -538,8 +571,9 @@ class AttitudeTask(control.Task):
         theta = terms.get("theta_rad", 0.0) / math.pi
         rate = terms.get("omega_rad_s", 0.0) / self.rate_scale_rad_s
         strain = terms.get("strain", 0.0)
-        return -float(w.w_theta * theta * theta + w.w_omega * rate * rate + w.w_u * self.effort()
-                      + w.w_strain * strain * strain)
+        return -float(
+            w.w_theta * theta * theta + w.w_omega * rate * rate + w.w_u * self.effort() + w.w_strain * strain * strain
+        )
 
     def get_termination(self, physics: SimulationPhysics) -> float | None:
         """0.0 on divergence or structural failure, 1.0 when the simulation reached its duration,
@@ -601,8 +635,9 @@ def register(name: str, *, config: str | Path, matches: Callable[[Any], bool]) -
         raise ValueError(f"name: expected '<concept>/<task>', got {name!r}")
 
     def wrap(factory: Callable[..., control.Environment]) -> Callable[..., control.Environment]:
-        _REGISTRY[name] = TaskEntry(name=name, config=REPO_ROOT / config, factory=factory, matches=matches,
-                                    doc=(factory.__doc__ or "").strip())
+        _REGISTRY[name] = TaskEntry(
+            name=name, config=REPO_ROOT / config, factory=factory, matches=matches, doc=(factory.__doc__ or "").strip()
+        )
         return factory
 
     return wrap
@@ -626,12 +661,18 @@ def entry_for_config(cfg: Any, source: str) -> TaskEntry:
     for name in list_tasks():
         if _REGISTRY[name].matches(cfg):
             return _REGISTRY[name]
-    raise ValueError(f"config: {source} (concept {getattr(cfg, 'concept', None)!r}, scenario "
-                     f"{getattr(cfg, 'scenario', None)!r}) has no environment; known tasks: {', '.join(list_tasks())}")
+    raise ValueError(
+        f"config: {source} (concept {getattr(cfg, 'concept', None)!r}, scenario "
+        f"{getattr(cfg, 'scenario', None)!r}) has no environment; known tasks: {', '.join(list_tasks())}"
+    )
 
 
-def load(config: str | Path | Any, overrides: Sequence[str] = (), random: int | np.random.RandomState | None = None,
-         **task_options: Any) -> control.Environment:
+def load(
+    config: str | Path | Any,
+    overrides: Sequence[str] = (),
+    random: int | np.random.RandomState | None = None,
+    **task_options: Any,
+) -> control.Environment:
     """The environment of ``config``: a registered task name (``"cnusail/detumble"`` → its shipped
     config), a config file path or a validated config; ``overrides`` as ``--set``; ``random`` seeds
     the task; ``task_options`` go to the task (see each task's docstring)."""
@@ -642,15 +683,20 @@ def load(config: str | Path | Any, overrides: Sequence[str] = (), random: int | 
         cfg = load_config(config, list(overrides))
         entry = entry_for_config(cfg, str(config))
     else:
-        cfg = (parse_config(apply_overrides(config.model_dump(mode="json"), list(overrides)))
-               if overrides else config)
+        cfg = parse_config(apply_overrides(config.model_dump(mode="json"), list(overrides))) if overrides else config
         entry = entry_for_config(cfg, "the given config")
     return entry.factory(cfg, random=random, **task_options)
 
 
-def make_environment(cfg: Any, task_cls: type[AttitudeTask], *, random: Any = None,
-                     period_s: float | None = None, time_limit_s: float | None = None,
-                     **task_options: Any) -> control.Environment:
+def make_environment(
+    cfg: Any,
+    task_cls: type[AttitudeTask],
+    *,
+    random: Any = None,
+    period_s: float | None = None,
+    time_limit_s: float | None = None,
+    **task_options: Any,
+) -> control.Environment:
     """Build ``cfg``'s simulation, the task and the Environment (``control_timestep`` = the
     controller period, ``time_limit`` = ``sim.duration_s`` unless given)."""
     epoch_range_s = float(task_options.pop("epoch_range_s", 0.0))
@@ -670,8 +716,12 @@ def make_environment(cfg: Any, task_cls: type[AttitudeTask], *, random: Any = No
 
 
 def _action_controller(task: AttitudeTask, base: Simulation, period_s: float) -> ActionController:
-    return ActionController(period_s=period_s, convert=task.converter.command, action=task.neutral_action(),
-                            end_time_s=base.n_steps * float(base.model.opt.timestep))
+    return ActionController(
+        period_s=period_s,
+        convert=task.converter.command,
+        action=task.neutral_action(),
+        end_time_s=base.n_steps * float(base.model.opt.timestep),
+    )
 
 
 def redraw_epoch(task: AttitudeTask, physics: SimulationPhysics) -> str:
@@ -723,7 +773,6 @@ def shipped_policy(env: control.Environment) -> Callable[[dm_env.TimeStep], np.n
     gives the figures of ``magsail run`` of the same config (the episode must start from the
     config's state, ``randomize=False``)."""
     return _ShippedPolicy(env)
-
 
 
 def run_episode(env: control.Environment, policy: Callable[[dm_env.TimeStep], Any]) -> tuple[float, int]:

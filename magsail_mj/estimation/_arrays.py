@@ -29,9 +29,7 @@ def as_points(x: object, name: str, *, min_points: int = 1) -> np.ndarray:
     return a
 
 
-def as_point_series(
-    x: object, name: str, *, n: int | None = None, min_points: int = 1
-) -> np.ndarray:
+def as_point_series(x: object, name: str, *, n: int | None = None, min_points: int = 1) -> np.ndarray:
     """Return ``x`` as float64 of shape ``(n, 3)`` or ``(T, n, 3)``; check ``n`` if given."""
     a = np.asarray(x, dtype=float)
     if a.ndim not in (2, 3) or a.shape[-1] != 3:
@@ -60,9 +58,7 @@ def as_index_array(x: object, name: str, *, width: int, n_nodes: int) -> np.ndar
         raise ValueError(f"{name}: expected integer node indices, got dtype {a.dtype}")
     a = a.astype(np.int64, copy=False)
     if a.size and (a.min() < 0 or a.max() >= n_nodes):
-        raise ValueError(
-            f"{name}: node indices must lie in [0, {n_nodes}), got range [{a.min()}, {a.max()}]"
-        )
+        raise ValueError(f"{name}: node indices must lie in [0, {n_nodes}), got range [{a.min()}, {a.max()}]")
     return a
 
 
@@ -89,8 +85,7 @@ def time_chunks(n_steps: int, per_step_elems: int, *, max_elems: int = 1 << 22) 
     return [slice(s, min(s + block, n_steps)) for s in range(0, n_steps, block)]
 
 
-def map_time_blocks(fn, arrays: tuple[np.ndarray, ...], per_step_elems: int, *,
-                    max_elems: int = 1 << 22):
+def map_time_blocks(fn, arrays: tuple[np.ndarray, ...], per_step_elems: int, *, max_elems: int = 1 << 22):
     """Apply ``fn(*arrays)`` to blocks of the leading (time) axis and concatenate the results.
 
     ``arrays`` are either all single configurations (no time axis; ``fn`` is called once, with

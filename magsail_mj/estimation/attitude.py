@@ -123,9 +123,7 @@ class BestFitRotation:
         pc = p - self.p_bar
         ev = np.linalg.eigvalsh(pc.T @ pc)  # squared singular values, ascending
         if not ev[1] > 1e-12 * ev[2]:  # sigma_2 / sigma_1 < 1e-6: numerically collinear
-            raise ValueError(
-                "p_ref: points are collinear (or coincident); the rotation is undefined"
-            )
+            raise ValueError("p_ref: points are collinear (or coincident); the rotation is undefined")
         self._pcT = np.ascontiguousarray(pc.T)
         self._pc_sum = pc.sum(axis=0)
         self._w = np.full(self.n, 1.0 / self.n)
@@ -327,9 +325,7 @@ def body_rates(
 # --------------------------------------------------------------------------------------------
 # Euler angles (spec §4.3) and rotation angle
 # --------------------------------------------------------------------------------------------
-def euler_zyx(
-    R: np.ndarray, *, unwrap: bool = False
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def euler_zyx(R: np.ndarray, *, unwrap: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""ZYX intrinsic angles ``(psi, theta, phi)`` with ``R = Rz(psi) Ry(theta) Rx(phi)`` (§4.3).
 
     ``psi = atan2(R21, R11)``, ``phi = atan2(R32, R33)`` (1-based indices) and

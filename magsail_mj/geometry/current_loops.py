@@ -119,8 +119,9 @@ class Circuit:
 
     def net_flow(self, n_nodes: int) -> np.ndarray:
         """(n_nodes,) out-flow − in-flow at every node (zero for a closed circuit), in units of I."""
-        return (np.bincount(self.src, weights=self.mult, minlength=n_nodes)
-                - np.bincount(self.dst, weights=self.mult, minlength=n_nodes))
+        return np.bincount(self.src, weights=self.mult, minlength=n_nodes) - np.bincount(
+            self.dst, weights=self.mult, minlength=n_nodes
+        )
 
 
 def _strut_lookup(lattice: Lattice, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -137,8 +138,7 @@ def _strut_lookup(lattice: Lattice, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return order[at]
 
 
-def circuit_from_path(name: str, axis: int, corners: Sequence[tuple[int, int, int]], *,
-                      units: int) -> Circuit:
+def circuit_from_path(name: str, axis: int, corners: Sequence[tuple[int, int, int]], *, units: int) -> Circuit:
     """Build a :class:`Circuit` from a wire path given by its corner points.
 
     ``corners`` is a sequence of paths, each a list of integer nodes ``(i, j, ℓ)``; consecutive
@@ -157,8 +157,10 @@ def circuit_from_path(name: str, axis: int, corners: Sequence[tuple[int, int, in
             diff = q - p
             moving = np.flatnonzero(diff)
             if moving.size != 1:
-                raise ValueError(f"corners: run {tuple(p)} -> {tuple(q)} of circuit {name!r} is not "
-                                 "a straight run along one lattice axis")
+                raise ValueError(
+                    f"corners: run {tuple(p)} -> {tuple(q)} of circuit {name!r} is not "
+                    "a straight run along one lattice axis"
+                )
             ax = int(moving[0])
             steps = int(abs(diff[ax]))
             unit = np.zeros(3, dtype=np.int64)
@@ -189,8 +191,9 @@ def circuit_from_path(name: str, axis: int, corners: Sequence[tuple[int, int, in
     src = np.where(net > 0, u_lo, u_hi)[keep]
     dst = np.where(net > 0, u_hi, u_lo)[keep]
     mult = np.abs(net[keep])
-    out = Circuit(name=name, axis=int(axis), src=src, dst=dst, mult=mult,
-                  wire_src=u_lo, wire_dst=u_hi, wire_count=passes)
+    out = Circuit(
+        name=name, axis=int(axis), src=src, dst=dst, mult=mult, wire_src=u_lo, wire_dst=u_hi, wire_count=passes
+    )
     for arr in (out.src, out.dst, out.mult, out.wire_src, out.wire_dst, out.wire_count):
         arr.setflags(write=False)
     return out
@@ -211,7 +214,7 @@ def _paths_B(n: int) -> list[list[tuple[int, int, int]]]:
 
 
 def _paths_C(n: int, axis: int) -> list[list[tuple[int, int, int]]]:
-    if axis == 0:   # loops in the yz planes x = x_i
+    if axis == 0:  # loops in the yz planes x = x_i
         return [[(i, 0, 0), (i, n, 0), (i, n, 1), (i, 0, 1), (i, 0, 0)] for i in range(n + 1)]
     # loops in the xz planes y = y_j
     return [[(0, j, 1), (n, j, 1), (n, j, 0), (0, j, 0), (0, j, 1)] for j in range(n + 1)]
@@ -221,13 +224,17 @@ def _paths_D(n: int, axis: int) -> list[list[tuple[int, int, int]]]:
     """One continuous winding (spec §2.5) as a single closed path of corner points."""
     half = ceil(n / 2)
     if axis == 0:
+
         def corner(k: int, c: int) -> tuple[int, int, int]:
             return ((k, 0, 0), (k, n, 0), (k, n, 1), (k, 0, 1))[c]
-        ret = [(n, half, 0), (0, half, 0), (0, 0, 0)]        # bottom layer return
+
+        ret = [(n, half, 0), (0, half, 0), (0, 0, 0)]  # bottom layer return
     else:
+
         def corner(k: int, c: int) -> tuple[int, int, int]:
             return ((0, k, 1), (n, k, 1), (n, k, 0), (0, k, 0))[c]
-        ret = [(half, n, 1), (half, 0, 1), (0, 0, 1)]        # top layer return
+
+        ret = [(half, n, 1), (half, 0, 1), (0, 0, 1)]  # top layer return
     path = [corner(0, 0)]
     c = 0
     for k in range(n + 1):
@@ -235,8 +242,8 @@ def _paths_D(n: int, axis: int) -> list[list[tuple[int, int, int]]]:
             c = (c + 1) % 4
             path.append(corner(k, c))
         if k < n:
-            path.append(corner(k + 1, c))                  # unit step along +axis
-    while c != 0:                                          # closure: (n+1) mod 4 sides
+            path.append(corner(k + 1, c))  # unit step along +axis
+    while c != 0:  # closure: (n+1) mod 4 sides
         c = (c + 1) % 4
         path.append(corner(n, c))
     path.extend(ret)
@@ -257,7 +264,7 @@ def circuit(lattice: Lattice, name: str) -> Circuit:
     else:
         paths = _paths_D(n, AXIS_OF[name])
     c = circuit_from_path(name, AXIS_OF[name], paths, units=n)
-    c.strut_index(lattice)          # every segment must lie on a lattice strut
+    c.strut_index(lattice)  # every segment must lie on a lattice strut
     return c
 
 
@@ -270,8 +277,7 @@ def expand_names(names: Iterable[str]) -> list[str]:
         parts = COMPOSITES.get(nm, (nm,))
         for p in parts:
             if p not in CIRCUIT_NAMES:
-                raise ValueError(f"names: {nm!r} is not a circuit; allowed: "
-                                 f"{CIRCUIT_NAMES + tuple(COMPOSITES)}")
+                raise ValueError(f"names: {nm!r} is not a circuit; allowed: {CIRCUIT_NAMES + tuple(COMPOSITES)}")
             if p in out:
                 raise ValueError(f"names: circuit {p!r} appears twice in {list(names)!r}")
             out.append(p)

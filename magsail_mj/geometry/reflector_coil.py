@@ -105,26 +105,26 @@ def coil_y(d: float, L: float, h: float | None = None, *, p: int = 2, n_row: int
     n_col = n // p
     if n_col < 1:
         raise ValueError(f"pitch_cells: {p} exceeds the {n} cells per side")
-    corner = [(0.0, -h / 2), (L, -h / 2), (L, +h / 2), (0.0, +h / 2)]   # (dx, z) offsets
+    corner = [(0.0, -h / 2), (L, -h / 2), (L, +h / 2), (0.0, +h / 2)]  # (dx, z) offsets
     pts: list[tuple[float, float, float]] = []
     c = 0
     for j in range(n_col):
         X = -d / 2 + j * p * L
         rows = list(range(n_row)) if j % 2 == 0 else list(reversed(range(n_row)))
-        if j > 0:                                          # connector along +x
+        if j > 0:  # connector along +x
             dx, z = corner[c]
             y = -d / 2 + rows[0] * L
             for s in range(1, p + 1):
                 pts.append((X - p * L + dx + s * L, y, z))
         for i, k in enumerate(rows):
             y = -d / 2 + k * L
-            for s in range(4):                             # 3/4 turn: 4 nodes, 3 segments
+            for s in range(4):  # 3/4 turn: 4 nodes, 3 segments
                 dx, z = corner[(c + s) % 4]
                 P = (X + dx, y, z)
                 if not pts or pts[-1] != P:
                     pts.append(P)
             c = (c + 3) % 4
-            if i < n_row - 1:                              # step in y
+            if i < n_row - 1:  # step in y
                 dx, z = corner[c]
                 y2 = -d / 2 + rows[i + 1] * L
                 pts.append((X + dx, y2, z))
@@ -168,15 +168,16 @@ def square_loop(side: float, L: float, *, z: float, d: float | None = None) -> n
     if d is not None and side > d * (1 + 1e-12):
         raise ValueError(f"side: the loop ({side!r} m) must fit in the structure (side_m = {d!r} m)")
     m = 2 * k
-    s = np.arange(m) * L - side / 2                       # m steps per edge
+    s = np.arange(m) * L - side / 2  # m steps per edge
     e = np.full(m, side / 2)
     xs = np.concatenate([s, e, -s, -e, [-side / 2]])
     ys = np.concatenate([-e, s, e, -s, [-side / 2]])
     return np.column_stack([xs, ys, np.full(xs.size, float(z))])
 
 
-def reflector_paths(d: float, L: float, h: float | None = None, *, p: int = 2,
-                    n_row: int | None = None, zloop_side: float | None = None) -> dict[str, CoilPath]:
+def reflector_paths(
+    d: float, L: float, h: float | None = None, *, p: int = 2, n_row: int | None = None, zloop_side: float | None = None
+) -> dict[str, CoilPath]:
     """The baseline set of paths: y-coil, x-coil and (if ``zloop_side``) the in-plane loop."""
     n, h = _check_lattice(d, L, h)
     out = {

@@ -36,12 +36,12 @@ __all__ = [
 
 # Strut kinds, in the order they are generated.
 STRUT_KINDS = (
-    "x_edge",        # (i,j,k)-(i+1,j,k)
-    "y_edge",        # (i,j,k)-(i,j+1,k)
-    "vertical",      # (i,j,0)-(i,j,1)
-    "xy_diagonal",   # diagonal of a top/bottom face
-    "xz_diagonal",   # diagonal of a vertical face in the x1-z1 plane
-    "yz_diagonal",   # diagonal of a vertical face in the y1-z1 plane
+    "x_edge",  # (i,j,k)-(i+1,j,k)
+    "y_edge",  # (i,j,k)-(i,j+1,k)
+    "vertical",  # (i,j,0)-(i,j,1)
+    "xy_diagonal",  # diagonal of a top/bottom face
+    "xz_diagonal",  # diagonal of a vertical face in the x1-z1 plane
+    "yz_diagonal",  # diagonal of a vertical face in the y1-z1 plane
 )
 
 
@@ -217,24 +217,31 @@ def make_lattice(*, units: int, side_m: float, diagonals: Literal["parity", "X"]
 
     # Top/bottom faces (x-y plane), corners (i,j),(i+1,j+1) vs (i+1,j),(i,j+1).
     kk, jj, ii = (g.ravel() for g in np.meshgrid(np.arange(2), np.arange(n), np.arange(n), indexing="ij"))
-    face_diagonals("xy_diagonal", idx(ii, jj, kk), idx(ii + 1, jj + 1, kk),
-                   idx(ii + 1, jj, kk), idx(ii, jj + 1, kk), ii + jj + kk)
+    face_diagonals(
+        "xy_diagonal", idx(ii, jj, kk), idx(ii + 1, jj + 1, kk), idx(ii + 1, jj, kk), idx(ii, jj + 1, kk), ii + jj + kk
+    )
     # Vertical faces in the x-z plane (fixed j): corners (i,k=0),(i+1,k=1) vs (i+1,0),(i,1).
     jj, ii = (g.ravel() for g in np.meshgrid(np.arange(N), np.arange(n), indexing="ij"))
-    face_diagonals("xz_diagonal", idx(ii, jj, 0), idx(ii + 1, jj, 1),
-                   idx(ii + 1, jj, 0), idx(ii, jj, 1), ii + jj)
+    face_diagonals("xz_diagonal", idx(ii, jj, 0), idx(ii + 1, jj, 1), idx(ii + 1, jj, 0), idx(ii, jj, 1), ii + jj)
     # Vertical faces in the y-z plane (fixed i).
     jj, ii = (g.ravel() for g in np.meshgrid(np.arange(n), np.arange(N), indexing="ij"))
-    face_diagonals("yz_diagonal", idx(ii, jj, 0), idx(ii, jj + 1, 1),
-                   idx(ii, jj + 1, 0), idx(ii, jj, 1), ii + jj)
+    face_diagonals("yz_diagonal", idx(ii, jj, 0), idx(ii, jj + 1, 1), idx(ii, jj + 1, 0), idx(ii, jj, 1), ii + jj)
 
     struts = np.concatenate(pairs).astype(np.int64)
     kind = np.concatenate(kinds).astype(np.int8)
     rest = np.linalg.norm(nodes[struts[:, 1]] - nodes[struts[:, 0]], axis=1)
     for arr in (nodes, struts, kind, rest, ijk):
         arr.setflags(write=False)
-    return Lattice(units=n, side_m=float(side_m), diagonals=diagonals, nodes=nodes,
-                   struts=struts, kind=kind, rest_length=rest, ijk=ijk)
+    return Lattice(
+        units=n,
+        side_m=float(side_m),
+        diagonals=diagonals,
+        nodes=nodes,
+        struts=struts,
+        kind=kind,
+        rest_length=rest,
+        ijk=ijk,
+    )
 
 
 def axial_rigidity_from_EI(EI_Nm2: float, *, nodes_per_side: int, cube_edge_m: float) -> float:
@@ -255,11 +262,11 @@ def stiffness_matrix(positions: np.ndarray, struts: np.ndarray, k: np.ndarray):
     """
     e = positions[struts[:, 1]] - positions[struts[:, 0]]
     e /= np.linalg.norm(e, axis=1, keepdims=True)
-    blocks = np.asarray(k)[:, None, None] * e[:, :, None] * e[:, None, :]   # (S,3,3)
+    blocks = np.asarray(k)[:, None, None] * e[:, :, None] * e[:, None, :]  # (S,3,3)
     a, b = struts[:, 0], struts[:, 1]
     r3 = np.arange(3)
     rows, cols, vals = [], [], []
-    for (p, q, sign) in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
+    for p, q, sign in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
         rr = (3 * p[:, None, None] + r3[None, :, None]) + 0 * r3[None, None, :]
         cc = (3 * q[:, None, None] + r3[None, None, :]) + 0 * r3[None, :, None]
         rows.append(rr.ravel())

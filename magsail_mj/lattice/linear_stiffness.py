@@ -80,8 +80,16 @@ class LinearStiffnessLoad:
 
     name = "linear_stiffness"
 
-    def __init__(self, *, nodes: np.ndarray, struts: np.ndarray, k: np.ndarray, masses: np.ndarray,
-                 form: Literal["paper_literal", "corotational"] = "paper_literal", body_offset: int = 1) -> None:
+    def __init__(
+        self,
+        *,
+        nodes: np.ndarray,
+        struts: np.ndarray,
+        k: np.ndarray,
+        masses: np.ndarray,
+        form: Literal["paper_literal", "corotational"] = "paper_literal",
+        body_offset: int = 1,
+    ) -> None:
         nodes = np.asarray(nodes, dtype=float)
         if nodes.ndim != 2 or nodes.shape[1] != 3:
             raise ValueError(f"nodes: expected shape (n, 3), got {nodes.shape}")
@@ -115,11 +123,11 @@ class LinearStiffnessLoad:
         """
         R = self.rotation(pos)
         if self.form == "paper_literal":
-            u = pos - self._r0 @ R.T                                  # r − R_θ r₀
+            u = pos - self._r0 @ R.T  # r − R_θ r₀
             F = -(self.K @ u.reshape(-1)).reshape(self.n, 3)
         else:
             c = (self.masses @ pos) / self.masses.sum()
-            u = (pos - c) @ R - self._ref_c                           # R_θᵀ(r − c) − (r₀ − c₀)
+            u = (pos - c) @ R - self._ref_c  # R_θᵀ(r − c) − (r₀ − c₀)
             F = -(self.K @ u.reshape(-1)).reshape(self.n, 3) @ R.T
         self.last_R = R
         self.last_forces = F

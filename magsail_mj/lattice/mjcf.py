@@ -104,22 +104,39 @@ def build_truss_spec(
     spec.visual.map.znear = 0.01
     spec.visual.map.zfar = 50.0
 
-    spec.worldbody.add_light(name="sun", pos=[0, 0, 3 * lattice.side_m], dir=[0, 0, -1],
-                             type=int(mujoco.mjtLightType.mjLIGHT_DIRECTIONAL), diffuse=[0.8, 0.8, 0.8])
+    spec.worldbody.add_light(
+        name="sun",
+        pos=[0, 0, 3 * lattice.side_m],
+        dir=[0, 0, -1],
+        type=int(mujoco.mjtLightType.mjLIGHT_DIRECTIONAL),
+        diffuse=[0.8, 0.8, 0.8],
+    )
     axes = np.eye(3)
     for i in range(n):
         body = spec.worldbody.add_body(name=f"n{i}", pos=lattice.nodes[i].tolist())
         if i not in fixed:
             for ax, axis in zip("xyz", axes):
-                body.add_joint(name=f"n{i}_{ax}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis.tolist(),
-                               damping=float(options.node_damping_1_s * masses[i]))
-        body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0], contype=0,
-                      conaffinity=0, mass=float(masses[i]), rgba=list(NODE_RGBA), group=1)
+                body.add_joint(
+                    name=f"n{i}_{ax}",
+                    type=mujoco.mjtJoint.mjJNT_SLIDE,
+                    axis=axis.tolist(),
+                    damping=float(options.node_damping_1_s * masses[i]),
+                )
+        body.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_SPHERE,
+            size=[radius, 0, 0],
+            contype=0,
+            conaffinity=0,
+            mass=float(masses[i]),
+            rgba=list(NODE_RGBA),
+            group=1,
+        )
         body.add_site(name=f"s{i}", size=[radius * 0.5, 0, 0], group=5)
     for s in range(S):
         p, q = lattice.struts[s]
-        tendon = spec.add_tendon(name=f"t{s}", stiffness=float(stiffness[s]),
-                                 damping=float(damping[s]), width=width, rgba=list(STRUT_RGBA))
+        tendon = spec.add_tendon(
+            name=f"t{s}", stiffness=float(stiffness[s]), damping=float(damping[s]), width=width, rgba=list(STRUT_RGBA)
+        )
         tendon.springlength = [float(lattice.rest_length[s]), float(lattice.rest_length[s])]
         tendon.wrap_site(f"s{p}")
         tendon.wrap_site(f"s{q}")

@@ -43,8 +43,14 @@ from typing import Iterator, Literal
 import mujoco
 import numpy as np
 
-from magsail_mj.lattice.modes import (LowRankCaughey, Modes, caughey_low_rank, caughey_matrix, damping_ratios,
-                                       lattice_modes)
+from magsail_mj.lattice.modes import (
+    LowRankCaughey,
+    Modes,
+    caughey_low_rank,
+    caughey_matrix,
+    damping_ratios,
+    lattice_modes,
+)
 from magsail_mj.loads.base import StepState
 
 __all__ = ["ModalDampingLoad", "weighted_best_fit_rotation", "passive_damping", "PassiveDamping"]
@@ -94,9 +100,17 @@ class ModalDampingLoad:
 
     name = "modal_damping"
 
-    def __init__(self, *, modes: Modes, nodes: np.ndarray, gamma: np.ndarray | LowRankCaughey,
-                 frame: Literal["body", "inertial"] = "body", dtype=np.float32, body_offset: int = 1,
-                 remove_rigid: bool = True) -> None:
+    def __init__(
+        self,
+        *,
+        modes: Modes,
+        nodes: np.ndarray,
+        gamma: np.ndarray | LowRankCaughey,
+        frame: Literal["body", "inertial"] = "body",
+        dtype=np.float32,
+        body_offset: int = 1,
+        remove_rigid: bool = True,
+    ) -> None:
         nodes = np.asarray(nodes, dtype=float)
         n = modes.masses.size
         if nodes.shape != (n, 3):
@@ -136,12 +150,24 @@ class ModalDampingLoad:
         self._sl = slice(self.body_offset, self.body_offset + n)
 
     @classmethod
-    def for_lattice(cls, *, nodes: np.ndarray, struts: np.ndarray, k: np.ndarray, masses: np.ndarray,
-                    schedule: Literal["paper_max", "capped_rayleigh"] = "paper_max",
-                    xi_low: float = 0.01, n_low: int = 100, xi_cap: float = 10.0,
-                    form: Literal["dense", "low_rank"] = "dense",
-                    frame: Literal["body", "inertial"] = "body", dtype=np.float32,
-                    body_offset: int = 1, cache_dir=None, modes: Modes | None = None) -> "ModalDampingLoad":
+    def for_lattice(
+        cls,
+        *,
+        nodes: np.ndarray,
+        struts: np.ndarray,
+        k: np.ndarray,
+        masses: np.ndarray,
+        schedule: Literal["paper_max", "capped_rayleigh"] = "paper_max",
+        xi_low: float = 0.01,
+        n_low: int = 100,
+        xi_cap: float = 10.0,
+        form: Literal["dense", "low_rank"] = "dense",
+        frame: Literal["body", "inertial"] = "body",
+        dtype=np.float32,
+        body_offset: int = 1,
+        cache_dir=None,
+        modes: Modes | None = None,
+    ) -> "ModalDampingLoad":
         """Modes (cached, or ``modes`` if given), schedule and γ of a free lattice in one call.
 
         ``form="low_rank"`` (only sensible with ``"capped_rayleigh"``) returns a load applying
@@ -151,12 +177,15 @@ class ModalDampingLoad:
             raise ValueError(f"form: must be 'dense' or 'low_rank', got {form!r}")
         if modes is None:
             modes = lattice_modes(nodes, struts, k, masses, cache_dir=cache_dir)
-        xi = damping_ratios(modes.omega, n_rigid=modes.n_rigid, schedule=schedule, xi_low=xi_low,
-                            n_low=n_low, xi_cap=xi_cap)
-        gamma = (caughey_matrix(modes, xi, dtype=dtype) if form == "dense"
-                 else caughey_low_rank(modes, xi, n_low=n_low, xi_low=xi_low))
-        load = cls(modes=modes, nodes=nodes, gamma=gamma, frame=frame, dtype=dtype,
-                   body_offset=body_offset)
+        xi = damping_ratios(
+            modes.omega, n_rigid=modes.n_rigid, schedule=schedule, xi_low=xi_low, n_low=n_low, xi_cap=xi_cap
+        )
+        gamma = (
+            caughey_matrix(modes, xi, dtype=dtype)
+            if form == "dense"
+            else caughey_low_rank(modes, xi, n_low=n_low, xi_low=xi_low)
+        )
+        load = cls(modes=modes, nodes=nodes, gamma=gamma, frame=frame, dtype=dtype, body_offset=body_offset)
         load.ratios = xi
         return load
 
@@ -189,7 +218,7 @@ class ModalDampingLoad:
         Also sets :attr:`last_power_W` and :attr:`last_R`.
         """
         R = self.rotation(pos)
-        v_body = (vel @ R).reshape(-1)                   # R^T v_i for every node
+        v_body = (vel @ R).reshape(-1)  # R^T v_i for every node
         g = self.gamma_apply(v_body).reshape(self.n, 3)
         F = -(g @ R.T)
         self.last_R = R
@@ -229,8 +258,9 @@ class PassiveDamping:
         if np.any(jn != 3):
             raise ValueError("model: every damped node must have exactly three slide joints")
         ja = model.body_jntadr[bodies][:, None] + np.arange(3)
-        if (np.any(model.jnt_type[ja] != mujoco.mjtJoint.mjJNT_SLIDE)
-                or not np.allclose(model.jnt_axis[ja], np.broadcast_to(np.eye(3), ja.shape + (3,)))):
+        if np.any(model.jnt_type[ja] != mujoco.mjtJoint.mjJNT_SLIDE) or not np.allclose(
+            model.jnt_axis[ja], np.broadcast_to(np.eye(3), ja.shape + (3,))
+        ):
             raise ValueError("model: node joints must be world-aligned x, y, z slide joints")
         self.model = model
         self.load = load

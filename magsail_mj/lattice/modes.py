@@ -148,7 +148,7 @@ def _key(nodes, struts, kn, mn, n_rigid) -> str:
         a = np.asarray(a, dtype=float)
         digits = 12 - int(np.ceil(np.log10(np.abs(a).max() + 1e-300)))
         h.update(np.asarray(a.shape, dtype=np.int64).tobytes())
-        h.update((np.round(a, digits) + 0.0).tobytes())        # + 0.0 turns -0.0 into 0.0
+        h.update((np.round(a, digits) + 0.0).tobytes())  # + 0.0 turns -0.0 into 0.0
     h.update(struts.tobytes())
     return h.hexdigest()[:24]
 
@@ -159,7 +159,7 @@ def _solve(nodes, struts, kn, mn) -> tuple[np.ndarray, np.ndarray]:
     A = K * s[:, None] * s[None, :]
     A = 0.5 * (A + A.T)
     lam, psi = linalg.eigh(A, driver="evd", overwrite_a=True, check_finite=False)
-    psi *= s[:, None]                                   # phi = M^-1/2 psi
+    psi *= s[:, None]  # phi = M^-1/2 psi
     return lam, psi
 
 
@@ -203,7 +203,7 @@ def lattice_modes(
             if lam.shape != (ndof,) or psi.shape != (ndof, ndof) or not np.all(np.isfinite(lam)):
                 raise ValueError(f"{path}: cached modes of the wrong shape")
         except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
-            lam = psi = None                             # unreadable/truncated cache: recompute, rewrite
+            lam = psi = None  # unreadable/truncated cache: recompute, rewrite
     if lam is None:
         lam, psi = _solve(nodes, struts, kn, mn)
         if use_cache:
@@ -213,7 +213,8 @@ def lattice_modes(
     if n_rigid and n_rigid < lam.size and not abs(lam[n_rigid - 1]) <= 1e-8 * lam[n_rigid]:
         raise ValueError(
             f"n_rigid: the {n_rigid} lowest eigenvalues are not rigid modes "
-            f"(lambda[{n_rigid - 1}] = {lam[n_rigid - 1]:.3e}, lambda[{n_rigid}] = {lam[n_rigid]:.3e})")
+            f"(lambda[{n_rigid - 1}] = {lam[n_rigid - 1]:.3e}, lambda[{n_rigid}] = {lam[n_rigid]:.3e})"
+        )
     eigvals = lam * (s_k / s_m)
     omega = np.sqrt(np.clip(eigvals, 0.0, None))
     omega[:n_rigid] = 0.0
@@ -279,12 +280,18 @@ def damping_ratios(
     return xi
 
 
-def schedule_record(*, schedule: str, xi_low: float = 0.01, n_low: int = 100, xi_cap: float = 10.0,
-                    n_rigid: int = 6) -> dict:
+def schedule_record(
+    *, schedule: str, xi_low: float = 0.01, n_low: int = 100, xi_cap: float = 10.0, n_rigid: int = 6
+) -> dict:
     """The damping-schedule choices as a flat dict for a run manifest."""
-    return {"damping_schedule": schedule, "damping_xi_low": xi_low, "damping_n_low": n_low,
-            "damping_xi_cap": xi_cap, "damping_mode_counting": MODE_COUNTING,
-            "damping_n_rigid_excluded": n_rigid}
+    return {
+        "damping_schedule": schedule,
+        "damping_xi_low": xi_low,
+        "damping_n_low": n_low,
+        "damping_xi_cap": xi_cap,
+        "damping_mode_counting": MODE_COUNTING,
+        "damping_n_rigid_excluded": n_rigid,
+    }
 
 
 def _check_modes(modes: Modes, ratios: np.ndarray) -> np.ndarray:
@@ -310,7 +317,7 @@ def caughey_matrix(modes: Modes, ratios: np.ndarray, *, dtype=np.float64) -> np.
     ratios = _check_modes(modes, ratios)
     c = 2.0 * ratios * modes.omega
     use = np.flatnonzero(c > 0)
-    U = modes.mass_diag[:, None] * modes.phi[:, use]    # M Phi
+    U = modes.mass_diag[:, None] * modes.phi[:, use]  # M Phi
     G = (U * c[use]) @ U.T
     G = 0.5 * (G + G.T)
     return G.astype(dtype, copy=False)
@@ -348,8 +355,9 @@ class LowRankCaughey:
         return self.U @ (self.d * (self.U.T @ v))
 
 
-def caughey_low_rank(modes: Modes, ratios: np.ndarray, *, n_low: int = 100, xi_low: float | None = None,
-                     rtol: float = 1e-9) -> LowRankCaughey:
+def caughey_low_rank(
+    modes: Modes, ratios: np.ndarray, *, n_low: int = 100, xi_low: float | None = None, rtol: float = 1e-9
+) -> LowRankCaughey:
     r"""Split :math:`\boldsymbol\gamma` into strut damping :math:`c\mathbf K` plus a low-rank part.
 
     :math:`c=2\cdot2\xi_{n_{low}}/\omega_{n_{low}}` makes :math:`c\,\omega_n^2=2\xi_n\omega_n`
@@ -398,11 +406,13 @@ class StabilityProducts:
     limit_held: float = 2.0
 
     def as_dict(self) -> dict:
-        return {"stability_2xi_omega_dt": self.damping_product,
-                "stability_fastest_root_dt": self.fastest_root_product,
-                "stability_omega_max_dt": self.omega_max_dt,
-                "stability_limit_passive": self.limit_passive,
-                "stability_limit_held": self.limit_held}
+        return {
+            "stability_2xi_omega_dt": self.damping_product,
+            "stability_fastest_root_dt": self.fastest_root_product,
+            "stability_omega_max_dt": self.omega_max_dt,
+            "stability_limit_passive": self.limit_passive,
+            "stability_limit_held": self.limit_held,
+        }
 
 
 def stability_products(omega: np.ndarray, ratios: np.ndarray, *, dt: float) -> StabilityProducts:
@@ -414,6 +424,8 @@ def stability_products(omega: np.ndarray, ratios: np.ndarray, *, dt: float) -> S
     if not dt > 0:
         raise ValueError(f"dt: must be > 0, got {dt!r}")
     root = np.where(ratios > 1.0, omega * (ratios + np.sqrt(np.maximum(ratios**2 - 1.0, 0.0))), omega)
-    return StabilityProducts(damping_product=float(np.max(2.0 * ratios * omega) * dt),
-                             fastest_root_product=float(np.max(root) * dt),
-                             omega_max_dt=float(np.max(omega) * dt))
+    return StabilityProducts(
+        damping_product=float(np.max(2.0 * ratios * omega) * dt),
+        fastest_root_product=float(np.max(root) * dt),
+        omega_max_dt=float(np.max(omega) * dt),
+    )

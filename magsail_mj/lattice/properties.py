@@ -13,7 +13,11 @@ import numpy as np
 from scipy.sparse.linalg import spsolve
 
 from magsail_mj.lattice.geometry import (
-    Lattice, axial_rigidity_from_EI, make_lattice, node_index, stiffness_matrix,
+    Lattice,
+    axial_rigidity_from_EI,
+    make_lattice,
+    node_index,
+    stiffness_matrix,
 )
 
 __all__ = [
@@ -71,8 +75,7 @@ def cantilever_linear(lattice: Lattice, k: np.ndarray, *, load_N: float) -> Cant
     u[free] = spsolve(K[free][:, free], f[free])
     delta = -float(np.mean(u[3 * tip + 2]))
     L = lattice.side_m
-    return CantileverResult(load_N=load_N, length_m=L, tip_deflection_m=delta,
-                            EI_eff_Nm2=load_N * L**3 / (3.0 * delta))
+    return CantileverResult(load_N=load_N, length_m=L, tip_deflection_m=delta, EI_eff_Nm2=load_N * L**3 / (3.0 * delta))
 
 
 @lru_cache(maxsize=32)
@@ -106,8 +109,7 @@ def strut_stiffness(lattice: Lattice, *, EI_Nm2: float, calibration: str = "cant
     if not EI_Nm2 > 0:
         raise ValueError(f"EI_Nm2: must be > 0, got {EI_Nm2!r}")
     c = calibration_factor(lattice, calibration)
-    EA = c * axial_rigidity_from_EI(EI_Nm2, nodes_per_side=lattice.nodes_per_side,
-                                    cube_edge_m=lattice.cube_edge_m)
+    EA = c * axial_rigidity_from_EI(EI_Nm2, nodes_per_side=lattice.nodes_per_side, cube_edge_m=lattice.cube_edge_m)
     return EA / lattice.rest_length, c
 
 

@@ -33,8 +33,9 @@ class NodeTrajectory:
         :data:`magsail_mj.records.BLOCK_BYTES`).
     """
 
-    def __init__(self, records: Any, to_positions: Callable[[np.ndarray], np.ndarray], *,
-                 budget_bytes: int | None = None):
+    def __init__(
+        self, records: Any, to_positions: Callable[[np.ndarray], np.ndarray], *, budget_bytes: int | None = None
+    ):
         budget_bytes = _records.BLOCK_BYTES if budget_bytes is None else budget_bytes
         if budget_bytes <= 0:
             raise ValueError(f"budget_bytes: must be positive, got {budget_bytes}")
@@ -61,7 +62,7 @@ class NodeTrajectory:
         if not -n <= k < n:
             raise IndexError(f"k: record {k} out of range for {n} records")
         k = k % n
-        return self.to_positions(np.asarray(self.records[k:k + 1]))[0]
+        return self.to_positions(np.asarray(self.records[k : k + 1]))[0]
 
     def blocks(self) -> Iterator[np.ndarray]:
         """Consecutive blocks of node positions (B, n, 3) [m], in order, covering every record once."""

@@ -173,8 +173,9 @@ class MagnetorquerCycle:
         for key in ("cycle_s", "blank_s"):
             n = getattr(self, key) / self.timestep_s
             if abs(n - round(n)) > 1e-9 * max(1.0, n):
-                raise ValueError(f"{key}: must be a whole multiple of the timestep {self.timestep_s} s, "
-                                 f"got {getattr(self, key)!r}")
+                raise ValueError(
+                    f"{key}: must be a whole multiple of the timestep {self.timestep_s} s, got {getattr(self, key)!r}"
+                )
         n_cycle = int(round(self.cycle_s / self.timestep_s))
         object.__setattr__(self, "steps_per_cycle", n_cycle)
         object.__setattr__(self, "steps_on", n_cycle - int(round(self.blank_s / self.timestep_s)))
@@ -268,8 +269,15 @@ class DCMotorParams:
     i_max_A: float | None = None
 
     def __post_init__(self) -> None:
-        for key in ("spin_inertia_kg_m2", "torque_max_N_m", "speed_max_rpm", "K_M_N_m_A", "K_b_V_s_rad",
-                    "R_ohm", "V_max_V"):
+        for key in (
+            "spin_inertia_kg_m2",
+            "torque_max_N_m",
+            "speed_max_rpm",
+            "K_M_N_m_A",
+            "K_b_V_s_rad",
+            "R_ohm",
+            "V_max_V",
+        ):
             if not getattr(self, key) > 0:
                 raise ValueError(f"{key}: must be > 0, got {getattr(self, key)!r}")
         for key in ("L_H", "K_B_N_m_s"):
@@ -321,9 +329,14 @@ class WheelDriver:
     (``self.current_A``).
     """
 
-    def __init__(self, params: DCMotorParams | None = None, *, model: Literal["dc_motor", "ideal"] = "dc_motor",
-                 electrical: Literal["quasi_static", "substep"] = "quasi_static",
-                 n_substeps: int | None = None) -> None:
+    def __init__(
+        self,
+        params: DCMotorParams | None = None,
+        *,
+        model: Literal["dc_motor", "ideal"] = "dc_motor",
+        electrical: Literal["quasi_static", "substep"] = "quasi_static",
+        n_substeps: int | None = None,
+    ) -> None:
         if model not in ("dc_motor", "ideal"):
             raise ValueError(f"model: must be 'dc_motor' or 'ideal', got {model!r}")
         if electrical not in ("quasi_static", "substep"):

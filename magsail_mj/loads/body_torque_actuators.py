@@ -68,9 +68,15 @@ def requested_torque(state: StepState) -> np.ndarray:
     return np.zeros(3) if T is None else np.asarray(T, dtype=float)
 
 
-def coil_torque(T_request_body: np.ndarray, B_body: np.ndarray, *,
-                saturation: Literal["norm", "field_scaled", "per_path"], cap_N_m: float, B_ref_T: float,
-                m_max_A_m2: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+def coil_torque(
+    T_request_body: np.ndarray,
+    B_body: np.ndarray,
+    *,
+    saturation: Literal["norm", "field_scaled", "per_path"],
+    cap_N_m: float,
+    B_ref_T: float,
+    m_max_A_m2: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, bool]:
     """``(m, m × B, saturated)``: the coil dipole [A m²] and the torque it delivers [N m] for a request.
 
     The achievable torque is the request's component ⊥ B, saturated
@@ -78,8 +84,14 @@ def coil_torque(T_request_body: np.ndarray, B_body: np.ndarray, *,
     dipole ⊥ B that makes it. All vectors in the same (body) axes; a zero field gives zero.
     """
     B = np.asarray(B_body, dtype=float)
-    T_act, saturated = project_and_saturate(np.asarray(T_request_body, dtype=float), B, saturation=saturation,
-                                            cap_N_m=cap_N_m, B_ref_T=B_ref_T, m_max_A_m2=m_max_A_m2)
+    T_act, saturated = project_and_saturate(
+        np.asarray(T_request_body, dtype=float),
+        B,
+        saturation=saturation,
+        cap_N_m=cap_N_m,
+        B_ref_T=B_ref_T,
+        m_max_A_m2=m_max_A_m2,
+    )
     B2 = float(B @ B)
     m = cross3(B, T_act) / B2 if B2 > 0 else np.zeros(3)
     return m, cross3(m, B), saturated
@@ -112,8 +124,13 @@ class LatticeAttitude:
       omega0_body: (3,) body rate reported at the first call [rad/s].
     """
 
-    def __init__(self, reference_nodes: np.ndarray, *, node_bodies: np.ndarray | None = None,
-                 omega0_body: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
+    def __init__(
+        self,
+        reference_nodes: np.ndarray,
+        *,
+        node_bodies: np.ndarray | None = None,
+        omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
+    ) -> None:
         self.fit = BestFitRotation(reference_nodes)
         n = self.fit.n
         nb = np.arange(1, n + 1) if node_bodies is None else np.asarray(node_bodies, dtype=np.int64)
@@ -155,8 +172,10 @@ class _BodyTorqueActuator:
 
     def probes(self) -> dict[str, Callable[[StepState, Any], Any]]:
         """``torque_request_body_Nm`` and ``torque_delivered_body_Nm`` of the last applied step."""
-        return {"torque_request_body_Nm": lambda s, d: self.requested_body_Nm,
-                "torque_delivered_body_Nm": lambda s, d: self.delivered_body_Nm}
+        return {
+            "torque_request_body_Nm": lambda s, d: self.requested_body_Nm,
+            "torque_delivered_body_Nm": lambda s, d: self.delivered_body_Nm,
+        }
 
 
 class StrutBodyTorqueActuator(_BodyTorqueActuator):
@@ -170,13 +189,20 @@ class StrutBodyTorqueActuator(_BodyTorqueActuator):
 
     name = "strut_body_torque"
 
-    def __init__(self, lattice: Lattice, *, struts: np.ndarray | None = None,
-                 torque_axis: Literal["local", "bestfit"] = "local", body_offset: int = 1) -> None:
+    def __init__(
+        self,
+        lattice: Lattice,
+        *,
+        struts: np.ndarray | None = None,
+        torque_axis: Literal["local", "bestfit"] = "local",
+        body_offset: int = 1,
+    ) -> None:
         super().__init__()
         if struts is None:
             struts = np.concatenate([lattice.struts_of_kind(kind, layer=1) for kind in ("x_edge", "y_edge")])
-        self.pairs = StrutTorqueLoad(lattice, struts, command=requested_torque, torque_axis=torque_axis,
-                                     body_offset=body_offset)
+        self.pairs = StrutTorqueLoad(
+            lattice, struts, command=requested_torque, torque_axis=torque_axis, body_offset=body_offset
+        )
         self.attitude = LatticeAttitude(lattice.nodes, node_bodies=np.arange(lattice.n_nodes) + body_offset)
 
     def couple_world(self, pos: np.ndarray) -> np.ndarray:
@@ -208,8 +234,9 @@ class WheelBodyTorqueActuator(_BodyTorqueActuator):
 
     name = "wheel_body_torque"
 
-    def __init__(self, driver: WheelDriver, *, wheel_qvel: Sequence[int], wheel_act: Sequence[int],
-                 timestep_s: float) -> None:
+    def __init__(
+        self, driver: WheelDriver, *, wheel_qvel: Sequence[int], wheel_act: Sequence[int], timestep_s: float
+    ) -> None:
         super().__init__()
         self.driver = driver
         self.wheel_qvel = np.asarray(wheel_qvel, dtype=int)
@@ -254,9 +281,16 @@ class CoilBodyTorqueActuator(_BodyTorqueActuator):
 
     name = "coil_body_torque"
 
-    def __init__(self, body_id: int, *, field_body: Callable[[float, np.ndarray], np.ndarray],
-                 saturation: Literal["norm", "field_scaled", "per_path"], cap_N_m: float, B_ref_T: float,
-                 m_max_A_m2: Sequence[float]) -> None:
+    def __init__(
+        self,
+        body_id: int,
+        *,
+        field_body: Callable[[float, np.ndarray], np.ndarray],
+        saturation: Literal["norm", "field_scaled", "per_path"],
+        cap_N_m: float,
+        B_ref_T: float,
+        m_max_A_m2: Sequence[float],
+    ) -> None:
         super().__init__()
         if saturation not in ("norm", "field_scaled", "per_path"):
             raise ValueError(f"saturation: must be 'norm', 'field_scaled' or 'per_path', got {saturation!r}")
@@ -268,8 +302,12 @@ class CoilBodyTorqueActuator(_BodyTorqueActuator):
                 raise ValueError(f"{key}: must be > 0, got {v!r}")
         self.body_id = int(body_id)
         self.field_body = field_body
-        self.limits = {"saturation": saturation, "cap_N_m": float(cap_N_m), "B_ref_T": float(B_ref_T),
-                       "m_max_A_m2": m_max}
+        self.limits = {
+            "saturation": saturation,
+            "cap_N_m": float(cap_N_m),
+            "B_ref_T": float(B_ref_T),
+            "m_max_A_m2": m_max,
+        }
         self.dipole_body_Am2 = np.zeros(3)
         self.B_body_T = np.zeros(3)
         self.saturated = False
@@ -285,8 +323,12 @@ class CoilBodyTorqueActuator(_BodyTorqueActuator):
 
     def probes(self) -> dict[str, Callable[[StepState, Any], Any]]:
         """Request and delivered torque, ``dipole_body_Am2``, ``B_body_T`` and ``saturated`` (0/1)."""
-        return {**super().probes(), "dipole_body_Am2": lambda s, d: self.dipole_body_Am2,
-                "B_body_T": lambda s, d: self.B_body_T, "saturated": lambda s, d: np.int8(self.saturated)}
+        return {
+            **super().probes(),
+            "dipole_body_Am2": lambda s, d: self.dipole_body_Am2,
+            "B_body_T": lambda s, d: self.B_body_T,
+            "saturated": lambda s, d: np.int8(self.saturated),
+        }
 
 
 # ----------------------------------------------------------------------------- per spacecraft
@@ -296,8 +338,10 @@ def _concept(sim: Any) -> str:
     cfg = getattr(sim, "cfg", None)
     concept = getattr(cfg, "concept", None)
     if concept not in ("truss_magnetorquer", "cnusail", "reflector") or getattr(sim, "scenario", None) is None:
-        raise ValueError(f"sim: body-torque actuators exist for a loaded truss_magnetorquer, cnusail or reflector "
-                         f"simulation (magsail_mj.load), got concept {concept!r}")
+        raise ValueError(
+            f"sim: body-torque actuators exist for a loaded truss_magnetorquer, cnusail or reflector "
+            f"simulation (magsail_mj.load), got concept {concept!r}"
+        )
     return concept
 
 
@@ -307,8 +351,9 @@ def attitude_sensor(sim: Any) -> RigidBodyAttitude | LatticeAttitude:
     concept, sc = _concept(sim), sim.scenario
     if concept == "truss_magnetorquer":
         lat = sc.tm.lattice
-        return LatticeAttitude(lat.nodes, node_bodies=np.arange(lat.n_nodes) + 1,
-                               omega0_body=sc.cfg.initial.omega0_rad_s)
+        return LatticeAttitude(
+            lat.nodes, node_bodies=np.arange(lat.n_nodes) + 1, omega0_body=sc.cfg.initial.omega0_rad_s
+        )
     return RigidBodyAttitude(sc.idx.bus if concept == "cnusail" else sc.idx.plate)
 
 
@@ -325,13 +370,20 @@ def body_torque_actuator(sim: Any) -> StrutBodyTorqueActuator | WheelBodyTorqueA
     if concept == "cnusail":
         w = cfg.actuators.wheels
         driver = WheelDriver(w.motor_params(), model=w.model, electrical=w.electrical)
-        return WheelBodyTorqueActuator(driver, wheel_qvel=sc.idx.wheel_qvel, wheel_act=sc.idx.wheel_act,
-                                       timestep_s=cfg.sim.timestep_s)
+        return WheelBodyTorqueActuator(
+            driver, wheel_qvel=sc.idx.wheel_qvel, wheel_act=sc.idx.wheel_act, timestep_s=cfg.sim.timestep_s
+        )
     if cfg.field.model == "dipole":
         orbit = sc.orbit
         field = lambda t, R: R.T @ orbit.field(t)  # noqa: E731
     else:
         field = sc.field_body_fn()
     mode = cfg.control.saturation_mode
-    return CoilBodyTorqueActuator(sc.idx.plate, field_body=field, saturation="per_path" if mode == "box" else mode,
-                                  cap_N_m=sc.cap.cap_N_m, B_ref_T=cfg.coil.B_ref_T, m_max_A_m2=sc.cap.m_max_A_m2)
+    return CoilBodyTorqueActuator(
+        sc.idx.plate,
+        field_body=field,
+        saturation="per_path" if mode == "box" else mode,
+        cap_N_m=sc.cap.cap_N_m,
+        B_ref_T=cfg.coil.B_ref_T,
+        m_max_A_m2=sc.cap.m_max_A_m2,
+    )

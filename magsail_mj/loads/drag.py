@@ -34,8 +34,9 @@ class RigidDragLoad(RigidFacetLoad):
 
     name = "drag"
 
-    def __init__(self, body_id: int, facets: FacetSet, *, drag_coefficient: float = 2.2,
-                 apply_force: bool = True) -> None:
+    def __init__(
+        self, body_id: int, facets: FacetSet, *, drag_coefficient: float = 2.2, apply_force: bool = True
+    ) -> None:
         if not drag_coefficient > 0:
             raise ValueError(f"drag_coefficient: must be > 0, got {drag_coefficient!r}")
         super().__init__(body_id, facets, apply_force=apply_force)
@@ -64,8 +65,7 @@ class LatticeDragLoad:
 
     name = "drag_lattice"
 
-    def __init__(self, cells, *, drag_coefficient: float = 2.2, two_sided: bool = True,
-                 body_offset: int = 1) -> None:
+    def __init__(self, cells, *, drag_coefficient: float = 2.2, two_sided: bool = True, body_offset: int = 1) -> None:
         cells = np.asarray(cells, dtype=np.int64)
         if cells.ndim != 2 or cells.shape[1] != 4:
             raise ValueError(f"cells: must have shape (ncell, 4), got {cells.shape}")

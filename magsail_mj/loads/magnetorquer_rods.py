@@ -102,12 +102,19 @@ def rod_array(lattice: Lattice) -> RodArray:
     h = lattice.side_m / 2
     for arr in (struts, ends, fam, mid):
         arr.setflags(write=False)
-    return RodArray(struts=struts, family=fam, ends=ends, sites_xy=mid[:, :2].copy(),
-                    n_per_family=(int(s1.size), int(s2.size)), region=(-h, -h, h, h))
+    return RodArray(
+        struts=struts,
+        family=fam,
+        ends=ends,
+        sites_xy=mid[:, :2].copy(),
+        n_per_family=(int(s1.size), int(s2.size)),
+        region=(-h, -h, h, h),
+    )
 
 
-def rod_dipole_Am2(*, kappa_Am2_per_kg: float, rod_mass_kg: float, rods_per_family: Sequence[int],
-                   basis: DipoleBasis = "per_family") -> tuple[float, float]:
+def rod_dipole_Am2(
+    *, kappa_Am2_per_kg: float, rod_mass_kg: float, rods_per_family: Sequence[int], basis: DipoleBasis = "per_family"
+) -> tuple[float, float]:
     """Dipole of one rod in each family [A m²] (spec §9.1, §12 item O4).
 
     ``per_family``: ``m_f = κ_τ M_τ / n_f`` (the full ``κ_τ M_τ`` per family);
@@ -173,11 +180,20 @@ class MagnetorquerRodLoad:
 
     name = "magnetorquer_rods"
 
-    def __init__(self, lattice: Lattice, *, m_rod_Am2: float | Sequence[float],
-                 B_eci: Sequence[float] | None = None, body_offset: int = 1):
+    def __init__(
+        self,
+        lattice: Lattice,
+        *,
+        m_rod_Am2: float | Sequence[float],
+        B_eci: Sequence[float] | None = None,
+        body_offset: int = 1,
+    ):
         self.rods = rod_array(lattice)
-        m = np.broadcast_to(np.asarray(m_rod_Am2, dtype=float), (2,)) if np.ndim(m_rod_Am2) == 0 \
+        m = (
+            np.broadcast_to(np.asarray(m_rod_Am2, dtype=float), (2,))
+            if np.ndim(m_rod_Am2) == 0
             else np.asarray(m_rod_Am2, dtype=float)
+        )
         if m.shape != (2,) or not np.all(np.isfinite(m)) or np.any(m < 0):
             raise ValueError(f"m_rod_Am2: expected one or two numbers >= 0 [A m²], got {m_rod_Am2!r}")
         self.m_rod_Am2 = (float(m[0]), float(m[1]))
@@ -200,13 +216,21 @@ class MagnetorquerRodLoad:
         self._held_dip: np.ndarray | None = None
 
     @classmethod
-    def from_basis(cls, lattice: Lattice, *, kappa_Am2_per_kg: float, rod_mass_kg: float,
-                   basis: DipoleBasis = "per_family", B_eci: Sequence[float] | None = None,
-                   body_offset: int = 1) -> "MagnetorquerRodLoad":
+    def from_basis(
+        cls,
+        lattice: Lattice,
+        *,
+        kappa_Am2_per_kg: float,
+        rod_mass_kg: float,
+        basis: DipoleBasis = "per_family",
+        B_eci: Sequence[float] | None = None,
+        body_offset: int = 1,
+    ) -> "MagnetorquerRodLoad":
         """Load whose rod dipoles follow the §9.1 basis (§12 item O4), see :func:`rod_dipole_Am2`."""
         rods = rod_array(lattice)
-        m = rod_dipole_Am2(kappa_Am2_per_kg=kappa_Am2_per_kg, rod_mass_kg=rod_mass_kg,
-                           rods_per_family=rods.n_per_family, basis=basis)
+        m = rod_dipole_Am2(
+            kappa_Am2_per_kg=kappa_Am2_per_kg, rod_mass_kg=rod_mass_kg, rods_per_family=rods.n_per_family, basis=basis
+        )
         return cls(lattice, m_rod_Am2=m, B_eci=B_eci, body_offset=body_offset)
 
     @property
@@ -219,8 +243,9 @@ class MagnetorquerRodLoad:
         if self.B_fixed is not None:
             return self.B_fixed
         if state.env is None:
-            raise ValueError("state.env: the rod load needs an environment sample with B_eci "
-                             "(or a fixed B_eci at construction)")
+            raise ValueError(
+                "state.env: the rod load needs an environment sample with B_eci (or a fixed B_eci at construction)"
+            )
         return np.asarray(state.env.B_eci, dtype=float)
 
     def polarity(self, state: StepState) -> np.ndarray:
@@ -238,8 +263,9 @@ class MagnetorquerRodLoad:
         """``polarity`` as an (n_rods,) int array in {−1, 0, +1}, or a ValueError naming it."""
         pol = np.asarray(polarity)
         if pol.shape != (self.n_rods,) or pol.dtype.kind not in "iub":
-            raise ValueError(f"polarity: expected an ({self.n_rods},) integer array, "
-                             f"got shape {pol.shape} dtype {pol.dtype}")
+            raise ValueError(
+                f"polarity: expected an ({self.n_rods},) integer array, got shape {pol.shape} dtype {pol.dtype}"
+            )
         if pol.size and (pol.min() < -1 or pol.max() > 1):
             raise ValueError("polarity: values must be -1, 0 or +1")
         return pol
@@ -291,7 +317,7 @@ class MagnetorquerRodLoad:
             return
         B = self.field(state)
         n = self.n_rods
-        ends = state.pos.take(self._ji, axis=0)           # rows: r_j of every rod, then r_i
+        ends = state.pos.take(self._ji, axis=0)  # rows: r_j of every rod, then r_i
         F = rod_pair_forces(ends[n:], ends[:n], dip, B)
         xfrc[:, :3] += self._incidence(xfrc.shape[0]) @ F
 
@@ -316,4 +342,3 @@ class MagnetorquerRodLoad:
         out = np.zeros(int(n_tendons), dtype=np.int8)
         out[self.rods.struts] = self.last_polarity
         return out
-

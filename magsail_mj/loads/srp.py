@@ -67,8 +67,7 @@ class LatticeSRPLoad:
 
     name = "srp_lattice"
 
-    def __init__(self, cells, *, optics: Optics | None = None, two_sided: bool = True,
-                 body_offset: int = 1) -> None:
+    def __init__(self, cells, *, optics: Optics | None = None, two_sided: bool = True, body_offset: int = 1) -> None:
         cells = np.asarray(cells, dtype=np.int64)
         if cells.ndim != 2 or cells.shape[1] != 4:
             raise ValueError(f"cells: must have shape (ncell, 4), got {cells.shape}")

@@ -71,9 +71,15 @@ class StrutTorqueLoad:
 
     name = "strut_torque"
 
-    def __init__(self, lattice: Lattice, struts: np.ndarray, *,
-                 command: Callable[[StepState], np.ndarray], torque_axis: str = "local",
-                 body_offset: int = 1):
+    def __init__(
+        self,
+        lattice: Lattice,
+        struts: np.ndarray,
+        *,
+        command: Callable[[StepState], np.ndarray],
+        torque_axis: str = "local",
+        body_offset: int = 1,
+    ):
         struts = np.asarray(struts, dtype=int)
         if struts.ndim != 1 or struts.size == 0:
             raise ValueError("struts: expected a non-empty 1-D index array")
@@ -85,15 +91,15 @@ class StrutTorqueLoad:
         is_x = (dij[:, 0] == 1) & (dij[:, 1] == 0) & (dij[:, 2] == 0)
         if not np.all(is_x | is_y):
             raise ValueError("struts: every actuated strut must be an x1- or y1-edge")
-        N2 = lattice.nodes_per_side ** 2
-        col = lambda nodes: (nodes % N2)  # bottom node of each column  # noqa: E731
+        N2 = lattice.nodes_per_side**2
+        col = lambda nodes: nodes % N2  # bottom node of each column  # noqa: E731
         self.i = ends[:, 0] + body_offset
         self.j = ends[:, 1] + body_offset
         self.i_bot, self.i_top = col(ends[:, 0]) + body_offset, col(ends[:, 0]) + N2 + body_offset
         self.j_bot, self.j_top = col(ends[:, 1]) + body_offset, col(ends[:, 1]) + N2 + body_offset
-        self.w1 = np.where(is_y, 1.0 / max(is_y.sum(), 1), 0.0)    # share of τ₁ (about û ≈ +x1)
-        self.w2 = np.where(is_x, -1.0 / max(is_x.sum(), 1), 0.0)   # share of τ₂ (û ≈ −y1)
-        self.w3 = np.full(struts.size, 1.0 / struts.size)          # share of τ₃ (about n̂)
+        self.w1 = np.where(is_y, 1.0 / max(is_y.sum(), 1), 0.0)  # share of τ₁ (about û ≈ +x1)
+        self.w2 = np.where(is_x, -1.0 / max(is_x.sum(), 1), 0.0)  # share of τ₂ (û ≈ −y1)
+        self.w3 = np.full(struts.size, 1.0 / struts.size)  # share of τ₃ (about n̂)
         self.struts = struts
         self.command = command
         self.torque_axis = torque_axis
@@ -117,7 +123,7 @@ class StrutTorqueLoad:
         if self.torque_axis == "local":
             n = (pos[self.i_top] - pos[self.i_bot]) + (pos[self.j_top] - pos[self.j_bot])
         else:
-            R, _ = best_fit_rotation(self._ref, pos[self.body_offset:self.body_offset + self._ref.shape[0]])
+            R, _ = best_fit_rotation(self._ref, pos[self.body_offset : self.body_offset + self._ref.shape[0]])
             n = np.broadcast_to(R[:, 2], (self.struts.size, 3))
         a, c = self.strut_torques(tau)
         F = strut_couple_forces(pos[self.i], pos[self.j], n, a, c)

@@ -50,8 +50,9 @@ class TidalGravityLoad:
 
     name = "tidal_gravity"
 
-    def __init__(self, body_ids, masses, *, mu: float = MU_EARTH, j2: bool = False,
-                 J2: float = J2_EARTH, R_j2: float = R_J2) -> None:
+    def __init__(
+        self, body_ids, masses, *, mu: float = MU_EARTH, j2: bool = False, J2: float = J2_EARTH, R_j2: float = R_J2
+    ) -> None:
         ids = np.asarray(body_ids, dtype=np.int64).ravel()
         m = np.asarray(masses, dtype=float).ravel()
         if ids.shape != m.shape:
@@ -107,8 +108,9 @@ class GravityGradientTorqueLoad:
         if I.shape == (3,):
             I = np.diag(I)
         if I.shape != (3, 3) or not np.allclose(I, I.T):
-            raise ValueError("inertia_body: must be a symmetric (3, 3) tensor or 3 principal moments, "
-                             f"got shape {I.shape}")
+            raise ValueError(
+                f"inertia_body: must be a symmetric (3, 3) tensor or 3 principal moments, got shape {I.shape}"
+            )
         self.body_id = int(body_id)
         self.inertia_body = I
         self.mu = float(mu)

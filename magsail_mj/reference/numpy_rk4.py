@@ -34,15 +34,15 @@ import numpy as np
 from magsail_mj.lattice.mjcf import node_positions_from_qpos
 from magsail_mj.loads.base import Load, StepState
 
-__all__ = ["SpringMassLattice", "spring_forces", "load_forces_from", "rk4_run", "from_truss_scenario",
-           "ExternalForce"]
+__all__ = ["SpringMassLattice", "spring_forces", "load_forces_from", "rk4_run", "from_truss_scenario", "ExternalForce"]
 
 ExternalForce = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 """``f(t, x, v) -> F`` (n, 3) external forces [N] on the particles."""
 
 
-def spring_forces(x: np.ndarray, v: np.ndarray, struts: np.ndarray, k: np.ndarray, l0: np.ndarray,
-                  gamma: np.ndarray | float) -> np.ndarray:
+def spring_forces(
+    x: np.ndarray, v: np.ndarray, struts: np.ndarray, k: np.ndarray, l0: np.ndarray, gamma: np.ndarray | float
+) -> np.ndarray:
     r"""Total strut force on every particle, ``F_i = Σ_j k(ℓ−l0) r̂ + γ(ṙ·r̂) r̂`` (spec §2.4).
 
     Args:
@@ -52,8 +52,7 @@ def spring_forces(x: np.ndarray, v: np.ndarray, struts: np.ndarray, k: np.ndarra
     Returns:
       (n, 3) forces [N].
     """
-    return SpringMassLattice(masses=np.ones(x.shape[0]), struts=struts, k=k, l0=l0,
-                             gamma=gamma).forces(x, v)
+    return SpringMassLattice(masses=np.ones(x.shape[0]), struts=struts, k=k, l0=l0, gamma=gamma).forces(x, v)
 
 
 @dataclass
@@ -109,7 +108,7 @@ class SpringMassLattice:
             vf = v.reshape(-1)
             dv = (vf.take(self._ib) - vf.take(self._ia)).reshape(S, 3)
             f += self.gamma * np.einsum("ij,ij->i", dv, e)
-        F = (e * f[:, None]).reshape(-1)                    # force on node i (= −force on j)
+        F = (e * f[:, None]).reshape(-1)  # force on node i (= −force on j)
         m3 = 3 * self.n
         return (np.bincount(self._ia, F, minlength=m3) - np.bincount(self._ib, F, minlength=m3)).reshape(self.n, 3)
 
@@ -122,16 +121,16 @@ class SpringMassLattice:
         """``½ Σ_i m_i |v_i|²`` [J]."""
         return 0.5 * float(np.sum(self.masses * np.einsum("ij,ij->i", v, v)))
 
-    def acceleration(self, t: float, x: np.ndarray, v: np.ndarray,
-                     external: ExternalForce | None) -> np.ndarray:
+    def acceleration(self, t: float, x: np.ndarray, v: np.ndarray, external: ExternalForce | None) -> np.ndarray:
         """``(F_spring + F_ext(t, x, v)) / m`` (zero on clamped nodes) [m/s²]."""
         F = self.forces(x, v)
         if external is not None:
             F += external(t, x, v)
         return F * self._inv_m
 
-    def rk4_step(self, t: float, x: np.ndarray, v: np.ndarray, dt: float,
-                 external: ExternalForce | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def rk4_step(
+        self, t: float, x: np.ndarray, v: np.ndarray, dt: float, external: ExternalForce | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """One classical RK4 step of ``ẋ = v, v̇ = a(t, x, v)``; the load is evaluated per stage."""
         h2 = 0.5 * dt
         a1 = self.acceleration(t, x, v, external)
@@ -146,8 +145,9 @@ class SpringMassLattice:
         return x_new, v_new
 
 
-def load_forces_from(loads: list[Load] | tuple[Load, ...], n_nodes: int, *,
-                     body_offset: int = 1, environment=None) -> ExternalForce:
+def load_forces_from(
+    loads: list[Load] | tuple[Load, ...], n_nodes: int, *, body_offset: int = 1, environment=None
+) -> ExternalForce:
     """Adapt runner loads (which add into ``xfrc_applied``) to ``F(t, x, v)`` on the particles.
 
     Node ``i`` is body ``i + body_offset``; the loads see a :class:`StepState` with the node
@@ -177,9 +177,17 @@ def load_forces_from(loads: list[Load] | tuple[Load, ...], n_nodes: int, *,
     return external
 
 
-def rk4_run(system: SpringMassLattice, x0: np.ndarray, v0: np.ndarray, *, dt: float, duration: float,
-            external: ExternalForce | None = None, record_every: int = 0,
-            t0: float = 0.0) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+def rk4_run(
+    system: SpringMassLattice,
+    x0: np.ndarray,
+    v0: np.ndarray,
+    *,
+    dt: float,
+    duration: float,
+    external: ExternalForce | None = None,
+    record_every: int = 0,
+    t0: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
     """Integrate ``round(duration/dt)`` RK4 steps from ``(x0, v0)`` at ``t0``.
 
     Returns the final ``(x, v)`` and, when ``record_every > 0``, the records ``{"t", "x"}``
@@ -212,11 +220,18 @@ def from_truss_scenario(scenario) -> tuple[SpringMassLattice, ExternalForce | No
     """
     tm = scenario.tm
     lat = tm.lattice
-    system = SpringMassLattice(masses=tm.masses, struts=lat.struts, k=tm.k, l0=lat.rest_length,
-                               gamma=tm.gamma, fixed=np.asarray(tm.fixed_nodes, dtype=np.intp))
+    system = SpringMassLattice(
+        masses=tm.masses,
+        struts=lat.struts,
+        k=tm.k,
+        l0=lat.rest_length,
+        gamma=tm.gamma,
+        fixed=np.asarray(tm.fixed_nodes, dtype=np.intp),
+    )
     loads = scenario.loads()
-    external = (load_forces_from(loads, lat.n_nodes, environment=getattr(scenario, "environment", None))
-                if loads else None)
+    external = (
+        load_forces_from(loads, lat.n_nodes, environment=getattr(scenario, "environment", None)) if loads else None
+    )
     data = mujoco.MjData(scenario.model)
     scenario.init_state(data)
     x0 = node_positions_from_qpos(scenario.model, data.qpos, n_nodes=lat.n_nodes)

@@ -44,8 +44,23 @@ __all__ = [
 #: The headless backends this module chooses between, in fallback order.
 HEADLESS_BACKENDS = ("osmesa", "egl")
 #: the values MuJoCo's GL context accepts on Linux (it raises at import for any other)
-_MUJOCO_GL_VALUES = ("enable", "enabled", "on", "true", "1", "glfw", "", "glx", "egl", "osmesa",
-                     "disable", "disabled", "off", "false", "0")
+_MUJOCO_GL_VALUES = (
+    "enable",
+    "enabled",
+    "on",
+    "true",
+    "1",
+    "glfw",
+    "",
+    "glx",
+    "egl",
+    "osmesa",
+    "disable",
+    "disabled",
+    "off",
+    "false",
+    "0",
+)
 
 INSTALL_HINT = (
     "Install the OSMesa software renderer (works without a GPU or display): "
@@ -105,15 +120,22 @@ def ensure_gl_backend() -> str:
         return current
     choice = "osmesa" if osmesa_available() else "egl"
     if unusable:  # MuJoCo would refuse to import under it: every verb would fail, not only rendering
-        warnings.warn(f"MUJOCO_GL={current!r} is not a backend MuJoCo can use here (one of "
-                      f"{', '.join(sorted(set(_MUJOCO_GL_VALUES) - {''}))}; osmesa needs libOSMesa); "
-                      f"using MUJOCO_GL={choice!r}", RuntimeWarning, stacklevel=2)
+        warnings.warn(
+            f"MUJOCO_GL={current!r} is not a backend MuJoCo can use here (one of "
+            f"{', '.join(sorted(set(_MUJOCO_GL_VALUES) - {''}))}; osmesa needs libOSMesa); "
+            f"using MUJOCO_GL={choice!r}",
+            RuntimeWarning,
+            stacklevel=2,
+        )
         os.environ.pop("PYOPENGL_PLATFORM", None)
     platform = os.environ.get("PYOPENGL_PLATFORM", "").strip().lower()
     if platform and platform != choice:
         warnings.warn(
             f"PYOPENGL_PLATFORM={platform!r} conflicts with the chosen MUJOCO_GL={choice!r}; "
-            f"setting PYOPENGL_PLATFORM={choice!r}", RuntimeWarning, stacklevel=2)
+            f"setting PYOPENGL_PLATFORM={choice!r}",
+            RuntimeWarning,
+            stacklevel=2,
+        )
     os.environ["MUJOCO_GL"] = choice
     os.environ["PYOPENGL_PLATFORM"] = choice
     if "mujoco" in sys.modules and _loaded_backend() != choice:
@@ -121,7 +143,9 @@ def ensure_gl_backend() -> str:
             "mujoco was imported before magsail_mj chose its GL backend "
             f"(MUJOCO_GL is read at import time); {choice!r} will be switched to when the "
             "first renderer is created. Import magsail_mj before mujoco, or set MUJOCO_GL.",
-            RuntimeWarning, stacklevel=2)
+            RuntimeWarning,
+            stacklevel=2,
+        )
     return choice
 
 
@@ -152,8 +176,11 @@ def _switch_backend(name: str) -> None:
     and re-imported under ``PYOPENGL_PLATFORM=name``.
     """
     for key in list(sys.modules):
-        if key == "OpenGL" or key.startswith("OpenGL.") or key.split(".")[:2] in (
-                ["mujoco", "osmesa"], ["mujoco", "egl"]):
+        if (
+            key == "OpenGL"
+            or key.startswith("OpenGL.")
+            or key.split(".")[:2] in (["mujoco", "osmesa"], ["mujoco", "egl"])
+        ):
             del sys.modules[key]
     os.environ["MUJOCO_GL"] = name
     os.environ["PYOPENGL_PLATFORM"] = name
@@ -162,8 +189,7 @@ def _switch_backend(name: str) -> None:
     gl_context.GLContext = module.GLContext
 
 
-def _try_renderer(model: "mujoco.MjModel", width: int, height: int, max_geom: int,
-                  backend: str) -> "mujoco.Renderer":
+def _try_renderer(model: "mujoco.MjModel", width: int, height: int, max_geom: int, backend: str) -> "mujoco.Renderer":
     import mujoco
 
     if _loaded_backend() != backend:
@@ -171,8 +197,7 @@ def _try_renderer(model: "mujoco.MjModel", width: int, height: int, max_geom: in
     return mujoco.Renderer(model, height=height, width=width, max_geom=max_geom)
 
 
-def make_renderer(model: "mujoco.MjModel", *, width: int, height: int,
-                  max_geom: int = 10000) -> "mujoco.Renderer":
+def make_renderer(model: "mujoco.MjModel", *, width: int, height: int, max_geom: int = 10000) -> "mujoco.Renderer":
     """Create a :class:`mujoco.Renderer`, falling back between OSMesa and EGL.
 
     The model's offscreen framebuffer (``model.vis.global_.offwidth/offheight``) is enlarged in
@@ -216,8 +241,10 @@ def make_renderer(model: "mujoco.MjModel", *, width: int, height: int,
             warnings.warn(
                 f"could not create a MuJoCo renderer with MUJOCO_GL={wanted!r} "
                 f"({errors[0].split(': ', 1)[1]}); fell back to MUJOCO_GL={backend!r}",
-                RuntimeWarning, stacklevel=2)
+                RuntimeWarning,
+                stacklevel=2,
+            )
         return renderer
     raise GLBackendError(
-        "no OpenGL backend could create a MuJoCo renderer:\n" + "\n".join(errors) + "\n"
-        + INSTALL_HINT)
+        "no OpenGL backend could create a MuJoCo renderer:\n" + "\n".join(errors) + "\n" + INSTALL_HINT
+    )

@@ -190,8 +190,7 @@ def _check_camera(camera: object, what: str) -> dict[str, float]:
         except (TypeError, ValueError):
             raise RenderError(f"{what}.{key}: expected a number, got {value!r}") from None
         if not math.isfinite(v) or (key == "distance_m" and v <= 0):
-            raise RenderError(f"{what}.{key}: must be finite{' and > 0' if key == 'distance_m' else ''}, "
-                             f"got {value!r}")
+            raise RenderError(f"{what}.{key}: must be finite{' and > 0' if key == 'distance_m' else ''}, got {value!r}")
         out[key] = v
     return out
 
@@ -224,8 +223,9 @@ def _read_series(path: Path, *, name: str) -> dict[str, np.ndarray]:
     except RenderError:
         raise
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
-        raise RenderError(f"{name}: cannot read {str(path)!r} as an .npz archive "
-                          f"({type(exc).__name__}: {exc})") from None
+        raise RenderError(
+            f"{name}: cannot read {str(path)!r} as an .npz archive ({type(exc).__name__}: {exc})"
+        ) from None
 
 
 class Frames:
@@ -250,13 +250,13 @@ class Frames:
             raise IndexError(f"row {i} outside 0 … {self.shape[0] - 1}")
         a = i // self.step * self.step
         if self._cached is None or self._cached[0] != a:
-            self._cached = (a, np.asarray(self.array[a:min(a + self.step, self.shape[0])], dtype=self.dtype))
+            self._cached = (a, np.asarray(self.array[a : min(a + self.step, self.shape[0])], dtype=self.dtype))
         return self._cached[1][i - a]
 
     def blocks(self) -> Iterator[tuple[int, np.ndarray]]:
         """``(first row, rows)`` of each chunk, in order."""
         for a in range(0, self.shape[0], self.step):
-            yield a, np.asarray(self.array[a:min(a + self.step, self.shape[0])], dtype=self.dtype)
+            yield a, np.asarray(self.array[a : min(a + self.step, self.shape[0])], dtype=self.dtype)
 
     def head(self, rows: int) -> "Frames":
         """The first ``rows`` rows."""
@@ -288,8 +288,7 @@ def _activity_values_ok(activity: Any) -> bool:
     return all(not rows.size or np.all(np.isin(rows, (-1, 0, 1))) for _, rows in blocks)
 
 
-def _overlay_names(overlay: object, arrays: Mapping[str, np.ndarray], *, where: str,
-                   where_ts: str) -> list[str]:
+def _overlay_names(overlay: object, arrays: Mapping[str, np.ndarray], *, where: str, where_ts: str) -> list[str]:
     """The overlay series to draw: names absent from the time series are skipped with a warning
     (a scenario may list a series that its kind does not record); a non-list is an error."""
     if overlay is None:
@@ -299,13 +298,15 @@ def _overlay_names(overlay: object, arrays: Mapping[str, np.ndarray], *, where: 
     present = [str(n) for n in overlay if isinstance(n, str) and n in arrays]
     missing = [n for n in overlay if not (isinstance(n, str) and n in arrays)]
     if missing:
-        warnings.warn(f"{where}.overlay: series {missing} not in {where_ts} (has {sorted(arrays)}); "
-                      "drawn without them", RuntimeWarning, stacklevel=3)
+        warnings.warn(
+            f"{where}.overlay: series {missing} not in {where_ts} (has {sorted(arrays)}); drawn without them",
+            RuntimeWarning,
+            stacklevel=3,
+        )
     return present
 
 
-def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir",
-             render_info: Mapping | None = None) -> RunData:
+def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir", render_info: Mapping | None = None) -> RunData:
     """Read and validate a run folder (``model.xml``, ``timeseries.zarr`` or ``timeseries.npz``,
     ``manifest.json``); ``qpos`` and ``strut_activity`` are read lazily from a store.
 
@@ -343,8 +344,10 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir",
     where_ts = f"{name}: {paths['timeseries.npz']}"
     for key in ("t", "qpos"):
         if key not in arrays:
-            raise RenderError(f"{where_ts}: series {key!r} is missing (has {sorted(arrays)[:20]}); "
-                              "a run without recorded positions (qpos) has no motion to render")
+            raise RenderError(
+                f"{where_ts}: series {key!r} is missing (has {sorted(arrays)[:20]}); "
+                "a run without recorded positions (qpos) has no motion to render"
+            )
     try:
         t = np.asarray(arrays["t"][...], dtype=float)
         if stored:
@@ -364,25 +367,26 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir",
         raise RenderError(f"{where_ts}: 'qpos' must have shape ({T}, nq), got {qpos.shape}")
 
     n_rows, first = _finite_rows(qpos)
-    if first < n_rows:   # a diverged run keeps what was recorded: render up to the blow-up
+    if first < n_rows:  # a diverged run keeps what was recorded: render up to the blow-up
         if first == 0:
             raise RenderError(f"{where_ts}: 'qpos' is non-finite from the first record on")
-        warnings.warn(f"{where_ts}: 'qpos' is non-finite from record {first} "
-                      f"(t = {t[first]:g} s); rendering the {first} records before it",
-                      RuntimeWarning, stacklevel=2)
+        warnings.warn(
+            f"{where_ts}: 'qpos' is non-finite from record {first} "
+            f"(t = {t[first]:g} s); rendering the {first} records before it",
+            RuntimeWarning,
+            stacklevel=2,
+        )
         T = first
         t = t[:T]
         qpos = qpos.head(T) if isinstance(qpos, Frames) else qpos[:T]
-        arrays = {k: (v[:T] if np.ndim(v) >= 1 and np.shape(v)[0] == n_rows else v)
-                  for k, v in arrays.items()}
+        arrays = {k: (v[:T] if np.ndim(v) >= 1 and np.shape(v)[0] == n_rows else v) for k, v in arrays.items()}
 
     activity = arrays.get("strut_activity")
     if activity is not None:
         if not stored:
             activity = np.asarray(activity)
         if activity.ndim != 2 or activity.shape[0] != T:
-            raise RenderError(f"{where_ts}: 'strut_activity' must have shape ({T}, ntendon), "
-                             f"got {activity.shape}")
+            raise RenderError(f"{where_ts}: 'strut_activity' must have shape ({T}, ntendon), got {activity.shape}")
         activity = Frames(activity, dtype=np.int8, rows=T) if stored else activity
         if not _activity_values_ok(activity):
             raise RenderError(f"{where_ts}: 'strut_activity' values must be -1, 0 or +1")
@@ -392,20 +396,24 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir",
     for key in _overlay_names(render.get("overlay"), arrays, where=where, where_ts=where_ts):
         s = np.asarray(arrays[key])
         if s.ndim not in (1, 2) or s.shape[0] != T or not np.issubdtype(s.dtype, np.number):
-            raise RenderError(f"{where}.overlay: series {key!r} must be numeric with shape ({T},) "
-                              f"or ({T}, k), got {s.shape} {s.dtype}")
+            raise RenderError(
+                f"{where}.overlay: series {key!r} must be numeric with shape ({T},) "
+                f"or ({T}, k), got {s.shape} {s.dtype}"
+            )
         series[key] = s
 
     inset = render.get("inset")
     if isinstance(inset, str) and inset not in arrays:
-        warnings.warn(f"{where}.inset: series {inset!r} not in {where_ts}; drawn without the inset",
-                      RuntimeWarning, stacklevel=2)
+        warnings.warn(
+            f"{where}.inset: series {inset!r} not in {where_ts}; drawn without the inset", RuntimeWarning, stacklevel=2
+        )
         inset = None
     if inset is not None:
         values = np.asarray(arrays[inset]) if isinstance(inset, str) and inset in arrays else None
         if values is None or values.shape != (T,) or not np.issubdtype(values.dtype, np.number):
-            raise RenderError(f"{where}.inset: expected the name of a numeric ({T},) series in "
-                              f"{where_ts}, got {inset!r}")
+            raise RenderError(
+                f"{where}.inset: expected the name of a numeric ({T},) series in {where_ts}, got {inset!r}"
+            )
         inset = (inset, values.astype(float))
 
     top = render.get("top_nodes")
@@ -414,10 +422,16 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir",
             top = np.asarray(top)
         except (TypeError, ValueError):
             top = np.zeros((0,))
-        if top.ndim != 1 or top.size < 3 or not np.issubdtype(top.dtype, np.integer) \
-                or np.any(top < 0) or np.unique(top).size != top.size:
-            raise RenderError(f"{where}.top_nodes: expected >= 3 distinct node indices >= 0, "
-                              f"got {render.get('top_nodes')!r:.200}")
+        if (
+            top.ndim != 1
+            or top.size < 3
+            or not np.issubdtype(top.dtype, np.integer)
+            or np.any(top < 0)
+            or np.unique(top).size != top.size
+        ):
+            raise RenderError(
+                f"{where}.top_nodes: expected >= 3 distinct node indices >= 0, got {render.get('top_nodes')!r:.200}"
+            )
         top = top.astype(np.int64)
 
     exaggeration = render.get("exaggeration")
@@ -434,16 +448,27 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir",
     if isinstance(colours, (str, Mapping)) or not isinstance(colours, Sequence):
         raise RenderError(f"{where}.strut_colours: expected a list of {{struts, rgba}} tables, got {colours!r:.200}")
     labels = _text_table(render.get("overlay_labels"), f"{where}.overlay_labels", nested=True)
-    return RunData(run_dir=run_dir, model_xml=paths["model.xml"], t=t, qpos=qpos,
-                   strut_activity=activity, series=series, title=str(title), top_nodes=top,
-                   camera=_check_camera(render.get("camera"), f"{where}.camera"),
-                   exaggeration=exaggeration, manifest=manifest, inset=inset,
-                   strut_colours=tuple(colours),
-                   names=_text_table(render.get("overlay_names"), f"{where}.overlay_names"),
-                   units=_text_table(render.get("overlay_units"), f"{where}.overlay_units"),
-                   labels=labels, markers=_text_table(render.get("markers"), f"{where}.markers"),
-                   activity_labels=_text_table(render.get("activity_labels"), f"{where}.activity_labels"),
-                   identity=_identity(manifest, run_dir if stored else None))
+    return RunData(
+        run_dir=run_dir,
+        model_xml=paths["model.xml"],
+        t=t,
+        qpos=qpos,
+        strut_activity=activity,
+        series=series,
+        title=str(title),
+        top_nodes=top,
+        camera=_check_camera(render.get("camera"), f"{where}.camera"),
+        exaggeration=exaggeration,
+        manifest=manifest,
+        inset=inset,
+        strut_colours=tuple(colours),
+        names=_text_table(render.get("overlay_names"), f"{where}.overlay_names"),
+        units=_text_table(render.get("overlay_units"), f"{where}.overlay_units"),
+        labels=labels,
+        markers=_text_table(render.get("markers"), f"{where}.markers"),
+        activity_labels=_text_table(render.get("activity_labels"), f"{where}.activity_labels"),
+        identity=_identity(manifest, run_dir if stored else None),
+    )
 
 
 def _text_table(table: object, where: str, *, nested: bool = False) -> dict:
@@ -486,8 +511,9 @@ def _strut_colours(entries: Sequence, *, where: str, ntendon: int) -> Iterator[t
             idx = np.asarray(entry.get("struts", []), dtype=np.int64).reshape(-1)
             rgba = np.asarray(entry["rgba"], dtype=float)
         except (AttributeError, KeyError, TypeError, ValueError):
-            raise RenderError(f"{where}[{k}]: expected {{struts: [indices], rgba: [r, g, b, a]}}, "
-                              f"got {entry!r:.200}") from None
+            raise RenderError(
+                f"{where}[{k}]: expected {{struts: [indices], rgba: [r, g, b, a]}}, got {entry!r:.200}"
+            ) from None
         if rgba.shape != (4,) or not np.all(np.isfinite(rgba)):
             raise RenderError(f"{where}[{k}].rgba: expected 4 finite numbers, got {entry['rgba']!r:.100}")
         if idx.size and (idx.min() < 0 or idx.max() >= ntendon):
@@ -498,8 +524,9 @@ def _strut_colours(entries: Sequence, *, where: str, ntendon: int) -> Iterator[t
 # --------------------------------------------------------------------------- timeline
 
 
-def frame_plan(times: Sequence[np.ndarray], *, max_frames: int
-               ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
+def frame_plan(
+    times: Sequence[np.ndarray], *, max_frames: int
+) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
     """Common frame times for one or more runs.
 
     The run with the longest time span sets the frame times: its records, subsampled uniformly
@@ -591,38 +618,47 @@ class RunScene:
         if not antialias:
             q.offsamples = 0
         if run.qpos.shape[1] != m.nq:
-            raise RenderError(f"{run.run_dir / 'timeseries.npz'}: 'qpos' has {run.qpos.shape[1]} "
-                             f"columns, the model has nq = {m.nq}")
+            raise RenderError(
+                f"{run.run_dir / 'timeseries.npz'}: 'qpos' has {run.qpos.shape[1]} columns, the model has nq = {m.nq}"
+            )
         if run.strut_activity is not None and run.strut_activity.shape[1] != m.ntendon:
-            raise RenderError(f"{run.run_dir / 'timeseries.npz'}: 'strut_activity' has "
-                             f"{run.strut_activity.shape[1]} columns, the model has "
-                             f"{m.ntendon} tendons")
+            raise RenderError(
+                f"{run.run_dir / 'timeseries.npz'}: 'strut_activity' has "
+                f"{run.strut_activity.shape[1]} columns, the model has "
+                f"{m.ntendon} tendons"
+            )
 
         # Truss nodes: bodies named "n<i>" that are body i + 1 (build_truss_spec).
         names = [m.body(b).name for b in range(m.nbody)]
-        self.node_bodies = np.array([b for b in range(1, m.nbody)
-                                     if (mt := _NODE_NAME.match(names[b])) and int(mt.group(1)) == b - 1],
-                                    dtype=np.int64)
+        self.node_bodies = np.array(
+            [b for b in range(1, m.nbody) if (mt := _NODE_NAME.match(names[b])) and int(mt.group(1)) == b - 1],
+            dtype=np.int64,
+        )
         self.top_bodies: np.ndarray | None = None
         self.top_geoms: np.ndarray | None = None
         if run.top_nodes is not None:
             bodies = run.top_nodes + 1
             bad = bodies[bodies >= m.nbody]
             if bad.size:
-                raise RenderError(f"{run.run_dir / 'manifest.json'}: render.top_nodes: node "
-                                 f"{int(bad[0]) - 1} does not exist (model has {m.nbody - 1} bodies)")
+                raise RenderError(
+                    f"{run.run_dir / 'manifest.json'}: render.top_nodes: node "
+                    f"{int(bad[0]) - 1} does not exist (model has {m.nbody - 1} bodies)"
+                )
             nogeom = bodies[m.body_geomnum[bodies] < 1]
             if nogeom.size:
-                raise RenderError(f"{run.run_dir / 'manifest.json'}: render.top_nodes: node "
-                                 f"{int(nogeom[0]) - 1} has no geom to colour")
+                raise RenderError(
+                    f"{run.run_dir / 'manifest.json'}: render.top_nodes: node "
+                    f"{int(nogeom[0]) - 1} has no geom to colour"
+                )
             self.top_bodies = bodies
             self.top_geoms = m.body_geomadr[bodies].astype(np.int64)
 
         # Static strut colours (e.g. current loops coloured by axis): manifest render.strut_colours
         # = [{"struts": [...], "rgba": [r, g, b, a]}, ...], drawn 2.5× wider.
         widen = np.zeros(m.ntendon, bool)
-        for idx, rgba in _strut_colours(run.strut_colours, where=f"{run.run_dir / 'manifest.json'}: "
-                                        "render.strut_colours", ntendon=m.ntendon):
+        for idx, rgba in _strut_colours(
+            run.strut_colours, where=f"{run.run_dir / 'manifest.json'}: render.strut_colours", ntendon=m.ntendon
+        ):
             m.tendon_rgba[idx] = rgba
             widen[idx] = True
         m.tendon_width[widen] *= 2.5
@@ -634,7 +670,8 @@ class RunScene:
         node_set = np.zeros(m.nbody, bool)
         node_set[self.node_bodies] = True
         self._node_sphere_geoms = np.flatnonzero(
-            node_set[m.geom_bodyid] & (m.geom_type == int(mujoco.mjtGeom.mjGEOM_SPHERE)))
+            node_set[m.geom_bodyid] & (m.geom_type == int(mujoco.mjtGeom.mjGEOM_SPHERE))
+        )
 
         self._indices: np.ndarray | None = None
         self._centroid: np.ndarray | None = None
@@ -662,8 +699,10 @@ class RunScene:
         rows += _strut_colour_entries(run.strut_colours)
         if run.strut_activity is not None:
             text = {**_ACTIVITY_TEXT, **run.activity_labels}
-            rows += [LegendEntry((tuple(ACTIVE_POS_RGBA[:3]),), text["1"]),
-                     LegendEntry((tuple(ACTIVE_NEG_RGBA[:3]),), text["-1"])]
+            rows += [
+                LegendEntry((tuple(ACTIVE_POS_RGBA[:3]),), text["1"]),
+                LegendEntry((tuple(ACTIVE_NEG_RGBA[:3]),), text["-1"]),
+            ]
             idle = _unique_rgb(self._tendon_rgba0[~self._widened], most=1)
             if idle:
                 rows.append(LegendEntry(idle, "strut, not actuated"))
@@ -707,15 +746,16 @@ class RunScene:
             needs at least 3 truss nodes when k != 1.
         """
         indices = np.asarray(indices, dtype=np.int64)
-        if indices.ndim != 1 or indices.size == 0 or indices.min() < 0 \
-                or indices.max() >= self.run.t.size:
+        if indices.ndim != 1 or indices.size == 0 or indices.min() < 0 or indices.max() >= self.run.t.size:
             raise RenderError(f"indices: expected (F,) record indices in [0, {self.run.t.size})")
         if not (math.isfinite(exaggeration) and exaggeration > 0):
             raise RenderError(f"exaggeration: must be > 0, got {exaggeration!r}")
         if exaggeration != 1.0 and self.node_bodies.size < 3:
-            raise RenderError("exaggeration: needs a flexible structure (>= 3 node bodies named "
-                             "n0, n1, ... as build_truss_spec makes them); this model has "
-                             f"{self.node_bodies.size}")
+            raise RenderError(
+                "exaggeration: needs a flexible structure (>= 3 node bodies named "
+                "n0, n1, ... as build_truss_spec makes them); this model has "
+                f"{self.node_bodies.size}"
+            )
         m, d = self.model, self.data
         F = indices.size
         xpos = np.empty((F, m.nbody, 3))
@@ -733,8 +773,10 @@ class RunScene:
                     self.radius_m = float(m.stat.extent) or 1.0
         if not np.all(np.isfinite(xpos)):
             bad = indices[np.flatnonzero(~np.isfinite(xpos).all(axis=(1, 2)))[0]]
-            raise RenderError(f"{self.run.run_dir / 'timeseries.npz'}: non-finite positions at "
-                             f"record {int(bad)} (t = {self.run.t[bad]:g} s)")
+            raise RenderError(
+                f"{self.run.run_dir / 'timeseries.npz'}: non-finite positions at "
+                f"record {int(bad)} (t = {self.run.t[bad]:g} s)"
+            )
         self._indices = indices
         self._centroid = xpos[:, 1:].mean(axis=1) if m.nbody > 1 else np.zeros((F, 3))
         self.exaggeration = float(exaggeration)
@@ -743,10 +785,10 @@ class RunScene:
         top = xpos[:, self.top_bodies] if self.top_bodies is not None else None
         if top is not None:
             if nodes is not None and self.node_bodies.size > top.shape[1]:
-                orient = top.mean(axis=1) - nodes.mean(axis=1)   # from mid-plane towards the top
+                orient = top.mean(axis=1) - nodes.mean(axis=1)  # from mid-plane towards the top
             else:
                 _, orient = average_plane(top)
-                for f in range(1, F):                 # keep the normal's sign continuous
+                for f in range(1, F):  # keep the normal's sign continuous
                     if orient[f] @ orient[f - 1] < 0:
                         orient[f] = -orient[f]
             self._heights = surface_heights(top, orient=orient)
@@ -759,7 +801,7 @@ class RunScene:
         self._shift = None
         if exaggeration != 1.0 and nodes is not None:
             c, nrm = average_plane(nodes)
-            s = np.einsum("fij,fj->fi", nodes - c[:, None, :], nrm)         # (F, n) [m]
+            s = np.einsum("fij,fj->fi", nodes - c[:, None, :], nrm)  # (F, n) [m]
             layers = np.zeros(self.node_bodies.size, np.int64)
             if self.top_bodies is not None:
                 layers[np.isin(self.node_bodies, self.top_bodies)] = 1
@@ -802,8 +844,9 @@ class RunScene:
             m.geom_size[tg, 0] = np.maximum(self._geom_size0[tg, 0], _MIN_PX["top_node"] * px)
         self._configured_distance = distance
 
-    def render(self, frame: int, *, view: CameraView, height_limit_m: float | None = None,
-               cmap: str = DEFAULT_HEIGHT_CMAP) -> np.ndarray:
+    def render(
+        self, frame: int, *, view: CameraView, height_limit_m: float | None = None, cmap: str = DEFAULT_HEIGHT_CMAP
+    ) -> np.ndarray:
         """Render frame number ``frame`` (position in the prepared ``indices``) without overlay.
 
         Args:
@@ -823,8 +866,7 @@ class RunScene:
         m, d = self.model, self.data
         if self._renderer is None:
             max_geom = max(10000, 2 * (m.ngeom + m.nwrap + m.ntendon) + 1000)
-            self._renderer = make_renderer(m, width=self.width, height=self.height,
-                                           max_geom=max_geom)
+            self._renderer = make_renderer(m, width=self.width, height=self.height, max_geom=max_geom)
             flags = self._renderer.scene.flags
             flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
             flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
@@ -892,7 +934,7 @@ def _marker_parts(key: str, exists) -> list[str]:
     first, *rest = key.split("/")
     parts = [first]
     for part in rest:
-        parts.append(part if exists(part) or len(part) >= len(first) else first[:len(first) - len(part)] + part)
+        parts.append(part if exists(part) or len(part) >= len(first) else first[: len(first) - len(part)] + part)
     return parts
 
 
@@ -900,14 +942,18 @@ class _ModelColours:
     """The colours of a model's named objects, for the legend: geoms, sites and tendons named
     ``name`` or ``name_<anything>``, and the geoms of a body named ``name``."""
 
-    _KINDS = (("geom", mujoco.mjtObj.mjOBJ_GEOM, "ngeom", "geom_rgba"),
-              ("site", mujoco.mjtObj.mjOBJ_SITE, "nsite", "site_rgba"),
-              ("tendon", mujoco.mjtObj.mjOBJ_TENDON, "ntendon", "tendon_rgba"))
+    _KINDS = (
+        ("geom", mujoco.mjtObj.mjOBJ_GEOM, "ngeom", "geom_rgba"),
+        ("site", mujoco.mjtObj.mjOBJ_SITE, "nsite", "site_rgba"),
+        ("tendon", mujoco.mjtObj.mjOBJ_TENDON, "ntendon", "tendon_rgba"),
+    )
 
     def __init__(self, model: mujoco.MjModel) -> None:
         self.model = model
-        self.names = {kind: [mujoco.mj_id2name(model, obj, i) or "" for i in range(getattr(model, n))]
-                      for kind, obj, n, _ in self._KINDS}
+        self.names = {
+            kind: [mujoco.mj_id2name(model, obj, i) or "" for i in range(getattr(model, n))]
+            for kind, obj, n, _ in self._KINDS
+        }
         self.bodies = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or "": b for b in range(model.nbody)}
 
     def rgba(self, name: str) -> np.ndarray:
@@ -959,8 +1005,7 @@ def _check_int(name: str, value: object, *, minimum: int, even: bool = False) ->
     ok = _is_number(value) and math.isfinite(float(value)) and float(value) == int(value)
     if not ok or int(value) < minimum or (even and int(value) % 2):
         kind = "an even integer" if even else "an integer"
-        raise RenderError(f"{name}: must be {kind} >= {minimum}"
-                          f"{' (H.264 yuv420p)' if even else ''}, got {value!r}")
+        raise RenderError(f"{name}: must be {kind} >= {minimum}{' (H.264 yuv420p)' if even else ''}, got {value!r}")
     return int(value)
 
 
@@ -981,8 +1026,7 @@ def _check_out_path(out_path: str | os.PathLike) -> Path:
         raise RenderError("out_path: must be a file path ending in '.mp4', got an empty path")
     out = Path(out_path)
     if out.suffix.lower() != ".mp4":
-        raise RenderError(f"out_path: only MP4 video (H.264) is written; the path must end in '.mp4', "
-                          f"got {str(out)!r}")
+        raise RenderError(f"out_path: only MP4 video (H.264) is written; the path must end in '.mp4', got {str(out)!r}")
     if out.is_dir():
         raise RenderError(f"out_path: {str(out)!r} is a folder; give a file path ending in '.mp4'")
     for parent in out.absolute().parents:
@@ -1010,10 +1054,18 @@ def _check_render_memory(run_dirs: Sequence[Path], *, max_frames: int, width: in
                 model, nbody = model + m_bytes, max(nbody, m_body)
         except (OSError, ValueError, EOFError, zipfile.BadZipFile):
             continue
-    estimate = render_bytes(frames=max_frames, width=width, height=height, panels=len(run_dirs),
-                            nbody=nbody, series_bytes=series, model_bytes=model)
-    check_memory(estimate, what=f"render {', '.join(str(p) for p in run_dirs)} ({max_frames} frames of "
-                                f"{width} x {height} px)")
+    estimate = render_bytes(
+        frames=max_frames,
+        width=width,
+        height=height,
+        panels=len(run_dirs),
+        nbody=nbody,
+        series_bytes=series,
+        model_bytes=model,
+    )
+    check_memory(
+        estimate, what=f"render {', '.join(str(p) for p in run_dirs)} ({max_frames} frames of {width} x {height} px)"
+    )
 
 
 # --------------------------------------------------------------------------- public API
@@ -1066,13 +1118,14 @@ def _frame_options(options: Mapping[str, Any]) -> FrameOptions:
     return FrameOptions(**options)
 
 
-def _resolve_view(runs: Sequence[RunData], camera: Mapping | None,
-                  scenes: Sequence[RunScene]) -> CameraView:
+def _resolve_view(runs: Sequence[RunData], camera: Mapping | None, scenes: Sequence[RunScene]) -> CameraView:
     settings = {**runs[0].camera, **_check_camera(camera, "camera")}
     distance = settings.get("distance_m") or max(s.auto_distance_m for s in scenes)
-    return CameraView(azimuth_deg=settings.get("azimuth_deg", DEFAULT_AZIMUTH_DEG),
-                      elevation_deg=settings.get("elevation_deg", DEFAULT_ELEVATION_DEG),
-                      distance_m=float(distance))
+    return CameraView(
+        azimuth_deg=settings.get("azimuth_deg", DEFAULT_AZIMUTH_DEG),
+        elevation_deg=settings.get("elevation_deg", DEFAULT_ELEVATION_DEG),
+        distance_m=float(distance),
+    )
 
 
 def _panel_labels(runs: Sequence[RunData], labels: Sequence[str] | None) -> list[str | None]:
@@ -1083,17 +1136,37 @@ def _panel_labels(runs: Sequence[RunData], labels: Sequence[str] | None) -> list
     return [str(x) for x in labels]
 
 
-def _compose(run: RunData, scene: RunScene, image: np.ndarray, *, record: int, ended: bool, legend: list[LegendEntry],
-             exaggeration: float, label: str | None, bar: ColourBar | None) -> np.ndarray:
+def _compose(
+    run: RunData,
+    scene: RunScene,
+    image: np.ndarray,
+    *,
+    record: int,
+    ended: bool,
+    legend: list[LegendEntry],
+    exaggeration: float,
+    label: str | None,
+    bar: ColourBar | None,
+) -> np.ndarray:
     """One panel: the rendered ``image`` of record ``record`` with its overlay."""
     return draw_overlay(
-        image, title=run.title, time_s=float(run.t[record]), ended=ended,
-        values=[format_value(n, s[record], names=run.names, units=run.units, labels=run.labels)
-                for n, s in run.series.items()],
-        legend=legend, identity=run.identity, exaggeration=exaggeration, label=label,
+        image,
+        title=run.title,
+        time_s=float(run.t[record]),
+        ended=ended,
+        values=[
+            format_value(n, s[record], names=run.names, units=run.units, labels=run.labels)
+            for n, s in run.series.items()
+        ],
+        legend=legend,
+        identity=run.identity,
+        exaggeration=exaggeration,
+        label=label,
         colour_bar=bar if scene.top_bodies is not None else None,
         inset=Inset(run.inset[0], run.t, run.inset[1], record) if run.inset is not None else None,
-        names=run.names, units=run.units)
+        names=run.names,
+        units=run.units,
+    )
 
 
 def render_frames(run_dir: str | os.PathLike, **options: Any) -> Iterator[np.ndarray]:
@@ -1108,27 +1181,32 @@ def render_frames(run_dir: str | os.PathLike, **options: Any) -> Iterator[np.nda
     for name, value in (("width", opt.width), ("height", opt.height)):
         _check_int(name, value, minimum=16)
     exaggeration = opt.exaggeration
-    if exaggeration is not None and not (_is_number(exaggeration) and math.isfinite(exaggeration)
-                                         and exaggeration > 0):
+    if exaggeration is not None and not (_is_number(exaggeration) and math.isfinite(exaggeration) and exaggeration > 0):
         raise RenderError(f"exaggeration: must be > 0, got {exaggeration!r}")
     _colormap(opt.height_cmap)
     ensure_gl_backend()
     run_dirs = _run_dirs(run_dir, opt.compare)
-    runs = [load_run(p, name=n, render_info=info)
-            for p, n, info in zip(run_dirs, ("run_dir", "compare"), (opt.render_info, None))]
+    runs = [
+        load_run(p, name=n, render_info=info)
+        for p, n, info in zip(run_dirs, ("run_dir", "compare"), (opt.render_info, None))
+    ]
     labels = _panel_labels(runs, opt.labels)
     frame_t, indices, ended = frame_plan([r.t for r in runs], max_frames=opt.max_frames)
 
     with contextlib.ExitStack() as stack:
-        scenes = [stack.enter_context(RunScene(r, width=int(opt.width), height=int(opt.height),
-                                               antialias=opt.antialias))
-                  for r in runs]
+        scenes = [
+            stack.enter_context(RunScene(r, width=int(opt.width), height=int(opt.height), antialias=opt.antialias))
+            for r in runs
+        ]
         ks = []
         for run, scene, idx in zip(runs, scenes, indices):
             k = exaggeration if exaggeration is not None else (runs[0].exaggeration or 1.0)
             if k != 1.0 and scene.node_bodies.size < 3 and exaggeration is None:
-                warnings.warn(f"{run.run_dir}: manifest exaggeration {k:g} ignored: the model has "
-                              "no flexible structure", RuntimeWarning, stacklevel=2)
+                warnings.warn(
+                    f"{run.run_dir}: manifest exaggeration {k:g} ignored: the model has no flexible structure",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
                 k = 1.0
             scene.prepare(idx, exaggeration=k)
             ks.append(k)
@@ -1137,17 +1215,32 @@ def render_frames(run_dir: str | os.PathLike, **options: Any) -> Iterator[np.nda
         bar = ColourBar(opt.height_cmap, max(limits)) if limits else None
         legends = [scene.legend() for scene in scenes]
         for f in range(frame_t.size):
-            panels = [_compose(run, scene, scene.render(f, view=view, height_limit_m=bar and bar.limit_m,
-                                                        cmap=opt.height_cmap),
-                               record=int(idx[f]), ended=bool(end[f]), legend=legend, exaggeration=k, label=label,
-                               bar=bar)
-                      for run, scene, idx, end, k, label, legend in zip(runs, scenes, indices, ended, ks, labels,
-                                                                        legends)]
+            panels = [
+                _compose(
+                    run,
+                    scene,
+                    scene.render(f, view=view, height_limit_m=bar and bar.limit_m, cmap=opt.height_cmap),
+                    record=int(idx[f]),
+                    ended=bool(end[f]),
+                    legend=legend,
+                    exaggeration=k,
+                    label=label,
+                    bar=bar,
+                )
+                for run, scene, idx, end, k, label, legend in zip(runs, scenes, indices, ended, ks, labels, legends)
+            ]
             yield panels[0] if len(panels) == 1 else np.concatenate(panels, axis=1)
 
 
-def render_run(run_dir: str | os.PathLike, out_path: str | os.PathLike, *, fps: float = 30, crf: float = 20.0,
-               progress: bool = False, **options: Any) -> Path:
+def render_run(
+    run_dir: str | os.PathLike,
+    out_path: str | os.PathLike,
+    *,
+    fps: float = 30,
+    crf: float = 20.0,
+    progress: bool = False,
+    **options: Any,
+) -> Path:
     """Render a run folder to a browser-playable MP4 (H.264, yuv420p), written atomically.
 
     Args:
@@ -1187,8 +1280,7 @@ def render_run(run_dir: str | os.PathLike, out_path: str | os.PathLike, *, fps: 
         iterator: Iterator[np.ndarray] = frames
         if progress:
             iterator = tqdm(frames, desc=f"render {Path(run_dir).name}", unit="frame")
-        with Mp4Writer(out_path, width=int(opt.width) * n_panels, height=int(opt.height), fps=fps,
-                       crf=crf) as writer:
+        with Mp4Writer(out_path, width=int(opt.width) * n_panels, height=int(opt.height), fps=fps, crf=crf) as writer:
             for frame in iterator:
                 writer.add(frame)
     return out_path

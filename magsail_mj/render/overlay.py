@@ -114,8 +114,9 @@ def _colour_bar_image(cmap: str, height: int, width: int) -> Image.Image:
 # --------------------------------------------------------------------------- text
 
 
-def series_name_unit(name: str, *, names: Mapping[str, str] | None = None,
-                     units: Mapping[str, str] | None = None) -> tuple[str, str]:
+def series_name_unit(
+    name: str, *, names: Mapping[str, str] | None = None, units: Mapping[str, str] | None = None
+) -> tuple[str, str]:
     """``(readable name, printed unit)`` of series ``name``.
 
     The name is ``names[name]`` if given, else the quantity part of ``name`` with spaces
@@ -170,9 +171,14 @@ def _number(x: float, unit: str) -> str:
     return _with_unit(_digits(x, 4), unit)
 
 
-def format_value(name: str, value: Any, *, names: Mapping[str, str] | None = None,
-                 units: Mapping[str, str] | None = None,
-                 labels: Mapping[str, Mapping[str, str]] | None = None) -> str:
+def format_value(
+    name: str,
+    value: Any,
+    *,
+    names: Mapping[str, str] | None = None,
+    units: Mapping[str, str] | None = None,
+    labels: Mapping[str, Mapping[str, str]] | None = None,
+) -> str:
     """One overlay line for series ``name`` at one record.
 
     ``name = 12.3 unit`` (readable name and unit: :func:`series_name_unit`); a 3-vector as
@@ -217,8 +223,9 @@ def _legend_width(draw: ImageDraw.ImageDraw, entries: Sequence[LegendEntry], siz
     return max(len(e.colours) * (sw + gap) + gap + draw.textlength(e.text, font=font) for e in entries)
 
 
-def _draw_legend(draw: ImageDraw.ImageDraw, entries: Sequence[LegendEntry], *, right: float, top: float,
-                 size: int, ink: dict) -> float:
+def _draw_legend(
+    draw: ImageDraw.ImageDraw, entries: Sequence[LegendEntry], *, right: float, top: float, size: int, ink: dict
+) -> float:
     """Legend rows right-aligned at ``right`` from ``top`` [px]; returns the bottom [px]."""
     if not entries:
         return top
@@ -230,16 +237,24 @@ def _draw_legend(draw: ImageDraw.ImageDraw, entries: Sequence[LegendEntry], *, r
     for e in entries:
         x = x_text - gap - len(e.colours) * (sw + gap) + gap
         for c in e.colours:
-            draw.rectangle([x, y + size * 0.15, x + sw, y + size * 0.15 + sw], fill=_rgb255(c),
-                           outline=(200, 200, 200))
+            draw.rectangle([x, y + size * 0.15, x + sw, y + size * 0.15 + sw], fill=_rgb255(c), outline=(200, 200, 200))
             x += sw + gap
         draw.text((x_text, y), e.text, font=font, **ink)
         y += size + gap
     return y
 
 
-def _draw_colour_bar(img: Image.Image, draw: ImageDraw.ImageDraw, bar: ColourBar, *, top: float, bottom: float,
-                     size: int, pad: int, ink: dict) -> None:
+def _draw_colour_bar(
+    img: Image.Image,
+    draw: ImageDraw.ImageDraw,
+    bar: ColourBar,
+    *,
+    top: float,
+    bottom: float,
+    size: int,
+    pad: int,
+    ink: dict,
+) -> None:
     """The colour bar between ``top`` and ``bottom`` [px] at the right edge, caption above it."""
     h, w = img.height, img.width
     font = _font(size)
@@ -260,9 +275,16 @@ def _draw_colour_bar(img: Image.Image, draw: ImageDraw.ImageDraw, bar: ColourBar
         draw.text((w - pad - tw, y0 - (len(caption) - k) * size - pad), line, font=line_font, **ink)
 
 
-def _draw_inset(draw: ImageDraw.ImageDraw, inset: Inset, *, box: tuple[float, float, float, float],
-                font: ImageFont.FreeTypeFont, ink: dict, units: Mapping[str, str] | None = None,
-                names: Mapping[str, str] | None = None) -> None:
+def _draw_inset(
+    draw: ImageDraw.ImageDraw,
+    inset: Inset,
+    *,
+    box: tuple[float, float, float, float],
+    font: ImageFont.FreeTypeFont,
+    ink: dict,
+    units: Mapping[str, str] | None = None,
+    names: Mapping[str, str] | None = None,
+) -> None:
     """A small plot of ``inset.values`` against ``inset.t`` up to record ``inset.upto`` inside
     ``box`` (x0, y0, x1, y1) [px].
 
@@ -279,8 +301,8 @@ def _draw_inset(draw: ImageDraw.ImageDraw, inset: Inset, *, box: tuple[float, fl
     if hi <= lo:
         lo, hi = lo - 0.5, hi + 0.5
     inner = 4
-    xs = x0 + inner + (t[:upto + 1] - t[0]) / (t[-1] - t[0]) * (x1 - x0 - 2 * inner)
-    ys = y1 - inner - (values[:upto + 1] - lo) / (hi - lo) * (y1 - y0 - 2 * inner)
+    xs = x0 + inner + (t[: upto + 1] - t[0]) / (t[-1] - t[0]) * (x1 - x0 - 2 * inner)
+    ys = y1 - inner - (values[: upto + 1] - lo) / (hi - lo) * (y1 - y0 - 2 * inner)
     ok = np.isfinite(ys)
     points = list(zip(xs[ok].tolist(), ys[ok].tolist()))
     if len(points) > 1:
@@ -295,10 +317,22 @@ def _draw_inset(draw: ImageDraw.ImageDraw, inset: Inset, *, box: tuple[float, fl
     draw.text((x0, y0 - int(getattr(header_font, "size", size)) - 3), header, font=header_font, **ink)
 
 
-def draw_overlay(image: np.ndarray, *, title: str, time_s: float, ended: bool, values: Sequence[str],
-                 legend: Sequence[LegendEntry] = (), identity: str = "", exaggeration: float = 1.0,
-                 label: str | None = None, colour_bar: ColourBar | None = None, inset: Inset | None = None,
-                 names: Mapping[str, str] | None = None, units: Mapping[str, str] | None = None) -> np.ndarray:
+def draw_overlay(
+    image: np.ndarray,
+    *,
+    title: str,
+    time_s: float,
+    ended: bool,
+    values: Sequence[str],
+    legend: Sequence[LegendEntry] = (),
+    identity: str = "",
+    exaggeration: float = 1.0,
+    label: str | None = None,
+    colour_bar: ColourBar | None = None,
+    inset: Inset | None = None,
+    names: Mapping[str, str] | None = None,
+    units: Mapping[str, str] | None = None,
+) -> np.ndarray:
     """The frame ``image`` (H, W, 3) uint8 with its overlay drawn (layout: module docstring).
 
     Args:
@@ -327,7 +361,7 @@ def draw_overlay(image: np.ndarray, *, title: str, time_s: float, ended: bool, v
         draw.text((pad, y), line, font=small, **ink)
         y += size + pad // 2
     legend_bottom = top
-    if legend:   # beside the lines, in a smaller size if needed (down to 70 %), else below them
+    if legend:  # beside the lines, in a smaller size if needed (down to 70 %), else below them
         room = w - 3 * pad - max(draw.textlength(line, font=small) for line in lines)
         fits = [s for s in range(size, max(8, round(0.7 * size)) - 1, -1) if _legend_width(draw, legend, s) <= room]
         legend_size, legend_top = (fits[0], top) if fits else (size, y)
@@ -335,17 +369,23 @@ def draw_overlay(image: np.ndarray, *, title: str, time_s: float, ended: bool, v
     bottom_row = h - pad - size
     if identity:
         font = _fit_font(draw, identity, size, w / 2 - 2 * pad)
-        draw.text((w - pad - draw.textlength(identity, font=font), bottom_row), identity, font=font,
-                  fill=(200, 200, 200), stroke_width=ink["stroke_width"], stroke_fill=_BLACK)
+        draw.text(
+            (w - pad - draw.textlength(identity, font=font), bottom_row),
+            identity,
+            font=font,
+            fill=(200, 200, 200),
+            stroke_width=ink["stroke_width"],
+            stroke_fill=_BLACK,
+        )
     if colour_bar is not None:
-        _draw_colour_bar(img, draw, colour_bar, top=legend_bottom, bottom=bottom_row - pad, size=size, pad=pad,
-                         ink=ink)
+        _draw_colour_bar(img, draw, colour_bar, top=legend_bottom, bottom=bottom_row - pad, size=size, pad=pad, ink=ink)
     if exaggeration != 1.0:
         draw.text((pad, bottom_row), f"×{exaggeration:g} exaggerated (out-of-plane motion)", font=small, **ink)
     if inset is not None:
         bottom = bottom_row - pad
-        _draw_inset(draw, inset, box=(pad, bottom - h // 4, pad + w // 3, bottom), font=small, ink=ink,
-                    names=names, units=units)
+        _draw_inset(
+            draw, inset, box=(pad, bottom - h // 4, pad + w // 3, bottom), font=small, ink=ink, names=names, units=units
+        )
     if label:
         font = _fit_font(draw, label, round(size * 1.25), w / 2)
         tw = draw.textlength(label, font=font)

@@ -56,15 +56,15 @@ class Mp4Writer:
       crf: x264 constant rate factor (0 lossless … 51 worst; 18–23 is visually good).
     """
 
-    def __init__(self, path: str | os.PathLike, *, width: int, height: int, fps: float = 30.0,
-                 crf: float = 20.0) -> None:
+    def __init__(
+        self, path: str | os.PathLike, *, width: int, height: int, fps: float = 30.0, crf: float = 20.0
+    ) -> None:
         self.path = Path(path)
         if self.path.suffix.lower() != ".mp4":
             raise ValueError(f"path: must end in '.mp4', got {str(path)!r}")
         for name, value in (("width", width), ("height", height)):
             if int(value) != value or value < 2 or int(value) % 2:
-                raise ValueError(f"{name}: must be an even integer >= 2 (H.264 yuv420p), "
-                                 f"got {value!r}")
+                raise ValueError(f"{name}: must be an even integer >= 2 (H.264 yuv420p), got {value!r}")
         if not fps > 0:
             raise ValueError(f"fps: must be > 0, got {fps!r}")
         if not 0 <= crf <= 51:
@@ -79,9 +79,14 @@ class Mp4Writer:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._tmp = self.path.with_name(f".{self.path.stem}.{uuid.uuid4().hex[:8]}.tmp.mp4")
         self._writer = mediapy.VideoWriter(
-            self._tmp, shape=(self.height, self.width), fps=self.fps, codec="libx264",
-            encoded_format="yuv420p", crf=self.crf,
-            ffmpeg_args=["-profile:v", "high", "-movflags", "+faststart"])
+            self._tmp,
+            shape=(self.height, self.width),
+            fps=self.fps,
+            codec="libx264",
+            encoded_format="yuv420p",
+            crf=self.crf,
+            ffmpeg_args=["-profile:v", "high", "-movflags", "+faststart"],
+        )
         try:
             self._writer.__enter__()
         except BaseException:
@@ -95,13 +100,13 @@ class Mp4Writer:
             raise RuntimeError("Mp4Writer.add: use the writer inside a 'with' block")
         frame = np.asarray(frame)
         if frame.shape != (self.height, self.width, 3) or frame.dtype != np.uint8:
-            raise ValueError(f"frame: expected ({self.height}, {self.width}, 3) uint8, "
-                             f"got {frame.shape} {frame.dtype}")
+            raise ValueError(f"frame: expected ({self.height}, {self.width}, 3) uint8, got {frame.shape} {frame.dtype}")
         self._writer.add_image(frame)
         self.frames_written += 1
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
         writer, self._writer = self._writer, None
         try:
             if writer is not None:
@@ -126,8 +131,7 @@ class Mp4Writer:
             self._tmp = None
 
 
-def write_mp4(frames: Iterable[np.ndarray], path: str | os.PathLike, *, fps: float = 30.0,
-              crf: float = 20.0) -> Path:
+def write_mp4(frames: Iterable[np.ndarray], path: str | os.PathLike, *, fps: float = 30.0, crf: float = 20.0) -> Path:
     """Write an iterable of equal-size RGB uint8 frames to an H.264 MP4 (atomically).
 
     The size is taken from the first frame (width and height must be even).
@@ -180,8 +184,7 @@ def video_codec(path: str | os.PathLike) -> str:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"path: no such file {str(path)!r}")
-    proc = subprocess.run([ffmpeg_exe(), "-hide_banner", "-i", str(path)],
-                          capture_output=True, text=True, check=False)
+    proc = subprocess.run([ffmpeg_exe(), "-hide_banner", "-i", str(path)], capture_output=True, text=True, check=False)
     match = re.search(r"Stream #\d+:\d+.*?: Video: (\w+)[^,]*, (\w+)", proc.stderr)
     if match is None:
         raise ValueError(f"path: no video stream found in {str(path)!r}:\n{proc.stderr[-2000:]}")

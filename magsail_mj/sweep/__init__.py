@@ -150,8 +150,17 @@ _EXTRA_COLUMNS = ("attempts", "resumed_from_s", "config_hash")
 _SUMMARY_DUPLICATES = ("status_message",)  # the run's own message: the sweep's "message" column says it
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _SWEEP_KEYS = ("name", "description", "set", "config", "run", "grid", "monte_carlo", "report")
-RECORD_KEYS = ("id", "status", "message", "config_hash", "params", "wall_time_s", "attempts", "resumed_from_s",
-               "summary")
+RECORD_KEYS = (
+    "id",
+    "status",
+    "message",
+    "config_hash",
+    "params",
+    "wall_time_s",
+    "attempts",
+    "resumed_from_s",
+    "summary",
+)
 """The keys of a ``sweep_summary.json`` record, exactly (the returned records also hold ``reused``,
 ``selected`` and ``config``; the CSV and the manifest say which runs were reused)."""
 _POLL_S = 0.5  # how often the progress bar asks the scheduler what runs
@@ -168,7 +177,6 @@ class SweepInterrupted(KeyboardInterrupt):
         super().__init__(f"sweep interrupted by {name}")
         self.signum = signum
         self.records = list(records or [])
-
 
 
 @dataclass(frozen=True)
@@ -237,8 +245,12 @@ def _check_ids(entries: list[Any]) -> tuple[dict[int, str], list[str]]:
     ids: dict[int, str] = {}
     problems: list[str] = []
     for n, entry in enumerate(entries):
-        if not isinstance(entry, dict) or set(entry) - {"id", "config", "set"} or "id" not in entry \
-                or "config" not in entry:
+        if (
+            not isinstance(entry, dict)
+            or set(entry) - {"id", "config", "set"}
+            or "id" not in entry
+            or "config" not in entry
+        ):
             problems.append(f"run[{n}]: needs 'id' and 'config' (optional 'set'), got {entry!r}")
             continue
         try:
@@ -249,15 +261,19 @@ def _check_ids(entries: list[Any]) -> tuple[dict[int, str], list[str]]:
     for n, rid in ids.items():
         other = first.setdefault(rid.casefold(), n)
         if other != n:
-            problems.append(f"run[{n}].id: {entries[n]['id']!r} names the same folder {rid!r} as "
-                            f"run[{other}].id {entries[other]['id']!r}")
+            problems.append(
+                f"run[{n}].id: {entries[n]['id']!r} names the same folder {rid!r} as "
+                f"run[{other}].id {entries[other]['id']!r}"
+            )
     for n, rid in ids.items():
         parts = rid.split("/")
         for k in range(1, len(parts)):
             outer = first.get("/".join(parts[:k]).casefold())
             if outer is not None:
-                problems.append(f"run[{n}].id: {entries[n]['id']!r} lies inside the folder of "
-                                f"run[{outer}].id {entries[outer]['id']!r}")
+                problems.append(
+                    f"run[{n}].id: {entries[n]['id']!r} lies inside the folder of "
+                    f"run[{outer}].id {entries[outer]['id']!r}"
+                )
     return ids, problems
 
 
@@ -265,11 +281,18 @@ def _check_header(tree: dict[str, Any], path: Path) -> tuple[str, str]:
     """The sweep's name and description; ConfigError for unknown keys or a name unfit as a folder."""
     unknown = sorted(set(tree) - set(_SWEEP_KEYS))
     if unknown:
-        raise ConfigError([f"{k}: unknown sweep key (allowed: {', '.join(_SWEEP_KEYS)})" for k in unknown],
-                          source=str(path))
+        raise ConfigError(
+            [f"{k}: unknown sweep key (allowed: {', '.join(_SWEEP_KEYS)})" for k in unknown], source=str(path)
+        )
     name = tree.get("name", path.stem)
-    if not isinstance(name, str) or not name.strip() or name in (".", "..") or "/" in name or "\\" in name \
-            or any(ord(c) < 32 for c in name):
+    if (
+        not isinstance(name, str)
+        or not name.strip()
+        or name in (".", "..")
+        or "/" in name
+        or "\\" in name
+        or any(ord(c) < 32 for c in name)
+    ):
         problem = f"name: must be a plain folder name (the default output folder runs/<name>), got {name!r}"
         raise ConfigError([problem], source=str(path))
     description = tree.get("description", "")
@@ -277,10 +300,19 @@ def _check_header(tree: dict[str, Any], path: Path) -> tuple[str, str]:
         raise ConfigError([f"description: must be a string, got {description!r}"], source=str(path))
     report = tree.get("report", {})
     figures = report.get("figures", ["-"]) if isinstance(report, dict) else None
-    if set(report or {}) - {"figures"} or not isinstance(figures, list) or not figures \
-            or not all(isinstance(f, str) for f in figures):
-        raise ConfigError([f"report: must be a table with 'figures', a non-empty list of summary keys "
-                           f"(magsail report), got {report!r}"], source=str(path))
+    if (
+        set(report or {}) - {"figures"}
+        or not isinstance(figures, list)
+        or not figures
+        or not all(isinstance(f, str) for f in figures)
+    ):
+        raise ConfigError(
+            [
+                f"report: must be a table with 'figures', a non-empty list of summary keys "
+                f"(magsail report), got {report!r}"
+            ],
+            source=str(path),
+        )
     return name, description
 
 
@@ -293,8 +325,9 @@ def _only_terms(only: str | list[str] | tuple[str, ...] | None) -> tuple[str, ..
     return terms
 
 
-def _load_run(rid: str, config: Path, overrides: tuple[str, ...], selected: bool,
-              params: dict[str, Any]) -> tuple[SweepRun, list[str]]:
+def _load_run(
+    rid: str, config: Path, overrides: tuple[str, ...], selected: bool, params: dict[str, Any]
+) -> tuple[SweepRun, list[str]]:
     """The run with the hash of its config now; the config's problems (fatal only when selected)."""
     try:
         digest, problems = config_hash(load_config(config, list(overrides))), []
@@ -302,8 +335,15 @@ def _load_run(rid: str, config: Path, overrides: tuple[str, ...], selected: bool
         digest, problems = "", [f"{rid}: {p}" for p in err.problems]
     except OSError as err:
         digest, problems = "", [f"{rid}: config {config}: {err}"]
-    run = SweepRun(id=rid, config=config, overrides=overrides, config_hash=digest, selected=selected,
-                   problem="; ".join(problems), params=params)
+    run = SweepRun(
+        id=rid,
+        config=config,
+        overrides=overrides,
+        config_hash=digest,
+        selected=selected,
+        problem="; ".join(problems),
+        params=params,
+    )
     return run, problems if selected else []
 
 
@@ -328,17 +368,26 @@ def _entries(tree: dict[str, Any], path: Path) -> list[dict[str, Any]]:
     entries = tree.get("run", [])
     designed = "grid" in tree or "monte_carlo" in tree
     if not isinstance(entries, list) or not (entries or designed):
-        raise ConfigError([f"run: must be a non-empty array of [[run]] tables (or give [grid] / [monte_carlo]), "
-                           f"got {tree.get('run')!r}"], source=str(path))
+        raise ConfigError(
+            [
+                f"run: must be a non-empty array of [[run]] tables (or give [grid] / [monte_carlo]), "
+                f"got {tree.get('run')!r}"
+            ],
+            source=str(path),
+        )
     if not designed:
         if "config" in tree:
-            raise ConfigError(["config: the base config is used by [grid] / [monte_carlo] only; add one of them "
-                               "or give each [[run]] its config"], source=str(path))
+            raise ConfigError(
+                [
+                    "config: the base config is used by [grid] / [monte_carlo] only; add one of them "
+                    "or give each [[run]] its config"
+                ],
+                source=str(path),
+            )
         return list(entries)
     base = tree.get("config")
     if not isinstance(base, str) or not base:
-        raise ConfigError([f"config: [grid] / [monte_carlo] need the base config path, got {base!r}"],
-                          source=str(path))
+        raise ConfigError([f"config: [grid] / [monte_carlo] need the base config path, got {base!r}"], source=str(path))
     try:
         points = design_points(tree)
     except ConfigError as err:
@@ -346,8 +395,9 @@ def _entries(tree: dict[str, Any], path: Path) -> list[dict[str, Any]]:
     return [*entries, *({"id": p.id, "config": base, "set": list(p.overrides), "params": p.params} for p in points)]
 
 
-def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (),
-               only: str | list[str] | tuple[str, ...] | None = None) -> Sweep:
+def load_sweep(
+    path: str | Path, *, extra_overrides: tuple[str, ...] = (), only: str | list[str] | tuple[str, ...] | None = None
+) -> Sweep:
     """Parse and validate a sweep file; every listed config is loaded and its hash computed.
 
     Runs come from the ``[[run]]`` tables (id, config, set) and from the ``[grid]`` /
@@ -371,8 +421,9 @@ def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (),
     common = _str_list(tree.get("set", []), "set")
     extra = tuple(extra_overrides)
     wanted = _only_terms(only)
-    ids, problems = _check_ids([{k: v for k, v in e.items() if k != "params"} if isinstance(e, dict) else e
-                                for e in entries])
+    ids, problems = _check_ids(
+        [{k: v for k, v in e.items() if k != "params"} if isinstance(e, dict) else e for e in entries]
+    )
     runs = []
     for n, rid in ids.items():
         config = entries[n]["config"]
@@ -393,9 +444,7 @@ def load_sweep(path: str | Path, *, extra_overrides: tuple[str, ...] = (),
         raise ConfigError(problems, source=str(path))
     if not any(r.selected for r in runs):
         raise ConfigError([f"only: no run id contains any of {list(wanted or [])!r}"], source=str(path))
-    return Sweep(name=name, path=path, runs=tuple(runs), description=description, overrides=common + extra,
-                 only=wanted)
-
+    return Sweep(name=name, path=path, runs=tuple(runs), description=description, overrides=common + extra, only=wanted)
 
 
 def _reused_record(run: SweepRun, run_dir: Path, manifest: dict[str, Any]) -> dict[str, Any] | None:
@@ -406,12 +455,19 @@ def _reused_record(run: SweepRun, run_dir: Path, manifest: dict[str, Any]) -> di
         return None
     if not isinstance(summary, dict):
         return None
-    return _record(run, status=str(manifest["status"]), message=str(manifest.get("status_message") or ""),
-                   wall_time_s=manifest.get("wall_time_s"), reused=True, summary=summary)
+    return _record(
+        run,
+        status=str(manifest["status"]),
+        message=str(manifest.get("status_message") or ""),
+        wall_time_s=manifest.get("wall_time_s"),
+        reused=True,
+        summary=summary,
+    )
 
 
-def _plan(sweep: Sweep, out: Path, *, video: bool, overwrite: bool,
-          log: Callable[[str], None] | None) -> tuple[dict[str, dict[str, Any]], list[SweepRun]]:
+def _plan(
+    sweep: Sweep, out: Path, *, video: bool, overwrite: bool, log: Callable[[str], None] | None
+) -> tuple[dict[str, dict[str, Any]], list[SweepRun]]:
     """Records of the runs not to run now (reused or not run), and the runs to run."""
     records: dict[str, dict[str, Any]] = {}
     todo: list[SweepRun] = []
@@ -428,8 +484,7 @@ def _plan(sweep: Sweep, out: Path, *, video: bool, overwrite: bool,
             if log and (out / run.id / "manifest.json").exists():
                 log(f"  {run.id}: rerun: {why}")
         else:
-            records[run.id] = _record(run, status="not_run",
-                                      message=f"not selected in this call; {run.problem or why}")
+            records[run.id] = _record(run, status="not_run", message=f"not selected in this call; {run.problem or why}")
     return records, todo
 
 
@@ -449,12 +504,16 @@ def _sweep_lock(out: Path) -> Iterator[int]:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
                 holder = os.pread(fd, 100, 0).decode(errors="replace").strip() or "?"
-                raise RunDirError(f"--out {out}: another sweep is running in this folder (lock {path} held by "
-                                  f"pid {holder}); wait for it or choose another --out") from None
+                raise RunDirError(
+                    f"--out {out}: another sweep is running in this folder (lock {path} held by "
+                    f"pid {holder}); wait for it or choose another --out"
+                ) from None
         if runs_running(out):
-            raise RunDirError(f"--out {out}: another sweep is running in this folder (run processes of an "
-                              f"earlier sweep still hold {out / STATE_DIR / RUNS_LOCK}); wait for them to end "
-                              "or choose another --out")
+            raise RunDirError(
+                f"--out {out}: another sweep is running in this folder (run processes of an "
+                f"earlier sweep still hold {out / STATE_DIR / RUNS_LOCK}); wait for them to end "
+                "or choose another --out"
+            )
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
         yield fd
@@ -570,9 +629,14 @@ def _dask_client(*, workers: int, scheduler: str | None, cluster: Any | None) ->
     # a signal while the cluster starts would leave it half-built (its finaliser then fails with a
     # traceback): it is held until the cluster exists and is delivered again inside the try below
     with _worker_env(), _sigint_ignored_by_children(), deferred_interrupts() as pending:
-        local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                             dashboard_address=":0" if _DASHBOARD else None,
-                             silence_logs=logging.CRITICAL, worker_class=Nanny)
+        local = LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0" if _DASHBOARD else None,
+            silence_logs=logging.CRITICAL,
+            worker_class=Nanny,
+        )
     try:
         if pending:
             signal.raise_signal(pending[0])
@@ -590,8 +654,16 @@ CLUSTER_KINDS = ("slurm", "pbs")
 _WALLTIME = re.compile(r"^(\d+-)?\d{1,3}:\d{2}(:\d{2})?$")
 
 
-def make_cluster(kind: str, *, cores_per_job: int = 1, memory_per_job: str = "4GB", walltime: str = "01:00:00",
-                 queue: str | None = None, account: str | None = None, python: str | None = None) -> Any:
+def make_cluster(
+    kind: str,
+    *,
+    cores_per_job: int = 1,
+    memory_per_job: str = "4GB",
+    walltime: str = "01:00:00",
+    queue: str | None = None,
+    account: str | None = None,
+    python: str | None = None,
+) -> Any:
     """A dask-jobqueue cluster (``kind`` slurm or pbs) whose jobs each run ``cores_per_job`` worker
     processes with one thread (and one BLAS thread) each; no job is submitted yet (``cluster.scale(jobs=N)``
     or ``cluster.adapt(...)`` does that; ``cluster.job_script()`` shows the script).
@@ -624,9 +696,18 @@ def make_cluster(kind: str, *, cores_per_job: int = 1, memory_per_job: str = "4G
         raise ValueError(f"--walltime: must look like HH:MM:SS (or D-HH:MM:SS), got {walltime!r}")
     cls = dask_jobqueue.SLURMCluster if kind == "slurm" else dask_jobqueue.PBSCluster
     threads = [f"export {var}=1" for var in _THREAD_VARS]
-    return cls(cores=cores_per_job, processes=cores_per_job, memory=memory_per_job, walltime=walltime,
-               queue=queue, account=account, python=python or sys.executable, job_script_prologue=threads,
-               job_name="magsail-sweep", silence_logs="error")
+    return cls(
+        cores=cores_per_job,
+        processes=cores_per_job,
+        memory=memory_per_job,
+        walltime=walltime,
+        queue=queue,
+        account=account,
+        python=python or sys.executable,
+        job_script_prologue=threads,
+        job_name="magsail-sweep",
+        silence_logs="error",
+    )
 
 
 @dataclass
@@ -657,9 +738,17 @@ class _Call:
         """Write the summaries and the manifest; runs without a record yet are ``not_run`` (pending)."""
         pending = "pending: the sweep was still running" if not finished else "not started"
         ordered = [self.records.get(r.id) or _record(r, status="not_run", message=pending) for r in self.sweep.runs]
-        _write_outputs(self.out, self.sweep, ordered, {
-            **self.meta, "finished": finished, "interrupted": interrupted,
-            "wall_time_s": time.perf_counter() - self.t0})
+        _write_outputs(
+            self.out,
+            self.sweep,
+            ordered,
+            {
+                **self.meta,
+                "finished": finished,
+                "interrupted": interrupted,
+                "wall_time_s": time.perf_counter() - self.t0,
+            },
+        )
         return ordered
 
 
@@ -668,16 +757,32 @@ def _future_record(future: Any, run: SweepRun) -> dict[str, Any]:
     try:
         return future.result()
     except Exception as err:  # noqa: BLE001 - KilledWorker (workers died again and again) or a lost task
-        why = "its workers died too often (Dask KilledWorker)" if type(err).__name__ == "KilledWorker" else \
-            f"{type(err).__name__}: {err}"
+        why = (
+            "its workers died too often (Dask KilledWorker)"
+            if type(err).__name__ == "KilledWorker"
+            else f"{type(err).__name__}: {err}"
+        )
         return _record(run, status="failed", message=f"the task failed: {why}", attempts=0)
 
 
-def _submit(client: Any, call: _Call, todo: list[SweepRun], *, video: bool, overwrite: bool,
-            retries: int, grace_s: float) -> dict[Any, SweepRun]:
-    return {client.submit(supervise, run, str(call.out), video=video, fresh=overwrite, token=call.token,
-                          run_retries=retries, grace_s=grace_s, key=f"magsail-run-{call.token}-{n}", pure=False): run
-            for n, run in enumerate(todo)}
+def _submit(
+    client: Any, call: _Call, todo: list[SweepRun], *, video: bool, overwrite: bool, retries: int, grace_s: float
+) -> dict[Any, SweepRun]:
+    return {
+        client.submit(
+            supervise,
+            run,
+            str(call.out),
+            video=video,
+            fresh=overwrite,
+            token=call.token,
+            run_retries=retries,
+            grace_s=grace_s,
+            key=f"magsail-run-{call.token}-{n}",
+            pure=False,
+        ): run
+        for n, run in enumerate(todo)
+    }
 
 
 def _execute(client: Any, futures: dict[Any, SweepRun], call: _Call) -> None:
@@ -719,14 +824,27 @@ def _stop(futures: dict[Any, SweepRun], call: _Call, *, grace_s: float) -> None:
     call.settled = all(f.done() for f in futures)
     for future, run in futures.items():
         if run.id not in call.records:
-            rec = _future_record(future, run) if future.done() else _record(
-                run, status="interrupted", message="stopped while running (no record from its worker)")
+            rec = (
+                _future_record(future, run)
+                if future.done()
+                else _record(run, status="interrupted", message="stopped while running (no record from its worker)")
+            )
             call.records[run.id] = rec
             _log_record(call.log, rec)
 
 
-def _run_dask(todo: list[SweepRun], call: _Call, *, workers: int, scheduler: str | None, cluster: Any | None,
-              video: bool, overwrite: bool, retries: int, grace_s: float) -> SweepInterrupted | None:
+def _run_dask(
+    todo: list[SweepRun],
+    call: _Call,
+    *,
+    workers: int,
+    scheduler: str | None,
+    cluster: Any | None,
+    video: bool,
+    overwrite: bool,
+    retries: int,
+    grace_s: float,
+) -> SweepInterrupted | None:
     """Run ``todo`` on Dask; on SIGINT/SIGTERM stop and return the interrupt."""
     futures: dict[Any, SweepRun] = {}
     stopped: SweepInterrupted | None = None
@@ -734,8 +852,9 @@ def _run_dask(todo: list[SweepRun], call: _Call, *, workers: int, scheduler: str
         with _dask_client(workers=workers, scheduler=scheduler, cluster=cluster) as client:
             try:
                 call.interrupts.raise_pending()
-                futures = _submit(client, call, todo, video=video, overwrite=overwrite, retries=retries,
-                                  grace_s=grace_s)
+                futures = _submit(
+                    client, call, todo, video=video, overwrite=overwrite, retries=retries, grace_s=grace_s
+                )
                 _execute(client, futures, call)
             except KeyboardInterrupt as err:
                 stopped = err if isinstance(err, SweepInterrupted) else SweepInterrupted(signal.SIGINT)
@@ -751,8 +870,9 @@ def _run_dask(todo: list[SweepRun], call: _Call, *, workers: int, scheduler: str
     except KeyboardInterrupt as err:  # while the cluster started or closed
         stopped = stopped or (err if isinstance(err, SweepInterrupted) else SweepInterrupted(signal.SIGINT))
     for run in todo:
-        call.records.setdefault(run.id, _record(run, status="not_run",
-                                                message="not started: the sweep was interrupted"))
+        call.records.setdefault(
+            run.id, _record(run, status="not_run", message="not started: the sweep was interrupted")
+        )
     return stopped
 
 
@@ -784,10 +904,18 @@ def _table(records: list[dict[str, Any]]) -> str:
     for rec in records:
         s, p = rec.get("summary", {}), rec.get("params", {})
         wall = rec.get("wall_time_s")
-        writer.writerow([rec["id"], rec["status"], rec["reused"],
-                         f"{wall:.1f}" if isinstance(wall, (int, float)) else "", rec["message"],
-                         *[_cell(rec.get(c)) for c in _EXTRA_COLUMNS],
-                         *[_cell(p.get(k)) for k in params], *[_cell(s.get(c)) for c in cols]])
+        writer.writerow(
+            [
+                rec["id"],
+                rec["status"],
+                rec["reused"],
+                f"{wall:.1f}" if isinstance(wall, (int, float)) else "",
+                rec["message"],
+                *[_cell(rec.get(c)) for c in _EXTRA_COLUMNS],
+                *[_cell(p.get(k)) for k in params],
+                *[_cell(s.get(c)) for c in cols],
+            ]
+        )
     return buf.getvalue()
 
 
@@ -796,14 +924,22 @@ def _write_outputs(out: Path, sweep: Sweep, ordered: list[dict[str, Any]], meta:
     write_json(out / "sweep_summary.json", [_summary_record(r) for r in ordered])
     with atomic_path(out / "sweep_summary.csv") as tmp:
         tmp.write_text(_table(ordered))
-    write_json(out / "sweep_manifest.json", {
-        "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
-        "sweep": str(sweep.path), "sweep_hash": hashlib.sha256(sweep.path.read_bytes()).hexdigest(),
-        "name": sweep.name, "description": sweep.description, "overrides": list(sweep.overrides),
-        "only": None if sweep.only is None else list(sweep.only), **meta,
-        "runs": {r["id"]: r["status"] for r in ordered}, "reused": [r["id"] for r in ordered if r.get("reused")],
-        "versions": package_versions(),
-    })
+    write_json(
+        out / "sweep_manifest.json",
+        {
+            "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+            "sweep": str(sweep.path),
+            "sweep_hash": hashlib.sha256(sweep.path.read_bytes()).hexdigest(),
+            "name": sweep.name,
+            "description": sweep.description,
+            "overrides": list(sweep.overrides),
+            "only": None if sweep.only is None else list(sweep.only),
+            **meta,
+            "runs": {r["id"]: r["status"] for r in ordered},
+            "reused": [r["id"] for r in ordered if r.get("reused")],
+            "versions": package_versions(),
+        },
+    )
 
 
 def _summary_record(rec: dict[str, Any]) -> dict[str, Any]:
@@ -901,18 +1037,43 @@ def run_sweep(
         n_workers = min(workers, max(1, len(todo)))
         engine = scheduler or ("cluster" if cluster is not None else f"LocalCluster({n_workers} workers)")
         if log:
-            log(f"sweep {sweep.name}: {len(todo)} runs to do, {len(records)} not run now "
-                f"({sum(r['reused'] for r in records.values())} valid earlier) on {engine}")
-        call = _Call(sweep=sweep, out=out, token=uuid.uuid4().hex, records=records, interrupts=interrupts, log=log,
-                     meta={"selected": [r.id for r in sweep.selected], "workers": n_workers, "engine": engine,
-                           "video": video, "overwrite": overwrite, "retries": retries, "process_per_run": True,
-                           "worker_thread_env": _thread_settings()})
+            log(
+                f"sweep {sweep.name}: {len(todo)} runs to do, {len(records)} not run now "
+                f"({sum(r['reused'] for r in records.values())} valid earlier) on {engine}"
+            )
+        call = _Call(
+            sweep=sweep,
+            out=out,
+            token=uuid.uuid4().hex,
+            records=records,
+            interrupts=interrupts,
+            log=log,
+            meta={
+                "selected": [r.id for r in sweep.selected],
+                "workers": n_workers,
+                "engine": engine,
+                "video": video,
+                "overwrite": overwrite,
+                "retries": retries,
+                "process_per_run": True,
+                "worker_thread_env": _thread_settings(),
+            },
+        )
         stopped = None
         if todo:
             call.progress = SweepProgress(total=len(todo), enabled=progress)
             try:
-                stopped = _run_dask(todo, call, workers=n_workers, scheduler=scheduler, cluster=cluster, video=video,
-                                    overwrite=overwrite, retries=retries, grace_s=grace_s)
+                stopped = _run_dask(
+                    todo,
+                    call,
+                    workers=n_workers,
+                    scheduler=scheduler,
+                    cluster=cluster,
+                    video=video,
+                    overwrite=overwrite,
+                    retries=retries,
+                    grace_s=grace_s,
+                )
             finally:
                 call.progress.close()
         with interrupts.deferred():  # the summaries are written whole, whatever arrives now

@@ -51,8 +51,6 @@ class SweepRun:
     params: dict[str, Any] = field(default_factory=dict, hash=False)
 
 
-
-
 def _check_files(run_dir: Path, files: Any, *, video: bool) -> str:
     """Why the files listed in a manifest do not match the folder ("" when they all do)."""
     if not isinstance(files, dict) or "summary.json" not in files:
@@ -92,15 +90,32 @@ def _folder_check(run_dir: Path, *, config_hash: str, video: bool) -> tuple[dict
     return (None, why) if why else (manifest, "")
 
 
-def _record(run: SweepRun, *, status: str, message: str, wall_time_s: float | None = None,
-            reused: bool = False, summary: dict[str, Any] | None = None, attempts: int = 0,
-            resumed_from_s: float | None = None) -> dict[str, Any]:
+def _record(
+    run: SweepRun,
+    *,
+    status: str,
+    message: str,
+    wall_time_s: float | None = None,
+    reused: bool = False,
+    summary: dict[str, Any] | None = None,
+    attempts: int = 0,
+    resumed_from_s: float | None = None,
+) -> dict[str, Any]:
     """A sweep summary record (one per run of the sweep file)."""
-    return {"id": run.id, "status": status, "message": message, "config_hash": run.config_hash,
-            "params": dict(run.params), "wall_time_s": wall_time_s, "attempts": attempts,
-            "resumed_from_s": resumed_from_s, "reused": reused, "selected": run.selected, "config": str(run.config),
-            "summary": summary or {}}
-
+    return {
+        "id": run.id,
+        "status": status,
+        "message": message,
+        "config_hash": run.config_hash,
+        "params": dict(run.params),
+        "wall_time_s": wall_time_s,
+        "attempts": attempts,
+        "resumed_from_s": resumed_from_s,
+        "reused": reused,
+        "selected": run.selected,
+        "config": str(run.config),
+        "summary": summary or {},
+    }
 
 
 def _run_offset(run_id: str) -> int:
@@ -127,8 +142,10 @@ def run_lock(out: Path, run_id: str, *, wait_s: float) -> Iterator[None]:
                 break
             except OSError:
                 if time.monotonic() > deadline:
-                    raise RunDirError(f"run {run_id!r}: still running in another process after {wait_s:g} s "
-                                      f"(lock {state / RUNS_LOCK})") from None
+                    raise RunDirError(
+                        f"run {run_id!r}: still running in another process after {wait_s:g} s "
+                        f"(lock {state / RUNS_LOCK})"
+                    ) from None
                 time.sleep(0.1)
         yield
     finally:

@@ -191,8 +191,9 @@ def grid_points(table: Any) -> list[DesignPoint]:
     seen: dict[str, DesignPoint] = {}
     for p in points:
         if p.id in seen:
-            raise ConfigError([f"grid: the points {seen[p.id].params} and {p.params} get the same id {p.id!r}; "
-                               "give distinct values"])
+            raise ConfigError(
+                [f"grid: the points {seen[p.id].params} and {p.params} get the same id {p.id!r}; give distinct values"]
+            )
         seen[p.id] = p
     return points
 
@@ -231,8 +232,13 @@ def _check_distribution(spec: Any, where: str, *, scalar: bool = False) -> None:
     unknown = sorted(set(spec) - _DIST_KEYS[dist] - {"dist"})
     missing = sorted(_DIST_KEYS[dist] - set(spec))
     if unknown or missing:
-        raise ConfigError([f"{where}: dist {dist!r} takes {sorted(_DIST_KEYS[dist])}"
-                           + (f"; unknown {unknown}" if unknown else "") + (f"; missing {missing}" if missing else "")])
+        raise ConfigError(
+            [
+                f"{where}: dist {dist!r} takes {sorted(_DIST_KEYS[dist])}"
+                + (f"; unknown {unknown}" if unknown else "")
+                + (f"; missing {missing}" if missing else "")
+            ]
+        )
     if scalar and dist in ("direction", "epoch", "choice"):
         raise ConfigError([f"{where}.dist: must be a scalar distribution (uniform, normal, log-uniform), got {dist!r}"])
     if dist in ("uniform", "log-uniform"):
@@ -305,9 +311,13 @@ def monte_carlo_points(table: Any) -> list[DesignPoint]:
     for key, spec in specs.items():
         _check_distribution(spec, f"monte_carlo.{key}")
     width = len(str(samples - 1))
-    return [DesignPoint(id=f"s{i:0{width}d}",
-                        params={k: _draw(s, np.random.default_rng([seed, i, _key_seed(k)])) for k, s in specs.items()})
-            for i in range(samples)]
+    return [
+        DesignPoint(
+            id=f"s{i:0{width}d}",
+            params={k: _draw(s, np.random.default_rng([seed, i, _key_seed(k)])) for k, s in specs.items()},
+        )
+        for i in range(samples)
+    ]
 
 
 def design_points(tree: dict[str, Any]) -> list[DesignPoint]:

@@ -53,8 +53,13 @@ class SweepProgress:
         self.failed = 0
         self.running = 0
         self.dashboard: str | None = None
-        self._bar = tqdm(total=total, file=self.stream, desc="sweep", unit="run", dynamic_ncols=True,
-                         leave=True, mininterval=0.5) if on and total > 0 else None
+        self._bar = (
+            tqdm(
+                total=total, file=self.stream, desc="sweep", unit="run", dynamic_ncols=True, leave=True, mininterval=0.5
+            )
+            if on and total > 0
+            else None
+        )
         self._show()
 
     @property
@@ -96,8 +101,9 @@ class SweepProgress:
 
     def _show(self) -> None:
         if self._bar is not None:
-            self._bar.set_postfix_str(f"running {self.running}, failed {self.failed}, "
-                                      f"dashboard {self.dashboard or 'off'}", refresh=True)
+            self._bar.set_postfix_str(
+                f"running {self.running}, failed {self.failed}, dashboard {self.dashboard or 'off'}", refresh=True
+            )
 
 
 def _is_terminal(stream: TextIO) -> bool:

@@ -137,8 +137,9 @@ def _ok(rec: dict[str, Any]) -> bool:
 # Monte Carlo
 
 
-def figure_stats(records: list[dict[str, Any]], figure: str,
-                 percentiles: Sequence[float] = PERCENTILES) -> dict[str, Any]:
+def figure_stats(
+    records: list[dict[str, Any]], figure: str, percentiles: Sequence[float] = PERCENTILES
+) -> dict[str, Any]:
     """Counts, share reached and percentiles of one summary figure over every run.
 
     A run counts as ``failed`` when it did not complete or its structure failed (status
@@ -173,9 +174,18 @@ def figure_stats(records: list[dict[str, Any]], figure: str,
         v = float(arr[k - 1]) if n else math.inf
         pct[f"p{p:g}"] = v if math.isfinite(v) else None
     reached = n - failed - never
-    return {"figure": figure, "n": n, "reached": reached, "never": never, "failed": failed, "not_run": not_run,
-            "share_reached": reached / n if n else None, "percentiles": pct,
-            "min": float(arr[0]) if reached else None, "max": float(arr[reached - 1]) if reached else None}
+    return {
+        "figure": figure,
+        "n": n,
+        "reached": reached,
+        "never": never,
+        "failed": failed,
+        "not_run": not_run,
+        "share_reached": reached / n if n else None,
+        "percentiles": pct,
+        "min": float(arr[0]) if reached else None,
+        "max": float(arr[reached - 1]) if reached else None,
+    }
 
 
 def _fmt(value: Any) -> str:
@@ -188,8 +198,9 @@ def _fmt(value: Any) -> str:
 
 def _mc_plot(records: list[dict[str, Any]], figure: str, stats: dict[str, Any], path: Path) -> None:
     """Histogram of the reached values and the empirical CDF over every run (percentiles marked)."""
-    reached = np.sort([x for r in records if _ok(r)
-                       and (x := _number((r.get("summary") or {}).get(figure))) is not None])
+    reached = np.sort(
+        [x for r in records if _ok(r) and (x := _number((r.get("summary") or {}).get(figure))) is not None]
+    )
     fig = Figure(figsize=(9.0, 3.4), dpi=_DPI)
     ax_h, ax_c = fig.subplots(1, 2)
     n = stats["n"]
@@ -197,15 +208,21 @@ def _mc_plot(records: list[dict[str, Any]], figure: str, stats: dict[str, Any], 
         ax_h.hist(reached, bins=min(30, max(5, int(math.sqrt(reached.size)) + 1)), color="tab:blue")
         steps = np.arange(1, reached.size + 1) / n
         ax_c.step(np.concatenate([[reached[0]], reached]), np.concatenate([[0.0], steps]), where="post")
-    ax_c.axhline(stats["share_reached"] or 0.0, color="grey", ls="--", lw=0.8,
-                 label=f"share reached {100 * (stats['share_reached'] or 0):.1f} %")
+    ax_c.axhline(
+        stats["share_reached"] or 0.0,
+        color="grey",
+        ls="--",
+        lw=0.8,
+        label=f"share reached {100 * (stats['share_reached'] or 0):.1f} %",
+    )
     for name, value in stats["percentiles"].items():
         if value is not None:
             for ax in (ax_h, ax_c):
                 ax.axvline(value, color="tab:red", ls=":", lw=0.9)
             ax_c.annotate(name, (value, 0.02), color="tab:red", fontsize=7, rotation=90)
-    ax_h.set_title(f"{stats['reached']} reached, {stats['never']} never, {stats['failed']} failed (n = {n})",
-                   fontsize=9)
+    ax_h.set_title(
+        f"{stats['reached']} reached, {stats['never']} never, {stats['failed']} failed (n = {n})", fontsize=9
+    )
     ax_h.set_xlabel(figure, fontsize=8)
     ax_h.set_ylabel("runs")
     ax_c.set_xlabel(figure, fontsize=8)
@@ -224,22 +241,38 @@ def _mc_report(records: list[dict[str, Any]], figures: list[str], out: Path, tit
     writer = csv.writer(buf)
     writer.writerow(["figure", "n", "reached", "never", "failed", "not_run", "share_reached", *names, "min", "max"])
     for s in stats:
-        writer.writerow([s["figure"], s["n"], s["reached"], s["never"], s["failed"], s["not_run"], s["share_reached"],
-                         *["never" if s["percentiles"][k] is None else s["percentiles"][k] for k in names],
-                         "" if s["min"] is None else s["min"], "" if s["max"] is None else s["max"]])
+        writer.writerow(
+            [
+                s["figure"],
+                s["n"],
+                s["reached"],
+                s["never"],
+                s["failed"],
+                s["not_run"],
+                s["share_reached"],
+                *["never" if s["percentiles"][k] is None else s["percentiles"][k] for k in names],
+                "" if s["min"] is None else s["min"],
+                "" if s["max"] is None else s["max"],
+            ]
+        )
     paths = [out / "percentiles.csv"]
     with atomic_path(paths[0]) as tmp:
         tmp.write_text(buf.getvalue())
-    lines = [f"# {title}: Monte Carlo report", "",
-             f"{len(records)} runs; statuses: {_status_counts(records)}. Failed runs and runs that never reach "
-             "a value count in every share and as +inf in the percentiles (`never`); runs the sweep did not "
-             "run to their end (not_run, interrupted) are left out of n.", "",
-             "| figure | n | reached | never | failed | not run | share reached | " + " | ".join(names) + " |",
-             "|---|---|---|---|---|---|---|" + "---|" * len(names)]
+    lines = [
+        f"# {title}: Monte Carlo report",
+        "",
+        f"{len(records)} runs; statuses: {_status_counts(records)}. Failed runs and runs that never reach "
+        "a value count in every share and as +inf in the percentiles (`never`); runs the sweep did not "
+        "run to their end (not_run, interrupted) are left out of n.",
+        "",
+        "| figure | n | reached | never | failed | not run | share reached | " + " | ".join(names) + " |",
+        "|---|---|---|---|---|---|---|" + "---|" * len(names),
+    ]
     for s in stats:
-        lines.append(f"| `{s['figure']}` | {s['n']} | {s['reached']} | {s['never']} | {s['failed']} | {s['not_run']} | "
-                     f"{100 * (s['share_reached'] or 0):.1f} % | "
-                     + " | ".join(_fmt(s["percentiles"][k]) for k in names) + " |")
+        lines.append(
+            f"| `{s['figure']}` | {s['n']} | {s['reached']} | {s['never']} | {s['failed']} | {s['not_run']} | "
+            f"{100 * (s['share_reached'] or 0):.1f} % | " + " | ".join(_fmt(s["percentiles"][k]) for k in names) + " |"
+        )
     lines.append("")
     for s in stats:
         png = out / f"{_file_name(s['figure'])}.png"
@@ -294,7 +327,7 @@ def _grid_plot(records: list[dict[str, Any]], key: str, others: list[str], figur
         ax.set_xlabel(key, fontsize=8)
         if cats is not None:
             ax.set_xticks(range(len(cats)), cats, fontsize=7, rotation=30)
-    for ax in axes[len(figures):]:
+    for ax in axes[len(figures) :]:
         ax.set_visible(False)
     if 1 < len(groups) <= 8:
         axes[0].legend(fontsize=6)
@@ -306,9 +339,15 @@ def _grid_plot(records: list[dict[str, Any]], key: str, others: list[str], figur
 def _grid_report(records: list[dict[str, Any]], figures: list[str], out: Path, title: str) -> list[Path]:
     keys = _grid_keys(records)
     head = ["id", "status", *keys, *figures]
-    rows = [[r["id"], r.get("status", ""), *[_label(r.get("params", {}).get(k, "")) for k in keys],
-             *[_fmt(v) if (v := _number((r.get("summary") or {}).get(f))) is not None else "" for f in figures]]
-            for r in records]
+    rows = [
+        [
+            r["id"],
+            r.get("status", ""),
+            *[_label(r.get("params", {}).get(k, "")) for k in keys],
+            *[_fmt(v) if (v := _number((r.get("summary") or {}).get(f))) is not None else "" for f in figures],
+        ]
+        for r in records
+    ]
     buf = io.StringIO()
     writer = csv.writer(buf)
     writer.writerow(head)
@@ -316,9 +355,15 @@ def _grid_report(records: list[dict[str, Any]], figures: list[str], out: Path, t
     paths = [out / "report.csv"]
     with atomic_path(paths[0]) as tmp:
         tmp.write_text(buf.getvalue())
-    lines = [f"# {title}: grid report", "", f"{len(records)} runs; statuses: {_status_counts(records)}. "
-             "Failed runs keep their row (empty figures) and have no point in the plots.", "",
-             "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines = [
+        f"# {title}: grid report",
+        "",
+        f"{len(records)} runs; statuses: {_status_counts(records)}. "
+        "Failed runs keep their row (empty figures) and have no point in the plots.",
+        "",
+        "| " + " | ".join(head) + " |",
+        "|" + "---|" * len(head),
+    ]
     lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |" for row in rows]
     lines.append("")
     for key in keys:
@@ -326,7 +371,7 @@ def _grid_report(records: list[dict[str, Any]], figures: list[str], out: Path, t
         for part in range(0, len(figures), _MAX_PANELS):
             suffix = f"_{part // _MAX_PANELS + 1}" if len(figures) > _MAX_PANELS else ""
             png = out / f"{_file_name(key)}{suffix}.png"
-            _grid_plot(records, key, others, figures[part:part + _MAX_PANELS], png)
+            _grid_plot(records, key, others, figures[part : part + _MAX_PANELS], png)
             paths.append(png)
             lines += [f"![{key}]({png.name})", ""]
     paths.append(_write_md(out, lines))
@@ -370,9 +415,14 @@ def write_report(sweep_dir: str | Path, *, figures: Sequence[str] | None = None)
     records, manifest, tree = _load(root)
     if not records:
         raise ReportError(f"SWEEP_DIR: {str(root)!r} lists no runs")
-    monte_carlo = "monte_carlo" in tree if tree else all(str(r["id"]).rsplit("/", 1)[-1][:1] == "s"
-                                                         and str(r["id"]).rsplit("/", 1)[-1][1:].isdigit()
-                                                         for r in records)
+    monte_carlo = (
+        "monte_carlo" in tree
+        if tree
+        else all(
+            str(r["id"]).rsplit("/", 1)[-1][:1] == "s" and str(r["id"]).rsplit("/", 1)[-1][1:].isdigit()
+            for r in records
+        )
+    )
     chosen = list(figures) if figures else _report_options(tree) or _default_figures(records, monte_carlo=monte_carlo)
     known = {k for r in records for k in (r.get("summary") or {})}
     unknown = [f for f in chosen if f not in known] if known else []
@@ -389,8 +439,13 @@ def write_report(sweep_dir: str | Path, *, figures: Sequence[str] | None = None)
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The options of ``magsail report``: ``SWEEP_DIR`` and ``--figure KEY`` (repeatable)."""
     parser.add_argument("sweep_dir", metavar="SWEEP_DIR", help="folder of a finished sweep (sweep_summary.json)")
-    parser.add_argument("--figure", action="append", default=None, metavar="KEY",
-                        help="summary key to report (repeatable; default: the sweep file's [report] figures)")
+    parser.add_argument(
+        "--figure",
+        action="append",
+        default=None,
+        metavar="KEY",
+        help="summary key to report (repeatable; default: the sweep file's [report] figures)",
+    )
 
 
 def main(args: argparse.Namespace) -> int:

@@ -87,22 +87,25 @@ def run_one(run: SweepRun, out_dir: str | Path, *, video: bool, fresh: bool = Tr
         record["resumed_from_s"] = t_resume
         # overwrite: the earlier run's files go first (its manifest last), so a stopped rerun never looks finished
         try:
-            outcome = run_scenario(cfg, run_dir, video=video, resume=t_resume is not None,
-                                   overwrite=t_resume is None, progress=False)
+            outcome = run_scenario(
+                cfg, run_dir, video=video, resume=t_resume is not None, overwrite=t_resume is None, progress=False
+            )
         except CheckpointError:  # refused before anything was written: run afresh
             if t_resume is None:
                 raise
             record["resumed_from_s"] = None
             outcome = run_scenario(cfg, run_dir, video=video, overwrite=True, progress=False)
-        record.update(status=str(outcome.status), message=str(outcome.get("status_message") or ""),
-                      summary=to_jsonable(dict(outcome)))
+        record.update(
+            status=str(outcome.status),
+            message=str(outcome.get("status_message") or ""),
+            summary=to_jsonable(dict(outcome)),
+        )
         if outcome.status in FINISHED:
             _, why = _folder_check(run_dir, config_hash=record["config_hash"], video=video)
             if why:
                 record.update(status="failed", message=f"run folder does not verify after the run: {why}")
     except Exception as err:  # noqa: BLE001 - one failing run must not lose the others
-        record.update(status="failed", message=f"{type(err).__name__}: {err}",
-                      traceback=traceback.format_exc(limit=-8))
+        record.update(status="failed", message=f"{type(err).__name__}: {err}", traceback=traceback.format_exc(limit=-8))
     _write_params(run, run_dir, record["config_hash"])
     record["wall_time_s"] = time.perf_counter() - t0
     return record
@@ -117,8 +120,16 @@ def _write_params(run: SweepRun, run_dir: Path, digest: str) -> None:
     if not run_dir.is_dir():
         return
     try:
-        write_json(run_dir / PARAMS_NAME, {"id": run.id, "params": dict(run.params), "config": str(run.config),
-                                           "overrides": list(run.overrides), "config_hash": digest})
+        write_json(
+            run_dir / PARAMS_NAME,
+            {
+                "id": run.id,
+                "params": dict(run.params),
+                "config": str(run.config),
+                "overrides": list(run.overrides),
+                "config_hash": digest,
+            },
+        )
     except OSError:  # the record says what ran; a read-only folder must not fail the run
         pass
 
@@ -172,8 +183,13 @@ def _stopped_record(run: SweepRun, err: BaseException, *, wall_time_s: float) ->
     """The record of a run that raised past :func:`run_one` (an interrupt, or an exit)."""
     if isinstance(err, KeyboardInterrupt):
         outcome = getattr(err, "outcome", None)  # RunInterrupted: the outputs up to then are written
-        return _record(run, status="interrupted", message=f"stopped while running ({err})", wall_time_s=wall_time_s,
-                       summary=to_jsonable(dict(outcome)) if isinstance(outcome, dict) else None)
+        return _record(
+            run,
+            status="interrupted",
+            message=f"stopped while running ({err})",
+            wall_time_s=wall_time_s,
+            summary=to_jsonable(dict(outcome)) if isinstance(outcome, dict) else None,
+        )
     return _record(run, status="failed", message=f"{type(err).__name__}: {err}", wall_time_s=wall_time_s)
 
 
@@ -259,12 +275,22 @@ def _start(run: SweepRun, out: Path, *, video: bool, fresh: bool) -> tuple[subpr
     read_fd, write_fd = os.pipe()
     try:
         # the run id on the command line names the process in ps/top (the job itself comes on stdin)
-        proc = subprocess.Popen([sys.executable, "-m", "magsail_mj.sweep", "--run", run.id], stdin=subprocess.PIPE,
-                                pass_fds=(write_fd,), start_new_session=True)
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "magsail_mj.sweep", "--run", run.id],
+            stdin=subprocess.PIPE,
+            pass_fds=(write_fd,),
+            start_new_session=True,
+        )
     finally:
         os.close(write_fd)
-    job = {"run": run, "out": str(out), "video": video, "fresh": fresh, "parent_pid": os.getpid(),
-           "result_fd": write_fd}
+    job = {
+        "run": run,
+        "out": str(out),
+        "video": video,
+        "fresh": fresh,
+        "parent_pid": os.getpid(),
+        "result_fd": write_fd,
+    }
     try:
         proc.stdin.write(pickle.dumps(job))
         proc.stdin.close()
@@ -300,12 +326,17 @@ def _wait(proc: subprocess.Popen, read_fd: int, *, out: Path, token: str, grace_
 def _lost(run: SweepRun, proc: subprocess.Popen, attempts: int) -> dict[str, Any]:
     code = proc.returncode
     how = f"signal {signal.Signals(-code).name}" if code and code < 0 else f"exit code {code}"
-    return _record(run, status="failed", attempts=attempts,
-                   message=f"run process ended without a result ({how}) in attempt {attempts}")
+    return _record(
+        run,
+        status="failed",
+        attempts=attempts,
+        message=f"run process ended without a result ({how}) in attempt {attempts}",
+    )
 
 
-def supervise(run: SweepRun, out_dir: str, *, video: bool, fresh: bool, token: str, run_retries: int,
-              grace_s: float) -> dict[str, Any]:
+def supervise(
+    run: SweepRun, out_dir: str, *, video: bool, fresh: bool, token: str, run_retries: int, grace_s: float
+) -> dict[str, Any]:
     """Dask task: run ``run`` in a run process, retrying (and resuming) one killed by a signal.
 
     Returns the run's record (``attempts`` counts every attempt of this sweep call, also those
@@ -331,4 +362,3 @@ def supervise(run: SweepRun, out_dir: str, *, video: bool, fresh: bool, token: s
             record.update(status="interrupted", message=record["message"] or "stopped while running")
         record.update(attempts=attempts, wall_time_s=time.perf_counter() - t0)
         return record
-

@@ -40,5 +40,13 @@ from magsail_mj.concepts.cnusail.model import CnusailModel, model_params
 from magsail_mj.concepts.cnusail.lifetime import LifetimeTask
 from magsail_mj.concepts.cnusail.tasks import AttitudeTask, build_cnusail_scenario
 
-__all__ = ["CnusailConfig", "CnusailModel", "AttitudeTask", "LifetimeTask", "build_cnusail_scenario",
-           "model_params", "TABLE2_INERTIA", "DEFAULT_BUS_CENTROID"]
+__all__ = [
+    "CnusailConfig",
+    "CnusailModel",
+    "AttitudeTask",
+    "LifetimeTask",
+    "build_cnusail_scenario",
+    "model_params",
+    "TABLE2_INERTIA",
+    "DEFAULT_BUS_CENTROID",
+]

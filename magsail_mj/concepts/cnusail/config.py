@@ -18,14 +18,35 @@ from pydantic import Field, field_validator, model_validator
 from magsail_mj.concepts import register_config
 from magsail_mj.config import MJ_MINVAL, ConfigProblem, SimConfig, StrictModel, normalised
 from magsail_mj.environment.config import (
-    AtmosphereConfig, DragConfig, EnvironmentConfig, FieldConfig, GravityConfig, OrbitConfig, SRPConfig,
-    SunConfig, environment_problems,
+    AtmosphereConfig,
+    DragConfig,
+    EnvironmentConfig,
+    FieldConfig,
+    GravityConfig,
+    OrbitConfig,
+    SRPConfig,
+    SunConfig,
+    environment_problems,
 )
 from magsail_mj.loads.actuators_cubesat import MTQ_LIMIT_SETS, DCMotorParams
 
-__all__ = ["CnusailConfig", "SpacecraftConfig", "MtqConfig", "WheelsConfig", "ActuatorsConfig", "UnloadingConfig",
-           "ModesConfig", "SensorsConfig", "CnusailControlConfig", "CnusailInitialConfig", "AnalysisConfig",
-           "CnusailRenderConfig", "LifetimeConfig", "TABLE2_INERTIA", "DEFAULT_BUS_CENTROID"]
+__all__ = [
+    "CnusailConfig",
+    "SpacecraftConfig",
+    "MtqConfig",
+    "WheelsConfig",
+    "ActuatorsConfig",
+    "UnloadingConfig",
+    "ModesConfig",
+    "SensorsConfig",
+    "CnusailControlConfig",
+    "CnusailInitialConfig",
+    "AnalysisConfig",
+    "CnusailRenderConfig",
+    "LifetimeConfig",
+    "TABLE2_INERTIA",
+    "DEFAULT_BUS_CENTROID",
+]
 
 Vec3 = tuple[float, float, float]
 DEG = math.pi / 180.0
@@ -92,8 +113,11 @@ class MtqConfig(StrictModel):
     @model_validator(mode="after")
     def _check(self) -> MtqConfig:
         if self.blank_s >= self.cycle_s:
-            raise ConfigProblem("blank_s", f"must be shorter than cycle_s = {self.cycle_s!r} s, got {self.blank_s!r}",
-                                others=("cycle_s",))
+            raise ConfigProblem(
+                "blank_s",
+                f"must be shorter than cycle_s = {self.cycle_s!r} s, got {self.blank_s!r}",
+                others=("cycle_s",),
+            )
         if self.dipole_max_A_m2 is not None and min(self.dipole_max_A_m2) <= 0:
             raise ValueError("dipole_max_A_m2: every limit must be > 0")
         return self
@@ -120,10 +144,18 @@ class WheelsConfig(StrictModel):
 
     def motor_params(self) -> DCMotorParams:
         """The DC-motor constants of the wheel driver."""
-        return DCMotorParams(spin_inertia_kg_m2=self.rotor_inertia_kg_m2, torque_max_N_m=self.torque_max_N_m,
-                             speed_max_rpm=self.speed_max_rpm, K_M_N_m_A=self.K_M_N_m_A,
-                             K_b_V_s_rad=self.K_b_V_s_rad, R_ohm=self.R_ohm, L_H=self.L_H,
-                             K_B_N_m_s=self.K_B_N_m_s, V_max_V=self.V_max_V, i_max_A=self.i_max_A)
+        return DCMotorParams(
+            spin_inertia_kg_m2=self.rotor_inertia_kg_m2,
+            torque_max_N_m=self.torque_max_N_m,
+            speed_max_rpm=self.speed_max_rpm,
+            K_M_N_m_A=self.K_M_N_m_A,
+            K_b_V_s_rad=self.K_b_V_s_rad,
+            R_ohm=self.R_ohm,
+            L_H=self.L_H,
+            K_B_N_m_s=self.K_B_N_m_s,
+            V_max_V=self.V_max_V,
+            i_max_A=self.i_max_A,
+        )
 
 
 class ActuatorsConfig(StrictModel):
@@ -235,7 +267,11 @@ class LifetimeConfig(StrictModel):
     area_tumbling_m2: float = Field(default=2.035, gt=0)
     methods_cowell: list[Literal["nadir", "deorbit", "tumbling"]] = ["deorbit", "tumbling"]
     atmospheres: list[Literal["exp", "msis_low", "msis_mid", "msis_high"]] = [
-        "exp", "msis_low", "msis_mid", "msis_high"]
+        "exp",
+        "msis_low",
+        "msis_mid",
+        "msis_high",
+    ]
     stop_altitude_km: float = Field(default=120.0, gt=0)
     cowell_max_days: float = Field(default=1000.0, gt=0)
     cowell_rtol: float = Field(default=1e-9, gt=0, lt=1e-3)
@@ -262,9 +298,16 @@ class CnusailConfig(StrictModel):
     analysis: AnalysisConfig = AnalysisConfig()
     render: CnusailRenderConfig = CnusailRenderConfig()
     lifetime: LifetimeConfig = LifetimeConfig()
-    orbit: OrbitConfig = OrbitConfig(semi_major_axis_km=6963.1, eccentricity=0.01939, inclination_deg=98.0,
-                                     ltdn_h=10.5, true_anomaly0_deg=0.0, epoch="2016-01-01T00:00:00Z",
-                                     R_E_km=6378.137, propagator="j2")
+    orbit: OrbitConfig = OrbitConfig(
+        semi_major_axis_km=6963.1,
+        eccentricity=0.01939,
+        inclination_deg=98.0,
+        ltdn_h=10.5,
+        true_anomaly0_deg=0.0,
+        epoch="2016-01-01T00:00:00Z",
+        R_E_km=6378.137,
+        propagator="j2",
+    )
     field: FieldConfig = FieldConfig(model="igrf")
     atmosphere: AtmosphereConfig = AtmosphereConfig(model="exponential")
     sun: SunConfig = SunConfig(model="ephemeris")
@@ -273,36 +316,51 @@ class CnusailConfig(StrictModel):
     gravity: GravityConfig = GravityConfig(tidal=False, classical_torque=True)
 
     def environment_config(self) -> EnvironmentConfig:
-        return EnvironmentConfig(orbit=self.orbit, field=self.field, atmosphere=self.atmosphere, sun=self.sun,
-                                 srp=self.srp, drag=self.drag, gravity=self.gravity)
+        return EnvironmentConfig(
+            orbit=self.orbit,
+            field=self.field,
+            atmosphere=self.atmosphere,
+            sun=self.sun,
+            srp=self.srp,
+            drag=self.drag,
+            gravity=self.gravity,
+        )
 
     @model_validator(mode="after")
     def _consistent(self) -> CnusailConfig:
         problems = environment_problems(self)
         if self.gravity.tidal:
-            problems.append("gravity.tidal: the cubesat is one rigid body at the world origin; use "
-                            "gravity.classical_torque = true (spec §4.3) and tidal = false")
+            problems.append(
+                "gravity.tidal: the cubesat is one rigid body at the world origin; use "
+                "gravity.classical_torque = true (spec §4.3) and tidal = false"
+            )
         if not self.orbit.enabled:
             problems.append("orbit.enabled: the CNUSAIL scenarios ride the reference orbit; must be true")
         dt = self.sim.timestep_s
-        periods = (("control.rate_Hz", 1.0 / self.control.rate_Hz),
-                   ("actuators.mtq.cycle_s", self.actuators.mtq.cycle_s),
-                   ("actuators.mtq.blank_s", self.actuators.mtq.blank_s))
-        for key, value in (periods if self.kind == "attitude" else ()):
+        periods = (
+            ("control.rate_Hz", 1.0 / self.control.rate_Hz),
+            ("actuators.mtq.cycle_s", self.actuators.mtq.cycle_s),
+            ("actuators.mtq.blank_s", self.actuators.mtq.blank_s),
+        )
+        for key, value in periods if self.kind == "attitude" else ():
             n = value / dt
             if not math.isfinite(n) or abs(n - round(n)) > 1e-9 * max(1.0, n) or (value > 0 and round(n) < 1):
                 problems.append(f"{key}: its period {value:g} s must be a whole multiple of sim.timestep_s = {dt:g} s")
         m = self.control.modes
         if m.detumble_exit_deg_s > m.detumble_entry_deg_s:
-            problems.append("control.modes.detumble_exit_deg_s: must not exceed "
-                            f"control.modes.detumble_entry_deg_s = {m.detumble_entry_deg_s!r}, "
-                            f"got {m.detumble_exit_deg_s!r}")
+            problems.append(
+                "control.modes.detumble_exit_deg_s: must not exceed "
+                f"control.modes.detumble_entry_deg_s = {m.detumble_entry_deg_s!r}, "
+                f"got {m.detumble_exit_deg_s!r}"
+            )
         if m.enabled and self.control.mode == "bdot":
             problems.append("control.mode: with control.modes.enabled give the pointing law ('eigen_axis' or 'pd')")
         u = self.control.unloading
         if u.off_rpm is not None and u.off_rpm > u.threshold_rpm:
-            problems.append("control.unloading.off_rpm: must not exceed control.unloading.threshold_rpm = "
-                            f"{u.threshold_rpm!r}, got {u.off_rpm!r}")
+            problems.append(
+                "control.unloading.off_rpm: must not exceed control.unloading.threshold_rpm = "
+                f"{u.threshold_rpm!r}, got {u.off_rpm!r}"
+            )
         problems += self._mass_problems()
         if problems:
             raise ValueError("; ".join(problems))
@@ -318,16 +376,22 @@ class CnusailConfig(StrictModel):
         out = []
         hub_mass = sc.mass_kg - 3.0 * w.rotor_mass_kg
         if not hub_mass > MJ_MINVAL:
-            out.append(f"spacecraft.mass_kg: must exceed the three rotors' actuators.wheels.rotor_mass_kg × 3 = "
-                       f"{3.0 * w.rotor_mass_kg:g} kg by more than {MJ_MINVAL:g} kg, got {sc.mass_kg!r}")
+            out.append(
+                f"spacecraft.mass_kg: must exceed the three rotors' actuators.wheels.rotor_mass_kg × 3 = "
+                f"{3.0 * w.rotor_mass_kg:g} kg by more than {MJ_MINVAL:g} kg, got {sc.mass_kg!r}"
+            )
         rotor_sum = w.rotor_inertia_kg_m2 + 2.0 * w.rotor_transverse_inertia_kg_m2
         hub = [i - rotor_sum for i in sc.inertia]
         if not min(hub) > MJ_MINVAL:
-            out.append(f"{inertia_key}: every moment must exceed the rotors' J_s + 2 J_t = {rotor_sum:g} kg m² "
-                       f"({rotors}) by more than {MJ_MINVAL:g}, got {list(sc.inertia)}")
+            out.append(
+                f"{inertia_key}: every moment must exceed the rotors' J_s + 2 J_t = {rotor_sum:g} kg m² "
+                f"({rotors}) by more than {MJ_MINVAL:g}, got {list(sc.inertia)}"
+            )
         else:
             a, b, c = hub
             if a + b < c or b + c < a or a + c < b:
-                out.append(f"{inertia_key}: the hub inertia (moments minus the rotors' J_s + 2 J_t, {rotors}) "
-                           f"{hub} violates the triangle inequality, got {list(sc.inertia)}")
+                out.append(
+                    f"{inertia_key}: the hub inertia (moments minus the rotors' J_s + 2 J_t, {rotors}) "
+                    f"{hub} violates the triangle inequality, got {list(sc.inertia)}"
+                )
         return out

@@ -44,12 +44,24 @@ SOURCES = ("gravity_gradient", "drag", "srp", "residual_dipole")
 
 def cubesat_sail_facets(*, area_m2: float, r_cp_m, optics: Optics | None = None) -> FacetSet:
     """The sail: one two-sided plate of ``area_m2`` with normal +z_B at r_cp (body axes)."""
-    return FacetSet.plate(area=area_m2, normal=(0.0, 0.0, 1.0), centre=tuple(r_cp_m),
-                          optics=optics or Optics.cnusail_sail(), two_sided=True)
+    return FacetSet.plate(
+        area=area_m2,
+        normal=(0.0, 0.0, 1.0),
+        centre=tuple(r_cp_m),
+        optics=optics or Optics.cnusail_sail(),
+        two_sided=True,
+    )
 
 
-def cubesat_drag_facets(*, configuration: Literal["stowed", "deployed"], surfaces: Literal["sail+bus", "sail"],
-                        sail_area_m2: float, r_cp_m, bus_size_m, bus_centroid_m) -> FacetSet:
+def cubesat_drag_facets(
+    *,
+    configuration: Literal["stowed", "deployed"],
+    surfaces: Literal["sail+bus", "sail"],
+    sail_area_m2: float,
+    r_cp_m,
+    bus_size_m,
+    bus_centroid_m,
+) -> FacetSet:
     """Drag facets of spec §6.2: deployed ``"sail+bus"`` = sail plate + six bus faces; ``"sail"`` =
     the paper's single plate; stowed = the six bus faces whichever option."""
     bus = FacetSet.box(size=bus_size_m, centre=bus_centroid_m)
@@ -81,9 +93,18 @@ class CubesatDisturbanceLoad:
 
     name = "cubesat_disturbances"
 
-    def __init__(self, body_id: int, *, inertia_kg_m2, drag_facets: FacetSet | None, srp_facets: FacetSet | None,
-                 drag_coefficient: float = 2.2, residual_dipole_A_m2=None, gravity_gradient: bool = True,
-                 mu: float = 3.986004418e14) -> None:
+    def __init__(
+        self,
+        body_id: int,
+        *,
+        inertia_kg_m2,
+        drag_facets: FacetSet | None,
+        srp_facets: FacetSet | None,
+        drag_coefficient: float = 2.2,
+        residual_dipole_A_m2=None,
+        gravity_gradient: bool = True,
+        mu: float = 3.986004418e14,
+    ) -> None:
         self.body_id = int(body_id)
         I = np.asarray(inertia_kg_m2, dtype=float)
         self.inertia = np.diag(I) if I.shape == (3,) else I
@@ -100,13 +121,17 @@ class CubesatDisturbanceLoad:
         if drag_facets is not None:
             # per facet: n̂_i, k_i = −½ C_d A_i c_i (centre c_i), two-sided; T = ρ (Σ_i proj_i k_i) × V
             k = (-0.5 * self.cd * drag_facets.area)[:, None] * drag_facets.centre
-            self._drag = tuple((*n, *ki, bool(two)) for n, ki, two in
-                               zip(drag_facets.normal.tolist(), k.tolist(), drag_facets.two_sided.tolist()))
+            self._drag = tuple(
+                (*n, *ki, bool(two))
+                for n, ki, two in zip(drag_facets.normal.tolist(), k.tolist(), drag_facets.two_sided.tolist())
+            )
         self._sail = None
         if srp_facets is not None:
             if len(srp_facets) != 1 or not srp_facets.two_sided[0] or not np.allclose(srp_facets.normal[0], [0, 0, 1]):
-                raise ValueError("srp_facets: the fast path takes one two-sided plate with normal +z "
-                                 f"(the sail), got {len(srp_facets)} facets")
+                raise ValueError(
+                    "srp_facets: the fast path takes one two-sided plate with normal +z "
+                    f"(the sail), got {len(srp_facets)} facets"
+                )
             self._sail = srp_facets
             self._sail_centre = tuple(srp_facets.centre[0].tolist())
         self._key: tuple | None = None
@@ -148,8 +173,9 @@ class CubesatDisturbanceLoad:
         if self.gravity_gradient:
             gg = self._gravity_gradient((env.r_ref_eci + state.pos[b]) @ self._R.reshape(3, 3))
         if self._drag is not None and env.density_kg_m3 > 0.0:
-            drag = self._drag_torque(mat_t_vec_f(R, _add(env.v_rel_eci.tolist(), state.vel[b].tolist())),
-                                     env.density_kg_m3)
+            drag = self._drag_torque(
+                mat_t_vec_f(R, _add(env.v_rel_eci.tolist(), state.vel[b].tolist())), env.density_kg_m3
+            )
         if self._sail is not None and env.srp_pressure_N_m2 > 0.0:
             srp = self._sail_srp_torque(mat_t_vec_f(R, env.sun_eci.tolist()), env.srp_pressure_N_m2)
         if self._D is not None:
@@ -188,7 +214,7 @@ class CubesatDisturbanceLoad:
             if two:
                 p = abs(p)
             elif p < 0.0:
-                continue   # a one-sided face turned away: no force
+                continue  # a one-sided face turned away: no force
             l0 += p * k0
             l1 += p * k1
             l2 += p * k2

@@ -90,11 +90,13 @@ def attitude_matrix(q: np.ndarray) -> np.ndarray:
     """A(q) of paper Eq. 3 with the q_3² diagonal of erratum E-1 (scalar-last ``q``): maps
     reference components into body components; equals ``xmatᵀ`` of the reordered quaternion."""
     q1, q2, q3, q4 = np.asarray(q, dtype=float)
-    return np.array([
-        [q1 * q1 - q2 * q2 - q3 * q3 + q4 * q4, 2 * (q1 * q2 + q3 * q4), 2 * (q1 * q3 - q2 * q4)],
-        [2 * (q1 * q2 - q3 * q4), -q1 * q1 + q2 * q2 - q3 * q3 + q4 * q4, 2 * (q2 * q3 + q1 * q4)],
-        [2 * (q1 * q3 + q2 * q4), 2 * (q2 * q3 - q1 * q4), -q1 * q1 - q2 * q2 + q3 * q3 + q4 * q4],
-    ])
+    return np.array(
+        [
+            [q1 * q1 - q2 * q2 - q3 * q3 + q4 * q4, 2 * (q1 * q2 + q3 * q4), 2 * (q1 * q3 - q2 * q4)],
+            [2 * (q1 * q2 - q3 * q4), -q1 * q1 + q2 * q2 - q3 * q3 + q4 * q4, 2 * (q2 * q3 + q1 * q4)],
+            [2 * (q1 * q3 + q2 * q4), 2 * (q2 * q3 - q1 * q4), -q1 * q1 - q2 * q2 + q3 * q3 + q4 * q4],
+        ]
+    )
 
 
 def paper_error_quaternion(q_c: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -137,8 +139,9 @@ def rate_error(omega_body: np.ndarray, p_e: np.ndarray, omega_o: float) -> np.nd
     return np.asarray(omega_body, dtype=float) + omega_o * col
 
 
-def error_quaternion_f(p_c: Sequence[float], p_b: Sequence[float], *, shortest: bool = True
-                       ) -> tuple[float, float, float, float]:
+def error_quaternion_f(
+    p_c: Sequence[float], p_b: Sequence[float], *, shortest: bool = True
+) -> tuple[float, float, float, float]:
     """:func:`error_quaternion` of single quaternions in plain floats (the controller's per-sample
     path): p_e = p_c* ⊗ p_b / |p_c* ⊗ p_b|, sign flipped when ``shortest`` and w < 0."""
     w1, x1, y1, z1 = p_c
@@ -164,8 +167,13 @@ def rate_error_f(omega_body: Sequence[float], p_e: Sequence[float], omega_o: flo
     """:func:`rate_error` from plain floats: ω_e = ω + ω_o (2(xy + wz), 1 − 2(x² + z²), 2(yz − wx))."""
     w, x, y, z = p_e
     o0, o1, o2 = omega_body
-    return np.array((o0 + omega_o * (2 * (x * y + w * z)), o1 + omega_o * (1 - 2 * (x * x + z * z)),
-                     o2 + omega_o * (2 * (y * z - w * x))))
+    return np.array(
+        (
+            o0 + omega_o * (2 * (x * y + w * z)),
+            o1 + omega_o * (1 - 2 * (x * x + z * z)),
+            o2 + omega_o * (2 * (y * z - w * x)),
+        )
+    )
 
 
 @dataclass(frozen=True)
@@ -190,9 +198,16 @@ class EigenAxisGains:
     rate_max_rad_s: float
 
     def as_dict(self) -> dict[str, object]:
-        return {"k": self.k, "c": self.c, "k_i": self.k_i.tolist(), "p_i": self.p_i.tolist(),
-                "q_ref": self.q_ref.tolist(), "theta_true_rad": self.theta_true_rad,
-                "theta_clamped_rad": self.theta_clamped_rad, "rate_max_rad_s": self.rate_max_rad_s}
+        return {
+            "k": self.k,
+            "c": self.c,
+            "k_i": self.k_i.tolist(),
+            "p_i": self.p_i.tolist(),
+            "q_ref": self.q_ref.tolist(),
+            "theta_true_rad": self.theta_true_rad,
+            "theta_clamped_rad": self.theta_clamped_rad,
+            "rate_max_rad_s": self.rate_max_rad_s,
+        }
 
 
 def _angle_of_vector(q_vec: np.ndarray) -> float:
@@ -202,8 +217,9 @@ def _angle_of_vector(q_vec: np.ndarray) -> float:
     return 2.0 * math.atan2(math.sqrt(n2), math.sqrt(max(0.0, 1.0 - n2)))
 
 
-def eigen_axis_gains(q_e0: np.ndarray, *, omega_n_rad_s: float, zeta: float, rate_max_rad_s: float,
-                     clamp_min: float = 0.1) -> EigenAxisGains:
+def eigen_axis_gains(
+    q_e0: np.ndarray, *, omega_n_rad_s: float, zeta: float, rate_max_rad_s: float, clamp_min: float = 0.1
+) -> EigenAxisGains:
     """Gains of spec §7.2 (Eqs. 33–36 corrected, E-13) from the error vector ``q_e0`` (3,) at the
     start of the manoeuvre, with the per-component clamp of E-14 (``clamp_min``; 0 disables it).
 
@@ -226,8 +242,16 @@ def eigen_axis_gains(q_e0: np.ndarray, *, omega_n_rad_s: float, zeta: float, rat
     c = 2.0 * zeta * omega_n_rad_s
     k_i = c * rate_max_rad_s * q_ref / nrm
     p_i = k / k_i
-    return EigenAxisGains(k=k, c=c, k_i=k_i, p_i=p_i, q_ref=q_ref, theta_true_rad=_angle_of_vector(q),
-                          theta_clamped_rad=_angle_of_vector(q_ref), rate_max_rad_s=float(rate_max_rad_s))
+    return EigenAxisGains(
+        k=k,
+        c=c,
+        k_i=k_i,
+        p_i=p_i,
+        q_ref=q_ref,
+        theta_true_rad=_angle_of_vector(q),
+        theta_clamped_rad=_angle_of_vector(q_ref),
+        rate_max_rad_s=float(rate_max_rad_s),
+    )
 
 
 def gyro_compensation(omega: np.ndarray, inertia: np.ndarray, h_w: np.ndarray | None, mode: GyroComp) -> np.ndarray:
@@ -244,9 +268,16 @@ def gyro_compensation(omega: np.ndarray, inertia: np.ndarray, h_w: np.ndarray | 
     return np.cross(omega, H)
 
 
-def eigen_axis_torque(q_e: np.ndarray, omega_e: np.ndarray, omega: np.ndarray, inertia: np.ndarray,
-                      gains: EigenAxisGains, *, gyro_comp: GyroComp = "Iw",
-                      h_w: np.ndarray | None = None) -> np.ndarray:
+def eigen_axis_torque(
+    q_e: np.ndarray,
+    omega_e: np.ndarray,
+    omega: np.ndarray,
+    inertia: np.ndarray,
+    gains: EigenAxisGains,
+    *,
+    gyro_comp: GyroComp = "Iw",
+    h_w: np.ndarray | None = None,
+) -> np.ndarray:
     """u = −J diag(k_i) sat(P q_e) − c J ω_e + g (paper Eq. 28, spec §7.2) [N m], body axes.
 
     Args:

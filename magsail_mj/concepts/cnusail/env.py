@@ -87,8 +87,16 @@ from magsail_mj.sim import Simulation
 
 import magsail_mj
 
-__all__ = ["CubesatCommand", "CubesatConverter", "CubesatActuators", "CubesatPhysics", "CubesatTask",
-           "make_cubesat_environment", "task_mode", "ACTIONS"]
+__all__ = [
+    "CubesatCommand",
+    "CubesatConverter",
+    "CubesatActuators",
+    "CubesatPhysics",
+    "CubesatTask",
+    "make_cubesat_environment",
+    "task_mode",
+    "ACTIONS",
+]
 
 DEG = math.pi / 180.0
 ACTIONS = ("dipole", "torque_dipole", "current_dipole")
@@ -155,8 +163,11 @@ class CubesatActuators:
         self.shortest = bool(cfg.control.shortest_rotation)
         self.mtq = MagnetorquerLoad(self.idx.bus)
         u = cfg.control.unloading
-        self.unload = (UnloadingLogic(on_rpm=u.threshold_rpm, off_rpm=u.off_rpm)
-                       if u.enabled and self.mode != Mode.DETUMBLE else None)
+        self.unload = (
+            UnloadingLogic(on_rpm=u.threshold_rpm, off_rpm=u.off_rpm)
+            if u.enabled and self.mode != Mode.DETUMBLE
+            else None
+        )
         self.unload_mask = np.zeros(3, dtype=bool)
         # the MjData and the command-frame cache live outside the checkpointed state (a namespace is
         # not walked)
@@ -243,6 +254,7 @@ class CubesatActuators:
             def probe(state: StepState, d: mujoco.MjData) -> Any:
                 self.sync(state)
                 return getattr(self, name)
+
             return probe
 
         return {
@@ -305,8 +317,16 @@ class CubesatTask(AttitudeTask):
         ``initial.omega0_deg_s``).
     """
 
-    def __init__(self, base: Any, random: Any = None, *, action: str | None = None, randomize: bool = True,
-                 rate_range_deg_s: float | None = None, reward_weights: Any = None) -> None:
+    def __init__(
+        self,
+        base: Any,
+        random: Any = None,
+        *,
+        action: str | None = None,
+        randomize: bool = True,
+        rate_range_deg_s: float | None = None,
+        reward_weights: Any = None,
+    ) -> None:
         super().__init__(random, randomize=randomize, reward_weights=reward_weights)
         cfg = base.cfg
         self.cfg, self.scenario = cfg, base.scenario
@@ -321,8 +341,9 @@ class CubesatTask(AttitudeTask):
             raise ValueError(f"rate_range_deg_s: must be a finite number >= 0, got {rate_range_deg_s!r}")
         self.action, self.rate_range_deg_s = action, float(rate_range_deg_s)
         self.period_s = 1.0 / cfg.control.rate_Hz
-        self.rate_scale_rad_s = (cfg.analysis.detumble_threshold_deg_s if self.mode == Mode.DETUMBLE
-                                 else cfg.control.slew_rate_max_deg_s) * DEG
+        self.rate_scale_rad_s = (
+            cfg.analysis.detumble_threshold_deg_s if self.mode == Mode.DETUMBLE else cfg.control.slew_rate_max_deg_s
+        ) * DEG
         self.converter = CubesatConverter(action)
         m_max = cfg.actuators.mtq.limit_vector
         m_names = ("m_x_Am2", "m_y_Am2", "m_z_Am2")
@@ -333,8 +354,9 @@ class CubesatTask(AttitudeTask):
         if action == "torque_dipole":
             # beyond K_M i_max + K_B |ω_M| the driver's current command saturates alike (|ω_M| stays
             # near Ω_max under the speed limiter; 2 Ω_max leaves margin), so clipping there changes nothing
-            t_max = (motor.torque_max_N_m if cfg.actuators.wheels.model == "ideal"
-                     else motor.K_M_N_m_A * motor.current_max_A)
+            t_max = (
+                motor.torque_max_N_m if cfg.actuators.wheels.model == "ideal" else motor.K_M_N_m_A * motor.current_max_A
+            )
             w_max = t_max + 2.0 * motor.K_B_N_m_s * motor.speed_max_rad_s
             names = ("u_x_Nm", "u_y_Nm", "u_z_Nm")
         elif cfg.actuators.wheels.model == "ideal":
@@ -405,8 +427,16 @@ class CubesatTask(AttitudeTask):
         p_c, w_o = physics.actuators.frame(state.t, state.env.r_ref_eci, state.env.v_ref_eci)
         p_e = error_quaternion(p_c, q, shortest=self.cfg.control.shortest_rotation)
         omega = d.qvel[idx.v_ang].copy()
-        truth = {"q": q, "omega": omega, "B": R.reshape(3, 3).T @ state.env.B_eci, "r": r, "v": v, "p_e": p_e,
-                 "w_o": w_o, "omega_e": rate_error(omega, p_e, w_o)}
+        truth = {
+            "q": q,
+            "omega": omega,
+            "B": R.reshape(3, 3).T @ state.env.B_eci,
+            "r": r,
+            "v": v,
+            "p_e": p_e,
+            "w_o": w_o,
+            "omega_e": rate_error(omega, p_e, w_o),
+        }
         self._truth_cache = (key, truth)
         return truth
 
@@ -421,10 +451,17 @@ class CubesatTask(AttitudeTask):
             omega_e = rate_error(omega, x["p_e"], x["w_o"])
         if s.magnetometer_noise_T > 0:
             B = B + self.random.normal(0.0, s.magnetometer_noise_T, 3)
-        return {"time_s": np.array([state.t]), "attitude_wxyz": x["q"].copy(), "body_rate_rad_s": omega.copy(),
-                "field_body_T": B.copy(), "wheel_speed_rad_s": physics.data.qvel[self.scenario.idx.wheel_qvel].copy(),
-                "orbit_position_eci_m": x["r"].copy(), "orbit_velocity_eci_m_s": x["v"].copy(),
-                "pointing_error_wxyz": x["p_e"].copy(), "rate_error_rad_s": omega_e.copy()}
+        return {
+            "time_s": np.array([state.t]),
+            "attitude_wxyz": x["q"].copy(),
+            "body_rate_rad_s": omega.copy(),
+            "field_body_T": B.copy(),
+            "wheel_speed_rad_s": physics.data.qvel[self.scenario.idx.wheel_qvel].copy(),
+            "orbit_position_eci_m": x["r"].copy(),
+            "orbit_velocity_eci_m_s": x["v"].copy(),
+            "pointing_error_wxyz": x["p_e"].copy(),
+            "rate_error_rad_s": omega_e.copy(),
+        }
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
         """θ_e and ‖ω‖ (detumble) or ‖ω_e‖ (pointing) of the true state after the step."""
@@ -441,16 +478,17 @@ class CubesatTask(AttitudeTask):
         self.scenario.controller = ctl
         return ctl
 
-    def shipped_action(self, physics: SimulationPhysics, controller: CnusailController,
-                       state: StepState) -> np.ndarray:
+    def shipped_action(self, physics: SimulationPhysics, controller: CnusailController, state: StepState) -> np.ndarray:
         """The flight controller's samples due at ``state`` (attitude law, B-dot/unloading), from the
         state it reads in ``magsail run`` (true attitude, rate and wheel speeds with its own sensor
         noise), as this task's action: the held dipole, with the body-torque request ``u`` for
         ``torque_dipole``."""
         ctl, d, p = controller, physics.data, controller.p
         if self.action == "current_dipole":
-            raise ValueError("action: the shipped law commands body torques; use action='torque_dipole' "
-                             "(pointing) or 'dipole' (detumble) to run it")
+            raise ValueError(
+                "action: the shipped law commands body torques; use action='torque_dipole' "
+                "(pointing) or 'dipole' (detumble) to run it"
+            )
         k = int(round(state.t / p.timestep_s))
         omega_M = d.qvel[ctl.wheel_qvel]
         i_att, i_mtq = k // ctl.n_att, k // p.mtq_cycle.steps_per_cycle
@@ -474,22 +512,28 @@ class CubesatTask(AttitudeTask):
 
 
 def _parts(base: Simulation, task: CubesatTask) -> tuple[ActionController, CubesatActuators]:
-    controller = ActionController(period_s=task.period_s, convert=task.converter.command,
-                                  action=task.neutral_action(),
-                                  end_time_s=base.n_steps * float(base.model.opt.timestep))
+    controller = ActionController(
+        period_s=task.period_s,
+        convert=task.converter.command,
+        action=task.neutral_action(),
+        end_time_s=base.n_steps * float(base.model.opt.timestep),
+    )
     return controller, CubesatActuators(base.scenario, mode=task.mode, driver=base.controller.driver)
 
 
-def make_cubesat_environment(cfg: Any, *, random: Any = None, epoch_range_s: float = 0.0,
-                             **options: Any) -> control.Environment:
+def make_cubesat_environment(
+    cfg: Any, *, random: Any = None, epoch_range_s: float = 0.0, **options: Any
+) -> control.Environment:
     """The environment of a CNUSAIL attitude config (``options`` go to :class:`CubesatTask`):
     ``control_timestep`` = ``1/control.rate_Hz``, ``time_limit`` = ``sim.duration_s``.
     ``epoch_range_s`` > 0: each episode starts at the epoch ``orbit.epoch + U(0, epoch_range_s)``
     (drawn first, from the task's ``random``; the simulation is rebuilt for it, its orbit, field and
     Sun tables being built for the epoch)."""
     if getattr(cfg, "concept", None) != "cnusail" or getattr(cfg, "kind", None) != "attitude":
-        raise ValueError(f"config: expected a CNUSAIL attitude config, got concept {getattr(cfg, 'concept', None)!r}, "
-                         f"kind {getattr(cfg, 'kind', None)!r}")
+        raise ValueError(
+            f"config: expected a CNUSAIL attitude config, got concept {getattr(cfg, 'concept', None)!r}, "
+            f"kind {getattr(cfg, 'kind', None)!r}"
+        )
     epoch_range_s = float(epoch_range_s)
     if not (math.isfinite(epoch_range_s) and epoch_range_s >= 0):
         raise ValueError(f"epoch_range_s: must be a finite number >= 0 s, got {epoch_range_s!r}")
@@ -503,24 +547,36 @@ def make_cubesat_environment(cfg: Any, *, random: Any = None, epoch_range_s: flo
 
 def _is_cnusail(mode: Mode):
     def matches(cfg: Any) -> bool:
-        return (getattr(cfg, "concept", None) == "cnusail" and getattr(cfg, "kind", None) == "attitude"
-                and task_mode(cfg) == mode)
+        return (
+            getattr(cfg, "concept", None) == "cnusail"
+            and getattr(cfg, "kind", None) == "attitude"
+            and task_mode(cfg) == mode
+        )
+
     return matches
 
 
-@register("cnusail/detumble", config="magsail_mj/concepts/cnusail/configs/detumble_post.toml", matches=_is_cnusail(Mode.DETUMBLE))  # noqa: E501
+@register(
+    "cnusail/detumble",
+    config="magsail_mj/concepts/cnusail/configs/detumble_post.toml",
+    matches=_is_cnusail(Mode.DETUMBLE),
+)  # noqa: E501
 def detumble(cfg: Any, *, random: Any = None, **options: Any) -> control.Environment:
     """CNUSAIL-1 B-dot detumble (S1/S2): dipole action, wheels idle."""
     return make_cubesat_environment(cfg, random=random, **options)
 
 
-@register("cnusail/nadir", config="magsail_mj/concepts/cnusail/configs/nadir_post.toml", matches=_is_cnusail(Mode.NADIR))  # noqa: E501
+@register(
+    "cnusail/nadir", config="magsail_mj/concepts/cnusail/configs/nadir_post.toml", matches=_is_cnusail(Mode.NADIR)
+)  # noqa: E501
 def nadir(cfg: Any, *, random: Any = None, **options: Any) -> control.Environment:
     """CNUSAIL-1 nadir slew (S3–S5): body-torque request through the wheels + unloading dipole."""
     return make_cubesat_environment(cfg, random=random, **options)
 
 
-@register("cnusail/deorbit", config="magsail_mj/concepts/cnusail/configs/deorbit.toml", matches=_is_cnusail(Mode.DEORBIT))  # noqa: E501
+@register(
+    "cnusail/deorbit", config="magsail_mj/concepts/cnusail/configs/deorbit.toml", matches=_is_cnusail(Mode.DEORBIT)
+)  # noqa: E501
 def deorbit(cfg: Any, *, random: Any = None, **options: Any) -> control.Environment:
     """CNUSAIL-1 deorbit slew (S6/S7): body-torque request through the wheels + unloading dipole."""
     return make_cubesat_environment(cfg, random=random, **options)

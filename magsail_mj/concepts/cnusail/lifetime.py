@@ -49,10 +49,22 @@ REFERENCE_SAILS: tuple[dict[str, Any], ...] = (
     # approximate public data (spec §10): NanoSail-D2 ejected Jan 2011 near 600–650 km, re-entered
     # Sept 2011 (≈ 240 days); LightSail-1 in a 356 × 705 km orbit, re-entered about a week after
     # its sail deployment. The model prediction takes the random-tumbling area A_s/2.
-    {"name": "NanoSail-D2", "mass_kg": 4.0, "sail_area_m2": 10.0, "perigee_km": 625.0, "apogee_km": 625.0,
-     "observed_days": 240.0},
-    {"name": "LightSail-1", "mass_kg": 5.0, "sail_area_m2": 32.0, "perigee_km": 356.0, "apogee_km": 705.0,
-     "observed_days": 7.0},
+    {
+        "name": "NanoSail-D2",
+        "mass_kg": 4.0,
+        "sail_area_m2": 10.0,
+        "perigee_km": 625.0,
+        "apogee_km": 625.0,
+        "observed_days": 240.0,
+    },
+    {
+        "name": "LightSail-1",
+        "mass_kg": 5.0,
+        "sail_area_m2": 32.0,
+        "perigee_km": 356.0,
+        "apogee_km": 705.0,
+        "observed_days": 7.0,
+    },
 )
 
 
@@ -74,8 +86,14 @@ class LifetimeRunner:
         bad = [k for k, v in records.items() if np.asarray(v).dtype.kind == "f" and not np.isfinite(v).all()]
         if bad:  # the same rule as every runner: a non-finite number is a divergence, never a result
             status, message = "diverged", f"decay propagation produced non-finite values in {', '.join(bad)}"
-        return RunResult(records=records, status=status, message=message, t_end_s=float(records["t"][-1]),
-                         steps=self.sc.n_runs, wall_time_s=wall)
+        return RunResult(
+            records=records,
+            status=status,
+            message=message,
+            t_end_s=float(records["t"][-1]),
+            steps=self.sc.n_runs,
+            wall_time_s=wall,
+        )
 
 
 @register_task("cnusail", "lifetime")
@@ -134,16 +152,43 @@ class LifetimeTask:
                 b = self._bstar(area)
                 runs = []
                 t0 = time.perf_counter()
-                runs.append((averaged_decay(a0_m=a0, e0=e0, bstar=b, rho_fn=rho, R_E=self.R_E, stop_alt_m=stop,
-                                            t_max_s=cfg.sim.duration_s, mu=self.mu), time.perf_counter() - t0))
+                runs.append(
+                    (
+                        averaged_decay(
+                            a0_m=a0,
+                            e0=e0,
+                            bstar=b,
+                            rho_fn=rho,
+                            R_E=self.R_E,
+                            stop_alt_m=stop,
+                            t_max_s=cfg.sim.duration_s,
+                            mu=self.mu,
+                        ),
+                        time.perf_counter() - t0,
+                    )
+                )
                 if reg in L.methods_cowell:
                     t0 = time.perf_counter()
-                    runs.append((cowell_decay(elements=el, bstar=b, rho_fn=rho, R_E=self.R_E, stop_alt_m=stop,
-                                              t_max_s=L.cowell_max_days * DAY, mu=self.mu,
-                                              j2=cfg.orbit.propagator == "j2", J2=cfg.orbit.J2,
-                                              R_j2=cfg.orbit.j2_radius_km * 1e3, corotating=L.cowell_corotating,
-                                              omega_earth=cfg.orbit.omega_earth_rad_s, rtol=L.cowell_rtol),
-                                 time.perf_counter() - t0))
+                    runs.append(
+                        (
+                            cowell_decay(
+                                elements=el,
+                                bstar=b,
+                                rho_fn=rho,
+                                R_E=self.R_E,
+                                stop_alt_m=stop,
+                                t_max_s=L.cowell_max_days * DAY,
+                                mu=self.mu,
+                                j2=cfg.orbit.propagator == "j2",
+                                J2=cfg.orbit.J2,
+                                R_j2=cfg.orbit.j2_radius_km * 1e3,
+                                corotating=L.cowell_corotating,
+                                omega_earth=cfg.orbit.omega_earth_rad_s,
+                                rtol=L.cowell_rtol,
+                            ),
+                            time.perf_counter() - t0,
+                        )
+                    )
                 for res, wall in runs:
                     self.n_runs += 1
                     key = f"{reg}_{res.method}_{atm}"
@@ -151,44 +196,87 @@ class LifetimeTask:
                     records[f"a_alt_{key}_m"] = res.a_m - self.R_E
                     records[f"perigee_{key}_m"] = res.perigee_alt_m
                     records[f"apogee_{key}_m"] = res.apogee_alt_m
-                    self.table.append({"regime": reg, "method": res.method, "atmosphere": atm, "area_m2": area,
-                                       "bstar_m2_kg": b, "lifetime_s": res.lifetime_s,
-                                       "lifetime_days": res.lifetime_days, "reached_cap": res.reached_cap,
-                                       "rhs_evaluations": res.n_rhs, "wall_s": wall})
+                    self.table.append(
+                        {
+                            "regime": reg,
+                            "method": res.method,
+                            "atmosphere": atm,
+                            "area_m2": area,
+                            "bstar_m2_kg": b,
+                            "lifetime_s": res.lifetime_s,
+                            "lifetime_days": res.lifetime_days,
+                            "reached_cap": res.reached_cap,
+                            "rhs_evaluations": res.n_rhs,
+                            "wall_s": wall,
+                        }
+                    )
         # comparison chart (exponential atmosphere)
         if rho_exp is not None:
             gen_days, gen_cap = [], []
             for h in L.generic_altitudes_km:
                 a = self.R_E + h * 1e3
-                r = averaged_decay(a0_m=a, e0=0.0, bstar=self._bstar(L.generic_area_m2), rho_fn=rho_exp, R_E=self.R_E,
-                                   stop_alt_m=stop, t_max_s=cfg.sim.duration_s, mu=self.mu)
+                r = averaged_decay(
+                    a0_m=a,
+                    e0=0.0,
+                    bstar=self._bstar(L.generic_area_m2),
+                    rho_fn=rho_exp,
+                    R_E=self.R_E,
+                    stop_alt_m=stop,
+                    t_max_s=cfg.sim.duration_s,
+                    mu=self.mu,
+                )
                 self.n_runs += 1
                 gen_days.append(r.lifetime_days)
                 gen_cap.append(r.reached_cap)
-            self.comparison["generic"] = {"altitude_km": list(L.generic_altitudes_km), "lifetime_days": gen_days,
-                                          "reached_cap": gen_cap,
-                                          "area_m2": L.generic_area_m2, "mass_kg": cfg.spacecraft.mass_kg}
+            self.comparison["generic"] = {
+                "altitude_km": list(L.generic_altitudes_km),
+                "lifetime_days": gen_days,
+                "reached_cap": gen_cap,
+                "area_m2": L.generic_area_m2,
+                "mass_kg": cfg.spacecraft.mass_kg,
+            }
             rows = []
             for row in self.table:
                 if row["atmosphere"] != "exp":
                     continue
-                if row["method"] == "averaged" and any(r["regime"] == row["regime"] and r["method"] == "cowell"
-                                                       and r["atmosphere"] == "exp" for r in self.table):
+                if row["method"] == "averaged" and any(
+                    r["regime"] == row["regime"] and r["method"] == "cowell" and r["atmosphere"] == "exp"
+                    for r in self.table
+                ):
                     continue
-                rows.append({"regime": row["regime"], "method": row["method"], "lifetime_days": row["lifetime_days"],
-                             "mean_alt_km": (a0 - self.R_E) / 1e3, "perigee_km": (a0 * (1 - e0) - self.R_E) / 1e3,
-                             "apogee_km": (a0 * (1 + e0) - self.R_E) / 1e3})
+                rows.append(
+                    {
+                        "regime": row["regime"],
+                        "method": row["method"],
+                        "lifetime_days": row["lifetime_days"],
+                        "mean_alt_km": (a0 - self.R_E) / 1e3,
+                        "perigee_km": (a0 * (1 - e0) - self.R_E) / 1e3,
+                        "apogee_km": (a0 * (1 + e0) - self.R_E) / 1e3,
+                    }
+                )
             self.comparison["cnusail"] = rows
             refs = []
             if L.references:
                 for ref in REFERENCE_SAILS:
                     rp, ra = self.R_E + ref["perigee_km"] * 1e3, self.R_E + ref["apogee_km"] * 1e3
-                    r = averaged_decay(a0_m=0.5 * (rp + ra), e0=(ra - rp) / (ra + rp),
-                                       bstar=self._bstar(ref["sail_area_m2"] / 2.0, ref["mass_kg"]), rho_fn=rho_exp,
-                                       R_E=self.R_E, stop_alt_m=stop, t_max_s=cfg.sim.duration_s, mu=self.mu)
+                    r = averaged_decay(
+                        a0_m=0.5 * (rp + ra),
+                        e0=(ra - rp) / (ra + rp),
+                        bstar=self._bstar(ref["sail_area_m2"] / 2.0, ref["mass_kg"]),
+                        rho_fn=rho_exp,
+                        R_E=self.R_E,
+                        stop_alt_m=stop,
+                        t_max_s=cfg.sim.duration_s,
+                        mu=self.mu,
+                    )
                     self.n_runs += 1
-                    refs.append({**ref, "altitude_km": 0.5 * (ref["perigee_km"] + ref["apogee_km"]),
-                                 "predicted_days": r.lifetime_days})
+                    refs.append(
+                        {
+                            **ref,
+                            "altitude_km": 0.5 * (ref["perigee_km"] + ref["apogee_km"]),
+                            "predicted_days": r.lifetime_days,
+                        }
+                    )
             self.comparison["references"] = refs
         base = "nadir_averaged_exp"
         records["t"] = records.get(f"t_{base}_s", np.array([0.0]))
@@ -196,11 +284,16 @@ class LifetimeTask:
 
     # -------------------------------------------------------------- outputs
     def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        s: dict[str, Any] = {"status": result.status, "wall_time_s": result.wall_time_s, "decay_runs": self.n_runs,
-                             "orbit_semi_major_axis_m": self.elements.a, "orbit_eccentricity": self.elements.e,
-                             "mean_semi_major_axis_m": self.mean_elements[0],
-                             "mean_eccentricity": self.mean_elements[1],
-                             "stop_altitude_m": self.cfg.lifetime.stop_altitude_km * 1e3}
+        s: dict[str, Any] = {
+            "status": result.status,
+            "wall_time_s": result.wall_time_s,
+            "decay_runs": self.n_runs,
+            "orbit_semi_major_axis_m": self.elements.a,
+            "orbit_eccentricity": self.elements.e,
+            "mean_semi_major_axis_m": self.mean_elements[0],
+            "mean_eccentricity": self.mean_elements[1],
+            "stop_altitude_m": self.cfg.lifetime.stop_altitude_km * 1e3,
+        }
         for row in self.table:
             key = f"lifetime_{row['regime']}_{row['method']}_{row['atmosphere']}"
             s[f"{key}_s"] = row["lifetime_s"]
@@ -240,8 +333,11 @@ class LifetimeTask:
         return out
 
     def render_info(self) -> dict[str, Any]:
-        return {"title": "CNUSAIL-1 lifetime (no attitude simulation)", "overlay": [],
-                "video": "the lifetime analysis propagates orbits only; it has no motion to render"}
+        return {
+            "title": "CNUSAIL-1 lifetime (no attitude simulation)",
+            "overlay": [],
+            "video": "the lifetime analysis propagates orbits only; it has no motion to render",
+        }
 
     def manifest_extra(self) -> dict[str, Any]:
         return {"kind": "lifetime", "runs": self.n_runs, "notes": self.notes}

@@ -82,8 +82,9 @@ def _euler_321_deg(p_e: np.ndarray) -> np.ndarray:
     return np.degrees(np.stack([psi, theta, phi], axis=1))
 
 
-def disturbance_orbit_profile(sc: CnusailModel, mode: str, *, n: int = 600, offset_deg: float = 0.0
-                              ) -> tuple[np.ndarray, np.ndarray]:
+def disturbance_orbit_profile(
+    sc: CnusailModel, mode: str, *, n: int = 600, offset_deg: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Disturbance torques (n, 4, 3) [N m, body axes, rows = SOURCES] over one orbit from t = 0 with
     the body held in the ``mode`` attitude (``"nadir"`` or ``"deorbit"``), turned by ``offset_deg``
     about the body y axis (0: exactly; then the gravity gradient vanishes, the principal axes being
@@ -103,14 +104,16 @@ def disturbance_orbit_profile(sc: CnusailModel, mode: str, *, n: int = 600, offs
             h = math.radians(offset_deg) / 2
             pc = quat_mul(pc, np.array([math.cos(h), 0.0, math.sin(h), 0.0]))
         xq[sc.idx.bus] = pc
-        st = StepState(t=float(t), pos=np.zeros((nb, 3)), vel=np.zeros((nb, 3)), xquat=xq, omega=np.zeros((nb, 3)),
-                       env=e)
+        st = StepState(
+            t=float(t), pos=np.zeros((nb, 3)), vel=np.zeros((nb, 3)), xquat=xq, omega=np.zeros((nb, 3)), env=e
+        )
         out[i] = sc.disturbances.torques_body(st)
     return ts, out
 
 
-def attitude_outputs(sc: CnusailModel, result: RunResult, *, controller: CnusailController | None
-                     ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def attitude_outputs(
+    sc: CnusailModel, result: RunResult, *, controller: CnusailController | None
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """(summary, series) of an attitude run (module docstring) of the built cubesat ``sc`` whose
     flight controller was ``controller`` (its events and duty cycle; ``None``: not run)."""
     cfg, rec, idx = sc.cfg, result.records, sc.idx
@@ -141,12 +144,16 @@ def attitude_outputs(sc: CnusailModel, result: RunResult, *, controller: Cnusail
     omega_e = rec["omega_e_rad_s"]
 
     # marker bodies of the video: Sun, velocity, nadir, field directions
-    for name, vec in (("mk_sun", env["sun_eci"]), ("mk_vel", env["v_ref_eci"]), ("mk_nadir", -env["r_ref_eci"]),
-                      ("mk_field", env["B_eci"])):
+    for name, vec in (
+        ("mk_sun", env["sun_eci"]),
+        ("mk_vel", env["v_ref_eci"]),
+        ("mk_nadir", -env["r_ref_eci"]),
+        ("mk_field", env["B_eci"]),
+    ):
         if name in idx.marker_qpos:
             qa = idx.marker_qpos[name]
             if np.any(np.linalg.norm(vec, axis=1) > 0):
-                qpos[:, qa:qa + 4] = direction_quaternions(vec)
+                qpos[:, qa : qa + 4] = direction_quaternions(vec)
 
     series: dict[str, np.ndarray] = {
         "qpos": qpos,
@@ -168,9 +175,13 @@ def attitude_outputs(sc: CnusailModel, result: RunResult, *, controller: Cnusail
     if cfg.spacecraft.configuration == "deployed":
         series["sail_area_m2"] = cfg.spacecraft.sail_area_m2 * np.abs(cos_flow)
 
-    summary: dict[str, Any] = {"status": result.status, "t_end_s": result.t_end_s, "orbit_period_s": period,
-                               "wall_time_s": result.wall_time_s,
-                               "step_cost_us": 1e6 * result.wall_time_s / max(result.steps, 1)}
+    summary: dict[str, Any] = {
+        "status": result.status,
+        "t_end_s": result.t_end_s,
+        "orbit_period_s": period,
+        "wall_time_s": result.wall_time_s,
+        "step_cost_us": 1e6 * result.wall_time_s / max(result.steps, 1),
+    }
     summary.update(sc.environment.summary())
     w_norm = np.linalg.norm(omega, axis=1)
     summary["rate_initial_rad_s"] = float(w_norm[0])
@@ -220,11 +231,13 @@ def attitude_outputs(sc: CnusailModel, result: RunResult, *, controller: Cnusail
             summary["axis_deviation_max_rad"] = float(np.max(np.arccos(np.clip(ax @ e0, -1.0, 1.0))))
         else:
             summary["axis_deviation_max_rad"] = None
-        series["axis_deviation_deg"] = np.where(sel, np.degrees(np.arccos(np.clip(
-            (-omega_e / np.maximum(we, 1e-300)[:, None]) @ e0, -1.0, 1.0))), np.nan)
+        series["axis_deviation_deg"] = np.where(
+            sel, np.degrees(np.arccos(np.clip((-omega_e / np.maximum(we, 1e-300)[:, None]) @ e0, -1.0, 1.0))), np.nan
+        )
         cruise = sel & (theta > 30 * DEG)
-        summary["axis_deviation_max_cruise_rad"] = (float(np.radians(np.nanmax(series["axis_deviation_deg"][cruise])))
-                                                    if np.any(cruise) else None)
+        summary["axis_deviation_max_cruise_rad"] = (
+            float(np.radians(np.nanmax(series["axis_deviation_deg"][cruise]))) if np.any(cruise) else None
+        )
         margin = cfg.analysis.settle_margin_s
         if margin is None:
             margin = 4.0 / (c.zeta * c.omega_n_rad_s)
@@ -240,12 +253,15 @@ def attitude_outputs(sc: CnusailModel, result: RunResult, *, controller: Cnusail
         for j, a in enumerate("xyz"):
             summary[f"wheel_speed_max_{a}_rad_s"] = float(np.max(np.abs(wM[:, j])))
             summary[f"wheel_time_at_speed_limit_{a}_s"] = float(
-                np.sum(np.abs(wM[:, j]) >= 0.999 * motor.speed_max_rad_s) * dt_rec)
+                np.sum(np.abs(wM[:, j]) >= 0.999 * motor.speed_max_rad_s) * dt_rec
+            )
             summary[f"wheel_time_above_unload_{a}_s"] = float(
-                np.sum(np.abs(wM[:, j]) > c.unloading.threshold_rpm * RPM) * dt_rec)
+                np.sum(np.abs(wM[:, j]) > c.unloading.threshold_rpm * RPM) * dt_rec
+            )
             summary[f"unload_on_time_{a}_s"] = float(np.sum(mask[:, j]) * dt_rec)
         summary["torque_saturated_time_s"] = float(
-            np.sum(np.any(np.abs(rec["u_cmd_N_m"]) > motor.torque_max_N_m, axis=1)) * dt_rec)
+            np.sum(np.any(np.abs(rec["u_cmd_N_m"]) > motor.torque_max_N_m, axis=1)) * dt_rec
+        )
         un = np.linalg.norm(dip, axis=1)
         summary["unload_dipole_max_A_m2"] = float(un[mask.any(axis=1)].max()) if mask.any() else 0.0
         summary["wheel_momentum_max_N_m_s"] = float(np.max(np.abs(wM)) * motor.spin_inertia_kg_m2)

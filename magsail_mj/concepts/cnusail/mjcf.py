@@ -69,8 +69,8 @@ _MARKER_RGBA = {
 }
 _AXIS_RGBA = ((0.9, 0.1, 0.1, 1.0), (0.1, 0.8, 0.1, 1.0), (0.1, 0.3, 1.0, 1.0))
 _BUS_RGBA = (0.55, 0.57, 0.62, 0.55)
-_SAIL_FRONT_RGBA = (0.95, 0.78, 0.35, 0.85)   # +z face (front), aluminised side shown golden
-_SAIL_BACK_RGBA = (0.75, 0.78, 0.85, 0.85)    # −z face (back)
+_SAIL_FRONT_RGBA = (0.95, 0.78, 0.35, 0.85)  # +z face (front), aluminised side shown golden
+_SAIL_BACK_RGBA = (0.75, 0.78, 0.85, 0.85)  # −z face (back)
 _BOOM_RGBA = (0.25, 0.25, 0.25, 1.0)
 _ROTOR_RGBA = (0.3, 0.3, 0.35, 1.0)
 _TICK_RGBA = (1.0, 0.4, 0.0, 1.0)
@@ -121,8 +121,16 @@ class CubesatModelParams:
     def __post_init__(self) -> None:
         if self.configuration not in ("stowed", "deployed"):
             raise ValueError(f"configuration: must be 'stowed' or 'deployed', got {self.configuration!r}")
-        for key in ("mass_kg", "sail_side_m", "sail_thickness_m", "rotor_mass_kg", "rotor_spin_inertia_kg_m2",
-                    "rotor_transverse_inertia_kg_m2", "motor_force_limit_N_m", "timestep_s"):
+        for key in (
+            "mass_kg",
+            "sail_side_m",
+            "sail_thickness_m",
+            "rotor_mass_kg",
+            "rotor_spin_inertia_kg_m2",
+            "rotor_transverse_inertia_kg_m2",
+            "motor_force_limit_N_m",
+            "timestep_s",
+        ):
             if not getattr(self, key) > 0:
                 raise ValueError(f"{key}: must be > 0, got {getattr(self, key)!r}")
         if self.wheel_damping_N_m_s < 0:
@@ -130,12 +138,16 @@ class CubesatModelParams:
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator: must be one of {sorted(INTEGRATORS)}, got {self.integrator!r}")
         if 3 * self.rotor_mass_kg >= self.mass_kg:
-            raise ValueError(f"rotor_mass_kg: three rotors ({3 * self.rotor_mass_kg} kg) must weigh less than "
-                             f"mass_kg ({self.mass_kg} kg)")
+            raise ValueError(
+                f"rotor_mass_kg: three rotors ({3 * self.rotor_mass_kg} kg) must weigh less than "
+                f"mass_kg ({self.mass_kg} kg)"
+            )
         hub = self.hub_inertia_kg_m2
         if np.any(hub <= 0):
-            raise ValueError(f"inertia_kg_m2: must exceed the rotors' J_s + 2 J_t = {self.rotor_sum_kg_m2:g} kg m² "
-                             f"on every axis, got {self.inertia_kg_m2}")
+            raise ValueError(
+                f"inertia_kg_m2: must exceed the rotors' J_s + 2 J_t = {self.rotor_sum_kg_m2:g} kg m² "
+                f"on every axis, got {self.inertia_kg_m2}"
+            )
         a, b, c = hub
         if a + b < c or b + c < a or a + c < b:
             raise ValueError(f"inertia_kg_m2: hub inertia {hub.tolist()} violates the triangle inequality")
@@ -160,8 +172,9 @@ class CubesatModelParams:
 def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpec:
     """Return the ``MjSpec`` of the CNUSAIL-1 cubesat (see the module docstring)."""
     p = params or CubesatModelParams()
-    spec = free_space_spec(name=p.name, timestep_s=p.timestep_s, integrator=p.integrator,
-                           solver_tolerance=p.solver_tolerance)
+    spec = free_space_spec(
+        name=p.name, timestep_s=p.timestep_s, integrator=p.integrator, solver_tolerance=p.solver_tolerance
+    )
     deployed = p.configuration == "deployed"
     reach = (p.sail_side_m / math.sqrt(2.0) + 0.1) if deployed else 0.3
     set_view(spec, extent=2 * reach, headlight_diffuse=[0.35, 0.35, 0.35], headlight_ambient=[0.25, 0.25, 0.25])
@@ -175,40 +188,69 @@ def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpe
     bus.ipos = [0.0, 0.0, 0.0]
     bus.inertia = p.hub_inertia_kg_m2.tolist()
     half = [x / 2 for x in p.bus_size_m]
-    bus.add_geom(name="bus_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, pos=list(p.bus_centroid_m),
-                 rgba=list(_BUS_RGBA), **nogeo)
+    bus.add_geom(
+        name="bus_box",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=half,
+        pos=list(p.bus_centroid_m),
+        rgba=list(_BUS_RGBA),
+        **nogeo,
+    )
     # body axes (x red, y green, z blue), from the CM
     L_ax = 0.6 * reach if deployed else 0.25
     for k, rgba in enumerate(_AXIS_RGBA):
         end = [0.0, 0.0, 0.0]
         end[k] = L_ax
-        bus.add_geom(name=f"axis_{'xyz'[k]}", type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, *end],
-                     size=[0.006 * max(1.0, reach), 0, 0], rgba=list(rgba), group=2, **nogeo)
+        bus.add_geom(
+            name=f"axis_{'xyz'[k]}",
+            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+            fromto=[0, 0, 0, *end],
+            size=[0.006 * max(1.0, reach), 0, 0],
+            rgba=list(rgba),
+            group=2,
+            **nogeo,
+        )
     if deployed:
         cx, cy, cz = p.sail_centre_m
         s2 = p.sail_side_m / 2
         t = p.sail_thickness_m / 2
         # two thin plates: front (+z) golden, back (−z) silver, so the lit face can be told apart
-        bus.add_geom(name="sail_front", type=mujoco.mjtGeom.mjGEOM_BOX, size=[s2, s2, t / 2],
-                     pos=[cx, cy, cz + t / 2], rgba=list(_SAIL_FRONT_RGBA), **nogeo)
-        bus.add_geom(name="sail_back", type=mujoco.mjtGeom.mjGEOM_BOX, size=[s2, s2, t / 2],
-                     pos=[cx, cy, cz - t / 2], rgba=list(_SAIL_BACK_RGBA), **nogeo)
+        bus.add_geom(
+            name="sail_front",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[s2, s2, t / 2],
+            pos=[cx, cy, cz + t / 2],
+            rgba=list(_SAIL_FRONT_RGBA),
+            **nogeo,
+        )
+        bus.add_geom(
+            name="sail_back",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[s2, s2, t / 2],
+            pos=[cx, cy, cz - t / 2],
+            rgba=list(_SAIL_BACK_RGBA),
+            **nogeo,
+        )
         # four booms along the sail diagonals, length sqrt(2) m each (spec §3.2, rendering only)
         boom = p.sail_side_m / math.sqrt(2.0)
         for k, (sx, sy) in enumerate(((1, 1), (-1, 1), (-1, -1), (1, -1))):
             d = np.array([sx, sy, 0.0]) / math.sqrt(2.0)
             a = np.array([cx, cy, cz - t - 0.004])
-            bus.add_geom(name=f"boom_{k}", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                         fromto=[*a.tolist(), *(a + boom * d).tolist()], size=[0.005, 0, 0],
-                         rgba=list(_BOOM_RGBA), **nogeo)
+            bus.add_geom(
+                name=f"boom_{k}",
+                type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                fromto=[*a.tolist(), *(a + boom * d).tolist()],
+                size=[0.005, 0, 0],
+                rgba=list(_BOOM_RGBA),
+                **nogeo,
+            )
 
     r_rotor = 0.02
     for k, name in enumerate(WHEEL_NAMES):
         axis = [0.0, 0.0, 0.0]
         axis[k] = 1.0
         rw = bus.add_body(name=name, pos=[0.0, 0.0, 0.0])
-        rw.add_joint(name=f"{name}_spin", type=mujoco.mjtJoint.mjJNT_HINGE, axis=axis,
-                     damping=p.wheel_damping_N_m_s)
+        rw.add_joint(name=f"{name}_spin", type=mujoco.mjtJoint.mjJNT_HINGE, axis=axis, damping=p.wheel_damping_N_m_s)
         rw.explicitinertial = True
         rw.mass = p.rotor_mass_kg
         rw.ipos = [0.0, 0.0, 0.0]
@@ -216,12 +258,26 @@ def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpe
         # rotor disc (visual) offset along its axis so the three do not overlap, and a tick
         off = np.array(axis) * 0.03
         q = quat_z_to(np.array(axis))
-        rw.add_geom(name=f"{name}_disc", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[r_rotor, 0.004, 0],
-                    pos=off.tolist(), quat=q, rgba=list(_ROTOR_RGBA), group=1, **nogeo)
+        rw.add_geom(
+            name=f"{name}_disc",
+            type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+            size=[r_rotor, 0.004, 0],
+            pos=off.tolist(),
+            quat=q,
+            rgba=list(_ROTOR_RGBA),
+            group=1,
+            **nogeo,
+        )
         perp = np.roll(np.array(axis), 1)
-        rw.add_geom(name=f"{name}_tick", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.004, 0.004, 0.004],
-                    pos=(off + perp * r_rotor * 0.8 + np.array(axis) * 0.005).tolist(), rgba=list(_TICK_RGBA),
-                    group=1, **nogeo)
+        rw.add_geom(
+            name=f"{name}_tick",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[0.004, 0.004, 0.004],
+            pos=(off + perp * r_rotor * 0.8 + np.array(axis) * 0.005).tolist(),
+            rgba=list(_TICK_RGBA),
+            group=1,
+            **nogeo,
+        )
         act = spec.add_actuator(name=f"{name}_motor", target=f"{name}_spin", trntype=mujoco.mjtTrn.mjTRN_JOINT)
         act.set_to_motor()
         act.gear[0] = 1.0
@@ -235,11 +291,24 @@ def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpe
         for name in MARKER_NAMES:
             mk = add_marker_body(wb, name)
             rgba = list(_MARKER_RGBA[name])
-            mk.add_geom(name=f"{name}_shaft", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                        fromto=[0, 0, 0.55 * L, 0, 0, 0.95 * L], size=[0.008 * max(1.0, reach), 0, 0],
-                        rgba=rgba, group=2, **nogeo)
-            mk.add_geom(name=f"{name}_head", type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=[0, 0, L],
-                        size=[0.03 * max(1.0, reach), 0, 0], rgba=rgba, group=2, **nogeo)
+            mk.add_geom(
+                name=f"{name}_shaft",
+                type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                fromto=[0, 0, 0.55 * L, 0, 0, 0.95 * L],
+                size=[0.008 * max(1.0, reach), 0, 0],
+                rgba=rgba,
+                group=2,
+                **nogeo,
+            )
+            mk.add_geom(
+                name=f"{name}_head",
+                type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                pos=[0, 0, L],
+                size=[0.03 * max(1.0, reach), 0, 0],
+                rgba=rgba,
+                group=2,
+                **nogeo,
+            )
             if name == "mk_sun":
                 add_sun_light(mk, height=3 * L, diffuse=[0.75, 0.75, 0.7])
     return spec
@@ -250,13 +319,13 @@ class CubesatIndices:
     """Address book of a compiled cubesat model (bus body, qpos/qvel slices, wheels, markers)."""
 
     bus: int
-    q_pos: slice        # bus position qpos[0:3]
-    q_quat: slice       # bus quaternion qpos[3:7] (world ← body, scalar-first)
-    v_lin: slice        # bus linear velocity qvel[0:3] (world)
-    v_ang: slice        # bus angular velocity qvel[3:6] (body components)
+    q_pos: slice  # bus position qpos[0:3]
+    q_quat: slice  # bus quaternion qpos[3:7] (world ← body, scalar-first)
+    v_lin: slice  # bus linear velocity qvel[0:3] (world)
+    v_ang: slice  # bus angular velocity qvel[3:6] (body components)
     wheel_bodies: np.ndarray
     wheel_qpos: np.ndarray
-    wheel_qvel: np.ndarray   # relative speeds ω_M
+    wheel_qvel: np.ndarray  # relative speeds ω_M
     wheel_act: np.ndarray
     marker_qpos: dict[str, int]
 
@@ -280,7 +349,15 @@ def cubesat_indices(model: mujoco.MjModel) -> CubesatIndices:
         except KeyError:
             continue
         markers[name] = int(model.jnt_qposadr[j.id])
-    return CubesatIndices(bus=bus, q_pos=slice(qa, qa + 3), q_quat=slice(qa + 3, qa + 7),
-                          v_lin=slice(va, va + 3), v_ang=slice(va + 3, va + 6),
-                          wheel_bodies=np.array(wb), wheel_qpos=np.array(wq), wheel_qvel=np.array(wv),
-                          wheel_act=np.array(wa), marker_qpos=markers)
+    return CubesatIndices(
+        bus=bus,
+        q_pos=slice(qa, qa + 3),
+        q_quat=slice(qa + 3, qa + 7),
+        v_lin=slice(va, va + 3),
+        v_ang=slice(va + 3, va + 6),
+        wheel_bodies=np.array(wb),
+        wheel_qpos=np.array(wq),
+        wheel_qvel=np.array(wv),
+        wheel_act=np.array(wa),
+        marker_qpos=markers,
+    )

@@ -37,13 +37,24 @@ def model_params(cfg: CnusailConfig) -> CubesatModelParams:
     """MJCF parameters of the cubesat of ``cfg`` (bus, sail, three wheel rotors, markers)."""
     sc, w = cfg.spacecraft, cfg.actuators.wheels
     return CubesatModelParams(
-        configuration=sc.configuration, mass_kg=sc.mass_kg, inertia_kg_m2=tuple(sc.inertia),
-        bus_size_m=tuple(sc.bus_size_m), bus_centroid_m=tuple(sc.bus_centroid), sail_side_m=sc.sail_side_m,
-        sail_centre_m=tuple(sc.r_cp_m), rotor_mass_kg=w.rotor_mass_kg, rotor_spin_inertia_kg_m2=w.rotor_inertia_kg_m2,
-        rotor_transverse_inertia_kg_m2=w.rotor_transverse_inertia_kg_m2, wheel_damping_N_m_s=w.K_B_N_m_s,
-        motor_force_limit_N_m=10.0 * w.torque_max_N_m, timestep_s=cfg.sim.timestep_s,
-        integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance, markers=cfg.render.markers,
-        name=f"cnusail_{cfg.scenario}")
+        configuration=sc.configuration,
+        mass_kg=sc.mass_kg,
+        inertia_kg_m2=tuple(sc.inertia),
+        bus_size_m=tuple(sc.bus_size_m),
+        bus_centroid_m=tuple(sc.bus_centroid),
+        sail_side_m=sc.sail_side_m,
+        sail_centre_m=tuple(sc.r_cp_m),
+        rotor_mass_kg=w.rotor_mass_kg,
+        rotor_spin_inertia_kg_m2=w.rotor_inertia_kg_m2,
+        rotor_transverse_inertia_kg_m2=w.rotor_transverse_inertia_kg_m2,
+        wheel_damping_N_m_s=w.K_B_N_m_s,
+        motor_force_limit_N_m=10.0 * w.torque_max_N_m,
+        timestep_s=cfg.sim.timestep_s,
+        integrator=cfg.sim.integrator,
+        solver_tolerance=cfg.sim.solver_tolerance,
+        markers=cfg.render.markers,
+        name=f"cnusail_{cfg.scenario}",
+    )
 
 
 @dataclass
@@ -72,39 +83,72 @@ class CnusailModel:
         cfg, sc = self.cfg, self.cfg.spacecraft
         drag = None
         if cfg.drag.enabled:
-            drag = cubesat_drag_facets(configuration=sc.configuration, surfaces=sc.drag_surfaces,
-                                       sail_area_m2=sc.sail_area_m2, r_cp_m=sc.r_cp_m, bus_size_m=sc.bus_size_m,
-                                       bus_centroid_m=sc.bus_centroid)
+            drag = cubesat_drag_facets(
+                configuration=sc.configuration,
+                surfaces=sc.drag_surfaces,
+                sail_area_m2=sc.sail_area_m2,
+                r_cp_m=sc.r_cp_m,
+                bus_size_m=sc.bus_size_m,
+                bus_centroid_m=sc.bus_centroid,
+            )
         srp = None
         if cfg.srp.enabled and sc.configuration == "deployed":
             srp = cubesat_sail_facets(area_m2=sc.sail_area_m2, r_cp_m=sc.r_cp_m)
-        return CubesatDisturbanceLoad(self.idx.bus, inertia_kg_m2=self.inertia, drag_facets=drag, srp_facets=srp,
-                                      drag_coefficient=cfg.drag.drag_coefficient,
-                                      residual_dipole_A_m2=np.asarray(sc.residual_dipole_A_m2),
-                                      gravity_gradient=cfg.gravity.classical_torque, mu=self.environment.mu)
+        return CubesatDisturbanceLoad(
+            self.idx.bus,
+            inertia_kg_m2=self.inertia,
+            drag_facets=drag,
+            srp_facets=srp,
+            drag_coefficient=cfg.drag.drag_coefficient,
+            residual_dipole_A_m2=np.asarray(sc.residual_dipole_A_m2),
+            gravity_gradient=cfg.gravity.classical_torque,
+            mu=self.environment.mu,
+        )
 
     def make_controller(self) -> CnusailController:
         """The flight controller of spec §7 (B-dot, eigen-axis or PD, unloading, mode logic)."""
         cfg, c, a = self.cfg, self.cfg.control, self.cfg.actuators
         driver = WheelDriver(a.wheels.motor_params(), model=a.wheels.model, electrical=a.wheels.electrical)
-        modes = ModeLogicParams(enabled=c.modes.enabled, detumble_entry_rad_s=c.modes.detumble_entry_deg_s * DEG,
-                                detumble_exit_rad_s=c.modes.detumble_exit_deg_s * DEG, dwell_s=c.modes.dwell_s,
-                                deorbit_at_s=c.modes.deorbit_at_s)
+        modes = ModeLogicParams(
+            enabled=c.modes.enabled,
+            detumble_entry_rad_s=c.modes.detumble_entry_deg_s * DEG,
+            detumble_exit_rad_s=c.modes.detumble_exit_deg_s * DEG,
+            dwell_s=c.modes.dwell_s,
+            deorbit_at_s=c.modes.deorbit_at_s,
+        )
         params = CnusailControlParams(
-            timestep_s=cfg.sim.timestep_s, law=c.mode, command=c.command, attitude_period_s=1.0 / c.rate_Hz,
+            timestep_s=cfg.sim.timestep_s,
+            law=c.mode,
+            command=c.command,
+            attitude_period_s=1.0 / c.rate_Hz,
             mtq_cycle=MagnetorquerCycle(cycle_s=a.mtq.cycle_s, blank_s=a.mtq.blank_s, timestep_s=cfg.sim.timestep_s),
-            mtq_limits_A_m2=a.mtq.limit_vector, bdot_form=c.bdot_form, bdot_gain=c.bdot_gain_A_m2_s_T,
-            bdot_omega_c_rad_s=c.bdot_omega_c_rad_s, omega_n_rad_s=c.omega_n_rad_s, zeta=c.zeta,
-            rate_max_rad_s=c.slew_rate_max_deg_s * DEG, clamp_min=c.gain_clamp_min, gyro_comp=c.gyro_comp,
-            shortest_rotation=c.shortest_rotation, recalc_enabled=c.gain_recalc,
-            recalc_margin_rad=c.recalc_margin_deg * DEG, unloading_enabled=c.unloading.enabled,
-            k_rw_per_s=c.unloading.k_rw_per_s, unload_on_rpm=c.unloading.threshold_rpm,
-            unload_off_rpm=c.unloading.off_rpm, inertia_kg_m2=self.inertia, wheel_driver=driver, modes=modes,
-            magnetometer_noise_T=c.sensors.magnetometer_noise_T, gyro_noise_rad_s=c.sensors.gyro_noise_rad_s,
-            seed=cfg.sim.seed)
+            mtq_limits_A_m2=a.mtq.limit_vector,
+            bdot_form=c.bdot_form,
+            bdot_gain=c.bdot_gain_A_m2_s_T,
+            bdot_omega_c_rad_s=c.bdot_omega_c_rad_s,
+            omega_n_rad_s=c.omega_n_rad_s,
+            zeta=c.zeta,
+            rate_max_rad_s=c.slew_rate_max_deg_s * DEG,
+            clamp_min=c.gain_clamp_min,
+            gyro_comp=c.gyro_comp,
+            shortest_rotation=c.shortest_rotation,
+            recalc_enabled=c.gain_recalc,
+            recalc_margin_rad=c.recalc_margin_deg * DEG,
+            unloading_enabled=c.unloading.enabled,
+            k_rw_per_s=c.unloading.k_rw_per_s,
+            unload_on_rpm=c.unloading.threshold_rpm,
+            unload_off_rpm=c.unloading.off_rpm,
+            inertia_kg_m2=self.inertia,
+            wheel_driver=driver,
+            modes=modes,
+            magnetometer_noise_T=c.sensors.magnetometer_noise_T,
+            gyro_noise_rad_s=c.sensors.gyro_noise_rad_s,
+            seed=cfg.sim.seed,
+        )
         idx = self.idx
-        return CnusailController(params, q_quat=idx.q_quat, v_ang=idx.v_ang, wheel_qvel=idx.wheel_qvel,
-                                 wheel_act=idx.wheel_act)
+        return CnusailController(
+            params, q_quat=idx.q_quat, v_ang=idx.v_ang, wheel_qvel=idx.wheel_qvel, wheel_act=idx.wheel_act
+        )
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(p_b (4,), ω_body (3,) [rad/s], ω_M (3,) [rad/s]) at t = 0 (spec §9 notes):
@@ -133,4 +177,4 @@ class CnusailModel:
         data.qvel[idx.v_ang] = w
         data.qvel[idx.wheel_qvel] = wM
         for qa in idx.marker_qpos.values():
-            data.qpos[qa:qa + 4] = [1.0, 0.0, 0.0, 0.0]
+            data.qpos[qa : qa + 4] = [1.0, 0.0, 0.0, 0.0]

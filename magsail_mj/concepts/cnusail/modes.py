@@ -119,16 +119,18 @@ def command_frame(mode: int, r: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, 
     vx, vy, vz = (float(a) for a in v)
     rn = math.sqrt(rx * rx + ry * ry + rz * rz)
     z = (rx / rn, ry / rn, rz / rn)
-    hx, hy, hz = vy * rz - vz * ry, vz * rx - vx * rz, vx * ry - vy * rx      # v × r
+    hx, hy, hz = vy * rz - vz * ry, vz * rx - vx * rz, vx * ry - vy * rx  # v × r
     hn = math.sqrt(hx * hx + hy * hy + hz * hz)
     y = (hx / hn, hy / hn, hz / hn)
     x = (y[1] * z[2] - y[2] * z[1], y[2] * z[0] - y[0] * z[2], y[0] * z[1] - y[1] * z[0])
     cols = (z, y, (-x[0], -x[1], -x[2])) if int(mode) == Mode.DEORBIT else (x, y, z)
     (r00, r10, r20), (r01, r11, r21), (r02, r12, r22) = cols
-    K = ((1 + r00 + r11 + r22, r21 - r12, r02 - r20, r10 - r01),
-         (r21 - r12, 1 + r00 - r11 - r22, r01 + r10, r02 + r20),
-         (r02 - r20, r01 + r10, 1 - r00 + r11 - r22, r12 + r21),
-         (r10 - r01, r02 + r20, r12 + r21, 1 - r00 - r11 + r22))
+    K = (
+        (1 + r00 + r11 + r22, r21 - r12, r02 - r20, r10 - r01),
+        (r21 - r12, 1 + r00 - r11 - r22, r01 + r10, r02 + r20),
+        (r02 - r20, r01 + r10, 1 - r00 + r11 - r22, r12 + r21),
+        (r10 - r01, r02 + r20, r12 + r21, 1 - r00 - r11 + r22),
+    )
     col = K[max(range(4), key=lambda i: K[i][i])]
     n = math.sqrt(sum(c * c for c in col))
     q = np.array(col) / n
@@ -155,8 +157,10 @@ class ModeLogicParams:
 
     def __post_init__(self) -> None:
         if not 0 < self.detumble_exit_rad_s <= self.detumble_entry_rad_s:
-            raise ValueError("detumble_exit_rad_s: must be > 0 and <= detumble_entry_rad_s, got "
-                             f"{self.detumble_exit_rad_s!r} (entry {self.detumble_entry_rad_s!r})")
+            raise ValueError(
+                "detumble_exit_rad_s: must be > 0 and <= detumble_entry_rad_s, got "
+                f"{self.detumble_exit_rad_s!r} (entry {self.detumble_entry_rad_s!r})"
+            )
         if self.dwell_s < 0:
             raise ValueError(f"dwell_s: must be >= 0, got {self.dwell_s!r}")
 
@@ -250,14 +254,19 @@ class CnusailControlParams:
             raise ValueError(f"command: must be 'nadir' or 'deorbit', got {self.command!r}")
         n = self.attitude_period_s / self.timestep_s
         if not self.attitude_period_s > 0 or abs(n - round(n)) > 1e-9 * max(1.0, n):
-            raise ValueError(f"attitude_period_s: must be a positive whole multiple of the timestep "
-                             f"{self.timestep_s} s, got {self.attitude_period_s!r}")
+            raise ValueError(
+                f"attitude_period_s: must be a positive whole multiple of the timestep "
+                f"{self.timestep_s} s, got {self.attitude_period_s!r}"
+            )
         if abs(self.mtq_cycle.timestep_s - self.timestep_s) > 1e-12:
-            raise ValueError(f"mtq_cycle: its timestep_s {self.mtq_cycle.timestep_s} must equal "
-                             f"timestep_s {self.timestep_s}")
+            raise ValueError(
+                f"mtq_cycle: its timestep_s {self.mtq_cycle.timestep_s} must equal timestep_s {self.timestep_s}"
+            )
         if self.modes.enabled and self.law == "bdot":
-            raise ValueError("law: with mode switching enabled, give the pointing law ('eigen_axis' or 'pd'); "
-                             "B-dot is the detumbling mode's law")
+            raise ValueError(
+                "law: with mode switching enabled, give the pointing law ('eigen_axis' or 'pd'); "
+                "B-dot is the detumbling mode's law"
+            )
         for key in ("magnetometer_noise_T", "gyro_noise_rad_s"):
             if getattr(self, key) < 0:
                 raise ValueError(f"{key}: must be >= 0, got {getattr(self, key)!r}")
@@ -316,8 +325,12 @@ class CnusailController:
         self._wheel_v = _slice_if_contiguous(self.wheel_qvel)
         self._wheel_u = _slice_if_contiguous(self.wheel_act)
         self.modes = ModeManager(params.modes, initial=params.initial_mode)
-        self.bdot = make_bdot(params.bdot_form, gain=params.bdot_gain, sample_period_s=params.mtq_cycle.cycle_s,
-                              omega_c_rad_s=params.bdot_omega_c_rad_s)
+        self.bdot = make_bdot(
+            params.bdot_form,
+            gain=params.bdot_gain,
+            sample_period_s=params.mtq_cycle.cycle_s,
+            omega_c_rad_s=params.bdot_omega_c_rad_s,
+        )
         self.unload = UnloadingLogic(on_rpm=params.unload_on_rpm, off_rpm=params.unload_off_rpm)
         self.driver = params.wheel_driver
         self.I_w = self.driver.p.spin_inertia_kg_m2
@@ -406,7 +419,7 @@ class CnusailController:
             self._set_gains(t, q_e, "manoeuvre_start")
             self.theta_ref = self.theta_e
             self._start_pending = False
-        elif (p.recalc_enabled and mode == Mode.DEORBIT and self.theta_e > self.theta_ref + p.recalc_margin_rad):
+        elif p.recalc_enabled and mode == Mode.DEORBIT and self.theta_e > self.theta_ref + p.recalc_margin_rad:
             self._set_gains(t, q_e, "gain_recalc")
             self.theta_ref = self.theta_e
         J = p.inertia_kg_m2
@@ -419,10 +432,19 @@ class CnusailController:
 
     def _set_gains(self, t: float, q_e: np.ndarray, kind: str) -> None:
         p = self.p
-        self.gains = eigen_axis_gains(q_e, omega_n_rad_s=p.omega_n_rad_s, zeta=p.zeta, rate_max_rad_s=p.rate_max_rad_s,
-                                      clamp_min=p.clamp_min)
-        self.events.append({"t_s": t, "kind": kind, "theta_rad": self.theta_e, "q_e": q_e.tolist(),
-                            "mode": self.mode.name, **self.gains.as_dict()})
+        self.gains = eigen_axis_gains(
+            q_e, omega_n_rad_s=p.omega_n_rad_s, zeta=p.zeta, rate_max_rad_s=p.rate_max_rad_s, clamp_min=p.clamp_min
+        )
+        self.events.append(
+            {
+                "t_s": t,
+                "kind": kind,
+                "theta_rad": self.theta_e,
+                "q_e": q_e.tolist(),
+                "mode": self.mode.name,
+                **self.gains.as_dict(),
+            }
+        )
 
     def _mtq_sample(self, t: float, R: np.ndarray, omega_M: np.ndarray, env) -> None:
         p = self.p

@@ -76,8 +76,9 @@ ATMOSPHERES: dict[str, dict[str, float] | None] = {
 DensityModel = Callable[[np.ndarray], np.ndarray]
 
 
-def msis_mean_profile(*, epoch: datetime, f107: float, f107a: float, ap: float,
-                      alt_km: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def msis_mean_profile(
+    *, epoch: datetime, f107: float, f107a: float, ap: float, alt_km: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Global-mean NRLMSISE-00 density profile (module docstring): (altitudes [km], ρ̄ [kg/m³]).
 
     Raises ImportError naming the ``msis`` extra when pymsis is missing.
@@ -98,6 +99,7 @@ def density_model(atmosphere: str, *, epoch: datetime | None = None) -> DensityM
     if atmosphere not in ATMOSPHERES:
         raise ValueError(f"atmosphere: must be one of {sorted(ATMOSPHERES)}, got {atmosphere!r}")
     if atmosphere == "exp":
+
         def rho_exp(h: np.ndarray) -> np.ndarray:
             return exponential_density(h)
 
@@ -158,8 +160,9 @@ def circular_da_dt(a: float, *, bstar: float, rho: float, mu: float = MU_EARTH) 
     return -bstar * rho * math.sqrt(mu * a)
 
 
-def averaged_rates(a: float, e: float, *, bstar: float, rho_fn: DensityModel, R_E: float,
-                   mu: float = MU_EARTH, n_nu: int = 360) -> tuple[float, float]:
+def averaged_rates(
+    a: float, e: float, *, bstar: float, rho_fn: DensityModel, R_E: float, mu: float = MU_EARTH, n_nu: int = 360
+) -> tuple[float, float]:
     """Orbit-averaged (da/dt, de/dt) of the module docstring [m/s, 1/s] (``n_nu`` ≥ 180 points)."""
     e = min(max(e, 0.0), 0.99)
     nu = np.linspace(0.0, 2.0 * np.pi, n_nu, endpoint=False)
@@ -175,9 +178,19 @@ def averaged_rates(a: float, e: float, *, bstar: float, rho_fn: DensityModel, R_
     return da, de
 
 
-def averaged_decay(*, a0_m: float, e0: float, bstar: float, rho_fn: DensityModel, R_E: float,
-                   stop_alt_m: float = 120e3, t_max_s: float = 100 * 365.25 * DAY, mu: float = MU_EARTH,
-                   n_nu: int = 360, n_samples: int = 400) -> DecayResult:
+def averaged_decay(
+    *,
+    a0_m: float,
+    e0: float,
+    bstar: float,
+    rho_fn: DensityModel,
+    R_E: float,
+    stop_alt_m: float = 120e3,
+    t_max_s: float = 100 * 365.25 * DAY,
+    mu: float = MU_EARTH,
+    n_nu: int = 360,
+    n_samples: int = 400,
+) -> DecayResult:
     """Orbit-averaged decay of (a, e) until the perigee altitude is below ``stop_alt_m``."""
     if not bstar > 0:
         raise ValueError(f"bstar: must be > 0 m²/kg, got {bstar!r}")
@@ -197,8 +210,17 @@ def averaged_decay(*, a0_m: float, e0: float, bstar: float, rho_fn: DensityModel
 
     perigee.terminal = True
     perigee.direction = -1
-    sol = solve_ivp(rhs, (0.0, t_max_s), [a0_m, e0], method="RK45", rtol=1e-8, atol=[1e-3, 1e-12],
-                    events=perigee, dense_output=True, first_step=min(3600.0, 0.1 * t_max_s))
+    sol = solve_ivp(
+        rhs,
+        (0.0, t_max_s),
+        [a0_m, e0],
+        method="RK45",
+        rtol=1e-8,
+        atol=[1e-3, 1e-12],
+        events=perigee,
+        dense_output=True,
+        first_step=min(3600.0, 0.1 * t_max_s),
+    )
     if sol.status == -1:
         raise RuntimeError(f"averaged decay failed: {sol.message}")
     hit = len(sol.t_events[0]) > 0
@@ -206,14 +228,36 @@ def averaged_decay(*, a0_m: float, e0: float, bstar: float, rho_fn: DensityModel
     ts = np.linspace(0.0, t_end, n_samples)
     y = sol.sol(ts)
     a, e = y[0], np.maximum(y[1], 0.0)
-    return DecayResult(method="averaged", lifetime_s=t_end, reached_cap=not hit, t_s=ts, a_m=a, e=e,
-                       perigee_alt_m=a * (1 - e) - R_E, apogee_alt_m=a * (1 + e) - R_E, n_rhs=count[0])
+    return DecayResult(
+        method="averaged",
+        lifetime_s=t_end,
+        reached_cap=not hit,
+        t_s=ts,
+        a_m=a,
+        e=e,
+        perigee_alt_m=a * (1 - e) - R_E,
+        apogee_alt_m=a * (1 + e) - R_E,
+        n_rhs=count[0],
+    )
 
 
-def cowell_decay(*, elements: OrbitalElements, bstar: float, rho_fn: DensityModel, R_E: float,
-                 stop_alt_m: float = 120e3, t_max_s: float = 3 * 365.25 * DAY, mu: float = MU_EARTH,
-                 j2: bool = True, J2: float = J2_EARTH, R_j2: float = R_J2, corotating: bool = True,
-                 omega_earth: float = OMEGA_EARTH, rtol: float = 1e-9, n_samples: int = 400) -> DecayResult:
+def cowell_decay(
+    *,
+    elements: OrbitalElements,
+    bstar: float,
+    rho_fn: DensityModel,
+    R_E: float,
+    stop_alt_m: float = 120e3,
+    t_max_s: float = 3 * 365.25 * DAY,
+    mu: float = MU_EARTH,
+    j2: bool = True,
+    J2: float = J2_EARTH,
+    R_j2: float = R_J2,
+    corotating: bool = True,
+    omega_earth: float = OMEGA_EARTH,
+    rtol: float = 1e-9,
+    n_samples: int = 400,
+) -> DecayResult:
     """Cowell decay (module docstring) from ``elements`` until |r| − R_E < ``stop_alt_m``."""
     if not bstar > 0:
         raise ValueError(f"bstar: must be > 0 m²/kg, got {bstar!r}")
@@ -246,8 +290,16 @@ def cowell_decay(*, elements: OrbitalElements, bstar: float, rho_fn: DensityMode
 
     reentry.terminal = True
     reentry.direction = -1
-    sol = solve_ivp(rhs, (0.0, t_max_s), np.concatenate([r0, v0]), method="DOP853", rtol=rtol, atol=1e-6,
-                    events=reentry, dense_output=True)
+    sol = solve_ivp(
+        rhs,
+        (0.0, t_max_s),
+        np.concatenate([r0, v0]),
+        method="DOP853",
+        rtol=rtol,
+        atol=1e-6,
+        events=reentry,
+        dense_output=True,
+    )
     if sol.status == -1:
         raise RuntimeError(f"Cowell decay failed: {sol.message}")
     hit = len(sol.t_events[0]) > 0
@@ -256,15 +308,23 @@ def cowell_decay(*, elements: OrbitalElements, bstar: float, rho_fn: DensityMode
     Y = sol.sol(ts).T
     el = state_to_elements(Y[:, :3], Y[:, 3:], mu=mu)
     a, e = np.asarray(el["a"]), np.asarray(el["e"])
-    return DecayResult(method="cowell", lifetime_s=t_end, reached_cap=not hit, t_s=ts, a_m=a, e=e,
-                       perigee_alt_m=a * (1 - e) - R_E, apogee_alt_m=a * (1 + e) - R_E, n_rhs=count[0],
-                       meta={"j2": j2, "corotating": corotating, "rtol": rtol})
+    return DecayResult(
+        method="cowell",
+        lifetime_s=t_end,
+        reached_cap=not hit,
+        t_s=ts,
+        a_m=a,
+        e=e,
+        perigee_alt_m=a * (1 - e) - R_E,
+        apogee_alt_m=a * (1 + e) - R_E,
+        n_rhs=count[0],
+        meta={"j2": j2, "corotating": corotating, "rtol": rtol},
+    )
 
 
-
-
-def geometric_mean_elements(elements: OrbitalElements, *, mu: float = MU_EARTH, J2: float = J2_EARTH,
-                            R_j2: float = R_J2, n: int = 4000) -> tuple[float, float]:
+def geometric_mean_elements(
+    elements: OrbitalElements, *, mu: float = MU_EARTH, J2: float = J2_EARTH, R_j2: float = R_J2, n: int = 4000
+) -> tuple[float, float]:
     """(a, e) whose Keplerian perigee and apogee radii equal the smallest and largest radius of the
     first orbit of the J2 (drag-free) trajectory from the osculating ``elements``.
 

@@ -22,8 +22,12 @@ __all__ = ["attitude_plots", "disturbance_orbit_figure", "lifetime_plots"]
 
 _AX = ("x", "y", "z")
 DEG = 180.0 / math.pi
-_SRC_LABEL = {"gravity_gradient": "gravity gradient", "drag": "drag", "srp": "SRP",
-              "residual_dipole": "residual dipole"}
+_SRC_LABEL = {
+    "gravity_gradient": "gravity gradient",
+    "drag": "drag",
+    "srp": "SRP",
+    "residual_dipole": "residual dipole",
+}
 
 
 def _hlines(ax, values, *, color: str = "k", label: str | None = None) -> None:
@@ -32,9 +36,19 @@ def _hlines(ax, values, *, color: str = "k", label: str | None = None) -> None:
         ax.axhline(v, color=color, ls="--", lw=0.8, alpha=0.6, label=label if k == 0 else None)
 
 
-def _components_figure(path: Path, x: np.ndarray, v: np.ndarray, *, names: tuple[str, ...], xlabel: str, ylabel: str,
-                       title: str, total: tuple[np.ndarray, str] | None = None,
-                       limits: tuple[tuple[list[float], str, str], ...] = (), lw: float = 0.6) -> Path:
+def _components_figure(
+    path: Path,
+    x: np.ndarray,
+    v: np.ndarray,
+    *,
+    names: tuple[str, ...],
+    xlabel: str,
+    ylabel: str,
+    title: str,
+    total: tuple[np.ndarray, str] | None = None,
+    limits: tuple[tuple[list[float], str, str], ...] = (),
+    lw: float = 0.6,
+) -> Path:
     """One panel of the three columns of ``v`` (n, 3) against ``x``, named ``names``, with an
     optional ``total`` (values, label) in black and dashed reference lines ``limits`` ((values,
     colour, label), ...); written to ``path``."""
@@ -62,12 +76,21 @@ def disturbance_orbit_figure(series: dict[str, np.ndarray], period_s: float, tit
         for k, src in enumerate(SOURCES):
             mag = np.linalg.norm(tq[:, k], axis=1)
             # below 1e-12 of the largest torque is rounding (the gravity gradient is exactly zero here)
-            ax.semilogy(ts / period_s, np.where(mag > 1e-12 * scale, mag, np.nan), color=f"C{k}",
-                        label=_SRC_LABEL[src] + (" (≡ 0)" if np.all(mag <= 1e-12 * scale) else ""))
+            ax.semilogy(
+                ts / period_s,
+                np.where(mag > 1e-12 * scale, mag, np.nan),
+                color=f"C{k}",
+                label=_SRC_LABEL[src] + (" (≡ 0)" if np.all(mag <= 1e-12 * scale) else ""),
+            )
         if f"dist_orbit_{m}_gg_5deg_N_m" in series:
             g5 = np.linalg.norm(series[f"dist_orbit_{m}_gg_5deg_N_m"], axis=1)
-            ax.semilogy(series[f"dist_orbit_t_{m}_gg_5deg_s"] / period_s, g5, "--", color="C0",
-                        label="gravity gradient, 5° off about y_B")
+            ax.semilogy(
+                series[f"dist_orbit_t_{m}_gg_5deg_s"] / period_s,
+                g5,
+                "--",
+                color="C0",
+                label="gravity gradient, 5° off about y_B",
+            )
         ax.set_xlabel("time [orbits]")
         ax.set_title(f"{m} attitude (held exactly; SRP zero in eclipse)")
         ax.grid(True, which="both", alpha=0.3)
@@ -77,8 +100,15 @@ def disturbance_orbit_figure(series: dict[str, np.ndarray], period_s: float, tit
     return fig
 
 
-def attitude_plots(run_dir: Path, series: dict[str, np.ndarray], *, records: Mapping[str, np.ndarray],
-                   cfg: CnusailConfig, orbit_period_s: float, events: list[dict[str, Any]]) -> list[Path]:
+def attitude_plots(
+    run_dir: Path,
+    series: dict[str, np.ndarray],
+    *,
+    records: Mapping[str, np.ndarray],
+    cfg: CnusailConfig,
+    orbit_period_s: float,
+    events: list[dict[str, Any]],
+) -> list[Path]:
     """Write the run's figures and ``events.json`` (the controller's ``events``) into ``run_dir``;
     return their paths. ``records``: the run's records (a series of the same name replaces a
     record). Time axes in orbits of ``orbit_period_s`` [s] (detumbling) or minutes."""
@@ -93,17 +123,27 @@ def attitude_plots(run_dir: Path, series: dict[str, np.ndarray], *, records: Map
     return out
 
 
-def _detumble_plots(run_dir: Path, rec: Mapping[str, np.ndarray], *, cfg: CnusailConfig, x: np.ndarray,
-                    title: str) -> list[Path]:
+def _detumble_plots(
+    run_dir: Path, rec: Mapping[str, np.ndarray], *, cfg: CnusailConfig, x: np.ndarray, title: str
+) -> list[Path]:
     """Body rates, magnetorquer dipoles, magnetorquer power and the field in body axes against
     ``x`` [orbits]."""
     limits = cfg.actuators.mtq.limit_vector
     thr = cfg.analysis.detumble_threshold_deg_s
-    out = [_components_figure(
-        run_dir / "rates.png", x, rec["omega_body_rad_s"] * DEG, names=tuple(f"ω_{a}" for a in _AX),
-        total=(rec["omega_norm_deg_s"], "|ω|"), xlabel="time [orbits]", ylabel="body rate [°/s]",
-        title=title + ": body rates", lw=0.7,
-        limits=(([1.0, -1.0], "r", "±1 °/s (detumbling entry)"), ([thr], "g", f"{thr:g} °/s (detumbled)")))]
+    out = [
+        _components_figure(
+            run_dir / "rates.png",
+            x,
+            rec["omega_body_rad_s"] * DEG,
+            names=tuple(f"ω_{a}" for a in _AX),
+            total=(rec["omega_norm_deg_s"], "|ω|"),
+            xlabel="time [orbits]",
+            ylabel="body rate [°/s]",
+            title=title + ": body rates",
+            lw=0.7,
+            limits=(([1.0, -1.0], "r", "±1 °/s (detumbling entry)"), ([thr], "g", f"{thr:g} °/s (detumbled)")),
+        )
+    ]
 
     fig, axes = new_figure(3, 1, figsize=(9, 7), sharex=True)
     dip = rec["dipole_cmd_A_m2"]
@@ -118,14 +158,32 @@ def _detumble_plots(run_dir: Path, rec: Mapping[str, np.ndarray], *, cfg: Cnusai
     out.append(save_figure(fig, run_dir / "dipole.png"))
 
     P = rec["mtq_power_W"]
-    out.append(_components_figure(
-        run_dir / "mtq_power.png", x, P, names=tuple(f"axis {a}" for a in _AX), total=(P.sum(axis=1), "total"),
-        xlabel="time [orbits]", ylabel="power [W]", title=title + ": magnetorquer power (assumed model)",
-        limits=(([cfg.actuators.mtq.power_max_W], "r", "power limit"),)))
+    out.append(
+        _components_figure(
+            run_dir / "mtq_power.png",
+            x,
+            P,
+            names=tuple(f"axis {a}" for a in _AX),
+            total=(P.sum(axis=1), "total"),
+            xlabel="time [orbits]",
+            ylabel="power [W]",
+            title=title + ": magnetorquer power (assumed model)",
+            limits=(([cfg.actuators.mtq.power_max_W], "r", "power limit"),),
+        )
+    )
     B = rec["B_body_T"] * 1e6
-    out.append(_components_figure(
-        run_dir / "field_body.png", x, B, names=tuple(f"B_{a}" for a in _AX), total=(np.linalg.norm(B, axis=1), "|B|"),
-        xlabel="time [orbits]", ylabel="field [µT]", title=title + ": geomagnetic field, body axes"))
+    out.append(
+        _components_figure(
+            run_dir / "field_body.png",
+            x,
+            B,
+            names=tuple(f"B_{a}" for a in _AX),
+            total=(np.linalg.norm(B, axis=1), "|B|"),
+            xlabel="time [orbits]",
+            ylabel="field [µT]",
+            title=title + ": geomagnetic field, body axes",
+        )
+    )
     return out
 
 
@@ -137,8 +195,15 @@ def _event_lines(axes, marks: list[float]) -> None:
         ax.grid(alpha=0.3)
 
 
-def _pointing_plots(run_dir: Path, rec: Mapping[str, np.ndarray], *, cfg: CnusailConfig, orbit_period_s: float,
-                    events: list[dict[str, Any]], title: str) -> list[Path]:
+def _pointing_plots(
+    run_dir: Path,
+    rec: Mapping[str, np.ndarray],
+    *,
+    cfg: CnusailConfig,
+    orbit_period_s: float,
+    events: list[dict[str, Any]],
+    title: str,
+) -> list[Path]:
     """Attitude error, rate error, wheel speeds, torques, unloading dipole, the orbit's
     disturbances and (deorbit) the sail-to-flow geometry against time [min]."""
     x = rec["t"] / 60.0
@@ -163,17 +228,37 @@ def _pointing_plots(run_dir: Path, rec: Mapping[str, np.ndarray], *, cfg: Cnusai
 
     we = rec["omega_e_rad_s"] * DEG
     rmax = cfg.control.slew_rate_max_deg_s
-    out.append(_components_figure(
-        run_dir / "rate_error.png", x, we, names=tuple(f"ω_e,{a}" for a in _AX),
-        total=(np.linalg.norm(we, axis=1), "|ω_e|"), xlabel="time [min]", ylabel="rate error [°/s]",
-        title=title + ": rate error", lw=0.7,
-        limits=(([0.1, -0.1], "g", "±0.1 °/s"), ([rmax, -rmax], "r", "±θ̇_max (slew rate limit)"))))
+    out.append(
+        _components_figure(
+            run_dir / "rate_error.png",
+            x,
+            we,
+            names=tuple(f"ω_e,{a}" for a in _AX),
+            total=(np.linalg.norm(we, axis=1), "|ω_e|"),
+            xlabel="time [min]",
+            ylabel="rate error [°/s]",
+            title=title + ": rate error",
+            lw=0.7,
+            limits=(([0.1, -0.1], "g", "±0.1 °/s"), ([rmax, -rmax], "r", "±θ̇_max (slew rate limit)")),
+        )
+    )
     thr_rpm = cfg.control.unloading.threshold_rpm
-    out.append(_components_figure(
-        run_dir / "wheel_speeds.png", x, rec["wheel_speed_rpm"], names=tuple(f"wheel {a}" for a in _AX),
-        xlabel="time [min]", ylabel="relative wheel speed [rpm]", title=title + ": wheel speeds", lw=0.8,
-        limits=(([thr_rpm, -thr_rpm], "orange", f"±{thr_rpm:g} rpm (unloading)"),
-                ([wheels.speed_max_rpm, -wheels.speed_max_rpm], "r", f"±{wheels.speed_max_rpm:g} rpm (limit)"))))
+    out.append(
+        _components_figure(
+            run_dir / "wheel_speeds.png",
+            x,
+            rec["wheel_speed_rpm"],
+            names=tuple(f"wheel {a}" for a in _AX),
+            xlabel="time [min]",
+            ylabel="relative wheel speed [rpm]",
+            title=title + ": wheel speeds",
+            lw=0.8,
+            limits=(
+                ([thr_rpm, -thr_rpm], "orange", f"±{thr_rpm:g} rpm (unloading)"),
+                ([wheels.speed_max_rpm, -wheels.speed_max_rpm], "r", f"±{wheels.speed_max_rpm:g} rpm (limit)"),
+            ),
+        )
+    )
 
     fig, axes = new_figure(3, 1, figsize=(9, 7.5), sharex=True)
     tau = wheels.torque_max_N_m
@@ -189,22 +274,33 @@ def _pointing_plots(run_dir: Path, rec: Mapping[str, np.ndarray], *, cfg: Cnusai
     out.append(save_figure(fig, run_dir / "torques.png"))
 
     limit = cfg.actuators.mtq.limit_vector.max()
-    out.append(_components_figure(
-        run_dir / "unloading.png", x, rec["dipole_cmd_A_m2"], names=tuple(f"m_{a}" for a in _AX),
-        xlabel="time [min]", ylabel="dipole [A m²]", title=title + ": unloading dipole", lw=0.8,
-        limits=(([limit, -limit], "r", "±dipole limit"),)))
+    out.append(
+        _components_figure(
+            run_dir / "unloading.png",
+            x,
+            rec["dipole_cmd_A_m2"],
+            names=tuple(f"m_{a}" for a in _AX),
+            xlabel="time [min]",
+            ylabel="dipole [A m²]",
+            title=title + ": unloading dipole",
+            lw=0.8,
+            limits=(([limit, -limit], "r", "±dipole limit"),),
+        )
+    )
 
     if "dist_orbit_nadir_N_m" in rec:
-        fig = disturbance_orbit_figure(rec, orbit_period_s, f"CNUSAIL-1 {cfg.spacecraft.configuration}: "
-                                                            "disturbance torques over one orbit")
+        fig = disturbance_orbit_figure(
+            rec, orbit_period_s, f"CNUSAIL-1 {cfg.spacecraft.configuration}: disturbance torques over one orbit"
+        )
         out.append(save_figure(fig, run_dir / "disturbances_orbit.png"))
     if cfg.control.command == "deorbit" or cfg.control.modes.deorbit_at_s is not None:
         out.append(_deorbit_plot(run_dir, rec, x=x, marks=marks, title=title))
     return out
 
 
-def _deorbit_plot(run_dir: Path, rec: Mapping[str, np.ndarray], *, x: np.ndarray, marks: list[float],
-                  title: str) -> Path:
+def _deorbit_plot(
+    run_dir: Path, rec: Mapping[str, np.ndarray], *, x: np.ndarray, marks: list[float], title: str
+) -> Path:
     """Altitude and density, projected sail area fraction and the sail-normal-to-flow angle [min]."""
     fig, axes = new_figure(3, 1, figsize=(9, 8), sharex=True)
     axes[0].plot(x, rec["altitude_m"] / 1e3, "b")
@@ -224,8 +320,9 @@ def _deorbit_plot(run_dir: Path, rec: Mapping[str, np.ndarray], *, x: np.ndarray
     return save_figure(fig, run_dir / "deorbit_flow.png")
 
 
-def _disturbance_plot(run_dir: Path, rec: Mapping[str, np.ndarray], *, cfg: CnusailConfig, orbit_period_s: float,
-                      title: str) -> Path:
+def _disturbance_plot(
+    run_dir: Path, rec: Mapping[str, np.ndarray], *, cfg: CnusailConfig, orbit_period_s: float, title: str
+) -> Path:
     """|torque| of each disturbance source and of the magnetorquers along the run (every mode)."""
     bdot = cfg.control.mode == "bdot"
     x = rec["t"] / (orbit_period_s if bdot else 60.0)
@@ -236,15 +333,19 @@ def _disturbance_plot(run_dir: Path, rec: Mapping[str, np.ndarray], *, cfg: Cnus
         ax.semilogy(x, np.where(mag > 0, mag, np.nan), lw=0.7, label=_SRC_LABEL[src])
     mag = np.linalg.norm(rec["torque_mtq_body_N_m"], axis=1)
     ax.semilogy(x, np.where(mag > 0, mag, np.nan), lw=0.5, alpha=0.6, label="magnetorquer")
-    ax.set(xlabel="time [orbits]" if bdot else "time [min]", ylabel="|torque| [N m]",
-           title=title + ": disturbance torques by source")
+    ax.set(
+        xlabel="time [orbits]" if bdot else "time [min]",
+        ylabel="|torque| [N m]",
+        title=title + ": disturbance torques by source",
+    )
     ax.legend(fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
     return save_figure(fig, run_dir / "disturbances.png")
 
 
-def lifetime_plots(run_dir: Path, series: dict[str, np.ndarray], table: list[dict[str, Any]],
-                   comparison: dict[str, Any], title: str) -> list[Path]:
+def lifetime_plots(
+    run_dir: Path, series: dict[str, np.ndarray], table: list[dict[str, Any]], comparison: dict[str, Any], title: str
+) -> list[Path]:
     """S8: altitude vs time for the three regimes (one plot) and the lifetime comparison chart."""
     out: list[Path] = []
     fig, ax = new_figure(figsize=(10, 5))
@@ -259,12 +360,20 @@ def lifetime_plots(run_dir: Path, series: dict[str, np.ndarray], table: list[dic
             # the osculating a of the last Cowell samples (re-entry spiral) is not a mean altitude
             a_alt = np.where(a_alt > 100.0, a_alt, np.nan)
             ax.plot(td, a_alt, ls, color=colours[reg], lw=1.2, label=f"{reg} ({method}): a − R_E")
-            ax.fill_between(td, series[f"perigee_{key}_m"] / 1e3, series[f"apogee_{key}_m"] / 1e3,
-                            color=colours[reg], alpha=0.08 if method == "cowell" else 0.04)
+            ax.fill_between(
+                td,
+                series[f"perigee_{key}_m"] / 1e3,
+                series[f"apogee_{key}_m"] / 1e3,
+                color=colours[reg],
+                alpha=0.08 if method == "cowell" else 0.04,
+            )
     ax.set_xscale("symlog", linthresh=10.0)
     ax.axhline(120.0, color="k", ls=":", lw=0.8, label="120 km (re-entry)")
-    ax.set(xlabel="time [days] (linear to 10, log beyond)", ylabel="altitude [km]",
-           title=title + ": orbit decay, exponential atmosphere (bands: perigee–apogee)")
+    ax.set(
+        xlabel="time [days] (linear to 10, log beyond)",
+        ylabel="altitude [km]",
+        title=title + ": orbit decay, exponential atmosphere (bands: perigee–apogee)",
+    )
     ax.legend(fontsize=7, ncol=2)
     ax.grid(alpha=0.3)
     out.append(save_figure(fig, run_dir / "altitude_decay.png"))
@@ -277,15 +386,24 @@ def lifetime_plots(run_dir: Path, series: dict[str, np.ndarray], table: list[dic
     if capped.any():
         ax.semilogy(alt[capped], days[capped], "^", color="green", mfc="none", label="generic 3U (≥ time cap)")
     for row in comparison["cnusail"]:
-        ax.errorbar(row["mean_alt_km"], row["lifetime_days"],
-                    xerr=[[row["mean_alt_km"] - row["perigee_km"]], [row["apogee_km"] - row["mean_alt_km"]]],
-                    fmt="s", color=colours[row["regime"]], capsize=4, label=f"CNUSAIL-1 {row['regime']}")
+        ax.errorbar(
+            row["mean_alt_km"],
+            row["lifetime_days"],
+            xerr=[[row["mean_alt_km"] - row["perigee_km"]], [row["apogee_km"] - row["mean_alt_km"]]],
+            fmt="s",
+            color=colours[row["regime"]],
+            capsize=4,
+            label=f"CNUSAIL-1 {row['regime']}",
+        )
     for ref in comparison.get("references", []):
         ax.plot(ref["altitude_km"], ref["observed_days"], "*", ms=12, label=f"{ref['name']} (observed)")
         if ref.get("predicted_days") is not None:
             ax.plot(ref["altitude_km"], ref["predicted_days"], "x", ms=9, label=f"{ref['name']} (this model)")
-    ax.set(xlabel="initial (mean) altitude [km]", ylabel="lifetime [days]",
-           title=title + ": lifetime comparison (exponential atmosphere)")
+    ax.set(
+        xlabel="initial (mean) altitude [km]",
+        ylabel="lifetime [days]",
+        title=title + ": lifetime comparison (exponential atmosphere)",
+    )
     ax.legend(fontsize=7)
     ax.grid(True, which="both", alpha=0.3)
     out.append(save_figure(fig, run_dir / "lifetime_comparison.png"))

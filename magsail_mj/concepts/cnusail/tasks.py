@@ -32,6 +32,7 @@ from magsail_mj.sim import RunResult, Simulation
 
 __all__ = ["AttitudeTask", "LifetimeTask", "build_cnusail_scenario"]
 
+
 @register_task("cnusail", "attitude")
 class AttitudeTask:
     """A CNUSAIL attitude run (S1–S7): the built cubesat (``cubesat``; ``spec``, ``model``, ``idx``,
@@ -82,9 +83,17 @@ class AttitudeTask:
             "torque_dist_body_N_m": lambda s, d: dist.torques_body(s),
             "torque_mtq_body_N_m": mtq_body,
         }
-        return Simulation(model=self.model, duration_s=self.cfg.sim.duration_s, loads=[dist, mtq], controller=ctl,
-                          environment=self.environment, probes=probes, record_every=self.cfg.sim.record_every,
-                          checkpoint_every_s=self.cfg.sim.checkpoint_every_s, init=self.init_state)
+        return Simulation(
+            model=self.model,
+            duration_s=self.cfg.sim.duration_s,
+            loads=[dist, mtq],
+            controller=ctl,
+            environment=self.environment,
+            probes=probes,
+            record_every=self.cfg.sim.record_every,
+            checkpoint_every_s=self.cfg.sim.checkpoint_every_s,
+            init=self.init_state,
+        )
 
     # -------------------------------------------------------------- outputs
     def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -92,8 +101,9 @@ class AttitudeTask:
 
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
         events = self.controller.events if self.controller is not None else []
-        return attitude_plots(run_dir, series, records=result.records, cfg=self.cfg, orbit_period_s=self.orbit_period_s,
-                              events=events)
+        return attitude_plots(
+            run_dir, series, records=result.records, cfg=self.cfg, orbit_period_s=self.orbit_period_s, events=events
+        )
 
     def render_info(self) -> dict[str, Any]:
         r = self.cfg.render
@@ -105,17 +115,28 @@ class AttitudeTask:
         return {
             "title": f"CNUSAIL-1 {self.cfg.scenario} ({self.cfg.spacecraft.configuration}, {law})",
             "overlay": ["mode", "theta_e_deg", "omega_norm_deg_s", "wheel_speed_rpm"],
-            "overlay_names": {"mode": "mode", "theta_e_deg": "attitude error θ_e", "omega_norm_deg_s": "body rate |ω|",
-                              "wheel_speed_rpm": "wheel speeds"},
+            "overlay_names": {
+                "mode": "mode",
+                "theta_e_deg": "attitude error θ_e",
+                "omega_norm_deg_s": "body rate |ω|",
+                "wheel_speed_rpm": "wheel speeds",
+            },
             "overlay_labels": {"mode": self.mode_labels()},
             "camera": cam,
             "fps": r.fps,
             "max_frames": frames,
-            "markers": {"mk_sun": "Sun direction", "mk_vel": "orbital velocity direction",
-                        "mk_nadir": "nadir direction", "mk_field": "magnetic field direction",
-                        "axis_x/y/z": "body axes x, y, z",
-                        "sail_front": "sail front face (+z side)", "sail_back": "sail back face", "boom": "sail booms",
-                        "bus_box": "bus (3U cubesat)", "rw_x_tick/y_tick/z_tick": "reaction-wheel rotor marks"},
+            "markers": {
+                "mk_sun": "Sun direction",
+                "mk_vel": "orbital velocity direction",
+                "mk_nadir": "nadir direction",
+                "mk_field": "magnetic field direction",
+                "axis_x/y/z": "body axes x, y, z",
+                "sail_front": "sail front face (+z side)",
+                "sail_back": "sail back face",
+                "boom": "sail booms",
+                "bus_box": "bus (3U cubesat)",
+                "rw_x_tick/y_tick/z_tick": "reaction-wheel rotor marks",
+            },
         }
 
     def mode_labels(self) -> dict[str, str]:
@@ -123,9 +144,11 @@ class AttitudeTask:
         means in this run, for the video overlay: 0 B-dot detumbling, 1 nadir pointing and 2 deorbit
         attitude with the configured pointing law (none named for a B-dot-only run)."""
         law = {"eigen_axis": ", eigen-axis law", "pd": ", PD law"}.get(self.cfg.control.mode, "")
-        return {str(int(Mode.DETUMBLE)): "detumbling (B-dot, wheels idle)",
-                str(int(Mode.NADIR)): f"nadir pointing{law}",
-                str(int(Mode.DEORBIT)): f"deorbit attitude (sail face forward){law}"}
+        return {
+            str(int(Mode.DETUMBLE)): "detumbling (B-dot, wheels idle)",
+            str(int(Mode.NADIR)): f"nadir pointing{law}",
+            str(int(Mode.DEORBIT)): f"deorbit attitude (sail face forward){law}",
+        }
 
     def manifest_extra(self) -> dict[str, Any]:
         m = self.model

@@ -21,6 +21,12 @@ from magsail_mj.concepts.current_loops.model import LoopsModel, make_loops_model
 from magsail_mj.concepts.current_loops.tasks import LoopsScenario, build_loops_scenario
 
 __all__ = [
-    "CIRCUIT_NAMES", "CurrentLoopsConfig", "LoopsScenario", "build_loops_scenario", "LoopsModel",
-    "make_loops_model", "rigid_plate_spec", "loop_currents",
+    "CIRCUIT_NAMES",
+    "CurrentLoopsConfig",
+    "LoopsScenario",
+    "build_loops_scenario",
+    "LoopsModel",
+    "make_loops_model",
+    "rigid_plate_spec",
+    "loop_currents",
 ]

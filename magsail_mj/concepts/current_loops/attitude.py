@@ -39,8 +39,7 @@ from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step
 from magsail_mj.quaternion import quat_from_matrix
 from magsail_mj.quaternion import quat_conj, quat_mul
 
-__all__ = ["LoopCommand", "LoopAttitudeController", "allocate_currents",
-           "rigid_velocity_fit", "RATE_ESTIMATORS"]
+__all__ = ["LoopCommand", "LoopAttitudeController", "allocate_currents", "rigid_velocity_fit", "RATE_ESTIMATORS"]
 
 RATE_ESTIMATORS = ("velocity_fit", "finite_difference")
 
@@ -61,8 +60,9 @@ def rigid_velocity_fit(x: np.ndarray, v: np.ndarray, m: np.ndarray) -> np.ndarra
     return np.linalg.solve(J, H)
 
 
-def allocate_currents(m_cmd: np.ndarray, *, m_max: float, I_max: np.ndarray,
-                      mode: Literal["paper_clip", "direction_preserving"]) -> tuple[np.ndarray, np.ndarray]:
+def allocate_currents(
+    m_cmd: np.ndarray, *, m_max: float, I_max: np.ndarray, mode: Literal["paper_clip", "direction_preserving"]
+) -> tuple[np.ndarray, np.ndarray]:
     """Currents of the x, y, z circuits for a body dipole command (Eq. 20 as intended).
 
     Returns ``(currents_A, saturated)`` where ``saturated[L]`` flags a clipped (or scaled) axis.
@@ -112,11 +112,22 @@ class LoopAttitudeController:
       rate_estimator: ``"velocity_fit"`` (default) or ``"finite_difference"`` (module docstring).
     """
 
-    def __init__(self, *, period_s: float, p_ref: np.ndarray, masses: np.ndarray, node_bodies: np.ndarray,
-                 q_target: np.ndarray, kp_N_m: float, kw_N_m_s: float, m_max_A_m2: float,
-                 I_max_A: np.ndarray, allocation: Literal["paper_clip", "direction_preserving"] = "paper_clip",
-                 field_world: np.ndarray | None = None,
-                 rate_estimator: Literal["velocity_fit", "finite_difference"] = "velocity_fit"):
+    def __init__(
+        self,
+        *,
+        period_s: float,
+        p_ref: np.ndarray,
+        masses: np.ndarray,
+        node_bodies: np.ndarray,
+        q_target: np.ndarray,
+        kp_N_m: float,
+        kw_N_m_s: float,
+        m_max_A_m2: float,
+        I_max_A: np.ndarray,
+        allocation: Literal["paper_clip", "direction_preserving"] = "paper_clip",
+        field_world: np.ndarray | None = None,
+        rate_estimator: Literal["velocity_fit", "finite_difference"] = "velocity_fit",
+    ):
         if not period_s > 0:
             raise ValueError(f"period_s: must be > 0, got {period_s!r}")
         self.period_s = float(period_s)
@@ -177,8 +188,17 @@ class LoopAttitudeController:
         b2 = B_b @ B_b
         m_cmd = np.cross(B_b, T_ref) / b2 if b2 > 0 else np.zeros(3)
         currents, sat = allocate_currents(m_cmd, m_max=self.m_max, I_max=self.I_max, mode=self.allocation)
-        return LoopCommand(currents_A=currents, saturated=sat, q=q, q_err=q_err, omega_body=omega_body,
-                           torque_ref_body=T_ref, dipole_cmd_body=m_cmd, B_body=B_b, R=R)
+        return LoopCommand(
+            currents_A=currents,
+            saturated=sat,
+            q=q,
+            q_err=q_err,
+            omega_body=omega_body,
+            torque_ref_body=T_ref,
+            dipole_cmd_body=m_cmd,
+            B_body=B_b,
+            R=R,
+        )
 
     def field(self, state) -> np.ndarray:
         return self.field_world if self.field_world is not None else np.asarray(state.env.B_eci)

@@ -25,13 +25,26 @@ from magsail_mj.config import (
     finite_product,
 )
 from magsail_mj.environment.config import (
-    EnvironmentConfig, FieldConfig, GravityConfig, OrbitConfig, environment_config_of, environment_problems,
+    EnvironmentConfig,
+    FieldConfig,
+    GravityConfig,
+    OrbitConfig,
+    environment_config_of,
+    environment_problems,
 )
 from magsail_mj.geometry.current_loops import AXIS_OF, CIRCUIT_NAMES, COMPOSITES
 
 __all__ = [
-    "CurrentLoopsConfig", "LoopsLatticeConfig", "LoopsMassConfig", "LoopsStiffnessConfig", "LoopsDampingConfig",
-    "LoopsCircuitConfig", "ThermalTable", "LoopsControlConfig", "ClassificationConfig", "LoopsRenderConfig",
+    "CurrentLoopsConfig",
+    "LoopsLatticeConfig",
+    "LoopsMassConfig",
+    "LoopsStiffnessConfig",
+    "LoopsDampingConfig",
+    "LoopsCircuitConfig",
+    "ThermalTable",
+    "LoopsControlConfig",
+    "ClassificationConfig",
+    "LoopsRenderConfig",
     "loop_currents",
 ]
 
@@ -154,8 +167,9 @@ class LoopsControlConfig(StrictModel):
     @model_validator(mode="after")
     def _unit(self) -> LoopsControlConfig:
         if abs(math.hypot(*self.q_target) - 1.0) > 1e-4:
-            raise ValueError(f"q_target: must be a unit quaternion [w, x, y, z], got norm "
-                             f"{math.hypot(*self.q_target):.6g}")
+            raise ValueError(
+                f"q_target: must be a unit quaternion [w, x, y, z], got norm {math.hypot(*self.q_target):.6g}"
+            )
         return self
 
 
@@ -206,8 +220,9 @@ class CurrentLoopsConfig(StrictModel):
             if self.orbit.enabled:
                 raise ValueError("scenario 'sweep' runs in free space (§5): set orbit.enabled = false")
             if self.field.model != "constant":
-                raise ValueError(f"field.model: scenario 'sweep' needs 'constant' (uniform fixed field), "
-                                 f"got {self.field.model!r}")
+                raise ValueError(
+                    f"field.model: scenario 'sweep' needs 'constant' (uniform fixed field), got {self.field.model!r}"
+                )
             if self.control is not None:
                 raise ValueError("control: scenario 'sweep' has constant currents, no [control] table")
         else:
@@ -215,15 +230,19 @@ class CurrentLoopsConfig(StrictModel):
                 raise ValueError(f"scenario {sc!r} needs the [control] table")
             axes = sorted(AXIS_OF[c] for c in self.loops.expanded())
             if axes != [0, 1, 2]:
-                raise ValueError(f"loops.circuits: scenario {sc!r} needs one circuit per axis x, y, z "
-                                 f"(e.g. ['C_x', 'C_y', 'B']), got {self.loops.circuits}")
+                raise ValueError(
+                    f"loops.circuits: scenario {sc!r} needs one circuit per axis x, y, z "
+                    f"(e.g. ['C_x', 'C_y', 'B']), got {self.loops.circuits}"
+                )
             if self.field.model == "none":
                 raise ValueError(f"field.model: scenario {sc!r} needs a field, got 'none'")
             if self.gravity.tidal and not self.orbit.enabled:
                 raise ValueError("gravity.tidal: needs orbit.enabled = true")
             if self.field.model != "constant" and not self.orbit.enabled:
-                raise ValueError(f"field.model {self.field.model!r} is sampled along the orbit: "
-                                 "set orbit.enabled = true or use 'constant'")
+                raise ValueError(
+                    f"field.model {self.field.model!r} is sampled along the orbit: "
+                    "set orbit.enabled = true or use 'constant'"
+                )
         if self.orbit.enabled:
             problems = environment_problems(self.environment_config())
             if problems:
@@ -235,11 +254,27 @@ class CurrentLoopsConfig(StrictModel):
         """What MuJoCo receives (particle masses and inertias, spring constants) must be finite and
         above mjMINVAL, and the circuit currents (Eq.-9 sizing or fixed) finite."""
         side = self.lattice.side_m
-        total = finite_product("mass.areal_density_kg_m2", self.mass.areal_density_kg_m2, side, side,
-                               what="total mass σ D²", others=("lattice.side_m",))
-        check_lattice_numbers(units=self.lattice.units, side_m=side, total_kg=total, EI_Nm2=self.stiffness.EI_N_m2,
-                              zeta=0.0, keys={"side": "lattice.side_m", "mass": "mass.areal_density_kg_m2",
-                                              "EI": "stiffness.EI_N_m2", "zeta": "stiffness.EI_N_m2"})
+        total = finite_product(
+            "mass.areal_density_kg_m2",
+            self.mass.areal_density_kg_m2,
+            side,
+            side,
+            what="total mass σ D²",
+            others=("lattice.side_m",),
+        )
+        check_lattice_numbers(
+            units=self.lattice.units,
+            side_m=side,
+            total_kg=total,
+            EI_Nm2=self.stiffness.EI_N_m2,
+            zeta=0.0,
+            keys={
+                "side": "lattice.side_m",
+                "mass": "mass.areal_density_kg_m2",
+                "EI": "stiffness.EI_N_m2",
+                "zeta": "stiffness.EI_N_m2",
+            },
+        )
         self._check_currents()
         return self
 
@@ -248,9 +283,12 @@ class CurrentLoopsConfig(StrictModel):
         geometry A beyond its fold, and extreme constants overflow)."""
         if self.loops.sizing == "fixed":
             return
-        inputs = {"lattice.side_m": self.lattice.side_m, "mass.areal_density_kg_m2": self.mass.areal_density_kg_m2,
-                  "loops.kappa": self.loops.kappa,
-                  **{f"thermal.{k}": v for k, v in self.thermal.model_dump().items()}}
+        inputs = {
+            "lattice.side_m": self.lattice.side_m,
+            "mass.areal_density_kg_m2": self.mass.areal_density_kg_m2,
+            "loops.kappa": self.loops.kappa,
+            **{f"thermal.{k}": v for k, v in self.thermal.model_dump().items()},
+        }
         listed = ", ".join(f"{k} = {v!r}" for k, v in inputs.items())
         try:
             with np.errstate(all="ignore"):
@@ -258,8 +296,10 @@ class CurrentLoopsConfig(StrictModel):
         except (ArithmeticError, ValueError) as err:
             raise ConfigProblem("loops.sizing", f"the Eq.-9 sizing fails ({err}) for {listed}") from None
         if not np.all(np.isfinite(currents)) or not np.all(currents > 0):
-            raise ConfigProblem("loops.sizing", f"the Eq.-9 sizing gives currents {currents.tolist()} A "
-                                f"(must be finite and > 0) for {listed}")
+            raise ConfigProblem(
+                "loops.sizing",
+                f"the Eq.-9 sizing gives currents {currents.tolist()} A (must be finite and > 0) for {listed}",
+            )
 
     def environment_config(self) -> EnvironmentConfig:
         """The environment tables as one :class:`EnvironmentConfig` (no atmosphere, sun, SRP or drag:
@@ -274,15 +314,29 @@ def loop_currents(cfg: CurrentLoopsConfig) -> tuple[np.ndarray, list[dict[str, A
         cur = np.broadcast_to(np.asarray(cfg.loops.current_A, dtype=float), (len(names),)).copy()
         return cur, [{"circuit": n, "current_A": float(c), "sizing": "fixed"} for n, c in zip(names, cur)]
     t = cfg.thermal
-    const = ThermalConstants(T_eq_K=t.T_eq_K, T_ref_K=t.T_ref_K, rho_ref_ohm_m=t.rho_ref_ohm_m,
-                             alpha_per_K=t.alpha_per_K, emissivity=t.emissivity, rho_c_kg_m3=t.rho_c_kg_m3,
-                             B0_T=t.B0_T, R_E_m=t.R_E_km * 1e3)
+    const = ThermalConstants(
+        T_eq_K=t.T_eq_K,
+        T_ref_K=t.T_ref_K,
+        rho_ref_ohm_m=t.rho_ref_ohm_m,
+        alpha_per_K=t.alpha_per_K,
+        emissivity=t.emissivity,
+        rho_c_kg_m3=t.rho_c_kg_m3,
+        B0_T=t.B0_T,
+        R_E_m=t.R_E_km * 1e3,
+    )
     units = cfg.loops.sizing_units or cfg.lattice.units
     out, rec = [], []
     for n in names:
-        s = loop_sizing(_SIZING_GEOMETRY[n], units=units, side_m=cfg.lattice.side_m,
-                        areal_density_kg_m2=cfg.mass.areal_density_kg_m2, kappa=cfg.loops.kappa, constants=const)
+        s = loop_sizing(
+            _SIZING_GEOMETRY[n],
+            units=units,
+            side_m=cfg.lattice.side_m,
+            areal_density_kg_m2=cfg.mass.areal_density_kg_m2,
+            kappa=cfg.loops.kappa,
+            constants=const,
+        )
         out.append(s["current_A"])
-        rec.append({"circuit": n, "sizing": "eq9", **{k: float(v) for k, v in s.items()
-                                                        if isinstance(v, (int, float))}})
+        rec.append(
+            {"circuit": n, "sizing": "eq9", **{k: float(v) for k, v in s.items() if isinstance(v, (int, float))}}
+        )
     return np.asarray(out, dtype=float), rec

@@ -44,10 +44,18 @@ import numpy as np
 
 from magsail_mj.analysis.flatness import surface_sd
 from magsail_mj.concepts.current_loops.attitude import (
-    LoopAttitudeController, LoopCommand, allocate_currents, rigid_velocity_fit,
+    LoopAttitudeController,
+    LoopCommand,
+    allocate_currents,
+    rigid_velocity_fit,
 )
 from magsail_mj.envs.core import (
-    AttitudeTask, SimulationPhysics, draw_rigid_start, make_environment, pointing_error_rad, register,
+    AttitudeTask,
+    SimulationPhysics,
+    draw_rigid_start,
+    make_environment,
+    pointing_error_rad,
+    register,
     set_rigid_motion,
 )
 from magsail_mj.estimation.attitude import BestFitRotation, matrix_from_quat
@@ -106,8 +114,17 @@ class ActionLoopController:
             sat = np.abs(currents) >= law.I_max
             m_cmd = law.m_max * currents / law.I_max
             T_ref = cross3(m_cmd, B_b)
-        cmd = LoopCommand(currents_A=currents, saturated=sat, q=q, q_err=q_err, omega_body=w, torque_ref_body=T_ref,
-                          dipole_cmd_body=m_cmd, B_body=B_b, R=R)
+        cmd = LoopCommand(
+            currents_A=currents,
+            saturated=sat,
+            q=q,
+            q_err=q_err,
+            omega_body=w,
+            torque_ref_body=T_ref,
+            dipole_cmd_body=m_cmd,
+            B_body=B_b,
+            R=R,
+        )
         cmd.currents_axis_A = cmd.currents_A
         cmd.currents_A = cmd.currents_A[self.inverse]
         return cmd
@@ -126,9 +143,18 @@ class LoopsSlewTask(AttitudeTask):
 
     rate_scale_rad_s = 1e-3
 
-    def __init__(self, base: Any, random: Any = None, *, action: str = "currents", randomize: bool = True,
-                 rate_range_rad_s: float = 1e-4, attitude_range_deg: float = 10.0, health_every: int = 10,
-                 reward_weights: Any = None) -> None:
+    def __init__(
+        self,
+        base: Any,
+        random: Any = None,
+        *,
+        action: str = "currents",
+        randomize: bool = True,
+        rate_range_rad_s: float = 1e-4,
+        attitude_range_deg: float = 10.0,
+        health_every: int = 10,
+        reward_weights: Any = None,
+    ) -> None:
         super().__init__(random, randomize=randomize, reward_weights=reward_weights)
         if action not in ("currents", "torque"):
             raise ValueError(f"action: must be 'currents' or 'torque', got {action!r}")
@@ -170,10 +196,13 @@ class LoopsSlewTask(AttitudeTask):
 
     def draw_start(self, physics: SimulationPhysics) -> dict[str, Any]:
         """Attitude and rates drawn (module docstring); rigid, unstressed start."""
-        q, omega = draw_rigid_start(self.random, q0_wxyz=np.array([1.0, 0.0, 0.0, 0.0]),
-                                    rate_range_rad_s=self.rate_range, attitude_range_rad=self.attitude_range)
-        set_rigid_motion(physics, q_wxyz=q, omega_body_rad_s=omega,
-                         masses=None if self.rigid else self.masses)
+        q, omega = draw_rigid_start(
+            self.random,
+            q0_wxyz=np.array([1.0, 0.0, 0.0, 0.0]),
+            rate_range_rad_s=self.rate_range,
+            attitude_range_rad=self.attitude_range,
+        )
+        set_rigid_motion(physics, q_wxyz=q, omega_body_rad_s=omega, masses=None if self.rigid else self.masses)
         return {"omega0_body_rad_s": omega, "q0_wxyz": q}
 
     # ------------------------------------------------------------------ observations
@@ -195,8 +224,12 @@ class LoopsSlewTask(AttitudeTask):
 
     def observe(self, physics: SimulationPhysics, state: StepState) -> dict[str, np.ndarray]:
         R, q, w = self._attitude(state)
-        obs = {"attitude_wxyz": q.copy(), "body_rate_rad_s": np.array(w, dtype=float),
-               "field_body_T": R.T @ self.converter.law.field(state), "target_wxyz": self.q_ref.copy()}
+        obs = {
+            "attitude_wxyz": q.copy(),
+            "body_rate_rad_s": np.array(w, dtype=float),
+            "field_body_T": R.T @ self.converter.law.field(state),
+            "target_wxyz": self.q_ref.copy(),
+        }
         if not self.rigid:
             mem = self._memory
             if mem["health"] is None or mem["n"] % self.health_every == 0:
@@ -209,8 +242,10 @@ class LoopsSlewTask(AttitudeTask):
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
         obs = self.current_observation(physics)
-        terms = {"theta_rad": pointing_error_rad(obs["attitude_wxyz"], self.q_ref),
-                 "omega_rad_s": float(np.linalg.norm(obs["body_rate_rad_s"]))}
+        terms = {
+            "theta_rad": pointing_error_rad(obs["attitude_wxyz"], self.q_ref),
+            "omega_rad_s": float(np.linalg.norm(obs["body_rate_rad_s"])),
+        }
         if "strain_max" in obs:
             terms["strain"] = float(obs["strain_max"][0]) / physics.sim.max_strain
         return terms

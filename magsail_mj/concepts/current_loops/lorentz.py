@@ -72,15 +72,13 @@ class CircuitSegments:
         self.src = np.concatenate([c.src for c in circuits]).astype(np.int64)
         self.dst = np.concatenate([c.dst for c in circuits]).astype(np.int64)
         self.mult = np.concatenate([c.mult for c in circuits]).astype(float)
-        self.circuit_id = np.concatenate(
-            [np.full(c.src.size, k, dtype=np.int64) for k, c in enumerate(circuits)])
+        self.circuit_id = np.concatenate([np.full(c.src.size, k, dtype=np.int64) for k, c in enumerate(circuits)])
         self.n_nodes = int(max(self.src.max(), self.dst.max())) + 1
         # flat (3 node + component) indices: gathers and the scatter work on raveled arrays
         self._src3 = (3 * self.src[:, None] + np.arange(3)[None, :]).ravel()
         self._dst3 = (3 * self.dst[:, None] + np.arange(3)[None, :]).ravel()
         self._flat3 = np.concatenate([self._src3, self._dst3])
-        for arr in (self.axes, self.src, self.dst, self.mult, self.circuit_id, self._src3, self._dst3,
-                    self._flat3):
+        for arr in (self.axes, self.src, self.dst, self.mult, self.circuit_id, self._src3, self._dst3, self._flat3):
             arr.setflags(write=False)
 
     @property
@@ -91,8 +89,7 @@ class CircuitSegments:
         """(S,) s_e I_L(e) [A] for circuit currents ``currents_A`` (n_circuits,)."""
         I = np.asarray(currents_A, dtype=float).reshape(-1)
         if I.size != self.n_circuits:
-            raise ValueError(f"currents_A: need {self.n_circuits} values (circuits {list(self.names)}), "
-                             f"got {I.size}")
+            raise ValueError(f"currents_A: need {self.n_circuits} values (circuits {list(self.names)}), got {I.size}")
         return self.mult * I[self.circuit_id]
 
     def __repr__(self) -> str:
@@ -109,8 +106,7 @@ def _field(B) -> np.ndarray:
 def _positions(pos, segs: CircuitSegments) -> np.ndarray:
     pos = np.asarray(pos, dtype=float)
     if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] < segs.n_nodes:
-        raise ValueError(f"pos: must be (n_nodes >= {segs.n_nodes}, 3) node positions [m], "
-                         f"got shape {pos.shape}")
+        raise ValueError(f"pos: must be (n_nodes >= {segs.n_nodes}, 3) node positions [m], got shape {pos.shape}")
     return pos
 
 
@@ -127,7 +123,7 @@ def lorentz_node_forces(pos, segs: CircuitSegments, currents_A, B) -> np.ndarray
     pos = _positions(pos, segs)
     B = _field(B)
     flat = np.ascontiguousarray(pos).ravel()
-    d = np.take(flat, segs._dst3) - np.take(flat, segs._src3)            # (3S,) r_b − r_a
+    d = np.take(flat, segs._dst3) - np.take(flat, segs._src3)  # (3S,) r_b − r_a
     g = np.repeat(0.5 * segs.segment_currents(currents_A), 3) * d
     n = pos.shape[0]
     G = np.bincount(segs._flat3, weights=np.concatenate([g, g]), minlength=3 * n).reshape(n, 3)
@@ -168,8 +164,7 @@ def lorentz_wrench(pos, segs: CircuitSegments, currents_A, B, about) -> tuple[np
     return F.sum(axis=0), np.cross(p - about, F).sum(axis=0)
 
 
-def self_field_max_T(pos, segs: CircuitSegments, currents_A, *, parallel_cos: float = 0.9,
-                     chunk: int = 512) -> float:
+def self_field_max_T(pos, segs: CircuitSegments, currents_A, *, parallel_cos: float = 0.9, chunk: int = 512) -> float:
     """Largest wire self-field at a segment due to its nearest parallel neighbour [T] (Eq. 17).
 
     Definition. For each segment e (midpoint c_e, unit direction ê, length l_e) the *parallel
@@ -188,7 +183,7 @@ def self_field_max_T(pos, segs: CircuitSegments, currents_A, *, parallel_cos: fl
     sI = np.abs(segs.segment_currents(currents_A))
     a, b = pos[segs.src], pos[segs.dst]
     c = 0.5 * (a + b)
-    c = c - c.mean(axis=0)                 # centred: smaller rounding in the expansions below
+    c = c - c.mean(axis=0)  # centred: smaller rounding in the expansions below
     d = b - a
     l = np.linalg.norm(d, axis=1)
     e = d / l[:, None]
@@ -198,7 +193,7 @@ def self_field_max_T(pos, segs: CircuitSegments, currents_A, *, parallel_cos: fl
     hi = np.maximum(segs.src, segs.dst)
     best = 0.0
     S = c.shape[0]
-    for k0 in range(0, S, chunk):          # chunks of rows; all pair terms by matrix products
+    for k0 in range(0, S, chunk):  # chunks of rows; all pair terms by matrix products
         k1 = min(S, k0 + chunk)
         # |c_j − c_i|² and (c_j − c_i)·ê_i without (k, S, 3) temporaries
         dist2 = cc[k0:k1, None] + cc[None, :] - 2.0 * (c[k0:k1] @ c.T)
@@ -232,21 +227,29 @@ class LorentzLoad:
 
     name = "lorentz"
 
-    def __init__(self, circuits: Sequence[Circuit] | CircuitSegments, *, n_nodes: int | None = None,
-                 currents_A=None, B_world=None, body_offset: int = 1) -> None:
+    def __init__(
+        self,
+        circuits: Sequence[Circuit] | CircuitSegments,
+        *,
+        n_nodes: int | None = None,
+        currents_A=None,
+        B_world=None,
+        body_offset: int = 1,
+    ) -> None:
         self.segs = circuits if isinstance(circuits, CircuitSegments) else CircuitSegments(circuits)
         if n_nodes is None:
             n_nodes = self.segs.n_nodes
         if int(n_nodes) != n_nodes or n_nodes < self.segs.n_nodes:
-            raise ValueError(f"n_nodes: must be an integer >= {self.segs.n_nodes} (largest node index "
-                             f"used + 1), got {n_nodes!r}")
+            raise ValueError(
+                f"n_nodes: must be an integer >= {self.segs.n_nodes} (largest node index used + 1), got {n_nodes!r}"
+            )
         self.n_nodes = int(n_nodes)
         if int(body_offset) != body_offset or body_offset < 0:
             raise ValueError(f"body_offset: must be an integer >= 0, got {body_offset!r}")
         self.body_offset = int(body_offset)
         self.currents_A = None
         if currents_A is not None:
-            self.segs.segment_currents(currents_A)          # checks the count
+            self.segs.segment_currents(currents_A)  # checks the count
             self.currents_A = np.asarray(currents_A, dtype=float).reshape(-1).copy()
         self.B_world = None if B_world is None else _field(B_world).copy()
         self.last_forces = np.zeros((self.n_nodes, 3))
@@ -258,8 +261,9 @@ class LorentzLoad:
         if cmd is not None:
             return np.asarray(cmd, dtype=float).reshape(-1)
         if self.currents_A is None:
-            raise ValueError("LorentzLoad: no currents — the controller command has no currents_A "
-                             "and no fixed currents_A was given")
+            raise ValueError(
+                "LorentzLoad: no currents — the controller command has no currents_A and no fixed currents_A was given"
+            )
         return self.currents_A
 
     def field(self, state: StepState) -> np.ndarray:
@@ -271,11 +275,11 @@ class LorentzLoad:
 
     def add(self, state: StepState, xfrc: np.ndarray) -> None:
         i0 = self.body_offset
-        pos = state.pos[i0:i0 + self.n_nodes]
+        pos = state.pos[i0 : i0 + self.n_nodes]
         I = self.currents(state)
         B = self.field(state)
         F = lorentz_node_forces(pos, self.segs, I, B)
-        xfrc[i0:i0 + self.n_nodes, :3] += F
+        xfrc[i0 : i0 + self.n_nodes, :3] += F
         self.last_forces = F
         self.last_currents_A = np.array(I, dtype=float)
         self.last_B = np.array(B, dtype=float)

@@ -35,7 +35,10 @@ from magsail_mj.lattice.trajectory import NodeTrajectory, as_trajectory
 from magsail_mj.concepts.current_loops.rigid_reference import rigid_dipole_attitude
 from magsail_mj.estimation.attitude import BestFitRotation, euler_zyx, matrix_from_quat, rotation_angle
 from magsail_mj.concepts.current_loops.lorentz import (
-    CircuitSegments, LorentzLoad, lorentz_node_forces, self_field_max_T,
+    CircuitSegments,
+    LorentzLoad,
+    lorentz_node_forces,
+    self_field_max_T,
 )
 from magsail_mj.loads.tidal import GravityGradientTorqueLoad, TidalGravityLoad
 from magsail_mj.concepts.current_loops.config import ClassificationConfig
@@ -43,8 +46,17 @@ from magsail_mj.concepts.current_loops.model import LoopsModel, WorkLedger
 from magsail_mj.sim import RunResult
 
 __all__ = [
-    "flexible_probes", "rigid_probes", "slew_probes", "flexible_torque_probe", "rigid_torque_probe",
-    "base_summary", "sweep_metrics", "slew_metrics", "slew_structure", "classify", "first_time_below",
+    "flexible_probes",
+    "rigid_probes",
+    "slew_probes",
+    "flexible_torque_probe",
+    "rigid_torque_probe",
+    "base_summary",
+    "sweep_metrics",
+    "slew_metrics",
+    "slew_structure",
+    "classify",
+    "first_time_below",
     "structural_series",
 ]
 
@@ -92,11 +104,13 @@ def slew_probes(torque_probe: Probe) -> dict[str, Probe]:
     }
 
 
-def rigid_torque_probe(areas_body_m2: np.ndarray, field_world_T: np.ndarray | None,
-                       gg_load: GravityGradientTorqueLoad | None) -> Probe:
+def rigid_torque_probe(
+    areas_body_m2: np.ndarray, field_world_T: np.ndarray | None, gg_load: GravityGradientTorqueLoad | None
+) -> Probe:
     """(2, 3): magnetic torque ``(R Σ I_L a_L) × B`` and gravity-gradient torque (world axes) of the
     rigid surrogate (body 1); ``areas_body_m2`` (L, 3) vector areas, ``field_world_T`` the fixed
     field (``None``: the orbit's ``B_eci``)."""
+
     def probe(s, d):
         mag = np.zeros(3)
         gg = gg_load.torque_world(s) if gg_load is not None else np.zeros(3)
@@ -109,8 +123,13 @@ def rigid_torque_probe(areas_body_m2: np.ndarray, field_world_T: np.ndarray | No
     return probe
 
 
-def flexible_torque_probe(node_bodies: np.ndarray, masses: np.ndarray, lorentz: LorentzLoad,
-                          segments: CircuitSegments, tidal: TidalGravityLoad | None) -> Probe:
+def flexible_torque_probe(
+    node_bodies: np.ndarray,
+    masses: np.ndarray,
+    lorentz: LorentzLoad,
+    segments: CircuitSegments,
+    tidal: TidalGravityLoad | None,
+) -> Probe:
     """(2, 3): Lorentz torque Σ (x_i − c) × F_i and tidal torque Σ (x_i − c) × m_i a_i about the
     centre of mass ``c`` (world axes) at this state."""
     nb, m = node_bodies, masses
@@ -141,8 +160,9 @@ def first_time_below(t: np.ndarray, x: np.ndarray, level: float) -> float | None
     return float(t[idx[0]]) if idx.size else None
 
 
-def structural_series(lm: LoopsModel, positions: NodeTrajectory | np.ndarray, *,
-                      modes: Callable[[], Modes] | None = None) -> dict[str, np.ndarray]:
+def structural_series(
+    lm: LoopsModel, positions: NodeTrajectory | np.ndarray, *, modes: Callable[[], Modes] | None = None
+) -> dict[str, np.ndarray]:
     """Strain energy ½ Σ k (|r_j − r_i| − L)² [J] and largest strut strain
     (:mod:`magsail_mj.analysis.energy`), best fit, thickness, residual and modal amplitudes of
     node positions (T, n, 3) [m]: an array, or a :class:`~magsail_mj.lattice.trajectory.NodeTrajectory`
@@ -162,7 +182,7 @@ def structural_series(lm: LoopsModel, positions: NodeTrajectory | np.ndarray, *,
         q = out["modal_amplitude"]
         out["modal_amplitude"] = q / max(np.abs(q).max(), 1e-300)
         sl = md.elastic
-        out["modal_omega_rad_s"] = md.omega[sl.start:sl.start + N_MODAL]
+        out["modal_omega_rad_s"] = md.omega[sl.start : sl.start + N_MODAL]
     return out
 
 
@@ -183,7 +203,7 @@ def _structural_block(lm: LoopsModel, x: np.ndarray, md: Modes | None) -> dict[s
     p0 = lat.nodes
     R, _ = BestFitRotation(p0)(x)
     c = x.mean(axis=1)
-    xb = np.einsum("tji,tnj->tni", R, x - c[:, None, :])        # R^T (x - c)
+    xb = np.einsum("tji,tnj->tni", R, x - c[:, None, :])  # R^T (x - c)
     u = xb - (p0 - p0.mean(axis=0))
     out = {
         "strain_energy_J": strain_energy(x, lat.struts, lm.k, lat.rest_length),
@@ -196,7 +216,7 @@ def _structural_block(lm: LoopsModel, x: np.ndarray, md: Modes | None) -> dict[s
     if md is not None:
         try:
             sl = md.elastic
-            phi = md.phi[:, sl.start:sl.start + N_MODAL]
+            phi = md.phi[:, sl.start : sl.start + N_MODAL]
             out["modal_amplitude"] = (u.reshape(u.shape[0], -1) * md.mass_diag) @ phi
         except Exception:  # noqa: BLE001 - as above
             pass
@@ -210,29 +230,55 @@ def _at(t: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 
 def base_summary(result: RunResult) -> dict[str, Any]:
     """Status, message, end time [s] and wall time [s] of a run."""
-    return {"status": result.status, "status_message": result.message,
-            "t_end_s": result.t_end_s, "wall_time_s": result.wall_time_s}
+    return {
+        "status": result.status,
+        "status_message": result.message,
+        "t_end_s": result.t_end_s,
+        "wall_time_s": result.wall_time_s,
+    }
 
 
-def classify(c: ClassificationConfig, *, side_m: float, units: int, rho_max: float, strain_max: float,
-             h_max: float, dev_max: float) -> str:
+def classify(
+    c: ClassificationConfig,
+    *,
+    side_m: float,
+    units: int,
+    rho_max: float,
+    strain_max: float,
+    h_max: float,
+    dev_max: float,
+) -> str:
     """§4.6: ``collapsed`` if ρ_max > f_c D or the strain > ε_c or h_max > n_c w (w = D / N);
     ``rigid_like`` if ρ_max < f_r D and the rotation stays within the angle tolerance of the rigid
     reference (``dev_max`` [rad]); else ``flexible``."""
     D = side_m
     w = D / units
-    if (rho_max > c.collapse_residual_frac * D or strain_max > c.collapse_strain
-            or h_max > c.collapse_thickness_units * w):
+    if (
+        rho_max > c.collapse_residual_frac * D
+        or strain_max > c.collapse_strain
+        or h_max > c.collapse_thickness_units * w
+    ):
         return "collapsed"
     if rho_max < c.rigid_residual_frac * D and dev_max <= np.radians(c.rigid_angle_tol_deg):
         return "rigid_like"
     return "flexible"
 
 
-def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], st: dict[str, np.ndarray], *,
-                  inertia_kgm2: np.ndarray, areas_body_m2: np.ndarray, field_world_T: np.ndarray,
-                  work_names: list[str], segments: CircuitSegments, stability_product_max: float,
-                  classification: ClassificationConfig, side_m: float, units: int) -> Metrics:
+def sweep_metrics(
+    lm: LoopsModel,
+    rec: dict[str, np.ndarray],
+    st: dict[str, np.ndarray],
+    *,
+    inertia_kgm2: np.ndarray,
+    areas_body_m2: np.ndarray,
+    field_world_T: np.ndarray,
+    work_names: list[str],
+    segments: CircuitSegments,
+    stability_product_max: float,
+    classification: ClassificationConfig,
+    side_m: float,
+    units: int,
+) -> Metrics:
     """§5 metrics of a constant-current run in the fixed field ``field_world_T`` [T]: the rigid
     reference with the realised dipole m = Σ I_L a_L [A m²], the flexible run's deviation from it,
     the dipole–field angle at the time of maximum strain energy, the energy balance
@@ -290,14 +336,28 @@ def sweep_metrics(lm: LoopsModel, rec: dict[str, np.ndarray], st: dict[str, np.n
         **({"stiffness_work_final_J": float(W_K[-1])} if linear else {}),
         "stability_product_max": stability_product_max,
         "self_field_max_T": float(self_field_max_T(lm.lattice.nodes, segments, currents)),
-        "classification": classify(classification, side_m=side_m, units=units, rho_max=rho_max,
-                                   strain_max=strain_max, h_max=h_max, dev_max=dev_max),
+        "classification": classify(
+            classification,
+            side_m=side_m,
+            units=units,
+            rho_max=rho_max,
+            strain_max=strain_max,
+            h_max=h_max,
+            dev_max=dev_max,
+        ),
     }
     series = {k: v for k, v in st.items() if k != "R_bestfit"}
-    series.update(rotation_angle_deg=np.degrees(ang), rigid_rotation_angle_rad=ang_rig,
-                  rotation_dev_from_rigid_rad=dev, dipole_field_angle_rad=dip_field,
-                  energy_residual_J=residual, lorentz_work_J=W_L, damping_work_J=W_D,
-                  dipole_world_Am2=m_world, snapshot_index=np.array(iU))
+    series.update(
+        rotation_angle_deg=np.degrees(ang),
+        rigid_rotation_angle_rad=ang_rig,
+        rotation_dev_from_rigid_rad=dev,
+        dipole_field_angle_rad=dip_field,
+        energy_residual_J=residual,
+        lorentz_work_J=W_L,
+        damping_work_J=W_D,
+        dipole_world_Am2=m_world,
+        snapshot_index=np.array(iU),
+    )
     return summary, series
 
 
@@ -323,18 +383,26 @@ def slew_metrics(rec: dict[str, np.ndarray], *, areas_body_m2: np.ndarray) -> Me
     currents_axis = rec["currents_axis_A"]
     m_ach = np.einsum("tl,lj->tj", rec["currents_A"], areas_body_m2)
     summary: dict[str, Any] = {
-        "t_err_below_5deg_s": t5, "t_err_below_2deg_s": t2,
-        "err_max_after_settle_rad": err_after, "t_err_max_after_settle_s": t_err_after,
+        "t_err_below_5deg_s": t5,
+        "t_err_below_2deg_s": t2,
+        "err_max_after_settle_rad": err_after,
+        "t_err_max_after_settle_s": t_err_after,
         "err_final_rad": float(err[-1]),
         "saturation_fraction": float(np.mean(np.any(sat, axis=1))),
-        "mag_torque_max_N_m": float(mag.max()), "gg_torque_max_N_m": float(gg.max()),
+        "mag_torque_max_N_m": float(mag.max()),
+        "gg_torque_max_N_m": float(gg.max()),
         # issue #5 item 6 names
         "time_to_target_s": t5,
         "attitude_error_max_after_target_deg": None if err_after is None else float(np.degrees(err_after)),
         "current_max_A": [float(v) for v in np.abs(currents_axis).max(axis=0)],
     }
-    series = {"error_angle_rad": err, "error_angle_deg": np.degrees(err), "mag_torque_world_Nm": torques[:, 0],
-              "gg_torque_world_Nm": torques[:, 1], "dipole_achieved_body_Am2": m_ach}
+    series = {
+        "error_angle_rad": err,
+        "error_angle_deg": np.degrees(err),
+        "mag_torque_world_Nm": torques[:, 0],
+        "gg_torque_world_Nm": torques[:, 1],
+        "dipole_achieved_body_Am2": m_ach,
+    }
     try:
         eul = euler_zyx(matrix_from_quat(rec["q"]))
         series["euler_zyx_rad"] = np.stack(eul, axis=-1) if isinstance(eul, tuple) else eul
@@ -348,10 +416,14 @@ def slew_structure(t: np.ndarray, st: dict[str, np.ndarray]) -> Metrics:
     energy [J] and its time [s], residual [m], strut strain, thickness [m]; the snapshot index."""
     U = st["strain_energy_J"]
     U_max, t_U = _at(t, U)
-    summary = dict(strain_energy_max_J=U_max, t_strain_energy_max_s=t_U, time_strain_max_s=t_U,
-                   rigid_fit_residual_max_m=float(st["rigid_fit_residual_m"].max()),
-                   strut_strain_max=float(st["strut_strain_max"].max()),
-                   thickness_max_m=float(st["thickness_m"].max()))
+    summary = dict(
+        strain_energy_max_J=U_max,
+        t_strain_energy_max_s=t_U,
+        time_strain_max_s=t_U,
+        rigid_fit_residual_max_m=float(st["rigid_fit_residual_m"].max()),
+        strut_strain_max=float(st["strut_strain_max"].max()),
+        thickness_max_m=float(st["thickness_m"].max()),
+    )
     series = {k: v for k, v in st.items() if k != "R_bestfit"}
     series["snapshot_index"] = np.array(int(np.argmax(U)))
     return summary, series

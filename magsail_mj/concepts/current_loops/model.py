@@ -25,8 +25,15 @@ from magsail_mj.mjcf.common import free_space_spec
 from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec
 from magsail_mj.concepts.current_loops.config import CurrentLoopsConfig, loop_currents
 
-__all__ = ["LoopsModel", "make_loops_model", "rigid_plate_spec", "loop_currents", "WorkLedger", "HeldForces",
-           "RigidLoopTorqueLoad"]
+__all__ = [
+    "LoopsModel",
+    "make_loops_model",
+    "rigid_plate_spec",
+    "loop_currents",
+    "WorkLedger",
+    "HeldForces",
+    "RigidLoopTorqueLoad",
+]
 
 
 @dataclass
@@ -63,37 +70,65 @@ def make_loops_model(cfg: CurrentLoopsConfig) -> LoopsModel:
     EA = float(k[0] * lat.rest_length[0])
     circuits = make_circuits(lat, cfg.loops.expanded())
     currents, sizing = loop_currents(cfg)
-    opts = TrussModelOptions(timestep_s=cfg.sim.timestep_s, integrator=cfg.sim.integrator,
-                             solver_tolerance=cfg.sim.solver_tolerance,
-                             name=f"current_loops_{cfg.scenario}")
+    opts = TrussModelOptions(
+        timestep_s=cfg.sim.timestep_s,
+        integrator=cfg.sim.integrator,
+        solver_tolerance=cfg.sim.solver_tolerance,
+        name=f"current_loops_{cfg.scenario}",
+    )
     tendon_k = k if cfg.stiffness.form == "tendon" else np.zeros_like(k)  # linear forms: a load
     spec = build_truss_spec(lat, masses=masses, stiffness=tendon_k, damping=0.0, options=opts)
     for flag in ("CONSTRAINT", "EQUALITY", "FRICTIONLOSS", "LIMIT"):
         spec.option.disableflags |= int(getattr(mujoco.mjtDisableBit, f"mjDSBL_{flag}"))
-    return LoopsModel(lattice=lat, masses=masses, k=k, EA_N=EA, calibration_factor=c, circuits=circuits,
-                      currents_A=currents, sizing=sizing, spec=spec)
+    return LoopsModel(
+        lattice=lat,
+        masses=masses,
+        k=k,
+        EA_N=EA,
+        calibration_factor=c,
+        circuits=circuits,
+        currents_A=currents,
+        sizing=sizing,
+        spec=spec,
+    )
 
 
 def rigid_plate_spec(cfg: CurrentLoopsConfig, inertia: np.ndarray, mass: float) -> mujoco.MjSpec:
     """One free body with the undeformed lattice's inertia tensor (``slew_rigid``)."""
-    spec = free_space_spec(name="current_loops_slew_rigid", timestep_s=cfg.sim.timestep_s,
-                           integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance)
+    spec = free_space_spec(
+        name="current_loops_slew_rigid",
+        timestep_s=cfg.sim.timestep_s,
+        integrator=cfg.sim.integrator,
+        solver_tolerance=cfg.sim.solver_tolerance,
+    )
     D = cfg.lattice.side_m
     w = D / cfg.lattice.units
     spec.stat.extent = float(D)
     spec.visual.map.zfar = 50.0
     spec.visual.global_.offwidth = 1920
     spec.visual.global_.offheight = 1080
-    spec.worldbody.add_light(name="sun", pos=[0, 0, 3 * D], dir=[0, 0, -1],
-                             type=int(mujoco.mjtLightType.mjLIGHT_DIRECTIONAL), diffuse=[0.8, 0.8, 0.8])
+    spec.worldbody.add_light(
+        name="sun",
+        pos=[0, 0, 3 * D],
+        dir=[0, 0, -1],
+        type=int(mujoco.mjtLightType.mjLIGHT_DIRECTIONAL),
+        diffuse=[0.8, 0.8, 0.8],
+    )
     body = spec.worldbody.add_body(name="plate", pos=[0, 0, 0])
     body.add_freejoint(name="plate_free")
     body.explicitinertial = True
     body.ipos = [0.0, 0.0, 0.0]  # without it to_xml() drops the explicit inertial (MuJoCo 4)
     body.mass = float(mass)
     body.fullinertia = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
-    body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[D / 2, D / 2, w / 2], contype=0, conaffinity=0,
-                  mass=0.0, density=0.0, rgba=[0.75, 0.75, 0.8, 0.6])
+    body.add_geom(
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=[D / 2, D / 2, w / 2],
+        contype=0,
+        conaffinity=0,
+        mass=0.0,
+        density=0.0,
+        rgba=[0.75, 0.75, 0.8, 0.6],
+    )
     return spec
 
 

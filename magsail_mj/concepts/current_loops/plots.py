@@ -29,8 +29,9 @@ def _save(fig, path: Path) -> Path:
     return save_figure(fig, path)
 
 
-def snapshot_figure(lattice: Lattice, circuits: list[Circuit], x: np.ndarray, path: Path, *, title: str,
-                    magnify: float | None = None) -> Path:
+def snapshot_figure(
+    lattice: Lattice, circuits: list[Circuit], x: np.ndarray, path: Path, *, title: str, magnify: float | None = None
+) -> Path:
     """Body-frame snapshot of node positions ``x`` (n, 3) [m]: struts black, loops coloured, the
     displacement from the best-fit rigid shape magnified (default: to 5 % of the side)."""
     lat = lattice
@@ -56,8 +57,15 @@ def snapshot_figure(lattice: Lattice, circuits: list[Circuit], x: np.ndarray, pa
     return _save(fig, path)
 
 
-def structural_plots(run_dir: Path, series: dict[str, np.ndarray], *, lattice: Lattice, circuits: list[Circuit],
-                     snapshot_x: np.ndarray | None = None, snapshot_title: str = "") -> list[Path]:
+def structural_plots(
+    run_dir: Path,
+    series: dict[str, np.ndarray],
+    *,
+    lattice: Lattice,
+    circuits: list[Circuit],
+    snapshot_x: np.ndarray | None = None,
+    snapshot_title: str = "",
+) -> list[Path]:
     """Flexible runs: ``strain_energy.png``, ``deformation.png`` (thickness, rigid-fit residual,
     largest strut strain), ``modal_amplitudes.png`` and, given the node positions ``snapshot_x``
     (n, 3) [m] at the time of maximum strain energy, ``snapshot_max_strain.png``."""
@@ -85,8 +93,9 @@ def structural_plots(run_dir: Path, series: dict[str, np.ndarray], *, lattice: L
         ax.legend(fontsize=6, ncol=5)
         out.append(_save(fig, run_dir / "modal_amplitudes.png"))
     if snapshot_x is not None:
-        out.append(snapshot_figure(lattice, circuits, snapshot_x, run_dir / "snapshot_max_strain.png",
-                                   title=snapshot_title))
+        out.append(
+            snapshot_figure(lattice, circuits, snapshot_x, run_dir / "snapshot_max_strain.png", title=snapshot_title)
+        )
     return out
 
 

@@ -62,8 +62,15 @@ def rigid_dipole_attitude(
         dw = Jinv @ (torque - np.cross(w, J @ w))
         return np.concatenate([(R @ _hat(w)).ravel(), dw])
 
-    sol = solve_ivp(rhs, (float(t[0]), float(t[-1])), np.concatenate([R0.ravel(), w0]), t_eval=t,
-                    method="DOP853", rtol=rtol, atol=atol)
+    sol = solve_ivp(
+        rhs,
+        (float(t[0]), float(t[-1])),
+        np.concatenate([R0.ravel(), w0]),
+        t_eval=t,
+        method="DOP853",
+        rtol=rtol,
+        atol=atol,
+    )
     if not sol.success:
         raise RuntimeError(f"rigid reference integration failed: {sol.message}")
     R = sol.y[:9].T.reshape(-1, 3, 3)
@@ -75,8 +82,7 @@ def rigid_dipole_attitude(
 def pendulum_period(*, inertia_axis: float, dipole: float, field: float, theta0_rad: float) -> float:
     """Period [s] of the rigid magnetic pendulum: ``4 K(sin²(θ₀/2)) √(J / (m B))``."""
     if not (inertia_axis > 0 and dipole > 0 and field > 0):
-        raise ValueError("inertia_axis, dipole, field: must be > 0, got "
-                         f"{inertia_axis!r}, {dipole!r}, {field!r}")
+        raise ValueError(f"inertia_axis, dipole, field: must be > 0, got {inertia_axis!r}, {dipole!r}, {field!r}")
     if not 0 < theta0_rad < np.pi:
         raise ValueError(f"theta0_rad: must be in (0, π), got {theta0_rad!r}")
     return float(4.0 * ellipk(np.sin(theta0_rad / 2.0) ** 2) * np.sqrt(inertia_axis / (dipole * field)))

@@ -72,8 +72,13 @@ from magsail_mj.concepts.current_loops.plots import slew_plots, structural_plots
 from magsail_mj.sim import RunResult, Simulation
 
 __all__ = [
-    "build_loops_scenario", "LoopsScenario", "FlexibleLoopsTask", "LoopsSweepTask",
-    "LoopsSlewTask", "LoopsRigidSlewTask", "slew_controller",
+    "build_loops_scenario",
+    "LoopsScenario",
+    "FlexibleLoopsTask",
+    "LoopsSweepTask",
+    "LoopsSlewTask",
+    "LoopsRigidSlewTask",
+    "slew_controller",
 ]
 
 Summary = tuple[dict[str, Any], dict[str, np.ndarray]]
@@ -111,8 +116,9 @@ class _CircuitOrder:
         return cmd
 
 
-def slew_controller(cfg: CurrentLoopsConfig, lm: LoopsModel, *,
-                    field_world_T: np.ndarray | None) -> tuple[LoopAttitudeController, np.ndarray]:
+def slew_controller(
+    cfg: CurrentLoopsConfig, lm: LoopsModel, *, field_world_T: np.ndarray | None
+) -> tuple[LoopAttitudeController, np.ndarray]:
     """The §6 slew controller (Eq. 18 gains, corrected dipole command, per-axis current allocation)
     and the circuit index of the x, y, z axes.
 
@@ -128,11 +134,20 @@ def slew_controller(cfg: CurrentLoopsConfig, lm: LoopsModel, *,
     mu = cfg.orbit.mu_m3_s2 if cfg.orbit.enabled else MU_EARTH
     m_max = mu * cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**4 / (8 * t.B0_T * (t.R_E_km * 1e3) ** 3)
     period = c.period_s or cfg.sim.timestep_s
-    ctrl = LoopAttitudeController(period_s=period, p_ref=lm.lattice.nodes, masses=lm.masses,
-                                  node_bodies=np.arange(lm.lattice.n_nodes) + 1, q_target=np.asarray(c.q_target),
-                                  kp_N_m=c.kp_N_m, kw_N_m_s=c.kw_N_m_s, m_max_A_m2=m_max, I_max_A=I_max,
-                                  allocation=c.allocation, field_world=field_world_T,
-                                  rate_estimator=c.rate_estimator)
+    ctrl = LoopAttitudeController(
+        period_s=period,
+        p_ref=lm.lattice.nodes,
+        masses=lm.masses,
+        node_bodies=np.arange(lm.lattice.n_nodes) + 1,
+        q_target=np.asarray(c.q_target),
+        kp_N_m=c.kp_N_m,
+        kw_N_m_s=c.kw_N_m_s,
+        m_max_A_m2=m_max,
+        I_max_A=I_max,
+        allocation=c.allocation,
+        field_world=field_world_T,
+        rate_estimator=c.rate_estimator,
+    )
     return ctrl, order
 
 
@@ -165,8 +180,7 @@ class LoopsScenario(ABC):
         self.environment: Environment | None = None
         if cfg.orbit.enabled:
             self.environment = Environment.from_config(cfg.environment_config(), duration_s=cfg.sim.duration_s)
-        self.field_fixed = (np.asarray(cfg.field.constant_T, dtype=float) if cfg.field.model == "constant"
-                            else None)
+        self.field_fixed = np.asarray(cfg.field.constant_T, dtype=float) if cfg.field.model == "constant" else None
         self.controller = None
 
     @classmethod
@@ -199,10 +213,18 @@ class LoopsScenario(ABC):
         """The runner: the kind's loads, controller, probes and strain check."""
         loads = self.loads()
         self.controller = self.make_controller()
-        return Simulation(model=self.model, duration_s=self.cfg.sim.duration_s, loads=loads,
-                          controller=self.controller, environment=self.environment, probes=self.probes(),
-                          record_every=self.cfg.sim.record_every, strain_check=self.strain_check(),
-                          max_strain=self.cfg.sim.max_strain, checkpoint_every_s=self.cfg.sim.checkpoint_every_s)
+        return Simulation(
+            model=self.model,
+            duration_s=self.cfg.sim.duration_s,
+            loads=loads,
+            controller=self.controller,
+            environment=self.environment,
+            probes=self.probes(),
+            record_every=self.cfg.sim.record_every,
+            strain_check=self.strain_check(),
+            max_strain=self.cfg.sim.max_strain,
+            checkpoint_every_s=self.cfg.sim.checkpoint_every_s,
+        )
 
     # -------------------------------------------------------------- outputs
     @abstractmethod
@@ -240,11 +262,19 @@ class LoopsScenario(ABC):
         info = {
             "title": f"current loops {self.cfg.scenario}: {self.cfg.description}".strip(": "),
             "overlay": list(self.OVERLAY),
-            "camera": {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
-                       "distance_m": r.distance_factor * self.cfg.lattice.side_m},
-            "exaggeration": r.exaggeration, "fps": r.fps, "max_frames": r.max_frames,
-            "overlay_names": {"error_angle_deg": "attitude error", "strain_energy_J": "strain energy",
-                              "rotation_angle_deg": "rotation angle"},
+            "camera": {
+                "azimuth_deg": r.azimuth_deg,
+                "elevation_deg": r.elevation_deg,
+                "distance_m": r.distance_factor * self.cfg.lattice.side_m,
+            },
+            "exaggeration": r.exaggeration,
+            "fps": r.fps,
+            "max_frames": r.max_frames,
+            "overlay_names": {
+                "error_angle_deg": "attitude error",
+                "strain_energy_J": "strain energy",
+                "rotation_angle_deg": "rotation angle",
+            },
         }
         info.update(self.render_extra())
         return info
@@ -264,13 +294,22 @@ class LoopsScenario(ABC):
             "stiffness_form": self.cfg.stiffness.form,
             "EI_eff_over_EI_formula_cantilever": float(_ratio_formula(lat.units, lat.diagonals)),
             "particle_mass_kg": float(self.lm.masses[0]),
-            "circuits": [{"name": c.name, "axis": int(c.axis), "segments": int(len(c.src)),
-                          "vector_area_m2": a.tolist(), "length_m": float(c.length(lat.nodes)),
-                          "current_A": float(i), "dipole_A_m2": (i * a).tolist()}
-                         for c, a, i in zip(self.lm.circuits, self.areas0, self.lm.currents_A)],
+            "circuits": [
+                {
+                    "name": c.name,
+                    "axis": int(c.axis),
+                    "segments": int(len(c.src)),
+                    "vector_area_m2": a.tolist(),
+                    "length_m": float(c.length(lat.nodes)),
+                    "current_A": float(i),
+                    "dipole_A_m2": (i * a).tolist(),
+                }
+                for c, a, i in zip(self.lm.circuits, self.areas0, self.lm.currents_A)
+            ],
             "sizing": self.lm.sizing,
             "kappa": self.cfg.loops.kappa,
-            "integrator": self.cfg.sim.integrator, "timestep_s": self.cfg.sim.timestep_s,
+            "integrator": self.cfg.sim.integrator,
+            "timestep_s": self.cfg.sim.timestep_s,
         }
         extra.update(self.manifest_more())
         return extra
@@ -311,14 +350,18 @@ class FlexibleLoopsTask(LoopsScenario):
         d = self.cfg.damping
         md = self.modes()
         omega = np.asarray(md.omega)
-        xi = damping_ratios(omega, n_rigid=md.n_rigid, schedule=d.schedule, xi_low=d.xi_low, n_low=d.n_low,
-                            xi_cap=d.xi_cap)
+        xi = damping_ratios(
+            omega, n_rigid=md.n_rigid, schedule=d.schedule, xi_low=d.xi_low, n_low=d.n_low, xi_cap=d.xi_cap
+        )
         el = omega > 0
         dt = self.cfg.sim.timestep_s
         return {
-            "schedule": d.schedule, "frame": d.frame, "inject": d.inject,
+            "schedule": d.schedule,
+            "frame": d.frame,
+            "inject": d.inject,
             "mode_count_from": "first elastic mode (six rigid modes excluded)",
-            "omega_first_elastic_rad_s": float(omega[el].min()), "omega_max_rad_s": float(omega.max()),
+            "omega_first_elastic_rad_s": float(omega[el].min()),
+            "omega_max_rad_s": float(omega.max()),
             "xi_max": float(np.max(xi[el])) if d.enabled else 0.0,
             "stability_product_max": float(np.max(2 * xi[el] * omega[el] * dt)) if d.enabled else 0.0,
             "omega_max_dt": float(omega.max() * dt),
@@ -326,13 +369,15 @@ class FlexibleLoopsTask(LoopsScenario):
 
     def loads(self) -> list:
         cfg, lat = self.cfg, self.lm.lattice
-        self.lorentz = LorentzLoad(self.segments, n_nodes=lat.n_nodes, currents_A=self.lorentz_currents(),
-                                   B_world=self.field_fixed)
+        self.lorentz = LorentzLoad(
+            self.segments, n_nodes=lat.n_nodes, currents_A=self.lorentz_currents(), B_world=self.field_fixed
+        )
         out: list = [self.lorentz]
         watched: dict[str, Any] = {"lorentz": self.lorentz}
         if cfg.stiffness.form != "tendon":
-            self.stiffness_load = LinearStiffnessLoad(nodes=lat.nodes, struts=lat.struts, k=self.lm.k,
-                                                      masses=self.lm.masses, form=cfg.stiffness.form)
+            self.stiffness_load = LinearStiffnessLoad(
+                nodes=lat.nodes, struts=lat.struts, k=self.lm.k, masses=self.lm.masses, form=cfg.stiffness.form
+            )
             out.append(self.stiffness_load)
             watched["stiffness"] = self.stiffness_load
         if cfg.gravity.tidal:
@@ -340,9 +385,19 @@ class FlexibleLoopsTask(LoopsScenario):
             out.append(self.tidal)
         if cfg.damping.enabled:
             d = cfg.damping
-            self.damping_load = HeldForces(ModalDampingLoad.for_lattice(
-                nodes=lat.nodes, struts=lat.struts, k=self.lm.k, masses=self.lm.masses, schedule=d.schedule,
-                xi_low=d.xi_low, n_low=d.n_low, xi_cap=d.xi_cap, frame=d.frame))
+            self.damping_load = HeldForces(
+                ModalDampingLoad.for_lattice(
+                    nodes=lat.nodes,
+                    struts=lat.struts,
+                    k=self.lm.k,
+                    masses=self.lm.masses,
+                    schedule=d.schedule,
+                    xi_low=d.xi_low,
+                    n_low=d.n_low,
+                    xi_cap=d.xi_cap,
+                    frame=d.frame,
+                )
+            )
             out.append(self.damping_load)
             watched["damping"] = self.damping_load
         self.ledger = WorkLedger(watched, self.node_bodies)
@@ -350,8 +405,7 @@ class FlexibleLoopsTask(LoopsScenario):
         return out
 
     def probes(self) -> dict[str, Any]:
-        return flexible_probes(self.node_bodies, self.lm.masses,
-                               self.ledger)
+        return flexible_probes(self.node_bodies, self.lm.masses, self.ledger)
 
     def strain_check(self) -> Any:
         return strain_check(self.lm.lattice)
@@ -363,11 +417,11 @@ class FlexibleLoopsTask(LoopsScenario):
     def structure(self, rec: Mapping[str, Any]) -> dict[str, np.ndarray]:
         """:func:`~magsail_mj.concepts.current_loops.metrics.structural_series` of the recorded positions,
         read block by block from the records (a run's store is never loaded whole)."""
-        return structural_series(self.lm, NodeTrajectory(lazy_record(rec, "qpos"), self.node_positions),
-                                 modes=self.modes)
+        return structural_series(
+            self.lm, NodeTrajectory(lazy_record(rec, "qpos"), self.node_positions), modes=self.modes
+        )
 
-    def structural_figures(self, run_dir: Path, series: dict[str, np.ndarray],
-                           qpos: np.ndarray | None) -> list[Path]:
+    def structural_figures(self, run_dir: Path, series: dict[str, np.ndarray], qpos: np.ndarray | None) -> list[Path]:
         """Structural plots and the snapshot at the time of maximum strain energy."""
         if "strain_energy_J" not in series:
             return []
@@ -376,16 +430,25 @@ class FlexibleLoopsTask(LoopsScenario):
             i = int(series["snapshot_index"])
             x = self.node_positions(qpos[i])
             title = f"{self.cfg.description or self.cfg.scenario}: max strain energy at t = {series['t'][i]:.0f} s"
-        return structural_plots(run_dir, series, lattice=self.lm.lattice, circuits=self.lm.circuits,
-                                snapshot_x=x, snapshot_title=title)
+        return structural_plots(
+            run_dir, series, lattice=self.lm.lattice, circuits=self.lm.circuits, snapshot_x=x, snapshot_title=title
+        )
 
     def render_extra(self) -> dict[str, Any]:
         lat = self.lm.lattice
         rgba = {0: [0.85, 0.15, 0.1, 1.0], 1: [0.1, 0.7, 0.2, 1.0], 2: [0.15, 0.35, 0.95, 1.0]}
-        return {"top_nodes": lat.top_nodes.tolist(),
-                "strut_colours": [{"name": c.name, "axis": int(c.axis), "rgba": rgba[int(c.axis)],
-                                   "struts": [int(s) for s in np.unique(c.strut_index(lat))]}
-                                  for c in self.lm.circuits]}
+        return {
+            "top_nodes": lat.top_nodes.tolist(),
+            "strut_colours": [
+                {
+                    "name": c.name,
+                    "axis": int(c.axis),
+                    "rgba": rgba[int(c.axis)],
+                    "struts": [int(s) for s in np.unique(c.strut_index(lat))],
+                }
+                for c in self.lm.circuits
+            ],
+        }
 
     def manifest_more(self) -> dict[str, Any]:
         return {"damping": self.damping_info()} if self.cfg.damping.enabled else {}
@@ -405,12 +468,20 @@ class LoopsSweepTask(FlexibleLoopsTask):
         cfg = self.cfg
         st = self.structure(rec)
         stability = self.damping_info()["stability_product_max"] if cfg.damping.enabled else 0.0
-        return sweep_metrics(self.lm, rec, st, inertia_kgm2=self.inertia.tensor, areas_body_m2=self.areas0,
-                             field_world_T=self.field_fixed,
-                             work_names=list(self.ledger.watched) if self.ledger is not None else [],
-                             segments=self.segments, stability_product_max=stability,
-                             classification=cfg.classification, side_m=cfg.lattice.side_m,
-                             units=cfg.lattice.units)
+        return sweep_metrics(
+            self.lm,
+            rec,
+            st,
+            inertia_kgm2=self.inertia.tensor,
+            areas_body_m2=self.areas0,
+            field_world_T=self.field_fixed,
+            work_names=list(self.ledger.watched) if self.ledger is not None else [],
+            segments=self.segments,
+            stability_product_max=stability,
+            classification=cfg.classification,
+            side_m=cfg.lattice.side_m,
+            units=cfg.lattice.units,
+        )
 
     def task_plots(self, run_dir: Path, series: dict[str, np.ndarray], qpos: np.ndarray | None) -> list[Path]:
         return [*self.structural_figures(run_dir, series, qpos), *sweep_plots(run_dir, series)]

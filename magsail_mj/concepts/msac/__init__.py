@@ -35,9 +35,21 @@ from magsail_mj.concepts.msac.tasks import (
     build_msac_scenario,
 )
 
-__all__ = ["MsacConfig", "MsacModel", "MsacTask", "LumpedTask", "MultibodyTask", "SweepTask",
-           "build_msac_scenario", "MsacScenario", "PAPER_VALUES", "point_config", "make_path", "make_params",
-           "planar_model"]
+__all__ = [
+    "MsacConfig",
+    "MsacModel",
+    "MsacTask",
+    "LumpedTask",
+    "MultibodyTask",
+    "SweepTask",
+    "build_msac_scenario",
+    "MsacScenario",
+    "PAPER_VALUES",
+    "point_config",
+    "make_path",
+    "make_params",
+    "planar_model",
+]
 
 MsacScenario = build_msac_scenario
 """The task of a config, ``MsacScenario(cfg=cfg)`` (the name scripts/msac_sweeps.py imports)."""

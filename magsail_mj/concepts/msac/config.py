@@ -27,9 +27,22 @@ from magsail_mj.config import (
 from magsail_mj.concepts.msac.cycle import CyclePath
 from magsail_mj.concepts.msac.drive import steps_per_cycle
 
-__all__ = ["MsacConfig", "BusConfig", "WingsConfig", "CycleConfig", "DriveConfig", "ActuatorsConfig", "PostConfig",
-           "MsacRenderConfig",
-           "SweepConfig", "PAPER_VALUES", "PLACEHOLDERS", "make_path", "point_config", "flatten_keys"]
+__all__ = [
+    "MsacConfig",
+    "BusConfig",
+    "WingsConfig",
+    "CycleConfig",
+    "DriveConfig",
+    "ActuatorsConfig",
+    "PostConfig",
+    "MsacRenderConfig",
+    "SweepConfig",
+    "PAPER_VALUES",
+    "PLACEHOLDERS",
+    "make_path",
+    "point_config",
+    "flatten_keys",
+]
 
 Vec3 = tuple[float, float, float]
 
@@ -47,12 +60,21 @@ PAPER_VALUES: dict[str, Any] = {
     "actuators.slide_chips": 4,
     "actuators.hinge_chips": 2,
 }
-PLACEHOLDERS = ("bus.mass_kg", "bus.size_m", "bus.inertia_scale", "wings.thickness_m",
-                "wings.areal_density_kg_m2", "wings.hinge_offset_m", "cycle.bend_b_deg",
-                "cycle.phase_fractions", "cycle.blend", "wings.slide_stiffness_N_m",
-                "wings.root_mass_kg", "wings.root_inertia_kg_m2", "actuators.hinge_lever_arm_m")
-
-
+PLACEHOLDERS = (
+    "bus.mass_kg",
+    "bus.size_m",
+    "bus.inertia_scale",
+    "wings.thickness_m",
+    "wings.areal_density_kg_m2",
+    "wings.hinge_offset_m",
+    "cycle.bend_b_deg",
+    "cycle.phase_fractions",
+    "cycle.blend",
+    "wings.slide_stiffness_N_m",
+    "wings.root_mass_kg",
+    "wings.root_inertia_kg_m2",
+    "actuators.hinge_lever_arm_m",
+)
 
 
 class BusConfig(StrictModel):
@@ -243,8 +265,9 @@ class MsacConfig(StrictModel):
     @model_validator(mode="after")
     def _consistent(self) -> MsacConfig:
         if (self.scenario == "sweep") != (self.sweep is not None):
-            raise ConfigProblem("scenario", "a [sweep] table goes with scenario = 'sweep' and only with it",
-                                others=("sweep",))
+            raise ConfigProblem(
+                "scenario", "a [sweep] table goes with scenario = 'sweep' and only with it", others=("sweep",)
+            )
         if self.scenario != "lumped":
             self._check_steps_per_cycle()
         if self.sweep is not None:
@@ -263,8 +286,11 @@ class MsacConfig(StrictModel):
             try:
                 point_config(self, sw.keys, values, cycles=sw.cycles, keep_steps_per_cycle=sw.keep_steps_per_cycle)
             except ConfigError as err:
-                problems += [f"sweep.points[{i}]: {line} (from sweep.keys = {sw.keys}, values {values}, "
-                             f"sweep.cycles = {sw.cycles})" for line in err.problems]
+                problems += [
+                    f"sweep.points[{i}]: {line} (from sweep.keys = {sw.keys}, values {values}, "
+                    f"sweep.cycles = {sw.cycles})"
+                    for line in err.problems
+                ]
         if problems:
             raise ValueError("; ".join(problems))
 
@@ -272,14 +298,18 @@ class MsacConfig(StrictModel):
         """The cycle period 1/f must be a whole number (>= 4) of time steps, fewer than 2⁶³."""
         ratio = (1.0 / self.cycle.frequency_Hz) / self.sim.timestep_s
         if not ratio < MAX_STEPS:
-            raise ConfigProblem("sim.timestep_s", f"the cycle period 1/cycle.frequency_Hz is {ratio:.3g} time steps, "
-                                f"more than a 64-bit step counter holds, got {self.sim.timestep_s!r}",
-                                others=("cycle.frequency_Hz",))
+            raise ConfigProblem(
+                "sim.timestep_s",
+                f"the cycle period 1/cycle.frequency_Hz is {ratio:.3g} time steps, "
+                f"more than a 64-bit step counter holds, got {self.sim.timestep_s!r}",
+                others=("cycle.frequency_Hz",),
+            )
         try:
             steps_per_cycle(make_path(self), self.sim.timestep_s)
         except ValueError as err:
-            raise ConfigProblem("sim.timestep_s", str(err).removeprefix("timestep_s: "),
-                                others=("cycle.frequency_Hz",)) from None
+            raise ConfigProblem(
+                "sim.timestep_s", str(err).removeprefix("timestep_s: "), others=("cycle.frequency_Hz",)
+            ) from None
 
     @model_validator(mode="after")
     def _numbers(self) -> MsacConfig:
@@ -289,19 +319,35 @@ class MsacConfig(StrictModel):
         bus_keys = ("bus.size_m", "bus.inertia_scale")
         a, bb, c = b.size_m
         for name, (p, q) in zip("xyz", ((bb, c), (a, c), (a, bb))):
-            _positive_product("bus.mass_kg", b.mass_kg / 12.0 * b.inertia_scale, p * p + q * q,
-                              what=f"bus inertia I_{name}", others=bus_keys)
+            _positive_product(
+                "bus.mass_kg",
+                b.mass_kg / 12.0 * b.inertia_scale,
+                p * p + q * q,
+                what=f"bus inertia I_{name}",
+                others=bus_keys,
+            )
         wing_keys = ("wings.length_m", "wings.width_m", "wings.thickness_m")
-        m = _positive_product("wings.areal_density_kg_m2", w.areal_density_kg_m2, w.length_m * w.width_m,
-                              what="wing mass σ ℓ w", others=wing_keys)
+        m = _positive_product(
+            "wings.areal_density_kg_m2",
+            w.areal_density_kg_m2,
+            w.length_m * w.width_m,
+            what="wing mass σ ℓ w",
+            others=wing_keys,
+        )
         l, wd, t = w.length_m, w.width_m, w.thickness_m
         for name, (p, q) in zip("xyz", ((t, wd), (l, wd), (l, t))):
-            _positive_product("wings.areal_density_kg_m2", m / 12.0, p * p + q * q,
-                              what=f"wing inertia I_{name}", others=wing_keys)
+            _positive_product(
+                "wings.areal_density_kg_m2", m / 12.0, p * p + q * q, what=f"wing inertia I_{name}", others=wing_keys
+            )
         omega = self.drive.servo_omega_dt / self.sim.timestep_s
         hinge = m * (l * l + t * t) / 12.0 + m * (l / 2) * (l / 2)
-        _positive_product("drive.servo_omega_dt", max(hinge, m, 1.0), 2.0 * omega * omega, what="servo gain J ω_s²",
-                          others=("sim.timestep_s", "wings.areal_density_kg_m2", *wing_keys))
+        _positive_product(
+            "drive.servo_omega_dt",
+            max(hinge, m, 1.0),
+            2.0 * omega * omega,
+            what="servo gain J ω_s²",
+            others=("sim.timestep_s", "wings.areal_density_kg_m2", *wing_keys),
+        )
         return self
 
 
@@ -311,22 +357,30 @@ def _positive_product(key: str, a: float, b: float, *, what: str, others: tuple[
     if not math.isfinite(value):
         raise ConfigProblem(key, f"makes the {what} overflow float64", others=others)
     if not value > MJ_MINVAL:
-        raise ConfigProblem(key, f"makes the {what} {value:.6g}, which must be > {MJ_MINVAL:g} (mjMINVAL)",
-                            others=others)
+        raise ConfigProblem(
+            key, f"makes the {what} {value:.6g}, which must be > {MJ_MINVAL:g} (mjMINVAL)", others=others
+        )
     return value
 
 
 def make_path(cfg: MsacConfig) -> CyclePath:
     """The cycle of a config (spec §2): ``φa``, ``φb`` from degrees, ``s`` from fractions of ℓ."""
     c, l = cfg.cycle, cfg.wings.length_m
-    return CyclePath(phi_a_rad=math.radians(c.bend_a_deg), phi_b_rad=math.radians(c.bend_b_deg),
-                     s_e_m=c.extension_frac * l, s_c_m=-c.contraction_frac * l,
-                     period_s=1.0 / c.frequency_Hz, fractions=tuple(c.phase_fractions),
-                     blend=c.blend, pattern=c.pattern)
+    return CyclePath(
+        phi_a_rad=math.radians(c.bend_a_deg),
+        phi_b_rad=math.radians(c.bend_b_deg),
+        s_e_m=c.extension_frac * l,
+        s_c_m=-c.contraction_frac * l,
+        period_s=1.0 / c.frequency_Hz,
+        fractions=tuple(c.phase_fractions),
+        blend=c.blend,
+        pattern=c.pattern,
+    )
 
 
-def point_config(cfg: MsacConfig, keys: list[str], values: list[Any], *, cycles: int | None = None,
-                 keep_steps_per_cycle: bool = True) -> MsacConfig:
+def point_config(
+    cfg: MsacConfig, keys: list[str], values: list[Any], *, cycles: int | None = None, keep_steps_per_cycle: bool = True
+) -> MsacConfig:
     """A multibody config: ``cfg`` with ``keys`` set to ``values`` (validated).
 
     With ``cycles``, ``sim.duration_s`` becomes ``cycles/f``; with ``keep_steps_per_cycle`` the

@@ -66,8 +66,7 @@ Blend = Literal["min_jerk", "cubic", "cosine"]
 Pattern = Literal["msac", "reversed", "bend_only", "extend_only"]
 
 #: On-screen names of the four phases of the ``msac`` pattern (spec §2).
-PHASE_LABELS = ("I→II bend (extended)", "II→III contract", "III→IV bend back (contracted)",
-                "IV→I extend")
+PHASE_LABELS = ("I→II bend (extended)", "II→III contract", "III→IV bend back (contracted)", "IV→I extend")
 
 
 def blend(u: np.ndarray | float, kind: Blend = "min_jerk") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -81,13 +80,15 @@ def blend(u: np.ndarray | float, kind: Blend = "min_jerk") -> tuple[np.ndarray, 
     """
     u = np.clip(np.asarray(u, dtype=float), 0.0, 1.0)
     if kind == "min_jerk":
-        return (u**3 * (10.0 + u * (-15.0 + 6.0 * u)), 30.0 * u**2 * (1.0 - u) ** 2,
-                60.0 * u * (1.0 - u) * (1.0 - 2.0 * u))
+        return (
+            u**3 * (10.0 + u * (-15.0 + 6.0 * u)),
+            30.0 * u**2 * (1.0 - u) ** 2,
+            60.0 * u * (1.0 - u) * (1.0 - 2.0 * u),
+        )
     if kind == "cubic":
         return u * u * (3.0 - 2.0 * u), 6.0 * u * (1.0 - u), 6.0 - 12.0 * u
     if kind == "cosine":
-        return (0.5 * (1.0 - np.cos(np.pi * u)), 0.5 * np.pi * np.sin(np.pi * u),
-                0.5 * np.pi**2 * np.cos(np.pi * u))
+        return (0.5 * (1.0 - np.cos(np.pi * u)), 0.5 * np.pi * np.sin(np.pi * u), 0.5 * np.pi**2 * np.cos(np.pi * u))
     raise ValueError(f"kind: must be one of 'min_jerk', 'cubic', 'cosine', got {kind!r}")
 
 
@@ -144,8 +145,9 @@ class CyclePath:
             raise ValueError(f"fractions: need four values > 0 summing to 1, got {self.fractions!r}")
         object.__setattr__(self, "fractions", fr)
         if self.pattern not in ("msac", "reversed", "bend_only", "extend_only"):
-            raise ValueError(f"pattern: must be one of 'msac', 'reversed', 'bend_only', "
-                             f"'extend_only', got {self.pattern!r}")
+            raise ValueError(
+                f"pattern: must be one of 'msac', 'reversed', 'bend_only', 'extend_only', got {self.pattern!r}"
+            )
         blend(0.5, self.blend)  # validates the blend name
 
     # ------------------------------------------------------------------ geometry
@@ -214,9 +216,15 @@ def cycle_state(path: CyclePath, t: np.ndarray | float) -> CycleState:
     wp = path.waypoints
     p0, d = wp[j], wp[j + 1] - wp[j]
     return CycleState(
-        phi=p0[..., 0] + S * d[..., 0], phi_dot=dS / dur * d[..., 0], phi_ddot=ddS / dur**2 * d[..., 0],
-        s=p0[..., 1] + S * d[..., 1], s_dot=dS / dur * d[..., 1], s_ddot=ddS / dur**2 * d[..., 1],
-        phase=j.astype(np.int64), cycle=cyc.astype(np.int64))
+        phi=p0[..., 0] + S * d[..., 0],
+        phi_dot=dS / dur * d[..., 0],
+        phi_ddot=ddS / dur**2 * d[..., 0],
+        s=p0[..., 1] + S * d[..., 1],
+        s_dot=dS / dur * d[..., 1],
+        s_ddot=ddS / dur**2 * d[..., 1],
+        phase=j.astype(np.int64),
+        cycle=cyc.astype(np.int64),
+    )
 
 
 def cycle_state_scalar(path: CyclePath, t: float) -> tuple[float, float, float, float, float, float, int]:
@@ -241,9 +249,19 @@ def cycle_state_scalar(path: CyclePath, t: float) -> tuple[float, float, float, 
     elif path.blend == "cubic":
         S, dS, ddS = 3 * u**2 - 2 * u**3, 6 * u * (1 - u), 6 - 12 * u
     else:
-        S, dS, ddS = (0.5 * (1 - math.cos(math.pi * u)), 0.5 * math.pi * math.sin(math.pi * u),
-                      0.5 * math.pi**2 * math.cos(math.pi * u))
+        S, dS, ddS = (
+            0.5 * (1 - math.cos(math.pi * u)),
+            0.5 * math.pi * math.sin(math.pi * u),
+            0.5 * math.pi**2 * math.cos(math.pi * u),
+        )
     wp = path.waypoints
     (p0, s0), (p1, s1) = wp[j], wp[j + 1]
-    return (p0 + S * (p1 - p0), dS / dur * (p1 - p0), ddS / dur**2 * (p1 - p0),
-            s0 + S * (s1 - s0), dS / dur * (s1 - s0), ddS / dur**2 * (s1 - s0), j)
+    return (
+        p0 + S * (p1 - p0),
+        dS / dur * (p1 - p0),
+        ddS / dur**2 * (p1 - p0),
+        s0 + S * (s1 - s0),
+        dS / dur * (s1 - s0),
+        ddS / dur**2 * (s1 - s0),
+        j,
+    )

@@ -99,8 +99,10 @@ def steps_per_cycle(path: CyclePath, timestep_s: float) -> int:
     ratio = path.period_s / timestep_s
     n = int(round(ratio))
     if n < 4 or abs(ratio - n) > 1e-9 * ratio:
-        raise ValueError(f"timestep_s: the cycle period {path.period_s:g} s must be an integer multiple "
-                         f">= 4 of timestep_s = {timestep_s:g} s, got a ratio of {ratio:.9g}")
+        raise ValueError(
+            f"timestep_s: the cycle period {path.period_s:g} s must be an integer multiple "
+            f">= 4 of timestep_s = {timestep_s:g} s, got a ratio of {ratio:.9g}"
+        )
     return n
 
 
@@ -177,8 +179,11 @@ class ComputedTorque:
         mujoco.mj_fullM(m, data, self.M)
         c = data.qfrc_bias - data.qfrc_passive
         k = int(step) % self.N
-        a_s = (self._qdd_avg[k] + self.kp * (self._q[k] - data.qpos[self.q_adr])
-               + self.kd * (self._qd[k] - data.qvel[self.v_adr]))
+        a_s = (
+            self._qdd_avg[k]
+            + self.kp * (self._q[k] - data.qpos[self.q_adr])
+            + self.kd * (self._qd[k] - data.qvel[self.v_adr])
+        )
         M = self.M
         a_b = -np.linalg.solve(M[self._bb], M[self._bs] @ a_s + c[self.bus])
         return M[self._sb] @ a_b + M[self._ss] @ a_s + c[self.v_adr]
@@ -201,8 +206,9 @@ class ReplayTable:
     settle_change: float
 
 
-def replay_table(model: mujoco.MjModel, path: CyclePath, *, omega_c_dt: float = 0.2,
-                 calibration_cycles: int = 3) -> ReplayTable:
+def replay_table(
+    model: mujoco.MjModel, path: CyclePath, *, omega_c_dt: float = 0.2, calibration_cycles: int = 3
+) -> ReplayTable:
     """Record the settled computed-torque cycle and build the replay controls (module docs).
 
     Runs the computed-torque loop (servos disabled) from the Phase I rest state for
@@ -219,8 +225,9 @@ def replay_table(model: mujoco.MjModel, path: CyclePath, *, omega_c_dt: float = 
     return ReplayTable(ctrl=ctrl, torque=last, settle_change=change)
 
 
-def _calibrate(model: mujoco.MjModel, path: CyclePath, *, omega_c_dt: float,
-               calibration_cycles: int) -> tuple[np.ndarray, mujoco.MjData, float]:
+def _calibrate(
+    model: mujoco.MjModel, path: CyclePath, *, omega_c_dt: float, calibration_cycles: int
+) -> tuple[np.ndarray, mujoco.MjData, float]:
     """Run the computed-torque loop (servos disabled) from the Phase I rest state for
     ``calibration_cycles`` cycles on a private data; return the torques of every step
     (cycles·N, 4), the data at the end (a cycle start) and the settle change of the last cycle
@@ -242,7 +249,7 @@ def _calibrate(model: mujoco.MjModel, path: CyclePath, *, omega_c_dt: float,
             mujoco.mj_step(model, data)
     finally:
         model.opt.disableactuator = saved
-    last, prev = tau[-N:], tau[-2 * N:-N]
+    last, prev = tau[-N:], tau[-2 * N : -N]
     scale = np.maximum(np.abs(last).max(axis=0), 1e-300)
     return tau, data, float(np.max(np.abs(last - prev).max(axis=0) / scale))
 
@@ -263,8 +270,7 @@ def servo_rates(model: mujoco.MjModel, path: CyclePath, n_steps: int) -> np.ndar
     return np.diff(u, axis=0) / dt
 
 
-def shape_vector(model: mujoco.MjModel, state: np.ndarray, *, ix: dict[str, np.ndarray] | None = None
-                 ) -> np.ndarray:
+def shape_vector(model: mujoco.MjModel, state: np.ndarray, *, ix: dict[str, np.ndarray] | None = None) -> np.ndarray:
     """``x = (q_s, q̇_s)`` (8,) of a full physics state (``mjSTATE_FULLPHYSICS``: time, qpos,
     qvel, …): the four shape joint positions [rad, m] and velocities [rad/s, m/s]. ``ix``: the
     model's :func:`shape_indices` (looked up when not given)."""
@@ -286,14 +292,14 @@ def with_shape(model: mujoco.MjModel, data: mujoco.MjData, state: np.ndarray, dx
     mujoco.mj_setState(model, data, state, fp)
     mujoco.mj_fwdPosition(model, data)
     mujoco.mj_fullM(model, data, M)
-    p_b = (M @ state[1 + nq:1 + nq + nv])[b]
+    p_b = (M @ state[1 + nq : 1 + nq + nv])[b]
     out = state.copy()
     out[1 + ix["qpos"]] += dx[:4]
     out[1 + nq + ix["dof"]] += dx[4:]
     mujoco.mj_setState(model, data, out, fp)
     mujoco.mj_fwdPosition(model, data)
     mujoco.mj_fullM(model, data, M)
-    v = out[1 + nq:1 + nq + nv]
+    v = out[1 + nq : 1 + nq + nv]
     s = ix["dof"]
     out[1 + nq + b] = np.linalg.solve(M[np.ix_(b, b)], p_b - M[np.ix_(b, s)] @ v[s])
     return out
@@ -342,9 +348,15 @@ class HeldTorqueTable:
         return self.u.reshape(4, P)[:, self.piece].T * self.trim_scale
 
 
-def held_torque_table(model: mujoco.MjModel, path: CyclePath, *, omega_c_dt: float = 0.2,
-                      calibration_cycles: int = 3, trim_pieces: int = 4,
-                      trim_eps: float = 1e-6) -> HeldTorqueTable:
+def held_torque_table(
+    model: mujoco.MjModel,
+    path: CyclePath,
+    *,
+    omega_c_dt: float = 0.2,
+    calibration_cycles: int = 3,
+    trim_pieces: int = 4,
+    trim_eps: float = 1e-6,
+) -> HeldTorqueTable:
     r"""Build the ``held_torque`` drive of a model and cycle (module docs).
 
     1. The computed-torque loop runs ``calibration_cycles`` cycles from the Phase I rest state
@@ -399,9 +411,18 @@ def held_torque_table(model: mujoco.MjModel, path: CyclePath, *, omega_c_dt: flo
     o = 17
     B = np.stack([(x_end[o + 2 * c] - x_end[o + 2 * c + 1]) / 2.0 for c in range(4 * P)], axis=1)
     x0 = shape_vector(model, start)
-    return HeldTorqueTable(ctrl=ctrl, torque=tau[-N:].copy(), settle_change=change, x_start=x0,
-                           offset=x_end[0] - x0, monodromy=A, trim_gain=np.linalg.pinv(B), trim_scale=scale,
-                           piece=piece, u=np.zeros(4 * P))
+    return HeldTorqueTable(
+        ctrl=ctrl,
+        torque=tau[-N:].copy(),
+        settle_change=change,
+        x_start=x0,
+        offset=x_end[0] - x0,
+        monodromy=A,
+        trim_gain=np.linalg.pinv(B),
+        trim_scale=scale,
+        piece=piece,
+        u=np.zeros(4 * P),
+    )
 
 
 def _roll_cycle(model: mujoco.MjModel, states: np.ndarray, ctrls: np.ndarray) -> np.ndarray:

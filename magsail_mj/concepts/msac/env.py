@@ -121,13 +121,13 @@ class MsacPhysics(control.Physics):
         if key not in self._tables:
             d = self.cfg.drive
             if self.feedforward:
-                self._tables[key] = replay_table(self.model, path, omega_c_dt=d.omega_c_dt,
-                                                 calibration_cycles=d.calibration_cycles)
+                self._tables[key] = replay_table(
+                    self.model, path, omega_c_dt=d.omega_c_dt, calibration_cycles=d.calibration_cycles
+                )
             else:
                 ctrl = np.zeros((self.runner.N, self.model.nu))
                 ctrl[:, self.ix["servo"]] = servo_rates(self.model, path, self.runner.N)
-                self._tables[key] = ReplayTable(ctrl=ctrl, torque=np.zeros((self.runner.N, 4)),
-                                                settle_change=math.nan)
+                self._tables[key] = ReplayTable(ctrl=ctrl, torque=np.zeros((self.runner.N, 4)), settle_change=math.nan)
         return self._tables[key]
 
     def set_cycle(self, path: CyclePath) -> None:
@@ -227,9 +227,18 @@ class MsacCycleTask(AttitudeTask):
       direction: +1 or −1, the sense of rotation rewarded (default the configured cycle's).
     """
 
-    def __init__(self, runner: Any, random: Any = None, *, action: str = "joint_targets", randomize: bool = True,
-                 phase_fractions: Any = None, cycles_per_step: int = 1, direction: float | None = None,
-                 reward_weights: Any = None) -> None:
+    def __init__(
+        self,
+        runner: Any,
+        random: Any = None,
+        *,
+        action: str = "joint_targets",
+        randomize: bool = True,
+        phase_fractions: Any = None,
+        cycles_per_step: int = 1,
+        direction: float | None = None,
+        reward_weights: Any = None,
+    ) -> None:
         super().__init__(random, randomize=randomize, reward_weights=reward_weights)
         if action not in ACTIONS:
             raise ValueError(f"action: must be one of {', '.join(ACTIONS)}, got {action!r}")
@@ -255,8 +264,11 @@ class MsacCycleTask(AttitudeTask):
         half = math.pi / 2
         if action == "joint_targets":
             l_half = 0.5 * self.cfg.wings.length_m
-            self._set_action_bounds(("phi_a_rad", "phi_b_rad", "s_e_m", "s_c_m"),
-                                    np.array([-half, -half, 0.0, -l_half]), np.array([half, half, l_half, 0.0]))
+            self._set_action_bounds(
+                ("phi_a_rad", "phi_b_rad", "s_e_m", "s_c_m"),
+                np.array([-half, -half, 0.0, -l_half]),
+                np.array([half, half, l_half, 0.0]),
+            )
         else:
             self._set_action_bounds(("f_be", "f_c", "f_bc", "f_e"), np.full(4, MIN_FRACTION), np.ones(4))
         self._yaw = 0.0
@@ -316,16 +328,18 @@ class MsacCycleTask(AttitudeTask):
         psi = float(yaw_from_quat(q[3:7][None])[0])
         self._yaw_prev = self._yaw
         self._yaw += (psi - self._yaw + math.pi) % (2 * math.pi) - math.pi
-        return OrderedDict([
-            ("time_s", np.array([physics.time()])),
-            ("bus_attitude_wxyz", q[3:7].copy()),
-            ("bus_yaw_rad", np.array([self._yaw])),
-            ("bus_rate_rad_s", v[3:6].copy()),
-            ("shape_qpos", q[ix["qpos"]].copy()),
-            ("shape_qvel", v[ix["dof"]].copy()),
-            ("cycle_targets", _targets(physics.path)),
-            ("phase_fractions", np.array(physics.path.fractions)),
-        ])
+        return OrderedDict(
+            [
+                ("time_s", np.array([physics.time()])),
+                ("bus_attitude_wxyz", q[3:7].copy()),
+                ("bus_yaw_rad", np.array([self._yaw])),
+                ("bus_rate_rad_s", v[3:6].copy()),
+                ("shape_qpos", q[ix["qpos"]].copy()),
+                ("shape_qvel", v[ix["dof"]].copy()),
+                ("cycle_targets", _targets(physics.path)),
+                ("phase_fractions", np.array(physics.path.fractions)),
+            ]
+        )
 
     def get_reward(self, physics: MsacPhysics) -> float:
         turned = self._yaw - self._yaw_prev
@@ -347,17 +361,20 @@ class MsacCycleTask(AttitudeTask):
         return _targets(controller) if self.action == "joint_targets" else np.array(controller.fractions)
 
 
-def make_msac_environment(cfg: Any, *, random: Any = None, feedforward: bool = True,
-                          **options: Any) -> control.Environment:
+def make_msac_environment(
+    cfg: Any, *, random: Any = None, feedforward: bool = True, **options: Any
+) -> control.Environment:
     """The environment of an MSAC multibody config (``options`` go to :class:`MsacCycleTask`):
     ``control_timestep`` = ``cycles_per_step`` cycle periods, ``time_limit`` = ``sim.duration_s``.
     Its actions are joint targets, so it always drives the servo ``replay`` (``drive.method`` of
     the config is replaced; ``magsail run`` of the same config with ``drive.method = "replay"`` gives
     the same numbers)."""
     if getattr(cfg, "concept", None) != "msac" or getattr(cfg, "scenario", None) != "multibody":
-        raise ValueError(f"config: expected an MSAC multibody config, got concept {getattr(cfg, 'concept', None)!r}, "
-                         f"scenario {getattr(cfg, 'scenario', None)!r}")
-    if cfg.drive.method != "replay":   # the actions are joint targets: the servo replay drives them
+        raise ValueError(
+            f"config: expected an MSAC multibody config, got concept {getattr(cfg, 'concept', None)!r}, "
+            f"scenario {getattr(cfg, 'scenario', None)!r}"
+        )
+    if cfg.drive.method != "replay":  # the actions are joint targets: the servo replay drives them
         cfg = cfg.model_copy(update={"drive": cfg.drive.model_copy(update={"method": "replay"})})
     runner = magsail_mj.load(cfg)
     physics = MsacPhysics(runner, feedforward=feedforward)
@@ -373,4 +390,3 @@ def _is_multibody(cfg: Any) -> bool:
 def cycle(cfg: Any, *, random: Any = None, **options: Any) -> control.Environment:
     """MSAC panel cycle: joint targets (or phase timing) of the wings' shape cycle."""
     return make_msac_environment(cfg, random=random, **options)
-

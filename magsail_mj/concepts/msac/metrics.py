@@ -101,11 +101,16 @@ def cycle_increments(yaw_strobe: np.ndarray, *, discard: int = 1) -> CycleIncrem
     if int(discard) != discard or discard < 0:
         raise ValueError(f"discard: must be an integer >= 0, got {discard!r}")
     inc = np.diff(y)
-    kept = inc[int(discard):]
+    kept = inc[int(discard) :]
     if kept.size == 0:
         raise ValueError(f"yaw_strobe: {inc.size} increment(s), none left after discard = {discard}")
-    return CycleIncrements(increments=inc, mean=float(kept.mean()), std=float(kept.std()),
-                           first=float(inc[0]) if inc.size else float("nan"), count=int(kept.size))
+    return CycleIncrements(
+        increments=inc,
+        mean=float(kept.mean()),
+        std=float(kept.std()),
+        first=float(inc[0]) if inc.size else float("nan"),
+        count=int(kept.size),
+    )
 
 
 def secular_rate_fit(t: np.ndarray, yaw: np.ndarray) -> tuple[float, float]:

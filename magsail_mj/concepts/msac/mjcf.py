@@ -138,9 +138,20 @@ class MsacModelParams:
     def __post_init__(self) -> None:
         check_finite_fields(
             self,
-            positive=("bus_mass_kg", "wing_length_m", "wing_width_m", "wing_thickness_m", "wing_mass_kg",
-                      "root_mass_kg", "root_inertia_kg_m2", "timestep_s", "servo_omega_dt", "ff_gear"),
-            non_negative=("hinge_offset_m", "slide_stiffness_N_m", "hinge_damping_N_m_s", "slide_damping_N_s_m"))
+            positive=(
+                "bus_mass_kg",
+                "wing_length_m",
+                "wing_width_m",
+                "wing_thickness_m",
+                "wing_mass_kg",
+                "root_mass_kg",
+                "root_inertia_kg_m2",
+                "timestep_s",
+                "servo_omega_dt",
+                "ff_gear",
+            ),
+            non_negative=("hinge_offset_m", "slide_stiffness_N_m", "hinge_damping_N_m_s", "slide_damping_N_s_m"),
+        )
         if len(self.bus_size_m) != 3 or any(not (np.isfinite(x) and x > 0) for x in self.bus_size_m):
             raise ValueError(f"bus_size_m: need three lengths > 0, got {self.bus_size_m!r}")
         if self.layout not in ("point_symmetric", "mirror"):
@@ -182,18 +193,31 @@ class MsacModelParams:
 def build_msac_spec(params: MsacModelParams) -> mujoco.MjSpec:
     """Return the ``MjSpec`` of the MSAC spacecraft (see module docs)."""
     p = params
-    spec = free_space_spec(name=p.name, timestep_s=p.timestep_s, integrator=p.integrator,
-                           solver_tolerance=p.solver_tolerance)
+    spec = free_space_spec(
+        name=p.name, timestep_s=p.timestep_s, integrator=p.integrator, solver_tolerance=p.solver_tolerance
+    )
     reach = p.hinge_offset_m + 1.05 * p.wing_length_m
     set_view(spec, extent=2 * reach)
 
     wb = spec.worldbody
-    wb.add_light(name="sun", pos=[0, 0, 4 * reach], dir=[0, 0, -1],
-                 type=int(mujoco.mjtLightType.mjLIGHT_DIRECTIONAL), diffuse=[0.8, 0.8, 0.8])
+    wb.add_light(
+        name="sun",
+        pos=[0, 0, 4 * reach],
+        dir=[0, 0, -1],
+        type=int(mujoco.mjtLightType.mjLIGHT_DIRECTIONAL),
+        diffuse=[0.8, 0.8, 0.8],
+    )
     # fixed world reference marker (a bar along +X beyond the wing tips) for the videos
-    wb.add_geom(name="world_marker", type=mujoco.mjtGeom.mjGEOM_BOX,
-                size=[0.04 * reach, 0.01 * reach, 0.01 * reach], pos=[1.15 * reach, 0, 0],
-                contype=0, conaffinity=0, rgba=list(MARKER_RGBA), group=2)
+    wb.add_geom(
+        name="world_marker",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=[0.04 * reach, 0.01 * reach, 0.01 * reach],
+        pos=[1.15 * reach, 0, 0],
+        contype=0,
+        conaffinity=0,
+        rgba=list(MARKER_RGBA),
+        group=2,
+    )
 
     bus = wb.add_body(name="bus")
     bus.add_freejoint(name="bus_free")
@@ -202,32 +226,56 @@ def build_msac_spec(params: MsacModelParams) -> mujoco.MjSpec:
     bus.ipos = [0.0, 0.0, 0.0]
     bus.inertia = p.bus_inertia_kg_m2.tolist()
     half = [x / 2 for x in p.bus_size_m]
-    bus.add_geom(name="bus_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, contype=0, conaffinity=0,
-                 mass=0, rgba=list(BUS_RGBA))
+    bus.add_geom(
+        name="bus_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, contype=0, conaffinity=0, mass=0, rgba=list(BUS_RGBA)
+    )
     # a small dish on +Y shows the bus's own rotation
-    bus.add_geom(name="bus_tag", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.3 * half[0], 0.05 * half[1], 0],
-                 pos=[0.0, half[1] * 1.05, 0.0], quat=[np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0],
-                 contype=0, conaffinity=0, mass=0, rgba=[0.2, 0.2, 0.2, 1.0])
+    bus.add_geom(
+        name="bus_tag",
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        size=[0.3 * half[0], 0.05 * half[1], 0],
+        pos=[0.0, half[1] * 1.05, 0.0],
+        quat=[np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0],
+        contype=0,
+        conaffinity=0,
+        mass=0,
+        rgba=[0.2, 0.2, 0.2, 1.0],
+    )
 
     second_quat = [0.0, 0.0, 0.0, 1.0] if p.layout == "point_symmetric" else [0.0, 0.0, 1.0, 0.0]
     l, t, w = p.wing_length_m, p.wing_thickness_m, p.wing_width_m
     for k, (sign, quat) in enumerate(((1.0, [1.0, 0.0, 0.0, 0.0]), (-1.0, second_quat)), start=1):
         root = bus.add_body(name=f"w{k}_root", pos=[sign * p.hinge_offset_m, 0.0, 0.0], quat=quat)
-        root.add_joint(name=f"w{k}_bend", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1],
-                       damping=p.hinge_damping_N_m_s)
+        root.add_joint(
+            name=f"w{k}_bend", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1], damping=p.hinge_damping_N_m_s
+        )
         root.explicitinertial = True
         root.mass = p.root_mass_kg
         root.ipos = [0.0, 0.0, 0.0]
         root.inertia = [p.root_inertia_kg_m2] * 3
         wing = root.add_body(name=f"w{k}", pos=[0.0, 0.0, 0.0])
-        wing.add_joint(name=f"w{k}_ext", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0],
-                       stiffness=p.slide_stiffness_N_m, springref=0.0, damping=p.slide_damping_N_s_m)
+        wing.add_joint(
+            name=f"w{k}_ext",
+            type=mujoco.mjtJoint.mjJNT_SLIDE,
+            axis=[1, 0, 0],
+            stiffness=p.slide_stiffness_N_m,
+            springref=0.0,
+            damping=p.slide_damping_N_s_m,
+        )
         wing.explicitinertial = True
         wing.mass = p.wing_mass_kg
         wing.ipos = [l / 2, 0.0, 0.0]
         wing.inertia = p.wing_inertia_cm_kg_m2.tolist()
-        wing.add_geom(name=f"w{k}_panel", type=mujoco.mjtGeom.mjGEOM_BOX, size=[l / 2, t / 2, w / 2],
-                      pos=[l / 2, 0.0, 0.0], contype=0, conaffinity=0, mass=0, rgba=list(WING_RGBA[k - 1]))
+        wing.add_geom(
+            name=f"w{k}_panel",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[l / 2, t / 2, w / 2],
+            pos=[l / 2, 0.0, 0.0],
+            contype=0,
+            conaffinity=0,
+            mass=0,
+            rgba=list(WING_RGBA[k - 1]),
+        )
 
     gains = p.servo_gains()
     for j in SHAPE_JOINTS:
@@ -248,13 +296,16 @@ def build_msac_spec(params: MsacModelParams) -> mujoco.MjSpec:
         act.ctrllimited = 0
         act.forcelimited = 0
 
-    spec.add_sensor(name="bus_angmom", type=mujoco.mjtSensor.mjSENS_SUBTREEANGMOM,
-                    objtype=mujoco.mjtObj.mjOBJ_BODY, objname="bus")
-    spec.add_sensor(name="bus_angvel", type=mujoco.mjtSensor.mjSENS_FRAMEANGVEL,
-                    objtype=mujoco.mjtObj.mjOBJ_BODY, objname="bus")
+    spec.add_sensor(
+        name="bus_angmom", type=mujoco.mjtSensor.mjSENS_SUBTREEANGMOM, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="bus"
+    )
+    spec.add_sensor(
+        name="bus_angvel", type=mujoco.mjtSensor.mjSENS_FRAMEANGVEL, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="bus"
+    )
     for j in SHAPE_JOINTS:
-        spec.add_sensor(name=f"{j}_frc", type=mujoco.mjtSensor.mjSENS_JOINTACTFRC,
-                        objtype=mujoco.mjtObj.mjOBJ_JOINT, objname=j)
+        spec.add_sensor(
+            name=f"{j}_frc", type=mujoco.mjtSensor.mjSENS_JOINTACTFRC, objtype=mujoco.mjtObj.mjOBJ_JOINT, objname=j
+        )
     return spec
 
 

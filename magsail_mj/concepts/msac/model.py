@@ -26,22 +26,37 @@ def make_params(cfg: MsacConfig) -> MsacModelParams:
     """Model parameters of a config (wing mass = areal density × ℓ × w)."""
     w = cfg.wings
     return MsacModelParams(
-        bus_mass_kg=cfg.bus.mass_kg, bus_size_m=tuple(cfg.bus.size_m), wing_length_m=w.length_m,
-        wing_width_m=w.width_m, wing_thickness_m=w.thickness_m,
-        wing_mass_kg=w.areal_density_kg_m2 * w.length_m * w.width_m, hinge_offset_m=w.hinge_offset_m,
-        layout=w.layout, root_mass_kg=w.root_mass_kg, root_inertia_kg_m2=w.root_inertia_kg_m2,
-        slide_stiffness_N_m=w.slide_stiffness_N_m, timestep_s=cfg.sim.timestep_s,
-        integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance,
-        servo_omega_dt=cfg.drive.servo_omega_dt, name=f"msac_{cfg.scenario}")
+        bus_mass_kg=cfg.bus.mass_kg,
+        bus_size_m=tuple(cfg.bus.size_m),
+        wing_length_m=w.length_m,
+        wing_width_m=w.width_m,
+        wing_thickness_m=w.thickness_m,
+        wing_mass_kg=w.areal_density_kg_m2 * w.length_m * w.width_m,
+        hinge_offset_m=w.hinge_offset_m,
+        layout=w.layout,
+        root_mass_kg=w.root_mass_kg,
+        root_inertia_kg_m2=w.root_inertia_kg_m2,
+        slide_stiffness_N_m=w.slide_stiffness_N_m,
+        timestep_s=cfg.sim.timestep_s,
+        integrator=cfg.sim.integrator,
+        solver_tolerance=cfg.sim.solver_tolerance,
+        servo_omega_dt=cfg.drive.servo_omega_dt,
+        name=f"msac_{cfg.scenario}",
+    )
 
 
 def planar_model(params: MsacModelParams, *, inertia_scale: float = 1.0) -> PlanarMsac:
     """The exact planar model (spec §3.3) with the MJCF's own inertias (incl. hinge bodies)."""
-    return PlanarMsac(bus_izz_kg_m2=float(params.bus_inertia_kg_m2[2]) * inertia_scale,
-                      wing_mass_kg=params.wing_mass_kg, wing_length_m=params.wing_length_m,
-                      wing_icm_kg_m2=float(params.wing_inertia_cm_kg_m2[2]),
-                      hinge_offset_m=params.hinge_offset_m, n_wings=2,
-                      root_mass_kg=params.root_mass_kg, root_inertia_kg_m2=params.root_inertia_kg_m2)
+    return PlanarMsac(
+        bus_izz_kg_m2=float(params.bus_inertia_kg_m2[2]) * inertia_scale,
+        wing_mass_kg=params.wing_mass_kg,
+        wing_length_m=params.wing_length_m,
+        wing_icm_kg_m2=float(params.wing_inertia_cm_kg_m2[2]),
+        hinge_offset_m=params.hinge_offset_m,
+        n_wings=2,
+        root_mass_kg=params.root_mass_kg,
+        root_inertia_kg_m2=params.root_inertia_kg_m2,
+    )
 
 
 @dataclass
@@ -69,10 +84,16 @@ class MsacModel:
         """Analytic summary entries: inertias, Eq. (6)/(7) and the exact model (spec §8)."""
         cfg, P, path = self.cfg, self.planar, self.path
         wi = wing_inertias(P, s_e_m=path.s_e_m, s_c_m=path.s_c_m)
-        theta_eq6 = lumped_theta(I_e=2 * wi.e_hinge, I_c=2 * wi.c_hinge, I_sat=P.bus_izz_kg_m2,
-                                 phi_a=path.phi_a_rad, phi_b=path.phi_b_rad)
-        theta_str = lumped_theta(I_e=2 * wi.e_stretch, I_c=2 * wi.c_stretch, I_sat=P.bus_izz_kg_m2,
-                                 phi_a=path.phi_a_rad, phi_b=path.phi_b_rad)
+        theta_eq6 = lumped_theta(
+            I_e=2 * wi.e_hinge, I_c=2 * wi.c_hinge, I_sat=P.bus_izz_kg_m2, phi_a=path.phi_a_rad, phi_b=path.phi_b_rad
+        )
+        theta_str = lumped_theta(
+            I_e=2 * wi.e_stretch,
+            I_c=2 * wi.c_stretch,
+            I_sat=P.bus_izz_kg_m2,
+            phi_a=path.phi_a_rad,
+            phi_b=path.phi_b_rad,
+        )
         # Eq. (6) is written for the MSAC loop; the other test paths follow from it: the reversed
         # loop flips the sign (T3), a reciprocal path or mirror-symmetric wings give zero (T2, T4)
         sign = {"msac": 1.0, "reversed": -1.0, "bend_only": 0.0, "extend_only": 0.0}[cfg.cycle.pattern]

@@ -28,8 +28,9 @@ from magsail_mj.concepts.msac.config import MsacConfig
 __all__ = ["msac_plots", "sweep_plot", "save_figure"]
 
 
-def msac_plots(run_dir: Path, s: dict[str, Any], *, cfg: MsacConfig, path: CyclePath, model: mujoco.MjModel
-               ) -> list[Path]:
+def msac_plots(
+    run_dir: Path, s: dict[str, Any], *, cfg: MsacConfig, path: CyclePath, model: mujoco.MjModel
+) -> list[Path]:
     """Write F1–F5 and the increments plot of a multibody run; return their paths. ``s``: the
     records and series of the run plus ``_summary`` (its summary); ``path``: its cycle; ``model``:
     its MuJoCo model (shape joint addresses)."""
@@ -64,8 +65,10 @@ def msac_plots(run_dir: Path, s: dict[str, Any], *, cfg: MsacConfig, path: Cycle
         h1, l1 = ax.get_legend_handles_labels()
         h2, l2 = ax2.get_legend_handles_labels()
         ax.legend(h1 + h2, l1 + l2, loc="lower left", fontsize=8)
-        ax.set_title(f"{title} — F1 cycle diagram (phases I→II bend ext., II→III contract, "
-                     f"III→IV bend contr., IV→I extend)", fontsize=9)
+        ax.set_title(
+            f"{title} — F1 cycle diagram (phases I→II bend ext., II→III contract, III→IV bend contr., IV→I extend)",
+            fontsize=9,
+        )
         out.append(save_figure(fig, run_dir / "cycle_diagram.png"))
 
     # ---- F2: ZYX angles wrapped, and the unwrapped yaw
@@ -73,14 +76,15 @@ def msac_plots(run_dir: Path, s: dict[str, Any], *, cfg: MsacConfig, path: Cycle
         R = matrix_from_quat(s["qpos"][:, 3:7])
         psi, theta, phi = euler_zyx(R)
         fig, axs = new_figure(4, 1, figsize=(9, 9), sharex=True)
-        for ax, val, lab in zip(axs, (psi, theta, phi), ("rotation angle 1 (yaw, Z)", "angle 2 (pitch, Y)",
-                                                          "angle 3 (roll, X)")):
+        for ax, val, lab in zip(
+            axs, (psi, theta, phi), ("rotation angle 1 (yaw, Z)", "angle 2 (pitch, Y)", "angle 3 (roll, X)")
+        ):
             ax.plot(s["t"], val, ",", color="C0") if val.size > 5000 else ax.plot(s["t"], val, "C0-", lw=0.8)
             ax.set_ylabel(f"{lab} [rad]", fontsize=8)
             ax.set_ylim(-np.pi * 1.05, np.pi * 1.05)
         st = s.get("strobe_t", s["t"])
         yu = s.get("strobe_yaw_unwrapped_rad", s["yaw_unwrapped_rad"])
-        axs[3].plot(st[:yu.size], yu, "C3-", lw=1)
+        axs[3].plot(st[: yu.size], yu, "C3-", lw=1)
         axs[3].set_ylabel("yaw unwrapped,\nstroboscopic [rad]", fontsize=8)
         axs[3].set_xlabel("t [s]")
         axs[0].set_title(f"{title} — F2 bus rotation angles (wrapped to [−π, π]) and unwrapped yaw", fontsize=9)
@@ -90,8 +94,15 @@ def msac_plots(run_dir: Path, s: dict[str, Any], *, cfg: MsacConfig, path: Cycle
     fig, axs = new_figure(2, 1, figsize=(9, 7))
     if "omega_z_cycle_min_rad_s" in s and s["omega_z_cycle_min_rad_s"].size:
         tc = np.arange(s["omega_z_cycle_min_rad_s"].size) * T
-        axs[0].fill_between(tc, s["omega_z_cycle_min_rad_s"], s["omega_z_cycle_max_rad_s"], color="C0",
-                            alpha=0.5, lw=0, label="ω_z per-cycle min…max (raw, every step)")
+        axs[0].fill_between(
+            tc,
+            s["omega_z_cycle_min_rad_s"],
+            s["omega_z_cycle_max_rad_s"],
+            color="C0",
+            alpha=0.5,
+            lw=0,
+            label="ω_z per-cycle min…max (raw, every step)",
+        )
     w = s["omega_world_rad_s"]
     axs[0].plot(s["t"], w[:, 0], "C1,", label="ω_x (records)")
     axs[0].plot(s["t"], w[:, 1], "C2,", label="ω_y (records)")
@@ -105,8 +116,9 @@ def msac_plots(run_dir: Path, s: dict[str, Any], *, cfg: MsacConfig, path: Cycle
         tw = s["win_t"][pick]
         z = tw <= tw[0] + 5e-3
         for i, c in enumerate(("C1", "C2", "C0")):
-            axs[1].plot(1e3 * (tw[z] - tw[0]), s["win_omega_world_rad_s"][pick][z, i], c + "-", lw=1,
-                        label=f"ω_{'xyz'[i]}")
+            axs[1].plot(
+                1e3 * (tw[z] - tw[0]), s["win_omega_world_rad_s"][pick][z, i], c + "-", lw=1, label=f"ω_{'xyz'[i]}"
+            )
         axs[1].set_xlabel(f"t − {tw[0]:.4f} s [ms]")
         axs[1].set_ylabel("ω world [rad/s]")
         axs[1].legend(fontsize=8)
@@ -117,9 +129,13 @@ def msac_plots(run_dir: Path, s: dict[str, Any], *, cfg: MsacConfig, path: Cycle
     # ---- F4: filtered ω_z
     if "omega_z_filtered_rad_s" in s and np.isfinite(s["omega_z_filtered_rad_s"]).any():
         fig, ax = new_figure(figsize=(9, 4))
-        ax.plot(s["omega_filt_t"], s["omega_z_filtered_rad_s"], "C0-", lw=1,
-                label=f"ω_z, Butterworth {cfg.post.lowpass_order}th order {cfg.post.lowpass_cutoff_Hz:g} Hz, "
-                      "zero phase")
+        ax.plot(
+            s["omega_filt_t"],
+            s["omega_z_filtered_rad_s"],
+            "C0-",
+            lw=1,
+            label=f"ω_z, Butterworth {cfg.post.lowpass_order}th order {cfg.post.lowpass_cutoff_Hz:g} Hz, zero phase",
+        )
         if summary:
             ax.axhline(summary.get("predicted_rate_exact_rad_s", np.nan), color="k", ls="--", lw=1, label="exact model")
         e = cfg.post.edge_discard_s
@@ -127,7 +143,7 @@ def msac_plots(run_dir: Path, s: dict[str, Any], *, cfg: MsacConfig, path: Cycle
         ax.axvspan(tf[0], tf[0] + e, color="0.9")
         ax.axvspan(tf[-1] - e, tf[-1], color="0.9")
         inner = wf[(tf >= tf[0] + e) & (tf <= tf[-1] - e)]
-        if inner.size:   # scale to the kept part: the filter's start-up transient is ~10² rad/s
+        if inner.size:  # scale to the kept part: the filter's start-up transient is ~10² rad/s
             lo, hi = float(inner.min()), float(inner.max())
             pad = max(hi - lo, 1e-3 * abs(hi)) * 2
             ax.set_ylim(lo - pad, hi + pad)
@@ -140,8 +156,12 @@ def msac_plots(run_dir: Path, s: dict[str, Any], *, cfg: MsacConfig, path: Cycle
     # ---- F5: rate comparison and per-cycle increments
     if summary and np.isfinite(summary.get("rate_slope_rad_s", np.nan)):
         names = ["slope of yaw", "filtered mean ω_z", "Eq. (7) lumped", "exact model"]
-        vals = [summary["rate_slope_rad_s"], summary["rate_filtered_mean_rad_s"],
-                summary["omega_gamma_eq7_rad_s"], summary["predicted_rate_exact_rad_s"]]
+        vals = [
+            summary["rate_slope_rad_s"],
+            summary["rate_filtered_mean_rad_s"],
+            summary["omega_gamma_eq7_rad_s"],
+            summary["predicted_rate_exact_rad_s"],
+        ]
         fig, ax = new_figure(figsize=(7, 4))
         bars = ax.bar(names, vals, color=["C0", "C0", "C7", "k"])
         for b, v in zip(bars, vals):
@@ -177,9 +197,11 @@ def sweep_plot(cfg: MsacConfig, run_dir: Path, s: dict[str, Any]) -> Path:
     x = np.arange(len(sw.points))
     labels = [", ".join(f"{v}" for v in p) for p in sw.points]
     fig, axs = new_figure(1, 2, figsize=(11, 4))
-    for key, style, lab in (("sweep_theta_gamma_eq6_model_rad", "C7s--", "Eq. (6), model inertias"),
-                            ("sweep_theta_gamma_exact_rad", "ko-", "exact planar model"),
-                            ("sweep_theta_gamma_mujoco_rad", "C3x", "MuJoCo")):
+    for key, style, lab in (
+        ("sweep_theta_gamma_eq6_model_rad", "C7s--", "Eq. (6), model inertias"),
+        ("sweep_theta_gamma_exact_rad", "ko-", "exact planar model"),
+        ("sweep_theta_gamma_mujoco_rad", "C3x", "MuJoCo"),
+    ):
         axs[0].plot(x, s[key], style, label=lab, ms=8)
     axs[0].set_ylabel("per-cycle rotation θ_γ [rad]")
     axs[1].plot(x, s["sweep_secular_rate_rad_s"], "C3x-", label="MuJoCo secular rate")

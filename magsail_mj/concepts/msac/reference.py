@@ -92,8 +92,11 @@ class PlanarMsac:
     root_inertia_kg_m2: float = 0.0
 
     def __post_init__(self) -> None:
-        check_finite_fields(self, positive=("bus_izz_kg_m2", "wing_mass_kg", "wing_length_m"),
-                            non_negative=("wing_icm_kg_m2", "hinge_offset_m", "root_mass_kg", "root_inertia_kg_m2"))
+        check_finite_fields(
+            self,
+            positive=("bus_izz_kg_m2", "wing_mass_kg", "wing_length_m"),
+            non_negative=("wing_icm_kg_m2", "hinge_offset_m", "root_mass_kg", "root_inertia_kg_m2"),
+        )
         if int(self.n_wings) != self.n_wings or self.n_wings < 1:
             raise ValueError(f"n_wings: must be an integer >= 1, got {self.n_wings!r}")
 
@@ -107,9 +110,12 @@ class PlanarMsac:
         phi, s = np.asarray(phi, float), np.asarray(s, float)
         m, r0, n = self.wing_mass_kg, self.hinge_offset_m, self.n_wings
         c = s + 0.5 * self.wing_length_m
-        return self.bus_izz_kg_m2 + n * (self.wing_icm_kg_m2 + self.root_inertia_kg_m2
-                                         + self.root_mass_kg * r0**2
-                                         + m * (r0**2 + c * c + 2.0 * r0 * c * np.cos(phi)))
+        return self.bus_izz_kg_m2 + n * (
+            self.wing_icm_kg_m2
+            + self.root_inertia_kg_m2
+            + self.root_mass_kg * r0**2
+            + m * (r0**2 + c * c + 2.0 * r0 * c * np.cos(phi))
+        )
 
     def shape_momentum_coefficients(self, phi: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(N_φ, N_s)`` [kg m², kg m]: angular momentum of the shape motion per unit rate."""
@@ -129,8 +135,7 @@ class PlanarMsac:
     def angular_momentum(self, *, phi, s, psi_dot, phi_dot, s_dot) -> np.ndarray:
         """Total angular momentum about Z, ``L = D ψ̇ + N_φ φ̇ + N_s ṡ`` [N m s]."""
         n_phi, n_s = self.shape_momentum_coefficients(phi, s)
-        return self.inertia_sum(phi, s) * np.asarray(psi_dot) + n_phi * np.asarray(phi_dot) \
-            + n_s * np.asarray(s_dot)
+        return self.inertia_sum(phi, s) * np.asarray(psi_dot) + n_phi * np.asarray(phi_dot) + n_s * np.asarray(s_dot)
 
 
 @dataclass(frozen=True)
@@ -159,9 +164,16 @@ def wing_inertias(model: PlanarMsac, *, s_e_m: float, s_c_m: float) -> WingInert
     hinge = lambda s: icm + m * (s + l / 2) ** 2  # noqa: E731
     centre = lambda s: icm + m * (r0 + s + l / 2) ** 2  # noqa: E731
     stretch = lambda s: m * (l + s) ** 2 / 3.0  # noqa: E731
-    return WingInertias(rest_hinge=hinge(0.0), e_hinge=hinge(s_e_m), c_hinge=hinge(s_c_m),
-                        rest_centre=centre(0.0), e_centre=centre(s_e_m), c_centre=centre(s_c_m),
-                        e_stretch=stretch(s_e_m), c_stretch=stretch(s_c_m))
+    return WingInertias(
+        rest_hinge=hinge(0.0),
+        e_hinge=hinge(s_e_m),
+        c_hinge=hinge(s_c_m),
+        rest_centre=centre(0.0),
+        e_centre=centre(s_e_m),
+        c_centre=centre(s_c_m),
+        e_stretch=stretch(s_e_m),
+        c_stretch=stretch(s_c_m),
+    )
 
 
 def lumped_theta(*, I_e: float, I_c: float, I_sat: float, phi_a: float, phi_b: float) -> float:
@@ -210,9 +222,9 @@ def exact_rotation_path(model: PlanarMsac, waypoints: np.ndarray, *, nodes: int 
     if int(nodes) != nodes or nodes < 2:
         raise ValueError(f"nodes: must be an integer >= 2, got {nodes!r}")
     lam, w = _gauss_legendre(nodes)
-    p0, dp = wp[:-1], np.diff(wp, axis=0)                         # (K, 2)
-    q = p0[:, None, :] + lam[None, :, None] * dp[:, None, :]       # (K, n, 2)
-    a_phi, a_s = model.connection(q[..., 0], q[..., 1])            # (K, n)
+    p0, dp = wp[:-1], np.diff(wp, axis=0)  # (K, 2)
+    q = p0[:, None, :] + lam[None, :, None] * dp[:, None, :]  # (K, n, 2)
+    a_phi, a_s = model.connection(q[..., 0], q[..., 1])  # (K, n)
     return (a_phi * dp[:, None, 0] + a_s * dp[:, None, 1]) @ w
 
 
@@ -253,12 +265,18 @@ def exact_rotation_ode(model: PlanarMsac, path: CyclePath, *, cycles: int = 1, s
         phi, phid, _, s, sd, _, _ = cycle_state_scalar(path, t)
         c = s + 0.5 * m.wing_length_m
         cos, sin = math.cos(phi), math.sin(phi)
-        D = m.bus_izz_kg_m2 + m.n_wings * (m.wing_icm_kg_m2 + m.root_inertia_kg_m2
-                                           + m.root_mass_kg * m.hinge_offset_m**2
-                                           + m.wing_mass_kg * (m.hinge_offset_m**2 + c * c
-                                                               + 2 * m.hinge_offset_m * c * cos))
-        n_phi = m.n_wings * (m.wing_icm_kg_m2 + m.root_inertia_kg_m2 + m.wing_mass_kg * c * c
-                             + m.wing_mass_kg * m.hinge_offset_m * c * cos)
+        D = m.bus_izz_kg_m2 + m.n_wings * (
+            m.wing_icm_kg_m2
+            + m.root_inertia_kg_m2
+            + m.root_mass_kg * m.hinge_offset_m**2
+            + m.wing_mass_kg * (m.hinge_offset_m**2 + c * c + 2 * m.hinge_offset_m * c * cos)
+        )
+        n_phi = m.n_wings * (
+            m.wing_icm_kg_m2
+            + m.root_inertia_kg_m2
+            + m.wing_mass_kg * c * c
+            + m.wing_mass_kg * m.hinge_offset_m * c * cos
+        )
         n_s = m.n_wings * m.wing_mass_kg * m.hinge_offset_m * sin
         return -(n_phi * phid + n_s * sd) / D
 
@@ -268,5 +286,5 @@ def exact_rotation_ode(model: PlanarMsac, path: CyclePath, *, cycles: int = 1, s
         k1 = rate(t)
         k2 = rate(t + 0.5 * h)
         k4 = rate(t + h)
-        psi += h * (k1 + 4.0 * k2 + k4) / 6.0   # ψ̇ depends on t only: RK4 = Simpson
+        psi += h * (k1 + 4.0 * k2 + k4) / 6.0  # ψ̇ depends on t only: RK4 = Simpson
     return psi

@@ -77,11 +77,24 @@ import numpy as np
 from magsail_mj.concepts.msac.metrics import lowpass
 from magsail_mj.concepts.msac.cycle import CyclePath, cycle_state
 from magsail_mj.concepts.msac.drive import (
-    ComputedTorque, HeldTorqueTable, desired_shape, held_torque_table, replay_table, servo_rates, set_initial_state,
-    shape_vector, steps_per_cycle,
+    ComputedTorque,
+    HeldTorqueTable,
+    desired_shape,
+    held_torque_table,
+    replay_table,
+    servo_rates,
+    set_initial_state,
+    shape_vector,
+    steps_per_cycle,
 )
 from magsail_mj.checkpoint import (
-    CheckpointError, StateWalker, check_identity, read_checkpoint, restore_state, run_identity, write_checkpoint,
+    CheckpointError,
+    StateWalker,
+    check_identity,
+    read_checkpoint,
+    restore_state,
+    run_identity,
+    write_checkpoint,
 )
 from magsail_mj.divergence import WarningWatch, disable_autoreset, first_bad_row, route_mujoco_warnings
 from magsail_mj.concepts.msac.mjcf import shape_indices
@@ -194,8 +207,9 @@ class MsacRunner:
         w = int(round(self.window_s / self.dt))
         mid = int(round(self.n_steps / 2 / self.N)) * self.N
         end = max(0, (self.n_steps - w) // self.N * self.N)
-        ranges = sorted({(0, min(w, self.n_steps)), (mid, min(mid + w, self.n_steps)),
-                         (end, min(end + w, self.n_steps))})
+        ranges = sorted(
+            {(0, min(w, self.n_steps)), (mid, min(mid + w, self.n_steps)), (end, min(end + w, self.n_steps))}
+        )
         merged: list[list[int]] = []
         for a, b in ranges:
             if a >= b:
@@ -224,8 +238,8 @@ class MsacRunner:
         n = S.shape[0]
         steps = k0 + np.arange(n)
         t = steps * self.dt
-        qpos = S[:, 1:1 + nq]
-        qvel = S[:, 1 + nq:1 + nq + nv]
+        qpos = S[:, 1 : 1 + nq]
+        qvel = S[:, 1 + nq : 1 + nq + nv]
         L = sd[:, ix["angmom"]]
         w_world = sd[:, ix["angvel"]]
         frc = sd[:, ix["frc"]]
@@ -245,34 +259,55 @@ class MsacRunner:
 
         sel = steps % self.N == 0
         if sel.any():
-            acc.add(acc.strobe, strobe_t=t[sel], strobe_quat=qpos[sel, 3:7], strobe_shape=qpos[sel][:, ix["qpos"]],
-                    strobe_angmom_N_m_s=L[sel])
+            acc.add(
+                acc.strobe,
+                strobe_t=t[sel],
+                strobe_quat=qpos[sel, 3:7],
+                strobe_shape=qpos[sel][:, ix["qpos"]],
+                strobe_angmom_N_m_s=L[sel],
+            )
         sel = steps % self.record_every == 0
         if sel.any():
-            self.recorder.extend(dict(t=t[sel], qpos=qpos[sel], qvel=qvel[sel], omega_world_rad_s=w_world[sel],
-                                      angmom_N_m_s=L[sel], joint_force=frc[sel],
-                                      phase=cycle_state(self.path, t[sel]).phase + 1))
+            self.recorder.extend(
+                dict(
+                    t=t[sel],
+                    qpos=qpos[sel],
+                    qvel=qvel[sel],
+                    omega_world_rad_s=w_world[sel],
+                    angmom_N_m_s=L[sel],
+                    joint_force=frc[sel],
+                    phase=cycle_state(self.path, t[sel]).phase + 1,
+                )
+            )
         for wid, (a, b) in enumerate(self.windows):
             sel = (steps >= a) & (steps < b)
             if sel.any():
-                acc.add(acc.win, win_t=t[sel], win_id=np.full(int(sel.sum()), wid), win_qpos=qpos[sel],
-                        win_qvel=qvel[sel], win_omega_world_rad_s=w_world[sel], win_angmom_N_m_s=L[sel],
-                        win_joint_force=frc[sel], win_ctrl=ctrl[sel])
+                acc.add(
+                    acc.win,
+                    win_t=t[sel],
+                    win_id=np.full(int(sel.sum()), wid),
+                    win_qpos=qpos[sel],
+                    win_qvel=qvel[sel],
+                    win_omega_world_rad_s=w_world[sel],
+                    win_angmom_N_m_s=L[sel],
+                    win_joint_force=frc[sel],
+                    win_ctrl=ctrl[sel],
+                )
         wz = np.concatenate([acc.block_carry, w_world[:, 2]])
         nb = wz.size // self.block
         if nb:
-            acc.omega_blocks.append(wz[:nb * self.block].reshape(nb, self.block).mean(axis=1))
-        acc.block_carry = wz[nb * self.block:].copy()
+            acc.omega_blocks.append(wz[: nb * self.block].reshape(nb, self.block).mean(axis=1))
+        acc.block_carry = wz[nb * self.block :].copy()
         # per-cycle extremes of the raw ω_z over every cycle completed by this chunk (the part of a
         # cycle a chunk ends in is carried to the next, so the split of a run into chunks is invisible)
         seq = np.concatenate([acc.cycle_carry, w_world[:, 2]])
         first = (-(k0 - acc.cycle_carry.size)) % self.N
         ncyc = (seq.size - first) // self.N
         if ncyc:
-            blk = seq[first:first + ncyc * self.N].reshape(ncyc, self.N)
+            blk = seq[first : first + ncyc * self.N].reshape(ncyc, self.N)
             acc.cyc_min.append(blk.min(axis=1))
             acc.cyc_max.append(blk.max(axis=1))
-        acc.cycle_carry = seq[first + ncyc * self.N:].copy()
+        acc.cycle_carry = seq[first + ncyc * self.N :].copy()
 
     # ------------------------------------------------------------------ momentum projection
     def _project(self, data: mujoco.MjData, state: np.ndarray, acc: _Acc) -> np.ndarray:
@@ -292,7 +327,7 @@ class MsacRunner:
         M = np.zeros((nv, nv))
         mujoco.mj_fullM(m, data, M)
         b = self.ix["bus_dof"]
-        v = state[1 + nq:1 + nq + nv]
+        v = state[1 + nq : 1 + nq + nv]
         p_b = (M @ v)[b]
         dv = -np.linalg.solve(M[np.ix_(b, b)], p_b)
         out = state.copy()
@@ -330,16 +365,22 @@ class MsacRunner:
         computed-torque state (``python_tree``, ``python_arrays``)."""
         self._walker.roots.update(acc=self.acc, table=self.table, ct=self._ct)
         tree, arrays = self._walker.snapshot()
-        return {"step": self.step_index, "mj_state": self._state.copy(), "n_records": len(self.recorder),
-                "python_tree": tree, "python_arrays": arrays}
+        return {
+            "step": self.step_index,
+            "mj_state": self._state.copy(),
+            "n_records": len(self.recorder),
+            "python_tree": tree,
+            "python_arrays": arrays,
+        }
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Continue from a state of :meth:`get_state`."""
         mj_state = np.asarray(state["mj_state"], dtype=float)
         step = int(state["step"])
         if mj_state.shape != (self.nstate,) or not 0 <= step <= self.n_steps:
-            raise ValueError(f"state: not a state of this model within sim.duration_s (step {step}, "
-                             f"mj_state shape {mj_state.shape})")
+            raise ValueError(
+                f"state: not a state of this model within sim.duration_s (step {step}, mj_state shape {mj_state.shape})"
+            )
         self._walker.roots.update(acc=self.acc, table=self.table, ct=self._ct)
         restore_state(self._walker, state["python_tree"], state["python_arrays"])
         self.acc, self.table, self._ct = (self._walker.roots[k] for k in ("acc", "table", "ct"))
@@ -361,13 +402,24 @@ class MsacRunner:
 
     # ------------------------------------------------------------------ checkpoints
     def _save(self, path: Path) -> None:
-        self.recorder.flush()   # the store holds every record the checkpoint counts
+        self.recorder.flush()  # the store holds every record the checkpoint counts
         state = self.get_state()
         store = self.recorder.path
-        header = {**self.identity, "step": state["step"], "t_s": self.time, "wall_s": self._wall_s,
-                  "n_records": state["n_records"], "records_store": store.name if store is not None else None}
-        write_checkpoint(path, header, tree=state["python_tree"], arrays=state["python_arrays"],
-                         extra_arrays={"state": state["mj_state"]})
+        header = {
+            **self.identity,
+            "step": state["step"],
+            "t_s": self.time,
+            "wall_s": self._wall_s,
+            "n_records": state["n_records"],
+            "records_store": store.name if store is not None else None,
+        }
+        write_checkpoint(
+            path,
+            header,
+            tree=state["python_tree"],
+            arrays=state["python_arrays"],
+            extra_arrays={"state": state["mj_state"]},
+        )
 
     def _load(self, path: Path, store: Path | None) -> None:
         header, arrays, extra = read_checkpoint(path)
@@ -381,8 +433,15 @@ class MsacRunner:
             self.recorder.open_store(store, int(header["n_records"]))
         except RecordStoreError as err:
             raise CheckpointError(f"checkpoint: {path}: {err}") from None
-        self.set_state({"step": k, "mj_state": extra["state"], "n_records": int(header["n_records"]),
-                        "python_tree": header["state_tree"], "python_arrays": arrays})
+        self.set_state(
+            {
+                "step": k,
+                "mj_state": extra["state"],
+                "n_records": int(header["n_records"]),
+                "python_tree": header["state_tree"],
+                "python_arrays": arrays,
+            }
+        )
         self._wall_s = float(header.get("wall_s", 0.0))
 
     # ------------------------------------------------------------------ stepping
@@ -392,13 +451,15 @@ class MsacRunner:
         m = self.model
         if self.method == "replay":
             if self.table is None:
-                self.table = replay_table(m, self.path, omega_c_dt=self.omega_c_dt,
-                                          calibration_cycles=self.calibration_cycles)
+                self.table = replay_table(
+                    m, self.path, omega_c_dt=self.omega_c_dt, calibration_cycles=self.calibration_cycles
+                )
             return self.table.ctrl
         if self.method == "held_torque":
             if self.table is None:
-                self.table = held_torque_table(m, self.path, omega_c_dt=self.omega_c_dt,
-                                               calibration_cycles=self.calibration_cycles)
+                self.table = held_torque_table(
+                    m, self.path, omega_c_dt=self.omega_c_dt, calibration_cycles=self.calibration_cycles
+                )
             return self.table.ctrl
         if self._ct is None:
             self._ct = ComputedTorque(m, self.path, omega_c_dt=self.omega_c_dt)
@@ -415,22 +476,41 @@ class MsacRunner:
             self._advance(min(self.step_index + int(n), self.n_steps))
         return self.status
 
-    def run(self, *, progress: bool = False, checkpoint_path: str | Path | None = None,
-            resume: bool = False, stop_after_s: float | None = None, records_path: str | Path | None = None,
-            records_attrs: dict[str, Any] | None = None) -> RunResult:
+    def run(
+        self,
+        *,
+        progress: bool = False,
+        checkpoint_path: str | Path | None = None,
+        resume: bool = False,
+        stop_after_s: float | None = None,
+        records_path: str | Path | None = None,
+        records_attrs: dict[str, Any] | None = None,
+    ) -> RunResult:
         """Run from the current state to ``duration_s`` (or ``stop_after_s``), checkpointing at the
         chunk boundaries after every ``checkpoint_every_s``; records stream to ``records_path`` (a
         checkpointed run without it: ``<checkpoint stem>.records.zarr``), as in
         :meth:`magsail_mj.sim.Simulation.run`."""
-        ckpt = open_run_records(self.recorder, checkpoint_path=checkpoint_path, records_path=records_path,
-                                records_attrs=records_attrs, restore=self._load if resume else None)
+        ckpt = open_run_records(
+            self.recorder,
+            checkpoint_path=checkpoint_path,
+            records_path=records_path,
+            records_attrs=records_attrs,
+            restore=self._load if resume else None,
+        )
         k_start = self.step_index
         stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(math.ceil(stop_after_s / self.dt)))
         chunk = int(self.chunk_cycles) * self.N
         bar = None
         if progress and self.n_steps > 10 * chunk:
-            bar = tqdm(total=self.n_steps, initial=k_start, unit="step", unit_scale=True, file=sys.stderr,
-                       mininterval=5.0, leave=False)
+            bar = tqdm(
+                total=self.n_steps,
+                initial=k_start,
+                unit="step",
+                unit_scale=True,
+                file=sys.stderr,
+                mininterval=5.0,
+                leave=False,
+            )
         try:
             if self.status == "running":
                 self._advance(stop_step, ckpt=ckpt, bar=bar)
@@ -441,8 +521,14 @@ class MsacRunner:
             self.status, self.message = "stopped", f"stopped at t = {self.time:.6f} s (stop_after_s)"
             if ckpt is not None:
                 self._save(ckpt)
-        return RunResult(records=self.records(), status=self.status, message=self.message, t_end_s=self.time,
-                         steps=self.step_index - k_start, wall_time_s=self._wall_s)
+        return RunResult(
+            records=self.records(),
+            status=self.status,
+            message=self.message,
+            t_end_s=self.time,
+            steps=self.step_index - k_start,
+            wall_time_s=self._wall_s,
+        )
 
     def _advance(self, stop_step: int, *, ckpt: Path | None = None, bar: Any = None) -> None:
         """Roll out from the current step to ``stop_step`` in chunks that end at the absolute chunk
@@ -461,15 +547,18 @@ class MsacRunner:
         sd_buf = np.empty((1, chunk, m.nsensordata))
         pool = mj_rollout.Rollout(nthread=0)
         if self.method != "replay":
-            m.opt.disableactuator |= 1 << 1     # computed or held torque alone: servos off
+            m.opt.disableactuator |= 1 << 1  # computed or held torque alone: servos off
         try:
             while k < stop_step:
                 n = min(chunk - k % chunk, stop_step - k)
                 start_up = self.method == "held_torque" and k < self._ct_steps
                 if start_up:
                     n = min(n, self._ct_steps - k)
-                ctrl = ctrl_chunk[(k % N):(k % N) + n] if (k % N) + n <= chunk else \
-                    np.tile(cyc_ctrl, (n // N + 2, 1))[(k % N):(k % N) + n]
+                ctrl = (
+                    ctrl_chunk[(k % N) : (k % N) + n]
+                    if (k % N) + n <= chunk
+                    else np.tile(cyc_ctrl, (n // N + 2, 1))[(k % N) : (k % N) + n]
+                )
                 if self.method == "replay":
                     st = st_buf[:, :n] if n == chunk else np.empty((1, n, self.nstate))
                     sd = sd_buf[:, :n] if n == chunk else np.empty((1, n, m.nsensordata))
@@ -487,11 +576,15 @@ class MsacRunner:
                     # post[i] is the state at step k + i + 1; a bad control acts from step k + i
                     cands = [i + 1 for i in (bad_state,) if i is not None] + [i for i in (bad_ctrl,) if i is not None]
                     bad = min(cands) if cands else n
-                    cause = "a control is not finite or above 1e10 (raise the ff gear)" if bad_ctrl is not None \
-                        and bad == bad_ctrl else "the state is not finite or above 1e10"
+                    cause = (
+                        "a control is not finite or above 1e10 (raise the ff gear)"
+                        if bad_ctrl is not None and bad == bad_ctrl
+                        else "the state is not finite or above 1e10"
+                    )
                     self.status = "diverged"
-                    self.message = (f"diverged at t = {(k + bad) * dt:.6g} s: {cause}"
-                                    + (f" (MuJoCo warnings {', '.join(warned)})" if warned else ""))
+                    self.message = f"diverged at t = {(k + bad) * dt:.6g} s: {cause}" + (
+                        f" (MuJoCo warnings {', '.join(warned)})" if warned else ""
+                    )
                     self._process(acc, k, S[:bad], sens[:bad], ctrl[:bad])
                     k += bad
                     break
@@ -543,8 +636,9 @@ class MsacRunner:
             mujoco.mj_getState(m, data, post[i], _FP)
         return ctrl, post, sens
 
-    def _held_segment(self, pool: Any, state: np.ndarray, k: int, ctrl: np.ndarray
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _held_segment(
+        self, pool: Any, state: np.ndarray, k: int, ctrl: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Roll out steps ``k … k+n−1`` (``n = len(ctrl)``) of the ``held_torque`` drive from
         ``state``, one cycle at a time: at every cycle start the trim of that cycle is set from
         the shape vector (:meth:`HeldTorqueTable.trim`) and its held torques added to the nominal
@@ -560,7 +654,7 @@ class MsacRunner:
             j = min(ctrl.shape[0], i + N - (k + i) % N)
             if (k + i) % N == 0:
                 table.trim(shape_vector(m, state, ix=self.ix))
-            ctrl[i:j, self.ix["ff"]] += table.trim_torque()[(k + i) % N:(k + i) % N + j - i] / gear
+            ctrl[i:j, self.ix["ff"]] += table.trim_torque()[(k + i) % N : (k + i) % N + j - i] / gear
             st, sd = pool.rollout(m, self.data, state[None], ctrl[None, i:j])
             post[i:j], sens[i:j] = st[0], sd[0]
             state = st[0, -1]
@@ -570,14 +664,27 @@ class MsacRunner:
     def _process_final(self, acc: _Acc, k: int, state: np.ndarray, sens: np.ndarray, ctrl: np.ndarray) -> None:
         """Add the end state to the strobe (if a cycle start) and the records (always)."""
         ix, nq, nv = self.ix, self.nq, self.nv
-        qpos, qvel = state[1:1 + nq], state[1 + nq:1 + nq + nv]
+        qpos, qvel = state[1 : 1 + nq], state[1 + nq : 1 + nq + nv]
         t = np.array([k * self.dt])
         if k % self.N == 0:
-            acc.add(acc.strobe, strobe_t=t, strobe_quat=qpos[None, 3:7], strobe_shape=qpos[None, ix["qpos"]],
-                    strobe_angmom_N_m_s=sens[None, ix["angmom"]])
-        self.recorder.extend(dict(t=t, qpos=qpos[None], qvel=qvel[None], omega_world_rad_s=sens[None, ix["angvel"]],
-                                  angmom_N_m_s=sens[None, ix["angmom"]], joint_force=sens[None, ix["frc"]],
-                                  phase=cycle_state(self.path, t).phase + 1))
+            acc.add(
+                acc.strobe,
+                strobe_t=t,
+                strobe_quat=qpos[None, 3:7],
+                strobe_shape=qpos[None, ix["qpos"]],
+                strobe_angmom_N_m_s=sens[None, ix["angmom"]],
+            )
+        self.recorder.extend(
+            dict(
+                t=t,
+                qpos=qpos[None],
+                qvel=qvel[None],
+                omega_world_rad_s=sens[None, ix["angvel"]],
+                angmom_N_m_s=sens[None, ix["angmom"]],
+                joint_force=sens[None, ix["frc"]],
+                phase=cycle_state(self.path, t).phase + 1,
+            )
+        )
         dL = sens[ix["angmom"]] - acc.L0
         acc.drift_max = max(acc.drift_max, float(np.linalg.norm(dL)))
         acc.drift_z_max = max(acc.drift_z_max, float(abs(dL[2])))
@@ -594,7 +701,7 @@ class MsacRunner:
         if wz.size:
             tb = (np.arange(wz.size) * self.block + 0.5 * (self.block - 1)) * self.dt
             dec = max(1, int(round(fs / 1000.0)))
-            padlen = 3 * (2 * math.ceil(self.lowpass_order / 2) + 1)   # sosfiltfilt's default
+            padlen = 3 * (2 * math.ceil(self.lowpass_order / 2) + 1)  # sosfiltfilt's default
             if wz.size > padlen and self.lowpass_cutoff_hz < fs / 2:
                 wf = lowpass(wz, fs_hz=fs, cutoff_hz=self.lowpass_cutoff_hz, order=self.lowpass_order)
             else:
@@ -626,9 +733,21 @@ class StaticRunner:
     #: one record, no steps: nothing to stop or resume
     checkpoints = False
 
-    def run(self, *, progress: bool = False, checkpoint_path: Any = None, resume: bool = False,
-            stop_after_s: float | None = None) -> RunResult:
+    def run(
+        self,
+        *,
+        progress: bool = False,
+        checkpoint_path: Any = None,
+        resume: bool = False,
+        stop_after_s: float | None = None,
+    ) -> RunResult:
         data = mujoco.MjData(self.model)
         set_initial_state(self.model, data, self.path)
-        return RunResult(records={"t": np.zeros(1), "qpos": data.qpos.copy()[None]}, status="completed",
-                         message="analytic scenario: no MuJoCo steps", t_end_s=0.0, steps=0, wall_time_s=0.0)
+        return RunResult(
+            records={"t": np.zeros(1), "qpos": data.qpos.copy()[None]},
+            status="completed",
+            message="analytic scenario: no MuJoCo steps",
+            t_end_s=0.0,
+            steps=0,
+            wall_time_s=0.0,
+        )

@@ -23,7 +23,11 @@ from typing import Any
 import numpy as np
 
 from magsail_mj.concepts.msac.metrics import (
-    cycle_increments, filtered_rate, max_cycle_rate, secular_rate_fit, unwrapped_yaw,
+    cycle_increments,
+    filtered_rate,
+    max_cycle_rate,
+    secular_rate_fit,
+    unwrapped_yaw,
 )
 from magsail_mj.concepts.msac.cycle import cycle_state
 from magsail_mj.concepts.msac.reference import exact_rotation_samples
@@ -35,8 +39,16 @@ from magsail_mj.concepts.msac.plots import msac_plots, sweep_plot
 from magsail_mj.concepts.msac.runner import MsacRunner, StaticRunner
 from magsail_mj.sim import RunResult
 
-__all__ = ["MsacTask", "LumpedTask", "MultibodyTask", "SweepTask", "SweepRunner", "build_msac_scenario",
-           "multibody_summary", "phase_labels"]
+__all__ = [
+    "MsacTask",
+    "LumpedTask",
+    "MultibodyTask",
+    "SweepTask",
+    "SweepRunner",
+    "build_msac_scenario",
+    "multibody_summary",
+    "phase_labels",
+]
 
 
 class MsacTask(ABC):
@@ -84,10 +96,18 @@ class MsacTask(ABC):
             "overlay": list(self.overlay),
             "overlay_names": {"yaw_unwrapped_rad": "bus yaw ψ (unwrapped)", "phase": "cycle phase"},
             "overlay_labels": {"phase": phase_labels(self.path.waypoints)},
-            "markers": {"w1_panel": "wing 1", "w2_panel": "wing 2", "bus_box": "bus",
-                        "bus_tag": "bus tag (shows the bus's own turn)", "world_marker": "fixed world marker (+X)"},
-            "camera": {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
-                       "distance_m": r.distance_m or 2.6 * reach},
+            "markers": {
+                "w1_panel": "wing 1",
+                "w2_panel": "wing 2",
+                "bus_box": "bus",
+                "bus_tag": "bus tag (shows the bus's own turn)",
+                "world_marker": "fixed world marker (+X)",
+            },
+            "camera": {
+                "azimuth_deg": r.azimuth_deg,
+                "elevation_deg": r.elevation_deg,
+                "distance_m": r.distance_m or 2.6 * reach,
+            },
             "fps": r.fps,
             "max_frames": r.max_frames,
             "extension_exaggeration": r.extension_exaggeration,
@@ -110,12 +130,16 @@ class MsacTask(ABC):
         return {
             "model_size": {"bodies": int(m.nbody), "dofs": int(m.nv), "actuators": int(m.nu)},
             "parameters": table,
-            "solver": {"integrator": cfg.sim.integrator, "timestep_s": cfg.sim.timestep_s,
-                       "steps_per_cycle": int(round(1 / (cfg.cycle.frequency_Hz * cfg.sim.timestep_s))),
-                       "drive": cfg.drive.method, "omega_c_dt": cfg.drive.omega_c_dt,
-                       "momentum_projection": cfg.drive.projection,
-                       "servo_omega_dt": cfg.drive.servo_omega_dt,
-                       "disableflags": int(m.opt.disableflags)},
+            "solver": {
+                "integrator": cfg.sim.integrator,
+                "timestep_s": cfg.sim.timestep_s,
+                "steps_per_cycle": int(round(1 / (cfg.cycle.frequency_Hz * cfg.sim.timestep_s))),
+                "drive": cfg.drive.method,
+                "omega_c_dt": cfg.drive.omega_c_dt,
+                "momentum_projection": cfg.drive.projection,
+                "servo_omega_dt": cfg.drive.servo_omega_dt,
+                "disableflags": int(m.opt.disableflags),
+            },
         }
 
 
@@ -188,8 +212,9 @@ def actuation_summary(sc: MsacModel, rec: Any) -> dict[str, Any]:
         "hinge_torque_max_N_m": cap_h,
         "slide_force_max_N": cap_s,
         "actuation_feasible": bool(peak_h <= cap_h and peak_s <= cap_s),
-        "actuation_capacity_ratio": min(cap_h / peak_h if peak_h else float("inf"),
-                                        cap_s / peak_s if peak_s else float("inf")),
+        "actuation_capacity_ratio": min(
+            cap_h / peak_h if peak_h else float("inf"), cap_s / peak_s if peak_s else float("inf")
+        ),
         "max_cycle_rate_Hz": float("nan"),
     }
     if "win_t" not in rec or not rec["win_t"].size:
@@ -202,13 +227,15 @@ def actuation_summary(sc: MsacModel, rec: Any) -> dict[str, Any]:
     qa = shape_indices(sc.model)["qpos"]
     S = np.zeros_like(F)
     S[:, [1, 3]] = cfg.wings.slide_stiffness_N_m * rec["win_qpos"][keep][:, qa[[1, 3]]]
-    out["max_cycle_rate_Hz"] = max_cycle_rate(F, S, np.array([cap_h, cap_s, cap_h, cap_s]),
-                                              rate_hz=cfg.cycle.frequency_Hz)
+    out["max_cycle_rate_Hz"] = max_cycle_rate(
+        F, S, np.array([cap_h, cap_s, cap_h, cap_s]), rate_hz=cfg.cycle.frequency_Hz
+    )
     return out
 
 
-def multibody_summary(sc: MsacModel, result: RunResult, ref: dict[str, float]
-                      ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def multibody_summary(
+    sc: MsacModel, result: RunResult, ref: dict[str, float]
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Summary of a multibody run of the built MSAC ``sc`` (spec §6, §8): stroboscopic increments,
     two secular-rate estimates, angular-momentum drift, peak actuator loads, tracking error;
     ``ref``: the analytic references (:meth:`MsacModel.references`)."""
@@ -223,11 +250,19 @@ def multibody_summary(sc: MsacModel, result: RunResult, ref: dict[str, float]
     series["strobe_yaw_unwrapped_rad"] = yaw
     disc = cfg.post.discard_cycles
     cycles = max(0, yaw.size - 1)
-    out.update({"cycles_simulated": cycles, "simulated_time_s": result.t_end_s,
-                "steps": result.steps, "wall_time_s": result.wall_time_s,
-                "wall_time_per_step_s": result.wall_time_s / max(result.steps, 1),
-                "timestep_s": cfg.sim.timestep_s, "steps_per_cycle": int(rec["run_steps_per_cycle"]),
-                "drive_method": cfg.drive.method, "status": result.status})
+    out.update(
+        {
+            "cycles_simulated": cycles,
+            "simulated_time_s": result.t_end_s,
+            "steps": result.steps,
+            "wall_time_s": result.wall_time_s,
+            "wall_time_per_step_s": result.wall_time_s / max(result.steps, 1),
+            "timestep_s": cfg.sim.timestep_s,
+            "steps_per_cycle": int(rec["run_steps_per_cycle"]),
+            "drive_method": cfg.drive.method,
+            "status": result.status,
+        }
+    )
     exact = ref["theta_gamma_exact_rad"]
     if cycles > disc:
         inc = cycle_increments(yaw, discard=disc)
@@ -237,29 +272,42 @@ def multibody_summary(sc: MsacModel, result: RunResult, ref: dict[str, float]
         one_period = inc.mean / T
         if result.t_end_s >= cfg.post.min_filter_duration_s and "omega_z_filtered_rad_s" in rec:
             filt = filtered_rate(rec["omega_filt_t"], rec["omega_z_filtered_rad_s"], edge_s=cfg.post.edge_discard_s)
-            method = (f"butterworth order {cfg.post.lowpass_order}, {cfg.post.lowpass_cutoff_Hz:g} Hz, zero phase, "
-                      f"{cfg.post.edge_discard_s:g} s edges")
+            method = (
+                f"butterworth order {cfg.post.lowpass_order}, {cfg.post.lowpass_cutoff_Hz:g} Hz, zero phase, "
+                f"{cfg.post.edge_discard_s:g} s edges"
+            )
         else:
             filt, method = one_period, "one-period average (run shorter than min_filter_duration_s)"
-        out.update({
-            "theta_gamma_mujoco_rad": inc.mean,
-            "theta_gamma_mujoco_std_rad": inc.std,
-            "theta_gamma_first_cycle_rad": inc.first,
-            "rate_slope_rad_s": slope,
-            "rate_filtered_mean_rad_s": filt,
-            "rate_filtered_method": method,
-            "rate_one_period_mean_rad_s": one_period,
-            "rate_estimates_rel_diff": abs(slope - filt) / abs(slope) if slope else float("nan"),
-            "mujoco_vs_exact_rel_diff": (inc.mean - exact) / abs(exact) if exact else float("nan"),
-            "mujoco_vs_eq6_rel_diff": ((inc.mean - ref["theta_gamma_eq6_model_rad"])
-                                       / abs(ref["theta_gamma_eq6_model_rad"])
-                                       if ref["theta_gamma_eq6_model_rad"] else float("nan")),
-            "secular_rate_rad_s": slope,
-        })
+        out.update(
+            {
+                "theta_gamma_mujoco_rad": inc.mean,
+                "theta_gamma_mujoco_std_rad": inc.std,
+                "theta_gamma_first_cycle_rad": inc.first,
+                "rate_slope_rad_s": slope,
+                "rate_filtered_mean_rad_s": filt,
+                "rate_filtered_method": method,
+                "rate_one_period_mean_rad_s": one_period,
+                "rate_estimates_rel_diff": abs(slope - filt) / abs(slope) if slope else float("nan"),
+                "mujoco_vs_exact_rel_diff": (inc.mean - exact) / abs(exact) if exact else float("nan"),
+                "mujoco_vs_eq6_rel_diff": (
+                    (inc.mean - ref["theta_gamma_eq6_model_rad"]) / abs(ref["theta_gamma_eq6_model_rad"])
+                    if ref["theta_gamma_eq6_model_rad"]
+                    else float("nan")
+                ),
+                "secular_rate_rad_s": slope,
+            }
+        )
     else:
-        for key in ("theta_gamma_mujoco_rad", "theta_gamma_mujoco_std_rad", "theta_gamma_first_cycle_rad",
-                    "rate_slope_rad_s", "rate_filtered_mean_rad_s", "rate_estimates_rel_diff",
-                    "mujoco_vs_exact_rel_diff", "secular_rate_rad_s"):
+        for key in (
+            "theta_gamma_mujoco_rad",
+            "theta_gamma_mujoco_std_rad",
+            "theta_gamma_first_cycle_rad",
+            "rate_slope_rad_s",
+            "rate_filtered_mean_rad_s",
+            "rate_estimates_rel_diff",
+            "mujoco_vs_exact_rel_diff",
+            "secular_rate_rad_s",
+        ):
             out[key] = float("nan")
     yaw_end = float(yaw_rec[-1] - yaw_rec[0]) if yaw_rec.size else float("nan")
     out["yaw_unwrapped_final_rad"] = yaw_end
@@ -293,9 +341,10 @@ def multibody_summary(sc: MsacModel, result: RunResult, ref: dict[str, float]
         if starts.size and starts[0] + N < wt.size and starts[0] >= 0:
             i0 = starts[0]
             qa = shape_indices(sc.model)["qpos"]
-            seg = wq[i0:i0 + N + 1]
+            seg = wq[i0 : i0 + N + 1]
             out["theta_gamma_exact_achieved_rad"] = float(
-                exact_rotation_samples(sc.planar, seg[:, qa[0]], seg[:, qa[1]])[-1])
+                exact_rotation_samples(sc.planar, seg[:, qa[0]], seg[:, qa[1]])[-1]
+            )
     return out, series
 
 
@@ -320,20 +369,34 @@ class MultibodyTask(MsacTask):
     def simulation(self) -> MsacRunner:
         cfg, p = self.cfg, self.cfg.post
         self.runner = MsacRunner(
-            model=self.model, path=self.path, duration_s=cfg.sim.duration_s, method=cfg.drive.method,
-            record_every=cfg.sim.record_every, omega_c_dt=cfg.drive.omega_c_dt,
-            calibration_cycles=cfg.drive.calibration_cycles, chunk_cycles=cfg.drive.chunk_cycles,
-            window_s=p.window_s, omega_sample_hz=p.omega_sample_Hz, lowpass_order=p.lowpass_order,
-            lowpass_cutoff_hz=p.lowpass_cutoff_Hz, checkpoint_every_s=cfg.sim.checkpoint_every_s,
-            momentum_projection=cfg.drive.projection)
+            model=self.model,
+            path=self.path,
+            duration_s=cfg.sim.duration_s,
+            method=cfg.drive.method,
+            record_every=cfg.sim.record_every,
+            omega_c_dt=cfg.drive.omega_c_dt,
+            calibration_cycles=cfg.drive.calibration_cycles,
+            chunk_cycles=cfg.drive.chunk_cycles,
+            window_s=p.window_s,
+            omega_sample_hz=p.omega_sample_Hz,
+            lowpass_order=p.lowpass_order,
+            lowpass_cutoff_hz=p.lowpass_cutoff_Hz,
+            checkpoint_every_s=cfg.sim.checkpoint_every_s,
+            momentum_projection=cfg.drive.projection,
+        )
         return self.runner
 
     def summarise(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         return multibody_summary(self.msac, result, self.references())
 
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
-        return msac_plots(run_dir, {**result.records, **series, "_summary": self.last_summary}, cfg=self.cfg,
-                          path=self.path, model=self.model)
+        return msac_plots(
+            run_dir,
+            {**result.records, **series, "_summary": self.last_summary},
+            cfg=self.cfg,
+            path=self.path,
+            model=self.model,
+        )
 
 
 @register_task("msac", "sweep")
@@ -373,8 +436,14 @@ class SweepRunner:
     #: a sweep of whole runs: no checkpoints, so no stop/resume
     checkpoints = False
 
-    def run(self, *, progress: bool = False, checkpoint_path: Any = None, resume: bool = False,
-            stop_after_s: float | None = None) -> RunResult:
+    def run(
+        self,
+        *,
+        progress: bool = False,
+        checkpoint_path: Any = None,
+        resume: bool = False,
+        stop_after_s: float | None = None,
+    ) -> RunResult:
         cfg = self.cfg
         sw = cfg.sweep
         wall0 = time.perf_counter()
@@ -390,21 +459,40 @@ class SweepRunner:
                     raise KeyboardInterrupt(res.message)
                 if first is None:
                     first = res
-                return RunResult(records=first.records, status=res.status,
-                                 message=f"sweep point {dict(zip(sw.keys, values))}: {res.message}",
-                                 t_end_s=float(res.t_end_s), steps=steps + res.steps,
-                                 wall_time_s=time.perf_counter() - wall0)
+                return RunResult(
+                    records=first.records,
+                    status=res.status,
+                    message=f"sweep point {dict(zip(sw.keys, values))}: {res.message}",
+                    t_end_s=float(res.t_end_s),
+                    steps=steps + res.steps,
+                    wall_time_s=time.perf_counter() - wall0,
+                )
             summ, _ = sc.postprocess(res)
             steps += res.steps
             if first is None:
                 first = res
             rows.append(summ)
-        keys = ("theta_gamma_eq6_model_rad", "theta_gamma_eq6_stretch_rad", "theta_gamma_exact_rad",
-                "theta_gamma_mujoco_rad", "theta_gamma_mujoco_std_rad", "mujoco_vs_exact_rel_diff",
-                "predicted_rate_lumped_rad_s", "predicted_rate_exact_rad_s", "secular_rate_rad_s",
-                "hinge_torque_peak_N_m", "slide_force_peak_N", "angular_momentum_drift",
-                "hinge_torque_rms_N_m", "slide_force_rms_N", "max_cycle_rate_Hz", "angmom_spurious_yaw_rel",
-                "cycle_frequency_Hz", "timestep_s", "wall_time_s")
+        keys = (
+            "theta_gamma_eq6_model_rad",
+            "theta_gamma_eq6_stretch_rad",
+            "theta_gamma_exact_rad",
+            "theta_gamma_mujoco_rad",
+            "theta_gamma_mujoco_std_rad",
+            "mujoco_vs_exact_rel_diff",
+            "predicted_rate_lumped_rad_s",
+            "predicted_rate_exact_rad_s",
+            "secular_rate_rad_s",
+            "hinge_torque_peak_N_m",
+            "slide_force_peak_N",
+            "angular_momentum_drift",
+            "hinge_torque_rms_N_m",
+            "slide_force_rms_N",
+            "max_cycle_rate_Hz",
+            "angmom_spurious_yaw_rel",
+            "cycle_frequency_Hz",
+            "timestep_s",
+            "wall_time_s",
+        )
         records = {"t": first.records["t"], "qpos": first.records["qpos"]}
         for k in keys:
             records[f"sweep_{k}"] = np.array([r[k] for r in rows], dtype=float)
@@ -412,14 +500,24 @@ class SweepRunner:
             vals = [p[j] for p in sw.points]
             arr = np.array(vals, dtype=float)
             records[f"sweep_value_{j}"] = arr
-        return RunResult(records=records, status="completed", message=f"{len(rows)} sweep points",
-                         t_end_s=float(first.t_end_s), steps=steps, wall_time_s=time.perf_counter() - wall0)
+        return RunResult(
+            records=records,
+            status="completed",
+            message=f"{len(rows)} sweep points",
+            t_end_s=float(first.t_end_s),
+            steps=steps,
+            wall_time_s=time.perf_counter() - wall0,
+        )
 
     def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         rec, sw = result.records, self.cfg.sweep
-        summ: dict[str, Any] = {"sweep_base": sw.base, "sweep_keys": list(sw.keys),
-                                "sweep_points": [list(p) for p in sw.points], "sweep_cycles": sw.cycles,
-                                "wall_time_s": result.wall_time_s}
+        summ: dict[str, Any] = {
+            "sweep_base": sw.base,
+            "sweep_keys": list(sw.keys),
+            "sweep_points": [list(p) for p in sw.points],
+            "sweep_cycles": sw.cycles,
+            "wall_time_s": result.wall_time_s,
+        }
         for k, v in rec.items():
             if k.startswith("sweep_") and not k.startswith("sweep_value"):
                 summ[k] = v.tolist()

@@ -38,5 +38,14 @@ from magsail_mj.concepts.reflector.tasks import (
     build_reflector_scenario,
 )
 
-__all__ = ["ReflectorConfig", "ReflectorModel", "ReflectorTask", "DetumbleTask", "PitchTask", "PitchCapsTask",
-           "build_reflector_scenario", "coil_capability", "ASSUMPTIONS"]
+__all__ = [
+    "ReflectorConfig",
+    "ReflectorModel",
+    "ReflectorTask",
+    "DetumbleTask",
+    "PitchTask",
+    "PitchCapsTask",
+    "build_reflector_scenario",
+    "coil_capability",
+    "ASSUMPTIONS",
+]

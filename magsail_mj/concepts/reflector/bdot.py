@@ -70,12 +70,27 @@ class PlateBdotController:
       period_s: controller period (= the integration step) [s].
     """
 
-    def __init__(self, *, law: Literal["dipole", "printed", "norm_cap"], m_max_A_m2: float, T_max_N_m: float,
-                 gain: float, I_max_A: float, field_body, body_id: int, period_s: float) -> None:
+    def __init__(
+        self,
+        *,
+        law: Literal["dipole", "printed", "norm_cap"],
+        m_max_A_m2: float,
+        T_max_N_m: float,
+        gain: float,
+        I_max_A: float,
+        field_body,
+        body_id: int,
+        period_s: float,
+    ) -> None:
         if law not in ("dipole", "printed", "norm_cap"):
             raise ValueError(f"law: must be 'dipole', 'printed' or 'norm_cap', got {law!r}")
-        for name, v in (("m_max_A_m2", m_max_A_m2), ("T_max_N_m", T_max_N_m), ("gain", gain), ("I_max_A", I_max_A),
-                        ("period_s", period_s)):
+        for name, v in (
+            ("m_max_A_m2", m_max_A_m2),
+            ("T_max_N_m", T_max_N_m),
+            ("gain", gain),
+            ("I_max_A", I_max_A),
+            ("period_s", period_s),
+        ):
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name}: must be > 0, got {v!r}")
         self.law = law
@@ -104,12 +119,19 @@ class PlateBdotController:
             mx, my = float(m_cmd[0]), float(m_cmd[1])
             m = np.array([min(max(mx, -mm), mm), min(max(my, -mm), mm), 0.0])
             sat = np.array([abs(mx) >= mm, abs(my) >= mm])
-            return BdotCommand(torque_body=cross3(m, B_body), dipole_body=m, dipole_cmd_body=m_cmd,
-                               currents_A=self.I_max * m[:2] / mm, saturated=sat, B_body=B_body)
+            return BdotCommand(
+                torque_body=cross3(m, B_body),
+                dipole_body=m,
+                dipole_cmd_body=m_cmd,
+                currents_A=self.I_max * m[:2] / mm,
+                saturated=sat,
+                B_body=B_body,
+            )
         T_raw = self.gain * (wxb if self.law == "printed" else cross3(wxb, B_body))
         T, clipped = saturate_norm(T_raw, self.T_max)
-        return BdotCommand(torque_body=T, dipole_cmd_body=self.gain * wxb,
-                           saturated=np.array([clipped, clipped]), B_body=B_body)
+        return BdotCommand(
+            torque_body=T, dipole_cmd_body=self.gain * wxb, saturated=np.array([clipped, clipped]), B_body=B_body
+        )
 
     def update(self, state) -> BdotCommand:
         R = quat_to_matrix(state.xquat[self.body_id])

@@ -53,8 +53,9 @@ class _Watchdog:
         err = 2.0 * math.acos(min(1.0, abs(float(cmd.q_e[0]))))
         self.err_max = max(self.err_max, err)
         if err > self.limit:
-            raise TrackingLost(f"tracking error {math.degrees(err):.3f}° above {math.degrees(self.limit):g}° "
-                                  f"at t = {state.t:.1f} s")
+            raise TrackingLost(
+                f"tracking error {math.degrees(err):.3f}° above {math.degrees(self.limit):g}° at t = {state.t:.1f} s"
+            )
         return cmd
 
 
@@ -92,8 +93,15 @@ class CapSweepRunner:
         ctl = p.pitch_controller()
         ctl.cap = float(cap)
         dog = _Watchdog(ctl, limit_deg * DEG)
-        sim = Simulation(model=p.model, duration_s=p.cfg.sim.duration_s, loads=[HeldBodyTorqueLoad(p.idx.plate)],
-                         controller=dog, probes={}, record_every=10 ** 9, init=self._init_state)
+        sim = Simulation(
+            model=p.model,
+            duration_s=p.cfg.sim.duration_s,
+            loads=[HeldBodyTorqueLoad(p.idx.plate)],
+            controller=dog,
+            probes={},
+            record_every=10**9,
+            init=self._init_state,
+        )
         return sim, dog
 
     def _one(self, cap: float, limit_deg: float) -> CapRun:
@@ -101,8 +109,14 @@ class CapSweepRunner:
         t0 = time.perf_counter()
         res = sim.run()
         check_inner_run(res.status, res.message, where=f"cap {cap:g} N m, limit {limit_deg:g}°")
-        return CapRun(cap_N_m=float(cap), limit_deg=limit_deg, passed=res.status == "completed",
-                      err_max_rad=dog.err_max, t_stop_s=res.t_end_s, wall_s=time.perf_counter() - t0)
+        return CapRun(
+            cap_N_m=float(cap),
+            limit_deg=limit_deg,
+            passed=res.status == "completed",
+            err_max_rad=dog.err_max,
+            t_stop_s=res.t_end_s,
+            wall_s=time.perf_counter() - t0,
+        )
 
     def _search(self, runs: list[CapRun], *, progress: bool) -> None:
         """The grid, then a bisection per threshold; appends every run to ``runs``."""
@@ -113,11 +127,15 @@ class CapSweepRunner:
             runs.append(self._one(cap, hi_thr))
             if progress:
                 r = runs[-1]
-                print(f"cap {cap:8.4g} N m: {'pass' if r.passed else 'fail'} {math.degrees(r.err_max_rad):.3f}°",
-                      flush=True)
+                print(
+                    f"cap {cap:8.4g} N m: {'pass' if r.passed else 'fail'} {math.degrees(r.err_max_rad):.3f}°",
+                    flush=True,
+                )
         for thr in sorted(self.thresholds_deg, reverse=True):
+
             def ok(r: CapRun) -> bool:
                 return r.passed and r.err_max_rad <= thr * DEG
+
             grid_runs = runs[: grid.size]
             flags = [ok(r) for r in grid_runs]
             if not any(flags):
@@ -138,8 +156,14 @@ class CapSweepRunner:
                     lo = mid
             self.minimum[thr] = hi
 
-    def run(self, *, progress: bool = False, checkpoint_path: Any = None, resume: bool = False,
-            stop_after_s: float | None = None) -> RunResult:
+    def run(
+        self,
+        *,
+        progress: bool = False,
+        checkpoint_path: Any = None,
+        resume: bool = False,
+        stop_after_s: float | None = None,
+    ) -> RunResult:
         wall0 = time.perf_counter()
         runs: list[CapRun] = []
         grid = cap_grid()
@@ -150,19 +174,31 @@ class CapSweepRunner:
         except DivergenceError as err:
             status, message = "diverged", str(err)
         self.runs = runs
-        self.monotonic = {thr: bool(np.all(np.diff([float(r.passed and r.err_max_rad <= thr * DEG)
-                                                   for r in runs[: grid.size]]) >= 0))
-                          for thr in self.thresholds_deg}
+        self.monotonic = {
+            thr: bool(np.all(np.diff([float(r.passed and r.err_max_rad <= thr * DEG) for r in runs[: grid.size]]) >= 0))
+            for thr in self.thresholds_deg
+        }
         q0, _ = self.plate.pitch_initial_state()
         data_qpos = self.plate.qpos_rows(q0, len(runs))
-        rec = {"t": np.arange(len(runs), dtype=float), "qpos": data_qpos,
-               "cap_N_m": np.array([r.cap_N_m for r in runs]), "limit_deg": np.array([r.limit_deg for r in runs]),
-               "passed": np.array([r.passed for r in runs], dtype=np.int8),
-               "err_max_rad": np.array([r.err_max_rad for r in runs]), "t_stop_s": np.array([r.t_stop_s for r in runs]),
-               "wall_s": np.array([r.wall_s for r in runs])}
+        rec = {
+            "t": np.arange(len(runs), dtype=float),
+            "qpos": data_qpos,
+            "cap_N_m": np.array([r.cap_N_m for r in runs]),
+            "limit_deg": np.array([r.limit_deg for r in runs]),
+            "passed": np.array([r.passed for r in runs], dtype=np.int8),
+            "err_max_rad": np.array([r.err_max_rad for r in runs]),
+            "t_stop_s": np.array([r.t_stop_s for r in runs]),
+            "wall_s": np.array([r.wall_s for r in runs]),
+        }
         message = message or f"B3 cap sweep: {len(runs)} runs"
-        return RunResult(records=rec, status=status, message=message,
-                         t_end_s=float(self.plate.cfg.sim.duration_s), steps=0, wall_time_s=time.perf_counter() - wall0)
+        return RunResult(
+            records=rec,
+            status=status,
+            message=message,
+            t_end_s=float(self.plate.cfg.sim.duration_s),
+            steps=0,
+            wall_time_s=time.perf_counter() - wall0,
+        )
 
 
 def caps_outputs(runner: CapSweepRunner, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -171,28 +207,45 @@ def caps_outputs(runner: CapSweepRunner, result: RunResult) -> tuple[dict[str, A
     cfg = p.cfg
     rec = result.records
     summary: dict[str, Any] = {
-        "status": result.status, "wall_time_s": result.wall_time_s, "runs": int(rec["t"].size),
-        "areal_density_kg_m2": cfg.plate.areal_density_kg_m2, "variant": cfg.variant,
-        "rate_term": cfg.control.rate_term, "saturation": cfg.control.saturation_mode,
-        "orbit_period_s": p.orbit.period_s, "t_mid_s": p.orbit.t_m_s,
+        "status": result.status,
+        "wall_time_s": result.wall_time_s,
+        "runs": int(rec["t"].size),
+        "areal_density_kg_m2": cfg.plate.areal_density_kg_m2,
+        "variant": cfg.variant,
+        "rate_term": cfg.control.rate_term,
+        "saturation": cfg.control.saturation_mode,
+        "orbit_period_s": p.orbit.period_s,
+        "t_mid_s": p.orbit.t_m_s,
         "cap_geometric_N_m": p.cap.T_max_ycoil_N_m,
         "cap_min_err_below_5deg_N_m": runner.minimum.get(5.0),
         "cap_min_err_below_1deg_N_m": runner.minimum.get(1.0),
-        "grid_monotonic_5deg": runner.monotonic.get(5.0), "grid_monotonic_1deg": runner.monotonic.get(1.0),
+        "grid_monotonic_5deg": runner.monotonic.get(5.0),
+        "grid_monotonic_1deg": runner.monotonic.get(1.0),
         "bisection_rel_tol": runner.rel_tol,
     }
     series = {"cap_N_m": rec["cap_N_m"], "err_max_deg": np.degrees(rec["err_max_rad"])}
     return summary, series
 
 
-def caps_plots(run_dir: Path, *, runs: list[CapRun], minimum: dict[float, float | None], T_max_N_m: float,
-               areal_density_kg_m2: float) -> list[Path]:
+def caps_plots(
+    run_dir: Path,
+    *,
+    runs: list[CapRun],
+    minimum: dict[float, float | None],
+    T_max_N_m: float,
+    areal_density_kg_m2: float,
+) -> list[Path]:
     """``caps.png``: maximum error [deg] (up to the stop) against the cap [N m], pass/fail, the
     thresholds, the minimum caps found and the geometric coil capability ``T_max_N_m``."""
     fig, ax = new_figure(figsize=(8, 4.5))
     for r in runs:
-        ax.loglog(r.cap_N_m, max(math.degrees(r.err_max_rad), 1e-4), "o" if r.passed else "x",
-                  color="C2" if r.passed else "C3", ms=5)
+        ax.loglog(
+            r.cap_N_m,
+            max(math.degrees(r.err_max_rad), 1e-4),
+            "o" if r.passed else "x",
+            color="C2" if r.passed else "C3",
+            ms=5,
+        )
     for thr in (5.0, 1.0):
         ax.axhline(thr, color="k", ls="--", lw=0.8)
         c = minimum.get(thr)

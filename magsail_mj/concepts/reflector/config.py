@@ -25,8 +25,17 @@ from magsail_mj.config import (
     normalised,
 )
 
-__all__ = ["ReflectorConfig", "PlateConfig", "CoilConfig", "ReflectorFieldConfig", "ReflectorControlConfig",
-           "ReflectorOrbitConfig", "ReflectorInitialConfig", "ReflectorGravityConfig", "ReflectorRenderConfig"]
+__all__ = [
+    "ReflectorConfig",
+    "PlateConfig",
+    "CoilConfig",
+    "ReflectorFieldConfig",
+    "ReflectorControlConfig",
+    "ReflectorOrbitConfig",
+    "ReflectorInitialConfig",
+    "ReflectorGravityConfig",
+    "ReflectorRenderConfig",
+]
 
 Vec3 = tuple[float, float, float]
 
@@ -47,12 +56,18 @@ class PlateConfig(StrictModel):
     def _whole_cells(self) -> PlateConfig:
         ratio = self.side_m / self.cell_m
         if not ratio < MAX_STEPS:
-            raise ConfigProblem("side_m", f"side_m / cell_m = {ratio:.3g} cells per side is more than a 64-bit "
-                                f"count holds, got {self.side_m!r}", others=("cell_m",))
+            raise ConfigProblem(
+                "side_m",
+                f"side_m / cell_m = {ratio:.3g} cells per side is more than a 64-bit count holds, got {self.side_m!r}",
+                others=("cell_m",),
+            )
         n = round(ratio)
         if n < 2 or abs(n * self.cell_m - self.side_m) > 1e-9 * self.side_m:
-            raise ConfigProblem("side_m", f"must be a whole multiple (>= 2) of cell_m = {self.cell_m!r}, "
-                                f"got {self.side_m!r}", others=("cell_m",))
+            raise ConfigProblem(
+                "side_m",
+                f"must be a whole multiple (>= 2) of cell_m = {self.cell_m!r}, got {self.side_m!r}",
+                others=("cell_m",),
+            )
         return self
 
     @model_validator(mode="after")
@@ -60,12 +75,26 @@ class PlateConfig(StrictModel):
         d = self.side_m
         t = self.depth if self.inertia_thickness_m is None else self.inertia_thickness_m
         t_key = "inertia_thickness_m" if self.inertia_thickness_m is not None else "depth_m"
-        m = finite_product("areal_density_kg_m2", self.areal_density_kg_m2, d, d, minimum=MJ_MINVAL,
-                           what="plate mass σ d² (MuJoCo needs > mjMINVAL)", others=("side_m",))
-        finite_product("areal_density_kg_m2", m / 12.0, d * d + t * t, minimum=MJ_MINVAL,
-                       what="in-plane moment m (d² + t²)/12", others=("side_m", t_key))
-        finite_product("areal_density_kg_m2", m / 6.0, d, d, minimum=MJ_MINVAL,
-                       what="normal moment m d²/6", others=("side_m",))
+        m = finite_product(
+            "areal_density_kg_m2",
+            self.areal_density_kg_m2,
+            d,
+            d,
+            minimum=MJ_MINVAL,
+            what="plate mass σ d² (MuJoCo needs > mjMINVAL)",
+            others=("side_m",),
+        )
+        finite_product(
+            "areal_density_kg_m2",
+            m / 12.0,
+            d * d + t * t,
+            minimum=MJ_MINVAL,
+            what="in-plane moment m (d² + t²)/12",
+            others=("side_m", t_key),
+        )
+        finite_product(
+            "areal_density_kg_m2", m / 6.0, d, d, minimum=MJ_MINVAL, what="normal moment m d²/6", others=("side_m",)
+        )
         return self
 
     @property
@@ -134,10 +163,16 @@ class ReflectorOrbitConfig(StrictModel):
     @model_validator(mode="after")
     def _period(self) -> ReflectorOrbitConfig:
         r = (self.altitude_km + self.R_e_km) * 1e3
-        period = finite_product("altitude_km", r, r, r / self.mu_m3_s2, what="orbital period 2π √(r³/μ)",
-                                others=("R_e_km", "mu_m3_s2"))
-        finite_product("n_orbits", self.n_orbits, 2.0 * math.pi * math.sqrt(period), what="nominal run length",
-                       others=("altitude_km", "mu_m3_s2"))
+        period = finite_product(
+            "altitude_km", r, r, r / self.mu_m3_s2, what="orbital period 2π √(r³/μ)", others=("R_e_km", "mu_m3_s2")
+        )
+        finite_product(
+            "n_orbits",
+            self.n_orbits,
+            2.0 * math.pi * math.sqrt(period),
+            what="nominal run length",
+            others=("altitude_km", "mu_m3_s2"),
+        )
         return self
 
 

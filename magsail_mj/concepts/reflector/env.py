@@ -47,11 +47,19 @@ import numpy as np
 
 from magsail_mj.concepts.reflector.bdot import BdotCommand, PlateBdotController
 from magsail_mj.control.reflector_pitch import (
-    PitchCommand, ReflectorPitchController, project_and_saturate, saturate_norm,
+    PitchCommand,
+    ReflectorPitchController,
+    project_and_saturate,
+    saturate_norm,
 )
 from magsail_mj.control.reflector_steering import SteeringReference
 from magsail_mj.envs.core import (
-    AttitudeTask, SimulationPhysics, draw_rigid_start, make_environment, pointing_error_rad, register,
+    AttitudeTask,
+    SimulationPhysics,
+    draw_rigid_start,
+    make_environment,
+    pointing_error_rad,
+    register,
 )
 from magsail_mj.loads.base import StepState
 from magsail_mj.quaternion import error_quaternion, quat_to_matrix
@@ -80,8 +88,14 @@ class ActionBdotConverter:
         if self.mode == "currents":
             currents = np.array(action, dtype=float)
             m = np.array([law.m_max * currents[0] / law.I_max, law.m_max * currents[1] / law.I_max, 0.0])
-            return BdotCommand(torque_body=cross3(m, B_b), dipole_body=m, dipole_cmd_body=m.copy(), currents_A=currents,
-                               saturated=np.abs(currents) >= law.I_max, B_body=B_b)
+            return BdotCommand(
+                torque_body=cross3(m, B_b),
+                dipole_body=m,
+                dipole_cmd_body=m.copy(),
+                currents_A=currents,
+                saturated=np.abs(currents) >= law.I_max,
+                B_body=B_b,
+            )
         T, clipped = _perp_capped(np.asarray(action, dtype=float), B_b, law.T_max)
         b2 = float(B_b @ B_b)
         m = cross3(B_b, T) / b2 if b2 > 0 else np.zeros(3)
@@ -111,10 +125,20 @@ class ActionPitchConverter:
         q_e = error_quaternion(ref.q_ref, q)
         T_ref = np.array(action, dtype=float)
         B_w = law.orbit.field(state.t)
-        T_act, sat = project_and_saturate(T_ref, R.T @ B_w, saturation=law.saturation, cap_N_m=law.cap,
-                                          B_ref_T=law.B_ref, m_max_A_m2=law.m_max)
-        return PitchCommand(torque_body=T_act, T_ref_body=T_ref, saturated=sat, q_e=q_e, q_ref=ref.q_ref,
-                            psi_ref=ref.psi_c, psi_dot_ref=ref.psi_dot, psi_ddot_ref=ref.psi_ddot, B_world=B_w)
+        T_act, sat = project_and_saturate(
+            T_ref, R.T @ B_w, saturation=law.saturation, cap_N_m=law.cap, B_ref_T=law.B_ref, m_max_A_m2=law.m_max
+        )
+        return PitchCommand(
+            torque_body=T_act,
+            T_ref_body=T_ref,
+            saturated=sat,
+            q_e=q_e,
+            q_ref=ref.q_ref,
+            psi_ref=ref.psi_c,
+            psi_dot_ref=ref.psi_dot,
+            psi_ddot_ref=ref.psi_ddot,
+            B_world=B_w,
+        )
 
 
 def _plate_observation(physics: SimulationPhysics, idx: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -141,8 +165,17 @@ class ReflectorDetumbleTask(AttitudeTask):
       rate_range_rad_s, attitude_range_deg: episode-start ranges.
     """
 
-    def __init__(self, base: Any, random: Any = None, *, action: str = "currents", randomize: bool = True,
-                 rate_range_rad_s: float = 0.07, attitude_range_deg: float = 180.0, reward_weights: Any = None) -> None:
+    def __init__(
+        self,
+        base: Any,
+        random: Any = None,
+        *,
+        action: str = "currents",
+        randomize: bool = True,
+        rate_range_rad_s: float = 0.07,
+        attitude_range_deg: float = 180.0,
+        reward_weights: Any = None,
+    ) -> None:
         super().__init__(random, randomize=randomize, reward_weights=reward_weights)
         if action not in ("currents", "torque"):
             raise ValueError(f"action: must be 'currents' or 'torque', got {action!r}")
@@ -160,12 +193,17 @@ class ReflectorDetumbleTask(AttitudeTask):
             self._set_action_bounds(("I_xcoil_A", "I_ycoil_A"), np.full(2, -i_max), np.full(2, i_max))
         else:
             self.clip_actions = False
-            self._set_action_bounds(("T_x_Nm", "T_y_Nm", "T_z_Nm"), np.full(3, -shipped.T_max),
-                                    np.full(3, shipped.T_max))
+            self._set_action_bounds(
+                ("T_x_Nm", "T_y_Nm", "T_z_Nm"), np.full(3, -shipped.T_max), np.full(3, shipped.T_max)
+            )
 
     def draw_start(self, physics: SimulationPhysics) -> dict[str, Any]:
-        q, omega = draw_rigid_start(self.random, q0_wxyz=np.asarray(self.cfg.initial.q0_wxyz, dtype=float),
-                                    rate_range_rad_s=self.rate_range, attitude_range_rad=self.attitude_range)
+        q, omega = draw_rigid_start(
+            self.random,
+            q0_wxyz=np.asarray(self.cfg.initial.q0_wxyz, dtype=float),
+            rate_range_rad_s=self.rate_range,
+            attitude_range_rad=self.attitude_range,
+        )
         self.scenario.plate.write_state(physics.data, q, omega)
         return {"omega0_body_rad_s": omega, "q0_wxyz": q}
 
@@ -173,8 +211,11 @@ class ReflectorDetumbleTask(AttitudeTask):
 
     def observe(self, physics: SimulationPhysics, state: None) -> dict[str, np.ndarray]:
         q, R, w = _plate_observation(physics, self.scenario.plate.idx)
-        return {"attitude_wxyz": q, "body_rate_rad_s": w,
-                "field_body_T": self.converter.law.field_body(physics.sim.time, R)}
+        return {
+            "attitude_wxyz": q,
+            "body_rate_rad_s": w,
+            "field_body_T": self.converter.law.field_body(physics.sim.time, R),
+        }
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
         obs = self.current_observation(physics)
@@ -208,8 +249,17 @@ class ReflectorPitchTask(AttitudeTask):
 
     rate_scale_rad_s = 1e-3
 
-    def __init__(self, base: Any, random: Any = None, *, action: str = "torque", randomize: bool = True,
-                 rate_range_rad_s: float = 1e-4, attitude_range_deg: float = 5.0, reward_weights: Any = None) -> None:
+    def __init__(
+        self,
+        base: Any,
+        random: Any = None,
+        *,
+        action: str = "torque",
+        randomize: bool = True,
+        rate_range_rad_s: float = 1e-4,
+        attitude_range_deg: float = 5.0,
+        reward_weights: Any = None,
+    ) -> None:
         super().__init__(random, randomize=randomize, reward_weights=reward_weights)
         if action != "torque":
             raise ValueError(f"action: pitch tracking takes 'torque', got {action!r}")
@@ -230,8 +280,9 @@ class ReflectorPitchTask(AttitudeTask):
 
     def draw_start(self, physics: SimulationPhysics) -> dict[str, Any]:
         q_ref0, w_ref0 = self.scenario.plate.pitch_initial_state()
-        q, dw = draw_rigid_start(self.random, q0_wxyz=q_ref0, rate_range_rad_s=self.rate_range,
-                                 attitude_range_rad=self.attitude_range)
+        q, dw = draw_rigid_start(
+            self.random, q0_wxyz=q_ref0, rate_range_rad_s=self.rate_range, attitude_range_rad=self.attitude_range
+        )
         omega = np.asarray(w_ref0, dtype=float) + dw
         self.scenario.plate.write_state(physics.data, q, omega)
         return {"omega0_body_rad_s": omega, "q0_wxyz": q}
@@ -242,16 +293,22 @@ class ReflectorPitchTask(AttitudeTask):
         q, R, w = _plate_observation(physics, self.scenario.plate.idx)
         t = physics.time()
         ref = self.steering.at(t)
-        obs = {"attitude_wxyz": q, "body_rate_rad_s": w, "field_body_T": R.T @ self.converter.law.orbit.field(t),
-               "target_wxyz": np.array(ref.q_ref, dtype=float),
-               "target_rate_rad_s": np.array([0.0, -ref.psi_dot, 0.0])}
+        obs = {
+            "attitude_wxyz": q,
+            "body_rate_rad_s": w,
+            "field_body_T": R.T @ self.converter.law.orbit.field(t),
+            "target_wxyz": np.array(ref.q_ref, dtype=float),
+            "target_rate_rad_s": np.array([0.0, -ref.psi_dot, 0.0]),
+        }
         return obs
 
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
         obs = self.current_observation(physics)
         dw = obs["body_rate_rad_s"] - obs["target_rate_rad_s"]
-        return {"theta_rad": pointing_error_rad(obs["attitude_wxyz"], obs["target_wxyz"]),
-                "omega_rad_s": math.sqrt(float(dw @ dw))}
+        return {
+            "theta_rad": pointing_error_rad(obs["attitude_wxyz"], obs["target_wxyz"]),
+            "omega_rad_s": math.sqrt(float(dw @ dw)),
+        }
 
     def shipped_action(self, physics: SimulationPhysics, controller: Any, state: StepState) -> np.ndarray:
         """The shipped ``T_ref``."""
@@ -261,16 +318,25 @@ class ReflectorPitchTask(AttitudeTask):
 def _reflector_kind(kind: str):
     def matches(cfg: Any) -> bool:
         return getattr(cfg, "concept", None) == "reflector" and getattr(cfg, "kind", None) == kind
+
     return matches
 
 
-@register("reflector/detumble", config="magsail_mj/concepts/reflector/configs/detumble.toml", matches=_reflector_kind("detumble"))  # noqa: E501
+@register(
+    "reflector/detumble",
+    config="magsail_mj/concepts/reflector/configs/detumble.toml",
+    matches=_reflector_kind("detumble"),
+)  # noqa: E501
 def reflector_detumble(cfg: Any, *, random: Any = None, **options: Any):
     """Scenario A detumble (:class:`ReflectorDetumbleTask`)."""
     return make_environment(cfg, ReflectorDetumbleTask, random=random, **options)
 
 
-@register("reflector/pitch_tracking", config="magsail_mj/concepts/reflector/configs/tracking_100g.toml", matches=_reflector_kind("pitch"))  # noqa: E501
+@register(
+    "reflector/pitch_tracking",
+    config="magsail_mj/concepts/reflector/configs/tracking_100g.toml",
+    matches=_reflector_kind("pitch"),
+)  # noqa: E501
 def reflector_pitch_tracking(cfg: Any, *, random: Any = None, **options: Any):
     """Scenario B pitch tracking (:class:`ReflectorPitchTask`)."""
     return make_environment(cfg, ReflectorPitchTask, random=random, **options)

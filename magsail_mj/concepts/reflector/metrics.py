@@ -77,7 +77,7 @@ def _set_markers(plate: ReflectorModel, qpos: np.ndarray, directions: dict[str, 
         idx = np.maximum.accumulate(idx)
         first = int(np.argmax(ok))
         idx[:first] = first
-        qpos[:, qa:qa + 4] = direction_quaternions(v[idx])
+        qpos[:, qa : qa + 4] = direction_quaternions(v[idx])
 
 
 # ------------------------------------------------------------------------------ detumble
@@ -112,7 +112,7 @@ def detumble_outputs(plate: ReflectorModel, result: RunResult) -> tuple[dict[str
         "h_along_B_N_m_s": h_along,
         "kinetic_energy_J": 0.5 * np.einsum("ti,ti->t", w, h_b),
         "T_norm_N_m": np.linalg.norm(T_b, axis=1),
-        "torque_norm_Nm": np.linalg.norm(T_b, axis=1),        # video overlay (unit suffix it knows)
+        "torque_norm_Nm": np.linalg.norm(T_b, axis=1),  # video overlay (unit suffix it knows)
         "torque_body_N_m": T_b,
         "currents_A": rec["currents_A"],
         "B_world_T": B_w,
@@ -120,16 +120,23 @@ def detumble_outputs(plate: ReflectorModel, result: RunResult) -> tuple[dict[str
     cap = plate.cap.cap_N_m
     h0 = float(h_norm[0])
     summary: dict[str, Any] = {
-        "status": result.status, "t_end_s": result.t_end_s, "wall_time_s": result.wall_time_s,
+        "status": result.status,
+        "t_end_s": result.t_end_s,
+        "wall_time_s": result.wall_time_s,
         "step_cost_us": 1e6 * result.wall_time_s / max(result.steps, 1),
-        "variant": plate.cfg.variant, "law": plate.cfg.control.law, "field_frame": plate.cfg.field.frame,
-        "omega_k_rad_s": plate.cfg.control.omega_k_rad_s, "bdot_gain": plate.bdot_gain(),
-        "T_max_N_m": cap, "m_max_A_m2": float(plate.cap.m_max_A_m2[1]),
-        "mass_kg": plate.mass_kg, "inertia_kg_m2": plate.inertia.tolist(),
+        "variant": plate.cfg.variant,
+        "law": plate.cfg.control.law,
+        "field_frame": plate.cfg.field.frame,
+        "omega_k_rad_s": plate.cfg.control.omega_k_rad_s,
+        "bdot_gain": plate.bdot_gain(),
+        "T_max_N_m": cap,
+        "m_max_A_m2": float(plate.cap.m_max_A_m2[1]),
+        "mass_kg": plate.mass_kg,
+        "inertia_kg_m2": plate.inertia.tolist(),
         "omega_initial_rad_s": float(w_norm[0]),
     }
     for exp in (2, 3, 4):
-        summary[f"t_omega_below_1e-{exp}_s"] = first_time(t, w_norm < 10.0 ** -exp)
+        summary[f"t_omega_below_1e-{exp}_s"] = first_time(t, w_norm < 10.0**-exp)
     summary["time_rate_below_1e-3_s"] = summary["t_omega_below_1e-3_s"]
     summary["omega_final_rad_s"] = float(w_norm[-1])
     summary["sat_fraction_xcoil"] = float(np.mean(sat[:, 0]))
@@ -188,9 +195,13 @@ def pass_table(plate: ReflectorModel, ref: dict[str, np.ndarray]) -> list[dict[s
     rows = []
     for k, tk, a, b in pass_windows(plate, float(t[-1])):
         sel = (t >= a) & (t < b) if b < t[-1] else (t >= a) & (t <= b)
-        row = {"pass": k, "t_equator_s": tk, "t_equator_h": tk / 3600.0,
-               "psi_dot_peak_rad_s": float(np.max(np.abs(ref["psi_dot"][sel]))),
-               "psi_ddot_peak_rad_s2": float(np.max(np.abs(ref["psi_ddot"][sel])))}
+        row = {
+            "pass": k,
+            "t_equator_s": tk,
+            "t_equator_h": tk / 3600.0,
+            "psi_dot_peak_rad_s": float(np.max(np.abs(ref["psi_dot"][sel]))),
+            "psi_ddot_peak_rad_s2": float(np.max(np.abs(ref["psi_ddot"][sel]))),
+        }
         for label in ("sigma100", "sigma10"):
             tq = ref[f"torque_ff_{label}"][sel]
             row[f"torque_ff_peak_{label}_N_m"] = float(tq.max())
@@ -199,8 +210,9 @@ def pass_table(plate: ReflectorModel, ref: dict[str, np.ndarray]) -> list[dict[s
     return rows
 
 
-def pitch_outputs(plate: ReflectorModel, result: RunResult, *, ref: dict[str, np.ndarray] | None = None
-                  ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def pitch_outputs(
+    plate: ReflectorModel, result: RunResult, *, ref: dict[str, np.ndarray] | None = None
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Summary and series of a Scenario B run; ``ref``: :func:`reference_products` of ``plate``
     (computed when not given)."""
     rec, t, qpos, q, w = _plate_records(plate, result)
@@ -222,11 +234,12 @@ def pitch_outputs(plate: ReflectorModel, result: RunResult, *, ref: dict[str, np
     R_g = o.ground_point(t)
     B_w = rec["B_world_T"]
     R = quat_to_mat(q)
-    _set_markers(plate, qpos, {"mk_sun": np.tile([0.0, 1.0, 0.0], (t.size, 1)), "mk_ground": R_g - r_w,
-                            "mk_field": B_w})
+    _set_markers(
+        plate, qpos, {"mk_sun": np.tile([0.0, 1.0, 0.0], (t.size, 1)), "mk_ground": R_g - r_w, "mk_field": B_w}
+    )
     qa = plate.idx.marker_qpos.get("mk_ref_line")
     if qa is not None:
-        qpos[:, qa:qa + 4] = rec["q_ref"]
+        qpos[:, qa : qa + 4] = rec["q_ref"]
     series = {
         "qpos": qpos,
         "time_h": t / 3600.0,
@@ -245,7 +258,7 @@ def pitch_outputs(plate: ReflectorModel, result: RunResult, *, ref: dict[str, np
         "err_rad": err,
         "err_deg": np.degrees(err),
         "T_act_y_N_m": T_act[:, 1],
-        "torque_pitch_Nm": T_act[:, 1],                       # video overlay (unit suffix it knows)
+        "torque_pitch_Nm": T_act[:, 1],  # video overlay (unit suffix it knows)
         "T_ref_norm_N_m": np.linalg.norm(T_ref, axis=1),
         "T_act_norm_N_m": np.linalg.norm(T_act, axis=1),
         "r_world_m": r_w,
@@ -254,37 +267,52 @@ def pitch_outputs(plate: ReflectorModel, result: RunResult, *, ref: dict[str, np
     }
     ref = reference_products(plate) if ref is None else ref
     windows = pass_windows(plate, float(t[-1]))
-    over_cap = sum(1 for _, _, a, b in windows
-                   if np.any((series["T_ref_norm_N_m"] > cap * (1 + 1e-9)) & (t >= a) & (t <= b)))
+    over_cap = sum(
+        1 for _, _, a, b in windows if np.any((series["T_ref_norm_N_m"] > cap * (1 + 1e-9)) & (t >= a) & (t <= b))
+    )
     sat_passes = sum(1 for _, _, a, b in windows if np.any(sat & (t >= a) & (t <= b)))
     dtw = _dt_weights(t)
     summary: dict[str, Any] = {
-        "status": result.status, "t_end_s": result.t_end_s, "wall_time_s": result.wall_time_s,
+        "status": result.status,
+        "t_end_s": result.t_end_s,
+        "wall_time_s": result.wall_time_s,
         "step_cost_us": 1e6 * result.wall_time_s / max(result.steps, 1),
-        "variant": plate.cfg.variant, "rate_term": plate.cfg.control.rate_term,
+        "variant": plate.cfg.variant,
+        "rate_term": plate.cfg.control.rate_term,
         "feedforward": plate.cfg.control.feedforward,
-        "saturation": plate.cfg.control.saturation_mode, "omega_n_rad_s": plate.cfg.control.omega_n_rad_s,
-        "areal_density_kg_m2": plate.cfg.plate.areal_density_kg_m2, "mass_kg": plate.mass_kg,
-        "inertia_kg_m2": plate.inertia.tolist(), "cap_N_m": cap,
-        "orbit_period_s": o.period_s, "orbit_radius_m": o.r_m, "mean_motion_rad_s": o.n_rad_s, "t_mid_s": o.t_m_s,
+        "saturation": plate.cfg.control.saturation_mode,
+        "omega_n_rad_s": plate.cfg.control.omega_n_rad_s,
+        "areal_density_kg_m2": plate.cfg.plate.areal_density_kg_m2,
+        "mass_kg": plate.mass_kg,
+        "inertia_kg_m2": plate.inertia.tolist(),
+        "cap_N_m": cap,
+        "orbit_period_s": o.period_s,
+        "orbit_radius_m": o.r_m,
+        "mean_motion_rad_s": o.n_rad_s,
+        "t_mid_s": o.t_m_s,
         "run_length_nominal_s": plate.cfg.orbit.n_orbits * o.period_s,
         "t_err_above_1deg_s": first_time(t, err > 1 * DEG),
         "t_err_above_5deg_s": first_time(t, err > 5 * DEG),
         "time_err_above_5deg_s": float(np.sum(dtw[err > 5 * DEG])),
         "err_max_rad": float(err.max()),
-        "err_rms_rad": float(np.sqrt(np.mean(err ** 2))),
+        "err_rms_rad": float(np.sqrt(np.mean(err**2))),
         "sat_fraction": float(np.mean(sat)),
         "passes_over_cap": int(over_cap),
         "torque_ff_peak_N_m": float(ref["torque_ff"].max()),
         "torque_ff_peak_sigma100_N_m": float(ref["torque_ff_sigma100"].max()),
         "torque_ff_peak_sigma10_N_m": float(ref["torque_ff_sigma10"].max()),
-        "passes_ff_over_cap": int(sum(1 for _, _, a, b in pass_windows(plate, float(ref["t"][-1]))
-                                      if np.any((ref["torque_ff"] > cap) & (ref["t"] >= a) & (ref["t"] <= b)))),
+        "passes_ff_over_cap": int(
+            sum(
+                1
+                for _, _, a, b in pass_windows(plate, float(ref["t"][-1]))
+                if np.any((ref["torque_ff"] > cap) & (ref["t"] >= a) & (ref["t"] <= b))
+            )
+        ),
         "psi_dot_peak_rad_s": float(np.max(np.abs(ref["psi_dot"]))),
         "psi_ddot_peak_rad_s2": float(np.max(np.abs(ref["psi_ddot"]))),
         "tracking_lost_first_s": first_time(t, np.abs(dpsi) > 5 * DEG),
         "passes_saturated": int(sat_passes),
-        "psi_error_rms_deg": float(np.degrees(np.sqrt(np.mean(dpsi ** 2)))),
+        "psi_error_rms_deg": float(np.degrees(np.sqrt(np.mean(dpsi**2)))),
         "psi_error_max_deg": float(np.degrees(np.max(np.abs(dpsi)))),
         "T_ref_peak_N_m": float(series["T_ref_norm_N_m"].max()),
         "field_max_T": float(np.linalg.norm(ref["B"], axis=1).max()),
@@ -297,8 +325,18 @@ def pitch_outputs(plate: ReflectorModel, result: RunResult, *, ref: dict[str, np
         summary["torque_gg_max_over_cap"] = float(gg.max() / cap)
     # reference-only products over the nominal run (own time axis ``ref_t_s``); the pass table goes
     # to passes.json with the plots
-    units = {"t": "s", "psi_c": "rad", "psi_wrapped": "rad", "psi_dot": "rad_s", "psi_ddot": "rad_s2",
-             "beta_ref": "rad", "B": "T", "torque_ff_sigma100": "N_m", "torque_ff_sigma10": "N_m", "torque_ff": "N_m"}
+    units = {
+        "t": "s",
+        "psi_c": "rad",
+        "psi_wrapped": "rad",
+        "psi_dot": "rad_s",
+        "psi_ddot": "rad_s2",
+        "beta_ref": "rad",
+        "B": "T",
+        "torque_ff_sigma100": "N_m",
+        "torque_ff_sigma10": "N_m",
+        "torque_ff": "N_m",
+    }
     for key, unit in units.items():
         series[f"ref_{key}_{unit}"] = ref[key]
     return summary, series

@@ -36,8 +36,14 @@ import numpy as np
 
 from magsail_mj.mjcf.common import INTEGRATORS, add_marker_body, add_sun_light, free_space_spec, set_view
 
-__all__ = ["PlateModelParams", "MarkerSpec", "plate_mass_properties", "build_plate_spec", "plate_indices",
-           "PlateIndices"]
+__all__ = [
+    "PlateModelParams",
+    "MarkerSpec",
+    "plate_mass_properties",
+    "build_plate_spec",
+    "plate_indices",
+    "PlateIndices",
+]
 
 _FRONT_RGBA = (0.85, 0.87, 0.92, 1.0)
 _BACK_RGBA = (0.25, 0.27, 0.32, 1.0)
@@ -66,11 +72,13 @@ def plate_mass_properties(*, side_m: float, areal_density_kg_m2: float, thicknes
         if not (math.isfinite(v) and v > 0):
             raise ValueError(f"{name}: must be > 0, got {v!r}")
     if not (math.isfinite(thickness_m) and thickness_m > 0):
-        raise ValueError(f"inertia_thickness_m: must be > 0 (the flat plate sits on the triangle-inequality "
-                         f"limit), got {thickness_m!r}")
-    m = areal_density_kg_m2 * side_m ** 2
-    I12 = m * (side_m ** 2 + thickness_m ** 2) / 12.0
-    return m, np.array([I12, I12, m * side_m ** 2 / 6.0])
+        raise ValueError(
+            f"inertia_thickness_m: must be > 0 (the flat plate sits on the triangle-inequality "
+            f"limit), got {thickness_m!r}"
+        )
+    m = areal_density_kg_m2 * side_m**2
+    I12 = m * (side_m**2 + thickness_m**2) / 12.0
+    return m, np.array([I12, I12, m * side_m**2 / 6.0])
 
 
 @dataclass(frozen=True)
@@ -118,15 +126,17 @@ class PlateModelParams:
         return self.depth if self.inertia_thickness_m is None else float(self.inertia_thickness_m)
 
     def mass_properties(self) -> tuple[float, np.ndarray]:
-        return plate_mass_properties(side_m=self.side_m, areal_density_kg_m2=self.areal_density_kg_m2,
-                                     thickness_m=self.thickness)
+        return plate_mass_properties(
+            side_m=self.side_m, areal_density_kg_m2=self.areal_density_kg_m2, thickness_m=self.thickness
+        )
 
 
 def build_plate_spec(params: PlateModelParams | None = None) -> mujoco.MjSpec:
     """Return the ``MjSpec`` of the reflector plate (see the module docstring)."""
     p = params or PlateModelParams()
-    spec = free_space_spec(name=p.name, timestep_s=p.timestep_s, integrator=p.integrator,
-                           solver_tolerance=p.solver_tolerance)
+    spec = free_space_spec(
+        name=p.name, timestep_s=p.timestep_s, integrator=p.integrator, solver_tolerance=p.solver_tolerance
+    )
     d = p.side_m
     set_view(spec, extent=2.0 * d, headlight_diffuse=[0.6, 0.6, 0.6], headlight_ambient=[0.3, 0.3, 0.3])
     nogeo = dict(contype=0, conaffinity=0, mass=0)
@@ -140,11 +150,13 @@ def build_plate_spec(params: PlateModelParams | None = None) -> mujoco.MjSpec:
     plate.ipos = [0.0, 0.0, 0.0]
     plate.inertia = inertia.tolist()
 
-    t = 0.004 * d                                           # drawn thickness of each face
-    plate.add_geom(name="plate_front", type=box, size=[d / 2, d / 2, t / 2], pos=[0, 0, t / 2],
-                   rgba=list(_FRONT_RGBA), **nogeo)
-    plate.add_geom(name="plate_back", type=box, size=[d / 2, d / 2, t / 2], pos=[0, 0, -t / 2],
-                   rgba=list(_BACK_RGBA), **nogeo)
+    t = 0.004 * d  # drawn thickness of each face
+    plate.add_geom(
+        name="plate_front", type=box, size=[d / 2, d / 2, t / 2], pos=[0, 0, t / 2], rgba=list(_FRONT_RGBA), **nogeo
+    )
+    plate.add_geom(
+        name="plate_back", type=box, size=[d / 2, d / 2, t / 2], pos=[0, 0, -t / 2], rgba=list(_BACK_RGBA), **nogeo
+    )
     # simplified coils: every k-th column of each coil, as strips just off the front face
     L = p.cell_m
     n_col = max(1, round(d / L) // max(1, p.coil_pitch_cells))
@@ -152,33 +164,89 @@ def build_plate_spec(params: PlateModelParams | None = None) -> mujoco.MjSpec:
     w = max(L / 2, 0.004 * d)
     for j in range(0, n_col, k):
         xc = -d / 2 + j * p.coil_pitch_cells * L + L / 2
-        plate.add_geom(name=f"ycoil_col{j}", type=box, size=[w / 2, d / 2, t / 4], pos=[xc, 0, 1.3 * t],
-                       rgba=list(_YCOIL_RGBA), group=1, **nogeo)
-        plate.add_geom(name=f"xcoil_col{j}", type=box, size=[d / 2, w / 2, t / 4], pos=[0, xc, 1.6 * t],
-                       rgba=list(_XCOIL_RGBA), group=1, **nogeo)
+        plate.add_geom(
+            name=f"ycoil_col{j}",
+            type=box,
+            size=[w / 2, d / 2, t / 4],
+            pos=[xc, 0, 1.3 * t],
+            rgba=list(_YCOIL_RGBA),
+            group=1,
+            **nogeo,
+        )
+        plate.add_geom(
+            name=f"xcoil_col{j}",
+            type=box,
+            size=[d / 2, w / 2, t / 4],
+            pos=[0, xc, 1.6 * t],
+            rgba=list(_XCOIL_RGBA),
+            group=1,
+            **nogeo,
+        )
     if p.zloop_side_m is not None:
         s = p.zloop_side_m / 2
         corners = [(-s, -s), (s, -s), (s, s), (-s, s), (-s, -s)]
         for i in range(4):
             (x0, y0), (x1, y1) = corners[i], corners[i + 1]
-            plate.add_geom(name=f"zloop_{i}", type=cap, fromto=[x0, y0, 2 * t, x1, y1, 2 * t], size=[w, 0, 0],
-                           rgba=list(_ZLOOP_RGBA), group=1, **nogeo)
-    plate.add_geom(name="grey_line", type=cap, fromto=[-0.6 * d, 0, 2.2 * t, 0.6 * d, 0, 2.2 * t],
-                   size=[0.008 * d, 0, 0], rgba=list(_GREY_LINE_RGBA), group=2, **nogeo)
-    plate.add_geom(name="normal", type=cap, fromto=[0, 0, 0, 0, 0, 0.35 * d], size=[0.008 * d, 0, 0],
-                   rgba=list(_NORMAL_RGBA), group=2, **nogeo)
+            plate.add_geom(
+                name=f"zloop_{i}",
+                type=cap,
+                fromto=[x0, y0, 2 * t, x1, y1, 2 * t],
+                size=[w, 0, 0],
+                rgba=list(_ZLOOP_RGBA),
+                group=1,
+                **nogeo,
+            )
+    plate.add_geom(
+        name="grey_line",
+        type=cap,
+        fromto=[-0.6 * d, 0, 2.2 * t, 0.6 * d, 0, 2.2 * t],
+        size=[0.008 * d, 0, 0],
+        rgba=list(_GREY_LINE_RGBA),
+        group=2,
+        **nogeo,
+    )
+    plate.add_geom(
+        name="normal",
+        type=cap,
+        fromto=[0, 0, 0, 0, 0, 0.35 * d],
+        size=[0.008 * d, 0, 0],
+        rgba=list(_NORMAL_RGBA),
+        group=2,
+        **nogeo,
+    )
 
     for mk in p.markers:
         body = add_marker_body(spec.worldbody, mk.name)
         Lm = mk.length_rel * d
         if mk.kind == "arrow":
-            body.add_geom(name=f"{mk.name}_shaft", type=cap, fromto=[0, 0, 0.15 * d, 0, 0, Lm],
-                          size=[0.008 * d, 0, 0], rgba=list(mk.rgba), group=2, **nogeo)
-            body.add_geom(name=f"{mk.name}_head", type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=[0, 0, Lm],
-                          size=[0.03 * d, 0, 0], rgba=list(mk.rgba), group=2, **nogeo)
+            body.add_geom(
+                name=f"{mk.name}_shaft",
+                type=cap,
+                fromto=[0, 0, 0.15 * d, 0, 0, Lm],
+                size=[0.008 * d, 0, 0],
+                rgba=list(mk.rgba),
+                group=2,
+                **nogeo,
+            )
+            body.add_geom(
+                name=f"{mk.name}_head",
+                type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                pos=[0, 0, Lm],
+                size=[0.03 * d, 0, 0],
+                rgba=list(mk.rgba),
+                group=2,
+                **nogeo,
+            )
         elif mk.kind == "line":
-            body.add_geom(name=f"{mk.name}_line", type=cap, fromto=[-Lm, 0, 0, Lm, 0, 0],
-                          size=[0.005 * d, 0, 0], rgba=list(mk.rgba), group=2, **nogeo)
+            body.add_geom(
+                name=f"{mk.name}_line",
+                type=cap,
+                fromto=[-Lm, 0, 0, Lm, 0, 0],
+                size=[0.005 * d, 0, 0],
+                rgba=list(mk.rgba),
+                group=2,
+                **nogeo,
+            )
         else:
             raise ValueError(f"markers[{mk.name}].kind: must be 'arrow' or 'line', got {mk.kind!r}")
         if mk.name == "mk_sun":
@@ -191,8 +259,8 @@ class PlateIndices:
     """Address book of a compiled plate model."""
 
     plate: int
-    q_quat: slice     # plate quaternion qpos[3:7] (world ← body, scalar first)
-    v_ang: slice      # plate body rate qvel[3:6] (body components)
+    q_quat: slice  # plate quaternion qpos[3:7] (world ← body, scalar first)
+    v_ang: slice  # plate body rate qvel[3:6] (body components)
     marker_qpos: dict[str, int]
 
 

@@ -26,13 +26,12 @@ from magsail_mj.geometry.reflector_coil import CoilPath, coil_x, coil_y
 from magsail_mj.concepts.reflector.mjcf import MarkerSpec, PlateModelParams, build_plate_spec, plate_indices
 from magsail_mj.concepts.reflector.config import ReflectorConfig
 
-__all__ = ["ASSUMPTIONS", "CoilCapability", "coil_capability", "ReflectorModel", "DETUMBLE_MARKERS",
-           "PITCH_MARKERS"]
+__all__ = ["ASSUMPTIONS", "CoilCapability", "coil_capability", "ReflectorModel", "DETUMBLE_MARKERS", "PITCH_MARKERS"]
 
 ASSUMPTIONS = {
     "A1": "lattice depth h = L (one cell deep)",
     "A2": "coil columns one cell wide every other cell column (p = 2), d/L three-quarter turns per column, "
-          "same circulation in every column, connectors along +x",
+    "same circulation in every column, connectors along +x",
     "A3": "in-plane loop: the lattice-aligned centred square whose capability is closest to the coil path's",
     "A4": "R_e = 6371 km (mean radius)",
     "A5": "ground point rotates at the solar-day rate 2π/86400 s⁻¹ in the Sun-fixed frame",
@@ -45,20 +44,24 @@ ASSUMPTIONS = {
     "beta_ref": "reference pitch β_ref = π/2 − ψ_c about +y, body x = grey line",
     "s_path": "positive path current gives a dipole along the path's +axis (y-coil as generated: s_path = −1)",
     "zoh": "controllers run every integration step with zero-order hold; Scenario A world inertial without "
-           "orbit; Scenario B world axes = the paper's xyz frame",
+    "orbit; Scenario B world axes = the paper's xyz frame",
     "inertia": "in-plane moments carry the thickness t (default h): I1 = I2 = m(d² + t²)/12 (MuJoCo triangle "
-               "inequality), I3 = m d²/6",
+    "inequality), I3 = m d²/6",
 }
 
 DETUMBLE_MARKERS: tuple[MarkerSpec, ...] = (
-    MarkerSpec("mk_field", (0.9, 0.2, 0.9, 1.0)), MarkerSpec("mk_omega", (0.1, 0.9, 0.2, 1.0)),
-    MarkerSpec("mk_torque", (0.95, 0.15, 0.1, 1.0), length_rel=0.6))
+    MarkerSpec("mk_field", (0.9, 0.2, 0.9, 1.0)),
+    MarkerSpec("mk_omega", (0.1, 0.9, 0.2, 1.0)),
+    MarkerSpec("mk_torque", (0.95, 0.15, 0.1, 1.0), length_rel=0.6),
+)
 """Marker bodies of a detumble run: field, body rate, torque."""
 
 PITCH_MARKERS: tuple[MarkerSpec, ...] = (
-    MarkerSpec("mk_sun", (1.0, 0.85, 0.1, 1.0)), MarkerSpec("mk_ground", (0.2, 0.5, 1.0, 1.0)),
+    MarkerSpec("mk_sun", (1.0, 0.85, 0.1, 1.0)),
+    MarkerSpec("mk_ground", (0.2, 0.5, 1.0, 1.0)),
     MarkerSpec("mk_field", (0.9, 0.2, 0.9, 1.0), length_rel=0.6),
-    MarkerSpec("mk_ref_line", (1.0, 1.0, 1.0, 1.0), kind="line", length_rel=0.65))
+    MarkerSpec("mk_ref_line", (1.0, 1.0, 1.0, 1.0), kind="line", length_rel=0.65),
+)
 """Marker bodies of a pitch run: Sun line, ground point, field, reference grey line."""
 
 
@@ -76,9 +79,14 @@ class CoilCapability:
 
     def as_dict(self) -> dict[str, float | list[float]]:
         """The figures as a JSON-ready dict (manifest ``coil_capability``)."""
-        return {"T_max_ycoil_N_m": self.T_max_ycoil_N_m, "T_max_xcoil_N_m": self.T_max_xcoil_N_m,
-                "T_max_zloop_N_m": self.T_max_zloop_N_m, "zloop_side_m": self.zloop_side_m,
-                "m_max_A_m2": self.m_max_A_m2.tolist(), "cap_N_m": self.cap_N_m}
+        return {
+            "T_max_ycoil_N_m": self.T_max_ycoil_N_m,
+            "T_max_xcoil_N_m": self.T_max_xcoil_N_m,
+            "T_max_zloop_N_m": self.T_max_zloop_N_m,
+            "zloop_side_m": self.zloop_side_m,
+            "m_max_A_m2": self.m_max_A_m2.tolist(),
+            "cap_N_m": self.cap_N_m,
+        }
 
 
 def coil_capability(cfg: ReflectorConfig) -> CoilCapability:
@@ -91,8 +99,14 @@ def coil_capability(cfg: ReflectorConfig) -> CoilCapability:
     Ty, Tx = capability(y, **kw), capability(x, **kw)
     side, Tz = loop_side_for_capability(Ty, side_m=p.side_m, segment_m=p.cell_m, depth_m=p.depth, **kw)
     m_max = np.array([Tx, Ty, Tz]) / c.B_ref_T
-    return CoilCapability(T_max_ycoil_N_m=Ty, T_max_xcoil_N_m=Tx, T_max_zloop_N_m=Tz, zloop_side_m=side,
-                          m_max_A_m2=m_max, cap_N_m=cfg.control.cap_N_m or Ty)
+    return CoilCapability(
+        T_max_ycoil_N_m=Ty,
+        T_max_xcoil_N_m=Tx,
+        T_max_zloop_N_m=Tz,
+        zloop_side_m=side,
+        m_max_A_m2=m_max,
+        cap_N_m=cfg.control.cap_N_m or Ty,
+    )
 
 
 @dataclass
@@ -109,11 +123,19 @@ class ReflectorModel:
         cfg = self.cfg
         self.cap = coil_capability(cfg)
         self.params = PlateModelParams(
-            side_m=cfg.plate.side_m, cell_m=cfg.plate.cell_m, depth_m=cfg.plate.depth_m,
-            areal_density_kg_m2=cfg.plate.areal_density_kg_m2, inertia_thickness_m=cfg.plate.inertia_thickness_m,
-            coil_pitch_cells=cfg.coil.pitch_cells, zloop_side_m=self.cap.zloop_side_m, timestep_s=cfg.sim.timestep_s,
-            integrator=cfg.sim.integrator, solver_tolerance=cfg.sim.solver_tolerance, markers=self.markers,
-            name=f"reflector_{cfg.scenario.replace('/', '_')}")
+            side_m=cfg.plate.side_m,
+            cell_m=cfg.plate.cell_m,
+            depth_m=cfg.plate.depth_m,
+            areal_density_kg_m2=cfg.plate.areal_density_kg_m2,
+            inertia_thickness_m=cfg.plate.inertia_thickness_m,
+            coil_pitch_cells=cfg.coil.pitch_cells,
+            zloop_side_m=self.cap.zloop_side_m,
+            timestep_s=cfg.sim.timestep_s,
+            integrator=cfg.sim.integrator,
+            solver_tolerance=cfg.sim.solver_tolerance,
+            markers=self.markers,
+            name=f"reflector_{cfg.scenario.replace('/', '_')}",
+        )
         self.spec = build_plate_spec(self.params)
         self.model = self.spec.compile()
         self.idx = plate_indices(self.model)
@@ -123,9 +145,14 @@ class ReflectorModel:
     def orbit(self) -> ReflectorOrbit:
         """Scenario B orbit (§4, §6.1) of ``[orbit]`` and ``field.B0_T``."""
         o = self.cfg.orbit
-        return ReflectorOrbit.from_altitude(altitude_m=o.altitude_km * 1e3, R_e_m=o.R_e_km * 1e3, mu_m3_s2=o.mu_m3_s2,
-                                            omega_e_rad_s=o.omega_e_rad_s, n_orbits=o.n_orbits,
-                                            B0_T=self.cfg.field.B0_T)
+        return ReflectorOrbit.from_altitude(
+            altitude_m=o.altitude_km * 1e3,
+            R_e_m=o.R_e_km * 1e3,
+            mu_m3_s2=o.mu_m3_s2,
+            omega_e_rad_s=o.omega_e_rad_s,
+            n_orbits=o.n_orbits,
+            B0_T=self.cfg.field.B0_T,
+        )
 
     @property
     def B_magnitude_T(self) -> float:
@@ -142,24 +169,43 @@ class ReflectorModel:
 
     def bdot_gain(self) -> float:
         """B-dot gain k [A m² s / T²] from ``control.omega_k_rad_s`` (§5.3)."""
-        return PlateBdotController.gain_from_omega_k(m_max_A_m2=self.cap.m_max_A_m2[1], B_ref_T=self.cfg.coil.B_ref_T,
-                                                     omega_k_rad_s=self.cfg.control.omega_k_rad_s)
+        return PlateBdotController.gain_from_omega_k(
+            m_max_A_m2=self.cap.m_max_A_m2[1],
+            B_ref_T=self.cfg.coil.B_ref_T,
+            omega_k_rad_s=self.cfg.control.omega_k_rad_s,
+        )
 
     def bdot_controller(self) -> PlateBdotController:
         """The Scenario A B-dot controller (§5.3), every integration step."""
         cfg, c = self.cfg, self.cfg.control
-        return PlateBdotController(law=c.law, m_max_A_m2=self.cap.m_max_A_m2[1], T_max_N_m=self.cap.cap_N_m,
-                                   gain=self.bdot_gain(), I_max_A=cfg.coil.I_max_A, field_body=self.field_body_fn(),
-                                   body_id=self.idx.plate, period_s=cfg.sim.timestep_s)
+        return PlateBdotController(
+            law=c.law,
+            m_max_A_m2=self.cap.m_max_A_m2[1],
+            T_max_N_m=self.cap.cap_N_m,
+            gain=self.bdot_gain(),
+            I_max_A=cfg.coil.I_max_A,
+            field_body=self.field_body_fn(),
+            body_id=self.idx.plate,
+            period_s=cfg.sim.timestep_s,
+        )
 
     def pitch_controller(self) -> ReflectorPitchController:
         """The Scenario B quaternion-feedback controller (§6.4), every integration step."""
         cfg, c = self.cfg, self.cfg.control
-        return ReflectorPitchController(orbit=self.orbit, inertia_kg_m2=self.inertia, omega_n_rad_s=c.omega_n_rad_s,
-                                        zeta=c.zeta, rate_term=c.rate_term, feedforward=c.feedforward,
-                                        saturation=c.saturation_mode, cap_N_m=self.cap.cap_N_m,
-                                        B_ref_T=cfg.coil.B_ref_T, m_max_A_m2=self.cap.m_max_A_m2,
-                                        body_id=self.idx.plate, period_s=cfg.sim.timestep_s)
+        return ReflectorPitchController(
+            orbit=self.orbit,
+            inertia_kg_m2=self.inertia,
+            omega_n_rad_s=c.omega_n_rad_s,
+            zeta=c.zeta,
+            rate_term=c.rate_term,
+            feedforward=c.feedforward,
+            saturation=c.saturation_mode,
+            cap_N_m=self.cap.cap_N_m,
+            B_ref_T=cfg.coil.B_ref_T,
+            m_max_A_m2=self.cap.m_max_A_m2,
+            body_id=self.idx.plate,
+            period_s=cfg.sim.timestep_s,
+        )
 
     def pitch_gains(self) -> tuple[np.ndarray, np.ndarray]:
         """``(P_q [N m], P_ω [N m s])`` of the pitch controller."""

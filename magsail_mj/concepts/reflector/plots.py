@@ -29,15 +29,13 @@ def _positive(x: np.ndarray) -> np.ndarray:
     return np.where(x > 0, x, np.nan)
 
 
-def detumble_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: ReflectorConfig, cap_N_m: float
-                   ) -> list[Path]:
+def detumble_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: ReflectorConfig, cap_N_m: float) -> list[Path]:
     """Scenario A figures (module docstring) of the series of
     :func:`magsail_mj.concepts.reflector.metrics.detumble_outputs`; ``cap_N_m``: per-path torque cap."""
     run_dir = Path(run_dir)
     th = series["time_h"]
     cap = cap_N_m
-    label = f"{cfg.scenario} ({cfg.control.law}, ω_k = {cfg.control.omega_k_rad_s:g} rad/s, " \
-            f"field {cfg.field.frame})"
+    label = f"{cfg.scenario} ({cfg.control.law}, ω_k = {cfg.control.omega_k_rad_s:g} rad/s, field {cfg.field.frame})"
     out = []
 
     fig, ax = new_figure(figsize=(9, 4))
@@ -93,8 +91,16 @@ def detumble_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: Reflect
     return out
 
 
-def pitch_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: ReflectorConfig, cap_N_m: float,
-                orbit_period_s: float, t_m_s: float, passes: list[dict[str, Any]]) -> list[Path]:
+def pitch_plots(
+    run_dir: Path,
+    series: dict[str, np.ndarray],
+    *,
+    cfg: ReflectorConfig,
+    cap_N_m: float,
+    orbit_period_s: float,
+    t_m_s: float,
+    passes: list[dict[str, Any]],
+) -> list[Path]:
     """Scenario B figures (module docstring) of the series of
     :func:`magsail_mj.concepts.reflector.metrics.pitch_outputs`, and ``passes.json`` with the pass
     table ``passes`` (:func:`magsail_mj.concepts.reflector.metrics.pass_table`), the cap [N m],
@@ -103,8 +109,11 @@ def pitch_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: ReflectorC
     th = series["time_h"]
     cap = cap_N_m
     sigma = 1e3 * cfg.plate.areal_density_kg_m2
-    label = f"{cfg.scenario}: σ = {sigma:g} g/m², rate term {cfg.control.rate_term}" + \
-            (", feed-forward" if cfg.control.feedforward else "") + f", cap {cap:.3g} N m"
+    label = (
+        f"{cfg.scenario}: σ = {sigma:g} g/m², rate term {cfg.control.rate_term}"
+        + (", feed-forward" if cfg.control.feedforward else "")
+        + f", cap {cap:.3g} N m"
+    )
     out = []
     psi_ref = np.radians(series["psi_ref_deg"])
 

@@ -50,10 +50,15 @@ __all__ = ["ReflectorTask", "DetumbleTask", "PitchTask", "PitchCapsTask", "build
 
 #: readable names of the reflector's overlay series (units come from their suffixes)
 OVERLAY_NAMES = {
-    "omega_norm_rad_s": "body rate |ω|", "torque_norm_Nm": "coil torque |T|",
-    "currents_A": "path currents (x-coil, y-coil)", "psi_ref_deg": "pitch reference ψ_ref",
-    "psi_act_deg": "pitch ψ", "err_deg": "pointing error", "torque_pitch_Nm": "pitch torque",
+    "omega_norm_rad_s": "body rate |ω|",
+    "torque_norm_Nm": "coil torque |T|",
+    "currents_A": "path currents (x-coil, y-coil)",
+    "psi_ref_deg": "pitch reference ψ_ref",
+    "psi_act_deg": "pitch ψ",
+    "err_deg": "pointing error",
+    "torque_pitch_Nm": "pitch torque",
 }
+
 
 class ReflectorTask(ABC):
     """What every reflector task shares: the built plate (``plate``; ``spec``, ``model``, ``idx``,
@@ -100,16 +105,27 @@ class ReflectorTask(ABC):
 
     def probes(self, loads: list[Any]) -> dict[str, Callable[[Any, mujoco.MjData], Any]]:
         """Recorded quantities common to every kind: ``qpos``, ``qvel``, ``torque_body_N_m``."""
-        return {"qpos": lambda s, d: d.qpos, "qvel": lambda s, d: d.qvel,
-                "torque_body_N_m": lambda s, d: s.ctrl.torque_body}
+        return {
+            "qpos": lambda s, d: d.qpos,
+            "qvel": lambda s, d: d.qvel,
+            "torque_body_N_m": lambda s, d: s.ctrl.torque_body,
+        }
 
     def simulation(self) -> Simulation:
         self.controller = ctl = self.make_controller()
         loads = self.loads()
         sim = self.cfg.sim
-        return Simulation(model=self.model, duration_s=sim.duration_s, loads=loads, controller=ctl,
-                          environment=None, probes=self.probes(loads), record_every=sim.record_every,
-                          checkpoint_every_s=sim.checkpoint_every_s, init=self.init_state)
+        return Simulation(
+            model=self.model,
+            duration_s=sim.duration_s,
+            loads=loads,
+            controller=ctl,
+            environment=None,
+            probes=self.probes(loads),
+            record_every=sim.record_every,
+            checkpoint_every_s=sim.checkpoint_every_s,
+            init=self.init_state,
+        )
 
     # -------------------------------------------------------------- outputs
     @abstractmethod
@@ -119,12 +135,22 @@ class ReflectorTask(ABC):
     def render_info(self) -> dict[str, Any]:
         r, cfg = self.cfg.render, self.cfg
         frames = int(min(r.max_frames, max(2, round(cfg.sim.duration_s / cfg.sim.timestep_s / cfg.sim.record_every))))
-        cam: dict[str, float] = {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
-                                 "distance_m": r.distance_m or self.camera_distance_sides * cfg.plate.side_m}
+        cam: dict[str, float] = {
+            "azimuth_deg": r.azimuth_deg,
+            "elevation_deg": r.elevation_deg,
+            "distance_m": r.distance_m or self.camera_distance_sides * cfg.plate.side_m,
+        }
         text = self.render_text()
-        return {"title": text["title"], "overlay": text["overlay"], "inset": text["inset"], "camera": cam,
-                "fps": r.fps, "max_frames": frames, "markers": text["markers"],
-                "overlay_names": {**OVERLAY_NAMES, **text.get("overlay_names", {})}}
+        return {
+            "title": text["title"],
+            "overlay": text["overlay"],
+            "inset": text["inset"],
+            "camera": cam,
+            "fps": r.fps,
+            "max_frames": frames,
+            "markers": text["markers"],
+            "overlay_names": {**OVERLAY_NAMES, **text.get("overlay_names", {})},
+        }
 
     def manifest_kind(self) -> dict[str, Any]:
         """Manifest entries of the scenario kind."""
@@ -169,12 +195,14 @@ class DetumbleTask(ReflectorTask):
         return np.asarray(i.q0_wxyz, dtype=float), np.asarray(i.omega0_rad_s, float)
 
     def probes(self, loads: list[Any]) -> dict[str, Callable[[Any, mujoco.MjData], Any]]:
-        return {**super().probes(loads),
-                "dipole_body_A_m2": lambda s, d: s.ctrl.dipole_body,
-                "dipole_cmd_body_A_m2": lambda s, d: s.ctrl.dipole_cmd_body,
-                "currents_A": lambda s, d: s.ctrl.currents_A,
-                "saturated": lambda s, d: s.ctrl.saturated.astype(np.int8),
-                "B_body_T": lambda s, d: s.ctrl.B_body}
+        return {
+            **super().probes(loads),
+            "dipole_body_A_m2": lambda s, d: s.ctrl.dipole_body,
+            "dipole_cmd_body_A_m2": lambda s, d: s.ctrl.dipole_cmd_body,
+            "currents_A": lambda s, d: s.ctrl.currents_A,
+            "saturated": lambda s, d: s.ctrl.saturated.astype(np.int8),
+            "B_body_T": lambda s, d: s.ctrl.B_body,
+        }
 
     def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         return detumble_outputs(self.plate, result)
@@ -184,13 +212,19 @@ class DetumbleTask(ReflectorTask):
 
     def render_text(self) -> dict[str, Any]:
         cfg = self.cfg
-        return {"title": f"reflector {cfg.scenario}: B-dot ({cfg.control.law}, "
-                         f"ω_k = {cfg.control.omega_k_rad_s:g} rad/s)",
-                "overlay": ["omega_norm_rad_s", "torque_norm_Nm", "currents_A"],
-                "inset": "omega_norm_rad_s",
-                "markers": {"mk_field": "magnetic field (magenta)", "mk_omega": "angular velocity (green)",
-                            "mk_torque": "torque (red)", "ycoil/xcoil": "coil columns (orange/cyan, every k-th)",
-                            "zloop": "in-plane loop (violet)", "normal": "plate normal (blue)"}}
+        return {
+            "title": f"reflector {cfg.scenario}: B-dot ({cfg.control.law}, ω_k = {cfg.control.omega_k_rad_s:g} rad/s)",
+            "overlay": ["omega_norm_rad_s", "torque_norm_Nm", "currents_A"],
+            "inset": "omega_norm_rad_s",
+            "markers": {
+                "mk_field": "magnetic field (magenta)",
+                "mk_omega": "angular velocity (green)",
+                "mk_torque": "torque (red)",
+                "ycoil/xcoil": "coil columns (orange/cyan, every k-th)",
+                "zloop": "in-plane loop (violet)",
+                "normal": "plate normal (blue)",
+            },
+        }
 
     def manifest_kind(self) -> dict[str, Any]:
         return {"bdot_gain": self.bdot_gain()}
@@ -214,20 +248,25 @@ class PitchTask(ReflectorTask):
     def loads(self) -> list[Any]:
         loads = super().loads()
         if self.cfg.gravity.gg_torque:
-            loads.append(OrbitGravityGradientLoad(self.idx.plate, inertia_kg_m2=self.inertia,
-                                                  position=self.orbit.position, mu=self.cfg.orbit.mu_m3_s2))
+            loads.append(
+                OrbitGravityGradientLoad(
+                    self.idx.plate, inertia_kg_m2=self.inertia, position=self.orbit.position, mu=self.cfg.orbit.mu_m3_s2
+                )
+            )
         return loads
 
     def probes(self, loads: list[Any]) -> dict[str, Callable[[Any, mujoco.MjData], Any]]:
-        out = {**super().probes(loads),
-               "T_ref_body_N_m": lambda s, d: s.ctrl.T_ref_body,
-               "saturated": lambda s, d: np.int8(s.ctrl.saturated),
-               "q_e": lambda s, d: s.ctrl.q_e,
-               "q_ref": lambda s, d: s.ctrl.q_ref,
-               "psi_ref_rad": lambda s, d: s.ctrl.psi_ref,
-               "psi_dot_ref_rad_s": lambda s, d: s.ctrl.psi_dot_ref,
-               "psi_ddot_ref_rad_s2": lambda s, d: s.ctrl.psi_ddot_ref,
-               "B_world_T": lambda s, d: s.ctrl.B_world}
+        out = {
+            **super().probes(loads),
+            "T_ref_body_N_m": lambda s, d: s.ctrl.T_ref_body,
+            "saturated": lambda s, d: np.int8(s.ctrl.saturated),
+            "q_e": lambda s, d: s.ctrl.q_e,
+            "q_ref": lambda s, d: s.ctrl.q_ref,
+            "psi_ref_rad": lambda s, d: s.ctrl.psi_ref,
+            "psi_dot_ref_rad_s": lambda s, d: s.ctrl.psi_dot_ref,
+            "psi_ddot_ref_rad_s2": lambda s, d: s.ctrl.psi_ddot_ref,
+            "B_world_T": lambda s, d: s.ctrl.B_world,
+        }
         for load in loads:
             if isinstance(load, OrbitGravityGradientLoad):
                 out["torque_gg_world_N_m"] = lambda s, d, gg=load: gg.torque_world(s)
@@ -240,25 +279,46 @@ class PitchTask(ReflectorTask):
 
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
         o = self.orbit
-        return pitch_plots(run_dir, series, cfg=self.cfg, cap_N_m=self.cap.cap_N_m, orbit_period_s=o.period_s,
-                           t_m_s=o.t_m_s, passes=getattr(self, "passes", []))
+        return pitch_plots(
+            run_dir,
+            series,
+            cfg=self.cfg,
+            cap_N_m=self.cap.cap_N_m,
+            orbit_period_s=o.period_s,
+            t_m_s=o.t_m_s,
+            passes=getattr(self, "passes", []),
+        )
 
     def render_text(self) -> dict[str, Any]:
         cfg = self.cfg
-        return {"title": f"reflector {cfg.scenario}: σ = {1e3 * cfg.plate.areal_density_kg_m2:g} g/m², "
-                         f"{cfg.control.rate_term} rate term",
-                "overlay": ["psi_ref_deg", "psi_act_deg", "err_deg", "torque_pitch_Nm"],
-                "inset": "err_deg",   # §6.7: error inset
-                "markers": {"mk_sun": "Sun direction +y (yellow)", "mk_ground": "towards the ground point (blue)",
-                            "mk_field": "magnetic field (magenta)", "mk_ref_line": "reference grey line (white)",
-                            "grey_line": "actual grey line (dark grey)", "normal": "plate normal (blue)"}}
+        return {
+            "title": f"reflector {cfg.scenario}: σ = {1e3 * cfg.plate.areal_density_kg_m2:g} g/m², "
+            f"{cfg.control.rate_term} rate term",
+            "overlay": ["psi_ref_deg", "psi_act_deg", "err_deg", "torque_pitch_Nm"],
+            "inset": "err_deg",  # §6.7: error inset
+            "markers": {
+                "mk_sun": "Sun direction +y (yellow)",
+                "mk_ground": "towards the ground point (blue)",
+                "mk_field": "magnetic field (magenta)",
+                "mk_ref_line": "reference grey line (white)",
+                "grey_line": "actual grey line (dark grey)",
+                "normal": "plate normal (blue)",
+            },
+        }
 
     def manifest_kind(self) -> dict[str, Any]:
         o, cfg = self.orbit, self.cfg
         Pq, Pw = self.plate.pitch_gains()
-        return {"orbit": {"r_m": o.r_m, "n_rad_s": o.n_rad_s, "T_orb_s": o.period_s,
-                          "run_length_nominal_s": cfg.orbit.n_orbits * o.period_s, "t_m_s": o.t_m_s},
-                "gains": {"P_q_N_m": Pq.tolist(), "P_omega_N_m_s": Pw.tolist()}}
+        return {
+            "orbit": {
+                "r_m": o.r_m,
+                "n_rad_s": o.n_rad_s,
+                "T_orb_s": o.period_s,
+                "run_length_nominal_s": cfg.orbit.n_orbits * o.period_s,
+                "t_m_s": o.t_m_s,
+            },
+            "gains": {"P_q_N_m": Pq.tolist(), "P_omega_N_m_s": Pw.tolist()},
+        }
 
 
 @register_task("reflector", "pitch_caps")
@@ -277,9 +337,13 @@ class PitchCapsTask(PitchTask):
         return caps_outputs(self.runner, result)
 
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
-        return caps_plots(run_dir, runs=self.runner.runs, minimum=self.runner.minimum,
-                          T_max_N_m=self.cap.T_max_ycoil_N_m,
-                          areal_density_kg_m2=self.cfg.plate.areal_density_kg_m2)
+        return caps_plots(
+            run_dir,
+            runs=self.runner.runs,
+            minimum=self.runner.minimum,
+            T_max_N_m=self.cap.T_max_ycoil_N_m,
+            areal_density_kg_m2=self.cfg.plate.areal_density_kg_m2,
+        )
 
 
 def build_reflector_scenario(cfg: ReflectorConfig) -> ReflectorTask:

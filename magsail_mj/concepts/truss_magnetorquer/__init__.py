@@ -13,11 +13,21 @@ from __future__ import annotations
 
 from magsail_mj.concepts.truss_magnetorquer.config import ORBITAL_SCENARIOS, TrussConfig, first_cantilever_omega
 from magsail_mj.concepts.truss_magnetorquer.model import (
-    TrussModel, actuated_struts, make_cantilever_model, make_truss_model,
+    TrussModel,
+    actuated_struts,
+    make_cantilever_model,
+    make_truss_model,
 )
 from magsail_mj.concepts.truss_magnetorquer.tasks import TrussScenario, build_truss_scenario
 
 __all__ = [
-    "ORBITAL_SCENARIOS", "TrussConfig", "TrussScenario", "build_truss_scenario", "TrussModel",
-    "make_truss_model", "make_cantilever_model", "actuated_struts", "first_cantilever_omega",
+    "ORBITAL_SCENARIOS",
+    "TrussConfig",
+    "TrussScenario",
+    "build_truss_scenario",
+    "TrussModel",
+    "make_truss_model",
+    "make_cantilever_model",
+    "actuated_struts",
+    "first_cantilever_omega",
 ]

@@ -26,9 +26,23 @@ from magsail_mj.config import (
 from magsail_mj.environment.config import EnvironmentTables, environment_problems
 
 __all__ = [
-    "ORBITAL_SCENARIOS", "ORBITAL_CONTROL_KINDS", "TrussConfig", "TrussTables", "LatticeConfig", "MassConfig",
-    "PointMass", "StiffnessConfig", "DampingConfig", "ActuatorsConfig", "LloydConfig", "TrussControlConfig",
-    "ManeuverConfig", "ProfileConfig", "TrussInitialConfig", "CantileverConfig", "TrussRenderConfig",
+    "ORBITAL_SCENARIOS",
+    "ORBITAL_CONTROL_KINDS",
+    "TrussConfig",
+    "TrussTables",
+    "LatticeConfig",
+    "MassConfig",
+    "PointMass",
+    "StiffnessConfig",
+    "DampingConfig",
+    "ActuatorsConfig",
+    "LloydConfig",
+    "TrussControlConfig",
+    "ManeuverConfig",
+    "ProfileConfig",
+    "TrussInitialConfig",
+    "CantileverConfig",
+    "TrussRenderConfig",
     "first_cantilever_omega",
 ]
 
@@ -68,8 +82,9 @@ class MassConfig(StrictModel):
     @model_validator(mode="after")
     def _one_mass(self) -> MassConfig:
         if (self.total_kg is None) == (self.areal_density_kg_m2 is None):
-            raise ConfigProblem("total_kg", "give exactly one of total_kg and areal_density_kg_m2",
-                                others=("areal_density_kg_m2",))
+            raise ConfigProblem(
+                "total_kg", "give exactly one of total_kg and areal_density_kg_m2", others=("areal_density_kg_m2",)
+            )
         return self
 
 
@@ -91,8 +106,10 @@ class StiffnessConfig(StrictModel):
     @model_validator(mode="after")
     def _twist(self) -> StiffnessConfig:
         if self.twist == "plate" and self.calibration != "cantilever":
-            raise ValueError(f"twist: 'plate' keeps the cantilever EI and needs calibration = 'cantilever', "
-                             f"got calibration = {self.calibration!r}")
+            raise ValueError(
+                f"twist: 'plate' keeps the cantilever EI and needs calibration = 'cantilever', "
+                f"got calibration = {self.calibration!r}"
+            )
         return self
 
 
@@ -133,11 +150,15 @@ class ActuatorsConfig(StrictModel):
             if self.rod_mass_kg is None:
                 raise ValueError("rod_mass_kg is required when kind = 'magnetorquer'")
             if self.placement != "distributed":
-                raise ValueError("placement: magnetorquer rods sit in every top-layer strut; "
-                                 f"only 'distributed' is allowed, got {self.placement!r}")
+                raise ValueError(
+                    "placement: magnetorquer rods sit in every top-layer strut; "
+                    f"only 'distributed' is allowed, got {self.placement!r}"
+                )
         elif self.force_pair != "corrected":
-            raise ValueError(f"force_pair: the rod force pair needs kind = 'magnetorquer', got "
-                             f"force_pair = {self.force_pair!r} with kind = {self.kind!r}")
+            raise ValueError(
+                f"force_pair: the rod force pair needs kind = 'magnetorquer', got "
+                f"force_pair = {self.force_pair!r} with kind = {self.kind!r}"
+            )
         return self
 
 
@@ -191,8 +212,9 @@ Quat = tuple[float, float, float, float]
 
 def _check_unit_quat(q: Quat | None, name: str) -> None:
     if q is not None and abs(math.hypot(*q) - 1.0) > 1e-4:
-        raise ValueError(f"{name}: must be a unit quaternion [w, x, y, z] (|q| within 1e-4 of 1), "
-                         f"got norm {math.hypot(*q):.6g}")
+        raise ValueError(
+            f"{name}: must be a unit quaternion [w, x, y, z] (|q| within 1e-4 of 1), got norm {math.hypot(*q):.6g}"
+        )
 
 
 class ManeuverConfig(StrictModel):
@@ -302,8 +324,9 @@ class TrussConfig(EnvironmentTables, TrussTables):
         if sc == "slew" and self.maneuver.q_ref_wxyz is None:
             raise ValueError("scenario 'slew' needs maneuver.q_ref_wxyz (target attitude)")
         if self.control.period_s is not None and self.control.period_s < self.sim.timestep_s * (1 - 1e-9):
-            raise ValueError(f"control.period_s: must be >= sim.timestep_s = {self.sim.timestep_s} s, "
-                             f"got {self.control.period_s}")
+            raise ValueError(
+                f"control.period_s: must be >= sim.timestep_s = {self.sim.timestep_s} s, got {self.control.period_s}"
+            )
 
     @model_validator(mode="after")
     def _tables_for_scenario(self) -> TrussConfig:
@@ -316,20 +339,35 @@ class TrussConfig(EnvironmentTables, TrussTables):
         if self.scenario in ORBITAL_SCENARIOS:
             self._check_orbital()
         elif self.control is not None:
-            raise ValueError(f"control: the [control] table is used by the scenarios {list(ORBITAL_SCENARIOS)}, "
-                             f"not {self.scenario!r}")
+            raise ValueError(
+                f"control: the [control] table is used by the scenarios {list(ORBITAL_SCENARIOS)}, "
+                f"not {self.scenario!r}"
+            )
         if self.actuators is not None and self.actuators.kind == "magnetorquer":
             if self.scenario not in ORBITAL_SCENARIOS:
-                raise ValueError(f"actuators.kind: 'magnetorquer' needs scenario in {list(ORBITAL_SCENARIOS)}, "
-                                 f"got {self.scenario!r}")
+                raise ValueError(
+                    f"actuators.kind: 'magnetorquer' needs scenario in {list(ORBITAL_SCENARIOS)}, got {self.scenario!r}"
+                )
             total = self.total_mass_kg
             if self.actuators.rod_mass_kg > total:
-                raise ConfigProblem("actuators.rod_mass_kg", f"{self.actuators.rod_mass_kg} kg exceeds the total "
-                                    f"mass {total} kg (the rods are part of it, §12 S4)", others=(self._mass_key,))
-            finite_product("actuators.kappa_Am2_per_kg", self.actuators.kappa_Am2_per_kg, self.actuators.rod_mass_kg,
-                           what="rod dipole κ M", others=("actuators.rod_mass_kg",))
-        if (self.maneuver.q0_wxyz is not None and "q0_wxyz" in self.initial.model_fields_set
-                and not np.allclose(self.maneuver.q0_wxyz, self.initial.q0_wxyz)):
+                raise ConfigProblem(
+                    "actuators.rod_mass_kg",
+                    f"{self.actuators.rod_mass_kg} kg exceeds the total "
+                    f"mass {total} kg (the rods are part of it, §12 S4)",
+                    others=(self._mass_key,),
+                )
+            finite_product(
+                "actuators.kappa_Am2_per_kg",
+                self.actuators.kappa_Am2_per_kg,
+                self.actuators.rod_mass_kg,
+                what="rod dipole κ M",
+                others=("actuators.rod_mass_kg",),
+            )
+        if (
+            self.maneuver.q0_wxyz is not None
+            and "q0_wxyz" in self.initial.model_fields_set
+            and not np.allclose(self.maneuver.q0_wxyz, self.initial.q0_wxyz)
+        ):
             raise ValueError("maneuver.q0_wxyz and initial.q0_wxyz differ: give the initial attitude once")
         problems = environment_problems(self)
         if problems:
@@ -346,21 +384,38 @@ class TrussConfig(EnvironmentTables, TrussTables):
         be finite and above mjMINVAL; so must the cantilever settle damping."""
         total = finite_product(self._mass_key, self.total_mass_kg, what="total mass", others=("lattice.side_m",))
         fraction = 1.0 - self.mass.central_fraction
-        check_lattice_numbers(units=self.lattice.units, side_m=self.lattice.side_m, total_kg=total,
-                              EI_Nm2=self.stiffness.EI_Nm2, zeta=self.damping.zeta_strut,
-                              node_mass_fraction=fraction,
-                              keys={"side": "lattice.side_m", "mass": self._mass_key, "EI": "stiffness.EI_Nm2",
-                                    "zeta": "damping.zeta_strut"})
+        check_lattice_numbers(
+            units=self.lattice.units,
+            side_m=self.lattice.side_m,
+            total_kg=total,
+            EI_Nm2=self.stiffness.EI_Nm2,
+            zeta=self.damping.zeta_strut,
+            node_mass_fraction=fraction,
+            keys={
+                "side": "lattice.side_m",
+                "mass": self._mass_key,
+                "EI": "stiffness.EI_Nm2",
+                "zeta": "damping.zeta_strut",
+            },
+        )
         n_nodes = 2 * (self.lattice.units + 1) ** 2
         for i, p in enumerate(self.mass.point_masses):
             if p.node >= n_nodes:
-                raise ConfigProblem(f"mass.point_masses[{i}].node", f"must be a node index below {n_nodes} "
-                                    f"(the lattice's nodes), got {p.node}")
+                raise ConfigProblem(
+                    f"mass.point_masses[{i}].node",
+                    f"must be a node index below {n_nodes} (the lattice's nodes), got {p.node}",
+                )
         if self.scenario == "cantilever" and self.cantilever is not None:
             c = self.cantilever
             omega = first_cantilever_omega(self) if c.settle_damping_1_s is None else c.settle_damping_1_s
-            finite_product("cantilever.settle_damping_1_s", 2.0 * omega, total, what="node damping",
-                           minimum=-1.0, others=("stiffness.EI_Nm2", self._mass_key))
+            finite_product(
+                "cantilever.settle_damping_1_s",
+                2.0 * omega,
+                total,
+                what="node damping",
+                minimum=-1.0,
+                others=("stiffness.EI_Nm2", self._mass_key),
+            )
         return self
 
 

@@ -52,15 +52,26 @@ from magsail_mj.analysis.flatness import surface_sd
 from magsail_mj.control.allocation import Allocation, rod_torques, round_half_away
 from magsail_mj.control.rod_attitude import RodAttitudeController, RodCommand, step_rate
 from magsail_mj.envs.core import (
-    AttitudeTask, SimulationPhysics, draw_rigid_start, make_environment, pointing_error_rad, register,
+    AttitudeTask,
+    SimulationPhysics,
+    draw_rigid_start,
+    make_environment,
+    pointing_error_rad,
+    register,
     set_rigid_motion,
 )
 from magsail_mj.estimation.attitude import BestFitRotation
 from magsail_mj.loads.base import StepState
 from magsail_mj.quaternion import error_quaternion, quat_from_matrix
 
-__all__ = ["TrussAttitudeTask", "ActionRodController", "B_BOUND_T", "rate_from_rotations", "ReusedFit",
-           "quat_of_rotation"]
+__all__ = [
+    "TrussAttitudeTask",
+    "ActionRodController",
+    "B_BOUND_T",
+    "rate_from_rotations",
+    "ReusedFit",
+    "quat_of_rotation",
+]
 
 B_BOUND_T = 1e-4
 """Field magnitude bounding the torque action [T] (above any LEO geomagnetic field)."""
@@ -79,10 +90,12 @@ def quat_of_rotation(R: np.ndarray) -> np.ndarray:
     ``K = 4 q qᵀ`` with the largest diagonal entry, normalised) in scalar arithmetic, for the
     per-step observation (the vectorised function costs tens of µs on one matrix)."""
     (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R.tolist()
-    K = ((1 + r00 + r11 + r22, r21 - r12, r02 - r20, r10 - r01),
-         (r21 - r12, 1 + r00 - r11 - r22, r01 + r10, r02 + r20),
-         (r02 - r20, r01 + r10, 1 - r00 + r11 - r22, r12 + r21),
-         (r10 - r01, r02 + r20, r12 + r21, 1 - r00 - r11 + r22))
+    K = (
+        (1 + r00 + r11 + r22, r21 - r12, r02 - r20, r10 - r01),
+        (r21 - r12, 1 + r00 - r11 - r22, r01 + r10, r02 + r20),
+        (r02 - r20, r01 + r10, 1 - r00 + r11 - r22, r12 + r21),
+        (r10 - r01, r02 + r20, r12 + r21, 1 - r00 - r11 + r22),
+    )
     diag = [K[0][0], K[1][1], K[2][2], K[3][3]]
     col = K[diag.index(max(diag))]  # K is symmetric: its column m is its row m
     norm = math.sqrt(col[0] * col[0] + col[1] * col[1] + col[2] * col[2] + col[3] * col[3])
@@ -120,18 +133,25 @@ class ActionRodController(RodAttitudeController):
     bypasses the allocation: the signed counts select the rods directly.
     """
 
-    def __init__(self, *, shipped: RodAttitudeController, reference_nodes: np.ndarray, q_ref_wxyz: np.ndarray | None,
-                 mode: str) -> None:
-        super().__init__(reference_nodes=reference_nodes, masses=shipped.masses,
-                         node_bodies=shipped.node_bodies, distributor=shipped.distributor,
-                         period_s=shipped.period_s, omega0_body=shipped.omega0_body,
-                         rate_method=shipped.rate_method)
+    def __init__(
+        self, *, shipped: RodAttitudeController, reference_nodes: np.ndarray, q_ref_wxyz: np.ndarray | None, mode: str
+    ) -> None:
+        super().__init__(
+            reference_nodes=reference_nodes,
+            masses=shipped.masses,
+            node_bodies=shipped.node_bodies,
+            distributor=shipped.distributor,
+            period_s=shipped.period_s,
+            omega0_body=shipped.omega0_body,
+            rate_method=shipped.rate_method,
+        )
         self.q_ref = None if q_ref_wxyz is None else np.asarray(q_ref_wxyz, dtype=float)
         self.mode = mode
         self.request = np.zeros(3)
 
-    def reference_torque(self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray,
-                         com_world: np.ndarray, env: Any) -> tuple[np.ndarray, dict[str, Any]]:
+    def reference_torque(
+        self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray, com_world: np.ndarray, env: Any
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         """``(request, extra)``; extra holds ``q_err`` (4,) for a slew and ``gg_comp_body`` zeros."""
         extra: dict[str, Any] = {}
         if self.q_ref is not None:
@@ -150,16 +170,39 @@ class ActionRodController(RodAttitudeController):
         B_body = R.T @ np.asarray(state.env.B_eci, dtype=float)
         n1, n2 = (int(round_half_away(float(a))) for a in action)
         t1, t2 = rod_torques(B_body, m_rod_Am2=self.distributor.m_rod_Am2)
-        al = Allocation(N1=n1, N2=n2, x1=float(n1), x2=float(n2), mode="direct", clipped1=False, clipped2=False,
-                        tau1_body=tuple(t1.tolist()), tau2_body=tuple(t2.tolist()))
+        al = Allocation(
+            N1=n1,
+            N2=n2,
+            x1=float(n1),
+            x2=float(n2),
+            mode="direct",
+            clipped1=False,
+            clipped2=False,
+            tau1_body=tuple(t1.tolist()),
+            tau2_body=tuple(t2.tolist()),
+        )
         polarity = self.distributor.selector.polarity((n1, n2))
         self._count(al)
         T = al.torque_body
-        extra = self.reference_torque(t=float(state.t), R=R, omega_body=omega, B_body=B_body, com_world=xc,
-                                      env=state.env)[1]
-        return RodCommand(t=float(state.t), polarity=polarity, torque_ref_body=T, torque_alloc_body=T.copy(),
-                          N1=n1, N2=n2, clipped1=False, clipped2=False, R=R, omega_body=omega, B_body=B_body,
-                          com_world=xc, extra=extra, counts=self.stats.copy())
+        extra = self.reference_torque(
+            t=float(state.t), R=R, omega_body=omega, B_body=B_body, com_world=xc, env=state.env
+        )[1]
+        return RodCommand(
+            t=float(state.t),
+            polarity=polarity,
+            torque_ref_body=T,
+            torque_alloc_body=T.copy(),
+            N1=n1,
+            N2=n2,
+            clipped1=False,
+            clipped2=False,
+            R=R,
+            omega_body=omega,
+            B_body=B_body,
+            com_world=xc,
+            extra=extra,
+            counts=self.stats.copy(),
+        )
 
 
 class TrussAttitudeTask(AttitudeTask):
@@ -177,9 +220,18 @@ class TrussAttitudeTask(AttitudeTask):
 
     rate_scale_rad_s = 1e-3
 
-    def __init__(self, base: Any, random: Any = None, *, action: str = "torque", randomize: bool = True,
-                 rate_range_rad_s: float | None = None, attitude_range_deg: float | None = None,
-                 health_every: int = 10, reward_weights: Any = None) -> None:
+    def __init__(
+        self,
+        base: Any,
+        random: Any = None,
+        *,
+        action: str = "torque",
+        randomize: bool = True,
+        rate_range_rad_s: float | None = None,
+        attitude_range_deg: float | None = None,
+        health_every: int = 10,
+        reward_weights: Any = None,
+    ) -> None:
         super().__init__(random, randomize=randomize, reward_weights=reward_weights)
         if action not in ("torque", "rods"):
             raise ValueError(f"action: must be 'torque' or 'rods', got {action!r}")
@@ -191,8 +243,9 @@ class TrussAttitudeTask(AttitudeTask):
         self.slew = self.cfg.scenario == "slew"
         self.q_ref = np.asarray(shipped.q_ref, dtype=float) if self.slew else None
         self.period_s = float(shipped.period_s)
-        self.converter = ActionRodController(shipped=shipped, reference_nodes=sc.tm.lattice.nodes,
-                                              q_ref_wxyz=self.q_ref, mode=action)
+        self.converter = ActionRodController(
+            shipped=shipped, reference_nodes=sc.tm.lattice.nodes, q_ref_wxyz=self.q_ref, mode=action
+        )
         self.mode = action
         default_rate, default_angle = (1e-4, 10.0) if self.slew else (0.01, 180.0)
         self.rate_range = float(default_rate if rate_range_rad_s is None else rate_range_rad_s)
@@ -221,14 +274,17 @@ class TrussAttitudeTask(AttitudeTask):
     def initialize_episode(self, physics: SimulationPhysics) -> None:
         super().initialize_episode(physics)
         omega0 = self.start.get("omega0_body_rad_s", np.asarray(self.cfg.initial.omega0_rad_s, dtype=float))
-        self._obs_memory = {"R": None, "t": 0.0, "omega": np.array(omega0, dtype=float), "health": None,
-                            "n": 0}
+        self._obs_memory = {"R": None, "t": 0.0, "omega": np.array(omega0, dtype=float), "health": None, "n": 0}
 
     def draw_start(self, physics: SimulationPhysics) -> dict[str, Any]:
         """Rates uniform in ±rate_range per axis, attitude q0 ⊗ turn; rigid start (as the scenario's
         ``init_state``: x_i = p_c + R (p_i − p_c), v_i = R (ω × (p_i − p_c)))."""
-        q, omega = draw_rigid_start(self.random, q0_wxyz=np.asarray(self.cfg.q0_wxyz, dtype=float),
-                                    rate_range_rad_s=self.rate_range, attitude_range_rad=self.attitude_range)
+        q, omega = draw_rigid_start(
+            self.random,
+            q0_wxyz=np.asarray(self.cfg.q0_wxyz, dtype=float),
+            rate_range_rad_s=self.rate_range,
+            attitude_range_rad=self.attitude_range,
+        )
         set_rigid_motion(physics, q_wxyz=q, omega_body_rad_s=omega, masses=self.scenario.tm.masses)
         self.converter.omega0_body[:] = omega
         return {"omega0_body_rad_s": omega, "q0_wxyz": q}
@@ -253,8 +309,11 @@ class TrussAttitudeTask(AttitudeTask):
 
     def observe(self, physics: SimulationPhysics, state: StepState) -> dict[str, np.ndarray]:
         R, omega = self._estimate(state)
-        obs = {"attitude_wxyz": quat_of_rotation(R), "body_rate_rad_s": np.array(omega),
-               "field_body_T": R.T @ np.asarray(state.env.B_eci, dtype=float)}
+        obs = {
+            "attitude_wxyz": quat_of_rotation(R),
+            "body_rate_rad_s": np.array(omega),
+            "field_body_T": R.T @ np.asarray(state.env.B_eci, dtype=float),
+        }
         if self.slew:
             obs["target_wxyz"] = self.q_ref.copy()
         sd, strain = self._health(physics, state)
@@ -265,8 +324,11 @@ class TrussAttitudeTask(AttitudeTask):
     def reward_terms(self, physics: SimulationPhysics) -> dict[str, float]:
         obs = self.current_observation(physics)
         theta = pointing_error_rad(obs["attitude_wxyz"], self.q_ref) if self.slew else 0.0
-        return {"theta_rad": theta, "omega_rad_s": float(np.linalg.norm(obs["body_rate_rad_s"])),
-                "strain": float(obs["strain_max"][0]) / physics.sim.max_strain}
+        return {
+            "theta_rad": theta,
+            "omega_rad_s": float(np.linalg.norm(obs["body_rate_rad_s"])),
+            "strain": float(obs["strain_max"][0]) / physics.sim.max_strain,
+        }
 
     # ------------------------------------------------------------------ shipped controller
     def shipped_action(self, physics: SimulationPhysics, controller: Any, state: StepState) -> np.ndarray:
@@ -280,6 +342,7 @@ class TrussAttitudeTask(AttitudeTask):
 def _is_truss(kind: str):
     def matches(cfg: Any) -> bool:
         return getattr(cfg, "concept", None) == "truss_magnetorquer" and getattr(cfg, "scenario", None) == kind
+
     return matches
 
 
@@ -287,9 +350,11 @@ def _factory(cfg: Any, *, random: Any = None, **options: Any):
     return make_environment(cfg, TrussAttitudeTask, random=random, **options)
 
 
-for _name, _config, _kind in (("truss/detumble", "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", "detumble"),  # noqa: E501
-                              ("truss/slew_I", "magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml", "slew"),
-                              ("truss/slew_II", "magsail_mj/concepts/truss_magnetorquer/configs/slew_ii.toml", "slew"),
-                              ("truss/slew_III", "magsail_mj/concepts/truss_magnetorquer/configs/slew_iii.toml", "slew"),  # noqa: E501
-                              ("truss/slew_IV", "magsail_mj/concepts/truss_magnetorquer/configs/slew_iv.toml", "slew")):
+for _name, _config, _kind in (
+    ("truss/detumble", "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml", "detumble"),  # noqa: E501
+    ("truss/slew_I", "magsail_mj/concepts/truss_magnetorquer/configs/slew_i.toml", "slew"),
+    ("truss/slew_II", "magsail_mj/concepts/truss_magnetorquer/configs/slew_ii.toml", "slew"),
+    ("truss/slew_III", "magsail_mj/concepts/truss_magnetorquer/configs/slew_iii.toml", "slew"),  # noqa: E501
+    ("truss/slew_IV", "magsail_mj/concepts/truss_magnetorquer/configs/slew_iv.toml", "slew"),
+):
     register(_name, config=_config, matches=_is_truss(_kind))(_factory)

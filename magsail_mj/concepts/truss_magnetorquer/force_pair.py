@@ -105,12 +105,18 @@ class VariantPairRodLoad(MagnetorquerRodLoad):
         self.force_pair = force_pair
 
     @classmethod
-    def from_variant(cls, lattice: Lattice, *, kappa_Am2_per_kg: float, rod_mass_kg: float,
-                     basis: str = "per_family", force_pair: ForcePair = "corrected") -> "VariantPairRodLoad":
+    def from_variant(
+        cls,
+        lattice: Lattice,
+        *,
+        kappa_Am2_per_kg: float,
+        rod_mass_kg: float,
+        basis: str = "per_family",
+        force_pair: ForcePair = "corrected",
+    ) -> "VariantPairRodLoad":
         """Rod dipoles from the basis (:func:`~magsail_mj.loads.magnetorquer_rods.rod_dipole_Am2`)."""
         n = (lattice.struts_of_kind("x_edge", layer=1).size, lattice.struts_of_kind("y_edge", layer=1).size)
-        m = rod_dipole_Am2(kappa_Am2_per_kg=kappa_Am2_per_kg, rod_mass_kg=rod_mass_kg, rods_per_family=n,
-                           basis=basis)
+        m = rod_dipole_Am2(kappa_Am2_per_kg=kappa_Am2_per_kg, rod_mass_kg=rod_mass_kg, rods_per_family=n, basis=basis)
         return cls(lattice, m_rod_Am2=m, force_pair=force_pair)
 
     def torque_world(self, state: StepState) -> np.ndarray:
@@ -120,8 +126,7 @@ class VariantPairRodLoad(MagnetorquerRodLoad):
     def forces(self, pos: np.ndarray, polarity, B: np.ndarray) -> np.ndarray:
         """(n_rods, 3) forces ``F_j`` of the variant on the far end of every rod [N]."""
         pol = self.check_polarity(polarity)
-        return pair_forces(self.force_pair, pos[self.i], pos[self.j], pol * self.m_of_rod,
-                           np.asarray(B, dtype=float))
+        return pair_forces(self.force_pair, pos[self.i], pos[self.j], pol * self.m_of_rod, np.asarray(B, dtype=float))
 
     def add(self, state: StepState, xfrc: np.ndarray) -> None:
         """Add the variant's pairs to ``xfrc[:, :3]`` (one gather, one sparse incidence product)."""
@@ -132,6 +137,6 @@ class VariantPairRodLoad(MagnetorquerRodLoad):
         if dip is None:
             return
         n = self.n_rods
-        ends = state.pos.take(self._ji, axis=0)           # rows: r_j of every rod, then r_i
+        ends = state.pos.take(self._ji, axis=0)  # rows: r_j of every rod, then r_i
         F = pair_forces(self.force_pair, ends[n:], ends[:n], dip, self.field(state))
         xfrc[:, :3] += self._incidence(xfrc.shape[0]) @ F

@@ -28,17 +28,30 @@ from magsail_mj.concepts.truss_magnetorquer.model import TrussModel
 from magsail_mj.concepts.truss_magnetorquer.twist import low_modes, twist_shares
 from magsail_mj.sim import RunResult
 
-__all__ = ["common_summary", "dashpot_matrix", "modal_damping_ratios", "modal_energies", "surface_twist_share",
-           "modal_keys", "N_MODES_REPORTED", "surface_uvw", "dynamic_summary", "profile_response",
-           "cantilever_summary", "lvlh_attitude",
-           "rigid_response", "PROFILE_AXES"]
+__all__ = [
+    "common_summary",
+    "dashpot_matrix",
+    "modal_damping_ratios",
+    "modal_energies",
+    "surface_twist_share",
+    "modal_keys",
+    "N_MODES_REPORTED",
+    "surface_uvw",
+    "dynamic_summary",
+    "profile_response",
+    "cantilever_summary",
+    "lvlh_attitude",
+    "rigid_response",
+    "PROFILE_AXES",
+]
 
 PROFILE_AXES = {"x1": 0, "y1": 1, "z1": 2}
 """Body axis index of a ``profile.axis`` name."""
 
 
-def rigid_response(kind: str, t: np.ndarray, *, tau_max: float, t_end: float, t_v: float | None,
-                   inertia: float, dt_fine: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
+def rigid_response(
+    kind: str, t: np.ndarray, *, tau_max: float, t_end: float, t_v: float | None, inertia: float, dt_fine: float = 0.01
+) -> tuple[np.ndarray, np.ndarray]:
     """Rigid-body angle and rate about the torque axis: ω = ∫τ/I dt, φ = ∫ω dt (from rest).
 
     Integrated by the trapezoid rule on a ``dt_fine`` grid (exact for the piecewise-constant
@@ -71,8 +84,9 @@ def modal_damping_ratios(omega: np.ndarray, phi: np.ndarray, C) -> np.ndarray:
     return c_nn / (2.0 * np.asarray(omega, dtype=float))
 
 
-def modal_energies(nodes: np.ndarray, x: np.ndarray, masses: np.ndarray, omega: np.ndarray,
-                   phi: np.ndarray) -> np.ndarray:
+def modal_energies(
+    nodes: np.ndarray, x: np.ndarray, masses: np.ndarray, omega: np.ndarray, phi: np.ndarray
+) -> np.ndarray:
     """Strain energy ``½ ω_n² q_n²`` [J] of each mass-normalised mode in the shape ``x`` (n, 3) [m].
 
     The deformation is taken in the best-fit body frame (§4.1, ``x ≈ R p + d``):
@@ -116,8 +130,9 @@ def modal_keys(tm: TrussModel, x_at_max: np.ndarray | None) -> dict[str, Any]:
     return out
 
 
-def common_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *, max_strain: float,
-                   zeta_strut: float) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def common_summary(
+    tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *, max_strain: float, zeta_strut: float
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """§11 "all dynamic runs" keys: status, surface SD σ_SD of the top layer [m], strain energy
     Σ ½ k (|r_j − r_i| − L)² [J], largest strut strain, structural failure (``failed``: a recorded
     strain above ``max_strain`` or an inverted cube, or the run ended ``structure_failed`` or
@@ -129,14 +144,21 @@ def common_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: Run
     tets = lat.cube_tetrahedra()
 
     def per_record(x: np.ndarray) -> dict[str, np.ndarray]:
-        check = structural_failure(x, lat.struts, lat.rest_length, tets=tets, reference=lat.nodes,
-                                   strain_limit=max_strain)
-        return {"sd": np.atleast_1d(surface_sd(x[:, top])),
-                "energy": strain_energy(x, lat.struts, tm.k, lat.rest_length),
-                "failed": check.failed, "max_abs_strain": check.max_abs_strain}
+        check = structural_failure(
+            x, lat.struts, lat.rest_length, tets=tets, reference=lat.nodes, strain_limit=max_strain
+        )
+        return {
+            "sd": np.atleast_1d(surface_sd(x[:, top])),
+            "energy": strain_energy(x, lat.struts, tm.k, lat.rest_length),
+            "failed": check.failed,
+            "max_abs_strain": check.max_abs_strain,
+        }
 
-    per = as_trajectory(pos).map(per_record) if t.size else {k: np.zeros(0) for k in
-                                                             ("sd", "energy", "failed", "max_abs_strain")}
+    per = (
+        as_trajectory(pos).map(per_record)
+        if t.size
+        else {k: np.zeros(0) for k in ("sd", "energy", "failed", "max_abs_strain")}
+    )
     sd, energy = per["sd"], per["energy"]
     fail = per
     failed_idx = np.flatnonzero(fail["failed"])
@@ -169,9 +191,16 @@ def surface_uvw(top: np.ndarray, ang: Any) -> np.ndarray:
     return np.stack([rel @ ang.e_u, rel @ ang.e_v, rel @ ang.normal], axis=1)
 
 
-def dynamic_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *, omega0_body: np.ndarray,
-                    max_strain: float, zeta_strut: float,
-                    environment: Any = None) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def dynamic_summary(
+    tm: TrussModel,
+    pos: NodeTrajectory | np.ndarray,
+    result: RunResult,
+    *,
+    omega0_body: np.ndarray,
+    max_strain: float,
+    zeta_strut: float,
+    environment: Any = None,
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Summary of a dynamic run (``dist_vs_central`` and ``free``), spec §6.6 and §11.
 
     Attitude from the best-fit rotation ``R`` (ZYX Euler angles ψ, θ, φ [rad]), body rates ω
@@ -189,26 +218,31 @@ def dynamic_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: Ru
     dt_rec = float(t[1] - t[0])
     omega = body_rates(R, dt_rec, omega0=np.asarray(omega0_body))
     inertia = particle_inertia(lat.nodes, tm.masses)
-    series.update(psi_rad=psi, theta_rad=theta, phi_rad=phi, omega_body_rad_s=omega,
-                  R_body_to_world=R)
-    summary.update({
-        "rotation_x1_final_rad": float(phi[-1]),
-        "phi_final_rad": float(phi[-1]),
-        "off_axis_rotation_max_rad": float(max(np.max(np.abs(psi)), np.max(np.abs(theta)))),
-        "psi_peak_abs_rad": float(np.max(np.abs(psi))),
-        "theta_peak_abs_rad": float(np.max(np.abs(theta))),
-        "omega1_peak_rad_s": float(np.max(np.abs(omega[:, 0]))),
-        "I_kgm2": inertia.moments.tolist(),
-    })
+    series.update(psi_rad=psi, theta_rad=theta, phi_rad=phi, omega_body_rad_s=omega, R_body_to_world=R)
+    summary.update(
+        {
+            "rotation_x1_final_rad": float(phi[-1]),
+            "phi_final_rad": float(phi[-1]),
+            "off_axis_rotation_max_rad": float(max(np.max(np.abs(psi)), np.max(np.abs(theta)))),
+            "psi_peak_abs_rad": float(np.max(np.abs(psi))),
+            "theta_peak_abs_rad": float(np.max(np.abs(theta))),
+            "omega1_peak_rad_s": float(np.max(np.abs(omega[:, 0]))),
+            "I_kgm2": inertia.moments.tolist(),
+        }
+    )
     kmax = int(np.nanargmax(series["surface_sd_m"]))
     top = as_trajectory(pos).at(kmax)[lat.top_nodes]
     ang = local_surface_angle(top, R[kmax], nodes_per_side=lat.nodes_per_side)
     series.update(surface_angle_map_rad=ang.alpha, surface_angle_u_m=ang.u, surface_angle_v_m=ang.v)
-    summary.update({
-        "twist_share_at_max_sd": surface_twist_share(surface_uvw(top, ang)),
-        "surface_angle_median_rad": float(ang.median), "surface_angle_p95_rad": float(ang.p95),
-        "surface_angle_max_rad": float(ang.max), "surface_angle_edge_max_rad": float(ang.edge_max),
-    })
+    summary.update(
+        {
+            "twist_share_at_max_sd": surface_twist_share(surface_uvw(top, ang)),
+            "surface_angle_median_rad": float(ang.median),
+            "surface_angle_p95_rad": float(ang.p95),
+            "surface_angle_max_rad": float(ang.max),
+            "surface_angle_edge_max_rad": float(ang.edge_max),
+        }
+    )
     if environment is not None:
         summary.update(environment.summary())
         series.update(lvlh_attitude(environment, t, R))
@@ -216,29 +250,45 @@ def dynamic_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: Ru
     return summary, series
 
 
-def profile_response(profile: ProfileConfig, t: np.ndarray, surface_sd_m: np.ndarray, *, inertia_kgm2: float,
-                     torque_cmd_body_Nm: np.ndarray) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def profile_response(
+    profile: ProfileConfig,
+    t: np.ndarray,
+    surface_sd_m: np.ndarray,
+    *,
+    inertia_kgm2: float,
+    torque_cmd_body_Nm: np.ndarray,
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """The open-loop torque run against the rigid body (spec §6.6): rigid angle and rate about the
     profile axis (:func:`rigid_response` with the moment ``inertia_kgm2`` [kg m²]) and σ_SD after the
     torque is off (t > 2 t_end / 3): mean, peak-to-peak [m] and linear slope [m/s]."""
     p = profile
-    ang_rigid, rate_rigid = rigid_response(p.kind, t, tau_max=p.tau_max_Nm, t_end=p.t_end_s, t_v=p.t_v_s,
-                                           inertia=inertia_kgm2)
-    series = {"phi_rigid_rad": ang_rigid, "omega_rigid_rad_s": rate_rigid,
-              "torque_cmd_x1_Nm": torque_cmd_body_Nm[:, 0]}
+    ang_rigid, rate_rigid = rigid_response(
+        p.kind, t, tau_max=p.tau_max_Nm, t_end=p.t_end_s, t_v=p.t_v_s, inertia=inertia_kgm2
+    )
+    series = {"phi_rigid_rad": ang_rigid, "omega_rigid_rad_s": rate_rigid, "torque_cmd_x1_Nm": torque_cmd_body_Nm[:, 0]}
     summary: dict[str, Any] = {"phi_rigid_final_rad": float(ang_rigid[-1])}
     t_off = 2.0 * p.t_end_s / 3.0
     after = t > t_off
     if np.count_nonzero(after) >= 2:
         sd_after = surface_sd_m[after]
-        summary.update({
-            "surface_sd_after_off_mean_m": float(np.mean(sd_after)),
-            "surface_sd_after_off_p2p_m": float(np.ptp(sd_after)),
-            "surface_sd_after_off_slope_m_per_s": float(np.polyfit(t[after], sd_after, 1)[0]),
-        })
+        summary.update(
+            {
+                "surface_sd_after_off_mean_m": float(np.mean(sd_after)),
+                "surface_sd_after_off_p2p_m": float(np.ptp(sd_after)),
+                "surface_sd_after_off_slope_m_per_s": float(np.polyfit(t[after], sd_after, 1)[0]),
+            }
+        )
     else:
-        summary.update({k: float("nan") for k in ("surface_sd_after_off_mean_m", "surface_sd_after_off_p2p_m",
-                                                  "surface_sd_after_off_slope_m_per_s")})
+        summary.update(
+            {
+                k: float("nan")
+                for k in (
+                    "surface_sd_after_off_mean_m",
+                    "surface_sd_after_off_p2p_m",
+                    "surface_sd_after_off_slope_m_per_s",
+                )
+            }
+        )
     return summary, series
 
 
@@ -253,12 +303,24 @@ def lvlh_attitude(environment, t: np.ndarray, R: np.ndarray) -> dict[str, np.nda
     R_lvlh = L @ R
     yaw, pitch, roll = euler_zyx(R_lvlh, unwrap=True)
     cos_n = np.clip(np.einsum("ti,ti->t", R[:, :, 2], L[:, 2, :]), -1.0, 1.0)
-    return {"lvlh_yaw_rad": yaw, "lvlh_pitch_rad": pitch, "lvlh_roll_rad": roll,
-            "normal_to_orbit_normal_rad": np.arccos(cos_n), "r_ref_eci_m": samples["r_ref_eci"]}
+    return {
+        "lvlh_yaw_rad": yaw,
+        "lvlh_pitch_rad": pitch,
+        "lvlh_roll_rad": roll,
+        "normal_to_orbit_normal_rad": np.arccos(cos_n),
+        "r_ref_eci_m": samples["r_ref_eci"],
+    }
 
 
-def cantilever_summary(tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *, load_N: float,
-                       EI_Nm2: float, calibration: str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def cantilever_summary(
+    tm: TrussModel,
+    pos: NodeTrajectory | np.ndarray,
+    result: RunResult,
+    *,
+    load_N: float,
+    EI_Nm2: float,
+    calibration: str,
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Cantilever check (spec §2.7): linear solve (formula and calibrated) vs the MuJoCo settle.
 
     Tip load ``load_N`` [N] on the free edge, target ``EI_Nm2`` [N m²]; the beam deflection is

@@ -21,7 +21,10 @@ from magsail_mj.lattice.properties import (
 )
 from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec
 from magsail_mj.concepts.truss_magnetorquer.config import (
-    ActuatorsConfig, StiffnessConfig, TrussConfig, first_cantilever_omega,
+    ActuatorsConfig,
+    StiffnessConfig,
+    TrussConfig,
+    first_cantilever_omega,
 )
 from magsail_mj.concepts.truss_magnetorquer.twist import diagonal_struts, twist_scaling
 
@@ -55,19 +58,36 @@ def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: floa
     """Lattice, masses, spring constants, damping and the MjSpec of a config."""
     lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
     total = cfg.mass.total_kg if cfg.mass.total_kg is not None else cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
-    masses = node_masses(lat, total_kg=total, central_fraction=cfg.mass.central_fraction,
-                         point_masses=[(p.node, p.kg) for p in cfg.mass.point_masses])
+    masses = node_masses(
+        lat,
+        total_kg=total,
+        central_fraction=cfg.mass.central_fraction,
+        point_masses=[(p.node, p.kg) for p in cfg.mass.point_masses],
+    )
     k, c, ratio = spring_constants(lat, cfg.stiffness)
     m_p = total / lat.n_nodes
     gamma = strut_damping(lat, k, zeta=cfg.damping.zeta_strut, particle_mass_kg=m_p)
-    opts = TrussModelOptions(timestep_s=cfg.sim.timestep_s, integrator=cfg.sim.integrator,
-                             solver_tolerance=cfg.sim.solver_tolerance,
-                             fixed_nodes=tuple(int(i) for i in fixed_nodes),
-                             node_damping_1_s=node_damping_1_s, name=f"truss_{cfg.scenario}")
+    opts = TrussModelOptions(
+        timestep_s=cfg.sim.timestep_s,
+        integrator=cfg.sim.integrator,
+        solver_tolerance=cfg.sim.solver_tolerance,
+        fixed_nodes=tuple(int(i) for i in fixed_nodes),
+        node_damping_1_s=node_damping_1_s,
+        name=f"truss_{cfg.scenario}",
+    )
     spec = build_truss_spec(lat, masses=masses, stiffness=k, damping=gamma, options=opts)
-    return TrussModel(lattice=lat, masses=masses, k=k, gamma=gamma, calibration_factor=c,
-                      particle_mass_kg=m_p, total_kg=total, spec=spec, fixed_nodes=tuple(fixed_nodes),
-                      twist_diagonal_ratio=ratio)
+    return TrussModel(
+        lattice=lat,
+        masses=masses,
+        k=k,
+        gamma=gamma,
+        calibration_factor=c,
+        particle_mass_kg=m_p,
+        total_kg=total,
+        spec=spec,
+        fixed_nodes=tuple(fixed_nodes),
+        twist_diagonal_ratio=ratio,
+    )
 
 
 def spring_constants(lat: Lattice, stiffness: StiffnessConfig) -> tuple[np.ndarray, float, float]:

@@ -45,7 +45,11 @@ from magsail_mj.control.bdot_flexible import BdotRodController
 from magsail_mj.control.quaternion_feedback import QuaternionFeedbackRodController
 from magsail_mj.control.rod_attitude import ProfileRodController, RodAttitudeController
 from magsail_mj.estimation.attitude import (
-    euler_zyx, matrix_from_quat, particle_inertia, quat_from_matrix, rotation_angle,
+    euler_zyx,
+    matrix_from_quat,
+    particle_inertia,
+    quat_from_matrix,
+    rotation_angle,
 )
 from magsail_mj.lattice.trajectory import NodeTrajectory, as_trajectory
 from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad
@@ -61,7 +65,11 @@ from magsail_mj.concepts.truss_magnetorquer.config import (
 )
 from magsail_mj.concepts.truss_magnetorquer.force_pair import VariantPairRodLoad
 from magsail_mj.concepts.truss_magnetorquer.metrics import (
-    PROFILE_AXES, common_summary, lvlh_attitude, surface_twist_share, surface_uvw,
+    PROFILE_AXES,
+    common_summary,
+    lvlh_attitude,
+    surface_twist_share,
+    surface_uvw,
 )
 from magsail_mj.concepts.truss_magnetorquer.model import TrussModel
 from magsail_mj.sim import RunResult
@@ -106,9 +114,13 @@ def make_rod_load(actuators: ActuatorsConfig, tm: TrussModel) -> VariantPairRodL
     ``state.env.B_eci`` (the field at the reference point, applied uniformly, §9.2), force pair
     ``actuators.force_pair`` (:mod:`~magsail_mj.concepts.truss_magnetorquer.force_pair`)."""
     a = actuators
-    return VariantPairRodLoad.from_variant(tm.lattice, kappa_Am2_per_kg=a.kappa_Am2_per_kg,
-                                           rod_mass_kg=a.rod_mass_kg, basis=a.rod_dipole_basis,
-                                           force_pair=a.force_pair)
+    return VariantPairRodLoad.from_variant(
+        tm.lattice,
+        kappa_Am2_per_kg=a.kappa_Am2_per_kg,
+        rod_mass_kg=a.rod_mass_kg,
+        basis=a.rod_dipole_basis,
+        force_pair=a.force_pair,
+    )
 
 
 def controller_inertia(control: TrussControlConfig | None, tm: TrussModel) -> np.ndarray:
@@ -124,25 +136,35 @@ def lloyd_seed(control: TrussControlConfig, sim_seed: int) -> int:
     return control.lloyd.seed if control.lloyd.seed is not None else sim_seed
 
 
-def make_distributor(control: TrussControlConfig, rod_load: MagnetorquerRodLoad, *,
-                     sim_seed: int) -> TorqueDistributor:
+def make_distributor(control: TrussControlConfig, rod_load: MagnetorquerRodLoad, *, sim_seed: int) -> TorqueDistributor:
     """§7.3 allocation + §7.4 Lloyd selection (seed :func:`lloyd_seed`)."""
     c = control
-    return TorqueDistributor.for_rods(rod_load.rods, m_rod_Am2=rod_load.m_rod_Am2, mode=c.allocation,
-                                      seed=lloyd_seed(c, sim_seed), tol_rel=c.lloyd.tol_rel,
-                                      max_iter=c.lloyd.max_iter, cache_dir=c.cache_dir or None)
+    return TorqueDistributor.for_rods(
+        rod_load.rods,
+        m_rod_Am2=rod_load.m_rod_Am2,
+        mode=c.allocation,
+        seed=lloyd_seed(c, sim_seed),
+        tol_rel=c.lloyd.tol_rel,
+        max_iter=c.lloyd.max_iter,
+        cache_dir=c.cache_dir or None,
+    )
 
 
-def rod_controller(cfg: TrussConfig, tm: TrussModel, rod_load: MagnetorquerRodLoad, *,
-                   mu_m3_s2: float) -> RodAttitudeController:
+def rod_controller(
+    cfg: TrussConfig, tm: TrussModel, rod_load: MagnetorquerRodLoad, *, mu_m3_s2: float
+) -> RodAttitudeController:
     """The ``[control]`` law (``control.kind``: B-dot, quaternion feedback or the open-loop
     ``[profile]``) feeding the rod allocation, sampled every ``control.period_s`` (default: every
     step); ``mu_m3_s2`` [m³/s²] is the gravitational parameter of the gravity-gradient compensation."""
     c = cfg.control
-    common = dict(reference_nodes=tm.lattice.nodes, masses=tm.masses,
-                  distributor=make_distributor(c, rod_load, sim_seed=cfg.sim.seed),
-                  period_s=c.period_s if c.period_s is not None else cfg.sim.timestep_s,
-                  omega0_body=cfg.initial.omega0_rad_s, rate_method=c.rate_method)
+    common = dict(
+        reference_nodes=tm.lattice.nodes,
+        masses=tm.masses,
+        distributor=make_distributor(c, rod_load, sim_seed=cfg.sim.seed),
+        period_s=c.period_s if c.period_s is not None else cfg.sim.timestep_s,
+        omega0_body=cfg.initial.omega0_rad_s,
+        rate_method=c.rate_method,
+    )
     return _CONTROL_LAWS[c.kind](cfg, tm, mu_m3_s2, common)
 
 
@@ -153,23 +175,37 @@ def _bdot(cfg: TrussConfig, tm: TrussModel, mu_m3_s2: float, common: dict[str, A
 def _quat_pd(cfg: TrussConfig, tm: TrussModel, mu_m3_s2: float, common: dict[str, Any]) -> RodAttitudeController:
     c = cfg.control
     q_ref = cfg.maneuver.q_ref_wxyz if cfg.maneuver.q_ref_wxyz is not None else cfg.q0_wxyz
-    return QuaternionFeedbackRodController(q_ref_wxyz=q_ref, inertia_kgm2=controller_inertia(c, tm),
-                                           Pq_Nm=c.Pq_Nm, Pw_Nms=c.Pw_Nms, gg_comp=c.gg_comp,
-                                           mu=mu_m3_s2, **common)
+    return QuaternionFeedbackRodController(
+        q_ref_wxyz=q_ref,
+        inertia_kgm2=controller_inertia(c, tm),
+        Pq_Nm=c.Pq_Nm,
+        Pw_Nms=c.Pw_Nms,
+        gg_comp=c.gg_comp,
+        mu=mu_m3_s2,
+        **common,
+    )
 
 
 def _open_loop(cfg: TrussConfig, tm: TrussModel, mu_m3_s2: float, common: dict[str, Any]) -> RodAttitudeController:
     p: ProfileConfig = cfg.profile
-    return ProfileRodController(kind=p.kind, tau_max_Nm=p.tau_max_Nm, t_end_s=p.t_end_s, t_v_s=p.t_v_s,
-                                axis=PROFILE_AXES[p.axis], **common)
+    return ProfileRodController(
+        kind=p.kind, tau_max_Nm=p.tau_max_Nm, t_end_s=p.t_end_s, t_v_s=p.t_v_s, axis=PROFILE_AXES[p.axis], **common
+    )
 
 
 _CONTROL_LAWS = {"bdot": _bdot, "quat_pd": _quat_pd, "open_loop": _open_loop}
 """``control.kind`` → controller factory (the config schema allows exactly these keys)."""
 
 
-def orbital_probes(tm: TrussModel, rod: MagnetorquerRodLoad, tidal: TidalGravityLoad | None, *, ntendon: int,
-                   mu_m3_s2: float, q_err: bool) -> dict[str, Any]:
+def orbital_probes(
+    tm: TrussModel,
+    rod: MagnetorquerRodLoad,
+    tidal: TidalGravityLoad | None,
+    *,
+    ntendon: int,
+    mu_m3_s2: float,
+    q_err: bool,
+) -> dict[str, Any]:
     """Probes of the orbital runs (recorded every ``sim.record_every`` steps; module docstring).
 
     All read the held command ``state.ctrl`` (a :class:`~magsail_mj.control.rod_attitude.RodCommand`)
@@ -186,8 +222,15 @@ def orbital_probes(tm: TrussModel, rod: MagnetorquerRodLoad, tidal: TidalGravity
 
     def counts(s, d):
         pol = s.ctrl.polarity
-        return np.array([np.count_nonzero(pol[:n1] > 0), np.count_nonzero(pol[:n1] < 0),
-                         np.count_nonzero(pol[n1:] > 0), np.count_nonzero(pol[n1:] < 0)], dtype=np.int32)
+        return np.array(
+            [
+                np.count_nonzero(pol[:n1] > 0),
+                np.count_nonzero(pol[:n1] < 0),
+                np.count_nonzero(pol[n1:] > 0),
+                np.count_nonzero(pol[n1:] < 0),
+            ],
+            dtype=np.int32,
+        )
 
     def t_ac(s, d):
         return s.ctrl.R.T @ rod.torque_world(s)
@@ -195,7 +238,7 @@ def orbital_probes(tm: TrussModel, rod: MagnetorquerRodLoad, tidal: TidalGravity
     def t_gg(s, d):
         if tidal is None:
             return np.zeros(3)
-        x = s.pos[1:n_nodes + 1]
+        x = s.pos[1 : n_nodes + 1]
         F = masses[:, None] * tidal.accelerations(np.asarray(s.env.r_ref_eci, dtype=float), x)
         xc = w_com @ x
         return s.ctrl.R.T @ moment_sum(x - xc, F)
@@ -298,8 +341,11 @@ def saturation_phases(t: np.ndarray, saturated: np.ndarray, *, split_s: float = 
     dt_rec = float(t[1] - t[0]) if t.size > 1 else 0.0
     runs = true_intervals(t, sat)
     late = runs[runs[:, 0] >= split_s] if runs.size else runs
-    out: dict[str, Any] = {"saturation_share_first_hour": float(sat[early].mean()) if early.any() else None,
-                           "saturation_burst_after_first_hour_s": None, "saturation_burst_start_s": None}
+    out: dict[str, Any] = {
+        "saturation_share_first_hour": float(sat[early].mean()) if early.any() else None,
+        "saturation_burst_after_first_hour_s": None,
+        "saturation_burst_start_s": None,
+    }
     if late.size:
         k = int(np.argmax(late[:, 1] - late[:, 0]))
         out["saturation_burst_after_first_hour_s"] = float(late[k, 1] - late[k, 0] + dt_rec)
@@ -351,7 +397,7 @@ def tumbled(err: np.ndarray, omega_norm: np.ndarray) -> bool:
     if np.any(np.asarray(omega_norm) > TUMBLE_RATE_RAD_S):
         return True
     captured = np.flatnonzero(err <= TUMBLE_CAPTURE_RAD)
-    return bool(captured.size and np.any(err[captured[0]:] > TUMBLE_ERROR_RAD))
+    return bool(captured.size and np.any(err[captured[0] :] > TUMBLE_ERROR_RAD))
 
 
 def _trapz(y: np.ndarray, t: np.ndarray) -> float:
@@ -368,8 +414,15 @@ def _cumtrapz(y: np.ndarray, t: np.ndarray) -> np.ndarray:
 # =========================================================================== post-processing
 
 
-def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *,
-                    environment: Any, rod: MagnetorquerRodLoad) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def orbital_summary(
+    cfg: TrussConfig,
+    tm: TrussModel,
+    pos: NodeTrajectory | np.ndarray,
+    result: RunResult,
+    *,
+    environment: Any,
+    rod: MagnetorquerRodLoad,
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Summary keys and derived series common to ``detumble`` and ``slew`` runs (spec §9.3–9.4, §11).
 
     §11 "all dynamic runs" keys (:func:`~magsail_mj.concepts.truss_magnetorquer.metrics.common_summary`), the
@@ -381,8 +434,7 @@ def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: NodeTrajectory | np.n
     reading the recorded qpos block by block); the kind's own keys come from :func:`detumble_keys` or
     :func:`slew_keys`.
     """
-    summary, series = common_summary(tm, pos, result, max_strain=cfg.sim.max_strain,
-                                     zeta_strut=cfg.damping.zeta_strut)
+    summary, series = common_summary(tm, pos, result, max_strain=cfg.sim.max_strain, zeta_strut=cfg.damping.zeta_strut)
     lat, rec = tm.lattice, result.records
     t = rec["t"]
     summary.update(environment.summary())
@@ -401,10 +453,18 @@ def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: NodeTrajectory | np.n
     T_ac_norm = np.linalg.norm(T_ac, axis=1)
     N_abs = np.abs(N).sum(axis=1).astype(float)
     series.update(
-        psi_rad=psi, theta_rad=theta, phi_rad=phi, omega_body_rad_s=omega, omega_norm_rad_s=w_norm,
-        rotation_angle_rad=rotation_angle(R, relative_to=R0), B_norm_T=B_norm,
-        B_normal_angle_rad=np.arccos(np.clip(cosBn, -1.0, 1.0)), N1=N[:, 0], N2=N[:, 1],
-        int_T_ac_Nms=_cumtrapz(T_ac_norm, t), int_N_abs_s=_cumtrapz(N_abs, t),
+        psi_rad=psi,
+        theta_rad=theta,
+        phi_rad=phi,
+        omega_body_rad_s=omega,
+        omega_norm_rad_s=w_norm,
+        rotation_angle_rad=rotation_angle(R, relative_to=R0),
+        B_norm_T=B_norm,
+        B_normal_angle_rad=np.arccos(np.clip(cosBn, -1.0, 1.0)),
+        N1=N[:, 0],
+        N2=N[:, 1],
+        int_T_ac_Nms=_cumtrapz(T_ac_norm, t),
+        int_N_abs_s=_cumtrapz(N_abs, t),
     )
     series.update(lvlh_attitude(environment, t, R))
 
@@ -412,8 +472,9 @@ def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: NodeTrajectory | np.n
     cnt = rec["control_counts"][-1].astype(float)
     n_ctrl = max(cnt[0], 1.0)
     sat = rec["saturated"].astype(bool)
-    intervals = [np.column_stack([iv, np.full(len(iv), f + 1)]) for f in (0, 1)
-                 for iv in [true_intervals(t, sat[:, f])]]
+    intervals = [
+        np.column_stack([iv, np.full(len(iv), f + 1)]) for f in (0, 1) for iv in [true_intervals(t, sat[:, f])]
+    ]
     series["saturation_intervals"] = np.concatenate(intervals) if intervals else np.zeros((0, 3))
     summary.update(saturation_phases(t, sat))
 
@@ -422,40 +483,47 @@ def orbital_summary(cfg: TrussConfig, tm: TrussModel, pos: NodeTrajectory | np.n
     at_max = as_trajectory(pos).at(kmax)[lat.top_nodes]
     ang = local_surface_angle(at_max, R[kmax], nodes_per_side=lat.nodes_per_side)
     uvw = surface_uvw(at_max, ang)
-    series.update(surface_angle_map_rad=ang.alpha, surface_angle_u_m=ang.u, surface_angle_v_m=ang.v,
-                  shape_at_max_sd_uvw_m=uvw)
+    series.update(
+        surface_angle_map_rad=ang.alpha, surface_angle_u_m=ang.u, surface_angle_v_m=ang.v, shape_at_max_sd_uvw_m=uvw
+    )
     inertia = particle_inertia(lat.nodes, tm.masses)
     B_body = rec["B_body_T"]
     m_rod = rod.m_rod_Am2
     n_max = rod.rods.n_per_family
     alloc = allocation_mode_difference(T_ref, B_body, m_rod_Am2=m_rod, n_max=n_max)
-    summary.update({
-        "control_kind": cfg.control.kind,
-        "control_samples": int(cnt[0]),
-        "sat_fraction_family1": cnt[1] / n_ctrl,
-        "sat_fraction_family2": cnt[2] / n_ctrl,
-        "saturation_fraction": cnt[3] / n_ctrl,
-        "n_saturation_intervals": int(len(series["saturation_intervals"])),
-        "surface_angle_median_rad": float(ang.median), "surface_angle_p95_rad": float(ang.p95),
-        "surface_angle_max_rad": float(ang.max), "surface_angle_edge_max_rad": float(ang.edge_max),
-        "edge_angle_max_deg": math.degrees(float(ang.edge_max)),
-        "twist_share_at_max_sd": surface_twist_share(uvw),
-        "surface_sd_period_s": dominant_period(t, series["surface_sd_m"]),
-        "I_kgm2": inertia.moments.tolist(),
-        "rod_dipole_Am2": list(m_rod),
-        "int_T_ac_Nms": float(series["int_T_ac_Nms"][-1]),
-        "int_T_ac_first_3600s_Nms": float(np.interp(min(3600.0, t[-1]), t, series["int_T_ac_Nms"])),
-        "int_N_abs_s": float(series["int_N_abs_s"][-1]),
-        "T_ac_max_Nm": float(T_ac_norm.max()),
-        "T_gg_max_Nm": float(np.linalg.norm(T_gg, axis=1).max()),
-        "B_norm_min_T": float(B_norm.min()), "B_norm_max_T": float(B_norm.max()),
-        **{f"alloc_{k}": v for k, v in alloc.items()},
-    })
+    summary.update(
+        {
+            "control_kind": cfg.control.kind,
+            "control_samples": int(cnt[0]),
+            "sat_fraction_family1": cnt[1] / n_ctrl,
+            "sat_fraction_family2": cnt[2] / n_ctrl,
+            "saturation_fraction": cnt[3] / n_ctrl,
+            "n_saturation_intervals": int(len(series["saturation_intervals"])),
+            "surface_angle_median_rad": float(ang.median),
+            "surface_angle_p95_rad": float(ang.p95),
+            "surface_angle_max_rad": float(ang.max),
+            "surface_angle_edge_max_rad": float(ang.edge_max),
+            "edge_angle_max_deg": math.degrees(float(ang.edge_max)),
+            "twist_share_at_max_sd": surface_twist_share(uvw),
+            "surface_sd_period_s": dominant_period(t, series["surface_sd_m"]),
+            "I_kgm2": inertia.moments.tolist(),
+            "rod_dipole_Am2": list(m_rod),
+            "int_T_ac_Nms": float(series["int_T_ac_Nms"][-1]),
+            "int_T_ac_first_3600s_Nms": float(np.interp(min(3600.0, t[-1]), t, series["int_T_ac_Nms"])),
+            "int_N_abs_s": float(series["int_N_abs_s"][-1]),
+            "T_ac_max_Nm": float(T_ac_norm.max()),
+            "T_gg_max_Nm": float(np.linalg.norm(T_gg, axis=1).max()),
+            "B_norm_min_T": float(B_norm.min()),
+            "B_norm_max_T": float(B_norm.max()),
+            **{f"alloc_{k}": v for k, v in alloc.items()},
+        }
+    )
     return summary, series
 
 
-def detumble_keys(t: np.ndarray, omega: np.ndarray, *, inertia_kgm2: np.ndarray,
-                  omega0_body: np.ndarray) -> dict[str, Any]:
+def detumble_keys(
+    t: np.ndarray, omega: np.ndarray, *, inertia_kgm2: np.ndarray, omega0_body: np.ndarray
+) -> dict[str, Any]:
     """§9.3 metrics of body rates ``omega`` (T, 3) [rad/s] at times ``t`` [s]: time all three rates
     fall / stay below 1e-3 rad/s, residual rates over the last 1800 s, and the initial angular
     momentum H0 = |I ω0| [N m s] (``inertia_kgm2`` (3, 3), ``omega0_body`` [rad/s])."""
@@ -477,8 +545,13 @@ def detumble_keys(t: np.ndarray, omega: np.ndarray, *, inertia_kgm2: np.ndarray,
     }
 
 
-def slew_keys(rec: dict[str, np.ndarray], *, q0_wxyz: tuple[float, ...], maneuver: ManeuverConfig,
-              low_authority_threshold_Nm: float) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+def slew_keys(
+    rec: dict[str, np.ndarray],
+    *,
+    q0_wxyz: tuple[float, ...],
+    maneuver: ManeuverConfig,
+    low_authority_threshold_Nm: float,
+) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """§9.4 metrics of the records ``rec`` (best-fit rotation ``R_est``, estimated body rate,
     reference and actual rod torques): error thresholds and settling, overshoot about the slew axis
     from ``q0_wxyz`` to ``maneuver.q_ref_wxyz``, tumbling, low-authority time (|T_ac| below 10 % of
@@ -529,8 +602,15 @@ def slew_keys(rec: dict[str, np.ndarray], *, q0_wxyz: tuple[float, ...], maneuve
 # =========================================================================== plots
 
 
-def orbital_plots(run_dir: Path, records: dict[str, np.ndarray], series: dict[str, np.ndarray], *, title: str,
-                  nodes_per_side: int, side_m: float) -> list[Path]:
+def orbital_plots(
+    run_dir: Path,
+    records: dict[str, np.ndarray],
+    series: dict[str, np.ndarray],
+    *,
+    title: str,
+    nodes_per_side: int,
+    side_m: float,
+) -> list[Path]:
     """The §9.3/§9.4 figures of a run (PNG, written atomically); returns their paths.
 
     ``body_rates.png`` (components, and |ω_i| on a log scale with the 1e-3 rad/s line),
@@ -589,8 +669,9 @@ def orbital_plots(run_dir: Path, records: dict[str, np.ndarray], series: dict[st
     axs[0].set(ylabel="signed active rods", title=title + " — active rods per family (sign = polarity)")
     axs[0].legend()
     cnt = rec["rod_counts"]
-    for j, (lab, c, ls) in enumerate((("x1 +", "C0", "-"), ("x1 −", "C0", ":"), ("y1 +", "C1", "-"),
-                                      ("y1 −", "C1", ":"))):
+    for j, (lab, c, ls) in enumerate(
+        (("x1 +", "C0", "-"), ("x1 −", "C0", ":"), ("y1 +", "C1", "-"), ("y1 −", "C1", ":"))
+    ):
         axs[1].plot(th, cnt[:, j], color=c, ls=ls, lw=0.6, label=lab)
     axs[1].set(xlabel="t [h]", ylabel="rods on")
     axs[1].legend(ncol=4)
@@ -605,8 +686,12 @@ def orbital_plots(run_dir: Path, records: dict[str, np.ndarray], series: dict[st
     if slew:
         for i in range(3):
             ax.plot(th, T_ref[:, i], color=colours[i], ls=":", lw=0.8, label=f"T_ref {comp[i]}")
-    ax.set(xlabel="t [h]", ylabel="torque, body axes [N m]", ylim=(-lim, lim),
-           title=title + " — rod (T_ac) and gravity-gradient (T_gg) torque")
+    ax.set(
+        xlabel="t [h]",
+        ylabel="torque, body axes [N m]",
+        ylim=(-lim, lim),
+        title=title + " — rod (T_ac) and gravity-gradient (T_gg) torque",
+    )
     ax.legend(ncol=3, fontsize=7)
     out.append(save_figure(fig, run_dir / "torques.png"))
 
@@ -633,11 +718,15 @@ def orbital_plots(run_dir: Path, records: dict[str, np.ndarray], series: dict[st
 
     k = int(np.nanargmax(series["surface_sd_m"]))
     fig, ax = new_figure(figsize=(6.5, 5.5))
-    im = ax.pcolormesh(series["surface_angle_u_m"], series["surface_angle_v_m"],
-                       np.degrees(series["surface_angle_map_rad"]), shading="auto", cmap="viridis")
+    im = ax.pcolormesh(
+        series["surface_angle_u_m"],
+        series["surface_angle_v_m"],
+        np.degrees(series["surface_angle_map_rad"]),
+        shading="auto",
+        cmap="viridis",
+    )
     fig.colorbar(im, ax=ax, label="local surface angle [deg]")
-    ax.set(xlabel="u [m]", ylabel="v [m]", aspect="equal",
-           title=f"local surface angle at max SD (t = {t[k]:.0f} s)")
+    ax.set(xlabel="u [m]", ylabel="v [m]", aspect="equal", title=f"local surface angle at max SD (t = {t[k]:.0f} s)")
     out.append(save_figure(fig, run_dir / "surface_angle_map.png"))
 
     uvw = series["shape_at_max_sd_uvw_m"]
@@ -646,10 +735,23 @@ def orbital_plots(run_dir: Path, records: dict[str, np.ndarray], series: dict[st
     wmax = max(float(np.max(np.abs(uvw[:, 2]))), 1e-12)
     exag = 0.1 * side_m / wmax
     U, V, W = (uvw[:, i].reshape(n, n) for i in range(3))
-    surf = ax.plot_surface(U, V, W * exag, facecolors=colormaps["PuOr_r"](0.5 + 0.5 * W / wmax), shade=False,
-                           rstride=1, cstride=1, linewidth=0.3, edgecolor="k")
+    surf = ax.plot_surface(
+        U,
+        V,
+        W * exag,
+        facecolors=colormaps["PuOr_r"](0.5 + 0.5 * W / wmax),
+        shade=False,
+        rstride=1,
+        cstride=1,
+        linewidth=0.3,
+        edgecolor="k",
+    )
     del surf
-    ax.set(xlabel="u [m]", ylabel="v [m]", zlabel=f"w × {exag:.3g} [m]",
-           title=f"top layer at max SD (t = {t[k]:.0f} s), |w|max = {wmax * 1e3:.3g} mm, ×{exag:.3g}")
+    ax.set(
+        xlabel="u [m]",
+        ylabel="v [m]",
+        zlabel=f"w × {exag:.3g} [m]",
+        title=f"top layer at max SD (t = {t[k]:.0f} s), |w|max = {wmax * 1e3:.3g} mm, ×{exag:.3g}",
+    )
     out.append(save_figure(fig, run_dir / "shape_at_max_sd.png"))
     return out

@@ -17,8 +17,9 @@ from magsail_mj.plotting import new_figure, save_figure
 __all__ = ["truss_plots", "cantilever_plot", "save_figure"]
 
 
-def cantilever_plot(run_dir: Path, series: dict[str, np.ndarray], *, title: str, load_N: float, EI_Nm2: float,
-                    side_m: float) -> list[Path]:
+def cantilever_plot(
+    run_dir: Path, series: dict[str, np.ndarray], *, title: str, load_N: float, EI_Nm2: float, side_m: float
+) -> list[Path]:
     """``tip_deflection.png``: the MuJoCo settle of the tip against the beam value P L³ / (3 EI) [m]."""
     fig, ax = new_figure(figsize=(7, 4))
     ax.plot(series["t"], series["tip_deflection_m"], label="MuJoCo settle")
@@ -94,8 +95,7 @@ def _surface_angle_plot(run_dir: Path, series: dict[str, np.ndarray]) -> Path:
     t = series["t"]
     fig, ax = new_figure(figsize=(6, 5))
     alpha = np.degrees(series["surface_angle_map_rad"])
-    im = ax.pcolormesh(series["surface_angle_u_m"], series["surface_angle_v_m"], alpha, shading="auto",
-                       cmap="viridis")
+    im = ax.pcolormesh(series["surface_angle_u_m"], series["surface_angle_v_m"], alpha, shading="auto", cmap="viridis")
     fig.colorbar(im, ax=ax, label="local surface angle [deg]")
     k = int(np.nanargmax(series["surface_sd_m"]))
     ax.set(xlabel="u [m]", ylabel="v [m]", aspect="equal", title=f"surface angle at max SD (t = {t[k]:.0f} s)")

@@ -40,10 +40,19 @@ from magsail_mj.concepts.truss_magnetorquer.force_pair import VariantPairRodLoad
 __all__ = ["RigidRun", "quat_to_matrix_wxyz", "rigid_rhs", "simulate_rigid"]
 
 
-def rigid_rhs(q: np.ndarray, w: np.ndarray, *, J: np.ndarray, J_inv: np.ndarray, m_body: np.ndarray,
-              B_eci: np.ndarray, r_ref_eci: np.ndarray, mu: float, gravity_gradient: bool,
-              T_held_body: np.ndarray | None = None
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def rigid_rhs(
+    q: np.ndarray,
+    w: np.ndarray,
+    *,
+    J: np.ndarray,
+    J_inv: np.ndarray,
+    m_body: np.ndarray,
+    B_eci: np.ndarray,
+    r_ref_eci: np.ndarray,
+    mu: float,
+    gravity_gradient: bool,
+    T_held_body: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(q̇, ω̇, T_ctrl_body, T_gg_body)`` of the module equations; ``m_body`` in body axes [A m²].
 
     ``T_held_body`` (N m, body axes) replaces the dipole torque ``m × B`` when given (the ideal
@@ -81,11 +90,23 @@ class RigidRun:
     T_ref: np.ndarray
 
 
-def simulate_rigid(*, controller: Any, rod_load: Any, environment: Any, nodes_body: np.ndarray,
-                   masses: np.ndarray, inertia: np.ndarray, q0_wxyz: np.ndarray, omega0_body: np.ndarray,
-                   duration_s: float, dt: float = 0.1, q_ref_wxyz: np.ndarray | None = None,
-                   gravity_gradient: bool = True, record_every_s: float = 10.0,
-                   actuation: Literal["rods", "ideal", "ideal_perp_B"] = "rods") -> RigidRun:
+def simulate_rigid(
+    *,
+    controller: Any,
+    rod_load: Any,
+    environment: Any,
+    nodes_body: np.ndarray,
+    masses: np.ndarray,
+    inertia: np.ndarray,
+    q0_wxyz: np.ndarray,
+    omega0_body: np.ndarray,
+    duration_s: float,
+    dt: float = 0.1,
+    q_ref_wxyz: np.ndarray | None = None,
+    gravity_gradient: bool = True,
+    record_every_s: float = 10.0,
+    actuation: Literal["rods", "ideal", "ideal_perp_B"] = "rods",
+) -> RigidRun:
     """Run the rigid body with ``controller`` (a :class:`RodAttitudeController`) for ``duration_s``.
 
     Args:
@@ -134,16 +155,29 @@ def simulate_rigid(*, controller: Any, rod_load: Any, environment: Any, nodes_bo
             if actuation == "ideal_perp_B":
                 b = R.T @ env0.B_eci
                 T_held -= (T_held @ b) / (b @ b) * b
-        kw = dict(J=J, J_inv=J_inv, m_body=m_body, mu=mu, gravity_gradient=gravity_gradient,
-                  T_held_body=T_held)
+        kw = dict(J=J, J_inv=J_inv, m_body=m_body, mu=mu, gravity_gradient=gravity_gradient, T_held_body=T_held)
         if k % every == 0:
             _, _, T_mag, T_gg = rigid_rhs(q, w, B_eci=env0.B_eci, r_ref_eci=env0.r_ref_eci, **kw)
-            err = (math.degrees(2 * math.atan2(np.linalg.norm(error_quaternion(q_ref_wxyz, q)[1:]),
-                                               abs(error_quaternion(q_ref_wxyz, q)[0])))
-                   if q_ref_wxyz is not None else math.nan)
-            for key, value in (("t", t), ("q", q.copy()), ("omega", w.copy()), ("err", err),
-                               ("sat", cmd.clipped1 or cmd.clipped2), ("T_mag", T_mag), ("T_gg", T_gg),
-                               ("T_ref", cmd.torque_ref_body)):
+            err = (
+                math.degrees(
+                    2
+                    * math.atan2(
+                        np.linalg.norm(error_quaternion(q_ref_wxyz, q)[1:]), abs(error_quaternion(q_ref_wxyz, q)[0])
+                    )
+                )
+                if q_ref_wxyz is not None
+                else math.nan
+            )
+            for key, value in (
+                ("t", t),
+                ("q", q.copy()),
+                ("omega", w.copy()),
+                ("err", err),
+                ("sat", cmd.clipped1 or cmd.clipped2),
+                ("T_mag", T_mag),
+                ("T_gg", T_gg),
+                ("T_ref", cmd.torque_ref_body),
+            ):
                 rec[key].append(value)
         if k == n_steps:
             break
@@ -160,6 +194,13 @@ def simulate_rigid(*, controller: Any, rod_load: Any, environment: Any, nodes_bo
         q = q + dt / 6 * (dq[0] + 2 * dq[1] + 2 * dq[2] + dq[3])
         q /= np.linalg.norm(q)
         w = w + dt / 6 * (dw[0] + 2 * dw[1] + 2 * dw[2] + dw[3])
-    return RigidRun(t=np.array(rec["t"]), q=np.array(rec["q"]), omega=np.array(rec["omega"]),
-                    err_deg=np.array(rec["err"]), saturated=np.array(rec["sat"], dtype=bool),
-                    T_mag=np.array(rec["T_mag"]), T_gg=np.array(rec["T_gg"]), T_ref=np.array(rec["T_ref"]))
+    return RigidRun(
+        t=np.array(rec["t"]),
+        q=np.array(rec["q"]),
+        omega=np.array(rec["omega"]),
+        err_deg=np.array(rec["err"]),
+        saturated=np.array(rec["sat"], dtype=bool),
+        T_mag=np.array(rec["T_mag"]),
+        T_gg=np.array(rec["T_gg"]),
+        T_ref=np.array(rec["T_ref"]),
+    )

@@ -84,9 +84,7 @@ class SurfaceAngle:
     e_v: np.ndarray
 
 
-def plane_frame(
-    points: np.ndarray, R_body: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def plane_frame(points: np.ndarray, R_body: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     r"""Average-plane frame of a point set (step 1 of §5.2).
 
     Returns ``(centroid, normal, e_u, e_v)``, all ``(3,)``: ``normal`` is the TLS normal with
@@ -218,8 +216,7 @@ def local_surface_angle(
         N = nodes_per_side if nodes_per_side is not None else int(round(np.sqrt(x.shape[0])))
         if N * N != x.shape[0]:
             raise ValueError(
-                f"nodes_per_side: {N}^2 != number of top_points ({x.shape[0]}); "
-                "method='spline' needs an N x N grid"
+                f"nodes_per_side: {N}^2 != number of top_points ({x.shape[0]}); method='spline' needs an N x N grid"
             )
         if N < 4:
             raise ValueError(f"nodes_per_side: bicubic spline needs N >= 4, got {N}")

@@ -55,7 +55,10 @@ from magsail_mj.concepts.truss_magnetorquer.metrics import (
     profile_response,
 )
 from magsail_mj.concepts.truss_magnetorquer.model import (
-    TrussModel, actuated_struts, make_cantilever_model, make_truss_model,
+    TrussModel,
+    actuated_struts,
+    make_cantilever_model,
+    make_truss_model,
 )
 from magsail_mj.concepts.truss_magnetorquer.orbital import (
     detumble_keys,
@@ -72,8 +75,14 @@ from magsail_mj.records import lazy_record
 from magsail_mj.sim import RunResult, Simulation
 
 __all__ = [
-    "build_truss_scenario", "TrussScenario", "DistVsCentralTask", "CantileverTask",
-    "FreeTask", "OrbitalTrussTask", "DetumbleTask", "SlewTask",
+    "build_truss_scenario",
+    "TrussScenario",
+    "DistVsCentralTask",
+    "CantileverTask",
+    "FreeTask",
+    "OrbitalTrussTask",
+    "DetumbleTask",
+    "SlewTask",
 ]
 
 Summary = tuple[dict[str, Any], dict[str, np.ndarray]]
@@ -81,10 +90,14 @@ Summary = tuple[dict[str, Any], dict[str, np.ndarray]]
 
 #: readable names of the truss's overlay series (units come from their suffixes)
 OVERLAY_NAMES = {
-    "surface_sd_m": "surface SD", "torque_cmd_x1_Nm": "commanded torque about x₁",
-    "tip_deflection_m": "tip deflection", "omega_body_rad_s": "body rates",
-    "omega_norm_rad_s": "body rate |ω|", "error_angle_deg": "attitude error",
-    "N1": "active rods, family 1", "N2": "active rods, family 2",
+    "surface_sd_m": "surface SD",
+    "torque_cmd_x1_Nm": "commanded torque about x₁",
+    "tip_deflection_m": "tip deflection",
+    "omega_body_rad_s": "body rates",
+    "omega_norm_rad_s": "body rate |ω|",
+    "error_angle_deg": "attitude error",
+    "N1": "active rods, family 1",
+    "N2": "active rods, family 2",
 }
 
 
@@ -119,8 +132,9 @@ class TrussScenario(ABC):
         self.controller: RodAttitudeController | None = None
         self.environment: Environment | None = None
         if self.cfg.orbit.enabled:
-            self.environment = Environment.from_config(self.cfg.environment_config(),
-                                                       duration_s=self.cfg.sim.duration_s)
+            self.environment = Environment.from_config(
+                self.cfg.environment_config(), duration_s=self.cfg.sim.duration_s
+            )
 
     @classmethod
     def build_model(cls, cfg: TrussConfig) -> TrussModel:
@@ -145,8 +159,9 @@ class TrussScenario(ABC):
         cfg, lat = self.cfg, self.tm.lattice
         out: list = []
         if cfg.gravity.tidal:
-            self.tidal_load = TidalGravityLoad.from_environment(self.environment, np.arange(lat.n_nodes) + 1,
-                                                                self.tm.masses)
+            self.tidal_load = TidalGravityLoad.from_environment(
+                self.environment, np.arange(lat.n_nodes) + 1, self.tm.masses
+            )
             out.append(self.tidal_load)
         cells = lattice_top_cells(lat.nodes_per_side)
         if cfg.srp.enabled:
@@ -193,12 +208,19 @@ class TrussScenario(ABC):
         loads = self.loads()
         self.controller = self.make_controller()
         probes: dict[str, Any] = {"qpos": lambda s, d: d.qpos, **self.task_probes()}
-        return Simulation(model=self.model, duration_s=self.cfg.sim.duration_s, loads=loads,
-                          controller=self.controller,
-                          probes=probes, record_every=self.cfg.sim.record_every,
-                          strain_check=strain_check(self.tm.lattice), max_strain=self.cfg.sim.max_strain,
-                          environment=self.environment,
-                          checkpoint_every_s=self.cfg.sim.checkpoint_every_s, init=self.init_state)
+        return Simulation(
+            model=self.model,
+            duration_s=self.cfg.sim.duration_s,
+            loads=loads,
+            controller=self.controller,
+            probes=probes,
+            record_every=self.cfg.sim.record_every,
+            strain_check=strain_check(self.tm.lattice),
+            max_strain=self.cfg.sim.max_strain,
+            environment=self.environment,
+            checkpoint_every_s=self.cfg.sim.checkpoint_every_s,
+            init=self.init_state,
+        )
 
     # -------------------------------------------------------------- outputs
     def node_positions(self, qpos: np.ndarray) -> np.ndarray:
@@ -230,8 +252,11 @@ class TrussScenario(ABC):
             "top_nodes": self.tm.lattice.top_nodes.tolist(),
             "overlay": list(self.OVERLAY),
             **({"inset": self.INSET} if self.INSET is not None else {}),
-            "camera": {"azimuth_deg": r.azimuth_deg, "elevation_deg": r.elevation_deg,
-                       "distance_m": r.distance_factor * self.cfg.lattice.side_m},
+            "camera": {
+                "azimuth_deg": r.azimuth_deg,
+                "elevation_deg": r.elevation_deg,
+                "distance_m": r.distance_factor * self.cfg.lattice.side_m,
+            },
             "exaggeration": r.exaggeration,
             "fps": r.fps,
             "max_frames": r.max_frames,
@@ -261,9 +286,15 @@ class TrussScenario(ABC):
     # -------------------------------------------------------------- shared post-processing
     def _dynamic_summary(self, result: RunResult) -> Summary:
         cfg = self.cfg
-        return dynamic_summary(self.tm, self.trajectory(result.records), result,
-                               omega0_body=np.asarray(cfg.initial.omega0_rad_s), max_strain=cfg.sim.max_strain,
-                               zeta_strut=cfg.damping.zeta_strut, environment=self.environment)
+        return dynamic_summary(
+            self.tm,
+            self.trajectory(result.records),
+            result,
+            omega0_body=np.asarray(cfg.initial.omega0_rad_s),
+            max_strain=cfg.sim.max_strain,
+            zeta_strut=cfg.damping.zeta_strut,
+            environment=self.environment,
+        )
 
 
 @register_task("truss_magnetorquer", "free")
@@ -301,14 +332,14 @@ class DistVsCentralTask(TrussScenario):
     def task_loads(self) -> list:
         cfg = self.cfg
         struts = actuated_struts(self.tm.lattice, cfg.actuators, cfg.profile.axis)
-        self.torque_load = StrutTorqueLoad(self.tm.lattice, struts, command=self._profile_command(),
-                                           torque_axis=cfg.actuators.torque_axis)
+        self.torque_load = StrutTorqueLoad(
+            self.tm.lattice, struts, command=self._profile_command(), torque_axis=cfg.actuators.torque_axis
+        )
         return [self.torque_load]
 
     def task_probes(self) -> dict[str, Any]:
         tl, nt = self.torque_load, self.model.ntendon
-        return {"torque_cmd_body_Nm": lambda s, d: tl.last_command,
-                "strut_activity": lambda s, d: tl.activity(nt)}
+        return {"torque_cmd_body_Nm": lambda s, d: tl.last_command, "strut_activity": lambda s, d: tl.activity(nt)}
 
     def postprocess(self, result: RunResult) -> Summary:
         summary, series = self._dynamic_summary(result)
@@ -317,9 +348,13 @@ class DistVsCentralTask(TrussScenario):
             return summary, series
         p = self.cfg.profile
         inertia = particle_inertia(self.tm.lattice.nodes, self.tm.masses)
-        more_keys, more_series = profile_response(p, t, series["surface_sd_m"],
-                                                  inertia_kgm2=float(inertia.moments[PROFILE_AXES[p.axis]]),
-                                                  torque_cmd_body_Nm=result.records["torque_cmd_body_Nm"])
+        more_keys, more_series = profile_response(
+            p,
+            t,
+            series["surface_sd_m"],
+            inertia_kgm2=float(inertia.moments[PROFILE_AXES[p.axis]]),
+            torque_cmd_body_Nm=result.records["torque_cmd_body_Nm"],
+        )
         series.update(more_series)
         summary.update(more_keys)
         return summary, series
@@ -347,14 +382,25 @@ class CantileverTask(TrussScenario):
 
     def postprocess(self, result: RunResult) -> Summary:
         cfg = self.cfg
-        return cantilever_summary(self.tm, self.trajectory(result.records), result,
-                                  load_N=cfg.cantilever.load_N, EI_Nm2=cfg.stiffness.EI_Nm2,
-                                  calibration=cfg.stiffness.calibration)
+        return cantilever_summary(
+            self.tm,
+            self.trajectory(result.records),
+            result,
+            load_N=cfg.cantilever.load_N,
+            EI_Nm2=cfg.stiffness.EI_Nm2,
+            calibration=cfg.stiffness.calibration,
+        )
 
     def task_plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
         cfg = self.cfg
-        return cantilever_plot(run_dir, series, title=self.title, load_N=cfg.cantilever.load_N,
-                               EI_Nm2=cfg.stiffness.EI_Nm2, side_m=cfg.lattice.side_m)
+        return cantilever_plot(
+            run_dir,
+            series,
+            title=self.title,
+            load_N=cfg.cantilever.load_N,
+            EI_Nm2=cfg.stiffness.EI_Nm2,
+            side_m=cfg.lattice.side_m,
+        )
 
 
 class OrbitalTrussTask(TrussScenario):
@@ -381,16 +427,23 @@ class OrbitalTrussTask(TrussScenario):
         return rod_controller(self.cfg, self.tm, self.rods(), mu_m3_s2=self.environment.mu)
 
     def task_probes(self) -> dict[str, Any]:
-        return orbital_probes(self.tm, self.rods(), self.tidal_load, ntendon=self.model.ntendon,
-                              mu_m3_s2=self.environment.mu, q_err=self.cfg.control.kind == "quat_pd")
+        return orbital_probes(
+            self.tm,
+            self.rods(),
+            self.tidal_load,
+            ntendon=self.model.ntendon,
+            mu_m3_s2=self.environment.mu,
+            q_err=self.cfg.control.kind == "quat_pd",
+        )
 
     @abstractmethod
     def kind_metrics(self, records: dict[str, np.ndarray], series: dict[str, np.ndarray]) -> Summary:
         """The kind's own ``(keys, series)`` from the records and the common series."""
 
     def postprocess(self, result: RunResult) -> Summary:
-        summary, series = orbital_summary(self.cfg, self.tm, self.trajectory(result.records), result,
-                                          environment=self.environment, rod=self.rods())
+        summary, series = orbital_summary(
+            self.cfg, self.tm, self.trajectory(result.records), result, environment=self.environment, rod=self.rods()
+        )
         if result.records["t"].size < 2:
             return summary, series
         more_keys, more_series = self.kind_metrics(result.records, series)
@@ -399,8 +452,14 @@ class OrbitalTrussTask(TrussScenario):
         return summary, series
 
     def task_plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
-        return orbital_plots(run_dir, result.records, series, title=self.title,
-                             nodes_per_side=self.tm.lattice.nodes_per_side, side_m=self.cfg.lattice.side_m)
+        return orbital_plots(
+            run_dir,
+            result.records,
+            series,
+            title=self.title,
+            nodes_per_side=self.tm.lattice.nodes_per_side,
+            side_m=self.cfg.lattice.side_m,
+        )
 
     def task_manifest(self) -> dict[str, Any]:
         return orbital_manifest(self.cfg, self.tm, self.rods())
@@ -415,8 +474,12 @@ class DetumbleTask(OrbitalTrussTask):
 
     def kind_metrics(self, records: dict[str, np.ndarray], series: dict[str, np.ndarray]) -> Summary:
         inertia = particle_inertia(self.tm.lattice.nodes, self.tm.masses).tensor
-        keys = detumble_keys(records["t"], records["omega_est_body_rad_s"], inertia_kgm2=inertia,
-                             omega0_body=np.asarray(self.cfg.initial.omega0_rad_s, dtype=float))
+        keys = detumble_keys(
+            records["t"],
+            records["omega_est_body_rad_s"],
+            inertia_kgm2=inertia,
+            omega0_body=np.asarray(self.cfg.initial.omega0_rad_s, dtype=float),
+        )
         return keys, {}
 
 
@@ -429,8 +492,12 @@ class SlewTask(OrbitalTrussTask):
 
     def kind_metrics(self, records: dict[str, np.ndarray], series: dict[str, np.ndarray]) -> Summary:
         cfg = self.cfg
-        more_series, keys = slew_keys(records, q0_wxyz=cfg.q0_wxyz, maneuver=cfg.maneuver,
-                                      low_authority_threshold_Nm=cfg.control.low_authority_threshold_Nm)
+        more_series, keys = slew_keys(
+            records,
+            q0_wxyz=cfg.q0_wxyz,
+            maneuver=cfg.maneuver,
+            low_authority_threshold_Nm=cfg.control.low_authority_threshold_Nm,
+        )
         return keys, more_series
 
 

@@ -47,7 +47,11 @@ from scipy.optimize import brentq
 from scipy.sparse.linalg import eigsh
 
 from magsail_mj.lattice.geometry import (
-    STRUT_KINDS, Lattice, axial_rigidity_from_EI, make_lattice, stiffness_matrix,
+    STRUT_KINDS,
+    Lattice,
+    axial_rigidity_from_EI,
+    make_lattice,
+    stiffness_matrix,
 )
 from magsail_mj.lattice.properties import cantilever_linear
 
@@ -139,8 +143,9 @@ class LowModes:
         return self.omega[s], self.phi[:, s]
 
 
-def low_modes(nodes: np.ndarray, struts: np.ndarray, k: np.ndarray, masses: np.ndarray, *, n_elastic: int = 10,
-              n_rigid: int = 6) -> LowModes:
+def low_modes(
+    nodes: np.ndarray, struts: np.ndarray, k: np.ndarray, masses: np.ndarray, *, n_elastic: int = 10, n_rigid: int = 6
+) -> LowModes:
     """The ``n_rigid`` rigid and the lowest ``n_elastic`` elastic modes (module docstring).
 
     Shift-invert about ``σ = −10⁻⁶ ω_ref²`` (``ω_ref² = max k / mean m``), so the singular free
@@ -183,15 +188,17 @@ def twist_shares(vectors: np.ndarray, nodes: np.ndarray, masses: np.ndarray) -> 
     return num**2 / np.where(den > 0, den, np.inf)
 
 
-def first_twist_mode(modes: LowModes, nodes: np.ndarray, masses: np.ndarray, *,
-                     min_share: float = 0.5) -> tuple[int, float]:
+def first_twist_mode(
+    modes: LowModes, nodes: np.ndarray, masses: np.ndarray, *, min_share: float = 0.5
+) -> tuple[int, float]:
     """Column index and frequency [rad/s] of the lowest elastic mode whose twist share is at
     least ``min_share``; ValueError when none of the computed modes is one."""
-    shares = twist_shares(modes.phi[:, modes.n_rigid:], nodes, masses)
+    shares = twist_shares(modes.phi[:, modes.n_rigid :], nodes, masses)
     hit = np.flatnonzero(shares >= min_share)
     if not hit.size:
-        raise ValueError(f"min_share: no computed elastic mode has a twist share >= {min_share} "
-                         f"(largest {shares.max():.3f})")
+        raise ValueError(
+            f"min_share: no computed elastic mode has a twist share >= {min_share} (largest {shares.max():.3f})"
+        )
     col = modes.n_rigid + int(hit[0])
     return col, float(modes.omega[col])
 
@@ -247,8 +254,10 @@ def twist_scaling(units: int, diagonals: str, nu: float) -> TwistScaling:
         lo, hi = (hi, hi + 2.0) if base < 0 else (lo - 2.0, lo)
         f_lo, f_hi = (f_hi, log_mismatch(hi)) if base < 0 else (log_mismatch(lo), f_lo)
     else:
-        raise ValueError(f"stiffness.twist: no diagonal-to-edge ratio in e^[{lo:.0f}, {hi:.0f}] gives the plate's "
-                         f"twist frequency for units = {units}, diagonals = {diagonals!r}")
+        raise ValueError(
+            f"stiffness.twist: no diagonal-to-edge ratio in e^[{lo:.0f}, {hi:.0f}] gives the plate's "
+            f"twist frequency for units = {units}, diagonals = {diagonals!r}"
+        )
     log_ratio = brentq(log_mismatch, lo, hi, xtol=1e-6)
     ratio = float(np.exp(log_ratio))
     _, c = _calibrated(lat, k_formula, ratio)
