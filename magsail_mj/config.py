@@ -29,17 +29,20 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
+import logging
 import math
 import re
 import tomllib
 import types
 import typing
+import warnings
 from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from magsail_mj.concepts import config_schemas, register_config
+from magsail_mj.units_grammar import ALIAS_REMOVAL_VERSION, deprecated_aliases, new_name
 
 __all__ = [
     "MAX_STEPS",
@@ -65,6 +68,7 @@ __all__ = [
     "read_toml",
     "register_concept",
     "validation_problems",
+    "warn_deprecated_key",
 ]
 
 Integrator = Literal["RK4", "Euler", "implicitfast", "implicit", "discrete"]
@@ -117,11 +121,49 @@ def _is_tuple_annotation(annotation: Any) -> bool:
     return False
 
 
+_log = logging.getLogger(__name__)
+
+
+def _current_spellings(model: type[BaseModel], data: dict[str, Any]) -> dict[str, Any]:
+    """``data`` (one config table) with each key in a deprecated unit spelling renamed to the
+    model's current key (:func:`magsail_mj.units_grammar.deprecated_aliases`), each rename
+    announced by a ``DeprecationWarning`` (and the log); an old and a new spelling of the same key
+    given together are a :class:`ConfigProblem` naming both."""
+    aliases = deprecated_aliases(tuple(model.model_fields))
+    given = [old for old in data if old in aliases]
+    if not given:
+        return data
+    out = dict(data)
+    for old in given:
+        new = aliases[old]
+        if new in out:
+            raise ConfigProblem(
+                new, f"given twice: as {new!r} and as its deprecated spelling {old!r}; keep only {new!r}", others=(old,)
+            )
+        out[new] = out.pop(old)
+        warn_deprecated_key(old, new)
+    return out
+
+
+def warn_deprecated_key(old: str, new: str) -> None:
+    """Announce that config key ``old`` was read as ``new``: a ``DeprecationWarning`` and a log
+    warning naming both and the version in which the old spelling goes."""
+    message = (
+        f"config key {old!r} is deprecated: its unit suffix is now spelled {new!r} (one unit-suffix "
+        f"grammar, see the conventions page); the old spelling is accepted until magsail_mj "
+        f"{ALIAS_REMOVAL_VERSION}"
+    )
+    warnings.warn(message, DeprecationWarning, stacklevel=3)
+    _log.warning(message)
+
+
 class StrictModel(BaseModel):
     """Base of every config table: unknown keys are errors, assignments are validated, types are
     strict (no bool/str → number, no str → bool, no float → int) and numbers finite
     (``allow_inf_nan=False``). A TOML array given for a ``tuple[...]`` key (a fixed-length vector)
-    is accepted as that tuple; its items are still checked strictly."""
+    is accepted as that tuple; its items are still checked strictly. A key in a unit spelling the
+    unit-suffix grammar replaced (``kp_N_m`` for ``kp_Nm``) is read as the current key with a
+    ``DeprecationWarning`` until :data:`~magsail_mj.units_grammar.ALIAS_REMOVAL_VERSION`."""
 
     model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False, strict=True, allow_inf_nan=False)
 
@@ -130,6 +172,7 @@ class StrictModel(BaseModel):
     def _arrays_as_tuples(cls, data: Any) -> Any:
         if not isinstance(data, dict):
             return data
+        data = _current_spellings(cls, data)
         names = [
             n
             for n, f in cls.model_fields.items()
@@ -441,6 +484,8 @@ def _override_problems(
     """``tree`` with the well-formed overrides applied, and a line per malformed one."""
     out = copy.deepcopy(tree)
     problems = []
+    from_files: dict[int, set[str]] = {}  # per table: the keys the file gave
+    spellings: dict[int, dict[str, str]] = {}  # per table: key written → spelling the override used
     for item in overrides:
         if not isinstance(item, str) or "=" not in item:
             problems.append(f"--set {item!r}: must look like key.path=value")
@@ -461,8 +506,37 @@ def _override_problems(
                 break
             node = child
         else:
-            node[parts[-1]] = _parse_literal(text.strip())
+            from_file = from_files.setdefault(id(node), set(node))
+            last = _override_key(node, parts[-1], from_file, where=".".join(parts[:-1]))
+            spelled = spellings.setdefault(id(node), {}).setdefault(last, parts[-1])
+            if spelled != parts[-1]:
+                where = ".".join(parts[:-1] + [""])
+                problems.append(
+                    f"--set {item!r}: {where}{parts[-1]} and {where}{spelled} are the same key (one is its "
+                    f"deprecated unit spelling); give it once, as {where}{last}"
+                )
+                continue
+            node[last] = _parse_literal(text.strip())
     return out, problems
+
+
+def _override_key(node: dict[str, Any], key: str, from_file: set[str], *, where: str) -> str:
+    """The key an override of ``key`` writes into the table ``node`` (at path ``where``) whose
+    keys ``from_file`` came from the config file: an old unit spelling
+    (:func:`magsail_mj.units_grammar.new_name`) whose current spelling the file gives becomes the
+    current one, and an old spelling in the file of the current key given here is dropped (the
+    override replaces it); each with :func:`warn_deprecated_key`. Both spellings given by the file
+    or both by overrides are left for validation to refuse."""
+    prefix = f"{where}." if where else ""
+    new = new_name(key)
+    if new is not None and new in from_file:
+        warn_deprecated_key(prefix + key, prefix + new)
+        return new
+    for old in [k for k in from_file if new_name(k) == key]:
+        node.pop(old, None)
+        from_file.discard(old)
+        warn_deprecated_key(prefix + old, prefix + key)
+    return key
 
 
 def apply_overrides(tree: dict[str, Any], overrides: list[str] | tuple[str, ...]) -> dict[str, Any]:
