@@ -1,5 +1,7 @@
 """``magsail`` command line: build | validate | run | bench | render | export | sweep | report | scaling | torque.
 
+``report`` has the actions collect | render | update (reproduction reports) and sweep (a sweep report).
+
 Every verb checks its inputs where it uses them (paths, numbers, the memory the input needs) and
 reports a problem as one line ``error: <what>`` on stderr, never a traceback; the exit status
 follows :data:`EXIT_CODES`. ``MAGSAIL_DEBUG=1`` adds the traceback of an unexpected error.
@@ -38,6 +40,13 @@ from magsail_mj.export import main as export_main
 from magsail_mj.io import RunDirError, atomic_path, to_jsonable
 from magsail_mj.render import render_run
 from magsail_mj.render.backend import GLBackendError
+from magsail_mj.report.commands import (
+    add_collect_arguments,
+    add_render_arguments,
+    collect_main,
+    render_main,
+    update_main,
+)
 from magsail_mj.resources import (
     ENV_VAR,
     MemoryLimitError,
@@ -67,7 +76,8 @@ exit status:
   3    the simulation diverged (its outputs up to the divergence are written)
   130  interrupted (Ctrl-C / SIGINT or SIGTERM); the run folder is left consistent
   sweep: non-zero when any run failed, was interrupted or stopped (1), else when any diverged (3)
-  export, report: 2 when the folder is not a run folder / a finished sweep folder
+  export, report: 2 when the folder is not a run folder / a finished sweep folder, or a
+       run folder matches no registry run (report collect/update)
 
 memory: every verb estimates the memory its input needs before allocating it and refuses
   (exit 2) above --memory-limit BYTES|auto (or $MAGSAIL_MEMORY_LIMIT; default: the
@@ -443,8 +453,23 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    """``magsail report``: :func:`magsail_mj.sweep.report.main`."""
+    """``magsail report sweep``: :func:`magsail_mj.sweep.report.main`."""
     return report_main(args)
+
+
+def _cmd_report_collect(args: argparse.Namespace) -> int:
+    """``magsail report collect``: :func:`magsail_mj.report.commands.collect_main`."""
+    return collect_main(args)
+
+
+def _cmd_report_render(args: argparse.Namespace) -> int:
+    """``magsail report render``: :func:`magsail_mj.report.commands.render_main`."""
+    return render_main(args)
+
+
+def _cmd_report_update(args: argparse.Namespace) -> int:
+    """``magsail report update``: :func:`magsail_mj.report.commands.update_main`."""
+    return update_main(args)
 
 
 def _sweep_engine(args: argparse.Namespace) -> Any:
@@ -760,14 +785,71 @@ def _add_run_verbs(sub: Any) -> None:
     sw.add_argument("--queue", help="--cluster: partition (SLURM) or queue (PBS)")
     sw.add_argument("--account", help="--cluster: account to charge")
 
-    rp = _verb(
-        sub,
+    _add_report_verb(sub)
+
+
+_REPORT_ACTIONS = ("collect", "render", "update", "sweep")
+_REPORT_HELP = """\
+reproduction reports and sweep reports:
+  magsail report collect RUN_DIR... [--bundle results]      copy finished runs into the results bundle
+  magsail report render [--bundle results] [--out docs/reproduction]   write one MyST page per paper
+  magsail report update RUN_DIR... [--bundle ...] [--out ...]          collect, then render
+  magsail report RUN_DIR... [--bundle ...] [--out ...]                 the same as update
+  (a sweep folder given to collect/update stands for its run folders)
+  magsail report sweep SWEEP_DIR [--figure KEY]             tables and figures of a finished sweep
+  magsail report SWEEP_DIR [--figure KEY]     the same as sweep (one folder, not a run folder, no --bundle/--out)"""
+
+
+def _add_report_verb(sub: Any) -> None:
+    """``magsail report collect | render | update | sweep`` (see :func:`_report_argv`)."""
+    rp = sub.add_parser(
         "report",
+        help="reproduction reports from finished runs (collect, render, update) or a sweep report (sweep)",
+        description=_REPORT_HELP,
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    actions = rp.add_subparsers(dest="report_action", required=True, metavar="ACTION", help="what to report")
+    co = _verb(
+        actions,
+        "collect",
+        "copy what the reproduction reports need from run folders into the bundle",
+        _cmd_report_collect,
+    )
+    add_collect_arguments(co)
+    rn = _verb(
+        actions, "render", "write the reproduction pages (MyST) from the registry and the bundle", _cmd_report_render
+    )
+    add_render_arguments(rn)
+    up = _verb(actions, "update", "collect the run folders, then render the pages", _cmd_report_update)
+    add_collect_arguments(up)
+    up.add_argument(
+        "--out", default="docs/reproduction", metavar="DIR", help="folder of the MyST pages (default docs/reproduction)"
+    )
+    sw = _verb(
+        actions,
+        "sweep",
         "summarise a finished sweep folder: tables and figures of its runs' summaries",
         _cmd_report,
         {"sweep_dir": "SWEEP_DIR", "figures": "--figure"},
     )
-    add_report_arguments(rp)
+    add_report_arguments(sw)
+
+
+def _report_argv(argv: list[str]) -> list[str]:
+    """``magsail report X...`` without an action becomes ``report sweep X`` when X is one folder
+    that is not a run folder (no manifest.json) and neither --bundle nor --out is given, else
+    ``report update X...``."""
+    i = 0
+    while i < len(argv) and argv[i].startswith("-"):
+        i += 2 if argv[i] == "--memory-limit" else 1
+    if i >= len(argv) - 1 or argv[i] != "report" or argv[i + 1] in _REPORT_ACTIONS or argv[i + 1].startswith("-"):
+        return argv
+    rest = argv[i + 1 :]
+    positional = [a for a in rest if not a.startswith("-")]
+    reproduction = any(a.split("=", 1)[0] in ("--bundle", "--out") for a in rest)
+    sweep = len(positional) == 1 and not reproduction and not (Path(positional[0]) / "manifest.json").is_file()
+    return [*argv[: i + 1], "sweep" if sweep else "update", *rest]
 
 
 def _add_analytic_verbs(sub: Any) -> None:
@@ -998,7 +1080,7 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv: list[str] | None) -> int:
     """:func:`main` with the logging to stderr set up (WARNING until ``-v`` is parsed)."""
     try:
-        args = _parser().parse_args(argv)
+        args = _parser().parse_args(_report_argv(list(sys.argv[1:] if argv is None else argv)))
     except _UsageError as err:
         return _error(str(err), 2)
     except SystemExit as exit_:  # --help, --version
