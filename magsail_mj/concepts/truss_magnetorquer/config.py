@@ -44,6 +44,7 @@ __all__ = [
     "CantileverConfig",
     "TrussRenderConfig",
     "first_cantilever_omega",
+    "PERTURBATION_MAX_EDGE_FRACTION",
 ]
 
 Vec3 = tuple[float, float, float]
@@ -209,6 +210,9 @@ class TrussControlConfig(StrictModel):
 
 Quat = tuple[float, float, float, float]
 
+PERTURBATION_MAX_EDGE_FRACTION = 0.05
+"""``initial.node_perturbation_m`` must stay below this fraction of a cube edge."""
+
 
 def _check_unit_quat(q: Quat | None, name: str) -> None:
     if q is not None and abs(math.hypot(*q) - 1.0) > 1e-4:
@@ -245,10 +249,21 @@ class ProfileConfig(StrictModel):
 
 
 class TrussInitialConfig(StrictModel):
-    """``[initial]``: rigid initial attitude (body → world, scalar-first) and body rate."""
+    """``[initial]``: rigid initial attitude (body → world, scalar-first) and body rate, and an
+    optional small asymmetric perturbation of the node positions.
+
+    ``node_perturbation_m`` [m] (default 0: none): every node of a free lattice is displaced by
+    ``σ g_i`` with ``g_i`` three independent standard normal draws (generator
+    ``numpy.random.default_rng(perturbation_seed)``, ``perturbation_seed`` absent = ``sim.seed``),
+    then the mass-weighted mean displacement is removed so the centre of mass stays put; the
+    velocities are the rigid ones. ``σ`` must stay below 5 % of a cube edge (a perturbation, not
+    a new shape).
+    """
 
     q0_wxyz: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
     omega0_rad_s: Vec3 = (0.0, 0.0, 0.0)
+    node_perturbation_m: float = Field(default=0.0, ge=0)
+    perturbation_seed: int | None = Field(default=None, ge=0)
 
     @model_validator(mode="after")
     def _unit_quaternion(self) -> TrussInitialConfig:
@@ -399,6 +414,14 @@ class TrussConfig(EnvironmentTables, TrussTables):
             },
         )
         n_nodes = 2 * (self.lattice.units + 1) ** 2
+        edge_m = self.lattice.side_m / self.lattice.units
+        if not self.initial.node_perturbation_m < PERTURBATION_MAX_EDGE_FRACTION * edge_m:
+            raise ConfigProblem(
+                "initial.node_perturbation_m",
+                f"must be below {PERTURBATION_MAX_EDGE_FRACTION:g} of a cube edge "
+                f"({PERTURBATION_MAX_EDGE_FRACTION * edge_m:.6g} m), got {self.initial.node_perturbation_m!r}",
+                others=("lattice.side_m", "lattice.units"),
+            )
         for i, p in enumerate(self.mass.point_masses):
             if p.node >= n_nodes:
                 raise ConfigProblem(

@@ -16,7 +16,7 @@ from scipy.integrate import cumulative_trapezoid
 
 from magsail_mj.analysis.energy import strain_energy, structural_failure
 from magsail_mj.analysis.flatness import surface_sd
-from magsail_mj.concepts.truss_magnetorquer.surface_angle import local_surface_angle
+from magsail_mj.concepts.truss_magnetorquer.surface_angle import cell_surface_angle, local_surface_angle
 from magsail_mj.control.profiles import torque_profile
 from magsail_mj.environment.frames import lvlh_frame
 from magsail_mj.estimation.attitude import best_fit_rotation, body_rates, euler_zyx, particle_inertia
@@ -43,6 +43,13 @@ __all__ = [
     "lvlh_attitude",
     "rigid_response",
     "PROFILE_AXES",
+    "dominant_period",
+    "cell_angle_keys",
+    "commanded_impulse_Nms",
+    "delivered_impulse_keys",
+    "strut_tilt_rad",
+    "strut_tilt_keys",
+    "placement_ratios",
 ]
 
 PROFILE_AXES = {"x1": 0, "y1": 1, "z1": 2}
@@ -62,6 +69,22 @@ def rigid_response(
     w = cumulative_trapezoid(tau / inertia, tf, initial=0.0)
     phi = cumulative_trapezoid(w, tf, initial=0.0)
     return np.interp(t, tf, phi), np.interp(t, tf, w)
+
+
+def dominant_period(t: np.ndarray, x: np.ndarray) -> float:
+    """Period [s] of the largest non-zero-frequency FFT peak of ``x`` (uniform ``t``), linear
+    trend removed; NaN for fewer than 8 samples or a constant signal."""
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    if t.size < 8 or not np.all(np.isfinite(x)):
+        return float("nan")
+    y = x - np.polyval(np.polyfit(t, x, 1), t)
+    spec = np.abs(np.fft.rfft(y * np.hanning(y.size)))
+    f = np.fft.rfftfreq(y.size, d=float(t[1] - t[0]))
+    if spec.size < 3 or not spec[1:].max() > 0:
+        return float("nan")
+    k = 1 + int(np.argmax(spec[1:]))
+    return float(1.0 / f[k])
 
 
 N_MODES_REPORTED = 5
@@ -241,6 +264,7 @@ def dynamic_summary(
             "surface_angle_p95_rad": float(ang.p95),
             "surface_angle_max_rad": float(ang.max),
             "surface_angle_edge_max_rad": float(ang.edge_max),
+            **cell_angle_keys(top, R[kmax], nodes_per_side=lat.nodes_per_side),
         }
     )
     if environment is not None:
@@ -271,25 +295,148 @@ def profile_response(
     after = t > t_off
     if np.count_nonzero(after) >= 2:
         sd_after = surface_sd_m[after]
+        fit = np.polyfit(t[after], sd_after, 1)
+        residual = sd_after - np.polyval(fit, t[after])
         summary.update(
             {
                 "surface_sd_after_off_mean_m": float(np.mean(sd_after)),
                 "surface_sd_after_off_p2p_m": float(np.ptp(sd_after)),
-                "surface_sd_after_off_slope_m_per_s": float(np.polyfit(t[after], sd_after, 1)[0]),
+                "surface_sd_after_off_slope_m_per_s": float(fit[0]),
+                "surface_sd_after_off_osc_amplitude_m": float(np.sqrt(2.0 * np.mean(residual**2))),
+                "surface_sd_after_off_period_s": dominant_period(t[after], sd_after),
             }
         )
     else:
-        summary.update(
-            {
-                k: float("nan")
-                for k in (
-                    "surface_sd_after_off_mean_m",
-                    "surface_sd_after_off_p2p_m",
-                    "surface_sd_after_off_slope_m_per_s",
-                )
-            }
-        )
+        summary.update({k: float("nan") for k in AFTER_OFF_KEYS})
     return summary, series
+
+
+AFTER_OFF_KEYS = (
+    "surface_sd_after_off_mean_m",
+    "surface_sd_after_off_p2p_m",
+    "surface_sd_after_off_slope_m_per_s",
+    "surface_sd_after_off_osc_amplitude_m",
+    "surface_sd_after_off_period_s",
+)
+"""Keys of σ_SD after the torque is off (:func:`profile_response`)."""
+
+
+def cell_angle_keys(top: np.ndarray, R_body: np.ndarray, *, nodes_per_side: int) -> dict[str, float]:
+    """The artefact-free local surface angle statistics of the top layer ``top`` (N², 3) [m] at one
+    time (:func:`~magsail_mj.concepts.truss_magnetorquer.surface_angle.cell_surface_angle`: each
+    cell's own plane, no fit): ``surface_angle_cell_{median,p95,max,edge_max}_rad``."""
+    cell = cell_surface_angle(top, R_body, nodes_per_side=nodes_per_side)
+    return {
+        "surface_angle_cell_median_rad": cell.median,
+        "surface_angle_cell_p95_rad": cell.p95,
+        "surface_angle_cell_max_rad": cell.max,
+        "surface_angle_cell_edge_max_rad": cell.edge_max,
+    }
+
+
+def commanded_impulse_Nms(profile: ProfileConfig, t: np.ndarray, *, timestep_s: float) -> np.ndarray:
+    """Commanded impulse about the profile axis ``I_cmd(t) = Σ_{t_k < t} τ(t_k) δt`` [N m s] at the
+    record times ``t`` [s]: the runner holds the load's ``τ(t_k)`` over each step ``[t_k, t_k + δt]``
+    (``δt = timestep_s``), so this left-rectangle sum is what a rigid body receives exactly."""
+    p = profile
+    n = int(round(float(np.max(t)) / timestep_s))
+    tk = np.arange(n + 1) * timestep_s
+    tau = np.asarray(torque_profile(p.kind, tk, tau_max=p.tau_max_Nm, t_end=p.t_end_s, t_v=p.t_v_s), dtype=float)
+    cum = np.concatenate([[0.0], np.cumsum(tau[:-1] * timestep_s)])
+    return np.interp(t, tk, cum)
+
+
+def delivered_impulse_keys(
+    profile: ProfileConfig,
+    t: np.ndarray,
+    *,
+    impulse_body_Nms: np.ndarray,
+    impulse_cmd_Nms: np.ndarray,
+    torque_ac_body_Nm: np.ndarray,
+) -> dict[str, float]:
+    """The impulse the strut couples delivered against the commanded one, about the profile axis
+    ``a`` (``x1``, ``y1`` or ``z1``; the keys carry its name).
+
+    ``impulse_body_Nms`` (T, 3): ``I(t) = Σ_k R_kᵀ τ_ac,k δt`` [N m s], the applied couples
+    ``τ_ac = Σ_s (r_j − r_i) × F_j`` (world) in best-fit body axes ``R_k``, accumulated step by
+    step; ``impulse_cmd_Nms`` (T,) the commanded ``I_cmd(t)`` (:func:`commanded_impulse_Nms`);
+    ``torque_ac_body_Nm`` (T, 3) the couple of the last step before each record.
+
+    Keys: ``impulse_<a>_{commanded,delivered}_Nms`` at the end of the run; the same at
+    ``t_− = t_end / 3`` (the end of the first torque phase, or the run's end if earlier) with
+    their ratio ``impulse_<a>_delivered_ratio_t_minus``; ``impulse_cross_peak_delivered_Nms`` the
+    largest |impulse| about the two other body axes over the run; ``torque_ac_misalignment_max_rad``
+    the largest angle between the applied couple and the commanded axis (± the axis, samples with
+    a non-zero couple).
+    """
+    a = profile.axis
+    ax = PROFILE_AXES[a]
+    others = [k for k in range(3) if k != ax]
+    t_minus = min(profile.t_end_s / 3.0, float(t[-1]))
+    k_minus = int(np.searchsorted(t, t_minus + 1e-9, side="right") - 1)
+    cmd_minus = float(impulse_cmd_Nms[k_minus])
+    del_minus = float(impulse_body_Nms[k_minus, ax])
+    tau = np.asarray(torque_ac_body_Nm, dtype=float)
+    norm = np.linalg.norm(tau, axis=1)
+    on = norm > 0
+    cos = np.abs(tau[on, ax]) / norm[on]
+    return {
+        f"impulse_{a}_commanded_Nms": float(impulse_cmd_Nms[-1]),
+        f"impulse_{a}_delivered_Nms": float(impulse_body_Nms[-1, ax]),
+        f"impulse_{a}_commanded_t_minus_Nms": cmd_minus,
+        f"impulse_{a}_delivered_t_minus_Nms": del_minus,
+        f"impulse_{a}_delivered_ratio_t_minus": del_minus / cmd_minus if cmd_minus != 0 else float("nan"),
+        "impulse_cross_peak_delivered_Nms": float(np.max(np.hypot(*impulse_body_Nms[:, others].T))),
+        "torque_ac_misalignment_max_rad": float(np.max(np.arccos(np.clip(cos, -1.0, 1.0)))) if cos.size else 0.0,
+    }
+
+
+def strut_tilt_rad(
+    pos: NodeTrajectory | np.ndarray, R_body_to_world: np.ndarray, *, nodes: np.ndarray, ends: np.ndarray
+) -> np.ndarray:
+    """(T,) the largest tilt [rad] over the struts ``ends`` (S, 2) (node indices) of each strut's
+    axis in the best-fit body frame from its reference direction: with ``ê(t)`` the unit vector
+    ``r_j − r_i`` (world) and ``ê₀`` that of the reference ``nodes`` (body), the tilt is
+    ``arccos(ê₀ · R(t)ᵀ ê(t))``."""
+    ends = np.asarray(ends, dtype=int)
+    e_world = as_trajectory(pos).map(lambda x: x[:, ends[:, 1]] - x[:, ends[:, 0]])
+    e_body = np.einsum("tji,tsj->tsi", np.asarray(R_body_to_world), e_world)
+    e_body /= np.linalg.norm(e_body, axis=-1, keepdims=True)
+    e0 = nodes[ends[:, 1]] - nodes[ends[:, 0]]
+    e0 = e0 / np.linalg.norm(e0, axis=-1, keepdims=True)
+    cos = np.clip(np.einsum("tsi,si->ts", e_body, e0), -1.0, 1.0)
+    return np.max(np.arccos(cos), axis=1)
+
+
+def strut_tilt_keys(t: np.ndarray, tilt_rad: np.ndarray) -> dict[str, float]:
+    """``central_strut_tilt_{max,final}_rad`` and ``t_central_strut_tilt_max_s`` of the series
+    ``tilt_rad`` (:func:`strut_tilt_rad`) at times ``t`` [s]."""
+    k = int(np.nanargmax(tilt_rad))
+    return {
+        "central_strut_tilt_max_rad": float(tilt_rad[k]),
+        "t_central_strut_tilt_max_s": float(t[k]),
+        "central_strut_tilt_final_rad": float(tilt_rad[-1]),
+    }
+
+
+def placement_ratios(central: dict[str, Any], distributed: dict[str, Any]) -> dict[str, float]:
+    """Central / distributed ratios of two ``dist_vs_central`` summaries of the same case and
+    profile (the paper's Fig. 9 compares the local surface-angle maps of the two placements at
+    each run's time of maximum σ_SD): the median local surface angle (the fitted map and the
+    cell angles) and the maximum σ_SD. A failed run gives NaN (a crushed structure is not a
+    ratio)."""
+    keys = {
+        "surface_angle_median_ratio": "surface_angle_median_rad",
+        "surface_angle_cell_median_ratio": "surface_angle_cell_median_rad",
+        "surface_sd_max_ratio": "surface_sd_max_m",
+    }
+    failed = bool(central.get("failed")) or bool(distributed.get("failed"))
+    out = {}
+    for name, key in keys.items():
+        c, d = central.get(key, float("nan")), distributed.get(key, float("nan"))
+        ok = not failed and d is not None and c is not None and d != 0
+        out[f"{name}_central_to_distributed"] = float(c) / float(d) if ok else float("nan")
+    return out
 
 
 def lvlh_attitude(environment, t: np.ndarray, R: np.ndarray) -> dict[str, np.ndarray]:

@@ -66,7 +66,9 @@ from magsail_mj.concepts.truss_magnetorquer.config import (
 from magsail_mj.concepts.truss_magnetorquer.force_pair import VariantPairRodLoad
 from magsail_mj.concepts.truss_magnetorquer.metrics import (
     PROFILE_AXES,
+    cell_angle_keys,
     common_summary,
+    dominant_period,
     lvlh_attitude,
     surface_twist_share,
     surface_uvw,
@@ -353,22 +355,6 @@ def saturation_phases(t: np.ndarray, saturated: np.ndarray, *, split_s: float = 
     return out
 
 
-def dominant_period(t: np.ndarray, x: np.ndarray) -> float:
-    """Period [s] of the largest non-zero-frequency FFT peak of ``x`` (uniform ``t``), linear
-    trend removed; NaN for fewer than 8 samples or a constant signal."""
-    t = np.asarray(t, dtype=float)
-    x = np.asarray(x, dtype=float)
-    if t.size < 8 or not np.all(np.isfinite(x)):
-        return float("nan")
-    y = x - np.polyval(np.polyfit(t, x, 1), t)
-    spec = np.abs(np.fft.rfft(y * np.hanning(y.size)))
-    f = np.fft.rfftfreq(y.size, d=float(t[1] - t[0]))
-    if spec.size < 3 or not spec[1:].max() > 0:
-        return float("nan")
-    k = 1 + int(np.argmax(spec[1:]))
-    return float(1.0 / f[k])
-
-
 def slew_axis_angle(q_t: np.ndarray, q0: np.ndarray, q_ref: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
     r"""Rotation angle about the slew axis (§9.4 outputs).
 
@@ -428,8 +414,10 @@ def orbital_summary(
     §11 "all dynamic runs" keys (:func:`~magsail_mj.concepts.truss_magnetorquer.metrics.common_summary`), the
     local surface angle at the time of maximum σ_SD (§5.2; ``edge_angle_max_deg``), Euler angles of
     the best-fit rotation, |B| and the angle between B and the plate normal, saturation fractions,
-    integrals of |T_ac| and |N1| + |N2|, the paper-vs-exact allocation comparison over the recorded
-    samples (§7.3, ``alloc_*``), and the orbit description (``environment.summary()``). ``pos``:
+    integrals of |T_ac|, |N1| + |N2| and of the total rod dipole Σ|m| = |N1| m₁ + |N2| m₂
+    (``int_dipole_abs_Am2s`` [A m² s], over the run and the first hour), the paper-vs-exact
+    allocation comparison over the recorded samples (§7.3, ``alloc_*``), and the orbit
+    description (``environment.summary()``). ``pos``:
     node positions (T, n, 3) [m] (an array, or a :class:`~magsail_mj.lattice.trajectory.NodeTrajectory`
     reading the recorded qpos block by block); the kind's own keys come from :func:`detumble_keys` or
     :func:`slew_keys`.
@@ -465,6 +453,7 @@ def orbital_summary(
         N2=N[:, 1],
         int_T_ac_Nms=_cumtrapz(T_ac_norm, t),
         int_N_abs_s=_cumtrapz(N_abs, t),
+        int_dipole_abs_Am2s=_cumtrapz(np.abs(N).astype(float) @ np.asarray(rod.m_rod_Am2, dtype=float), t),
     )
     series.update(lvlh_attitude(environment, t, R))
 
@@ -504,6 +493,7 @@ def orbital_summary(
             "surface_angle_max_rad": float(ang.max),
             "surface_angle_edge_max_rad": float(ang.edge_max),
             "edge_angle_max_deg": math.degrees(float(ang.edge_max)),
+            **cell_angle_keys(at_max, R[kmax], nodes_per_side=lat.nodes_per_side),
             "twist_share_at_max_sd": surface_twist_share(uvw),
             "surface_sd_period_s": dominant_period(t, series["surface_sd_m"]),
             "I_kgm2": inertia.moments.tolist(),
@@ -511,6 +501,8 @@ def orbital_summary(
             "int_T_ac_Nms": float(series["int_T_ac_Nms"][-1]),
             "int_T_ac_first_3600s_Nms": float(np.interp(min(3600.0, t[-1]), t, series["int_T_ac_Nms"])),
             "int_N_abs_s": float(series["int_N_abs_s"][-1]),
+            "int_dipole_abs_Am2s": float(series["int_dipole_abs_Am2s"][-1]),
+            "int_dipole_abs_first_3600s_Am2s": float(np.interp(min(3600.0, t[-1]), t, series["int_dipole_abs_Am2s"])),
             "T_ac_max_Nm": float(T_ac_norm.max()),
             "T_gg_max_Nm": float(np.linalg.norm(T_gg, axis=1).max()),
             "B_norm_min_T": float(B_norm.min()),

@@ -30,6 +30,27 @@ At one chosen time (e.g. the time of maximum surface SD):
    and the maximum along the outer edge (grid points within ``edge_band_m`` of the boundary of
    the node hull; default one cube edge, estimated as the median nearest-neighbour node
    spacing).
+
+**Why the fitted maps have boundary artefacts, and the artefact-free cell angles.** Both fits
+extrapolate at the boundary: the Clough–Tocher interpolant estimates each node's gradient from
+its neighbours (a curvature-minimising global fit), which at a boundary node sees one side only,
+and the finite-difference gradient of the 0.25 m grid turns one-sided next to the hull; the
+interpolating bicubic spline takes its end derivatives from the "not-a-knot" condition, i.e. the
+third derivative of the last interior interval carried out to the edge. Either way the slope
+at the edge is an extrapolation of the interior, so ``max`` and ``edge_max`` (which sit at the
+edge for a bent plate) can overshoot. :func:`cell_surface_angle` uses no fit: each cell of the
+``N × N`` top-layer grid (four nodes ``r_{j,i} … r_{j+1,i+1}``) gives the plane of its own
+bilinear patch at the cell centre, spanned by the mean edge vectors
+
+.. math:: \mathbf a = \tfrac12(\mathbf r_{j,i+1}-\mathbf r_{j,i}+\mathbf r_{j+1,i+1}-\mathbf r_{j+1,i}),\quad
+          \mathbf b = \tfrac12(\mathbf r_{j+1,i}-\mathbf r_{j,i}+\mathbf r_{j+1,i+1}-\mathbf r_{j,i+1}),
+
+normal :math:`\mathbf N = \mathbf a\times\mathbf b` (average-plane frame) and
+:math:`\alpha = \arctan(\sqrt{N_u^2+N_v^2}/|N_w|)`. Only the cell's own nodes enter, so a
+boundary cell is as accurate as an interior one; for any quadratic height ``w(u, v)`` on the
+undeformed grid the angle is the exact angle at the cell centre (the mean edge differences are
+central differences there). The edge statistic is the maximum over the cells along the outer
+ring (the centres half a cube edge inside the boundary).
 """
 
 from __future__ import annotations
@@ -45,7 +66,7 @@ from magsail_mj.estimation._arrays import as_points, as_rotations
 
 from magsail_mj.analysis.flatness import average_plane
 
-__all__ = ["SurfaceAngle", "plane_frame", "local_surface_angle"]
+__all__ = ["SurfaceAngle", "CellSurfaceAngle", "plane_frame", "local_surface_angle", "cell_surface_angle"]
 
 
 @dataclass(frozen=True)
@@ -267,3 +288,47 @@ def local_surface_angle(
         e_u=eu,
         e_v=ev,
     )
+
+
+@dataclass(frozen=True)
+class CellSurfaceAngle:
+    """Result of :func:`cell_surface_angle`: ``alpha`` ``(N−1, N−1)`` angle of every top-layer cell
+    [rad] (index ``[j, i]``), ``edge_mask`` True on the outer ring of cells; ``median``, ``p95``,
+    ``max``, ``edge_max`` their statistics [rad]."""
+
+    alpha: np.ndarray = field(repr=False)
+    edge_mask: np.ndarray = field(repr=False)
+    median: float
+    p95: float
+    max: float
+    edge_max: float
+
+
+def cell_surface_angle(top_points: np.ndarray, R_body: np.ndarray, *, nodes_per_side: int) -> CellSurfaceAngle:
+    """Angle of every top-layer cell's own plane to the average plane (no fit; module docstring).
+
+    Args:
+      top_points: ``(N², 3)`` top-layer node positions [m], j-major (index ``j N + i``).
+      R_body: ``(3, 3)`` best-fit body-to-world rotation at the same time (orients the normal).
+      nodes_per_side: ``N`` (≥ 2).
+
+    Returns:
+      :class:`CellSurfaceAngle` (radians).
+    """
+    x = as_points(top_points, "top_points", min_points=4)
+    N = int(nodes_per_side)
+    if N < 2 or N * N != x.shape[0]:
+        raise ValueError(f"nodes_per_side: {N}^2 must equal the number of top_points ({x.shape[0]}), N >= 2")
+    if not np.all(np.isfinite(x)):
+        raise ValueError("top_points: contains NaN or Inf")
+    c, n, eu, ev = plane_frame(x, R_body)
+    g = ((x - c) @ np.stack([eu, ev, n], axis=1)).reshape(N, N, 3)  # [j, i, (u, v, w)]
+    a = 0.5 * (g[:-1, 1:] - g[:-1, :-1] + g[1:, 1:] - g[1:, :-1])
+    b = 0.5 * (g[1:, :-1] - g[:-1, :-1] + g[1:, 1:] - g[:-1, 1:])
+    Nrm = np.cross(a, b)
+    alpha = np.arctan2(np.hypot(Nrm[..., 0], Nrm[..., 1]), np.abs(Nrm[..., 2]))
+    edge = np.zeros(alpha.shape, dtype=bool)
+    edge[[0, -1], :] = True
+    edge[:, [0, -1]] = True
+    med, p95, amax, emax = _stats(alpha, edge)
+    return CellSurfaceAngle(alpha=alpha, edge_mask=edge, median=med, p95=p95, max=amax, edge_max=emax)

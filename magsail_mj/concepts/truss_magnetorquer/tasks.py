@@ -36,9 +36,10 @@ from magsail_mj.control.rod_attitude import RodAttitudeController
 from magsail_mj.concepts import build_task, register_task
 from magsail_mj.environment.environment import Environment
 from magsail_mj.environment.surfaces import lattice_top_cells
-from magsail_mj.estimation.attitude import matrix_from_quat, particle_inertia
+from magsail_mj.estimation.attitude import BestFitRotation, matrix_from_quat, particle_inertia
 from magsail_mj.lattice.geometry import strain_check
 from magsail_mj.lattice.properties import loaded_nodes
+from magsail_mj.loads.base import StepState
 from magsail_mj.loads.drag import LatticeDragLoad
 from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad
 from magsail_mj.loads.point_force import NodeForceLoad
@@ -51,8 +52,12 @@ from magsail_mj.concepts.truss_magnetorquer.config import TrussConfig
 from magsail_mj.concepts.truss_magnetorquer.metrics import (
     PROFILE_AXES,
     cantilever_summary,
+    commanded_impulse_Nms,
+    delivered_impulse_keys,
     dynamic_summary,
     profile_response,
+    strut_tilt_keys,
+    strut_tilt_rad,
 )
 from magsail_mj.concepts.truss_magnetorquer.model import (
     TrussModel,
@@ -83,6 +88,8 @@ __all__ = [
     "OrbitalTrussTask",
     "DetumbleTask",
     "SlewTask",
+    "DeliveredTorqueMeter",
+    "perturbed_positions",
 ]
 
 Summary = tuple[dict[str, Any], dict[str, np.ndarray]]
@@ -99,6 +106,51 @@ OVERLAY_NAMES = {
     "N1": "active rods, family 1",
     "N2": "active rods, family 2",
 }
+
+
+def perturbed_positions(
+    positions: np.ndarray, masses: np.ndarray, *, sigma_m: float, seed: int
+) -> tuple[np.ndarray, float]:
+    """``positions`` (n, 3) [m] plus the small asymmetric perturbation of ``initial.node_perturbation_m``:
+    ``δ_i = σ g_i − Σ_k m_k σ g_k / Σ m`` with ``g`` standard normal draws of
+    ``numpy.random.default_rng(seed)`` (the centre of mass stays put). Returns the new positions and
+    the RMS displacement [m]."""
+    g = np.random.default_rng(seed).standard_normal(np.shape(positions))
+    delta = sigma_m * g
+    delta -= np.average(delta, axis=0, weights=masses)
+    return positions + delta, float(np.sqrt(np.mean(np.sum(delta**2, axis=1))))
+
+
+class DeliveredTorqueMeter:
+    """A load that applies nothing and integrates what the strut-torque load applied: the couple
+    ``τ_ac = Σ_s (r_j − r_i) × F_j`` [N m] (world; the pairs have zero net force, so it is the
+    same about every point) of each step, held over the step ``δt`` as the runner holds the
+    forces, accumulated as the world impulse ``Σ τ_ac δt`` and, in best-fit body axes ``R`` of
+    the same state (§4.1), ``Σ Rᵀ τ_ac δt`` [N m s]. It must follow the torque load in the load
+    list (it reads the forces that load has just set)."""
+
+    name = "delivered_torque_meter"
+
+    def __init__(self, torque_load: StrutTorqueLoad, reference_nodes: np.ndarray, *, timestep_s: float) -> None:
+        self.load = torque_load
+        self.fit = BestFitRotation(reference_nodes)
+        self.n_nodes = int(np.shape(reference_nodes)[0])
+        self.timestep_s = float(timestep_s)
+        self.impulse_world_Nms = np.zeros(3)
+        self.impulse_body_Nms = np.zeros(3)
+        self.torque_body_Nm = np.zeros(3)
+
+    def add(self, state: StepState, xfrc: np.ndarray) -> None:
+        F = self.load.last_force_j
+        if not np.any(F):
+            self.torque_body_Nm = np.zeros(3)
+            return
+        pos = state.pos
+        tau = np.cross(pos[self.load.j] - pos[self.load.i], F).sum(axis=0)
+        R, _ = self.fit(pos[1 : 1 + self.n_nodes])
+        self.torque_body_Nm = R.T @ tau
+        self.impulse_world_Nms = self.impulse_world_Nms + tau * self.timestep_s
+        self.impulse_body_Nms = self.impulse_body_Nms + self.torque_body_Nm * self.timestep_s
 
 
 @dataclass
@@ -200,8 +252,28 @@ class TrussScenario(ABC):
         R = self.initial_rotation()
         p = self.tm.lattice.nodes
         pc = np.average(p, axis=0, weights=self.tm.masses)
-        data.qpos[:] = ((p - pc) @ R.T + pc - p).ravel()
+        x = (p - pc) @ R.T + pc
+        sigma = self.cfg.initial.node_perturbation_m
+        if sigma > 0:
+            x, _ = perturbed_positions(x, self.tm.masses, sigma_m=sigma, seed=self.perturbation_seed)
+        data.qpos[:] = (x - p).ravel()
         data.qvel[:] = (np.cross(w, p - pc) @ R.T).ravel()
+
+    @property
+    def perturbation_seed(self) -> int:
+        """Seed of the initial node perturbation: ``initial.perturbation_seed``, else ``sim.seed``."""
+        seed = self.cfg.initial.perturbation_seed
+        return int(self.cfg.sim.seed if seed is None else seed)
+
+    def perturbation_manifest(self) -> dict[str, Any]:
+        """The manifest's ``initial_perturbation`` entry: σ [m], seed and the RMS displacement [m]."""
+        sigma = self.cfg.initial.node_perturbation_m
+        rms = 0.0
+        if sigma > 0 and not self.tm.fixed_nodes:
+            _, rms = perturbed_positions(
+                self.tm.lattice.nodes, self.tm.masses, sigma_m=sigma, seed=self.perturbation_seed
+            )
+        return {"node_perturbation_m": sigma, "seed": self.perturbation_seed, "rms_displacement_m": rms}
 
     def simulation(self) -> Simulation:
         """The runner: loads, controller and probes of the kind, the lattice strain check."""
@@ -274,6 +346,7 @@ class TrussScenario(ABC):
         lat = self.tm.lattice
         return {
             **self.task_manifest(),
+            "initial_perturbation": self.perturbation_manifest(),
             "model_size": {"nodes": lat.n_nodes, "struts": lat.n_struts, "dofs": int(self.model.nv)},
             "zeta_strut": self.cfg.damping.zeta_strut,
             "gamma_Ns_m": self.tm.gamma,
@@ -335,15 +408,29 @@ class DistVsCentralTask(TrussScenario):
         self.torque_load = StrutTorqueLoad(
             self.tm.lattice, struts, command=self._profile_command(), torque_axis=cfg.actuators.torque_axis
         )
-        return [self.torque_load]
+        self.meter = DeliveredTorqueMeter(self.torque_load, self.tm.lattice.nodes, timestep_s=cfg.sim.timestep_s)
+        return [self.torque_load, self.meter]
 
     def task_probes(self) -> dict[str, Any]:
-        tl, nt = self.torque_load, self.model.ntendon
-        return {"torque_cmd_body_Nm": lambda s, d: tl.last_command, "strut_activity": lambda s, d: tl.activity(nt)}
+        tl, nt, meter = self.torque_load, self.model.ntendon, self.meter
+        return {
+            "torque_cmd_body_Nm": lambda s, d: tl.last_command,
+            "strut_activity": lambda s, d: tl.activity(nt),
+            "torque_ac_body_Nm": lambda s, d: meter.torque_body_Nm,
+            "impulse_ac_body_Nms": lambda s, d: meter.impulse_body_Nms,
+            "impulse_ac_world_Nms": lambda s, d: meter.impulse_world_Nms,
+        }
+
+    def central_struts(self) -> np.ndarray:
+        """(S, 2) end nodes of the central cube's torquer struts for the profile axis (the struts
+        the central placement actuates, whatever this run's placement)."""
+        act = self.cfg.actuators.model_copy(update={"placement": "central"})
+        return self.tm.lattice.struts[actuated_struts(self.tm.lattice, act, self.cfg.profile.axis)]
 
     def postprocess(self, result: RunResult) -> Summary:
         summary, series = self._dynamic_summary(result)
-        t = result.records["t"]
+        rec = result.records
+        t = rec["t"]
         if t.size < 2:
             return summary, series
         p = self.cfg.profile
@@ -353,10 +440,25 @@ class DistVsCentralTask(TrussScenario):
             t,
             series["surface_sd_m"],
             inertia_kgm2=float(inertia.moments[PROFILE_AXES[p.axis]]),
-            torque_cmd_body_Nm=result.records["torque_cmd_body_Nm"],
+            torque_cmd_body_Nm=rec["torque_cmd_body_Nm"],
         )
         series.update(more_series)
         summary.update(more_keys)
+        cmd = commanded_impulse_Nms(p, t, timestep_s=self.cfg.sim.timestep_s)
+        summary.update(
+            delivered_impulse_keys(
+                p,
+                t,
+                impulse_body_Nms=rec["impulse_ac_body_Nms"],
+                impulse_cmd_Nms=cmd,
+                torque_ac_body_Nm=rec["torque_ac_body_Nm"],
+            )
+        )
+        tilt = strut_tilt_rad(
+            self.trajectory(rec), series["R_body_to_world"], nodes=self.tm.lattice.nodes, ends=self.central_struts()
+        )
+        summary.update(strut_tilt_keys(t, tilt))
+        series.update(impulse_cmd_Nms=cmd, central_strut_tilt_rad=tilt)
         return summary, series
 
     def task_plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
