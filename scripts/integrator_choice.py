@@ -1,0 +1,297 @@
+"""Each shipped config's cheapest integrator, step and load timing that keeps its stated accuracy.
+
+For every config of :data:`CHOICES` (one per stepped scenario kind), a short run (``duration_s``
+of the row) is made with:
+
+* the **reference**: RK4 at a 4× smaller step than the config's (``load_timing = "midpoint"``);
+* the config's **current** setting (integrator, step, load timing as shipped);
+* **candidates** ``integrator ∈ {Euler, implicitfast, RK4} × δt ∈ {4, 2, 1, ½} × δt₀ ×
+  load_timing ∈ {start, midpoint}``, tried in order of their expected cost per simulated second
+  (stages per step / δt: Euler 1, implicitfast 1.3, RK4 4, +0.6 for a midpoint load evaluation):
+  every candidate expected to cost less than the current setting; when the current setting does
+  not agree, further ones until twice the expected cost of the first that agrees. The chosen
+  setting is the one of the lowest *measured* cost that agrees (the expected cost only orders the
+  search: on the small models the step's Python overhead, not the integrator's stages, dominates).
+
+A summary **agrees** when every float figure ``x`` of the reference summary (timing and
+numerical-error keys excluded: ``wall``, ``step_cost``, ``steps_per_s``, ``error``, ``drift``,
+``residual``; figures with ``|x_ref| < 1e-9`` are listed as near zero and not compared) meets
+``|x − x_ref| ≤ tol · |x_ref|``, with ``tol`` the row's structural tolerance for structural
+figures (names containing ``sd``, ``strain``, ``deflect``, ``surface``, ``edge_angle``,
+``tension``, ``stress``, ``bend``, ``modal``) and its attitude tolerance for all others. The
+accuracy of each row is the one its config or its concept's docs state; where none is stated the
+proposal of the study: attitude figures within 0.1 %, structural figures within 1 %.
+
+Cost is the CPU time of ``Simulation.run()`` per simulated second (one BLAS thread), so it is
+not perturbed by other jobs' share of the machine as much as wall time is; the cost ratio
+``chosen / current`` is measured in the same process. Shipped configs are not changed: the
+table is a recommendation.
+
+Writes ``runs.jsonl`` (one line per run), ``integrator_choice.json`` and
+``integrator_choice.md`` into ``--out``:
+
+    python scripts/integrator_choice.py --out /tmp/integrator_choice           # every row
+    python scripts/integrator_choice.py --only cnusail --out /tmp/ic_cnusail     # some rows
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from threadpoolctl import threadpool_limits
+
+import magsail_mj
+from magsail_mj.config import ConfigError, load_config
+
+ROOT = Path(__file__).resolve().parents[1]
+CONCEPTS = ROOT / "magsail_mj" / "concepts"
+
+ATTITUDE_TOL, STRUCTURAL_TOL = 1e-3, 1e-2
+"""The proposed accuracy where a config states none (relative)."""
+
+INTEGRATORS = ("Euler", "implicitfast", "RK4")
+DT_FACTORS = (4.0, 2.0, 1.0, 0.5)
+TIMINGS = ("start", "midpoint")
+STAGES = {"Euler": 1.0, "implicitfast": 1.3, "RK4": 4.0}
+MIDPOINT_EXTRA = 0.6
+NEAR_ZERO = 1e-9
+SKIP = re.compile(r"wall|step_cost|steps_per_s|error|drift|residual|timestep|n_steps|^t_end_s$")
+STRUCTURAL = re.compile(r"sd|strain|deflect|surface|edge_angle|tension|stress|bend|modal")
+
+
+@dataclass(frozen=True)
+class Choice:
+    """One row: a shipped config, the simulated seconds of its short runs, its accuracy."""
+
+    config: str
+    duration_s: float
+    attitude_tol: float = ATTITUDE_TOL
+    structural_tol: float = STRUCTURAL_TOL
+    source: str = "proposed (the config states none)"
+
+
+CHOICES: tuple[Choice, ...] = (
+    Choice(
+        "cnusail/configs/detumble_pre.toml",
+        1800.0,
+        source="proposed; the CNUSAIL detumble at δt 0.1 s midpoint matches δt 0.0125 s within 4e-6 in |ω|",
+    ),
+    Choice("cnusail/configs/nadir_pre.toml", 1800.0),
+    Choice("cnusail/configs/deorbit_recalc.toml", 1800.0),
+    Choice("cnusail/configs/pd_vs_eigenaxis.toml", 1800.0),
+    Choice("current_loops/configs/slew.toml", 60.0),
+    Choice("current_loops/configs/slew_rigid.toml", 600.0),
+    Choice("current_loops/configs/sweep/a_n12_ei1e3.toml", 60.0),
+    Choice(
+        "reflector/configs/detumble.toml",
+        1800.0,
+        source="proposed; the config notes 0.5 → 0.25 s moved ω_final by 1.6 % (so 0.1 s is kept)",
+    ),
+    Choice("reflector/configs/tracking_10g.toml", 1800.0),
+    Choice("reflector/configs/pitch/b3_caps_sigma10.toml", 1800.0),
+    Choice("truss_magnetorquer/configs/cantilever.toml", 30.0),
+    Choice("truss_magnetorquer/configs/libration.toml", 30.0),
+    Choice(
+        "truss_magnetorquer/configs/detumble.toml",
+        30.0,
+        structural_tol=2e-2,
+        source="the detumble benchmark's figures within 2 % (docs/performance.md); attitude proposed",
+    ),
+    Choice("truss_magnetorquer/configs/slew_i.toml", 30.0),
+    Choice(
+        "truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml",
+        30.0,
+        structural_tol=2e-2,
+        source="surface SD within 2 % (Robb et al. 2022a, as the lattice benchmark); attitude proposed",
+    ),
+)
+"""One config per stepped scenario kind (the MSAC cycle runner and the lifetime analysis have
+their own convergence studies: ``scripts/msac_convergence.py``; the lifetime has no MuJoCo step)."""
+
+
+@dataclass(frozen=True)
+class Setting:
+    integrator: str
+    dt_s: float
+    load_timing: str
+
+    def expected_cost(self) -> float:
+        """Stage evaluations per simulated second (the ordering of the candidates)."""
+        return (STAGES[self.integrator] + (MIDPOINT_EXTRA if self.load_timing == "midpoint" else 0.0)) / self.dt_s
+
+    def label(self) -> str:
+        return f"{self.integrator} {self.dt_s:.6g} s {self.load_timing}"
+
+
+def run_setting(choice: Choice, setting: Setting) -> dict[str, Any]:
+    """One short run of ``choice`` at ``setting``: status, CPU cost per simulated second, summary."""
+    path = CONCEPTS / choice.config
+    base = load_config(path)
+    record_s = base.sim.timestep_s * base.sim.record_every
+    record_every = max(1, int(round(record_s / setting.dt_s)))
+    overrides = [
+        f"sim.duration_s={choice.duration_s!r}",
+        f"sim.integrator='{setting.integrator}'",
+        f"sim.timestep_s={setting.dt_s!r}",
+        f"sim.load_timing='{setting.load_timing}'",
+        f"sim.record_every={record_every}",
+        "sim.progress=false",
+        "sim.checkpoint_every_s=0.0",
+    ]
+    out: dict[str, Any] = {"config": choice.config, "setting": setting.__dict__, "label": setting.label()}
+    try:
+        sim = magsail_mj.load(path, overrides)
+    except (ConfigError, ValueError) as err:
+        return {**out, "status": "refused", "message": " ".join(str(err).split())[:400]}
+    c0 = time.process_time()
+    result = sim.run()
+    cpu = time.process_time() - c0
+    out.update(status=result.status, cpu_s=cpu, cost_ms_per_sim_s=1e3 * cpu / choice.duration_s)
+    if result.status == "completed":
+        summary, _ = sim.scenario.postprocess(result)
+        out["summary"] = {k: float(v) for k, v in summary.items() if _is_figure(k, v)}
+    return out
+
+
+def _is_figure(key: str, value: Any) -> bool:
+    return isinstance(value, float) and not isinstance(value, bool) and not SKIP.search(key)
+
+
+def compare(choice: Choice, ref: dict[str, float], run: dict[str, Any]) -> dict[str, Any]:
+    """Worst relative difference of ``run``'s figures from ``ref`` against the tolerances."""
+    if run.get("status") != "completed":
+        return {"agrees": False, "worst_key": None, "worst_over_tol": math.inf, "near_zero": []}
+    worst_key, worst, near_zero = None, 0.0, []
+    for key, x_ref in ref.items():
+        if not math.isfinite(x_ref) or abs(x_ref) < NEAR_ZERO:
+            near_zero.append(key)
+            continue
+        x = run["summary"].get(key, math.nan)
+        tol = choice.structural_tol if STRUCTURAL.search(key) else choice.attitude_tol
+        over = abs(x - x_ref) / (tol * abs(x_ref)) if math.isfinite(x) else math.inf
+        if over > worst or worst_key is None:
+            worst_key, worst = key, over
+    return {"agrees": worst <= 1.0, "worst_key": worst_key, "worst_over_tol": worst, "near_zero": near_zero}
+
+
+def study(choice: Choice, log: Any) -> dict[str, Any]:
+    """The reference, the current setting and the candidates of one row (module docstring)."""
+    base = load_config(CONCEPTS / choice.config)
+    dt0 = float(base.sim.timestep_s)
+    current = Setting(base.sim.integrator, dt0, getattr(base.sim, "load_timing", "start"))
+    runs: list[dict[str, Any]] = []
+
+    def run(setting: Setting) -> dict[str, Any]:
+        r = run_setting(choice, setting)
+        runs.append(r)
+        log(r)
+        return r
+
+    ref = run(Setting("RK4", dt0 / 4.0, "midpoint"))
+    if ref["status"] != "completed":
+        return {"config": choice.config, "error": f"reference {ref['status']}", "runs": runs}
+    cur = run(current)
+    cur.update(compare(choice, ref["summary"], cur))
+    chosen = cur if cur["agrees"] else None
+    candidates = sorted(
+        (Setting(i, dt0 * f, t) for i in INTEGRATORS for f in DT_FACTORS for t in TIMINGS),
+        key=Setting.expected_cost,
+    )
+    for s in candidates:
+        if s == current:
+            continue
+        if s.expected_cost() >= current.expected_cost() and chosen is not None:
+            if cur["agrees"] or s.expected_cost() >= 2.0 * chosen_cost(chosen):
+                break
+        r = run(s)
+        r.update(compare(choice, ref["summary"], r))
+        if r["agrees"] and (chosen is None or r["cost_ms_per_sim_s"] < chosen["cost_ms_per_sim_s"]):
+            chosen = r
+    return {
+        "config": choice.config,
+        "duration_s": choice.duration_s,
+        "attitude_tol": choice.attitude_tol,
+        "structural_tol": choice.structural_tol,
+        "accuracy_source": choice.source,
+        "reference": ref["label"],
+        "current": _brief(cur),
+        "chosen": _brief(chosen) if chosen else None,
+        "cost_ratio_chosen_to_current": (chosen["cost_ms_per_sim_s"] / cur["cost_ms_per_sim_s"]) if chosen else None,
+        "tried": len(runs) - 1,
+        "runs": runs,
+    }
+
+
+def chosen_cost(r: dict[str, Any]) -> float:
+    """The expected cost of a run's setting (the stop rule of the candidate loop)."""
+    return Setting(**r["setting"]).expected_cost()
+
+
+def _brief(r: dict[str, Any]) -> dict[str, Any]:
+    keys = ("label", "status", "cost_ms_per_sim_s", "agrees", "worst_key", "worst_over_tol")
+    return {k: r.get(k) for k in keys}
+
+
+def markdown(rows: list[dict[str, Any]]) -> str:
+    """The table of the docs (one line per config)."""
+    head = (
+        "| config | accuracy (attitude / structural) | current | current worst / tol | chosen | "
+        "chosen worst / tol | cost chosen / current | runs |\n|---|---|---|---|---|---|---|---|\n"
+    )
+    lines = []
+    for r in rows:
+        if "error" in r:
+            lines.append(f"| {r['config']} | — | {r['error']} | — | — | — | — | {len(r['runs'])} |")
+            continue
+        cur, ch = r["current"], r["chosen"]
+        ratio = f"{r['cost_ratio_chosen_to_current']:.2f}" if ch else "—"
+        lines.append(
+            f"| {r['config']} | {r['attitude_tol']:.1%} / {r['structural_tol']:.0%} | {cur['label']} | "
+            f"{_over(cur)} | {ch['label'] if ch else 'none agrees'} | {_over(ch) if ch else '—'} | {ratio} | "
+            f"{r['tried']} |"
+        )
+    return head + "\n".join(lines) + "\n"
+
+
+def _over(b: dict[str, Any]) -> str:
+    w = b.get("worst_over_tol")
+    return "diverged" if w is None or not math.isfinite(w) else f"{w:.2g} ({b.get('worst_key')})"
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", required=True, help="output folder (created)")
+    p.add_argument("--only", action="append", default=[], metavar="TEXT", help="rows whose config contains TEXT")
+    args = p.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = [c for c in CHOICES if not args.only or any(t in c.config for t in args.only)]
+    if not rows:
+        print(f"error: --only: no row matches {args.only}", file=sys.stderr)
+        return 2
+    results = []
+    with threadpool_limits(limits=1), (out / "runs.jsonl").open("a") as jl:
+
+        def log(r: dict[str, Any]) -> None:
+            jl.write(json.dumps({k: v for k, v in r.items() if k != "summary"}, default=str) + "\n")
+            jl.flush()
+            print(f"{r['config']}: {r['label']}: {r['status']} {r.get('cost_ms_per_sim_s', 0):.3g} ms/s", flush=True)
+
+        for c in rows:
+            results.append(study(c, log))
+            (out / "integrator_choice.json").write_text(json.dumps(results, indent=1, default=str))
+            (out / "integrator_choice.md").write_text(markdown(results))
+    print(markdown(results))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
