@@ -19,6 +19,26 @@ the work ledger (Lorentz work and damping work, exact for forces held over a ste
 Slews add the attitude error ``2 arccos|q_e,w|``, currents, saturation, commanded and achieved
 dipole, magnetic and gravity-gradient torques about the centre of mass.
 
+Shape of the response (the figures the papers' S4/S5 plots are read against):
+
+* **stretch** along body ``x``/``y``: the change of the plate's in-plane extent,
+  ``s_x(t) = (max x_b − min x_b)(t) − D_x`` [m] (``D_x`` the undeformed extent) (positive: stretched), its
+  signed extremum, the sign of that extremum, and the **half-swing** = half the peak-to-peak of
+  ``s`` over the late part of the run (``t ≥ t_0 + ½ (t_end − t_0)``, :data:`LATE_FRACTION`) with
+  the mean it swings about (:func:`stretch_keys`);
+* **strain-energy peaks**: the peaks of ``U(t)`` whose prominence is at least
+  :data:`PEAK_PROMINENCE` of ``max U`` (a run that still rises at its end counts its last sample
+  as a peak), their count and times, and ``t(max U)`` as a fraction of the run
+  (:func:`strain_energy_peaks`);
+* **saturation intervals** of a slew's current command (any axis clipped): count, start and end
+  times, total saturated time, per-axis counts, and which interval holds ``max U``
+  (:func:`saturation_keys`);
+* **dominant modes** of a slew: the strain energy ``E_n = ½ ω_n² q_n²`` [J] of every elastic mode
+  of the body-frame deformation (``q_n = φ_nᵀ M u``), its share ``E_n / Σ_m E_m`` at ``max U``
+  and time-averaged (``Σ_t E_n / Σ_t Σ_m E_m``, weighting each record by its energy), and the
+  :data:`N_DOMINANT` largest with their frequencies (:func:`modal_energy_profile`,
+  :func:`dominant_modes`).
+
 Every function takes the data it needs (the :class:`~magsail_mj.concepts.current_loops.model.LoopsModel`,
 node positions ``x`` (T, n, 3) [m], the records, config values), never the task object.
 """
@@ -28,6 +48,8 @@ from __future__ import annotations
 from typing import Any, Callable
 
 import numpy as np
+
+from scipy.signal import find_peaks
 
 from magsail_mj.analysis.energy import strain_energy, strut_strain
 from magsail_mj.lattice.modes import Modes
@@ -58,9 +80,25 @@ __all__ = [
     "classify",
     "first_time_below",
     "structural_series",
+    "stretch_keys",
+    "strain_energy_peaks",
+    "saturation_intervals",
+    "saturation_keys",
+    "modal_strain_energies",
+    "modal_energy_profile",
+    "dominant_modes",
+    "shape_keys",
 ]
 
 N_MODAL = 10
+LATE_FRACTION = 0.5
+"""The late part of a run for the stretch half-swing: ``t ≥ t_0 + LATE_FRACTION (t_end − t_0)``."""
+PEAK_PROMINENCE = 0.2
+"""A strain-energy peak counts when its prominence is at least this fraction of ``max U``."""
+N_DOMINANT = 3
+"""Dominant modes reported per slew."""
+N_INTERVALS_LISTED = 50
+"""Saturation intervals listed in a summary (the count and total cover all)."""
 
 Probe = Callable[[Any, Any], np.ndarray]
 Metrics = tuple[dict[str, Any], dict[str, np.ndarray]]
@@ -212,6 +250,8 @@ def _structural_block(lm: LoopsModel, x: np.ndarray, md: Modes | None) -> dict[s
         "thickness_m": xb[:, :, 2].max(axis=1) - xb[:, :, 2].min(axis=1),
         "rigid_fit_residual_m": np.sqrt((u**2).sum(axis=2).mean(axis=1)),
         "strut_strain_max": np.abs(strut_strain(x, lat.struts, lat.rest_length)).max(axis=1),
+        "stretch_x_m": np.ptp(xb[:, :, 0], axis=1) - np.ptp(p0[:, 0]),
+        "stretch_y_m": np.ptp(xb[:, :, 1], axis=1) - np.ptp(p0[:, 1]),
     }
     if md is not None:
         try:
@@ -226,6 +266,141 @@ def _structural_block(lm: LoopsModel, x: np.ndarray, md: Modes | None) -> dict[s
 def _at(t: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     i = int(np.argmax(y))
     return float(y[i]), float(t[i])
+
+
+def stretch_keys(
+    t: np.ndarray, stretch: dict[str, np.ndarray], *, late_fraction: float = LATE_FRACTION
+) -> dict[str, Any]:
+    """Per axis ``a`` of ``stretch`` (name → (T,) extent change [m], e.g. ``{"x": s_x}``): the
+    signed extremum ``stretch_a_extremum_m`` (largest ``|s|``), its sign ``stretch_a_sign`` (+1
+    stretched, −1 compressed, 0 never deformed), and over the late part ``t ≥ t_0 + f (t_end − t_0)``
+    the half-swing ``stretch_a_half_swing_m = ½ (max s − min s)`` and the mean
+    ``stretch_a_late_mean_m`` it swings about.
+
+    Raises:
+      ValueError: ``late_fraction`` outside [0, 1).
+    """
+    if not 0.0 <= late_fraction < 1.0:
+        raise ValueError(f"late_fraction: must be in [0, 1), got {late_fraction!r}")
+    t = np.asarray(t, dtype=float)
+    late = t >= t[0] + late_fraction * (t[-1] - t[0])
+    out: dict[str, Any] = {}
+    for axis, s in stretch.items():
+        s = np.asarray(s, dtype=float)
+        ext = float(s[int(np.argmax(np.abs(s)))])
+        out[f"stretch_{axis}_extremum_m"] = ext
+        out[f"stretch_{axis}_sign"] = int(np.sign(ext))
+        out[f"stretch_{axis}_half_swing_m"] = 0.5 * float(np.ptp(s[late]))
+        out[f"stretch_{axis}_late_mean_m"] = float(np.mean(s[late]))
+    return out
+
+
+def strain_energy_peaks(t: np.ndarray, U: np.ndarray, *, prominence: float = PEAK_PROMINENCE) -> dict[str, Any]:
+    """Peaks of the strain energy ``U`` (T,) [J] with a prominence of at least ``prominence ×
+    max U`` (``scipy.signal.find_peaks``; the series is closed by a zero after its end, so a run
+    still rising at its end counts its last sample): ``strain_energy_peak_count``,
+    ``strain_energy_peak_times_s`` and ``t_strain_energy_max_frac`` = ``(t(max U) − t_0) /
+    (t_end − t_0)``."""
+    t = np.asarray(t, dtype=float)
+    U = np.asarray(U, dtype=float)
+    top = float(np.max(U)) if U.size else 0.0
+    idx = np.zeros(0, dtype=int)
+    if top > 0:
+        idx, _ = find_peaks(np.append(U, 0.0), prominence=prominence * top)
+    span = t[-1] - t[0]
+    return {
+        "strain_energy_peak_count": int(idx.size),
+        "strain_energy_peak_times_s": [float(t[i]) for i in idx],
+        "t_strain_energy_max_frac": float((t[int(np.argmax(U))] - t[0]) / span) if span > 0 else 0.0,
+    }
+
+
+def saturation_intervals(t: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """(k, 2) start and end times [s] of the runs of ``True`` in ``mask`` (T,): an interval starts
+    at its first ``True`` sample and ends at the next ``False`` sample (the last time if it lasts
+    to the end)."""
+    t = np.asarray(t, dtype=float)
+    m = np.asarray(mask, dtype=bool)
+    edges = np.diff(np.concatenate([[0], m.astype(np.int8), [0]]))
+    start = np.flatnonzero(edges == 1)
+    stop = np.flatnonzero(edges == -1)  # first False after the run (T if none)
+    return np.column_stack([t[start], t[np.minimum(stop, t.size - 1)]]) if start.size else np.zeros((0, 2))
+
+
+def saturation_keys(t: np.ndarray, saturated: np.ndarray, *, t_peak_s: float | None = None) -> dict[str, Any]:
+    """Saturation of a slew's current command, ``saturated`` (T, L) per circuit axis: intervals of
+    any clipped axis (:func:`saturation_intervals`; the first :data:`N_INTERVALS_LISTED` listed),
+    their count, total time [s], first start and last end [s], per-axis interval counts, and with
+    ``t_peak_s`` the 0-based interval holding that time (``None`` if none)."""
+    sat = np.asarray(saturated, dtype=bool)
+    iv = saturation_intervals(t, np.any(sat, axis=1))
+    holding = None
+    if t_peak_s is not None:
+        hit = np.flatnonzero((iv[:, 0] <= t_peak_s) & (t_peak_s <= iv[:, 1]))
+        holding = int(hit[0]) if hit.size else None
+    return {
+        "saturation_interval_count": int(iv.shape[0]),
+        "saturation_intervals_s": iv[:N_INTERVALS_LISTED].tolist(),
+        "saturated_time_s": float(np.sum(iv[:, 1] - iv[:, 0])),
+        "saturation_first_start_s": float(iv[0, 0]) if iv.size else None,
+        "saturation_last_end_s": float(iv[-1, 1]) if iv.size else None,
+        "saturation_interval_count_per_axis": [
+            int(saturation_intervals(t, sat[:, j]).shape[0]) for j in range(sat.shape[1])
+        ],
+        "saturation_interval_at_strain_energy_max": holding,
+    }
+
+
+def modal_strain_energies(md: Modes, nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """(B, K) strain energy ``½ ω_n² q_n²`` [J] of every elastic mode of node positions ``x``
+    (B, n, 3) [m]: the body-frame deformation ``u = R_θᵀ (x − c) − (p − p̄)`` (best fit ``R_θ``,
+    centroid ``c``, undeformed ``nodes`` ``p``; uniform masses) projected as ``q_n = φ_nᵀ M u``."""
+    p0 = np.asarray(nodes, dtype=float)
+    R, _ = BestFitRotation(p0)(x)
+    c = x.mean(axis=1)
+    u = np.einsum("tji,tnj->tni", R, x - c[:, None, :]) - (p0 - p0.mean(axis=0))
+    sl = md.elastic
+    q = (u.reshape(u.shape[0], -1) * md.mass_diag) @ md.phi[:, sl]
+    return 0.5 * md.omega[sl] ** 2 * q**2
+
+
+def modal_energy_profile(
+    md: Modes, nodes: np.ndarray, positions: NodeTrajectory | np.ndarray, *, index: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Elastic modal strain energies (:func:`modal_strain_energies`) at record ``index`` and
+    averaged over all records, ``(K,)`` each [J], read block by block."""
+    traj = as_trajectory(positions)
+    total = np.zeros(md.n_dof - md.n_rigid)
+    for x in traj.blocks():
+        total += modal_strain_energies(md, nodes, x).sum(axis=0)
+    at = modal_strain_energies(md, nodes, traj.at(index)[None])[0]
+    return at, total / len(traj)
+
+
+def dominant_modes(omega: np.ndarray, energy: np.ndarray, *, prefix: str, count: int = N_DOMINANT) -> dict[str, Any]:
+    """The ``count`` elastic modes of largest ``energy`` (K,) [J] (``omega`` (K,) [rad/s]): their
+    elastic mode numbers (from 1), ``ω`` [rad/s], periods [s] and shares of ``Σ energy``, as keys
+    ``{prefix}_mode``, ``_omega_rad_s``, ``_period_s``, ``_share``; ``{prefix}_energy_sum_J``."""
+    e = np.asarray(energy, dtype=float)
+    tot = float(e.sum())
+    idx = np.argsort(e)[::-1][:count]
+    w = np.asarray(omega, dtype=float)[idx]
+    return {
+        f"{prefix}_mode": [int(i) + 1 for i in idx],
+        f"{prefix}_omega_rad_s": w.tolist(),
+        f"{prefix}_period_s": (2 * np.pi / w).tolist(),
+        f"{prefix}_share": (e[idx] / tot).tolist() if tot > 0 else [0.0] * idx.size,
+        f"{prefix}_energy_sum_J": tot,
+    }
+
+
+def shape_keys(t: np.ndarray, st: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Stretch (:func:`stretch_keys`, body ``x`` and ``y``) and strain-energy peak
+    (:func:`strain_energy_peaks`) keys of :func:`structural_series` ``st``."""
+    out = strain_energy_peaks(t, st["strain_energy_J"])
+    if "stretch_x_m" in st:
+        out.update(stretch_keys(t, {"x": st["stretch_x_m"], "y": st["stretch_y_m"]}))
+    return out
 
 
 def base_summary(result: RunResult) -> dict[str, Any]:
@@ -345,6 +520,7 @@ def sweep_metrics(
             h_max=h_max,
             dev_max=dev_max,
         ),
+        **shape_keys(t, st),
     }
     series = {k: v for k, v in st.items() if k != "R_bestfit"}
     series.update(
@@ -423,6 +599,7 @@ def slew_structure(t: np.ndarray, st: dict[str, np.ndarray]) -> Metrics:
         rigid_fit_residual_max_m=float(st["rigid_fit_residual_m"].max()),
         strut_strain_max=float(st["strut_strain_max"].max()),
         thickness_max_m=float(st["thickness_m"].max()),
+        **shape_keys(t, st),
     )
     series = {k: v for k, v in st.items() if k != "R_bestfit"}
     series["snapshot_index"] = np.array(int(np.argmax(U)))

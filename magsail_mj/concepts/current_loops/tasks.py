@@ -50,10 +50,13 @@ from magsail_mj.records import lazy_record
 from magsail_mj.concepts.current_loops.config import CurrentLoopsConfig
 from magsail_mj.concepts.current_loops.metrics import (
     base_summary,
+    dominant_modes,
     flexible_probes,
     flexible_torque_probe,
     rigid_probes,
     rigid_torque_probe,
+    modal_energy_profile,
+    saturation_keys,
     slew_metrics,
     slew_probes,
     slew_structure,
@@ -507,7 +510,25 @@ class LoopsSlewTask(FlexibleLoopsTask):
         more_keys, more_series = slew_structure(rec["t"], self.structure(rec))
         summary.update(more_keys)
         series.update(more_series)
+        summary.update(saturation_keys(rec["t"], rec["saturated"], t_peak_s=summary["t_strain_energy_max_s"]))
+        summary.update(self.dominant_mode_keys(rec, int(series["snapshot_index"])))
         return summary, series
+
+    def dominant_mode_keys(self, rec: Mapping[str, Any], index: int) -> dict[str, Any]:
+        """The :data:`~magsail_mj.concepts.current_loops.metrics.N_DOMINANT` modes of largest strain
+        energy at record ``index`` (the maximum of U) and over the run (``dominant_modes_at_Umax_*``,
+        ``dominant_modes_mean_*``); none when the modes cannot be had."""
+        try:
+            md = self.modes()
+        except Exception:  # noqa: BLE001 - the modes are a diagnostic; never lose a run for them
+            return {}
+        traj = NodeTrajectory(lazy_record(rec, "qpos"), self.node_positions)
+        at, mean = modal_energy_profile(md, self.lm.lattice.nodes, traj, index=index)
+        omega = md.omega[md.elastic]
+        return {
+            **dominant_modes(omega, at, prefix="dominant_modes_at_Umax"),
+            **dominant_modes(omega, mean, prefix="dominant_modes_mean"),
+        }
 
     def task_plots(self, run_dir: Path, series: dict[str, np.ndarray], qpos: np.ndarray | None) -> list[Path]:
         return [*self.structural_figures(run_dir, series, qpos), *slew_plots(run_dir, series)]
