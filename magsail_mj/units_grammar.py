@@ -50,10 +50,8 @@ ALIAS_REMOVAL_VERSION = "0.3.0"
 
 BASE_SYMBOLS: dict[str, str] = {
     "kg": "kg",
-    "g": "g",
     "m": "m",
     "s": "s",
-    "h": "h",
     "A": "A",
     "K": "K",
     "N": "N",
@@ -73,6 +71,8 @@ BASE_SYMBOLS: dict[str, str] = {
 printed form."""
 
 WHOLE_SYMBOLS: dict[str, str] = {
+    "g": "g",
+    "h": "h",
     "km": "km",
     "mm": "mm",
     "um": "µm",
@@ -140,16 +140,17 @@ class Unit:
     numerator: tuple[tuple[str, int], ...]
     denominators: tuple[tuple[tuple[str, int], ...], ...]
 
-    def label(self) -> str:
-        """The printed unit: products with ``·``, powers as superscripts, one ``/`` per
-        denominator group (``N·m/A``, ``kg/m³``, ``1/K``, ``A·m²·s/T``)."""
-        top = _group_label(self.numerator) if self.numerator else "1"
-        return top + "".join("/" + _group_label(g) for g in self.denominators)
+    def label(self, *, product: str = "·") -> str:
+        """The printed unit: the factors of a product joined by ``product``, powers as
+        superscripts, one ``/`` per denominator group (``N·m/A``, ``kg/m³``, ``1/K``,
+        ``A·m²·s/T``; with ``product=" "``: ``N m s``)."""
+        top = _group_label(self.numerator, product) if self.numerator else "1"
+        return top + "".join("/" + _group_label(g, product) for g in self.denominators)
 
 
-def _group_label(group: tuple[tuple[str, int], ...]) -> str:
+def _group_label(group: tuple[tuple[str, int], ...], product: str) -> str:
     names = {**BASE_SYMBOLS, **WHOLE_SYMBOLS}
-    return "·".join(names[s] + (str(p).translate(_SUPERSCRIPT) if p != 1 else "") for s, p in group)
+    return product.join(names[s] + (str(p).translate(_SUPERSCRIPT) if p != 1 else "") for s, p in group)
 
 
 def _split_power(text: str) -> tuple[str, int]:
@@ -212,10 +213,11 @@ def split_unit(name: str) -> tuple[str, Unit | None]:
     return name, None
 
 
-def unit_label(name: str) -> str:
-    """The printed unit of ``name`` from its suffix (``EI_Nm2`` → ``N·m²``), ``""`` without one."""
+def unit_label(name: str, *, product: str = "·") -> str:
+    """The printed unit of ``name`` from its suffix (``EI_Nm2`` → ``N·m²``; see
+    :meth:`Unit.label` for ``product``), ``""`` without one."""
     _, unit = split_unit(name)
-    return unit.label() if unit is not None else ""
+    return unit.label(product=product) if unit is not None else ""
 
 
 def new_name(old: str) -> str | None:

@@ -7,7 +7,8 @@ Every identifier (a maximal run of ``[A-Za-z0-9_]``) in the ``*.py``, ``*.toml``
 ``kappa_Am2_kg``), except the names of :data:`~magsail_mj.units_grammar.KEPT_NAMES` whose old
 suffix already reads right (``areal_density_kg_m2`` is kg/m², ``slide_stiffness_N_m`` N/m).
 Only whole identifiers are touched, never text inside another word. A bare suffix that follows an
-f-string field or a pattern (``f"T_B{ax}_N_m"``, ``max[_{a,b}]_N_m``) is renamed too; a bare suffix standing alone (a quoted
+f-string field or a pattern (``f"T_B{ax}_N_m"``, ``max[_{a,b}]_N_m``) is renamed too, and so is
+a string holding just a unit (``"N_m"`` → ``"Nm"``); a bare suffix standing alone (a quoted
 ``"_N_m"``) is left for a person to judge and listed.
 
 In JSON files only object keys are renamed (values stay byte for byte). Folders skipped:
@@ -65,12 +66,14 @@ def candidate_files(repo: Path = REPO) -> list[Path]:
     ]
 
 
-def renamed_token(token: str, before: str) -> str | None:
-    """The new spelling of ``token`` (an identifier; ``before`` is the character in front of it),
-    or None when it stays."""
+def renamed_token(token: str, before: str, after: str = "") -> str | None:
+    """The new spelling of ``token`` (an identifier; ``before`` and ``after`` are the characters
+    around it), or None when it stays."""
     new = new_name(token)
     if new is not None:
         return new
+    if before in "'\"" and before and after == before and f"_{token}" in _OLD_SUFFIXES:  # a unit as a string: "N_m"
+        return _OLD_SUFFIXES[f"_{token}"][1:]
     if token in _OLD_SUFFIXES and before in "}]" and before:  # f"{x}_N_m", `{a,b}]_N_m`: a generated name
         return _OLD_SUFFIXES[token]
     return None
@@ -83,7 +86,7 @@ def rename_text(text: str, counts: collections.Counter, bare: list[str]) -> str:
     def swap(m: re.Match) -> str:
         token = m.group()
         before = text[m.start() - 1] if m.start() else ""
-        new = renamed_token(token, before)
+        new = renamed_token(token, before, text[m.end() : m.end() + 1])
         if new is None:
             if token in _OLD_SUFFIXES:
                 bare.append(token)
