@@ -204,7 +204,7 @@ def downscale_png(src: Path, *, max_px: int = FIGURE_MAX_PX, max_bytes: int = FI
         small = image.copy()
         small.thumbnail((size, size), Image.Resampling.LANCZOS)
         buf = io.BytesIO()
-        small.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(
+        small.quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE).save(
             buf, format="PNG", optimize=True
         )
         if buf.tell() <= max_bytes:
