@@ -33,6 +33,15 @@ Injection
   computed once per step and held over the step (first order in the damping term).
 * :func:`passive_damping` (context manager): a process-global ``mjcb_passive`` callback adds the
   force into ``qfrc_passive`` of the particles' slide DOFs, so RK4 evaluates it at every stage.
+
+Forms of the product
+--------------------
+* ``"dense"`` (default, the reference): the stored ``3n × 3n`` γ, one dense mat-vec.
+* ``"low_rank"``: exact for ``capped_rayleigh`` (strut dashpots ``b = c k`` plus a low-rank part).
+* ``"polynomial"``: :mod:`magsail_mj.lattice.low_rank_polynomial`, a polynomial of the sparse
+  mass-scaled stiffness plus an exact low-rank correction of the first ``n_low`` modes; every
+  mode above them gets its scheduled ratio within ``rtol`` (relative), no mode is coupled to
+  another, and the cost is ``degree`` sparse mat-vecs instead of the dense product.
 """
 
 from __future__ import annotations
@@ -51,9 +60,13 @@ from magsail_mj.lattice.modes import (
     damping_ratios,
     lattice_modes,
 )
+from magsail_mj.lattice.low_rank_polynomial import PolynomialCaughey, caughey_polynomial
 from magsail_mj.loads.base import StepState
 
-__all__ = ["ModalDampingLoad", "weighted_best_fit_rotation", "passive_damping", "PassiveDamping"]
+__all__ = ["FORMS", "ModalDampingLoad", "weighted_best_fit_rotation", "passive_damping", "PassiveDamping"]
+
+FORMS = ("dense", "low_rank", "polynomial")
+"""Ways to apply γ (module docstring, "Forms of the product")."""
 
 
 def weighted_best_fit_rotation(ref_c: np.ndarray, w: np.ndarray, pos: np.ndarray) -> np.ndarray:
@@ -83,10 +96,12 @@ class ModalDampingLoad:
       nodes: ``(n, 3)`` undeformed node positions [m] (the frame of ``gamma``).
       gamma: dense ``(3n, 3n)`` Caughey matrix [N s/m] (:func:`~magsail_mj.lattice.modes.caughey_matrix`)
         or a :class:`~magsail_mj.lattice.modes.LowRankCaughey` (then only its low-rank part is
-        applied here; its ``c K`` part must be in the model as tendon damping ``b = c k``).
+        applied here; its ``c K`` part must be in the model as tendon damping ``b = c k``), or a
+        :class:`~magsail_mj.lattice.low_rank_polynomial.PolynomialCaughey` (applied whole).
       frame: ``"body"`` (co-rotated, default) or ``"inertial"`` (literal Eq. 12).
       dtype: storage/product type of a dense ``gamma``: ``np.float32`` (default; half the memory
-        traffic, see README for the measured accuracy) or ``np.float64``.
+        traffic, see README for the measured accuracy) or ``np.float64`` (:meth:`for_lattice`
+        also stores a polynomial form's low-rank factor in it).
       body_offset: node ``i`` is body ``i + body_offset`` (1 for the truss models).
       remove_rigid: project the rigid-body velocity out before the product (default ``True``).
 
@@ -105,7 +120,7 @@ class ModalDampingLoad:
         *,
         modes: Modes,
         nodes: np.ndarray,
-        gamma: np.ndarray | LowRankCaughey,
+        gamma: np.ndarray | LowRankCaughey | PolynomialCaughey,
         frame: Literal["body", "inertial"] = "body",
         dtype=np.float32,
         body_offset: int = 1,
@@ -129,12 +144,12 @@ class ModalDampingLoad:
         self._ref_c = nodes - (self.masses @ nodes) / self.masses.sum()
         self._rigid = np.ascontiguousarray(modes.rigid_phi) if remove_rigid and modes.n_rigid else None
         self._rigid_M = (self._rigid * self._m3[:, None]).T.copy() if self._rigid is not None else None
-        if isinstance(gamma, LowRankCaughey):
+        if isinstance(gamma, (LowRankCaughey, PolynomialCaughey)):
             if gamma.U.shape[0] != 3 * n:
                 raise ValueError(f"gamma: low-rank U has {gamma.U.shape[0]} rows, expected {3 * n}")
             self._dense = None
             self._low = gamma
-            self.dtype = np.dtype(np.float64)
+            self.dtype = np.dtype(gamma.U.dtype)
         else:
             g = np.asarray(gamma)
             if g.shape != (3 * n, 3 * n):
@@ -161,7 +176,8 @@ class ModalDampingLoad:
         xi_low: float = 0.01,
         n_low: int = 100,
         xi_cap: float = 10.0,
-        form: Literal["dense", "low_rank"] = "dense",
+        form: Literal["dense", "low_rank", "polynomial"] = "dense",
+        rtol: float = 0.02,
         frame: Literal["body", "inertial"] = "body",
         dtype=np.float32,
         body_offset: int = 1,
@@ -172,19 +188,23 @@ class ModalDampingLoad:
 
         ``form="low_rank"`` (only sensible with ``"capped_rayleigh"``) returns a load applying
         the low-rank part only; the model then needs tendon damping ``load.tendon_damping(k)``.
+        ``form="polynomial"``: every mode above ``n_low`` gets its ratio within ``rtol``
+        (relative; :func:`~magsail_mj.lattice.low_rank_polynomial.caughey_polynomial`), the others
+        exactly; ``rtol`` is ignored by the other forms.
         """
-        if form not in ("dense", "low_rank"):
-            raise ValueError(f"form: must be 'dense' or 'low_rank', got {form!r}")
+        if form not in FORMS:
+            raise ValueError(f"form: must be one of {FORMS}, got {form!r}")
         if modes is None:
             modes = lattice_modes(nodes, struts, k, masses, cache_dir=cache_dir)
         xi = damping_ratios(
             modes.omega, n_rigid=modes.n_rigid, schedule=schedule, xi_low=xi_low, n_low=n_low, xi_cap=xi_cap
         )
-        gamma = (
-            caughey_matrix(modes, xi, dtype=dtype)
-            if form == "dense"
-            else caughey_low_rank(modes, xi, n_low=n_low, xi_low=xi_low)
-        )
+        if form == "dense":
+            gamma = caughey_matrix(modes, xi, dtype=dtype)
+        elif form == "low_rank":
+            gamma = caughey_low_rank(modes, xi, n_low=n_low, xi_low=xi_low)
+        else:
+            gamma = caughey_polynomial(modes, xi, nodes=nodes, struts=struts, k=k, n_low=n_low, rtol=rtol, dtype=dtype)
         load = cls(modes=modes, nodes=nodes, gamma=gamma, frame=frame, dtype=dtype, body_offset=body_offset)
         load.ratios = xi
         return load
@@ -192,7 +212,14 @@ class ModalDampingLoad:
     def tendon_damping(self, k: np.ndarray) -> np.ndarray:
         """Strut dashpots ``b = c k`` the model needs with a low-rank γ (zeros for a dense γ)."""
         k = np.asarray(k, dtype=float)
-        return self._low.tendon_damping(k) if self._low is not None else np.zeros_like(k)
+        return self._low.tendon_damping(k) if isinstance(self._low, LowRankCaughey) else np.zeros_like(k)
+
+    @property
+    def effective_ratios(self) -> np.ndarray | None:
+        """Damping ratio each mode gets (``polynomial`` form; the schedule ``ratios`` otherwise)."""
+        if isinstance(self._low, PolynomialCaughey):
+            return self._low.effective_ratios(self.modes.omega)
+        return self.ratios
 
     # ------------------------------------------------------------------ core
     def rotation(self, pos: np.ndarray) -> np.ndarray:
