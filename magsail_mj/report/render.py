@@ -64,6 +64,8 @@ def _tolerance_text(claim: Claim) -> str:
         return "—"
     unit = f" {claim.unit}" if claim.unit else ""
     tol = float(claim.tolerance or 0.0)
+    if claim.compare in ("max", "min") and tol == 0.0:
+        return "none (a bound)"
     return {"rel": f"± {tol:.3g} (relative)", "max": f"+ {tol:.3g}{unit}", "min": f"− {tol:.3g}{unit}"}.get(
         claim.compare, f"± {tol:.3g}{unit}"
     )
