@@ -11,6 +11,8 @@ Loads (body frame of the undeformed lattice, the frame of the modes):
   ``r`` in strut ``i → j`` (the ``actuators.force_pair`` variant of the run), with the recorded
   polarities ``s_r`` (``strut_activity``), the recorded field in body axes ``B_b``
   (``B_body_T``) and the undeformed strut direction ``r̂`` and length ``L``;
+* with ``--force-pair``, another variant of the pair (e.g. the paper's printed form, which adds
+  an axial strut load; the health check below always uses the run's own);
 * with ``--centrifugal``, the centrifugal load ``m_i (|ω|² I − ω ωᵀ) p_i`` of the recorded body
   rate ``ω`` (``omega_est_body_rad_s``) about the centre of mass (the rigid angular acceleration's
   load has no elastic component). Gravity gradient and the deformed geometry are left out.
@@ -40,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from magsail_mj.analysis.flatness import surface_sd
-from magsail_mj.concepts.truss_magnetorquer.force_pair import pair_forces
+from magsail_mj.concepts.truss_magnetorquer.force_pair import FORCE_PAIRS, pair_forces
 from magsail_mj.concepts.truss_magnetorquer.model import make_truss_model
 from magsail_mj.concepts.truss_magnetorquer.orbital import dominant_period
 from magsail_mj.config import ConfigError, parse_config
@@ -58,6 +60,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("run_dir", type=Path, help="finished truss run folder (read only)")
     p.add_argument("--hold", choices=HOLDS, default="zero", help="load between records (default: zero)")
     p.add_argument("--centrifugal", action="store_true", help="add the centrifugal load of the recorded body rate")
+    p.add_argument(
+        "--force-pair",
+        choices=FORCE_PAIRS,
+        default=None,
+        help="rebuild the loads with this force-pair variant (default: the run's)",
+    )
     p.add_argument("--out", type=Path, default=None, help="also write the JSON here")
     return p.parse_args(argv)
 
@@ -146,8 +154,9 @@ def mode_table(idx: np.ndarray, omega: np.ndarray, strain: np.ndarray, total: np
     ]
 
 
-def upper_bound(run_dir: Path, *, hold: str, centrifugal: bool) -> dict[str, Any]:
-    """The report of the module docstring for the run folder ``run_dir``."""
+def upper_bound(run_dir: Path, *, hold: str, centrifugal: bool, force_pair: str | None = None) -> dict[str, Any]:
+    """The report of the module docstring for the run folder ``run_dir`` (``force_pair``: the
+    variant to rebuild the loads with, default the run's)."""
     t0 = time.perf_counter()
     manifest = json.loads((run_dir / "manifest.json").read_text())
     cfg = parse_config(manifest["config"], source=str(run_dir / "manifest.json"))
@@ -161,7 +170,8 @@ def upper_bound(run_dir: Path, *, hold: str, centrifugal: bool) -> dict[str, Any
     el = md.elastic
     phi, omega = md.phi[:, el], md.omega[el]
     m_of_rod = np.asarray(manifest["rod_dipole_Am2"], dtype=float)[rod_array(lat).family]
-    force_pair = str(manifest.get("rod_force_pair", "corrected"))
+    run_pair = str(manifest.get("rod_force_pair", "corrected"))
+    force_pair = force_pair or run_pair
     J, struts = rod_jacobian(lat, phi, m_of_rod, force_pair)
     S = centrifugal_basis(lat.nodes, tm.masses, phi) if centrifugal else None
     f = modal_loads(rec, J, struts, S)
@@ -173,17 +183,19 @@ def upper_bound(run_dir: Path, *, hold: str, centrifugal: bool) -> dict[str, Any
     strain, total = resp.strain_energy_J[k], resp.energy_J[k]
     sd_sim = np.asarray(rec["surface_sd_m"][...]) if "surface_sd_m" in rec else None
     T_rec = np.asarray(rec["torque_ac_body_Nm"][...])
-    T_reb = rebuilt_torque(rec, lat, m_of_rod, force_pair)
+    T_reb = rebuilt_torque(rec, lat, m_of_rod, run_pair)
     out: dict[str, Any] = {
         "run_dir": str(run_dir),
         "hold": hold,
         "centrifugal": centrifugal,
+        "force_pair": force_pair,
         "n_records": int(t.size),
         "t_end_s": float(t[-1]),
         "n_elastic_modes": int(omega.size),
         "sd_bound_max_m": float(sd[k]),
         "t_sd_bound_max_s": float(t[k]),
         "sd_bound_period_s": float(dominant_period(t, sd)),
+        "sd_bound_rms_m": float(np.sqrt(np.mean(sd**2))),
         "modal_energy_at_bound_max_J": float(total.sum()),
         "modal_strain_energy_at_bound_max_J": float(strain.sum()),
         "modes_top_energy_at_bound_max": mode_table(np.argsort(total)[::-1][:N_TOP_MODES], omega, strain, total),
@@ -196,6 +208,8 @@ def upper_bound(run_dir: Path, *, hold: str, centrifugal: bool) -> dict[str, Any
             sd_sim_max_m=float(sd_sim[i]),
             t_sd_sim_max_s=float(t[i]),
             sd_sim_period_s=float(dominant_period(t, sd_sim)),
+            sd_sim_rms_m=float(np.sqrt(np.mean(sd_sim**2))),
+            sd_correlation=float(np.corrcoef(sd, sd_sim)[0, 1]),
             ratio_bound_to_sim=float(sd[k] / sd_sim[i]) if sd_sim[i] > 0 else float("inf"),
         )
     out["wall_time_s"] = time.perf_counter() - t0
@@ -205,7 +219,7 @@ def upper_bound(run_dir: Path, *, hold: str, centrifugal: bool) -> dict[str, Any
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     try:
-        out = upper_bound(args.run_dir, hold=args.hold, centrifugal=args.centrifugal)
+        out = upper_bound(args.run_dir, hold=args.hold, centrifugal=args.centrifugal, force_pair=args.force_pair)
     except (OSError, KeyError, RecordStoreError, ConfigError, ValueError) as exc:
         print(f"error: run_dir {args.run_dir}: {exc}", file=sys.stderr)
         return 2

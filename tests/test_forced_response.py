@@ -6,12 +6,17 @@ that are constant or linear between samples; only round-off remains).
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from magsail_mj.config import load_config
 from magsail_mj.lattice.forced_response import modal_displacement, modal_forces, undamped_modal_response
 from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.lattice.modes import lattice_modes
+from magsail_mj.run import run_scenario
+from tests.conftest import load_file_module
 
 OMEGA = 0.7  # rad/s
 
@@ -126,3 +131,28 @@ def test_bad_inputs_name_the_argument():
         undamped_modal_response([1.0], t[::-1], np.zeros(5))
     with pytest.raises(ValueError, match="f:"):
         undamped_modal_response([1.0, 2.0], t, np.zeros(5))
+
+
+def test_truss_modal_bound_reproduces_an_undamped_run(tmp_path):
+    """scripts/truss_modal_upper_bound.py on a small truss detumble without strut damping or tidal
+    gravity, recorded every step (the held loads are then exactly the run's): the linear modal
+    response to the rebuilt rod pairs and the centrifugal load follows the simulated SD (measured:
+    max within 8 %, correlation 0.997 over 60 s; the difference is the deformation's nonlinearity,
+    SD ≈ 0.2 m on 19 m cells); the rebuilt rod torque matches the recorded one within 3 %."""
+    script = load_file_module("scripts", "truss_modal_upper_bound")
+    overrides = [
+        "lattice.units=4",
+        "sim.duration_s=60",
+        "sim.record_every=1",
+        "sim.checkpoint_every_s=0",
+        "sim.progress=false",
+        "damping.zeta_strut=0",
+        "gravity.tidal=false",
+    ]
+    config = Path(__file__).resolve().parents[1] / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml"
+    run_scenario(load_config(config, overrides), tmp_path / "run", progress=False)
+    out = script.upper_bound(tmp_path / "run", hold="zero", centrifugal=True)
+    assert 0.9 < out["ratio_bound_to_sim"] < 1.15
+    assert out["sd_correlation"] > 0.99
+    assert out["torque_rebuilt_rel_err"] < 0.03
+    assert out["n_elastic_modes"] == 3 * 50 - 6
