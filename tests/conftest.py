@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import copy
+import importlib.util
+import sys
 import time
 import warnings
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import pytest
@@ -19,6 +22,34 @@ with warnings.catch_warnings():
     ensure_gl_backend()
 
 REPO = Path(__file__).resolve().parents[1]
+
+#: overrides of a small current-loop or truss run with a checkpoint every simulated second: ~12k RK4
+#: steps, a few seconds with the outputs (the sweep tests kill and resume it)
+CHECKPOINTING_RUN = [
+    "lattice.units=3",
+    "sim.duration_s=12.0",
+    "sim.timestep_s=0.001",
+    "sim.record_every=100",
+    "sim.checkpoint_every_s=1.0",
+    "sim.progress=false",
+]
+
+#: the keys of the reflector coil report (``coil_torque_report``, ``magsail torque coil``)
+COIL_REPORT_KEYS = (
+    "T_max_ycoil_N_m",
+    "T_max_xcoil_N_m",
+    "T_max_zloop_N_m",
+    "zloop_side_m",
+    "T_max_perimeter_loop_N_m",
+    "T_max_ycoil_p1_N_m",
+    "T_max_ycoil_rows_plus1_N_m",
+    "m_max_A_m2",
+    "path_length_m",
+    "node_count",
+    "segment_count",
+    "net_force_Bx_N",
+    "closed_lead_dipole_y_A_m2",
+)
 
 SMALL_TRUSS = {
     "concept": "truss_magnetorquer",
@@ -88,3 +119,15 @@ def wait_for(predicate, timeout_s: float, what: str) -> None:
         if time.monotonic() > deadline:
             raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
         time.sleep(0.05)
+
+
+def load_file_module(folder: str, name: str, *, register: bool = False) -> ModuleType:
+    """The file ``<repo>/<folder>/<name>.py`` (a script or an example: not in a package) loaded as the
+    module ``name``; ``register`` puts it in ``sys.modules`` before it runs (a module whose
+    dataclasses look their module up while it loads needs that)."""
+    spec = importlib.util.spec_from_file_location(name, REPO / folder / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    if register:
+        sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module

@@ -7,11 +7,9 @@ polygon reference to 1e-12 of the region side.
 
 from __future__ import annotations
 
-import importlib.util
 import itertools
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -36,6 +34,7 @@ from magsail_mj.control.lloyd import (
     voronoi_cells,
     voronoi_centroids,
 )
+from tests.conftest import load_file_module
 
 unit = st.floats(-1.0, 1.0, allow_nan=False)
 vec = st.tuples(unit, unit, unit).map(np.array).filter(lambda v: np.linalg.norm(v) > 1e-2)
@@ -381,10 +380,7 @@ def test_demo_case_72_of_100_t6():
 
 def test_allocation_demo_script(tmp_path):
     """§7.5 script: figure and the §11 summary keys."""
-    path = Path(__file__).resolve().parents[1] / "scripts" / "allocation_demo.py"
-    spec = importlib.util.spec_from_file_location("allocation_demo", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_file_module("scripts", "allocation_demo")
     assert mod.main(["--out", str(tmp_path), "--tol-rel", "1e-4"]) == 0
     summary = json.loads((tmp_path / "summary.json").read_text())
     for key in (

@@ -8,17 +8,17 @@ runs the checker on it). The browser tests skip where Chromium is absent.
 
 from __future__ import annotations
 
-import importlib.util
 import re
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import imageio_ffmpeg
 import numpy as np
 import pytest
 from PIL import Image
+
+from tests.conftest import load_file_module
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -29,11 +29,7 @@ _SOURCE = re.compile(r'<source src="\.\./_static/([\w.-]+)" type="([\w/]+)">')
 
 
 def _checker():
-    spec = importlib.util.spec_from_file_location("check_docs_site", ROOT / "scripts" / "check_docs_site.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclasses look their module up while it loads
-    spec.loader.exec_module(module)
-    return module
+    return load_file_module("scripts", "check_docs_site", register=True)  # its dataclasses look their module up
 
 
 check_docs_site = _checker()

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 
@@ -11,14 +10,11 @@ import numpy as np
 from magsail_mj import envs
 from magsail_mj.concepts.cnusail import env as cnusail  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
 from magsail_mj.concepts.msac import env as msac  # noqa: F401  (registers the CNUSAIL and MSAC tasks)
-from tests.conftest import REPO
+from tests.conftest import REPO, load_file_module
 
 
 def _example(name: str):
-    spec = importlib.util.spec_from_file_location(name, REPO / "examples" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_file_module("examples", name)
 
 
 def test_random_policy_runs_episodes(monkeypatch, capsys):

@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-import importlib.util
 
-from tests.conftest import REPO
+from tests.conftest import REPO, load_file_module
 
 
 def _example(name: str):
-    spec = importlib.util.spec_from_file_location(name, REPO / "examples" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_file_module("examples", name)
 
 
 def test_custom_controller_damps_the_tumble(monkeypatch, capsys):

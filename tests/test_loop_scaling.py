@@ -17,7 +17,6 @@ Tolerances:
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import json
 import math
 from pathlib import Path
@@ -56,6 +55,7 @@ from magsail_mj.analysis.loop_scaling import (
     wire_diameter,
 )
 from magsail_mj.cli import main
+from tests.conftest import load_file_module
 
 REPO = Path(__file__).resolve().parents[1]
 K = DEFAULT_CONSTANTS
@@ -454,10 +454,7 @@ def test_cli_non_number_is_an_argument_error(capsys):
 
 
 def _script(name: str):
-    spec = importlib.util.spec_from_file_location(name, REPO / "scripts" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_file_module("scripts", name)
 
 
 @pytest.mark.parametrize(

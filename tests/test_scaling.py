@@ -6,7 +6,6 @@ maximum of Eq. 14 uses 20 001 samples of [0, π/2], which resolves the peak to ~
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -30,6 +29,7 @@ from magsail_mj.analysis.scaling import (
 )
 from magsail_mj.config import ConfigError
 from magsail_mj.environment.constants import B0_DIPOLE, MU_EARTH, R_E_TRUSS
+from tests.conftest import load_file_module
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -137,9 +137,7 @@ def test_inputs_validation_and_toml(tmp_path):
 
 
 def test_scaling_script_writes_plot_and_json(tmp_path, capsys):
-    spec = importlib.util.spec_from_file_location("scaling_magnetorquer", REPO / "scripts" / "scaling_magnetorquer.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_file_module("scripts", "scaling_magnetorquer")
     assert mod.main(["--out", str(tmp_path)]) == 0
     printed = json.loads(capsys.readouterr().out)
     saved = json.loads((tmp_path / "summary.json").read_text())

@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-import importlib.util
 
-from tests.conftest import REPO
+from tests.conftest import load_file_module
 
 
 def _script(name: str):
-    spec = importlib.util.spec_from_file_location(name, REPO / "scripts" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_file_module("scripts", name)
 
 
 def test_a_failed_structure_is_never_put_into_a_ratio():
