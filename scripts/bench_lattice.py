@@ -1,4 +1,4 @@
-"""Cost per simulated second of the MuJoCo runner against a plain NumPy RK4 (issue 2, item 11).
+r"""Cost per simulated second of the MuJoCo runner against a plain NumPy RK4 (issue 2, item 11).
 
 For the 800-node (19 × 19 cubes) and 1 568-node (27 × 27 cubes) lattices, Case A stiffness
 (EI = 1e3 N m², d = 100 m, M = 100 kg, cantilever-calibrated, ζ_s = 0.1) with the distributed
@@ -36,6 +36,29 @@ relative difference meaningless.
     python scripts/bench_lattice.py                 # 300 s, both lattices
     python scripts/bench_lattice.py --quick         # 60 s
     python scripts/bench_lattice.py --out bench.md  # also write the table to a file
+
+``--damping``: the modal (Caughey) damping of the current-loop lattice instead, by default the
+N = 27, EI = 1e5 N m² sweep (4 704 DOF, paper_max schedule, ξ = 10 above mode 100):
+
+(1) the damping ratio each mode gets from the polynomial form
+    (:mod:`magsail_mj.lattice.low_rank_polynomial`), read off the operator applied to every mode
+    shape, :math:`\zeta_n=\phi_n^T\gamma\phi_n/(2\omega_n)`, against the schedule; the largest
+    coupling :math:`|\phi_m^T\gamma\phi_n|` (m ≠ n) on 200 random columns;
+(2) CPU time per evaluation of the co-rotated damping force (dense reference γ in float32, as
+    shipped, and the polynomial form) and of the bare ``mj_step`` of the same model (no loads),
+    interleaved in rounds in one process, best of the rounds, one BLAS thread; the ratios
+    damping / ``mj_step``;
+(3) short runs (``--duration``, default 40 s) through the runner: the shipped setting (dense,
+    0.01 s) and the polynomial form at 0.01 s and at larger steps, each with its CPU cost per
+    simulated second, its ratio to the shipped one, and the largest relative difference of the
+    summary figures from the shipped run;
+(4) stability: the same runs at steps around the held-damping bound
+    :math:`2\xi\omega_{max}\Delta t<2` (forward Euler in the damping term, which is held over
+    the step), for both forms; a run is unstable when the runner reports divergence or the
+    largest node speed at the end exceeds 10× that of the shipped run.
+
+    python scripts/bench_lattice.py --damping
+    python scripts/bench_lattice.py --damping --duration 20 --rtol 0.05
 """
 
 from __future__ import annotations
@@ -52,11 +75,14 @@ import numpy as np
 from scipy.sparse import diags
 from scipy.sparse.linalg import eigsh
 
+from threadpoolctl import threadpool_limits
+
 import magsail_mj
 from magsail_mj.analysis.flatness import surface_sd
 from magsail_mj.config import load_config
 from magsail_mj.estimation.attitude import best_fit_rotation, rotation_angle
 from magsail_mj.lattice.geometry import stiffness_matrix
+from magsail_mj.lattice.modal_damping import ModalDampingLoad
 from magsail_mj.io import print_report
 from magsail_mj.reference.numpy_rk4 import from_truss_scenario, rk4_run
 
@@ -80,6 +106,29 @@ DISCRETE_TOLERANCE = 1e-5
 At 1e-5 the node positions equal those at MuJoCo's default 1e-8 to 3 digits (1 568 nodes,
 60 s) for 70 % of the cost; steps above 1 s trip MuJoCo's ill-conditioning warning."""
 REF_CHUNK_S = 30.0  # reference re-timed over this many simulated seconds before every runner row
+
+LOOPS_N27_EI1E5 = (
+    Path(__file__).resolve().parents[1] / "magsail_mj/concepts/current_loops/configs/sweep/a_n27_ei1e5.toml"
+)
+"""The ``--damping`` model: the N = 27, EI = 1e5 N m² current-loop sweep (geometry A)."""
+DAMPING_STEPS_S = (0.01, 0.02)
+"""Steps of the ``--damping`` accuracy runs (the shipped step first)."""
+STABILITY_FACTORS = (0.95, 1.05, 1.25)
+"""Steps of the ``--damping`` stability probes, as multiples of the held-damping bound 2 / max(2 ξ ω)."""
+SUMMARY_FIGURES = (
+    "strain_energy_max_J",
+    "strut_strain_max",
+    "rigid_fit_residual_max_m",
+    "rotation_angle_final_rad",
+    "damping_work_final_J",
+    "lorentz_work_final_J",
+    "stretch_x_extremum_m",
+    "stretch_y_extremum_m",
+)
+"""Summary figures of the sweep compared between ``--damping`` runs (relative difference)."""
+RECORD_PERIOD_S = 1.0
+SPEED_BLOWUP = 10.0
+"""A run counts as unstable when its final largest node speed exceeds this many times the shipped run's."""
 
 
 @dataclass
@@ -238,6 +287,207 @@ def table(rows: list[Row], duration: float) -> str:
     return "\n".join(lines)
 
 
+# ----------------------------------------------------------------------------- --damping
+def _cpu_best(f, n: int) -> float:
+    """CPU seconds per call of ``f`` over ``n`` calls."""
+    c0 = time.process_time()
+    for _ in range(n):
+        f()
+    return (time.process_time() - c0) / n
+
+
+def damping_mode_errors(load: ModalDampingLoad, xi: np.ndarray, *, seed: int = 0) -> dict:
+    """Per-mode damping ratios of a polynomial-form ``load`` against the schedule ``xi`` (module docs, (1))."""
+    g, md = load._low, load.modes
+    phi = md.phi
+    G_phi = g.apply(phi.copy())
+    diag = np.einsum("ij,ij->j", phi, G_phi)
+    om = md.omega
+    el = om > 0
+    zeta = np.divide(diag, 2.0 * om, out=np.zeros_like(om), where=el)
+    fitted = np.zeros(om.size, bool)
+    fitted[np.setdiff1d(np.arange(om.size), g.modes_index)] = True
+    exact = el & ~fitted
+    rel = np.abs(zeta[fitted] / xi[fitted] - 1.0)
+    cols = np.random.default_rng(seed).choice(om.size, size=min(200, om.size), replace=False)
+    block = phi.T @ G_phi[:, cols]
+    block[cols, np.arange(cols.size)] = 0.0
+    return {
+        "degree": g.degree,
+        "n_fitted": int(fitted.sum()),
+        "n_exact": int(exact.sum()),
+        "fitted_rel_err_max": float(rel.max()),
+        "fitted_rel_err_median": float(np.median(rel)),
+        "fitted_zeta_range": (float(zeta[fitted].min()), float(zeta[fitted].max())),
+        "exact_abs_err_max": float(np.max(np.abs(zeta[exact] - xi[exact]))),
+        "rigid_rate_max": float(np.max(np.abs(diag[~el]))),
+        "coupling_max_rel": float(np.abs(block).max() / np.abs(diag).max()),
+    }
+
+
+def damping_costs(sim, loads: dict[str, ModalDampingLoad], *, rounds: int, n: int) -> dict[str, float]:
+    """CPU ms per call: bare ``mj_step`` of ``sim.model`` and ``forces`` of each load (module docs, (2))."""
+    m = sim.model
+    d = mujoco.MjData(m)
+    sc = sim.scenario
+    rng = np.random.default_rng(1)
+    nodes = sc.lm.lattice.nodes
+    pos = nodes + 0.01 * rng.normal(size=nodes.shape)
+    vel = 1e-3 * rng.normal(size=nodes.shape)
+    best = {"mj_step": np.inf, **{k: np.inf for k in loads}}
+    for _ in range(rounds):
+        best["mj_step"] = min(best["mj_step"], _cpu_best(lambda: mujoco.mj_step(m, d), n))
+        for name, load in loads.items():
+            best[name] = min(best[name], _cpu_best(lambda: load.forces(pos, vel), n))
+    return {k: v * 1e3 for k, v in best.items()}
+
+
+def _summary_floats(summary: dict) -> dict[str, float]:
+    return {k: float(summary[k]) for k in (*SUMMARY_FIGURES, "energy_balance_rel_err") if k in summary}
+
+
+def damping_run(config: Path, form: str, dt: float, duration: float, loads_by_form: dict) -> dict:
+    """One runner run with the damping ``form`` at step ``dt`` (module docs, (3)/(4))."""
+    sim = magsail_mj.load(
+        config,
+        [
+            f"sim.duration_s={duration}",
+            f"sim.timestep_s={dt}",
+            f"sim.record_every={max(1, int(round(RECORD_PERIOD_S / dt)))}",
+            "sim.progress=false",
+        ],
+    )
+    sc = sim.scenario
+    sc.damping_load.load = loads_by_form[form]()  # the HeldForces wrapper keeps its place in the loads
+    c0 = time.process_time()
+    res = sim.run(progress=False)
+    cpu = time.process_time() - c0
+    out = {
+        "form": form,
+        "dt": dt,
+        "status": res.status,
+        "t_end": res.t_end_s,
+        "cpu_per_sim_s": cpu / max(res.t_end_s, dt),
+    }
+    v = np.asarray(sim.data.qvel)  # the final state
+    out["speed_max"] = float(np.max(np.abs(v))) if res.status == "completed" and np.all(np.isfinite(v)) else np.inf
+    if res.status == "completed":
+        out["summary"] = _summary_floats(sc.metrics(dict(res.records))[0])
+    return out
+
+
+def _rel_diff(a: dict[str, float], b: dict[str, float]) -> tuple[float, str]:
+    worst, key = 0.0, ""
+    for k, va in a.items():
+        if k in b and k in SUMMARY_FIGURES:
+            r = abs(b[k] - va) / max(abs(va), 1e-300)
+            if r > worst:
+                worst, key = r, k
+    return worst, key
+
+
+def bench_damping(args, log) -> str:
+    """The ``--damping`` report (module docs)."""
+    config = args.config or LOOPS_N27_EI1E5
+    sim = magsail_mj.load(config, ["sim.duration_s=1", "sim.progress=false"])
+    sc = sim.scenario
+    lat, md, dcfg = sc.lm.lattice, sc.modes(), sc.cfg.damping
+    base = dict(
+        nodes=lat.nodes,
+        struts=lat.struts,
+        k=sc.lm.k,
+        masses=sc.lm.masses,
+        modes=md,
+        schedule=dcfg.schedule,
+        xi_low=dcfg.xi_low,
+        n_low=dcfg.n_low,
+        xi_cap=dcfg.xi_cap,
+        frame=dcfg.frame,
+    )
+    c0 = time.process_time()
+    dense = ModalDampingLoad.for_lattice(**base)
+    t_dense = time.process_time() - c0
+    c0 = time.process_time()
+    poly = ModalDampingLoad.for_lattice(form="polynomial", rtol=args.rtol, dtype=np.float64, **base)
+    t_poly = time.process_time() - c0
+    poly32 = ModalDampingLoad.for_lattice(form="polynomial", rtol=args.rtol, dtype=np.float32, **base)
+    xi = dense.ratios
+    om = md.omega
+    lines = [
+        f"Model {Path(config).name}: {lat.n_nodes} nodes, {om.size} DOF; ω_first elastic {om[md.n_rigid]:.4g}, "
+        f"ω_{dcfg.n_low} {om[md.n_rigid + dcfg.n_low - 1]:.4g}, ω_max {om[-1]:.4g} rad/s; schedule {dcfg.schedule}, "
+        f"ξ above mode {dcfg.n_low}: {xi[md.n_rigid + dcfg.n_low :].min():g}…{xi[md.n_rigid + dcfg.n_low :].max():g}.",
+        f"Bounds: held damping (forward Euler in the damping) 2 ξ ω_max Δt < 2 → Δt < "
+        f"{2.0 / np.max(2 * xi * om):.4f} s; stiffness alone (RK4, ω_max Δt < 2.785) → Δt < {2.785 / om[-1]:.3f} s.",
+        f"Set-up CPU: dense γ {t_dense:.2f} s, polynomial {t_poly:.2f} s (modes cached).",
+        "",
+        "(1) Damping ratio per mode, polynomial form (float64 / float32 low-rank factor):",
+    ]
+    for name, load in (("float64", poly), ("float32", poly32)):
+        e = damping_mode_errors(load, xi)
+        lines.append(
+            f"- {name}: degree {e['degree']} (rtol {args.rtol:g}); {e['n_fitted']} fitted modes: |ζ/ξ − 1| max "
+            f"{e['fitted_rel_err_max']:.2e}, median {e['fitted_rel_err_median']:.2e}, ζ in "
+            f"[{e['fitted_zeta_range'][0]:.4f}, {e['fitted_zeta_range'][1]:.4f}]; {e['n_exact']} corrected modes: "
+            f"|ζ − ξ| max {e['exact_abs_err_max']:.1e}; rigid-mode rate max {e['rigid_rate_max']:.1e} 1/s; "
+            f"largest coupling / largest rate {e['coupling_max_rel']:.1e}."
+        )
+    log("per-mode errors done; timing")
+    with threadpool_limits(limits=1):
+        cost = damping_costs(
+            sim, {"dense float32": dense, "polynomial float64": poly, "polynomial float32": poly32}, rounds=7, n=20
+        )
+    lines += ["", "(2) CPU per evaluation (best of 7 interleaved rounds of 20, one BLAS thread):"]
+    lines.append(f"- bare mj_step ({mujoco.mjtIntegrator(sim.model.opt.integrator).name}): {cost['mj_step']:.3f} ms")
+    for k in ("dense float32", "polynomial float64", "polynomial float32"):
+        lines.append(f"- damping, {k}: {cost[k]:.3f} ms = {cost[k] / cost['mj_step']:.3f} × mj_step")
+    forms = {
+        "dense": lambda: ModalDampingLoad.for_lattice(**base),
+        "polynomial": lambda: ModalDampingLoad.for_lattice(form="polynomial", rtol=args.rtol, **base),
+    }
+    runs = []
+    with threadpool_limits(limits=1):
+        cases = [("dense", DAMPING_STEPS_S[0])] + [("polynomial", dt) for dt in DAMPING_STEPS_S]
+        for form, dt in cases + [("dense", dt) for dt in DAMPING_STEPS_S[1:]]:
+            runs.append(damping_run(config, form, dt, args.duration or 40.0, forms))
+            log(f"run {form} {dt}: {runs[-1]['status']} {runs[-1]['cpu_per_sim_s']:.3f} s CPU/sim s")
+        probes = []
+        dt_bound = 2.0 / float(np.max(2.0 * xi * om))
+        for dt in (float(f"{f * dt_bound:.4g}") for f in STABILITY_FACTORS):
+            for form in ("dense", "polynomial"):
+                probes.append(damping_run(config, form, dt, args.duration or 40.0, forms))
+                log(f"probe {form} {dt}: {probes[-1]['status']} speed {probes[-1]['speed_max']:.3g}")
+    ref = runs[0]
+    lines += [
+        "",
+        f"(3) Runs of {args.duration or 40.0:g} s (records every {RECORD_PERIOD_S:g} s); summary difference = the "
+        "largest relative difference of a float summary figure from the shipped run:",
+        "",
+        "| damping | Δt [s] | status | CPU per sim. s [s] | cost / shipped | max summary diff. (figure) | "
+        "energy balance err. |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in runs:
+        diff, key = _rel_diff(ref["summary"], r.get("summary", {})) if "summary" in r else (float("nan"), "—")
+        lines.append(
+            f"| {r['form']} | {r['dt']:g} | {r['status']} | {r['cpu_per_sim_s']:.3f} | "
+            f"{r['cpu_per_sim_s'] / ref['cpu_per_sim_s']:.3f} | {diff:.2e} ({key}) | "
+            f"{r.get('summary', {}).get('energy_balance_rel_err', float('nan')):.1e} |"
+        )
+    lines += ["", "Figures of the shipped run: " + ", ".join(f"{k} {v:.4g}" for k, v in ref["summary"].items())]
+    lines += ["", f"(4) Stability probes (same duration), steps {STABILITY_FACTORS} × the held-damping bound:", ""]
+    lines += ["| damping | Δt [s] | status | final max node speed / shipped run's | stable |", "|---|---|---|---|---|"]
+    for r in probes:
+        ratio = r["speed_max"] / ref["speed_max"]
+        ok = r["status"] == "completed" and ratio <= SPEED_BLOWUP
+        lines.append(f"| {r['form']} | {r['dt']:g} | {r['status']} | {ratio:.3g} | {'yes' if ok else 'no'} |")
+    lines.append(
+        f"\nPython {platform.python_version()}, NumPy {np.__version__}, MuJoCo {mujoco.__version__}, "
+        f"{platform.processor() or platform.machine()}."
+    )
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="60 s instead of 300 s")
@@ -245,9 +495,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--units", type=int, nargs="+", default=[19, 27], help="cubes per side")
     ap.add_argument("--repeats", type=int, default=1, help="time each row this many times, keep the best")
     ap.add_argument("--out", type=Path, default=None, help="also write the markdown table here")
+    ap.add_argument("--damping", action="store_true", help="benchmark the current-loop modal damping instead")
+    ap.add_argument("--config", type=Path, default=None, help="--damping: the current-loop config (default N27 EI1e5)")
+    ap.add_argument("--rtol", type=float, default=0.02, help="--damping: per-mode ratio tolerance of the polynomial")
     args = ap.parse_args(argv)
-    duration = args.duration or (60.0 if args.quick else 300.0)
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
+    if args.damping:
+        print_report(bench_damping(args, log), args.out)
+        return 0
+    duration = args.duration or (60.0 if args.quick else 300.0)
     rows: list[Row] = []
     infos = {}
     for units in args.units:
