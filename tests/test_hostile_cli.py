@@ -21,6 +21,7 @@ import subprocess
 import sys
 import time
 import tracemalloc
+from collections.abc import Iterable
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -184,6 +185,12 @@ NUMBERS = st.one_of(
 def opt(name: str, value: str) -> list[str]:
     """``--name=value`` (a value starting with '-' is still a value)."""
     return [f"{name}={value}"]
+
+
+def call_limited(capsys, argv: list[str], options: Iterable[tuple[str, str]] = ()) -> tuple[int, str, str]:
+    """:func:`call` of ``argv`` followed by ``--name=value`` for each ``(name, value)`` of ``options``,
+    under a 64 MB memory limit."""
+    return call(capsys, ["--memory-limit", "64M", *argv, *(arg for name, value in options for arg in opt(name, value))])
 
 
 # --------------------------------------------------------------------------- the memory mechanism
@@ -573,10 +580,7 @@ def test_fuzz_sweep(capsys, arena, data, tmp_path_factory):
     extra=st.lists(st.tuples(st.sampled_from(["--altitude-km", "--total-kg", "--rod-mass-kg"]), NUMBERS), max_size=2),
 )
 def test_fuzz_scaling_magnetorquer(capsys, side, kappa, extra):
-    argv = ["scaling", "magnetorquer", "--side-m", *side, "--kappa", *kappa]
-    for name, value in extra:
-        argv += opt(name, value)
-    call(capsys, ["--memory-limit", "64M", *argv])
+    call_limited(capsys, ["scaling", "magnetorquer", "--side-m", *side, "--kappa", *kappa], extra)
 
 
 @FUZZ
@@ -588,10 +592,7 @@ def test_fuzz_scaling_magnetorquer(capsys, side, kappa, extra):
     table=st.booleans(),
 )
 def test_fuzz_scaling_loops(capsys, geometry, extra, table):
-    argv = ["scaling", "loops", *opt("--geometry", geometry)] + (["--table"] if table else [])
-    for name, value in extra:
-        argv += opt(name, value)
-    call(capsys, ["--memory-limit", "64M", *argv])
+    call_limited(capsys, ["scaling", "loops", *opt("--geometry", geometry)] + (["--table"] if table else []), extra)
 
 
 @FUZZ
@@ -607,10 +608,7 @@ def test_fuzz_scaling_loops(capsys, geometry, extra, table):
     )
 )
 def test_fuzz_torque_coil(capsys, extra):
-    argv = ["torque", "coil"]
-    for name, value in extra:
-        argv += opt(name, value)
-    call(capsys, ["--memory-limit", "64M", *argv])
+    call_limited(capsys, ["torque", "coil"], extra)
 
 
 @FUZZ
@@ -646,7 +644,7 @@ def test_fuzz_any_command_line(capsys, argv):
     """Random words: usage errors are exit 2 with 'error:', never an exception."""
     if "--help" in argv or "-h" in argv:
         return
-    call(capsys, ["--memory-limit", "64M", *argv])
+    call_limited(capsys, argv)
 
 
 def test_valid_inputs_still_succeed(capsys, arena, tmp_path):
