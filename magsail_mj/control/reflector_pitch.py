@@ -33,7 +33,7 @@ from typing import Literal, Sequence
 
 import numpy as np
 
-from magsail_mj.control.reflector_steering import ReflectorOrbit, SteeringReference
+from magsail_mj.control.reflector_steering import ReflectorOrbit, SteeringReference, SteeringState
 from magsail_mj.quaternion import error_quaternion, quat_to_matrix
 from magsail_mj.vec3 import cross3
 
@@ -172,11 +172,21 @@ class ReflectorPitchController:
         R = quat_to_matrix(q)
         w_b = R.T @ state.omega[self.body_id]
         T_ref, q_e, ref = self.reference_torque(q, w_b, state.t)
-        B_w = self.orbit.field(state.t)
+        self.last = self.saturated_command(T_ref, R=R, t=state.t, q_e=q_e, ref=ref)
+        return self.last
+
+    def saturated_command(
+        self, T_ref: np.ndarray, *, R: np.ndarray, t: float, q_e: np.ndarray, ref: SteeringState
+    ) -> PitchCommand:
+        """The command of the reference torque ``T_ref`` [N m, body axes] at time ``t`` [s]: ``T_ref``
+        projected perpendicular to ``B_b = Rᵀ B_w`` and saturated (:func:`project_and_saturate`), with
+        the error quaternion ``q_e`` and the steering state ``ref`` as diagnostics (``R``: body →
+        world rotation of the plate)."""
+        B_w = self.orbit.field(t)
         T_act, sat = project_and_saturate(
             T_ref, R.T @ B_w, saturation=self.saturation, cap_N_m=self.cap, B_ref_T=self.B_ref, m_max_A_m2=self.m_max
         )
-        self.last = PitchCommand(
+        return PitchCommand(
             torque_body=T_act,
             T_ref_body=T_ref,
             saturated=sat,
@@ -187,4 +197,3 @@ class ReflectorPitchController:
             psi_ddot_ref=ref.psi_ddot,
             B_world=B_w,
         )
-        return self.last

@@ -46,12 +46,7 @@ from typing import Any
 import numpy as np
 
 from magsail_mj.concepts.reflector.bdot import BdotCommand, PlateBdotController
-from magsail_mj.control.reflector_pitch import (
-    PitchCommand,
-    ReflectorPitchController,
-    project_and_saturate,
-    saturate_norm,
-)
+from magsail_mj.control.reflector_pitch import PitchCommand, ReflectorPitchController, saturate_norm
 from magsail_mj.control.reflector_steering import SteeringReference
 from magsail_mj.envs.core import (
     AttitudeTask,
@@ -124,21 +119,7 @@ class ActionPitchConverter:
         ref = law.steering.at(state.t)
         q_e = error_quaternion(ref.q_ref, q)
         T_ref = np.array(action, dtype=float)
-        B_w = law.orbit.field(state.t)
-        T_act, sat = project_and_saturate(
-            T_ref, R.T @ B_w, saturation=law.saturation, cap_N_m=law.cap, B_ref_T=law.B_ref, m_max_A_m2=law.m_max
-        )
-        return PitchCommand(
-            torque_body=T_act,
-            T_ref_body=T_ref,
-            saturated=sat,
-            q_e=q_e,
-            q_ref=ref.q_ref,
-            psi_ref=ref.psi_c,
-            psi_dot_ref=ref.psi_dot,
-            psi_ddot_ref=ref.psi_ddot,
-            B_world=B_w,
-        )
+        return law.saturated_command(T_ref, R=R, t=state.t, q_e=q_e, ref=ref)
 
 
 def _plate_observation(physics: SimulationPhysics, idx: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -54,6 +54,18 @@ def _dt_weights(t: np.ndarray) -> np.ndarray:
     return np.append(dt, dt[-1])
 
 
+def _run_summary(result: RunResult, plate: ReflectorModel) -> dict[str, Any]:
+    """The summary entries every reflector run starts with: status, end time [s], wall time [s],
+    wall time per step [µs] and the plate variant."""
+    return {
+        "status": result.status,
+        "t_end_s": result.t_end_s,
+        "wall_time_s": result.wall_time_s,
+        "step_cost_us": 1e6 * result.wall_time_s / max(result.steps, 1),
+        "variant": plate.cfg.variant,
+    }
+
+
 def _plate_records(plate: ReflectorModel, result: RunResult):
     """``(records, t, qpos, q, ω)``: the records, their times, a copy of ``qpos`` (the markers are
     written into it), the plate quaternions (a view of that copy) and the body rates."""
@@ -120,11 +132,7 @@ def detumble_outputs(plate: ReflectorModel, result: RunResult) -> tuple[dict[str
     cap = plate.cap.cap_N_m
     h0 = float(h_norm[0])
     summary: dict[str, Any] = {
-        "status": result.status,
-        "t_end_s": result.t_end_s,
-        "wall_time_s": result.wall_time_s,
-        "step_cost_us": 1e6 * result.wall_time_s / max(result.steps, 1),
-        "variant": plate.cfg.variant,
+        **_run_summary(result, plate),
         "law": plate.cfg.control.law,
         "field_frame": plate.cfg.field.frame,
         "omega_k_rad_s": plate.cfg.control.omega_k_rad_s,
@@ -273,11 +281,7 @@ def pitch_outputs(
     sat_passes = sum(1 for _, _, a, b in windows if np.any(sat & (t >= a) & (t <= b)))
     dtw = _dt_weights(t)
     summary: dict[str, Any] = {
-        "status": result.status,
-        "t_end_s": result.t_end_s,
-        "wall_time_s": result.wall_time_s,
-        "step_cost_us": 1e6 * result.wall_time_s / max(result.steps, 1),
-        "variant": plate.cfg.variant,
+        **_run_summary(result, plate),
         "rate_term": plate.cfg.control.rate_term,
         "feedforward": plate.cfg.control.feedforward,
         "saturation": plate.cfg.control.saturation_mode,
