@@ -42,6 +42,7 @@ __all__ = [
     "check_environment",
     "environment_config_of",
     "environment_problems",
+    "environment_tables",
 ]
 
 Vec3 = tuple[float, float, float]
@@ -346,6 +347,12 @@ def check_environment(
     return out
 
 
+def environment_tables(tables: Any) -> dict[str, Any]:
+    """The seven tables of :data:`ENVIRONMENT_TABLES` that ``tables`` carries as attributes (an
+    :class:`EnvironmentConfig` or a concept config that holds them at its top level), by name."""
+    return {name: getattr(tables, name) for name in ENVIRONMENT_TABLES}
+
+
 def environment_config_of(config: Any) -> EnvironmentConfig:
     """The environment tables of ``config`` (those of :data:`ENVIRONMENT_TABLES` it has as
     attributes, such as a concept config's top-level tables) as one validated
@@ -357,12 +364,4 @@ def environment_problems(tables: Any) -> list[str]:
     """:func:`check_environment` of the seven tables that ``tables`` carries as attributes
     (``orbit``, ``field``, ``atmosphere``, ``sun``, ``srp``, ``drag``, ``gravity``): an
     :class:`EnvironmentConfig` or a concept config that holds them at its top level."""
-    return check_environment(
-        orbit=tables.orbit,
-        field=tables.field,
-        atmosphere=tables.atmosphere,
-        sun=tables.sun,
-        srp=tables.srp,
-        drag=tables.drag,
-        gravity=tables.gravity,
-    )
+    return check_environment(**environment_tables(tables))

@@ -38,6 +38,7 @@ from magsail_mj.environment.config import (
     SRPConfig,
     SunConfig,
     check_environment,
+    environment_tables,
 )
 from magsail_mj.environment.constants import AU
 from magsail_mj.environment.field import (
@@ -219,16 +220,7 @@ class Environment:
     @classmethod
     def from_config(cls, cfg: EnvironmentConfig, *, duration_s: float) -> "Environment":
         """Build from an :class:`EnvironmentConfig` (validated tables) and the run duration [s]."""
-        return cls(
-            orbit=cfg.orbit,
-            field=cfg.field,
-            atmosphere=cfg.atmosphere,
-            sun=cfg.sun,
-            srp=cfg.srp,
-            drag=cfg.drag,
-            gravity=cfg.gravity,
-            duration_s=duration_s,
-        )
+        return cls(**environment_tables(cfg), duration_s=duration_s)
 
     def _field_on_grid(self, field: FieldConfig, orbit: OrbitConfig, r: np.ndarray, gmst: np.ndarray) -> np.ndarray:
         n = len(r)

@@ -26,6 +26,7 @@ from magsail_mj.environment.config import (
     OrbitConfig,
     SRPConfig,
     SunConfig,
+    environment_config_of,
     environment_problems,
 )
 from magsail_mj.loads.actuators_cubesat import MTQ_LIMIT_SETS, DCMotorParams
@@ -316,15 +317,8 @@ class CnusailConfig(StrictModel):
     gravity: GravityConfig = GravityConfig(tidal=False, classical_torque=True)
 
     def environment_config(self) -> EnvironmentConfig:
-        return EnvironmentConfig(
-            orbit=self.orbit,
-            field=self.field,
-            atmosphere=self.atmosphere,
-            sun=self.sun,
-            srp=self.srp,
-            drag=self.drag,
-            gravity=self.gravity,
-        )
+        """The seven environment tables of this config as one :class:`EnvironmentConfig`."""
+        return environment_config_of(self)
 
     @model_validator(mode="after")
     def _consistent(self) -> CnusailConfig:

@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from datetime import datetime
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -223,13 +223,36 @@ def averaged_decay(
     )
     if sol.status == -1:
         raise RuntimeError(f"averaged decay failed: {sol.message}")
+    return _decay_result(
+        sol,
+        method="averaged",
+        n_samples=n_samples,
+        a_e=lambda y: (y[0], np.maximum(y[1], 0.0)),
+        R_E=R_E,
+        n_rhs=count[0],
+    )
+
+
+def _decay_result(
+    sol: Any,
+    *,
+    method: str,
+    n_samples: int,
+    a_e: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    R_E: float,
+    n_rhs: int,
+    meta: dict | None = None,
+) -> DecayResult:
+    """The :class:`DecayResult` of a ``solve_ivp`` solution ``sol`` (dense output; its event 0 is
+    the 120 km crossing): ``n_samples`` times from 0 to the crossing (or the cap), where
+    ``a_e(y)`` gives the semi-major axis [m] and eccentricity from the state columns ``y``;
+    perigee and apogee altitudes ``a (1 ∓ e) − R_E`` [m] (``R_E``: Earth radius [m])."""
     hit = len(sol.t_events[0]) > 0
     t_end = float(sol.t_events[0][0]) if hit else float(sol.t[-1])
     ts = np.linspace(0.0, t_end, n_samples)
-    y = sol.sol(ts)
-    a, e = y[0], np.maximum(y[1], 0.0)
+    a, e = a_e(sol.sol(ts))
     return DecayResult(
-        method="averaged",
+        method=method,
         lifetime_s=t_end,
         reached_cap=not hit,
         t_s=ts,
@@ -237,7 +260,8 @@ def averaged_decay(
         e=e,
         perigee_alt_m=a * (1 - e) - R_E,
         apogee_alt_m=a * (1 + e) - R_E,
-        n_rhs=count[0],
+        n_rhs=n_rhs,
+        meta=meta or {},
     )
 
 
@@ -302,24 +326,13 @@ def cowell_decay(
     )
     if sol.status == -1:
         raise RuntimeError(f"Cowell decay failed: {sol.message}")
-    hit = len(sol.t_events[0]) > 0
-    t_end = float(sol.t_events[0][0]) if hit else float(sol.t[-1])
-    ts = np.linspace(0.0, t_end, n_samples)
-    Y = sol.sol(ts).T
-    el = state_to_elements(Y[:, :3], Y[:, 3:], mu=mu)
-    a, e = np.asarray(el["a"]), np.asarray(el["e"])
-    return DecayResult(
-        method="cowell",
-        lifetime_s=t_end,
-        reached_cap=not hit,
-        t_s=ts,
-        a_m=a,
-        e=e,
-        perigee_alt_m=a * (1 - e) - R_E,
-        apogee_alt_m=a * (1 + e) - R_E,
-        n_rhs=count[0],
-        meta={"j2": j2, "corotating": corotating, "rtol": rtol},
-    )
+
+    def a_e(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        el = state_to_elements(y[:3].T, y[3:].T, mu=mu)
+        return np.asarray(el["a"]), np.asarray(el["e"])
+
+    meta = {"j2": j2, "corotating": corotating, "rtol": rtol}
+    return _decay_result(sol, method="cowell", n_samples=n_samples, a_e=a_e, R_E=R_E, n_rhs=count[0], meta=meta)
 
 
 def geometric_mean_elements(
