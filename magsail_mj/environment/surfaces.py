@@ -34,6 +34,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.sparse import csr_matrix
 
+from magsail_mj.checks import require_non_negative
+
 __all__ = [
     "Optics",
     "FacetSet",
@@ -71,9 +73,7 @@ class Optics:
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
                 raise ValueError(f"{name}: must be in [0, 1], got {v!r}")
-        for name in ("B_f", "B_b", "e_f", "e_b"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"{name}: must be >= 0, got {getattr(self, name)!r}")
+        require_non_negative(self, ("B_f", "B_b", "e_f", "e_b"))
 
     @classmethod
     def absorber(cls) -> "Optics":

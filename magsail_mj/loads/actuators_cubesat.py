@@ -69,6 +69,7 @@ from typing import Literal
 import mujoco
 import numpy as np
 
+from magsail_mj.checks import require_non_negative, require_positive
 from magsail_mj.loads.base import StepState
 from magsail_mj.vec3 import cross_f, mat_vec_f
 
@@ -269,20 +270,11 @@ class DCMotorParams:
     i_max_A: float | None = None
 
     def __post_init__(self) -> None:
-        for key in (
-            "spin_inertia_kg_m2",
-            "torque_max_N_m",
-            "speed_max_rpm",
-            "K_M_N_m_A",
-            "K_b_V_s_rad",
-            "R_ohm",
-            "V_max_V",
-        ):
-            if not getattr(self, key) > 0:
-                raise ValueError(f"{key}: must be > 0, got {getattr(self, key)!r}")
-        for key in ("L_H", "K_B_N_m_s"):
-            if getattr(self, key) < 0:
-                raise ValueError(f"{key}: must be >= 0, got {getattr(self, key)!r}")
+        require_positive(
+            self,
+            ("spin_inertia_kg_m2", "torque_max_N_m", "speed_max_rpm", "K_M_N_m_A", "K_b_V_s_rad", "R_ohm", "V_max_V"),
+        )
+        require_non_negative(self, ("L_H", "K_B_N_m_s"))
         if self.i_max_A is not None and not self.i_max_A > 0:
             raise ValueError(f"i_max_A: must be > 0, got {self.i_max_A!r}")
 

@@ -46,6 +46,7 @@ from typing import Literal
 import mujoco
 import numpy as np
 
+from magsail_mj.checks import require_positive
 from magsail_mj.mjcf.common import INTEGRATORS, add_marker_body, add_sun_light, free_space_spec, set_view
 from magsail_mj.quaternion import quat_z_to
 
@@ -121,18 +122,19 @@ class CubesatModelParams:
     def __post_init__(self) -> None:
         if self.configuration not in ("stowed", "deployed"):
             raise ValueError(f"configuration: must be 'stowed' or 'deployed', got {self.configuration!r}")
-        for key in (
-            "mass_kg",
-            "sail_side_m",
-            "sail_thickness_m",
-            "rotor_mass_kg",
-            "rotor_spin_inertia_kg_m2",
-            "rotor_transverse_inertia_kg_m2",
-            "motor_force_limit_N_m",
-            "timestep_s",
-        ):
-            if not getattr(self, key) > 0:
-                raise ValueError(f"{key}: must be > 0, got {getattr(self, key)!r}")
+        require_positive(
+            self,
+            (
+                "mass_kg",
+                "sail_side_m",
+                "sail_thickness_m",
+                "rotor_mass_kg",
+                "rotor_spin_inertia_kg_m2",
+                "rotor_transverse_inertia_kg_m2",
+                "motor_force_limit_N_m",
+                "timestep_s",
+            ),
+        )
         if self.wheel_damping_N_m_s < 0:
             raise ValueError(f"wheel_damping_N_m_s: must be >= 0, got {self.wheel_damping_N_m_s!r}")
         if self.integrator not in INTEGRATORS:

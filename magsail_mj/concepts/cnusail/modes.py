@@ -45,6 +45,7 @@ from typing import Any, Literal
 import mujoco
 import numpy as np
 
+from magsail_mj.checks import require_non_negative
 from magsail_mj.control.bdot import make_bdot
 from magsail_mj.concepts.cnusail.eigenaxis import (
     EigenAxisGains,
@@ -267,9 +268,7 @@ class CnusailControlParams:
                 "law: with mode switching enabled, give the pointing law ('eigen_axis' or 'pd'); "
                 "B-dot is the detumbling mode's law"
             )
-        for key in ("magnetometer_noise_T", "gyro_noise_rad_s"):
-            if getattr(self, key) < 0:
-                raise ValueError(f"{key}: must be >= 0, got {getattr(self, key)!r}")
+        require_non_negative(self, ("magnetometer_noise_T", "gyro_noise_rad_s"))
         self.mtq_limits_A_m2 = np.asarray(self.mtq_limits_A_m2, dtype=float).reshape(3)
         self.inertia_kg_m2 = np.asarray(self.inertia_kg_m2, dtype=float).reshape(3, 3)
 

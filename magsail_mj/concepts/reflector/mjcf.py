@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from magsail_mj.checks import require_positive
 from magsail_mj.mjcf.common import INTEGRATORS, add_marker_body, add_sun_light, free_space_spec, set_view
 
 __all__ = [
@@ -113,9 +114,7 @@ class PlateModelParams:
     def __post_init__(self) -> None:
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator: must be one of {sorted(INTEGRATORS)}, got {self.integrator!r}")
-        for key in ("side_m", "cell_m", "timestep_s"):
-            if not getattr(self, key) > 0:
-                raise ValueError(f"{key}: must be > 0, got {getattr(self, key)!r}")
+        require_positive(self, ("side_m", "cell_m", "timestep_s"))
 
     @property
     def depth(self) -> float:
