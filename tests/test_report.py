@@ -36,6 +36,7 @@ from magsail_mj.report.verdict import (
     judge,
     within,
 )
+from magsail_mj.sweep import load_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results"
@@ -133,10 +134,14 @@ def test_every_shipped_claims_file_loads_and_names_existing_configs():
 
 
 def test_every_reproduction_sweep_lists_the_registry_runs():
+    """Each paper's sweep runs exactly its registry runs, with the same configs and overrides."""
     for paper in load_registry().values():
-        text = (ROOT / paper.sweep).read_text()
-        ids = set(re.findall(r'^id = "([^"]+)"', text, flags=re.M))
-        assert ids == {r.id for r in paper.run}, paper.sweep
+        sweep = {r.id: r for r in load_sweep(ROOT / paper.sweep).runs}
+        assert set(sweep) == {r.id for r in paper.run}, paper.sweep
+        for spec in paper.run:
+            assert sweep[spec.id].config.resolve() == (ROOT / spec.config).resolve(), spec.id
+            assert tuple(sweep[spec.id].overrides) == spec.set, spec.id
+            assert not sweep[spec.id].problem, (spec.id, sweep[spec.id].problem)
 
 
 def test_registry_refuses_a_claim_on_an_unknown_run(tmp_path):
