@@ -19,12 +19,11 @@ time and the array acts as a bang-bang B-dot (the fraction of saturated samples 
 
 from __future__ import annotations
 
-from typing import Any, Literal, Sequence
+from typing import Any, Unpack
 
 import numpy as np
 
-from magsail_mj.control.allocation import TorqueDistributor
-from magsail_mj.control.rod_attitude import RodAttitudeController
+from magsail_mj.control.rod_attitude import RodAttitudeController, RodControllerOptions
 from magsail_mj.vec3 import cross3
 
 __all__ = ["bdot_torque", "BdotRodController"]
@@ -62,24 +61,10 @@ class BdotRodController(RodAttitudeController):
     def __init__(
         self,
         *,
-        reference_nodes: np.ndarray,
-        masses: np.ndarray | float,
-        distributor: TorqueDistributor | None,
-        period_s: float,
         k_Nms_per_T2: float = 1e12,
-        node_bodies: np.ndarray | None = None,
-        omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
-        rate_method: Literal["log", "first_order"] = "log",
+        **base: Unpack[RodControllerOptions],
     ) -> None:
-        super().__init__(
-            reference_nodes=reference_nodes,
-            masses=masses,
-            node_bodies=node_bodies,
-            distributor=distributor,
-            period_s=period_s,
-            omega0_body=omega0_body,
-            rate_method=rate_method,
-        )
+        super().__init__(**base)
         if not (np.isfinite(k_Nms_per_T2) and k_Nms_per_T2 >= 0):
             raise ValueError(f"k_Nms_per_T2: must be a number >= 0 N m s/T², got {k_Nms_per_T2!r}")
         self.k = float(k_Nms_per_T2)

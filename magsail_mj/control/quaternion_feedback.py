@@ -33,14 +33,13 @@ command set: it knows nothing of the spacecraft, reads the attitude and body rat
 
 from __future__ import annotations
 
-from typing import Any, Callable, Literal, Sequence
+from typing import Any, Callable, Sequence, Unpack
 
 import numpy as np
 
 from magsail_mj.commands import BodyTorque
-from magsail_mj.control.allocation import TorqueDistributor
 from magsail_mj.control.reflector_pitch import pitch_gains
-from magsail_mj.control.rod_attitude import RodAttitudeController
+from magsail_mj.control.rod_attitude import RodAttitudeController, RodControllerOptions
 from magsail_mj.environment.constants import MU_EARTH
 from magsail_mj.quaternion import quat_from_matrix
 from magsail_mj.quaternion import error_quaternion
@@ -127,29 +126,15 @@ class QuaternionFeedbackRodController(RodAttitudeController):
     def __init__(
         self,
         *,
-        reference_nodes: np.ndarray,
-        masses: np.ndarray | float,
-        distributor: TorqueDistributor | None,
-        period_s: float,
         q_ref_wxyz: Sequence[float],
         inertia_kgm2: Sequence[float] | np.ndarray,
         Pq_Nm: Sequence[float] = (10.0, 50.0, 1.0),
         Pw_Nms: Sequence[float] = (1600.0, 8000.0, 800.0),
         gg_comp: bool = True,
         mu: float = MU_EARTH,
-        node_bodies: np.ndarray | None = None,
-        omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
-        rate_method: Literal["log", "first_order"] = "log",
+        **base: Unpack[RodControllerOptions],
     ) -> None:
-        super().__init__(
-            reference_nodes=reference_nodes,
-            masses=masses,
-            node_bodies=node_bodies,
-            distributor=distributor,
-            period_s=period_s,
-            omega0_body=omega0_body,
-            rate_method=rate_method,
-        )
+        super().__init__(**base)
         self.q_ref = _unit_quat(q_ref_wxyz, "q_ref_wxyz")
         for name, g in (("Pq_Nm", Pq_Nm), ("Pw_Nms", Pw_Nms)):
             a = np.asarray(g, dtype=float)

@@ -27,7 +27,7 @@ import abc
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Literal, Sequence
+from typing import Any, Literal, Required, Sequence, TypedDict, Unpack
 
 import numpy as np
 
@@ -103,6 +103,19 @@ def _vec3(value: Sequence[float], name: str) -> np.ndarray:
     if a.shape != (3,) or not np.all(np.isfinite(a)):
         raise ValueError(f"{name}: expected 3 finite numbers, got {value!r}")
     return a
+
+
+class RodControllerOptions(TypedDict, total=False):
+    """The arguments of :class:`RodAttitudeController` that its subclasses take as ``**base`` and
+    pass on (see there); the first four are required."""
+
+    reference_nodes: Required[np.ndarray]
+    masses: Required[np.ndarray | float]
+    distributor: Required[TorqueDistributor | None]
+    period_s: Required[float]
+    node_bodies: np.ndarray | None
+    omega0_body: Sequence[float]
+    rate_method: Literal["log", "first_order"]
 
 
 class RodAttitudeController(abc.ABC):
@@ -245,28 +258,14 @@ class ProfileRodController(RodAttitudeController):
     def __init__(
         self,
         *,
-        reference_nodes: np.ndarray,
-        masses: np.ndarray | float,
-        distributor: TorqueDistributor | None,
-        period_s: float,
         kind: str,
         tau_max_Nm: float,
         t_end_s: float,
         t_v_s: float | None = None,
         axis: int = 0,
-        node_bodies: np.ndarray | None = None,
-        omega0_body: Sequence[float] = (0.0, 0.0, 0.0),
-        rate_method: Literal["log", "first_order"] = "log",
+        **base: Unpack[RodControllerOptions],
     ) -> None:
-        super().__init__(
-            reference_nodes=reference_nodes,
-            masses=masses,
-            node_bodies=node_bodies,
-            distributor=distributor,
-            period_s=period_s,
-            omega0_body=omega0_body,
-            rate_method=rate_method,
-        )
+        super().__init__(**base)
         if axis not in (0, 1, 2):
             raise ValueError(f"axis: must be 0, 1 or 2, got {axis!r}")
         self.profile = {"kind": kind, "tau_max": float(tau_max_Nm), "t_end": float(t_end_s), "t_v": t_v_s}
