@@ -51,6 +51,13 @@ CUBESAT = ("magsail_mj/concepts/cnusail/configs/nadir_post.toml", ["sim.duration
 REFLECTOR = ("magsail_mj/concepts/reflector/configs/tracking_10g.toml", ["sim.duration_s=150", "sim.record_every=1"])
 
 
+def _start_state(sim, ctrl: object, *, env: object = None) -> StepState:
+    """The step state of ``sim``'s kinematics at t = 0 (``sim.kin`` updated) with command ``ctrl``."""
+    return StepState(
+        t=0.0, pos=sim.kin.pos, vel=sim.kin.vel, xquat=sim.kin.xquat, omega=sim.kin.omega, env=env, ctrl=ctrl
+    )
+
+
 def _rot_x(deg: float) -> np.ndarray:
     h = math.radians(deg) / 2
     return np.array([math.cos(h), math.sin(h), 0.0, 0.0])
@@ -431,14 +438,7 @@ def test_hostile_attach_and_factories():
             m_max_A_m2=(1.0, 1.0, 1.0),
         )
     unbound = body_torque_actuator(sim)
-    state = StepState(
-        t=0.0,
-        pos=sim.kin.pos,
-        vel=sim.kin.vel,
-        xquat=sim.kin.xquat,
-        omega=sim.kin.omega,
-        ctrl=BodyTorque(torque_body_Nm=[0.0, 0.0, 1e-5]),
-    )
+    state = _start_state(sim, BodyTorque(torque_body_Nm=[0.0, 0.0, 1e-5]))
     with pytest.raises(RuntimeError, match="attach"):
         unbound.add(state, np.zeros((sim.model.nbody, 6)))
 
@@ -450,7 +450,7 @@ def test_non_torque_command_is_a_zero_request():
     sim.kin.update(sim.data)
     xfrc = np.zeros((sim.model.nbody, 6))
     for ctrl in (None, MagneticDipole(dipole_body_Am2=[1.0, 0.0, 0.0])):
-        state = StepState(t=0.0, pos=sim.kin.pos, vel=sim.kin.vel, xquat=sim.kin.xquat, omega=sim.kin.omega, ctrl=ctrl)
+        state = _start_state(sim, ctrl)
         act.add(state, xfrc)
         assert not xfrc.any() and not act.delivered_body_Nm.any()
 
@@ -462,15 +462,7 @@ def test_magnetic_dipole_command_drives_the_cubesat_magnetorquers():
     bus = sim.scenario.idx.bus
     env = sim.environment.sample(0.0)
     m = np.array([0.1, -0.05, 0.02])
-    state = StepState(
-        t=0.0,
-        pos=sim.kin.pos,
-        vel=sim.kin.vel,
-        xquat=sim.kin.xquat,
-        omega=sim.kin.omega,
-        env=env,
-        ctrl=MagneticDipole(dipole_body_Am2=m),
-    )
+    state = _start_state(sim, MagneticDipole(dipole_body_Am2=m), env=env)
     R = quat_to_matrix(sim.kin.xquat[bus])
     expected = R @ np.cross(m, R.T @ np.asarray(env.B_eci))
     np.testing.assert_allclose(
@@ -487,15 +479,7 @@ def test_rod_polarities_command_drives_the_truss_rods():
     pol = np.resize(np.array([1, -1, 0], dtype=np.int8), rod.n_rods)
     out = []
     for ctrl in (RodPolarities(polarity=pol), {"polarity": pol.copy()}):
-        state = StepState(
-            t=0.0,
-            pos=sim.kin.pos,
-            vel=sim.kin.vel,
-            xquat=sim.kin.xquat,
-            omega=sim.kin.omega,
-            env=sim.environment.sample(0.0),
-            ctrl=ctrl,
-        )
+        state = _start_state(sim, ctrl, env=sim.environment.sample(0.0))
         xfrc = np.zeros((sim.model.nbody, 6))
         rod.add(state, xfrc)
         out.append(xfrc)

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
+from magsail_mj.concepts.cnusail.config import CnusailConfig
 from magsail_mj.environment import (
     AtmosphereConfig,
     DragConfig,
@@ -38,16 +39,7 @@ from magsail_mj.environment.field import planar_dipole_field
 from magsail_mj.environment.sun import in_cylindrical_shadow
 
 TRUSS_ORBIT = OrbitConfig(altitude_km=800, inclination_deg=90, raan_deg=90)
-CNUSAIL_ORBIT = OrbitConfig(
-    semi_major_axis_km=6963.1,
-    eccentricity=0.01939,
-    inclination_deg=98.0,
-    ltdn_h=10.5,
-    true_anomaly0_deg=0.0,
-    epoch="2016-01-01T00:00:00Z",
-    R_E_km=6378.137,
-    propagator="j2",
-)
+CNUSAIL_ORBIT = CnusailConfig.model_fields["orbit"].default  # the CNUSAIL scenarios' eccentric SSO with J2
 
 
 def _env(orbit=TRUSS_ORBIT, duration=7000.0, **kw):

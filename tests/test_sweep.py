@@ -144,20 +144,8 @@ def test_design_records_carry_their_params_into_summaries(tmp_path):
         manifest = json.loads((out / run.id / "manifest.json").read_text())
         assert manifest["config"]["sim"]["timestep_s"] == run.params["sim.timestep_s"]
     stored = json.loads((out / "sweep_summary.json").read_text())
-    assert {
-        k
-        for k in (
-            "id",
-            "status",
-            "message",
-            "config_hash",
-            "params",
-            "wall_time_s",
-            "attempts",
-            "resumed_from_s",
-            "summary",
-        )
-    } <= set(stored[0])
+    keys = {"id", "status", "message", "config_hash", "params", "wall_time_s", "attempts", "resumed_from_s", "summary"}
+    assert keys <= set(stored[0])
     header = (out / "sweep_summary.csv").read_text().splitlines()[0].split(",")
     assert "params.sim.timestep_s" in header and len(header) == len(set(header))
 
