@@ -55,7 +55,10 @@ N = 27, EI = 1e5 N m² sweep (4 704 DOF, paper_max schedule, ξ = 10 above mode 
 (4) stability: the same runs at steps around the held-damping bound
     :math:`2\xi\omega_{max}\Delta t<2` (forward Euler in the damping term, which is held over
     the step), for both forms; a run is unstable when the runner reports divergence or the
-    largest node speed at the end exceeds 10× that of the shipped run.
+    largest node speed at the end exceeds 10× that of the shipped run;
+(5) the same model undamped (``damping.enabled = false``) at 0.1, 0.9 and 1.25 × RK4's stiffness
+    bound ω_max Δt < 2.785, 400 steps each (stable when the runner completes them): the step the
+    stiffness alone would allow.
 
     python scripts/bench_lattice.py --damping
     python scripts/bench_lattice.py --damping --duration 20 --rtol 0.05
@@ -115,6 +118,12 @@ DAMPING_STEPS_S = (0.01, 0.02)
 """Steps of the ``--damping`` accuracy runs (the shipped step first)."""
 STABILITY_FACTORS = (0.95, 1.05, 1.25)
 """Steps of the ``--damping`` stability probes, as multiples of the held-damping bound 2 / max(2 ξ ω)."""
+RK4_IMAG_BOUND = 2.785
+"""RK4's stability bound on the imaginary axis (undamped oscillation: ω Δt < 2.785)."""
+STIFFNESS_FACTORS = (0.9, 1.25)
+"""Steps of the undamped probes, as multiples of the stiffness bound 2.785 / ω_max."""
+STIFFNESS_PROBE_STEPS = 400
+"""Steps of each undamped probe."""
 SUMMARY_FIGURES = (
     "strain_energy_max_J",
     "strut_strain_max",
@@ -346,6 +355,33 @@ def _summary_floats(summary: dict) -> dict[str, float]:
     return {k: float(summary[k]) for k in (*SUMMARY_FIGURES, "energy_balance_rel_err") if k in summary}
 
 
+def stiffness_probes(config: Path, omega_max: float, log) -> list[str]:
+    """Undamped runs (``damping.enabled = false``) around RK4's stiffness bound (module docs, (5))."""
+    lines = []
+    speeds = {}
+    for f in (0.1, *STIFFNESS_FACTORS):
+        dt = float(f"{f * RK4_IMAG_BOUND / omega_max:.4g}")
+        sim = magsail_mj.load(
+            config,
+            [
+                "damping.enabled=false",
+                f"sim.timestep_s={dt}",
+                f"sim.duration_s={STIFFNESS_PROBE_STEPS * dt}",
+                f"sim.record_every={STIFFNESS_PROBE_STEPS}",
+                "sim.progress=false",
+            ],
+        )
+        res = sim.run(progress=False)
+        v = np.asarray(sim.data.qvel)
+        speeds[f] = float(np.max(np.abs(v))) if res.status == "completed" and np.all(np.isfinite(v)) else np.inf
+        ok = res.status == "completed" and np.isfinite(speeds[f])
+        lines.append(
+            f"| {f:g} | {dt:g} | {STIFFNESS_PROBE_STEPS} | {res.status} | {speeds[f]:.3g} | {'yes' if ok else 'no'} |"
+        )
+        log(lines[-1])
+    return lines
+
+
 def damping_run(config: Path, form: str, dt: float, duration: float, loads_by_form: dict) -> dict:
     """One runner run with the damping ``form`` at step ``dt`` (module docs, (3)/(4))."""
     sim = magsail_mj.load(
@@ -481,6 +517,16 @@ def bench_damping(args, log) -> str:
         ratio = r["speed_max"] / ref["speed_max"]
         ok = r["status"] == "completed" and ratio <= SPEED_BLOWUP
         lines.append(f"| {r['form']} | {r['dt']:g} | {r['status']} | {ratio:.3g} | {'yes' if ok else 'no'} |")
+    lines += [
+        "",
+        f"(5) Undamped probes (damping off), steps × the stiffness bound {RK4_IMAG_BOUND} / ω_max = "
+        f"{RK4_IMAG_BOUND / om[-1]:.3f} s (stable: the run completes with finite speeds):",
+        "",
+        "| factor | Δt [s] | steps | status | final max node speed [m/s] | stable |",
+        "|---|---|---|---|---|---|",
+    ]
+    with threadpool_limits(limits=1):
+        lines += stiffness_probes(config, float(om[-1]), log)
     lines.append(
         f"\nPython {platform.python_version()}, NumPy {np.__version__}, MuJoCo {mujoco.__version__}, "
         f"{platform.processor() or platform.machine()}."
