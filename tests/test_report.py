@@ -395,3 +395,19 @@ def test_report_render_writes_the_pages(tmp_path, capsys):
     assert cli.main(["report", "render", "--bundle", str(tmp_path / "b"), "--out", str(tmp_path / "d")]) == 0
     pages = json.loads(capsys.readouterr().out)["pages"]
     assert {Path(p).name for p in pages} == {f"{p}.md" for p in load_registry()} | {"index.md"}
+
+
+def test_report_update_collects_and_renders_a_registry_run(tmp_path, capsys):
+    """``magsail report RUN_DIR --bundle B --out D`` with a run of the real registry (the MSAC lumped
+    limit): the bundle gets the run, the MSAC page its verdict; a missing claim key refuses (exit 2)."""
+    run = _fake_run(tmp_path / "run")
+    args = [str(run), "--bundle", str(tmp_path / "b"), "--out", str(tmp_path / "d")]
+    assert cli.main(["report", *args]) == 2  # the summary lacks the claim's key
+    assert "mujoco_vs_eq6_rel_diff" in capsys.readouterr().err
+    summary = json.loads((run / "summary.json").read_text()) | {"mujoco_vs_eq6_rel_diff": -0.0025}
+    (run / "summary.json").write_text(json.dumps(summary))
+    assert cli.main(["report", *args]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert printed["runs"] == [str(tmp_path / "b" / "msac" / "lumped_limit")]
+    text = (tmp_path / "d" / "msac.md").read_text()
+    assert "| `eq6_lumped_limit` |" in text and "| -0.0025 |" in text and "**agrees**" in text
