@@ -150,22 +150,12 @@ def f7_figure(results: dict[str, dict], path: Path) -> tuple[Path, dict]:
                 )
             },
         }
-    ax.plot(
-        [1],
-        [op_a["predicted_rate_exact_rad_s"]],
-        "D",
-        color="C2",
-        ms=10,
-        label=f"(a) 0.1 % at 4 kHz: {op_a['predicted_rate_exact_rad_s']:.3g} rad/s",
-    )
-    ax.plot(
-        [10],
-        [op_b["predicted_rate_exact_rad_s"]],
-        "*",
-        color="C4",
-        ms=14,
-        label=f"(b) 1 % at 1 kHz (paper): {op_b['predicted_rate_exact_rad_s']:.3g} rad/s",
-    )
+    for x, op, marker, color, ms, what in (
+        (1, op_a, "D", "C2", 10, "(a) 0.1 % at 4 kHz"),
+        (10, op_b, "*", "C4", 14, "(b) 1 % at 1 kHz (paper)"),
+    ):
+        rate = op["predicted_rate_exact_rad_s"]
+        ax.plot([x], [rate], marker, color=color, ms=ms, label=f"{what}: {rate:.3g} rad/s")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylabel("secular rate [rad/s]")
