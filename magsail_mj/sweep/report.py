@@ -237,34 +237,30 @@ def _mc_plot(records: list[dict[str, Any]], figure: str, stats: dict[str, Any], 
 def _mc_report(records: list[dict[str, Any]], figures: list[str], out: Path, title: str) -> list[Path]:
     stats = [figure_stats(records, f) for f in figures]
     names = [f"p{p:g}" for p in PERCENTILES]
-    buf = io.StringIO()
-    writer = csv.writer(buf)
-    writer.writerow(["figure", "n", "reached", "never", "failed", "not_run", "share_reached", *names, "min", "max"])
-    for s in stats:
-        writer.writerow(
-            [
-                s["figure"],
-                s["n"],
-                s["reached"],
-                s["never"],
-                s["failed"],
-                s["not_run"],
-                s["share_reached"],
-                *["never" if s["percentiles"][k] is None else s["percentiles"][k] for k in names],
-                "" if s["min"] is None else s["min"],
-                "" if s["max"] is None else s["max"],
-            ]
-        )
-    paths = [out / "percentiles.csv"]
-    with atomic_path(paths[0]) as tmp:
-        tmp.write_text(buf.getvalue())
+    head = ["figure", "n", "reached", "never", "failed", "not_run", "share_reached", *names, "min", "max"]
+    rows = [
+        [
+            s["figure"],
+            s["n"],
+            s["reached"],
+            s["never"],
+            s["failed"],
+            s["not_run"],
+            s["share_reached"],
+            *["never" if s["percentiles"][k] is None else s["percentiles"][k] for k in names],
+            "" if s["min"] is None else s["min"],
+            "" if s["max"] is None else s["max"],
+        ]
+        for s in stats
+    ]
+    paths = [_write_csv(out / "percentiles.csv", [head, *rows])]
     lines = [
-        f"# {title}: Monte Carlo report",
-        "",
-        f"{len(records)} runs; statuses: {_status_counts(records)}. Failed runs and runs that never reach "
-        "a value count in every share and as +inf in the percentiles (`never`); runs the sweep did not "
-        "run to their end (not_run, interrupted) are left out of n.",
-        "",
+        *_report_head(
+            f"{title}: Monte Carlo report",
+            records,
+            "Failed runs and runs that never reach a value count in every share and as +inf in the percentiles "
+            "(`never`); runs the sweep did not run to their end (not_run, interrupted) are left out of n.",
+        ),
         "| figure | n | reached | never | failed | not run | share reached | " + " | ".join(names) + " |",
         "|---|---|---|---|---|---|---|" + "---|" * len(names),
     ]
@@ -336,6 +332,20 @@ def _grid_plot(records: list[dict[str, Any]], key: str, others: list[str], figur
         fig.savefig(tmp, format="png")
 
 
+def _report_head(heading: str, records: list[dict[str, Any]], note: str) -> list[str]:
+    """The first lines of a report page: the heading, the run count with the statuses, and ``note``."""
+    return [f"# {heading}", "", f"{len(records)} runs; statuses: {_status_counts(records)}. {note}", ""]
+
+
+def _write_csv(path: Path, rows: list[list[Any]]) -> Path:
+    """Write ``rows`` (the header row first) as CSV to ``path`` (atomically); returns ``path``."""
+    buf = io.StringIO()
+    csv.writer(buf).writerows(rows)
+    with atomic_path(path) as tmp:
+        tmp.write_text(buf.getvalue())
+    return path
+
+
 def _grid_report(records: list[dict[str, Any]], figures: list[str], out: Path, title: str) -> list[Path]:
     keys = _grid_keys(records)
     head = ["id", "status", *keys, *figures]
@@ -348,19 +358,13 @@ def _grid_report(records: list[dict[str, Any]], figures: list[str], out: Path, t
         ]
         for r in records
     ]
-    buf = io.StringIO()
-    writer = csv.writer(buf)
-    writer.writerow(head)
-    writer.writerows(rows)
-    paths = [out / "report.csv"]
-    with atomic_path(paths[0]) as tmp:
-        tmp.write_text(buf.getvalue())
+    paths = [_write_csv(out / "report.csv", [head, *rows])]
     lines = [
-        f"# {title}: grid report",
-        "",
-        f"{len(records)} runs; statuses: {_status_counts(records)}. "
-        "Failed runs keep their row (empty figures) and have no point in the plots.",
-        "",
+        *_report_head(
+            f"{title}: grid report",
+            records,
+            "Failed runs keep their row (empty figures) and have no point in the plots.",
+        ),
         "| " + " | ".join(head) + " |",
         "|" + "---|" * len(head),
     ]
