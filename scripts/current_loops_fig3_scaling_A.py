@@ -57,23 +57,12 @@ def figure(path: Path, data: dict[float, dict[str, np.ndarray]], kappa: float) -
         heavy_idx = np.concatenate([light_idx[-1:], np.flatnonzero(heavy)])  # join at the fold
         i_star = int(np.argmin(np.abs(c["lambda_f"] - lam_star)))
         i_one = int(np.argmin(np.abs(c["lambda_f"] - 1.0)))
+        branches = [("light", light_idx, "-")] + ([("heavy", heavy_idx, "--")] if heavy.any() else [])
         for ax, (key, label, scale) in zip(axes.ravel(), PANELS):
             y = c[key] * scale
-            ax.plot(
-                c["side_m"][light_idx],
-                y[light_idx],
-                "-",
-                color=col,
-                label=f"σ_A = {s * 1e3:g} g/m², light" if key == "lambda_f" else None,
-            )
-            if heavy.any():
-                ax.plot(
-                    c["side_m"][heavy_idx],
-                    y[heavy_idx],
-                    "--",
-                    color=col,
-                    label=f"σ_A = {s * 1e3:g} g/m², heavy" if key == "lambda_f" else None,
-                )
+            for branch, idx, style in branches:
+                name = f"σ_A = {s * 1e3:g} g/m², {branch}" if key == "lambda_f" else None
+                ax.plot(c["side_m"][idx], y[idx], style, color=col, label=name)
             if lam_star <= 1.0:
                 ax.plot(c["side_m"][i_star], y[i_star], "o", color=col, mfc="white", ms=7)
             ax.plot(c["side_m"][i_one], y[i_one], "*", color=col, ms=12)

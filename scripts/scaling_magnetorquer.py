@@ -45,23 +45,10 @@ def figure(path: Path, inputs: ScalingInputs, tables: dict) -> Path:
     ax.axhline(1.0, color="k", lw=1, ls="--", label="λf = 1")
     ax.axhline(0.5, color="0.4", lw=1, ls=":", label="λf = 0.5")
     dd, kd = inputs.design_side_m, inputs.design_kappa_Am2_per_kg
-    ax.plot(
-        [dd],
-        [tables["lambda_f_design_required"]],
-        "o",
-        color="tab:red",
-        ms=8,
-        label=f"needed at d = {dd:g} m, κτ = {kd:g}: λf = {tables['lambda_f_design_required']:.3f}",
-    )
-    ax.plot(
-        [dd],
-        [tables["lambda_f_design"]],
-        "*",
-        color="tab:red",
-        ms=13,
-        label=f"design: {inputs.rod_mass_kg:g} of {inputs.total_kg:g} kg in rods "
-        f"(λf = {tables['lambda_f_design']:.2f})",
-    )
+    needed, design = tables["lambda_f_design_required"], tables["lambda_f_design"]
+    ax.plot([dd], [needed], "o", color="tab:red", ms=8, label=f"needed at d = {dd:g} m, κτ = {kd:g}: λf = {needed:.3f}")
+    in_rods = f"design: {inputs.rod_mass_kg:g} of {inputs.total_kg:g} kg in rods (λf = {design:.2f})"
+    ax.plot([dd], [design], "*", color="tab:red", ms=13, label=in_rods)
     ax.axvline(dd, color="tab:red", lw=0.6, alpha=0.5)
     ax.set_yscale("log")
     ax.set_xlim(inputs.side_min_m, inputs.side_max_m)
