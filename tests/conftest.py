@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import importlib.util
+import subprocess
 import sys
 import time
 import warnings
@@ -131,3 +132,10 @@ def load_file_module(folder: str, name: str, *, register: bool = False) -> Modul
         sys.modules[spec.name] = module
     spec.loader.exec_module(module)
     return module
+
+
+def start_cli(argv: list[str], *, cwd: Path, module: str = "magsail_mj.cli") -> subprocess.Popen:
+    """``python -m <module> <argv>`` started in ``cwd``, its stdout and stderr piped as text."""
+    return subprocess.Popen(
+        [sys.executable, "-m", module, *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=cwd
+    )

@@ -17,8 +17,6 @@ import errno
 import json
 import os
 import signal
-import subprocess
-import sys
 import time
 import tracemalloc
 from collections.abc import Iterable
@@ -55,6 +53,7 @@ from magsail_mj.resources import (
 )
 from magsail_mj.run import run_scenario
 from magsail_mj.scenario import build_scenario
+from tests.conftest import start_cli
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG = str(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml")
@@ -456,26 +455,9 @@ def test_interrupt_and_unexpected_errors(capsys, monkeypatch):
 
 def test_sigterm_exits_130_without_traceback(tmp_path):
     """A long run stopped by SIGTERM: exit 130, one line 'interrupted', no traceback."""
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "magsail_mj.cli",
-            "run",
-            CONFIG,
-            "--out",
-            str(tmp_path / "r"),
-            "--no-progress",
-            "--set",
-            "lattice.units=3",
-            "--set",
-            "sim.duration_s=1e5",
-            "--set",
-            "sim.record_every=100",
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
+    long_run = ["lattice.units=3", "sim.duration_s=1e5", "sim.record_every=100"]
+    proc = start_cli(
+        ["run", CONFIG, "--out", str(tmp_path / "r"), "--no-progress", *(a for o in long_run for a in ("--set", o))],
         cwd=REPO,
     )
     try:
