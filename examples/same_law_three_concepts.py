@@ -12,9 +12,9 @@ to the identity error. Each environment turns the request into its own hardware'
 * truss (``truss/slew_I``, ``action="torque"``): the §7.3 rod allocation and Lloyd selection;
   delivered = the rods' torque ``Σ m_r × B`` on the deformed struts (``torque_ac_body_Nm``);
 * cubesat (``cnusail/nadir``, ``action="torque_dipole"``, dipole 0): the reaction-wheel driver;
-  delivered = the motor reaction on the bus ``−T_M`` (``T_M_N_m``; bearing friction left out);
+  delivered = the motor reaction on the bus ``−T_M`` (``T_M_Nm``; bearing friction left out);
 * reflector (``reflector/pitch_tracking``): projection ⟂ B and the coil torque cap;
-  delivered = the applied ``torque_body_N_m``.
+  delivered = the applied ``torque_body_Nm``.
 
 Printed per spacecraft: steps, wall time per environment step, the return, the final error angle,
 the mean requested and delivered torque magnitudes and the mean cosine between them (1 = delivered
@@ -40,8 +40,8 @@ from magsail_mj.quaternion import error_quaternion
 CASES = {
     # task, environment options, ω_n [rad/s], (request key, delivered key, sign of delivered)
     "truss": ("truss/slew_I", {"action": "torque"}, 0.005, ("torque_ref_body_Nm", "torque_ac_body_Nm", 1.0)),
-    "cubesat": ("cnusail/nadir", {"action": "torque_dipole"}, 0.05, ("u_cmd_N_m", "T_M_N_m", -1.0)),
-    "reflector": ("reflector/pitch_tracking", {}, 0.01, ("T_ref_body_N_m", "torque_body_N_m", 1.0)),
+    "cubesat": ("cnusail/nadir", {"action": "torque_dipole"}, 0.05, ("u_cmd_Nm", "T_M_Nm", -1.0)),
+    "reflector": ("reflector/pitch_tracking", {}, 0.01, ("T_ref_body_Nm", "torque_body_Nm", 1.0)),
 }
 ZETA = 0.7
 

@@ -6,7 +6,7 @@ A B-dot law written against the environment's observations drives the cubesat: a
 magnetorquer cycle boundary (``actuators.mtq.cycle_s``) it reads the magnetometer (``field_body_T``)
 and commands the dipole ``m = −K (B_k − B_{k−1})/T_c`` (the config's ``control.bdot_form``), clipped
 per axis to the magnetorquer limits; the environment holds it over the cycle with the blanking
-window, as on the spacecraft. With ``K`` = the config's ``control.bdot_gain_A_m2_s_T`` it is the
+window, as on the spacecraft. With ``K`` = the config's ``control.bdot_gain_Am2s_T`` it is the
 shipped law.
 
 SciPy's bounded scalar minimiser (``minimize_scalar``, method ``bounded``) searches ``log10 K`` in
@@ -40,9 +40,9 @@ DEFAULT_CONFIG = "magsail_mj/concepts/cnusail/configs/detumble_pre.toml"
 class BdotPolicy:
     """``m = −K Ḃ`` from the magnetometer observation, sampled every magnetorquer cycle and held."""
 
-    def __init__(self, env: Any, gain_A_m2_s_T: float) -> None:
+    def __init__(self, env: Any, gain_Am2s_T: float) -> None:
         cfg = env.physics.cfg
-        self.cfg, self.gain = cfg, float(gain_A_m2_s_T)
+        self.cfg, self.gain = cfg, float(gain_Am2s_T)
         self.dt_s = cfg.sim.timestep_s
         self.steps_cycle = int(round(cfg.actuators.mtq.cycle_s / self.dt_s))
         self.limits = cfg.actuators.mtq.limit_vector
@@ -95,12 +95,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         t, w_end = detumble_time(env, gain)
         value = t if t is not None else args.duration_s * (1.0 + w_end / threshold)
         evaluated.append(
-            {"gain_A_m2_s_T": gain, "detumble_time_s": t, "rate_end_deg_s": math.degrees(w_end), "score_s": value}
+            {"gain_Am2s_T": gain, "detumble_time_s": t, "rate_end_deg_s": math.degrees(w_end), "score_s": value}
         )
         print(json.dumps(evaluated[-1]), file=sys.stderr, flush=True)
         return value
 
-    shipped = cfg.control.bdot_gain_A_m2_s_T
+    shipped = cfg.control.bdot_gain_Am2s_T
     score(shipped)
     res = minimize_scalar(
         lambda x: score(10.0**x),
@@ -113,9 +113,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "config": args.config,
         "duration_s": args.duration_s,
         "overrides": args.set,
-        "shipped_gain_A_m2_s_T": shipped,
+        "shipped_gain_Am2s_T": shipped,
         "shipped_detumble_time_s": evaluated[0]["detumble_time_s"],
-        "best_gain_A_m2_s_T": best["gain_A_m2_s_T"],
+        "best_gain_Am2s_T": best["gain_Am2s_T"],
         "best_detumble_time_s": best["detumble_time_s"],
         "best_score_s": best["score_s"],
         "optimizer_converged": bool(res.success),

@@ -162,7 +162,7 @@ class StrictModel(BaseModel):
     strict (no bool/str → number, no str → bool, no float → int) and numbers finite
     (``allow_inf_nan=False``). A TOML array given for a ``tuple[...]`` key (a fixed-length vector)
     is accepted as that tuple; its items are still checked strictly. A key in a unit spelling the
-    unit-suffix grammar replaced (``kp_N_m`` for ``kp_Nm``) is read as the current key with a
+    unit-suffix grammar replaced (``kp_Nm`` for ``kp_Nm``) is read as the current key with a
     ``DeprecationWarning`` until :data:`~magsail_mj.units_grammar.ALIAS_REMOVAL_VERSION`."""
 
     model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False, strict=True, allow_inf_nan=False)

@@ -34,6 +34,8 @@ from typing import Any
 import numpy as np
 import zarr
 
+from magsail_mj.units_grammar import split_unit
+
 __all__ = [
     "Recorder",
     "StoreRecords",
@@ -59,36 +61,6 @@ _FORMAT = "magsail_mj records 1"
 #: the most bytes of a block of rows that :func:`row_blocks` reads at once
 BLOCK_BYTES = 8 * 2**20
 
-#: unit tokens of the name suffixes (``_rad_s`` → rad/s, ``_N_m`` → N m, ``_A_m2`` → A m²)
-_UNIT_TOKENS = {
-    "m": "m",
-    "km": "km",
-    "m2": "m²",
-    "m3": "m³",
-    "s": "s",
-    "s2": "s²",
-    "rad": "rad",
-    "deg": "deg",
-    "N": "N",
-    "Nm": "N m",
-    "A": "A",
-    "kg": "kg",
-    "J": "J",
-    "W": "W",
-    "T": "T",
-    "nT": "nT",
-    "Pa": "Pa",
-    "Hz": "Hz",
-    "K": "K",
-    "V": "V",
-    "C": "C",
-    "ohm": "Ω",
-    "h": "h",
-    "rpm": "rpm",
-    "Am2": "A m²",
-}
-#: tokens a following ``_s``/``_s2`` divides (a rate: rad/s, m/s², deg/s)
-_RATE_TOKENS = {"rad", "deg", "m", "km"}
 #: variables whose name carries no suffix
 _KNOWN = {
     "t": ("s", "simulated time"),
@@ -108,31 +80,20 @@ class RecordStoreError(RuntimeError):
 def units_of(name: str) -> tuple[str, str]:
     """``(units, long_name)`` of a variable from its SI suffix.
 
-    The suffix is the longest run of unit tokens (at most 4) at the end of the ``_``-separated
-    name that leaves a non-empty quantity name: ``omega_body_rad_s`` → ``("rad/s", "omega body")``,
-    ``torque_gg_world_N_m`` → ``("N m", …)``, ``psi_ddot_ref_rad_s2`` → ``("rad/s²", …)``,
-    ``angmom_N_m_s`` → ``("N m s", …)``, ``dipole_cmd_A_m2`` → ``("A m²", …)``. ``s``/``s2``
-    right after a first token ``rad``, ``deg``, ``m`` or ``km`` divide (a rate); elsewhere tokens
-    multiply.
+    The suffix is the unit suffix of the project's naming grammar
+    (:func:`magsail_mj.units_grammar.split_unit`): ``omega_body_rad_s`` → ``("rad/s", "omega body")``,
+    ``torque_gg_world_Nm`` → ``("N m", …)``, ``psi_ddot_ref_rad_s2`` → ``("rad/s²", …)``,
+    ``angmom_Nms`` → ``("N m s", …)``, ``dipole_cmd_Am2`` → ``("A m²", …)``; the factors of a
+    product are separated by spaces.
     A name without a suffix has units ``"1"`` (dimensionless, a count or a flag); ``t``,
     ``qpos`` and ``qvel`` are named explicitly.
     """
     if name in _KNOWN:
         return _KNOWN[name]
-    parts = name.split("_")
-    k = len(parts)
-    while k > 1 and len(parts) - k < 4 and parts[k - 1] in _UNIT_TOKENS:
-        k -= 1
-    quantity, tokens = parts[:k], parts[k:]
-    if not tokens:
+    quantity, unit = split_unit(name)
+    if unit is None:
         return "1", name.replace("_", " ")
-    out: list[str] = []
-    for i, tok in enumerate(tokens):
-        if tok in ("s", "s2") and i == 1 and tokens[0] in _RATE_TOKENS:
-            out[-1] += "/" + _UNIT_TOKENS[tok]
-        else:
-            out.append(_UNIT_TOKENS[tok])
-    return " ".join(out), " ".join(quantity)
+    return unit.label(product=" "), quantity.replace("_", " ")
 
 
 def dims_of(name: str, shape: tuple[int, ...]) -> tuple[str, ...]:

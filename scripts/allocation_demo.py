@@ -164,7 +164,7 @@ def figure(path: Path, *, pts21: np.ndarray, demo: dict, fig15: dict) -> Path:
 def bench_truss(*, seed: int, tol_rel: float, max_iter: int, workers: int, cache_dir: str | None, n_calls: int) -> dict:
     """Per-call cost of allocation + selection on the 75 m truss (380 + 380 rods)."""
     rods = rod_array(make_lattice(units=19, side_m=75.0))
-    m = rod_dipole_Am2(kappa_Am2_per_kg=100.0, rod_mass_kg=100.0, rods_per_family=rods.n_per_family)
+    m = rod_dipole_Am2(kappa_Am2_kg=100.0, rod_mass_kg=100.0, rods_per_family=rods.n_per_family)
     dist = TorqueDistributor.for_rods(
         rods, m_rod_Am2=m, seed=seed, tol_rel=tol_rel, max_iter=max_iter, cache_dir=cache_dir
     )

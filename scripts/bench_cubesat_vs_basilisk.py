@@ -35,7 +35,7 @@ from magsail_mj.bench import bench
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "magsail_mj/concepts/cnusail/configs/detumble_pre.toml"
 PEER_DIR = Path("/work/shared/peers/basilisk")
-SAME_PHYSICS = ("drag.enabled=false", "srp.enabled=false", "spacecraft.residual_dipole_A_m2=[0.0, 0.0, 0.0]")
+SAME_PHYSICS = ("drag.enabled=false", "srp.enabled=false", "spacecraft.residual_dipole_Am2=[0.0, 0.0, 0.0]")
 """The overrides that leave the physics the peer models (its README)."""
 
 

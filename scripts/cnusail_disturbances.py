@@ -44,14 +44,14 @@ def main(argv: list[str] | None = None) -> int:
     series, peaks = {}, {}
     for mode in ("nadir", "deorbit"):
         ts, tq = disturbance_orbit_profile(sc, mode, n=args.samples)
-        series[f"dist_orbit_t_{mode}_s"], series[f"dist_orbit_{mode}_N_m"] = ts, tq
-        series[f"dist_orbit_{mode}_gg_5deg_N_m"] = disturbance_orbit_profile(sc, mode, n=200, offset_deg=5.0)[1][:, 0]
+        series[f"dist_orbit_t_{mode}_s"], series[f"dist_orbit_{mode}_Nm"] = ts, tq
+        series[f"dist_orbit_{mode}_gg_5deg_Nm"] = disturbance_orbit_profile(sc, mode, n=200, offset_deg=5.0)[1][:, 0]
         series[f"dist_orbit_t_{mode}_gg_5deg_s"] = np.linspace(0.0, ts[-1], 200)
-        peaks[f"gravity_gradient_5deg_off_max_{mode}_N_m"] = float(
-            np.max(np.linalg.norm(series[f"dist_orbit_{mode}_gg_5deg_N_m"], axis=1))
+        peaks[f"gravity_gradient_5deg_off_max_{mode}_Nm"] = float(
+            np.max(np.linalg.norm(series[f"dist_orbit_{mode}_gg_5deg_Nm"], axis=1))
         )
         for k, src in enumerate(SOURCES):
-            peaks[f"{src}_max_{mode}_N_m"] = float(np.max(np.linalg.norm(tq[:, k], axis=1)))
+            peaks[f"{src}_max_{mode}_Nm"] = float(np.max(np.linalg.norm(tq[:, k], axis=1)))
     save_figure(
         disturbance_orbit_figure(
             series, sc.orbit_period_s, f"CNUSAIL-1 {cfg.spacecraft.configuration}: disturbance torques over one orbit"

@@ -28,8 +28,8 @@ KEYS = (
     "t_err_max_after_settle_s",
     "err_final_rad",
     "saturation_fraction",
-    "mag_torque_max_N_m",
-    "gg_torque_max_N_m",
+    "mag_torque_max_Nm",
+    "gg_torque_max_Nm",
     "strain_energy_max_J",
     "time_strain_max_s",
 )

@@ -44,7 +44,7 @@ COLUMNS = (
     "wire_diameter_m",
     "lambda_f",
     "power_per_area_W_m2",
-    "dipole_max_A_m2",
+    "dipole_max_Am2",
     "area_m2",
     "path_length_m",
     "conductor_mass_kg",
@@ -71,7 +71,7 @@ def table_md(table: list[dict], side_m: float, sigma: float, kappa: float) -> st
         lines.append(
             f"| {r['geometry']} | {r['units']} | {r['current_A']:.2f} | {r['wire_diameter_m'] * 1e3:.3f} "
             f"| {r['lambda_f'] * 100:.3f} | {r['power_per_area_W_m2']:.3f} "
-            f"| {r['dipole_max_A_m2']:.4e} | {r['path_length_m']:.0f} |"
+            f"| {r['dipole_max_Am2']:.4e} | {r['path_length_m']:.0f} |"
         )
     return "\n".join(lines) + "\n"
 

@@ -6,7 +6,7 @@
 For each time step it runs ``magsail_mj/concepts/msac/configs/paper_1khz.toml`` (replay drive, RK4) for ``--duration``
 seconds and reports the mean per-cycle rotation (first cycle excluded), its spread, the
 relative difference to the exact planar model, the angular-momentum drift the integrator makes
-between momentum projections (``angmom_drift_max_N_m_s``) and its rate before projection, and
+between momentum projections (``angmom_drift_max_Nms``) and its rate before projection, and
 the wall time per step. Pass criterion (spec): the per-cycle rotation at dt and dt/2 agree within
 0.5 %. Prints one JSON object and writes it to ``--out``.
 """
@@ -29,9 +29,9 @@ KEYS = (
     "theta_gamma_first_cycle_rad",
     "theta_gamma_exact_rad",
     "mujoco_vs_exact_rel_diff",
-    "angmom_drift_max_N_m_s",
+    "angmom_drift_max_Nms",
     "angular_momentum_drift",
-    "angmom_drift_rate_unprojected_N_m_s_per_s",
+    "angmom_drift_rate_unprojected_Nms_s",
     "tracking_error_bend_max_rad",
     "tracking_error_slide_max_m",
     "cycles_simulated",

@@ -47,7 +47,7 @@ def drift_row(*, method: str, timestep_s: float, cycles: int, extrapolate_s: flo
     res = sim.run()
     wall = time.perf_counter() - t0
     summary, _ = task.postprocess(res)
-    L = res.records["strobe_angmom_N_m_s"][:, 2]
+    L = res.records["strobe_angmom_Nms"][:, 2]
     T = task.path.period_s
     per_cycle, _ = secular_rate_fit(np.arange(1, L.size, dtype=float), L[1:])
     st = cycle_state(task.path, np.linspace(0.0, T, 2001))
@@ -57,7 +57,7 @@ def drift_row(*, method: str, timestep_s: float, cycles: int, extrapolate_s: flo
         "method": method,
         "timestep_s": timestep_s,
         "cycles": cycles,
-        "drift_per_cycle_N_m_s": per_cycle,
+        "drift_per_cycle_Nms": per_cycle,
         "spurious_yaw_rel": summary["angmom_spurious_yaw_rel"],
         "spurious_yaw_rel_extrapolated": abs(per_cycle / T) * extrapolate_s**2 / 2 * inv_D / rotation,
         "theta_gamma_mujoco_rad": summary["theta_gamma_mujoco_rad"],

@@ -135,7 +135,7 @@ def f7_figure(results: dict[str, dict], path: Path) -> tuple[Path, dict]:
         s = results["amplification"]
         a_pts = np.array([p[0] / 1e-3 for p in s["sweep_points"]])
         ax.plot(a_pts, s["sweep_secular_rate_rad_s"], "C3x", ms=9, mew=2, label="MuJoCo (20 cycles)")
-        ax2.plot(a_pts, s["sweep_hinge_torque_peak_N_m"], "C0o-", label="peak hinge torque [N m]")
+        ax2.plot(a_pts, s["sweep_hinge_torque_peak_Nm"], "C0o-", label="peak hinge torque [N m]")
         ax2.plot(a_pts, s["sweep_slide_force_peak_N"], "C1s-", label="peak slide force [N]")
         data["mujoco"] = {
             "a": a_pts,
@@ -143,7 +143,7 @@ def f7_figure(results: dict[str, dict], path: Path) -> tuple[Path, dict]:
                 k: s[k]
                 for k in (
                     "sweep_secular_rate_rad_s",
-                    "sweep_hinge_torque_peak_N_m",
+                    "sweep_hinge_torque_peak_Nm",
                     "sweep_slide_force_peak_N",
                     "sweep_theta_gamma_mujoco_rad",
                     "sweep_theta_gamma_exact_rad",

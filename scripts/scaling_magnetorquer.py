@@ -40,11 +40,11 @@ def figure(path: Path, inputs: ScalingInputs, tables: dict) -> Path:
     kw = dict(mu=inputs.mu_m3_s2, B0_T=inputs.B0_T, R_E_m=inputs.R_E_km * 1e3)
     d = np.linspace(inputs.side_min_m, inputs.side_max_m, inputs.n_points)
     fig, ax = plt.subplots(figsize=(7.5, 5))
-    for k in inputs.kappas_Am2_per_kg:
+    for k in inputs.kappas_Am2_kg:
         ax.plot(d, rod_mass_fraction(d, k, **kw), label=f"κτ = {k:g} A m²/kg")
     ax.axhline(1.0, color="k", lw=1, ls="--", label="λf = 1")
     ax.axhline(0.5, color="0.4", lw=1, ls=":", label="λf = 0.5")
-    dd, kd = inputs.design_side_m, inputs.design_kappa_Am2_per_kg
+    dd, kd = inputs.design_side_m, inputs.design_kappa_Am2_kg
     needed, design = tables["lambda_f_design_required"], tables["lambda_f_design"]
     ax.plot([dd], [needed], "o", color="tab:red", ms=8, label=f"needed at d = {dd:g} m, κτ = {kd:g}: λf = {needed:.3f}")
     in_rods = f"design: {inputs.rod_mass_kg:g} of {inputs.total_kg:g} kg in rods (λf = {design:.2f})"
@@ -70,7 +70,7 @@ def table_md(inputs: ScalingInputs, tables: dict) -> str:
         + " | d at λf = 1 [m] | d at λf = 0.5 [m] |",
         "|---" * (len(sides) + 3) + "|",
     ]
-    for k in inputs.kappas_Am2_per_kg:
+    for k in inputs.kappas_Am2_kg:
         key = f"kappa={k:g}"
         lines.append(
             f"| {k:g} | "
@@ -80,7 +80,7 @@ def table_md(inputs: ScalingInputs, tables: dict) -> str:
     lines += [
         "",
         f"§9 truss (d = {inputs.design_side_m:g} m, M = {inputs.total_kg:g} kg, "
-        f"M_τ = {inputs.rod_mass_kg:g} kg, κτ = {inputs.design_kappa_Am2_per_kg:g} A m²/kg, "
+        f"M_τ = {inputs.rod_mass_kg:g} kg, κτ = {inputs.design_kappa_Am2_kg:g} A m²/kg, "
         f"{inputs.altitude_km:g} km):",
         f"B = {tables['B_dipole_T']:.4g} T, T_grav,max = {tables['T_grav_max_Nm']:.4g} N m, "
         f"T_ac,max = {tables['T_ac_max_Nm']:.4g} N m, margin T_ac/T_grav = {tables['authority_margin']:.3g}",

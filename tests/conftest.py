@@ -37,19 +37,19 @@ CHECKPOINTING_RUN = [
 
 #: the keys of the reflector coil report (``coil_torque_report``, ``magsail torque coil``)
 COIL_REPORT_KEYS = (
-    "T_max_ycoil_N_m",
-    "T_max_xcoil_N_m",
-    "T_max_zloop_N_m",
+    "T_max_ycoil_Nm",
+    "T_max_xcoil_Nm",
+    "T_max_zloop_Nm",
     "zloop_side_m",
-    "T_max_perimeter_loop_N_m",
-    "T_max_ycoil_p1_N_m",
-    "T_max_ycoil_rows_plus1_N_m",
-    "m_max_A_m2",
+    "T_max_perimeter_loop_Nm",
+    "T_max_ycoil_p1_Nm",
+    "T_max_ycoil_rows_plus1_Nm",
+    "m_max_Am2",
     "path_length_m",
     "node_count",
     "segment_count",
     "net_force_Bx_N",
-    "closed_lead_dipole_y_A_m2",
+    "closed_lead_dipole_y_Am2",
 )
 
 SMALL_TRUSS = {
@@ -89,12 +89,12 @@ SMALL_ORBITAL_TRUSS = {
     "mass": {"total_kg": 8.0},
     "stiffness": {"EI_Nm2": 50.0},
     "damping": {"zeta_strut": 0.1},
-    "actuators": {"kind": "magnetorquer", "kappa_Am2_per_kg": 100.0, "rod_mass_kg": 2.0},
+    "actuators": {"kind": "magnetorquer", "kappa_Am2_kg": 100.0, "rod_mass_kg": 2.0},
     "initial": {"omega0_rad_s": [0.01, 0.007, 0.0]},
     "orbit": {"enabled": True, "altitude_km": 800.0, "inclination_deg": 90.0, "raan_deg": 90.0},
     "field": {"model": "dipole"},
     "gravity": {"tidal": True},
-    "control": {"kind": "bdot", "k_bdot_Nms_per_T2": 1e12, "cache_dir": ""},
+    "control": {"kind": "bdot", "k_bdot_Nms_T2": 1e12, "cache_dir": ""},
 }
 """A raw config tree of a 3 × 3-cube truss in an 800 km polar orbit, rods under B-dot (6 s)."""
 

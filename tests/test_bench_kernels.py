@@ -137,7 +137,7 @@ def test_disturbance_kernel_equals_numpy_expressions(seed):
         bus_centroid_m=(0.005, 0.005, -0.02),
     )
     load = CubesatDisturbanceLoad(
-        1, inertia_kg_m2=[0.0506, 0.0506, 0.010], drag_facets=drag, srp_facets=None, residual_dipole_A_m2=[2.887e-4] * 3
+        1, inertia_kgm2=[0.0506, 0.0506, 0.010], drag_facets=drag, srp_facets=None, residual_dipole_Am2=[2.887e-4] * 3
     )
     s = _state(rng)
     ref = _numpy_disturbances(load, s)
@@ -182,9 +182,9 @@ def test_quasi_static_wheel_kernel_equals_vector_form(seed):
     cmd = rng.uniform(-2, 2, size=3) * p.current_max_A
     w = rng.choice([-1.0, 1.0], size=3) * rng.uniform(0.9, 1.1, size=3) * p.speed_max_rad_s
     T = drv.motor_torque(cmd, w, 0.1)
-    V = np.clip(p.R_ohm * cmd + p.K_b_V_s_rad * w, -p.V_max_V, p.V_max_V)
-    i = (V - p.K_b_V_s_rad * w) / p.R_ohm
-    ref = drv.limit_speed(p.K_M_N_m_A * i, w)
+    V = np.clip(p.R_ohm * cmd + p.K_b_Vs_rad * w, -p.V_max_V, p.V_max_V)
+    i = (V - p.K_b_Vs_rad * w) / p.R_ohm
+    ref = drv.limit_speed(p.K_M_Nm_A * i, w)
     np.testing.assert_array_equal(T, ref)  # same operations elementwise: identical
     np.testing.assert_array_equal(drv.current_A, i)
     np.testing.assert_array_equal(drv.motor_torque(cmd, w.tolist(), 0.1), ref)

@@ -100,11 +100,11 @@ def test_magnetorquer_load_is_m_cross_b_in_world_axes():
 def _spin_up(driver: WheelDriver, cmd: np.ndarray, *, dt: float, t_end: float, bus_inertia: float = 1e6):
     """MuJoCo run with a (nearly) fixed bus: returns times and wheel-x speeds."""
     p = CubesatModelParams(
-        inertia_kg_m2=(bus_inertia,) * 3,
+        inertia_kgm2=(bus_inertia,) * 3,
         timestep_s=dt,
         markers=False,
-        wheel_damping_N_m_s=driver.p.K_B_N_m_s,
-        motor_force_limit_N_m=1.0,
+        wheel_damping_Nms=driver.p.K_B_Nms,
+        motor_force_limit_Nm=1.0,
     )
     m = build_cubesat_spec(p).compile()
     d = mujoco.MjData(m)
@@ -133,7 +133,7 @@ def test_dc_motor_constant_voltage_steady_state_and_time_constant():
     w_ss = p.steady_speed(p.V_max_V)
     # spec: "no-load speed at 5 V ≈ 7960 rpm" is V/K_b (7958 rpm); the bearing friction K_B lowers
     # it to 7936 rpm
-    assert p.V_max_V / p.K_b_V_s_rad / RPM == pytest.approx(7958, abs=1)
+    assert p.V_max_V / p.K_b_Vs_rad / RPM == pytest.approx(7958, abs=1)
     assert w_ss / RPM == pytest.approx(7936, abs=1)
     # the speed limiter (7000 rpm) would stop it: check the limiter separately; here raise the limit
     drv2 = WheelDriver(DCMotorParams(i_max_A=100.0, speed_max_rpm=1e5))
@@ -147,13 +147,13 @@ def test_current_loop_gives_constant_torque_until_the_voltage_limit():
     p = DCMotorParams()
     drv = WheelDriver(p)
     i_c = drv.command(np.array([-1e-4, 5e-4, 0.0]), np.zeros(3))  # body torque u → T_c = −u
-    np.testing.assert_allclose(i_c, [1e-4 / p.K_M_N_m_A, -p.current_max_A, 0.0])
+    np.testing.assert_allclose(i_c, [1e-4 / p.K_M_Nm_A, -p.current_max_A, 0.0])
     for w in (0.0, 100.0, 300.0):  # R i_c + K_b ω < V_max
         T = drv.motor_torque(np.array([0.02, 0, 0]), np.array([w, 0, 0]), 0.1)
-        assert T[0] == pytest.approx(p.K_M_N_m_A * 0.02, rel=1e-12)
+        assert T[0] == pytest.approx(p.K_M_Nm_A * 0.02, rel=1e-12)
     w = 800.0  # beyond: voltage-limited
     T = WheelDriver(DCMotorParams(speed_max_rpm=1e5)).motor_torque(np.array([0.03, 0, 0]), np.array([w, 0, 0]), 0.1)
-    assert T[0] == pytest.approx(p.K_M_N_m_A * (p.V_max_V - p.K_b_V_s_rad * w) / p.R_ohm, rel=1e-12)
+    assert T[0] == pytest.approx(p.K_M_Nm_A * (p.V_max_V - p.K_b_Vs_rad * w) / p.R_ohm, rel=1e-12)
 
 
 def test_speed_limiter_and_ideal_model():
@@ -162,10 +162,10 @@ def test_speed_limiter_and_ideal_model():
     w = np.array([p.speed_max_rad_s, -p.speed_max_rad_s, p.speed_max_rad_s])
     T = drv.motor_torque(np.array([0.02, -0.02, -0.02]), w, 0.1)
     # x, y: would speed up further → zero net rotor torque; z: slows down → allowed
-    np.testing.assert_allclose(T[:2], p.K_B_N_m_s * w[:2])
+    np.testing.assert_allclose(T[:2], p.K_B_Nms * w[:2])
     assert T[2] < 0
     ideal = WheelDriver(p, model="ideal")
-    np.testing.assert_allclose(ideal.command(np.array([1e-3, -1e-5, 0]), np.zeros(3)), [-p.torque_max_N_m, 1e-5, 0])
+    np.testing.assert_allclose(ideal.command(np.array([1e-3, -1e-5, 0]), np.zeros(3)), [-p.torque_max_Nm, 1e-5, 0])
     np.testing.assert_allclose(drv.body_torque(np.array([1e-4, 0, 0]), np.array([100.0, 0, 0])), [-(1e-4 - 1e-6), 0, 0])
     with pytest.raises(ValueError, match="model"):
         WheelDriver(p, model="stepper")

@@ -16,7 +16,7 @@ TABLE2 = {"stowed": (0.0506, 0.0506, 0.010), "deployed": (0.3104, 0.3121, 0.5757
 
 
 def _model(configuration="deployed", **kw) -> mujoco.MjModel:
-    p = CubesatModelParams(configuration=configuration, inertia_kg_m2=TABLE2[configuration], **kw)
+    p = CubesatModelParams(configuration=configuration, inertia_kgm2=TABLE2[configuration], **kw)
     return build_cubesat_spec(p).compile()
 
 
@@ -37,7 +37,7 @@ def test_composite_inertia_equals_table2(configuration):
 
 @pytest.mark.parametrize("configuration", ["stowed", "deployed"])
 def test_mjcf_round_trip_keeps_masses(configuration):
-    spec = build_cubesat_spec(CubesatModelParams(configuration=configuration, inertia_kg_m2=TABLE2[configuration]))
+    spec = build_cubesat_spec(CubesatModelParams(configuration=configuration, inertia_kgm2=TABLE2[configuration]))
     a = spec.compile()
     b = mujoco.MjModel.from_xml_string(spec.to_xml())
     np.testing.assert_array_equal(a.body_mass, b.body_mass)
@@ -46,8 +46,8 @@ def test_mjcf_round_trip_keeps_masses(configuration):
 
 
 def test_rejects_inertia_below_rotors():
-    with pytest.raises(ValueError, match="inertia_kg_m2"):
-        CubesatModelParams(inertia_kg_m2=(5e-6, 0.3, 0.3))
+    with pytest.raises(ValueError, match="inertia_kgm2"):
+        CubesatModelParams(inertia_kgm2=(5e-6, 0.3, 0.3))
 
 
 # ------------------------------------------------------------------ dynamics vs SciPy
@@ -90,7 +90,7 @@ def test_angular_momentum_conserved_and_bus_matches_scipy():
       the wheels spin up to ~110 rad/s (measured 1e-11 rad, 2e-14 rad/s, 2e-12 rad/s: RK4's O(h⁴)
       truncation at 0.1 s on rates of 0.01 rad/s, plus rounding).
     """
-    m = _model("deployed", markers=False, wheel_damping_N_m_s=KB)
+    m = _model("deployed", markers=False, wheel_damping_Nms=KB)
     d = mujoco.MjData(m)
     idx = cubesat_indices(m)
     rng = np.random.default_rng(7)

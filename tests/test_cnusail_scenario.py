@@ -78,7 +78,7 @@ def test_disturbance_fast_path_equals_project_loads(configuration):
     )
     srp = cubesat_sail_facets(area_m2=4.0, r_cp_m=(0.01, 0.01, 0.1)) if configuration == "deployed" else None
     load = CubesatDisturbanceLoad(
-        1, inertia_kg_m2=[0.3104, 0.3121, 0.5757], drag_facets=drag, srp_facets=srp, residual_dipole_A_m2=[2.887e-4] * 3
+        1, inertia_kgm2=[0.3104, 0.3121, 0.5757], drag_facets=drag, srp_facets=srp, residual_dipole_Am2=[2.887e-4] * 3
     )
     for _ in range(50):
         q = rng.normal(size=4)
@@ -141,7 +141,7 @@ def test_scenario_configs_load_with_spec_values():
         "lifetime",
     ]
     cfgs = {i: load_config(REPO / "magsail_mj" / "concepts" / "cnusail" / "configs" / f"{i}.toml") for i in ids}
-    assert cfgs["detumble_pre"].control.bdot_gain_A_m2_s_T == 3e4
+    assert cfgs["detumble_pre"].control.bdot_gain_Am2s_T == 3e4
     assert cfgs["detumble_post"].initial.omega0_deg_s == (2.0, -7.0, 1.0)
     assert cfgs["deorbit_recalc"].control.gain_recalc and not cfgs["deorbit"].control.gain_recalc
     assert cfgs["deorbit"].orbit.true_anomaly0_deg == 180.0
@@ -189,7 +189,7 @@ def test_detumble_blanking_window_and_bdot_sign():
     cfg = parse_config(
         _tree(
             sim={"duration_s": 20.0, "record_every": 1},
-            control={"mode": "bdot", "bdot_gain_A_m2_s_T": 3e4},
+            control={"mode": "bdot", "bdot_gain_Am2s_T": 3e4},
             spacecraft={"configuration": "stowed"},
             initial={"omega0_deg_s": [6.0, -7.0, 3.0]},
         )
@@ -198,7 +198,7 @@ def test_detumble_blanking_window_and_bdot_sign():
     res = sc.simulation().run()
     t = res.records["t"]
     k = np.round(t / 0.1).astype(int)
-    T = np.linalg.norm(res.records["torque_mtq_body_N_m"], axis=1)
+    T = np.linalg.norm(res.records["torque_mtq_body_Nm"], axis=1)
     blank = (k % 20) >= 18
     assert np.all(T[blank] == 0.0)
     assert np.all(T[(~blank) & (k >= 20)] > 0.0)  # first cycle: no derivative yet

@@ -176,8 +176,8 @@ def test_truss_pair_forces_have_no_net_force():
 def _wheel_oracle(u: np.ndarray, w: np.ndarray, p) -> tuple[np.ndarray, np.ndarray]:
     """Spec §4.2 in closed form: T_M = clip(K_B ω − u, ±τ_max), or K_B ω at Ω_max when it would spin
     the wheel faster; returns (delivered −(T_M − K_B ω), speed-limited mask)."""
-    KB = p.K_B_N_m_s
-    T_M = np.clip(KB * w - u, -p.torque_max_N_m, p.torque_max_N_m)
+    KB = p.K_B_Nms
+    T_M = np.clip(KB * w - u, -p.torque_max_Nm, p.torque_max_Nm)
     at_limit = (np.abs(w) >= p.speed_max_rad_s) & ((T_M - KB * w) * w > 0)
     T_M = np.where(at_limit, KB * w, T_M)
     return -(T_M - KB * w), at_limit
@@ -188,7 +188,7 @@ def test_cubesat_wheels_deliver_the_request_within_their_limits(cubesat_run):
     would spin a wheel at Ω_max faster (spec §4.2); the run meets all three regimes."""
     run, _, act, rec = cubesat_run
     p = act.driver.p
-    tau, KB = p.torque_max_N_m, p.K_B_N_m_s
+    tau, KB = p.torque_max_Nm, p.K_B_Nms
     req, dl = rec["torque_request_body_Nm"][1:], rec["torque_delivered_body_Nm"][1:]
     w = rec["qvel"][:-1][:, act.wheel_qvel]  # rotor speeds at the start of each applied step
     expected, at_limit = _wheel_oracle(req, w, p)
@@ -204,7 +204,7 @@ def test_cubesat_wheels_deliver_the_request_within_their_limits(cubesat_run):
 def test_cubesat_unsaturated_request_delivered_exactly():
     run, _, act, rec = _run(CUBESAT, pd_for=_cubesat_pd(0.01))
     req, dl = rec["torque_request_body_Nm"][1:], rec["torque_delivered_body_Nm"][1:]
-    assert np.abs(req).max() < act.driver.p.torque_max_N_m
+    assert np.abs(req).max() < act.driver.p.torque_max_Nm
     np.testing.assert_allclose(dl, req, rtol=1e-9, atol=1e-15)
 
 
@@ -239,7 +239,7 @@ def test_reflector_saturates_at_the_coil_cap():
         )
 
     _, _, act, rec = _run((REFLECTOR[0], ["sim.duration_s=10", "sim.record_every=1"]), pd_for=strong)
-    cap = act.limits["cap_N_m"]
+    cap = act.limits["cap_Nm"]
     dl, req, B = (rec[k][1:] for k in ("torque_delivered_body_Nm", "torque_request_body_Nm", "B_body_T"))
     b = B / np.linalg.norm(B, axis=1)[:, None]
     perp = req - np.einsum("ij,ij->i", req, b)[:, None] * b
@@ -253,7 +253,7 @@ def test_reflector_detumble_config_uses_per_path_limits():
     sim = magsail_mj.load("magsail_mj/concepts/reflector/configs/detumble.toml", ["sim.duration_s=1"])
     act = body_torque_actuator(sim)
     assert act.limits["saturation"] == "per_path"
-    np.testing.assert_array_equal(act.limits["m_max_A_m2"], sim.scenario.cap.m_max_A_m2)
+    np.testing.assert_array_equal(act.limits["m_max_Am2"], sim.scenario.cap.m_max_Am2)
 
 
 def test_attached_simulation_state_round_trip(cubesat_run):
@@ -286,7 +286,7 @@ def test_attach_leaves_the_original_and_marks_identity():
 
 _component = st.floats(-1.0, 1.0, allow_nan=False).map(lambda x: round(x, 12))  # no 1e-300 underflow traps
 _vec = st.tuples(_component, _component, _component).map(np.array)
-_LIMITS = dict(cap_N_m=1.0, B_ref_T=30e-6, m_max_A_m2=np.array([4e4, 3e4, 2e4]))
+_LIMITS = dict(cap_Nm=1.0, B_ref_T=30e-6, m_max_Am2=np.array([4e4, 3e4, 2e4]))
 
 
 @settings(max_examples=300, deadline=None)
@@ -315,10 +315,10 @@ def test_coil_torque_is_never_along_B_and_is_the_projection_when_unsaturated(T, 
     if mode == "per_path":
         # the delivered torque is that of a dipole within every path's limit (m may be any dipole
         # differing from it along B)
-        m_clip = np.clip(np.cross(B, T) / B2, -_LIMITS["m_max_A_m2"], _LIMITS["m_max_A_m2"])
+        m_clip = np.clip(np.cross(B, T) / B2, -_LIMITS["m_max_Am2"], _LIMITS["m_max_Am2"])
         np.testing.assert_allclose(delivered, np.cross(m_clip, B), rtol=0, atol=1e-9 * scale)
     else:
-        cap = _LIMITS["cap_N_m"] * (1.0 if mode == "norm" else math.sqrt(B2) / _LIMITS["B_ref_T"])
+        cap = _LIMITS["cap_Nm"] * (1.0 if mode == "norm" else math.sqrt(B2) / _LIMITS["B_ref_T"])
         assert float(np.linalg.norm(delivered)) <= cap * (1 + 1e-12)
 
 
@@ -433,9 +433,9 @@ def test_hostile_attach_and_factories():
             1,
             field_body=lambda t, R: np.ones(3),
             saturation="box",
-            cap_N_m=1.0,
+            cap_Nm=1.0,
             B_ref_T=1e-5,
-            m_max_A_m2=(1.0, 1.0, 1.0),
+            m_max_Am2=(1.0, 1.0, 1.0),
         )
     unbound = body_torque_actuator(sim)
     state = _start_state(sim, BodyTorque(torque_body_Nm=[0.0, 0.0, 1e-5]))

@@ -82,9 +82,9 @@ def _controller(**kw):
         masses=np.ones(len(p)),
         node_bodies=np.arange(len(p)),
         q_target=np.array([1.0, 0, 0, 0]),
-        kp_N_m=600.0,
-        kw_N_m_s=4e5,
-        m_max_A_m2=1e6,
+        kp_Nm=600.0,
+        kw_Nms=4e5,
+        m_max_Am2=1e6,
         I_max_A=np.array([10.0, 10.0, 10.0]),
     )
     args.update(kw)
@@ -161,7 +161,7 @@ def test_sweep_run_energy_balance_and_rigid_reference(tmp_path):
     # a stiff small plate turns like the rigid body with the realised dipole (60 s, ~1e-4 rad)
     assert out["rotation_dev_from_rigid_max_rad"] < 1e-3 * max(out["rotation_angle_max_rad"], 1e-6) + 1e-7
     assert out["classification"] == "rigid_like"
-    assert out["dipole_realised_A_m2"] > 0 and out["self_field_max_T"] < 1e-5
+    assert out["dipole_realised_Am2"] > 0 and out["self_field_max_T"] < 1e-5
     assert (out.run_dir / STORE_NAME).is_dir()
     for name in ("summary.json", "manifest.json", "strain_energy.png", "snapshot_max_strain.png", "rotation.png"):
         assert (out.run_dir / name).exists()
@@ -180,7 +180,7 @@ def test_mirror_symmetry_c_loops(tmp_path):
     b = _run(
         tmp_path,
         "cx",
-        ["stiffness.EI_N_m2=1e3", "sim.timestep_s=0.1", "lattice.units=4"],
+        ["stiffness.EI_Nm2=1e3", "sim.timestep_s=0.1", "lattice.units=4"],
         config="sweep_mirror/cx_n19_ei1e4.toml",
     )
     for key in ("strain_energy_max_J", "rotation_angle_max_rad", "rigid_fit_residual_max_m"):

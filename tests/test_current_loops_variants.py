@@ -259,9 +259,9 @@ def _controller(estimator: str, dt: float) -> LoopAttitudeController:
         masses=np.ones(LAT.n_nodes),
         node_bodies=np.arange(LAT.n_nodes) + 1,
         q_target=np.array([1.0, 0, 0, 0]),
-        kp_N_m=1.0,
-        kw_N_m_s=1.0,
-        m_max_A_m2=1.0,
+        kp_Nm=1.0,
+        kw_Nms=1.0,
+        m_max_Am2=1.0,
         I_max_A=np.ones(3),
         rate_estimator=estimator,
     )

@@ -84,7 +84,7 @@ def test_strip_spec_refs_leaves_no_section_sign():
         ("omega0_rad_s", "rad/s"),
         ("EI_Nm2", "N·m²"),
         ("areal_density_kg_m2", "kg/m²"),
-        ("inertia_kg_m2", "kg·m²"),
+        ("inertia_kgm2", "kg·m²"),
         ("altitude_km", "km"),
         ("units", "—"),
     ],

@@ -59,7 +59,7 @@ def test_task_follows_config_and_lists():
     spec = env.action_spec()
     assert spec.shape == (6,)
     motor = env.physics.cfg.actuators.wheels.motor_params()
-    u_max = motor.K_M_N_m_A * motor.current_max_A + 2 * motor.K_B_N_m_s * motor.speed_max_rad_s
+    u_max = motor.K_M_Nm_A * motor.current_max_A + 2 * motor.K_B_Nms * motor.speed_max_rad_s
     assert spec.maximum[0] == pytest.approx(u_max)
     # a request beyond the bound gives the wheel command of the clipped request (clipping is harmless)
     driver = env.physics.base.controller.driver
@@ -99,9 +99,9 @@ def test_wheel_currents_give_the_motor_torque():
         ts = env.step(np.concatenate([i_c, np.zeros(3)]))
     rec = env.physics.sim.records()
     w = rec["qvel"][:, env.physics.scenario.idx.wheel_qvel]
-    V = np.clip(motor.R_ohm * i_c + motor.K_b_V_s_rad * w, -motor.V_max_V, motor.V_max_V)
-    want = motor.K_M_N_m_A * (V - motor.K_b_V_s_rad * w) / motor.R_ohm
-    np.testing.assert_allclose(rec["T_M_N_m"], want, rtol=1e-12, atol=1e-18)
+    V = np.clip(motor.R_ohm * i_c + motor.K_b_Vs_rad * w, -motor.V_max_V, motor.V_max_V)
+    want = motor.K_M_Nm_A * (V - motor.K_b_Vs_rad * w) / motor.R_ohm
+    np.testing.assert_allclose(rec["T_M_Nm"], want, rtol=1e-12, atol=1e-18)
     assert np.all(np.abs(w[-1]) > 0)  # the wheels spun up
 
 
@@ -118,7 +118,7 @@ def test_dipole_latched_per_cycle_and_blanked():
     t = rec["t"]
     on = (t % cfg.actuators.mtq.cycle_s) < cfg.actuators.mtq.cycle_s - cfg.actuators.mtq.blank_s - 1e-9
     latched = np.where((t < 2.0 - 1e-9)[:, None], m[0], m[2])
-    np.testing.assert_array_equal(rec["dipole_cmd_A_m2"][:-1], latched[:-1])
+    np.testing.assert_array_equal(rec["dipole_cmd_Am2"][:-1], latched[:-1])
     q = rec["qpos"][:, env.physics.scenario.idx.q_quat]
     B_eci = np.array([env.physics.sim.environment.sample(float(x)).B_eci for x in t])
     R = np.empty((len(t), 9))
@@ -126,7 +126,7 @@ def test_dipole_latched_per_cycle_and_blanked():
         mujoco.mju_quat2Mat(R[k], q[k])
     B_body = np.einsum("kji,kj->ki", R.reshape(-1, 3, 3), B_eci)
     want = np.where(on[:, None], np.cross(latched, B_body), 0.0)
-    np.testing.assert_allclose(rec["torque_mtq_body_N_m"][:-1], want[:-1], rtol=1e-12, atol=1e-20)
+    np.testing.assert_allclose(rec["torque_mtq_body_Nm"][:-1], want[:-1], rtol=1e-12, atol=1e-20)
     assert np.count_nonzero(~on[:-1]) == 4  # 1.8, 1.9, 3.8, 3.9 s
 
 

@@ -69,10 +69,10 @@ def test_search_gains_reports_best_against_shipped(monkeypatch, capsys):
     )
     ev = out["evaluations"]
     assert 2 <= len(ev) <= 4
-    assert ev[0]["gain_A_m2_s_T"] == out["shipped_gain_A_m2_s_T"] == 3.0e4
+    assert ev[0]["gain_Am2s_T"] == out["shipped_gain_Am2s_T"] == 3.0e4
     assert out["best_score_s"] == min(e["score_s"] for e in ev) <= ev[0]["score_s"]
-    assert all(10**3.5 <= e["gain_A_m2_s_T"] <= 10**5.5 for e in ev)
-    assert json.loads(capsys.readouterr().out)["best_gain_A_m2_s_T"] == out["best_gain_A_m2_s_T"]
+    assert all(10**3.5 <= e["gain_Am2s_T"] <= 10**5.5 for e in ev)
+    assert json.loads(capsys.readouterr().out)["best_gain_Am2s_T"] == out["best_gain_Am2s_T"]
 
 
 def test_search_gains_law_with_shipped_gain_is_the_shipped_bdot(monkeypatch):
@@ -82,7 +82,7 @@ def test_search_gains_law_with_shipped_gain_is_the_shipped_bdot(monkeypatch):
     module = _example("search_gains")
     env = envs.load("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", ["sim.duration_s=30"], randomize=False)
     trajectories = []
-    for policy in (module.BdotPolicy(env, env.physics.cfg.control.bdot_gain_A_m2_s_T), envs.shipped_policy(env)):
+    for policy in (module.BdotPolicy(env, env.physics.cfg.control.bdot_gain_Am2s_T), envs.shipped_policy(env)):
         ts = env.reset()
         while not ts.last():
             ts = env.step(policy(ts))

@@ -641,7 +641,7 @@ def test_valid_inputs_still_succeed(capsys, arena, tmp_path):
     ):
         rc, out, err = call(capsys, argv)
         assert rc == 0, (argv, err)
-    assert _strict_json(out)["T_max_ycoil_N_m"] > 0
+    assert _strict_json(out)["T_max_ycoil_Nm"] > 0
 
 
 def test_corrupt_modes_cache_is_recomputed_and_rewritten(tmp_path):

@@ -13,6 +13,10 @@ import os
 import pickle
 import re
 import shutil
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import mujoco
@@ -30,7 +34,7 @@ from magsail_mj.records import STORE_NAME
 from magsail_mj.run import RunInterrupted, run_scenario
 from magsail_mj.sim import Simulation
 from magsail_mj.sweep import load_sweep, run_sweep
-from tests.conftest import REPO
+from tests.conftest import REPO, start_cli
 
 MODELS = REPO / "magsail_mj" / "concepts"
 QUIET = ["--no-progress"]
@@ -475,8 +479,6 @@ def test_a_failed_video_marks_summary_and_manifest_failed(tmp_path, small_truss_
 def test_ctrl_c_while_outputs_are_written_leaves_them_whole(tmp_path, small_truss_tree, monkeypatch):
     """SIGINT during the plots: held until the numbers' files are written, then the run ends as
     interrupted (exit 130 on the command line) with a complete folder."""
-    import signal
-
     from magsail_mj.concepts import truss_magnetorquer as truss
 
     original = truss.TrussScenario.plots
@@ -523,9 +525,6 @@ def test_unreadable_values_are_config_errors(tmp_path, capsys):
 def test_an_unusable_mujoco_gl_does_not_break_the_verbs(tmp_path):
     """MuJoCo refuses to import under an invalid MUJOCO_GL; magsail_mj replaces it (warning) so
     that every verb works and rendering uses a backend that exists."""
-    import subprocess
-    import sys
-
     env = {**os.environ, "MUJOCO_GL": "bogus"}
     env.pop("PYOPENGL_PLATFORM", None)
     proc = subprocess.run(
@@ -545,29 +544,9 @@ def test_an_unusable_mujoco_gl_does_not_break_the_verbs(tmp_path):
 def test_a_signal_while_the_command_starts_is_exit_130(tmp_path, signame, delay_s):
     """Ctrl-C or SIGTERM during the imports (before any verb runs) or in the verb: exit 130, one
     line, no traceback (it used to kill the process or print an ImportError traceback)."""
-    import signal
-    import subprocess
-    import sys
-    import time
-
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "magsail_mj.entry",
-            "run",
-            str(MODELS / "cnusail/configs/detumble_pre.toml"),  # noqa: E501
-            "--out",
-            str(tmp_path / "r"),
-            "--set",
-            "sim.duration_s=3000",
-            "--no-progress",
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        cwd=tmp_path,
-    )
+    config = str(MODELS / "cnusail/configs/detumble_pre.toml")
+    argv = ["run", config, "--out", str(tmp_path / "r"), "--set", "sim.duration_s=3000", "--no-progress"]
+    proc = start_cli(argv, cwd=tmp_path, module="magsail_mj.entry")
     time.sleep(delay_s)
     proc.send_signal(getattr(signal, signame))
     _, err = proc.communicate(timeout=120)
@@ -578,9 +557,6 @@ def test_a_signal_while_the_command_starts_is_exit_130(tmp_path, signame, delay_
 def test_signals_after_the_verb_are_ignored_while_the_command_exits(monkeypatch, capsys):
     """After the verb has ended its status stands: SIGINT and SIGTERM are ignored from then on, also
     while the interpreter shuts down (a late signal used to kill the process, exit -2/-15)."""
-    import signal
-    import sys
-
     from magsail_mj import entry
 
     saved = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
@@ -609,7 +585,7 @@ def test_scaling_table_memory_is_estimated_first(capsys):
             ["lattice.units=3", "mass.total_kg=1e300"],
             "torque_gg_rigid_body_Nm",
         ),
-        ("reflector/configs/pitch/b4_wn0p2_sigma10.toml", ["control.zeta=1e300"], "T_ref_norm_N_m"),
+        ("reflector/configs/pitch/b4_wn0p2_sigma10.toml", ["control.zeta=1e300"], "T_ref_norm_Nm"),
     ],
 )
 def test_overflowed_numbers_are_never_completed(tmp_path, name, overrides, series):

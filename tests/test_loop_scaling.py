@@ -65,7 +65,7 @@ K = DEFAULT_CONSTANTS
 
 
 def test_constants_are_the_spec_defaults_and_frozen():
-    assert (K.rho_c_kg_m3, K.T_ref_K, K.T_eq_K, K.rho_ref_ohm_m, K.emissivity, K.alpha_per_K) == (
+    assert (K.rho_c_kg_m3, K.T_ref_K, K.T_eq_K, K.rho_ref_ohmm, K.emissivity, K.alpha_per_K) == (
         8960.0,
         293.15,
         420.0,
@@ -150,7 +150,7 @@ def test_wire_diameter_carries_the_current_squared():
     assert wire_diameter(8.0) / wire_diameter(1.0) == pytest.approx(4.0, rel=1e-13)
     d = wire_diameter(10.0)
     assert K.emissivity * K.sigma_B * math.pi * d * K.T_eq_K**4 == pytest.approx(
-        4 * K.rho_ref_ohm_m * 100.0 * K.f_gamma / (math.pi * d * d), rel=1e-12
+        4 * K.rho_ref_ohmm * 100.0 * K.f_gamma / (math.pi * d * d), rel=1e-12
     )
 
 
@@ -248,9 +248,9 @@ def test_dipole_max_is_common_to_the_uniform_geometries():
     assert m == pytest.approx(K.mu_m3_s2 * 0.1 * 250.0**4 / (8 * K.B0_T * K.R_E_m**3), rel=1e-15)
     for g in "BCD":
         for N in (12, 19, 27):
-            assert t[f"{g}_N{N}_dipole_max_A_m2"] == pytest.approx(m, rel=1e-12)
+            assert t[f"{g}_N{N}_dipole_max_Am2"] == pytest.approx(m, rel=1e-12)
     lam = t["A_N19_lambda_f"]
-    assert t["A_N19_dipole_max_A_m2"] == pytest.approx(m * (1 + 15 * lam), rel=1e-12)
+    assert t["A_N19_dipole_max_Am2"] == pytest.approx(m * (1 + 15 * lam), rel=1e-12)
 
 
 # ----------------------------------------------------------------------------- geometry A
@@ -364,7 +364,7 @@ def test_scaling_table_has_every_spec_key():
                 "wire_diameter_m",
                 "lambda_f",
                 "power_per_area_W_m2",
-                "dipole_max_A_m2",
+                "dipole_max_Am2",
                 "path_length_m",
             ):
                 assert math.isfinite(t[f"{g}_N{N}_{q}"]) and t[f"{g}_N{N}_{q}"] > 0
@@ -380,7 +380,7 @@ def test_sunlight_check():
 
     def balance(x):
         return (
-            4 * K.rho_ref_ohm_m * K.f_gamma * I * I / (math.pi * x * x)
+            4 * K.rho_ref_ohmm * K.f_gamma * I * I / (math.pi * x * x)
             + 1360 * K.emissivity * x
             - K.emissivity * K.sigma_B * math.pi * x * K.T_eq_K**4
         )
@@ -418,7 +418,7 @@ def test_cli_prints_one_sizing_as_json(capsys):
     )
     out = json.loads(capsys.readouterr().out)
     ref = loop_sizing("D", units=27, side_m=250.0, areal_density_kg_m2=0.1)
-    for key in ("current_A", "wire_diameter_m", "lambda_f", "power_per_area_W_m2", "dipole_max_A_m2", "path_length_m"):
+    for key in ("current_A", "wire_diameter_m", "lambda_f", "power_per_area_W_m2", "dipole_max_Am2", "path_length_m"):
         assert out[key] == pytest.approx(ref[key], rel=1e-15)
 
 

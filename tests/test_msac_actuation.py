@@ -50,7 +50,7 @@ def held():
 def test_held_torque_conserves_momentum_without_projection(held):
     task, res, s = held
     assert s["momentum_projection_count"] == 0
-    L = res.records["strobe_angmom_N_m_s"][:, 2]
+    L = res.records["strobe_angmom_Nms"][:, 2]
     t = res.records["strobe_t"]
     rate, _ = secular_rate_fit(t[1:], L[1:])  # after the start-up cycle
     # over the shipped 600 s the secular drift rate r adds δψ = r t²/2 ⟨1/D⟩ of spurious yaw
@@ -72,9 +72,9 @@ def test_servo_replay_leaks_what_the_held_torque_does_not(held):
     _, res, s = run(
         "sim.duration_s=0.02", "sim.record_every=2000", "drive.method='replay'", "drive.momentum_projection=false"
     )
-    L = res.records["strobe_angmom_N_m_s"][:, 2]
+    L = res.records["strobe_angmom_Nms"][:, 2]
     leak_replay = abs(L[-1] - L[1]) / (L.size - 2)
-    Lh = held[1].records["strobe_angmom_N_m_s"][:, 2]
+    Lh = held[1].records["strobe_angmom_Nms"][:, 2]
     leak_held = abs(Lh[-1] - Lh[1]) / (Lh.size - 2)
     assert leak_replay > 1e-5 and leak_held < 1e-8
     assert leak_held < 1e-3 * leak_replay
@@ -144,7 +144,7 @@ def test_demand_scales_with_the_cycle_rate_squared():
     _, _, b = run(
         "sim.duration_s=0.002", "sim.timestep_s=2.5e-6", "cycle.frequency_Hz=2000.0", "post.window_s=0.001", HELD
     )
-    for key in ("hinge_torque_peak_N_m", "slide_force_peak_N", "hinge_torque_rms_N_m", "slide_force_rms_N"):
+    for key in ("hinge_torque_peak_Nm", "slide_force_peak_N", "hinge_torque_rms_Nm", "slide_force_rms_N"):
         assert b[key] == pytest.approx(4.0 * a[key], rel=1e-9), key
     assert b["max_cycle_rate_Hz"] == pytest.approx(a["max_cycle_rate_Hz"], rel=1e-9)
     # no spring: the limit is f0·√(capacity/peak) of the steady window's worst joint
@@ -152,10 +152,10 @@ def test_demand_scales_with_the_cycle_rate_squared():
     assert 0 < a["max_cycle_rate_Hz"] < 1.0  # a few hundredths of a hertz
 
 
-def with_actuators(msac, *, slide_N: float, hinge_N_m: float):
+def with_actuators(msac, *, slide_N: float, hinge_Nm: float):
     """A copy of the built MSAC whose config has actuators of these capacities (4 slide chips,
     2 bending chips: chip force and lever arm chosen to match)."""
-    acts = ActuatorsConfig(chip_force_N=slide_N / 4, hinge_lever_arm_m=hinge_N_m / (2 * slide_N / 4))
+    acts = ActuatorsConfig(chip_force_N=slide_N / 4, hinge_lever_arm_m=hinge_Nm / (2 * slide_N / 4))
     sc = copy.copy(msac)
     sc.cfg = msac.cfg.model_copy(update={"actuators": acts})
     return sc
@@ -164,11 +164,11 @@ def with_actuators(msac, *, slide_N: float, hinge_N_m: float):
 def test_feasibility_flag_flips_where_the_capacity_crosses_the_demand(held):
     task, res, s = held
     rec = res.records
-    peak_h, peak_s = s["hinge_torque_peak_N_m"], s["slide_force_peak_N"]
+    peak_h, peak_s = s["hinge_torque_peak_Nm"], s["slide_force_peak_N"]
     for factor, feasible in ((1.001, True), (0.999, False)):
-        out = actuation_summary(with_actuators(task.msac, slide_N=factor * peak_s, hinge_N_m=factor * peak_h), rec)
+        out = actuation_summary(with_actuators(task.msac, slide_N=factor * peak_s, hinge_Nm=factor * peak_h), rec)
         assert out["slide_force_max_N"] == pytest.approx(factor * peak_s, rel=1e-12)
-        assert out["hinge_torque_max_N_m"] == pytest.approx(factor * peak_h, rel=1e-12)
+        assert out["hinge_torque_max_Nm"] == pytest.approx(factor * peak_h, rel=1e-12)
         assert out["actuation_feasible"] is feasible
         assert out["actuation_capacity_ratio"] == pytest.approx(factor, rel=1e-12)
     # the rate limit: capacities at k times the steady cycle's peaks allow √k times the rate
@@ -176,7 +176,7 @@ def test_feasibility_flag_flips_where_the_capacity_crosses_the_demand(held):
     steady = np.abs(rec["win_joint_force"][last]).max(axis=0)
     for k in (0.25, 1.0, 4.0):
         out = actuation_summary(
-            with_actuators(task.msac, slide_N=k * steady[[1, 3]].max(), hinge_N_m=k * steady[[0, 2]].max()), rec
+            with_actuators(task.msac, slide_N=k * steady[[1, 3]].max(), hinge_Nm=k * steady[[0, 2]].max()), rec
         )
         assert out["max_cycle_rate_Hz"] == pytest.approx(1000.0 * np.sqrt(k), rel=1e-12)
 
@@ -184,7 +184,7 @@ def test_feasibility_flag_flips_where_the_capacity_crosses_the_demand(held):
 def test_paper_actuator_capacity():
     a = load_config(MODELS / "paper_1khz.toml", []).actuators
     assert a.slide_force_max_N == 4 * 200.0  # four 200 N chips extend
-    assert a.hinge_torque_max_N_m == pytest.approx(2 * 200.0 * 0.015)  # two bend, 1.5 cm arm
+    assert a.hinge_torque_max_Nm == pytest.approx(2 * 200.0 * 0.015)  # two bend, 1.5 cm arm
     amp = ActuatorsConfig(amplification=50.0, units=3)
     assert amp.slide_force_max_N == pytest.approx(3 * 800.0 / 50.0)
 
@@ -226,7 +226,7 @@ def test_held_torque_chunks_and_resume_equal_one_uninterrupted_run(tmp_path):
     a = build_scenario(load_config(MODELS / "paper_1khz.toml", base)).simulation().run()
     cfg = load_config(MODELS / "paper_1khz.toml", base + ["drive.chunk_cycles=5"])
     b = build_scenario(cfg).simulation().run()
-    for key in ("t", "qpos", "strobe_quat", "angmom_N_m_s", "joint_force"):
+    for key in ("t", "qpos", "strobe_quat", "angmom_Nms", "joint_force"):
         assert np.array_equal(a.records[key], b.records[key]), key
     # stop inside a cycle (the trim of that cycle is part of the checkpoint), then resume
     ck = tmp_path / "ck.pkl"

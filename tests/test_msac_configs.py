@@ -32,14 +32,14 @@ ISSUE_KEYS = (
 )
 SPEC_KEYS = (
     "bus_mass_kg",
-    "bus_izz_kg_m2",
+    "bus_izz_kgm2",
     "wing_mass_kg",
-    "wing_I_rest_hinge_kg_m2",
-    "wing_I_e_hinge_kg_m2",
-    "wing_I_c_hinge_kg_m2",
-    "wing_I_rest_centre_kg_m2",
-    "wing_I_e_centre_kg_m2",
-    "wing_I_c_centre_kg_m2",
+    "wing_I_rest_hinge_kgm2",
+    "wing_I_e_hinge_kgm2",
+    "wing_I_c_hinge_kgm2",
+    "wing_I_rest_centre_kgm2",
+    "wing_I_e_centre_kgm2",
+    "wing_I_c_centre_kgm2",
     "theta_gamma_eq6_model_rad",
     "theta_gamma_eq6_stretch_rad",
     "omega_gamma_eq7_rad_s",
@@ -51,8 +51,8 @@ SPEC_KEYS = (
     "rate_filtered_mean_rad_s",
     "rate_estimates_rel_diff",
     "mujoco_vs_exact_rel_diff",
-    "angmom_drift_max_N_m_s",
-    "hinge_torque_peak_N_m",
+    "angmom_drift_max_Nms",
+    "hinge_torque_peak_Nm",
     "slide_force_peak_N",
     "yaw_unwrapped_final_rad",
     "cycles_simulated",
@@ -168,7 +168,7 @@ def test_lumped_scenario_summary(tmp_path):
     sc = build_msac_scenario(cfg)
     P = sc.planar
     c_e, c_c = 0.08 + 4.0, 4.0
-    I_e, I_c = P.wing_icm_kg_m2 + 60 * c_e**2, P.wing_icm_kg_m2 + 60 * c_c**2
+    I_e, I_c = P.wing_icm_kgm2 + 60 * c_e**2, P.wing_icm_kgm2 + 60 * c_c**2
     eq6 = lumped_theta(I_e=2 * I_e, I_c=2 * I_c, I_sat=2000.0, phi_a=math.radians(10), phi_b=math.radians(-10))
     assert out["theta_gamma_eq6_model_rad"] == pytest.approx(eq6, rel=1e-12)
     assert out["predicted_rate_lumped_rad_s"] == pytest.approx(eq6 * 1000.0, rel=1e-12)

@@ -133,9 +133,9 @@ def test_T8_paper_geometry_mujoco_equals_exact_model(paper):
 def test_angular_momentum_conservation(paper):
     # the shipped held-torque drive: no projection at all, the integrator's own drift only
     sc, res, s = paper
-    L = res.records["angmom_N_m_s"]
+    L = res.records["angmom_Nms"]
     assert s["momentum_projection_count"] == 0
-    assert np.max(np.abs(L)) <= s["angmom_drift_max_N_m_s"] + 1e-12
+    assert np.max(np.abs(L)) <= s["angmom_drift_max_Nms"] + 1e-12
     # the wings exchange ~5e6 N m s with the bus each stroke; the total stays ~1e-11 of that
     # (measured 4.1e-11; the servo replay leaks ~1e-8 within its projection chunks)
     assert s["angular_momentum_drift"] < 1e-9
@@ -147,7 +147,7 @@ def test_shape_tracks_the_prescribed_path(paper):
     # measured 1.1e-5 rad and 1.1e-4 m (0.14 % of the 80 mm stroke): bound at ~5x
     assert s["tracking_error_bend_max_rad"] < 5e-5
     assert s["tracking_error_slide_max_m"] < 5e-4
-    assert s["hinge_torque_peak_N_m"] > 1e9  # enormous, as the spec warns (§5.4)
+    assert s["hinge_torque_peak_Nm"] > 1e9  # enormous, as the spec warns (§5.4)
 
 
 @pytest.mark.parametrize("pattern", ["bend_only", "extend_only"])
@@ -214,7 +214,7 @@ def test_chunked_rollout_equals_one_chunk_and_resume_equals_uninterrupted(tmp_pa
         ["sim.duration_s=0.012", "sim.record_every=50", "drive.momentum_projection=false", "drive.chunk_cycles=5"],
     )
     b = build_scenario(cfg2).simulation().run()
-    for key in ("t", "qpos", "strobe_quat", "angmom_N_m_s"):
+    for key in ("t", "qpos", "strobe_quat", "angmom_Nms"):
         assert np.array_equal(a.records[key], b.records[key]), key
     # stop at 6 ms, then resume from the checkpoint
     ck = tmp_path / "ck.pkl"
@@ -267,6 +267,6 @@ def test_runner_records_match_a_plain_step_loop():
             mujoco.mj_step(m, d)
     assert np.allclose(res.records["strobe_quat"], strobe, rtol=0, atol=1e-12)
     assert np.allclose(res.records["qpos"], rec_q, rtol=0, atol=1e-12)
-    assert np.allclose(res.records["angmom_N_m_s"], rec_L, rtol=0, atol=1e-6)
+    assert np.allclose(res.records["angmom_Nms"], rec_L, rtol=0, atol=1e-6)
     assert np.allclose(res.records["win_joint_force"], win_frc, rtol=1e-10, atol=1e-3)
     assert res.records["t"].size == len(rec_q) and res.records["t"][-1] == pytest.approx(0.003)

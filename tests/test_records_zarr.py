@@ -36,10 +36,10 @@ def _cfg(tree, *overrides):
     [
         ("omega_body_rad_s", "rad/s", "omega body"),
         ("psi_ddot_ref_rad_s2", "rad/s²", "psi ddot ref"),
-        ("torque_gg_world_N_m", "N m", "torque gg world"),
+        ("torque_gg_world_Nm", "N m", "torque gg world"),
         ("torque_cmd_body_Nm", "N m", "torque cmd body"),
-        ("angmom_N_m_s", "N m s", "angmom"),
-        ("dipole_cmd_A_m2", "A m²", "dipole cmd"),
+        ("angmom_Nms", "N m s", "angmom"),
+        ("dipole_cmd_Am2", "A m²", "dipole cmd"),
         ("com_world_m", "m", "com world"),
         ("strain_energy_J", "J", "strain energy"),
         ("theta_e_rad", "rad", "theta e"),

@@ -14,19 +14,19 @@ def test_torque_coil_prints_capability_and_torque_vectors(capsys):
     rc = main(["torque", "coil", "--side-m", "20", "--segment-m", "1", "--current-a", "10", "--field-t", "30e-6"])
     assert rc == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["T_max_ycoil_N_m"] == pytest.approx(0.75 * 20 * 10 * 10 * 30e-6)
-    assert out["m_max_A_m2"] == pytest.approx(out["T_max_ycoil_N_m"] / 30e-6)
+    assert out["T_max_ycoil_Nm"] == pytest.approx(0.75 * 20 * 10 * 10 * 30e-6)
+    assert out["m_max_Am2"] == pytest.approx(out["T_max_ycoil_Nm"] / 30e-6)
     assert set(COIL_REPORT_KEYS) <= set(out)
     for path in ("ycoil", "xcoil", "zloop"):
         for ax in "xyz":
-            assert len(out["paths"][path][f"T_B{ax}_N_m"]) == 3
+            assert len(out["paths"][path][f"T_B{ax}_Nm"]) == 3
 
 
 def test_torque_coil_options_depth_pitch_rows(capsys):
     assert main(["torque", "coil", "--side-m", "20", "--depth-m", "2", "--pitch-cells", "1", "--rows", "8"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["depth_m"] == 2.0 and out["pitch_cells"] == 1 and out["rows"] == 8
-    assert out["T_max_ycoil_N_m"] == pytest.approx(0.75 * 8 * 20 * 10 * 1 * 2 * 30e-6)
+    assert out["T_max_ycoil_Nm"] == pytest.approx(0.75 * 8 * 20 * 10 * 1 * 2 * 30e-6)
 
 
 @pytest.mark.parametrize(

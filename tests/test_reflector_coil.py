@@ -172,16 +172,16 @@ def test_square_loop_closed_ccw_and_capability():
 def test_coil_torque_report_keys_and_baseline_values():
     r = coil_torque_report(side_m=100, segment_m=1, current_A=10, field_T=30e-6)
     assert set(COIL_REPORT_KEYS) <= set(r)
-    assert r["T_max_ycoil_N_m"] == pytest.approx(1.125)
-    assert r["T_max_xcoil_N_m"] == pytest.approx(1.125)
-    assert r["m_max_A_m2"] == pytest.approx(37500.0)
+    assert r["T_max_ycoil_Nm"] == pytest.approx(1.125)
+    assert r["T_max_xcoil_Nm"] == pytest.approx(1.125)
+    assert r["m_max_Am2"] == pytest.approx(37500.0)
     assert r["zloop_side_m"] == 62.0  # 62² · 10 A · 30 µT = 1.153 N m, closest to 1.125
-    assert r["T_max_perimeter_loop_N_m"] == pytest.approx(3.0)
-    assert r["T_max_ycoil_p1_N_m"] == pytest.approx(2.25)
+    assert r["T_max_perimeter_loop_Nm"] == pytest.approx(3.0)
+    assert r["T_max_ycoil_p1_Nm"] == pytest.approx(2.25)
     assert r["node_count"] == 20049 and r["segment_count"] == 20048 and r["path_length_m"] == pytest.approx(20048)
-    assert r["closed_lead_dipole_y_A_m2"] > 0  # positive current gives +y
+    assert r["closed_lead_dipole_y_Am2"] > 0  # positive current gives +y
     y = r["paths"]["ycoil"]
-    assert y["T_Bx_N_m"][2] == pytest.approx(-1.125)  # m ∥ +y, B ∥ x: (m × B)_z = −m B
-    assert len(y["singular_values_N_m"]) == 3
+    assert y["T_Bx_Nm"][2] == pytest.approx(-1.125)  # m ∥ +y, B ∥ x: (m × B)_z = −m B
+    assert len(y["singular_values_Nm"]) == 3
     with pytest.raises(ValueError, match="side_m"):
         coil_torque_report(side_m=100.5, segment_m=1)

@@ -50,8 +50,8 @@ def test_plate_inertia_with_thickness_and_round_trip():
 def _bdot(law):
     return PlateBdotController(
         law=law,
-        m_max_A_m2=37500.0,
-        T_max_N_m=1.125,
+        m_max_Am2=37500.0,
+        T_max_Nm=1.125,
         gain=1.25e11,
         I_max_A=10.0,
         field_body=lambda t, R: R.T @ np.array([0, 0, 30e-6]),
@@ -215,13 +215,13 @@ def test_detumble_smoke_run_writes_the_run_folder(tmp_path):
         "sat_fraction_ycoil",
         "t_min_one_cap_s",
         "t_min_two_caps_s",
-        "h_along_B_change_N_m_s",
+        "h_along_B_change_Nms",
     ):
         assert key in s
     assert s["omega_final_rad_s"] < s["omega_initial_rad_s"]
-    assert abs(s["h_along_B_change_N_m_s"]) < 1e-6 * s["h_initial_N_m_s"]  # h·B̂ is conserved
+    assert abs(s["h_along_B_change_Nms"]) < 1e-6 * s["h_initial_Nms"]  # h·B̂ is conserved
     m = json.loads((out.run_dir / "manifest.json").read_text())
-    assert m["inertia_kg_m2"][2] == pytest.approx(1e3 * 1e4 / 6) and "A6" in m["assumptions"]
+    assert m["inertia_kgm2"][2] == pytest.approx(1e3 * 1e4 / 6) and "A6" in m["assumptions"]
 
 
 def test_pitch_smoke_run_summary_keys(tmp_path):
@@ -241,7 +241,7 @@ def test_pitch_smoke_run_summary_keys(tmp_path):
         "err_rms_rad",
         "sat_fraction",
         "passes_over_cap",
-        "torque_ff_peak_N_m",
+        "torque_ff_peak_Nm",
     ):
         assert key in s
     assert s["tracking_lost_first_s"] is None and s["err_max_rad"] < 5 * math.pi / 180
@@ -258,8 +258,8 @@ def test_pitch_smoke_run_summary_keys(tmp_path):
         "psi_dot_ref_rad_s",
         "psi_act_rad",
         "psi_dot_act_rad_s",
-        "T_ref_body_N_m",
-        "torque_body_N_m",
+        "T_ref_body_Nm",
+        "torque_body_Nm",
         "saturated",
         "err_rad",
     ):
@@ -270,7 +270,7 @@ def test_gravity_gradient_load_matches_body_axes_formula():
     cfg = load_config(TRACK100, ["gravity.gg_torque=true", "sim.duration_s=10"])
     sc = build_scenario(cfg)
     rng = np.random.default_rng(2)
-    load = OrbitGravityGradientLoad(1, inertia_kg_m2=sc.inertia, position=sc.orbit.position, mu=3.986004418e14)
+    load = OrbitGravityGradientLoad(1, inertia_kgm2=sc.inertia, position=sc.orbit.position, mu=3.986004418e14)
     for _ in range(10):
         q = rng.normal(size=4)
         q /= np.linalg.norm(q)
@@ -294,8 +294,8 @@ def test_b3_cap_sweep_runs_the_grid_and_reports_the_minimum_caps(tmp_path):
     out = run_scenario(cfg, tmp_path / "run")
     s = json.loads((out.run_dir / "summary.json").read_text())
     assert s["runs"] == 17  # 0.25·2^(k/2), k = 0…16; the smallest passes
-    assert s["cap_min_err_below_5deg_N_m"] == pytest.approx(0.25)
-    assert s["cap_min_err_below_1deg_N_m"] == pytest.approx(0.25)
+    assert s["cap_min_err_below_5deg_Nm"] == pytest.approx(0.25)
+    assert s["cap_min_err_below_1deg_Nm"] == pytest.approx(0.25)
     assert (out.run_dir / "caps.png").is_file()
 
 

@@ -110,15 +110,15 @@ def test_q_ref_puts_the_grey_line_perpendicular_to_r_rad():
 def _controller(**kw):
     opts = dict(
         orbit=ORBIT,
-        inertia_kg_m2=(8.3e5, 8.3e5, 1.67e6),
+        inertia_kgm2=(8.3e5, 8.3e5, 1.67e6),
         omega_n_rad_s=0.1,
         zeta=0.7,
         rate_term="absolute",
         feedforward=False,
         saturation="norm",
-        cap_N_m=1e9,
+        cap_Nm=1e9,
         B_ref_T=30e-6,
-        m_max_A_m2=(37500.0, 37500.0, 38440.0),
+        m_max_Am2=(37500.0, 37500.0, 38440.0),
         body_id=1,
         period_s=0.5,
     )
@@ -163,7 +163,7 @@ def test_projection_perpendicular_to_B_and_saturation_modes():
         T = rng.normal(size=3) * 3.0
         B = rng.normal(size=3) * 3e-5
         for mode in ("norm", "field_scaled", "per_path"):
-            Ta, sat = project_and_saturate(T, B, saturation=mode, cap_N_m=1.125, B_ref_T=30e-6, m_max_A_m2=m_max)
+            Ta, sat = project_and_saturate(T, B, saturation=mode, cap_Nm=1.125, B_ref_T=30e-6, m_max_Am2=m_max)
             assert abs(Ta @ B) <= 1e-12 * np.linalg.norm(Ta) * np.linalg.norm(B) + 1e-30
             if mode == "norm":
                 assert np.linalg.norm(Ta) <= 1.125 * (1 + 1e-12)
@@ -174,14 +174,14 @@ def test_projection_perpendicular_to_B_and_saturation_modes():
         np.array([0.0, 0.7, 0.0]),
         np.array([2e-5, 0.0, -1e-5]),
         saturation="norm",
-        cap_N_m=1.125,
+        cap_Nm=1.125,
         B_ref_T=30e-6,
-        m_max_A_m2=m_max,
+        m_max_Am2=m_max,
     )
     assert np.allclose(Ta, [0, 0.7, 0]) and not sat
     # per-path: the unclipped dipole reproduces the projected torque exactly
     B = np.array([1e-5, 2e-5, -2e-5])
     T = np.array([0.1, -0.2, 0.05])
-    Ta, sat = project_and_saturate(T, B, saturation="per_path", cap_N_m=1.0, B_ref_T=30e-6, m_max_A_m2=m_max)
+    Ta, sat = project_and_saturate(T, B, saturation="per_path", cap_Nm=1.0, B_ref_T=30e-6, m_max_Am2=m_max)
     b = B / np.linalg.norm(B)
     assert not sat and np.allclose(Ta, T - b * (b @ T))

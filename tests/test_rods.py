@@ -116,15 +116,15 @@ def test_rod_array_of_the_20x20_lattice():
 
 
 def test_rod_dipole_basis_o4():
-    per = rod_dipole_Am2(kappa_Am2_per_kg=100.0, rod_mass_kg=100.0, rods_per_family=(380, 380))
-    tot = rod_dipole_Am2(kappa_Am2_per_kg=100.0, rod_mass_kg=100.0, rods_per_family=(380, 380), basis="total")
+    per = rod_dipole_Am2(kappa_Am2_kg=100.0, rod_mass_kg=100.0, rods_per_family=(380, 380))
+    tot = rod_dipole_Am2(kappa_Am2_kg=100.0, rod_mass_kg=100.0, rods_per_family=(380, 380), basis="total")
     assert per == pytest.approx((10_000 / 380, 10_000 / 380), rel=1e-15)
     assert tot == pytest.approx((10_000 / 760, 10_000 / 760), rel=1e-15)
     assert round(per[0], 2) == 26.32 and round(tot[0], 2) == 13.16  # spec §9.1 numbers
     with pytest.raises(ValueError, match="basis"):
-        rod_dipole_Am2(kappa_Am2_per_kg=1, rod_mass_kg=1, rods_per_family=(1, 1), basis="both")
-    with pytest.raises(ValueError, match="kappa_Am2_per_kg"):
-        rod_dipole_Am2(kappa_Am2_per_kg=-1, rod_mass_kg=1, rods_per_family=(1, 1))
+        rod_dipole_Am2(kappa_Am2_kg=1, rod_mass_kg=1, rods_per_family=(1, 1), basis="both")
+    with pytest.raises(ValueError, match="kappa_Am2_kg"):
+        rod_dipole_Am2(kappa_Am2_kg=-1, rod_mass_kg=1, rods_per_family=(1, 1))
 
 
 # ----------------------------------------------------------------------------- the load
@@ -166,9 +166,7 @@ def lat75():
 def test_load_total_torque_equals_sum_m_cross_B(lat75, deform):
     """Σ over nodes of x × F = Σ_r m_r × B (= torque_world); zero net force; matches the loop."""
     rng = np.random.default_rng(7)
-    load = MagnetorquerRodLoad.from_basis(
-        lat75, kappa_Am2_per_kg=100.0, rod_mass_kg=100.0, B_eci=[2.1e-5, -1.3e-5, 3.4e-5]
-    )
+    load = MagnetorquerRodLoad.from_basis(lat75, kappa_Am2_kg=100.0, rod_mass_kg=100.0, B_eci=[2.1e-5, -1.3e-5, 3.4e-5])
     assert isinstance(load, Load)
     a = lat75.cube_edge_m
     nodes = lat75.nodes + deform * a * rng.normal(size=lat75.nodes.shape)

@@ -122,9 +122,9 @@ def test_scaling_report_keys_and_values():
 
 def test_inputs_validation_and_toml(tmp_path):
     p = tmp_path / "scaling.toml"
-    p.write_text('concept = "truss_magnetorquer"\n[scaling]\nkappas_Am2_per_kg = [20.0, 40.0]\nside_max_m = 150.0\n')
+    p.write_text('concept = "truss_magnetorquer"\n[scaling]\nkappas_Am2_kg = [20.0, 40.0]\nside_max_m = 150.0\n')
     inp = load_scaling_inputs(p)
-    assert inp.kappas_Am2_per_kg == [20.0, 40.0] and inp.side_max_m == 150.0
+    assert inp.kappas_Am2_kg == [20.0, 40.0] and inp.side_max_m == 150.0
     p.write_text("[scaling]\nside_max_m = -3.0\n")
     with pytest.raises(ConfigError, match="scaling.side_max_m"):
         load_scaling_inputs(p)

@@ -104,15 +104,15 @@ def _design_file(tmp_path: Path, body: str) -> Path:
 
 
 def test_grid_is_the_cartesian_product_with_ids_from_the_values(tmp_path):
-    sweep = load_sweep(_design_file(tmp_path, '[grid]\n"stiffness.EI_N_m2" = [1e3, 1e4]\nlattice.units = [3, 4]\n'))
+    sweep = load_sweep(_design_file(tmp_path, '[grid]\n"stiffness.EI_Nm2" = [1e3, 1e4]\nlattice.units = [3, 4]\n'))
     assert [r.id for r in sweep.runs] == [
-        "EI_N_m2=1000,units=3",
-        "EI_N_m2=1000,units=4",
-        "EI_N_m2=10000,units=3",
-        "EI_N_m2=10000,units=4",
+        "EI_Nm2=1000,units=3",
+        "EI_Nm2=1000,units=4",
+        "EI_Nm2=10000,units=3",
+        "EI_Nm2=10000,units=4",
     ]
-    assert sweep.runs[1].params == {"stiffness.EI_N_m2": 1000.0, "lattice.units": 4}
-    assert sweep.runs[1].overrides[-2:] == ("stiffness.EI_N_m2=1000.0", "lattice.units=4")
+    assert sweep.runs[1].params == {"stiffness.EI_Nm2": 1000.0, "lattice.units": 4}
+    assert sweep.runs[1].overrides[-2:] == ("stiffness.EI_Nm2=1000.0", "lattice.units=4")
     assert len({r.config_hash for r in sweep.runs}) == 4
 
 
@@ -152,10 +152,10 @@ def test_design_records_carry_their_params_into_summaries(tmp_path):
 
 def test_grid_with_linked_keys_reproduces_the_36_listed_configs():
     grid = load_sweep(MODELS.parents[3] / "models" / "sweeps" / "current_loops_sweep36_grid.toml")
-    assert len(grid.runs) == 36 and grid.runs[0].id == "circuits=A,units=12,EI_N_m2=1000,timestep_s=0.1,record_every=20"
+    assert len(grid.runs) == 36 and grid.runs[0].id == "circuits=A,units=12,EI_Nm2=1000,timestep_s=0.1,record_every=20"
     for run in grid.runs:
         p = run.params
-        stem = f"{p['loops.circuits'][0].lower().replace('_', '')}_n{p['lattice.units']}_ei{p['stiffness.EI_N_m2']:.0e}"
+        stem = f"{p['loops.circuits'][0].lower().replace('_', '')}_n{p['lattice.units']}_ei{p['stiffness.EI_Nm2']:.0e}"
         listed = load_config(MODELS / "sweep" / f"{stem.replace('e+0', 'e')}.toml").model_dump(mode="json")
         drawn = load_config(run.config, list(run.overrides)).model_dump(mode="json")
         assert {**drawn, "description": ""} == {**listed, "description": ""}, run.id
@@ -193,7 +193,7 @@ def test_monte_carlo_detumble_file_is_the_issue_design():
     mu_m3_s2 = 3.986004418e14
     period_s = 2 * np.pi * np.sqrt((one.orbit.semi_major_axis_km * 1e3) ** 3 / mu_m3_s2)
     assert one.sim.duration_s == pytest.approx(3 * period_s, abs=1.0)  # 17 347.5 s, E-9 period 5 782.5 s
-    assert one.control.bdot_gain_A_m2_s_T == shipped.control.bdot_gain_A_m2_s_T == 3.0e4
+    assert one.control.bdot_gain_Am2s_T == shipped.control.bdot_gain_Am2s_T == 3.0e4
     assert one.orbit.true_anomaly0_deg == shipped.orbit.true_anomaly0_deg
     assert one.sim.checkpoint_every_s > 0
 

@@ -117,7 +117,7 @@ config = "{LOOPS}"
 set = ["lattice.units=3", "sim.duration_s=2.0", "sim.record_every=10", "sim.progress=false"]
 
 [grid]
-"stiffness.EI_N_m2" = [1e3, 1e4]
+"stiffness.EI_Nm2" = [1e3, 1e4]
 "sim.timestep_s" = [0.01, 0.02]
 ''')
     out = tmp_path / "out"
@@ -130,16 +130,16 @@ set = ["lattice.units=3", "sim.duration_s=2.0", "sim.record_every=10", "sim.prog
     assert main(parser.parse_args([str(out)])) == 0
     names = {Path(p).name for p in json.loads(capsys.readouterr().out)["report"]}
     assert {"report.csv", "report.md"} <= names
-    for key in ("stiffness.EI_N_m2", "sim.timestep_s"):  # one plot per key, or _1, _2, … beyond 12 figures
+    for key in ("stiffness.EI_Nm2", "sim.timestep_s"):  # one plot per key, or _1, _2, … beyond 12 figures
         assert {f"{key}.png", f"{key}_1.png"} & names, (key, sorted(names))
     table = list(csv.DictReader(io.StringIO((out / "report" / "report.csv").read_text())))
-    assert [(float(r["stiffness.EI_N_m2"]), float(r["sim.timestep_s"])) for r in table] == [
+    assert [(float(r["stiffness.EI_Nm2"]), float(r["sim.timestep_s"])) for r in table] == [
         (1e3, 0.01),
         (1e3, 0.02),
         (1e4, 0.01),
         (1e4, 0.02),
     ]
-    figures = [c for c in table[0] if c not in ("id", "status", "stiffness.EI_N_m2", "sim.timestep_s")]
+    figures = [c for c in table[0] if c not in ("id", "status", "stiffness.EI_Nm2", "sim.timestep_s")]
     assert figures  # every figure that varies across the runs, with the run's own value
     for row, rec in zip(table, records, strict=True):
         for f in figures:

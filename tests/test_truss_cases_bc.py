@@ -109,13 +109,13 @@ def test_sd_trend_after_cut_off_of_a_synthetic_signal():
     keys, _ = profile_response(
         p, t, 0.3 + b * t + A * np.cos(2 * np.pi * t / P), inertia_kgm2=1.0, torque_cmd_body_Nm=zeros
     )
-    assert keys["surface_sd_after_off_slope_m_per_s"] == pytest.approx(b, rel=0.05)
+    assert keys["surface_sd_after_off_slope_m_s"] == pytest.approx(b, rel=0.05)
     assert keys["surface_sd_after_off_osc_amplitude_m"] == pytest.approx(A, rel=0.02)
     assert keys["surface_sd_after_off_period_s"] == pytest.approx(P, rel=0.02)
     keys, _ = profile_response(
         p, t, 0.3 + b * t + A * np.sin(2 * np.pi * t / P), inertia_kgm2=1.0, torque_cmd_body_Nm=zeros
     )
-    assert keys["surface_sd_after_off_slope_m_per_s"] == pytest.approx(b - 6 * A * P / (np.pi * L**2), rel=0.05)
+    assert keys["surface_sd_after_off_slope_m_s"] == pytest.approx(b - 6 * A * P / (np.pi * L**2), rel=0.05)
 
 
 def test_placement_ratios_and_failed_runs():

@@ -49,7 +49,7 @@ ax.set_xlabel("x [m]")
 ax.set_ylabel("y [m]")
 ax.set_title(
     f"coil paths, side {SIDE_M:g} m, cell {CELL_M:g} m; "
-    f"T_max,y = {report['T_max_ycoil_N_m']:.3g} N·m at {CURRENT_A:g} A, {FIELD_T * 1e6:g} µT",
+    f"T_max,y = {report['T_max_ycoil_Nm']:.3g} N·m at {CURRENT_A:g} A, {FIELD_T * 1e6:g} µT",
     fontsize=9,
 )
 ax.legend(loc="upper right", fontsize=8)

@@ -104,10 +104,10 @@ def capability(path: CoilPath, *, current_A: float, field_T: float) -> float:
 
 
 def loop_side_for_capability(
-    target_N_m: float, *, side_m: float, segment_m: float, depth_m: float, current_A: float, field_T: float
+    target_Nm: float, *, side_m: float, segment_m: float, depth_m: float, current_A: float, field_T: float
 ) -> tuple[float, float]:
     """Side [m] of the lattice-aligned square loop (plane z = −h/2, centred) whose capability
-    ``|x̂·T(B_ref ŷ)| = I s² B_ref`` is closest to ``target_N_m`` (assumption A3), and that capability.
+    ``|x̂·T(B_ref ŷ)| = I s² B_ref`` is closest to ``target_Nm`` (assumption A3), and that capability.
 
     Candidate sides are the even multiples of ``segment_m`` up to ``side_m``.
     """
@@ -116,7 +116,7 @@ def loop_side_for_capability(
         raise ValueError(f"side_m: {side_m!r} m holds no centred loop of segment_m = {segment_m!r} m")
     sides = 2 * segment_m * np.arange(1, k_max + 1)
     caps = current_A * field_T * sides**2
-    k = int(np.argmin(np.abs(caps - target_N_m)))
+    k = int(np.argmin(np.abs(caps - target_Nm)))
     side = float(sides[k])
     loop = CoilPath("zloop", square_loop(side, segment_m, z=-depth_m / 2, d=side_m), axis=2, s_path=+1)
     return side, capability(loop, current_A=current_A, field_T=field_T)
@@ -125,10 +125,10 @@ def loop_side_for_capability(
 def path_report(path: CoilPath, *, current_A: float, field_T: float) -> dict[str, Any]:
     """Everything §3.6 asks of one path at ``I = I_max`` (node-order current ``s_path I_max``).
 
-    Keys: ``node_count``, ``segment_count``, ``length_m``, ``s_path``, ``torque_matrix_N_m_per_A_T``
-    (node-order current), ``T_max_N_m``, ``T_Bx_N_m``, ``T_By_N_m``, ``T_Bz_N_m`` (full torque
-    vectors for ``B = B_ref ê``), ``singular_values_N_m`` (of ``I M B_ref``), ``net_force_B{x,y,z}_N``,
-    ``closed_lead_dipole_A_m2``.
+    Keys: ``node_count``, ``segment_count``, ``length_m``, ``s_path``, ``torque_matrix_Nm_AT``
+    (node-order current), ``T_max_Nm``, ``T_Bx_Nm``, ``T_By_Nm``, ``T_Bz_Nm`` (full torque
+    vectors for ``B = B_ref ê``), ``singular_values_Nm`` (of ``I M B_ref``), ``net_force_B{x,y,z}_N``,
+    ``closed_lead_dipole_Am2``.
     """
     M = torque_matrix(path.nodes)
     I = path.s_path * current_A
@@ -137,16 +137,16 @@ def path_report(path: CoilPath, *, current_A: float, field_T: float) -> dict[str
         "segment_count": path.segment_count,
         "length_m": path.length_m,
         "s_path": int(path.s_path),
-        "torque_matrix_N_m_per_A_T": M.tolist(),
-        "T_max_N_m": capability(path, current_A=current_A, field_T=field_T),
+        "torque_matrix_Nm_AT": M.tolist(),
+        "T_max_Nm": capability(path, current_A=current_A, field_T=field_T),
     }
     for k, ax in enumerate("xyz"):
-        out[f"T_B{ax}_N_m"] = (I * field_T * M[:, k]).tolist()
+        out[f"T_B{ax}_Nm"] = (I * field_T * M[:, k]).tolist()
     # σ(I B M) = |I B| σ(M): the path's own matrix is decomposed, then scaled (no SVD of overflowed values)
-    out["singular_values_N_m"] = (abs(I * field_T) * np.linalg.svd(M, compute_uv=False)).tolist()
+    out["singular_values_Nm"] = (abs(I * field_T) * np.linalg.svd(M, compute_uv=False)).tolist()
     for k, ax in enumerate("xyz"):
         out[f"net_force_B{ax}_N"] = net_force(path.nodes, field_T * np.eye(3)[k], current=I).tolist()
-    out["closed_lead_dipole_A_m2"] = closed_lead_dipole(path.nodes, current=I).tolist()
+    out["closed_lead_dipole_Am2"] = closed_lead_dipole(path.nodes, current=I).tolist()
     return out
 
 
@@ -162,10 +162,10 @@ def coil_torque_report(
 ) -> dict[str, Any]:
     """The ``coil_torque`` figures of spec §8.2 plus the full per-path report (§3.6, §8.3 item 1).
 
-    Flat keys: ``T_max_ycoil_N_m``, ``T_max_xcoil_N_m``, ``T_max_zloop_N_m``, ``zloop_side_m``,
-    ``T_max_perimeter_loop_N_m``, ``T_max_ycoil_p1_N_m``, ``T_max_ycoil_rows_plus1_N_m``,
-    ``m_max_A_m2`` (= T_max,y / B_ref), ``path_length_m``, ``node_count``, ``segment_count``,
-    ``net_force_Bx_N`` (|F| of the y-coil for B = B_ref x̂), ``closed_lead_dipole_y_A_m2`` (y
+    Flat keys: ``T_max_ycoil_Nm``, ``T_max_xcoil_Nm``, ``T_max_zloop_Nm``, ``zloop_side_m``,
+    ``T_max_perimeter_loop_Nm``, ``T_max_ycoil_p1_Nm``, ``T_max_ycoil_rows_plus1_Nm``,
+    ``m_max_Am2`` (= T_max,y / B_ref), ``path_length_m``, ``node_count``, ``segment_count``,
+    ``net_force_Bx_N`` (|F| of the y-coil for B = B_ref x̂), ``closed_lead_dipole_y_Am2`` (y
     component of the y-coil's closed-lead dipole for the positive, +y-dipole current). The nested
     ``paths`` table holds :func:`path_report` of each path.
 
@@ -284,18 +284,18 @@ def _coil_report(
         "field_T": field_T,
         "pitch_cells": pitch_cells,
         "rows": n if rows is None else rows,
-        "T_max_ycoil_N_m": T_y,
-        "T_max_xcoil_N_m": reports["xcoil"]["T_max_N_m"],
-        "T_max_zloop_N_m": T_z,
+        "T_max_ycoil_Nm": T_y,
+        "T_max_xcoil_Nm": reports["xcoil"]["T_max_Nm"],
+        "T_max_zloop_Nm": T_z,
         "zloop_side_m": zside,
-        "T_max_perimeter_loop_N_m": reports["perimeter_loop"]["T_max_N_m"] if perim is not None else None,
-        "T_max_ycoil_p1_N_m": reports["ycoil_p1"]["T_max_N_m"],
-        "T_max_ycoil_rows_plus1_N_m": reports["ycoil_rows_plus1"]["T_max_N_m"],
-        "m_max_A_m2": T_y / field_T,
+        "T_max_perimeter_loop_Nm": reports["perimeter_loop"]["T_max_Nm"] if perim is not None else None,
+        "T_max_ycoil_p1_Nm": reports["ycoil_p1"]["T_max_Nm"],
+        "T_max_ycoil_rows_plus1_Nm": reports["ycoil_rows_plus1"]["T_max_Nm"],
+        "m_max_Am2": T_y / field_T,
         "path_length_m": y["length_m"],
         "node_count": y["node_count"],
         "segment_count": y["segment_count"],
         "net_force_Bx_N": float(np.linalg.norm(y["net_force_Bx_N"])),
-        "closed_lead_dipole_y_A_m2": y["closed_lead_dipole_A_m2"][1],
+        "closed_lead_dipole_y_Am2": y["closed_lead_dipole_Am2"][1],
         "paths": reports,
     }

@@ -104,7 +104,7 @@ class ThermalConstants:
     """Reference temperature Γ_r [K] (assumed 20 °C, §9 item 13)."""
     T_eq_K: float = 420.0
     """Equilibrium (maximum) wire temperature Γ_e [K]."""
-    rho_ref_ohm_m: float = 1.68e-8
+    rho_ref_ohmm: float = 1.68e-8
     """Resistivity at Γ_r, ρ_r [Ω m]."""
     emissivity: float = 0.7
     """Grey-body emissivity ε [-] (also the solar absorptance in the sunlight check)."""
@@ -254,7 +254,7 @@ def c1(constants: ThermalConstants = DEFAULT_CONSTANTS) -> float:
     (16384 = 64 · 4096 / 16 collects the ¼ of ``M_c``, the 4/π² of ``d³`` and the 1/8 of Eq. 9.)
     """
     k = constants
-    num = k.mu_m3_s2**4 * k.rho_c_kg_m3**3 * k.rho_ref_ohm_m**2 * k.f_gamma**2
+    num = k.mu_m3_s2**4 * k.rho_c_kg_m3**3 * k.rho_ref_ohmm**2 * k.f_gamma**2
     den = 16384.0 * math.pi * k.T_eq_K**8 * k.emissivity**2 * k.sigma_B**2 * k.B0_T**4 * k.R_E_m**12
     return (num / den) ** (1.0 / 3.0)
 
@@ -344,7 +344,7 @@ def wire_diameter(current_A, *, constants: ThermalConstants = DEFAULT_CONSTANTS)
         raise ValueError(f"current_A: must be finite, got {current_A!r}")
     k = constants
     return _out(
-        (4.0 * k.rho_ref_ohm_m * k.f_gamma * I * I / (math.pi**2 * k.emissivity * k.sigma_B * k.T_eq_K**4))
+        (4.0 * k.rho_ref_ohmm * k.f_gamma * I * I / (math.pi**2 * k.emissivity * k.sigma_B * k.T_eq_K**4))
         ** (1.0 / 3.0)
     )
 
@@ -361,7 +361,7 @@ def joule_power(current_A, wire_diameter_m, length_m, *, constants: ThermalConst
     I = np.asarray(current_A, dtype=float)
     d = _positive("wire_diameter_m", wire_diameter_m)
     l = _positive("length_m", length_m)
-    return _out(I * I * 4.0 * constants.rho_ref_ohm_m * l * constants.f_gamma / (math.pi * d * d))
+    return _out(I * I * 4.0 * constants.rho_ref_ohmm * l * constants.f_gamma / (math.pi * d * d))
 
 
 def radiated_power(wire_diameter_m, length_m, *, constants: ThermalConstants = DEFAULT_CONSTANTS):
@@ -552,7 +552,7 @@ def loop_sizing(
     """Eq.-9 current and thermal sizing of one loop geometry (spec §3 item 1).
 
     Returns a dict with ``current_A`` (A on the light branch), ``wire_diameter_m``, ``lambda_f``,
-    ``power_W`` and ``power_per_area_W_m2`` (``P_J = ε σ_B π d l Γ_e⁴``), ``dipole_max_A_m2``
+    ``power_W`` and ``power_per_area_W_m2`` (``P_J = ε σ_B π d l Γ_e⁴``), ``dipole_max_Am2``
     (``I A_e``), ``area_m2`` and ``path_length_m`` (Table-1 forms), ``conductor_mass_kg``, and the
     inputs. ``kappa`` matters only for A.
 
@@ -595,7 +595,7 @@ def loop_sizing(
         "lambda_f": ch["lambda_f"],
         "power_W": P,
         "power_per_area_W_m2": P / (D * D),
-        "dipole_max_A_m2": ch["current_A"] * area,
+        "dipole_max_Am2": ch["current_A"] * area,
         "area_m2": area,
         "path_length_m": length,
         "conductor_mass_kg": ch["conductor_mass_kg"],
@@ -626,12 +626,12 @@ def scaling_table(
     """The ``scaling`` object of spec §7.2 (stdout of ``magsail scaling loops --table``).
 
     Keys ``{g}_N{N}_current_A``, ``_wire_diameter_m``, ``_lambda_f``, ``_power_per_area_W_m2``,
-    ``_dipole_max_A_m2``, ``_path_length_m`` for every geometry and ``N``; ``c1_per_m_per_cbrt_kg``,
+    ``_dipole_max_Am2``, ``_path_length_m`` for every geometry and ``N``; ``c1_per_m_per_cbrt_kg``,
     ``kappa``, ``A_lambda_fold`` (``λ* = 3/κ``); and, beyond §7.2, the inputs ``side_m``,
     ``areal_density_kg_m2`` and ``A_side_fold_m`` (largest A plate with a solution).
     """
     out: dict = {}
-    keys = ("current_A", "wire_diameter_m", "lambda_f", "power_per_area_W_m2", "dipole_max_A_m2", "path_length_m")
+    keys = ("current_A", "wire_diameter_m", "lambda_f", "power_per_area_W_m2", "dipole_max_Am2", "path_length_m")
     for g in geometries:
         for N in units:
             row = loop_sizing(

@@ -135,9 +135,9 @@ def dipole_field_magnitude(radius_m, *, B0_T: float = B0_DIPOLE, R_E_m: float = 
     return _out(B0_T * (R_E_m / r) ** 3)
 
 
-def actuator_torque_max(kappa_Am2_per_kg, rod_mass_kg, B_T):
+def actuator_torque_max(kappa_Am2_kg, rod_mass_kg, B_T):
     """``T_ac,max = κ_τ M_τ B`` [N m]: all rod dipole perpendicular to the field (Eq. 16)."""
-    k = _positive("kappa_Am2_per_kg", kappa_Am2_per_kg)
+    k = _positive("kappa_Am2_kg", kappa_Am2_kg)
     m = np.asarray(rod_mass_kg, dtype=float)
     if not np.all(np.isfinite(m)) or np.any(m < 0):
         raise ValueError(f"rod_mass_kg: must be finite and >= 0, got {rod_mass_kg!r}")
@@ -147,13 +147,11 @@ def actuator_torque_max(kappa_Am2_per_kg, rod_mass_kg, B_T):
     return _out(k * m * B)
 
 
-def rod_mass_fraction(
-    side_m, kappa_Am2_per_kg, *, mu: float = MU_EARTH, B0_T: float = B0_DIPOLE, R_E_m: float = R_E_TRUSS
-):
+def rod_mass_fraction(side_m, kappa_Am2_kg, *, mu: float = MU_EARTH, B0_T: float = B0_DIPOLE, R_E_m: float = R_E_TRUSS):
     """Rod mass fraction needed to match the peak gravity-gradient torque (§8, Eq. 17):
     ``λ_f = μ d² / (8 B0 R_E³ κ_τ)`` (dimensionless); broadcasts over ``side_m`` and ``kappa``."""
     d = _positive("side_m", side_m)
-    k = _positive("kappa_Am2_per_kg", kappa_Am2_per_kg)
+    k = _positive("kappa_Am2_kg", kappa_Am2_kg)
     _positive("mu", mu)
     _positive("B0_T", B0_T)
     _positive("R_E_m", R_E_m)
@@ -161,12 +159,12 @@ def rod_mass_fraction(
 
 
 def side_at_rod_mass_fraction(
-    lambda_f, kappa_Am2_per_kg, *, mu: float = MU_EARTH, B0_T: float = B0_DIPOLE, R_E_m: float = R_E_TRUSS
+    lambda_f, kappa_Am2_kg, *, mu: float = MU_EARTH, B0_T: float = B0_DIPOLE, R_E_m: float = R_E_TRUSS
 ):
     """Side length [m] at which the needed fraction equals ``lambda_f``:
     ``d = sqrt(8 B0 R_E³ κ_τ λ_f / μ)``; broadcasts."""
     lam = _positive("lambda_f", lambda_f)
-    k = _positive("kappa_Am2_per_kg", kappa_Am2_per_kg)
+    k = _positive("kappa_Am2_kg", kappa_Am2_kg)
     _positive("mu", mu)
     _positive("B0_T", B0_T)
     _positive("R_E_m", R_E_m)
@@ -190,7 +188,7 @@ def scaling_report(
     The orbit radius is ``r = R_E + altitude`` (§12 item O8); ``total_kg`` and ``rod_mass_kg``
     (defaults: the §9 truss, 200 kg of which 100 kg rods) enter only the torques, not ``λ_f``.
 
-    Keys (SI in the names): ``side_m``, ``kappa_Am2_per_kg``, ``altitude_km``, ``radius_m``,
+    Keys (SI in the names): ``side_m``, ``kappa_Am2_kg``, ``altitude_km``, ``radius_m``,
     ``total_kg``, ``rod_mass_kg``, ``mu_m3_s2``, ``B0_T``, ``R_E_m``;
     ``lambda_f`` — rod mass fraction needed (Eq. 17);
     ``d_at_lambda_f_1_m`` — side at which ``λ_f = 1`` (all mass in rods);
@@ -246,7 +244,7 @@ def _scaling_figures(
     lam_design = Mt / M
     return {
         "side_m": d.tolist(),
-        "kappa_Am2_per_kg": k.tolist(),
+        "kappa_Am2_kg": k.tolist(),
         "altitude_km": alt,
         "radius_m": r,
         "total_kg": M,
@@ -273,7 +271,7 @@ class ScalingInputs(StrictModel):
     ``magsail_mj/concepts/truss_magnetorquer/configs/scaling.toml``; defaults are the spec's §8 and §9.1 values).
     Strict like every config table: finite numbers, no strings or booleans for numbers."""
 
-    kappas_Am2_per_kg: list[float] = Field(default=[10.0, 50.0, 100.0, 200.0], min_length=1)
+    kappas_Am2_kg: list[float] = Field(default=[10.0, 50.0, 100.0, 200.0], min_length=1)
     side_min_m: float = Field(default=1.0, gt=0)
     side_max_m: float = Field(default=200.0, gt=0)
     n_points: int = Field(default=400, ge=2)
@@ -282,7 +280,7 @@ class ScalingInputs(StrictModel):
     total_kg: float = Field(default=200.0, gt=0)
     rod_mass_kg: float = Field(default=100.0, ge=0)
     design_side_m: float = Field(default=75.0, gt=0)
-    design_kappa_Am2_per_kg: float = Field(default=100.0, gt=0)
+    design_kappa_Am2_kg: float = Field(default=100.0, gt=0)
     mu_m3_s2: float = Field(default=MU_EARTH, gt=0)
     B0_T: float = Field(default=B0_DIPOLE, gt=0)
     R_E_km: float = Field(default=R_E_TRUSS / 1e3, gt=0)
@@ -293,8 +291,8 @@ class ScalingInputs(StrictModel):
             raise ValueError(f"side_max_m: must exceed side_min_m = {self.side_min_m!r}, got {self.side_max_m!r}")
         if self.rod_mass_kg > self.total_kg:
             raise ValueError(f"rod_mass_kg: must not exceed total_kg = {self.total_kg!r}, got {self.rod_mass_kg!r}")
-        if any(k <= 0 for k in self.kappas_Am2_per_kg):
-            raise ValueError("kappas_Am2_per_kg: every value must be > 0")
+        if any(k <= 0 for k in self.kappas_Am2_kg):
+            raise ValueError("kappas_Am2_kg: every value must be > 0")
         if any(d <= 0 for d in self.table_sides_m):
             raise ValueError("table_sides_m: every value must be > 0")
         return self
@@ -324,13 +322,13 @@ def scaling_tables(inputs: ScalingInputs) -> dict:
     kw = {"mu": inputs.mu_m3_s2, "B0_T": inputs.B0_T, "R_E_m": inputs.R_E_km * 1e3}
     lam = {
         f"kappa={k:g}": {f"d={d:g}": float(rod_mass_fraction(d, k, **kw)) for d in inputs.table_sides_m}
-        for k in inputs.kappas_Am2_per_kg
+        for k in inputs.kappas_Am2_kg
     }
-    d1 = {f"kappa={k:g}": float(side_at_rod_mass_fraction(1.0, k, **kw)) for k in inputs.kappas_Am2_per_kg}
-    d05 = {f"kappa={k:g}": float(side_at_rod_mass_fraction(0.5, k, **kw)) for k in inputs.kappas_Am2_per_kg}
+    d1 = {f"kappa={k:g}": float(side_at_rod_mass_fraction(1.0, k, **kw)) for k in inputs.kappas_Am2_kg}
+    d05 = {f"kappa={k:g}": float(side_at_rod_mass_fraction(0.5, k, **kw)) for k in inputs.kappas_Am2_kg}
     design = scaling_report(
         inputs.design_side_m,
-        inputs.design_kappa_Am2_per_kg,
+        inputs.design_kappa_Am2_kg,
         altitude_km=inputs.altitude_km,
         total_kg=inputs.total_kg,
         rod_mass_kg=inputs.rod_mass_kg,
@@ -347,7 +345,7 @@ def scaling_tables(inputs: ScalingInputs) -> dict:
         "lambda_f_design": design["lambda_f_design"],
         "authority_margin": design["authority_margin"],
         "design_side_m": inputs.design_side_m,
-        "design_kappa_Am2_per_kg": inputs.design_kappa_Am2_per_kg,
+        "design_kappa_Am2_kg": inputs.design_kappa_Am2_kg,
         "altitude_km": inputs.altitude_km,
         "radius_m": design["radius_m"],
         "total_kg": inputs.total_kg,

@@ -29,28 +29,28 @@ from magsail_mj.vec3 import cross3
 __all__ = ["bdot_torque", "BdotRodController"]
 
 
-def bdot_torque(omega_body: np.ndarray, B_body: np.ndarray, *, k_Nms_per_T2: float) -> np.ndarray:
+def bdot_torque(omega_body: np.ndarray, B_body: np.ndarray, *, k_Nms_T2: float) -> np.ndarray:
     r"""``T = k (ω × B) × B`` [N m] (spec §9.3), body components.
 
     Args:
       omega_body: (3,) or (K, 3) body rate [rad/s].
       B_body: (3,) or (K, 3) field [T], same frame.
-      k_Nms_per_T2: gain ``k_Bdot`` [N m s/T²], ``>= 0``.
+      k_Nms_T2: gain ``k_Bdot`` [N m s/T²], ``>= 0``.
     """
-    if not (np.isfinite(k_Nms_per_T2) and k_Nms_per_T2 >= 0):
-        raise ValueError(f"k_Nms_per_T2: must be a number >= 0 N m s/T², got {k_Nms_per_T2!r}")
+    if not (np.isfinite(k_Nms_T2) and k_Nms_T2 >= 0):
+        raise ValueError(f"k_Nms_T2: must be a number >= 0 N m s/T², got {k_Nms_T2!r}")
     w = np.asarray(omega_body, dtype=float)
     B = np.asarray(B_body, dtype=float)
     if w.shape == (3,) and B.shape == (3,):  # the per-sample path
-        return k_Nms_per_T2 * cross3(cross3(w, B), B)
-    return k_Nms_per_T2 * np.cross(np.cross(w, B), B)
+        return k_Nms_T2 * cross3(cross3(w, B), B)
+    return k_Nms_T2 * np.cross(np.cross(w, B), B)
 
 
 class BdotRodController(RodAttitudeController):
     """B-dot on the flexible structure feeding the rod allocation (spec §9.3, §9.2 loop).
 
     Args:
-      k_Nms_per_T2: ``k_Bdot`` [N m s/T²] (default 1e12, §9.3).
+      k_Nms_T2: ``k_Bdot`` [N m s/T²] (default 1e12, §9.3).
       reference_nodes, masses, node_bodies, distributor, period_s, omega0_body, rate_method: see
         :class:`~magsail_mj.control.rod_attitude.RodAttitudeController` (``omega0_body`` is the
         known initial rate of §9.3, used at the first sample).
@@ -61,16 +61,16 @@ class BdotRodController(RodAttitudeController):
     def __init__(
         self,
         *,
-        k_Nms_per_T2: float = 1e12,
+        k_Nms_T2: float = 1e12,
         **base: Unpack[RodControllerOptions],
     ) -> None:
         super().__init__(**base)
-        if not (np.isfinite(k_Nms_per_T2) and k_Nms_per_T2 >= 0):
-            raise ValueError(f"k_Nms_per_T2: must be a number >= 0 N m s/T², got {k_Nms_per_T2!r}")
-        self.k = float(k_Nms_per_T2)
+        if not (np.isfinite(k_Nms_T2) and k_Nms_T2 >= 0):
+            raise ValueError(f"k_Nms_T2: must be a number >= 0 N m s/T², got {k_Nms_T2!r}")
+        self.k = float(k_Nms_T2)
 
     def reference_torque(
         self, *, t: float, R: np.ndarray, omega_body: np.ndarray, B_body: np.ndarray, com_world: np.ndarray, env: Any
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """``T_ref = k (ω × B_b) × B_b`` (body components, N m)."""
-        return bdot_torque(omega_body, B_body, k_Nms_per_T2=self.k), {}
+        return bdot_torque(omega_body, B_body, k_Nms_T2=self.k), {}

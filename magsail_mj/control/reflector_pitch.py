@@ -62,9 +62,9 @@ def project_and_saturate(
     B: np.ndarray,
     *,
     saturation: Literal["norm", "field_scaled", "per_path"],
-    cap_N_m: float,
+    cap_Nm: float,
     B_ref_T: float,
-    m_max_A_m2: np.ndarray,
+    m_max_Am2: np.ndarray,
 ) -> tuple[np.ndarray, bool]:
     """Achievable torque for the desired ``T_ref`` in field ``B`` (same axes) and whether it saturated."""
     B2 = float(B @ B)
@@ -72,11 +72,11 @@ def project_and_saturate(
         return np.zeros(3), bool(np.any(T_ref != 0))
     if saturation == "per_path":
         m = cross3(B, T_ref) / B2
-        mc = np.clip(m, -m_max_A_m2, m_max_A_m2)
-        return cross3(mc, B), bool(np.any(np.abs(m) > m_max_A_m2))
+        mc = np.clip(m, -m_max_Am2, m_max_Am2)
+        return cross3(mc, B), bool(np.any(np.abs(m) > m_max_Am2))
     b = B / math.sqrt(B2)
     T_perp = T_ref - b * float(b @ T_ref)
-    cap = cap_N_m if saturation == "norm" else cap_N_m * math.sqrt(B2) / B_ref_T
+    cap = cap_Nm if saturation == "norm" else cap_Nm * math.sqrt(B2) / B_ref_T
     return saturate_norm(T_perp, cap)
 
 
@@ -104,14 +104,14 @@ class ReflectorPitchController:
 
     Args:
       orbit: the kinematic orbit (field, steering law).
-      inertia_kg_m2: principal moments (I₁, I₂, I₃) [kg m²] (gains, feed-forward).
+      inertia_kgm2: principal moments (I₁, I₂, I₃) [kg m²] (gains, feed-forward).
       omega_n_rad_s, zeta: closed-loop bandwidth and damping of the gain design.
       rate_term: ``"absolute"`` (as printed) or ``"error"``.
       feedforward: add ``𝓘 α_ref``.
       saturation: ``"norm"``, ``"field_scaled"`` or ``"per_path"``.
-      cap_N_m: torque cap T_max [N m].
+      cap_Nm: torque cap T_max [N m].
       B_ref_T: reference field of the cap [T].
-      m_max_A_m2: (3,) per-path dipole limits (x-coil, y-coil, in-plane loop) [A m²].
+      m_max_Am2: (3,) per-path dipole limits (x-coil, y-coil, in-plane loop) [A m²].
       body_id: the plate body (reads ``state.xquat``, ``state.omega`` (world)).
       period_s: controller period [s].
     """
@@ -120,15 +120,15 @@ class ReflectorPitchController:
         self,
         *,
         orbit: ReflectorOrbit,
-        inertia_kg_m2: Sequence[float],
+        inertia_kgm2: Sequence[float],
         omega_n_rad_s: float,
         zeta: float,
         rate_term: Literal["absolute", "error"],
         feedforward: bool,
         saturation: Literal["norm", "field_scaled", "per_path"],
-        cap_N_m: float,
+        cap_Nm: float,
         B_ref_T: float,
-        m_max_A_m2: Sequence[float],
+        m_max_Am2: Sequence[float],
         body_id: int,
         period_s: float,
     ) -> None:
@@ -136,18 +136,18 @@ class ReflectorPitchController:
             raise ValueError(f"rate_term: must be 'absolute' or 'error', got {rate_term!r}")
         if saturation not in ("norm", "field_scaled", "per_path"):
             raise ValueError(f"saturation: must be 'norm', 'field_scaled' or 'per_path', got {saturation!r}")
-        if not (math.isfinite(cap_N_m) and cap_N_m > 0):
-            raise ValueError(f"cap_N_m: must be > 0, got {cap_N_m!r}")
+        if not (math.isfinite(cap_Nm) and cap_Nm > 0):
+            raise ValueError(f"cap_Nm: must be > 0, got {cap_Nm!r}")
         self.orbit = orbit
         self.steering = SteeringReference(orbit)
-        self.inertia = np.asarray(inertia_kg_m2, dtype=float)
+        self.inertia = np.asarray(inertia_kgm2, dtype=float)
         self.Pq, self.Pw = pitch_gains(self.inertia, omega_n_rad_s=omega_n_rad_s, zeta=zeta)
         self.rate_term = rate_term
         self.feedforward = bool(feedforward)
         self.saturation = saturation
-        self.cap = float(cap_N_m)
+        self.cap = float(cap_Nm)
         self.B_ref = float(B_ref_T)
-        self.m_max = np.asarray(m_max_A_m2, dtype=float)
+        self.m_max = np.asarray(m_max_Am2, dtype=float)
         self.body_id = int(body_id)
         self.period_s = float(period_s)
         self.last: PitchCommand | None = None
@@ -184,7 +184,7 @@ class ReflectorPitchController:
         world rotation of the plate)."""
         B_w = self.orbit.field(t)
         T_act, sat = project_and_saturate(
-            T_ref, R.T @ B_w, saturation=self.saturation, cap_N_m=self.cap, B_ref_T=self.B_ref, m_max_A_m2=self.m_max
+            T_ref, R.T @ B_w, saturation=self.saturation, cap_Nm=self.cap, B_ref_T=self.B_ref, m_max_Am2=self.m_max
         )
         return PitchCommand(
             torque_body=T_act,

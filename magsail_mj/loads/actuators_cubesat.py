@@ -248,58 +248,58 @@ class DCMotorParams:
     """Reaction-wheel and DC-motor constants (spec §4.2; defaults = its recommended/assumed set).
 
     Attributes:
-      spin_inertia_kg_m2: rotor spin inertia I_w (Table 4: 4.5e-6).
-      torque_max_N_m: τ_max (E-4: 0.196e-3 default; 1.9e-3 sensitivity case).
+      spin_inertia_kgm2: rotor spin inertia I_w (Table 4: 4.5e-6).
+      torque_max_Nm: τ_max (E-4: 0.196e-3 default; 1.9e-3 sensitivity case).
       speed_max_rpm: Ω_max (7000 rpm default; 7500 alternative).
-      K_M_N_m_A: motor torque constant K_M; K_b_V_s_rad: back-emf constant K_b (= K_M in SI).
+      K_M_Nm_A: motor torque constant K_M; K_b_Vs_rad: back-emf constant K_b (= K_M in SI).
       R_ohm: armature resistance R_M; L_H: inductance L.
-      K_B_N_m_s: viscous bearing friction K_B.
+      K_B_Nms: viscous bearing friction K_B.
       V_max_V: supply voltage limit.
       i_max_A: current limit (default τ_max/K_M).
     """
 
-    spin_inertia_kg_m2: float = 4.5e-6
-    torque_max_N_m: float = 1.96e-4
+    spin_inertia_kgm2: float = 4.5e-6
+    torque_max_Nm: float = 1.96e-4
     speed_max_rpm: float = 7000.0
-    K_M_N_m_A: float = 6.0e-3
-    K_b_V_s_rad: float = 6.0e-3
+    K_M_Nm_A: float = 6.0e-3
+    K_b_Vs_rad: float = 6.0e-3
     R_ohm: float = 10.0
     L_H: float = 1.0e-3
-    K_B_N_m_s: float = 1.0e-8
+    K_B_Nms: float = 1.0e-8
     V_max_V: float = 5.0
     i_max_A: float | None = None
 
     def __post_init__(self) -> None:
         require_positive(
             self,
-            ("spin_inertia_kg_m2", "torque_max_N_m", "speed_max_rpm", "K_M_N_m_A", "K_b_V_s_rad", "R_ohm", "V_max_V"),
+            ("spin_inertia_kgm2", "torque_max_Nm", "speed_max_rpm", "K_M_Nm_A", "K_b_Vs_rad", "R_ohm", "V_max_V"),
         )
-        require_non_negative(self, ("L_H", "K_B_N_m_s"))
+        require_non_negative(self, ("L_H", "K_B_Nms"))
         if self.i_max_A is not None and not self.i_max_A > 0:
             raise ValueError(f"i_max_A: must be > 0, got {self.i_max_A!r}")
 
     @property
     def current_max_A(self) -> float:
         """i_max (τ_max/K_M unless given)."""
-        return self.i_max_A if self.i_max_A is not None else self.torque_max_N_m / self.K_M_N_m_A
+        return self.i_max_A if self.i_max_A is not None else self.torque_max_Nm / self.K_M_Nm_A
 
     @property
     def speed_max_rad_s(self) -> float:
         return self.speed_max_rpm * RPM
 
     @property
-    def momentum_max_N_m_s(self) -> float:
+    def momentum_max_Nms(self) -> float:
         """h_max = I_w Ω_max (3.30e-3 N m s with the defaults)."""
-        return self.spin_inertia_kg_m2 * self.speed_max_rad_s
+        return self.spin_inertia_kgm2 * self.speed_max_rad_s
 
     def steady_speed(self, V_in: float) -> float:
         """Relative speed for a constant voltage, bus held fixed, no current limit:
         ω_M = K_M V/(K_b K_M + K_B R_M) [rad/s] (spec §13 item 9)."""
-        return self.K_M_N_m_A * V_in / (self.K_b_V_s_rad * self.K_M_N_m_A + self.K_B_N_m_s * self.R_ohm)
+        return self.K_M_Nm_A * V_in / (self.K_b_Vs_rad * self.K_M_Nm_A + self.K_B_Nms * self.R_ohm)
 
     def mechanical_time_constant(self) -> float:
         """τ = I_w R_M/(K_b K_M + K_B R_M) [s] of the constant-voltage spin-up (bus held fixed)."""
-        return self.spin_inertia_kg_m2 * self.R_ohm / (self.K_b_V_s_rad * self.K_M_N_m_A + self.K_B_N_m_s * self.R_ohm)
+        return self.spin_inertia_kgm2 * self.R_ohm / (self.K_b_Vs_rad * self.K_M_Nm_A + self.K_B_Nms * self.R_ohm)
 
     def electrical_time_constant(self) -> float:
         """τ_e = L/R_M [s] (0.1 ms with the defaults)."""
@@ -348,11 +348,11 @@ class WheelDriver:
         """Held command for body torques ``u_body`` (3,) [N m]: the current command i_c [A]
         (``dc_motor``) or the motor torque T_c [N m] (``ideal``). T_c = −u + K_B ω_M."""
         p = self.p
-        T_c = -np.asarray(u_body, dtype=float) + p.K_B_N_m_s * np.asarray(omega_M, dtype=float)
+        T_c = -np.asarray(u_body, dtype=float) + p.K_B_Nms * np.asarray(omega_M, dtype=float)
         if self.model == "ideal":
-            return np.clip(T_c, -p.torque_max_N_m, p.torque_max_N_m)
+            return np.clip(T_c, -p.torque_max_Nm, p.torque_max_Nm)
         i_max = p.current_max_A
-        return np.clip(T_c / p.K_M_N_m_A, -i_max, i_max)
+        return np.clip(T_c / p.K_M_Nm_A, -i_max, i_max)
 
     def idle_command(self) -> np.ndarray:
         """Zero command (wheels idle: i_c = 0, only bearing friction acts)."""
@@ -369,19 +369,19 @@ class WheelDriver:
         if self.model == "ideal":
             T = np.asarray(cmd, dtype=float).copy()
         else:
-            V = np.clip(p.R_ohm * np.asarray(cmd, dtype=float) + p.K_b_V_s_rad * w, -p.V_max_V, p.V_max_V)
+            V = np.clip(p.R_ohm * np.asarray(cmd, dtype=float) + p.K_b_Vs_rad * w, -p.V_max_V, p.V_max_V)
             if self.electrical == "quasi_static":
-                i = (V - p.K_b_V_s_rad * w) / p.R_ohm
+                i = (V - p.K_b_Vs_rad * w) / p.R_ohm
                 self.current_A = i
             else:
                 i = self._substep_mean_current(V, w, dt)
-            T = p.K_M_N_m_A * i
+            T = p.K_M_Nm_A * i
         return self.limit_speed(T, w)
 
     def _quasi_static_torque(self, cmd, omega_M) -> np.ndarray:
         """Steps 3–4 with L → 0 in plain floats (the per-step fast path; same equations)."""
         p = self.p
-        R, Kb, KM, KB, Vm, wmax = p.R_ohm, p.K_b_V_s_rad, p.K_M_N_m_A, p.K_B_N_m_s, p.V_max_V, p.speed_max_rad_s
+        R, Kb, KM, KB, Vm, wmax = p.R_ohm, p.K_b_Vs_rad, p.K_M_Nm_A, p.K_B_Nms, p.V_max_V, p.speed_max_rad_s
         c = cmd.tolist() if isinstance(cmd, np.ndarray) else cmd
         ws = omega_M.tolist() if isinstance(omega_M, np.ndarray) else omega_M
         out, cur = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
@@ -403,7 +403,7 @@ class WheelDriver:
         n = self.n_substeps or max(1, math.ceil(dt / (p.L_H / p.R_ohm / 4.0)))
         h = dt / n
         i = self.current_A.copy()
-        drive = (V - p.K_b_V_s_rad * w) / p.L_H
+        drive = (V - p.K_b_Vs_rad * w) / p.L_H
         decay = p.R_ohm / p.L_H
         acc = np.zeros(3)
         for _ in range(n):
@@ -417,10 +417,10 @@ class WheelDriver:
         """Step 4: where |ω_M| ≥ Ω_max and the net rotor torque T_M − K_B ω_M has the sign of ω_M,
         return T_M = K_B ω_M (zero net rotor torque)."""
         p = self.p
-        net = T_M - p.K_B_N_m_s * omega_M
+        net = T_M - p.K_B_Nms * omega_M
         stop = (np.abs(omega_M) >= p.speed_max_rad_s) & (net * omega_M > 0)
-        return np.where(stop, p.K_B_N_m_s * omega_M, T_M)
+        return np.where(stop, p.K_B_Nms * omega_M, T_M)
 
     def body_torque(self, T_M: np.ndarray, omega_M: np.ndarray) -> np.ndarray:
         """Torque the wheels deliver to the bus about their axes: −(T_M − K_B ω_M) [N m]."""
-        return -(np.asarray(T_M, dtype=float) - self.p.K_B_N_m_s * np.asarray(omega_M, dtype=float))
+        return -(np.asarray(T_M, dtype=float) - self.p.K_B_Nms * np.asarray(omega_M, dtype=float))

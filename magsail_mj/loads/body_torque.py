@@ -37,7 +37,7 @@ class OrbitGravityGradientLoad:
 
     Args:
       body_id: the body.
-      inertia_kg_m2: (3,) principal moments in body axes [kg m²].
+      inertia_kgm2: (3,) principal moments in body axes [kg m²].
       position: callable ``t → r`` (3,) geocentric position in world axes [m].
       mu: gravitational parameter [m³/s²].
 
@@ -47,9 +47,9 @@ class OrbitGravityGradientLoad:
 
     name = "gravity_gradient"
 
-    def __init__(self, body_id: int, *, inertia_kg_m2, position, mu: float) -> None:
+    def __init__(self, body_id: int, *, inertia_kgm2, position, mu: float) -> None:
         self.body_id = int(body_id)
-        self.inertia = np.diag(np.asarray(inertia_kg_m2, dtype=float))
+        self.inertia = np.diag(np.asarray(inertia_kgm2, dtype=float))
         self.position = position
         self.mu = float(mu)
 

@@ -73,9 +73,9 @@ def coil_torque(
     B_body: np.ndarray,
     *,
     saturation: Literal["norm", "field_scaled", "per_path"],
-    cap_N_m: float,
+    cap_Nm: float,
     B_ref_T: float,
-    m_max_A_m2: np.ndarray,
+    m_max_Am2: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, bool]:
     """``(m, m × B, saturated)``: the coil dipole [A m²] and the torque it delivers [N m] for a request.
 
@@ -88,9 +88,9 @@ def coil_torque(
         np.asarray(T_request_body, dtype=float),
         B,
         saturation=saturation,
-        cap_N_m=cap_N_m,
+        cap_Nm=cap_Nm,
         B_ref_T=B_ref_T,
-        m_max_A_m2=m_max_A_m2,
+        m_max_Am2=m_max_Am2,
     )
     B2 = float(B @ B)
     m = cross3(B, T_act) / B2 if B2 > 0 else np.zeros(3)
@@ -275,7 +275,7 @@ class CoilBodyTorqueActuator(_BodyTorqueActuator):
     Args:
       body_id: the plate body.
       field_body: ``(t, R) → B`` (3,) field in body axes [T] for the attitude ``R`` (body → world).
-      saturation, cap_N_m, B_ref_T, m_max_A_m2: the limits of
+      saturation, cap_Nm, B_ref_T, m_max_Am2: the limits of
         :func:`~magsail_mj.control.reflector_pitch.project_and_saturate`.
     """
 
@@ -287,26 +287,26 @@ class CoilBodyTorqueActuator(_BodyTorqueActuator):
         *,
         field_body: Callable[[float, np.ndarray], np.ndarray],
         saturation: Literal["norm", "field_scaled", "per_path"],
-        cap_N_m: float,
+        cap_Nm: float,
         B_ref_T: float,
-        m_max_A_m2: Sequence[float],
+        m_max_Am2: Sequence[float],
     ) -> None:
         super().__init__()
         if saturation not in ("norm", "field_scaled", "per_path"):
             raise ValueError(f"saturation: must be 'norm', 'field_scaled' or 'per_path', got {saturation!r}")
-        m_max = np.asarray(m_max_A_m2, dtype=float)
+        m_max = np.asarray(m_max_Am2, dtype=float)
         if m_max.shape != (3,) or not np.all(m_max > 0):
-            raise ValueError(f"m_max_A_m2: expected 3 dipole limits > 0 [A m²], got {m_max_A_m2!r}")
-        for key, v in (("cap_N_m", cap_N_m), ("B_ref_T", B_ref_T)):
+            raise ValueError(f"m_max_Am2: expected 3 dipole limits > 0 [A m²], got {m_max_Am2!r}")
+        for key, v in (("cap_Nm", cap_Nm), ("B_ref_T", B_ref_T)):
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{key}: must be > 0, got {v!r}")
         self.body_id = int(body_id)
         self.field_body = field_body
         self.limits = {
             "saturation": saturation,
-            "cap_N_m": float(cap_N_m),
+            "cap_Nm": float(cap_Nm),
             "B_ref_T": float(B_ref_T),
-            "m_max_A_m2": m_max,
+            "m_max_Am2": m_max,
         }
         self.dipole_body_Am2 = np.zeros(3)
         self.B_body_T = np.zeros(3)
@@ -383,7 +383,7 @@ def body_torque_actuator(sim: Any) -> StrutBodyTorqueActuator | WheelBodyTorqueA
         sc.idx.plate,
         field_body=field,
         saturation="per_path" if mode == "box" else mode,
-        cap_N_m=sc.cap.cap_N_m,
+        cap_Nm=sc.cap.cap_Nm,
         B_ref_T=cfg.coil.B_ref_T,
-        m_max_A_m2=sc.cap.m_max_A_m2,
+        m_max_Am2=sc.cap.m_max_Am2,
     )

@@ -113,21 +113,21 @@ def rod_array(lattice: Lattice) -> RodArray:
 
 
 def rod_dipole_Am2(
-    *, kappa_Am2_per_kg: float, rod_mass_kg: float, rods_per_family: Sequence[int], basis: DipoleBasis = "per_family"
+    *, kappa_Am2_kg: float, rod_mass_kg: float, rods_per_family: Sequence[int], basis: DipoleBasis = "per_family"
 ) -> tuple[float, float]:
     """Dipole of one rod in each family [A m²] (spec §9.1, §12 item O4).
 
     ``per_family``: ``m_f = κ_τ M_τ / n_f`` (the full ``κ_τ M_τ`` per family);
     ``total``: ``m_f = κ_τ M_τ / (n_1 + n_2)`` (shared by both families).
     """
-    if not (np.isfinite(kappa_Am2_per_kg) and kappa_Am2_per_kg >= 0):
-        raise ValueError(f"kappa_Am2_per_kg: must be a number >= 0, got {kappa_Am2_per_kg!r}")
+    if not (np.isfinite(kappa_Am2_kg) and kappa_Am2_kg >= 0):
+        raise ValueError(f"kappa_Am2_kg: must be a number >= 0, got {kappa_Am2_kg!r}")
     if not (np.isfinite(rod_mass_kg) and rod_mass_kg >= 0):
         raise ValueError(f"rod_mass_kg: must be a number >= 0, got {rod_mass_kg!r}")
     n = tuple(int(v) for v in rods_per_family)
     if len(n) != 2 or min(n) < 1:
         raise ValueError(f"rods_per_family: expected two counts >= 1, got {rods_per_family!r}")
-    total = kappa_Am2_per_kg * rod_mass_kg
+    total = kappa_Am2_kg * rod_mass_kg
     if basis == "per_family":
         return total / n[0], total / n[1]
     if basis == "total":
@@ -220,7 +220,7 @@ class MagnetorquerRodLoad:
         cls,
         lattice: Lattice,
         *,
-        kappa_Am2_per_kg: float,
+        kappa_Am2_kg: float,
         rod_mass_kg: float,
         basis: DipoleBasis = "per_family",
         B_eci: Sequence[float] | None = None,
@@ -229,7 +229,7 @@ class MagnetorquerRodLoad:
         """Load whose rod dipoles follow the §9.1 basis (§12 item O4), see :func:`rod_dipole_Am2`."""
         rods = rod_array(lattice)
         m = rod_dipole_Am2(
-            kappa_Am2_per_kg=kappa_Am2_per_kg, rod_mass_kg=rod_mass_kg, rods_per_family=rods.n_per_family, basis=basis
+            kappa_Am2_kg=kappa_Am2_kg, rod_mass_kg=rod_mass_kg, rods_per_family=rods.n_per_family, basis=basis
         )
         return cls(lattice, m_rod_Am2=m, B_eci=B_eci, body_offset=body_offset)
 

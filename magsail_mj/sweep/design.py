@@ -7,7 +7,7 @@ Both tables vary keys of one base config (the sweep file's top-level ``config``)
     [grid]                                  # key path -> list of values; every combination runs
     "lattice.units" = [3, 4]
     "sim.timestep_s" = [0.01, 0.005]        # ids: "units=3,timestep_s=0.01", ...
-    "stiffness.EI_N_m2,sim.record_every" = [[1e3, 20], [1e4, 40]]   # linked: varied together
+    "stiffness.EI_Nm2,sim.record_every" = [[1e3, 20], [1e4, 40]]   # linked: varied together
 
     [monte_carlo]
     samples = 200

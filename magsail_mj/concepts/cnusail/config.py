@@ -60,22 +60,22 @@ DEFAULT_BUS_CENTROID: dict[str, Vec3] = {"stowed": (0.005, 0.005, -0.02), "deplo
 class SpacecraftConfig(StrictModel):
     """``[spacecraft]``: mass properties and geometry (spec §3; assumed items of §3.2 are keys).
 
-    ``inertia_kg_m2`` and ``bus_centroid_m`` default to the ``configuration``'s Table 2 / §3.2
+    ``inertia_kgm2`` and ``bus_centroid_m`` default to the ``configuration``'s Table 2 / §3.2
     values. ``r_cp_m``: sail centre of pressure relative to the CM (drag and SRP lever, §3.2).
     ``drag_surfaces``: ``"sail+bus"`` (default) or ``"sail"`` (paper form, §6.2).
     """
 
     configuration: Literal["stowed", "deployed"] = "deployed"
     mass_kg: float = Field(default=4.0, gt=MJ_MINVAL)
-    inertia_kg_m2: Vec3 | None = None
+    inertia_kgm2: Vec3 | None = None
     r_cp_m: Vec3 = (0.01, 0.01, 0.10)
     bus_centroid_m: Vec3 | None = None
     bus_size_m: Vec3 = (0.1, 0.1, 0.3)
     sail_area_m2: float = Field(default=4.0, gt=0)
-    residual_dipole_A_m2: Vec3 = (2.887e-4, 2.887e-4, 2.887e-4)
+    residual_dipole_Am2: Vec3 = (2.887e-4, 2.887e-4, 2.887e-4)
     drag_surfaces: Literal["sail+bus", "sail"] = "sail+bus"
 
-    @field_validator("inertia_kg_m2")
+    @field_validator("inertia_kgm2")
     @classmethod
     def _positive(cls, v):
         if v is not None and min(v) <= MJ_MINVAL:
@@ -84,7 +84,7 @@ class SpacecraftConfig(StrictModel):
 
     @property
     def inertia(self) -> Vec3:
-        return self.inertia_kg_m2 or TABLE2_INERTIA[self.configuration]
+        return self.inertia_kgm2 or TABLE2_INERTIA[self.configuration]
 
     @property
     def bus_centroid(self) -> Vec3:
@@ -97,19 +97,19 @@ class SpacecraftConfig(StrictModel):
 
 class MtqConfig(StrictModel):
     """``[actuators.mtq]`` (spec §4.1, E-5): ``limits`` names a limit set (``"command"`` 0.2/0.2/0.1,
-    ``"half_watt"`` 0.02/0.02/0.01 A m²) unless ``dipole_max_A_m2`` is given; the 2 s cycle with
+    ``"half_watt"`` 0.02/0.02/0.01 A m²) unless ``dipole_max_Am2`` is given; the 2 s cycle with
     ``blank_s`` magnetometer blanking; ``power_max_W`` for the reported power."""
 
     limits: Literal["command", "half_watt"] = "command"
-    dipole_max_A_m2: Vec3 | None = None
+    dipole_max_Am2: Vec3 | None = None
     cycle_s: float = Field(default=2.0, gt=0)
     blank_s: float = Field(default=0.2, ge=0)
     power_max_W: float = Field(default=0.5, gt=0)
 
     @property
     def limit_vector(self) -> np.ndarray:
-        """Per-axis dipole limits [A m²]: ``dipole_max_A_m2`` or the named set ``limits``."""
-        return np.asarray(self.dipole_max_A_m2 or MTQ_LIMIT_SETS[self.limits], dtype=float)
+        """Per-axis dipole limits [A m²]: ``dipole_max_Am2`` or the named set ``limits``."""
+        return np.asarray(self.dipole_max_Am2 or MTQ_LIMIT_SETS[self.limits], dtype=float)
 
     @model_validator(mode="after")
     def _check(self) -> MtqConfig:
@@ -119,8 +119,8 @@ class MtqConfig(StrictModel):
                 f"must be shorter than cycle_s = {self.cycle_s!r} s, got {self.blank_s!r}",
                 others=("cycle_s",),
             )
-        if self.dipole_max_A_m2 is not None and min(self.dipole_max_A_m2) <= 0:
-            raise ValueError("dipole_max_A_m2: every limit must be > 0")
+        if self.dipole_max_Am2 is not None and min(self.dipole_max_Am2) <= 0:
+            raise ValueError("dipole_max_Am2: every limit must be > 0")
         return self
 
 
@@ -130,30 +130,30 @@ class WheelsConfig(StrictModel):
 
     model: Literal["dc_motor", "ideal"] = "dc_motor"
     electrical: Literal["quasi_static", "substep"] = "quasi_static"
-    rotor_inertia_kg_m2: float = Field(default=4.5e-6, gt=MJ_MINVAL)
-    rotor_transverse_inertia_kg_m2: float = Field(default=2.25e-6, gt=MJ_MINVAL)
+    rotor_inertia_kgm2: float = Field(default=4.5e-6, gt=MJ_MINVAL)
+    rotor_transverse_inertia_kgm2: float = Field(default=2.25e-6, gt=MJ_MINVAL)
     rotor_mass_kg: float = Field(default=0.03, gt=MJ_MINVAL)
-    torque_max_N_m: float = Field(default=1.96e-4, gt=0)
+    torque_max_Nm: float = Field(default=1.96e-4, gt=0)
     speed_max_rpm: float = Field(default=7000.0, gt=0)
-    K_M_N_m_A: float = Field(default=6.0e-3, gt=0)
-    K_b_V_s_rad: float = Field(default=6.0e-3, gt=0)
+    K_M_Nm_A: float = Field(default=6.0e-3, gt=0)
+    K_b_Vs_rad: float = Field(default=6.0e-3, gt=0)
     R_ohm: float = Field(default=10.0, gt=0)
     L_H: float = Field(default=1.0e-3, ge=0)
-    K_B_N_m_s: float = Field(default=1.0e-8, ge=0)
+    K_B_Nms: float = Field(default=1.0e-8, ge=0)
     V_max_V: float = Field(default=5.0, gt=0)
     i_max_A: float | None = Field(default=None, gt=0)
 
     def motor_params(self) -> DCMotorParams:
         """The DC-motor constants of the wheel driver."""
         return DCMotorParams(
-            spin_inertia_kg_m2=self.rotor_inertia_kg_m2,
-            torque_max_N_m=self.torque_max_N_m,
+            spin_inertia_kgm2=self.rotor_inertia_kgm2,
+            torque_max_Nm=self.torque_max_Nm,
             speed_max_rpm=self.speed_max_rpm,
-            K_M_N_m_A=self.K_M_N_m_A,
-            K_b_V_s_rad=self.K_b_V_s_rad,
+            K_M_Nm_A=self.K_M_Nm_A,
+            K_b_Vs_rad=self.K_b_Vs_rad,
             R_ohm=self.R_ohm,
             L_H=self.L_H,
-            K_B_N_m_s=self.K_B_N_m_s,
+            K_B_Nms=self.K_B_Nms,
             V_max_V=self.V_max_V,
             i_max_A=self.i_max_A,
         )
@@ -202,7 +202,7 @@ class CnusailControlConfig(StrictModel):
     mode: Literal["bdot", "eigen_axis", "pd"]
     command: Literal["nadir", "deorbit"] = "nadir"
     rate_Hz: float = Field(default=1.0, gt=0)
-    bdot_gain_A_m2_s_T: float = Field(default=5.0e4, gt=0)
+    bdot_gain_Am2s_T: float = Field(default=5.0e4, gt=0)
     bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
     bdot_omega_c_rad_s: float = Field(default=0.5, gt=0)
     slew_rate_max_deg_s: float = Field(default=0.3, gt=0)
@@ -365,8 +365,8 @@ class CnusailConfig(StrictModel):
         I − (J_s + 2 J_t) on every axis, which must exceed mjMINVAL and satisfy the triangle
         inequality (the rotors add their own mass and inertia)."""
         sc, w = self.spacecraft, self.actuators.wheels
-        inertia_key = "spacecraft.inertia_kg_m2" if sc.inertia_kg_m2 is not None else "spacecraft.configuration"
-        rotors = "actuators.wheels.rotor_inertia_kg_m2, actuators.wheels.rotor_transverse_inertia_kg_m2"
+        inertia_key = "spacecraft.inertia_kgm2" if sc.inertia_kgm2 is not None else "spacecraft.configuration"
+        rotors = "actuators.wheels.rotor_inertia_kgm2, actuators.wheels.rotor_transverse_inertia_kgm2"
         out = []
         hub_mass = sc.mass_kg - 3.0 * w.rotor_mass_kg
         if not hub_mass > MJ_MINVAL:
@@ -374,7 +374,7 @@ class CnusailConfig(StrictModel):
                 f"spacecraft.mass_kg: must exceed the three rotors' actuators.wheels.rotor_mass_kg × 3 = "
                 f"{3.0 * w.rotor_mass_kg:g} kg by more than {MJ_MINVAL:g} kg, got {sc.mass_kg!r}"
             )
-        rotor_sum = w.rotor_inertia_kg_m2 + 2.0 * w.rotor_transverse_inertia_kg_m2
+        rotor_sum = w.rotor_inertia_kgm2 + 2.0 * w.rotor_transverse_inertia_kgm2
         hub = [i - rotor_sum for i in sc.inertia]
         if not min(hub) > MJ_MINVAL:
             out.append(

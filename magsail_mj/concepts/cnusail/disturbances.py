@@ -75,9 +75,9 @@ class CubesatDisturbanceLoad:
     """Sum of the enabled disturbance torques on the bus (module docstring).
 
     Args:
-      body_id: the bus body; inertia_kg_m2: composite inertia (3,) or (3, 3);
+      body_id: the bus body; inertia_kgm2: composite inertia (3,) or (3, 3);
       drag_facets / srp_facets: facet sets (``None`` = source off);
-      drag_coefficient: C_d; residual_dipole_A_m2: (3,) body-fixed D (``None`` or zero = off);
+      drag_coefficient: C_d; residual_dipole_Am2: (3,) body-fixed D (``None`` or zero = off);
       gravity_gradient: include the gravity-gradient torque; mu: gravitational parameter.
 
     Per step the body → world rotation R is formed once and every source is evaluated in body
@@ -97,23 +97,23 @@ class CubesatDisturbanceLoad:
         self,
         body_id: int,
         *,
-        inertia_kg_m2,
+        inertia_kgm2,
         drag_facets: FacetSet | None,
         srp_facets: FacetSet | None,
         drag_coefficient: float = 2.2,
-        residual_dipole_A_m2=None,
+        residual_dipole_Am2=None,
         gravity_gradient: bool = True,
         mu: float = 3.986004418e14,
     ) -> None:
         self.body_id = int(body_id)
-        I = np.asarray(inertia_kg_m2, dtype=float)
+        I = np.asarray(inertia_kgm2, dtype=float)
         self.inertia = np.diag(I) if I.shape == (3,) else I
         self.mu = float(mu)
         self.gravity_gradient = bool(gravity_gradient)
         self.drag_facets = drag_facets
         self.srp_facets = srp_facets
         self.cd = float(drag_coefficient)
-        D = None if residual_dipole_A_m2 is None else np.asarray(residual_dipole_A_m2, dtype=float)
+        D = None if residual_dipole_Am2 is None else np.asarray(residual_dipole_Am2, dtype=float)
         self.dipole = D if D is not None and np.any(D) else None
         self._J = tuple(self.inertia.ravel().tolist())
         self._D = tuple(D.tolist()) if self.dipole is not None else None

@@ -52,8 +52,8 @@ second). ``randomize=False`` keeps the config's initial state, so an episode of
 :func:`magsail_mj.envs.shipped_policy` equals ``magsail run``.
 
 The records of the environment's simulation carry the probes of the scenario's own run (``qpos``,
-``qvel``, ``mode``, ``p_e``, ``theta_e_rad``, ``omega_e_rad_s``, ``u_cmd_N_m``, ``T_M_N_m``,
-``dipole_cmd_A_m2``, ``unload_mask``, ``torque_dist_body_N_m``, ``torque_mtq_body_N_m``), so
+``qvel``, ``mode``, ``p_e``, ``theta_e_rad``, ``omega_e_rad_s``, ``u_cmd_Nm``, ``T_M_Nm``,
+``dipole_cmd_Am2``, ``unload_mask``, ``torque_dist_body_Nm``, ``torque_mtq_body_Nm``), so
 ``sim.scenario.postprocess`` applies to them; ``p_e``/``θ_e``/``ω_e`` are computed by the plant from
 the true state at the control samples, ``mode`` is the task's, and ``unload_mask`` marks the wheels the
 configured unloading logic would unload (above ``control.unloading.threshold_rpm``), evaluated at the
@@ -262,11 +262,11 @@ class CubesatActuators:
             "p_e": read("p_e"),
             "theta_e_rad": read("theta_e"),
             "omega_e_rad_s": read("omega_e"),
-            "u_cmd_N_m": read("u"),
-            "T_M_N_m": read("T_M"),
-            "dipole_cmd_A_m2": read("dipole_held"),
+            "u_cmd_Nm": read("u"),
+            "T_M_Nm": read("T_M"),
+            "dipole_cmd_Am2": read("dipole_held"),
             "unload_mask": lambda s, d: read("unload_mask")(s, d).astype(np.int8),
-            "torque_mtq_body_N_m": mtq_body,
+            "torque_mtq_body_Nm": mtq_body,
         }
 
 
@@ -274,7 +274,7 @@ class CubesatPhysics(SimulationPhysics):
     """:class:`~magsail_mj.envs.core.SimulationPhysics` of the cubesat: the scenario's simulation with
     its flight controller replaced by the :class:`~magsail_mj.envs.core.ActionController` and its
     magnetorquer load by :class:`CubesatActuators` (which also drives the wheel motors every step);
-    the disturbance load and the ``qpos``/``qvel``/``torque_dist_body_N_m`` probes are kept."""
+    the disturbance load and the ``qpos``/``qvel``/``torque_dist_body_Nm`` probes are kept."""
 
     def __init__(self, base: Simulation, controller: ActionController, actuators: CubesatActuators) -> None:
         if not isinstance(base, Simulation):
@@ -282,7 +282,7 @@ class CubesatPhysics(SimulationPhysics):
         self.base = base
         self.controller = controller
         self.actuators = actuators
-        self.sim = attach(base, controller, actuators, keep_probes=("qpos", "qvel", "torque_dist_body_N_m"))
+        self.sim = attach(base, controller, actuators, keep_probes=("qpos", "qvel", "torque_dist_body_Nm"))
         self.scenario = base.scenario
         self.cfg = base.cfg
 
@@ -355,12 +355,12 @@ class CubesatTask(AttitudeTask):
             # beyond K_M i_max + K_B |ω_M| the driver's current command saturates alike (|ω_M| stays
             # near Ω_max under the speed limiter; 2 Ω_max leaves margin), so clipping there changes nothing
             t_max = (
-                motor.torque_max_N_m if cfg.actuators.wheels.model == "ideal" else motor.K_M_N_m_A * motor.current_max_A
+                motor.torque_max_Nm if cfg.actuators.wheels.model == "ideal" else motor.K_M_Nm_A * motor.current_max_A
             )
-            w_max = t_max + 2.0 * motor.K_B_N_m_s * motor.speed_max_rad_s
+            w_max = t_max + 2.0 * motor.K_B_Nms * motor.speed_max_rad_s
             names = ("u_x_Nm", "u_y_Nm", "u_z_Nm")
         elif cfg.actuators.wheels.model == "ideal":
-            w_max, names = motor.torque_max_N_m, ("T_c_1_Nm", "T_c_2_Nm", "T_c_3_Nm")
+            w_max, names = motor.torque_max_Nm, ("T_c_1_Nm", "T_c_2_Nm", "T_c_3_Nm")
         else:
             w_max, names = motor.current_max_A, ("i_c_1_A", "i_c_2_A", "i_c_3_A")
         lo = np.concatenate([np.full(3, -w_max), -m_max])

@@ -32,7 +32,7 @@ Pointing (``eigen_axis`` / ``pd``), θ_e the eigen-angle of the error quaternion
   ``wheel_time_at_speed_limit_{x,y,z}_s`` (|ω_M| ≥ 0.999 Ω_max), ``wheel_time_above_unload_{x,y,z}_s``,
   ``torque_saturated_time_s`` (some |u_j| > τ_max);
 * unloading: ``unloading_active_fraction`` (fraction of the run with at least one axis unloading),
-  ``unload_on_time_{x,y,z}_s``, ``unload_dipole_max_A_m2`` (largest |m| commanded).
+  ``unload_on_time_{x,y,z}_s``, ``unload_dipole_max_Am2`` (largest |m| commanded).
 
 Deorbit (``control.command = "deorbit"``): ``sail_area_mean_m2`` (A_s |ẑ_B·V̂|),
 ``fraction_normal_within_5deg_of_flow`` (angle between ẑ_B and the flow direction V̂ = v_rel/|v_rel|),
@@ -41,7 +41,7 @@ Deorbit (``control.command = "deorbit"``): ``sail_area_mean_m2`` (A_s |ẑ_B·V�
 
 Disturbances (pointing runs, ``analysis.disturbance_orbit``): the torques of each source over one
 orbit with the body held exactly in the nadir and in the deorbit attitude
-(:func:`disturbance_orbit_profile`), ``disturbance_{source}_max_{nadir,deorbit}_N_m``.
+(:func:`disturbance_orbit_profile`), ``disturbance_{source}_max_{nadir,deorbit}_Nm``.
 """
 
 from __future__ import annotations
@@ -134,10 +134,10 @@ def attitude_outputs(
     cos_flow = np.einsum("ti,ti->t", z_b, V_hat)
     wheels = cfg.actuators.wheels
     motor = wheels.motor_params()
-    T_M = rec["T_M_N_m"]
-    wheel_body = -(T_M - motor.K_B_N_m_s * wM)
+    T_M = rec["T_M_Nm"]
+    wheel_body = -(T_M - motor.K_B_Nms * wM)
     limits = cfg.actuators.mtq.limit_vector
-    dip = rec["dipole_cmd_A_m2"]
+    dip = rec["dipole_cmd_Am2"]
     power = mtq_power(dip, limits, power_max_W=cfg.actuators.mtq.power_max_W)
     p_e = rec["p_e"]
     theta = rec["theta_e_rad"]
@@ -163,7 +163,7 @@ def attitude_outputs(
         "wheel_speed_rpm": wM / RPM,
         "theta_e_deg": np.degrees(theta),
         "error_321_deg": _euler_321_deg(p_e),
-        "wheel_torque_body_N_m": wheel_body,
+        "wheel_torque_body_Nm": wheel_body,
         "B_body_T": B_body,
         "mtq_power_W": power,
         "altitude_m": env["altitude_m"],
@@ -206,7 +206,7 @@ def attitude_outputs(
         summary["rate_ptp_last_two_orbits_rad_s"] = float(np.ptp(w_norm[last2]))
         duty = controller.p.mtq_cycle.duty if controller is not None else 1.0
         summary["mtq_energy_J"] = float(np.sum(power.sum(axis=1)) * dt_rec * duty)
-        summary["mtq_dipole_max_A_m2"] = float(np.max(np.abs(dip))) if n else 0.0
+        summary["mtq_dipole_max_Am2"] = float(np.max(np.abs(dip))) if n else 0.0
 
     if mode in ("eigen_axis", "pd"):
         c = cfg.control
@@ -260,11 +260,11 @@ def attitude_outputs(
             )
             summary[f"unload_on_time_{a}_s"] = float(np.sum(mask[:, j]) * dt_rec)
         summary["torque_saturated_time_s"] = float(
-            np.sum(np.any(np.abs(rec["u_cmd_N_m"]) > motor.torque_max_N_m, axis=1)) * dt_rec
+            np.sum(np.any(np.abs(rec["u_cmd_Nm"]) > motor.torque_max_Nm, axis=1)) * dt_rec
         )
         un = np.linalg.norm(dip, axis=1)
-        summary["unload_dipole_max_A_m2"] = float(un[mask.any(axis=1)].max()) if mask.any() else 0.0
-        summary["wheel_momentum_max_N_m_s"] = float(np.max(np.abs(wM)) * motor.spin_inertia_kg_m2)
+        summary["unload_dipole_max_Am2"] = float(un[mask.any(axis=1)].max()) if mask.any() else 0.0
+        summary["wheel_momentum_max_Nms"] = float(np.max(np.abs(wM)) * motor.spin_inertia_kgm2)
 
         if c.command == "deorbit" or c.modes.deorbit_at_s is not None:
             area = cfg.spacecraft.sail_area_m2 * np.abs(cos_flow)
@@ -291,16 +291,16 @@ def attitude_outputs(
             for m in ("nadir", "deorbit"):
                 ts, tq = disturbance_orbit_profile(sc, m)
                 series[f"dist_orbit_t_{m}_s"] = ts
-                series[f"dist_orbit_{m}_N_m"] = tq
-                series[f"dist_orbit_{m}_gg_5deg_N_m"] = disturbance_orbit_profile(sc, m, n=120, offset_deg=5.0)[1][:, 0]
+                series[f"dist_orbit_{m}_Nm"] = tq
+                series[f"dist_orbit_{m}_gg_5deg_Nm"] = disturbance_orbit_profile(sc, m, n=120, offset_deg=5.0)[1][:, 0]
                 series[f"dist_orbit_t_{m}_gg_5deg_s"] = np.linspace(0.0, ts[-1], 120)
                 for k, src in enumerate(SOURCES):
-                    summary[f"disturbance_{src}_max_{m}_N_m"] = float(np.max(np.linalg.norm(tq[:, k], axis=1)))
+                    summary[f"disturbance_{src}_max_{m}_Nm"] = float(np.max(np.linalg.norm(tq[:, k], axis=1)))
 
-    dist = rec["torque_dist_body_N_m"]
+    dist = rec["torque_dist_body_Nm"]
     for k, src in enumerate(SOURCES):
-        summary[f"disturbance_{src}_max_N_m"] = float(np.max(np.linalg.norm(dist[:, k], axis=1)))
-    summary["mtq_torque_max_N_m"] = float(np.max(np.linalg.norm(rec["torque_mtq_body_N_m"], axis=1)))
+        summary[f"disturbance_{src}_max_Nm"] = float(np.max(np.linalg.norm(dist[:, k], axis=1)))
+    summary["mtq_torque_max_Nm"] = float(np.max(np.linalg.norm(rec["torque_mtq_body_Nm"], axis=1)))
     modes = rec["mode"].astype(int)
     for m in Mode:
         summary[f"time_in_{m.name.lower()}_s"] = float(np.sum(modes == int(m)) * dt_rec)

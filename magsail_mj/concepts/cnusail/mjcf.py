@@ -84,17 +84,17 @@ class CubesatModelParams:
     Attributes:
       configuration: ``"stowed"`` (bus only) or ``"deployed"`` (bus + sail + booms).
       mass_kg: total mass m, rotors included (Table 2: 4 kg).
-      inertia_kg_m2: composite principal inertia (I_x, I_y, I_z) about the CM, rotors included
+      inertia_kgm2: composite principal inertia (I_x, I_y, I_z) about the CM, rotors included
         (Table 2; deployed (0.3104, 0.3121, 0.5757), stowed (0.0506, 0.0506, 0.010)).
       bus_size_m: bus box edges (x, y, z) (3U: 0.1 × 0.1 × 0.3, long axis z_B).
       bus_centroid_m: bus box centre relative to the CM, body axes (spec §3.2).
       sail_side_m: side of the square sail (2 m); sail_centre_m: centre of the sail plane
         relative to the CM (the centre of pressure r_cp of spec §3.2).
       sail_thickness_m: drawn thickness of the sail plate (visual only).
-      rotor_mass_kg, rotor_spin_inertia_kg_m2, rotor_transverse_inertia_kg_m2: per rotor
+      rotor_mass_kg, rotor_spin_inertia_kgm2, rotor_transverse_inertia_kgm2: per rotor
         (spec §4.3: 0.03 kg, 4.5e-6, 2.25e-6 kg m²).
-      wheel_damping_N_m_s: joint damping = viscous bearing friction K_B (spec §4.2).
-      motor_force_limit_N_m: actuator force range ± this (must exceed the largest τ_max used).
+      wheel_damping_Nms: joint damping = viscous bearing friction K_B (spec §4.2).
+      motor_force_limit_Nm: actuator force range ± this (must exceed the largest τ_max used).
       timestep_s, integrator: MuJoCo option (spec §7.6: RK4 at 0.1 s).
       markers: add the display marker bodies (module docstring).
       name: model name.
@@ -102,17 +102,17 @@ class CubesatModelParams:
 
     configuration: Literal["stowed", "deployed"] = "deployed"
     mass_kg: float = 4.0
-    inertia_kg_m2: tuple[float, float, float] = (0.3104, 0.3121, 0.5757)
+    inertia_kgm2: tuple[float, float, float] = (0.3104, 0.3121, 0.5757)
     bus_size_m: tuple[float, float, float] = (0.1, 0.1, 0.3)
     bus_centroid_m: tuple[float, float, float] = (0.0, 0.0, -0.05)
     sail_side_m: float = 2.0
     sail_centre_m: tuple[float, float, float] = (0.01, 0.01, 0.10)
     sail_thickness_m: float = 0.004
     rotor_mass_kg: float = 0.03
-    rotor_spin_inertia_kg_m2: float = 4.5e-6
-    rotor_transverse_inertia_kg_m2: float = 2.25e-6
-    wheel_damping_N_m_s: float = 1.0e-8
-    motor_force_limit_N_m: float = 1.96e-3
+    rotor_spin_inertia_kgm2: float = 4.5e-6
+    rotor_transverse_inertia_kgm2: float = 2.25e-6
+    wheel_damping_Nms: float = 1.0e-8
+    motor_force_limit_Nm: float = 1.96e-3
     timestep_s: float = 0.1
     integrator: str = "RK4"
     solver_tolerance: float | None = None
@@ -129,14 +129,14 @@ class CubesatModelParams:
                 "sail_side_m",
                 "sail_thickness_m",
                 "rotor_mass_kg",
-                "rotor_spin_inertia_kg_m2",
-                "rotor_transverse_inertia_kg_m2",
-                "motor_force_limit_N_m",
+                "rotor_spin_inertia_kgm2",
+                "rotor_transverse_inertia_kgm2",
+                "motor_force_limit_Nm",
                 "timestep_s",
             ),
         )
-        if self.wheel_damping_N_m_s < 0:
-            raise ValueError(f"wheel_damping_N_m_s: must be >= 0, got {self.wheel_damping_N_m_s!r}")
+        if self.wheel_damping_Nms < 0:
+            raise ValueError(f"wheel_damping_Nms: must be >= 0, got {self.wheel_damping_Nms!r}")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator: must be one of {sorted(INTEGRATORS)}, got {self.integrator!r}")
         if 3 * self.rotor_mass_kg >= self.mass_kg:
@@ -144,30 +144,30 @@ class CubesatModelParams:
                 f"rotor_mass_kg: three rotors ({3 * self.rotor_mass_kg} kg) must weigh less than "
                 f"mass_kg ({self.mass_kg} kg)"
             )
-        hub = self.hub_inertia_kg_m2
+        hub = self.hub_inertia_kgm2
         if np.any(hub <= 0):
             raise ValueError(
-                f"inertia_kg_m2: must exceed the rotors' J_s + 2 J_t = {self.rotor_sum_kg_m2:g} kg m² "
-                f"on every axis, got {self.inertia_kg_m2}"
+                f"inertia_kgm2: must exceed the rotors' J_s + 2 J_t = {self.rotor_sum_kgm2:g} kg m² "
+                f"on every axis, got {self.inertia_kgm2}"
             )
         a, b, c = hub
         if a + b < c or b + c < a or a + c < b:
-            raise ValueError(f"inertia_kg_m2: hub inertia {hub.tolist()} violates the triangle inequality")
+            raise ValueError(f"inertia_kgm2: hub inertia {hub.tolist()} violates the triangle inequality")
 
     @property
-    def rotor_sum_kg_m2(self) -> float:
+    def rotor_sum_kgm2(self) -> float:
         """J_s + 2 J_t: what the three rotors add to each composite principal moment [kg m²]."""
-        return self.rotor_spin_inertia_kg_m2 + 2.0 * self.rotor_transverse_inertia_kg_m2
+        return self.rotor_spin_inertia_kgm2 + 2.0 * self.rotor_transverse_inertia_kgm2
 
     @property
-    def hub_inertia_kg_m2(self) -> np.ndarray:
+    def hub_inertia_kgm2(self) -> np.ndarray:
         """Principal inertia of the bus body alone: Table 2 − (J_s + 2 J_t) [kg m²]."""
-        return np.asarray(self.inertia_kg_m2, dtype=float) - self.rotor_sum_kg_m2
+        return np.asarray(self.inertia_kgm2, dtype=float) - self.rotor_sum_kgm2
 
     def rotor_inertia(self, axis: int) -> list[float]:
         """Diagonal inertia of rotor ``axis`` (0, 1, 2) in bus axes: J_s on its axis, J_t elsewhere."""
-        d = [self.rotor_transverse_inertia_kg_m2] * 3
-        d[axis] = self.rotor_spin_inertia_kg_m2
+        d = [self.rotor_transverse_inertia_kgm2] * 3
+        d[axis] = self.rotor_spin_inertia_kgm2
         return d
 
 
@@ -188,7 +188,7 @@ def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpe
     bus.explicitinertial = True
     bus.mass = p.mass_kg - 3.0 * p.rotor_mass_kg
     bus.ipos = [0.0, 0.0, 0.0]
-    bus.inertia = p.hub_inertia_kg_m2.tolist()
+    bus.inertia = p.hub_inertia_kgm2.tolist()
     half = [x / 2 for x in p.bus_size_m]
     bus.add_geom(
         name="bus_box",
@@ -252,7 +252,7 @@ def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpe
         axis = [0.0, 0.0, 0.0]
         axis[k] = 1.0
         rw = bus.add_body(name=name, pos=[0.0, 0.0, 0.0])
-        rw.add_joint(name=f"{name}_spin", type=mujoco.mjtJoint.mjJNT_HINGE, axis=axis, damping=p.wheel_damping_N_m_s)
+        rw.add_joint(name=f"{name}_spin", type=mujoco.mjtJoint.mjJNT_HINGE, axis=axis, damping=p.wheel_damping_Nms)
         rw.explicitinertial = True
         rw.mass = p.rotor_mass_kg
         rw.ipos = [0.0, 0.0, 0.0]
@@ -284,9 +284,9 @@ def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpe
         act.set_to_motor()
         act.gear[0] = 1.0
         act.ctrllimited = 1
-        act.ctrlrange = [-p.motor_force_limit_N_m, p.motor_force_limit_N_m]
+        act.ctrlrange = [-p.motor_force_limit_Nm, p.motor_force_limit_Nm]
         act.forcelimited = 1
-        act.forcerange = [-p.motor_force_limit_N_m, p.motor_force_limit_N_m]
+        act.forcerange = [-p.motor_force_limit_Nm, p.motor_force_limit_Nm]
 
     if p.markers:
         L = 1.15 * reach

@@ -208,12 +208,12 @@ class CnusailControlParams:
       command: stand-alone pointing command ``"nadir"`` or ``"deorbit"``.
       attitude_period_s: attitude-law sample period (1 s).
       mtq_cycle: magnetorquer cycle with blanking.
-      mtq_limits_A_m2: (3,) dipole limits.
+      mtq_limits_Am2: (3,) dipole limits.
       bdot_form, bdot_gain, bdot_omega_c_rad_s: B-dot law (§7.1).
       omega_n_rad_s, zeta, rate_max_rad_s, clamp_min, gyro_comp, shortest_rotation: eigen-axis (§7.2).
       recalc_enabled, recalc_margin_rad: deorbit gain recalculation (§7.5).
       unloading_enabled, k_rw_per_s, unload_on_rpm, unload_off_rpm: unloading (§7.4).
-      inertia_kg_m2: (3, 3) spacecraft inertia J used by the laws.
+      inertia_kgm2: (3, 3) spacecraft inertia J used by the laws.
       wheel_driver: the wheel driver (motor model and limits).
       modes: mode-switching parameters.
       magnetometer_noise_T, gyro_noise_rad_s: sensor noise σ per axis (0 = ideal).
@@ -225,7 +225,7 @@ class CnusailControlParams:
     command: Literal["nadir", "deorbit"] = "nadir"
     attitude_period_s: float = 1.0
     mtq_cycle: MagnetorquerCycle = field(default_factory=MagnetorquerCycle)
-    mtq_limits_A_m2: np.ndarray = field(default_factory=lambda: np.array([0.2, 0.2, 0.1]))
+    mtq_limits_Am2: np.ndarray = field(default_factory=lambda: np.array([0.2, 0.2, 0.1]))
     bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
     bdot_gain: float = 5.0e4
     bdot_omega_c_rad_s: float = 0.5
@@ -241,7 +241,7 @@ class CnusailControlParams:
     k_rw_per_s: float = 0.005
     unload_on_rpm: float = 3000.0
     unload_off_rpm: float | None = None
-    inertia_kg_m2: np.ndarray = field(default_factory=lambda: np.diag([0.3104, 0.3121, 0.5757]))
+    inertia_kgm2: np.ndarray = field(default_factory=lambda: np.diag([0.3104, 0.3121, 0.5757]))
     wheel_driver: WheelDriver = field(default_factory=WheelDriver)
     modes: ModeLogicParams = field(default_factory=ModeLogicParams)
     magnetometer_noise_T: float = 0.0
@@ -269,8 +269,8 @@ class CnusailControlParams:
                 "B-dot is the detumbling mode's law"
             )
         require_non_negative(self, ("magnetometer_noise_T", "gyro_noise_rad_s"))
-        self.mtq_limits_A_m2 = np.asarray(self.mtq_limits_A_m2, dtype=float).reshape(3)
-        self.inertia_kg_m2 = np.asarray(self.inertia_kg_m2, dtype=float).reshape(3, 3)
+        self.mtq_limits_Am2 = np.asarray(self.mtq_limits_Am2, dtype=float).reshape(3)
+        self.inertia_kgm2 = np.asarray(self.inertia_kgm2, dtype=float).reshape(3, 3)
 
     @property
     def initial_mode(self) -> Mode:
@@ -332,7 +332,7 @@ class CnusailController:
         )
         self.unload = UnloadingLogic(on_rpm=params.unload_on_rpm, off_rpm=params.unload_off_rpm)
         self.driver = params.wheel_driver
-        self.I_w = self.driver.p.spin_inertia_kg_m2
+        self.I_w = self.driver.p.spin_inertia_kgm2
         self.rng = np.random.default_rng(params.seed)
         self.cmd = CnusailCommand(self)
         self._R = np.zeros(9)  # scratch for mju_quat2Mat; zeros keep every build identical
@@ -421,7 +421,7 @@ class CnusailController:
         elif p.recalc_enabled and mode == Mode.DEORBIT and self.theta_e > self.theta_ref + p.recalc_margin_rad:
             self._set_gains(t, q_e, "gain_recalc")
             self.theta_ref = self.theta_e
-        J = p.inertia_kg_m2
+        J = p.inertia_kgm2
         h_w = self.I_w * omega_M
         if p.law == "pd":
             self.u = pd_torque(q_e, self.omega_e, J, k=self.gains.k, c=self.gains.c)
@@ -454,12 +454,12 @@ class CnusailController:
         m_bdot = self.bdot.update(B)
         if self.mode == Mode.DETUMBLE:
             self.unload_mask = np.zeros(3, dtype=bool)
-            self.dipole_held = saturate_per_axis(m_bdot, p.mtq_limits_A_m2)
+            self.dipole_held = saturate_per_axis(m_bdot, p.mtq_limits_Am2)
         elif p.unloading_enabled:
             self.unload_mask = self.unload.update(omega_M)
             dh = np.where(self.unload_mask, self.I_w * omega_M, 0.0)
             m = unloading_dipole(dh, B, k_rw=p.k_rw_per_s) if self.unload_mask.any() else np.zeros(3)
-            self.dipole_held = saturate_uniform(m, p.mtq_limits_A_m2)
+            self.dipole_held = saturate_uniform(m, p.mtq_limits_Am2)
         else:
             self.unload_mask = np.zeros(3, dtype=bool)
             self.dipole_held = np.zeros(3)

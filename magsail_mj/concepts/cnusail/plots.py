@@ -71,7 +71,7 @@ def disturbance_orbit_figure(series: dict[str, np.ndarray], period_s: float, tit
     fig, axes = new_figure(1, 2, figsize=(12, 4.2), sharey=True)
     for ax, m in zip(axes, ("nadir", "deorbit")):
         ts = series[f"dist_orbit_t_{m}_s"]
-        tq = series[f"dist_orbit_{m}_N_m"]
+        tq = series[f"dist_orbit_{m}_Nm"]
         scale = float(np.max(np.linalg.norm(tq, axis=2)))
         for k, src in enumerate(SOURCES):
             mag = np.linalg.norm(tq[:, k], axis=1)
@@ -82,8 +82,8 @@ def disturbance_orbit_figure(series: dict[str, np.ndarray], period_s: float, tit
                 color=f"C{k}",
                 label=_SRC_LABEL[src] + (" (≡ 0)" if np.all(mag <= 1e-12 * scale) else ""),
             )
-        if f"dist_orbit_{m}_gg_5deg_N_m" in series:
-            g5 = np.linalg.norm(series[f"dist_orbit_{m}_gg_5deg_N_m"], axis=1)
+        if f"dist_orbit_{m}_gg_5deg_Nm" in series:
+            g5 = np.linalg.norm(series[f"dist_orbit_{m}_gg_5deg_Nm"], axis=1)
             ax.semilogy(
                 series[f"dist_orbit_t_{m}_gg_5deg_s"] / period_s,
                 g5,
@@ -146,7 +146,7 @@ def _detumble_plots(
     ]
 
     fig, axes = new_figure(3, 1, figsize=(9, 7), sharex=True)
-    dip = rec["dipole_cmd_A_m2"]
+    dip = rec["dipole_cmd_Am2"]
     for j, ax in enumerate(axes):
         ax.plot(x, dip[:, j], lw=0.6, label="commanded (held) dipole")
         _hlines(ax, [limits[j], -limits[j]], color="r", label="±dipole limit")
@@ -261,10 +261,10 @@ def _pointing_plots(
     )
 
     fig, axes = new_figure(3, 1, figsize=(9, 7.5), sharex=True)
-    tau = wheels.torque_max_N_m
+    tau = wheels.torque_max_Nm
     for j, ax in enumerate(axes):
-        ax.plot(x, rec["u_cmd_N_m"][:, j], lw=0.8, label="commanded u")
-        ax.plot(x, rec["wheel_torque_body_N_m"][:, j], lw=0.8, ls="--", label="delivered by wheel")
+        ax.plot(x, rec["u_cmd_Nm"][:, j], lw=0.8, label="commanded u")
+        ax.plot(x, rec["wheel_torque_body_Nm"][:, j], lw=0.8, ls="--", label="delivered by wheel")
         _hlines(ax, [tau, -tau], color="r", label="±τ_max")
         ax.set_ylabel(f"{_AX[j]} [N m]")
         ax.grid(alpha=0.3)
@@ -278,7 +278,7 @@ def _pointing_plots(
         _components_figure(
             run_dir / "unloading.png",
             x,
-            rec["dipole_cmd_A_m2"],
+            rec["dipole_cmd_Am2"],
             names=tuple(f"m_{a}" for a in _AX),
             xlabel="time [min]",
             ylabel="dipole [A m²]",
@@ -288,7 +288,7 @@ def _pointing_plots(
         )
     )
 
-    if "dist_orbit_nadir_N_m" in rec:
+    if "dist_orbit_nadir_Nm" in rec:
         fig = disturbance_orbit_figure(
             rec, orbit_period_s, f"CNUSAIL-1 {cfg.spacecraft.configuration}: disturbance torques over one orbit"
         )
@@ -327,11 +327,11 @@ def _disturbance_plot(
     bdot = cfg.control.mode == "bdot"
     x = rec["t"] / (orbit_period_s if bdot else 60.0)
     fig, ax = new_figure(figsize=(9, 4.5))
-    dist = rec["torque_dist_body_N_m"]
+    dist = rec["torque_dist_body_Nm"]
     for k, src in enumerate(SOURCES):
         mag = np.linalg.norm(dist[:, k], axis=1)
         ax.semilogy(x, np.where(mag > 0, mag, np.nan), lw=0.7, label=_SRC_LABEL[src])
-    mag = np.linalg.norm(rec["torque_mtq_body_N_m"], axis=1)
+    mag = np.linalg.norm(rec["torque_mtq_body_Nm"], axis=1)
     ax.semilogy(x, np.where(mag > 0, mag, np.nan), lw=0.5, alpha=0.6, label="magnetorquer")
     ax.set(
         xlabel="time [orbits]" if bdot else "time [min]",

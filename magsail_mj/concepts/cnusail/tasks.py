@@ -76,12 +76,12 @@ class AttitudeTask:
             "p_e": lambda s, d: ctl.p_e,
             "theta_e_rad": lambda s, d: ctl.theta_e,
             "omega_e_rad_s": lambda s, d: ctl.omega_e,
-            "u_cmd_N_m": lambda s, d: ctl.u,
-            "T_M_N_m": lambda s, d: ctl.T_M,
-            "dipole_cmd_A_m2": lambda s, d: ctl.dipole_held,
+            "u_cmd_Nm": lambda s, d: ctl.u,
+            "T_M_Nm": lambda s, d: ctl.T_M,
+            "dipole_cmd_Am2": lambda s, d: ctl.dipole_held,
             "unload_mask": lambda s, d: ctl.unload_mask.astype(np.int8),
-            "torque_dist_body_N_m": lambda s, d: dist.torques_body(s),
-            "torque_mtq_body_N_m": mtq_body,
+            "torque_dist_body_Nm": lambda s, d: dist.torques_body(s),
+            "torque_mtq_body_Nm": mtq_body,
         }
         return Simulation(
             model=self.model,
@@ -157,8 +157,8 @@ class AttitudeTask:
             "integrator": self.cfg.sim.integrator,
             "timestep_s": self.cfg.sim.timestep_s,
             "orbit_period_s": self.orbit_period_s,
-            "composite_inertia_kg_m2": list(self.cfg.spacecraft.inertia),
-            "hub_inertia_kg_m2": self.params.hub_inertia_kg_m2.tolist(),
+            "composite_inertia_kgm2": list(self.cfg.spacecraft.inertia),
+            "hub_inertia_kgm2": self.params.hub_inertia_kgm2.tolist(),
             "events": len(self.controller.events) if self.controller is not None else 0,
         }
 

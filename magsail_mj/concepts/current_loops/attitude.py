@@ -104,8 +104,8 @@ class LoopAttitudeController:
       masses: (n,) particle masses [kg].
       node_bodies: (n,) body indices of the nodes in the state arrays.
       q_target: target attitude, body → inertial, scalar first.
-      kp_N_m, kw_N_m_s: gains of Eq. 18.
-      m_max_A_m2: common dipole at full current (allocation scale).
+      kp_Nm, kw_Nms: gains of Eq. 18.
+      m_max_Am2: common dipole at full current (allocation scale).
       I_max_A: (3,) full currents of the x, y, z circuits.
       allocation: ``"paper_clip"`` or ``"direction_preserving"``.
       field_world: fixed world field [T], or ``None`` to read ``state.env.B_eci``.
@@ -120,9 +120,9 @@ class LoopAttitudeController:
         masses: np.ndarray,
         node_bodies: np.ndarray,
         q_target: np.ndarray,
-        kp_N_m: float,
-        kw_N_m_s: float,
-        m_max_A_m2: float,
+        kp_Nm: float,
+        kw_Nms: float,
+        m_max_Am2: float,
         I_max_A: np.ndarray,
         allocation: Literal["paper_clip", "direction_preserving"] = "paper_clip",
         field_world: np.ndarray | None = None,
@@ -136,8 +136,8 @@ class LoopAttitudeController:
         self.node_bodies = np.asarray(node_bodies, dtype=int)
         q = np.asarray(q_target, dtype=float)
         self.q_target = q / np.linalg.norm(q)
-        self.kp, self.kw = float(kp_N_m), float(kw_N_m_s)
-        self.m_max = float(m_max_A_m2)
+        self.kp, self.kw = float(kp_Nm), float(kw_Nms)
+        self.m_max = float(m_max_Am2)
         self.I_max = np.asarray(I_max_A, dtype=float)
         if self.I_max.shape != (3,) or np.any(self.I_max <= 0):
             raise ValueError(f"I_max_A: must be three positive currents, got {I_max_A!r}")

@@ -81,7 +81,7 @@ class LoopsStiffnessConfig(StrictModel):
     have zero stiffness.
     """
 
-    EI_N_m2: float = Field(gt=0)
+    EI_Nm2: float = Field(gt=0)
     calibration: Literal["formula", "cantilever"] = "formula"
     form: Literal["tendon", "corotational", "paper_literal"] = "tendon"
 
@@ -143,7 +143,7 @@ class ThermalTable(StrictModel):
 
     T_eq_K: float = Field(default=420.0, gt=0)
     T_ref_K: float = Field(default=293.15, gt=0)
-    rho_ref_ohm_m: float = Field(default=1.68e-8, gt=0)
+    rho_ref_ohmm: float = Field(default=1.68e-8, gt=0)
     alpha_per_K: float = Field(default=0.00404, ge=0)
     emissivity: float = Field(default=0.7, gt=0, le=1)
     rho_c_kg_m3: float = Field(default=8960.0, gt=0)
@@ -157,8 +157,8 @@ class LoopsControlConfig(StrictModel):
     velocities, default; ``"finite_difference"``: backward difference of the estimated attitude,
     :mod:`magsail_mj.concepts.current_loops.attitude`)."""
 
-    kp_N_m: float = Field(default=600.0, ge=0)
-    kw_N_m_s: float = Field(default=4e5, ge=0)
+    kp_Nm: float = Field(default=600.0, ge=0)
+    kw_Nms: float = Field(default=4e5, ge=0)
     q_target: Quat = (math.cos(math.pi / 4), 0.0, math.sin(math.pi / 4), 0.0)
     allocation: Literal["paper_clip", "direction_preserving"] = "paper_clip"
     period_s: float | None = Field(default=None, gt=0)
@@ -266,13 +266,13 @@ class CurrentLoopsConfig(StrictModel):
             units=self.lattice.units,
             side_m=side,
             total_kg=total,
-            EI_Nm2=self.stiffness.EI_N_m2,
+            EI_Nm2=self.stiffness.EI_Nm2,
             zeta=0.0,
             keys={
                 "side": "lattice.side_m",
                 "mass": "mass.areal_density_kg_m2",
-                "EI": "stiffness.EI_N_m2",
-                "zeta": "stiffness.EI_N_m2",
+                "EI": "stiffness.EI_Nm2",
+                "zeta": "stiffness.EI_Nm2",
             },
         )
         self._check_currents()
@@ -317,7 +317,7 @@ def loop_currents(cfg: CurrentLoopsConfig) -> tuple[np.ndarray, list[dict[str, A
     const = ThermalConstants(
         T_eq_K=t.T_eq_K,
         T_ref_K=t.T_ref_K,
-        rho_ref_ohm_m=t.rho_ref_ohm_m,
+        rho_ref_ohmm=t.rho_ref_ohmm,
         alpha_per_K=t.alpha_per_K,
         emissivity=t.emissivity,
         rho_c_kg_m3=t.rho_c_kg_m3,

@@ -494,7 +494,7 @@ def sweep_metrics(
     dev_max = float(dev.max())
     summary = {
         "current_A": float(currents[0]) if currents.size == 1 else [float(v) for v in currents],
-        "dipole_realised_A_m2": float(np.linalg.norm(m_body)),
+        "dipole_realised_Am2": float(np.linalg.norm(m_body)),
         "strain_energy_max_J": U_max,
         "t_strain_energy_max_s": t_U,
         "thickness_max_m": h_max,
@@ -565,8 +565,8 @@ def slew_metrics(rec: dict[str, np.ndarray], *, areas_body_m2: np.ndarray) -> Me
         "t_err_max_after_settle_s": t_err_after,
         "err_final_rad": float(err[-1]),
         "saturation_fraction": float(np.mean(np.any(sat, axis=1))),
-        "mag_torque_max_N_m": float(mag.max()),
-        "gg_torque_max_N_m": float(gg.max()),
+        "mag_torque_max_Nm": float(mag.max()),
+        "gg_torque_max_Nm": float(gg.max()),
         # issue #5 item 6 names
         "time_to_target_s": t5,
         "attitude_error_max_after_target_deg": None if err_after is None else float(np.degrees(err_after)),

@@ -66,7 +66,7 @@ def make_loops_model(cfg: CurrentLoopsConfig) -> LoopsModel:
     lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
     M = cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
     masses = np.full(lat.n_nodes, M / lat.n_nodes)
-    k, c = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_N_m2, calibration=cfg.stiffness.calibration)
+    k, c = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_Nm2, calibration=cfg.stiffness.calibration)
     EA = float(k[0] * lat.rest_length[0])
     circuits = make_circuits(lat, cfg.loops.expanded())
     currents, sizing = loop_currents(cfg)

@@ -143,9 +143,9 @@ def slew_controller(
         masses=lm.masses,
         node_bodies=np.arange(lm.lattice.n_nodes) + 1,
         q_target=np.asarray(c.q_target),
-        kp_N_m=c.kp_N_m,
-        kw_N_m_s=c.kw_N_m_s,
-        m_max_A_m2=m_max,
+        kp_Nm=c.kp_Nm,
+        kw_Nms=c.kw_Nms,
+        m_max_Am2=m_max,
         I_max_A=I_max,
         allocation=c.allocation,
         field_world=field_world_T,
@@ -305,7 +305,7 @@ class LoopsScenario(ABC):
                     "vector_area_m2": a.tolist(),
                     "length_m": float(c.length(lat.nodes)),
                     "current_A": float(i),
-                    "dipole_A_m2": (i * a).tolist(),
+                    "dipole_Am2": (i * a).tolist(),
                 }
                 for c, a, i in zip(self.lm.circuits, self.areas0, self.lm.currents_A)
             ],
@@ -572,7 +572,7 @@ class LoopsRigidSlewTask(LoopsScenario):
         return slew_plots(run_dir, series)
 
     def manifest_more(self) -> dict[str, Any]:
-        return {"rigid_inertia_kg_m2": self.inertia.tensor.tolist()}
+        return {"rigid_inertia_kgm2": self.inertia.tensor.tolist()}
 
 
 def build_loops_scenario(cfg: CurrentLoopsConfig) -> LoopsScenario:

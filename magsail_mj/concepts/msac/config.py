@@ -72,7 +72,7 @@ PLACEHOLDERS = (
     "cycle.blend",
     "wings.slide_stiffness_N_m",
     "wings.root_mass_kg",
-    "wings.root_inertia_kg_m2",
+    "wings.root_inertia_kgm2",
     "actuators.hinge_lever_arm_m",
 )
 
@@ -114,7 +114,7 @@ class WingsConfig(StrictModel):
     extension_model: Literal["rigid_slide"] = "rigid_slide"
     slide_stiffness_N_m: float = Field(default=0.0, ge=0)
     root_mass_kg: float = Field(default=1e-3, gt=MJ_MINVAL)
-    root_inertia_kg_m2: float = Field(default=1e-6, gt=MJ_MINVAL)
+    root_inertia_kgm2: float = Field(default=1e-6, gt=MJ_MINVAL)
 
 
 class CycleConfig(StrictModel):
@@ -193,7 +193,7 @@ class ActuatorsConfig(StrictModel):
         return self.units * self.slide_chips * self.chip_force_N / self.amplification
 
     @property
-    def hinge_torque_max_N_m(self) -> float:
+    def hinge_torque_max_Nm(self) -> float:
         """Torque capacity of one wing's hinge [N m] (class docs)."""
         return self.units * self.hinge_chips * self.chip_force_N * self.hinge_lever_arm_m / self.amplification
 

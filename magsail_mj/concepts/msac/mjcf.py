@@ -6,7 +6,7 @@ Spec ``msac.md`` §5.4. The tree is::
       bus            freejoint; explicit box inertial; box geom (visual)
         w1_root      pos (+r0, 0, 0), quat identity
           w1_bend    hinge, axis (0, 0, 1)          (bending DOF, φ)
-          (placeholder inertial: root_mass_kg, root_inertia_kg_m2)
+          (placeholder inertial: root_mass_kg, root_inertia_kgm2)
           w1         pos (0, 0, 0)
             w1_ext   slide, axis (1, 0, 0)          (extension DOF, s; springref 0)
             inertial at (ℓ/2, 0, 0): mass m, diaginertia
@@ -104,10 +104,10 @@ class MsacModelParams:
       wing_mass_kg: mass ``m`` of each wing [kg].
       hinge_offset_m: distance ``r0`` of each hinge from the bus centre along ±X [m].
       layout: ``point_symmetric`` (the MSAC arrangement) or ``mirror`` (negative test).
-      root_mass_kg, root_inertia_kg_m2: placeholder inertial of the hinge bodies (MuJoCo needs
+      root_mass_kg, root_inertia_kgm2: placeholder inertial of the hinge bodies (MuJoCo needs
         a body between the two joints); kept tiny and included in the exact model.
       slide_stiffness_N_m: slide spring ``k_s`` towards ``s = 0`` (``springref = 0``).
-      hinge_damping_N_m_s, slide_damping_N_s_m: joint damping (default 0).
+      hinge_damping_Nms, slide_damping_Ns_m: joint damping (default 0).
       timestep_s: MuJoCo ``opt.timestep``.
       integrator: one of :data:`INTEGRATORS`.
       servo_omega_dt: ``ω_s · timestep`` of the joint servos.
@@ -124,10 +124,10 @@ class MsacModelParams:
     hinge_offset_m: float = 1.0
     layout: Literal["point_symmetric", "mirror"] = "point_symmetric"
     root_mass_kg: float = 1e-3
-    root_inertia_kg_m2: float = 1e-6
+    root_inertia_kgm2: float = 1e-6
     slide_stiffness_N_m: float = 0.0
-    hinge_damping_N_m_s: float = 0.0
-    slide_damping_N_s_m: float = 0.0
+    hinge_damping_Nms: float = 0.0
+    slide_damping_Ns_m: float = 0.0
     timestep_s: float = 5e-6
     integrator: str = "RK4"
     solver_tolerance: float | None = None
@@ -145,12 +145,12 @@ class MsacModelParams:
                 "wing_thickness_m",
                 "wing_mass_kg",
                 "root_mass_kg",
-                "root_inertia_kg_m2",
+                "root_inertia_kgm2",
                 "timestep_s",
                 "servo_omega_dt",
                 "ff_gear",
             ),
-            non_negative=("hinge_offset_m", "slide_stiffness_N_m", "hinge_damping_N_m_s", "slide_damping_N_s_m"),
+            non_negative=("hinge_offset_m", "slide_stiffness_N_m", "hinge_damping_Nms", "slide_damping_Ns_m"),
         )
         if len(self.bus_size_m) != 3 or any(not (np.isfinite(x) and x > 0) for x in self.bus_size_m):
             raise ValueError(f"bus_size_m: need three lengths > 0, got {self.bus_size_m!r}")
@@ -161,14 +161,14 @@ class MsacModelParams:
 
     # ------------------------------------------------------------ derived inertias
     @property
-    def bus_inertia_kg_m2(self) -> np.ndarray:
+    def bus_inertia_kgm2(self) -> np.ndarray:
         """Principal inertia of the uniform bus box, ``m(b² + c²)/12`` etc. [kg m²]."""
         a, b, c = self.bus_size_m
         m = self.bus_mass_kg
         return np.array([m * (b * b + c * c), m * (a * a + c * c), m * (a * a + b * b)]) / 12.0
 
     @property
-    def wing_inertia_cm_kg_m2(self) -> np.ndarray:
+    def wing_inertia_cm_kgm2(self) -> np.ndarray:
         """Wing principal inertia about its centre (local X, Y, Z) [kg m²]."""
         m, l, w, t = self.wing_mass_kg, self.wing_length_m, self.wing_width_m, self.wing_thickness_m
         return np.array([m * (t * t + w * w), m * (l * l + w * w), m * (l * l + t * t)]) / 12.0
@@ -181,7 +181,7 @@ class MsacModelParams:
     def servo_gains(self) -> dict[str, tuple[float, float]]:
         """``{joint: (k_p, k_d)}`` with ``k_p = J ω_s²``, ``k_d = 2 J ω_s`` (module docs)."""
         w = self.servo_omega_rad_s
-        J_hinge = float(self.wing_inertia_cm_kg_m2[2] + self.wing_mass_kg * (self.wing_length_m / 2) ** 2)
+        J_hinge = float(self.wing_inertia_cm_kgm2[2] + self.wing_mass_kg * (self.wing_length_m / 2) ** 2)
         J_slide = self.wing_mass_kg
         out = {}
         for j in SHAPE_JOINTS:
@@ -224,7 +224,7 @@ def build_msac_spec(params: MsacModelParams) -> mujoco.MjSpec:
     bus.explicitinertial = True
     bus.mass = p.bus_mass_kg
     bus.ipos = [0.0, 0.0, 0.0]
-    bus.inertia = p.bus_inertia_kg_m2.tolist()
+    bus.inertia = p.bus_inertia_kgm2.tolist()
     half = [x / 2 for x in p.bus_size_m]
     bus.add_geom(
         name="bus_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, contype=0, conaffinity=0, mass=0, rgba=list(BUS_RGBA)
@@ -246,13 +246,11 @@ def build_msac_spec(params: MsacModelParams) -> mujoco.MjSpec:
     l, t, w = p.wing_length_m, p.wing_thickness_m, p.wing_width_m
     for k, (sign, quat) in enumerate(((1.0, [1.0, 0.0, 0.0, 0.0]), (-1.0, second_quat)), start=1):
         root = bus.add_body(name=f"w{k}_root", pos=[sign * p.hinge_offset_m, 0.0, 0.0], quat=quat)
-        root.add_joint(
-            name=f"w{k}_bend", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1], damping=p.hinge_damping_N_m_s
-        )
+        root.add_joint(name=f"w{k}_bend", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1], damping=p.hinge_damping_Nms)
         root.explicitinertial = True
         root.mass = p.root_mass_kg
         root.ipos = [0.0, 0.0, 0.0]
-        root.inertia = [p.root_inertia_kg_m2] * 3
+        root.inertia = [p.root_inertia_kgm2] * 3
         wing = root.add_body(name=f"w{k}", pos=[0.0, 0.0, 0.0])
         wing.add_joint(
             name=f"w{k}_ext",
@@ -260,12 +258,12 @@ def build_msac_spec(params: MsacModelParams) -> mujoco.MjSpec:
             axis=[1, 0, 0],
             stiffness=p.slide_stiffness_N_m,
             springref=0.0,
-            damping=p.slide_damping_N_s_m,
+            damping=p.slide_damping_Ns_m,
         )
         wing.explicitinertial = True
         wing.mass = p.wing_mass_kg
         wing.ipos = [l / 2, 0.0, 0.0]
-        wing.inertia = p.wing_inertia_cm_kg_m2.tolist()
+        wing.inertia = p.wing_inertia_cm_kgm2.tolist()
         wing.add_geom(
             name=f"w{k}_panel",
             type=mujoco.mjtGeom.mjGEOM_BOX,

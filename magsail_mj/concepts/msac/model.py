@@ -35,7 +35,7 @@ def make_params(cfg: MsacConfig) -> MsacModelParams:
         hinge_offset_m=w.hinge_offset_m,
         layout=w.layout,
         root_mass_kg=w.root_mass_kg,
-        root_inertia_kg_m2=w.root_inertia_kg_m2,
+        root_inertia_kgm2=w.root_inertia_kgm2,
         slide_stiffness_N_m=w.slide_stiffness_N_m,
         timestep_s=cfg.sim.timestep_s,
         integrator=cfg.sim.integrator,
@@ -48,14 +48,14 @@ def make_params(cfg: MsacConfig) -> MsacModelParams:
 def planar_model(params: MsacModelParams, *, inertia_scale: float = 1.0) -> PlanarMsac:
     """The exact planar model (spec §3.3) with the MJCF's own inertias (incl. hinge bodies)."""
     return PlanarMsac(
-        bus_izz_kg_m2=float(params.bus_inertia_kg_m2[2]) * inertia_scale,
+        bus_izz_kgm2=float(params.bus_inertia_kgm2[2]) * inertia_scale,
         wing_mass_kg=params.wing_mass_kg,
         wing_length_m=params.wing_length_m,
-        wing_icm_kg_m2=float(params.wing_inertia_cm_kg_m2[2]),
+        wing_icm_kgm2=float(params.wing_inertia_cm_kgm2[2]),
         hinge_offset_m=params.hinge_offset_m,
         n_wings=2,
         root_mass_kg=params.root_mass_kg,
-        root_inertia_kg_m2=params.root_inertia_kg_m2,
+        root_inertia_kgm2=params.root_inertia_kgm2,
     )
 
 
@@ -76,7 +76,7 @@ class MsacModel:
         scale = cfg.bus.inertia_scale
         if scale != 1.0:
             b = self.spec.body("bus")
-            b.inertia = (self.params.bus_inertia_kg_m2 * scale).tolist()
+            b.inertia = (self.params.bus_inertia_kgm2 * scale).tolist()
         self.model = self.spec.compile()
         self.planar = planar_model(self.params, inertia_scale=scale)
 
@@ -85,12 +85,12 @@ class MsacModel:
         cfg, P, path = self.cfg, self.planar, self.path
         wi = wing_inertias(P, s_e_m=path.s_e_m, s_c_m=path.s_c_m)
         theta_eq6 = lumped_theta(
-            I_e=2 * wi.e_hinge, I_c=2 * wi.c_hinge, I_sat=P.bus_izz_kg_m2, phi_a=path.phi_a_rad, phi_b=path.phi_b_rad
+            I_e=2 * wi.e_hinge, I_c=2 * wi.c_hinge, I_sat=P.bus_izz_kgm2, phi_a=path.phi_a_rad, phi_b=path.phi_b_rad
         )
         theta_str = lumped_theta(
             I_e=2 * wi.e_stretch,
             I_c=2 * wi.c_stretch,
-            I_sat=P.bus_izz_kg_m2,
+            I_sat=P.bus_izz_kgm2,
             phi_a=path.phi_a_rad,
             phi_b=path.phi_b_rad,
         )
@@ -110,16 +110,16 @@ class MsacModel:
         L_scale = float(np.max(np.abs(n_phi * st.phi_dot + n_s * st.s_dot)))
         return {
             "bus_mass_kg": cfg.bus.mass_kg,
-            "bus_izz_kg_m2": P.bus_izz_kg_m2,
+            "bus_izz_kgm2": P.bus_izz_kgm2,
             "wing_mass_kg": P.wing_mass_kg,
-            "wing_I_rest_hinge_kg_m2": wi.rest_hinge,
-            "wing_I_e_hinge_kg_m2": wi.e_hinge,
-            "wing_I_c_hinge_kg_m2": wi.c_hinge,
-            "wing_I_rest_centre_kg_m2": wi.rest_centre,
-            "wing_I_e_centre_kg_m2": wi.e_centre,
-            "wing_I_c_centre_kg_m2": wi.c_centre,
-            "wing_I_e_stretch_kg_m2": wi.e_stretch,
-            "wing_I_c_stretch_kg_m2": wi.c_stretch,
+            "wing_I_rest_hinge_kgm2": wi.rest_hinge,
+            "wing_I_e_hinge_kgm2": wi.e_hinge,
+            "wing_I_c_hinge_kgm2": wi.c_hinge,
+            "wing_I_rest_centre_kgm2": wi.rest_centre,
+            "wing_I_e_centre_kgm2": wi.e_centre,
+            "wing_I_c_centre_kgm2": wi.c_centre,
+            "wing_I_e_stretch_kgm2": wi.e_stretch,
+            "wing_I_c_stretch_kgm2": wi.c_stretch,
             "extension_model": cfg.wings.extension_model,
             "cycle_frequency_Hz": cfg.cycle.frequency_Hz,
             "cycle_period_s": T,
@@ -131,5 +131,5 @@ class MsacModel:
             "omega_gamma_exact_rad_s": exact / T,
             "predicted_rate_lumped_rad_s": theta_eq6 / T,
             "predicted_rate_exact_rad_s": exact / T,
-            "angmom_scale_N_m_s": L_scale,
+            "angmom_scale_Nms": L_scale,
         }

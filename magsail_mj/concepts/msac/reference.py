@@ -72,30 +72,30 @@ class PlanarMsac:
     """Parameters of the exact planar model (see module docs).
 
     Attributes:
-      bus_izz_kg_m2: bus MOI ``I_b`` about Z [kg m²].
+      bus_izz_kgm2: bus MOI ``I_b`` about Z [kg m²].
       wing_mass_kg: ``m`` [kg].
       wing_length_m: rest length ``ℓ`` [m] (hinge-to-COM distance ``c = s + ℓ/2``).
-      wing_icm_kg_m2: wing MOI about its own centre of mass, about Z, ``I_cm`` [kg m²]
+      wing_icm_kgm2: wing MOI about its own centre of mass, about Z, ``I_cm`` [kg m²]
         (``m(ℓ² + t²)/12`` for a uniform plate of thickness ``t`` in the plane of motion).
       hinge_offset_m: ``r0`` [m].
       n_wings: number of point-symmetric wings driven together (2 for the spacecraft).
-      root_mass_kg, root_inertia_kg_m2: hinge-body placeholder ``m_r``, ``I_r``.
+      root_mass_kg, root_inertia_kgm2: hinge-body placeholder ``m_r``, ``I_r``.
     """
 
-    bus_izz_kg_m2: float
+    bus_izz_kgm2: float
     wing_mass_kg: float
     wing_length_m: float
-    wing_icm_kg_m2: float
+    wing_icm_kgm2: float
     hinge_offset_m: float
     n_wings: int = 2
     root_mass_kg: float = 0.0
-    root_inertia_kg_m2: float = 0.0
+    root_inertia_kgm2: float = 0.0
 
     def __post_init__(self) -> None:
         check_finite_fields(
             self,
-            positive=("bus_izz_kg_m2", "wing_mass_kg", "wing_length_m"),
-            non_negative=("wing_icm_kg_m2", "hinge_offset_m", "root_mass_kg", "root_inertia_kg_m2"),
+            positive=("bus_izz_kgm2", "wing_mass_kg", "wing_length_m"),
+            non_negative=("wing_icm_kgm2", "hinge_offset_m", "root_mass_kg", "root_inertia_kgm2"),
         )
         if int(self.n_wings) != self.n_wings or self.n_wings < 1:
             raise ValueError(f"n_wings: must be an integer >= 1, got {self.n_wings!r}")
@@ -110,9 +110,9 @@ class PlanarMsac:
         phi, s = np.asarray(phi, float), np.asarray(s, float)
         m, r0, n = self.wing_mass_kg, self.hinge_offset_m, self.n_wings
         c = s + 0.5 * self.wing_length_m
-        return self.bus_izz_kg_m2 + n * (
-            self.wing_icm_kg_m2
-            + self.root_inertia_kg_m2
+        return self.bus_izz_kgm2 + n * (
+            self.wing_icm_kgm2
+            + self.root_inertia_kgm2
             + self.root_mass_kg * r0**2
             + m * (r0**2 + c * c + 2.0 * r0 * c * np.cos(phi))
         )
@@ -122,7 +122,7 @@ class PlanarMsac:
         phi, s = np.asarray(phi, float), np.asarray(s, float)
         m, r0, n = self.wing_mass_kg, self.hinge_offset_m, self.n_wings
         c = s + 0.5 * self.wing_length_m
-        n_phi = n * (self.wing_icm_kg_m2 + self.root_inertia_kg_m2 + m * c * c + m * r0 * c * np.cos(phi))
+        n_phi = n * (self.wing_icm_kgm2 + self.root_inertia_kgm2 + m * c * c + m * r0 * c * np.cos(phi))
         n_s = n * m * r0 * np.sin(phi)
         return n_phi, n_s
 
@@ -160,7 +160,7 @@ class WingInertias:
 
 def wing_inertias(model: PlanarMsac, *, s_e_m: float, s_c_m: float) -> WingInertias:
     """Per-wing inertias of ``model`` for slide values ``s_e_m``, ``s_c_m`` [m] (see class docs)."""
-    m, l, icm, r0 = model.wing_mass_kg, model.wing_length_m, model.wing_icm_kg_m2, model.hinge_offset_m
+    m, l, icm, r0 = model.wing_mass_kg, model.wing_length_m, model.wing_icm_kgm2, model.hinge_offset_m
     hinge = lambda s: icm + m * (s + l / 2) ** 2  # noqa: E731
     centre = lambda s: icm + m * (r0 + s + l / 2) ** 2  # noqa: E731
     stretch = lambda s: m * (l + s) ** 2 / 3.0  # noqa: E731
@@ -265,17 +265,14 @@ def exact_rotation_ode(model: PlanarMsac, path: CyclePath, *, cycles: int = 1, s
         phi, phid, _, s, sd, _, _ = cycle_state_scalar(path, t)
         c = s + 0.5 * m.wing_length_m
         cos, sin = math.cos(phi), math.sin(phi)
-        D = m.bus_izz_kg_m2 + m.n_wings * (
-            m.wing_icm_kg_m2
-            + m.root_inertia_kg_m2
+        D = m.bus_izz_kgm2 + m.n_wings * (
+            m.wing_icm_kgm2
+            + m.root_inertia_kgm2
             + m.root_mass_kg * m.hinge_offset_m**2
             + m.wing_mass_kg * (m.hinge_offset_m**2 + c * c + 2 * m.hinge_offset_m * c * cos)
         )
         n_phi = m.n_wings * (
-            m.wing_icm_kg_m2
-            + m.root_inertia_kg_m2
-            + m.wing_mass_kg * c * c
-            + m.wing_mass_kg * m.hinge_offset_m * c * cos
+            m.wing_icm_kgm2 + m.root_inertia_kgm2 + m.wing_mass_kg * c * c + m.wing_mass_kg * m.hinge_offset_m * c * cos
         )
         n_s = m.n_wings * m.wing_mass_kg * m.hinge_offset_m * sin
         return -(n_phi * phid + n_s * sd) / D

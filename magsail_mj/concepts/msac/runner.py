@@ -13,7 +13,7 @@ controls ``u_k`` and the sensors (evaluated by MuJoCo at ``x_k``). From each chu
 vectorised:
 
 * ``records`` every ``record_every`` steps: ``t``, ``qpos``, ``qvel``, ``omega_world_rad_s``
-  (bus angular velocity in world axes), ``angmom_N_m_s`` (total angular momentum, world axes,
+  (bus angular velocity in world axes), ``angmom_Nms`` (total angular momentum, world axes,
   about the system centre of mass), ``joint_force`` (actuator torque/force on the four shape
   joints, N m / N), ``phase`` (1..4);
 * the stroboscopic series at every cycle start: ``strobe_t``, ``strobe_quat`` (bus
@@ -37,7 +37,7 @@ wings exchange with the bus each stroke, but over 600 s it would add a spurious 
 ~0.5 % of the secular rate. For the replay the runner therefore projects the state back onto
 zero total momentum at every chunk boundary (every ``chunk_cycles`` cycles, default 0.2 s) and
 reports how much it removed; the stroboscopic series keeps the momentum at every cycle start
-(``strobe_angmom_N_m_s``) for the spurious-yaw estimate of the summary.
+(``strobe_angmom_Nms``) for the spurious-yaw estimate of the summary.
 
 With ``method="held_torque"`` the first ``calibration_cycles`` cycles of a run are the per-step
 computed-torque loop from the rest state, the same steps the held-torque table was calibrated
@@ -65,7 +65,6 @@ it.
 from __future__ import annotations
 
 import math
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -87,27 +86,18 @@ from magsail_mj.concepts.msac.drive import (
     shape_vector,
     steps_per_cycle,
 )
-from magsail_mj.checkpoint import (
-    CheckpointError,
-    StateWalker,
-    check_identity,
-    read_checkpoint,
-    restore_state,
-    run_identity,
-    write_checkpoint,
-)
+from magsail_mj.checkpoint import CheckpointError, StateWalker, restore_state, run_identity
 from magsail_mj.divergence import WarningWatch, disable_autoreset, first_bad_row, route_mujoco_warnings
 from magsail_mj.concepts.msac.mjcf import shape_indices
-from magsail_mj.records import Recorder, RecordStoreError, StoreRecords
-from magsail_mj.sim import RunResult, open_run_records
+from magsail_mj.records import Recorder, StoreRecords
+from magsail_mj.sim import RunResult, SteppedRun, WholeRun, open_run_records, progress_bar
 from mujoco import rollout as mj_rollout
-from tqdm import tqdm
 
 __all__ = ["MsacRunner", "StaticRunner"]
 
 _FP = mujoco.mjtState.mjSTATE_FULLPHYSICS
 #: the variables of the records (``t`` first)
-RECORD_NAMES = ["t", "qpos", "qvel", "omega_world_rad_s", "angmom_N_m_s", "joint_force", "phase"]
+RECORD_NAMES = ["t", "qpos", "qvel", "omega_world_rad_s", "angmom_Nms", "joint_force", "phase"]
 #: the drive methods (``drive.method``)
 METHODS = ("replay", "computed_torque", "held_torque")
 
@@ -142,7 +132,7 @@ class _Acc:
 
 
 @dataclass
-class MsacRunner:
+class MsacRunner(SteppedRun):
     """Run an MSAC model along its cycle (see module docs).
 
     Attributes:
@@ -264,20 +254,18 @@ class MsacRunner:
                 strobe_t=t[sel],
                 strobe_quat=qpos[sel, 3:7],
                 strobe_shape=qpos[sel][:, ix["qpos"]],
-                strobe_angmom_N_m_s=L[sel],
+                strobe_angmom_Nms=L[sel],
             )
+        # the per-step series both the records and the full-rate windows keep
+        series = {"qpos": qpos, "qvel": qvel, "omega_world_rad_s": w_world, "angmom_Nms": L, "joint_force": frc}
         sel = steps % self.record_every == 0
         if sel.any():
             self.recorder.extend(
-                dict(
-                    t=t[sel],
-                    qpos=qpos[sel],
-                    qvel=qvel[sel],
-                    omega_world_rad_s=w_world[sel],
-                    angmom_N_m_s=L[sel],
-                    joint_force=frc[sel],
-                    phase=cycle_state(self.path, t[sel]).phase + 1,
-                )
+                {
+                    "t": t[sel],
+                    **{name: v[sel] for name, v in series.items()},
+                    "phase": cycle_state(self.path, t[sel]).phase + 1,
+                }
             )
         for wid, (a, b) in enumerate(self.windows):
             sel = (steps >= a) & (steps < b)
@@ -286,11 +274,7 @@ class MsacRunner:
                     acc.win,
                     win_t=t[sel],
                     win_id=np.full(int(sel.sum()), wid),
-                    win_qpos=qpos[sel],
-                    win_qvel=qvel[sel],
-                    win_omega_world_rad_s=w_world[sel],
-                    win_angmom_N_m_s=L[sel],
-                    win_joint_force=frc[sel],
+                    **{f"win_{name}": v[sel] for name, v in series.items()},
                     win_ctrl=ctrl[sel],
                 )
         wz = np.concatenate([acc.block_carry, w_world[:, 2]])
@@ -402,37 +386,16 @@ class MsacRunner:
 
     # ------------------------------------------------------------------ checkpoints
     def _save(self, path: Path) -> None:
-        self.recorder.flush()  # the store holds every record the checkpoint counts
-        state = self.get_state()
-        store = self.recorder.path
-        header = {
-            **self.identity,
-            "step": state["step"],
-            "t_s": self.time,
-            "wall_s": self._wall_s,
-            "n_records": state["n_records"],
-            "records_store": store.name if store is not None else None,
-        }
-        write_checkpoint(
-            path,
-            header,
-            tree=state["python_tree"],
-            arrays=state["python_arrays"],
-            extra_arrays={"state": state["mj_state"]},
-        )
+        self._write_checkpoint(path, mj_state_key="state")
 
     def _load(self, path: Path, store: Path | None) -> None:
-        header, arrays, extra = read_checkpoint(path)
-        check_identity(header, self.identity, path=path)
+        header, arrays, extra = self._read_checkpoint(path)
         k = int(header["step"])
         if "state" not in extra or extra["state"].shape != (self.nstate,) or not 0 <= k <= self.n_steps:
             raise CheckpointError(f"checkpoint: {path} does not hold a state of this model within sim.duration_s")
         if "n_records" not in header or store is None:
             raise CheckpointError(f"checkpoint: {path} holds no record count or has no record store")
-        try:
-            self.recorder.open_store(store, int(header["n_records"]))
-        except RecordStoreError as err:
-            raise CheckpointError(f"checkpoint: {path}: {err}") from None
+        self._reopen_store(path, store, int(header["n_records"]))
         self.set_state(
             {
                 "step": k,
@@ -467,15 +430,6 @@ class MsacRunner:
         cyc_ctrl[:, self.ix["servo"]] = servo_rates(m, self.path, self.N)
         return cyc_ctrl
 
-    def step(self, n: int = 1) -> str:
-        """Advance ``n`` steps (rolled out natively in chunks; never beyond ``duration_s``) and
-        return the status: ``running`` while steps remain, else how the run ended."""
-        if int(n) != n or n < 1:
-            raise ValueError(f"n: must be an integer >= 1, got {n!r}")
-        if self.status == "running":
-            self._advance(min(self.step_index + int(n), self.n_steps))
-        return self.status
-
     def run(
         self,
         *,
@@ -502,33 +456,13 @@ class MsacRunner:
         chunk = int(self.chunk_cycles) * self.N
         bar = None
         if progress and self.n_steps > 10 * chunk:
-            bar = tqdm(
-                total=self.n_steps,
-                initial=k_start,
-                unit="step",
-                unit_scale=True,
-                file=sys.stderr,
-                mininterval=5.0,
-                leave=False,
-            )
-        try:
-            if self.status == "running":
-                self._advance(stop_step, ckpt=ckpt, bar=bar)
-        finally:
-            if bar is not None:
-                bar.close()
+            bar = progress_bar(total=self.n_steps, initial=k_start, mininterval_s=5.0, unit_scale=True)
+        self._advance_with_bar(stop_step, bar, ckpt=ckpt)
         if self.status == "running":
             self.status, self.message = "stopped", f"stopped at t = {self.time:.6f} s (stop_after_s)"
             if ckpt is not None:
                 self._save(ckpt)
-        return RunResult(
-            records=self.records(),
-            status=self.status,
-            message=self.message,
-            t_end_s=self.time,
-            steps=self.step_index - k_start,
-            wall_time_s=self._wall_s,
-        )
+        return self._result(k_start)
 
     def _advance(self, stop_step: int, *, ckpt: Path | None = None, bar: Any = None) -> None:
         """Roll out from the current step to ``stop_step`` in chunks that end at the absolute chunk
@@ -672,7 +606,7 @@ class MsacRunner:
                 strobe_t=t,
                 strobe_quat=qpos[None, 3:7],
                 strobe_shape=qpos[None, ix["qpos"]],
-                strobe_angmom_N_m_s=sens[None, ix["angmom"]],
+                strobe_angmom_Nms=sens[None, ix["angmom"]],
             )
         self.recorder.extend(
             dict(
@@ -680,7 +614,7 @@ class MsacRunner:
                 qpos=qpos[None],
                 qvel=qvel[None],
                 omega_world_rad_s=sens[None, ix["angvel"]],
-                angmom_N_m_s=sens[None, ix["angmom"]],
+                angmom_Nms=sens[None, ix["angmom"]],
                 joint_force=sens[None, ix["frc"]],
                 phase=cycle_state(self.path, t).phase + 1,
             )
@@ -711,9 +645,9 @@ class MsacRunner:
             out["omega_z_block_mean_rad_s"] = np.array(wz.mean())
         out["omega_z_cycle_min_rad_s"] = cat(acc.cyc_min)
         out["omega_z_cycle_max_rad_s"] = cat(acc.cyc_max)
-        out["run_angmom_drift_max_N_m_s"] = np.array(acc.drift_max)
-        out["run_angmom_drift_z_max_N_m_s"] = np.array(acc.drift_z_max)
-        out["run_hinge_torque_peak_N_m"] = np.array(acc.hinge_peak)
+        out["run_angmom_drift_max_Nms"] = np.array(acc.drift_max)
+        out["run_angmom_drift_z_max_Nms"] = np.array(acc.drift_z_max)
+        out["run_hinge_torque_peak_Nm"] = np.array(acc.hinge_peak)
         out["run_slide_force_peak_N"] = np.array(acc.slide_peak)
         out["run_joint_force_rms"] = np.sqrt(acc.frc_sq_sum / max(acc.frc_count, 1))
         out["run_tracking_error_max"] = acc.track_max.copy()
@@ -725,22 +659,13 @@ class MsacRunner:
 
 
 @dataclass
-class StaticRunner:
+class StaticRunner(WholeRun):
     """A run with no dynamics (the ``lumped`` scenario): one record of the initial state."""
 
     model: mujoco.MjModel
     path: CyclePath
-    #: one record, no steps: nothing to stop or resume
-    checkpoints = False
 
-    def run(
-        self,
-        *,
-        progress: bool = False,
-        checkpoint_path: Any = None,
-        resume: bool = False,
-        stop_after_s: float | None = None,
-    ) -> RunResult:
+    def run_whole(self, *, progress: bool) -> RunResult:
         data = mujoco.MjData(self.model)
         set_initial_state(self.model, data, self.path)
         return RunResult(

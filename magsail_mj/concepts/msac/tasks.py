@@ -37,7 +37,7 @@ from magsail_mj.concepts.msac.config import PAPER_VALUES, PLACEHOLDERS, MsacConf
 from magsail_mj.concepts.msac.model import MsacModel
 from magsail_mj.concepts.msac.plots import msac_plots, sweep_plot
 from magsail_mj.concepts.msac.runner import MsacRunner, StaticRunner
-from magsail_mj.sim import RunResult
+from magsail_mj.sim import RunResult, WholeRun
 
 __all__ = [
     "MsacTask",
@@ -170,7 +170,7 @@ def momentum_yaw_error(sc: MsacModel, rec: Any, rotation_rad: float) -> dict[str
     With total momentum ``L`` the bus turns at ``ψ̇ = (L − N_φ φ̇ − N_s ṡ)/D(φ, s)`` (the exact
     planar model), so a drift ``δL`` adds ``δψ̇ = δL/D``. Over a cycle this is ``δL·T·⟨1/D⟩``
     (``⟨1/D⟩``: the mean of ``1/D`` along the prescribed path), and over the run, with ``δL_k``
-    the drift at the cycle starts (``strobe_angmom_N_m_s``, z),
+    the drift at the cycle starts (``strobe_angmom_Nms``, z),
 
     .. math::
         δψ = T⟨1/D⟩ \sum_k \tfrac12(δL_k + δL_{k+1}) .
@@ -178,7 +178,7 @@ def momentum_yaw_error(sc: MsacModel, rec: Any, rotation_rad: float) -> dict[str
     Returns ``angmom_spurious_yaw_rad`` and ``angmom_spurious_yaw_rel`` (``|δψ|`` over the
     run's net rotation ``|rotation_rad|``); NaN without two cycle starts.
     """
-    L = rec.get("strobe_angmom_N_m_s", np.zeros((0, 3)))
+    L = rec.get("strobe_angmom_Nms", np.zeros((0, 3)))
     if L.shape[0] < 2:
         return {"angmom_spurious_yaw_rad": float("nan"), "angmom_spurious_yaw_rel": float("nan")}
     T = sc.path.period_s
@@ -193,9 +193,9 @@ def momentum_yaw_error(sc: MsacModel, rec: Any, rotation_rad: float) -> dict[str
 def actuation_summary(sc: MsacModel, rec: Any) -> dict[str, Any]:
     r"""What the drive demands of the shape actuators against what the configured ones deliver.
 
-    ``hinge_torque_rms_N_m``/``slide_force_rms_N``: RMS over every step and both wings of the
-    total actuator force on the joints; the peaks (``hinge_torque_peak_N_m``, ``slide_force_peak_N``)
-    come with the run. Capacities ``hinge_torque_max_N_m``/``slide_force_max_N`` from
+    ``hinge_torque_rms_Nm``/``slide_force_rms_N``: RMS over every step and both wings of the
+    total actuator force on the joints; the peaks (``hinge_torque_peak_Nm``, ``slide_force_peak_N``)
+    come with the run. Capacities ``hinge_torque_max_Nm``/``slide_force_max_N`` from
     ``[actuators]``; ``actuation_feasible`` when both peaks are within them;
     ``actuation_capacity_ratio`` = min(capacity/peak). ``max_cycle_rate_Hz``: the largest rate
     of the same path the capacities allow (:func:`~magsail_mj.concepts.msac.metrics.max_cycle_rate`:
@@ -204,12 +204,12 @@ def actuation_summary(sc: MsacModel, rec: Any) -> dict[str, Any]:
     """
     cfg = sc.cfg
     rms = np.asarray(rec["run_joint_force_rms"], dtype=float)
-    cap_h, cap_s = cfg.actuators.hinge_torque_max_N_m, cfg.actuators.slide_force_max_N
-    peak_h, peak_s = float(rec["run_hinge_torque_peak_N_m"]), float(rec["run_slide_force_peak_N"])
+    cap_h, cap_s = cfg.actuators.hinge_torque_max_Nm, cfg.actuators.slide_force_max_N
+    peak_h, peak_s = float(rec["run_hinge_torque_peak_Nm"]), float(rec["run_slide_force_peak_N"])
     out: dict[str, Any] = {
-        "hinge_torque_rms_N_m": float(np.sqrt(0.5 * (rms[0] ** 2 + rms[2] ** 2))),
+        "hinge_torque_rms_Nm": float(np.sqrt(0.5 * (rms[0] ** 2 + rms[2] ** 2))),
         "slide_force_rms_N": float(np.sqrt(0.5 * (rms[1] ** 2 + rms[3] ** 2))),
-        "hinge_torque_max_N_m": cap_h,
+        "hinge_torque_max_Nm": cap_h,
         "slide_force_max_N": cap_s,
         "actuation_feasible": bool(peak_h <= cap_h and peak_s <= cap_s),
         "actuation_capacity_ratio": min(
@@ -312,10 +312,10 @@ def multibody_summary(
     yaw_end = float(yaw_rec[-1] - yaw_rec[0]) if yaw_rec.size else float("nan")
     out["yaw_unwrapped_final_rad"] = yaw_end
     out["net_rotation_rad"] = yaw_end
-    out["angmom_drift_max_N_m_s"] = float(rec["run_angmom_drift_max_N_m_s"])
-    out["angmom_drift_z_max_N_m_s"] = float(rec["run_angmom_drift_z_max_N_m_s"])
-    out["angular_momentum_drift"] = out["angmom_drift_max_N_m_s"] / ref["angmom_scale_N_m_s"]
-    out["hinge_torque_peak_N_m"] = float(rec["run_hinge_torque_peak_N_m"])
+    out["angmom_drift_max_Nms"] = float(rec["run_angmom_drift_max_Nms"])
+    out["angmom_drift_z_max_Nms"] = float(rec["run_angmom_drift_z_max_Nms"])
+    out["angular_momentum_drift"] = out["angmom_drift_max_Nms"] / ref["angmom_scale_Nms"]
+    out["hinge_torque_peak_Nm"] = float(rec["run_hinge_torque_peak_Nm"])
     out["slide_force_peak_N"] = float(rec["run_slide_force_peak_N"])
     track = rec["run_tracking_error_max"]
     out["tracking_error_bend_max_rad"] = float(max(track[0], track[2]))
@@ -323,10 +323,10 @@ def multibody_summary(
     out["replay_settle_change"] = float(rec["run_replay_settle_change"])
     proj = rec["run_momentum_projection_sum"]
     out["momentum_projection_count"] = int(rec["run_momentum_projection_count"])
-    out["momentum_projection_max_N_m_s"] = float(rec["run_momentum_projection_max"])
+    out["momentum_projection_max_Nms"] = float(rec["run_momentum_projection_max"])
     # the signed drift the projection removed, per simulated second (the rotational part of
     # the free joint's momentum, about the bus centre, body Z = world Z in planar motion)
-    out["angmom_drift_rate_unprojected_N_m_s_per_s"] = float(proj[5]) / max(result.t_end_s, 1e-300)
+    out["angmom_drift_rate_unprojected_Nms_s"] = float(proj[5]) / max(result.t_end_s, 1e-300)
     out.update(momentum_yaw_error(sc, rec, yaw_end))
     out.update(actuation_summary(sc, rec))
     # exact model along the achieved shape path of one cycle of the last full-rate window
@@ -421,7 +421,7 @@ def build_msac_scenario(cfg: MsacConfig) -> MsacTask:
 
 
 @dataclass
-class SweepRunner:
+class SweepRunner(WholeRun):
     """Runs every point of a ``[sweep]`` config ``cfg``: a :class:`MultibodyTask` of each point
     (:func:`magsail_mj.concepts.msac.config.point_config`) run through its own runner, then its
     summary.
@@ -433,17 +433,8 @@ class SweepRunner:
     """
 
     cfg: MsacConfig
-    #: a sweep of whole runs: no checkpoints, so no stop/resume
-    checkpoints = False
 
-    def run(
-        self,
-        *,
-        progress: bool = False,
-        checkpoint_path: Any = None,
-        resume: bool = False,
-        stop_after_s: float | None = None,
-    ) -> RunResult:
+    def run_whole(self, *, progress: bool) -> RunResult:
         cfg = self.cfg
         sw = cfg.sweep
         wall0 = time.perf_counter()
@@ -482,10 +473,10 @@ class SweepRunner:
             "predicted_rate_lumped_rad_s",
             "predicted_rate_exact_rad_s",
             "secular_rate_rad_s",
-            "hinge_torque_peak_N_m",
+            "hinge_torque_peak_Nm",
             "slide_force_peak_N",
             "angular_momentum_drift",
-            "hinge_torque_rms_N_m",
+            "hinge_torque_rms_Nm",
             "slide_force_rms_N",
             "max_cycle_rate_Hz",
             "angmom_spurious_yaw_rel",

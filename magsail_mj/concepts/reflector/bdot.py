@@ -59,8 +59,8 @@ class PlateBdotController:
 
     Args:
       law: ``"dipole"``, ``"printed"`` or ``"norm_cap"`` (module docstring).
-      m_max_A_m2: per-path dipole limit ``T_max / B_ref`` [A m²].
-      T_max_N_m: torque cap of the torque-form laws [N m].
+      m_max_Am2: per-path dipole limit ``T_max / B_ref`` [A m²].
+      T_max_Nm: torque cap of the torque-form laws [N m].
       gain: k [A m² s/T] (see module docstring; :meth:`gain_from_omega_k`).
       I_max_A: path current at ``m_max`` [A].
       field_body: callable ``(t, R) → B_b`` giving the body-frame field [T] from the time and the
@@ -74,8 +74,8 @@ class PlateBdotController:
         self,
         *,
         law: Literal["dipole", "printed", "norm_cap"],
-        m_max_A_m2: float,
-        T_max_N_m: float,
+        m_max_Am2: float,
+        T_max_Nm: float,
         gain: float,
         I_max_A: float,
         field_body,
@@ -85,8 +85,8 @@ class PlateBdotController:
         if law not in ("dipole", "printed", "norm_cap"):
             raise ValueError(f"law: must be 'dipole', 'printed' or 'norm_cap', got {law!r}")
         for name, v in (
-            ("m_max_A_m2", m_max_A_m2),
-            ("T_max_N_m", T_max_N_m),
+            ("m_max_Am2", m_max_Am2),
+            ("T_max_Nm", T_max_Nm),
             ("gain", gain),
             ("I_max_A", I_max_A),
             ("period_s", period_s),
@@ -94,8 +94,8 @@ class PlateBdotController:
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name}: must be > 0, got {v!r}")
         self.law = law
-        self.m_max = float(m_max_A_m2)
-        self.T_max = float(T_max_N_m)
+        self.m_max = float(m_max_Am2)
+        self.T_max = float(T_max_Nm)
         self.gain = float(gain)
         self.I_max = float(I_max_A)
         self.field_body = field_body
@@ -104,11 +104,11 @@ class PlateBdotController:
         self.last = BdotCommand(torque_body=np.zeros(3))
 
     @staticmethod
-    def gain_from_omega_k(*, m_max_A_m2: float, B_ref_T: float, omega_k_rad_s: float) -> float:
+    def gain_from_omega_k(*, m_max_Am2: float, B_ref_T: float, omega_k_rad_s: float) -> float:
         """``k = m_max / (B_ref ω_k)`` (§5.3)."""
         if not omega_k_rad_s > 0:
             raise ValueError(f"omega_k_rad_s: must be > 0 rad/s, got {omega_k_rad_s!r}")
-        return m_max_A_m2 / (B_ref_T * omega_k_rad_s)
+        return m_max_Am2 / (B_ref_T * omega_k_rad_s)
 
     def command(self, omega_body: np.ndarray, B_body: np.ndarray) -> BdotCommand:
         """The law's command for body rate ω_b [rad/s] and field B_b [T]."""

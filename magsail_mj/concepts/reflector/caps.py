@@ -27,16 +27,16 @@ from magsail_mj.divergence import DivergenceError, TrackingLost, check_inner_run
 from magsail_mj.loads.body_torque import HeldBodyTorqueLoad
 from magsail_mj.plotting import new_figure, save_figure
 from magsail_mj.concepts.reflector.model import ReflectorModel
-from magsail_mj.sim import RunResult, Simulation
+from magsail_mj.sim import RunResult, Simulation, WholeRun
 
 __all__ = ["CapSweepRunner", "cap_grid", "caps_outputs", "caps_plots"]
 
 DEG = math.pi / 180.0
 
 
-def cap_grid(*, base_N_m: float = 0.25, k_max: int = 16) -> np.ndarray:
+def cap_grid(*, base_Nm: float = 0.25, k_max: int = 16) -> np.ndarray:
     """``0.25 · 2^(k/2)`` N m for ``k = 0 … k_max``."""
-    return base_N_m * 2.0 ** (np.arange(k_max + 1) / 2.0)
+    return base_Nm * 2.0 ** (np.arange(k_max + 1) / 2.0)
 
 
 class _Watchdog:
@@ -61,7 +61,7 @@ class _Watchdog:
 
 @dataclass
 class CapRun:
-    cap_N_m: float
+    cap_Nm: float
     limit_deg: float
     passed: bool
     err_max_rad: float
@@ -70,9 +70,9 @@ class CapRun:
 
 
 @dataclass
-class CapSweepRunner:
+class CapSweepRunner(WholeRun):
     """Runs the B3 sweep (module docstring) and returns a :class:`RunResult` whose records are one
-    row per run: ``t`` (run index), ``cap_N_m``, ``limit_deg``, ``passed``, ``err_max_rad``,
+    row per run: ``t`` (run index), ``cap_Nm``, ``limit_deg``, ``passed``, ``err_max_rad``,
     ``t_stop_s``, ``wall_s``, and ``qpos`` (the initial state, for the run-folder contract).
 
     Every run is a :class:`magsail_mj.sim.Simulation` of ``plate`` (the built pitch model) with its
@@ -81,8 +81,6 @@ class CapSweepRunner:
     plate: ReflectorModel
     thresholds_deg: tuple[float, ...] = (5.0, 1.0)
     rel_tol: float = 0.01
-    #: a search over many short runs: no checkpoints, so no stop/resume
-    checkpoints = False
 
     def _init_state(self, data) -> None:
         self.plate.write_state(data, *self.plate.pitch_initial_state())
@@ -110,7 +108,7 @@ class CapSweepRunner:
         res = sim.run()
         check_inner_run(res.status, res.message, where=f"cap {cap:g} N m, limit {limit_deg:g}°")
         return CapRun(
-            cap_N_m=float(cap),
+            cap_Nm=float(cap),
             limit_deg=limit_deg,
             passed=res.status == "completed",
             err_max_rad=dog.err_max,
@@ -156,14 +154,7 @@ class CapSweepRunner:
                     lo = mid
             self.minimum[thr] = hi
 
-    def run(
-        self,
-        *,
-        progress: bool = False,
-        checkpoint_path: Any = None,
-        resume: bool = False,
-        stop_after_s: float | None = None,
-    ) -> RunResult:
+    def run_whole(self, *, progress: bool) -> RunResult:
         wall0 = time.perf_counter()
         runs: list[CapRun] = []
         grid = cap_grid()
@@ -183,7 +174,7 @@ class CapSweepRunner:
         rec = {
             "t": np.arange(len(runs), dtype=float),
             "qpos": data_qpos,
-            "cap_N_m": np.array([r.cap_N_m for r in runs]),
+            "cap_Nm": np.array([r.cap_Nm for r in runs]),
             "limit_deg": np.array([r.limit_deg for r in runs]),
             "passed": np.array([r.passed for r in runs], dtype=np.int8),
             "err_max_rad": np.array([r.err_max_rad for r in runs]),
@@ -202,7 +193,7 @@ class CapSweepRunner:
 
 
 def caps_outputs(runner: CapSweepRunner, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Summary of a B3 sweep: ``cap_min_err_below_5deg_N_m``, ``cap_min_err_below_1deg_N_m`` and the run table."""
+    """Summary of a B3 sweep: ``cap_min_err_below_5deg_Nm``, ``cap_min_err_below_1deg_Nm`` and the run table."""
     p = runner.plate
     cfg = p.cfg
     rec = result.records
@@ -216,14 +207,14 @@ def caps_outputs(runner: CapSweepRunner, result: RunResult) -> tuple[dict[str, A
         "saturation": cfg.control.saturation_mode,
         "orbit_period_s": p.orbit.period_s,
         "t_mid_s": p.orbit.t_m_s,
-        "cap_geometric_N_m": p.cap.T_max_ycoil_N_m,
-        "cap_min_err_below_5deg_N_m": runner.minimum.get(5.0),
-        "cap_min_err_below_1deg_N_m": runner.minimum.get(1.0),
+        "cap_geometric_Nm": p.cap.T_max_ycoil_Nm,
+        "cap_min_err_below_5deg_Nm": runner.minimum.get(5.0),
+        "cap_min_err_below_1deg_Nm": runner.minimum.get(1.0),
         "grid_monotonic_5deg": runner.monotonic.get(5.0),
         "grid_monotonic_1deg": runner.monotonic.get(1.0),
         "bisection_rel_tol": runner.rel_tol,
     }
-    series = {"cap_N_m": rec["cap_N_m"], "err_max_deg": np.degrees(rec["err_max_rad"])}
+    series = {"cap_Nm": rec["cap_Nm"], "err_max_deg": np.degrees(rec["err_max_rad"])}
     return summary, series
 
 
@@ -232,15 +223,15 @@ def caps_plots(
     *,
     runs: list[CapRun],
     minimum: dict[float, float | None],
-    T_max_N_m: float,
+    T_max_Nm: float,
     areal_density_kg_m2: float,
 ) -> list[Path]:
     """``caps.png``: maximum error [deg] (up to the stop) against the cap [N m], pass/fail, the
-    thresholds, the minimum caps found and the geometric coil capability ``T_max_N_m``."""
+    thresholds, the minimum caps found and the geometric coil capability ``T_max_Nm``."""
     fig, ax = new_figure(figsize=(8, 4.5))
     for r in runs:
         ax.loglog(
-            r.cap_N_m,
+            r.cap_Nm,
             max(math.degrees(r.err_max_rad), 1e-4),
             "o" if r.passed else "x",
             color="C2" if r.passed else "C3",
@@ -252,7 +243,7 @@ def caps_plots(
         if c is not None:
             ax.axvline(c, color="C0", ls=":", lw=1.0)
             ax.text(c, thr * 1.15, f" {c:.3g} N m", color="C0", fontsize=8)
-    ax.axvline(T_max_N_m, color="C1", lw=1.0, label=f"coil T_max {T_max_N_m:.3g} N m")
+    ax.axvline(T_max_Nm, color="C1", lw=1.0, label=f"coil T_max {T_max_Nm:.3g} N m")
     ax.set_xlabel("torque cap [N m]"), ax.set_ylabel("max attitude error up to the stop [deg]")
     ax.set_title(f"B3 cap sweep, σ = {1e3 * areal_density_kg_m2:g} g/m² (o pass, x stopped)")
     ax.grid(alpha=0.3, which="both"), ax.legend()

@@ -132,7 +132,7 @@ class ReflectorControlConfig(StrictModel):
     """``[control]``: ``kind`` = ``"bdot"`` (Scenario A; ``law``, ``omega_k_rad_s``) or ``"quat_pd"``
     (Scenario B; ``omega_n_rad_s``, ``zeta``, ``rate_term``, ``feedforward``); ``saturation``
     (``"box"`` for B-dot; ``"norm"`` (baseline), ``"field_scaled"`` or ``"per_path"`` for pitch);
-    ``cap_N_m`` overrides the geometric coil capability T_max."""
+    ``cap_Nm`` overrides the geometric coil capability T_max."""
 
     kind: Literal["bdot", "quat_pd"]
     law: Literal["dipole", "printed", "norm_cap"] = "dipole"
@@ -142,7 +142,7 @@ class ReflectorControlConfig(StrictModel):
     rate_term: Literal["absolute", "error"] = "absolute"
     feedforward: bool = False
     saturation: Literal["box", "norm", "field_scaled", "per_path"] | None = None
-    cap_N_m: float | None = Field(default=None, gt=0)
+    cap_Nm: float | None = Field(default=None, gt=0)
 
     @property
     def saturation_mode(self) -> str:

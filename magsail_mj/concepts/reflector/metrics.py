@@ -9,13 +9,13 @@ config, indices, inertia, capability, orbit) and the run's records.
 Detumble (§5.5): ``t_omega_below_1e-{2,3,4}_s`` (first |ω| below 10⁻², 10⁻³, 10⁻⁴ rad/s; the issue's
 ``time_rate_below_1e-3_s`` equals the middle one), ``omega_final_rad_s``,
 ``sat_fraction_{x,y}coil``, ``t_min_one_cap_s = |h₀| / T_max`` and ``t_min_two_caps_s =
-|h₀| / (√2 T_max)`` (both paths saturated, field ⟂ both dipoles), ``h_along_B_change_N_m_s``
+|h₀| / (√2 T_max)`` (both paths saturated, field ⟂ both dipoles), ``h_along_B_change_Nms``
 (change of h·B̂, world axes, which a magnetic torque cannot alter for an inertial field).
 
 Pitch (§6.7): attitude-error angle ``2 arccos|q_e,w|``; pitch ``ψ_act = π/2 − β_act`` with
 ``β_act = unwrap(atan2(R₁₃, R₁₁))``; ``t_err_above_{1,5}deg_s``, ``time_err_above_5deg_s``,
 ``err_max_rad``, ``err_rms_rad``, ``sat_fraction``, ``passes_over_cap`` (passes in which
-|T_ref| exceeds the cap), ``torque_ff_peak_N_m`` (max I₂|ψ̈| over the nominal run) and the issue's
+|T_ref| exceeds the cap), ``torque_ff_peak_Nm`` (max I₂|ψ̈| over the nominal run) and the issue's
 ``tracking_lost_first_s`` (first |ψ − ψ_ref| > 5°), ``passes_saturated`` (passes with a
 saturated record), ``psi_error_rms_deg``. A *pass* is the window ``t_k ± T_orb/2`` around an
 equator crossing on the +x side, ``t_k = t_m + k T_orb``, clipped to the run.
@@ -105,7 +105,7 @@ def detumble_outputs(plate: ReflectorModel, result: RunResult) -> tuple[dict[str
     B_b = rec["B_body_T"]
     B_w = np.einsum("tij,tj->ti", R, B_b)
     b_hat = B_w / np.maximum(np.linalg.norm(B_w, axis=1, keepdims=True), 1e-300)
-    T_b = rec["torque_body_N_m"]
+    T_b = rec["torque_body_Nm"]
     T_w = np.einsum("tij,tj->ti", R, T_b)
     w_w = np.einsum("tij,tj->ti", R, w)
     w_norm = np.linalg.norm(w, axis=1)
@@ -119,17 +119,17 @@ def detumble_outputs(plate: ReflectorModel, result: RunResult) -> tuple[dict[str
         "omega_body_rad_s": w,
         "omega_norm_rad_s": w_norm,
         "q_wxyz": q,
-        "h_world_N_m_s": h_w,
-        "h_norm_N_m_s": h_norm,
-        "h_along_B_N_m_s": h_along,
+        "h_world_Nms": h_w,
+        "h_norm_Nms": h_norm,
+        "h_along_B_Nms": h_along,
         "kinetic_energy_J": 0.5 * np.einsum("ti,ti->t", w, h_b),
-        "T_norm_N_m": np.linalg.norm(T_b, axis=1),
+        "T_norm_Nm": np.linalg.norm(T_b, axis=1),
         "torque_norm_Nm": np.linalg.norm(T_b, axis=1),  # video overlay (unit suffix it knows)
-        "torque_body_N_m": T_b,
+        "torque_body_Nm": T_b,
         "currents_A": rec["currents_A"],
         "B_world_T": B_w,
     }
-    cap = plate.cap.cap_N_m
+    cap = plate.cap.cap_Nm
     h0 = float(h_norm[0])
     summary: dict[str, Any] = {
         **_run_summary(result, plate),
@@ -137,10 +137,10 @@ def detumble_outputs(plate: ReflectorModel, result: RunResult) -> tuple[dict[str
         "field_frame": plate.cfg.field.frame,
         "omega_k_rad_s": plate.cfg.control.omega_k_rad_s,
         "bdot_gain": plate.bdot_gain(),
-        "T_max_N_m": cap,
-        "m_max_A_m2": float(plate.cap.m_max_A_m2[1]),
+        "T_max_Nm": cap,
+        "m_max_Am2": float(plate.cap.m_max_Am2[1]),
         "mass_kg": plate.mass_kg,
-        "inertia_kg_m2": plate.inertia.tolist(),
+        "inertia_kgm2": plate.inertia.tolist(),
         "omega_initial_rad_s": float(w_norm[0]),
     }
     for exp in (2, 3, 4):
@@ -151,9 +151,9 @@ def detumble_outputs(plate: ReflectorModel, result: RunResult) -> tuple[dict[str
     summary["sat_fraction_ycoil"] = float(np.mean(sat[:, 1]))
     summary["t_min_one_cap_s"] = h0 / cap
     summary["t_min_two_caps_s"] = h0 / (math.sqrt(2.0) * cap)
-    summary["h_initial_N_m_s"] = h0
-    summary["h_final_N_m_s"] = float(h_norm[-1])
-    summary["h_along_B_change_N_m_s"] = float(h_along[-1] - h_along[0])
+    summary["h_initial_Nms"] = h0
+    summary["h_final_Nms"] = float(h_norm[-1])
+    summary["h_along_B_change_Nms"] = float(h_along[-1] - h_along[0])
     summary["kinetic_energy_initial_J"] = float(series["kinetic_energy_J"][0])
     summary["kinetic_energy_final_J"] = float(series["kinetic_energy_J"][-1])
     return summary, series
@@ -199,7 +199,7 @@ def pass_table(plate: ReflectorModel, ref: dict[str, np.ndarray]) -> list[dict[s
     peak |ψ̇|, peak |ψ̈|, peak required torque I₂|ψ̈| and minutes above the cap, for both densities."""
     t = ref["t"]
     dt = _dt_weights(t)
-    cap = plate.cap.cap_N_m
+    cap = plate.cap.cap_Nm
     rows = []
     for k, tk, a, b in pass_windows(plate, float(t[-1])):
         sel = (t >= a) & (t < b) if b < t[-1] else (t >= a) & (t <= b)
@@ -212,7 +212,7 @@ def pass_table(plate: ReflectorModel, ref: dict[str, np.ndarray]) -> list[dict[s
         }
         for label in ("sigma100", "sigma10"):
             tq = ref[f"torque_ff_{label}"][sel]
-            row[f"torque_ff_peak_{label}_N_m"] = float(tq.max())
+            row[f"torque_ff_peak_{label}_Nm"] = float(tq.max())
             row[f"minutes_above_cap_{label}"] = float(np.sum(dt[sel][tq > cap]) / 60.0)
         rows.append(row)
     return rows
@@ -234,10 +234,10 @@ def pitch_outputs(
     # each is unwrapped on its own, so a lost track shows as a growing difference of whole turns
     psi_act = psi_act + 2 * np.pi * np.round((psi_ref[0] - psi_act[0]) / (2 * np.pi))
     dpsi = np.angle(np.exp(1j * (psi_act - psi_ref)))
-    T_ref = rec["T_ref_body_N_m"]
-    T_act = rec["torque_body_N_m"]
+    T_ref = rec["T_ref_body_Nm"]
+    T_act = rec["torque_body_Nm"]
     sat = rec["saturated"].astype(bool)
-    cap = plate.cap.cap_N_m
+    cap = plate.cap.cap_Nm
     r_w = o.position(t)
     R_g = o.ground_point(t)
     B_w = rec["B_world_T"]
@@ -265,10 +265,10 @@ def pitch_outputs(
         "psi_error_rad": dpsi,
         "err_rad": err,
         "err_deg": np.degrees(err),
-        "T_act_y_N_m": T_act[:, 1],
+        "T_act_y_Nm": T_act[:, 1],
         "torque_pitch_Nm": T_act[:, 1],  # video overlay (unit suffix it knows)
-        "T_ref_norm_N_m": np.linalg.norm(T_ref, axis=1),
-        "T_act_norm_N_m": np.linalg.norm(T_act, axis=1),
+        "T_ref_norm_Nm": np.linalg.norm(T_ref, axis=1),
+        "T_act_norm_Nm": np.linalg.norm(T_act, axis=1),
         "r_world_m": r_w,
         "ground_world_m": R_g,
         "plate_normal_world": R[:, :, 2],
@@ -276,7 +276,7 @@ def pitch_outputs(
     ref = reference_products(plate) if ref is None else ref
     windows = pass_windows(plate, float(t[-1]))
     over_cap = sum(
-        1 for _, _, a, b in windows if np.any((series["T_ref_norm_N_m"] > cap * (1 + 1e-9)) & (t >= a) & (t <= b))
+        1 for _, _, a, b in windows if np.any((series["T_ref_norm_Nm"] > cap * (1 + 1e-9)) & (t >= a) & (t <= b))
     )
     sat_passes = sum(1 for _, _, a, b in windows if np.any(sat & (t >= a) & (t <= b)))
     dtw = _dt_weights(t)
@@ -288,8 +288,8 @@ def pitch_outputs(
         "omega_n_rad_s": plate.cfg.control.omega_n_rad_s,
         "areal_density_kg_m2": plate.cfg.plate.areal_density_kg_m2,
         "mass_kg": plate.mass_kg,
-        "inertia_kg_m2": plate.inertia.tolist(),
-        "cap_N_m": cap,
+        "inertia_kgm2": plate.inertia.tolist(),
+        "cap_Nm": cap,
         "orbit_period_s": o.period_s,
         "orbit_radius_m": o.r_m,
         "mean_motion_rad_s": o.n_rad_s,
@@ -302,9 +302,9 @@ def pitch_outputs(
         "err_rms_rad": float(np.sqrt(np.mean(err**2))),
         "sat_fraction": float(np.mean(sat)),
         "passes_over_cap": int(over_cap),
-        "torque_ff_peak_N_m": float(ref["torque_ff"].max()),
-        "torque_ff_peak_sigma100_N_m": float(ref["torque_ff_sigma100"].max()),
-        "torque_ff_peak_sigma10_N_m": float(ref["torque_ff_sigma10"].max()),
+        "torque_ff_peak_Nm": float(ref["torque_ff"].max()),
+        "torque_ff_peak_sigma100_Nm": float(ref["torque_ff_sigma100"].max()),
+        "torque_ff_peak_sigma10_Nm": float(ref["torque_ff_sigma10"].max()),
         "passes_ff_over_cap": int(
             sum(
                 1
@@ -318,14 +318,14 @@ def pitch_outputs(
         "passes_saturated": int(sat_passes),
         "psi_error_rms_deg": float(np.degrees(np.sqrt(np.mean(dpsi**2)))),
         "psi_error_max_deg": float(np.degrees(np.max(np.abs(dpsi)))),
-        "T_ref_peak_N_m": float(series["T_ref_norm_N_m"].max()),
+        "T_ref_peak_Nm": float(series["T_ref_norm_Nm"].max()),
         "field_max_T": float(np.linalg.norm(ref["B"], axis=1).max()),
         "field_min_T": float(np.linalg.norm(ref["B"], axis=1).min()),
     }
-    if "torque_gg_world_N_m" in rec:
-        gg = np.linalg.norm(rec["torque_gg_world_N_m"], axis=1)
-        series["torque_gg_norm_N_m"] = gg
-        summary["torque_gg_max_N_m"] = float(gg.max())
+    if "torque_gg_world_Nm" in rec:
+        gg = np.linalg.norm(rec["torque_gg_world_Nm"], axis=1)
+        series["torque_gg_norm_Nm"] = gg
+        summary["torque_gg_max_Nm"] = float(gg.max())
         summary["torque_gg_max_over_cap"] = float(gg.max() / cap)
     # reference-only products over the nominal run (own time axis ``ref_t_s``); the pass table goes
     # to passes.json with the plots
@@ -337,9 +337,9 @@ def pitch_outputs(
         "psi_ddot": "rad_s2",
         "beta_ref": "rad",
         "B": "T",
-        "torque_ff_sigma100": "N_m",
-        "torque_ff_sigma10": "N_m",
-        "torque_ff": "N_m",
+        "torque_ff_sigma100": "Nm",
+        "torque_ff_sigma10": "Nm",
+        "torque_ff": "Nm",
     }
     for key, unit in units.items():
         series[f"ref_{key}_{unit}"] = ref[key]

@@ -70,22 +70,22 @@ class CoilCapability:
     """Geometric actuator figures of a config (§3.6): ``T_max`` of the coil paths and the in-plane
     loop [N m], its side [m], the per-path dipole limits [A m²] and the cap used by the controller."""
 
-    T_max_ycoil_N_m: float
-    T_max_xcoil_N_m: float
-    T_max_zloop_N_m: float
+    T_max_ycoil_Nm: float
+    T_max_xcoil_Nm: float
+    T_max_zloop_Nm: float
     zloop_side_m: float
-    m_max_A_m2: np.ndarray
-    cap_N_m: float
+    m_max_Am2: np.ndarray
+    cap_Nm: float
 
     def as_dict(self) -> dict[str, float | list[float]]:
         """The figures as a JSON-ready dict (manifest ``coil_capability``)."""
         return {
-            "T_max_ycoil_N_m": self.T_max_ycoil_N_m,
-            "T_max_xcoil_N_m": self.T_max_xcoil_N_m,
-            "T_max_zloop_N_m": self.T_max_zloop_N_m,
+            "T_max_ycoil_Nm": self.T_max_ycoil_Nm,
+            "T_max_xcoil_Nm": self.T_max_xcoil_Nm,
+            "T_max_zloop_Nm": self.T_max_zloop_Nm,
             "zloop_side_m": self.zloop_side_m,
-            "m_max_A_m2": self.m_max_A_m2.tolist(),
-            "cap_N_m": self.cap_N_m,
+            "m_max_Am2": self.m_max_Am2.tolist(),
+            "cap_Nm": self.cap_Nm,
         }
 
 
@@ -100,12 +100,12 @@ def coil_capability(cfg: ReflectorConfig) -> CoilCapability:
     side, Tz = loop_side_for_capability(Ty, side_m=p.side_m, segment_m=p.cell_m, depth_m=p.depth, **kw)
     m_max = np.array([Tx, Ty, Tz]) / c.B_ref_T
     return CoilCapability(
-        T_max_ycoil_N_m=Ty,
-        T_max_xcoil_N_m=Tx,
-        T_max_zloop_N_m=Tz,
+        T_max_ycoil_Nm=Ty,
+        T_max_xcoil_Nm=Tx,
+        T_max_zloop_Nm=Tz,
         zloop_side_m=side,
-        m_max_A_m2=m_max,
-        cap_N_m=cfg.control.cap_N_m or Ty,
+        m_max_Am2=m_max,
+        cap_Nm=cfg.control.cap_Nm or Ty,
     )
 
 
@@ -170,7 +170,7 @@ class ReflectorModel:
     def bdot_gain(self) -> float:
         """B-dot gain k [A m² s / T²] from ``control.omega_k_rad_s`` (§5.3)."""
         return PlateBdotController.gain_from_omega_k(
-            m_max_A_m2=self.cap.m_max_A_m2[1],
+            m_max_Am2=self.cap.m_max_Am2[1],
             B_ref_T=self.cfg.coil.B_ref_T,
             omega_k_rad_s=self.cfg.control.omega_k_rad_s,
         )
@@ -180,8 +180,8 @@ class ReflectorModel:
         cfg, c = self.cfg, self.cfg.control
         return PlateBdotController(
             law=c.law,
-            m_max_A_m2=self.cap.m_max_A_m2[1],
-            T_max_N_m=self.cap.cap_N_m,
+            m_max_Am2=self.cap.m_max_Am2[1],
+            T_max_Nm=self.cap.cap_Nm,
             gain=self.bdot_gain(),
             I_max_A=cfg.coil.I_max_A,
             field_body=self.field_body_fn(),
@@ -194,15 +194,15 @@ class ReflectorModel:
         cfg, c = self.cfg, self.cfg.control
         return ReflectorPitchController(
             orbit=self.orbit,
-            inertia_kg_m2=self.inertia,
+            inertia_kgm2=self.inertia,
             omega_n_rad_s=c.omega_n_rad_s,
             zeta=c.zeta,
             rate_term=c.rate_term,
             feedforward=c.feedforward,
             saturation=c.saturation_mode,
-            cap_N_m=self.cap.cap_N_m,
+            cap_Nm=self.cap.cap_Nm,
             B_ref_T=cfg.coil.B_ref_T,
-            m_max_A_m2=self.cap.m_max_A_m2,
+            m_max_Am2=self.cap.m_max_Am2,
             body_id=self.idx.plate,
             period_s=cfg.sim.timestep_s,
         )

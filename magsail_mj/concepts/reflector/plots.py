@@ -29,12 +29,12 @@ def _positive(x: np.ndarray) -> np.ndarray:
     return np.where(x > 0, x, np.nan)
 
 
-def detumble_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: ReflectorConfig, cap_N_m: float) -> list[Path]:
+def detumble_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: ReflectorConfig, cap_Nm: float) -> list[Path]:
     """Scenario A figures (module docstring) of the series of
-    :func:`magsail_mj.concepts.reflector.metrics.detumble_outputs`; ``cap_N_m``: per-path torque cap."""
+    :func:`magsail_mj.concepts.reflector.metrics.detumble_outputs`; ``cap_Nm``: per-path torque cap."""
     run_dir = Path(run_dir)
     th = series["time_h"]
-    cap = cap_N_m
+    cap = cap_Nm
     label = f"{cfg.scenario} ({cfg.control.law}, ω_k = {cfg.control.omega_k_rad_s:g} rad/s, field {cfg.field.frame})"
     out = []
 
@@ -53,12 +53,12 @@ def detumble_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: Reflect
     ax.grid(alpha=0.3, which="both")
     out.append(save_figure(fig, run_dir / "omega_norm.png"))
 
-    T = np.asarray(series["torque_body_N_m"]) if "torque_body_N_m" in series else None
+    T = np.asarray(series["torque_body_Nm"]) if "torque_body_Nm" in series else None
     fig, ax = new_figure(figsize=(9, 4))
     if T is not None:
         for k, c in enumerate("xyz"):
             ax.plot(th, T[:, k], lw=0.8, label=f"T_{c}")
-    ax.plot(th, series["T_norm_N_m"], "k", lw=1.0, label="|T|")
+    ax.plot(th, series["T_norm_Nm"], "k", lw=1.0, label="|T|")
     for v in (cap, -cap):
         ax.axhline(v, color="r", ls="--", lw=0.8)
     ax.set_xlabel("time [h]"), ax.set_ylabel("torque, body axes [N m]")
@@ -80,11 +80,11 @@ def detumble_plots(run_dir: Path, series: dict[str, np.ndarray], *, cfg: Reflect
     out.append(save_figure(fig, run_dir / "currents.png"))
 
     fig, ax = new_figure(figsize=(9, 4))
-    h = series["h_norm_N_m_s"]
+    h = series["h_norm_Nms"]
     t = th * 3600.0
     ax.plot(th, h, label="|h|")
     ax.plot(th, np.maximum(h[0] - cap * t, 0.0), "r--", lw=0.8, label="|h₀| − T_max t")
-    ax.plot(th, series["h_along_B_N_m_s"], label="h·B̂")
+    ax.plot(th, series["h_along_B_Nms"], label="h·B̂")
     ax.set_xlabel("time [h]"), ax.set_ylabel("angular momentum [N m s]")
     ax.grid(alpha=0.3), ax.legend()
     out.append(save_figure(fig, run_dir / "momentum.png"))
@@ -96,7 +96,7 @@ def pitch_plots(
     series: dict[str, np.ndarray],
     *,
     cfg: ReflectorConfig,
-    cap_N_m: float,
+    cap_Nm: float,
     orbit_period_s: float,
     t_m_s: float,
     passes: list[dict[str, Any]],
@@ -107,7 +107,7 @@ def pitch_plots(
     the orbit period [s] and the overhead time ``t_m_s`` [s]."""
     run_dir = Path(run_dir)
     th = series["time_h"]
-    cap = cap_N_m
+    cap = cap_Nm
     sigma = 1e3 * cfg.plate.areal_density_kg_m2
     label = (
         f"{cfg.scenario}: σ = {sigma:g} g/m², rate term {cfg.control.rate_term}"
@@ -144,8 +144,8 @@ def pitch_plots(
     out.append(save_figure(fig, run_dir / "attitude_error.png"))
 
     fig, ax = new_figure(figsize=(10, 4))
-    ax.plot(th, series["T_ref_norm_N_m"], lw=0.9, label="|T_ref|")
-    ax.plot(th, series["T_act_norm_N_m"], "--", lw=0.9, label="|T_act|")
+    ax.plot(th, series["T_ref_norm_Nm"], lw=0.9, label="|T_ref|")
+    ax.plot(th, series["T_act_norm_Nm"], "--", lw=0.9, label="|T_act|")
     ax.axhline(cap, color="r", ls="--", lw=0.8, label="cap")
     ax.set_yscale("log"), ax.set_xlabel("time [h]"), ax.set_ylabel("torque [N m]"), ax.set_title(label)
     ax.grid(alpha=0.3, which="both"), ax.legend()
@@ -165,8 +165,8 @@ def pitch_plots(
     out.append(save_figure(fig, run_dir / "reference.png"))
 
     fig, ax = new_figure(figsize=(10, 4))
-    ax.semilogy(rt, _positive(series["ref_torque_ff_sigma100_N_m"]), label="I₂|ψ̈|, σ = 100 g/m²")
-    ax.semilogy(rt, _positive(series["ref_torque_ff_sigma10_N_m"]), label="I₂|ψ̈|, σ = 10 g/m²")
+    ax.semilogy(rt, _positive(series["ref_torque_ff_sigma100_Nm"]), label="I₂|ψ̈|, σ = 100 g/m²")
+    ax.semilogy(rt, _positive(series["ref_torque_ff_sigma10_Nm"]), label="I₂|ψ̈|, σ = 10 g/m²")
     ax.axhline(cap, color="r", ls="--", lw=0.9, label=f"cap {cap:.3g} N m")
     ax.set_xlabel("time [h]"), ax.set_ylabel("feed-forward pitch torque [N m]")
     ax.grid(alpha=0.3, which="both"), ax.legend()
@@ -182,6 +182,6 @@ def pitch_plots(
     out.append(save_figure(fig, run_dir / "field.png"))
 
     path = run_dir / "passes.json"
-    write_json(path, {"cap_N_m": cap, "orbit_period_s": orbit_period_s, "t_m_s": t_m_s, "passes": passes})
+    write_json(path, {"cap_Nm": cap, "orbit_period_s": orbit_period_s, "t_m_s": t_m_s, "passes": passes})
     out.append(path)
     return out

@@ -104,11 +104,11 @@ class ReflectorTask(ABC):
         return [HeldBodyTorqueLoad(self.idx.plate)]
 
     def probes(self, loads: list[Any]) -> dict[str, Callable[[Any, mujoco.MjData], Any]]:
-        """Recorded quantities common to every kind: ``qpos``, ``qvel``, ``torque_body_N_m``."""
+        """Recorded quantities common to every kind: ``qpos``, ``qvel``, ``torque_body_Nm``."""
         return {
             "qpos": lambda s, d: d.qpos,
             "qvel": lambda s, d: d.qvel,
-            "torque_body_N_m": lambda s, d: s.ctrl.torque_body,
+            "torque_body_Nm": lambda s, d: s.ctrl.torque_body,
         }
 
     def simulation(self) -> Simulation:
@@ -164,7 +164,7 @@ class ReflectorTask(ABC):
             "timestep_s": cfg.sim.timestep_s,
             "variant": cfg.variant,
             "mass_kg": self.mass_kg,
-            "inertia_kg_m2": self.inertia.tolist(),
+            "inertia_kgm2": self.inertia.tolist(),
             "inertia_thickness_m": self.params.thickness,
             "coil_capability": self.cap.as_dict(),
             "assumptions": ASSUMPTIONS,
@@ -197,8 +197,8 @@ class DetumbleTask(ReflectorTask):
     def probes(self, loads: list[Any]) -> dict[str, Callable[[Any, mujoco.MjData], Any]]:
         return {
             **super().probes(loads),
-            "dipole_body_A_m2": lambda s, d: s.ctrl.dipole_body,
-            "dipole_cmd_body_A_m2": lambda s, d: s.ctrl.dipole_cmd_body,
+            "dipole_body_Am2": lambda s, d: s.ctrl.dipole_body,
+            "dipole_cmd_body_Am2": lambda s, d: s.ctrl.dipole_cmd_body,
             "currents_A": lambda s, d: s.ctrl.currents_A,
             "saturated": lambda s, d: s.ctrl.saturated.astype(np.int8),
             "B_body_T": lambda s, d: s.ctrl.B_body,
@@ -208,7 +208,7 @@ class DetumbleTask(ReflectorTask):
         return detumble_outputs(self.plate, result)
 
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
-        return detumble_plots(run_dir, series, cfg=self.cfg, cap_N_m=self.cap.cap_N_m)
+        return detumble_plots(run_dir, series, cfg=self.cfg, cap_Nm=self.cap.cap_Nm)
 
     def render_text(self) -> dict[str, Any]:
         cfg = self.cfg
@@ -250,7 +250,7 @@ class PitchTask(ReflectorTask):
         if self.cfg.gravity.gg_torque:
             loads.append(
                 OrbitGravityGradientLoad(
-                    self.idx.plate, inertia_kg_m2=self.inertia, position=self.orbit.position, mu=self.cfg.orbit.mu_m3_s2
+                    self.idx.plate, inertia_kgm2=self.inertia, position=self.orbit.position, mu=self.cfg.orbit.mu_m3_s2
                 )
             )
         return loads
@@ -258,7 +258,7 @@ class PitchTask(ReflectorTask):
     def probes(self, loads: list[Any]) -> dict[str, Callable[[Any, mujoco.MjData], Any]]:
         out = {
             **super().probes(loads),
-            "T_ref_body_N_m": lambda s, d: s.ctrl.T_ref_body,
+            "T_ref_body_Nm": lambda s, d: s.ctrl.T_ref_body,
             "saturated": lambda s, d: np.int8(s.ctrl.saturated),
             "q_e": lambda s, d: s.ctrl.q_e,
             "q_ref": lambda s, d: s.ctrl.q_ref,
@@ -269,7 +269,7 @@ class PitchTask(ReflectorTask):
         }
         for load in loads:
             if isinstance(load, OrbitGravityGradientLoad):
-                out["torque_gg_world_N_m"] = lambda s, d, gg=load: gg.torque_world(s)
+                out["torque_gg_world_Nm"] = lambda s, d, gg=load: gg.torque_world(s)
         return out
 
     def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -283,7 +283,7 @@ class PitchTask(ReflectorTask):
             run_dir,
             series,
             cfg=self.cfg,
-            cap_N_m=self.cap.cap_N_m,
+            cap_Nm=self.cap.cap_Nm,
             orbit_period_s=o.period_s,
             t_m_s=o.t_m_s,
             passes=getattr(self, "passes", []),
@@ -317,7 +317,7 @@ class PitchTask(ReflectorTask):
                 "run_length_nominal_s": cfg.orbit.n_orbits * o.period_s,
                 "t_m_s": o.t_m_s,
             },
-            "gains": {"P_q_N_m": Pq.tolist(), "P_omega_N_m_s": Pw.tolist()},
+            "gains": {"P_q_Nm": Pq.tolist(), "P_omega_Nms": Pw.tolist()},
         }
 
 
@@ -341,7 +341,7 @@ class PitchCapsTask(PitchTask):
             run_dir,
             runs=self.runner.runs,
             minimum=self.runner.minimum,
-            T_max_N_m=self.cap.T_max_ycoil_N_m,
+            T_max_Nm=self.cap.T_max_ycoil_Nm,
             areal_density_kg_m2=self.cfg.plate.areal_density_kg_m2,
         )
 

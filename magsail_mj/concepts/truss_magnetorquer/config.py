@@ -125,7 +125,7 @@ class ActuatorsConfig(StrictModel):
 
     ``kind = "generic"`` uses ``placement``, ``central_pair``, ``torque_axis``.
     ``kind = "magnetorquer"``: rods in every top-layer x1- and y1-strut (§7.1, §12 O5), dipole
-    from ``kappa_Am2_per_kg`` [A m²/kg] × ``rod_mass_kg`` [kg] shared per ``rod_dipole_basis``
+    from ``kappa_Am2_kg`` [A m²/kg] × ``rod_mass_kg`` [kg] shared per ``rod_dipole_basis``
     (``"per_family"``: κ_τ M_τ per family, 26.32 A m² per rod for the §9.1 truss; ``"total"``: κ_τ M_τ
     over both families, 13.16 A m²; §12 item O4). The rod mass is part of ``mass.total_kg``,
     spread uniformly over the particles (§12 item S4).
@@ -140,7 +140,7 @@ class ActuatorsConfig(StrictModel):
     placement: Literal["distributed", "central"] = "distributed"
     central_pair: Literal["top", "diagonal"] = "top"
     torque_axis: Literal["local", "bestfit"] = "local"
-    kappa_Am2_per_kg: float = Field(default=100.0, gt=0)
+    kappa_Am2_kg: float = Field(default=100.0, gt=0)
     rod_mass_kg: float | None = Field(default=None, gt=0)
     rod_dipole_basis: Literal["per_family", "total"] = "per_family"
     force_pair: Literal["corrected", "printed", "printed_sign_fixed"] = "corrected"
@@ -174,7 +174,7 @@ class LloydConfig(StrictModel):
 class TrussControlConfig(StrictModel):
     """``[control]`` of the orbital rod-array scenarios (spec §9.3–9.4, §11).
 
-    ``kind``: ``"bdot"`` (§9.3, gain ``k_bdot_Nms_per_T2``), ``"quat_pd"`` (§9.4: diagonal gains
+    ``kind``: ``"bdot"`` (§9.3, gain ``k_bdot_Nms_T2``), ``"quat_pd"`` (§9.4: diagonal gains
     ``Pq_Nm``, ``Pw_Nms``; gravity-gradient compensation ``gg_comp`` with the Eq. 21 inertia, or
     ``gg_comp_inertia_kgm2`` when given, e.g. the printed ``[1893, 1893, 2867]``, §12 O3) or
     ``"open_loop"`` (the ``[profile]`` torque through the allocation).
@@ -188,7 +188,7 @@ class TrussControlConfig(StrictModel):
     kind: Literal["bdot", "quat_pd", "open_loop"]
     period_s: float | None = Field(default=None, gt=0)
     rate_method: Literal["log", "first_order"] = "log"
-    k_bdot_Nms_per_T2: float = Field(default=1e12, ge=0)
+    k_bdot_Nms_T2: float = Field(default=1e12, ge=0)
     Pq_Nm: Vec3 = (10.0, 50.0, 1.0)
     Pw_Nms: Vec3 = (1600.0, 8000.0, 800.0)
     gg_comp: bool = True
@@ -372,8 +372,8 @@ class TrussConfig(EnvironmentTables, TrussTables):
                     others=(self._mass_key,),
                 )
             finite_product(
-                "actuators.kappa_Am2_per_kg",
-                self.actuators.kappa_Am2_per_kg,
+                "actuators.kappa_Am2_kg",
+                self.actuators.kappa_Am2_kg,
                 self.actuators.rod_mass_kg,
                 what="rod dipole κ M",
                 others=("actuators.rod_mass_kg",),

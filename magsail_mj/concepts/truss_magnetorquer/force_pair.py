@@ -109,14 +109,14 @@ class VariantPairRodLoad(MagnetorquerRodLoad):
         cls,
         lattice: Lattice,
         *,
-        kappa_Am2_per_kg: float,
+        kappa_Am2_kg: float,
         rod_mass_kg: float,
         basis: str = "per_family",
         force_pair: ForcePair = "corrected",
     ) -> "VariantPairRodLoad":
         """Rod dipoles from the basis (:func:`~magsail_mj.loads.magnetorquer_rods.rod_dipole_Am2`)."""
         n = (lattice.struts_of_kind("x_edge", layer=1).size, lattice.struts_of_kind("y_edge", layer=1).size)
-        m = rod_dipole_Am2(kappa_Am2_per_kg=kappa_Am2_per_kg, rod_mass_kg=rod_mass_kg, rods_per_family=n, basis=basis)
+        m = rod_dipole_Am2(kappa_Am2_kg=kappa_Am2_kg, rod_mass_kg=rod_mass_kg, rods_per_family=n, basis=basis)
         return cls(lattice, m_rod_Am2=m, force_pair=force_pair)
 
     def torque_world(self, state: StepState) -> np.ndarray:

@@ -301,7 +301,7 @@ def profile_response(
             {
                 "surface_sd_after_off_mean_m": float(np.mean(sd_after)),
                 "surface_sd_after_off_p2p_m": float(np.ptp(sd_after)),
-                "surface_sd_after_off_slope_m_per_s": float(fit[0]),
+                "surface_sd_after_off_slope_m_s": float(fit[0]),
                 "surface_sd_after_off_osc_amplitude_m": float(np.sqrt(2.0 * np.mean(residual**2))),
                 "surface_sd_after_off_period_s": dominant_period(t[after], sd_after),
             }
@@ -314,7 +314,7 @@ def profile_response(
 AFTER_OFF_KEYS = (
     "surface_sd_after_off_mean_m",
     "surface_sd_after_off_p2p_m",
-    "surface_sd_after_off_slope_m_per_s",
+    "surface_sd_after_off_slope_m_s",
     "surface_sd_after_off_osc_amplitude_m",
     "surface_sd_after_off_period_s",
 )

@@ -118,7 +118,7 @@ def make_rod_load(actuators: ActuatorsConfig, tm: TrussModel) -> VariantPairRodL
     a = actuators
     return VariantPairRodLoad.from_variant(
         tm.lattice,
-        kappa_Am2_per_kg=a.kappa_Am2_per_kg,
+        kappa_Am2_kg=a.kappa_Am2_kg,
         rod_mass_kg=a.rod_mass_kg,
         basis=a.rod_dipole_basis,
         force_pair=a.force_pair,
@@ -171,7 +171,7 @@ def rod_controller(
 
 
 def _bdot(cfg: TrussConfig, tm: TrussModel, mu_m3_s2: float, common: dict[str, Any]) -> RodAttitudeController:
-    return BdotRodController(k_Nms_per_T2=cfg.control.k_bdot_Nms_per_T2, **common)
+    return BdotRodController(k_Nms_T2=cfg.control.k_bdot_Nms_T2, **common)
 
 
 def _quat_pd(cfg: TrussConfig, tm: TrussModel, mu_m3_s2: float, common: dict[str, Any]) -> RodAttitudeController:
