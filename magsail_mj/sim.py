@@ -49,6 +49,7 @@ uninterrupted one.
 
 from __future__ import annotations
 
+import abc
 import math
 import sys
 import time
@@ -89,6 +90,9 @@ __all__ = [
     "DivergenceError",
     "StructureFailure",
     "LOAD_TIMINGS",
+    "SteppedRun",
+    "WholeRun",
+    "progress_bar",
 ]
 
 #: when the loads see the state: at the step's start, or predicted at its middle (see the module docs)
@@ -230,6 +234,126 @@ class RunResult:
     wall_time_s: float
 
 
+class SteppedRun:
+    """What :class:`Simulation` and the chunked runners of the concepts share: :meth:`step` in terms of
+    the subclass's ``_advance(stop_step, ...)``, the progress bar and the :class:`RunResult` of ``run``,
+    and the writing and reading of checkpoints.
+
+    A subclass holds ``status``, ``message``, ``step_index``, ``n_steps``, ``time`` [s], ``_wall_s``
+    [s], ``identity``, ``recorder``, ``records()`` and ``get_state()``, and defines
+    ``_advance(stop_step, *, bar, ...)``.
+    """
+
+    def step(self, n: int = 1) -> str:
+        """Advance ``n`` physics steps (controller samples, records and loads as in ``run``; never
+        beyond ``duration_s``) and return the status: ``running`` while steps remain, else how the
+        run ended."""
+        if int(n) != n or n < 1:
+            raise ValueError(f"n: must be an integer >= 1, got {n!r}")
+        if self.status == "running":
+            self._advance(min(self.step_index + int(n), self.n_steps))
+        return self.status
+
+    def _advance_with_bar(self, stop_step: int, bar: Any, **options: Any) -> None:
+        """``_advance(stop_step, bar=bar, **options)`` while the run is running; ``bar`` (a tqdm bar
+        or ``None``) is closed afterwards whatever happens."""
+        try:
+            if self.status == "running":
+                self._advance(stop_step, bar=bar, **options)
+        finally:
+            if bar is not None:
+                bar.close()
+
+    def _write_checkpoint(self, path: Path, *, mj_state_key: str, **header: Any) -> None:
+        """Write the current state to the checkpoint ``path``: a header of the run's identity, step,
+        time [s], wall time [s], record count, record store name and ``header``, the Python-side
+        state, and MuJoCo's state under ``mj_state_key``. The record store is flushed first, so it
+        holds every record the checkpoint counts."""
+        self.recorder.flush()
+        state = self.get_state()
+        store = self.recorder.path
+        head = {
+            **self.identity,
+            "step": state["step"],
+            "t_s": self.time,
+            "wall_s": self._wall_s,
+            "n_records": state["n_records"],
+            "records_store": store.name if store is not None else None,
+            **header,
+        }
+        write_checkpoint(
+            path,
+            head,
+            tree=state["python_tree"],
+            arrays=state["python_arrays"],
+            extra_arrays={mj_state_key: state["mj_state"]},
+        )
+
+    def _read_checkpoint(self, path: Path) -> tuple[dict[str, Any], dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """``(header, arrays, extra arrays)`` of the checkpoint ``path``, refused
+        (:class:`~magsail_mj.checkpoint.CheckpointError`) unless it is a checkpoint of this run's identity."""
+        header, arrays, extra = read_checkpoint(path)
+        check_identity(header, self.identity, path=path)
+        return header, arrays, extra
+
+    def _reopen_store(self, path: Path, store: Path, n_records: int) -> None:
+        """Continue the record store ``store`` cut to the ``n_records`` the checkpoint ``path`` counts;
+        a store that cannot be continued is a :class:`~magsail_mj.checkpoint.CheckpointError`."""
+        try:
+            self.recorder.open_store(store, n_records)
+        except RecordStoreError as err:
+            raise CheckpointError(f"checkpoint: {path}: {err}") from None
+
+    def _result(self, start_step: int) -> RunResult:
+        """The :class:`RunResult` of the steps from ``start_step`` to the current one."""
+        return RunResult(
+            records=self.records(),
+            status=self.status,
+            message=self.message,
+            t_end_s=self.time,
+            steps=self.step_index - start_step,
+            wall_time_s=self._wall_s,
+        )
+
+
+class WholeRun(abc.ABC):
+    """A runner whose ``run`` does all its work in one call (an analysis, a sweep of whole runs): no
+    step loop, so no checkpoints to stop at or resume from (``checkpoints = False``; the run folder
+    refuses ``resume`` and ``stop_after_s`` for it)."""
+
+    checkpoints = False
+
+    def run(
+        self,
+        *,
+        progress: bool = False,
+        checkpoint_path: Any = None,
+        resume: bool = False,
+        stop_after_s: float | None = None,
+    ) -> RunResult:
+        """:meth:`run_whole`; the checkpoint options of :meth:`Simulation.run` are accepted for the
+        common interface and have nothing to act on."""
+        return self.run_whole(progress=progress)
+
+    @abc.abstractmethod
+    def run_whole(self, *, progress: bool) -> RunResult:
+        """The whole run (``progress``: show progress on stderr where the runner can)."""
+
+
+def progress_bar(*, total: int, initial: int, mininterval_s: float, unit_scale: bool = False) -> Any:
+    """A tqdm bar of ``total`` steps on stderr starting at ``initial``, refreshed at most every
+    ``mininterval_s`` [s] of wall time and removed when closed."""
+    return tqdm(
+        total=total,
+        initial=initial,
+        unit="step",
+        unit_scale=unit_scale,
+        file=sys.stderr,
+        mininterval=mininterval_s,
+        leave=False,
+    )
+
+
 @dataclass
 class LoadTiming:
     """When the loads see the state (``mode``: one of :data:`LOAD_TIMINGS`), and the velocity of the
@@ -268,7 +392,7 @@ class LoadTiming:
 
 
 @dataclass
-class Simulation:
+class Simulation(SteppedRun):
     """A model with its loads, controller, environment and probes, ready to run.
 
     Attributes:
@@ -287,6 +411,8 @@ class Simulation:
       load_timing: ``"start"`` or ``"midpoint"`` (see the module docs; ``sim.load_timing``).
       identity: what a checkpoint of this run must match (:func:`~magsail_mj.checkpoint.run_identity`;
         the runner of a config sets the config's hash).
+
+    :meth:`~SteppedRun.step` (advance ``n`` steps) comes from :class:`SteppedRun`.
     """
 
     #: records stream to a store given to :meth:`run` (``records_path``)
@@ -406,31 +532,11 @@ class Simulation:
             }
         )
 
-    def _checkpoint(self, path: Path, step: int) -> None:
-        loop = self._loop
-        self.recorder.flush()  # the store holds every record the checkpoint counts
-        state = self.get_state()
-        store = self.recorder.path
-        header = {
-            **self.identity,
-            "step": step,
-            "t_s": step * self.model.opt.timestep,
-            "n_records": state["n_records"],
-            "records_store": store.name if store is not None else None,
-            "n_ctrl": loop["n_ctrl"],
-            "wall_s": self._wall_s,
-        }
-        write_checkpoint(
-            path,
-            header,
-            tree=state["python_tree"],
-            arrays=state["python_arrays"],
-            extra_arrays={"mj_state": state["mj_state"]},
-        )
+    def _checkpoint(self, path: Path) -> None:
+        self._write_checkpoint(path, mj_state_key="mj_state", n_ctrl=self._loop["n_ctrl"])
 
     def _restore(self, path: Path, records_path: Path | None) -> None:
-        header, arrays, extra = read_checkpoint(path)
-        check_identity(header, self.identity, path=path)
+        header, arrays, extra = self._read_checkpoint(path)
         if "mj_state" not in extra or extra["mj_state"].shape != (mujoco.mj_stateSize(self.model, _STATE_SPEC),):
             raise CheckpointError(f"checkpoint: {path} holds no MuJoCo state of this model")
         step = int(header["step"])
@@ -444,10 +550,7 @@ class Simulation:
         n_records = int(header["n_records"])
         if records_path is None:
             raise CheckpointError(f"checkpoint: {path} needs its record store (records_path)")
-        try:
-            self.recorder.open_store(records_path, n_records)
-        except RecordStoreError as err:
-            raise CheckpointError(f"checkpoint: {path}: {err}") from None
+        self._reopen_store(path, records_path, n_records)
         loop = self._new_loop()
         loop.update(wall_s=float(header["wall_s"]))
         self._loop = loop
@@ -464,16 +567,6 @@ class Simulation:
         self._wall_s = loop["wall_s"]
 
     # ------------------------------------------------------------------ stepping
-    def step(self, n: int = 1) -> str:
-        """Advance ``n`` physics steps (controller samples, records and loads as in :meth:`run`;
-        never beyond ``duration_s``) and return the status: ``running`` while steps remain, else
-        how the run ended."""
-        if int(n) != n or n < 1:
-            raise ValueError(f"n: must be an integer >= 1, got {n!r}")
-        if self.status == "running":
-            self._advance(min(self.step_index + int(n), self.n_steps))
-        return self.status
-
     def run(
         self,
         *,
@@ -503,26 +596,13 @@ class Simulation:
         stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(round(stop_after_s / dt)))
         bar = None
         if progress and self.n_steps > 2000:
-            bar = tqdm(total=self.n_steps, initial=start, unit="step", file=sys.stderr, mininterval=1.0, leave=False)
-        try:
-            if self.status == "running":
-                self._advance(stop_step, ckpt=ckpt, ckpt_every=ckpt_every, bar=bar)
-        finally:
-            if bar is not None:
-                bar.close()
+            bar = progress_bar(total=self.n_steps, initial=start, mininterval_s=1.0)
+        self._advance_with_bar(stop_step, bar, ckpt=ckpt, ckpt_every=ckpt_every)
         if self.status == "running":  # stop_after_s reached before the end
             self.status, self.message = "stopped", f"stopped at t = {self.time:.6g} s (stop_after_s)"
         if self.status == "completed":
             self.status, self.message = _non_finite_records(self.recorder) or (self.status, self.message)
-        records = self.records()
-        return RunResult(
-            records=records,
-            status=self.status,
-            message=self.message,
-            t_end_s=self.time,
-            steps=self.step_index - start,
-            wall_time_s=self._wall_s,
-        )
+        return self._result(start)
 
     def _advance(self, stop_step: int, *, ckpt: Path | None = None, ckpt_every: int = 0, bar: Any = None) -> None:
         """The step loop from the current step to ``stop_step`` (see the module docs)."""
@@ -551,7 +631,7 @@ class Simulation:
                     wall0 = time.perf_counter()
                     loop["wall_s"] = self._wall_s
                     self.step_index = step
-                    self._checkpoint(ckpt, step)
+                    self._checkpoint(ckpt)
                 if step == stop_step < self.n_steps:
                     break
                 # sample k is due at k·period (computed, not accumulated, so no sample is ever

@@ -26,12 +26,18 @@ import csv
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import mujoco
 import numpy as np
 
-from magsail_mj.concepts.cnusail.orbit_decay import averaged_decay, cowell_decay, density_model, geometric_mean_elements
+from magsail_mj.concepts.cnusail.orbit_decay import (
+    DecayResult,
+    averaged_decay,
+    cowell_decay,
+    density_model,
+    geometric_mean_elements,
+)
 from magsail_mj.concepts import register_task
 from magsail_mj.environment.environment import elements_from_config
 from magsail_mj.environment.timeutil import julian_date, parse_epoch
@@ -40,7 +46,7 @@ from magsail_mj.concepts.cnusail.mjcf import build_cubesat_spec
 from magsail_mj.concepts.cnusail.config import CnusailConfig
 from magsail_mj.concepts.cnusail.model import model_params
 from magsail_mj.concepts.cnusail.plots import lifetime_plots
-from magsail_mj.sim import RunResult
+from magsail_mj.sim import RunResult, WholeRun
 
 __all__ = ["LifetimeTask", "LifetimeRunner", "REFERENCE_SAILS"]
 
@@ -68,17 +74,21 @@ REFERENCE_SAILS: tuple[dict[str, Any], ...] = (
 )
 
 
+def _timed(decay: Callable[..., DecayResult], **options: Any) -> tuple[DecayResult, float]:
+    """``(decay(**options), wall time of the call [s])``."""
+    t0 = time.perf_counter()
+    return decay(**options), time.perf_counter() - t0
+
+
 @dataclass
-class LifetimeRunner:
+class LifetimeRunner(WholeRun):
     """The runner of a lifetime task: ``run`` does the analysis (:meth:`LifetimeTask.compute`) and
     returns its records as a :class:`magsail_mj.sim.RunResult` (``status`` ``"diverged"`` when a
     propagation produced a non-finite number)."""
 
     sc: LifetimeTask
-    #: an orbit-decay analysis without time steps of its own: no checkpoints, so no stop/resume
-    checkpoints = False
 
-    def run(self, **_: Any) -> RunResult:
+    def run_whole(self, *, progress: bool) -> RunResult:
         t0 = time.perf_counter()
         records = self.sc.compute()
         wall = time.perf_counter() - t0
@@ -127,6 +137,22 @@ class LifetimeTask:
     def _bstar(self, area: float, mass: float | None = None) -> float:
         return self.cfg.drag.drag_coefficient * area / (mass or self.cfg.spacecraft.mass_kg)
 
+    def _averaged(self, rho_fn: Any, *, a0_m: float, e0: float, bstar: float) -> DecayResult:
+        """An averaged decay (:func:`averaged_decay`, counted in ``n_runs``) from ``a0_m`` [m] and ``e0``
+        in the density model ``rho_fn`` down to ``lifetime.stop_altitude_km``, capped at ``sim.duration_s``."""
+        res = averaged_decay(
+            a0_m=a0_m,
+            e0=e0,
+            bstar=bstar,
+            rho_fn=rho_fn,
+            R_E=self.R_E,
+            stop_alt_m=self.cfg.lifetime.stop_altitude_km * 1e3,
+            t_max_s=self.cfg.sim.duration_s,
+            mu=self.mu,
+        )
+        self.n_runs += 1
+        return res
+
     def compute(self) -> dict[str, np.ndarray]:
         """Run every decay propagation; returns the records (time, mean-altitude, perigee and apogee
         series of each run [s, m]) and fills ``table``, ``comparison`` and ``notes``."""
@@ -150,43 +176,21 @@ class LifetimeTask:
                 rho_exp = rho
             for reg, area in self._areas().items():
                 b = self._bstar(area)
-                runs = []
-                t0 = time.perf_counter()
-                runs.append(
-                    (
-                        averaged_decay(
-                            a0_m=a0,
-                            e0=e0,
-                            bstar=b,
-                            rho_fn=rho,
-                            R_E=self.R_E,
-                            stop_alt_m=stop,
-                            t_max_s=cfg.sim.duration_s,
-                            mu=self.mu,
-                        ),
-                        time.perf_counter() - t0,
-                    )
-                )
+                common = {"bstar": b, "rho_fn": rho, "R_E": self.R_E, "stop_alt_m": stop, "mu": self.mu}
+                runs = [_timed(averaged_decay, a0_m=a0, e0=e0, t_max_s=cfg.sim.duration_s, **common)]
                 if reg in L.methods_cowell:
-                    t0 = time.perf_counter()
                     runs.append(
-                        (
-                            cowell_decay(
-                                elements=el,
-                                bstar=b,
-                                rho_fn=rho,
-                                R_E=self.R_E,
-                                stop_alt_m=stop,
-                                t_max_s=L.cowell_max_days * DAY,
-                                mu=self.mu,
-                                j2=cfg.orbit.propagator == "j2",
-                                J2=cfg.orbit.J2,
-                                R_j2=cfg.orbit.j2_radius_km * 1e3,
-                                corotating=L.cowell_corotating,
-                                omega_earth=cfg.orbit.omega_earth_rad_s,
-                                rtol=L.cowell_rtol,
-                            ),
-                            time.perf_counter() - t0,
+                        _timed(
+                            cowell_decay,
+                            elements=el,
+                            t_max_s=L.cowell_max_days * DAY,
+                            j2=cfg.orbit.propagator == "j2",
+                            J2=cfg.orbit.J2,
+                            R_j2=cfg.orbit.j2_radius_km * 1e3,
+                            corotating=L.cowell_corotating,
+                            omega_earth=cfg.orbit.omega_earth_rad_s,
+                            rtol=L.cowell_rtol,
+                            **common,
                         )
                     )
                 for res, wall in runs:
@@ -215,17 +219,7 @@ class LifetimeTask:
             gen_days, gen_cap = [], []
             for h in L.generic_altitudes_km:
                 a = self.R_E + h * 1e3
-                r = averaged_decay(
-                    a0_m=a,
-                    e0=0.0,
-                    bstar=self._bstar(L.generic_area_m2),
-                    rho_fn=rho_exp,
-                    R_E=self.R_E,
-                    stop_alt_m=stop,
-                    t_max_s=cfg.sim.duration_s,
-                    mu=self.mu,
-                )
-                self.n_runs += 1
+                r = self._averaged(rho_exp, a0_m=a, e0=0.0, bstar=self._bstar(L.generic_area_m2))
                 gen_days.append(r.lifetime_days)
                 gen_cap.append(r.reached_cap)
             self.comparison["generic"] = {
@@ -259,17 +253,12 @@ class LifetimeTask:
             if L.references:
                 for ref in REFERENCE_SAILS:
                     rp, ra = self.R_E + ref["perigee_km"] * 1e3, self.R_E + ref["apogee_km"] * 1e3
-                    r = averaged_decay(
+                    r = self._averaged(
+                        rho_exp,
                         a0_m=0.5 * (rp + ra),
                         e0=(ra - rp) / (ra + rp),
                         bstar=self._bstar(ref["sail_area_m2"] / 2.0, ref["mass_kg"]),
-                        rho_fn=rho_exp,
-                        R_E=self.R_E,
-                        stop_alt_m=stop,
-                        t_max_s=cfg.sim.duration_s,
-                        mu=self.mu,
                     )
-                    self.n_runs += 1
                     refs.append(
                         {
                             **ref,
