@@ -189,8 +189,10 @@ def study(choice: Choice, log: Any) -> dict[str, Any]:
     current = Setting(base.sim.integrator, dt0, getattr(base.sim, "load_timing", "start"))
     runs: list[dict[str, Any]] = []
 
-    def run(setting: Setting) -> dict[str, Any]:
+    def run(setting: Setting, ref: dict[str, float] | None = None) -> dict[str, Any]:
         r = run_setting(choice, setting)
+        if ref is not None:
+            r.update(compare(choice, ref, r))
         runs.append(r)
         log(r)
         return r
@@ -198,8 +200,7 @@ def study(choice: Choice, log: Any) -> dict[str, Any]:
     ref = run(Setting("RK4", dt0 / 4.0, "midpoint"))
     if ref["status"] != "completed":
         return {"config": choice.config, "error": f"reference {ref['status']}", "runs": runs}
-    cur = run(current)
-    cur.update(compare(choice, ref["summary"], cur))
+    cur = run(current, ref["summary"])
     chosen = cur if cur["agrees"] else None
     candidates = sorted(
         (Setting(i, dt0 * f, t) for i in INTEGRATORS for f in DT_FACTORS for t in TIMINGS),
@@ -211,8 +212,7 @@ def study(choice: Choice, log: Any) -> dict[str, Any]:
         if s.expected_cost() >= current.expected_cost() and chosen is not None:
             if cur["agrees"] or s.expected_cost() >= 2.0 * chosen_cost(chosen):
                 break
-        r = run(s)
-        r.update(compare(choice, ref["summary"], r))
+        r = run(s, ref["summary"])
         if r["agrees"] and (chosen is None or r["cost_ms_per_sim_s"] < chosen["cost_ms_per_sim_s"]):
             chosen = r
     return {
