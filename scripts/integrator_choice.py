@@ -254,7 +254,7 @@ def markdown(rows: list[dict[str, Any]]) -> str:
         cur, ch = r["current"], r["chosen"]
         ratio = f"{r['cost_ratio_chosen_to_current']:.2f}" if ch else "—"
         lines.append(
-            f"| {r['config']} | {r['attitude_tol']:.1%} / {r['structural_tol']:.0%} | {cur['label']} | "
+            f"| `{r['config']}` | {r['attitude_tol']:.1%} / {r['structural_tol']:.0%} | {cur['label']} | "
             f"{_over(cur)} | {ch['label'] if ch else 'none agrees'} | {_over(ch) if ch else '—'} | {ratio} | "
             f"{r['tried']} |"
         )
@@ -263,7 +263,7 @@ def markdown(rows: list[dict[str, Any]]) -> str:
 
 def _over(b: dict[str, Any]) -> str:
     w = b.get("worst_over_tol")
-    return "diverged" if w is None or not math.isfinite(w) else f"{w:.2g} ({b.get('worst_key')})"
+    return "diverged" if w is None or not math.isfinite(w) else f"{w:.2g} (`{b.get('worst_key')}`)"
 
 
 def main(argv: list[str] | None = None) -> int:
