@@ -41,7 +41,7 @@ from magsail_mj.sweep import (
     sweep_exit_code,
 )
 from magsail_mj.sweep.design import DISTRIBUTIONS, grid_points, monte_carlo_points, toml_literal
-from tests.conftest import wait_for
+from tests.conftest import CHECKPOINTING_RUN, wait_for
 
 ROOT = Path(__file__).resolve().parents[1]
 CFG_A = ROOT / "magsail_mj" / "concepts" / "current_loops" / "configs" / "sweep" / "a_n12_ei1e3.toml"
@@ -226,15 +226,7 @@ def test_folder_lock_is_refused_in_process(tmp_path, capsys):
 def test_a_killed_run_process_is_retried_from_its_checkpoint_until_no_retry_is_left(tmp_path):
     """Run "a" is killed once: its retry resumes from the checkpoint and completes. Run "b" is
     killed in both of its attempts: it fails, naming the signal."""
-    checkpointing = [
-        "lattice.units=3",
-        "sim.duration_s=12.0",
-        "sim.timestep_s=0.001",
-        "sim.record_every=100",
-        "sim.checkpoint_every_s=1.0",
-        "sim.progress=false",
-    ]
-    sweep = load_sweep(_sweep_file(tmp_path, ["a", "b"], checkpointing))
+    sweep = load_sweep(_sweep_file(tmp_path, ["a", "b"], CHECKPOINTING_RUN))
     out = tmp_path / "out"
     box = {}
 

@@ -21,20 +21,11 @@ from magsail_mj.export import read_timeseries
 from magsail_mj.run import run_scenario
 from magsail_mj.sweep import SweepRun, load_sweep, make_cluster, run_sweep
 from magsail_mj.sweep.runner import run_one
-from tests.conftest import wait_for
+from tests.conftest import CHECKPOINTING_RUN, wait_for
 
 ROOT = Path(__file__).resolve().parents[1]
 CFG_A = ROOT / "magsail_mj" / "concepts" / "current_loops" / "configs" / "sweep" / "a_n12_ei1e3.toml"
 DASK = Path(sys.executable).with_name("dask")
-# ~12k RK4 steps (a few seconds with the outputs), a checkpoint every simulated second
-CHECKPOINTING = [
-    "lattice.units=3",
-    "sim.duration_s=12.0",
-    "sim.timestep_s=0.001",
-    "sim.record_every=100",
-    "sim.checkpoint_every_s=1.0",
-    "sim.progress=false",
-]
 
 
 def _sweep_file(tmp_path: Path, ids: list[str], common: list[str]) -> Path:
@@ -125,7 +116,7 @@ def dask_cluster(tmp_path):
 
 def test_killed_worker_is_retried_elsewhere_and_resumes_bit_identically(tmp_path, dask_cluster):
     address, nannies = dask_cluster
-    sweep = load_sweep(_sweep_file(tmp_path, ["ck"], CHECKPOINTING))
+    sweep = load_sweep(_sweep_file(tmp_path, ["ck"], CHECKPOINTING_RUN))
     out = tmp_path / "out"
     box = {}
     thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, scheduler=address, log=None)))
@@ -183,7 +174,7 @@ def test_job_scripts_start_single_thread_workers(kind, directive):
 )
 def test_cluster_options_are_checked_before_anything_runs(tmp_path, capsys, args, message):
     out = tmp_path / "out"
-    assert main(["sweep", str(_sweep_file(tmp_path, ["x"], CHECKPOINTING)), "--out", str(out), *args]) == 2
+    assert main(["sweep", str(_sweep_file(tmp_path, ["x"], CHECKPOINTING_RUN)), "--out", str(out), *args]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert not (out / "x").exists()
