@@ -85,6 +85,7 @@ from magsail_mj.analysis.flatness import surface_sd
 from magsail_mj.config import load_config
 from magsail_mj.estimation.attitude import best_fit_rotation, rotation_angle
 from magsail_mj.lattice.geometry import stiffness_matrix
+from magsail_mj.lattice.low_rank_polynomial import caughey_polynomial
 from magsail_mj.lattice.modal_damping import ModalDampingLoad
 from magsail_mj.io import print_report
 from magsail_mj.reference.numpy_rk4 import from_truss_scenario, rk4_run
@@ -446,8 +447,11 @@ def bench_damping(args, log) -> str:
     c0 = time.process_time()
     poly = ModalDampingLoad.for_lattice(form="polynomial", rtol=args.rtol, dtype=np.float64, **base)
     t_poly = time.process_time() - c0
-    poly32 = ModalDampingLoad.for_lattice(form="polynomial", rtol=args.rtol, dtype=np.float32, **base)
     xi = dense.ratios
+    g32 = caughey_polynomial(
+        md, xi, nodes=lat.nodes, struts=lat.struts, k=sc.lm.k, n_low=dcfg.n_low, rtol=args.rtol, dtype=np.float32
+    )  # for_lattice keeps the low-rank factor float64; this is the float32 variant for comparison
+    poly32 = ModalDampingLoad(modes=md, nodes=lat.nodes, gamma=g32, frame=dcfg.frame)
     om = md.omega
     lines = [
         f"Model {Path(config).name}: {lat.n_nodes} nodes, {om.size} DOF; ω_first elastic {om[md.n_rigid]:.4g}, "
