@@ -216,6 +216,11 @@ class ModalDampingLoad:
         return self._low.tendon_damping(k) if isinstance(self._low, LowRankCaughey) else np.zeros_like(k)
 
     @property
+    def polynomial(self) -> PolynomialCaughey | None:
+        """The polynomial-plus-low-rank γ of the ``polynomial`` form (``None`` for the others)."""
+        return self._low if isinstance(self._low, PolynomialCaughey) else None
+
+    @property
     def effective_ratios(self) -> np.ndarray | None:
         """Damping ratio each mode gets (``polynomial`` form; the schedule ``ratios`` otherwise)."""
         if isinstance(self._low, PolynomialCaughey):

@@ -368,6 +368,22 @@ class FlexibleLoopsTask(LoopsScenario):
             "xi_max": float(np.max(xi[el])) if d.enabled else 0.0,
             "stability_product_max": float(np.max(2 * xi[el] * omega[el] * dt)) if d.enabled else 0.0,
             "omega_max_dt": float(omega.max() * dt),
+            **self.damping_form_info(),
+        }
+
+    def damping_form_info(self) -> dict[str, Any]:
+        """The damping form; for ``polynomial`` its degree and the largest per-mode ratio error."""
+        d = self.cfg.damping
+        if d.form == "dense" or not d.enabled:
+            return {"form": d.form}
+        low = self.damping_load.load.polynomial if self.damping_load is not None else None
+        if low is None:  # the load is built in loads(); before that only the form is known
+            return {"form": d.form, "rtol": d.rtol}
+        return {
+            "form": d.form,
+            "rtol": d.rtol,
+            "polynomial_degree": int(low.degree),
+            "ratio_error_max": float(np.max(low.ratio_error)),
         }
 
     def loads(self) -> list:
@@ -398,6 +414,8 @@ class FlexibleLoopsTask(LoopsScenario):
                     xi_low=d.xi_low,
                     n_low=d.n_low,
                     xi_cap=d.xi_cap,
+                    form=d.form,
+                    rtol=d.rtol,
                     frame=d.frame,
                 )
             )
