@@ -1,6 +1,6 @@
 """Benchmark of the environment precompute, ``Environment.sample`` and the environment loads.
 
-Measures, in one run (issue 3 item 9, the part that does not need the runner):
+Measures, in one run (the part that does not need the runner):
 
 1. IGRF precompute along a 2.5 h, 800 km polar orbit at 1 s (9 001 points, one vectorised
    ppigrf call per 8 000 points) and at the default 10 s; the scalar ppigrf cost for contrast;
@@ -8,11 +8,11 @@ Measures, in one run (issue 3 item 9, the part that does not need the runner):
 3. per-call cost of the tidal, SRP and drag loads on the 800-node (N = 20, 75 m) lattice,
    against plain NumPy baselines measured in the same run: (a) the naive vectorised tidal
    difference m(g(r+x) − g(r)); (b) one spring–dashpot force evaluation of the 3 402-strut parity
-   lattice (truss spec §2.2, §2.4) and one classical RK4 step of it (4 evaluations), the
-   reference cost of design.md.
+   lattice (one face diagonal per square face, linear spring–dashpot struts) and one classical RK4
+   step of it (4 evaluations), the reference cost a MuJoCo step is compared with.
 
 4. the runner's cost per MuJoCo RK4 step of the 75 m lattice, bare and with all environment
-   loads (tidal, SRP, drag) — the issue's target: the loads add at most 50 % to the bare step.
+   loads (tidal, SRP, drag) — the target: the loads add at most 50 % to the bare step.
 
 Prints a JSON object.
 
@@ -64,7 +64,7 @@ def _best(fn, repeat: int, rounds: int = 5) -> float:
 
 
 def lattice():
-    """Nodes, parity-rule struts and cube edge of the 800-node, 75 m lattice (truss spec §2.2)."""
+    """Nodes, parity-rule struts and cube edge of the 800-node, 75 m lattice (Robb et al. 2022a, Sec. 2.1)."""
     lat = make_lattice(units=N - 1, side_m=SIDE)
     return lat.nodes, lat.struts, lat.cube_edge_m
 

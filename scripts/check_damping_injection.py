@@ -1,6 +1,6 @@
-r"""How to inject the co-rotated Caughey damping into MuJoCo (current-loops.md §4.4).
+r"""How to inject the co-rotated Caughey damping into MuJoCo (Robb et al. 2022b, Eq. 15).
 
-Case (spec §4.4, "How to inject it"): the stiffest case, N = 27 units, EI = 1e4 N m², D = 250 m,
+Case: the stiffest case, N = 27 units, EI = 1e4 N m², D = 250 m,
 σ_A = 0.1 kg/m² (uniform particle masses), Δt = 0.05 s RK4, 500 s, free space, geometry-A
 perimeter loop with a constant current (default 40 A) in a uniform B = 27.7 μT along +x
 (Eq. 16 node forces on the deformed positions), paper_max damping schedule, co-rotated.
@@ -14,7 +14,7 @@ Three integrations of the same equations (Eq. 12 with exact tendon springs):
 (ref) the plain NumPy RK4 of :mod:`magsail_mj.reference.numpy_rk4` with the damping (float64
     γ by default) and the Lorentz forces evaluated at every stage.
 
-Criteria (spec §4.4): best-fit rotation angle within 1e-3 rad of (ref) at every record time, and
+Criteria (ours): best-fit rotation angle within 1e-3 rad of (ref) at every record time, and
 max strain energy within 2 %. Reported: max |θ_x − θ_ref|, the largest angle of the relative
 rotation R_x^T R_ref, max U and its relative difference, the wall and CPU cost per step.
 
@@ -362,7 +362,7 @@ def main(argv=None) -> int:
         print(
             "VERDICT: default xfrc injection "
             + ("PASSES" if ok else "FAILS")
-            + " the §4.4 check"
+            + " the injection check"
             + ("" if ok else "; use the passive callback")
         )
     if args.out:
