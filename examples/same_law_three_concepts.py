@@ -9,7 +9,7 @@ target (the truss slew's ``target_wxyz``, the cubesat's ``pointing_error_wxyz``/
 the reflector's steering reference ``target_wxyz``/``target_rate_rad_s``) and so always regulates
 to the identity error. Each environment turns the request into its own hardware's torque:
 
-* truss (``truss/slew_I``, ``action="torque"``): the §7.3 rod allocation and Lloyd selection;
+* truss (``truss/slew_I``, ``action="torque"``): the rod allocation (Robb et al. 2022a, Eqs. 11–13) and Lloyd selection;
   delivered = the rods' torque ``Σ m_r × B`` on the deformed struts (``torque_ac_body_Nm``);
 * cubesat (``cnusail/nadir``, ``action="torque_dipole"``, dipole 0): the reaction-wheel driver;
   delivered = the motor reaction on the bus ``−T_M`` (``T_M_Nm``; bearing friction left out);

@@ -1,14 +1,15 @@
-"""Torque allocation and Lloyd rod selection demonstration (truss-magnetorquer-array.md §7.5).
+"""Torque allocation and Lloyd rod selection demonstration (Robb et al. 2022a, Sec. 3, Figs. 15–16).
 
 Writes into ``--out`` (default ``runs/allocation_demo``):
 
 - ``allocation_demo.png``: (a) the Voronoi diagram of 21 random points in the unit square with
   their generators (like Fig. 16a); (b) a 10 × 10 array, sites at the cell centres
-  ``((i + ½)/10, (j + ½)/10)`` (§12 item T6), 72 rods to activate: the final Lloyd cells, the
+  ``((i + ½)/10, (j + ½)/10)`` (our choice: the paper gives neither region nor sites),
+  72 rods to activate: the final Lloyd cells, the
   generators and the 72 chosen sites among the 100 (like Fig. 16b); (c) the Fig. 15 example:
   single-rod torques τ1, τ2 for a field at an arbitrary angle to the array, a reference torque
   and its approximation ``N1 τ1 + N2 τ2`` with small integers, drawn in the plane normal to B;
-- ``summary.json``: the §11 keys ``n_sites``, ``n_active``, ``lloyd_iterations``,
+- ``summary.json``: the summary keys ``n_sites``, ``n_active``, ``lloyd_iterations``,
   ``lloyd_tol_rel``, ``lloyd_time_s``, ``snap_time_s``, ``nn_spacing_cv`` plus the covering
   radius (largest distance from a point of the square to the nearest active site; the
   nearest-neighbour CV is a weak evenness measure at 72 % occupancy of a grid), the same two

@@ -1,5 +1,5 @@
 """Disturbance torques on CNUSAIL-1 over one orbit, body held exactly in the nadir and in the
-deorbit attitude (CNUSAIL spec §6; issue item 2): gravity gradient, drag, SRP, residual dipole.
+deorbit attitude (Yoo et al. 2016, Eqs. 12–23): gravity gradient, drag, SRP, residual dipole.
 
     python scripts/cnusail_disturbances.py [--config magsail_mj/concepts/cnusail/configs/nadir_post.toml] [--out runs/cnusail/disturbances]
 

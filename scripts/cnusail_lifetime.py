@@ -1,4 +1,4 @@
-"""CNUSAIL spec S8 (§10): orbital lifetime of CNUSAIL-1 for nadir pointing, deorbit attitude and
+"""Orbital lifetime of CNUSAIL-1 (Yoo et al. 2016) for nadir pointing, deorbit attitude and
 random tumbling; Cowell and orbit-averaged propagation; exponential and NRLMSISE-00 atmospheres.
 
     python scripts/cnusail_lifetime.py [--out runs/cnusail/lifetime] [--set lifetime.atmospheres='["exp"]']

@@ -1,4 +1,4 @@
-"""CNUSAIL spec S5: the 108° slew with the PD law (S5a) and the eigen-axis law (S5b), compared.
+"""The CNUSAIL-1 108° slew with the PD law (Yoo et al. 2016, Eq. 40) and the eigen-axis law (Eqs. 28–38), compared.
 
     python scripts/cnusail_pd_vs_eigenaxis.py [--out runs/cnusail/pd_vs_eigenaxis_cmp] [--video]
 
@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     for ax in axes:
         ax.grid(alpha=0.3)
         ax.legend()
-    axes[0].set_title("CNUSAIL-1 S5: 108° slew, PD (S5a) vs eigen-axis (S5b)")
+    axes[0].set_title("CNUSAIL-1: 108° slew, PD vs eigen-axis")
     save_figure(fig, out / "comparison.png")
     if args.video:
         render_run(

@@ -1,15 +1,15 @@
-"""Run CNUSAIL-1 scenarios (CNUSAIL spec §9) into run folders and print their key figures.
+"""Run CNUSAIL-1 scenarios (Yoo et al. 2016) into run folders and print their key figures.
 
 One line per scenario (run folder ``runs/cnusail/<id>`` by default):
 
-    python scripts/cnusail_scenarios.py detumble_pre          # S1  B-dot, stowed
-    python scripts/cnusail_scenarios.py detumble_post         # S2  B-dot, deployed
-    python scripts/cnusail_scenarios.py nadir_pre             # S3  eigen-axis nadir slew, stowed
-    python scripts/cnusail_scenarios.py nadir_post            # S4  eigen-axis nadir slew, deployed
+    python scripts/cnusail_scenarios.py detumble_pre          # B-dot, stowed
+    python scripts/cnusail_scenarios.py detumble_post         # B-dot, deployed
+    python scripts/cnusail_scenarios.py nadir_pre             # eigen-axis nadir slew, stowed
+    python scripts/cnusail_scenarios.py nadir_post            # eigen-axis nadir slew, deployed
     python scripts/cnusail_scenarios.py pd_vs_eigenaxis       # S5b (scripts/cnusail_pd_vs_eigenaxis.py: S5a + S5b)
-    python scripts/cnusail_scenarios.py deorbit               # S6  deorbit, fixed gains
-    python scripts/cnusail_scenarios.py deorbit_recalc        # S7  deorbit, gain recalculation
-    python scripts/cnusail_scenarios.py lifetime              # S8  orbital lifetime (scripts/cnusail_lifetime.py)
+    python scripts/cnusail_scenarios.py deorbit               # deorbit, fixed gains
+    python scripts/cnusail_scenarios.py deorbit_recalc        # deorbit, gain recalculation
+    python scripts/cnusail_scenarios.py lifetime              # orbital lifetime (scripts/cnusail_lifetime.py)
     python scripts/cnusail_scenarios.py --all [--video]       # all of them
 
 Each is the same as ``magsail run magsail_mj/concepts/cnusail/configs/<id>.toml --out runs/cnusail/<id>``; ``--set``

@@ -1,6 +1,6 @@
 """Geometry A (one perimeter loop) against plate size, both branches.
 
-Current-loops spec §3 item 2, §7.3 ``fig3_scaling_A``.
+Robb et al. 2022b, Eqs. 2–11 and Fig. 3 (output ``fig3_scaling_A``).
 
 The rim conductor's inertia makes ``λ_f = λ_u (1 + κ λ_f)^{4/3}`` implicit. Each branch is traced
 by its parameter ``λ ∈ (0, 1]`` (:func:`magsail_mj.analysis.loop_scaling.trace_branches_A`):

@@ -1,4 +1,4 @@
-"""Geometries B, C, D at N = 27 against plate size (current-loops spec §3 item 3, §7.3 ``fig4_scaling_BCD``).
+"""Geometries B, C, D at N = 27 against plate size (Robb et al. 2022b, Eqs. 2–11 and Fig. 4).
 
 Uniform mass, so every quantity is a power law in ``D``::
 

@@ -1,7 +1,7 @@
-"""Largest plate side against the number of coils for B, C, D (current-loops spec §3 item 4, §7.3 ``fig5_dmax_vs_N``).
+"""Largest plate side against the number of coils for B, C, D (Robb et al. 2022b, Fig. 5).
 
 ``D_max = (C1 G σ_A^{1/3})^{-3/5}`` where ``λ_f = 1``. The paper's axis "number of coils" is
-ambiguous for B (§3 item 4, proposed): B is drawn both against its loop count ``n`` (``G_B(n)``,
+ambiguous for B (our resolution): B is drawn both against its loop count ``n`` (``G_B(n)``,
 the Table-1 meaning) and against the unit count ``N`` (``n = ceil(N/2)``); C and D against ``N``.
 Geometry A's uniform-mass ``D_max`` and its fold (largest plate with a solution, κ = ``--kappa``)
 are horizontal reference lines. One panel per ``σ_A``.

@@ -1,4 +1,4 @@
-"""Slew outputs of current-loops §6 (S5): flexible run against its rigid-body surrogate.
+"""Slew outputs of the 90° slew (Robb et al. 2022b, Figs. 6–7): flexible run against its rigid-body surrogate.
 
     magsail run magsail_mj/concepts/current_loops/configs/slew.toml --out runs/current_loops/slew --video
     magsail run magsail_mj/concepts/current_loops/configs/slew_rigid.toml --out runs/current_loops/slew_rigid
@@ -58,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
         ax.semilogy(zr["t"], np.maximum(zr["error_angle_deg"], 1e-3), "r--", label="rigid surrogate")
     for lvl in (5.0, 2.0):
         ax.axhline(lvl, c="grey", ls=":")
-    ax.set(xlabel="t [s]", ylabel="attitude error [deg]", title="S5: 90° slew about inertial y")
+    ax.set(xlabel="t [s]", ylabel="attitude error [deg]", title="90° slew about inertial y")
     ax.legend()
     fig.tight_layout()
     fig.savefig(flex / "fig6_attitude_vs_rigid.png", dpi=120)

@@ -1,4 +1,4 @@
-"""Loop currents and thermal sizing for the simulations (current-loops spec §3 item 1, §7.3 ``table2_currents``).
+"""Loop currents and thermal sizing for the simulations (Robb et al. 2022b, Eqs. 2–11 and Table 2).
 
 For geometries A–D and ``N ∈ {12, 19, 27}`` at ``D = 250 m``, ``σ_A = 100 g/m²`` (A on the light
 branch, ``κ = 15``): the Eq.-9 current ``I``, the equilibrium wire diameter ``d``, the conductor
@@ -7,7 +7,7 @@ mass fraction ``λ_f``, the Joule power per plate area ``P_J/D²`` and the dipol
 Writes into ``--out`` (default ``runs/current_loops/scaling``):
 
 - ``table2_currents.csv`` (one row per geometry and N) and ``table2_currents.md``;
-- ``table2_currents.json``: the §7.2 ``scaling`` object plus ``C1`` and the sunlight check;
+- ``table2_currents.json``: the ``scaling`` summary object plus ``C1`` and the sunlight check;
 - ``table2_currents.png``: the four quantities as grouped bars.
 
 Also prints the Markdown table on stdout.

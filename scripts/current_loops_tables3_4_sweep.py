@@ -1,4 +1,5 @@
-"""Sweep outputs of current-loops §5 (S4): summary table, U(t) panels, ratio tables, videos.
+"""Outputs of the 36-run structural sweep (Robb et al. 2022b, Tables 3–4): summary table,
+U(t) panels, ratio tables, videos.
 
     magsail sweep magsail_mj/concepts/current_loops/configs/sweep36.toml --workers 2 --out runs/current_loops/sweep36
     python scripts/current_loops_tables3_4_sweep.py --sweep runs/current_loops/sweep36 [--videos]

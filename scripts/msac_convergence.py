@@ -1,4 +1,4 @@
-"""MSAC time-step convergence (spec msac.md §5.3, §7 T7): the paper case at dt and dt/2.
+"""MSAC time-step convergence (Vedant & Allison 2019 run): the paper case at dt and dt/2.
 
     python scripts/msac_convergence.py                       # 2 s of the 1 kHz case at 5 µs, 2.5 µs (and 10 µs)
     python scripts/msac_convergence.py --duration 10 --out runs/msac/convergence.json
@@ -7,7 +7,7 @@ For each time step it runs ``magsail_mj/concepts/msac/configs/paper_1khz.toml`` 
 seconds and reports the mean per-cycle rotation (first cycle excluded), its spread, the
 relative difference to the exact planar model, the angular-momentum drift the integrator makes
 between momentum projections (``angmom_drift_max_Nms``) and its rate before projection, and
-the wall time per step. Pass criterion (spec): the per-cycle rotation at dt and dt/2 agree within
+the wall time per step. Pass criterion (ours): the per-cycle rotation at dt and dt/2 agree within
 0.5 %. Prints one JSON object and writes it to ``--out``.
 """
 

@@ -1,4 +1,4 @@
-"""The paper's MSAC run (spec msac.md §5): 1 kHz cycle, 600 s, 1.2·10⁸ RK4 steps, with its wall time.
+"""The paper's MSAC run (Vedant & Allison 2019): 1 kHz cycle, 600 s, 1.2·10⁸ RK4 steps, with its wall time.
 
     python scripts/msac_paper_run.py                            # full 600 s -> runs/msac/paper_1khz
     python scripts/msac_paper_run.py --duration 10 --out runs/msac/paper_1khz_10s

@@ -1,4 +1,4 @@
-"""MSAC sensitivity sweeps (F6) and actuator design chart (F7), spec msac.md §4, §8.
+"""MSAC sensitivity sweeps (F6) and actuator design chart (F7) after Vedant & Allison 2019's actuator study.
 
     python scripts/msac_sweeps.py                      # all runs of the sweep file -> runs/msac/sweeps/
     python scripts/msac_sweeps.py --only stroke extension --workers 2
@@ -12,7 +12,7 @@ with ``sweep_summary.json``/``.csv`` beside them. This script then draws
 
 * ``F6_sensitivity.png``: one panel per sweep, the per-cycle rotation θ_γ from Eq. (6) (model
   inertias), the exact model and MuJoCo (20 cycles per point, first excluded);
-* ``F7_design_chart.png``: the amplification trade-off of spec §4. Scaling model, anchored at the
+* ``F7_design_chart.png``: the amplification trade-off of the paper's piezo actuators. Scaling model, anchored at the
   simple piezo actuator (a): extension ``ε = 0.1 %·a`` and attainable cycle frequency
   ``f = 4 kHz/a`` for an amplification factor ``a`` (stroke ±10°, all other parameters as the
   paper case). Curves: secular rate ``θ_γ(ε)·f`` from the exact planar model and from Eq. (7);
@@ -21,7 +21,7 @@ with ``sweep_summary.json``/``.csv`` beside them. This script then draws
   line, which gives 1 % only at 400 Hz). Lower panel: the peak hinge torque and slide force the
   prescribed motion demands (MuJoCo, per wing), against the 200 N peak force of one piezo chip.
 
-Assumptions of the chart (spec §4): rigid wings, prescribed kinematics (the actuator is assumed
+Assumptions of the chart (ours): rigid wings, prescribed kinematics (the actuator is assumed
 to deliver whatever force the path needs), extension ∝ a and frequency ∝ 1/a exactly, no
 structural dynamics. Writes ``runs/msac/sweeps/F6_F7.json`` with the plotted numbers.
 """
@@ -45,7 +45,7 @@ from magsail_mj.sweep import FINISHED, load_sweep, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
 SWEEP_FILE = REPO / "models" / "sweeps" / "msac_sensitivity.toml"
-PIEZO_PEAK_FORCE_N = 200.0  # spec §4: one multilayer PZT chip
+PIEZO_PEAK_FORCE_N = 200.0  # Vedant & Allison 2019: one multilayer PZT chip
 
 
 def run_sweeps(names: list[str] | None, out: Path, *, workers: int = 2) -> dict[str, dict]:

@@ -1,4 +1,4 @@
-"""MSAC videos (spec msac.md §8): V1 slow-motion cycles, V2 time-lapse of the 600 s run.
+"""MSAC videos: V1 slow-motion cycles, V2 time-lapse of the 600 s run.
 
     # after: magsail run magsail_mj/concepts/msac/configs/slow_1hz.toml --out runs/msac/slow_1hz
     python scripts/msac_videos.py v1 runs/msac/slow_1hz

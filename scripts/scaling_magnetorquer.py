@@ -1,17 +1,17 @@
-"""Rod mass fraction against plate size (truss-magnetorquer-array.md §8, like Fig. 17).
+"""Rod mass fraction against plate size (Robb et al. 2022a, Sec. 4.1, like Fig. 17).
 
 Writes into ``--out`` (default ``runs/scaling``):
 
 - ``lambda_f_vs_side.png``: ``λ_f = μ d² / (8 B0 R_E³ κ_τ)`` against ``d ∈ [1, 200]`` m for
   ``κ_τ ∈ {10, 50, 100, 200}`` A m²/kg, with the lines ``λ_f = 1`` and ``λ_f = 0.5`` and the
   75 m design point (the required ``λ_f`` at ``κ_τ = 100`` and the design's 50 %);
-- ``summary.json`` (and stdout): the §11 ``scaling`` keys — ``lambda_f`` per ``κ_τ`` and ``d``,
-  ``d_at_lambda_f_1_m`` per ``κ_τ``, ``T_grav_max_Nm``, ``T_ac_max_Nm``, ``B_dipole_T`` for the §9
-  truss at 800 km — and the inputs;
+- ``summary.json`` (and stdout): the ``scaling`` summary keys — ``lambda_f`` per ``κ_τ`` and ``d``,
+  ``d_at_lambda_f_1_m`` per ``κ_τ``, ``T_grav_max_Nm``, ``T_ac_max_Nm``, ``B_dipole_T`` for the
+  orbital truss of Robb et al. 2022a Sec. 4.2 at 800 km — and the inputs;
 - ``table.md``: the same as a Markdown table.
 
 Inputs: the ``[scaling]`` table of ``--config`` (e.g. ``magsail_mj/concepts/truss_magnetorquer/configs/scaling.toml``)
-or the spec's defaults (:class:`magsail_mj.analysis.scaling.ScalingInputs`).
+or the defaults (:class:`magsail_mj.analysis.scaling.ScalingInputs`).
 
     python scripts/scaling_magnetorquer.py [--config magsail_mj/concepts/truss_magnetorquer/configs/scaling.toml] [--out DIR]
 """  # noqa: E501
@@ -79,7 +79,7 @@ def table_md(inputs: ScalingInputs, tables: dict) -> str:
         )
     lines += [
         "",
-        f"§9 truss (d = {inputs.design_side_m:g} m, M = {inputs.total_kg:g} kg, "
+        f"Orbital truss (d = {inputs.design_side_m:g} m, M = {inputs.total_kg:g} kg, "
         f"M_τ = {inputs.rod_mass_kg:g} kg, κτ = {inputs.design_kappa_Am2_kg:g} A m²/kg, "
         f"{inputs.altitude_km:g} km):",
         f"B = {tables['B_dipole_T']:.4g} T, T_grav,max = {tables['T_grav_max_Nm']:.4g} N m, "

@@ -1,5 +1,5 @@
-"""Run the orbital truss scenarios (spec §9: detumble, slews I–IV, ablation, sensitivity) and
-tabulate their summary keys.
+"""Run the orbital truss scenarios (Robb et al. 2022a, Sec. 4.2–4.3: detumble, slews I–IV;
+our ablation and sensitivity runs) and tabulate their summary keys.
 
     python scripts/truss_orbital.py                          # detumble + slew_i … slew_iv, 2 workers
     python scripts/truss_orbital.py detumble --video         # one scenario, with its MP4
@@ -8,7 +8,8 @@ tabulate their summary keys.
     python scripts/truss_orbital.py --table-only             # re-tabulate existing run folders
 
 Scenario ids are the run ids of the sweep file ``models/sweeps/truss_orbital.toml`` (config
-stems under magsail_mj/concepts/truss_magnetorquer/configs/, ``sensitivity/<name>`` for the §9.6 runs). The selected
+stems under magsail_mj/concepts/truss_magnetorquer/configs/, ``sensitivity/<name>`` for the sensitivity runs).
+The selected
 runs go through the sweep engine (:func:`magsail_mj.sweep.run_sweep`: ``--workers`` Dask worker
 processes, default 2; a valid earlier run folder is reused, a stopped one continues from its
 checkpoint, ``--overwrite`` reruns) into ``<out>/<id>/`` (a normal run folder: summary.json,

@@ -1,4 +1,4 @@
-"""Rigid-body counterparts of the orbital truss slews (diagnostic, spec §9.4).
+"""Rigid-body counterparts of the orbital truss slews (diagnostic; Robb et al. 2022a, Sec. 4.3).
 
 Each id is a config stem under magsail_mj/concepts/truss_magnetorquer/configs/ (``sensitivity/<name>`` allowed). The
 scenario's controller, allocation, Lloyd selection, rod dipoles, IGRF field and orbit are kept;
