@@ -1,4 +1,4 @@
-r"""Lorentz torque of a conducting path in a uniform field (reflector spec §3.6, paper Eqs. 1–4).
+r"""Lorentz torque of a conducting path in a uniform field (paper Eqs. 1–4).
 
 Structure frame (centre of mass at the origin), SI units. For consecutive nodes ``r_i``,
 ``r_{i+1}`` of a path carrying the node-order current ``I`` in a uniform field **B**:
@@ -16,11 +16,11 @@ Structure frame (centre of mass at the origin), SI units. For consecutive nodes 
 ``T = I · M B`` (column ``e`` = torque for unit current and ``B = ê_e``). Also here: the net
 force of the open path ``F = I (r_K − r_1) × B``, the dipole of the path closed by straight
 leads to the centre ``m = (I/2) Σ r_i × r_{i+1}``, and the normative **capability metric**
-(§3.6): for the y-coil ``T_max = |ẑ · T(B_ref x̂)|`` at ``I = I_max``, for the x-coil
+: for the y-coil ``T_max = |ẑ · T(B_ref x̂)|`` at ``I = I_max``, for the x-coil
 ``|ẑ · T(B_ref ŷ)|``, for the in-plane loop ``|x̂ · T(B_ref ŷ)|``. In the dynamic scenarios each
 path is an ideal dipole of at most ``m_max = T_max / B_ref``.
 
-:func:`coil_torque_report` assembles the §8.2 ``coil_torque`` keys (the stdout JSON of
+:func:`coil_torque_report` assembles the ``coil_torque`` keys (the stdout JSON of
 ``magsail torque coil``).
 """
 
@@ -46,7 +46,7 @@ __all__ = [
     "torque_matrix",
 ]
 
-# the component and field direction of each path's capability metric (§3.6):
+# the component and field direction of each path's capability metric:
 # axis of the path → (field direction e, torque component c) with T_max = |c · T(B_ref ê_e)|
 _CAPABILITY = {1: (0, 2), 0: (1, 2), 2: (1, 0)}
 
@@ -97,7 +97,7 @@ def closed_lead_dipole(nodes: np.ndarray, *, current: float) -> np.ndarray:
 
 
 def capability(path: CoilPath, *, current_A: float, field_T: float) -> float:
-    """Normative capability metric T_max of ``path`` at ``I = current_A``, ``|B_ref| = field_T`` [N m] (§3.6)."""
+    """Normative capability metric T_max of ``path`` at ``I = current_A``, ``|B_ref| = field_T`` [N m]."""
     e, comp = _CAPABILITY[path.axis]
     M = torque_matrix(path.nodes)
     return float(abs(current_A * field_T * M[comp, e]))
@@ -123,7 +123,8 @@ def loop_side_for_capability(
 
 
 def path_report(path: CoilPath, *, current_A: float, field_T: float) -> dict[str, Any]:
-    """Everything §3.6 asks of one path at ``I = I_max`` (node-order current ``s_path I_max``).
+    """The torque capability (Robb et al. 2020, Eqs. 1–4) of one path at
+    ``I = I_max`` (node-order current ``s_path I_max``).
 
     Keys: ``node_count``, ``segment_count``, ``length_m``, ``s_path``, ``torque_matrix_Nm_AT``
     (node-order current), ``T_max_Nm``, ``T_Bx_Nm``, ``T_By_Nm``, ``T_Bz_Nm`` (full torque
@@ -160,7 +161,7 @@ def coil_torque_report(
     pitch_cells: int = 2,
     rows: int | None = None,
 ) -> dict[str, Any]:
-    """The ``coil_torque`` figures of spec §8.2 plus the full per-path report (§3.6, §8.3 item 1).
+    """The ``coil_torque`` figures plus the full per-path report.
 
     Flat keys: ``T_max_ycoil_Nm``, ``T_max_xcoil_Nm``, ``T_max_zloop_Nm``, ``zloop_side_m``,
     ``T_max_perimeter_loop_Nm``, ``T_max_ycoil_p1_Nm``, ``T_max_ycoil_rows_plus1_Nm``,

@@ -1,4 +1,4 @@
-r"""Structural diagnostics of a spring–mass lattice (spec §5.3).
+r"""Structural diagnostics of a spring–mass lattice.
 
 Strut lengths, strains and strain energy, kinetic energy relative to the best-fit rigid motion,
 and the inside-out (inverted tetrahedron) test of the structural failure flag. All functions
@@ -7,7 +7,7 @@ and are vectorised; strut quantities of long time series are evaluated in blocks
 so that temporaries stay below ~32 MB (a loop over blocks, never over steps or struts).
 
 Index conventions: ``struts`` is ``(S, 2)`` node indices, ``tets`` is ``(m, 4)`` node indices;
-for the §2.1 lattice the flat node index is ``k N^2 + j N + i``.
+for the two-layer lattice the flat node index is ``k N^2 + j N + i``.
 """
 
 from __future__ import annotations
@@ -77,9 +77,9 @@ def strut_lengths(pos: np.ndarray, struts: np.ndarray) -> np.ndarray:
 
 
 def strut_strain(pos: np.ndarray, struts: np.ndarray, l0: float | np.ndarray) -> np.ndarray:
-    r"""Signed engineering strain :math:`\varepsilon_s = (r_s - l_{0,s})/l_{0,s}` (§5.3).
+    r"""Signed engineering strain :math:`\varepsilon_s = (r_s - l_{0,s})/l_{0,s}`.
 
-    The failure criterion of §5.3 uses :math:`\max_s|\varepsilon_s| > 0.5`.
+    The failure criterion uses :math:`\max_s|\varepsilon_s| > 0.5`.
 
     Args:
       pos: ``(n, 3)`` or ``(T, n, 3)`` node positions [m].
@@ -100,7 +100,7 @@ def strut_strain(pos: np.ndarray, struts: np.ndarray, l0: float | np.ndarray) ->
 def strain_energy(
     pos: np.ndarray, struts: np.ndarray, k: float | np.ndarray, l0: float | np.ndarray
 ) -> np.ndarray | float:
-    r"""Elastic energy of the struts :math:`E = \tfrac12\sum_s k_s (r_s - l_{0,s})^2` [J] (§5.3).
+    r"""Elastic energy of the struts :math:`E = \tfrac12\sum_s k_s (r_s - l_{0,s})^2` [J].
 
     Args:
       pos: ``(n, 3)`` or ``(T, n, 3)`` node positions [m].
@@ -136,7 +136,7 @@ class KineticEnergySplit(NamedTuple):
 
 
 def kinetic_energy_split(pos: np.ndarray, vel: np.ndarray, masses: float | np.ndarray) -> KineticEnergySplit:
-    r"""Split the kinetic energy into COM, best-fit rigid rotation, and the rest (§5.3).
+    r"""Split the kinetic energy into COM, best-fit rigid rotation, and the rest.
 
     With :math:`M=\sum m_i`, COM :math:`x_c`, :math:`v_c`, and :math:`r_i = x_i-x_c`,
     :math:`u_i = v_i - v_c`:
@@ -198,7 +198,7 @@ def _ke_split(x: np.ndarray, v: np.ndarray, m: np.ndarray) -> KineticEnergySplit
 
 
 def relative_kinetic_energy(pos: np.ndarray, vel: np.ndarray, masses: float | np.ndarray) -> np.ndarray | float:
-    r"""Kinetic energy of the motion relative to the best-fit rigid motion [J] (§5.3).
+    r"""Kinetic energy of the motion relative to the best-fit rigid motion [J].
 
     :math:`\tfrac12\sum_i m_i\lVert v_i - v_c - \omega\times(x_i-x_c)\rVert^2` with
     :math:`\omega = J^{-1}L` (see :func:`kinetic_energy_split`). Zero for any rigid motion; for
@@ -231,7 +231,7 @@ def _tet_volumes(x: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 def inverted_cells(pos: np.ndarray, tets: np.ndarray, *, reference: np.ndarray | None = None) -> np.ndarray:
-    r"""Which tetrahedra are turned inside out (§5.3 structural failure flag).
+    r"""Which tetrahedra are turned inside out (structural failure flag).
 
     A tetrahedron is inverted when its signed volume (:func:`signed_tet_volumes`) has changed
     sign relative to the reference (a volume of exactly zero counts as inverted: the cell has
@@ -268,14 +268,14 @@ def inverted_cells(pos: np.ndarray, tets: np.ndarray, *, reference: np.ndarray |
 
 
 def lattice_cube_tetrahedra(nodes_per_side: int) -> np.ndarray:
-    r"""Corner tetrahedra of every cube of the two-layer §2.1 lattice, positively oriented.
+    r"""Corner tetrahedra of every cube of the two-layer lattice, positively oriented.
 
     For each of the ``(N-1)^2`` cubes and each of its 8 corners, the tetrahedron
     (corner, its neighbour along ``x1``, along ``y1``, along ``z1``), with the last two swapped
     where needed so the reference signed volume is ``+a^3/6``. A cube turned inside out (any
     corner's three edges no longer right-handed) inverts at least one of them.
 
-    Flat node index ``k N^2 + j N + i`` (§2.1). Returns ``(8 (N-1)^2, 4)`` int64.
+    Flat node index ``k N^2 + j N + i``. Returns ``(8 (N-1)^2, 4)`` int64.
     """
     N = int(nodes_per_side)
     if N != nodes_per_side or N < 2:
@@ -327,7 +327,7 @@ def structural_failure(
     reference: np.ndarray | None = None,
     strain_limit: float = 0.5,
 ) -> FailureCheck:
-    r"""Structural failure flag of §5.3: :math:`\max_s|\varepsilon_s| >` ``strain_limit``
+    r"""Structural failure flag: :math:`\max_s|\varepsilon_s| >` ``strain_limit``
     (default 50 %) or any tetrahedron of ``tets`` inverted (see :func:`inverted_cells`)."""
     eps = np.abs(strut_strain(pos, struts, l0))
     worst = np.argmax(eps, axis=-1)

@@ -1,6 +1,6 @@
-r"""Surface flatness: total-least-squares average plane and surface standard deviation (§5.1).
+r"""Surface flatness: total-least-squares average plane and surface standard deviation.
 
-Spec ``truss-magnetorquer-array.md`` §5.1, applied to the top-layer nodes (``N^2`` points), at
+Robb et al. 2022a, surface standard deviation, applied to the top-layer nodes (``N^2`` points), at
 every recorded time. Vectorised over time: ``points`` may be ``(n, 3)`` or ``(T, n, 3)``.
 
 The plane normal is the right singular vector with the smallest singular value of the centred
@@ -20,7 +20,7 @@ __all__ = ["average_plane", "surface_heights", "surface_sd"]
 
 
 def average_plane(points: np.ndarray, *, orient: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    r"""Total-least-squares plane through a point set (§5.1 steps 1–2).
+    r"""Total-least-squares plane through a point set.
 
     Centroid :math:`\bar x = \frac1n\sum_i x_i`; unit normal :math:`\hat n` = right singular
     vector of the smallest singular value of the centred matrix
@@ -54,7 +54,7 @@ def average_plane(points: np.ndarray, *, orient: np.ndarray | None = None) -> tu
 
 
 def surface_heights(points: np.ndarray, *, orient: np.ndarray | None = None) -> np.ndarray:
-    r"""Signed normal distances :math:`h_i = (x_i-\bar x)\cdot\hat n` [m] (§5.1 step 3).
+    r"""Signed normal distances :math:`h_i = (x_i-\bar x)\cdot\hat n` [m].
 
     Returns ``(n,)`` or ``(T, n)``; sign follows :func:`average_plane`'s ``orient``.
     """
@@ -64,7 +64,7 @@ def surface_heights(points: np.ndarray, *, orient: np.ndarray | None = None) -> 
 
 
 def surface_sd(points: np.ndarray) -> np.ndarray | float:
-    r"""Surface standard deviation :math:`\sigma_{SD}=\sqrt{\frac1n\sum_i h_i^2}` [m] (§5.1).
+    r"""Surface standard deviation :math:`\sigma_{SD}=\sqrt{\frac1n\sum_i h_i^2}` [m].
 
     Population SD of the signed distances to the total-least-squares plane (their mean is zero
     by construction). Invariant under rigid motions of ``points``; zero for a flat set.

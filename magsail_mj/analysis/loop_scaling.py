@@ -1,20 +1,20 @@
 """Thermal and length-scaling model of current loops built into a printed truss.
 
-Spec: current-loops.md §3 (paper Eqs. 2–11), Table 1 reconstruction §2.7, output keys §7.2,
-errata §9. SI units throughout (m, kg, s, A, T, W, K, Ω).
+Robb et al. 2022b, Eqs. 2–11, with a reconstructed Table 1 and the misprints corrected where each
+equation is stated. SI units throughout (m, kg, s, A, T, W, K, Ω).
 
-Heat balance of a solid round copper wire that only radiates (no Sun, §3)::
+Heat balance of a solid round copper wire that only radiates (no Sun, Robb et al. 2022b, Eqs. 2–11)::
 
     P_J = I² R,   R = R_r [1 + α (Γ − Γ_r)],   R_r = 4 ρ_r l / (π d²)
     P_rad = ε σ_B π d l Γ⁴
 
 At equilibrium ``P_J = P_rad`` at ``Γ = Γ_e``; the length ``l`` cancels and, with the ``I²`` the
-printed Eq. 6 drops restored (§9 item 1)::
+printed Eq. 6 drops restored::
 
     d = [4 ρ_r f_Γ I² / (π² ε σ_B Γ_e⁴)]^{1/3},        f_Γ = 1 + α (Γ_e − Γ_r)
 
 Dipole field over the equator ``B = B0 (R_E/R_o)³`` with ``R_o = R_E + h`` the geocentric radius
-(Eq. 7, §9 item 3). Peak gravity-gradient torque of a uniform square plate, normal at 45° to nadir
+ (Eq. 7). Peak gravity-gradient torque of a uniform square plate, normal at 45° to nadir
 (Eq. 8)::
 
     T_g,max = 3 μ (i3 − i1) / (2 R_o³) = μ M D² / (8 R_o³)
@@ -24,22 +24,22 @@ Setting ``I A_e B = T_g,max`` the ``R_o³`` cancels (Eq. 9, altitude independent
     I = μ σ_A D⁴ / (8 A_e B0 R_E³),        m_max = I A_e = μ σ_A D⁴ / (8 B0 R_E³)
 
 Conductor mass fraction (Eqs. 10–11 with the copper density restored and the path length ``l``
-read for the printed "I", §9 item 2)::
+read for the printed "I")::
 
     M_c = ρ_c π d² l / 4,   λ_f = M_c / (σ_A D²) = C1 G(N) D^{5/3} σ_A^{1/3}
     C1 = [μ⁴ ρ_c³ ρ_r² f_Γ² / (16384 π Γ_e⁸ ε² σ_B² B0⁴ R_E¹²)]^{1/3},   G = D^{5/3} l / A_e^{4/3}
 
 Geometry A (one perimeter loop) carries its conductor at the rim; the paper's inertia
-``i1 = [(M − M_c)/12 + k_c M_c] D²`` (``k_c = 4/3``, §9 item 5) gives, with ``κ = 12 k_c − 1``::
+``i1 = [(M − M_c)/12 + k_c M_c] D²`` (``k_c = 4/3``) gives, with ``κ = 12 k_c − 1``::
 
     I_A = I_u (1 + κ λ_f),   λ_f = λ_u (1 + κ λ_f)^{4/3},   λ_u = 4 C1 D^{5/3} σ_A^{1/3}
 
 ``h(λ) = λ (1 + κλ)^{-4/3}`` peaks at ``λ* = 3/κ`` with ``h* = (3/κ) 4^{-4/3}``: below ``h*`` there
 is a light and a heavy branch, above it no solution (:class:`NoLoopSolution`). Default ``κ = 15``
-(paper); ``κ = 1`` is the physical value of a square perimeter wire (§9 item 5).
+(paper); ``κ = 1`` is the physical value of a square perimeter wire.
 
-``Γ_r = 293.15 K`` is assumed (value lost in the source, §9 item 13). The B sizing uses the
-Table-1 form with ``n = ceil(N/2)`` loops even for odd ``N`` (§9 item 15).
+``Γ_r = 293.15 K`` is assumed (value lost in the source). The B sizing uses the
+Table-1 form with ``n = ceil(N/2)`` loops even for odd ``N``.
 """
 
 from __future__ import annotations
@@ -88,20 +88,20 @@ __all__ = [
 ]
 
 GEOMETRIES: tuple[str, ...] = ("A", "B", "C", "D")
-"""Loop geometries with a sizing form (§2.7). C_x/C_y and D_x/D_y share the C and D forms."""
+"""Loop geometries with a sizing form. C_x/C_y and D_x/D_y share the C and D forms."""
 
 
 @dataclass(frozen=True)
 class ThermalConstants:
-    """Physical constants of the thermal/scaling model (spec §3, "Table 2, lower-left block").
+    """Physical constants of the thermal/scaling model ("Table 2, lower-left block").
 
-    Field names follow the spec's ``thermal.*`` config keys (§7.1) where one exists.
+    Field names follow the ``thermal.*`` config keys where one exists.
     """
 
     rho_c_kg_m3: float = 8960.0
     """Copper density ρ_c [kg/m³]."""
     T_ref_K: float = 293.15
-    """Reference temperature Γ_r [K] (assumed 20 °C, §9 item 13)."""
+    """Reference temperature Γ_r [K] (assumed 20 °C)."""
     T_eq_K: float = 420.0
     """Equilibrium (maximum) wire temperature Γ_e [K]."""
     rho_ref_ohmm: float = 1.68e-8
@@ -184,11 +184,11 @@ def normalize_geometry(geometry: str) -> str:
     raise ValueError(f"geometry: must be one of A, B, C, D (or Cx, Cy, Dx, Dy), got {geometry!r}")
 
 
-# ----------------------------------------------------------------------------- Table 1 (§2.7)
+# ----------------------------------------------------------------------------- Table 1
 
 
 def b_loop_count(units: int) -> int:
-    """Number of concentric loops of geometry B, ``n = ceil(N/2)`` (§2.3)."""
+    """Number of concentric loops of geometry B, ``n = ceil(N/2)``."""
     return (_units(units) + 1) // 2
 
 
@@ -205,7 +205,7 @@ def _table1_unit(g: str, N: int) -> tuple[float, float]:
 
 
 def table1(geometry: str, units: int, side_m):
-    """Sizing-form enclosed area and path length ``(A_e [m²], l [m])`` (spec §2.7, Table 1).
+    """Sizing-form enclosed area and path length ``(A_e [m²], l [m])`` (Table 1).
 
     ================  ==============================  =========================
     geometry          ``A_e``                         ``l``
@@ -217,7 +217,7 @@ def table1(geometry: str, units: int, side_m):
     ================  ==============================  =========================
 
     B uses the Table-1 form also for odd ``N``, where the lattice loops enclose a few percent
-    less (§9 item 15); the realised lattice values come from ``magsail_mj.geometry.current_loops``.
+    less; the realised lattice values come from ``magsail_mj.geometry.current_loops``.
     ``side_m`` may be an array.
     """
     g = normalize_geometry(geometry)
@@ -260,7 +260,7 @@ def c1(constants: ThermalConstants = DEFAULT_CONSTANTS) -> float:
 
 
 def field_magnitude(geocentric_radius_m, *, constants: ThermalConstants = DEFAULT_CONSTANTS):
-    """Eq. 7: ``B = B0 (R_E / R_o)³`` [T], ``R_o`` the geocentric radius (§9 item 3)."""
+    """Eq. 7: ``B = B0 (R_E / R_o)³`` [T], ``R_o`` the geocentric radius."""
     R = _positive("geocentric_radius_m", geocentric_radius_m)
     return _out(constants.B0_T * (constants.R_E_m / R) ** 3)
 
@@ -279,7 +279,7 @@ def gravity_gradient_torque_max(
         T_g,max = 3 μ (i3 − i1) / (2 R_o³) = μ M D² (1 + κ λ_f) / (8 R_o³)
 
     with ``i1 = i2 = M D² (1 + κ λ_f)/12``, ``i3 = 2 i1``. ``κ λ_f = 0`` is the uniform plate;
-    geometry A's rim conductor adds ``κ λ_f`` (§3).
+    geometry A's rim conductor adds ``κ λ_f`` (Robb et al. 2022b, Eqs. 2–11).
     """
     M = _positive("total_kg", total_kg)
     D = _positive("side_m", side_m)
@@ -335,7 +335,7 @@ def required_current(
 
 
 def wire_diameter(current_A, *, constants: ThermalConstants = DEFAULT_CONSTANTS):
-    """Equilibrium wire diameter [m] (Eq. 6 with ``I²``, §9 item 1)::
+    """Equilibrium wire diameter [m] (Eq. 6 with ``I²``)::
 
     ε σ_B π d Γ_e⁴ = 4 ρ_r f_Γ I² / (π d²)   ⇒   d = [4 ρ_r f_Γ I² / (π² ε σ_B Γ_e⁴)]^{1/3}
     """
@@ -350,7 +350,7 @@ def wire_diameter(current_A, *, constants: ThermalConstants = DEFAULT_CONSTANTS)
 
 
 def conductor_mass(wire_diameter_m, length_m, *, constants: ThermalConstants = DEFAULT_CONSTANTS):
-    """Eq. 10 with the copper density (§9 item 2): ``M_c = ρ_c π d² l / 4`` [kg]."""
+    """Eq. 10 with the copper density: ``M_c = ρ_c π d² l / 4`` [kg]."""
     d = np.asarray(wire_diameter_m, dtype=float)
     l = np.asarray(length_m, dtype=float)
     return _out(constants.rho_c_kg_m3 * math.pi * d * d * l / 4.0)
@@ -445,7 +445,7 @@ def fold_A(kappa: float = 15.0) -> tuple[float, float]:
 
 
 def solve_lambda_A(lambda_u: float, *, kappa: float = 15.0, branch: Literal["light", "heavy", "both"] = "light"):
-    """Roots of geometry A's ``λ = λ_u (1 + κλ)^{4/3}`` (§3).
+    """Roots of geometry A's ``λ = λ_u (1 + κλ)^{4/3}`` (Robb et al. 2022b, Eqs. 2–11).
 
     ``branch="light"`` gives the root below the fold ``λ* = 3/κ`` (the sizing value), ``"heavy"``
     the one above, ``"both"`` the pair ``(light, heavy)``. Both are found by bracketing
@@ -504,7 +504,7 @@ def _curves(side_m, current_A, length_m, lam, constants: ThermalConstants) -> di
 def trace_branches_A(
     areal_density_kg_m2: float, *, kappa: float = 15.0, lambdas=None, constants: ThermalConstants = DEFAULT_CONSTANTS
 ) -> dict[str, np.ndarray]:
-    """Both branches of geometry A, parametrised by ``λ`` (§3, Fig. 3)::
+    """Both branches of geometry A, parametrised by ``λ`` (Robb et al. 2022b, Eqs. 2–11, Fig. 3)::
 
         λ_u = h(λ),   D = (λ_u / (4 C1 σ_A^{1/3}))^{3/5},   I = I_u(D) (1 + κλ),   d(I),   P_J = ε σ_B π d (4D) Γ_e⁴
 
@@ -549,7 +549,7 @@ def loop_sizing(
     kappa: float = 15.0,
     constants: ThermalConstants = DEFAULT_CONSTANTS,
 ) -> dict:
-    """Eq.-9 current and thermal sizing of one loop geometry (spec §3 item 1).
+    """Eq.-9 current and thermal sizing of one loop geometry.
 
     Returns a dict with ``current_A`` (A on the light branch), ``wire_diameter_m``, ``lambda_f``,
     ``power_W`` and ``power_per_area_W_m2`` (``P_J = ε σ_B π d l Γ_e⁴``), ``dipole_max_Am2``
@@ -623,11 +623,11 @@ def scaling_table(
     units: Iterable[int] = (12, 19, 27),
     constants: ThermalConstants = DEFAULT_CONSTANTS,
 ) -> dict:
-    """The ``scaling`` object of spec §7.2 (stdout of ``magsail scaling loops --table``).
+    """The ``scaling`` object (stdout of ``magsail scaling loops --table``).
 
     Keys ``{g}_N{N}_current_A``, ``_wire_diameter_m``, ``_lambda_f``, ``_power_per_area_W_m2``,
     ``_dipole_max_Am2``, ``_path_length_m`` for every geometry and ``N``; ``c1_per_m_per_cbrt_kg``,
-    ``kappa``, ``A_lambda_fold`` (``λ* = 3/κ``); and, beyond §7.2, the inputs ``side_m``,
+    ``kappa``, ``A_lambda_fold`` (``λ* = 3/κ``); and, in addition, the inputs ``side_m``,
     ``areal_density_kg_m2`` and ``A_side_fold_m`` (largest A plate with a solution).
     """
     out: dict = {}
@@ -653,7 +653,7 @@ def scaling_table(
 
 
 def sunlight_diameter_ratio(constants: ThermalConstants = DEFAULT_CONSTANTS) -> float:
-    """Optional side check: wire diameter increase if the wire is sunlit (derived, §3).
+    """Optional side check: wire diameter increase if the wire is sunlit (derived, Robb et al. 2022b, Eqs. 2–11).
 
     Absorbed sunlight ``P_S = S ε l d`` (absorptance = ε, projected area ``l d``) joins the
     balance ``4 ρ_r f_Γ I² / (π d²) + S ε d = ε σ_B π d Γ_e⁴``, so at the same current::

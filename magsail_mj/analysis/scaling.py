@@ -1,7 +1,7 @@
 """Scaling law of the distributed magnetorquer array: rod mass fraction against plate size.
 
-Spec: truss-magnetorquer-array.md §8 (paper Sec. 4.1, Eqs. 14–17; §12 items M2, O8). SI units;
-``μ = 3.986004418e14`` m³/s² (§12 item M2), ``B0 = 3.12e-5`` T, ``R_E = 6370`` km (§12 item O8).
+Robb et al. 2022a, Sec. 4.1, Eqs. 14–17. SI units;
+``μ = 3.986004418e14`` m³/s², ``B0 = 3.12e-5`` T, ``R_E = 6370`` km.
 
 - Rigid-body gravity-gradient torque (Eq. 14), ``r_b`` the centre-of-mass position from the
   Earth's centre in body components, ``I`` the inertia tensor about the centre of mass::
@@ -119,7 +119,7 @@ def gravity_gradient_torque(r_body, inertia, *, mu: float = MU_EARTH) -> np.ndar
 
 
 def gravity_gradient_torque_max(total_kg, side_m, radius_m, *, mu: float = MU_EARTH):
-    """``T_grav,max = μ M d² / (8 r³)`` [N m] of a thin square plate (§8); broadcasts."""
+    """``T_grav,max = μ M d² / (8 r³)`` [N m] of a thin square plate; broadcasts."""
     M = _positive("total_kg", total_kg)
     d = _positive("side_m", side_m)
     r = _positive("radius_m", radius_m)
@@ -148,7 +148,7 @@ def actuator_torque_max(kappa_Am2_kg, rod_mass_kg, B_T):
 
 
 def rod_mass_fraction(side_m, kappa_Am2_kg, *, mu: float = MU_EARTH, B0_T: float = B0_DIPOLE, R_E_m: float = R_E_TRUSS):
-    """Rod mass fraction needed to match the peak gravity-gradient torque (§8, Eq. 17):
+    """Rod mass fraction needed to match the peak gravity-gradient torque (Eq. 17):
     ``λ_f = μ d² / (8 B0 R_E³ κ_τ)`` (dimensionless); broadcasts over ``side_m`` and ``kappa``."""
     d = _positive("side_m", side_m)
     k = _positive("kappa_Am2_kg", kappa_Am2_kg)
@@ -182,11 +182,11 @@ def scaling_report(
     B0_T: float = B0_DIPOLE,
     R_E_m: float = R_E_TRUSS,
 ) -> dict:
-    """The §8 figures for plate side(s) ``side_m`` [m] and dipole-to-mass ratio(s) ``kappa``
+    """The scaling-law figures for plate side(s) ``side_m`` [m] and dipole-to-mass ratio(s) ``kappa``
     [A m²/kg], as one flat JSON-ready dict (the output of ``magsail scaling magnetorquer``).
 
-    The orbit radius is ``r = R_E + altitude`` (§12 item O8); ``total_kg`` and ``rod_mass_kg``
-    (defaults: the §9 truss, 200 kg of which 100 kg rods) enter only the torques, not ``λ_f``.
+    The orbit radius is ``r = R_E + altitude``; ``total_kg`` and ``rod_mass_kg``
+    (defaults: the truss, 200 kg of which 100 kg rods) enter only the torques, not ``λ_f``.
 
     Keys (SI in the names): ``side_m``, ``kappa_Am2_kg``, ``altitude_km``, ``radius_m``,
     ``total_kg``, ``rod_mass_kg``, ``mu_m3_s2``, ``B0_T``, ``R_E_m``;
@@ -268,7 +268,8 @@ def _scaling_figures(
 
 class ScalingInputs(StrictModel):
     """Inputs of the ``scaling`` figure (the ``[scaling]`` table of
-    ``magsail_mj/concepts/truss_magnetorquer/configs/scaling.toml``; defaults are the spec's §8 and §9.1 values).
+    ``magsail_mj/concepts/truss_magnetorquer/configs/scaling.toml``; defaults are the values of Robb et al.
+    2022a, Sec. 4.1 and Table 2).
     Strict like every config table: finite numbers, no strings or booleans for numbers."""
 
     kappas_Am2_kg: list[float] = Field(default=[10.0, 50.0, 100.0, 200.0], min_length=1)
@@ -312,10 +313,10 @@ def load_scaling_inputs(path: str | Path) -> ScalingInputs:
 
 
 def scaling_tables(inputs: ScalingInputs) -> dict:
-    """The §8 outputs for ``inputs``, JSON-ready (the ``scaling`` summary of §11).
+    """The scaling-law outputs for ``inputs``, JSON-ready (the ``scaling`` summary).
 
     Keys: ``lambda_f`` (``{"kappa=<κ>": {"d=<d>": λ_f}}`` over ``table_sides_m``),
-    ``d_at_lambda_f_1_m`` and ``d_at_lambda_f_0p5_m`` (``{"kappa=<κ>": d}``), and for the §9 truss
+    ``d_at_lambda_f_1_m`` and ``d_at_lambda_f_0p5_m`` (``{"kappa=<κ>": d}``), and for the Table 2 truss
     at the design point ``T_grav_max_Nm``, ``T_ac_max_Nm``, ``B_dipole_T``,
     ``lambda_f_design_required``, ``lambda_f_design``, ``authority_margin``, plus the inputs.
     """

@@ -1,17 +1,17 @@
 """Torque distribution over a two-family rod array: signed numbers of activated rods N1, N2.
 
-Spec: truss-magnetorquer-array.md §7.2–7.3 (Eqs. 10–13) with §12 items T2, T3, T5, O5.
+Robb et al. 2022a, Eqs. 10–13, with the corrections and choices stated below.
 All vectors are in **body** components (``x1, y1, z1``); the caller rotates the world field
 ``B_b = Rᵀ B``. Family 1 rods point along ``x̂1``, family 2 along ``ŷ1``, each of dipole
 ``m_f`` [A m²]. One rod of each family gives the torque [N m]
 
     τ1 = m_1 x̂1 × B_b = m_1 (0, −B_z, B_y),      τ2 = m_2 ŷ1 × B_b = m_2 (B_z, 0, −B_x),
 
-both normal to ``B``, with ``τ1·τ2 = −m_1 m_2 (x̂1·B)(ŷ1·B)`` (§7.2; §12 item T2 corrects the
+both normal to ``B``, with ``τ1·τ2 = −m_1 m_2 (x̂1·B)(ŷ1·B)`` (this corrects the
 paper's middle line of Eq. 10). ``N_f`` rods of family ``f`` on with polarity ``sign(N_f)``
 deliver ``T = N1 τ1 + N2 τ2``.
 
-``mode="paper"`` (default; the paper's single Gauss–Seidel sweep, §12 item T5)::
+``mode="paper"`` (default; the paper's single Gauss–Seidel sweep)::
 
     N1 = clip(rnd(T_ref·τ1 / |τ1|²), ±N_max,1)
     N2 = clip(rnd((T_ref·τ2 − N1 τ1·τ2) / |τ2|²), ±N_max,2)
@@ -21,10 +21,10 @@ deliver ``T = N1 τ1 + N2 τ2``.
 ``det < 1e-6 |τ1|²|τ2|²`` (field near the plate plane, ``τ1 ∥ τ2``) that sample falls back to the
 paper's mode (reported as ``"exact_fallback"``).
 
-Details (§12 item T3): ``rnd`` is symmetric round-half-away-from-zero,
+Details: ``rnd`` is symmetric round-half-away-from-zero,
 ``sign(x) ⌊|x| + ½⌋`` (computed without the ``0.49999999999999994 + 0.5 = 1`` rounding trap),
 so ``T_ref`` and ``−T_ref`` give mirror-image commands; the clip to ``±N_max`` (380 per family on
-the truss, §12 item O5) happens before ``N2`` is computed; a family whose single-rod torque is
+the truss) happens before ``N2`` is computed; a family whose single-rod torque is
 negligible, ``|τ_f| ≤ 1e-9 m_f |B|`` (field along its rods, or ``m_f = 0``), gets ``N_f = 0``.
 
 :func:`allocate` is the per-sample scalar version (plain Python floats, a few µs);
@@ -59,14 +59,14 @@ __all__ = [
 AllocationMode = Literal["paper", "exact"]
 
 TINY_TORQUE_REL = 1e-9
-"""A family is unusable when ``|τ_f| ≤ TINY_TORQUE_REL · m_f |B|`` (§7.3)."""
+"""A family is unusable when ``|τ_f| ≤ TINY_TORQUE_REL · m_f |B|``."""
 
 SINGULAR_GRAM_REL = 1e-6
-"""Exact mode falls back to the paper's when ``det G < SINGULAR_GRAM_REL |τ1|²|τ2|²`` (§7.3)."""
+"""Exact mode falls back to the paper's when ``det G < SINGULAR_GRAM_REL |τ1|²|τ2|²``."""
 
 
 def round_half_away(x):
-    """Symmetric rounding ``sign(x) ⌊|x| + ½⌋`` (§12 item T3), scalar or array (floats out)."""
+    """Symmetric rounding ``sign(x) ⌊|x| + ½⌋``, scalar or array (floats out)."""
     ax = np.abs(np.asarray(x, dtype=float))
     f = np.floor(ax)
     r = f + (ax - f >= 0.5)
@@ -103,7 +103,7 @@ def _check_mode(mode: str) -> None:
 
 
 def rod_torques(B_body, *, m_rod_Am2: float | Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-    """Single-rod torques ``τ1 = m_1 x̂1 × B_b`` and ``τ2 = m_2 ŷ1 × B_b`` [N m] (§7.2).
+    """Single-rod torques ``τ1 = m_1 x̂1 × B_b`` and ``τ2 = m_2 ŷ1 × B_b`` [N m].
 
     ``B_body``: (3,) or (K, 3) field in body components [T]; returns arrays of the same shape.
     """
@@ -119,7 +119,7 @@ def rod_torques(B_body, *, m_rod_Am2: float | Sequence[float]) -> tuple[np.ndarr
 
 @dataclass(frozen=True, slots=True)
 class Allocation:
-    """One allocation (§7.3).
+    """One allocation.
 
     Attributes:
       N1, N2: signed numbers of activated rods (the sign is the polarity of the family).
@@ -153,14 +153,14 @@ def allocate(
     n_max: int | Sequence[int],
     mode: AllocationMode = "paper",
 ) -> Allocation:
-    """Signed rod counts ``(N1, N2)`` for the reference torque ``T_ref_body`` (§7.3, Eqs. 11–13).
+    """Signed rod counts ``(N1, N2)`` for the reference torque ``T_ref_body`` (Eqs. 11–13).
 
     Args:
       T_ref_body: (3,) reference torque, body components [N m].
       B_body: (3,) field, body components [T].
       m_rod_Am2: rod dipole [A m²], one value or one per family.
       n_max: rods per family (saturation limit), one value or ``(N_max,1, N_max,2)``.
-      mode: ``"paper"`` (default) or ``"exact"`` (§12 item T5).
+      mode: ``"paper"`` (default) or ``"exact"``.
     """
     _check_mode(mode)
     m1, m2 = _m_pair(m_rod_Am2)
@@ -193,7 +193,7 @@ def _allocate_core(
     n2max: int,
     exact: bool,
 ) -> Allocation:
-    """The §7.3 arithmetic on plain floats (validated inputs)."""
+    """The Eqs. 11–13 arithmetic on plain floats (validated inputs)."""
     t1 = (0.0, -m1 * Bz, m1 * By)
     t2 = (m2 * Bz, 0.0, -m2 * Bx)
     a = t1[1] * t1[1] + t1[2] * t1[2]
@@ -314,7 +314,7 @@ def allocate_batch(
 def allocation_mode_difference(
     T_ref_body, B_body, *, m_rod_Am2: float | Sequence[float], n_max: int | Sequence[int]
 ) -> dict[str, float]:
-    """How often and by how much the paper and exact modes differ over K samples (§7.3).
+    """How often and by how much the paper and exact modes differ over K samples.
 
     Returns flat SI keys: ``n_samples``, ``fraction_counts_differ``, ``fraction_exact_fallback``,
     ``torque_diff_max_Nm`` / ``torque_diff_mean_Nm`` (``|T_exact − T_paper|``) and the
@@ -343,7 +343,7 @@ def allocation_mode_difference(
 
 
 class TorqueDistributor:
-    """One control sample: reference torque and field (body) → rod polarities (§9.2 steps 4–5).
+    """One control sample: reference torque and field (body) → rod polarities.
 
     Args:
       selector: the cached Lloyd selection (two families; its site counts are ``N_max``).

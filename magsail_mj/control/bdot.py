@@ -1,4 +1,4 @@
-r"""B-dot detumbling law (CNUSAIL spec §7.1, CNUSAIL-1 paper Eqs. 24–27).
+r"""B-dot detumbling law (CNUSAIL-1 paper Eqs. 24–27).
 
 Per axis, with the magnetometer reading B_B (body axes, tesla) sampled every Δt (2 s):
 
@@ -17,7 +17,7 @@ magnetometer-blanking duty cycle are applied by the caller
 
 Why it detumbles: for a field fixed in inertial space, Ḃ_B = −ω × B_B, so with the continuous
 law T = M × B = K (ω × B) × B and ω·T = −K(|ω|²|B|² − (ω·B)²) ≤ 0: the rotational energy can
-only decrease (spec §13 item 7, tested).
+only decrease (tested).
 """
 
 from __future__ import annotations

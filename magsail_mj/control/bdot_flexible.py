@@ -1,18 +1,18 @@
-r"""B-dot detumbling of the flexible truss with the rod array (spec §9.3).
+r"""B-dot detumbling of the flexible truss with the rod array.
 
-Control law, body components (best-fit body frame of §4.1):
+Control law, body components (best-fit body frame):
 
 .. math:: \mathbf T_{\text{Bdot}} = k_{\text{Bdot}}\,(\boldsymbol\omega\times\mathbf B_b)\times\mathbf B_b,
           \qquad k_{\text{Bdot}} = 10^{12}\ \text{N m s T}^{-2}\ \text{(default)},
 
-with ``ω`` the backward-difference body rate of the best-fit rotation (§4.2) and ``B_b = Rᵀ B``
-the field at the centre of mass (§9.2). It equals ``m × B_b`` with the dipole
+with ``ω`` the backward-difference body rate of the best-fit rotation and ``B_b = Rᵀ B``
+the field at the centre of mass. It equals ``m × B_b`` with the dipole
 ``m = k_Bdot ω × B_b`` — the familiar ``m = −k Ḃ_body`` for a field fixed in inertial space,
 ``Ḃ_body = −ω × B_b`` — and dissipates rotational energy:
 
 .. math:: \boldsymbol\omega\cdot\mathbf T = -k\,\lvert\boldsymbol\omega\times\mathbf B_b\rvert^2 \le 0 .
 
-``T_Bdot`` is the reference torque ``T_ref`` of the allocation (§7.3); with the default gain it
+``T_Bdot`` is the reference torque ``T_ref`` of the allocation; with the default gain it
 exceeds the array's authority by orders of magnitude, so the allocation saturates most of the
 time and the array acts as a bang-bang B-dot (the fraction of saturated samples is recorded).
 """
@@ -30,7 +30,7 @@ __all__ = ["bdot_torque", "BdotRodController"]
 
 
 def bdot_torque(omega_body: np.ndarray, B_body: np.ndarray, *, k_Nms_T2: float) -> np.ndarray:
-    r"""``T = k (ω × B) × B`` [N m] (spec §9.3), body components.
+    r"""``T = k (ω × B) × B`` [N m], body components.
 
     Args:
       omega_body: (3,) or (K, 3) body rate [rad/s].
@@ -47,13 +47,13 @@ def bdot_torque(omega_body: np.ndarray, B_body: np.ndarray, *, k_Nms_T2: float) 
 
 
 class BdotRodController(RodAttitudeController):
-    """B-dot on the flexible structure feeding the rod allocation (spec §9.3, §9.2 loop).
+    """B-dot on the flexible structure feeding the rod allocation.
 
     Args:
-      k_Nms_T2: ``k_Bdot`` [N m s/T²] (default 1e12, §9.3).
+      k_Nms_T2: ``k_Bdot`` [N m s/T²] (default 1e12).
       reference_nodes, masses, node_bodies, distributor, period_s, omega0_body, rate_method: see
         :class:`~magsail_mj.control.rod_attitude.RodAttitudeController` (``omega0_body`` is the
-        known initial rate of §9.3, used at the first sample).
+        known initial rate, used at the first sample).
     """
 
     law = "bdot"

@@ -1,10 +1,10 @@
 """Which rods to switch on: Lloyd's algorithm (centroidal Voronoi tessellation), snapped to sites.
 
-Spec: truss-magnetorquer-array.md §7.4 (and §7.5, §12 items T4, T6, O5). To spread ``|N_f|``
+Robb et al. 2022a, Sec. 3 (rod selection). To spread ``|N_f|``
 activated rods of a family evenly over the array:
 
 1. region: the axis-aligned rectangle covered by the array (for the truss ``[−d/2, d/2]²`` in
-   body ``x1, y1``; for the 10 × 10 demonstration the unit square, §12 item T6);
+   body ``x1, y1``; for the 10 × 10 demonstration the unit square);
 2. draw ``|N_f|`` uniform random generators in the region from ``numpy.random.default_rng(seed)``;
 3. Lloyd iteration: move every generator to the centroid ``c_i = ∫_{V_i} x dA / |V_i|`` of its
    Voronoi cell ``V_i`` clipped to the region, until the largest move
@@ -13,7 +13,7 @@ activated rods of a family evenly over the array:
    Voronoi tessellation (CVT);
 4. snap the generators to the sites of the family by the optimal one-to-one assignment that
    minimises ``Σ |g_i − s_σ(i)|²`` (``scipy.optimize.linear_sum_assignment``), so that exactly
-   ``|N_f|`` distinct sites are chosen (§12 item T4: nearest-site snapping can pick a site twice);
+   ``|N_f|`` distinct sites are chosen (plain nearest-site snapping can pick a site twice);
 5. the caller activates those rods with polarity ``sign(N_f)``.
 
 Exact clipped cells. The cells are computed exactly with the reflection trick: adding the mirror
@@ -32,7 +32,7 @@ the iterates equal those of re-triangulating every time to rounding. :func:`voro
 builds the ordered cell polygons the plain way (``scipy.spatial.Voronoi`` with all four mirrors)
 for plots and as the slow reference.
 
-Runtime use (§7.4). The pattern depends only on ``|N_f|``, the region, the seed and the
+Runtime use. The pattern depends only on ``|N_f|``, the region, the seed and the
 tolerance, so :class:`LloydSelector` computes each count once (lazily, or all up front with
 :meth:`LloydSelector.precompute`), keeps it in memory, and optionally on disk keyed by region, seed,
 tolerance and iteration cap. Both families share the generators of a count (same region and
@@ -373,7 +373,7 @@ def _check_lloyd_options(tol_rel: float, max_iter: int) -> None:
 
 
 def initial_generators(count: int, region: Sequence[float], *, seed: int) -> np.ndarray:
-    """(count, 2) uniform random generators in ``region`` from ``default_rng(seed)`` (§7.4 step 2)."""
+    """(count, 2) uniform random generators in ``region`` from ``default_rng(seed)``."""
     if int(count) != count or count < 0:
         raise ValueError(f"count: must be an integer >= 0, got {count!r}")
     x0, y0, x1, y1 = as_region(region)
@@ -393,7 +393,7 @@ def lloyd(
     max_iter: int = 10_000,
     reuse_triangulation: bool = True,
 ) -> LloydResult:
-    """Lloyd's algorithm in a rectangle (spec §7.4 step 3).
+    """Lloyd's algorithm in a rectangle.
 
     Args:
       count_or_points: number of generators (drawn by :func:`initial_generators` with ``seed``),
@@ -431,7 +431,7 @@ def lloyd(
 
 
 def snap_to_sites(generators: np.ndarray, sites: np.ndarray) -> np.ndarray:
-    """Distinct site indices, one per generator, minimising ``Σ |g_i − s_σ(i)|²`` (§12 item T4).
+    """Distinct site indices, one per generator, minimising ``Σ |g_i − s_σ(i)|²``.
 
     Returns the chosen site indices sorted ascending ((n,) int64). ``len(generators)`` must not
     exceed ``len(sites)``; with equal numbers every site is chosen.
@@ -502,11 +502,11 @@ def _load_result(path: Path, count: int) -> LloydResult:
 
 
 class LloydSelector:
-    """Cached rod selection for arrays of site families sharing one region (spec §7.4).
+    """Cached rod selection for arrays of site families sharing one region.
 
     Args:
       sites: one (n_f, 2) array of site positions per family, in region coordinates (for the
-        truss: body ``x1, y1`` of the strut midpoints, §12 item O5).
+        truss: body ``x1, y1`` of the strut midpoints).
       region: ``(x_min, y_min, x_max, y_max)`` covered by the array.
       seed: seed of the initial generators (default ``sim.seed``).
       tol_rel, max_iter: Lloyd stopping rule (see :func:`lloyd`).
@@ -711,7 +711,7 @@ class LloydSelector:
         return sel
 
     def polarity(self, counts: Sequence[int]) -> np.ndarray:
-        """(n_rods,) int8 polarities for the signed counts ``N_f`` of each family (§7.4 step 5).
+        """(n_rods,) int8 polarities for the signed counts ``N_f`` of each family.
 
         ``|N_f|`` rods of family ``f`` (the cached selection) get ``sign(N_f)``; all others 0.
         """

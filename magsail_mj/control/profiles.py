@@ -1,7 +1,7 @@
 """Open-loop torque profiles of the distributed-vs-centralised experiment.
 
-Spec: truss-magnetorquer-array.md §6.3 (bang-bang-off) and §6.4 (versine-shaped, Eq. 9 with
-the erratum of §12 item T1: the third line's denominator is ``t_v``, not ``t``).
+Robb et al. 2022a: Table 1 (bang-bang-off) and Eq. 9 (versine-shaped; its third line's
+denominator is read as ``t_v``, not the printed ``t``).
 With ``t₋ = t_end/3``, ``t₀ = 2 t_end/3``:
 
 bang-bang-off: ``+τ_max`` on ``[0, t₋]``, ``−τ_max`` on ``(t₋, t₀]``, 0 after.
@@ -26,7 +26,7 @@ __all__ = ["bang_bang_off", "versine", "torque_profile"]
 
 
 def bang_bang_off(t, *, tau_max: float, t_end: float):
-    """Bang-bang-off profile (§6.3) at time(s) ``t`` [s]; returns N m."""
+    """Bang-bang-off profile at time(s) ``t`` [s]; returns N m."""
     t = np.asarray(t, dtype=float)
     t_minus, t_zero = t_end / 3.0, 2.0 * t_end / 3.0
     out = np.where(t <= t_minus, tau_max, np.where(t <= t_zero, -tau_max, 0.0))
@@ -34,7 +34,7 @@ def bang_bang_off(t, *, tau_max: float, t_end: float):
 
 
 def versine(t, *, tau_max: float, t_end: float, t_v: float | None = None):
-    """Versine-shaped profile (§6.4, corrected per §12 item T1) at time(s) ``t`` [s]; N m."""
+    """Versine-shaped profile (Robb et al. 2022a, Eq. 9, with its misprint corrected) at time(s) ``t`` [s]; N m."""
     t = np.asarray(t, dtype=float)
     t_v = t_end / 10.0 if t_v is None else float(t_v)
     t_minus, t_zero = t_end / 3.0, 2.0 * t_end / 3.0

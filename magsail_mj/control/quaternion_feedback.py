@@ -1,9 +1,9 @@
-r"""Quaternion error feedback with gravity-gradient compensation for the rod array (spec §9.4).
+r"""Quaternion error feedback with gravity-gradient compensation for the rod array.
 
 Conventions: quaternions scalar-first Hamilton ``[w, x, y, z]``; ``q`` maps body components to
 inertial (ECI = world) components, like the rotation matrix ``R`` of the best-fit attitude.
 
-**Error quaternion** (spec §9.4; §12 item O2 corrects the paper's ``q_err = q_ref q_t*``, whose
+**Error quaternion** (Robb et al. 2022a; we correct the paper's ``q_err = q_ref q_t*``, whose
 vector part points *towards* the target so that ``−P_q q_err`` pushes away from it):
 
 .. math:: q_e = q_{\text{ref}}^{*}\otimes q_t,\qquad q_{e,0}<0\ \Rightarrow\ q_e\leftarrow -q_e
@@ -16,10 +16,10 @@ shortest path).
 .. math:: \mathbf T_{\text{ref}} = -\mathcal P_q\,\mathbf q_{e,\text{vec}} - \mathcal P_\omega\,\boldsymbol\omega
           - \frac{3\mu}{r^5}\,\mathbf r_b\times\mathcal I\,\mathbf r_b ,
 
-``P_q = diag(10, 50, 1)`` N m, ``P_ω = diag(1600, 8000, 800)`` N m s by default (the listed values,
-§12 item O9), ``ω`` the backward-difference body rate (§4.2), ``r_b = Rᵀ (r_ref + x_c)`` the
-centre-of-mass position from the Earth's centre in body components (§3.3) and ``𝓘`` the
-particle-set inertia of Eq. 21 (§4.4; §12 item O3: computed, not the printed 1893/2867 kg m²,
+``P_q = diag(10, 50, 1)`` N m, ``P_ω = diag(1600, 8000, 800)`` N m s by default (the listed values),
+``ω`` the backward-difference body rate, ``r_b = Rᵀ (r_ref + x_c)`` the
+centre-of-mass position from the Earth's centre in body components and ``𝓘`` the
+particle-set inertia of Eq. 21 (computed, not the printed 1893/2867 kg m²,
 which remain selectable). The last term is minus the classical gravity-gradient torque (Eq. 14),
 so a rigid body's gravity-gradient torque is cancelled exactly when the allocation delivers
 ``T_ref``.
@@ -61,7 +61,7 @@ def _unit_quat(q: Sequence[float], name: str) -> np.ndarray:
 
 
 def gg_compensation_torque(r_body: np.ndarray, inertia: np.ndarray, *, mu: float = MU_EARTH) -> np.ndarray:
-    r"""Compensation term ``−3μ/r⁵ r_b × (𝓘 r_b)`` [N m] (spec §9.4, Eq. 22).
+    r"""Compensation term ``−3μ/r⁵ r_b × (𝓘 r_b)`` [N m] (Eq. 22).
 
     Args:
       r_body: (3,) centre-of-mass position from the Earth's centre in body components [m].
@@ -89,7 +89,7 @@ def quaternion_feedback_torque(
     Pw_Nms: Sequence[float],
     gg_comp_body: np.ndarray | None = None,
 ) -> np.ndarray:
-    r"""``T_ref = −P_q q_{e,vec} − P_ω ω (+ gg_comp_body)`` [N m], diagonal gains (spec §9.4).
+    r"""``T_ref = −P_q q_{e,vec} − P_ω ω (+ gg_comp_body)`` [N m], diagonal gains.
 
     Args:
       q_e: (4,) error quaternion of :func:`error_quaternion`.
@@ -106,14 +106,14 @@ def quaternion_feedback_torque(
 
 
 class QuaternionFeedbackRodController(RodAttitudeController):
-    """Quaternion feedback + gravity-gradient compensation feeding the rod allocation (§9.4).
+    """Quaternion feedback + gravity-gradient compensation feeding the rod allocation.
 
     Args:
       q_ref_wxyz: target attitude (body → inertial, scalar first).
       Pq_Nm, Pw_Nms: gain diagonals (default the paper's (10, 50, 1) N m and (1600, 8000, 800) N m s).
       gg_comp: include the gravity-gradient compensation term.
       inertia_kgm2: (3,) moments or (3, 3) tensor used by the compensation [kg m²] (Eq. 21 by
-        default, computed by the caller from the undeformed particle set, §4.4).
+        default, computed by the caller from the undeformed particle set, Eq. 21).
       mu: gravitational parameter [m³/s²].
       reference_nodes, masses, node_bodies, distributor, period_s, omega0_body, rate_method: see
         :class:`~magsail_mj.control.rod_attitude.RodAttitudeController`.

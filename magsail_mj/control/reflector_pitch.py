@@ -1,4 +1,4 @@
-r"""Reflector pitch tracking: quaternion feedback, projection ⟂ B and saturation (reflector spec §6.5).
+r"""Reflector pitch tracking: quaternion feedback, projection ⟂ B and saturation (Robb et al. 2020, Eqs. 14–15).
 
 Body frame of the plate (``x`` grey line, ``y`` pitch axis, ``z`` normal); quaternions scalar
 first, body → world; SI units.
@@ -100,7 +100,7 @@ class PitchCommand:
 
 
 class ReflectorPitchController:
-    """Pitch tracking of spec §6.5, run every integration step (zero-order hold).
+    """Pitch tracking (Robb et al. 2020, Eqs. 14–15), run every integration step (zero-order hold).
 
     Args:
       orbit: the kinematic orbit (field, steering law).

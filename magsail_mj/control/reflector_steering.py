@@ -1,8 +1,8 @@
-r"""Reflector pitch steering (reflector spec §6.1–6.4, paper Eqs. 9–13): orbit and ground-point
+r"""Reflector pitch steering (paper Eqs. 9–13): orbit and ground-point
 kinematics, the dipole field along the orbit, ψ(t) with its first two derivatives, and the
 reference attitude.
 
-Frame ``xyz`` (= the MuJoCo world axes, spec §2): Earth-centred, ``+y`` towards the Sun (the orbit
+Frame ``xyz`` (= the MuJoCo world axes): Earth-centred, ``+y`` towards the Sun (the orbit
 normal of the dawn–dusk polar orbit), orbital plane ``xz``, Earth spin and dipole axis ``z``.
 
 .. math::
@@ -58,7 +58,7 @@ DAY_S = 86400.0
 
 @dataclass(frozen=True)
 class ReflectorOrbit:
-    """Circular polar orbit and equatorial ground point of spec §6.1 (SI units).
+    """Circular polar orbit and equatorial ground point (Robb et al. 2020, Eqs. 9–10; SI units).
 
     Attributes:
       r_m: orbit radius ``R_e + altitude`` [m].

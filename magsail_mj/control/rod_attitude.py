@@ -1,18 +1,18 @@
-r"""Shared machinery of the rod-array attitude controllers of the flexible truss (spec §9.2).
+r"""Shared machinery of the rod-array attitude controllers of the flexible truss.
 
 One control sample (every ``period_s``, zero-order hold in between; default every 0.1 s
-integration step, §12 item O6) does the §9.2 loop:
+integration step) does this loop:
 
 1. **best-fit attitude** ``R`` (body → world = ECI axes) of all particles against their
-   undeformed body coordinates ``p_i`` (§4.1, Kabsch, :class:`~magsail_mj.estimation.attitude.BestFitRotation`);
-2. **body rate** by the backward difference of consecutive control samples (§4.2),
+   undeformed body coordinates ``p_i`` (Kabsch, :class:`~magsail_mj.estimation.attitude.BestFitRotation`);
+2. **body rate** by the backward difference of consecutive control samples,
    ``ω_k = vee(log(R_{k−1}ᵀ R_k)) / (t_k − t_{k−1})`` (``rate_method="log"``, default; exact for a
    constant rate) or the first-order ``vee(skew(R_{k−1}ᵀ R_k)) / δt``; at the first sample the known
    initial rate ``ω₀`` is used;
-3. **field in body components** ``B_b = Rᵀ B_eci`` (the true field at the reference point, §9.2);
+3. **field in body components** ``B_b = Rᵀ B_eci`` (the true field at the reference point);
 4. **reference torque** ``T_ref`` (body components, N m) from the subclass's law
    (:mod:`~magsail_mj.control.bdot_flexible`, :mod:`~magsail_mj.control.quaternion_feedback`);
-5. **allocation** ``(N1, N2)`` (§7.3) and the Lloyd rod selection (§7.4) by a
+5. **allocation** ``(N1, N2)`` and the Lloyd rod selection by a
    :class:`~magsail_mj.control.allocation.TorqueDistributor`, giving the rod polarities that the
    :class:`~magsail_mj.loads.magnetorquer_rods.MagnetorquerRodLoad` reads from ``state.ctrl``.
 
@@ -49,7 +49,7 @@ class RodCommand:
       torque_ref_body: (3,) reference torque ``T_ref`` [N m], body components.
       torque_alloc_body: (3,) torque the allocation promises, ``N1 τ1 + N2 τ2`` [N m], body
         components (``T_ref`` itself when there is no distributor).
-      N1, N2: signed numbers of activated rods per family (§7.3).
+      N1, N2: signed numbers of activated rods per family.
       clipped1, clipped2: family saturated (the rounded demand exceeded ``N_max``).
       R: (3, 3) best-fit rotation, body → world.
       omega_body: (3,) estimated body rate [rad/s], body components.
@@ -77,7 +77,7 @@ class RodCommand:
 
 
 def step_rate(R_prev: np.ndarray, R: np.ndarray, dt: float, method: str) -> np.ndarray:
-    """Backward-difference body rate of one step (§4.2), as
+    """Backward-difference body rate of one step, as
     :func:`~magsail_mj.estimation.attitude.body_rate_step` but with a scalar fast path.
 
     ``M = R_prevᵀ R``, ``s = vee(M)`` (= sin θ â); ``log``: ``ω = θ/sin θ · s / δt`` with
@@ -119,18 +119,18 @@ class RodControllerOptions(TypedDict, total=False):
 
 
 class RodAttitudeController(abc.ABC):
-    """Base class: estimation (§4.1–4.2) + reference torque (subclass) + allocation (§7).
+    """Base class: estimation + reference torque (subclass) + allocation.
 
     Args:
-      reference_nodes: (n, 3) undeformed body coordinates ``p_i`` of the particles [m] (§2.1).
+      reference_nodes: (n, 3) undeformed body coordinates ``p_i`` of the particles [m].
       masses: (n,) particle masses [kg] (for the centre of mass ``x_c``).
       node_bodies: (n,) MuJoCo body index of each particle (``state.pos`` rows); default
         ``1 … n`` (node ``i`` is body ``i + 1``).
-      distributor: the rod allocation (§7.3–7.4); ``None`` gives an ideal-torque controller whose
+      distributor: the rod allocation; ``None`` gives an ideal-torque controller whose
         command carries ``T_ref`` and no polarities (used by the rigid-body tests).
-      period_s: control period [s] (> 0); the runner holds the command in between (§12 O6).
-      omega0_body: (3,) rate used at the first sample [rad/s], body components (§4.2).
-      rate_method: ``"log"`` (default) or ``"first_order"`` backward difference (§4.2).
+      period_s: control period [s] (> 0); the runner holds the command in between.
+      omega0_body: (3,) rate used at the first sample [rad/s], body components.
+      rate_method: ``"log"`` (default) or ``"first_order"`` backward difference.
 
     Subclasses implement :meth:`reference_torque`.
     """
@@ -244,7 +244,7 @@ class RodAttitudeController(abc.ABC):
 
 
 class ProfileRodController(RodAttitudeController):
-    """Open-loop rod drive (``control.kind = "open_loop"``): ``T_ref`` is the §6.3/§6.4 torque
+    """Open-loop rod drive (``control.kind = "open_loop"``): ``T_ref`` is the Robb et al. 2022a Table 1 / Eq. 9 torque
     profile about one body axis, ``T_ref = τ(t) ê_axis`` [N m], fed through the same allocation.
 
     Args:

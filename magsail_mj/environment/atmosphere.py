@@ -1,6 +1,6 @@
 """Atmosphere: exponential density table (0–1000 km) and NRLMSISE-00 / MSIS 2 through pymsis.
 
-Exponential model (CNUSAIL spec §5.5, paper Eq. 14, base values of Vallado's Table 8-4):
+Exponential model (paper Eq. 14, base values of Vallado's Table 8-4):
 
     ρ(h) = ρ0 exp(−(h − h0)/H),
 
@@ -10,7 +10,7 @@ the first row, above 1000 km the last row is extrapolated. The published table i
 
 MSIS (optional extra ``magsail_mj[msis]``): ``pymsis.calculate`` with F10.7, F10.7A and Ap
 always passed explicitly (otherwise pymsis tries to download space-weather files; the machines
-have no internet; CNUSAIL spec §5.5).
+have no internet).
 """
 
 from __future__ import annotations

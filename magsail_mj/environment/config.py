@@ -9,9 +9,9 @@ checks that they fit together (:func:`check_environment`), :func:`environment_co
 a concept config's tables into one, and :meth:`magsail_mj.environment.Environment.from_config`
 builds the runtime object.
 
-Defaults follow the truss spec §9.2/§11 (800 km polar orbit needs ``altitude_km = 800``,
-``inclination_deg = 90``, ``raan_deg = 90``; R_E = 6370 km, §12 item O8; epoch
-2020-01-01T00:00Z, item O7; μ = 3.986004418e14, item M2). The CNUSAIL orbit is written with
+Defaults follow the truss orbit of Robb et al. 2022a (800 km polar orbit needs ``altitude_km = 800``,
+``inclination_deg = 90``, ``raan_deg = 90``; R_E = 6370 km, the paper's value; epoch
+2020-01-01T00:00Z, assumed; μ = 3.986004418e14). The CNUSAIL orbit is written with
 ``semi_major_axis_km = 6963.1``, ``eccentricity = 0.01939``, ``ltdn_h = 10.5``,
 ``R_E_km = 6378.137``, ``propagator = "j2"``; the reflector's with ``R_E_km = 6371``.
 """
@@ -57,11 +57,11 @@ def _check_iso(v: str) -> str:
 
 
 class OrbitConfig(StrictModel):
-    """``[orbit]``: the reference orbit the world origin rides (design.md).
+    """``[orbit]``: the reference orbit the world origin rides.
 
     Size: ``altitude_km`` (a = R_E + altitude) **or** ``semi_major_axis_km``. Orientation:
     ``inclination_deg``, ``raan_deg`` **or** ``ltdn_h`` (local time of the descending node at
-    the epoch, CNUSAIL spec §5.1), ``arg_perigee_deg``. Start: ``arg_lat0_deg`` (argument of
+    the epoch, Yoo et al. 2016, Table 1), ``arg_perigee_deg``. Start: ``arg_lat0_deg`` (argument of
     latitude u0 = ω + ν0) **or** ``true_anomaly0_deg``; neither means u0 = 0 (ascending node).
     ``enabled = false`` means free space (no orbit; the world is inertial). Every number is
     finite; the orbit's perigee must clear ``R_E_km`` and its period 2π √(a³/μ) must be a finite
@@ -157,7 +157,7 @@ class FieldConfig(StrictModel):
       ``igrf_date``), sampled every ``sample_step_s`` along the orbit and interpolated (cubic
       spline of the ECI components).
     * ``dipole``: centred dipole aligned with −z; ``tilted_dipole``: IGRF degree-1 dipole fixed
-      in ECEF; ``planar_dipole``: reflector spec Eq. 11. ``B0_T`` [T] is the equatorial field at
+      in ECEF; ``planar_dipole``: Robb et al. 2020, Eq. 11. ``B0_T`` [T] is the equatorial field at
       ``R_ref_km``; when ``B0_T`` is absent the IGRF degree-1 value at the epoch is used with
       R = 6371.2 km; ``R_ref_km`` absent means the orbit's ``R_E_km``.
     * ``constant``: ``constant_T`` (3 components in world = ECI axes [T]).
@@ -210,7 +210,7 @@ class FieldConfig(StrictModel):
 class AtmosphereConfig(StrictModel):
     """``[atmosphere]``: density model and flow.
 
-    ``exponential``: CNUSAIL spec §5.5 table (0–1000 km); ``msis``: pymsis (optional extra),
+    ``exponential``: Vallado's exponential table (0–1000 km); ``msis``: pymsis (optional extra),
     precomputed along the orbit, with ``f107_sfu``, ``f107a_sfu``, ``ap`` passed explicitly
     (``msis_version`` 0 = NRLMSISE-00); ``none``: ρ = 0. ``corotating``: flow velocity relative
     to an atmosphere turning with the Earth, v_rel = v − ω⊕ × r (default), else inertial v.
@@ -249,7 +249,7 @@ class SunConfig(StrictModel):
 
 
 class SRPConfig(StrictModel):
-    """``[srp]``: solar radiation pressure. ``pressure_N_m2`` at 1 AU (4.563e-6, CNUSAIL §6.3),
+    """``[srp]``: solar radiation pressure. ``pressure_N_m2`` at 1 AU (4.563e-6),
     scaled by (1 AU/d)² when ``distance_scaling``; zero in shadow."""
 
     enabled: bool = False

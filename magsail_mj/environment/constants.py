@@ -1,9 +1,10 @@
 """Physical constants of the environment models (SI units).
 
-Values follow the specs in ``spec/``: ``MU_EARTH`` is the value the truss spec (§12 item M2) and
-the CNUSAIL spec (§5.1) prescribe; ``J2_EARTH``, ``R_J2`` and ``OMEGA_EARTH`` are from the
-CNUSAIL spec §5.1; ``P_SUN_1AU`` from CNUSAIL §6.3; ``R_E_TRUSS`` is the truss paper's Earth
-radius (truss spec §12 item O8); ``R_E_REFLECTOR`` the reflector spec's assumption A4.
+``MU_EARTH`` is the value used for the truss orbit (Robb et al. 2022a) and the CNUSAIL-1 orbit
+(Yoo et al. 2016, Table 1); ``J2_EARTH``, ``R_J2`` and ``OMEGA_EARTH`` are the standard values for
+the CNUSAIL-1 J2 orbit; ``P_SUN_1AU`` is the solar radiation pressure of the CNUSAIL-1 sail model
+(Yoo et al. 2016, Eqs. 16–22); ``R_E_TRUSS`` is the truss paper's Earth radius; ``R_E_REFLECTOR``
+the Earth radius we assume for the reflector (Robb et al. 2020 does not state one).
 """
 
 from __future__ import annotations
@@ -18,13 +19,13 @@ R_J2: float = 6378137.0
 """Equatorial radius the J2 coefficient refers to [m] (WGS-84)."""
 
 R_E_TRUSS: float = 6370e3
-"""Earth radius of the truss paper [m] (truss spec §12 item O8)."""
+"""Earth radius of the truss paper [m]."""
 
 R_E_REFLECTOR: float = 6371e3
-"""Earth radius of the reflector paper [m] (reflector spec assumption A4)."""
+"""Earth radius of the reflector paper [m] (assumed; Robb et al. 2020 does not state it)."""
 
 R_E_WGS84: float = 6378137.0
-"""WGS-84 equatorial radius [m] (CNUSAIL spec §5.1 uses it for altitudes)."""
+"""WGS-84 equatorial radius [m] (uses it for altitudes)."""
 
 R_IGRF: float = 6371.2e3
 """Geomagnetic reference radius of the IGRF Gauss coefficients [m]."""
@@ -36,7 +37,7 @@ AU: float = 1.495978707e11
 """Astronomical unit [m]."""
 
 P_SUN_1AU: float = 4.563e-6
-"""Solar radiation pressure on a perfect absorber at 1 AU [N/m^2] (CNUSAIL spec §6.3)."""
+"""Solar radiation pressure on a perfect absorber at 1 AU [N/m^2] (Yoo et al. 2016, Eqs. 16–22)."""
 
 B0_DIPOLE: float = 3.12e-5
 """Equatorial surface field of the centred dipole used by the reflector and current-loop

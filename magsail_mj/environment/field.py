@@ -5,20 +5,20 @@
   :func:`igrf_eci` converts ECI points to ECEF with the GMST rotation, calls ppigrf **once per
   chunk of points** (vectorised; ~40 µs per point instead of ~13 ms per scalar call), rotates
   (B_r, B_θ, B_φ) to ECEF and back to ECI, and converts nT → T. One date (the epoch's) is used
-  for a whole run: secular variation is ~0.1 nT/day (truss spec §9.2, CNUSAIL spec §5.3).
+  for a whole run: secular variation is ~0.1 nT/day.
 * **Centred dipole**: B = B0 (R/r)³ [3 (m̂·r̂) r̂ − m̂], m̂ the unit dipole moment, B0 the
   equatorial field at radius R. *Aligned*: m̂ = −ẑ (Earth-like: the field points north at the
   equator). *Tilted*: m̂ fixed in ECEF from the IGRF degree-1 Gauss coefficients at the epoch,
   g⃗ = (g11, h11, g10): B = (a/r)³ [3 (g⃗·r̂) r̂ − g⃗], so m̂ = g⃗/|g⃗|, B0 = |g⃗|, R = a = 6371.2 km.
-* **Planar dipole** of the reflector paper (reflector spec §6.2, Eq. 11, as printed): in the
+* **Planar dipole** of the reflector paper (Eq. 11, as printed): in the
   orbit plane xz with θ the in-plane angle from the equator,
   B_r = −2 B0 (R/r)³ sin θ, B_θ = −B0 (R/r)³ cos θ, ê_θ = (−sin θ, 0, cos θ). Its Cartesian
   form, extended axisymmetrically about z to points off the xz plane, is
   B = −B0 (R/r)³ [(z/r)(x/r), (z/r)(y/r), 1 + (z/r)²]. Note: the magnitude equals that of a
   centred aligned dipole, B0 (R/r)³ √(1 + 3 sin²θ), but the direction differs from a physical
   dipole away from the equator and the poles (the printed B_θ has the opposite sign relative to
-  B_r); the spec's note that "the overall sign does not matter" is kept and the formula is
-  implemented as printed. Use ``model = "dipole"`` for the physical aligned dipole.
+  B_r); we take the overall sign of this field not to matter for the reflector runs and
+  implement the formula as printed. Use ``model = "dipole"`` for the physical aligned dipole.
 * **Constant**: a fixed vector in world (ECI-parallel) axes.
 """
 

@@ -1,6 +1,6 @@
 """Frames: ECI ↔ ECEF, geocentric spherical coordinates, orbital frames, quaternions.
 
-Conventions (design.md):
+Conventions:
 
 * **ECI**: Earth-centred inertial, z along the rotation axis, x to the (mean) equinox.
   Precession and nutation are neglected, so ECI is the mean equator and equinox *of date*; it is
@@ -9,7 +9,7 @@ Conventions (design.md):
   ``R3(θ) = [[c, s, 0], [−s, c, 0], [0, 0, 1]]``.
 * **Geocentric spherical**: radius r, colatitude θ ∈ [0, π] from +z, east longitude φ from
   ECEF +x. Unit vectors ê_r, ê_θ (south), ê_φ (east), as ``ppigrf.igrf_gc`` returns them.
-* **Orbital frame R** of the CNUSAIL paper (its "LVLH", CNUSAIL spec §2.1, erratum E-3):
+* **Orbital frame R** of the CNUSAIL paper (its "LVLH"):
   ẑ_R = r̂ (zenith), ŷ_R = (v × r)/|v × r| (negative orbit normal), x̂_R = ŷ_R × ẑ_R (≈ −v̂).
 * **LVLH** (common form): x̂ = r̂ (radial out), ẑ = ĥ (orbit normal), ŷ = ẑ × x̂ (≈ +v̂).
 * Quaternions are scalar-first ``[w, x, y, z]`` and rotate body components into world
@@ -100,8 +100,8 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def orbital_frame_R(r: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Matrix ``R_i/o`` (..., 3, 3) whose rows are x̂_R, ŷ_R, ẑ_R in ECI components (CNUSAIL spec
-    §2.1, Eq. 4 with the normalisation of erratum E-3): ẑ_R = r̂, ŷ_R = (v × r)/|v × r|,
+    """Matrix ``R_i/o`` (..., 3, 3) whose rows are x̂_R, ŷ_R, ẑ_R in ECI components (Yoo et al. 2016,
+    Eq. 4, with the normalisation the printed form lacks): ẑ_R = r̂, ŷ_R = (v × r)/|v × r|,
     x̂_R = ŷ_R × ẑ_R. ``R_i/o @ v_eci`` gives R-frame components."""
     z = _unit(np.asarray(r, dtype=float))
     y = _unit(np.cross(v, r))

@@ -1,7 +1,7 @@
 """Gravity: point-mass and J2 accelerations, the exact tidal acceleration of the
 orbit-following world, and the classical gravity-gradient torque.
 
-Frames: all vectors in ECI components (the MuJoCo world axes are parallel to ECI, design.md).
+Frames: all vectors in ECI components (the MuJoCo world axes are parallel to ECI).
 Units: m, s, kg.
 """
 
@@ -33,7 +33,7 @@ def point_mass_acceleration(r: np.ndarray, *, mu: float = MU_EARTH) -> np.ndarra
 
 
 def j2_acceleration(r: np.ndarray, *, mu: float = MU_EARTH, J2: float = J2_EARTH, R: float = R_J2) -> np.ndarray:
-    """J2 part of the geopotential acceleration (CNUSAIL spec §5.1), ECI = Earth axes along z:
+    """J2 part of the geopotential acceleration (Yoo et al. 2016, Table 1), ECI = Earth axes along z:
 
     a_J2 = (3/2) J2 μ R² / r⁵ · [x(5z²/r² − 1), y(5z²/r² − 1), z(5z²/r² − 3)].
     """
@@ -67,7 +67,7 @@ def tidal_acceleration(
     """Exact tidal acceleration a(x) = g(r_ref + x) − g(r_ref) of points at world positions
     ``x`` (n, 3) relative to the reference point ``r_ref`` (3,) [m] → (n, 3) [m/s²].
 
-    Two-body part in a cancellation-free form (design.md "orbit-following frame"). With
+    Two-body part in a cancellation-free form (the orbit-following frame). With
     R = r + x and q = (2 r·x + |x|²)/|r|² (so |R|² = |r|²(1 + q)):
 
         g(R) − g(r) = −μ/|R|³ · [x − r · f(q)],   f(q) = (1 + q)^{3/2} − 1,   |R|³ = |r|³ (1 + f),

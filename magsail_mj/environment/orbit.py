@@ -1,14 +1,14 @@
 """Reference orbit: classical elements, Kepler (two-body, analytic) and J2 (numerical) propagation.
 
-The reference orbit ``r_ref(t)`` carries the origin of the orbit-following MuJoCo world
-(design.md). Frames: ECI. Units: m, s, rad.
+The reference orbit ``r_ref(t)`` carries the origin of the orbit-following MuJoCo world.
+Frames: ECI. Units: m, s, rad.
 
 * Kepler: mean anomaly M = M0 + n t, n = √(μ/a³); Kepler's equation E − e sin E = M solved by
   Newton iteration to machine precision, vectorised over times.
-* J2: Cowell integration of r̈ = −μ r/r³ + a_J2(r) (CNUSAIL spec §5.1) with SciPy's DOP853,
+* J2: Cowell integration of r̈ = −μ r/r³ + a_J2(r) (Yoo et al. 2016, Table 1) with SciPy's DOP853,
   rtol 1e-12, dense output (any time can be sampled).
 
-Secular J2 rates (first order; Vallado §9.6):
+Secular J2 rates (first order; Vallado):
 
     Ω̇ = −(3/2) n J2 (R/p)² cos i,   ω̇ = (3/4) n J2 (R/p)² (5 cos² i − 1),   p = a(1 − e²).
 """
@@ -199,7 +199,7 @@ def sun_synchronous_inclination(
 
 def raan_from_ltdn(ltdn_h: float, sun_ra: float) -> float:
     """RAAN [rad] from the local time of the descending node ``ltdn_h`` [h] and the Sun's right
-    ascension ``sun_ra`` [rad] at the epoch (CNUSAIL spec §5.1). The ascending node lies 12 h
+    ascension ``sun_ra`` [rad] at the epoch (Yoo et al. 2016, Table 1). The ascending node lies 12 h
     later in local time, LTAN = LTDN + 12 h (mod 24), and
 
         Ω = α_⊙ + 15°/h · (LTAN − 12 h)   (mod 360°);   LTDN 10:30 → Ω = α_⊙ + 157.5°.

@@ -1,6 +1,6 @@
 """Sun: low-precision solar ephemeris and the cylindrical Earth shadow.
 
-Ephemeris (Astronomical Almanac low-precision formulae as given by Vallado; CNUSAIL spec §5.4),
+Ephemeris (Astronomical Almanac low-precision formulae as given by Vallado),
 accuracy about 0.01° for 1950–2050. With T = (JD − 2451545.0)/36525 (UT1 ≈ UTC):
 
     λ_M = 280.460° + 36000.771° T,          M = 357.5291092° + 35999.05034° T,
@@ -12,7 +12,7 @@ accuracy about 0.01° for 1950–2050. With T = (JD − 2451545.0)/36525 (UT1 �
 The result is referred to the mean equator and equinox of date, the ECI of this package
 (precession neglected, see :mod:`magsail_mj.environment.frames`).
 
-Shadow (CNUSAIL spec §5.4): a point r is in the cylindrical shadow when r·ŝ_⊙ < 0 and
+Shadow: a point r is in the cylindrical shadow when r·ŝ_⊙ < 0 and
 |r − (r·ŝ_⊙) ŝ_⊙| < R_E (ŝ_⊙ the geocentric Sun direction).
 """
 

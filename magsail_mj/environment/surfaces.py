@@ -1,6 +1,6 @@
 """Flat surfaces for SRP and drag: optical coefficients, facet sets and the vectorised force laws.
 
-**SRP** — the non-ideal flat-sail model of McInnes as written out in the CNUSAIL spec §6.3
+**SRP** — the non-ideal flat-sail model of McInnes as used by Yoo et al. 2016, Eqs. 16–22
 (errata E-6, E-10, E-11). For a facet of area A with unit normal n̂ (front face), Sun unit vector
 ŝ (from the facet to the Sun) and c = ŝ·n̂: the lit face has normal n̂_l = sign(c) n̂ and
 cos α = |c|; its coefficients are (B_l, e_l, B_d, e_d) = (B_f, e_f, B_b, e_b) when the front is
@@ -18,7 +18,7 @@ which needs no division by sin α. Limits: r = s = 1 at normal incidence gives �
 e_f = e_b and B_f = B_b gives −PA cos α ŝ. One-sided facets (e.g. bus faces) feel nothing when
 their back faces the Sun.
 
-**Drag** — free-molecular flat plate, force opposite the flow (CNUSAIL spec §6.2):
+**Drag** — free-molecular flat plate, force opposite the flow (Yoo et al. 2016, Eqs. 13–15):
 
     F = −½ C_d ρ |V| V A_proj,   A_proj = A |n̂·V̂| (two-sided) or A max(n̂·V̂, 0) (one-sided),
 
@@ -52,12 +52,12 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Optics:
-    """Optical coefficients of a surface (CNUSAIL spec §3.1, Table 3 with the symbols of E-6).
+    """Optical coefficients of a surface (Table 3 with the symbols of E-6).
 
     r: reflectivity; s: specular fraction of the reflection; B_f, B_b: non-Lambertian
     coefficients of the front and back; e_f, e_b: emissivities of front and back;
     swap_back: when the back of a two-sided surface is lit, swap the front/back coefficients
-    (the physical choice, CNUSAIL §6.3; ``False`` keeps the paper's literal reading).
+    (the physical choice; ``False`` keeps the paper's literal reading).
     """
 
     r: float = 0.0

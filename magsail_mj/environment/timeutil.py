@@ -1,7 +1,7 @@
 """Time: scenario epochs (UTC), Julian dates and Greenwich mean sidereal time.
 
 UT1 is taken equal to UTC (|UT1 − UTC| < 0.9 s, i.e. < 4e-3° of Earth rotation), as the CNUSAIL
-spec §5.2 prescribes. Simulation time ``t`` is seconds since the scenario epoch.
+prescribes. Simulation time ``t`` is seconds since the scenario epoch.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ def parse_epoch(text: str) -> datetime:
 
 
 def julian_date(dt: datetime) -> float:
-    """Julian date of a UTC date-time (UT1 = UTC), CNUSAIL spec §5.2 (Vallado's algorithm):
+    """Julian date of a UTC date-time (UT1 = UTC), Vallado's algorithm:
 
     JD = 367 Y − ⌊7 (Y + ⌊(M + 9)/12⌋)/4⌋ + ⌊275 M/9⌋ + D + 1721013.5 + (h + (m + s/60)/60)/24,
 
@@ -63,13 +63,13 @@ def julian_date(dt: datetime) -> float:
 
 
 def gmst_rad(jd_ut1: float | np.ndarray) -> float | np.ndarray:
-    """Greenwich mean sidereal time [rad] in [0, 2π), IAU-82 (CNUSAIL spec §5.2):
+    """Greenwich mean sidereal time [rad] in [0, 2π), IAU-82:
 
     T = (JD − 2451545.0)/36525,
     θ[s] = 67310.54841 + (876600·3600 + 8640184.812866) T + 0.093104 T² − 6.2e-6 T³ (mod 86400),
     θ[rad] = θ[s] · 2π/86400.
 
-    Vectorised over ``jd_ut1``. ECEF = R_z(θ) · ECI (precession/nutation neglected, design.md).
+    Vectorised over ``jd_ut1``. ECEF = R_z(θ) · ECI (precession/nutation neglected).
     """
     jd = np.asarray(jd_ut1, dtype=float)
     T = (jd - J2000_JD) / 36525.0

@@ -458,7 +458,7 @@ class AttitudeTask(control.Task):
         )
 
     clip_actions: bool = True
-    """Clip actions into the spec's bounds (True), or hand them on as given (False: for actions whose
+    """Clip actions into the action spec's bounds (True), or hand them on as given (False: for actions whose
     actuator saturates them itself, e.g. a torque request through an allocation)."""
 
     def before_step(self, action: Any, physics: SimulationPhysics) -> None:

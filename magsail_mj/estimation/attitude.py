@@ -1,12 +1,12 @@
 r"""Attitude of a flexible body: best-fit rotation, SO(3) log/exp, body rates, Euler angles.
 
 Pure NumPy, vectorised over time: wherever an argument is a time series, the leading axis is
-time and no Python loop runs over steps or nodes (spec ``truss-magnetorquer-array.md`` §4).
+time and no Python loop runs over steps or nodes.
 
 Frames and conventions
 ----------------------
 * A rotation matrix ``R`` maps **body components to world (inertial) components**:
-  ``v_world = R @ v_body``. For the lattice, the body frame is the best-fit frame of §4.1.
+  ``v_world = R @ v_body``. For the lattice, the body frame is the best-fit frame.
 * Quaternions are scalar-first ``[w, x, y, z]`` (as MuJoCo stores them) and describe the same
   body-to-world rotation as ``R``.
 * Angles are in radians; rotation vectors are ``theta * axis`` with ``theta`` in ``[0, pi]``.
@@ -76,12 +76,12 @@ def vee(S: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------------
-# best-fit rotation (spec §4.1)
+# best-fit rotation
 # --------------------------------------------------------------------------------------------
 def best_fit_rotation(p_ref: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""Least-squares rigid motion mapping reference body coordinates onto current positions.
 
-    Solves (spec §4.1, erratum **A1**: squared norms, and the map goes from ``p`` to ``q``)
+    Solves (erratum **A1**: squared norms, and the map goes from ``p`` to ``q``)
 
     .. math:: \min_{R\in SO(3),\,d}\ \sum_{i=1}^n \lVert R\,p_i + d - q_i\rVert^2
 
@@ -99,7 +99,7 @@ def best_fit_rotation(p_ref: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.
 
     Args:
       p_ref: ``(n, 3)`` reference (undeformed) body-frame coordinates [m], ``n >= 3`` and not
-        all collinear (for the lattice: the §2.1 coordinates ``p_ijk``).
+        all collinear (for the lattice: the coordinates ``p_ijk``).
       q: ``(n, 3)`` or ``(T, n, 3)`` current world positions [m] of the same points, same order.
 
     Returns:
@@ -234,7 +234,7 @@ def so3_exp(rotvec: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------------
-# body rates (spec §4.2)
+# body rates
 # --------------------------------------------------------------------------------------------
 def body_rate_step(
     R_prev: np.ndarray,
@@ -243,7 +243,7 @@ def body_rate_step(
     *,
     method: Literal["log", "first_order"] = "log",
 ) -> np.ndarray:
-    r"""Body-frame rate from two consecutive best-fit rotations (spec §4.2).
+    r"""Body-frame rate from two consecutive best-fit rotations.
 
     * ``method="log"``: :math:`\omega = \mathrm{vee}(\log(R_{k-1}^{\mathsf T}R_k))/\delta t`;
       exact for a constant body rate over the step.
@@ -284,12 +284,12 @@ def body_rates(
     method: Literal["log", "first_order"] = "log",
     omega0: np.ndarray | None = None,
 ) -> np.ndarray:
-    r"""Body rates of a time series of rotations by backward differences (spec §4.2).
+    r"""Body rates of a time series of rotations by backward differences.
 
     :math:`\omega_k = \mathrm{vee}(\log(R_{k-1}^{\mathsf T}R_k))/\delta t` for ``k >= 1``
     (``method="log"``) or with the first-order ``skew`` in place of ``log``
     (``method="first_order"``); see :func:`body_rate_step`. ``omega_0`` is the known initial
-    rate ``omega0`` (zero by default), as the spec prescribes.
+    rate ``omega0`` (zero by default).
 
     Args:
       R_seq: ``(T, 3, 3)`` body-to-world rotations at uniformly or non-uniformly spaced times.
@@ -323,13 +323,13 @@ def body_rates(
 
 
 # --------------------------------------------------------------------------------------------
-# Euler angles (spec §4.3) and rotation angle
+# Euler angles and rotation angle
 # --------------------------------------------------------------------------------------------
 def euler_zyx(R: np.ndarray, *, unwrap: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    r"""ZYX intrinsic angles ``(psi, theta, phi)`` with ``R = Rz(psi) Ry(theta) Rx(phi)`` (§4.3).
+    r"""ZYX intrinsic angles ``(psi, theta, phi)`` with ``R = Rz(psi) Ry(theta) Rx(phi)``.
 
     ``psi = atan2(R21, R11)``, ``phi = atan2(R32, R33)`` (1-based indices) and
-    ``theta = atan2(-R31, hypot(R32, R33))``, which equals the spec's ``-arcsin(R31)`` for a
+    ``theta = atan2(-R31, hypot(R32, R33))``, which equals the textbook ``-arcsin(R31)`` for a
     rotation matrix but stays accurate near ``theta = ±pi/2`` (where ``psi`` and ``phi`` are
     singular anyway: use :func:`rotation_angle` there).
 
@@ -377,7 +377,7 @@ def rotation_angle(R: np.ndarray, *, relative_to: np.ndarray | None = None) -> n
 
     ``theta = atan2(|vee(R - R^T)|/2, (tr R - 1)/2)``: accurate at both ends of the range.
     With ``relative_to = R_0`` this is the angle of :math:`R_0^{\mathsf T}R` plotted beside the
-    Euler angles (§4.3); with ``relative_to = R_ref`` it is the attitude-error angle.
+    Euler angles; with ``relative_to = R_ref`` it is the attitude-error angle.
 
     Args:
       R: ``(..., 3, 3)`` rotations.
@@ -403,7 +403,7 @@ def matrix_from_quat(q: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------------
-# inertia of the particle set (spec §4.4)
+# inertia of the particle set
 # --------------------------------------------------------------------------------------------
 class ParticleInertia(NamedTuple):
     """Inertia of a particle set about its centre of mass (see :func:`particle_inertia`).
@@ -425,7 +425,7 @@ class ParticleInertia(NamedTuple):
 
 
 def particle_inertia(p: np.ndarray, m: float | np.ndarray) -> ParticleInertia:
-    r"""Inertia of point masses about their centre of mass (spec §4.4, Eq. 21; erratum **O3**).
+    r"""Inertia of point masses about their centre of mass (Eq. 21; erratum **O3**).
 
     With :math:`r_i = p_i - p_c`, :math:`p_c = \sum m_i p_i / \sum m_i`:
 

@@ -1,14 +1,14 @@
-"""Conducting paths built into the two-layer truss (current-loops spec §1, §2), pure NumPy.
+"""Conducting paths built into the two-layer truss, pure NumPy.
 
 A **circuit** L carries one current I_L. It is a set of directed unit segments (a → b) over
 axis-aligned lattice edges (x-edges, y-edges, verticals), each with an integer multiplicity
-``mult`` (spec §2.1). The generator walks the wire along its path; afterwards opposite passes
+``mult``. The generator walks the wire along its path; afterwards opposite passes
 over the same strut cancel, each strut keeps one segment oriented along the net current
 (``mult > 0``), and struts whose passes cancel completely are dropped. The physical wire,
 cancelled passes included, is kept as ``wire_src, wire_dst, wire_count`` (it sets the wire
-length of §2.7, the mass and the resistance).
+length of the reconstructed Table 1, the mass and the resistance).
 
-Notation (spec §1): ``n`` units (cubes) per side, node ``(i, j, ℓ)`` with ``i, j ∈ {0..n}`` and
+Notation: ``n`` units (cubes) per side, node ``(i, j, ℓ)`` with ``i, j ∈ {0..n}`` and
 ``ℓ ∈ {0 = bottom, 1 = top}``, flat index ``ℓ (n+1)² + j (n+1) + i`` (the lattice generator's
 order), reference position ``(−D/2 + i w, −D/2 + j w, (ℓ − ½) w)`` with ``w = D/n``.
 
@@ -19,13 +19,13 @@ Vector area (exact for straight segments, on any node positions, body or world f
 Sign convention: a positive current gives a dipole along the circuit's positive axis; every
 sub-loop winds counter-clockwise seen from that axis' tip.
 
-Geometries (spec §2.2–2.6):
+Geometries:
 
 * ``A``  — one perimeter loop on the top layer (+z).
 * ``B``  — ⌈n/2⌉ concentric rings [k, n−k]², top layer for even k, bottom for odd k (+z).
 * ``C_x``/``C_y`` — one D × w loop in every lattice plane normal to x / y, n+1 in series.
 * ``D_x``/``D_y`` — one continuous winding: ¾ turn per lattice plane, a unit step to the next
-  plane, closure around the last plane and a return on one layer (§2.5 item 3).
+  plane, closure around the last plane and a return on one layer.
 * ``F``  — B + D_x + D_y (three circuits); the section-5 set is ``["C_x", "C_y", "B"]``.
 """
 
@@ -56,7 +56,7 @@ CIRCUIT_NAMES = ("A", "B", "C_x", "C_y", "D_x", "D_y")
 AXIS_OF = {"A": 2, "B": 2, "C_x": 0, "C_y": 1, "D_x": 0, "D_y": 1}
 #: Composite names accepted by :func:`circuits`.
 COMPOSITES = {"F": ("B", "D_x", "D_y")}
-#: The three-axis set of the spec's section 5 (x, y, z).
+#: The three-axis set (x, y, z).
 SECTION5_SET = ("C_x", "C_y", "B")
 
 _AXIS_KINDS = tuple(STRUT_KINDS.index(k) for k in ("x_edge", "y_edge", "vertical"))
@@ -99,7 +99,7 @@ class Circuit:
         return 0.5 * (self.mult[:, None] * np.cross(pos[self.src], pos[self.dst])).sum(axis=0)
 
     def length(self, pos: np.ndarray) -> float:
-        """Wire length Σ passes · |r_b − r_a| [m] (cancelled passes included, spec §2.7)."""
+        """Wire length Σ passes · |r_b − r_a| [m] (cancelled passes included)."""
         pos = np.asarray(pos, dtype=float)
         d = pos[self.wire_dst] - pos[self.wire_src]
         return float((self.wire_count * np.linalg.norm(d, axis=1)).sum())
@@ -221,7 +221,7 @@ def _paths_C(n: int, axis: int) -> list[list[tuple[int, int, int]]]:
 
 
 def _paths_D(n: int, axis: int) -> list[list[tuple[int, int, int]]]:
-    """One continuous winding (spec §2.5) as a single closed path of corner points."""
+    """One continuous winding as a single closed path of corner points."""
     half = ceil(n / 2)
     if axis == 0:
 
@@ -251,7 +251,7 @@ def _paths_D(n: int, axis: int) -> list[list[tuple[int, int, int]]]:
 
 
 def circuit(lattice: Lattice, name: str) -> Circuit:
-    """The circuit ``name`` (one of :data:`CIRCUIT_NAMES`) on ``lattice`` (spec §2.2–2.5)."""
+    """The circuit ``name`` (one of :data:`CIRCUIT_NAMES`) on ``lattice``."""
     if name not in CIRCUIT_NAMES:
         raise ValueError(f"name: must be one of {CIRCUIT_NAMES}, got {name!r}")
     n = lattice.units

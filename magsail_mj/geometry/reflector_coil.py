@@ -1,6 +1,6 @@
-r"""Conducting paths of the gossamer reflector (reflector spec §3): node lists, pure NumPy.
+r"""Conducting paths of the gossamer reflector: node lists, pure NumPy.
 
-Structure frame (spec §2, §3.1): origin at the plate centre (= centre of mass), ``x``, ``y`` in the
+Structure frame: origin at the plate centre (= centre of mass), ``x``, ``y`` in the
 lattice plane, ``z`` along the plate normal. The lattice of side ``d`` is made of cubic cells of
 edge ``L``, one cell deep (assumption A1, ``h = L``): nodes at ``x = −d/2 + iL``,
 ``y = −d/2 + jL``, ``z = ±h/2``. Every path runs along lattice members, so each segment is one
@@ -8,12 +8,12 @@ member of length ``L`` (``h`` for the vertical ones).
 
 Paths (each an ``(K, 3)`` node array, ``K − 1`` segments, metres):
 
-* :func:`coil_y` — the serpentine square helix with axis ‖ y (spec §3.2, normative pseudo-code):
+* :func:`coil_y` — the serpentine square helix with axis ‖ y (normative pseudo-code):
   three quarters of a turn in a plane ‖ xz, a one-cell step in ``y``, repeated; columns of
   pitch ``p`` cells, run alternately towards +y and −y, joined by connectors along +x. Current
   along the node order gives an axial dipole along **−y** (one turn: ½∮ r × dr = −L h ŷ), so the
   path carries ``s_path = −1``.
-* :func:`coil_x` — the same list rotated by +90° about z, ``(x, y, z) → (−y, x, z)`` (§3.3);
+* :func:`coil_x` — the same list rotated by +90° about z, ``(x, y, z) → (−y, x, z)``;
   its node order gives +x, ``s_path = +1``.
 * :func:`square_loop` — a lattice-aligned closed square loop in the plane ``z = −h/2``,
   centred on the origin, run counter-clockwise seen from +z (dipole along +z, ``s_path = +1``),
@@ -74,7 +74,7 @@ def _check_lattice(d: float, L: float, h: float | None) -> tuple[int, float]:
 
 
 def coil_y(d: float, L: float, h: float | None = None, *, p: int = 2, n_row: int | None = None) -> np.ndarray:
-    r"""Node list of the y-axis serpentine coil (spec §3.2, the normative pseudo-code).
+    r"""Node list of the y-axis serpentine coil (the normative pseudo-code).
 
     Cross-section corners of a column with left edge ``X`` (coordinates (x, z)), in traversal
     order: C0 = (X, −h/2), C1 = (X+L, −h/2), C2 = (X+L, +h/2), C3 = (X, +h/2). A three-quarter
@@ -132,14 +132,14 @@ def coil_y(d: float, L: float, h: float | None = None, *, p: int = 2, n_row: int
 
 
 def coil_node_count(n: int, *, p: int = 2, n_row: int | None = None) -> int:
-    """Expected node count ``4·N_col·N_row + (N_col − 1)(p − 1)`` (spec §3.2) for ``n`` cells per side."""
+    """Expected node count ``4·N_col·N_row + (N_col − 1)(p − 1)`` for ``n`` cells per side."""
     n_row = n if n_row is None else n_row
     n_col = n // p
     return 4 * n_col * n_row + (n_col - 1) * (p - 1)
 
 
 def coil_x(d: float, L: float, h: float | None = None, *, p: int = 2, n_row: int | None = None) -> np.ndarray:
-    """The x-axis coil: :func:`coil_y` rotated by +90° about z, ``(x, y, z) → (−y, x, z)`` (§3.3)."""
+    """The x-axis coil: :func:`coil_y` rotated by +90° about z, ``(x, y, z) → (−y, x, z)``."""
     y = coil_y(d, L, h, p=p, n_row=n_row)
     return np.column_stack([-y[:, 1], y[:, 0], y[:, 2]])
 

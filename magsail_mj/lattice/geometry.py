@@ -1,7 +1,7 @@
 """Two-layer cubic truss lattice (pure NumPy).
 
-Spec: truss-magnetorquer-array.md §2. A square plate of side ``d`` made of ``n`` × ``n`` cubic
-units (``N = n + 1`` nodes per side, two node layers, ``2 N²`` nodes; spec §12 item E2: the
+Robb et al. 2022a. A square plate of side ``d`` made of ``n`` × ``n`` cubic
+units (``N = n + 1`` nodes per side, two node layers, ``2 N²`` nodes; the
 paper's "20 units" count nodes per side, i.e. ``n = 19`` cubes). Cube edge ``a = d / n``.
 
 Node ``(i, j, k)``, ``i, j ∈ {0..N-1}``, ``k ∈ {0 (bottom), 1 (top)}`` has flat index
@@ -9,7 +9,7 @@ Node ``(i, j, k)``, ``i, j ∈ {0..N-1}``, ``k ∈ {0 (bottom), 1 (top)}`` has f
 ``p = (i a − d/2, j a − d/2, (k − ½) a)`` (origin at the undeformed centre of mass for uniform
 masses; x1 along i, y1 along j, z1 = plate normal, bottom → top).
 
-Struts (spec §2.2, item S1): every cube edge, plus one diagonal on every square face joining the
+Struts (item S1): every cube edge, plus one diagonal on every square face joining the
 two corners with even ``i + j + k`` (``diagonals="parity"``), or both diagonals
 (``diagonals="X"``). The strut table is built once; every strut has its kind, its rest length
 and its spring constant ``k_s = EA / l0_s``.
@@ -245,7 +245,7 @@ def make_lattice(*, units: int, side_m: float, diagonals: Literal["parity", "X"]
 
 
 def axial_rigidity_from_EI(EI_Nm2: float, *, nodes_per_side: int, cube_edge_m: float) -> float:
-    """Strut axial rigidity ``EA = 2 EI / (N a²)`` (spec §2.5, Eq. 8).
+    """Strut axial rigidity ``EA = 2 EI / (N a²)`` (Eq. 8).
 
     The plate counts as ``N/2`` four-longeron trusses in parallel, each with
     ``EI_truss = 2 EA R_c²`` and ``R_c = a/√2``.

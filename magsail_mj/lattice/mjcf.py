@@ -6,7 +6,7 @@ free joint would give 6 (measured: see README, "Design choices"). Mass is carrie
 tiny, non-colliding sphere geom (its rotational inertia is irrelevant: no rotational dofs). One
 spatial tendon per strut between the node sites, with its own ``stiffness`` k, ``damping`` γ
 and ``springlength`` l0: MuJoCo's passive tendon force ``−k (L − l0) − γ L̇`` along the tendon
-is exactly the two-sided spring–dashpot law of truss-magnetorquer-array.md §2.4. Gravity is off
+is exactly the two-sided spring–dashpot law of Robb et al. 2022a. Gravity is off
 and contacts are disabled; every external force enters through ``xfrc_applied``.
 
 Node ``i`` is body ``i + 1`` (body 0 is the world), and its x/y/z joints are ``qpos[3i:3i+3]``

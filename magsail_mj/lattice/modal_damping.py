@@ -1,4 +1,4 @@
-r"""Co-rotated Caughey (modal) damping of a flexible lattice (current-loops.md §4.4, Eq. 15).
+r"""Co-rotated Caughey (modal) damping of a flexible lattice (current-loops.md, Eq. 15).
 
 Force on the particles, world components (``r``, ``ṙ`` the flattened world positions and
 velocities of the ``n`` nodes):
@@ -11,12 +11,11 @@ velocities of the ``n`` nodes):
 with :math:`\boldsymbol\gamma` the body-frame Caughey matrix of
 :mod:`magsail_mj.lattice.modes` (components in the frame of the undeformed ``nodes``) and
 :math:`R_\theta` (body → world) the **mass-weighted** best-fit rotation of the current node set
-against ``nodes`` about the centres of mass (spec §4.3):
+against ``nodes`` about the centres of mass:
 :math:`H=\sum_im_i(\mathbf r_{0i}-\mathbf c_0)(\mathbf r_i-\mathbf c)^T=USV^T`,
 :math:`R_\theta=V\,\mathrm{diag}(1,1,\det VU^T)\,U^T`. Rigid motion of the rotated structure is
 then undamped. ``frame="inertial"`` uses :math:`R_\theta=I` (the paper's literal
-:math:`\boldsymbol\gamma\dot{\mathbf r}`, which damps large rigid rotations: sensitivity only,
-§9 item 7).
+:math:`\boldsymbol\gamma\dot{\mathbf r}`, which damps large rigid rotations: sensitivity only).
 
 Before the product the rigid-body part of the body-frame velocity is removed exactly,
 :math:`\mathbf v\leftarrow\mathbf v-\Phi_r\Phi_r^T\mathbf M\mathbf v` (:math:`\Phi_r` the six
@@ -24,7 +23,7 @@ M-orthonormal rigid modes of ``nodes``). Mathematically a no-op
 (:math:`\boldsymbol\gamma\Phi_r=0`), it keeps the float32 product from leaking a spurious
 rigid-body damping of order :math:`10^{-7}\lVert\boldsymbol\gamma\rVert\lVert\mathbf v\rVert`.
 
-Dissipated power (for the energy balance of §4.6):
+Dissipated power (for the energy balance):
 :math:`P=\dot{\mathbf r}^T\tilde R\boldsymbol\gamma\tilde R^T\dot{\mathbf r}=-\mathbf F^{damp}\cdot\dot{\mathbf r}\ge0`.
 
 Injection

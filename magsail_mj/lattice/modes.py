@@ -1,6 +1,7 @@
 r"""Undamped modes of a spring–mass lattice and the Caughey (modal) damping matrix.
 
-Spec: current-loops.md §4.2 (stiffness), §4.4 (Eq. 15, schedules, cost, stability), §9 item 6.
+Robb et al. 2022b, Eqs. 13–15 (stiffness and Caughey damping), with the damping schedules, cost and stability
+checks stated below.
 Pure NumPy/SciPy. All vectors are the flattened particle coordinates
 ``r = (x_0, y_0, z_0, x_1, …)`` (node-major, ``3 n_nodes`` DOF) in the **body frame of the
 undeformed lattice** (the frame of ``nodes``); the co-rotation into world axes is done by
@@ -231,13 +232,13 @@ def damping_ratios(
     n_low: int = 100,
     xi_cap: float = 10.0,
 ) -> np.ndarray:
-    r"""Modal damping ratios :math:`\xi` of spec §4.4 (counted from the first elastic mode).
+    r"""Modal damping ratios :math:`\xi` (Robb et al. 2022b, Eq. 15) (counted from the first elastic mode).
 
     With elastic mode numbers ``n = 1, 2, …`` (``omega[n_rigid + n - 1]``):
 
     * ``n <= n_low``: :math:`\xi_n=\xi_{low}`;
     * ``n > n_low``, Rayleigh-type value :math:`\rho_n=2\xi_{low}\omega_n/\omega_{n_{low}}`
-      (the printed formula; note the factor-2 jump at ``n_low + 1``, §9 item 6), then
+      (the printed formula; note the factor-2 jump at ``n_low + 1``), then
       ``"paper_max"``: :math:`\xi_n=\max(\rho_n,\xi_{cap})` (the literal reading, default; 10
       on these lattices) or ``"capped_rayleigh"``: :math:`\xi_n=\min(\rho_n,\xi_{cap})`.
 
@@ -388,10 +389,10 @@ def caughey_low_rank(
 
 @dataclass(frozen=True)
 class StabilityProducts:
-    r"""RK4 stability products of the damped modes (spec §4.4 "Stability guidance").
+    r"""RK4 stability products of the damped modes ("Stability guidance").
 
     Attributes:
-      damping_product: :math:`\max_n 2\xi_n\omega_n\Delta t` (the spec's printed product).
+      damping_product: :math:`\max_n 2\xi_n\omega_n\Delta t` (the product reported in the manifest).
       fastest_root_product: :math:`\max_n|\lambda_n|\Delta t` with the exact roots
         :math:`\lambda=-\omega(\xi\pm\sqrt{\xi^2-1})` (overdamped) or :math:`|\lambda|=\omega`.
       omega_max_dt: :math:`\omega_{max}\Delta t`.
@@ -416,7 +417,7 @@ class StabilityProducts:
 
 
 def stability_products(omega: np.ndarray, ratios: np.ndarray, *, dt: float) -> StabilityProducts:
-    r"""Stability products of spec §4.4 for time step ``dt`` [s] (see :class:`StabilityProducts`)."""
+    r"""Stability products for time step ``dt`` [s] (see :class:`StabilityProducts`)."""
     omega = np.asarray(omega, dtype=float)
     ratios = np.asarray(ratios, dtype=float)
     if ratios.shape != omega.shape:

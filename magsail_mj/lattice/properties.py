@@ -1,7 +1,7 @@
 """Strut stiffness, stiffness calibration, particle masses and strut damping of a lattice.
 
-Spec: truss-magnetorquer-array.md §2.3 (masses), §2.5 (k from EI), §2.6 (damping), §2.7
-(cantilever check and calibration). All pure NumPy/SciPy.
+Robb et al. 2022a: masses, strut stiffness from EI, strut damping (ours: the paper gives none),
+cantilever check and calibration. All pure NumPy/SciPy.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class CantileverResult:
-    """Linear cantilever of the lattice (spec §2.7).
+    """Linear cantilever of the lattice.
 
     ``tip_deflection_m`` is the mean deflection δ of the loaded (i = N−1) nodes along −z1;
     ``EI_eff_Nm2 = P L³ / (3 δ)`` with ``L = d``.
@@ -80,7 +80,7 @@ def cantilever_linear(lattice: Lattice, k: np.ndarray, *, load_N: float) -> Cant
 
 @lru_cache(maxsize=32)
 def _ratio_formula(units: int, diagonals: str) -> float:
-    """EI_eff / EI of the formula stiffness (independent of d and EI; spec §2.7)."""
+    """EI_eff / EI of the formula stiffness (independent of d and EI)."""
     lat = make_lattice(units=units, side_m=float(units), diagonals=diagonals)
     EI = 1.0
     EA = axial_rigidity_from_EI(EI, nodes_per_side=lat.nodes_per_side, cube_edge_m=lat.cube_edge_m)
@@ -91,7 +91,7 @@ def _ratio_formula(units: int, diagonals: str) -> float:
 def calibration_factor(lattice: Lattice, calibration: str) -> float:
     """Factor applied to the formula EA: ``EI / EI_eff`` for ``"cantilever"``, 1 for ``"formula"``.
 
-    Spec §2.7 and §12 item S2: the in-plane diagonals stiffen the plate beyond Eq. 8, so the
+    The in-plane diagonals stiffen the plate beyond Eq. 8, so the
     reproduction runs scale every strut's EA by one factor found from a linear cantilever solve.
     """
     if calibration == "formula":
@@ -104,7 +104,7 @@ def calibration_factor(lattice: Lattice, calibration: str) -> float:
 def strut_stiffness(lattice: Lattice, *, EI_Nm2: float, calibration: str = "cantilever") -> tuple[np.ndarray, float]:
     """Per-strut spring constants ``k_s = c · EA / l0_s`` and the calibration factor ``c``.
 
-    ``EA = 2 EI / (N a²)`` (spec §2.5); every strut has the same EA.
+    ``EA = 2 EI / (N a²)``; every strut has the same EA.
     """
     if not EI_Nm2 > 0:
         raise ValueError(f"EI_Nm2: must be > 0, got {EI_Nm2!r}")
@@ -114,7 +114,7 @@ def strut_stiffness(lattice: Lattice, *, EI_Nm2: float, calibration: str = "cant
 
 
 def central_cube_nodes(lattice: Lattice) -> np.ndarray:
-    """The 8 nodes of the central cube (spec §2.3, §6.2; for odd ``units`` it is unique)."""
+    """The 8 nodes of the central cube (for odd ``units`` it is unique)."""
     n = lattice.units
     i0 = (n - 1) // 2
     N = lattice.nodes_per_side
@@ -129,11 +129,11 @@ def node_masses(
     central_fraction: float = 0.0,
     point_masses: list[tuple[int, float]] | tuple = (),
 ) -> np.ndarray:
-    """Particle masses (spec §2.3).
+    """Particle masses.
 
     ``(1 − central_fraction) · total_kg`` is spread uniformly over all nodes; the
     ``central_fraction`` part (the centralised actuator mass) is split equally over the 8 nodes of
-    the central cube (§12 item S3), keeping the centre of mass at the geometric centre. Extra
+    the central cube, keeping the centre of mass at the geometric centre. Extra
     ``point_masses`` ``(node, kg)`` are added on top.
     """
     if not total_kg > 0:
@@ -151,7 +151,7 @@ def node_masses(
 
 
 def strut_damping(lattice: Lattice, k: np.ndarray, *, zeta: float, particle_mass_kg: float) -> float:
-    """Strut dashpot ``γ = 2 ζ √(k_edge m_p / 2)`` (spec §2.6, §12 item S5).
+    """Strut dashpot ``γ = 2 ζ √(k_edge m_p / 2)``.
 
     ``k_edge`` is the (calibrated) spring constant of a cube-edge strut and ``m_p`` the
     distributed-case particle mass; the same γ is used for every strut.

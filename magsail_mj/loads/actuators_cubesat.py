@@ -1,9 +1,8 @@
 r"""CNUSAIL-1 actuators: magnetorquers (rods + air coil) and reaction wheels with DC motors.
 
-Source: CNUSAIL spec (``cnusail-cubesat.md``) §4.1–4.2, CNUSAIL-1 paper Eqs. 5–11, errata
-E-4, E-5, E-7, E-8.
+Source: Yoo et al. 2016, Eqs. 5–11, with the misprints corrected where each equation is stated.
 
-Magnetorquers (§4.1)
+Magnetorquers (Yoo et al. 2016, Eqs. 5–7)
 --------------------
 Torque on the bus, body components (paper Eq. 5):
 
@@ -23,12 +22,12 @@ Limits (E-5): ``"command"`` = 0.2, 0.2, 0.1 A m² (default; text and Table 5) or
 unloading scales the whole vector (:func:`saturate_uniform`). Electrical power per axis (assumed,
 reporting only): P_j = P_max (M_j/M_j,max)².
 
-Magnetometer blanking (§4.1): in each magnetorquer cycle of length T_c (2 s) the coils are on for
+Magnetometer blanking (Yoo et al. 2016, Eqs. 5–7): in each magnetorquer cycle of length T_c (2 s) the coils are on for
 the first T_c − t_blank and off for the last t_blank (0.2 s), during which the magnetometer
 samples; the new dipole is applied at the cycle boundary. :class:`MagnetorquerCycle` gives the
 phase from the step index (integers, so no rounding drift over long runs).
 
-Reaction wheels and DC motors (§4.2, Eqs. 8–11)
+Reaction wheels and DC motors (Eqs. 8–11)
 -----------------------------------------------
 Per wheel, ω_M = hinge velocity (rotor speed relative to the bus):
 
@@ -40,7 +39,7 @@ In MuJoCo the rotor is a hinged body: ``ctrl`` = T_M on the rotor (its reaction 
 the joint damping K_B gives the friction, so the bus receives −(T_M − K_B ω_M) about the wheel
 axis and the gyroscopic coupling comes out of the multibody dynamics (E-2).
 
-Wheel driver (§4.2), :class:`WheelDriver`:
+Wheel driver (Yoo et al. 2016, Eqs. 8–11), :class:`WheelDriver`:
 
 1. (controller rate) motor torque wanted for a body torque u_j (rotor net torque −u_j, friction
    compensated): T_c = −u_j + K_B ω_M;
@@ -95,7 +94,7 @@ MTQ_LIMIT_SETS: dict[str, tuple[float, float, float]] = {
     "command": (0.2, 0.2, 0.1),
     "half_watt": (0.02, 0.02, 0.01),
 }
-"""Magnetorquer dipole limits [A m²] per axis (x rod, y rod, z air coil), spec §4.1, E-5."""
+"""Magnetorquer dipole limits [A m²] per axis (x rod, y rod, z air coil), Yoo et al. 2016."""
 
 
 # ----------------------------------------------------------------------------- magnetorquers
@@ -110,7 +109,7 @@ def coil_dipole(*, turns: float, current_A: float, area_m2: float) -> float:
 
 def rod_demagnetising_factor(length_to_radius: float) -> float:
     """Demagnetising factor of a cylinder of length/radius ratio ℓ: N_d ≈ 4(ln ℓ − 1)/(ℓ² − 4 ln ℓ)
-    (spec §4.1; ≈ 0.032 for the Table 5 rod, ℓ = 60 mm / 4 mm = 15)."""
+    (≈ 0.032 for the Table 5 rod; ℓ = 60 mm / 4 mm = 15)."""
     l = float(length_to_radius)
     if not l > 2.0:
         raise ValueError(f"length_to_radius: the approximation needs ℓ > 2, got {length_to_radius!r}")
@@ -130,13 +129,13 @@ def rod_dipole(*, turns: float, current_A: float, radius_m: float, mu_r: float, 
 
 
 def saturate_per_axis(m: np.ndarray, limit: np.ndarray) -> np.ndarray:
-    """Clip each component of ``m`` to ±``limit`` independently (B-dot, spec §4.1)."""
+    """Clip each component of ``m`` to ±``limit`` independently (B-dot, Yoo et al. 2016, Eqs. 5–7)."""
     lim = np.asarray(limit, dtype=float)
     return np.clip(np.asarray(m, dtype=float), -lim, lim)
 
 
 def saturate_uniform(m: np.ndarray, limit: np.ndarray) -> np.ndarray:
-    """Scale ``m`` down uniformly so that no axis exceeds its limit (unloading, spec §4.1);
+    """Scale ``m`` down uniformly so that no axis exceeds its limit (unloading, Yoo et al. 2016, Eqs. 5–7);
     keeps the direction of m and therefore of the torque m × B."""
     m = np.asarray(m, dtype=float)
     lim = np.asarray(limit, dtype=float)
@@ -145,14 +144,14 @@ def saturate_uniform(m: np.ndarray, limit: np.ndarray) -> np.ndarray:
 
 
 def mtq_power(m: np.ndarray, limit: np.ndarray, *, power_max_W: float = 0.5) -> np.ndarray:
-    """Electrical power per axis P_j = P_max (M_j/M_j,max)² [W] (assumed resistive model, spec
-    §4.1; reporting only). Works on (3,) or (T, 3) arrays."""
+    """Electrical power per axis P_j = P_max (M_j/M_j,max)² [W] (assumed resistive model;
+    reporting only). Works on (3,) or (T, 3) arrays."""
     return power_max_W * (np.asarray(m, dtype=float) / np.asarray(limit, dtype=float)) ** 2
 
 
 @dataclass(frozen=True)
 class MagnetorquerCycle:
-    """The magnetorquer duty cycle with magnetometer blanking (spec §4.1).
+    """The magnetorquer duty cycle with magnetometer blanking (Yoo et al. 2016, Eqs. 5–7).
 
     The cycle of ``cycle_s`` starts at t = 0; the magnetometer samples at each boundary
     t_k = k·cycle_s, the new dipole is on during [t_k, t_k + cycle_s − blank_s) and the coils are
@@ -201,7 +200,7 @@ class MagnetorquerCycle:
 
 
 class MagnetorquerLoad:
-    """Adds the magnetorquer torque R M × B_eci on the bus (spec §4.1, paper Eq. 5).
+    """Adds the magnetorquer torque R M × B_eci on the bus (paper Eq. 5).
 
     The effective dipole (zero in the blanking window) is read from the held command
     ``state.ctrl.dipole_body`` [A m², body axes] (the CNUSAIL controller's command) or
@@ -245,7 +244,7 @@ class MagnetorquerLoad:
 
 @dataclass(frozen=True)
 class DCMotorParams:
-    """Reaction-wheel and DC-motor constants (spec §4.2; defaults = its recommended/assumed set).
+    """Reaction-wheel and DC-motor constants (Yoo et al. 2016, Eqs. 8–11; defaults = its recommended/assumed set).
 
     Attributes:
       spin_inertia_kgm2: rotor spin inertia I_w (Table 4: 4.5e-6).
@@ -294,7 +293,7 @@ class DCMotorParams:
 
     def steady_speed(self, V_in: float) -> float:
         """Relative speed for a constant voltage, bus held fixed, no current limit:
-        ω_M = K_M V/(K_b K_M + K_B R_M) [rad/s] (spec §13 item 9)."""
+        ω_M = K_M V/(K_b K_M + K_B R_M) [rad/s]."""
         return self.K_M_Nm_A * V_in / (self.K_b_Vs_rad * self.K_M_Nm_A + self.K_B_Nms * self.R_ohm)
 
     def mechanical_time_constant(self) -> float:
@@ -307,7 +306,7 @@ class DCMotorParams:
 
 
 class WheelDriver:
-    """Wheel driver of spec §4.2 for the three wheels (vectorised over the wheels).
+    """Wheel driver (Yoo et al. 2016, Eqs. 8–11) for the three wheels (vectorised over the wheels).
 
     Args:
       params: motor constants.

@@ -41,7 +41,7 @@ class OrbitGravityGradientLoad:
       position: callable ``t → r`` (3,) geocentric position in world axes [m].
       mu: gravitational parameter [m³/s²].
 
-    In body axes this is ``3 n² r̂_b × (I r̂_b)`` (reflector spec §6.6 B5); here it is evaluated
+    In body axes this is ``3 n² r̂_b × (I r̂_b)``; here it is evaluated
     with ``I_w = R I Rᵀ`` in world axes (same value, tested).
     """
 

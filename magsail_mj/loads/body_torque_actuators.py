@@ -9,7 +9,7 @@ loads act, so a record at ``t`` holds the pair applied over the step that ended 
 record at ``t = 0`` is zero).
 
 * Truss, :class:`StrutBodyTorqueActuator` — force pairs across the top-layer x1- and y1-struts
-  through the generic distributed torquer of spec §3.1
+  through the generic distributed torquer of Robb et al. 2022a, Sec. 2
   (:class:`~magsail_mj.loads.strut_torque.StrutTorqueLoad`: τ₁ over the y1-struts, τ₂ over the
   x1-struts, τ₃ over all of them about their normals). Delivered: the total couple of the pairs,
   ``Σ (r_j − r_i) × F_j``, in the best-fit body axes; it equals the request exactly on the
@@ -29,7 +29,7 @@ record at ``t = 0`` is zero).
 
 The attitude the body-torque laws see comes from :func:`attitude_sensor`: the rigid body's
 quaternion and rate (cubesat bus, reflector plate) or the lattice's best fit with a
-backward-difference rate (truss, spec §4.1–4.2). :func:`body_torque_actuator` builds the
+backward-difference rate (truss). :func:`body_torque_actuator` builds the
 actuator of a loaded simulation's spacecraft (see :func:`magsail_mj.commands.attach`).
 """
 
@@ -115,7 +115,7 @@ class RigidBodyAttitude:
 
 
 class LatticeAttitude:
-    """Best-fit attitude of a lattice (spec §4.1) and its backward-difference body rate (§4.2, ``log``
+    """Best-fit attitude of a lattice and its backward-difference body rate (``log``
     form) between consecutive calls; the first call returns ``omega0_body``.
 
     Args:
@@ -179,7 +179,7 @@ class _BodyTorqueActuator:
 
 
 class StrutBodyTorqueActuator(_BodyTorqueActuator):
-    """Truss: the request as force pairs across ``struts`` (spec §3.1; module docstring).
+    """Truss: the request as force pairs across ``struts`` (module docstring).
 
     Args:
       lattice: the lattice; struts: actuated x1- and y1-struts (default every top-layer one);

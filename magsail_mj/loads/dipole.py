@@ -1,4 +1,4 @@
-"""Residual magnetic dipole torque on a rigid body (CNUSAIL spec §6.4, Eq. 23).
+"""Residual magnetic dipole torque on a rigid body (Eq. 23).
 
     T = D × B,
 

@@ -1,6 +1,6 @@
 """Aerodynamic drag on flat facets: rigid bodies and lattice top-layer cells.
 
-Force law (CNUSAIL spec §6.2, Eqs. 13–15, free-molecular flat plate):
+Force law (Eqs. 13–15, free-molecular flat plate):
 
     F = −½ C_d ρ |V| V A_proj,   A_proj = A |n̂·V̂| (two-sided) or A max(n̂·V̂, 0) (one-sided),
 
@@ -29,7 +29,7 @@ class RigidDragLoad(RigidFacetLoad):
     Args:
       body_id: MuJoCo body index; facets: the body's :class:`FacetSet` (centres relative to the
       centre of mass, body axes); drag_coefficient: C_d; apply_force: also add the net force
-      (``False`` for attitude runs, CNUSAIL spec §4.3).
+      (``False`` for attitude runs).
     """
 
     name = "drag"

@@ -1,7 +1,7 @@
 """Magnetorquer rods in the top-layer struts: per-rod force pairs in a uniform field.
 
-Spec: truss-magnetorquer-array.md §3.2 (rod force pair, corrected form of §12 item F1), §7.1
-(the two rod families, §12 item O5) and §9.1 (rod dipole basis, §12 item O4).
+Robb et al. 2022a: rod force pair (corrected form), the two rod families and the
+rod dipole basis (Table 2).
 
 Rods. Family 1 sits in the top-layer ``x1``-struts, family 2 in the top-layer ``y1``-struts
 (``N(N−1)`` each: 380 + 380 for the 20 × 20-node lattice). Rods are numbered family 1 first, each
@@ -13,8 +13,8 @@ the undeformed lattice) has the dipole
 
 with polarity ``s_r ∈ {−1, 0, +1}`` and the family's rod dipole ``m_f`` [A m²]. In the uniform
 field ``B`` (world = ECI axes, the same at every node) the rod feels the pure couple
-``τ_r = m_r × B``, realised as the force pair perpendicular to the strut (§3.2, boxed form; §12
-item F1 corrects the paper's factor ½ and sign)
+``τ_r = m_r × B``, realised as the force pair perpendicular to the strut (boxed form; we
+correct the paper's factor ½ and sign)
 
     F_j = −F_i = (m_r × B) × r_ij / |r_ij|² = (s_r m_f / |r_ij|) [B − (B·r̂_ij) r̂_ij]      [N].
 
@@ -22,7 +22,7 @@ Its moment about the strut midpoint is ``r_ij × F_j = m_r × B``, the net force
 ``F · r_ij = 0``. The pair therefore adds exactly ``Σ_r m_r × B`` to the structure's total
 torque about any point, for any deformation.
 
-Rod dipole basis (§12 item O4). With dipole-to-mass ratio ``κ_τ`` [A m²/kg] and rod mass
+Rod dipole basis. With dipole-to-mass ratio ``κ_τ`` [A m²/kg] and rod mass
 ``M_τ`` [kg], ``basis="per_family"`` (default, reading (b)) gives ``m_f = κ_τ M_τ / n_f``
 (26.32 A m² for 10 000 A m² over 380 rods), ``basis="total"`` (reading (a)) shares
 ``κ_τ M_τ`` over all rods of both families (13.16 A m²).
@@ -53,7 +53,7 @@ DipoleBasis = Literal["per_family", "total"]
 
 @dataclass(frozen=True)
 class RodArray:
-    """Geometry of the two rod families of a lattice (spec §7.1, §12 item O5).
+    """Geometry of the two rod families of a lattice.
 
     Attributes:
       struts: (n_rods,) strut index of each rod (family 1 first).
@@ -88,7 +88,7 @@ class RodArray:
 
 
 def rod_array(lattice: Lattice) -> RodArray:
-    """Rods of the top-layer x1- and y1-struts of ``lattice`` (spec §7.1)."""
+    """Rods of the top-layer x1- and y1-struts of ``lattice``."""
     s1 = lattice.struts_of_kind("x_edge", layer=1)
     s2 = lattice.struts_of_kind("y_edge", layer=1)
     struts = np.concatenate([s1, s2]).astype(np.int64)
@@ -115,7 +115,7 @@ def rod_array(lattice: Lattice) -> RodArray:
 def rod_dipole_Am2(
     *, kappa_Am2_kg: float, rod_mass_kg: float, rods_per_family: Sequence[int], basis: DipoleBasis = "per_family"
 ) -> tuple[float, float]:
-    """Dipole of one rod in each family [A m²] (spec §9.1, §12 item O4).
+    """Dipole of one rod in each family [A m²].
 
     ``per_family``: ``m_f = κ_τ M_τ / n_f`` (the full ``κ_τ M_τ`` per family);
     ``total``: ``m_f = κ_τ M_τ / (n_1 + n_2)`` (shared by both families).
@@ -136,10 +136,10 @@ def rod_dipole_Am2(
 
 
 def rod_pair_forces(r_i: np.ndarray, r_j: np.ndarray, dipole: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """Force ``F_j`` (``F_i = −F_j``) on the far end of rods of signed dipole ``dipole`` (§3.2).
+    """Force ``F_j`` (``F_i = −F_j``) on the far end of rods of signed dipole ``dipole``.
 
     ``F_j = (dipole / |r|) [B − (B·r̂) r̂]`` with ``r = r_j − r_i``, i.e.
-    ``(m × B) × r / |r|²`` for ``m = dipole · r̂`` (§12 item F1).
+    ``(m × B) × r / |r|²`` for ``m = dipole · r̂``.
 
     Args:
       r_i, r_j: (M, 3) end positions [m].
@@ -163,12 +163,12 @@ def rod_pair_forces(r_i: np.ndarray, r_j: np.ndarray, dipole: np.ndarray, B: np.
 
 
 class MagnetorquerRodLoad:
-    """All magnetorquer rods of a truss as force pairs in a uniform field (spec §3.2).
+    """All magnetorquer rods of a truss as force pairs in a uniform field.
 
     Args:
       lattice: the truss lattice (rods in its top-layer x1- and y1-struts).
       m_rod_Am2: rod dipole [A m²], one number for both families or ``(m_1, m_2)``; see
-        :func:`rod_dipole_Am2` / :meth:`from_basis` for the §9.1 basis.
+        :func:`rod_dipole_Am2` / :meth:`from_basis` for the Table 2 basis.
       B_eci: fixed uniform field [T] (world axes) for tests and free-space runs; default
         ``None`` reads ``state.env.B_eci`` every step.
       body_offset: MuJoCo body index of node 0 (node ``i`` is body ``i + 1``).
@@ -226,7 +226,7 @@ class MagnetorquerRodLoad:
         B_eci: Sequence[float] | None = None,
         body_offset: int = 1,
     ) -> "MagnetorquerRodLoad":
-        """Load whose rod dipoles follow the §9.1 basis (§12 item O4), see :func:`rod_dipole_Am2`."""
+        """Load whose rod dipoles follow the Table 2 basis, see :func:`rod_dipole_Am2`."""
         rods = rod_array(lattice)
         m = rod_dipole_Am2(
             kappa_Am2_kg=kappa_Am2_kg, rod_mass_kg=rod_mass_kg, rods_per_family=rods.n_per_family, basis=basis
@@ -310,7 +310,7 @@ class MagnetorquerRodLoad:
         """Add the force pairs of all rods to ``xfrc[:, :3]`` (world frame).
 
         Vectorised over every rod (off rods have zero dipole): one gather of the end positions,
-        the §3.2 pair, and one sparse product with the ±1 rod–body incidence matrix.
+        the force pair, and one sparse product with the ±1 rod–body incidence matrix.
         """
         dip = self._held_dipoles(state)
         if dip is None:

@@ -1,4 +1,4 @@
-"""Constant world-frame forces on chosen bodies (e.g. the cantilever's tip load, spec §2.7)."""
+"""Constant world-frame forces on chosen bodies (e.g. the cantilever's tip load)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """Solar radiation pressure on flat facets: rigid bodies and lattice top-layer cells.
 
 Force law: :func:`magsail_mj.environment.surfaces.srp_forces` (McInnes' non-ideal flat-plate
-model, CNUSAIL spec §6.3 with errata E-6, E-10, E-11). The pressure comes from the environment
+model, Yoo et al. 2016, Eqs. 16–22 with its misprints corrected). The pressure comes from the environment
 sample, ``state.env.srp_pressure_N_m2`` = P_1AU (1 AU/d)², which is zero in the Earth's shadow;
 the Sun direction is ``state.env.sun_eci`` (world = ECI axes). Self-shadowing is not modelled.
 
@@ -37,7 +37,7 @@ class RigidSRPLoad(RigidFacetLoad):
     Args:
       body_id: MuJoCo body index; facets: the body's :class:`FacetSet` (centres relative to the
       centre of mass, body axes); apply_force: also add the net force (``False`` for attitude runs
-      whose translation belongs to the reference orbit, CNUSAIL spec §4.3).
+      whose translation belongs to the reference orbit).
     """
 
     name = "srp"

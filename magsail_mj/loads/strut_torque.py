@@ -1,6 +1,6 @@
 """Distributed (or centralised) torque realised as force pairs across struts.
 
-Spec: truss-magnetorquer-array.md §3.1 (generic strut torquer, §12 item S6). A pair of equal
+Robb et al. 2022a, Sec. 2 (generic strut torquer). A pair of equal
 and opposite forces on the two end nodes of a strut makes a pure couple perpendicular to the
 strut. For actuated strut ``s`` from node ``i`` to node ``j`` (current vector ``r = r_j − r_i``,
 length ``ℓ``, direction ``ê``) define the local normal
@@ -18,9 +18,9 @@ whose couple is ``ℓ ê × F_j = a_s û + c_s n̂⊥`` (zero net force, no axia
 A commanded body torque ``τ = (τ₁, τ₂, τ₃)`` is shared as follows: ``τ₁`` over the y1-struts
 (``û ≈ +x1``), ``τ₂`` over the x1-struts (``û ≈ −y1``, so ``a_s = −τ₂/N_x``) and ``τ₃`` over all
 actuated struts about their normals. With the undeformed lattice the total couple is exactly
-``τ``; as the plate deforms each actuator's couple turns with its own strut (the spec's
+``τ``; as the plate deforms each actuator's couple turns with its own strut (the
 "local" torque axis). ``torque_axis="bestfit"`` takes ``n̂`` = body z1 of the best-fit rotation
-instead (a sensitivity variant of §6.7).
+instead (a sensitivity variant).
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ def strut_couple_forces(r_i, r_j, n, a, c):
 
 
 class StrutTorqueLoad:
-    """Commanded body torque realised by force pairs on chosen struts (spec §3.1).
+    """Commanded body torque realised by force pairs on chosen struts.
 
     Args:
       lattice: the lattice (for strut ends and the columns through them).

@@ -1,17 +1,17 @@
 """Gravity loads of the orbit-following world: exact tidal forces and the classical
 gravity-gradient torque.
 
-The MuJoCo world rides the reference orbit r_ref(t) with axes parallel to ECI (design.md), so a
+The MuJoCo world rides the reference orbit r_ref(t) with axes parallel to ECI, so a
 body at world position x feels, besides the forces of the structure, only the tidal acceleration
 
     a(x) = g(r_ref + x) − g(r_ref)
 
 (two-body, plus J2 when the reference orbit has it), computed without cancellation by
 :func:`magsail_mj.environment.gravity.tidal_acceleration`. The force m a is applied at the body
-origin (= centre of mass for particle bodies). Truss spec §3.3; CNUSAIL spec §4.3, §6.1.
+origin (= centre of mass for particle bodies). Robb et al. 2022a; Yoo et al. 2016, Eq. 12.
 
 :class:`GravityGradientTorqueLoad` applies instead the classical torque 3μ/r³ û × (I û) on one
-rigid body (allowed for rigid single bodies, design.md).
+rigid body (valid for rigid single bodies only).
 """
 
 from __future__ import annotations
@@ -93,7 +93,7 @@ class TidalGravityLoad:
 
 
 class GravityGradientTorqueLoad:
-    """Classical gravity-gradient torque on one rigid body (CNUSAIL spec §6.1, Eq. 12):
+    """Classical gravity-gradient torque on one rigid body (Eq. 12):
 
         T = 3μ/|r|³ û × (I_w û),   r = r_ref + x_body,  I_w = R I_body Rᵀ,
 

@@ -1,6 +1,6 @@
 r"""Plain vectorised NumPy RK4 of the spring–dashpot lattice (the design's reference cost).
 
-Spec: truss-magnetorquer-array.md §2.4 (strut law), §3.4 (total force and integration). The
+Strut law and integration of the truss concept. The
 state is the particle positions ``x`` (n, 3) [m] and velocities ``v`` (n, 3) [m/s]. For strut
 ``s`` from node ``i`` to node ``j`` with ``r = x_j − x_i``, ``ℓ = |r|``, ``r̂ = r/ℓ``:
 
@@ -20,7 +20,7 @@ integrated by the classical fixed-step RK4 with the external force evaluated **a
 Everything is vectorised over struts and nodes: one gather of the strut ends and two
 ``np.bincount`` scatters of the strut forces per evaluation; no Python loop over struts or nodes.
 This is the reference the benchmark (``scripts/bench_lattice.py``) divides the MuJoCo runner's
-cost by, and the check of spec §3.4 (MuJoCo RK4 vs NumPy RK4).
+cost by, and the check of MuJoCo RK4 against NumPy RK4.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ ExternalForce = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 def spring_forces(
     x: np.ndarray, v: np.ndarray, struts: np.ndarray, k: np.ndarray, l0: np.ndarray, gamma: np.ndarray | float
 ) -> np.ndarray:
-    r"""Total strut force on every particle, ``F_i = Σ_j k(ℓ−l0) r̂ + γ(ṙ·r̂) r̂`` (spec §2.4).
+    r"""Total strut force on every particle, ``F_i = Σ_j k(ℓ−l0) r̂ + γ(ṙ·r̂) r̂``.
 
     Args:
       x, v: (n, 3) positions [m] and velocities [m/s].
@@ -57,7 +57,7 @@ def spring_forces(
 
 @dataclass
 class SpringMassLattice:
-    """Particles joined by two-sided linear spring–dashpot struts (spec §2.4).
+    """Particles joined by two-sided linear spring–dashpot struts.
 
     Attributes:
       masses: (n,) particle masses [kg].

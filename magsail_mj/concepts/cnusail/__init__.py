@@ -1,9 +1,9 @@
 r"""The CNUSAIL-1 sail cubesat (concept ``cnusail``): the concept module: it registers the
 config schema and the tasks.
 
-Spec: ``cnusail-cubesat.md`` (CNUSAIL-1 paper: Yoo, Kim, Suk, Kim, IJASS 17(4) 2016). A rigid 3U bus
+Paper: Yoo et al. 2016 (CNUSAIL-1: Yoo, Kim, Suk, Kim, IJASS 17(4) 2016). A rigid 3U bus
 with a 2 m × 2 m sail (stowed or deployed mass properties) and three reaction-wheel rotors on
-hinges (:mod:`magsail_mj.concepts.cnusail.mjcf`) rides the J2 reference orbit of spec §5.1 in the
+hinges (:mod:`magsail_mj.concepts.cnusail.mjcf`) rides the J2 reference orbit (Yoo et al. 2016, Table 1) in the
 orbit-following world; gravity gradient, drag, SRP and residual-dipole torques
 (:mod:`magsail_mj.concepts.cnusail.disturbances`) and the magnetorquer torque
 (:mod:`magsail_mj.loads.actuators_cubesat`) enter through ``xfrc_applied``; the flight controller
@@ -19,7 +19,7 @@ Scenario ids (``magsail_mj/concepts/cnusail/configs/<id>.toml``) and what they r
 ``pd_vs_eigenaxis``    S5: 108° slew about the S3 axis, deployed; ``control.mode`` = eigen_axis
                        (S5b) or pd (S5a) — ``scripts/cnusail_pd_vs_eigenaxis.py`` runs both
 ``deorbit``            S6: nadir → deorbit attitude (90°), fixed gains, ν0 = 180°, 2 orbits
-``deorbit_recalc``     S7: the same with the gain recalculation of §7.5
+``deorbit_recalc``     S7: the same with the deorbit gain recalculation
 ``lifetime``           S8: orbit decay for the three attitude regimes (SciPy, no MuJoCo run)
 =====================  ===================================================================
 
@@ -29,7 +29,7 @@ environment, disturbances, controller) :mod:`magsail_mj.concepts.cnusail.model`;
 :mod:`magsail_mj.concepts.cnusail.lifetime` (lifetime); metrics and plots
 :mod:`magsail_mj.concepts.cnusail.metrics`, :mod:`magsail_mj.concepts.cnusail.plots`.
 
-Frames: world = ECI axes (origin on the reference orbit); body frame of spec §2.1 (ẑ_B = sail
+Frames: world = ECI axes (origin on the reference orbit); body frame of Yoo et al. 2016 (ẑ_B = sail
 normal); quaternions scalar-first, body → world. Config quaternions end in ``_wxyz``.
 """
 

@@ -54,15 +54,15 @@ DEG = math.pi / 180.0
 TABLE2_INERTIA: dict[str, Vec3] = {"stowed": (0.0506, 0.0506, 0.010), "deployed": (0.3104, 0.3121, 0.5757)}
 """Principal inertia [kg m²] of CNUSAIL-1 (paper Table 2), rotors included."""
 DEFAULT_BUS_CENTROID: dict[str, Vec3] = {"stowed": (0.005, 0.005, -0.02), "deployed": (0.0, 0.0, -0.05)}
-"""Bus centroid relative to the CM (spec §3.2, assumed)."""
+"""Bus centroid relative to the CM (assumed)."""
 
 
 class SpacecraftConfig(StrictModel):
-    """``[spacecraft]``: mass properties and geometry (spec §3; assumed items of §3.2 are keys).
+    """``[spacecraft]``: mass properties and geometry (assumed items of are keys).
 
-    ``inertia_kgm2`` and ``bus_centroid_m`` default to the ``configuration``'s Table 2 / §3.2
-    values. ``r_cp_m``: sail centre of pressure relative to the CM (drag and SRP lever, §3.2).
-    ``drag_surfaces``: ``"sail+bus"`` (default) or ``"sail"`` (paper form, §6.2).
+    ``inertia_kgm2`` and ``bus_centroid_m`` default to the ``configuration``'s Table 2 / assumed geometry
+    values. ``r_cp_m``: sail centre of pressure relative to the CM (drag and SRP lever).
+    ``drag_surfaces``: ``"sail+bus"`` (default) or ``"sail"`` (paper form, Yoo et al. 2016, Eqs. 13–15).
     """
 
     configuration: Literal["stowed", "deployed"] = "deployed"
@@ -96,7 +96,7 @@ class SpacecraftConfig(StrictModel):
 
 
 class MtqConfig(StrictModel):
-    """``[actuators.mtq]`` (spec §4.1, E-5): ``limits`` names a limit set (``"command"`` 0.2/0.2/0.1,
+    """``[actuators.mtq]`` (Yoo et al. 2016, Eqs. 5–7): ``limits`` names a limit set (``"command"`` 0.2/0.2/0.1,
     ``"half_watt"`` 0.02/0.02/0.01 A m²) unless ``dipole_max_Am2`` is given; the 2 s cycle with
     ``blank_s`` magnetometer blanking; ``power_max_W`` for the reported power."""
 
@@ -125,8 +125,8 @@ class MtqConfig(StrictModel):
 
 
 class WheelsConfig(StrictModel):
-    """``[actuators.wheels]`` (spec §4.2, E-4): rotor (Table 4, §4.3), limits, DC-motor constants
-    (assumed, §4.2) and the driver model. Rotor masses and inertias exceed mjMINVAL (1e-15)."""
+    """``[actuators.wheels]``: rotor (Table 4), limits, DC-motor constants
+    (assumed) and the driver model. Rotor masses and inertias exceed mjMINVAL (1e-15)."""
 
     model: Literal["dc_motor", "ideal"] = "dc_motor"
     electrical: Literal["quasi_static", "substep"] = "quasi_static"
@@ -167,7 +167,7 @@ class ActuatorsConfig(StrictModel):
 
 
 class UnloadingConfig(StrictModel):
-    """``[control.unloading]`` (spec §7.4): gain k_rw [1/s], per-axis activation above
+    """``[control.unloading]`` (Yoo et al. 2016, Eq. 39): gain k_rw [1/s], per-axis activation above
     ``threshold_rpm`` (E-8), optional hysteresis ``off_rpm``."""
 
     enabled: bool = True
@@ -177,7 +177,7 @@ class UnloadingConfig(StrictModel):
 
 
 class ModesConfig(StrictModel):
-    """``[control.modes]`` (spec §8, E-17): mode switching (off for the stand-alone scenarios)."""
+    """``[control.modes]``: mode switching (off for the stand-alone scenarios)."""
 
     enabled: bool = False
     detumble_entry_deg_s: float = Field(default=1.0, gt=0)
@@ -194,10 +194,10 @@ class SensorsConfig(StrictModel):
 
 
 class CnusailControlConfig(StrictModel):
-    """``[control]`` (spec §7): ``mode`` = the law of a stand-alone run (``"bdot"`` detumbling,
+    """``[control]``: ``mode`` = the law of a stand-alone run (``"bdot"`` detumbling,
     ``"eigen_axis"`` or ``"pd"`` pointing; with ``modes.enabled`` the pointing law), ``command``
     (``"nadir"`` or ``"deorbit"``), sample rate, B-dot and eigen-axis parameters, gain
-    recalculation (§7.5) and the sub-tables ``unloading``, ``modes``, ``sensors``."""
+    recalculation and the sub-tables ``unloading``, ``modes``, ``sensors``."""
 
     mode: Literal["bdot", "eigen_axis", "pd"]
     command: Literal["nadir", "deorbit"] = "nadir"
@@ -234,7 +234,7 @@ class CnusailInitialConfig(StrictModel):
 
 
 class AnalysisConfig(StrictModel):
-    """``[analysis]``: metric thresholds. ``pointing_threshold_deg`` (5°, §2.2);
+    """``[analysis]``: metric thresholds. ``pointing_threshold_deg`` (5°);
     ``detumble_threshold_deg_s`` for ``detumble_time_s`` (0.3 °/s, E-17);
     ``settle_margin_s`` after the 5° entry before the steady metrics (default 4/(ζω_n), the 2 %
     settling time of the small-angle loop); ``disturbance_orbit`` computes the one-orbit disturbance
@@ -247,7 +247,7 @@ class AnalysisConfig(StrictModel):
 
 
 class CnusailRenderConfig(StrictModel):
-    """``[render]``: ``time_lapse`` = simulated seconds per video second (spec §11: 60 for slews,
+    """``[render]``: ``time_lapse`` = simulated seconds per video second (60 for slews,
     600 for detumbling), frames capped at ``max_frames``; camera in world (ECI-parallel) axes."""
 
     time_lapse: float = Field(default=60.0, gt=0)
@@ -260,7 +260,7 @@ class CnusailRenderConfig(StrictModel):
 
 
 class LifetimeConfig(StrictModel):
-    """``[lifetime]`` (spec §10, S8): regimes → drag areas, methods, atmospheres, stop altitude,
+    """``[lifetime]``: regimes → drag areas, methods, atmospheres, stop altitude,
     time caps, the comparison set (generic 3U cubesats, flown sails)."""
 
     area_nadir_m2: float = Field(default=0.03, gt=0)
@@ -326,7 +326,7 @@ class CnusailConfig(StrictModel):
         if self.gravity.tidal:
             problems.append(
                 "gravity.tidal: the cubesat is one rigid body at the world origin; use "
-                "gravity.classical_torque = true (spec §4.3) and tidal = false"
+                "gravity.classical_torque = true and tidal = false"
             )
         if not self.orbit.enabled:
             problems.append("orbit.enabled: the CNUSAIL scenarios ride the reference orbit; must be true")
@@ -361,7 +361,7 @@ class CnusailConfig(StrictModel):
         return self
 
     def _mass_problems(self) -> list[str]:
-        """The MuJoCo bodies of the attitude model (spec §3): the hub carries m − 3 m_r and
+        """The MuJoCo bodies of the attitude model: the hub carries m − 3 m_r and
         I − (J_s + 2 J_t) on every axis, which must exceed mjMINVAL and satisfy the triangle
         inequality (the rotors add their own mass and inertia)."""
         sc, w = self.spacecraft, self.actuators.wheels

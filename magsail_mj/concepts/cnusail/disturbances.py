@@ -1,22 +1,22 @@
 r"""The CNUSAIL-1 disturbance torques as one load, with the torque of each source kept apart.
 
-Source: CNUSAIL spec §6 (paper Eqs. 12–23, errata E-6, E-10, E-11) and §4.3. The force models
+Source: Yoo et al. 2016, Eqs. 12–23, with the misprints corrected in the loads. The force models
 are the project's environment loads; this wrapper only builds them for the cubesat and sums them:
 
-* gravity gradient (§6.1, Eq. 12): :class:`~magsail_mj.loads.tidal.GravityGradientTorqueLoad`,
+* gravity gradient (Eq. 12): :class:`~magsail_mj.loads.tidal.GravityGradientTorqueLoad`,
   T = 3μ/r³ û × (J û) with the composite inertia J of the current configuration;
-* aerodynamic drag (§6.2, Eqs. 13–15): :class:`~magsail_mj.loads.drag.RigidDragLoad` on the facets
+* aerodynamic drag (Eqs. 13–15): :class:`~magsail_mj.loads.drag.RigidDragLoad` on the facets
   of :func:`cubesat_drag_facets` — the sail as one two-sided plate of A_s at r_cp (area
   projected |ẑ_B·V̂|) plus, for ``"sail+bus"``, the six one-sided bus faces at their centroids;
   stowed: bus faces only;
-* solar radiation pressure on the sail (§6.3, Eqs. 16–22): :class:`~magsail_mj.loads.srp.RigidSRPLoad`
+* solar radiation pressure on the sail (Eqs. 16–22): :class:`~magsail_mj.loads.srp.RigidSRPLoad`
   with McInnes' optical model (aluminised Kapton, :meth:`Optics.cnusail_sail`), zero in shadow;
   none when stowed (SRP on the bus is neglected, as in the paper);
-* residual dipole (§6.4, Eq. 23): :class:`~magsail_mj.loads.dipole.ResidualDipoleLoad`, T = D × B.
+* residual dipole (Eq. 23): :class:`~magsail_mj.loads.dipole.ResidualDipoleLoad`, T = D × B.
 
 Only torques are applied (``apply_force=False``): the world origin is the separately propagated
 reference orbit, so the bus CM stays at the origin and the translational effect of drag and SRP
-belongs to the lifetime analysis (§4.3, §10). Each source can be switched off.
+belongs to the lifetime analysis. Each source can be switched off.
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ def cubesat_drag_facets(
     bus_size_m,
     bus_centroid_m,
 ) -> FacetSet:
-    """Drag facets of spec §6.2: deployed ``"sail+bus"`` = sail plate + six bus faces; ``"sail"`` =
+    """Drag facets (Yoo et al. 2016, Eqs. 13–15): deployed ``"sail+bus"`` = sail plate + six bus faces; ``"sail"`` =
     the paper's single plate; stowed = the six bus faces whichever option."""
     bus = FacetSet.box(size=bus_size_m, centre=bus_centroid_m)
     if configuration == "stowed":

@@ -1,11 +1,11 @@
-r"""Eigen-axis slew under a slew-rate limit (CNUSAIL spec §7.2, CNUSAIL-1 paper Eqs. 28–38,
-after Wie & Lu 1995), and the quaternion conventions of spec §2.2–2.4.
+r"""Eigen-axis slew under a slew-rate limit (Yoo et al. 2016, Eqs. 28–38,
+after Wie & Lu 1995), and the quaternion conventions of its Eqs. 2–3.
 
 Conventions
 -----------
 The project stores MuJoCo's scalar-first Hamilton quaternion p = [w, x, y, z] (body → world,
 ``xmat``). The paper uses scalar-last q = [q1, q2, q3, q4] with the attitude matrix A(q) mapping
-reference components into body components. They are the same numbers reordered (spec §2.2):
+reference components into body components. They are the same numbers reordered:
 
     q_paper = [x, y, z, w],     A(q_paper) = xmatᵀ.
 
@@ -27,7 +27,7 @@ Control torque (Eq. 28), J the spacecraft inertia matrix:
 sat the unit saturation per component (Eq. 32), g the gyroscopic compensation (``gyro_comp``,
 erratum E-21): ``"Iw"`` (paper) ω × Jω, ``"Iw+hw"`` ω × (Jω + h_w), ``"none"`` 0.
 
-Gain selection (Eqs. 33–36 as corrected in spec §7.2, erratum E-13). With q_e(0) the vector part
+Gain selection (Eqs. 33–36, corrected as below). With q_e(0) the vector part
 at the start of the manoeuvre, θ̇_max the slew-rate limit, ω_n and ζ the small-angle natural
 frequency and damping:
 
@@ -123,7 +123,7 @@ def eigen_angle(p_e: np.ndarray) -> float | np.ndarray:
 
 
 def orbital_rate(r: np.ndarray, v: np.ndarray) -> float:
-    """Instantaneous orbital rate ω_o = |r × v|/|r|² [rad/s] (spec §2.1)."""
+    """Instantaneous orbital rate ω_o = |r × v|/|r|² [rad/s]."""
     h = np.cross(r, v)
     return float(math.sqrt(float(h @ h)) / float(r @ r))
 
@@ -212,7 +212,7 @@ class EigenAxisGains:
 
 def _angle_of_vector(q_vec: np.ndarray) -> float:
     """Eigen-angle of a (possibly unnormalised) vector part: the scalar part is taken as
-    √max(0, 1 − |q|²) and θ = 2 atan2(|q|, q4) (spec §7.2: same atan2 formula)."""
+    √max(0, 1 − |q|²) and θ = 2 atan2(|q|, q4) (the same atan2 formula)."""
     n2 = float(q_vec @ q_vec)
     return 2.0 * math.atan2(math.sqrt(n2), math.sqrt(max(0.0, 1.0 - n2)))
 
@@ -220,7 +220,7 @@ def _angle_of_vector(q_vec: np.ndarray) -> float:
 def eigen_axis_gains(
     q_e0: np.ndarray, *, omega_n_rad_s: float, zeta: float, rate_max_rad_s: float, clamp_min: float = 0.1
 ) -> EigenAxisGains:
-    """Gains of spec §7.2 (Eqs. 33–36 corrected, E-13) from the error vector ``q_e0`` (3,) at the
+    """Gains (Eqs. 33–36, corrected as in the module docstring) from the error vector ``q_e0`` (3,) at the
     start of the manoeuvre, with the per-component clamp of E-14 (``clamp_min``; 0 disables it).
 
     Raises ValueError naming the argument when ``q_e0`` is zero (no manoeuvre) and not clamped.
@@ -278,7 +278,7 @@ def eigen_axis_torque(
     gyro_comp: GyroComp = "Iw",
     h_w: np.ndarray | None = None,
 ) -> np.ndarray:
-    """u = −J diag(k_i) sat(P q_e) − c J ω_e + g (paper Eq. 28, spec §7.2) [N m], body axes.
+    """u = −J diag(k_i) sat(P q_e) − c J ω_e + g (paper Eq. 28) [N m], body axes.
 
     Args:
       q_e: (3,) error vector part; omega_e: (3,) rate error [rad/s]; omega: (3,) body rate

@@ -14,7 +14,7 @@ Action (``dm_env.specs.BoundedArray``, float64, bounded as the hardware is):
   axis within ``±actuators.mtq`` limits; the wheels are idle (current command 0, E-15);
 * pointing, ``action="torque_dipole"`` (default): ``u`` (3,) body-torque request of the wheels
   [N m, ±(K_M i_max + 2 K_B Ω_max), beyond which the current command saturates alike] through the
-  wheel driver (``i_c = clip((−u + K_B ω_M)/K_M, ±i_max)``, spec §4.2 step 2) and ``m`` (3,);
+  wheel driver (``i_c = clip((−u + K_B ω_M)/K_M, ±i_max)``) and ``m`` (3,);
 * any task, ``action="current_dipole"``: the wheel motor current commands ``i_c`` (3,) [A, ±i_max]
   (the motor torque commands [N m, ±τ_max] for ``actuators.wheels.model = "ideal"``) and ``m`` (3,).
 

@@ -1,4 +1,4 @@
-r"""S8 of the CNUSAIL spec (§10): orbital lifetime for the three attitude regimes, as a scenario.
+r"""CNUSAIL scenario S8: orbital lifetime for the three attitude regimes, as a scenario.
 
 There is no MuJoCo integration: :meth:`LifetimeTask.simulation` returns a
 :class:`LifetimeRunner` (the same ``run()`` → :class:`magsail_mj.sim.RunResult` interface as
@@ -7,7 +7,7 @@ propagators of :mod:`magsail_mj.concepts.cnusail.orbit_decay` (Cowell for the re
 in ``lifetime.methods_cowell``, orbit-averaged for every regime) for every atmosphere in
 ``lifetime.atmospheres`` (the MSIS cases are skipped, with a note in the summary, when pymsis is not
 installed), plus the comparison set: generic 3U cubesats in circular orbits and the flown sail
-cubesats NanoSail-D2 and LightSail-1 (approximate public data, spec §10). ``sim.duration_s`` caps
+cubesats NanoSail-D2 and LightSail-1 (approximate public data). ``sim.duration_s`` caps
 the averaged runs (a run that reaches it reports a lower bound), ``lifetime.cowell_max_days`` the
 Cowell runs. The MJCF written for this config is the deployed cubesat (the spacecraft whose
 lifetime is computed); it is not simulated.
@@ -52,7 +52,7 @@ __all__ = ["LifetimeTask", "LifetimeRunner", "REFERENCE_SAILS"]
 
 DAY = 86400.0
 REFERENCE_SAILS: tuple[dict[str, Any], ...] = (
-    # approximate public data (spec §10): NanoSail-D2 ejected Jan 2011 near 600–650 km, re-entered
+    # approximate public data: NanoSail-D2 ejected Jan 2011 near 600–650 km, re-entered
     # Sept 2011 (≈ 240 days); LightSail-1 in a 356 × 705 km orbit, re-entered about a week after
     # its sail deployment. The model prediction takes the random-tumbling area A_s/2.
     {

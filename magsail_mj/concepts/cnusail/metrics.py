@@ -1,4 +1,4 @@
-r"""CNUSAIL post-processing: derived series and the flat ``summary.json`` keys (CNUSAIL spec §11).
+r"""CNUSAIL post-processing: derived series and the flat ``summary.json`` keys.
 
 Definitions (time series recorded every ``sim.record_every`` steps, 1 s by default; "stays below X
 after t" means every record from t on is below X; ``None`` when the last record is not):
@@ -10,7 +10,7 @@ Detumbling (``control.mode = "bdot"``):
   component is below it); ``detumble_time_below_{1p0,0p5,0p3,0p2}dps_s`` and ``…_orbits`` for the
   spec's four thresholds;
 * ``rate_mean_last_orbit_rad_s`` (mean ‖ω‖ over the last orbit), ``rate_ptp_last_two_orbits_rad_s``;
-* ``mtq_energy_J``: Σ P_j over the on-time of each cycle, P_j = P_max (M_j/M_j,max)² (spec §4.1).
+* ``mtq_energy_J``: Σ P_j over the on-time of each cycle, P_j = P_max (M_j/M_j,max)² (Yoo et al. 2016, Eqs. 5–7).
 
 Pointing (``eigen_axis`` / ``pd``), θ_e the eigen-angle of the error quaternion, ω_e the rate error:
 

@@ -1,7 +1,6 @@
 r"""MjSpec builder of the CNUSAIL-1 cubesat: one rigid bus (+ sail) with three reaction-wheel rotors.
 
-Source: CNUSAIL spec (``cnusail-cubesat.md``) §3 (mass properties, CNUSAIL-1 paper Table 2),
-§4.3 (the MuJoCo model). The tree is::
+Source: Yoo et al. 2016, Table 2 (mass properties); the body tree is ours. The tree is::
 
     world                         gravity off, contacts/constraints off (free space)
       bus          freejoint ``bus_free``; explicit inertial at the body origin (= the CM)
@@ -15,8 +14,8 @@ Source: CNUSAIL spec (``cnusail-cubesat.md``) §3 (mass properties, CNUSAIL-1 pa
 
 Composite inertia. The rotors sit at the CM, so they add no parallel-axis term; each adds its
 spin inertia J_s on its own axis and its transverse inertia J_t on the two others, i.e.
-J_s + 2 J_t on every axis (9e-6 kg m² with the spec defaults). The hub inertia is Table 2 minus
-that, so the **composite** inertia of the bus subtree equals Table 2 exactly (spec §4.3; a test
+J_s + 2 J_t on every axis (9e-6 kg m² with the defaults). The hub inertia is Table 2 minus
+that, so the **composite** inertia of the bus subtree equals Table 2 exactly (a test
 reads it from the compiled model). The rotors must be axisymmetric (J_t equal on both transverse
 axes): at Ω ≈ 733 rad/s and a 0.1 s step the hinge angle advances ~73 rad per step, harmless only
 because the rotor inertia does not depend on that angle.
@@ -79,7 +78,7 @@ _TICK_RGBA = (1.0, 0.4, 0.0, 1.0)
 
 @dataclass(frozen=True)
 class CubesatModelParams:
-    """Inputs of :func:`build_cubesat_spec` (SI units; defaults: CNUSAIL spec §3–4, deployed).
+    """Inputs of :func:`build_cubesat_spec` (SI units; defaults:; deployed).
 
     Attributes:
       configuration: ``"stowed"`` (bus only) or ``"deployed"`` (bus + sail + booms).
@@ -87,15 +86,15 @@ class CubesatModelParams:
       inertia_kgm2: composite principal inertia (I_x, I_y, I_z) about the CM, rotors included
         (Table 2; deployed (0.3104, 0.3121, 0.5757), stowed (0.0506, 0.0506, 0.010)).
       bus_size_m: bus box edges (x, y, z) (3U: 0.1 × 0.1 × 0.3, long axis z_B).
-      bus_centroid_m: bus box centre relative to the CM, body axes (spec §3.2).
+      bus_centroid_m: bus box centre relative to the CM, body axes.
       sail_side_m: side of the square sail (2 m); sail_centre_m: centre of the sail plane
-        relative to the CM (the centre of pressure r_cp of spec §3.2).
+        relative to the CM (the centre of pressure r_cp).
       sail_thickness_m: drawn thickness of the sail plate (visual only).
       rotor_mass_kg, rotor_spin_inertia_kgm2, rotor_transverse_inertia_kgm2: per rotor
-        (spec §4.3: 0.03 kg, 4.5e-6, 2.25e-6 kg m²).
-      wheel_damping_Nms: joint damping = viscous bearing friction K_B (spec §4.2).
+        (default 0.03 kg, 4.5e-6, 2.25e-6 kg m²).
+      wheel_damping_Nms: joint damping = viscous bearing friction K_B (Yoo et al. 2016, Eqs. 8–11).
       motor_force_limit_Nm: actuator force range ± this (must exceed the largest τ_max used).
-      timestep_s, integrator: MuJoCo option (spec §7.6: RK4 at 0.1 s).
+      timestep_s, integrator: MuJoCo option (default RK4 at 0.1 s).
       markers: add the display marker bodies (module docstring).
       name: model name.
     """
@@ -233,7 +232,7 @@ def build_cubesat_spec(params: CubesatModelParams | None = None) -> mujoco.MjSpe
             rgba=list(_SAIL_BACK_RGBA),
             **nogeo,
         )
-        # four booms along the sail diagonals, length sqrt(2) m each (spec §3.2, rendering only)
+        # four booms along the sail diagonals, length sqrt(2) m each (rendering only)
         boom = p.sail_side_m / math.sqrt(2.0)
         for k, (sx, sy) in enumerate(((1, 1), (-1, 1), (-1, -1), (1, -1))):
             d = np.array([sx, sy, 0.0]) / math.sqrt(2.0)

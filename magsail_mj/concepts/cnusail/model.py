@@ -1,7 +1,7 @@
 r"""Model builder of the CNUSAIL concept: config → cubesat MJCF (:mod:`magsail_mj.concepts.cnusail.mjcf`),
 environment, disturbance load, flight controller and initial state.
 
-Frames: world = ECI axes (origin on the reference orbit); body frame of spec §2.1 (ẑ_B = sail
+Frames: world = ECI axes (origin on the reference orbit); body frame of Yoo et al. 2016 (ẑ_B = sail
 normal); quaternions scalar-first, body → world.
 """
 
@@ -79,7 +79,8 @@ class CnusailModel:
         self.disturbances = self.make_disturbances()
 
     def make_disturbances(self) -> CubesatDisturbanceLoad:
-        """Disturbance torques of spec §6 on the bus (``drag``, ``srp`` deployed only, gravity gradient)."""
+        """Disturbance torques (Yoo et al. 2016, Eqs. 12–23) on the bus (``drag``, ``srp`` deployed only,
+        gravity gradient)."""
         cfg, sc = self.cfg, self.cfg.spacecraft
         drag = None
         if cfg.drag.enabled:
@@ -106,7 +107,7 @@ class CnusailModel:
         )
 
     def make_controller(self) -> CnusailController:
-        """The flight controller of spec §7 (B-dot, eigen-axis or PD, unloading, mode logic)."""
+        """The flight controller (B-dot, eigen-axis or PD, unloading, mode logic)."""
         cfg, c, a = self.cfg, self.cfg.control, self.cfg.actuators
         driver = WheelDriver(a.wheels.motor_params(), model=a.wheels.model, electrical=a.wheels.electrical)
         modes = ModeLogicParams(
@@ -151,7 +152,7 @@ class CnusailModel:
         )
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(p_b (4,), ω_body (3,) [rad/s], ω_M (3,) [rad/s]) at t = 0 (spec §9 notes):
+        """(p_b (4,), ω_body (3,) [rad/s], ω_M (3,) [rad/s]) at t = 0:
         p_b = p_c ⊗ p_e with p_c the initial command (nadir for detumbling), and ω from
         ``initial.omega0_deg_s`` or from ω_e(0) = 0."""
         c = self.cfg.control

@@ -1,16 +1,16 @@
 r"""CNUSAIL-1 attitude control: command frames, mode logic and the sampled flight controller.
 
-Source: CNUSAIL spec §7 (control laws), §7.6 (sampling), §8 (mode logic), errata E-15, E-17,
-E-19; CNUSAIL-1 paper §5.
+Source: Yoo et al. 2016, Sec. 5 (control laws, sampling, mode logic), with the paper's ambiguities
+resolved where each rule is stated.
 
-Command frames (spec §8), as body → world rotation matrices (columns = command axes in ECI):
+Command frames, as body → world rotation matrices (columns = command axes in ECI):
 
 * nadir: the orbital frame R, ẑ_R = r̂, ŷ_R = (v × r)/|v × r|, x̂_R = ŷ_R × ẑ_R (≈ −v̂) (E-3);
 * deorbit: R turned by −90° about ŷ_R (active): x̂_C = ẑ_R, ŷ_C = ŷ_R, ẑ_C = −x̂_R ≈ +v̂, so the sail
   front face looks along the flight direction. From the nadir attitude the error is the paper's
   [0, 0.7071, 0, 0.7071] (scalar-last), E-19.
 
-Mode logic (spec §8; :class:`ModeManager`)::
+Mode logic (:class:`ModeManager`)::
 
     any mode: |ω| > 1 °/s                      → DETUMBLE (B-dot, wheels idle, E-15)
     DETUMBLE: |ω| < ω_exit for t_dwell         → NADIR (eigen-axis/PD + unloading)
@@ -20,7 +20,7 @@ Mode logic (spec §8; :class:`ModeManager`)::
 Stand-alone scenarios run one mode with switching disabled (``enabled = False``).
 
 The controller (:class:`CnusailController`) is a :class:`magsail_mj.sim.Controller` sampled every
-dynamics step (``period_s`` = δt); inside it keeps the spec's rates with integer step counts:
+dynamics step (``period_s`` = δt); inside it keeps these rates with integer step counts:
 
 * attitude law (and wheel-driver steps 1–2: current command, zero-order hold) every
   ``attitude_period_s`` (1 s; 0.1 s option) — mode logic runs at the same samples;
@@ -78,7 +78,7 @@ DEG = math.pi / 180.0
 
 
 class Mode(IntEnum):
-    """Attitude-control modes (spec §8)."""
+    """Attitude-control modes."""
 
     DETUMBLE = 0
     NADIR = 1
@@ -86,7 +86,7 @@ class Mode(IntEnum):
 
 
 def nadir_command_matrix(r: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Body → world matrix of the nadir command (frame R, spec §2.1 with E-3): columns x̂_R, ŷ_R, ẑ_R."""
+    """Body → world matrix of the nadir command (frame R, with E-3): columns x̂_R, ŷ_R, ẑ_R."""
     z = r / np.linalg.norm(r)
     y = np.cross(v, r)
     y = y / np.linalg.norm(y)
@@ -95,7 +95,7 @@ def nadir_command_matrix(r: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def deorbit_command_matrix(r: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Body → world matrix of the deorbit command (spec §8): columns ẑ_R, ŷ_R, −x̂_R."""
+    """Body → world matrix of the deorbit command: columns ẑ_R, ŷ_R, −x̂_R."""
     M = nadir_command_matrix(r, v)
     return np.column_stack([M[:, 2], M[:, 1], -M[:, 0]])
 
@@ -140,7 +140,7 @@ def command_frame(mode: int, r: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, 
 
 @dataclass(frozen=True)
 class ModeLogicParams:
-    """Mode-switching thresholds (spec §8, E-17).
+    """Mode-switching thresholds.
 
     Attributes:
       enabled: switch modes (False: stay in the initial mode).
@@ -167,7 +167,7 @@ class ModeLogicParams:
 
 
 class ModeManager:
-    """The mode state machine of spec §8 (module docstring), evaluated at attitude samples."""
+    """The mode state machine (module docstring), evaluated at attitude samples."""
 
     def __init__(self, params: ModeLogicParams, *, initial: Mode) -> None:
         self.p = params
@@ -200,7 +200,7 @@ class ModeManager:
 
 @dataclass
 class CnusailControlParams:
-    """Everything the flight controller needs (SI units; spec §7, §4).
+    """Everything the flight controller needs (SI units).
 
     Attributes:
       timestep_s: dynamics step δt.
@@ -209,10 +209,11 @@ class CnusailControlParams:
       attitude_period_s: attitude-law sample period (1 s).
       mtq_cycle: magnetorquer cycle with blanking.
       mtq_limits_Am2: (3,) dipole limits.
-      bdot_form, bdot_gain, bdot_omega_c_rad_s: B-dot law (§7.1).
-      omega_n_rad_s, zeta, rate_max_rad_s, clamp_min, gyro_comp, shortest_rotation: eigen-axis (§7.2).
-      recalc_enabled, recalc_margin_rad: deorbit gain recalculation (§7.5).
-      unloading_enabled, k_rw_per_s, unload_on_rpm, unload_off_rpm: unloading (§7.4).
+      bdot_form, bdot_gain, bdot_omega_c_rad_s: B-dot law (Yoo et al. 2016, Eqs. 24–27).
+      omega_n_rad_s, zeta, rate_max_rad_s, clamp_min, gyro_comp, shortest_rotation: eigen-axis
+        (Yoo et al. 2016, Eqs. 28–38).
+      recalc_enabled, recalc_margin_rad: deorbit gain recalculation.
+      unloading_enabled, k_rw_per_s, unload_on_rpm, unload_off_rpm: unloading (Yoo et al. 2016, Eq. 39).
       inertia_kgm2: (3, 3) spacecraft inertia J used by the laws.
       wheel_driver: the wheel driver (motor model and limits).
       modes: mode-switching parameters.
@@ -363,7 +364,7 @@ class CnusailController:
 
     def step(self, state, data: mujoco.MjData) -> None:
         """One dynamics step: attitude sample and magnetorquer cycle when due, then the wheel
-        driver's per-step part (spec §4.2 steps 3–4) into ``data.ctrl``."""
+        driver's per-step part (Yoo et al. 2016, Eqs. 8–11) into ``data.ctrl``."""
         k = int(round(state.t / self._dt))
         # a sample is due when a sample boundary was reached since the last call (robust to a
         # runner that skips a step of this every-step controller)

@@ -1,10 +1,10 @@
-r"""Orbital lifetime under drag for the CNUSAIL-1 attitude regimes (CNUSAIL spec §10, scenario S8).
+r"""Orbital lifetime under drag for the CNUSAIL-1 attitude regimes (scenario S8).
 
-No MuJoCo here: the attitude enters only through the drag area A of each regime (spec §10 table:
+No MuJoCo here: the attitude enters only through the drag area A of each regime (table:
 nadir 0.03 m², deorbit 4.0 m², random tumbling 2.035 m²), the ballistic coefficient being
 B* = C_d A/m (m = 4 kg, C_d = 2.2).
 
-Two propagators (the spec's two methods):
+Two propagators:
 
 1. **Cowell** (:func:`cowell_decay`): ECI two-body + J2 + drag,
    r̈ = −μ r/r³ + a_J2(r) − ½ ρ(h) B* |v_rel| v_rel,  v_rel = v − ω⊕ × r (co-rotating atmosphere,
@@ -21,14 +21,14 @@ Two propagators (the spec's two methods):
    steps early, automatically shorter near the end) until the perigee altitude a(1 − e) − R_E drops
    below 120 km. Used for every regime, and the only method for the nadir regime (years).
    Justification against the full-fidelity propagation: for the deorbit regime the two agree within
-   the spec's 5 % (tested; the residual comes from the co-rotating atmosphere, ≈ 2 % at 98°
+   our 5 % bound (tested; the residual comes from the co-rotating atmosphere, ≈ 2 % at 98°
    inclination, and from J2's short-period terms), while the averaged run costs milliseconds.
 
 For a circular orbit ⟨da/dt⟩ reduces to −B* ρ √(μ a) (tested).
 
-Atmospheres: the exponential table of spec §5.5 (``"exp"``) or NRLMSISE-00 through pymsis
+Atmospheres: Vallado's exponential table (``"exp"``) or NRLMSISE-00 through pymsis
 (``"msis_low"`` F10.7 = F10.7A = 100, Ap = 10; ``"msis_mid"`` 150/150/15; ``"msis_high"``
-200/200/15 — spec §5.5, §10). MSIS is reduced to a global-mean density profile ρ̄(h): pymsis on
+200/200/15). MSIS is reduced to a global-mean density profile ρ̄(h): pymsis on
 100–1000 km every 10 km × latitudes −80…80° (cos-weighted) × longitudes every 30° at the epoch
 (the longitudes sample the local-time bulge), interpolated in ln ρ. That keeps both propagators
 fast; the diurnal and latitudinal variations average out over the many orbits of a decay.
@@ -71,7 +71,7 @@ ATMOSPHERES: dict[str, dict[str, float] | None] = {
     "msis_mid": {"f107": 150.0, "f107a": 150.0, "ap": 15.0},
     "msis_high": {"f107": 200.0, "f107a": 200.0, "ap": 15.0},
 }
-"""Atmosphere cases of spec §10: ``"exp"`` and NRLMSISE-00 at low/moderate/high activity."""
+"""Atmosphere cases: ``"exp"`` and NRLMSISE-00 at low/moderate/high activity."""
 
 DensityModel = Callable[[np.ndarray], np.ndarray]
 

@@ -1,4 +1,4 @@
-r"""PD comparison law (CNUSAIL spec §7.3, CNUSAIL-1 paper Eq. 40, erratum E-18).
+r"""PD comparison law (CNUSAIL-1 paper Eq. 40).
 
     u = −K_PD q_e − C ω_e,     K_PD = k J,   C = c J,
 

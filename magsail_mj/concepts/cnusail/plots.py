@@ -1,4 +1,4 @@
-"""Plots of a CNUSAIL run (CNUSAIL spec §11): time in orbits for detumbling, minutes for slews;
+"""Plots of a CNUSAIL run: time in orbits for detumbling, minutes for slews;
 dashed lines for limits. Also writes ``events.json`` (mode changes, manoeuvre starts, gain
 recalculations with time, angle and gains)."""
 

@@ -1,4 +1,4 @@
-r"""Magnetic momentum unloading of the reaction wheels (CNUSAIL spec §7.4, CNUSAIL-1 paper Eq. 39).
+r"""Magnetic momentum unloading of the reaction wheels (CNUSAIL-1 paper Eq. 39).
 
     m = −(k_rw/|B_B|²) B_B × Δh,      T_mag = m × B_B = −k_rw (Δh − (Δh·B̂) B̂),
 
@@ -12,7 +12,7 @@ set to zero otherwise; no unloading when all three are below. Optional hysteresi
 axis stays on until |ω_M,j| < ω_off (``off_rpm``; default ω_off = ω_on, i.e. no hysteresis).
 The dipole is limited by uniform scaling (:func:`magsail_mj.loads.actuators_cubesat.saturate_uniform`)
 and runs on the 2 s magnetorquer cycle with blanking; k_rw is not in the paper (default
-0.005 1/s, spec §7.4).
+0.005 1/s).
 """
 
 from __future__ import annotations

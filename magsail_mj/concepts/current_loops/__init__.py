@@ -2,15 +2,15 @@
 
 Importing this module registers the concept: its config schema
 (:mod:`magsail_mj.concepts.current_loops.config`, :class:`CurrentLoopsConfig`) and its tasks, one
-class per scenario kind (:mod:`magsail_mj.concepts.current_loops.tasks`: ``sweep`` §5, ``slew``
-§6, ``slew_rigid`` §6). The model builder is :mod:`magsail_mj.concepts.current_loops.model`;
+class per scenario kind (:mod:`magsail_mj.concepts.current_loops.tasks`: ``sweep``, ``slew``,
+``slew_rigid``). The model builder is :mod:`magsail_mj.concepts.current_loops.model`;
 probes and metrics :mod:`~magsail_mj.concepts.current_loops.metrics`, plots
 :mod:`~magsail_mj.concepts.current_loops.plots`.
 
-The lattice, masses and tendon springs are those of the truss concept (§1: uniform particle
+The lattice, masses and tendon springs are those of the truss concept (uniform particle
 masses, ``EA_c = 2 EI / ((N+1) w²)``, ``calibration = "formula"`` by default). Elastic forces
-are MuJoCo spring tendons (no tendon damping); Lorentz forces (§4.5), modal damping (§4.4) and
-tidal gravity are loads written into ``xfrc_applied``.
+are MuJoCo spring tendons (no tendon damping); Lorentz forces (Robb et al. 2022b, Eqs. 16–17),
+modal damping (Robb et al. 2022b, Eq. 15) and tidal gravity are loads written into ``xfrc_applied``.
 """
 
 from __future__ import annotations

@@ -1,25 +1,25 @@
-r"""Quaternion PD with current-loop allocation (current-loops spec §6, Eqs. 18–20 corrected).
+r"""Quaternion PD with current-loop allocation (Eqs. 18–20 corrected).
 
 Each control sample, from the particle positions and velocities (or a rigid body's state):
 
-1. attitude ``R`` = mass-weighted best-fit rotation of the nodes against the undeformed lattice
-   (§4.3), ``q`` its quaternion with sign continuity; body rate (``rate_estimator``):
+1. attitude ``R`` = mass-weighted best-fit rotation of the nodes against the undeformed lattice,
+   ``q`` its quaternion with sign continuity; body rate (``rate_estimator``):
 
    * ``"velocity_fit"`` (default): the least-squares rigid-velocity fit ``ω = J_c⁻¹ H_c`` of the
-     particle velocities about the centre of mass, rotated into body axes (proposed, §6 item 1;
+     particle velocities about the centre of mass, rotated into body axes (our choice;
      the rigid surrogate uses its body rate);
    * ``"finite_difference"``: the backward difference of the estimated attitude,
      ``ω_k = vee(log(R_{k−1}ᵀ R_k)) / (t_k − t_{k−1})`` (body axes), from positions only. Exact
      for a constant body rate; for a varying rate it is the mean rate over the last sample
      period, so it lags: ``|ω_k − ω(t_k)| ≤ ½ Δt max|ω̇|`` for a rotation about a fixed axis.
      The first sample, with no earlier attitude, returns the known initial rate, zero (the
-     plate starts at rest, §6);
+     plate starts at rest);
 2. error ``q_e = q_d* ⊗ q`` (negated when its scalar part is negative), vector part ``q_ev``;
 3. ``T_ref = −k_p q_ev − k_ω ω`` in body axes (Eq. 18);
-4. dipole command ``m_d = B_b × T_ref / |B_b|²`` (Eq. 19 with ``|B|²``, spec §9 item 9);
+4. dipole command ``m_d = B_b × T_ref / |B_b|²`` (Eq. 19 with ``|B|²``);
 5. currents ``I_L = (m_d,L / m_max) I_max,L`` per axis, then
 
-   * ``allocation = "paper_clip"``: each clipped to ``±I_max,L`` (Eq. 20 as intended, §9 item 10;
+   * ``allocation = "paper_clip"``: each clipped to ``±I_max,L`` (Eq. 20 as intended;
      does not keep the torque direction);
    * ``allocation = "direction_preserving"``: all three scaled by one factor so that the largest
      ``|I_L| / I_max,L`` is 1 (alternative option).
@@ -99,7 +99,7 @@ class LoopAttitudeController:
     """Quaternion PD on the best-fit attitude with per-axis loop-current allocation.
 
     Args:
-      period_s: sample period (the spec runs it every integration step).
+      period_s: sample period (the shipped configs run it every integration step).
       p_ref: (n, 3) undeformed node positions (body frame; the lattice nodes).
       masses: (n,) particle masses [kg].
       node_bodies: (n,) body indices of the nodes in the state arrays.

@@ -1,6 +1,6 @@
-"""Config schema of the current-loops concept (``current_loops``), spec current-loops.md.
+"""Config schema of the current-loops concept (``current_loops``) (Robb et al. 2022b).
 
-Scenario kinds (``scenario``): ``sweep`` (§5), ``slew`` (§6) and ``slew_rigid`` (§6, the rigid
+Scenario kinds (``scenario``): ``sweep``, ``slew`` and ``slew_rigid`` (the rigid
 surrogate); their tasks are in :mod:`magsail_mj.concepts.current_loops.tasks`. The circuit
 names and axes are those of :mod:`magsail_mj.geometry.current_loops`. Also here: the Eq.-9 wire
 sizing of the circuits (:func:`loop_currents`), which validation needs.
@@ -62,18 +62,18 @@ class LoopsLatticeConfig(StrictModel):
 
 
 class LoopsMassConfig(StrictModel):
-    """``[mass]``: areal density σ_A [kg/m²]; M = σ_A D² shared equally by the particles (§1)."""
+    """``[mass]``: areal density σ_A [kg/m²]; M = σ_A D² shared equally by the particles."""
 
     areal_density_kg_m2: float = Field(gt=0)
 
 
 class LoopsStiffnessConfig(StrictModel):
-    """``[stiffness]``: plate EI [N m²] and its calibration (§1; §9 item 12).
+    """``[stiffness]``: plate EI [N m²] and its calibration.
 
     ``calibration = "formula"`` (reproduction default) uses ``EA_c = 2EI/((N+1)w²)`` unchanged;
     ``"cantilever"`` scales it by EI/EI_eff of the cantilever test (sensitivity). ``form``: the
     elastic forces. ``"tendon"`` (default): exact tendon springs, which to first order equal the
-    co-rotational linear form of §4.1. ``"corotational"``: that linear form,
+    co-rotational linear form. ``"corotational"``: that linear form,
     ``F = −R̃ K [R̃ᵀ(r − c) − (r₀ − c₀)]`` (cross-check). ``"paper_literal"``: the paper's Eq. 12 as
     printed, ``F = −K (r − R̃ r₀)`` with the unrotated K of the undeformed lattice (sensitivity
     only; valid for small rotations). The two linear forms are loads
@@ -107,7 +107,7 @@ class LoopsDampingConfig(StrictModel):
 
 
 class LoopsCircuitConfig(StrictModel):
-    """``[loops]``: the circuits and their currents (§2, §3).
+    """``[loops]``: the circuits and their currents (Robb et al. 2022b, Eqs. 2–11).
 
     ``circuits``: names from A, B, C_x, C_y, D_x, D_y (F = B + D_x + D_y). ``sizing = "eq9"``:
     the Eq.-9 current of each circuit for this plate (A on the light branch with ``kappa``);
@@ -147,7 +147,7 @@ class LoopsCircuitConfig(StrictModel):
 
 
 class ThermalTable(StrictModel):
-    """``[thermal]``: constants of the wire sizing (§3, Table 2; Γ_r assumed, §9 item 13)."""
+    """``[thermal]``: constants of the wire sizing (Table 2; Γ_r assumed)."""
 
     T_eq_K: float = Field(default=420.0, gt=0)
     T_ref_K: float = Field(default=293.15, gt=0)
@@ -160,7 +160,7 @@ class ThermalTable(StrictModel):
 
 
 class LoopsControlConfig(StrictModel):
-    """``[control]`` of the slews (§6): Eq. 18 gains, target, allocation, sample period and the
+    """``[control]`` of the slews: Eq. 18 gains, target, allocation, sample period and the
     body-rate estimator (``"velocity_fit"``: least-squares rigid-velocity fit of the particle
     velocities, default; ``"finite_difference"``: backward difference of the estimated attitude,
     :mod:`magsail_mj.concepts.current_loops.attitude`)."""
@@ -182,7 +182,7 @@ class LoopsControlConfig(StrictModel):
 
 
 class ClassificationConfig(StrictModel):
-    """``[classification]``: thresholds of the proposed run classification (§4.6)."""
+    """``[classification]``: thresholds of the proposed run classification."""
 
     rigid_residual_frac: float = Field(default=0.005, gt=0)
     rigid_angle_tol_deg: float = Field(default=3.0, gt=0)
@@ -226,7 +226,7 @@ class CurrentLoopsConfig(StrictModel):
         sc = self.scenario
         if sc == "sweep":
             if self.orbit.enabled:
-                raise ValueError("scenario 'sweep' runs in free space (§5): set orbit.enabled = false")
+                raise ValueError("scenario 'sweep' runs in free space: set orbit.enabled = false")
             if self.field.model != "constant":
                 raise ValueError(
                     f"field.model: scenario 'sweep' needs 'constant' (uniform fixed field), got {self.field.model!r}"
@@ -316,7 +316,7 @@ class CurrentLoopsConfig(StrictModel):
 
 
 def loop_currents(cfg: CurrentLoopsConfig) -> tuple[np.ndarray, list[dict[str, Any]]]:
-    """Full current of every circuit (A) and the sizing record of each (§3 item 1)."""
+    """Full current of every circuit (A) and the sizing record of each (Robb et al. 2022b, Eqs. 2–11)."""
     names = cfg.loops.expanded()
     if cfg.loops.sizing == "fixed":
         cur = np.broadcast_to(np.asarray(cfg.loops.current_A, dtype=float), (len(names),)).copy()

@@ -1,4 +1,4 @@
-"""Lorentz forces on current-carrying circuits in a uniform field (current-loops spec §4.5, Eq. 16).
+"""Lorentz forces on current-carrying circuits in a uniform field (Eq. 16).
 
 For every directed segment e = (a → b) of circuit L with multiplicity s_e (world frame, SI)::
 
@@ -17,7 +17,7 @@ Segments of all circuits are stacked once (:class:`CircuitSegments`); each evalu
 array operations and three ``np.bincount`` scatters, with no Python loop over segments.
 
 The self-field of the wires is neglected in the dynamics; :func:`self_field_max_T` is the
-diagnostic of §4.5 (Eq. 17).
+diagnostic (Eq. 17).
 """
 
 from __future__ import annotations

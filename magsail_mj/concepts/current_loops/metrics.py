@@ -1,4 +1,4 @@
-r"""Probes and metrics of the current-loops runs (current-loops spec §4.6, §5, §6, §7.2).
+r"""Probes and metrics of the current-loops runs.
 
 Flexible runs record the node positions (every ``record_every`` steps), the kinetic energy and
 the work ledger (Lorentz work and damping work, exact for forces held over a step). From them:
@@ -12,7 +12,7 @@ the work ledger (Lorentz work and damping work, exact for forces held over a ste
 * energy balance ``E_kin + U − W_Lorentz − W_damping`` relative to the largest ``|W_Lorentz|``;
 * the rigid-body reference (:mod:`magsail_mj.concepts.current_loops.rigid_reference`) with the realised
   dipole, its rotation angle and the flexible run's largest deviation from it;
-* classification (§4.6, thresholds in ``[classification]``): *collapsed* if ρ_max > 0.1 D, or
+* classification (thresholds in ``[classification]``): *collapsed* if ρ_max > 0.1 D, or
   the largest strain > 0.5, or h_max > 5 w; *rigid_like* if ρ_max < 0.005 D and the rotation
   stays within 3° of the rigid reference; otherwise *flexible*.
 
@@ -423,7 +423,7 @@ def classify(
     h_max: float,
     dev_max: float,
 ) -> str:
-    """§4.6: ``collapsed`` if ρ_max > f_c D or the strain > ε_c or h_max > n_c w (w = D / N);
+    """Classification: ``collapsed`` if ρ_max > f_c D or the strain > ε_c or h_max > n_c w (w = D / N);
     ``rigid_like`` if ρ_max < f_r D and the rotation stays within the angle tolerance of the rigid
     reference (``dev_max`` [rad]); else ``flexible``."""
     D = side_m
@@ -454,7 +454,7 @@ def sweep_metrics(
     side_m: float,
     units: int,
 ) -> Metrics:
-    """§5 metrics of a constant-current run in the fixed field ``field_world_T`` [T]: the rigid
+    """Metrics of a constant-current run in the fixed field ``field_world_T`` [T]: the rigid
     reference with the realised dipole m = Σ I_L a_L [A m²], the flexible run's deviation from it,
     the dipole–field angle at the time of maximum strain energy, the energy balance
     E_kin + U − W_Lorentz − W_damping (relative to max |W_Lorentz|; ``work_names`` order the
@@ -538,7 +538,7 @@ def sweep_metrics(
 
 
 def slew_metrics(rec: dict[str, np.ndarray], *, areas_body_m2: np.ndarray) -> Metrics:
-    """§6 attitude metrics of a slew: error 2 arccos|q_e,w| [rad], times below 5° and 2°, largest
+    """Attitude metrics of a slew: error 2 arccos|q_e,w| [rad], times below 5° and 2°, largest
     error after first reaching 5°, saturation fraction, torques, achieved dipole Σ I_L a_L [A m²]
     and the largest current per axis [A]."""
     t = rec["t"]

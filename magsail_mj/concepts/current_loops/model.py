@@ -1,6 +1,6 @@
 """Model builder of the current-loops concept: config → lattice, masses, springs, circuits → MjSpec.
 
-Spec current-loops.md §1–§3. The lattice and its springs are the truss concept's
+Robb et al. 2022b. The lattice and its springs are the truss concept's
 (:mod:`magsail_mj.lattice.geometry`, :func:`magsail_mj.lattice.properties.strut_stiffness`,
 :func:`magsail_mj.lattice.mjcf.build_truss_spec`) with uniform particle masses and no tendon
 damping; the circuits are :mod:`magsail_mj.geometry.current_loops`. ``slew_rigid`` uses one free

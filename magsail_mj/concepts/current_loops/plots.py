@@ -1,4 +1,4 @@
-"""Plots of the current-loops runs (spec §5 "Outputs per run", §6 "Outputs").
+"""Plots of the current-loops runs ("Outputs per run", "Outputs").
 
 Every function takes the run's series (``t`` [s] and the keys of
 :mod:`magsail_mj.concepts.current_loops.metrics`) and the lattice and circuits it draws, writes
@@ -20,7 +20,7 @@ from magsail_mj.plotting import new_figure, save_figure
 __all__ = ["structural_plots", "sweep_plots", "slew_plots", "snapshot_figure", "LOOP_COLOURS"]
 
 LOOP_COLOURS = {0: "tab:red", 1: "tab:green", 2: "tab:blue"}
-"""x-loops red (our choice), y-loops green and z-loops blue (the paper's colours), spec §2.6."""
+"""x-loops red (our choice), y-loops green and z-loops blue (the paper's colours)."""
 
 
 def _save(fig, path: Path) -> Path:
@@ -100,7 +100,7 @@ def structural_plots(
 
 
 def sweep_plots(run_dir: Path, series: dict[str, np.ndarray]) -> list[Path]:
-    """§5: ``rotation.png`` (flexible and rigid rotation angle, dipole–field angle) and
+    """Sweep runs: ``rotation.png`` (flexible and rigid rotation angle, dipole–field angle) and
     ``energy_balance.png`` (Lorentz work, damping dissipation, residual)."""
     run_dir = Path(run_dir)
     t = series["t"]
@@ -124,7 +124,7 @@ def sweep_plots(run_dir: Path, series: dict[str, np.ndarray]) -> list[Path]:
 
 
 def slew_plots(run_dir: Path, series: dict[str, np.ndarray]) -> list[Path]:
-    """§6: ``attitude.png`` (error, ZYX Euler angles), ``rates.png``, ``currents.png`` (dots:
+    """Slews: ``attitude.png`` (error, ZYX Euler angles), ``rates.png``, ``currents.png`` (dots:
     saturated), ``dipole.png`` (commanded and achieved) and ``torques.png`` (magnetic and
     gravity-gradient torque about the centre of mass)."""
     run_dir = Path(run_dir)

@@ -1,4 +1,4 @@
-r"""Rigid-body reference of a plate carrying a body-fixed dipole in a uniform field (current-loops §4.6).
+r"""Rigid-body reference of a plate carrying a body-fixed dipole in a uniform field.
 
 Euler's equations in body axes with the magnetic torque and the attitude as a rotation matrix
 (body → world):

@@ -2,15 +2,15 @@
 
 Spec: current-loops.md. :class:`LoopsScenario` is the shared base (model, environment, fixed
 field, runner, outputs); :class:`FlexibleLoopsTask` adds the flexible plate's loads (Lorentz
-forces §4.5, tidal gravity, Caughey modal damping §4.4, work ledger), strain check and structural
+forces (Eq. 16), tidal gravity, Caughey modal damping (Eq. 15), work ledger), strain check and structural
 post-processing. Each kind is registered by name (:func:`magsail_mj.concepts.register_task`):
 
 ==============  ======================  ===================================================
 ``scenario``    class                   what it runs
 ==============  ======================  ===================================================
-``sweep``       :class:`LoopsSweepTask`      free flexible plate, constant currents, fixed field (§5)
-``slew``        :class:`LoopsSlewTask`       flexible plate in orbit under quaternion PD (§6)
-``slew_rigid``  :class:`LoopsRigidSlewTask`  the rigid-body surrogate of the slew (§6)
+``sweep``       :class:`LoopsSweepTask`      free flexible plate, constant currents, fixed field
+``slew``        :class:`LoopsSlewTask`       flexible plate in orbit under quaternion PD
+``slew_rigid``  :class:`LoopsRigidSlewTask`  the rigid-body surrogate of the slew
 ==============  ======================  ===================================================
 
 Registration is :func:`magsail_mj.concepts.register_task` keyed by ``("current_loops", scenario)``;
@@ -122,10 +122,10 @@ class _CircuitOrder:
 def slew_controller(
     cfg: CurrentLoopsConfig, lm: LoopsModel, *, field_world_T: np.ndarray | None
 ) -> tuple[LoopAttitudeController, np.ndarray]:
-    """The §6 slew controller (Eq. 18 gains, corrected dipole command, per-axis current allocation)
+    """The slew controller (Eq. 18 gains, corrected dipole command, per-axis current allocation)
     and the circuit index of the x, y, z axes.
 
-    Common dipole limit m_max = μ σ D⁴ / (8 B0 R_E³) [A m²] (§6), the dipole every Eq.-9 circuit
+    Common dipole limit m_max = μ σ D⁴ / (8 B0 R_E³) [A m²], the dipole every Eq.-9 circuit
     has at full current; per-axis current limits are the circuits' full currents [A].
     ``field_world_T``: the fixed field [T] (``None``: the orbit's ``B_eci``).
     """
@@ -349,7 +349,7 @@ class FlexibleLoopsTask(LoopsScenario):
         return self._modes
 
     def damping_info(self) -> dict[str, Any]:
-        """Schedule, ω range and the RK4 stability products 2 ξ ω_max Δt (§4.4)."""
+        """Schedule, ω range and the RK4 stability products 2 ξ ω_max Δt (Robb et al. 2022b, Eq. 15)."""
         d = self.cfg.damping
         md = self.modes()
         omega = np.asarray(md.omega)
@@ -477,7 +477,7 @@ class FlexibleLoopsTask(LoopsScenario):
 
 @register_task("current_loops", "sweep")
 class LoopsSweepTask(FlexibleLoopsTask):
-    """§5: the free flexible plate in a uniform constant field, constant circuit currents (the
+    """Sweep: the free flexible plate in a uniform constant field, constant circuit currents (the
     Eq.-9 sizing by default), compared with the rigid body carrying the realised dipole."""
 
     OVERLAY = ("strain_energy_J", "rotation_angle_deg")
@@ -510,7 +510,7 @@ class LoopsSweepTask(FlexibleLoopsTask):
 
 @register_task("current_loops", "slew")
 class LoopsSlewTask(FlexibleLoopsTask):
-    """§6: the flexible plate in orbit under quaternion PD with the corrected dipole command and
+    """Slew: the flexible plate in orbit under quaternion PD with the corrected dipole command and
     per-axis current allocation over the circuits (one per axis)."""
 
     OVERLAY = ("error_angle_deg", "strain_energy_J")
@@ -554,7 +554,7 @@ class LoopsSlewTask(FlexibleLoopsTask):
 
 @register_task("current_loops", "slew_rigid")
 class LoopsRigidSlewTask(LoopsScenario):
-    """§6: the rigid-body surrogate of the slew: one body with the undeformed lattice's inertia,
+    """Rigid slew: the rigid-body surrogate of the slew: one body with the undeformed lattice's inertia,
     dipole torque (R Σ I_L a_L) × B, classical gravity-gradient torque (``gravity.tidal``)."""
 
     OVERLAY = ("error_angle_deg",)

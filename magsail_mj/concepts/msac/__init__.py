@@ -1,12 +1,11 @@
 r"""The MSAC concept (``msac``): the concept module: it registers the config
 schema and the tasks.
 
-Spec ``msac.md``. A bus turns itself with no wheels and no external torque by bending its two
-point-symmetric wings one way while they are extended and back while they are contracted
-(§0, §2). Scenario ids (§5.5):
+Vedant & Allison 2019. A bus turns itself with no wheels and no external torque by bending its two
+point-symmetric wings one way while they are extended and back while they are contracted. Scenario ids:
 
-* ``lumped`` — analytic only: Eqs. (6)–(7) (with the §3.2 sign correction) and the exact planar
-  model (§3.3) for the configured geometry; no MuJoCo steps.
+* ``lumped`` — analytic only: Eqs. (6)–(7) (with the sign correction) and the exact planar
+  model for the configured geometry; no MuJoCo steps.
 * ``multibody`` — the MuJoCo model driven along the cycle (``paper_1khz``,
   ``paper_1khz_stroke10``, ``slow_1hz``, ``lumped_limit``, ``mirror_wings`` …).
 * ``sweep`` — a base config plus a ``[sweep]`` table: the listed keys are set to each point's
@@ -17,7 +16,7 @@ cycle, planar model, analytic references) :mod:`magsail_mj.concepts.msac.model`;
 per scenario kind :mod:`magsail_mj.concepts.msac.tasks`; the runner
 :mod:`magsail_mj.concepts.msac.runner`; plots :mod:`magsail_mj.concepts.msac.plots`.
 
-Frames: the MuJoCo world is inertial (free space, gravity off, no orbit, §1). The bus yaw ``ψ``
+Frames: the MuJoCo world is inertial (free space, gravity off, no orbit). The bus yaw ``ψ``
 is about world Z; the wing angle ``φ`` is the hinge angle relative to the bus; ``s`` the slide
 of the whole rigid wing (``extension_model = "rigid_slide"``). Units SI; config angles in
 degrees at the edge (``*_deg``).

@@ -46,7 +46,7 @@ __all__ = [
 
 Vec3 = tuple[float, float, float]
 
-#: Inputs the paper states (spec §5.1); every other physical parameter is a placeholder (§5.2).
+#: Inputs the paper states; every other physical parameter is a placeholder.
 PAPER_VALUES: dict[str, Any] = {
     "wings.length_m": 8.0,
     "wings.width_m": 3.0,
@@ -78,7 +78,7 @@ PLACEHOLDERS = (
 
 
 class BusConfig(StrictModel):
-    """``[bus]``: uniform box (spec §5.2 placeholders).
+    """``[bus]``: uniform box (placeholders).
 
     ``inertia_scale`` multiplies all three box moments (only ``I_zz`` enters the planar motion;
     scaling all three keeps the inertia physically valid, e.g. ×1000 for the lumped limit T5).
@@ -96,7 +96,7 @@ class BusConfig(StrictModel):
 
 
 class WingsConfig(StrictModel):
-    """``[wings]``: two rigid wings, each one rigid slide + one hinge (spec §5.2, §5.4).
+    """``[wings]``: two rigid wings, each one rigid slide + one hinge.
 
     ``hinge_offset_m`` is ``r0`` (default: the ±X face of the 2 m bus). ``layout = "mirror"``
     only for the negative test T4. ``root_*``: the hinge-body placeholder inertial (above
@@ -118,7 +118,7 @@ class WingsConfig(StrictModel):
 
 
 class CycleConfig(StrictModel):
-    """``[cycle]``: the four-phase path (spec §2, §5.5).
+    """``[cycle]``: the four-phase path.
 
     ``s_e = extension_frac·ℓ``, ``s_c = −contraction_frac·ℓ`` (the rest length is ``s = 0``).
     ``phase_fractions`` are ``(t_be, t_c, t_bc, t_e)/Δt``. ``pattern`` selects the T2/T3 test
@@ -142,7 +142,7 @@ class CycleConfig(StrictModel):
 
 
 class DriveConfig(StrictModel):
-    """``[drive]`` (spec §5.3–5.4): ``held_torque`` = native rollout of the settled
+    """``[drive]``: ``held_torque`` = native rollout of the settled
     computed-torque cycle's torques, each held over its step, with a once-per-cycle trim and no
     servos (momentum conserved to round-off, :mod:`magsail_mj.concepts.msac.drive`); ``replay`` =
     the same torques plus joint servos, which leak momentum under RK4; ``computed_torque`` =
@@ -199,7 +199,7 @@ class ActuatorsConfig(StrictModel):
 
 
 class PostConfig(StrictModel):
-    """``[post]`` (spec §6): discarded start-up cycles, low-pass filter, edge discard, windows."""
+    """``[post]``: discarded start-up cycles, low-pass filter, edge discard, windows."""
 
     discard_cycles: int = Field(default=1, ge=0)
     lowpass_order: int = Field(default=4, ge=1, le=10)
@@ -364,7 +364,7 @@ def _positive_product(key: str, a: float, b: float, *, what: str, others: tuple[
 
 
 def make_path(cfg: MsacConfig) -> CyclePath:
-    """The cycle of a config (spec §2): ``φa``, ``φb`` from degrees, ``s`` from fractions of ℓ."""
+    """The cycle of a config: ``φa``, ``φb`` from degrees, ``s`` from fractions of ℓ."""
     c, l = cfg.cycle, cfg.wings.length_m
     return CyclePath(
         phi_a_rad=math.radians(c.bend_a_deg),

@@ -1,4 +1,4 @@
-r"""The MSAC four-phase shape cycle as smooth joint trajectories (spec ``msac.md`` §2, §5.4).
+r"""The MSAC four-phase shape cycle as smooth joint trajectories.
 
 Shape coordinates of one wing (both wings are driven with the same values):
 
@@ -7,7 +7,7 @@ Shape coordinates of one wing (both wings are driven with the same values):
   ``s = 0`` is the rest length, ``s_e > s_c`` are the extended and contracted values.
 
 A cycle of period ``Δt`` visits four waypoints ``P0 → P1 → P2 → P3 → P0`` of the ``(phi, s)``
-plane, one straight segment per phase. The MSAC path of spec §2 is
+plane, one straight segment per phase. The paper's MSAC path is
 
 ====== ================= ===================== ==========================
 phase  from → to          motion                duration
@@ -26,12 +26,12 @@ segment with a blend ``S(u)``:
     \dot q = \frac{S'(u)}{T_j}(P_{j+1}-P_j),\quad
     \ddot q = \frac{S''(u)}{T_j^2}(P_{j+1}-P_j).
 
-``min_jerk`` is the quintic ``S = 10u³ − 15u⁴ + 6u⁵`` of spec §5.4 (``S' = S'' = 0`` at both
+``min_jerk`` is the quintic ``S = 10u³ − 15u⁴ + 6u⁵`` (``S' = S'' = 0`` at both
 ends, so position, velocity and acceleration are continuous across phases); ``cubic``
 (``3u² − 2u³``, velocity-continuous) and ``cosine`` (``(1 − cos πu)/2``) exist to test that the
-per-cycle rotation depends only on the path, not its timing (spec §3.3).
+per-cycle rotation depends only on the path, not its timing.
 
-Patterns (the waypoint sets, spec §7):
+Patterns (the waypoint sets):
 
 * ``msac`` — the cycle above;
 * ``reversed`` — the same loop traversed backwards, segment durations reversed too (bend while
@@ -65,7 +65,7 @@ __all__ = [
 Blend = Literal["min_jerk", "cubic", "cosine"]
 Pattern = Literal["msac", "reversed", "bend_only", "extend_only"]
 
-#: On-screen names of the four phases of the ``msac`` pattern (spec §2).
+#: On-screen names of the four phases of the ``msac`` pattern.
 PHASE_LABELS = ("I→II bend (extended)", "II→III contract", "III→IV bend back (contracted)", "IV→I extend")
 
 
@@ -115,7 +115,7 @@ class CyclePath:
 
     Attributes:
       phi_a_rad: bend limit ``φa`` (start of the cycle) [rad].
-      phi_b_rad: bend limit ``φb`` [rad]; signed (spec §3.2: the stroke is ``φa − φb``).
+      phi_b_rad: bend limit ``φb`` [rad]; signed (the stroke is ``φa − φb``).
       s_e_m: extended slide value ``se`` [m].
       s_c_m: contracted slide value ``sc`` [m] (``sc < se`` for a non-degenerate cycle).
       period_s: cycle period ``Δt = 1/f`` [s].

@@ -1,4 +1,4 @@
-r"""Drives of the MSAC shape joints along a prescribed cycle (spec ``msac.md`` §5.3–5.4).
+r"""Drives of the MSAC shape joints along a prescribed cycle.
 
 Both wings get the same joint values; the shape vector is ``q_s = (φ, s, φ, s)`` in the joint
 order ``w1_bend, w1_ext, w2_bend, w2_ext`` of :mod:`magsail_mj.concepts.msac.mjcf`.
@@ -27,7 +27,7 @@ increment of the step (using ``q̈_des(t_k)`` would lag the path by half a step)
 Replay (no Python per step)
 ---------------------------
 The shape torques are periodic once the loop has settled, because nothing in the dynamics
-depends on the bus yaw (spec §5.3, option 1). :func:`replay_table` runs the computed-torque
+depends on the bus yaw (option 1). :func:`replay_table` runs the computed-torque
 loop for a few cycles from the initial state and keeps the torques of the last cycle
 (one value per step). The replay control of step ``k`` is then
 ``[τ_s(k mod N)/g, (u(t_{k+1}) − u(t_k))/δt]``: the feed-forward torque and the rate of the
@@ -116,7 +116,7 @@ def desired_shape(path: CyclePath, t: np.ndarray | float) -> tuple[np.ndarray, n
 
 
 def set_initial_state(model: mujoco.MjModel, data: mujoco.MjData, path: CyclePath) -> None:
-    """Reset ``data`` and put the shape joints on the Phase I values at rest (spec §5.4).
+    """Reset ``data`` and put the shape joints on the Phase I values at rest.
 
     ``φ = φa``, ``s = se`` (the first waypoint of the path), all velocities zero, bus at the
     origin with identity attitude, ``time = 0``, servo set-points (``act``) at ``u(0)``; then

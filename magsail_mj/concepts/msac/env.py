@@ -1,4 +1,4 @@
-r"""dm_control environment of the MSAC panel cycle (``msac/cycle``, spec ``msac.md``).
+r"""dm_control environment of the MSAC panel cycle (``msac/cycle``, Vedant & Allison 2019).
 
 A bus with two point-symmetric wings turns itself by bending the wings one way while extended and
 back while contracted. The plant is the scenario's own native-speed runner
@@ -37,7 +37,7 @@ are rigid: no structural-health observation.
 Reward per step: ``r = d Δψ/|θ_ref| − w_u mean(((a − a_0)/(a_max − a_min))²)``, with ``Δψ`` the yaw
 turned during the step, ``d = ±1`` the task's direction (task option ``direction``; default the sign of
 the configured cycle's rotation), ``θ_ref`` = ``cycles_per_step`` × the exact per-cycle rotation of the
-configured cycle (spec §3.3), so the settled shipped cycle earns 1 per step, and ``a_0`` the configured
+configured cycle, so the settled shipped cycle earns 1 per step, and ``a_0`` the configured
 cycle's action (``w_u`` of the task's ``reward_weights``).
 
 Termination: a diverged rollout ends the episode with discount 0; the time limit (``sim.duration_s``)

@@ -1,11 +1,11 @@
 r"""MSAC post-processing: yaw from quaternions, stroboscopic increments, filtering, secular rate.
 
-Spec ``msac.md`` §6. Conventions: quaternions scalar-first ``[w, x, y, z]`` (MuJoCo) describing
+Conventions: quaternions scalar-first ``[w, x, y, z]`` (MuJoCo) describing
 the bus-to-world rotation; the motion is planar about world Z, so the bus yaw is
 ``ψ = 2·atan2(q_z, q_w)`` (exact for a rotation about Z; for a general rotation it is the yaw
 of the swing–twist decomposition about Z), unwrapped along time.
 
-Secular rate, two estimates (spec §6):
+Secular rate, two estimates:
 
 1. :func:`secular_rate_fit`: the least-squares slope of the unwrapped stroboscopic yaw
    against time, ``ω̂ = Σ(t−t̄)(ψ−ψ̄) / Σ(t−t̄)²``;
@@ -67,7 +67,7 @@ def unwrapped_yaw(quat: np.ndarray) -> np.ndarray:
 def omega_world(quat: np.ndarray, omega_body: np.ndarray) -> np.ndarray:
     r"""World-frame angular velocity ``ω_w = R(q) ω_b`` of (…, 4) quaternions and (…, 3) rates.
 
-    MuJoCo's free-joint ``qvel[3:6]`` is the angular velocity in body axes (spec §5.4).
+    MuJoCo's free-joint ``qvel[3:6]`` is the angular velocity in body axes.
     """
     R = quat_to_matrix(np.asarray(quat, dtype=float), normalise=True)
     return np.einsum("...ij,...j->...i", R, np.asarray(omega_body, dtype=float))
@@ -93,7 +93,7 @@ def cycle_increments(yaw_strobe: np.ndarray, *, discard: int = 1) -> CycleIncrem
 
     Args:
       yaw_strobe: (K+1,) unwrapped yaw at the start of each cycle.
-      discard: leading increments excluded from the mean (spec §5.3 start-up transient).
+      discard: leading increments excluded from the mean (start-up transient).
     """
     y = np.asarray(yaw_strobe, dtype=float)
     if y.ndim != 1:

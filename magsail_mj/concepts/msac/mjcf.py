@@ -1,6 +1,6 @@
 r"""MjSpec builder of the MSAC multibody model: a free bus and two hinged, sliding wings.
 
-Spec ``msac.md`` §5.4. The tree is::
+The tree is::
 
     world
       bus            freejoint; explicit box inertial; box geom (visual)
@@ -19,24 +19,24 @@ Spec ``msac.md`` §5.4. The tree is::
                                       the negative test T4)
           … w2_bend, w2, w2_ext as for wing 1 …
 
-Frames: the MuJoCo world is inertial (spec §1: free space, no orbit, gravity 0, contacts off).
+Frames: the MuJoCo world is inertial (free space, no orbit, gravity 0, contacts off).
 Each wing lies in its body's X–Z plane (length ``ℓ`` along local X, width ``w`` along Z, the
-thickness ``t`` along Y), so bending about Z is the transverse flap of spec §5.2. The hinge
+thickness ``t`` along Y), so bending about Z is the transverse flap. The hinge
 axis of wing 1 is world Z at ``φ = 0``; with the point-symmetric layout the system centre of
-mass stays at the bus centre for any common ``(φ, s)`` (spec §3.3).
+mass stays at the bus centre for any common ``(φ, s)``.
 
-Actuators (all unlimited: ``ctrllimited``/``forcelimited`` false, spec §5.4). For every shape
+Actuators (all unlimited: ``ctrllimited``/``forcelimited`` false). For every shape
 joint ``j`` (order ``w1_bend, w1_ext, w2_bend, w2_ext``):
 
 * ``j_ff``: a ``motor`` (feed-forward torque/force ``τ = g·ctrl``), actuator group 0. Its gear is
-  ``g = ff_gear`` (default 10⁶), not the spec's 1: MuJoCo treats any ``|ctrl| > mjMAXVAL = 10¹⁰``
+  ``g = ff_gear`` (default 10⁶), not 1: MuJoCo treats any ``|ctrl| > mjMAXVAL = 10¹⁰``
   as invalid and silently zeroes all controls for that step (warning ``BADCTRL``), and the
   prescribed motion needs hinge torques of ~10¹⁰ N m (more for faster or mirror-symmetric
   cycles). The force is the same; only the control is scaled;
 * ``j_servo``: a ``general`` actuator, ``gainprm = k_p``, ``biastype = affine``,
   ``biasprm = (0, −k_p, −k_d)``, i.e. ``τ = k_p (u − q) − k_d q̇``; with the set-point
-  ``u = q_des + (k_d/k_p) q̇_des`` this is ``k_p (q_des − q) + k_d (q̇_des − q̇)`` (spec §5.3
-  option 1). ``k_p = J ω_s²``, ``k_d = 2 J ω_s``, ``ω_s = servo_omega_dt / timestep``, ``J`` the
+  ``u = q_des + (k_d/k_p) q̇_des`` this is ``k_p (q_des − q) + k_d (q̇_des − q̇)`` (a PD servo
+  on the prescribed trajectory). ``k_p = J ω_s²``, ``k_d = 2 J ω_s``, ``ω_s = servo_omega_dt / timestep``, ``J`` the
   joint's own inertia (wing MOI about the hinge at rest length, ``m(ℓ²+t²)/12 + m(ℓ/2)²``, for
   the hinge; the wing mass for the slide). Actuator group 1, so a computed-torque run can switch
   the servos off with ``opt.disableactuator = 1 << 1``.

@@ -1,8 +1,8 @@
 r"""Model builder of the MSAC concept: config → model parameters → MjSpec
-(:mod:`magsail_mj.concepts.msac.mjcf`), the cycle path, the exact planar model (spec §3.3) and the analytic
-references (Eq. 6/7 and the exact model, spec §8).
+(:mod:`magsail_mj.concepts.msac.mjcf`), the cycle path, the exact planar model and the analytic
+references (Eq. 6/7 and the exact model).
 
-Frames: the MuJoCo world is inertial (free space, gravity off, no orbit, §1). The bus yaw ``ψ``
+Frames: the MuJoCo world is inertial (free space, gravity off, no orbit). The bus yaw ``ψ``
 is about world Z; the wing angle ``φ`` is the hinge angle relative to the bus; ``s`` the slide of
 the whole rigid wing. Units SI.
 """
@@ -46,7 +46,7 @@ def make_params(cfg: MsacConfig) -> MsacModelParams:
 
 
 def planar_model(params: MsacModelParams, *, inertia_scale: float = 1.0) -> PlanarMsac:
-    """The exact planar model (spec §3.3) with the MJCF's own inertias (incl. hinge bodies)."""
+    """The exact planar model with the MJCF's own inertias (incl. hinge bodies)."""
     return PlanarMsac(
         bus_izz_kgm2=float(params.bus_inertia_kgm2[2]) * inertia_scale,
         wing_mass_kg=params.wing_mass_kg,
@@ -81,7 +81,7 @@ class MsacModel:
         self.planar = planar_model(self.params, inertia_scale=scale)
 
     def references(self) -> dict[str, float]:
-        """Analytic summary entries: inertias, Eq. (6)/(7) and the exact model (spec §8)."""
+        """Analytic summary entries: inertias, Eq. (6)/(7) and the exact model."""
         cfg, P, path = self.cfg, self.planar, self.path
         wi = wing_inertias(P, s_e_m=path.s_e_m, s_c_m=path.s_c_m)
         theta_eq6 = lumped_theta(

@@ -1,4 +1,4 @@
-"""Plots of an MSAC run (spec ``msac.md`` §8, F1–F6).
+"""Plots of an MSAC run (F1–F6).
 
 F1 ``cycle_diagram.png`` (three cycles of φ, s and the bus yaw), F2 ``attitude_angles.png``
 (ZYX angles wrapped to [−π, π] and the unwrapped yaw), F3 ``omega_world.png`` (raw world-frame

@@ -1,8 +1,9 @@
 r"""MSAC reference models: the paper's lumped formula (corrected) and the exact planar model.
 
-Spec ``msac.md`` §3. All quantities SI; angles about world Z, positive counter-clockwise.
+Vedant & Allison 2019, Eqs. 1–7, and our exact reduced-order model.
+All quantities SI; angles about world Z, positive counter-clockwise.
 
-Lumped model (paper Eqs. 1, 6, 7, with the spec's sign correction §3.2)
+Lumped model (paper Eqs. 1, 6, 7, with our sign correction)
 -------------------------------------------------------------------------
 With the panel length frozen, ``I_sat ψ̇ + I_p φ̇ = 0``; adding the extended stroke
 (``φa → φb`` at ``I_e``) and the contracted stroke (``φb → φa`` at ``I_c``) gives
@@ -10,12 +11,12 @@ With the panel length frozen, ``I_sat ψ̇ + I_p φ̇ = 0``; adding the extended
 .. math::
     θ_γ = \frac{I_e - I_c}{I_{sat}}\,(φ_a - φ_b), \qquad ω_γ ≈ θ_γ / Δt .
 
-**Correction (spec §3.2).** The printed derivation mixes magnitude and signed notations; the
+**Correction (Vedant & Allison 2019, Eqs. 1–7).** The printed derivation mixes magnitude and signed notations; the
 formula is used here with the *signed* stroke ``φa − φb`` (a symmetric ±10° motion gives a
 non-zero result). ``I_e``, ``I_c`` are totals over all wings that move together (two wings:
-twice the per-wing values, spec §3.2) and ``I_sat`` is the bus alone.
+twice the per-wing values) and ``I_sat`` is the bus alone.
 
-Exact planar reduced-order model (spec §3.3)
+Exact planar reduced-order model
 --------------------------------------------
 Bus (MOI ``I_b`` about Z) with ``n = 2`` identical rigid wings arranged point-symmetrically
 (wing 2 = wing 1 rotated 180° about Z, same joint values), so the system centre of mass stays
@@ -33,7 +34,7 @@ momentum,
     N_φ = n\big[I_{cm} + I_r + m c^2 + m r_0 c \cos φ\big],\qquad
     N_s = n\,m\,r_0 \sin φ .
 
-(For ``m_r = I_r = 0`` this is the spec's equation.) ``D`` does not depend on ``ψ``, so
+(For ``m_r = I_r = 0`` this is the massless-rod form.) ``D`` does not depend on ``ψ``, so
 ``dψ = A_φ dφ + A_s ds`` with the connection ``A = −N/D`` depending on the shape only: the
 per-cycle rotation is the line integral ``∮ A·dq`` over the closed path in the ``(φ, s)``
 plane, independent of the timing (time-reparametrisation invariance), and zero for a path
@@ -145,7 +146,7 @@ class WingInertias:
     ``*_hinge``: about the hinge, ``I_cm + m c²`` (the model's ``I_e``, ``I_c`` of Eq. 6);
     ``*_centre``: about the bus centre with the wing undeflected, ``I_cm + m (r0 + c)²``;
     ``e_stretch``/``c_stretch``: the paper's uniformly stretched panel ``m ℓ'²/3`` with
-    ``ℓ' = ℓ + s`` (spec §3.3 "extension model note").
+    ``ℓ' = ℓ + s`` ("extension model note").
     """
 
     rest_hinge: float
@@ -179,7 +180,8 @@ def wing_inertias(model: PlanarMsac, *, s_e_m: float, s_c_m: float) -> WingInert
 def lumped_theta(*, I_e: float, I_c: float, I_sat: float, phi_a: float, phi_b: float) -> float:
     r"""Per-cycle rotation of the lumped model, ``θ_γ = (I_e − I_c)(φa − φb)/I_sat`` [rad].
 
-    Paper Eq. (6) in the spec's signed-stroke form (§3.2 correction). ``I_e``, ``I_c`` are the
+    Paper Eq. (6) in our signed-stroke form (the printed derivation mixes magnitudes and
+    signed angles). ``I_e``, ``I_c`` are the
     totals over the wings [kg m²]; ``I_sat`` the bus MOI [kg m²]; ``φa``, ``φb`` signed [rad].
     """
     if not I_sat > 0:

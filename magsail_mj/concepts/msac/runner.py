@@ -1,4 +1,4 @@
-r"""Native-speed runner of the MSAC multibody model (spec ``msac.md`` §5.3, §6).
+r"""Native-speed runner of the MSAC multibody model.
 
 The paper case is 1.2·10⁸ RK4 steps (600 s at 5 µs), so no Python function may run per step.
 :class:`MsacRunner` with ``method="replay"`` records one settled cycle of computed torques
@@ -302,7 +302,7 @@ class MsacRunner(SteppedRun):
         coordinates); it is zero at the start and the exact dynamics keep it zero (all drive
         forces are internal joint forces). Setting ``v_b ← v_b − M_bb⁻¹ p_b`` restores
         ``p_b = 0`` by changing only the bus velocity (a standard projection onto the invariant,
-        Hairer, Lubich & Wanner, *Geometric Numerical Integration*, §IV.4). The removed ``p_b``
+        Hairer, Lubich & Wanner, *Geometric Numerical Integration*, Sec. IV.4). The removed ``p_b``
         (the drift accumulated over the chunk) is kept in ``run_momentum_projection_*``.
         """
         m, nq, nv = self.model, self.nq, self.nv

@@ -1,7 +1,7 @@
 r"""MSAC tasks: one class per scenario kind (config key ``scenario``), registered by name.
 
-* ``"lumped"`` → :class:`LumpedTask`: analytic only, Eqs. (6)–(7) (with the §3.2 sign
-  correction) and the exact planar model (§3.3); no MuJoCo steps
+* ``"lumped"`` → :class:`LumpedTask`: analytic only, Eqs. (6)–(7) (with our sign
+  correction) and the exact planar model; no MuJoCo steps
   (:class:`magsail_mj.concepts.msac.runner.StaticRunner`).
 * ``"multibody"`` → :class:`MultibodyTask`: the MuJoCo model driven along the cycle by the
   native-rollout / computed-torque runner (:class:`magsail_mj.concepts.msac.runner.MsacRunner`).
@@ -80,7 +80,7 @@ class MsacTask(ABC):
         """The kind's summary keys and derived series from a run's result."""
 
     def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        """Summary (spec §8 and issue keys) and derived series (yaw, increments)."""
+        """Summary (and issue keys) and derived series (yaw, increments)."""
         summary, series = self.summarise(result)
         self.last_summary = summary
         return summary, series
@@ -236,7 +236,7 @@ def actuation_summary(sc: MsacModel, rec: Any) -> dict[str, Any]:
 def multibody_summary(
     sc: MsacModel, result: RunResult, ref: dict[str, float]
 ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Summary of a multibody run of the built MSAC ``sc`` (spec §6, §8): stroboscopic increments,
+    """Summary of a multibody run of the built MSAC ``sc``: stroboscopic increments,
     two secular-rate estimates, angular-momentum drift, peak actuator loads, tracking error;
     ``ref``: the analytic references (:meth:`MsacModel.references`)."""
     cfg, rec = sc.cfg, result.records

@@ -1,15 +1,15 @@
 r"""The gossamer reflector with a conducting support structure (concept ``reflector``): the
 concept module: it registers the config schema and the tasks.
 
-Spec: ``conducting-structure-reflector.md`` (Robb, McRobb, McInnes, AIAA SciTech 2020-0714). A
+Paper: Robb et al. 2020 (Robb, McRobb, McInnes, AIAA SciTech 2020-0714). A
 rigid square plate (:mod:`magsail_mj.concepts.reflector.mjcf`) whose truss carries two serpentine coils and an
 in-plane loop (:mod:`magsail_mj.geometry.reflector_coil`); each path acts as an ideal dipole along
-its axis limited to ``m_max = T_max / B_ref`` (§3.6; ``T_max`` from
+its axis limited to ``m_max = T_max / B_ref`` (Robb et al. 2020, Eqs. 1–4; ``T_max`` from
 :mod:`magsail_mj.analysis.coil_torque`). Two kinds of run (``kind``):
 
-* ``"detumble"`` — Scenario A (§5): constant field (inertial ``+Z``, A6; body-fixed as a
+* ``"detumble"`` — Scenario A: constant field (inertial ``+Z``, A6; body-fixed as a
   variant), B-dot law of :mod:`magsail_mj.concepts.reflector.bdot`, world = inertial, no orbit.
-* ``"pitch"`` — Scenario B (§6): polar dawn–dusk orbit, dipole field Eq. 11, steering law
+* ``"pitch"`` — Scenario B: polar dawn–dusk orbit, dipole field Eq. 11, steering law
   (:mod:`magsail_mj.control.reflector_steering`), quaternion feedback with projection ⟂ B and
   saturation (:mod:`magsail_mj.control.reflector_pitch`); optional gravity-gradient torque (B5).
 * ``"pitch_caps"`` — case B3: the whole cap sweep with bisection in one run
@@ -21,9 +21,9 @@ kind :mod:`magsail_mj.concepts.reflector.tasks`; metrics and plots
 :mod:`magsail_mj.concepts.reflector.metrics`, :mod:`magsail_mj.concepts.reflector.plots`.
 
 Configs live at ``magsail_mj/concepts/reflector/configs/<id>.toml`` (``detumble``, ``tracking_100g``, ``tracking_10g``
-and the §8.1 variants under ``detumble/`` and ``pitch/``). Torques enter through
+and the variants under ``detumble/`` and ``pitch/``). Torques enter through
 ``xfrc_applied`` (:class:`magsail_mj.loads.body_torque.HeldBodyTorqueLoad`), rewritten every
-step; the controller runs every integration step (zero-order hold, §2).
+step; the controller runs every integration step (zero-order hold).
 """
 
 from __future__ import annotations

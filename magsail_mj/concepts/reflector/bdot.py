@@ -1,4 +1,4 @@
-r"""B-dot detumbling of the rigid reflector plate with its two coil paths (reflector spec §5.3).
+r"""B-dot detumbling of the rigid reflector plate with its two coil paths.
 
 Body frame of the plate (``z`` = normal), SI units. The printed law (paper Eq. 8) is
 ``T_Bdot = k ω × B``. Laws (``law``):
@@ -12,7 +12,7 @@ Body frame of the plate (``z`` = normal), SI units. The printed law (paper Eq. 8
   does no work (|ω| changes only through ω × Iω coupling of the torque direction).
 * ``"norm_cap"``: ``T = sat_{T_max}(k (ω × B_b) × B_b)`` with ``sat_c(v) = v · min(1, c/|v|)``.
 
-Gain (§5.3): ``k = m_max / (B_ref ω_k)`` [A m² s/T per rad/s], so the dipole command saturates
+Gain: ``k = m_max / (B_ref ω_k)`` [A m² s/T per rad/s], so the dipole command saturates
 for ``|ω_⊥| ≳ ω_k``. Path currents ``I_path = I_max m_path / m_max`` (positive current = dipole
 along the path's +axis).
 """
@@ -55,7 +55,7 @@ class BdotCommand:
 
 
 class PlateBdotController:
-    """B-dot on the plate, run every integration step (zero-order hold, spec §2).
+    """B-dot on the plate, run every integration step (zero-order hold).
 
     Args:
       law: ``"dipole"``, ``"printed"`` or ``"norm_cap"`` (module docstring).
@@ -105,7 +105,7 @@ class PlateBdotController:
 
     @staticmethod
     def gain_from_omega_k(*, m_max_Am2: float, B_ref_T: float, omega_k_rad_s: float) -> float:
-        """``k = m_max / (B_ref ω_k)`` (§5.3)."""
+        """``k = m_max / (B_ref ω_k)``."""
         if not omega_k_rad_s > 0:
             raise ValueError(f"omega_k_rad_s: must be > 0 rad/s, got {omega_k_rad_s!r}")
         return m_max_Am2 / (B_ref_T * omega_k_rad_s)

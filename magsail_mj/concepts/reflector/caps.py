@@ -1,4 +1,4 @@
-r"""Case B3 of the reflector spec (§6.6): the smallest torque cap that keeps the pitch error below
+r"""Case B3 of the reflector pitch scenario: the smallest torque cap that keeps the pitch error below
 5° (and below 1°) throughout the run, for one areal density — one command runs the whole sweep.
 
 Procedure: caps ``c_k = 0.25 · 2^(k/2)`` N m, ``k = 0 … 16`` (0.25 to 64 N m), each a full

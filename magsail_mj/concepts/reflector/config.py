@@ -3,8 +3,8 @@ tables ``[sim]``, ``[plate]``, ``[coil]``, ``[field]``, ``[control]``, ``[orbit]
 ``[gravity]`` and ``[render]``, and the cross-table checks of a scenario kind (``kind`` =
 ``"detumble"``, ``"pitch"`` or ``"pitch_caps"``).
 
-Units are SI unless a key's suffix says otherwise (``_km``, ``_deg``); spec
-``conducting-structure-reflector.md``.
+Units are SI unless a key's suffix says otherwise (``_km``, ``_deg``); paper:
+Robb et al. 2020.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ Vec3 = tuple[float, float, float]
 
 class PlateConfig(StrictModel):
     """``[plate]``: side d, cell edge L, depth h (default L, A1), areal density σ, and the thickness t
-    used in the in-plane moments (default h; spec §4 caution). d must be a whole number n >= 2 of
+    used in the in-plane moments (default h; caution). d must be a whole number n >= 2 of
     cells L; the plate mass σ d² and its moments σ d² (d² + t²)/12, σ d⁴/6 must be finite and above
     mjMINVAL (1e-15)."""
 
@@ -104,7 +104,7 @@ class PlateConfig(StrictModel):
 
 class CoilConfig(StrictModel):
     """``[coil]``: column pitch p (A2), rows per column (default d/L), maximum current and the
-    reference field of the capability metric (§3.6)."""
+    reference field of the capability metric (Robb et al. 2020, Eqs. 1–4)."""
 
     pitch_cells: int = Field(default=2, ge=1)
     rows: int | None = Field(default=None, ge=1)
@@ -150,7 +150,7 @@ class ReflectorControlConfig(StrictModel):
 
 
 class ReflectorOrbitConfig(StrictModel):
-    """``[orbit]`` (Scenario B, §4, §6.1): altitude, Earth radius (A4), μ, ground-point rate (A5),
+    """``[orbit]`` (Scenario B, Robb et al. 2020, Table 1): altitude, Earth radius (A4), μ, ground-point rate (A5),
     nominal run length in orbits (sets the overhead time t_m = n_orbits T_orb / 2); the period and
     the run length must be finite."""
 
@@ -177,7 +177,7 @@ class ReflectorOrbitConfig(StrictModel):
 
 
 class ReflectorInitialConfig(StrictModel):
-    """``[initial]`` (Scenario A, §5.4): body rate and attitude (Scenario B starts on the reference)."""
+    """``[initial]`` (Scenario A): body rate and attitude (Scenario B starts on the reference)."""
 
     omega0_rad_s: Vec3 = (0.1 / math.sqrt(2.0), 0.1 / math.sqrt(2.0), 0.0)
     q0_wxyz: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)

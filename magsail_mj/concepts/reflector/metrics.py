@@ -1,4 +1,4 @@
-r"""Reflector post-processing: derived series and the flat ``summary.json`` keys (spec §5.5, §6.7, §8.2).
+r"""Reflector post-processing: derived series and the flat ``summary.json`` keys.
 
 Records are taken every ``sim.record_every`` steps; "first time" metrics are the first record at
 which the condition holds (``None`` if never).
@@ -6,13 +6,13 @@ which the condition holds (``None`` if never).
 Functions take the built plate (:class:`magsail_mj.concepts.reflector.model.ReflectorModel`:
 config, indices, inertia, capability, orbit) and the run's records.
 
-Detumble (§5.5): ``t_omega_below_1e-{2,3,4}_s`` (first |ω| below 10⁻², 10⁻³, 10⁻⁴ rad/s; the issue's
+Detumble: ``t_omega_below_1e-{2,3,4}_s`` (first |ω| below 10⁻², 10⁻³, 10⁻⁴ rad/s; the issue's
 ``time_rate_below_1e-3_s`` equals the middle one), ``omega_final_rad_s``,
 ``sat_fraction_{x,y}coil``, ``t_min_one_cap_s = |h₀| / T_max`` and ``t_min_two_caps_s =
 |h₀| / (√2 T_max)`` (both paths saturated, field ⟂ both dipoles), ``h_along_B_change_Nms``
 (change of h·B̂, world axes, which a magnetic torque cannot alter for an inertial field).
 
-Pitch (§6.7): attitude-error angle ``2 arccos|q_e,w|``; pitch ``ψ_act = π/2 − β_act`` with
+Pitch: attitude-error angle ``2 arccos|q_e,w|``; pitch ``ψ_act = π/2 − β_act`` with
 ``β_act = unwrap(atan2(R₁₃, R₁₁))``; ``t_err_above_{1,5}deg_s``, ``time_err_above_5deg_s``,
 ``err_max_rad``, ``err_rms_rad``, ``sat_fraction``, ``passes_over_cap`` (passes in which
 |T_ref| exceeds the cap), ``torque_ff_peak_Nm`` (max I₂|ψ̈| over the nominal run) and the issue's
@@ -163,7 +163,7 @@ def detumble_outputs(plate: ReflectorModel, result: RunResult) -> tuple[dict[str
 
 
 def reference_products(plate: ReflectorModel, *, dt_s: float = 1.0) -> dict[str, np.ndarray]:
-    """Reference-only series over the nominal run ``[0, n_orbits T_orb]`` on a ``dt_s`` grid (§6.7):
+    """Reference-only series over the nominal run ``[0, n_orbits T_orb]`` on a ``dt_s`` grid:
     ``t``, ``psi_c``, ``psi_wrapped``, ``psi_dot``, ``psi_ddot``, ``B`` (world, Eq. 11), and the
     feed-forward pitch torque ``I₂ |ψ̈|`` for σ = 100 and 10 g/m² (``torque_ff_sigma100``,
     ``torque_ff_sigma10``) and for the run's own density (``torque_ff``)."""
@@ -195,7 +195,7 @@ def pass_windows(plate: ReflectorModel, t_end: float) -> list[tuple[int, float, 
 
 
 def pass_table(plate: ReflectorModel, ref: dict[str, np.ndarray]) -> list[dict[str, Any]]:
-    """Per-pass table of the reference (§6.7): pass index k (0 = overhead), equator-crossing time,
+    """Per-pass table of the reference: pass index k (0 = overhead), equator-crossing time,
     peak |ψ̇|, peak |ψ̈|, peak required torque I₂|ψ̈| and minutes above the cap, for both densities."""
     t = ref["t"]
     dt = _dt_weights(t)

@@ -1,4 +1,4 @@
-r"""MjSpec builder of the rigid reflector plate (reflector spec §4, §5.1, §6.4).
+r"""MjSpec builder of the rigid reflector plate (Robb et al. 2020, Table 1).
 
 One body ``plate`` on a ``freejoint`` (position irrelevant; torques only), gravity off, the
 constraint pipeline off (:func:`magsail_mj.mjcf.common.free_space_spec`), explicit inertial at
@@ -10,13 +10,13 @@ Mass and inertia (paper Eq. 7, square plate of side ``d``, areal density ``σ``,
 
 The flat-plate tensor (``t = 0``) sits exactly on the triangle-inequality limit
 ``I₁ + I₂ = I₃``, which MuJoCo may reject after rounding; the in-plane moments therefore carry a
-thickness ``t`` (spec §4 caution; default ``t = h``, the lattice depth: relative change
+thickness ``t`` (default ``t = h``, the lattice depth: relative change
 ``t²/d² = 10⁻⁴`` for 1 m on 100 m). :func:`plate_mass_properties` returns the values used.
 
 Visual geoms (massless, no contacts): a thin two-coloured plate (front face ``+z`` silver,
 back face dark), a simplified coil drawing (every k-th column of the y-coil (orange) and of the
 x-coil (cyan), the in-plane loop outline (magenta); drawing all 20 000 segments would exceed the
-scene budget, spec §7), the grey line along body ``x`` (dark grey) and the normal (blue).
+scene budget), the grey line along body ``x`` (dark grey) and the normal (blue).
 
 Display markers: massless-looking bodies on ``ball`` joints at the world origin, each with an
 arrow along its local ``+z`` (``kind = "arrow"``) or a line through the origin along its local
@@ -84,7 +84,7 @@ def plate_mass_properties(*, side_m: float, areal_density_kg_m2: float, thicknes
 
 @dataclass(frozen=True)
 class PlateModelParams:
-    """Inputs of :func:`build_plate_spec` (SI units; defaults: reflector spec §4 baseline).
+    """Inputs of :func:`build_plate_spec` (SI units; defaults: baseline).
 
     Attributes:
       side_m: plate side d; cell_m: cell edge L; depth_m: lattice depth h (A1: = L).

@@ -3,7 +3,7 @@ assembles (controllers, orbit, initial state).
 
 A rigid square plate (:mod:`magsail_mj.concepts.reflector.mjcf`) whose truss carries two serpentine coils and an
 in-plane loop (:mod:`magsail_mj.geometry.reflector_coil`); each path acts as an ideal dipole along
-its axis limited to ``m_max = T_max / B_ref`` (spec §3.6; ``T_max`` from
+its axis limited to ``m_max = T_max / B_ref`` (Robb et al. 2020, Eqs. 1–4; ``T_max`` from
 :mod:`magsail_mj.analysis.coil_torque`). Frames: body = plate principal axes (z = plate normal);
 world = inertial (Scenario A) or the paper's xyz orbit frame (Scenario B). Quaternions scalar-first,
 body → world.
@@ -67,7 +67,7 @@ PITCH_MARKERS: tuple[MarkerSpec, ...] = (
 
 @dataclass(frozen=True)
 class CoilCapability:
-    """Geometric actuator figures of a config (§3.6): ``T_max`` of the coil paths and the in-plane
+    """Geometric actuator figures of a config (Robb et al. 2020, Eqs. 1–4): ``T_max`` of the coil paths and the in-plane
     loop [N m], its side [m], the per-path dipole limits [A m²] and the cap used by the controller."""
 
     T_max_ycoil_Nm: float
@@ -143,7 +143,7 @@ class ReflectorModel:
 
     @cached_property
     def orbit(self) -> ReflectorOrbit:
-        """Scenario B orbit (§4, §6.1) of ``[orbit]`` and ``field.B0_T``."""
+        """Scenario B orbit (Robb et al. 2020, Table 1) of ``[orbit]`` and ``field.B0_T``."""
         o = self.cfg.orbit
         return ReflectorOrbit.from_altitude(
             altitude_m=o.altitude_km * 1e3,
@@ -160,7 +160,7 @@ class ReflectorModel:
         return self.cfg.field.magnitude_T or self.cfg.coil.B_ref_T
 
     def field_body_fn(self) -> Callable[[float, np.ndarray], np.ndarray]:
-        """``(t, R) → B_b`` of the constant-field cases (§5.2): ``B_b = Rᵀ B`` for an inertial field,
+        """``(t, R) → B_b`` of the constant-field cases: ``B_b = Rᵀ B`` for an inertial field,
         ``B_b = B`` for a body-fixed one (``R`` body → world)."""
         B = self.B_magnitude_T * np.asarray(self.cfg.field.direction, dtype=float)
         if self.cfg.field.frame == "body":
@@ -168,7 +168,7 @@ class ReflectorModel:
         return lambda t, R: R.T @ B
 
     def bdot_gain(self) -> float:
-        """B-dot gain k [A m² s / T²] from ``control.omega_k_rad_s`` (§5.3)."""
+        """B-dot gain k [A m² s / T²] from ``control.omega_k_rad_s``."""
         return PlateBdotController.gain_from_omega_k(
             m_max_Am2=self.cap.m_max_Am2[1],
             B_ref_T=self.cfg.coil.B_ref_T,
@@ -176,7 +176,7 @@ class ReflectorModel:
         )
 
     def bdot_controller(self) -> PlateBdotController:
-        """The Scenario A B-dot controller (§5.3), every integration step."""
+        """The Scenario A B-dot controller, every integration step."""
         cfg, c = self.cfg, self.cfg.control
         return PlateBdotController(
             law=c.law,
@@ -190,7 +190,7 @@ class ReflectorModel:
         )
 
     def pitch_controller(self) -> ReflectorPitchController:
-        """The Scenario B quaternion-feedback controller (§6.4), every integration step."""
+        """The Scenario B quaternion-feedback controller, every integration step."""
         cfg, c = self.cfg, self.cfg.control
         return ReflectorPitchController(
             orbit=self.orbit,
@@ -213,7 +213,7 @@ class ReflectorModel:
         return pitch_gains(self.inertia, omega_n_rad_s=c.omega_n_rad_s, zeta=c.zeta)
 
     def pitch_initial_state(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(q_ref(0), ω_ref(0) = −ψ̇(0) ŷ)`` [rad/s, body axes]: Scenario B starts on the reference (§6.4)."""
+        """``(q_ref(0), ω_ref(0) = −ψ̇(0) ŷ)`` [rad/s, body axes]: Scenario B starts on the reference."""
         ref = SteeringReference(self.orbit).at(0.0)
         return ref.q_ref, np.array([0.0, -ref.psi_dot, 0.0])
 

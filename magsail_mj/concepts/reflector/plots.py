@@ -1,4 +1,4 @@
-"""Plots of a reflector run (spec §5.5, §6.7): time in hours, caps as dashed lines.
+"""Plots of a reflector run: time in hours, caps as dashed lines.
 
 Detumble: ``body_rates.png`` (3 components), ``omega_norm.png`` (log), ``torque.png`` (components
 and |T| with the per-path cap), ``currents.png``, ``momentum.png`` (|h| with the bound

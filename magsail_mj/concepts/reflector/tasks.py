@@ -3,8 +3,8 @@ r"""Reflector tasks: one class per scenario kind (config key ``kind``), register
 =================  =====================  ==========================================================
 ``kind``           class                  run
 =================  =====================  ==========================================================
-``"detumble"``     :class:`DetumbleTask`   Scenario A (§5): constant field, B-dot, world inertial
-``"pitch"``        :class:`PitchTask`      Scenario B (§6): dawn–dusk orbit, steering + quaternion
+``"detumble"``     :class:`DetumbleTask`   Scenario A: constant field, B-dot, world inertial
+``"pitch"``        :class:`PitchTask`      Scenario B: dawn–dusk orbit, steering + quaternion
                                            feedback, optional gravity gradient (B5)
 ``"pitch_caps"``   :class:`PitchCapsTask`  case B3: the cap sweep with bisection
                                            (:class:`magsail_mj.concepts.reflector.caps.CapSweepRunner`)
@@ -13,7 +13,7 @@ r"""Reflector tasks: one class per scenario kind (config key ``kind``), register
 Every task builds its plate with :class:`magsail_mj.concepts.reflector.model.ReflectorModel` and
 runs through :class:`magsail_mj.sim.Simulation` (the cap sweep: one Simulation per cap). Torques
 enter through ``xfrc_applied`` (:class:`magsail_mj.loads.body_torque.HeldBodyTorqueLoad`),
-rewritten every step; the controller runs every integration step (zero-order hold, §2).
+rewritten every step; the controller runs every integration step (zero-order hold).
 Each class is registered with :func:`magsail_mj.concepts.register_task` keyed by
 ``("reflector", kind)``; :func:`magsail_mj.concepts.build_task` looks it up once.
 """
@@ -174,9 +174,9 @@ class ReflectorTask(ABC):
 
 @register_task("reflector", "detumble")
 class DetumbleTask(ReflectorTask):
-    """Scenario A (§5): constant field (inertial ``+Z``, A6; body-fixed as a variant), B-dot law of
+    """Scenario A: constant field (inertial ``+Z``, A6; body-fixed as a variant), B-dot law of
     :mod:`magsail_mj.concepts.reflector.bdot`, world = inertial, no orbit; starts from
-    ``initial.q0_wxyz``, ``initial.omega0_rad_s`` (§5.4)."""
+    ``initial.q0_wxyz``, ``initial.omega0_rad_s``."""
 
     markers = DETUMBLE_MARKERS
     camera_distance_sides = 3.0
@@ -232,10 +232,10 @@ class DetumbleTask(ReflectorTask):
 
 @register_task("reflector", "pitch")
 class PitchTask(ReflectorTask):
-    """Scenario B (§6): polar dawn–dusk orbit, dipole field Eq. 11, steering law
+    """Scenario B: polar dawn–dusk orbit, dipole field Eq. 11, steering law
     (:mod:`magsail_mj.control.reflector_steering`), quaternion feedback with projection ⟂ B and
     saturation (:mod:`magsail_mj.control.reflector_pitch`); optional gravity-gradient torque (B5).
-    Starts on the reference: ``q_ref(0)``, ``ω_ref(0) = −ψ̇(0) ŷ`` (§6.4)."""
+    Starts on the reference: ``q_ref(0)``, ``ω_ref(0) = −ψ̇(0) ŷ``."""
 
     markers = PITCH_MARKERS
 
@@ -295,7 +295,7 @@ class PitchTask(ReflectorTask):
             "title": f"reflector {cfg.scenario}: σ = {1e3 * cfg.plate.areal_density_kg_m2:g} g/m², "
             f"{cfg.control.rate_term} rate term",
             "overlay": ["psi_ref_deg", "psi_act_deg", "err_deg", "torque_pitch_Nm"],
-            "inset": "err_deg",  # §6.7: error inset
+            "inset": "err_deg",  # error inset
             "markers": {
                 "mk_sun": "Sun direction +y (yellow)",
                 "mk_ground": "towards the ground point (blue)",
@@ -323,7 +323,7 @@ class PitchTask(ReflectorTask):
 
 @register_task("reflector", "pitch_caps")
 class PitchCapsTask(PitchTask):
-    """Case B3 (§6.6): the whole cap sweep with bisection in one run; its runner
+    """Case B3: the whole cap sweep with bisection in one run; its runner
     (:class:`magsail_mj.concepts.reflector.caps.CapSweepRunner`) runs one
     :class:`magsail_mj.sim.Simulation` per cap. No gravity gradient."""
 

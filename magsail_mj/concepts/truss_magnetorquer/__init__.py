@@ -1,9 +1,9 @@
-"""The flexible truss concept (``truss_magnetorquer``), spec truss-magnetorquer-array.md.
+"""The flexible truss concept (``truss_magnetorquer``), Robb et al. 2022a.
 
 Importing this module registers the concept: its config schema
 (:mod:`magsail_mj.concepts.truss_magnetorquer.config`, :class:`TrussConfig`) and its tasks, one class per
-scenario kind (:mod:`magsail_mj.concepts.truss_magnetorquer.tasks`: ``dist_vs_central`` §6, ``cantilever``
-§2.7, ``free``, ``detumble`` §9.3, ``slew`` §9.4–9.6). The model builder is
+scenario kind (:mod:`magsail_mj.concepts.truss_magnetorquer.tasks`: ``dist_vs_central``, ``cantilever``,
+``free``, ``detumble``, ``slew``). The model builder is
 :mod:`magsail_mj.concepts.truss_magnetorquer.model`; metrics, orbital pieces and plots are
 :mod:`~magsail_mj.concepts.truss_magnetorquer.metrics`, :mod:`~magsail_mj.concepts.truss_magnetorquer.orbital` and
 :mod:`~magsail_mj.concepts.truss_magnetorquer.plots`.

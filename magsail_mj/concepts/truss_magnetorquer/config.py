@@ -1,7 +1,7 @@
-"""Config schema of the flexible truss concept (``truss_magnetorquer``), spec truss-magnetorquer-array.md.
+"""Config schema of the flexible truss concept (``truss_magnetorquer``), Robb et al. 2022a.
 
-Scenario kinds (``scenario``): ``dist_vs_central`` (§6), ``cantilever`` (§2.7), ``free``,
-``detumble`` (§9.3) and ``slew`` (§9.4–9.6); their tasks are in
+Scenario kinds (``scenario``): ``dist_vs_central`` (Robb et al. 2022a, Sec. 2), ``cantilever``, ``free``,
+``detumble`` and ``slew``; their tasks are in
 :mod:`magsail_mj.concepts.truss_magnetorquer.tasks`. Keys in SI units (suffixes name them).
 """
 
@@ -50,14 +50,14 @@ __all__ = [
 Vec3 = tuple[float, float, float]
 
 ORBITAL_CONTROL_KINDS = {"detumble": ("bdot", "open_loop"), "slew": ("quat_pd", "open_loop")}
-"""Scenario kinds driven by the magnetorquer rod array in orbit (spec §9.3–9.6) → the
+"""Scenario kinds driven by the magnetorquer rod array in orbit → the
 ``control.kind`` values each takes."""
 ORBITAL_SCENARIOS = tuple(ORBITAL_CONTROL_KINDS)
-"""Scenario kinds driven by the magnetorquer rod array in orbit (spec §9.3–9.6)."""
+"""Scenario kinds driven by the magnetorquer rod array in orbit."""
 
 
 class LatticeConfig(StrictModel):
-    """``[lattice]``: ``units`` cubes per side (N = units + 1 nodes per side, spec §12 E2)."""
+    """``[lattice]``: ``units`` cubes per side (N = units + 1 nodes per side)."""
 
     units: int = Field(ge=1, le=200)
     side_m: float = Field(gt=0)
@@ -72,7 +72,7 @@ class PointMass(StrictModel):
 
 
 class MassConfig(StrictModel):
-    """``[mass]``: total mass (``total_kg`` or ``areal_density_kg_m2`` × side²), spec §2.3."""
+    """``[mass]``: total mass (``total_kg`` or ``areal_density_kg_m2`` × side²)."""
 
     total_kg: float | None = Field(default=None, gt=0)
     areal_density_kg_m2: float | None = Field(default=None, gt=0)
@@ -90,7 +90,7 @@ class MassConfig(StrictModel):
 
 
 class StiffnessConfig(StrictModel):
-    """``[stiffness]``: target plate bending stiffness and its mapping (spec §2.5, §2.7).
+    """``[stiffness]``: target plate bending stiffness and its mapping.
 
     ``twist``: ``"lattice"`` (default) keeps every strut at the same EA, so the twist stiffness is
     whatever the strut pattern gives; ``"plate"`` (a sensitivity variant) scales the face diagonals
@@ -115,20 +115,20 @@ class StiffnessConfig(StrictModel):
 
 
 class DampingConfig(StrictModel):
-    """``[damping]``: strut damping ratio ζ_s (spec §2.6, §12 S5)."""
+    """``[damping]``: strut damping ratio ζ_s."""
 
     zeta_strut: float = Field(default=0.1, ge=0)
 
 
 class ActuatorsConfig(StrictModel):
-    """``[actuators]``: generic strut torquers (spec §3.1, §6.2) or magnetorquer rods (§3.2, §9.1).
+    """``[actuators]``: generic strut torquers or magnetorquer rods (Robb et al. 2022a, Table 2).
 
     ``kind = "generic"`` uses ``placement``, ``central_pair``, ``torque_axis``.
-    ``kind = "magnetorquer"``: rods in every top-layer x1- and y1-strut (§7.1, §12 O5), dipole
+    ``kind = "magnetorquer"``: rods in every top-layer x1- and y1-strut, dipole
     from ``kappa_Am2_kg`` [A m²/kg] × ``rod_mass_kg`` [kg] shared per ``rod_dipole_basis``
-    (``"per_family"``: κ_τ M_τ per family, 26.32 A m² per rod for the §9.1 truss; ``"total"``: κ_τ M_τ
-    over both families, 13.16 A m²; §12 item O4). The rod mass is part of ``mass.total_kg``,
-    spread uniformly over the particles (§12 item S4).
+    (``"per_family"``: κ_τ M_τ per family, 26.32 A m² per rod for the Table 2 truss; ``"total"``: κ_τ M_τ
+    over both families, 13.16 A m²; the paper is ambiguous between the two). The rod mass is part of ``mass.total_kg``,
+    spread uniformly over the particles.
     ``force_pair``: how a rod's couple reaches the strut's end particles
     (:mod:`~magsail_mj.concepts.truss_magnetorquer.force_pair`): ``"corrected"`` (default) the pair
     perpendicular to the strut whose moment is ``m × B``; ``"printed"`` the paper's Eq. 4 as printed
@@ -164,7 +164,7 @@ class ActuatorsConfig(StrictModel):
 
 
 class LloydConfig(StrictModel):
-    """``[control.lloyd]``: rod selection (spec §7.4); ``seed`` absent = ``sim.seed``."""
+    """``[control.lloyd]``: rod selection; ``seed`` absent = ``sim.seed``."""
 
     seed: int | None = Field(default=None, ge=0)
     tol_rel: float = Field(default=1e-6, gt=0, lt=1)
@@ -172,17 +172,17 @@ class LloydConfig(StrictModel):
 
 
 class TrussControlConfig(StrictModel):
-    """``[control]`` of the orbital rod-array scenarios (spec §9.3–9.4, §11).
+    """``[control]`` of the orbital rod-array scenarios.
 
-    ``kind``: ``"bdot"`` (§9.3, gain ``k_bdot_Nms_T2``), ``"quat_pd"`` (§9.4: diagonal gains
+    ``kind``: ``"bdot"`` (gain ``k_bdot_Nms_T2``), ``"quat_pd"`` (diagonal gains
     ``Pq_Nm``, ``Pw_Nms``; gravity-gradient compensation ``gg_comp`` with the Eq. 21 inertia, or
-    ``gg_comp_inertia_kgm2`` when given, e.g. the printed ``[1893, 1893, 2867]``, §12 O3) or
+    ``gg_comp_inertia_kgm2`` when given, e.g. the printed ``[1893, 1893, 2867]``) or
     ``"open_loop"`` (the ``[profile]`` torque through the allocation).
-    ``period_s``: control period (absent = every integration step, §12 O6).
-    ``rate_method``: backward-difference form of §4.2. ``allocation``: §7.3 mode (§12 T5).
+    ``period_s``: control period (absent = every integration step).
+    ``rate_method``: backward-difference form. ``allocation``: ``"paper"`` or ``"exact"`` (Eqs. 11–13).
     ``cache_dir``: on-disk Lloyd cache (relative paths from the working directory; ``""`` = none);
     a count missing there costs one Lloyd run (~1.4 s) the first time it is commanded.
-    ``low_authority_threshold_Nm``: |T_ref| above which low delivered torque is reported (§9.4).
+    ``low_authority_threshold_Nm``: |T_ref| above which low delivered torque is reported.
     """
 
     kind: Literal["bdot", "quat_pd", "open_loop"]
@@ -222,7 +222,7 @@ def _check_unit_quat(q: Quat | None, name: str) -> None:
 
 
 class ManeuverConfig(StrictModel):
-    """``[maneuver]`` (spec §9.4, §11): initial and target attitude, body → inertial, scalar first.
+    """``[maneuver]``: initial and target attitude, body → inertial, scalar first.
 
     ``q0_wxyz`` (when given) is the initial attitude and replaces ``initial.q0_wxyz``;
     ``q_ref_wxyz`` is the slew target. Both are normalised before use.
@@ -239,7 +239,7 @@ class ManeuverConfig(StrictModel):
 
 
 class ProfileConfig(StrictModel):
-    """``[profile]``: open-loop torque about body ``axis`` (spec §6.3–6.4)."""
+    """``[profile]``: open-loop torque about body ``axis`` (Robb et al. 2022a, Table 1)."""
 
     kind: Literal["bang_bang_off", "versine"]
     tau_max_Nm: float = Field(ge=0)
@@ -273,7 +273,7 @@ class TrussInitialConfig(StrictModel):
 
 
 class CantileverConfig(StrictModel):
-    """``[cantilever]`` (spec §2.7): tip load and the settle damping (default 2 ω₁)."""
+    """``[cantilever]``: tip load and the settle damping (default 2 ω₁)."""
 
     load_N: float = Field(gt=0)
     settle_damping_1_s: float | None = Field(default=None, gt=0)
@@ -367,8 +367,7 @@ class TrussConfig(EnvironmentTables, TrussTables):
             if self.actuators.rod_mass_kg > total:
                 raise ConfigProblem(
                     "actuators.rod_mass_kg",
-                    f"{self.actuators.rod_mass_kg} kg exceeds the total "
-                    f"mass {total} kg (the rods are part of it, §12 S4)",
+                    f"{self.actuators.rod_mass_kg} kg exceeds the total mass {total} kg (the rods are part of it)",
                     others=(self._mass_key,),
                 )
             finite_product(
@@ -443,7 +442,7 @@ class TrussConfig(EnvironmentTables, TrussTables):
 
 
 def first_cantilever_omega(cfg: TrussConfig) -> float:
-    """ω₁ = 1.875² √(EI / (ρ_L L⁴)) with ρ_L = M/d (spec §2.7) [rad/s]."""
+    """ω₁ = 1.875² √(EI / (ρ_L L⁴)) with ρ_L = M/d [rad/s]."""
     total = cfg.total_mass_kg
     L = cfg.lattice.side_m
     return 1.875**2 * math.sqrt(cfg.stiffness.EI_Nm2 / (total / L) / L / L / L / L)

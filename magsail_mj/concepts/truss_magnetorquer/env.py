@@ -2,8 +2,8 @@ r"""Environments of the truss with magnetorquer rods: ``truss/detumble`` and ``t
 
 Spacecraft: the flexible 75 m truss (particles joined by struts) with magnetorquer rods in the
 top-layer x1/y1 struts (``concepts/truss_magnetorquer/orbital``). The shipped controllers (B-dot, quaternion
-feedback) compute a reference torque ``T_ref`` (body axes) that the §7.3 allocation turns into
-signed rod counts ``(N1, N2)`` and the §7.4 Lloyd selection into rod polarities.
+feedback) compute a reference torque ``T_ref`` (body axes) that the allocation (Eqs. 11–13) turns into
+signed rod counts ``(N1, N2)`` and the Lloyd selection into rod polarities.
 
 Actions (``action`` task option):
 
@@ -15,8 +15,8 @@ Actions (``action`` task option):
 * ``"rods"`` — signed rod counts ``(N1, N2)`` of the two families, bounds ``±N_max,f``; rounded
   half away from zero to integers, then the Lloyd selection gives the polarities.
 
-Observations (flight estimator: the best-fit rotation of the particle positions, §4.1, and its
-backward-difference rate over the last control period, §4.2):
+Observations (flight estimator: the best-fit rotation of the particle positions, and its
+backward-difference rate over the last control period):
 
 * ``attitude_wxyz`` (4,) body → world quaternion of the best-fit frame;
 * ``body_rate_rad_s`` (3,) estimated body rate (the episode's initial rate before the first period);
@@ -27,7 +27,7 @@ backward-difference rate over the last control period, §4.2):
   ``health_every`` environment steps (default 10) and held in between.
 
 Reward (``magsail_mj.envs.core``): θ is the error angle to the slew target (0 for the detumble),
-ω = |body_rate_rad_s|, ω_s = 1e-3 rad/s (the §9.3 detumble threshold), effort of the normalised
+ω = |body_rate_rad_s|, ω_s = 1e-3 rad/s (the detumble threshold), effort of the normalised
 action, strain ε_max/``sim.max_strain``.
 
 Episode start (``randomize=True``): rates uniform per body axis in ``±rate_range_rad_s``

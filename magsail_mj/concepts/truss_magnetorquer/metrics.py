@@ -1,10 +1,10 @@
-"""Post-processing of truss runs into summary figures and time series (spec §4–§6, §2.7).
+"""Post-processing of truss runs into summary figures and time series.
 
 Every function takes the data it needs (the :class:`~magsail_mj.concepts.truss_magnetorquer.model.TrussModel`,
 node positions ``pos`` (T, n, 3) [m] in the world frame — an array, or a
 :class:`~magsail_mj.lattice.trajectory.NodeTrajectory` that reads the recorded qpos block by block —
 the run's records, config values), never the scenario object. Body frame: the best-fit rotation
-``R`` (body → world) of the lattice (§4.1).
+``R`` (body → world) of the lattice.
 """
 
 from __future__ import annotations
@@ -112,7 +112,7 @@ def modal_energies(
 ) -> np.ndarray:
     """Strain energy ``½ ω_n² q_n²`` [J] of each mass-normalised mode in the shape ``x`` (n, 3) [m].
 
-    The deformation is taken in the best-fit body frame (§4.1, ``x ≈ R p + d``):
+    The deformation is taken in the best-fit body frame (``x ≈ R p + d``):
     ``δ_i = Rᵀ (x_i − d) − p_i``, and ``q_n = φ_nᵀ M δ`` (``M`` = diag of ``masses`` [kg]). For a
     small deformation the energies of all modes add up to the lattice's strain energy.
     """
@@ -156,7 +156,7 @@ def modal_keys(tm: TrussModel, x_at_max: np.ndarray | None) -> dict[str, Any]:
 def common_summary(
     tm: TrussModel, pos: NodeTrajectory | np.ndarray, result: RunResult, *, max_strain: float, zeta_strut: float
 ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """§11 "all dynamic runs" keys: status, surface SD σ_SD of the top layer [m], strain energy
+    """The "all dynamic runs" keys: status, surface SD σ_SD of the top layer [m], strain energy
     Σ ½ k (|r_j − r_i| − L)² [J], largest strut strain, structural failure (``failed``: a recorded
     strain above ``max_strain`` or an inverted cube, or the run ended ``structure_failed`` or
     ``diverged``), damping constants, the modal keys (:func:`modal_keys`); series ``surface_sd_m``,
@@ -224,11 +224,11 @@ def dynamic_summary(
     zeta_strut: float,
     environment: Any = None,
 ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Summary of a dynamic run (``dist_vs_central`` and ``free``), spec §6.6 and §11.
+    """Summary of a dynamic run (``dist_vs_central`` and ``free``).
 
     Attitude from the best-fit rotation ``R`` (ZYX Euler angles ψ, θ, φ [rad]), body rates ω
     [rad/s] by backward differences (``omega0_body`` at the first sample), the local surface angle
-    at the time of maximum σ_SD (§5.2) and, with an ``environment``, the LVLH attitude
+    at the time of maximum σ_SD and, with an ``environment``, the LVLH attitude
     (:func:`lvlh_attitude`).
     """
     summary, series = common_summary(tm, pos, result, max_strain=max_strain, zeta_strut=zeta_strut)
@@ -282,7 +282,7 @@ def profile_response(
     inertia_kgm2: float,
     torque_cmd_body_Nm: np.ndarray,
 ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """The open-loop torque run against the rigid body (spec §6.6): rigid angle and rate about the
+    """The open-loop torque run against the rigid body: rigid angle and rate about the
     profile axis (:func:`rigid_response` with the moment ``inertia_kgm2`` [kg m²]) and σ_SD after the
     torque is off (t > 2 t_end / 3): mean, peak-to-peak [m] and linear slope [m/s]."""
     p = profile
@@ -468,7 +468,7 @@ def cantilever_summary(
     EI_Nm2: float,
     calibration: str,
 ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Cantilever check (spec §2.7): linear solve (formula and calibrated) vs the MuJoCo settle.
+    """Cantilever check: linear solve (formula and calibrated) vs the MuJoCo settle.
 
     Tip load ``load_N`` [N] on the free edge, target ``EI_Nm2`` [N m²]; the beam deflection is
     δ = P L³ / (3 EI) and the effective stiffness EI_eff = P L³ / (3 δ).

@@ -1,6 +1,6 @@
 """Model builder of the flexible truss concept: config → lattice → masses, springs → MjSpec.
 
-Spec truss-magnetorquer-array.md §2 (lattice, masses, stiffness, damping) and §6.2 (torquer
+Robb et al. 2022a: lattice, masses, stiffness, damping, and the torquer
 struts). The lattice assembly itself is :mod:`magsail_mj.lattice.geometry`; the MjSpec is
 :func:`magsail_mj.lattice.mjcf.build_truss_spec`.
 """
@@ -93,7 +93,7 @@ def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: floa
 def spring_constants(lat: Lattice, stiffness: StiffnessConfig) -> tuple[np.ndarray, float, float]:
     """Strut spring constants [N/m], the overall calibration factor ``c`` and the diagonal ratio ρ.
 
-    ``twist = "lattice"``: ``k_s = c EA / l0_s`` (spec §2.5, §2.7). ``twist = "plate"``:
+    ``twist = "lattice"``: ``k_s = c EA / l0_s``. ``twist = "plate"``:
     ``k_s = c EA / l0_s · (ρ on face diagonals, 1 on edges)`` with ρ and c of
     :func:`~magsail_mj.concepts.truss_magnetorquer.twist.twist_scaling` (plate twist frequency,
     cantilever EI kept).
@@ -108,9 +108,9 @@ def spring_constants(lat: Lattice, stiffness: StiffnessConfig) -> tuple[np.ndarr
 
 
 def actuated_struts(lat: Lattice, act: ActuatorsConfig, axis: str) -> np.ndarray:
-    """Struts carrying torquers (spec §6.2): a family of top-layer edges, or the central cube's.
+    """Struts carrying torquers: a family of top-layer edges, or the central cube's.
 
-    Torque about x1 comes from y1-struts and about y1 from x1-struts (§12 S6); about z1 both
+    Torque about x1 comes from y1-struts and about y1 from x1-struts; about z1 both
     families act. ``central_pair="diagonal"`` takes the i0 top strut and the i0+1 bottom strut.
     """
     kinds = {"x1": ["y_edge"], "y1": ["x_edge"], "z1": ["x_edge", "y_edge"]}[axis]
@@ -136,7 +136,7 @@ def actuated_struts(lat: Lattice, act: ActuatorsConfig, axis: str) -> np.ndarray
 
 def make_cantilever_model(cfg: TrussConfig) -> TrussModel:
     """The model with its i = 0 edge clamped and node damping ``cantilever.settle_damping_1_s``
-    [1/s] (default 2 ω₁, :func:`~magsail_mj.concepts.truss_magnetorquer.config.first_cantilever_omega`), spec §2.7."""
+    [1/s] (default 2 ω₁, :func:`~magsail_mj.concepts.truss_magnetorquer.config.first_cantilever_omega`)."""
     lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
     c = cfg.cantilever
     damping = c.settle_damping_1_s if c.settle_damping_1_s is not None else 2.0 * first_cantilever_omega(cfg)

@@ -1,31 +1,31 @@
-r"""Orbital rod-array scenarios of the truss concept: ``detumble`` (§9.3) and ``slew`` (§9.4–9.6).
+r"""Orbital rod-array scenarios of the truss concept: ``detumble`` and ``slew``.
 
-Spec: truss-magnetorquer-array.md §9 (resolutions cited by their §12 item). The tasks are
+Robb et al. 2022a, Sec. 4.2–4.3; where the paper is ambiguous the choice is named where it is made. The tasks are
 :class:`magsail_mj.concepts.truss_magnetorquer.tasks.DetumbleTask` and
 :class:`~magsail_mj.concepts.truss_magnetorquer.tasks.SlewTask`; this module supplies them, from plain data
 (config tables, the :class:`~magsail_mj.concepts.truss_magnetorquer.model.TrussModel`, records), never the
 task object:
 
-* the **rod load** (:func:`make_rod_load`, §3.2, §9.1, §12 O4/S4) and the **controller**
-  (:func:`rod_controller`: B-dot, §9.3, or quaternion feedback with gravity-gradient
-  compensation, §9.4, §12 O2/O3/O9; both feed the §7.3 allocation and the §7.4 Lloyd selection,
-  every ``control.period_s``, default every step, §12 O6);
+* the **rod load** (:func:`make_rod_load`, Robb et al. 2022a, Table 2) and the **controller**
+  (:func:`rod_controller`: B-dot or quaternion feedback with gravity-gradient
+  compensation; both feed the rod-count allocation (Eqs. 11–13) and the Lloyd selection,
+  every ``control.period_s``, default every step);
 * the **probes** recorded every ``sim.record_every`` steps (:func:`orbital_probes`);
 * the **post-processing** into ``summary.json`` keys and time series (:func:`orbital_summary`,
   then :func:`detumble_keys` or :func:`slew_keys`) and the **plots** (:func:`orbital_plots`).
 
 Frames: the world is the orbit-following frame (axes = ECI); ``R`` is the best-fit body → world
-rotation of the controller (§4.1), body components are ``Rᵀ v``. Units SI; angles in radians in
+rotation of the controller, body components are ``Rᵀ v``. Units SI; angles in radians in
 series and keys unless the key ends in ``_deg``.
 
 Torques recorded (body components, N m):
 
 * ``torque_ref_body_Nm`` — the controller's reference ``T_ref``;
-* ``torque_alloc_body_Nm`` — what the allocation promises, ``N1 τ1 + N2 τ2`` (§7.3);
+* ``torque_alloc_body_Nm`` — what the allocation promises, ``N1 τ1 + N2 τ2`` (Robb et al. 2022a, Eqs. 11–13);
 * ``torque_ac_body_Nm`` — the rods' actual torque ``T_ac = Σ_r m_r × B`` on the deformed struts
-  (§5.3);
+ ;
 * ``torque_gg_body_Nm`` — the actual gravity-gradient torque of the particles,
-  ``T_gg = Σ_i (x_i − x_c) × m_i a_tidal(x_i)`` (§5.3; zero when the tidal load is off);
+  ``T_gg = Σ_i (x_i − x_c) × m_i a_tidal(x_i)`` (zero when the tidal load is off);
 * ``torque_gg_rigid_body_Nm`` — the rigid estimate of Eq. 14, ``3μ/r⁵ r_b × 𝓘 r_b`` with the
   Eq. 21 inertia.
 """
@@ -99,21 +99,21 @@ __all__ = [
 ]
 
 RATE_THRESHOLD_RAD_S = 1e-3
-"""Detumble threshold on every body-rate component (§9.3)."""
+"""Detumble threshold on every body-rate component."""
 TUMBLE_ERROR_RAD = math.radians(45.0)
 TUMBLE_CAPTURE_RAD = math.radians(10.0)
 TUMBLE_RATE_RAD_S = 5e-3
-"""Tumbling (§9.4): the error exceeds 45° after having come within 10°, or |ω| > 5e-3 rad/s."""
+"""Tumbling: the error exceeds 45° after having come within 10°, or |ω| > 5e-3 rad/s."""
 LOW_AUTHORITY_RATIO = 0.1
-"""Low authority (§9.4): |T_ac| below 10 % of |T_ref| while |T_ref| exceeds the threshold."""
+"""Low authority: |T_ac| below 10 % of |T_ref| while |T_ref| exceeds the threshold."""
 
 
 # =========================================================================== building blocks
 
 
 def make_rod_load(actuators: ActuatorsConfig, tm: TrussModel) -> VariantPairRodLoad:
-    """Rods in all top-layer x1/y1 struts, dipole from the §9.1 basis (§12 O4), field from
-    ``state.env.B_eci`` (the field at the reference point, applied uniformly, §9.2), force pair
+    """Rods in all top-layer x1/y1 struts, dipole from the Table 2 basis, field from
+    ``state.env.B_eci`` (the field at the reference point, applied uniformly), force pair
     ``actuators.force_pair`` (:mod:`~magsail_mj.concepts.truss_magnetorquer.force_pair`)."""
     a = actuators
     return VariantPairRodLoad.from_variant(
@@ -127,19 +127,19 @@ def make_rod_load(actuators: ActuatorsConfig, tm: TrussModel) -> VariantPairRodL
 
 def controller_inertia(control: TrussControlConfig | None, tm: TrussModel) -> np.ndarray:
     """(3, 3) inertia of the gravity-gradient compensation [kg m²]: Eq. 21 of the undeformed
-    particle set (§4.4), or ``diag(control.gg_comp_inertia_kgm2)`` (as-printed variant, §12 O3)."""
+    particle set (Robb et al. 2022a, Eq. 21), or ``diag(control.gg_comp_inertia_kgm2)`` (as-printed variant)."""
     if control is not None and control.gg_comp_inertia_kgm2 is not None:
         return np.diag(np.asarray(control.gg_comp_inertia_kgm2, dtype=float))
     return particle_inertia(tm.lattice.nodes, tm.masses).tensor
 
 
 def lloyd_seed(control: TrussControlConfig, sim_seed: int) -> int:
-    """Seed of the §7.4 Lloyd selection: ``control.lloyd.seed``, else ``sim.seed``."""
+    """Seed of the Lloyd selection: ``control.lloyd.seed``, else ``sim.seed``."""
     return control.lloyd.seed if control.lloyd.seed is not None else sim_seed
 
 
 def make_distributor(control: TrussControlConfig, rod_load: MagnetorquerRodLoad, *, sim_seed: int) -> TorqueDistributor:
-    """§7.3 allocation + §7.4 Lloyd selection (seed :func:`lloyd_seed`)."""
+    """Allocation (Eqs. 11–13) + Lloyd selection (seed :func:`lloyd_seed`)."""
     c = control
     return TorqueDistributor.for_rods(
         rod_load.rods,
@@ -356,7 +356,7 @@ def saturation_phases(t: np.ndarray, saturated: np.ndarray, *, split_s: float = 
 
 
 def slew_axis_angle(q_t: np.ndarray, q0: np.ndarray, q_ref: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
-    r"""Rotation angle about the slew axis (§9.4 outputs).
+    r"""Rotation angle about the slew axis.
 
     The slew takes ``q0`` to ``q_ref``: ``q_s = q0* ⊗ q_ref = [cos(Θ/2), sin(Θ/2) â]`` (``â`` in
     initial body components, ``Θ ∈ [0, π]``). For the attitude ``q_t`` the rotation from the
@@ -378,7 +378,7 @@ def slew_axis_angle(q_t: np.ndarray, q0: np.ndarray, q_ref: np.ndarray) -> tuple
 
 
 def tumbled(err: np.ndarray, omega_norm: np.ndarray) -> bool:
-    """§9.4: the error exceeds 45° after having come within 10°, or |ω| > 5e-3 rad/s at any time."""
+    """Tumbling: the error exceeds 45° after having come within 10°, or |ω| > 5e-3 rad/s at any time."""
     err = np.asarray(err, dtype=float)
     if np.any(np.asarray(omega_norm) > TUMBLE_RATE_RAD_S):
         return True
@@ -409,14 +409,14 @@ def orbital_summary(
     environment: Any,
     rod: MagnetorquerRodLoad,
 ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Summary keys and derived series common to ``detumble`` and ``slew`` runs (spec §9.3–9.4, §11).
+    """Summary keys and derived series common to ``detumble`` and ``slew`` runs.
 
-    §11 "all dynamic runs" keys (:func:`~magsail_mj.concepts.truss_magnetorquer.metrics.common_summary`), the
-    local surface angle at the time of maximum σ_SD (§5.2; ``edge_angle_max_deg``), Euler angles of
+    "all dynamic runs" keys (:func:`~magsail_mj.concepts.truss_magnetorquer.metrics.common_summary`), the
+    local surface angle at the time of maximum σ_SD (``edge_angle_max_deg``), Euler angles of
     the best-fit rotation, |B| and the angle between B and the plate normal, saturation fractions,
     integrals of |T_ac|, |N1| + |N2| and of the total rod dipole Σ|m| = |N1| m₁ + |N2| m₂
     (``int_dipole_abs_Am2s`` [A m² s], over the run and the first hour), the paper-vs-exact
-    allocation comparison over the recorded samples (§7.3, ``alloc_*``), and the orbit
+    allocation comparison over the recorded samples (Robb et al. 2022a, Eqs. 11–13, ``alloc_*``), and the orbit
     description (``environment.summary()``). ``pos``:
     node positions (T, n, 3) [m] (an array, or a :class:`~magsail_mj.lattice.trajectory.NodeTrajectory`
     reading the recorded qpos block by block); the kind's own keys come from :func:`detumble_keys` or
@@ -457,7 +457,7 @@ def orbital_summary(
     )
     series.update(lvlh_attitude(environment, t, R))
 
-    # saturation (§9.3): exact fractions from the controller's cumulative counters
+    # saturation: exact fractions from the controller's cumulative counters
     cnt = rec["control_counts"][-1].astype(float)
     n_ctrl = max(cnt[0], 1.0)
     sat = rec["saturated"].astype(bool)
@@ -467,7 +467,7 @@ def orbital_summary(
     series["saturation_intervals"] = np.concatenate(intervals) if intervals else np.zeros((0, 3))
     summary.update(saturation_phases(t, sat))
 
-    # surface angle and shape at max SD (§5.2)
+    # surface angle and shape at max SD
     kmax = int(np.nanargmax(series["surface_sd_m"]))
     at_max = as_trajectory(pos).at(kmax)[lat.top_nodes]
     ang = local_surface_angle(at_max, R[kmax], nodes_per_side=lat.nodes_per_side)
@@ -516,7 +516,7 @@ def orbital_summary(
 def detumble_keys(
     t: np.ndarray, omega: np.ndarray, *, inertia_kgm2: np.ndarray, omega0_body: np.ndarray
 ) -> dict[str, Any]:
-    """§9.3 metrics of body rates ``omega`` (T, 3) [rad/s] at times ``t`` [s]: time all three rates
+    """Detumbling metrics of body rates ``omega`` (T, 3) [rad/s] at times ``t`` [s]: time all three rates
     fall / stay below 1e-3 rad/s, residual rates over the last 1800 s, and the initial angular
     momentum H0 = |I ω0| [N m s] (``inertia_kgm2`` (3, 3), ``omega0_body`` [rad/s])."""
     w_norm = np.linalg.norm(omega, axis=1)
@@ -544,7 +544,7 @@ def slew_keys(
     maneuver: ManeuverConfig,
     low_authority_threshold_Nm: float,
 ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """§9.4 metrics of the records ``rec`` (best-fit rotation ``R_est``, estimated body rate,
+    """Slew metrics of the records ``rec`` (best-fit rotation ``R_est``, estimated body rate,
     reference and actual rod torques): error thresholds and settling, overshoot about the slew axis
     from ``q0_wxyz`` to ``maneuver.q_ref_wxyz``, tumbling, low-authority time (|T_ac| below 10 % of
     |T_ref| while |T_ref| > ``low_authority_threshold_Nm`` [N m]). Returns ``(series, keys)``."""
@@ -603,7 +603,7 @@ def orbital_plots(
     nodes_per_side: int,
     side_m: float,
 ) -> list[Path]:
-    """The §9.3/§9.4 figures of a run (PNG, written atomically); returns their paths.
+    """The detumbling/slew figures of a run (PNG, written atomically); returns their paths.
 
     ``body_rates.png`` (components, and |ω_i| on a log scale with the 1e-3 rad/s line),
     ``attitude.png`` (ZYX Euler angles, rotation angle from the start, error angle and the angle

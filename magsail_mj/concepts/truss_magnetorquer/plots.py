@@ -1,4 +1,4 @@
-"""Plots of a truss run (spec §6.6, §2.7): Euler angles, body rates, libration, surface SD,
+"""Plots of a truss run: Euler angles, body rates, libration, surface SD,
 strain energy, surface-angle map, cantilever settle.
 
 Every function takes the run's series (``t`` [s] and the keys of

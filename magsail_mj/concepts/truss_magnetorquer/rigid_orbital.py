@@ -1,4 +1,4 @@
-r"""Rigid-body counterpart of the orbital truss scenarios (diagnostic of spec §9).
+r"""Rigid-body counterpart of the orbital truss scenarios (a diagnostic).
 
 The flexible runs (`concepts/truss_magnetorquer/orbital.py`) integrate 800 particles joined by struts. This
 module keeps everything else of a scenario — the controller object with its allocation and
@@ -13,8 +13,8 @@ orbit-following frame (axes = ECI, so only the rotation matters):
     \qquad \dot q = \tfrac12\, q\otimes(0, \boldsymbol\omega),\qquad \mathbf r_b = R^{\mathsf T}\mathbf r_{ref},
 
 with ``m`` the sum of the rod dipoles of the held polarity (the force pairs of a rigid rod sum to
-``m × B``, spec §3.2) and the classical gravity-gradient torque (``gravity_gradient = False``
-drops it, as in the §9.5 ablation). Classical RK4 at ``dt`` with the control sample held over
+``m × B``) and the classical gravity-gradient torque (``gravity_gradient = False``
+drops it, as in the gravity-gradient ablation). Classical RK4 at ``dt`` with the control sample held over
 the step, the field and orbit sampled at each stage. The controller sees the rigid particle
 positions, so its best fit returns ``R`` exactly and its rate is the backward difference of the
 rigid attitude.

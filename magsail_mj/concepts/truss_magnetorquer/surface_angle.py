@@ -1,10 +1,10 @@
-r"""Local surface angle of the deformed top layer (spec §5.2; erratum **M1**).
+r"""Local surface angle of the deformed top layer (erratum **M1**).
 
 At one chosen time (e.g. the time of maximum surface SD):
 
 1. The top-layer nodes are expressed in the **average-plane frame** (erratum **M1**: the average
    plane of the top layer, not the body ``x1 y1`` plane): origin at the centroid, normal
-   :math:`\hat n` from the total-least-squares fit (§5.1), oriented along the best-fit body
+   :math:`\hat n` from the total-least-squares fit, oriented along the best-fit body
    ``z1``; in-plane axes :math:`\hat e_u` = the best-fit body ``x1`` projected onto the plane and
    normalised, :math:`\hat e_v = \hat n\times\hat e_u` (the projected ``y1`` made exactly
    orthogonal). Coordinates :math:`u, v` (in-plane) and :math:`w` (height along :math:`\hat n`).
@@ -106,7 +106,7 @@ class SurfaceAngle:
 
 
 def plane_frame(points: np.ndarray, R_body: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    r"""Average-plane frame of a point set (step 1 of §5.2).
+    r"""Average-plane frame of a point set (step 1 of the surface-angle method).
 
     Returns ``(centroid, normal, e_u, e_v)``, all ``(3,)``: ``normal`` is the TLS normal with
     ``normal · z1 >= 0``; ``e_u`` the normalised projection of body ``x1 = R_body[:, 0]`` on the
@@ -186,15 +186,15 @@ def local_surface_angle(
     nodes_per_side: int | None = None,
     edge_band_m: float | None = None,
 ) -> SurfaceAngle:
-    r"""Local surface angle map and statistics of the top layer at one time (spec §5.2, **M1**).
+    r"""Local surface angle map and statistics of the top layer at one time (**M1**).
 
     See the module docstring for the frame, the two fitting methods and the statistics.
 
     Args:
       top_points: ``(n, 3)`` top-layer node positions [m] (world frame). For
         ``method="spline"`` an ``N × N`` grid in j-major order (index ``j N + i``).
-      R_body: ``(3, 3)`` best-fit body-to-world rotation at the same time (§4.1).
-      spacing_m: evaluation grid spacing [m] (spec: 0.25 m).
+      R_body: ``(3, 3)`` best-fit body-to-world rotation at the same time.
+      spacing_m: evaluation grid spacing [m] (default 0.25 m).
       method: ``"cubic"`` (Clough–Tocher, default) or ``"spline"`` (bicubic on the node grid).
       nodes_per_side: ``N`` for ``"spline"``; default ``sqrt(n)`` (ignored by ``"cubic"``).
       edge_band_m: width of the boundary band for ``edge_max`` [m]; default one cube edge

@@ -1,23 +1,23 @@
 """Tasks of the flexible truss concept (``truss_magnetorquer``): one class per scenario kind.
 
-Spec: truss-magnetorquer-array.md. :class:`TrussScenario` is the shared base (model, environment
+Robb et al. 2022a. :class:`TrussScenario` is the shared base (model, environment
 loads, rigid initial state, runner, render and manifest entries); each subclass adds what its
 kind needs and is registered by name (:func:`magsail_mj.concepts.register_task`):
 
 ============================  ==========================  ===========================================
 ``scenario``                  class                       what it runs
 ============================  ==========================  ===========================================
-``dist_vs_central``           :class:`DistVsCentralTask`  open-loop strut torque profile (§6)
-``cantilever``                :class:`CantileverTask`     clamped lattice, tip load, settle (§2.7)
+``dist_vs_central``           :class:`DistVsCentralTask`  open-loop strut torque profile (Robb et al. 2022a, Sec. 2)
+``cantilever``                :class:`CantileverTask`     clamped lattice, tip load, settle
 ``free``                      :class:`FreeTask`           no actuator (momentum/energy, libration)
-``detumble``                  :class:`DetumbleTask`       rod array under B-dot in orbit (§9.3)
-``slew``                      :class:`SlewTask`           rod array under quaternion PD (§9.4–9.6)
+``detumble``                  :class:`DetumbleTask`       rod array under B-dot in orbit
+``slew``                      :class:`SlewTask`           rod array under quaternion PD
 ============================  ==========================  ===========================================
 
 Registration is :func:`magsail_mj.concepts.register_task` keyed by ``("truss_magnetorquer", scenario)``;
 :func:`magsail_mj.concepts.build_task` (and :func:`build_truss_scenario`) looks the class up once; nothing
 else dispatches on the scenario name. Frames: world = the orbit-following frame (axes = ECI) or free
-space; body = the best-fit rotation of the lattice (§4.1). Units SI.
+space; body = the best-fit rotation of the lattice. Units SI.
 """
 
 from __future__ import annotations
@@ -126,7 +126,7 @@ class DeliveredTorqueMeter:
     ``τ_ac = Σ_s (r_j − r_i) × F_j`` [N m] (world; the pairs have zero net force, so it is the
     same about every point) of each step, held over the step ``δt`` as the runner holds the
     forces, accumulated as the world impulse ``Σ τ_ac δt`` and, in best-fit body axes ``R`` of
-    the same state (§4.1), ``Σ Rᵀ τ_ac δt`` [N m s]. It must follow the torque load in the load
+    the same state, ``Σ Rᵀ τ_ac δt`` [N m s]. It must follow the torque load in the load
     list (it reads the forces that load has just set)."""
 
     name = "delivered_torque_meter"
@@ -383,8 +383,8 @@ class FreeTask(TrussScenario):
 
 @register_task("truss_magnetorquer", "dist_vs_central")
 class DistVsCentralTask(TrussScenario):
-    """§6: open-loop torque profile about ``profile.axis``, distributed over every top-layer strut
-    of the family or concentrated in the central cube (``actuators.placement``), compared with the
+    """Robb et al. 2022a, Sec. 2: open-loop torque profile about ``profile.axis``, distributed over every top-layer
+    strut of the family or concentrated in the central cube (``actuators.placement``), compared with the
     rigid body."""
 
     OVERLAY = ("surface_sd_m", "torque_cmd_x1_Nm")
@@ -467,7 +467,7 @@ class DistVsCentralTask(TrussScenario):
 
 @register_task("truss_magnetorquer", "cantilever")
 class CantileverTask(TrussScenario):
-    """§2.7: the lattice clamped along its i = 0 edge, a tip load ``cantilever.load_N`` on the free
+    """Cantilever: the lattice clamped along its i = 0 edge, a tip load ``cantilever.load_N`` on the free
     edge, settled with node damping; compared with the linear solve and the beam formula."""
 
     OVERLAY = ("tip_deflection_m",)
@@ -506,8 +506,8 @@ class CantileverTask(TrussScenario):
 
 
 class OrbitalTrussTask(TrussScenario):
-    """The 75 m truss in orbit with magnetorquer rods in its top-layer struts (§9): the rod load,
-    the ``[control]`` law through the §7.3 allocation, the orbital probes, summary and plots
+    """The 75 m truss in orbit with magnetorquer rods in its top-layer struts (Robb et al. 2022a, Sec. 4.2–4.3):
+    the rod load, the ``[control]`` law through the allocation (Eqs. 11–13), the orbital probes, summary and plots
     (:mod:`magsail_mj.concepts.truss_magnetorquer.orbital`). Subclasses add the kind's own metrics
     (the abstract :meth:`kind_metrics`)."""
 
@@ -569,7 +569,7 @@ class OrbitalTrussTask(TrussScenario):
 
 @register_task("truss_magnetorquer", "detumble")
 class DetumbleTask(OrbitalTrussTask):
-    """§9.3: B-dot (or the open-loop profile) from the initial body rate; rates below 1e-3 rad/s."""
+    """Detumbling: B-dot (or the open-loop profile) from the initial body rate; rates below 1e-3 rad/s."""
 
     OVERLAY = ("omega_body_rad_s", "N1", "N2", "surface_sd_m")
     INSET = "omega_norm_rad_s"
@@ -587,7 +587,7 @@ class DetumbleTask(OrbitalTrussTask):
 
 @register_task("truss_magnetorquer", "slew")
 class SlewTask(OrbitalTrussTask):
-    """§9.4–9.6: quaternion feedback (or the open-loop profile) from ``q0`` to ``maneuver.q_ref_wxyz``."""
+    """Slew: quaternion feedback (or the open-loop profile) from ``q0`` to ``maneuver.q_ref_wxyz``."""
 
     OVERLAY = ("error_angle_deg", "omega_norm_rad_s", "N1", "N2", "surface_sd_m")
     INSET = "error_angle_deg"
