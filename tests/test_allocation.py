@@ -1,4 +1,5 @@
-"""Torque allocation N1/N2 (spec §7.2–7.3, §12 T2, T3, T5) and Lloyd selection (§7.4, T4, O5).
+"""Torque allocation N1/N2 (Robb et al. 2022a, Eqs. 10–13, with our symmetric rounding and clipping) and Lloyd
+selection (Sec. 3, snapped one-to-one to 380 strut sites per family).
 
 Tolerances: the allocation is a few flops on O(1) numbers; torque comparisons use 1e-12 of the
 rod torque scale. Cell centroids from the vectorised Delaunay path are compared with the plain
@@ -64,12 +65,12 @@ def test_rod_torques_and_their_dot_product_t2(B):
     t1, t2 = rod_torques(B, m_rod_Am2=M_ROD)
     np.testing.assert_allclose(t1, M_ROD * np.cross([1, 0, 0], B), rtol=0, atol=1e-18)
     np.testing.assert_allclose(t2, M_ROD * np.cross([0, 1, 0], B), rtol=0, atol=1e-18)
-    # §7.2 (corrected middle line of Eq. 10): τ1·τ2 = −m² (x̂1·B)(ŷ1·B).
+    # Corrected middle line of Eq. 10: τ1·τ2 = −m² (x̂1·B)(ŷ1·B).
     assert t1 @ t2 == pytest.approx(-(M_ROD**2) * B[0] * B[1], abs=1e-12 * (M_ROD * B_SCALE) ** 2)
     assert abs(t1 @ B) <= 1e-15 * M_ROD * B_SCALE**2 and abs(t2 @ B) <= 1e-15 * M_ROD * B_SCALE**2
 
 
-# ----------------------------------------------------------------------------- §7.3 tests
+# ----------------------------------------------------------------------------- Eqs. 11–13 tests
 
 
 @settings(max_examples=100, deadline=None)
@@ -108,12 +109,12 @@ def test_saturation_clips_n1_before_n2():
     T_ref = 1000.0 * t1 + 0.3 * t2  # far beyond 380 rods of family 1
     al = allocate(T_ref, B, m_rod_Am2=M_ROD, n_max=380)
     assert al.N1 == 380 and al.clipped1
-    # N2 uses the clipped N1 (§7.3): residual projection with N1 = 380, not 1000.
+    # N2 uses the clipped N1: residual projection with N1 = 380, not 1000.
     x2 = (T_ref @ t2 - 380 * (t1 @ t2)) / (t2 @ t2)
     assert al.N2 == max(-380, min(380, int(round_half_away(x2))))
     assert al.x2 == pytest.approx(x2, rel=1e-12)
     neg = allocate(-T_ref, B, m_rod_Am2=M_ROD, n_max=380)
-    assert neg.N1 == -380 and neg.clipped1  # §12 T3: both signs saturate
+    assert neg.N1 == -380 and neg.clipped1  # symmetric clipping: both signs saturate
     big = allocate(1e6 * np.cross(B, [1.0, 2.0, 0.5]), B, m_rod_Am2=M_ROD, n_max=(380, 200))
     assert abs(big.N1) <= 380 and abs(big.N2) <= 200
     assert abs(big.N2) == 200 and big.clipped2
@@ -220,7 +221,7 @@ def test_allocation_input_errors_name_the_argument():
         allocate_batch(np.zeros((3, 3)), np.zeros((2, 3)), m_rod_Am2=1.0, n_max=10)
 
 
-# ----------------------------------------------------------------------------- §7.4 Lloyd
+# ----------------------------------------------------------------------------- Lloyd
 
 
 def _polygon_centroid(p):
@@ -363,7 +364,7 @@ def test_disk_cache_and_parallel_precompute(tmp_path, small_selector):
 
 
 def test_demo_case_72_of_100_t6():
-    """§7.5 (b): 10 × 10 cell-centre sites of the unit square, 72 active (§12 T6)."""
+    """Fig. 16b: 10 × 10 cell-centre sites of the unit square (our choice), 72 active."""
     g = (np.arange(10) + 0.5) / 10
     X, Y = np.meshgrid(g, g, indexing="xy")
     sites = np.column_stack([X.ravel(), Y.ravel()])
@@ -379,7 +380,7 @@ def test_demo_case_72_of_100_t6():
 
 
 def test_allocation_demo_script(tmp_path):
-    """§7.5 script: figure and the §11 summary keys."""
+    """Demonstration script: figure and the summary keys."""
     mod = load_file_module("scripts", "allocation_demo")
     assert mod.main(["--out", str(tmp_path), "--tol-rel", "1e-4"]) == 0
     summary = json.loads((tmp_path / "summary.json").read_text())

@@ -1,9 +1,10 @@
-"""Lattice geometry, stiffness, calibration, damping and masses (spec §2.1–§2.7, §10 item 1).
+"""Lattice geometry, stiffness, calibration, damping and masses (Robb et al. 2022a,
+Sec. 2.1–2.2 and Eq. 8, with our strut layout, damping and cantilever calibration).
 
 Pure NumPy/SciPy: no MuJoCo here (the MuJoCo physics tests are in test_physics_lattice.py).
 Tolerances: exact integer counts; geometric quantities to 1e-12 relative (a few roundings of
-``i·a − d/2``); the spec's printed values to half a unit in their last printed digit (that is
-all the precision the spec gives).
+``i·a − d/2``); hand-computed reference values to half a unit in their last printed digit (that
+is all the precision they carry).
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ REPO_MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / 
 
 
 def close_to_printed(value: float, printed: str) -> bool:
-    """``value`` rounds to the spec's printed decimal (within half a unit of its last digit)."""
+    """``value`` rounds to the printed reference decimal (within half a unit of its last digit)."""
     half_unit = 0.5 * 10.0 ** Decimal(printed).as_tuple().exponent
     return abs(value - float(printed)) <= half_unit * (1 + 1e-9)
 
@@ -49,7 +50,7 @@ def close_to_printed(value: float, printed: str) -> bool:
 
 
 def test_counts_parity_units_19():
-    """Spec §2.2: 800 nodes; 760 + 760 + 400 + (361 + 361) + (380 + 380) = 3402 struts."""
+    """800 nodes (one face diagonal per square face); 760 + 760 + 400 + (361 + 361) + (380 + 380) = 3402 struts."""
     lat = make_lattice(units=19, side_m=100.0)
     assert lat.n_nodes == 800 and lat.nodes_per_side == 20
     assert lat.n_struts == 3402
@@ -69,7 +70,7 @@ def test_counts_parity_units_19():
 
 
 def test_counts_x_units_19():
-    """Spec §2.2: both diagonals on every face, 4884 struts for N = 20."""
+    """The X variant: both diagonals on every face, 4884 struts for N = 20."""
     lat = make_lattice(units=19, side_m=100.0, diagonals="X")
     assert lat.n_nodes == 800 and lat.n_struts == 4884
     assert int(np.sum(lat.kind >= STRUT_KINDS.index("xy_diagonal"))) == 2 * (722 + 760)
@@ -89,7 +90,7 @@ def test_strut_lengths_are_a_or_a_sqrt2(units, side, diagonals):
 
 
 def test_reference_coordinates_and_index():
-    """Spec §2.1: p_ijk = (i a − d/2, j a − d/2, (k − ½) a), flat index k N² + j N + i."""
+    """Node layout: p_ijk = (i a − d/2, j a − d/2, (k − ½) a), flat index k N² + j N + i."""
     lat = make_lattice(units=19, side_m=75.0)
     a, N = 75.0 / 19, 20
     for i, j, k in [(0, 0, 0), (19, 0, 1), (3, 17, 1), (19, 19, 0)]:
@@ -130,7 +131,8 @@ def _faces(units: int) -> list[tuple[int, int, int, int]]:
 
 @pytest.mark.parametrize("units", [1, 2, 5, 19])
 def test_parity_rule_one_diagonal_per_face(units):
-    """Spec §2.2: every square face gets exactly one diagonal, joining its two even-(i+j+k) corners."""
+    """Our octahedral–tetrahedral truss: every square face gets exactly one diagonal, joining its
+    two even-(i+j+k) corners."""
     lat = make_lattice(units=units, side_m=float(units))
     pairs = {frozenset(p) for p in lat.struts.tolist()}
     assert len(pairs) == lat.n_struts, "a strut is duplicated"
@@ -181,7 +183,7 @@ def _rigid_modes(x: np.ndarray) -> np.ndarray:
     EI=st.floats(1.0, 1e4),
 )
 def test_free_free_stiffness_has_exactly_six_zero_modes(units, diagonals, side, EI):
-    """Spec §2.2: the lattice is rigid: the free-free K (dense) has exactly 6 zero eigenvalues.
+    """The lattice is rigid: the free-free K (dense) has exactly 6 zero eigenvalues.
 
     Zero means below 1e-10 λ_max (measured: the 6 rigid modes come out at ≤ 1e-15 λ_max, the
     rounding of the dense eigensolver); the 7th eigenvalue must be clearly positive, above
@@ -215,7 +217,7 @@ def test_dropping_a_face_diagonal_makes_a_mechanism():
 # ------------------------------------------------------------------------------ spring constants
 
 
-# Spec §2.5 table: case, d, EI, EA, k edge, k face diagonal (formula stiffness, printed digits).
+# Hand-computed table (Eq. 8): case, d, EI, EA, k edge, k face diagonal (formula stiffness, printed digits).
 K_TABLE = [
     ("A", 100.0, 1e3, "3.610", "0.6859", "0.4850"),
     ("B", 100.0, 1e2, "0.3610", "0.06859", "0.04850"),
@@ -226,7 +228,7 @@ K_TABLE = [
 
 @pytest.mark.parametrize("case,d,EI,EA,k_edge,k_diag", K_TABLE)
 def test_spring_constants_of_spec_table(case, d, EI, EA, k_edge, k_diag):
-    """Spec §2.5: EA = 2 EI / (N a²), k_s = EA / l0_s, formula mode (before calibration)."""
+    """Robb et al. 2022a, Eq. 8: EA = 2 EI / (N a²), k_s = EA / l0_s, formula mode (before calibration)."""
     lat = make_lattice(units=19, side_m=d)
     k, c = strut_stiffness(lat, EI_Nm2=EI, calibration="formula")
     assert c == 1.0
@@ -237,7 +239,7 @@ def test_spring_constants_of_spec_table(case, d, EI, EA, k_edge, k_diag):
     np.testing.assert_allclose(k * lat.rest_length, ea, rtol=1e-12)  # same EA for every strut
 
 
-# Spec §2.6: γ for ζ_s = 0.1 with formula stiffness (printed to 2 significant figures).
+# Our damping (the paper gives none): γ for ζ_s = 0.1 with formula stiffness (printed to 2 significant figures).
 GAMMA_TABLE = [
     (100.0, 1e3, 100.0, "0.041"),
     (100.0, 1e2, 100.0, "0.013"),
@@ -248,7 +250,7 @@ GAMMA_TABLE = [
 
 @pytest.mark.parametrize("d,EI,M,gamma", GAMMA_TABLE)
 def test_strut_damping_of_spec(d, EI, M, gamma):
-    """Spec §2.6: γ = 2 ζ √(k_edge m_p / 2); calibrated γ smaller by √(EI/EI_eff)."""
+    """Our damping: γ = 2 ζ √(k_edge m_p / 2); calibrated γ smaller by √(EI/EI_eff)."""
     lat = make_lattice(units=19, side_m=d)
     m_p = M / 800
     k_f, _ = strut_stiffness(lat, EI_Nm2=EI, calibration="formula")
@@ -261,7 +263,7 @@ def test_strut_damping_of_spec(d, EI, M, gamma):
 
 
 def test_scenario_damping_uses_distributed_particle_mass():
-    """Spec §2.6: the central run of a case gets the same γ as the distributed run."""
+    """The central run of a case gets the same γ as the distributed run."""
     dist = make_truss_model(load_config(REPO_MODELS / "dist_vs_central/case_a_distributed_bangbang.toml"))
     cent = make_truss_model(load_config(REPO_MODELS / "dist_vs_central/case_a_central_bangbang.toml"))
     assert cent.gamma == dist.gamma
@@ -275,9 +277,9 @@ def test_scenario_damping_uses_distributed_particle_mass():
 
 @pytest.mark.parametrize("diagonals,printed", [("parity", "1.27"), ("X", "1.55")])
 def test_formula_stiffness_ratio_at_N20(diagonals, printed):
-    """Spec §2.7: EI_eff/EI ≈ 1.27 (parity) and ≈ 1.55 (X) at N = 20 with the formula EA.
+    """Formula stiffness against the cantilever: EI_eff/EI ≈ 1.27 (parity) and ≈ 1.55 (X) at N = 20 with the formula EA.
 
-    Tolerance: half a unit of the spec's last printed digit (±0.005). The ratio depends only on
+    Tolerance: half a unit of the last printed digit (±0.005). The ratio depends only on
     N and the pattern: for d = 100 m / 75 m and EI = 10…1000 it agrees to 1e-9 (linear solves).
     """
     ratios = []
@@ -298,7 +300,7 @@ def test_formula_stiffness_ratio_at_N20(diagonals, printed):
 
 
 def test_distributed_and_orbital_masses():
-    """Spec §2.3: 100 kg over 800 nodes = 0.125 kg each; 200 kg = 0.25 kg each."""
+    """Uniform masses: 100 kg over 800 nodes = 0.125 kg each; 200 kg = 0.25 kg each."""
     lat = make_lattice(units=19, side_m=100.0)
     m = node_masses(lat, total_kg=100.0)
     np.testing.assert_allclose(m, 0.125, rtol=1e-15)
@@ -307,7 +309,8 @@ def test_distributed_and_orbital_masses():
 
 
 def test_central_case_masses_and_centre_of_mass():
-    """Spec §2.3: ⅔ M/800 = 0.08333 kg per node plus M/3 over the 8 central-cube nodes (+4.1667)."""
+    """Central case (our mass placement): ⅔ M/800 = 0.08333 kg per node plus M/3 over the 8
+    central-cube nodes (+4.1667)."""
     lat = make_lattice(units=19, side_m=100.0)
     m = node_masses(lat, total_kg=100.0, central_fraction=1.0 / 3.0)
     centre = central_cube_nodes(lat)
@@ -324,7 +327,7 @@ def test_central_case_masses_and_centre_of_mass():
 
 
 def test_shipped_central_config_masses():
-    """The shipped Case A central config builds the §2.3 masses (sum 100 kg, COM at the centre)."""
+    """The shipped Case A central config builds the central-case masses (sum 100 kg, COM at the centre)."""
     tm = make_truss_model(load_config(REPO_MODELS / "dist_vs_central/case_a_central_bangbang.toml"))
     np.testing.assert_allclose(tm.masses.sum(), 100.0, rtol=1e-14)
     assert np.sum(tm.masses > 1.0) == 8
@@ -334,7 +337,7 @@ def test_shipped_central_config_masses():
 
 
 def test_orbital_inertia_eq21():
-    """Spec §4.4: 75 m, 200 kg, 800 particles: I1 = I2 ≈ 1.0440e5, I3 ≈ 2.0724e5 kg m²."""
+    """Robb et al. 2022a, Eq. 21: 75 m, 200 kg, 800 particles: I1 = I2 ≈ 1.0440e5, I3 ≈ 2.0724e5 kg m²."""
     lat = make_lattice(units=19, side_m=75.0)
     I = particle_inertia(lat.nodes, node_masses(lat, total_kg=200.0)).moments
     assert close_to_printed(I[0] / 1e5, "1.0440") and close_to_printed(I[1] / 1e5, "1.0440")

@@ -1,5 +1,5 @@
 """A stiff lattice riding the reference orbit with tidal gravity librates like a rigid body
-under the classical gravity-gradient torque (design.md: the orbit-following world)."""
+under the classical gravity-gradient torque (the orbit-following world: the frame rides the reference orbit)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""Physics of the MuJoCo lattice model (spec §2.4, §2.7, §3.1, §3.4, §10 items 2 and 4).
+"""Physics of the MuJoCo lattice model (Robb et al. 2022a, Sec. 2: spring–dashpot struts, strut
+torquers, cantilever check; RK4 replacement within our tolerances).
 
 The model is the real one (``magsail_mj.lattice.mjcf.build_truss_spec``, or a scenario built from
 a config), on small lattices so that the default run stays fast. Momentum and energy are
@@ -73,7 +74,7 @@ def small_model(
 
 
 def strut_law_forces(x, v, struts, k, l0, gamma):
-    """Spec §2.4 written out with np.add.at (independent of the model and the reference)."""
+    """The spring–dashpot strut law written out with np.add.at (independent of the model and the reference)."""
     i, j = struts[:, 0], struts[:, 1]
     r = x[j] - x[i]
     ell = np.linalg.norm(r, axis=1)
@@ -112,7 +113,7 @@ def randomise(model, data, lat, rng, *, dx=0.05, dv=0.1):
 @settings(max_examples=20, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), diagonals=st.sampled_from(["parity", "X"]), clamp=st.booleans())
 def test_tendon_force_is_the_spec_strut_law(seed, diagonals, clamp):
-    """qfrc_passive = Σ k(r−l0)r̂ + γ(ṙ·r̂)r̂ (spec §2.4) at a random deformed, moving state.
+    """qfrc_passive = Σ k(r−l0)r̂ + γ(ṙ·r̂)r̂ (the strut law) at a random deformed, moving state.
 
     Random per-strut k and γ, deformation up to ~20 % of a, random velocities; optionally the
     i = 0 edge clamped (no joints). Agreement to 1e-10 of the largest force component (measured
@@ -276,13 +277,13 @@ def test_solver_tolerance_reaches_the_model(small_truss_tree):
 
 
 def _columns_normal(lat, pos, i, j):
-    """Spec §3.1 local normal n = (r_i − r_i') + (r_j − r_j') (bottom node below each end)."""
+    """Strut-torquer local normal (our choice) n = (r_i − r_i') + (r_j − r_j') (bottom node below each end)."""
     N2 = lat.nodes_per_side**2
     return (pos[i] - pos[i % N2]) + (pos[j] - pos[j % N2])
 
 
 def test_strut_torquer_undeformed_couple():
-    """Spec §3.1: an undeformed y1-strut's couple is τ_s x̂1; the total is the command τ."""
+    """Strut torquer: an undeformed y1-strut's couple is τ_s x̂1; the total is the command τ."""
     lat = make_lattice(units=5, side_m=20.0)
     y_top = lat.struts_of_kind("y_edge", layer=1)
     x_top = lat.struts_of_kind("x_edge", layer=1)
@@ -312,7 +313,8 @@ def test_strut_torquer_undeformed_couple():
 
 @pytest.mark.parametrize("placement,pair", [("central", "top"), ("central", "diagonal"), ("distributed", "top")])
 def test_scenario_actuators_make_the_commanded_couple(placement, pair):
-    """§6.2 placements: distributed (380 top y1-struts) and central (2 struts) give couple τ x̂1."""
+    """Placements (Robb et al. 2022a, Fig. 3): distributed (380 top y1-struts) and central (2 struts)
+    give couple τ x̂1."""
     cfg = load_config(MODELS / "dist_vs_central/case_a_central_bangbang.toml")
     cfg.actuators.placement = placement
     cfg.actuators.central_pair = pair
@@ -374,7 +376,7 @@ def test_strut_torquer_on_deformed_lattice(seed, amp):
 
 
 def test_stiff_lattice_under_distributed_torque_accelerates_at_T_over_I():
-    """A stiff free lattice under a constant distributed torque T about x1 (spec §3.1): the
+    """A stiff free lattice under a constant distributed torque T about x1 (the strut torquers): the
     best-fit angle follows ½ (T/I₁) t² within 2 % (I₁ from Eq. 21), Σ m (x × v)_x = T t within
     2 %, and the load's net force is zero to rounding at every recorded step (so the centre of
     mass stays at rest: |Σ m v| < 1e-12 T t / a).
@@ -424,8 +426,8 @@ CASES = [("A", 100.0, 1e3, 100.0), ("B", 100.0, 1e2, 100.0), ("C", 100.0, 1e1, 1
 
 @pytest.mark.parametrize("case,d,EI,M", CASES)
 def test_cantilever_linear_matches_beam_formula(case, d, EI, M):
-    """Spec §2.7 linear solve, calibrated stiffness: δ = PL³/(3EI) within 10 % (issue 2) and
-    EI_eff/EI = 1 ± 0.02 (spec). P gives δ = 0.3 % of d. Measured: 1 ± 1e-9 (calibration is one
+    """Cantilever linear solve, calibrated stiffness: δ = PL³/(3EI) within 10 % and
+    EI_eff/EI = 1 ± 0.02 (our calibration tolerance). P gives δ = 0.3 % of d. Measured: 1 ± 1e-9 (calibration is one
     exact linear scaling; this checks that the cached factor carries over to every d and EI)."""
     lat = make_lattice(units=19, side_m=d)
     k, _ = strut_stiffness(lat, EI_Nm2=EI, calibration="cantilever")
@@ -442,7 +444,7 @@ def _cantilever_cfg(path, *overrides):
 
 def test_cantilever_mujoco_settle_small_lattice():
     """The cantilever scenario (clamp, tip load, settle damping) on a 4 × 4-cube lattice: the
-    MuJoCo settle matches the linear solve within 1 % (spec §2.7) and the tip speed criterion
+    MuJoCo settle matches the linear solve within 1 % and the tip speed criterion
     is met. ω₁ ≈ 0.2 rad/s, so 150 s (≈ 30/ω₁) of Euler at 0.05 s settle it."""
     cfg = _cantilever_cfg(
         MODELS / "cantilever.toml",
@@ -467,7 +469,7 @@ def test_cantilever_mujoco_settle_small_lattice():
 @pytest.mark.slow
 @pytest.mark.parametrize("case,EI", [("A", 1e3), ("B", 1e2), ("C", 1e1)])
 def test_cantilever_mujoco_settle_cases(case, EI):
-    """Spec §2.7 MuJoCo settle of the full 800-node lattice for Cases A–C (calibrated): δ within
+    """Cantilever MuJoCo settle of the full 800-node lattice for Cases A–C (calibrated): δ within
     10 % of PL³/(3EI), within 1 % of the linear solve, settled. The shipped config is Case A;
     for B and C the load (δ = 0.33 % of d), the step (ω_max ∝ √EI) and the duration (∝ 1/ω₁ ∝
     1/√EI) are scaled so every case takes the same 18 000 Euler steps."""
@@ -505,7 +507,7 @@ CASE_A_DISTRIBUTED = MODELS / "dist_vs_central/case_a_distributed_bangbang.toml"
 
 
 def test_numpy_rk4_reference_agrees_with_mujoco_rk4():
-    """Spec §3.4: Case A (800 nodes, distributed bang-bang, calibrated, ζ_s = 0.1), 60 s:
+    """RK4 against the NumPy reference: Case A (800 nodes, distributed bang-bang, calibrated, ζ_s = 0.1), 60 s:
     MuJoCo RK4 at 0.1 s with the load held over each step vs the NumPy RK4 with the load at
     every stage. Attitude within 1e-3 rad and surface SD within 2 % of its peak, at every
     3-s sample (measured: 3e-14 rad and 3e-11, the held load costs nothing here)."""

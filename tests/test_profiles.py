@@ -1,4 +1,5 @@
-"""Torque profiles of spec §6.3–6.4 (versine erratum T1) and the rigid-body reference."""
+"""Torque profiles of Robb et al. 2022a (Table 1; Eq. 9 with t_v in place of the misprinted t)
+and the rigid-body reference."""
 
 from __future__ import annotations
 

@@ -1,7 +1,8 @@
-"""Magnetorquer rods in struts (spec §3.2, erratum §12 F1; §10.3; rod basis §9.1 / O4).
+"""Magnetorquer rods in struts (Robb et al. 2022a, Eq. 4 corrected: no factor ½, sign giving +m × B;
+rod dipoles per family, Sec. 4.2).
 
 Tolerances: the force pair is a handful of flops per rod, so the midpoint torque is asserted to
-1e-12 of ``m |B|`` and the axial component to 1e-12 of ``m |B| / |r|`` (spec §3.2). Whole-lattice
+1e-12 of ``m |B|`` and the axial component to 1e-12 of ``m |B| / |r|`` (corrected Eq. 4). Whole-lattice
 sums over 760 rods are asserted to 1e-12 of ``Σ m |B|`` (rounding ~ 760 eps).
 """
 
@@ -28,7 +29,7 @@ vec = st.tuples(finite, finite, finite).map(np.array).filter(lambda v: np.linalg
 
 
 def reference_force(r_i, r_j, s, m, B):
-    """Plain per-rod reference: F_j = (m × B) × r / r² with m = s m r̂ (spec §3.2, boxed)."""
+    """Plain per-rod reference: F_j = (m × B) × r / r² with m = s m r̂ (corrected Eq. 4)."""
     r = np.asarray(r_j, float) - np.asarray(r_i, float)
     m_vec = s * m * r / np.linalg.norm(r)
     return np.cross(np.cross(m_vec, B), r) / (r @ r)
@@ -52,7 +53,7 @@ def paper_printed_force_i(r_i, r_j, m, B):
     m=st.floats(0.01, 1e3),
 )
 def test_force_pair_torque_force_and_direction(r_i, d, B_dir, B_exp, length, s, m):
-    """§10.3: midpoint torque = m × B (1e-12 rel.), zero net force, forces ⟂ strut."""
+    """Midpoint torque = m × B (1e-12 rel.), zero net force, forces ⟂ strut."""
     r_i = 50.0 * r_i
     r_j = r_i + length * d / np.linalg.norm(d)
     B = 10.0**B_exp * B_dir / np.linalg.norm(B_dir)
@@ -81,7 +82,7 @@ def test_force_pair_vectorised_matches_reference_per_rod_field():
 
 
 def test_printed_paper_form_has_the_erratum_f1_defects():
-    """§12 F1: the printed pair gives −m × B and an axial component; the boxed form does not."""
+    """Printed Eq. 4: the pair gives −m × B and an axial component; the corrected form does not."""
     r_i, r_j = np.array([0.0, 0.0, 0.0]), np.array([2.0, 0.5, -0.3])
     B, m = np.array([1e-5, -2e-5, 3e-5]), 7.0
     F_i = paper_printed_force_i(r_i, r_j, m, B)
@@ -120,7 +121,8 @@ def test_rod_dipole_basis_o4():
     tot = rod_dipole_Am2(kappa_Am2_kg=100.0, rod_mass_kg=100.0, rods_per_family=(380, 380), basis="total")
     assert per == pytest.approx((10_000 / 380, 10_000 / 380), rel=1e-15)
     assert tot == pytest.approx((10_000 / 760, 10_000 / 760), rel=1e-15)
-    assert round(per[0], 2) == 26.32 and round(tot[0], 2) == 13.16  # spec §9.1 numbers
+    # Robb et al. 2022a, Sec. 4.2 rod dipoles (10 000 A m² per family / in total)
+    assert round(per[0], 2) == 26.32 and round(tot[0], 2) == 13.16
     with pytest.raises(ValueError, match="basis"):
         rod_dipole_Am2(kappa_Am2_kg=1, rod_mass_kg=1, rods_per_family=(1, 1), basis="both")
     with pytest.raises(ValueError, match="kappa_Am2_kg"):

@@ -1,4 +1,4 @@
-"""Scaling law of the rod mass fraction (spec §8; §10.9) and its script.
+"""Scaling law of the rod mass fraction (Robb et al. 2022a, Sec. 4.1) and its script.
 
 Tolerances: closed forms are a few flops; comparisons at 1e-12 relative. The angle sweep for the
 maximum of Eq. 14 uses 20 001 samples of [0, π/2], which resolves the peak to ~1e-8 relative.
@@ -37,7 +37,7 @@ REPO = Path(__file__).resolve().parents[1]
 @settings(max_examples=100, deadline=None)
 @given(d=st.floats(0.5, 500.0), kappa=st.floats(1.0, 1000.0), M=st.floats(1.0, 1e5), alt_km=st.floats(200.0, 40_000.0))
 def test_closed_form_is_the_ratio_of_the_two_torques(d, kappa, M, alt_km):
-    """λ_f = T_grav,max / (κ M B): the same at every radius and mass (§8)."""
+    """λ_f = T_grav,max / (κ M B): the same at every radius and mass (Sec. 4.1)."""
     r = R_E_TRUSS + alt_km * 1e3
     ratio = gravity_gradient_torque_max(M, d, r) / (kappa * M * dipole_field_magnitude(r))
     assert rod_mass_fraction(d, kappa) == pytest.approx(ratio, rel=1e-12)

@@ -1,4 +1,4 @@
-"""Controllers of the orbital truss (spec §9.3–9.4, §10 item 10) and the orbital scenario wiring.
+"""Controllers of the orbital truss (Robb et al. 2022a, Sec. 4.2–4.3, Eqs. 19–21) and the orbital scenario wiring.
 
 Rigid-body checks integrate Euler's equations with quaternion kinematics by SciPy (RK45,
 rtol 1e-9) with the control laws evaluated continuously (ideal, unlimited torque); the
@@ -44,9 +44,9 @@ from magsail_mj.concepts.truss_magnetorquer.orbital import (
 )
 from tests.conftest import SMALL_ORBITAL_TRUSS
 
-PQ = (10.0, 50.0, 1.0)  # paper's gains (§9.4)
+PQ = (10.0, 50.0, 1.0)  # paper's gains (Sec. 4.3)
 PW = (1600.0, 8000.0, 800.0)
-R_ORB = 7.17e6  # 800 km orbit radius, R_E = 6370 km (§12 O8)
+R_ORB = 7.17e6  # 800 km orbit radius, R_E = 6370 km (the paper's Table 2)
 N_ORB = math.sqrt(MU_EARTH / R_ORB**3)
 
 
@@ -79,7 +79,7 @@ def rigid_body(torque, inertia: np.ndarray, q0, w0, t_end: float, *, t_eval=None
 
 
 def test_bdot_dissipates_energy_for_any_rate_and_field():
-    """ω·T = −k |ω × B|² ≤ 0 (§9.3), to rounding, over random rates and fields."""
+    """ω·T = −k |ω × B|² ≤ 0 (B-dot), to rounding, over random rates and fields."""
     rng = np.random.default_rng(3)
     w = rng.normal(scale=0.01, size=(500, 3))
     B = rng.normal(scale=3e-5, size=(500, 3))
@@ -121,7 +121,7 @@ def test_bdot_detumbles_a_rigid_body_in_a_turning_field():
 
 
 def test_quaternion_controller_sign():
-    """§9.4: q_t = R_x(+10°), q_ref = 1 gives T1 < 0 (and no other component at rest)."""
+    """Quaternion feedback: q_t = R_x(+10°), q_ref = 1 gives T1 < 0 (and no other component at rest)."""
     q_e = error_quaternion(np.array([1.0, 0, 0, 0]), quat_axis((1, 0, 0), 10.0))
     T = quaternion_feedback_torque(q_e, np.zeros(3), Pq_Nm=PQ, Pw_Nms=PW)
     assert T[0] < 0 and T[1] == 0 and T[2] == 0
@@ -131,8 +131,9 @@ def test_quaternion_controller_sign():
 
 
 def test_error_quaternion_is_shortest_path_and_printed_form_is_opposite():
-    """q_e = q_ref* ⊗ q_t with q_e0 ≥ 0 (§12 O2); its angle is the relative rotation angle; the
-    paper's printed q_ref ⊗ q_t* has the opposite vector part for a rotation about a body axis."""
+    """q_e = q_ref* ⊗ q_t with q_e0 ≥ 0 (our convention: Eqs. 19–20 as printed destabilise); its
+    angle is the relative rotation angle; the paper's printed q_ref ⊗ q_t* has the opposite vector
+    part for a rotation about a body axis."""
     rng = np.random.default_rng(5)
     for _ in range(50):
         q_ref = rng.normal(size=4)
@@ -153,7 +154,7 @@ def test_error_quaternion_is_shortest_path_and_printed_form_is_opposite():
 
 @pytest.mark.parametrize("axis", [(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, -2, 0.5)])
 def test_quaternion_feedback_drives_90deg_error_to_zero(axis):
-    """§9.4 test: rigid body (Eq. 21 inertia of the 75 m truss), no gravity gradient, unlimited
+    """Slew test: rigid body (Eq. 21 inertia of the 75 m truss), no gravity gradient, unlimited
     ideal torque, paper gains: a 90° rest-to-rest error is removed within 4.2 h (< 0.01°)."""
     I = inertia_75m()
     q_ref = quat_axis(axis, 90.0)
@@ -184,7 +185,7 @@ def test_gg_compensation_equals_minus_the_classical_torque():
 
 def test_gg_compensation_cancels_the_tidal_torque_of_the_lattice():
     """Undeformed 75 m lattice at 45° to the local vertical: the compensation with the Eq. 21
-    inertia cancels the summed exact tidal torque Σ x_i × m a_tidal(x_i) within 0.5 % (§10.11)."""
+    inertia cancels the summed exact tidal torque Σ x_i × m a_tidal(x_i) within 0.5 %."""
     lat = make_lattice(units=19, side_m=75.0)
     m = np.full(lat.n_nodes, 0.25)
     R = so3_exp(np.array([math.radians(45.0), 0, 0]))  # body → world, plate tilted about x
@@ -281,7 +282,7 @@ def test_bdot_rod_controller_estimates_rate_and_dissipates():
 
 
 def test_quaternion_rod_controller_matches_the_law_and_pickles():
-    """On a rigid lattice at R_x(10°) the rod controller's T_ref is the §9.4 law with the
+    """On a rigid lattice at R_x(10°) the rod controller's T_ref is the quaternion-feedback law with the
     compensation from r_b = Rᵀ(r_ref + x_c); after pickling (as the runner's checkpoints do) the
     copy gives the same next command as the original."""
     R0 = matrix_from_quat(quat_axis((1, 0, 0), 10.0))
@@ -398,7 +399,7 @@ def test_orbital_config_validation():
 
 
 def test_small_orbital_runs_resume_and_summaries(tmp_path, monkeypatch):
-    """A 6 s detumble and slew of the small truss: the run folder has the §9.3/§9.4 keys and
+    """A 6 s detumble and slew of the small truss: the run folder has the detumble and slew keys and
     plots, the rod torque equals what the allocation promised up to the rods' tilt with the
     deformation, and a run resumed from its checkpoint (controller pickled) equals the
     uninterrupted one exactly."""

@@ -254,7 +254,7 @@ def test_low_modes_equal_the_dense_modes():
 def test_plate_twist_variant_matches_the_plate_and_keeps_EI(diagonals):
     """stiffness.twist = "plate" on a 7 × 7 lattice: the first twist mode of the model's springs
     has the plate's frequency (1e-4 relative; Brent's tolerance is 1e-6 in log ρ), the linear
-    cantilever still gives EI (1e-9 relative, the spec's calibration tolerance is 2 %), only the
+    cantilever still gives EI (1e-9 relative; our calibration tolerance is 2 %), only the
     face diagonals change relative to the edges, and the default is the shipped lattice exactly."""
     tree = {
         "concept": "truss_magnetorquer",
