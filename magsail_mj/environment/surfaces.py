@@ -1,7 +1,8 @@
 """Flat surfaces for SRP and drag: optical coefficients, facet sets and the vectorised force laws.
 
 **SRP** — the non-ideal flat-sail model of McInnes as used by Yoo et al. 2016, Eqs. 16–22
-(errata E-6, E-10, E-11). For a facet of area A with unit normal n̂ (front face), Sun unit vector
+(its Table 3 labels read as the symbols below, B_f for the printed b_f in Eq. 16, and the
+tangential force taken away from the Sun). For a facet of area A with unit normal n̂ (front face), Sun unit vector
 ŝ (from the facet to the Sun) and c = ŝ·n̂: the lit face has normal n̂_l = sign(c) n̂ and
 cos α = |c|; its coefficients are (B_l, e_l, B_d, e_d) = (B_f, e_f, B_b, e_b) when the front is
 lit and, for two-sided facets with ``swap_back`` (default), (B_b, e_b, B_f, e_f) when the back is
@@ -9,7 +10,7 @@ lit. With κ = (e_l B_l − e_d B_d)/(e_l + e_d):
 
     F = −P A cos α [((1 + r s) cos α + B_l r (1 − s) + (1 − r) κ) n̂_l + (1 − r s) sin α t̂],
 
-t̂ = (ŝ − cos α n̂_l)/sin α (the tangential force points away from the Sun, E-11). Using
+t̂ = (ŝ − cos α n̂_l)/sin α (the tangential force points away from the Sun; the paper prints a + sign). Using
 sin α t̂ = ŝ − cos α n̂_l exactly, the implementation evaluates the equivalent form
 
     F = −P A cos α [(1 − r s) ŝ + (2 r s cos α + B_l r (1 − s) + (1 − r) κ) n̂_l],
@@ -52,7 +53,8 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Optics:
-    """Optical coefficients of a surface (Table 3 with the symbols of E-6).
+    """Optical coefficients of a surface (Yoo et al. 2016, Table 3, read by symbol: its "emission" and
+    "non-Lambertian" labels are swapped).
 
     r: reflectivity; s: specular fraction of the reflection; B_f, B_b: non-Lambertian
     coefficients of the front and back; e_f, e_b: emissivities of front and back;

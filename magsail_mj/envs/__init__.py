@@ -48,7 +48,7 @@ __all__ = [
     "SimulationPhysics",
 ]
 
-list = list_tasks  # noqa: A001  (the issue's name: ``magsail_mj.envs.list()``)
+list = list_tasks  # noqa: A001  (the public name: ``magsail_mj.envs.list()``)
 
 ENV_MODULES: dict[str, ModuleType] = concept_modules("env")
 """Concept name → its ``env`` module (imported: its tasks are registered)."""

@@ -81,7 +81,7 @@ def vee(S: np.ndarray) -> np.ndarray:
 def best_fit_rotation(p_ref: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""Least-squares rigid motion mapping reference body coordinates onto current positions.
 
-    Solves (erratum **A1**: squared norms, and the map goes from ``p`` to ``q``)
+    Solves (squared norms, and the map goes from ``p`` to ``q``)
 
     .. math:: \min_{R\in SO(3),\,d}\ \sum_{i=1}^n \lVert R\,p_i + d - q_i\rVert^2
 
@@ -425,7 +425,7 @@ class ParticleInertia(NamedTuple):
 
 
 def particle_inertia(p: np.ndarray, m: float | np.ndarray) -> ParticleInertia:
-    r"""Inertia of point masses about their centre of mass (Eq. 21; erratum **O3**).
+    r"""Inertia of point masses about their centre of mass (Robb et al. 2022a, Eq. 21, computed from the particles).
 
     With :math:`r_i = p_i - p_c`, :math:`p_c = \sum m_i p_i / \sum m_i`:
 

@@ -9,7 +9,7 @@ Node ``(i, j, k)``, ``i, j ∈ {0..N-1}``, ``k ∈ {0 (bottom), 1 (top)}`` has f
 ``p = (i a − d/2, j a − d/2, (k − ½) a)`` (origin at the undeformed centre of mass for uniform
 masses; x1 along i, y1 along j, z1 = plate normal, bottom → top).
 
-Struts (item S1): every cube edge, plus one diagonal on every square face joining the
+Struts: every cube edge, plus one diagonal on every square face joining the
 two corners with even ``i + j + k`` (``diagonals="parity"``), or both diagonals
 (``diagonals="X"``). The strut table is built once; every strut has its kind, its rest length
 and its spring constant ``k_s = EA / l0_s``.

@@ -17,7 +17,7 @@ Dipole helpers (used to report turns and current for a dipole; the simulation co
 * cored rod (Eq. 7): M = π r² n i [1 + (μ_r − 1)/(1 + (μ_r − 1) N_d)], with the cylinder
   demagnetising factor N_d ≈ 4(ln ℓ − 1)/(ℓ² − 4 ln ℓ), ℓ = L/r.
 
-Limits (E-5): ``"command"`` = 0.2, 0.2, 0.1 A m² (default; text and Table 5) or ``"half_watt"`` =
+Limits: ``"command"`` = 0.2, 0.2, 0.1 A m² (default; text and Table 5) or ``"half_watt"`` =
 0.02, 0.02, 0.01 A m² (the "0.5 W" figures). B-dot clips each axis (:func:`saturate_per_axis`);
 unloading scales the whole vector (:func:`saturate_uniform`). Electrical power per axis (assumed,
 reporting only): P_j = P_max (M_j/M_j,max)².
@@ -32,12 +32,13 @@ Reaction wheels and DC motors (Eqs. 8–11)
 Per wheel, ω_M = hinge velocity (rotor speed relative to the bus):
 
     V_in − K_b ω_M = R_M i_M + L di_M/dt     (Eq. 8, armature; Eq. 9 back-emf V_b = K_b ω_M)
-    I_w ω̇_rw + K_B ω_M = T_M                 (Eq. 10 corrected, E-7: rotor inertial spin rate)
+    I_w ω̇_rw + K_B ω_M = T_M                 (Eq. 10 corrected: rotor inertial spin rate)
     T_M = K_M i_M                             (Eq. 11)
 
 In MuJoCo the rotor is a hinged body: ``ctrl`` = T_M on the rotor (its reaction on the bus) and
 the joint damping K_B gives the friction, so the bus receives −(T_M − K_B ω_M) about the wheel
-axis and the gyroscopic coupling comes out of the multibody dynamics (E-2).
+axis and the gyroscopic coupling comes out of the multibody dynamics
+(the reaction on the bus is −ḣ_w, not the printed +ḣ_rw of Eq. 1).
 
 Wheel driver (Yoo et al. 2016, Eqs. 8–11), :class:`WheelDriver`:
 
@@ -54,7 +55,8 @@ Wheel driver (Yoo et al. 2016, Eqs. 8–11), :class:`WheelDriver`:
 
 ``model="ideal"``: T_M = clip(T_c, ±τ_max) held, with the same speed limiter (tests, speed).
 
-Limits (E-4, E-8): τ_max = 0.196 mN m, Ω_max = 7000 rpm (3.30 mN m s) by default; unloading
+Limits (the paper's text and Table 4 disagree; our defaults):
+τ_max = 0.196 mN m, Ω_max = 7000 rpm (3.30 mN m s) by default; unloading
 threshold 3000 rpm on the speed. Assumed motor constants (not in the paper): K_M = K_b = 6e-3,
 R_M = 10 Ω, L = 1 mH, K_B = 1e-8 N m s/rad, V_max = 5 V, i_max = τ_max/K_M.
 """
@@ -248,7 +250,7 @@ class DCMotorParams:
 
     Attributes:
       spin_inertia_kgm2: rotor spin inertia I_w (Table 4: 4.5e-6).
-      torque_max_Nm: τ_max (E-4: 0.196e-3 default; 1.9e-3 sensitivity case).
+      torque_max_Nm: τ_max (0.196e-3 default; 1.9e-3 sensitivity case).
       speed_max_rpm: Ω_max (7000 rpm default; 7500 alternative).
       K_M_Nm_A: motor torque constant K_M; K_b_Vs_rad: back-emf constant K_b (= K_M in SI).
       R_ohm: armature resistance R_M; L_H: inductance L.

@@ -168,7 +168,7 @@ class ActuatorsConfig(StrictModel):
 
 class UnloadingConfig(StrictModel):
     """``[control.unloading]`` (Yoo et al. 2016, Eq. 39): gain k_rw [1/s], per-axis activation above
-    ``threshold_rpm`` (E-8), optional hysteresis ``off_rpm``."""
+    ``threshold_rpm`` (a wheel speed), optional hysteresis ``off_rpm``."""
 
     enabled: bool = True
     k_rw_per_s: float = Field(default=0.005, gt=0)
@@ -235,7 +235,7 @@ class CnusailInitialConfig(StrictModel):
 
 class AnalysisConfig(StrictModel):
     """``[analysis]``: metric thresholds. ``pointing_threshold_deg`` (5°);
-    ``detumble_threshold_deg_s`` for ``detumble_time_s`` (0.3 °/s, E-17);
+    ``detumble_threshold_deg_s`` for ``detumble_time_s`` (0.3 °/s, assumed: the paper does not quantify it);
     ``settle_margin_s`` after the 5° entry before the steady metrics (default 4/(ζω_n), the 2 %
     settling time of the small-angle loop); ``disturbance_orbit`` computes the one-orbit disturbance
     profile of both attitude modes (pointing runs)."""

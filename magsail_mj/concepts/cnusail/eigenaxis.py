@@ -9,11 +9,11 @@ reference components into body components. They are the same numbers reordered:
 
     q_paper = [x, y, z, w],     A(q_paper) = xmatᵀ.
 
-* error quaternion (Eq. 37 without the stray ½ and with d_c2 → q_c2, erratum E-12):
+* error quaternion (Eq. 37 without the stray ½ and with d_c2 → q_c2, both misprints):
   p_e = p_c* ⊗ p_b (Hamilton), i.e. the body attitude relative to the command frame;
   A(q_e) = A(q) A(q_c)ᵀ. With ``shortest=True`` the sign is chosen so that q_e4 = w ≥ 0.
 * eigen-angle θ_e = 2 atan2(|q_e,1:3|, |q_e4|).
-* attitude matrix A(q) of Eq. 3 with the q_3² diagonal of erratum E-1 (:func:`attitude_matrix`).
+* attitude matrix A(q) of Eq. 3 with q_3² on the diagonal, not the printed q_3³ (:func:`attitude_matrix`).
 
 Rate error (Eq. 38): the command frame turns with the orbital frame R; for both commands used here
 (nadir and deorbit, which share ŷ_C = ŷ_R) its rate is [0, −ω_o, 0] in command components, so
@@ -24,8 +24,8 @@ Control torque (Eq. 28), J the spacecraft inertia matrix:
 
     u = −K sat(P q_e) − C ω_e + g,   K = J diag(k_i), P = diag(p_i), C = c J,
 
-sat the unit saturation per component (Eq. 32), g the gyroscopic compensation (``gyro_comp``,
-erratum E-21): ``"Iw"`` (paper) ω × Jω, ``"Iw+hw"`` ω × (Jω + h_w), ``"none"`` 0.
+sat the unit saturation per component (Eq. 32), g the gyroscopic compensation (``gyro_comp``;
+the paper's form omits h_w): ``"Iw"`` (paper) ω × Jω, ``"Iw+hw"`` ω × (Jω + h_w), ``"none"`` 0.
 
 Gain selection (Eqs. 33–36, corrected as below). With q_e(0) the vector part
 at the start of the manoeuvre, θ̇_max the slew-rate limit, ω_n and ζ the small-angle natural
@@ -37,7 +37,7 @@ While saturated, ω̇_i ≈ −k_i sgn(q_e,i) − c ω_i drives the rate to −�
 rotation about the initial eigen-axis at the rate limit; near the target the law becomes
 q̈_e ≈ −(k/2) q_e − c q̇_e, a second-order system with ω_n² = k/2 and 2ζω_n = c.
 
-Small components (erratum E-14): for the gain computation only, every |q_e,i(0)| < 0.1 is
+Small components (the paper states this clamp loosely): for the gain computation only, every |q_e,i(0)| < 0.1 is
 replaced by 0.1 (``clamp_min``); the modified vector is not renormalised; the feedback uses the
 true error. The eigen-angle of the modified vector is logged next to the true one.
 """
@@ -87,7 +87,7 @@ def quat_from_paper(q: np.ndarray) -> np.ndarray:
 
 
 def attitude_matrix(q: np.ndarray) -> np.ndarray:
-    """A(q) of paper Eq. 3 with the q_3² diagonal of erratum E-1 (scalar-last ``q``): maps
+    """A(q) of paper Eq. 3 with q_3² on the diagonal, not the printed q_3³ (scalar-last ``q``): maps
     reference components into body components; equals ``xmatᵀ`` of the reordered quaternion."""
     q1, q2, q3, q4 = np.asarray(q, dtype=float)
     return np.array(
@@ -100,14 +100,14 @@ def attitude_matrix(q: np.ndarray) -> np.ndarray:
 
 
 def paper_error_quaternion(q_c: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Error quaternion of paper Eq. 37 (scalar-last), without the stray ½ and with q_c2 (E-12)."""
+    """Error quaternion of paper Eq. 37 (scalar-last), without the stray ½ and with q_c2 for the printed d_c2."""
     c1, c2, c3, c4 = np.asarray(q_c, dtype=float)
     M = np.array([[c4, c3, -c2, -c1], [-c3, c4, c1, -c2], [c2, -c1, c4, -c3], [c1, c2, c3, c4]])
     return M @ np.asarray(q, dtype=float)
 
 
 def error_quaternion(p_c: np.ndarray, p_b: np.ndarray, *, shortest: bool = True) -> np.ndarray:
-    """p_e = p_c* ⊗ p_b (scalar-first): body attitude relative to the command frame (Eq. 37, E-12).
+    """p_e = p_c* ⊗ p_b (scalar-first): body attitude relative to the command frame (Eq. 37 without its stray ½).
     With ``shortest`` the sign is flipped when w < 0 (rotation by at most π)."""
     p = quat_mul(quat_conj(p_c), p_b)
     p = p / math.sqrt(float(p @ p))
@@ -221,7 +221,7 @@ def eigen_axis_gains(
     q_e0: np.ndarray, *, omega_n_rad_s: float, zeta: float, rate_max_rad_s: float, clamp_min: float = 0.1
 ) -> EigenAxisGains:
     """Gains (Eqs. 33–36, corrected as in the module docstring) from the error vector ``q_e0`` (3,) at the
-    start of the manoeuvre, with the per-component clamp of E-14 (``clamp_min``; 0 disables it).
+    start of the manoeuvre, with the per-component clamp (``clamp_min``; 0 disables it).
 
     Raises ValueError naming the argument when ``q_e0`` is zero (no manoeuvre) and not clamped.
     """
@@ -255,7 +255,7 @@ def eigen_axis_gains(
 
 
 def gyro_compensation(omega: np.ndarray, inertia: np.ndarray, h_w: np.ndarray | None, mode: GyroComp) -> np.ndarray:
-    """g = ω × Jω (``"Iw"``), ω × (Jω + h_w) (``"Iw+hw"``) or 0 (``"none"``) [N m] (E-21)."""
+    """g = ω × Jω (``"Iw"``), ω × (Jω + h_w) (``"Iw+hw"``) or 0 (``"none"``) [N m]; the paper's form is ``"Iw"``."""
     if mode == "none":
         return np.zeros(3)
     H = inertia @ omega

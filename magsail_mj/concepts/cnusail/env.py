@@ -11,7 +11,7 @@ config's ``control.mode``/``control.command``):
 Action (``dm_env.specs.BoundedArray``, float64, bounded as the hardware is):
 
 * detumble, ``action="dipole"`` (default): ``m`` (3,) magnetorquer dipole [A m², body axes], each
-  axis within ``±actuators.mtq`` limits; the wheels are idle (current command 0, E-15);
+  axis within ``±actuators.mtq`` limits; the wheels are idle (current command 0: B-dot alone after deployment);
 * pointing, ``action="torque_dipole"`` (default): ``u`` (3,) body-torque request of the wheels
   [N m, ±(K_M i_max + 2 K_B Ω_max), beyond which the current command saturates alike] through the
   wheel driver (``i_c = clip((−u + K_B ω_M)/K_M, ±i_max)``) and ``m`` (3,);

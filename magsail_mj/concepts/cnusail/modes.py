@@ -5,16 +5,16 @@ resolved where each rule is stated.
 
 Command frames, as body → world rotation matrices (columns = command axes in ECI):
 
-* nadir: the orbital frame R, ẑ_R = r̂, ŷ_R = (v × r)/|v × r|, x̂_R = ŷ_R × ẑ_R (≈ −v̂) (E-3);
+* nadir: the orbital frame R, ẑ_R = r̂, ŷ_R = (v × r)/|v × r|, x̂_R = ŷ_R × ẑ_R (≈ −v̂), each row normalised;
 * deorbit: R turned by −90° about ŷ_R (active): x̂_C = ẑ_R, ŷ_C = ŷ_R, ẑ_C = −x̂_R ≈ +v̂, so the sail
   front face looks along the flight direction. From the nadir attitude the error is the paper's
-  [0, 0.7071, 0, 0.7071] (scalar-last), E-19.
+  [0, 0.7071, 0, 0.7071] (scalar-last): the satellite starts in the nadir attitude.
 
 Mode logic (:class:`ModeManager`)::
 
-    any mode: |ω| > 1 °/s                      → DETUMBLE (B-dot, wheels idle, E-15)
+    any mode: |ω| > 1 °/s                      → DETUMBLE (B-dot, wheels idle)
     DETUMBLE: |ω| < ω_exit for t_dwell         → NADIR (eigen-axis/PD + unloading)
-              (0.3 °/s for 60 s, E-17)            (DEORBIT instead once t ≥ t_deorbit)
+              (0.3 °/s for 60 s, assumed)         (DEORBIT instead once t ≥ t_deorbit)
     NADIR:    t ≥ t_deorbit (end-of-mission)    → DEORBIT (eigen-axis + unloading + recalculation)
 
 Stand-alone scenarios run one mode with switching disabled (``enabled = False``).
@@ -86,7 +86,7 @@ class Mode(IntEnum):
 
 
 def nadir_command_matrix(r: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Body → world matrix of the nadir command (frame R, with E-3): columns x̂_R, ŷ_R, ẑ_R."""
+    """Body → world matrix of the nadir command (frame R, rows normalised): columns x̂_R, ŷ_R, ẑ_R."""
     z = r / np.linalg.norm(r)
     y = np.cross(v, r)
     y = y / np.linalg.norm(y)

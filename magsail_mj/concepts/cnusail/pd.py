@@ -5,7 +5,7 @@ r"""PD comparison law (CNUSAIL-1 paper Eq. 40).
 with J the spacecraft inertia matrix, q_e the error-quaternion vector part and ω_e the rate error
 of :mod:`magsail_mj.concepts.cnusail.eigenaxis`, and the same k = 2ω_n², c = 2ζω_n as the eigen-axis law,
 so the two laws are identical for small errors (both give q̈_e ≈ −(k/2) q_e − c q̇_e). The paper
-does not define its PD gain matrix (E-18); k J (rather than the diag(k_i) J of Eq. 29) is the
+does not define its PD gain matrix; k J (rather than the diag(k_i) J of Eq. 29) is the
 only choice that makes the comparison about large-angle behaviour. As printed, there is no
 saturation function and no gyroscopic term. Large errors therefore ask for large torques, which
 the wheel driver clips at τ_max: the rate is not limited and the rotation axis wanders.

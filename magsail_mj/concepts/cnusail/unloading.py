@@ -7,7 +7,8 @@ axes). Only the part of Δh perpendicular to B can be removed. The attitude loop
 disturbance and moves the wheels to absorb it, which drains h_w.
 
 Activation (the paper only says the logic runs when the wheel momentum exceeds a limit): **per
-axis** — component j of Δh is kept while |ω_M,j| > ω_on (3000 rpm, on the speed: erratum E-8) and
+axis** — component j of Δh is kept while |ω_M,j| > ω_on (3000 rpm, on the
+speed: the paper's 1.35 mN m s does not match 3000 rpm) and
 set to zero otherwise; no unloading when all three are below. Optional hysteresis: once on, an
 axis stays on until |ω_M,j| < ω_off (``off_rpm``; default ω_off = ω_on, i.e. no hysteresis).
 The dipole is limited by uniform scaling (:func:`magsail_mj.loads.actuators_cubesat.saturate_uniform`)

@@ -567,7 +567,7 @@ def slew_metrics(rec: dict[str, np.ndarray], *, areas_body_m2: np.ndarray) -> Me
         "saturation_fraction": float(np.mean(np.any(sat, axis=1))),
         "mag_torque_max_Nm": float(mag.max()),
         "gg_torque_max_Nm": float(gg.max()),
-        # issue #5 item 6 names
+        # names shared with the other concepts' slew summaries
         "time_to_target_s": t5,
         "attitude_error_max_after_target_deg": None if err_after is None else float(np.degrees(err_after)),
         "current_max_A": [float(v) for v in np.abs(currents_axis).max(axis=0)],

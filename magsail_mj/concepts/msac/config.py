@@ -228,7 +228,7 @@ class SweepConfig(StrictModel):
     ``base`` names the scenario id the sweep starts from (``magsail_mj/concepts/msac/configs/<base>.toml``; a test
     checks the file's other tables equal it). ``cycles`` sets each point's duration;
     ``keep_steps_per_cycle`` rescales ``sim.timestep_s`` with the cycle period so that every
-    point has the base's steps per cycle (frequency sweeps, spec T6).
+    point has the base's steps per cycle (frequency sweeps, the time-scaling test).
     """
 
     base: str

@@ -80,7 +80,7 @@ class MsacTask(ABC):
         """The kind's summary keys and derived series from a run's result."""
 
     def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        """Summary (and issue keys) and derived series (yaw, increments)."""
+        """Summary and derived series (yaw, increments)."""
         summary, series = self.summarise(result)
         self.last_summary = summary
         return summary, series

@@ -6,7 +6,7 @@ which the condition holds (``None`` if never).
 Functions take the built plate (:class:`magsail_mj.concepts.reflector.model.ReflectorModel`:
 config, indices, inertia, capability, orbit) and the run's records.
 
-Detumble: ``t_omega_below_1e-{2,3,4}_s`` (first |ω| below 10⁻², 10⁻³, 10⁻⁴ rad/s; the issue's
+Detumble: ``t_omega_below_1e-{2,3,4}_s`` (first |ω| below 10⁻², 10⁻³, 10⁻⁴ rad/s; the alias
 ``time_rate_below_1e-3_s`` equals the middle one), ``omega_final_rad_s``,
 ``sat_fraction_{x,y}coil``, ``t_min_one_cap_s = |h₀| / T_max`` and ``t_min_two_caps_s =
 |h₀| / (√2 T_max)`` (both paths saturated, field ⟂ both dipoles), ``h_along_B_change_Nms``
@@ -15,7 +15,7 @@ Detumble: ``t_omega_below_1e-{2,3,4}_s`` (first |ω| below 10⁻², 10⁻³, 10�
 Pitch: attitude-error angle ``2 arccos|q_e,w|``; pitch ``ψ_act = π/2 − β_act`` with
 ``β_act = unwrap(atan2(R₁₃, R₁₁))``; ``t_err_above_{1,5}deg_s``, ``time_err_above_5deg_s``,
 ``err_max_rad``, ``err_rms_rad``, ``sat_fraction``, ``passes_over_cap`` (passes in which
-|T_ref| exceeds the cap), ``torque_ff_peak_Nm`` (max I₂|ψ̈| over the nominal run) and the issue's
+|T_ref| exceeds the cap), ``torque_ff_peak_Nm`` (max I₂|ψ̈| over the nominal run) and the cross-concept keys
 ``tracking_lost_first_s`` (first |ψ − ψ_ref| > 5°), ``passes_saturated`` (passes with a
 saturated record), ``psi_error_rms_deg``. A *pass* is the window ``t_k ± T_orb/2`` around an
 equator crossing on the +x side, ``t_k = t_m + k T_orb``, clipped to the run.

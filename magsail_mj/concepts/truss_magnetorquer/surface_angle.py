@@ -1,8 +1,8 @@
-r"""Local surface angle of the deformed top layer (erratum **M1**).
+r"""Local surface angle of the deformed top layer (our reading of Robb et al. 2022a).
 
 At one chosen time (e.g. the time of maximum surface SD):
 
-1. The top-layer nodes are expressed in the **average-plane frame** (erratum **M1**: the average
+1. The top-layer nodes are expressed in the **average-plane frame** (the average
    plane of the top layer, not the body ``x1 y1`` plane): origin at the centroid, normal
    :math:`\hat n` from the total-least-squares fit, oriented along the best-fit body
    ``z1``; in-plane axes :math:`\hat e_u` = the best-fit body ``x1`` projected onto the plane and
@@ -186,7 +186,7 @@ def local_surface_angle(
     nodes_per_side: int | None = None,
     edge_band_m: float | None = None,
 ) -> SurfaceAngle:
-    r"""Local surface angle map and statistics of the top layer at one time (**M1**).
+    r"""Local surface angle map and statistics of the top layer at one time.
 
     See the module docstring for the frame, the two fitting methods and the statistics.
 
