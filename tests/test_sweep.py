@@ -152,7 +152,10 @@ def test_design_records_carry_their_params_into_summaries(tmp_path):
 
 def test_grid_with_linked_keys_reproduces_the_36_listed_configs():
     grid = load_sweep(MODELS.parents[3] / "models" / "sweeps" / "current_loops_sweep36_grid.toml")
-    assert len(grid.runs) == 36 and grid.runs[0].id == "circuits=A,units=12,EI_Nm2=1000,timestep_s=0.1,record_every=20"
+    assert (
+        len(grid.runs) == 36
+        and grid.runs[0].id == "circuits=A,units=12,EI_Nm2=1000,timestep_s=0.1,record_every=20,form=dense"
+    )
     for run in grid.runs:
         p = run.params
         stem = f"{p['loops.circuits'][0].lower().replace('_', '')}_n{p['lattice.units']}_ei{p['stiffness.EI_Nm2']:.0e}"
@@ -208,7 +211,7 @@ def test_sweep_command_exits_1_when_a_run_failed(tmp_path, capsys):
 
 
 def test_truss_orbital_sweep_lists_every_orbital_truss_config():
-    """The configs the removed generator wrote (§9 detumble, slews, ablation, sensitivity) are all runs."""
+    """The configs the removed generator wrote (orbital detumble, slews, ablation, sensitivity) are all runs."""
     truss = MODELS.parents[1] / "truss_magnetorquer" / "configs"
     tree = read_toml(SWEEPS / "truss_orbital.toml")
     listed = {(SWEEPS / r["config"]).resolve() for r in tree["run"]}
