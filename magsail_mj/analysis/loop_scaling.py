@@ -653,7 +653,7 @@ def scaling_table(
 
 
 def sunlight_diameter_ratio(constants: ThermalConstants = DEFAULT_CONSTANTS) -> float:
-    """Optional side check: wire diameter increase if the wire is sunlit (derived, Robb et al. 2022b, Eqs. 2–11).
+    """Optional side check: wire diameter increase if the wire is sunlit (derived; not in the paper).
 
     Absorbed sunlight ``P_S = S ε l d`` (absorptance = ε, projected area ``l d``) joins the
     balance ``4 ρ_r f_Γ I² / (π d²) + S ε d = ε σ_B π d Γ_e⁴``, so at the same current::

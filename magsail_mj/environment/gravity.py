@@ -33,7 +33,7 @@ def point_mass_acceleration(r: np.ndarray, *, mu: float = MU_EARTH) -> np.ndarra
 
 
 def j2_acceleration(r: np.ndarray, *, mu: float = MU_EARTH, J2: float = J2_EARTH, R: float = R_J2) -> np.ndarray:
-    """J2 part of the geopotential acceleration (Yoo et al. 2016, Table 1), ECI = Earth axes along z:
+    """J2 part of the geopotential acceleration, ECI = Earth axes along z:
 
     a_J2 = (3/2) J2 μ R² / r⁵ · [x(5z²/r² − 1), y(5z²/r² − 1), z(5z²/r² − 3)].
     """

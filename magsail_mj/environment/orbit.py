@@ -5,7 +5,7 @@ Frames: ECI. Units: m, s, rad.
 
 * Kepler: mean anomaly M = M0 + n t, n = √(μ/a³); Kepler's equation E − e sin E = M solved by
   Newton iteration to machine precision, vectorised over times.
-* J2: Cowell integration of r̈ = −μ r/r³ + a_J2(r) (Yoo et al. 2016, Table 1) with SciPy's DOP853,
+* J2: Cowell integration of r̈ = −μ r/r³ + a_J2(r) with SciPy's DOP853,
   rtol 1e-12, dense output (any time can be sampled).
 
 Secular J2 rates (first order; Vallado):

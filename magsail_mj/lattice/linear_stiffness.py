@@ -1,5 +1,5 @@
 r"""Linear (matrix) elastic forces of a spring lattice: the paper's printed Eq. 12 and its
-co-rotational counterpart, as a load (current-loops.md, Robb et al. 2022b, Eqs. 13–14).
+co-rotational counterpart, as a load (Robb et al. 2022b, Eqs. 13–14).
 
 With :math:`\mathbf r,\mathbf r_0\in\mathbb R^{3n}` the flattened current and undeformed node
 positions (world frame, metres) and :math:`\mathbf K` the stiffness matrix **assembled once at the

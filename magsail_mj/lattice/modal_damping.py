@@ -1,4 +1,4 @@
-r"""Co-rotated Caughey (modal) damping of a flexible lattice (current-loops.md, Eq. 15).
+r"""Co-rotated Caughey (modal) damping of a flexible lattice (Robb et al. 2022b, Eq. 15).
 
 Force on the particles, world components (``r``, ``ṙ`` the flattened world positions and
 velocities of the ``n`` nodes):

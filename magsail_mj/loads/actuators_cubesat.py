@@ -246,7 +246,8 @@ class MagnetorquerLoad:
 
 @dataclass(frozen=True)
 class DCMotorParams:
-    """Reaction-wheel and DC-motor constants (Yoo et al. 2016, Eqs. 8–11; defaults = its recommended/assumed set).
+    """Reaction-wheel and DC-motor constants (Yoo et al. 2016, Eqs. 8–11; defaults: the paper's values where
+    it gives them, assumed otherwise).
 
     Attributes:
       spin_inertia_kgm2: rotor spin inertia I_w (Table 4: 4.5e-6).

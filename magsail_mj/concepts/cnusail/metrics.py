@@ -8,7 +8,7 @@ Detumbling (``control.mode = "bdot"``):
 * ``detumble_time_s``: time after which ‖ω‖ stays below ``analysis.detumble_threshold_deg_s``
   (0.3 °/s, the detumble exit threshold we assume; ‖ω‖ below it means every body-rate
   component is below it); ``detumble_time_below_{1p0,0p5,0p3,0p2}dps_s`` and ``…_orbits`` for the
-  spec's four thresholds;
+  four thresholds;
 * ``rate_mean_last_orbit_rad_s`` (mean ‖ω‖ over the last orbit), ``rate_ptp_last_two_orbits_rad_s``;
 * ``mtq_energy_J``: Σ P_j over the on-time of each cycle, P_j = P_max (M_j/M_j,max)² (Yoo et al. 2016, Eqs. 5–7).
 

@@ -1,4 +1,4 @@
-"""Current loops built into the flexible truss (``current_loops``), spec current-loops.md.
+"""Current loops built into the flexible truss (``current_loops``), Robb et al. 2022b.
 
 Importing this module registers the concept: its config schema
 (:mod:`magsail_mj.concepts.current_loops.config`, :class:`CurrentLoopsConfig`) and its tasks, one

@@ -138,7 +138,7 @@ class ComputedTorque:
     Attributes:
       model: compiled model (its ``opt.timestep`` sets ``ω_c``).
       path: the prescribed cycle.
-      omega_c_dt: ``ω_c·δt`` (spec default 0.2).
+      omega_c_dt: ``ω_c·δt`` (default 0.2).
     """
 
     model: mujoco.MjModel

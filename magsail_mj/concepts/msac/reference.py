@@ -11,7 +11,7 @@ With the panel length frozen, ``I_sat ψ̇ + I_p φ̇ = 0``; adding the extended
 .. math::
     θ_γ = \frac{I_e - I_c}{I_{sat}}\,(φ_a - φ_b), \qquad ω_γ ≈ θ_γ / Δt .
 
-**Correction (Vedant & Allison 2019, Eqs. 1–7).** The printed derivation mixes magnitude and signed notations; the
+**Our correction of Eqs. 1–7.** The printed derivation mixes magnitude and signed notations; the
 formula is used here with the *signed* stroke ``φa − φb`` (a symmetric ±10° motion gives a
 non-zero result). ``I_e``, ``I_c`` are totals over all wings that move together (two wings:
 twice the per-wing values) and ``I_sat`` is the bus alone.
