@@ -1,4 +1,4 @@
-"""CNUSAIL-1 actuators (spec §4.1–4.2, §13 items 7, 9): magnetorquer helpers, saturation and the
+"""CNUSAIL-1 actuators (Yoo et al. 2016, Eqs. 5–11): magnetorquer helpers, saturation and the
 blanking duty cycle; the DC-motor wheel driver (steady state, time constant, current loop, speed
 limiter, quasi-static vs sub-stepped armature)."""
 
@@ -29,7 +29,7 @@ from magsail_mj.loads.base import StepState
 from magsail_mj.concepts.cnusail.mjcf import CubesatModelParams, build_cubesat_spec, cubesat_indices
 
 
-# ------------------------------------------------------------------ magnetorquers (§4.1)
+# ------------------------------------------------------------------ magnetorquers (Eqs. 5–7)
 
 
 def test_dipole_formulas():
@@ -37,7 +37,7 @@ def test_dipole_formulas():
     Nd = rod_demagnetising_factor(60 / 4)
     assert Nd == pytest.approx(0.032, abs=0.001)
     bracket = rod_dipole(turns=1, current_A=1, radius_m=1 / math.sqrt(math.pi), mu_r=1e4, N_d=Nd)
-    assert 30 < bracket < 33  # ≈ 32 for any permalloy-like μ_r ≳ 1e3 (spec §4.1)
+    assert 30 < bracket < 33  # ≈ 32 for any permalloy-like μ_r ≳ 1e3
     with pytest.raises(ValueError, match="mu_r"):
         rod_dipole(turns=1, current_A=1, radius_m=0.004, mu_r=0.5, N_d=Nd)
 
@@ -94,7 +94,7 @@ def test_magnetorquer_load_is_m_cross_b_in_world_axes():
     assert not xfrc.any()
 
 
-# ------------------------------------------------------------------ DC motor (§4.2, §13 item 9)
+# ------------------------------------------------------------------ DC motor (Eqs. 8–11)
 
 
 def _spin_up(driver: WheelDriver, cmd: np.ndarray, *, dt: float, t_end: float, bus_inertia: float = 1e6):
@@ -131,7 +131,8 @@ def test_dc_motor_constant_voltage_steady_state_and_time_constant():
     assert tau == pytest.approx(4.5e-6 * 10 / (6e-3 * 6e-3 + 1e-8 * 10))
     t, w = _spin_up(drv, cmd, dt=1e-3, t_end=20 * tau)
     w_ss = p.steady_speed(p.V_max_V)
-    # spec: "no-load speed at 5 V ≈ 7960 rpm" is V/K_b (7958 rpm); the bearing friction K_B lowers
+    # the no-load speed at 5 V, ≈ 7960 rpm from the motor constant, is V/K_b (7958 rpm); the
+    # bearing friction K_B lowers
     # it to 7936 rpm
     assert p.V_max_V / p.K_b_Vs_rad / RPM == pytest.approx(7958, abs=1)
     assert w_ss / RPM == pytest.approx(7936, abs=1)

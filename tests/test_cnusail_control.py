@@ -1,4 +1,4 @@
-"""CNUSAIL-1 control laws (spec §2.2–2.4, §7, §8, §13 items 1, 7, 10): quaternion conventions,
+"""CNUSAIL-1 control laws (Yoo et al. 2016, Eqs. 2–3, 24–40, and the mode logic): quaternion conventions,
 eigen-axis gains and slew-rate limit, PD sign and stability, B-dot dissipation, unloading, modes."""
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ def _rand_quat():
     return q / np.linalg.norm(q)
 
 
-# ------------------------------------------------------------------ conventions (§2.2–2.4, §13.1)
+# ------------------------------------------------------------------ conventions (Eqs. 2–3)
 
 
 def test_attitude_matrix_is_xmat_transpose_after_reordering():
@@ -102,7 +102,8 @@ def test_deorbit_command_error_from_nadir_attitude():
 
 
 def test_s3_initial_eigen_angle():
-    """Spec §9: the S3 error quaternion has unit norm to 3e-5 and eigen-angle 146.5° within 0.1°."""
+    """The paper's initial error quaternion of the stowed nadir slew has unit norm to 3e-5 and
+    eigen-angle 146.5° within 0.1°."""
     q = np.array([0.2876, 0.6460, 0.2876, -0.6460])
     assert abs(np.linalg.norm(q) - 1) < 3e-5
     assert abs(math.degrees(eigen_angle(q / np.linalg.norm(q))) - 146.5) < 0.1
@@ -118,7 +119,7 @@ def test_rate_error_zero_for_body_locked_to_command():
     np.testing.assert_allclose(w, attitude_matrix(quat_to_paper(pe)) @ [0, -w_o, 0], atol=1e-18)
 
 
-# ------------------------------------------------------------------ gains (§7.2, E-13, E-14)
+# ------------------------------------------------------------------ gains (Eqs. 28–38, our reading)
 
 
 def test_eigen_axis_gains_and_clamp():
@@ -180,7 +181,7 @@ def _slew(law: str, q_e0: np.ndarray, t_end: float = 1500.0):
 
 
 def test_eigen_axis_slew_respects_rate_limit_and_axis():
-    """Spec §13 item 10, S3 error: cruise rate within 2 % of θ̇_max, rotation axis within 1° of the
+    """Stowed nadir-slew error: cruise rate within 2 % of θ̇_max, rotation axis within 1° of the
     initial eigen-axis while θ_e > 5°, error → 0."""
     q0 = np.array([0.2876, 0.6460, 0.2876, -0.6460])
     q0 /= np.linalg.norm(q0)
@@ -209,7 +210,7 @@ def test_pd_large_slew_exceeds_rate_limit():
     assert math.degrees(eigen_angle(q[-1])) < 0.5
 
 
-# ------------------------------------------------------------------ B-dot (§7.1, §13 item 7)
+# ------------------------------------------------------------------ B-dot (Eqs. 24–27)
 
 
 def test_bdot_finite_difference_and_first_sample():
@@ -276,7 +277,7 @@ def test_bdot_continuous_torque_dissipates():
         assert w @ T <= 1e-12
 
 
-# ------------------------------------------------------------------ unloading (§7.4, §13 item 7)
+# ------------------------------------------------------------------ unloading (Eq. 39)
 
 
 def test_unloading_torque_is_minus_k_dh_perp():
@@ -299,7 +300,7 @@ def test_unloading_activation_per_axis_with_hysteresis():
         UnloadingLogic(on_rpm=3000.0, off_rpm=4000.0)
 
 
-# ------------------------------------------------------------------ modes (§8)
+# ------------------------------------------------------------------ modes
 
 
 def test_mode_manager_chain():

@@ -1,5 +1,5 @@
-"""CNUSAIL-1 scenario wiring (spec §6, §9–§11): disturbance fast path vs the project loads, config
-validation, short end-to-end runs, the blanking window, and the lifetime propagators (§10, §13.11)."""
+"""CNUSAIL-1 scenario wiring (Yoo et al. 2016): disturbance fast path vs the project loads, config
+validation, short end-to-end runs, the blanking window, and the lifetime propagators."""
 
 from __future__ import annotations
 
@@ -104,7 +104,7 @@ def test_disturbance_fast_path_equals_project_loads(configuration):
 
 
 def test_gravity_gradient_vanishes_in_nadir_attitude():
-    """Principal axes aligned with R: no gravity-gradient torque (spec §13 item 6)."""
+    """Principal axes aligned with R: no gravity-gradient torque (Eq. 12)."""
     sc = build_scenario(parse_config(_tree(sim={"duration_s": 600.0})))
     _, tq = disturbance_orbit_profile(sc, "nadir", n=20)
     _, tq_d = disturbance_orbit_profile(sc, "deorbit", n=20)
@@ -209,7 +209,7 @@ def test_detumble_blanking_window_and_bdot_sign():
     assert E[-1] < E[0]
 
 
-# ------------------------------------------------------------------ lifetime (§10, §13.11)
+# ------------------------------------------------------------------ lifetime
 
 
 def test_averaged_decay_matches_circular_closed_form():
@@ -226,7 +226,7 @@ _EL = dict(a=6963.1e3, e=0.01939, i=98 * DEG, raan=78.4 * DEG, argp=0.0, nu0=0.0
 def test_cowell_vs_averaged_deorbit_regime():
     """Deorbit regime (B* = 2.2 m²/kg), exponential atmosphere: Cowell (two-body + J2 + drag,
     co-rotating atmosphere) vs orbit-averaged from the J2 orbit's perigee/apogee radii agree within
-    5 % (spec §10; measured 4.2 %, of which ≈ 2 % is the co-rotating atmosphere)."""
+    5 % (measured 4.2 %, of which ≈ 2 % is the co-rotating atmosphere)."""
     R_E = 6378137.0
     el = OrbitalElements(**_EL)
     rho = density_model("exp")

@@ -174,7 +174,7 @@ def test_truss_pair_forces_have_no_net_force():
 
 
 def _wheel_oracle(u: np.ndarray, w: np.ndarray, p) -> tuple[np.ndarray, np.ndarray]:
-    """Spec §4.2 in closed form: T_M = clip(K_B ω − u, ±τ_max), or K_B ω at Ω_max when it would spin
+    """Yoo et al. 2016, Eqs. 8–11, in closed form: T_M = clip(K_B ω − u, ±τ_max), or K_B ω at Ω_max when it would spin
     the wheel faster; returns (delivered −(T_M − K_B ω), speed-limited mask)."""
     KB = p.K_B_Nms
     T_M = np.clip(KB * w - u, -p.torque_max_Nm, p.torque_max_Nm)
@@ -185,7 +185,7 @@ def _wheel_oracle(u: np.ndarray, w: np.ndarray, p) -> tuple[np.ndarray, np.ndarr
 
 def test_cubesat_wheels_deliver_the_request_within_their_limits(cubesat_run):
     """Wheels: delivered = −(T_M − K_B ω_M) with T_M = clip(K_B ω_M − u, ±τ_max), and no torque that
-    would spin a wheel at Ω_max faster (spec §4.2); the run meets all three regimes."""
+    would spin a wheel at Ω_max faster; the run meets all three regimes."""
     run, _, act, rec = cubesat_run
     p = act.driver.p
     tau, KB = p.torque_max_Nm, p.K_B_Nms

@@ -1,8 +1,8 @@
-"""Geomagnetic field models (issue 4): IGRF precomputed along the orbit and interpolated, frame
+"""Geomagnetic field models: IGRF precomputed along the orbit and interpolated, frame
 conversions, centred/tilted dipoles, the reflector's planar dipole, constant field.
 
 Tolerances:
-* Interpolated IGRF vs direct ppigrf at random times: issue asks < 0.1 % of |B|. With the
+* Interpolated IGRF vs direct ppigrf at random times: the target is < 0.1 % of |B|. With the
   default 10 s grid the cubic spline error is ~5e-9 relative (measured); we assert 1e-6 so that
   a degraded interpolation (e.g. linear, ~1e-4) fails.
 * Geocentric route (ours) vs ppigrf's geodetic route converted independently: both are the same
@@ -54,7 +54,7 @@ def test_interpolated_igrf_matches_direct_ppigrf():
     direct = igrf_eci(r, gmst_rad(env.jd0 + ts / 86400), env.epoch)
     interp = np.array([env.sample(float(t)).B_eci for t in ts])
     err = np.linalg.norm(interp - direct, axis=1) / np.linalg.norm(direct, axis=1)
-    assert err.max() < 1e-6  # issue: < 1e-3
+    assert err.max() < 1e-6  # target: < 1e-3
 
 
 def test_igrf_conversion_matches_ppigrf_geodetic_route():

@@ -1,10 +1,10 @@
 """Surface loads (SRP, drag) on rigid facets and lattice cells, and the residual-dipole torque
-(issue 3 item 7; CNUSAIL spec §6.2–6.4).
+(Yoo et al. 2016, Eqs. 13–23).
 
 Tolerances: closed forms are a few flops, asserted to 1e-12 relative. The lattice-vs-rigid-plate
 checks sum (N−1)² cell forces of equal size: rounding ~N² eps, asserted 1e-11 of the face-on
-force. The SRP force law is compared with an independent transcription of the spec's t̂ form
-(division by sin α, tangential term zeroed below sin α = 1e-9 as the spec says) to 2e-9 of the
+force. The SRP force law is compared with an independent transcription of the t̂ form
+(division by sin α, tangential term zeroed below sin α = 1e-9) to 2e-9 of the
 face-on force: that threshold alone makes differences up to (1 − rs)·1e-9.
 """
 
@@ -55,7 +55,8 @@ def _state(xquat=None, env=None, pos=None, vel=None, nbody=2):
 
 
 def _spec_srp(n, s, A, P, o: Optics):
-    """CNUSAIL spec §6.3 transcribed literally (t̂ form), for one facet with front normal n."""
+    """Yoo et al. 2016, Eqs. 16–22 (standard non-ideal sail model) transcribed
+    literally (t̂ form), for one facet with front normal n."""
     c = s @ n
     if c < 0:
         n = -n
@@ -83,7 +84,7 @@ def test_srp_law_matches_spec_transcription(n, s):
     o = Optics.cnusail_sail()
     F = srp_forces(n[None], np.array([4.0]), s, P, optics_arrays([o]), True)[0]
     ref = _spec_srp(n, s, 4.0, P, o)
-    # the spec zeroes the tangential term below sin α = 1e-9 (ours keeps it): ≤ 1e-9 relative
+    # the transcription zeroes the tangential term below sin α = 1e-9 (ours keeps it): ≤ 1e-9 relative
     assert np.allclose(F, ref, rtol=0, atol=2e-9 * P * 4.0)
     assert F @ s <= 1e-20  # never pulls towards the Sun
 
@@ -91,7 +92,7 @@ def test_srp_law_matches_spec_transcription(n, s):
 def test_flat_plate_facing_sun_closed_forms():
     n = np.array([0.0, 0.0, 1.0])
     A = 4.0
-    # absorber: F = −P A ŝ; perfect mirror: F = −2 P A n̂ (CNUSAIL §6.3 limits)
+    # absorber: F = −P A ŝ; perfect mirror: F = −2 P A n̂ (limits of the sail model)
     F = srp_forces(n[None], np.array([A]), n, P, optics_arrays([Optics.absorber()]))[0]
     assert np.allclose(F, -P * A * n, rtol=1e-14)
     F = srp_forces(n[None], np.array([A]), n, P, optics_arrays([Optics.mirror()]))[0]

@@ -1,6 +1,6 @@
 """Reference orbit: Kepler period, energy and momentum; Kepler against an independent numerical
 two-body integration; element round trips; J2 secular rates; Sun-synchronous node; the CNUSAIL
-orbit's derived numbers (issue 3 item 2).
+orbit's derived numbers.
 
 Tolerances:
 * Kepler is analytic: after one period the state returns to 1e-9 relative (Newton to 1e-15 rad on
@@ -10,7 +10,7 @@ Tolerances:
 * J2 rates: the secular formulas are first order in J2 and use mean elements; the fit uses
   osculating elements sampled 100 times per orbit over 20 orbits, so the O(J2) difference
   between mean and osculating a (~1e-3) shows up as ~0.2 % (measured 0.22 % node, 0.09 % apse).
-  The issue asks for 1 %. The apsidal rate is tested on e = 0.2, where ω is well defined; for
+  The target is 1 %. The apsidal rate is tested on e = 0.2, where ω is well defined; for
   near-circular orbits the osculating ω is dominated by short-period terms of size J2/e.
 """
 
@@ -54,7 +54,7 @@ def test_kepler_period_energy_momentum():
     assert np.allclose(energy, -MU_EARTH / (2 * el.a), rtol=1e-12)
     h = np.cross(r, v)
     assert np.allclose(h, h[0], rtol=0, atol=1e-12 * np.linalg.norm(h[0]))
-    # period of the CNUSAIL orbit derived from a (erratum E-9): about 96.4 min
+    # period of the CNUSAIL orbit derived from a (the printed 84.50 min is inconsistent): about 96.4 min
     assert T / 60 == pytest.approx(96.4, abs=0.1)
 
 
@@ -102,7 +102,8 @@ def test_solve_kepler(M, e):
 
 
 def test_circular_start_at_ascending_node():
-    # truss spec §9.2: RAAN 90°, i = 90°, u0 = 0 → r = (0, r, 0), v = (0, 0, √(μ/r)), normal +x
+    # orbital truss orbit (our choice, the ECI y–z plane):
+    # RAAN 90°, i = 90°, u0 = 0 → r = (0, r, 0), v = (0, 0, √(μ/r)), normal +x
     r_orb = 7170e3
     el = OrbitalElements.circular(radius=r_orb, inclination=math.pi / 2, raan=math.pi / 2)
     r, v = elements_to_state(el)
@@ -151,7 +152,7 @@ def test_sun_synchronous_node_follows_the_sun():
     jd0 = julian_date(parse_epoch("2016-01-01T00:00:00Z"))
     a, e = 6963.1e3, 0.01939
     inc = sun_synchronous_inclination(a, e)
-    assert math.degrees(inc) == pytest.approx(97.7, abs=0.1)  # CNUSAIL spec erratum E-20
+    assert math.degrees(inc) == pytest.approx(97.7, abs=0.1)  # Sun-synchronous for the paper's a, e (98° given)
     raan0 = raan_from_ltdn(10.5, sun_right_ascension(jd0))
     el = OrbitalElements(a=a, e=e, i=inc, raan=raan0, argp=0.0, nu0=0.0)
     days = 3.0
@@ -171,7 +172,7 @@ def test_sun_synchronous_node_follows_the_sun():
 
 
 def test_raan_from_ltdn_cnusail_value():
-    # CNUSAIL spec §5.1: LTDN 10:30 at 2016-01-01 gives Ω ≈ 78.4°
+    # CNUSAIL-1 orbit: LTDN 10:30 at 2016-01-01 gives Ω ≈ 78.4° (hand-computed)
     jd0 = julian_date(parse_epoch("2016-01-01T00:00:00Z"))
     assert math.degrees(raan_from_ltdn(10.5, sun_right_ascension(jd0))) == pytest.approx(78.4, abs=0.1)
 

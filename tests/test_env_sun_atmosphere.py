@@ -1,4 +1,4 @@
-"""Sun ephemeris and shadow (issue 3 item 5) and atmosphere (item 6).
+"""Sun ephemeris and shadow, and atmosphere.
 
 Tolerances:
 * Ephemeris vs astropy (builtin ephemeris, no internet), 60 dates over 2016, in the mean equator

@@ -1,5 +1,5 @@
 """Tidal gravity of the orbit-following world and the classical gravity-gradient torque
-(issue 3 item 3; truss spec §3.3, §10 item 11; CNUSAIL spec §4.3, §6.1).
+(Robb et al. 2022a, Sec. 4.2; Yoo et al. 2016, Eq. 12).
 
 Tolerances:
 * Cancellation-free tidal form vs a 50-digit ``decimal`` evaluation of g(r+x) − g(r): the float64
@@ -8,7 +8,7 @@ Tolerances:
 * Tidal vs linear gravity gradient: they differ at second order, |Δa| ≤ (15/2) μ|x|²/r⁴ (bound
   of the second-order Taylor term), asserted with that bound.
 * Plate at 45°: the summed tidal torque and the classical torque differ by O((d/r)²) ≈ 1e-10
-  relative; issue asks 1 %, truss spec §10.11 asks 0.5 %; we assert 1e-6.
+  relative; we assert 1e-6.
 * Dumbbell: orbit-following integration vs direct ECI integration over one orbit, both DOP853
   at rtol 1e-13; the ECI one carries 7e6 m coordinates, so its round-off (~1e-9 m per step) sets
   the floor: measured agreement 1.4e-5 m on 37 m of relative motion; asserted 1e-4 m.
@@ -105,7 +105,7 @@ def test_j2_acceleration_is_gradient_of_potential():
 
 
 def _plate(n=20, d=75.0, m=0.25):
-    """Two layers of n × n points (truss spec §2.1), centred at the centre of mass."""
+    """Two layers of n × n points (the truss lattice), centred at the centre of mass."""
     a = d / (n - 1)
     i, j, k = np.meshgrid(np.arange(n), np.arange(n), np.arange(2), indexing="ij")
     p = np.stack([i * a - d / 2, j * a - d / 2, (k - 0.5) * a], -1).reshape(-1, 3)
@@ -141,7 +141,7 @@ def test_plate_at_45_degrees_tidal_equals_classical(axis):
 
 @pytest.mark.parametrize("seed", range(4))
 def test_six_point_masses_reproduce_classical_torque(seed):
-    """CNUSAIL spec §4.3: pairs at ±d_k on each body axis with μ_k d_k² = (tr I − 2 I_kk)/2
+    """Point-mass model of a rigid body: pairs at ±d_k on each body axis with μ_k d_k² = (tr I − 2 I_kk)/2
     reproduce the deployed inertia; their tidal torque equals Eq. 12 within 1 %."""
     I = np.array([0.3104, 0.3121, 0.5757])
     mu_d2 = (I.sum() - 2 * I) / 2

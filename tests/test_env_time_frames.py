@@ -1,11 +1,11 @@
 """Time and frames: Julian date, GMST, ECI <-> ECEF, spherical coordinates, orbital frames,
-quaternions (issue 3 item 1).
+quaternions.
 
 Reference values are published ones, not outputs of this code:
 * JD of J2000.0 (2000-01-01 12:00) = 2451545.0; Vallado Example 3-4: 1996-10-26 14:20 UT ->
   JD 2450383.09722222.
-* GMST, Vallado Example 3-5: 1992-08-20 12:14 UT1 -> 152.578787886 deg (IAU-82); CNUSAIL spec
-  §5.2: 2016-01-01 0h -> 100.09 deg.
+* GMST, Vallado Example 3-5: 1992-08-20 12:14 UT1 -> 152.578787886 deg (IAU-82); the
+  CNUSAIL-1 epoch 2016-01-01 0h -> 100.09 deg (hand-computed, 2 decimals).
 Round trips are exact algebra: tolerances are a few ulps of the magnitudes involved.
 """
 
@@ -51,7 +51,7 @@ def test_julian_date_matches_astropy():
     "epoch, gmst_deg, tol_deg",
     [
         ("1992-08-20T12:14:00Z", 152.578787886, 1e-6),  # Vallado Ex. 3-5 (9 digits given)
-        ("2016-01-01T00:00:00Z", 100.09, 0.005),  # CNUSAIL spec §5.2 (2 decimals given)
+        ("2016-01-01T00:00:00Z", 100.09, 0.005),  # CNUSAIL-1 epoch (hand-computed, 2 decimals)
     ],
 )
 def test_gmst_published(epoch, gmst_deg, tol_deg):
