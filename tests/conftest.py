@@ -107,7 +107,7 @@ def small_truss_tree() -> dict:
 
 def lattice_points(N: int, d: float) -> np.ndarray:
     """Reference coordinates p_ijk = (i a - d/2, j a - d/2, (k - 1/2) a), index k N^2 + j N + i
-    (the two-layer N x N lattice of the truss spec §2.1, built without the lattice module)."""
+    (the two-layer N x N truss lattice, built without the lattice module)."""
     a = d / (N - 1)
     k, j, i = np.meshgrid(np.arange(2), np.arange(N), np.arange(N), indexing="ij")
     return np.stack([i * a - d / 2, j * a - d / 2, (k - 0.5) * a], axis=-1).reshape(-1, 3)

@@ -1,8 +1,8 @@
-"""Current-loop generators (current-loops spec §2, tests §8.1).
+"""Current-loop generators (Robb et al. 2022b, Fig. 1 and Table 1).
 
-Tolerances: the §2.7 table is printed to 4 decimals (areas, D²) and 3 decimals (lengths, D), so
-table values are checked to ±5e-5 D² and ±5e-4 D. The closed forms of §2.3–2.5 are checked to
-1e-12 relative: the generators sum at most a few thousand products of O(D²), so rounding stays
+Tolerances: the lattice values of the paper's Table 1 are tabulated to 4 decimals (areas, D²) and
+3 decimals (lengths, D), so table values are checked to ±5e-5 D² and ±5e-4 D. The closed forms of geometries
+B–D are checked to 1e-12 relative: the generators sum at most a few thousand products of O(D²), so rounding stays
 below ~1e-13. Closure, multiplicities and strut membership are integer checks (exact).
 """
 
@@ -24,7 +24,7 @@ from magsail_mj.geometry.current_loops import (
 )
 from magsail_mj.lattice.geometry import STRUT_KINDS, make_lattice
 
-# spec §2.7, realised lattice values: N -> {name: (vector area [D²], wire length [D])}
+# Table 1 of the paper, realised lattice values: N -> {name: (vector area [D²], wire length [D])}
 TABLE = {
     12: {
         "A": ((0, 0, 1), 4.0),
@@ -61,7 +61,7 @@ def lattice_and_loops(request):
 
 
 def test_table_2_7(lattice_and_loops):
-    """Realised areas (all three components) and wire lengths of §2.7, C_y/D_y mirrored."""
+    """Realised areas (all three components) and wire lengths of Table 1, C_y/D_y mirrored."""
     lat, loops = lattice_and_loops
     D = lat.side_m
     for name, (area, length) in TABLE[lat.units].items():
@@ -74,7 +74,7 @@ def test_table_2_7(lattice_and_loops):
 
 
 def test_closed_forms(lattice_and_loops):
-    """§2.2–2.5 formulas on the lattice (exact up to rounding)."""
+    """Geometry A–D formulas on the lattice (exact up to rounding)."""
     lat, loops = lattice_and_loops
     n, D = lat.units, lat.side_m
     w = D / n
@@ -98,7 +98,7 @@ def test_closed_forms(lattice_and_loops):
     if (n + 1) % 4 == 0:  # Table-1 turn count for N = 19, 27
         assert turns == pytest.approx(0.75 * (n + 1))
     # Table-1 path length (helix only, no return) is the wire minus the return leg
-    # (2 ⌈N/2⌉ + N) w: equal for N = 19, 27 and ~2 % more for N = 12 (spec §2.5)
+    # (2 ⌈N/2⌉ + N) w: equal for N = 19, 27 and ~2 % more for N = 12 (our closure of the D winding)
     l_tab = D * (1.5 * (n + 1) ** 2 / n + 1)
     helix = loops["D_x"].length(lat.nodes) - (2 * nB + n) * w
     if n in (19, 27):

@@ -23,7 +23,7 @@ from magsail_mj.records import STORE_NAME
 MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "current_loops" / "configs"
 
 
-# ------------------------------------------------------------------ rigid reference (spec §8.6)
+# ------------------------------------------------------------------ rigid reference
 def test_rigid_reference_pendulum_period_matches_elliptic_integral():
     # plate-like inertia, dipole along body z, field along x: rotation about y from θ0 = 90°
     J = np.diag([2.0e7, 3.0e7, 5.0e7])
@@ -98,7 +98,7 @@ def test_controller_is_restoring_and_dipole_gives_torque_normal_to_field():
     B = np.array([1e-5, 2e-5, 3e-5])
     cmd = ctrl.command(matrix_from_quat(q), q, np.zeros(3), B)
     assert cmd.torque_ref_body[1] < 0 and abs(cmd.torque_ref_body[0]) < 1e-12
-    # m_d × B_b is the component of T_ref normal to B_b (Eq. 19 with |B|², spec §9 item 9)
+    # m_d × B_b is the component of T_ref normal to B_b (Eq. 19 with |B|², correcting the printed |B|)
     b = cmd.B_body / np.linalg.norm(cmd.B_body)
     T_perp = cmd.torque_ref_body - (cmd.torque_ref_body @ b) * b
     assert np.allclose(np.cross(cmd.dipole_cmd_body, cmd.B_body), T_perp, rtol=1e-12, atol=1e-15)
@@ -174,7 +174,7 @@ def test_field_along_dipole_gives_no_rotation(tmp_path):
 
 
 def test_mirror_symmetry_c_loops(tmp_path):
-    """Spec §8.7: C_x with B ∥ +y mirrors C_y with B ∥ +x (the parity lattice is symmetric under x ↔ y)."""
+    """C_x with B ∥ +y mirrors C_y with B ∥ +x (the parity lattice is symmetric under x ↔ y)."""
     a = _run(tmp_path, "cy", [], config="sweep/cy_n12_ei1e3.toml")
     # the mirror config with the same stiffness and step as the C_y run
     b = _run(

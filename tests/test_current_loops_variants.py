@@ -1,4 +1,4 @@
-"""Paper-literal variants of the current-loop lattice (current-loops spec §4.1, §4.4, §6).
+"""Paper-literal variants of the current-loop lattice (Robb et al. 2022b, Eqs. 12 and 15).
 
 * ``stiffness.form = "paper_literal"``: the printed Eq. 12, ``F = −K (r − R̃_θ r₀)`` with the
   unrotated stiffness matrix of the undeformed lattice; ``"corotational"``:
@@ -44,7 +44,7 @@ def _load(form: str) -> LinearStiffnessLoad:
 
 
 def _dense_K(nodes: np.ndarray) -> np.ndarray:
-    """K assembled strut by strut (§4.2, Eqs. 13–14), independent of the sparse assembly."""
+    """K assembled strut by strut (Eqs. 13–14), independent of the sparse assembly."""
     n = nodes.shape[0]
     K = np.zeros((3 * n, 3 * n))
     for (i, j), k in zip(LAT.struts, K_SPRING):

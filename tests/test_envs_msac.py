@@ -1,5 +1,5 @@
 """MSAC panel-cycle environment: dm_env conformance, the configured cycle as a policy (= magsail
-run), seeding, and commanded cycles against the exact planar model (spec §3.3)."""
+run), seeding, and commanded cycles against the exact planar model (ours, for verification)."""
 
 from __future__ import annotations
 

@@ -1,9 +1,10 @@
-"""Thermal and length-scaling model of current loops (current-loops spec §3, §8.3, §9 items 1–5, 13, 15).
+"""Thermal and length-scaling model of current loops (Robb et al. 2022b, Eqs. 2–11, with
+our corrections of Eqs. 6, 7–9 and 10 and our reference temperature).
 
 Tolerances:
 - closed forms against the step-by-step chain: a few dozen flops and one cube root each, so 1e-12
   relative (double precision leaves ~1e-15; the margin covers powers like ``R_E¹²``);
-- C1 against the spec's printed 3.2806e-7: half a unit of the last printed digit (5e-12 absolute);
+- C1 against the hand-computed 3.2806e-7: half a unit of the last printed digit (5e-12 absolute);
 - the geometry-A roots: brentq on ``ln h(λ) = ln λ_u`` to ``xtol = 1e-15``, so the implicit
   equation's relative residual is ≤ 1e-12; against the quartic ``κλ_u t⁴ − t³ + 1 = 0``
   (``1 + κλ = t³``) solved by ``numpy.roots`` (companion eigenvalues, ~1e-13 for well-separated
@@ -83,7 +84,7 @@ def test_constants_are_the_spec_defaults_and_frozen():
 
 
 def test_c1_value():
-    """Spec §3: C1 ≈ 3.2806e-7 m⁻¹ kg^{-1/3} with the table's constants."""
+    """C1 ≈ 3.2806e-7 m⁻¹ kg^{-1/3} with the table's constants."""
     assert abs(c1() - 3.2806e-7) < 0.5e-11
 
 
@@ -104,13 +105,13 @@ def test_geometry_factors_match_the_table1_formulas(N):
 
 
 def test_table1_agrees_with_the_realised_lattice_values_where_the_spec_says_it_does():
-    """§2.7: B equals the lattice at even N; C always; D's area when 4 | N + 1 (N = 19, 27)."""
+    """Table 1 areas: B equals the lattice at even N; C always; D's area when 4 | N + 1 (N = 19, 27)."""
     assert table1("B", 12, 1.0) == pytest.approx((2.5278, 14.000), abs=5e-5)
     assert table1("C", 12, 1.0) == pytest.approx((1.0833, 28.167), abs=5e-4)
     assert table1("C", 27, 1.0) == pytest.approx((1.0370, 58.074), abs=5e-4)
     assert table1("D", 19, 1.0)[0] == pytest.approx(0.7895, abs=5e-5)
     assert table1("D", 27, 1.0)[0] == pytest.approx(0.7778, abs=5e-5)
-    # Odd N (§9 item 15): the sizing area of B is a few percent above the lattice loops.
+    # Odd N (equal spacing is off the lattice): the sizing area of B is a few percent above the lattice loops.
     assert table1("B", 19, 1.0)[0] / 3.6842 - 1 == pytest.approx(0.045, abs=0.005)
     assert table1("B", 27, 1.0)[0] / 5.0123 - 1 == pytest.approx(0.035, abs=0.005)
 
@@ -146,7 +147,7 @@ def test_side_max_is_where_lambda_reaches_one(g):
 
 
 def test_wire_diameter_carries_the_current_squared():
-    """§9 item 1: d ∝ I^{2/3} (the printed Eq. 6 would give d independent of I)."""
+    """Eq. 6 with I² on the resistive side: d ∝ I^{2/3} (the printed Eq. 6 would give d independent of I)."""
     assert wire_diameter(8.0) / wire_diameter(1.0) == pytest.approx(4.0, rel=1e-13)
     d = wire_diameter(10.0)
     assert K.emissivity * K.sigma_B * math.pi * d * K.T_eq_K**4 == pytest.approx(
@@ -210,7 +211,7 @@ def test_eq8_from_the_inertia_tensor():
 
 
 def test_rim_conductor_inertia_of_a_square_wire_is_kappa_one():
-    """§9 item 5: plate (M − M_c) + perimeter wire (M_c) gives T_g,max (1 + κλ) with κ = 1, not 15."""
+    """Geometry-A inertia: plate (M − M_c) + perimeter wire (M_c) gives T_g,max (1 + κλ) with κ = 1, not 15."""
     n, m_side, D, M, lam = 40, 400, 250.0, 6250.0, 0.2
     R = K.R_E_m + 800e3
     Mc = lam * M
@@ -340,7 +341,7 @@ def test_trace_branches_round_trip():
 
 
 def test_reference_temperature_moves_only_the_A_current():
-    """§9 item 13: Γ_r changes A's current by ~0.02 %/K, not B–D's."""
+    """Reference temperature (we take 293.15 K): Γ_r changes A's current by ~0.02 %/K, not B–D's."""
     warm = ThermalConstants(T_ref_K=294.15)
     a0 = loop_sizing("A", units=19, side_m=250.0, areal_density_kg_m2=0.1)["current_A"]
     a1 = loop_sizing("A", units=19, side_m=250.0, areal_density_kg_m2=0.1, constants=warm)["current_A"]

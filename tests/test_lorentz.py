@@ -1,4 +1,4 @@
-"""Lorentz node forces of Eq. 16 (current-loops spec §4.5, tests §8.2).
+"""Lorentz node forces of Robb et al. 2022b, Eq. 16.
 
 Tolerances. For a closed circuit the net force and the torque defect Σ r_i × F_i − m × B vanish
 identically; in floating point they are sums of up to a few thousand terms of size |I| |B| w

@@ -1,5 +1,5 @@
-"""Best-fit rotation, SO(3) log/exp, body rates, Euler angles, quaternions, inertia (spec §4,
-§10 item 5). Point sets: the two-layer N x N lattice of §2.1 (``tests.conftest.lattice_points``),
+"""Best-fit rotation, SO(3) log/exp, body rates, Euler angles, quaternions, inertia
+(Robb et al. 2022a, Eqs. 7 and 21). Point sets: the two-layer N x N lattice (``tests.conftest.lattice_points``),
 independent of the lattice module.
 
 Tolerances. The Kabsch solution is the polar factor of H = P'^T Q'; its sensitivity to a

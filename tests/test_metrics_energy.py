@@ -1,6 +1,6 @@
-"""Strain energy, strut strain, relative kinetic energy, inverted cells (spec §5.3).
+"""Strain energy, strut strain, relative kinetic energy, inverted cells (diagnostics of ours).
 
-Point sets and struts are built without the lattice module: the two-layer §2.1 lattice
+Point sets and struts are built without the lattice module: the two-layer truss lattice
 (``tests.conftest.lattice_points``) and, as struts, every node pair closer than 1.01 a sqrt(2)
 (cube edges plus both face diagonals). Energies are compared with closed forms to 1e-12 relative
 (rounding of sums over a few thousand terms); "zero to rounding" means below 1e-12 of the total

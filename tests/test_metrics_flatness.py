@@ -1,8 +1,8 @@
-"""Surface SD and average plane (spec §5.1, §10 item 6).
+"""Surface SD and average plane (the flatness measure of Robb et al. 2022a).
 
-Point sets are the top layer (k = 1) of the §2.1 lattice, built here.
+Point sets are the top layer (k = 1) of the truss lattice, built here.
 
-Note on the ripple test. The spec asks that ``w = A sin(2 pi x / d)`` on the reference grid
+Note on the ripple test. One might expect that ``w = A sin(2 pi x / d)`` on the reference grid
 give "its analytic RMS". The SD is measured from the *fitted* total-least-squares plane, and
 over ``x in [-d/2, d/2]`` this ripple is odd, so it correlates with ``x``: the fitted plane tilts
 and absorbs part of it (in the continuum, small-A limit the SD is
@@ -27,7 +27,7 @@ EPS = np.finfo(float).eps
 
 
 def top_layer(N: int, d: float) -> np.ndarray:
-    """Top layer (k = 1) of the §2.1 lattice, flat index j N + i."""
+    """Top layer (k = 1) of the truss lattice, flat index j N + i."""
     a = d / (N - 1)
     j, i = np.meshgrid(np.arange(N), np.arange(N), indexing="ij")
     return np.stack([i * a - d / 2, j * a - d / 2, np.full(i.shape, a / 2)], -1).reshape(-1, 3)

@@ -1,11 +1,12 @@
-"""Local surface angle (spec §5.2, §10 item 6; erratum M1).
+"""Local surface angle (Robb et al. 2022a, Sec. 2.3; measured from the average plane of the top
+layer, our reading of the paper's "average plane" vs "the x1y1 plane").
 
 Tolerances. A rigidly tilted plate is flat in its own average plane, so both fits return
 heights at rounding level and angles below 1e-10 rad. For the analytic Gaussian bump
 ``w = h exp(-r^2 / (2 s^2))`` the slope error is interpolation error: Clough–Tocher's global
 gradient estimate on a triangulated square grid leaves triangle-shaped errors of order
 ``(a/s)^2``; with ``a/s = 1/9`` we measure ~0.7 % of the peak slope (1.2 % pointwise where the
-slope is above a quarter of its peak) and assert the spec's 2 %. The bicubic spline is far
+slope is above a quarter of its peak) and assert 2 %. The bicubic spline is far
 more accurate (< 0.1 % already at ``a/s = 1/6``); it is held to the same 2 % and to 0.2 % at
 ``a/s = 1/9``.
 """
@@ -20,7 +21,7 @@ from magsail_mj.concepts.truss_magnetorquer.surface_angle import local_surface_a
 
 
 def top_layer(N: int, d: float) -> np.ndarray:
-    """Top layer (k = 1) of the §2.1 lattice, j-major flat index j N + i."""
+    """Top layer (k = 1) of the truss lattice, j-major flat index j N + i."""
     a = d / (N - 1)
     j, i = np.meshgrid(np.arange(N), np.arange(N), indexing="ij")
     return np.stack([i * a - d / 2, j * a - d / 2, np.full(i.shape, a / 2)], -1).reshape(-1, 3)

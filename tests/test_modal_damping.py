@@ -1,4 +1,4 @@
-"""Modes, Caughey damping and the co-rotated damping load (current-loops.md §4.2, §4.4, §8.4).
+"""Modes, Caughey damping and the co-rotated damping load (Robb et al. 2022b, Eqs. 13–15; Caughey & O'Kelly 1965).
 
 Small lattices (3–5 units) only. Tolerances are relative to the natural scale of each quantity
 (``|γ| |v|`` for forces, the largest entry for matrices) and stated at each assertion.

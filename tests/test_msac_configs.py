@@ -1,4 +1,4 @@
-"""MSAC configs and run folders (spec msac.md §5.5, §8): validation, sweep files against their
+"""MSAC configs and run folders: validation, sweep files against their
 base, end-to-end runs through ``run_scenario`` (multibody, lumped, sweep)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""MSAC four-phase cycle generator (spec msac.md §2, §5.4): vectorised vs plain reference,
+"""MSAC four-phase cycle generator (Vedant & Allison 2019): vectorised vs plain reference,
 continuity of position and velocity, waypoints, derivatives, argument errors."""
 
 from __future__ import annotations

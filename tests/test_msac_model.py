@@ -1,6 +1,6 @@
-"""MSAC MuJoCo model and runner (spec msac.md §5, §7 T1–T8).
+"""MSAC MuJoCo model and runner (Vedant & Allison 2019).
 
-Tolerances: the spec's 0.5 % on per-cycle rotations (T2, T3, T5–T8). Measured margins at the
+Tolerances: 0.5 % on per-cycle rotations (our target). Measured margins at the
 production step (200 steps per cycle): MuJoCo vs exact −1e-4, dt vs dt/2 9e-5, 1 Hz vs 1 kHz
 8e-7, replay vs computed torque 1.7e-4, reciprocal paths ≤ 1e-7 of the MSAC value, mirror wings
 ~1e-16 rad per cycle, lumped limit 0.27 % (MuJoCo vs Eq. 6; the exact model itself differs from
@@ -123,7 +123,7 @@ def test_T8_paper_geometry_mujoco_equals_exact_model(paper):
     assert abs(s["theta_gamma_first_cycle_rad"] / s["theta_gamma_exact_rad"] - 1) < 5e-3
     # the exact model along the *achieved* shape path agrees even more closely
     assert abs(s["theta_gamma_exact_achieved_rad"] / s["theta_gamma_mujoco_rad"] - 1) < 1e-3
-    # Eq. (6) misses the effects the exact model keeps: it is ~9x larger here (spec §3.3)
+    # Eq. (6) misses the effects the exact model keeps: it is ~9x larger here
     assert s["theta_gamma_eq6_model_rad"] > 5 * s["theta_gamma_exact_rad"] > 0
     # both secular-rate estimates agree and equal the per-cycle mean / period
     assert s["rate_estimates_rel_diff"] < 1e-4
@@ -147,7 +147,7 @@ def test_shape_tracks_the_prescribed_path(paper):
     # measured 1.1e-5 rad and 1.1e-4 m (0.14 % of the 80 mm stroke): bound at ~5x
     assert s["tracking_error_bend_max_rad"] < 5e-5
     assert s["tracking_error_slide_max_m"] < 5e-4
-    assert s["hinge_torque_peak_Nm"] > 1e9  # enormous, as the spec warns (§5.4)
+    assert s["hinge_torque_peak_Nm"] > 1e9  # enormous: a prescribed four-phase path asks huge hinge torques
 
 
 @pytest.mark.parametrize("pattern", ["bend_only", "extend_only"])
@@ -191,7 +191,7 @@ def test_T7_timestep_convergence(paper):
 
 
 def test_replay_equals_computed_torque_over_100_cycles():
-    # spec §5.3: verify the native replay against the per-step computed-torque loop (≥ 100 cycles)
+    # verify the native replay against the per-step computed-torque loop (≥ 100 cycles)
     _, _, ct = run("paper_1khz.toml", "sim.duration_s=0.101", "drive.method='computed_torque'", "sim.record_every=2000")
     _, _, rp = run("paper_1khz.toml", "sim.duration_s=0.101", "sim.record_every=2000")
     assert ct["cycles_simulated"] == rp["cycles_simulated"] == 101

@@ -1,4 +1,4 @@
-"""MSAC post-processing (spec msac.md §6): yaw, increments, secular-rate fit, block average,
+"""MSAC post-processing: yaw, increments, secular-rate fit, block average,
 zero-phase low-pass — each against a plain reference."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""MSAC reference models (spec msac.md §3): the corrected lumped formula and the exact planar
+"""MSAC reference models (Vedant & Allison 2019, Eqs. 1, 6, 7): the corrected lumped formula and the exact planar
 model — quadrature vs a plain time-domain integration, limits and invariances."""
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ def test_large_bus_inertia_tends_to_lumped_formula(Ib):
 
 
 def test_lumped_formula_signed_stroke():
-    # spec §3.2: a symmetric ±10° motion gives a non-zero result, (I_e − I_c)(φa − φb)/I_sat
+    # a symmetric ±10° motion gives a non-zero result, (I_e − I_c)(φa − φb)/I_sat
     th = lumped_theta(I_e=2.0, I_c=1.0, I_sat=10.0, phi_a=0.2, phi_b=-0.2)
     assert th == pytest.approx(0.04)
     assert lumped_rate(I_e=2.0, I_c=1.0, I_sat=10.0, phi_a=0.2, phi_b=-0.2, period_s=1e-3) == pytest.approx(40.0)
@@ -100,7 +100,7 @@ def test_lumped_formula_signed_stroke():
 
 
 def test_rigid_slide_inertia_ratio():
-    # spec §3.3 note: thin rigid panel on a slide, I_e/I_c = 1 + 3ε + 3ε²; stretched panel (1+ε)²
+    # thin rigid panel on a slide, I_e/I_c = 1 + 3ε + 3ε²; stretched panel (1+ε)²
     eps = 0.01
     P = model(wing_icm_kgm2=M * L * L / 12)
     wi = wing_inertias(P, s_e_m=eps * L, s_c_m=0.0)

@@ -1,4 +1,4 @@
-"""``magsail torque coil`` (reflector spec §3.6, §8.2): one JSON object on stdout, bad options exit 2."""
+"""``magsail torque coil`` (Robb et al. 2020, Eqs. 1–4): one JSON object on stdout, bad options exit 2."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Reflector coil paths (spec §3.2–3.4) and their Lorentz torque (§3.6): generator properties,
+"""Reflector coil paths (Robb et al. 2020, Fig. 1) and their Lorentz torque (Eqs. 1–4): generator properties,
 closed-turn and helix sanity checks, torque matrix, capability metric, report keys."""
 
 from __future__ import annotations

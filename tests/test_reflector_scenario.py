@@ -1,4 +1,4 @@
-"""Reflector plate model and scenarios (spec §4, §5, §6, §8): inertia, B-dot laws, a SciPy
+"""Reflector plate model and scenarios (Robb et al. 2020, Table 1, Eqs. 11–15): inertia, B-dot laws, a SciPy
 ``solve_ivp`` reference of the detumbling rigid body, config validation, short end-to-end runs."""
 
 from __future__ import annotations
@@ -104,7 +104,7 @@ def _euler_rhs(I, T_w):
 
 def test_detumble_matches_scipy_solve_ivp_reference():
     """MuJoCo RK4 + xfrc_applied against solve_ivp (rtol 1e-10) of I ω̇ + ω × Iω = T, q̇ = ½ q ⊗ (0, ω),
-    with the same zero-order-held world torque over each step (§5.1)."""
+    with the same zero-order-held world torque over each step."""
     cfg = load_config(
         DETUMBLE,
         [

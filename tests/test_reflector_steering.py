@@ -1,4 +1,4 @@
-"""Reflector Scenario B kinematics and control laws (spec §6.2–6.5): field Eq. 11, steering law
+"""Reflector Scenario B kinematics and control laws (Robb et al. 2020): field Eq. 11, steering law
 Eqs. 12–13 and ψ̈ against finite differences, unwrapping, q_ref, controller sign, projection ⟂ B."""
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ def test_unwrapped_psi_equals_eq12_modulo_pi_and_online_reference_matches():
 
 
 def test_q_ref_puts_the_grey_line_perpendicular_to_r_rad():
-    """§6.4: R(q_ref) x̂ · (a, 0, b) = 0; body z along (a, 0, b); ω_ref = −ψ̇ ŷ."""
+    """Reference attitude: R(q_ref) x̂ · (a, 0, b) = 0; body z along (a, 0, b); ω_ref = −ψ̇ ŷ."""
     ref = SteeringReference(ORBIT)
     for t in np.linspace(0.0, T_F, 257):
         st = ref.at(t)
@@ -127,7 +127,7 @@ def _controller(**kw):
 
 
 def test_controller_sign_restoring_about_plus_y():
-    """§6.5: a small positive rotation away from the reference about +y gives a negative y torque."""
+    """Eqs. 14–15: a small positive rotation away from the reference about +y gives a negative y torque."""
     ctl = _controller()
     st = SteeringReference(ORBIT).at(1234.0)
     d = 0.01
