@@ -113,7 +113,7 @@ def test_trajectory_refuses_bad_arguments():
 
 
 def test_truss_summary_from_blocks_equals_the_whole(tmp_path):
-    """A 1 s free truss run (6 units): the §11 keys and series from the run's store read in blocks
+    """A 1 s free truss run (6 units): the summary keys and series from the run's store read in blocks
     of 3 records equal those from the whole position array: each is a function of one record, but
     NumPy's vectorised sums over the struts may group terms differently for another array shape,
     so values agree to a few ulp (1e-13 relative), not always bitwise."""
