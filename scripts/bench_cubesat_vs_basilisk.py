@@ -13,7 +13,7 @@ Each round runs, for the same simulated duration and step, first the peer (its o
 switched off (drag, SRP, residual dipole: the comparison of the peer's README); ``--rounds``
 rounds alternate the two, and the medians are compared. Prints one JSON object:
 ``project_us_per_step``, ``basilisk_us_per_step``, ``cost_ratio`` (project / Basilisk, per
-simulated second as both take the same steps; the issue's target is ≤ 0.5), and the project's
+simulated second as both take the same steps; the target is ≤ 0.5), and the project's
 ``ratio_to_mj_step`` (target ≤ 3) with its parts.
 
     python scripts/bench_cubesat_vs_basilisk.py --duration 1800 --rounds 3

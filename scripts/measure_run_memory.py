@@ -4,7 +4,7 @@ Each case runs in a fresh Python process (``ru_maxrss`` is a process's high-wate
 ``magsail_mj.run.run_scenario``, exactly as ``magsail run`` without a video, and prints one JSON line;
 the last line is the summary with the ratio peak(k·D) / peak(D). The records go to the run folder's
 ``timeseries.zarr`` in chunks and post-processing reads them block by block, so the ratio stays
-near 1 however long the run (the issue's target: within 1.2 at k = 4).
+near 1 however long the run (the target: within 1.2 at k = 4).
 
     python scripts/measure_run_memory.py magsail_mj/concepts/current_loops/configs/slew.toml \\
         --duration-s 250 --set sim.record_every=1

@@ -244,7 +244,9 @@ def test_body_rates_nonuniform_dt_and_step_form():
 
 def test_body_rates_from_best_fit_of_spinning_lattice():
     """End to end: positions of a rigidly spinning lattice -> best fit -> rates."""
-    omega_b = np.array([0.01, 0.007, 0.0])  # detumble initial rate (erratum O1, text value)
+    omega_b = np.array(
+        [0.01, 0.007, 0.0]
+    )  # detumble initial rate (Robb et al. 2022a: the text's value; Table 2 prints 0.07)
     dt = 0.1
     R = constant_rate_sequence(omega_b, dt, 300, np.eye(3))
     q = np.einsum("tij,nj->tni", R, P20) + np.array([1.0, 2.0, 3.0])
@@ -296,7 +298,7 @@ def test_rotation_angle_relative():
 
 
 # ------------------------------------------------------------------------------------------
-# inertia (Eq. 21; erratum O3)
+# inertia (Eq. 21; the printed Sec. 4.3 values are 55–72x smaller than Eq. 21 gives)
 # ------------------------------------------------------------------------------------------
 def test_particle_inertia_75m_truss():
     inert = particle_inertia(P20, 0.25)

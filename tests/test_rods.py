@@ -36,7 +36,8 @@ def reference_force(r_i, r_j, s, m, B):
 
 
 def paper_printed_force_i(r_i, r_j, m, B):
-    """The paper's printed Eq. 4, F_i = (1/r)(m B − (½ m B·r̂_ji) r̂_ji), kept to show erratum F1."""
+    """The paper's printed Eq. 4, F_i = (1/r)(m B − (½ m B·r̂_ji) r̂_ji), kept to show its defects
+    (a spurious factor ½ and the sign)."""
     r_ji = np.asarray(r_i, float) - np.asarray(r_j, float)
     e = r_ji / np.linalg.norm(r_ji)
     return (m * B - 0.5 * m * (B @ e) * e) / np.linalg.norm(r_ji)
@@ -81,7 +82,7 @@ def test_force_pair_vectorised_matches_reference_per_rod_field():
     np.testing.assert_allclose(F, ref, rtol=0, atol=1e-13 * np.abs(F).max())
 
 
-def test_printed_paper_form_has_the_erratum_f1_defects():
+def test_printed_paper_form_has_the_factor_and_sign_defects():
     """Printed Eq. 4: the pair gives −m × B and an axial component; the corrected form does not."""
     r_i, r_j = np.array([0.0, 0.0, 0.0]), np.array([2.0, 0.5, -0.3])
     B, m = np.array([1e-5, -2e-5, 3e-5]), 7.0
