@@ -244,9 +244,8 @@ def test_body_rates_nonuniform_dt_and_step_form():
 
 def test_body_rates_from_best_fit_of_spinning_lattice():
     """End to end: positions of a rigidly spinning lattice -> best fit -> rates."""
-    omega_b = np.array(
-        [0.01, 0.007, 0.0]
-    )  # detumble initial rate (Robb et al. 2022a: the text's value; Table 2 prints 0.07)
+    # detumble initial rate (Robb et al. 2022a: the text's value; Table 2 prints 0.07)
+    omega_b = np.array([0.01, 0.007, 0.0])
     dt = 0.1
     R = constant_rate_sequence(omega_b, dt, 300, np.eye(3))
     q = np.einsum("tij,nj->tni", R, P20) + np.array([1.0, 2.0, 3.0])
