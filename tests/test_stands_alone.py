@@ -9,7 +9,8 @@ project was written from: no section sign (a paper's section is "Sec. n"), no ``
 
 Scanned: every file ``git ls-files`` lists with a text suffix (``.py``, ``.toml``, ``.md``, ``.txt``,
 ``.json``, ``.cfg``, ``.ini``, ``.yaml``, ``.yml``, ``.sh``, ``.rst``), except the stored regression
-numbers (``tests/data``) and the committed result bundles (``results/``), which quote no prose.
+numbers (``tests/data``) and the committed result bundles (``results/``), which quote no prose,
+and this file, which has to spell out what it forbids.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 TEXT_SUFFIXES = {".py", ".toml", ".md", ".txt", ".json", ".cfg", ".ini", ".yaml", ".yml", ".sh", ".rst"}
 SKIPPED_PREFIXES = ("tests/data/", "results/")
+THIS_FILE = Path(__file__).resolve().relative_to(ROOT)
 
 #: Rule name -> pattern. Written with escapes so this file does not trip its own rules.
 RULES: dict[str, re.Pattern[str]] = {
@@ -49,7 +51,10 @@ def tracked_text_files() -> list[Path]:
     return [
         Path(n)
         for n in names
-        if Path(n).suffix in TEXT_SUFFIXES and not n.startswith(SKIPPED_PREFIXES) and (ROOT / n).is_file()
+        if Path(n).suffix in TEXT_SUFFIXES
+        and not n.startswith(SKIPPED_PREFIXES)
+        and Path(n) != THIS_FILE
+        and (ROOT / n).is_file()
     ]
 
 
@@ -66,6 +71,7 @@ def offending_lines(text: str) -> list[tuple[int, str, str]]:
 def test_tracked_files_are_found():
     files = tracked_text_files()
     assert Path("README.md") in files and Path("magsail_mj/api.py") in files
+    assert THIS_FILE not in files and not any(str(f).startswith(SKIPPED_PREFIXES) for f in files)
     assert len(files) > 100, len(files)
 
 
