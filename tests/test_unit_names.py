@@ -64,6 +64,7 @@ DIMENSIONLESS_WORDS = frozenset(
         "rel",
         "rtol",
         "scale",
+        "share",
         "strain",
         "tol",
         "tolerance",
