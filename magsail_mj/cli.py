@@ -106,7 +106,7 @@ _PATH_ERRNOS = {
     errno.ELOOP,
     errno.EINVAL,
 }
-_SMALL_REPORT_BYTES = 1 << 20  # analytic reports of fixed size (loop sizing, the §7.2 table)
+_SMALL_REPORT_BYTES = 1 << 20  # analytic reports of fixed size (loop sizing, the A–D × N scaling table)
 _SCALING_ENTRY_BYTES = 200  # one entry of the λ_f(d, κ) table, see _cmd_scaling_magnetorquer
 
 
@@ -864,7 +864,7 @@ def _add_analytic_verbs(sub: Any) -> None:
     mt = _verb(
         scs,
         "magnetorquer",
-        "rod mass fraction λ_f(d, κ_τ) (truss spec §8)",
+        "rod mass fraction λ_f(d, κ_τ) (Robb et al. 2022a, Sec. 4.1)",
         _cmd_scaling_magnetorquer,
         {
             "side_m": "--side-m",
@@ -890,7 +890,7 @@ def _add_analytic_verbs(sub: Any) -> None:
     lo = _verb(
         scs,
         "loops",
-        "current-loop sizing: Eq.-9 current, wire, λ_f, power (current-loops §3)",
+        "current-loop sizing: Eq.-9 current, wire, λ_f, power (Robb et al. 2022b, Eqs. 2–11)",
         _cmd_scaling_loops,
         {
             "geometry": "--geometry",
@@ -915,7 +915,7 @@ def _add_analytic_verbs(sub: Any) -> None:
     lo.add_argument(
         "--table",
         action="store_true",
-        help="print the §7.2 scaling object (A–D × N = 12, 19, 27) instead of one sizing",
+        help="print the scaling object (A–D × N = 12, 19, 27) instead of one sizing",
     )
 
     tq = sub.add_parser(
@@ -929,7 +929,7 @@ def _add_analytic_verbs(sub: Any) -> None:
     tc = _verb(
         tqs,
         "coil",
-        "reflector coil paths: capability T_max, torque vectors (reflector spec §3.6)",
+        "reflector coil paths: capability T_max, torque vectors (Robb et al. 2020, Eqs. 1–4)",
         _cmd_torque_coil,
         {
             "side_m": "--side-m",
