@@ -25,17 +25,17 @@ T_F = 10 * ORBIT.period_s
 def test_orbit_constants_and_phases():
     assert ORBIT.r_m == 7171e3
     assert ORBIT.period_s == pytest.approx(2 * math.pi * math.sqrt(7171e3**3 / 3.986004418e14))
-    assert ORBIT.t_m_s == pytest.approx(T_F / 2)
+    assert ORBIT.t_mid_s == pytest.approx(T_F / 2)
     # overhead at t_m: reflector and ground point both on +x
-    r, R = ORBIT.position(ORBIT.t_m_s), ORBIT.ground_point(ORBIT.t_m_s)
+    r, R = ORBIT.position(ORBIT.t_mid_s), ORBIT.ground_point(ORBIT.t_mid_s)
     assert np.allclose(r / np.linalg.norm(r), [1, 0, 0]) and np.allclose(R / np.linalg.norm(R), [1, 0, 0])
-    assert ORBIT.theta(0.0) == pytest.approx(-ORBIT.n_rad_s * ORBIT.t_m_s)
+    assert ORBIT.theta(0.0) == pytest.approx(-ORBIT.n_rad_s * ORBIT.t_mid_s)
     assert math.cos(ORBIT.theta(0.0)) == pytest.approx(1.0)  # θ₀ ≡ 0 mod 2π
 
 
 def test_dipole_field_eq11():
     k = 3.12e-5 * (6371e3 / 7171e3) ** 3
-    t = ORBIT.t_m_s + np.array([0.0, 0.25, 0.5, 0.75]) * ORBIT.period_s  # θ = 0, π/2, π, 3π/2
+    t = ORBIT.t_mid_s + np.array([0.0, 0.25, 0.5, 0.75]) * ORBIT.period_s  # θ = 0, π/2, π, 3π/2
     B = ORBIT.field(t)
     assert np.allclose(B[:, 1], 0.0)
     assert np.allclose(np.linalg.norm(B, axis=1), [k, 2 * k, k, 2 * k], rtol=1e-12)
@@ -141,11 +141,11 @@ def test_controller_sign_restoring_about_plus_y():
 
 def test_rate_error_variant_and_feedforward_vanish_on_the_reference():
     ctl = _controller(rate_term="error", feedforward=False)
-    st = SteeringReference(ORBIT).at(ORBIT.t_m_s)
-    T, _, _ = ctl.reference_torque(st.q_ref, np.array([0.0, -st.psi_dot, 0.0]), ORBIT.t_m_s)
+    st = SteeringReference(ORBIT).at(ORBIT.t_mid_s)
+    T, _, _ = ctl.reference_torque(st.q_ref, np.array([0.0, -st.psi_dot, 0.0]), ORBIT.t_mid_s)
     assert np.allclose(T, 0.0, atol=1e-9)
     ctl = _controller(rate_term="error", feedforward=True)
-    T, _, ref = ctl.reference_torque(st.q_ref, np.array([0.0, -st.psi_dot, 0.0]), ORBIT.t_m_s)
+    T, _, ref = ctl.reference_torque(st.q_ref, np.array([0.0, -st.psi_dot, 0.0]), ORBIT.t_mid_s)
     assert T[1] == pytest.approx(8.3e5 * -ref.psi_ddot, rel=1e-9)
 
 

@@ -65,7 +65,7 @@ class ReflectorOrbit:
       R_e_m: Earth radius (A4: 6 371 km) [m].
       mu_m3_s2: gravitational parameter [m³/s²].
       omega_e_rad_s: ground-point rate in the Sun-fixed frame (A5: 2π/86 400 s⁻¹) [rad/s].
-      t_m_s: time of the overhead pass [s] (half the nominal run, ``n_orbits T_orb / 2``).
+      t_mid_s: time of the overhead pass [s] (half the nominal run, ``n_orbits T_orb / 2``).
       B0_T: dipole field at the surface on the magnetic equator [T].
     """
 
@@ -73,7 +73,7 @@ class ReflectorOrbit:
     R_e_m: float
     mu_m3_s2: float
     omega_e_rad_s: float
-    t_m_s: float
+    t_mid_s: float
     B0_T: float = 3.12e-5
 
     @classmethod
@@ -98,7 +98,7 @@ class ReflectorOrbit:
             R_e_m=R_e_m,
             mu_m3_s2=mu_m3_s2,
             omega_e_rad_s=omega_e_rad_s,
-            t_m_s=0.5 * n_orbits * 2 * math.pi / n,
+            t_mid_s=0.5 * n_orbits * 2 * math.pi / n,
             B0_T=B0_T,
         )
 
@@ -114,11 +114,11 @@ class ReflectorOrbit:
 
     def theta(self, t):
         """Orbit angle from the equator ``θ = n (t − t_m)`` [rad] (≡ θ₀ + n t)."""
-        return self.n_rad_s * (np.asarray(t, dtype=float) - self.t_m_s)
+        return self.n_rad_s * (np.asarray(t, dtype=float) - self.t_mid_s)
 
     def phi(self, t):
         """Ground-point longitude in the Sun-fixed frame ``φ = ω_e (t − t_m)`` [rad]."""
-        return self.omega_e_rad_s * (np.asarray(t, dtype=float) - self.t_m_s)
+        return self.omega_e_rad_s * (np.asarray(t, dtype=float) - self.t_mid_s)
 
     def position(self, t) -> np.ndarray:
         """Reflector position ``r`` (Eq. 9), world axes [m], (..., 3)."""
@@ -149,7 +149,7 @@ class ReflectorOrbit:
         sin, cos, atan2 = (math.sin, math.cos, math.atan2) if scalar else (np.sin, np.cos, np.arctan2)
         n = self.n_rad_s
         if scalar:
-            th, ph = n * (t - self.t_m_s), self.omega_e_rad_s * (t - self.t_m_s)
+            th, ph = n * (t - self.t_mid_s), self.omega_e_rad_s * (t - self.t_mid_s)
         else:
             th, ph = self.theta(t), self.phi(t)
         r, Re, we = self.r_m, self.R_e_m, self.omega_e_rad_s
@@ -164,7 +164,7 @@ class ReflectorOrbit:
 
     def _field_scalar(self, t: float) -> tuple[float, float, float]:
         """:meth:`field` at one float time, with :mod:`math` (same operations)."""
-        th = self.n_rad_s * (t - self.t_m_s)
+        th = self.n_rad_s * (t - self.t_mid_s)
         k = self.B0_T * (self.R_e_m / self.r_m) ** 3
         s, c = math.sin(th), math.cos(th)
         Br, Bt = -2.0 * k * s, -k * c

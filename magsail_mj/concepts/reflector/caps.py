@@ -206,7 +206,7 @@ def caps_outputs(runner: CapSweepRunner, result: RunResult) -> tuple[dict[str, A
         "rate_term": cfg.control.rate_term,
         "saturation": cfg.control.saturation_mode,
         "orbit_period_s": p.orbit.period_s,
-        "t_mid_s": p.orbit.t_m_s,
+        "t_mid_s": p.orbit.t_mid_s,
         "cap_geometric_Nm": p.cap.T_max_ycoil_Nm,
         "cap_min_err_below_5deg_Nm": runner.minimum.get(5.0),
         "cap_min_err_below_1deg_Nm": runner.minimum.get(1.0),

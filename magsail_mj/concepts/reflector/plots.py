@@ -98,13 +98,13 @@ def pitch_plots(
     cfg: ReflectorConfig,
     cap_Nm: float,
     orbit_period_s: float,
-    t_m_s: float,
+    t_mid_s: float,
     passes: list[dict[str, Any]],
 ) -> list[Path]:
     """Scenario B figures (module docstring) of the series of
     :func:`magsail_mj.concepts.reflector.metrics.pitch_outputs`, and ``passes.json`` with the pass
     table ``passes`` (:func:`magsail_mj.concepts.reflector.metrics.pass_table`), the cap [N m],
-    the orbit period [s] and the overhead time ``t_m_s`` [s]."""
+    the orbit period [s] and the overhead time ``t_mid_s`` [s]."""
     run_dir = Path(run_dir)
     th = series["time_h"]
     cap = cap_Nm
@@ -182,6 +182,6 @@ def pitch_plots(
     out.append(save_figure(fig, run_dir / "field.png"))
 
     path = run_dir / "passes.json"
-    write_json(path, {"cap_Nm": cap, "orbit_period_s": orbit_period_s, "t_m_s": t_m_s, "passes": passes})
+    write_json(path, {"cap_Nm": cap, "orbit_period_s": orbit_period_s, "t_mid_s": t_mid_s, "passes": passes})
     out.append(path)
     return out

@@ -285,7 +285,7 @@ class PitchTask(ReflectorTask):
             cfg=self.cfg,
             cap_Nm=self.cap.cap_Nm,
             orbit_period_s=o.period_s,
-            t_m_s=o.t_m_s,
+            t_mid_s=o.t_mid_s,
             passes=getattr(self, "passes", []),
         )
 
@@ -315,7 +315,7 @@ class PitchTask(ReflectorTask):
                 "n_rad_s": o.n_rad_s,
                 "T_orb_s": o.period_s,
                 "run_length_nominal_s": cfg.orbit.n_orbits * o.period_s,
-                "t_m_s": o.t_m_s,
+                "t_mid_s": o.t_mid_s,
             },
             "gains": {"P_q_Nm": Pq.tolist(), "P_omega_Nms": Pw.tolist()},
         }
