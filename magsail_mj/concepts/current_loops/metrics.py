@@ -16,7 +16,7 @@ the work ledger (Lorentz work and damping work, exact for forces held over a ste
   the largest strain > 0.5, or h_max > 5 w; *rigid_like* if ρ_max < 0.005 D and the rotation
   stays within 3° of the rigid reference; otherwise *flexible*.
 
-Slews add the attitude error ``2 arccos|q_e,w|``, currents, saturation, commanded and achieved
+Slews add the attitude error ``2 atan2(|q_e,xyz|, |q_e,w|)``, currents, saturation, commanded and achieved
 dipole, magnetic and gravity-gradient torques about the centre of mass.
 
 Shape of the response (the figures the papers' S4/S5 plots are read against):
@@ -66,6 +66,7 @@ from magsail_mj.loads.tidal import GravityGradientTorqueLoad, TidalGravityLoad
 from magsail_mj.concepts.current_loops.config import ClassificationConfig
 from magsail_mj.concepts.current_loops.model import LoopsModel, WorkLedger
 from magsail_mj.sim import RunResult
+from magsail_mj.quaternion import quat_angle
 
 __all__ = [
     "flexible_probes",
@@ -538,12 +539,12 @@ def sweep_metrics(
 
 
 def slew_metrics(rec: dict[str, np.ndarray], *, areas_body_m2: np.ndarray) -> Metrics:
-    """Attitude metrics of a slew: error 2 arccos|q_e,w| [rad], times below 5° and 2°, largest
+    """Attitude metrics of a slew: error 2 atan2(|q_e,xyz|, |q_e,w|) [rad], times below 5° and 2°, largest
     error after first reaching 5°, saturation fraction, torques, achieved dipole Σ I_L a_L [A m²]
     and the largest current per axis [A]."""
     t = rec["t"]
     qe = rec["q_err"]
-    err = 2.0 * np.arccos(np.clip(np.abs(qe[:, 0]), 0.0, 1.0))
+    err = quat_angle(qe)
     t5 = first_time_below(t, err, np.radians(5.0))
     t2 = first_time_below(t, err, np.radians(2.0))
     after = t >= t5 if t5 is not None else np.zeros_like(t, dtype=bool)

@@ -12,7 +12,8 @@ Detumble: ``t_omega_below_1e-{2,3,4}_s`` (first |ω| below 10⁻², 10⁻³, 10�
 |h₀| / (√2 T_max)`` (both paths saturated, field ⟂ both dipoles), ``h_along_B_change_Nms``
 (change of h·B̂, world axes, which a magnetic torque cannot alter for an inertial field).
 
-Pitch: attitude-error angle ``2 arccos|q_e,w|``; pitch ``ψ_act = π/2 − β_act`` with
+Pitch: attitude-error angle ``2 atan2(|q_e,xyz|, |q_e,w|)`` (= 2 arccos|q_e,w|, accurate near 0);
+pitch ``ψ_act = π/2 − β_act`` with
 ``β_act = unwrap(atan2(R₁₃, R₁₁))``; ``t_err_above_{1,5}deg_s``, ``time_err_above_5deg_s``,
 ``err_max_rad``, ``err_rms_rad``, ``sat_fraction``, ``passes_over_cap`` (passes in which
 |T_ref| exceeds the cap), ``torque_ff_peak_Nm`` (max I₂|ψ̈| over the nominal run) and the cross-concept keys
@@ -31,7 +32,7 @@ import numpy as np
 from magsail_mj.control.reflector_steering import pitch_angle_from_quaternion
 from magsail_mj.environment.frames import quat_to_mat
 from magsail_mj.concepts.reflector.mjcf import plate_mass_properties
-from magsail_mj.quaternion import direction_quaternions
+from magsail_mj.quaternion import direction_quaternions, quat_angle
 from magsail_mj.concepts.reflector.model import ReflectorModel
 from magsail_mj.sim import RunResult
 
@@ -183,11 +184,11 @@ def pass_windows(plate: ReflectorModel, t_end: float) -> list[tuple[int, float, 
     """``(k, t_k, start, end)`` of each pass whose window meets ``[0, t_end]``."""
     o = plate.orbit
     T = o.period_s
-    k_lo = math.floor((0.0 - o.t_m_s) / T - 0.5) + 1
-    k_hi = math.ceil((t_end - o.t_m_s) / T + 0.5) - 1
+    k_lo = math.floor((0.0 - o.t_mid_s) / T - 0.5) + 1
+    k_hi = math.ceil((t_end - o.t_mid_s) / T + 0.5) - 1
     out = []
     for k in range(k_lo, k_hi + 1):
-        tk = o.t_m_s + k * T
+        tk = o.t_mid_s + k * T
         a, b = max(0.0, tk - T / 2), min(t_end, tk + T / 2)
         if b > a:
             out.append((k, tk, a, b))
@@ -226,7 +227,7 @@ def pitch_outputs(
     rec, t, qpos, q, w = _plate_records(plate, result)
     o = plate.orbit
     q_e = rec["q_e"]
-    err = 2.0 * np.arccos(np.clip(np.abs(q_e[:, 0]), 0.0, 1.0))
+    err = quat_angle(q_e)
     beta_act = pitch_angle_from_quaternion(q)
     psi_act = 0.5 * np.pi - beta_act
     psi_ref = rec["psi_ref_rad"]
@@ -293,7 +294,7 @@ def pitch_outputs(
         "orbit_period_s": o.period_s,
         "orbit_radius_m": o.r_m,
         "mean_motion_rad_s": o.n_rad_s,
-        "t_mid_s": o.t_m_s,
+        "t_mid_s": o.t_mid_s,
         "run_length_nominal_s": plate.cfg.orbit.n_orbits * o.period_s,
         "t_err_above_1deg_s": first_time(t, err > 1 * DEG),
         "t_err_above_5deg_s": first_time(t, err > 5 * DEG),
