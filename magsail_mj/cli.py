@@ -64,7 +64,7 @@ from magsail_mj.sweep.report import add_arguments as add_report_arguments
 from magsail_mj.sweep.report import main as report_main
 from magsail_mj.sweep.report import ReportError, write_report
 
-__all__ = ["EXIT_CODES", "CliInputError", "main"]
+__all__ = ["EXIT_CODES", "CliInputError", "forget_handled_interrupt", "main"]
 
 EXIT_CODES = """\
 exit status:
@@ -1073,8 +1073,22 @@ def _dispatch(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Run ``magsail`` with ``argv`` (default ``sys.argv[1:]``) and return the exit status."""
-    with _logging_to_stderr(verbosity=0):
-        return _main(argv)
+    try:
+        with _logging_to_stderr(verbosity=0):
+            return _main(argv)
+    finally:
+        forget_handled_interrupt()
+
+
+def forget_handled_interrupt() -> None:
+    """Let the exit status stand after an interrupt that was handled.
+
+    CPython marks a ``KeyboardInterrupt`` that leaves code run from a string (``exec``/``eval`` of
+    source text: the code behind dataclasses and named tuples, ``.pth`` lines) as unhandled, even
+    when an outer ``except`` catches it, and a ``python -m`` process then ends by killing itself
+    with SIGINT (status -2) instead of exiting 130. Running a string that completes clears the mark.
+    """
+    exec("pass")  # noqa: S102 - a constant string; its evaluation resets the interpreter's mark
 
 
 def _main(argv: list[str] | None) -> int:

@@ -45,6 +45,7 @@ def main() -> int:
     finally:  # a signal after the verb has ended changes nothing, also while the interpreter exits
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, signal.SIG_IGN)
+        cli.forget_handled_interrupt()  # no further interrupt can arrive: the status 130 stands
     return code
 
 
