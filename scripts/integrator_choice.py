@@ -16,9 +16,12 @@ of the row) is made with:
 A summary **agrees** when every float figure ``x`` of the reference summary (timing and
 numerical-error keys excluded: ``wall``, ``step_cost``, ``steps_per_s``, ``error``, ``drift``,
 ``residual``; figures with ``|x_ref| < 1e-9`` are listed as near zero and not compared) meets
-``|x − x_ref| ≤ tol · |x_ref|``, with ``tol`` the row's structural tolerance for structural
-figures (names containing ``sd``, ``strain``, ``deflect``, ``surface``, ``edge_angle``,
-``tension``, ``stress``, ``bend``, ``modal``) and its attitude tolerance for all others. The
+``|x − x_ref| ≤ max(tol · |x_ref|, resolution)``, with ``tol`` the row's structural tolerance
+for structural figures (names containing ``sd``, ``strain``, ``deflect``, ``surface``,
+``edge_angle``, ``tension``, ``stress``, ``bend``, ``modal``) and its attitude tolerance for all
+others, and ``resolution`` what a figure read off the records can resolve: one record interval
+for a sampled time (an event's time, a time above a bound, a period), one record's share of the
+run for a share of saturated or unloading records, else 0. The
 accuracy of each row is the one its config or its concept's docs state; where none is stated the
 proposal of the study: attitude figures within 0.1 %, structural figures within 1 %.
 
@@ -65,6 +68,11 @@ MIDPOINT_EXTRA = 0.6
 NEAR_ZERO = 1e-9
 SKIP = re.compile(r"wall|step_cost|steps_per_s|error|drift|residual|timestep|n_steps|^t_end_s$")
 STRUCTURAL = re.compile(r"sd|strain|deflect|surface|edge_angle|tension|stress|bend|modal")
+#: times read off the records (an event's time, a time spent above a bound, a period): one record
+#: interval apart is the resolution of the figure itself
+SAMPLED_TIME = re.compile(r"^(?=.*(^t_|time|period|margin))(?!.*(rad|deg|m)_s$).*_s$")
+#: shares of the run's records (saturated, unloading): one record's share is their resolution
+RECORD_SHARE = re.compile(r"^(sat_fraction|saturation_(fraction|share)|unloading_active_fraction)")
 
 
 @dataclass(frozen=True)
@@ -84,7 +92,10 @@ CHOICES: tuple[Choice, ...] = (
         1800.0,
         source="proposed; the CNUSAIL detumble at δt 0.1 s midpoint matches δt 0.0125 s within 4e-6 in |ω|",
     ),
+    Choice("cnusail/configs/detumble_post.toml", 1800.0),
     Choice("cnusail/configs/nadir_pre.toml", 1800.0),
+    Choice("cnusail/configs/nadir_post.toml", 1800.0),
+    Choice("cnusail/configs/deorbit.toml", 1800.0),
     Choice("cnusail/configs/deorbit_recalc.toml", 1800.0),
     Choice("cnusail/configs/pd_vs_eigenaxis.toml", 1800.0),
     Choice("current_loops/configs/slew.toml", 60.0),
@@ -106,11 +117,16 @@ CHOICES: tuple[Choice, ...] = (
         source="the detumble benchmark's figures within 2 % (docs/performance.md); attitude proposed",
     ),
     Choice("truss_magnetorquer/configs/slew_i.toml", 30.0),
-    Choice(
-        "truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml",
-        30.0,
-        structural_tol=2e-2,
-        source="surface SD within 2 % (Robb et al. 2022a, as the lattice benchmark); attitude proposed",
+    *(
+        Choice(
+            f"truss_magnetorquer/configs/dist_vs_central/case_{case}_{torquer}_{profile}.toml",
+            30.0,
+            structural_tol=2e-2,
+            source="surface SD within 2 % (Robb et al. 2022a, as the lattice benchmark); attitude proposed",
+        )
+        for case in "cab"
+        for torquer in ("central", "distributed")
+        for profile in ("bangbang", "versine")
     ),
 )
 """One config per stepped scenario kind (the MSAC cycle runner and the lifetime analysis have
@@ -165,18 +181,31 @@ def _is_figure(key: str, value: Any) -> bool:
     return isinstance(value, float) and not isinstance(value, bool) and not SKIP.search(key)
 
 
-def compare(choice: Choice, ref: dict[str, float], run: dict[str, Any]) -> dict[str, Any]:
-    """Worst relative difference of ``run``'s figures from ``ref`` against the tolerances."""
+def absolute_tol(key: str, *, record_s: float, duration_s: float) -> float:
+    """The resolution of a figure read off the records: one record interval for a sampled time
+    (:data:`SAMPLED_TIME`), one record's share of the run for a share of records
+    (:data:`RECORD_SHARE`), else 0 (the relative tolerance alone)."""
+    if SAMPLED_TIME.search(key):
+        return record_s
+    if RECORD_SHARE.search(key):
+        return record_s / duration_s
+    return 0.0
+
+
+def compare(choice: Choice, ref: dict[str, float], run: dict[str, Any], *, record_s: float) -> dict[str, Any]:
+    """Worst difference of ``run``'s figures from ``ref`` over its tolerance: the relative one of
+    the figure's kind, or the figure's record resolution where that is larger (:func:`absolute_tol`)."""
     if run.get("status") != "completed":
         return {"agrees": False, "worst_key": None, "worst_over_tol": math.inf, "near_zero": []}
     worst_key, worst, near_zero = None, 0.0, []
     for key, x_ref in ref.items():
-        if not math.isfinite(x_ref) or abs(x_ref) < NEAR_ZERO:
+        abs_tol = absolute_tol(key, record_s=record_s, duration_s=choice.duration_s)
+        if not math.isfinite(x_ref) or (abs(x_ref) < NEAR_ZERO and abs_tol == 0.0):
             near_zero.append(key)
             continue
         x = run["summary"].get(key, math.nan)
         tol = choice.structural_tol if STRUCTURAL.search(key) else choice.attitude_tol
-        over = abs(x - x_ref) / (tol * abs(x_ref)) if math.isfinite(x) else math.inf
+        over = abs(x - x_ref) / max(tol * abs(x_ref), abs_tol) if math.isfinite(x) else math.inf
         if over > worst or worst_key is None:
             worst_key, worst = key, over
     return {"agrees": worst <= 1.0, "worst_key": worst_key, "worst_over_tol": worst, "near_zero": near_zero}
@@ -187,12 +216,13 @@ def study(choice: Choice, log: Any) -> dict[str, Any]:
     base = load_config(CONCEPTS / choice.config)
     dt0 = float(base.sim.timestep_s)
     current = Setting(base.sim.integrator, dt0, getattr(base.sim, "load_timing", "start"))
+    record_s = dt0 * base.sim.record_every
     runs: list[dict[str, Any]] = []
 
     def run(setting: Setting, ref: dict[str, float] | None = None) -> dict[str, Any]:
         r = run_setting(choice, setting)
         if ref is not None:
-            r.update(compare(choice, ref, r))
+            r.update(compare(choice, ref, r, record_s=record_s))
         runs.append(r)
         log(r)
         return r
@@ -227,6 +257,58 @@ def study(choice: Choice, log: Any) -> dict[str, Any]:
         "cost_ratio_chosen_to_current": (chosen["cost_ms_per_sim_s"] / cur["cost_ms_per_sim_s"]) if chosen else None,
         "tried": len(runs) - 1,
         "runs": runs,
+    }
+
+
+def recompare(row: dict[str, Any]) -> dict[str, Any]:
+    """A stored row judged again with the current tolerances (no new runs): the reference is its
+    first run, the current setting its second; the chosen setting the cheapest agreeing run."""
+    choice = next((c for c in CHOICES if c.config == row["config"]), None)
+    if choice is None or "error" in row:
+        return row
+    base = load_config(CONCEPTS / choice.config)
+    record_s = float(base.sim.timestep_s) * base.sim.record_every
+    ref, runs = row["runs"][0], row["runs"]
+    for r in runs:  # a stored NaN may have been written as null
+        r["summary"] = {k: math.nan if v is None else v for k, v in r.get("summary", {}).items()}
+    for r in runs[1:]:
+        r.update(compare(choice, ref["summary"], r, record_s=record_s))
+    cur = runs[1]
+    agreeing = [r for r in runs[1:] if r["agrees"]]
+    chosen = min(agreeing, key=lambda r: r["cost_ms_per_sim_s"]) if agreeing else None
+    return {
+        **row,
+        "attitude_tol": choice.attitude_tol,
+        "structural_tol": choice.structural_tol,
+        "accuracy_source": choice.source,
+        "current": _brief(cur),
+        "chosen": _brief(chosen) if chosen else None,
+        "cost_ratio_chosen_to_current": (chosen["cost_ms_per_sim_s"] / cur["cost_ms_per_sim_s"]) if chosen else None,
+    }
+
+
+def confirm(row: dict[str, Any], log: Any) -> dict[str, Any]:
+    """The chosen setting of a stored row against the current one over the config's whole
+    duration (a short run does not show long-run drift): every figure of the chosen run within
+    the row's tolerances of the current run's."""
+    choice = next(c for c in CHOICES if c.config == row["config"])
+    base = load_config(CONCEPTS / choice.config)
+    whole = Choice(choice.config, float(base.sim.duration_s), choice.attitude_tol, choice.structural_tol, choice.source)
+    record_s = float(base.sim.timestep_s) * base.sim.record_every
+    cur = run_setting(whole, Setting(**row["runs"][1]["setting"]))
+    log(cur)
+    chosen = next(r for r in row["runs"] if r["label"] == row["chosen"]["label"])
+    new = run_setting(whole, Setting(**chosen["setting"]))
+    if cur["status"] == "completed":
+        new.update(compare(whole, cur["summary"], new, record_s=record_s))
+    log(new)
+    return {
+        "config": choice.config,
+        "duration_s": whole.duration_s,
+        "current": _brief(cur),
+        "chosen": _brief(new),
+        "cost_ratio_chosen_to_current": new.get("cost_ms_per_sim_s", math.nan) / cur.get("cost_ms_per_sim_s", math.nan),
+        "runs": [cur, new],
     }
 
 
@@ -270,9 +352,49 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", required=True, help="output folder (created)")
     p.add_argument("--only", action="append", default=[], metavar="TEXT", help="rows whose config contains TEXT")
+    p.add_argument(
+        "--recompare",
+        nargs="+",
+        default=[],
+        metavar="JSON",
+        help="judge the rows stored in these integrator_choice.json files again (no runs) and merge them",
+    )
+    p.add_argument(
+        "--confirm",
+        metavar="JSON",
+        default=None,
+        help="run the chosen setting of each (--only) row of this integrator_choice.json over the "
+        "config's whole duration against the current one (writes confirm.json)",
+    )
     args = p.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.confirm:
+        stored = [r for r in json.loads(Path(args.confirm).read_text()) if r.get("chosen")]
+        stored = [r for r in stored if not args.only or any(t in r["config"] for t in args.only)]
+        stored = [r for r in stored if r["chosen"]["label"] != r["current"]["label"]]
+        confirmed = []
+        with threadpool_limits(limits=1):
+            for row in stored:
+                confirmed.append(
+                    confirm(row, lambda r: print(f"{r['config']}: {r['label']}: {r['status']}", flush=True))
+                )
+                (out / "confirm.json").write_text(json.dumps(confirmed, indent=1, default=str))
+        for c in confirmed:
+            print(
+                f"{c['config']}: {c['chosen']['label']} vs {c['current']['label']} over {c['duration_s']:g} s: "
+                f"agrees {c['chosen'].get('agrees')} ({_over(c['chosen'])}), "
+                f"cost {c['cost_ratio_chosen_to_current']:.2f}"
+            )
+        return 0
+    if args.recompare:
+        stored = {row["config"]: row for path in args.recompare for row in json.loads(Path(path).read_text())}
+        order = [c.config for c in CHOICES]
+        rows = [recompare(stored[c]) for c in sorted(stored, key=lambda c: order.index(c) if c in order else 99)]
+        (out / "integrator_choice.json").write_text(json.dumps(rows, indent=1, default=str))
+        (out / "integrator_choice.md").write_text(markdown(rows))
+        print(markdown(rows))
+        return 0
     rows = [c for c in CHOICES if not args.only or any(t in c.config for t in args.only)]
     if not rows:
         print(f"error: --only: no row matches {args.only}", file=sys.stderr)
