@@ -8,7 +8,8 @@ of the row) is made with:
 * **candidates** ``integrator ∈ {Euler, implicitfast, RK4} × δt ∈ {4, 2, 1, ½} × δt₀ ×
   load_timing ∈ {start, midpoint}``, tried in order of their expected cost per simulated second
   (stages per step / δt: Euler 1, implicitfast 1.3, RK4 4, +0.6 for a midpoint load evaluation):
-  every candidate expected to cost less than the current setting; when the current setting does
+  every candidate expected to cost less than the current setting whose step divides the config's
+  record interval (the records, part of the output, keep their times); when the current setting does
   not agree, further ones until twice the expected cost of the first that agrees. The chosen
   setting is the one of the lowest *measured* cost that agrees (the expected cost only orders the
   search: on the small models the step's Python overhead, not the integrator's stages, dominates).
@@ -147,12 +148,27 @@ class Setting:
         return f"{self.integrator} {self.dt_s:.6g} s {self.load_timing}"
 
 
+def keeps_record_interval(setting: Setting, record_s: float) -> bool:
+    """Whether the config's record interval stays a whole number of ``setting``'s steps (a
+    candidate must not change what the records are: their interval is part of the output)."""
+    n = record_s / setting.dt_s
+    return round(n) >= 1 and abs(n - round(n)) <= 1e-9 * n
+
+
 def run_setting(choice: Choice, setting: Setting) -> dict[str, Any]:
     """One short run of ``choice`` at ``setting``: status, CPU cost per simulated second, summary."""
     path = CONCEPTS / choice.config
     base = load_config(path)
     record_s = base.sim.timestep_s * base.sim.record_every
     record_every = max(1, int(round(record_s / setting.dt_s)))
+    if not keeps_record_interval(setting, record_s):
+        return {
+            "config": choice.config,
+            "setting": setting.__dict__,
+            "label": setting.label(),
+            "status": "refused",
+            "message": f"the record interval {record_s:g} s is not a whole number of {setting.dt_s:g} s steps",
+        }
     overrides = [
         f"sim.duration_s={choice.duration_s!r}",
         f"sim.integrator='{setting.integrator}'",
@@ -272,6 +288,8 @@ def recompare(row: dict[str, Any]) -> dict[str, Any]:
     for r in runs:  # a stored NaN may have been written as null
         r["summary"] = {k: math.nan if v is None else v for k, v in r.get("summary", {}).items()}
     for r in runs[1:]:
+        if not keeps_record_interval(Setting(**r["setting"]), record_s):
+            r.update(status="refused", message=f"the record interval {record_s:g} s is not a whole number of steps")
         r.update(compare(choice, ref["summary"], r, record_s=record_s))
     cur = runs[1]
     agreeing = [r for r in runs[1:] if r["agrees"]]
