@@ -78,6 +78,26 @@ def test_commanded_impulse_of_the_bang_bang_profile():
     np.testing.assert_allclose(cmd, [0.0, 30.0, 60.0, 30.0, 0.0, 0.0], atol=2 * 0.1 * 0.1 + 1e-9)
 
 
+def test_commanded_impulse_follows_the_load_timing():
+    """Versine profile (smooth): with the torque evaluated at each step's mid-point the commanded
+    impulse is the mid-point rule, second order in δt (halving δt divides the error from the exact
+    integral by 4), where the left-rectangle sum of start-of-step torques is first order."""
+    p = ProfileConfig(kind="versine", tau_max_Nm=0.1, t_end_s=1800.0, t_v_s=180.0)
+    t = np.array([150.0, 700.0])
+    fine = commanded_impulse_Nms(p, t, timestep_s=1e-3, load_timing="midpoint")
+
+    def errors(timing: str) -> list[float]:
+        return [
+            float(np.max(np.abs(commanded_impulse_Nms(p, t, timestep_s=dt, load_timing=timing) - fine)))
+            for dt in (0.2, 0.1)
+        ]
+
+    start, mid = errors("start"), errors("midpoint")
+    assert start[0] / start[1] == pytest.approx(2.0, rel=0.05)
+    assert mid[0] / mid[1] == pytest.approx(4.0, rel=0.05)
+    assert mid[1] < 1e-3 * start[1]
+
+
 def test_strut_tilt_rigid_rotation_and_known_bend():
     """Two struts; all nodes rotated rigidly by 30° about z: tilt 0 (the best-fit frame follows).
     Then one strut end moved so that strut turns by 5° in the body frame: tilt 5°."""

@@ -334,14 +334,21 @@ def cell_angle_keys(top: np.ndarray, R_body: np.ndarray, *, nodes_per_side: int)
     }
 
 
-def commanded_impulse_Nms(profile: ProfileConfig, t: np.ndarray, *, timestep_s: float) -> np.ndarray:
-    """Commanded impulse about the profile axis ``I_cmd(t) = Σ_{t_k < t} τ(t_k) δt`` [N m s] at the
-    record times ``t`` [s]: the runner holds the load's ``τ(t_k)`` over each step ``[t_k, t_k + δt]``
-    (``δt = timestep_s``), so this left-rectangle sum is what a rigid body receives exactly."""
+def commanded_impulse_Nms(
+    profile: ProfileConfig, t: np.ndarray, *, timestep_s: float, load_timing: str = "start"
+) -> np.ndarray:
+    """Commanded impulse about the profile axis ``I_cmd(t) = Σ_{t_k < t} τ(t_k + c δt) δt`` [N m s]
+    at the record times ``t`` [s]: the runner holds the load's torque over each step
+    ``[t_k, t_k + δt]`` (``δt = timestep_s``), evaluated at the step's start (``c = 0``,
+    ``load_timing = "start"``: a left-rectangle sum) or its mid-point (``c = ½``, ``"midpoint"``:
+    the mid-point rule), so this sum is what a rigid body receives exactly."""
     p = profile
+    offset = {"start": 0.0, "midpoint": 0.5}[load_timing] * timestep_s
     n = int(round(float(np.max(t)) / timestep_s))
     tk = np.arange(n + 1) * timestep_s
-    tau = np.asarray(torque_profile(p.kind, tk, tau_max=p.tau_max_Nm, t_end=p.t_end_s, t_v=p.t_v_s), dtype=float)
+    tau = np.asarray(
+        torque_profile(p.kind, tk + offset, tau_max=p.tau_max_Nm, t_end=p.t_end_s, t_v=p.t_v_s), dtype=float
+    )
     cum = np.concatenate([[0.0], np.cumsum(tau[:-1] * timestep_s)])
     return np.interp(t, tk, cum)
 

@@ -444,7 +444,7 @@ class DistVsCentralTask(TrussScenario):
         )
         series.update(more_series)
         summary.update(more_keys)
-        cmd = commanded_impulse_Nms(p, t, timestep_s=self.cfg.sim.timestep_s)
+        cmd = commanded_impulse_Nms(p, t, timestep_s=self.cfg.sim.timestep_s, load_timing=self.cfg.sim.load_timing)
         summary.update(
             delivered_impulse_keys(
                 p,
