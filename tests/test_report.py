@@ -108,6 +108,53 @@ def test_qualitative_claims_show_our_value_numbers_or_text():
         judge(_claim(paper_statement="s"), _run({"y": 1}))
 
 
+def test_relational_claims_check_the_relation_to_another_claim():
+    central = _claim(id="central", run="rc", paper_statement="deforms grossly")
+    smaller = _claim(
+        id="dist",
+        run="rd",
+        paper_statement="stays small",
+        relation="less",
+        than="central",
+        factor=0.5,
+        explanation="ours is not half",
+    )
+    v = judge(smaller, _run({"x_m": 0.1}), than=(central, _run({"x_m": 0.3})))
+    assert v.verdict == AGREES and v.value == pytest.approx(0.1) and v.than_value == pytest.approx(0.3)
+    assert judge(smaller, _run({"x_m": 0.2}), than=(central, _run({"x_m": 0.3}))).verdict == DIFFERS
+    assert judge(smaller, _run({"x_m": None}), than=(central, _run({"x_m": 0.3}))).verdict == DIFFERS
+    failed = judge(smaller, _run({"x_m": 0.1}), than=(central, _run({"x_m": 0.3}, status="structure_failed")))
+    assert failed.verdict == FAILED and "structure_failed" in failed.status and "central" in failed.status
+    assert judge(smaller, _run({"x_m": 0.1}), than=(central, None)).verdict == NOT_RUN
+    larger = _claim(id="big", run="rd", paper_statement="s", relation="greater", than="central")
+    assert judge(larger, _run({"x_m": 0.4}), than=(central, _run({"x_m": 0.3}))).verdict == AGREES
+    with pytest.raises(MissingExplanation, match="'big'"):
+        judge(larger, _run({"x_m": 0.2}), than=(central, _run({"x_m": 0.3})))
+    with pytest.raises(ValueError, match="judged with its claim 'central'"):
+        judge(larger, _run({"x_m": 0.4}))
+
+
+def test_relational_claim_validation():
+    with pytest.raises(ValueError, match="relation and than go together"):
+        _claim(paper_statement="s", relation="less")
+    with pytest.raises(ValueError, match="not with paper_value"):
+        _claim(paper_value=1.0, tolerance=0.1, tolerance_why="w", relation="less", than="x")
+    claims = [
+        _claim(id="a", paper_statement="s"),
+        _claim(id="b", paper_statement="s", relation="less", than="missing"),
+    ]
+    with pytest.raises(ValueError, match="than 'missing'"):
+        Paper(
+            paper="p",
+            title="t",
+            citation="c",
+            bib_label="b",
+            sweep="s",
+            run=({"id": "r", "config": CONFIG},),
+            claim=claims,
+        )
+
+
 def test_claim_validation_names_the_problem():
     with pytest.raises(ValueError, match="tolerance"):
         _claim(paper_value=1.0)

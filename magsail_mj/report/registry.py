@@ -78,6 +78,12 @@ class Claim(_Strict):
     tolerance_why: str = ""
     figure: str | None = None
     explanation: str = ""
+    #: a relation the paper states without numbers: our value is ``"less"`` or ``"greater"`` than
+    #: ``factor`` times our value of the claim ``than`` (same paper), e.g. the distributed torque's
+    #: σ_SD less than the central torque's
+    relation: Literal["less", "greater"] | None = None
+    than: str | None = None
+    factor: float = Field(default=1.0, gt=0.0)
 
     @model_validator(mode="after")
     def _numbers_or_statement(self) -> Claim:
@@ -85,6 +91,10 @@ class Claim(_Strict):
         if self.paper_value is not None and self.paper_range is not None:
             raise ValueError("give paper_value or paper_range, not both")
         numeric = self.paper_value is not None or self.paper_range is not None
+        if (self.relation is None) != (self.than is None):
+            raise ValueError("relation and than go together")
+        if self.relation is not None and numeric:
+            raise ValueError("a relational claim compares with another claim, not with paper_value/paper_range")
         if numeric and (self.tolerance is None or not self.tolerance_why.strip()):
             raise ValueError("a numeric claim needs tolerance and tolerance_why")
         if not numeric and not self.paper_statement.strip():
@@ -92,6 +102,11 @@ class Claim(_Strict):
         if self.paper_range is not None and self.paper_range[0] > self.paper_range[1]:
             raise ValueError(f"paper_range {list(self.paper_range)} is not [low, high]")
         return self
+
+    @property
+    def relational(self) -> bool:
+        """Whether the claim checks a relation to another claim's value (``relation``/``than``)."""
+        return self.relation is not None
 
     @property
     def numeric(self) -> bool:
@@ -127,10 +142,20 @@ class Paper(_Strict):
         dup = sorted({i for i in runs if runs.count(i) > 1})
         if dup:
             raise ValueError(f"duplicate run ids {dup}")
+        ids = {c.id: c for c in self.claim}
         for c in self.claim:
             if c.run not in runs:
                 raise ValueError(f"claim {c.id!r}: run {c.run!r} is not one of the [[run]] ids {runs}")
+            if c.than is not None and (c.than not in ids or c.than == c.id):
+                raise ValueError(f"claim {c.id!r}: than {c.than!r} is not another claim of the paper")
         return self
+
+    def claim_by_id(self, claim_id: str) -> Claim:
+        """The claim ``claim_id`` (KeyError naming it when absent)."""
+        for c in self.claim:
+            if c.id == claim_id:
+                return c
+        raise KeyError(f"paper {self.paper!r} has no claim {claim_id!r}")
 
     def run_spec(self, run_id: str) -> RunSpec:
         """The ``[[run]]`` entry ``run_id`` (KeyError naming it when absent)."""

@@ -51,6 +51,9 @@ def _key_text(claim: Claim) -> str:
 
 def _paper_text(claim: Claim) -> str:
     unit = f" {claim.unit}" if claim.unit else ""
+    if claim.relational:
+        scaled = "" if claim.factor == 1.0 else f"{claim.factor:g} × "
+        return f"{claim.paper_statement} (checked: ours {claim.relation} than {scaled}`{claim.than}`)"
     if claim.paper_range is not None:
         return f"{_num(claim.paper_range[0])} – {_num(claim.paper_range[1])}{unit}"
     if claim.paper_value is not None:
@@ -60,6 +63,8 @@ def _paper_text(claim: Claim) -> str:
 
 
 def _tolerance_text(claim: Claim) -> str:
+    if claim.relational:
+        return "none (a relation)"
     if not claim.numeric:
         return "—"
     unit = f" {claim.unit}" if claim.unit else ""
@@ -77,12 +82,22 @@ def _ours_text(claim: Claim, verdict: Verdict) -> str:
     if verdict.verdict == FAILED:
         return f"run {verdict.status}"
     unit = f" {claim.unit}" if claim.unit else ""
-    return f"{_num(verdict.value)}{unit if verdict.value is not None else ''}"
+    text = f"{_num(verdict.value)}{unit if verdict.value is not None else ''}"
+    if verdict.than_value is not None:
+        text += f" (`{claim.than}`: {_num(verdict.than_value)}{unit})"
+    return text
 
 
 def judge_paper(paper: Paper, runs: dict[str, dict[str, Any]]) -> list[tuple[Claim, Verdict]]:
     """Every claim of ``paper`` with its verdict from the bundled ``runs`` (``{run id: run}``)."""
-    return [(claim, judge(claim, runs.get(claim.run))) for claim in paper.claim]
+    judged = []
+    for claim in paper.claim:
+        than = None
+        if claim.than is not None:
+            other = paper.claim_by_id(claim.than)
+            than = (other, runs.get(other.run))
+        judged.append((claim, judge(claim, runs.get(claim.run), than=than)))
+    return judged
 
 
 def _counts_line(verdicts: list[Verdict]) -> str:

@@ -8,6 +8,10 @@
   its value is never compared;
 * ``not run``: the bundle holds no run for the claim;
 * ``qualitative``: the paper states no number; our value is shown next to its statement.
+
+A *relational* claim (``relation``/``than``) turns a statement without numbers into a check: our
+value must be less (greater) than ``factor`` times our value of another claim; it agrees or
+differs like a numeric claim, and is ``failed`` or ``not run`` when either run is.
 """
 
 from __future__ import annotations
@@ -58,6 +62,7 @@ class Verdict:
     verdict: str
     value: float | str | None
     status: str | None
+    than_value: float | None = None
 
 
 def claim_value(claim: Claim, summary: dict[str, Any]) -> float | str | None:
@@ -106,26 +111,65 @@ def within(claim: Claim, value: float) -> bool:
     return lo - tol_lo <= value <= hi + tol_hi
 
 
-def judge(claim: Claim, run: dict[str, Any] | None) -> Verdict:
-    """The verdict of ``claim`` given its bundled run (``{"summary": ..., "identity": ...}``, or None).
+def _status(run: dict[str, Any]) -> str:
+    return str(run.get("identity", {}).get("status") or run.get("summary", {}).get("status") or "unknown")
 
-    Raises :class:`MissingExplanation` for a claim that differs without an explanation and
-    :class:`MissingKey` when a completed run's summary lacks the claim's key.
+
+def judge(
+    claim: Claim, run: dict[str, Any] | None, *, than: tuple[Claim, dict[str, Any] | None] | None = None
+) -> Verdict:
+    """The verdict of ``claim`` given its bundled run (``{"summary": ..., "identity": ...}``, or None);
+    a relational claim also needs ``than``: the claim it names and that claim's run.
+
+    Raises :class:`MissingExplanation` for a claim that differs without an explanation,
+    :class:`MissingKey` when a completed run's summary lacks the claim's key, and ``ValueError``
+    for a relational claim judged without ``than``.
     """
     if run is None:
         return Verdict(NOT_RUN, None, None)
-    status = str(run.get("identity", {}).get("status") or run.get("summary", {}).get("status") or "unknown")
+    status = _status(run)
     if status != COMPLETED:
         return Verdict(FAILED, None, status)
     value = claim_value(claim, run["summary"])
+    if claim.relational:
+        return _judge_relation(claim, value, status, than)
     if not claim.numeric:
         return Verdict(QUALITATIVE, value, status)
     if isinstance(value, float) and within(claim, value):
         return Verdict(AGREES, value, status)
+    _require_explanation(
+        claim,
+        f"from the paper ({value} against "
+        f"{claim.paper_value if claim.paper_range is None else list(claim.paper_range)} {claim.unit})",
+    )
+    return Verdict(DIFFERS, value, status)
+
+
+def _judge_relation(
+    claim: Claim, value: float | str | None, status: str, than: tuple[Claim, dict[str, Any] | None] | None
+) -> Verdict:
+    """``value`` against ``factor`` × the other claim's value (see the module docs)."""
+    if than is None or than[0].id != claim.than:
+        raise ValueError(f"claim {claim.id!r}: a relational claim is judged with its claim {claim.than!r}")
+    other, other_run = than
+    if other_run is None:
+        return Verdict(NOT_RUN, value, status)
+    if _status(other_run) != COMPLETED:
+        return Verdict(FAILED, value, f"{_status(other_run)} (run {other.run!r} of claim {other.id!r})")
+    other_value = claim_value(other, other_run["summary"])
+    numbers = isinstance(value, float) and isinstance(other_value, float)
+    if numbers and math.isfinite(value) and math.isfinite(other_value):
+        bound = claim.factor * other_value
+        if (value < bound) if claim.relation == "less" else (value > bound):
+            return Verdict(AGREES, value, status, other_value)
+    _require_explanation(
+        claim, f"from the paper's relation ({value} is not {claim.relation} than {claim.factor:g} × {other_value})"
+    )
+    return Verdict(DIFFERS, value, status, other_value if isinstance(other_value, float) else None)
+
+
+def _require_explanation(claim: Claim, what: str) -> None:
     if not claim.explanation.strip():
         raise MissingExplanation(
-            f"claim {claim.id!r} (run {claim.run!r}) differs from the paper ({value} against "
-            f"{claim.paper_value if claim.paper_range is None else list(claim.paper_range)} {claim.unit}) "
-            "and its registry entry has no explanation"
+            f"claim {claim.id!r} (run {claim.run!r}) differs {what} and its registry entry has no explanation"
         )
-    return Verdict(DIFFERS, value, status)
