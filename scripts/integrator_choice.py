@@ -69,6 +69,7 @@ TIMINGS = ("start", "midpoint")
 STAGES = {"Euler": 1.0, "implicitfast": 1.3, "RK4": 4.0}
 MIDPOINT_EXTRA = 0.6
 NEAR_ZERO = 1e-9
+NOT_COMPLETED = "(a run did not complete)"
 SKIP = re.compile(
     r"wall|step_cost|steps_per_s|error|drift|residual|timestep|n_steps|^t_end_s$|_rel_err$|stability_product"
 )
@@ -386,7 +387,7 @@ def whole_run_verdict(whole: dict[str, Any]) -> dict[str, Any]:
     run_choice = Choice(choice.config, whole["duration_s"], choice.attitude_tol, choice.structural_tol)
     ref, former, chosen = whole["runs"]
     if "completed" != ref["status"] or "completed" != chosen["status"]:
-        return {"accepted": False, "worse": ["(a run did not complete)"]}
+        return {"accepted": False, "worse": [NOT_COMPLETED], "current": _brief(former), "chosen": _brief(chosen)}
     for r in (former, chosen):  # judged again with the current rule
         r.update(compare(run_choice, ref["summary"], r, record_s=record_s))
     worse = []
@@ -489,6 +490,8 @@ def shipped_setting(row: dict[str, Any]) -> str:
         return "former (the cheapest that agrees)"
     if whole is None:
         return "former (not checked over the whole run)"
+    if not whole["accepted"] and whole.get("worse") == [NOT_COMPLETED]:
+        return "former (a whole run did not complete: nothing to compare)"
     if not whole["accepted"]:
         return "former (the whole run refuses the cheaper ones)"
     return "chosen"
@@ -496,7 +499,9 @@ def shipped_setting(row: dict[str, Any]) -> str:
 
 def _over(b: dict[str, Any]) -> str:
     w = b.get("worst_over_tol")
-    return "diverged" if w is None or not math.isfinite(w) else f"{w:.2g} (`{b.get('worst_key')}`)"
+    if w is None or not math.isfinite(w):
+        return f"did not complete ({b.get('status')})"
+    return f"{w:.2g} (`{b.get('worst_key')}`)"
 
 
 def main(argv: list[str] | None = None) -> int:
