@@ -51,8 +51,9 @@ def load(config: str | Path | BaseModel, overrides: list[str] | tuple[str, ...] 
     scenario = build_scenario(cfg)
     sim = scenario.simulation()
     sim.scenario, sim.cfg = scenario, cfg
-    if hasattr(sim, "timing"):
-        sim.timing.mode = cfg.sim.load_timing
+    if hasattr(sim, "timing"):  # the field too: a simulation derived from this one (dataclasses.replace,
+        # e.g. an environment's) builds its own timing from it
+        sim.load_timing = sim.timing.mode = cfg.sim.load_timing
     if hasattr(sim, "identity"):
         sim.identity = run_identity(numbers_hash(cfg), numbers_tree(cfg))
     return sim

@@ -14,9 +14,11 @@ import pytest
 import magsail_mj.cli as cli
 from magsail_mj.bench import PART_NAMES, BenchRunError, bench
 from magsail_mj.cli import main
+from magsail_mj.config import load_config
 
 ROOT = Path(__file__).resolve().parents[1]
 CUBESAT = str(ROOT / "magsail_mj/concepts/cnusail/configs/detumble_pre.toml")
+CUBESAT_DT_S = load_config(CUBESAT).sim.timestep_s  # the shipped step (its integrator choice)
 LIFETIME = str(ROOT / "magsail_mj/concepts/cnusail/configs/lifetime.toml")
 MSAC = str(ROOT / "magsail_mj/concepts/msac/configs/slow_1hz.toml")
 
@@ -53,9 +55,9 @@ def test_keys_and_types(cubesat):
     for key, kind in KEYS.items():
         assert isinstance(cubesat[key], kind), key
     json.dumps(cubesat, allow_nan=False)  # JSON-able, finite
-    assert cubesat["steps"] == 100 and cubesat["duration_s"] == pytest.approx(10.0, rel=1e-12)
+    assert cubesat["steps"] == round(10.0 / CUBESAT_DT_S) and cubesat["duration_s"] == pytest.approx(10.0, rel=1e-12)
     assert len(cubesat["us_per_step_runs"]) == len(cubesat["mj_step_us_runs"]) == 3
-    assert cubesat["integrator"] == "RK4" and cubesat["timestep_s"] == 0.1
+    assert cubesat["integrator"] == "RK4" and cubesat["timestep_s"] == CUBESAT_DT_S
 
 
 def test_ratio_and_rates_follow_from_the_medians(cubesat):
@@ -64,7 +66,7 @@ def test_ratio_and_rates_follow_from_the_medians(cubesat):
     assert mj == pytest.approx(sorted(cubesat["mj_step_us_runs"])[1], rel=1e-15)
     assert cubesat["ratio_to_mj_step"] == pytest.approx(us / mj, rel=1e-12)
     assert cubesat["steps_per_s"] == pytest.approx(1e6 / us, rel=1e-12)
-    assert cubesat["realtime_factor"] == pytest.approx(0.1 / (us * 1e-6), rel=1e-12)
+    assert cubesat["realtime_factor"] == pytest.approx(CUBESAT_DT_S / (us * 1e-6), rel=1e-12)
     assert us > 0 and mj > 0 and cubesat["mj_step_native_us"] > 0 and cubesat["peak_rss_mb"] > 0
 
 
@@ -124,7 +126,7 @@ def test_a_kind_without_steps_is_refused():
 
 
 def test_cli_prints_one_json_object(capsys):
-    code = main(["bench", CUBESAT, "--duration-s", "2", "--set", "sim.record_every=5"])
+    code = main(["bench", CUBESAT, "--duration-s", "2", "--set", "sim.record_every=5", "--set", "sim.timestep_s=0.1"])
     out = capsys.readouterr().out
     assert code == 0
     assert out.count("\n") == 1

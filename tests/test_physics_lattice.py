@@ -511,7 +511,17 @@ def test_numpy_rk4_reference_agrees_with_mujoco_rk4():
     MuJoCo RK4 at 0.1 s with the load held over each step vs the NumPy RK4 with the load at
     every stage. Attitude within 1e-3 rad and surface SD within 2 % of its peak, at every
     3-s sample (measured: 3e-14 rad and 3e-11, the held load costs nothing here)."""
-    cfg = load_config(CASE_A_DISTRIBUTED, ["sim.duration_s=60", "sim.record_every=30", "sim.progress=false"])
+    cfg = load_config(
+        CASE_A_DISTRIBUTED,
+        [
+            "sim.duration_s=60",
+            "sim.timestep_s=0.1",
+            "sim.integrator='RK4'",
+            "sim.load_timing='start'",
+            "sim.record_every=30",
+            "sim.progress=false",
+        ],
+    )
     sc = build_truss_scenario(cfg)
     res = sc.simulation().run()
     assert res.status == "completed"

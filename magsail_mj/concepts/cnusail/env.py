@@ -150,6 +150,10 @@ class CubesatActuators:
     """
 
     name = "cubesat_actuators"
+    #: steps 1–3 act on the state at the step's start, as the flight controller does in a run (with
+    #: ``sim.load_timing = "midpoint"`` the loads see the mid-step state; the magnetorquer torque,
+    #: :class:`CubesatMagnetorquerTorque`, does)
+    at_step_start = True
 
     def __init__(self, scenario: Any, *, mode: Mode, driver: Any) -> None:
         cfg = scenario.cfg
@@ -189,8 +193,9 @@ class CubesatActuators:
         self.mj.data = data
 
     def add(self, state: StepState, xfrc: np.ndarray) -> None:
+        """Steps 1–3 for the step starting at ``state``; the torque of step 3 is
+        :class:`CubesatMagnetorquerTorque`'s."""
         self.sync(state)
-        self.mtq.add(SimpleNamespace(ctrl=self, xquat=state.xquat, env=state.env), xfrc)
 
     def sync(self, state: StepState) -> None:
         """Steps 1–3 of the class docstring for the step of ``state``, once per step (the probes call
@@ -282,7 +287,12 @@ class CubesatPhysics(SimulationPhysics):
         self.base = base
         self.controller = controller
         self.actuators = actuators
-        self.sim = attach(base, controller, actuators, keep_probes=("qpos", "qvel", "torque_dist_body_Nm"))
+        self.sim = attach(
+            base,
+            controller,
+            [actuators, CubesatMagnetorquerTorque(actuators)],
+            keep_probes=("qpos", "qvel", "torque_dist_body_Nm"),
+        )
         self.scenario = base.scenario
         self.cfg = base.cfg
 
@@ -509,6 +519,22 @@ class CubesatTask(AttitudeTask):
 
 
 # ------------------------------------------------------------------------------------ building
+
+
+class CubesatMagnetorquerTorque:
+    """The torque ``R m × B_eci`` [N m, world axes] of the effective dipole that
+    :class:`CubesatActuators` set for the step, at the state the loads see (the step's start, or
+    its mid-point with ``sim.load_timing = "midpoint"``, as the magnetorquer load of a run)."""
+
+    name = "cubesat_magnetorquer_torque"
+
+    def __init__(self, actuators: CubesatActuators) -> None:
+        # a namespace is not walked by the checkpoint: the actuators are the simulation's own load
+        self.of = SimpleNamespace(actuators=actuators)
+
+    def add(self, state: StepState, xfrc: np.ndarray) -> None:
+        act = self.of.actuators
+        act.mtq.add(SimpleNamespace(ctrl=act, xquat=state.xquat, env=state.env), xfrc)
 
 
 def _parts(base: Simulation, task: CubesatTask) -> tuple[ActionController, CubesatActuators]:
