@@ -20,8 +20,10 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import runpy
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -56,7 +58,8 @@ from magsail_mj.analysis.loop_scaling import (
     wire_diameter,
 )
 from magsail_mj.cli import main
-from tests.conftest import load_file_module
+
+ROOT = Path(__file__).resolve().parents[1]
 
 REPO = Path(__file__).resolve().parents[1]
 K = DEFAULT_CONSTANTS
@@ -454,25 +457,16 @@ def test_cli_non_number_is_an_argument_error(capsys):
     assert "error: --units" in capsys.readouterr().err
 
 
-def _script(name: str):
-    return load_file_module("scripts", name)
-
-
-@pytest.mark.parametrize(
-    "name, outputs",
-    [
-        ("current_loops_table2_currents", ("table2_currents.png", "table2_currents.csv", "table2_currents.json")),
-        ("current_loops_fig3_scaling_A", ("fig3_scaling_A.png", "fig3_scaling_A.npz")),
-        ("current_loops_fig4_scaling_BCD", ("fig4_scaling_BCD.png", "fig4_scaling_BCD.npz")),
-        ("current_loops_fig5_dmax_vs_N", ("fig5_dmax_vs_N.png", "fig5_dmax_vs_N.npz", "fig5_dmax_vs_N.csv")),
-    ],
-)
-def test_scripts_write_their_outputs(tmp_path, capsys, name, outputs):
-    assert _script(name).main(["--out", str(tmp_path)]) == 0
-    for f in outputs:
-        assert (tmp_path / f).stat().st_size > 0
-    if name.endswith("table2_currents"):
-        lines = (tmp_path / "table2_currents.csv").read_text().splitlines()
-        assert len(lines) == 13
-        summary = json.loads((tmp_path / "table2_currents.json").read_text())
-        assert summary["C_N27_current_A"] == pytest.approx(scaling_table()["C_N27_current_A"], rel=1e-12)
+def test_sizing_example_prints_table_2_and_the_limits(tmp_path, monkeypatch, capsys):
+    """The gallery's sizing example (Table 2, Figs. 3-5) prints the library's numbers."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(plt, "show", lambda *a, **k: None)
+    runpy.run_path(str(ROOT / "examples" / "gallery" / "plot_current_loop_sizing.py"), run_name="__main__")
+    plt.close("all")
+    out = capsys.readouterr().out
+    table = scaling_table()
+    for g, n in (("A", 12), ("B", 19), ("C", 27), ("D", 27)):
+        row = next(line for line in out.splitlines() if line.startswith(f"| {g} | {n} |"))
+        assert float(row.split("|")[3]) == pytest.approx(table[f"{g}_N{n}_current_A"], abs=0.005)
+    assert f"B, N = 27, σ_A = 100 g/m²: D_max = {side_max('B', units=27, areal_density_kg_m2=0.1):.0f} m" in out
+    assert "A, σ_A = 100 g/m²: fold at D = 673 m" in out
