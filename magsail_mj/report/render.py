@@ -112,7 +112,8 @@ def _claim_table(paper: Paper, judged: list[tuple[Claim, Verdict]]) -> list[str]
         "|---|---|---|---|---|---|---|---|",
     ]
     for claim, verdict in judged:
-        explanation = claim.explanation if verdict.verdict in (DIFFERS, FAILED, QUALITATIVE) else ""
+        shown = claim.explanation and verdict.verdict in (DIFFERS, FAILED, QUALITATIVE)
+        explanation = f"{{ref}}`below <{_claim_label(paper, claim)}>`" if shown else ""
         lines.append(
             "| "
             + " | ".join(
@@ -137,8 +138,15 @@ def _rel(path: Path, out: Path) -> str:
     return Path(os.path.relpath(path.resolve(), out.resolve())).as_posix()
 
 
-def _claim_detail(claim: Claim, verdict: Verdict, runs: dict[str, dict[str, Any]], out: Path) -> list[str]:
-    lines = [f"### `{claim.id}`: {claim.quantity}", ""]
+def _claim_label(paper: Paper, claim: Claim) -> str:
+    """The MyST target of a claim's section (unique across the papers' pages)."""
+    return f"repro-{paper.paper}-{claim.id}".replace("_", "-")
+
+
+def _claim_detail(
+    paper: Paper, claim: Claim, verdict: Verdict, runs: dict[str, dict[str, Any]], out: Path
+) -> list[str]:
+    lines = [f"({_claim_label(paper, claim)})=", f"### `{claim.id}`: {claim.quantity}", ""]
     lines.append(f"- **Paper** ({claim.paper_ref}): {_paper_text(claim)}")
     if claim.numeric and claim.paper_statement:
         lines.append(f"  — {claim.paper_statement}")
@@ -259,7 +267,7 @@ def render_page(paper: Paper, runs: dict[str, dict[str, Any]], out: Path) -> tup
         "",
     ]
     for claim, verdict in judged:
-        lines += _claim_detail(claim, verdict, runs, out)
+        lines += _claim_detail(paper, claim, verdict, runs, out)
     if paper.notes.strip():
         lines += ["## Notes", "", " ".join(paper.notes.split()), ""]
     lines += ["## Runs", "", *_run_rows(paper, runs)]
