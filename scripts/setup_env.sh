@@ -20,7 +20,7 @@ if ! command -v "$PY" >/dev/null || ! "$PY" -c "import venv, ensurepip" 2>/dev/n
   apt_install "Python and its venv module" python3 python3-venv \
     || { echo "setup: $PY with its venv module is needed (Debian: python3 python3-venv)" >&2; exit 1; }
 fi
-if ! { ldconfig -p || /sbin/ldconfig -p; } 2>/dev/null | grep -q libOSMesa; then  # /sbin: not on a user's PATH
+if ! { ldconfig -p || /sbin/ldconfig -p; } 2>/dev/null | grep libOSMesa >/dev/null; then  # /sbin: off a user's PATH; grep reads all (no SIGPIPE under pipefail)
   apt_install "headless rendering" libosmesa6 || echo "setup: could not install libosmesa6; rendering will try EGL instead" >&2
 fi
 if ! command -v chromium >/dev/null && [ ! -x /usr/bin/chromium ]; then
