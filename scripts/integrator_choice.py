@@ -392,7 +392,7 @@ def whole_run_verdict(whole: dict[str, Any]) -> dict[str, Any]:
         r.update(compare(run_choice, ref["summary"], r, record_s=record_s))
     worse = []
     for key, x_ref in ref["summary"].items():
-        one = {k: v for k, v in ref["summary"].items() if k == key}
+        one = {key: x_ref}
         c = compare(run_choice, one, chosen, record_s=record_s)
         if c["agrees"]:
             continue
