@@ -11,13 +11,18 @@ memory).
 
 Estimates:
 
-* :func:`estimate_model_bytes` — the MuJoCo model and data of a config. MuJoCo's default arena
-  (``MjData.narena``) grows with the square of the degrees of freedom ``nv``; the constants of
-  :func:`mujoco_bytes` are fitted to ``MjModel.nbuffer + MjData.nbuffer + MjData.narena`` of the
-  shipped truss and current-loop lattices (N = 3 … 30, nv = 96 … 5766: within 3 %) and of the
-  rigid reflector, CNUSAIL and MSAC models (≈ 14.7 MB). Lattice node and strut counts come from
-  ``lattice.units`` by formula (:func:`lattice_counts`), the reflector's coil paths from
-  ``plate.side_m / plate.cell_m`` (:func:`coil_report_bytes`).
+* :func:`estimate_model_bytes` — the model of a config. Lattices (truss and current loops,
+  :func:`lattice_model_bytes`): MuJoCo's model and data buffers (fitted to ``MjModel.nbuffer +
+  MjData.nbuffer`` for N = 3 … 24, both diagonal patterns: within 1 %), the arena the lattice
+  builder sets (:func:`magsail_mj.lattice.mjcf.lattice_arena_bytes`, linear in ``nv``), the model
+  building and the loads (16 kB per dof: the resident memory grows by 15 kB per dof from
+  nv = 732 to 39 372) and, for the current loops, the dense modal matrices of the Caughey damping
+  (62 B·nv²: the traced peak grows by 40 B·nv² from N = 12 to 27). The rigid reflector, CNUSAIL
+  and MSAC models keep MuJoCo's default arena, which grows with ``nv²``: :func:`mujoco_bytes`,
+  fitted to ``MjModel.nbuffer + MjData.nbuffer + MjData.narena`` of default-arena builds
+  (≈ 14.7 MB for these). Lattice node and strut counts come from ``lattice.units`` by formula
+  (:func:`lattice_counts`), the reflector's coil paths from ``plate.side_m / plate.cell_m``
+  (:func:`coil_report_bytes`).
 * :func:`estimate_run_bytes` — the model plus the records of a run, ``duration / timestep /
   record_every`` records of :func:`record_bytes` each (kept as per-record arrays, then stacked).
 * :func:`coil_report_bytes` — the coil paths of ``magsail torque coil`` (their node counts by
@@ -40,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from magsail_mj.geometry.reflector_coil import coil_node_count
+from magsail_mj.lattice.mjcf import lattice_arena_bytes
 
 __all__ = [
     "ENV_VAR",
@@ -49,10 +55,13 @@ __all__ = [
     "coil_report_bytes",
     "estimate_model_bytes",
     "estimate_run_bytes",
+    "explicit_arena_mujoco_bytes",
     "format_bytes",
     "lattice_counts",
+    "lattice_model_bytes",
     "memory_limit",
     "memory_limit_bytes",
+    "mjcf_arena_bytes",
     "mjcf_counts",
     "mjcf_model_bytes",
     "mujoco_bytes",
@@ -72,6 +81,14 @@ _PER_DOF = 53.3e3
 _PER_DOF2 = 40.0
 _PER_BODY = 4.0e3
 _PER_TENDON = 0.4e3
+# Lattice models (explicit arena): buffers ≈ 8.1 kB + 1 455 B nv + 588 B ntendon (least squares,
+# N = 3 … 24, parity and X diagonals), rounded up; the build and loads per dof; the current loops'
+# dense modal matrices per nv² (see the module docstring).
+_LATTICE_BUFFER_BASE = 16e3
+_LATTICE_BUFFER_PER_DOF = 1.5e3
+_LATTICE_BUFFER_PER_TENDON = 0.6e3
+_LATTICE_BUILD_PER_DOF = 16e3
+_LOOPS_DENSE_PER_DOF2 = 62.0
 # Python-side bytes per coil-path node (fitted with tracemalloc: the estimate is 1.14 × the measured
 # peak at d/L = 100 … 200): the tuples of coil_y's list, and the float arrays of the paths.
 _COIL_LIST_NODE = 96
@@ -210,6 +227,23 @@ def mujoco_bytes(*, nv: int, nbody: int, ntendon: int = 0) -> float:
     return _BASE_BYTES + _PER_DOF * nv + _PER_DOF2 * nv * nv + _PER_BODY * nbody + _PER_TENDON * ntendon
 
 
+def explicit_arena_mujoco_bytes(*, nv: int, ntendon: int, arena_bytes: float) -> float:
+    """MjModel + MjData of a model whose arena is set explicitly (``<size memory>``) [bytes]: the
+    buffers (fit; see the module docstring) plus ``arena_bytes``."""
+    buffers = _LATTICE_BUFFER_BASE + _LATTICE_BUFFER_PER_DOF * float(nv) + _LATTICE_BUFFER_PER_TENDON * float(ntendon)
+    return buffers + float(arena_bytes)
+
+
+def lattice_model_bytes(*, nv: int, ntendon: int, dense_modes: bool = False) -> float:
+    """Memory of a lattice model with ``nv`` degrees of freedom and ``ntendon`` struts [bytes]:
+    MuJoCo's model and data with the arena the lattice builder sets, the build and loads, and with
+    ``dense_modes`` (current loops) the dense modal matrices (see the module docstring)."""
+    nv_f = float(nv)
+    mujoco_part = explicit_arena_mujoco_bytes(nv=nv, ntendon=ntendon, arena_bytes=lattice_arena_bytes(int(nv)))
+    modes = _LOOPS_DENSE_PER_DOF2 * nv_f * nv_f if dense_modes else 0.0
+    return mujoco_part + _LATTICE_BUILD_PER_DOF * nv_f + modes
+
+
 def coil_report_bytes(*, side_m: float, segment_m: float, pitch_cells: int = 2, rows: int | None = None) -> float:
     """Peak memory of the coil paths of :func:`magsail_mj.analysis.coil_torque.coil_torque_report`
     [bytes]: y-, x-coil, the p = 1 and rows + 1 variants and two square loops, estimated from their
@@ -232,22 +266,34 @@ def coil_report_bytes(*, side_m: float, segment_m: float, pitch_cells: int = 2, 
     return float(_COIL_ARRAY_NODE * sum(counts) + _COIL_LIST_NODE * max(counts))
 
 
+def _is_lattice(cfg: Any) -> bool:
+    """Whether a validated config builds a spring lattice (truss, flexible current-loop plate)."""
+    concept = getattr(cfg, "concept", "")
+    rigid = concept == "current_loops" and getattr(cfg, "scenario", "") == "slew_rigid"
+    return (
+        concept in ("truss_magnetorquer", "current_loops") and getattr(cfg, "lattice", None) is not None and not rigid
+    )
+
+
 def _model_counts(cfg: Any) -> tuple[int, int, int]:
     """``(nv, nbody, ntendon)`` a validated config implies, from its size keys only."""
-    concept = getattr(cfg, "concept", "")
-    lattice = getattr(cfg, "lattice", None)
-    rigid = concept == "current_loops" and getattr(cfg, "scenario", "") == "slew_rigid"
-    if concept in ("truss_magnetorquer", "current_loops") and lattice is not None and not rigid:
+    if _is_lattice(cfg):
+        lattice = cfg.lattice
         nodes, struts = lattice_counts(lattice.units, diagonals=getattr(lattice, "diagonals", "parity"))
         return 3 * nodes + 6, nodes + 1, struts
     return 24, 10, 0  # the rigid models: a bus with a few bodies (reflector, CNUSAIL, MSAC)
 
 
 def estimate_model_bytes(cfg: Any) -> float:
-    """Memory the model of a validated config needs [bytes], without building it: MuJoCo's model,
-    data and arena from the implied counts, plus the reflector's coil paths."""
+    """Memory the model of a validated config needs [bytes], without building it: a lattice's
+    :func:`lattice_model_bytes`, else MuJoCo's model, data and default arena (:func:`mujoco_bytes`)
+    from the implied counts; plus the reflector's coil paths and the environment grid."""
     nv, nbody, ntendon = _model_counts(cfg)
-    total = mujoco_bytes(nv=nv, nbody=nbody, ntendon=ntendon)
+    if _is_lattice(cfg):
+        dense = getattr(cfg, "concept", "") == "current_loops"
+        total = lattice_model_bytes(nv=nv, ntendon=ntendon, dense_modes=dense)
+    else:
+        total = mujoco_bytes(nv=nv, nbody=nbody, ntendon=ntendon)
     plate, coil = getattr(cfg, "plate", None), getattr(cfg, "coil", None)
     if getattr(cfg, "concept", "") == "reflector" and plate is not None and coil is not None:
         total += coil_report_bytes(
@@ -333,14 +379,31 @@ def mjcf_counts(path: str | os.PathLike, *, chunk: int = 1 << 24) -> dict[str, i
     return counts
 
 
+_SIZE_MEMORY_RE = re.compile(r'<size\b[^>]*\bmemory="\s*(\d+)\s*([KMGT]?)\s*"', re.IGNORECASE)
+
+
+def mjcf_arena_bytes(path: str | os.PathLike, *, head: int = 1 << 20) -> int | None:
+    """The arena an MJCF file sets (``<size memory="…">``, suffixes K, M, G, T) [bytes], read from
+    its first ``head`` characters (the element comes before the bodies); ``None`` when it sets none
+    (MuJoCo's default arena)."""
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        match = _SIZE_MEMORY_RE.search(fh.read(head))
+    return None if match is None else int(match.group(1)) * _SUFFIX[match.group(2).upper()]
+
+
 def mjcf_model_bytes(path: str | os.PathLike) -> tuple[float, int]:
-    """``(bytes, nbody)``: :func:`mujoco_bytes` of the MJCF file at ``path`` from :func:`mjcf_counts`
-    (``nv`` = 6 per free joint, 3 per ball joint, 1 per other joint)."""
+    """``(bytes, nbody)`` of the MJCF file at ``path`` from :func:`mjcf_counts` (``nv`` = 6 per free
+    joint, 3 per ball joint, 1 per other joint): MuJoCo's buffers plus the arena the file sets
+    (:func:`mjcf_arena_bytes`), or :func:`mujoco_bytes` (default arena) when it sets none."""
     c = mjcf_counts(path)
     free = c["<freejoint"] + c['type="free"']
     nv = 6 * free + 2 * c['type="ball"'] + c["<joint"]
     nbody = c["<body"] + 1
-    return mujoco_bytes(nv=nv, nbody=nbody, ntendon=c["<spatial"] + c["<fixed"]), nbody
+    ntendon = c["<spatial"] + c["<fixed"]
+    arena = mjcf_arena_bytes(path)
+    if arena is None:
+        return mujoco_bytes(nv=nv, nbody=nbody, ntendon=ntendon), nbody
+    return explicit_arena_mujoco_bytes(nv=nv, ntendon=ntendon, arena_bytes=arena), nbody
 
 
 def npz_array_bytes(path: str | os.PathLike) -> float:
