@@ -29,16 +29,7 @@ from magsail_mj.mjcf.common import INTEGRATORS, set_view
 
 from magsail_mj.lattice.geometry import Lattice
 
-__all__ = [
-    "ARENA_BASE_BYTES",
-    "ARENA_PER_DOF_BYTES",
-    "INTEGRATORS",
-    "NODE_RGBA",
-    "STRUT_RGBA",
-    "TrussModelOptions",
-    "build_truss_spec",
-    "lattice_arena_bytes",
-]
+__all__ = ["TrussModelOptions", "build_truss_spec", "lattice_arena_bytes", "INTEGRATORS", "STRUT_RGBA", "NODE_RGBA"]
 
 STRUT_RGBA = (0.55, 0.58, 0.62, 1.0)
 NODE_RGBA = (0.85, 0.85, 0.88, 1.0)
