@@ -118,7 +118,7 @@ def build_truss_spec(
         spec.option.tolerance = options.solver_tolerance
     spec.option.gravity = [0.0, 0.0, 0.0]
     spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
-    spec.memory = lattice_arena_bytes(3 * (n - len(fixed & set(range(n)))))
+    spec.memory = lattice_arena_bytes(3 * sum(i not in fixed for i in range(n)))  # three slide joints per free node
     set_view(spec, extent=lattice.side_m)
     spec.visual.map.znear = 0.01
     spec.visual.map.zfar = 50.0
