@@ -95,6 +95,12 @@ REPO_ROOT = Path(__file__).resolve().parents[2]
 ENDING_STATUSES = ("diverged", "structure_failed", "failed", "interrupted")
 """Simulation statuses that end an episode with discount 0."""
 
+REQUEST_HEADROOM = 1e6
+"""Largest ratio |request| / bound of an action component of a task that does not clip its actions
+(``AttitudeTask.clip_actions`` False, e.g. a torque request through an allocation): the shipped
+controllers request up to about 100 times the bound, so their runs are unchanged; a larger request is
+scaled down to this ratio (:meth:`AttitudeTask.prepare_action`)."""
+
 
 # =========================================================================== controller
 
@@ -420,6 +426,7 @@ class AttitudeTask(control.Task):
         self.action_names: tuple[str, ...] = ()
         self.action_low = np.zeros(0)
         self.action_high = np.zeros(0)
+        self._scale_list: list[float] = []
         self._inv_scale: list[float] = []
         self.start: dict[str, Any] = {}
         self._last_action = np.zeros(0)
@@ -441,7 +448,8 @@ class AttitudeTask(control.Task):
         self.action_low, self.action_high = low, high
         self._low_list, self._high_list = low.tolist(), high.tolist()
         scale = np.maximum(np.abs(low), np.abs(high))
-        self._inv_scale = [1.0 / x if x > 0 else 0.0 for x in scale.tolist()]
+        self._scale_list = scale.tolist()
+        self._inv_scale = [1.0 / x if x > 0 else 0.0 for x in self._scale_list]
         self._last_action = np.zeros(len(names))
 
     def neutral_action(self) -> np.ndarray:
@@ -458,8 +466,9 @@ class AttitudeTask(control.Task):
         )
 
     clip_actions: bool = True
-    """Clip actions into the action spec's bounds (True), or hand them on as given (False: for actions whose
-    actuator saturates them itself, e.g. a torque request through an allocation)."""
+    """Clip actions into the action spec's bounds (True), or hand them on as requests (False: for actions
+    whose actuator saturates them itself, e.g. a torque request through an allocation; a request beyond
+    :data:`REQUEST_HEADROOM` times its bounds is scaled down to that, see :meth:`prepare_action`)."""
 
     def before_step(self, action: Any, physics: SimulationPhysics) -> None:
         """Hand the action (:meth:`prepare_action`) to the controller."""
@@ -468,8 +477,20 @@ class AttitudeTask(control.Task):
         self._last_action = a
 
     def prepare_action(self, action: Any) -> np.ndarray:
-        """The action as a float array, checked, clipped into its bounds (the hardware's limits)
-        unless ``clip_actions`` is False."""
+        """The action as a float array, checked and bounded: the one place every environment's
+        actions pass (dm_control's convention for a ``BoundedArray`` spec).
+
+        * A wrong shape or a non-finite component (NaN, ±inf) is refused: ``ValueError`` naming
+          ``action``.
+        * ``clip_actions`` True: each component is clipped into the spec's bounds (the hardware's
+          limits).
+        * ``clip_actions`` False (a request the actuator saturates itself): the request is handed
+          on as given while every component stays within :data:`REQUEST_HEADROOM` times its bound
+          (``max(|low|, |high|)``); a larger request is scaled down, its direction kept, until
+          every component is within that limit (a component of bound 0 becomes 0). A request that
+          far beyond the deliverable envelope is saturated either way, and the arithmetic
+          downstream (allocation, reward effort) stays finite for any finite action.
+        """
         a = np.asarray(action, dtype=float).reshape(-1)
         if a.shape != self.action_low.shape:
             raise ValueError(f"action: expected shape {self.action_low.shape}, got {np.shape(action)}")
@@ -478,6 +499,15 @@ class AttitudeTask(control.Task):
             raise ValueError(f"action: every component must be finite, got {action!r}")
         if self.clip_actions:
             values = [min(max(v, lo), hi) for v, lo, hi in zip(values, self._low_list, self._high_list)]
+        else:
+            values = [v if b > 0 else 0.0 for v, b in zip(values, self._scale_list)]
+            # f = the smallest H·bound/|v| of the components beyond the limit (no product overflows)
+            over = [
+                REQUEST_HEADROOM * b / abs(v) for v, b in zip(values, self._scale_list) if abs(v) > REQUEST_HEADROOM * b
+            ]
+            if over:
+                f = min(over)
+                values = [v * f for v in values]
         return np.array(values)
 
     converter: Any = None
