@@ -9,6 +9,13 @@ follows :data:`EXIT_CODES`. ``MAGSAIL_DEBUG=1`` adds the traceback of an unexpec
 Messages go through :mod:`logging` (logger ``magsail_mj`` and its children) to stderr: warnings
 and errors by default, ``-v`` adds progress messages (INFO), ``-vv`` debugging detail (DEBUG).
 Results (JSON, paths) go to stdout. ``python -m magsail_mj`` is the same command.
+
+Start-up: this module imports the standard library only, so the parser (``--help``, ``--version``,
+a usage error) is built and answered at once. The dispatcher (:func:`_dispatch`) is the one place
+that imports late: when a verb runs, it loads :mod:`magsail_mj.verbs.common` and the verb's own
+module (:class:`_Handler`, e.g. :mod:`magsail_mj.verbs.model` for ``validate``), so a verb loads
+what it needs and no more (``validate`` imports neither Dask nor Matplotlib nor mediapy).
+``scripts/bench_startup.py`` prints the start-up times and the heavy modules each verb imports.
 """
 
 from __future__ import annotations
@@ -16,7 +23,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import errno
-import json
+import importlib
 import logging
 import math
 import os
@@ -25,46 +32,12 @@ import sys
 import threading
 import traceback
 import warnings
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from importlib import metadata
 from pathlib import Path
 from typing import Any, NoReturn
 
-from magsail_mj.analysis.coil_torque import coil_torque_report
-from magsail_mj.analysis.loop_scaling import loop_sizing, scaling_table
-from magsail_mj.analysis.scaling import scaling_report
-from magsail_mj.bench import BenchRunError, bench
-from magsail_mj.config import ConfigError, load_config
-from magsail_mj.export import add_arguments as add_export_arguments
-from magsail_mj.export import main as export_main
-from magsail_mj.io import RunDirError, atomic_path, to_jsonable
-from magsail_mj.render import render_run
-from magsail_mj.render.backend import GLBackendError
-from magsail_mj.report.commands import (
-    add_collect_arguments,
-    add_render_arguments,
-    collect_main,
-    render_main,
-    update_main,
-)
-from magsail_mj.resources import (
-    ENV_VAR,
-    MemoryLimitError,
-    check_memory,
-    estimate_model_bytes,
-    estimate_run_bytes,
-    memory_limit,
-    parse_memory_limit,
-    render_bytes,
-)
-from magsail_mj.run import run_scenario
-from magsail_mj.scenario import build_scenario
-from magsail_mj.sweep import load_sweep, make_cluster, run_sweep, sweep_exit_code
-from magsail_mj.sweep.report import add_arguments as add_report_arguments
-from magsail_mj.sweep.report import main as report_main
-from magsail_mj.sweep.report import ReportError, write_report
-
-__all__ = ["EXIT_CODES", "CliInputError", "forget_handled_interrupt", "main"]
+__all__ = ["EXIT_CODES", "RUN_EXIT", "CliInputError", "forget_handled_interrupt", "main", "version_text"]
 
 EXIT_CODES = """\
 exit status:
@@ -106,8 +79,11 @@ _PATH_ERRNOS = {
     errno.ELOOP,
     errno.EINVAL,
 }
-_SMALL_REPORT_BYTES = 1 << 20  # analytic reports of fixed size (loop sizing, the A–D × N scaling table)
-_SCALING_ENTRY_BYTES = 200  # one entry of the λ_f(d, κ) table, see _cmd_scaling_magnetorquer
+MEMORY_ENV_VAR = "MAGSAIL_MEMORY_LIMIT"
+"""The environment variable of the default memory limit (:data:`magsail_mj.resources.ENV_VAR`)."""
+RUN_EXIT = {"diverged": 3, "failed": 1, "interrupted": 130}
+"""Exit status of ``magsail run`` by the run's final status (any other status: 0)."""
+_RUN_EXIT = RUN_EXIT
 
 
 class CliInputError(ValueError):
@@ -245,359 +221,64 @@ def _count_or_zero(text: str) -> int:
     return _integer_at_least(text, 0)
 
 
-def _memory(text: str) -> int | None:
-    try:
-        return parse_memory_limit(text, what="--memory-limit")
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err).split(": ", 1)[-1]) from None
+def _memory(text: str) -> str:
+    """The text of ``--memory-limit`` (parsed by the dispatcher, which names the option in an error)."""
+    if not str(text).strip():
+        raise argparse.ArgumentTypeError(
+            f"expected a number of bytes (suffix K, M, G or T allowed) or 'auto', got {text!r}"
+        )
+    return text
 
 
-# --------------------------------------------------------------------------- path checks
+class _VersionAction(argparse.Action):
+    """``--version``: print :func:`version_text` and exit (the versions are read only when asked)."""
 
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, **kwargs: Any) -> None:
+        super().__init__(option_strings, dest=dest, default=argparse.SUPPRESS, nargs=0, **kwargs)
 
-def _non_empty(path: str | None, option: str) -> Path:
-    if path is None or not str(path).strip():
-        raise CliInputError(f"{option}: must be a path, got an empty string {path!r}")
-    if "\x00" in str(path):
-        raise CliInputError(f"{option}: must not contain a NUL character, got {path!r}")
-    return Path(path)
-
-
-def _input_file(path: str, option: str) -> Path:
-    """An existing, readable regular file."""
-    p = _non_empty(path, option)
-    if not p.exists():
-        raise CliInputError(f"{option}: no such file {str(p)!r}")
-    if not p.is_file():
-        raise CliInputError(f"{option}: {str(p)!r} is not a regular file")
-    if not os.access(p, os.R_OK):
-        raise CliInputError(f"{option}: {str(p)!r} is not readable (permission denied)")
-    return p
-
-
-def _writable_parent(p: Path, option: str) -> None:
-    """The nearest existing ancestor of ``p`` is a writable folder (so ``p`` can be created)."""
-    for parent in p.absolute().parents:
-        if not parent.exists():
-            continue
-        if not parent.is_dir():
-            raise CliInputError(f"{option}: {str(parent)!r} is a file, so {str(p)!r} cannot be created below it")
-        if not os.access(parent, os.W_OK | os.X_OK):
-            raise CliInputError(f"{option}: folder {str(parent)!r} is not writable (permission denied)")
-        return
-
-
-def _output_dir(path: str | None, option: str) -> Path:
-    """A folder that exists and is writable, or can be created."""
-    p = _non_empty(path, option)
-    if p.exists():
-        if not p.is_dir():
-            raise CliInputError(f"{option}: {str(p)!r} exists and is not a folder")
-        if not os.access(p, os.W_OK | os.X_OK):
-            raise CliInputError(f"{option}: folder {str(p)!r} is not writable (permission denied)")
-        return p
-    _writable_parent(p, option)
-    return p
-
-
-def _output_file(path: str | None, option: str) -> Path:
-    """A file path that is not a folder, below a writable (or creatable) folder."""
-    p = _non_empty(path, option)
-    if p.is_dir():
-        raise CliInputError(f"{option}: {str(p)!r} is a folder; give a file path")
-    _writable_parent(p, option)  # the file is replaced by a rename in its folder
-    return p
-
-
-def _load(args: argparse.Namespace) -> Any:
-    """The validated config of ``args.config`` with ``--set`` overrides (ConfigError or CliInputError)."""
-    path = _input_file(args.config, "config")
-    try:
-        return load_config(path, args.set)
-    except UnicodeDecodeError:
-        raise CliInputError(f"config: {str(path)!r} is not a UTF-8 text (TOML) file") from None
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        print(version_text())
+        parser.exit()
 
 
 # --------------------------------------------------------------------------- verbs
 
 
-def _print_json(obj: Any, *, what: str, indent: int | None = None) -> None:
-    """Print ``obj`` as JSON; a non-finite number in it is an error naming ``what``."""
-    bad = _non_finite(obj)
-    if bad is not None:
-        raise CliInputError(
-            f"{what}: the result {bad[0]} is not finite ({bad[1]!r}); the inputs are outside "
-            "the range where it can be computed"
-        )
-    print(json.dumps(to_jsonable(obj), indent=indent, allow_nan=False))
+class _Handler:
+    """A verb's handler named by its module and function: the module is imported when the verb
+    runs (by :func:`_dispatch`, through this call), never when the parser is built."""
+
+    def __init__(self, module: str, function: str) -> None:
+        self.module, self.function = module, function
+
+    def __call__(self, args: argparse.Namespace) -> int:
+        """Import the module and run the handler with ``args``; its exit status."""
+        return getattr(importlib.import_module(self.module), self.function)(args)
+
+    def __repr__(self) -> str:
+        return f"_Handler({self.module}:{self.function})"
 
 
-def _non_finite(obj: Any, key: str = "") -> tuple[str, float] | None:
-    """``(key path, value)`` of the first non-finite float in a JSON-like tree, else None."""
-    if isinstance(obj, Mapping):
-        for k, v in obj.items():
-            found = _non_finite(v, f"{key}.{k}" if key else str(k))
-            if found:
-                return found
-    elif isinstance(obj, (list, tuple)):
-        for i, v in enumerate(obj):
-            found = _non_finite(v, f"{key}[{i}]")
-            if found:
-                return found
-    elif isinstance(obj, float) and not math.isfinite(obj):
-        return key, obj
-    elif hasattr(obj, "dtype") and hasattr(obj, "tolist"):
-        return _non_finite(obj.tolist(), key)
-    return None
-
-
-def _cmd_build(args: argparse.Namespace) -> int:
-    out = _output_file(args.output, "--output") if args.output is not None else None
-    cfg = _load(args)
-    out = out or Path(args.config).with_suffix(".xml")
-    check_memory(estimate_model_bytes(cfg), what=f"build {args.config}")
-    scenario = build_scenario(cfg)
-    with atomic_path(out) as tmp:
-        tmp.write_text(scenario.spec.to_xml())
-    size = scenario.manifest_extra().get("model_size", {})
-    _print_json({"mjcf": str(out), **size}, what="build")
-    return 0
-
-
-def _cmd_validate(args: argparse.Namespace) -> int:
-    cfg = _load(args)
-    estimate = check_memory(estimate_run_bytes(cfg), what=f"validate {args.config}: a run")
-    _print_json(
-        {
-            "config": args.config,
-            "concept": cfg.concept,
-            "scenario": cfg.scenario,
-            "valid": True,
-            "memory_estimate_bytes": estimate,
-        },
-        what="validate",
-    )
-    return 0
-
-
-def _video_bytes(cfg: Any) -> float:
-    """Memory of rendering the run's video (the render table's frame count, 960 × 540 px)."""
-    r = getattr(cfg, "render", None)
-    frames = int(getattr(r, "max_frames", 600) or 600)
-    return render_bytes(frames=frames, width=960, height=540, model_bytes=estimate_model_bytes(cfg))
-
-
-_RUN_EXIT = {"diverged": 3, "failed": 1, "interrupted": 130}
-
-
-def _cmd_run(args: argparse.Namespace) -> int:
-    out = _output_dir(args.out, "--out")
-    if args.resume and not out.is_dir():
-        raise CliInputError(f"--resume: there is no run folder {str(out)!r} to resume")
-    cfg = _load(args)
-    estimate = estimate_run_bytes(cfg) + (_video_bytes(cfg) if args.video else 0.0)
-    check_memory(estimate, what=f"run {args.config}{' with --video' if args.video else ''}")
-    if args.stop_after_s is not None and args.stop_after_s >= cfg.sim.duration_s:
-        raise CliInputError(
-            f"--stop-after-s: must be below sim.duration_s = {cfg.sim.duration_s:g}, got {args.stop_after_s:g}"
-        )
-    outcome = run_scenario(
-        cfg,
-        out,
-        video=args.video,
-        resume=args.resume,
-        overwrite=args.overwrite,
-        progress=False if args.no_progress else None,
-        stop_after_s=args.stop_after_s,
-    )
-    print(json.dumps(to_jsonable(dict(outcome)), indent=2))
-    LOG.info("run folder: %s", outcome.run_dir)
-    if args.video and (outcome.run_dir / "video.mp4").is_file():
-        LOG.info("video: %s", outcome.run_dir / "video.mp4")
-    status = getattr(outcome, "status", "completed")
-    code = _RUN_EXIT.get(status, 0)
-    if code:
-        LOG.error("run %s: %s", status, outcome.get("status_message", ""))
-    return code
-
-
-def _cmd_bench(args: argparse.Namespace) -> int:
-    """``magsail bench``: :func:`magsail_mj.bench.bench`, one JSON object on stdout; a pass that
-    diverged exits 3, one that failed otherwise 1."""
-    if args.duration_s is not None:
-        args.set = [*args.set, f"sim.duration_s={args.duration_s!r}"]
-    cfg = _load(args)
-    check_memory(estimate_run_bytes(cfg), what=f"bench {args.config}: a run")
-    try:
-        result = bench(cfg, repeat=args.repeat)
-    except BenchRunError as err:
-        return _error(str(err), 3 if err.status == "diverged" else 1)
-    _print_json({"config": args.config, **result}, what="bench")
-    return 0
-
-
-def _cmd_render(args: argparse.Namespace) -> int:
-    out = render_run(
-        _non_empty(args.run_dir, "RUN_DIR"),
-        _non_empty(args.output, "--output"),
-        compare=_non_empty(args.compare, "--compare") if args.compare is not None else None,
-        labels=args.labels,
-    )
-    print(str(out))
-    return 0
-
-
-def _cmd_export(args: argparse.Namespace) -> int:
-    """``magsail export``: :func:`magsail_mj.export.main`."""
-    return export_main(args)
-
-
-def _cmd_report(args: argparse.Namespace) -> int:
-    """``magsail report sweep``: :func:`magsail_mj.sweep.report.main`."""
-    return report_main(args)
-
-
-def _cmd_report_collect(args: argparse.Namespace) -> int:
-    """``magsail report collect``: :func:`magsail_mj.report.commands.collect_main`."""
-    return collect_main(args)
-
-
-def _cmd_report_render(args: argparse.Namespace) -> int:
-    """``magsail report render``: :func:`magsail_mj.report.commands.render_main`."""
-    return render_main(args)
-
-
-def _cmd_report_update(args: argparse.Namespace) -> int:
-    """``magsail report update``: :func:`magsail_mj.report.commands.update_main`."""
-    return update_main(args)
-
-
-def _sweep_engine(args: argparse.Namespace) -> Any:
-    """The Dask cluster of ``--cluster`` (jobs not yet submitted), else None; CliInputError for
-    options that do not fit together."""
-    queue_opts = {
-        "--jobs": args.jobs,
-        "--cores-per-job": args.cores_per_job,
-        "--memory-per-job": args.memory_per_job,
-        "--walltime": args.walltime,
-        "--queue": args.queue,
-        "--account": args.account,
-    }
-    given = [opt for opt, value in queue_opts.items() if value is not None]
-    if args.scheduler is not None and args.cluster is not None:
-        raise CliInputError(f"--scheduler {args.scheduler!r} and --cluster {args.cluster!r}: choose one")
-    if args.cluster is None:
-        if given:
-            raise CliInputError(f"{given[0]}: only with --cluster slurm|pbs")
-        return None
-    if args.workers != 1:
-        raise CliInputError(f"--workers {args.workers}: not with --cluster (use --jobs and --cores-per-job)")
-    return make_cluster(
-        args.cluster,
-        cores_per_job=args.cores_per_job or 1,
-        memory_per_job=args.memory_per_job or "4GB",
-        walltime=args.walltime or "01:00:00",
-        queue=args.queue,
-        account=args.account,
-    )
-
-
-def _cmd_sweep(args: argparse.Namespace) -> int:
-    path = _input_file(args.sweep, "SWEEP")
-    out = _output_dir(args.out, "--out") if args.out is not None else None
-    if args.scheduler is not None and not args.scheduler.strip():
-        raise CliInputError(
-            f"--scheduler: must be a scheduler address such as tcp://127.0.0.1:8786, got {args.scheduler!r}"
-        )
-    try:
-        sweep = load_sweep(path, extra_overrides=tuple(args.set), only=args.only)
-    except UnicodeDecodeError:
-        raise CliInputError(f"SWEEP: {str(path)!r} is not a UTF-8 text (TOML) file") from None
-    out = out or _output_dir(str(Path("runs") / sweep.name), "--out")
-    cluster = _sweep_engine(args)
-    if args.scheduler is None and cluster is None:  # runs on this machine: they must fit its memory
-        biggest = 0.0
-        for run in sweep.selected:
-            biggest = max(biggest, estimate_run_bytes(load_config(run.config, list(run.overrides))))
-        workers = min(args.workers, max(1, len(sweep.selected)))
-        check_memory(workers * biggest, what=f"sweep {args.sweep} ({workers} worker(s), largest run)")
-    try:
-        if cluster is not None:
-            cluster.adapt(minimum_jobs=args.jobs or 1, maximum_jobs=args.jobs or 1)  # jobs that end are replaced
-        records = run_sweep(
-            sweep,
-            out,
-            workers=args.workers,
-            video=args.video,
-            overwrite=args.overwrite,
-            scheduler=args.scheduler,
-            cluster=cluster,
-            retries=args.retries,
-            log=LOG.info,
-            progress=False if args.no_progress else None,
-        )
-    finally:
-        if cluster is not None:
-            cluster.close()
-    result: dict[str, Any] = {"sweep": sweep.name, "out": str(out), "status": {r["id"]: r["status"] for r in records}}
-    code = sweep_exit_code(records)
-    if args.report:
-        try:
-            result["report"] = [str(p) for p in write_report(out)]
-        except ReportError as err:  # e.g. no run finished with a figure to report: the runs stay as they are
-            LOG.error("report: %s", err)
-            result["report_error"] = str(err)
-            code = code or 1
-    print(json.dumps(result, indent=2))
-    return code
-
-
-def _cmd_scaling_magnetorquer(args: argparse.Namespace) -> int:
-    # the report is a len(side) × len(kappa) table of λ_f, built as floats, Python objects and JSON
-    # text: 172–178 bytes per entry measured (max RSS over the base process, 1e6 and 9e6 entries)
-    check_memory(
-        _SCALING_ENTRY_BYTES * len(args.side_m) * len(args.kappa) + _SMALL_REPORT_BYTES,
-        what=f"scaling magnetorquer ({len(args.side_m)} × {len(args.kappa)} table)",
-    )
-    side = args.side_m[0] if len(args.side_m) == 1 else args.side_m
-    kappa = args.kappa[0] if len(args.kappa) == 1 else args.kappa
-    report = scaling_report(
-        side, kappa, altitude_km=args.altitude_km, total_kg=args.total_kg, rod_mass_kg=args.rod_mass_kg
-    )
-    _print_json(report, what="--side-m, --kappa, --altitude-km, --total-kg, --rod-mass-kg")
-    return 0
-
-
-def _cmd_scaling_loops(args: argparse.Namespace) -> int:
-    check_memory(_SMALL_REPORT_BYTES, what="scaling loops")
-    if args.table:
-        report = scaling_table(side_m=args.side_m, areal_density_kg_m2=args.areal_density, kappa=args.kappa)
-    elif args.geometry is None:
-        raise CliInputError("--geometry: required unless --table is given (one of A, B, C, D)")
-    else:
-        report = loop_sizing(
-            args.geometry,
-            units=args.units,
-            side_m=args.side_m,
-            areal_density_kg_m2=args.areal_density,
-            kappa=args.kappa,
-        )
-    _print_json(report, what="--geometry, --units, --side-m, --areal-density, --kappa")
-    return 0
-
-
-def _cmd_torque_coil(args: argparse.Namespace) -> int:
-    report = coil_torque_report(
-        side_m=args.side_m,
-        segment_m=args.segment_m,
-        depth_m=args.depth_m,
-        current_A=args.current_a,
-        field_T=args.field_t,
-        pitch_cells=args.pitch_cells,
-        rows=args.rows,
-    )
-    _print_json(report, what="--side-m, --segment-m, --depth-m, --current-a, --field-t, --pitch-cells, --rows")
-    return 0
+_cmd_build = _Handler("magsail_mj.verbs.model", "build")
+_cmd_validate = _Handler("magsail_mj.verbs.model", "validate")
+_cmd_run = _Handler("magsail_mj.verbs.run", "run")
+_cmd_bench = _Handler("magsail_mj.verbs.bench", "run_bench")
+_cmd_render = _Handler("magsail_mj.verbs.render", "render")
+_cmd_export = _Handler("magsail_mj.export", "main")
+_cmd_sweep = _Handler("magsail_mj.verbs.sweep", "sweep")
+_cmd_report = _Handler("magsail_mj.sweep.report", "main")
+_cmd_report_collect = _Handler("magsail_mj.report.commands", "collect_main")
+_cmd_report_render = _Handler("magsail_mj.report.commands", "render_main")
+_cmd_report_update = _Handler("magsail_mj.report.commands", "update_main")
+_cmd_scaling_magnetorquer = _Handler("magsail_mj.verbs.analytic", "scaling_magnetorquer")
+_cmd_scaling_loops = _Handler("magsail_mj.verbs.analytic", "scaling_loops")
+_cmd_torque_coil = _Handler("magsail_mj.verbs.analytic", "torque_coil")
 
 
 # --------------------------------------------------------------------------- parser
@@ -624,7 +305,7 @@ def _verb(
         type=_memory,
         default=argparse.SUPPRESS,
         metavar="BYTES|auto",
-        help=f"refuse inputs needing more memory (default: ${ENV_VAR}, else the available memory)",
+        help=f"refuse inputs needing more memory (default: ${MEMORY_ENV_VAR}, else the available memory)",
     )
     _verbose_option(p, default=argparse.SUPPRESS)
     p.set_defaults(fn=fn, options=dict(options or {}))
@@ -652,10 +333,89 @@ def _set_option(
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=help_text)
 
 
+# --------------------------------------------------------------------------- arguments of the library verbs
+
+EXPORT_FORMATS = {"npz": ".npz", "netcdf": ".nc"}
+"""``magsail export`` formats and their file suffixes (:data:`magsail_mj.export.FORMATS`)."""
+DEFAULT_BUNDLE = "results"
+"""The results bundle of ``magsail report collect | render | update``."""
+DEFAULT_PAGES = "docs/reproduction"
+"""The folder of the reproduction pages of ``magsail report render | update``."""
+
+
+def add_export_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """The ``export`` verb's arguments: ``RUN_DIR``, ``--format``, ``--out``."""
+    parser.add_argument("run_dir", metavar="RUN_DIR", help="run folder holding timeseries.zarr")
+    parser.add_argument(
+        "--format",
+        dest="format",
+        default=None,
+        metavar="npz|netcdf",
+        help="output format (default: the one of the --out extension, .npz or .nc; else npz); "
+        "a --out extension of the other format is refused",
+    )
+    parser.add_argument(
+        "--out",
+        default=None,
+        help="output file, outside the run's own files (default RUN_DIR/timeseries.npz or RUN_DIR/timeseries.nc)",
+    )
+    return parser
+
+
+def add_sweep_report_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``magsail report sweep``: ``SWEEP_DIR`` and ``--figure KEY`` (repeatable)."""
+    parser.add_argument("sweep_dir", metavar="SWEEP_DIR", help="folder of a finished sweep (sweep_summary.json)")
+    parser.add_argument(
+        "--figure",
+        action="append",
+        default=None,
+        metavar="KEY",
+        help="summary key to report (repeatable; default: the sweep file's [report] figures)",
+    )
+
+
+def _bundle_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--bundle",
+        default=DEFAULT_BUNDLE,
+        metavar="DIR",
+        help=f"results bundle folder: <bundle>/<paper>/<run id>/ and index.json (default {DEFAULT_BUNDLE})",
+    )
+
+
+def add_collect_arguments(p: argparse.ArgumentParser) -> None:
+    """``RUN_DIR...`` and ``--bundle`` (``magsail report collect | update``)."""
+    p.add_argument(
+        "run_dirs",
+        nargs="+",
+        metavar="RUN_DIR",
+        help="finished run folders (summary.json, manifest.json), or sweep folders standing for their "
+        "runs; each run must match one registry run (magsail_mj/report/claims/*.toml) by concept, "
+        "scenario and config",
+    )
+    _bundle_option(p)
+
+
+def add_render_arguments(p: argparse.ArgumentParser) -> None:
+    """``--bundle`` and ``--out`` (``magsail report render``)."""
+    _bundle_option(p)
+    p.add_argument(
+        "--out",
+        default=DEFAULT_PAGES,
+        metavar="DIR",
+        help=f"folder of the MyST pages: one <paper>.md per paper and index.md (default {DEFAULT_PAGES})",
+    )
+
+
 def _add_run_verbs(sub: Any) -> None:
     b = _verb(sub, "build", "write the MJCF of a config and print the model size", _cmd_build)
     b.add_argument("config", help=_CONFIG_HELP)
-    b.add_argument("-o", "--output", help="MJCF path (default: next to the config, same stem)")
+    b.add_argument(
+        "-o",
+        "--output",
+        help="MJCF path (default: next to the config, same stem, .xml: the model of the config as written, "
+        "so -o is required with --set)",
+    )
     _set_option(b)
 
     v = _verb(sub, "validate", "check a config (and the memory a run of it needs) and exit", _cmd_validate)
@@ -797,7 +557,8 @@ reproduction reports and sweep reports:
   magsail report RUN_DIR... [--bundle ...] [--out ...]                 the same as update
   (a sweep folder given to collect/update stands for its run folders)
   magsail report sweep SWEEP_DIR [--figure KEY]             tables and figures of a finished sweep
-  magsail report SWEEP_DIR [--figure KEY]     the same as sweep (one folder, not a run folder, no --bundle/--out)"""
+  magsail report SWEEP_DIR [--figure KEY]                   the same as sweep (one folder that is not a
+                                                            run folder, or --figure given; no --bundle/--out)"""
 
 
 def _add_report_verb(sub: Any) -> None:
@@ -824,7 +585,7 @@ def _add_report_verb(sub: Any) -> None:
     up = _verb(actions, "update", "collect the run folders, then render the pages", _cmd_report_update)
     add_collect_arguments(up)
     up.add_argument(
-        "--out", default="docs/reproduction", metavar="DIR", help="folder of the MyST pages (default docs/reproduction)"
+        "--out", default=DEFAULT_PAGES, metavar="DIR", help=f"folder of the MyST pages (default {DEFAULT_PAGES})"
     )
     sw = _verb(
         actions,
@@ -833,22 +594,37 @@ def _add_report_verb(sub: Any) -> None:
         _cmd_report,
         {"sweep_dir": "SWEEP_DIR", "figures": "--figure"},
     )
-    add_report_arguments(sw)
+    add_sweep_report_arguments(sw)
+
+
+_REPORT_VALUE_OPTIONS = ("--figure", "--bundle", "--out", "--memory-limit")
+"""Options of ``magsail report`` that take a value (a value is no folder argument)."""
 
 
 def _report_argv(argv: list[str]) -> list[str]:
-    """``magsail report X...`` without an action becomes ``report sweep X`` when X is one folder
-    that is not a run folder (no manifest.json) and neither --bundle nor --out is given, else
-    ``report update X...``."""
+    """``magsail report X...`` without an action becomes ``report sweep X`` when ``--figure`` is
+    given, or when X is one folder that is not a run folder (no manifest.json) and neither
+    ``--bundle`` nor ``--out`` is given; else ``report update X...``."""
     i = 0
     while i < len(argv) and argv[i].startswith("-"):
         i += 2 if argv[i] == "--memory-limit" else 1
     if i >= len(argv) - 1 or argv[i] != "report" or argv[i + 1] in _REPORT_ACTIONS or argv[i + 1].startswith("-"):
         return argv
     rest = argv[i + 1 :]
-    positional = [a for a in rest if not a.startswith("-")]
-    reproduction = any(a.split("=", 1)[0] in ("--bundle", "--out") for a in rest)
-    sweep = len(positional) == 1 and not reproduction and not (Path(positional[0]) / "manifest.json").is_file()
+    positional, options = [], []
+    j = 0
+    while j < len(rest):
+        arg = rest[j]
+        if arg.startswith("-"):
+            options.append(arg.split("=", 1)[0])
+            j += 2 if arg in _REPORT_VALUE_OPTIONS else 1
+            continue
+        positional.append(arg)
+        j += 1
+    reproduction = any(o in ("--bundle", "--out") for o in options)
+    sweep = "--figure" in options or (
+        len(positional) == 1 and not reproduction and not (Path(positional[0]) / "manifest.json").is_file()
+    )
     return [*argv[: i + 1], "sweep" if sweep else "update", *rest]
 
 
@@ -959,13 +735,12 @@ def _parser() -> argparse.ArgumentParser:
         type=_memory,
         default=None,
         metavar="BYTES|auto",
-        help=f"refuse inputs needing more memory than this (suffix K, M, G, T; default: ${ENV_VAR}, "
+        help=f"refuse inputs needing more memory than this (suffix K, M, G, T; default: ${MEMORY_ENV_VAR}, "
         "else the machine's available memory)",
     )
     p.add_argument(
         "--version",
-        action="version",
-        version=version_text(),
+        action=_VersionAction,
         help="print the versions of magsail_mj, MuJoCo, NumPy and Python and exit",
     )
     _verbose_option(p, default=0)
@@ -1054,13 +829,20 @@ def _is_user_path_error(err: OSError, args: argparse.Namespace) -> bool:
 
 
 def _dispatch(args: argparse.Namespace) -> int:
-    """Run the verb, mapping its exceptions to exit statuses (see :data:`EXIT_CODES`)."""
+    """Run the verb, mapping its exceptions to exit statuses (see :data:`EXIT_CODES`).
+
+    The one place of the command that imports late: :mod:`magsail_mj.verbs.common` (the config
+    schema, the memory limit, the exceptions of a refused input) here, the verb's own module when
+    its :class:`_Handler` is called."""
     options = getattr(args, "options", {})
+    common = importlib.import_module("magsail_mj.verbs.common")
     try:
-        return args.fn(args)
-    except (ConfigError, RunDirError, MemoryLimitError, CliInputError) as err:
+        limit = args.memory_limit
+        with common.memory_limit(None if limit is None else common.parse_memory_limit(limit, what="--memory-limit")):
+            return args.fn(args)
+    except common.REFUSED as err:
         return _error(_named(str(err), options), 2)
-    except GLBackendError as err:
+    except common.GLBackendError as err:
         return _error(f"the video could not be rendered: {err}", 1)
     except OSError as err:
         text = f"{err.filename!s}: {err.strerror}" if err.filename and err.strerror else str(err)
@@ -1102,7 +884,7 @@ def _main(argv: list[str] | None) -> int:
     verbosity = getattr(args, "verbose", 0)
     LOG.setLevel(_LEVELS[min(verbosity, len(_LEVELS) - 1)])
     try:
-        with memory_limit(args.memory_limit), _sigterm_interrupts(), _plain_warnings():
+        with _sigterm_interrupts(), _plain_warnings():
             code = _dispatch(args)
         if _SIGNALLED:
             raise KeyboardInterrupt

@@ -18,6 +18,7 @@ status 2; the output is written to a temporary file and moved into place.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import zipfile
 from pathlib import Path
@@ -26,27 +27,21 @@ from typing import Any, Iterable, Mapping
 import numpy as np
 import xarray as xr
 
-from magsail_mj.io import atomic_path
+from magsail_mj.cli import EXPORT_FORMATS
+from magsail_mj.cli import add_export_arguments as add_arguments
+from magsail_mj.io import RUN_FILE_PATTERNS, atomic_path
 from magsail_mj.records import SERIES_GROUP, STORE_NAME, RecordStoreError, StoreRecords, lazy_arrays, open_records
 
-__all__ = ["add_arguments", "main", "export_run", "write_npz_streamed", "read_timeseries", "FORMATS"]
+__all__ = ["add_arguments", "main", "export_run", "write_npz_streamed", "read_timeseries", "EXTENSIONS", "FORMATS"]
 
 #: output formats and their file suffixes
-FORMATS = {"npz": ".npz", "netcdf": ".nc"}
+FORMATS = EXPORT_FORMATS
+#: file extensions that name a format (``--out`` with one of them decides the format, or must agree with ``--format``)
+EXTENSIONS = {".npz": "npz", ".nc": "netcdf", ".nc4": "netcdf", ".netcdf": "netcdf"}
 
 
 class ExportError(ValueError):
     """An export argument is unusable (the message names it)."""
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    """Add the ``export`` verb's arguments to ``parser``."""
-    parser.add_argument("run_dir", metavar="RUN_DIR", help=f"run folder holding {STORE_NAME}")
-    parser.add_argument("--format", dest="format", default="npz", help="output format: npz or netcdf (default npz)")
-    parser.add_argument(
-        "--out", default=None, help="output file (default RUN_DIR/timeseries.npz or RUN_DIR/timeseries.nc)"
-    )
-    return parser
 
 
 def main(args: argparse.Namespace) -> int:
@@ -60,9 +55,16 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-def export_run(run_dir: str | Path, *, fmt: str, out: str | Path | None = None) -> Path:
-    """Write the store of ``run_dir`` as ``fmt`` (``npz`` or ``netcdf``) to ``out`` and return it."""
-    if fmt not in FORMATS:
+def export_run(run_dir: str | Path, *, fmt: str | None = None, out: str | Path | None = None) -> Path:
+    """Write the store of ``run_dir`` as ``fmt`` (``npz`` or ``netcdf``) to ``out`` and return it.
+
+    ``fmt`` None: the format that the extension of ``out`` names (``.npz``; ``.nc``, ``.nc4``,
+    ``.netcdf``), else ``npz``. An extension of the other format is refused, and so is an ``out``
+    that is one of the run folder's own files (its manifest, summary, model, record store, ...;
+    only ``timeseries.npz`` / ``timeseries.nc``, the export's own names, may be replaced there) or
+    lies in an unwritable folder. Every refusal is an :class:`ExportError` naming the argument.
+    """
+    if fmt is not None and fmt not in FORMATS:
         raise ExportError(f"--format: must be one of {', '.join(FORMATS)}, got {fmt!r}")
     if not str(run_dir).strip():
         raise ExportError("RUN_DIR: must name a run folder, got an empty path")
@@ -71,17 +73,54 @@ def export_run(run_dir: str | Path, *, fmt: str, out: str | Path | None = None) 
         raise ExportError(f"RUN_DIR: {folder} is {'a file, not a folder' if folder.exists() else 'missing'}")
     if not (folder / STORE_NAME).is_dir():
         raise ExportError(f"RUN_DIR: {folder} holds no {STORE_NAME} (not a run folder, or a run of an older version)")
-    target = Path(out) if out is not None else folder / f"timeseries{FORMATS[fmt]}"
-    if out is not None and (not str(out).strip() or target.is_dir()):
+    if out is not None and (not str(out).strip() or Path(out).is_dir()):
         raise ExportError(f"--out: must name a file, got {str(out)!r}")
+    fmt = _format(fmt, out)
+    target = Path(out) if out is not None else folder / f"timeseries{FORMATS[fmt]}"
+    _check_target(target, folder)
+    try:
+        if fmt == "npz":
+            write_npz_streamed(target, lazy_arrays(folder))
+        else:
+            open_records(folder)  # an unreadable store is refused before anything is written
+            _write_netcdf(folder / STORE_NAME, target, has_series=_series(folder) is not None)
+    except OSError as err:  # the temporary file beside --out is ours: the error names the option
+        raise ExportError(f"--out: cannot write {str(target)!r} ({err.strerror or err})") from None
+    return target
+
+
+def _format(fmt: str | None, out: str | Path | None) -> str:
+    """The format: ``fmt``, else the one the extension of ``out`` names, else npz; ExportError when
+    ``fmt`` and the extension disagree."""
+    named = EXTENSIONS.get(Path(out).suffix.lower()) if out is not None else None
+    if fmt is None:
+        return named or "npz"
+    if named is not None and named != fmt:
+        raise ExportError(
+            f"--out: {str(out)!r} has the extension of {named} files, not of --format {fmt} ({FORMATS[fmt]}); "
+            f"name the file {Path(out).stem}{FORMATS[fmt]} or leave out --format"
+        )
+    return fmt
+
+
+def _check_target(target: Path, folder: Path) -> None:
+    """ExportError naming ``--out`` when ``target`` is a file of the run folder ``folder`` (other
+    than the export's own names) or inside its record store, or its folder cannot be written."""
+    where = target.absolute().resolve()
+    run = folder.absolute().resolve()
+    if run in where.parents:
+        own = {f"timeseries{suffix}" for suffix in FORMATS.values()}
+        inside = where.parent != run
+        ours = where.name in own
+        if inside or (not ours and (where.exists() or any(where.match(p) for p in RUN_FILE_PATTERNS))):
+            raise ExportError(
+                f"--out: {str(target)!r} is {'inside' if inside else 'a file of'} the run folder {str(folder)!r}; "
+                "write the export elsewhere (or leave out --out for RUN_DIR/timeseries.npz|.nc)"
+            )
     if not target.parent.is_dir():
         raise ExportError(f"--out: folder {target.parent} does not exist")
-    if fmt == "npz":
-        write_npz_streamed(target, lazy_arrays(folder))
-    else:
-        open_records(folder)  # an unreadable store is refused before anything is written
-        _write_netcdf(folder / STORE_NAME, target, has_series=_series(folder) is not None)
-    return target
+    if not os.access(target.parent, os.W_OK | os.X_OK):
+        raise ExportError(f"--out: folder {str(target.parent)!r} is not writable (permission denied)")
 
 
 def _series(folder: Path) -> StoreRecords | None:

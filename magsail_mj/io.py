@@ -33,6 +33,8 @@ __all__ = [
     "prepare_run_dir",
     "RunDirError",
     "OutputPathError",
+    "RUN_FILE_PATTERNS",
+    "check_output_folder",
     "remove_earlier_run",
     "run_dir_lock",
     "to_jsonable",
@@ -182,8 +184,10 @@ def prepare_run_dir(
     is reused only with ``overwrite=True`` (the caller then removes the earlier run's files with
     :func:`remove_earlier_run` once it holds the folder's :func:`run_dir_lock`) or
     ``resume=True``; otherwise :class:`RunDirError` names it, so nothing the user had is
-    overwritten silently. ``check(folder)`` runs after these checks and before anything is
-    created (the resume check).
+    overwritten silently. A folder that holds anything else (files that no run writes: ``/``,
+    ``/dev``, a project folder) is refused, and so is a system location or a folder inside another
+    run folder or a record store (:func:`check_output_folder`). ``check(folder)`` runs after these
+    checks and before anything is created (the resume check).
     """
     if str(out_dir).strip() == "":
         raise RunDirError("--out: must name a folder, got an empty path")
@@ -195,7 +199,14 @@ def prepare_run_dir(
             if not parent.is_dir():
                 raise RunDirError(f"--out {out}: {parent} is a file, not a folder")
             break
-    earlier = (out / "manifest.json").exists() or any(out.glob("checkpoint*.npz")) if out.is_dir() else False
+    check_output_folder(out)
+    earlier = _is_run_folder(out)
+    foreign = _foreign_entries(out) if out.is_dir() and not earlier else []
+    if foreign:
+        raise RunDirError(
+            f"--out {out}: is a folder with other files ({', '.join(foreign[:3])}"
+            f"{', ...' if len(foreign) > 3 else ''}), not a run folder; give a new or empty folder"
+        )
     if resume and overwrite:
         raise RunDirError("--resume and --overwrite: choose one")
     if earlier and not (overwrite or resume):
@@ -217,8 +228,61 @@ def prepare_run_dir(
     return out
 
 
-_RUN_FILE_PATTERNS = (
+_SYSTEM_TREES = ("/dev", "/proc", "/sys", "/etc", "/boot", "/bin", "/sbin", "/usr", "/lib", "/lib32", "/lib64")
+"""System trees (pseudo file systems, the installed system): no output is ever written below them."""
+_SYSTEM_FOLDERS = ("/var", "/run", "/opt", "/srv", "/root", "/home", "/mnt", "/media", "/tmp", "/snap")
+"""Top-level system folders: outputs go into folders below them, never into them directly."""
+
+
+def _is_run_folder(folder: Path) -> bool:
+    """True when ``folder`` holds a run: its ``manifest.json`` or a checkpoint."""
+    return folder.is_dir() and ((folder / "manifest.json").exists() or any(folder.glob("checkpoint*.npz")))
+
+
+def _is_record_store(folder: Path) -> bool:
+    """True when ``folder`` is a Zarr store (a ``.zarr`` folder, or one with Zarr metadata)."""
+    return folder.is_dir() and (
+        folder.suffix == ".zarr" or any((folder / name).exists() for name in (".zgroup", ".zarray", "zarr.json"))
+    )
+
+
+def _foreign_entries(folder: Path) -> list[str]:
+    """The entries of ``folder`` that no run writes (hidden temporaries and lock files aside), sorted."""
+    try:
+        names = sorted(entry.name for entry in os.scandir(folder))
+    except OSError:
+        return []
+    return [n for n in names if not n.startswith(".") and not any(Path(n).match(p) for p in RUN_FILE_PATTERNS)]
+
+
+def check_output_folder(out: str | Path, *, option: str = "--out") -> None:
+    """RunDirError naming ``option`` when the folder ``out`` is no place for outputs: the root, a
+    top-level system folder, anything below ``/dev``, ``/proc`` or ``/sys``, or a folder inside
+    another run folder or a record store (``RUN/timeseries.zarr``, ``RUN/sub``)."""
+    path = Path(out).absolute()
+    try:
+        resolved = path.resolve()
+    except (OSError, RuntimeError):
+        resolved = path
+    for p in (path, resolved):
+        text = p.as_posix()
+        if (
+            p == Path(p.anchor)
+            or text in _SYSTEM_FOLDERS
+            or any(text == t or text.startswith(t + "/") for t in _SYSTEM_TREES)
+        ):
+            raise RunDirError(f"{option} {out}: is a system location; give a folder of your own")
+    for parent in [resolved, *resolved.parents]:
+        if parent != resolved and _is_run_folder(parent):
+            raise RunDirError(f"{option} {out}: is inside the run folder {parent}; give a folder outside it")
+        if _is_record_store(parent):
+            where = "is" if parent == resolved else "is inside"
+            raise RunDirError(f"{option} {out}: {where} the record store {parent}; give a folder outside it")
+
+
+RUN_FILE_PATTERNS = (
     "manifest.json",
+    "params.json",
     "summary.json",
     "timeseries.npz",
     "timeseries.zarr",
@@ -230,6 +294,8 @@ _RUN_FILE_PATTERNS = (
     "checkpoint*.pkl",
     "checkpoint*.zarr",
 )
+"""The names of the files a run (or a sweep, ``params.json``) writes into its run folder."""
+_RUN_FILE_PATTERNS = RUN_FILE_PATTERNS
 
 
 def remove_earlier_run(out: Path) -> None:
@@ -241,7 +307,7 @@ def remove_earlier_run(out: Path) -> None:
         names.update(n for n in listed if isinstance(n, str) and "/" not in n and not n.startswith("."))
     except (OSError, ValueError, AttributeError):
         pass
-    for pattern in _RUN_FILE_PATTERNS:
+    for pattern in RUN_FILE_PATTERNS:
         names.update(p.name for p in out.glob(pattern))
     for name in sorted(names, key=lambda n: n == "manifest.json"):  # the manifest goes last
         path = out / name

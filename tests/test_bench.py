@@ -11,7 +11,6 @@ from pathlib import Path
 
 import pytest
 
-import magsail_mj.cli as cli
 from magsail_mj.bench import PART_NAMES, BenchRunError, bench
 from magsail_mj.cli import main
 from magsail_mj.config import load_config
@@ -172,7 +171,7 @@ def test_cli_exit_status_of_a_run_that_did_not_complete(capsys, monkeypatch, sta
     def ends(*args, **kwargs):
         raise BenchRunError(status, "at t = 1 s")
 
-    monkeypatch.setattr(cli, "bench", ends)
+    monkeypatch.setattr("magsail_mj.verbs.bench.bench", ends)
     assert main(["bench", CUBESAT, "--duration-s", "1"]) == code
     err = capsys.readouterr()
     assert err.out == "" and status in err.err

@@ -14,6 +14,8 @@ import json
 import sys
 from pathlib import Path
 
+from magsail_mj.cli import DEFAULT_BUNDLE, add_collect_arguments, add_render_arguments
+from magsail_mj.cli import DEFAULT_PAGES as DEFAULT_OUT
 from magsail_mj.report.bundle import BundleError, bundle_bytes, collect
 from magsail_mj.report.registry import RegistryError, load_registry
 from magsail_mj.report.render import render
@@ -29,42 +31,7 @@ __all__ = [
     "update_main",
 ]
 
-DEFAULT_BUNDLE = "results"
-DEFAULT_OUT = "docs/reproduction"
 _REFUSED = (BundleError, RegistryError, MissingExplanation, MissingKey)
-
-
-def _bundle_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--bundle",
-        default=DEFAULT_BUNDLE,
-        metavar="DIR",
-        help=f"results bundle folder: <bundle>/<paper>/<run id>/ and index.json (default {DEFAULT_BUNDLE})",
-    )
-
-
-def add_collect_arguments(p: argparse.ArgumentParser) -> None:
-    """``RUN_DIR...`` and ``--bundle``."""
-    p.add_argument(
-        "run_dirs",
-        nargs="+",
-        metavar="RUN_DIR",
-        help="finished run folders (summary.json, manifest.json), or sweep folders standing for their "
-        "runs; each run must match one registry run (magsail_mj/report/claims/*.toml) by concept, "
-        "scenario and config",
-    )
-    _bundle_option(p)
-
-
-def add_render_arguments(p: argparse.ArgumentParser) -> None:
-    """``--bundle`` and ``--out``."""
-    _bundle_option(p)
-    p.add_argument(
-        "--out",
-        default=DEFAULT_OUT,
-        metavar="DIR",
-        help=f"folder of the MyST pages: one <paper>.md per paper and index.md (default {DEFAULT_OUT})",
-    )
 
 
 def _fail(err: Exception) -> int:

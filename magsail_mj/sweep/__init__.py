@@ -135,6 +135,7 @@ __all__ = [
     "SweepRun",
     "is_sweep_file",
     "load_sweep",
+    "check_walltime",
     "make_cluster",
     "run_sweep",
     "sweep_exit_code",
@@ -440,10 +441,12 @@ def load_sweep(
         run, errors = _load_run(rid, (path.parent / config).resolve(), common + own + extra, selected, params)
         runs.append(run)
         problems.extend(errors)
+    if not any(r.selected for r in runs) and not problems:
+        # nothing selected: the runs' own problems are the file's problems too, and are not hidden
+        unselected = [r.problem for r in runs if r.problem]
+        problems = [f"only: no run id contains any of {list(wanted or [])!r}", *unselected]
     if problems:
         raise ConfigError(problems, source=str(path))
-    if not any(r.selected for r in runs):
-        raise ConfigError([f"only: no run id contains any of {list(wanted or [])!r}"], source=str(path))
     return Sweep(name=name, path=path, runs=tuple(runs), description=description, overrides=common + extra, only=wanted)
 
 
@@ -606,6 +609,10 @@ def _log_record(log: Callable[[str], None] | None, rec: dict[str, Any]) -> None:
         log(f"  {rec['id']}: {rec['status']}{took}{again}{resumed}{extra}")
 
 
+class _SchedulerUnreachable(RunDirError):
+    """``--scheduler`` names no Dask scheduler that answers (no run has started)."""
+
+
 @contextlib.contextmanager
 def _dask_client(*, workers: int, scheduler: str | None, cluster: Any | None) -> Iterator[Any]:
     """A Dask client: on ``scheduler`` (an address), on ``cluster`` (e.g. a dask-jobqueue cluster),
@@ -618,7 +625,9 @@ def _dask_client(*, workers: int, scheduler: str | None, cluster: Any | None) ->
         try:
             client = Client(scheduler, timeout=15, set_as_default=False)
         except (OSError, TimeoutError, ValueError) as err:
-            raise RunDirError(f"--scheduler {scheduler!r}: cannot connect to a Dask scheduler there ({err})") from None
+            raise _SchedulerUnreachable(
+                f"--scheduler {scheduler!r}: cannot connect to a Dask scheduler there ({err})"
+            ) from None
         with contextlib.closing(client):
             yield client
         return
@@ -651,7 +660,20 @@ def _dask_client(*, workers: int, scheduler: str | None, cluster: Any | None) ->
 
 
 CLUSTER_KINDS = ("slurm", "pbs")
-_WALLTIME = re.compile(r"^(\d+-)?\d{1,3}:\d{2}(:\d{2})?$")
+_WALLTIME = re.compile(r"^(?:(\d+)-)?(\d{1,3}):([0-5]\d)(?::([0-5]\d))?$")
+_SUBMIT = {"slurm": "sbatch", "pbs": "qsub"}
+"""The batch system's submit command that a cluster of each kind runs."""
+
+
+def check_walltime(walltime: Any) -> str:
+    """``walltime`` when it is ``[D-]HH:MM[:SS]`` with minutes and seconds below 60 (and hours
+    below 24 after a day count); ValueError naming ``--walltime`` otherwise."""
+    match = _WALLTIME.match(walltime) if isinstance(walltime, str) else None
+    if match is None or (match.group(1) is not None and int(match.group(2)) >= 24):
+        raise ValueError(
+            f"--walltime: must be HH:MM:SS (or D-HH:MM:SS) with minutes and seconds below 60, got {walltime!r}"
+        )
+    return walltime
 
 
 def make_cluster(
@@ -670,7 +692,8 @@ def make_cluster(
 
     Raises:
       ValueError: naming the option (``--cluster``, ``--cores-per-job``, ``--memory-per-job``,
-        ``--walltime``) and the value, or saying that dask-jobqueue is not installed.
+        ``--walltime``) and the value, saying that dask-jobqueue is not installed, or that the
+        batch system's submit command (``sbatch``, ``qsub``) is not on ``PATH``.
     """
     if kind not in CLUSTER_KINDS:
         raise ValueError(f"--cluster: must be one of {', '.join(CLUSTER_KINDS)}, got {kind!r}")
@@ -692,8 +715,12 @@ def make_cluster(
             raise ValueError
     except (ValueError, TypeError):
         raise ValueError(f"--memory-per-job: must be a memory size such as 16GB, got {memory_per_job!r}") from None
-    if not isinstance(walltime, str) or not _WALLTIME.match(walltime):
-        raise ValueError(f"--walltime: must look like HH:MM:SS (or D-HH:MM:SS), got {walltime!r}")
+    check_walltime(walltime)
+    if shutil.which(_SUBMIT[kind]) is None:  # dask-jobqueue would fail inside its event loop and hang
+        raise ValueError(
+            f"--cluster {kind}: the {kind.upper()} submit command {_SUBMIT[kind]!r} is not on PATH "
+            "(run the sweep on a login node of the cluster, or use --workers / --scheduler)"
+        )
     cls = dask_jobqueue.SLURMCluster if kind == "slurm" else dask_jobqueue.PBSCluster
     threads = [f"export {var}=1" for var in _THREAD_VARS]
     return cls(
@@ -1028,8 +1055,48 @@ def run_sweep(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise RunDirError(f"--out {out}: exists and is not a folder")
+    made = [d for d in (out.absolute(), *out.absolute().parents) if not d.exists()]
+    lock_made = not (out / LOCK_NAME).exists()
     out.mkdir(parents=True, exist_ok=True)
     out = out.resolve()
+    try:
+        return _run_sweep_locked(
+            sweep,
+            out,
+            workers=workers,
+            video=video,
+            overwrite=overwrite,
+            log=log,
+            grace_s=grace_s,
+            scheduler=scheduler,
+            cluster=cluster,
+            retries=retries,
+            progress=progress,
+        )
+    except _SchedulerUnreachable:  # nothing ran: leave nothing that was not there
+        if lock_made:
+            (out / LOCK_NAME).unlink(missing_ok=True)
+        for folder in made:  # the folders made for --out, innermost first, when still empty
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        raise
+
+
+def _run_sweep_locked(
+    sweep: Sweep,
+    out: Path,
+    *,
+    workers: int,
+    video: bool,
+    overwrite: bool,
+    log: Callable[[str], None] | None,
+    grace_s: float,
+    scheduler: str | None,
+    cluster: Any | None,
+    retries: int,
+    progress: bool | None,
+) -> list[dict[str, Any]]:
+    """:func:`run_sweep` in the existing folder ``out`` (resolved), under the sweep lock."""
     with _sweep_lock(out), _Interrupts() as interrupts:
         _remove_stale_temporaries(out)
         _clear_state(out)

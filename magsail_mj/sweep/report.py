@@ -24,7 +24,7 @@ percentile is ``x_k`` with ``k = ⌈p n / 100⌉`` (the inverted CDF, no interpo
 
 The figures are the sweep file's ``[report] figures`` list, else (grid) every numeric scalar of
 the run summaries that varies across runs, or (Monte Carlo) every one ending in ``_s``.
-``magsail report SWEEP_DIR`` (:func:`add_arguments`, :func:`main`) and ``python -m
+``magsail report sweep SWEEP_DIR`` (:func:`add_arguments`, :func:`main`) and ``python -m
 magsail_mj.sweep.report SWEEP_DIR`` run it.
 """
 
@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from magsail_mj.cli import add_sweep_report_arguments as add_arguments
 from magsail_mj.config import ConfigError, read_toml
 from magsail_mj.io import atomic_path
 
@@ -438,18 +439,6 @@ def write_report(sweep_dir: str | Path, *, figures: Sequence[str] | None = None)
     out.mkdir(exist_ok=True)
     title = str(manifest.get("name") or root.name)
     return (_mc_report if monte_carlo else _grid_report)(records, chosen, out, title)
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of ``magsail report``: ``SWEEP_DIR`` and ``--figure KEY`` (repeatable)."""
-    parser.add_argument("sweep_dir", metavar="SWEEP_DIR", help="folder of a finished sweep (sweep_summary.json)")
-    parser.add_argument(
-        "--figure",
-        action="append",
-        default=None,
-        metavar="KEY",
-        help="summary key to report (repeatable; default: the sweep file's [report] figures)",
-    )
 
 
 def main(args: argparse.Namespace) -> int:
