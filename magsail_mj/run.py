@@ -121,6 +121,32 @@ def check_resume(run_dir: Path, identity: dict[str, Any], n_steps: int) -> None:
         )
 
 
+def check_stop_after(cfg: Any, out_dir: Path, *, resume: bool, stop_after_s: float | None) -> None:
+    """Refuse a ``stop_after_s`` that would not advance the run by one time step: below
+    ``sim.timestep_s`` on a fresh run (it stopped at t = 0 with no records and no checkpoint), or
+    less than one step beyond the checkpoint's time on a resume (the summary and manifest said
+    "stopped" at a time the records had passed). :class:`ConfigError` naming ``--stop-after-s``,
+    the step and the checkpoint's time; a checkpoint that cannot be read is left to
+    :func:`check_resume`."""
+    if stop_after_s is None:
+        return
+    dt = float(cfg.sim.timestep_s)
+    t0, where = 0.0, ""
+    if resume:
+        try:
+            t0 = float(read_checkpoint(Path(out_dir) / CHECKPOINT_NAME)[0]["t_s"])
+        except (CheckpointError, OSError, KeyError, TypeError, ValueError):
+            return
+        where = f" beyond the checkpoint's t = {t0:.6g} s"
+    if stop_after_s < t0 + dt * (1 - 1e-9):
+        raise ConfigError(
+            [
+                f"--stop-after-s: must be at least one time step (sim.timestep_s = {dt:.6g} s){where}, "
+                f"got {stop_after_s:.6g} s"
+            ]
+        )
+
+
 def run_scenario(
     cfg: Any,
     out_dir: str | Path,
@@ -161,6 +187,7 @@ def run_scenario(
 def _run(
     cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool, progress: bool, stop_after_s: float | None
 ) -> RunOutcome:
+    check_stop_after(cfg, out_dir, resume=resume, stop_after_s=stop_after_s)
     sim = load(cfg)
     scenario = sim.scenario
     if video and "video" in scenario.render_info():  # a scenario without motion says why
