@@ -221,6 +221,31 @@ def test_allocation_input_errors_name_the_argument():
         allocate_batch(np.zeros((3, 3)), np.zeros((2, 3)), m_rod_Am2=1.0, n_max=10)
 
 
+@pytest.mark.parametrize("mode", ["paper", "exact"])
+def test_extreme_rod_dipoles_neither_overflow_nor_change_the_counts(mode):
+    """The allocation is scale-free: scaling the dipole and the reference torque by the same power
+    of two (exact in floats) gives the same counts, up to m = 2^900 ≈ 8e270 A m² and down to
+    2^-900; (m B)² overflowed float64 for a 1e300 A m² rod (``actuators.kappa_Am2_kg = 1e300``:
+    OverflowError). A rod so weak that the demand overflows to infinity saturates its family."""
+    rng = np.random.default_rng(5)
+    B = rng.normal(size=(20, 3)) * B_SCALE
+    T = rng.normal(size=(20, 3)) * 0.3
+    ref = allocate_batch(T, B, m_rod_Am2=M_ROD, n_max=380, mode=mode)
+    for s in (2.0**900, 2.0**-900):
+        got = allocate_batch(T * s, B, m_rod_Am2=M_ROD * s, n_max=380, mode=mode)
+        np.testing.assert_array_equal(got.N1, ref.N1)
+        np.testing.assert_array_equal(got.N2, ref.N2)
+        for k in range(3):
+            al = allocate(T[k] * s, B[k], m_rod_Am2=M_ROD * s, n_max=380, mode=mode)
+            assert (al.N1, al.N2) == (ref.N1[k], ref.N2[k])
+    al = allocate(T[0], B[0], m_rod_Am2=1e300, n_max=380, mode=mode)
+    assert (al.N1, al.N2) == (0, 0) and not (al.clipped1 or al.clipped2)
+    weak = allocate([0.0, 1.0, 0.0], [0.0, 0.0, 3e-5], m_rod_Am2=1e-310, n_max=380, mode=mode)
+    assert math.isinf(weak.x1) and weak.N1 == -380 and weak.clipped1
+    batch = allocate_batch(np.array([[0.0, 1.0, 0.0]]), np.array([[0.0, 0.0, 3e-5]]), m_rod_Am2=1e-310, n_max=380)
+    assert batch.N1[0] == -380 and batch.clipped1[0]
+
+
 # ----------------------------------------------------------------------------- Lloyd
 
 

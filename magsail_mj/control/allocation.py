@@ -80,6 +80,27 @@ def _rnd(x: float) -> int:
     return int(r) if x >= 0 else -int(r)
 
 
+def _rnd_clip(x: float, n_max: int, name: str) -> tuple[int, int]:
+    """``(rnd(x), clip(rnd(x), ±n_max))`` for any float ``x``: a demand beyond ``n_max + 1`` (an
+    infinite one included: a rod dipole or field so small that ``x`` overflowed) rounds to
+    ``±(n_max + 1)``, which clips the same; NaN is a ``ValueError`` naming ``name``."""
+    if x != x:
+        raise ValueError(f"{name}: the rod demand is NaN (the reference torque or field overflowed float64)")
+    if not abs(x) < n_max + 1:
+        r = n_max + 1 if x > 0 else -(n_max + 1)
+    else:
+        r = _rnd(x)
+    return r, max(-n_max, min(n_max, r))
+
+
+def _round_clip(x: np.ndarray, n_max: int) -> np.ndarray:
+    """:func:`_rnd_clip`'s ``rnd`` over an array (int64): beyond ``n_max + 1`` (inf included) the
+    demand rounds to ``±(n_max + 1)``; NaN is a ``ValueError``."""
+    if np.isnan(x).any():
+        raise ValueError("T_ref_body: a rod demand is NaN (the reference torque or field overflowed float64)")
+    return round_half_away(np.clip(x, -(n_max + 1), n_max + 1)).astype(np.int64)
+
+
 def _m_pair(m_rod_Am2, name: str = "m_rod_Am2") -> tuple[float, float]:
     if np.ndim(m_rod_Am2) == 0:
         m = (float(m_rod_Am2), float(m_rod_Am2))
@@ -193,33 +214,39 @@ def _allocate_core(
     n2max: int,
     exact: bool,
 ) -> Allocation:
-    """The Eqs. 11–13 arithmetic on plain floats (validated inputs)."""
+    """The Eqs. 11–13 arithmetic on plain floats (validated inputs), scale-free.
+
+    With τ_f = m_f u_f (``u1 = x̂1 × B``, ``u2 = ŷ1 × B``) every product of dipoles cancels:
+    ``x1 = T·u1 / (m1 |u1|²)`` (paper) or ``(|u2|² T·u1 − u1·u2 T·u2) / (m1 det')`` (exact, ``det'``
+    the Gram determinant of u1, u2), ``x2 = (T·u2 − N1 m1 u1·u2) / (m2 |u2|²)``; the tests
+    ``|τ_f|² > (1e-9 m_f)² |B|²`` and ``det ≥ 1e-6 |τ1|²|τ2|²`` are the same on u. So no
+    intermediate overflows for any finite rod dipole (``(m B)²`` did for m = 1e300 A m²) and an
+    infinite demand saturates."""
     t1 = (0.0, -m1 * Bz, m1 * By)
     t2 = (m2 * Bz, 0.0, -m2 * Bx)
-    a = t1[1] * t1[1] + t1[2] * t1[2]
-    b = t2[0] * t2[0] + t2[2] * t2[2]
-    c = t1[2] * t2[2]
+    a = Bz * Bz + By * By  # |u1|²
+    b = Bz * Bz + Bx * Bx  # |u2|²
+    c = -By * Bx  # u1·u2
     B2 = Bx * Bx + By * By + Bz * Bz
-    ok1 = a > (TINY_TORQUE_REL * m1) ** 2 * B2
-    ok2 = b > (TINY_TORQUE_REL * m2) ** 2 * B2
-    Tt1 = Ty * t1[1] + Tz * t1[2]
-    Tt2 = Tx * t2[0] + Tz * t2[2]
+    tiny = TINY_TORQUE_REL * TINY_TORQUE_REL * B2
+    ok1 = m1 > 0 and a > tiny
+    ok2 = m2 > 0 and b > tiny
+    Tu1 = -Ty * Bz + Tz * By
+    Tu2 = Tx * Bz - Tz * Bx
     used = "paper"
     if exact:
         det = a * b - c * c
         if ok1 and ok2 and det >= SINGULAR_GRAM_REL * a * b:
-            x1 = (b * Tt1 - c * Tt2) / det
+            x1 = (b * Tu1 - c * Tu2) / det / m1
             used = "exact"
         else:
-            x1 = Tt1 / a if ok1 else 0.0
+            x1 = Tu1 / a / m1 if ok1 else 0.0
             used = "exact_fallback"
     else:
-        x1 = Tt1 / a if ok1 else 0.0
-    r1 = _rnd(x1)
-    N1 = max(-n1max, min(n1max, r1))
-    x2 = (Tt2 - N1 * c) / b if ok2 else 0.0
-    r2 = _rnd(x2)
-    N2 = max(-n2max, min(n2max, r2))
+        x1 = Tu1 / a / m1 if ok1 else 0.0
+    r1, N1 = _rnd_clip(x1, n1max, "T_ref_body")
+    x2 = (Tu2 - N1 * m1 * c) / b / m2 if ok2 else 0.0
+    r2, N2 = _rnd_clip(x2, n2max, "T_ref_body")
     return Allocation(
         N1=N1,
         N2=N2,
@@ -277,26 +304,29 @@ def allocate_batch(
     if not (np.all(np.isfinite(T)) and np.all(np.isfinite(B))):
         raise ValueError("T_ref_body, B_body: must be finite")
     t1, t2 = rod_torques(B, m_rod_Am2=(m1, m2))
-    a = np.einsum("ij,ij->i", t1, t1)
-    b = np.einsum("ij,ij->i", t2, t2)
-    c = np.einsum("ij,ij->i", t1, t2)
+    # the scale-free arithmetic of _allocate_core (u_f = τ_f / m_f)
+    u1, u2 = rod_torques(B, m_rod_Am2=(1.0, 1.0))
+    a = np.einsum("ij,ij->i", u1, u1)
+    b = np.einsum("ij,ij->i", u2, u2)
+    c = np.einsum("ij,ij->i", u1, u2)
     B2 = np.einsum("ij,ij->i", B, B)
-    ok1 = a > (TINY_TORQUE_REL * m1) ** 2 * B2
-    ok2 = b > (TINY_TORQUE_REL * m2) ** 2 * B2
-    Tt1 = np.einsum("ij,ij->i", T, t1)
-    Tt2 = np.einsum("ij,ij->i", T, t2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x1 = np.where(ok1, Tt1 / np.where(ok1, a, 1.0), 0.0)
+    tiny = TINY_TORQUE_REL * TINY_TORQUE_REL * B2
+    ok1 = (a > tiny) & (m1 > 0)
+    ok2 = (b > tiny) & (m2 > 0)
+    Tu1 = np.einsum("ij,ij->i", T, u1)
+    Tu2 = np.einsum("ij,ij->i", T, u2)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        x1 = np.where(ok1, Tu1 / np.where(ok1, a, 1.0) / (m1 if m1 > 0 else 1.0), 0.0)
         fallback = np.zeros(T.shape[0], dtype=bool)
         if mode == "exact":
             det = a * b - c * c
             good = ok1 & ok2 & (det >= SINGULAR_GRAM_REL * a * b)
-            x1 = np.where(good, (b * Tt1 - c * Tt2) / np.where(good, det, 1.0), x1)
+            x1 = np.where(good, (b * Tu1 - c * Tu2) / np.where(good, det, 1.0) / (m1 if m1 > 0 else 1.0), x1)
             fallback = ~good
-        r1 = round_half_away(x1).astype(np.int64)
+        r1 = _round_clip(x1, n1max)
         N1 = np.clip(r1, -n1max, n1max)
-        x2 = np.where(ok2, (Tt2 - N1 * c) / np.where(ok2, b, 1.0), 0.0)
-    r2 = round_half_away(x2).astype(np.int64)
+        x2 = np.where(ok2, (Tu2 - N1 * m1 * c) / np.where(ok2, b, 1.0) / (m2 if m2 > 0 else 1.0), 0.0)
+    r2 = _round_clip(x2, n2max)
     N2 = np.clip(r2, -n2max, n2max)
     return AllocationBatch(
         N1=N1,
