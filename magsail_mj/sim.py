@@ -512,11 +512,51 @@ class Simulation(SteppedRun):
         self.status, self.message = "running", ""
         self._watch = WarningWatch(self.data)
 
-    def reset(self) -> None:
-        """Back to the initial state of the build (t = 0, no records)."""
+    def reset(self, *, seed: int | None = None) -> None:
+        """Back to the initial state of the build (t = 0, no records).
+
+        The random generators of the run (sensor noise, disturbance sampling: every
+        ``numpy.random.Generator`` or ``RandomState`` held by the controller, the loads, the
+        environment and the probes) go back to their initial state too, so a reset run repeats
+        its first run exactly. ``seed`` reseeds them instead: each from its own child of
+        ``numpy.random.SeedSequence(seed)``, in a fixed order, so equal seeds give equal runs and
+        different seeds different noise. A run without random generators is deterministic and
+        ``seed`` changes nothing in it (the seed reseeds only the generators present).
+        """
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
+            raise ValueError(f"seed: must be an integer >= 0 or None, got {seed!r}")
         self.set_state(self._initial)
         self.recorder.truncate(0)
         self._begin(0, self._new_loop())
+        if seed is None:
+            return
+
+        def collect(obj: Any, seen: set[int], found: list[Any]) -> list[Any]:
+            """Append the random generators reachable from ``obj`` (through containers and
+            magsail_mj objects, each object once) to ``found``; return it."""
+            if id(obj) in seen:
+                return found
+            seen.add(id(obj))
+            if isinstance(obj, (np.random.Generator, np.random.RandomState)):
+                found.append(obj)
+            elif isinstance(obj, Mapping):
+                for value in obj.values():
+                    collect(value, seen, found)
+            elif isinstance(obj, (list, tuple)):
+                for value in obj:
+                    collect(value, seen, found)
+            elif type(obj).__module__.startswith("magsail_mj") and hasattr(obj, "__dict__"):
+                for value in vars(obj).values():
+                    collect(value, seen, found)
+            return found
+
+        roots = (self.controller, list(self.loads), self.environment, dict(self.probes))
+        found = collect(roots, set(), [])
+        for rng, child in zip(found, np.random.SeedSequence(int(seed)).spawn(len(found))):
+            if isinstance(rng, np.random.Generator):
+                rng.bit_generator.state = np.random.default_rng(child).bit_generator.state
+            else:
+                rng.seed(child.generate_state(1)[0])
 
     # ------------------------------------------------------------------ checkpoints
     def _state_walker(self) -> StateWalker:
