@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
+import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.axis import Axis
 from matplotlib.category import UnitData
@@ -33,6 +34,7 @@ from matplotlib.figure import Figure
 from magsail_mj.io import atomic_path
 
 __all__ = [
+    "mark_run_end",
     "save_figure",
     "new_figure",
     "figure_problems",
@@ -162,6 +164,51 @@ def save_figure(fig: Figure, path: Path) -> Path:
         fig.savefig(tmp, dpi=PNG_DPI, bbox_inches="tight", format="png")
     plt.close(fig)
     return path
+
+
+def mark_run_end(
+    ax: Axes,
+    t: Any,
+    y: Any,
+    text: str,
+    *,
+    colour: Any = None,
+    label: str | None = None,
+    annotate: bool = True,
+) -> None:
+    """Mark where a curve stops because its run ended early: an ✕ at the curve's last finite
+    point (``t``, ``y``: the curve's data) in ``colour`` (the curve's), with ``label`` as its
+    legend entry when given, and, with ``annotate``, ``text`` (why the run ended:
+    :func:`magsail_mj.render.ending.end_reason`) beside it.
+
+    Nothing is drawn when the curve has no finite point."""
+    t = np.asarray(t, dtype=float).reshape(-1)
+    y = np.asarray(y, dtype=float).reshape(-1)
+    ok = np.flatnonzero(np.isfinite(t) & np.isfinite(y))
+    if not ok.size:
+        return
+    x_end, y_end = float(t[ok[-1]]), float(y[ok[-1]])
+    ax.plot(
+        [x_end],
+        [y_end],
+        "X",
+        color=colour,
+        markersize=9,
+        markeredgecolor="black",
+        label=label if label is not None else "_run_end",
+        zorder=5,
+    )
+    if annotate:
+        ax.annotate(
+            text,
+            (x_end, y_end),
+            xytext=(8, 8),
+            textcoords="offset points",
+            fontsize="small",
+            color="black",
+            bbox={"boxstyle": "round,pad=0.25", "facecolor": "#fff3e0", "edgecolor": "#d95f02"},
+            zorder=6,
+        )
 
 
 def new_figure(

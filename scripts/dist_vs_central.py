@@ -9,7 +9,8 @@ with the sweep engine (:func:`magsail_mj.sweep.run_sweep`: Dask workers, valid e
 - ``comparison.md``: the table of summary figures of all runs, plus the central/distributed
   ratio of the maximum surface SD per case and profile;
 - ``<profile>_cases.png``: φ, ω₁ and surface SD vs time, central and distributed, per case,
-  with the rigid-body response overlaid (like the paper's Figs. 6–8 and 11–13);
+  with the rigid-body response overlaid (like the paper's Figs. 6–8 and 11–13); a run that
+  ended early ends in an ✕ with its cause (structure failed: the strut and its strain);
 - ``torque_profiles.png``: the two profiles (like Fig. 10);
 - with ``--video``: ``case_<x>_<profile>_side_by_side.mp4`` (central | distributed).
 
@@ -28,9 +29,10 @@ from pathlib import Path
 import numpy as np
 
 from magsail_mj.control.profiles import bang_bang_off, versine
-from magsail_mj.plotting import new_figure, save_figure
+from magsail_mj.plotting import mark_run_end, new_figure, save_figure
 from magsail_mj.records import STORE_NAME, lazy_arrays
 from magsail_mj.render import render_run
+from magsail_mj.render.ending import end_reason, read_end_status
 from magsail_mj.sweep import FINISHED, load_sweep, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
@@ -91,7 +93,11 @@ def comparison_table(summaries: dict[str, dict]) -> str:
 
 
 def case_figure(out: Path, profile: str, cases: list[str]) -> Path:
-    """φ, ω₁ and surface SD vs time for each case, central and distributed side by side."""
+    """φ, ω₁ and surface SD vs time for each case, central and distributed side by side.
+
+    A run that ended early (structure failed, diverged, stopped: its ``summary.json``) has its
+    curves end in an ✕, and the cause written beside the surface SD curve's end
+    (``central: structure failed at 646 s: strut 1330 strain 0.501 > 0.5``)."""
     fig, axs = new_figure(3, len(cases), figsize=(5 * len(cases), 8), squeeze=False, sharex=True)
     for col, case in enumerate(cases):
         for place, style in (("central", "-"), ("distributed", "-")):
@@ -100,9 +106,23 @@ def case_figure(out: Path, profile: str, cases: list[str]) -> Path:
                 continue
             stored = lazy_arrays(run)  # the figure's series only (not the lattice's qpos)
             ts = {name: stored[name][...] for name in CASE_SERIES}
-            axs[0, col].plot(ts["t"], ts["phi_rad"], style, label=place)
-            axs[1, col].plot(ts["t"], ts["omega_body_rad_s"][:, 0], style, label=place)
-            axs[2, col].plot(ts["t"], ts["surface_sd_m"], style, label=place)
+            curves = [
+                axs[0, col].plot(ts["t"], ts["phi_rad"], style, label=place)[0],
+                axs[1, col].plot(ts["t"], ts["omega_body_rad_s"][:, 0], style, label=place)[0],
+                axs[2, col].plot(ts["t"], ts["surface_sd_m"], style, label=place)[0],
+            ]
+            end = read_end_status(run)
+            if end.get("status") not in (None, "completed"):
+                reason = end_reason(end, t_last_s=float(ts["t"][-1]))
+                for row, curve in enumerate(curves):
+                    mark_run_end(
+                        axs[row, col],
+                        curve.get_xdata(),
+                        curve.get_ydata(),
+                        f"{place}: {reason}".replace(" s: ", " s:\n", 1),
+                        colour=curve.get_color(),
+                        annotate=row == 2,
+                    )
             rigid_t, rigid_phi, rigid_w = ts["t"], ts["phi_rigid_rad"], ts["omega_rigid_rad_s"]
         axs[0, col].plot(rigid_t, rigid_phi, "k--", lw=1, label="rigid")
         axs[1, col].plot(rigid_t, rigid_w, "k--", lw=1, label="rigid")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from magsail_mj.plotting import PNG_DPI, new_figure, save_figure
+from magsail_mj.plotting import PNG_DPI, figure_problems, mark_run_end, new_figure, save_figure
 
 
 def test_save_figure_writes_png_of_figure_size_and_leaves_no_temporary(tmp_path):
@@ -41,3 +41,21 @@ def test_new_figure_is_outside_pyplot_and_shapes_axes():
         new_figure(0)
     with pytest.raises(ValueError, match="ncols"):
         new_figure(1, 0)
+
+
+def test_mark_run_end_puts_the_cause_at_the_curve_end():
+    """A curve that stops early ends in a marker at its last finite point, with the cause beside
+    it; the figure stays readable (no unlabelled colours, no legend gaps)."""
+    fig, ax = new_figure()
+    t = np.linspace(0.0, 646.0, 50)
+    y = np.sin(t / 100.0)
+    y[-3:] = np.nan  # the last finite point is the end
+    (curve,) = ax.plot(t, y, label="central")
+    ax.set(xlabel="t [s]", ylabel="surface SD [m]")
+    reason = "structure failed at 646 s: strut 1330 strain 0.501 > 0.5"
+    mark_run_end(ax, t, y, reason, colour=curve.get_color())
+    marker = ax.lines[-1]
+    assert marker.get_marker() == "X"
+    assert (marker.get_xdata()[0], marker.get_ydata()[0]) == (t[-4], y[-4])
+    assert [text.get_text() for text in ax.texts] == [reason]
+    assert figure_problems(fig) == []

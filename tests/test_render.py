@@ -37,14 +37,17 @@ from magsail_mj.config import load_config
 from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.lattice.mjcf import build_truss_spec
 from magsail_mj.plotting import CHECK_ENV
-from magsail_mj.render import backend
+from magsail_mj.render import backend, compose
 from magsail_mj.render.compose import (
     RenderError,
     RunScene,
     frame_plan,
     load_run,
+    render_frames,
     render_run,
 )
+from magsail_mj.render.ending import end_reason
+from magsail_mj.render.overlay import format_time, free_rectangles, overlay_boxes
 from magsail_mj.render.video import Mp4Writer, read_mp4, video_codec
 from magsail_mj.resources import MemoryLimitError, memory_limit
 from magsail_mj.run import run_scenario
@@ -83,6 +86,7 @@ def write_truss_run(
     bend_m: float = 0.0,
     activity: bool = True,
     title: str = "truss test",
+    render: dict | None = None,
 ) -> dict:
     """A run folder whose plate turns rigidly by 60° about x and 30° about z over the run."""
     lat = make_lattice(units=units, side_m=side_m)
@@ -117,7 +121,12 @@ def write_truss_run(
         "config": {"units": units},
         "config_hash": "test",
         "scenario": "render_test",
-        "render": {"title": title, "top_nodes": lat.top_nodes.tolist(), "overlay": ["surface_sd_m", "torque_cmd_Nm"]},
+        "render": {
+            "title": title,
+            "top_nodes": lat.top_nodes.tolist(),
+            "overlay": ["surface_sd_m", "torque_cmd_Nm"],
+            **(render or {}),
+        },
     }
     (folder / "manifest.json").write_text(json.dumps(manifest))
     return {"lattice": lat, "t": t, "qpos": qpos}
@@ -729,3 +738,148 @@ def test_legend_shows_a_swatch_of_each_marker_colour(tmp_path, gl):
     )
     # a 14 px square at 960 x 540 (196 px; the far-away model itself shows a few of that colour)
     assert _swatch_pixels(keyed, panel_colour, region) >= _swatch_pixels(plain, panel_colour, region) + 100
+
+
+# --------------------------------------------------------------------------- why a run ended
+
+
+def test_end_reason_names_the_cause_and_the_time():
+    """The line a picture prints where a run stops: the failed strut and its strain, the time of
+    a divergence, a stop or an interrupt."""
+    failed = {
+        "status": "structure_failed",
+        "status_message": "strut 1330 strain 0.501 exceeds sim.max_strain 0.5 at t = 646 s",
+        "t_end_s": 646.0,
+    }
+    assert end_reason(failed) == "structure failed at 646 s: strut 1330 strain 0.501 > 0.5"
+    post = {
+        "status": "structure_failed",
+        "status_message": "the structure failed at t = 81.0 s (post-processing found inverted cells)",
+        "strut_strain_max": 0.61234,
+        "t_end_s": 100.0,
+    }
+    assert end_reason(post) == "structure failed at 81 s: largest strut strain 0.612"
+    diverged = {
+        "status": "diverged",
+        "status_message": "MuJoCo BADQACC at t = 12.3 s: an acceleration is not finite or huge (unstable step)",
+    }
+    assert end_reason(diverged) == "diverged at 12.3 s: MuJoCo BADQACC: an acceleration is not finite or huge"
+    nan = {"status": "diverged", "status_message": "state is not finite at t = 7.5 s (after the step from t = 7.4 s)"}
+    assert end_reason(nan) == "diverged at 7.5 s: state is not finite"
+    stopped = {"status": "stopped", "status_message": "stopped at t = 300 s (stop_after_s)", "t_end_s": 300.0}
+    assert end_reason(stopped) == "stopped at 300 s"
+    assert end_reason({"status": "interrupted", "status_message": "interrupted at t = 41 s"}) == "interrupted at 41 s"
+    assert end_reason({"status": "completed", "t_end_s": 600.0}) == "completed at 600 s"
+    assert end_reason({}, t_last_s=40.0) == "run ended at 40 s"
+
+
+def test_video_says_why_a_run_ended(tmp_path, gl, monkeypatch):
+    """Side by side, the shorter run's panel prints why it ended (from its summary.json) once the
+    video is past its last record, and not before; a run that completed prints nothing."""
+    write_truss_run(tmp_path / "long", activity=False)
+    write_truss_run(tmp_path / "short", T=5, duration_s=40.0, activity=False)
+    message = "strut 12 strain 0.501 exceeds sim.max_strain 0.5 at t = 40 s"
+    (tmp_path / "short" / "summary.json").write_text(
+        json.dumps({"status": "structure_failed", "status_message": message, "t_end_s": 40.0})
+    )
+    (tmp_path / "long" / "summary.json").write_text(json.dumps({"status": "completed", "t_end_s": 80.0}))
+    drawn: list[dict] = []
+    original = compose.draw_overlay
+
+    def record(image, **kwargs):
+        drawn.append(kwargs)
+        return original(image, **kwargs)
+
+    monkeypatch.setattr(compose, "draw_overlay", record)
+    frames = list(render_frames(tmp_path / "long", compare=tmp_path / "short", width=96, height=54, antialias=False))
+    assert len(frames) == T_FRAMES
+    left, right = drawn[0::2], drawn[1::2]
+    reason = "structure failed at 40 s: strut 12 strain 0.501 > 0.5"
+    assert [d["ended"] for d in right] == [False] * 4 + [True] * 5  # its last record is at 40 s
+    assert all(d["end_line"] == reason for d in right)
+    assert not any(d["ended"] for d in left)
+    # the overlay prints it: the panel differs from one drawn without the reason
+    image = np.zeros((54, 96, 3), np.uint8)
+    args = {**right[-1], "ended": True}
+    assert not np.array_equal(original(image, **args), original(image, **{**args, "end_line": ""}))
+
+
+# --------------------------------------------------------------------------- framing
+
+
+def test_free_rectangles_avoid_every_box():
+    boxes = [(0, 0, 50, 20), (70, 70, 100, 100)]
+    rects = free_rectangles(100, 100, boxes, margin=2)
+    assert rects
+    for x0, y0, x1, y1 in rects:
+        assert 2 <= x0 < x1 <= 98 and 2 <= y0 < y1 <= 98
+        for b in boxes:
+            assert b[2] + 2 <= x0 or b[0] - 2 >= x1 or b[3] + 2 <= y0 or b[1] - 2 >= y1
+    assert (2, 22, 98, 68) in rects  # the band between the boxes, full width
+    assert free_rectangles(100, 100, [(0, 0, 100, 100)], margin=2) == []
+
+
+def _structure_bbox(image: np.ndarray) -> tuple[int, int, int, int]:
+    """(x0, y0, x1, y1) of the pixels the rendered structure covers (the background is black)."""
+    ys, xs = np.nonzero(image.max(axis=-1) > 40)
+    assert xs.size, "nothing rendered"
+    return int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1
+
+
+@pytest.mark.parametrize(
+    ("units", "side_m", "bend_m", "render", "compare"),
+    [
+        (1, 2.0, 0.0, {}, None),  # a single cube
+        (3, 10.0, 2.0, {"exaggeration": 4.0, "inset": "surface_sd_m"}, None),  # bent and exaggerated
+        # a large truss with a manifest distance far too close (the detumble at lattice.units=5)
+        (6, 80.0, 0.0, {"camera": {"distance_m": 5.0}, "inset": "torque_cmd_Nm"}, None),
+        (2, 4.0, 0.5, {"inset": "surface_sd_m"}, (5, 60.0)),  # side by side: small beside large
+    ],
+)
+def test_structure_stays_clear_of_the_overlay(tmp_path, gl, monkeypatch, units, side_m, bend_m, render, compare):
+    """Every frame draws the whole structure inside the panel and outside every part of the
+    overlay (title, values, legend, colour bar, inset, identity, label), whatever its size and
+    the recorded motion."""
+    title = "a long title that takes much of the width of the panel"
+    write_truss_run(tmp_path / "a", units=units, side_m=side_m, bend_m=bend_m, T=5, title=title, render=render)
+    options: dict = {"width": 192, "height": 108, "antialias": False}
+    if compare is not None:
+        write_truss_run(tmp_path / "b", units=compare[0], side_m=compare[1], T=5, activity=False)
+        options["compare"] = tmp_path / "b"
+    drawn: list[tuple[np.ndarray, dict]] = []
+
+    def record(image, **kwargs):
+        drawn.append((image.copy(), kwargs))
+        return compose.__dict__["_draw_overlay_original"](image, **kwargs)
+
+    monkeypatch.setitem(compose.__dict__, "_draw_overlay_original", compose.draw_overlay)
+    monkeypatch.setattr(compose, "draw_overlay", record)
+    frames = list(render_frames(tmp_path / "a", **options))
+    assert len(frames) == 5 and len(drawn) == 5 * (1 + (compare is not None))
+    areas = []
+    for image, kw in drawn:
+        h, w = image.shape[:2]
+        x0, y0, x1, y1 = _structure_bbox(image)
+        assert 0 < x0 and 0 < y0 and x1 < w and y1 < h, f"structure at {(x0, y0, x1, y1)} leaves the panel"
+        boxes = overlay_boxes(
+            w,
+            h,
+            title=kw["title"],
+            lines=[format_time(kw["time_s"]), *kw["values"]],
+            end_line=kw["end_line"] if kw["ended"] else "",
+            legend=kw["legend"],
+            identity=kw["identity"],
+            exaggeration=kw["exaggeration"],
+            label=kw["label"],
+            colour_bar=kw["colour_bar"],
+            inset=kw["inset"],
+            names=kw["names"],
+            units=kw["units"],
+        )
+        for b in boxes:
+            clear = b[2] <= x0 or b[0] >= x1 or b[3] <= y0 or b[1] >= y1
+            assert clear, f"structure at {(x0, y0, x1, y1)} runs under the overlay box {b}"
+        areas.append((x1 - x0) * (y1 - y0) / (w * h))
+    # one camera for both panels: the larger structure sets the distance and is not drawn tiny
+    largest = np.max(np.reshape(areas, (5, -1)), axis=1)
+    assert np.all(largest > 0.02), f"the structure is drawn too small: {largest}"

@@ -25,8 +25,17 @@ image from :class:`mujoco.Renderer` gets the overlay of :mod:`magsail_mj.render.
 time, values with units, legend of every colour shown, colour bar, inset, run identity).
 
 Camera: a free camera whose ``lookat`` follows the centroid of the body positions, with a fixed
-azimuth/elevation in the world (inertial-axes) frame and a fixed distance derived from the
-structure's size, so rotations of the structure are seen as rotations.
+azimuth/elevation in the world (inertial-axes) frame and a fixed distance, so rotations of the
+structure are seen as rotations. The distance is the least at which every body (with its geoms
+and sites, exaggeration included) of every frame projects inside the largest rectangle the
+overlay leaves free (:func:`magsail_mj.render.overlay.free_rectangles`), the centroid drawn at
+that rectangle's centre: a structure of any size stays clear of the title, the values, the
+legend, the colour bar and the inset. A ``camera`` option's ``distance_m`` is used as given; a
+manifest's ``render.camera.distance_m`` only when it is farther than the fit.
+
+Why a run ended (``summary.json``: structure failed with the strut and its strain, diverged with
+the time, stopped, interrupted; :mod:`magsail_mj.render.ending`) is printed under the values
+from the run's last record on.
 
 Thin struts and small nodes of a 100 m truss are far below one pixel; their rendered radii are
 raised to a minimum on-screen size (tendon 1 px wide, actuated tendon 2.5 px, top node 8 px),
@@ -54,6 +63,7 @@ from tqdm import tqdm
 from magsail_mj.analysis.flatness import average_plane, surface_heights
 from magsail_mj.records import STORE_NAME, RecordStoreError, lazy_arrays, open_records
 from magsail_mj.render.backend import ensure_gl_backend, make_renderer
+from magsail_mj.render.ending import end_reason, end_status
 from magsail_mj.render.overlay import (
     ColourBar,
     Inset,
@@ -61,7 +71,10 @@ from magsail_mj.render.overlay import (
     OverlayError,
     colormap,
     draw_overlay,
+    format_time,
     format_value,
+    free_rectangles,
+    overlay_boxes,
 )
 from magsail_mj.render.video import Mp4Writer
 from magsail_mj.resources import (
@@ -81,8 +94,10 @@ __all__ = [
     "RenderError",
     "RunData",
     "RunScene",
+    "camera_basis",
     "frame_plan",
     "load_run",
+    "project_points",
     "render_frames",
     "render_run",
 ]
@@ -151,6 +166,11 @@ class RunData:
       activity_labels: ``render.activity_labels``: ``"1"``/``"-1"`` → meaning of the strut
         activity colours.
       identity: ``scenario <name> · config <hash[:12]>`` (empty when neither is known).
+      end: how the run ended, from ``summary.json`` (else the manifest): ``status``,
+        ``status_message``, ``t_end_s`` and, where written, ``strut_strain_max``, ``t_failed_s``
+        (``{}`` when unknown).
+      end_line: why the run ended, one line (:func:`magsail_mj.render.ending.end_reason`), shown
+        once the video is past the run's last record.
     """
 
     run_dir: Path
@@ -172,6 +192,14 @@ class RunData:
     markers: dict[str, str] = field(default_factory=dict)
     activity_labels: dict[str, str] = field(default_factory=dict)
     identity: str = ""
+    end: dict[str, Any] = field(default_factory=dict)
+    end_line: str = ""
+
+    @property
+    def ended_early(self) -> bool:
+        """The run is known to have ended before its planned end (a status other than
+        ``completed``: structure failed, diverged, stopped, interrupted, ...)."""
+        return self.end.get("status") not in (None, "", "completed")
 
 
 def _check_camera(camera: object, what: str) -> dict[str, float]:
@@ -308,7 +336,9 @@ def _overlay_names(overlay: object, arrays: Mapping[str, np.ndarray], *, where: 
 
 def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir", render_info: Mapping | None = None) -> RunData:
     """Read and validate a run folder (``model.xml``, ``timeseries.zarr`` or ``timeseries.npz``,
-    ``manifest.json``); ``qpos`` and ``strut_activity`` are read lazily from a store.
+    ``manifest.json``, and ``summary.json`` for how the run ended); ``qpos`` and
+    ``strut_activity`` are read lazily from a store. Everything rendering reads from the folder
+    is read here.
 
     Args:
       run_dir: the folder.
@@ -334,6 +364,9 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir", render_info: 
         if not (paths[key].is_dir() if key == "timeseries.npz" and stored else paths[key].is_file()):
             raise RenderError(f"{name}: {str(paths[key])!r} is missing (not a run folder?)")
     manifest = _read_manifest(paths["manifest.json"], name=name, required=render_info is None)
+    # how the run ended: summary.json is written before the video is rendered; the manifest after
+    summary = _read_manifest(run_dir / "summary.json", name=name, required=False)
+    end = end_status(summary) if summary.get("status") else end_status(manifest)
     render = manifest.get("render") if render_info is None else render_info
     render = render or {}
     if not isinstance(render, Mapping):
@@ -468,6 +501,8 @@ def load_run(run_dir: str | os.PathLike, *, name: str = "run_dir", render_info: 
         markers=_text_table(render.get("markers"), f"{where}.markers"),
         activity_labels=_text_table(render.get("activity_labels"), f"{where}.activity_labels"),
         identity=_identity(manifest, run_dir if stored else None),
+        end=end,
+        end_line=end_reason(end, t_last_s=float(t[-1])),
     )
 
 
@@ -584,6 +619,39 @@ class CameraView:
     distance_m: float = 1.0
 
 
+def camera_basis(view: CameraView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(forward, up, right)`` unit vectors of a MuJoCo free camera at ``view``'s azimuth and
+    elevation (as ``mjv_updateCamera`` computes them): the image's x axis is ``right``, its y
+    axis ``up``, and the camera looks along ``forward``."""
+    az, el = math.radians(view.azimuth_deg), math.radians(view.elevation_deg)
+    forward = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+    up = np.array([-math.sin(el) * math.cos(az), -math.sin(el) * math.sin(az), math.cos(el)])
+    return forward, up, np.cross(forward, up)
+
+
+def project_points(
+    points: np.ndarray, *, view: CameraView, lookat: np.ndarray, fovy_deg: float, width: int, height: int
+) -> np.ndarray:
+    """Pixel coordinates (n, 2) — x to the right, y downwards, from the image's top-left corner —
+    of world points (n, 3) seen by a MuJoCo free camera looking at ``lookat`` from
+    ``view.distance_m`` with vertical field of view ``fovy_deg`` on a ``width`` x ``height`` image."""
+    forward, up, right = camera_basis(view)
+    rel = np.asarray(points, float).reshape(-1, 3) - np.asarray(lookat, float)
+    depth = view.distance_m + rel @ forward
+    ty = math.tan(math.radians(fovy_deg) / 2)
+    tx = ty * width / height
+    x_ndc = (rel @ right) / (depth * tx)
+    y_ndc = (rel @ up) / (depth * ty)
+    return np.stack([(x_ndc + 1) * width / 2, (1 - y_ndc) * height / 2], axis=1)
+
+
+def _ndc(rect: tuple[float, float, float, float], width: int, height: int) -> tuple[float, float, float, float]:
+    """A pixel rectangle (x0, y0, x1, y1; y downwards) as (x_lo, x_hi, y_lo, y_hi) in normalised
+    device coordinates (−1 … 1, y upwards)."""
+    x0, y0, x1, y1 = rect
+    return 2 * x0 / width - 1, 2 * x1 / width - 1, 1 - 2 * y1 / height, 1 - 2 * y0 / height
+
+
 class RunScene:
     """Renders the frames of one run: kinematics, colouring, camera, MuJoCo image.
 
@@ -675,6 +743,8 @@ class RunScene:
 
         self._indices: np.ndarray | None = None
         self._centroid: np.ndarray | None = None
+        self._offsets: np.ndarray = np.zeros((0, 0, 3))
+        self._frame_centre = (0.0, 0.0)
         self._heights: np.ndarray | None = None
         self._shift: np.ndarray | None = None
         self.radius_m = float(m.stat.extent)
@@ -780,6 +850,7 @@ class RunScene:
         self._indices = indices
         self._centroid = xpos[:, 1:].mean(axis=1) if m.nbody > 1 else np.zeros((F, 3))
         self.exaggeration = float(exaggeration)
+        self._frame_centre = (0.0, 0.0)
 
         nodes = xpos[:, self.node_bodies] if self.node_bodies.size else None
         top = xpos[:, self.top_bodies] if self.top_bodies is not None else None
@@ -814,6 +885,68 @@ class RunScene:
             node_of_body[self.node_bodies] = np.arange(self.node_bodies.size)
             self._geom_nodes = node_of_body[m.geom_bodyid]
             self._site_nodes = node_of_body[m.site_bodyid]
+            xpos[:, self.node_bodies] += self._shift
+        # where the structure is drawn, about each frame's look-at point (the body centroid), for
+        # the framing (fit_distance); kept in the prepare pass's own array, no copy
+        xpos -= self._centroid[:, None, :]
+        self._offsets = xpos[:, 1:]
+
+    def _body_reach(self) -> np.ndarray:
+        """(nbody − 1,) radius [m] about each body's origin that holds its geoms and sites."""
+        m = self.model
+        reach = np.zeros(m.nbody)
+        if m.ngeom:
+            np.maximum.at(reach, m.geom_bodyid, np.linalg.norm(m.geom_pos, axis=1) + m.geom_rbound)
+        if m.nsite:
+            np.maximum.at(reach, m.site_bodyid, np.linalg.norm(m.site_pos, axis=1) + m.site_size[:, 0])
+        return reach[1:]
+
+    def fit_distance(self, view: CameraView, rects: Sequence[tuple[float, float, float, float]]) -> list[float]:
+        """The least camera distance [m] at which every body of every prepared frame (with its
+        geoms and sites, the exaggeration included) projects inside each rectangle ``rects``
+        (x_lo, x_hi, y_lo, y_hi in normalised device coordinates), the frame's centroid being put
+        at the rectangle's centre (:meth:`set_frame_centre`).
+
+        A point at ``p`` from the centroid, ``a, b, c`` its components along the camera's right,
+        forward and up axes, is inside ``[cx − hx, cx + hx]`` when
+        ``|a − cx·tx·b| ≤ hx·tx·(D + b)`` (``tx``: the half-width's tangent), so
+        ``D ≥ |a − cx·tx·b| / (hx·tx) − b``, and likewise along y; a body's reach ``ρ`` adds
+        ``ρ (1 + |cx|·tx) / (hx·tx) + ρ``.
+        """
+        if self._indices is None:
+            raise RuntimeError("RunScene.fit_distance: call prepare() first")
+        forward, up, right = camera_basis(view)
+        ty = math.tan(math.radians(float(self.model.vis.global_.fovy)) / 2)
+        tx = ty * self.width / self.height
+        rho = self._body_reach()
+        need = np.full(len(rects), 1e-9)
+        offsets = self._offsets
+        for a0 in range(0, offsets.shape[0], 64):
+            block = offsets[a0 : a0 + 64]
+            a, b, c = block @ right, block @ forward, block @ up
+            for k, (x_lo, x_hi, y_lo, y_hi) in enumerate(rects):
+                for along, t, lo, hi in ((a, tx, x_lo, x_hi), (c, ty, y_lo, y_hi)):
+                    centre, half = (lo + hi) / 2, (hi - lo) / 2
+                    if half <= 0:
+                        need[k] = math.inf
+                        continue
+                    d = (np.abs(along - centre * t * b) + rho * (1 + abs(centre) * t)) / (half * t) - b + rho
+                    need[k] = max(need[k], float(d.max(initial=0.0)))
+        return need.tolist()
+
+    def set_frame_centre(self, centre: tuple[float, float]) -> None:
+        """Draw each frame's centroid at ``centre`` (x, y in normalised device coordinates, −1 …
+        1, y upwards) instead of the image's centre."""
+        self._frame_centre = (float(centre[0]), float(centre[1]))
+
+    def lookat(self, frame: int, view: CameraView) -> np.ndarray:
+        """The camera's look-at point [m] of frame number ``frame``: the centroid, moved so that
+        it is drawn at the frame centre (:meth:`set_frame_centre`)."""
+        _, up, right = camera_basis(view)
+        ty = math.tan(math.radians(float(self.model.vis.global_.fovy)) / 2)
+        tx = ty * self.width / self.height
+        cx, cy = self._frame_centre
+        return self._centroid[frame] - view.distance_m * (cx * tx * right + cy * ty * up)
 
     @property
     def auto_distance_m(self) -> float:
@@ -898,7 +1031,7 @@ class RunScene:
             m.geom_rgba[self.top_geoms] = _colormap(cmap)(np.clip(u, 0.0, 1.0))
 
         cam = self._camera
-        cam.lookat[:] = self._centroid[frame]
+        cam.lookat[:] = self.lookat(frame, view)
         cam.distance = float(view.distance_m)
         cam.azimuth = float(view.azimuth_deg)
         cam.elevation = float(view.elevation_deg)
@@ -1089,7 +1222,8 @@ class FrameOptions:
         of all nodes, less its layer's mean (so the layer spacing is kept), is multiplied by k.
       camera: ``{"azimuth_deg", "elevation_deg", "distance_m"}`` (any subset) overriding the
         manifest's ``render.camera`` and the defaults (azimuth 180°, elevation −30°, distance
-        from the structure's size), MuJoCo free-camera convention.
+        at which the structure fits the area the overlay leaves free over the whole run),
+        MuJoCo free-camera convention.
       height_cmap: matplotlib diverging colormap for top-node heights.
       antialias: 4x multisampling; ``False`` renders about twice as fast in software.
       render_info: the render table of the run (title, overlay, camera, ...) to use instead of
@@ -1118,14 +1252,76 @@ def _frame_options(options: Mapping[str, Any]) -> FrameOptions:
     return FrameOptions(**options)
 
 
-def _resolve_view(runs: Sequence[RunData], camera: Mapping | None, scenes: Sequence[RunScene]) -> CameraView:
-    settings = {**runs[0].camera, **_check_camera(camera, "camera")}
-    distance = settings.get("distance_m") or max(s.auto_distance_m for s in scenes)
-    return CameraView(
+def _widest_lines(run: RunData, frame_t: np.ndarray) -> list[str]:
+    """The time line and each overlay series' line at its longest over the run (sampled at up to
+    nine records and the last frame time), for the overlay's reserved area."""
+    picks = np.unique(np.linspace(0, run.t.size - 1, min(run.t.size, 9)).round().astype(np.int64))
+    times = [format_time(float(t)) for t in (*run.t[picks], frame_t[-1])]
+    lines = [max(times, key=len)]
+    for name, values in run.series.items():
+        texts = [format_value(name, values[i], names=run.names, units=run.units, labels=run.labels) for i in picks]
+        lines.append(max(texts, key=len))
+    return lines
+
+
+def _frame_scenes(
+    runs: Sequence[RunData],
+    scenes: Sequence[RunScene],
+    *,
+    camera: Mapping | None,
+    ended: Sequence[np.ndarray],
+    frame_t: np.ndarray,
+    legends: Sequence[list[LegendEntry]],
+    labels: Sequence[str | None],
+    ks: Sequence[float],
+    bar: ColourBar | None,
+) -> CameraView:
+    """The common camera view of the panels, each structure framed in its panel's free area.
+
+    Each panel's overlay (:func:`magsail_mj.render.overlay.overlay_boxes`, with its longest
+    lines) leaves free rectangles; each scene takes the one in which its structure, over all its
+    frames, is drawn largest (:meth:`RunScene.fit_distance`) and centres its frames there. The
+    camera distance is the largest the panels need, or the ``camera`` argument's ``distance_m``
+    when given; a manifest's ``render.camera.distance_m`` is kept when it is farther (the
+    scenario's chosen view), never closer than the structure fits."""
+    explicit = _check_camera(camera, "camera")
+    settings = {**runs[0].camera, **explicit}
+    view = CameraView(
         azimuth_deg=settings.get("azimuth_deg", DEFAULT_AZIMUTH_DEG),
         elevation_deg=settings.get("elevation_deg", DEFAULT_ELEVATION_DEG),
-        distance_m=float(distance),
     )
+    needed = []
+    for run, scene, end, legend, label, k in zip(runs, scenes, ended, legends, labels, ks):
+        w, h = scene.width, scene.height
+        shows_end = bool(end.any()) or run.ended_early
+        boxes = overlay_boxes(
+            w,
+            h,
+            title=run.title,
+            lines=_widest_lines(run, frame_t),
+            end_line=run.end_line if shows_end else "",
+            legend=legend,
+            identity=run.identity,
+            exaggeration=k,
+            label=label,
+            colour_bar=bar if scene.top_bodies is not None else None,
+            inset=Inset(run.inset[0], run.t, run.inset[1], 0) if run.inset is not None else None,
+            names=run.names,
+            units=run.units,
+        )
+        # clear of the overlay by a small gap and by the largest drawn node radius (render-only floor)
+        margin = max(2.0, h / 60) + _MIN_PX["top_node"]
+        rects = free_rectangles(w, h, boxes, margin=margin) or [(margin, margin, w - margin, h - margin)]
+        ndc = [_ndc(r, w, h) for r in rects]
+        distances = scene.fit_distance(view, ndc)
+        best = int(np.argmin(distances))
+        x_lo, x_hi, y_lo, y_hi = ndc[best]
+        scene.set_frame_centre(((x_lo + x_hi) / 2, (y_lo + y_hi) / 2))
+        needed.append(distances[best])
+    distance = explicit.get("distance_m") or max(max(needed), runs[0].camera.get("distance_m", 0.0))
+    if not math.isfinite(distance):
+        distance = max(s.auto_distance_m for s in scenes)
+    return CameraView(azimuth_deg=view.azimuth_deg, elevation_deg=view.elevation_deg, distance_m=float(distance))
 
 
 def _panel_labels(runs: Sequence[RunData], labels: Sequence[str] | None) -> list[str | None]:
@@ -1149,11 +1345,13 @@ def _compose(
     bar: ColourBar | None,
 ) -> np.ndarray:
     """One panel: the rendered ``image`` of record ``record`` with its overlay."""
+    last = record == run.t.size - 1 and run.ended_early  # a run that failed, diverged or stopped
     return draw_overlay(
         image,
         title=run.title,
         time_s=float(run.t[record]),
-        ended=ended,
+        ended=ended or last,
+        end_line=run.end_line,
         values=[
             format_value(n, s[record], names=run.names, units=run.units, labels=run.labels)
             for n, s in run.series.items()
@@ -1210,10 +1408,20 @@ def render_frames(run_dir: str | os.PathLike, **options: Any) -> Iterator[np.nda
                 k = 1.0
             scene.prepare(idx, exaggeration=k)
             ks.append(k)
-        view = _resolve_view(runs, opt.camera, scenes)
         limits = [s.height_limit_m for s in scenes if s.top_bodies is not None]
         bar = ColourBar(opt.height_cmap, max(limits)) if limits else None
         legends = [scene.legend() for scene in scenes]
+        view = _frame_scenes(
+            runs,
+            scenes,
+            camera=opt.camera,
+            ended=ended,
+            frame_t=frame_t,
+            legends=legends,
+            labels=labels,
+            ks=ks,
+            bar=bar,
+        )
         for f in range(frame_t.size):
             panels = [
                 _compose(
