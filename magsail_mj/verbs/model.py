@@ -28,15 +28,15 @@ def build(args: argparse.Namespace) -> int:
     output must be named with ``-o`` (a committed model beside its config is never replaced by
     the model of other values).
     """
-    if args.output is None and args.set:
+    out = output_file(args.output, "--output") if args.output is not None else None
+    cfg = load(args)
+    check_memory(estimate_model_bytes(cfg), what=f"build {args.config}")
+    if out is None and args.set:  # the config's own problems are reported first
         raise CliInputError(
             f"--output: required with --set (without -o, build writes the model of the config as written to "
             f"{str(default_mjcf_path(args.config))!r}; name the model of the overridden config with -o OUT.xml)"
         )
-    out = output_file(args.output, "--output") if args.output is not None else None
-    cfg = load(args)
     out = out or default_mjcf_path(args.config)
-    check_memory(estimate_model_bytes(cfg), what=f"build {args.config}")
     scenario = build_scenario(cfg)
     with atomic_path(out) as tmp:
         tmp.write_text(scenario.spec.to_xml())
