@@ -24,7 +24,21 @@ Estimates:
   (:func:`lattice_counts`), the reflector's coil paths from ``plate.side_m / plate.cell_m``
   (:func:`coil_report_bytes`).
 * :func:`estimate_run_bytes` — the model plus the records of a run, ``duration / timestep /
-  record_every`` records of :func:`record_bytes` each (kept as per-record arrays, then stacked).
+  record_every`` records of :func:`record_bytes` each (kept as per-record arrays, then stacked),
+  plus the larger of its post-processing (:func:`postprocess_bytes`) and the export of its
+  records (:func:`export_bytes`): every allocation that grows with the records or the structure.
+* :func:`postprocess_bytes` — summary, series and plots of a finished (or failed) run: the
+  per-record series and loaded probes (:data:`POSTPROCESS_PER_RECORD`: 5.4 kB measured for the
+  truss detumble; a rigid model's ``qpos`` and ``qvel`` too), one block of the recorded positions with its
+  temporaries (:func:`records_block_bytes` times :data:`POSTPROCESS_BLOCK_FACTOR`), the lattice's
+  low modes (:data:`POSTPROCESS_PER_DOF`), the truss's surface-angle grid (at most
+  :data:`SURFACE_ANGLE_MAX_BYTES` whatever the positions: a structure that blew up to 10¹⁰ m is
+  evaluated on the same bounded grid) and the figures (:data:`POSTPROCESS_BASE_BYTES`).
+  Fine time grids that grow with the duration (the truss's rigid reference at 0.01 s, the
+  commanded impulse per step) are walked in fixed blocks and are not counted.
+* :func:`export_bytes` — ``magsail export``: the records are streamed one chunk at a time (npz)
+  or by Dask chunks (netCDF), :data:`EXPORT_CHUNKS_IN_FLIGHT` chunks of
+  :func:`records_block_bytes` at once.
 * :func:`coil_report_bytes` — the coil paths of ``magsail torque coil`` (their node counts by
   :func:`magsail_mj.geometry.reflector_coil.coil_node_count`).
 * :func:`render_bytes` — a video render: the per-frame position arrays, the frames in flight,
@@ -55,6 +69,7 @@ __all__ = [
     "coil_report_bytes",
     "estimate_model_bytes",
     "estimate_run_bytes",
+    "export_bytes",
     "explicit_arena_mujoco_bytes",
     "format_bytes",
     "lattice_counts",
@@ -67,7 +82,9 @@ __all__ = [
     "mujoco_bytes",
     "npz_array_bytes",
     "parse_memory_limit",
+    "postprocess_bytes",
     "record_bytes",
+    "records_block_bytes",
     "render_bytes",
 ]
 
@@ -337,10 +354,97 @@ def _record_count(cfg: Any) -> float:
     return max(duration, 0.0) / step / every + 1.0
 
 
+#: the most bytes of records post-processing reads at once (``magsail_mj.records.BLOCK_BYTES``,
+#: mirrored so that estimating imports no Zarr; tests/test_memory_bounds.py checks they agree)
+RECORDS_BLOCK_BYTES = 8 * 2**20
+#: a record store's chunk of the widest variable: 4 MiB, at least 16 records
+#: (``magsail_mj.records.Recorder``: ``chunk_bytes = 1 << 22``, ``min_chunk = 16``)
+RECORDS_CHUNK_BYTES = 4 * 2**20
+RECORDS_MIN_CHUNK = 16
+#: bytes per record of the loaded probes (attitude, rates, field, torques, counts: about a hundred
+#: numbers) and the derived series and their figures' copies (5.4 kB measured for the truss
+#: detumble, 401 → 1 601 records), rounded up
+POSTPROCESS_PER_RECORD = 8192.0
+#: bytes of post-processing temporaries per byte of the block of recorded qpos read at once: the
+#: node positions, strut lengths and strains, the failure check's tetrahedra, the best-fit rotation
+#: of one block (traced 8.5 for the 10-unit truss, whose 401 records are one block), doubled
+POSTPROCESS_BLOCK_FACTOR = 16.0
+#: the lattice's low modes per degree of freedom (shift-invert Lanczos: SuperLU's factor, outside
+#: tracemalloc, and the mode shapes; traced 3.7 kB, resident growth 5–15 kB per dof for
+#: nv = 726 … 5 766), rounded up
+POSTPROCESS_PER_DOF = 16e3
+#: the figures, Matplotlib's own buffers and the fixed part of the summary (traced 14–20 MB for
+#: the truss plots), rounded up
+POSTPROCESS_BASE_BYTES = 64.0 * 2**20
+#: the most the truss's surface-angle map allocates, whatever the node positions:
+#: ``magsail_mj.concepts.truss_magnetorquer.surface_angle.surface_angle_bytes`` without the
+#: per-node part (512² samples of 400 B and an 8 MiB hull block; mirrored so that estimating
+#: imports no SciPy; tests/test_memory_bounds.py checks they agree)
+SURFACE_ANGLE_MAX_BYTES = 512.0**2 * 400.0 + 8 * 2**20
+_SURFACE_ANGLE_PER_NODE = 1024.0
+#: record-store chunks in flight while exporting (npz: the chunk, its contiguous copy and its
+#: bytes; netCDF: Dask reads and writes a few chunks at once), counted generously
+EXPORT_CHUNKS_IN_FLIGHT = 8.0
+#: xarray's and the zip writer's fixed part of an export
+EXPORT_BASE_BYTES = 16.0 * 2**20
+
+
+def _qpos_row_bytes(cfg: Any) -> float:
+    """Bytes of one record of ``qpos`` (``nq = nv + 1``: a free joint's quaternion has 4 numbers)."""
+    nv, _, _ = _model_counts(cfg)
+    return 8.0 * (nv + 1)
+
+
+def records_block_bytes(cfg: Any) -> float:
+    """The most bytes of recorded ``qpos`` post-processing, rendering or export hold at once
+    [bytes]: a block of rows of at most :data:`RECORDS_BLOCK_BYTES` (at least one row; all of them
+    when the run is shorter) plus the store chunk decompressed to read it (4 MiB, at least 16
+    rows): :func:`magsail_mj.records.row_blocks`."""
+    row = _qpos_row_bytes(cfg)
+    records = _record_count(cfg)
+    block = min(records * row, max(float(RECORDS_BLOCK_BYTES), row))
+    return block + max(float(RECORDS_CHUNK_BYTES), RECORDS_MIN_CHUNK * row)
+
+
+def postprocess_bytes(cfg: Any) -> float:
+    """Memory of the post-processing of a run of a validated config [bytes]: its summary, series
+    and plots, for a completed or a failed run alike (see the module docstring): per record
+    :data:`POSTPROCESS_PER_RECORD` (and a rigid model's ``qpos`` and ``qvel``, loaded whole, twice;
+    a lattice's are read in blocks); one block of records (:func:`records_block_bytes`) times
+    :data:`POSTPROCESS_BLOCK_FACTOR`; a lattice's modes (:data:`POSTPROCESS_PER_DOF`); the truss's
+    surface-angle map (:data:`SURFACE_ANGLE_MAX_BYTES`, bounded whatever the positions); and
+    :data:`POSTPROCESS_BASE_BYTES`. ``inf`` when the record count is."""
+    records = _record_count(cfg)
+    if records == 0.0:
+        return 0.0  # no MuJoCo records: the lifetime analysis
+    nv, nbody, _ = _model_counts(cfg)
+    per_record = POSTPROCESS_PER_RECORD + (0.0 if _is_lattice(cfg) else 2.0 * 8.0 * (2 * nv + 1))
+    total = POSTPROCESS_BASE_BYTES + records * per_record
+    total += POSTPROCESS_BLOCK_FACTOR * records_block_bytes(cfg)
+    if _is_lattice(cfg):
+        total += POSTPROCESS_PER_DOF * nv
+        if getattr(cfg, "concept", "") == "truss_magnetorquer":
+            total += SURFACE_ANGLE_MAX_BYTES + _SURFACE_ANGLE_PER_NODE * (nbody - 1) / 2
+    return total
+
+
+def export_bytes(cfg: Any) -> float:
+    """Memory of exporting a run's records (``magsail export``, npz or netCDF) [bytes]: they are
+    streamed chunk by chunk, :data:`EXPORT_CHUNKS_IN_FLIGHT` blocks of
+    :func:`records_block_bytes` at once, plus :data:`EXPORT_BASE_BYTES`; 0 for configs without
+    records."""
+    if _record_count(cfg) == 0.0:
+        return 0.0
+    return EXPORT_BASE_BYTES + EXPORT_CHUNKS_IN_FLIGHT * records_block_bytes(cfg)
+
+
 def estimate_run_bytes(cfg: Any) -> float:
-    """Memory a run of a validated config needs [bytes]: :func:`estimate_model_bytes` plus the records
-    (``duration_s / timestep_s / record_every`` records of :func:`record_bytes`)."""
-    return estimate_model_bytes(cfg) + _record_count(cfg) * record_bytes(cfg)
+    """Memory a run of a validated config needs [bytes]: :func:`estimate_model_bytes`, the records
+    (``duration_s / timestep_s / record_every`` records of :func:`record_bytes`) and the larger of
+    their post-processing (:func:`postprocess_bytes`, counted on top of the run's records, as if
+    they were still held) and their export (:func:`export_bytes`, a later process)."""
+    records = _record_count(cfg) * record_bytes(cfg)
+    return estimate_model_bytes(cfg) + records + max(postprocess_bytes(cfg), export_bytes(cfg))
 
 
 def render_bytes(

@@ -9,10 +9,11 @@ the run's records, config values), never the scenario object. Body frame: the be
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
 
 from magsail_mj.analysis.energy import strain_energy, structural_failure
 from magsail_mj.analysis.flatness import surface_sd
@@ -56,19 +57,71 @@ PROFILE_AXES = {"x1": 0, "y1": 1, "z1": 2}
 """Body axis index of a ``profile.axis`` name."""
 
 
+#: samples of a fine time grid held at once by :func:`rigid_response` (0.01 s over the run) and
+#: :func:`commanded_impulse_Nms` (one per step): their grids grow with the run's duration, not its
+#: records, so they are walked in blocks (8 arrays of 64 Ki samples: 4 MiB) and only the values at the
+#: record times are kept
+FINE_BLOCK = 1 << 16
+
+
+def _at_record_times(
+    t: np.ndarray,
+    n: int,
+    segment: Callable[[int, int], tuple[np.ndarray, tuple[np.ndarray, ...]]],
+    *,
+    block: int | None = None,
+) -> tuple[np.ndarray, ...]:
+    """Values at the times ``t`` of functions tabulated on a fine grid of ``n`` points, interpolated
+    linearly (``np.interp``), with the grid walked in blocks of ``block`` intervals (default
+    :data:`FINE_BLOCK`): ``segment(a, b)`` returns the grid times of points ``a … b`` (inclusive)
+    and the functions' values there, and is called for consecutive blocks in order (so it may carry
+    running sums). Each time is interpolated between the same two grid points as over the whole
+    grid, so the values are bit-identical to it; memory is one block whatever ``n``."""
+    block = FINE_BLOCK if block is None else int(block)
+    t = np.asarray(t, dtype=float)
+    order = np.argsort(t, kind="stable")
+    ts = t[order]
+    outs: list[np.ndarray] | None = None
+    a = 0
+    while True:
+        b = min(a + block, n - 1)
+        x, values = segment(a, b)
+        if outs is None:
+            outs = [np.empty(t.shape) for _ in values]
+        lo = 0 if a == 0 else int(np.searchsorted(ts, x[0], side="left"))
+        hi = ts.size if b == n - 1 else int(np.searchsorted(ts, x[-1], side="right"))
+        for out, f in zip(outs, values):
+            out[order[lo:hi]] = np.interp(ts[lo:hi], x, f)
+        if b == n - 1:
+            return tuple(outs)
+        a = b
+
+
 def rigid_response(
     kind: str, t: np.ndarray, *, tau_max: float, t_end: float, t_v: float | None, inertia: float, dt_fine: float = 0.01
 ) -> tuple[np.ndarray, np.ndarray]:
     """Rigid-body angle and rate about the torque axis: ω = ∫τ/I dt, φ = ∫ω dt (from rest).
 
     Integrated by the trapezoid rule on a ``dt_fine`` grid (exact for the piecewise-constant
-    bang-bang profile up to the breakpoints' grid alignment) and sampled at ``t``.
+    bang-bang profile up to the breakpoints' grid alignment) and sampled at ``t``. The grid spans
+    the run (``max(t) / dt_fine`` points): it is walked in blocks of :data:`FINE_BLOCK` points
+    (:func:`_at_record_times`), so memory does not grow with the duration.
     """
-    tf = np.arange(0.0, float(np.max(t)) + dt_fine, dt_fine)
-    tau = torque_profile(kind, tf, tau_max=tau_max, t_end=t_end, t_v=t_v)
-    w = cumulative_trapezoid(tau / inertia, tf, initial=0.0)
-    phi = cumulative_trapezoid(w, tf, initial=0.0)
-    return np.interp(t, tf, phi), np.interp(t, tf, w)
+    t = np.asarray(t, dtype=float)
+    n = math.ceil((float(np.max(t)) + dt_fine) / dt_fine)  # len(np.arange(0.0, max(t) + dt_fine, dt_fine))
+    carry = [0.0, 0.0]  # ω and φ at the block's first point
+
+    def segment(a: int, b: int) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+        tf = np.arange(a, b + 1) * dt_fine  # = np.arange(0.0, …, dt_fine)[a : b + 1], bit for bit
+        y = np.asarray(torque_profile(kind, tf, tau_max=tau_max, t_end=t_end, t_v=t_v), dtype=float) / inertia
+        d = np.diff(tf)
+        w = np.cumsum(np.concatenate([[carry[0]], d * (y[1:] + y[:-1]) / 2.0]))
+        phi = np.cumsum(np.concatenate([[carry[1]], d * (w[1:] + w[:-1]) / 2.0]))
+        carry[:] = [w[-1], phi[-1]]
+        return tf, (phi, w)
+
+    phi, w = _at_record_times(t, n, segment)
+    return phi, w
 
 
 def dominant_period(t: np.ndarray, x: np.ndarray) -> float:
@@ -264,6 +317,7 @@ def dynamic_summary(
             "surface_angle_p95_rad": float(ang.p95),
             "surface_angle_max_rad": float(ang.max),
             "surface_angle_edge_max_rad": float(ang.edge_max),
+            "surface_angle_spacing_m": float(ang.spacing_m),
             **cell_angle_keys(top, R[kmax], nodes_per_side=lat.nodes_per_side),
         }
     )
@@ -341,16 +395,24 @@ def commanded_impulse_Nms(
     at the record times ``t`` [s]: the runner holds the load's torque over each step
     ``[t_k, t_k + δt]`` (``δt = timestep_s``), evaluated at the step's start (``c = 0``,
     ``load_timing = "start"``: a left-rectangle sum) or its mid-point (``c = ½``, ``"midpoint"``:
-    the mid-point rule), so this sum is what a rigid body receives exactly."""
+    the mid-point rule), so this sum is what a rigid body receives exactly. The steps are walked
+    in blocks of :data:`FINE_BLOCK` (memory does not grow with the number of steps)."""
     p = profile
     offset = {"start": 0.0, "midpoint": 0.5}[load_timing] * timestep_s
     n = int(round(float(np.max(t)) / timestep_s))
-    tk = np.arange(n + 1) * timestep_s
-    tau = np.asarray(
-        torque_profile(p.kind, tk + offset, tau_max=p.tau_max_Nm, t_end=p.t_end_s, t_v=p.t_v_s), dtype=float
-    )
-    cum = np.concatenate([[0.0], np.cumsum(tau[:-1] * timestep_s)])
-    return np.interp(t, tk, cum)
+    carry = [0.0]
+
+    def segment(a: int, b: int) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+        tk = np.arange(a, b + 1) * timestep_s
+        tau = np.asarray(
+            torque_profile(p.kind, tk + offset, tau_max=p.tau_max_Nm, t_end=p.t_end_s, t_v=p.t_v_s), dtype=float
+        )
+        cum = np.cumsum(np.concatenate([[carry[0]], tau[:-1] * timestep_s]))
+        carry[0] = cum[-1]
+        return tk, (cum,)
+
+    (impulse,) = _at_record_times(t, n + 1, segment)  # one point per step: walked in blocks
+    return impulse
 
 
 def delivered_impulse_keys(

@@ -492,6 +492,7 @@ def orbital_summary(
             "surface_angle_p95_rad": float(ang.p95),
             "surface_angle_max_rad": float(ang.max),
             "surface_angle_edge_max_rad": float(ang.edge_max),
+            "surface_angle_spacing_m": float(ang.spacing_m),
             "edge_angle_max_deg": math.degrees(float(ang.edge_max)),
             **cell_angle_keys(at_max, R[kmax], nodes_per_side=lat.nodes_per_side),
             "twist_share_at_max_sd": surface_twist_share(uvw),

@@ -31,6 +31,17 @@ At one chosen time (e.g. the time of maximum surface SD):
    the node hull; default one cube edge, estimated as the median nearest-neighbour node
    spacing).
 
+**Memory is bounded whatever the positions.** The evaluation grid has at most
+:data:`MAX_GRID_SIDE` samples along each axis: when the nodes span more than
+``(MAX_GRID_SIDE - 3) × spacing_m`` (a structure that blew up spans kilometres, or 10¹³ m), the
+spacing is widened to ``extent / (MAX_GRID_SIDE - 3)`` and reported (``SurfaceAngle.spacing_m``,
+the summary's ``surface_angle_spacing_m``). A 100 m plate at the default 0.25 m needs 401 samples
+and is not affected. The distance of the grid samples to the hull's boundary is computed in
+blocks of at most :data:`HULL_BLOCK_BYTES`, so the hull's facet count (up to the node count for a
+crumpled layer) does not multiply the grid. The peak is then at most
+:func:`surface_angle_bytes` (:data:`GRID_SAMPLE_BYTES` per grid sample, measured), which the
+memory estimate (:mod:`magsail_mj.resources`) counts.
+
 **Why the fitted maps have boundary artefacts, and the artefact-free cell angles.** Both fits
 extrapolate at the boundary: the Clough–Tocher interpolant estimates each node's gradient from
 its neighbours (a curvature-minimising global fit), which at a boundary node sees one side only,
@@ -66,7 +77,28 @@ from magsail_mj.estimation._arrays import as_points, as_rotations
 
 from magsail_mj.analysis.flatness import average_plane
 
-__all__ = ["SurfaceAngle", "CellSurfaceAngle", "plane_frame", "local_surface_angle", "cell_surface_angle"]
+__all__ = [
+    "GRID_SAMPLE_BYTES",
+    "HULL_BLOCK_BYTES",
+    "MAX_GRID_SIDE",
+    "SurfaceAngle",
+    "CellSurfaceAngle",
+    "grid_spacing",
+    "plane_frame",
+    "local_surface_angle",
+    "cell_surface_angle",
+    "surface_angle_bytes",
+]
+
+#: the most samples along either axis of the evaluation grid of :func:`local_surface_angle` (the
+#: spacing is widened beyond it; 512² samples hold at most :func:`surface_angle_bytes` ≈ 0.1 GiB)
+MAX_GRID_SIDE = 512
+#: the most bytes of the (samples × hull facets) matrix of the hull distance at once
+HULL_BLOCK_BYTES = 8 * 2**20
+#: peak bytes per grid sample of :func:`local_surface_angle` (tracemalloc, the hull block included:
+#: 135–260 B for N = 6 … 60 nodes per side on 75–120 m plates and on layers blown up to 10⁷ m with
+#: the cubic fit, 190 B with the spline), rounded up
+GRID_SAMPLE_BYTES = 400.0
 
 
 @dataclass(frozen=True)
@@ -82,6 +114,8 @@ class SurfaceAngle:
       edge_mask: ``(nv, nu)`` True for samples within ``edge_band_m`` of the boundary.
       median, p95, max, edge_max: statistics of the finite ``alpha`` values [rad].
       edge_band_m: width of the edge band used [m].
+      spacing_m: the grid spacing used [m]: the requested one, or wider when the nodes span more
+        than ``MAX_GRID_SIDE - 3`` of it.
       method: ``"cubic"`` or ``"spline"``.
       centroid, normal, e_u, e_v: ``(3,)`` the average-plane frame, in the input frame.
     """
@@ -103,6 +137,26 @@ class SurfaceAngle:
     normal: np.ndarray
     e_u: np.ndarray
     e_v: np.ndarray
+    spacing_m: float = 0.25
+
+
+def grid_spacing(extent_m: float, spacing_m: float) -> float:
+    """The evaluation grid's spacing [m] for nodes spanning ``extent_m`` (the larger in-plane side
+    of their bounding box): ``spacing_m``, or ``extent_m / (MAX_GRID_SIDE - 3)`` when that is
+    wider, so that each axis (aligned on 0, ends included) has at most :data:`MAX_GRID_SIDE`
+    samples."""
+    extent = float(extent_m)
+    if not (np.isfinite(extent) and extent >= 0):
+        raise ValueError(f"extent_m: must be a finite number >= 0, got {extent_m!r}")
+    return max(float(spacing_m), extent / (MAX_GRID_SIDE - 3))
+
+
+def surface_angle_bytes(n_points: int) -> float:
+    """The most memory :func:`local_surface_angle` allocates for ``n_points`` top-layer nodes
+    [bytes], whatever their positions: :data:`MAX_GRID_SIDE`² grid samples of
+    :data:`GRID_SAMPLE_BYTES`, one hull-distance block (:data:`HULL_BLOCK_BYTES`) and the
+    triangulation and interpolant of the nodes (1 kB per node)."""
+    return MAX_GRID_SIDE**2 * GRID_SAMPLE_BYTES + HULL_BLOCK_BYTES + 1024.0 * float(n_points)
 
 
 def plane_frame(points: np.ndarray, R_body: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -157,10 +211,15 @@ def _axis(lo: float, hi: float, h: float) -> np.ndarray:
 
 def _hull_distance(nodes_uv: np.ndarray, query: np.ndarray) -> np.ndarray:
     """Distance [m] from each query point to the boundary of the nodes' convex hull (positive
-    inside; negative outside)."""
+    inside; negative outside), in blocks of query points whose (points × facets) matrix holds at
+    most :data:`HULL_BLOCK_BYTES`."""
     hull = ConvexHull(nodes_uv)
     eq = hull.equations  # unit outward normals: n.x + b <= 0 inside
-    return -np.max(query @ eq[:, :2].T + eq[:, 2], axis=-1)
+    step = max(1, HULL_BLOCK_BYTES // (8 * eq.shape[0]))
+    out = np.empty(query.shape[0])
+    for k in range(0, query.shape[0], step):
+        out[k : k + step] = -np.max(query[k : k + step] @ eq[:, :2].T + eq[:, 2], axis=-1)
+    return out
 
 
 def _stats(alpha: np.ndarray, edge: np.ndarray) -> tuple[float, float, float, float]:
@@ -194,7 +253,8 @@ def local_surface_angle(
       top_points: ``(n, 3)`` top-layer node positions [m] (world frame). For
         ``method="spline"`` an ``N × N`` grid in j-major order (index ``j N + i``).
       R_body: ``(3, 3)`` best-fit body-to-world rotation at the same time.
-      spacing_m: evaluation grid spacing [m] (default 0.25 m).
+      spacing_m: evaluation grid spacing [m] (default 0.25 m); widened to keep at most
+        :data:`MAX_GRID_SIDE` samples per axis (:func:`grid_spacing`; the result's ``spacing_m``).
       method: ``"cubic"`` (Clough–Tocher, default) or ``"spline"`` (bicubic on the node grid).
       nodes_per_side: ``N`` for ``"spline"``; default ``sqrt(n)`` (ignored by ``"cubic"``).
       edge_band_m: width of the boundary band for ``edge_max`` [m]; default one cube edge
@@ -212,6 +272,8 @@ def local_surface_angle(
     X = x - c
     uv = np.stack([X @ eu, X @ ev], axis=-1)
     wn = X @ n
+    if not (np.all(np.isfinite(uv)) and np.all(np.isfinite(wn))):
+        raise ValueError("top_points: too large for the average-plane frame (its coordinates overflow)")
 
     if edge_band_m is None:
         dist, _ = cKDTree(uv).query(uv, k=2)
@@ -221,7 +283,7 @@ def local_surface_angle(
         if not (np.isfinite(band) and band >= 0):
             raise ValueError(f"edge_band_m: must be a finite number >= 0, got {edge_band_m!r}")
 
-    h = float(spacing_m)
+    h = grid_spacing(float(np.max(np.ptp(uv, axis=0))), spacing_m)
     if method == "cubic":
         tri = Delaunay(uv)
         interp = CloughTocher2DInterpolator(tri, wn)
@@ -287,6 +349,7 @@ def local_surface_angle(
         normal=n,
         e_u=eu,
         e_v=ev,
+        spacing_m=h,
     )
 
 
