@@ -12,6 +12,7 @@ the summary.
 from __future__ import annotations
 
 import math
+import time
 import tracemalloc
 from types import SimpleNamespace
 
@@ -28,7 +29,10 @@ from magsail_mj.concepts.truss_magnetorquer.surface_angle import (
     local_surface_angle,
     surface_angle_bytes,
 )
+from magsail_mj.config import ConfigError
 from magsail_mj.control.profiles import torque_profile
+from magsail_mj.sweep import load_sweep
+from magsail_mj.sweep.design import DESIGN_RUN_BYTES, MAX_RUNS, design_points, design_size
 from tests.conftest import REPO
 
 DETUMBLE = REPO / "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml"
@@ -123,3 +127,35 @@ def test_post_processing_stays_below_its_estimate_and_keeps_the_failure_metrics(
         assert summary["surface_angle_spacing_m"] > 0.25  # the grid was widened, and says so
     else:
         assert summary["surface_angle_spacing_m"] == 0.25
+
+
+def _sweep_file(tmp_path, body: str):
+    path = tmp_path / "design.toml"
+    path.write_text(
+        f'name = "design"\nconfig = "{REPO / "magsail_mj/concepts/cnusail/configs/detumble_pre.toml"}"\n{body}'
+    )
+    return path
+
+
+def test_huge_sweep_designs_are_refused_before_expansion(tmp_path):
+    """A 10⁶-point grid (once still validating after 120 s) and samples = 10⁸ (once a MemoryError
+    after 112 s) are refused at once, naming the keys and the count; so is a design within
+    MAX_RUNS whose bookkeeping is above the memory limit."""
+    values = ", ".join(str(i) for i in range(100))
+    grid = _sweep_file(tmp_path, f'[grid]\n"sim.seed" = [{values}]\n"mass.a" = [{values}]\n"mass.b" = [{values}]\n')
+    t0 = time.perf_counter()
+    with pytest.raises(ConfigError, match=r"grid\.sim\.seed \(100\) × grid\.mass\.a \(100\) × .*1000000 runs") as err:
+        load_sweep(grid)
+    assert f"limit of {MAX_RUNS} runs" in str(err.value)
+    mc = _sweep_file(tmp_path, '[monte_carlo]\nsamples = 100000000\n"sim.seed" = { dist = "choice", values = [1] }\n')
+    with pytest.raises(ConfigError, match=r"monte_carlo\.samples \(100000000\).*100000000 runs"):
+        load_sweep(mc)
+    both = {"grid": {"sim": {"seed": list(range(400))}}, "monte_carlo": {"samples": 250, "seed": 0}}
+    assert design_size(both) == (100_000, "grid.sim.seed (400) × monte_carlo.samples (250)")
+    with (
+        resources.memory_limit(int(999 * DESIGN_RUN_BYTES)),
+        pytest.raises(resources.MemoryLimitError, match=r"monte_carlo.samples \(1000\) = 1000 runs"),
+    ):
+        design_points({"monte_carlo": {"samples": 1000, "x": {"dist": "uniform", "low": 0, "high": 1}}})
+    assert time.perf_counter() - t0 < 2.0
+    assert len(design_points({"monte_carlo": {"samples": 3, "x": {"dist": "uniform", "low": 0, "high": 1}}})) == 3

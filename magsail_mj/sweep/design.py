@@ -25,6 +25,14 @@ Draws are reproducible and stable: the value of key ``k`` in sample ``i`` comes 
 generator seeded with ``(seed, i, hash(k))``, so it depends neither on ``samples`` nor on the
 other keys (adding samples or keys keeps the earlier draws, hence their config hashes and results).
 With both tables, every grid point gets every sample (ids ``<grid id>/s<i>``).
+
+Size. A design is counted before it is expanded (:func:`design_size`: the product of the grid's
+value counts, times ``samples``) and refused at once (:func:`check_design_size`, a
+:class:`~magsail_mj.config.ConfigError` naming the keys and the count) above :data:`MAX_RUNS`
+runs, and above the memory limit (:func:`magsail_mj.resources.check_memory`) at
+:data:`DESIGN_RUN_BYTES` a run: a sweep validates every run's config before anything starts and
+keeps a record per run, so a 10⁶-point grid once validated for minutes and
+``samples = 100000000`` ran out of memory after 112 s.
 """
 
 from __future__ import annotations
@@ -42,8 +50,29 @@ from typing import Any
 import numpy as np
 
 from magsail_mj.config import ConfigError
+from magsail_mj.resources import check_memory
 
-__all__ = ["DesignPoint", "grid_points", "monte_carlo_points", "design_points", "toml_literal"]
+__all__ = [
+    "DESIGN_RUN_BYTES",
+    "MAX_RUNS",
+    "DesignPoint",
+    "check_design_size",
+    "design_size",
+    "grid_points",
+    "monte_carlo_points",
+    "design_points",
+    "toml_literal",
+]
+
+#: the most runs a ``[grid]`` / ``[monte_carlo]`` design may have (grid points × samples); larger
+#: designs are refused before they are expanded (``design_points(..., max_runs=...)`` and
+#: ``load_sweep(..., max_runs=...)`` take another limit)
+MAX_RUNS = 100_000
+#: memory a designed run holds while a sweep is loaded and runs [bytes]: its design point and
+#: overrides, its validated config's hash, its ``SweepRun``, its record and summary row (32.8 kB
+#: traced per run while loading a 2 000-point grid of a CNUSAIL config; doubled for the records and
+#: summaries that follow)
+DESIGN_RUN_BYTES = 64 * 1024
 
 DISTRIBUTIONS = ("uniform", "normal", "log-uniform", "choice", "direction", "epoch")
 _DIST_KEYS = {
@@ -320,8 +349,53 @@ def monte_carlo_points(table: Any) -> list[DesignPoint]:
     ]
 
 
-def design_points(tree: dict[str, Any]) -> list[DesignPoint]:
-    """The runs of a sweep file's ``[grid]`` and ``[monte_carlo]`` tables (none without them)."""
+def design_size(tree: dict[str, Any]) -> tuple[int, str]:
+    """``(runs, how)`` of a sweep file's design, counted without expanding it: the product of the
+    value counts of the ``[grid]`` entries times ``monte_carlo.samples``; ``how`` says which keys
+    gave the count (e.g. ``"grid.a (1000) × grid.b (1000)"``). Entries that are not a non-empty
+    list, and a ``samples`` that is not an integer >= 1, count 1 (their own checks report them)."""
+    counts: list[tuple[str, int]] = []
+    grid = tree.get("grid")
+    if isinstance(grid, dict):
+        for name, values in _flatten(grid, leaf=lambda v: False).items():
+            if isinstance(values, list) and values:
+                counts.append((f"grid.{name}", len(values)))
+    mc = tree.get("monte_carlo")
+    if isinstance(mc, dict):
+        samples = mc.get("samples")
+        if isinstance(samples, int) and not isinstance(samples, bool) and samples >= 1:
+            counts.append(("monte_carlo.samples", samples))
+    return math.prod(n for _, n in counts), " × ".join(f"{k} ({n})" for k, n in counts)
+
+
+def check_design_size(tree: dict[str, Any], *, max_runs: int = MAX_RUNS) -> int:
+    """The number of runs of a sweep file's design (:func:`design_size`), refused before it is
+    expanded when it is above ``max_runs`` or its bookkeeping (:data:`DESIGN_RUN_BYTES` a run)
+    above the memory limit.
+
+    Raises:
+      ConfigError: more than ``max_runs`` runs (naming the keys, their counts and the total).
+      MemoryLimitError: the runs' bookkeeping is above the memory limit in force.
+    """
+    if isinstance(max_runs, bool) or not isinstance(max_runs, int) or max_runs < 1:
+        raise ValueError(f"max_runs: must be an integer >= 1, got {max_runs!r}")
+    runs, how = design_size(tree)
+    if runs > max_runs:
+        raise ConfigError(
+            [
+                f"{how}: the design has {runs} runs, above the limit of {max_runs} runs a sweep file may "
+                "design (magsail_mj.sweep.design.MAX_RUNS); use fewer values or samples, or split the sweep"
+            ]
+        )
+    check_memory(runs * DESIGN_RUN_BYTES, what=f"sweep design {how} = {runs} runs")
+    return runs
+
+
+def design_points(tree: dict[str, Any], *, max_runs: int = MAX_RUNS) -> list[DesignPoint]:
+    """The runs of a sweep file's ``[grid]`` and ``[monte_carlo]`` tables (none without them),
+    after :func:`check_design_size` (refused before anything is expanded when there are more than
+    ``max_runs``, or more than the memory limit holds)."""
+    check_design_size(tree, max_runs=max_runs)
     grid = grid_points(tree["grid"]) if "grid" in tree else None
     mc = monte_carlo_points(tree["monte_carlo"]) if "monte_carlo" in tree else None
     if grid is None or mc is None:
