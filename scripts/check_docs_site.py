@@ -8,7 +8,11 @@ Two checks, over every ``*.html`` page of the build folder:
 1. **Links** (static, no browser): every ``href``/``src`` of ``<a>``, ``<img>``, ``<source>``,
    ``<video>``, ``<link>``, ``<script>`` that is internal (no scheme, not ``mailto:``) names a file
    that exists in the build; a ``#fragment`` on a page names an ``id`` (or ``name``) on that page.
-   External links (``http(s)://``) are counted, not followed (there is no internet).
+   External links (``http(s)://``) are counted, not followed (there is no internet). The site
+   must read offline: no page loads a script or a style sheet from outside the site, a page with
+   formulas loads the site's own MathJax (``_static/mathjax/tex-mml-chtml.js``, vendored by
+   ``docs/conf.py``), and every ``<video>`` has a ``poster`` (a picture shown before it plays)
+   that exists.
 2. **Browser**: the folder is served over HTTP on 127.0.0.1 (Python's ``http.server``, which sets
    the MIME type from the extension) and each page is opened in headless Chromium
    (``--headless --no-sandbox``), driven through the DevTools protocol over a websocket
@@ -18,8 +22,9 @@ Two checks, over every ``*.html`` page of the build folder:
    ``readyState ≥ 1`` (metadata) with a finite ``duration > 0``, that each of its ``<source>``
    answers HTTP 200 with the ``Content-Type`` its ``type`` attribute states and, when the browser
    says it can play that type, loads on its own in a detached ``<video>`` (so the WebM is checked
-   even where the MP4 was chosen), that the browser can play at least one source, and that no
-   JavaScript exception was thrown.
+   even where the MP4 was chosen), that the browser can play at least one source, that MathJax
+   typeset the page's formulas (one ``mjx-container`` per formula), and that no JavaScript
+   exception was thrown.
 
 Sphinx does not delete the pages of a removed document from the build folder, and they are checked
 too: remove ``docs/_build`` for a check of the current pages only (CI builds into a fresh clone).
@@ -81,6 +86,11 @@ PAGE_CHECK_JS = r"""
   await Promise.all(images.filter(img => !img.complete).map(img => wait(img, ['load', 'error'], 10000)));
   for (const img of images) out.images.push({src: img.currentSrc || img.src,
                                              ok: img.complete && img.naturalWidth > 0});
+  const formulas = document.querySelectorAll('.math').length;
+  if (formulas && window.MathJax && MathJax.startup && MathJax.startup.promise)
+    await Promise.race([MathJax.startup.promise, new Promise(done => setTimeout(done, 15000))]);
+  out.math = {formulas, typeset: document.querySelectorAll('mjx-container').length,
+              mathjax: Boolean(window.MathJax && MathJax.version)};
   for (const video of document.querySelectorAll('video')) {
     if (video.readyState < 1) {
       // a failed <source> fires its error event on itself, not on the video: wait for metadata,
@@ -138,10 +148,22 @@ class _PageParser(HTMLParser):
         super().__init__(convert_charrefs=True)
         self.anchors: set[str] = set()
         self.links: list[tuple[str, str, str]] = []
+        self.loads: list[tuple[str, str]] = []  # (tag, URL) of scripts and style sheets
+        self.posters: list[str | None] = []  # each <video>'s poster (None: none)
+        self.formulas = 0  # elements of class "math" (Sphinx's MathJax markup)
 
     def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
-        """Record ``id``/``name`` anchors and the link attributes of ``_LINK_ATTRS``."""
+        """Record ``id``/``name`` anchors, the link attributes of ``_LINK_ATTRS``, the scripts and
+        style sheets loaded, the videos' posters and the formulas."""
         values = {k: v for k, v in attrs if v is not None}
+        if tag == "script" and "src" in values:
+            self.loads.append((tag, values["src"]))
+        if tag == "link" and "stylesheet" in values.get("rel", "").split() and "href" in values:
+            self.loads.append((tag, values["href"]))
+        if tag == "video":
+            self.posters.append(values.get("poster") or None)
+        if "math" in values.get("class", "").split():
+            self.formulas += 1
         for key in ("id", "name"):
             if key in values and (key == "id" or tag == "a"):
                 self.anchors.add(values[key])
@@ -167,6 +189,22 @@ def _parse(page: Path) -> _PageParser:
     return parser
 
 
+def _offline_problems(where: str, parser: _PageParser) -> list[str]:
+    """A script or style sheet from outside the site, formulas without the site's own MathJax, a
+    video without a poster (whether the files exist is the link check's)."""
+    problems = [
+        f"{where}: <{tag}> loads {url!r} from outside the site (the site must read offline)"
+        for tag, url in parser.loads
+        if urlsplit(url).scheme or url.startswith("//")
+    ]
+    if parser.formulas and not any(
+        tag == "script" and urlsplit(url).path.endswith("mathjax/tex-mml-chtml.js") for tag, url in parser.loads
+    ):
+        problems.append(f"{where}: {parser.formulas} formulas but no script _static/mathjax/tex-mml-chtml.js")
+    problems += [f"{where}: <video> without a poster (a black box until it plays)" for p in parser.posters if not p]
+    return problems
+
+
 def check_links(site: Path) -> LinkReport:
     """Check every internal link and anchor of the HTML pages below ``site`` (see the module docstring)."""
     site = site.resolve()
@@ -175,6 +213,7 @@ def check_links(site: Path) -> LinkReport:
     report.pages = len(parsed)
     for page, parser in parsed.items():
         where = page.relative_to(site)
+        report.problems += _offline_problems(str(where), parser)
         for tag, attr, value in parser.links:
             parts = urlsplit(value)
             if parts.scheme or value.startswith("//"):
@@ -336,6 +375,12 @@ def _page_problems(where: str, result: dict[str, Any], exceptions: list[str]) ->
             f"{result.get('textLength', 0)} characters of text)"
         )
     problems += [f"{where}: image did not load: {img['src']}" for img in result.get("images", []) if not img["ok"]]
+    math = result.get("math") or {}
+    if math.get("formulas") and math.get("typeset", 0) < math["formulas"]:
+        problems.append(
+            f"{where}: MathJax typeset {math.get('typeset', 0)} of {math['formulas']} formulas "
+            f"(MathJax {'loaded' if math.get('mathjax') else 'not loaded'})"
+        )
     for video in result.get("videos", []):
         name = video["currentSrc"] or (video["sources"][0]["src"] if video["sources"] else "<video>")
         if video["readyState"] < 1 or not video["duration"] > 0 or video["error"]:

@@ -76,8 +76,10 @@ def site(tmp_path: Path) -> Path:
             f"""
         <p>{text}</p>
         <img src="good.png" alt="good"> <img src="missing.png" alt="missing">
-        <video controls><source src="clip.mp4" type="video/mp4"><source src="clip.webm" type="video/webm"></video>
-        <video controls><source src="gone.mp4" type="video/mp4"><source src="gone.webm" type="video/webm"></video>
+        <video controls poster="good.png"><source src="clip.mp4" type="video/mp4">
+          <source src="clip.webm" type="video/webm"></video>
+        <video controls poster="good.png"><source src="gone.mp4" type="video/mp4">
+          <source src="gone.webm" type="video/webm"></video>
         <a href="other.html#here">ok</a> <a href="other.html#nowhere">bad anchor</a>
         <a href="nothing.html">bad page</a> <a href="https://example.org/">external</a> <a href="#">top</a>""",
         )
@@ -102,6 +104,71 @@ def test_link_check_finds_missing_pages_files_and_anchors(site):
     assert "no file gone.mp4" in problems and "no file gone.webm" in problems
     assert len(report.problems) == 5, report.problems
     assert "good.png" not in problems and "#here" not in problems and "clip." not in problems
+
+
+def test_offline_check_finds_outside_scripts_formulas_without_mathjax_and_videos_without_poster(tmp_path):
+    """The site must read offline: a script or style sheet from a CDN, formulas without the site's
+    own MathJax, a video without a poster or with a missing one are each reported."""
+    Image.fromarray(np.full((8, 12, 3), 200, dtype=np.uint8)).save(tmp_path / "frame.png")
+    (tmp_path / "_static" / "mathjax").mkdir(parents=True)
+    (tmp_path / "_static" / "mathjax" / "tex-mml-chtml.js").write_text("")
+    cdn = '<script src="https://cdn.jsdelivr.net/npm/mathjax@3/es5/tex-mml-chtml.js"></script>'
+    sheet = '<link rel="stylesheet" href="//fonts.example.org/a.css">'
+    video = '<video controls{}><source src="frame.png" type="video/mp4"></video>'
+    (tmp_path / "index.html").write_text(
+        _page("A", cdn + sheet + '<span class="math notranslate">\\(x\\)</span>' + video.format(""))
+    )
+    (tmp_path / "good.html").write_text(
+        _page(
+            "B",
+            '<script src="_static/mathjax/tex-mml-chtml.js"></script><div class="math">\\[y\\]</div>'
+            + video.format(' poster="frame.png"')
+            + '<a href="https://example.org/">a link is fine</a>',
+        )
+    )
+    (tmp_path / "gone.html").write_text(_page("C", video.format(' poster="nothing.png"')))
+    problems = check_docs_site.check_links(tmp_path).problems
+    assert len(problems) == 5, problems
+    text = "\n".join(problems)
+    assert "index.html: <script> loads 'https://cdn.jsdelivr.net" in text and "from outside the site" in text
+    assert "index.html: <link> loads '//fonts.example.org/a.css'" in text
+    assert "index.html: 1 formulas but no script _static/mathjax/tex-mml-chtml.js" in text
+    assert "index.html: <video> without a poster" in text
+    assert "gone.html: <video poster='nothing.png'>: no file nothing.png" in text
+    assert "good.html" not in text
+
+
+#: a stand-in for MathJax: typesets each formula (class "math") into an mjx-container
+_FAKE_MATHJAX = """
+window.MathJax = {version: 'test', startup: {promise: Promise.resolve()}};
+for (const el of document.querySelectorAll('.math'))
+  el.appendChild(document.createElement('mjx-container'));
+"""
+
+
+@needs_chromium
+def test_browser_check_finds_formulas_mathjax_did_not_typeset(tmp_path):
+    (tmp_path / "mathjax.js").write_text(_FAKE_MATHJAX)
+    text = "<p>" + "Plain text of a page. " * 5 + "</p>"
+    formulas = '<span class="math">\\(a\\)</span><div class="math">\\[b\\]</div>'
+    (tmp_path / "typeset.html").write_text(_page("T", text + formulas + '<script src="mathjax.js"></script>'))
+    (tmp_path / "raw.html").write_text(_page("R", text + formulas))
+    report = check_docs_site.check_in_browser(tmp_path, binary=CHROMIUM, timeout_s=30)
+    assert report.problems == ["raw.html: MathJax typeset 0 of 2 formulas (MathJax not loaded)"]
+
+
+def test_every_video_has_a_poster_that_exists():
+    """Each page's <video> shows a picture before it plays (not a black box): a poster in _static."""
+    videos = 0
+    for page in sorted(DOCS.rglob("*.md")):
+        if "_build" in page.parts:
+            continue
+        for block in _VIDEO.findall(page.read_text()):
+            videos += 1
+            poster = re.search(r'<video\b[^>]*\bposter="\.\./_static/([\w.-]+)"', block)
+            assert poster, f"{page.relative_to(ROOT)}: <video> without a poster"
+            assert (DOCS / "_static" / poster[1]).is_file(), (page, poster[1])
+    assert videos >= 6
 
 
 def test_link_check_passes_a_clean_page(tmp_path):
