@@ -39,6 +39,8 @@ REPO = Path(__file__).resolve().parents[1]
 #: the series of a case figure, read from each run's record store
 CASE_SERIES = ("t", "phi_rad", "omega_body_rad_s", "surface_sd_m", "phi_rigid_rad", "omega_rigid_rad_s")
 SWEEP = REPO / "models" / "sweeps" / "truss_dist_vs_central.toml"
+#: frames of each side-by-side video (scripts/readme_picture.py finds its frame by the same plan)
+VIDEO_FRAMES = 360
 KEYS = (
     "status",
     "t_end_s",
@@ -193,7 +195,7 @@ def main(argv: list[str] | None = None) -> int:
                             out / f"case_{c}_{prof}_side_by_side.mp4",
                             compare=dist,
                             labels=["centralised", "distributed"],
-                            max_frames=360,
+                            max_frames=VIDEO_FRAMES,
                             fps=30,
                         )
                     )

@@ -31,9 +31,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 from scipy.spatial.transform import Rotation
 
 from magsail_mj.config import load_config
+from tests.conftest import load_file_module
 from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.lattice.mjcf import build_truss_spec
 from magsail_mj.plotting import CHECK_ENV
@@ -883,3 +885,29 @@ def test_structure_stays_clear_of_the_overlay(tmp_path, gl, monkeypatch, units, 
     # one camera for both panels: the larger structure sets the distance and is not drawn tiny
     largest = np.max(np.reshape(areas, (5, -1)), axis=1)
     assert np.all(largest > 0.02), f"the structure is drawn too small: {largest}"
+
+
+def test_readme_picture_is_the_video_frame_where_the_left_run_ended(tmp_path, gl):
+    """scripts/readme_picture.py (the main job's last step) writes the side-by-side video's frame
+    at the centralised run's end, found by the renderer's frame plan."""
+    runs = tmp_path / "runs"
+    write_truss_run(runs / "case_c_distributed_bangbang", activity=False)
+    write_truss_run(runs / "case_c_central_bangbang", T=5, duration_s=40.0, activity=False)
+    (runs / "case_c_central_bangbang" / "summary.json").write_text(
+        json.dumps({"status": "structure_failed", "status_message": "strut 3 strain 0.6 exceeds sim.max_strain 0.5"})
+    )
+    video = render_run(
+        runs / "case_c_central_bangbang",
+        runs / "case_c_bangbang_side_by_side.mp4",
+        compare=runs / "case_c_distributed_bangbang",
+        width=96,
+        height=54,
+        antialias=False,
+    )
+    script = load_file_module("scripts", "readme_picture")
+    out = tmp_path / "picture.png"
+    assert script.main(["--runs", str(runs), "--max-frames", str(T_FRAMES), "--out", str(out)]) == 0
+    with Image.open(out) as img:
+        picture = np.asarray(img.convert("RGB"))
+    assert np.array_equal(picture, read_mp4(video)[4])  # frame 4: t = 40 s, the central run's last record
+    assert script.main(["--runs", str(tmp_path / "none"), "--out", str(out)]) == 2
