@@ -59,6 +59,7 @@ __all__ = [
     "check_lattice_numbers",
     "concept_models",
     "config_hash",
+    "derived_quantity",
     "finite_product",
     "load_config",
     "normalised",
@@ -270,6 +271,35 @@ def finite_product(key: str, *factors: float, what: str, minimum: float = 0.0, o
     if not value > minimum:
         raise ConfigProblem(key, f"makes the {what} {value:.6g}, which must be > {minimum:g}", others=others)
     return value
+
+
+def _extremeness(value: Any) -> float:
+    """How far a number is from 1 in decades (0 for zero and non-numbers; a vector: its most
+    extreme item)."""
+    if isinstance(value, (tuple, list)):
+        return max(map(_extremeness, value), default=0.0)
+    try:
+        v = abs(float(value))
+    except (TypeError, ValueError):
+        return 0.0
+    return abs(math.log10(v)) if 0 < v < math.inf else 0.0
+
+
+def derived_quantity(what: str, *factors: float, keys: dict[str, Any], minimum: float = 0.0) -> float:
+    """The product of ``factors``: a quantity the build derives from the config keys ``keys`` (key
+    path → value), e.g. a controller gain; a :class:`ConfigProblem` when it overflows float64 or is
+    not above ``minimum``. The problem is reported on the key whose value is farthest from 1 (in
+    decades: the likeliest culprit) and names every key with its value, e.g.
+    ``coil.I_max_A: the B-dot gain k overflows float64 (coil.I_max_A = 1e+300, ...)``."""
+    value = 1.0
+    for f in factors:
+        value *= f
+    if math.isfinite(value) and value > minimum:
+        return value
+    primary = max(keys, key=lambda k: _extremeness(keys[k]))
+    named = ", ".join(f"{k} = {v!r}" for k, v in keys.items())
+    problem = "overflows float64" if not math.isfinite(value) else f"is {value:.6g}, which must be > {minimum:g}"
+    raise ConfigProblem(primary, f"the {what} {problem} ({named})")
 
 
 def check_lattice_numbers(

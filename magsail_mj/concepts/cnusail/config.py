@@ -16,7 +16,7 @@ import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from magsail_mj.concepts import register_config
-from magsail_mj.config import MJ_MINVAL, ConfigProblem, SimConfig, StrictModel, normalised
+from magsail_mj.config import MJ_MINVAL, ConfigProblem, SimConfig, StrictModel, derived_quantity, normalised
 from magsail_mj.environment.config import (
     AtmosphereConfig,
     DragConfig,
@@ -57,6 +57,11 @@ DEFAULT_BUS_CENTROID: dict[str, Vec3] = {"stowed": (0.005, 0.005, -0.02), "deplo
 """Bus centroid relative to the CM (assumed)."""
 
 
+BOOM_MIN_M = 1e-12
+"""Shortest boom capsule of the deployed model [m] (MuJoCo needs its end points apart by more than
+mjMINVAL = 1e-15 m)."""
+
+
 class SpacecraftConfig(StrictModel):
     """``[spacecraft]``: mass properties and geometry (assumed items of are keys).
 
@@ -81,6 +86,28 @@ class SpacecraftConfig(StrictModel):
         if v is not None and min(v) <= MJ_MINVAL:
             raise ValueError(f"every principal moment must be > {MJ_MINVAL:g} kg m² (mjMINVAL)")
         return v
+
+    @field_validator("bus_size_m")
+    @classmethod
+    def _bus_size(cls, v):
+        if min(v) <= MJ_MINVAL:
+            raise ValueError(f"every edge must be > {MJ_MINVAL:g} m (a MuJoCo box; mjMINVAL)")
+        return v
+
+    @model_validator(mode="after")
+    def _booms(self) -> SpacecraftConfig:
+        """The four booms of the deployed model are capsules of length √A / √2 from the sail centre
+        ``r_cp_m``: MuJoCo refuses a capsule whose end points coincide in floats, so that length
+        must exceed :data:`BOOM_MIN_M` and the rounding of the centre's coordinates."""
+        if self.configuration == "deployed":
+            ulp = 4 * 2.0**-52 * max(1.0, *map(abs, self.r_cp_m))
+            derived_quantity(
+                "boom length √A / √2 (a MuJoCo capsule)",
+                self.sail_side_m / math.sqrt(2.0),
+                keys={"sail_area_m2": self.sail_area_m2, "r_cp_m": self.r_cp_m},
+                minimum=max(BOOM_MIN_M, ulp),
+            )
+        return self
 
     @property
     def inertia(self) -> Vec3:
@@ -358,7 +385,23 @@ class CnusailConfig(StrictModel):
         problems += self._mass_problems()
         if problems:
             raise ValueError("; ".join(problems))
+        self._gains()
         return self
+
+    def _gains(self) -> None:
+        """The eigen-axis gains the build derives (:func:`~magsail_mj.concepts.cnusail.eigenaxis.eigen_axis_gains`,
+        Eqs. 33–36): ``k = 2 ω_n²``, ``c = 2 ζ ω_n``, ``k_i = c ω_max q_i/|q|`` with q_i/|q| between
+        ``gain_clamp_min``/√3 (or the start's own error) and 1, and ``p_i = k / k_i``: finite and > 0
+        for every start the clamp allows (validate and run agree)."""
+        c = self.control
+        w, z, r = c.omega_n_rad_s, c.zeta, math.radians(c.slew_rate_max_deg_s)
+        keys = {"control.omega_n_rad_s": w, "control.zeta": z, "control.slew_rate_max_deg_s": c.slew_rate_max_deg_s}
+        k = derived_quantity("eigen-axis gain k = 2 ω_n²", 2.0 * w, w, keys=keys)
+        cc = derived_quantity("eigen-axis gain c = 2 ζ ω_n", 2.0 * z, w, keys=keys)
+        smallest = c.gain_clamp_min / math.sqrt(3.0) if c.gain_clamp_min > 0 else 1.0
+        for share in (1.0, smallest):
+            k_i = derived_quantity("eigen-axis gain k_i = c ω_max q_i / |q|", cc, r, share, keys=keys)
+            derived_quantity("eigen-axis gain p_i = k / k_i", k, 1.0 / k_i, keys=keys)
 
     def _mass_problems(self) -> list[str]:
         """The MuJoCo bodies of the attitude model: the hub carries m − 3 m_r and

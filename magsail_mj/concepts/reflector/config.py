@@ -21,6 +21,7 @@ from magsail_mj.config import (
     ConfigProblem,
     SimConfig,
     StrictModel,
+    derived_quantity,
     finite_product,
     normalised,
 )
@@ -38,6 +39,10 @@ __all__ = [
 ]
 
 Vec3 = tuple[float, float, float]
+
+COIL_AREA_MARGIN = 1e3
+"""Factor bracketing a coil path's dipole per ampere G [m²] around d² in the validation of the
+derived controller numbers (G = 0.75 d² / p for the serpentine coils, p >= 1 the column pitch)."""
 
 
 class PlateConfig(StrictModel):
@@ -252,4 +257,48 @@ class ReflectorConfig(StrictModel):
             problems.append(f"coil.pitch_cells: at most the {n} cells per side, got {self.coil.pitch_cells}")
         if problems:
             raise ValueError("; ".join(problems))
+        return self
+
+    @model_validator(mode="after")
+    def _derived_quantities(self) -> ReflectorConfig:
+        """The controller numbers the build derives (:mod:`magsail_mj.concepts.reflector.model`),
+        checked finite and > 0 so that ``validate`` and ``run`` agree: each coil path's dipole limit
+        ``m_max = T_max / B_ref = I_max G`` with G its dipole per ampere (0.75 d² / p for the
+        serpentine coils: computing it builds the coil, O(n²), so G is bracketed by d² within a
+        margin of :data:`COIL_AREA_MARGIN` either way), its capability ``T_max = m_max B_ref``, the
+        B-dot gain ``k = m_max / (B_ref ω_k)`` (detumble) or the pitch gains ``2 I_jj ω_n²`` and
+        ``2 ζ ω_n I_jj`` (exact plate inertia)."""
+        d, c, k, p = self.plate.side_m, self.coil, self.control, self.plate
+        keys = {"coil.I_max_A": c.I_max_A, "plate.side_m": d}
+        for margin in (COIL_AREA_MARGIN, 1.0 / COIL_AREA_MARGIN):
+            m = derived_quantity("coil dipole limit m_max = I_max G", c.I_max_A, margin * d * d, keys=keys)
+            keys_T = {**keys, "coil.B_ref_T": c.B_ref_T}
+            derived_quantity("coil capability T_max = m_max B_ref", m, c.B_ref_T, keys=keys_T)
+            if self.kind == "detumble":
+                derived_quantity(
+                    "B-dot gain k = m_max / (B_ref ω_k)",
+                    m,
+                    1.0 / c.B_ref_T,
+                    1.0 / k.omega_k_rad_s,
+                    keys={**keys_T, "control.omega_k_rad_s": k.omega_k_rad_s},
+                )
+        if self.kind != "detumble":
+            t = p.depth if p.inertia_thickness_m is None else p.inertia_thickness_m
+            mass = p.areal_density_kg_m2 * d * d
+            keys = {
+                "control.omega_n_rad_s": k.omega_n_rad_s,
+                "plate.side_m": d,
+                "plate.areal_density_kg_m2": p.areal_density_kg_m2,
+            }
+            for inertia in (mass / 12.0 * (d * d + t * t), mass / 6.0 * d * d):
+                derived_quantity(
+                    "pitch gain P_q = 2 I_jj ω_n²", 2.0 * inertia, k.omega_n_rad_s, k.omega_n_rad_s, keys=keys
+                )
+                derived_quantity(
+                    "pitch gain P_ω = 2 ζ ω_n I_jj",
+                    2.0 * k.zeta,
+                    k.omega_n_rad_s,
+                    inertia,
+                    keys={**keys, "control.zeta": k.zeta},
+                )
         return self
