@@ -39,7 +39,7 @@ REPO = Path(__file__).resolve().parents[1]
 #: the series of a case figure, read from each run's record store
 CASE_SERIES = ("t", "phi_rad", "omega_body_rad_s", "surface_sd_m", "phi_rigid_rad", "omega_rigid_rad_s")
 SWEEP = REPO / "models" / "sweeps" / "truss_dist_vs_central.toml"
-#: frames of each side-by-side video (scripts/readme_picture.py finds its frame by the same plan)
+#: frames of each side-by-side video
 VIDEO_FRAMES = 360
 KEYS = (
     "status",

@@ -9,8 +9,7 @@ the picture at the top of README.md).
 
 The frame's time is found by the renderer's own frame plan
 (:func:`magsail_mj.render.frame_plan`) over both runs' record times, with the video's frame count
-(``dist_vs_central.VIDEO_FRAMES``), so no frame is guessed from the frame rate; the video is
-decoded up to that frame only.
+(counted by ffmpeg), so no frame is guessed from the frame rate.
 
     python scripts/readme_picture.py                      # after the main job
     python scripts/readme_picture.py --time-s 600 --out /tmp/frame.png
@@ -32,8 +31,6 @@ from magsail_mj.render import frame_plan, load_run
 from magsail_mj.render.ending import read_end_status
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from dist_vs_central import VIDEO_FRAMES  # noqa: E402  (a sibling script)
 
 RUNS = REPO / "runs" / "dist_vs_central"
 OUT = REPO / "docs" / "_static" / "case_c_side_by_side.png"
@@ -71,7 +68,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--case", default="c", help="case letter (default: c)")
     ap.add_argument("--profile", default="bangbang", help="torque profile (default: bangbang)")
     ap.add_argument("--time-s", type=float, default=None, help="frame time [s] (default: the centralised run's end)")
-    ap.add_argument("--max-frames", type=int, default=VIDEO_FRAMES, help="frames of the video (as rendered)")
     ap.add_argument("--out", type=Path, default=OUT, help="PNG to write")
     args = ap.parse_args(argv)
     runs = [args.runs / f"case_{args.case}_{place}_{args.profile}" for place in ("central", "distributed")]
@@ -80,7 +76,8 @@ def main(argv: list[str] | None = None) -> int:
         if not path.exists():
             print(f"readme_picture: {path} is missing: run the main job first (scripts/main_job.sh)", file=sys.stderr)
             return 2
-    index, t = frame_index(runs, time_s=args.time_s, max_frames=args.max_frames)
+    n_frames, _ = imageio_ffmpeg.count_frames_and_secs(str(video))
+    index, t = frame_index(runs, time_s=args.time_s, max_frames=n_frames)
     frame = read_frame(video, index)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(args.out, suffix=".png") as tmp:
