@@ -849,12 +849,12 @@ def test_structure_stays_clear_of_the_overlay(tmp_path, gl, monkeypatch, units, 
         write_truss_run(tmp_path / "b", units=compare[0], side_m=compare[1], T=5, activity=False)
         options["compare"] = tmp_path / "b"
     drawn: list[tuple[np.ndarray, dict]] = []
+    original = compose.draw_overlay
 
     def record(image, **kwargs):
-        drawn.append((image.copy(), kwargs))
-        return compose.__dict__["_draw_overlay_original"](image, **kwargs)
+        drawn.append((image.copy(), kwargs))  # the rendered structure, before the overlay
+        return original(image, **kwargs)
 
-    monkeypatch.setitem(compose.__dict__, "_draw_overlay_original", compose.draw_overlay)
     monkeypatch.setattr(compose, "draw_overlay", record)
     frames = list(render_frames(tmp_path / "a", **options))
     assert len(frames) == 5 and len(drawn) == 5 * (1 + (compare is not None))

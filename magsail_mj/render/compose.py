@@ -934,6 +934,10 @@ class RunScene:
                     need[k] = max(need[k], float(d.max(initial=0.0)))
         return need.tolist()
 
+    def release_fit_points(self) -> None:
+        """Free the positions kept for :meth:`fit_distance` (the framing is decided)."""
+        self._offsets = np.zeros((0, 0, 3))
+
     def set_frame_centre(self, centre: tuple[float, float]) -> None:
         """Draw each frame's centroid at ``centre`` (x, y in normalised device coordinates, −1 …
         1, y upwards) instead of the image's centre."""
@@ -1314,6 +1318,7 @@ def _frame_scenes(
         rects = free_rectangles(w, h, boxes, margin=margin) or [(margin, margin, w - margin, h - margin)]
         ndc = [_ndc(r, w, h) for r in rects]
         distances = scene.fit_distance(view, ndc)
+        scene.release_fit_points()
         best = int(np.argmin(distances))
         x_lo, x_hi, y_lo, y_hi = ndc[best]
         scene.set_frame_centre(((x_lo + x_hi) / 2, (y_lo + y_hi) / 2))
