@@ -158,7 +158,8 @@ def test_browser_check_finds_formulas_mathjax_did_not_typeset(tmp_path):
 
 
 def test_every_video_has_a_poster_that_exists():
-    """Each page's <video> shows a picture before it plays (not a black box): a poster in _static."""
+    """Each page's <video> shows a picture before it plays (not a black box): a poster in _static,
+    a frame of the video's own size (scripts/docs_posters.py)."""
     videos = 0
     for page in sorted(DOCS.rglob("*.md")):
         if "_build" in page.parts:
@@ -168,6 +169,12 @@ def test_every_video_has_a_poster_that_exists():
             poster = re.search(r'<video\b[^>]*\bposter="\.\./_static/([\w.-]+)"', block)
             assert poster, f"{page.relative_to(ROOT)}: <video> without a poster"
             assert (DOCS / "_static" / poster[1]).is_file(), (page, poster[1])
+            mp4 = DOCS / "_static" / _SOURCE.findall(block)[0][0]
+            frames = imageio_ffmpeg.read_frames(str(mp4))
+            size = tuple(next(frames)["size"])
+            frames.close()
+            with Image.open(DOCS / "_static" / poster[1]) as img:
+                assert img.size == size, (page, poster[1], img.size, size)
     assert videos >= 6
 
 
