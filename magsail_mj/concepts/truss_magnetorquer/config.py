@@ -8,7 +8,7 @@ Scenario kinds (``scenario``): ``dist_vs_central`` (Robb et al. 2022a, Sec. 2), 
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -21,6 +21,7 @@ from magsail_mj.config import (
     SimConfig,
     StrictModel,
     check_lattice_numbers,
+    derived_quantity,
     finite_product,
 )
 from magsail_mj.environment.config import EnvironmentTables, environment_problems
@@ -438,6 +439,37 @@ class TrussConfig(EnvironmentTables, TrussTables):
                 minimum=-1.0,
                 others=("stiffness.EI_Nm2", self._mass_key),
             )
+        return self
+
+    @model_validator(mode="after")
+    def _derived_quantities(self) -> TrussConfig:
+        """The controller numbers the build derives, checked finite so that ``validate`` and
+        ``run`` agree: the gravity-gradient compensation ``3 μ/r⁵ r × (J r)`` forms ``r × J r`` with J
+        the Eq. 21 inertia (at most M d², the lattice lying within d × d × d/units) or
+        ``control.gg_comp_inertia_kgm2``, and r up to the apoapsis 2a. (The rod allocation is
+        scale-free: any finite rod dipole allocates.)"""
+        c = self.control
+        if c is None or not c.gg_comp or not self.orbit.enabled:
+            return self
+        a_m = self.orbit.semi_major_axis_km_value * 1e3
+        keys: dict[str, Any] = {"lattice.side_m": self.lattice.side_m}
+        if c.gg_comp_inertia_kgm2 is not None:
+            inertia = max(c.gg_comp_inertia_kgm2)
+            keys["control.gg_comp_inertia_kgm2"] = c.gg_comp_inertia_kgm2
+        else:
+            inertia = self.total_mass_kg * self.lattice.side_m * self.lattice.side_m
+            keys[self._mass_key] = (
+                self.mass.total_kg if self.mass.total_kg is not None else self.mass.areal_density_kg_m2
+            )
+        orbit_key = "orbit.semi_major_axis_km" if self.orbit.semi_major_axis_km is not None else "orbit.altitude_km"
+        keys[orbit_key] = getattr(self.orbit, orbit_key.split(".")[1])
+        derived_quantity(
+            "gravity-gradient compensation term r × J r (Eq. 21 inertia, r up to 2a)",
+            inertia,
+            2 * a_m,
+            2 * a_m,
+            keys=keys,
+        )
         return self
 
 
