@@ -800,6 +800,10 @@ def test_video_says_why_a_run_ended(tmp_path, gl, monkeypatch):
     assert [d["ended"] for d in right] == [False] * 4 + [True] * 5  # its last record is at 40 s
     assert all(d["end_line"] == reason for d in right)
     assert not any(d["ended"] for d in left)
+    # alone, the failed run prints it on its last frame (where the video stops)
+    drawn.clear()
+    assert len(list(render_frames(tmp_path / "short", width=96, height=54, antialias=False))) == 5
+    assert [d["ended"] for d in drawn] == [False] * 4 + [True]
     # the overlay prints it: the panel differs from one drawn without the reason
     image = np.zeros((54, 96, 3), np.uint8)
     args = {**right[-1], "ended": True}
