@@ -58,7 +58,7 @@ def test_any_finite_action_is_bounded_and_steps(name: str, options: tuple[tuple[
     n = env.action_spec().shape[0]
     bound = np.maximum(np.abs(task.action_low), np.abs(task.action_high))
 
-    @settings(max_examples=4, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+    @settings(max_examples=2, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
     @given(arrays(float, n, elements=huge))
     @example(np.full(n, 1e200))
     def check(action: np.ndarray) -> None:
