@@ -40,7 +40,8 @@ import numpy as np
 from magsail_mj.config import ConfigError, load_config
 from magsail_mj.io import to_jsonable, write_json
 from magsail_mj.plotting import new_figure, save_figure
-from magsail_mj.concepts.msac import MsacScenario, point_config
+from magsail_mj.concepts.msac.config import point_config
+from magsail_mj.concepts.msac.tasks import build_msac_scenario
 from magsail_mj.sweep import FINISHED, load_sweep, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
@@ -110,7 +111,7 @@ def design_curves(a: np.ndarray) -> dict[str, np.ndarray]:
     exact, eq7 = [], []
     for ai in a:
         cfg = point_config(base, ["cycle.extension_frac", "cycle.frequency_Hz"], [1e-3 * ai, 4000.0 / ai], cycles=3)
-        ref = MsacScenario(cfg=cfg).references()
+        ref = build_msac_scenario(cfg).references()
         exact.append(ref["predicted_rate_exact_rad_s"])
         eq7.append(ref["predicted_rate_lumped_rad_s"])
     return {"a": a, "rate_exact_rad_s": np.array(exact), "rate_eq7_rad_s": np.array(eq7)}
@@ -120,7 +121,7 @@ def operating_point(ext: float, f: float) -> dict:
 
     base = load_config(REPO / "magsail_mj/concepts/msac/configs/paper_1khz.toml")
     cfg = point_config(base, ["cycle.extension_frac", "cycle.frequency_Hz"], [ext, f], cycles=3)
-    return MsacScenario(cfg=cfg).references()
+    return build_msac_scenario(cfg).references()
 
 
 def f7_figure(results: dict[str, dict], path: Path) -> tuple[Path, dict]:

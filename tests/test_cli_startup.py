@@ -51,12 +51,41 @@ def test_usage_error_imports_no_heavy_module():
     assert not modules & set(HEAVY), sorted(modules & set(HEAVY))
 
 
-def test_validate_imports_no_dask_nor_mediapy():
-    # matplotlib is still imported: the config registry discovers the concept packages, which import
-    # their plots modules at the top (magsail_mj/concepts/*/tasks.py); see scripts/bench_startup.py
-    code, modules, out = _imported("validate", CONFIG)
-    assert code == 0 and '"valid": true' in out
-    assert not modules & {"dask", "distributed", "mediapy"}, sorted(modules & {"dask", "distributed", "mediapy"})
+# one config of every concept, validated in one process (the concept registry loads the schemas only)
+VALIDATE_CONFIGS = {
+    "cnusail": "magsail_mj/concepts/cnusail/configs/detumble_pre.toml",
+    "current_loops": "magsail_mj/concepts/current_loops/configs/slew.toml",
+    "msac": "magsail_mj/concepts/msac/configs/paper_1khz.toml",
+    "reflector": "magsail_mj/concepts/reflector/configs/detumble.toml",
+    "truss_magnetorquer": "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
+}
+
+_VALIDATE_PROBE = """
+import json, sys
+from magsail_mj.cli import main
+codes = [main(["validate", path]) for path in sys.argv[1:]]
+print("RESULT " + json.dumps({"codes": codes, "modules": sorted(sys.modules)}), file=sys.stderr)
+"""
+
+
+def test_validate_imports_no_dask_matplotlib_nor_mediapy():
+    """``magsail validate`` of a config of every concept: no Dask, Matplotlib or mediapy, no tasks or plots."""
+    concepts = sorted(p.name for p in (ROOT / "magsail_mj/concepts").iterdir() if (p / "__init__.py").is_file())
+    assert sorted(VALIDATE_CONFIGS) == concepts  # a new concept adds its config here
+    paths = [str(ROOT / c) for c in VALIDATE_CONFIGS.values()]
+    proc = subprocess.run(
+        [sys.executable, "-c", _VALIDATE_PROBE, *paths], capture_output=True, text=True, cwd=ROOT, timeout=300
+    )
+    line = next((x for x in proc.stderr.splitlines() if x.startswith("RESULT ")), None)
+    assert line is not None, proc.stderr
+    result = json.loads(line[len("RESULT ") :])
+    assert result["codes"] == [0] * len(paths), proc.stderr
+    assert proc.stdout.count('"valid": true') == len(paths)
+    top = {m.split(".")[0] for m in result["modules"]}
+    forbidden = {"dask", "distributed", "matplotlib", "mediapy"}
+    assert not top & forbidden, sorted(top & forbidden)
+    leaves = [m for m in result["modules"] if m.startswith("magsail_mj.concepts.") and m.endswith((".tasks", ".plots"))]
+    assert not leaves, leaves
 
 
 def test_package_import_is_light():

@@ -376,7 +376,7 @@ class _InterruptAt:
 
 
 def test_interrupt_keeps_the_records_and_says_interrupted(tmp_path, small_truss_tree, monkeypatch):
-    from magsail_mj.concepts import truss_magnetorquer as truss
+    from magsail_mj.concepts.truss_magnetorquer import tasks as truss
 
     cfg = _cfg(small_truss_tree, "sim.duration_s=6.0")
     original = truss.TrussScenario.simulation
@@ -479,7 +479,7 @@ def test_a_failed_video_marks_summary_and_manifest_failed(tmp_path, small_truss_
 def test_ctrl_c_while_outputs_are_written_leaves_them_whole(tmp_path, small_truss_tree, monkeypatch):
     """SIGINT during the plots: held until the numbers' files are written, then the run ends as
     interrupted (exit 130 on the command line) with a complete folder."""
-    from magsail_mj.concepts import truss_magnetorquer as truss
+    from magsail_mj.concepts.truss_magnetorquer import tasks as truss
 
     original = truss.TrussScenario.plots
 

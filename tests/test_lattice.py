@@ -35,7 +35,7 @@ from magsail_mj.lattice.properties import (
     strut_damping,
     strut_stiffness,
 )
-from magsail_mj.concepts.truss_magnetorquer import make_truss_model
+from magsail_mj.concepts.truss_magnetorquer.model import make_truss_model
 
 REPO_MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "truss_magnetorquer" / "configs"
 

@@ -263,6 +263,7 @@ def test_a_new_concept_package_is_discovered_without_editing_anything(tmp_path, 
     (pkg / "extra.py").write_text("VALUE = 7\n", encoding="utf-8")
     monkeypatch.setattr(registry, "__path__", [*registry.__path__, str(tmp_path)])
     monkeypatch.setattr(registry, "_discovered", False)
+    monkeypatch.setattr(registry, "_schemas_discovered", False)
     for table in ("CONFIG_SCHEMAS", "KIND_KEYS", "TASKS"):  # registrations vanish with the test
         monkeypatch.setattr(registry, table, dict(getattr(registry, table)))
     try:

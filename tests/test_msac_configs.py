@@ -17,7 +17,7 @@ from magsail_mj.export import read_timeseries
 from magsail_mj.records import STORE_NAME
 from magsail_mj.run import run_scenario
 from magsail_mj.scenario import build_scenario
-from magsail_mj.concepts.msac import build_msac_scenario
+from magsail_mj.concepts.msac.tasks import build_msac_scenario
 from magsail_mj.concepts.msac.tasks import LumpedTask, MultibodyTask, SweepTask
 from tests.conftest import REPO
 

@@ -39,7 +39,8 @@ from magsail_mj.loads.base import StepState
 from magsail_mj.loads.strut_torque import StrutTorqueLoad
 from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec, node_positions_from_qpos
 from magsail_mj.reference.numpy_rk4 import SpringMassLattice, from_truss_scenario, rk4_run
-from magsail_mj.concepts.truss_magnetorquer import actuated_struts, build_truss_scenario
+from magsail_mj.concepts.truss_magnetorquer.model import actuated_struts
+from magsail_mj.concepts.truss_magnetorquer.tasks import build_truss_scenario
 from magsail_mj.sim import Simulation
 
 MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "truss_magnetorquer" / "configs"

@@ -434,7 +434,7 @@ def test_small_orbital_runs_resume_and_summaries(tmp_path, monkeypatch):
         "surface_angle_map.png",
         "shape_at_max_sd.png",
     } <= {p.name for p in (tmp_path / "full").iterdir()}
-    from magsail_mj.concepts.truss_magnetorquer import TrussScenario
+    from magsail_mj.concepts.truss_magnetorquer.tasks import TrussScenario
 
     monkeypatch.setattr(TrussScenario, "plots", lambda self, run_dir, result, series: [])  # plots: once is enough
     run_scenario(cfg, tmp_path / "cut", stop_after_s=3.0)

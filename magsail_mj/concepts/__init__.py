@@ -9,9 +9,20 @@ A concept package registers, when imported,
   it has that class method, else by ``cls(cfg)``;
 - or, instead of task classes, one builder ``@register_builder("<concept>")`` (``cfg → task``).
 
-:func:`discover` imports every subpackage of ``magsail_mj.concepts`` (``pkgutil``), so a new
-concept is added by adding a package: no existing module names it. This module imports no
-concept and no other part of magsail_mj (the framework imports it, never the reverse).
+Discovery has two sides, and this registry is the one place that names the modules it imports
+(:data:`SCHEMA_MODULE`, :data:`TASK_MODULE`, resolved with ``importlib``):
+
+- the schema side, :func:`discover_schemas` (behind :func:`config_schemas`, so behind
+  :func:`magsail_mj.config.load_config` and ``magsail validate``), imports every subpackage of
+  ``magsail_mj.concepts`` (``pkgutil``) and its ``config`` module;
+- the task side, :func:`discover` (behind :func:`task_kinds` and :func:`build_task`, so behind
+  building a scenario), imports, in addition, each package's ``tasks`` module.
+
+A concept package's ``__init__`` and its ``config`` module therefore never import its ``tasks``
+module (nor the plots, the model or the runner it brings): validating a config loads the schemas
+only, never Matplotlib. A new concept is added by adding a package: no existing module names it.
+This module imports no concept and no other part of magsail_mj (the framework imports it, never
+the reverse).
 """
 
 from __future__ import annotations
@@ -31,7 +42,10 @@ __all__ = [
     "register_config",
     "register_task",
     "register_builder",
+    "SCHEMA_MODULE",
+    "TASK_MODULE",
     "discover",
+    "discover_schemas",
     "concept_modules",
     "config_schemas",
     "task_kinds",
@@ -108,15 +122,39 @@ def _import_children(package: str, *, packages_only: bool) -> None:
         importlib.import_module(info.name)
 
 
+SCHEMA_MODULE = "config"
+"""The module of a concept package that registers its config schema (``<concept>.config``)."""
+
+TASK_MODULE = "tasks"
+"""The module of a concept package that registers its tasks or builder (``<concept>.tasks``)."""
+
+_schemas_discovered = False
 _discovered = False
 
 
+def discover_schemas() -> None:
+    """Import every concept package and its :data:`SCHEMA_MODULE` once per process (the schema side).
+
+    Imports no ``tasks`` module: what this registers is what validating a config needs.
+    """
+    global _schemas_discovered
+    if _schemas_discovered:
+        return
+    _import_children(__name__, packages_only=True)
+    concept_modules(SCHEMA_MODULE)
+    _schemas_discovered = True
+
+
 def discover() -> None:
-    """Import every concept package (each registers itself) once per process."""
+    """Import every concept package, its schema and its :data:`TASK_MODULE` once per process.
+
+    The task side: each concept's tasks (with their models, runners and plots) register here.
+    """
     global _discovered
     if _discovered:
         return
-    _import_children(__name__, packages_only=True)
+    discover_schemas()
+    concept_modules(TASK_MODULE)
     _discovered = True
 
 
@@ -140,8 +178,8 @@ def concept_modules(leaf: str) -> dict[str, ModuleType]:
 
 
 def config_schemas() -> dict[str, type]:
-    """All concept config schemas after :func:`discover`, by concept name."""
-    discover()
+    """All concept config schemas after :func:`discover_schemas` (no task module), by concept name."""
+    discover_schemas()
     return dict(CONFIG_SCHEMAS)
 
 

@@ -213,7 +213,7 @@ def from_truss_scenario(scenario) -> tuple[SpringMassLattice, ExternalForce | No
     """The reference system of a truss scenario: same lattice, masses, k, γ, clamps, loads and
     environment.
 
-    ``scenario`` is a :class:`magsail_mj.concepts.truss_magnetorquer.TrussScenario`. Its loads are built
+    ``scenario`` is a :class:`magsail_mj.concepts.truss_magnetorquer.tasks.TrussScenario`. Its loads are built
     afresh (``scenario.loads()``), so the reference and a runner built from the same scenario
     do not share load state. Returns ``(system, external, x0, v0)`` with the initial state the
     runner starts from (``scenario.init_state`` applied to a fresh ``MjData``).

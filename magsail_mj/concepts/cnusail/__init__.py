@@ -1,5 +1,5 @@
-r"""The CNUSAIL-1 sail cubesat (concept ``cnusail``): the concept module: it registers the
-config schema and the tasks.
+r"""The CNUSAIL-1 sail cubesat (concept ``cnusail``): the concept
+package.
 
 Paper: Yoo et al. 2016 (CNUSAIL-1: Yoo, Kim, Suk, Kim, IJASS 17(4) 2016). A rigid 3U bus
 with a 2 m × 2 m sail (stowed or deployed mass properties) and three reaction-wheel rotors on
@@ -31,22 +31,13 @@ environment, disturbances, controller) :mod:`magsail_mj.concepts.cnusail.model`;
 
 Frames: world = ECI axes (origin on the reference orbit); body frame of Yoo et al. 2016 (ẑ_B = sail
 normal); quaternions scalar-first, body → world. Config quaternions end in ``_wxyz``.
+
+The package imports only its config schema; the registry (:mod:`magsail_mj.concepts`) imports
+the ``tasks`` module, with the model, the plots and Matplotlib, when a scenario is built.
 """
 
 from __future__ import annotations
 
 from magsail_mj.concepts.cnusail.config import DEFAULT_BUS_CENTROID, TABLE2_INERTIA, CnusailConfig
-from magsail_mj.concepts.cnusail.model import CnusailModel, model_params
-from magsail_mj.concepts.cnusail.lifetime import LifetimeTask
-from magsail_mj.concepts.cnusail.tasks import AttitudeTask, build_cnusail_scenario
 
-__all__ = [
-    "CnusailConfig",
-    "CnusailModel",
-    "AttitudeTask",
-    "LifetimeTask",
-    "build_cnusail_scenario",
-    "model_params",
-    "TABLE2_INERTIA",
-    "DEFAULT_BUS_CENTROID",
-]
+__all__ = ["CnusailConfig", "TABLE2_INERTIA", "DEFAULT_BUS_CENTROID"]

@@ -1,5 +1,4 @@
-r"""The MSAC concept (``msac``): the concept module: it registers the config
-schema and the tasks.
+r"""The MSAC concept (``msac``): the concept package.
 
 Vedant & Allison 2019. A bus turns itself with no wheels and no external torque by bending its two
 point-symmetric wings one way while they are extended and back while they are contracted. Scenario ids:
@@ -20,35 +19,13 @@ Frames: the MuJoCo world is inertial (free space, gravity off, no orbit). The bu
 is about world Z; the wing angle ``φ`` is the hinge angle relative to the bus; ``s`` the slide
 of the whole rigid wing (``extension_model = "rigid_slide"``). Units SI; config angles in
 degrees at the edge (``*_deg``).
+
+The package imports only its config schema; the registry (:mod:`magsail_mj.concepts`) imports
+the ``tasks`` module, with the model, the plots and Matplotlib, when a scenario is built.
 """
 
 from __future__ import annotations
 
 from magsail_mj.concepts.msac.config import PAPER_VALUES, MsacConfig, make_path, point_config
-from magsail_mj.concepts.msac.model import MsacModel, make_params, planar_model
-from magsail_mj.concepts.msac.tasks import (
-    LumpedTask,
-    MsacTask,
-    MultibodyTask,
-    SweepTask,
-    build_msac_scenario,
-)
 
-__all__ = [
-    "MsacConfig",
-    "MsacModel",
-    "MsacTask",
-    "LumpedTask",
-    "MultibodyTask",
-    "SweepTask",
-    "build_msac_scenario",
-    "MsacScenario",
-    "PAPER_VALUES",
-    "point_config",
-    "make_path",
-    "make_params",
-    "planar_model",
-]
-
-MsacScenario = build_msac_scenario
-"""The task of a config, ``MsacScenario(cfg=cfg)`` (the name scripts/msac_sweeps.py imports)."""
+__all__ = ["MsacConfig", "PAPER_VALUES", "point_config", "make_path"]

@@ -1,5 +1,5 @@
 r"""The gossamer reflector with a conducting support structure (concept ``reflector``): the
-concept module: it registers the config schema and the tasks.
+concept package.
 
 Paper: Robb et al. 2020 (Robb, McRobb, McInnes, AIAA SciTech 2020-0714). A
 rigid square plate (:mod:`magsail_mj.concepts.reflector.mjcf`) whose truss carries two serpentine coils and an
@@ -24,28 +24,13 @@ Configs live at ``magsail_mj/concepts/reflector/configs/<id>.toml`` (``detumble`
 and the variants under ``detumble/`` and ``pitch/``). Torques enter through
 ``xfrc_applied`` (:class:`magsail_mj.loads.body_torque.HeldBodyTorqueLoad`), rewritten every
 step; the controller runs every integration step (zero-order hold).
+
+The package imports only its config schema; the registry (:mod:`magsail_mj.concepts`) imports
+the ``tasks`` module, with the model, the plots and Matplotlib, when a scenario is built.
 """
 
 from __future__ import annotations
 
 from magsail_mj.concepts.reflector.config import ReflectorConfig
-from magsail_mj.concepts.reflector.model import ASSUMPTIONS, ReflectorModel, coil_capability
-from magsail_mj.concepts.reflector.tasks import (
-    DetumbleTask,
-    PitchCapsTask,
-    PitchTask,
-    ReflectorTask,
-    build_reflector_scenario,
-)
 
-__all__ = [
-    "ReflectorConfig",
-    "ReflectorModel",
-    "ReflectorTask",
-    "DetumbleTask",
-    "PitchTask",
-    "PitchCapsTask",
-    "build_reflector_scenario",
-    "coil_capability",
-    "ASSUMPTIONS",
-]
+__all__ = ["ReflectorConfig"]
