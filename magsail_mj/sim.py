@@ -494,7 +494,8 @@ class Simulation(SteppedRun):
     def set_state(self, state: dict[str, Any]) -> None:
         """Continue from a state of :meth:`get_state` (of this simulation or one built from the same
         config): the following steps equal those that followed the state's own. Records made after
-        the state are dropped (from the store too); the status is ``running`` again."""
+        the state are dropped (from the store too); the status is ``running`` again. The load timing
+        is configuration (``load_timing``) and stays as configured."""
         mj_state = np.asarray(state["mj_state"], dtype=float)
         if mj_state.shape != (mujoco.mj_stateSize(self.model, _STATE_SPEC),):
             raise ValueError(f"state: 'mj_state' has shape {mj_state.shape}, not this model's")
@@ -502,6 +503,10 @@ class Simulation(SteppedRun):
         if not 0 <= step <= self.n_steps:
             raise ValueError(f"state: step {step} is outside 0 … {self.n_steps}")
         restore_state(self.walker, state["python_tree"], state["python_arrays"])
+        # the load timing is configuration, not state: a state taken before it was configured (the
+        # initial state of reset(), taken at build, before magsail_mj.load sets sim.load_timing)
+        # must not put back the timing of the build
+        self.timing.mode = self.load_timing
         self.controller = self.walker.roots["controller"]
         mujoco.mj_setState(self.model, self.data, mj_state, _STATE_SPEC)
         loop = self._loop
