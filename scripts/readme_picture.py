@@ -5,7 +5,8 @@ The main job (``scripts/main_job.sh``) runs Case C centralised and distributed a
 script takes the frame of that video at ``--time-s`` (default: the moment the centralised run
 ended, read from its ``summary.json``: its largest bending and, when the structure failed, the
 overlay's line saying why) and writes it as PNG (default ``docs/_static/case_c_side_by_side.png``,
-the picture at the top of README.md).
+the picture at the top of README.md), scaled to ``--width`` (1280 px) with a 256-colour palette so
+that it stays small.
 
 The frame's time is found by the renderer's own frame plan
 (:func:`magsail_mj.render.frame_plan`) over both runs' record times, with the video's frame count
@@ -34,6 +35,8 @@ REPO = Path(__file__).resolve().parents[1]
 
 RUNS = REPO / "runs" / "dist_vs_central"
 OUT = REPO / "docs" / "_static" / "case_c_side_by_side.png"
+#: width of the README picture [px] (the video's two 960 px panels, scaled)
+WIDTH = 1280
 
 
 def frame_index(run_dirs: list[Path], *, time_s: float | None, max_frames: int) -> tuple[int, float]:
@@ -62,6 +65,15 @@ def read_frame(video: Path, index: int) -> np.ndarray:
     raise ValueError(f"{video}: has no frame {index}")
 
 
+def small_png(frame: np.ndarray, *, width: int) -> Image.Image:
+    """``frame`` scaled to ``width`` px (Lanczos; ``0`` or a larger width keeps it) with a
+    256-colour palette: the README picture stays small (tests/test_docs.py: below 300 kB)."""
+    image = Image.fromarray(frame)
+    if 0 < width < image.width:
+        image = image.resize((width, round(image.height * width / image.width)), Image.Resampling.LANCZOS)
+    return image.quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=Path, default=RUNS, help="the main job's output folder")
@@ -69,6 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--profile", default="bangbang", help="torque profile (default: bangbang)")
     ap.add_argument("--time-s", type=float, default=None, help="frame time [s] (default: the centralised run's end)")
     ap.add_argument("--out", type=Path, default=OUT, help="PNG to write")
+    ap.add_argument("--width", type=int, default=WIDTH, help=f"picture width [px] (default {WIDTH}; 0: the video's)")
     args = ap.parse_args(argv)
     runs = [args.runs / f"case_{args.case}_{place}_{args.profile}" for place in ("central", "distributed")]
     video = args.runs / f"case_{args.case}_{args.profile}_side_by_side.mp4"
@@ -78,10 +91,10 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     n_frames, _ = imageio_ffmpeg.count_frames_and_secs(str(video))
     index, t = frame_index(runs, time_s=args.time_s, max_frames=n_frames)
-    frame = read_frame(video, index)
+    picture = small_png(read_frame(video, index), width=args.width)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(args.out, suffix=".png") as tmp:
-        Image.fromarray(frame).save(tmp, format="PNG", optimize=True)
+        picture.save(tmp, format="PNG", optimize=True)
     print(json.dumps({"picture": str(args.out), "video": str(video), "frame": index, "t_s": t}))
     return 0
 

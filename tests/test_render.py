@@ -910,8 +910,11 @@ def test_readme_picture_is_the_video_frame_where_the_left_run_ended(tmp_path, gl
     )
     script = load_file_module("scripts", "readme_picture")
     out = tmp_path / "picture.png"
-    assert script.main(["--runs", str(runs), "--out", str(out)]) == 0
+    assert script.main(["--runs", str(runs), "--out", str(out), "--width", "0"]) == 0
     with Image.open(out) as img:
-        picture = np.asarray(img.convert("RGB"))
-    assert np.array_equal(picture, read_mp4(video)[4])  # frame 4: t = 40 s, the central run's last record
+        picture = np.asarray(img.convert("RGB")).astype(int)
+    frames = read_mp4(video).astype(int)
+    # frame 4 (t = 40 s, the central run's last record), within the 256-colour palette's rounding
+    errors = [np.abs(picture - f).mean() for f in frames]
+    assert int(np.argmin(errors)) == 4 and errors[4] < 3, errors
     assert script.main(["--runs", str(tmp_path / "none"), "--out", str(out)]) == 2
