@@ -215,13 +215,8 @@ def test_wrong_types_are_never_coerced(value):
 
 # Overrides that make a build and a few steps cheap (a run's duration sizes its orbit and field
 # tables); applied before the extreme value, which wins.
-TINY_RUN = {
-    "truss_magnetorquer": ["lattice.units=3", "sim.duration_s=1.0"],
-    "current_loops": ["lattice.units=3", "sim.duration_s=1.0"],
-    "reflector": ["sim.duration_s=1.0"],
-    "cnusail": ["sim.duration_s=1.0"],
-    "msac": ["sim.duration_s=0.01"],
-}
+TINY_RUN = {"truss_magnetorquer": ["lattice.units=3"], "current_loops": ["lattice.units=3"]}
+TINY_DURATION_S = {"msac": 0.01}  # the others 1 s; never below 3 time steps nor above the config's own
 EXTREME_FINITE: list[Any] = [1e300, -1e300, 1e-300, 2**62, 2**31 - 1]
 RUN_STATUSES = {"running", "completed", "diverged", "structure_failed"}
 STEPS = 3
@@ -233,6 +228,10 @@ def _tiny_tree(path: Path) -> tuple[dict[str, Any], tuple[Leaf, ...]]:
     leaves (presentation keys left out: they change no number of a run)."""
     tree = tomllib.loads(path.read_text())
     overrides = list(TINY_RUN.get(tree.get("concept"), []))
+    sim = tree.get("sim", {})
+    if "duration_s" in sim and "timestep_s" in sim:
+        tiny = max(TINY_DURATION_S.get(tree.get("concept"), 1.0), 3.0 * sim["timestep_s"])
+        overrides.append(f"sim.duration_s={float(min(sim['duration_s'], tiny))!r}")
     if "cache_dir" in tree.get("control", {}):  # no on-disk Lloyd cache shared between test processes
         overrides.append('control.cache_dir=""')
     cfg = load_config(path, overrides)
