@@ -187,7 +187,6 @@ def run_scenario(
 def _run(
     cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool, progress: bool, stop_after_s: float | None
 ) -> RunOutcome:
-    check_stop_after(cfg, out_dir, resume=resume, stop_after_s=stop_after_s)
     sim = load(cfg)
     scenario = sim.scenario
     if video and "video" in scenario.render_info():  # a scenario without motion says why
@@ -197,6 +196,7 @@ def _run(
         raise ConfigError(
             [f"{option}: scenario {cfg.scenario!r} ({type(sim).__name__}) has no checkpoints to stop at or resume from"]
         )
+    check_stop_after(cfg, out_dir, resume=resume, stop_after_s=stop_after_s)
     identity = run_identity(numbers_hash(cfg), numbers_tree(cfg))
     run_dir = prepare_run_dir(
         out_dir,
