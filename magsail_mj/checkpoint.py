@@ -14,9 +14,18 @@ run has *changed* since the build, as data:
   stores the leaves whose digest changed and, for the unchanged ones, only the digest, which
   the resume checks against the rebuilt object (a different build is refused, not mixed).
 * :func:`restore_state` writes the stored values back into the rebuilt objects, in place
-  where the shape allows (so objects sharing an array keep sharing it). A value that did not
-  exist at build (``None`` then, an object now) is re-created only from a ``magsail_mj``
-  class named in the file, filled attribute by attribute; no code from the file is run.
+  where the shape allows (so objects sharing an array keep sharing it). It writes only into
+  *state slots*: the paths the rebuilt run's own objects declare by walking them (their
+  attributes as built, the items of their containers), and the children of containers and
+  objects it creates itself from the file. It never follows a path of the file through an
+  attribute: a path that is not a slot (``controller.__class__…``, an attribute the object
+  does not have, a dunder name anywhere) is refused. A value that did not exist at build
+  (``None`` then, an object now) is re-created only from a class that the rebuilt run holds
+  or that is registered with :func:`restorable`, looked up in that table by its recorded
+  ``module:qualname`` (nothing is imported from a name in the file), and filled slot by slot;
+  no code from the file is run.
+* Every checkpoint carries :func:`state_digest`, a digest of its state tree and arrays; a
+  checkpoint whose contents do not match it (edited, truncated) is refused on reading.
 
 :func:`write_checkpoint` / :func:`read_checkpoint` store a header (JSON) and arrays in one
 NumPy ``.npz`` file read with ``allow_pickle=False``: a checkpoint can be opened from any
@@ -28,7 +37,6 @@ from __future__ import annotations
 import copy
 import dataclasses
 import hashlib
-import importlib
 import inspect
 import json
 import zipfile
@@ -42,6 +50,8 @@ from magsail_mj.io import RunDirError, atomic_path, package_versions
 
 __all__ = [
     "CheckpointError",
+    "restorable",
+    "state_digest",
     "StateWalker",
     "check_identity",
     "read_arrays",
@@ -58,6 +68,25 @@ _SCALARS = (bool, int, float, str, type(None))
 
 class CheckpointError(RunDirError):
     """A checkpoint is missing, unreadable, or belongs to another config or build."""
+
+
+#: classes a restore may create although the rebuilt run holds none of them at build (a value
+#: ``None`` at build, an object later), by ``module:qualname``; see :func:`restorable`
+_RESTORABLE: dict[str, type] = {}
+
+
+def _class_name(cls: type) -> str:
+    return f"{cls.__module__}:{cls.__qualname__}"
+
+
+def restorable(cls: type) -> type:
+    """Class decorator: objects of ``cls`` may be re-created by :func:`restore_state` in a slot
+    that held ``None`` (or another value) at build. Only the package's own data classes belong
+    here; a class the rebuilt run already holds needs no registration."""
+    if not cls.__module__.startswith("magsail_mj."):
+        raise TypeError(f"cls: only magsail_mj classes can be restorable, got {_class_name(cls)}")
+    _RESTORABLE[_class_name(cls)] = cls
+    return cls
 
 
 def _is_walked_object(obj: Any) -> bool:
@@ -121,13 +150,20 @@ class StateWalker:
     # ------------------------------------------------------------------ walking
     def nodes(self) -> dict[str, dict[str, Any]]:
         """Path → node description; leaves carry ``value`` (array or JSON scalar)."""
+        return self._nodes_and_slots()[0]
+
+    def _nodes_and_slots(self) -> tuple[dict[str, dict[str, Any]], dict[str, Any]]:
+        """The node descriptions and the *slots*: path → the live object at that path, for every
+        path the walk reaches (the only places :func:`restore_state` may write into or through)."""
         out: dict[str, dict[str, Any]] = {}
         seen: dict[int, str] = {}
+        slots: dict[str, Any] = {}
         for name, root in self.roots.items():
-            self._walk(root, name, out, seen)
-        return out
+            self._walk(root, name, out, seen, slots)
+        return out, slots
 
-    def _walk(self, obj: Any, path: str, out: dict, seen: dict[int, str]) -> None:
+    def _walk(self, obj: Any, path: str, out: dict, seen: dict[int, str], slots: dict[str, Any]) -> None:
+        slots[path] = obj
         if (
             isinstance(obj, (np.ndarray, list, tuple, dict))
             or _is_walked_object(obj)
@@ -153,21 +189,21 @@ class StateWalker:
             if type(obj) not in (list, tuple):
                 out[path]["class"] = f"{type(obj).__module__}:{type(obj).__qualname__}"
             for i, item in enumerate(obj):
-                self._walk(item, f"{path}[{i}]", out, seen)
+                self._walk(item, f"{path}[{i}]", out, seen, slots)
         elif isinstance(obj, dict):
             keys = [_key_text(k) for k in obj]
             if None in keys:
                 return
             out[path] = {"kind": "dict", "keys": keys}
             for text, item in zip(keys, obj.values()):
-                self._walk(item, f"{path}{{{text}}}", out, seen)
+                self._walk(item, f"{path}{{{text}}}", out, seen, slots)
         elif _is_walked_object(obj):
             cls = type(obj)
             out[path] = {"kind": "object", "class": f"{cls.__module__}:{cls.__qualname__}"}
             for attr, item in _attributes(obj).items():
-                self._walk(item, f"{path}.{attr}", out, seen)
+                self._walk(item, f"{path}.{attr}", out, seen, slots)
         elif inspect.ismethod(obj):
-            self._walk(obj.__self__, f"{path}<__self__>", out, seen)
+            self._walk(obj.__self__, f"{path}<__self__>", out, seen, slots)
         elif callable(obj) and getattr(obj, "__closure__", None):
             names = obj.__code__.co_freevars
             for cell_name, cell in zip(names, obj.__closure__):
@@ -175,7 +211,7 @@ class StateWalker:
                     value = cell.cell_contents
                 except ValueError:
                     continue
-                self._walk(value, f"{path}<{cell_name}>", out, seen)
+                self._walk(value, f"{path}<{cell_name}>", out, seen, slots)
 
     # ------------------------------------------------------------------ baseline and snapshot
     def baseline(self) -> None:
@@ -223,6 +259,13 @@ def _rng_state(data: Any) -> Any:
 # ---------------------------------------------------------------------- restoring
 def _split(path: str) -> list[tuple[str, Any]]:
     """``a.b[2]{"k"}<c>`` → [("root","a"), ("attr","b"), ("item",2), ("key","k"), ("cell","c")]."""
+    try:
+        return _split_parts(path)
+    except (ValueError, TypeError) as err:  # an unclosed bracket, a bad index or key text
+        raise CheckpointError(f"checkpoint: malformed state path {path!r} ({err})") from None
+
+
+def _split_parts(path: str) -> list[tuple[str, Any]]:
     parts: list[tuple[str, Any]] = []
     i, n = 0, len(path)
     j = i
@@ -278,42 +321,38 @@ def _set(parent: Any, part: tuple[str, Any], value: Any) -> None:
         parent.__closure__[names.index(key)].cell_contents = value
 
 
-def _package_class(class_name: str) -> Any:
-    """A class of the package by its recorded ``module:qualname``; any other name is refused."""
-    module_name, _, qualname = class_name.partition(":")
-    if not module_name.startswith("magsail_mj.") or "<" in qualname:
-        raise CheckpointError(f"checkpoint: refuses to create an object of {class_name!r}")
-    cls: Any = importlib.import_module(module_name)
-    for attr in qualname.split("."):
-        cls = getattr(cls, attr)
+def _known_classes(slots: dict[str, Any]) -> dict[str, type]:
+    """The classes a restore may create: those of the rebuilt run's own objects and named tuples,
+    and the ones registered with :func:`restorable`, by ``module:qualname``."""
+    table = dict(_RESTORABLE)
+    for obj in slots.values():
+        cls = type(obj)
+        if _is_walked_object(obj) or (isinstance(obj, tuple) and cls is not tuple and hasattr(cls, "_make")):
+            table.setdefault(_class_name(cls), cls)
+    return table
+
+
+def _class_from(table: dict[str, type], class_name: Any, *, path: str) -> type:
+    """The class recorded at ``path``, looked up in ``table`` (never imported)."""
+    cls = table.get(class_name) if isinstance(class_name, str) else None
+    if cls is None:
+        raise CheckpointError(
+            f"checkpoint: {path}: refuses to create an object of {class_name!r} (not a class of this run's state)"
+        )
     return cls
 
 
-def _new_object(class_name: str) -> Any:
-    cls = _package_class(class_name)
-    return cls.__new__(cls)
-
-
-def _named_tuple(class_name: str) -> Any:
-    """A tuple subclass (a named tuple) of the package, by its recorded name."""
-    cls = _package_class(class_name)
-    if not (isinstance(cls, type) and issubclass(cls, tuple) and hasattr(cls, "_make")):
-        raise CheckpointError(f"checkpoint: {class_name!r} is not a named tuple")
-    return cls
-
-
-def _fresh(node: dict[str, Any], arrays: dict[str, np.ndarray]) -> Any:
+def _fresh(node: dict[str, Any], arrays: dict[str, np.ndarray], table: dict[str, type], path: str) -> Any:
     kind = node["kind"]
     if kind == "object":
-        return _new_object(node["class"])
-    if kind == "list":
-        return [None] * node["len"]
-    if kind == "tuple":
-        return [None] * node["len"]  # filled, then frozen into a tuple by _freeze_tuples
+        cls = _class_from(table, node.get("class"), path=path)
+        return cls.__new__(cls)
+    if kind in ("list", "tuple"):  # a tuple is filled as a list, then frozen by the restore
+        return [None] * _length(node, path)
     if kind == "dict":
-        return {_key_value(k): None for k in node["keys"]}
+        return {_key_value(k): None for k in _keys(node, path)}
     if kind == "array":
-        return np.array(arrays[node["array"]], copy=True)
+        return np.array(_array_of(node, arrays, path), copy=True)
     if kind == "rng":
         rng = np.random.default_rng()
         rng.bit_generator.state = _rng_state(node["value"])
@@ -321,20 +360,54 @@ def _fresh(node: dict[str, Any], arrays: dict[str, np.ndarray]) -> Any:
     return node.get("value")
 
 
+def _length(node: dict[str, Any], path: str) -> int:
+    n = node.get("len")
+    if not isinstance(n, int) or isinstance(n, bool) or not 0 <= n <= 10**8:
+        raise CheckpointError(f"checkpoint: {path}: invalid length {n!r}")
+    return n
+
+
+def _keys(node: dict[str, Any], path: str) -> list[str]:
+    keys = node.get("keys")
+    if not isinstance(keys, list) or not all(isinstance(k, str) for k in keys):
+        raise CheckpointError(f"checkpoint: {path}: invalid keys {keys!r}")
+    return keys
+
+
+def _array_of(node: dict[str, Any], arrays: dict[str, np.ndarray], path: str) -> np.ndarray:
+    name = node.get("array")
+    if name not in arrays:
+        raise CheckpointError(f"checkpoint: {path}: its array {name!r} is missing")
+    return arrays[name]
+
+
+def _check_part(path: str, part: tuple[str, Any]) -> None:
+    """No path element may name a dunder attribute (``__class__``, ``__globals__`` …)."""
+    kind, key = part
+    if kind in ("root", "attr") and (not isinstance(key, str) or not key.isidentifier() or key.startswith("__")):
+        raise CheckpointError(f"checkpoint: {path}: {key!r} is not a state slot name")
+
+
 def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
     """Write a :meth:`StateWalker.snapshot` back into the walker's roots.
 
     The roots may be freshly built (a resume) or live objects of the same build that ran on (a
     ``set_state``): leaves the snapshot records as unchanged since the build get their build
-    values back where they changed since.
+    values back where they changed since. Only state slots are written (see the module docs):
+    every path of ``tree`` is one the rebuilt objects reach themselves, or a child of a container
+    or object that this restore made from ``tree``.
 
     Raises:
       CheckpointError: a leaf recorded as unchanged differs from this walker's build (another build
-        or config), or a path of the checkpoint cannot be reached.
+        or config), a path of the checkpoint is not a state slot of the rebuilt run, or a class it
+        names is not one of the run's.
     """
+    if not isinstance(tree, dict):
+        raise CheckpointError(f"checkpoint: the state tree is not a mapping ({type(tree).__name__})")
     if not walker._base:  # never baselined: the objects as they are now are the build
         walker.baseline()
-    built = walker.nodes()
+    built, slots = walker._nodes_and_slots()
+    table = _known_classes(slots)
     live_groups, saved_groups = _alias_groups(built), _alias_groups(tree)
 
     def sole_owner(path: str) -> bool:
@@ -344,30 +417,43 @@ def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, n
 
     roots = dict(walker.roots)
     placed: dict[str, Any] = {}
+    open_for: dict[str, str] = {}  # path placed from the file → the children it takes: "items", "attrs"
     tuples: list[str] = []
     for path, node in tree.items():  # parents come before children (walk order)
+        if not isinstance(path, str) or not isinstance(node, dict):
+            raise CheckpointError(f"checkpoint: malformed state node {path!r}")
         parts = _split(path)
+        for part in parts:
+            _check_part(path, part)
         if len(parts) == 1:
+            if parts[0][1] not in walker.roots:
+                raise CheckpointError(f"checkpoint: {path} is not a state slot of this run")
             parent, part = roots, ("key", parts[0][1])
         else:
             parent_path = path[: len(path) - len(_last_text(path))]
-            parent = placed[parent_path] if parent_path in placed else _resolve(roots, parts[:-1])
             part = parts[-1]
+            parent = _slot_parent(path, parent_path, part, placed, slots, open_for)
         if "same_as_built" in node:
-            if walker._base.get(path) != node["same_as_built"]:
+            if path not in walker._base or walker._base[path] != node["same_as_built"]:
                 raise CheckpointError(f"checkpoint: {path} differs from the rebuilt run (another build or config)")
             have = built.get(path)
             if have is None or "value" not in have or _digest(have["value"]) != node["same_as_built"]:
                 _put_back(parent, part, walker._base_values[path], in_place=sole_owner(path))  # changed since
             continue
-        kind = node["kind"]
+        kind = node.get("kind")
         if kind == "alias":
-            value = placed[node["of"]] if node["of"] in placed else _resolve(roots, _split(node["of"]))
+            target = node.get("of")
+            if target in placed:
+                value = placed[target]
+            elif target in slots:
+                value = slots[target]
+            else:
+                raise CheckpointError(f"checkpoint: {path} is an alias of {target!r}, not a state slot of this run")
             _set(parent, part, value)
             continue
         current = _try_get(parent, part)
         if kind == "array":
-            new = arrays[node["array"]]
+            new = _array_of(node, arrays, path)
             if (
                 isinstance(current, np.ndarray)
                 and current.shape == new.shape
@@ -378,44 +464,97 @@ def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, n
                 np.copyto(current, new)
                 placed[path] = current
                 continue
-            value = _fresh(node, arrays)
+            value = _fresh(node, arrays, table, path)
         elif kind == "scalar":
-            value = node["value"]
+            value = node.get("value")
+            if not isinstance(value, _SCALARS):
+                raise CheckpointError(f"checkpoint: {path}: a scalar of type {type(value).__name__}")
         elif kind == "rng":
             if isinstance(current, np.random.Generator):
                 current.bit_generator.state = _rng_state(node["value"])
                 placed[path] = current
                 continue
-            value = _fresh(node, arrays)
+            value = _fresh(node, arrays, table, path)
         elif kind == "object":
-            cls = node["class"]
-            if current is not None and f"{type(current).__module__}:{type(current).__qualname__}" == cls:
-                placed[path] = current
+            cls = node.get("class")
+            if current is not None and _class_name(type(current)) == cls:
+                placed[path] = current  # a live object: only its own slots are written
                 continue
-            value = _fresh(node, arrays)
+            value = _fresh(node, arrays, table, path)
+            open_for[path] = "attrs"
         elif kind in ("list", "dict"):
             if isinstance(current, (list, dict)) and kind == type(current).__name__:
-                _reshape_container(current, node)
+                _reshape_container(current, node, path)
                 placed[path] = current
+                open_for[path] = "items"
                 continue
-            value = _fresh(node, arrays)
+            value = _fresh(node, arrays, table, path)
+            open_for[path] = "items"
         elif kind == "tuple":
-            value = _fresh(node, arrays)
-            if isinstance(current, tuple) and len(current) == node["len"]:
+            value = _fresh(node, arrays, table, path)
+            if isinstance(current, tuple) and len(current) == len(value):
                 value[:] = list(current)
             tuples.append(path)
+            open_for[path] = "items"
         else:
             raise CheckpointError(f"checkpoint: unknown node kind {kind!r} at {path}")
         _set(parent, part, value)
         placed[path] = value
     for path in reversed(tuples):  # innermost first
         parts = _split(path)
-        parent = roots if len(parts) == 1 else _resolve(roots, parts[:-1])
-        part = ("key", parts[0][1]) if len(parts) == 1 else parts[-1]
-        items = _get(parent, part)
+        if len(parts) == 1:
+            parent, part = roots, ("key", parts[0][1])
+        else:
+            parent_path = path[: len(path) - len(_last_text(path))]
+            parent, part = placed.get(parent_path, slots.get(parent_path)), parts[-1]
         cls_name = tree[path].get("class")
-        _set(parent, part, _named_tuple(cls_name)._make(items) if cls_name else tuple(items))
+        items = placed[path]
+        if cls_name:
+            cls = _class_from(table, cls_name, path=path)
+            if not (issubclass(cls, tuple) and hasattr(cls, "_make")):
+                raise CheckpointError(f"checkpoint: {path}: {cls_name!r} is not a named tuple")
+            _set(parent, part, cls._make(items))
+        else:
+            _set(parent, part, tuple(items))
     walker.roots.update(roots)
+
+
+def _data_attribute(cls: type, name: str) -> bool:
+    """Whether ``name`` can be a data attribute of a ``cls`` object: a dataclass field, a
+    ``__slots__`` entry, or a name the class does not define (never a method or a property)."""
+    if dataclasses.is_dataclass(cls) and name in {f.name for f in dataclasses.fields(cls)}:
+        return True
+    if any(name in getattr(k, "__slots__", ()) for k in cls.__mro__):
+        return True
+    return not hasattr(cls, name)
+
+
+def _slot_parent(
+    path: str,
+    parent_path: str,
+    part: tuple[str, Any],
+    placed: dict[str, Any],
+    slots: dict[str, Any],
+    open_for: dict[str, str],
+) -> Any:
+    """The live parent of ``path``, when ``path`` is a state slot: a path the rebuilt objects
+    reach, or a new child of a container (an item, a key) or of an object (an attribute the class
+    does not define) that this restore placed from the file."""
+    if parent_path in placed:
+        parent = placed[parent_path]
+    elif parent_path in slots:
+        parent = slots[parent_path]
+    else:
+        raise CheckpointError(f"checkpoint: {path} is not a state slot of this run (no parent {parent_path})")
+    if path in slots:
+        return parent
+    kind, key = part
+    grows = open_for.get(parent_path)
+    if grows == "items" and kind in ("item", "key"):
+        return parent
+    if grows == "attrs" and kind == "attr" and _data_attribute(type(parent), key):
+        return parent
+    raise CheckpointError(f"checkpoint: {path} is not a state slot of this run")
 
 
 def _alias_groups(nodes: dict[str, dict[str, Any]]) -> dict[str, set[str]]:
@@ -456,16 +595,6 @@ def _last_text(path: str) -> str:
     return path[cut:] if path[cut] == "." else path
 
 
-def _resolve(roots: dict[str, Any], parts: list[tuple[str, Any]]) -> Any:
-    try:
-        obj = roots[parts[0][1]]
-        for part in parts[1:]:
-            obj = _get(obj, part)
-    except (AttributeError, KeyError, IndexError, TypeError, ValueError) as err:
-        raise CheckpointError(f"checkpoint: cannot reach {parts!r} in the rebuilt run ({err})") from None
-    return obj
-
-
 def _try_get(parent: Any, part: tuple[str, Any]) -> Any:
     try:
         return _get(parent, part)
@@ -473,13 +602,14 @@ def _try_get(parent: Any, part: tuple[str, Any]) -> Any:
         return None
 
 
-def _reshape_container(current: Any, node: dict[str, Any]) -> None:
+def _reshape_container(current: Any, node: dict[str, Any], path: str) -> None:
     """Make a rebuilt list/dict the length/key set of the checkpoint before its items are set."""
     if isinstance(current, list):
-        del current[node["len"] :]
-        current.extend([None] * (node["len"] - len(current)))
+        n = _length(node, path)
+        del current[n:]
+        current.extend([None] * (n - len(current)))
     else:
-        keys = [_key_value(k) for k in node["keys"]]
+        keys = [_key_value(k) for k in _keys(node, path)]
         for k in [k for k in current if k not in keys]:
             del current[k]
         for k in keys:
@@ -521,6 +651,16 @@ def read_arrays(path: Path) -> tuple[dict[str, Any] | None, dict[str, np.ndarray
     return header, arrays
 
 
+def state_digest(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> str:
+    """BLAKE2b (128 bit) of a checkpoint's contents: its header (JSON, keys sorted; the digest
+    itself left out) and every array by name, dtype, shape and bytes."""
+    h = hashlib.blake2b(digest_size=16)
+    h.update(json.dumps({k: v for k, v in header.items() if k != "state_digest"}, sort_keys=True).encode())
+    for name in sorted(arrays):
+        h.update(f"\0{name}\0{_digest(np.asarray(arrays[name]))}".encode())
+    return h.hexdigest()
+
+
 def write_checkpoint(
     path: Path,
     header: dict[str, Any],
@@ -530,22 +670,31 @@ def write_checkpoint(
     extra_arrays: dict[str, np.ndarray],
 ) -> None:
     """Write a checkpoint: ``header`` (JSON scalars), a :meth:`StateWalker.snapshot` (``tree``,
-    ``arrays``) and ``extra_arrays`` (e.g. MuJoCo's state)."""
-    write_arrays(
-        path,
-        {**arrays, **{f"x_{k}": v for k, v in extra_arrays.items()}},
-        header={"format": _FORMAT, **header, "state_tree": tree},
-    )
+    ``arrays``) and ``extra_arrays`` (e.g. MuJoCo's state), with their :func:`state_digest`."""
+    stored = {**arrays, **{f"x_{k}": v for k, v in extra_arrays.items()}}
+    full = {"format": _FORMAT, **header, "state_tree": tree}
+    full["state_digest"] = state_digest(full, stored)
+    write_arrays(path, stored, header=full)
 
 
 def read_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, np.ndarray], dict[str, np.ndarray]]:
     """``(header, state_arrays, extra_arrays)`` of a checkpoint written by :func:`write_checkpoint`."""
     header, arrays = read_arrays(path)
-    if header is None or header.get("format") != _FORMAT or "state_tree" not in header:
+    if (
+        not isinstance(header, dict)
+        or header.get("format") != _FORMAT
+        or not isinstance(header.get("state_tree"), dict)
+    ):
         raise CheckpointError(f"checkpoint: {path} is not a {_FORMAT!r} file")
+    if "state_digest" not in header:
+        raise CheckpointError(f"checkpoint: {path} carries no state digest (a checkpoint of an older version)")
+    if state_digest(header, arrays) != header["state_digest"]:
+        raise CheckpointError(f"checkpoint: {path} differs from its state digest (edited or corrupt)")
     extra = {k[2:]: v for k, v in arrays.items() if k.startswith("x_")}
     state = {k: v for k, v in arrays.items() if not k.startswith("x_")}
     for node in header["state_tree"].values():
+        if not isinstance(node, dict):
+            raise CheckpointError(f"checkpoint: {path} has a malformed state tree")
         if node.get("kind") == "array" and "array" in node and node["array"] not in state:
             raise CheckpointError(f"checkpoint: {path} lacks array {node['array']!r} (truncated?)")
     return header, state, extra

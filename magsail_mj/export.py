@@ -30,6 +30,7 @@ import xarray as xr
 from magsail_mj.cli import EXPORT_FORMATS
 from magsail_mj.cli import add_export_arguments as add_arguments
 from magsail_mj.io import RUN_FILE_PATTERNS, atomic_path
+from magsail_mj.integrity import IntegrityError, verify_run_folder
 from magsail_mj.records import SERIES_GROUP, STORE_NAME, RecordStoreError, StoreRecords, lazy_arrays, open_records
 
 __all__ = ["add_arguments", "main", "export_run", "write_npz_streamed", "read_timeseries", "EXTENSIONS", "FORMATS"]
@@ -75,6 +76,10 @@ def export_run(run_dir: str | Path, *, fmt: str | None = None, out: str | Path |
         raise ExportError(f"RUN_DIR: {folder} holds no {STORE_NAME} (not a run folder, or a run of an older version)")
     if out is not None and (not str(out).strip() or Path(out).is_dir()):
         raise ExportError(f"--out: must name a file, got {str(out)!r}")
+    try:
+        verify_run_folder(folder)
+    except IntegrityError as err:
+        raise ExportError(f"RUN_DIR: {err}") from None
     fmt = _format(fmt, out)
     target = Path(out) if out is not None else folder / f"timeseries{FORMATS[fmt]}"
     _check_target(target, folder)

@@ -19,12 +19,20 @@ then dimensions named per variable (:func:`dims_of`); its attributes ``units`` a
 hold what the caller gives (config hash, package versions, status). A checkpoint stores only
 the record count; a resume truncates the store to it (:meth:`Recorder.open_store`).
 
+Integrity: every chunk of every variable is digested as it is written (:func:`rows_digest` of
+its rows: dtype, shape and bytes; :meth:`Recorder.digest_table`, and the return value of
+:func:`write_group`). Checkpoints and the run's manifest carry these digests, and
+:func:`verify_digests` reads a store back against them, so a chunk that was deleted (Zarr would
+read it as the fill value, zeros), truncated or edited is refused with the variable and the
+records it holds, never read as data.
+
 :class:`StoreRecords` is the read-only mapping name → array of a store that reads each
 variable on first access (post-processing, plots and export read lazily).
 """
 
 from __future__ import annotations
 
+import hashlib
 import shutil
 import warnings
 from collections.abc import Iterator, Mapping
@@ -48,6 +56,8 @@ __all__ = [
     "store_length",
     "lazy_record",
     "row_blocks",
+    "rows_digest",
+    "verify_digests",
     "STORE_NAME",
     "SERIES_GROUP",
 ]
@@ -126,6 +136,84 @@ def _open_group(path: Path, mode: str) -> zarr.Group:
         return zarr.open_group(str(path), mode=mode, use_consolidated=False)
 
 
+def rows_digest(rows: np.ndarray) -> str:
+    """BLAKE2b (128 bit) of a block of rows: its dtype, shape and bytes (text: shape and values), hex."""
+    rows = np.ascontiguousarray(rows)
+    h = hashlib.blake2b(digest_size=16)
+    if rows.dtype.kind in "biufc":
+        h.update(f"{rows.dtype.str}{rows.shape}".encode())
+        h.update(rows.tobytes())
+    else:  # text: by value (Zarr may read it back in another string dtype)
+        h.update(f"text{rows.shape}".encode())
+        h.update("\0".join(map(str, rows.ravel().tolist())).encode())
+    return h.hexdigest()
+
+
+def _digest_entry(array: Any, rows: int, n: int) -> dict[str, Any]:
+    """The digest entry of the first ``n`` rows of ``array``, in blocks of ``rows`` rows (of a
+    0-d array: ``rows`` 0 and one digest of the whole value)."""
+    if not array.shape:
+        return {"rows": 0, "n": 0, "chunks": [rows_digest(np.asarray(array[...]))]}
+    return {
+        "rows": int(rows),
+        "n": int(n),
+        "chunks": [rows_digest(np.asarray(array[a : min(a + rows, n)])) for a in range(0, n, rows)],
+    }
+
+
+def verify_digests(path: str | Path, table: Mapping[str, Any]) -> None:
+    """Read the store at ``path`` back against a digest table (:meth:`Recorder.digest_table`,
+    :func:`write_group`): ``name`` or ``group/name`` → ``{"rows", "n", "chunks"}``.
+
+    Raises:
+      RecordStoreError: a variable is missing or shorter than its digests cover, a chunk cannot be
+        read (truncated, corrupt) or its rows differ from their digest (edited, or deleted: a missing
+        chunk reads as zeros); the message names the variable and the records of the chunk.
+    """
+    path = Path(path)
+    try:
+        root = _open_group(path, "r")
+    except (OSError, ValueError, KeyError, zarr.errors.BaseZarrError) as err:  # type: ignore[attr-defined]
+        raise RecordStoreError(f"record store {path}: unreadable ({type(err).__name__}: {err})") from None
+    if not isinstance(table, Mapping):
+        raise RecordStoreError(f"record store {path}: its digest table is not a mapping")
+    for key, entry in sorted(table.items()):
+        where = f"{path.name}/{key}"
+        try:
+            rows, n, chunks = int(entry["rows"]), int(entry["n"]), list(entry["chunks"])
+        except (KeyError, TypeError, ValueError):
+            raise RecordStoreError(f"record store {path}: malformed digest entry for {key!r}") from None
+        if rows < 0 or n < 0 or len(chunks) != (1 if rows == 0 else -(-n // rows)):
+            raise RecordStoreError(f"record store {path}: malformed digest entry for {key!r}")
+        try:
+            array = root[key]
+            length = array.shape[0] if rows else 0
+        except (KeyError, TypeError, ValueError, IndexError, zarr.errors.BaseZarrError):  # type: ignore[attr-defined]
+            raise RecordStoreError(f"{where} is missing from the record store (or changed shape)") from None
+        if rows == 0:
+            _check_block(where, "value", lambda: array[...], chunks[0])
+            continue
+        if length < n:
+            raise RecordStoreError(f"{where} holds {length} records, its digests cover {n}")
+        for i, expected in enumerate(chunks):
+            a, b = i * rows, min((i + 1) * rows, n)
+            _check_block(where, f"records {a}-{b - 1}", lambda a=a, b=b: array[a:b], expected)
+
+
+def _check_block(where: str, what: str, read: Any, expected: str) -> None:
+    """Read one block of a stored array and compare it with its digest."""
+    try:
+        block = np.asarray(read())
+    except Exception as err:  # noqa: BLE001 - any read failure of a chunk is a corrupt store
+        raise RecordStoreError(
+            f"{where} {what} are unreadable (truncated or corrupt chunk: {type(err).__name__}: {err})"
+        ) from None
+    if rows_digest(block) != expected:
+        raise RecordStoreError(
+            f"{where} {what} differ from their digest (a chunk edited, or deleted: Zarr reads a missing chunk as zeros)"
+        )
+
+
 class Recorder:
     """Chunked records of a run (see module docs).
 
@@ -150,6 +238,7 @@ class Recorder:
         self.buffers: dict[str, np.ndarray] = {}
         self.chunks: list[dict[str, np.ndarray]] = []  # full chunks (memory mode)
         self.first_bad: dict[str, tuple[int, float]] = {}
+        self.digests: dict[str, list[str]] = {}  # store mode: per variable, of each chunk's rows in the store
         self.path: Path | None = None
         self.group: zarr.Group | None = None
 
@@ -222,6 +311,7 @@ class Recorder:
             del self.group[name]
             arr = self._create_array(name, old.shape[1:], new, len(old))
             arr[...] = old.astype(new)
+            self.digests[name] = _digest_entry(arr, self.chunk, len(old))["chunks"]
         return self.buffers[name]
 
     def _chunk_full(self) -> None:
@@ -295,6 +385,7 @@ class Recorder:
             self.written = min(self.written, n)
             if self.group is not None:
                 self._resize(min(self.written, n))
+                self._trim_digests()
             return
         base = n // self.chunk * self.chunk
         if self.group is not None:
@@ -308,6 +399,35 @@ class Recorder:
         for k, buf in self.buffers.items():
             buf[: n - base] = rows[k] if rows else buf[: n - base]
         self.base, self.n = base, n
+        if self.group is not None:
+            self._trim_digests()
+
+    def _trim_digests(self) -> None:
+        """Digests of the chunks the store holds after a cut (the last partial one read back)."""
+        keep = -(-self.written // self.chunk) if self.chunk else 0
+        tail = self.written % self.chunk if self.chunk else 0
+        for name in self.names:
+            digests = self.digests.get(name, [])[:keep]
+            if tail and name in self.group:
+                start = self.written - tail
+                digests[keep - 1 :] = [rows_digest(np.asarray(self.group[name][start : self.written]))]
+            self.digests[name] = digests
+
+    def digest_table(self) -> dict[str, Any]:
+        """The digests of the records in the store (call after :meth:`flush`): name →
+        ``{"rows": records per chunk, "n": records, "chunks": [digest of each chunk's rows]}``."""
+        if self.group is None:
+            return {}
+        rows = self.chunk or self.min_chunk
+        return {
+            name: {"rows": rows, "n": self.written, "chunks": list(self.digests.get(name, []))} for name in self.names
+        }
+
+    def _note_digest(self, name: str, index: int, rows: np.ndarray) -> None:
+        digests = self.digests.setdefault(name, [])
+        del digests[index:]
+        digests.extend([""] * (index - len(digests)))
+        digests.append(rows_digest(rows))
 
     # ------------------------------------------------------------------ the store
     def create_store(self, path: str | Path, *, attrs: dict[str, Any] | None = None) -> None:
@@ -320,19 +440,29 @@ class Recorder:
         self.group.attrs.update({"format": _FORMAT, **(attrs or {})})
         self.path = path
         self.written = 0
+        self.digests = {}
         if self.buffers:
             for name, buf in self.buffers.items():
                 arr = self._create_array(name, buf.shape[1:], buf.dtype, self.base)
                 for j, part in enumerate(self.chunks):
                     arr[j * self.chunk : (j + 1) * self.chunk] = part[name]
+                    self._note_digest(name, j, part[name])
             self.chunks = []
             self.written = self.base
         _consolidate(path)
 
-    def open_store(self, path: str | Path, n_records: int) -> None:
+    def open_store(self, path: str | Path, n_records: int, *, digests: Mapping[str, Any] | None = None) -> None:
         """Continue the store at ``path`` from record ``n_records`` (a checkpoint's count): the
-        store is cut to it and its last partial chunk is read back into the buffers."""
+        store is cut to it and its last partial chunk is read back into the buffers. With
+        ``digests`` (the checkpoint's :meth:`digest_table`) the store is first read back against
+        them (:func:`verify_digests`; a :class:`RecordStoreError` names what differs)."""
         path = Path(path)
+        if digests is not None and n_records:
+            if set(digests) != set(self.names) or any(int(d.get("n", -1)) != n_records for d in digests.values()):
+                raise RecordStoreError(
+                    f"record store {path}: the digests do not describe {n_records} records of this run"
+                )
+            verify_digests(path, digests)
         try:
             group = _open_group(path, "r+")
             lengths = {k: group[k].shape[0] for k in self.names if k in group}
@@ -346,7 +476,7 @@ class Recorder:
                 f"(missing {missing}, short {short})"
             )
         self.group, self.path = group, path
-        self.buffers, self.chunks, self.first_bad = {}, [], {}
+        self.buffers, self.chunks, self.first_bad, self.digests = {}, [], {}, {}
         self.n = self.base = self.written = self.checked = 0
         if not n_records:
             for k in list(self.group.array_keys()):
@@ -360,6 +490,10 @@ class Recorder:
             self.buffers[k][: n_records - self.base] = group[k][self.base : n_records]
         self.n = self.written = n_records
         self.checked = 0
+        if digests is not None:
+            self.digests = {k: list(digests[k]["chunks"]) for k in self.names}
+        else:
+            self.digests = {k: _digest_entry(group[k], self.chunk, n_records)["chunks"] for k in self.names}
         self._scan_store()
 
     def _scan_store(self) -> None:
@@ -407,6 +541,8 @@ class Recorder:
                 arr[self.base : self.n] = buf  # a whole chunk: written without reading it back
             else:
                 arr[lo : self.n] = buf[lo - self.base : self.n - self.base]
+            if self.n > self.base:
+                self._note_digest(name, self.base // self.chunk, buf[: self.n - self.base])
         self.written = self.n
 
     def flush(self) -> None:
@@ -518,11 +654,12 @@ def write_group(
     group: str | None = None,
     n_time: int | None = None,
     attrs: dict[str, Any] | None = None,
-) -> None:
+) -> dict[str, Any]:
     """Write whole arrays into the store at ``path`` (its root, or ``group`` replaced whole):
     arrays whose first axis has ``n_time`` rows get the dimension ``time`` (coordinate ``t``),
     the others ``<name>_dim<i>``; units and long names as for records. Variables already in the
-    root are replaced."""
+    root are replaced. Returns the digest table of what was written (``[group/]name`` → entry, as
+    :meth:`Recorder.digest_table`), computed from the values as they are written."""
     root = _open_group(Path(path), "a") if Path(path).is_dir() else _open_group(Path(path), "w")
     if group:
         if group in root:
@@ -531,6 +668,7 @@ def write_group(
     else:
         target = root
     target.attrs.update(attrs or {})
+    digests: dict[str, Any] = {}
     for name, value in arrays.items():
         v = np.asarray(value)
         if v.dtype.kind not in "biufc":
@@ -549,7 +687,10 @@ def write_group(
             fill_value=None if v.dtype.kind in "U" else np.zeros((), v.dtype).item(),
         )
         arr[...] = v
+        key = f"{group}/{name}" if group else name
+        digests[key] = _digest_entry(v, arr.chunks[0] if v.ndim else 0, len(v) if v.ndim else 0)
     _consolidate(Path(path))
+    return digests
 
 
 def update_attrs(path: str | Path, attrs: dict[str, Any]) -> None:

@@ -242,8 +242,9 @@ def _run_locked(
         result = sim.run(progress=progress, checkpoint_path=ckpt, resume=resume, stop_after_s=stop_after_s)
     status, message = result.status, result.message
     with deferred_interrupts() as pending:  # the numbers' files are written whole, even on Ctrl-C
-        result = _stored(result, store, attrs)
-        summary, series, plots = _outputs(scenario, result, run_dir)
+        result, digests = _stored(result, store, attrs, recorder=getattr(sim, "recorder", None))
+        summary, series, plots, series_digests = _outputs(scenario, result, run_dir)
+        digests.update(series_digests)
         overflowed = [k for k, v in series.items() if np.asarray(v).dtype.kind == "f" and np.isinf(v).any()]
         if status == "completed" and overflowed:  # NaN may mark an undefined value; ±inf never is a number
             status, message = (
@@ -291,6 +292,9 @@ def _run_locked(
             **scenario.manifest_extra(),
         }
         manifest["files"] = {name: file_sha256(run_dir / name) for name in files}
+        manifest["records_digests"] = digests
+        if ckpt is not None and ckpt.is_file():
+            manifest["checkpoint"] = {"file": CHECKPOINT_NAME, "state_digest": read_checkpoint(ckpt)[0]["state_digest"]}
         if not video or status == "interrupted":
             write_json(run_dir / "manifest.json", manifest)
     if pending and video and status != "interrupted":  # Ctrl-C while the numbers were written: no video
@@ -322,6 +326,7 @@ def _render_video(run_dir: Path, manifest: dict[str, Any]) -> tuple[str, str]:
             fps=info.get("fps", 30),
             max_frames=info.get("max_frames", 600),
             render_info=info,
+            verify=False,  # this run is writing the folder: its manifest comes after the video
         )
     except KeyboardInterrupt:
         write_json(
@@ -367,25 +372,33 @@ def store_attrs(cfg: Any, identity: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def _stored(result: Any, store: Path, attrs: dict[str, Any]) -> Any:
-    """The result with its records in ``store``: a runner that streams has written them (its
-    end-of-run arrays, ``extra``, are added); the others' records are written now."""
+def _stored(result: Any, store: Path, attrs: dict[str, Any], *, recorder: Any) -> tuple[Any, dict[str, Any]]:
+    """The result with its records in ``store``, and the digests of every stored chunk: a runner
+    that streams has written them (``recorder`` holds their digests; its end-of-run arrays,
+    ``extra``, are added); the others' records are written now."""
     records = result.records
     if isinstance(records, StoreRecords):
+        digests = {}
+        if recorder is not None:
+            recorder.flush()
+            digests = recorder.digest_table()
         if records.extra:
-            write_group(store, records.extra)
+            digests.update(write_group(store, records.extra))
         result.records = open_records(store.parent)
-        return result
+        return result, digests
     n_time = len(records["t"]) if "t" in records and np.ndim(records["t"]) == 1 else None
     if store.exists():
         shutil.rmtree(store)
-    write_group(store, records, n_time=n_time, attrs=attrs)
+    digests = write_group(store, records, n_time=n_time, attrs=attrs)
     result.records = open_records(store.parent)
-    return result
+    return result, digests
 
 
-def _outputs(scenario: Any, result: Any, run_dir: Path) -> tuple[dict[str, Any], dict[str, Any], list[Path]]:
-    """Summary, series and plots of a run; the series go to the store's group ``series`` here.
+def _outputs(
+    scenario: Any, result: Any, run_dir: Path
+) -> tuple[dict[str, Any], dict[str, Any], list[Path], dict[str, Any]]:
+    """Summary, series, plots of a run and the digests of the stored series; the series go to the
+    store's group ``series`` here.
 
     A run that did not complete may have too few records for the scenario's metrics (a state
     that was bad from the start has none): its records are still written, and the summary then
@@ -396,9 +409,9 @@ def _outputs(scenario: Any, result: Any, run_dir: Path) -> tuple[dict[str, Any],
     except Exception as err:  # noqa: BLE001 - only for runs that did not complete, see above
         if result.status == "completed":
             raise
-        return {"t_end_s": result.t_end_s, "postprocess_error": f"{type(err).__name__}: {err}"}, {}, []
+        return {"t_end_s": result.t_end_s, "postprocess_error": f"{type(err).__name__}: {err}"}, {}, [], {}
     series = {"t": result.records["t"], **series}
-    write_group(run_dir / STORE_NAME, series, group=SERIES_GROUP, n_time=len(series["t"]))
+    digests = write_group(run_dir / STORE_NAME, series, group=SERIES_GROUP, n_time=len(series["t"]))
     try:
         plots = scenario.plots(run_dir, result, series)
     except Exception as err:  # noqa: BLE001 - same rule as above
@@ -406,7 +419,7 @@ def _outputs(scenario: Any, result: Any, run_dir: Path) -> tuple[dict[str, Any],
             raise
         summary = {**summary, "plots_error": f"{type(err).__name__}: {err}"}
         plots = []
-    return summary, series, plots
+    return summary, series, plots, digests
 
 
 def _n_steps(cfg: Any) -> int:

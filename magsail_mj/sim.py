@@ -279,6 +279,7 @@ class SteppedRun:
             "wall_s": self._wall_s,
             "n_records": state["n_records"],
             "records_store": store.name if store is not None else None,
+            "records_digests": self.recorder.digest_table() if store is not None else None,
             **header,
         }
         write_checkpoint(
@@ -296,11 +297,18 @@ class SteppedRun:
         check_identity(header, self.identity, path=path)
         return header, arrays, extra
 
-    def _reopen_store(self, path: Path, store: Path, n_records: int) -> None:
-        """Continue the record store ``store`` cut to the ``n_records`` the checkpoint ``path`` counts;
-        a store that cannot be continued is a :class:`~magsail_mj.checkpoint.CheckpointError`."""
+    def _reopen_store(self, path: Path, store: Path, header: dict[str, Any]) -> None:
+        """Continue the record store ``store`` cut to the ``n_records`` the checkpoint ``path``
+        (its ``header``) counts, after reading it back against the checkpoint's digests of every
+        chunk; a store that cannot be continued, or whose records differ from the digests (a
+        deleted, truncated or edited chunk), is a :class:`~magsail_mj.checkpoint.CheckpointError`."""
+        digests = header.get("records_digests")
+        if not isinstance(digests, dict):
+            raise CheckpointError(
+                f"checkpoint: {path} carries no digests of its records (a checkpoint of an older version)"
+            )
         try:
-            self.recorder.open_store(store, n_records)
+            self.recorder.open_store(store, int(header["n_records"]), digests=digests)
         except RecordStoreError as err:
             raise CheckpointError(f"checkpoint: {path}: {err}") from None
 
@@ -595,7 +603,7 @@ class Simulation(SteppedRun):
         n_records = int(header["n_records"])
         if records_path is None:
             raise CheckpointError(f"checkpoint: {path} needs its record store (records_path)")
-        self._reopen_store(path, records_path, n_records)
+        self._reopen_store(path, records_path, header)
         loop = self._new_loop()
         loop.update(wall_s=float(header["wall_s"]))
         self._loop = loop

@@ -36,6 +36,7 @@ import numpy as np
 from magsail_mj.control.reflector_steering import ReflectorOrbit, SteeringReference, SteeringState
 from magsail_mj.quaternion import error_quaternion, quat_to_matrix
 from magsail_mj.vec3 import cross3
+from magsail_mj.checkpoint import restorable
 
 
 __all__ = ["PitchCommand", "ReflectorPitchController", "pitch_gains", "project_and_saturate", "saturate_norm"]
@@ -80,6 +81,7 @@ def project_and_saturate(
     return saturate_norm(T_perp, cap)
 
 
+@restorable
 @dataclass
 class PitchCommand:
     """Held output of :class:`ReflectorPitchController` (body frame unless named).

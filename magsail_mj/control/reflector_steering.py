@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from magsail_mj.quaternion import quat_from_axis_angle
+from magsail_mj.checkpoint import restorable
 
 __all__ = [
     "ReflectorOrbit",
@@ -184,6 +185,7 @@ class ReflectorOrbit:
         return {"psi_c": psi_c, "psi_wrapped": np.mod(psi_c, np.pi), "psi_dot": pd, "psi_ddot": pdd, "beta_ref": beta}
 
 
+@restorable
 @dataclass
 class SteeringState:
     """Reference at one time: ``beta_ref`` (unwrapped) [rad], ``psi_c`` [rad], ``psi_dot`` [rad/s],

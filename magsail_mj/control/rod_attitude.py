@@ -34,10 +34,12 @@ import numpy as np
 from magsail_mj.control.allocation import Allocation, TorqueDistributor
 from magsail_mj.control.profiles import torque_profile
 from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step
+from magsail_mj.checkpoint import restorable
 
 __all__ = ["RodCommand", "RodAttitudeController", "ProfileRodController", "step_rate"]
 
 
+@restorable
 @dataclass
 class RodCommand:
     """The zero-order-held output of one control sample.

@@ -53,10 +53,12 @@ from magsail_mj.environment.interp import CubicTable
 from magsail_mj.environment.orbit import OrbitalElements, ReferenceOrbit, raan_from_ltdn
 from magsail_mj.environment.sun import sun_position_eci, sun_right_ascension
 from magsail_mj.environment.timeutil import gmst_rad, gmst_rate_rad_s, julian_date, parse_epoch
+from magsail_mj.checkpoint import restorable
 
 __all__ = ["EnvSample", "Environment", "elements_from_config"]
 
 
+@restorable
 @dataclass(slots=True)
 class EnvSample:
     """The environment at one time ``t`` [s since the epoch]; vectors in ECI = world axes.

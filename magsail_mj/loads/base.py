@@ -16,9 +16,12 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from magsail_mj.checkpoint import restorable
+
 __all__ = ["StepState", "Load"]
 
 
+@restorable
 @dataclass
 class StepState:
     """What a load sees at one step.

@@ -61,6 +61,7 @@ import numpy as np
 from tqdm import tqdm
 
 from magsail_mj.analysis.flatness import average_plane, surface_heights
+from magsail_mj.integrity import IntegrityError, verify_run_folder
 from magsail_mj.records import STORE_NAME, RecordStoreError, lazy_arrays, open_records
 from magsail_mj.render.backend import ensure_gl_backend, make_renderer
 from magsail_mj.render.ending import end_reason, end_status
@@ -1452,6 +1453,7 @@ def render_run(
     fps: float = 30,
     crf: float = 20.0,
     progress: bool = False,
+    verify: bool = True,
     **options: Any,
 ) -> Path:
     """Render a run folder to a browser-playable MP4 (H.264, yuv420p), written atomically.
@@ -1463,6 +1465,9 @@ def render_run(
       fps: playback frames per second.
       crf: x264 quality (lower is better and larger).
       progress: show a tqdm progress bar.
+      verify: check every folder against its ``manifest.json`` first
+        (:func:`magsail_mj.integrity.verify_run_folder`: no file edited, missing or truncated, no
+        record chunk deleted); ``False`` only for the run that is writing the folder now.
       options: what the frames show, the fields of :class:`FrameOptions`: ``compare``,
         ``labels``, ``width`` (960, even), ``height`` (540, even), ``max_frames`` (600),
         ``exaggeration``, ``camera``, ``height_cmap`` (``"PuOr_r"``), ``antialias`` (True),
@@ -1487,6 +1492,12 @@ def render_run(
     if not (_is_number(fps) and math.isfinite(fps) and fps > 0):
         raise RenderError(f"fps: must be a finite number > 0, got {fps!r}")
     run_dirs = _run_dirs(run_dir, opt.compare)
+    if verify:
+        for name, folder in zip(("run_dir", "compare"), run_dirs):
+            try:
+                verify_run_folder(folder)
+            except IntegrityError as err:
+                raise RenderError(f"{name}: {err}") from None
     _check_render_memory(run_dirs, max_frames=int(opt.max_frames), width=int(opt.width), height=int(opt.height))
     frames = render_frames(run_dir, **options)
     with contextlib.closing(frames):

@@ -51,6 +51,7 @@ from typing import Literal, Sequence
 import numpy as np
 
 from magsail_mj.quaternion import quat_conj, quat_mul
+from magsail_mj.checkpoint import restorable
 
 __all__ = [
     "quat_to_paper",
@@ -176,6 +177,7 @@ def rate_error_f(omega_body: Sequence[float], p_e: Sequence[float], omega_o: flo
     )
 
 
+@restorable
 @dataclass(frozen=True)
 class EigenAxisGains:
     """Gains of the eigen-axis law (module docstring).

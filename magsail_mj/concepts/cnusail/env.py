@@ -87,6 +87,8 @@ from magsail_mj.sim import Simulation
 
 import magsail_mj
 
+from magsail_mj.checkpoint import restorable
+
 __all__ = [
     "CubesatCommand",
     "CubesatConverter",
@@ -106,6 +108,7 @@ ACTIONS = ("dipole", "torque_dipole", "current_dipole")
 # ------------------------------------------------------------------------------------ plant side
 
 
+@restorable
 @dataclass(frozen=True, eq=False)
 class CubesatCommand:
     """One action as the plant receives it: ``wheel`` (3,) in the unit of ``wheel_kind``

@@ -60,6 +60,7 @@ from magsail_mj.concepts.cnusail.pd import pd_torque
 from magsail_mj.concepts.cnusail.unloading import UnloadingLogic, unloading_dipole
 from magsail_mj.quaternion import quat_from_matrix
 from magsail_mj.loads.actuators_cubesat import MagnetorquerCycle, WheelDriver, saturate_per_axis, saturate_uniform
+from magsail_mj.checkpoint import restorable
 
 __all__ = [
     "Mode",
@@ -280,6 +281,7 @@ class CnusailControlParams:
         return Mode.DEORBIT if self.command == "deorbit" else Mode.NADIR
 
 
+@restorable
 class CnusailCommand:
     """The held command: the effective magnetorquer dipole (``dipole_body`` [A m²], body axes,
     zero while blanked) and, through :meth:`apply_ctrl`, the per-step wheel-driver update."""

@@ -38,6 +38,7 @@ import numpy as np
 from magsail_mj.estimation.attitude import BestFitRotation, body_rate_step
 from magsail_mj.quaternion import quat_from_matrix
 from magsail_mj.quaternion import quat_conj, quat_mul
+from magsail_mj.checkpoint import restorable
 
 __all__ = ["LoopCommand", "LoopAttitudeController", "allocate_currents", "rigid_velocity_fit", "RATE_ESTIMATORS"]
 
@@ -80,6 +81,7 @@ def allocate_currents(
     raise ValueError(f"mode: must be 'paper_clip' or 'direction_preserving', got {mode!r}")
 
 
+@restorable
 @dataclass
 class LoopCommand:
     """What one control sample decided (held until the next sample)."""

@@ -51,6 +51,8 @@ from typing import Literal, NamedTuple
 
 import numpy as np
 
+from magsail_mj.checkpoint import restorable
+
 __all__ = [
     "Blend",
     "Pattern",
@@ -92,6 +94,7 @@ def blend(u: np.ndarray | float, kind: Blend = "min_jerk") -> tuple[np.ndarray, 
     raise ValueError(f"kind: must be one of 'min_jerk', 'cubic', 'cosine', got {kind!r}")
 
 
+@restorable
 class CycleState(NamedTuple):
     """Desired shape state at the requested times (arrays of the shape of ``t``).
 

@@ -77,6 +77,7 @@ import numpy as np
 
 from magsail_mj.concepts.msac.cycle import CyclePath, cycle_state
 from magsail_mj.concepts.msac.mjcf import shape_indices
+from magsail_mj.checkpoint import restorable
 
 __all__ = [
     "steps_per_cycle",
@@ -305,6 +306,7 @@ def with_shape(model: mujoco.MjModel, data: mujoco.MjData, state: np.ndarray, dx
     return out
 
 
+@restorable
 @dataclass
 class HeldTorqueTable:
     r"""One cycle of held joint torques and the once-per-cycle trim of the ``held_torque`` drive.

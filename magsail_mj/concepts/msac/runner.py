@@ -395,7 +395,7 @@ class MsacRunner(SteppedRun):
             raise CheckpointError(f"checkpoint: {path} does not hold a state of this model within sim.duration_s")
         if "n_records" not in header or store is None:
             raise CheckpointError(f"checkpoint: {path} holds no record count or has no record store")
-        self._reopen_store(path, store, int(header["n_records"]))
+        self._reopen_store(path, store, header)
         self.set_state(
             {
                 "step": k,

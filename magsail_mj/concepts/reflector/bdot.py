@@ -28,10 +28,12 @@ import numpy as np
 from magsail_mj.control.reflector_pitch import saturate_norm
 from magsail_mj.quaternion import quat_to_matrix
 from magsail_mj.vec3 import cross3
+from magsail_mj.checkpoint import restorable
 
 __all__ = ["BdotCommand", "PlateBdotController"]
 
 
+@restorable
 @dataclass
 class BdotCommand:
     """Held output of :class:`PlateBdotController` (body frame).
