@@ -24,9 +24,9 @@ from tests.conftest import REPO
 
 CONFIG = REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_c_central_bangbang.toml"
 SMALL = [
-    "sim.duration_s=2",
+    "sim.duration_s=1",
     "lattice.units=3",
-    "sim.checkpoint_every_s=0.5",
+    "sim.checkpoint_every_s=0.25",
     "sim.record_every=1",
     "sim.progress=false",
 ]
@@ -39,16 +39,19 @@ def _run(out: Path, *extra: str) -> int:
 
 @pytest.fixture(scope="module")
 def stopped_run(tmp_path_factory) -> Path:
-    """A run stopped at 1 s with a checkpoint (records in several chunks)."""
+    """A run stopped at 0.5 s with a checkpoint."""
     out = tmp_path_factory.mktemp("integrity") / "stopped"
-    assert _run(out, "--stop-after-s", "1.0") == 0
+    assert _run(out, "--stop-after-s", "0.5") == 0
     return out
 
 
 @pytest.fixture(scope="module")
-def finished_run(tmp_path_factory) -> Path:
+def finished_run(stopped_run, tmp_path_factory) -> Path:
+    """The stopped run resumed to its end: the resume read its store back against the
+    checkpoint's digests (bit-identity of resumed runs: tests/test_hostile_runs.py)."""
     out = tmp_path_factory.mktemp("integrity") / "finished"
-    assert _run(out) == 0
+    shutil.copytree(stopped_run, out)
+    assert _run(out, "--resume") == 0
     return out
 
 
@@ -137,7 +140,7 @@ def test_an_edited_checkpoint_is_refused_by_its_digest(tmp_path, stopped_run, ca
     with np.load(run / "checkpoint.npz", allow_pickle=False) as npz:
         arrays = {k: npz[k] for k in npz.files}
     header = json.loads(str(arrays.pop("__header__")))
-    header["t_s"] = 0.5  # edited without its digest
+    header["wall_s"] = header["wall_s"] + 1.0  # edited without its digest
     arrays["__header__"] = np.array(json.dumps(header))
     with open(run / "checkpoint.npz", "wb") as fh:
         np.savez(fh, **arrays)
@@ -166,16 +169,6 @@ def test_a_damaged_record_chunk_refuses_the_resume(tmp_path, stopped_run, capsys
     assert _run(run, "--resume") == 2
     err = capsys.readouterr().err
     assert "qpos" in err and "records" in err, err
-
-
-def test_stop_then_resume_still_equals_the_uninterrupted_run(tmp_path, stopped_run, finished_run):
-    from magsail_mj.export import read_timeseries
-
-    run = _copy(stopped_run, tmp_path)
-    assert _run(run, "--resume") == 0
-    verify_run_folder(run)
-    a, b = read_timeseries(finished_run), read_timeseries(run)
-    assert sorted(a) == sorted(b) and all(np.array_equal(a[k], b[k], equal_nan=True) for k in a)
 
 
 def test_a_finished_run_verifies_and_lists_its_digests(finished_run):
