@@ -439,6 +439,7 @@ def restore_state(walker: StateWalker, tree: dict[str, Any], arrays: dict[str, n
             have = built.get(path)
             if have is None or "value" not in have or _digest(have["value"]) != node["same_as_built"]:
                 _put_back(parent, part, walker._base_values[path], in_place=sole_owner(path))  # changed since
+            placed[path] = _try_get(parent, part)  # an alias of it must reach the value now there
             continue
         kind = node.get("kind")
         if kind == "alias":

@@ -179,3 +179,17 @@ def test_cli_stop_then_resume_in_new_processes_is_bitwise(tmp_path):
     a, b = read_timeseries(tmp_path / "full"), read_timeseries(tmp_path / "cut")
     assert sorted(a) == sorted(b)
     assert all(np.array_equal(a[k], b[k], equal_nan=True) for k in a)
+
+
+def test_an_alias_follows_a_leaf_put_back_as_built():
+    """A leaf recorded as unchanged since the build but replaced since (another shape) is put back
+    as a new array; an alias of it must reach that new array, not the replaced one."""
+    shared = np.arange(3.0)
+    live = {"a": {"x": shared}, "b": [shared]}
+    walker = StateWalker(live)
+    walker.baseline()
+    early_tree, early_arrays = walker.snapshot()
+    live["a"]["x"] = np.zeros(5)
+    restore_state(walker, early_tree, early_arrays)
+    assert np.array_equal(walker.roots["a"]["x"], np.arange(3.0))
+    assert walker.roots["b"][0] is walker.roots["a"]["x"]
