@@ -332,4 +332,6 @@ OPEN = {
     ("cnusail", "orbit.J2"): "2^62: the J2 propagation fails (RuntimeError)",
     ("cnusail", "orbit.j2_radius_km"): "2^62: as orbit.J2",
     ("current_loops", "lattice.side_m"): "2^62 m (slew_rigid): the tidal inertia's symmetry check fails in rounding",
+    ("current_loops", "mass.areal_density_kg_m2"): "2^31 (slew_rigid): as lattice.side_m",
+    ("truss_magnetorquer", "lattice.side_m"): "2^31 m (slew): the controller inertia's symmetry check fails (rounding)",
 }
