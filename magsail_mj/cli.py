@@ -809,8 +809,10 @@ def _named(message: str, options: Mapping[str, str]) -> str:
 
 
 def _user_paths(args: argparse.Namespace) -> list[Path]:
-    names = ("config", "output", "out", "run_dir", "compare", "sweep", "sweep_dir")
-    return [Path(v).absolute() for n in names if isinstance(v := getattr(args, n, None), str) and v.strip()]
+    names = ("config", "output", "out", "run_dir", "run_dirs", "compare", "sweep", "sweep_dir", "bundle")
+    values = [getattr(args, n, None) for n in names]
+    texts = [t for v in values for t in (v if isinstance(v, list) else [v])]
+    return [Path(t).absolute() for t in texts if isinstance(t, str) and t.strip()]
 
 
 def _is_user_path_error(err: OSError, args: argparse.Namespace) -> bool:

@@ -86,7 +86,10 @@ def atomic_path(path: str | Path, suffix: str = "") -> Iterator[Path]:
     if path.exists() and not path.is_file():  # a folder, a device, a pipe: never replaced by a file
         raise OutputPathError(f"{path}: exists and is not a regular file")
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix, dir=path.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix, dir=path.parent)
+    except OSError as err:  # name the path asked for, not the temporary name beside it
+        raise type(err)(err.errno, err.strerror, str(path)) from None
     os.close(fd)
     umask = os.umask(0)
     os.umask(umask)

@@ -49,6 +49,7 @@ import json
 import math
 import os
 import re
+import tempfile
 import warnings
 import zipfile
 from collections.abc import Iterator, Mapping, Sequence
@@ -1174,6 +1175,11 @@ def _check_out_path(out_path: str | os.PathLike) -> Path:
             raise RenderError(f"out_path: {str(parent)!r} is a file, so {str(out)!r} cannot be written below it")
         if not os.access(parent, os.W_OK | os.X_OK):
             raise RenderError(f"out_path: folder {str(parent)!r} is not writable")
+        try:  # access() says yes to root everywhere, also where no file can be made (/proc)
+            with tempfile.TemporaryFile(dir=parent):
+                pass
+        except OSError as err:
+            raise RenderError(f"out_path: folder {str(parent)!r} is not writable ({err.strerror})") from None
         break
     return out
 
