@@ -95,7 +95,7 @@ from dask.utils import parse_bytes
 from distributed import Client, LocalCluster, Nanny, as_completed
 
 from magsail_mj.config import ConfigError, apply_overrides, config_hash, load_config, read_toml
-from magsail_mj.io import RunDirError, atomic_path, package_versions, to_jsonable, write_json
+from magsail_mj.io import RunDirError, atomic_path, file_sha256, package_versions, to_jsonable, write_json
 from magsail_mj.run import deferred_interrupts
 from magsail_mj.sweep.common import (
     _SUCCESS,
@@ -965,6 +965,7 @@ def _write_outputs(out: Path, sweep: Sweep, ordered: list[dict[str, Any]], meta:
             "runs": {r["id"]: r["status"] for r in ordered},
             "reused": [r["id"] for r in ordered if r.get("reused")],
             "versions": package_versions(),
+            "files": {name: file_sha256(out / name) for name in _OUTPUTS[:2]},  # verified by the report
         },
     )
 

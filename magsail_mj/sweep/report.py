@@ -45,7 +45,7 @@ from matplotlib.figure import Figure
 
 from magsail_mj.cli import add_sweep_report_arguments as add_arguments
 from magsail_mj.config import ConfigError, read_toml
-from magsail_mj.io import atomic_path
+from magsail_mj.io import atomic_path, file_sha256
 
 __all__ = ["PERCENTILES", "write_report", "figure_stats", "add_arguments", "main", "ReportError"]
 
@@ -78,6 +78,13 @@ def _load(sweep_dir: Path) -> tuple[list[dict[str, Any]], dict[str, Any], dict[s
         manifest = json.loads((sweep_dir / "sweep_manifest.json").read_text())
     except (OSError, ValueError):
         manifest = {}
+    listed = manifest.get("files") if isinstance(manifest, dict) else None
+    if isinstance(listed, dict) and "sweep_summary.json" in listed:
+        if file_sha256(sweep_dir / "sweep_summary.json") != listed["sweep_summary.json"]:
+            raise ReportError(
+                f"SWEEP_DIR: {sweep_dir / 'sweep_summary.json'} differs from its SHA-256 in sweep_manifest.json "
+                "(edited, truncated, or the sweep is still running)"
+            )
     try:
         tree = read_toml(manifest["sweep"]) if manifest.get("sweep") else {}
     except (ConfigError, OSError):

@@ -112,6 +112,7 @@ class CycleState(NamedTuple):
     cycle: np.ndarray
 
 
+@restorable
 @dataclass(frozen=True)
 class CyclePath:
     """A periodic four-phase shape path.

@@ -132,6 +132,7 @@ def set_initial_state(model: mujoco.MjModel, data: mujoco.MjData, path: CyclePat
     mujoco.mj_forward(model, data)
 
 
+@restorable
 @dataclass
 class ComputedTorque:
     """The computed-torque law of the module docs for one compiled MSAC model.
@@ -190,6 +191,7 @@ class ComputedTorque:
         return M[self._sb] @ a_b + M[self._ss] @ a_s + c[self.v_adr]
 
 
+@restorable
 @dataclass
 class ReplayTable:
     """One cycle of replay controls.
