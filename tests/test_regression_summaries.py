@@ -7,6 +7,14 @@ every scenario kind; the ``slow`` run checks them all. Floats must agree to 1e-9
 order of floating-point operations may change in a refactor; anything beyond is a change of the
 physics), everything else exactly; timing keys are not compared, and keys added to a summary since
 the references were stored are allowed (a removed or changed key is not).
+
+MuJoCo and LAPACK take different vectorised paths on different CPUs, so the same code gives
+summaries that differ beyond 1e-9 from one machine to another (measured: 1e-8 relative in the
+17-day lifetime propagation, round-off-level figures such as a 1e-23 N m gravity-gradient torque of
+a symmetric bus, the order of two near-degenerate modes). Each CPU family seen has its own stored
+reference set (``tests/data/regression_summaries*.json``, each stored from the same commit), and a
+summary must match one of them to the stated tolerance: a change of the physics moves it away
+from all of them.
 """
 
 from __future__ import annotations
@@ -25,6 +33,10 @@ store = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(store)
 
 STORED = json.loads(store.OUT.read_text())
+#: every stored reference set: the primary one first, then one per further CPU family
+REFERENCES = [STORED] + [
+    json.loads(p.read_text()) for p in sorted(store.OUT.parent.glob("regression_summaries_*.json"))
+]
 ONE_PER_KIND = [
     "magsail_mj/concepts/cnusail/configs/detumble_pre.toml",
     "magsail_mj/concepts/cnusail/configs/nadir_pre.toml",
@@ -58,14 +70,26 @@ EIGEN_CONFIGS = (
     "magsail_mj/concepts/current_loops/configs/slew.toml",
     "magsail_mj/concepts/current_loops/configs/sweep",
 )  # noqa: E501
+#: in those configs, the indices of the dominant modes (keys ending ``_mode``) are not compared:
+#: the square lattice's modes come in pairs of equal frequency, and which of a pair a fresh
+#: eigendecomposition numbers first changes from run to run (seen: 516/517 and 409/410 on one
+#: machine); the modes' energies and frequencies stay compared
+EIGEN_UNORDERED_SUFFIX = "_mode"
 
 
 def _check(key: str) -> None:
     assert key in STORED, f"{key}: no stored summary (run scripts/store_regression_summaries.py --only {key})"
     now = store.short_summary(REPO / key)
     rel, abs_tol = (EIGEN_REL, EIGEN_ABS) if key.startswith(EIGEN_CONFIGS) else (1e-9, 1e-300)
-    problems = store.differences(STORED[key], now, rel=rel, abs_tol=abs_tol)
-    assert not problems, f"{key}:\n  " + "\n  ".join(problems)
+    refs = [ref[key] for ref in REFERENCES if key in ref]
+    if key.startswith(EIGEN_CONFIGS):
+        now = {k: v for k, v in now.items() if not k.endswith(EIGEN_UNORDERED_SUFFIX)}
+        refs = [{k: v for k, v in ref.items() if not k.endswith(EIGEN_UNORDERED_SUFFIX)} for ref in refs]
+    found = [store.differences(ref, now, rel=rel, abs_tol=abs_tol) for ref in refs]
+    problems = found[0]
+    assert not all(found), f"{key} (differs from all {len(found)} reference sets; from the first):\n  " + "\n  ".join(
+        problems
+    )
 
 
 def test_every_shipped_config_has_a_stored_summary():
