@@ -63,7 +63,9 @@ def export_run(run_dir: str | Path, *, fmt: str | None = None, out: str | Path |
     ``.netcdf``), else ``npz``. An extension of the other format is refused, and so is an ``out``
     that is one of the run folder's own files (its manifest, summary, model, record store, ...;
     only ``timeseries.npz`` / ``timeseries.nc``, the export's own names, may be replaced there) or
-    lies in an unwritable folder. Every refusal is an :class:`ExportError` naming the argument.
+    lies in an unwritable folder. The folder is then checked against its ``manifest.json``
+    (:func:`magsail_mj.integrity.verify_run_folder`). Every refusal is an :class:`ExportError`
+    naming the argument.
     """
     if fmt is not None and fmt not in FORMATS:
         raise ExportError(f"--format: must be one of {', '.join(FORMATS)}, got {fmt!r}")
@@ -76,13 +78,13 @@ def export_run(run_dir: str | Path, *, fmt: str | None = None, out: str | Path |
         raise ExportError(f"RUN_DIR: {folder} holds no {STORE_NAME} (not a run folder, or a run of an older version)")
     if out is not None and (not str(out).strip() or Path(out).is_dir()):
         raise ExportError(f"--out: must name a file, got {str(out)!r}")
-    try:
-        verify_run_folder(folder)
-    except IntegrityError as err:
-        raise ExportError(f"RUN_DIR: {err}") from None
     fmt = _format(fmt, out)
     target = Path(out) if out is not None else folder / f"timeseries{FORMATS[fmt]}"
     _check_target(target, folder)
+    try:  # nothing edited, missing or truncated since the run wrote its manifest
+        verify_run_folder(folder)
+    except IntegrityError as err:
+        raise ExportError(f"RUN_DIR: {err}") from None
     try:
         if fmt == "npz":
             write_npz_streamed(target, lazy_arrays(folder))

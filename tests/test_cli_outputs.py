@@ -89,7 +89,7 @@ def test_report_help_forms_are_accepted(tmp_path, capsys):
 
 def _fake_run(folder: Path) -> Path:
     (folder / "timeseries.zarr").mkdir(parents=True)
-    (folder / "manifest.json").write_text('{"status": "completed"}')
+    (folder / "manifest.json").write_text('{"status": "completed", "files": {}}')
     return folder
 
 
@@ -98,7 +98,7 @@ def test_export_refuses_the_run_folders_own_files(tmp_path, name):
     run = _fake_run(tmp_path / "run")
     with pytest.raises(export.ExportError, match="^--out"):
         export.export_run(run, out=run / name)
-    assert (run / "manifest.json").read_text() == '{"status": "completed"}'
+    assert (run / "manifest.json").read_text() == '{"status": "completed", "files": {}}'
 
 
 def test_export_format_and_extension_must_agree(tmp_path):

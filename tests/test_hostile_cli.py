@@ -29,6 +29,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from magsail_mj.io import file_sha256
 from magsail_mj import cli, load
 from magsail_mj.export import read_timeseries
 from magsail_mj.lattice.modes import lattice_modes
@@ -454,6 +455,10 @@ def test_render_errors_exit_2(capsys, arena, tmp_path):
         (no_qpos / name).write_bytes((arena.run / name).read_bytes())
     arrays = {k: v for k, v in read_timeseries(arena.run).items() if k != "qpos"}
     write_group(no_qpos / STORE_NAME, arrays, n_time=len(arrays["t"]))  # a record store without positions
+    manifest = json.loads((no_qpos / "manifest.json").read_text())  # listing the files as they now are
+    manifest["files"] = {name: file_sha256(no_qpos / name) for name in ("model.xml", STORE_NAME)}
+    manifest.pop("records_digests", None)
+    (no_qpos / "manifest.json").write_text(json.dumps(manifest))
     cases = [
         ([str(tmp_path / "missing"), "-o", str(tmp_path / "v.mp4")], "RUN_DIR: no such folder"),
         ([str(no_qpos), "-o", str(tmp_path / "v.mp4")], "series 'qpos' is missing"),

@@ -1498,8 +1498,8 @@ def render_run(
     if not (_is_number(fps) and math.isfinite(fps) and fps > 0):
         raise RenderError(f"fps: must be a finite number > 0, got {fps!r}")
     run_dirs = _run_dirs(run_dir, opt.compare)
-    if verify:
-        for name, folder in zip(("run_dir", "compare"), run_dirs):
+    if verify:  # a folder that is missing is named as such below
+        for name, folder in [(n, f) for n, f in zip(("run_dir", "compare"), run_dirs) if f.is_dir()]:
             try:
                 verify_run_folder(folder)
             except IntegrityError as err:
