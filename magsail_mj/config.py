@@ -61,6 +61,7 @@ __all__ = [
     "config_hash",
     "derived_quantity",
     "finite_product",
+    "likeliest_key",
     "load_config",
     "normalised",
     "numbers_hash",
@@ -285,6 +286,12 @@ def _extremeness(value: Any) -> float:
     return abs(math.log10(v)) if 0 < v < math.inf else 0.0
 
 
+def likeliest_key(keys: dict[str, Any]) -> str:
+    """Of ``keys`` (key path → value), the one whose value is farthest from 1 in decades: the
+    likeliest culprit of a derived quantity out of range, on which a problem is reported."""
+    return max(keys, key=lambda k: _extremeness(keys[k]))
+
+
 def derived_quantity(what: str, *factors: float, keys: dict[str, Any], minimum: float = 0.0) -> float:
     """The product of ``factors``: a quantity the build derives from the config keys ``keys`` (key
     path → value), e.g. a controller gain; a :class:`ConfigProblem` when it overflows float64 or is
@@ -296,7 +303,7 @@ def derived_quantity(what: str, *factors: float, keys: dict[str, Any], minimum: 
         value *= f
     if math.isfinite(value) and value > minimum:
         return value
-    primary = max(keys, key=lambda k: _extremeness(keys[k]))
+    primary = likeliest_key(keys)
     named = ", ".join(f"{k} = {v!r}" for k, v in keys.items())
     problem = "overflows float64" if not math.isfinite(value) else f"is {value:.6g}, which must be > {minimum:g}"
     raise ConfigProblem(primary, f"the {what} {problem} ({named})")

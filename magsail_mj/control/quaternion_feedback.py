@@ -37,6 +37,7 @@ from typing import Any, Callable, Sequence, Unpack
 
 import numpy as np
 
+from magsail_mj.checks import is_symmetric
 from magsail_mj.commands import BodyTorque
 from magsail_mj.control.reflector_pitch import pitch_gains
 from magsail_mj.control.rod_attitude import RodAttitudeController, RodControllerOptions
@@ -144,7 +145,7 @@ class QuaternionFeedbackRodController(RodAttitudeController):
         self.Pw = np.asarray(Pw_Nms, dtype=float)
         I = np.asarray(inertia_kgm2, dtype=float)
         I = np.diag(I) if I.shape == (3,) else I
-        if I.shape != (3, 3) or not np.all(np.isfinite(I)) or not np.allclose(I, I.T):
+        if I.shape != (3, 3) or not is_symmetric(I):
             raise ValueError(
                 f"inertia_kgm2: expected 3 moments or a symmetric (3, 3) tensor [kg m²], "
                 f"got shape {np.shape(inertia_kgm2)}"

@@ -23,7 +23,7 @@ from typing import Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from magsail_mj.config import MIN_TIMESTEP_S, ConfigProblem, StrictModel, finite_product
+from magsail_mj.config import MIN_TIMESTEP_S, ConfigProblem, StrictModel, finite_product, likeliest_key
 
 from magsail_mj.environment.constants import J2_EARTH, MU_EARTH, OMEGA_EARTH, P_SUN_1AU
 from magsail_mj.environment.timeutil import parse_epoch
@@ -47,6 +47,12 @@ __all__ = [
 
 Vec3 = tuple[float, float, float]
 
+# The largest J2 acceleration relative to the central one, 3 J2 (R/r)² (at the pole), at the orbit's
+# perigee: Earth's is 3.2e-3 at its surface. The propagators treat J2 as a perturbation of a
+# near-Keplerian orbit; at 1.5 (J2 = 1/2, R at the perigee) a 20 000 s Cowell propagation fails
+# ("required step size is less than spacing between numbers") while 0.1 propagates 10 orbits.
+J2_PERTURBATION_MAX = 0.1
+
 
 def _check_iso(v: str) -> str:
     try:
@@ -65,7 +71,8 @@ class OrbitConfig(StrictModel):
     latitude u0 = ω + ν0) **or** ``true_anomaly0_deg``; neither means u0 = 0 (ascending node).
     ``enabled = false`` means free space (no orbit; the world is inertial). Every number is
     finite; the orbit's perigee must clear ``R_E_km`` and its period 2π √(a³/μ) must be a finite
-    number of seconds.
+    number of seconds. ``J2`` is at most 1/2 and the J2 acceleration at the perigee relative to the
+    central one, 3 J2 (R/r_p)² with R = ``j2_radius_km``, at most :data:`J2_PERTURBATION_MAX`.
     """
 
     enabled: bool = True
@@ -82,8 +89,18 @@ class OrbitConfig(StrictModel):
     R_E_km: float = Field(default=6370.0, gt=0)
     mu_m3_s2: float = Field(default=MU_EARTH, gt=0)
     propagator: Literal["kepler", "j2"] = "kepler"
-    J2: float = Field(default=J2_EARTH, ge=0)
-    j2_radius_km: float = Field(default=6378.137, gt=0)
+    J2: float = Field(
+        default=J2_EARTH,
+        ge=0,
+        le=0.5,
+        description="J2 = (C - A)/(M R²) <= 1/2 for any axisymmetric body within its reference radius "
+        "(the bound of an equatorial ring); Earth 1.08e-3",
+    )
+    j2_radius_km: float = Field(
+        default=6378.137,
+        gt=0,
+        description="the J2 reference radius [km]; 3 J2 (R/r_perigee)² must not exceed J2_PERTURBATION_MAX",
+    )
     omega_earth_rad_s: float = Field(default=OMEGA_EARTH, ge=0)
 
     @field_validator("epoch")
@@ -137,7 +154,32 @@ class OrbitConfig(StrictModel):
             what="J2 term J2 μ R²",
             others=("J2", "mu_m3_s2"),
         )
+        self._check_j2_perturbation(size, a_m * (1.0 - self.eccentricity), r_j2)
         return self
+
+    def _check_j2_perturbation(self, size: str, perigee_m: float, r_j2_m: float) -> None:
+        """A :class:`ConfigProblem` when the J2 acceleration at the perigee, relative to the
+        central one, 3 J2 (R/r_p)², exceeds :data:`J2_PERTURBATION_MAX` (the propagators take J2
+        as a perturbation). Reported on the most extreme of the keys involved, naming the others."""
+        ratio = 3.0 * self.J2 * (r_j2_m / perigee_m) ** 2
+        if ratio <= J2_PERTURBATION_MAX:
+            return
+        keys = {
+            "J2": self.J2,
+            "j2_radius_km": self.j2_radius_km,
+            size: getattr(self, size),
+            "eccentricity": self.eccentricity,
+        }
+        if size == "altitude_km":
+            keys["R_E_km"] = self.R_E_km
+        primary = likeliest_key(keys)
+        raise ConfigProblem(
+            primary,
+            f"the J2 acceleration at the perigee, 3 J2 (R/r_p)² = {ratio:.6g} (R = j2_radius_km, r_p = "
+            f"{perigee_m / 1e3:.6g} km), must be <= {J2_PERTURBATION_MAX:g}: J2 is a perturbation of a "
+            f"near-Keplerian orbit (Earth: 3.2e-3 at its surface)",
+            others=tuple(k for k in keys if k != primary),
+        )
 
     @property
     def semi_major_axis_km_value(self) -> float:

@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from magsail_mj.checks import is_symmetric
 from magsail_mj.environment.constants import J2_EARTH, MU_EARTH, R_J2
 from magsail_mj.quaternion import quat_to_matrix
 from magsail_mj.environment.gravity import _q_and_f, gravity_gradient_torque, tidal_acceleration
@@ -107,9 +108,9 @@ class GravityGradientTorqueLoad:
         I = np.asarray(inertia_body, dtype=float)
         if I.shape == (3,):
             I = np.diag(I)
-        if I.shape != (3, 3) or not np.allclose(I, I.T):
+        if I.shape != (3, 3) or not is_symmetric(I):
             raise ValueError(
-                f"inertia_body: must be a symmetric (3, 3) tensor or 3 principal moments, got shape {I.shape}"
+                f"inertia_body: must be a finite symmetric (3, 3) tensor or 3 principal moments, got shape {I.shape}"
             )
         self.body_id = int(body_id)
         self.inertia_body = I
