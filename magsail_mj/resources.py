@@ -65,6 +65,7 @@ __all__ = [
     "ENV_VAR",
     "MemoryLimitError",
     "available_memory_bytes",
+    "msac_drive_bytes",
     "check_memory",
     "coil_report_bytes",
     "estimate_model_bytes",
@@ -316,7 +317,29 @@ def estimate_model_bytes(cfg: Any) -> float:
         total += coil_report_bytes(
             side_m=plate.side_m, segment_m=plate.cell_m, pitch_cells=coil.pitch_cells, rows=coil.rows
         )
-    return total + environment_bytes(cfg)
+    return total + environment_bytes(cfg) + msac_drive_bytes(cfg)
+
+
+#: bytes per step of the MSAC drive's rollout chunk: its controls, states and sensor data (8 + 26 +
+#: 10 doubles for the two-wing model, rounded up to 64 doubles)
+MSAC_CHUNK_STEP_BYTES = 64 * 8.0
+#: bytes per step of the MSAC drive's computed-torque calibration: the four joint torques (4
+#: doubles, counted twice for the held-torque table's copies)
+MSAC_CALIBRATION_STEP_BYTES = 8 * 8.0
+
+
+def msac_drive_bytes(cfg: Any) -> float:
+    """Memory of the MSAC drive's buffers [bytes]: ``drive.chunk_cycles`` cycles of
+    :data:`MSAC_CHUNK_STEP_BYTES` and ``drive.calibration_cycles`` cycles of
+    :data:`MSAC_CALIBRATION_STEP_BYTES`, at ``N = 1 / (cycle.frequency_Hz · sim.timestep_s)`` steps a
+    cycle; 0 for the other concepts. Both are allocated whole, however short the run."""
+    drive, cycle, sim = getattr(cfg, "drive", None), getattr(cfg, "cycle", None), getattr(cfg, "sim", None)
+    if getattr(cfg, "concept", "") != "msac" or drive is None or cycle is None or sim is None:
+        return 0.0
+    period_steps = float(cycle.frequency_Hz) * float(sim.timestep_s)  # the inverse of N
+    steps = max(1.0, 1.0 / period_steps) if period_steps > 0 else math.inf
+    chunk = float(drive.chunk_cycles) * steps * MSAC_CHUNK_STEP_BYTES
+    return chunk + float(drive.calibration_cycles) * steps * MSAC_CALIBRATION_STEP_BYTES
 
 
 #: peak memory per row of the environment's precompute grid (orbit, IGRF field, Sun, density and
