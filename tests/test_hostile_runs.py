@@ -603,11 +603,8 @@ def test_scaling_table_memory_is_estimated_first(capsys):
 @pytest.mark.parametrize(
     "name,overrides,series",
     [
-        (
-            "truss_magnetorquer/configs/detumble.toml",
-            ["lattice.units=3", "mass.total_kg=1e300"],
-            "torque_gg_rigid_body_Nm",
-        ),
+        # (the truss with mass.total_kg = 1e300 that overflowed here is now refused by validation:
+        # tests/test_hostile_config.py)
         ("reflector/configs/pitch/b4_wn0p2_sigma10.toml", ["control.zeta=1e300"], "T_ref_norm_Nm"),
     ],
 )

@@ -123,6 +123,7 @@ def write_truss_run(
         "config": {"units": units},
         "config_hash": "test",
         "scenario": "render_test",
+        "files": {},  # a hand-made folder: no file to check (real runs list every file's digest)
         "render": {
             "title": title,
             "top_nodes": lat.top_nodes.tolist(),
@@ -158,7 +159,9 @@ def write_rigid_run(folder: Path, *, T: int = 6) -> None:
     qpos[:, 3:] = Rotation.from_euler("z", (9.0 * t)[:, None], degrees=True).as_quat(scalar_first=True)
     np.savez(folder / "timeseries.npz", t=t, qpos=qpos)
     (folder / "manifest.json").write_text(
-        json.dumps({"config": {}, "config_hash": "x", "scenario": "rigid", "render": {"title": "rigid sat"}})
+        json.dumps(
+            {"config": {}, "config_hash": "x", "scenario": "rigid", "render": {"title": "rigid sat"}, "files": {}}
+        )
     )
 
 

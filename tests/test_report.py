@@ -14,6 +14,7 @@ from PIL import Image
 
 from magsail_mj import cli
 from magsail_mj.config import config_hash, load_config, numbers_hash
+from magsail_mj.io import file_sha256
 from magsail_mj.report import bundle as bundle_mod
 from magsail_mj.report.bundle import (
     BUNDLE_MAX_BYTES,
@@ -233,6 +234,8 @@ def _fake_run(folder: Path, *, status: str = "completed", overrides: tuple[str, 
     (folder / "summary.json").write_text(json.dumps({"status": status, "d": d, "z": 1}))
     ramp = np.linspace(0, 255, 1600, dtype=np.uint8)
     Image.fromarray(np.broadcast_to(ramp[None, :, None], (200, 1600, 3)).copy()).save(folder / "big.png")
+    manifest["files"] = {name: file_sha256(folder / name) for name in ("summary.json", "big.png")}
+    (folder / "manifest.json").write_text(json.dumps(manifest))
     return folder
 
 
@@ -453,6 +456,9 @@ def test_report_update_collects_and_renders_a_registry_run(tmp_path, capsys):
     assert "mujoco_vs_eq6_rel_diff" in capsys.readouterr().err
     summary = json.loads((run / "summary.json").read_text()) | {"mujoco_vs_eq6_rel_diff": -0.0025}
     (run / "summary.json").write_text(json.dumps(summary))
+    manifest = json.loads((run / "manifest.json").read_text())  # as if the run had written it so
+    manifest["files"]["summary.json"] = file_sha256(run / "summary.json")
+    (run / "manifest.json").write_text(json.dumps(manifest))
     assert cli.main(["report", *args]) == 0
     printed = json.loads(capsys.readouterr().out)
     assert printed["runs"] == [str(tmp_path / "b" / "msac" / "lumped_limit")]

@@ -482,7 +482,7 @@ class AttitudeTask(control.Task):
 
         * A wrong shape or a non-finite component (NaN, ±inf) is refused: ``ValueError`` naming
           ``action``.
-        * ``clip_actions`` True: each component is clipped into the spec's bounds (the hardware's
+        * ``clip_actions`` True: each component is clipped into the action bounds (the hardware's
           limits).
         * ``clip_actions`` False (a request the actuator saturates itself): the request is handed
           on as given while every component stays within :data:`REQUEST_HEADROOM` times its bound

@@ -322,12 +322,12 @@ def collect(run_dirs: list[str | Path], bundle: str | Path, papers: dict[str, Pa
         run_dir = Path(item)
         if not run_dir.is_dir():
             raise BundleError(f"{run_dir}: not a folder")
+        manifest = _read_json(run_dir / "manifest.json", what="the run manifest")
+        summary = _read_json(run_dir / "summary.json", what="the run summary")
         try:  # summary, figures and clip as the run wrote them (the records are not bundled)
             verify_run_folder(run_dir, records=False)
         except IntegrityError as err:
             raise BundleError(str(err)) from None
-        manifest = _read_json(run_dir / "manifest.json", what="the run manifest")
-        summary = _read_json(run_dir / "summary.json", what="the run summary")
         target, one_side = _match(run_dir, manifest, papers, cache)
         key = (target.paper.paper, target.spec.id)
         if key in seen:

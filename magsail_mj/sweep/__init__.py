@@ -685,6 +685,7 @@ def make_cluster(
     queue: str | None = None,
     account: str | None = None,
     python: str | None = None,
+    require_submit: bool = True,
 ) -> Any:
     """A dask-jobqueue cluster (``kind`` slurm or pbs) whose jobs each run ``cores_per_job`` worker
     processes with one thread (and one BLAS thread) each; no job is submitted yet (``cluster.scale(jobs=N)``
@@ -693,7 +694,8 @@ def make_cluster(
     Raises:
       ValueError: naming the option (``--cluster``, ``--cores-per-job``, ``--memory-per-job``,
         ``--walltime``) and the value, saying that dask-jobqueue is not installed, or that the
-        batch system's submit command (``sbatch``, ``qsub``) is not on ``PATH``.
+        batch system's submit command (``sbatch``, ``qsub``) is not on ``PATH`` (with
+        ``require_submit``; without it the cluster can still write its job script).
     """
     if kind not in CLUSTER_KINDS:
         raise ValueError(f"--cluster: must be one of {', '.join(CLUSTER_KINDS)}, got {kind!r}")
@@ -716,7 +718,9 @@ def make_cluster(
     except (ValueError, TypeError):
         raise ValueError(f"--memory-per-job: must be a memory size such as 16GB, got {memory_per_job!r}") from None
     check_walltime(walltime)
-    if shutil.which(_SUBMIT[kind]) is None:  # dask-jobqueue would fail inside its event loop and hang
+    if (
+        require_submit and shutil.which(_SUBMIT[kind]) is None
+    ):  # dask-jobqueue would fail inside its event loop and hang
         raise ValueError(
             f"--cluster {kind}: the {kind.upper()} submit command {_SUBMIT[kind]!r} is not on PATH "
             "(run the sweep on a login node of the cluster, or use --workers / --scheduler)"
