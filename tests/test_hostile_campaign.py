@@ -99,7 +99,7 @@ DOCUMENTED_EXITS = frozenset(int(code) for code in re.findall(r"^  (\d+) +\S", E
 _REAL_OUTPUTS = run_module._outputs
 """The runs' outputs with figures (the default tests replace them, the slow campaign restores them)."""
 
-DEFAULT_EXAMPLES = 8
+DEFAULT_EXAMPLES = 5
 """Command lines per command in the default run (the file stays well under 40 s on 2 loaded cores)."""
 SLOW_EXAMPLES = int(os.environ.get("MAGSAIL_CAMPAIGN_EXAMPLES", "60"))
 """Command lines per command in the campaign marked slow (``$MAGSAIL_CAMPAIGN_EXAMPLES``, default 60)."""

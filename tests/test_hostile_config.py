@@ -327,7 +327,7 @@ def test_validate_and_run_agree_on_extreme_values():
     """A fixed budget of (shipped config, numeric key, extreme value) draws."""
     configs = _shipped_configs()
 
-    @settings(max_examples=12, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+    @settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
     @given(path=st.sampled_from(configs), data=st.data(), value=st.sampled_from(EXTREME_FINITE))
     def run(path: Path, data: st.DataObject, value: Any) -> None:
         tree, leaves = _tiny_tree(path)
