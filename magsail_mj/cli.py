@@ -767,6 +767,9 @@ def _sigterm_interrupts() -> Iterator[None]:
 
     def _raise(signum: int, frame: Any) -> None:
         _SIGNALLED.append(signum)
+        # the record store's input/output futures that the interrupt abandons report their
+        # errors (a file not yet written) when collected; the command's one line says it all
+        logging.getLogger("asyncio").disabled = True
         raise KeyboardInterrupt(signal.Signals(signum).name)
 
     previous = {sig: signal.signal(sig, _raise) for sig in (signal.SIGINT, signal.SIGTERM)}

@@ -31,7 +31,16 @@ from magsail_mj.cli import EXPORT_FORMATS
 from magsail_mj.cli import add_export_arguments as add_arguments
 from magsail_mj.io import RUN_FILE_PATTERNS, atomic_path
 from magsail_mj.integrity import IntegrityError, verify_run_folder
-from magsail_mj.records import SERIES_GROUP, STORE_NAME, RecordStoreError, StoreRecords, lazy_arrays, open_records
+from magsail_mj.records import (
+    SERIES_GROUP,
+    STORE_NAME,
+    RecordStoreError,
+    StoreRecords,
+    chunk_block_bytes,
+    lazy_arrays,
+    open_records,
+)
+from magsail_mj.resources import MemoryLimitError, check_memory, export_store_bytes
 
 __all__ = ["add_arguments", "main", "export_run", "write_npz_streamed", "read_timeseries", "EXTENSIONS", "FORMATS"]
 
@@ -49,7 +58,7 @@ def main(args: argparse.Namespace) -> int:
     """Run the ``export`` verb; 0 on success, 2 on an unusable argument (``error: …`` on stderr)."""
     try:
         out = export_run(args.run_dir, fmt=args.format, out=args.out)
-    except (ExportError, RecordStoreError) as err:
+    except (ExportError, RecordStoreError, MemoryLimitError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     print(out)
@@ -85,6 +94,8 @@ def export_run(run_dir: str | Path, *, fmt: str | None = None, out: str | Path |
         verify_run_folder(folder)
     except IntegrityError as err:
         raise ExportError(f"RUN_DIR: {err}") from None
+    # the store is streamed a chunk's rows at a time: refused when its chunks exceed the limit
+    check_memory(export_store_bytes(chunk_block_bytes(lazy_arrays(folder))), what=f"export {folder}")
     try:
         if fmt == "npz":
             write_npz_streamed(target, lazy_arrays(folder))

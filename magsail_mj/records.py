@@ -56,6 +56,7 @@ __all__ = [
     "store_length",
     "lazy_record",
     "row_blocks",
+    "chunk_block_bytes",
     "rows_digest",
     "verify_digests",
     "STORE_NAME",
@@ -715,6 +716,24 @@ def lazy_record(records: Mapping[str, Any], name: str) -> Any:
     """``records[name]`` without reading it: the stored Zarr array of :class:`StoreRecords` (slicing
     reads), otherwise the array itself (in-memory records)."""
     return records.array(name) if isinstance(records, StoreRecords) else records[name]
+
+
+def chunk_block_bytes(arrays: Mapping[str, Any]) -> float:
+    """The most bytes that reading one chunk's rows of any of ``arrays`` holds [bytes]: the rows of
+    a chunk along the first axis (the whole array when it is not chunked) times the bytes of a
+    row, from the stores' metadata (nothing is read). Export and render read records this way, so
+    their memory estimates count it; a store whose metadata declares huge chunks is refused there
+    before a chunk is read."""
+    largest = 0.0
+    for array in arrays.values():
+        shape = tuple(int(s) for s in array.shape)
+        row = float(np.prod(shape[1:], dtype=float)) * np.dtype(array.dtype).itemsize
+        chunks = getattr(array, "chunks", None)
+        rows = shape[0] if shape else 1
+        if chunks and shape:
+            rows = min(rows, int(chunks[0]))
+        largest = max(largest, rows * row)
+    return largest
 
 
 def row_blocks(array: Any, *, budget_bytes: int = BLOCK_BYTES) -> Iterator[np.ndarray]:

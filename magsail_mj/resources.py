@@ -71,6 +71,7 @@ __all__ = [
     "estimate_model_bytes",
     "estimate_run_bytes",
     "export_bytes",
+    "export_store_bytes",
     "explicit_arena_mujoco_bytes",
     "format_bytes",
     "lattice_counts",
@@ -458,7 +459,14 @@ def export_bytes(cfg: Any) -> float:
     records."""
     if _record_count(cfg) == 0.0:
         return 0.0
-    return EXPORT_BASE_BYTES + EXPORT_CHUNKS_IN_FLIGHT * records_block_bytes(cfg)
+    return export_store_bytes(records_block_bytes(cfg))
+
+
+def export_store_bytes(block_bytes: float) -> float:
+    """Memory of exporting a store whose largest read is ``block_bytes`` (a chunk's rows of its
+    widest variable: :func:`magsail_mj.records.chunk_block_bytes`) [bytes]:
+    :data:`EXPORT_BASE_BYTES` plus :data:`EXPORT_CHUNKS_IN_FLIGHT` such blocks."""
+    return EXPORT_BASE_BYTES + EXPORT_CHUNKS_IN_FLIGHT * float(block_bytes)
 
 
 def estimate_run_bytes(cfg: Any) -> float:
@@ -479,13 +487,18 @@ def render_bytes(
     nbody: int = 1,
     series_bytes: float = 0.0,
     model_bytes: float = 0.0,
+    records_block_bytes: float = 0.0,
 ) -> float:
     """Memory of a video render [bytes]: per frame the body positions, centroids and node shifts
     (``3 × nbody × 3 × 8`` bytes per panel), four RGB frames of ``width × height × panels`` in
-    flight (render, overlay, side-by-side, encoder pipe), the run's time series and the model(s)."""
+    flight (render, overlay, side-by-side, encoder pipe), the run's time series, the model(s), and
+    the records read from the stores: ``records_block_bytes`` is the sum over the runs of their
+    largest chunk's rows (:func:`magsail_mj.records.chunk_block_bytes`), each held twice (the
+    chunk kept for the next frame and the one being read)."""
     frame = 3.0 * width * height * panels
     per_frame = 3.0 * nbody * 3 * 8 * panels
-    return float(frames) * per_frame + 4.0 * frame + float(series_bytes) + float(model_bytes)
+    stored = float(series_bytes) + float(model_bytes) + 2.0 * float(records_block_bytes)
+    return float(frames) * per_frame + 4.0 * frame + stored
 
 
 _MJCF_TOKENS = ("<body", "<joint", "<freejoint", 'type="ball"', 'type="free"', "<spatial", "<fixed")

@@ -121,3 +121,24 @@ def test_unreadable_store_exits_2(tmp_path, capsys):
     (tmp_path / STORE_NAME / "zarr.json").write_text("{not json")
     assert export.main(_args(str(tmp_path))) == 2
     assert "error: " in capsys.readouterr().err
+
+
+def test_memory_limit_refuses_an_export_whose_chunks_exceed_it(run_dir, tmp_path, capsys):
+    """Export streams a chunk's rows at a time: its estimate is the store's largest such block
+    (from the metadata) times the blocks in flight plus a fixed part; a limit below it is exit 2
+    naming the export and the limit, nothing written; the CLI's --memory-limit sets that limit."""
+    from magsail_mj import cli
+    from magsail_mj.records import chunk_block_bytes
+    from magsail_mj.resources import EXPORT_BASE_BYTES, export_store_bytes
+
+    block = chunk_block_bytes(lazy_arrays(run_dir))
+    qpos = open_records(run_dir).array("qpos")
+    assert block >= min(qpos.shape[0], qpos.chunks[0]) * qpos.shape[1] * 8 > 0
+    need = export_store_bytes(block)
+    assert need > EXPORT_BASE_BYTES
+    out = tmp_path / "x.npz"
+    code = cli.main(["export", str(run_dir), "--out", str(out), "--memory-limit", str(int(need) - 1)])
+    err = capsys.readouterr().err
+    assert code == 2 and "export" in err and "memory" in err.lower() and not out.exists(), err
+    assert cli.main(["export", str(run_dir), "--out", str(out), "--memory-limit", str(int(need) + 1)]) == 0
+    assert out.is_file()

@@ -921,3 +921,26 @@ def test_readme_picture_is_the_video_frame_where_the_left_run_ended(tmp_path, gl
     errors = [np.abs(picture - f).mean() for f in frames]
     assert int(np.argmin(errors)) == 4 and errors[4] < 3, errors
     assert script.main(["--runs", str(tmp_path / "none"), "--out", str(out)]) == 2
+
+
+def test_render_memory_counts_the_records_read_from_the_store(tmp_path):
+    """A run's records are read from its store a chunk's rows at a time: the estimate counts that
+    block twice per run (the chunk kept and the one read), so a limit that covers everything else
+    but not those blocks is refused."""
+    from magsail_mj.records import chunk_block_bytes, lazy_arrays, write_group
+    from magsail_mj.resources import mjcf_model_bytes, render_bytes
+
+    written = write_truss_run(tmp_path / "run")
+    folder = tmp_path / "run"
+    write_group(folder / "timeseries.zarr", {"t": written["t"], "qpos": written["qpos"]}, n_time=len(written["t"]))
+    (folder / "timeseries.npz").unlink()
+    block = chunk_block_bytes(lazy_arrays(folder))
+    assert block == written["qpos"].nbytes  # one chunk holds the short run
+    model_bytes, nbody = mjcf_model_bytes(folder / "model.xml")
+    common = dict(frames=10, width=W, height=H, panels=1, nbody=nbody, model_bytes=model_bytes)
+    without, with_block = render_bytes(**common), render_bytes(**common, records_block_bytes=block)
+    assert with_block == without + 2 * block
+    with memory_limit(int(without) + 1), pytest.raises(MemoryLimitError, match="render"):
+        compose._check_render_memory([folder], max_frames=10, width=W, height=H)
+    with memory_limit(int(with_block) + 1):
+        compose._check_render_memory([folder], max_frames=10, width=W, height=H)

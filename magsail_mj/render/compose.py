@@ -63,7 +63,7 @@ from tqdm import tqdm
 
 from magsail_mj.analysis.flatness import average_plane, surface_heights
 from magsail_mj.integrity import IntegrityError, verify_run_folder
-from magsail_mj.records import STORE_NAME, RecordStoreError, lazy_arrays, open_records
+from magsail_mj.records import STORE_NAME, RecordStoreError, chunk_block_bytes, lazy_arrays, open_records
 from magsail_mj.render.backend import ensure_gl_backend, make_renderer
 from magsail_mj.render.ending import end_reason, end_status
 from magsail_mj.render.overlay import (
@@ -1187,10 +1187,13 @@ def _check_out_path(out_path: str | os.PathLike) -> Path:
 def _check_render_memory(run_dirs: Sequence[Path], *, max_frames: int, width: int, height: int) -> None:
     """Refuse a render whose estimated memory (:func:`magsail_mj.resources.render_bytes`) is above
     the limit, before anything is loaded. Files that cannot be sized are left to :func:`load_run`."""
-    series = model = 0.0
+    series = model = block = 0.0
     nbody = 1
     for folder in run_dirs:
         npz, xml = folder / "timeseries.npz", folder / "model.xml"
+        if (folder / STORE_NAME).is_dir():
+            with contextlib.suppress(RecordStoreError):  # an unreadable store is load_run's to name
+                block += chunk_block_bytes(lazy_arrays(folder))
         try:
             series += npz_array_bytes(npz) if npz.is_file() else 0.0
             if xml.is_file():
@@ -1206,6 +1209,7 @@ def _check_render_memory(run_dirs: Sequence[Path], *, max_frames: int, width: in
         nbody=nbody,
         series_bytes=series,
         model_bytes=model,
+        records_block_bytes=block,
     )
     check_memory(
         estimate, what=f"render {', '.join(str(p) for p in run_dirs)} ({max_frames} frames of {width} x {height} px)"
