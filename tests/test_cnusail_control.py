@@ -139,6 +139,29 @@ def test_eigen_axis_gains_and_clamp():
         eigen_axis_gains(q0, omega_n_rad_s=0.0, zeta=0.9, rate_max_rad_s=0.01)
 
 
+def test_clamped_gain_angle_is_that_of_the_normalised_quaternion():
+    """Deorbit error [0, √½, 0, √½] (scalar-last): the clamp raises the vector to (0.1, √½, 0.1), and
+    its logged eigen-angle is that of [q_ref, q_e4] normalised, 2 atan2(√0.52, √½) = 91.124° (Yoo et
+    al. 2016 state about 1.15° over the true 90°), not 2 asin √0.52 = 92.292° of the un-normalised
+    vector. The two analytic values differ by 1.17°; 1e-9 rad is rounding."""
+    h = math.sqrt(0.5)
+    g = eigen_axis_gains(np.array([0.0, h, 0.0]), omega_n_rad_s=0.02, zeta=0.9, rate_max_rad_s=0.3 * DEG)
+    normalised = np.array([0.1, h, 0.1, h]) / math.sqrt(0.52 + 0.5)
+    expected = 2.0 * math.acos(normalised[3])  # the angle of the normalised clamped quaternion
+    assert expected == pytest.approx(2.0 * math.atan2(math.sqrt(0.52), h), abs=1e-12)
+    assert g.theta_clamped_rad == pytest.approx(expected, abs=1e-9)
+    assert math.degrees(g.theta_clamped_rad) == pytest.approx(91.124, abs=1e-3)
+    assert math.degrees(g.theta_clamped_rad - g.theta_true_rad) == pytest.approx(1.124, abs=1e-3)
+    assert math.degrees(g.theta_clamped_rad) < math.degrees(2 * math.asin(math.sqrt(0.52))) - 1.0
+    # unclamped: both angles are the true one, 2 acos|q4|
+    q = np.array([0.6460, 0.2876, -0.6460])
+    g = eigen_axis_gains(q, omega_n_rad_s=0.02, zeta=0.9, rate_max_rad_s=0.3 * DEG)
+    assert g.theta_clamped_rad == g.theta_true_rad
+    assert g.theta_true_rad == pytest.approx(2 * math.acos(math.sqrt(1 - q @ q)), abs=1e-12)
+    with pytest.raises(ValueError, match="q_e0: .*norm ≤ 1"):
+        eigen_axis_gains(np.array([0.9, 0.9, 0.0]), omega_n_rad_s=0.02, zeta=0.9, rate_max_rad_s=0.01)
+
+
 def test_pd_equals_eigen_axis_for_small_errors_and_opposes_the_error():
     q0 = np.array([0.6460, 0.2876, -0.6460])
     g = eigen_axis_gains(q0, omega_n_rad_s=0.02, zeta=0.9, rate_max_rad_s=0.3 * DEG)

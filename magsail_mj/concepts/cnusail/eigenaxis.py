@@ -39,7 +39,16 @@ q̈_e ≈ −(k/2) q_e − c q̇_e, a second-order system with ω_n² = k/2 and 
 
 Small components (the paper states this clamp loosely): for the gain computation only, every |q_e,i(0)| < 0.1 is
 replaced by 0.1 (``clamp_min``); the modified vector is not renormalised; the feedback uses the
-true error. The eigen-angle of the modified vector is logged next to the true one.
+true error. The eigen-angle of the modified vector is logged next to the true one, with the same
+atan2 formula as θ_e and the true scalar part q_e4(0):
+
+    θ_clamped = 2 atan2(‖q_ref‖, |q_e4(0)|),
+
+the angle of the quaternion [q_ref, q_e4(0)] once normalised (atan2 does not depend on the common
+scale). For the deorbit error [0, 0.7071, 0, 0.7071] (scalar-last) this is 91.12°, 1.12° over the
+true 90° (the paper states about 1.15°). The angle of the un-normalised vector read as a unit
+quaternion, 2 asin‖q_ref‖ (scalar part √(1 − ‖q_ref‖²)), would be 92.29°: the clamp adds the
+0.02 of ‖q_ref‖² to the vector without taking it from the scalar part.
 """
 
 from __future__ import annotations
@@ -73,6 +82,8 @@ __all__ = [
 ]
 
 GyroComp = Literal["Iw", "Iw+hw", "none"]
+#: rounding allowed above 1 in the norm of a unit quaternion's vector part
+_UNIT_SLACK = 1e-9
 
 
 def quat_to_paper(p: np.ndarray) -> np.ndarray:
@@ -186,7 +197,8 @@ class EigenAxisGains:
       k, c: 2ω_n² [1/s²] and 2ζω_n [1/s].
       k_i: (3,) saturation levels [rad/s²]; p_i: (3,) k/k_i.
       q_ref: (3,) error vector the gains were computed from (after the 0.1 clamp).
-      theta_true_rad: eigen-angle of the true error vector; theta_clamped_rad: of ``q_ref``.
+      theta_true_rad: eigen-angle of the true error vector; theta_clamped_rad: of ``q_ref`` with the
+        true scalar part, 2 atan2(‖q_ref‖, |q_e4(0)|) [rad].
       rate_max_rad_s: θ̇_max.
     """
 
@@ -212,20 +224,22 @@ class EigenAxisGains:
         }
 
 
-def _angle_of_vector(q_vec: np.ndarray) -> float:
-    """Eigen-angle of a (possibly unnormalised) vector part: the scalar part is taken as
-    √max(0, 1 − |q|²) and θ = 2 atan2(|q|, q4) (the same atan2 formula)."""
-    n2 = float(q_vec @ q_vec)
-    return 2.0 * math.atan2(math.sqrt(n2), math.sqrt(max(0.0, 1.0 - n2)))
+def _angle_of_vector(q_vec: np.ndarray, scalar_abs: float) -> float:
+    """Eigen-angle θ = 2 atan2(‖q_vec‖, |q4|) [rad] of the vector part ``q_vec`` with the scalar part
+    ``scalar_abs`` = |q4|; for a clamped (un-normalised) vector this is the angle of [q_vec, q4]
+    normalised (module docstring)."""
+    return 2.0 * math.atan2(math.sqrt(float(q_vec @ q_vec)), scalar_abs)
 
 
 def eigen_axis_gains(
     q_e0: np.ndarray, *, omega_n_rad_s: float, zeta: float, rate_max_rad_s: float, clamp_min: float = 0.1
 ) -> EigenAxisGains:
     """Gains (Eqs. 33–36, corrected as in the module docstring) from the error vector ``q_e0`` (3,) at the
-    start of the manoeuvre, with the per-component clamp (``clamp_min``; 0 disables it).
+    start of the manoeuvre (the vector part of a unit quaternion: its scalar part is
+    √(1 − ‖q_e0‖²)), with the per-component clamp (``clamp_min``; 0 disables it).
 
-    Raises ValueError naming the argument when ``q_e0`` is zero (no manoeuvre) and not clamped.
+    Raises ValueError naming the argument when ``q_e0`` is zero (no manoeuvre) and not clamped, or
+    its norm exceeds 1.
     """
     if not omega_n_rad_s > 0:
         raise ValueError(f"omega_n_rad_s: must be > 0, got {omega_n_rad_s!r}")
@@ -236,6 +250,10 @@ def eigen_axis_gains(
     if not 0 <= clamp_min < 1:
         raise ValueError(f"clamp_min: must be in [0, 1), got {clamp_min!r}")
     q = np.asarray(q_e0, dtype=float).reshape(3)
+    n2_true = float(q @ q)
+    if not n2_true <= 1.0 + _UNIT_SLACK:
+        raise ValueError(f"q_e0: the vector part of a unit quaternion has norm ≤ 1, got {math.sqrt(n2_true)!r}")
+    scalar_abs = math.sqrt(max(0.0, 1.0 - n2_true))  # |q_e4(0)| of the unit error quaternion
     q_ref = np.where(np.abs(q) < clamp_min, clamp_min, np.abs(q)) if clamp_min > 0 else np.abs(q)
     nrm = float(np.linalg.norm(q_ref))
     if not nrm > 0 or np.any(q_ref == 0):
@@ -250,8 +268,8 @@ def eigen_axis_gains(
         k_i=k_i,
         p_i=p_i,
         q_ref=q_ref,
-        theta_true_rad=_angle_of_vector(q),
-        theta_clamped_rad=_angle_of_vector(q_ref),
+        theta_true_rad=_angle_of_vector(q, scalar_abs),
+        theta_clamped_rad=_angle_of_vector(q_ref, scalar_abs),
         rate_max_rad_s=float(rate_max_rad_s),
     )
 
