@@ -29,7 +29,18 @@ from magsail_mj.mjcf.common import INTEGRATORS, set_view
 
 from magsail_mj.lattice.geometry import Lattice
 
-__all__ = ["TrussModelOptions", "build_truss_spec", "lattice_arena_bytes", "INTEGRATORS", "STRUT_RGBA", "NODE_RGBA"]
+__all__ = [
+    "TrussModelOptions",
+    "build_truss_spec",
+    "lattice_arena_bytes",
+    "truss_base_spec",
+    "add_particle_node",
+    "add_node_sphere",
+    "add_spring_tendon",
+    "INTEGRATORS",
+    "STRUT_RGBA",
+    "NODE_RGBA",
+]
 
 STRUT_RGBA = (0.55, 0.58, 0.62, 1.0)
 NODE_RGBA = (0.85, 0.85, 0.88, 1.0)
@@ -108,58 +119,130 @@ def build_truss_spec(
     width = options.strut_width_m or 0.015 * a
     fixed = set(int(i) for i in options.fixed_nodes)
 
+    spec = truss_base_spec(
+        name=options.name,
+        timestep_s=options.timestep_s,
+        integrator=options.integrator,
+        solver_tolerance=options.solver_tolerance,
+        extent_m=lattice.side_m,
+    )
+    spec.memory = lattice_arena_bytes(3 * sum(i not in fixed for i in range(n)))  # three slide joints per free node
+    for i in range(n):
+        free = i not in fixed
+        add_particle_node(
+            spec.worldbody,
+            index=i,
+            pos_m=lattice.nodes[i],
+            mass_kg=float(masses[i]),
+            free_axes=(free, free, free),
+            damping_Ns_m=float(options.node_damping_1_s * masses[i]),
+            radius_m=radius,
+        )
+    for s in range(S):
+        p, q = lattice.struts[s]
+        rest = float(lattice.rest_length[s])
+        add_spring_tendon(
+            spec,
+            index=s,
+            ends=(int(p), int(q)),
+            stiffness_N_m=float(stiffness[s]),
+            damping_Ns_m=float(damping[s]),
+            springlength_m=(rest, rest),
+            width_m=width,
+        )
+    return spec
+
+
+def truss_base_spec(
+    *, name: str, timestep_s: float, integrator: str, solver_tolerance: float | None, extent_m: float
+) -> mujoco.MjSpec:
+    """An empty truss ``MjSpec``: options (timestep, integrator, tolerance), gravity off, contacts
+    disabled, numbers saved exactly, the shared view for a model of extent ``extent_m`` [m] and a
+    directional sun light from +z. The caller sets ``memory`` (:func:`lattice_arena_bytes`)."""
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator: must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
     spec = mujoco.MjSpec()
-    spec.modelname = options.name
+    spec.modelname = name
     spec.compiler.autolimits = True
     spec.compiler.savecompiled = False  # numbers saved exactly, explicit inertials kept
-    spec.option.timestep = options.timestep_s
-    spec.option.integrator = INTEGRATORS[options.integrator]
-    if options.solver_tolerance is not None:
-        spec.option.tolerance = options.solver_tolerance
+    spec.option.timestep = timestep_s
+    spec.option.integrator = INTEGRATORS[integrator]
+    if solver_tolerance is not None:
+        spec.option.tolerance = solver_tolerance
     spec.option.gravity = [0.0, 0.0, 0.0]
     spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
-    spec.memory = lattice_arena_bytes(3 * sum(i not in fixed for i in range(n)))  # three slide joints per free node
-    set_view(spec, extent=lattice.side_m)
+    set_view(spec, extent=extent_m)
     spec.visual.map.znear = 0.01
     spec.visual.map.zfar = 50.0
-
     spec.worldbody.add_light(
         name="sun",
-        pos=[0, 0, 3 * lattice.side_m],
+        pos=[0, 0, 3 * extent_m],
         dir=[0, 0, -1],
         type=int(mujoco.mjtLightType.mjLIGHT_DIRECTIONAL),
         diffuse=[0.8, 0.8, 0.8],
     )
-    axes = np.eye(3)
-    for i in range(n):
-        body = spec.worldbody.add_body(name=f"n{i}", pos=lattice.nodes[i].tolist())
-        if i not in fixed:
-            for ax, axis in zip("xyz", axes):
-                body.add_joint(
-                    name=f"n{i}_{ax}",
-                    type=mujoco.mjtJoint.mjJNT_SLIDE,
-                    axis=axis.tolist(),
-                    damping=float(options.node_damping_1_s * masses[i]),
-                )
-        body.add_geom(
-            type=mujoco.mjtGeom.mjGEOM_SPHERE,
-            size=[radius, 0, 0],
-            contype=0,
-            conaffinity=0,
-            mass=float(masses[i]),
-            rgba=list(NODE_RGBA),
-            group=1,
-        )
-        body.add_site(name=f"s{i}", size=[radius * 0.5, 0, 0], group=5)
-    for s in range(S):
-        p, q = lattice.struts[s]
-        tendon = spec.add_tendon(
-            name=f"t{s}", stiffness=float(stiffness[s]), damping=float(damping[s]), width=width, rgba=list(STRUT_RGBA)
-        )
-        tendon.springlength = [float(lattice.rest_length[s]), float(lattice.rest_length[s])]
-        tendon.wrap_site(f"s{p}")
-        tendon.wrap_site(f"s{q}")
     return spec
+
+
+def add_particle_node(
+    parent: mujoco.MjsBody,
+    *,
+    index: int,
+    pos_m: np.ndarray,
+    mass_kg: float,
+    free_axes: tuple[bool, bool, bool],
+    damping_Ns_m: float,
+    radius_m: float,
+) -> mujoco.MjsBody:
+    """Node ``index`` as a particle: body ``n<index>`` at ``pos_m`` (parent frame, world-aligned)
+    with a slide joint ``n<index>_x|y|z`` along each world axis in ``free_axes`` (joint damping
+    ``damping_Ns_m``), its mass on a non-colliding sphere geom of radius ``radius_m`` and its
+    site ``s<index>`` at the body origin (where tendons attach)."""
+    body = parent.add_body(name=f"n{index}", pos=[float(x) for x in pos_m])
+    for ax, axis, free in zip("xyz", np.eye(3), free_axes):
+        if free:
+            body.add_joint(
+                name=f"n{index}_{ax}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis.tolist(), damping=damping_Ns_m
+            )
+    add_node_sphere(body, mass_kg=mass_kg, radius_m=radius_m)
+    body.add_site(name=f"s{index}", size=[radius_m * 0.5, 0, 0], group=5)
+    return body
+
+
+def add_node_sphere(body: mujoco.MjsBody, *, mass_kg: float, radius_m: float, pos_m=(0.0, 0.0, 0.0)) -> None:
+    """A node's non-colliding sphere geom of mass ``mass_kg`` (group 1) at ``pos_m`` (body frame)."""
+    body.add_geom(
+        type=mujoco.mjtGeom.mjGEOM_SPHERE,
+        size=[radius_m, 0, 0],
+        pos=[float(x) for x in pos_m],
+        contype=0,
+        conaffinity=0,
+        mass=mass_kg,
+        rgba=list(NODE_RGBA),
+        group=1,
+    )
+
+
+def add_spring_tendon(
+    spec: mujoco.MjSpec,
+    *,
+    index: int,
+    ends: tuple[int, int],
+    stiffness_N_m: float,
+    damping_Ns_m: float,
+    springlength_m: tuple[float, float],
+    width_m: float,
+) -> mujoco.MjsTendon:
+    """Tendon ``t<index>`` from site ``s<ends[0]>`` to ``s<ends[1]>``: passive force
+    ``−k (L − l_hi) − γ L̇`` above ``l_hi``, ``−k (L − l_lo) − γ L̇`` below ``l_lo`` and ``−γ L̇`` in
+    between (``springlength_m = (l_lo, l_hi)``, MuJoCo's dead band)."""
+    tendon = spec.add_tendon(
+        name=f"t{index}", stiffness=stiffness_N_m, damping=damping_Ns_m, width=width_m, rgba=list(STRUT_RGBA)
+    )
+    tendon.springlength = [float(springlength_m[0]), float(springlength_m[1])]
+    tendon.wrap_site(f"s{ends[0]}")
+    tendon.wrap_site(f"s{ends[1]}")
+    return tendon
 
 
 def node_positions_from_qpos(model: mujoco.MjModel, qpos: np.ndarray, *, n_nodes: int) -> np.ndarray:
