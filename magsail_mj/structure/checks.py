@@ -362,11 +362,11 @@ def _rigid_part_problems(s: Structure) -> list[str]:
 
 def _set_problems(s: Structure) -> list[str]:
     problems = [
-        f"sets: {name!r} names both a node set and a member set"
+        f"sets[{name!r}]: the name {name!r} names both a node set and a member set"
         for name in sorted(set(s.node_sets) & set(s.member_sets))
     ]
     for table, sets, count, what in (
-        ("node_sets", s.node_sets, s.n_nodes, "node"),
+        ("sets", s.node_sets, s.n_nodes, "node"),
         ("member_sets", s.member_sets, s.n_members, "member"),
     ):
         for name, indices in sets.items():

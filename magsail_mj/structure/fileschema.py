@@ -96,8 +96,15 @@ TABLES = {
 
 _REQUIRED = "required"
 SLOTS: tuple[Slot, ...] = (
-    Slot("", "format", "string", None, f'`"{FORMAT}"`', "required in a file; optional under `[structure]`"),
-    Slot("", "version", "integer", None, f"`{VERSION}`: the version of the format", "as `format`"),
+    Slot(
+        "",
+        "format",
+        "string",
+        None,
+        f'the file format, `"{FORMAT}"`',
+        "required in a file; optional under `[structure]`",
+    ),
+    Slot("", "version", "integer", None, f"the format's version, `{VERSION}`", "as `format`"),
     Slot("", "name", "string", None, "the structure's name", "the file's stem (`structure` in a config)"),
     Slot("", "nodes", "table", None, "the nodes (below)", _REQUIRED),
     Slot("", "sets", "index_table", {}, "named node sets (below)"),

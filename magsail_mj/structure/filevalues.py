@@ -77,7 +77,14 @@ class ValueReader:
 
     # -- values ---------------------------------------------------------------------------------
     def numbers(self, value: Any, path: str, *, integer: bool = False) -> np.ndarray:
-        """``value`` (a number, nested arrays or a companion reference) as a float64 or int64 array."""
+        """``value`` (a number, nested arrays or a companion reference) as a float64 or int64 array
+        of at most :data:`MAX_COUNT` rows."""
+        array = self._numbers(value, path, integer)
+        if array.ndim and array.shape[0] > MAX_COUNT:
+            raise self.error(path, f"{array.shape[0]} rows, more than {MAX_COUNT}")
+        return array
+
+    def _numbers(self, value: Any, path: str, integer: bool) -> np.ndarray:
         if isinstance(value, dict):
             return self._from_file(self.companion(value, path), path, integer)
         if isinstance(value, list) and len(value) > MAX_COUNT:
