@@ -24,7 +24,10 @@ Two checks, over every ``*.html`` page of the build folder:
    says it can play that type, loads on its own in a detached ``<video>`` (so the WebM is checked
    even where the MP4 was chosen), that the browser can play at least one source, that MathJax
    typeset the page's formulas (one ``mjx-container`` per formula), and that no JavaScript
-   exception was thrown.
+   exception was thrown. The browser's viewport is :data:`VIEWPORT_WIDTH_PX` (1 280 px) wide, a
+   laptop screen: no claim table of the reproduction reports (``<table class="repro-claims">``,
+   written by ``magsail report render``) may overflow there, neither its scrolling wrapper (the
+   table wider than the text column) nor the window (its right edge beyond the viewport).
 
 Sphinx does not delete the pages of a removed document from the build folder, and they are checked
 too: remove ``docs/_build`` for a check of the current pages only (CI builds into a fresh clone).
@@ -71,6 +74,24 @@ _LINK_ATTRS = {
     "iframe": ("src",),
 }
 _DEVTOOLS_URL = re.compile(r"DevTools listening on (ws://\S+)")
+#: the browser window every page is checked in [CSS px] (the claim tables must fit its width)
+VIEWPORT_WIDTH_PX = 1280
+VIEWPORT_HEIGHT_PX = 900
+#: the CSS selector of the reproduction reports' claim tables (``magsail_mj.report.render``)
+CLAIM_TABLE_SELECTOR = "table.repro-claims"
+
+# Runs in each page after the page check; the widths of every claim table and of what holds it.
+CLAIM_TABLE_JS = (
+    r"""
+JSON.stringify(Array.from(document.querySelectorAll('%s')).map(table => {
+  const holder = table.parentElement;
+  return {table: table.scrollWidth, holderClient: holder.clientWidth, holderScroll: holder.scrollWidth,
+          right: table.getBoundingClientRect().right, viewport: document.documentElement.clientWidth,
+          rows: table.rows.length};
+}))
+"""
+    % CLAIM_TABLE_SELECTOR
+)
 
 # Runs in each page after its load event; returns a JSON text (see the module docstring).
 PAGE_CHECK_JS = r"""
@@ -407,6 +428,25 @@ def _page_problems(where: str, result: dict[str, Any], exceptions: list[str]) ->
     return problems
 
 
+def claim_table_problems(where: str, tables: list[dict[str, float]]) -> list[str]:
+    """One message per claim table of :data:`CLAIM_TABLE_JS` that overflows horizontally: wider
+    than the element that holds it (which then scrolls) or reaching past the viewport (half a pixel
+    of rounding allowed)."""
+    problems = []
+    for k, t in enumerate(tables, start=1):
+        if t["holderScroll"] > t["holderClient"] or t["table"] > t["holderClient"]:
+            problems.append(
+                f"{where}: claim table {k} ({t['rows']} rows) is {t['table']} px wide in a column of "
+                f"{t['holderClient']} px: it scrolls horizontally at a {VIEWPORT_WIDTH_PX} px viewport"
+            )
+        elif t["right"] > t["viewport"] + 0.5:
+            problems.append(
+                f"{where}: claim table {k} ends at {t['right']:.0f} px, past the {t['viewport']} px "
+                f"of the {VIEWPORT_WIDTH_PX} px viewport"
+            )
+    return problems
+
+
 @dataclass
 class BrowserReport:
     """The result of :func:`check_in_browser`: pages opened, images and videos seen, and one
@@ -416,6 +456,7 @@ class BrowserReport:
     images: int = 0
     videos: int = 0
     sources: int = 0
+    claim_tables: int = 0
     playable: dict[str, int] = field(default_factory=dict)
     problems: list[str] = field(default_factory=list)
 
@@ -437,10 +478,16 @@ def check_in_browser(
         session = tools.call("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
         for domain in ("Page", "Runtime"):
             tools.call(f"{domain}.enable", session=session)
+        viewport = {"width": VIEWPORT_WIDTH_PX, "height": VIEWPORT_HEIGHT_PX, "deviceScaleFactor": 1, "mobile": False}
+        tools.call("Emulation.setDeviceMetricsOverride", viewport, session=session)
         for page in todo:
             where = str(page.relative_to(site))
             report.pages += 1
             result, exceptions = _open(tools, session, base + where, timeout_s=timeout_s)
+            if result:
+                tables = _claim_tables(tools, session)
+                report.claim_tables += len(tables)
+                report.problems += claim_table_problems(where, tables)
             report.images += len(result.get("images", []))
             report.videos += len(result.get("videos", []))
             for video in result.get("videos", []):
@@ -450,6 +497,12 @@ def check_in_browser(
                         report.playable[source["type"]] = report.playable.get(source["type"], 0) + 1
             report.problems += _page_problems(where, result, exceptions)
     return report
+
+
+def _claim_tables(tools: DevTools, session: str) -> list[dict[str, float]]:
+    """The widths of the open page's claim tables (:data:`CLAIM_TABLE_JS`)."""
+    value = tools.call("Runtime.evaluate", {"expression": CLAIM_TABLE_JS, "returnByValue": True}, session=session)
+    return json.loads(value["result"]["value"])
 
 
 def _open(tools: DevTools, session: str, url: str, *, timeout_s: float) -> tuple[dict[str, Any], list[str]]:
@@ -519,7 +572,7 @@ def main(argv: list[str] | None = None) -> int:
             f"; browser: {browser.pages} pages, {browser.images} images, {browser.videos} videos "
             f"({browser.sources} sources; loaded on their own: "
             f"{', '.join(f'{n} {t}' for t, n in sorted(browser.playable.items())) or 'none'}), "
-            f"{len(browser.problems)} problems"
+            f"{browser.claim_tables} claim tables at {VIEWPORT_WIDTH_PX} px, {len(browser.problems)} problems"
         )
     for problem in problems:
         print(f"error: {problem}", file=sys.stderr)

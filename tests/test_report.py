@@ -337,7 +337,7 @@ def test_render_covers_every_registered_claim_and_counts_not_run():
         for claim in paper.claim:
             assert f"`{claim.id}`" in text and claim.key in text
         n = len(paper.claim)
-        assert f"{n} claims: 0 agrees · 0 differs · 0 failed · {n} not run · 0 qualitative" in text
+        assert f"{n} claims: 0 differs · 0 failed · {n} not run · 0 qualitative · 0 agrees" in text
         assert f"magsail sweep {paper.sweep}" in text
     assert all(f"<{p}>`" in pages[PAGES / "index.md"] for p in papers)
 
@@ -349,8 +349,8 @@ def test_render_shows_verdict_tolerance_explanation_and_figure(tmp_path):
     paper = paper.model_copy(update={"claim": (claim,)})
     collect([run], tmp_path / "results", {"msac": paper})
     text = render_pages({"msac": paper}, tmp_path / "results", tmp_path / "docs")[tmp_path / "docs" / "msac.md"]
-    assert "1 claims: 0 agrees · 1 differs" in text
-    assert "| 0.02 |" in text and "± 0.005" in text and "the lumped model drops the bus" in text
+    assert "1 claims: 1 differs" in text
+    assert "  - 0.02\n" in text and "± 0.005" in text and "the lumped model drops the bus" in text
     assert "```{figure} ../results/msac/lumped/big.png" in text
     assert "2026-01-01T00:00:00" in text
 
@@ -463,4 +463,4 @@ def test_report_update_collects_and_renders_a_registry_run(tmp_path, capsys):
     printed = json.loads(capsys.readouterr().out)
     assert printed["runs"] == [str(tmp_path / "b" / "msac" / "lumped_limit")]
     text = (tmp_path / "d" / "msac.md").read_text()
-    assert "| `eq6_lumped_limit` |" in text and "| -0.0025 |" in text and "**agrees**" in text
+    assert "(repro-msac-eq6-lumped-limit)=" in text and "  - -0.0025\n" in text and "**agrees**" in text

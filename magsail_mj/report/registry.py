@@ -65,6 +65,8 @@ class Claim(_Strict):
     id: str = Field(pattern=r"^[a-z0-9_]+$")
     paper_ref: str
     quantity: str
+    #: the paper's abstract makes this claim (the page marks it and counts the headline claims apart)
+    headline: bool = False
     run: str
     key: str
     index: int | None = None
