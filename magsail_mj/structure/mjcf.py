@@ -1,0 +1,505 @@
+r"""MuJoCo model (``MjSpec``) of any :class:`~magsail_mj.structure.model.Structure`.
+
+Frames and options
+    The world frame is the structure frame at the reference configuration (positions are used as
+    given; :attr:`StructureModelIndex.center_of_mass_m` says where the centre of mass is). Every
+    body is world-aligned at the reference (no body quaternions). Gravity is off, contacts are
+    disabled, and the arena is :func:`~magsail_mj.lattice.mjcf.lattice_arena_bytes` of ``nv``; the
+    options, view and light are those of :func:`~magsail_mj.lattice.mjcf.build_truss_spec`, whose
+    node and tendon writers this module shares (a structure of struts only compiles to the same
+    ``MjModel`` as the truss builder).
+
+Bodies (:func:`~magsail_mj.structure.beams.body_layout`)
+    *Particle* (a node no beam touches, no part holds): body ``n<i>`` at the node, three slide
+    joints ``n<i>_x|y|z`` along the world axes (a fixed translation drops its joint; rotation
+    constraints of a particle mean nothing and are ignored), its lumped mass
+    (:meth:`Structure.lumped_masses`) on a non-colliding sphere geom, site ``s<i>``.
+    *Beam node*: body ``n<i>`` at the node with an explicit inertia: its lumped mass and the
+    rotational inertia of the lumped (HRZ) beam mass model
+    (:func:`~magsail_mj.structure.beams.node_rotary_inertia`) plus that of a solid sphere of the
+    node radius, ``2/5 m r²`` (which keeps a node of massless beams a valid rigid body); a
+    tensor that still breaks the triangle inequality (beam segments shorter than about four
+    section radii) is raised by the smallest isotropic term that restores it.
+    *Rigid part*: body ``part_<name>`` with its origin at the part's ``center_m``; it holds its
+    nodes as sites ``s<i>`` (and sphere geoms) and carries the part's mass and inertia plus its
+    nodes' lumped masses (point masses) and beam rotational inertia, about their common centre.
+
+Joints
+    A tree's root hangs from the world. Free root: a free joint ``<body>_free``. Constrained root
+    (``fixed_dofs`` of its constraining node ``a``): slide joints ``<body>_x|y|z`` for the free
+    translations, then, about the node ``a``, a ball joint ``<body>_ball`` when no rotation is
+    fixed or hinges ``<body>_rx|ry|rz`` about the world axes for the free rotations; nothing when
+    all six are fixed (welded). A tree's other bodies hang from the body on the root side of their
+    beam ``j`` (length ``l`` between the nodes, rest length ``l0``, member axes ``x, y, z`` of
+    :func:`~magsail_mj.structure.assembly.beam_frames`) by four joints:
+
+    ========================  =====================================  ==============================
+    joint                     axis, anchor                           stiffness (spring reference)
+    ========================  =====================================  ==============================
+    ``m<j>_axial`` (slide)    member axis, parent → child            ``EA/l0`` (``l0 − l``)
+    ``m<j>_twist`` (hinge)    ``x``, member midpoint                 ``GJ/l0``
+    ``m<j>_bend1`` (hinge)    ``z``, member midpoint                 ``EI1/l0`` (plane 1, along y)
+    ``m<j>_bend2`` (hinge)    ``y``, member midpoint                 ``EI2/l0`` (plane 2, along z)
+    ========================  =====================================  ==============================
+
+    The slide also carries the member's axial dashpot ``c``. Each beam is thus two rigid halves
+    joined at its midpoint by a spring of its whole bending (torsional) compliance ``l0/EI``
+    (``l0/GJ``): axial and torsional chains are exact, and a cantilever of ``N`` equal beams under
+    a tip force deflects ``P L³/(3 EI) · (1 − 1/(4 N²))`` (midpoint-rule quadrature of the moment;
+    −0.0625 % at ``N = 20``; a hinge at each node with ``EI/l`` would give ``+ (3N + 1)/(2N²)``,
+    +7.6 %). Bending and torsion have no damping (the member table has only an axial dashpot).
+    The three hinges compose as intrinsic rotations: exact for small relative rotations, and
+    non-singular below 90° of bending per member.
+
+    Beams must form trees (:mod:`magsail_mj.structure.beams`): a beam that closes a loop is
+    refused, naming the member. MuJoCo's native alternatives were not used: 1-D flexes (discrete
+    elastic rods) have no stretching (it needs edge equality constraints), refuse the
+    ``implicit``/``implicitfast`` integrators (checked with MuJoCo 4.0.0), hold only open chains or
+    rings (not branching trees or rigid parts in a chain); the ``mujoco.elasticity.cable`` plugin
+    is not shipped in the wheel (``plugin mujoco.elasticity.cable not found``).
+
+Tendons
+    A strut ``j``: spatial tendon ``t<j>`` between the node sites, stiffness ``EA/l0``, damping
+    ``c``, ``springlength = [l0, l0]`` (force ``−k (L − l0) − c L̇``). A cable: the same with
+    ``springlength = [0, l0]``, MuJoCo's dead band: no spring force while ``L ≤ l0``. MuJoCo's
+    tendon damping acts whatever the length, so a damped slack cable would push while it
+    shortens; a cable must therefore have ``damping_Ns_m = 0`` (refused otherwise) and never
+    pushes.
+
+Panels
+    Drawn only: one MuJoCo skin ``panels`` (rendering-only by MuJoCo's definition: no dofs, no
+    forces, no mass) whose vertices are bound to the bodies of the panels' corner nodes, each
+    panel drawn on both faces (MuJoCo skins are one-sided). Their mass is already in the nodes.
+
+Damping per node (``node_damping_1_s``)
+    ``a = −c v`` on particles (slide-joint damping ``c m_i``), as in the truss builder. Joint
+    damping of a chain is relative motion, not absolute, so a structure with beams or rigid
+    parts refuses a non-zero value.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from magsail_mj.lattice.mjcf import (
+    add_node_sphere,
+    add_particle_node,
+    add_spring_tendon,
+    lattice_arena_bytes,
+    truss_base_spec,
+)
+from magsail_mj.structure.assembly import beam_frames
+from magsail_mj.structure.beams import BEAM_NODE, PART, PARTICLE, BodyLayout, body_layout, node_rotary_inertia
+from magsail_mj.structure.model import MEMBER_KINDS, Structure, StructureError
+
+__all__ = ["BEAM_JOINTS", "PANEL_RGBA", "StructureModelIndex", "build_structure_spec", "part_body_name"]
+
+PANEL_RGBA = (0.80, 0.68, 0.35, 1.0)
+_CABLE = MEMBER_KINDS.index("cable")
+_BEAM = MEMBER_KINDS.index("beam")
+_AXES = "xyz"
+#: The joints of a beam, in their order in the child body (module docstring).
+BEAM_JOINTS = ("axial", "twist", "bend1", "bend2")
+
+
+def part_body_name(name: str) -> str:
+    """The body name of rigid part ``name``."""
+    return f"part_{name}"
+
+
+@dataclass(frozen=True)
+class _Geometry:
+    """What the writers share: layout, positions, masses and sizes."""
+
+    structure: Structure
+    layout: BodyLayout
+    origin_m: np.ndarray  # (V, 3) body origins, world frame
+    masses_kg: np.ndarray  # (n,) lumped
+    rotary_kg_m2: np.ndarray  # (n, 3, 3)
+    frames: np.ndarray  # (m, 3, 3) member axes (rows x, y, z); beams only, zeros elsewhere
+    radius_m: float
+    width_m: float
+    node_damping_1_s: float
+
+    def body_name(self, vertex: int) -> str:
+        n = self.structure.n_nodes
+        return f"n{vertex}" if vertex < n else part_body_name(self.structure.rigid_parts[vertex - n].name)
+
+
+def _extent_m(positions_m: np.ndarray) -> float:
+    """The largest side of the nodes' bounding box [m] (1 m for a single point)."""
+    extent = float(np.ptp(positions_m, axis=0).max()) if len(positions_m) else 0.0
+    return extent if extent > 0 else 1.0
+
+
+def _check(structure: Structure, layout: BodyLayout, masses: np.ndarray, node_damping_1_s: float) -> None:
+    """Refuse damped cables, node damping with chains, and massless moving bodies."""
+    members = structure.members
+    problems = [
+        f"members[{j}].damping_Ns_m: a cable carries no dashpot (MuJoCo's tendon damping would push while a slack "
+        f"cable shortens), got {members.damping_Ns_m[j]!r}"
+        for j in np.flatnonzero((members.kind == _CABLE) & (members.damping_Ns_m != 0))[:10]
+    ]
+    if not (np.isfinite(node_damping_1_s) and node_damping_1_s >= 0):
+        problems.append(f"node_damping_1_s: must be finite and >= 0, got {node_damping_1_s!r}")
+    elif node_damping_1_s > 0 and np.any(layout.kind != PARTICLE):
+        problems.append(
+            f"node_damping_1_s: applies to particles only (slide joints), got {node_damping_1_s!r} for a structure "
+            "with beams or rigid parts (joint damping in a chain is relative, not absolute)"
+        )
+    n = structure.n_nodes
+    fixed = np.asarray(structure.fixed_dofs, dtype=bool)
+    moving_particle = (layout.kind[:n] == PARTICLE) & ~fixed[:, :3].all(axis=1)
+    moving_node = (layout.kind[:n] == BEAM_NODE) & ~(fixed.all(axis=1) & (layout.parent[:n] < 0))
+    problems += [
+        f"node_mass_kg: node {i} moves (it has joints) but its lumped mass is {masses[i]!r} kg"
+        for i in np.flatnonzero((moving_particle | moving_node) & ~(masses > 0))[:10]
+    ]
+    welded = (layout.parent < 0) & layout.root_fixed.all(axis=1)
+    for p, part in enumerate(structure.rigid_parts):
+        total = part.mass_kg + masses[np.asarray(part.nodes, dtype=np.int64)].sum()
+        if not welded[n + p] and not total > 0:
+            problems.append(
+                f"rigid_parts[{p}] ({part.name!r}).mass_kg: the part moves but it and its nodes weigh {total!r} kg"
+            )
+    if problems:
+        raise StructureError(problems)
+
+
+def _balanced(inertia: np.ndarray) -> np.ndarray:
+    """``inertia`` (k, 3, 3) plus the smallest isotropic term that makes its principal moments
+    obey the triangle inequality ``I_max ≤ I_a + I_b``."""
+    moments = np.linalg.eigvalsh(inertia)
+    deficit = np.maximum(moments[:, 2] - moments[:, 0] - moments[:, 1], 0.0)
+    return inertia + deficit[:, None, None] * np.eye(3)
+
+
+def _shifted(mass: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """(k, 3, 3) inertia of point masses ``mass`` at ``offset`` (k, 3) about the origin."""
+    r2 = np.einsum("ij,ij->i", offset, offset)
+    return mass[:, None, None] * (r2[:, None, None] * np.eye(3) - offset[:, :, None] * offset[:, None, :])
+
+
+def _set_inertial(body: mujoco.MjsBody, mass_kg: float, center_m: np.ndarray, inertia: np.ndarray) -> None:
+    """Explicit inertial: mass, centre (body frame) and full inertia about it."""
+    body.explicitinertial = True
+    body.mass = float(mass_kg)
+    body.ipos = [float(x) for x in center_m]
+    body.iquat = [1.0, 0.0, 0.0, 0.0]
+    body.fullinertia = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+
+
+def _node_inertial(g: _Geometry, body: mujoco.MjsBody, node: int) -> None:
+    m = g.masses_kg[node]
+    sphere = 0.4 * m * g.radius_m**2 * np.eye(3)
+    _set_inertial(body, m, np.zeros(3), _balanced((g.rotary_kg_m2[node] + sphere)[None])[0])
+
+
+def _part_inertial(g: _Geometry, body: mujoco.MjsBody, p: int) -> None:
+    part = g.structure.rigid_parts[p]
+    nodes = np.asarray(part.nodes, dtype=np.int64)
+    origin = np.asarray(part.center_m, dtype=float)
+    mass = np.append(g.masses_kg[nodes], part.mass_kg)
+    where = np.vstack([g.structure.positions_m[nodes], origin])
+    total = float(mass.sum())
+    center = mass @ where / total if total > 0 else origin
+    inertia = np.asarray(part.inertia_kg_m2, dtype=float) + _shifted(mass, where - center).sum(axis=0)
+    inertia = inertia + g.rotary_kg_m2[nodes].sum(axis=0)
+    _set_inertial(body, total, center - origin, _balanced(inertia[None])[0])
+
+
+def _root_joints(g: _Geometry, body: mujoco.MjsBody, vertex: int) -> int:
+    """Joints of a tree root (module docstring); returns its dof count."""
+    name = g.body_name(vertex)
+    anchor = g.layout.anchor_node[vertex]
+    if anchor < 0:
+        body.add_freejoint(name=f"{name}_free")
+        return 6
+    fixed = g.layout.root_fixed[vertex]
+    pivot = [float(x) for x in g.structure.positions_m[anchor] - g.origin_m[vertex]]
+    axes = np.eye(3)
+    for k in np.flatnonzero(~fixed[:3]):
+        body.add_joint(name=f"{name}_{_AXES[k]}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axes[k].tolist())
+    if not fixed[3:].any():
+        body.add_joint(name=f"{name}_ball", type=mujoco.mjtJoint.mjJNT_BALL, pos=pivot)
+        return int((~fixed[:3]).sum()) + 3
+    for k in np.flatnonzero(~fixed[3:]):
+        body.add_joint(name=f"{name}_r{_AXES[k]}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=axes[k].tolist(), pos=pivot)
+    return int((~fixed).sum())
+
+
+def _beam_joints(g: _Geometry, body: mujoco.MjsBody, vertex: int) -> int:
+    """The four joints of the beam joining ``vertex`` to its parent (module docstring)."""
+    j = g.layout.parent_member[vertex]
+    members = g.structure.members
+    ends = members.nodes[j]
+    start, end = (ends[0], ends[1]) if g.layout.parent_end[j] == 0 else (ends[1], ends[0])
+    p = g.structure.positions_m
+    length = float(np.linalg.norm(p[end] - p[start]))
+    l0 = float(members.rest_length_m[j])
+    x, y, z = g.frames[j]
+    mid = [float(c) for c in 0.5 * (p[start] + p[end]) - g.origin_m[vertex]]
+    hinge = mujoco.mjtJoint.mjJNT_HINGE
+    body.add_joint(
+        name=f"m{j}_axial",
+        type=mujoco.mjtJoint.mjJNT_SLIDE,
+        axis=((p[end] - p[start]) / length).tolist(),
+        stiffness=float(members.EA_N[j] / l0),
+        springref=l0 - length,
+        damping=float(members.damping_Ns_m[j]),
+    )
+    body.add_joint(name=f"m{j}_twist", type=hinge, axis=x.tolist(), pos=mid, stiffness=float(members.GJ_Nm2[j] / l0))
+    body.add_joint(name=f"m{j}_bend1", type=hinge, axis=z.tolist(), pos=mid, stiffness=float(members.EI_Nm2[j, 0] / l0))
+    body.add_joint(name=f"m{j}_bend2", type=hinge, axis=y.tolist(), pos=mid, stiffness=float(members.EI_Nm2[j, 1] / l0))
+    return 4
+
+
+def _held_sites(g: _Geometry, body: mujoco.MjsBody, vertex: int) -> None:
+    """Sphere geoms (massless: the inertial is explicit) and sites of the nodes a body holds."""
+    nodes = np.flatnonzero(g.layout.node_vertex == vertex)
+    for i in nodes:
+        offset = g.structure.positions_m[i] - g.origin_m[vertex]
+        add_node_sphere(body, mass_kg=0.0, radius_m=g.radius_m, pos_m=offset)
+        body.add_site(name=f"s{i}", pos=[float(c) for c in offset], size=[g.radius_m * 0.5, 0, 0], group=5)
+
+
+def _write_bodies(g: _Geometry, spec: mujoco.MjSpec) -> int:
+    """All bodies and joints in layout order; returns ``nv``."""
+    bodies: dict[int, mujoco.MjsBody] = {}
+    fixed = np.asarray(g.structure.fixed_dofs, dtype=bool)
+    nv = 0
+    for v in g.layout.order.tolist():
+        kind = g.layout.kind[v]
+        if kind == PARTICLE:
+            free = ~fixed[v, :3]
+            damping = float(g.node_damping_1_s * g.masses_kg[v])
+            bodies[v] = add_particle_node(
+                spec.worldbody,
+                index=v,
+                pos_m=g.origin_m[v],
+                mass_kg=float(g.masses_kg[v]),
+                free_axes=tuple(bool(f) for f in free),
+                damping_Ns_m=damping,
+                radius_m=g.radius_m,
+            )
+            nv += int(free.sum())
+            continue
+        parent = g.layout.parent[v]
+        holder = spec.worldbody if parent < 0 else bodies[parent]
+        rel = g.origin_m[v] - (g.origin_m[parent] if parent >= 0 else 0.0)
+        body = holder.add_body(name=g.body_name(v), pos=[float(c) for c in rel])
+        nv += _root_joints(g, body, v) if parent < 0 else _beam_joints(g, body, v)
+        if kind == PART:
+            _part_inertial(g, body, v - g.structure.n_nodes)
+        else:
+            _node_inertial(g, body, v)
+        _held_sites(g, body, v)
+        bodies[v] = body
+    return nv
+
+
+def _write_tendons(g: _Geometry, spec: mujoco.MjSpec) -> None:
+    members = g.structure.members
+    k = members.stiffness_N_m
+    for j in np.flatnonzero(members.kind != _BEAM).tolist():
+        l0 = float(members.rest_length_m[j])
+        add_spring_tendon(
+            spec,
+            index=j,
+            ends=(int(members.nodes[j, 0]), int(members.nodes[j, 1])),
+            stiffness_N_m=float(k[j]),
+            damping_Ns_m=float(members.damping_Ns_m[j]),
+            springlength_m=(0.0 if members.kind[j] == _CABLE else l0, l0),
+            width_m=g.width_m,
+        )
+
+
+def _write_panels(g: _Geometry, spec: mujoco.MjSpec, inflate_m: float) -> None:
+    """The rendering-only skin of the panels (module docstring)."""
+    triangles = g.structure.panels.triangles()
+    corners, local = np.unique(triangles, return_inverse=True)
+    local = local.reshape(-1, 3)
+    k = corners.size
+    owner = g.layout.node_vertex[corners]
+    bones, bone_of = np.unique(owner, return_inverse=True)
+    skin = spec.add_skin()
+    skin.name = "panels"
+    skin.rgba = list(PANEL_RGBA)
+    skin.inflate = inflate_m
+    skin.vert = np.tile(g.structure.positions_m[corners], (2, 1)).ravel().tolist()
+    skin.face = np.concatenate([local, local[:, ::-1] + k]).ravel().tolist()
+    skin.bodyname = [g.body_name(int(b)) for b in bones]
+    skin.bindpos = g.origin_m[bones].ravel().tolist()
+    skin.bindquat = np.tile([1.0, 0.0, 0.0, 0.0], bones.size).tolist()
+    by_bone = np.argsort(bone_of, kind="stable")
+    groups = np.split(by_bone, np.cumsum(np.bincount(bone_of, minlength=bones.size))[:-1])
+    skin.vertid = [np.concatenate([grp, grp + k]).tolist() for grp in groups]
+    skin.vertweight = [[1.0] * (2 * grp.size) for grp in groups]
+
+
+def build_structure_spec(
+    structure: Structure,
+    *,
+    timestep_s: float,
+    integrator: str,
+    name: str | None = None,
+    node_damping_1_s: float = 0.0,
+    solver_tolerance: float | None = None,
+    node_radius_m: float | None = None,
+    member_width_m: float | None = None,
+) -> mujoco.MjSpec:
+    """The ``MjSpec`` of ``structure`` (module docstring).
+
+    Args:
+      structure: the structure (its positions are the world frame at the reference).
+      timestep_s: MuJoCo ``opt.timestep`` [s].
+      integrator: one of :data:`~magsail_mj.mjcf.common.INTEGRATORS`.
+      name: model name (default: the structure's name).
+      node_damping_1_s: viscous damping of particles ``a = −c v`` [1/s] (particles only).
+      solver_tolerance: MuJoCo ``opt.tolerance`` (``None``: MuJoCo's default).
+      node_radius_m: radius of the node spheres (default 4 % of the median member rest length, or
+        of the structure's extent without members); also the radius of a beam node's own sphere
+        inertia.
+      member_width_m: drawn tendon width (default 1.5 % of the same length).
+
+    Raises:
+      StructureError: the structure cannot be modelled (every finding, each naming the element).
+      ValueError: a bad option (named).
+    """
+    masses = structure.lumped_masses()
+    layout = body_layout(structure)
+    _check(structure, layout, masses, float(node_damping_1_s))
+    extent = _extent_m(structure.positions_m)
+    scale = float(np.median(structure.members.rest_length_m)) if structure.n_members else extent
+    for label, value in (("node_radius_m", node_radius_m), ("member_width_m", member_width_m)):
+        if value is not None and not (np.isfinite(value) and value > 0):
+            raise ValueError(f"{label}: must be finite and > 0, got {value!r}")
+    beams = np.flatnonzero(structure.members.kind == _BEAM)
+    frames = np.zeros((structure.n_members, 3, 3))
+    frames[beams] = beam_frames(structure, beams)
+    parts = np.array([part.center_m for part in structure.rigid_parts], dtype=float).reshape(-1, 3)
+    g = _Geometry(
+        structure=structure,
+        layout=layout,
+        origin_m=np.vstack([structure.positions_m, parts]),
+        masses_kg=masses,
+        rotary_kg_m2=node_rotary_inertia(structure),
+        frames=frames,
+        radius_m=node_radius_m or 0.04 * scale,
+        width_m=member_width_m or 0.015 * scale,
+        node_damping_1_s=float(node_damping_1_s),
+    )
+    spec = truss_base_spec(
+        name=structure.name if name is None else name,
+        timestep_s=timestep_s,
+        integrator=integrator,
+        solver_tolerance=solver_tolerance,
+        extent_m=extent,
+    )
+    nv = _write_bodies(g, spec)
+    spec.memory = lattice_arena_bytes(nv)
+    _write_tendons(g, spec)
+    if len(structure.panels):
+        _write_panels(g, spec, inflate_m=0.25 * g.radius_m)
+    return spec
+
+
+@dataclass(frozen=True)
+class StructureModelIndex:
+    """Where a structure's nodes and members are in a compiled model (arrays built once).
+
+    Attributes:
+      node_body: (n,) body holding each node (a particle's or beam node's own body, or its part's).
+      node_site: (n,) site of each node (tendons attach there; ``site_xpos`` is the node position).
+      node_slide_qposadr, node_slide_dofadr: (n, 3) ``qpos``/``qvel`` addresses of a particle's
+        x, y, z slide joints (−1: fixed component, or the node is not a particle).
+      member_tendon: (m,) tendon of each strut or cable (−1 for beams).
+      beam_qposadr, beam_dofadr: (m, 4) addresses of each beam's ``axial, twist, bend1, bend2``
+        joints (−1 for struts and cables).
+      part_body: (P,) body of each rigid part.
+      particles_only: every node is a particle (positions follow from ``qpos`` without kinematics).
+      center_of_mass_m: (3,) the structure's centre of mass, world frame at the reference [m].
+    """
+
+    node_body: np.ndarray
+    node_site: np.ndarray
+    node_slide_qposadr: np.ndarray
+    node_slide_dofadr: np.ndarray
+    member_tendon: np.ndarray
+    beam_qposadr: np.ndarray
+    beam_dofadr: np.ndarray
+    part_body: np.ndarray
+    particles_only: bool
+    center_of_mass_m: np.ndarray
+
+    @classmethod
+    def from_model(cls, model: mujoco.MjModel, structure: Structure) -> StructureModelIndex:
+        """The index of ``structure``'s elements in ``model`` (built by :func:`build_structure_spec`,
+        possibly with further bodies added), found by name."""
+
+        def ids(kind: mujoco.mjtObj, names: list[str]) -> np.ndarray:
+            return np.array([mujoco.mj_name2id(model, kind, nm) for nm in names], dtype=np.int64).reshape(-1)
+
+        n, members = structure.n_nodes, structure.members
+        site = ids(mujoco.mjtObj.mjOBJ_SITE, [f"s{i}" for i in range(n)])
+        if np.any(site < 0):
+            raise ValueError(f"model: node sites missing (first: s{int(np.flatnonzero(site < 0)[0])})")
+        slide = ids(mujoco.mjtObj.mjOBJ_JOINT, [f"n{i}_{a}" for i in range(n) for a in _AXES]).reshape(n, 3)
+        beams = np.flatnonzero(members.kind == _BEAM)
+        beam_joint = np.full((structure.n_members, 4), -1, dtype=np.int64)
+        beam_joint[beams] = ids(mujoco.mjtObj.mjOBJ_JOINT, [f"m{j}_{s}" for j in beams for s in BEAM_JOINTS]).reshape(
+            -1, 4
+        )
+        tendon = np.full(structure.n_members, -1, dtype=np.int64)
+        others = np.flatnonzero(members.kind != _BEAM)
+        tendon[others] = ids(mujoco.mjtObj.mjOBJ_TENDON, [f"t{j}" for j in others])
+        part = ids(mujoco.mjtObj.mjOBJ_BODY, [part_body_name(p.name) for p in structure.rigid_parts])
+
+        def address(table: np.ndarray, joints: np.ndarray) -> np.ndarray:
+            return np.where(joints >= 0, table[np.maximum(joints, 0)], -1)
+
+        return cls(
+            node_body=model.site_bodyid[site].astype(np.int64),
+            node_site=site,
+            node_slide_qposadr=address(model.jnt_qposadr, slide),
+            node_slide_dofadr=address(model.jnt_dofadr, slide),
+            member_tendon=tendon,
+            beam_qposadr=address(model.jnt_qposadr, beam_joint),
+            beam_dofadr=address(model.jnt_dofadr, beam_joint),
+            part_body=part,
+            particles_only=bool(beams.size == 0 and not structure.rigid_parts),
+            center_of_mass_m=structure.mass_properties()[1],
+        )
+
+    def node_positions(self, data: mujoco.MjData) -> np.ndarray:
+        """(n, 3) world node positions of ``data`` (after ``mj_kinematics`` or ``mj_forward``)."""
+        return data.site_xpos[self.node_site]
+
+    def node_positions_from_qpos(self, model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
+        """World node positions ``(…, n, 3)`` from ``qpos`` ``(…, nq)``: the reference position plus
+        the slide coordinates for particles (vectorised), else MuJoCo's kinematics per state."""
+        qpos = np.asarray(qpos, dtype=float)
+        if qpos.shape[-1] != model.nq:
+            raise ValueError(f"qpos: last axis must be nq = {model.nq}, got shape {qpos.shape}")
+        if self.particles_only:
+            ref = model.body_pos[self.node_body] + model.site_pos[self.node_site]
+            moving = self.node_slide_qposadr >= 0
+            shift = np.where(moving, qpos[..., np.maximum(self.node_slide_qposadr, 0)], 0.0)
+            return ref + shift
+        data = mujoco.MjData(model)
+        flat = qpos.reshape(-1, model.nq)
+        out = np.empty((flat.shape[0], self.node_site.size, 3))
+        for k, q in enumerate(flat):
+            data.qpos[:] = q
+            mujoco.mj_kinematics(model, data)
+            out[k] = data.site_xpos[self.node_site]
+        return out.reshape(qpos.shape[:-1] + (self.node_site.size, 3))
+
+    def member_lengths_m(self, data: mujoco.MjData, structure: Structure) -> np.ndarray:
+        """(m,) distance between each member's end nodes in ``data`` [m] (after kinematics)."""
+        p = self.node_positions(data)
+        ends = structure.members.nodes
+        return np.linalg.norm(p[ends[:, 1]] - p[ends[:, 0]], axis=1)
