@@ -128,12 +128,17 @@ class _Elements:
 
 
 def _read(path: Path) -> meshio.Mesh:
+    """The mesh at ``path``: a ``.msh`` file by meshio's gmsh reader, anything else by
+    ``meshio.read`` (which ends the process with ``SystemExit`` on a file it cannot read)."""
     if not path.is_file():
         raise StructureError(f"path: {str(path)!r} is not a file")
     try:
+        if path.suffix.lower() == ".msh":
+            return meshio.gmsh.read(str(path))
         return meshio.read(path)
-    except Exception as error:  # meshio raises ReadError, KeyError, ValueError… on a bad file
-        raise StructureError(f"path: {str(path)!r} is not a mesh meshio can read: {type(error).__name__}: {error}")
+    except (Exception, SystemExit) as error:  # ReadError, KeyError, ValueError… on a bad file
+        detail = f": {type(error).__name__}: {error}" if str(error) else f" ({type(error).__name__})"
+        raise StructureError(f"path: {str(path)!r} is not a mesh meshio can read{detail}") from None
 
 
 def _check_types(mesh: meshio.Mesh, path: Path, skip: Collection[str]) -> None:
@@ -214,7 +219,7 @@ def _assign(
     choices = [default] + [groups[elements.names[g]] for g in mapped]
     same = np.array([[x == y for y in choices] for x in choices])
     hits = elements.member_of[:, mapped]
-    pick = np.where(hits.any(axis=1), 1 + np.argmax(hits, axis=1), 0)
+    pick = np.where(hits.any(axis=1), 1 + np.argmax(hits, axis=1), 0) if mapped else np.zeros(len(hits), dtype=np.int64)
     for column, g in enumerate(mapped):
         clash = np.flatnonzero(hits[:, column] & ~same[pick, column + 1])
         if clash.size:
