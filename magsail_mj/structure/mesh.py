@@ -169,7 +169,8 @@ def _membership(mesh: meshio.Mesh, b: int, names: list[str]) -> np.ndarray:
     tags = mesh.cell_data.get("gmsh:physical")
     for g, name in enumerate(names):
         if name in cell_sets:
-            member_of[np.asarray(cell_sets[name][b], dtype=np.int64), g] = True
+            rows = cell_sets[name][b]
+            member_of[np.asarray([] if rows is None else rows, dtype=np.int64), g] = True
         elif tags is not None:
             member_of[:, g] = np.asarray(tags[b]) == int(mesh.field_data[name][0])
     return member_of

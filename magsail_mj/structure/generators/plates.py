@@ -1,6 +1,7 @@
 """Double-layer truss plates: the shipped two-layer cubic lattice, Robb et al. 2022a's
-octahedral–tetrahedral (octet) truss, the square-on-square offset grid, and the cubic lattice
-clipped to a disc or a hexagon (pure NumPy).
+octahedral–tetrahedral (octet) truss and the square-on-square offset grid, and the pieces the
+plates share (pure NumPy); the disc and hexagon are in
+:mod:`~magsail_mj.structure.generators.clipped`.
 
 Frames and units: structure frame, SI. A plate lies in the x–y plane with its centre on the z
 axis; ``top`` is its +z layer. Node sets: ``top``, ``bottom``, ``root`` (the −x edge, both layers:
@@ -33,12 +34,13 @@ from magsail_mj.structure.generators.common import (
 )
 from magsail_mj.structure.model import Members, Structure
 
-__all__ = ["square_plate_lattice", "octet_plate", "offset_grid_plate", "circular_plate", "hexagonal_plate"]
+__all__ = ["square_plate_lattice", "octet_plate", "offset_grid_plate"]
 
 _XY_DIAGONAL = STRUT_KINDS.index("xy_diagonal")
 
 
-def _check_lattice_args(units: int, side_m: float, diagonals: str) -> tuple[int, float]:
+def check_lattice_args(units: int, side_m: float, diagonals: str) -> tuple[int, float]:
+    """Checked ``units`` and ``side_m`` of a cubic lattice, and its ``diagonals`` rule."""
     n = check_count("units", units, minimum=1)
     side = check_positive("side_m", side_m)
     if diagonals not in ("parity", "X"):
@@ -46,7 +48,7 @@ def _check_lattice_args(units: int, side_m: float, diagonals: str) -> tuple[int,
     return n, side
 
 
-def _rim_columns(cells: np.ndarray) -> np.ndarray:
+def rim_columns(cells: np.ndarray) -> np.ndarray:
     """(N, N) [j, i] mask of the node columns on the perimeter of the kept cells ``cells`` (n, n)
     [cj, ci]: columns not surrounded by four kept cells."""
     padded = np.pad(cells, 1, constant_values=False)
@@ -54,14 +56,14 @@ def _rim_columns(cells: np.ndarray) -> np.ndarray:
     return ~inside
 
 
-def _lattice_sets(
+def lattice_sets(
     ijk: np.ndarray, struts: np.ndarray, kind: np.ndarray, cells: np.ndarray, top_chord_kinds: tuple[str, ...]
 ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Node and member sets of (a subset of) a two-layer lattice: ``ijk`` (n, 3) integer node
     coordinates, ``struts`` (m, 2) renumbered ends, ``kind`` (m,) STRUT_KINDS codes (−1: a member
     of none), ``cells`` (units, units) [cj, ci] mask of the cubes present."""
     i, j, k = ijk.T
-    rim = _rim_columns(cells)[j, i]
+    rim = rim_columns(cells)[j, i]
     node_sets = {
         "top": np.flatnonzero(k == 1),
         "bottom": np.flatnonzero(k == 0),
@@ -79,7 +81,7 @@ def _lattice_sets(
     return node_sets, member_sets
 
 
-def _subset(lat: Lattice, node_keep: np.ndarray, strut_keep: np.ndarray) -> tuple[np.ndarray, ...]:
+def lattice_subset(lat: Lattice, node_keep: np.ndarray, strut_keep: np.ndarray) -> tuple[np.ndarray, ...]:
     """Positions, ijk, renumbered struts, kinds and rest lengths of the kept nodes and struts
     (lattice order kept)."""
     renumber = np.cumsum(node_keep) - 1
@@ -87,7 +89,7 @@ def _subset(lat: Lattice, node_keep: np.ndarray, strut_keep: np.ndarray) -> tupl
     return lat.nodes[node_keep], lat.ijk[node_keep], struts, lat.kind[strut_keep], lat.rest_length[strut_keep]
 
 
-def _plate(
+def uniform_strut_plate(
     *,
     name: str,
     positions_m: np.ndarray,
@@ -159,7 +161,7 @@ def square_plate_lattice(
     ``top_layer``, ``bottom_layer``, ``web`` (between the layers) and ``top_chords`` (the top
     layer's cube edges); node sets as the module docstring, plus ``central_cube``.
     """
-    n, side = _check_lattice_args(units, side_m, diagonals)
+    n, side = check_lattice_args(units, side_m, diagonals)
     axial_rigidity_argument(EA_N, EI_Nm2)
     lat = make_lattice(units=n, side_m=side, diagonals=diagonals)
     total = plate_mass_kg(total_mass_kg=total_mass_kg, areal_density_kg_m2=areal_density_kg_m2, area_m2=side**2)
@@ -174,7 +176,7 @@ def square_plate_lattice(
         shortest_m=float(lat.rest_length.min()),
         particle_mass_kg=total / lat.n_nodes,
     )
-    node_sets, member_sets = _lattice_sets(lat.ijk, lat.struts, lat.kind, np.ones((n, n), bool), ("x_edge", "y_edge"))
+    node_sets, member_sets = lattice_sets(lat.ijk, lat.struts, lat.kind, np.ones((n, n), bool), ("x_edge", "y_edge"))
     node_sets["central_cube"] = central_cube_nodes(lat)
     members = Members.build(
         lat.struts, positions_m=lat.nodes, EA_N=EA_N, damping_Ns_m=damping, rest_length_m=lat.rest_length
@@ -236,23 +238,23 @@ def octet_plate(
     member count ``2 n² + 2 n N`` (+ ``4 (N − 2)``), ``N = n + 1``. Mass: uniform over the ``N²``
     nodes; ``areal_density_kg_m2`` is per ``side_m²``.
     """
-    n, side = _check_lattice_args(units, side_m, "parity")
+    n, side = check_lattice_args(units, side_m, "parity")
     if bracing not in ("rim", "none"):
         raise ValueError(f"bracing: must be 'rim' or 'none', got {bracing!r}")
     total = plate_mass_kg(total_mass_kg=total_mass_kg, areal_density_kg_m2=areal_density_kg_m2, area_m2=side**2)
     lat = make_lattice(units=n, side_m=side, diagonals="parity")
     even = lat.ijk.sum(axis=1) % 2 == 0
-    positions, ijk, struts, kind, rest = _subset(lat, even, lat.kind >= _XY_DIAGONAL)
+    positions, ijk, struts, kind, rest = lattice_subset(lat, even, lat.kind >= _XY_DIAGONAL)
     if bracing == "rim":
         chords = _rim_chords(n)
         struts = np.concatenate([struts, (np.cumsum(even) - 1)[chords]])
         kind = np.concatenate([kind, np.full(len(chords), -1, dtype=kind.dtype)])
         rest = np.concatenate([rest, np.full(len(chords), 2.0 * lat.cube_edge_m)])
-    node_sets, member_sets = _lattice_sets(ijk, struts, kind, np.ones((n, n), bool), ("xy_diagonal",))
+    node_sets, member_sets = lattice_sets(ijk, struts, kind, np.ones((n, n), bool), ("xy_diagonal",))
     member_sets["rim_chords"] = np.flatnonzero(kind == -1)
 
     def build(EA: float) -> Structure:
-        return _plate(
+        return uniform_strut_plate(
             name=name,
             positions_m=positions,
             struts=struts,
@@ -353,7 +355,7 @@ def offset_grid_plate(
     rest = np.linalg.norm(positions[struts[:, 1]] - positions[struts[:, 0]], axis=1)
 
     def build(EA: float) -> Structure:
-        return _plate(
+        return uniform_strut_plate(
             name=name,
             positions_m=positions,
             struts=struts,
@@ -367,130 +369,3 @@ def offset_grid_plate(
         )
 
     return _with_axial_rigidity(build, EA_N, EI_Nm2)
-
-
-def _clipped_plate(
-    *,
-    units: int,
-    width_m: float,
-    inside: Callable[[np.ndarray, np.ndarray], np.ndarray],
-    diagonals: str,
-    EA_N: float,
-    total_mass_kg: float | None,
-    areal_density_kg_m2: float | None,
-    damping_Ns_m: float | None,
-    zeta_strut: float | None,
-    name: str,
-) -> Structure:
-    """The cubic lattice of ``units`` cubes across ``width_m`` keeping the whole cubes whose centre
-    ``(x, y)`` is ``inside``, their nodes and the struts of their edges and faces."""
-    n, width = _check_lattice_args(units, width_m, diagonals)
-    check_positive("EA_N", EA_N)
-    lat = make_lattice(units=n, side_m=width, diagonals=diagonals)
-    a = lat.cube_edge_m
-    centres = (np.arange(n) + 0.5) * a - width / 2
-    cells = inside(centres[None, :], centres[:, None])  # [cj, ci]
-    mid = 0.5 * (lat.ijk[lat.struts[:, 0], :2] + lat.ijk[lat.struts[:, 1], :2])
-    keep = np.zeros(lat.n_struts, dtype=bool)
-    for ci in (np.ceil(mid[:, 0]) - 1, np.floor(mid[:, 0])):
-        for cj in (np.ceil(mid[:, 1]) - 1, np.floor(mid[:, 1])):
-            valid = (ci >= 0) & (ci < n) & (cj >= 0) & (cj < n)
-            keep |= valid & cells[np.clip(cj, 0, n - 1).astype(int), np.clip(ci, 0, n - 1).astype(int)]
-    used = np.zeros(lat.n_nodes, dtype=bool)
-    used[lat.struts[keep].ravel()] = True
-    positions, ijk, struts, kind, rest = _subset(lat, used, keep)
-    area = float(cells.sum()) * a**2
-    total = plate_mass_kg(total_mass_kg=total_mass_kg, areal_density_kg_m2=areal_density_kg_m2, area_m2=area)
-    node_sets, member_sets = _lattice_sets(ijk, struts, kind, cells, ("x_edge", "y_edge"))
-    return _plate(
-        name=name,
-        positions_m=positions,
-        struts=struts,
-        rest_length_m=rest,
-        EA_N=float(EA_N),
-        total_kg=total,
-        damping_Ns_m=damping_Ns_m,
-        zeta_strut=zeta_strut,
-        node_sets=node_sets,
-        member_sets=member_sets,
-    )
-
-
-def circular_plate(
-    *,
-    diameter_m: float,
-    units_across: int,
-    EA_N: float,
-    diagonals: Literal["parity", "X"] = "parity",
-    total_mass_kg: float | None = None,
-    areal_density_kg_m2: float | None = None,
-    damping_Ns_m: float | None = None,
-    zeta_strut: float | None = None,
-    name: str = "circular_plate",
-) -> Structure:
-    """A disc of diameter ``diameter_m``: the two-layer cubic lattice of ``units_across`` cubes
-    of edge ``a = diameter_m / units_across`` across, keeping the whole cubes whose centre lies in
-    the disc (``x² + y² ≤ (diameter_m / 2)²``) with their edges and face diagonals. Every cube is
-    rigid and the kept cubes join face to face, so the plate has exactly the 6 rigid motions.
-
-    Node and member sets as :func:`square_plate_lattice` (``rim``: the staircase perimeter of
-    the kept cubes); ``central_cube`` is not defined. ``areal_density_kg_m2`` is per the kept
-    cubes' area ``n_cubes a²``.
-    """
-    units = check_count("units_across", units_across, minimum=1)
-    radius = check_positive("diameter_m", diameter_m) / 2
-
-    def inside(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return x**2 + y**2 <= radius**2 * (1.0 + 1e-12)
-
-    return _clipped_plate(
-        units=units,
-        width_m=diameter_m,
-        inside=inside,
-        diagonals=diagonals,
-        EA_N=EA_N,
-        total_mass_kg=total_mass_kg,
-        areal_density_kg_m2=areal_density_kg_m2,
-        damping_Ns_m=damping_Ns_m,
-        zeta_strut=zeta_strut,
-        name=name,
-    )
-
-
-def hexagonal_plate(
-    *,
-    across_corners_m: float,
-    units_across: int,
-    EA_N: float,
-    diagonals: Literal["parity", "X"] = "parity",
-    total_mass_kg: float | None = None,
-    areal_density_kg_m2: float | None = None,
-    damping_Ns_m: float | None = None,
-    zeta_strut: float | None = None,
-    name: str = "hexagonal_plate",
-) -> Structure:
-    """A regular hexagon of corner-to-corner width ``across_corners_m`` (corners on the ±x axis,
-    circumradius ``R``): the two-layer cubic lattice of ``units_across`` cubes of edge
-    ``a = across_corners_m / units_across`` across, keeping the whole cubes whose centre lies in
-    the hexagon (``|y| ≤ √3 R / 2`` and ``√3 |x| + |y| ≤ √3 R``). Rigid as
-    :func:`circular_plate`; sets and areal density likewise."""
-    units = check_count("units_across", units_across, minimum=1)
-    radius = check_positive("across_corners_m", across_corners_m) / 2
-    root3 = math.sqrt(3.0)
-
-    def inside(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        slack = 1.0 + 1e-12
-        return (np.abs(y) <= root3 * radius / 2 * slack) & (root3 * np.abs(x) + np.abs(y) <= root3 * radius * slack)
-
-    return _clipped_plate(
-        units=units,
-        width_m=across_corners_m,
-        inside=inside,
-        diagonals=diagonals,
-        EA_N=EA_N,
-        total_mass_kg=total_mass_kg,
-        areal_density_kg_m2=areal_density_kg_m2,
-        damping_Ns_m=damping_Ns_m,
-        zeta_strut=zeta_strut,
-        name=name,
-    )
