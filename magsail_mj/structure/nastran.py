@@ -20,7 +20,8 @@ Field formats (mixed freely within a deck, and within a card)
     ``*``), at most one trailing continuation field.
     A continuation line starts with ``+`` (small field), ``*`` (large field) or a blank first
     field, and continues the card above it (continuation markers are not matched: a continuation
-    must follow its card). Two large-field lines make one small-field line's 8 fields.
+    must follow its card). Two large-field lines make one small-field line's 8 fields; a
+    small-field continuation after an odd number of large-field lines starts the next 8.
     Integers: ``[+-]digits``. Reals need a decimal point: ``1.5``, ``1.5E3``, ``1.5D3``,
     ``1.5+3`` (= 1.5e3), ``-2.-4`` (= −2e−4), ``.5``, ``7.``; an integer in a real field (or the
     reverse) is an error, as in Nastran, since it usually means a field shifted out of its
@@ -71,12 +72,13 @@ Model
 
 Units: the deck's numbers are taken as SI (m, kg, s, N, Pa, kg/m³); a deck in other units must be
 converted before reading. Errors name the line, the card and its ID, and the field:
-``line 17: CROD 12: PID (field 3) = 5: no PROD 5``.
+``line 17: CROD 12: PID (field 3) = 5: PROD 5 is not defined``.
 """
 
 from __future__ import annotations
 
 import re
+import sys
 import warnings
 from collections import Counter
 from dataclasses import dataclass, field
@@ -127,8 +129,13 @@ _KNOWN_UNSUPPORTED = frozenset(
     MAT8 MAT9 MATS1 SPOINT EPOINT DMIG GENEL CWELD CFAST""".split()
 )
 
+_REAL_TEXT = r"[+-]?(?:\d+\.\d*|\.\d+)(?:[ED][+-]?\d+|[+-]\d+)?"
+_INT_TEXT = r"[+-]?\d{1,18}"
 _REAL = re.compile(r"([+-]?(?:\d+\.\d*|\.\d+))(?:[ED]([+-]?\d+)|([+-]\d+))?")
-_INT = re.compile(r"[+-]?\d+")
+_INT = re.compile(_INT_TEXT)
+_REAL_COLUMN = re.compile(rf"(?:{_REAL_TEXT})?(?:\n(?:{_REAL_TEXT})?)*")
+_INT_COLUMN = re.compile(rf"(?:{_INT_TEXT})?(?:\n(?:{_INT_TEXT})?)*")
+_BARE_EXPONENT = re.compile(r"(?<=[\d.])(?=[+-]\d)")
 _BEGIN_BULK = re.compile(r"BEGIN\s*BULK")
 _CASE_SPC = re.compile(r"SPC\s*=\s*(\d+)")
 _PROBLEMS_SHOWN = 20
@@ -197,7 +204,7 @@ class BulkCard:
     name: str
     fields: list[str]
     line: int
-    more_lines: list[tuple[int, int]] = field(default_factory=list)  # (first field index, line)
+    more_lines: list[tuple[int, int]] | None = None  # (first field index, line) of each further line
 
     def field(self, index: int) -> str:
         """Field ``index`` (0 is Nastran's field 2), ``""`` when blank or absent."""
@@ -206,7 +213,7 @@ class BulkCard:
     def line_of(self, index: int) -> int:
         """Deck line of field ``index``."""
         line = self.line
-        for start, number in self.more_lines:
+        for start, number in self.more_lines or ():
             if index >= start:
                 line = number
         return line
@@ -250,17 +257,21 @@ def _split_free(text: str, line: int) -> tuple[str, list[str], bool]:
     return head, data + [""] * (width - len(data)), large
 
 
+_SMALL_FIELDS = tuple(slice(8 + 8 * i, 16 + 8 * i) for i in range(8))
+_LARGE_FIELDS = tuple(slice(8 + 16 * i, 24 + 16 * i) for i in range(4))
+
+
 def _split_fixed(text: str) -> tuple[str, list[str], bool]:
     if "\t" in text:
         text = text.expandtabs(8)
     head = text[:8].strip()
-    if head.endswith("*") or head.startswith("*"):
-        return head, [text[8 + 16 * i : 24 + 16 * i].strip() for i in range(4)], True
-    return head, [text[8 + 8 * i : 16 + 8 * i].strip() for i in range(8)], False
+    if head[:1] == "*" or head[-1:] == "*":
+        return head, [text[s].strip() for s in _LARGE_FIELDS], True
+    return head, [text[s].strip() for s in _SMALL_FIELDS], False
 
 
 def _split_line(text: str, line: int) -> tuple[str, list[str], bool]:
-    """(first field, data fields, large field?) of one line without its comment."""
+    """(first field, data fields, large field?) of one upper-case line without its comment."""
     return _split_free(text, line) if "," in text else _split_fixed(text)
 
 
@@ -296,6 +307,12 @@ def _refuse_include(text: str, line: int) -> None:
     raise StructureError(f"line {line}: {text.strip()[:60]}: INCLUDE is not supported; inline the included file")
 
 
+def _refuse_in_bulk(name: str, text: str, line: int) -> None:
+    if name.startswith("INCLUDE"):
+        _refuse_include(text, line)
+    raise StructureError(f"line {line}: {text.strip()[:40]}: only one BEGIN BULK section is supported")
+
+
 def _deck_cards(text: str) -> tuple[list[BulkCard], list[int]]:
     """The bulk data cards of a deck and the case control's SPC selections."""
     lines = text.splitlines()
@@ -303,29 +320,36 @@ def _deck_cards(text: str) -> tuple[list[BulkCard], list[int]]:
     cards: list[BulkCard] = []
     current: BulkCard | None = None
     for index in range(start, len(lines)):
-        raw = lines[index]
-        if "$" in raw:
-            raw = _strip_comment(raw)
-        if not raw.strip():
+        text = lines[index]
+        if "$" in text:
+            text = text[: text.index("$")]
+        if not text.strip():
             continue
-        number = index + 1
-        head, data, large = _split_line(raw.upper(), number)
+        text = text.upper()
+        if "," in text:
+            head, data, large = _split_free(text, index + 1)
+        else:  # _split_fixed, inlined: this loop runs once a line
+            if "\t" in text:
+                text = text.expandtabs(8)
+            head = text[:8].strip()
+            large = head[:1] == "*" or head[-1:] == "*"
+            data = [text[s].strip() for s in (_LARGE_FIELDS if large else _SMALL_FIELDS)]
         if head and head[0] not in "+*":
-            name = _card_name(head)
-            if name == "ENDDATA":
-                break
-            if name.startswith("INCLUDE"):
-                _refuse_include(raw, number)
-            if name.startswith("BEGIN"):
-                raise StructureError(f"line {number}: {raw.strip()[:40]}: only one BEGIN BULK section is supported")
-            current = BulkCard(name, data, number)
+            name = head.rstrip("*").strip()
+            if name.startswith(("ENDDATA", "INCLUDE", "BEGIN")):
+                if name == "ENDDATA":
+                    break
+                _refuse_in_bulk(name, text, index + 1)
+            current = BulkCard(name, data, index + 1)
             cards.append(current)
             continue
         if current is None:
-            raise StructureError(f"line {number}: continuation line with no card before it")
+            raise StructureError(f"line {index + 1}: continuation line with no card before it")
         if not large and len(current.fields) % 8:
             current.fields.extend([""] * (8 - len(current.fields) % 8))
-        current.more_lines.append((len(current.fields), number))
+        if current.more_lines is None:
+            current.more_lines = []
+        current.more_lines.append((len(current.fields), index + 1))
         current.fields.extend(data)
     return cards, selected
 
@@ -359,40 +383,51 @@ def _parse_int(text: str) -> int:
     return int(text)
 
 
-def _convert(cards: list[BulkCard], index: int, parse, what: str, default, problems: _Problems) -> list:
-    out = []
-    for card in cards:
-        text = card.fields[index] if index < len(card.fields) else ""
+def _numbers(texts: list[str], kind: type, default, problems: _Problems, where) -> np.ndarray:
+    """Field strings → int64 or float array (blank → ``default``). Fast path: one regular
+    expression checks the whole column and one substitution turns ``1.5+3`` into ``1.5E+3``;
+    otherwise each bad field is a problem ``where(k) = 'text': expected ...``."""
+    if not texts:
+        return np.zeros(0, dtype=kind)
+    joined = "\n".join(texts)
+    column = _INT_COLUMN if kind is int else _REAL_COLUMN
+    if column.fullmatch(joined) and (default is not _REQUIRED or "" not in texts):
+        if kind is float:
+            texts = _BARE_EXPONENT.sub("E", joined.replace("D", "E")).split("\n")
+        return np.array([kind(text) if text else default for text in texts], dtype=kind)
+    what = "an integer" if kind is int else "a real number with a decimal point"
+    parse = _parse_int if kind is int else _real_field
+    out = np.zeros(len(texts), dtype=kind)
+    for k, text in enumerate(texts):
         if not text:
             if default is _REQUIRED:
-                problems.append(f"{card.where(index)}: {card.label(index)} is required ({what})")
-                out.append(0)
+                problems.append(f"{where(k)} is required ({what})")
             else:
-                out.append(default)
+                out[k] = default
             continue
         try:
-            out.append(parse(text))
+            out[k] = parse(text)
         except ValueError:
-            problems.append(f"{card.where(index)}: {card.label(index)} = {text!r}: expected {what}")
-            out.append(0)
+            problems.append(f"{where(k)} = {text!r}: expected {what}")
     return out
 
 
+def _field_where(cards: list[BulkCard], index: int):
+    return lambda k: f"{cards[k].where(index)}: {cards[k].label(index)}"
+
+
 def _ints(cards: list[BulkCard], index: int, problems: _Problems, default=_REQUIRED) -> np.ndarray:
-    return np.array(_convert(cards, index, _parse_int, "an integer", default, problems), dtype=np.int64)
+    """Integer field ``index`` of each card (blank → ``default``; required when not given)."""
+    return _numbers(_text(cards, index), int, default, problems, _field_where(cards, index))
 
 
 def _reals(cards: list[BulkCard], index: int, problems: _Problems, default=_REQUIRED) -> np.ndarray:
-    values = _convert(cards, index, _real_field, "a real number with a decimal point", default, problems)
-    return np.array(values, dtype=float)
+    """Real field ``index`` of each card (blank → ``default``; required when not given)."""
+    return _numbers(_text(cards, index), float, default, problems, _field_where(cards, index))
 
 
 def _text(cards: list[BulkCard], index: int) -> list[str]:
     return [card.fields[index] if index < len(card.fields) else "" for card in cards]
-
-
-def _lines(cards: list[BulkCard]) -> np.ndarray:
-    return np.array([card.line for card in cards], dtype=np.int64)
 
 
 @dataclass(frozen=True)
@@ -558,19 +593,21 @@ def _component_masks(cards: list[BulkCard], index: int, problems: _Problems, def
     texts = _text(cards, index)
     if defaults is not None:
         texts = [t or d for t, d in zip(texts, defaults)]
-    cache: dict[str, np.ndarray] = {}
-    out = np.zeros((len(cards), 6), dtype=bool)
+    code: dict[str, int] = {}
+    masks = []
     for k, text in enumerate(texts):
-        if text not in cache:
-            try:
-                cache[text] = _components(text)
-            except ValueError:
-                problems.append(
-                    f"{cards[k].where(index)}: {cards[k].label(index)} = {text!r}: expected distinct digits 1-6"
-                )
-                cache[text] = np.zeros(6, dtype=bool)
-        out[k] = cache[text]
-    return out
+        if text in code:
+            continue
+        code[text] = len(masks)
+        try:
+            masks.append(_components(text))
+        except ValueError:
+            problems.append(
+                f"{cards[k].where(index)}: {cards[k].label(index)} = {text!r}: expected distinct digits 1-6"
+            )
+            masks.append(np.zeros(6, dtype=bool))
+    table = np.array(masks, dtype=bool).reshape(-1, 6)
+    return table[np.array([code[text] for text in texts], dtype=np.int64)]
 
 
 @dataclass(frozen=True)
@@ -768,34 +805,41 @@ class _Elements:
         return (1 if self.type_name[k] == "CONROD" else 2) + end
 
 
-def _beam_orientation(cards: list[BulkCard], defaults: BulkCard, problems: _Problems):
-    """(v (m, 3), G0 (m,), v in basic (m,)) of CBAR/CBEAM cards; fields 6-8 all blank take the
-    BAROR/BEAMOR ones, and so does a blank OFFT."""
-    m = len(cards)
-    vector, g0, basic = np.zeros((m, 3)), np.zeros(m, dtype=np.int64), np.zeros(m, dtype=bool)
-    default_fields = [defaults.field(i) for i in (4, 5, 6)]
-    for k, card in enumerate(cards):
-        texts = [card.field(i) for i in (4, 5, 6)]
-        if not any(texts):
-            texts = default_fields
-        if not any(texts):
-            problems.append(f"{card.where(4)}: X1-X3 or G0 (fields 6-8) required (no {defaults.name} default)")
+def _offt_flags(offt: list[str], cards: list[BulkCard], problems: _Problems) -> np.ndarray:
+    """(m,) whether v is in basic (OFFT starts with B); CBEAM's field 9 may hold BIT (a real)."""
+    flags: dict[str, bool] = {}
+    for k, text in enumerate(offt):
+        if text in flags:
             continue
-        if _INT.fullmatch(texts[0]) and not texts[1] and not texts[2]:
-            g0[k] = int(texts[0])
-        else:
-            for axis, text in enumerate(texts):
-                try:
-                    vector[k, axis] = _real_field(text) if text else 0.0
-                except ValueError:
-                    label = card.label(4 + axis)
-                    problems.append(f"{card.where(4 + axis)}: {label} = {text!r}: expected a real number or G0")
-        offt = card.field(7) or defaults.field(7)
-        if offt and _REAL.fullmatch(offt) is None:  # CBEAM's field 9 may hold BIT (a real) instead
-            if len(offt) != 3 or offt[0] not in "GB" or any(ch not in "GBO" for ch in offt):
-                problems.append(f"{card.where(7)}: {card.label(7)} = {offt!r}: expected GGG, BGG, GGO, BOO, ...")
-            basic[k] = offt[0] == "B"
-    return vector, g0, basic
+        flags[text] = text[:1] == "B"
+        valid = len(text) == 3 and text[0] in "GB" and all(ch in "GBO" for ch in text)
+        if text and not valid and _REAL.fullmatch(text) is None:
+            problems.append(f"{cards[k].where(7)}: {cards[k].label(7)} = {text!r}: expected GGG, BGG, GGO, BOO, ...")
+    return np.array([flags[text] for text in offt], dtype=bool)
+
+
+def _beam_orientation(cards: list[BulkCard], defaults: BulkCard, problems: _Problems):
+    """(v (m, 3), G0 (m,), v in basic (m,)) of CBAR/CBEAM cards: an integer X1 with X2, X3 blank
+    is G0; fields 6-8 all blank take the BAROR/BEAMOR ones, and so does a blank OFFT."""
+    m = len(cards)
+    x1, x2, x3 = (_text(cards, i) for i in (4, 5, 6))
+    for k in [k for k in range(m) if not (x1[k] or x2[k] or x3[k])]:
+        x1[k], x2[k], x3[k] = (defaults.field(i) for i in (4, 5, 6))
+        if not (x1[k] or x2[k] or x3[k]):
+            problems.append(f"{cards[k].where(4)}: X1-X3 or G0 (fields 6-8) required (no {defaults.name} default)")
+    by_g0 = np.array([bool(a) and not b and not c and "." not in a for a, b, c in zip(x1, x2, x3)], dtype=bool)
+    rows_g0, rows_v = np.flatnonzero(by_g0), np.flatnonzero(~by_g0)
+    g0 = np.zeros(m, dtype=np.int64)
+    g0[rows_g0] = _numbers([x1[k] for k in rows_g0], int, 0, problems, lambda j: cards[rows_g0[j]].where(4) + ": G0")
+    vector = np.zeros((m, 3))
+    for axis, texts in enumerate((x1, x2, x3)):
+
+        def where(j: int, axis: int = axis) -> str:
+            return f"{cards[rows_v[j]].where(4 + axis)}: {cards[rows_v[j]].label(4 + axis)}"
+
+        vector[rows_v, axis] = _numbers([texts[k] for k in rows_v], float, 0.0, problems, where)
+    offt = [text or defaults.field(7) for text in _text(cards, 7)]
+    return vector, g0, _offt_flags(offt, cards, problems)
 
 
 def _refuse_nonzero(cards: list[BulkCard], indices: range, what: str, problems: _Problems) -> None:
@@ -875,7 +919,8 @@ def _members(
         nodes[:, end], found = grids.find(elements.ends[:, end])
         for k in np.flatnonzero(~found)[:_PROBLEMS_SHOWN]:
             index = elements.end_index(k, end)
-            problems.append(f"{cards[k].where(index)}: {cards[k].label(index)} = {elements.ends[k, end]}: no GRID")
+            grid = elements.ends[k, end]
+            problems.append(f"{cards[k].where(index)}: {cards[k].label(index)} = {grid}: GRID {grid} is not defined")
     is_conrod = elements.pid == -1
     row, found = properties.find(elements.pid)
     expected = np.select(
@@ -886,7 +931,7 @@ def _members(
         want = _PROPERTY_CODES[expected[k]]
         pid = elements.pid[k]
         have = _PROPERTY_CODES[code[k]] if found[k] else unsupported_ids.get(int(pid))
-        reason = f"no {want} {pid}" if have is None else f"property {pid} is a {have}, not a {want}"
+        reason = f"{want} {pid} is not defined" if have is None else f"property {pid} is a {have}, not a {want}"
         problems.append(f"{cards[k].where(1)}: {cards[k].label(1)} = {pid}: {reason}")
     problems.raise_if_any()
 
@@ -904,7 +949,7 @@ def _members(
         owner = cards[k] if is_conrod[k] else properties.cards[row[k]]
         index = 3 if is_conrod[k] else 1
         have = unsupported_ids.get(int(mid[k]))
-        reason = f"no MAT1 {mid[k]}" if have is None else f"material {mid[k]} is a {have}, not a MAT1"
+        reason = f"MAT1 {mid[k]} is not defined" if have is None else f"material {mid[k]} is a {have}, not a MAT1"
         problems.append(f"{owner.where(index)}: {owner.label(index)} = {mid[k]}: {reason}")
     problems.raise_if_any()
     E, G, rho = (materials.columns[c][mat] for c in ("E", "G", "rho"))
@@ -1026,26 +1071,27 @@ def _combined_part(grid_id: int, node: int, mass: np.ndarray, centre: np.ndarray
     )
 
 
-def _thru_list(card: BulkCard, start: int, problems: _Problems) -> tuple[list[int], list[tuple[int, int]]]:
-    """Explicit IDs and THRU ranges of the fields from ``start`` on (blank fields ignored)."""
+def _thru_list(card: BulkCard, start: int, problems: _Problems) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
+    """Explicit IDs as (field index, ID) and ``a THRU b`` ranges of the fields from ``start`` on
+    (blank fields ignored)."""
     tokens = [(i, card.fields[i]) for i in range(start, len(card.fields)) if card.fields[i]]
-    explicit: list[int] = []
+    explicit: list[tuple[int, int]] = []
     ranges: list[tuple[int, int]] = []
     k = 0
     while k < len(tokens):
         index, text = tokens[k]
         if k + 2 < len(tokens) and tokens[k + 1][1] == "THRU":
-            end_index, end = tokens[k + 2]
+            end = tokens[k + 2][1]
             if not (_INT.fullmatch(text) and _INT.fullmatch(end)) or int(end) < int(text):
                 problems.append(f"{card.where(index)}: {card.label(index)}: '{text} THRU {end}' is not a rising range")
             else:
                 ranges.append((int(text), int(end)))
             k += 3
             continue
-        if not _INT.fullmatch(text):
-            problems.append(f"{card.where(index)}: {card.label(index)} = {text!r}: expected a grid ID")
+        if _INT.fullmatch(text):
+            explicit.append((index, int(text)))
         else:
-            explicit.append(int(text))
+            problems.append(f"{card.where(index)}: {card.label(index)} = {text!r}: expected an ID")
         k += 1
     return explicit, ranges
 
@@ -1062,10 +1108,11 @@ class _ConstraintRows:
 def _spc_rows(groups: dict[str, list[BulkCard]], grids: _Grids, problems: _Problems) -> _ConstraintRows:
     rows = _ConstraintRows()
 
-    def add(card: BulkCard, index: int, sid: int, grid_ids: list[int], mask: np.ndarray) -> None:
+    def add(card: BulkCard, indices: list[int], sid: int, grid_ids: list[int], mask: np.ndarray) -> None:
         node, found = grids.find(np.array(grid_ids, dtype=np.int64))
-        for g in np.array(grid_ids)[~found][:_PROBLEMS_SHOWN]:
-            problems.append(f"{card.where(index)}: {card.label(index)}: GRID {g} is not defined")
+        for k in np.flatnonzero(~found)[:_PROBLEMS_SHOWN]:
+            index = indices[k]
+            problems.append(f"{card.where(index)}: {card.label(index)}: GRID {grid_ids[k]} is not defined")
         rows.sid.extend([sid] * int(found.sum()))
         rows.node.extend(node[found].tolist())
         rows.mask.extend([mask] * int(found.sum()))
@@ -1087,7 +1134,7 @@ def _spc_rows(groups: dict[str, list[BulkCard]], grids: _Grids, problems: _Probl
                     f"{card.where(d_index)}: {card.label(d_index)} = {shift[j]}: enforced displacements are not "
                     "supported (a constrained component is held at its reference value)"
                 )
-            add(card, g_index, int(sid[present[j]]), [int(grid_id[j])], masks[j])
+            add(card, [g_index], int(sid[present[j]]), [int(grid_id[j])], masks[j])
     spc1 = groups.get("SPC1", [])
     sid1 = _ints(spc1, 0, problems)
     masks1 = _component_masks(spc1, 1, problems)
@@ -1095,10 +1142,10 @@ def _spc_rows(groups: dict[str, list[BulkCard]], grids: _Grids, problems: _Probl
         if not masks1[k].any():
             problems.append(f"{card.where(1)}: C (field 3) is required (component digits 1-6)")
         explicit, ranges = _thru_list(card, 2, problems)
-        add(card, 2, int(sid1[k]), explicit, masks1[k])
+        add(card, [i for i, _ in explicit], int(sid1[k]), [g for _, g in explicit], masks1[k])
         for low, high in ranges:  # grids of a THRU range need not all exist
-            inside = grids.ids[(grids.ids >= low) & (grids.ids <= high)]
-            add(card, 2, int(sid1[k]), inside.tolist(), masks1[k])
+            inside = grids.ids[(grids.ids >= low) & (grids.ids <= high)].tolist()
+            add(card, [2] * len(inside), int(sid1[k]), inside, masks1[k])
     return rows
 
 
@@ -1116,8 +1163,8 @@ def _constraints(
     unions: dict[int, list[int]] = {}
     for card in groups.get("SPCADD", []):
         add_sid = _ints([card], 0, problems)[0]
-        parts, ranges = _thru_list(card, 1, problems)
-        parts += [s for low, high in ranges for s in range(low, high + 1) if s in members_of]
+        explicit, ranges = _thru_list(card, 1, problems)
+        parts = [s for _, s in explicit] + [s for low, high in ranges for s in sorted(members_of) if low <= s <= high]
         if add_sid in members_of or add_sid in unions:
             problems.append(f"{card.where(0)}: SID (field 2) = {add_sid}: set {add_sid} is already defined")
         for s in parts:
@@ -1195,8 +1242,9 @@ def _group(cards: list[BulkCard], skip_unsupported: bool) -> tuple[dict[str, lis
     unsupported = {name: group for name, group in groups.items() if name not in SUPPORTED_CARDS | SKIPPED_CARDS}
     if unsupported and not skip_unsupported:
         problems = [
-            f"{group[0].where()}: {name} is not supported ({len(group)} card{'s' * (len(group) > 1)}, lines "
-            f"{', '.join(str(c.line) for c in group[:5])}{', ...' if len(group) > 5 else ''}); the reader models "
+            f"line {group[0].line}: {name} is not supported ({len(group)} card{'s' * (len(group) > 1)}: line"
+            f"{'s' * (len(group) > 1)} {', '.join(str(c.line) for c in group[:5])}{', ...' if len(group) > 5 else ''});"
+            " the reader models "
             f"{', '.join(sorted(SUPPORTED_CARDS))}; pass skip_unsupported=True to skip such cards"
             for name, group in unsupported.items()
         ]
@@ -1217,7 +1265,15 @@ def _warn(skipped: Counter, notes: list[str]) -> None:
         lines.append("skipped cards: " + ", ".join(f"{name} ({count})" for name, count in sorted(skipped.items())))
     lines.extend(notes)
     if lines:
-        warnings.warn("Nastran deck: " + "; ".join(lines), NastranWarning, stacklevel=4)
+        warnings.warn("Nastran deck: " + "; ".join(lines), NastranWarning, stacklevel=_caller_level())
+
+
+def _caller_level() -> int:
+    """``stacklevel`` of the first frame outside this module, for warnings."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_globals.get("__name__") == __name__:
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def nastran_deck_from_text(text: str, *, name: str = "nastran", skip_unsupported: bool = False) -> NastranDeck:
