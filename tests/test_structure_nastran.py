@@ -548,3 +548,29 @@ def test_large_generated_deck():
     np.testing.assert_array_equal(deck.structure.positions_m, [[float(f"{v:.3f}") for v in row] for row in xyz])
     np.testing.assert_array_equal(deck.structure.members.kind, np.where(np.arange(n - 1) % 2, BEAM, STRUT))
     np.testing.assert_allclose(deck.structure.members.rest_length_m, np.linalg.norm(np.diff(xyz, axis=0), axis=1))
+
+
+def test_orientation_components_follow_the_spherical_axes_at_the_grid():
+    # GRID 1 at r = 2, θ = 50°, φ = 20° of a spherical system turned 90° about basic z (its x is
+    # basic y); v = (1, 0, 0), (0, 1, 0), (0, 0, 1) in that CD are the unit directions of growing
+    # r, θ and φ, here differentiated numerically from the spherical map.
+    text = "BEGIN BULK\nCORD2S,3,,1.,0.,0.,1.,0.,1.\n,1.,1.,0.\nGRID,1,3,2.,50.,20.,3\nGRID,2,,0.,0.,5.\n"
+    text += MATERIALS + "CBAR,1,20,1,2,1.,0.,0.\nCBAR,2,20,1,2,0.,1.,0.\nCBAR,3,20,1,2,0.,0.,1.\n"
+    deck = deck_text(text)[0]
+    axes = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]).T  # columns: x, y, z of system 3
+
+    def position(q):
+        r, theta, phi = q[0], math.radians(q[1]), math.radians(q[2])
+        local = [r * math.sin(theta) * math.cos(phi), r * math.sin(theta) * math.sin(phi), r * math.cos(theta)]
+        return np.array([1.0, 0.0, 0.0]) + axes @ local
+
+    q = np.array([2.0, 50.0, 20.0])
+    np.testing.assert_allclose(deck.structure.positions_m[0], position(q), atol=ATOL_M)
+    step = 1e-6
+    for k in range(3):
+        dq = np.zeros(3)
+        dq[k] = step
+        direction = position(q + dq) - position(q - dq)
+        direction /= np.linalg.norm(direction)
+        # central difference: error O(step²) ≈ 1e-12 relative; 1e-8 leaves room for rounding
+        np.testing.assert_allclose(deck.structure.members.orientation[k], direction, atol=1e-8)
