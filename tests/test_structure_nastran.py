@@ -19,6 +19,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from magsail_mj.structure.checks import structure_problems
 from magsail_mj.structure.model import MEMBER_KINDS, StructureError
 from magsail_mj.structure.nastran import (
     NastranWarning,
@@ -79,7 +80,8 @@ def test_truss_decks_give_the_hand_worked_structure(name):
     np.testing.assert_array_equal(m.kind, [STRUT] * 4 + [BEAM] * 4)
     np.testing.assert_allclose(m.EA_N, [E * 1e-4] * 4 + [E * 2e-4] * 4, rtol=RTOL)
     np.testing.assert_allclose(m.EI_Nm2, [[0, 0]] * 4 + [[E * 3e-9, E * 4e-9]] * 4, rtol=RTOL)
-    np.testing.assert_allclose(m.GJ_Nm2, [G * 2e-9] * 4 + [G * 5e-9] * 4, rtol=RTOL)
+    np.testing.assert_allclose(m.GJ_Nm2, [0.0] * 4 + [G * 5e-9] * 4, rtol=RTOL)  # struts: no torsion
+    np.testing.assert_allclose(deck.rod_GJ_Nm2, [G * 2e-9] * 4 + [0.0] * 4, rtol=RTOL)  # for information
     np.testing.assert_allclose(m.linear_density_kg_m, [rho * 1e-4] * 4 + [rho * 2e-4 + 0.1] * 4, rtol=RTOL)
     np.testing.assert_allclose(m.rest_length_m, [1.0] * 4 + [math.sqrt(1.5)] * 4, rtol=RTOL)
     # CBAR 11 and CBEAM 14: v = (0, 0, 1); CBAR 12: G0 = GRID 3, v = x3 - x2; CBAR 13: (1, 0, 0)
@@ -101,6 +103,11 @@ def test_truss_decks_give_the_hand_worked_structure(name):
     np.testing.assert_array_equal(s.member_sets["pid20"], [4, 5, 6])
     assert len(messages) == 1 and "EIGRL (1)" in messages[0] and "FORCE (1)" in messages[0]
     assert "PARAM (1)" in messages[0]
+
+
+@pytest.mark.parametrize("name", [*TRUSS_DECKS, "cantilever_cbar.bdf"])
+def test_decks_pass_the_structure_checks(name):
+    assert structure_problems(read_quietly(DATA / name)[0].structure) == []
 
 
 def test_truss_decks_are_identical_structures():
@@ -244,7 +251,7 @@ def conrods_of(materials: str):
     grids = "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\n"
     rods = "".join(f"CONROD,{k + 1},1,2,{k + 1},2.,3.\n" for k in range(len(lines)))
     deck, _ = deck_text("BEGIN BULK\n" + grids + materials.strip() + "\n" + rods)
-    return deck.structure.members.EA_N, deck.structure.members.GJ_Nm2
+    return deck.structure.members.EA_N, deck.rod_GJ_Nm2
 
 
 def test_mat1_completion():

@@ -51,7 +51,8 @@ Model
     ``e2 = e3 × e1``, with A, B, C mapped from RID to basic first.
 
     Members: sorted by element ID (member ``j`` is element ``element_ids[j]``). CROD, CONROD →
-    ``strut`` with ``EA = E A``, ``GJ = G J`` (kept for information; a strut has no torsion);
+    ``strut`` with ``EA = E A`` (a strut has no torsion: the rod's ``G J`` is kept, for
+    information, in :attr:`NastranDeck.rod_GJ_Nm2`);
     CBAR, CBEAM → ``beam`` with ``EA = E A``, ``EI = (E I1, E I2)``, ``GJ = G J`` (PBEAM: end
     A's section; a tapered PBEAM is named in the warning). Linear density ``ρ A + NSM`` [kg/m],
     which the model lumps half at each end. Beam orientation: ``v = (X1, X2, X3)`` in the CD
@@ -910,8 +911,8 @@ def _members(
     materials: _Table,
     frames: dict[int, _Frame],
     unsupported_ids: dict[int, str],
-) -> tuple[Members, dict[str, np.ndarray]]:
-    """Member table and ``pid<PID>`` member sets from the element columns (vectorised)."""
+) -> tuple[Members, dict[str, np.ndarray], np.ndarray]:
+    """Member table, ``pid<PID>`` member sets and the rods' ``G J`` from the element columns."""
     problems = _Problems()
     cards = elements.cards
     nodes = np.zeros(elements.ends.shape, dtype=np.int64)
@@ -962,7 +963,7 @@ def _members(
         kind=kind,
         EA_N=E * A,
         EI_Nm2=np.stack([E * I1, E * I2], axis=1),
-        GJ_Nm2=G * J,
+        GJ_Nm2=np.where(beam, G * J, 0.0),
         linear_density_kg_m=rho * A + nsm,
         orientation=orientation,
     )
@@ -970,7 +971,7 @@ def _members(
     with_pid = np.flatnonzero(~is_conrod)
     for pid in np.unique(elements.pid[with_pid]):
         sets[f"pid{pid}"] = np.flatnonzero(elements.pid == pid)
-    return members, sets
+    return members, sets, np.where(beam, 0.0, G * J)
 
 
 def _orientations(elements: _Elements, nodes: np.ndarray, grids: _Grids, frames: dict[int, _Frame], beam: np.ndarray):
@@ -1221,6 +1222,8 @@ class NastranDeck:
       element_ids: (m,) element ID of each member (ascending).
       element_types: (m,) the element card of each member (``CROD``, ``CONROD``, ``CBAR``,
         ``CBEAM``).
+      rod_GJ_Nm2: (m,) ``G J`` of each CROD/CONROD member [N m²] (0 for beams): a strut carries
+        no torsion, so this is for information only.
       skipped: skipped card names → counts.
       notes: the other remarks of the warning (tapered PBEAMs, SPC sets applied).
     """
@@ -1229,6 +1232,7 @@ class NastranDeck:
     grid_ids: np.ndarray
     element_ids: np.ndarray
     element_types: np.ndarray
+    rod_GJ_Nm2: np.ndarray
     skipped: dict[str, int]
     notes: tuple[str, ...]
 
@@ -1286,7 +1290,7 @@ def nastran_deck_from_text(text: str, *, name: str = "nastran", skip_unsupported
     materials = _materials(groups)
     properties = _properties(groups, notes)
     elements = _elements(groups)
-    members, member_sets = _members(elements, grids, properties, materials, frames, unsupported_ids)
+    members, member_sets, rod_GJ_Nm2 = _members(elements, grids, properties, materials, frames, unsupported_ids)
     node_mass, parts = _point_masses(groups, grids, frames, elements)
     fixed, node_sets = _constraints(groups, grids, selected, notes)
     _warn(skipped, notes)
@@ -1300,7 +1304,7 @@ def nastran_deck_from_text(text: str, *, name: str = "nastran", skip_unsupported
         member_sets=member_sets,
         fixed_dofs=fixed,
     )
-    return NastranDeck(structure, grids.ids, elements.eid, elements.type_name, dict(skipped), tuple(notes))
+    return NastranDeck(structure, grids.ids, elements.eid, elements.type_name, rod_GJ_Nm2, dict(skipped), tuple(notes))
 
 
 def read_nastran_deck(path: str | Path, *, skip_unsupported: bool = False) -> NastranDeck:
