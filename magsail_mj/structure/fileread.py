@@ -219,7 +219,9 @@ def _member_table(
     rest, prestrain = take("rest_length_m", "prestrain")
     if prestrain is not None and not (prestrain > -1).all():
         bad = int(np.flatnonzero(~(prestrain > -1))[0])
-        problems.append(f"{r.at(where)}.prestrain: must be > -1, got {prestrain[bad]!r} (member {bad} of the group)")
+        problems.append(
+            f"{r.at(where)}.prestrain: must be > -1, got {float(prestrain[bad])!r} (member {bad} of the group)"
+        )
     damping, strain_limit, orientation = take("damping_Ns_m", "strain_limit", "orientation")
     for key in sorted(set(v) - used):
         problems.append(f"{r.at(where)}.{key}: not used with the keys given (see the member group keys)")
@@ -286,7 +288,9 @@ def _torsion(r, where, v, take, problems) -> np.ndarray:
         nu, modulus = take("nu", "E_Pa")
         if not ((nu > -1) & (nu < 0.5)).all():
             bad = int(np.flatnonzero(~((nu > -1) & (nu < 0.5)))[0])
-            problems.append(f"{r.at(where)}.nu: must be in (-1, 0.5), got {nu[bad]!r} (member {bad} of the group)")
+            problems.append(
+                f"{r.at(where)}.nu: must be in (-1, 0.5), got {float(nu[bad])!r} (member {bad} of the group)"
+            )
         return modulus / (2.0 * (1.0 + nu)) * J
     problems.append(f"{r.at(where)}.J_m4: needs G_Pa, or nu with E_Pa")
     return np.zeros_like(J)

@@ -112,7 +112,9 @@ class ValueReader:
         if array.dtype.kind == "f":
             whole = np.isfinite(array) & (array == np.round(array)) & (np.abs(array) <= 2.0**62)
             if not whole.all():
-                raise self.error(path, f"must be integers, got {array[~whole].ravel()[0]!r} in the companion array")
+                raise self.error(
+                    path, f"must be integers, got {float(array[~whole].ravel()[0])!r} in the companion array"
+                )
         elif array.dtype.kind == "u" and array.size and array.max() > _INT64_MAX:
             raise self.error(path, "integers beyond 64 bits in the companion array")
         return array.astype(np.int64)
