@@ -69,8 +69,8 @@ class BodyLayout:
       parent_end: (m,) for the beams, the end (0 or 1) on the parent's side (−1 for other members).
       anchor_node: (V,) the constraining node of a root (−1: none, a free root).
       root_fixed: (V, 6) the constrained components (x, y, z, rx, ry, rz) of a root.
-      order: the vertices to write, each after its parent (depth first, then vertex number;
-        ``HELD`` vertices left out).
+      order: the vertices to write, each after its parent (by depth from the world, then by vertex
+        number; ``HELD`` vertices left out).
     """
 
     node_vertex: np.ndarray

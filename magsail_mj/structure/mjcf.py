@@ -6,8 +6,10 @@ Frames and options
     body is world-aligned at the reference (no body quaternions). Gravity is off, contacts are
     disabled, and the arena is :func:`~magsail_mj.lattice.mjcf.lattice_arena_bytes` of ``nv``; the
     options, view and light are those of :func:`~magsail_mj.lattice.mjcf.build_truss_spec`, whose
-    node and tendon writers this module shares (a structure of struts only compiles to the same
-    ``MjModel`` as the truss builder).
+    node and tendon writers this module shares (a lattice of struts compiles to the same
+    ``MjModel`` as the truss builder, given the same node radius and member width). The structure
+    is expected to pass :func:`~magsail_mj.structure.checks.check_structure`; the builder itself
+    refuses only what the model cannot hold.
 
 Bodies (:func:`~magsail_mj.structure.beams.body_layout`)
     *Particle* (a node no beam touches, no part holds): body ``n<i>`` at the node, three slide
@@ -414,8 +416,9 @@ class StructureModelIndex:
     Attributes:
       node_body: (n,) body holding each node (a particle's or beam node's own body, or its part's).
       node_site: (n,) site of each node (tendons attach there; ``site_xpos`` is the node position).
-      node_slide_qposadr, node_slide_dofadr: (n, 3) ``qpos``/``qvel`` addresses of a particle's
-        x, y, z slide joints (−1: fixed component, or the node is not a particle).
+      node_slide_qposadr, node_slide_dofadr: (n, 3) ``qpos``/``qvel`` addresses of the x, y, z
+        world-axis slide joints of a node's own body (a particle, or a held beam root); −1 for a
+        fixed component or a node without them.
       member_tendon: (m,) tendon of each strut or cable (−1 for beams).
       beam_qposadr, beam_dofadr: (m, 4) addresses of each beam's ``axial, twist, bend1, bend2``
         joints (−1 for struts and cables).
