@@ -303,6 +303,28 @@ def test_huge_valid_inertias_pass_the_symmetry_checks(config: str, key: str, val
     assert check_validate_and_run_agree(tree, (tuple(key.split(".")), None), value) == "ran"
 
 
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [
+        ("wings.length_m", 2**31 - 1),  # the held-torque calibration: SVD did not converge
+        ("wings.length_m", 2**62),  # an IndexError in the build
+        ("wings.width_m", 2**62),
+        ("wings.thickness_m", 2**62),  # singular matrix
+        ("wings.areal_density_kg_m2", 2**62),
+        ("wings.hinge_offset_m", 2**31 - 1),
+        ("wings.hinge_offset_m", 1e300),
+        ("wings.slide_stiffness_N_m", 2**62),
+        ("wings.root_inertia_kgm2", 1e300),
+    ],
+)
+def test_msac_bodies_lost_in_rounding_are_refused(key: str, value: float) -> None:
+    """Wings whose mass or inertia spreads beyond float64's rounding from the other bodies', or
+    whose slide spring the step cannot resolve, made the held-torque calibration fail after
+    validation passed (LinAlgError, IndexError): validation refuses them naming the key."""
+    tree, _ = _tiny_tree(REPO / "magsail_mj/concepts/msac/configs/paper_1khz.toml")
+    assert check_validate_and_run_agree(tree, (tuple(key.split(".")), None), value) == "refused"
+
+
 @pytest.mark.parametrize("key", ["drive.calibration_cycles", "drive.chunk_cycles"])
 def test_msac_cycle_counts_are_inside_the_memory_estimate(key: str) -> None:
     """2^62 cycles made the drive's arrays exceed NumPy's size after validation passed: the chunk
@@ -362,12 +384,4 @@ def test_validate_and_run_agree_on_every_key_of_every_kind_of_config():
 
 # Disagreements the sweep found that are not fixed yet (the build's own code, outside the
 # validators): kept visible here, left out of the slow sweep until fixed.
-OPEN = {
-    ("msac", "wings.length_m"): "huge wings: the held-torque calibration's pinv does not converge (LinAlgError)",
-    ("msac", "wings.width_m"): "as wings.length_m",
-    ("msac", "wings.thickness_m"): "as wings.length_m (singular matrix)",
-    ("msac", "wings.areal_density_kg_m2"): "as wings.length_m",
-    ("msac", "wings.hinge_offset_m"): "as wings.length_m",
-    ("msac", "wings.slide_stiffness_N_m"): "as wings.length_m",
-    ("msac", "wings.root_inertia_kgm2"): "as wings.length_m",
-}
+OPEN: dict[tuple[str, str], str] = {}

@@ -77,6 +77,12 @@ PLACEHOLDERS = (
 )
 
 
+#: largest over smallest body mass or principal inertia of an MSAC model: 1/ε of float64 over 20
+MAX_INERTIA_SPREAD = 1.0 / (20.0 * 2.220446049250313e-16)
+#: the most ``√(k/m) Δt`` of the wing slide's spring (see ``MsacConfig._check_slide_step``)
+MAX_SLIDE_OMEGA_DT = 1.0
+
+
 class BusConfig(StrictModel):
     """``[bus]``: uniform box (placeholders).
 
@@ -348,7 +354,56 @@ class MsacConfig(StrictModel):
             what="servo gain J ω_s²",
             others=("sim.timestep_s", "wings.areal_density_kg_m2", *wing_keys),
         )
+        self._check_spread(m)
+        self._check_slide_step(m)
         return self
+
+    def _check_spread(self, wing_mass_kg: float) -> None:
+        """Largest over smallest body mass, and over smallest principal inertia, at most
+        :data:`MAX_INERTIA_SPREAD`: a body lighter than the rounding of the heaviest one's (relative
+        ``ε = 2.2e-16``) is lost in MuJoCo's joint-space inertia factorisation (the held-torque
+        calibration then fails on a singular matrix). The largest inertia counts the wing about
+        the bus centre, ``m (r0 + ℓ)²``; masses and inertias as in :meth:`_numbers`."""
+        b, w = self.bus, self.wings
+        a, bb, c = b.size_m
+        scale = b.mass_kg / 12.0 * b.inertia_scale
+        l, wd, t, m = w.length_m, w.width_m, w.thickness_m, wing_mass_kg
+        bus = ("bus.mass_kg", "bus.size_m", "bus.inertia_scale")
+        wing = ("wings.length_m", "wings.width_m", "wings.thickness_m", "wings.areal_density_kg_m2")
+        inertias = [(scale * (p * p + q * q), bus) for p, q in ((bb, c), (a, c), (a, bb))]
+        inertias += [(m / 12.0 * (p * p + q * q), wing) for p, q in ((t, wd), (l, wd), (l, t))]
+        inertias += [(w.root_inertia_kgm2, ("wings.root_inertia_kgm2",))]
+        reach = w.hinge_offset_m + l
+        about_bus = m * reach * reach  # inf, not an OverflowError, at extreme lengths
+        masses = [(b.mass_kg, ("bus.mass_kg",)), (m, wing), (w.root_mass_kg, ("wings.root_mass_kg",))]
+        for what, values, largest in (
+            ("body mass", masses, max(masses)),
+            ("principal inertia", inertias, max([*inertias, (about_bus, ("wings.hinge_offset_m", *wing))])),
+        ):
+            smallest = min(values)
+            spread = largest[0] / smallest[0]
+            if not spread <= MAX_INERTIA_SPREAD:
+                keys = tuple(dict.fromkeys((*largest[1], *smallest[1])))
+                raise ConfigProblem(
+                    keys[0],
+                    f"makes the largest {what} {largest[0]:.3g} and the smallest {smallest[0]:.3g}, a ratio of "
+                    f"{spread:.3g} above {MAX_INERTIA_SPREAD:.3g}: the smaller body is lost in the rounding of "
+                    "the joint-space inertia",
+                    others=keys[1:],
+                )
+
+    def _check_slide_step(self, wing_mass_kg: float) -> None:
+        """The wing slide's spring ``k`` resolved by the time step: ``√(k/m) Δt ≤``
+        :data:`MAX_SLIDE_OMEGA_DT` (the explicit integrators' stability limit of an undamped
+        oscillator is 2 for semi-implicit Euler and 2.8 for RK4; 1 keeps it accurate too)."""
+        omega_dt = math.sqrt(self.wings.slide_stiffness_N_m / wing_mass_kg) * self.sim.timestep_s
+        if not omega_dt <= MAX_SLIDE_OMEGA_DT:
+            raise ConfigProblem(
+                "wings.slide_stiffness_N_m",
+                f"gives the wing slide ω Δt = √(k/m) Δt = {omega_dt:.3g}, above {MAX_SLIDE_OMEGA_DT:g} "
+                f"(the step cannot resolve the slide's oscillation), got {self.wings.slide_stiffness_N_m!r}",
+                others=("sim.timestep_s", "wings.areal_density_kg_m2", "wings.length_m", "wings.width_m"),
+            )
 
 
 def _positive_product(key: str, a: float, b: float, *, what: str, others: tuple[str, ...]) -> float:
