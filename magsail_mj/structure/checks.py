@@ -142,7 +142,11 @@ def _node_problems(s: Structure, extent: float) -> list[str]:
     if index.size < 2:
         return problems
     tolerance = DUPLICATE_REL * extent
-    distance, neighbour = cKDTree(p[index]).query(p[index], k=2)
+    # only neighbours within the tolerance matter: bounding the search keeps it fast (the bound's
+    # square must not underflow, hence at least 1e-150 m; the test below is against the tolerance)
+    bound = max(2.0 * tolerance, 1e-150)
+    distance, neighbour = cKDTree(p[index]).query(p[index], k=2, distance_upper_bound=bound)
+    neighbour = np.minimum(neighbour, index.size - 1)  # "no neighbour" is reported as index.size
     other = np.where(neighbour[:, 0] == np.arange(index.size), neighbour[:, 1], neighbour[:, 0])
     close = distance[:, 1] <= tolerance
     # a coincident pair is reported once, from its later node
@@ -265,11 +269,13 @@ def _orientation_problems(s: Structure, axis_m: np.ndarray) -> list[str]:
         ~np.isfinite(v).all(axis=1), lambda i: f"members[{i}].orientation: not finite ({_fmt(v[i])})", "members"
     )
     beam = s.members.kind == MEMBER_KINDS.index("beam")
-    given = beam & np.isfinite(v).all(axis=1) & (v != 0).any(axis=1)
-    cross = np.linalg.norm(np.cross(v, axis_m), axis=1)
-    scale = np.linalg.norm(v, axis=1) * np.linalg.norm(axis_m, axis=1)
+    given = np.flatnonzero(beam & np.isfinite(v).all(axis=1) & (v != 0).any(axis=1))
+    cross = np.linalg.norm(np.cross(v[given], axis_m[given]), axis=1)
+    scale = np.linalg.norm(v[given], axis=1) * np.linalg.norm(axis_m[given], axis=1)
+    parallel = np.zeros(len(s.members), dtype=bool)
+    parallel[given] = cross <= DEGENERATE_REL * scale
     problems += _listed(
-        given & (cross <= DEGENERATE_REL * scale),
+        parallel,
         lambda i: (
             f"members[{i}].orientation: {_fmt(v[i])} is parallel to the member (it must span the section's axis 1)"
         ),
@@ -336,7 +342,6 @@ def _inertia_problem(mass_kg: float, inertia: np.ndarray) -> str | None:
 def _rigid_part_problems(s: Structure) -> list[str]:
     problems = []
     names: dict[str, int] = {}
-    holder: dict[int, str] = {}
     for k, part in enumerate(s.rigid_parts):
         where = f"rigid_parts[{k}]"
         if not isinstance(part.name, str) or not part.name:
@@ -353,10 +358,26 @@ def _rigid_part_problems(s: Structure) -> list[str]:
             problems.append(f"{where}.inertia_kgm2: {why}, got {_fmt(np.asarray(part.inertia_kg_m2).ravel())}")
         if part.nodes.size == 0:
             problems.append(f"{where}.nodes: holds no node (a free body: weld it to at least one node)")
-        shared = [int(i) for i in np.unique(part.nodes) if int(i) in holder]
-        if shared:
-            problems.append(f"{where}.nodes: node {shared[0]} is also held by rigid part {holder[shared[0]]!r}")
-        holder.update(dict.fromkeys(np.unique(part.nodes).tolist(), part.name))
+    return problems + _shared_part_nodes(s)
+
+
+def _shared_part_nodes(s: Structure) -> list[str]:
+    """A node welded to two rigid parts: named once, at the later part, with the earlier part."""
+    if len(s.rigid_parts) < 2:
+        return []
+    nodes = [np.unique(part.nodes) for part in s.rigid_parts]
+    owner = np.repeat(np.arange(len(nodes)), [n.size for n in nodes])
+    nodes = np.concatenate(nodes)
+    order = np.lexsort((owner, nodes))
+    nodes, owner = nodes[order], owner[order]
+    again = np.flatnonzero(nodes[1:] == nodes[:-1]) + 1
+    problems = []
+    for part in np.unique(owner[again]):
+        first = again[owner[again] == part][0]
+        problems.append(
+            f"rigid_parts[{part}].nodes: node {nodes[first]} is also held by rigid part "
+            f"{s.rigid_parts[owner[first - 1]].name!r}"
+        )
     return problems
 
 
