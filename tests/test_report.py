@@ -31,7 +31,6 @@ from magsail_mj.report.verdict import (
     DIFFERS,
     FAILED,
     NOT_RUN,
-    QUALITATIVE,
     MissingExplanation,
     MissingKey,
     judge,
@@ -46,7 +45,7 @@ CONFIG = "magsail_mj/concepts/msac/configs/lumped_limit.toml"
 
 
 def _claim(**kw) -> Claim:
-    base = dict(id="c", paper_ref="Fig. 1", quantity="q", run="r", key="x_m")
+    base = dict(id="c", title="t", paper_ref="Fig. 1", paper_says="about 10 m", quantity="q", run="r", key="x_m")
     return Claim(**(base | kw))
 
 
@@ -54,15 +53,21 @@ def _run(summary: dict, status: str = "completed") -> dict:
     return {"summary": summary, "identity": {"status": status}}
 
 
+def _judge(claim: Claim, summary: dict | None, status: str = "completed", **others: dict):
+    """The verdict of ``claim`` with its run ``r`` (None: not in the bundle) and further runs by id."""
+    runs = {} if summary is None else {"r": _run(summary, status)}
+    return judge(claim, runs | others)
+
+
 # --------------------------------------------------------------------------- verdicts
 
 
 def test_verdict_agrees_within_an_absolute_tolerance_and_differs_outside():
     claim = _claim(paper_value=10.0, tolerance=0.5, tolerance_why="w", explanation="why")
-    assert judge(claim, _run({"x_m": 10.4})).verdict == AGREES
-    assert judge(claim, _run({"x_m": 9.5})).verdict == AGREES
-    assert judge(claim, _run({"x_m": 10.6})).verdict == DIFFERS
-    assert judge(claim, _run({"x_m": 10.6})).value == pytest.approx(10.6)
+    assert _judge(claim, {"x_m": 10.4}).verdict == AGREES
+    assert _judge(claim, {"x_m": 9.5}).verdict == AGREES
+    assert _judge(claim, {"x_m": 10.6}).verdict == DIFFERS
+    assert _judge(claim, {"x_m": 10.6}).value == pytest.approx(10.6)
 
 
 def test_verdict_relative_range_and_one_sided_comparisons():
@@ -79,72 +84,100 @@ def test_verdict_relative_range_and_one_sided_comparisons():
 
 def test_verdict_scale_and_index_apply_before_the_comparison():
     claim = _claim(key="a_rad", index=1, scale=180.0 / np.pi, paper_value=90.0, tolerance=0.01, tolerance_why="w")
-    assert judge(claim, _run({"a_rad": [0.0, np.pi / 2]})).verdict == AGREES
+    assert _judge(claim, {"a_rad": [0.0, np.pi / 2]}).verdict == AGREES
     with pytest.raises(MissingKey, match=r"a_rad\[1\]"):
-        judge(claim, _run({"a_rad": [0.0]}))
+        _judge(claim, {"a_rad": [0.0]})
 
 
 def test_differing_claim_without_explanation_is_an_error():
     claim = _claim(paper_value=1.0, tolerance=0.1, tolerance_why="w")
-    assert judge(claim, _run({"x_m": 1.05})).verdict == AGREES
+    assert _judge(claim, {"x_m": 1.05}).verdict == AGREES
     with pytest.raises(MissingExplanation, match="'c'"):
-        judge(claim, _run({"x_m": 2.0}))
+        _judge(claim, {"x_m": 2.0})
 
 
-def test_null_value_differs_and_failed_runs_are_never_compared():
+def test_null_value_differs_failed_runs_are_never_compared_and_a_missing_run_is_not_run():
     claim = _claim(paper_value=1.0, tolerance=0.1, tolerance_why="w", explanation="never reached")
-    assert judge(claim, _run({"x_m": None})).verdict == DIFFERS
-    failed = judge(claim, _run({"x_m": 1.0}, status="structure_failed"))
+    assert _judge(claim, {"x_m": None}).verdict == DIFFERS
+    failed = _judge(claim, {"x_m": 1.0}, status="structure_failed")
     assert failed.verdict == FAILED and failed.value is None and failed.status == "structure_failed"
-    assert judge(claim, _run({}, status="diverged")).verdict == FAILED  # key not even looked up
-    assert judge(claim, None).verdict == NOT_RUN
+    assert _judge(claim, {}, status="diverged").verdict == FAILED  # key not even looked up
+    not_run = _judge(claim, None)
+    assert not_run.verdict == NOT_RUN and not_run.value is None  # never agrees by default
 
 
-def test_qualitative_claims_show_our_value_numbers_or_text():
-    claim = _claim(paper_statement="the plate collapses", key="classification")
-    v = judge(claim, _run({"classification": "flexible"}))
-    assert v.verdict == QUALITATIVE and v.value == "flexible"
-    assert judge(_claim(paper_statement="s"), _run({"x_m": 3})).value == 3.0
+def test_a_structural_failure_is_compared_only_when_the_claim_says_so():
+    claim = _claim(key="classification", expect="collapsed", criterion_why="w", explanation="x")
+    assert _judge(claim, {"classification": "collapsed"}, status="structure_failed").verdict == FAILED
+    compared = claim.model_copy(update={"compare_failed": True})
+    assert _judge(compared, {"classification": "collapsed"}, status="structure_failed").verdict == AGREES
+    assert _judge(compared, {"classification": "collapsed"}, status="diverged").verdict == FAILED
+
+
+def test_qualitative_claims_check_a_bound_or_an_expected_value():
+    bound = _claim(bound=5.0, compare="max", criterion_why="reaches its target", explanation="did not")
+    assert _judge(bound, {"x_m": 4.9}).verdict == AGREES
+    assert _judge(bound, {"x_m": 5.1}).verdict == DIFFERS
+    assert _judge(bound, {"x_m": None}).verdict == DIFFERS  # the event never happened
+    label = _claim(key="classification", expect="collapsed", criterion_why="w", explanation="x")
+    v = _judge(label, {"classification": "flexible"})
+    assert v.verdict == DIFFERS and v.value == "flexible"
+    assert _judge(label, {"classification": "collapsed"}).verdict == AGREES
+    flag = _claim(key="tumbled", expect=True, criterion_why="w", explanation="x")
+    assert _judge(flag, {"tumbled": True}).verdict == AGREES and _judge(flag, {"tumbled": False}).verdict == DIFFERS
     with pytest.raises(MissingKey, match="x_m"):
-        judge(_claim(paper_statement="s"), _run({"y": 1}))
+        _judge(bound, {"y": 1})
+    with pytest.raises(MissingKey, match="not a number"):
+        _judge(bound, {"x_m": "flexible"})
 
 
-def test_relational_claims_check_the_relation_to_another_claim():
-    central = _claim(id="central", run="rc", paper_statement="deforms grossly")
-    smaller = _claim(
-        id="dist",
-        run="rd",
-        paper_statement="stays small",
-        relation="less",
-        than="central",
-        factor=0.5,
-        explanation="ours is not half",
+def test_ratio_claims_divide_by_a_key_of_another_run():
+    ratio = _claim(
+        ratio_key="x_m",
+        ratio_run="d",
+        bound=0.8,
+        compare="max",
+        criterion_why="less, by more than the reading of a plot",
+        explanation="ours is not that much less",
     )
-    v = judge(smaller, _run({"x_m": 0.1}), than=(central, _run({"x_m": 0.3})))
-    assert v.verdict == AGREES and v.value == pytest.approx(0.1) and v.than_value == pytest.approx(0.3)
-    assert judge(smaller, _run({"x_m": 0.2}), than=(central, _run({"x_m": 0.3}))).verdict == DIFFERS
-    assert judge(smaller, _run({"x_m": None}), than=(central, _run({"x_m": 0.3}))).verdict == DIFFERS
-    failed = judge(smaller, _run({"x_m": 0.1}), than=(central, _run({"x_m": 0.3}, status="structure_failed")))
-    assert failed.verdict == FAILED and "structure_failed" in failed.status and "central" in failed.status
-    assert judge(smaller, _run({"x_m": 0.1}), than=(central, None)).verdict == NOT_RUN
-    larger = _claim(id="big", run="rd", paper_statement="s", relation="greater", than="central")
-    assert judge(larger, _run({"x_m": 0.4}), than=(central, _run({"x_m": 0.3}))).verdict == AGREES
-    with pytest.raises(MissingExplanation, match="'big'"):
-        judge(larger, _run({"x_m": 0.2}), than=(central, _run({"x_m": 0.3})))
-    with pytest.raises(ValueError, match="judged with its claim 'central'"):
-        judge(larger, _run({"x_m": 0.4}))
+    v = _judge(ratio, {"x_m": 0.1}, d=_run({"x_m": 0.4}))
+    assert v.verdict == AGREES and v.value == pytest.approx(0.25)
+    assert (v.numerator, v.denominator) == (pytest.approx(0.1), pytest.approx(0.4))
+    assert _judge(ratio, {"x_m": 0.35}, d=_run({"x_m": 0.4})).verdict == DIFFERS  # 0.875: less, not by 20 %
+    assert _judge(ratio, {"x_m": None}, d=_run({"x_m": 0.4})).verdict == DIFFERS
+    assert _judge(ratio, {"x_m": 0.1}).verdict == NOT_RUN  # the denominator's run is not bundled
+    failed = _judge(ratio, {"x_m": 0.1}, d=_run({"x_m": 0.4}, status="diverged"))
+    assert failed.verdict == FAILED and failed.status == "diverged"
+    same_run = _claim(ratio_key="y_m", bound=2.0, compare="min", criterion_why="w")
+    assert _judge(same_run, {"x_m": 3.0, "y_m": 1.0}).value == pytest.approx(3.0)
+    with pytest.raises(MissingKey, match="'y_m' is not in the summary of run 'r'"):
+        _judge(same_run, {"x_m": 3.0})
 
 
-def test_relational_claim_validation():
-    with pytest.raises(ValueError, match="relation and than go together"):
-        _claim(paper_statement="s", relation="less")
-    with pytest.raises(ValueError, match="not with paper_value"):
-        _claim(paper_value=1.0, tolerance=0.1, tolerance_why="w", relation="less", than="x")
-    claims = [
-        _claim(id="a", paper_statement="s"),
-        _claim(id="b", paper_statement="s", relation="less", than="missing"),
-    ]
-    with pytest.raises(ValueError, match="than 'missing'"):
+def test_claim_validation_names_the_problem():
+    with pytest.raises(ValueError, match="exactly one of paper_value, paper_range, bound, expect"):
+        _claim()
+    with pytest.raises(ValueError, match="exactly one of"):
+        _claim(paper_value=1.0, bound=1.0, tolerance_why="w", criterion_why="w")
+    with pytest.raises(ValueError, match="tolerance_why"):
+        _claim(paper_value=1.0)
+    with pytest.raises(ValueError, match="paper_says states no number"):
+        _claim(paper_value=1.0, tolerance_why="w", paper_says="it is small")
+    with pytest.raises(ValueError, match="criterion_why"):
+        _claim(bound=1.0, compare="max")
+    with pytest.raises(ValueError, match="low, high"):
+        _claim(paper_range=(2.0, 1.0), tolerance_why="w")
+    with pytest.raises(ValueError, match="no ratio_key, no tolerance"):
+        _claim(expect="collapsed", criterion_why="w", ratio_key="k")
+    with pytest.raises(ValueError, match="ratio_run names the run of ratio_key"):
+        _claim(bound=1.0, compare="max", criterion_why="w", ratio_run="d")
+    with pytest.raises(ValueError, match="title"):
+        _claim(bound=1.0, compare="max", criterion_why="w", title="x" * 200)
+
+
+def test_paper_refuses_a_ratio_over_an_unknown_run():
+    claim = _claim(bound=1.0, compare="max", criterion_why="w", ratio_key="x_m", ratio_run="missing")
+    with pytest.raises(ValueError, match="ratio_run 'missing' is not one of the"):
         Paper(
             paper="p",
             title="t",
@@ -152,17 +185,8 @@ def test_relational_claim_validation():
             bib_label="b",
             sweep="s",
             run=({"id": "r", "config": CONFIG},),
-            claim=claims,
+            claim=[claim],
         )
-
-
-def test_claim_validation_names_the_problem():
-    with pytest.raises(ValueError, match="tolerance"):
-        _claim(paper_value=1.0)
-    with pytest.raises(ValueError, match="paper_statement"):
-        _claim()
-    with pytest.raises(ValueError, match="low, high"):
-        _claim(paper_range=(2.0, 1.0), tolerance=0.0, tolerance_why="w")
 
 
 # --------------------------------------------------------------------------- registry
@@ -177,8 +201,7 @@ def test_every_shipped_claims_file_loads_and_names_existing_configs():
         for spec in paper.run:
             assert (ROOT / spec.config).is_file(), spec.config
         for claim in paper.claim:
-            if claim.numeric:
-                assert claim.tolerance_why.strip(), claim.id
+            assert (claim.tolerance_why if claim.numeric else claim.criterion_why).strip(), claim.id
 
 
 def test_every_reproduction_sweep_lists_the_registry_runs():
@@ -197,7 +220,8 @@ def test_registry_refuses_a_claim_on_an_unknown_run(tmp_path):
     path.write_text(
         'paper = "bad"\ntitle = "t"\ncitation = "c"\nbib_label = "b"\nsweep = "s"\n'
         '[[run]]\nid = "r"\nconfig = "x.toml"\n'
-        '[[claim]]\nid = "c"\npaper_ref = "p"\nquantity = "q"\nrun = "other"\nkey = "k"\npaper_statement = "s"\n'
+        '[[claim]]\nid = "c"\ntitle = "t"\npaper_ref = "p"\npaper_says = "s"\nquantity = "q"\n'
+        'run = "other"\nkey = "k"\nbound = 1.0\ncompare = "max"\ncriterion_why = "w"\n'
     )
     with pytest.raises(RegistryError, match="bad.toml.*'other'"):
         load_paper(path)
@@ -208,9 +232,8 @@ def test_registry_refuses_a_claim_on_an_unknown_run(tmp_path):
 
 def _paper(**run_kw) -> Paper:
     run = dict(id="lumped", config=CONFIG, figures=["big.png", "absent.png"]) | run_kw
-    claim = dict(
-        id="eq6", paper_ref="Eq. (6)", quantity="q", run="lumped", key="d", paper_value=0.0, tolerance=0.005
-    ) | dict(tolerance_why="w")
+    claim = dict(id="eq6", title="t", paper_ref="Eq. (6)", paper_says="Eq. (6)", quantity="q", run="lumped", key="d")
+    claim |= dict(paper_value=0.0, tolerance=0.005, tolerance_why="w")
     return Paper(paper="msac", title="t", citation="c", bib_label="b", sweep="s", run=[run], claim=[claim])
 
 
@@ -337,7 +360,7 @@ def test_render_covers_every_registered_claim_and_counts_not_run():
         for claim in paper.claim:
             assert f"`{claim.id}`" in text and claim.key in text
         n = len(paper.claim)
-        assert f"{n} claims: 0 differs · 0 failed · {n} not run · 0 qualitative · 0 agrees" in text
+        assert f"{n} claims: 0 differs · 0 failed · {n} not run · 0 agrees" in text
         assert f"magsail sweep {paper.sweep}" in text
     assert all(f"<{p}>`" in pages[PAGES / "index.md"] for p in papers)
 
@@ -377,9 +400,10 @@ def test_committed_bundle_keys_exist_and_budget_holds():
         for run_id in runs:
             paper.run_spec(run_id)  # every bundled run is a registry run
         for claim in paper.claim:
-            run = runs.get(claim.run)
-            if run is not None and run["identity"]["status"] == "completed":
-                assert claim.key in run["summary"], (paper_id, claim.id, claim.key)
+            for run_id, key in ((claim.run, claim.key), (claim.denominator_run, claim.ratio_key or claim.key)):
+                run = runs.get(run_id)
+                if run is not None:  # a structurally failed run's summary holds its keys as well
+                    assert key in run["summary"], (paper_id, claim.id, run_id, key)
     index = json.loads((RESULTS / "index.json").read_text())
     assert {p: sorted(r) for p, r in index.items()} == {p: sorted(r) for p, r in data.items()}
 

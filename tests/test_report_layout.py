@@ -77,23 +77,23 @@ def _paper() -> Paper:
     """Four claims on three runs: one agrees, one differs (headline), one not run, one failed run."""
     base = dict(paper_ref="Fig. 2", key="x_m", unit="m", tolerance=0.1, tolerance_why="read off the figure")
     claims = [
-        dict(id="close", quantity="the agreeing length", run="ok", paper_value=1.0, paper_statement="about 1 m"),
+        dict(id="close", title="the agreeing length", run="ok", paper_value=1.0, paper_says="about 1 m"),
         dict(
             id="far",
-            quantity="the differing length",
+            title="the differing length",
             run="ok",
             paper_value=5.0,
-            paper_statement="about 5 m",
+            paper_says="about 5 m",
             headline=True,
             explanation="our lattice is stiffer",
         ),
-        dict(id="missing", quantity="the length not run", run="absent", paper_value=1.0, paper_statement="1 m"),
+        dict(id="missing", title="the length not run", run="absent", paper_value=1.0, paper_says="1 m"),
         dict(
             id="broke",
-            quantity="the length of the failed run",
+            title="the length of the failed run",
             run="broken",
             paper_value=1.0,
-            paper_statement="1 m",
+            paper_says="1 m",
             explanation="the lattice collapsed",
         ),
     ]
@@ -105,7 +105,7 @@ def _paper() -> Paper:
         bib_label="a2020",
         sweep="s.toml",
         run=runs,
-        claim=[base | c for c in claims],
+        claim=[base | {"quantity": f"{c['title']}, measured"} | c for c in claims],
     )
 
 
@@ -118,7 +118,7 @@ def _bundle(tmp_path: Path) -> dict:
 def test_page_counts_differences_first_then_one_compact_table_then_details(tmp_path, to_html):
     text, verdicts = render_page(_paper(), _bundle(tmp_path), tmp_path)
     assert [v.verdict for v in verdicts] == ["agrees", "differs", "not run", "failed"]
-    assert "**4 claims: 1 differs · 1 failed · 1 not run · 0 qualitative · 1 agrees.**" in text
+    assert "**4 claims: 1 differs · 1 failed · 1 not run · 1 agrees.**" in text
     assert "Headline claims (the paper's abstract makes them): 1: 1 differs" in text
     html = to_html(text)
     # where ours differs: before the table, each differing or failed claim with its explanation
@@ -153,7 +153,7 @@ def test_page_without_differences_has_no_such_section(tmp_path, to_html):
     paper = paper.model_copy(update={"claim": paper.claim[:1]})
     text, _ = render_page(paper, _bundle(tmp_path), tmp_path)
     assert "Where ours differs" not in text and "Headline claims" not in text
-    assert "**1 claims: 0 differs · 0 failed · 0 not run · 0 qualitative · 1 agrees.**" in text
+    assert "**1 claims: 0 differs · 0 failed · 0 not run · 1 agrees.**" in text
 
 
 # --------------------------------------------------------------------------- the site checker

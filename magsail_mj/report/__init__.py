@@ -1,7 +1,7 @@
 """Reproduction reports: paper claims against our runs, rendered from a committed results bundle.
 
 * :mod:`magsail_mj.report.registry`: the claims of each paper (``claims/<paper>.toml``);
-* :mod:`magsail_mj.report.verdict`: agrees / differs / failed / not run / qualitative;
+* :mod:`magsail_mj.report.verdict`: agrees / differs / failed / not run, computed from the bundled runs;
 * :mod:`magsail_mj.report.bundle`: ``collect`` copies summaries, run identities and downscaled
   figures from finished run folders into ``results/<paper>/<run id>/``;
 * :mod:`magsail_mj.report.render`: one MyST page per paper and an index (``docs/reproduction/``);

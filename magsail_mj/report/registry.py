@@ -5,13 +5,27 @@ produces its runs (``sweep``, a path relative to the repository root), the runs 
 ``config`` relative to the repository root, optional ``set`` overrides, optional pinned
 ``config_hash``, the ``figures`` to keep and an optional ``clip``) and the claims (``[[claim]]``).
 
-A claim compares one summary key of one run with the paper: ``paper_value`` (a number),
-``paper_range`` (``[low, high]``) or only ``paper_statement`` (a qualitative claim). ``compare``
-says how a number is compared: ``"abs"`` (|ours − paper| ≤ tolerance, in the claim's unit),
-``"rel"`` (|ours − paper| ≤ tolerance·|paper|), ``"max"`` (ours ≤ paper + tolerance: the paper's
-value is an upper bound or requirement) or ``"min"`` (ours ≥ paper − tolerance). The summary
-value is multiplied by ``scale`` (e.g. 57.29577951308232 for rad → deg) before it is compared or
-shown; ``index`` picks one element of a list-valued key.
+Every claim has a short ``title`` (the claim in a few words, for the table), says where the paper
+states it (``paper_ref``: figure, table, equation or section), what it states (``paper_says``: its
+words, with its numbers and units), whether the paper's abstract makes it (``headline``), and what we
+compute (``quantity``: one summary ``key`` of one ``run``, times ``scale``, optionally element
+``index`` of a list; with ``ratio_key`` the ratio of that value to the value of ``ratio_key`` in
+``ratio_run``, by default the same run). Each claim is checked against exactly one of
+
+* ``paper_value`` or ``paper_range`` ``[low, high]``: a number the paper states (``paper_says`` must
+  hold it), compared by ``compare`` within ``tolerance``, fixed before comparing and justified in
+  ``tolerance_why``: ``"abs"`` |ours − paper| ≤ tolerance (in the claim's unit), ``"rel"``
+  |ours − paper| ≤ tolerance·|paper|, ``"max"`` ours ≤ paper + tolerance (the paper's value is an
+  upper bound), ``"min"`` ours ≥ paper − tolerance;
+* ``bound`` (a *qualitative* claim: the paper states no number): a bound our value must keep so
+  that the paper's statement holds, e.g. "reaches its target" as a final error of at most 5°
+  (``compare = "max"``), or a value it must match within ``tolerance`` (``"abs"``, ``"rel"``);
+  ``criterion_why`` says where in the paper's figure or text the bound comes from;
+* ``expect``: a value the run must report (a classification such as ``"collapsed"``, or a flag), also
+  qualitative, with ``criterion_why``.
+
+A run that stopped as ``structure_failed`` is only compared when ``compare_failed`` is set: when the
+paper's claim is about the structure giving way, the values up to the failure are the outcome.
 """
 
 from __future__ import annotations
@@ -24,6 +38,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 __all__ = [
     "CLAIMS_DIR",
+    "TITLE_MAX_CHARS",
     "REPO_ROOT",
     "Claim",
     "Paper",
@@ -37,6 +52,8 @@ CLAIMS_DIR = Path(__file__).resolve().parent / "claims"
 REPO_ROOT = Path(__file__).resolve().parents[2]
 
 Compare = Literal["abs", "rel", "max", "min"]
+#: the longest claim title (the claim column of the compact table)
+TITLE_MAX_CHARS = 90
 
 
 class RegistryError(ValueError):
@@ -60,60 +77,74 @@ class RunSpec(_Strict):
 
 
 class Claim(_Strict):
-    """One comparison of our summary key with the paper's figure, table or text."""
+    """One comparison of our summary value with what the paper states (module docstring)."""
 
     id: str = Field(pattern=r"^[a-z0-9_]+$")
-    paper_ref: str
-    quantity: str
+    title: str = Field(min_length=1, max_length=TITLE_MAX_CHARS)
+    paper_ref: str = Field(min_length=1)
+    paper_says: str = Field(min_length=1)
     #: the paper's abstract makes this claim (the page marks it and counts the headline claims apart)
     headline: bool = False
+    quantity: str = Field(min_length=1)
     run: str
     key: str
     index: int | None = None
     scale: float = 1.0
     unit: str = ""
+    ratio_key: str | None = None
+    ratio_run: str | None = None
     paper_value: float | None = None
     paper_range: tuple[float, float] | None = None
-    paper_statement: str = ""
+    bound: float | None = None
+    expect: str | bool | None = None
     compare: Compare = "abs"
-    tolerance: float | None = Field(default=None, ge=0.0)
+    tolerance: float = Field(default=0.0, ge=0.0)
     tolerance_why: str = ""
+    criterion_why: str = ""
+    compare_failed: bool = False
     figure: str | None = None
     explanation: str = ""
-    #: a relation the paper states without numbers: our value is ``"less"`` or ``"greater"`` than
-    #: ``factor`` times our value of the claim ``than`` (same paper), e.g. the distributed torque's
-    #: σ_SD less than the central torque's
-    relation: Literal["less", "greater"] | None = None
-    than: str | None = None
-    factor: float = Field(default=1.0, gt=0.0)
 
     @model_validator(mode="after")
-    def _numbers_or_statement(self) -> Claim:
-        """A number needs a tolerance and its justification; a claim without one needs a statement."""
-        if self.paper_value is not None and self.paper_range is not None:
-            raise ValueError("give paper_value or paper_range, not both")
-        numeric = self.paper_value is not None or self.paper_range is not None
-        if (self.relation is None) != (self.than is None):
-            raise ValueError("relation and than go together")
-        if self.relation is not None and numeric:
-            raise ValueError("a relational claim compares with another claim, not with paper_value/paper_range")
-        if numeric and (self.tolerance is None or not self.tolerance_why.strip()):
-            raise ValueError("a numeric claim needs tolerance and tolerance_why")
-        if not numeric and not self.paper_statement.strip():
-            raise ValueError("a claim without paper_value/paper_range needs paper_statement")
+    def _one_target(self) -> Claim:
+        """Exactly one of paper_value, paper_range, bound, expect, each with its reason."""
+        given = [n for n in ("paper_value", "paper_range", "bound", "expect") if getattr(self, n) is not None]
+        if len(given) != 1:
+            raise ValueError(f"give exactly one of paper_value, paper_range, bound, expect (got {given or 'none'})")
         if self.paper_range is not None and self.paper_range[0] > self.paper_range[1]:
             raise ValueError(f"paper_range {list(self.paper_range)} is not [low, high]")
+        if self.numeric:
+            if not self.tolerance_why.strip():
+                raise ValueError("a number of the paper needs tolerance_why (the reason for the tolerance)")
+            if not any(ch.isdigit() for ch in self.paper_says):
+                raise ValueError(f"paper_says states no number for paper_value/paper_range: {self.paper_says!r}")
+        elif not self.criterion_why.strip():
+            raise ValueError("a qualitative claim (bound or expect) needs criterion_why (where the bound comes from)")
+        if self.expect is not None and (self.ratio_key is not None or self.tolerance):
+            raise ValueError("expect compares a value as it is: no ratio_key, no tolerance")
+        if self.ratio_run is not None and self.ratio_key is None:
+            raise ValueError("ratio_run names the run of ratio_key: give ratio_key")
         return self
 
     @property
-    def relational(self) -> bool:
-        """Whether the claim checks a relation to another claim's value (``relation``/``than``)."""
-        return self.relation is not None
+    def is_ratio(self) -> bool:
+        """Whether ours is the ratio of ``key`` to ``ratio_key`` (of ``ratio_run``)."""
+        return self.ratio_key is not None
+
+    @property
+    def denominator_run(self) -> str:
+        """The run of ``ratio_key``: ``ratio_run``, by default the claim's own run."""
+        return self.ratio_run or self.run
 
     @property
     def numeric(self) -> bool:
-        """Whether the paper gives a number or range to compare with."""
+        """Whether the paper states the number compared with (``paper_value`` or ``paper_range``)."""
         return self.paper_value is not None or self.paper_range is not None
+
+    @property
+    def qualitative(self) -> bool:
+        """Whether the paper states no number: ours is checked against a ``bound`` or an ``expect``."""
+        return not self.numeric
 
 
 class Paper(_Strict):
@@ -144,12 +175,10 @@ class Paper(_Strict):
         dup = sorted({i for i in runs if runs.count(i) > 1})
         if dup:
             raise ValueError(f"duplicate run ids {dup}")
-        ids = {c.id: c for c in self.claim}
         for c in self.claim:
-            if c.run not in runs:
-                raise ValueError(f"claim {c.id!r}: run {c.run!r} is not one of the [[run]] ids {runs}")
-            if c.than is not None and (c.than not in ids or c.than == c.id):
-                raise ValueError(f"claim {c.id!r}: than {c.than!r} is not another claim of the paper")
+            for field, run in (("run", c.run), ("ratio_run", c.denominator_run)):
+                if run not in runs:
+                    raise ValueError(f"claim {c.id!r}: {field} {run!r} is not one of the [[run]] ids {runs}")
         return self
 
     def claim_by_id(self, claim_id: str) -> Claim:

@@ -28,7 +28,7 @@ from typing import Any
 
 from magsail_mj.report.bundle import read_bundle
 from magsail_mj.report.registry import Claim, Paper
-from magsail_mj.report.verdict import AGREES, DIFFERS, FAILED, NOT_RUN, QUALITATIVE, Verdict, judge
+from magsail_mj.report.verdict import AGREES, DIFFERS, FAILED, NOT_RUN, VERDICTS, Verdict, judge
 
 __all__ = ["CLAIM_TABLE_CLASS", "GENERATED_NOTE", "judge_paper", "render", "render_pages"]
 
@@ -41,14 +41,15 @@ CLAIM_TABLE_CLASS = "repro-claims"
 #: column shares [%] of the compact table: claim, paper, ours, verdict
 CLAIM_TABLE_WIDTHS = (44, 22, 22, 12)
 #: the order of the counts and of the table's rows: where ours differs first
-_ORDER = (DIFFERS, FAILED, NOT_RUN, QUALITATIVE, AGREES)
+_ORDER = VERDICTS
 _EXPLAINED = (DIFFERS, FAILED)
 _LEGEND = (
-    "Verdicts, computed from the bundled runs: *agrees* within the stated tolerance; *differs* outside "
-    "it (with the explanation); *failed* the run did not complete (never compared); *not run* the bundle "
-    "holds no run yet (the command is below); *qualitative* the paper states no number (ours is shown "
-    "next to its statement). We cannot reproduce the paper's images: each claim describes the paper's "
-    "figure and gives its values."
+    "Verdicts, computed from the bundled runs: *agrees* within the stated tolerance or bound; *differs* "
+    "outside it (with the explanation); *failed* the run did not complete (not compared); *not run* the "
+    "bundle holds no run yet (the command is below). Where the paper gives a number, the claim compares "
+    "ours with it within a tolerance fixed beforehand; where it gives none (*qualitative*), the claim states "
+    "a bound ours must keep for the paper's statement to hold, and why. We cannot reproduce the paper's "
+    "images: each claim describes the paper's figure and gives its values."
 )
 
 
@@ -62,50 +63,71 @@ def _role_text(text: str) -> str:
     return _cell(text).replace("`", "").replace("<", "\\<").replace(">", "\\>")
 
 
-def _num(value: float | str | None) -> str:
+def _num(value: float | None, digits: int = 4) -> str:
     if value is None:
-        return "null (never)"
-    if isinstance(value, str):
-        return value
+        return "never (null)"
     if not math.isfinite(value):
         return str(value)
-    return f"{value:.4g}"
+    return f"{value:.{digits}g}"
 
 
 def _unit(claim: Claim) -> str:
+    """The unit of the compared value: ``×`` for a ratio, else the claim's unit (with a space)."""
+    if claim.is_ratio:
+        return " ×"
     return f" {claim.unit}" if claim.unit else ""
 
 
+def _value_text(claim: Claim, value: float | str | None) -> str:
+    """Ours (or the expected value) in the claim's unit; a flag as yes/no."""
+    if isinstance(value, str):
+        return value
+    if isinstance(claim.expect, bool) and value is not None:
+        return "yes" if value else "no"
+    return _num(value, _digits(claim, value)) + (_unit(claim) if value is not None else "")
+
+
+def _digits(claim: Claim, value: float | None) -> int:
+    """Significant digits of ours: 4, 5 for a ratio, or as many as the tolerance resolves (at most 8)."""
+    digits = 5 if claim.is_ratio else 4
+    if claim.compare == "abs" and claim.tolerance > 0 and value:
+        digits = max(digits, min(8, math.ceil(math.log10(abs(value) / claim.tolerance)) + 1))
+    return digits
+
+
 def _key_text(claim: Claim) -> str:
-    return claim.key if claim.index is None else f"{claim.key}[{claim.index}]"
+    key = claim.key if claim.index is None else f"{claim.key}[{claim.index}]"
+    if not claim.is_ratio:
+        return f"run `{claim.run}`, summary key `{key}`"
+    return f"`{key}` of run `{claim.run}` divided by `{claim.ratio_key}` of run `{claim.denominator_run}`"
+
+
+def _target_text(claim: Claim) -> str:
+    """The paper's number, range or (qualitative) the bound or value ours must keep."""
+    if claim.expect is not None:
+        return _value_text(claim, claim.expect if isinstance(claim.expect, str) else float(claim.expect))
+    if claim.paper_range is not None:
+        return f"{claim.paper_range[0]:g} – {claim.paper_range[1]:g}{_unit(claim)}"
+    target = claim.paper_value if claim.paper_value is not None else claim.bound
+    prefix = {"max": "≤ ", "min": "≥ "}.get(claim.compare, "")
+    return f"{prefix}{target:g}{_unit(claim)}"
 
 
 def _paper_text(claim: Claim) -> str:
-    """The paper's number (or statement) as the compact table shows it."""
-    if claim.relational:
-        scaled = "" if claim.factor == 1.0 else f"{claim.factor:g} × "
-        return f"{claim.relation} than {scaled}the run it is set against"
-    if claim.paper_range is not None:
-        return f"{_num(claim.paper_range[0])} – {_num(claim.paper_range[1])}{_unit(claim)}"
-    if claim.paper_value is not None:
-        prefix = {"max": "≤ ", "min": "≥ "}.get(claim.compare, "")
-        return f"{prefix}{_num(claim.paper_value)}{_unit(claim)}"
-    return "no number"
+    """The paper column of the compact table: its number, or the qualitative claim's bound."""
+    return _target_text(claim) if claim.numeric else f"qualitative: {_target_text(claim)}"
 
 
 def _tolerance_text(claim: Claim) -> str:
-    if claim.relational:
-        return "none (a relation)"
-    if not claim.numeric:
-        return "none (no number)"
-    tol = float(claim.tolerance or 0.0)
+    if claim.expect is not None:
+        return "none (a value)"
+    unit = _unit(claim)
+    tol = claim.tolerance
     if claim.compare in ("max", "min") and tol == 0.0:
         return "none (a bound)"
-    return {
-        "rel": f"± {tol:.3g} (relative)",
-        "max": f"+ {tol:.3g}{_unit(claim)}",
-        "min": f"− {tol:.3g}{_unit(claim)}",
-    }.get(claim.compare, f"± {tol:.3g}{_unit(claim)}")
+    return {"rel": f"± {tol:.3g} (relative)", "max": f"+ {tol:.3g}{unit}", "min": f"− {tol:.3g}{unit}"}.get(
+        claim.compare, f"± {tol:.3g}{unit}"
+    )
 
 
 def _ours_text(claim: Claim, verdict: Verdict) -> str:
@@ -113,23 +135,17 @@ def _ours_text(claim: Claim, verdict: Verdict) -> str:
         return "not run"
     if verdict.verdict == FAILED:
         return f"run {verdict.status}"
-    text = f"{_num(verdict.value)}{_unit(claim) if verdict.value is not None else ''}"
-    if verdict.than_value is not None:
-        text += f" (against {_num(verdict.than_value)}{_unit(claim)})"
+    text = _value_text(claim, verdict.value)
+    if claim.is_ratio and verdict.numerator is not None and verdict.denominator is not None:
+        unit = f" {claim.unit}" if claim.unit else ""
+        text += f" ({_num(verdict.numerator)} / {_num(verdict.denominator)}{unit})"
     return text
 
 
 def judge_paper(paper: Paper, runs: dict[str, dict[str, Any]]) -> list[tuple[Claim, Verdict]]:
     """Every claim of ``paper`` with its verdict from the bundled ``runs`` (``{run id: run}``), in
     the registry's order."""
-    judged = []
-    for claim in paper.claim:
-        than = None
-        if claim.than is not None:
-            other = paper.claim_by_id(claim.than)
-            than = (other, runs.get(other.run))
-        judged.append((claim, judge(claim, runs.get(claim.run), than=than)))
-    return judged
+    return [(claim, judge(claim, runs)) for claim in paper.claim]
 
 
 def _by_verdict(judged: list[tuple[Claim, Verdict]]) -> list[tuple[Claim, Verdict]]:
@@ -158,7 +174,7 @@ def _label(paper: Paper, claim: Claim) -> str:
 
 
 def _claim_link(paper: Paper, claim: Claim) -> str:
-    text = f"{{ref}}`{_role_text(claim.quantity)} <{_label(paper, claim)}>`"
+    text = f"{{ref}}`{_role_text(claim.title)} <{_label(paper, claim)}>`"
     return text + (" (**headline**)" if claim.headline else "")
 
 
@@ -194,8 +210,9 @@ def _differences(paper: Paper, judged: list[tuple[Claim, Verdict]]) -> list[str]
     lines = ["## Where ours differs", ""]
     for claim, verdict in rows:
         explanation = " ".join(claim.explanation.split()) or "(no explanation given)"
+        what = "paper" if claim.numeric else "qualitative, ours must be"
         lines.append(
-            f"- {_claim_link(paper, claim)}: paper {_cell(_paper_text(claim))}; ours "
+            f"- {_claim_link(paper, claim)}: {what} {_cell(_target_text(claim))}; ours "
             f"{_cell(_ours_text(claim, verdict))} (**{verdict.verdict}**). {explanation}"
         )
     return lines + [""]
@@ -208,15 +225,21 @@ def _rel(path: Path, out: Path) -> str:
 def _claim_detail(
     paper: Paper, claim: Claim, verdict: Verdict, runs: dict[str, dict[str, Any]], out: Path
 ) -> list[str]:
-    title = f"`{claim.id}`: {claim.quantity}" + (" (headline)" if claim.headline else "")
+    title = f"{claim.title}" + (" (headline)" if claim.headline else "")
     lines = [f"({_label(paper, claim)})=", f"### {title}", ""]
-    statement = " ".join(claim.paper_statement.split())
-    lines.append(f"- **Paper** ({claim.paper_ref}): {statement or _paper_text(claim)}")
-    if claim.numeric or claim.relational:
-        lines.append(f"- **Checked**: {_paper_text(claim)}")
-    lines.append(f"- **Compared**: {claim.quantity} (run `{claim.run}`, summary key `{_key_text(claim)}`)")
+    lines.append(f"- **Paper** ({claim.paper_ref}): {' '.join(claim.paper_says.split())}")
     if claim.numeric:
-        lines.append(f"- **Tolerance** {_tolerance_text(claim)}: {claim.tolerance_why}")
+        lines.append(
+            f"- **Paper's number**: {_target_text(claim)}, tolerance {_tolerance_text(claim)}. "
+            f"Why: {' '.join(claim.tolerance_why.split())}"
+        )
+    else:
+        lines.append(
+            f"- **Qualitative** (the paper gives no number): ours must be {_target_text(claim)}"
+            + ("" if claim.expect is not None or claim.tolerance == 0.0 else f" (tolerance {_tolerance_text(claim)})")
+            + f". Why: {' '.join(claim.criterion_why.split())}"
+        )
+    lines.append(f"- **Compared**: {claim.quantity} ({_key_text(claim)}, claim `{claim.id}`)")
     lines.append(f"- **Ours**: {_ours_text(claim, verdict)}")
     lines.append(f"- **Verdict: {verdict.verdict}**")
     if claim.explanation:
@@ -337,7 +360,7 @@ def render_page(paper: Paper, runs: dict[str, dict[str, Any]], out: Path) -> tup
     return "\n".join(lines).rstrip() + "\n", [v for _, v in judged]
 
 
-def _index_page(rows: list[tuple[Paper, list[Verdict]]]) -> str:
+def _index_page(rows: list[tuple[Paper, list[tuple[Claim, Verdict]]]]) -> str:
     lines = [
         GENERATED_NOTE,
         "",
@@ -348,15 +371,16 @@ def _index_page(rows: list[tuple[Paper, list[Verdict]]]) -> str:
         "bundle (`results/`: summaries, run identities, downscaled figures), which `magsail report` fills "
         "from finished run folders, so the documentation never runs the hours-long simulations.",
         "",
-        "| paper | claims | " + " | ".join(_ORDER) + " |",
-        "|---|---|" + "---|" * len(_ORDER),
+        "| paper | claims | " + " | ".join(_ORDER) + " | headline: agrees of |",
+        "|---|---|" + "---|" * (len(_ORDER) + 1),
     ]
-    for paper, verdicts in rows:
-        counts = Counter(v.verdict for v in verdicts)
+    for paper, judged in rows:
+        counts = Counter(v.verdict for _, v in judged)
+        headline = [v.verdict for c, v in judged if c.headline]
         lines.append(
-            f"| {{doc}}`{paper.title} <{paper.paper}>` | {len(verdicts)} | "
+            f"| {{doc}}`{paper.title} <{paper.paper}>` | {len(judged)} | "
             + " | ".join(str(counts.get(name, 0)) for name in _ORDER)
-            + " |"
+            + f" | {headline.count(AGREES)} of {len(headline)} |"
         )
     lines += [
         "",
@@ -383,7 +407,7 @@ def render_pages(papers: dict[str, Paper], bundle: str | Path, out: str | Path) 
     for paper in papers.values():
         text, verdicts = render_page(paper, data.get(paper.paper, {}), out)
         pages[out / f"{paper.paper}.md"] = text
-        rows.append((paper, verdicts))
+        rows.append((paper, list(zip(paper.claim, verdicts, strict=True))))
     pages[out / "index.md"] = _index_page(rows)
     return pages
 
