@@ -28,6 +28,7 @@ from magsail_mj.structure import checks, fileread, filevalues
 from magsail_mj.structure.fileformat import SLOTS, read_structure, structure_from_mapping, write_structure
 from magsail_mj.structure.filewrite import structure_tree
 from magsail_mj.structure.model import Members, Panels, RigidPart, Structure, StructureError
+from magsail_mj.structure.tomlwrite import Inline, dumps
 from tests.conftest import load_file_module
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -582,6 +583,24 @@ def test_write_refuses_an_invalid_structure_and_an_unknown_mode(tmp_path):
     assert not (tmp_path / "bad.toml").exists()
     with pytest.raises(ValueError, match="arrays: must be one of"):
         write_structure(s, tmp_path / "s.toml", arrays="zip")
+
+
+def test_toml_writer_round_trips_awkward_floats_and_strings():
+    floats = np.array([math.inf, -math.inf, -0.0, 0.0, 5e-324, 1.7976931348623157e308, 0.1, 1e16, -2.5e-7])
+    names = ["plain", "with space", 'quote"', "back\\slash", "new\nline", "\x00\x1f\x7f", "ünï ✓", ""]
+    tree = {
+        "a": floats,
+        "s": names,
+        "rows": np.arange(6, dtype=np.int64).reshape(3, 2),
+        "t": {name: 1 for name in names},
+        "ref": Inline(file="x.npz", array="a b"),
+        "groups": [{"flag": True, "v": np.float64(1.5)}, {"flag": False}],
+    }
+    back = tomllib.loads(dumps(tree))
+    assert _bits(np.array(back["a"])) == _bits(floats)
+    assert back["s"] == names and list(back["t"]) == names
+    assert back["rows"] == [[0, 1], [2, 3], [4, 5]] and back["ref"] == {"file": "x.npz", "array": "a b"}
+    assert back["groups"] == [{"flag": True, "v": 1.5}, {"flag": False}]
 
 
 # -- property tests ----------------------------------------------------------------------------------

@@ -153,7 +153,7 @@ def _index_table(r: ValueReader, tree: dict, key: str) -> dict[str, np.ndarray]:
         if not name:
             r.fail(key, "a set needs a non-empty name")
             continue
-        parsed = r.guard(r.form, indices, "indices", f"{key}.{name}", None)
+        parsed = r.guard(r.form, indices, "indices", f"{key}[{name!r}]", None)
         if parsed is not None:
             sets[name] = parsed
     return sets

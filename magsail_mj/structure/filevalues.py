@@ -24,6 +24,10 @@ _DOFS = "123456"
 _ELEMENT = {"per_node": "node", "per_member": "member", "per_member_axes": "member", "per_panel": "panel"}
 
 
+def _join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
 def _show(value: Any) -> str:
     text = repr(value)
     return text if len(text) <= 80 else text[:77] + "..."
@@ -68,12 +72,16 @@ class ValueReader:
     def error(self, path: str, text: str) -> StructureError:
         return StructureError(f"{self.at(path)}: {text}")
 
-    def unknown(self, table: dict, name: str, path: str) -> None:
+    def unknown(self, table: dict, name: str, path: str) -> list[str]:
+        """Record (and return) a problem for each key of ``table`` that the table ``name`` does not declare."""
         known = table_keys(name)
-        for key in table:
-            if key not in known:
-                where = f"{path}.{key}" if path else str(key)
-                self.fail(where, f"unknown key (the keys here: {', '.join(known)})")
+        found = [
+            f"{self.at(_join(path, str(key)))}: unknown key (the keys here: {', '.join(known)})"
+            for key in table
+            if key not in known
+        ]
+        self.problems += found
+        return found
 
     # -- values ---------------------------------------------------------------------------------
     def numbers(self, value: Any, path: str, *, integer: bool = False) -> np.ndarray:
@@ -121,10 +129,10 @@ class ValueReader:
 
     def companion(self, ref: dict, path: str) -> np.ndarray:
         """The array a companion reference ``{ file, array | columns }`` names."""
-        problems = len(self.problems)
-        self.unknown(ref, "file", path)
-        if len(self.problems) > problems:
-            raise StructureError(self.problems.pop())
+        unknown = self.unknown(ref, "file", path)
+        if unknown:
+            del self.problems[-len(unknown) :]
+            raise StructureError(unknown)
         if "file" not in ref:
             raise self.error(f"{path}.file", "required (a table here is a companion reference)")
         key, _ = self.files.resolve(ref["file"], self.at(f"{path}.file"))
@@ -231,14 +239,14 @@ class ValueReader:
         absent (``None`` when it has none)."""
         declared = slot(name, key)
         if key in table:
-            return self.form(table[key], declared.form, f"{path}.{key}", count, node_sets)
+            return self.form(table[key], declared.form, _join(path, key), count, node_sets)
         if declared.default is None:
             return None
-        return self.form(declared.default, declared.form, f"{path}.{key}", count, node_sets)
+        return self.form(declared.default, declared.form, _join(path, key), count, node_sets)
 
     def required(self, table: dict, name: str, key: str, path: str, count: int | None, node_sets: dict | None = None):
         if key not in table:
-            raise self.error(f"{path}.{key}", "required")
+            raise self.error(_join(path, key), "required")
         return self.field(table, name, key, path, count, node_sets)
 
     def tables(self, tree: dict, key: str) -> list[dict]:

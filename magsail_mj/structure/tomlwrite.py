@@ -16,10 +16,14 @@ from collections.abc import Mapping
 
 import numpy as np
 
-__all__ = ["dumps"]
+__all__ = ["Inline", "dumps"]
 
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 _ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+class Inline(dict):
+    """A mapping written as an inline table ``{ k = v }`` rather than as a ``[section]``."""
 
 
 def _string(text: str) -> str:
@@ -82,10 +86,6 @@ def _is_table(value: object) -> bool:
 
 def _is_table_array(value: object) -> bool:
     return isinstance(value, list) and bool(value) and all(_is_table(item) for item in value)
-
-
-class Inline(dict):
-    """A mapping written as an inline table ``{ k = v }`` rather than as a ``[section]``."""
 
 
 def _table(tree: Mapping, path: list[str], lines: list[str]) -> None:
