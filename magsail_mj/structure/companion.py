@@ -172,7 +172,7 @@ def _check_npy_header(npz: np.lib.npyio.NpzFile, array: str, where: str) -> None
 def _parse_csv(data: bytes, key: str, where: str) -> CsvTable:
     """A header line of unique column names, then rows of as many numbers, comma-separated."""
     try:
-        text = data.decode("utf-8")
+        text = data.decode("utf-8-sig")  # a byte-order mark, as spreadsheets write, is dropped
     except UnicodeDecodeError as err:
         raise StructureError(f"{where}: companion file {key!r} is not UTF-8 text (byte {err.start})") from None
     header, _, body = text.partition("\n")
@@ -191,7 +191,8 @@ def _parse_csv(data: bytes, key: str, where: str) -> CsvTable:
     try:
         values = np.loadtxt(io.StringIO(body), delimiter=",", dtype=float, ndmin=2, comments=None)
     except ValueError as err:
-        raise StructureError(f"{where}: {key!r} (after the header): {err}") from None
+        reason = str(err).split(";")[0]  # NumPy's own advice on usecols does not apply here
+        raise StructureError(f"{where}: {key!r}, data rows counted from 0 after the header: {reason}") from None
     if values.shape[1] != len(names):
         raise StructureError(f"{where}: {key!r} rows have {values.shape[1]} numbers, the header {len(names)} names")
     return CsvTable(names, values)
