@@ -104,8 +104,8 @@ def four_boom_sail(
     rigid part holding node 0.
 
     ``2 n² + 2 n + 1`` nodes (hub, ``4 n`` boom nodes, then each quadrant's membrane nodes),
-    ``4 n`` members, ``4 n²`` panels. Node sets: ``hub``, ``booms`` (boom nodes without the hub),
-    ``boom_0..boom_3`` (hub to tip), ``tip`` (the four boom tips), ``rim`` (the free membrane
+    ``4 n`` members, ``4 n²`` panels. Node sets: ``hub``, ``boom_nodes`` (boom nodes without the
+    hub), ``boom_nodes_0..boom_nodes_3`` (hub to tip), ``tip`` (the four boom tips), ``rim`` (the free membrane
     edge, tips included), ``membrane`` (every panel corner); member sets
     ``booms`` and ``boom_0..boom_3``.
     """
@@ -152,12 +152,12 @@ def four_boom_sail(
     )
     node_sets = {
         "hub": np.array([0]),
-        "booms": np.arange(1, 1 + 4 * n),
+        "boom_nodes": np.arange(1, 1 + 4 * n),
         "tip": boom_nodes[:, -1].copy(),
         "rim": np.unique(np.concatenate(rim)),
         "membrane": np.unique(triangles_all),
     }
-    node_sets.update({f"boom_{q}": boom_nodes[q].copy() for q in range(4)})
+    node_sets.update({f"boom_nodes_{q}": boom_nodes[q].copy() for q in range(4)})
     member_sets = {"booms": np.arange(4 * n)}
     member_sets.update({f"boom_{q}": np.arange(q * n, (q + 1) * n) for q in range(4)})
     return Structure(
