@@ -1,4 +1,5 @@
-"""``magsail`` command line: build | validate | run | bench | render | export | sweep | report | scaling | torque.
+"""``magsail`` command line: build | validate | run | bench | render | export | sweep | report | scaling | torque |
+modes.
 
 ``report`` has the actions collect | render | update (reproduction reports) and sweep (a sweep report).
 
@@ -279,6 +280,7 @@ _cmd_report_update = _Handler("magsail_mj.report.commands", "update_main")
 _cmd_scaling_magnetorquer = _Handler("magsail_mj.verbs.analytic", "scaling_magnetorquer")
 _cmd_scaling_loops = _Handler("magsail_mj.verbs.analytic", "scaling_loops")
 _cmd_torque_coil = _Handler("magsail_mj.verbs.analytic", "torque_coil")
+_cmd_modes = _Handler("magsail_mj.verbs.modes", "modes")
 
 
 # --------------------------------------------------------------------------- parser
@@ -726,6 +728,24 @@ def _add_analytic_verbs(sub: Any) -> None:
     tc.add_argument("--rows", type=_count, default=None, help="3/4 turns per column N_row (default d/L)")
 
 
+def _add_modes_verb(sub: Any) -> None:
+    md = _verb(
+        sub,
+        "modes",
+        "the lowest modes of a structure: frequencies, rigid-body participation, in-plane/bending/twist "
+        "shares (one JSON object on stdout)",
+        _cmd_modes,
+        {"source": "SOURCE", "count": "--count", "plot": "--plot"},
+    )
+    md.add_argument(
+        "source",
+        metavar="SOURCE",
+        help="a structure file (.toml), a lattice config (.toml), a mesh (.msh) or a Nastran deck (.bdf/.dat/.nas)",
+    )
+    md.add_argument("--count", type=_count, default=20, metavar="K", help="modes to compute, lowest first (default 20)")
+    md.add_argument("--plot", default=None, metavar="DIR", help="also draw the elastic mode shapes as PNGs in DIR")
+
+
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="magsail", description=DESCRIPTION, epilog=EXIT_CODES, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -747,6 +767,7 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, metavar="VERB", help="what to do (VERB --help for more)")
     _add_run_verbs(sub)
     _add_analytic_verbs(sub)
+    _add_modes_verb(sub)
     return p
 
 

@@ -314,6 +314,7 @@ def structure_modes(
     solver: Literal["auto", "sparse", "dense"] = "auto",
     zero_tol: float = 1e-12,
     tol: float = 0.0,
+    assembly: Assembly | None = None,
 ) -> StructureModes:
     """The ``k`` lowest modes of ``structure`` (module docstring).
 
@@ -326,12 +327,16 @@ def structure_modes(
       solver: ``"auto"`` (dense below :data:`DENSE_LIMIT` coordinates), ``"sparse"`` or ``"dense"``.
       zero_tol: relative tolerance of the zero modes (module docstring).
       tol: ``eigsh`` relative accuracy of the eigenvalues (0: machine precision).
+      assembly: ``assemble(structure, mass=mass)`` when already made.
 
     Raises:
       ValueError: a bad option (named), or a structure that cannot be assembled
         (:class:`~magsail_mj.structure.model.StructureError`).
     """
-    assembly = assemble(structure, mass=mass)
+    if assembly is None:
+        assembly = assemble(structure, mass=mass)
+    elif assembly.mass != mass:
+        raise ValueError(f"assembly: made with mass={assembly.mass!r}, not {mass!r}")
     n = assembly.n_dof
     if int(k) != k or not 1 <= k <= n:
         raise ValueError(f"k: must be an integer in 1..{n} (the independent coordinates), got {k!r}")

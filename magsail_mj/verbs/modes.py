@@ -1,0 +1,241 @@
+"""``magsail modes SOURCE [--count K] [--plot DIR]``: the lowest modes of a structure, one JSON object.
+
+``SOURCE`` is one of
+
+* a structure file (``*.toml`` with ``format = "magsail-structure"``,
+  :func:`magsail_mj.structure.fileformat.read_structure`);
+* a config whose concept has a lattice (``truss_magnetorquer``, ``current_loops``): the lattice of
+  :func:`magsail_mj.lattice.geometry.make_lattice` with the concept's particle masses and strut
+  spring constants (``EA = k l0``), as the concept's model builder makes them; a
+  ``truss_magnetorquer`` ``cantilever`` scenario has its ``i = 0`` edge clamped. Another concept's
+  config has no structure yet (exit 2);
+* a mesh (``.msh`` and the other formats meshio reads, :func:`magsail_mj.structure.mesh.read_mesh`);
+* a Nastran bulk-data deck (``.bdf``, ``.dat``, ``.nas``, :func:`magsail_mj.structure.nastran.read_nastran`).
+
+The modes are :func:`magsail_mj.structure.modes.structure_modes` (lumped mass). The JSON object:
+``frequencies_Hz`` (ascending, the zero modes first), ``rigid_body_modes`` (the number of zero
+modes: rigid-body motions and mechanisms), ``participation`` (rigid-body directions, effective
+masses and their fractions per mode), ``share`` (in-plane, bending and twist per mode, and the
+principal axes), ``n_dof`` (the independent coordinates), ``count`` (modes computed: ``--count``,
+at most ``n_dof``), ``solver`` and ``source`` (path and kind). ``--plot DIR`` writes
+``mode_NN.png`` for the elastic modes among them (at most :data:`MAX_PLOTS`): the structure's
+members undeformed and in the mode shape, scaled so the largest node displacement is a tenth of
+the structure's size; their paths are listed in ``plots``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from magsail_mj.cli import CliInputError
+from magsail_mj.config import load_config
+from magsail_mj.io import check_output_folder
+from magsail_mj.resources import check_memory
+from magsail_mj.structure.assembly import assemble, dof_layout
+from magsail_mj.structure.model import Members, Structure
+from magsail_mj.structure.modes import RIGID_DIRECTIONS, StructureModes, structure_modes
+from magsail_mj.verbs.common import input_file, output_dir, print_json
+
+__all__ = ["MAX_PLOTS", "NASTRAN_SUFFIXES", "lattice_structure", "modes", "read_source", "structure_of_config"]
+
+MAX_PLOTS = 12
+"""The most mode-shape PNGs ``--plot`` writes."""
+NASTRAN_SUFFIXES = (".bdf", ".dat", ".nas")
+"""Suffixes read as Nastran decks."""
+LATTICE_CONCEPTS = ("truss_magnetorquer", "current_loops")
+"""Concepts whose configs make a lattice structure."""
+# Memory of a solve per independent coordinate: 477 MB peak RSS measured for the 20 000-node
+# lattice (60 000 coordinates, SuperLU fill 12.5 M), about 8 kB per coordinate with the interpreter;
+# twice that leaves room for structures whose factor fills more.
+_BYTES_PER_DOF = 16_384
+_PLOT_FRACTION = 0.1
+
+
+def lattice_structure(lattice: Any, *, masses_kg: np.ndarray, k_N_m: np.ndarray, name: str) -> Structure:
+    """A strut structure of a :class:`~magsail_mj.lattice.geometry.Lattice`: node masses
+    ``masses_kg`` [kg] and strut spring constants ``k_N_m`` [N/m] (``EA = k l0``)."""
+    members = Members.build(
+        lattice.struts,
+        positions_m=lattice.nodes,
+        kind="strut",
+        EA_N=np.asarray(k_N_m, dtype=float) * lattice.rest_length,
+        rest_length_m=lattice.rest_length,
+    )
+    return Structure(name=name, positions_m=np.asarray(lattice.nodes), node_mass_kg=masses_kg, members=members)
+
+
+def _truss_structure(cfg: Any) -> Structure:
+    from magsail_mj.concepts.truss_magnetorquer.model import spring_constants
+    from magsail_mj.lattice.geometry import make_lattice
+    from magsail_mj.lattice.properties import clamped_nodes, node_masses
+
+    lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
+    total = cfg.mass.total_kg if cfg.mass.total_kg is not None else cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
+    masses = node_masses(
+        lat,
+        total_kg=total,
+        central_fraction=cfg.mass.central_fraction,
+        point_masses=[(p.node, p.kg) for p in cfg.mass.point_masses],
+    )
+    k, _, _ = spring_constants(lat, cfg.stiffness)
+    structure = lattice_structure(lat, masses_kg=masses, k_N_m=k, name=f"truss_{cfg.scenario}")
+    if cfg.scenario != "cantilever":
+        return structure
+    fixed = np.zeros((lat.n_nodes, 6), dtype=bool)
+    fixed[clamped_nodes(lat)] = True
+    return Structure(
+        name=structure.name,
+        positions_m=structure.positions_m,
+        node_mass_kg=structure.node_mass_kg,
+        members=structure.members,
+        fixed_dofs=fixed,
+    )
+
+
+def _loops_structure(cfg: Any) -> Structure:
+    from magsail_mj.lattice.geometry import make_lattice
+    from magsail_mj.lattice.properties import strut_stiffness
+
+    lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
+    total = cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
+    k, _ = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_Nm2, calibration=cfg.stiffness.calibration)
+    return lattice_structure(
+        lat, masses_kg=np.full(lat.n_nodes, total / lat.n_nodes), k_N_m=k, name=f"current_loops_{cfg.scenario}"
+    )
+
+
+def structure_of_config(cfg: Any) -> Structure:
+    """The structure of a validated config (lattice concepts, :data:`LATTICE_CONCEPTS`)."""
+    if cfg.concept == "truss_magnetorquer":
+        return _truss_structure(cfg)
+    if cfg.concept == "current_loops":
+        return _loops_structure(cfg)
+    raise CliInputError(
+        f"SOURCE: concept {cfg.concept!r} has no structure yet (modes are computed for structure files, meshes, "
+        f"Nastran decks and the lattice concepts {list(LATTICE_CONCEPTS)})"
+    )
+
+
+def _toml_structure(path: Path) -> tuple[Structure, str]:
+    try:
+        tree = tomllib.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError:
+        raise CliInputError(f"SOURCE: {str(path)!r} is not a UTF-8 text (TOML) file") from None
+    except tomllib.TOMLDecodeError as err:
+        raise CliInputError(f"SOURCE: {str(path)!r} is not valid TOML: {err}") from None
+    if tree.get("format") == "magsail-structure":
+        from magsail_mj.structure.fileformat import read_structure
+
+        return read_structure(path).structure, "structure file"
+    if "concept" in tree:
+        return structure_of_config(load_config(path)), "config"
+    raise CliInputError(
+        f'SOURCE: {str(path)!r} is neither a structure file (format = "magsail-structure") nor a config (concept = ...)'
+    )
+
+
+def read_source(source: str) -> tuple[Structure, str]:
+    """The structure of ``source`` and its kind (module docstring); CliInputError naming ``SOURCE``."""
+    path = input_file(source, "SOURCE")
+    suffix = path.suffix.lower()
+    if suffix == ".toml":
+        return _toml_structure(path)
+    if suffix in NASTRAN_SUFFIXES:
+        from magsail_mj.structure.nastran import read_nastran
+
+        return read_nastran(path), "Nastran deck"
+    if suffix == ".msh":
+        from magsail_mj.structure.mesh import read_mesh
+
+        return read_mesh(path), "mesh"
+    raise CliInputError(
+        f"SOURCE: {str(path)!r} has suffix {suffix!r}; expected .toml (a structure file or a config), .msh "
+        f"(a mesh) or {', '.join(NASTRAN_SUFFIXES)} (a Nastran deck)"
+    )
+
+
+def _report(result: StructureModes, *, source: str, kind: str, count: int) -> dict[str, Any]:
+    p, s = result.participation, result.share
+    return {
+        "frequencies_Hz": result.frequencies_Hz,
+        "rigid_body_modes": result.n_zero,
+        "participation": {
+            "directions": list(RIGID_DIRECTIONS),
+            "about": "centre of mass, structure axes",
+            "center_of_mass_m": result.assembly.center_m,
+            "reference": p.reference,
+            "effective_mass": p.effective_mass,
+            "fraction": p.fraction,
+        },
+        "share": {
+            "in_plane": s.in_plane,
+            "bending": s.bending,
+            "twist": s.twist,
+            "axes": {"e1": s.axes[0], "e2": s.axes[1], "normal": s.axes[2]},
+            "symmetric": s.symmetric,
+        },
+        "n_dof": result.assembly.n_dof,
+        "count": count,
+        "solver": result.solver,
+        "source": {"path": source, "kind": kind},
+    }
+
+
+def _plot(result: StructureModes, structure: Structure, folder: Path) -> list[Path]:
+    """``mode_NN.png`` of the first elastic modes (at most :data:`MAX_PLOTS`) in ``folder``."""
+    # Matplotlib only when plots are asked for: the verb without --plot does not load it
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
+    from magsail_mj.plotting import new_figure, save_figure
+
+    folder.mkdir(parents=True, exist_ok=True)
+    p = structure.positions_m
+    ends = structure.members.nodes
+    size = float(np.ptp(p, axis=0).max()) or 1.0
+    shapes = result.node_translations()
+    written = []
+    for n in range(result.n_zero, min(result.frequencies_Hz.size, result.n_zero + MAX_PLOTS)):
+        u = shapes[n]
+        u = u * (_PLOT_FRACTION * size / max(float(np.linalg.norm(u, axis=1).max()), 1e-300))
+        fig, ax = new_figure(figsize=(6.0, 5.0), subplot_kw={"projection": "3d"})
+        for points, colour, label in ((p, "0.75", "undeformed"), (p + u, "C0", "mode shape (scaled)")):
+            if len(ends):
+                segments = np.stack([points[ends[:, 0]], points[ends[:, 1]]], axis=1)
+                ax.add_collection3d(Line3DCollection(segments, colors=colour, linewidths=0.6, label=label))
+            else:
+                ax.scatter(*points.T, s=2, color=colour, label=label)
+        ax.auto_scale_xyz(*[(p[:, i].min() - 0.1 * size, p[:, i].max() + 0.1 * size) for i in range(3)])
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.set_zlabel("z [m]")
+        ax.set_title(
+            f"mode {n + 1}: {result.frequencies_Hz[n]:.4g} Hz (in-plane {result.share.in_plane[n]:.2f}, "
+            f"bending {result.share.bending[n]:.2f}, twist {result.share.twist[n]:.2f})",
+            fontsize=9,
+        )
+        ax.legend(loc="upper left", fontsize=8)
+        written.append(save_figure(fig, folder / f"mode_{n + 1:02d}.png"))
+    return written
+
+
+def modes(args: argparse.Namespace) -> int:
+    """Print the modes of ``SOURCE`` as one JSON object (module docstring)."""
+    plot_dir = None
+    if args.plot is not None:
+        plot_dir = output_dir(args.plot, "--plot")
+        check_output_folder(plot_dir, option="--plot")
+    structure, kind = read_source(args.source)
+    check_memory(_BYTES_PER_DOF * dof_layout(structure).n_dof, what=f"modes {args.source}")
+    assembly = assemble(structure)
+    count = min(int(args.count), assembly.n_dof)
+    result = structure_modes(structure, k=count, assembly=assembly)
+    report = _report(result, source=args.source, kind=kind, count=count)
+    if plot_dir is not None:
+        report["plots"] = [str(path) for path in _plot(result, structure, plot_dir)]
+    print_json(report, what="SOURCE")
+    return 0
