@@ -146,7 +146,9 @@ def test_interrupt_stops_promptly_writes_summary_and_locks_folder(tmp_path, caps
     finally:
         proc.kill()
     assert proc.returncode == 130, stderr
-    assert took < 12, f"the sweep took {took:.1f} s to stop"
+    # the runs alone would take minutes (100 000 steps; 5 000 take about 6 s); 25 s leaves room for
+    # a machine busy with other tests (12.3 s was seen with both cores loaded)
+    assert took < 25, f"the sweep took {took:.1f} s to stop"
     assert "Traceback" not in stderr
     assert not any(_alive(p) for p in workers_seen)
     records = {r["id"]: r for r in json.loads((out / "sweep_summary.json").read_text())}
