@@ -8,7 +8,9 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_env.sh || exit 1
-.venv/bin/python -m pytest -q "$@"
+# on every core, at most 4 workers (pytest-xdist; work stealing evens out the long sweep and
+# render tests); `-n 0` as an argument runs in this process
+.venv/bin/python -m pytest -q -n auto --maxprocesses 4 --dist worksteal "$@"
 rc=$?
 if [ "$rc" -eq 5 ]; then echo "test.sh: no tests were collected" >&2; exit 1; fi
 if ! bash scripts/build_docs.sh; then echo "test.sh: the documentation build failed" >&2; exit 1; fi
