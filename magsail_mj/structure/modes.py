@@ -71,6 +71,7 @@ __all__ = [
     "ModeShares",
     "Participation",
     "StructureModes",
+    "mode_shares",
     "principal_frame",
     "structure_modes",
 ]
@@ -277,8 +278,8 @@ def _mirrors(coords: np.ndarray) -> tuple[np.ndarray, bool]:
     return np.array([i for _, i in found]), exact
 
 
-def _shares(structure: Structure, translations: np.ndarray) -> ModeShares:
-    """Shares of ``translations`` (k, n, 3) (module docstring)."""
+def mode_shares(structure: Structure, translations: np.ndarray) -> ModeShares:
+    """Shares of node translations ``translations`` (k, n, 3) [any length unit] (module docstring)."""
     _, center, inertia = structure.mass_properties()
     axes = principal_frame(inertia)
     coords = (structure.positions_m - center) @ axes.T
@@ -366,7 +367,7 @@ def structure_modes(
         n_zero=int(zero.sum()),
         shapes=phi,
         participation=_participation(assembly, phi),
-        share=_shares(structure, trans),
+        share=mode_shares(structure, trans),
         assembly=assembly,
         solver=use,
         sigma=shift,
