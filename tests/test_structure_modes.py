@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 
+import meshio
 import numpy as np
 import pytest
 from scipy import optimize
@@ -292,23 +293,46 @@ def test_verb_on_a_structure_file_and_a_lattice_config(tmp_path, capsys):
     the library call; a lattice config (truss detumble, 800 nodes: the sparse solver) likewise."""
     _, _, _, s = _lattice(units=3, side_m=6.0)
     write_structure(s, tmp_path / "lattice.toml")
-    code, out, err = _run(capsys, ["modes", str(tmp_path / "lattice.toml"), "--count", "12"])
+    code, out, err = _run(
+        capsys, ["modes", str(tmp_path / "lattice.toml"), "--count", "8", "--plot", str(tmp_path / "plots")]
+    )
     assert code == 0, err
     report = json.loads(out)
     f = np.array(report["frequencies_Hz"])
-    assert report["rigid_body_modes"] == 6 and report["count"] == 12 and report["source"]["kind"] == "structure file"
+    assert report["rigid_body_modes"] == 6 and report["count"] == 8 and report["source"]["kind"] == "structure file"
     assert np.all(np.diff(f) >= 0) and np.all(f[:6] == 0) and f[6] > 0
-    np.testing.assert_allclose(f, structure_modes(s, k=12).frequencies_Hz, rtol=1e-9)
-    assert len(report["share"]["twist"]) == 12 and len(report["participation"]["fraction"][0]) == 6
+    np.testing.assert_allclose(f, structure_modes(s, k=8).frequencies_Hz, rtol=1e-9)
+    assert len(report["share"]["twist"]) == 8 and len(report["participation"]["fraction"][0]) == 6
+    assert [p.rsplit("/", 1)[1] for p in report["plots"]] == ["mode_07.png", "mode_08.png"]
+    assert all((tmp_path / "plots" / name).stat().st_size > 0 for name in ("mode_07.png", "mode_08.png"))
 
     config = "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml"
-    code, out, err = _run(capsys, ["modes", config, "--count", "8", "--plot", str(tmp_path / "plots")])
+    code, out, err = _run(capsys, ["modes", config, "--count", "8"])
     assert code == 0, err
     report = json.loads(out)
     assert report["rigid_body_modes"] == 6 and report["solver"] == "sparse" and report["n_dof"] == 2400
-    assert np.all(np.diff(report["frequencies_Hz"]) >= 0)
-    assert [p.rsplit("/", 1)[1] for p in report["plots"]] == ["mode_07.png", "mode_08.png"]
-    assert all((tmp_path / "plots" / name).stat().st_size > 0 for name in ("mode_07.png", "mode_08.png"))
+    assert np.all(np.diff(report["frequencies_Hz"]) >= 0) and report["frequencies_Hz"][6] > 0
+
+
+def test_verb_on_a_nastran_deck(tmp_path, capsys):
+    """A Nastran cantilever of 20 CBARs (v along y: plane 1 is x–y, I1 < I2): the first two
+    frequencies are the Euler–Bernoulli ones of E I1 and E I2 (the verb's HRZ-lumped mass: 1 %), the
+    E I1 mode moving along y and the E I2 mode along z (effective mass fractions)."""
+    n, E, rho, A, I1, I2 = 20, 7e10, 2700.0, 1e-4, 2e-8, 5e-8
+    cards = ["BEGIN BULK"] + [f"GRID,{i + 1},,{L_M * i / n:.6f},0.,0." for i in range(n + 1)]
+    cards += [f"CBAR,{i + 1},1,{i + 1},{i + 2},0.,1.,0." for i in range(n)]
+    cards += ["PBAR,1,1,1.-4,2.-8,5.-8,1.-8", "MAT1,1,7.+10,2.7+10,,2700.", "SPC1,1,123456,1", "ENDDATA"]
+    deck = tmp_path / "boom.bdf"
+    deck.write_text("\n".join(cards) + "\n")
+    code, out, err = _run(capsys, ["modes", str(deck), "--count", "4"])
+    assert code == 0, err
+    report = json.loads(out)
+    assert report["rigid_body_modes"] == 0 and report["source"]["kind"] == "Nastran deck"
+    beta2 = CANTILEVER_BETA[0] ** 2 / (2 * np.pi * L_M**2)
+    expected = [beta2 * np.sqrt(E * I1 / (rho * A)), beta2 * np.sqrt(E * I2 / (rho * A))]
+    np.testing.assert_allclose(report["frequencies_Hz"][:2], expected, rtol=1e-2)
+    fraction = np.array(report["participation"]["fraction"])
+    assert fraction[0, 1] > 0.6 and fraction[1, 2] > 0.6 and fraction[0, 2] < 1e-12 and fraction[1, 1] < 1e-12
 
 
 def test_verb_refusals_name_the_argument(tmp_path, capsys):
@@ -319,6 +343,9 @@ def test_verb_refusals_name_the_argument(tmp_path, capsys):
     assert code == 2 and err.startswith("error: SOURCE:") and ".stl" in err, err
     code, _, err = _run(capsys, ["modes", str(tmp_path / "missing.toml")])
     assert code == 2 and err.startswith("error: SOURCE: no such file"), err
+    meshio.write(tmp_path / "bare.msh", meshio.Mesh(np.eye(3), [("line", np.array([[0, 1], [1, 2]]))]), "gmsh22")
+    code, out, err = _run(capsys, ["modes", str(tmp_path / "bare.msh")])
+    assert code == 2 and err.startswith("error: SOURCE:") and "write_structure" in err and out == "", err
     code, _, err = _run(capsys, ["modes", str(tmp_path / "x.stl"), "--count", "0"])
     assert code == 2 and err.startswith("error: --count"), err
     config = "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml"

@@ -9,7 +9,9 @@
   spring constants (``EA = k l0``), as the concept's model builder makes them; a
   ``truss_magnetorquer`` ``cantilever`` scenario has its ``i = 0`` edge clamped. Another concept's
   config has no structure yet (exit 2);
-* a mesh (``.msh`` and the other formats meshio reads, :func:`magsail_mj.structure.mesh.read_mesh`);
+* a gmsh mesh (``.msh``, :func:`magsail_mj.structure.mesh.read_mesh` without properties: only a
+  mesh whose elements need none, so in practice a mesh is read in Python with its properties and
+  saved as a structure file);
 * a Nastran bulk-data deck (``.bdf``, ``.dat``, ``.nas``, :func:`magsail_mj.structure.nastran.read_nastran`).
 
 The modes are :func:`magsail_mj.structure.modes.structure_modes` (lumped mass). The JSON object:
@@ -37,7 +39,7 @@ from magsail_mj.config import load_config
 from magsail_mj.io import check_output_folder
 from magsail_mj.resources import check_memory
 from magsail_mj.structure.assembly import assemble, dof_layout
-from magsail_mj.structure.model import Members, Structure
+from magsail_mj.structure.model import Members, Structure, StructureError
 from magsail_mj.structure.modes import RIGID_DIRECTIONS, StructureModes, structure_modes
 from magsail_mj.verbs.common import input_file, output_dir, print_json
 
@@ -152,7 +154,14 @@ def read_source(source: str) -> tuple[Structure, str]:
     if suffix == ".msh":
         from magsail_mj.structure.mesh import read_mesh
 
-        return read_mesh(path), "mesh"
+        try:
+            return read_mesh(path), "mesh"
+        except StructureError as err:
+            raise CliInputError(
+                f"SOURCE: {err} (a mesh file holds no member or panel properties: read it in Python with "
+                "magsail_mj.structure.mesh.read_mesh(path, groups=..., members=...), save it with "
+                "magsail_mj.structure.fileformat.write_structure and give that structure file)"
+            ) from None
     raise CliInputError(
         f"SOURCE: {str(path)!r} has suffix {suffix!r}; expected .toml (a structure file or a config), .msh "
         f"(a mesh) or {', '.join(NASTRAN_SUFFIXES)} (a Nastran deck)"
