@@ -22,6 +22,7 @@ with warnings.catch_warnings():
     warnings.simplefilter("ignore", RuntimeWarning)
     ensure_gl_backend()
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -791,9 +792,9 @@ def test_video_says_why_a_run_ended(tmp_path, gl, monkeypatch):
     drawn: list[dict] = []
     original = compose.draw_overlay
 
-    def record(image, **kwargs):
-        drawn.append(kwargs)
-        return original(image, **kwargs)
+    def record(image, text, **kwargs):
+        drawn.append({**kwargs, "text": text, "end_line": text.end_line})
+        return original(image, text, **kwargs)
 
     monkeypatch.setattr(compose, "draw_overlay", record)
     frames = list(render_frames(tmp_path / "long", compare=tmp_path / "short", width=96, height=54, antialias=False))
@@ -809,8 +810,10 @@ def test_video_says_why_a_run_ended(tmp_path, gl, monkeypatch):
     assert [d["ended"] for d in drawn] == [False] * 4 + [True]
     # the overlay prints it: the panel differs from one drawn without the reason
     image = np.zeros((54, 96, 3), np.uint8)
-    args = {**right[-1], "ended": True}
-    assert not np.array_equal(original(image, **args), original(image, **{**args, "end_line": ""}))
+    last = right[-1]
+    args = {"time_s": last["time_s"], "values": last["values"], "ended": True}
+    plain = dataclasses.replace(last["text"], end_line="")
+    assert not np.array_equal(original(image, last["text"], **args), original(image, plain, **args))
 
 
 # --------------------------------------------------------------------------- framing
@@ -858,33 +861,19 @@ def test_structure_stays_clear_of_the_overlay(tmp_path, gl, monkeypatch, units, 
     drawn: list[tuple[np.ndarray, dict]] = []
     original = compose.draw_overlay
 
-    def record(image, **kwargs):
-        drawn.append((image.copy(), kwargs))  # the rendered structure, before the overlay
-        return original(image, **kwargs)
+    def record(image, text, **kwargs):
+        drawn.append((image.copy(), text, kwargs))  # the rendered structure, before the overlay
+        return original(image, text, **kwargs)
 
     monkeypatch.setattr(compose, "draw_overlay", record)
     frames = list(render_frames(tmp_path / "a", **options))
     assert len(frames) == 5 and len(drawn) == 5 * (1 + (compare is not None))
     areas = []
-    for image, kw in drawn:
+    for image, text, kw in drawn:
         h, w = image.shape[:2]
         x0, y0, x1, y1 = _structure_bbox(image)
         assert 0 < x0 and 0 < y0 and x1 < w and y1 < h, f"structure at {(x0, y0, x1, y1)} leaves the panel"
-        boxes = overlay_boxes(
-            w,
-            h,
-            title=kw["title"],
-            lines=[format_time(kw["time_s"]), *kw["values"]],
-            end_line=kw["end_line"] if kw["ended"] else "",
-            legend=kw["legend"],
-            identity=kw["identity"],
-            exaggeration=kw["exaggeration"],
-            label=kw["label"],
-            colour_bar=kw["colour_bar"],
-            inset=kw["inset"],
-            names=kw["names"],
-            units=kw["units"],
-        )
+        boxes = overlay_boxes(w, h, text, lines=[format_time(kw["time_s"]), *kw["values"]], ended=kw["ended"])
         for b in boxes:
             clear = b[2] <= x0 or b[0] >= x1 or b[3] <= y0 or b[1] >= y1
             assert clear, f"structure at {(x0, y0, x1, y1)} runs under the overlay box {b}"

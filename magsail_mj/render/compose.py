@@ -76,6 +76,7 @@ from magsail_mj.render.overlay import (
     format_time,
     format_value,
     free_rectangles,
+    PanelText,
     overlay_boxes,
 )
 from magsail_mj.render.video import Mp4Writer
@@ -1309,21 +1310,10 @@ def _frame_scenes(
     for run, scene, end, legend, label, k in zip(runs, scenes, ended, legends, labels, ks):
         w, h = scene.width, scene.height
         shows_end = bool(end.any()) or run.ended_early
-        boxes = overlay_boxes(
-            w,
-            h,
-            title=run.title,
-            lines=_widest_lines(run, frame_t),
-            end_line=run.end_line if shows_end else "",
-            legend=legend,
-            identity=run.identity,
-            exaggeration=k,
-            label=label,
-            colour_bar=bar if scene.top_bodies is not None else None,
-            inset=Inset(run.inset[0], run.t, run.inset[1], 0) if run.inset is not None else None,
-            names=run.names,
-            units=run.units,
+        text = _panel_text(
+            run, legend=legend, exaggeration=k, label=label, bar=bar if scene.top_bodies is not None else None
         )
+        boxes = overlay_boxes(w, h, text, lines=_widest_lines(run, frame_t), ended=shows_end)
         # clear of the overlay by a small gap and by the largest drawn node radius (render-only floor)
         margin = max(2.0, h / 60) + _MIN_PX["top_node"]
         rects = free_rectangles(w, h, boxes, margin=margin) or [(margin, margin, w - margin, h - margin)]
@@ -1362,22 +1352,39 @@ def _compose(
 ) -> np.ndarray:
     """One panel: the rendered ``image`` of record ``record`` with its overlay."""
     last = record == run.t.size - 1 and run.ended_early  # a run that failed, diverged or stopped
-    return draw_overlay(
-        image,
+    text = _panel_text(
+        run,
+        legend=legend,
+        exaggeration=exaggeration,
+        label=label,
+        bar=bar if scene.top_bodies is not None else None,
+        inset_upto=record,
+    )
+    values = [
+        format_value(n, s[record], names=run.names, units=run.units, labels=run.labels) for n, s in run.series.items()
+    ]
+    return draw_overlay(image, text, time_s=float(run.t[record]), ended=ended or last, values=values)
+
+
+def _panel_text(
+    run: RunData,
+    *,
+    legend: list[LegendEntry],
+    exaggeration: float,
+    label: str | None,
+    bar: ColourBar | None,
+    inset_upto: int = 0,
+) -> PanelText:
+    """The overlay text of a run's panel (its inset drawn up to record ``inset_upto``)."""
+    return PanelText(
         title=run.title,
-        time_s=float(run.t[record]),
-        ended=ended or last,
         end_line=run.end_line,
-        values=[
-            format_value(n, s[record], names=run.names, units=run.units, labels=run.labels)
-            for n, s in run.series.items()
-        ],
         legend=legend,
         identity=run.identity,
         exaggeration=exaggeration,
         label=label,
-        colour_bar=bar if scene.top_bodies is not None else None,
-        inset=Inset(run.inset[0], run.t, run.inset[1], record) if run.inset is not None else None,
+        colour_bar=bar,
+        inset=Inset(run.inset[0], run.t, run.inset[1], inset_upto) if run.inset is not None else None,
         names=run.names,
         units=run.units,
     )

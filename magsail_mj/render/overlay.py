@@ -42,6 +42,7 @@ __all__ = [
     "ColourBar",
     "Inset",
     "LegendEntry",
+    "PanelText",
     "colormap",
     "draw_overlay",
     "free_rectangles",
@@ -249,6 +250,34 @@ def _draw_legend(
         draw.text((x_text, y), e.text, font=font, **ink)
         y += size + gap
     return y
+
+
+@dataclass(frozen=True)
+class PanelText:
+    """What a panel's overlay says, besides the time and the values of a frame.
+
+    Attributes:
+      title: first line, top left (shrunk to fit the width).
+      end_line: why the run ended (:func:`magsail_mj.render.ending.end_reason`), printed in
+        orange under the values once the run has ended; without it an ended run reads "(run ended)".
+      legend: the legend rows, top right.
+      identity: the bottom-right line (scenario and config hash).
+      exaggeration: out-of-plane factor k; "×k exaggerated" is printed when k != 1.
+      label: the panel label (bottom centre) or ``None``.
+      colour_bar: the node-height colour bar or ``None``.
+      inset: the inset plot or ``None``; ``names``/``units``: its series' name and unit overrides.
+    """
+
+    title: str
+    end_line: str = ""
+    legend: Sequence[LegendEntry] = ()
+    identity: str = ""
+    exaggeration: float = 1.0
+    label: str | None = None
+    colour_bar: ColourBar | None = None
+    inset: Inset | None = None
+    names: Mapping[str, str] | None = None
+    units: Mapping[str, str] | None = None
 
 
 @dataclass(frozen=True)
@@ -489,42 +518,32 @@ def _exaggeration_text(k: float) -> str:
     return f"×{k:g} exaggerated (out-of-plane motion)"
 
 
-def overlay_boxes(
-    width: int,
-    height: int,
-    *,
-    title: str,
-    lines: Sequence[str],
-    end_line: str = "",
-    legend: Sequence[LegendEntry] = (),
-    identity: str = "",
-    exaggeration: float = 1.0,
-    label: str | None = None,
-    colour_bar: ColourBar | None = None,
-    inset: Inset | None = None,
-    names: Mapping[str, str] | None = None,
-    units: Mapping[str, str] | None = None,
-) -> list[Box]:
+def overlay_boxes(width: int, height: int, text: PanelText, *, lines: Sequence[str], ended: bool) -> list[Box]:
     """The boxes (x0, y0, x1, y1) [px, y downwards] that the overlay of :func:`draw_overlay`
-    covers on a ``width`` x ``height`` panel, with the same arguments (``lines``: the time line
-    and the value lines as drawn, the longest of the run for a whole video)."""
+    covers on a ``width`` x ``height`` panel with ``text`` (``lines``: the time line and the value
+    lines as drawn, the longest of the run for a whole video; ``ended``: the end line is shown)."""
     draw = ImageDraw.Draw(Image.new("RGB", (1, 1)))
-    header = _inset_header(inset, names=names, units=units) if inset is not None else None
-    return list(
-        _layout(
-            draw,
-            int(width),
-            int(height),
-            title=title,
-            lines=lines,
-            end_line=end_line,
-            legend=legend,
-            identity=identity,
-            exaggeration=exaggeration,
-            label=label,
-            colour_bar=colour_bar,
-            inset_header=header,
-        ).boxes
+    return list(_text_layout(draw, int(width), int(height), text, lines=lines, ended=ended).boxes)
+
+
+def _text_layout(
+    draw: ImageDraw.ImageDraw, w: int, h: int, text: PanelText, *, lines: Sequence[str], ended: bool
+) -> _Layout:
+    """:func:`_layout` of ``text`` with ``lines`` (the end line only once the run has ended)."""
+    header = _inset_header(text.inset, names=text.names, units=text.units) if text.inset is not None else None
+    return _layout(
+        draw,
+        w,
+        h,
+        title=text.title,
+        lines=lines,
+        end_line=text.end_line if ended else "",
+        legend=text.legend,
+        identity=text.identity,
+        exaggeration=text.exaggeration,
+        label=text.label,
+        colour_bar=text.colour_bar,
+        inset_header=header,
     )
 
 
@@ -558,57 +577,24 @@ def free_rectangles(width: int, height: int, boxes: Sequence[Box], *, margin: fl
 
 
 def draw_overlay(
-    image: np.ndarray,
-    *,
-    title: str,
-    time_s: float,
-    ended: bool,
-    values: Sequence[str],
-    end_line: str = "",
-    legend: Sequence[LegendEntry] = (),
-    identity: str = "",
-    exaggeration: float = 1.0,
-    label: str | None = None,
-    colour_bar: ColourBar | None = None,
-    inset: Inset | None = None,
-    names: Mapping[str, str] | None = None,
-    units: Mapping[str, str] | None = None,
+    image: np.ndarray, text: PanelText, *, time_s: float, ended: bool, values: Sequence[str]
 ) -> np.ndarray:
     """The frame ``image`` (H, W, 3) uint8 with its overlay drawn (layout: module docstring).
 
     Args:
-      title: first line, top left (shrunk to fit the width).
+      text: the title, legend, end line, … of the panel (:class:`PanelText`).
       time_s: the frame's record time [s]; ``ended``: the run ended before the frame time.
       values: overlay lines (:func:`format_value`).
-      end_line: why the run ended (:func:`magsail_mj.render.ending.end_reason`), printed in
-        orange under the values when ``ended``; without it an ended run reads "(run ended)".
-      legend: the legend rows, top right.
-      identity: the bottom-right line (scenario and config hash).
-      exaggeration: out-of-plane factor k; "×k exaggerated" is printed when k != 1.
-      label: the panel label (bottom centre) or ``None``.
-      colour_bar: the node-height colour bar or ``None``.
-      inset: the inset plot or ``None``; ``names``/``units``: its series' name and unit overrides.
     """
     h, w = image.shape[:2]
     img = Image.fromarray(image)
     draw = ImageDraw.Draw(img)
-    time_line = format_time(time_s) + ("  (run ended)" if ended and not end_line else "")
+    time_line = format_time(time_s) + ("  (run ended)" if ended and not text.end_line else "")
     lines = [time_line, *values]
-    header = _inset_header(inset, names=names, units=units) if inset is not None else None
-    lay = _layout(
-        draw,
-        w,
-        h,
-        title=title,
-        lines=lines,
-        end_line=end_line if ended else "",
-        legend=legend,
-        identity=identity,
-        exaggeration=exaggeration,
-        label=label,
-        colour_bar=colour_bar,
-        inset_header=header,
-    )
+    lay = _text_layout(draw, w, h, text, lines=lines, ended=ended)
+    title, end_line, legend, identity = text.title, text.end_line, text.legend, text.identity
+    exaggeration, colour_bar, inset = text.exaggeration, text.colour_bar, text.inset
+    names, units, label = text.names, text.units, text.label
     size, pad = lay.size, lay.pad
     small = _font(size)
     ink = {"fill": _WHITE, "stroke_width": max(1, size // 9), "stroke_fill": _BLACK}
