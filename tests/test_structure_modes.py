@@ -4,6 +4,7 @@ the lattice's own dense solver."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import meshio
@@ -26,7 +27,9 @@ EI = (2.0e3, 3.0e3)  # plane 1 (local x–y), plane 2 (local x–z) [N m²]
 EA_N, GJ_NM2 = 1.0e6, 1.0e3
 
 
-def boom(*, clamped: bool, axis=(1.0, 0.0, 0.0), orientation=None, n: int = N_EL) -> Structure:
+def boom(
+    *, clamped: bool, axis=(1.0, 0.0, 0.0), orientation=None, n: int = N_EL, linear_density: float = RHO_A
+) -> Structure:
     """A straight boom of ``n`` beam elements from the origin along ``axis``, root clamped or free."""
     direction = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
     p = np.linspace(0.0, L_M, n + 1)[:, None] * direction
@@ -37,7 +40,7 @@ def boom(*, clamped: bool, axis=(1.0, 0.0, 0.0), orientation=None, n: int = N_EL
         EA_N=EA_N,
         EI_Nm2=np.tile(EI, (n, 1)),
         GJ_Nm2=GJ_NM2,
-        linear_density_kg_m=RHO_A,
+        linear_density_kg_m=linear_density,
         orientation=orientation,
     )
     fixed = np.zeros((n + 1, 6), dtype=bool)
@@ -97,6 +100,26 @@ def test_free_beam_has_six_rigid_modes_and_the_free_free_frequency():
         expected = [bending_Hz(FREE_BETA[0], EI[0]), bending_Hz(FREE_BETA[0], EI[1])]
         np.testing.assert_allclose(r.frequencies_Hz[6:8], expected, rtol=1e-4)
         assert r.frequencies_Hz[8] > r.frequencies_Hz[7]
+
+
+def test_massless_cantilever_with_a_tip_mass():
+    """Massless beams, a point mass m at the tip: the mass matrix is singular (no rotary inertia,
+    no mass at the inner nodes), which the dense solver meets with its shift-inverted pair. The
+    static condensation onto the tip is exact (Hermite elements), so the lowest frequencies are
+    ω² = 3 EI / (m L³) in each plane, to 1e-9. Only the tip's three coordinates carry mass: three
+    finite modes, of which the sparse solver finds one (its Krylov space needs two more)."""
+    tip_mass = np.zeros(N_EL + 1)
+    tip_mass[-1] = 2.0
+    s = dataclasses.replace(boom(clamped=True, linear_density=0.0), node_mass_kg=tip_mass)
+    expected = [3 * EI[0] / (2.0 * L_M**3), 3 * EI[1] / (2.0 * L_M**3), EA_N / (2.0 * L_M)]
+    r = structure_modes(s, k=3, solver="dense")
+    np.testing.assert_allclose(r.omega_rad_s**2, expected, rtol=1e-9)
+    r = structure_modes(s, k=1, solver="sparse")
+    np.testing.assert_allclose(r.omega_rad_s**2, expected[:1], rtol=1e-9)
+    with pytest.raises(ValueError, match="^k: 3 coordinates carry mass"):
+        structure_modes(s, k=2, solver="sparse")
+    with pytest.raises(ValueError, match="^k: only 3 finite-frequency modes exist"):
+        structure_modes(s, k=4, solver="dense")
 
 
 def test_beam_orientation_sets_the_plane_of_EI1():
