@@ -735,7 +735,7 @@ def _add_modes_verb(sub: Any) -> None:
         "the lowest modes of a structure: frequencies, rigid-body participation, in-plane/bending/twist "
         "shares (one JSON object on stdout)",
         _cmd_modes,
-        {"source": "SOURCE", "count": "--count", "plot": "--plot"},
+        {"source": "SOURCE", "count": "--count", "k": "--count", "plot": "--plot"},
     )
     md.add_argument(
         "source",

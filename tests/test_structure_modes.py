@@ -369,6 +369,12 @@ def test_verb_refusals_name_the_argument(tmp_path, capsys):
     meshio.write(tmp_path / "bare.msh", meshio.Mesh(np.eye(3), [("line", np.array([[0, 1], [1, 2]]))]), "gmsh22")
     code, out, err = _run(capsys, ["modes", str(tmp_path / "bare.msh")])
     assert code == 2 and err.startswith("error: SOURCE:") and "write_structure" in err and out == "", err
+    tip_mass = np.zeros(N_EL + 1)
+    tip_mass[-1] = 2.0
+    massless = dataclasses.replace(boom(clamped=True, linear_density=0.0), node_mass_kg=tip_mass)
+    write_structure(massless, tmp_path / "b.toml")
+    code, _, err = _run(capsys, ["modes", str(tmp_path / "b.toml"), "--count", "5"])
+    assert code == 2 and err.startswith("error: --count: only 3 finite-frequency modes exist"), err
     code, _, err = _run(capsys, ["modes", str(tmp_path / "x.stl"), "--count", "0"])
     assert code == 2 and err.startswith("error: --count"), err
     config = "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml"
