@@ -1,8 +1,11 @@
 """Model builder of the flexible truss concept: config → lattice → masses, springs → MjSpec.
 
 Robb et al. 2022a: lattice, masses, stiffness, damping, and the torquer
-struts). The lattice assembly itself is :mod:`magsail_mj.lattice.geometry`; the MjSpec is
-:func:`magsail_mj.lattice.mjcf.build_truss_spec`.
+struts). The lattice assembly itself is :mod:`magsail_mj.lattice.geometry`; the lattice with its
+masses, springs and dashpots becomes a :class:`~magsail_mj.structure.model.Structure`
+(:func:`~magsail_mj.structure.generators.plates.lattice_structure`), whose MjSpec is
+:func:`magsail_mj.structure.mjcf.build_structure_spec` — the same model arrays as
+:func:`magsail_mj.lattice.mjcf.build_truss_spec` of the lattice (tests/test_structure_truss.py).
 """
 
 from __future__ import annotations
@@ -19,7 +22,9 @@ from magsail_mj.lattice.properties import (
     strut_damping,
     strut_stiffness,
 )
-from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec
+from magsail_mj.structure.generators.plates import lattice_structure
+from magsail_mj.structure.mjcf import build_structure_spec
+from magsail_mj.structure.model import Structure
 from magsail_mj.concepts.truss_magnetorquer.config import (
     ActuatorsConfig,
     StiffnessConfig,
@@ -28,7 +33,14 @@ from magsail_mj.concepts.truss_magnetorquer.config import (
 )
 from magsail_mj.concepts.truss_magnetorquer.twist import diagonal_struts, twist_scaling
 
-__all__ = ["TrussModel", "make_truss_model", "make_cantilever_model", "actuated_struts", "spring_constants"]
+__all__ = [
+    "TrussModel",
+    "make_truss_model",
+    "make_cantilever_model",
+    "actuated_struts",
+    "axial_rigidities",
+    "spring_constants",
+]
 
 
 @dataclass
@@ -39,7 +51,8 @@ class TrussModel:
     ``calibration_factor``); ``gamma`` the strut dashpot constant [N s/m]; ``particle_mass_kg``
     M / n [kg]; ``total_kg`` M [kg]; ``spec`` the MjSpec; ``fixed_nodes`` the clamped nodes;
     ``twist_diagonal_ratio`` the face diagonals' spring constant per unit EA/l0 over the edges'
-    (1 unless ``stiffness.twist = "plate"``).
+    (1 unless ``stiffness.twist = "plate"``); ``structure`` the lattice as a structure (what the
+    MjSpec is built from).
     """
 
     lattice: Lattice
@@ -52,6 +65,7 @@ class TrussModel:
     spec: mujoco.MjSpec
     fixed_nodes: tuple[int, ...] = ()
     twist_diagonal_ratio: float = 1.0
+    structure: Structure | None = None
 
 
 def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: float = 0.0) -> TrussModel:
@@ -64,18 +78,24 @@ def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: floa
         central_fraction=cfg.mass.central_fraction,
         point_masses=[(p.node, p.kg) for p in cfg.mass.point_masses],
     )
-    k, c, ratio = spring_constants(lat, cfg.stiffness)
+    EA, c, ratio = axial_rigidities(lat, cfg.stiffness)
+    k = EA / lat.rest_length
     m_p = total / lat.n_nodes
     gamma = strut_damping(lat, k, zeta=cfg.damping.zeta_strut, particle_mass_kg=m_p)
-    opts = TrussModelOptions(
+    structure = lattice_structure(
+        lat, masses_kg=masses, EA_N=EA, damping_Ns_m=gamma, fixed_nodes=tuple(int(i) for i in fixed_nodes)
+    )
+    a = lat.cube_edge_m
+    spec = build_structure_spec(
+        structure,
         timestep_s=cfg.sim.timestep_s,
         integrator=cfg.sim.integrator,
-        solver_tolerance=cfg.sim.solver_tolerance,
-        fixed_nodes=tuple(int(i) for i in fixed_nodes),
-        node_damping_1_s=node_damping_1_s,
         name=f"truss_{cfg.scenario}",
+        node_damping_1_s=node_damping_1_s,
+        solver_tolerance=cfg.sim.solver_tolerance,
+        node_radius_m=0.04 * a,  # the truss builder's sizes (the structure builder's default is
+        member_width_m=0.015 * a,  # relative to the median member, the same length here)
     )
-    spec = build_truss_spec(lat, masses=masses, stiffness=k, damping=gamma, options=opts)
     return TrussModel(
         lattice=lat,
         masses=masses,
@@ -87,24 +107,32 @@ def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: floa
         spec=spec,
         fixed_nodes=tuple(fixed_nodes),
         twist_diagonal_ratio=ratio,
+        structure=structure,
     )
 
 
 def spring_constants(lat: Lattice, stiffness: StiffnessConfig) -> tuple[np.ndarray, float, float]:
-    """Strut spring constants [N/m], the overall calibration factor ``c`` and the diagonal ratio ρ.
+    """Strut spring constants [N/m], the overall calibration factor ``c`` and the diagonal ratio ρ:
+    ``k_s = EA_s / l0_s`` with the axial rigidities of :func:`axial_rigidities`."""
+    EA, c, ratio = axial_rigidities(lat, stiffness)
+    return EA / lat.rest_length, c, ratio
 
-    ``twist = "lattice"``: ``k_s = c EA / l0_s``. ``twist = "plate"``:
-    ``k_s = c EA / l0_s · (ρ on face diagonals, 1 on edges)`` with ρ and c of
+
+def axial_rigidities(lat: Lattice, stiffness: StiffnessConfig) -> tuple[np.ndarray, float, float]:
+    """Strut axial rigidities ``EA_s`` [N], the overall calibration factor ``c`` and the diagonal
+    ratio ρ.
+
+    ``twist = "lattice"``: ``EA_s = c EA`` (Eq. 8, cantilever-calibrated). ``twist = "plate"``:
+    ``EA_s = c EA · (ρ on face diagonals, 1 on edges)`` with ρ and c of
     :func:`~magsail_mj.concepts.truss_magnetorquer.twist.twist_scaling` (plate twist frequency,
     cantilever EI kept).
     """
-    if stiffness.twist == "lattice":
-        k, c = strut_stiffness(lat, EI_Nm2=stiffness.EI_Nm2, calibration=stiffness.calibration)
-        return k, c, 1.0
-    ts = twist_scaling(lat.units, lat.diagonals, float(stiffness.poisson_ratio))
     EA = axial_rigidity_from_EI(stiffness.EI_Nm2, nodes_per_side=lat.nodes_per_side, cube_edge_m=lat.cube_edge_m)
-    k = ts.scale * EA / lat.rest_length * np.where(diagonal_struts(lat), ts.ratio, 1.0)
-    return k, ts.scale, ts.ratio
+    if stiffness.twist == "lattice":
+        _, c = strut_stiffness(lat, EI_Nm2=stiffness.EI_Nm2, calibration=stiffness.calibration)
+        return np.full(lat.n_struts, c * EA), c, 1.0
+    ts = twist_scaling(lat.units, lat.diagonals, float(stiffness.poisson_ratio))
+    return ts.scale * EA * np.where(diagonal_struts(lat), ts.ratio, 1.0), ts.scale, ts.ratio
 
 
 def actuated_struts(lat: Lattice, act: ActuatorsConfig, axis: str) -> np.ndarray:

@@ -34,7 +34,7 @@ from magsail_mj.structure.generators.common import (
 )
 from magsail_mj.structure.model import Members, Structure
 
-__all__ = ["square_plate_lattice", "octet_plate", "offset_grid_plate"]
+__all__ = ["square_plate_lattice", "octet_plate", "offset_grid_plate", "lattice_structure"]
 
 _XY_DIAGONAL = STRUT_KINDS.index("xy_diagonal")
 
@@ -121,6 +121,43 @@ def uniform_strut_plate(
         members=members,
         node_sets=node_sets,
         member_sets=member_sets,
+    )
+
+
+def lattice_structure(
+    lat: Lattice,
+    *,
+    masses_kg: np.ndarray,
+    EA_N: float | np.ndarray,
+    damping_Ns_m: float | np.ndarray,
+    fixed_nodes: np.ndarray | tuple[int, ...] = (),
+    name: str = "square_plate_lattice",
+) -> Structure:
+    """The shipped lattice with given particle masses, strut axial rigidities (one or per strut:
+    spring constants ``EA / l0``) and dashpots as a :class:`Structure` (the sets of
+    :func:`square_plate_lattice`; ``fixed_nodes`` held in all three translations): what the
+    truss concept builds its model from."""
+    members = Members.build(
+        lat.struts,
+        positions_m=lat.nodes,
+        EA_N=EA_N,
+        damping_Ns_m=damping_Ns_m,
+        rest_length_m=lat.rest_length,
+    )
+    node_sets, member_sets = lattice_sets(
+        lat.ijk, lat.struts, lat.kind, np.ones((lat.units, lat.units), bool), ("x_edge", "y_edge")
+    )
+    node_sets["central_cube"] = central_cube_nodes(lat)
+    fixed = np.zeros((lat.n_nodes, 6), dtype=bool)
+    fixed[np.asarray(fixed_nodes, dtype=np.int64), :3] = True
+    return Structure(
+        name=name,
+        positions_m=np.array(lat.nodes),
+        node_mass_kg=np.asarray(masses_kg, dtype=float),
+        members=members,
+        node_sets=node_sets,
+        member_sets=member_sets,
+        fixed_dofs=fixed,
     )
 
 
