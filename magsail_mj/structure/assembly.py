@@ -238,7 +238,12 @@ def _beam_dofs(layout: DofLayout, ends: np.ndarray) -> np.ndarray:
 
 
 def _fill_bending(
-    local: np.ndarray, dofs: np.ndarray, scale: np.ndarray, l: np.ndarray, terms: tuple, sign=None
+    local: np.ndarray,
+    dofs: np.ndarray,
+    scale: np.ndarray,
+    l: np.ndarray,
+    terms: tuple[np.ndarray, np.ndarray, np.ndarray],
+    sign: np.ndarray | None = None,
 ) -> None:
     """Add ``scale · (A + B l + C l²)`` (per element) at ``dofs`` of ``local`` (m, 12, 12)."""
     block = scale[:, None, None] * (terms[0] + l[:, None, None] * terms[1] + (l * l)[:, None, None] * terms[2])

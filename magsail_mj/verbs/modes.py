@@ -12,14 +12,16 @@
 * a gmsh mesh (``.msh``, :func:`magsail_mj.structure.mesh.read_mesh` without properties: only a
   mesh whose elements need none, so in practice a mesh is read in Python with its properties and
   saved as a structure file);
-* a Nastran bulk-data deck (``.bdf``, ``.dat``, ``.nas``, :func:`magsail_mj.structure.nastran.read_nastran`).
+* a Nastran bulk-data deck (``.bdf``, ``.dat``, ``.nas``,
+  :func:`magsail_mj.structure.nastran.read_nastran`).
 
 The modes are :func:`magsail_mj.structure.modes.structure_modes` (lumped mass). The JSON object:
 ``frequencies_Hz`` (ascending, the zero modes first), ``rigid_body_modes`` (the number of zero
-modes: rigid-body motions and mechanisms), ``participation`` (rigid-body directions, effective
-masses and their fractions per mode), ``share`` (in-plane, bending and twist per mode, and the
-principal axes), ``n_dof`` (the independent coordinates), ``count`` (modes computed: ``--count``,
-at most ``n_dof``), ``solver`` and ``source`` (path and kind). ``--plot DIR`` writes
+modes: rigid-body motions and mechanisms; ``zero_mode_rule`` states the clamp), ``participation``
+(rigid-body directions, effective masses and their fractions per mode), ``share`` (in-plane,
+bending and twist per mode, and the principal axes), ``n_dof`` (the independent coordinates),
+``count`` (modes computed: ``--count``, at most ``n_dof``), ``solver`` and ``source`` (path and
+kind). ``--plot DIR`` writes
 ``mode_NN.png`` for the elastic modes among them (at most :data:`MAX_PLOTS`): the structure's
 members undeformed and in the mode shape, scaled so the largest node displacement is a tenth of
 the structure's size; their paths are listed in ``plots``.
@@ -173,6 +175,7 @@ def _report(result: StructureModes, *, source: str, kind: str, count: int) -> di
     return {
         "frequencies_Hz": result.frequencies_Hz,
         "rigid_body_modes": result.n_zero,
+        "zero_mode_rule": f"|omega^2| <= {result.zero_tol:g} |phi|^T |K| |phi| (clamped to 0)",
         "participation": {
             "directions": list(RIGID_DIRECTIONS),
             "about": "centre of mass, structure axes",
