@@ -20,8 +20,8 @@ import numpy as np
 
 from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.structure.assembly import assemble
+from magsail_mj.structure.generators.plates import lattice_structure
 from magsail_mj.structure.modes import structure_modes
-from magsail_mj.verbs.modes import lattice_structure
 
 
 def main() -> None:
@@ -34,7 +34,7 @@ def main() -> None:
     t0 = time.perf_counter()
     lat = make_lattice(units=args.units, side_m=args.side_m)
     structure = lattice_structure(
-        lat, masses_kg=np.full(lat.n_nodes, 200.0 / lat.n_nodes), k_N_m=1e5 / lat.rest_length, name="bench"
+        lat, masses_kg=np.full(lat.n_nodes, 200.0 / lat.n_nodes), EA_N=1e5, damping_Ns_m=0.0, name="bench"
     )
     t1 = time.perf_counter()
     assembly = assemble(structure)

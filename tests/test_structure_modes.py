@@ -18,9 +18,9 @@ from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.lattice.modes import lattice_modes
 from magsail_mj.structure.assembly import assemble, dof_layout, mass_matrix, stiffness_matrix
 from magsail_mj.structure.fileformat import write_structure
+from magsail_mj.structure.generators.plates import lattice_structure
 from magsail_mj.structure.model import Members, RigidPart, Structure, StructureError
 from magsail_mj.structure.modes import mode_shares, principal_frame, structure_modes
-from magsail_mj.verbs.modes import lattice_structure
 
 L_M, N_EL, RHO_A = 10.0, 20, 0.5  # boom length [m], elements, linear density [kg/m]
 EI = (2.0e3, 3.0e3)  # plane 1 (local x–y), plane 2 (local x–z) [N m²]
@@ -172,7 +172,8 @@ def _lattice(units: int = 4, side_m: float = 10.0):
     rng = np.random.default_rng(3)
     k = 1e5 / lat.rest_length * rng.uniform(0.5, 1.5, lat.n_struts)
     masses = np.full(lat.n_nodes, 2.0)
-    return lat, k, masses, lattice_structure(lat, masses_kg=masses, k_N_m=k, name="lattice")
+    structure = lattice_structure(lat, masses_kg=masses, EA_N=k * lat.rest_length, damping_Ns_m=0.0, name="lattice")
+    return lat, k, masses, structure
 
 
 @pytest.mark.parametrize("solver", ["dense", "sparse"])
@@ -227,7 +228,7 @@ def test_share_definition_on_prescribed_fields():
 def test_lattice_matrices_are_sparse():
     """A lattice is assembled without a dense n × n matrix (nnz a few dozen per row)."""
     lat = make_lattice(units=20, side_m=20.0)
-    s = lattice_structure(lat, masses_kg=np.ones(lat.n_nodes), k_N_m=np.ones(lat.n_struts), name="big")
+    s = lattice_structure(lat, masses_kg=np.ones(lat.n_nodes), EA_N=1.0, damping_Ns_m=0.0, name="big")
     layout = dof_layout(s)
     K, M = stiffness_matrix(s, layout), mass_matrix(s, layout)
     assert K.format == M.format == "csr" and K.nnz < 60 * layout.n_dof and M.nnz == layout.n_dof

@@ -12,9 +12,9 @@ from skfem.helpers import dd, grad
 
 from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec
+from magsail_mj.structure.generators.plates import lattice_structure
 from magsail_mj.structure.model import Members, Structure
 from magsail_mj.structure.modes import structure_modes
-from magsail_mj.verbs.modes import lattice_structure
 
 L_M, RHO_A = 10.0, 0.5
 EA_N, EI_NM2, GJ_NM2 = 1.0e6, (2.0e3, 3.0e3), 1.0e3
@@ -108,7 +108,8 @@ def test_mujoco_lattice_rings_at_the_computed_frequency(mode):
     rng = np.random.default_rng(7)
     k = 2e3 / lat.rest_length * rng.uniform(0.7, 1.3, lat.n_struts)
     masses = rng.uniform(0.5, 1.5, lat.n_nodes)
-    r = structure_modes(lattice_structure(lat, masses_kg=masses, k_N_m=k, name="small"), k=mode + 1)
+    structure = lattice_structure(lat, masses_kg=masses, EA_N=k * lat.rest_length, damping_Ns_m=0.0, name="small")
+    r = structure_modes(structure, k=mode + 1)
     assert r.n_zero == 6
     f_Hz = float(r.frequencies_Hz[mode])
     phi = r.dof_shapes()[:, mode]  # node-major x, y, z: the model's qpos order

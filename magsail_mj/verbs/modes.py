@@ -5,8 +5,9 @@
 * a structure file (``*.toml`` with ``format = "magsail-structure"``,
   :func:`magsail_mj.structure.fileformat.read_structure`);
 * a config whose concept has a lattice (``truss_magnetorquer``, ``current_loops``): the lattice of
-  :func:`magsail_mj.lattice.geometry.make_lattice` with the concept's particle masses and strut
-  spring constants (``EA = k l0``), as the concept's model builder makes them; a
+  :func:`magsail_mj.lattice.geometry.make_lattice` as a structure
+  (:func:`magsail_mj.structure.generators.plates.lattice_structure`) with the concept's particle
+  masses and strut axial rigidities, as the concept's model builder makes them; a
   ``truss_magnetorquer`` ``cantilever`` scenario has its ``i = 0`` edge clamped. Another concept's
   config has no structure yet (exit 2);
 * a gmsh mesh (``.msh``, :func:`magsail_mj.structure.mesh.read_mesh` without properties: only a
@@ -41,11 +42,11 @@ from magsail_mj.config import load_config
 from magsail_mj.io import check_output_folder
 from magsail_mj.resources import check_memory
 from magsail_mj.structure.assembly import assemble, dof_layout
-from magsail_mj.structure.model import Members, Structure, StructureError
+from magsail_mj.structure.model import Structure, StructureError
 from magsail_mj.structure.modes import RIGID_DIRECTIONS, StructureModes, structure_modes
 from magsail_mj.verbs.common import input_file, output_dir, print_json
 
-__all__ = ["MAX_PLOTS", "NASTRAN_SUFFIXES", "lattice_structure", "modes", "read_source", "structure_of_config"]
+__all__ = ["MAX_PLOTS", "NASTRAN_SUFFIXES", "modes", "read_source", "structure_of_config"]
 
 MAX_PLOTS = 12
 """The most mode-shape PNGs ``--plot`` writes."""
@@ -60,23 +61,11 @@ _BYTES_PER_DOF = 16_384
 _PLOT_FRACTION = 0.1
 
 
-def lattice_structure(lattice: Any, *, masses_kg: np.ndarray, k_N_m: np.ndarray, name: str) -> Structure:
-    """A strut structure of a :class:`~magsail_mj.lattice.geometry.Lattice`: node masses
-    ``masses_kg`` [kg] and strut spring constants ``k_N_m`` [N/m] (``EA = k l0``)."""
-    members = Members.build(
-        lattice.struts,
-        positions_m=lattice.nodes,
-        kind="strut",
-        EA_N=np.asarray(k_N_m, dtype=float) * lattice.rest_length,
-        rest_length_m=lattice.rest_length,
-    )
-    return Structure(name=name, positions_m=np.asarray(lattice.nodes), node_mass_kg=masses_kg, members=members)
-
-
 def _truss_structure(cfg: Any) -> Structure:
-    from magsail_mj.concepts.truss_magnetorquer.model import spring_constants
+    from magsail_mj.concepts.truss_magnetorquer.model import axial_rigidities
     from magsail_mj.lattice.geometry import make_lattice
-    from magsail_mj.lattice.properties import clamped_nodes, node_masses
+    from magsail_mj.lattice.properties import clamped_nodes, node_masses, strut_damping
+    from magsail_mj.structure.generators.plates import lattice_structure
 
     lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
     total = cfg.mass.total_kg if cfg.mass.total_kg is not None else cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
@@ -86,30 +75,28 @@ def _truss_structure(cfg: Any) -> Structure:
         central_fraction=cfg.mass.central_fraction,
         point_masses=[(p.node, p.kg) for p in cfg.mass.point_masses],
     )
-    k, _, _ = spring_constants(lat, cfg.stiffness)
-    structure = lattice_structure(lat, masses_kg=masses, k_N_m=k, name=f"truss_{cfg.scenario}")
-    if cfg.scenario != "cantilever":
-        return structure
-    fixed = np.zeros((lat.n_nodes, 6), dtype=bool)
-    fixed[clamped_nodes(lat)] = True
-    return Structure(
-        name=structure.name,
-        positions_m=structure.positions_m,
-        node_mass_kg=structure.node_mass_kg,
-        members=structure.members,
-        fixed_dofs=fixed,
+    EA, _, _ = axial_rigidities(lat, cfg.stiffness)
+    gamma = strut_damping(lat, EA / lat.rest_length, zeta=cfg.damping.zeta_strut, particle_mass_kg=total / lat.n_nodes)
+    fixed = clamped_nodes(lat) if cfg.scenario == "cantilever" else ()
+    return lattice_structure(
+        lat, masses_kg=masses, EA_N=EA, damping_Ns_m=gamma, fixed_nodes=fixed, name=f"truss_{cfg.scenario}"
     )
 
 
 def _loops_structure(cfg: Any) -> Structure:
     from magsail_mj.lattice.geometry import make_lattice
     from magsail_mj.lattice.properties import strut_stiffness
+    from magsail_mj.structure.generators.plates import lattice_structure
 
     lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
     total = cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
     k, _ = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_Nm2, calibration=cfg.stiffness.calibration)
     return lattice_structure(
-        lat, masses_kg=np.full(lat.n_nodes, total / lat.n_nodes), k_N_m=k, name=f"current_loops_{cfg.scenario}"
+        lat,
+        masses_kg=np.full(lat.n_nodes, total / lat.n_nodes),
+        EA_N=k * lat.rest_length,
+        damping_Ns_m=0.0,
+        name=f"current_loops_{cfg.scenario}",
     )
 
 
