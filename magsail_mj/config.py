@@ -36,6 +36,7 @@ import tomllib
 import types
 import typing
 import warnings
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Any, Literal
 
@@ -45,6 +46,7 @@ from magsail_mj.concepts import config_schemas, register_config
 from magsail_mj.units_grammar import ALIAS_REMOVAL_VERSION, deprecated_aliases, new_name
 
 __all__ = [
+    "CONFIG_DIR",
     "MAX_STEPS",
     "MIN_TIMESTEP_S",
     "MJ_MINVAL",
@@ -84,6 +86,11 @@ MIN_TIMESTEP_S = 1e-9
 
 MAX_STEPS = float(2**63)
 """Upper bound of every count a config implies (time steps, cells, samples): a 64-bit integer."""
+
+CONFIG_DIR: ContextVar[Path | None] = ContextVar("magsail_config_dir", default=None)
+"""The folder of the config file :func:`load_config` is validating (``None``: a tree validated
+without a file): a key that names a file (a structure file) is read relative to it, else relative to
+the working directory."""
 
 PRESENTATION_KEYS = ("sim.progress", "sim.duration_s", "sim.checkpoint_every_s", "render")
 """Keys that do not change the numbers of a run up to a given time (left out of :func:`numbers_hash`)."""
@@ -720,7 +727,11 @@ def load_config(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -
     path = Path(path)
     tree = _read_tree(path)
     tree, problems = _override_problems(tree, overrides)
-    cfg, more = _validate(tree)
+    token = CONFIG_DIR.set(path.parent.absolute())
+    try:
+        cfg, more = _validate(tree)
+    finally:
+        CONFIG_DIR.reset(token)
     problems += _mark_override_keys(more, overrides)
     if problems:
         raise ConfigError(problems, source=str(path))
