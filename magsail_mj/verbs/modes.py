@@ -62,25 +62,14 @@ _PLOT_FRACTION = 0.1
 
 
 def _truss_structure(cfg: Any) -> Structure:
-    from magsail_mj.concepts.truss_magnetorquer.model import axial_rigidities
+    from magsail_mj.concepts.truss_magnetorquer.model import truss_structure
     from magsail_mj.lattice.geometry import make_lattice
-    from magsail_mj.lattice.properties import clamped_nodes, node_masses, strut_damping
-    from magsail_mj.structure.generators.plates import lattice_structure
+    from magsail_mj.lattice.properties import clamped_nodes
 
+    if cfg.scenario != "cantilever":
+        return truss_structure(cfg)[0]
     lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
-    total = cfg.mass.total_kg if cfg.mass.total_kg is not None else cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
-    masses = node_masses(
-        lat,
-        total_kg=total,
-        central_fraction=cfg.mass.central_fraction,
-        point_masses=[(p.node, p.kg) for p in cfg.mass.point_masses],
-    )
-    EA, _, _ = axial_rigidities(lat, cfg.stiffness)
-    gamma = strut_damping(lat, EA / lat.rest_length, zeta=cfg.damping.zeta_strut, particle_mass_kg=total / lat.n_nodes)
-    fixed = clamped_nodes(lat) if cfg.scenario == "cantilever" else ()
-    return lattice_structure(
-        lat, masses_kg=masses, EA_N=EA, damping_Ns_m=gamma, fixed_nodes=fixed, name=f"truss_{cfg.scenario}"
-    )
+    return truss_structure(cfg, fixed_nodes=clamped_nodes(lat))[0]
 
 
 def _loops_structure(cfg: Any) -> Structure:

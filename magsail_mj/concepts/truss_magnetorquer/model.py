@@ -37,6 +37,7 @@ __all__ = [
     "TrussModel",
     "make_truss_model",
     "make_cantilever_model",
+    "truss_structure",
     "actuated_struts",
     "axial_rigidities",
     "spring_constants",
@@ -70,21 +71,10 @@ class TrussModel:
 
 def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: float = 0.0) -> TrussModel:
     """Lattice, masses, spring constants, damping and the MjSpec of a config."""
-    lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
-    total = cfg.mass.total_kg if cfg.mass.total_kg is not None else cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
-    masses = node_masses(
-        lat,
-        total_kg=total,
-        central_fraction=cfg.mass.central_fraction,
-        point_masses=[(p.node, p.kg) for p in cfg.mass.point_masses],
-    )
-    EA, c, ratio = axial_rigidities(lat, cfg.stiffness)
-    k = EA / lat.rest_length
-    m_p = total / lat.n_nodes
-    gamma = strut_damping(lat, k, zeta=cfg.damping.zeta_strut, particle_mass_kg=m_p)
-    structure = lattice_structure(
-        lat, masses_kg=masses, EA_N=EA, damping_Ns_m=gamma, fixed_nodes=tuple(int(i) for i in fixed_nodes)
-    )
+    structure, lat, c, ratio = truss_structure(cfg, fixed_nodes=fixed_nodes)
+    masses, k = structure.node_mass_kg, structure.members.stiffness_N_m
+    gamma = float(structure.members.damping_Ns_m[0])
+    m_p = _total_kg(cfg) / lat.n_nodes
     a = lat.cube_edge_m
     spec = build_structure_spec(
         structure,
@@ -103,12 +93,42 @@ def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: floa
         gamma=gamma,
         calibration_factor=c,
         particle_mass_kg=m_p,
-        total_kg=total,
+        total_kg=_total_kg(cfg),
         spec=spec,
         fixed_nodes=tuple(fixed_nodes),
         twist_diagonal_ratio=ratio,
         structure=structure,
     )
+
+
+def _total_kg(cfg: TrussConfig) -> float:
+    m = cfg.mass
+    return m.total_kg if m.total_kg is not None else m.areal_density_kg_m2 * cfg.lattice.side_m**2
+
+
+def truss_structure(cfg: TrussConfig, *, fixed_nodes=()) -> tuple[Structure, Lattice, float, float]:
+    """The config's lattice as a :class:`Structure` — particle masses, strut axial rigidities
+    (:func:`axial_rigidities`) and dashpots ``γ`` — with ``fixed_nodes`` held, and the lattice,
+    the calibration factor ``c`` and the diagonal ratio ρ."""
+    lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
+    total = _total_kg(cfg)
+    masses = node_masses(
+        lat,
+        total_kg=total,
+        central_fraction=cfg.mass.central_fraction,
+        point_masses=[(p.node, p.kg) for p in cfg.mass.point_masses],
+    )
+    EA, c, ratio = axial_rigidities(lat, cfg.stiffness)
+    gamma = strut_damping(lat, EA / lat.rest_length, zeta=cfg.damping.zeta_strut, particle_mass_kg=total / lat.n_nodes)
+    structure = lattice_structure(
+        lat,
+        masses_kg=masses,
+        EA_N=EA,
+        damping_Ns_m=gamma,
+        fixed_nodes=tuple(int(i) for i in fixed_nodes),
+        name=f"truss_{cfg.scenario}",
+    )
+    return structure, lat, c, ratio
 
 
 def spring_constants(lat: Lattice, stiffness: StiffnessConfig) -> tuple[np.ndarray, float, float]:
