@@ -77,8 +77,8 @@ def _table_heading(table: str) -> str:
         return "Companion reference `{ file = ... }`"
     if table in ("sets", "member_sets"):
         return f"`[{table}]`"
-    if table == "nodes":
-        return "`[nodes]`"
+    if table in ("nodes", "modal_damping"):
+        return f"`[{table}]`"
     return f"`[[{table}]]`"
 
 

@@ -781,3 +781,28 @@ def test_a_name_may_name_a_node_set_and_a_member_set():
     assert structure_problems(sail) == []
     both = dataclasses.replace(sail, node_sets={**sail.node_sets, "booms": sail.node_sets["boom_nodes"]})
     assert structure_problems(both) == []
+
+
+def test_stiffness_model_and_modal_damping_round_trip_and_are_checked(tmp_path):
+    """The structure-level stiffness model and Caughey damping read, write back and refuse bad
+    values naming the key."""
+    tree = base_tree()
+    tree["stiffness_model"] = "corotational"
+    tree["modal_damping"] = {"schedule": "capped_rayleigh", "xi_low": 0.02, "n_low": 3, "frame": "inertial"}
+    s = structure_from_mapping(tree, base_dir=tmp_path).structure
+    assert s.stiffness_model == "corotational"
+    assert s.modal_damping.schedule == "capped_rayleigh" and s.modal_damping.n_low == 3
+    assert s.modal_damping.form == "dense" and s.modal_damping.rtol == 0.02  # defaults
+    write_structure(s, tmp_path / "s.toml")
+    back = read_structure(tmp_path / "s.toml").structure
+    assert back.stiffness_model == s.stiffness_model and back.modal_damping == s.modal_damping
+    for key, value, message in (
+        ("stiffness_model", "linear", "structure.stiffness_model: must be one of members, corotational"),
+        ("modal_damping", {"n_low": 0}, "structure.modal_damping.n_low: must be an integer >= 1"),
+        ("modal_damping", {"frame": "world"}, "structure.modal_damping.frame: must be one of body, inertial"),
+        ("modal_damping", {"xi_low": -1.0}, "structure.modal_damping.xi_low: must be finite and >= 0"),
+        ("modal_damping", {"zeta": 0.1}, "structure.modal_damping.zeta: unknown key"),
+    ):
+        bad = {**tree, key: value}
+        with pytest.raises(StructureError, match=re.escape(message)):
+            structure_from_mapping(bad, base_dir=tmp_path)

@@ -19,7 +19,15 @@ import numpy as np
 from magsail_mj.structure.checks import check_structure
 from magsail_mj.structure.fileschema import FORMAT, MAX_COUNT, VERSION, table_keys
 from magsail_mj.structure.filevalues import ValueReader, member_lengths_m
-from magsail_mj.structure.model import MEMBER_KINDS, Members, Panels, RigidPart, Structure, StructureError
+from magsail_mj.structure.model import (
+    MEMBER_KINDS,
+    Members,
+    ModalDamping,
+    Panels,
+    RigidPart,
+    Structure,
+    StructureError,
+)
 
 __all__ = ["read_tree"]
 
@@ -54,6 +62,8 @@ def read_tree(
     panels, panel_starts = _panel_groups(r, tree)
     parts = _rigid_parts(r, tree, node_sets)
     fixed = _fixed(r, tree, positions.shape[0], node_sets)
+    stiffness_model = r.guard(r.field, tree, "", "stiffness_model", "", None)
+    modal_damping = r.guard(_modal_damping, r, tree)
     if r.problems:
         raise StructureError(r.problems)
     structure = Structure(
@@ -66,6 +76,8 @@ def read_tree(
         node_sets=node_sets,
         member_sets=member_sets,
         fixed_dofs=fixed,
+        stiffness_model=stiffness_model,
+        modal_damping=modal_damping,
     )
     try:
         check_structure(structure)
@@ -73,6 +85,23 @@ def read_tree(
         starts = {"members": member_starts, "panels": panel_starts}
         raise StructureError([_locate(r, line, starts) for line in err.problems]) from None
     return structure, dict(r.files.sha256)
+
+
+def _modal_damping(r: ValueReader, tree: dict) -> ModalDamping | None:
+    """The ``[modal_damping]`` table (``None`` when absent)."""
+    table = tree.get("modal_damping")
+    if table is None:
+        return None
+    if not isinstance(table, dict):
+        raise r.error("modal_damping", f"a table is needed, got {type(table).__name__}")
+    r.unknown(table, "modal_damping", "modal_damping")
+    values = {key: r.field(table, "modal_damping", key, "modal_damping", None) for key in table_keys("modal_damping")}
+    for key in ("xi_low", "xi_cap", "rtol"):
+        if not (np.isfinite(values[key]) and values[key] >= 0):
+            raise r.error(f"modal_damping.{key}", f"must be finite and >= 0, got {values[key]!r}")
+    if not 0 < values["rtol"] < 1:
+        raise r.error("modal_damping.rtol", f"must be between 0 and 1, got {values['rtol']!r}")
+    return ModalDamping(**values)
 
 
 def _header(r: ValueReader, tree: dict, *, in_file: bool) -> None:

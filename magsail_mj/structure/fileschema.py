@@ -12,7 +12,19 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["FORMAT", "FORMS", "MAX_COUNT", "MAX_FILE_BYTES", "SLOTS", "TABLES", "VERSION", "Slot", "slot", "table_keys"]
+__all__ = [
+    "CHOICES",
+    "FORMAT",
+    "FORMS",
+    "MAX_COUNT",
+    "MAX_FILE_BYTES",
+    "SLOTS",
+    "TABLES",
+    "VERSION",
+    "Slot",
+    "slot",
+    "table_keys",
+]
 
 #: Value of the ``format`` key of a structure file.
 FORMAT = "magsail-structure"
@@ -70,6 +82,18 @@ FORMS = {
     "inertia": "3, 6 or 9 numbers",
     "node_refs": "array of node indices, or a node set's name",
     "dofs": 'string of the digits 1–6 (e.g. `"123"`)',
+    "stiffness_model": '`"members"`, `"corotational"` or `"paper_literal"`',
+    "damping_schedule": '`"paper_max"` or `"capped_rayleigh"`',
+    "damping_frame": '`"body"` or `"inertial"`',
+    "damping_form": '`"dense"` or `"polynomial"`',
+}
+
+#: the values of the choice forms
+CHOICES = {
+    "stiffness_model": ("members", "corotational", "paper_literal"),
+    "damping_schedule": ("paper_max", "capped_rayleigh"),
+    "damping_frame": ("body", "inertial"),
+    "damping_form": ("dense", "polynomial"),
 }
 
 #: The tables, in file order, with their meaning for the reference page.
@@ -90,6 +114,8 @@ TABLES = {
     "and inertia.",
     "fixed": "`[[fixed]]` (or `fixed = [ { ... }, ... ]`): constrained components of some nodes, held at their "
     "reference values.",
+    "modal_damping": "`[modal_damping]`: Caughey damping γ = M Φ diag(2 ξ_n ω_n) Φᵀ M over the free structure's "
+    "modes (Robb et al. 2022b, Eqs. 13–15), applied as a load beside or instead of member dashpots.",
     "file": "A companion reference: any value that is an array may instead be this inline table, naming a "
     "file beside the structure file.",
 }
@@ -113,6 +139,42 @@ SLOTS: tuple[Slot, ...] = (
     Slot("", "panels", "tables", [], "panel groups (below)"),
     Slot("", "rigid_parts", "tables", [], "rigid parts (below)"),
     Slot("", "fixed", "tables", [], "constraints (below)"),
+    Slot(
+        "",
+        "stiffness_model",
+        "stiffness_model",
+        "members",
+        "how the elastic forces are computed: `members`, each member's own spring (exact at large rotations); "
+        "`corotational`, the struts' linear stiffness K assembled once and co-rotated with the best-fit rotation "
+        "R̃, F = −R̃ K [R̃ᵀ(r − c) − (r₀ − c₀)] (Robb et al. 2022b, Eq. 12 with its rotation); `paper_literal`, "
+        "Eq. 12 as printed, F = −K (r − R̃ r₀) (small rotations only). The linear forms hold struts only.",
+    ),
+    Slot("", "modal_damping", "table", None, "structure-level Caughey modal damping (below)", "none"),
+    Slot(
+        "modal_damping",
+        "schedule",
+        "damping_schedule",
+        "paper_max",
+        "the damping ratios ξ_n of the elastic modes: `paper_max` (the paper's schedule) or `capped_rayleigh`",
+    ),
+    Slot("modal_damping", "xi_low", "number", 0.01, "damping ratio of the low modes"),
+    Slot("modal_damping", "n_low", "integer", 100, "the number of low elastic modes at `xi_low`"),
+    Slot("modal_damping", "xi_cap", "number", 10.0, "the largest damping ratio"),
+    Slot(
+        "modal_damping",
+        "frame",
+        "damping_frame",
+        "body",
+        "`body`: γ co-rotated with the structure; `inertial`: assembled once in inertial axes",
+    ),
+    Slot(
+        "modal_damping",
+        "form",
+        "damping_form",
+        "dense",
+        "`dense`: the exact matrix; `polynomial`: a matrix polynomial within `rtol` above the low modes",
+    ),
+    Slot("modal_damping", "rtol", "number", 0.02, "relative tolerance of the polynomial form"),
     Slot("nodes", "position_m", "positions", None, "undeformed node positions, structure frame", _REQUIRED),
     Slot("nodes", "mass_kg", "per_node", 0.0, "point mass at each node (members, panels and parts add theirs)"),
     Slot("nodes", "file", "path", None, "companion file holding the whole table (instead of the keys above)", "—"),

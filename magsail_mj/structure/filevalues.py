@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from magsail_mj.structure.companion import CompanionFiles
-from magsail_mj.structure.fileschema import MAX_COUNT, slot, table_keys
+from magsail_mj.structure.fileschema import CHOICES, MAX_COUNT, slot, table_keys
 from magsail_mj.structure.model import MEMBER_KINDS, StructureError
 
 __all__ = ["ValueReader", "member_lengths_m"]
@@ -164,6 +164,14 @@ class ValueReader:
             if form == "dofs" and (not value or set(value) - set(_DOFS) or len(set(value)) != len(value)):
                 raise self.error(path, f"must be distinct digits 1-6 (1-3 translations, 4-6 rotations), got {value!r}")
             return value
+        if form in CHOICES:
+            if not isinstance(value, str) or value not in CHOICES[form]:
+                raise self.error(path, f"must be one of {', '.join(CHOICES[form])}, got {_show(value)}")
+            return value
+        if form == "integer":
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise self.error(path, f"must be an integer >= 1, got {_show(value)}")
+            return int(value)
         if form == "number":
             array = self.numbers(value, path)
             if array.ndim:

@@ -11,6 +11,8 @@ named array of the companion ``<stem>.npz`` beside the file.
 
 from __future__ import annotations
 
+import dataclasses
+
 from typing import Any
 
 import numpy as np
@@ -89,6 +91,10 @@ def structure_tree(structure: Structure, *, arrays: str, npz_name: str) -> tuple
     ):
         if value:
             tree[key] = value
+    if s.stiffness_model != "members":
+        tree["stiffness_model"] = s.stiffness_model
+    if s.modal_damping is not None:
+        tree["modal_damping"] = dataclasses.asdict(s.modal_damping)
     return tree, out.store
 
 

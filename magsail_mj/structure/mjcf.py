@@ -145,6 +145,12 @@ def _check(structure: Structure, layout: BodyLayout, masses: np.ndarray, node_da
         f"cable shortens), got {members.damping_Ns_m[j]!r}"
         for j in np.flatnonzero((members.kind == _CABLE) & (members.damping_Ns_m != 0))[:10]
     ]
+    if structure.stiffness_model != "members":
+        problems += [
+            f"members[{j}].kind: the linear stiffness model {structure.stiffness_model!r} holds struts only, got "
+            f"{MEMBER_KINDS[members.kind[j]]!r}"
+            for j in np.flatnonzero(members.kind != MEMBER_KINDS.index("strut"))[:10]
+        ]
     if not (np.isfinite(node_damping_1_s) and node_damping_1_s >= 0):
         problems.append(f"node_damping_1_s: must be finite and >= 0, got {node_damping_1_s!r}")
     elif node_damping_1_s > 0 and np.any(layout.kind != PARTICLE):
@@ -305,7 +311,8 @@ def _write_bodies(g: _Geometry, spec: mujoco.MjSpec) -> int:
 
 def _write_tendons(g: _Geometry, spec: mujoco.MjSpec) -> None:
     members = g.structure.members
-    k = members.stiffness_N_m
+    # a structure-level linear stiffness is a load: the tendons then carry no spring
+    k = members.stiffness_N_m if g.structure.stiffness_model == "members" else np.zeros(len(members))
     for j in np.flatnonzero(members.kind != _BEAM).tolist():
         l0 = float(members.rest_length_m[j])
         add_spring_tendon(
@@ -352,6 +359,7 @@ def build_structure_spec(
     solver_tolerance: float | None = None,
     node_radius_m: float | None = None,
     member_width_m: float | None = None,
+    extent_m: float | None = None,
 ) -> mujoco.MjSpec:
     """The ``MjSpec`` of ``structure`` (module docstring).
 
@@ -366,6 +374,8 @@ def build_structure_spec(
         of the structure's extent without members); also the radius of a beam node's own sphere
         inertia.
       member_width_m: drawn tendon width (default 1.5 % of the same length).
+      extent_m: the size the view and the light are set for (default: the largest side of the
+        nodes' bounding box; a generator that knows its nominal size passes it).
 
     Raises:
       StructureError: the structure cannot be modelled (every finding, each naming the element).
@@ -374,9 +384,9 @@ def build_structure_spec(
     masses = structure.lumped_masses()
     layout = body_layout(structure)
     _check(structure, layout, masses, float(node_damping_1_s))
-    extent = _extent_m(structure.positions_m)
+    extent = _extent_m(structure.positions_m) if extent_m is None else float(extent_m)
     scale = float(np.median(structure.members.rest_length_m)) if structure.n_members else extent
-    for label, value in (("node_radius_m", node_radius_m), ("member_width_m", member_width_m)):
+    for label, value in (("node_radius_m", node_radius_m), ("member_width_m", member_width_m), ("extent_m", extent_m)):
         if value is not None and not (np.isfinite(value) and value > 0):
             raise ValueError(f"{label}: must be finite and > 0, got {value!r}")
     beams = np.flatnonzero(structure.members.kind == _BEAM)

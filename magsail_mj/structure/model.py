@@ -34,6 +34,8 @@ import numpy as np
 
 __all__ = [
     "MEMBER_KINDS",
+    "STIFFNESS_MODELS",
+    "ModalDamping",
     "Members",
     "Panels",
     "RigidPart",
@@ -43,6 +45,15 @@ __all__ = [
 
 #: Member kinds, in the order of their integer codes in :attr:`Members.kind`.
 MEMBER_KINDS = ("strut", "cable", "beam")
+
+#: How a structure's elastic forces are computed (:attr:`Structure.stiffness_model`):
+#: ``"members"``, each member's own spring in the MuJoCo model (the exact, large-rotation law);
+#: ``"corotational"``, the linear stiffness K of the struts assembled once at the reference,
+#: co-rotated with the structure's best-fit rotation R̃, ``F = −R̃ K [R̃ᵀ(r − c) − (r₀ − c₀)]``
+#: (Robb et al. 2022b, Eq. 12 with the rotation the equation needs); ``"paper_literal"``, Eq. 12
+#: as printed, ``F = −K (r − R̃ r₀)`` with the unrotated K (valid for small rotations only). The
+#: two linear forms are loads; the model's tendons then carry no spring.
+STIFFNESS_MODELS = ("members", "corotational", "paper_literal")
 
 
 class StructureError(ValueError):
@@ -239,6 +250,33 @@ class RigidPart:
 
 
 @dataclass(frozen=True)
+class ModalDamping:
+    """Structure-level Caughey (modal) damping, ``γ = M Φ diag(2 ξ_n ω_n) Φᵀ M`` over the free
+    structure's modes (Robb et al. 2022b, Eqs. 13–15), beside or instead of member dashpots.
+
+    Attributes:
+      schedule: ``"paper_max"`` (``ξ_n = max(ξ_low, ω_n / ω_{n_low} · ξ_low)``-type schedule of the
+        paper: :func:`magsail_mj.lattice.modes.damping_ratios`) or ``"capped_rayleigh"``.
+      xi_low: damping ratio of the low modes.
+      n_low: the number of low elastic modes at ``xi_low``.
+      xi_cap: the largest damping ratio.
+      frame: ``"body"`` (γ co-rotated with the structure) or ``"inertial"`` (assembled once in
+        inertial axes).
+      form: ``"dense"`` (the exact matrix) or ``"polynomial"`` (a matrix polynomial within
+        ``rtol`` of the schedule above the low modes).
+      rtol: relative tolerance of the polynomial form.
+    """
+
+    schedule: str = "paper_max"
+    xi_low: float = 0.01
+    n_low: int = 100
+    xi_cap: float = 10.0
+    frame: str = "body"
+    form: str = "dense"
+    rtol: float = 0.02
+
+
+@dataclass(frozen=True)
 class Structure:
     """A spacecraft structure.
 
@@ -253,6 +291,8 @@ class Structure:
       member_sets: named member index sets (actuator placement: rods, current-carrying members).
       fixed_dofs: (n, 6) constrained components of each node (x, y, z translations, then
         rotations about x, y, z): a constrained component is held at its reference value.
+      stiffness_model: how the elastic forces are computed (:data:`STIFFNESS_MODELS`).
+      modal_damping: structure-level modal damping, or ``None``.
     """
 
     name: str
@@ -264,8 +304,12 @@ class Structure:
     node_sets: dict[str, np.ndarray] = field(default_factory=dict)
     member_sets: dict[str, np.ndarray] = field(default_factory=dict)
     fixed_dofs: np.ndarray | None = None
+    stiffness_model: str = "members"
+    modal_damping: ModalDamping | None = None
 
     def __post_init__(self) -> None:
+        if self.stiffness_model not in STIFFNESS_MODELS:
+            raise ValueError(f"stiffness_model: must be one of {STIFFNESS_MODELS}, got {self.stiffness_model!r}")
         if self.fixed_dofs is None:
             object.__setattr__(self, "fixed_dofs", np.zeros((self.positions_m.shape[0], 6), dtype=bool))
         for name in ("positions_m", "node_mass_kg", "fixed_dofs"):

@@ -73,20 +73,14 @@ def _truss_structure(cfg: Any) -> Structure:
 
 
 def _loops_structure(cfg: Any) -> Structure:
+    from magsail_mj.concepts.current_loops.model import loops_structure
     from magsail_mj.lattice.geometry import make_lattice
     from magsail_mj.lattice.properties import strut_stiffness
-    from magsail_mj.structure.generators.plates import lattice_structure
 
     lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
     total = cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
-    k, _ = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_Nm2, calibration=cfg.stiffness.calibration)
-    return lattice_structure(
-        lat,
-        masses_kg=np.full(lat.n_nodes, total / lat.n_nodes),
-        EA_N=k * lat.rest_length,
-        damping_Ns_m=0.0,
-        name=f"current_loops_{cfg.scenario}",
-    )
+    _, c = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_Nm2, calibration=cfg.stiffness.calibration)
+    return loops_structure(cfg, lat, masses=np.full(lat.n_nodes, total / lat.n_nodes), calibration_factor=c)
 
 
 def structure_of_config(cfg: Any) -> Structure:

@@ -1,15 +1,18 @@
 """Model builder of the current-loops concept: config → lattice, masses, springs, circuits → MjSpec.
 
 Robb et al. 2022b. The lattice and its springs are the truss concept's
-(:mod:`magsail_mj.lattice.geometry`, :func:`magsail_mj.lattice.properties.strut_stiffness`,
-:func:`magsail_mj.lattice.mjcf.build_truss_spec`) with uniform particle masses and no tendon
-damping; the circuits are :mod:`magsail_mj.geometry.current_loops`. ``slew_rigid`` uses one free
+(:mod:`magsail_mj.lattice.geometry`, :func:`magsail_mj.lattice.properties.strut_stiffness`) with
+uniform particle masses and no tendon damping, as a structure (:func:`loops_structure`: its
+stiffness model and modal damping) built by :func:`magsail_mj.structure.mjcf.build_structure_spec`
+— the same model arrays as the lattice builder gives (tests/test_structure_truss.py); the circuits
+are :mod:`magsail_mj.geometry.current_loops`. ``slew_rigid`` uses one free
 body with the undeformed lattice's inertia (:func:`rigid_plate_spec`). Also here: the concept's
 own loads (the work ledger, held-force wrapper and the rigid surrogate's dipole torque).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,15 +22,18 @@ import numpy as np
 from magsail_mj.estimation.attitude import matrix_from_quat
 from magsail_mj.geometry.current_loops import Circuit
 from magsail_mj.geometry.current_loops import circuits as make_circuits
-from magsail_mj.lattice.geometry import Lattice, make_lattice
+from magsail_mj.lattice.geometry import Lattice, axial_rigidity_from_EI, make_lattice
 from magsail_mj.lattice.properties import strut_stiffness
 from magsail_mj.mjcf.common import free_space_spec
-from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec
+from magsail_mj.structure.generators.plates import lattice_structure
+from magsail_mj.structure.mjcf import build_structure_spec
+from magsail_mj.structure.model import ModalDamping, Structure
 from magsail_mj.concepts.current_loops.config import CurrentLoopsConfig, loop_currents
 
 __all__ = [
     "LoopsModel",
     "make_loops_model",
+    "loops_structure",
     "rigid_plate_spec",
     "loop_currents",
     "WorkLedger",
@@ -54,6 +60,7 @@ class LoopsModel:
     currents_A: np.ndarray
     sizing: list[dict[str, Any]]
     spec: mujoco.MjSpec
+    structure: Structure | None = None
 
 
 def make_loops_model(cfg: CurrentLoopsConfig) -> LoopsModel:
@@ -70,14 +77,17 @@ def make_loops_model(cfg: CurrentLoopsConfig) -> LoopsModel:
     EA = float(k[0] * lat.rest_length[0])
     circuits = make_circuits(lat, cfg.loops.expanded())
     currents, sizing = loop_currents(cfg)
-    opts = TrussModelOptions(
+    structure = loops_structure(cfg, lat, masses=masses, calibration_factor=c)
+    spec = build_structure_spec(
+        structure,
         timestep_s=cfg.sim.timestep_s,
         integrator=cfg.sim.integrator,
-        solver_tolerance=cfg.sim.solver_tolerance,
         name=f"current_loops_{cfg.scenario}",
+        solver_tolerance=cfg.sim.solver_tolerance,
+        node_radius_m=0.04 * lat.cube_edge_m,  # the truss builder's sizes
+        member_width_m=0.015 * lat.cube_edge_m,
+        extent_m=cfg.lattice.side_m,
     )
-    tendon_k = k if cfg.stiffness.form == "tendon" else np.zeros_like(k)  # linear forms: a load
-    spec = build_truss_spec(lat, masses=masses, stiffness=tendon_k, damping=0.0, options=opts)
     for flag in ("CONSTRAINT", "EQUALITY", "FRICTIONLOSS", "LIMIT"):
         spec.option.disableflags |= int(getattr(mujoco.mjtDisableBit, f"mjDSBL_{flag}"))
     return LoopsModel(
@@ -90,7 +100,39 @@ def make_loops_model(cfg: CurrentLoopsConfig) -> LoopsModel:
         currents_A=currents,
         sizing=sizing,
         spec=spec,
+        structure=structure,
     )
+
+
+def loops_structure(
+    cfg: CurrentLoopsConfig, lat: Lattice, *, masses: np.ndarray, calibration_factor: float
+) -> Structure:
+    """The lattice as a :class:`Structure`: uniform particles, struts of ``EA = c · 2 EI / (N a²)``
+    (Eq. 8) without dashpots, the stiffness model of ``stiffness.form`` (``"tendon"``: each
+    strut's spring; the linear forms: a load, :data:`~magsail_mj.structure.model.STIFFNESS_MODELS`)
+    and the Caughey modal damping of ``[damping]`` when enabled."""
+    EA = calibration_factor * axial_rigidity_from_EI(
+        cfg.stiffness.EI_Nm2, nodes_per_side=lat.nodes_per_side, cube_edge_m=lat.cube_edge_m
+    )
+    d = cfg.damping
+    damping = (
+        ModalDamping(
+            schedule=d.schedule,
+            xi_low=d.xi_low,
+            n_low=d.n_low,
+            xi_cap=d.xi_cap,
+            frame=d.frame,
+            form=d.form,
+            rtol=d.rtol,
+        )
+        if d.enabled
+        else None
+    )
+    structure = lattice_structure(
+        lat, masses_kg=masses, EA_N=EA, damping_Ns_m=0.0, name=f"current_loops_{cfg.scenario}"
+    )
+    form = "members" if cfg.stiffness.form == "tendon" else cfg.stiffness.form
+    return dataclasses.replace(structure, stiffness_model=form, modal_damping=damping)
 
 
 def rigid_plate_spec(cfg: CurrentLoopsConfig, inertia: np.ndarray, mass: float) -> mujoco.MjSpec:

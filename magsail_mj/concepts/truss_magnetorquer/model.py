@@ -85,6 +85,7 @@ def make_truss_model(cfg: TrussConfig, *, fixed_nodes=(), node_damping_1_s: floa
         solver_tolerance=cfg.sim.solver_tolerance,
         node_radius_m=0.04 * a,  # the truss builder's sizes (the structure builder's default is
         member_width_m=0.015 * a,  # relative to the median member, the same length here)
+        extent_m=lat.side_m,
     )
     return TrussModel(
         lattice=lat,
