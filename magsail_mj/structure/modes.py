@@ -167,6 +167,11 @@ class StructureModes:
         return np.moveaxis(full[trans], 2, 0)
 
 
+#: eigenvalues within this fraction of the stiffest coordinate's ``K_ii / M_ii`` are round-off
+#: (64 ε: the stiffness matrix's entries are known to ε of its largest)
+ROUNDING_FLOOR = 64 * float(np.finfo(float).eps)
+
+
 def _frequency_scale(assembly: Assembly) -> float:
     """``s = max K_ii / M_ii`` over the coordinates with mass [rad²/s²] (1 if none)."""
     k, m = assembly.K_r.diagonal(), assembly.M_r.diagonal()
@@ -227,11 +232,14 @@ def _sparse(assembly: Assembly, k: int, sigma: float, tol: float) -> tuple[np.nd
 
 
 def _zero_modes(assembly: Assembly, lam: np.ndarray, phi: np.ndarray, zero_tol: float) -> np.ndarray:
-    """(k,) True for the modes with ``|ω²| ≤ zero_tol · |φ|ᵀ|K||φ|``."""
+    """(k,) True for the modes with ``|ω²| ≤ zero_tol · |φ|ᵀ|K||φ|`` or below the rounding of the
+    stiffest coordinate, ``|ω²| ≤`` :data:`ROUNDING_FLOOR` ``· max K_ii / M_ii`` (a mode of nodes
+    that no member holds — a membrane's interior without membrane stiffness — has ``|K||φ| = 0``
+    and an eigenvalue of pure round-off of either sign)."""
     abs_K = abs(assembly.K_r)
     a = np.abs(phi)
     rho = np.einsum("ij,ij->j", a, np.asarray(abs_K @ a))
-    return np.abs(lam) <= zero_tol * rho
+    return (np.abs(lam) <= zero_tol * rho) | (np.abs(lam) <= ROUNDING_FLOOR * _frequency_scale(assembly))
 
 
 def _participation(assembly: Assembly, phi: np.ndarray) -> Participation:
