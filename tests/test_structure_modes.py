@@ -381,3 +381,29 @@ def test_verb_refusals_name_the_argument(tmp_path, capsys):
     config = "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml"
     code, _, err = _run(capsys, ["modes", config, "--plot", "/"])
     assert code == 2 and err.startswith("error: --plot"), err
+
+
+def test_a_string_under_tension_has_the_transverse_stiffness_of_its_tension() -> None:
+    """A mass between two prestrained cables (ends held): transverse ω² = 2N/(l m) with the
+    tension N = EA (l/l0 − 1) (geometric stiffness), axial ω² = 2 EA/(l0 m); compressed cables
+    are slack and hold nothing (three zero modes)."""
+    import dataclasses
+
+    from magsail_mj.structure.model import Members, Structure
+
+    l_m, EA, m, eps = 2.0, 1.0e4, 0.5, 1e-3
+    positions = np.array([[0.0, 0.0, 0.0], [l_m, 0.0, 0.0], [2 * l_m, 0.0, 0.0]])
+    fixed = np.zeros((3, 6), bool)
+    fixed[[0, 2], :3] = True
+    members = Members.build([[0, 1], [1, 2]], positions_m=positions, kind="cable", EA_N=EA, prestrain=eps)
+    string = Structure(
+        name="string", positions_m=positions, node_mass_kg=np.array([1.0, m, 1.0]), members=members, fixed_dofs=fixed
+    )
+    omega2 = (2 * np.pi * structure_modes(string, k=3).frequencies_Hz) ** 2
+    l0 = l_m / (1 + eps)
+    tension = EA * (l_m / l0 - 1.0)
+    np.testing.assert_allclose(omega2, [2 * tension / (l_m * m)] * 2 + [2 * EA / (l0 * m)], rtol=1e-9)
+    slack = dataclasses.replace(
+        string, members=Members.build([[0, 1], [1, 2]], positions_m=positions, kind="cable", EA_N=EA, prestrain=-eps)
+    )
+    assert structure_modes(slack, k=3).n_zero == 3

@@ -13,8 +13,11 @@ Struts and cables
     unit vector ``ê`` (from its first to its second node at ``positions_m``) and ``k = EA / l0``
     adds ``k ê êᵀ`` to the two diagonal 3 × 3 translation blocks and ``−k ê êᵀ`` to the two
     off-diagonal ones. A cable is included at its rest state as a taut tension spring (the
-    small-vibration model of a cable that stays in tension; a slack cable would add nothing). The
-    geometric stiffness of a pre-load (``T / l`` transverse) is not included.
+    small-vibration model of a cable that stays in tension; a slack cable would add nothing).
+    A member whose rest length differs from its node distance ``l`` carries the axial force
+    ``N = EA (l / l0 − 1)`` at the reference (tension positive; a prestrained cable net, a
+    tensioned membrane): it adds the geometric stiffness ``(N / l)(I − ê êᵀ)`` in the same block
+    pattern, the transverse stiffness a string under tension has (a slack cable adds neither).
 
 Beams (3-D Euler–Bernoulli frame elements)
     Local axes: ``x`` along the member from its first to its second node; ``y`` (section axis 1)
@@ -88,6 +91,9 @@ MASS_MODELS = ("lumped", "consistent")
 """Beam mass models of :func:`mass_matrix` (module docstring)."""
 
 _BEAM = MEMBER_KINDS.index("beam")
+_CABLE = MEMBER_KINDS.index("cable")
+#: a reference strain this small is the rounding of a rest length computed from the node distance
+_STRAIN_ROUNDING = 1e-12
 # HRZ lumped rotational inertia per ρA l³: the consistent diagonal 4 l²/420 scaled by the element
 # mass over the translational diagonal's sum, ρA l / (2 · 156/420 ρA l): 4/312 = 1/78
 _HRZ_ROTATION = 1.0 / 78.0
@@ -223,8 +229,15 @@ def _axial_blocks(structure: Structure, layout: DofLayout, members: np.ndarray) 
     p = structure.positions_m
     e = p[ends[:, 1]] - p[ends[:, 0]]
     e = e / np.linalg.norm(e, axis=1, keepdims=True)
+    length = np.linalg.norm(p[ends[:, 1]] - p[ends[:, 0]], axis=1)
     k = table.stiffness_N_m[members]
+    strain = length / table.rest_length_m[members] - 1.0
+    strain = np.where(np.abs(strain) <= _STRAIN_ROUNDING, 0.0, strain)  # l0 computed from l
+    slack = (table.kind[members] == _CABLE) & (strain < 0)
+    force = np.where(slack, 0.0, table.EA_N[members] * strain)  # N at the reference
+    k = np.where(slack, 0.0, k)
     outer = k[:, None, None] * e[:, :, None] * e[:, None, :]
+    outer += (force / length)[:, None, None] * (np.eye(3)[None] - e[:, :, None] * e[:, None, :])
     sign = np.array([[1.0, -1.0], [-1.0, 1.0]])
     blocks = (sign[None, :, None, :, None] * outer[:, None, :, None, :]).reshape(-1, 6, 6)
     dofs = np.concatenate([layout.translation_dofs(ends[:, 0]), layout.translation_dofs(ends[:, 1])], axis=1)
