@@ -33,8 +33,10 @@ Disc (:func:`free_disc_lambda2`). The isotropic free circular plate of radius ``
 (Bessel's equation eliminates the second derivatives); the roots of the 2 × 2 determinant (the
 ``I_n`` column divided by ``I_n(λ) > 0``) are bracketed on a grid and refined by Brent's method.
 ``n`` is the number of nodal diameters; ``n = 0`` and ``n = 1`` also have the rigid roots
-``λ = 0``, not returned. Cross-check (Leissa, op. cit., ν = 0.33): λ² = 5.253 (n = 2), 9.084
-(n = 0, one nodal circle), 12.23 (n = 3), 20.52 (n = 1, one nodal circle).
+``λ = 0``, not returned. At ν = 0.3 the lowest are λ² = 5.358 (n = 2), 9.003 (n = 0, one nodal
+circle), 12.439 (n = 3), 20.475 (n = 1, one nodal circle), 21.835 (n = 4); at ν = 0.33 5.262,
+9.069, 12.244, 20.513, within 0.2 % of the values Leissa (op. cit.) tabulates for ν = 0.33
+(5.253, 9.084, 12.23, 20.52), a cross-check only.
 
 Lattice rigidities (:func:`two_layer_rigidity`). Two equal strut layers at ``z = ±h/2``, each a
 membrane of stiffness ``A_ijkl = Σ_f ρ_f EA L_f n_i n_j n_k n_l`` [N/m] (family ``f`` of struts of
