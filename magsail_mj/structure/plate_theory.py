@@ -82,6 +82,8 @@ from scipy.spatial import cKDTree
 from scipy.special import iv, ive, ivp, jv, jvp
 from skfem import Basis, BilinearForm, ElementTriArgyris, ElementTriMorley, FacetBasis, LinearForm, MeshTri, condense
 
+from magsail_mj.structure.generators.common import check_positive
+
 __all__ = [
     "PlateRigidity",
     "KirchhoffModes",
@@ -108,13 +110,6 @@ _PARITY_MIN = 0.5
 _ELEMENTS = {"argyris": ElementTriArgyris, "morley": ElementTriMorley}
 
 
-def _positive(name: str, value: float) -> float:
-    number = float(value)
-    if not (math.isfinite(number) and number > 0):
-        raise ValueError(f"{name}: must be finite and > 0, got {value!r}")
-    return number
-
-
 @dataclass(frozen=True)
 class PlateRigidity:
     """Bending rigidities of a plate with square symmetry (``D22 = D11``) [N m], the energy of the
@@ -125,7 +120,7 @@ class PlateRigidity:
     D66_Nm: float
 
     def __post_init__(self) -> None:
-        _positive("D11_Nm", self.D11_Nm)
+        check_positive("D11_Nm", self.D11_Nm)
         if not (math.isfinite(self.D12_Nm) and abs(self.D12_Nm) <= self.D11_Nm * (1 + SYMMETRY_RTOL)):
             raise ValueError(f"D12_Nm: must satisfy |D12| <= D11 = {self.D11_Nm!r}, got {self.D12_Nm!r}")
         if not (math.isfinite(self.D66_Nm) and self.D66_Nm >= 0):
@@ -136,7 +131,7 @@ class PlateRigidity:
         """The isotropic plate: ``D11 = D``, ``D12 = ν D``, ``D66 = (1 − ν) D / 2``."""
         if not -1.0 < nu < 1.0:
             raise ValueError(f"nu: must lie in (-1, 1), got {nu!r}")
-        D = _positive("D_Nm", D_Nm)
+        D = check_positive("D_Nm", D_Nm)
         return cls(D11_Nm=D, D12_Nm=nu * D, D66_Nm=(1.0 - nu) * D / 2.0)
 
     @property
@@ -158,7 +153,7 @@ def two_layer_rigidity(*, EA_N: float, depth_m: float, families: Iterable[tuple[
 
     Raises ``ValueError`` when the layer is not square-symmetric (``A22 ≠ A11`` or a shear–extension
     coupling ``A16``, ``A26``)."""
-    EA, h = _positive("EA_N", EA_N), _positive("depth_m", depth_m)
+    EA, h = check_positive("EA_N", EA_N), check_positive("depth_m", depth_m)
     table = np.asarray(list(families), dtype=float).reshape(-1, 3)
     if table.size == 0 or np.any(table[:, 0] <= 0) or np.any(table[:, 2] < 0):
         raise ValueError(f"families: need rows (length_m > 0, angle_rad, per_area_1_m2 >= 0), got {table.tolist()!r}")
@@ -181,7 +176,7 @@ def cubic_lattice_rigidity(
     *, EA_N: float, cube_edge_m: float, diagonals: Literal["parity", "X"] = "parity"
 ) -> PlateRigidity:
     """The two-layer cubic lattice's rigidities (module docstring; every strut ``EA_N``)."""
-    a = _positive("cube_edge_m", cube_edge_m)
+    a = check_positive("cube_edge_m", cube_edge_m)
     if diagonals not in ("parity", "X"):
         raise ValueError(f"diagonals: must be 'parity' or 'X', got {diagonals!r}")
     per_cell = 1.0 / a**2
@@ -194,7 +189,7 @@ def cubic_lattice_rigidity(
 def octet_rigidity(*, EA_N: float, cube_edge_m: float) -> PlateRigidity:
     """The octet plate's rigidities (chords ``a√2`` at ±45°, ``1 / (2a²)`` per area each, depth
     ``a``): ``D11 = D12 = D66 = √2 EA a / 8``, ``ν = 1``."""
-    a = _positive("cube_edge_m", cube_edge_m)
+    a = check_positive("cube_edge_m", cube_edge_m)
     d, density = a * math.sqrt(2.0), 0.5 / a**2
     return two_layer_rigidity(EA_N=EA_N, depth_m=a, families=[(d, math.pi / 4, density), (d, -math.pi / 4, density)])
 
@@ -202,15 +197,15 @@ def octet_rigidity(*, EA_N: float, cube_edge_m: float) -> PlateRigidity:
 def offset_grid_rigidity(*, EA_N: float, pitch_m: float, depth_m: float) -> PlateRigidity:
     """The offset grid's rigidities (chords ``a`` along x and y, ``1 / a²`` per area each):
     ``D11 = EA h² / (2a)``, ``D12 = D66 = 0``."""
-    a = _positive("pitch_m", pitch_m)
+    a = check_positive("pitch_m", pitch_m)
     families = [(a, 0.0, 1.0 / a**2), (a, math.pi / 2, 1.0 / a**2)]
     return two_layer_rigidity(EA_N=EA_N, depth_m=depth_m, families=families)
 
 
 def frequency_parameter(omega_rad_s, *, length_m: float, D_Nm: float, areal_density_kg_m2: float) -> np.ndarray:
     """``λ² = ω L² √(ρ_A / D)`` of circular frequencies ``omega_rad_s`` [rad/s]."""
-    L, D = _positive("length_m", length_m), _positive("D_Nm", D_Nm)
-    rho = _positive("areal_density_kg_m2", areal_density_kg_m2)
+    L, D = check_positive("length_m", length_m), check_positive("D_Nm", D_Nm)
+    rho = check_positive("areal_density_kg_m2", areal_density_kg_m2)
     return np.asarray(omega_rad_s, dtype=float) * L**2 * math.sqrt(rho / D)
 
 
@@ -218,7 +213,7 @@ def square_mesh(*, side_m: float, divisions: int) -> MeshTri:
     """The square ``[−d/2, d/2]²`` cut into ``divisions²`` squares of two triangles each."""
     if isinstance(divisions, bool) or int(divisions) != divisions or divisions < 1:
         raise ValueError(f"divisions: must be an integer >= 1, got {divisions!r}")
-    half = _positive("side_m", side_m) / 2.0
+    half = check_positive("side_m", side_m) / 2.0
     ticks = np.linspace(-half, half, int(divisions) + 1)
     return MeshTri.init_tensor(ticks, ticks)
 
@@ -229,7 +224,7 @@ def disc_mesh(*, radius_m: float, refinements: int) -> MeshTri:
     edges: an inscribed polygon)."""
     if isinstance(refinements, bool) or int(refinements) != refinements or refinements < 1:
         raise ValueError(f"refinements: must be an integer >= 1, got {refinements!r}")
-    return MeshTri.init_circle(int(refinements)).scaled(_positive("radius_m", radius_m))
+    return MeshTri.init_circle(int(refinements)).scaled(check_positive("radius_m", radius_m))
 
 
 def _plate_form(rigidity: PlateRigidity) -> BilinearForm:
@@ -292,7 +287,7 @@ def free_plate_modes(
 
     Raises ``ValueError`` for a bad argument, or when the three lowest modes are not the rigid
     motions and only they (a mesh that is not one connected plate, or too coarse)."""
-    rho = _positive("areal_density_kg_m2", areal_density_kg_m2)
+    rho = check_positive("areal_density_kg_m2", areal_density_kg_m2)
     if isinstance(count, bool) or int(count) != count or count < 1:
         raise ValueError(f"count: must be an integer >= 1, got {count!r}")
     basis = _basis(mesh, element)
@@ -336,7 +331,7 @@ def free_disc_lambda2(*, nu: float, nodal_diameters: int, count: int, step: floa
     if isinstance(count, bool) or int(count) != count or count < 1:
         raise ValueError(f"count: must be an integer >= 1, got {count!r}")
     roots: list[float] = []
-    lo = 10.0 * _positive("step", step)
+    lo = 10.0 * check_positive("step", step)
     f_lo = _disc_determinant(lo, int(n), nu)
     while len(roots) < count:
         hi = lo + step
