@@ -1,6 +1,6 @@
 r"""Kirchhoff plate references for the truss plates: free square and circular plates, the
 homogenised bending rigidities of the two-layer lattices, and the cantilever that maps a
-calibrated ``EI`` to a plate rigidity (NumPy/SciPy and scikit-fem, the ``dev`` extra).
+calibrated ``EI`` to a plate rigidity (NumPy/SciPy and scikit-fem).
 
 Plate. A thin plate in the x–y plane with deflection ``w(x, y)`` [m], areal density ``ρ_A``
 [kg/m²] and the bending rigidities of a plate with square symmetry (``D22 = D11``; isotropic when
@@ -46,7 +46,7 @@ curvatures. The web struts are unstrained by that field (their end displacements
 cancel), so they do not enter ``D``; they carry the transverse shear, which the Kirchhoff plate
 neglects. The cubic lattice of cube edge ``a`` (``h = a``): chords ``a`` along x and y, one per
 cell ``a²`` each, and face diagonals ``a√2`` at ±45°, half a cell's worth each (``"parity"``,
-alternating) or one each (``"X"``):
+alternating) or one each (``"X"``)::
 
     parity:  D11 = EA a (1 + √2/4) / 2,  D12 = D66 = √2 EA a / 8   (ν = D12/D11 = 0.2612,
              2 D66 / (D11 − D12) = 0.7071: its twist is 0.71 of an isotropic plate's),
