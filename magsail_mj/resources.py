@@ -22,7 +22,9 @@ Estimates:
   fitted to ``MjModel.nbuffer + MjData.nbuffer + MjData.narena`` of default-arena builds
   (≈ 14.7 MB for these). Lattice node and strut counts come from ``lattice.units`` by formula
   (:func:`lattice_counts`), the reflector's coil paths from ``plate.side_m / plate.cell_m``
-  (:func:`coil_report_bytes`).
+  (:func:`coil_report_bytes`). A config with a ``model_counts()`` method (the structure concept,
+  which reads its structure at validation) gives its ``(nv, nbody, ntendon)`` itself and is
+  estimated as a lattice (the same builder's explicit arena).
 * :func:`estimate_run_bytes` — the model plus the records of a run, ``duration / timestep /
   record_every`` records of :func:`record_bytes` each (kept as per-record arrays, then stacked),
   plus the larger of its post-processing (:func:`postprocess_bytes`) and the export of its
@@ -286,7 +288,11 @@ def coil_report_bytes(*, side_m: float, segment_m: float, pitch_cells: int = 2, 
 
 
 def _is_lattice(cfg: Any) -> bool:
-    """Whether a validated config builds a spring lattice (truss, flexible current-loop plate)."""
+    """Whether a validated config builds a spring lattice (truss, flexible current-loop plate) or
+    another model with the lattice builder's explicit arena, whose config counts its own model
+    (``model_counts()``: the structure concept's)."""
+    if callable(getattr(cfg, "model_counts", None)):
+        return True
     concept = getattr(cfg, "concept", "")
     rigid = concept == "current_loops" and getattr(cfg, "scenario", "") == "slew_rigid"
     return (
@@ -295,7 +301,11 @@ def _is_lattice(cfg: Any) -> bool:
 
 
 def _model_counts(cfg: Any) -> tuple[int, int, int]:
-    """``(nv, nbody, ntendon)`` a validated config implies, from its size keys only."""
+    """``(nv, nbody, ntendon)`` a validated config implies, from its size keys only (or from its
+    own ``model_counts()``, counted from the structure it read without building the model)."""
+    counts = getattr(cfg, "model_counts", None)
+    if callable(counts):
+        return counts()
     if _is_lattice(cfg):
         lattice = cfg.lattice
         nodes, struts = lattice_counts(lattice.units, diagonals=getattr(lattice, "diagonals", "parity"))

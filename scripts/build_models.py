@@ -15,6 +15,7 @@ from pathlib import Path
 from magsail_mj.config import load_config
 from magsail_mj.io import atomic_path
 from magsail_mj.scenario import build_scenario
+from magsail_mj.structure.fileformat import is_structure_file
 from magsail_mj.sweep import is_sweep_file
 
 MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts"
@@ -79,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     stale = []
     for config in sorted(MODELS.rglob("*.toml")):
-        if is_sweep_file(config):
+        if is_sweep_file(config) or is_structure_file(config):
             continue
         xml = generated_xml(config)
         target = config.with_suffix(".xml")

@@ -22,6 +22,7 @@ from typing import Any
 from magsail_mj.config import load_config
 from magsail_mj.io import to_jsonable, write_json
 from magsail_mj.run import run_scenario
+from magsail_mj.structure.fileformat import is_structure_file
 from magsail_mj.sweep import is_sweep_file
 
 REPO = Path(__file__).resolve().parents[1]
@@ -33,8 +34,9 @@ TIMING_KEYS = ("wall_time_s", "step_cost_us", "wall_time_per_step_s", "steps_per
 
 
 def shipped_configs() -> list[Path]:
-    """Every scenario config under ``models/`` (sweep files excluded), sorted."""
-    return sorted(p for p in (REPO / "magsail_mj" / "concepts").rglob("*.toml") if not is_sweep_file(p))
+    """Every scenario config under ``models/`` (sweep and structure files excluded), sorted."""
+    paths = (REPO / "magsail_mj" / "concepts").rglob("*.toml")
+    return sorted(p for p in paths if not is_sweep_file(p) and not is_structure_file(p))
 
 
 def short_overrides(path: Path) -> list[str]:

@@ -33,6 +33,7 @@ from magsail_mj.checks import is_symmetric
 from magsail_mj.config import ConfigError, apply_overrides, load_config, parse_config
 from magsail_mj.resources import MemoryLimitError, check_memory, estimate_run_bytes, msac_drive_bytes
 from magsail_mj.scenario import build_scenario
+from magsail_mj.structure.fileformat import is_structure_file
 from magsail_mj.sweep import is_sweep_file
 from tests.conftest import REPO
 
@@ -182,7 +183,8 @@ def test_extremes_of_every_leaf_named_or_build(concept):
 
 
 def _shipped_configs() -> list[Path]:
-    return [p for p in sorted((REPO / "magsail_mj" / "concepts").rglob("*.toml")) if not is_sweep_file(p)]
+    paths = sorted((REPO / "magsail_mj" / "concepts").rglob("*.toml"))
+    return [p for p in paths if not is_sweep_file(p) and not is_structure_file(p)]
 
 
 def test_every_numeric_leaf_of_every_shipped_config_refuses_non_finite():

@@ -33,6 +33,7 @@ from magsail_mj.loads.base import StepState
 from magsail_mj.records import STORE_NAME
 from magsail_mj.run import RunInterrupted, run_scenario
 from magsail_mj.sim import Simulation
+from magsail_mj.structure.fileformat import is_structure_file
 from magsail_mj.sweep import load_sweep, run_sweep
 from tests.conftest import REPO, start_cli
 
@@ -331,6 +332,7 @@ RESUME_CASES = [  # one config of every scenario kind that steps (the others ref
         6.0,
     ),
     ("msac/configs/paper_1khz.toml", ["sim.duration_s=0.3", "sim.checkpoint_every_s=0.2"], 0.2),
+    ("structure/configs/sail_detumble.toml", ["sim.duration_s=6", "sim.checkpoint_every_s=2"], 3.0),
 ]
 NOT_RESUMABLE = [
     "cnusail/configs/lifetime.toml",
@@ -433,7 +435,7 @@ def test_every_shipped_config_validates_within_the_memory_limit(capsys):
     from magsail_mj.sweep import is_sweep_file
 
     for path in sorted(MODELS.rglob("*.toml")):
-        if is_sweep_file(path):
+        if is_sweep_file(path) or is_structure_file(path):
             continue
         assert main(["validate", str(path)]) == 0, (path, capsys.readouterr().err)
 

@@ -11,9 +11,12 @@ from tests.conftest import REPO
 sys.path.insert(0, str(REPO / "scripts"))
 from build_models import generated_xml, mjcf_difference  # noqa: E402
 
+from magsail_mj.structure.fileformat import is_structure_file  # noqa: E402
 from magsail_mj.sweep import is_sweep_file  # noqa: E402
 
-CONFIGS = sorted(p for p in (REPO / "magsail_mj" / "concepts").rglob("*.toml") if not is_sweep_file(p))
+CONFIGS = sorted(
+    p for p in (REPO / "magsail_mj" / "concepts").rglob("*.toml") if not is_sweep_file(p) and not is_structure_file(p)
+)
 
 
 @pytest.mark.parametrize("config", CONFIGS, ids=lambda p: str(p.relative_to(REPO / "magsail_mj" / "concepts")))

@@ -51,6 +51,7 @@ __all__ = [
     "VERSION",
     "Slot",
     "StructureSource",
+    "is_structure_file",
     "read_structure",
     "structure_from_mapping",
     "write_structure",
@@ -93,6 +94,17 @@ def read_structure(path: str | Path) -> StructureSource:
     except StructureError as err:
         raise StructureError([f"{path}: {line}" for line in err.problems]) from None
     return StructureSource(structure, {path.name: hashlib.sha256(data).hexdigest(), **digests})
+
+
+def is_structure_file(path: str | Path) -> bool:
+    """Whether ``path`` is a structure file: TOML whose ``format`` is :data:`FORMAT` (a file that
+    cannot be read or is not TOML is not one). Lets a folder of task configs hold the structure
+    files they name (``*.toml`` too)."""
+    try:
+        tree = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, RecursionError, ValueError):
+        return False
+    return tree.get("format") == FORMAT
 
 
 def _read_file(path: Path) -> bytes:

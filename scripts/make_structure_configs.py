@@ -1,0 +1,131 @@
+"""Write the structure files of the ``structure`` concept's shipped configs.
+
+The configs ``magsail_mj/concepts/structure/configs/*.toml`` name these files
+(``configs/structures/*.toml``), written here with
+:func:`magsail_mj.structure.fileformat.write_structure` from the generators so that they are
+reproducible:
+
+``sail_100m.toml``
+    A 100 m square solar sail (:func:`~magsail_mj.structure.generators.four_boom_sail`): four
+    70.7 m booms of 4 beam members each from a 20 kg hub (a rigid part), EI = 8 000 N m² and
+    GJ = 800 N m² (a CFRP tube of about 5 cm radius), 0.1 kg/m; the membrane, 5 g/m², as 64
+    triangular panels whose edges are a net of cables (EA = 1 000 N, prestrain 1e-3: about 1 N of
+    tension), a slack membrane's low in-plane stiffness rather than a taut film's. The booms' axial
+    rigidity is lowered to EA = 3e4 N (a tube's is about 6e6 N) so that the axial modes, which take
+    no part in the attitude motion, stay below RK4's limit at δt = 0.05 s (ω_max δt < 2.8).
+``octet_75m.toml``
+    Robb et al. 2022a's 75 m plate read as the octahedral–tetrahedral truss
+    (:func:`~magsail_mj.structure.generators.octet_plate`): 19 cubes of 3.95 m per side (the
+    shipped lattice's), even-parity nodes and face diagonals with rim chords, EA calibrated to
+    EI = 1e3 N m² by the cantilever rule, 100 kg spread over the nodes (the rods' 100 kg come from
+    the config's ``actuators.rod_linear_density_kg_m``: 200 kg in all), strut damping ζ = 0.1.
+``offset_grid_75m.toml``
+    The same plate as the square-on-square offset double-layer grid
+    (:func:`~magsail_mj.structure.generators.offset_grid_plate`): 14 cells of 5.36 m (close to
+    the octet's 5.58 m chords), depth a/√2, corner bracing, the same calibration, mass and damping.
+
+Usage::
+
+    python scripts/make_structure_configs.py           # (re)write the structure files
+    python scripts/make_structure_configs.py --check   # exit 1 if a committed file differs
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from magsail_mj.structure.fileformat import write_structure
+from magsail_mj.structure.generators import four_boom_sail, octet_plate, offset_grid_plate
+from magsail_mj.structure.model import Members, Structure
+
+OUT = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "structure" / "configs" / "structures"
+
+#: the sail's membrane cable net: EA [N] and prestrain
+MEMBRANE_EA_N = 1.0e3
+MEMBRANE_PRESTRAIN = 1.0e-3
+
+
+def membrane_net(structure: Structure, *, EA_N: float, prestrain: float) -> Structure:
+    """``structure`` with a cable along every panel edge that no member already joins (a member
+    set ``membrane``)."""
+    tri = structure.panels.triangles()
+    edges = np.unique(np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1), axis=0)
+    taken = np.sort(structure.members.nodes, axis=1)
+    edges = edges[~(edges[:, None, :] == taken[None]).all(axis=-1).any(axis=1)]
+    cables = Members.build(edges, positions_m=structure.positions_m, kind="cable", EA_N=EA_N, prestrain=prestrain)
+    first = structure.n_members
+    sets = {**structure.member_sets, "membrane": np.arange(first, first + len(cables))}
+    return replace(structure, members=Members.concatenate([structure.members, cables]), member_sets=sets)
+
+
+def sail() -> Structure:
+    """The 100 m four-boom sail (module docstring)."""
+    base = four_boom_sail(
+        side_m=100.0,
+        n_segments=4,
+        boom_EA_N=3.0e4,
+        boom_EI_Nm2=8.0e3,
+        boom_GJ_Nm2=8.0e2,
+        boom_linear_density_kg_m=0.1,
+        membrane_areal_density_kg_m2=0.005,
+        reflectivity=(0.88, 0.03, 0.09),
+        hub_mass_kg=20.0,
+        hub_inertia_kg_m2=(1.5, 1.5, 2.5),
+        name="sail_100m",
+    )
+    return membrane_net(base, EA_N=MEMBRANE_EA_N, prestrain=MEMBRANE_PRESTRAIN)
+
+
+def octet() -> Structure:
+    """The 75 m octet plate (module docstring)."""
+    return octet_plate(
+        units=19, side_m=75.0, bracing="rim", EI_Nm2=1.0e3, total_mass_kg=100.0, zeta_strut=0.1, name="octet_75m"
+    )
+
+
+def offset_grid() -> Structure:
+    """The 75 m offset double-layer grid (module docstring)."""
+    return offset_grid_plate(
+        cells=14,
+        side_m=75.0,
+        bracing="corners",
+        EI_Nm2=1.0e3,
+        total_mass_kg=100.0,
+        zeta_strut=0.1,
+        name="offset_grid_75m",
+    )
+
+
+STRUCTURES = {"sail_100m.toml": sail, "octet_75m.toml": octet, "offset_grid_75m.toml": offset_grid}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true", help="only compare, write nothing")
+    args = ap.parse_args(argv)
+    stale = []
+    for name, make in STRUCTURES.items():
+        if args.check:
+            with tempfile.TemporaryDirectory() as tmp:
+                fresh = write_structure(make(), Path(tmp) / name)[0].read_text(encoding="utf-8")
+            committed = OUT / name
+            if not committed.is_file() or committed.read_text(encoding="utf-8") != fresh:
+                stale.append(name)
+            continue
+        OUT.mkdir(parents=True, exist_ok=True)
+        for path in write_structure(make(), OUT / name):
+            print(path)
+    if stale:
+        print(f"stale structure files (run python scripts/make_structure_configs.py): {stale}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
