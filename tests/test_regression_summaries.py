@@ -52,6 +52,7 @@ ONE_PER_KIND = [
     "magsail_mj/concepts/reflector/configs/detumble.toml",
     "magsail_mj/concepts/reflector/configs/tracking_10g.toml",
     "magsail_mj/concepts/reflector/configs/pitch/b3_caps_sigma10.toml",
+    "magsail_mj/concepts/structure/configs/sail_detumble.toml",
     "magsail_mj/concepts/truss_magnetorquer/configs/cantilever.toml",
     "magsail_mj/concepts/truss_magnetorquer/configs/libration.toml",  # noqa: E501
     "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
