@@ -20,7 +20,7 @@ the body poses):
 Post-processing (:func:`structure_summary`): the body rate from consecutive best-fit rotations,
 ``ω_k = vee(log(R_{k−1}ᵀ R_k)) / (t_k − t_{k−1})`` (the initial rate at ``t = 0``), its norm over
 time, the largest and final shape deviation, strain and strain energy, the angular momentum's
-drift; :func:`detumble_keys` and :func:`slew_keys` add the actuated scenarios' figures.
+drift; :func:`rod_keys`, :func:`detumble_keys` and :func:`slew_keys` add the actuated scenarios' figures.
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ __all__ = [
     "first_time_below",
     "stay_time_below",
     "structure_summary",
+    "rod_keys",
     "detumble_keys",
     "slew_keys",
 ]
@@ -237,20 +238,29 @@ def structure_summary(
     return keys, series
 
 
-def detumble_keys(t: np.ndarray, omega_norm: np.ndarray, records: Any, *, threshold_rad_s: float) -> dict[str, Any]:
-    """Detumble figures: when ``|ω|`` first falls and stays below ``threshold_rad_s``, the share of
-    saturated control samples and the largest reference and allocated torques."""
+def rod_keys(records: Any) -> dict[str, Any]:
+    """The rods' figures: control samples, the share of saturated samples, and the largest
+    reference, allocated and delivered (on the deformed members) torques [N m]."""
     counts = np.asarray(records["control_counts"])[-1].astype(float)
-    T_ref = np.linalg.norm(np.asarray(records["torque_ref_body_Nm"], dtype=float), axis=1)
-    T_alloc = np.linalg.norm(np.asarray(records["torque_alloc_body_Nm"], dtype=float), axis=1)
+
+    def largest(name: str) -> float:
+        return float(np.linalg.norm(np.asarray(records[name], dtype=float), axis=1).max())
+
+    return {
+        "control_samples": int(counts[0]),
+        "saturation_fraction": float(counts[1] / max(counts[0], 1.0)),
+        "torque_ref_max_Nm": largest("torque_ref_body_Nm"),
+        "torque_alloc_max_Nm": largest("torque_alloc_body_Nm"),
+        "torque_rod_max_Nm": largest("torque_rod_body_Nm"),
+    }
+
+
+def detumble_keys(t: np.ndarray, omega_norm: np.ndarray, *, threshold_rad_s: float) -> dict[str, Any]:
+    """Detumble figures: when ``|ω|`` first falls, and when it falls to stay, below ``threshold_rad_s``."""
     return {
         "rate_threshold_rad_s": threshold_rad_s,
         "t_rate_below_threshold_first_s": first_time_below(t, omega_norm, threshold_rad_s),
         "t_rate_below_threshold_stay_s": stay_time_below(t, omega_norm, threshold_rad_s),
-        "control_samples": int(counts[0]),
-        "saturation_fraction": float(counts[1] / max(counts[0], 1.0)),
-        "torque_ref_max_Nm": float(T_ref.max()),
-        "torque_alloc_max_Nm": float(T_alloc.max()),
     }
 
 

@@ -32,7 +32,13 @@ from magsail_mj.concepts import register_task
 from magsail_mj.concepts.structure.config import StructureConfig
 from magsail_mj.concepts.structure.control import DipoleAllocation, StructureRodController
 from magsail_mj.concepts.structure.loads import NodeTidalLoad, RodDipoleLoad
-from magsail_mj.concepts.structure.metrics import StructureMonitor, detumble_keys, slew_keys, structure_summary
+from magsail_mj.concepts.structure.metrics import (
+    StructureMonitor,
+    detumble_keys,
+    rod_keys,
+    slew_keys,
+    structure_summary,
+)
 from magsail_mj.concepts.structure.model import StructureModel, make_structure_model, rigid_initial_state
 from magsail_mj.concepts.structure.plots import rod_plots, slew_plot, structure_plots
 from magsail_mj.environment.environment import Environment
@@ -277,6 +283,9 @@ class ActuatedTask(StructureTask):
             "q_err": lambda s, d: s.ctrl.q_err,
         }
 
+    def kind_summary(self, records: Any, series: dict[str, np.ndarray]) -> Summary:
+        return rod_keys(records), {}
+
     def kind_plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
         return rod_plots(run_dir, series, result.records, title=self.title)
 
@@ -300,11 +309,11 @@ class DetumbleTask(ActuatedTask):
     INSET = "omega_norm_rad_s"
 
     def kind_summary(self, records: Any, series: dict[str, np.ndarray]) -> Summary:
+        keys, more = super().kind_summary(records, series)
         t = np.asarray(records["t"], dtype=float)
-        keys = detumble_keys(
-            t, series["omega_norm_rad_s"], records, threshold_rad_s=self.cfg.control.rate_threshold_rad_s
-        )
-        return keys, {}
+        threshold = self.cfg.control.rate_threshold_rad_s
+        keys.update(detumble_keys(t, series["omega_norm_rad_s"], threshold_rad_s=threshold))
+        return keys, more
 
 
 @register_task("structure", "slew")
@@ -315,13 +324,15 @@ class SlewTask(ActuatedTask):
     INSET = "error_angle_deg"
 
     def kind_summary(self, records: Any, series: dict[str, np.ndarray]) -> Summary:
+        keys, _ = super().kind_summary(records, series)
         t = np.asarray(records["t"], dtype=float)
-        keys, err = slew_keys(
+        more, err = slew_keys(
             t,
             np.asarray(records["R_fit"], dtype=float),
             q0_wxyz=self.cfg.initial.q0_wxyz,
             q_ref_wxyz=self.cfg.control.q_ref_wxyz,
         )
+        keys.update(more)
         return keys, {"error_angle_rad": err, "error_angle_deg": np.degrees(err)}
 
     def kind_plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
