@@ -57,6 +57,7 @@ VALIDATE_CONFIGS = {
     "current_loops": "magsail_mj/concepts/current_loops/configs/slew.toml",
     "msac": "magsail_mj/concepts/msac/configs/paper_1khz.toml",
     "reflector": "magsail_mj/concepts/reflector/configs/detumble.toml",
+    "structure": "magsail_mj/concepts/structure/configs/sail_detumble.toml",
     "truss_magnetorquer": "magsail_mj/concepts/truss_magnetorquer/configs/detumble.toml",
 }
 

@@ -9,9 +9,11 @@ forces on a rigid part's nodes against ``Σ x × F``.
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 import re
+import warnings
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -171,6 +173,56 @@ def test_a_changed_structure_file_is_refused_by_its_recorded_digest(tmp_path):
     (tmp_path / "s.toml").write_text((tmp_path / "s.toml").read_text().replace('name = "sail_100m"', 'name = "x"'))
     with pytest.raises(ConfigError, match=r"structure\.sha256: the files read have the digests"):
         parse_config(pinned)
+
+
+@pytest.mark.parametrize("source", ["mesh", "deck"])
+def test_a_mesh_and_a_deck_run_through_the_same_config(source):
+    """A gmsh mesh (curve group → beams, surface group → panels) and a Nastran deck (a CBAR
+    cantilever clamped by an SPC) validate, count their models and step, named by
+    ``structure.file`` alone; a deck the model builder cannot hold (a beam tree pinned at three
+    nodes) is refused by validation, naming the file and the rule, as a missing file is."""
+    if source == "mesh":
+        table = {
+            "file": str(REPO / "tests/data/meshes/sail.msh"),
+            "mesh": {
+                "groups": {
+                    "booms": {
+                        "kind": "beam",
+                        "EA_N": 2.0e5,
+                        "EI_Nm2": [12.0, 15.0],
+                        "GJ_Nm2": 8.0,
+                        "linear_density_kg_m": 0.05,
+                    },
+                    "membrane": {"areal_density_kg_m2": 0.02, "reflectivity": [0.88, 0.02, 0.1]},
+                }
+            },
+        }
+    else:
+        table = {"file": str(REPO / "tests/data/nastran/cantilever_cbar.bdf")}
+    tree = {
+        "concept": "structure",
+        "scenario": "free",
+        "sim": {"duration_s": 0.01, "timestep_s": 1e-3, "progress": False},
+        "structure": table,
+    }
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the deck reader's notes on the cards it completes
+        cfg = parse_config(tree)
+    sim = magsail_mj.load(cfg)
+    assert cfg.model_counts() == (sim.model.nv, sim.model.nbody, sim.model.ntendon)
+    assert sim.step(5) == "running" and np.all(np.isfinite(sim.data.qpos))
+    if source == "mesh":
+        assert len(cfg.structure.structure.panels) > 0 and np.any(cfg.structure.structure.members.kind == 2)
+    broken = copy.deepcopy(tree)
+    broken["structure"]["file"] = table["file"] + ".missing"
+    with pytest.raises(ConfigError, match=r"structure\.file: .*missing: does not exist"):
+        parse_config(broken)
+    if source == "deck":
+        broken["structure"]["file"] = str(REPO / "tests/data/nastran/truss_free.bdf")
+        with warnings.catch_warnings(), pytest.raises(ConfigError) as err:
+            warnings.simplefilter("ignore")
+            parse_config(broken)
+        assert "structure.file: " in str(err.value) and "truss_free.bdf: fixed_dofs: nodes [1, 2, 0]" in str(err.value)
 
 
 def test_bad_structure_file_exits_2_naming_the_element_and_writes_nothing(tmp_path, capsys):

@@ -28,7 +28,14 @@ import numpy as np
 from pydantic import Field, PrivateAttr, field_validator, model_validator
 
 from magsail_mj.concepts import register_config
-from magsail_mj.concepts.structure.source import INLINE_KEYS, file_kind, model_counts, read_source, with_rods
+from magsail_mj.concepts.structure.source import (
+    INLINE_KEYS,
+    collinear,
+    file_kind,
+    model_counts,
+    read_source,
+    with_rods,
+)
 from magsail_mj.config import (
     CONFIG_DIR,
     MJ_MINVAL,
@@ -41,6 +48,7 @@ from magsail_mj.config import (
 from magsail_mj.environment.config import EnvironmentTables, environment_problems
 from magsail_mj.structure.fileformat import StructureSource
 from magsail_mj.structure.mesh import MemberProperties, PanelProperties
+from magsail_mj.structure.mjcf import build_structure_spec
 from magsail_mj.structure.model import Structure, StructureError
 
 __all__ = [
@@ -204,6 +212,15 @@ class StructureTable(StrictModel):
     def structure(self) -> Structure:
         """The checked structure (without the rods' mass, see :meth:`StructureConfig.structure_with_rods`)."""
         return self.source.structure
+
+    def problem_lines(self, problems: list[str]) -> list[str]:
+        """Key-path lines of the structure's problems found after reading it (by the model builder),
+        relative to the config's top level: ``structure.file: <path>: <problem>`` for a file,
+        ``structure.<problem>`` inline."""
+        lines = [line.replace("; ", ", ") for line in problems]
+        return [
+            f"structure.file: {self.file}: {line}" if self.file is not None else f"structure.{line}" for line in lines
+        ]
 
     def _inline(self) -> dict[str, Any]:
         return {key: getattr(self, key) for key in INLINE_KEYS if getattr(self, key) is not None}
@@ -411,6 +428,10 @@ class StructureConfig(EnvironmentTables, StructureTables):
                 )
             if self.field.model == "none":
                 raise ConfigProblem("field.model", f"scenario {sc!r} drives rods: needs a field, not 'none'")
+            if collinear(self.structure.structure.positions_m):
+                raise ConfigProblem(
+                    "structure", f"its nodes lie on one line: the attitude the {sc!r} controller fits is undefined"
+                )
             if sc == "slew" and self.control.q_ref_wxyz is None:
                 raise ConfigProblem("control.q_ref_wxyz", "scenario 'slew' needs the target attitude")
             if self.control.period_s is not None and self.control.period_s < self.sim.timestep_s * (1 - 1e-9):
@@ -453,6 +474,26 @@ class StructureConfig(EnvironmentTables, StructureTables):
         derived_quantity(
             "rods' total dipole", float(np.sum(dipole)), keys={key: getattr(self.actuators, key.split(".")[1]), **keys}
         )
+        return self
+
+    @model_validator(mode="after")
+    def _modelled(self) -> StructureConfig:
+        """The model is built and compiled as the run will (discarded): what the builder or MuJoCo
+        refuses (a beam loop, a beam tree held at two places, a damped cable, a moving massless
+        body, …) is refused here, naming the structure's element."""
+        try:
+            spec = build_structure_spec(
+                self.structure_with_rods(),
+                timestep_s=self.sim.timestep_s,
+                integrator=self.sim.integrator,
+                solver_tolerance=self.sim.solver_tolerance,
+            )
+            spec.compile()
+        except StructureError as err:
+            raise ValueError("; ".join(self.structure.problem_lines(err.problems))) from None
+        except ValueError as err:  # MuJoCo's compiler
+            where = f"file: {self.structure.file}: " if self.structure.file is not None else ""
+            raise ConfigProblem("structure", f"{where}MuJoCo cannot compile the model: {err}") from None
         return self
 
     @model_validator(mode="after")

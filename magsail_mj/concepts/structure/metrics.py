@@ -4,7 +4,9 @@ Per record (:class:`StructureMonitor`, from the state the probes see; node posit
 the body poses):
 
 * **best-fit attitude** ``R`` and **shape deviation**: the least-squares rigid fit (Kabsch) of
-  ``x_i`` to the reference positions ``p_i``, ``min Σ |x_i − (R p_i + d)|²``; the deviation of node
+  ``x_i`` to the reference positions ``p_i``, ``min Σ |x_i − (R p_i + d)|²`` (nodes on one line leave
+  the rotation about that line undefined: ``R`` is then the SVD's choice and the rate about the
+  line is not measured, the deviation is still the least one, :func:`rigid_fit`); the deviation of node
   ``i`` is ``e_i = x_i − (R p_i + d)``, recorded as ``shape_rms_m = √(Σ|e_i|²/n)`` and
   ``shape_max_m = max |e_i|`` (for a flat plate ``shape_rms_m`` generalises the truss's surface
   deviation σ_SD to the whole structure, in-plane included);
@@ -32,6 +34,7 @@ import mujoco
 import numpy as np
 
 from magsail_mj.concepts.structure.model import StructureModel
+from magsail_mj.concepts.structure.source import collinear
 from magsail_mj.divergence import StructureFailure
 from magsail_mj.estimation.attitude import BestFitRotation, body_rates
 from magsail_mj.quaternion import error_quaternion, quat_from_matrix
@@ -39,6 +42,7 @@ from magsail_mj.structure.model import MEMBER_KINDS
 
 __all__ = [
     "StructureMonitor",
+    "rigid_fit",
     "first_time_below",
     "stay_time_below",
     "structure_summary",
@@ -49,6 +53,27 @@ __all__ = [
 
 _BEAM = MEMBER_KINDS.index("beam")
 _CABLE = MEMBER_KINDS.index("cable")
+
+
+class _LineFit:
+    """The Kabsch fit of a collinear reference (module docstring): the SVD's rotation, no refusal."""
+
+    def __init__(self, p_ref: np.ndarray) -> None:
+        self.p_bar = np.asarray(p_ref, dtype=float).mean(axis=0)
+        self.pc = np.asarray(p_ref, dtype=float) - self.p_bar
+
+    def __call__(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        q_bar = q.mean(axis=0)
+        U, _, Vt = np.linalg.svd(self.pc.T @ (q - q_bar))
+        if np.linalg.det(Vt.T @ U.T) < 0:
+            Vt[2] *= -1.0
+        R = Vt.T @ U.T
+        return R, q_bar - R @ self.p_bar
+
+
+def rigid_fit(reference_m: np.ndarray) -> BestFitRotation | _LineFit:
+    """The least-squares rigid fit to ``reference_m``: ``fit(x) → (R, d)`` with ``x ≈ R p + d``."""
+    return _LineFit(reference_m) if collinear(reference_m) else BestFitRotation(reference_m)
 
 
 def first_time_below(t: np.ndarray, x: np.ndarray, threshold: float) -> float:
@@ -91,7 +116,7 @@ class StructureMonitor:
         structure, model = sm.structure, sm.model
         members = structure.members
         self.nodes = sm.nodes
-        self.fit = BestFitRotation(structure.positions_m)
+        self.fit = rigid_fit(structure.positions_m)
         self.reference_m = np.asarray(structure.positions_m, dtype=float)
         self.ends = np.asarray(members.nodes, dtype=np.int64)
         self.rest_m = np.asarray(members.rest_length_m, dtype=float)

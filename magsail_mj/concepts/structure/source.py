@@ -34,6 +34,7 @@ from magsail_mj.structure.nastran import read_nastran
 
 __all__ = [
     "INLINE_KEYS",
+    "collinear",
     "NASTRAN_SUFFIXES",
     "STRUCTURE_SUFFIXES",
     "file_kind",
@@ -60,6 +61,15 @@ NASTRAN_SUFFIXES = (".bdf", ".dat", ".nas")
 #: Suffixes read as structure files; any other suffix is a mesh read by meshio.
 STRUCTURE_SUFFIXES = (".toml",)
 _BEAM = MEMBER_KINDS.index("beam")
+
+
+def collinear(positions_m: np.ndarray) -> bool:
+    """Whether the points lie on one line (or one point): the second principal extent below 1e-6
+    of the first (the test :class:`~magsail_mj.estimation.attitude.BestFitRotation` refuses by)."""
+    p = np.asarray(positions_m, dtype=float)
+    pc = p - p.mean(axis=0)
+    ev = np.linalg.eigvalsh(pc.T @ pc)
+    return not ev[1] > 1e-12 * ev[2]
 
 
 def file_kind(path: str | Path) -> str:
