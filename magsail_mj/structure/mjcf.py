@@ -87,6 +87,7 @@ import mujoco
 import numpy as np
 
 from magsail_mj.lattice.mjcf import (
+    WorldTrees,
     add_node_sphere,
     add_particle_node,
     add_spring_tendon,
@@ -265,47 +266,67 @@ def _beam_joints(g: _Geometry, body: mujoco.MjsBody, vertex: int) -> int:
     return 4
 
 
-def _held_sites(g: _Geometry, body: mujoco.MjsBody, vertex: int) -> None:
+def _held_sites(g: _Geometry, body: mujoco.MjsBody, vertex: int, nodes: np.ndarray) -> None:
     """Sphere geoms (massless: the inertial is explicit) and sites of the nodes a body holds."""
-    nodes = np.flatnonzero(g.layout.node_vertex == vertex)
-    for i in nodes:
+    for i in nodes.tolist():
         offset = g.structure.positions_m[i] - g.origin_m[vertex]
         add_node_sphere(body, mass_kg=0.0, radius_m=g.radius_m, pos_m=offset)
         body.add_site(name=f"s{i}", pos=[float(c) for c in offset], size=[g.radius_m * 0.5, 0, 0], group=5)
 
 
+def _trees(layout: BodyLayout) -> tuple[np.ndarray, np.ndarray]:
+    """The write order tree by tree (trees in the order of their roots in ``layout.order``, each
+    tree's vertices in layout order: every body keeps its children's order) and the body count of
+    each tree (at its root's index)."""
+    V = layout.kind.size
+    root = np.where(layout.parent < 0, np.arange(V), layout.parent)
+    while True:  # pointer jumping: log₂ of the deepest tree's depth passes
+        up = root[root]
+        if np.array_equal(up, root):
+            break
+        root = up
+    order = layout.order
+    rank = np.empty(V, dtype=np.int64)
+    rank[order] = np.arange(order.size)
+    by_tree = order[np.argsort(rank[root[order]], kind="stable")]
+    return by_tree, np.bincount(root[order], minlength=V)
+
+
 def _write_bodies(g: _Geometry, spec: mujoco.MjSpec) -> int:
-    """All bodies and joints in layout order; returns ``nv``."""
+    """All bodies and joints, tree by tree (:class:`~magsail_mj.lattice.mjcf.WorldTrees`); returns ``nv``."""
     bodies: dict[int, mujoco.MjsBody] = {}
     fixed = np.asarray(g.structure.fixed_dofs, dtype=bool)
+    order, tree_bodies = _trees(g.layout)
+    held = np.argsort(g.layout.node_vertex, kind="stable")  # the nodes of each vertex, in node order
+    held_start = np.searchsorted(g.layout.node_vertex[held], np.arange(g.layout.kind.size + 1))
     nv = 0
-    for v in g.layout.order.tolist():
-        kind = g.layout.kind[v]
-        if kind == PARTICLE:
-            free = ~fixed[v, :3]
-            damping = float(g.node_damping_1_s * g.masses_kg[v])
-            bodies[v] = add_particle_node(
-                spec.worldbody,
-                index=v,
-                pos_m=g.origin_m[v],
-                mass_kg=float(g.masses_kg[v]),
-                free_axes=tuple(bool(f) for f in free),
-                damping_Ns_m=damping,
-                radius_m=g.radius_m,
-            )
-            nv += int(free.sum())
-            continue
-        parent = g.layout.parent[v]
-        holder = spec.worldbody if parent < 0 else bodies[parent]
-        rel = g.origin_m[v] - (g.origin_m[parent] if parent >= 0 else 0.0)
-        body = holder.add_body(name=g.body_name(v), pos=[float(c) for c in rel])
-        nv += _root_joints(g, body, v) if parent < 0 else _beam_joints(g, body, v)
-        if kind == PART:
-            _part_inertial(g, body, v - g.structure.n_nodes)
-        else:
-            _node_inertial(g, body, v)
-        _held_sites(g, body, v)
-        bodies[v] = body
+    with WorldTrees(spec, n_bodies=order.size) as trees:
+        for v in order.tolist():
+            kind = g.layout.kind[v]
+            parent = g.layout.parent[v]
+            holder = trees.parent(int(tree_bodies[v])) if parent < 0 else bodies[parent]
+            if kind == PARTICLE:
+                free = ~fixed[v, :3]
+                bodies[v] = add_particle_node(
+                    holder,
+                    index=v,
+                    pos_m=g.origin_m[v],
+                    mass_kg=float(g.masses_kg[v]),
+                    free_axes=tuple(bool(f) for f in free),
+                    damping_Ns_m=float(g.node_damping_1_s * g.masses_kg[v]),
+                    radius_m=g.radius_m,
+                )
+                nv += int(free.sum())
+                continue
+            rel = g.origin_m[v] - (g.origin_m[parent] if parent >= 0 else 0.0)
+            body = holder.add_body(name=g.body_name(v), pos=[float(c) for c in rel])
+            nv += _root_joints(g, body, v) if parent < 0 else _beam_joints(g, body, v)
+            if kind == PART:
+                _part_inertial(g, body, v - g.structure.n_nodes)
+            else:
+                _node_inertial(g, body, v)
+            _held_sites(g, body, v, held[held_start[v] : held_start[v + 1]])
+            bodies[v] = body
     return nv
 
 
