@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import sparse
 
-from magsail_mj.concepts.structure.model import MassPoints, NodeFrames, quat_matrices
+from magsail_mj.concepts.structure.model import MassPoints, NodeFrames, cross_rows, quat_matrices
 from magsail_mj.environment.gravity import tidal_acceleration
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.magnetorquer_rods import rod_pair_forces
@@ -61,10 +61,11 @@ class NodeTidalLoad:
         k = p.part_point
         r = np.asarray(r_ref, dtype=float) + x[k]
         R = quat_matrices(xquat[p.frames.body[k]])
-        I_w = R @ p.part_inertia_kg_m2 @ np.swapaxes(R, 1, 2)
+        r_body = np.einsum("kji,kj->ki", R, r)  # Rᵀ r: I_w r = R I Rᵀ r
         r2 = np.einsum("ki,ki->k", r, r)
         scale = 3.0 * self.mu / (r2 * r2 * np.sqrt(r2))
-        return scale[:, None] * np.cross(r, np.einsum("kij,kj->ki", I_w, r))
+        torque_body = cross_rows(r_body, np.einsum("kij,kj->ki", p.part_inertia_kg_m2, r_body))
+        return scale[:, None] * np.einsum("kij,kj->ki", R, torque_body)
 
     def add(self, state: StepState, xfrc: np.ndarray) -> None:
         """Add the tidal forces (and the parts' gradient torques) into ``xfrc`` (world frame)."""
@@ -73,7 +74,7 @@ class NodeTidalLoad:
         x = frames.positions(state.pos, state.xquat)
         frames.apply(self.forces(r_ref, x), state.xquat, xfrc)
         k = self.points.part_point
-        if k.size:
+        if k.size and np.any(self.points.part_inertia_kg_m2):
             np.add.at(xfrc[:, 3:], frames.body[k], self.part_torques(r_ref, x, state.xquat))
 
 

@@ -22,20 +22,43 @@ from scipy import sparse
 
 from magsail_mj.concepts.structure.config import StructureConfig
 from magsail_mj.estimation.attitude import matrix_from_quat
-from magsail_mj.quaternion import quat_to_matrix
 from magsail_mj.structure.mjcf import StructureModelIndex, build_structure_spec
 from magsail_mj.structure.model import MEMBER_KINDS, Structure
 
-__all__ = ["MassPoints", "NodeFrames", "quat_matrices", "StructureModel", "make_structure_model", "rigid_initial_state"]
+__all__ = [
+    "MassPoints",
+    "NodeFrames",
+    "cross_rows",
+    "quat_matrices",
+    "StructureModel",
+    "make_structure_model",
+    "rigid_initial_state",
+]
 
 _BEAM = MEMBER_KINDS.index("beam")
 _CABLE = MEMBER_KINDS.index("cable")
 
 
 def quat_matrices(q: np.ndarray) -> np.ndarray:
-    """(k, 3, 3) rotation matrices of (k, 4) unit quaternions ``[w, x, y, z]`` (the runner's
-    ``xquat`` rows are unit)."""
-    return quat_to_matrix(np.asarray(q, dtype=float).reshape(-1, 4))
+    """(k, 3, 3) rotation matrices (body → world) of (k, 4) unit quaternions ``[w, x, y, z]`` (the
+    runner's ``xquat`` rows are unit), the entries of :func:`magsail_mj.quaternion.quat_to_matrix`
+    in one stack (this runs every step)."""
+    w, x, y, z = np.asarray(q, dtype=float).reshape(-1, 4).T
+    rows = (
+        1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+        2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+        2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y),
+    )  # fmt: skip
+    return np.stack(rows, axis=-1).reshape(-1, 3, 3)
+
+
+def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(k, 3) row-wise cross products ``a × b`` (``numpy.cross`` without its axis handling)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
 
 
 class NodeFrames:
@@ -60,6 +83,7 @@ class NodeFrames:
         self.arm_m = self.offset_m - self.body_com_m[self.body]
         self.moved = np.flatnonzero(np.any(self.offset_m != 0.0, axis=1))
         self.levered = np.flatnonzero(np.any(self.arm_m != 0.0, axis=1))
+        self.one_per_body = np.unique(self.body).size == self.body.size  # forces add row by row
         self._sum = None
 
     @property
@@ -89,12 +113,15 @@ class NodeFrames:
 
     def apply(self, force_N: np.ndarray, xquat: np.ndarray, xfrc: np.ndarray) -> None:
         """Add the forces ``force_N`` (k, 3) [N, world] at the points into ``xfrc`` (nbody, 6)."""
-        xfrc[:, :3] += self._summing(xfrc.shape[0]) @ force_N
+        if self.one_per_body:
+            xfrc[self.body, :3] += force_N
+        else:
+            xfrc[:, :3] += self._summing(xfrc.shape[0]) @ force_N
         if self.levered.size:
             k = self.levered
             R = quat_matrices(xquat[self.body[k]])
             arm = np.einsum("kij,kj->ki", R, self.arm_m[k])
-            np.add.at(xfrc[:, 3:], self.body[k], np.cross(arm, force_N[k]))
+            np.add.at(xfrc[:, 3:], self.body[k], cross_rows(arm, force_N[k]))
 
 
 @dataclass(frozen=True)
