@@ -290,21 +290,10 @@ def octet_plate(
     node_sets, member_sets = lattice_sets(ijk, struts, kind, np.ones((n, n), bool), ("xy_diagonal",))
     member_sets["rim_chords"] = np.flatnonzero(kind == -1)
 
-    def build(EA: float) -> Structure:
-        return uniform_strut_plate(
-            name=name,
-            positions_m=positions,
-            struts=struts,
-            rest_length_m=rest,
-            EA_N=EA,
-            total_kg=total,
-            damping_Ns_m=damping_Ns_m,
-            zeta_strut=zeta_strut,
-            node_sets=node_sets,
-            member_sets=member_sets,
-        )
-
-    return _with_axial_rigidity(build, EA_N, EI_Nm2)
+    plate = {"name": name, "positions_m": positions, "struts": struts, "rest_length_m": rest, "total_kg": total}
+    dashpots = {"damping_Ns_m": damping_Ns_m, "zeta_strut": zeta_strut}
+    sets = {"node_sets": node_sets, "member_sets": member_sets}
+    return _with_axial_rigidity(lambda EA: uniform_strut_plate(EA_N=EA, **plate, **dashpots, **sets), EA_N, EI_Nm2)
 
 
 def _grid(count: int, pitch_m: float, offset_m: float, z_m: float) -> np.ndarray:
@@ -391,18 +380,7 @@ def offset_grid_plate(
     }
     rest = np.linalg.norm(positions[struts[:, 1]] - positions[struts[:, 0]], axis=1)
 
-    def build(EA: float) -> Structure:
-        return uniform_strut_plate(
-            name=name,
-            positions_m=positions,
-            struts=struts,
-            rest_length_m=rest,
-            EA_N=EA,
-            total_kg=total,
-            damping_Ns_m=damping_Ns_m,
-            zeta_strut=zeta_strut,
-            node_sets=node_sets,
-            member_sets=member_sets,
-        )
-
-    return _with_axial_rigidity(build, EA_N, EI_Nm2)
+    plate = {"name": name, "positions_m": positions, "struts": struts, "rest_length_m": rest, "total_kg": total}
+    dashpots = {"damping_Ns_m": damping_Ns_m, "zeta_strut": zeta_strut}
+    sets = {"node_sets": node_sets, "member_sets": member_sets}
+    return _with_axial_rigidity(lambda EA: uniform_strut_plate(EA_N=EA, **plate, **dashpots, **sets), EA_N, EI_Nm2)
