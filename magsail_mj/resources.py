@@ -17,10 +17,12 @@ Estimates:
   builder sets (:func:`magsail_mj.lattice.mjcf.lattice_arena_bytes`, linear in ``nv``), the model
   building and the loads (16 kB per dof: the resident memory grows by 15 kB per dof from
   nv = 732 to 39 372) and, for the current loops, the dense modal matrices of the Caughey damping
-  (62 B·nv²: the traced peak grows by 40 B·nv² from N = 12 to 27). The rigid reflector, CNUSAIL
-  and MSAC models keep MuJoCo's default arena, which grows with ``nv²``: :func:`mujoco_bytes`,
-  fitted to ``MjModel.nbuffer + MjData.nbuffer + MjData.narena`` of default-arena builds
-  (≈ 14.7 MB for these). Lattice node and strut counts come from ``lattice.units`` by formula
+  (62 B·nv²: the traced peak grows by 40 B·nv² from N = 12 to 27). Any structure's model
+  (:func:`structure_model_bytes`, from its node and member counts or its model's counts): the
+  same arena and build terms, buffers fitted with a body and a mass-matrix term (beam chains).
+  The rigid reflector, CNUSAIL and MSAC models keep MuJoCo's default arena, which grows with
+  ``nv²``: :func:`mujoco_bytes`, fitted to ``MjModel.nbuffer + MjData.nbuffer + MjData.narena``
+  of default-arena builds (≈ 14.7 MB for these). Lattice node and strut counts come from ``lattice.units`` by formula
   (:func:`lattice_counts`), the reflector's coil paths from ``plate.side_m / plate.cell_m``
   (:func:`coil_report_bytes`). A config with a ``model_counts()`` method (the structure concept,
   which reads its structure at validation) gives its ``(nv, nbody, ntendon)`` itself and is
@@ -78,6 +80,7 @@ __all__ = [
     "format_bytes",
     "lattice_counts",
     "lattice_model_bytes",
+    "structure_model_bytes",
     "memory_limit",
     "memory_limit_bytes",
     "mjcf_arena_bytes",
@@ -110,6 +113,15 @@ _LATTICE_BUFFER_PER_DOF = 1.5e3
 _LATTICE_BUFFER_PER_TENDON = 0.6e3
 _LATTICE_BUILD_PER_DOF = 16e3
 _LOOPS_DENSE_PER_DOF2 = 62.0
+# Structure models (build_structure_spec): buffers ≈ 16 kB + 1.2 kB nv + 0.4 kB nbody + 0.6 kB ntendon
+# + 96 B nM, nM the non-zeros of MuJoCo's mass matrix (a kinematic chain of d dofs has d (d + 1) / 2):
+# 1.04–1.19 times MjModel.nbuffer + MjData.nbuffer of strut plates (32–4 232 nodes), beam
+# cantilevers (20–200 beams), a rigid hub with two booms (5–100 beams each) and the four-boom sail.
+_STRUCTURE_BUFFER_BASE = 16e3
+_STRUCTURE_BUFFER_PER_DOF = 1.2e3
+_STRUCTURE_BUFFER_PER_BODY = 0.4e3
+_STRUCTURE_BUFFER_PER_TENDON = 0.6e3
+_STRUCTURE_BUFFER_PER_MASS_NNZ = 96.0
 # Python-side bytes per coil-path node (fitted with tracemalloc: the estimate is 1.14 × the measured
 # peak at d/L = 100 … 200): the tuples of coil_y's list, and the float arrays of the paths.
 _COIL_LIST_NODE = 96
@@ -263,6 +275,49 @@ def lattice_model_bytes(*, nv: int, ntendon: int, dense_modes: bool = False) -> 
     mujoco_part = explicit_arena_mujoco_bytes(nv=nv, ntendon=ntendon, arena_bytes=lattice_arena_bytes(int(nv)))
     modes = _LOOPS_DENSE_PER_DOF2 * nv_f * nv_f if dense_modes else 0.0
     return mujoco_part + _LATTICE_BUILD_PER_DOF * nv_f + modes
+
+
+def structure_model_bytes(
+    *,
+    n_nodes: int,
+    n_members: int,
+    nv: int | None = None,
+    nbody: int | None = None,
+    ntendon: int | None = None,
+    mass_nnz: int | None = None,
+) -> float:
+    """Memory of the model :func:`magsail_mj.structure.mjcf.build_structure_spec` builds [bytes]:
+    MuJoCo's model and data buffers (``16 kB + 1.2 kB nv + 0.4 kB nbody + 0.6 kB ntendon + 96 B
+    mass_nnz``, fitted as the comment above says), the arena the builder sets
+    (:func:`~magsail_mj.lattice.mjcf.lattice_arena_bytes` of ``nv``: linear in ``nv``, where
+    MuJoCo's default grows with ``nv²``) and the build (the spec and the structure's arrays, 16 kB
+    per dof as for the lattices).
+
+    The counts default to a structure of free particles joined by struts and cables: ``nv = 3
+    n_nodes``, ``nbody = n_nodes + 1``, ``ntendon = n_members`` and ``mass_nnz = 2 nv`` (a node's
+    three slide dofs are chained: 6 non-zeros). Beams make chains: give the counts of the model
+    (``mass_nnz`` is MuJoCo's ``nM``, ``d (d + 1) / 2`` for a chain of ``d`` dofs).
+
+    Raises:
+      ValueError: a count that is not an integer >= 0 (named).
+    """
+    counts = {"n_nodes": n_nodes, "n_members": n_members, "nv": nv, "nbody": nbody, "ntendon": ntendon}
+    counts["mass_nnz"] = mass_nnz
+    for label, value in counts.items():
+        if value is not None and (isinstance(value, bool) or int(value) != value or value < 0):
+            raise ValueError(f"{label}: must be an integer >= 0, got {value!r}")
+    dofs = 3 * int(n_nodes) if nv is None else int(nv)
+    bodies = int(n_nodes) + 1 if nbody is None else int(nbody)
+    tendons = int(n_members) if ntendon is None else int(ntendon)
+    nnz = 2 * dofs if mass_nnz is None else int(mass_nnz)
+    buffers = (
+        _STRUCTURE_BUFFER_BASE
+        + _STRUCTURE_BUFFER_PER_DOF * dofs
+        + _STRUCTURE_BUFFER_PER_BODY * bodies
+        + _STRUCTURE_BUFFER_PER_TENDON * tendons
+        + _STRUCTURE_BUFFER_PER_MASS_NNZ * nnz
+    )
+    return buffers + float(lattice_arena_bytes(dofs)) + _LATTICE_BUILD_PER_DOF * dofs
 
 
 def coil_report_bytes(*, side_m: float, segment_m: float, pitch_cells: int = 2, rows: int | None = None) -> float:
