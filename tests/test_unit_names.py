@@ -92,6 +92,9 @@ DIMENSIONLESS_NAMES = frozenset(
         "perturbation_seed",
         "collapse_thickness_units",
         "replay_settle_change",
+        "prestrain",  # structure: a member's strain at its reference length
+        "reflectivity",  # structure: a panel's reflected and absorbed fractions
+        "orientation",  # structure: a beam section's direction vector
     }
 )
 
