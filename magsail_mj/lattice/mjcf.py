@@ -71,6 +71,7 @@ ARENA_PER_DOF_BYTES = 4096
 SPEC_DIRECT_BODIES = 2000
 #: Bodies per scratch spec of :class:`WorldTrees` (a tree of more bodies has a spec of its own).
 SPEC_CHUNK_BODIES = 256
+_WORLD_AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
 def lattice_arena_bytes(nv: int) -> int:
@@ -324,10 +325,10 @@ def add_particle_node(
     ``damping_Ns_m``), its mass on a non-colliding sphere geom of radius ``radius_m`` and its
     site ``s<index>`` at the body origin (where tendons attach)."""
     body = parent.add_body(name=f"n{index}", pos=[float(x) for x in pos_m])
-    for ax, axis, free in zip("xyz", np.eye(3), free_axes):
+    for ax, axis, free in zip("xyz", _WORLD_AXES, free_axes):
         if free:
             body.add_joint(
-                name=f"n{index}_{ax}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis.tolist(), damping=damping_Ns_m
+                name=f"n{index}_{ax}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=list(axis), damping=damping_Ns_m
             )
     add_node_sphere(body, mass_kg=mass_kg, radius_m=radius_m)
     body.add_site(name=f"s{index}", size=[radius_m * 0.5, 0, 0], group=5)
