@@ -21,14 +21,13 @@ Large models (:class:`WorldTrees`)
     MuJoCo's ``MjSpec`` walks its whole body tree again on every body, joint, geom or site added
     (MuJoCo 4.0 rebuilds its element lists and the tree's signature each time), so writing ``E``
     elements one by one costs ``O(E²)``: 1.3 s for 2 048 particles, 27 s for 8 192 (six
-    elements each), about 150 s for 20 000. Up to :data:`SPEC_DIRECT_BODIES` bodies the builders
-    write straight into the spec; above it, :class:`WorldTrees` writes the world's trees of bodies
-    into small scratch specs and assembles them with MuJoCo's ``attach`` (which moves elements, it
-    does not copy them) in two levels: about ``E^{3/2}`` with a small constant (4 s of assembly
-    for 20 000 particles, where writing them one by one into the spec takes 150 s). The compiled
-    ``MjModel`` is the same, array for array; the authored MJCF (``spec.to_xml()``) then holds each
-    attached part in an unnamed identity ``<frame>`` (MuJoCo writes attached parts that way),
-    which compiles to the same model.
+    elements each). Up to :data:`SPEC_DIRECT_BODIES` bodies the builders write straight into the
+    spec; above it, :class:`WorldTrees` writes the world's trees of bodies into small scratch specs
+    and assembles them with MuJoCo's ``attach`` (which moves elements, it does not copy them): the
+    bodies of a 20 000-node plate in about 5 s, its whole spec in about 7 s (a shared two-core
+    machine; ``scripts/bench_structure_scale.py``). The compiled ``MjModel`` is the same, array
+    for array; the authored MJCF (``spec.to_xml()``) then holds each attached part in an unnamed
+    identity ``<frame>`` (MuJoCo writes attached parts that way), which compiles to the same model.
 """
 
 from __future__ import annotations
@@ -70,7 +69,7 @@ ARENA_PER_DOF_BYTES = 4096
 #: scratch specs (module docstring). Every committed model (at most 1 568 bodies) is below it.
 SPEC_DIRECT_BODIES = 2000
 #: Bodies per scratch spec of :class:`WorldTrees` (a tree of more bodies has a spec of its own).
-SPEC_CHUNK_BODIES = 256
+SPEC_CHUNK_BODIES = 64
 _WORLD_AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
@@ -219,8 +218,8 @@ class _Receiver:
 
 
 class WorldTrees:
-    """Writes the trees of bodies that hang from the world at a cost of about ``E^{3/2} / √c``
-    in their ``E`` elements, ``c`` elements a chunk (module docstring, "Large models").
+    """Writes the trees of bodies that hang from the world into a spec without MuJoCo's ``O(E²)``
+    cost of adding ``E`` elements one by one (module docstring, "Large models").
 
     Use::
 
@@ -231,18 +230,20 @@ class WorldTrees:
     A model of at most :data:`SPEC_DIRECT_BODIES` bodies is written straight into ``spec``
     (:meth:`parent` is ``spec.worldbody``). A larger one is written into scratch specs of about
     :data:`SPEC_CHUNK_BODIES` bodies (whole trees; a tree is never split), each with ``spec``'s
-    compiler settings; ``g ≈ √k`` consecutive ones of the ``k`` chunks make a group (the first
-    receives the others), and on leaving the block the groups are attached to ``spec`` in order.
-    MuJoCo appends an attached part to its new parent's children, so the bodies keep their order.
-    An attach costs the size of the spec receiving it, so the group attaches cost ``E g / 2`` and
-    the final ones ``E k / (2 g)``, ``E √k`` together. Two levels and no more: MuJoCo looks up
-    each moved element's source spec through the nested attaches, a search that grows with every
-    level (a binary merge tree, ``log₂ k`` levels, spent 7 s of attaching at 20 000 particles).
+    compiler settings: an element added costs the size of its scratch spec, ``O(E c)`` in all for
+    chunks of ``c`` elements. ``g ≈ √k`` consecutive ones of the ``k`` chunks make a group (the
+    first receives the others), and on leaving the block the groups are attached to ``spec`` in
+    order; MuJoCo appends an attached part to its new parent's children, so the bodies keep their
+    order. An attach costs the size of the spec receiving it, ``E √k`` for both levels together
+    (0.4 s at 20 000 particles, ``k = 313``). Two levels and no more: MuJoCo looks each moved
+    element's source spec up through the nested attaches, a search that grows with the nesting.
 
-    Every attach needs a name prefix (an empty one makes MuJoCo warn on every compile) and copies
-    the scratch spec's default class: the class is deleted at once, the names are set back when
-    everything is in ``spec``. Leave the block before adding anything that refers to the bodies by
-    name (tendons, skins).
+    The elements travel unnamed: an attach re-indexes every name of the spec receiving it, which
+    made a named attach cost 12 times an unnamed one (0.29 s against 0.023 s into 16 000
+    particles); the names are recorded when a chunk is finished and set back when everything is in
+    ``spec``. Every attach needs a name prefix all the same (an empty one makes MuJoCo warn on
+    every compile), and copies the scratch spec's default class, deleted at once. Leave the block
+    before adding anything that refers to the bodies by name (tendons, skins).
     """
 
     def __init__(self, spec: mujoco.MjSpec, *, n_bodies: int):
@@ -275,13 +276,16 @@ class WorldTrees:
         return self._chunk.worldbody
 
     def _finish_chunk(self) -> None:
-        """Record the current chunk's names (the attaches prefix them); it starts a group or goes
-        into the current one."""
+        """Take the current chunk's names off (recorded: they are set back at the end); the chunk
+        starts a group or goes into the current one."""
         chunk, self._chunk, self._bodies = self._chunk, None, 0
         if chunk is None:
             return
         for elements in (chunk.bodies[1:], chunk.joints, chunk.geoms, chunk.sites, chunk.cameras, chunk.lights):
-            self._names += [(element, element.name) for element in elements if element.name]
+            named = [(element, element.name) for element in elements if element.name]
+            for element, _ in named:
+                element.name = ""
+            self._names += named
         if not self._groups or self._groups[-1].chunks == self._group_chunks:
             self._groups.append(_Receiver(chunk))
         else:
