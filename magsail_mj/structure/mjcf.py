@@ -334,15 +334,24 @@ def _write_tendons(g: _Geometry, spec: mujoco.MjSpec) -> None:
     members = g.structure.members
     # a structure-level linear stiffness is a load: the tendons then carry no spring
     k = members.stiffness_N_m if g.structure.stiffness_model == "members" else np.zeros(len(members))
-    for j in np.flatnonzero(members.kind != _BEAM).tolist():
-        l0 = float(members.rest_length_m[j])
+    j = np.flatnonzero(members.kind != _BEAM)
+    rest = members.rest_length_m[j]
+    columns = (
+        j.tolist(),
+        members.nodes[j].tolist(),
+        k[j].tolist(),
+        members.damping_Ns_m[j].tolist(),
+        np.where(members.kind[j] == _CABLE, 0.0, rest).tolist(),  # the dead band's lower end
+        rest.tolist(),
+    )
+    for index, ends, stiffness, damping, low, l0 in zip(*columns):
         add_spring_tendon(
             spec,
-            index=j,
-            ends=(int(members.nodes[j, 0]), int(members.nodes[j, 1])),
-            stiffness_N_m=float(k[j]),
-            damping_Ns_m=float(members.damping_Ns_m[j]),
-            springlength_m=(0.0 if members.kind[j] == _CABLE else l0, l0),
+            index=index,
+            ends=(ends[0], ends[1]),
+            stiffness_N_m=stiffness,
+            damping_Ns_m=damping,
+            springlength_m=(low, l0),
             width_m=g.width_m,
         )
 
