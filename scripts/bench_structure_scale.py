@@ -15,7 +15,11 @@ and times each stage of the path once:
 * ``step`` — the first ``mujoco.mj_step``.
 
 ``index`` (:class:`~magsail_mj.structure.mjcf.StructureModelIndex`) is timed after them and is not
-in ``total_s``. The process then reports its peak resident set (``ru_maxrss``: MuJoCo's C
+in ``total_s``; nor is ``compile_without_tendons_s``, the compile of the same plate without its
+members (nodes only), which splits ``compile`` into MuJoCo's part that grows with the tendons
+(``tendon_compile_ns_per_tendon_dof``: the difference over ``ntendon · nv``; constant when that
+part is ``O(ntendon nv)``, as MuJoCo's per-tendon ``tendon_invweight0`` over dense ``nv``-vectors
+is) and the rest. The process reports its peak resident set (``ru_maxrss``: MuJoCo's C
 allocations included, which ``tracemalloc`` does not see) and the resident set it had before the
 read (the interpreter and the imports): their difference is the path's own memory, compared with
 :func:`~magsail_mj.resources.structure_model_bytes` of the plate's node and member counts; so is
@@ -34,6 +38,7 @@ and timings are wall-clock; compare ratios measured in one call.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import platform
@@ -46,12 +51,14 @@ from pathlib import Path
 
 import magsail_mj  # noqa: F401  (chooses the GL backend before MuJoCo is imported)
 import mujoco
+import numpy as np
 
 from magsail_mj.resources import structure_model_bytes
 from magsail_mj.structure.checks import check_structure
 from magsail_mj.structure.fileformat import read_structure, write_structure
 from magsail_mj.structure.generators import square_plate_lattice
 from magsail_mj.structure.mjcf import StructureModelIndex, build_structure_spec
+from magsail_mj.structure.model import Members, Structure
 
 STAGES = ("read", "check", "build", "compile", "data", "step")
 DEFAULT_UNITS = (31, 63, 99)
@@ -71,6 +78,13 @@ def _rss_mb() -> float:
     """The process's resident set now [MiB] (``/proc/self/statm``)."""
     with open("/proc/self/statm") as stream:
         return int(stream.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def _without_members(structure: Structure) -> Structure:
+    """``structure``'s nodes alone (no members, no member sets)."""
+    none = np.zeros(structure.n_members, dtype=bool)
+    members = Members(**{f.name: getattr(structure.members, f.name)[none] for f in dataclasses.fields(Members)})
+    return dataclasses.replace(structure, members=members, member_sets={})
 
 
 def run_path(path: Path) -> dict:
@@ -94,6 +108,10 @@ def run_path(path: Path) -> dict:
     StructureModelIndex.from_model(model, structure)
     index_s = time.perf_counter() - t0
     peak_rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    bare = build_structure_spec(_without_members(structure), timestep_s=TIMESTEP_S, integrator="Euler")
+    t0 = time.perf_counter()
+    bare.compile()
+    bare_compile_s = time.perf_counter() - t0
     estimate = structure_model_bytes(n_nodes=structure.n_nodes, n_members=structure.n_members)
     mujoco_bytes = model.nbuffer + data.nbuffer + model.narena
     return {
@@ -106,6 +124,8 @@ def run_path(path: Path) -> dict:
         "seconds": seconds,
         "total_s": sum(seconds.values()),
         "index_s": index_s,
+        "compile_without_tendons_s": bare_compile_s,
+        "tendon_compile_ns_per_tendon_dof": (seconds["compile"] - bare_compile_s) / (model.ntendon * model.nv) * 1e9,
         "start_rss_mb": start_rss_mb,
         "peak_rss_mb": peak_rss_mb,
         "path_rss_mb": peak_rss_mb - start_rss_mb,
@@ -130,14 +150,13 @@ def _run_child(path: Path) -> dict:
 
 
 def per_node_ratios(sizes: list[dict]) -> dict[str, list[float]]:
-    """Per stage (and the total), each size's time per node over the smallest size's."""
-    base = sizes[0]
-    out = {}
-    for stage in (*STAGES, "total"):
-        cost = [(s["total_s"] if stage == "total" else s["seconds"][stage]) / s["nodes"] for s in sizes]
-        base_cost = cost[0] if base["nodes"] else float("nan")
-        out[stage] = [c / base_cost for c in cost]
-    return out
+    """Per stage (the total and the compile without tendons too), each size's time per node over
+    the smallest size's."""
+    seconds = {stage: [s["seconds"][stage] for s in sizes] for stage in STAGES}
+    seconds["total"] = [s["total_s"] for s in sizes]
+    seconds["compile_without_tendons"] = [s["compile_without_tendons_s"] for s in sizes]
+    nodes = [s["nodes"] for s in sizes]
+    return {stage: [t / n / (times[0] / nodes[0]) for t, n in zip(times, nodes)] for stage, times in seconds.items()}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -147,6 +166,8 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.child:
         return _child(Path(args.child))
+    if min(args.units) < 1:
+        p.error(f"--units: every size must be >= 1, got {args.units}")
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="bench_structure_scale_") as folder:
         paths = [write_plate(units, Path(folder)) for units in sorted(args.units)]
