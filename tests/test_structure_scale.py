@@ -30,9 +30,9 @@ from magsail_mj.structure.mjcf import build_structure_spec
 from magsail_mj.structure.model import MEMBER_KINDS, Members, Structure
 
 MIB = 1 << 20
-#: Python-side bytes per node the whole path may trace at its peak: 2.6 times the 3.1 kB measured
+#: Python-side bytes per node the whole path may trace at its peak: 2.3 times the 3.6 kB measured
 #: for the 2 048-node plate (the structure's arrays, the spec's Python handles and names); a dense
-#: nv × nv array of that plate would be 36 MB as bytes, 288 MB as doubles (nv = 6 144).
+#: nv × nv array of that plate would be 36 MiB as bytes, 288 MiB as doubles (nv = 6 144).
 TRACED_BYTES_PER_NODE = 8 * 1024
 
 

@@ -235,7 +235,7 @@ class WorldTrees:
     first receives the others), and on leaving the block the groups are attached to ``spec`` in
     order; MuJoCo appends an attached part to its new parent's children, so the bodies keep their
     order. An attach costs the size of the spec receiving it, ``E √k`` for both levels together
-    (0.4 s at 20 000 particles, ``k = 313``). Two levels and no more: MuJoCo looks each moved
+    (about 1 s at 20 000 particles, ``k = 313``). Two levels and no more: MuJoCo looks each moved
     element's source spec up through the nested attaches, a search that grows with the nesting.
 
     The elements travel unnamed: an attach re-indexes every name of the spec receiving it, which
