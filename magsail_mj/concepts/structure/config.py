@@ -379,8 +379,6 @@ class StructureConfig(EnvironmentTables, StructureTables):
     :class:`StructureTables`, then the environment tables ``[orbit]`` … ``[gravity]`` (free space
     unless set; ``gravity.tidal`` acts on every node)."""
 
-    _with_rods: Structure | None = PrivateAttr(default=None)
-
     def rod_members(self) -> np.ndarray:
         """Indices of the members carrying rods (empty without ``[actuators]``)."""
         if self.actuators is None:
@@ -389,10 +387,8 @@ class StructureConfig(EnvironmentTables, StructureTables):
 
     def structure_with_rods(self) -> Structure:
         """The structure with the rods' mass added to their members (the model's structure)."""
-        if self._with_rods is None:
-            density = 0.0 if self.actuators is None else self.actuators.rod_linear_density_kg_m
-            self._with_rods = with_rods(self.structure.structure, self.rod_members(), rod_linear_density_kg_m=density)
-        return self._with_rods
+        density = 0.0 if self.actuators is None else self.actuators.rod_linear_density_kg_m
+        return with_rods(self.structure.structure, self.rod_members(), rod_linear_density_kg_m=density)
 
     def rod_dipole_max_Am2(self) -> np.ndarray:
         """(R,) largest dipole of each rod [A m²] (``κ ρ_rod l0``, or ``dipole_max_Am2``)."""
