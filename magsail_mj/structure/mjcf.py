@@ -9,7 +9,11 @@ Frames and options
     node and tendon writers this module shares (a lattice of struts compiles to the same
     ``MjModel`` as the truss builder, given the same node radius and member width). The structure
     is expected to pass :func:`~magsail_mj.structure.checks.check_structure`; the builder itself
-    refuses only what the model cannot hold.
+    refuses only what the model cannot hold. The bodies are written tree by tree through
+    :class:`~magsail_mj.lattice.mjcf.WorldTrees`: above
+    :data:`~magsail_mj.lattice.mjcf.SPEC_DIRECT_BODIES` bodies they are assembled from scratch
+    specs (MuJoCo's spec costs ``O(E²)`` for ``E`` elements added one by one), which gives the
+    same ``MjModel`` and an MJCF holding unnamed identity ``<frame>`` elements.
 
 Bodies (:func:`~magsail_mj.structure.beams.body_layout`)
     *Particle* (a node no beam touches, no part holds): body ``n<i>`` at the node, three slide
