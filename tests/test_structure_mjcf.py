@@ -522,3 +522,19 @@ def test_index_positions_and_member_lengths() -> None:
         kinds = structure.members.kind
         assert np.array_equal(tendons, kinds != MEMBER_KINDS.index("beam"))
     assert body_layout(particles).order.tolist() == list(range(lat.n_nodes))
+
+
+def test_balanced_inertias_pass_the_triangle_inequality_after_rounding() -> None:
+    """A body inertia corrected to the triangle inequality lands a few ulps inside it, not on it
+    (on it, rounding made MuJoCo refuse the 40-segment sail: "A + B >= C"); a valid one is kept."""
+    from magsail_mj.structure.mjcf import _balanced
+
+    rng = np.random.default_rng(3)
+    rods = (
+        rng.uniform(0.1, 10.0, (2000, 1, 1)) * np.diag([0.0, 1.0, 1.0])[None]
+        + rng.uniform(1e-9, 1e-6, (2000, 1, 1)) * np.diag([0.0, 0.0, 3.0])[None]
+    )
+    moments = np.linalg.eigvalsh(_balanced(rods))
+    assert np.all(moments[:, 0] + moments[:, 1] > moments[:, 2])
+    valid = np.diag([1.0, 2.0, 2.5])[None]
+    assert np.array_equal(_balanced(valid), valid)

@@ -186,8 +186,10 @@ def _balanced(inertia: np.ndarray) -> np.ndarray:
     """``inertia`` (k, 3, 3) plus the smallest isotropic term that makes its principal moments
     obey the triangle inequality ``I_max ≤ I_a + I_b``."""
     moments = np.linalg.eigvalsh(inertia)
-    deficit = np.maximum(moments[:, 2] - moments[:, 0] - moments[:, 1], 0.0)
-    return inertia + deficit[:, None, None] * np.eye(3)
+    deficit = moments[:, 2] - moments[:, 0] - moments[:, 1]
+    # a few ulps beyond equality: landing exactly on it, rounding tipped MuJoCo's A + B >= C check
+    added = np.where(deficit > 0, deficit + 8 * np.finfo(float).eps * moments[:, 2], 0.0)
+    return inertia + added[:, None, None] * np.eye(3)
 
 
 def _shifted(mass: np.ndarray, offset: np.ndarray) -> np.ndarray:
