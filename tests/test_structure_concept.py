@@ -10,6 +10,7 @@ forces on a rigid part's nodes against ``Σ x × F``.
 from __future__ import annotations
 
 import copy
+import importlib.util
 import json
 import math
 import re
@@ -29,6 +30,7 @@ from magsail_mj.concepts.structure.model import make_structure_model, rigid_init
 from magsail_mj.concepts.structure.tasks import StructureTask
 from magsail_mj.config import ConfigError, load_config, parse_config
 from magsail_mj.export import read_timeseries
+from magsail_mj.records import open_records
 from magsail_mj.resources import estimate_run_bytes
 from magsail_mj.run import run_scenario
 from magsail_mj.structure.fileformat import read_structure, write_structure
@@ -128,8 +130,6 @@ def test_shipped_configs_validate_and_count_their_models():
 def test_shipped_structure_files_are_what_the_script_writes(tmp_path):
     """The committed structure files equal the generators' structures (read back: 1e-9 relative, the
     cantilever calibration's sparse solve may differ in the last bits between machines)."""
-    import importlib.util
-
     spec = importlib.util.spec_from_file_location("make_structure_configs", REPO / "scripts/make_structure_configs.py")
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
@@ -356,8 +356,6 @@ def test_slew_follows_the_linear_closed_loop(tmp_path, no_plots):
     out = run_scenario(parse_config(tree), tmp_path / "s")
     assert out["saturation_fraction"] == 0.0 and out["slew_angle_deg"] == pytest.approx(5.0)
     t = read_timeseries(tmp_path / "s")["t"]
-    from magsail_mj.records import open_records
-
     err = np.asarray(open_records(tmp_path / "s", group="series")["error_angle_rad"])
     wn, zeta = 0.5, 0.7
     wd = wn * math.sqrt(1 - zeta**2)
