@@ -290,7 +290,7 @@ def structure_model_bytes(
     MuJoCo's model and data buffers (``16 kB + 1.2 kB nv + 0.4 kB nbody + 0.6 kB ntendon + 96 B
     mass_nnz``, fitted as the comment above says), the arena the builder sets
     (:func:`~magsail_mj.lattice.mjcf.lattice_arena_bytes` of ``nv``: linear in ``nv``, where
-    MuJoCo's default grows with ``nv²``) and the build (the spec and the structure's arrays, 16 kB
+    MuJoCo's default grows with ``nv²``) and the build (the MjSpec and the structure's arrays, 16 kB
     per dof as for the lattices).
 
     The counts default to a structure of free particles joined by struts and cables: ``nv = 3

@@ -31,7 +31,7 @@ from magsail_mj.structure.model import MEMBER_KINDS, Members, Structure
 
 MIB = 1 << 20
 #: Python-side bytes per node the whole path may trace at its peak: 2.3 times the 3.6 kB measured
-#: for the 2 048-node plate (the structure's arrays, the spec's Python handles and names); a dense
+#: for the 2 048-node plate (the structure's arrays, the MjSpec's Python handles and names); a dense
 #: nv × nv array of that plate would be 36 MiB as bytes, 288 MiB as doubles (nv = 6 144).
 TRACED_BYTES_PER_NODE = 8 * 1024
 

@@ -234,11 +234,11 @@ class WorldTrees:
     chunks of ``c`` elements. ``g ≈ √k`` consecutive ones of the ``k`` chunks make a group (the
     first receives the others), and on leaving the block the groups are attached to ``spec`` in
     order; MuJoCo appends an attached part to its new parent's children, so the bodies keep their
-    order. An attach costs the size of the spec receiving it, ``E √k`` for both levels together
+    order. An attach costs the size of the MjSpec receiving it, ``E √k`` for both levels together
     (about 1 s at 20 000 particles, ``k = 313``). Two levels and no more: MuJoCo looks each moved
     element's source spec up through the nested attaches, a search that grows with the nesting.
 
-    The elements travel unnamed: an attach re-indexes every name of the spec receiving it, which
+    The elements travel unnamed: an attach re-indexes every name of the MjSpec receiving it, which
     made a named attach cost 12 times an unnamed one (0.29 s against 0.023 s into 16 000
     particles); the names are recorded when a chunk is finished and set back when everything is in
     ``spec``. Every attach needs a name prefix all the same (an empty one makes MuJoCo warn on
