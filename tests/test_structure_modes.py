@@ -361,7 +361,7 @@ def test_verb_on_a_nastran_deck(tmp_path, capsys):
 
 def test_verb_refusals_name_the_argument(tmp_path, capsys):
     code, _, err = _run(capsys, ["modes", "magsail_mj/concepts/cnusail/configs/detumble_pre.toml"])
-    assert code == 2 and err.startswith("error: SOURCE: concept 'cnusail' has no structure yet"), err
+    assert code == 2 and err.startswith("error: SOURCE: concept: 'cnusail' has no structure (concepts with one: "), err
     (tmp_path / "x.stl").write_text("solid")
     code, _, err = _run(capsys, ["modes", str(tmp_path / "x.stl")])
     assert code == 2 and err.startswith("error: SOURCE:") and ".stl" in err, err

@@ -7,7 +7,9 @@ A concept package registers, when imported,
 - its tasks, ``@register_task("<concept>", "<kind>")`` on one class per scenario kind, keyed by
   ``(concept, kind)``; a class is built from a validated config by ``cls.from_config(cfg)`` when
   it has that class method, else by ``cls(cfg)``;
-- or, instead of task classes, one builder ``@register_builder("<concept>")`` (``cfg → task``).
+- or, instead of task classes, one builder ``@register_builder("<concept>")`` (``cfg → task``);
+- optionally, ``@register_structure("<concept>")`` on ``cfg → Structure``: the structure a config
+  models (what ``magsail modes`` analyses), registered from the ``tasks`` module.
 
 Discovery has two sides, and this registry is the one place that names the modules it imports
 (:data:`SCHEMA_MODULE`, :data:`TASK_MODULE`, resolved with ``importlib``):
@@ -42,6 +44,9 @@ __all__ = [
     "register_config",
     "register_task",
     "register_builder",
+    "register_structure",
+    "STRUCTURES",
+    "structure_of",
     "SCHEMA_MODULE",
     "TASK_MODULE",
     "discover",
@@ -64,6 +69,9 @@ TASKS: dict[tuple[str, str], type] = {}
 """``(concept, scenario kind)`` → task class."""
 
 BUILDERS: dict[str, Callable[[Any], Any]] = {}
+
+STRUCTURES: dict[str, Callable[[Any], Any]] = {}
+"""Concept name → ``cfg → Structure`` of its configs (concepts whose model is a structure)."""
 """Concept name → builder ``cfg → task`` (concepts that dispatch on their kind themselves)."""
 
 
@@ -98,6 +106,17 @@ def register_builder(concept: str) -> Callable[[Callable[[Any], T]], Callable[[A
 
     def wrap(fn: Callable[[Any], T]) -> Callable[[Any], T]:
         BUILDERS[concept] = fn
+        return fn
+
+    return wrap
+
+
+def register_structure(concept: str) -> Callable[[Callable[[Any], T]], Callable[[Any], T]]:
+    """Decorator: make ``fn(cfg) → Structure`` the structure of the configs of ``concept``."""
+    _check_name("concept", concept)
+
+    def wrap(fn: Callable[[Any], T]) -> Callable[[Any], T]:
+        STRUCTURES[concept] = fn
         return fn
 
     return wrap
@@ -208,3 +227,15 @@ def build_task(cfg: Any) -> Any:
     if any(c == concept for (c, _) in TASKS):
         raise ValueError(f"{key}: no {concept} task {kind!r}; known {task_kinds(concept)}")
     raise ValueError(f"concept: no scenario builder for {concept!r}")
+
+
+def structure_of(cfg: Any) -> Any:
+    """The structure a validated config models (``STRUCTURES[cfg.concept](cfg)``); a
+    ``ValueError`` names the concept when it registers none."""
+    discover()
+    fn = STRUCTURES.get(cfg.concept)
+    if fn is None:
+        raise ValueError(
+            f"concept: {cfg.concept!r} has no structure (concepts with one: {sorted(STRUCTURES) or 'none'})"
+        )
+    return fn(cfg)

@@ -4,12 +4,10 @@
 
 * a structure file (``*.toml`` with ``format = "magsail-structure"``,
   :func:`magsail_mj.structure.fileformat.read_structure`);
-* a config whose concept has a lattice (``truss_magnetorquer``, ``current_loops``): the lattice of
-  :func:`magsail_mj.lattice.geometry.make_lattice` as a structure
-  (:func:`magsail_mj.structure.generators.plates.lattice_structure`) with the concept's particle
-  masses and strut axial rigidities, as the concept's model builder makes them; a
-  ``truss_magnetorquer`` ``cantilever`` scenario has its ``i = 0`` edge clamped. Another concept's
-  config has no structure yet (exit 2);
+* a config whose concept registers the structure it models
+  (:func:`magsail_mj.concepts.structure_of`: the truss and current-loop lattices with the
+  concept's particle masses and strut axial rigidities, the truss ``cantilever`` with its clamped
+  edge, the structure concept's structure); another concept's config has none (exit 2);
 * a gmsh mesh (``.msh``, :func:`magsail_mj.structure.mesh.read_mesh` without properties: only a
   mesh whose elements need none, so in practice a mesh is read in Python with its properties and
   saved as a structure file);
@@ -37,13 +35,20 @@ from typing import Any
 
 import numpy as np
 
+from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
 from magsail_mj.cli import CliInputError
+from magsail_mj.concepts import structure_of
 from magsail_mj.config import load_config
 from magsail_mj.io import check_output_folder
 from magsail_mj.resources import check_memory
+from magsail_mj.plotting import new_figure, save_figure
 from magsail_mj.structure.assembly import assemble, dof_layout
+from magsail_mj.structure.fileformat import read_structure
+from magsail_mj.structure.mesh import read_mesh
+from magsail_mj.structure.nastran import read_nastran
 from magsail_mj.structure.model import Structure, StructureError
-from magsail_mj.structure.modes import RIGID_DIRECTIONS, StructureModes, structure_modes
+from magsail_mj.structure.modes import ROUNDING_FLOOR, RIGID_DIRECTIONS, StructureModes, structure_modes
 from magsail_mj.verbs.common import input_file, output_dir, print_json
 
 __all__ = ["MAX_PLOTS", "NASTRAN_SUFFIXES", "modes", "read_source", "structure_of_config"]
@@ -52,8 +57,6 @@ MAX_PLOTS = 12
 """The most mode-shape PNGs ``--plot`` writes."""
 NASTRAN_SUFFIXES = (".bdf", ".dat", ".nas")
 """Suffixes read as Nastran decks."""
-LATTICE_CONCEPTS = ("truss_magnetorquer", "current_loops")
-"""Concepts whose configs make a lattice structure."""
 # Memory of a solve per independent coordinate: 477 MB peak RSS measured for the 20 000-node
 # lattice (60 000 coordinates, SuperLU fill 12.5 M), about 8 kB per coordinate with the interpreter;
 # twice that leaves room for structures whose factor fills more.
@@ -61,38 +64,13 @@ _BYTES_PER_DOF = 16_384
 _PLOT_FRACTION = 0.1
 
 
-def _truss_structure(cfg: Any) -> Structure:
-    from magsail_mj.concepts.truss_magnetorquer.model import truss_structure
-    from magsail_mj.lattice.geometry import make_lattice
-    from magsail_mj.lattice.properties import clamped_nodes
-
-    if cfg.scenario != "cantilever":
-        return truss_structure(cfg)[0]
-    lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
-    return truss_structure(cfg, fixed_nodes=clamped_nodes(lat))[0]
-
-
-def _loops_structure(cfg: Any) -> Structure:
-    from magsail_mj.concepts.current_loops.model import loops_structure
-    from magsail_mj.lattice.geometry import make_lattice
-    from magsail_mj.lattice.properties import strut_stiffness
-
-    lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
-    total = cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
-    _, c = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_Nm2, calibration=cfg.stiffness.calibration)
-    return loops_structure(cfg, lat, masses=np.full(lat.n_nodes, total / lat.n_nodes), calibration_factor=c)
-
-
 def structure_of_config(cfg: Any) -> Structure:
-    """The structure of a validated config (lattice concepts, :data:`LATTICE_CONCEPTS`)."""
-    if cfg.concept == "truss_magnetorquer":
-        return _truss_structure(cfg)
-    if cfg.concept == "current_loops":
-        return _loops_structure(cfg)
-    raise CliInputError(
-        f"SOURCE: concept {cfg.concept!r} has no structure yet (modes are computed for structure files, meshes, "
-        f"Nastran decks and the lattice concepts {list(LATTICE_CONCEPTS)})"
-    )
+    """The structure of a validated config (the concepts that register one:
+    :func:`magsail_mj.concepts.structure_of`); CliInputError naming ``SOURCE`` otherwise."""
+    try:
+        return structure_of(cfg)
+    except ValueError as err:
+        raise CliInputError(f"SOURCE: {err}") from None
 
 
 def _toml_structure(path: Path) -> tuple[Structure, str]:
@@ -103,8 +81,6 @@ def _toml_structure(path: Path) -> tuple[Structure, str]:
     except tomllib.TOMLDecodeError as err:
         raise CliInputError(f"SOURCE: {str(path)!r} is not valid TOML: {err}") from None
     if tree.get("format") == "magsail-structure":
-        from magsail_mj.structure.fileformat import read_structure
-
         return read_structure(path).structure, "structure file"
     if "concept" in tree:
         return structure_of_config(load_config(path)), "config"
@@ -120,12 +96,8 @@ def read_source(source: str) -> tuple[Structure, str]:
     if suffix == ".toml":
         return _toml_structure(path)
     if suffix in NASTRAN_SUFFIXES:
-        from magsail_mj.structure.nastran import read_nastran
-
         return read_nastran(path), "Nastran deck"
     if suffix == ".msh":
-        from magsail_mj.structure.mesh import read_mesh
-
         try:
             return read_mesh(path), "mesh"
         except StructureError as err:
@@ -145,7 +117,8 @@ def _report(result: StructureModes, *, source: str, kind: str, count: int) -> di
     return {
         "frequencies_Hz": result.frequencies_Hz,
         "rigid_body_modes": result.n_zero,
-        "zero_mode_rule": f"|omega^2| <= {result.zero_tol:g} |phi|^T |K| |phi| (clamped to 0)",
+        "zero_mode_rule": f"|omega^2| <= {result.zero_tol:g} |phi|^T |K| |phi| or <= {ROUNDING_FLOOR:.3g} "
+        "max K_ii/M_ii (clamped to 0)",
         "participation": {
             "directions": list(RIGID_DIRECTIONS),
             "about": "centre of mass, structure axes",
@@ -170,11 +143,6 @@ def _report(result: StructureModes, *, source: str, kind: str, count: int) -> di
 
 def _plot(result: StructureModes, structure: Structure, folder: Path) -> list[Path]:
     """``mode_NN.png`` of the first elastic modes (at most :data:`MAX_PLOTS`) in ``folder``."""
-    # Matplotlib only when plots are asked for: the verb without --plot does not load it
-    from mpl_toolkits.mplot3d.art3d import Line3DCollection
-
-    from magsail_mj.plotting import new_figure, save_figure
-
     folder.mkdir(parents=True, exist_ok=True)
     p = structure.positions_m
     ends = structure.members.nodes

@@ -33,13 +33,13 @@ import numpy as np
 
 from magsail_mj.lattice.modes import Modes, damping_ratios, lattice_modes
 from magsail_mj.concepts.current_loops.attitude import LoopAttitudeController
-from magsail_mj.concepts import build_task, register_task
+from magsail_mj.concepts import build_task, register_structure, register_task
 from magsail_mj.environment.constants import MU_EARTH
 from magsail_mj.environment.environment import Environment
 from magsail_mj.estimation.attitude import matrix_from_quat, particle_inertia
 from magsail_mj.geometry.current_loops import AXIS_OF
-from magsail_mj.lattice.geometry import strain_check
-from magsail_mj.lattice.properties import _ratio_formula
+from magsail_mj.lattice.geometry import make_lattice, strain_check
+from magsail_mj.lattice.properties import _ratio_formula, strut_stiffness
 from magsail_mj.concepts.current_loops.lorentz import CircuitSegments, LorentzLoad
 from magsail_mj.lattice.linear_stiffness import LinearStiffnessLoad
 from magsail_mj.lattice.modal_damping import ModalDampingLoad
@@ -70,7 +70,9 @@ from magsail_mj.concepts.current_loops.model import (
     WorkLedger,
     make_loops_model,
     rigid_plate_spec,
+    loops_structure,
 )
+from magsail_mj.structure.model import Structure
 from magsail_mj.concepts.current_loops.plots import slew_plots, structural_plots, sweep_plots
 from magsail_mj.sim import RunResult, Simulation
 
@@ -597,3 +599,13 @@ def build_loops_scenario(cfg: CurrentLoopsConfig) -> LoopsScenario:
     """The task of a current-loops config: the class registered for ``(cfg.concept, cfg.scenario)`` in
     :data:`magsail_mj.concepts.TASKS` (:func:`magsail_mj.concepts.build_task`)."""
     return build_task(cfg)
+
+
+@register_structure("current_loops")
+def config_structure(cfg: CurrentLoopsConfig) -> Structure:
+    """The lattice a config models as a structure (:func:`loops_structure`: uniform particles,
+    the calibrated struts, the stiffness form and the modal damping)."""
+    lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
+    total = cfg.mass.areal_density_kg_m2 * cfg.lattice.side_m**2
+    _, c = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_Nm2, calibration=cfg.stiffness.calibration)
+    return loops_structure(cfg, lat, masses=np.full(lat.n_nodes, total / lat.n_nodes), calibration_factor=c)

@@ -28,8 +28,9 @@ from typing import Any, ClassVar
 import mujoco
 import numpy as np
 
-from magsail_mj.concepts import register_task
+from magsail_mj.concepts import register_structure, register_task
 from magsail_mj.concepts.structure.config import StructureConfig
+from magsail_mj.structure.model import Structure
 from magsail_mj.concepts.structure.control import DipoleAllocation, StructureRodController
 from magsail_mj.concepts.structure.loads import NodeTidalLoad, RodDipoleLoad
 from magsail_mj.concepts.structure.metrics import (
@@ -337,3 +338,9 @@ class SlewTask(ActuatedTask):
 
     def kind_plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
         return [*super().kind_plots(run_dir, result, series), *slew_plot(run_dir, series, title=self.title)]
+
+
+@register_structure("structure")
+def config_structure(cfg: StructureConfig) -> Structure:
+    """The structure a config models: its structure source with the rods' mass on their members."""
+    return cfg.structure_with_rods()

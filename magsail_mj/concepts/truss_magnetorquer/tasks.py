@@ -33,12 +33,12 @@ import numpy as np
 
 from magsail_mj.control.profiles import torque_profile
 from magsail_mj.control.rod_attitude import RodAttitudeController
-from magsail_mj.concepts import build_task, register_task
+from magsail_mj.concepts import build_task, register_structure, register_task
 from magsail_mj.environment.environment import Environment
 from magsail_mj.environment.surfaces import lattice_top_cells
 from magsail_mj.estimation.attitude import BestFitRotation, matrix_from_quat, particle_inertia
-from magsail_mj.lattice.geometry import strain_check
-from magsail_mj.lattice.properties import loaded_nodes
+from magsail_mj.lattice.geometry import make_lattice, strain_check
+from magsail_mj.lattice.properties import clamped_nodes, loaded_nodes
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.drag import LatticeDragLoad
 from magsail_mj.loads.magnetorquer_rods import MagnetorquerRodLoad
@@ -64,7 +64,9 @@ from magsail_mj.concepts.truss_magnetorquer.model import (
     actuated_struts,
     make_cantilever_model,
     make_truss_model,
+    truss_structure,
 )
+from magsail_mj.structure.model import Structure
 from magsail_mj.concepts.truss_magnetorquer.orbital import (
     detumble_keys,
     make_rod_load,
@@ -607,3 +609,13 @@ def build_truss_scenario(cfg: TrussConfig) -> TrussScenario:
     """The task of a truss config: the class registered for ``(cfg.concept, cfg.scenario)`` in
     :data:`magsail_mj.concepts.TASKS` (:func:`magsail_mj.concepts.build_task`)."""
     return build_task(cfg)
+
+
+@register_structure("truss_magnetorquer")
+def config_structure(cfg: TrussConfig) -> Structure:
+    """The lattice a config models as a structure (:func:`truss_structure`; the ``cantilever``
+    scenario with its ``i = 0`` edge clamped)."""
+    if cfg.scenario != "cantilever":
+        return truss_structure(cfg)[0]
+    lat = make_lattice(units=cfg.lattice.units, side_m=cfg.lattice.side_m, diagonals=cfg.lattice.diagonals)
+    return truss_structure(cfg, fixed_nodes=clamped_nodes(lat))[0]
