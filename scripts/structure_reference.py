@@ -216,7 +216,7 @@ def reference_page() -> str:
         "```python",
         "from magsail_mj.structure.fileformat import read_structure, structure_from_mapping, write_structure",
         "",
-        'source = read_structure("boom.toml")          # checked; StructureError lists every problem',
+        'source = read_structure("boom.toml")  # checked; StructureError lists every problem',
         "structure, digests = source.structure, source.sha256",
         'write_structure(structure, "copy.toml", arrays="npz")',
         "```",
