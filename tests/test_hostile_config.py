@@ -392,3 +392,14 @@ def test_validate_and_run_agree_on_every_key_of_every_kind_of_config():
 # Disagreements the sweep found that are not fixed yet (the build's own code, outside the
 # validators): kept visible here, left out of the slow sweep until fixed.
 OPEN: dict[tuple[str, str], str] = {}
+
+
+def test_modal_damping_needs_the_modes_it_keeps() -> None:
+    """A current-loops lattice shrunk below the modes its damping keeps exactly (n_low = 100 on
+    3 units: 90 elastic modes) validated and then failed in the build; validation refuses it
+    naming damping.n_low and the lattice size, and accepts the most that fit."""
+    config = REPO / "magsail_mj/concepts/current_loops/configs/sweep/a_n12_ei1e3.toml"
+    with pytest.raises(ConfigError, match=r"damping\.n_low: the 3-unit lattice has 90 elastic modes"):
+        load_config(config, ["lattice.units=3", "damping.n_low=100"])
+    form = tomllib.loads(config.read_text()).get("damping", {}).get("form", "dense")
+    load_config(config, ["lattice.units=3", f"damping.n_low={89 if form == 'polynomial' else 90}"])

@@ -258,6 +258,25 @@ class CurrentLoopsConfig(StrictModel):
         return self
 
     @model_validator(mode="after")
+    def _damped_modes(self) -> CurrentLoopsConfig:
+        """The modal damping keeps ``damping.n_low`` elastic modes exactly: the lattice must have
+        them (``3 · 2 (units + 1)² − 6`` elastic modes; one more above them for the polynomial
+        form, which fits the modes above ``n_low``)."""
+        d = self.damping
+        if not d.enabled:
+            return self
+        elastic = 3 * 2 * (self.lattice.units + 1) ** 2 - 6
+        most = elastic - 1 if d.form == "polynomial" else elastic
+        if d.n_low > most:
+            raise ConfigProblem(
+                "damping.n_low",
+                f"the {self.lattice.units}-unit lattice has {elastic} elastic modes, so at most {most} can be kept "
+                f"exactly ({d.form} form), got {d.n_low}",
+                others=("lattice.units",),
+            )
+        return self
+
+    @model_validator(mode="after")
     def _numbers(self) -> CurrentLoopsConfig:
         """What MuJoCo receives (particle masses and inertias, spring constants) must be finite and
         above mjMINVAL, and the circuit currents (Eq.-9 sizing or fixed) finite."""
