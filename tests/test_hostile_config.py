@@ -395,11 +395,12 @@ OPEN: dict[tuple[str, str], str] = {}
 
 
 def test_modal_damping_needs_the_modes_it_keeps() -> None:
-    """A current-loops lattice shrunk below the modes its damping keeps exactly (n_low = 100 on
-    3 units: 90 elastic modes) validated and then failed in the build; validation refuses it
-    naming damping.n_low and the lattice size, and accepts the most that fit."""
+    """The polynomial modal damping fits the modes above n_low: a current-loops lattice shrunk
+    below them (n_low = 100 on 3 units: 90 elastic modes) validated and then failed in the build;
+    validation refuses it naming damping.n_low and the lattice size. The dense form damps every
+    mode at xi_low then, and is accepted."""
     config = REPO / "magsail_mj/concepts/current_loops/configs/sweep/a_n12_ei1e3.toml"
     with pytest.raises(ConfigError, match=r"damping\.n_low: the 3-unit lattice has 90 elastic modes"):
-        load_config(config, ["lattice.units=3", "damping.n_low=100"])
-    form = tomllib.loads(config.read_text()).get("damping", {}).get("form", "dense")
-    load_config(config, ["lattice.units=3", f"damping.n_low={89 if form == 'polynomial' else 90}"])
+        load_config(config, ["lattice.units=3", "damping.n_low=100", 'damping.form="polynomial"'])
+    load_config(config, ["lattice.units=3", "damping.n_low=89", 'damping.form="polynomial"'])
+    load_config(config, ["lattice.units=3", "damping.n_low=100", 'damping.form="dense"'])

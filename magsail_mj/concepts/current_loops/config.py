@@ -259,20 +259,19 @@ class CurrentLoopsConfig(StrictModel):
 
     @model_validator(mode="after")
     def _damped_modes(self) -> CurrentLoopsConfig:
-        """The modal damping keeps ``damping.n_low`` elastic modes exactly: the lattice must have
-        them (``3 · 2 (units + 1)² − 6`` elastic modes; one more above them for the polynomial
-        form, which fits the modes above ``n_low``)."""
+        """The polynomial form of the modal damping fits the modes above ``damping.n_low``: the
+        lattice must have at least one (``3 · 2 (units + 1)² − 6`` elastic modes). The dense form
+        gives every mode ``xi_low`` when the lattice has fewer than ``n_low``."""
         d = self.damping
-        if not d.enabled:
+        if not d.enabled or d.form != "polynomial":
             return self
         elastic = 3 * 2 * (self.lattice.units + 1) ** 2 - 6
-        most = elastic - 1 if d.form == "polynomial" else elastic
-        if d.n_low > most:
+        if d.n_low > elastic - 1:
             raise ConfigProblem(
                 "damping.n_low",
-                f"the {self.lattice.units}-unit lattice has {elastic} elastic modes, so at most {most} can be kept "
-                f"exactly ({d.form} form), got {d.n_low}",
-                others=("lattice.units",),
+                f"the {self.lattice.units}-unit lattice has {elastic} elastic modes and the polynomial form fits "
+                f"those above n_low, so n_low is at most {elastic - 1}, got {d.n_low}",
+                others=("lattice.units", "damping.form"),
             )
         return self
 
