@@ -46,6 +46,11 @@ def main() -> int:
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, signal.SIG_IGN)
         cli.forget_handled_interrupt()  # no further interrupt can arrive: the status 130 stands
+    if code == 130:  # the folder is consistent; leave without the interpreter's finalisation, which
+        # raced the record store's input/output thread after an interrupt (a fatal GIL error, -6)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(130)
     return code
 
 
