@@ -257,7 +257,13 @@ def _member_table(
     if problems:
         raise StructureError(problems)
     if rest is None:
-        rest = member_lengths_m(positions, pairs) / (1.0 + (0.0 if prestrain is None else prestrain))
+        # A member naming a missing node (or a node whose position is not finite) has no finite length
+        # (NaN, inf). The check refuses it by that node (``members[i].nodes: node 80 does not exist``,
+        # ``nodes[j].position_m: not finite``); a placeholder length of 1 m keeps its derived rest
+        # length from being reported as a second, knock-on problem.
+        length = member_lengths_m(positions, pairs)
+        length[~np.isfinite(length)] = 1.0
+        rest = length / (1.0 + (0.0 if prestrain is None else prestrain))
     return Members(
         nodes=pairs,
         kind=np.full(m, MEMBER_KINDS.index(kind), dtype=np.int8),
