@@ -8,7 +8,8 @@ an allocation) hands the request on, scaled down (direction kept) to at most
 ``REQUEST_HEADROOM`` times the bounds. Huge finite actions (1e200, 1e308) overflowed the reward's
 effort term and the rod allocation before.
 
-Small, short builds (truss and current loops at 3 × 3 cubes, 2 s; msac 0.05 s), each built once;
+Small, short builds (truss and current loops at 3 × 3 cubes, 2 s; msac 0.05 s; the structure
+concept's sail, 2 s), each built once;
 a few hypothesis examples per task, one environment step each.
 """
 
@@ -32,6 +33,7 @@ SMALL = {
     "reflector": ("sim.duration_s=2",),
     "cnusail": ("sim.duration_s=5",),  # as tests/test_envs_cnusail.py: the same cached builds
     "msac": ("sim.duration_s=0.05",),
+    "structure": ("sim.duration_s=2", "sim.progress=false"),  # the 100 m sail, control every 0.5 s
 }
 # every registered task, and the torque-request variants of the tasks whose default action is clipped
 CASES = [(name, ()) for name in envs.list()] + [
