@@ -9,6 +9,10 @@ reference point (uniform over the structure: the density changes by ~0.1 % over 
 altitude), V = ``state.env.v_rel_eci`` (reference-point velocity relative to the co-rotating
 atmosphere) plus the body's own world velocity ``state.vel`` (metres per second against
 ~7.5 km/s; the ω⊕ × x term of x ~ metres is neglected). World = ECI axes.
+
+:func:`plate_drag_forces` is the law of many flat plates with their own flow velocities, on (3, k)
+component-major arrays: the lattice cells' law, shared with the structure concept's panels
+(:mod:`magsail_mj.concepts.structure.loads`).
 """
 
 from __future__ import annotations
@@ -20,7 +24,32 @@ from magsail_mj.environment.surfaces import CellGeometry, FacetSet, drag_forces
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.facets import RigidFacetLoad
 
-__all__ = ["RigidDragLoad", "LatticeDragLoad"]
+__all__ = ["RigidDragLoad", "LatticeDragLoad", "plate_drag_forces"]
+
+
+def plate_drag_forces(
+    area_m2: np.ndarray,
+    normal: np.ndarray,
+    V: np.ndarray,
+    density_kg_m3: float,
+    cd: float | np.ndarray,
+    *,
+    two_sided: bool = True,
+) -> np.ndarray:
+    """Drag force (3, k) [N] on k flat plates,
+
+        F = −½ C_d ρ A |n̂·V| V   (two-sided; max(n̂·V, 0) one-sided),
+
+    the module's law with ``|V| A_proj = A |n̂·V|``.
+
+    Args:
+      area_m2: (k,) plate areas [m²]; normal: (3, k) unit front normals; V: (3, k) each plate's
+        velocity relative to the atmosphere [m/s]; density_kg_m3: ρ; cd: C_d, one for all plates or
+        (k,) per plate; two_sided: both faces take the flow (a membrane).
+    """
+    proj = normal[0] * V[0] + normal[1] * V[1] + normal[2] * V[2]
+    proj = np.abs(proj) if two_sided else np.maximum(proj, 0.0)
+    return ((-0.5 * cd * density_kg_m3) * area_m2 * proj) * V
 
 
 class RigidDragLoad(RigidFacetLoad):
@@ -77,14 +106,12 @@ class LatticeDragLoad:
         self.two_sided = bool(two_sided)
 
     def cell_forces(self, state: StepState) -> np.ndarray:
-        """Force on each cell (3, ncell) [N] in world axes."""
+        """Force on each cell (3, ncell) [N] in world axes (:func:`plate_drag_forces`)."""
         env = state.env
         area, n = self.geometry.area_normal(state.pos)
         V = self.geometry.mean_velocity(state.vel)
         V += env.v_rel_eci[:, None]
-        proj = n[0] * V[0] + n[1] * V[1] + n[2] * V[2]
-        proj = np.abs(proj) if self.two_sided else np.maximum(proj, 0.0)
-        return ((-0.5 * self.cd * env.density_kg_m3) * area * proj) * V
+        return plate_drag_forces(area, n, V, env.density_kg_m3, self.cd, two_sided=self.two_sided)
 
     def add(self, state: StepState, xfrc: np.ndarray) -> None:
         if state.env.density_kg_m3 == 0.0:

@@ -12,6 +12,10 @@ the Sun direction is ``state.env.sun_eci`` (world = ECI axes). Self-shadowing is
   and normal come from the **current** node positions (vector area ½ d₁ × d₂ of the diagonals),
   and its force is shared equally among its four corner nodes (so it acts at the corner
   centroid). Body index = node index + ``body_offset`` (1 for a lattice whose body 0 is the world).
+
+:func:`plate_srp_forces` is the force law of many flat plates with their coefficients folded into
+constants, on (3, k) component-major arrays: the lattice cells' law, shared with the structure
+concept's panels (:mod:`magsail_mj.concepts.structure.loads`).
 """
 
 from __future__ import annotations
@@ -28,7 +32,52 @@ from magsail_mj.environment.surfaces import (
 from magsail_mj.loads.base import StepState
 from magsail_mj.loads.facets import RigidFacetLoad
 
-__all__ = ["RigidSRPLoad", "LatticeSRPLoad"]
+__all__ = ["RigidSRPLoad", "LatticeSRPLoad", "plate_srp_forces"]
+
+
+def plate_srp_forces(
+    area_m2: np.ndarray,
+    normal: np.ndarray,
+    sun: np.ndarray,
+    pressure_N_m2: float,
+    *,
+    rs: float | np.ndarray,
+    k_front: float | np.ndarray,
+    k_back: float | np.ndarray,
+    one_minus_rs: float | np.ndarray,
+    two_sided: bool = True,
+) -> np.ndarray:
+    """SRP force (3, k) [N] on k flat plates, the law of
+    :func:`~magsail_mj.environment.surfaces.srp_forces` with the coefficients folded into constants
+    (:func:`~magsail_mj.environment.surfaces.uniform_srp_constants`):
+
+        F = −P A cos α [(1 − r s) ŝ + (2 r s cos α + K_l) n̂_l],
+
+    ``cos α = |ŝ·n̂|``, ``n̂_l = ±n̂`` the lit face's normal and ``K_l`` = ``k_front`` or ``k_back``
+    by the lit face.
+
+    Args:
+      area_m2: (k,) plate areas [m²]; normal: (3, k) unit front normals; sun: (3,) unit vector to
+        the Sun (same axes); pressure_N_m2: P [N/m²] (0 in shadow).
+      rs, k_front, k_back, one_minus_rs: the constants, one for all plates or (k,) per plate.
+      two_sided: the back face takes light too (a membrane); else a plate lit from behind feels
+        nothing.
+    """
+    s = sun
+    c = s[0] * normal[0] + s[1] * normal[1] + s[2] * normal[2]
+    front = c >= 0.0
+    cos_a = np.abs(c)
+    two_rs_cos = (2.0 * rs) * cos_a
+    k_n = np.where(front, two_rs_cos + k_front, -(two_rs_cos + k_back))
+    scale = (-pressure_N_m2) * area_m2 * cos_a
+    if not two_sided:
+        scale = np.where(front, scale, 0.0)
+    F = (scale * k_n) * normal
+    if np.ndim(one_minus_rs) == 0:
+        F += np.multiply.outer(s * one_minus_rs, scale)
+    else:
+        F += (s[:, None] * one_minus_rs) * scale
+    return F
 
 
 class RigidSRPLoad(RigidFacetLoad):
@@ -79,21 +128,20 @@ class LatticeSRPLoad:
         self._rs, self._k_front, self._k_back, self._one_minus_rs = uniform_srp_constants(self.optics)
 
     def cell_forces(self, state: StepState) -> np.ndarray:
-        """Force on each cell (3, ncell) [N] in world axes."""
+        """Force on each cell (3, ncell) [N] in world axes (:func:`plate_srp_forces`)."""
         env = state.env
-        s = env.sun_eci
         area, n = self.geometry.area_normal(state.pos)
-        c = s[0] * n[0] + s[1] * n[1] + s[2] * n[2]
-        front = c >= 0.0
-        cos_a = np.abs(c)
-        two_rs_cos = (2.0 * self._rs) * cos_a
-        k_n = np.where(front, two_rs_cos + self._k_front, -(two_rs_cos + self._k_back))
-        scale = (-env.srp_pressure_N_m2) * area * cos_a
-        if not self.two_sided:
-            scale = np.where(front, scale, 0.0)
-        F = (scale * k_n) * n
-        F += np.multiply.outer(s * self._one_minus_rs, scale)
-        return F
+        return plate_srp_forces(
+            area,
+            n,
+            env.sun_eci,
+            env.srp_pressure_N_m2,
+            rs=self._rs,
+            k_front=self._k_front,
+            k_back=self._k_back,
+            one_minus_rs=self._one_minus_rs,
+            two_sided=self.two_sided,
+        )
 
     def add(self, state: StepState, xfrc: np.ndarray) -> None:
         if state.env.srp_pressure_N_m2 == 0.0:

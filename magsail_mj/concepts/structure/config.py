@@ -45,7 +45,7 @@ from magsail_mj.config import (
     StrictModel,
     derived_quantity,
 )
-from magsail_mj.environment.config import EnvironmentTables, environment_problems
+from magsail_mj.environment.config import DragConfig, EnvironmentTables, environment_problems
 from magsail_mj.structure.fileformat import StructureSource
 from magsail_mj.structure.mesh import MemberProperties, PanelProperties
 from magsail_mj.structure.mjcf import build_structure_spec
@@ -407,8 +407,8 @@ class StructureConfig(EnvironmentTables, StructureTables):
 
     @property
     def environment_needed(self) -> bool:
-        """Whether the run samples an environment (an orbit or a field)."""
-        return self.orbit.enabled or self.field.model != "none"
+        """Whether the run samples an environment (an orbit, a field, solar pressure or drag)."""
+        return self.orbit.enabled or self.field.model != "none" or self.srp.enabled or self.drag.enabled
 
     @model_validator(mode="after")
     def _tables_for_scenario(self) -> StructureConfig:
@@ -437,9 +437,7 @@ class StructureConfig(EnvironmentTables, StructureTables):
                 )
         elif self.control is not None:
             raise ConfigProblem("control.kind", f"scenario {sc!r} has no controller: remove the [control] table")
-        if self.srp.enabled or self.drag.enabled:
-            which = "srp.enabled" if self.srp.enabled else "drag.enabled"
-            raise ConfigProblem(which, "the structure concept applies no solar pressure or drag yet: set it to false")
+        self._surfaces()
         if self.gravity.classical_torque:
             raise ConfigProblem(
                 "gravity.classical_torque", "a flexible structure takes tidal gravity on every node (gravity.tidal)"
@@ -448,6 +446,22 @@ class StructureConfig(EnvironmentTables, StructureTables):
         if problems:
             raise ValueError("; ".join(problems))
         return self
+
+    def _surfaces(self) -> None:
+        """Solar pressure and drag act on the panels, each with its own drag coefficient."""
+        if self.drag.drag_coefficient != DragConfig.model_fields["drag_coefficient"].default:
+            raise ConfigProblem(
+                "drag.drag_coefficient",
+                "each panel carries its own drag_coefficient (the structure's panels table): remove the key, "
+                f"got {self.drag.drag_coefficient!r}",
+            )
+        for key, on in (("srp.enabled", self.srp.enabled), ("drag.enabled", self.drag.enabled)):
+            if on and len(self.structure.structure.panels) == 0:
+                raise ConfigProblem(
+                    key,
+                    "solar pressure and drag act on the structure's panels, and it has none: "
+                    "add panels or set it to false",
+                )
 
     @model_validator(mode="after")
     def _rods(self) -> StructureConfig:

@@ -19,6 +19,26 @@ once (the one door: each adds into ``xfrc_applied``, :mod:`magsail_mj.loads.base
     ``F_b = −F_a = (m_r × B) × r_ab / |r_ab|²``
     (:func:`magsail_mj.loads.magnetorquer_rods.rod_pair_forces`): zero net force and the moment
     ``m_r × B`` about any point, for any deformation.
+
+:class:`PanelSurfaceLoad`
+    Solar radiation pressure and free-molecular drag on every panel, each quad as the two
+    triangles the structure splits it into (:meth:`~magsail_mj.structure.model.Panels.triangles`,
+    along its 0–2 diagonal). Triangle ``(a, b, c)`` at the **current** node positions has the
+    vector area ``½ (x_b − x_a) × (x_c − x_a)`` (area ``A``, unit front normal ``n̂``); its force
+    goes in equal thirds to its three nodes. Both faces take light and flow (a membrane).
+    SRP (:func:`magsail_mj.loads.srp.plate_srp_forces`, the flat-plate law of
+    :mod:`magsail_mj.environment.surfaces`): with the panel's specular, diffuse and absorbed
+    fractions ``ρ_s, ρ_d, ρ_a`` (read as ``r = ρ_s + ρ_d``, ``s = ρ_s / r`` with Lambertian
+    diffusion, ``B = 2/3`` on both faces and equal emissivities: no thermal re-emission),
+    ``F = −P A cos α [(1 − ρ_s) ŝ + (2 ρ_s cos α + ⅔ ρ_d) n̂_l]``, ``cos α = |ŝ·n̂|``, ``n̂_l`` the
+    lit face's normal; ``P = state.env.srp_pressure_N_m2`` (zero in the Earth's shadow), ``ŝ =
+    state.env.sun_eci``. Drag (:func:`magsail_mj.loads.drag.plate_drag_forces`):
+    ``F = −½ C_D ρ A |n̂·V| V`` with the panel's ``drag_coefficient``, ``ρ =
+    state.env.density_kg_m3`` and ``V = state.env.v_rel_eci``, the reference point's velocity
+    relative to the atmosphere, the same for every panel (the nodes' own velocities about the
+    reference point, ``ω r`` ~ 0.1 m/s over 50 m at 2e-3 rad/s against ~7.5 km/s, are left out).
+    Self-shadowing and the flow's shadowing by other panels are not modelled. The net force
+    moves the structure off the reference orbit (the world origin), as on the lattices.
 """
 
 from __future__ import annotations
@@ -28,11 +48,15 @@ from scipy import sparse
 
 from magsail_mj.concepts.structure.model import MassPoints, NodeFrames, cross_rows, quat_matrices
 from magsail_mj.environment.gravity import tidal_acceleration
+from magsail_mj.environment.surfaces import Optics, uniform_srp_constants
 from magsail_mj.loads.base import StepState
+from magsail_mj.loads.drag import plate_drag_forces
 from magsail_mj.loads.magnetorquer_rods import rod_pair_forces
+from magsail_mj.loads.srp import plate_srp_forces
+from magsail_mj.structure.model import Panels
 from magsail_mj.vec3 import cross3
 
-__all__ = ["NodeTidalLoad", "RodDipoleLoad"]
+__all__ = ["NodeTidalLoad", "RodDipoleLoad", "PanelSurfaceLoad", "panel_srp_constants"]
 
 
 class NodeTidalLoad:
@@ -154,3 +178,123 @@ class RodDipoleLoad:
         x = self.node_positions(state)
         F = rod_pair_forces(x[self._a], x[self._b], u * self.dipole_max_Am2, self.field(state))
         self.used_frames.apply(self._pair @ F, state.xquat, xfrc)
+
+
+def panel_srp_constants(reflectivity: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(r s, K_front, K_back, 1 − r s)`` of :func:`~magsail_mj.loads.srp.plate_srp_forces`, (k,)
+    each, for panels of reflectivity rows ``(ρ_s, ρ_d, ρ_a)`` (k, 3): the
+    :class:`~magsail_mj.environment.surfaces.Optics` ``r = ρ_s + ρ_d``, ``s = ρ_s / r`` (0 for a
+    black panel) with its Lambertian defaults, folded by
+    :func:`~magsail_mj.environment.surfaces.uniform_srp_constants` (once per distinct row)."""
+    rows = np.asarray(reflectivity, dtype=float).reshape(-1, 3)
+    unique, inverse = np.unique(rows, axis=0, return_inverse=True)
+    constants = np.empty((unique.shape[0], 4))
+    for i, (specular, diffuse, _) in enumerate(unique.tolist()):
+        r = min(max(specular + diffuse, 0.0), 1.0)
+        s = min(specular / r, 1.0) if r > 0 else 0.0
+        constants[i] = uniform_srp_constants(Optics(r=r, s=s))
+    rs, k_front, k_back, one_minus_rs = constants[np.ravel(inverse)].T
+    return rs.copy(), k_front.copy(), k_back.copy(), one_minus_rs.copy()
+
+
+class PanelSurfaceLoad:
+    """Solar radiation pressure and drag on the structure's panels (module docstring).
+
+    Args:
+      nodes: the nodes' frames (:class:`~magsail_mj.concepts.structure.model.NodeFrames`).
+      panels: the structure's panel table (at least one panel).
+      srp: apply solar radiation pressure; drag: apply drag.
+
+    Index arrays (each triangle's corners among the nodes the panels use, the (nodes × triangles)
+    sharing matrix of thirds, the per-triangle optical constants and drag coefficients) are built
+    once; a step is a gather, one cross product, the two force laws and one sparse product, in the
+    (3, k) component-major layout of the lattice loads.
+    """
+
+    name = "panel_srp_drag"
+
+    def __init__(self, nodes: NodeFrames, panels: Panels, *, srp: bool, drag: bool) -> None:
+        if len(panels) == 0:
+            raise ValueError("panels: the structure has no panels to take solar pressure or drag")
+        self.srp, self.drag = bool(srp), bool(drag)
+        tri = panels.triangles()
+        quad = np.flatnonzero(panels.nodes[:, 3] >= 0)
+        self.panel_of_triangle = np.concatenate([np.arange(len(panels)), quad]).astype(np.int64)
+        self.used = np.unique(tri)
+        local = np.searchsorted(self.used, tri)
+        self._corner = np.ascontiguousarray(local.T)  # (3, t): corner a, b, c of every triangle
+        t = tri.shape[0]
+        self._share = sparse.csr_matrix(
+            (np.full(3 * t, 1.0 / 3.0), (local.ravel(), np.repeat(np.arange(t), 3))), shape=(self.used.size, t)
+        )
+        self.frames = nodes.subset(self.used)
+        self.rs, self.k_front, self.k_back, self.one_minus_rs = panel_srp_constants(
+            panels.reflectivity[self.panel_of_triangle]
+        )
+        self.cd = np.asarray(panels.drag_coefficient, dtype=float)[self.panel_of_triangle]
+
+    @property
+    def n_triangles(self) -> int:
+        return int(self._corner.shape[1])
+
+    def area_normal(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Areas (t,) [m²] and unit front normals (3, t) of the triangles with the used nodes at
+        ``x`` (u, 3) [m] (a triangle collapsed to a line has area 0 and normal 0)."""
+        X = x.T
+        p0 = X[:, self._corner[0]]
+        d1 = X[:, self._corner[1]] - p0
+        d2 = X[:, self._corner[2]] - p0
+        A = np.empty_like(d1)
+        A[0] = d1[1] * d2[2] - d1[2] * d2[1]
+        A[1] = d1[2] * d2[0] - d1[0] * d2[2]
+        A[2] = d1[0] * d2[1] - d1[1] * d2[0]
+        area2 = np.sqrt(A[0] * A[0] + A[1] * A[1] + A[2] * A[2])  # 2 × area
+        n = np.divide(A, area2, out=np.zeros_like(A), where=area2 > 0.0)
+        return 0.5 * area2, n
+
+    def triangle_forces(self, env, x: np.ndarray, *, srp: bool = True, drag: bool = True) -> np.ndarray:
+        """(3, t) force on every triangle [N], world axes: the SRP and drag of those of the two that
+        are on (this load's flags and the arguments) at the environment sample ``env``."""
+        F = np.zeros((3, self.n_triangles))
+        P = float(env.srp_pressure_N_m2) if (self.srp and srp) else 0.0
+        rho = float(env.density_kg_m3) if (self.drag and drag) else 0.0
+        if P == 0.0 and rho == 0.0:
+            return F
+        area, n = self.area_normal(x)
+        if P != 0.0:
+            F += plate_srp_forces(
+                area,
+                n,
+                np.asarray(env.sun_eci, dtype=float),
+                P,
+                rs=self.rs,
+                k_front=self.k_front,
+                k_back=self.k_back,
+                one_minus_rs=self.one_minus_rs,
+            )
+        if rho != 0.0:
+            F += plate_drag_forces(area, n, np.asarray(env.v_rel_eci, dtype=float)[:, None], rho, self.cd)
+        return F
+
+    def node_positions(self, state: StepState) -> np.ndarray:
+        """(u, 3) world positions of the nodes the panels use (``used``, in order) [m]."""
+        return self.frames.positions(state.pos, state.xquat)
+
+    def node_forces(self, state: StepState, *, srp: bool = True, drag: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """``(x, F)``: the used nodes' positions (u, 3) [m] and the forces on them (u, 3) [N]."""
+        x = self.node_positions(state)
+        return x, self._share @ self.triangle_forces(state.env, x, srp=srp, drag=drag).T
+
+    def wrench(self, state: StepState, center_m: np.ndarray, *, srp: bool = True, drag: bool = True) -> np.ndarray:
+        """(6,) net force [N] and its moment about ``center_m`` [N m], world axes."""
+        x, F = self.node_forces(state, srp=srp, drag=drag)
+        force = F.sum(axis=0)
+        return np.concatenate([force, cross_rows(x, F).sum(axis=0) - cross3(np.asarray(center_m, float), force)])
+
+    def add(self, state: StepState, xfrc: np.ndarray) -> None:
+        """Add the panels' forces at their nodes into ``xfrc`` (world frame)."""
+        env = state.env
+        if not ((self.srp and env.srp_pressure_N_m2 != 0.0) or (self.drag and env.density_kg_m3 != 0.0)):
+            return
+        _, F = self.node_forces(state)
+        self.frames.apply(F, state.xquat, xfrc)

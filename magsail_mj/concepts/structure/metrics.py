@@ -47,6 +47,7 @@ __all__ = [
     "stay_time_below",
     "structure_summary",
     "rod_keys",
+    "panel_keys",
     "detumble_keys",
     "slew_keys",
 ]
@@ -278,6 +279,20 @@ def rod_keys(records: Any) -> dict[str, Any]:
         "torque_alloc_max_Nm": largest("torque_alloc_body_Nm"),
         "torque_rod_max_Nm": largest("torque_rod_body_Nm"),
     }
+
+
+def panel_keys(records: Any) -> dict[str, Any]:
+    """The panels' figures, for the loads that are on: the largest net SRP and drag force [N] and
+    moment about the centre of mass [N m] (``srp_force_max_N``, ``srp_torque_max_Nm``, and
+    ``drag_…``; none when neither load is on)."""
+    keys: dict[str, Any] = {}
+    for name in ("srp", "drag"):
+        if f"{name}_wrench_world" not in records:
+            continue
+        w = np.asarray(records[f"{name}_wrench_world"], dtype=float)
+        keys[f"{name}_force_max_N"] = float(np.linalg.norm(w[:, :3], axis=1).max())
+        keys[f"{name}_torque_max_Nm"] = float(np.linalg.norm(w[:, 3:], axis=1).max())
+    return keys
 
 
 def detumble_keys(t: np.ndarray, omega_norm: np.ndarray, *, threshold_rad_s: float) -> dict[str, Any]:

@@ -32,10 +32,11 @@ from magsail_mj.concepts import register_structure, register_task
 from magsail_mj.concepts.structure.config import StructureConfig
 from magsail_mj.structure.model import Structure
 from magsail_mj.concepts.structure.control import DipoleAllocation, StructureRodController
-from magsail_mj.concepts.structure.loads import NodeTidalLoad, RodDipoleLoad
+from magsail_mj.concepts.structure.loads import NodeTidalLoad, PanelSurfaceLoad, RodDipoleLoad
 from magsail_mj.concepts.structure.metrics import (
     StructureMonitor,
     detumble_keys,
+    panel_keys,
     rod_keys,
     slew_keys,
     structure_summary,
@@ -85,6 +86,7 @@ class StructureTask:
             )
         self.monitor: StructureMonitor | None = None
         self.tidal_load: NodeTidalLoad | None = None
+        self.panel_load: PanelSurfaceLoad | None = None
         self.rod_load: RodDipoleLoad | None = None
         self.controller: StructureRodController | None = None
 
@@ -100,11 +102,39 @@ class StructureTask:
 
     # -------------------------------------------------------------- runner
     def environment_loads(self) -> list:
-        """Tidal gravity on every mass point, when the orbit and ``gravity.tidal`` are on."""
-        if self.environment is None or not (self.cfg.orbit.enabled and self.cfg.gravity.tidal):
-            return []
-        self.tidal_load = NodeTidalLoad(self.sm.mass_points, **self.environment.gravity_params)
-        return [self.tidal_load]
+        """Tidal gravity on every mass point, when the orbit and ``gravity.tidal`` are on; solar
+        pressure and drag on the panels, when ``srp.enabled`` or ``drag.enabled``."""
+        loads: list = []
+        if self.environment is None:
+            return loads
+        if self.cfg.orbit.enabled and self.cfg.gravity.tidal:
+            self.tidal_load = NodeTidalLoad(self.sm.mass_points, **self.environment.gravity_params)
+            loads.append(self.tidal_load)
+        if self.cfg.srp.enabled or self.cfg.drag.enabled:
+            self.panel_load = PanelSurfaceLoad(
+                self.sm.nodes, self.sm.structure.panels, srp=self.cfg.srp.enabled, drag=self.cfg.drag.enabled
+            )
+            loads.append(self.panel_load)
+        return loads
+
+    def panel_probes(self) -> dict[str, Any]:
+        """The panels' net SRP and drag force [N] and their moments about the centre of mass
+        [N m], world axes (``srp_wrench_world``, ``drag_wrench_world``: force then moment), for
+        those that are on."""
+        load, points = self.panel_load, self.sm.mass_points
+        if load is None:
+            return {}
+
+        def wrench(state: Any, *, srp: bool) -> np.ndarray:
+            com = points.center_of_mass(points.frames.positions(state.pos, state.xquat))
+            return load.wrench(state, com, srp=srp, drag=not srp)
+
+        probes: dict[str, Any] = {}
+        if load.srp:
+            probes["srp_wrench_world"] = lambda s, d: wrench(s, srp=True)
+        if load.drag:
+            probes["drag_wrench_world"] = lambda s, d: wrench(s, srp=False)
+        return probes
 
     def kind_loads(self) -> list:
         """The kind's own loads (after the environment's); none by default."""
@@ -129,7 +159,12 @@ class StructureTask:
         loads = [*self.environment_loads(), *self.kind_loads()]
         self.controller = self.make_controller()
         self.monitor = StructureMonitor(self.sm, max_strain=self.cfg.sim.max_strain)
-        probes: dict[str, Any] = {"qpos": lambda s, d: d.qpos, **self.monitor.probes(), **self.kind_probes()}
+        probes: dict[str, Any] = {
+            "qpos": lambda s, d: d.qpos,
+            **self.monitor.probes(),
+            **self.panel_probes(),
+            **self.kind_probes(),
+        }
         return Simulation(
             model=self.model,
             duration_s=self.cfg.sim.duration_s,
@@ -155,6 +190,7 @@ class StructureTask:
         keys, series = structure_summary(
             self.sm, result.records, omega0_body=np.asarray(self.cfg.initial.omega0_rad_s, dtype=float)
         )
+        keys.update(panel_keys(result.records))
         more_keys, more_series = self.kind_summary(result.records, {"t": result.records["t"], **series})
         keys.update(more_keys)
         series.update(more_series)
