@@ -9,8 +9,9 @@
   concept's particle masses and strut axial rigidities, the truss ``cantilever`` with its clamped
   edge, the structure concept's structure); another concept's config has none (exit 2);
 * a gmsh mesh (``.msh``, :func:`magsail_mj.structure.mesh.read_mesh` without properties: only a
-  mesh whose elements need none, so in practice a mesh is read in Python with its properties and
-  saved as a structure file);
+  mesh whose elements need none; a mesh's member and panel properties are given in a ``structure``
+  config, ``[structure] file = "<mesh>"`` with ``[structure.mesh.groups.<group>]`` tables, whose
+  modes this verb computes, or in Python, the mesh read and saved as a structure file);
 * a Nastran bulk-data deck (``.bdf``, ``.dat``, ``.nas``,
   :func:`magsail_mj.structure.nastran.read_nastran`).
 
@@ -102,7 +103,9 @@ def read_source(source: str) -> tuple[Structure, str]:
             return read_mesh(path), "mesh"
         except StructureError as err:
             raise CliInputError(
-                f"SOURCE: {err} (a mesh file holds no member or panel properties: read it in Python with "
+                f"SOURCE: {err} (a mesh file holds no member or panel properties: give them in a structure "
+                f"config, [structure] file = {str(path)!r} with a [structure.mesh.groups.<group>] table for "
+                "each physical group, and give that config; or read the mesh in Python with "
                 "magsail_mj.structure.mesh.read_mesh(path, groups=..., members=...), save it with "
                 "magsail_mj.structure.fileformat.write_structure and give that structure file)"
             ) from None
