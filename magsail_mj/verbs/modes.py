@@ -156,13 +156,19 @@ def _plot(result: StructureModes, structure: Structure, folder: Path) -> list[Pa
         u = shapes[n]
         u = u * (_PLOT_FRACTION * size / max(float(np.linalg.norm(u, axis=1).max()), 1e-300))
         fig, ax = new_figure(figsize=(6.0, 5.0), subplot_kw={"projection": "3d"})
-        for points, colour, label in ((p, "0.75", "undeformed"), (p + u, "C0", "mode shape (scaled)")):
+        for points, colour, style, label in (
+            (p, "0.45", "--", "undeformed"),
+            (p + u, "C0", "-", "mode shape (scaled)"),
+        ):
             if len(ends):
                 segments = np.stack([points[ends[:, 0]], points[ends[:, 1]]], axis=1)
-                ax.add_collection3d(Line3DCollection(segments, colors=colour, linewidths=0.6, label=label))
+                lines = Line3DCollection(segments, colors=colour, linewidths=0.8, linestyles=style, label=label)
+                ax.add_collection3d(lines)
             else:
                 ax.scatter(*points.T, s=2, color=colour, label=label)
-        ax.auto_scale_xyz(*[(p[:, i].min() - 0.1 * size, p[:, i].max() + 0.1 * size) for i in range(3)])
+        limits = [(p[:, i].min() - 0.1 * size, p[:, i].max() + 0.1 * size) for i in range(3)]
+        ax.auto_scale_xyz(*limits)
+        ax.set_box_aspect([hi - lo for lo, hi in limits])  # one scale on all three axes
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
         ax.set_zlabel("z [m]")
