@@ -28,6 +28,7 @@ import numpy as np
 from pydantic import Field, PrivateAttr, field_validator, model_validator
 
 from magsail_mj.concepts import register_config
+from magsail_mj.concepts.structure.circuits import LoopEdges, LoopError
 from magsail_mj.concepts.structure.source import (
     INLINE_KEYS,
     collinear,
@@ -59,6 +60,7 @@ __all__ = [
     "NastranImportConfig",
     "StructureTable",
     "RodsConfig",
+    "LoopsConfig",
     "StructureControlConfig",
     "StructureInitialConfig",
     "StructureRenderConfig",
@@ -296,6 +298,46 @@ class RodsConfig(StrictModel):
         return self
 
 
+class LoopsConfig(StrictModel):
+    """``[loops]``: current loops along member sets, each set one closed loop (every node of the set
+    ends exactly two of its members, and they are connected; the current runs along the set's first
+    member from its first node to its second and on around). Loop ``L`` with current
+    ``I_L ∈ [−I_max,L, I_max,L]`` has the dipole ``I_L a_L``, ``a_L = ½ Σ x_a × x_b`` over its
+    directed members at the current node positions; each member feels the Lorentz force
+    ``I_L (x_b − x_a) × B``, half at each end. ``I_max_A`` [A]: one limit for every loop or one per
+    set. ``wire_linear_density_kg_m`` [kg/m] is added to each loop's members (the wire's mass,
+    half lumped at each end; a member in two loops carries two wires)."""
+
+    member_sets: list[str] = Field(min_length=1)
+    I_max_A: float | list[float]
+    wire_linear_density_kg_m: float = Field(default=0.0, ge=0)
+
+    @field_validator("I_max_A")
+    @classmethod
+    def _limits(cls, value: float | list[float]) -> float | list[float]:
+        values = np.atleast_1d(np.asarray(value, dtype=float))
+        if values.size == 0 or not np.all(np.isfinite(values) & (values > 0)):
+            raise ValueError(f"must be a current > 0 A (one value, or one per member set), got {value!r}")
+        return value
+
+    @model_validator(mode="after")
+    def _one_limit_per_set(self) -> LoopsConfig:
+        names = self.member_sets
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise ConfigProblem("member_sets", f"each set makes one loop: {twice[0]!r} is listed twice")
+        if isinstance(self.I_max_A, list) and len(self.I_max_A) != len(names):
+            raise ConfigProblem(
+                "I_max_A",
+                f"one limit for every loop or one per member set ({len(names)}: {names}), got {len(self.I_max_A)}",
+            )
+        return self
+
+    def current_max_A(self) -> np.ndarray:
+        """(L,) each loop's largest current [A]."""
+        return np.broadcast_to(np.asarray(self.I_max_A, dtype=float), (len(self.member_sets),)).copy()
+
+
 class StructureControlConfig(StrictModel):
     """``[control]`` of the actuated scenarios, sampled every ``period_s`` (absent: every step) and
     held in between.
@@ -368,6 +410,7 @@ class StructureTables(StrictModel):
     sim: SimConfig
     structure: StructureTable
     actuators: RodsConfig | None = None
+    loops: LoopsConfig | None = None
     control: StructureControlConfig | None = None
     initial: StructureInitialConfig = StructureInitialConfig()
     render: StructureRenderConfig = StructureRenderConfig()
@@ -386,9 +429,28 @@ class StructureConfig(EnvironmentTables, StructureTables):
         return np.asarray(self.structure.structure.member_sets[self.actuators.member_set], dtype=np.int64)
 
     def structure_with_rods(self) -> Structure:
-        """The structure with the rods' mass added to their members (the model's structure)."""
+        """The structure with the rods' and the loops' wires' mass added to their members (the
+        model's structure)."""
         density = 0.0 if self.actuators is None else self.actuators.rod_linear_density_kg_m
-        return with_rods(self.structure.structure, self.rod_members(), rod_linear_density_kg_m=density)
+        structure = with_rods(self.structure.structure, self.rod_members(), rod_linear_density_kg_m=density)
+        if self.loops is not None and self.loops.wire_linear_density_kg_m > 0:
+            sets = structure.member_sets
+            for name in self.loops.member_sets:
+                structure = with_rods(
+                    structure, sets[name], rod_linear_density_kg_m=self.loops.wire_linear_density_kg_m
+                )
+        return structure
+
+    def loop_edges(self) -> LoopEdges | None:
+        """The loops' directed edges and current limits (``None`` without ``[loops]``)."""
+        if self.loops is None:
+            return None
+        sets = self.structure.structure.member_sets
+        return LoopEdges.from_sets(
+            self.structure.structure.members.nodes,
+            {name: sets[name] for name in self.loops.member_sets},
+            self.loops.current_max_A(),
+        )
 
     def rod_dipole_max_Am2(self) -> np.ndarray:
         """(R,) largest dipole of each rod [A m²] (``κ ρ_rod l0``, or ``dipole_max_Am2``)."""
@@ -414,8 +476,10 @@ class StructureConfig(EnvironmentTables, StructureTables):
     def _tables_for_scenario(self) -> StructureConfig:
         sc = self.scenario
         if sc in CONTROL_KINDS:
-            if self.actuators is None:
-                raise ValueError(f"actuators: scenario {sc!r} needs the [actuators] table (the rods)")
+            if self.actuators is None and self.loops is None:
+                raise ValueError(
+                    f"actuators: scenario {sc!r} needs an actuator: the [actuators] table (rods) or [loops]"
+                )
             if self.control is None:
                 raise ValueError(f"control: scenario {sc!r} needs the [control] table")
             if self.control.kind != CONTROL_KINDS[sc]:
@@ -423,7 +487,9 @@ class StructureConfig(EnvironmentTables, StructureTables):
                     "control.kind", f"scenario {sc!r} takes {CONTROL_KINDS[sc]!r}, got {self.control.kind!r}"
                 )
             if self.field.model == "none":
-                raise ConfigProblem("field.model", f"scenario {sc!r} drives rods: needs a field, not 'none'")
+                raise ConfigProblem(
+                    "field.model", f"scenario {sc!r} drives magnetic actuators: needs a field, not 'none'"
+                )
             if collinear(self.structure.structure.positions_m):
                 raise ConfigProblem(
                     "structure", f"its nodes lie on one line: the attitude the {sc!r} controller fits is undefined"
@@ -484,6 +550,42 @@ class StructureConfig(EnvironmentTables, StructureTables):
         derived_quantity(
             "rods' total dipole", float(np.sum(dipole)), keys={key: getattr(self.actuators, key.split(".")[1]), **keys}
         )
+        return self
+
+    @model_validator(mode="after")
+    def _loops(self) -> StructureConfig:
+        lc = self.loops
+        if lc is None:
+            return self
+        structure = self.structure.structure
+        sets = structure.member_sets
+        for i, name in enumerate(lc.member_sets):
+            if name not in sets:
+                raise ConfigProblem(
+                    f"loops.member_sets[{i}]", f"the structure has no member set {name!r} (it has {sorted(sets)})"
+                )
+        try:
+            edges = self.loop_edges()
+        except LoopError as err:
+            i = next(k for k, name in enumerate(lc.member_sets) if f"member set {name!r}:" in str(err))
+            raise ConfigProblem(f"loops.member_sets[{i}]", f"{err}") from None
+        areas = edges.vector_areas(structure.positions_m)
+        p = structure.positions_m
+        for i, name in enumerate(lc.member_sets):
+            k = edges.loop == i
+            perimeter = float(np.linalg.norm(p[edges.dst[k]] - p[edges.src[k]], axis=1).sum())
+            if not np.linalg.norm(areas[i]) > 1e-9 * perimeter**2:
+                raise ConfigProblem(
+                    f"loops.member_sets[{i}]",
+                    f"loop {name!r} encloses no vector area at the reference ({areas[i].tolist()} m²): "
+                    "it makes no dipole",
+                )
+        keys = {"loops.wire_linear_density_kg_m": lc.wire_linear_density_kg_m}
+        total, _, inertia = self.structure_with_rods().mass_properties()
+        derived_quantity("mass with the wires", total, keys=keys, minimum=MJ_MINVAL)
+        derived_quantity("largest inertia with the wires", float(np.max(np.abs(inertia))), keys=keys)
+        dipole = float(np.sum(lc.current_max_A() * np.linalg.norm(areas, axis=1)))
+        derived_quantity("loops' total dipole", dipole, keys={"loops.I_max_A": lc.I_max_A})
         return self
 
     @model_validator(mode="after")

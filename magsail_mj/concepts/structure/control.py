@@ -1,5 +1,5 @@
-r"""Attitude control of a flexible structure through magnetorquer rods: B-dot and quaternion PD on
-the best-fit rigid attitude, and the rods' dipole allocation.
+r"""Attitude control of a flexible structure through magnetorquer rods and current loops: B-dot and
+quaternion PD on the best-fit rigid attitude, and the dipole's allocation over the actuators.
 
 One control sample (every ``period_s``; the runner holds the command in between):
 
@@ -15,11 +15,16 @@ One control sample (every ``period_s``; the runner holds the command in between)
    ``−P_q q_e,vec − P_ω ω`` with ``q_e = q_ref* ⊗ q`` plus, in orbit, the gravity-gradient
    compensation ``−3μ/r⁵ r_b × (I r_b)``, ``r_b = Rᵀ (r_ref + x_c)``
    (:mod:`magsail_mj.control.quaternion_feedback`);
-5. **allocation** (:class:`DipoleAllocation`): the dipole ``m = B_b × T_ref / |B_b|²`` — the least
-   dipole whose torque ``m × B_b`` is ``T_ref``'s component across the field (the component along
-   ``B_b`` cannot be made) — shared over the rods by the least-norm activations ``u = D⁺ m``;
-   when some ``|u_r|`` would exceed 1 all are scaled by the same factor (the dipole keeps its
-   direction; the sample counts as saturated).
+5. **allocation** (:class:`DipoleAllocation`, :func:`least_norm_activations`): the dipole
+   ``m = B_b × T_ref / |B_b|²`` — the least dipole whose torque ``m × B_b`` is ``T_ref``'s
+   component across the field (the component along ``B_b`` cannot be made) — shared over the
+   actuators by the least-norm activations ``u = D⁺ m``; when some ``|u_k|`` would exceed 1 all are
+   scaled by the same factor (the dipole keeps its direction; the sample counts as saturated).
+   ``D``'s columns are the rods' largest dipoles ``m_max,r r̂_r`` along their reference axes
+   (``u_r`` the rod's activation) and the current loops' largest dipoles ``I_max,L a_L`` with their
+   vector areas ``a_L = Rᵀ ½ Σ x_a × x_b`` at the sampled node positions (``u_L = I_L / I_max,L``;
+   for loops of one limit, the least-norm currents); ``D⁺`` is formed once for rods alone, at every
+   sample when there are loops (their vector areas change with the shape).
 
 The command (:class:`DipoleCommand`) is plain data: the run's checkpoints hold it.
 """
@@ -32,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from magsail_mj.checkpoint import restorable
+from magsail_mj.concepts.structure.loads import LoopLorentzLoad
 from magsail_mj.concepts.structure.model import NodeFrames
 from magsail_mj.control.bdot_flexible import bdot_torque
 from magsail_mj.control.quaternion_feedback import gg_compensation_torque, quaternion_feedback_torque
@@ -40,7 +46,13 @@ from magsail_mj.estimation.attitude import BestFitRotation
 from magsail_mj.quaternion import error_quaternion, quat_from_matrix
 from magsail_mj.vec3 import cross3
 
-__all__ = ["DipoleAllocation", "DipoleCommand", "StructureRodController", "PINV_RCOND"]
+__all__ = [
+    "DipoleAllocation",
+    "DipoleCommand",
+    "StructureRodController",
+    "PINV_RCOND",
+    "least_norm_activations",
+]
 
 #: Singular values of the rods' dipole matrix below this fraction of the largest are dropped from
 #: the pseudo-inverse: rods in one plane (a sail's booms) make no dipole across it.
@@ -55,10 +67,13 @@ class DipoleCommand:
     Attributes:
       t: sample time [s].
       activation: (R,) rod activations ``u_r ∈ [−1, 1]`` (read by the rod load).
+      currents_A: (L,) loop currents ``I_L ∈ [−I_max,L, I_max,L]`` [A] (read by the loop load;
+        empty without loops).
       torque_ref_body: (3,) the law's reference torque [N m], body axes.
       torque_alloc_body: (3,) the torque the allocated dipole makes in the sampled field,
         ``(D u) × B_b`` [N m], body axes.
-      dipole_body: (3,) the allocated dipole ``D u`` [A m²], body axes (undeformed rod axes).
+      dipole_body: (3,) the allocated dipole ``D u`` [A m²], body axes (undeformed rod axes, the
+        loops' sampled vector areas).
       saturated: the activations were scaled down to stay within ±1.
       R: (3, 3) best-fit rotation, body → world.
       omega_body: (3,) estimated body rate [rad/s].
@@ -80,6 +95,35 @@ class DipoleCommand:
     com_world: np.ndarray
     q_err: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
     counts: np.ndarray = field(default_factory=lambda: np.zeros(2, dtype=np.int64))
+    currents_A: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+def least_norm_activations(D_pinv: np.ndarray, torque_body: np.ndarray, B_body: np.ndarray) -> tuple[np.ndarray, bool]:
+    """``(u, saturated)``: the least-norm activations ``u = D⁺ m`` of the dipole
+    ``m = B × T / |B|²`` for the torque ``torque_body`` [N m] in the field ``B_body`` [T], all
+    divided by ``max |u_k|`` when that passes 1 (module docstring, step 5).
+
+    Scale-safe: the direction of ``m`` is formed from the normalised torque, its size
+    ``|B × T| / |B|²`` separately, so no product overflows before the saturation test."""
+    T = np.asarray(torque_body, dtype=float)
+    B = np.asarray(B_body, dtype=float)
+    n = D_pinv.shape[0]
+    scale = float(np.max(np.abs(T)))
+    B_norm = float(np.sqrt(B @ B))
+    if n == 0 or not (scale > 0 and B_norm > 0):
+        return np.zeros(n), False
+    c = cross3(B, T / scale)
+    c_norm = float(np.sqrt(c @ c))
+    if not c_norm > 0:
+        return np.zeros(n), False
+    size = scale * (c_norm / B_norm) / B_norm  # |m| [A m²]
+    v = D_pinv @ (c / c_norm)
+    v_max = float(np.max(np.abs(v)))
+    if not v_max > 0:
+        return np.zeros(n), False
+    if size * v_max > 1.0:
+        return v / v_max, True
+    return size * v, False
 
 
 class DipoleAllocation:
@@ -101,38 +145,21 @@ class DipoleAllocation:
         self.D_pinv = np.linalg.pinv(self.D, rcond=PINV_RCOND)
 
     def __call__(self, torque_body: np.ndarray, B_body: np.ndarray) -> tuple[np.ndarray, bool]:
-        """``(u, saturated)`` for the torque ``torque_body`` [N m] in the field ``B_body`` [T].
-
-        Scale-safe: the direction of ``m`` is formed from the normalised torque, its size
-        ``|B × T| / |B|²`` separately, so no product overflows before the saturation test."""
-        T = np.asarray(torque_body, dtype=float)
-        B = np.asarray(B_body, dtype=float)
-        n_rods = self.D.shape[1]
-        scale = float(np.max(np.abs(T)))
-        B_norm = float(np.sqrt(B @ B))
-        if not (scale > 0 and B_norm > 0):
-            return np.zeros(n_rods), False
-        c = cross3(B, T / scale)
-        c_norm = float(np.sqrt(c @ c))
-        if not c_norm > 0:
-            return np.zeros(n_rods), False
-        size = scale * (c_norm / B_norm) / B_norm  # |m| [A m²]
-        v = self.D_pinv @ (c / c_norm)
-        v_max = float(np.max(np.abs(v)))
-        if not v_max > 0:
-            return np.zeros(n_rods), False
-        if size * v_max > 1.0:
-            return v / v_max, True
-        return size * v, False
+        """``(u, saturated)`` for the torque ``torque_body`` [N m] in the field ``B_body`` [T]
+        (:func:`least_norm_activations`)."""
+        return least_norm_activations(self.D_pinv, torque_body, B_body)
 
 
 class StructureRodController:
-    """B-dot (``law = "bdot"``) or quaternion PD (``"quat_pd"``) through the rods (module docstring).
+    """B-dot (``law = "bdot"``) or quaternion PD (``"quat_pd"``) through the rods and the current
+    loops (module docstring).
 
     Args:
       nodes: the nodes' frames; reference_m: (n, 3) their reference positions [m].
       masses: the mass points (their frames and masses: the centre of mass).
-      allocation: the rods' :class:`DipoleAllocation`.
+      allocation: the rods' :class:`DipoleAllocation` (no rods: one of zero rods).
+      loops: the current loops' load (:class:`~magsail_mj.concepts.structure.loads.LoopLorentzLoad`:
+        their vector areas at a state and their current limits), or ``None``.
       law: ``"bdot"`` or ``"quat_pd"``.
       period_s: control period [s].
       omega0_body: (3,) the rate used at the first sample [rad/s].
@@ -159,6 +186,7 @@ class StructureRodController:
         Pw_Nms: np.ndarray | None = None,
         inertia_kgm2: np.ndarray | None = None,
         mu_m3_s2: float | None = None,
+        loops: LoopLorentzLoad | None = None,
     ) -> None:
         if law not in ("bdot", "quat_pd"):
             raise ValueError(f"law: must be 'bdot' or 'quat_pd', got {law!r}")
@@ -168,6 +196,7 @@ class StructureRodController:
         self.masses = masses
         self.fit = BestFitRotation(np.asarray(reference_m, dtype=float))
         self.allocation = allocation
+        self.loops = loops
         self.law = law
         self.period_s = float(period_s)
         self.omega0_body = np.asarray(omega0_body, dtype=float)
@@ -217,8 +246,18 @@ class StructureRodController:
         R, omega, com = self.estimate(state)
         B_body = R.T @ np.asarray(state.env.B_eci, dtype=float)
         T_ref, q_e = self.reference_torque(R, omega, B_body, com, state.env)
-        u, saturated = self.allocation(T_ref, B_body)
-        dipole = self.allocation.D @ u
+        if self.loops is None:
+            u, saturated = self.allocation(T_ref, B_body)
+            dipole = self.allocation.D @ u
+            currents = np.zeros(0)
+        else:
+            I_max = self.loops.loops.current_max_A
+            a_body = self.loops.vector_areas(self.loops.node_positions(state)) @ R  # rows Rᵀ a_L
+            D = np.hstack([self.allocation.D, (a_body * I_max[:, None]).T])
+            v, saturated = least_norm_activations(np.linalg.pinv(D, rcond=PINV_RCOND), T_ref, B_body)
+            n_rods = self.allocation.D.shape[1]
+            u, currents = v[:n_rods], v[n_rods:] * I_max
+            dipole = D @ v
         self.stats[0] += 1
         self.stats[1] += saturated
         return DipoleCommand(
@@ -234,4 +273,5 @@ class StructureRodController:
             com_world=com,
             q_err=np.asarray(q_e, dtype=float),
             counts=self.stats.copy(),
+            currents_A=currents,
         )

@@ -20,6 +20,14 @@ once (the one door: each adds into ``xfrc_applied``, :mod:`magsail_mj.loads.base
     (:func:`magsail_mj.loads.magnetorquer_rods.rod_pair_forces`): zero net force and the moment
     ``m_r × B`` about any point, for any deformation.
 
+:class:`LoopLorentzLoad`
+    Current loops along member sets (:mod:`magsail_mj.concepts.structure.circuits`): loop ``L``
+    carries the current ``I_L`` (``state.ctrl.currents_A``; no command: off) along its directed
+    members ``a → b``; in the uniform field ``B`` each member feels the Lorentz force
+    ``f = I_L (x_b − x_a) × B`` (straight wire), half at each end node, on the current positions
+    (Robb et al. 2022b, Eq. 16). Over a closed loop the forces sum to zero and their moment about
+    any point is ``m_L × B`` with ``m_L = I_L a_L``, ``a_L = ½ Σ x_a × x_b``, for any deformation.
+
 :class:`PanelSurfaceLoad`
     Solar radiation pressure and free-molecular drag on every panel, each quad as the two
     triangles the structure splits it into (:meth:`~magsail_mj.structure.model.Panels.triangles`,
@@ -46,6 +54,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import sparse
 
+from magsail_mj.concepts.structure.circuits import LoopEdges
 from magsail_mj.concepts.structure.model import MassPoints, NodeFrames, cross_rows, quat_matrices
 from magsail_mj.environment.gravity import tidal_acceleration
 from magsail_mj.environment.surfaces import Optics, uniform_srp_constants
@@ -56,7 +65,7 @@ from magsail_mj.loads.srp import plate_srp_forces
 from magsail_mj.structure.model import Panels
 from magsail_mj.vec3 import cross3
 
-__all__ = ["NodeTidalLoad", "RodDipoleLoad", "PanelSurfaceLoad", "panel_srp_constants"]
+__all__ = ["NodeTidalLoad", "RodDipoleLoad", "LoopLorentzLoad", "PanelSurfaceLoad", "panel_srp_constants"]
 
 
 class NodeTidalLoad:
@@ -178,6 +187,83 @@ class RodDipoleLoad:
         x = self.node_positions(state)
         F = rod_pair_forces(x[self._a], x[self._b], u * self.dipole_max_Am2, self.field(state))
         self.used_frames.apply(self._pair @ F, state.xquat, xfrc)
+
+
+class LoopLorentzLoad:
+    """Lorentz forces on current loops along members (module docstring).
+
+    Args:
+      nodes: the nodes' frames (:class:`~magsail_mj.concepts.structure.model.NodeFrames`).
+      loops: the loops' directed edges (:class:`~magsail_mj.concepts.structure.circuits.LoopEdges`).
+      B_fixed_T: a fixed uniform field [T] (tests); default ``None`` reads ``state.env.B_eci``.
+
+    Built once: the nodes the loops use (``used``, ascending; the edges index them locally), the
+    (nodes × edges) incidence with 1 at both ends of every edge (each end takes half, ``g_e = ½ I
+    (x_b − x_a)``, so ``F_i = (Σ_e∋i g_e) × B``) and the (loops × edges) sum of the vector areas.
+    """
+
+    name = "current_loops"
+
+    def __init__(self, nodes: NodeFrames, loops: LoopEdges, *, B_fixed_T: np.ndarray | None = None) -> None:
+        self.loops = loops
+        self.B_fixed_T = None if B_fixed_T is None else np.asarray(B_fixed_T, dtype=float)
+        self.used = np.unique(np.concatenate([loops.src, loops.dst]))
+        self._a = np.searchsorted(self.used, loops.src)
+        self._b = np.searchsorted(self.used, loops.dst)
+        self._loop = np.asarray(loops.loop, dtype=np.int64)
+        s = self._loop.size
+        edge = np.arange(s)
+        self._ends = sparse.csr_matrix(
+            (np.ones(2 * s), (np.concatenate([self._a, self._b]), np.tile(edge, 2))), shape=(self.used.size, s)
+        )
+        self._sum = sparse.csr_matrix((np.full(s, 0.5), (self._loop, edge)), shape=(loops.n_loops, s))
+        self.used_frames = nodes.subset(self.used)
+
+    @property
+    def n_loops(self) -> int:
+        return self.loops.n_loops
+
+    def field(self, state: StepState) -> np.ndarray:
+        """The uniform field [T], world axes: the fixed one or ``state.env.B_eci``."""
+        if self.B_fixed_T is not None:
+            return self.B_fixed_T
+        return np.asarray(state.env.B_eci, dtype=float)
+
+    @staticmethod
+    def currents(state: StepState) -> np.ndarray | None:
+        """The held command's loop currents [A] (``None``: no command yet, every loop off)."""
+        ctrl = state.ctrl
+        return None if ctrl is None else ctrl.currents_A
+
+    def node_positions(self, state: StepState) -> np.ndarray:
+        """(k, 3) world positions of the nodes the loops use (``used``, in order) [m]."""
+        return self.used_frames.positions(state.pos, state.xquat)
+
+    def vector_areas(self, x: np.ndarray) -> np.ndarray:
+        """(L, 3) the loops' vector areas ``½ Σ x_a × x_b`` [m²] with the used nodes at ``x``."""
+        return self._sum @ cross_rows(x[self._a], x[self._b])
+
+    def node_forces(self, x: np.ndarray, currents_A: np.ndarray, B: np.ndarray) -> np.ndarray:
+        """(k, 3) forces [N] on the used nodes at ``x`` for the loop currents ``currents_A`` (L,)
+        in the field ``B`` (3,)."""
+        g = (0.5 * np.asarray(currents_A, dtype=float)[self._loop])[:, None] * (x[self._b] - x[self._a])
+        return cross_rows(self._ends @ g, np.asarray(B, dtype=float)[None, :])
+
+    def torque_world(self, state: StepState) -> np.ndarray:
+        """``Σ I_L a_L × B`` [N m], world axes: the loops' torque about any point."""
+        current = self.currents(state)
+        if current is None or not current.size:
+            return np.zeros(3)
+        m = current @ self.vector_areas(self.node_positions(state))
+        return cross3(m, self.field(state))
+
+    def add(self, state: StepState, xfrc: np.ndarray) -> None:
+        """Add every loop member's Lorentz force, half at each end, into ``xfrc``."""
+        current = self.currents(state)
+        if current is None or not np.any(current):
+            return
+        x = self.node_positions(state)
+        self.used_frames.apply(self.node_forces(x, current, self.field(state)), state.xquat, xfrc)
 
 
 def panel_srp_constants(reflectivity: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

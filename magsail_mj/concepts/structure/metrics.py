@@ -22,7 +22,8 @@ the body poses):
 Post-processing (:func:`structure_summary`): the body rate from consecutive best-fit rotations,
 ``ω_k = vee(log(R_{k−1}ᵀ R_k)) / (t_k − t_{k−1})`` (the initial rate at ``t = 0``), its norm over
 time, the largest and final shape deviation, strain and strain energy, the angular momentum's
-drift; :func:`rod_keys`, :func:`detumble_keys` and :func:`slew_keys` add the actuated scenarios' figures.
+drift; :func:`actuator_keys`, :func:`detumble_keys` and :func:`slew_keys` add the actuated scenarios'
+figures, :func:`panel_keys` those of the panels' solar pressure and drag.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ __all__ = [
     "first_time_below",
     "stay_time_below",
     "structure_summary",
-    "rod_keys",
+    "actuator_keys",
     "panel_keys",
     "detumble_keys",
     "slew_keys",
@@ -264,21 +265,27 @@ def structure_summary(
     return keys, series
 
 
-def rod_keys(records: Any) -> dict[str, Any]:
-    """The rods' figures: control samples, the share of saturated samples, and the largest
-    reference, allocated and delivered (on the deformed members) torques [N m]."""
+def actuator_keys(records: Any) -> dict[str, Any]:
+    """The actuators' figures: control samples, the share of saturated samples, the largest
+    reference and allocated torques [N m], and the largest torque the rods and the loops deliver on
+    the deformed structure [N m] and the loops' largest current [A] (for those present)."""
     counts = np.asarray(records["control_counts"])[-1].astype(float)
 
     def largest(name: str) -> float:
         return float(np.linalg.norm(np.asarray(records[name], dtype=float), axis=1).max())
 
-    return {
+    keys = {
         "control_samples": int(counts[0]),
         "saturation_fraction": float(counts[1] / max(counts[0], 1.0)),
         "torque_ref_max_Nm": largest("torque_ref_body_Nm"),
         "torque_alloc_max_Nm": largest("torque_alloc_body_Nm"),
-        "torque_rod_max_Nm": largest("torque_rod_body_Nm"),
     }
+    if "torque_rod_body_Nm" in records:
+        keys["torque_rod_max_Nm"] = largest("torque_rod_body_Nm")
+    if "torque_loop_body_Nm" in records:
+        keys["torque_loop_max_Nm"] = largest("torque_loop_body_Nm")
+        keys["loop_current_max_A"] = float(np.max(np.abs(np.asarray(records["loop_currents_A"], dtype=float))))
+    return keys
 
 
 def panel_keys(records: Any) -> dict[str, Any]:

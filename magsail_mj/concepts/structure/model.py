@@ -2,7 +2,8 @@
 and masses are in it, and the rigid initial state.
 
 The model is :func:`magsail_mj.structure.mjcf.build_structure_spec` of the structure with the
-rods' mass (:meth:`~magsail_mj.concepts.structure.config.StructureConfig.structure_with_rods`):
+rods' and the current loops' wires' mass
+(:meth:`~magsail_mj.concepts.structure.config.StructureConfig.structure_with_rods`):
 particles on slide joints, beam nodes and rigid parts as bodies of kinematic trees, struts and
 cables as spatial tendons, panels drawn as a skin.
 
@@ -20,6 +21,7 @@ import mujoco
 import numpy as np
 from scipy import sparse
 
+from magsail_mj.concepts.structure.circuits import LoopEdges
 from magsail_mj.concepts.structure.config import StructureConfig
 from magsail_mj.estimation.attitude import matrix_from_quat
 from magsail_mj.structure.mjcf import StructureModelIndex, build_structure_spec
@@ -147,7 +149,7 @@ class StructureModel:
     """Everything derived from a config's structure.
 
     Attributes:
-      structure: the structure with the rods' mass.
+      structure: the structure with the rods' and wires' mass.
       spec: the MjSpec (:func:`~magsail_mj.structure.mjcf.build_structure_spec`).
       model: the compiled model.
       index: where the nodes, members and parts are in the model.
@@ -156,6 +158,7 @@ class StructureModel:
       total_mass_kg: the structure's mass [kg]; center_of_mass_m: (3,) at the reference [m];
       inertia_kg_m2: (3, 3) about it, structure axes [kg m²].
       rod_members: (R,) members carrying rods; rod_dipole_max_Am2: (R,) their largest dipoles [A m²].
+      loops: the current loops' directed edges and current limits (``None`` without ``[loops]``).
     """
 
     structure: Structure
@@ -169,6 +172,7 @@ class StructureModel:
     inertia_kg_m2: np.ndarray
     rod_members: np.ndarray
     rod_dipole_max_Am2: np.ndarray
+    loops: LoopEdges | None = None
 
     @property
     def extent_m(self) -> float:
@@ -221,6 +225,7 @@ def make_structure_model(cfg: StructureConfig) -> StructureModel:
         inertia_kg_m2=inertia,
         rod_members=cfg.rod_members(),
         rod_dipole_max_Am2=cfg.rod_dipole_max_Am2(),
+        loops=cfg.loop_edges(),
     )
 
 

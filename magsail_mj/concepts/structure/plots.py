@@ -1,5 +1,5 @@
 """Plots of a ``structure`` run: body rates, shape deviation, strain and energy, angular momentum,
-the rods' torques and, for a slew, the attitude error.
+the actuators' torques, the loops' currents and, for a slew, the attitude error.
 
 Every function takes the run's series (``t`` [s] and the keys of
 :mod:`magsail_mj.concepts.structure.metrics`) and records, writes PNG files atomically
@@ -63,7 +63,8 @@ def structure_plots(run_dir: Path, series: dict[str, np.ndarray], records: Any, 
 
 def rod_plots(run_dir: Path, series: dict[str, np.ndarray], records: Any, *, title: str) -> list[Path]:
     """``torques.png``: the law's reference torque and the torque of the allocated dipole (body
-    axes) and the allocated dipole's size."""
+    axes) and the allocated dipole's size; with current loops, ``loop_currents.png``: each loop's
+    current."""
     t = np.asarray(series["t"], dtype=float)
     T_ref = np.asarray(records["torque_ref_body_Nm"], dtype=float)
     T_alloc = np.asarray(records["torque_alloc_body_Nm"], dtype=float)
@@ -72,12 +73,21 @@ def rod_plots(run_dir: Path, series: dict[str, np.ndarray], records: Any, *, tit
         axs[0].plot(t, T_alloc[:, i], color=c, lw=0.8, label=f"allocated {'xyz'[i]}")
         axs[0].plot(t, T_ref[:, i], color=c, ls=":", lw=0.8, label=f"reference {'xyz'[i]}")
     lim = 1.2 * max(float(np.max(np.abs(T_alloc))), 1e-12)
-    axs[0].set(ylabel="torque, body axes [N m]", ylim=(-lim, lim), title=f"{title} — rod torques")
+    axs[0].set(ylabel="torque, body axes [N m]", ylim=(-lim, lim), title=f"{title} — actuator torques")
     axs[0].legend(ncol=3, fontsize=7)
     axs[1].plot(t, np.linalg.norm(np.asarray(records["dipole_body_Am2"], dtype=float), axis=1), "k", label="|m|")
     axs[1].set(xlabel="t [s]", ylabel="allocated dipole [A m²]")
     axs[1].legend()
-    return [save_figure(fig, run_dir / "torques.png")]
+    out = [save_figure(fig, run_dir / "torques.png")]
+    if "loop_currents_A" in records:
+        current = np.asarray(records["loop_currents_A"], dtype=float)
+        fig, ax = new_figure(figsize=(8, 4))
+        for k in range(current.shape[1]):
+            ax.plot(t, current[:, k], lw=0.8, label=f"loop {k}")
+        ax.set(xlabel="t [s]", ylabel="current [A]", title=f"{title} — loop currents")
+        ax.legend()
+        out.append(save_figure(fig, run_dir / "loop_currents.png"))
+    return out
 
 
 def slew_plot(run_dir: Path, series: dict[str, np.ndarray], *, title: str) -> list[Path]:

@@ -32,12 +32,12 @@ from magsail_mj.concepts import register_structure, register_task
 from magsail_mj.concepts.structure.config import StructureConfig
 from magsail_mj.structure.model import Structure
 from magsail_mj.concepts.structure.control import DipoleAllocation, StructureRodController
-from magsail_mj.concepts.structure.loads import NodeTidalLoad, PanelSurfaceLoad, RodDipoleLoad
+from magsail_mj.concepts.structure.loads import LoopLorentzLoad, NodeTidalLoad, PanelSurfaceLoad, RodDipoleLoad
 from magsail_mj.concepts.structure.metrics import (
     StructureMonitor,
+    actuator_keys,
     detumble_keys,
     panel_keys,
-    rod_keys,
     slew_keys,
     structure_summary,
 )
@@ -88,6 +88,7 @@ class StructureTask:
         self.tidal_load: NodeTidalLoad | None = None
         self.panel_load: PanelSurfaceLoad | None = None
         self.rod_load: RodDipoleLoad | None = None
+        self.loop_load: LoopLorentzLoad | None = None
         self.controller: StructureRodController | None = None
 
     @classmethod
@@ -263,21 +264,28 @@ class FreeTask(StructureTask):
 
 
 class ActuatedTask(StructureTask):
-    """The structure with magnetorquer rods on ``actuators.member_set`` under the ``[control]`` law
+    """The structure with magnetorquer rods on ``actuators.member_set`` and current loops on
+    ``loops.member_sets`` (either or both) under the ``[control]`` law
     (:mod:`magsail_mj.concepts.structure.control`)."""
 
-    def rods(self) -> RodDipoleLoad:
-        """The rod load (built once: the controller and the probes share it)."""
-        if self.rod_load is None:
+    def rods(self) -> RodDipoleLoad | None:
+        """The rod load (built once: the controller and the probes share it); ``None`` without rods."""
+        if self.rod_load is None and self.sm.rod_members.size:
             ends = self.sm.structure.members.nodes[self.sm.rod_members]
             self.rod_load = RodDipoleLoad(self.sm.nodes, ends, self.sm.rod_dipole_max_Am2)
         return self.rod_load
 
+    def loops(self) -> LoopLorentzLoad | None:
+        """The current loops' load (built once, shared likewise); ``None`` without loops."""
+        if self.loop_load is None and self.sm.loops is not None:
+            self.loop_load = LoopLorentzLoad(self.sm.nodes, self.sm.loops)
+        return self.loop_load
+
     def kind_loads(self) -> list:
-        return [self.rods()]
+        return [load for load in (self.rods(), self.loops()) if load is not None]
 
     def allocation(self) -> DipoleAllocation:
-        """The rods' allocation on their reference axes."""
+        """The rods' allocation on their reference axes (of no rods when there are none)."""
         p = self.sm.structure.positions_m
         ends = self.sm.structure.members.nodes[self.sm.rod_members]
         axes = p[ends[:, 1]] - p[ends[:, 0]]
@@ -301,41 +309,62 @@ class ActuatedTask(StructureTask):
             Pw_Nms=np.asarray(c.Pw_Nms, dtype=float),
             inertia_kgm2=self.sm.inertia_kg_m2,
             mu_m3_s2=mu,
+            loops=self.loops(),
         )
 
     def kind_probes(self) -> dict[str, Any]:
-        """The held command's values (read from ``state.ctrl``, so they stay right after a resume)
-        and the rods' actual torque ``Rᵀ Σ m_r × B`` on the deformed members, body axes."""
-        rods = self.rods()
-        return {
+        """The held command's values (read from ``state.ctrl``, so they stay right after a resume),
+        the rods' actual torque ``Rᵀ Σ m_r × B`` on the deformed members and the loops' actual
+        torque ``Rᵀ Σ I_L a_L × B`` on the deformed loops, body axes."""
+        probes: dict[str, Any] = {
             "omega_est_body_rad_s": lambda s, d: s.ctrl.omega_body,
             "B_body_T": lambda s, d: s.ctrl.B_body,
             "torque_ref_body_Nm": lambda s, d: s.ctrl.torque_ref_body,
             "torque_alloc_body_Nm": lambda s, d: s.ctrl.torque_alloc_body,
-            "torque_rod_body_Nm": lambda s, d: s.ctrl.R.T @ rods.torque_world(s),
             "dipole_body_Am2": lambda s, d: s.ctrl.dipole_body,
-            "rod_activation": lambda s, d: s.ctrl.activation,
             "saturated": lambda s, d: np.bool_(s.ctrl.saturated),
             "control_counts": lambda s, d: s.ctrl.counts,
             "q_err": lambda s, d: s.ctrl.q_err,
         }
+        rods, loops = self.rods(), self.loops()
+        if rods is not None:
+            probes["torque_rod_body_Nm"] = lambda s, d: s.ctrl.R.T @ rods.torque_world(s)
+            probes["rod_activation"] = lambda s, d: s.ctrl.activation
+        if loops is not None:
+            probes["torque_loop_body_Nm"] = lambda s, d: s.ctrl.R.T @ loops.torque_world(s)
+            probes["loop_currents_A"] = lambda s, d: s.ctrl.currents_A
+            probes["loop_vector_area_body_m2"] = lambda s, d: loops.vector_areas(loops.node_positions(s)) @ s.ctrl.R
+        return probes
 
     def kind_summary(self, records: Any, series: dict[str, np.ndarray]) -> Summary:
-        return rod_keys(records), {}
+        return actuator_keys(records), {}
 
     def kind_plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
         return rod_plots(run_dir, series, result.records, title=self.title)
 
     def task_manifest(self) -> dict[str, Any]:
-        c = self.cfg.control
-        return {
-            "rods": {
-                "member_set": self.cfg.actuators.member_set,
+        c, cfg = self.cfg.control, self.cfg
+        out: dict[str, Any] = {}
+        if cfg.actuators is not None:
+            out["rods"] = {
+                "member_set": cfg.actuators.member_set,
                 "count": int(self.sm.rod_members.size),
                 "dipole_max_total_Am2": float(self.sm.rod_dipole_max_Am2.sum()),
-            },
+            }
+        if self.sm.loops is not None:
+            loops = self.sm.loops
+            areas = loops.vector_areas(self.sm.structure.positions_m)
+            out["loops"] = {
+                "member_sets": list(loops.names),
+                "members": np.bincount(loops.loop, minlength=loops.n_loops).tolist(),
+                "current_max_A": loops.current_max_A.tolist(),
+                "vector_area_m2": areas.tolist(),
+                "dipole_max_Am2": (loops.current_max_A * np.linalg.norm(areas, axis=1)).tolist(),
+            }
+        return {
+            **out,
             "control_kind": c.kind,
-            "control_period_s": c.period_s if c.period_s is not None else self.cfg.sim.timestep_s,
+            "control_period_s": c.period_s if c.period_s is not None else cfg.sim.timestep_s,
         }
 
 
