@@ -176,11 +176,13 @@ def test_a_changed_structure_file_is_refused_by_its_recorded_digest(tmp_path):
 
 
 @pytest.mark.parametrize("source", ["mesh", "deck"])
-def test_a_mesh_and_a_deck_run_through_the_same_config(source):
+def test_a_mesh_and_a_deck_run_through_the_same_config(source, tmp_path):
     """A gmsh mesh (curve group → beams, surface group → panels) and a Nastran deck (a CBAR
     cantilever clamped by an SPC) validate, count their models and step, named by
-    ``structure.file`` alone; a deck the model builder cannot hold (a beam tree pinned at three
-    nodes) is refused by validation, naming the file and the rule, as a missing file is."""
+    ``structure.file`` alone; a deck whose beam tree is held at three nodes (two welds to the world
+    and a ball joint) builds and counts its model; one the model builder cannot hold (a beam held
+    at both ends by the z translation alone) is refused by validation, naming the file and the
+    rule, as a missing file is."""
     if source == "mesh":
         table = {
             "file": str(REPO / "tests/data/meshes/sail.msh"),
@@ -218,11 +220,25 @@ def test_a_mesh_and_a_deck_run_through_the_same_config(source):
     with pytest.raises(ConfigError, match=r"structure\.file: .*missing: does not exist"):
         parse_config(broken)
     if source == "deck":
-        broken["structure"]["file"] = str(REPO / "tests/data/nastran/truss_free.bdf")
+        held = copy.deepcopy(tree)  # a beam tree held at three nodes: welded, welded, pinned
+        held["structure"]["file"] = str(REPO / "tests/data/nastran/truss_free.bdf")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            cfg = parse_config(held)
+        model = magsail_mj.load(cfg).model
+        assert cfg.model_counts() == (model.nv, model.nbody, model.ntendon) and model.neq == 2
+        deck = tmp_path / "cantilever_z.bdf"  # now held at both ends by z alone
+        text = (
+            Path(table["file"])
+            .read_text()
+            .replace("SPC1           1  123456       1", "SPC1           1       3       1      11")
+        )
+        deck.write_text(text)
+        broken["structure"]["file"] = str(deck)
         with warnings.catch_warnings(), pytest.raises(ConfigError) as err:
             warnings.simplefilter("ignore")
             parse_config(broken)
-        assert "structure.file: " in str(err.value) and "truss_free.bdf: fixed_dofs: nodes [1, 2, 0]" in str(err.value)
+        assert "structure.file: " in str(err.value) and "cantilever_z.bdf: fixed_dofs: nodes [0, 10]" in str(err.value)
 
 
 def test_bad_structure_file_exits_2_naming_the_element_and_writes_nothing(tmp_path, capsys):

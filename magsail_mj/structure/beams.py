@@ -8,17 +8,33 @@ Vertices
     slide joints); a node touched by a beam is a ``BEAM_NODE``; a part is a ``PART``.
 
 Beam forest
-    Beams are the edges of a graph on the vertices. Each connected component must be a tree: a
-    beam that closes a loop (two beams between the same vertices, a ring, a frame cell, a beam
-    with both ends on one part) is refused, naming the member, because a kinematic chain cannot
-    close. Each tree is rooted at its one constrained vertex (a node or part with ``fixed_dofs``),
-    else at its first rigid part, else at its lowest-numbered node; a tree with two constrained
-    vertices is refused (a chain can be held at one place only). The root hangs from the world;
-    every other vertex is the child of the vertex on the root side of its beam (``parent``,
-    ``parent_member``).
+    Beams are the edges of a graph on the vertices. Each connected component is rooted at a
+    constrained vertex (a node or part with ``fixed_dofs``), else at its first rigid part, else at
+    its lowest-numbered node, and spanned by the breadth-first tree from that root: the root hangs
+    from the world, every other vertex is the child of the vertex on the root side of its tree beam
+    (``parent``, ``parent_member``).
+
+Cycles (``cut_member``, ``cut_parent``, ``cut_node``)
+    A beam that is not a tree edge closes a cycle (a ring, a frame cell, two beams between the same
+    vertices, a beam with both ends on one part): ``E − V + C`` of them for ``E`` beams joining
+    ``V`` vertices in ``C`` components, one per independent cycle. Such a beam ``j`` is *cut* at
+    its end node ``b`` (``cut_node``): a closing body at ``b`` hangs from the vertex of its other
+    end (``cut_parent``) by the beam's own joints, and an equality constraint welds it to the body
+    holding ``b``, so that the member is the same spring as a tree beam and the closed structure is
+    the continuous one. The closing body takes an equal share of node ``b``'s lumped mass and
+    rotational inertia (:mod:`magsail_mj.structure.mjcf`), so ``b`` is the end with the larger
+    lumped mass (the second end on a tie); a cut beam whose two end nodes have no mass is refused.
+
+Held places (``held_vertex``, ``held_weld``)
+    A tree may hold several constrained vertices. The root is one whose constraint is neither all
+    six components nor exactly the three translations, if there is one (it becomes the root's
+    joints), else the lowest-numbered constrained vertex; every other constrained vertex of the
+    tree is attached to the world by an equality constraint at its constraining node: a weld when
+    all six components are fixed, a ball-and-socket (``connect``) when the three translations are.
+    A tree with two constrained vertices of another kind is refused.
 
 Root constraint (``anchor_node``, ``root_fixed``)
-    The constraining node of a root: the vertex's own node, or the one node of a part with
+    The constraining node of a root or held vertex: the vertex's own node, or the one node of a part with
     ``fixed_dofs`` (a part with a fully fixed node is welded whatever its other nodes say; two
     partially fixed nodes of one part are refused). ``root_fixed`` is that node's ``fixed_dofs``
     row (all ``True`` for a welded part).
@@ -67,10 +83,16 @@ class BodyLayout:
       parent: (V,) parent vertex (−1: the world).
       parent_member: (V,) the beam joining a vertex to its parent (−1 for roots).
       parent_end: (m,) for the beams, the end (0 or 1) on the parent's side (−1 for other members).
-      anchor_node: (V,) the constraining node of a root (−1: none, a free root).
+      anchor_node: (V,) the constraining node of a root or a held vertex (−1: none, a free root).
       root_fixed: (V, 6) the constrained components (x, y, z, rx, ry, rz) of a root.
       order: the vertices to write, each after its parent (by depth from the world, then by vertex
         number; ``HELD`` vertices left out).
+      cut_member: (k,) the beams that close cycles, ascending (module docstring).
+      cut_parent: (k,) the vertex each cut beam's closing body hangs from.
+      cut_node: (k,) the end node where each closing body sits, welded to that node's body.
+      held_vertex: (h,) constrained vertices other than roots, attached to the world, ascending.
+      held_weld: (h,) whether each is welded (all six components fixed) or connected (the three
+        translations fixed).
     """
 
     node_vertex: np.ndarray
@@ -81,6 +103,16 @@ class BodyLayout:
     anchor_node: np.ndarray
     root_fixed: np.ndarray
     order: np.ndarray
+    cut_member: np.ndarray
+    cut_parent: np.ndarray
+    cut_node: np.ndarray
+    held_vertex: np.ndarray
+    held_weld: np.ndarray
+
+    def closing_share(self, n_nodes: int) -> np.ndarray:
+        """(n,) the fraction of each node's lumped mass and rotational inertia that each of its
+        bodies carries: ``1 / (1 + k_i)`` for a node where ``k_i`` closing bodies sit, else 1."""
+        return 1.0 / (1.0 + np.bincount(self.cut_node, minlength=n_nodes))
 
 
 def _listed(indices: np.ndarray, describe, what: str) -> list[str]:
@@ -153,21 +185,32 @@ def _part_anchors(structure: Structure, node_vertex: np.ndarray, V: int) -> tupl
     return anchor, _listed(bad, describe, "parts")
 
 
-def _roots(components: np.ndarray, kind: np.ndarray, anchor: np.ndarray) -> tuple[np.ndarray, list[str]]:
-    """(c,) the root vertex of each component and the findings (two constrained vertices)."""
+def _equality_held(fixed_rows: np.ndarray) -> np.ndarray:
+    """Whether each ``fixed_dofs`` row (k, 6) is one an equality constraint holds: all six
+    components (a weld) or exactly the three translations (a ball-and-socket ``connect``)."""
+    return fixed_rows.all(axis=1) | (fixed_rows[:, :3].all(axis=1) & ~fixed_rows[:, 3:].any(axis=1))
+
+
+def _roots(
+    components: np.ndarray, kind: np.ndarray, anchor: np.ndarray, fixed: np.ndarray
+) -> tuple[np.ndarray, list[str]]:
+    """(c,) the root vertex of each component (module docstring) and the findings (two
+    constrained vertices in one tree that no equality constraint holds)."""
     V = kind.size
     constrained = anchor >= 0
-    priority = np.where(constrained, 0, np.where(kind == PART, 1, 2))
+    other = constrained & ~_equality_held(fixed[np.maximum(anchor, 0)])
+    priority = np.where(other, 0, np.where(constrained, 1, np.where(kind == PART, 2, 3)))
     order = np.lexsort((np.arange(V), priority, components))
     _, first = np.unique(components[order], return_index=True)
     roots = order[first]
-    bad = np.flatnonzero(np.bincount(components[constrained], minlength=roots.size) > 1)
+    bad = np.flatnonzero(np.bincount(components[other], minlength=roots.size) > 1)
 
     def describe(c: int) -> str:
-        nodes = anchor[(components == c) & constrained]
+        nodes = anchor[(components == c) & other]
         return (
-            f"fixed_dofs: nodes {nodes.tolist()} are in one tree of beams and rigid parts and all have fixed dofs; "
-            "a beam tree can be held at one node only (make a member between them a strut)"
+            f"fixed_dofs: nodes {nodes.tolist()} are in one tree of beams and rigid parts and have fixed dofs other "
+            "than all six or the three translations; a beam tree can be held so at one node only (make a member "
+            "between them a strut)"
         )
 
     return roots, _listed(bad, describe, "trees")
@@ -177,7 +220,7 @@ def _tree(
     structure: Structure, beams: np.ndarray, ends: np.ndarray, roots: np.ndarray, V: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """Breadth-first forest from a super-root joined to ``roots``: parent, parent member, the
-    parent-side end of each beam, depth, and the findings (beams that close loops)."""
+    parent-side end of each beam, depth, and the beams that close cycles (indices into ``beams``)."""
     S = V
     rows = np.concatenate([ends[:, 0], np.full(roots.size, S)])
     cols = np.concatenate([ends[:, 1], roots])
@@ -196,25 +239,39 @@ def _tree(
     parent_end = np.full(structure.n_members, -1, dtype=np.int64)
     parent_end[beams[tree_edges]] = np.where(into_v[tree_edges], 0, 1)
     closing = np.setdiff1d(np.arange(beams.size), tree_edges)
-    nodes = structure.members.nodes
+    return parent, parent_member, parent_end, depth[:V], closing
+
+
+def _cuts(
+    structure: Structure, cut: np.ndarray, node_vertex: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """The cut beams' closing bodies (module docstring): the members, the vertex each hangs from,
+    the node each sits at, and the findings (a cut beam whose end nodes have no mass)."""
+    masses = structure.lumped_masses()
+    ends = structure.members.nodes[cut].reshape(-1, 2)
+    at = (masses[ends[:, 1]] >= masses[ends[:, 0]]).astype(np.int64)
+    rows = np.arange(cut.size)
+    node = ends[rows, at]
+    parent = node_vertex[ends[rows, 1 - at]]
 
     def describe(k: int) -> str:
-        j = beams[k]
-        where = "both ends on one rigid part" if u[k] == v[k] else "it closes a loop of beams"
         return (
-            f"members[{j}] (beam, nodes {nodes[j, 0]}-{nodes[j, 1]}): {where}; beams must form trees (a kinematic "
-            "chain cannot close): make it a strut or a cable"
+            f"members[{cut[k]}] (beam, nodes {ends[k, 0]}-{ends[k, 1]}): it closes a cycle of beams, and the body "
+            "that closes it takes a share of an end node's lumped mass, but both end nodes have none (give them mass "
+            "or make the member a strut)"
         )
 
-    return parent, parent_member, parent_end, depth[:V], _listed(closing, describe, "beams")
+    massless = np.flatnonzero(~(masses[node] > 0))
+    return cut, parent, node, _listed(massless, describe, "beams")
 
 
 def body_layout(structure: Structure) -> BodyLayout:
     """The body tree of ``structure`` (module docstring).
 
     Raises:
-      StructureError: listing every finding (a node held by two parts, a loop of beams, two held
-        places in one tree), each naming the element.
+      StructureError: listing every finding (a node held by two parts, a cycle of massless beams
+        between massless nodes, two places in one tree held other than by a weld or a connect),
+        each naming the element.
     """
     n = structure.n_nodes
     V = n + len(structure.rigid_parts)
@@ -230,17 +287,19 @@ def body_layout(structure: Structure) -> BodyLayout:
     links = ends[ends[:, 0] != ends[:, 1]]
     adjacency = sparse.coo_matrix((np.ones(len(links)), (links[:, 0], links[:, 1])), shape=(V, V))
     _, components = csgraph.connected_components(adjacency, directed=False)
-    roots, found = _roots(components, kind, anchor)
+    fixed = np.asarray(structure.fixed_dofs, dtype=bool)
+    roots, found = _roots(components, kind, anchor, fixed)
     problems += found
-    parent, parent_member, parent_end, depth, found = _tree(structure, beams, ends, roots, V)
+    parent, parent_member, parent_end, depth, closing = _tree(structure, beams, ends, roots, V)
+    cut_member, cut_parent, cut_node, found = _cuts(structure, beams[closing], node_vertex)
     problems += found
     if problems:
         raise StructureError(problems)
     is_root = parent < 0
-    anchor = np.where(is_root, anchor, -1)
-    fixed = np.asarray(structure.fixed_dofs, dtype=bool)
+    held_vertex = np.flatnonzero(~is_root & (anchor >= 0))
     root_fixed = np.zeros((V, 6), dtype=bool)
-    root_fixed[anchor >= 0] = fixed[anchor[anchor >= 0]]  # a welded part's anchor is its fully fixed node
+    rooted = np.flatnonzero(is_root & (anchor >= 0))
+    root_fixed[rooted] = fixed[anchor[rooted]]  # a welded part's anchor is its fully fixed node
     order = np.lexsort((np.arange(V), depth))
     return BodyLayout(
         node_vertex=node_vertex,
@@ -251,6 +310,11 @@ def body_layout(structure: Structure) -> BodyLayout:
         anchor_node=anchor,
         root_fixed=root_fixed,
         order=order[kind[order] != HELD],
+        cut_member=cut_member,
+        cut_parent=cut_parent,
+        cut_node=cut_node,
+        held_vertex=held_vertex,
+        held_weld=fixed[anchor[held_vertex]].all(axis=1).reshape(-1),
     )
 
 

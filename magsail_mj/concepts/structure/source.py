@@ -139,9 +139,11 @@ def with_rods(structure: Structure, members: np.ndarray, *, rod_linear_density_k
 def model_counts(structure: Structure) -> tuple[int, int, int]:
     """``(nv, nbody, ntendon)`` of :func:`~magsail_mj.structure.mjcf.build_structure_spec`'s model
     of ``structure``: 3 slide dofs per particle less its fixed translations; 4 per beam joining a
-    tree body to its parent; at each tree root 6 (free), or its free translations plus 3 (ball) or
-    its free rotations (hinges); one body per particle, beam node and rigid part (and the world);
-    one tendon per strut and cable."""
+    tree body to its parent and 4 per closing body of a cut beam (a beam that closes a cycle); at
+    each tree root 6 (free), or its free translations plus 3 (ball) or its free rotations (hinges);
+    one body per particle, beam node, rigid part and closing body (and the world); one tendon per
+    strut and cable. Equality constraints (the closing welds, the world attachments of further held
+    places) add no dofs."""
     layout = body_layout(structure)
     n = structure.n_nodes
     fixed = np.asarray(structure.fixed_dofs, dtype=bool)
@@ -149,13 +151,14 @@ def model_counts(structure: Structure) -> tuple[int, int, int]:
     nv = int((~fixed[particle, :3]).sum())
     tree = np.flatnonzero((layout.kind == BEAM_NODE) | (np.arange(layout.kind.size) >= n))
     roots = tree[layout.parent[tree] < 0]
-    nv += 4 * int(tree.size - roots.size)
+    cuts = int(layout.cut_member.size)
+    nv += 4 * int(tree.size - roots.size + cuts)
     for v in roots.tolist():
         if layout.anchor_node[v] < 0:
             nv += 6
             continue
         held = np.asarray(layout.root_fixed[v], dtype=bool)
         nv += int((~held[:3]).sum()) + (3 if not held[3:].any() else int((~held[3:]).sum()))
-    nbody = 1 + int(particle.sum()) + int(tree.size)
+    nbody = 1 + int(particle.sum()) + int(tree.size) + cuts
     ntendon = int(np.count_nonzero(structure.members.kind != _BEAM))
     return nv, nbody, ntendon
