@@ -18,15 +18,25 @@ To run a controller of your own, build a new simulation with it and its actuator
 :func:`magsail_mj.commands.attach` (``examples/custom_controller.py``); assigning
 ``sim.controller`` is not enough, because ``reset`` and ``set_state`` restore the controller the
 simulation was built with.
+
+Many worlds at once: with ``worlds`` and/or ``world_overrides`` (one list of ``key=value`` strings
+per world, applied after ``overrides``), ``load`` returns a
+:class:`magsail_mj.batch.BatchSimulation` — N runs of one compiled model stepped together, each
+world equal to the single run of its own config (``reset``, ``step``, ``run``, ``get_state``,
+``set_state`` over the batch; see :mod:`magsail_mj.batch` and ``docs/batch.md``)::
+
+    sim = magsail_mj.load(config, ["sim.duration_s=600"], world_overrides=[["control.bdot_gain_Am2s_T=2e4"], []])
+    result = sim.run()  # result.worlds[k]: world k's RunResult
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 from pydantic import BaseModel
 
+from magsail_mj.batch import load_batch
 from magsail_mj.checkpoint import run_identity
 from magsail_mj.config import apply_overrides, load_config, numbers_hash, numbers_tree, parse_config
 from magsail_mj.scenario import build_scenario
@@ -34,16 +44,29 @@ from magsail_mj.scenario import build_scenario
 __all__ = ["load"]
 
 
-def load(config: str | Path | BaseModel, overrides: list[str] | tuple[str, ...] = ()) -> Any:
-    """Build the simulation of ``config``.
+def load(
+    config: str | Path | BaseModel,
+    overrides: list[str] | tuple[str, ...] = (),
+    *,
+    worlds: int | None = None,
+    world_overrides: Sequence[Sequence[str]] | None = None,
+    nthread: int = 1,
+) -> Any:
+    """Build the simulation of ``config`` (or, with ``worlds``/``world_overrides``, a batch of them).
 
     Args:
       config: a config file path, or a validated config (:func:`magsail_mj.config.load_config`).
       overrides: ``"key.path=value"`` strings, exactly as ``--set`` on the command line.
+      worlds: build a batch of this many worlds (:func:`magsail_mj.batch.load_batch`).
+      world_overrides: build a batch, world k with ``overrides`` and then ``world_overrides[k]``.
+      nthread: threads stepping a batch's worlds (ignored for a single run).
 
     Raises:
-      ConfigError: the config (with the overrides) is not valid; nothing is built.
+      ConfigError: the config (with the overrides) is not valid, or a batch's worlds cannot run
+        together (the key named); nothing is built.
     """
+    if worlds is not None or world_overrides is not None:
+        return load_batch(config, overrides, worlds=worlds, world_overrides=world_overrides, nthread=nthread)
     if isinstance(config, BaseModel):
         cfg = parse_config(apply_overrides(config.model_dump(mode="json"), list(overrides))) if overrides else config
     else:

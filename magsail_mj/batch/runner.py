@@ -1,0 +1,364 @@
+r"""The batch runner: N worlds of one compiled model stepped in lockstep, one Python step for all.
+
+:class:`BatchSimulation` is :class:`magsail_mj.sim.Simulation` over a world axis. Each step ``k``
+(``t = k·δt``), for every live world at once:
+
+1. the plant's controller samples what is due and writes ``ctrl`` (:meth:`control`);
+2. every ``record_every`` steps (and at the end) the probes are recorded, before the step, so
+   record 0 is the initial state (:class:`~magsail_mj.batch.records.WorldRecords`);
+3. the plant's loads write ``xfrc_applied`` (:meth:`loads`);
+4. :meth:`mujoco.batch.Batch.step` advances the live worlds by one ``mj_step`` each, on
+   ``nthread`` threads (bit-identical to a loop over one ``MjData`` per world at any thread count);
+5. each stepped world is checked as the single run checks its state
+   (:mod:`magsail_mj.divergence`: MuJoCo's automatic reset is off; a bad-state warning of this step
+   dates the bad state at t, a ``qpos``/``qvel`` that is not finite at t + δt); a MuJoCo error in
+   a world's step makes it ``failed``.
+
+A world that goes bad stops alone: its status (``diverged``, ``failed``), message and time are its
+own, its records stop where its single run's would (a record of a state MuJoCo flagged is dropped),
+its MuJoCo state and controller state stay as they were, and it is not stepped again; the others
+go on. Statuses are those of :class:`~magsail_mj.sim.RunResult` (``running``, ``completed``,
+``diverged``, ``failed``, ``stopped``, ``interrupted``).
+
+:meth:`get_state` / :meth:`set_state` hold the whole batch as plain data (every world's MuJoCo
+integration state, the plant's Python-side state, the statuses and record counts); continuing from
+a state gives the same numbers, bit for bit, as the run that followed it. Checkpoint files are not
+written by a batch (yet): its state is in memory.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping, Protocol, Sequence
+
+import numpy as np
+from mujoco.batch import Batch, SimulationError
+
+from magsail_mj.batch.records import WorldRecords
+from magsail_mj.divergence import BAD_STATE_WARNINGS
+from magsail_mj.sim import RunResult, _non_finite_records, progress_bar
+
+__all__ = ["BatchSimulation", "BatchResult", "Plant"]
+
+_WARNINGS = [(int(w), w.name.removeprefix("mjWARN_"), text) for w, text in BAD_STATE_WARNINGS.items()]
+
+
+class Plant(Protocol):
+    """What the runner needs from a concept's part of a batch (e.g.
+    :class:`~magsail_mj.batch.cubesat.CubesatWorlds`)."""
+
+    probe_names: Sequence[str]
+
+    def control(self, step: int, qpos: np.ndarray, qvel: np.ndarray, ctrl: np.ndarray) -> None: ...
+
+    def probes(self, step: int, qpos: np.ndarray, qvel: np.ndarray) -> dict[str, np.ndarray]: ...
+
+    def loads(self, step: int, qpos: np.ndarray, qvel: np.ndarray, xfrc: np.ndarray) -> None: ...
+
+    def set_live(self, live: np.ndarray) -> None: ...
+
+    def reset(self) -> None: ...
+
+    def get_state(self) -> dict[str, Any]: ...
+
+    def set_state(self, state: dict[str, Any]) -> None: ...
+
+
+@dataclass
+class BatchResult:
+    """What a batch run produced: ``worlds[k]`` is world k's :class:`~magsail_mj.sim.RunResult`
+    (its records, status, message, end time, steps, and its share of the wall time: the batch's
+    step-loop wall time in proportion to the steps it took); ``wall_time_s`` [s] and
+    ``world_steps`` are the whole batch's."""
+
+    worlds: list[RunResult]
+    wall_time_s: float
+    world_steps: int
+
+    @property
+    def status(self) -> list[str]:
+        """Each world's status."""
+        return [w.status for w in self.worlds]
+
+
+class BatchSimulation:
+    """N worlds of one model, stepped together (module docstring).
+
+    Args:
+      batch: the MuJoCo batch (its model's automatic reset switched off, per-world model fields
+        expanded).
+      plant: the concept's part (controller, loads, probes over the world axis).
+      duration_s: simulated time of every world [s].
+      record_every: decimation of the records.
+      initial_state: (N, nstate) every world's MuJoCo integration state at t = 0.
+
+    Attributes set by :func:`magsail_mj.batch.load_batch`: ``cfgs`` (each world's validated
+    config), ``worlds`` (the concept's built worlds: ``scenario(k)`` gives world k's task),
+    ``identities`` (each world's run identity).
+    """
+
+    streams_records = True
+
+    def __init__(
+        self, *, batch: Batch, plant: Plant, duration_s: float, record_every: int, initial_state: np.ndarray
+    ) -> None:
+        if record_every < 1:
+            raise ValueError(f"record_every: must be >= 1, got {record_every}")
+        self.batch = batch
+        self.model = batch.model
+        self.plant = plant
+        self.n_worlds = int(batch.nsim)
+        self.dt = float(self.model.opt.timestep)
+        self.duration_s = float(duration_s)
+        self.n_steps = int(round(duration_s / self.dt))
+        self.record_every = int(record_every)
+        state = np.asarray(initial_state, dtype=float)
+        if state.shape != batch.state.shape:
+            raise ValueError(f"initial_state: shape {state.shape}, the batch holds {batch.state.shape}")
+        batch.state[...] = state
+        self._qpos, self._qvel = batch.bind("qpos"), batch.bind("qvel")
+        self._ctrl, self._xfrc = batch.bind("ctrl"), batch.bind("xfrc_applied")
+        self._warn_idx = np.array([w for w, _, _ in _WARNINGS])
+        self.recorded = WorldRecords(["t", *plant.probe_names], self.n_worlds)
+        self.cfgs: list[Any] = []
+        self.worlds: Any = None
+        self.identities: list[dict[str, Any]] = []
+        self._begin(0)
+        self._initial = self.get_state()
+
+    # ------------------------------------------------------------------ bookkeeping
+    def _begin(self, step: int) -> None:
+        n = self.n_worlds
+        self.step_index = step
+        self.live = np.ones(n, dtype=bool)
+        self.plant.set_live(self.live)
+        self.status = ["running"] * n
+        self.message = [""] * n
+        self.end_step = np.full(n, step, dtype=np.int64)
+        self._wall_s = 0.0
+        self._world_steps = np.zeros(n, dtype=np.int64)
+        self._warn_base = self._warnings()
+
+    def _warnings(self) -> np.ndarray:
+        """(N, 4) counts of MuJoCo's bad-state warnings of every world."""
+        return self.batch.warning[:, self._warn_idx, 1].copy()
+
+    @property
+    def time(self) -> float:
+        """Simulated time of the batch's current step [s] (``step_index · δt``)."""
+        return self.step_index * self.dt
+
+    def records(self, world: int) -> Mapping[str, np.ndarray]:
+        """World ``world``'s records so far (``t`` and every probe, stacked over record times)."""
+        self.recorded.flush(self.live)
+        return self.recorded.recorders[world].arrays()
+
+    @property
+    def recorders(self) -> list[Any]:
+        """Each world's :class:`~magsail_mj.records.Recorder`."""
+        return self.recorded.recorders
+
+    # ------------------------------------------------------------------ state
+    def get_state(self) -> dict[str, Any]:
+        """The whole batch as plain data: the step, every world's MuJoCo integration state (``mj_state``,
+        (N, nstate)), which worlds run, their statuses, messages and end steps, their record counts,
+        and the plant's Python-side state."""
+        self.recorded.flush(self.live)
+        return {
+            "step": self.step_index,
+            "mj_state": self.batch.state.copy(),
+            "live": self.live.copy(),
+            "status": list(self.status),
+            "message": list(self.message),
+            "end_step": self.end_step.copy(),
+            "n_records": self.recorded.counts(),
+            "plant": self.plant.get_state(),
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Continue from a state of :meth:`get_state` (of this batch or one built from the same
+        configs): the following steps equal those that followed the state's own. Records made after
+        it are dropped; the worlds that ran then run again (status ``running``), the others keep the
+        status they had."""
+        mj_state = np.asarray(state["mj_state"], dtype=float)
+        if mj_state.shape != self.batch.state.shape:
+            raise ValueError(f"state: 'mj_state' has shape {mj_state.shape}, this batch {self.batch.state.shape}")
+        step = int(state["step"])
+        if not 0 <= step <= self.n_steps:
+            raise ValueError(f"state: step {step} is outside 0 … {self.n_steps}")
+        self.batch.state[...] = mj_state
+        self.plant.set_state(state["plant"])
+        self.recorded.flush(self.live)
+        for rec, keep in zip(self.recorded.recorders, np.asarray(state["n_records"]).tolist()):
+            rec.truncate(min(int(keep), len(rec)))
+        self.step_index = step
+        self.live = np.array(state["live"], dtype=bool, copy=True)
+        self.plant.set_live(self.live)
+        self.status = ["running" if ok else s for ok, s in zip(self.live.tolist(), state["status"])]
+        self.message = ["" if ok else m for ok, m in zip(self.live.tolist(), state["message"])]
+        self.end_step = np.array(state["end_step"], dtype=np.int64, copy=True)
+        self.end_step[self.live] = step
+        self._warn_base = self._warnings()
+
+    def reset(self, *, seed: int | None = None) -> None:
+        """Back to the initial state of the build (t = 0, no records) in every world. ``seed`` is
+        accepted for :meth:`magsail_mj.sim.Simulation.reset`'s interface; the batch's scenarios
+        hold no random generator, so it changes nothing."""
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
+            raise ValueError(f"seed: must be an integer >= 0 or None, got {seed!r}")
+        self.set_state(self._initial)
+        for rec in self.recorded.recorders:
+            rec.truncate(0)
+        self._begin(0)
+
+    # ------------------------------------------------------------------ stepping
+    def step(self, n: int = 1) -> list[str]:
+        """Advance ``n`` steps (never beyond ``duration_s``); return every world's status."""
+        if int(n) != n or n < 1:
+            raise ValueError(f"n: must be an integer >= 1, got {n!r}")
+        if self.live.any():
+            self._advance(min(self.step_index + int(n), self.n_steps))
+        return list(self.status)
+
+    def run(
+        self,
+        *,
+        progress: bool = False,
+        stop_after_s: float | None = None,
+        records_paths: Sequence[str | Path] | None = None,
+        records_attrs: Sequence[dict[str, Any] | None] | None = None,
+    ) -> BatchResult:
+        """Run every live world from the current state to ``duration_s`` (or until it stops, an
+        interrupt, or ``stop_after_s``).
+
+        ``records_paths`` (one per world) streams each world's records to its Zarr store, with
+        ``records_attrs[k]`` as its attributes (as :meth:`Simulation.run`'s ``records_path``)."""
+        if records_paths is not None:
+            attrs = list(records_attrs) if records_attrs is not None else [None] * len(records_paths)
+            self.recorded.create_stores(list(records_paths), attrs)
+        start = self.step_index
+        steps0 = self._world_steps.copy()
+        wall0 = self._wall_s
+        stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(round(stop_after_s / self.dt)))
+        bar = progress_bar(total=self.n_steps, initial=start, mininterval_s=1.0) if progress else None
+        try:
+            if self.live.any():
+                self._advance(stop_step, bar=bar)
+        finally:
+            if bar is not None:
+                bar.close()
+        for k in np.flatnonzero(self.live):
+            if self.status[k] == "running":  # stop_after_s reached before the end
+                self.status[k], self.message[k] = "stopped", f"stopped at t = {self.time:.6g} s (stop_after_s)"
+        for k, rec in enumerate(self.recorded.recorders):
+            if self.status[k] == "completed":
+                self.status[k], self.message[k] = _non_finite_records(rec) or (self.status[k], self.message[k])
+        wall = self._wall_s - wall0
+        steps = self._world_steps - steps0
+        total = int(steps.sum())
+        worlds = [
+            RunResult(
+                records=rec.arrays(),
+                status=self.status[k],
+                message=self.message[k],
+                t_end_s=float(self.end_step[k]) * self.dt,
+                steps=int(self.end_step[k]) - start,
+                wall_time_s=wall * float(steps[k]) / total if total else 0.0,
+            )
+            for k, rec in enumerate(self.recorded.recorders)
+        ]
+        return BatchResult(worlds=worlds, wall_time_s=wall, world_steps=total)
+
+    def _advance(self, stop_step: int, *, bar: Any = None) -> None:
+        """The lockstep loop from the current step to ``stop_step`` (module docstring)."""
+        plant, rec, b = self.plant, self.recorded, self.batch
+        qpos, qvel, ctrl, xfrc = self._qpos, self._qvel, self._ctrl, self._xfrc
+        dt, n = self.dt, self.n_worlds
+        start = step = self.step_index
+        finished = np.zeros(n, dtype=bool)  # worlds that complete or are interrupted in this call
+        wall0 = time.perf_counter()
+        try:
+            with np.errstate(all="ignore"):  # a stopped world's numbers may be NaN; it is not stepped
+                self._check(step, stepped=None)
+                for step in range(start, stop_step + 1):
+                    if step == stop_step < self.n_steps or not self.live.any():
+                        break
+                    t = step * dt
+                    plant.control(step, qpos, qvel, ctrl)
+                    if step % self.record_every == 0 or step == self.n_steps:
+                        values = plant.probes(step, qpos, qvel)
+                        values["t"] = np.full(n, t)
+                        rec.append(values, self.live)
+                    if step == self.n_steps:
+                        finished = self.live.copy()
+                        for k in np.flatnonzero(finished):
+                            self.status[k] = "completed"
+                        break
+                    plant.loads(step, qpos, qvel, xfrc)
+                    stepped = self.live.copy()
+                    ids = None if stepped.all() else np.flatnonzero(stepped).astype(np.int32)
+                    try:
+                        b.step(ids)
+                    except SimulationError as err:
+                        self._stop(err.ids, step, "failed", lambda k: f"MuJoCo error at t = {t:.6g} s: {b.error(k)}")
+                        stepped[err.ids] = False
+                    self._world_steps += stepped
+                    self._check(step, stepped=stepped)
+                    if bar is not None and (step + 1) % 100 == 0:
+                        bar.update(100)
+        except KeyboardInterrupt:
+            finished = self.live.copy()
+            for k in np.flatnonzero(finished):
+                self.status[k], self.message[k] = "interrupted", f"interrupted at t = {step * dt:.6g} s"
+        finally:
+            self.step_index = step
+            ended = self.live | finished
+            self.end_step[ended] = step
+            rec.flush(ended)
+            if finished.any():
+                self.live[finished] = False
+                self.plant.set_live(self.live)
+            self._wall_s += time.perf_counter() - wall0
+
+    def _check(self, step: int, *, stepped: np.ndarray | None) -> None:
+        """Stop the worlds whose state went bad in the step from ``step`` (``stepped``: the worlds
+        stepped; ``None``: only the warnings raised before the loop, dated at ``step``)."""
+        t = step * self.dt
+        raised = (self._warnings() > self._warn_base) & self.live[:, None]
+        bad_warn = raised.any(axis=1)
+        bad_state = np.zeros_like(bad_warn)
+        if stepped is not None:
+            finite = np.isfinite(self._qpos.sum(axis=1) + self._qvel.sum(axis=1))
+            bad_state = stepped & ~finite & ~bad_warn
+        if not (bad_warn.any() or bad_state.any()):
+            return
+        first = np.argmax(raised, axis=1)
+
+        def warn_message(k: int) -> str:
+            _, name, text = _WARNINGS[int(first[k])]
+            return f"MuJoCo {name} at t = {t:.6g} s: {text}"
+
+        self._stop(np.flatnonzero(bad_warn), step, "diverged", warn_message, t_bad_s=t)
+        self._stop(
+            np.flatnonzero(bad_state),
+            step,
+            "diverged",
+            lambda k: f"state is not finite at t = {t + self.dt:.6g} s (after the step from t = {t:.6g} s)",
+        )
+
+    def _stop(self, worlds: np.ndarray, step: int, status: str, message: Any, *, t_bad_s: float | None = None) -> None:
+        """Stop ``worlds`` at ``step`` with ``status`` and ``message(k)``; with ``t_bad_s`` their
+        records from that time on are dropped (a record of a state MuJoCo flagged is not a number)."""
+        if not len(worlds):
+            return
+        self.recorded.flush(self.live)
+        for k in np.asarray(worlds).tolist():
+            self.status[k], self.message[k] = status, message(k)
+            self.end_step[k] = step
+            if t_bad_s is not None:
+                rec = self.recorded.recorders[k]
+                rec.truncate(int(np.searchsorted(rec.column("t"), t_bad_s - 1e-9 * self.dt)))
+            self.live[k] = False
+        self.plant.set_live(self.live)
