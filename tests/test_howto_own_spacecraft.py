@@ -24,7 +24,7 @@ problem reported, naming the element, the key and the value, and the refused run
 every ``magsail modes`` lists its frequencies in ascending order, its zero modes first; the
 detumble and mast runs end with status ``completed`` (the too-long time step's with
 ``structure_failed``), the detumble run folder holds the video and the plots, and
-``magsail_mj.load``, which the page names, builds the simulation of the page's config.
+``magsail_mj.load`` and ``magsail_mj.envs.load``, which the page names, take the page's config.
 
 Run time: the page's runs are short (30 s of simulated time for the spacecraft, 0.8 s until the
 too-long time step fails, 10 s for the mast): about 30 s of CPU time in all, most of it the runs'
@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import magsail_mj
+from magsail_mj import envs
 from magsail_mj.cli import main as magsail
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -282,6 +283,8 @@ def test_the_page_runs_as_written(tmp_path, monkeypatch):
     for name in ("video.mp4", "body_rates.png", "torques.png", "shape.png", "strain.png", "angular_momentum.png"):
         assert (folder / name).stat().st_size > 1000, name
 
-    # the Python entry point the page names builds the same simulation
+    # the Python entry points the page names take its config
     sim = magsail_mj.load("detumble.toml", ["sim.duration_s=60"])
     assert sim.time == 0.0 and sim.cfg.sim.duration_s == 60.0
+    env = envs.load("detumble.toml")
+    assert env.reset().first() and env.action_spec().shape == (3,)
