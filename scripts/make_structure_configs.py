@@ -25,6 +25,15 @@ reproducible:
     The same plate as the square-on-square offset double-layer grid
     (:func:`~magsail_mj.structure.generators.offset_grid_plate`): 14 cells of 5.36 m (close to
     the octet's 5.58 m chords), depth a/√2, corner bracing, the same calibration, mass and damping.
+``reflector_100m.toml``
+    A 100 m circular reflector (:func:`~magsail_mj.structure.generators.circular_plate`): the
+    two-layer cubic lattice clipped to the disc by whole cubes, 19 cubes of 5.26 m across, EA set
+    so that the lattice's homogenised plate rigidity is D11 = 100 N m
+    (:func:`~magsail_mj.structure.plate_theory.cubic_lattice_rigidity`; EI = D d = 1e4 N m² over
+    the 100 m, ten times the 75 m plates'), 150 kg of truss over the nodes, strut damping ζ = 0.1;
+    a reflecting membrane on the top layer, one quad panel a cube (10 g/m², specular 0.85, diffuse
+    0.05, absorbed 0.10). Its member sets ``rim_top`` and ``rim_bottom`` (the generator's) carry
+    the current loops of ``reflector_loops_slew.toml``.
 
 Usage::
 
@@ -43,8 +52,9 @@ from pathlib import Path
 import numpy as np
 
 from magsail_mj.structure.fileformat import write_structure
-from magsail_mj.structure.generators import four_boom_sail, octet_plate, offset_grid_plate
-from magsail_mj.structure.model import Members, Structure
+from magsail_mj.structure.generators import circular_plate, four_boom_sail, octet_plate, offset_grid_plate
+from magsail_mj.structure.model import Members, Panels, Structure
+from magsail_mj.structure.plate_theory import cubic_lattice_rigidity
 
 OUT = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "structure" / "configs" / "structures"
 
@@ -104,7 +114,62 @@ def offset_grid() -> Structure:
     )
 
 
-STRUCTURES = {"sail_100m.toml": sail, "octet_75m.toml": octet, "offset_grid_75m.toml": offset_grid}
+#: the reflector: diameter [m], cubes across, plate rigidity D11 [N m], truss mass [kg], membrane
+REFLECTOR_DIAMETER_M = 100.0
+REFLECTOR_UNITS = 19
+REFLECTOR_D11_NM = 100.0
+REFLECTOR_TRUSS_KG = 150.0
+REFLECTOR_MEMBRANE_KG_M2 = 0.01
+REFLECTOR_OPTICS = (0.85, 0.05, 0.10)
+
+
+def top_membrane(
+    structure: Structure, *, areal_density_kg_m2: float, reflectivity: tuple[float, float, float]
+) -> Structure:
+    """``structure`` (a clipped two-layer cubic lattice) with one quad panel on the top face of
+    every cube, corners counter-clockwise about +z (normal +z). A cube is found by its top-layer
+    face diagonal (one a cube, both bracings)."""
+    p = structure.positions_m
+    top = p[:, 2] > p[:, 2].min() + 0.5 * np.ptp(p[:, 2])
+    ends = structure.members.nodes
+    d = p[ends[:, 1]] - p[ends[:, 0]]
+    diagonal = top[ends[:, 0]] & top[ends[:, 1]] & (np.abs(d[:, 0]) > 0) & (np.abs(d[:, 1]) > 0)
+    a = float(np.min(np.abs(d[diagonal, 0])))
+    ij = np.rint((p[:, :2] - p[:, :2].min(axis=0)) / a).astype(np.int64)
+    node_at = {(int(i), int(j)): int(n) for n, (i, j) in zip(np.flatnonzero(top), ij[top])}
+    corner = np.minimum(ij[ends[diagonal, 0]], ij[ends[diagonal, 1]])
+    quads = np.array([[node_at[(i + di, j + dj)] for di, dj in ((0, 0), (1, 0), (1, 1), (0, 1))] for i, j in corner])
+    count = quads.shape[0]
+    panels = Panels(
+        nodes=quads,
+        areal_density_kg_m2=np.full(count, areal_density_kg_m2),
+        reflectivity=np.tile(np.asarray(reflectivity, dtype=float), (count, 1)),
+        drag_coefficient=np.full(count, 2.2),
+    )
+    return replace(structure, panels=panels)
+
+
+def reflector() -> Structure:
+    """The 100 m circular reflector (module docstring)."""
+    a = REFLECTOR_DIAMETER_M / REFLECTOR_UNITS
+    EA_N = REFLECTOR_D11_NM / cubic_lattice_rigidity(EA_N=1.0, cube_edge_m=a).D11_Nm
+    plate = circular_plate(
+        diameter_m=REFLECTOR_DIAMETER_M,
+        units_across=REFLECTOR_UNITS,
+        EA_N=EA_N,
+        total_mass_kg=REFLECTOR_TRUSS_KG,
+        zeta_strut=0.1,
+        name="reflector_100m",
+    )
+    return top_membrane(plate, areal_density_kg_m2=REFLECTOR_MEMBRANE_KG_M2, reflectivity=REFLECTOR_OPTICS)
+
+
+STRUCTURES = {
+    "sail_100m.toml": sail,
+    "octet_75m.toml": octet,
+    "offset_grid_75m.toml": offset_grid,
+    "reflector_100m.toml": reflector,
+}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -114,7 +114,12 @@ def _mixed() -> dict:
 def test_shipped_configs_validate_and_count_their_models():
     """Each shipped config validates, resolves its structure file, records its digest and counts its
     model exactly as MuJoCo builds it (the memory estimate's input)."""
-    assert [p.name for p in SHIPPED] == ["octet_detumble.toml", "offset_grid_detumble.toml", "sail_detumble.toml"]
+    assert [p.name for p in SHIPPED] == [
+        "octet_detumble.toml",
+        "offset_grid_detumble.toml",
+        "reflector_loops_slew.toml",
+        "sail_detumble.toml",
+    ]
     for path in SHIPPED:
         cfg = load_config(path)
         file = Path(cfg.structure.file)

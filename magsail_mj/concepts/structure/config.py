@@ -6,8 +6,13 @@ folder) or the structure format's own tables inline — and says what happens to
 
 ``scenario``
     ``free`` (no actuator: angular momentum and energy, libration in orbit), ``detumble`` (B-dot
-    through magnetorquer rods) or ``slew`` (quaternion PD on the best-fit rigid attitude through
-    the rods); the tasks are :mod:`magsail_mj.concepts.structure.tasks`.
+    through magnetorquer rods along a member set, ``[actuators]``, and/or current loops along
+    member sets, ``[loops]``) or ``slew`` (quaternion PD on the best-fit rigid attitude through
+    them); the tasks are :mod:`magsail_mj.concepts.structure.tasks`.
+
+The environment tables are the other concepts'; ``srp.enabled`` and ``drag.enabled`` put solar
+pressure and drag on the structure's panels (refused for a structure without panels; each panel
+has its own drag coefficient, so ``drag.drag_coefficient`` is refused).
 
 Reading the structure is part of validation: every problem of the file is reported with its key
 path (``structure.members[3].EA_N: must be > 0, got -1.0``; a file's problems after

@@ -8,12 +8,14 @@ is registered by name (:func:`magsail_mj.concepts.register_task`):
 ``scenario``  class                 what it runs
 ============  ====================  =========================================================
 ``free``      :class:`FreeTask`     no actuator (momentum and energy in free space, libration)
-``detumble``  :class:`DetumbleTask` rods on a member set under B-dot
-``slew``      :class:`SlewTask`     rods under quaternion PD on the best-fit rigid attitude
+``detumble``  :class:`DetumbleTask` rods on a member set and/or current loops under B-dot
+``slew``      :class:`SlewTask`     the same under quaternion PD on the best-fit rigid attitude
 ============  ====================  =========================================================
 
 Loads (:mod:`magsail_mj.concepts.structure.loads`): tidal gravity on every node when
-``orbit.enabled`` and ``gravity.tidal``; the rods when the kind has a controller. Frames: world =
+``orbit.enabled`` and ``gravity.tidal``; solar pressure and drag on the panels when
+``srp.enabled`` or ``drag.enabled``; the rods and the current loops when the kind has a
+controller. Frames: world =
 the orbit-following frame (axes = ECI) or free space; body = the best-fit rotation of the nodes
 (the structure frame at the reference). Units SI.
 """

@@ -1,6 +1,8 @@
 """Disc and hexagon plates: the two-layer cubic lattice clipped to the shape by whole cubes
 (pure NumPy). Frames, units, sets, masses and damping as
-:mod:`~magsail_mj.structure.generators.plates`."""
+:mod:`~magsail_mj.structure.generators.plates`, and two member sets more, ``rim_top`` and
+``rim_bottom`` (:func:`rim_loops`): the chords along the staircase perimeter of each layer, in
+order round it, each a closed loop (for current loops along the rim)."""
 
 from __future__ import annotations
 
@@ -18,9 +20,63 @@ from magsail_mj.structure.generators.plates import (
     lattice_subset,
     uniform_strut_plate,
 )
-from magsail_mj.structure.model import Structure
+from magsail_mj.structure.model import Structure, StructureError
 
-__all__ = ["circular_plate", "hexagonal_plate"]
+__all__ = ["circular_plate", "hexagonal_plate", "rim_loops"]
+
+
+def rim_loops(ijk: np.ndarray, struts: np.ndarray, cells: np.ndarray) -> dict[str, np.ndarray]:
+    """``{"rim_top": …, "rim_bottom": …}``: in each layer (``k = 1``, ``k = 0``) the chords along
+    the perimeter of the kept cubes (an edge along x or y with a kept cube on one side only), listed
+    in order counter-clockwise about +z, starting at the lowest row's first chord, whose stored
+    node order runs +x (so a loop taking its sense from its first member's node order runs
+    counter-clockwise: a positive current makes a dipole along +z).
+
+    Args:
+      ijk: (n, 3) integer node coordinates; struts: (m, 2) end nodes; cells: (units, units)
+        [cj, ci] mask of the kept cubes.
+
+    Raises:
+      StructureError: the perimeter of a layer is not one simple loop (kept cubes touching at a
+        corner only, or several pieces).
+    """
+    units = cells.shape[0]
+    i, j, k = (np.asarray(c, dtype=np.int64) for c in ijk.T)
+    a, b = np.asarray(struts, dtype=np.int64).T
+    di, dj = i[b] - i[a], j[b] - j[a]
+    flat = k[a] == k[b]
+    along_x = flat & (dj == 0) & (np.abs(di) == 1)
+    along_y = flat & (di == 0) & (np.abs(dj) == 1)
+
+    def kept(ci: np.ndarray, cj: np.ndarray) -> np.ndarray:
+        valid = (ci >= 0) & (ci < units) & (cj >= 0) & (cj < units)
+        return valid & cells[np.clip(cj, 0, units - 1), np.clip(ci, 0, units - 1)]
+
+    i0, j0 = np.minimum(i[a], i[b]), np.minimum(j[a], j[b])
+    above, below = kept(i0, j[a]), kept(i0, j[a] - 1)  # an x chord's cubes
+    right, left = kept(i[a], j0), kept(i[a] - 1, j0)  # a y chord's cubes
+    rim = (along_x & (above != below)) | (along_y & (left != right))
+    # counter-clockwise about +z: +x below the cubes, −x above them, +y right of them, −y left
+    forward = np.where(along_x, np.where(above, 1, -1) == di, np.where(left, 1, -1) == dj)
+    src, dst = np.where(forward, a, b), np.where(forward, b, a)
+    out = {}
+    for name, layer in (("rim_top", 1), ("rim_bottom", 0)):
+        members = np.flatnonzero(rim & (k[a] == layer))
+        leaving: dict[int, int] = {}
+        for m in members.tolist():
+            if leaving.setdefault(int(src[m]), m) != m:
+                raise StructureError(f"{name}: the perimeter passes node {int(src[m])} twice (cubes meet at a corner)")
+        starts = members[along_x[members] & forward[members]]
+        m = int(starts[np.lexsort((i0[starts], j[a][starts]))[0]])
+        order = [m]
+        while (m := leaving[int(dst[m])]) != order[0]:
+            order.append(m)
+            if len(order) > members.size:
+                raise StructureError(f"{name}: the perimeter does not close")  # pragma: no cover
+        if len(order) != members.size:
+            raise StructureError(f"{name}: the perimeter is {members.size - len(order) + 1} or more separate loops")
+        out[name] = np.array(order, dtype=np.int64)
+    return out
 
 
 def _clipped_plate(
@@ -56,6 +112,7 @@ def _clipped_plate(
     area = float(cells.sum()) * a**2
     total = plate_mass_kg(total_mass_kg=total_mass_kg, areal_density_kg_m2=areal_density_kg_m2, area_m2=area)
     node_sets, member_sets = lattice_sets(ijk, struts, kind, cells, ("x_edge", "y_edge"))
+    member_sets.update(rim_loops(ijk, struts, cells))
     return uniform_strut_plate(
         name=name,
         positions_m=positions,
@@ -88,7 +145,8 @@ def circular_plate(
     rigid and the kept cubes join face to face, so the plate has exactly the 6 rigid motions.
 
     Node and member sets as :func:`~magsail_mj.structure.generators.plates.square_plate_lattice`
-    (``rim``: the staircase perimeter of the kept cubes; no ``central_cube``).
+    (``rim``: the staircase perimeter of the kept cubes; no ``central_cube``), and ``rim_top``,
+    ``rim_bottom``: the perimeter's chords in order round each layer (:func:`rim_loops`).
     ``areal_density_kg_m2`` is per the kept cubes' area ``n_cubes a²``.
     """
     units = check_count("units_across", units_across, minimum=1)
@@ -127,7 +185,8 @@ def hexagonal_plate(
     circumradius ``R``): the two-layer cubic lattice of ``units_across`` cubes of edge
     ``a = across_corners_m / units_across`` across, keeping the whole cubes whose centre lies in
     the hexagon (``|y| ≤ √3 R / 2`` and ``√3 |x| + |y| ≤ √3 R``). Rigid as
-    :func:`circular_plate`; sets and areal density likewise."""
+    :func:`circular_plate`; sets and areal density likewise (its rim loops are refused by
+    :func:`rim_loops` where kept cubes meet at a corner only)."""
     units = check_count("units_across", units_across, minimum=1)
     radius = check_positive("across_corners_m", across_corners_m) / 2
     root3 = math.sqrt(3.0)
