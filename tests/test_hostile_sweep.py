@@ -129,7 +129,7 @@ def test_interrupt_stops_promptly_writes_summary_and_locks_folder(tmp_path, caps
     )
     try:
         started = ["slow/a", "slow/b"][:workers]
-        wait_for(lambda: all((out / r / "model.xml").exists() for r in started), 90, "the runs to start")
+        wait_for(lambda: all((out / r / "model.xml").exists() for r in started), 300, "the runs to start")
         workers_seen = _workers_of(proc.pid)
         assert len(workers_seen) == workers
         # a second sweep into the running sweep's folder is refused (exit 2), naming the folder
@@ -172,7 +172,7 @@ def test_kill9_of_the_parent_takes_the_workers_down_and_frees_the_folder(tmp_pat
         stderr=subprocess.DEVNULL,
     )
     try:
-        wait_for(lambda: all((out / r / "model.xml").exists() for r in ("slow/a", "slow/b")), 90, "both runs to start")
+        wait_for(lambda: all((out / r / "model.xml").exists() for r in ("slow/a", "slow/b")), 300, "both runs to start")
         workers = _workers_of(proc.pid)
         assert len(workers) == 2
         proc.kill()
@@ -239,11 +239,11 @@ def test_a_killed_run_process_is_retried_from_its_checkpoint_until_no_retry_is_l
     thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, log=None, workers=2, retries=1)))
     thread.start()
     try:
-        wait_for(lambda: all((out / r / "checkpoint.npz").exists() for r in ("a", "b")), 90, "both checkpoints")
+        wait_for(lambda: all((out / r / "checkpoint.npz").exists() for r in ("a", "b")), 300, "both checkpoints")
         first_b = run_process("b")
         for rid in ("a", "b"):
             os.kill(run_process(rid), signal.SIGKILL)
-        wait_for(lambda: run_process("b", exclude=first_b), 60, "the retry of b")
+        wait_for(lambda: run_process("b", exclude=first_b), 180, "the retry of b")
         os.kill(run_process("b", exclude=first_b), signal.SIGKILL)
     finally:
         thread.join(timeout=90)

@@ -84,7 +84,7 @@ def dask_cluster(tmp_path):
         )
     ]
     try:
-        wait_for(info.exists, 60, "the scheduler")
+        wait_for(info.exists, 180, "the scheduler")
         address = json.loads(info.read_text())["address"]
         for name in ("w1", "w2"):
             procs.append(
@@ -122,7 +122,7 @@ def test_killed_worker_is_retried_elsewhere_and_resumes_bit_identically(tmp_path
     thread = threading.Thread(target=lambda: box.update(records=run_sweep(sweep, out, scheduler=address, log=None)))
     thread.start()
     try:
-        wait_for(lambda: (out / "ck" / "checkpoint.npz").exists(), 120, "the run's first checkpoint")
+        wait_for(lambda: (out / "ck" / "checkpoint.npz").exists(), 300, "the run's first checkpoint")
         ((pid, nanny),) = _run_processes_below(nannies).items()
         os.killpg(nanny, signal.SIGKILL)  # the whole `dask worker`: nanny and worker process
     finally:
