@@ -88,21 +88,26 @@ class EnvironmentStack:
             i = self.K - 1
         elif i < 0:
             i = 0
-        tau = t - (self.t0 + i * self.h)
-        t2 = tau * tau
-        P = np.array(((1.0, tau, t2, t2 * tau), (0.0, 1.0, 2.0 * tau, 3.0 * t2)))
-        return EnvSamples(self, t, np.matmul(P, self.coef[:, i]))
+        return EnvSamples(self, t, i, t - (self.t0 + i * self.h))
 
 
 class EnvSamples:
     """The environment of every world at one time: (N, …) arrays, each formed on first access
     (values of :class:`~magsail_mj.environment.environment.EnvSample`, same names)."""
 
-    def __init__(self, stack: EnvironmentStack, t: float, vd: np.ndarray) -> None:
+    def __init__(self, stack: EnvironmentStack, t: float, interval: int, tau: float) -> None:
         self.stack, self.t = stack, float(t)
-        self._vd = vd  # (E, 2, nch): values and time derivatives of every environment's channels
-        self._val = vd[:, 0]
+        self._i, self._tau = interval, tau
         self._w = stack.world_env
+
+    @cached_property
+    def _val(self) -> np.ndarray:
+        """(E, nch) every environment's channels at t: row 0 of ``P @ coef[i]`` with
+        ``P = ((1, τ, τ², τ³), (0, 1, 2τ, 3τ²))``, the product :meth:`Environment.sample` forms."""
+        tau = self._tau
+        t2 = tau * tau
+        P = np.array(((1.0, tau, t2, t2 * tau), (0.0, 1.0, 2.0 * tau, 3.0 * t2)))
+        return np.matmul(P, self.stack.coef[:, self._i])[:, 0]
 
     def _worlds(self, per_env: np.ndarray) -> np.ndarray:
         return per_env[self._w]

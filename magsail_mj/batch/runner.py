@@ -28,6 +28,7 @@ written by a batch (yet): its state is in memory.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -326,7 +327,14 @@ class BatchSimulation:
         """Stop the worlds whose state went bad in the step from ``step`` (``stepped``: the worlds
         stepped; ``None``: only the warnings raised before the loop, dated at ``step``)."""
         t = step * self.dt
-        raised = (self._warnings() > self._warn_base) & self.live[:, None]
+        counts = self._warnings()
+        if np.array_equal(counts, self._warn_base):
+            if stepped is None:
+                return
+            qpos, qvel = (self._qpos, self._qvel) if stepped.all() else (self._qpos[stepped], self._qvel[stepped])
+            if math.isfinite(float(qpos.sum()) + float(qvel.sum())):
+                return  # the usual step: no warning, every stepped world finite
+        raised = (counts > self._warn_base) & self.live[:, None]
         bad_warn = raised.any(axis=1)
         bad_state = np.zeros_like(bad_warn)
         if stepped is not None:

@@ -80,7 +80,12 @@ def pow_per_world(x: np.ndarray, p: int) -> np.ndarray:
         except OverflowError:
             return math.copysign(math.inf, v) if p % 2 else math.inf
 
-    return np.array([power(v) for v in np.asarray(x, dtype=float).ravel().tolist()]).reshape(np.shape(x))
+    flat = np.asarray(x, dtype=float).ravel().tolist()
+    try:
+        out = [v**p for v in flat]
+    except OverflowError:
+        out = [power(v) for v in flat]
+    return np.array(out, dtype=float).reshape(np.shape(x))
 
 
 def quat_to_mat(q: np.ndarray) -> np.ndarray:
@@ -121,27 +126,36 @@ def quat_integrate(q: np.ndarray, omega: np.ndarray, scale: float) -> np.ndarray
     vx, vy, vz = omega[:, 0], omega[:, 1], omega[:, 2]
     norm = np.sqrt((vx * vx + vy * vy) + vz * vz)
     small = norm < MJ_MINVAL
-    inv = 1 / np.where(small, 1.0, norm)
-    ax = np.where(small, 1.0, vx * inv)
-    ay = np.where(small, 0.0, vy * inv)
-    az = np.where(small, 0.0, vz * inv)
+    if small.any():
+        inv = 1 / np.where(small, 1.0, norm)
+        ax = np.where(small, 1.0, vx * inv)
+        ay = np.where(small, 0.0, vy * inv)
+        az = np.where(small, 0.0, vz * inv)
+    else:
+        inv = 1 / norm
+        ax, ay, az = vx * inv, vy * inv, vz * inv
     angle = scale * norm
     half = angle * 0.5
     s, c = per_world(math.sin, half), per_world(math.cos, half)
+    r1, r2, r3 = ax * s, ay * s, az * s
     still = angle == 0
-    r0 = np.where(still, 1.0, c)
-    r1 = np.where(still, 0.0, ax * s)
-    r2 = np.where(still, 0.0, ay * s)
-    r3 = np.where(still, 0.0, az * s)
+    if still.any():
+        c = np.where(still, 1.0, c)
+        r1, r2, r3 = (np.where(still, 0.0, r) for r in (r1, r2, r3))
+    r0 = c
     w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     n4 = np.sqrt((w * w + x * x) + (y * y + z * z))
     tiny = n4 < MJ_MINVAL
     scaled = ~tiny & (np.abs(n4 - 1) > MJ_MINVAL)
-    inv4 = 1 / np.where(scaled, n4, 1.0)
-    w = np.where(tiny, 1.0, np.where(scaled, w * inv4, w))
-    x = np.where(tiny, 0.0, np.where(scaled, x * inv4, x))
-    y = np.where(tiny, 0.0, np.where(scaled, y * inv4, y))
-    z = np.where(tiny, 0.0, np.where(scaled, z * inv4, z))
+    if tiny.any() or not scaled.all():
+        inv4 = 1 / np.where(scaled, n4, 1.0)
+        w = np.where(tiny, 1.0, np.where(scaled, w * inv4, w))
+        x = np.where(tiny, 0.0, np.where(scaled, x * inv4, x))
+        y = np.where(tiny, 0.0, np.where(scaled, y * inv4, y))
+        z = np.where(tiny, 0.0, np.where(scaled, z * inv4, z))
+    else:
+        inv4 = 1 / n4
+        w, x, y, z = w * inv4, x * inv4, y * inv4, z * inv4
     out = np.empty((len(q), 4))
     out[:, 0] = (w * r0 - x * r1) + (-y * r2 - z * r3)
     out[:, 1] = (w * r1 + x * r0) + (y * r3 - z * r2)

@@ -22,27 +22,38 @@ Parameters are read from each world's own load objects (the very numbers its sin
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from magsail_mj.batch.environment import EnvSamples
-from magsail_mj.batch.worldmath import cross, dot_blas, mat_t_vec, mat_vec, pow_per_world, vec_mat_blas
+from magsail_mj.batch.worldmath import (
+    cross,
+    dot_blas,
+    mat_t_vec,
+    mat_vec,
+    normalise_quat,
+    pow_per_world,
+    quat_to_mat,
+    vec_mat_blas,
+)
 from magsail_mj.concepts.cnusail.disturbances import CubesatDisturbanceLoad
 
 __all__ = ["DisturbanceWorlds", "BodyState", "magnetorquer_torque"]
 
 
-@dataclass
 class BodyState:
-    """The bus of every world at one instant: ``R`` (N, 9) body → world rotation (row-major) of the
-    normalised quaternion, ``pos`` (N, 3) position [m], ``vel`` (N, 3) velocity [m/s] (world axes),
-    and the environment ``env`` then."""
+    """The bus of every world at one instant: its ``qpos`` quaternion ``quat`` (N, 4), position
+    ``pos`` (N, 3) [m] and velocity ``vel`` (N, 3) [m/s] (world axes), the environment ``env`` then,
+    and, formed on first use, ``R`` (N, 9): the body → world rotation (row-major) of the quaternion
+    divided by its norm (as :class:`~magsail_mj.sim.BodyKinematics` forms the body's pose)."""
 
-    R: np.ndarray
-    pos: np.ndarray
-    vel: np.ndarray
-    env: EnvSamples
+    def __init__(self, quat: np.ndarray, pos: np.ndarray, vel: np.ndarray, env: EnvSamples) -> None:
+        self.quat, self.pos, self.vel, self.env = quat, pos, vel, env
+
+    @cached_property
+    def R(self) -> np.ndarray:
+        return quat_to_mat(normalise_quat(self.quat))
 
 
 class DisturbanceWorlds:
@@ -74,11 +85,12 @@ class DisturbanceWorlds:
         for k, ld in enumerate(loads):
             if ld._drag is not None:
                 facets[k] = np.array(ld._drag, dtype=float)
-        # per facet f: normal (n0, n1, n2), k = −½ C_d A_f c_f, two-sided flag: each (N,)
-        self.facets = [
-            (facets[:, f, 0], facets[:, f, 1], facets[:, f, 2], facets[:, f, 3:6], facets[:, f, 6] > 0.5)
-            for f in range(n_facets)
-        ]
+        # per world and facet: normal n̂ (N, F, 3), k = −½ C_d A c (N, F, 3), two-sided (N, F)
+        self.facet_n = np.ascontiguousarray(facets[:, :, 0:3])
+        self.facet_k = np.ascontiguousarray(facets[:, :, 3:6])
+        self.facet_two = facets[:, :, 6] > 0.5
+        self.all_drag = bool(self.has_drag.all())
+        self.all_gg = bool(self.gg.all())
         self.has_sail = np.array([ld._sail is not None for ld in loads])
         sails = [ld for ld in loads if ld._sail is not None]
         self.any_sail = bool(sails)
@@ -124,25 +136,25 @@ class DisturbanceWorlds:
         rn = np.sqrt(dot_blas(r_b, r_b))
         u = r_b / rn[:, None]
         k = self.mu3 / pow_per_world(rn, 3)
-        c = cross(u, mat_vec(self.J, u))
-        return np.where(self.gg[:, None], k[:, None] * c, 0.0)
+        T = k[:, None] * cross(u, mat_vec(self.J, u))
+        return T if self.all_gg else np.where(self.gg[:, None], T, 0.0)
 
     def _drag(self, s: BodyState) -> np.ndarray:
+        """The facets' sum ``l = Σ_i proj_i k_i`` is accumulated facet by facet in the single run's
+        order; a facet turned away adds ±0.0, which leaves the sum as it is (it starts at +0.0, so
+        it is never −0.0)."""
         rho = s.env.density_kg_m3
         V = mat_t_vec(s.R, s.env.v_rel_eci + s.vel)
-        V0, V1, V2 = V[:, 0], V[:, 1], V[:, 2]
-        l0 = np.zeros(len(V))
-        l1 = np.zeros(len(V))
-        l2 = np.zeros(len(V))
-        for n0, n1, n2, k, two in self.facets:
-            p = n0 * V0 + n1 * V1 + n2 * V2
-            p = np.where(two, np.abs(p), p)
-            take = two | ~(p < 0.0)  # a one-sided face turned away adds nothing
-            l0 = np.where(take, l0 + p * k[:, 0], l0)
-            l1 = np.where(take, l1 + p * k[:, 1], l1)
-            l2 = np.where(take, l2 + p * k[:, 2], l2)
-        T = cross(np.stack((rho * l0, rho * l1, rho * l2), axis=1), V)
-        return np.where((self.has_drag & (rho > 0.0))[:, None], T, 0.0)
+        n, two = self.facet_n, self.facet_two
+        p = n[:, :, 0] * V[:, 0:1] + n[:, :, 1] * V[:, 1:2] + n[:, :, 2] * V[:, 2:3]  # (N, F)
+        p = np.where(two, np.abs(p), np.where(p < 0.0, 0.0, p))  # a one-sided face turned away: nothing
+        contrib = p[:, :, None] * self.facet_k  # (N, F, 3)
+        lever = np.zeros(V.shape)
+        for f in range(contrib.shape[1]):
+            lever += contrib[:, f]
+        T = cross(rho[:, None] * lever, V)
+        on = rho > 0.0 if self.all_drag else self.has_drag & (rho > 0.0)
+        return T if on.all() else np.where(on[:, None], T, 0.0)
 
     def _srp(self, s: BodyState) -> np.ndarray:
         P = s.env.srp_pressure_N_m2

@@ -34,7 +34,7 @@ import numpy as np
 from magsail_mj.concepts.cnusail.batch_control import BdotWorlds
 from magsail_mj.concepts.cnusail.batch_loads import BodyState, DisturbanceWorlds, magnetorquer_torque
 from magsail_mj.batch.environment import EnvironmentStack
-from magsail_mj.batch.worldmath import cross, mat_t_vec_blas, normalise_quat, quat_integrate, quat_to_mat
+from magsail_mj.batch.worldmath import cross, mat_t_vec_blas, quat_integrate, quat_to_mat
 from magsail_mj.concepts.cnusail.mjcf import CubesatIndices
 
 __all__ = ["CubesatWorlds", "PROBES"]
@@ -109,15 +109,14 @@ class CubesatWorlds:
         self.ctl.live = live
 
     # ------------------------------------------------------------------ the step
-    def _body(self, qpos: np.ndarray, qvel: np.ndarray, env: Any) -> BodyState:
-        """The bus at the state ``qpos``/``qvel`` with the environment ``env``."""
-        idx = self.idx
-        xquat = normalise_quat(qpos[:, idx.q_quat])
-        return BodyState(R=quat_to_mat(xquat), pos=qpos[:, idx.q_pos], vel=qvel[:, idx.v_lin], env=env)
-
     def _start_state(self, step: int, qpos: np.ndarray, qvel: np.ndarray) -> BodyState:
+        """The bus at the start of step ``step`` (views of the batch's state: valid until its step)."""
         if self._start is None or self._start[0] != step:
-            self._start = (step, self._body(qpos, qvel, self.env.sample(step * self.dt)))
+            idx = self.idx
+            body = BodyState(
+                qpos[:, idx.q_quat], qpos[:, idx.q_pos], qvel[:, idx.v_lin], self.env.sample(step * self.dt)
+            )
+            self._start = (step, body)
         return self._start[1]
 
     def control(self, step: int, qpos: np.ndarray, qvel: np.ndarray, ctrl: np.ndarray) -> None:
@@ -154,11 +153,12 @@ class CubesatWorlds:
         tau = 0.0 + self.dist.torque_world(T, s.R)
         T_mtq, acts = magnetorquer_torque(self.ctl.dipole_body, s)
         tau = np.where(acts[:, None], tau + T_mtq, tau)
-        wrench = np.zeros((self.n, xfrc.shape[1], 6))
-        wrench[:, self.bus, 3:6] = tau
         if self.live.all():
-            xfrc[...] = wrench
+            xfrc[...] = 0.0
+            xfrc[:, self.bus, 3:6] = tau
         else:
+            wrench = np.zeros(xfrc.shape)
+            wrench[:, self.bus, 3:6] = tau
             np.copyto(xfrc, wrench, where=self.live[:, None, None])
 
     def _mid_state(self, step: int, qpos: np.ndarray, qvel: np.ndarray) -> BodyState:
@@ -176,9 +176,7 @@ class CubesatWorlds:
         else:
             np.copyto(self.qvel_prev, v, where=self.live[:, None])
         self.primed = True
-        xquat = normalise_quat(quat)
-        env = self.env.sample(step * dt + 0.5 * dt)
-        return BodyState(R=quat_to_mat(xquat), pos=pos, vel=vel, env=env)
+        return BodyState(quat, pos, vel, self.env.sample(step * dt + 0.5 * dt))
 
     # ------------------------------------------------------------------ state
     def get_state(self) -> dict[str, Any]:
