@@ -98,14 +98,17 @@ Cycles (closed beam loops: a hoop, a frame cell)
     out of its plane within 0.6 %.
 
 Arena
-    With equality constraints, MuJoCo's Newton solver factorises ``H = M + Jᵀ D J``: a weld's
-    Jacobian rows span the dofs of both its bodies' chains down to the root, which makes ``H``
-    dense over the dofs of the closed chains. The arena gets ``36 (nnz(M) + n_c²) + 48 nnz(J) +
-    512 n_efc`` bytes more (``n_c`` the dofs on those chains; ``H`` and its factor take 16 and
-    20 bytes an entry): a ring of 200 beams (806 dofs) 30 MB, of which it uses 18 MB. A long
-    chain's mass matrix is itself nearly dense (every dof couples with its ancestors), so the
-    welds add little to a step's cost: 0.18 s for that ring against 0.16 s for the same 200
-    beams as an open chain (one shared core).
+    With equality constraints, MuJoCo's Newton solver factorises ``H = M + Jᵀ D J`` in the
+    reverse dof order: a weld's Jacobian rows span the dofs of both its bodies' chains down to the
+    root, so ``H`` and its factor fill in over the closed chains (dense over a ring's dofs). The
+    arena gets :data:`CONSTRAINT_ARENA_MARGIN` times ``16 nnz(H) + 20 nnz(L) + 24 nnz(J) + 512
+    n_efc`` bytes more (``H`` takes a value and two column indices an entry, its factor ``L`` a
+    value and three), with ``nnz(H)`` and ``nnz(L)`` from a symbolic factorisation of the body
+    graph in MuJoCo's order (SuperLU without pivoting, the constraint rows eliminated first to make
+    their cliques): a ring of 200 beams (806 dofs) gets 30 MB and uses 18 MB, a grid of 15 × 15
+    beam cells (1 926 dofs, 225 welds) 32 MB for 18 MB. A long chain's mass matrix is itself
+    nearly dense (every dof couples with its ancestors), so the welds add little to a step's cost:
+    0.18 s for that ring against 0.16 s for the same 200 beams as an open chain (one shared core).
 
 Tendons
     A strut ``j``: spatial tendon ``t<j>`` between the node sites, stiffness ``EA/l0``, damping
@@ -132,6 +135,8 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from scipy import sparse
+from scipy.sparse.linalg import splu
 
 from magsail_mj.lattice.mjcf import (
     WorldTrees,
@@ -149,6 +154,7 @@ __all__ = [
     "BEAM_JOINTS",
     "CLOSURE_SOLIMP",
     "CLOSURE_TIMECONST_STEPS",
+    "CONSTRAINT_ARENA_MARGIN",
     "PANEL_RGBA",
     "StructureModelIndex",
     "build_structure_spec",
@@ -165,6 +171,8 @@ BEAM_JOINTS = ("axial", "twist", "bend1", "bend2")
 #: Impedance of the closing welds and of the world attachments (MuJoCo ``solimp``: ``d`` = 0.9999
 #: at any violation, MuJoCo's largest; module docstring, "Cycles").
 CLOSURE_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
+#: Factor on the arena the constraint solver's matrices take (module docstring, "Arena").
+CONSTRAINT_ARENA_MARGIN = 1.5
 #: Time constant of those constraints in time steps (MuJoCo ``solref = (2 h, 1)``: critically
 #: damped at the shortest time constant MuJoCo accepts, ``2 h``).
 CLOSURE_TIMECONST_STEPS = 2.0
@@ -409,31 +417,97 @@ def _write_bodies(g: _Geometry, spec: mujoco.MjSpec) -> np.ndarray:
     return dofs
 
 
+def _body_tree(layout: BodyLayout, dofs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The model's bodies in MuJoCo's order (depth first, children in the order they were added:
+    a body's closing bodies, then its tree children): their parent (−1 the world) and dofs, the
+    body of each vertex (−1 for ``HELD``) and of each closing body."""
+    order, _ = _trees(layout)
+    cuts = layout.cut_member.size
+    by_parent = np.argsort(layout.cut_parent, kind="stable")
+    start = np.searchsorted(layout.cut_parent[by_parent], np.arange(layout.kind.size + 1))
+    children: dict[int, list[int]] = {-1: []}  # items: vertex v, or closing body k as V + k
+    V = layout.kind.size
+    for v in order.tolist():
+        children.setdefault(int(layout.parent[v]), []).append(v)
+        children[v] = [V + int(k) for k in by_parent[start[v] : start[v + 1]]]
+    own = dofs - np.bincount(layout.cut_parent, minlength=V) * len(BEAM_JOINTS)
+    item_dofs = np.concatenate([own, np.full(cuts, len(BEAM_JOINTS))])
+    body = np.full(V + cuts, -1, dtype=np.int64)
+    parent, body_dofs = [], []
+    stack = [(item, -1) for item in reversed(children[-1])]
+    while stack:
+        item, up = stack.pop()
+        body[item] = len(parent)
+        parent.append(up)
+        body_dofs.append(int(item_dofs[item]))
+        stack.extend((child, body[item]) for child in reversed(children.get(item, [])))
+    return np.array(parent, dtype=np.int64), np.array(body_dofs, dtype=np.int64), body[:V], body[V:]
+
+
 def _constraint_arena_bytes(layout: BodyLayout, dofs: np.ndarray) -> int:
-    """Arena [bytes] MuJoCo's Newton solver may take for the closing welds and world attachments
-    (module docstring, "Arena"); 0 without them."""
-    starts = np.concatenate([layout.cut_parent, layout.node_vertex[layout.cut_node], layout.held_vertex])
-    if starts.size == 0:
+    """Arena [bytes] MuJoCo's Newton solver takes for the closing welds and world attachments
+    (module docstring, "Arena"), from a symbolic factorisation of ``H = M + JᵀJ`` body by body;
+    0 without them."""
+    cuts, held = layout.cut_member.size, layout.held_vertex.size
+    if cuts + held == 0:
         return 0
-    closing = np.bincount(layout.cut_parent, minlength=dofs.size) * len(BEAM_JOINTS)
-    own = dofs - closing  # a vertex body's own dofs
-    chain = np.zeros(dofs.size, dtype=np.int64)  # dofs from the world to each body, inclusive
-    for v in layout.order.tolist():
-        parent = layout.parent[v]
-        chain[v] = own[v] + (chain[parent] if parent >= 0 else 0)
-    on_path = np.zeros(dofs.size, dtype=bool)
-    on_path[starts] = True
-    for v in layout.order[::-1].tolist():  # children before parents
-        if on_path[v] and layout.parent[v] >= 0:
-            on_path[layout.parent[v]] = True
-    coupled = int(own[on_path].sum()) + int(closing.sum())
-    mass_nonzeros = int(own @ chain) + int(closing @ (chain + len(BEAM_JOINTS)))
-    rows = 6 * layout.cut_member.size + int(np.where(layout.held_weld, 6, 3).sum())
-    jacobian_nonzeros = 6 * int((chain[layout.cut_parent] + len(BEAM_JOINTS)).sum()) + 6 * int(
-        chain[layout.node_vertex[layout.cut_node]].sum()
+    parent, body_dofs, vertex_body, closing_body = _body_tree(layout, dofs)
+    B = parent.size
+    # Anc[x, a]: a is x or one of its ancestors (pointer walk, one level a pass)
+    rows, cols = [np.arange(B)], [np.arange(B)]
+    up = parent.copy()
+    while np.any(up >= 0):
+        at = np.flatnonzero(up >= 0)
+        rows.append(at)
+        cols.append(up[at])
+        up = np.where(up >= 0, parent[np.maximum(up, 0)], -1)
+    ancestors = sparse.csr_matrix(
+        (np.ones(sum(r.size for r in rows)), (np.concatenate(rows), np.concatenate(cols))), (B, B)
     )
-    jacobian_nonzeros += int((np.where(layout.held_weld, 6, 3) * chain[layout.held_vertex]).sum())
-    return 36 * (mass_nonzeros + coupled * coupled) + 48 * jacobian_nonzeros + 512 * rows
+    # each constraint's rows span the chains of its two bodies (the world has none)
+    ends = [
+        (np.arange(cuts), closing_body),
+        (np.arange(cuts), vertex_body[layout.node_vertex[layout.cut_node]]),
+        (cuts + np.arange(held), vertex_body[layout.held_vertex]),
+    ]
+    K = cuts + held
+    E = sparse.csr_matrix(
+        (np.ones(2 * cuts + held), (np.concatenate([e[0] for e in ends]), np.concatenate([e[1] for e in ends]))),
+        (K, B),
+    )
+    support = ((E @ ancestors) > 0).astype(float).tocsr()  # (K, B)
+    moving = np.flatnonzero(body_dofs > 0)
+    support, ancestors = support[:, moving], ancestors[moving][:, moving]
+    weight = body_dofs[moving].astype(float)
+    row_dofs = np.append(np.full(cuts, 6), np.where(layout.held_weld, 6, 3))
+    jacobian_nonzeros = int(row_dofs @ (support @ weight))
+    mass = ((ancestors + ancestors.T) > 0).astype(float)
+    hessian = ((support.T @ support + mass) > 0).astype(float).tocoo()
+    hessian_nonzeros = int(weight[hessian.row] @ weight[hessian.col])
+    # symbolic factor in MuJoCo's order (the last dof first): the constraint nodes eliminated first
+    # make the cliques of JᵀJ, then the bodies in reverse; random values, so that nothing cancels
+    m = moving.size
+    rng = np.random.default_rng(0)
+    lower = sparse.tril(mass, k=-1).tocoo()
+    values = sparse.coo_matrix((rng.uniform(0.1, 1.0, lower.nnz), (lower.row, lower.col)), (m, m))
+    body_block = values + values.T + sparse.identity(m) * (10.0 * (K + m))
+    coupling = support.tocoo()
+    coupling = sparse.coo_matrix((rng.uniform(0.1, 1.0, coupling.nnz), (coupling.row, coupling.col)), (K, m))
+    augmented = sparse.bmat([[-sparse.identity(K), coupling], [coupling.T, body_block]]).tocsc()
+    reverse = np.r_[np.arange(K), K + np.arange(m)[::-1]]
+    factor = splu(
+        augmented[reverse][:, reverse], permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+    )
+    L = factor.L.tocoo()  # of the ordered matrix permuted: row q is its row inv_r[q], column p its inv_c[p]
+    below = L.row > L.col
+    node_i = np.argsort(factor.perm_r)[L.row[below]]
+    node_j = np.argsort(factor.perm_c)[L.col[below]]
+    both = (node_i >= K) & (node_j >= K)
+    ordered = weight[::-1]  # dofs of the ordered bodies
+    factor_nonzeros = int(ordered[node_i[both] - K] @ ordered[node_j[both] - K])
+    factor_nonzeros += int((weight * (weight + 1) // 2).sum())
+    need = 16 * hessian_nonzeros + 20 * factor_nonzeros + 24 * jacobian_nonzeros + 512 * int(row_dofs.sum())
+    return int(CONSTRAINT_ARENA_MARGIN * need)
 
 
 def _closing_body(g: _Geometry, parent: mujoco.MjsBody, k: int) -> int:

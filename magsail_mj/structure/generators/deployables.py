@@ -1,5 +1,5 @@
-"""Deployable structures: a four-boom square sail with its membrane, a hoop and a longeron truss
-mast (pure NumPy).
+"""Deployable structures: a four-boom square sail with its membrane, a hoop (a closed ring of
+beams, the rim of a hoop-column or hoop-truss reflector) and a longeron truss mast (pure NumPy).
 
 Frames and units: structure frame, SI. Masses come from the members' linear densities (half of
 ``ρA l0`` at each end) and the panels' areal density (an equal share at each corner), as
@@ -185,8 +185,16 @@ def hoop(
 ) -> Structure:
     """A closed ring of ``n_segments`` straight beam members in the x–y plane: node ``k`` at
     ``R (cos 2πk/n, sin 2πk/n, 0)``, member ``k`` from node ``k`` to ``k + 1`` (mod n), each a
-    chord ``2 R sin(π/n)`` long; section axis 1 in the plane of +z (``EI`` one value or the pair).
-    Node set ``rim`` (all), member set ``hoop`` (all)."""
+    chord ``2 R sin(π/n)`` long; section axis 1 in the plane of +z (``EI`` one value or the pair:
+    ``EI1`` bends the ring out of its plane, ``EI2`` in it). Node set ``rim`` (all), member set
+    ``hoop`` (all).
+
+    Mass ``M = 2 n R μ sin(π/n)``, short of the thin ring's ``2πRμ`` by ``(π/n)²/6``; every node
+    at radius R, so the inertia is the thin ring's ``diag(M R²/2, M R²/2, M R²)`` of that mass.
+    The model builder closes the ring with one weld (:mod:`magsail_mj.structure.mjcf`, "Cycles");
+    a polygon of ``n`` chords is stiffer in its plane than the circle by ``O((π/n)²)``: its first
+    in-plane frequencies are +2.2 % and +3.4 % off the thin ring's at 24 chords, a quarter of
+    that at 48."""
     radius = check_positive("radius_m", radius_m)
     n = check_count("n_segments", n_segments, minimum=3)
     theta = 2.0 * np.pi * np.arange(n) / n
