@@ -30,6 +30,15 @@ interface) and measures, on one process with one BLAS thread:
 
 Timings are wall-clock and depend on the machine and its load: compare ratios measured in the
 same call, never absolute times across machines.
+
+**Batched worlds** (``worlds=N``, :func:`bench_worlds`): the config's batch of N identical worlds
+(:func:`magsail_mj.batch.load_batch`, ``nthread`` threads) is run for the same steps, each world's
+records streamed to its own temporary Zarr store, and the report gives ``worlds``, ``nthread``,
+``us_per_world_step`` (the batch's step-loop wall time over the world-steps it took),
+``cpu_us_per_world_step`` (the process's CPU time over the same, every thread counted),
+``mj_step_us`` (the bare single-thread ``mj_step`` of world 0's model, as above),
+``ratio_to_mj_step = us_per_world_step / mj_step_us`` and ``cpu_ratio_to_mj_step``, medians of
+``repeat`` passes, and ``build_s`` (the batch's build, median).
 """
 
 from __future__ import annotations
@@ -52,9 +61,10 @@ from pydantic import BaseModel
 from threadpoolctl import threadpool_limits
 
 from magsail_mj.api import load
+from magsail_mj.batch import load_batch
 from magsail_mj.config import apply_overrides, load_config, parse_config
 
-__all__ = ["bench", "BenchRunError", "PART_NAMES"]
+__all__ = ["bench", "bench_worlds", "BenchRunError", "PART_NAMES"]
 
 PART_NAMES = ("controller", "environment", "kinematics", "probes", "recorder", "strain_check", "mj_step", "loop")
 """The parts of :func:`bench`'s breakdown besides the loads (``load: <name>``)."""
@@ -290,7 +300,13 @@ def _parts_pass(cfg: BaseModel, store: Path) -> tuple[dict[str, float], float]:
 
 
 def bench(
-    config: str | Path | BaseModel, *, overrides: Sequence[str] = (), duration_s: float | None = None, repeat: int = 1
+    config: str | Path | BaseModel,
+    *,
+    overrides: Sequence[str] = (),
+    duration_s: float | None = None,
+    repeat: int = 1,
+    worlds: int | None = None,
+    nthread: int = 1,
 ) -> dict[str, Any]:
     """Benchmark the step loop of ``config`` (module docstring); returns a JSON-able dict.
 
@@ -299,12 +315,18 @@ def bench(
       overrides: ``"key=value"`` strings as ``--set``.
       duration_s: simulated time per pass [s] (default: the config's ``sim.duration_s``).
       repeat: all-in and bare passes (medians reported); the instrumented pass runs once.
+      worlds: benchmark a batch of this many identical worlds instead (:func:`bench_worlds`).
+      nthread: the batch's threads (with ``worlds``).
 
     Raises:
       ValueError: a bad option (named), or a scenario kind without a stepped run (``config``);
-      ConfigError: the config with the overrides is invalid;
+      ConfigError: the config with the overrides is invalid (or cannot run in a batch);
       BenchRunError: a pass did not complete (diverged, failed).
     """
+    if worlds is not None:
+        return bench_worlds(
+            config, overrides=overrides, duration_s=duration_s, repeat=repeat, worlds=worlds, nthread=nthread
+        )
     _check_options(duration_s, repeat)
     cfg = _config(config, overrides, duration_s)
     with threadpool_limits(limits=1), tempfile.TemporaryDirectory(prefix="magsail_bench_") as tmp:
@@ -371,6 +393,86 @@ def _report(
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "us_per_step_runs": [x * 1e6 for x in all_in],
         "mj_step_us_runs": [x * 1e6 for x in bare],
+        "platform": {
+            "python": platform.python_version(),
+            "mujoco": mujoco.__version__,
+            "numpy": np.__version__,
+            "machine": platform.machine(),
+            "cpus": os.cpu_count(),
+            "system": sys.platform,
+        },
+    }
+
+
+def bench_worlds(
+    config: str | Path | BaseModel,
+    *,
+    worlds: int,
+    nthread: int = 1,
+    overrides: Sequence[str] = (),
+    duration_s: float | None = None,
+    repeat: int = 1,
+) -> dict[str, Any]:
+    """Benchmark a batch of ``worlds`` identical worlds of ``config`` on ``nthread`` threads against
+    the bare ``mj_step`` of its model (module docstring); returns a JSON-able dict.
+
+    Raises:
+      ValueError: a bad option (named);
+      ConfigError: the config is invalid or cannot run in a batch (the key named);
+      BenchRunError: a world of a pass did not complete.
+    """
+    _check_options(duration_s, repeat)
+    if isinstance(worlds, bool) or not isinstance(worlds, int) or worlds < 1:
+        raise ValueError(f"worlds: must be an integer >= 1, got {worlds!r}")
+    cfg = _config(config, overrides, duration_s)
+    wall, cpu, bare, native, build = [], [], [], [], []
+    with threadpool_limits(limits=1), tempfile.TemporaryDirectory(prefix="magsail_bench_") as tmp:
+        for i in range(repeat):
+            t0 = time.perf_counter()
+            sim = load_batch(cfg, worlds=worlds, nthread=nthread)
+            build.append(time.perf_counter() - t0)
+            stores = [Path(tmp) / f"pass{i}_world{k}.zarr" for k in range(worlds)]
+            c0 = time.process_time()
+            result = sim.run(records_paths=stores)
+            cpu_s = time.process_time() - c0
+            bad = [(k, w.status, w.message) for k, w in enumerate(result.worlds) if w.status != "completed"]
+            if bad:
+                k, status, message = bad[0]
+                raise BenchRunError(status, f"world {k}: {message}")
+            wall.append(result.wall_time_s / result.world_steps)
+            cpu.append(cpu_s / result.world_steps)
+            physics = np.empty(mujoco.mj_stateSize(sim.model, _PHYSICS))
+            data = mujoco.MjData(sim.model)
+            sim.worlds.init_state(0, data)
+            mujoco.mj_getState(sim.model, data, physics, _PHYSICS)
+            per_call, per_native = _bare_step_s(sim.model, physics, sim.n_steps)
+            bare.append(per_call)
+            native.append(per_native)
+            steps, model = sim.n_steps, sim.model
+            del sim, result
+    us, cpu_us, mj_us = (statistics.median(x) * 1e6 for x in (wall, cpu, bare))
+    dt = float(model.opt.timestep)
+    return {
+        "concept": getattr(cfg, "concept", None),
+        "scenario": getattr(cfg, "scenario", None),
+        "kind": getattr(cfg, "kind", None),
+        "steps": steps,
+        "timestep_s": dt,
+        "integrator": mujoco.mjtIntegrator(model.opt.integrator).name.removeprefix("mjINT_"),
+        "duration_s": steps * dt,
+        "repeat": repeat,
+        "worlds": worlds,
+        "nthread": nthread,
+        "us_per_world_step": us,
+        "cpu_us_per_world_step": cpu_us,
+        "mj_step_us": mj_us,
+        "ratio_to_mj_step": us / mj_us,
+        "cpu_ratio_to_mj_step": cpu_us / mj_us,
+        "mj_step_native_us": statistics.median(native) * 1e6,
+        "build_s": statistics.median(build),
+        "us_per_world_step_runs": [x * 1e6 for x in wall],
+        "mj_step_us_runs": [x * 1e6 for x in bare],
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "platform": {
             "python": platform.python_version(),
             "mujoco": mujoco.__version__,

@@ -19,9 +19,10 @@ def run_bench(args: argparse.Namespace) -> int:
     if args.duration_s is not None:
         args.set = [*args.set, f"sim.duration_s={args.duration_s!r}"]
     cfg = load(args)
-    check_memory(estimate_run_bytes(cfg), what=f"bench {args.config}: a run")
+    worlds = getattr(args, "worlds", None)  # a batch of identical worlds (bench_worlds)
+    check_memory(estimate_run_bytes(cfg) * (worlds or 1), what=f"bench {args.config}: a run")
     try:
-        result = bench(cfg, repeat=args.repeat)
+        result = bench(cfg, repeat=args.repeat, worlds=worlds, nthread=getattr(args, "nthread", 1))
     except BenchRunError as err:
         LOG.error("%s", err)
         return 3 if err.status == "diverged" else 1
