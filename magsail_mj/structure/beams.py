@@ -34,10 +34,10 @@ Held places (``held_vertex``, ``held_weld``)
     A tree with two constrained vertices of another kind is refused.
 
 Root constraint (``anchor_node``, ``root_fixed``)
-    The constraining node of a root or held vertex: the vertex's own node, or the one node of a part with
-    ``fixed_dofs`` (a part with a fully fixed node is welded whatever its other nodes say; two
-    partially fixed nodes of one part are refused). ``root_fixed`` is that node's ``fixed_dofs``
-    row (all ``True`` for a welded part).
+    The constraining node of a root or a held vertex: the vertex's own node, or the one node of a
+    part with ``fixed_dofs`` (a part with a fully fixed node is welded whatever its other nodes
+    say; two partially fixed nodes of one part are refused). ``root_fixed`` is a root's node's
+    ``fixed_dofs`` row (all ``True`` for a welded part).
 
 Node rotational inertia
     A beam node's body carries the rotational inertia of the lumped mass model of

@@ -84,12 +84,12 @@ Cycles (closed beam loops: a hoop, a frame cell)
     does. The weld is as stiff as MuJoCo allows at the model's time step ``h``:
     ``solimp = CLOSURE_SOLIMP`` (impedance ``d = 0.9999``, MuJoCo's largest, at any violation)
     and ``solref = (2 h, 1)`` (the shortest time constant MuJoCo accepts, critically damped). A
-    soft equality at rest acts as a spring of stiffness ``d / ((1 − d) τ² A)`` per row (``A`` the
-    row's inverse effective mass, ``τ`` the time constant), so with these values the weld is a
-    negligible compliance in series with the beams: a free ring of 24 beams keeps the frequencies
-    of its exact-weld modes within 1e-6 in MuJoCo's linearised step and its pinched static
-    deflection within 4e-6, where MuJoCo's default ``solref = (0.02, 1)``,
-    ``solimp = (0.9, 0.95, …)`` lowers its first frequency by 38 % (``tests/test_structure_hoop.py``).
+    soft equality at rest acts as a spring of stiffness ``1 / ((1 − d) d τ² A)`` per row (``A``
+    the row's inverse effective mass, ``τ`` the time constant), so with these values the weld is
+    a negligible compliance in series with the beams: a free ring of 24 beams keeps the
+    frequencies of its exact-weld modes within 1e-6 in MuJoCo's linearised step, a ring of 48 its
+    pinched deflection within 4e-6, where MuJoCo's default ``solref = (0.02, 1)``,
+    ``solimp = (0.9, 0.95, …)`` lowers the first frequency by 38 % (``tests/test_structure_hoop.py``).
     The constraint modes sit at ``1/τ = 1/(2h)``, so ``ω h = 0.5``: stable for every integrator.
     A ring of ``N`` straight beams standing for a circle is stiffer in its plane than the circle
     by ``O((π/N)²)`` (the chain ties each member's transverse displacement to its end rotations'
