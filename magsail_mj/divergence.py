@@ -3,7 +3,9 @@
 MuJoCo checks each step for positions or velocities that are not finite or exceed ``1e10``
 (``mjWARN_BADQPOS``, ``mjWARN_BADQVEL``), accelerations that are not finite or huge
 (``mjWARN_BADQACC``) and controls that are not finite or exceed ``1e10`` (``mjWARN_BADCTRL``, after
-which it zeroes them). By default it then *resets* ``mjData`` to the model's initial state and
+which it zeroes them), and a step whose constraints or contacts do not fit the arena
+(``mjWARN_CNSTRFULL``, ``mjWARN_CONTACTFULL``: MuJoCo drops them from that step and goes on, so
+a welded beam loop would silently come apart). By default it then *resets* ``mjData`` to the model's initial state and
 carries on, which a step loop cannot tell from a quiet spacecraft. Every runner of this package
 therefore
 
@@ -51,6 +53,8 @@ BAD_STATE_WARNINGS = {
     mujoco.mjtWarning.mjWARN_BADQVEL: "a velocity is not finite or above 1e10",
     mujoco.mjtWarning.mjWARN_BADQACC: "an acceleration is not finite or huge (unstable step)",
     mujoco.mjtWarning.mjWARN_BADCTRL: "a control is not finite or above 1e10",
+    mujoco.mjtWarning.mjWARN_CNSTRFULL: "the arena is too small for the constraints: they were dropped from the step",
+    mujoco.mjtWarning.mjWARN_CONTACTFULL: "the arena is too small for the contacts: they were dropped from the step",
 }
 
 
