@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+import magsail_mj
 from magsail_mj.concepts.cnusail.batch import CnusailWorlds
 from magsail_mj.concepts.cnusail.model import CnusailModel
 from magsail_mj.concepts.cnusail.tasks import AttitudeTask
@@ -28,3 +29,10 @@ def test_world_parts_are_the_concepts_objects():
     ref.controller = ref.make_controller()
     assert vars(task).keys() == vars(ref).keys()
     assert task.manifest_extra() == ref.manifest_extra() and task.render_info() == ref.render_info()
+
+
+def test_each_worlds_identity_is_its_single_runs():
+    worlds = [[], ["spacecraft.mass_kg=4.2"]]
+    sim = magsail_mj.load(PRE, ["sim.duration_s=10"], world_overrides=worlds)
+    for k, extra in enumerate(worlds):
+        assert sim.identities[k] == magsail_mj.load(PRE, ["sim.duration_s=10", *extra]).identity
