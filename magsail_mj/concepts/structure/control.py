@@ -24,7 +24,8 @@ One control sample (every ``period_s``; the runner holds the command in between)
    (``u_r`` the rod's activation) and the current loops' largest dipoles ``I_max,L a_L`` with their
    vector areas ``a_L = Rᵀ ½ Σ x_a × x_b`` at the sampled node positions (``u_L = I_L / I_max,L``;
    for loops of one limit, the least-norm currents); ``D⁺`` is formed once for rods alone, at every
-   sample when there are loops (their vector areas change with the shape).
+   sample when there are loops (their vector areas change with the shape), then dropping the
+   directions ``D`` makes at under :data:`LOOP_PINV_RCOND` of its strongest.
 
 The command (:class:`DipoleCommand`) is plain data: the run's checkpoints hold it.
 """
@@ -51,12 +52,22 @@ __all__ = [
     "DipoleCommand",
     "StructureRodController",
     "PINV_RCOND",
+    "LOOP_PINV_RCOND",
     "least_norm_activations",
 ]
 
 #: Singular values of the rods' dipole matrix below this fraction of the largest are dropped from
 #: the pseudo-inverse: rods in one plane (a sail's booms) make no dipole across it.
 PINV_RCOND = 1e-9
+
+#: With current loops, singular values of ``D`` below this fraction of the largest are dropped from
+#: the pseudo-inverse. The loops' vector areas come from the deformed shape: loops in one plane (a
+#: reflector's two rims) make, besides their dipole along the normal, dipoles across it of a few
+#: parts in 1e5 of it, opened by the deformation. The exact least-norm currents for a dipole with
+#: a component there are huge and opposite (measured: the two rims of the 100 m reflector at
+#: 1e-5), saturate every sample and cancel the useful dipole; a direction the actuators make at
+#: under 1e-3 of their strongest is not used.
+LOOP_PINV_RCOND = 1e-3
 
 
 @restorable
@@ -254,7 +265,7 @@ class StructureRodController:
             I_max = self.loops.loops.current_max_A
             a_body = self.loops.vector_areas(self.loops.node_positions(state)) @ R  # rows Rᵀ a_L
             D = np.hstack([self.allocation.D, (a_body * I_max[:, None]).T])
-            v, saturated = least_norm_activations(np.linalg.pinv(D, rcond=PINV_RCOND), T_ref, B_body)
+            v, saturated = least_norm_activations(np.linalg.pinv(D, rcond=LOOP_PINV_RCOND), T_ref, B_body)
             n_rods = self.allocation.D.shape[1]
             u, currents = v[:n_rods], v[n_rods:] * I_max
             dipole = D @ v
