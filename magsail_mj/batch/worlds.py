@@ -127,10 +127,11 @@ def _flat(tree: Any, prefix: str = "") -> dict[str, Any]:
     return out
 
 
-def differing_keys(a: BaseModel, b: BaseModel) -> dict[str, tuple[Any, Any]]:
+def differing_keys(a: BaseModel | dict[str, Any], b: BaseModel) -> dict[str, tuple[Any, Any]]:
     """``{key path: (value in a, value in b)}`` of the keys where the validated configs ``a`` and
-    ``b`` differ (all but :data:`IGNORED_KEYS`)."""
-    fa, fb = _flat(a.model_dump(mode="json")), _flat(b.model_dump(mode="json"))
+    ``b`` differ (all but :data:`IGNORED_KEYS`); ``a`` may be given as its flat key → value dict."""
+    fa = a if isinstance(a, dict) else _flat(a.model_dump(mode="json"))
+    fb = _flat(b.model_dump(mode="json"))
     keys = sorted((set(fa) | set(fb)) - set(IGNORED_KEYS))
     return {k: (fa.get(k), fb.get(k)) for k in keys if fa.get(k) != fb.get(k)}
 
@@ -147,7 +148,7 @@ def check_batchable(cfgs: Sequence[BaseModel], concept: Any) -> None:
     """
     problems = list(concept.refusals(cfgs))
     lockstep = {**LOCKSTEP_KEYS, **concept.LOCKSTEP_KEYS}
-    base = cfgs[0]
+    base = _flat(cfgs[0].model_dump(mode="json"))
     for k, cfg in enumerate(cfgs[1:], start=1):
         for key, (v0, vk) in differing_keys(base, cfg).items():
             if key in lockstep:
