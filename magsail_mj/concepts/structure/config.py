@@ -596,7 +596,7 @@ class StructureConfig(EnvironmentTables, StructureTables):
     @model_validator(mode="after")
     def _modelled(self) -> StructureConfig:
         """The model is built and compiled as the run will (discarded): what the builder or MuJoCo
-        refuses (a beam loop, a beam tree held at two places, a damped cable, a moving massless
+        refuses (two partially held nodes in one beam tree, a damped cable, a moving massless
         body, …) is refused here, naming the structure's element."""
         try:
             spec = build_structure_spec(
