@@ -290,3 +290,11 @@ def test_configs_without_rods_and_bad_options_are_refused_by_name() -> None:
     with pytest.raises(ValueError, match=r"randomize: the structure holds components in place \(structure.fixed\)"):
         load(held)
     assert isinstance(load(held, randomize=False).task, StructureRodsTask)
+    looped = octahedron()
+    edges = looped["structure"]["member_groups"][0]["nodes"]
+    equator = [0, 2, 1, 3]  # nodes +x, +y, -x, -y
+    pairs = [sorted(p) for p in zip(equator, equator[1:] + equator[:1])]
+    looped["structure"]["member_sets"] = {"equator": [edges.index(p) for p in pairs]}
+    looped["loops"] = {"member_sets": ["equator"], "I_max_A": 10.0}
+    with pytest.raises(ValueError, match=r"config: loops: the environment drives the rods only"):
+        load(looped)

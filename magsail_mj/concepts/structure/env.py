@@ -199,6 +199,11 @@ class StructureRodsTask(AttitudeTask):
                 f"config: scenario {self.cfg.scenario!r} has no rod controller; the environment serves "
                 f"{', '.join(map(repr, SERVED_SCENARIOS))}"
             )
+        if getattr(self.cfg, "loops", None) is not None:
+            raise ValueError(
+                "config: loops: the environment drives the rods only; a config with current loops "
+                "([loops]) would run with its loops switched off"
+            )
         self.converter = ActionDipoleConverter(shipped=shipped, mode=action)
         self.mode = action
         self.period_s = float(shipped.period_s)
