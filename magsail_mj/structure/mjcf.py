@@ -120,6 +120,23 @@ Tendons
     shortens; a cable must therefore have ``damping_Ns_m = 0`` (refused otherwise) and never
     pushes.
 
+Drawn beams and rigid parts
+    Visual only (``visual_geoms``): geoms in group :data:`VISUAL_GROUP` with ``contype =
+    conaffinity = 0`` and no mass, on bodies whose inertials are explicit, so that they change
+    no mass, inertia, dof or force (``tests/test_structure_visuals.py`` compares the arrays). Each
+    beam is drawn as its model is, two rigid halves meeting at its midpoint: a capsule from the
+    parent-side node to the midpoint in the parent body's frame, and one from the midpoint to the
+    other node in the child's (or closing) body's frame. The member table holds rigidities, not a
+    section, so the capsules' radius is :data:`BEAM_RADIUS_OF_WIDTH` times the drawn member width
+    (3 % of the median member rest length by default). A rigid part is a box about its centre
+    along the principal axes of its own inertia ``I₁, I₂, I₃``: the box of uniform density with
+    the part's mass ``m`` and those moments, half-sides ``a_k = √(3 (I₁ + I₂ + I₃) / (2 m) −
+    3 I_k / m)`` (from ``I₁ = m (b² + c²) / 3``); where that is degenerate (no mass, a zero
+    half-side) the bounding box of its nodes about their mean. Each half-side is then enlarged
+    to at least half a node radius and the box scaled up uniformly until its largest half-side is
+    :data:`PART_MIN_HALF_OF_RADIUS` node radii: a 20 kg hub on a 100 m sail is a box under 1 m,
+    smaller than its own node sphere otherwise.
+
 Panels
     Drawn only: one MuJoCo skin ``panels`` (rendering-only by MuJoCo's definition: no dofs, no
     forces, no mass) whose vertices are bound to the bodies of the panels' corner nodes, each
@@ -154,17 +171,31 @@ from magsail_mj.structure.model import MEMBER_KINDS, Structure, StructureError
 
 __all__ = [
     "BEAM_JOINTS",
+    "BEAM_RADIUS_OF_WIDTH",
+    "BEAM_RGBA",
     "CLOSURE_SOLIMP",
     "CLOSURE_TIMECONST_STEPS",
     "CONSTRAINT_ARENA_MARGIN",
     "PANEL_RGBA",
+    "PART_MIN_HALF_OF_RADIUS",
+    "PART_RGBA",
     "StructureModelIndex",
+    "VISUAL_GROUP",
     "build_structure_spec",
     "closing_body_name",
     "part_body_name",
+    "part_box",
 ]
 
 PANEL_RGBA = (0.80, 0.68, 0.35, 1.0)
+BEAM_RGBA = (0.72, 0.74, 0.80, 1.0)
+PART_RGBA = (0.32, 0.38, 0.50, 1.0)
+#: Geom group of the drawn beams and rigid parts (MuJoCo draws groups 0–2 by default).
+VISUAL_GROUP = 2
+#: A drawn beam's radius over the drawn member width (module docstring, "Drawn beams").
+BEAM_RADIUS_OF_WIDTH = 2.0
+#: The smallest largest half-side of a drawn rigid part, in node radii.
+PART_MIN_HALF_OF_RADIUS = 3.0
 _CABLE = MEMBER_KINDS.index("cable")
 _BEAM = MEMBER_KINDS.index("beam")
 _AXES = "xyz"
@@ -203,6 +234,7 @@ class _Geometry:
     radius_m: float
     width_m: float
     node_damping_1_s: float
+    visual_geoms: bool
 
     def body_name(self, vertex: int) -> str:
         n = self.structure.n_nodes
@@ -413,6 +445,12 @@ def _write_bodies(g: _Geometry, spec: mujoco.MjSpec) -> np.ndarray:
             else:
                 _node_inertial(g, body, v)
             _held_sites(g, body, v, held[held_start[v] : held_start[v + 1]])
+            if kind == PART:
+                _part_visual(g, body, v - g.structure.n_nodes)
+            if parent >= 0:
+                j = g.layout.parent_member[v]
+                start = g.structure.members.nodes[j, g.layout.parent_end[j]]
+                _beam_visual(g, j, start, (bodies[parent], g.origin_m[parent]), (body, g.origin_m[v]))
             bodies[v] = body
             for k in closing[closing_start[v] : closing_start[v + 1]].tolist():
                 dofs[v] += _closing_body(g, body, k)
@@ -522,7 +560,79 @@ def _closing_body(g: _Geometry, parent: mujoco.MjsBody, k: int) -> int:
     where = g.structure.positions_m[node]
     body = parent.add_body(name=closing_body_name(j), pos=[float(c) for c in where - g.origin_m[vertex]])
     _node_inertial(g, body, node)
-    return _beam_joints(g, body, j, start, where)
+    dofs = _beam_joints(g, body, j, start, where)
+    _beam_visual(g, j, start, (parent, g.origin_m[vertex]), (body, where))
+    return dofs
+
+
+def _visual_geom(body: mujoco.MjsBody, **attributes) -> None:
+    """A drawn-only geom (module docstring, "Drawn beams and rigid parts")."""
+    body.add_geom(contype=0, conaffinity=0, mass=0.0, group=VISUAL_GROUP, **attributes)
+
+
+def _beam_visual(
+    g: _Geometry,
+    j: int,
+    start: int,
+    parent: tuple[mujoco.MjsBody, np.ndarray],
+    child: tuple[mujoco.MjsBody, np.ndarray],
+) -> None:
+    """Beam ``j``'s two drawn halves: node ``start`` to the midpoint in the parent body, the
+    midpoint to the other node in the child body (each given with its origin, world frame)."""
+    if not g.visual_geoms:
+        return
+    ends = g.structure.members.nodes[j]
+    end = ends[1] if ends[0] == start else ends[0]
+    p = g.structure.positions_m
+    mid = 0.5 * (p[start] + p[end])
+    radius = BEAM_RADIUS_OF_WIDTH * g.width_m
+    for (body, origin), a, b in ((parent, p[start], mid), (child, mid, p[end])):
+        _visual_geom(
+            body,
+            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+            size=[radius, 0.0, 0.0],
+            fromto=[*(float(c) for c in a - origin), *(float(c) for c in b - origin)],
+            rgba=list(BEAM_RGBA),
+        )
+
+
+def part_box(structure: Structure, p: int, *, radius_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The drawn box of rigid part ``p`` (module docstring, "Drawn beams and rigid parts"): its
+    centre (3,) [m] and axes (3, 3, columns) in the structure frame, and its half-sides (3,) [m];
+    ``radius_m`` is the node radius."""
+    part = structure.rigid_parts[p]
+    mass = float(part.mass_kg)
+    moments, axes = np.linalg.eigh(np.asarray(part.inertia_kg_m2, dtype=float))
+    center = np.asarray(part.center_m, dtype=float)
+    squares = 1.5 * moments.sum() / mass - 3.0 * moments / mass if mass > 0 else np.zeros(3)
+    if not np.all(squares > 0):  # no mass, a flat or inconsistent inertia: the nodes' extent
+        held = structure.positions_m[np.asarray(part.nodes, dtype=np.int64)].reshape(-1, 3)
+        low, high = (held.min(axis=0), held.max(axis=0)) if len(held) else (center, center)
+        center, axes, half = 0.5 * (low + high), np.eye(3), 0.5 * (high - low)
+    else:
+        half = np.sqrt(squares)
+    half = np.maximum(half, 0.5 * radius_m)
+    half = half * max(1.0, PART_MIN_HALF_OF_RADIUS * radius_m / half.max())
+    return center, axes, half
+
+
+def _part_visual(g: _Geometry, body: mujoco.MjsBody, p: int) -> None:
+    """Rigid part ``p``'s drawn box in its body (origin at the part's ``center_m``)."""
+    if not g.visual_geoms:
+        return
+    center, axes, half = part_box(g.structure, p, radius_m=g.radius_m)
+    if np.linalg.det(axes) < 0:
+        axes = axes * np.array([1.0, 1.0, -1.0])
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(axes).ravel())
+    _visual_geom(
+        body,
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=half.tolist(),
+        pos=[float(c) for c in center - np.asarray(g.structure.rigid_parts[p].center_m, dtype=float)],
+        quat=quat.tolist(),
+        rgba=list(PART_RGBA),
+    )
 
 
 def _write_constraints(g: _Geometry, spec: mujoco.MjSpec) -> None:
@@ -624,6 +734,7 @@ def build_structure_spec(
     node_radius_m: float | None = None,
     member_width_m: float | None = None,
     extent_m: float | None = None,
+    visual_geoms: bool = True,
 ) -> mujoco.MjSpec:
     """The ``MjSpec`` of ``structure`` (module docstring).
 
@@ -640,6 +751,8 @@ def build_structure_spec(
       member_width_m: drawn tendon width (default 1.5 % of the same length).
       extent_m: the size the view and the light are set for (default: the largest side of the
         nodes' bounding box; a generator that knows its nominal size passes it).
+      visual_geoms: draw beams as capsules and rigid parts as boxes (module docstring, "Drawn
+        beams and rigid parts"; no effect on the dynamics).
 
     Raises:
       StructureError: the structure cannot be modelled (every finding, each naming the element).
@@ -668,6 +781,7 @@ def build_structure_spec(
         radius_m=node_radius_m or 0.04 * scale,
         width_m=member_width_m or 0.015 * scale,
         node_damping_1_s=float(node_damping_1_s),
+        visual_geoms=bool(visual_geoms),
     )
     spec = truss_base_spec(
         name=structure.name if name is None else name,
