@@ -285,6 +285,7 @@ def structure_model_bytes(
     nbody: int | None = None,
     ntendon: int | None = None,
     mass_nnz: int | None = None,
+    arena_bytes: int | None = None,
 ) -> float:
     """Memory of the model :func:`magsail_mj.structure.mjcf.build_structure_spec` builds [bytes]:
     MuJoCo's model and data buffers (``16 kB + 1.2 kB nv + 0.4 kB nbody + 0.6 kB ntendon + 96 B
@@ -296,13 +297,16 @@ def structure_model_bytes(
     The counts default to a structure of free particles joined by struts and cables: ``nv = 3
     n_nodes``, ``nbody = n_nodes + 1``, ``ntendon = n_members`` and ``mass_nnz = 2 nv`` (a node's
     three slide dofs are chained: 6 non-zeros). Beams make chains: give the counts of the model
-    (``mass_nnz`` is MuJoCo's ``nM``, ``d (d + 1) / 2`` for a chain of ``d`` dofs).
+    (``mass_nnz`` is MuJoCo's ``nM``, ``d (d + 1) / 2`` for a chain of ``d`` dofs), and
+    ``arena_bytes``, the arena the builder set (``MjModel.narena``: more than the struts' when
+    beam cycles are welded), when known.
 
     Raises:
       ValueError: a count that is not an integer >= 0 (named).
     """
     counts = {"n_nodes": n_nodes, "n_members": n_members, "nv": nv, "nbody": nbody, "ntendon": ntendon}
     counts["mass_nnz"] = mass_nnz
+    counts["arena_bytes"] = arena_bytes
     for label, value in counts.items():
         if value is not None and (isinstance(value, bool) or int(value) != value or value < 0):
             raise ValueError(f"{label}: must be an integer >= 0, got {value!r}")
@@ -317,7 +321,8 @@ def structure_model_bytes(
         + _STRUCTURE_BUFFER_PER_TENDON * tendons
         + _STRUCTURE_BUFFER_PER_MASS_NNZ * nnz
     )
-    return buffers + float(lattice_arena_bytes(dofs)) + _LATTICE_BUILD_PER_DOF * dofs
+    arena = lattice_arena_bytes(dofs) if arena_bytes is None else int(arena_bytes)
+    return buffers + float(arena) + _LATTICE_BUILD_PER_DOF * dofs
 
 
 def coil_report_bytes(*, side_m: float, segment_m: float, pitch_cells: int = 2, rows: int | None = None) -> float:
@@ -373,7 +378,10 @@ def estimate_model_bytes(cfg: Any) -> float:
     :func:`lattice_model_bytes`, else MuJoCo's model, data and default arena (:func:`mujoco_bytes`)
     from the implied counts; plus the reflector's coil paths and the environment grid."""
     nv, nbody, ntendon = _model_counts(cfg)
-    if _is_lattice(cfg):
+    own = getattr(cfg, "model_bytes", None)
+    if callable(own):  # a config that compiled its own model in validation (the structure concept)
+        total = float(own())
+    elif _is_lattice(cfg):
         dense = getattr(cfg, "concept", "") == "current_loops"
         total = lattice_model_bytes(nv=nv, ntendon=ntendon, dense_modes=dense)
     else:

@@ -52,6 +52,7 @@ from magsail_mj.config import (
     derived_quantity,
 )
 from magsail_mj.environment.config import DragConfig, EnvironmentTables, environment_problems
+from magsail_mj.resources import structure_model_bytes
 from magsail_mj.structure.fileformat import StructureSource
 from magsail_mj.structure.mesh import MemberProperties, PanelProperties
 from magsail_mj.structure.mjcf import build_structure_spec
@@ -427,6 +428,9 @@ class StructureConfig(EnvironmentTables, StructureTables):
     :class:`StructureTables`, then the environment tables ``[orbit]`` … ``[gravity]`` (free space
     unless set; ``gravity.tidal`` acts on every node)."""
 
+    #: sizes of the model validation compiled (:meth:`model_bytes`)
+    _model_sizes: dict[str, int] = PrivateAttr(default_factory=dict)
+
     def rod_members(self) -> np.ndarray:
         """Indices of the members carrying rods (empty without ``[actuators]``)."""
         if self.actuators is None:
@@ -471,6 +475,18 @@ class StructureConfig(EnvironmentTables, StructureTables):
     def model_counts(self) -> tuple[int, int, int]:
         """``(nv, nbody, ntendon)`` of the run's MuJoCo model (the memory estimate reads them)."""
         return model_counts(self.structure.structure)
+
+    def model_bytes(self) -> float:
+        """Memory of the run's MuJoCo model and data and of the build [bytes]
+        (:func:`~magsail_mj.resources.structure_model_bytes`) from the sizes of the model validation
+        compiled: ``nv``, bodies, tendons, the mass matrix's non-zeros ``nM`` (a chain of ``d`` beam
+        dofs holds ``d (d + 1) / 2``) and the arena the builder set (the beam cycles' welds
+        included)."""
+        return structure_model_bytes(
+            n_nodes=self.structure.structure.n_nodes,
+            n_members=len(self.structure.structure.members.kind),
+            **self._model_sizes,
+        )
 
     @property
     def environment_needed(self) -> bool:
@@ -605,12 +621,19 @@ class StructureConfig(EnvironmentTables, StructureTables):
                 integrator=self.sim.integrator,
                 solver_tolerance=self.sim.solver_tolerance,
             )
-            spec.compile()
+            model = spec.compile()
         except StructureError as err:
             raise ValueError("; ".join(self.structure.problem_lines(err.problems))) from None
         except ValueError as err:  # MuJoCo's compiler
             where = f"file: {self.structure.file}: " if self.structure.file is not None else ""
             raise ConfigProblem("structure", f"{where}MuJoCo cannot compile the model: {err}") from None
+        self._model_sizes = {
+            "nv": int(model.nv),
+            "nbody": int(model.nbody),
+            "ntendon": int(model.ntendon),
+            "mass_nnz": int(model.nM),
+            "arena_bytes": int(model.narena),
+        }
         return self
 
     @model_validator(mode="after")
