@@ -9,17 +9,24 @@ and times each stage of the path once:
 * ``read`` — :func:`~magsail_mj.structure.fileformat.read_structure` (TOML, the ``.npz`` arrays,
   and the checks it runs itself);
 * ``check`` — :func:`~magsail_mj.structure.checks.check_structure` again, on its own;
-* ``build`` — :func:`~magsail_mj.structure.mjcf.build_structure_spec` (Euler);
+* ``build`` — :func:`~magsail_mj.structure.mjcf.build_structure_spec` (Euler, with
+  ``--strut-elements``: ``auto`` by default, which builds the struts as 1-D flex edges above
+  ``FLEX_AUTO_TENDON_DOFS``, i.e. the 8 192- and 20 000-node plates, and as tendons below);
 * ``compile`` — ``spec.compile()``;
 * ``data`` — ``mujoco.MjData(model)``;
 * ``step`` — the first ``mujoco.mj_step``.
 
 ``index`` (:class:`~magsail_mj.structure.mjcf.StructureModelIndex`) is timed after them and is not
 in ``total_s``; nor is ``compile_without_tendons_s``, the compile of the same plate without its
-members (nodes only), which splits ``compile`` into MuJoCo's part that grows with the tendons
-(``tendon_compile_ns_per_tendon_dof``: the difference over ``ntendon · nv``; constant when that
-part is ``O(ntendon nv)``, as MuJoCo's per-tendon ``tendon_invweight0`` over dense ``nv``-vectors
-is) and the rest. The process reports its peak resident set (``ru_maxrss``: MuJoCo's C
+members (nodes only), which splits ``compile`` into MuJoCo's part that grows with the members
+and the rest: ``member_compile_us_per_member`` is the difference over the member count (constant
+when that part is linear, as with flex edges), ``tendon_compile_ns_per_tendon_dof`` the same over
+``ntendon · nv`` (constant when it is ``O(ntendon nv)``, as MuJoCo's per-tendon
+``tendon_invweight0`` over dense ``nv``-vectors is; ``null`` without tendons). The rest, MuJoCo's
+compile of the bodies alone, is itself slightly superlinear (``mj_makeBSparse``,
+``mj_validateReferences``: 0.15 s at 2 048 nodes, 5 s at 20 000 measured).
+
+The process reports its peak resident set (``ru_maxrss``: MuJoCo's C
 allocations included, which ``tracemalloc`` does not see) and the resident set it had before the
 read (the interpreter and the imports): their difference is the path's own memory, compared with
 :func:`~magsail_mj.resources.structure_model_bytes` of the plate's node and member counts; so is
@@ -33,6 +40,7 @@ and timings are wall-clock; compare ratios measured in one call.
 
     .venv/bin/python scripts/bench_structure_scale.py                 # units 31, 63, 99
     .venv/bin/python scripts/bench_structure_scale.py --units 15 31
+    .venv/bin/python scripts/bench_structure_scale.py --strut-elements flex     # every size flex
 """
 
 from __future__ import annotations
@@ -57,7 +65,7 @@ from magsail_mj.resources import structure_model_bytes
 from magsail_mj.structure.checks import check_structure
 from magsail_mj.structure.fileformat import read_structure, write_structure
 from magsail_mj.structure.generators import square_plate_lattice
-from magsail_mj.structure.mjcf import StructureModelIndex, build_structure_spec
+from magsail_mj.structure.mjcf import STRUT_ELEMENTS, StructureModelIndex, build_structure_spec
 from magsail_mj.structure.model import Members, Structure
 
 STAGES = ("read", "check", "build", "compile", "data", "step")
@@ -87,8 +95,9 @@ def _without_members(structure: Structure) -> Structure:
     return dataclasses.replace(structure, members=members, member_sets={})
 
 
-def run_path(path: Path) -> dict:
-    """Time each stage of the path for the structure file ``path`` (in this process)."""
+def run_path(path: Path, strut_elements: str = "auto") -> dict:
+    """Time each stage of the path for the structure file ``path`` (in this process), struts
+    built as ``strut_elements``."""
     start_rss_mb = _rss_mb()
     seconds: dict[str, float] = {}
 
@@ -100,7 +109,12 @@ def run_path(path: Path) -> dict:
 
     structure = timed("read", lambda: read_structure(path).structure)
     timed("check", lambda: check_structure(structure))
-    spec = timed("build", lambda: build_structure_spec(structure, timestep_s=TIMESTEP_S, integrator="Euler"))
+    spec = timed(
+        "build",
+        lambda: build_structure_spec(
+            structure, timestep_s=TIMESTEP_S, integrator="Euler", strut_elements=strut_elements
+        ),
+    )
     model = timed("compile", spec.compile)
     data = timed("data", lambda: mujoco.MjData(model))
     timed("step", lambda: mujoco.mj_step(model, data))
@@ -120,12 +134,17 @@ def run_path(path: Path) -> dict:
         "nv": model.nv,
         "nbody": model.nbody,
         "ntendon": model.ntendon,
+        "nflexedge": model.nflexedge,
+        "strut_elements": strut_elements,
         "nM": model.nM,
         "seconds": seconds,
         "total_s": sum(seconds.values()),
         "index_s": index_s,
         "compile_without_tendons_s": bare_compile_s,
-        "tendon_compile_ns_per_tendon_dof": (seconds["compile"] - bare_compile_s) / (model.ntendon * model.nv) * 1e9,
+        "member_compile_us_per_member": (seconds["compile"] - bare_compile_s) / structure.n_members * 1e6,
+        "tendon_compile_ns_per_tendon_dof": (
+            (seconds["compile"] - bare_compile_s) / (model.ntendon * model.nv) * 1e9 if model.ntendon else None
+        ),
         "start_rss_mb": start_rss_mb,
         "peak_rss_mb": peak_rss_mb,
         "path_rss_mb": peak_rss_mb - start_rss_mb,
@@ -137,13 +156,18 @@ def run_path(path: Path) -> dict:
     }
 
 
-def _child(path: Path) -> int:
-    print(json.dumps(run_path(path)), flush=True)
+def _child(path: Path, strut_elements: str) -> int:
+    print(json.dumps(run_path(path, strut_elements)), flush=True)
     return 0
 
 
-def _run_child(path: Path) -> dict:
-    done = subprocess.run([sys.executable, __file__, "--child", str(path)], capture_output=True, text=True, check=False)
+def _run_child(path: Path, strut_elements: str) -> dict:
+    done = subprocess.run(
+        [sys.executable, __file__, "--child", str(path), "--strut-elements", strut_elements],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     if done.returncode != 0:
         raise SystemExit(f"error: {path.name}: the benchmark process failed:\n{done.stderr[-2000:]}")
     return json.loads(done.stdout.strip().splitlines()[-1])
@@ -162,16 +186,21 @@ def per_node_ratios(sizes: list[dict]) -> dict[str, list[float]]:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--units", type=int, nargs="+", default=list(DEFAULT_UNITS), help="plate sizes (cubes a side)")
+    p.add_argument(
+        "--strut-elements", choices=STRUT_ELEMENTS, default="auto", help="build_structure_spec's strut_elements"
+    )
     p.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.child:
-        return _child(Path(args.child))
+        return _child(Path(args.child), args.strut_elements)
     if min(args.units) < 1:
         p.error(f"--units: every size must be >= 1, got {args.units}")
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="bench_structure_scale_") as folder:
         paths = [write_plate(units, Path(folder)) for units in sorted(args.units)]
-        sizes = [{"units": units, **_run_child(path)} for units, path in zip(sorted(args.units), paths)]
+        sizes = [
+            {"units": units, **_run_child(path, args.strut_elements)} for units, path in zip(sorted(args.units), paths)
+        ]
     largest = sizes[-1]
     print(
         json.dumps(

@@ -69,10 +69,11 @@ Joints
     translations are; other partial constraints can be held at one node of a tree only, its root.
 
     MuJoCo's native alternatives to the chain were not used: 1-D flexes (discrete elastic rods)
-    have no stretching (it needs edge equality constraints), refuse the
-    ``implicit``/``implicitfast`` integrators (checked with MuJoCo 4.0.0), hold only open chains or
-    rings (not branching trees or rigid parts in a chain); the ``mujoco.elasticity.cable`` plugin
-    is not shipped in the wheel (``plugin mujoco.elasticity.cable not found``).
+    bend only under ``Euler``, ``RK4`` and ``discrete`` (their bending elasticity refuses
+    ``implicit``/``implicitfast``; checked with MuJoCo 4.0.0), hold only open chains or rings (not
+    branching trees or rigid parts in a chain) and stretch only by per-flex edge springs; the
+    ``mujoco.elasticity.cable`` plugin is not shipped in the wheel (``plugin
+    mujoco.elasticity.cable not found``).
 
 Cycles (closed beam loops: a hoop, a frame cell)
     The bodies form a spanning tree of each connected beam graph; each beam ``j`` outside it (one
@@ -120,6 +121,35 @@ Tendons
     shortens; a cable must therefore have ``damping_Ns_m = 0`` (refused otherwise) and never
     pushes.
 
+Flex struts (``strut_elements``)
+    MuJoCo computes each tendon's ``tendon_invweight0`` at compile with a dense ``nv``-vector
+    solve, so a model of tendons compiles in ``O(ntendon · nv)``: quadratic in the node count of
+    a lattice (``scripts/bench_structure_scale.py``). A 1-D flex edge between two bodies
+    whose joints are all slides (MuJoCo's "simple" bodies, ``body_simple == 2``) takes an ``O(1)``
+    path for its ``flexedge_invweight0``. A flex's edges share one stiffness ``k`` and damping
+    ``c`` (MuJoCo's ``<edge stiffness damping>``: passive force ``−k (L − L0) − c L̇`` along the
+    edge, ``L0`` the edge's length at ``qpos0``; its energy ``½ k (L − L0)²`` is in MuJoCo's
+    potential energy), so the qualifying struts are written as one flex ``struts<g>`` per
+    distinct ``(EA/l0, c)`` (a lattice has a handful), vertices on the particle bodies, every
+    edge non-colliding (``contype = conaffinity = 0``, no self-collision) and drawn as a tendon
+    is (radius the member width). A strut qualifies when both its ends are particles, its rest
+    length is its length at the reference (no prestrain; within :data:`FLEX_REST_RTOL`), the
+    structure's stiffness model is ``"members"``, and no other qualifying strut joins the same
+    two nodes (MuJoCo merges repeated edges into one); cables (their dead band is the tendon's
+    spring range), beams and all others stay tendons. Under ``Euler`` and ``RK4`` the flex law
+    is the tendon's, step for step: a lattice's trajectory is the same to rounding (1e-12 over
+    200 steps; ``L0`` is MuJoCo's reference length and the forces are summed in another order;
+    ``tests/test_structure_flex.py``). Under ``implicit``/``implicitfast`` MuJoCo integrates
+    tendon damping implicitly but flex edge damping explicitly, so a damped lattice moves
+    differently (stable only while ``c h / m`` is small). ``strut_elements``: ``"tendons"``
+    (every strut a tendon), ``"flex"`` (every qualifying strut a flex edge, any integrator) or
+    ``"auto"`` (the default): flexes when the integrator is ``Euler`` or ``RK4`` and ``ntendon ·
+    nv`` of the all-tendon model exceeds :data:`FLEX_AUTO_TENDON_DOFS` (1e8, about 0.1 s of
+    compile; the largest shipped lattice has 3.2e7, so every shipped model keeps its tendons and
+    its stored results), else tendons. :class:`StructureModelIndex` gives each member's tendon or
+    flex edge (``flexedge_length`` is its length); member lengths, strains and energies are
+    computed from the node positions and the member table either way.
+
 Drawn beams and rigid parts
     Visual only (``visual_geoms``): geoms in group :data:`VISUAL_GROUP` with ``contype =
     conaffinity = 0`` and no mass, on bodies whose inertials are explicit, so that they change
@@ -161,6 +191,7 @@ from magsail_mj.lattice.mjcf import (
     WorldTrees,
     add_node_sphere,
     add_particle_node,
+    STRUT_RGBA,
     add_spring_tendon,
     lattice_arena_bytes,
     truss_base_spec,
@@ -173,16 +204,20 @@ __all__ = [
     "BEAM_JOINTS",
     "BEAM_RADIUS_OF_WIDTH",
     "BEAM_RGBA",
+    "FLEX_AUTO_TENDON_DOFS",
+    "FLEX_REST_RTOL",
     "CLOSURE_SOLIMP",
     "CLOSURE_TIMECONST_STEPS",
     "CONSTRAINT_ARENA_MARGIN",
     "PANEL_RGBA",
     "PART_MIN_HALF_OF_RADIUS",
     "PART_RGBA",
+    "STRUT_ELEMENTS",
     "StructureModelIndex",
     "VISUAL_GROUP",
     "build_structure_spec",
     "closing_body_name",
+    "flex_struts",
     "part_body_name",
     "part_box",
 ]
@@ -198,6 +233,15 @@ BEAM_RADIUS_OF_WIDTH = 2.0
 PART_MIN_HALF_OF_RADIUS = 3.0
 _CABLE = MEMBER_KINDS.index("cable")
 _BEAM = MEMBER_KINDS.index("beam")
+_STRUT = MEMBER_KINDS.index("strut")
+#: The ways struts are built (module docstring, "Flex struts").
+STRUT_ELEMENTS = ("auto", "tendons", "flex")
+#: ``ntendon · nv`` of the all-tendon model above which ``"auto"`` builds flex struts.
+FLEX_AUTO_TENDON_DOFS = 1.0e8
+#: Largest ``|l − l0| / l0`` of a strut built as a flex edge (whose rest length is its reference length).
+FLEX_REST_RTOL = 1e-12
+_FLEX_AUTO_INTEGRATORS = ("Euler", "RK4")
+_FLEX_PREFIX = "struts"
 _AXES = "xyz"
 #: The joints of a beam, in their order in the child body (module docstring).
 BEAM_JOINTS = ("axial", "twist", "bend1", "bend2")
@@ -674,11 +718,60 @@ def _write_constraints(g: _Geometry, spec: mujoco.MjSpec) -> None:
         )
 
 
-def _write_tendons(g: _Geometry, spec: mujoco.MjSpec) -> None:
+def flex_struts(structure: Structure) -> np.ndarray:
+    """(m,) which members may be built as flex edges (module docstring, "Flex struts"): struts
+    between two particles at their rest length, under the ``"members"`` stiffness model, each the
+    only such strut between its two nodes."""
+    members = structure.members
+    if structure.stiffness_model != "members" or not len(members):
+        return np.zeros(len(members), dtype=bool)
+    layout = body_layout(structure)
+    ends = members.nodes
+    p = structure.positions_m
+    length = np.linalg.norm(p[ends[:, 1]] - p[ends[:, 0]], axis=1)
+    rest = members.rest_length_m
+    ok = (members.kind == _STRUT) & (layout.kind[ends] == PARTICLE).all(axis=1)
+    ok &= np.abs(length - rest) <= FLEX_REST_RTOL * rest
+    key = ends.min(axis=1) * structure.n_nodes + ends.max(axis=1)
+    _, first, counts = np.unique(key[ok], return_inverse=True, return_counts=True)
+    ok[np.flatnonzero(ok)[counts[first] > 1]] = False
+    return ok
+
+
+def _write_flexes(g: _Geometry, spec: mujoco.MjSpec, flex: np.ndarray) -> None:
+    """The flex struts ``flex`` (m,) as one 1-D flex per distinct ``(k, c)`` (module docstring)."""
+    members = g.structure.members
+    j = np.flatnonzero(flex)
+    if not j.size:
+        return
+    values, group = np.unique(
+        np.column_stack([members.stiffness_N_m[j], members.damping_Ns_m[j]]), axis=0, return_inverse=True
+    )
+    by_group = np.argsort(group, kind="stable")
+    starts = np.searchsorted(group[by_group], np.arange(len(values) + 1))
+    for k, (stiffness, damping) in enumerate(values.tolist()):
+        ends = members.nodes[j[by_group[starts[k] : starts[k + 1]]]]
+        vertices, local = np.unique(ends, return_inverse=True)
+        element = spec.add_flex()
+        element.name = f"{_FLEX_PREFIX}{k}"
+        element.dim = 1
+        element.vertbody = [f"n{v}" for v in vertices.tolist()]
+        element.vert = np.zeros(3 * vertices.size).tolist()
+        element.elem = local.reshape(-1).tolist()
+        element.edgestiffness = float(stiffness)
+        element.edgedamping = float(damping)
+        element.radius = g.width_m
+        element.rgba = list(STRUT_RGBA)
+        element.contype = 0
+        element.conaffinity = 0
+        element.selfcollide = mujoco.mjtFlexSelf.mjFLEXSELF_NONE
+
+
+def _write_tendons(g: _Geometry, spec: mujoco.MjSpec, flex: np.ndarray) -> None:
     members = g.structure.members
     # a structure-level linear stiffness is a load: the tendons then carry no spring
     k = members.stiffness_N_m if g.structure.stiffness_model == "members" else np.zeros(len(members))
-    j = np.flatnonzero(members.kind != _BEAM)
+    j = np.flatnonzero((members.kind != _BEAM) & ~flex)
     rest = members.rest_length_m[j]
     columns = (
         j.tolist(),
@@ -735,6 +828,7 @@ def build_structure_spec(
     member_width_m: float | None = None,
     extent_m: float | None = None,
     visual_geoms: bool = True,
+    strut_elements: str = "auto",
 ) -> mujoco.MjSpec:
     """The ``MjSpec`` of ``structure`` (module docstring).
 
@@ -753,11 +847,16 @@ def build_structure_spec(
         nodes' bounding box; a generator that knows its nominal size passes it).
       visual_geoms: draw beams as capsules and rigid parts as boxes (module docstring, "Drawn
         beams and rigid parts"; no effect on the dynamics).
+      strut_elements: one of :data:`STRUT_ELEMENTS`: struts as tendons, as 1-D flex edges where
+        they qualify, or (``"auto"``) flexes for large models under ``Euler``/``RK4`` (module
+        docstring, "Flex struts").
 
     Raises:
       StructureError: the structure cannot be modelled (every finding, each naming the element).
       ValueError: a bad option (named).
     """
+    if strut_elements not in STRUT_ELEMENTS:
+        raise ValueError(f"strut_elements: must be one of {STRUT_ELEMENTS}, got {strut_elements!r}")
     masses = structure.lumped_masses()
     layout = body_layout(structure)
     _check(structure, layout, masses, float(node_damping_1_s))
@@ -793,7 +892,13 @@ def build_structure_spec(
     dofs = _write_bodies(g, spec)
     spec.memory = lattice_arena_bytes(int(dofs.sum())) + _constraint_arena_bytes(layout, dofs)
     _write_constraints(g, spec)
-    _write_tendons(g, spec)
+    flex = flex_struts(structure) if strut_elements != "tendons" else np.zeros(structure.n_members, dtype=bool)
+    if strut_elements == "auto":
+        tendon_dofs = float(np.count_nonzero(structure.members.kind != _BEAM)) * float(dofs.sum())
+        if integrator not in _FLEX_AUTO_INTEGRATORS or tendon_dofs <= FLEX_AUTO_TENDON_DOFS:
+            flex[:] = False
+    _write_tendons(g, spec, flex)
+    _write_flexes(g, spec, flex)
     if len(structure.panels):
         _write_panels(g, spec, inflate_m=0.25 * g.radius_m)
     return spec
@@ -809,7 +914,9 @@ class StructureModelIndex:
       node_slide_qposadr, node_slide_dofadr: (n, 3) ``qpos``/``qvel`` addresses of the x, y, z
         world-axis slide joints of a node's own body (a particle, or a held beam root); −1 for a
         fixed component or a node without them.
-      member_tendon: (m,) tendon of each strut or cable (−1 for beams).
+      member_tendon: (m,) tendon of each strut or cable (−1 for beams and flex struts).
+      member_flex_edge: (m,) flex edge of each flex strut (``flexedge_length`` index; −1 for the
+        others).
       beam_qposadr, beam_dofadr: (m, 4) addresses of each beam's ``axial, twist, bend1, bend2``
         joints (−1 for struts and cables).
       part_body: (P,) body of each rigid part.
@@ -822,6 +929,7 @@ class StructureModelIndex:
     node_slide_qposadr: np.ndarray
     node_slide_dofadr: np.ndarray
     member_tendon: np.ndarray
+    member_flex_edge: np.ndarray
     beam_qposadr: np.ndarray
     beam_dofadr: np.ndarray
     part_body: np.ndarray
@@ -849,6 +957,7 @@ class StructureModelIndex:
         tendon = np.full(structure.n_members, -1, dtype=np.int64)
         others = np.flatnonzero(members.kind != _BEAM)
         tendon[others] = ids(mujoco.mjtObj.mjOBJ_TENDON, [f"t{j}" for j in others])
+        edge = cls._flex_edges(model, structure, model.site_bodyid[site], others[tendon[others] < 0])
         part = ids(mujoco.mjtObj.mjOBJ_BODY, [part_body_name(p.name) for p in structure.rigid_parts])
 
         def address(table: np.ndarray, joints: np.ndarray) -> np.ndarray:
@@ -860,12 +969,52 @@ class StructureModelIndex:
             node_slide_qposadr=address(model.jnt_qposadr, slide),
             node_slide_dofadr=address(model.jnt_dofadr, slide),
             member_tendon=tendon,
+            member_flex_edge=edge,
             beam_qposadr=address(model.jnt_qposadr, beam_joint),
             beam_dofadr=address(model.jnt_dofadr, beam_joint),
             part_body=part,
             particles_only=bool(beams.size == 0 and not structure.rigid_parts),
             center_of_mass_m=structure.mass_properties()[1],
         )
+
+    @staticmethod
+    def _flex_edges(
+        model: mujoco.MjModel, structure: Structure, node_body: np.ndarray, members: np.ndarray
+    ) -> np.ndarray:
+        """(m,) the flex edge of each of ``members`` (struts without a tendon) in the flexes
+        ``struts<g>``, by their end nodes' bodies; −1 elsewhere."""
+        edge = np.full(structure.n_members, -1, dtype=np.int64)
+        if not members.size:
+            return edge
+        flexes = [
+            f
+            for f in range(model.nflex)
+            if mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_FLEX, f).startswith(_FLEX_PREFIX)
+        ]
+        rows = [model.flex_edgeadr[f] + np.arange(model.flex_edgenum[f]) for f in flexes]
+        rows = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
+        flex_of_row = np.repeat(np.asarray(flexes, dtype=np.int64), [model.flex_edgenum[f] for f in flexes])
+        vertex = model.flex_edge[rows] + model.flex_vertadr[flex_of_row][:, None]
+        body = model.flex_vertbodyid[vertex]
+        node_of_body = np.full(model.nbody, -1, dtype=np.int64)
+        node_of_body[node_body] = np.arange(node_body.size)
+        nodes = np.sort(node_of_body[body], axis=1)
+        n = structure.n_nodes
+        edge_key = nodes[:, 0] * n + nodes[:, 1]
+        ends = np.sort(structure.members.nodes[members], axis=1)
+        member_key = ends[:, 0] * n + ends[:, 1]
+        order = np.argsort(edge_key, kind="stable")
+        at = np.minimum(np.searchsorted(edge_key[order], member_key), max(order.size - 1, 0))
+        found = order.size > 0 and np.all(edge_key[order][at] == member_key)
+        if not found:
+            missing = (
+                int(members[0])
+                if order.size == 0
+                else int(members[np.flatnonzero(edge_key[order][at] != member_key)[0]])
+            )
+            raise ValueError(f"model: member {missing} has neither a tendon t{missing} nor a flex edge")
+        edge[members] = rows[order[at]]
+        return edge
 
     def node_positions(self, data: mujoco.MjData) -> np.ndarray:
         """(n, 3) world node positions of ``data`` (after ``mj_kinematics`` or ``mj_forward``)."""
