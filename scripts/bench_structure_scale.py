@@ -39,15 +39,16 @@ shares. ``load_average`` is ``os.getloadavg()`` before and after: the machine ma
 and timings are wall-clock; compare ratios measured in one call.
 
 Measured (MuJoCo 4.0.0, a shared 2-core machine, load 1–4): the 20 000-node plate (89 002 struts,
-``nv`` = 60 000) goes from file to first step in 11.3 s with flex struts (build 6.1 s, compile
-4.8 s of which 3.5 s are the bodies alone; ``--strut-elements flex``) and 18.4 s under a heavier
-load (the default, ``auto``, builds the same flexes), against about 36 s as tendons; its peak
-resident set is 0.43 of :func:`~magsail_mj.resources.structure_model_bytes`. With flexes at
-every size the total per node is 1.0, 0.95 and 1.58 times the 2 048-node plate's at 8 192 and
-20 000 nodes (build 0.87, 1.24; compile 1.27, 2.91, dominated by the bodies' compile, 0.93,
-2.49): the struts no longer make the compile quadratic, MuJoCo's compile of the bodies remains
-slightly superlinear. The 2 048-node plate compiles in 0.64 s as tendons (9.3 ns per tendon and
-dof), 0.17 s as flexes.
+``nv`` = 60 000) goes from file to first step in 11.3 s with flex struts (build 6.1 s, compile 4.8 s
+of which 3.5 s are the bodies alone; ``--strut-elements flex``) and 18.4 s under a heavier load (the
+default, ``auto``, builds the same flexes); at load 4–5, 14.4 s with flexes (compile 6.1 s) against
+52.0 s as tendons (``--strut-elements tendons``: compile 40.0 s, 6.5 ns per tendon and dof, the
+bodies 5.1 s of it); its peak resident set is 0.43 of
+:func:`~magsail_mj.resources.structure_model_bytes`. With flexes at every size the total per node is
+1.0, 0.95 and 1.58 times the 2 048-node plate's at 8 192 and 20 000 nodes (build 0.87, 1.24; compile
+1.27, 2.91, dominated by the bodies' compile, 0.93, 2.49): the struts no longer make the compile
+quadratic, MuJoCo's compile of the bodies remains slightly superlinear. The 2 048-node plate
+compiles in 0.64 s as tendons (9.3 ns per tendon and dof), 0.17 s as flexes.
 
     .venv/bin/python scripts/bench_structure_scale.py                 # units 31, 63, 99
     .venv/bin/python scripts/bench_structure_scale.py --units 15 31
