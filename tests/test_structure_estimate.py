@@ -28,17 +28,17 @@ def _beams(n: int, *, closed: bool) -> dict:
     return {
         "concept": "structure",
         "scenario": "free",
-        "sim": {"duration_s": 0.1, "timestep_s": 1e-3, "progress": False},
+        "sim": {"duration_s": 0.1, "timestep_s": 1e-4, "progress": False},
         "structure": {
             "nodes": {"position_m": nodes, "mass_kg": 0.1},
             "member_groups": [
-                {"kind": "beam", "name": "boom", "nodes": ends, "EA_N": 1e6, "EI_Nm2": 10.0, "GJ_Nm2": 8.0}
+                {"kind": "beam", "name": "boom", "nodes": ends, "EA_N": 1e4, "EI_Nm2": 10.0, "GJ_Nm2": 8.0}
             ],
         },
     }
 
 
-@pytest.mark.parametrize(("n", "closed"), [(200, False), (64, True)], ids=["boom_200", "ring_64"])
+@pytest.mark.parametrize(("n", "closed"), [(120, False), (48, True)], ids=["boom_120", "ring_48"])
 def test_estimate_bounds_what_mujoco_allocates(n, closed):
     cfg = parse_config(_beams(n, closed=closed))
     model = build_scenario(cfg).spec.compile()

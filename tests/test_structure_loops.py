@@ -118,7 +118,7 @@ def _ring(*, n: int = 64, radius_m: float = 5.0, I_max_A=100.0, wire: float = 0.
     return {
         "concept": "structure",
         "scenario": "slew",
-        "sim": {"duration_s": 1.0, "timestep_s": 1e-3, "record_every": 100, "progress": False},
+        "sim": {"duration_s": 1.0, "timestep_s": 5e-4, "record_every": 200, "progress": False},
         "structure": {
             "nodes": {"position_m": nodes, "mass_kg": 0.1},
             "member_groups": [

@@ -29,6 +29,7 @@ import os
 from pathlib import Path
 from typing import Any, Literal
 
+import mujoco
 import numpy as np
 from pydantic import Field, PrivateAttr, field_validator, model_validator
 
@@ -57,6 +58,7 @@ from magsail_mj.structure.fileformat import StructureSource
 from magsail_mj.structure.mesh import MemberProperties, PanelProperties
 from magsail_mj.structure.mjcf import build_structure_spec
 from magsail_mj.structure.model import Structure, StructureError
+from magsail_mj.structure.stability import UNSTABLE_GROWTH, largest_stable_fraction, step_growth
 
 __all__ = [
     "CONTROL_KINDS",
@@ -627,6 +629,7 @@ class StructureConfig(EnvironmentTables, StructureTables):
         except ValueError as err:  # MuJoCo's compiler
             where = f"file: {self.structure.file}: " if self.structure.file is not None else ""
             raise ConfigProblem("structure", f"{where}MuJoCo cannot compile the model: {err}") from None
+        self._step_is_stable(model)
         self._model_sizes = {
             "nv": int(model.nv),
             "nbody": int(model.nbody),
@@ -635,6 +638,27 @@ class StructureConfig(EnvironmentTables, StructureTables):
             "arena_bytes": int(model.narena),
         }
         return self
+
+    def _step_is_stable(self, model: mujoco.MjModel) -> None:
+        """Refuse a time step at which the structure's stiffest modes grow on their own
+        (:func:`~magsail_mj.structure.stability.step_growth` above
+        :data:`~magsail_mj.structure.stability.UNSTABLE_GROWTH`): its run would blow up and read as
+        a failed structure."""
+        growth = step_growth(model)
+        if growth <= UNSTABLE_GROWTH:
+            return
+        fraction = largest_stable_fraction(model)
+        hint = (
+            f"sim.timestep_s = {self.sim.timestep_s * fraction:.6g} s ({fraction:g} of it) is stable"
+            if fraction is not None
+            else "no step down to 1/64 of it is stable"
+        )
+        raise ConfigProblem(
+            "sim.timestep_s",
+            f"{self.sim.timestep_s} s is unstable for this structure with {self.sim.integrator}: a small "
+            f"disturbance of its stiffest modes grows {growth:.3g} times per step (the step must resolve its "
+            f"highest natural frequency); {hint}",
+        )
 
     @model_validator(mode="after")
     def _initial_state(self) -> StructureConfig:
