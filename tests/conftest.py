@@ -15,6 +15,8 @@ import numpy as np
 import pytest
 
 from magsail_mj.render.backend import ensure_gl_backend
+from magsail_mj.structure.generators import four_boom_sail
+from magsail_mj.structure.model import Structure
 
 # The GL backend must be chosen before any test module imports mujoco (MUJOCO_GL is read at
 # import time); pytest imports this conftest before it collects the test modules.
@@ -138,4 +140,21 @@ def start_cli(argv: list[str], *, cwd: Path, module: str = "magsail_mj.cli") -> 
     """``python -m <module> <argv>`` started in ``cwd``, its stdout and stderr piped as text."""
     return subprocess.Popen(
         [sys.executable, "-m", module, *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=cwd
+    )
+
+
+def small_sail(*, n_segments: int = 3, hub_mass_kg: float = 10.0, hub_inertia_kg_m2=1.0) -> Structure:
+    """A 20 m four-boom sail for the structure tests: a rigid hub, four booms of ``n_segments``
+    beams (EA 1e5 N, EI 1000/1500 N m², GJ 800 N m², 0.1 kg/m) and a 10 g/m² membrane."""
+    return four_boom_sail(
+        side_m=20.0,
+        n_segments=n_segments,
+        boom_EA_N=1e5,
+        boom_EI_Nm2=[1000.0, 1500.0],
+        boom_GJ_Nm2=800.0,
+        boom_linear_density_kg_m=0.1,
+        membrane_areal_density_kg_m2=0.01,
+        reflectivity=[0.9, 0.05, 0.05],
+        hub_mass_kg=hub_mass_kg,
+        hub_inertia_kg_m2=hub_inertia_kg_m2,
     )

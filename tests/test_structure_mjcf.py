@@ -20,10 +20,11 @@ from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec
 from magsail_mj.render import backend
 from magsail_mj.structure.beams import body_layout
-from magsail_mj.structure.generators import four_boom_sail, square_plate_lattice
+from magsail_mj.structure.generators import square_plate_lattice
 from magsail_mj.structure.mjcf import StructureModelIndex, build_structure_spec
 from magsail_mj.structure.model import MEMBER_KINDS, Members, Panels, RigidPart, Structure, StructureError
 from magsail_mj.structure.modes import structure_modes
+from tests.conftest import small_sail
 
 BETA1_L = 1.8751040687119611  # first root of cos βL cosh βL = −1 (cantilever)
 BETA2_L = 4.6940911329741745
@@ -335,18 +336,7 @@ def test_free_sail_conserves_energy_and_momentum() -> None:
     (measured 6e-10, RK4's truncation error), and the linear and angular momentum about the
     origin to 1e-10 of their values (measured 3e-12 and 1e-13, round-off over 1 000 steps): the
     springs derive from a potential and every internal force has its reaction."""
-    structure = four_boom_sail(
-        side_m=20.0,
-        n_segments=4,
-        boom_EA_N=1e5,
-        boom_EI_Nm2=[1000.0, 1500.0],
-        boom_GJ_Nm2=800.0,
-        boom_linear_density_kg_m=0.1,
-        membrane_areal_density_kg_m2=0.01,
-        reflectivity=[0.9, 0.05, 0.05],
-        hub_mass_kg=10.0,
-        hub_inertia_kg_m2=1.0,
-    )
+    structure = small_sail(n_segments=4)
     spec = build_structure_spec(structure, timestep_s=2e-4, integrator="RK4")
     spec.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_ENERGY)
     model = spec.compile()

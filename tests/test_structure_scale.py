@@ -25,9 +25,10 @@ from magsail_mj.lattice.mjcf import lattice_arena_bytes
 from magsail_mj.resources import structure_model_bytes
 from magsail_mj.structure.checks import check_structure
 from magsail_mj.structure.fileformat import read_structure, write_structure
-from magsail_mj.structure.generators import four_boom_sail, square_plate_lattice
+from magsail_mj.structure.generators import square_plate_lattice
 from magsail_mj.structure.mjcf import build_structure_spec
 from magsail_mj.structure.model import MEMBER_KINDS, Members, Structure
+from tests.conftest import small_sail
 
 MIB = 1 << 20
 #: Python-side bytes per node the whole path may trace at its peak: 2.3 times the 3.6 kB measured
@@ -81,18 +82,7 @@ def _forest() -> Structure:
 
 def _sail() -> Structure:
     """A rigid hub (part) with four 3-beam booms, and the membrane's nodes as particles (panels)."""
-    return four_boom_sail(
-        side_m=20.0,
-        n_segments=3,
-        boom_EA_N=1e5,
-        boom_EI_Nm2=[1000.0, 1500.0],
-        boom_GJ_Nm2=800.0,
-        boom_linear_density_kg_m=0.1,
-        membrane_areal_density_kg_m2=0.01,
-        reflectivity=[0.9, 0.05, 0.05],
-        hub_mass_kg=10.0,
-        hub_inertia_kg_m2=1.0,
-    )
+    return small_sail()
 
 
 def _model_arrays(model: mujoco.MjModel) -> dict[str, np.ndarray]:

@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 from magsail_mj.structure.fileformat import read_structure
-from magsail_mj.structure.generators import four_boom_sail
 from magsail_mj.structure.mjcf import (
     BEAM_RADIUS_OF_WIDTH,
     PART_MIN_HALF_OF_RADIUS,
@@ -21,6 +20,7 @@ from magsail_mj.structure.mjcf import (
     part_box,
 )
 from magsail_mj.structure.model import MEMBER_KINDS, Members, RigidPart, Structure
+from tests.conftest import small_sail
 
 SAIL = Path(__file__).resolve().parents[1] / "magsail_mj/concepts/structure/configs/structures/sail_100m.toml"
 
@@ -69,18 +69,7 @@ DYNAMIC_FIELDS = (
 def _sail_with_loop() -> Structure:
     """A small four-boom sail with a hub whose inertia is a box's, plus a beam from boom tip to
     boom tip (a closed beam loop: a closing body)."""
-    sail = four_boom_sail(
-        side_m=20.0,
-        n_segments=3,
-        boom_EA_N=1e5,
-        boom_EI_Nm2=[1000.0, 1500.0],
-        boom_GJ_Nm2=800.0,
-        boom_linear_density_kg_m=0.1,
-        membrane_areal_density_kg_m2=0.01,
-        reflectivity=[0.9, 0.05, 0.05],
-        hub_mass_kg=12.0,
-        hub_inertia_kg_m2=np.diag([1.0, 2.0, 2.5]),
-    )
+    sail = small_sail(hub_mass_kg=12.0, hub_inertia_kg_m2=np.diag([1.0, 2.0, 2.5]))
     beams = sail.members.of_kind("beam")
     tips = sorted(
         {int(i) for i in sail.members.nodes[beams].ravel()}, key=lambda i: -np.linalg.norm(sail.positions_m[i])
