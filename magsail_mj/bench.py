@@ -393,14 +393,19 @@ def _report(
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "us_per_step_runs": [x * 1e6 for x in all_in],
         "mj_step_us_runs": [x * 1e6 for x in bare],
-        "platform": {
-            "python": platform.python_version(),
-            "mujoco": mujoco.__version__,
-            "numpy": np.__version__,
-            "machine": platform.machine(),
-            "cpus": os.cpu_count(),
-            "system": sys.platform,
-        },
+        "platform": _platform(),
+    }
+
+
+def _platform() -> dict[str, Any]:
+    """The versions and the machine a benchmark ran on."""
+    return {
+        "python": platform.python_version(),
+        "mujoco": mujoco.__version__,
+        "numpy": np.__version__,
+        "machine": platform.machine(),
+        "cpus": os.cpu_count(),
+        "system": sys.platform,
     }
 
 
@@ -473,12 +478,5 @@ def bench_worlds(
         "us_per_world_step_runs": [x * 1e6 for x in wall],
         "mj_step_us_runs": [x * 1e6 for x in bare],
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-        "platform": {
-            "python": platform.python_version(),
-            "mujoco": mujoco.__version__,
-            "numpy": np.__version__,
-            "machine": platform.machine(),
-            "cpus": os.cpu_count(),
-            "system": sys.platform,
-        },
+        "platform": _platform(),
     }
