@@ -33,6 +33,7 @@ from magsail_mj.export import read_timeseries
 from magsail_mj.records import open_records
 from magsail_mj.resources import estimate_run_bytes
 from magsail_mj.run import run_scenario
+from magsail_mj.scenario import build_scenario
 from magsail_mj.structure.fileformat import read_structure, write_structure
 from tests.conftest import REPO
 
@@ -465,3 +466,13 @@ def test_dipole_allocation_makes_the_torque_across_the_field():
     planar = DipoleAllocation(np.array([[1.0, 0, 0], [0, 1.0, 0], [0.6, 0.8, 0]]), np.ones(3))
     u, _ = planar(np.array([0.0, 1e-6, 0.0]), np.array([1e-5, 0, 0]))  # wants m along z
     assert np.allclose(u, 0.0)
+
+
+def test_a_plate_video_draws_its_top_layer():
+    """The renderer gets the structure's ``top`` node set (layer-wise exaggeration and height colours;
+    without it the octet plate's 3.95 m depth was stretched with its deflection and drew as a cube);
+    a structure without one (the sail) or whose nodes are not bodies 1 … n gets none."""
+    octet = build_scenario(load_config(CONFIGS / "octet_detumble.toml"))
+    top = octet.render_info()["top_nodes"]
+    assert top == sorted(octet.sm.structure.node_sets["top"].tolist()) and len(top) == 200
+    assert "top_nodes" not in build_scenario(load_config(CONFIGS / "sail_detumble.toml")).render_info()

@@ -212,6 +212,16 @@ class StructureTask:
             *self.kind_plots(run_dir, result, series),
         ]
 
+    def top_nodes(self) -> list[int] | None:
+        """The structure's node set ``top`` as the video's top layer (its height colours, and the
+        exaggeration applied about each layer rather than across the plate's depth), when it has
+        one and node ``i`` is body ``i + 1`` (particles only); else ``None``."""
+        top = self.sm.structure.node_sets.get("top")
+        body = np.asarray(self.sm.index.node_body, dtype=np.int64)
+        if top is None or len(top) < 3 or not np.array_equal(body, np.arange(body.size) + 1):
+            return None
+        return [int(i) for i in top]
+
     def render_info(self) -> dict[str, Any]:
         """The manifest's ``render`` entry: title, overlay, camera framed on the structure's extent."""
         r = self.cfg.render
@@ -225,6 +235,7 @@ class StructureTask:
                 "distance_m": r.distance_factor * self.sm.extent_m,
             },
             "exaggeration": r.exaggeration,
+            **({"top_nodes": top} if (top := self.top_nodes()) is not None else {}),
             "fps": r.fps,
             "max_frames": r.max_frames,
             "overlay_names": {k: v for k, v in OVERLAY_NAMES.items() if k in self.OVERLAY},
