@@ -445,7 +445,7 @@ def _add_run_verbs(sub: Any) -> None:
         "bench",
         "time a config's step loop against MuJoCo's bare mj_step (one JSON object on stdout)",
         _cmd_bench,
-        {"duration_s": "--duration-s", "repeat": "--repeat"},
+        {"duration_s": "--duration-s", "repeat": "--repeat", "worlds": "--worlds", "nthread": "--threads"},
     )
     bn.add_argument("config", help=_CONFIG_HELP)
     bn.add_argument(
@@ -461,6 +461,22 @@ def _add_run_verbs(sub: Any) -> None:
         default=1,
         metavar="N",
         help="timed all-in and bare passes; the medians are reported (default 1)",
+    )
+    bn.add_argument(
+        "--worlds",
+        type=_count,
+        default=None,
+        metavar="N",
+        help="time a batch of N identical worlds (the CNUSAIL B-dot detumble): adds worlds, us_per_world_step "
+        "and ratio_to_mj_step per world-step",
+    )
+    bn.add_argument(
+        "--threads",
+        dest="nthread",
+        type=_count,
+        default=1,
+        metavar="N",
+        help="threads stepping the batch (with --worlds; default 1)",
     )
     _set_option(bn)
 

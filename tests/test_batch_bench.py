@@ -9,6 +9,7 @@ import json
 import pytest
 
 from magsail_mj.bench import bench
+from magsail_mj.cli import main
 from magsail_mj.verbs.bench import run_bench
 from tests.test_batch_equals_single import PRE
 
@@ -29,3 +30,11 @@ def test_bench_verb_with_worlds_prints_them(capsys):
     assert run_bench(args) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["worlds"] == 2 and out["steps"] == 5 and "us_per_world_step" in out and "ratio_to_mj_step" in out
+
+
+def test_bench_command_line_takes_worlds_and_threads(capsys):
+    assert main(["bench", str(PRE), "--duration-s", "1", "--worlds", "2", "--threads", "2"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert (out["worlds"], out["nthread"], out["steps"]) == (2, 2, 5)
+    assert main(["bench", str(PRE), "--worlds", "0"]) == 2
+    assert "--worlds" in capsys.readouterr().err
