@@ -38,3 +38,5 @@ def test_bench_command_line_takes_worlds_and_threads(capsys):
     assert (out["worlds"], out["nthread"], out["steps"]) == (2, 2, 5)
     assert main(["bench", str(PRE), "--worlds", "0"]) == 2
     assert "--worlds" in capsys.readouterr().err
+    assert main(["bench", str(PRE), "--duration-s", "1", "--worlds", "2", "--threads", "1000000"]) == 2
+    assert "--threads" in capsys.readouterr().err

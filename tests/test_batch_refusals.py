@@ -53,5 +53,6 @@ def test_invalid_worlds_and_arguments_are_named():
         load_batch(PRE, SHARED, worlds=3, world_overrides=[[], []])
     with pytest.raises(ValueError, match="world_overrides: must be a list of lists"):
         load_batch(PRE, SHARED, world_overrides=["sim.seed=1"])
-    with pytest.raises(ValueError, match="nthread: must be an integer >= 1, got 0"):
-        load_batch(PRE, SHARED, worlds=2, nthread=0)
+    for nthread in (0, 257):
+        with pytest.raises(ValueError, match=f"nthread: must be an integer from 1 to 256, got {nthread}"):
+            load_batch(PRE, SHARED, worlds=2, nthread=nthread)

@@ -43,6 +43,10 @@ __all__ = ["load_batch", "concept_batch"]
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
 
+#: the most threads a batch starts (each is an OS thread with its own MjData)
+MAX_THREADS = 256
+
+
 def concept_batch(concept: str) -> Any:
     """The ``batch`` module of ``concept``.
 
@@ -97,8 +101,8 @@ def load_batch(
       ConfigError: a world's config is invalid, asks what the batch does not run, or differs from
         world 0 in a key that must be shared or that changes the model's sizes (each named).
     """
-    if isinstance(nthread, bool) or not isinstance(nthread, int) or nthread < 1:
-        raise ValueError(f"nthread: must be an integer >= 1, got {nthread!r}")
+    if isinstance(nthread, bool) or not isinstance(nthread, int) or not 1 <= nthread <= MAX_THREADS:
+        raise ValueError(f"nthread: must be an integer from 1 to {MAX_THREADS}, got {nthread!r}")
     cfgs = world_configs(config, overrides, worlds=worlds, world_overrides=world_overrides)
     concept = concept_batch(cfgs[0].concept)
     check_batchable(cfgs, concept)
