@@ -42,7 +42,7 @@ from typing import Literal, Sequence
 
 import numpy as np
 
-from magsail_mj.control.lloyd import LloydSelector
+from magsail_mj.control.lloyd import LloydSelector, Symmetry
 
 __all__ = [
     "AllocationMode",
@@ -406,8 +406,10 @@ class TorqueDistributor:
         tol_rel: float = 1e-6,
         max_iter: int = 10_000,
         cache_dir: str | Path | None = None,
+        symmetry: Symmetry = "none",
     ) -> "TorqueDistributor":
-        """Distributor for a :class:`~magsail_mj.loads.magnetorquer_rods.RodArray` (truss rods)."""
+        """Distributor for a :class:`~magsail_mj.loads.magnetorquer_rods.RodArray` (truss rods);
+        ``symmetry`` as in :class:`~magsail_mj.control.lloyd.LloydSelector`."""
         sel = LloydSelector(
             [rods.family_sites(0), rods.family_sites(1)],
             region=rods.region,
@@ -415,6 +417,7 @@ class TorqueDistributor:
             tol_rel=tol_rel,
             max_iter=max_iter,
             cache_dir=cache_dir,
+            symmetry=symmetry,
         )
         return cls(sel, m_rod_Am2=m_rod_Am2, mode=mode)
 

@@ -32,8 +32,30 @@ the iterates equal those of re-triangulating every time to rounding. :func:`voro
 builds the ordered cell polygons the plain way (``scipy.spatial.Voronoi`` with all four mirrors)
 for plots and as the slow reference.
 
-Runtime use. The pattern depends only on ``|N_f|``, the region, the seed and the
-tolerance, so :class:`LloydSelector` computes each count once (lazily, or all up front with
+Mirror-symmetric selections (``symmetry="mirror_xy"``). A selection mirror-symmetric about both
+centre lines ``x = x_c``, ``y = y_c`` of the region is a union of *orbits* of the two mirrors: four
+sites ``(x_c ± a, y_c ± b)``, two on a centre line, one at the centre (:func:`mirror_orbits`; the
+sites must be mirror-symmetric themselves). For ``|N_f|`` rods:
+
+1. ``q = min(⌊|N_f|/4⌋, number of four-site orbits)`` generators run Lloyd's algorithm in the
+   upper-right quadrant ``[x_c, x_max] × [y_c, y_max]``; mirrored across the centre lines they are a
+   centroidal Voronoi tessellation of the whole region (the reflection argument above: the
+   quadrant's sides are edges of the mirrored cells);
+2. the ``q`` generators are snapped one-to-one to the quadrant points ``(x_c + |x − x_c|,
+   y_c + |y − y_c|)`` of the four-site orbits (the optimal assignment of step 4; its cost is a
+   quarter of that of the mirrored generators against the orbits' sites), and all four sites of
+   each chosen orbit are switched on;
+3. the remaining ``|N_f| − 4q`` rods come from two-site orbits, then one-site orbits, one orbit at a
+   time: the one whose sites lie farthest from the sites already chosen (ties, and the first pick
+   of an empty selection: the one nearest the quadrant's centre).
+
+An odd count needs a one-site orbit, a site at the region's centre; without one (the truss: no
+strut midpoint lies at the centre) the selection has ``|N_f| − 1`` sites, so the delivered torque
+is that of one rod fewer than commanded. The generators of ``q`` are shared by the families, as
+without symmetry.
+
+Runtime use. The pattern depends only on ``|N_f|``, the region, the seed, the
+tolerance and the symmetry, so :class:`LloydSelector` computes each count once (lazily, or all up front with
 :meth:`LloydSelector.precompute`), keeps it in memory, and optionally on disk keyed by region, seed,
 tolerance and iteration cap. Both families share the generators of a count (same region and
 seed); only the snapping differs. A control call is then a dictionary look-up.
@@ -48,7 +70,7 @@ import zipfile
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Iterable, Literal, Sequence
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -62,8 +84,12 @@ SHIPPED_DIR = Path(__file__).resolve().parent.parent / "data" / "lloyd"
 
 __all__ = [
     "Region",
+    "Symmetry",
+    "SYMMETRIES",
     "LloydResult",
+    "MirrorOrbits",
     "as_region",
+    "mirror_orbits",
     "initial_generators",
     "nn_spacing_cv",
     "covering_radius",
@@ -78,6 +104,12 @@ Region = tuple[float, float, float, float]
 """Axis-aligned rectangle ``(x_min, y_min, x_max, y_max)`` [m, or any length unit]."""
 
 _ALGO_VERSION = "lloyd-delaunay-v1"  # part of the disk-cache key
+
+Symmetry = Literal["none", "mirror_xy"]
+"""Symmetry of a selection: none, or mirror-symmetric about both centre lines of the region."""
+SYMMETRIES: tuple[str, ...] = ("none", "mirror_xy")
+"""The values of :data:`Symmetry`."""
+_MIRROR_TOL_REL = 1e-9  # a site's mirror image is a site when closer than this × the longer side
 
 
 def as_region(region: Sequence[float]) -> Region:
@@ -451,6 +483,64 @@ def snap_to_sites(generators: np.ndarray, sites: np.ndarray) -> np.ndarray:
     return np.sort(cols.astype(np.int64))
 
 
+@dataclass(frozen=True)
+class MirrorOrbits:
+    """The sites of one family grouped by the mirrors about both centre lines of a region.
+
+    Attributes:
+      members: (n_orbits, 4) site indices of each orbit: its lowest-index site ``(x, y)`` and the
+        sites at ``(2 x_c − x, y)``, ``(x, 2 y_c − y)``, ``(2 x_c − x, 2 y_c − y)`` (repeated where
+        the site lies on a centre line).
+      size: (n_orbits,) distinct sites of each orbit: 4, 2 (on one centre line) or 1 (the centre).
+      rep: (n_orbits, 2) the orbit's point in the upper-right quadrant,
+        ``(x_c + |x − x_c|, y_c + |y − y_c|)`` [length unit of the region].
+      centre: ``(x_c, y_c)``, the centre of the region.
+    """
+
+    members: np.ndarray
+    size: np.ndarray
+    rep: np.ndarray
+    centre: tuple[float, float]
+
+    def sites_of(self, orbits: np.ndarray) -> np.ndarray:
+        """Sorted distinct site indices of ``orbits`` ((k,) int64)."""
+        return np.unique(self.members[np.asarray(orbits, dtype=np.int64)].ravel()).astype(np.int64)
+
+
+def mirror_orbits(sites: np.ndarray, region: Sequence[float]) -> MirrorOrbits:
+    """Orbits of ``sites`` ((n, 2)) under the mirrors about the centre lines of ``region``.
+
+    Every mirror image of a site must be a site, to ``1e-9`` of the region's longer side; otherwise
+    ``ValueError`` naming the first site whose image is missing and its distance to the nearest site.
+    """
+    reg = as_region(region)
+    S = np.asarray(sites, dtype=float)
+    if S.ndim != 2 or S.shape[1] != 2 or S.shape[0] == 0:
+        raise ValueError(f"sites: expected a non-empty (n, 2) array, got shape {S.shape}")
+    xc, yc = 0.5 * (reg[0] + reg[2]), 0.5 * (reg[1] + reg[3])
+    tol = _MIRROR_TOL_REL * max(reg[2] - reg[0], reg[3] - reg[1])
+    tree = cKDTree(S)
+    columns = [np.arange(S.shape[0], dtype=np.int64)]
+    for name, (sx, sy) in (("x = x_c", (-1.0, 1.0)), ("y = y_c", (1.0, -1.0)), ("both centre lines", (-1.0, -1.0))):
+        image = np.column_stack([xc + sx * (S[:, 0] - xc), yc + sy * (S[:, 1] - yc)])
+        dist, idx = tree.query(image)
+        if dist.max() > tol:
+            bad = int(np.argmax(dist))
+            raise ValueError(
+                f"sites: symmetry 'mirror_xy' needs sites mirror-symmetric about x_c = {xc:g}, y_c = {yc:g}; "
+                f"the mirror image of site {bad} {S[bad].tolist()} across {name} is {dist[bad]:.3g} "
+                "from the nearest site"
+            )
+        columns.append(idx.astype(np.int64))
+    M = np.column_stack(columns)
+    first = np.flatnonzero(M.min(axis=1) == columns[0])  # one row per orbit: its lowest-index site
+    members = M[first]
+    ordered = np.sort(members, axis=1)
+    size = 1 + np.count_nonzero(np.diff(ordered, axis=1), axis=1)
+    rep = np.column_stack([xc + np.abs(S[first, 0] - xc), yc + np.abs(S[first, 1] - yc)])
+    return MirrorOrbits(members, size, rep, (xc, yc))
+
+
 # --------------------------------------------------------------------------- runtime selector
 
 
@@ -517,6 +607,10 @@ class LloydSelector:
       shipped_dir: a read-only folder of the same layout consulted after ``cache_dir`` (default
         :data:`SHIPPED_DIR`, the selections of the shipped configs installed with the package, so
         a fresh checkout runs them without minutes of Lloyd iterations; ``None``: none).
+      symmetry: ``"none"`` (default) or ``"mirror_xy"``: selections mirror-symmetric about both
+        centre lines of the region (module docstring; the sites must be mirror-symmetric, and an
+        odd count without a site at the centre selects one site fewer). Part of the cache key
+        when not ``"none"``.
 
     The families' rods are numbered consecutively (family 0 first), as in
     :class:`magsail_mj.loads.magnetorquer_rods.RodArray`; :meth:`polarity` returns the int8
@@ -533,9 +627,12 @@ class LloydSelector:
         max_iter: int = 10_000,
         cache_dir: str | Path | None = None,
         shipped_dir: str | Path | None = SHIPPED_DIR,
+        symmetry: Symmetry = "none",
     ):
         self.region = as_region(region)
         _check_lloyd_options(tol_rel, max_iter)
+        if symmetry not in SYMMETRIES:
+            raise ValueError(f"symmetry: must be one of {list(SYMMETRIES)}, got {symmetry!r}")
         if int(seed) != seed or seed < 0:
             raise ValueError(f"seed: must be an integer >= 0, got {seed!r}")
         fams = [np.asarray(s, dtype=float) for s in sites]
@@ -545,6 +642,12 @@ class LloydSelector:
             if s.ndim != 2 or s.shape[1] != 2 or s.shape[0] == 0:
                 raise ValueError(f"sites[{f}]: expected a non-empty (n, 2) array, got shape {s.shape}")
         self.sites = fams
+        self.symmetry: Symmetry = symmetry
+        #: per family, the mirror orbits of its sites (``symmetry="mirror_xy"``; else None)
+        self.orbits = [mirror_orbits(s, self.region) for s in fams] if symmetry == "mirror_xy" else None
+        x0, y0, x1, y1 = self.region
+        #: where the generators live: the region, or its upper-right quadrant with ``"mirror_xy"``
+        self.lloyd_region: Region = self.region if symmetry == "none" else (0.5 * (x0 + x1), 0.5 * (y0 + y1), x1, y1)
         self.n_sites = tuple(s.shape[0] for s in fams)
         self.offsets = tuple(int(v) for v in np.concatenate([[0], np.cumsum(self.n_sites)[:-1]]))
         self.n_rods = int(sum(self.n_sites))
@@ -567,17 +670,18 @@ class LloydSelector:
         }
 
     def cache_key(self) -> str:
-        """Hash of what the generators depend on (region, seed, tolerance, cap, algorithm)."""
-        blob = json.dumps(
-            {
-                "region": list(self.region),
-                "seed": self.seed,
-                "tol_rel": self.tol_rel,
-                "max_iter": self.max_iter,
-                "algo": _ALGO_VERSION,
-            },
-            sort_keys=True,
-        )
+        """Hash of what the generators depend on (region, seed, tolerance, cap, algorithm; the
+        symmetry when not ``"none"``, so the keys of plain selections are those they always had)."""
+        fields: dict[str, object] = {
+            "region": list(self.region),
+            "seed": self.seed,
+            "tol_rel": self.tol_rel,
+            "max_iter": self.max_iter,
+            "algo": _ALGO_VERSION,
+        }
+        if self.symmetry != "none":
+            fields["symmetry"] = self.symmetry
+        blob = json.dumps(fields, sort_keys=True)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
     # -- generators
@@ -598,8 +702,10 @@ class LloydSelector:
         """Snapped selection of ``count`` sites of ``family``: from disk, else snapped and stored."""
         path = self._snap_path(family, count)
 
+        size = self.selection_size(family, count)
+
         def read(p: Path) -> np.ndarray:
-            return _valid_selection(np.load(p, allow_pickle=False), count, self.n_sites[family])
+            return _valid_selection(np.load(p, allow_pickle=False), size, self.n_sites[family])
 
         cached = _read_cache(path, read)
         if cached is not None:
@@ -609,9 +715,13 @@ class LloydSelector:
         if cached is not None:
             self.stats["shipped_hits"] += 1
             return cached
-        gen = self.result(count).generators
-        t0 = time.perf_counter()
-        sel = snap_to_sites(gen, self.sites[family])
+        if self.orbits is None:
+            gen = self.result(count).generators
+            t0 = time.perf_counter()
+            sel = snap_to_sites(gen, self.sites[family])
+        else:
+            t0 = time.perf_counter()
+            sel = self._symmetric_selection(family, count)
         self.stats["snap_time_s"] += time.perf_counter() - t0
         if path is not None:
             with atomic_path(path, suffix=".npy") as tmp:
@@ -639,8 +749,66 @@ class LloydSelector:
             raise ValueError(f"count: must be an integer >= 0, got {count!r}")
         return int(count)
 
+    # -- mirror-symmetric selections
+    def _orbit_counts(self, family: int, count: int) -> tuple[int, int, int]:
+        """``(q, p, s)``: four-, two- and one-site orbits of the symmetric selection of ``count``."""
+        size = self.orbits[family].size
+        q = min(count // 4, int(np.count_nonzero(size == 4)))
+        p = min((count - 4 * q) // 2, int(np.count_nonzero(size == 2)))
+        s = min(count - 4 * q - 2 * p, int(np.count_nonzero(size == 1)))
+        return q, p, s
+
+    def selection_size(self, family: int, count: int) -> int:
+        """Number of sites the selection of ``count`` switches on: ``count``, or with
+        ``"mirror_xy"`` the sites of its orbits (one fewer for an odd count without a centre site)."""
+        if self.orbits is None or count == self.n_sites[family]:
+            return count
+        q, p, s = self._orbit_counts(family, count)
+        return 4 * q + 2 * p + s
+
+    def _lloyd_count(self, family: int, count: int) -> int | None:
+        """Generators of the Lloyd run the selection of ``count`` in ``family`` needs (None: none)."""
+        if count >= self.n_sites[family]:
+            return None
+        if self.orbits is None:
+            return count
+        q = self._orbit_counts(family, count)[0]
+        return q if 0 < q < np.count_nonzero(self.orbits[family].size == 4) else None
+
+    def _symmetric_selection(self, family: int, count: int) -> np.ndarray:
+        """Sorted site indices of the mirror-symmetric selection of ``count`` (module docstring)."""
+        orb = self.orbits[family]
+        q, p, s = self._orbit_counts(family, count)
+        quads = np.flatnonzero(orb.size == 4)
+        if q == quads.size:
+            chosen = quads
+        elif q:
+            chosen = quads[snap_to_sites(self.result(q).generators, orb.rep[quads])]
+        else:
+            chosen = np.zeros(0, dtype=np.int64)
+        sites = self.sites[family]
+        x0, y0, x1, y1 = self.lloyd_region
+        tie = _MIRROR_TOL_REL * max(self.region[2] - self.region[0], self.region[3] - self.region[1])
+        for size, n_add in ((2, p), (1, s)):
+            pool = np.flatnonzero(orb.size == size)
+            # distance of each orbit's quadrant point to the quadrant's centre: the tie-break
+            to_centre = np.hypot(orb.rep[pool, 0] - 0.5 * (x0 + x1), orb.rep[pool, 1] - 0.5 * (y0 + y1))
+            for _ in range(n_add):
+                free = ~np.isin(pool, chosen)
+                if chosen.size:
+                    far, _ = cKDTree(sites[orb.sites_of(chosen)]).query(sites[orb.members[pool, 0]])
+                else:
+                    far = np.full(pool.size, np.inf)
+                far = np.where(free, far, -np.inf)
+                best = far.max()
+                near_best = free & ((far >= best - tie) | np.isinf(best))
+                pick = pool[np.flatnonzero(near_best)[np.argmin(to_centre[near_best])]]
+                chosen = np.append(chosen, pick)
+        return orb.sites_of(chosen)
+
     def result(self, count: int) -> LloydResult:
-        """The Lloyd result for ``count`` generators (memory, then disk, then computed)."""
+        """The Lloyd result for ``count`` generators in :attr:`lloyd_region` (the region, or its
+        upper-right quadrant with ``"mirror_xy"``): memory, then disk, then computed."""
         count = self._check_count(count)
         res = self._gen.get(count)
         if res is not None:
@@ -656,7 +824,7 @@ class LloydSelector:
             self.stats["shipped_hits"] += 1
             self._gen[count] = res
             return res
-        res = lloyd(count, region=self.region, seed=self.seed, tol_rel=self.tol_rel, max_iter=self.max_iter)
+        res = lloyd(count, region=self.lloyd_region, seed=self.seed, tol_rel=self.tol_rel, max_iter=self.max_iter)
         self.stats["lloyd_runs"] += 1
         self.stats["lloyd_time_s"] += res.time_s
         self._store(count, res)
@@ -672,15 +840,17 @@ class LloydSelector:
         wanted = [self._check_count(c) for c in (range(max(self.n_sites) + 1) if counts is None else counts)]
         if wanted and max(wanted) > max(self.n_sites):
             raise ValueError(f"counts: at most {max(self.n_sites)} sites per family, got {max(wanted)}")
-        # A count equal to every family's size selects all sites and needs no Lloyd run; the
-        # largest counts go first so that the worker processes finish together.
-        todo = sorted({c for c in wanted if any(c < n for n in self.n_sites)}, reverse=True)
+        # A count equal to every family's size selects all sites and needs no Lloyd run (nor, with
+        # "mirror_xy", one that takes every four-site orbit); the largest counts go first so that
+        # the worker processes finish together.
+        needed = {self._lloyd_count(f, c) for c in wanted for f in range(len(self.sites)) if c <= self.n_sites[f]}
+        todo = sorted(needed - {None}, reverse=True)
         todo = [c for c in todo if c not in self._gen and not self._on_disk(c)]
         if workers == 1 or len(todo) < 2:
             for c in todo:
                 self.result(c)
         else:
-            jobs = [(c, self.region, self.seed, self.tol_rel, self.max_iter) for c in todo]
+            jobs = [(c, self.lloyd_region, self.seed, self.tol_rel, self.max_iter) for c in todo]
             with ProcessPoolExecutor(max_workers=int(workers)) as ex:
                 for c, res in ex.map(_lloyd_job, jobs, chunksize=1):
                     self.stats["lloyd_runs"] += 1
@@ -693,7 +863,8 @@ class LloydSelector:
 
     # -- selection
     def selected(self, family: int, count: int) -> np.ndarray:
-        """Sorted indices (within ``family``) of the ``count`` sites to activate; read-only."""
+        """Sorted indices (within ``family``) of the ``count`` sites to activate; read-only (with
+        ``"mirror_xy"``: :meth:`selection_size` sites, one fewer for an odd count without a centre site)."""
         if int(family) != family or not 0 <= family < len(self.sites):
             raise ValueError(f"family: must be 0 … {len(self.sites) - 1}, got {family!r}")
         count = self._check_count(count)
@@ -713,7 +884,8 @@ class LloydSelector:
     def polarity(self, counts: Sequence[int]) -> np.ndarray:
         """(n_rods,) int8 polarities for the signed counts ``N_f`` of each family.
 
-        ``|N_f|`` rods of family ``f`` (the cached selection) get ``sign(N_f)``; all others 0.
+        ``|N_f|`` rods of family ``f`` (the cached selection; with ``"mirror_xy"`` its
+        :meth:`selection_size`) get ``sign(N_f)``; all others 0.
         """
         if len(counts) != len(self.sites):
             raise ValueError(f"counts: expected {len(self.sites)} signed counts, got {len(counts)}")

@@ -24,6 +24,7 @@ from magsail_mj.config import (
     derived_quantity,
     finite_product,
 )
+from magsail_mj.control.lloyd import Symmetry
 from magsail_mj.environment.config import EnvironmentTables, environment_problems
 
 __all__ = [
@@ -165,11 +166,15 @@ class ActuatorsConfig(StrictModel):
 
 
 class LloydConfig(StrictModel):
-    """``[control.lloyd]``: rod selection; ``seed`` absent = ``sim.seed``."""
+    """``[control.lloyd]``: rod selection; ``seed`` absent = ``sim.seed``; ``symmetry``:
+    ``"none"`` (the paper's selection) or ``"mirror_xy"`` (mirror-symmetric about both plate axes
+    ``x1 = 0`` and ``y1 = 0``; an odd count switches on one rod fewer, see
+    :mod:`magsail_mj.control.lloyd`)."""
 
     seed: int | None = Field(default=None, ge=0)
     tol_rel: float = Field(default=1e-6, gt=0, lt=1)
     max_iter: int = Field(default=10_000, ge=1)
+    symmetry: Symmetry = "none"
 
 
 class TrussControlConfig(StrictModel):

@@ -149,6 +149,7 @@ def make_distributor(control: TrussControlConfig, rod_load: MagnetorquerRodLoad,
         tol_rel=c.lloyd.tol_rel,
         max_iter=c.lloyd.max_iter,
         cache_dir=c.cache_dir or None,
+        symmetry=c.lloyd.symmetry,
     )
 
 
@@ -293,6 +294,7 @@ def orbital_manifest(cfg: TrussConfig, tm: TrussModel, rod: MagnetorquerRodLoad)
         "allocation_mode": c.allocation,
         "lloyd_seed": lloyd_seed(c, cfg.sim.seed),
         "lloyd_tol_rel": c.lloyd.tol_rel,
+        "lloyd_symmetry": c.lloyd.symmetry,
         "lloyd_cache_dir": c.cache_dir,
         "gg_comp_inertia_kgm2": np.diag(controller_inertia(c, tm)).tolist(),
         "initial_q0_wxyz": list(cfg.q0_wxyz),
