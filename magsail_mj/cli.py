@@ -222,6 +222,19 @@ def _count_or_zero(text: str) -> int:
     return _integer_at_least(text, 0)
 
 
+SWEEP_MAX_BATCH_SIZE = 1024
+"""The largest ``magsail sweep --batch-size`` (:data:`magsail_mj.sweep.batches.MAX_BATCH_SIZE`,
+mirrored so that the parser imports no Dask; tests/test_sweep_batch.py checks they agree)."""
+
+
+def _batch_size(text: str) -> int:
+    """An integer from 1 to :data:`SWEEP_MAX_BATCH_SIZE` (the worlds of a sweep's batch)."""
+    value = _integer_at_least(text, 1)
+    if value > SWEEP_MAX_BATCH_SIZE:
+        raise argparse.ArgumentTypeError(f"must be an integer from 1 to {SWEEP_MAX_BATCH_SIZE}, got {text!r}")
+    return value
+
+
 def _memory(text: str) -> str:
     """The text of ``--memory-limit`` (parsed by the dispatcher, which names the option in an error)."""
     if not str(text).strip():
@@ -511,7 +524,13 @@ def _add_run_verbs(sub: Any) -> None:
         "sweep",
         "run every run of a sweep file ([[run]], [grid], [monte_carlo]) on Dask",
         _cmd_sweep,
-        {"workers": "--workers", "only": "--only", "retries": "--retries", "scheduler": "--scheduler"},
+        {
+            "workers": "--workers",
+            "only": "--only",
+            "retries": "--retries",
+            "scheduler": "--scheduler",
+            "batch_size": "--batch-size",
+        },
     )
     sw.add_argument("sweep", help="sweep TOML ([[run]] tables with id and config, or [grid] / [monte_carlo])")
     sw.add_argument("--out", help="sweep folder (default: runs/<sweep name>)")
@@ -545,6 +564,16 @@ def _add_run_verbs(sub: Any) -> None:
         type=_count_or_zero,
         default=2,
         help="retries of a run whose process was killed (default 2; a retry resumes from its checkpoint)",
+    )
+    sw.add_argument(
+        "--batch-size",
+        type=_batch_size,
+        metavar="N",
+        help=(
+            "runs of one compiled model (CNUSAIL B-dot) run as the worlds of batches of up to N runs, one "
+            f"task each; 1: every run alone (default: from the cores and the memory estimate, at most 64; "
+            f"at most {SWEEP_MAX_BATCH_SIZE})"
+        ),
     )
     sw.add_argument(
         "--scheduler",

@@ -10,6 +10,8 @@ A concept runs in a batch when its package has a ``batch`` module (found through
   in it), ``compile_model(cfg)``, ``init_state(k, data)``, ``plant()`` (the
   :class:`~magsail_mj.batch.runner.Plant` over the world axis) and ``scenario(k)`` (world k's task,
   for its run folder).
+* ``compile_model(cfg)`` (optional) — the compiled model of one config, whose sizes group configs
+  into batches before anything is built (:mod:`magsail_mj.batch.groups`).
 
 Steps: each world's config (:func:`~magsail_mj.batch.worlds.world_configs`); what one batch cannot
 run refused by name (:func:`~magsail_mj.batch.worlds.check_batchable`); the worlds built; every

@@ -96,6 +96,7 @@ from distributed import Client, LocalCluster, Nanny, as_completed
 
 from magsail_mj.config import ConfigError, apply_overrides, config_hash, load_config, read_toml
 from magsail_mj.io import RunDirError, atomic_path, file_sha256, package_versions, to_jsonable, write_json
+from magsail_mj.resources import memory_limit_bytes
 from magsail_mj.run import deferred_interrupts
 from magsail_mj.sweep.common import (
     _SUCCESS,
@@ -109,8 +110,9 @@ from magsail_mj.sweep.common import (
     runs_running,
 )
 from magsail_mj.sweep.design import design_points
+from magsail_mj.sweep.batches import check_batch_size, plan_batches
 from magsail_mj.sweep.progress import SweepProgress, dashboard_address, running_tasks
-from magsail_mj.sweep.runner import IgnoreSigint, request_stop, run_one, supervise
+from magsail_mj.sweep.runner import IgnoreSigint, request_stop, run_one, supervise, supervise_batch
 
 try:
     import fcntl
@@ -331,11 +333,12 @@ def _load_run(
 ) -> tuple[SweepRun, list[str]]:
     """The run with the hash of its config now; the config's problems (fatal only when selected)."""
     try:
-        digest, problems = config_hash(load_config(config, list(overrides))), []
+        cfg = load_config(config, list(overrides))
+        digest, concept, problems = config_hash(cfg), str(cfg.concept), []
     except ConfigError as err:
-        digest, problems = "", [f"{rid}: {p}" for p in err.problems]
+        digest, concept, problems = "", "", [f"{rid}: {p}" for p in err.problems]
     except OSError as err:
-        digest, problems = "", [f"{rid}: config {config}: {err}"]
+        digest, concept, problems = "", "", [f"{rid}: config {config}: {err}"]
     run = SweepRun(
         id=rid,
         config=config,
@@ -344,6 +347,7 @@ def _load_run(
         selected=selected,
         problem="; ".join(problems),
         params=params,
+        concept=concept,
     )
     return run, problems if selected else []
 
@@ -783,46 +787,68 @@ class _Call:
         return ordered
 
 
-def _future_record(future: Any, run: SweepRun) -> dict[str, Any]:
-    """The record a finished task returned, or a failed record saying why the task failed."""
+def _future_records(future: Any, task: tuple[SweepRun, ...]) -> list[dict[str, Any]]:
+    """The records a finished task returned (one per run of the task), or failed records saying
+    why the task failed."""
     try:
-        return future.result()
+        result = future.result()
     except Exception as err:  # noqa: BLE001 - KilledWorker (workers died again and again) or a lost task
         why = (
             "its workers died too often (Dask KilledWorker)"
             if type(err).__name__ == "KilledWorker"
             else f"{type(err).__name__}: {err}"
         )
-        return _record(run, status="failed", message=f"the task failed: {why}", attempts=0)
+        return [_record(run, status="failed", message=f"the task failed: {why}", attempts=0) for run in task]
+    return list(result) if isinstance(result, list) else [result]
 
 
 def _submit(
-    client: Any, call: _Call, todo: list[SweepRun], *, video: bool, overwrite: bool, retries: int, grace_s: float
-) -> dict[Any, SweepRun]:
-    return {
-        client.submit(
-            supervise,
-            run,
-            str(call.out),
-            video=video,
-            fresh=overwrite,
-            token=call.token,
-            run_retries=retries,
-            grace_s=grace_s,
-            key=f"magsail-run-{call.token}-{n}",
-            pure=False,
-        ): run
-        for n, run in enumerate(todo)
-    }
+    client: Any,
+    call: _Call,
+    tasks: list[tuple[SweepRun, ...]],
+    *,
+    video: bool,
+    overwrite: bool,
+    retries: int,
+    grace_s: float,
+) -> dict[Any, tuple[SweepRun, ...]]:
+    """One Dask task per task of runs: :func:`~magsail_mj.sweep.runner.supervise` for a single
+    run, :func:`~magsail_mj.sweep.runner.supervise_batch` for a batch (its key ends ``-w<worlds>``,
+    which the progress bar counts as that many runs)."""
+    futures = {}
+    for n, task in enumerate(tasks):
+        common = {"fresh": overwrite, "token": call.token, "run_retries": retries, "grace_s": grace_s, "pure": False}
+        if len(task) == 1:
+            future = client.submit(
+                supervise, task[0], str(call.out), video=video, key=f"magsail-run-{call.token}-{n}", **common
+            )
+        else:
+            future = client.submit(
+                supervise_batch, task, str(call.out), key=f"magsail-run-{call.token}-{n}-w{len(task)}", **common
+            )
+        futures[future] = task
+    return futures
 
 
-def _execute(client: Any, futures: dict[Any, SweepRun], call: _Call) -> None:
+def _task_runs(key: str) -> int:
+    """The runs of a task of this sweep from its key (``…-w<worlds>`` for a batch)."""
+    head, _, worlds = str(key).rpartition("-w")
+    return int(worlds) if head and worlds.isdigit() else 1
+
+
+def _store_task(call: _Call, future: Any, task: tuple[SweepRun, ...]) -> None:
+    """Store the record of every run of a finished task."""
+    for rec in _future_records(future, task):
+        call.store(rec)
+
+
+def _execute(client: Any, futures: dict[Any, tuple[SweepRun, ...]], call: _Call) -> None:
     """Store each run's record as its task ends (the progress bar asks the scheduler meanwhile
     how many runs are being processed)."""
     progress = call.progress if call.progress is not None and call.progress.enabled else None
     if progress is None:
         for future in as_completed(list(futures), loop=client.loop):
-            call.store(_future_record(future, futures[future]))
+            _store_task(call, future, futures[future])
             call.interrupts.raise_pending()
         return
     progress.set_dashboard(dashboard_address(client))
@@ -830,15 +856,15 @@ def _execute(client: Any, futures: dict[Any, SweepRun], call: _Call) -> None:
     pending = as_completed(list(futures), loop=client.loop)
     while not pending.is_empty():
         if not pending.has_ready():
-            progress.set_running(running_tasks(client, prefix))
+            progress.set_running(running_tasks(client, prefix, weight=_task_runs))
             time.sleep(_POLL_S)
             continue
         for future in pending.next_batch(block=False):
-            call.store(_future_record(future, futures[future]))
+            _store_task(call, future, futures[future])
             call.interrupts.raise_pending()
 
 
-def _stop(futures: dict[Any, SweepRun], call: _Call, *, grace_s: float) -> None:
+def _stop(futures: dict[Any, tuple[SweepRun, ...]], call: _Call, *, grace_s: float) -> None:
     """After SIGINT/SIGTERM: ask the supervisors to stop, wait for their records (a further
     interrupt kills the runs at once), mark the rest ``interrupted``."""
     if call.log:
@@ -853,15 +879,61 @@ def _stop(futures: dict[Any, SweepRun], call: _Call, *, grace_s: float) -> None:
             killed, deadline = True, min(deadline, time.monotonic() + 3.0)
         time.sleep(0.1)
     call.settled = all(f.done() for f in futures)
-    for future, run in futures.items():
-        if run.id not in call.records:
-            rec = (
-                _future_record(future, run)
-                if future.done()
-                else _record(run, status="interrupted", message="stopped while running (no record from its worker)")
-            )
-            call.records[run.id] = rec
-            _log_record(call.log, rec)
+    for future, task in futures.items():
+        if all(run.id in call.records for run in task):
+            continue
+        recs = (
+            _future_records(future, task)
+            if future.done()
+            else [
+                _record(run, status="interrupted", message="stopped while running (no record from its worker)")
+                for run in task
+            ]
+        )
+        for rec in recs:
+            if rec["id"] not in call.records:
+                call.records[rec["id"]] = rec
+                _log_record(call.log, rec)
+
+
+def _engine_resources(client: Any, local_workers: int | None) -> tuple[int, float]:
+    """``(cores, memory per core [bytes])`` the default batch size is chosen for: a LocalCluster's
+    workers sharing the memory limit (:func:`~magsail_mj.resources.memory_limit_bytes`), else the
+    scheduler's worker threads now and their workers' memory limits (the memory limit here when
+    they state none)."""
+    if local_workers is not None:
+        return local_workers, memory_limit_bytes() / local_workers
+    try:
+        workers = list(client.scheduler_info().get("workers", {}).values())
+    except (OSError, TimeoutError, RuntimeError, AttributeError):
+        workers = []
+    cores = max(1, sum(int(w.get("nthreads") or 0) for w in workers))
+    stated = [float(w["memory_limit"]) / max(1, int(w.get("nthreads") or 1)) for w in workers if w.get("memory_limit")]
+    return cores, min(stated) if stated else memory_limit_bytes() / cores
+
+
+def _plan_tasks(
+    todo: list[SweepRun],
+    call: _Call,
+    *,
+    batch_size: int | None,
+    resources: tuple[int, float],
+    overwrite: bool,
+) -> list[tuple[SweepRun, ...]]:
+    """The tasks of ``todo`` (:func:`magsail_mj.sweep.batches.plan_batches`); the batch size used
+    goes into the manifest."""
+    cores, per_core = resources
+    tasks, size = plan_batches(
+        todo, call.out, batch_size=batch_size, cores=cores, memory_per_core_bytes=per_core, resume=not overwrite
+    )
+    batches = [t for t in tasks if len(t) > 1]
+    call.meta.update(batch_size=size, batches=len(batches))
+    if call.log:
+        call.log(
+            f"sweep {call.sweep.name}: batch size {size}: {sum(map(len, batches))} runs in {len(batches)} "
+            f"batches, {len(tasks) - len(batches)} runs alone"
+        )
+    return tasks
 
 
 def _run_dask(
@@ -875,16 +947,28 @@ def _run_dask(
     overwrite: bool,
     retries: int,
     grace_s: float,
+    batch_size: int | None,
+    batch_resources: tuple[int, float] | None,
 ) -> SweepInterrupted | None:
-    """Run ``todo`` on Dask; on SIGINT/SIGTERM stop and return the interrupt."""
-    futures: dict[Any, SweepRun] = {}
+    """Run ``todo`` on Dask, grouped into tasks (:func:`_plan_tasks`); on SIGINT/SIGTERM stop and
+    return the interrupt."""
+    futures: dict[Any, tuple[SweepRun, ...]] = {}
     stopped: SweepInterrupted | None = None
     try:
         with _dask_client(workers=workers, scheduler=scheduler, cluster=cluster) as client:
             try:
                 call.interrupts.raise_pending()
+                local = None if scheduler or cluster is not None else workers
+                tasks = _plan_tasks(
+                    todo,
+                    call,
+                    batch_size=1 if video else batch_size,
+                    resources=batch_resources or _engine_resources(client, local),
+                    overwrite=overwrite,
+                )
+                call.interrupts.raise_pending()
                 futures = _submit(
-                    client, call, todo, video=video, overwrite=overwrite, retries=retries, grace_s=grace_s
+                    client, call, tasks, video=video, overwrite=overwrite, retries=retries, grace_s=grace_s
                 )
                 _execute(client, futures, call)
             except KeyboardInterrupt as err:
@@ -1027,6 +1111,8 @@ def run_sweep(
     cluster: Any | None = None,
     retries: int = 2,
     progress: bool | None = None,
+    batch_size: int | None = None,
+    batch_resources: tuple[int, float] | None = None,
 ) -> list[dict[str, Any]]:
     """Run the selected entries of ``sweep`` into ``out_dir/<id>`` on Dask.
 
@@ -1048,8 +1134,16 @@ def run_sweep(
     :class:`~magsail_mj.sweep.progress.SweepProgress`): None (default) when stderr is a terminal,
     False never (``--no-progress``).
 
+    ``batch_size`` (``--batch-size``): runs of one compiled model run as the worlds of batches of
+    at most this many runs, one task each (:mod:`magsail_mj.sweep.batches`; their folders and
+    records have the single runs' form and numbers); 1 runs every run alone; None (default)
+    chooses it from the cores and the memory estimate: ``batch_resources`` ``(cores, bytes per
+    core)``, by default the LocalCluster's ``workers`` sharing the memory limit, or the
+    scheduler's worker threads and their memory limits. With ``video`` every run goes alone.
+
     Raises:
-      ValueError: ``workers`` or ``retries`` is not an integer in range.
+      ValueError: ``workers``, ``retries`` or ``batch_size`` (named ``--batch-size``) is not an
+        integer in range.
       RunDirError: ``out_dir`` is not a folder, another sweep runs in it, or ``scheduler`` is unreachable.
       SweepInterrupted: on SIGINT/SIGTERM, after writing the summaries (``.records``).
     """
@@ -1057,6 +1151,7 @@ def run_sweep(
         raise ValueError(f"workers: must be an integer >= 1, got {workers!r}")
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise ValueError(f"retries: must be an integer >= 0, got {retries!r}")
+    check_batch_size(batch_size)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise RunDirError(f"--out {out}: exists and is not a folder")
@@ -1077,6 +1172,8 @@ def run_sweep(
             cluster=cluster,
             retries=retries,
             progress=progress,
+            batch_size=batch_size,
+            batch_resources=batch_resources,
         )
     except _SchedulerUnreachable:  # nothing ran: leave nothing that was not there
         if lock_made:
@@ -1100,6 +1197,8 @@ def _run_sweep_locked(
     cluster: Any | None,
     retries: int,
     progress: bool | None,
+    batch_size: int | None,
+    batch_resources: tuple[int, float] | None,
 ) -> list[dict[str, Any]]:
     """:func:`run_sweep` in the existing folder ``out`` (resolved), under the sweep lock."""
     with _sweep_lock(out), _Interrupts() as interrupts:
@@ -1128,6 +1227,8 @@ def _run_sweep_locked(
                 "overwrite": overwrite,
                 "retries": retries,
                 "process_per_run": True,
+                "batch_size": 1 if video else batch_size,
+                "batches": 0,
                 "worker_thread_env": _thread_settings(),
             },
         )
@@ -1145,6 +1246,8 @@ def _run_sweep_locked(
                     overwrite=overwrite,
                     retries=retries,
                     grace_s=grace_s,
+                    batch_size=batch_size,
+                    batch_resources=batch_resources,
                 )
             finally:
                 call.progress.close()

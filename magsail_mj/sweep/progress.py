@@ -10,6 +10,7 @@ by default on only when the stream is a terminal.
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from typing import Any, TextIO
 
 from tqdm import tqdm
@@ -33,14 +34,16 @@ def dashboard_address(client: Any) -> str | None:
         return None
 
 
-def running_tasks(client: Any, prefix: str) -> int | None:
+def running_tasks(client: Any, prefix: str, *, weight: Callable[[str], int] | None = None) -> int | None:
     """How many tasks whose key starts with ``prefix`` the scheduler's workers are processing now
-    (None when the scheduler cannot be asked)."""
+    (None when the scheduler cannot be asked); with ``weight``, the sum of ``weight(key)`` over
+    them (e.g. the runs of a batch task)."""
     try:
         processing = client.processing()
     except (OSError, TimeoutError, RuntimeError, AttributeError):
         return None
-    return sum(str(key).startswith(prefix) for keys in processing.values() for key in keys)
+    keys = [str(key) for keys in processing.values() for key in keys if str(key).startswith(prefix)]
+    return sum(weight(key) for key in keys) if weight is not None else len(keys)
 
 
 class SweepProgress:

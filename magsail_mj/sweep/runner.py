@@ -18,6 +18,7 @@ interrupt, so a stopped run writes its outputs (status ``interrupted``) and its 
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import hashlib
 import json
@@ -35,13 +36,24 @@ from typing import Any
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
+from magsail_mj.batch import load_batch
+from magsail_mj.batch.folders import run_batch_folders
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
 from magsail_mj.config import config_hash, load_config, numbers_hash
 from magsail_mj.io import atomic_path, to_jsonable, write_json
 from magsail_mj.run import run_scenario
 from magsail_mj.sweep.common import FINISHED, STATE_DIR, SweepRun, _folder_check, _record, run_lock
 
-__all__ = ["supervise", "run_one", "call_dir", "request_stop", "process_main", "IgnoreSigint"]
+__all__ = [
+    "supervise",
+    "supervise_batch",
+    "run_one",
+    "run_batch",
+    "call_dir",
+    "request_stop",
+    "process_main",
+    "IgnoreSigint",
+]
 
 _PR_SET_PDEATHSIG = 1
 CHECKPOINT_NAME = "checkpoint.npz"
@@ -134,6 +146,73 @@ def _write_params(run: SweepRun, run_dir: Path, digest: str) -> None:
         pass
 
 
+def _folder_summary(run_dir: Path) -> dict[str, Any] | None:
+    """The run folder's ``summary.json`` (None when it does not parse)."""
+    try:
+        summary = json.loads((run_dir / "summary.json").read_text())
+    except (OSError, ValueError):
+        return None
+    return summary if isinstance(summary, dict) else None
+
+
+def finished_record(run: SweepRun, out_dir: str | Path) -> dict[str, Any] | None:
+    """The record of a run whose folder holds a finished, intact run of its config now (its status,
+    message, wall time and summary), else None."""
+    run_dir = Path(out_dir) / run.id
+    manifest, _ = _folder_check(run_dir, config_hash=run.config_hash, video=False)
+    summary = _folder_summary(run_dir) if manifest else None
+    if summary is None:
+        return None
+    return _record(
+        run,
+        status=str(manifest["status"]),
+        message=str(manifest.get("status_message") or ""),
+        wall_time_s=manifest.get("wall_time_s"),
+        summary=summary,
+    )
+
+
+def run_batch(runs: tuple[SweepRun, ...], out_dir: str | Path) -> list[dict[str, Any]]:
+    """One attempt of ``runs`` (runs of one config file) as the worlds of one batch, each into
+    ``out_dir/<id>`` with the form and numbers of its single run; never raises an ``Exception``.
+
+    Each record is a single run's (:func:`run_one`): a world that diverges or fails is reported
+    alone, with its own status and message, and the others complete; ``wall_time_s`` is the
+    batch's wall time shared equally between its runs. When the batch itself cannot run or write
+    (its loader refuses the worlds, a world's folder fails to write), every run without a finished
+    folder then runs alone with :func:`run_one`, so a failure is its own run's. A
+    KeyboardInterrupt propagates (every folder written ``interrupted`` first).
+    """
+    t0 = time.perf_counter()
+    out = Path(out_dir)
+    records = [_record(run, status="failed", message="", attempts=1) for run in runs]
+    try:
+        sim = load_batch(runs[0].config, world_overrides=[list(run.overrides) for run in runs])
+        for record, cfg in zip(records, sim.cfgs):
+            record["config_hash"] = config_hash(cfg)
+        outcomes = run_batch_folders(sim, [out / run.id for run in runs], overwrite=True)
+    except Exception:  # noqa: BLE001 - the batch could not run: each run alone says why it fails, if it does
+        alone = []
+        for run in runs:
+            record = finished_record(run, out) or run_one(run, out, video=False)
+            alone.append(record)
+        return alone
+    share = (time.perf_counter() - t0) / len(runs)
+    for run, record, outcome in zip(runs, records, outcomes):
+        record.update(
+            status=str(outcome.status),
+            message=str(outcome.get("status_message") or ""),
+            summary=to_jsonable(dict(outcome)),
+        )
+        if outcome.status in FINISHED:
+            _, why = _folder_check(out / run.id, config_hash=record["config_hash"], video=False)
+            if why:
+                record.update(status="failed", message=f"run folder does not verify after the run: {why}")
+        _write_params(run, out / run.id, record["config_hash"])
+        record["wall_time_s"] = share
+    return records
+
+
 # ---------------------------------------------------------------------------------------------
 # The run process
 
@@ -193,9 +272,51 @@ def _stopped_record(run: SweepRun, err: BaseException, *, wall_time_s: float) ->
     return _record(run, status="failed", message=f"{type(err).__name__}: {err}", wall_time_s=wall_time_s)
 
 
+def _batch_stopped(
+    runs: tuple[SweepRun, ...], out: Path, err: BaseException, *, wall_time_s: float
+) -> list[dict[str, Any]]:
+    """The records of a batch that raised past :func:`run_batch` (an interrupt: every folder was
+    written ``interrupted`` with its summary; or an exit)."""
+    records = []
+    for run in runs:
+        record = _stopped_record(run, err, wall_time_s=wall_time_s)
+        if isinstance(err, KeyboardInterrupt):
+            record["summary"] = _folder_summary(out / run.id) or {}
+        records.append(record)
+    return records
+
+
+def _batch_main(job: dict[str, Any]) -> None:
+    """The run process of a batch: its runs' records (a JSON list) to the result descriptor."""
+    runs: tuple[SweepRun, ...] = tuple(job["runs"])
+    out = Path(job["out"])
+    t0 = time.perf_counter()
+    try:
+        _guard(job["parent_pid"])
+        with contextlib.ExitStack() as locks:
+            for run in runs:
+                locks.enter_context(run_lock(out, run.id, wait_s=LOCK_WAIT_S))
+            records = run_batch(runs, out)
+    except BaseException as err:  # noqa: BLE001 - a run process reports what stopped it, never a traceback
+        records = _batch_stopped(runs, out, err, wall_time_s=(time.perf_counter() - t0) / len(runs))
+    for record in records:
+        if _STOP.is_set() and record["status"] not in (*FINISHED, "interrupted"):
+            record.update(status="interrupted", message=f"stopped while running ({record['message']})")
+    try:
+        with os.fdopen(job["result_fd"], "w") as fh:
+            json.dump(records, fh)
+    except (OSError, KeyboardInterrupt, ValueError):  # the supervisor is gone: nothing to report to
+        pass
+
+
 def process_main() -> None:
-    """Entry of the run process: the job (pickled) on stdin, its record (JSON) to the result descriptor."""
+    """Entry of the run process: the job (pickled) on stdin, its record (JSON) to the result
+    descriptor; a job of several runs (``runs``) is a batch (:func:`run_batch`), whose records
+    go as a list."""
     job = pickle.load(sys.stdin.buffer)
+    if "runs" in job:
+        _batch_main(job)
+        return
     run: SweepRun = job["run"]
     t0 = time.perf_counter()
     try:
@@ -270,13 +391,18 @@ def _safe(run_id: str) -> str:
     return hashlib.sha256(run_id.encode()).hexdigest()[:32]
 
 
-def _start(run: SweepRun, out: Path, *, video: bool, fresh: bool) -> tuple[subprocess.Popen, int]:
-    """Start the run process; returns it and the read end of its result pipe."""
+def _start(
+    run: SweepRun | tuple[SweepRun, ...], out: Path, *, video: bool, fresh: bool
+) -> tuple[subprocess.Popen, int]:
+    """Start the run process of a run, or of a batch of runs (a tuple); returns it and the read
+    end of its result pipe."""
     read_fd, write_fd = os.pipe()
+    batch = isinstance(run, tuple)
+    # the run ids on the command line name the process in ps/top (the job itself comes on stdin)
+    name = ["--batch", *(r.id for r in run)] if batch else ["--run", run.id]
     try:
-        # the run id on the command line names the process in ps/top (the job itself comes on stdin)
         proc = subprocess.Popen(
-            [sys.executable, "-m", "magsail_mj.sweep", "--run", run.id],
+            [sys.executable, "-m", "magsail_mj.sweep", *name],
             stdin=subprocess.PIPE,
             pass_fds=(write_fd,),
             start_new_session=True,
@@ -284,7 +410,7 @@ def _start(run: SweepRun, out: Path, *, video: bool, fresh: bool) -> tuple[subpr
     finally:
         os.close(write_fd)
     job = {
-        "run": run,
+        "runs" if batch else "run": run,
         "out": str(out),
         "video": video,
         "fresh": fresh,
@@ -346,6 +472,13 @@ def supervise(
     t0 = time.perf_counter()
     if _stop_request(out, token):
         return _record(run, status="not_run", message="not started: the sweep was interrupted")
+    return _supervised(run, out, video=video, fresh=fresh, token=token, run_retries=run_retries, grace_s=grace_s, t0=t0)
+
+
+def _supervised(
+    run: SweepRun, out: Path, *, video: bool, fresh: bool, token: str, run_retries: int, grace_s: float, t0: float
+) -> dict[str, Any]:
+    """The attempts of one run in run processes (:func:`supervise`), counted from this call's earlier ones."""
     while True:
         attempts = _next_attempt(out, token, run.id)
         proc, read_fd = _start(run, out, video=video, fresh=fresh and attempts == 1)
@@ -362,3 +495,64 @@ def supervise(
             record.update(status="interrupted", message=record["message"] or "stopped while running")
         record.update(attempts=attempts, wall_time_s=time.perf_counter() - t0)
         return record
+
+
+def supervise_batch(
+    runs: tuple[SweepRun, ...], out_dir: str, *, fresh: bool, token: str, run_retries: int, grace_s: float
+) -> list[dict[str, Any]]:
+    """Dask task: run ``runs`` (of one config file) as the worlds of one batch in one run process
+    (:func:`run_batch`); returns their records in order, as :func:`supervise` returns one.
+
+    Retries are per run. A task started again after its worker died (Dask reschedules it; the
+    attempt counters say so) keeps the runs whose folders that attempt finished (unless ``fresh``:
+    they may be an earlier call's) and runs the others as a batch again. When the batch process is
+    killed by a signal, the runs it did not finish are retried one by one as single runs
+    (:func:`supervise`'s attempts: a world that takes its process down is then alone), each while
+    its attempts are within ``run_retries``; otherwise they fail, naming the signal.
+    """
+    out = Path(out_dir)
+    if _stop_request(out, token):
+        return [_record(run, status="not_run", message="not started: the sweep was interrupted") for run in runs]
+    attempts = {run.id: _next_attempt(out, token, run.id) for run in runs}
+    records: dict[str, dict[str, Any]] = {}
+    if not fresh and max(attempts.values()) > 1:
+        for run in runs:
+            record = finished_record(run, out)
+            if record is not None:
+                records[run.id] = {**record, "attempts": attempts[run.id]}
+    todo = tuple(run for run in runs if run.id not in records)
+    if todo:
+        proc, read_fd = _start(todo, out, video=False, fresh=True)
+        result, stopped = _wait(proc, read_fd, out=out, token=token, grace_s=grace_s)
+        try:
+            done = json.loads(result.decode()) if result else None
+        except ValueError:
+            done = None
+        if isinstance(done, list) and len(done) == len(todo):
+            for run, record in zip(todo, done):
+                if stopped and record["status"] not in FINISHED:
+                    record.update(status="interrupted", message=record["message"] or "stopped while running")
+                records[run.id] = {**record, "attempts": attempts[run.id]}
+        else:
+            killed = proc.returncode is not None and proc.returncode < 0
+            for run in todo:
+                record = finished_record(run, out) if not stopped else None
+                if record is not None:
+                    records[run.id] = {**record, "attempts": attempts[run.id]}
+                elif killed and not stopped and attempts[run.id] <= run_retries and not _stop_request(out, token):
+                    records[run.id] = _supervised(
+                        run,
+                        out,
+                        video=False,
+                        fresh=False,
+                        token=token,
+                        run_retries=run_retries,
+                        grace_s=grace_s,
+                        t0=time.perf_counter(),
+                    )
+                else:
+                    record = _lost(run, proc, attempts[run.id])
+                    if stopped:
+                        record.update(status="interrupted", message="stopped while running")
+                    records[run.id] = record
+    return [records[run.id] for run in runs]

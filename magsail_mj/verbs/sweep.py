@@ -9,6 +9,9 @@ from pathlib import Path
 from typing import Any
 
 from magsail_mj.cli import CliInputError
+from dask.utils import parse_bytes
+
+from magsail_mj.batch.groups import batch_bytes, world_key
 from magsail_mj.config import load_config
 from magsail_mj.io import check_output_folder
 from magsail_mj.resources import check_memory, estimate_run_bytes
@@ -63,6 +66,33 @@ def _engine(args: argparse.Namespace) -> Any:
     )
 
 
+def _check_local_memory(args: argparse.Namespace, sweep: Any) -> None:
+    """MemoryLimitError when ``--workers`` times the largest task (a run, or a batch of
+    ``--batch-size`` runs that may share one) is above the memory limit; the default batch size is
+    chosen within it."""
+    biggest, worlds = 0.0, 1
+    cfgs = [load_config(run.config, list(run.overrides)) for run in sweep.selected]
+    for cfg in cfgs:
+        biggest = max(biggest, estimate_run_bytes(cfg))
+    if args.batch_size is not None and args.batch_size > 1 and not args.video:
+        batchable = [cfg for cfg in cfgs if not world_key(cfg)[1]]
+        worlds = min(args.batch_size, len(batchable)) if batchable else 1
+        for cfg in batchable:
+            biggest = max(biggest, batch_bytes(cfg, worlds))
+    workers = min(args.workers, max(1, len(sweep.selected)))
+    task = "largest run" if worlds == 1 else f"largest batch of {worlds} runs (--batch-size {args.batch_size})"
+    check_memory(workers * biggest, what=f"sweep {args.sweep} ({workers} worker(s), {task})")
+
+
+def _cluster_resources(args: argparse.Namespace) -> tuple[int, float] | None:
+    """``(cores, bytes per core)`` of ``--cluster``'s jobs (the default batch size is chosen for
+    them, not for the submitting machine); None without ``--cluster``."""
+    if args.cluster is None:
+        return None
+    cores = args.cores_per_job or 1
+    return (args.jobs or 1) * cores, parse_bytes(args.memory_per_job or "4GB") / cores
+
+
 def sweep(args: argparse.Namespace) -> int:
     """Run the sweep, print its statuses (and report); :func:`magsail_mj.sweep.sweep_exit_code`."""
     path = input_file(args.sweep, "SWEEP")
@@ -76,11 +106,7 @@ def sweep(args: argparse.Namespace) -> int:
     check_output_folder(out, option="--out")
     cluster = _engine(args)
     if args.scheduler is None and cluster is None:  # runs on this machine: they must fit its memory
-        biggest = 0.0
-        for run in sweep.selected:
-            biggest = max(biggest, estimate_run_bytes(load_config(run.config, list(run.overrides))))
-        workers = min(args.workers, max(1, len(sweep.selected)))
-        check_memory(workers * biggest, what=f"sweep {args.sweep} ({workers} worker(s), largest run)")
+        _check_local_memory(args, sweep)
     try:
         if cluster is not None:
             cluster.adapt(minimum_jobs=args.jobs or 1, maximum_jobs=args.jobs or 1)  # jobs that end are replaced
@@ -93,6 +119,8 @@ def sweep(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             cluster=cluster,
             retries=args.retries,
+            batch_size=args.batch_size,
+            batch_resources=_cluster_resources(args),
             log=LOG.info,
             progress=False if args.no_progress else None,
         )

@@ -37,7 +37,7 @@ from magsail_mj.concepts.cnusail.model import CnusailModel, model_params
 from magsail_mj.concepts.cnusail.tasks import AttitudeTask
 from magsail_mj.environment.environment import Environment
 
-__all__ = ["LOCKSTEP_KEYS", "refusals", "build_worlds", "CnusailWorlds", "world_cubesat"]
+__all__ = ["LOCKSTEP_KEYS", "refusals", "build_worlds", "compile_model", "CnusailWorlds", "world_cubesat"]
 
 LOCKSTEP_KEYS: dict[str, str] = {
     "control.mode": "the batch runs one control law",
@@ -199,3 +199,9 @@ class CnusailWorlds:
 def build_worlds(cfgs: Sequence[CnusailConfig]) -> CnusailWorlds:
     """Every world of a batch of CNUSAIL configs (already checked by :func:`refusals`)."""
     return CnusailWorlds(cfgs)
+
+
+def compile_model(cfg: CnusailConfig) -> mujoco.MjModel:
+    """The compiled model of ``cfg`` alone (≈ 1 ms): its sizes tell which configs may share a
+    batch (:func:`magsail_mj.batch.groups.world_key`)."""
+    return CnusailWorlds.compile_model(cfg)
