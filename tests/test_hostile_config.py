@@ -30,6 +30,7 @@ from hypothesis import strategies as st
 
 import magsail_mj
 from magsail_mj.checks import is_symmetric
+from magsail_mj.concepts.cnusail.modes import DETUMBLE_LAWS
 from magsail_mj.config import ConfigError, apply_overrides, load_config, parse_config
 from magsail_mj.resources import MemoryLimitError, check_memory, estimate_run_bytes, msac_drive_bytes
 from magsail_mj.scenario import build_scenario
@@ -78,6 +79,10 @@ EXTRA = {
     ),  # noqa: E501
     "cnusail_lifetime": ("magsail_mj/concepts/cnusail/configs/lifetime.toml", []),
     "cnusail_nadir": ("magsail_mj/concepts/cnusail/configs/nadir_post.toml", ["sim.duration_s=20.0"]),
+    "cnusail_bang_bang": (
+        "magsail_mj/concepts/cnusail/configs/detumble_pre.toml",
+        ["sim.duration_s=20.0", 'control.bdot_law="bang_bang"'],
+    ),
     "msac_lumped": ("magsail_mj/concepts/msac/configs/lumped.toml", []),
     "msac_sweep": ("magsail_mj/concepts/msac/configs/sweeps/stroke.toml", ["sim.duration_s=0.01"]),
 }
@@ -205,6 +210,21 @@ def test_every_numeric_leaf_of_every_shipped_config_refuses_non_finite():
                 assert "must" in line, line
                 checked += 1
     assert checked > 3000, checked
+
+
+@settings(max_examples=40, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(value=st.one_of(st.sampled_from(DETUMBLE_LAWS), st.text(max_size=12), st.sampled_from(HOSTILE)))
+def test_detumble_law_is_named_or_builds(value: Any) -> None:
+    """``control.bdot_law``: one of the laws builds, anything else is refused naming the key."""
+    leaf = (("control", "bdot_law"), None)
+    tree = with_leaf(BASES["cnusail"], leaf, value)
+    try:
+        cfg = parse_config(tree)
+    except ConfigError as err:
+        assert "control.bdot_law" in str(err) and value not in DETUMBLE_LAWS, err
+        return
+    assert value in DETUMBLE_LAWS
+    build_scenario(cfg)
 
 
 @pytest.mark.parametrize("value", ["2", True, [2.0], {"a": 1}])

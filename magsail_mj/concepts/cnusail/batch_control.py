@@ -10,7 +10,10 @@ and limits:
   the raw ``qpos`` quaternion), the B-dot estimate — finite difference ``Ḃ_k = (B_k − B_{k−1})/Δt``
   (Eq. 25) or the Tustin-filtered derivative (Eq. 26), per world — the dipole ``m = −K Ḃ`` clipped
   per axis to the world's limits and held; the coils carry it for the first ``T_c − t_blank`` of
-  the cycle and nothing during the blanking window;
+  the cycle and nothing during the blanking window; the world's ``control.bdot_law`` other than
+  the proportional one replaces ``−K Ḃ`` before the clip (:mod:`magsail_mj.control.detumble_laws`,
+  each law evaluated on every world's row as the single run evaluates it on its one row): bang-bang
+  ``−m_max sign Ḃ``;
 * attitude sample (every ``1/rate_Hz``): the telemetry of the single run (the error quaternion to
   the nadir frame, its eigen-angle, the rate error); in DETUMBLE the wheels idle (command 0);
 * wheel drivers every step (Eqs. 8–11): the quasi-static DC motor ``V = clip(R i_c + K_b ω_M,
@@ -34,6 +37,7 @@ import numpy as np
 
 from magsail_mj.batch.worldmath import mat_t_vec_blas, quat_to_mat
 from magsail_mj.concepts.cnusail.modes import CnusailController, Mode
+from magsail_mj.control.detumble_laws import bang_bang_dipole
 
 __all__ = ["BdotWorlds", "nadir_frame", "error_quaternion", "eigen_angle", "rate_error"]
 
@@ -150,6 +154,8 @@ class BdotWorlds:
         self.c_prev = np.array([getattr(c.bdot, "_c_prev", 0.0) for c in controllers])[:, None]
         self.c_in = np.array([getattr(c.bdot, "_c_in", 0.0) for c in controllers])[:, None]
         self.limit = np.array([c.p.mtq_limits_Am2 for c in controllers])
+        laws = np.array([c.p.bdot_law for c in controllers])
+        self.bang_bang = laws == "bang_bang"
         self.shortest = np.array([bool(c.p.shortest_rotation) for c in controllers])
         self.ideal = np.array([c.driver.model == "ideal" for c in controllers])[:, None]
         ps = [c.driver.p for c in controllers]
@@ -203,7 +209,7 @@ class BdotWorlds:
             if att:
                 self._attitude_sample(q, qvel[:, self.v_ang], env)
             if mtq:
-                self._mtq_sample(quat_to_mat(q), env)
+                self._mtq_sample(step, quat_to_mat(q), env, qvel[:, self.v_ang])
         self._set("dipole_body", self.dipole_held if step % self.n_cycle < self.n_on else np.zeros((self.n, 3)))
         self._set("T_M", self._motor_torque(qvel[:, self.wheel_qvel]))
         return self.T_M
@@ -217,8 +223,9 @@ class BdotWorlds:
         self._set("omega_e", rate_error(omega, p_e, w_o))
         self._set("wheel_cmd", np.zeros((self.n, 3)))
 
-    def _mtq_sample(self, R: np.ndarray, env: Any) -> None:
-        """Magnetometer reading, B-dot estimate, clipped dipole (held for the cycle)."""
+    def _mtq_sample(self, step: int, R: np.ndarray, env: Any, omega: np.ndarray) -> None:
+        """Magnetometer reading, B-dot estimate, each world's detumble law at the body rates
+        ``omega`` [rad/s], clipped dipole (held for the cycle)."""
         B = mat_t_vec_blas(R, env.B_eci)
         self._set("B_meas", B)
         if self.has_prev:
@@ -230,7 +237,10 @@ class BdotWorlds:
         self._set("B_dot", B_dot)
         self._set("prev", B.copy())
         self.has_prev = True
-        self._set("dipole_held", np.clip(-self.gain * self.B_dot, -self.limit, self.limit))
+        m = -self.gain * self.B_dot
+        if self.bang_bang.any():
+            m = np.where(self.bang_bang[:, None], bang_bang_dipole(self.B_dot, self.limit), m)
+        self._set("dipole_held", np.clip(m, -self.limit, self.limit))
 
     def _motor_torque(self, w: np.ndarray) -> np.ndarray:
         """T_M (N, 3) of the held wheel commands at the relative speeds ``w`` [rad/s]."""

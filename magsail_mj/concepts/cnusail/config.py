@@ -224,7 +224,10 @@ class CnusailControlConfig(StrictModel):
     """``[control]``: ``mode`` = the law of a stand-alone run (``"bdot"`` detumbling,
     ``"eigen_axis"`` or ``"pd"`` pointing; with ``modes.enabled`` the pointing law), ``command``
     (``"nadir"`` or ``"deorbit"``), sample rate, B-dot and eigen-axis parameters, gain
-    recalculation and the sub-tables ``unloading``, ``modes``, ``sensors``."""
+    recalculation and the sub-tables ``unloading``, ``modes``, ``sensors``.
+
+    ``bdot_law`` is the detumble mode's law (:mod:`magsail_mj.control.detumble_laws`):
+    ``"proportional"`` (the paper's M = −K Ḃ, default) or ``"bang_bang"`` (−m_max sign Ḃ per axis)."""
 
     mode: Literal["bdot", "eigen_axis", "pd"]
     command: Literal["nadir", "deorbit"] = "nadir"
@@ -232,6 +235,7 @@ class CnusailControlConfig(StrictModel):
     bdot_gain_Am2s_T: float = Field(default=5.0e4, gt=0)
     bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
     bdot_omega_c_rad_s: float = Field(default=0.5, gt=0)
+    bdot_law: Literal["proportional", "bang_bang"] = "proportional"
     slew_rate_max_deg_s: float = Field(default=0.3, gt=0)
     omega_n_rad_s: float = Field(default=0.02, gt=0)
     zeta: float = Field(default=0.9, gt=0)

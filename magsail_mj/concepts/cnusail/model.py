@@ -127,6 +127,7 @@ class CnusailModel:
             bdot_form=c.bdot_form,
             bdot_gain=c.bdot_gain_Am2s_T,
             bdot_omega_c_rad_s=c.bdot_omega_c_rad_s,
+            bdot_law=c.bdot_law,
             omega_n_rad_s=c.omega_n_rad_s,
             zeta=c.zeta,
             rate_max_rad_s=c.slew_rate_max_deg_s * DEG,

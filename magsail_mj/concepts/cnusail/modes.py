@@ -47,6 +47,7 @@ import numpy as np
 
 from magsail_mj.checks import require_non_negative
 from magsail_mj.control.bdot import make_bdot
+from magsail_mj.control.detumble_laws import bang_bang_dipole
 from magsail_mj.concepts.cnusail.eigenaxis import (
     EigenAxisGains,
     GyroComp,
@@ -73,9 +74,13 @@ __all__ = [
     "CnusailControlParams",
     "CnusailController",
     "CnusailCommand",
+    "DETUMBLE_LAWS",
 ]
 
 DEG = math.pi / 180.0
+
+DETUMBLE_LAWS = ("proportional", "bang_bang")
+"""The detumble mode's laws (``control.bdot_law``)."""
 
 
 class Mode(IntEnum):
@@ -211,6 +216,8 @@ class CnusailControlParams:
       mtq_cycle: magnetorquer cycle with blanking.
       mtq_limits_Am2: (3,) dipole limits.
       bdot_form, bdot_gain, bdot_omega_c_rad_s: B-dot law (Yoo et al. 2016, Eqs. 24–27).
+      bdot_law: the detumble mode's law (:data:`DETUMBLE_LAWS`): ``"proportional"`` (the paper's
+        M = −K Ḃ) or ``"bang_bang"``; :mod:`magsail_mj.control.detumble_laws`.
       omega_n_rad_s, zeta, rate_max_rad_s, clamp_min, gyro_comp, shortest_rotation: eigen-axis
         (Yoo et al. 2016, Eqs. 28–38).
       recalc_enabled, recalc_margin_rad: deorbit gain recalculation.
@@ -231,6 +238,7 @@ class CnusailControlParams:
     bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
     bdot_gain: float = 5.0e4
     bdot_omega_c_rad_s: float = 0.5
+    bdot_law: Literal["proportional", "bang_bang"] = "proportional"
     omega_n_rad_s: float = 0.02
     zeta: float = 0.9
     rate_max_rad_s: float = 0.3 * DEG
@@ -253,6 +261,8 @@ class CnusailControlParams:
     def __post_init__(self) -> None:
         if self.law not in ("bdot", "eigen_axis", "pd"):
             raise ValueError(f"law: must be 'bdot', 'eigen_axis' or 'pd', got {self.law!r}")
+        if self.bdot_law not in DETUMBLE_LAWS:
+            raise ValueError(f"bdot_law: must be one of {DETUMBLE_LAWS}, got {self.bdot_law!r}")
         if self.command not in ("nadir", "deorbit"):
             raise ValueError(f"command: must be 'nadir' or 'deorbit', got {self.command!r}")
         n = self.attitude_period_s / self.timestep_s
@@ -392,7 +402,7 @@ class CnusailController:
             self._attitude_sample(state.t, q, omega, omega_M, env)
         if mtq:
             mujoco.mju_quat2Mat(self._R, q)
-            self._mtq_sample(state.t, self._R.reshape(3, 3), omega_M, env)
+            self._mtq_sample(state.t, self._R.reshape(3, 3), omega_M, env, data.qvel[self.v_ang].copy())
 
     # ---------------------------------------------------------------- samples
     def _attitude_sample(self, t: float, q: np.ndarray, omega: np.ndarray, omega_M: np.ndarray, env) -> None:
@@ -448,7 +458,7 @@ class CnusailController:
             }
         )
 
-    def _mtq_sample(self, t: float, R: np.ndarray, omega_M: np.ndarray, env) -> None:
+    def _mtq_sample(self, t: float, R: np.ndarray, omega_M: np.ndarray, env, omega: np.ndarray) -> None:
         p = self.p
         B = R.T @ env.B_eci
         if p.magnetometer_noise_T > 0:
@@ -457,7 +467,8 @@ class CnusailController:
         m_bdot = self.bdot.update(B)
         if self.mode == Mode.DETUMBLE:
             self.unload_mask = np.zeros(3, dtype=bool)
-            self.dipole_held = saturate_per_axis(m_bdot, p.mtq_limits_Am2)
+            m = m_bdot if p.bdot_law == "proportional" else self._detumble_dipole(t, R, B, omega)
+            self.dipole_held = saturate_per_axis(m, p.mtq_limits_Am2)
         elif p.unloading_enabled:
             self.unload_mask = self.unload.update(omega_M)
             dh = np.where(self.unload_mask, self.I_w * omega_M, 0.0)
@@ -466,6 +477,14 @@ class CnusailController:
         else:
             self.unload_mask = np.zeros(3, dtype=bool)
             self.dipole_held = np.zeros(3)
+
+    def _detumble_dipole(self, t: float, R: np.ndarray, B: np.ndarray, omega: np.ndarray) -> np.ndarray:
+        """The unsaturated dipole [A m²] of the detumble law ``bdot_law`` other than the
+        proportional one (:mod:`magsail_mj.control.detumble_laws`), at the magnetometer sample
+        (the field ``B`` [T, body], the rate ``omega`` [rad/s, body]); evaluated on one row, as the
+        batch evaluates it on every world's."""
+        p = self.p
+        return bang_bang_dipole(self.bdot.B_dot, p.mtq_limits_Am2)
 
 
 def _slice_if_contiguous(index: np.ndarray) -> slice | np.ndarray:
