@@ -13,11 +13,10 @@ Struts and cables
     unit vector ``ê`` (from its first to its second node at ``positions_m``) and ``k = EA / l0``
     adds ``k ê êᵀ`` to the two diagonal 3 × 3 translation blocks and ``−k ê êᵀ`` to the two
     off-diagonal ones. A cable is included at its rest state as a taut tension spring (the
-    small-vibration model of a cable that stays in tension; a slack cable would add nothing).
-    A member whose rest length differs from its node distance ``l`` carries the axial force
-    ``N = EA (l / l0 − 1)`` at the reference (tension positive; a prestrained cable net, a
-    tensioned membrane): it adds the geometric stiffness ``(N / l)(I − ê êᵀ)`` in the same block
-    pattern, the transverse stiffness a string under tension has (a slack cable adds neither).
+    small-vibration model of a cable that stays in tension; a cable slack at the reference,
+    ``l < l0``, adds nothing). A member with an axial force ``N`` (below, "Prestress") adds the
+    geometric stiffness ``(N / l)(I − ê êᵀ)`` in the same block pattern, the transverse stiffness
+    a string under tension has.
 
 Beams (3-D Euler–Bernoulli frame elements)
     Local axes: ``x`` along the member from its first to its second node; ``y`` (section axis 1)
@@ -34,7 +33,41 @@ Beams (3-D Euler–Bernoulli frame elements)
     ``(v₁, θ_z1, v₂, θ_z2)`` (and with the signs of the ``θ_y`` rows and columns flipped on
     ``(w₁, θ_y1, w₂, θ_y2)``); it is rotated into structure axes by ``Λᵀ K Λ``, ``Λ`` the
     block-diagonal of four copies of the direction cosine matrix ``R`` (rows: local ``x, y, z``).
-    Shear deformation is neglected.
+    Shear deformation is neglected. A beam with an axial force ``N`` (tension positive) adds the
+    consistent geometric stiffness of a beam-column, ``N/(30 l) [[36, 3l, −36, 3l], [3l, 4l², −3l,
+    −l²], [−36, −3l, 36, −3l], [3l, −l², −3l, 4l²]]`` on each bending plane (signs as above) and
+    ``N I_p/(A l) [1 −1; −1 1]`` on ``θ_x`` (``I_p/A = (EI1 + EI2)/EA``); its shear forces and
+    bending moments add no geometric stiffness.
+
+Prestress (:class:`Prestress`, :func:`prestress_equilibrium`)
+    A member whose rest length ``l0`` differs from its node distance ``l`` carries the axial force
+    ``N0 = EA (l / l0 − 1)`` at the reference (:func:`reference_forces`; a prestrained cable net, a
+    tensioned membrane, a beam or strut made short or long). These forces are in general not in
+    equilibrium at the reference positions (a tensioned net pulls the booms that hold it, which
+    the booms' compression has to balance), and a tangent stiffness assembled from them is not
+    invariant under rigid rotation (a free prestressed structure then shows fewer than six zero
+    modes). :func:`assemble` therefore first solves the linear prestress equilibrium
+    ``K_e u = −r0`` in the independent coordinates: ``K_e`` the elastic stiffness (no geometric
+    term), ``r0`` the members' internal forces at the reference (``−N0 ê`` at a member's first
+    node, ``+N0 ê`` at its second). ``K_e`` is singular (rigid-body motions, mechanisms such as
+    a flat net's out-of-plane motion), and ``r0``, a sum of member forces, lies in its range; the
+    solve is conjugate gradients preconditioned by the factor of ``K_e + σ D`` (``D`` the
+    diagonal of ``K_e``, ``σ = 10⁻¹⁰``) to the relative residual :data:`PRESTRESS_RTOL`. In a free
+    structure (no ``fixed_dofs``) the rigid-body part of ``u`` is removed (``Dᵀ M u = 0`` for the
+    six rigid motions ``D``). The axial force of every member at the equilibrium,
+    ``N = N0 + (EA / l0) ê · (u_b − u_a)`` (struts, taut cables and beams: the booms' compression
+    under a net's pull), then gives the geometric stiffness, and ``K = K_e + K_g(N)`` is the
+    tangent stiffness about the equilibrium, which the modes use. A rigid part holding nodes at
+    arms ``r_i`` from its centre on which the members pull (internal forces ``g_i`` at
+    equilibrium) adds the geometric stiffness of its finite rotation, ``Σ_i sym(g_i r_iᵀ) −
+    (g_i · r_i) I``, at its rotation coordinates. With these terms a rigid rotation of the free
+    structure stores no energy: six zero modes, to the rounding of the solve, whenever the beams
+    carry axial force alone at the equilibrium (their end shears and moments have no geometric
+    term). The model is linear: the cables keep their reference state (taut or slack), and a
+    taut cable whose force at the equilibrium is negative stays in the model with that force
+    (:attr:`Prestress.compressed_cables` lists them; a real cable would go slack, and the
+    structure's own equilibrium is then a finite distance from its reference shape). A structure
+    without prestrain (every ``N0 = 0``) skips the solve: ``K = K_e``.
 
 Mass (``mass=`` :data:`MASS_MODELS`)
     ``"lumped"``: the translational masses of :meth:`Structure.lumped_masses` (point masses, half of
@@ -72,17 +105,22 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg, sparse
+from scipy.sparse.linalg import LinearOperator, cg, splu
 
 from magsail_mj.structure.model import MEMBER_KINDS, Structure, StructureError
 
 __all__ = [
     "MASS_MODELS",
+    "PRESTRESS_RTOL",
     "Assembly",
     "DofLayout",
+    "Prestress",
     "assemble",
     "beam_frames",
     "dof_layout",
     "mass_matrix",
+    "prestress_equilibrium",
+    "reference_forces",
     "rigid_motions",
     "stiffness_matrix",
 ]
@@ -92,6 +130,12 @@ MASS_MODELS = ("lumped", "consistent")
 
 _BEAM = MEMBER_KINDS.index("beam")
 _CABLE = MEMBER_KINDS.index("cable")
+#: the largest relative residual of the prestress equilibrium (:class:`Prestress`): the conjugate
+#: gradients reach 10⁻¹³ on the 100 m sail; 10⁻¹⁰ leaves the forces exact to far below their use
+PRESTRESS_RTOL = 1e-10
+# the shift of the equilibrium solve's preconditioner K + σ D (relative to each diagonal entry)
+_PRESTRESS_SHIFT = 1e-10
+_PRESTRESS_MAX_ITER = 500
 #: a reference strain this small is the rounding of a rest length computed from the node distance
 _STRAIN_ROUNDING = 1e-12
 # HRZ lumped rotational inertia per ρA l³: the consistent diagonal 4 l²/420 scaled by the element
@@ -108,6 +152,11 @@ _BEND_M = (
     np.array([[156, 0, 54, 0], [0, 0, 0, 0], [54, 0, 156, 0], [0, 0, 0, 0]], float),
     np.array([[0, 22, 0, -13], [22, 0, 13, 0], [0, 13, 0, -22], [-13, 0, -22, 0]], float),
     np.array([[0, 0, 0, 0], [0, 4, 0, -3], [0, 0, 0, 0], [0, -3, 0, 4]], float),
+)
+_BEND_G = (
+    np.array([[36, 0, -36, 0], [0, 0, 0, 0], [-36, 0, 36, 0], [0, 0, 0, 0]], float),
+    np.array([[0, 3, 0, 3], [3, 0, -3, 0], [0, -3, 0, -3], [3, 0, -3, 0]], float),
+    np.array([[0, 0, 0, 0], [0, 4, 0, -1], [0, 0, 0, 0], [0, -1, 0, 4]], float),
 )
 _PLANE1 = np.array([1, 5, 7, 11])  # (v1, θz1, v2, θz2): θz = dv/dx
 _PLANE2 = np.array([2, 4, 8, 10])  # (w1, θy1, w2, θy2): θy = −dw/dx
@@ -222,22 +271,44 @@ def _element_triplets(dofs: np.ndarray, blocks: np.ndarray) -> tuple[np.ndarray,
     return rows, cols, blocks
 
 
-def _axial_blocks(structure: Structure, layout: DofLayout, members: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Dofs (s, 6) and global stiffness blocks (s, 6, 6) of axial springs ``k ê êᵀ``."""
+def reference_forces(structure: Structure) -> np.ndarray:
+    """(m,) axial force of every member at the reference positions, ``N0 = EA (l / l0 − 1)`` with
+    ``l`` the node distance [N] (tension positive; a slack cable, ``l < l0``, carries 0; a strain
+    within 10⁻¹² of 0 is the rounding of a rest length computed from ``l`` and counts as 0)."""
+    return _reference_state(structure)[0]
+
+
+def _reference_state(structure: Structure) -> tuple[np.ndarray, np.ndarray]:
+    """(m,) the reference axial forces of :func:`reference_forces` and (m,) the slack cables."""
+    table = structure.members
+    p = structure.positions_m
+    length = np.linalg.norm(p[table.nodes[:, 1]] - p[table.nodes[:, 0]], axis=1)
+    strain = length / table.rest_length_m - 1.0
+    strain = np.where(np.abs(strain) <= _STRAIN_ROUNDING, 0.0, strain)  # l0 computed from l
+    slack = (table.kind == _CABLE) & (strain < 0)
+    return np.where(slack, 0.0, table.EA_N * strain), slack
+
+
+def _directions(structure: Structure, members: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit vectors ``ê`` (s, 3) from the first to the second node and node distances ``l`` (s,)."""
+    ends = structure.members.nodes[members]
+    p = structure.positions_m
+    d = p[ends[:, 1]] - p[ends[:, 0]]
+    length = np.linalg.norm(d, axis=1)
+    return d / length[:, None], length
+
+
+def _axial_blocks(
+    structure: Structure, layout: DofLayout, members: np.ndarray, force_N: np.ndarray, taut: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Dofs (s, 6) and global stiffness blocks (s, 6, 6) of axial springs: ``k ê êᵀ`` where
+    ``taut`` plus the geometric stiffness ``(N / l)(I − ê êᵀ)`` of the axial forces ``force_N``."""
     table = structure.members
     ends = table.nodes[members]
-    p = structure.positions_m
-    e = p[ends[:, 1]] - p[ends[:, 0]]
-    e = e / np.linalg.norm(e, axis=1, keepdims=True)
-    length = np.linalg.norm(p[ends[:, 1]] - p[ends[:, 0]], axis=1)
-    k = table.stiffness_N_m[members]
-    strain = length / table.rest_length_m[members] - 1.0
-    strain = np.where(np.abs(strain) <= _STRAIN_ROUNDING, 0.0, strain)  # l0 computed from l
-    slack = (table.kind[members] == _CABLE) & (strain < 0)
-    force = np.where(slack, 0.0, table.EA_N[members] * strain)  # N at the reference
-    k = np.where(slack, 0.0, k)
+    e, length = _directions(structure, members)
+    k = np.where(taut, table.stiffness_N_m[members], 0.0)
     outer = k[:, None, None] * e[:, :, None] * e[:, None, :]
-    outer += (force / length)[:, None, None] * (np.eye(3)[None] - e[:, :, None] * e[:, None, :])
+    outer += (force_N / length)[:, None, None] * (np.eye(3)[None] - e[:, :, None] * e[:, None, :])
     sign = np.array([[1.0, -1.0], [-1.0, 1.0]])
     blocks = (sign[None, :, None, :, None] * outer[:, None, :, None, :]).reshape(-1, 6, 6)
     dofs = np.concatenate([layout.translation_dofs(ends[:, 0]), layout.translation_dofs(ends[:, 1])], axis=1)
@@ -281,8 +352,9 @@ def _to_global(local: np.ndarray, frames: np.ndarray) -> np.ndarray:
     return out.reshape(m, 12, 12)
 
 
-def _beam_stiffness(structure: Structure, beams: np.ndarray) -> np.ndarray:
-    """(m, 12, 12) global stiffness of ``beams`` (module docstring)."""
+def _beam_stiffness(structure: Structure, beams: np.ndarray, force_N: np.ndarray | None = None) -> np.ndarray:
+    """(m, 12, 12) global stiffness of ``beams`` (module docstring), with the geometric stiffness
+    of the axial forces ``force_N`` (m,) when given ("Prestress")."""
     table = structure.members
     l = table.rest_length_m[beams]
     local = np.zeros((beams.size, 12, 12))
@@ -290,6 +362,14 @@ def _beam_stiffness(structure: Structure, beams: np.ndarray) -> np.ndarray:
     _pair(local, 3, 9, table.GJ_Nm2[beams] / l, -table.GJ_Nm2[beams] / l)
     _fill_bending(local, _PLANE1, table.EI_Nm2[beams, 0] / l**3, l, _BEND_K)
     _fill_bending(local, _PLANE2, table.EI_Nm2[beams, 1] / l**3, l, _BEND_K, _PLANE2_SIGN)
+    if force_N is not None:
+        # the beam-column's consistent geometric stiffness N/(30 l) [[36, 3l, −36, 3l], ...] on each
+        # bending plane and the Wagner term N I_p/(A l) on the twist, I_p/A = (EI1 + EI2)/EA
+        _fill_bending(local, _PLANE1, force_N / (30.0 * l), l, _BEND_G)
+        _fill_bending(local, _PLANE2, force_N / (30.0 * l), l, _BEND_G, _PLANE2_SIGN)
+        EA = table.EA_N[beams]
+        polar = np.divide(table.EI_Nm2[beams].sum(axis=1), EA, out=np.zeros(beams.size), where=EA > 0)
+        _pair(local, 3, 9, force_N * polar / l, -force_N * polar / l)
     return _to_global(local, beam_frames(structure, beams))
 
 
@@ -326,16 +406,33 @@ def _beam_rotary_lumped(structure: Structure, beams: np.ndarray) -> np.ndarray:
     return np.einsum("mpi,mp,mpj->mij", frames, diag, frames)
 
 
-def stiffness_matrix(structure: Structure, layout: DofLayout | None = None) -> sparse.csr_matrix:
-    """Sparse stiffness ``K`` (``n_dof × n_dof`` CSR) of all members (module docstring)."""
+def stiffness_matrix(
+    structure: Structure,
+    layout: DofLayout | None = None,
+    *,
+    force_N: np.ndarray | None = None,
+    slack: np.ndarray | None = None,
+) -> sparse.csr_matrix:
+    """Sparse stiffness ``K`` (``n_dof × n_dof`` CSR) of all members (module docstring): the
+    elastic stiffness of the members, less the cables in ``slack`` (m,) (default: the cables slack
+    at the reference), plus the geometric stiffness of the members' axial forces ``force_N`` (m,)
+    [N] (default none: the elastic stiffness alone). :func:`assemble` gives the forces of the
+    prestress equilibrium ("Prestress")."""
     _check_members(structure)
     layout = dof_layout(structure) if layout is None else layout
     table = structure.members
+    m = len(table)
+    if slack is None:
+        slack = _reference_state(structure)[1]
+    force = np.zeros(m) if force_N is None else np.asarray(force_N, dtype=float)
+    if force.shape != (m,) or not np.all(np.isfinite(force)):
+        raise ValueError(f"force_N: must be {m} finite axial forces, got shape {force.shape}")
     beams = np.flatnonzero(table.kind == _BEAM)
     axial = np.flatnonzero(table.kind != _BEAM)
-    parts = [_element_triplets(*_axial_blocks(structure, layout, axial))]
+    parts = [_element_triplets(*_axial_blocks(structure, layout, axial, force[axial], ~np.asarray(slack)[axial]))]
     if beams.size:
-        parts.append(_element_triplets(_beam_dofs(layout, table.nodes[beams]), _beam_stiffness(structure, beams)))
+        blocks = _beam_stiffness(structure, beams, None if force_N is None else force[beams])
+        parts.append(_element_triplets(_beam_dofs(layout, table.nodes[beams]), blocks))
     rows, cols, vals = (np.concatenate([np.ravel(p[i]) for p in parts]) for i in range(3))
     return _coo(rows, cols, vals, layout.n_dof)
 
@@ -387,6 +484,34 @@ def rigid_motions(structure: Structure, layout: DofLayout, center_m: np.ndarray)
 
 
 @dataclass(frozen=True)
+class Prestress:
+    """The static equilibrium of the members' initial forces (module docstring, "Prestress").
+
+    Attributes:
+      reference_force_N: (m,) axial force of each member at the reference positions ``N0``
+        (:func:`reference_forces`) [N], tension positive.
+      force_N: (m,) axial force at the equilibrium ``N`` [N] (0 for the cables slack at the
+        reference; a cable may end in compression, ``compressed_cables``).
+      displacement: (n_dof,) the equilibrium's displacement from the reference positions ``u``
+        [m at translations, rad at rotations] (no rigid-body part in a free structure).
+      slack: (m,) the cables slack at the reference (their stiffness left out).
+      residual: ``‖K_e u + r0‖ / max(‖r0‖, ‖|K_e| |u|‖)`` (∞-norms) of the reduced equations.
+      iterations: conjugate-gradient iterations of the solve (0 when no member is prestrained).
+      compressed_cables: indices of the cables taut at the reference and in compression at the
+        equilibrium (the linear model keeps their stiffness and force; a real cable would go
+        slack there, so the reference shape is then far from the structure's own equilibrium).
+    """
+
+    reference_force_N: np.ndarray
+    force_N: np.ndarray
+    displacement: np.ndarray
+    slack: np.ndarray
+    residual: float
+    iterations: int
+    compressed_cables: np.ndarray
+
+
+@dataclass(frozen=True)
 class Assembly:
     """The assembled structure (module docstring).
 
@@ -402,6 +527,8 @@ class Assembly:
         constraints forbid them).
       center_m: (3,) centre of mass [m].
       mass: the mass model.
+      prestress: the static equilibrium of the members' initial forces ("Prestress"); ``K`` and
+        ``K_r`` are the tangent stiffness about it.
     """
 
     layout: DofLayout
@@ -413,6 +540,7 @@ class Assembly:
     rigid_r: np.ndarray
     center_m: np.ndarray
     mass: str
+    prestress: Prestress
 
     @property
     def n_dof(self) -> int:
@@ -575,28 +703,135 @@ def _check_parts(structure: Structure) -> None:
         raise StructureError(problems)
 
 
-def assemble(structure: Structure, *, mass: str = "lumped") -> Assembly:
-    """Stiffness, mass, rigid-part transformation and constraints of ``structure`` (module docstring).
+def _internal_forces(structure: Structure, layout: DofLayout, force_N: np.ndarray) -> np.ndarray:
+    """(n_dof,) the members' internal forces ``r`` of the axial forces ``force_N`` (m,) along the
+    reference directions: ``−N ê`` at the first node's translations, ``+N ê`` at the second (the
+    gradient of the strain energy; the force on the nodes is ``−r``)."""
+    e, _ = _directions(structure, np.arange(len(structure.members)))
+    ends = structure.members.nodes
+    r = np.zeros(layout.n_dof)
+    np.add.at(r, layout.translation_dofs(ends[:, 0]), -force_N[:, None] * e)
+    np.add.at(r, layout.translation_dofs(ends[:, 1]), force_N[:, None] * e)
+    return r
+
+
+def _singular_solve(K: sparse.csr_matrix, b: np.ndarray) -> tuple[np.ndarray, float, int]:
+    """A solution of the consistent singular system ``K q = b`` (K symmetric positive
+    semi-definite): conjugate gradients preconditioned by the factor of ``K + σ D`` (``D`` the
+    diagonal of ``K``, its largest entry where it is 0; ``σ`` = :data:`_PRESTRESS_SHIFT`); the
+    solution, its relative residual and the iterations."""
+    d = K.diagonal()
+    D = np.where(d > 0, d, float(d.max(initial=0.0)) or 1.0)
+    A = (K + sparse.diags(_PRESTRESS_SHIFT * D)).tocsc()
+    lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    count = [0]
+
+    def step(_: np.ndarray) -> None:
+        count[0] += 1
+
+    preconditioner = LinearOperator(A.shape, matvec=lu.solve, dtype=float)
+    q, _ = cg(K, b, rtol=0.1 * PRESTRESS_RTOL, atol=0.0, maxiter=_PRESTRESS_MAX_ITER, M=preconditioner, callback=step)
+    scale = max(float(np.abs(b).max()), float((abs(K) @ np.abs(q)).max()), 1e-300)
+    return q, float(np.abs(b - K @ q).max()) / scale, count[0]
+
+
+def prestress_equilibrium(
+    structure: Structure, layout: DofLayout, T: sparse.csr_matrix, rigid: np.ndarray, M_r: sparse.csr_matrix
+) -> Prestress:
+    """The static equilibrium of the members' reference forces (module docstring, "Prestress") in
+    the independent coordinates ``u = T q``; ``rigid`` (n_reduced, 6) the rigid-body motions and
+    ``M_r`` the reduced mass, with which a free structure's displacement is made M-orthogonal to
+    the rigid-body motions (its centre of mass stays and it does not turn on average).
 
     Raises:
-      StructureError: a member, rigid part or constraint that cannot be assembled (named), or an
-        independent coordinate with neither stiffness nor mass (the node named).
+      StructureError: the equilibrium equations have no solution to :data:`PRESTRESS_RTOL` (a
+        prestrained member that no stiffness holds).
+    """
+    table = structure.members
+    force0, slack = _reference_state(structure)
+    if not np.any(force0):
+        none = np.zeros(0, dtype=np.int64)
+        return Prestress(force0, np.zeros(len(table)), np.zeros(layout.n_dof), slack, 0.0, 0, none)
+    K = (T.T @ stiffness_matrix(structure, layout, slack=slack) @ T).tocsr()
+    q, residual, iterations = _singular_solve(0.5 * (K + K.T), -(T.T @ _internal_forces(structure, layout, force0)))
+    if not residual <= PRESTRESS_RTOL:
+        raise StructureError(
+            f"members: the prestrained members' forces have no static equilibrium (relative residual "
+            f"{residual:.3g} > {PRESTRESS_RTOL:g}); some prestrained member is held by no stiffness"
+        )
+    if not np.any(np.asarray(structure.fixed_dofs, dtype=bool)):
+        MD = np.asarray(M_r @ rigid)
+        q = q - rigid @ linalg.lstsq(rigid.T @ MD, MD.T @ q, cond=1e-12)[0]  # no rigid-body part
+    u = np.asarray(T @ q)
+    e, _ = _directions(structure, np.arange(len(table)))
+    trans = layout.translation_dofs(table.nodes.ravel()).reshape(-1, 2, 3)
+    stretch = np.einsum("ij,ij->i", e, u[trans[:, 1]] - u[trans[:, 0]])
+    force = np.where(slack, 0.0, force0 + table.stiffness_N_m * stretch)
+    compressed = np.flatnonzero((table.kind == _CABLE) & ~slack & (force < 0))
+    return Prestress(force0, force, u, slack, residual, iterations, compressed)
+
+
+def _part_geometric(
+    structure: Structure, layout: DofLayout, internal: np.ndarray, n_free: int, n_r0: int
+) -> sparse.csr_matrix:
+    """The rigid parts' geometric stiffness at their rotation masters (module docstring,
+    "Prestress"): ``Σ_i sym(g_i r_iᵀ) − (g_i · r_i) I`` over the held nodes, ``g_i`` the members'
+    internal force at node ``i`` (``internal``, n_dof) and ``r_i`` its arm from the part's centre."""
+    rows, cols, vals = [], [], []
+    for j, part in enumerate(structure.rigid_parts):
+        held = np.asarray(part.nodes, dtype=np.int64).ravel()
+        g = internal[layout.translation_dofs(held)]
+        r = structure.positions_m[held] - np.asarray(part.center_m, dtype=float)
+        gr = np.einsum("ni,nj->ij", g, r)
+        block = 0.5 * (gr + gr.T) - np.trace(gr) * np.eye(3)
+        idx = n_free + 6 * j + 3 + np.arange(3)
+        rows.append(np.repeat(idx, 3))
+        cols.append(np.tile(idx, 3))
+        vals.append(block.ravel())
+    if not rows:
+        return sparse.csr_matrix((n_r0, n_r0))
+    return _coo(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), n_r0)
+
+
+def assemble(structure: Structure, *, mass: str = "lumped") -> Assembly:
+    """Stiffness, mass, rigid-part transformation and constraints of ``structure`` (module docstring),
+    the stiffness about the prestress equilibrium.
+
+    Raises:
+      StructureError: a member, rigid part or constraint that cannot be assembled (named), an
+        independent coordinate with neither stiffness nor mass (the node named), or a prestress
+        without equilibrium.
       ValueError: ``mass`` is not one of :data:`MASS_MODELS`.
     """
     _check_parts(structure)
     layout = dof_layout(structure)
-    K = stiffness_matrix(structure, layout)
     M = mass_matrix(structure, layout, mass=mass)
     T0, S, n_free = _transformation(structure, layout)
     T = (T0 @ S).tocsr()
-    K_r = (T.T @ K @ T).tocsr()
-    M_r = (T.T @ M @ T + S.T @ _part_mass(structure, n_free, T0.shape[1]) @ S).tocsr()
-    K_r = (0.5 * (K_r + K_r.T)).tocsr()
-    M_r = (0.5 * (M_r + M_r.T)).tocsr()
     _, center, _ = structure.mass_properties()
     rigid = np.asarray(S.T @ _rigid_reduced(structure, layout, n_free, center))
+    M_r = (T.T @ M @ T + S.T @ _part_mass(structure, n_free, T0.shape[1]) @ S).tocsr()
+    M_r = (0.5 * (M_r + M_r.T)).tocsr()
+    prestress = prestress_equilibrium(structure, layout, T, rigid, M_r)
+    K = stiffness_matrix(structure, layout, force_N=prestress.force_N, slack=prestress.slack)
+    K_r = T.T @ K @ T
+    if np.any(prestress.force_N) and structure.rigid_parts:
+        K_e = stiffness_matrix(structure, layout, slack=prestress.slack)
+        N0 = np.where(prestress.slack, 0.0, prestress.reference_force_N)
+        internal = _internal_forces(structure, layout, N0) + K_e @ prestress.displacement
+        K_r = K_r + S.T @ _part_geometric(structure, layout, internal, n_free, T0.shape[1]) @ S
+    K_r = (0.5 * (K_r + K_r.T)).tocsr()
     assembly = Assembly(
-        layout=layout, K=K, M=M, T=T, K_r=K_r, M_r=M_r, rigid_r=rigid, center_m=np.asarray(center), mass=mass
+        layout=layout,
+        K=K,
+        M=M,
+        T=T,
+        K_r=K_r,
+        M_r=M_r,
+        rigid_r=rigid,
+        center_m=np.asarray(center),
+        mass=mass,
+        prestress=prestress,
     )
     _check_empty(assembly)
     return assembly

@@ -3,16 +3,19 @@ r"""Undamped modes of any structure: frequencies, M-orthonormal shapes, particip
 Eigenproblem
     :math:`\mathbf K_r\boldsymbol\phi=\omega^2\mathbf M_r\boldsymbol\phi` of the reduced sparse
     matrices of :func:`magsail_mj.structure.assembly.assemble` (rigid parts and ``fixed_dofs``
-    applied). The lowest ``k`` pairs come from ``scipy.sparse.linalg.eigsh`` in shift-invert mode
-    about a slightly negative shift ``σ`` (default ``σ = −10⁻⁹ s``, ``s = max_i K_ii / M_ii`` over
-    the coordinates with mass: the highest frequency scale of the model), so that ``K_r − σ M_r``
-    is factorised even when ``K_r`` is singular (a free structure) and the eigenvalues nearest
-    ``σ`` are the lowest ``ω² ≥ 0``. ``K_r − σ M_r`` is symmetric positive definite: SuperLU factors
-    it with diagonal pivots in the minimum-degree order of ``Aᵀ + A``. ``M_r`` may be singular
-    (massless coordinates have infinite frequencies, never returned). Below 500 coordinates
-    (``solver="auto"``) the dense LAPACK ``scipy.linalg.eigh(K_r, M_r)`` solves the whole problem
-    instead (the shift-inverted pair ``M_r φ = ν (K_r − σ M_r) φ``, ``ω² = σ + 1/ν``, when ``M_r``
-    is singular).
+    applied; a prestressed structure's tangent stiffness about the static equilibrium of its
+    members' prestrain, the elastic stiffness plus the geometric stiffness of the members' axial
+    forces there, :class:`~magsail_mj.structure.assembly.Prestress`, so that a free prestressed
+    structure keeps its six rigid-body zero modes in any orientation). The lowest ``k`` pairs come
+    from ``scipy.sparse.linalg.eigsh`` in shift-invert mode about a slightly negative shift ``σ``
+    (default ``σ = −10⁻⁹ s``, ``s = max_i K_ii / M_ii`` over the coordinates with mass: the highest
+    frequency scale of the model), so that ``K_r − σ M_r`` is factorised even when ``K_r`` is
+    singular (a free structure) and the eigenvalues nearest ``σ`` are the lowest ``ω² ≥ 0``. ``K_r −
+    σ M_r`` is symmetric positive definite: SuperLU factors it with diagonal pivots in the
+    minimum-degree order of ``Aᵀ + A``. ``M_r`` may be singular (massless coordinates have infinite
+    frequencies, never returned). Below 500 coordinates (``solver="auto"``) the dense LAPACK
+    ``scipy.linalg.eigh(K_r, M_r)`` solves the whole problem instead (the shift-inverted pair ``M_r
+    φ = ν (K_r − σ M_r) φ``, ``ω² = σ + 1/ν``, when ``M_r`` is singular).
 
 Zero modes
     Rigid-body motions (six for a free, connected structure) and mechanisms have ``ω² = 0`` up to

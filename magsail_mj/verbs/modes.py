@@ -20,8 +20,12 @@ The modes are :func:`magsail_mj.structure.modes.structure_modes` (lumped mass). 
 modes: rigid-body motions and mechanisms; ``zero_mode_rule`` states the clamp), ``participation``
 (rigid-body directions, effective masses and their fractions per mode), ``share`` (in-plane,
 bending and twist per mode, and the principal axes), ``n_dof`` (the independent coordinates),
-``count`` (modes computed: ``--count``, at most ``n_dof``), ``solver`` and ``source`` (path and
-kind). ``--plot DIR`` writes
+``count`` (modes computed: ``--count``, at most ``n_dof``), ``solver``, ``source`` (path and
+kind) and ``prestress``: the modes are about the static equilibrium of the members' prestrain
+(:mod:`magsail_mj.structure.assembly`, "Prestress"), and this block gives the prestrained members'
+count, each member kind's axial force range there ``[min, max]`` [N] (tension positive: the
+booms' compression under a tensioned net), the cables that end in compression there (the linear
+model keeps them; a real cable would go slack) and the solve's relative residual. ``--plot DIR`` writes
 ``mode_NN.png`` for the elastic modes among them (at most :data:`MAX_PLOTS`): the structure's
 members undeformed and in the mode shape, scaled so the largest node displacement is a tenth of
 the structure's size; their paths are listed in ``plots``.
@@ -48,7 +52,7 @@ from magsail_mj.structure.assembly import assemble, dof_layout
 from magsail_mj.structure.fileformat import read_structure
 from magsail_mj.structure.mesh import read_mesh
 from magsail_mj.structure.nastran import read_nastran
-from magsail_mj.structure.model import Structure, StructureError
+from magsail_mj.structure.model import MEMBER_KINDS, Structure, StructureError
 from magsail_mj.structure.modes import ROUNDING_FLOOR, RIGID_DIRECTIONS, StructureModes, structure_modes
 from magsail_mj.verbs.common import input_file, output_dir, print_json
 
@@ -115,7 +119,7 @@ def read_source(source: str) -> tuple[Structure, str]:
     )
 
 
-def _report(result: StructureModes, *, source: str, kind: str, count: int) -> dict[str, Any]:
+def _report(result: StructureModes, structure: Structure, *, source: str, kind: str, count: int) -> dict[str, Any]:
     p, s = result.participation, result.share
     return {
         "frequencies_Hz": result.frequencies_Hz,
@@ -137,10 +141,31 @@ def _report(result: StructureModes, *, source: str, kind: str, count: int) -> di
             "axes": {"e1": s.axes[0], "e2": s.axes[1], "normal": s.axes[2]},
             "symmetric": s.symmetric,
         },
+        "prestress": _prestress_report(result, structure),
         "n_dof": result.assembly.n_dof,
         "count": count,
         "solver": result.solver,
         "source": {"path": source, "kind": kind},
+    }
+
+
+def _prestress_report(result: StructureModes, structure: Structure) -> dict[str, Any]:
+    """The prestress equilibrium the modes are taken about: the prestrained members' count, the
+    range ``[min, max]`` of each member kind's axial force there [N] (tension positive), the
+    cables in compression there and the solve's relative residual
+    (:class:`~magsail_mj.structure.assembly.Prestress`)."""
+    prestress = result.assembly.prestress
+    kinds = np.asarray(MEMBER_KINDS)[structure.members.kind]
+    force = prestress.force_N
+    return {
+        "prestrained_members": int(np.count_nonzero(prestress.reference_force_N)),
+        "force_N": {
+            kind: [float(force[kinds == kind].min()), float(force[kinds == kind].max())]
+            for kind in MEMBER_KINDS
+            if np.any(kinds == kind)
+        },
+        "compressed_cables": prestress.compressed_cables,
+        "residual": prestress.residual,
     }
 
 
@@ -193,7 +218,7 @@ def modes(args: argparse.Namespace) -> int:
     assembly = assemble(structure)
     count = min(int(args.count), assembly.n_dof)
     result = structure_modes(structure, k=count, assembly=assembly)
-    report = _report(result, source=args.source, kind=kind, count=count)
+    report = _report(result, structure, source=args.source, kind=kind, count=count)
     if plot_dir is not None:
         report["plots"] = [str(path) for path in _plot(result, structure, plot_dir)]
     print_json(report, what="SOURCE")
