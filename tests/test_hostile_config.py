@@ -83,6 +83,10 @@ EXTRA = {
         "magsail_mj/concepts/cnusail/configs/detumble_pre.toml",
         ["sim.duration_s=20.0", 'control.bdot_law="bang_bang"'],
     ),
+    "cnusail_b_cross": (
+        "magsail_mj/concepts/cnusail/configs/detumble_post.toml",
+        ["sim.duration_s=20.0", 'control.bdot_law="b_cross"', "control.bcross_gain_Nms=4e-5"],
+    ),
     "msac_lumped": ("magsail_mj/concepts/msac/configs/lumped.toml", []),
     "msac_sweep": ("magsail_mj/concepts/msac/configs/sweeps/stroke.toml", ["sim.duration_s=0.01"]),
 }

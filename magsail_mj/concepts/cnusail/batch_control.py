@@ -13,7 +13,7 @@ and limits:
   the cycle and nothing during the blanking window; the world's ``control.bdot_law`` other than
   the proportional one replaces ``−K Ḃ`` before the clip (:mod:`magsail_mj.control.detumble_laws`,
   each law evaluated on every world's row as the single run evaluates it on its one row): bang-bang
-  ``−m_max sign Ḃ``;
+  ``−m_max sign Ḃ`` or the B×ω law ``k (ω × B)/‖B‖²`` with the world's gain;
 * attitude sample (every ``1/rate_Hz``): the telemetry of the single run (the error quaternion to
   the nadir frame, its eigen-angle, the rate error); in DETUMBLE the wheels idle (command 0);
 * wheel drivers every step (Eqs. 8–11): the quasi-static DC motor ``V = clip(R i_c + K_b ω_M,
@@ -37,7 +37,7 @@ import numpy as np
 
 from magsail_mj.batch.worldmath import mat_t_vec_blas, quat_to_mat
 from magsail_mj.concepts.cnusail.modes import CnusailController, Mode
-from magsail_mj.control.detumble_laws import bang_bang_dipole
+from magsail_mj.control.detumble_laws import bang_bang_dipole, bcross_dipole
 
 __all__ = ["BdotWorlds", "nadir_frame", "error_quaternion", "eigen_angle", "rate_error"]
 
@@ -156,6 +156,8 @@ class BdotWorlds:
         self.limit = np.array([c.p.mtq_limits_Am2 for c in controllers])
         laws = np.array([c.p.bdot_law for c in controllers])
         self.bang_bang = laws == "bang_bang"
+        self.b_cross = laws == "b_cross"
+        self.k_bcross = np.array([c.p.bcross_gain_Nms for c in controllers])[:, None]
         self.shortest = np.array([bool(c.p.shortest_rotation) for c in controllers])
         self.ideal = np.array([c.driver.model == "ideal" for c in controllers])[:, None]
         ps = [c.driver.p for c in controllers]
@@ -240,6 +242,8 @@ class BdotWorlds:
         m = -self.gain * self.B_dot
         if self.bang_bang.any():
             m = np.where(self.bang_bang[:, None], bang_bang_dipole(self.B_dot, self.limit), m)
+        if self.b_cross.any():
+            m = np.where(self.b_cross[:, None], bcross_dipole(omega, B, k_Nms=self.k_bcross), m)
         self._set("dipole_held", np.clip(m, -self.limit, self.limit))
 
     def _motor_torque(self, w: np.ndarray) -> np.ndarray:

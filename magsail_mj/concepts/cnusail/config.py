@@ -227,7 +227,9 @@ class CnusailControlConfig(StrictModel):
     recalculation and the sub-tables ``unloading``, ``modes``, ``sensors``.
 
     ``bdot_law`` is the detumble mode's law (:mod:`magsail_mj.control.detumble_laws`):
-    ``"proportional"`` (the paper's M = −K Ḃ, default) or ``"bang_bang"`` (−m_max sign Ḃ per axis)."""
+    ``"proportional"`` (the paper's M = −K Ḃ, default), ``"bang_bang"`` (−m_max sign Ḃ per
+    axis) or ``"b_cross"`` (m = k (ω × B)/‖B‖², k = ``bcross_gain_Nms`` or, absent, Avanzini &
+    Giulietti's 2 n (1 + sin ξ_m) J_min; at most 1e12 N m s keeps the dipole's products finite)."""
 
     mode: Literal["bdot", "eigen_axis", "pd"]
     command: Literal["nadir", "deorbit"] = "nadir"
@@ -235,7 +237,8 @@ class CnusailControlConfig(StrictModel):
     bdot_gain_Am2s_T: float = Field(default=5.0e4, gt=0)
     bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
     bdot_omega_c_rad_s: float = Field(default=0.5, gt=0)
-    bdot_law: Literal["proportional", "bang_bang"] = "proportional"
+    bdot_law: Literal["proportional", "bang_bang", "b_cross"] = "proportional"
+    bcross_gain_Nms: float | None = Field(default=None, gt=0, le=1e12)
     slew_rate_max_deg_s: float = Field(default=0.3, gt=0)
     omega_n_rad_s: float = Field(default=0.02, gt=0)
     zeta: float = Field(default=0.9, gt=0)

@@ -21,14 +21,17 @@ from magsail_mj.concepts.cnusail.modes import (
     command_quaternion,
 )
 from magsail_mj.concepts.cnusail.eigenaxis import orbital_rate, rate_error
+from magsail_mj.control.detumble_laws import avanzini_giulietti_gain, geomagnetic_inclination_rad
 from magsail_mj.environment.environment import Environment
+from magsail_mj.environment.field import igrf_dipole
+from magsail_mj.environment.timeutil import parse_epoch
 from magsail_mj.loads.actuators_cubesat import RPM, MagnetorquerCycle, WheelDriver
 from magsail_mj.concepts.cnusail.disturbances import CubesatDisturbanceLoad, cubesat_drag_facets, cubesat_sail_facets
 from magsail_mj.concepts.cnusail.mjcf import CubesatModelParams, build_cubesat_spec, cubesat_indices
 from magsail_mj.quaternion import quat_mul
 from magsail_mj.concepts.cnusail.config import CnusailConfig
 
-__all__ = ["CnusailModel", "model_params", "DEG"]
+__all__ = ["CnusailModel", "model_params", "DEG", "bcross_gain_of"]
 
 DEG = math.pi / 180.0
 
@@ -54,6 +57,33 @@ def model_params(cfg: CnusailConfig) -> CubesatModelParams:
         solver_tolerance=cfg.sim.solver_tolerance,
         markers=cfg.render.markers,
         name=f"cnusail_{cfg.scenario}",
+    )
+
+
+def bcross_gain_of(cfg: CnusailConfig, environment: Environment) -> float:
+    """The B×ω detumble gain k [N m s] of ``cfg``: ``control.bcross_gain_Nms`` when given, else
+    Avanzini & Giulietti's ``2 n (1 + sin ξ_m) J_min``
+    (:func:`~magsail_mj.control.detumble_laws.avanzini_giulietti_gain`) with n the mean motion of the
+    epoch elements, J_min the smallest of ``spacecraft.inertia`` (principal axes) and ξ_m the
+    inclination of the epoch's orbit plane (r × v of the reference orbit at t = 0)
+    to the magnetic equator at the epoch: of the IGRF degree-1 dipole (field date) turned from ECEF
+    into ECI by the epoch's sidereal angle for ``igrf`` and ``tilted_dipole``, of the rotation axis
+    for the aligned models and for a field without a dipole (``constant``, ``none``)."""
+    given = cfg.control.bcross_gain_Nms
+    if given is not None:
+        return float(given)
+    env0 = environment.sample(0.0)
+    axis = np.array([0.0, 0.0, 1.0])
+    if cfg.field.model in ("igrf", "tilted_dipole"):
+        date = parse_epoch(cfg.field.igrf_date) if cfg.field.igrf_date else environment.epoch
+        m_ecef = igrf_dipole(date)[0]
+        c, s = math.cos(env0.gmst_rad), math.sin(env0.gmst_rad)  # ECEF = R3(θ) ECI
+        axis = np.array([c * m_ecef[0] - s * m_ecef[1], s * m_ecef[0] + c * m_ecef[1], m_ecef[2]])
+    xi_m = geomagnetic_inclination_rad(env0.r_ref_eci, env0.v_ref_eci, axis)
+    return avanzini_giulietti_gain(
+        mean_motion_rad_s=environment.elements.mean_motion(environment.mu),
+        xi_m_rad=xi_m,
+        J_min_kgm2=float(min(cfg.spacecraft.inertia)),
     )
 
 
@@ -128,6 +158,7 @@ class CnusailModel:
             bdot_gain=c.bdot_gain_Am2s_T,
             bdot_omega_c_rad_s=c.bdot_omega_c_rad_s,
             bdot_law=c.bdot_law,
+            bcross_gain_Nms=bcross_gain_of(cfg, self.environment) if c.bdot_law == "b_cross" else 1.0,
             omega_n_rad_s=c.omega_n_rad_s,
             zeta=c.zeta,
             rate_max_rad_s=c.slew_rate_max_deg_s * DEG,

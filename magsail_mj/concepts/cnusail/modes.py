@@ -47,7 +47,7 @@ import numpy as np
 
 from magsail_mj.checks import require_non_negative
 from magsail_mj.control.bdot import make_bdot
-from magsail_mj.control.detumble_laws import bang_bang_dipole
+from magsail_mj.control.detumble_laws import bang_bang_dipole, bcross_dipole
 from magsail_mj.concepts.cnusail.eigenaxis import (
     EigenAxisGains,
     GyroComp,
@@ -79,7 +79,7 @@ __all__ = [
 
 DEG = math.pi / 180.0
 
-DETUMBLE_LAWS = ("proportional", "bang_bang")
+DETUMBLE_LAWS = ("proportional", "bang_bang", "b_cross")
 """The detumble mode's laws (``control.bdot_law``)."""
 
 
@@ -217,7 +217,8 @@ class CnusailControlParams:
       mtq_limits_Am2: (3,) dipole limits.
       bdot_form, bdot_gain, bdot_omega_c_rad_s: B-dot law (Yoo et al. 2016, Eqs. 24–27).
       bdot_law: the detumble mode's law (:data:`DETUMBLE_LAWS`): ``"proportional"`` (the paper's
-        M = −K Ḃ) or ``"bang_bang"``; :mod:`magsail_mj.control.detumble_laws`.
+        M = −K Ḃ), ``"bang_bang"`` or ``"b_cross"`` (B×ω, gain ``bcross_gain_Nms``);
+        :mod:`magsail_mj.control.detumble_laws`.
       omega_n_rad_s, zeta, rate_max_rad_s, clamp_min, gyro_comp, shortest_rotation: eigen-axis
         (Yoo et al. 2016, Eqs. 28–38).
       recalc_enabled, recalc_margin_rad: deorbit gain recalculation.
@@ -238,7 +239,8 @@ class CnusailControlParams:
     bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
     bdot_gain: float = 5.0e4
     bdot_omega_c_rad_s: float = 0.5
-    bdot_law: Literal["proportional", "bang_bang"] = "proportional"
+    bdot_law: Literal["proportional", "bang_bang", "b_cross"] = "proportional"
+    bcross_gain_Nms: float = 1.0e-3
     omega_n_rad_s: float = 0.02
     zeta: float = 0.9
     rate_max_rad_s: float = 0.3 * DEG
@@ -480,11 +482,15 @@ class CnusailController:
 
     def _detumble_dipole(self, t: float, R: np.ndarray, B: np.ndarray, omega: np.ndarray) -> np.ndarray:
         """The unsaturated dipole [A m²] of the detumble law ``bdot_law`` other than the
-        proportional one (:mod:`magsail_mj.control.detumble_laws`), at the magnetometer sample
-        (the field ``B`` [T, body], the rate ``omega`` [rad/s, body]); evaluated on one row, as the
-        batch evaluates it on every world's."""
+        proportional one (:mod:`magsail_mj.control.detumble_laws`), at the magnetometer sample:
+        the field ``B`` [T, body] and the rate ``omega`` [rad/s, body; gyro noise added when set].
+        Each law is evaluated on one row, as the batch evaluates it on every world's."""
         p = self.p
-        return bang_bang_dipole(self.bdot.B_dot, p.mtq_limits_Am2)
+        if p.bdot_law == "bang_bang":
+            return bang_bang_dipole(self.bdot.B_dot, p.mtq_limits_Am2)
+        if p.gyro_noise_rad_s > 0:
+            omega = omega + self.rng.normal(0.0, p.gyro_noise_rad_s, 3)
+        return bcross_dipole(omega[None], B[None], k_Nms=p.bcross_gain_Nms)[0]
 
 
 def _slice_if_contiguous(index: np.ndarray) -> slice | np.ndarray:
