@@ -23,6 +23,7 @@ from magsail_mj.control.detumble_laws import (
     bang_bang_dipole,
     bcross_dipole,
     geomagnetic_inclination_rad,
+    nonmonotonic_dipole,
 )
 from tests.conftest import REPO
 from tests.test_batch_equals_single import run_and_compare
@@ -104,21 +105,64 @@ def test_bcross_torque_is_the_rate_across_the_field_and_does_negative_work_when_
     assert np.array_equal(bcross_dipole(omega[:1], np.zeros((1, 3)), k_Nms=k), np.zeros((1, 3)))
 
 
+# ----------------------------------------------------------------------------- non-monotonic (Willis et al.)
+
+
+def test_nonmonotonic_law_without_a_second_step_is_the_saturated_momentum_bcross_law():
+    omega, B = _samples(200, 3)
+    _, B2 = _samples(200, 4)
+    J = np.diag([0.0506, 0.0506, 0.010])
+    Js = np.broadcast_to(J, (200, 3, 3))
+    k = 3e3
+    m = nonmonotonic_dipole(omega, B, B2, Js, gain_per_Nms=k, alpha=0.0, m_max_Am2=M_MAX)
+    h = omega @ J.T
+    b = B / np.linalg.norm(B, axis=1, keepdims=True)
+    np.testing.assert_allclose(m, M_MAX * np.tanh(0.5 * k * np.cross(h, b)), rtol=1e-9, atol=1e-15)  # 6×6 solve
+    # every component has the sign of (h × B)_i: the momentum falls at the instant, h·τ ≤ 0
+    assert np.all(np.einsum("ij,ij->i", h, np.cross(m, B)) <= 0.0)
+
+
+def test_nonmonotonic_two_step_control_costs_no_more_than_doing_nothing():
+    """The optimum of ½‖ū‖² + ½‖h − [b₁]×u₁‖² + (α/2)‖h − [b₁]×u₁ − [b₂]×u₂‖² is at most its value at
+    ū = 0, ½ (1 + α)‖h‖²: on average over the two steps the momentum falls."""
+    omega, B = _samples(300, 5)
+    _, B2 = _samples(300, 6)
+    J = np.broadcast_to(np.diag([0.31, 0.31, 0.58]), (300, 3, 3))
+    h = np.einsum("nij,nj->ni", J, omega)
+    n1 = np.linalg.norm(B, axis=1, keepdims=True)
+    b1, b2 = B / n1, B2 / n1
+    for alpha in (0.0, 1.0, 100.0):
+        # the unsaturated u₁ from the law: k small keeps tanh(k u) = k u to 1e-12 relative
+        k = 1e-6
+        u1 = np.arctanh(nonmonotonic_dipole(omega, B, B2, J, gain_per_Nms=k, alpha=alpha, m_max_Am2=np.ones(3))) / k
+        # u₂ of the optimum, given u₁: (I + α [b₂]×ᵀ[b₂]×) u₂ = α [b₂]×ᵀ (h − [b₁]× u₁)
+        h1 = h - np.cross(b1, u1)
+        A2 = np.stack([np.cross(b2, e) for e in np.eye(3)], axis=2)  # [b₂]× per row
+        lhs = np.eye(3) + alpha * np.einsum("nki,nkj->nij", A2, A2)
+        u2 = np.linalg.solve(lhs, alpha * np.einsum("nki,nk->ni", A2, h1)[:, :, None])[:, :, 0]
+        h2 = h1 - np.cross(b2, u2)
+        cost = 0.5 * (np.sum(u1**2 + u2**2, 1) + np.sum(h1**2, 1) + alpha * np.sum(h2**2, 1))
+        assert np.all(cost <= 0.5 * (1.0 + alpha) * np.sum(h**2, 1))
+        assert np.all(np.sum(h2**2, 1) < np.sum(h**2, 1))  # and it ends below the start
+
+
 # ----------------------------------------------------------------------------- config and the batch
 
 
 def test_unknown_law_is_refused_naming_the_key_and_value():
     with pytest.raises(ConfigError, match=r"control\.bdot_law.*'cubic'"):
         load_config(PRE, ['control.bdot_law="cubic"'])
+    with pytest.raises(ConfigError, match=r"control\.nonmonotonic_alpha"):
+        load_config(PRE, ["control.nonmonotonic_alpha=1e7"])
 
 
 def test_laws_change_the_commands():
     dipoles = {}
-    for law in ("proportional", "bang_bang", "b_cross"):
+    for law in ("proportional", "bang_bang", "b_cross", "non_monotonic"):
         r = magsail_mj.load(str(PRE), ["sim.duration_s=6", f'control.bdot_law="{law}"']).run()
         dipoles[law] = np.asarray(r.records["dipole_cmd_Am2"])[2]
     assert np.array_equal(np.abs(dipoles["bang_bang"]), M_MAX)
-    assert len({d.tobytes() for d in dipoles.values()}) == 3
+    assert len({d.tobytes() for d in dipoles.values()}) == 4
 
 
 def test_worlds_of_every_law_equal_their_single_runs():
@@ -127,7 +171,18 @@ def test_worlds_of_every_law_equal_their_single_runs():
         ['control.bdot_law="bang_bang"', 'control.bdot_form="filtered"', "initial.omega0_deg_s=[2.0, 9.0, -4.0]"],
         ['control.bdot_law="b_cross"'],
         ['control.bdot_law="b_cross"', "control.bcross_gain_Nms=2e-4", 'orbit.epoch="2016-06-01T12:00:00Z"'],
+        ['control.bdot_law="non_monotonic"', "initial.omega0_deg_s=[-3.0, 1.0, 8.0]"],
+        ['control.bdot_law="non_monotonic"', "control.nonmonotonic_alpha=0.0", 'actuators.mtq.limits="half_watt"'],
         [],
     ]
     _, result = run_and_compare(str(PRE), ["sim.duration_s=30"], worlds, nthread=2)
     assert result.status == ["completed"] * len(worlds)
+
+
+def test_nonmonotonic_worlds_reading_inside_the_table_equal_their_single_runs():
+    """A 5 s look-ahead stays inside the field table (the 600 s default of a 30 s run reads its end)."""
+    shared = ["sim.duration_s=30", 'control.bdot_law="non_monotonic"', "control.nonmonotonic_lookahead_s=5.0"]
+    worlds = [[], ["control.nonmonotonic_gain_per_Nms=50.0", "spacecraft.inertia_kgm2=[0.07, 0.06, 0.015]"]]
+    run_and_compare(str(PRE), shared, worlds)
+    with pytest.raises(ValueError, match=r"control\.nonmonotonic_lookahead_s"):
+        magsail_mj.load(str(PRE), shared, world_overrides=[[], ["control.nonmonotonic_lookahead_s=6.0"]])

@@ -51,6 +51,18 @@ FUZZED = {
     "reflector": ("magsail_mj/concepts/reflector/configs/detumble.toml", ["plate.side_m=4.0", "sim.duration_s=20.0"]),
     "cnusail": ("magsail_mj/concepts/cnusail/configs/detumble_pre.toml", ["sim.duration_s=20.0"]),
     "msac": ("magsail_mj/concepts/msac/configs/paper_1khz.toml", ["sim.duration_s=0.01"]),
+    # the CNUSAIL detumble laws' keys as leaves (the B×ω gain is a leaf while unused here)
+    "cnusail_non_monotonic": (
+        "magsail_mj/concepts/cnusail/configs/detumble_pre.toml",
+        [
+            "sim.duration_s=20.0",
+            'control.bdot_law="non_monotonic"',
+            "control.nonmonotonic_gain_per_Nms=3000.0",
+            "control.nonmonotonic_alpha=100.0",
+            "control.nonmonotonic_lookahead_s=600.0",
+            "control.bcross_gain_Nms=4e-5",
+        ],
+    ),
 }
 
 # Further scenario kinds, swept deterministically with the extreme values.

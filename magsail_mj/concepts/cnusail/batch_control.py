@@ -13,7 +13,9 @@ and limits:
   the cycle and nothing during the blanking window; the world's ``control.bdot_law`` other than
   the proportional one replaces ``−K Ḃ`` before the clip (:mod:`magsail_mj.control.detumble_laws`,
   each law evaluated on every world's row as the single run evaluates it on its one row): bang-bang
-  ``−m_max sign Ḃ`` or the B×ω law ``k (ω × B)/‖B‖²`` with the world's gain;
+  ``−m_max sign Ḃ``, the B×ω law ``k (ω × B)/‖B‖²`` with the world's gain, or the non-monotonic
+  law with the field table read ahead (``EnvironmentStack.sample`` at ``min(t + Δt, t_max)``, in
+  today's body axes);
 * attitude sample (every ``1/rate_Hz``): the telemetry of the single run (the error quaternion to
   the nadir frame, its eigen-angle, the rate error); in DETUMBLE the wheels idle (command 0);
 * wheel drivers every step (Eqs. 8–11): the quasi-static DC motor ``V = clip(R i_c + K_b ω_M,
@@ -37,7 +39,7 @@ import numpy as np
 
 from magsail_mj.batch.worldmath import mat_t_vec_blas, quat_to_mat
 from magsail_mj.concepts.cnusail.modes import CnusailController, Mode
-from magsail_mj.control.detumble_laws import bang_bang_dipole, bcross_dipole
+from magsail_mj.control.detumble_laws import bang_bang_dipole, bcross_dipole, nonmonotonic_dipole
 
 __all__ = ["BdotWorlds", "nadir_frame", "error_quaternion", "eigen_angle", "rate_error"]
 
@@ -121,20 +123,25 @@ def rate_error(omega: np.ndarray, p_e: np.ndarray, omega_o: np.ndarray) -> np.nd
 
 class BdotWorlds:
     """The B-dot detumble controller of N worlds (module docstring), from each world's
-    :class:`CnusailController` (its gains, limits and driver constants).
+    :class:`CnusailController` (its gains, limits and driver constants) and, for the non-monotonic
+    law, the worlds' ``environments`` (an :class:`~magsail_mj.batch.environment.EnvironmentStack`;
+    :class:`~magsail_mj.concepts.cnusail.batch_plant.CubesatWorlds` gives its own when None).
 
     Raises:
       ValueError: a world's controller is not a stand-alone B-dot controller, uses the sub-stepped
-        armature model, or samples on another schedule than world 0 (naming the key).
+        armature model, or samples on another schedule than world 0, or the non-monotonic law's
+        look-ahead differs from world 0's (naming the key).
     """
 
-    def __init__(self, controllers: list[CnusailController]) -> None:
+    def __init__(self, controllers: list[CnusailController], *, environments: Any = None) -> None:
         c0 = controllers[0]
         for k, c in enumerate(controllers):
             if c.p.law != "bdot" or c.p.modes.enabled:
                 raise ValueError(f"controllers[{k}]: control.mode must be 'bdot' without mode switching")
             if c.driver.electrical != "quasi_static":
                 raise ValueError(f"controllers[{k}]: actuators.wheels.electrical must be 'quasi_static'")
+            if c.p.nonmonotonic_lookahead_s != c0.p.nonmonotonic_lookahead_s:
+                raise ValueError(f"controllers[{k}]: control.nonmonotonic_lookahead_s differs from world 0's")
             for attr, key in (
                 ("n_att", "control.rate_Hz"),
                 ("_n_cycle", "actuators.mtq.cycle_s"),
@@ -157,7 +164,14 @@ class BdotWorlds:
         laws = np.array([c.p.bdot_law for c in controllers])
         self.bang_bang = laws == "bang_bang"
         self.b_cross = laws == "b_cross"
+        self.non_monotonic = laws == "non_monotonic"
+        self.environments = environments  # CubesatWorlds gives its stack when None here
+        self.dt = c0._dt
+        self.lookahead_s = c0.p.nonmonotonic_lookahead_s
         self.k_bcross = np.array([c.p.bcross_gain_Nms for c in controllers])[:, None]
+        self.k_nonmon = np.array([c.p.nonmonotonic_gain_per_Nms for c in controllers])[:, None]
+        self.alpha = np.array([c.p.nonmonotonic_alpha for c in controllers])[:, None]
+        self.inertia = np.array([c.p.inertia_kgm2 for c in controllers])
         self.shortest = np.array([bool(c.p.shortest_rotation) for c in controllers])
         self.ideal = np.array([c.driver.model == "ideal" for c in controllers])[:, None]
         ps = [c.driver.p for c in controllers]
@@ -244,6 +258,19 @@ class BdotWorlds:
             m = np.where(self.bang_bang[:, None], bang_bang_dipole(self.B_dot, self.limit), m)
         if self.b_cross.any():
             m = np.where(self.b_cross[:, None], bcross_dipole(omega, B, k_Nms=self.k_bcross), m)
+        if self.non_monotonic.any():
+            t_ahead = min(step * self.dt + self.lookahead_s, self.environments.t_max)
+            B_ahead = mat_t_vec_blas(R, self.environments.sample(t_ahead).B_eci)
+            m_nm = nonmonotonic_dipole(
+                omega,
+                B,
+                B_ahead,
+                self.inertia,
+                gain_per_Nms=self.k_nonmon,
+                alpha=self.alpha,
+                m_max_Am2=self.limit,
+            )
+            m = np.where(self.non_monotonic[:, None], m_nm, m)
         self._set("dipole_held", np.clip(m, -self.limit, self.limit))
 
     def _motor_torque(self, w: np.ndarray) -> np.ndarray:

@@ -88,6 +88,8 @@ class CubesatWorlds:
         self.env = environments
         self.dist = disturbances
         self.ctl = controller
+        if controller.environments is None:
+            controller.environments = environments  # the non-monotonic law reads the field table ahead
         self.dt = float(timestep_s)
         self.midpoint = load_timing == "midpoint"
         self.n = controller.n

@@ -228,8 +228,11 @@ class CnusailControlConfig(StrictModel):
 
     ``bdot_law`` is the detumble mode's law (:mod:`magsail_mj.control.detumble_laws`):
     ``"proportional"`` (the paper's M = −K Ḃ, default), ``"bang_bang"`` (−m_max sign Ḃ per
-    axis) or ``"b_cross"`` (m = k (ω × B)/‖B‖², k = ``bcross_gain_Nms`` or, absent, Avanzini &
-    Giulietti's 2 n (1 + sin ξ_m) J_min; at most 1e12 N m s keeps the dipole's products finite)."""
+    axis), ``"b_cross"`` (m = k (ω × B)/‖B‖², k = ``bcross_gain_Nms`` or, absent, Avanzini &
+    Giulietti's 2 n (1 + sin ξ_m) J_min) or ``"non_monotonic"`` (Willis et al. 2024: tanh gain
+    ``nonmonotonic_gain_per_Nms``, second-step weight ``nonmonotonic_alpha``, the field table read
+    ``nonmonotonic_lookahead_s`` ahead, clamped to the table's end; α at most 1e6 and the gains at
+    most 1e12 keep the law's 6×6 system and products finite)."""
 
     mode: Literal["bdot", "eigen_axis", "pd"]
     command: Literal["nadir", "deorbit"] = "nadir"
@@ -237,8 +240,11 @@ class CnusailControlConfig(StrictModel):
     bdot_gain_Am2s_T: float = Field(default=5.0e4, gt=0)
     bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
     bdot_omega_c_rad_s: float = Field(default=0.5, gt=0)
-    bdot_law: Literal["proportional", "bang_bang", "b_cross"] = "proportional"
+    bdot_law: Literal["proportional", "bang_bang", "b_cross", "non_monotonic"] = "proportional"
     bcross_gain_Nms: float | None = Field(default=None, gt=0, le=1e12)
+    nonmonotonic_gain_per_Nms: float = Field(default=3.0e3, gt=0, le=1e12)
+    nonmonotonic_alpha: float = Field(default=100.0, ge=0, le=1e6)
+    nonmonotonic_lookahead_s: float = Field(default=600.0, gt=0)
     slew_rate_max_deg_s: float = Field(default=0.3, gt=0)
     omega_n_rad_s: float = Field(default=0.02, gt=0)
     zeta: float = Field(default=0.9, gt=0)

@@ -159,6 +159,9 @@ class CnusailModel:
             bdot_omega_c_rad_s=c.bdot_omega_c_rad_s,
             bdot_law=c.bdot_law,
             bcross_gain_Nms=bcross_gain_of(cfg, self.environment) if c.bdot_law == "b_cross" else 1.0,
+            nonmonotonic_gain_per_Nms=c.nonmonotonic_gain_per_Nms,
+            nonmonotonic_alpha=c.nonmonotonic_alpha,
+            nonmonotonic_lookahead_s=c.nonmonotonic_lookahead_s,
             omega_n_rad_s=c.omega_n_rad_s,
             zeta=c.zeta,
             rate_max_rad_s=c.slew_rate_max_deg_s * DEG,
@@ -180,7 +183,12 @@ class CnusailModel:
         )
         idx = self.idx
         return CnusailController(
-            params, q_quat=idx.q_quat, v_ang=idx.v_ang, wheel_qvel=idx.wheel_qvel, wheel_act=idx.wheel_act
+            params,
+            q_quat=idx.q_quat,
+            v_ang=idx.v_ang,
+            wheel_qvel=idx.wheel_qvel,
+            wheel_act=idx.wheel_act,
+            environment=self.environment,
         )
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -47,7 +47,7 @@ import numpy as np
 
 from magsail_mj.checks import require_non_negative
 from magsail_mj.control.bdot import make_bdot
-from magsail_mj.control.detumble_laws import bang_bang_dipole, bcross_dipole
+from magsail_mj.control.detumble_laws import bang_bang_dipole, bcross_dipole, nonmonotonic_dipole
 from magsail_mj.concepts.cnusail.eigenaxis import (
     EigenAxisGains,
     GyroComp,
@@ -79,7 +79,7 @@ __all__ = [
 
 DEG = math.pi / 180.0
 
-DETUMBLE_LAWS = ("proportional", "bang_bang", "b_cross")
+DETUMBLE_LAWS = ("proportional", "bang_bang", "b_cross", "non_monotonic")
 """The detumble mode's laws (``control.bdot_law``)."""
 
 
@@ -217,8 +217,9 @@ class CnusailControlParams:
       mtq_limits_Am2: (3,) dipole limits.
       bdot_form, bdot_gain, bdot_omega_c_rad_s: B-dot law (Yoo et al. 2016, Eqs. 24–27).
       bdot_law: the detumble mode's law (:data:`DETUMBLE_LAWS`): ``"proportional"`` (the paper's
-        M = −K Ḃ), ``"bang_bang"`` or ``"b_cross"`` (B×ω, gain ``bcross_gain_Nms``);
-        :mod:`magsail_mj.control.detumble_laws`.
+        M = −K Ḃ), ``"bang_bang"``, ``"b_cross"`` (B×ω, gain ``bcross_gain_Nms``) or
+        ``"non_monotonic"`` (Willis et al. 2024; ``nonmonotonic_gain_per_Nms``, ``nonmonotonic_alpha``,
+        the field table read ``nonmonotonic_lookahead_s`` ahead); :mod:`magsail_mj.control.detumble_laws`.
       omega_n_rad_s, zeta, rate_max_rad_s, clamp_min, gyro_comp, shortest_rotation: eigen-axis
         (Yoo et al. 2016, Eqs. 28–38).
       recalc_enabled, recalc_margin_rad: deorbit gain recalculation.
@@ -239,8 +240,11 @@ class CnusailControlParams:
     bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
     bdot_gain: float = 5.0e4
     bdot_omega_c_rad_s: float = 0.5
-    bdot_law: Literal["proportional", "bang_bang", "b_cross"] = "proportional"
+    bdot_law: Literal["proportional", "bang_bang", "b_cross", "non_monotonic"] = "proportional"
     bcross_gain_Nms: float = 1.0e-3
+    nonmonotonic_gain_per_Nms: float = 3.0e3
+    nonmonotonic_alpha: float = 100.0
+    nonmonotonic_lookahead_s: float = 600.0
     omega_n_rad_s: float = 0.02
     zeta: float = 0.9
     rate_max_rad_s: float = 0.3 * DEG
@@ -315,6 +319,8 @@ class CnusailController:
       q_quat, v_ang: the bus quaternion qpos slice and body-rate qvel slice.
       wheel_qvel: (3,) qvel indices of the wheel hinges (relative speeds ω_M).
       wheel_act: (3,) actuator ids of the wheel motors.
+      environment: the :class:`~magsail_mj.environment.environment.Environment` whose field table the
+        non-monotonic law reads ahead (``sample(t).B_eci`` [T, ECI]; needed by that law only).
 
     Telemetry (updated every step, read by probes): ``mode``, ``p_e`` (error quaternion w.r.t.
     the active command; nadir in DETUMBLE), ``theta_e``, ``omega_e``, ``u`` (commanded body torque),
@@ -324,8 +330,13 @@ class CnusailController:
     changes: dicts with ``t_s``, ``kind``, ``theta_rad`` …).
     """
 
-    def __init__(self, params: CnusailControlParams, *, q_quat: slice, v_ang: slice, wheel_qvel, wheel_act) -> None:
+    def __init__(
+        self, params: CnusailControlParams, *, q_quat: slice, v_ang: slice, wheel_qvel, wheel_act, environment=None
+    ) -> None:
+        if params.bdot_law == "non_monotonic" and environment is None:
+            raise ValueError("environment: the non-monotonic detumble law reads the field ahead; give the environment")
         self.p = params
+        self.environment = environment if params.bdot_law == "non_monotonic" else None
         self.period_s = params.timestep_s
         self.q_quat, self.v_ang = q_quat, v_ang
         self.wheel_qvel = np.asarray(wheel_qvel, dtype=int)
@@ -483,14 +494,29 @@ class CnusailController:
     def _detumble_dipole(self, t: float, R: np.ndarray, B: np.ndarray, omega: np.ndarray) -> np.ndarray:
         """The unsaturated dipole [A m²] of the detumble law ``bdot_law`` other than the
         proportional one (:mod:`magsail_mj.control.detumble_laws`), at the magnetometer sample:
-        the field ``B`` [T, body] and the rate ``omega`` [rad/s, body; gyro noise added when set].
-        Each law is evaluated on one row, as the batch evaluates it on every world's."""
+        the field ``B`` [T, body], the rate ``omega`` [rad/s, body; gyro noise added when set] and,
+        for the non-monotonic law, the reference orbit's field ``nonmonotonic_lookahead_s`` ahead in
+        today's body axes ``Rᵀ B(min(t + Δt, t_max))`` (the table's last time ``t_max`` bounds the
+        look-ahead near the end of a run, as the authors' interpolant clamps it). Each law is
+        evaluated on one row, as the batch evaluates it on every world's."""
         p = self.p
         if p.bdot_law == "bang_bang":
             return bang_bang_dipole(self.bdot.B_dot, p.mtq_limits_Am2)
         if p.gyro_noise_rad_s > 0:
             omega = omega + self.rng.normal(0.0, p.gyro_noise_rad_s, 3)
-        return bcross_dipole(omega[None], B[None], k_Nms=p.bcross_gain_Nms)[0]
+        if p.bdot_law == "b_cross":
+            return bcross_dipole(omega[None], B[None], k_Nms=p.bcross_gain_Nms)[0]
+        t_ahead = min(t + p.nonmonotonic_lookahead_s, self.environment.t_max)
+        B_ahead = R.T @ self.environment.sample(t_ahead).B_eci
+        return nonmonotonic_dipole(
+            omega[None],
+            B[None],
+            B_ahead[None],
+            p.inertia_kgm2[None],
+            gain_per_Nms=p.nonmonotonic_gain_per_Nms,
+            alpha=p.nonmonotonic_alpha,
+            m_max_Am2=p.mtq_limits_Am2,
+        )[0]
 
 
 def _slice_if_contiguous(index: np.ndarray) -> slice | np.ndarray:
