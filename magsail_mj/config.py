@@ -205,7 +205,12 @@ class SimConfig(StrictModel):
     ``opt.tolerance`` (unset: MuJoCo's 1e-8), which also ends that integrator's iterative
     effective-metric solve. ``load_timing`` says when the loads see the state: ``"start"``
     (held at the step's start value: first order in the time step) or ``"midpoint"`` (predicted at
-    mid-step: second order; see :mod:`magsail_mj.sim`). ``progress`` only shows a progress bar.
+    mid-step: second order; see :mod:`magsail_mj.sim`), or ``"stage"`` (at the state and time of
+    every stage of the integrator: RK4's fourth order; compiled loads only). ``loads`` says where
+    the loads are computed: ``"python"`` (the default: NumPy/Python loads adding into
+    ``xfrc_applied`` before each step) or ``"compiled"`` (a MuJoCo plugin built from C on first use,
+    computing them inside the step, :mod:`magsail_mj.compiled`; the scenarios that have one: the
+    CNUSAIL attitude runs). ``progress`` only shows a progress bar.
     """
 
     duration_s: float = Field(gt=0)
@@ -216,7 +221,8 @@ class SimConfig(StrictModel):
     seed: int = Field(default=0, ge=0, lt=2**63)
     checkpoint_every_s: float = Field(default=0.0, ge=0)
     max_strain: float = Field(default=0.5, gt=0)
-    load_timing: Literal["start", "midpoint"] = "start"
+    load_timing: Literal["start", "midpoint", "stage"] = "start"
+    loads: Literal["python", "compiled"] = "python"
     progress: bool = True
 
     @model_validator(mode="after")
@@ -234,6 +240,13 @@ class SimConfig(StrictModel):
                 f"steps, more than a 64-bit step counter holds ({MAX_STEPS:.3g}), "
                 f"got {self.duration_s!r}",
                 others=("timestep_s",),
+            )
+        if self.load_timing == "stage" and self.loads != "compiled":
+            raise ConfigProblem(
+                "load_timing",
+                "'stage' evaluates the loads at every stage of the integrator, which only loads computed "
+                f"inside MuJoCo's step can do: it needs loads = 'compiled', loads = {self.loads!r}, got 'stage'",
+                others=("loads",),
             )
         if 0 < self.checkpoint_every_s < self.timestep_s:
             raise ConfigProblem(

@@ -14,7 +14,8 @@ from typing import Any, Protocol
 import mujoco
 import numpy as np
 
-from magsail_mj.concepts import BUILDERS, build_task, register_builder
+from magsail_mj.concepts import BUILDERS, KIND_KEYS, TASKS, build_task, discover, register_builder
+from magsail_mj.config import ConfigError
 from magsail_mj.sim import RunResult, Simulation
 
 __all__ = ["Scenario", "BUILDERS", "register_builder", "build_scenario"]
@@ -44,5 +45,21 @@ class Scenario(Protocol):
 
 
 def build_scenario(cfg: Any) -> Scenario:
-    """Build the scenario object of a validated config (:func:`magsail_mj.concepts.build_task`)."""
+    """Build the scenario object of a validated config (:func:`magsail_mj.concepts.build_task`).
+
+    Raises:
+      ConfigError: ``sim.loads = "compiled"`` for a scenario whose task runs its loads in Python
+        only (a task class declares ``compiled_loads = True`` when it has compiled loads).
+    """
+    if getattr(getattr(cfg, "sim", None), "loads", "python") == "compiled":
+        discover()
+        key = KIND_KEYS.get(cfg.concept, "scenario")
+        kind = getattr(cfg, key, None)
+        if not getattr(TASKS.get((cfg.concept, kind)), "compiled_loads", False):
+            raise ConfigError(
+                [
+                    f"sim.loads: compiled loads exist for the CNUSAIL attitude runs only; {cfg.concept} "
+                    f"({key} {kind!r}) computes its loads in Python: use sim.loads = 'python', got 'compiled'"
+                ]
+            )
     return build_task(cfg)

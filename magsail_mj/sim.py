@@ -45,6 +45,15 @@ checkpoint's values are written into it and the store is cut to the checkpoint's
 a checkpoint of another config or build is refused
 (:class:`~magsail_mj.checkpoint.CheckpointError`). The resumed run gives the same numbers as an
 uninterrupted one.
+
+Compiled loads (``Simulation.compiled``, ``sim.loads = "compiled"``): the loads are a MuJoCo plugin
+of the model that MuJoCo calls inside ``mj_step`` (:mod:`magsail_mj.compiled`), so the runner adds
+nothing to ``xfrc_applied`` and Python acts only at the controller's samples, the records, the
+checkpoints and the run's end: the steps between run in one native ``mj_step(m, d, n)`` call. The
+plugin's state (held commands, the step's memory) is part of MuJoCo's integration state, so
+checkpoints and ``get_state`` carry it. A chunk after which MuJoCo warned or the state is not
+finite is stepped again from its start one step at a time with the checks of the Python loop, so
+a divergence is dated within one step as there.
 """
 
 from __future__ import annotations
@@ -95,8 +104,9 @@ __all__ = [
     "progress_bar",
 ]
 
-#: when the loads see the state: at the step's start, or predicted at its middle (see the module docs)
-LOAD_TIMINGS = ("start", "midpoint")
+#: when the loads see the state: at the step's start, predicted at its middle (see the module docs), or
+#: at every stage of the integrator (loads computed inside MuJoCo's step only: ``Simulation.compiled``)
+LOAD_TIMINGS = ("start", "midpoint", "stage")
 
 _STATE_SPEC = mujoco.mjtState.mjSTATE_INTEGRATION
 
@@ -419,6 +429,10 @@ class Simulation(SteppedRun):
       load_timing: ``"start"`` or ``"midpoint"`` (see the module docs; ``sim.load_timing``).
       identity: what a checkpoint of this run must match (:func:`~magsail_mj.checkpoint.run_identity`;
         the runner of a config sets the config's hash).
+      compiled: the loads MuJoCo computes inside ``mj_step`` (a compiled plugin of ``model``, e.g.
+        :class:`magsail_mj.concepts.cnusail.compiled.CompiledCubesat`; it has ``bare_model``, the
+        same model without the plugin), or ``None``; with it ``loads`` must be empty and the steps
+        between samples, records and checkpoints run natively (module docs).
 
     :meth:`~SteppedRun.step` (advance ``n`` steps) comes from :class:`SteppedRun`.
     """
@@ -439,10 +453,16 @@ class Simulation(SteppedRun):
     init: Callable[[mujoco.MjData], None] | None = None
     load_timing: str = "start"
     identity: dict[str, Any] = field(default_factory=lambda: run_identity(None))
+    compiled: Any = None
 
     def __post_init__(self) -> None:
         if self.record_every < 1:
             raise ValueError(f"record_every: must be >= 1, got {self.record_every}")
+        if self.compiled is not None and len(self.loads):
+            raise ValueError(
+                f"loads: with compiled loads MuJoCo computes every load inside the step; got {len(self.loads)} "
+                "Python loads as well"
+            )
         route_mujoco_warnings()
         disable_autoreset(self.model)
         self.data = mujoco.MjData(self.model)
@@ -659,6 +679,14 @@ class Simulation(SteppedRun):
 
     def _advance(self, stop_step: int, *, ckpt: Path | None = None, ckpt_every: int = 0, bar: Any = None) -> None:
         """The step loop from the current step to ``stop_step`` (see the module docs)."""
+        if self.compiled is not None:
+            self._advance_native(stop_step, ckpt=ckpt, ckpt_every=ckpt_every, bar=bar)
+            return
+        if self.timing.mode == "stage":
+            raise ValueError(
+                "load_timing: 'stage' needs loads computed inside MuJoCo's step (compiled loads); "
+                f"this simulation has {len(self.loads)} Python loads"
+            )
         m, d = self.model, self.data
         dt = m.opt.timestep
         loop = self._loop
@@ -756,6 +784,128 @@ class Simulation(SteppedRun):
         finally:
             self.step_index = step
             self._wall_s += time.perf_counter() - wall0
+
+    def _next_sample_step(self, step: int) -> int:
+        """The first step after ``step`` at which the controller is due (the test of the Python loop:
+        ``t ≥ n_ctrl · period − 10⁻⁶ δt``), or ``n_steps`` without a controller."""
+        if self.controller is None:
+            return self.n_steps
+        dt = self.model.opt.timestep
+        threshold = self._loop["n_ctrl"] * self.controller.period_s - 1e-6 * dt
+        k = max(step + 1, math.ceil(threshold / dt))
+        while k > step + 1 and (k - 1) * dt >= threshold:
+            k -= 1
+        while k * dt < threshold:
+            k += 1
+        return k
+
+    def _advance_native(self, stop_step: int, *, ckpt: Path | None, ckpt_every: int, bar: Any) -> None:
+        """The step loop with compiled loads (module docs): at each step where Python acts the
+        controller, the probes and the checkpoint run as in :meth:`_advance`; the steps to the next
+        such step run in one ``mj_step(m, d, n)`` call."""
+        m, d = self.model, self.data
+        dt = m.opt.timestep
+        loop, recorder, kin = self._loop, self.recorder, self.kin
+        qpos, qvel = d.qpos, d.qvel
+        every = self.record_every
+        snapshot = np.empty(mujoco.mj_stateSize(m, _STATE_SPEC))
+        start = step = self.step_index
+        pending = 0  # steps not yet shown on the progress bar
+        replaying = False
+        wall0 = time.perf_counter()
+        try:
+            self._watch.check(step * dt)
+            while True:
+                t = step * dt
+                if (
+                    ckpt is not None
+                    and step > start
+                    and ((ckpt_every and step % ckpt_every == 0) or step == stop_step < self.n_steps)
+                ):
+                    self._wall_s += time.perf_counter() - wall0
+                    wall0 = time.perf_counter()
+                    loop["wall_s"] = self._wall_s
+                    self.step_index = step
+                    self._checkpoint(ckpt)
+                if step == stop_step < self.n_steps:
+                    break
+                due = self.controller is not None and t >= loop["n_ctrl"] * self.controller.period_s - 1e-6 * dt
+                recording = step % every == 0 or step == self.n_steps
+                if due or recording:
+                    kin.update(d)
+                    env_t = self.environment.sample(t) if self.environment is not None else None
+                    state = StepState(
+                        t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega, env=env_t, ctrl=loop["cmd"]
+                    )
+                    if due:
+                        loop["cmd"] = self.controller.update(state)
+                        state.ctrl = loop["cmd"]
+                        period = self.controller.period_s
+                        loop["n_ctrl"] = int(np.floor(t / period + 1e-6 * dt / period)) + 1
+                        if hasattr(loop["cmd"], "apply_ctrl"):
+                            loop["cmd"].apply_ctrl(d)
+                    if recording:
+                        values = {name: probe(state, d) for name, probe in self.probes.items()}
+                        values["t"] = t
+                        recorder.append(values)
+                        if self.strain_check is not None:
+                            strain, strut = self.strain_check(kin.pos)
+                            if not strain <= self.max_strain:
+                                raise StructureFailure(
+                                    f"strut {strut} strain {strain:.3g} exceeds sim.max_strain "
+                                    f"{self.max_strain:g} at t = {t:.6g} s"
+                                )
+                if step == self.n_steps:
+                    self.status = "completed"
+                    break
+                nxt = min(stop_step, self.n_steps, (step // every + 1) * every, self._next_sample_step(step))
+                if ckpt is not None and ckpt_every:
+                    nxt = min(nxt, (step // ckpt_every + 1) * ckpt_every)
+                mujoco.mj_getState(m, d, snapshot, _STATE_SPEC)
+                mujoco.mj_step(m, d, nxt - step)
+                if self._watch.raised() or not math.isfinite(float(qpos.sum()) + float(qvel.sum())):
+                    replaying = True
+                    self._replay(snapshot, step, nxt)
+                pending += nxt - step
+                step = nxt
+                if bar is not None and pending >= 100:
+                    bar.update(pending)
+                    pending = 0
+        except DivergenceError as err:
+            self.status, self.message = "diverged", str(err)
+            if replaying:  # the replay dated the bad step
+                step = self.step_index
+            if err.t_s is not None:
+                recorder.truncate(int(np.searchsorted(recorder.column("t"), err.t_s - 1e-9 * dt)))
+        except StudiedFailure as err:
+            self.status, self.message = err.status, str(err)
+        except KeyboardInterrupt:
+            self.status, self.message = "interrupted", f"interrupted at t = {step * dt:.6g} s"
+        finally:
+            self.step_index = step
+            self._wall_s += time.perf_counter() - wall0
+
+    def _replay(self, snapshot: np.ndarray, first: int, last: int) -> None:
+        """Step again one step at a time from ``snapshot`` (the state of step ``first``) towards
+        ``last`` with the Python loop's checks, raising :class:`DivergenceError` at the first bad
+        step (MuJoCo's run is deterministic, so the chunk's failure recurs there)."""
+        m, d = self.model, self.data
+        dt = m.opt.timestep
+        mujoco.mj_setState(m, d, snapshot, _STATE_SPEC)
+        watch = WarningWatch(d)
+        for step in range(first, last):
+            self.step_index = step
+            mujoco.mj_step(m, d)
+            watch.check(step * dt)
+            if not math.isfinite(float(d.qpos.sum()) + float(d.qvel.sum())):
+                raise DivergenceError(
+                    f"state is not finite at t = {(step + 1) * dt:.6g} s (after the step from t = {step * dt:.6g} s)"
+                )
+        raise DivergenceError(
+            f"MuJoCo flagged the steps from t = {first * dt:.6g} s to {last * dt:.6g} s, "
+            "which did not go bad again when repeated one by one",
+            first * dt,
+        )
 
     def _mid_state(self, t: float, state: StepState) -> StepState:
         """What the loads see with ``load_timing = "midpoint"``: the state predicted at ``t + δt/2``

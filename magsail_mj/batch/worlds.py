@@ -147,6 +147,12 @@ def check_batchable(cfgs: Sequence[BaseModel], concept: Any) -> None:
       ConfigError: naming the world, the key path and the values.
     """
     problems = list(concept.refusals(cfgs))
+    for k, cfg in enumerate(cfgs):
+        if getattr(getattr(cfg, "sim", None), "loads", "python") == "compiled":
+            problems.append(
+                f"world {k}: sim.loads: a batch computes its worlds' loads vectorised in NumPy; compiled loads "
+                "run in a single run only, got 'compiled'"
+            )
     lockstep = {**LOCKSTEP_KEYS, **concept.LOCKSTEP_KEYS}
     base = _flat(cfgs[0].model_dump(mode="json"))
     for k, cfg in enumerate(cfgs[1:], start=1):

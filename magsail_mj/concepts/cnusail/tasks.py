@@ -21,6 +21,7 @@ import mujoco
 import numpy as np
 
 from magsail_mj.concepts import build_task, register_task
+from magsail_mj.concepts.cnusail.compiled import CompiledControl, CompiledCubesat
 from magsail_mj.concepts.cnusail.modes import CnusailController, Mode
 from magsail_mj.loads.actuators_cubesat import MagnetorquerLoad
 from magsail_mj.concepts.cnusail.config import CnusailConfig
@@ -37,7 +38,15 @@ __all__ = ["AttitudeTask", "LifetimeTask", "build_cnusail_scenario"]
 class AttitudeTask:
     """A CNUSAIL attitude run (S1–S7): the built cubesat (``cubesat``; ``spec``, ``model``, ``idx``,
     ``environment``, ``orbit_period_s``, ``inertia``, ``disturbances`` from it), the magnetorquer
-    load, the flight controller, probes and outputs."""
+    load, the flight controller, probes and outputs.
+
+    With ``sim.loads = "compiled"`` the simulation's model is the cubesat's with the compiled loads
+    (:class:`~magsail_mj.concepts.cnusail.compiled.CompiledCubesat`; ``model`` stays the model
+    without them) and the controller runs at its samples only
+    (:class:`~magsail_mj.concepts.cnusail.compiled.CompiledControl`); the probes are the same."""
+
+    #: the scenario can run its loads compiled (``sim.loads = "compiled"``)
+    compiled_loads = True
 
     def __init__(self, cfg: CnusailConfig) -> None:
         self.cfg = cfg
@@ -63,11 +72,31 @@ class AttitudeTask:
         mtq = MagnetorquerLoad(self.idx.bus)
         idx = self.idx
 
+        compiled = control = None
+        if self.cfg.sim.loads == "compiled":
+            compiled = CompiledCubesat(
+                self.spec,
+                bare_model=self.model,
+                environment=self.environment,
+                disturbances=dist,
+                controller=ctl,
+                bus_qpos=idx.q_pos.start,
+                bus_dof=idx.v_lin.start,
+                timing=self.cfg.sim.load_timing,
+            )
+            control = CompiledControl(ctl, compiled)
+
+        def dipole_of(state) -> np.ndarray:
+            """The effective dipole of the step [A m², body axes] (the held command's; with compiled
+            loads the plugin blanks it, so it is formed from the step index as the plugin does)."""
+            if control is not None:
+                return control.dipole_body(state.t)
+            return state.ctrl.dipole_body if state.ctrl is not None else np.zeros(3)
+
         def mtq_body(state, d):
-            m = state.ctrl.dipole_body if state.ctrl is not None else np.zeros(3)
             R = np.empty(9)
             mujoco.mju_quat2Mat(R, d.qpos[idx.q_quat])
-            return np.cross(m, R.reshape(3, 3).T @ state.env.B_eci)
+            return np.cross(dipole_of(state), R.reshape(3, 3).T @ state.env.B_eci)
 
         probes = {
             "qpos": lambda s, d: d.qpos,
@@ -77,17 +106,18 @@ class AttitudeTask:
             "theta_e_rad": lambda s, d: ctl.theta_e,
             "omega_e_rad_s": lambda s, d: ctl.omega_e,
             "u_cmd_Nm": lambda s, d: ctl.u,
-            "T_M_Nm": lambda s, d: ctl.T_M,
+            "T_M_Nm": (lambda s, d: ctl.T_M) if control is None else (lambda s, d: control.motor_torque(d)),
             "dipole_cmd_Am2": lambda s, d: ctl.dipole_held,
             "unload_mask": lambda s, d: ctl.unload_mask.astype(np.int8),
             "torque_dist_body_Nm": lambda s, d: dist.torques_body(s),
             "torque_mtq_body_Nm": mtq_body,
         }
         return Simulation(
-            model=self.model,
+            model=self.model if compiled is None else compiled.model,
             duration_s=self.cfg.sim.duration_s,
-            loads=[dist, mtq],
-            controller=ctl,
+            loads=[dist, mtq] if compiled is None else [],
+            controller=ctl if control is None else control,
+            compiled=compiled,
             environment=self.environment,
             probes=probes,
             record_every=self.cfg.sim.record_every,
