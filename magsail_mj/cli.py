@@ -780,7 +780,7 @@ def _add_modes_verb(sub: Any) -> None:
         "the lowest modes of a structure: frequencies, rigid-body participation, in-plane/bending/twist "
         "shares (one JSON object on stdout)",
         _cmd_modes,
-        {"source": "SOURCE", "count": "--count", "k": "--count", "plot": "--plot"},
+        {"source": "SOURCE", "count": "--count", "k": "--count", "plot": "--plot", "set": "--set"},
     )
     md.add_argument(
         "source",
@@ -789,6 +789,7 @@ def _add_modes_verb(sub: Any) -> None:
     )
     md.add_argument("--count", type=_count, default=20, metavar="K", help="modes to compute, lowest first (default 20)")
     md.add_argument("--plot", default=None, metavar="DIR", help="also draw the elastic mode shapes as PNGs in DIR")
+    _set_option(md, "override a key of a config SOURCE, e.g. --set lattice.units=5 (refused for other sources)")
 
 
 def _parser() -> argparse.ArgumentParser:

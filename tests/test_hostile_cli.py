@@ -64,8 +64,9 @@ from tests.conftest import start_cli
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG = str(REPO / "magsail_mj/concepts/truss_magnetorquer/configs/dist_vs_central/case_a_central_bangbang.toml")
+STRUCTURE_FILE = str(REPO / "magsail_mj/concepts/structure/configs/structures/sail_100m.toml")
 TINY = ["--set", "lattice.units=3", "--set", "sim.duration_s=0.2", "--set", "sim.record_every=1"]
-JSON_VERBS = ("build", "validate", "run", "sweep", "scaling", "torque")
+JSON_VERBS = ("build", "validate", "run", "sweep", "scaling", "torque", "modes")
 FUZZ = settings(
     max_examples=25,
     deadline=None,
@@ -581,6 +582,24 @@ def test_fuzz_validate_and_build(capsys, arena, data):
         out = data.draw(st.one_of(st.just("ok.xml"), paths(arena, suffix=".xml")))
         argv += ["-o", out]
     call(capsys, ["--memory-limit", "2G", *argv, *TINY[:2]])
+
+
+@FUZZ
+@given(data=st.data())
+def test_fuzz_modes(capsys, arena, data):
+    """``magsail modes`` with hostile sources and ``--set`` values: a config takes them as ``run``
+    does (the lattice kept small by a last ``--set lattice.units=3``), a structure file refuses any
+    ``--set`` by name; never an exception."""
+    source = data.draw(st.one_of(st.just(CONFIG), st.just(STRUCTURE_FILE), paths(arena, suffix=".toml")))
+    argv = ["modes", source, "--count", data.draw(st.sampled_from(["8", "1", "0", "-2", "x"]))]
+    for _ in range(data.draw(st.integers(0, 2))):
+        keys = ["lattice.units", "stiffness.EI_Nm2", "mass.total_kg", "sim.timestep_s", "nope", "", "lattice"]
+        argv += ["--set", f"{data.draw(st.sampled_from(keys))}={data.draw(NUMBERS)}"]
+    if source == CONFIG:
+        argv += TINY[:2]
+    rc, out, err = call(capsys, ["--memory-limit", "2G", *argv])
+    if source == STRUCTURE_FILE and "--set" in argv and argv[3] == "8":
+        assert rc == 2 and err.startswith("error: --set:") and out == "", err
 
 
 @settings(

@@ -1,4 +1,4 @@
-"""``magsail modes SOURCE [--count K] [--plot DIR]``: the lowest modes of a structure, one JSON object.
+"""``magsail modes SOURCE [--count K] [--plot DIR] [--set KEY=VALUE ...]``: the lowest modes of a structure.
 
 ``SOURCE`` is one of
 
@@ -14,6 +14,11 @@
   modes this verb computes, or in Python, the mesh read and saved as a structure file);
 * a Nastran bulk-data deck (``.bdf``, ``.dat``, ``.nas``,
   :func:`magsail_mj.structure.nastran.read_nastran`).
+
+``--set KEY=VALUE`` (repeatable) overrides a key of a config ``SOURCE`` as ``magsail run`` and
+``magsail validate`` do (the same parser and validation, :func:`magsail_mj.config.load_config`),
+so the modes are those of the structure the overridden config runs; for a structure file, a mesh
+or a Nastran deck it is refused (exit 2, naming ``--set``).
 
 The modes are :func:`magsail_mj.structure.modes.structure_modes` (lumped mass). The JSON object:
 ``frequencies_Hz`` (ascending, the zero modes first), ``rigid_body_modes`` (the number of zero
@@ -36,6 +41,7 @@ from __future__ import annotations
 import argparse
 import tomllib
 from pathlib import Path
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -78,7 +84,16 @@ def structure_of_config(cfg: Any) -> Structure:
         raise CliInputError(f"SOURCE: {err}") from None
 
 
-def _toml_structure(path: Path) -> tuple[Structure, str]:
+def _no_overrides(overrides: Sequence[str], path: Path, kind: str) -> None:
+    """Refuse ``--set`` for a source that is not a config (CliInputError naming ``--set``)."""
+    if overrides:
+        raise CliInputError(
+            f"--set: {overrides[0]!r} overrides a config key, but SOURCE {str(path)!r} is a {kind}, not a config; "
+            "edit the file, or give a config that uses it"
+        )
+
+
+def _toml_structure(path: Path, overrides: Sequence[str]) -> tuple[Structure, str]:
     try:
         tree = tomllib.loads(path.read_text(encoding="utf-8"))
     except UnicodeDecodeError:
@@ -86,23 +101,28 @@ def _toml_structure(path: Path) -> tuple[Structure, str]:
     except tomllib.TOMLDecodeError as err:
         raise CliInputError(f"SOURCE: {str(path)!r} is not valid TOML: {err}") from None
     if tree.get("format") == "magsail-structure":
+        _no_overrides(overrides, path, "structure file")
         return read_structure(path).structure, "structure file"
     if "concept" in tree:
-        return structure_of_config(load_config(path)), "config"
+        return structure_of_config(load_config(path, list(overrides))), "config"
     raise CliInputError(
         f'SOURCE: {str(path)!r} is neither a structure file (format = "magsail-structure") nor a config (concept = ...)'
     )
 
 
-def read_source(source: str) -> tuple[Structure, str]:
-    """The structure of ``source`` and its kind (module docstring); CliInputError naming ``SOURCE``."""
+def read_source(source: str, overrides: Sequence[str] = ()) -> tuple[Structure, str]:
+    """The structure of ``source`` and its kind (module docstring), a config's with the ``--set``
+    ``overrides`` (``KEY=VALUE``, :func:`magsail_mj.config.load_config`; refused for the other
+    sources); CliInputError naming ``SOURCE`` or ``--set``, ConfigError for a config's problems."""
     path = input_file(source, "SOURCE")
     suffix = path.suffix.lower()
     if suffix == ".toml":
-        return _toml_structure(path)
+        return _toml_structure(path, overrides)
     if suffix in NASTRAN_SUFFIXES:
+        _no_overrides(overrides, path, "Nastran deck")
         return read_nastran(path), "Nastran deck"
     if suffix == ".msh":
+        _no_overrides(overrides, path, "mesh")
         try:
             return read_mesh(path), "mesh"
         except StructureError as err:
@@ -213,7 +233,7 @@ def modes(args: argparse.Namespace) -> int:
     if args.plot is not None:
         plot_dir = output_dir(args.plot, "--plot")
         check_output_folder(plot_dir, option="--plot")
-    structure, kind = read_source(args.source)
+    structure, kind = read_source(args.source, args.set)
     check_memory(_BYTES_PER_DOF * dof_layout(structure).n_dof, what=f"modes {args.source}")
     assembly = assemble(structure)
     count = min(int(args.count), assembly.n_dof)
