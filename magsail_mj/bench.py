@@ -26,7 +26,14 @@ interface) and measures, on one process with one BLAS thread:
    all-in figure comes from the uninstrumented passes, so the wrappers do not perturb it;
 5. ``steps_per_s = 10⁶ / us_per_step``, ``realtime_factor = δt / (us_per_step · 10⁻⁶ s)``
    (simulated seconds per wall second) and ``peak_rss_mb`` (the process's peak resident set,
-   ``resource.getrusage``, MiB).
+   ``resource.getrusage``, MiB);
+6. **compiled loads** (scenarios that have them, :mod:`magsail_mj.compiled`): ``loads`` is the
+   config's ``sim.loads``; for a config on the Python path, the same all-in passes with
+   ``sim.loads = "compiled"`` give ``us_per_step_compiled`` (median, every pass in
+   ``us_per_step_compiled_runs``) and ``ratio_to_mj_step_compiled`` against the same bare step
+   (or ``compiled_unavailable``: why not, e.g. no C compiler). The bare step is always that of the
+   model without the plugin (``Simulation.compiled.bare_model``), so a compiled run's ratio counts
+   the plugin's work as the loads' cost.
 
 Timings are wall-clock and depend on the machine and its load: compare ratios measured in the
 same call, never absolute times across machines.
@@ -62,7 +69,8 @@ from threadpoolctl import threadpool_limits
 
 from magsail_mj.api import load
 from magsail_mj.batch import load_batch
-from magsail_mj.config import apply_overrides, load_config, parse_config
+from magsail_mj.config import ConfigError, apply_overrides, load_config, parse_config
+from magsail_mj.scenario import has_compiled_loads
 
 __all__ = ["bench", "bench_worlds", "BenchRunError", "PART_NAMES"]
 
@@ -149,6 +157,30 @@ def _bare_step_s(model: mujoco.MjModel, physics_state: np.ndarray, n: int) -> tu
                 step(m, d)
         out.append((time.perf_counter() - t0) / n)
     return out[0], out[1]
+
+
+def _bare_model(sim: Any) -> mujoco.MjModel:
+    """The model a bare step is timed on: without the compiled loads' plugin when it has one."""
+    compiled = getattr(sim, "compiled", None)
+    return compiled.bare_model if compiled is not None else sim.model
+
+
+def _compiled_passes(cfg: BaseModel, tmp: Path, repeat: int) -> dict[str, Any]:
+    """``us_per_step_compiled`` and its passes for a Python-path config whose scenario has compiled
+    loads (``{}`` for one without; ``compiled_unavailable`` when they cannot be built)."""
+    sim_cfg = getattr(cfg, "sim", None)
+    if getattr(sim_cfg, "loads", None) != "python" or not has_compiled_loads(cfg):
+        return {}
+    try:
+        compiled_cfg = parse_config(apply_overrides(cfg.model_dump(mode="json"), ["sim.loads='compiled'"]))
+        runs = []
+        for i in range(repeat):
+            sim = _build(compiled_cfg)
+            wall, _, steps = _timed_run(sim, tmp / f"compiled{i}.zarr")
+            runs.append(wall / steps)
+    except ConfigError as err:
+        return {"compiled_unavailable": "; ".join(err.problems)}
+    return {"us_per_step_compiled_runs": runs}
 
 
 def _physics_state(sim: Any) -> np.ndarray:
@@ -337,11 +369,12 @@ def bench(
             wall, call, steps = _timed_run(sim, Path(tmp) / f"pass{i}.zarr")
             all_in.append(wall / steps)
             setup.append(call - wall)
-            per_call, per_native = _bare_step_s(sim.model, physics, steps)
+            per_call, per_native = _bare_step_s(_bare_model(sim), physics, steps)
             bare.append(per_call)
             native.append(per_native)
         model = sim.model
         del sim
+        compiled = _compiled_passes(cfg, Path(tmp), repeat)
         parts, instrumented = _parts_pass(cfg, Path(tmp) / "parts.zarr")
     return _report(
         cfg,
@@ -353,6 +386,7 @@ def bench(
         parts=parts,
         instrumented_us=instrumented,
         setup_s=statistics.median(setup),
+        compiled=compiled,
     )
 
 
@@ -367,9 +401,21 @@ def _report(
     parts: dict[str, float],
     instrumented_us: float,
     setup_s: float,
+    compiled: dict[str, Any],
 ) -> dict[str, Any]:
     us = statistics.median(all_in) * 1e6
     mj_us = statistics.median(bare) * 1e6
+    extra: dict[str, Any] = {}
+    if "us_per_step_compiled_runs" in compiled:
+        runs = compiled["us_per_step_compiled_runs"]
+        us_c = statistics.median(runs) * 1e6
+        extra = {
+            "us_per_step_compiled": us_c,
+            "ratio_to_mj_step_compiled": us_c / mj_us,
+            "us_per_step_compiled_runs": [x * 1e6 for x in runs],
+        }
+    elif compiled:
+        extra = dict(compiled)
     dt = float(model.opt.timestep)
     integrator = mujoco.mjtIntegrator(model.opt.integrator).name.removeprefix("mjINT_")
     return {
@@ -381,9 +427,11 @@ def _report(
         "integrator": integrator,
         "duration_s": steps * dt,
         "repeat": len(all_in),
+        "loads": getattr(getattr(cfg, "sim", None), "loads", "python"),
         "us_per_step": us,
         "mj_step_us": mj_us,
         "ratio_to_mj_step": us / mj_us,
+        **extra,
         "mj_step_native_us": statistics.median(native) * 1e6,
         "parts_us": parts,
         "instrumented_us_per_step": instrumented_us,

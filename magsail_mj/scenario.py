@@ -18,7 +18,7 @@ from magsail_mj.concepts import BUILDERS, KIND_KEYS, TASKS, build_task, discover
 from magsail_mj.config import ConfigError
 from magsail_mj.sim import RunResult, Simulation
 
-__all__ = ["Scenario", "BUILDERS", "register_builder", "build_scenario"]
+__all__ = ["Scenario", "BUILDERS", "register_builder", "build_scenario", "has_compiled_loads"]
 
 
 class Scenario(Protocol):
@@ -51,15 +51,21 @@ def build_scenario(cfg: Any) -> Scenario:
       ConfigError: ``sim.loads = "compiled"`` for a scenario whose task runs its loads in Python
         only (a task class declares ``compiled_loads = True`` when it has compiled loads).
     """
-    if getattr(getattr(cfg, "sim", None), "loads", "python") == "compiled":
-        discover()
+    if getattr(getattr(cfg, "sim", None), "loads", "python") == "compiled" and not has_compiled_loads(cfg):
         key = KIND_KEYS.get(cfg.concept, "scenario")
-        kind = getattr(cfg, key, None)
-        if not getattr(TASKS.get((cfg.concept, kind)), "compiled_loads", False):
-            raise ConfigError(
-                [
-                    f"sim.loads: compiled loads exist for the CNUSAIL attitude runs only; {cfg.concept} "
-                    f"({key} {kind!r}) computes its loads in Python: use sim.loads = 'python', got 'compiled'"
-                ]
-            )
+        raise ConfigError(
+            [
+                f"sim.loads: compiled loads exist for the CNUSAIL attitude runs only; {cfg.concept} "
+                f"({key} {getattr(cfg, key, None)!r}) computes its loads in Python: use sim.loads = 'python', "
+                "got 'compiled'"
+            ]
+        )
     return build_task(cfg)
+
+
+def has_compiled_loads(cfg: Any) -> bool:
+    """Whether the scenario of a validated config can run its loads compiled (``sim.loads =
+    "compiled"``): its task class declares ``compiled_loads = True``."""
+    discover()
+    kind = getattr(cfg, KIND_KEYS.get(cfg.concept, "scenario"), None)
+    return bool(getattr(TASKS.get((cfg.concept, kind)), "compiled_loads", False))

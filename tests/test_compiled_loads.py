@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import magsail_mj
+from magsail_mj.bench import bench
 from magsail_mj.compiled import CompiledLoadsError, SOURCE_DIR, build
 from magsail_mj.concepts.cnusail.compiled import PARAM_FIELDS, STATE_FIELDS
 from magsail_mj.config import ConfigError, load_config
@@ -243,3 +244,25 @@ def test_a_blow_up_inside_a_native_chunk_is_dated_to_its_step():
         out[kind] = (result.status, result.message, sim.step_index)
     assert out["python"][0] == "diverged", out
     assert out["compiled"] == out["python"]
+
+
+def test_bench_reports_the_compiled_step_beside_the_python_one():
+    """``magsail bench`` of a Python-path CNUSAIL config adds the compiled passes, their median and
+    its ratio to the same bare step (no timing threshold: only the relations that hold by
+    construction); a config already compiled reports its loads, and another concept has no such
+    field."""
+    out = bench(PRE, duration_s=4.0, repeat=3)
+    assert out["loads"] == "python" and len(out["us_per_step_compiled_runs"]) == 3
+    assert out["us_per_step_compiled"] == pytest.approx(sorted(out["us_per_step_compiled_runs"])[1], rel=1e-15)
+    assert out["ratio_to_mj_step_compiled"] == pytest.approx(out["us_per_step_compiled"] / out["mj_step_us"], rel=1e-12)
+    compiled = bench(PRE, duration_s=4.0, overrides=["sim.loads='compiled'"])
+    assert compiled["loads"] == "compiled" and "us_per_step_compiled" not in compiled
+    other = bench(REPO / "magsail_mj/concepts/msac/configs/slow_1hz.toml", duration_s=0.05)
+    assert "us_per_step_compiled" not in other and "compiled_unavailable" not in other
+
+
+def test_bench_says_why_compiled_loads_are_unavailable(monkeypatch, tmp_path):
+    monkeypatch.setenv("MAGSAIL_CC", str(tmp_path / "no-such-cc"))
+    out = bench(PRE, duration_s=2.0)
+    assert "us_per_step_compiled" not in out
+    assert "sim.loads: 'compiled' needs a C compiler" in out["compiled_unavailable"]

@@ -334,16 +334,13 @@ static void torques(const mjtNum* p, const mjtNum* table, mjtNum t, const mjtNum
   }
 }
 
-/* the wheel motor torques of the step (module comment) into state and ctrl */
-static void wheel_torques(const mjtNum* p, mjtNum* s, mjData* d) {
+/* the wheel motor torques for the held command at the wheel speeds of qvel (module comment) */
+static void wheel_torques(const mjtNum* p, const mjtNum* s, const mjtNum* qvel, mjtNum T_M[3]) {
   int model = (int)p[P_WHEEL_MODEL];
-  if (model == WHEELS_NONE) {
-    return;
-  }
   mjtNum R = p[P_R_M], Kb = p[P_K_BEMF], KM = p[P_K_M], KB = p[P_K_FRICTION];
   mjtNum Vm = p[P_V_MAX], wmax = p[P_W_MAX];
   for (int j = 0; j < 3; j++) {
-    mjtNum w = d->qvel[(int)p[P_WHEEL_DOF + j]], c = s[S_WHEEL_CMD + j], T;
+    mjtNum w = qvel[(int)p[P_WHEEL_DOF + j]], c = s[S_WHEEL_CMD + j], T;
     if (model == WHEELS_DC_MOTOR) {
       mjtNum V = R * c + Kb * w;
       V = V > Vm ? Vm : (V < -Vm ? -Vm : V);
@@ -355,21 +352,23 @@ static void wheel_torques(const mjtNum* p, mjtNum* s, mjData* d) {
     if ((w >= wmax || w <= -wmax) && (T - KB * w) * w > 0.0) {
       T = KB * w;
     }
-    s[S_T_M + j] = T;
-    d->ctrl[(int)p[P_WHEEL_ACT + j]] = T;
+    T_M[j] = model == WHEELS_NONE ? 0.0 : T;
   }
 }
 
-/* the evaluation of the step's start state, its midpoint prediction or a stage (module comment) */
-static void evaluate(const mjModel* m, mjData* d, const mjtNum* p, const mjtNum* table, mjtNum* s,
-                     mjtNum t, const mjtNum* qpos, const mjtNum* qvel) {
-  int qa = (int)p[P_QPOSADR], va = (int)p[P_DOFADR];
-  long k = (long)s[S_STEP];
+/* the dipole of step k: the held one while the coils are on, else zero */
+static const mjtNum* effective_dipole(const mjtNum* p, const mjtNum* s, long k) {
+  static const mjtNum zero[3] = {0.0, 0.0, 0.0};
   int n_cycle = (int)p[P_N_CYCLE], n_on = (int)p[P_N_ON];
-  int on = n_cycle > 0 && (k % n_cycle) < n_on;
-  mjtNum zero[3] = {0.0, 0.0, 0.0};
+  return n_cycle > 0 && (k % n_cycle) < n_on ? s + S_DIPOLE : zero;
+}
+
+/* the evaluation of the step's start state, its midpoint prediction or a stage (module comment) */
+static void evaluate(const mjtNum* p, const mjtNum* table, mjtNum* s, mjtNum t, const mjtNum* qpos,
+                     const mjtNum* qvel) {
+  int qa = (int)p[P_QPOSADR], va = (int)p[P_DOFADR];
   mjtNum* src = s + S_SOURCES;
-  torques(p, table, t, qpos + qa, qvel + va, on ? s + S_DIPOLE : zero, src);
+  torques(p, table, t, qpos + qa, qvel + va, effective_dipole(p, s, (long)s[S_STEP]), src);
   for (int i = 0; i < 3; i++) {
     s[S_TORQUE + i] = (((src[i] + src[3 + i]) + src[6 + i]) + src[9 + i]) + src[12 + i];
   }
@@ -420,10 +419,16 @@ static void cubesat_compute(const mjModel* m, mjData* d, int instance, int capab
   mjtNum dt = m->opt.timestep;
   if (s[S_STALE] != 0) {
     long k = lround(d->time / dt);
+    mjtNum t = k * dt;  /* the step's time as the runner counts it (d->time sums the steps) */
     s[S_STEP] = (mjtNum)k;
-    wheel_torques(p, s, d);
+    if ((int)p[P_WHEEL_MODEL] != WHEELS_NONE) {
+      wheel_torques(p, s, d->qvel, s + S_T_M);
+      for (int j = 0; j < 3; j++) {
+        d->ctrl[(int)p[P_WHEEL_ACT + j]] = s[S_T_M + j];
+      }
+    }
     if (timing == TIMING_START) {
-      evaluate(m, d, p, table, s, d->time, d->qpos, d->qvel);
+      evaluate(p, table, s, t, d->qpos, d->qvel);
     } else if (timing == TIMING_MIDPOINT) {
       mjtNum* v_prev = s + S_FIXED;
       mjtNum* v_cur = v_prev + nv;
@@ -446,13 +451,13 @@ static void cubesat_compute(const mjModel* m, mjData* d, int instance, int capab
         vm[i] = v + 0.5 * dv;
       }
       mj_integratePos(m, qpos, vq, 0.5 * dt);
-      evaluate(m, d, p, table, s, d->time + 0.5 * dt, qpos, vm);
+      evaluate(p, table, s, t + 0.5 * dt, qpos, vm);
       mj_freeStack(d);
     }
     s[S_STALE] = 0;
   }
   if (timing == TIMING_STAGE) {
-    evaluate(m, d, p, table, s, d->time, d->qpos, d->qvel);
+    evaluate(p, table, s, d->time, d->qpos, d->qvel);
   }
   int va = (int)p[P_DOFADR];
   mjtNum T[3];
@@ -464,6 +469,26 @@ static void cubesat_compute(const mjModel* m, mjData* d, int instance, int capab
   d->qfrc_passive[va + 3] += T[0];
   d->qfrc_passive[va + 4] += T[1];
   d->qfrc_passive[va + 5] += T[2];
+}
+
+/* For the runner's records (called from Python through ctypes): into out (18) the five body-axes
+   torques of the bus (gravity gradient, drag, SRP, residual dipole, magnetorquer; module comment)
+   at d's state and the time k dt of its step k = round(d->time/dt), with that step's effective
+   dipole, and the wheel motor torques the step applies (3). Nothing in d changes. Returns 0, or -1
+   when `instance` is not an instance of this plugin's data. */
+int magsail_cubesat_probe(const mjModel* m, const mjData* d, int instance, mjtNum* out) {
+  if (instance < 0 || instance >= m->nplugin || d->plugin_data[instance] == 0) {
+    return -1;
+  }
+  const mjtNum* p = params_of(m, d, instance);
+  const mjtNum* table = table_of(m, d, instance);
+  const mjtNum* s = d->plugin_state + m->plugin_stateadr[instance];
+  mjtNum dt = m->opt.timestep;
+  long k = lround(d->time / dt);
+  int qa = (int)p[P_QPOSADR], va = (int)p[P_DOFADR];
+  torques(p, table, k * dt, d->qpos + qa, d->qvel + va, effective_dipole(p, s, k), out);
+  wheel_torques(p, s, d->qvel, out + 15);
+  return 0;
 }
 
 static void cubesat_advance(const mjModel* m, mjData* d, int instance) {

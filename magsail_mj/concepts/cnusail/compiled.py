@@ -25,6 +25,7 @@ the step, evaluated at the step's start or its predicted middle), equal to it to
 
 from __future__ import annotations
 
+import ctypes
 import math
 from types import SimpleNamespace
 from typing import Any
@@ -264,7 +265,11 @@ class CompiledCubesat:
         bus_dof: int,
         timing: str,
     ) -> None:
-        load_plugin(LIBRARY)
+        library = load_plugin(LIBRARY)
+        probe = ctypes.CDLL(str(library)).magsail_cubesat_probe
+        probe.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p]
+        probe.restype = ctypes.c_int
+        self._probe = SimpleNamespace(fn=probe)  # a C function: not part of the walked state
         try:
             params = cubesat_params(
                 environment=environment,
@@ -288,6 +293,17 @@ class CompiledCubesat:
         self.bare_model = bare_model
         self.timing = timing
         self.state_adr = int(self.model.plugin_stateadr[0])
+
+    def probe(self, data: mujoco.MjData) -> np.ndarray:
+        """(18,) what the plugin computes at ``data``'s state and step (``magsail_cubesat_probe`` of
+        the C source): the body-axes torques [N m] of gravity gradient, drag, SRP, residual dipole
+        and the magnetorquers (rows of 3, the step's effective dipole) and the wheel motor torques
+        [N m] the step applies — the records' ``torque_dist_body_Nm``, ``torque_mtq_body_Nm`` and
+        ``T_M_Nm``."""
+        out = np.empty(18)
+        if self._probe.fn(self.model._address, data._address, 0, out.ctypes.data) != 0:
+            raise ValueError("data: its model has no initialised cubesat-loads plugin")
+        return out
 
     def state(self, data: mujoco.MjData, name: str) -> np.ndarray:
         """A view of the field ``name`` of :data:`STATE_FIELDS` in ``data``'s plugin state."""
@@ -321,10 +337,7 @@ class CompiledControl:
     steps (the attitude period and the magnetorquer cycle in steps), it runs the controller's
     attitude and magnetorquer samples that fall on the step (:meth:`CnusailController._samples`)
     and writes the held dipole and wheel command into the plugin's state; blanking and the wheel
-    driver's per-step part run in the plugin (module docstring).
-
-    ``dipole_body(k)`` and ``motor_torque(data)`` give the effective dipole of step ``k`` and the
-    motor torques the plugin applies from the current state (for the probes)."""
+    driver's per-step part run in the plugin (module docstring)."""
 
     def __init__(self, controller: CnusailController, plant: CompiledCubesat) -> None:
         self.controller = controller
@@ -345,15 +358,3 @@ class CompiledControl:
         if i_att > ctl._last_att or i_mtq > ctl._last_mtq:
             ctl._samples(state, data, i_att, i_mtq)
         self.of.plant.write_command(data, dipole_Am2=ctl.dipole_held, wheel_cmd=ctl.wheel_cmd)
-
-    def dipole_body(self, t: float) -> np.ndarray:
-        """The effective dipole [A m², body axes] of the step at time ``t`` (zero while blanked)."""
-        ctl = self.controller
-        k = int(round(t / self._dt))
-        return ctl.dipole_held if k % ctl._n_cycle < ctl._n_on else np.zeros(3)
-
-    def motor_torque(self, data: mujoco.MjData) -> np.ndarray:
-        """The wheel motor torques [N m] of the step from ``data``'s state (the plugin's formula, the
-        Python driver's code)."""
-        ctl = self.controller
-        return ctl.driver.motor_torque(ctl.wheel_cmd, data.qvel[ctl.wheel_qvel].tolist(), self._dt)

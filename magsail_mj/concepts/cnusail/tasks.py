@@ -43,7 +43,9 @@ class AttitudeTask:
     With ``sim.loads = "compiled"`` the simulation's model is the cubesat's with the compiled loads
     (:class:`~magsail_mj.concepts.cnusail.compiled.CompiledCubesat`; ``model`` stays the model
     without them) and the controller runs at its samples only
-    (:class:`~magsail_mj.concepts.cnusail.compiled.CompiledControl`); the probes are the same."""
+    (:class:`~magsail_mj.concepts.cnusail.compiled.CompiledControl`); the probes record the same
+    quantities, the torques and the motor torques computed by the plugin's C function at the
+    record's state (:meth:`~magsail_mj.concepts.cnusail.compiled.CompiledCubesat.probe`)."""
 
     #: the scenario can run its loads compiled (``sim.loads = "compiled"``)
     compiled_loads = True
@@ -86,19 +88,13 @@ class AttitudeTask:
             )
             control = CompiledControl(ctl, compiled)
 
-        def dipole_of(state) -> np.ndarray:
-            """The effective dipole of the step [A m², body axes] (the held command's; with compiled
-            loads the plugin blanks it, so it is formed from the step index as the plugin does)."""
-            if control is not None:
-                return control.dipole_body(state.t)
-            return state.ctrl.dipole_body if state.ctrl is not None else np.zeros(3)
-
         def mtq_body(state, d):
+            m = state.ctrl.dipole_body if state.ctrl is not None else np.zeros(3)
             R = np.empty(9)
             mujoco.mju_quat2Mat(R, d.qpos[idx.q_quat])
-            return np.cross(dipole_of(state), R.reshape(3, 3).T @ state.env.B_eci)
+            return np.cross(m, R.reshape(3, 3).T @ state.env.B_eci)
 
-        probes = {
+        probes: dict[str, Any] = {
             "qpos": lambda s, d: d.qpos,
             "qvel": lambda s, d: d.qvel,
             "mode": lambda s, d: int(ctl.mode),
@@ -106,12 +102,17 @@ class AttitudeTask:
             "theta_e_rad": lambda s, d: ctl.theta_e,
             "omega_e_rad_s": lambda s, d: ctl.omega_e,
             "u_cmd_Nm": lambda s, d: ctl.u,
-            "T_M_Nm": (lambda s, d: ctl.T_M) if control is None else (lambda s, d: control.motor_torque(d)),
+            "T_M_Nm": lambda s, d: ctl.T_M,
             "dipole_cmd_Am2": lambda s, d: ctl.dipole_held,
             "unload_mask": lambda s, d: ctl.unload_mask.astype(np.int8),
             "torque_dist_body_Nm": lambda s, d: dist.torques_body(s),
             "torque_mtq_body_Nm": mtq_body,
         }
+        if compiled is not None:
+            # what the plugin computes at the record's state (its C function): the same quantities
+            probes["T_M_Nm"] = lambda s, d: compiled.probe(d)[15:18]
+            probes["torque_dist_body_Nm"] = lambda s, d: compiled.probe(d)[:12].reshape(4, 3)
+            probes["torque_mtq_body_Nm"] = lambda s, d: compiled.probe(d)[12:15]
         return Simulation(
             model=self.model if compiled is None else compiled.model,
             duration_s=self.cfg.sim.duration_s,
