@@ -1,63 +1,86 @@
-"""A structure file to its first MuJoCo step at 2 048, 8 192 and 20 000 nodes: each stage's time,
-its growth per node, and the peak memory against the estimate.
+"""A structure file to its first MuJoCo step at about 2 000, 6 000 and 20 000 nodes: each stage's
+time, its growth per node with a fitted exponent, MuJoCo's superlinear compile phases timed on
+their own, and the peak memory against the estimate.
 
 For each size (square plate lattices of ``units`` cubes a side, two layers: ``2 (units + 1)²``
-nodes, struts only) the plate is written as a structure file with an ``.npz`` companion
+nodes, struts only; the default 31, 54, 99 give 2 048, 6 050 and 20 000 nodes) the plate is
+written as a structure file with an ``.npz`` companion
 (:func:`~magsail_mj.structure.fileformat.write_structure`, not timed), then a fresh process runs
-and times each stage of the path once:
+and times each stage of the path once (wall clock, and the process's CPU time):
 
 * ``read`` — :func:`~magsail_mj.structure.fileformat.read_structure` (TOML, the ``.npz`` arrays,
   and the checks it runs itself);
 * ``check`` — :func:`~magsail_mj.structure.checks.check_structure` again, on its own;
 * ``build`` — :func:`~magsail_mj.structure.mjcf.build_structure_spec` (Euler, with
-  ``--strut-elements``: ``auto`` by default, which builds the struts as 1-D flex edges above
-  ``FLEX_AUTO_TENDON_DOFS``, i.e. the 8 192- and 20 000-node plates, and as tendons below);
+  ``--strut-elements``: ``flex`` by default, every size's struts as 1-D flex edges, so that the
+  sizes are the same kind of model; ``auto`` builds the same flexes for the 6 050- and 20 000-node
+  plates, above ``FLEX_AUTO_TENDON_DOFS``, and tendons for the 2 048-node one);
 * ``compile`` — ``spec.compile()``;
 * ``data`` — ``mujoco.MjData(model)``;
 * ``step`` — the first ``mujoco.mj_step``.
 
-``index`` (:class:`~magsail_mj.structure.mjcf.StructureModelIndex`) is timed after them and is not
-in ``total_s``; nor is ``compile_without_tendons_s``, the compile of the same plate without its
-members (nodes only), which splits ``compile`` into MuJoCo's part that grows with the members
-and the rest: ``member_compile_us_per_member`` is the difference over the member count (constant
-when that part is linear, as with flex edges), ``tendon_compile_ns_per_tendon_dof`` the same over
-``ntendon · nv`` (constant when it is ``O(ntendon nv)``, as MuJoCo's per-tendon
-``tendon_invweight0`` over dense ``nv``-vectors is; ``null`` without tendons). The rest, MuJoCo's
-compile of the bodies alone, is itself slightly superlinear (``mj_makeBSparse``,
-``mj_validateReferences``: 0.15 s at 2 048 nodes, 5 s at 20 000 measured).
+The parts: ``ours`` (read, check, build: this package's Python), ``compile`` (MuJoCo's) and
+``first_step`` (data and step). For each stage and part, ``scaling`` gives the time per node
+[µs], its ratio to the smallest size's (1 at every size for a cost linear in the node count) and
+``exponent``, the least-squares slope of ``log t`` over ``log nodes`` (1: linear, 2: quadratic).
+
+MuJoCo's compile holds two phases quadratic in the size of a model whose moving bodies hang from
+the world (as a lattice's particles do), both MuJoCo 4.0.0's own code; after the compile the
+benchmark calls each again, through ``ctypes`` on the same ``libmujoco``, on the compiled model's
+arrays (they are deterministic functions of them) and times it alone (``mujoco_phases``):
+
+* ``mj_makeBSparse`` — the body-dof sparsity ``B``: the world body's row lists all ``nv`` dofs,
+  gathered from the bodies in reverse order and then sorted by ``mju_insertionSortInt``, about
+  ``nv² / 2`` moves (``nv``: 3 per particle), whatever the tree: inherent to MuJoCo;
+* ``mj_validateReferences`` — for every body, a check that its row of ``B`` is a subset of its
+  parent's, scanning the parent's row from its start: ``O(nv)`` for each child of the world,
+  ``O(nbody · nv)`` in all (located with ``perf annotate`` on the check's loop, which reads
+  ``B_rownnz``, ``B_rowadr``, ``B_colind`` and ``body_parentid``). Hanging the particles from
+  ``√n`` dof-less bodies would make it ``O(n^1.5)`` (0.40 s to 0.008 s at 20 000 particles,
+  measured), but every particle would then no longer be a child of the world, which the
+  simulator's particle state path (:mod:`magsail_mj.sim`) requires; the builder keeps them there.
+
+``compile_rest`` is the compile without those two phases. ``fresh_mb`` is, per stage, the memory
+it touched for the first time (minor page faults × page size: for the compile, MuJoCo's model and
+its data and arena, zeroed), linear in the size; on a machine where a first touch is slow
+(1.8 ms/MiB measured on the shared machine) it is paid in full only above glibc's ``mmap``
+threshold (at most 32 MiB: not at 2 048 nodes, whose memory comes back from freed heap), which
+raises a stage's per-node ratio by a step rather than a power.
+
+Our build's own superlinear part is MuJoCo's spec API: an element added to an ``MjSpec`` rebuilds
+its element lists (``ResetTreeLists``, ``MakeTreeLists``: the spec's size), and an attach costs the
+receiving spec's size (:class:`~magsail_mj.lattice.mjcf.WorldTrees`: chunks of 64 bodies, about
+``√k`` groups). ``build_attach`` times every ``MjSpec.attach`` of the build (the method wrapped in
+the benchmark process): ``into_spec`` the groups attached into the returned spec, ``into_groups``
+the chunks into their groups; ``build_rest`` in the table is the build without them.
+
+``compile_without_tendons_s`` (timed after the path, not in ``total_s``) is the compile of the same
+plate without its members (nodes only), which splits ``compile`` into MuJoCo's part that grows
+with the members and the rest: ``member_compile_us_per_member`` is the difference over the member
+count (constant when that part is linear, as with flex edges), ``tendon_compile_ns_per_tendon_dof``
+the same over ``ntendon · nv`` (constant when it is ``O(ntendon nv)``, as MuJoCo's per-tendon
+``tendon_invweight0`` over dense ``nv``-vectors is; ``null`` without tendons).
 
 The process reports its peak resident set (``ru_maxrss``: MuJoCo's C
 allocations included, which ``tracemalloc`` does not see) and the resident set it had before the
 read (the interpreter and the imports): their difference is the path's own memory, compared with
 :func:`~magsail_mj.resources.structure_model_bytes` of the plate's node and member counts; so is
-MuJoCo's own part, ``MjModel.nbuffer + MjData.nbuffer + narena``.
+MuJoCo's own part, ``MjModel.nbuffer + MjData.nbuffer + narena``. ``largest`` holds the largest
+size's ``total_s`` with the stage shares and ``within_limits``: file to first step within
+:data:`LARGEST_TOTAL_S` and the path's memory within the estimate. ``load_average`` is
+``os.getloadavg()`` before and after: the machine may be shared, and timings are wall-clock (CPU
+time beside them); compare ratios measured in one call.
 
-The JSON object printed holds, per size, the counts and those figures; ``per_node_ratio``: per
-stage, the time per node of each size over that of the smallest (1 for a stage whose cost grows
-linearly with the node count), and ``largest``: the largest size's ``total_s`` with the stage
-shares. ``load_average`` is ``os.getloadavg()`` before and after: the machine may be shared,
-and timings are wall-clock; compare ratios measured in one call.
-
-Measured (MuJoCo 4.0.0, a shared 2-core machine, load 1–4): the 20 000-node plate (89 002 struts,
-``nv`` = 60 000) goes from file to first step in 11.3 s with flex struts (build 6.1 s, compile 4.8 s
-of which 3.5 s are the bodies alone; ``--strut-elements flex``) and 18.4 s under a heavier load (the
-default, ``auto``, builds the same flexes); at load 4–5, 14.4 s with flexes (compile 6.1 s) against
-52.0 s as tendons (``--strut-elements tendons``: compile 40.0 s, 6.5 ns per tendon and dof, the
-bodies 5.1 s of it); its peak resident set is 0.43 of
-:func:`~magsail_mj.resources.structure_model_bytes`. With flexes at every size the total per node is
-1.0, 0.95 and 1.58 times the 2 048-node plate's at 8 192 and 20 000 nodes (build 0.87, 1.24; compile
-1.27, 2.91, dominated by the bodies' compile, 0.93, 2.49): the struts no longer make the compile
-quadratic, MuJoCo's compile of the bodies remains slightly superlinear. The 2 048-node plate
-compiles in 0.64 s as tendons (9.3 ns per tendon and dof), 0.17 s as flexes.
-
-    .venv/bin/python scripts/bench_structure_scale.py                 # units 31, 63, 99
-    .venv/bin/python scripts/bench_structure_scale.py --units 15 31
-    .venv/bin/python scripts/bench_structure_scale.py --strut-elements flex     # every size flex
+    .venv/bin/python scripts/bench_structure_scale.py                 # units 31, 54, 99
+    .venv/bin/python scripts/bench_structure_scale.py --units 15 31 63
+    .venv/bin/python scripts/bench_structure_scale.py --strut-elements auto     # as the config path builds
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import ctypes
 import dataclasses
 import json
 import os
@@ -67,6 +90,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import magsail_mj  # noqa: F401  (chooses the GL backend before MuJoCo is imported)
@@ -81,9 +105,16 @@ from magsail_mj.structure.mjcf import STRUT_ELEMENTS, StructureModelIndex, build
 from magsail_mj.structure.model import Members, Structure
 
 STAGES = ("read", "check", "build", "compile", "data", "step")
-DEFAULT_UNITS = (31, 63, 99)
+#: The parts of the path the scaling table sums stages into.
+PARTS = {"ours": ("read", "check", "build"), "compile": ("compile",), "first_step": ("data", "step")}
+#: MuJoCo's compile phases timed on their own (module docstring).
+MUJOCO_PHASES = ("mj_makeBSparse", "mj_validateReferences")
+DEFAULT_UNITS = (31, 54, 99)
 SIDE_M, EA_N, MASS_KG, ZETA = 100.0, 1.0e6, 100.0, 0.01
 TIMESTEP_S = 1e-3
+#: The largest plate's file to first step must take at most this [s].
+LARGEST_TOTAL_S = 30.0
+_INT_P = ctypes.POINTER(ctypes.c_int)
 
 
 def write_plate(units: int, folder: Path) -> Path:
@@ -107,26 +138,102 @@ def _without_members(structure: Structure) -> Structure:
     return dataclasses.replace(structure, members=members, member_sets={})
 
 
+def _libmujoco() -> ctypes.CDLL:
+    """The ``libmujoco`` shared library the ``mujoco`` package loaded, with the two phases' signatures."""
+    found = sorted(Path(mujoco.__file__).parent.glob("libmujoco.so*"))
+    if not found:
+        raise SystemExit(f"error: no libmujoco.so* next to {mujoco.__file__}")
+    lib = ctypes.CDLL(str(found[0]))
+    lib.mj_validateReferences.restype = ctypes.c_char_p
+    lib.mj_validateReferences.argtypes = [ctypes.c_void_p]
+    lib.mj_makeBSparse.restype = None
+    lib.mj_makeBSparse.argtypes = [ctypes.c_int] * 3 + [_INT_P] * 7
+    return lib
+
+
+def time_mujoco_phases(model: mujoco.MjModel) -> dict[str, float]:
+    """Seconds of ``mj_makeBSparse`` and ``mj_validateReferences`` called again on ``model``'s
+    arrays (module docstring); the rebuilt ``B`` must equal the model's."""
+    lib = _libmujoco()
+
+    def ints(values) -> np.ndarray:
+        return np.ascontiguousarray(values, dtype=np.int32)
+
+    def pointer(array: np.ndarray):
+        return array.ctypes.data_as(_INT_P)
+
+    dofnum, parent, dofadr = ints(model.body_dofnum), ints(model.body_parentid), ints(model.body_dofadr)
+    nB = int(model.B_rownnz.sum())
+    rownnz, rowadr, count = (np.zeros(model.nbody, dtype=np.int32) for _ in range(3))
+    colind = np.zeros(nB, dtype=np.int32)
+    t0 = time.perf_counter()
+    lib.mj_makeBSparse(
+        model.nv, model.nbody, nB, *map(pointer, (dofnum, parent, dofadr, rownnz, rowadr, colind, count))
+    )
+    seconds = {"mj_makeBSparse": time.perf_counter() - t0}
+    if not np.array_equal(colind, model.B_colind):
+        raise SystemExit("error: mj_makeBSparse called again gave another B_colind than the compiled model's")
+    t0 = time.perf_counter()
+    invalid = lib.mj_validateReferences(ctypes.c_void_p(model._address))
+    seconds["mj_validateReferences"] = time.perf_counter() - t0
+    if invalid is not None:
+        raise SystemExit(f"error: mj_validateReferences: {invalid.decode()}")
+    return seconds
+
+
+@contextlib.contextmanager
+def _timed_attaches() -> Iterator[list[tuple[mujoco.MjSpec, float]]]:
+    """Within the block, every ``MjSpec.attach`` is timed: the list holds ``(receiver, seconds)``
+    per call (the receivers are kept, so that none is confused with a later one)."""
+    calls: list[tuple[mujoco.MjSpec, float]] = []
+    attach = mujoco.MjSpec.attach
+
+    def timed(receiver: mujoco.MjSpec, *args, **kwargs):
+        t0 = time.perf_counter()
+        try:
+            return attach(receiver, *args, **kwargs)
+        finally:
+            calls.append((receiver, time.perf_counter() - t0))
+
+    mujoco.MjSpec.attach = timed
+    try:
+        yield calls
+    finally:
+        mujoco.MjSpec.attach = attach
+
+
 def run_path(path: Path, strut_elements: str = "auto") -> dict:
     """Time each stage of the path for the structure file ``path`` (in this process), struts
     built as ``strut_elements``."""
     start_rss_mb = _rss_mb()
     seconds: dict[str, float] = {}
+    cpu_seconds: dict[str, float] = {}
+    faults: dict[str, int] = {}
 
     def timed(stage: str, call):
-        t0 = time.perf_counter()
+        minflt = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+        c0, t0 = time.process_time(), time.perf_counter()
         out = call()
         seconds[stage] = time.perf_counter() - t0
+        cpu_seconds[stage] = time.process_time() - c0
+        faults[stage] = resource.getrusage(resource.RUSAGE_SELF).ru_minflt - minflt
         return out
 
     structure = timed("read", lambda: read_structure(path).structure)
     timed("check", lambda: check_structure(structure))
-    spec = timed(
-        "build",
-        lambda: build_structure_spec(
-            structure, timestep_s=TIMESTEP_S, integrator="Euler", strut_elements=strut_elements
-        ),
-    )
+    with _timed_attaches() as attaches:
+        spec = timed(
+            "build",
+            lambda: build_structure_spec(
+                structure, timestep_s=TIMESTEP_S, integrator="Euler", strut_elements=strut_elements
+            ),
+        )
+    build_attach = {
+        "into_spec_s": sum(dt for receiver, dt in attaches if receiver is spec),
+        "into_spec_count": sum(1 for receiver, _ in attaches if receiver is spec),
+        "into_groups_s": sum(dt for receiver, dt in attaches if receiver is not spec),
+        "into_groups_count": sum(1 for receiver, _ in attaches if receiver is not spec),
+    }
     model = timed("compile", spec.compile)
     data = timed("data", lambda: mujoco.MjData(model))
     timed("step", lambda: mujoco.mj_step(model, data))
@@ -134,6 +241,7 @@ def run_path(path: Path, strut_elements: str = "auto") -> dict:
     StructureModelIndex.from_model(model, structure)
     index_s = time.perf_counter() - t0
     peak_rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    phases = time_mujoco_phases(model)
     bare = build_structure_spec(_without_members(structure), timestep_s=TIMESTEP_S, integrator="Euler")
     t0 = time.perf_counter()
     bare.compile()
@@ -150,8 +258,12 @@ def run_path(path: Path, strut_elements: str = "auto") -> dict:
         "strut_elements": strut_elements,
         "nM": model.nM,
         "seconds": seconds,
+        "cpu_seconds": cpu_seconds,
         "total_s": sum(seconds.values()),
         "index_s": index_s,
+        "mujoco_phases": {**phases, "compile_rest": seconds["compile"] - sum(phases.values())},
+        "build_attach": build_attach,
+        "fresh_mb": {stage: faults[stage] * resource.getpagesize() / 2**20 for stage in STAGES},
         "compile_without_tendons_s": bare_compile_s,
         "member_compile_us_per_member": (seconds["compile"] - bare_compile_s) / structure.n_members * 1e6,
         "tendon_compile_ns_per_tendon_dof": (
@@ -185,21 +297,67 @@ def _run_child(path: Path, strut_elements: str) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
+def fitted_exponent(nodes: list[int], seconds: list[float]) -> float | None:
+    """The least-squares slope ``p`` of ``log t = p log n + c`` (``t ∝ n^p``); ``None`` with fewer
+    than two distinct sizes or a time that is not positive."""
+    n, t = np.asarray(nodes, dtype=float), np.asarray(seconds, dtype=float)
+    if np.unique(n).size < 2 or not np.all(t > 0):
+        return None
+    return float(np.polyfit(np.log(n), np.log(t), 1)[0])
+
+
+def stage_series(sizes: list[dict]) -> dict[str, list[float]]:
+    """Wall seconds per size of each stage, part, MuJoCo phase and the total (and the compile
+    without members), keyed by name."""
+    series = {stage: [s["seconds"][stage] for s in sizes] for stage in STAGES}
+    series.update({part: [sum(s["seconds"][x] for x in stages) for s in sizes] for part, stages in PARTS.items()})
+    series["total"] = [s["total_s"] for s in sizes]
+    for phase in (*MUJOCO_PHASES, "compile_rest"):
+        series[phase] = [s["mujoco_phases"][phase] for s in sizes]
+    series["build_attach_into_spec"] = [s["build_attach"]["into_spec_s"] for s in sizes]
+    series["build_attach_into_groups"] = [s["build_attach"]["into_groups_s"] for s in sizes]
+    series["build_rest"] = [
+        s["seconds"]["build"] - s["build_attach"]["into_spec_s"] - s["build_attach"]["into_groups_s"] for s in sizes
+    ]
+    series["compile_without_tendons"] = [s["compile_without_tendons_s"] for s in sizes]
+    return series
+
+
 def per_node_ratios(sizes: list[dict]) -> dict[str, list[float]]:
-    """Per stage (the total and the compile without tendons too), each size's time per node over
-    the smallest size's."""
-    seconds = {stage: [s["seconds"][stage] for s in sizes] for stage in STAGES}
-    seconds["total"] = [s["total_s"] for s in sizes]
-    seconds["compile_without_tendons"] = [s["compile_without_tendons_s"] for s in sizes]
+    """Per stage, part and phase, each size's time per node over the smallest size's (``None``
+    where the smallest size took none: no attach below ``SPEC_DIRECT_BODIES`` bodies)."""
     nodes = [s["nodes"] for s in sizes]
-    return {stage: [t / n / (times[0] / nodes[0]) for t, n in zip(times, nodes)] for stage, times in seconds.items()}
+    return {
+        name: [t / n / (times[0] / nodes[0]) if times[0] > 0 else None for t, n in zip(times, nodes)]
+        for name, times in stage_series(sizes).items()
+    }
+
+
+def scaling(sizes: list[dict]) -> dict[str, dict]:
+    """Per stage, part and phase: time per node [µs] at each size, its ratio to the smallest
+    size's, and the fitted exponent (wall clock; for stages and parts also from CPU time)."""
+    nodes = [s["nodes"] for s in sizes]
+    ratios = per_node_ratios(sizes)
+    out = {}
+    for name, times in stage_series(sizes).items():
+        row = {
+            "us_per_node": [t / n * 1e6 for t, n in zip(times, nodes)],
+            "ratio": ratios[name],
+            "exponent": fitted_exponent(nodes, times),
+        }
+        stages = PARTS.get(name, (name,) if name in STAGES else None)
+        if stages is not None:
+            cpu = [sum(s["cpu_seconds"][x] for x in stages) for s in sizes]
+            row["cpu_exponent"] = fitted_exponent(nodes, cpu)
+        out[name] = row
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--units", type=int, nargs="+", default=list(DEFAULT_UNITS), help="plate sizes (cubes a side)")
     p.add_argument(
-        "--strut-elements", choices=STRUT_ELEMENTS, default="auto", help="build_structure_spec's strut_elements"
+        "--strut-elements", choices=STRUT_ELEMENTS, default="flex", help="build_structure_spec's strut_elements"
     )
     p.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
@@ -214,6 +372,7 @@ def main(argv: list[str] | None = None) -> int:
             {"units": units, **_run_child(path, args.strut_elements)} for units, path in zip(sorted(args.units), paths)
         ]
     largest = sizes[-1]
+    table = scaling(sizes)
     print(
         json.dumps(
             {
@@ -226,10 +385,21 @@ def main(argv: list[str] | None = None) -> int:
                 "load_average": {"before": load_before, "after": os.getloadavg()},
                 "sizes": sizes,
                 "per_node_ratio": {"nodes": [s["nodes"] for s in sizes], **per_node_ratios(sizes)},
+                "scaling": {"nodes": [s["nodes"] for s in sizes], **table},
+                "mujoco_superlinear": {
+                    phase: {
+                        "exponent": table[phase]["exponent"],
+                        "share_of_compile": [s["mujoco_phases"][phase] / s["seconds"]["compile"] for s in sizes],
+                    }
+                    for phase in MUJOCO_PHASES
+                },
                 "largest": {
                     "nodes": largest["nodes"],
                     "total_s": largest["total_s"],
                     "share": {stage: largest["seconds"][stage] / largest["total_s"] for stage in STAGES},
+                    "within_limits": bool(
+                        largest["total_s"] <= LARGEST_TOTAL_S and largest["path_rss_over_estimate"] <= 1.0
+                    ),
                 },
             },
             indent=1,
