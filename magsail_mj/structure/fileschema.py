@@ -219,7 +219,14 @@ SLOTS: tuple[Slot, ...] = (
         "`E_Pa` × [`I1_m4`, `I2_m4`], else 0",
     ),
     Slot("member_groups", "GJ_Nm2", "per_member", None, "torsional rigidity", "`G_Pa` × `J_m4`, else 0"),
-    Slot("member_groups", "damping_Ns_m", "per_member", 0.0, "axial dashpot c"),
+    Slot(
+        "member_groups",
+        "damping_Ns_m",
+        "per_member",
+        0.0,
+        "axial dashpot c (force −c l̇); a beam's bending and torsion are damped in proportion, β = c l0 / EA times "
+        "each hinge's stiffness (EI/l0, GJ/l0), so each mode of beams of one β has the damping ratio β ω / 2",
+    ),
     Slot(
         "member_groups",
         "rest_length_m",

@@ -53,12 +53,19 @@ Joints
     ``m<j>_bend2`` (hinge)    ``y``, member midpoint                 ``EI2/l0`` (plane 2, along z)
     ========================  =====================================  ==============================
 
-    The slide also carries the member's axial dashpot ``c``. Each beam is thus two rigid halves
+    Damping is stiffness-proportional: the slide carries the member's axial dashpot ``c``
+    (``damping_Ns_m``, force ``−c l̇``), which is ``β = c l0 / EA`` [s] times its axial
+    stiffness, and each hinge the joint damping ``β`` times its own stiffness (``β GJ/l0``,
+    ``β EI1/l0``, ``β EI2/l0`` [N m s/rad]). A beam's damping is thus ``β`` times its stiffness
+    in every joint (Rayleigh's stiffness-proportional damping), so a structure of beams with one
+    ``β`` damps each of its modes with the ratio ``ζ_n = β ω_n / 2`` (a cantilever's first
+    bending mode decays so in MuJoCo, ``tests/test_structure_mjcf.py``); a beam with ``EA = 0``
+    has no ``β`` and its damping is refused. Each beam is thus two rigid halves
     joined at its midpoint by a spring of its whole bending (torsional) compliance ``l0/EI``
     (``l0/GJ``): axial and torsional chains are exact, and a cantilever of ``N`` equal beams under
     a tip force deflects ``P L³/(3 EI) · (1 − 1/(4 N²))`` (midpoint-rule quadrature of the moment;
     −0.0625 % at ``N = 20``; a hinge at each node with ``EI/l`` would give ``+ (3N + 1)/(2N²)``,
-    +7.6 %). Bending and torsion have no damping (the member table has only an axial dashpot).
+    +7.6 %).
     The three hinges compose as intrinsic rotations: exact for small relative rotations, and
     non-singular below 90° of bending per member.
 
@@ -292,12 +299,17 @@ def _extent_m(positions_m: np.ndarray) -> float:
 
 
 def _check(structure: Structure, layout: BodyLayout, masses: np.ndarray, node_damping_1_s: float) -> None:
-    """Refuse damped cables, node damping with chains, and massless moving bodies."""
+    """Refuse damped cables, damped beams without EA, node damping with chains, and massless moving bodies."""
     members = structure.members
     problems = [
         f"members[{j}].damping_Ns_m: a cable carries no dashpot (MuJoCo's tendon damping would push while a slack "
         f"cable shortens), got {members.damping_Ns_m[j]!r}"
         for j in np.flatnonzero((members.kind == _CABLE) & (members.damping_Ns_m != 0))[:10]
+    ]
+    problems += [
+        f"members[{j}].damping_Ns_m: a beam's damping is β = c l0 / EA times each joint's stiffness, so it needs "
+        f"EA_N > 0, got damping {members.damping_Ns_m[j]!r} with EA_N = 0"
+        for j in np.flatnonzero((members.kind == _BEAM) & (members.damping_Ns_m != 0) & ~(members.EA_N > 0))[:10]
     ]
     if structure.stiffness_model != "members":
         problems += [
@@ -407,17 +419,23 @@ def _beam_joints(g: _Geometry, body: mujoco.MjsBody, j: int, start: int, origin_
     x, y, z = g.frames[j]
     mid = [float(c) for c in 0.5 * (p[start] + p[end]) - origin_m]
     hinge = mujoco.mjtJoint.mjJNT_HINGE
+    axial = float(members.EA_N[j] / l0)
+    beta = float(members.damping_Ns_m[j]) / axial if axial > 0 else 0.0  # β = c l0 / EA [s]
     body.add_joint(
         name=f"m{j}_axial",
         type=mujoco.mjtJoint.mjJNT_SLIDE,
         axis=((p[end] - p[start]) / length).tolist(),
-        stiffness=float(members.EA_N[j] / l0),
+        stiffness=axial,
         springref=l0 - length,
         damping=float(members.damping_Ns_m[j]),
     )
-    body.add_joint(name=f"m{j}_twist", type=hinge, axis=x.tolist(), pos=mid, stiffness=float(members.GJ_Nm2[j] / l0))
-    body.add_joint(name=f"m{j}_bend1", type=hinge, axis=z.tolist(), pos=mid, stiffness=float(members.EI_Nm2[j, 0] / l0))
-    body.add_joint(name=f"m{j}_bend2", type=hinge, axis=y.tolist(), pos=mid, stiffness=float(members.EI_Nm2[j, 1] / l0))
+    for name, axis, rigidity in (
+        ("twist", x, members.GJ_Nm2[j]),
+        ("bend1", z, members.EI_Nm2[j, 0]),
+        ("bend2", y, members.EI_Nm2[j, 1]),
+    ):
+        k = float(rigidity / l0)
+        body.add_joint(name=f"m{j}_{name}", type=hinge, axis=axis.tolist(), pos=mid, stiffness=k, damping=beta * k)
     return 4
 
 
