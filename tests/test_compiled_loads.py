@@ -15,6 +15,7 @@ import magsail_mj
 from magsail_mj.bench import bench
 from magsail_mj.compiled import CompiledLoadsError, SOURCE_DIR, build
 from magsail_mj.concepts.cnusail.compiled import PARAM_FIELDS, STATE_FIELDS
+from magsail_mj.concepts.cnusail.env import make_cubesat_environment
 from magsail_mj.config import ConfigError, load_config
 from magsail_mj.export import read_timeseries
 from magsail_mj.loads.base import StepState
@@ -235,6 +236,8 @@ def test_refusals_name_the_key():
         magsail_mj.load(CONFIGS / "lifetime.toml", ["sim.loads='compiled'"])
     with pytest.raises(ConfigError, match="world 1: sim.loads: a batch"):
         magsail_mj.load(PRE, ["sim.duration_s=10"], world_overrides=[[], ["sim.loads='compiled'"]])
+    with pytest.raises(ConfigError, match="sim.loads: the environment drives"):
+        make_cubesat_environment(load_config(PRE, ["sim.loads='compiled'"]))
     with pytest.raises(ConfigError, match="actuators.wheels.electrical: compiled loads model the quasi-static"):
         _load(PRE, "sim.duration_s=10", "sim.loads='compiled'", "actuators.wheels.electrical='substep'")
 

@@ -4,8 +4,8 @@ r"""Compiled loads: a C source of the package built into a MuJoCo plugin library
 library and registers its plugins with MuJoCo (``mujoco.mj_loadPluginLibrary``). The library lives
 in a cache folder keyed by the SHA-256 digest of the source, the MuJoCo version and the compiler
 (its resolved path and its ``--version`` line), so an edited source, another MuJoCo or another
-compiler builds anew and an unchanged one is reused across processes; a build takes about a second
-once (gcc 12: 0.3 s for the cubesat loads).
+compiler builds anew and an unchanged one is reused across processes; a build costs 0.4 s once
+(gcc 12, the cubesat loads, the compiler's version query included).
 
 * compiler: ``$MAGSAIL_CC``, else ``$CC``, else ``cc``;
 * cache folder: ``$MAGSAIL_COMPILED_CACHE``, else ``$XDG_CACHE_HOME/magsail_mj/compiled``, else

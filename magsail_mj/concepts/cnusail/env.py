@@ -75,6 +75,7 @@ import numpy as np
 from dm_control.rl import control
 
 from magsail_mj.commands import attach
+from magsail_mj.config import ConfigError
 from magsail_mj.concepts.cnusail.modes import CnusailController, Mode, command_frame, command_quaternion
 from magsail_mj.concepts.cnusail.eigenaxis import eigen_angle, error_quaternion, orbital_rate, rate_error
 from magsail_mj.concepts.cnusail.unloading import UnloadingLogic
@@ -557,11 +558,19 @@ def make_cubesat_environment(
     ``control_timestep`` = ``1/control.rate_Hz``, ``time_limit`` = ``sim.duration_s``.
     ``epoch_range_s`` > 0: each episode starts at the epoch ``orbit.epoch + U(0, epoch_range_s)``
     (drawn first, from the task's ``random``; the simulation is rebuilt for it, its orbit, field and
-    Sun tables being built for the epoch)."""
+    Sun tables being built for the epoch). A config with ``sim.loads = "compiled"`` is refused
+    (:class:`~magsail_mj.config.ConfigError` naming the key): the environment's plant runs in Python."""
     if getattr(cfg, "concept", None) != "cnusail" or getattr(cfg, "kind", None) != "attitude":
         raise ValueError(
             f"config: expected a CNUSAIL attitude config, got concept {getattr(cfg, 'concept', None)!r}, "
             f"kind {getattr(cfg, 'kind', None)!r}"
+        )
+    if getattr(cfg.sim, "loads", "python") == "compiled":
+        raise ConfigError(
+            [
+                "sim.loads: the environment drives the cubesat's actuators from Python each step and "
+                "keeps the loads there; use sim.loads = 'python', got 'compiled'"
+            ]
         )
     epoch_range_s = float(epoch_range_s)
     if not (math.isfinite(epoch_range_s) and epoch_range_s >= 0):
