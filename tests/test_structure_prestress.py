@@ -19,7 +19,7 @@ from magsail_mj.structure.assembly import assemble, reference_forces
 from magsail_mj.structure.mjcf import build_structure_spec
 from magsail_mj.structure.model import MEMBER_KINDS, Members, RigidPart, Structure
 from magsail_mj.structure.modes import structure_modes
-from magsail_mj.verbs.modes import read_source
+from magsail_mj.verbs.sources import read_source
 
 SAIL_CONFIG = "magsail_mj/concepts/structure/configs/sail_detumble.toml"
 

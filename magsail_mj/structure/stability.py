@@ -21,6 +21,14 @@ geometrically: 3 % past the limit reads 1.11 (RK4) to 1.6 (Euler) on a two-mass 
 (``tests/test_structure_stability.py``), so :data:`UNSTABLE_GROWTH` = 1.05 separates the two.
 A mode less than about 3 % past the limit grows too slowly to be told apart here; the run's own
 divergence checks still catch it.
+
+:func:`stable_timestep_s` proposes a step for a structure alone (no task config to give one): the
+undamped limits ``2 / ω_max`` (Euler) and ``2.785 / ω_max`` (RK4) of its highest natural
+frequency ``ω_max`` (the largest eigenvalue of ``K_r q = ω² M_r q``, the modal analysis's reduced
+stiffness and lumped mass, by Lanczos iteration: sparse, no factor of ``K``), times
+:data:`STEP_SAFETY`. MuJoCo's model of the same structure is not the modal model (beam chains,
+tendon attachments, rotary inertia of the node bodies), so the step is then checked on the
+compiled model with :func:`step_growth`.
 """
 
 from __future__ import annotations
@@ -29,8 +37,25 @@ import math
 
 import mujoco
 import numpy as np
+from scipy.sparse.linalg import eigsh
 
-__all__ = ["UNSTABLE_GROWTH", "largest_stable_fraction", "step_growth"]
+from magsail_mj.structure.assembly import Assembly
+
+__all__ = [
+    "STABILITY_LIMITS",
+    "STEP_SAFETY",
+    "UNSTABLE_GROWTH",
+    "highest_frequency_rad_s",
+    "largest_stable_fraction",
+    "stable_timestep_s",
+    "step_growth",
+]
+
+#: undamped stability limit of ``ω Δt`` for each explicit integrator (module docstring)
+STABILITY_LIMITS = {"Euler": 2.0, "RK4": 2.785}
+#: fraction of the undamped limit :func:`stable_timestep_s` proposes (room for the difference between
+#: the modal model and MuJoCo's, and for damping, which moves Euler's limit down)
+STEP_SAFETY = 0.5
 
 #: growth per step above which the step is unstable (module docstring)
 UNSTABLE_GROWTH = 1.05
@@ -87,3 +112,29 @@ def largest_stable_fraction(model: mujoco.MjModel, *, halvings: int = 6, iterati
         return None
     finally:
         model.opt.timestep = h
+
+
+def highest_frequency_rad_s(assembly: Assembly) -> float:
+    """The highest natural frequency ``ω_max`` [rad/s] of the assembled structure: the largest
+    eigenvalue of ``K_r q = ω² M_r q`` (Lanczos, relative tolerance 1e-3; 0 for a structure without
+    stiffness)."""
+    if assembly.K_r.shape[0] == 0 or assembly.K_r.nnz == 0:
+        return 0.0
+    if assembly.K_r.shape[0] == 1:
+        return math.sqrt(max(float(assembly.K_r[0, 0] / assembly.M_r[0, 0]), 0.0))
+    lam = eigsh(assembly.K_r, k=1, M=assembly.M_r, which="LA", return_eigenvectors=False, tol=1e-3)
+    return math.sqrt(max(float(lam[0]), 0.0))
+
+
+def stable_timestep_s(omega_max_rad_s: float, integrator: str) -> float:
+    """:data:`STEP_SAFETY` times the undamped limit ``c / ω_max`` of ``integrator``
+    (:data:`STABILITY_LIMITS`) [s]; ``math.inf`` for ``ω_max = 0``.
+
+    Raises:
+      ValueError: ``integrator`` has no limit here (an implicit integrator: named).
+    """
+    if integrator not in STABILITY_LIMITS:
+        raise ValueError(f"integrator: must be one of {sorted(STABILITY_LIMITS)}, got {integrator!r}")
+    if omega_max_rad_s <= 0.0:
+        return math.inf
+    return STEP_SAFETY * STABILITY_LIMITS[integrator] / omega_max_rad_s

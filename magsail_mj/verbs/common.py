@@ -20,10 +20,12 @@ from magsail_mj.config import ConfigError, load_config
 from magsail_mj.io import RunDirError, to_jsonable
 from magsail_mj.render.backend import GLBackendError
 from magsail_mj.resources import MemoryLimitError, memory_limit, parse_memory_limit
+from magsail_mj.structure.fileformat import is_structure_file
 
 __all__ = [
     "GLBackendError",
     "REFUSED",
+    "STRUCTURE_ONLY_SUFFIXES",
     "input_file",
     "load",
     "memory_limit",
@@ -33,6 +35,9 @@ __all__ = [
     "parse_memory_limit",
     "print_json",
 ]
+
+STRUCTURE_ONLY_SUFFIXES = (".msh", ".bdf", ".dat", ".nas")
+"""Suffixes of files that hold a structure and never a config: gmsh meshes and Nastran decks."""
 
 REFUSED = (ConfigError, RunDirError, MemoryLimitError, CliInputError)
 """The exceptions that say an input was refused (exit status 2, their message names the key or option)."""
@@ -96,6 +101,12 @@ def output_file(path: str | None, option: str) -> Path:
 def load(args: argparse.Namespace) -> Any:
     """The validated config of ``args.config`` with ``--set`` overrides (ConfigError or CliInputError)."""
     path = input_file(args.config, "config")
+    if is_structure_file(path) or path.suffix.lower() in STRUCTURE_ONLY_SUFFIXES:
+        raise CliInputError(
+            f"config: {str(path)!r} is a structure, not a config: a run needs a task config naming it "
+            f'(concept = "structure", [structure] file = {path.name!r}); magsail validate, build and modes '
+            "take the structure itself"
+        )
     try:
         return load_config(path, args.set)
     except UnicodeDecodeError:

@@ -39,104 +39,31 @@ the structure's size; their paths are listed in ``plots``.
 from __future__ import annotations
 
 import argparse
-import tomllib
 from pathlib import Path
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
-from magsail_mj.cli import CliInputError
-from magsail_mj.concepts import structure_of
-from magsail_mj.config import load_config
 from magsail_mj.io import check_output_folder
 from magsail_mj.resources import check_memory
 from magsail_mj.plotting import new_figure, save_figure
 from magsail_mj.structure.assembly import assemble, dof_layout
-from magsail_mj.structure.fileformat import read_structure
-from magsail_mj.structure.mesh import read_mesh
-from magsail_mj.structure.nastran import read_nastran
-from magsail_mj.structure.model import MEMBER_KINDS, Structure, StructureError
+from magsail_mj.structure.model import MEMBER_KINDS, Structure
 from magsail_mj.structure.modes import ROUNDING_FLOOR, RIGID_DIRECTIONS, StructureModes, structure_modes
-from magsail_mj.verbs.common import input_file, output_dir, print_json
+from magsail_mj.verbs.common import output_dir, print_json
+from magsail_mj.verbs.sources import read_source
 
-__all__ = ["MAX_PLOTS", "NASTRAN_SUFFIXES", "modes", "read_source", "structure_of_config"]
+__all__ = ["MAX_PLOTS", "modes"]
 
 MAX_PLOTS = 12
 """The most mode-shape PNGs ``--plot`` writes."""
-NASTRAN_SUFFIXES = (".bdf", ".dat", ".nas")
-"""Suffixes read as Nastran decks."""
 # Memory of a solve per independent coordinate: 477 MB peak RSS measured for the 20 000-node
 # lattice (60 000 coordinates, SuperLU fill 12.5 M), about 8 kB per coordinate with the interpreter;
 # twice that leaves room for structures whose factor fills more.
 _BYTES_PER_DOF = 16_384
 _PLOT_FRACTION = 0.1
-
-
-def structure_of_config(cfg: Any) -> Structure:
-    """The structure of a validated config (the concepts that register one:
-    :func:`magsail_mj.concepts.structure_of`); CliInputError naming ``SOURCE`` otherwise."""
-    try:
-        return structure_of(cfg)
-    except ValueError as err:
-        raise CliInputError(f"SOURCE: {err}") from None
-
-
-def _no_overrides(overrides: Sequence[str], path: Path, kind: str) -> None:
-    """Refuse ``--set`` for a source that is not a config (CliInputError naming ``--set``)."""
-    if overrides:
-        raise CliInputError(
-            f"--set: {overrides[0]!r} overrides a config key, but SOURCE {str(path)!r} is a {kind}, not a config; "
-            "edit the file, or give a config that uses it"
-        )
-
-
-def _toml_structure(path: Path, overrides: Sequence[str]) -> tuple[Structure, str]:
-    try:
-        tree = tomllib.loads(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError:
-        raise CliInputError(f"SOURCE: {str(path)!r} is not a UTF-8 text (TOML) file") from None
-    except tomllib.TOMLDecodeError as err:
-        raise CliInputError(f"SOURCE: {str(path)!r} is not valid TOML: {err}") from None
-    if tree.get("format") == "magsail-structure":
-        _no_overrides(overrides, path, "structure file")
-        return read_structure(path).structure, "structure file"
-    if "concept" in tree:
-        return structure_of_config(load_config(path, list(overrides))), "config"
-    raise CliInputError(
-        f'SOURCE: {str(path)!r} is neither a structure file (format = "magsail-structure") nor a config (concept = ...)'
-    )
-
-
-def read_source(source: str, overrides: Sequence[str] = ()) -> tuple[Structure, str]:
-    """The structure of ``source`` and its kind (module docstring), a config's with the ``--set``
-    ``overrides`` (``KEY=VALUE``, :func:`magsail_mj.config.load_config`; refused for the other
-    sources); CliInputError naming ``SOURCE`` or ``--set``, ConfigError for a config's problems."""
-    path = input_file(source, "SOURCE")
-    suffix = path.suffix.lower()
-    if suffix == ".toml":
-        return _toml_structure(path, overrides)
-    if suffix in NASTRAN_SUFFIXES:
-        _no_overrides(overrides, path, "Nastran deck")
-        return read_nastran(path), "Nastran deck"
-    if suffix == ".msh":
-        _no_overrides(overrides, path, "mesh")
-        try:
-            return read_mesh(path), "mesh"
-        except StructureError as err:
-            raise CliInputError(
-                f"SOURCE: {err} (a mesh file holds no member or panel properties: give them in a structure "
-                f"config, [structure] file = {str(path)!r} with a [structure.mesh.groups.<group>] table for "
-                "each physical group, and give that config; or read the mesh in Python with "
-                "magsail_mj.structure.mesh.read_mesh(path, groups=..., members=...), save it with "
-                "magsail_mj.structure.fileformat.write_structure and give that structure file)"
-            ) from None
-    raise CliInputError(
-        f"SOURCE: {str(path)!r} has suffix {suffix!r}; expected .toml (a structure file or a config), .msh "
-        f"(a mesh) or {', '.join(NASTRAN_SUFFIXES)} (a Nastran deck)"
-    )
 
 
 def _report(result: StructureModes, structure: Structure, *, source: str, kind: str, count: int) -> dict[str, Any]:
