@@ -50,6 +50,17 @@ def test_shipped_policy_gives_magsail_run_summary(config, duration_s):
     assert len(ref) > 40
 
 
+@pytest.mark.parametrize("law", ["bang_bang", "b_cross", "non_monotonic"])
+def test_shipped_policy_of_each_detumble_law_gives_the_run_summary(law):
+    """The detumble laws that read the body rate at the magnetorquer sample go through the
+    environment's sample as through the run's."""
+    overrides = ["sim.duration_s=20", f"control.bdot_law={law!r}".replace("'", '"')]
+    ref, _ = assert_shipped_policy_gives_the_run_summary(
+        "magsail_mj/concepts/cnusail/configs/detumble_pre.toml", overrides
+    )
+    assert len(ref) > 40
+
+
 def test_task_follows_config_and_lists():
     names = envs.list()
     for name in ("cnusail/detumble", "cnusail/nadir", "cnusail/deorbit"):

@@ -516,7 +516,7 @@ class CubesatTask(AttitudeTask):
             ctl._attitude_sample(state.t, q, omega, omega_M, state.env)
         if mtq:
             mujoco.mju_quat2Mat(ctl._R, q)
-            ctl._mtq_sample(state.t, ctl._R.reshape(3, 3), omega_M, state.env)
+            ctl._mtq_sample(state.t, ctl._R.reshape(3, 3), omega_M, state.env, d.qvel[ctl.v_ang].copy())
         if self.action == "dipole":
             return ctl.dipole_held.copy()
         return np.concatenate([ctl.u, ctl.dipole_held])
