@@ -649,7 +649,12 @@ def test_fuzz_sweep(capsys, arena, data, tmp_path_factory):
     sweep = data.draw(st.one_of(st.just(str(arena.sweep)), paths(arena, suffix=".toml")))
     workers = data.draw(st.one_of(st.just("1"), st.sampled_from(["2", "0", "-3", "abc", "nan", "1e3", ""])))
     out = data.draw(st.one_of(paths(arena), st.just(str(tmp_path_factory.mktemp("sweep")))))
-    call(capsys, ["--memory-limit", "2G", "sweep", sweep, "--out", out, *opt("--workers", workers)])
+    batch = data.draw(st.sampled_from([None, "1", "3", "0", "-2", "1e3", "abc", "2.5", "", "1025", "9" * 30]))
+    extra = [] if batch is None else opt("--batch-size", batch)
+    argv = ["--memory-limit", "2G", "sweep", sweep, "--out", out, *opt("--workers", workers), *extra]
+    rc, _, err = call(capsys, argv)
+    if workers in ("1", "2") and batch is not None and not (batch.isdigit() and 1 <= int(batch) <= 1024):
+        assert rc == 2 and "error: --batch-size:" in err, (batch, err)  # the parser's, before anything runs
 
 
 @FUZZ

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from magsail_mj.batch.build import concept_batch
-from magsail_mj.batch.groups import batch_bytes, group_worlds
+from magsail_mj.batch.groups import batch_bytes, group_worlds, world_key
 from magsail_mj.config import ConfigError, load_config
 from magsail_mj.sweep.common import SweepRun
 
@@ -69,15 +69,25 @@ def check_batch_size(value: Any) -> int | None:
 
 
 def batchable_configs(runs: Sequence[SweepRun]) -> dict[str, Any]:
-    """The validated config of every run whose concept runs in a batch, by run id (a config that
-    does not load now is left out: its run fails alone, as a single run)."""
+    """The validated config of every run that a batch takes, by run id: its concept runs in a
+    batch and its batch does not refuse the config alone (:func:`~magsail_mj.batch.groups.world_key`);
+    a config that does not load now is left out (its run fails alone, as a single run)."""
     out = {}
+    has_batch: dict[str, bool] = {}  # by concept: asked once
     for run in runs:
+        if run.concept not in has_batch:
+            try:
+                has_batch[run.concept] = concept_batch(run.concept) is not None
+            except ConfigError:
+                has_batch[run.concept] = False
+        if not has_batch[run.concept]:
+            continue
         try:
-            concept_batch(run.concept)
-            out[run.id] = load_config(run.config, list(run.overrides))
+            cfg = load_config(run.config, list(run.overrides))
         except (ConfigError, OSError):
             continue
+        if not world_key(cfg)[1]:
+            out[run.id] = cfg
     return out
 
 

@@ -157,12 +157,14 @@ def _folder_summary(run_dir: Path) -> dict[str, Any] | None:
 
 def finished_record(run: SweepRun, out_dir: str | Path) -> dict[str, Any] | None:
     """The record of a run whose folder holds a finished, intact run of its config now (its status,
-    message, wall time and summary), else None."""
+    message, wall time and summary; its ``params.json`` written, should the run that wrote the
+    folder have stopped before it), else None."""
     run_dir = Path(out_dir) / run.id
     manifest, _ = _folder_check(run_dir, config_hash=run.config_hash, video=False)
     summary = _folder_summary(run_dir) if manifest else None
     if summary is None:
         return None
+    _write_params(run, run_dir, run.config_hash)
     return _record(
         run,
         status=str(manifest["status"]),
