@@ -22,7 +22,10 @@ Engine: every run is a Dask task (:func:`magsail_mj.sweep.runner.supervise`) on 
 dask-jobqueue cluster (:func:`make_cluster`). The task runs the run in its own process (one BLAS
 thread, :func:`magsail_mj.run.run_scenario` into ``OUT/<id>``), so results do not depend on how a
 worker was started. A run that raises, diverges or whose video fails is recorded with its status
-and message; the others go on.
+and message; the others go on. Runs of one compiled model that a batch takes run as the worlds of
+batches of up to ``batch_size`` runs, one task each (:mod:`magsail_mj.sweep.batches`,
+:func:`magsail_mj.sweep.runner.supervise_batch`), with the single runs' folders, records and
+numbers.
 
 Guarantees:
 

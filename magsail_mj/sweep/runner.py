@@ -11,6 +11,11 @@ client only), waits for its record, and
 * stops the run process (SIGTERM, then SIGKILL after the grace time) when the sweep client asks
   (the stop file ``.sweep.state/<call>/stop``).
 
+:func:`supervise_batch` is the task of a batch of runs (:mod:`magsail_mj.sweep.batches`): one
+run process runs them as the worlds of one batch (:func:`run_batch`), each into its single run's
+folder, and the attempts stay per run: a killed batch process's unfinished runs are retried one
+by one as single runs.
+
 The run process holds the run's lock (:func:`~magsail_mj.sweep.common.run_lock`) while it runs,
 dies with its supervisor (``PR_SET_PDEATHSIG`` and a parent-pid watch), and turns SIGTERM into an
 interrupt, so a stopped run writes its outputs (status ``interrupted``) and its checkpoint.
