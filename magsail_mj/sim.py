@@ -28,6 +28,11 @@ A strut strain above ``max_strain`` (checked at record steps) stops it with ``st
 "structure_failed"``: the structure failed, the numbers up to then are valid. Either way
 :class:`RunResult` keeps everything recorded up to that point.
 
+A stop rule (``Simulation.stop_rule``, :class:`HoldBelow`) ends a run early with ``status =
+"completed"``: checked after each record, it ends the run at the first record at which a recorded
+vector's norm has stayed below a threshold for a hold time (a detumbled spacecraft: nothing more to
+compute). The run's end time is that record's; everything up to it equals the run without the rule.
+
 Records go to a :class:`~magsail_mj.records.Recorder`: a fixed buffer of one chunk per probe,
 streamed to a Zarr store when :meth:`Simulation.run` is given ``records_path`` (a run folder's
 ``timeseries.zarr``; a checkpointed run without it streams to ``<checkpoint stem>.records.zarr``
@@ -102,6 +107,9 @@ __all__ = [
     "SteppedRun",
     "WholeRun",
     "progress_bar",
+    "HoldBelow",
+    "hold_below_time",
+    "vector_norm",
 ]
 
 #: when the loads see the state: at the step's start, predicted at its middle (see the module docs), or
@@ -223,6 +231,79 @@ def _slice_if_contiguous(index: np.ndarray) -> slice | np.ndarray:
     if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
         return slice(int(index[0]), int(index[0]) + int(index.size))
     return index
+
+
+def vector_norm(x: np.ndarray) -> np.ndarray:
+    """‖x‖ over the last axis, ``sqrt(x₀² + x₁² + …)`` summed in index order (element-wise, so one
+    vector and a stack of vectors round alike: a batch's worlds and their single runs agree bit
+    for bit)."""
+    x = np.asarray(x, dtype=float)
+    total = x[..., 0] * x[..., 0]
+    for i in range(1, x.shape[-1]):
+        total = total + x[..., i] * x[..., i]
+    return np.sqrt(total)
+
+
+def hold_below_time(
+    t: np.ndarray, x: np.ndarray, *, threshold: float, hold_s: float, tolerance_s: float = 0.0
+) -> float | None:
+    """The first record time at which ‖x‖ has stayed below ``threshold`` for ``hold_s`` [s]:
+    the first ``t_k`` with ``‖x_j‖ < threshold`` for every record ``j`` from ``a`` to ``k`` and
+    ``t_k − t_a ≥ hold_s − tolerance_s``, ``a`` the first record of that run of records below
+    (``None`` when no record qualifies). ``t``: (n,) record times [s]; ``x``: (n, d) the recorded
+    vectors (norms by :func:`vector_norm`). What :class:`HoldBelow` computes record by record."""
+    t = np.asarray(t, dtype=float)
+    below = vector_norm(x) < threshold
+    if not below.any():
+        return None
+    idx = np.arange(t.size)
+    start = np.maximum.accumulate(np.where(below, 0, idx + 1))  # first index of the current run below
+    start = np.minimum(start, t.size - 1)
+    held = below & (t - t[start] >= hold_s - tolerance_s)
+    hits = np.flatnonzero(held)
+    return float(t[hits[0]]) if hits.size else None
+
+
+@dataclass
+class HoldBelow:
+    """A stop rule: end the run (status ``completed``) once ‖``probe``[``index``]‖ has stayed below
+    ``threshold`` for ``hold_s``.
+
+    Checked after every record: with ``s_k = ‖x_k‖`` (:func:`vector_norm`) of record ``k`` at time
+    ``t_k`` and ``a`` the first record of the current run of records with ``s < threshold``, the run
+    ends at the first record with ``t_k − t_a ≥ hold_s`` (within ``tolerance_s``, e.g. 10⁻⁶ δt: the
+    record times are step·δt); ``hold_s = 0`` ends it at the first record below. On a run's records
+    the same time is :func:`hold_below_time`.
+
+    Attributes:
+      probe: the recorded variable (e.g. ``"qvel"``); index: the components of it (a slice).
+      threshold: in the probe's unit; hold_s: [s]; tolerance_s: [s].
+      describe: what the rule is, for the run's message (e.g. ``"|ω| < 0.3 °/s (sim.stop_rate_deg_s)
+        for 600 s (sim.stop_hold_s)"``).
+      below_since_s: ``t_a`` of the current run of records below (``None``: the last record was not
+        below); the rule's state, part of the run's checkpoints.
+    """
+
+    probe: str
+    index: slice
+    threshold: float
+    hold_s: float
+    tolerance_s: float
+    describe: str
+    below_since_s: float | None = None
+
+    def check(self, t: float, values: Mapping[str, Any]) -> str | None:
+        """The record at ``t`` [s] with the probes' ``values``: the run's end message when the rule
+        ends the run here, else ``None``."""
+        s = float(vector_norm(np.asarray(values[self.probe])[self.index]))
+        if not s < self.threshold:
+            self.below_since_s = None
+            return None
+        if self.below_since_s is None:
+            self.below_since_s = t
+        if t - self.below_since_s >= self.hold_s - self.tolerance_s:
+            return f"{self.describe}: held from t = {self.below_since_s:.6g} s; the run ended at t = {t:.6g} s"
+        return None
 
 
 @dataclass
@@ -433,6 +514,8 @@ class Simulation(SteppedRun):
         :class:`magsail_mj.concepts.cnusail.compiled.CompiledCubesat`; it has ``bare_model``, the
         same model without the plugin), or ``None``; with it ``loads`` must be empty and the steps
         between samples, records and checkpoints run natively (module docs).
+      stop_rule: a :class:`HoldBelow` checked after every record (it ends the run, ``completed``,
+        once its condition holds), or ``None``.
 
     :meth:`~SteppedRun.step` (advance ``n`` steps) comes from :class:`SteppedRun`.
     """
@@ -454,6 +537,7 @@ class Simulation(SteppedRun):
     load_timing: str = "start"
     identity: dict[str, Any] = field(default_factory=lambda: run_identity(None))
     compiled: Any = None
+    stop_rule: HoldBelow | None = None
 
     def __post_init__(self) -> None:
         if self.record_every < 1:
@@ -594,16 +678,17 @@ class Simulation(SteppedRun):
     # ------------------------------------------------------------------ checkpoints
     def _state_walker(self) -> StateWalker:
         """The Python-side state of the run: controller, loads, environment and probes."""
-        return StateWalker(
-            {
-                "controller": self.controller,
-                "loads": list(self.loads),
-                "environment": self.environment,
-                "probes": dict(self.probes),
-                "cmd": None,
-                "timing": self.timing,
-            }
-        )
+        roots = {
+            "controller": self.controller,
+            "loads": list(self.loads),
+            "environment": self.environment,
+            "probes": dict(self.probes),
+            "cmd": None,
+            "timing": self.timing,
+        }
+        if self.stop_rule is not None:  # only then: the checkpoints of runs without one keep their form
+            roots["stop_rule"] = self.stop_rule
+        return StateWalker(roots)
 
     def _checkpoint(self, path: Path) -> None:
         self._write_checkpoint(path, mj_state_key="mj_state", n_ctrl=self._loop["n_ctrl"])
@@ -746,6 +831,9 @@ class Simulation(SteppedRun):
                                 f"strut {strut} strain {strain:.3g} exceeds sim.max_strain "
                                 f"{self.max_strain:g} at t = {t:.6g} s"
                             )
+                    if self.stop_rule is not None and (why := self.stop_rule.check(t, values)) is not None:
+                        self.status, self.message = "completed", why
+                        break
                 if step == self.n_steps:
                     self.status = "completed"
                     break
@@ -855,6 +943,9 @@ class Simulation(SteppedRun):
                                     f"strut {strut} strain {strain:.3g} exceeds sim.max_strain "
                                     f"{self.max_strain:g} at t = {t:.6g} s"
                                 )
+                        if self.stop_rule is not None and (why := self.stop_rule.check(t, values)) is not None:
+                            self.status, self.message = "completed", why
+                            break
                 if step == self.n_steps:
                     self.status = "completed"
                     break

@@ -12,6 +12,8 @@ A concept runs in a batch when its package has a ``batch`` module (found through
   for its run folder).
 * ``compile_model(cfg)`` (optional) — the compiled model of one config, whose sizes group configs
   into batches before anything is built (:mod:`magsail_mj.batch.groups`).
+  Its worlds object may also have ``stop_rule()`` — the worlds' stop rules
+  (:class:`~magsail_mj.batch.runner.HoldBelowWorlds`, or ``None`` when no world has one).
 
 Steps: each world's config (:func:`~magsail_mj.batch.worlds.world_configs`); what one batch cannot
 run refused by name (:func:`~magsail_mj.batch.worlds.check_batchable`); the worlds built; every
@@ -136,6 +138,7 @@ def load_batch(
         duration_s=cfgs[0].sim.duration_s,
         record_every=cfgs[0].sim.record_every,
         initial_state=initial,
+        stop_rule=built.stop_rule() if hasattr(built, "stop_rule") else None,
     )
     sim.cfgs = list(cfgs)
     sim.worlds = built

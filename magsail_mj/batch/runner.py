@@ -14,6 +14,10 @@ r"""The batch runner: N worlds of one compiled model stepped in lockstep, one Py
    dates the bad state at t, a ``qpos``/``qvel`` that is not finite at t + δt); a MuJoCo error in
    a world's step makes it ``failed``.
 
+A world whose stop rule holds (:class:`HoldBelowWorlds`, checked after each record as the single
+run's :class:`~magsail_mj.sim.HoldBelow`) ends alone there, ``completed`` with its single run's
+message and end time, and is not stepped again.
+
 A world that goes bad stops alone: its status (``diverged``, ``failed``), message and time are its
 own, its records stop where its single run's would (a record of a state MuJoCo flagged is dropped),
 its MuJoCo state and controller state stay as they were, and it is not stepped again; the others
@@ -39,9 +43,9 @@ from mujoco.batch import Batch, SimulationError
 
 from magsail_mj.batch.records import WorldRecords
 from magsail_mj.divergence import BAD_STATE_WARNINGS
-from magsail_mj.sim import RunResult, _non_finite_records, progress_bar
+from magsail_mj.sim import RunResult, _non_finite_records, progress_bar, vector_norm
 
-__all__ = ["BatchSimulation", "BatchResult", "Plant"]
+__all__ = ["BatchSimulation", "BatchResult", "Plant", "HoldBelowWorlds"]
 
 _WARNINGS = [(int(w), w.name.removeprefix("mjWARN_"), text) for w, text in BAD_STATE_WARNINGS.items()]
 
@@ -65,6 +69,50 @@ class Plant(Protocol):
     def get_state(self) -> dict[str, Any]: ...
 
     def set_state(self, state: dict[str, Any]) -> None: ...
+
+
+class HoldBelowWorlds:
+    """Each world's stop rule over the world axis: :class:`magsail_mj.sim.HoldBelow` with a
+    threshold, hold time and description per world (a world without a rule has threshold −∞, so
+    never stops by it), evaluated on the record's ``(N, …)`` values with the single run's
+    arithmetic (:func:`~magsail_mj.sim.vector_norm`), so a world stops at its single run's record.
+
+    Args:
+      probe, index: the recorded variable and its components (as ``HoldBelow``).
+      thresholds: (N,) in the probe's unit (−∞: no rule); holds_s: (N,) [s]; tolerance_s: [s].
+      describe: per world, the rule's text for the message (``""`` without a rule).
+    """
+
+    def __init__(
+        self,
+        *,
+        probe: str,
+        index: slice,
+        thresholds: np.ndarray,
+        holds_s: np.ndarray,
+        tolerance_s: float,
+        describe: Sequence[str],
+    ) -> None:
+        self.probe, self.index = probe, index
+        self.thresholds = np.asarray(thresholds, dtype=float)
+        self.holds_s = np.asarray(holds_s, dtype=float)
+        self.tolerance_s = float(tolerance_s)
+        self.describe = list(describe)
+        self.below_since_s = np.full(self.thresholds.shape, np.nan)  # NaN: the last record was not below
+
+    def check(self, t: float, values: Mapping[str, np.ndarray], live: np.ndarray) -> dict[int, str]:
+        """The record at ``t`` [s] of every world: world → its end message, for the live worlds that
+        the rule ends here."""
+        s = vector_norm(np.asarray(values[self.probe])[:, self.index])
+        below = s < self.thresholds
+        since = self.below_since_s
+        since[~below] = np.nan
+        since[below & np.isnan(since)] = t
+        done = live & below & (t - since >= self.holds_s - self.tolerance_s)
+        return {
+            k: f"{self.describe[k]}: held from t = {since[k]:.6g} s; the run ended at t = {t:.6g} s"
+            for k in np.flatnonzero(done).tolist()
+        }
 
 
 @dataclass
@@ -94,6 +142,7 @@ class BatchSimulation:
       duration_s: simulated time of every world [s].
       record_every: decimation of the records.
       initial_state: (N, nstate) every world's MuJoCo integration state at t = 0.
+      stop_rule: the worlds' stop rules (:class:`HoldBelowWorlds`), or ``None``.
 
     Attributes set by :func:`magsail_mj.batch.load_batch`: ``cfgs`` (each world's validated
     config), ``worlds`` (the concept's built worlds: ``scenario(k)`` gives world k's task),
@@ -103,13 +152,21 @@ class BatchSimulation:
     streams_records = True
 
     def __init__(
-        self, *, batch: Batch, plant: Plant, duration_s: float, record_every: int, initial_state: np.ndarray
+        self,
+        *,
+        batch: Batch,
+        plant: Plant,
+        duration_s: float,
+        record_every: int,
+        initial_state: np.ndarray,
+        stop_rule: HoldBelowWorlds | None = None,
     ) -> None:
         if record_every < 1:
             raise ValueError(f"record_every: must be >= 1, got {record_every}")
         self.batch = batch
         self.model = batch.model
         self.plant = plant
+        self.stop_rule = stop_rule
         self.n_worlds = int(batch.nsim)
         self.dt = float(self.model.opt.timestep)
         self.duration_s = float(duration_s)
@@ -176,6 +233,7 @@ class BatchSimulation:
             "end_step": self.end_step.copy(),
             "n_records": self.recorded.counts(),
             "plant": self.plant.get_state(),
+            "stop_since_s": None if self.stop_rule is None else self.stop_rule.below_since_s.copy(),
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
@@ -191,6 +249,8 @@ class BatchSimulation:
             raise ValueError(f"state: step {step} is outside 0 … {self.n_steps}")
         self.batch.state[...] = mj_state
         self.plant.set_state(state["plant"])
+        if self.stop_rule is not None:
+            self.stop_rule.below_since_s[...] = state["stop_since_s"]
         self.recorded.flush(self.live)
         for rec, keep in zip(self.recorded.recorders, np.asarray(state["n_records"]).tolist()):
             rec.truncate(min(int(keep), len(rec)))
@@ -292,6 +352,11 @@ class BatchSimulation:
                         values = plant.probes(step, qpos, qvel)
                         values["t"] = np.full(n, t)
                         rec.append(values, self.live)
+                        if self.stop_rule is not None:
+                            ends = self.stop_rule.check(t, values, self.live)
+                            self._stop(np.array(list(ends), dtype=np.intp), step, "completed", ends.__getitem__)
+                            if not self.live.any():
+                                break
                     if step == self.n_steps:
                         finished = self.live.copy()
                         for k in np.flatnonzero(finished):

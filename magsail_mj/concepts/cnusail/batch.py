@@ -28,13 +28,14 @@ import mujoco
 import numpy as np
 
 from magsail_mj.batch.environment import EnvironmentStack
+from magsail_mj.batch.runner import HoldBelowWorlds
 from magsail_mj.concepts.cnusail.batch_control import BdotWorlds
 from magsail_mj.concepts.cnusail.batch_loads import DisturbanceWorlds
 from magsail_mj.concepts.cnusail.batch_plant import CubesatWorlds
 from magsail_mj.concepts.cnusail.config import CnusailConfig
 from magsail_mj.concepts.cnusail.mjcf import build_cubesat_spec, cubesat_indices
 from magsail_mj.concepts.cnusail.model import CnusailModel, model_params
-from magsail_mj.concepts.cnusail.tasks import AttitudeTask
+from magsail_mj.concepts.cnusail.tasks import AttitudeTask, stop_rule_of
 from magsail_mj.environment.environment import Environment
 
 __all__ = ["LOCKSTEP_KEYS", "refusals", "build_worlds", "compile_model", "CnusailWorlds", "world_cubesat"]
@@ -179,6 +180,22 @@ class CnusailWorlds:
             timestep_s=cfg0.sim.timestep_s,
             load_timing=cfg0.sim.load_timing,
             nv=self.models[0].nv,
+        )
+
+    def stop_rule(self) -> HoldBelowWorlds | None:
+        """Each world's detumble stop rule (``sim.stop_rate_deg_s``, ``sim.stop_hold_s``; the single
+        run's :func:`~magsail_mj.concepts.cnusail.tasks.stop_rule_of`) over the world axis; ``None``
+        when no world has one."""
+        rules = [stop_rule_of(cs.cfg, cs.idx.v_ang) for cs in self.cubesats]
+        if all(r is None for r in rules):
+            return None
+        return HoldBelowWorlds(
+            probe="qvel",
+            index=self.cubesats[0].idx.v_ang,
+            thresholds=np.array([-np.inf if r is None else r.threshold for r in rules]),
+            holds_s=np.array([0.0 if r is None else r.hold_s for r in rules]),
+            tolerance_s=1e-6 * self.cfgs[0].sim.timestep_s,
+            describe=["" if r is None else r.describe for r in rules],
         )
 
     def scenario(self, world: int) -> AttitudeTask:

@@ -33,6 +33,7 @@ from magsail_mj.loads.actuators_cubesat import MTQ_LIMIT_SETS, DCMotorParams
 
 __all__ = [
     "CnusailConfig",
+    "CnusailSimConfig",
     "SpacecraftConfig",
     "MtqConfig",
     "WheelsConfig",
@@ -323,6 +324,30 @@ class LifetimeConfig(StrictModel):
     references: bool = True
 
 
+class CnusailSimConfig(SimConfig):
+    """``[sim]`` of a CNUSAIL config: the common keys (:class:`magsail_mj.config.SimConfig`) and the
+    detumble stop rule of an attitude run. With ``stop_rate_deg_s`` set, the run ends with status
+    ``completed`` at the first record (every ``record_every`` steps) at which the body rate ‖ω‖ has
+    stayed below ``stop_rate_deg_s`` [°/s] for ``stop_hold_s`` [s] (``t_k − t_a ≥ stop_hold_s``,
+    ``t_a`` the first record of the current run of records below; 0: the first record below), so a
+    detumble run costs what its detumbling takes (:class:`magsail_mj.sim.HoldBelow`). Absent (the
+    default): runs go to ``duration_s``. ``stop_hold_s`` without ``stop_rate_deg_s`` is refused."""
+
+    stop_rate_deg_s: float | None = Field(default=None, gt=0)
+    stop_hold_s: float = Field(default=0.0, ge=0)
+
+    @model_validator(mode="after")
+    def _stop_rule(self) -> CnusailSimConfig:
+        if self.stop_rate_deg_s is None and self.stop_hold_s > 0:
+            raise ConfigProblem(
+                "stop_hold_s",
+                "is the hold time of the stop rule, which sim.stop_rate_deg_s switches on; give "
+                f"sim.stop_rate_deg_s or leave stop_hold_s at 0, got {self.stop_hold_s!r}",
+                others=("stop_rate_deg_s",),
+            )
+        return self
+
+
 @register_config("cnusail", kind_key="kind")
 class CnusailConfig(StrictModel):
     """A CNUSAIL scenario config (``magsail_mj/concepts/cnusail/configs/<id>.toml``)."""
@@ -331,7 +356,7 @@ class CnusailConfig(StrictModel):
     scenario: str = Field(pattern=r"^[a-z0-9_]+$")
     kind: Literal["attitude", "lifetime"] = "attitude"
     description: str = ""
-    sim: SimConfig
+    sim: CnusailSimConfig
     spacecraft: SpacecraftConfig = SpacecraftConfig()
     actuators: ActuatorsConfig = ActuatorsConfig()
     control: CnusailControlConfig = CnusailControlConfig(mode="eigen_axis")
@@ -370,6 +395,11 @@ class CnusailConfig(StrictModel):
             )
         if not self.orbit.enabled:
             problems.append("orbit.enabled: the CNUSAIL scenarios ride the reference orbit; must be true")
+        if self.kind == "lifetime" and self.sim.stop_rate_deg_s is not None:
+            problems.append(
+                "sim.stop_rate_deg_s: the stop rule ends attitude runs; a lifetime run has no body rate to "
+                f"watch, got {self.sim.stop_rate_deg_s!r}"
+            )
         dt = self.sim.timestep_s
         periods = (
             ("control.rate_Hz", 1.0 / self.control.rate_Hz),

@@ -11,6 +11,16 @@ Detumbling (``control.mode = "bdot"``):
   four thresholds;
 * ``rate_mean_last_orbit_rad_s`` (mean ‖ω‖ over the last orbit), ``rate_ptp_last_two_orbits_rad_s``;
 * ``mtq_energy_J``: Σ P_j over the on-time of each cycle, P_j = P_max (M_j/M_j,max)² (Yoo et al. 2016, Eqs. 5–7).
+* ``mtq_dipole_effort_Am2s``: ∫‖m‖ dt of the applied dipole [A m² s], m the held dipole while
+  the coils are on and 0 while blanked (:func:`dipole_effort`);
+* ``detumbled``: with the stop rule (``sim.stop_rate_deg_s``) whether its hold condition was met
+  (``stop_rule_time_s`` not ``None``), else whether ‖ω‖ stays below
+  ``analysis.detumble_threshold_deg_s`` to the end (``detumble_time_s`` not ``None``).
+
+Stop rule (every attitude run; ``None`` without ``sim.stop_rate_deg_s``): ``stop_rule_time_s``,
+the first record time at which ‖ω‖ has stayed below ``sim.stop_rate_deg_s`` for
+``sim.stop_hold_s`` (:func:`magsail_mj.sim.hold_below_time` on the records: where the rule ends the
+run), and ``ended_by_stop_rule`` (the run completed at that time).
 
 Pointing (``eigen_axis`` / ``pd``), θ_e the eigen-angle of the error quaternion, ω_e the rate error:
 
@@ -53,14 +63,14 @@ import numpy as np
 
 from magsail_mj.concepts.cnusail.modes import CnusailController, Mode, command_quaternion
 from magsail_mj.estimation.attitude import euler_zyx, matrix_from_quat
-from magsail_mj.loads.actuators_cubesat import mtq_power
+from magsail_mj.loads.actuators_cubesat import MagnetorquerCycle, mtq_power
 from magsail_mj.loads.base import StepState
 from magsail_mj.concepts.cnusail.disturbances import SOURCES
 from magsail_mj.quaternion import direction_quaternions, quat_mul
 from magsail_mj.concepts.cnusail.model import CnusailModel
-from magsail_mj.sim import RunResult
+from magsail_mj.sim import RunResult, hold_below_time
 
-__all__ = ["attitude_outputs", "time_stays_below", "disturbance_orbit_profile"]
+__all__ = ["attitude_outputs", "time_stays_below", "dipole_effort", "disturbance_orbit_profile"]
 
 DEG = math.pi / 180.0
 RPM = 2.0 * math.pi / 60.0
@@ -74,6 +84,28 @@ def time_stays_below(t: np.ndarray, x: np.ndarray, threshold: float) -> float | 
         return float(t[0])
     k = int(above[-1])
     return None if k == len(t) - 1 else float(t[k + 1])
+
+
+def dipole_effort(t: np.ndarray, dipole: np.ndarray, *, cycle: MagnetorquerCycle) -> float:
+    """∫‖m‖ dt [A m² s] of the applied dipole over the records.
+
+    ``dipole``: (n, 3) the held dipole [A m², body] recorded at the times ``t`` (n,) [s], held from
+    each record to the next; the coils carry it on the steps ``k`` with ``k mod N_c < N_on`` of
+    ``cycle`` (N_c steps a cycle, the first N_on on, the rest blanked; step k at t = k δt), so
+
+        E = Σ_{i<n−1} ‖m_i‖ δt (F(k_{i+1}) − F(k_i)),  F(k) = ⌊k/N_c⌋ N_on + min(k mod N_c, N_on),
+
+    F(k) counting the on-steps before step k. Exact when every magnetometer sample (a multiple of
+    N_c) is a record step (the record interval divides the cycle: 1 s records, 2 s cycle), since
+    then the held dipole changes at records only; the last record ends the integral."""
+    t = np.asarray(t, dtype=float)
+    if t.size < 2:
+        return 0.0
+    k = np.rint(t / cycle.timestep_s).astype(np.int64)
+    n_c, n_on = cycle.steps_per_cycle, cycle.steps_on
+    on_before = (k // n_c) * n_on + np.minimum(k % n_c, n_on)
+    on_s = np.diff(on_before) * cycle.timestep_s
+    return float(np.sum(np.linalg.norm(np.asarray(dipole, dtype=float)[:-1], axis=1) * on_s))
 
 
 def _euler_321_deg(p_e: np.ndarray) -> np.ndarray:
@@ -188,6 +220,19 @@ def attitude_outputs(
     summary["wheel_speed_max_rpm"] = float(np.max(np.abs(wM)) / RPM)
     mask = rec["unload_mask"].astype(bool)
     summary["unloading_active_fraction"] = float(np.mean(mask.any(axis=1))) if n else 0.0
+    stop_time = None
+    if cfg.sim.stop_rate_deg_s is not None:
+        stop_time = hold_below_time(
+            t,
+            omega,
+            threshold=math.radians(cfg.sim.stop_rate_deg_s),
+            hold_s=cfg.sim.stop_hold_s,
+            tolerance_s=1e-6 * cfg.sim.timestep_s,
+        )
+        summary["stop_rule_time_s"] = stop_time
+        summary["ended_by_stop_rule"] = result.status == "completed" and stop_time == result.t_end_s
+    else:
+        summary["stop_rule_time_s"] = summary["ended_by_stop_rule"] = None
     mode = cfg.control.mode
     summary["detumble_time_s"] = None
     for key in ("slew_time_s", "max_slew_rate_deg_s", "pointing_error_max_deg"):
@@ -207,6 +252,11 @@ def attitude_outputs(
         duty = controller.p.mtq_cycle.duty if controller is not None else 1.0
         summary["mtq_energy_J"] = float(np.sum(power.sum(axis=1)) * dt_rec * duty)
         summary["mtq_dipole_max_Am2"] = float(np.max(np.abs(dip))) if n else 0.0
+        mtq = cfg.actuators.mtq
+        cycle = MagnetorquerCycle(cycle_s=mtq.cycle_s, blank_s=mtq.blank_s, timestep_s=cfg.sim.timestep_s)
+        summary["mtq_dipole_effort_Am2s"] = dipole_effort(t, dip, cycle=cycle)
+        rule = cfg.sim.stop_rate_deg_s is not None
+        summary["detumbled"] = (stop_time if rule else summary["detumble_time_s"]) is not None
 
     if mode in ("eigen_axis", "pd"):
         c = cfg.control

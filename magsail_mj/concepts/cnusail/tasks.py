@@ -29,9 +29,9 @@ from magsail_mj.concepts.cnusail.lifetime import LifetimeTask
 from magsail_mj.concepts.cnusail.metrics import attitude_outputs
 from magsail_mj.concepts.cnusail.model import CnusailModel
 from magsail_mj.concepts.cnusail.plots import attitude_plots
-from magsail_mj.sim import RunResult, Simulation
+from magsail_mj.sim import HoldBelow, RunResult, Simulation
 
-__all__ = ["AttitudeTask", "LifetimeTask", "build_cnusail_scenario"]
+__all__ = ["AttitudeTask", "LifetimeTask", "build_cnusail_scenario", "stop_rule_of"]
 
 
 @register_task("cnusail", "attitude")
@@ -60,6 +60,13 @@ class AttitudeTask:
 
     def make_controller(self) -> CnusailController:
         return self.cubesat.make_controller()
+
+    def stop_rule(self) -> HoldBelow | None:
+        """The detumble stop rule of ``sim.stop_rate_deg_s`` and ``sim.stop_hold_s`` (``None`` when
+        off): ‖ω‖ of the bus, ω the free joint's angular velocity in ``qvel`` (body axes) [rad/s],
+        below ``stop_rate_deg_s · π/180`` for ``stop_hold_s``, the hold compared within 10⁻⁶ δt
+        (record times are step·δt)."""
+        return stop_rule_of(self.cfg, self.idx.v_ang)
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(p_b (4,), ω_body (3,) [rad/s], ω_M (3,) [rad/s]) at t = 0 (see :meth:`CnusailModel.initial_state`)."""
@@ -124,6 +131,7 @@ class AttitudeTask:
             record_every=self.cfg.sim.record_every,
             checkpoint_every_s=self.cfg.sim.checkpoint_every_s,
             init=self.init_state,
+            stop_rule=self.stop_rule(),
         )
 
     # -------------------------------------------------------------- outputs
@@ -192,6 +200,22 @@ class AttitudeTask:
             "hub_inertia_kgm2": self.params.hub_inertia_kgm2.tolist(),
             "events": len(self.controller.events) if self.controller is not None else 0,
         }
+
+
+def stop_rule_of(cfg: CnusailConfig, v_ang: slice) -> HoldBelow | None:
+    """The stop rule of ``cfg.sim`` (:meth:`AttitudeTask.stop_rule`) on the ``qvel`` components
+    ``v_ang`` of the bus's angular velocity; ``None`` when ``sim.stop_rate_deg_s`` is not set."""
+    sim = cfg.sim
+    if sim.stop_rate_deg_s is None:
+        return None
+    return HoldBelow(
+        probe="qvel",
+        index=v_ang,
+        threshold=math.radians(sim.stop_rate_deg_s),
+        hold_s=sim.stop_hold_s,
+        tolerance_s=1e-6 * sim.timestep_s,
+        describe=f"|ω| < {sim.stop_rate_deg_s:g} °/s (sim.stop_rate_deg_s) for {sim.stop_hold_s:g} s (sim.stop_hold_s)",
+    )
 
 
 def build_cnusail_scenario(cfg: CnusailConfig) -> AttitudeTask | LifetimeTask:
