@@ -9,10 +9,16 @@ reproducible:
     A 100 m square solar sail (:func:`~magsail_mj.structure.generators.four_boom_sail`): four
     70.7 m booms of 4 beam members each from a 20 kg hub (a rigid part), EI = 8 000 N m² and
     GJ = 800 N m² (a CFRP tube of about 5 cm radius), 0.1 kg/m; the membrane, 5 g/m², as 64
-    triangular panels whose edges are a net of cables (EA = 1 000 N, prestrain 1e-4: 0.1 N of
-    tension), a slack membrane's low in-plane stiffness rather than a taut film's (a 1 N tension
-    loads the booms towards their buckling load, π² EI / (4 L²) = 3.9 N, and sets the sail ringing
-    at 0.8 m RMS as the run starts from the unstressed shape; 0.1 N: 0.2 m). The booms' axial
+    triangular panels whose edges are a net of 88 cables (EA = 1 000 N), a slack membrane's low
+    in-plane stiffness rather than a taut film's. The net is form-found (the generator's
+    ``edge_sag_ratio``, force density method): interior force density q_i = EA ε0 / a =
+    5.66e-3 N/m (ε0 = 1e-4 over a = 17.7 m, a boom segment: 0.076-0.143 N in the found net), the
+    free edges scalloped inward to a sag of a tenth of the side (10 m), which takes
+    q_e = 1.48e-2 N/m (0.37-0.39 N in the rim cables); the membrane's area is then 7 480 m²
+    (37.4 kg). The sag sets the rim's tension, T_e ≈ p S² / (8 f), and with it the booms'
+    compression: 0.61-1.17 N at the prestress equilibrium, under a third of their buckling load as
+    cantilevers from the hub, π² EI / (4 L²) = 3.9 N (a 5 m sag doubles the rim tension and
+    takes them to 2.0 N; 2.5 m to 3.7 N). The booms' axial
     rigidity is lowered to EA = 3e4 N (a tube's is about 6e6 N) so that the axial modes, which take
     no part in the attitude motion, stay below RK4's limit at δt = 0.05 s (ω_max δt < 2.8).
 ``octet_75m.toml``
@@ -53,32 +59,21 @@ import numpy as np
 
 from magsail_mj.structure.fileformat import write_structure
 from magsail_mj.structure.generators import circular_plate, four_boom_sail, octet_plate, offset_grid_plate
-from magsail_mj.structure.model import Members, Panels, Structure
+from magsail_mj.structure.model import Panels, Structure
 from magsail_mj.structure.plate_theory import cubic_lattice_rigidity
 
 OUT = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "structure" / "configs" / "structures"
 
-#: the sail's membrane cable net: EA [N] and prestrain
+#: the sail's membrane cable net: EA [N], prestrain (the interior cables' force density
+#: q_i = EA ε0 / a, a = 17.7 m the boom segment) and the rim's sag as a fraction of the side
 MEMBRANE_EA_N = 1.0e3
 MEMBRANE_PRESTRAIN = 1.0e-4
-
-
-def membrane_net(structure: Structure, *, EA_N: float, prestrain: float) -> Structure:
-    """``structure`` with a cable along every panel edge that no member already joins (a member
-    set ``membrane``)."""
-    tri = structure.panels.triangles()
-    edges = np.unique(np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1), axis=0)
-    taken = np.sort(structure.members.nodes, axis=1)
-    edges = edges[~(edges[:, None, :] == taken[None]).all(axis=-1).any(axis=1)]
-    cables = Members.build(edges, positions_m=structure.positions_m, kind="cable", EA_N=EA_N, prestrain=prestrain)
-    first = structure.n_members
-    sets = {**structure.member_sets, "membrane": np.arange(first, first + len(cables))}
-    return replace(structure, members=Members.concatenate([structure.members, cables]), member_sets=sets)
+EDGE_SAG_RATIO = 0.1
 
 
 def sail() -> Structure:
     """The 100 m four-boom sail (module docstring)."""
-    base = four_boom_sail(
+    return four_boom_sail(
         side_m=100.0,
         n_segments=4,
         boom_EA_N=3.0e4,
@@ -89,9 +84,11 @@ def sail() -> Structure:
         reflectivity=(0.88, 0.03, 0.09),
         hub_mass_kg=20.0,
         hub_inertia_kg_m2=(1.5, 1.5, 2.5),
+        net_EA_N=MEMBRANE_EA_N,
+        net_prestrain=MEMBRANE_PRESTRAIN,
+        edge_sag_ratio=EDGE_SAG_RATIO,
         name="sail_100m",
     )
-    return membrane_net(base, EA_N=MEMBRANE_EA_N, prestrain=MEMBRANE_PRESTRAIN)
 
 
 def octet() -> Structure:

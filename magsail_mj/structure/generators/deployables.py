@@ -13,7 +13,9 @@ from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
+from scipy.optimize import brentq
 
+from magsail_mj.structure.formfinding import force_density_shape, rest_lengths_m
 from magsail_mj.structure.generators.common import (
     FLAT_PLATE_DRAG_COEFFICIENT,
     check_count,
@@ -22,7 +24,7 @@ from magsail_mj.structure.generators.common import (
 )
 from magsail_mj.structure.model import Members, Panels, RigidPart, Structure
 
-__all__ = ["four_boom_sail", "hoop", "truss_mast"]
+__all__ = ["four_boom_sail", "hoop", "rim_sag_m", "truss_mast"]
 
 _Z = np.array([0.0, 0.0, 1.0])
 
@@ -74,6 +76,88 @@ def _quadrant(
     return grid, triangles, free
 
 
+def rim_sag_m(positions_m: np.ndarray, rim: np.ndarray, tips: np.ndarray) -> np.ndarray:
+    """(4,) largest inward distance [m] of each quadrant's rim nodes (``rim[q]``, tip to tip)
+    from the straight edge between its tips ``tips[q]`` and ``tips[q + 1]``, measured along the
+    edge's inward normal in the x–y plane (the hub at the origin)."""
+    a, b = tips, np.roll(tips, -1, axis=0)
+    outward = (a + b)[:, :2] / np.linalg.norm((a + b)[:, :2], axis=1, keepdims=True)
+    inward = np.einsum("qk,qk->q", a[:, :2], outward)[:, None] - np.einsum(
+        "qrk,qk->qr", positions_m[rim][:, :, :2], outward
+    )
+    return inward.max(axis=1)
+
+
+def _cable_net(
+    positions_m: np.ndarray,
+    triangles: np.ndarray,
+    booms: np.ndarray,
+    *,
+    rim: np.ndarray,
+    tips: np.ndarray,
+    n: int,
+    side_m: float,
+    EA_N: float,
+    prestrain: float,
+    edge_sag_ratio: float | None,
+) -> tuple[Members, np.ndarray, np.ndarray]:
+    """The sail's cable net (:func:`four_boom_sail`, "Cable net"): its members, the node
+    positions (form-found or as given) and the indices of the rim cables among the net's."""
+    edges = np.unique(
+        np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1), axis=0
+    )
+    taken = np.sort(booms, axis=1)
+    edges = edges[~(edges[:, None, :] == taken[None]).all(axis=-1).any(axis=1)]
+    on_rim = np.zeros(len(positions_m), dtype=bool)
+    on_rim[rim.ravel()] = True
+    rim_cables = np.flatnonzero(on_rim[edges[:, 0]] & on_rim[edges[:, 1]])
+    if edge_sag_ratio is None:
+        cables = Members.build(edges, positions_m=positions_m, kind="cable", EA_N=EA_N, prestrain=prestrain)
+        return cables, positions_m, rim_cables
+    ratio = check_positive("edge_sag_ratio", edge_sag_ratio)
+    if n < 2:
+        raise ValueError(f"edge_sag_ratio: needs n_segments >= 2 (free rim nodes), got n_segments={n}")
+    if prestrain <= 0:
+        raise ValueError(f"net_prestrain: must be > 0 to set the form-found net's tension, got {prestrain!r}")
+    supports = np.arange(1 + 4 * n)
+    q_interior = EA_N * prestrain / (side_m / math.sqrt(2.0) / n)
+    q = np.full(len(edges), q_interior)
+
+    def shape(log_q_edge: float) -> np.ndarray:
+        q[rim_cables] = math.exp(log_q_edge)
+        return force_density_shape(positions_m, edges, q, supports=supports)
+
+    def miss(log_q_edge: float) -> float:
+        return float(rim_sag_m(shape(log_q_edge), rim, tips).max()) / side_m - ratio
+
+    guess = math.log(q_interior * n / (8.0 * ratio))
+    low, high = guess - math.log(10.0), guess + math.log(10.0)
+    for _ in range(12):
+        if miss(low) > 0 > miss(high):
+            break
+        low, high = low - math.log(10.0), high + math.log(10.0)
+    else:
+        raise ValueError(f"edge_sag_ratio: no rim force density gives a sag of {ratio!r} × side")
+    found = shape(brentq(miss, low, high, xtol=1e-14, rtol=1e-12)) + 0.0  # no negative zeros
+    areas = (
+        0.5
+        * np.cross(found[triangles[:, 1]] - found[triangles[:, 0]], found[triangles[:, 2]] - found[triangles[:, 0]])[
+            :, 2
+        ]
+    )
+    if np.any(areas <= 0):
+        raise ValueError(f"edge_sag_ratio: the form-found net folds {int(np.sum(areas <= 0))} panels at {ratio!r}")
+    length = np.linalg.norm(found[edges[:, 1]] - found[edges[:, 0]], axis=1)
+    cables = Members.build(
+        edges,
+        positions_m=found,
+        kind="cable",
+        EA_N=EA_N,
+        rest_length_m=rest_lengths_m(length, q * length, EA_N),
+    )
+    return cables, found, rim_cables
+
+
 def four_boom_sail(
     *,
     side_m: float,
@@ -88,6 +172,9 @@ def four_boom_sail(
     boom_damping_Ns_m: float = 0.0,
     hub_mass_kg: float = 0.0,
     hub_inertia_kg_m2: float | Sequence | np.ndarray | None = None,
+    net_EA_N: float | None = None,
+    net_prestrain: float = 0.0,
+    edge_sag_ratio: float | None = None,
     name: str = "four_boom_sail",
 ) -> Structure:
     """A square solar sail of side ``side_m`` in the x–y plane, front normal +z: four booms of
@@ -108,6 +195,30 @@ def four_boom_sail(
     hub), ``boom_nodes_0..boom_nodes_3`` (hub to tip), ``tip`` (the four boom tips), ``rim`` (the free membrane
     edge, tips included), ``membrane`` (every panel corner); member sets
     ``booms`` and ``boom_0..boom_3``.
+
+    Cable net (``net_EA_N`` given): a cable of axial rigidity ``net_EA_N`` along every panel edge
+    that no boom member joins, ``2 n (3 n − 1)`` after the booms (member set ``membrane``; ``rim``
+    cables along the free edges, ``4 n`` of them, in member set ``rim_cables``):
+
+    - ``edge_sag_ratio=None``: the grid's straight edges, every cable prestrained by
+      ``net_prestrain`` (``l0 = l / (1 + ε0)``: ``EA ε0`` of tension at the reference). A
+      tension-only net with straight free edges is not in equilibrium (the interior pulls the rim
+      inward; the linear prestress equilibrium then leaves the cables next to the rim in
+      compression).
+    - ``edge_sag_ratio=s``: the net is form-found by the force density method
+      (:mod:`magsail_mj.structure.formfinding`), the hub and boom nodes its supports, in the
+      x–y plane: the interior cables at the force density ``q_i = EA ε0 / a`` (``a = L / n``, a
+      boom segment: the tension a leg cable of the straight grid carries at ``ε0``), the rim
+      cables at the ``q_e`` (Brent's method on ``log q_e``, relative tolerance 1e-12) that puts
+      the rim's largest inward sag from the straight edge between its two tips at ``s · side``.
+      The free net nodes are then in equilibrium under the tensions ``T = q L`` at the found
+      lengths ``L``, each cable's rest length is ``l0 = L / (1 + T / EA)`` and the panels (with
+      their areas and masses) follow the found nodes; the booms, at their rest length, take the
+      net's pull in compression at the prestress equilibrium. Start of the search: the rim as a
+      cable of tension ``T_e = q_e S / n`` (``S = side``) under the uniform inward pull
+      ``p = q_i`` per length (the straight grid's two leg cables at a rim node, ``q_i a √2``
+      inward per ``a √2`` of rim) sags ``f = p S² / (8 T_e)``, so ``q_e ≈ q_i n / (8 s)``.
+      Needs ``n_segments >= 2`` and ``net_prestrain > 0``.
     """
     side = check_positive("side_m", side_m)
     n = check_count("n_segments", n_segments, minimum=1)
@@ -141,6 +252,33 @@ def four_boom_sail(
         linear_density_kg_m=check_positive("boom_linear_density_kg_m", boom_linear_density_kg_m, allow_zero=True),
         orientation=_Z,
     )
+    node_sets = {
+        "hub": np.array([0]),
+        "boom_nodes": np.arange(1, 1 + 4 * n),
+        "tip": boom_nodes[:, -1].copy(),
+        "rim": np.unique(np.concatenate(rim)),
+        "membrane": np.unique(triangles_all),
+    }
+    member_sets = {"booms": np.arange(4 * n)}
+    member_sets.update({f"boom_{q}": np.arange(q * n, (q + 1) * n) for q in range(4)})
+    if net_EA_N is not None:
+        cables, positions_m, rim_cables = _cable_net(
+            positions_m,
+            triangles_all,
+            ends,
+            rim=np.stack(rim),
+            tips=tips,
+            n=n,
+            side_m=side,
+            EA_N=check_positive("net_EA_N", net_EA_N),
+            prestrain=check_positive("net_prestrain", net_prestrain, allow_zero=True),
+            edge_sag_ratio=edge_sag_ratio,
+        )
+        members = Members.concatenate([members, cables])
+        member_sets["membrane"] = 4 * n + np.arange(len(cables))
+        member_sets["rim_cables"] = 4 * n + rim_cables
+    elif edge_sag_ratio is not None:
+        raise ValueError(f"edge_sag_ratio: needs a cable net (net_EA_N), got {edge_sag_ratio!r} without one")
     p = len(triangles_all)
     panels = Panels(
         nodes=np.column_stack([triangles_all, np.full(p, -1)]),
@@ -150,16 +288,7 @@ def four_boom_sail(
         reflectivity=np.tile(row, (p, 1)),
         drag_coefficient=np.full(p, check_positive("drag_coefficient", drag_coefficient, allow_zero=True)),
     )
-    node_sets = {
-        "hub": np.array([0]),
-        "boom_nodes": np.arange(1, 1 + 4 * n),
-        "tip": boom_nodes[:, -1].copy(),
-        "rim": np.unique(np.concatenate(rim)),
-        "membrane": np.unique(triangles_all),
-    }
     node_sets.update({f"boom_nodes_{q}": boom_nodes[q].copy() for q in range(4)})
-    member_sets = {"booms": np.arange(4 * n)}
-    member_sets.update({f"boom_{q}": np.arange(q * n, (q + 1) * n) for q in range(4)})
     return Structure(
         name=name,
         positions_m=positions_m,
