@@ -45,7 +45,14 @@ records streamed to its own temporary Zarr store, and the report gives ``worlds`
 ``cpu_us_per_world_step`` (the process's CPU time over the same, every thread counted),
 ``mj_step_us`` (the bare single-thread ``mj_step`` of world 0's model, as above),
 ``ratio_to_mj_step = us_per_world_step / mj_step_us`` and ``cpu_ratio_to_mj_step``, medians of
-``repeat`` passes, and ``build_s`` (the batch's build, median).
+``repeat`` passes, and ``build_s`` (the batch's build, median). For a config on the Python path
+whose scenario has compiled loads, the same passes with ``sim.loads = "compiled"`` (the batch's
+worlds on models with the plugin, stepped natively between the controller's samples and the
+records) add ``us_per_world_step_compiled``, ``cpu_us_per_world_step_compiled``,
+``ratio_to_mj_step_compiled`` and ``cpu_ratio_to_mj_step_compiled`` against the bare step timed
+after each of those passes (``mj_step_us_compiled_passes``), and ``build_s_compiled`` (or
+``compiled_unavailable``: why not). The bare step is always that of world 0's model without the
+plugin.
 """
 
 from __future__ import annotations
@@ -457,6 +464,42 @@ def _platform() -> dict[str, Any]:
     }
 
 
+def _batch_passes(cfg: BaseModel, *, worlds: int, nthread: int, repeat: int, tmp: Path, tag: str) -> dict[str, Any]:
+    """``repeat`` fresh batches of ``worlds`` identical worlds of ``cfg`` run to the end, each world's
+    records streamed to a store under ``tmp``, and after each the bare ``mj_step`` of world 0's
+    model without compiled loads from its initial state: the per-world-step wall and CPU seconds,
+    the bare step (per call and native), the build seconds, the steps and the model stepped bare.
+
+    Raises:
+      BenchRunError: a world of a pass did not complete."""
+    out: dict[str, Any] = {"wall": [], "cpu": [], "bare": [], "native": [], "build": []}
+    for i in range(repeat):
+        t0 = time.perf_counter()
+        sim = load_batch(cfg, worlds=worlds, nthread=nthread)
+        out["build"].append(time.perf_counter() - t0)
+        stores = [tmp / f"{tag}{i}_world{k}.zarr" for k in range(worlds)]
+        c0 = time.process_time()
+        result = sim.run(records_paths=stores)
+        cpu_s = time.process_time() - c0
+        bad = [(k, w.status, w.message) for k, w in enumerate(result.worlds) if w.status != "completed"]
+        if bad:
+            k, status, message = bad[0]
+            raise BenchRunError(status, f"world {k}: {message}")
+        out["wall"].append(result.wall_time_s / result.world_steps)
+        out["cpu"].append(cpu_s / result.world_steps)
+        bare_model = getattr(sim.worlds, "bare_model", sim.model)
+        physics = np.empty(mujoco.mj_stateSize(bare_model, _PHYSICS))
+        data = mujoco.MjData(bare_model)
+        sim.worlds.init_state(0, data)
+        mujoco.mj_getState(bare_model, data, physics, _PHYSICS)
+        per_call, per_native = _bare_step_s(bare_model, physics, sim.n_steps)
+        out["bare"].append(per_call)
+        out["native"].append(per_native)
+        out["steps"], out["model"] = sim.n_steps, bare_model
+        del sim, result
+    return out
+
+
 def bench_worlds(
     config: str | Path | BaseModel,
     *,
@@ -478,32 +521,30 @@ def bench_worlds(
     if isinstance(worlds, bool) or not isinstance(worlds, int) or worlds < 1:
         raise ValueError(f"worlds: must be an integer >= 1, got {worlds!r}")
     cfg = _config(config, overrides, duration_s)
-    wall, cpu, bare, native, build = [], [], [], [], []
+    options = {"worlds": worlds, "nthread": nthread, "repeat": repeat}
+    compiled: dict[str, Any] = {}
     with threadpool_limits(limits=1), tempfile.TemporaryDirectory(prefix="magsail_bench_") as tmp:
-        for i in range(repeat):
-            t0 = time.perf_counter()
-            sim = load_batch(cfg, worlds=worlds, nthread=nthread)
-            build.append(time.perf_counter() - t0)
-            stores = [Path(tmp) / f"pass{i}_world{k}.zarr" for k in range(worlds)]
-            c0 = time.process_time()
-            result = sim.run(records_paths=stores)
-            cpu_s = time.process_time() - c0
-            bad = [(k, w.status, w.message) for k, w in enumerate(result.worlds) if w.status != "completed"]
-            if bad:
-                k, status, message = bad[0]
-                raise BenchRunError(status, f"world {k}: {message}")
-            wall.append(result.wall_time_s / result.world_steps)
-            cpu.append(cpu_s / result.world_steps)
-            physics = np.empty(mujoco.mj_stateSize(sim.model, _PHYSICS))
-            data = mujoco.MjData(sim.model)
-            sim.worlds.init_state(0, data)
-            mujoco.mj_getState(sim.model, data, physics, _PHYSICS)
-            per_call, per_native = _bare_step_s(sim.model, physics, sim.n_steps)
-            bare.append(per_call)
-            native.append(per_native)
-            steps, model = sim.n_steps, sim.model
-            del sim, result
-    us, cpu_us, mj_us = (statistics.median(x) * 1e6 for x in (wall, cpu, bare))
+        runs = _batch_passes(cfg, tmp=Path(tmp), tag="pass", **options)
+        if getattr(getattr(cfg, "sim", None), "loads", None) == "python" and has_compiled_loads(cfg):
+            try:
+                compiled_cfg = parse_config(apply_overrides(cfg.model_dump(mode="json"), ["sim.loads='compiled'"]))
+                c = _batch_passes(compiled_cfg, tmp=Path(tmp), tag="compiled", **options)
+            except ConfigError as err:
+                compiled = {"compiled_unavailable": "; ".join(err.problems)}
+            else:
+                us_c, cpu_c = (statistics.median(c[x]) * 1e6 for x in ("wall", "cpu"))
+                mj_c = statistics.median(c["bare"]) * 1e6
+                compiled = {
+                    "us_per_world_step_compiled": us_c,
+                    "cpu_us_per_world_step_compiled": cpu_c,
+                    "mj_step_us_compiled_passes": mj_c,
+                    "ratio_to_mj_step_compiled": us_c / mj_c,
+                    "cpu_ratio_to_mj_step_compiled": cpu_c / mj_c,
+                    "build_s_compiled": statistics.median(c["build"]),
+                    "us_per_world_step_compiled_runs": [x * 1e6 for x in c["wall"]],
+                }
+    us, cpu_us, mj_us = (statistics.median(runs[x]) * 1e6 for x in ("wall", "cpu", "bare"))
+    steps, model = runs["steps"], runs["model"]
     dt = float(model.opt.timestep)
     return {
         "concept": getattr(cfg, "concept", None),
@@ -516,15 +557,17 @@ def bench_worlds(
         "repeat": repeat,
         "worlds": worlds,
         "nthread": nthread,
+        "loads": getattr(getattr(cfg, "sim", None), "loads", None),
         "us_per_world_step": us,
         "cpu_us_per_world_step": cpu_us,
         "mj_step_us": mj_us,
         "ratio_to_mj_step": us / mj_us,
         "cpu_ratio_to_mj_step": cpu_us / mj_us,
-        "mj_step_native_us": statistics.median(native) * 1e6,
-        "build_s": statistics.median(build),
-        "us_per_world_step_runs": [x * 1e6 for x in wall],
-        "mj_step_us_runs": [x * 1e6 for x in bare],
+        "mj_step_native_us": statistics.median(runs["native"]) * 1e6,
+        "build_s": statistics.median(runs["build"]),
+        "us_per_world_step_runs": [x * 1e6 for x in runs["wall"]],
+        "mj_step_us_runs": [x * 1e6 for x in runs["bare"]],
+        **compiled,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "platform": _platform(),
     }

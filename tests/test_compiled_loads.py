@@ -234,7 +234,7 @@ def test_refusals_name_the_key():
         load_config(PRE, ["sim.load_timing='stage'"])
     with pytest.raises(ConfigError, match="sim.loads: compiled loads exist for the CNUSAIL attitude runs only"):
         magsail_mj.load(CONFIGS / "lifetime.toml", ["sim.loads='compiled'"])
-    with pytest.raises(ConfigError, match="world 1: sim.loads: a batch"):
+    with pytest.raises(ConfigError, match="world 1: sim.loads: must be the same in every world of a batch"):
         magsail_mj.load(PRE, ["sim.duration_s=10"], world_overrides=[[], ["sim.loads='compiled'"]])
     with pytest.raises(ConfigError, match="sim.loads: the environment drives"):
         make_cubesat_environment(load_config(PRE, ["sim.loads='compiled'"]))

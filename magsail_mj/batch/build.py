@@ -9,7 +9,11 @@ A concept runs in a batch when its package has a ``batch`` module (found through
   ``models`` (the distinct compiled models, world 0's first), ``world_model`` (each world's index
   in it), ``compile_model(cfg)``, ``init_state(k, data)``, ``plant()`` (the
   :class:`~magsail_mj.batch.runner.Plant` over the world axis) and ``scenario(k)`` (world k's task,
-  for its run folder).
+  for its run folder); with ``caller_models`` true, each world runs on its own model
+  ``models[world_model[k]]`` (:meth:`mujoco.batch.Batch.set_models`: models that differ in fields
+  the batch cannot expand economically, such as the custom numerics of compiled loads) instead of
+  world 0's with expanded fields.
+* ``COMPILED_LOADS`` (optional, default false) — its batch runs ``sim.loads = "compiled"``.
 * ``compile_model(cfg)`` (optional) — the compiled model of one config, whose sizes group configs
   into batches before anything is built (:mod:`magsail_mj.batch.groups`).
   Its worlds object may also have ``stop_rule()`` — the worlds' stop rules
@@ -20,8 +24,9 @@ run refused by name (:func:`~magsail_mj.batch.worlds.check_batchable`); the worl
 distinct compiled model checked to have world 0's sizes (else the keys that change them are named,
 :func:`~magsail_mj.batch.worlds.size_changing_keys`); the :class:`mujoco.batch.Batch` of world 0's
 model with MuJoCo's automatic reset off and every world's differing model fields expanded
-(:func:`~magsail_mj.batch.models.expand_worlds`); each world's initial state written as its single
-run writes it (into an ``MjData`` of its own model, read back as the integration state).
+(:func:`~magsail_mj.batch.models.expand_worlds`), or each world's own model set; each world's
+initial state written as its single run writes it (into an ``MjData`` of its own model, read back
+as the integration state).
 """
 
 from __future__ import annotations
@@ -119,10 +124,13 @@ def load_batch(
     for model in models:
         disable_autoreset(model)
     batch = Batch(models[0], len(cfgs), nthread)
-    try:
-        expand_worlds(batch, models, built.world_model)
-    except ValueError as err:
-        raise ConfigError([f"the worlds' models: {err}"]) from None
+    if getattr(built, "caller_models", False):
+        batch.set_models([models[int(j)] for j in built.world_model])
+    else:
+        try:
+            expand_worlds(batch, models, built.world_model)
+        except ValueError as err:
+            raise ConfigError([f"the worlds' models: {err}"]) from None
     nstate = mujoco.mj_stateSize(models[0], _STATE)
     if batch.nstate != nstate:  # pragma: no cover - MuJoCo's batch rows are the integration state
         raise RuntimeError(f"the batch's state rows hold {batch.nstate} numbers, mjSTATE_INTEGRATION {nstate}")

@@ -14,6 +14,16 @@ r"""The batch runner: N worlds of one compiled model stepped in lockstep, one Py
    dates the bad state at t, a ``qpos``/``qvel`` that is not finite at t + δt); a MuJoCo error in
    a world's step makes it ``failed``.
 
+With a plant whose loads are inside MuJoCo's step (``native_steps``: compiled loads, each world on
+a model with the plugin, e.g. :class:`~magsail_mj.concepts.cnusail.batch_compiled.CompiledCubesatWorlds`)
+Python acts only at the controller's samples (every ``plant.control_every`` steps: :meth:`control`,
+which writes the plugin's state) and the records; every live world is stepped natively to the next
+such step in one :meth:`mujoco.batch.Batch.step` call of ``nstep`` steps (never :meth:`loads`). A
+world that went bad in such a chunk (a MuJoCo error, a bad-state warning, a state that is not
+finite) is put back to the chunk's start and stepped again one step at a time with the checks
+below, so it is dated at the same step, with the same status and message, as its single run with
+compiled loads dates it.
+
 A world whose stop rule holds (:class:`HoldBelowWorlds`, checked after each record as the single
 run's :class:`~magsail_mj.sim.HoldBelow`) ends alone there, ``completed`` with its single run's
 message and end time, and is not stepped again.
@@ -52,7 +62,9 @@ _WARNINGS = [(int(w), w.name.removeprefix("mjWARN_"), text) for w, text in BAD_S
 
 class Plant(Protocol):
     """What the runner needs from a concept's part of a batch (e.g.
-    :class:`~magsail_mj.batch.cubesat.CubesatWorlds`)."""
+    :class:`~magsail_mj.concepts.cnusail.batch_plant.CubesatWorlds`). Optional: ``attach(batch)``
+    (called once with the :class:`mujoco.batch.Batch`), and ``native_steps = True`` with
+    ``control_every`` [steps] for loads inside MuJoCo's step (module docstring)."""
 
     probe_names: Sequence[str]
 
@@ -179,6 +191,9 @@ class BatchSimulation:
         self._qpos, self._qvel = batch.bind("qpos"), batch.bind("qvel")
         self._ctrl, self._xfrc = batch.bind("ctrl"), batch.bind("xfrc_applied")
         self._warn_idx = np.array([w for w, _, _ in _WARNINGS])
+        if hasattr(plant, "attach"):
+            plant.attach(batch)
+        self.native = bool(getattr(plant, "native_steps", False))
         self.recorded = WorldRecords(["t", *plant.probe_names], self.n_worlds)
         self.cfgs: list[Any] = []
         self.worlds: Any = None
@@ -334,6 +349,9 @@ class BatchSimulation:
 
     def _advance(self, stop_step: int, *, bar: Any = None) -> None:
         """The lockstep loop from the current step to ``stop_step`` (module docstring)."""
+        if self.native:
+            self._advance_native(stop_step, bar=bar)
+            return
         plant, rec, b = self.plant, self.recorded, self.batch
         qpos, qvel, ctrl, xfrc = self._qpos, self._qvel, self._ctrl, self._xfrc
         dt, n = self.dt, self.n_worlds
@@ -387,6 +405,114 @@ class BatchSimulation:
                 self.live[finished] = False
                 self.plant.set_live(self.live)
             self._wall_s += time.perf_counter() - wall0
+
+    def _advance_native(self, stop_step: int, *, bar: Any = None) -> None:
+        """The loop with the loads inside MuJoCo's step (module docstring): Python at the
+        controller's samples (``step % plant.control_every == 0``) and the records only, every
+        live world stepped natively to the next such step in one call."""
+        plant, rec = self.plant, self.recorded
+        qpos, qvel, ctrl = self._qpos, self._qvel, self._ctrl
+        dt, n, every = self.dt, self.n_worlds, self.record_every
+        control_every = int(plant.control_every)
+        step = self.step_index
+        finished = np.zeros(n, dtype=bool)
+        pending = 0
+        wall0 = time.perf_counter()
+        try:
+            with np.errstate(all="ignore"):
+                self._check(step, stepped=None)
+                while True:
+                    if step == stop_step < self.n_steps or not self.live.any():
+                        break
+                    if step % control_every == 0:
+                        plant.control(step, qpos, qvel, ctrl)
+                    if step % every == 0 or step == self.n_steps:
+                        values = plant.probes(step, qpos, qvel)
+                        values["t"] = np.full(n, step * dt)
+                        rec.append(values, self.live)
+                        if self.stop_rule is not None:
+                            ends = self.stop_rule.check(step * dt, values, self.live)
+                            self._stop(np.array(list(ends), dtype=np.intp), step, "completed", ends.__getitem__)
+                            if not self.live.any():
+                                break
+                    if step == self.n_steps:
+                        finished = self.live.copy()
+                        for k in np.flatnonzero(finished):
+                            self.status[k] = "completed"
+                        break
+                    next_record, next_sample = (step // every + 1) * every, (step // control_every + 1) * control_every
+                    nxt = min(stop_step, self.n_steps, next_record, next_sample)
+                    self._chunk(step, nxt)
+                    pending += nxt - step
+                    step = nxt
+                    if bar is not None and pending >= 100:
+                        bar.update(pending)
+                        pending = 0
+        except KeyboardInterrupt:
+            finished = self.live.copy()
+            for k in np.flatnonzero(finished):
+                self.status[k], self.message[k] = "interrupted", f"interrupted at t = {step * dt:.6g} s"
+        finally:
+            self.step_index = step
+            ended = self.live | finished
+            self.end_step[ended] = step
+            rec.flush(ended)
+            if finished.any():
+                self.live[finished] = False
+                self.plant.set_live(self.live)
+            self._wall_s += time.perf_counter() - wall0
+
+    def _chunk(self, first: int, last: int) -> None:
+        """Step every live world from step ``first`` to ``last`` in one native call. A world that
+        went bad in it (a MuJoCo error, a bad-state warning, a state that is not finite) is put back
+        to its state at ``first`` and stepped again one step at a time with the checks of the
+        lockstep loop, so it stops at the same step, with the same status and message, as there;
+        one that does not go bad again is stopped as the single run stops it."""
+        b = self.batch
+        live = self.live.copy()
+        ids = None if live.all() else np.flatnonzero(live).astype(np.int32)
+        snapshot = b.state.copy()
+        failed = np.zeros(self.n_worlds, dtype=bool)
+        try:
+            b.step(ids, last - first)
+        except SimulationError as err:
+            failed[err.ids] = True
+        counts = self._warnings()
+        bad = failed.copy()
+        if not np.array_equal(counts, self._warn_base):
+            bad |= (counts > self._warn_base).any(axis=1) & live
+        qpos, qvel = (self._qpos, self._qvel) if ids is None else (self._qpos[live], self._qvel[live])
+        if not math.isfinite(float(qpos.sum()) + float(qvel.sum())):
+            bad |= live & ~np.isfinite(self._qpos.sum(axis=1) + self._qvel.sum(axis=1))
+        self._world_steps += (live & ~bad) * (last - first)
+        if not bad.any():
+            return
+        rows = np.flatnonzero(bad)
+        b.state[rows] = snapshot[rows]
+        self._warn_base[rows] = counts[rows]  # the chunk's warnings are raised again by the replay
+        for step in range(first, last):
+            stepped = bad & self.live
+            if not stepped.any():
+                return
+            t = step * self.dt
+            try:
+                b.step(np.flatnonzero(stepped).astype(np.int32))
+            except SimulationError as err:
+                self._stop(err.ids, step, "failed", lambda k: f"MuJoCo error at t = {t:.6g} s: {b.error(k)}")
+                stepped[err.ids] = False
+            self._world_steps += stepped
+            self._check(step, stepped=stepped)
+        again = np.flatnonzero(bad & self.live)
+        self._stop(
+            again,
+            last - 1,
+            "diverged",
+            lambda k: (
+                f"MuJoCo flagged the steps from t = {first * self.dt:.6g} s to {last * self.dt:.6g} s, "
+                "which did not go bad again when repeated one by one"
+            ),
+            t_bad_s=first * self.dt,
+        )
 
     def _check(self, step: int, *, stepped: np.ndarray | None) -> None:
         """Stop the worlds whose state went bad in the step from ``step`` (``stepped``: the worlds

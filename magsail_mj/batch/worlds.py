@@ -9,7 +9,8 @@ problems are reported together, every line prefixed ``world k:``.
 cannot run:
 
 * what the concept's batch does not run (its ``refusals(cfgs)``; for CNUSAIL: the pointing laws,
-  sensor noise, the sub-stepped armature model);
+  sensor noise, the sub-stepped armature model), and compiled loads (``sim.loads = "compiled"``)
+  for a concept whose batch module does not declare ``COMPILED_LOADS = True``;
 * a key that differs between worlds but must be shared (:data:`LOCKSTEP_KEYS` and the concept's
   own ``LOCKSTEP_KEYS``: the batch steps every world with one time step and integrator to one end
   time, records them on one schedule, and the concept's controller schedule, facet layout and
@@ -54,6 +55,7 @@ LOCKSTEP_KEYS: dict[str, str] = {
     "sim.record_every": "the batch records every world on one schedule",
     "sim.load_timing": "the batch evaluates every world's loads at one instant of the step",
     "sim.integrator": "the batch integrates every world with one integrator",
+    "sim.loads": "the batch steps every world's loads one way (NumPy between steps, or compiled into the step)",
 }
 """Keys that must be the same in every world of a batch, with the reason."""
 
@@ -148,10 +150,12 @@ def check_batchable(cfgs: Sequence[BaseModel], concept: Any) -> None:
     """
     problems = list(concept.refusals(cfgs))
     for k, cfg in enumerate(cfgs):
-        if getattr(getattr(cfg, "sim", None), "loads", "python") == "compiled":
+        if getattr(getattr(cfg, "sim", None), "loads", "python") == "compiled" and not getattr(
+            concept, "COMPILED_LOADS", False
+        ):
             problems.append(
-                f"world {k}: sim.loads: a batch computes its worlds' loads vectorised in NumPy; compiled loads "
-                "run in a single run only, got 'compiled'"
+                f"world {k}: sim.loads: the batch of concept {cfg.concept!r} computes its worlds' loads "
+                "vectorised in NumPy; its compiled loads run in a single run only, got 'compiled'"
             )
     lockstep = {**LOCKSTEP_KEYS, **concept.LOCKSTEP_KEYS}
     base = _flat(cfgs[0].model_dump(mode="json"))

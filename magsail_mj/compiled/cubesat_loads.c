@@ -471,6 +471,16 @@ static void cubesat_compute(const mjModel* m, mjData* d, int instance, int capab
   d->qfrc_passive[va + 5] += T[2];
 }
 
+/* the probe's 18 numbers (see magsail_cubesat_probe) from a parameter block, table, plugin state and
+   the state (time, qpos, qvel) of one simulation */
+static void probe_values(const mjtNum* p, const mjtNum* table, const mjtNum* s, mjtNum dt, mjtNum time,
+                         const mjtNum* qpos, const mjtNum* qvel, mjtNum* out) {
+  long k = lround(time / dt);
+  int qa = (int)p[P_QPOSADR], va = (int)p[P_DOFADR];
+  torques(p, table, k * dt, qpos + qa, qvel + va, effective_dipole(p, s, k), out);
+  wheel_torques(p, s, qvel, out + 15);
+}
+
 /* For the runner's records (called from Python through ctypes): into out (18) the five body-axes
    torques of the bus (gravity gradient, drag, SRP, residual dipole, magnetorquer; module comment)
    at d's state and the time k dt of its step k = round(d->time/dt), with that step's effective
@@ -480,14 +490,34 @@ int magsail_cubesat_probe(const mjModel* m, const mjData* d, int instance, mjtNu
   if (instance < 0 || instance >= m->nplugin || d->plugin_data[instance] == 0) {
     return -1;
   }
-  const mjtNum* p = params_of(m, d, instance);
-  const mjtNum* table = table_of(m, d, instance);
-  const mjtNum* s = d->plugin_state + m->plugin_stateadr[instance];
-  mjtNum dt = m->opt.timestep;
-  long k = lround(d->time / dt);
-  int qa = (int)p[P_QPOSADR], va = (int)p[P_DOFADR];
-  torques(p, table, k * dt, d->qpos + qa, d->qvel + va, effective_dipole(p, s, k), out);
-  wheel_torques(p, s, d->qvel, out + 15);
+  probe_values(params_of(m, d, instance), table_of(m, d, instance), d->plugin_state + m->plugin_stateadr[instance],
+               m->opt.timestep, d->time, d->qpos, d->qvel, out);
+  return 0;
+}
+
+/* The same for n simulations of a batch (called from Python through ctypes): simulation i runs on
+   models[i] (the numerics of its parameter block and table at the addresses adr_params, adr_table
+   of its numeric_data) and its state is read from rows of the batch's state: time[i * stride],
+   qpos[i * stride ...], qvel[i * stride ...] and plugin_state[i * stride + state_adr ...], stride
+   the row length in numbers; out[18 i ...] gets its 18 numbers. Simulations with skip[i] != 0 are
+   left out (their out rows untouched). Returns 0, or -1 - i for the first model i whose numerics
+   are not a parameter block of this layout. */
+int magsail_cubesat_probe_rows(int n, const mjModel* const* models, int adr_params, int adr_table, int state_adr,
+                               const mjtNum* time, const mjtNum* qpos, const mjtNum* qvel,
+                               const mjtNum* plugin_state, long stride, const unsigned char* skip, mjtNum* out) {
+  for (int i = 0; i < n; i++) {
+    if (skip && skip[i]) {
+      continue;
+    }
+    const mjModel* m = models[i];
+    if (adr_params < 0 || adr_params + P_SIZE_FIXED > m->nnumericdata ||
+        (int)m->numeric_data[adr_params + P_VERSION] != LAYOUT_VERSION) {
+      return -1 - i;
+    }
+    long r = (long)i * stride;
+    probe_values(m->numeric_data + adr_params, m->numeric_data + adr_table, plugin_state + r + state_adr,
+                 m->opt.timestep, time[r], qpos + r, qvel + r, out + 18 * (long)i);
+  }
   return 0;
 }
 

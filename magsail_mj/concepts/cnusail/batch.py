@@ -4,10 +4,12 @@ What a batch runs of this concept: the attitude scenarios with the stand-alone B
 (``control.mode = "bdot"``; S1 ``detumble_pre``, S2 ``detumble_post`` and their Monte Carlo), each
 world with its own initial state, epoch and orbit, environment models, B-dot gain and form,
 magnetorquer and wheel limits, masses, inertias and geometry that keep the model's sizes, and
-disturbance parameters. What it refuses, naming the key (:func:`refusals`, :data:`LOCKSTEP_KEYS`):
-the pointing laws (``eigen_axis``, ``pd``: they run one at a time), sensor noise, the sub-stepped
-armature model, and keys that must be shared by every world (the controller's schedule, the drag
-facet layout, the environment grid).
+disturbance parameters, with its loads vectorised in NumPy or compiled (``sim.loads = "compiled"``:
+the MuJoCo plugin inside each world's step, each world on a model of its own numbers,
+:mod:`~magsail_mj.concepts.cnusail.batch_compiled`). What it refuses, naming the key
+(:func:`refusals`, :data:`LOCKSTEP_KEYS`): the pointing laws (``eigen_axis``, ``pd``: they run one
+at a time), sensor noise, the sub-stepped armature model, and keys that must be shared by every
+world (the controller's schedule, the drag facet layout, the environment grid).
 
 :class:`CnusailWorlds` builds every world as its single run does (:class:`CnusailModel`'s parts:
 the MJCF parameters and compiled model, the environment, the disturbance load, the initial state),
@@ -29,6 +31,7 @@ import numpy as np
 
 from magsail_mj.batch.environment import EnvironmentStack
 from magsail_mj.batch.runner import HoldBelowWorlds
+from magsail_mj.concepts.cnusail.batch_compiled import CompiledCubesatWorlds, world_models
 from magsail_mj.concepts.cnusail.batch_control import BdotWorlds
 from magsail_mj.concepts.cnusail.batch_loads import DisturbanceWorlds
 from magsail_mj.concepts.cnusail.batch_plant import CubesatWorlds
@@ -38,7 +41,19 @@ from magsail_mj.concepts.cnusail.model import CnusailModel, model_params
 from magsail_mj.concepts.cnusail.tasks import AttitudeTask, stop_rule_of
 from magsail_mj.environment.environment import Environment
 
-__all__ = ["LOCKSTEP_KEYS", "refusals", "build_worlds", "compile_model", "CnusailWorlds", "world_cubesat"]
+__all__ = [
+    "LOCKSTEP_KEYS",
+    "COMPILED_LOADS",
+    "refusals",
+    "build_worlds",
+    "compile_model",
+    "CnusailWorlds",
+    "world_cubesat",
+]
+
+COMPILED_LOADS = True
+"""The batch runs this concept's worlds with ``sim.loads = "compiled"`` too
+(:mod:`~magsail_mj.concepts.cnusail.batch_compiled`)."""
 
 LOCKSTEP_KEYS: dict[str, str] = {
     "control.mode": "the batch runs one control law",
@@ -138,7 +153,12 @@ class CnusailWorlds:
     Attributes:
       cfgs: each world's config; cubesats: each world's built cubesat.
       models: the distinct compiled models (``models[0]`` is world 0's); world_model: (N,) index of
-        each world's model in it.
+        each world's model in it. With ``sim.loads = "compiled"`` these are the models with the
+        plugin, one per distinct MJCF, environment and parameter block
+        (:func:`~magsail_mj.concepts.cnusail.batch_compiled.world_models`), and ``caller_models`` is
+        true: the batch runs each world on its own model (:meth:`mujoco.batch.Batch.set_models`)
+        instead of expanding fields.
+      bare_model: world 0's model without the plugin (the bare ``mj_step`` a benchmark compares with).
       environments: the distinct environments; world_env: (N,) index of each world's.
     """
 
@@ -157,6 +177,12 @@ class CnusailWorlds:
         self.environments = cache.environments
         self.world_model = np.array(world_model, dtype=np.intp)
         self.world_env = np.array(world_env, dtype=np.intp)
+        self.bare_model = self.models[0]
+        self.caller_models = self.cfgs[0].sim.loads == "compiled"
+        if self.caller_models:
+            self.models, self.world_model = world_models(
+                self.cubesats, self.world_model, timing=self.cfgs[0].sim.load_timing
+            )
 
     @staticmethod
     def compile_model(cfg: CnusailConfig) -> mujoco.MjModel:
@@ -168,10 +194,17 @@ class CnusailWorlds:
         single run does."""
         self.cubesats[world].init_state(data)
 
-    def plant(self) -> CubesatWorlds:
+    def plant(self) -> CubesatWorlds | CompiledCubesatWorlds:
         """The cubesat of every world over the world axis (each world's controller, disturbance
-        load and environment)."""
+        load and environment; with compiled loads the controller and each world's model)."""
         cfg0 = self.cfgs[0]
+        if self.caller_models:
+            return CompiledCubesatWorlds(
+                models=[self.models[int(j)] for j in self.world_model],
+                environments=EnvironmentStack(self.environments, self.world_env),
+                controller=BdotWorlds([cs.make_controller() for cs in self.cubesats]),
+                timestep_s=cfg0.sim.timestep_s,
+            )
         return CubesatWorlds(
             idx=self.cubesats[0].idx,
             environments=EnvironmentStack(self.environments, self.world_env),

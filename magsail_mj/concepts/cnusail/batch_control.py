@@ -217,6 +217,16 @@ class BdotWorlds:
         """One dynamics step ``step`` (t = step·δt): the samples due, then the wheel drivers; returns
         the (N, 3) motor torques T_M [N m] for ``ctrl``. ``env`` is the environment at t
         (:class:`~magsail_mj.batch.environment.EnvSamples`)."""
+        self.sample(step, qpos, qvel, env)
+        self._set("dipole_body", self.dipole_held if step % self.n_cycle < self.n_on else np.zeros((self.n, 3)))
+        self._set("T_M", self._motor_torque(qvel[:, self.wheel_qvel]))
+        return self.T_M
+
+    def sample(self, step: int, qpos: np.ndarray, qvel: np.ndarray, env: Any) -> None:
+        """The attitude and magnetorquer samples due at step ``step`` (t = step·δt), each once:
+        the attitude sample when ``step // n_att`` is new, the magnetorquer sample when
+        ``step // n_cycle`` is; ``env`` is the environment at t. Compiled loads call this at the
+        controller's samples only (blanking and the wheel drivers run in the plugin)."""
         i_att, i_mtq = step // self.n_att, step // self.n_cycle
         if i_att > self.last_att or i_mtq > self.last_mtq:
             att, mtq = i_att > self.last_att, i_mtq > self.last_mtq
@@ -226,9 +236,6 @@ class BdotWorlds:
                 self._attitude_sample(q, qvel[:, self.v_ang], env)
             if mtq:
                 self._mtq_sample(step, quat_to_mat(q), env, qvel[:, self.v_ang])
-        self._set("dipole_body", self.dipole_held if step % self.n_cycle < self.n_on else np.zeros((self.n, 3)))
-        self._set("T_M", self._motor_torque(qvel[:, self.wheel_qvel]))
-        return self.T_M
 
     def _attitude_sample(self, q: np.ndarray, omega: np.ndarray, env: Any) -> None:
         """Telemetry against the nadir frame; in DETUMBLE the wheels idle."""

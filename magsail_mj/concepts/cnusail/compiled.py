@@ -45,6 +45,7 @@ from magsail_mj.loads.base import StepState
 __all__ = [
     "PARAM_FIELDS",
     "STATE_FIELDS",
+    "STATE_OFFSETS",
     "LAYOUT_VERSION",
     "TIMINGS",
     "MAX_FACETS",
@@ -139,6 +140,8 @@ def _offsets(fields: tuple[tuple[str, int], ...]) -> dict[str, int]:
 
 _P = _offsets(PARAM_FIELDS)
 _S = _offsets(STATE_FIELDS)
+STATE_OFFSETS: dict[str, int] = dict(_S)
+"""Each field of :data:`STATE_FIELDS` at its offset from the instance's plugin state address."""
 
 _WHEEL_MODELS = {("dc_motor", "quasi_static"): 1, ("ideal", "quasi_static"): 2, ("ideal", "substep"): 2}
 _ATMOSPHERES = {"exponential": 1, "msis": 2}
