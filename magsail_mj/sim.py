@@ -762,6 +762,18 @@ class Simulation(SteppedRun):
             self.status, self.message = _non_finite_records(self.recorder) or (self.status, self.message)
         return self._result(start)
 
+    def _checkpoint_if_due(self, ckpt: Path, step: int, *, stop_step: int, every: int, wall0: float) -> float:
+        """Write the checkpoint at ``step`` when it is due (every ``every`` steps, and at a stop
+        before the end); returns the wall-clock origin of the loop's next interval."""
+        if not ((every and step % every == 0) or step == stop_step < self.n_steps):
+            return wall0
+        now = time.perf_counter()
+        self._wall_s += now - wall0
+        self._loop["wall_s"] = self._wall_s
+        self.step_index = step
+        self._checkpoint(ckpt)  # its writing counts in the next interval, as the steps do
+        return now
+
     def _advance(self, stop_step: int, *, ckpt: Path | None = None, ckpt_every: int = 0, bar: Any = None) -> None:
         """The step loop from the current step to ``stop_step`` (see the module docs)."""
         if self.compiled is not None:
@@ -788,16 +800,8 @@ class Simulation(SteppedRun):
             watch.check(step * dt)
             for step in range(start, stop_step + 1):
                 t = step * dt
-                if (
-                    ckpt is not None
-                    and step > start
-                    and ((ckpt_every and step % ckpt_every == 0) or step == stop_step < self.n_steps)
-                ):
-                    self._wall_s += time.perf_counter() - wall0
-                    wall0 = time.perf_counter()
-                    loop["wall_s"] = self._wall_s
-                    self.step_index = step
-                    self._checkpoint(ckpt)
+                if ckpt is not None and step > start:
+                    wall0 = self._checkpoint_if_due(ckpt, step, stop_step=stop_step, every=ckpt_every, wall0=wall0)
                 if step == stop_step < self.n_steps:
                     break
                 # sample k is due at k·period (computed, not accumulated, so no sample is ever
@@ -905,16 +909,8 @@ class Simulation(SteppedRun):
             self._watch.check(step * dt)
             while True:
                 t = step * dt
-                if (
-                    ckpt is not None
-                    and step > start
-                    and ((ckpt_every and step % ckpt_every == 0) or step == stop_step < self.n_steps)
-                ):
-                    self._wall_s += time.perf_counter() - wall0
-                    wall0 = time.perf_counter()
-                    loop["wall_s"] = self._wall_s
-                    self.step_index = step
-                    self._checkpoint(ckpt)
+                if ckpt is not None and step > start:
+                    wall0 = self._checkpoint_if_due(ckpt, step, stop_step=stop_step, every=ckpt_every, wall0=wall0)
                 if step == stop_step < self.n_steps:
                     break
                 due = self.controller is not None and t >= loop["n_ctrl"] * self.controller.period_s - 1e-6 * dt
