@@ -306,16 +306,19 @@ def _check_header(tree: dict[str, Any], path: Path) -> tuple[str, str]:
         raise ConfigError([f"description: must be a string, got {description!r}"], source=str(path))
     report = tree.get("report", {})
     figures = report.get("figures", ["-"]) if isinstance(report, dict) else None
+    shares = report.get("shares", ["-"]) if isinstance(report, dict) else None
+    percentiles = report.get("percentiles", [50]) if isinstance(report, dict) else None
     if (
-        set(report or {}) - {"figures"}
-        or not isinstance(figures, list)
-        or not figures
-        or not all(isinstance(f, str) for f in figures)
+        set(report or {}) - {"figures", "percentiles", "shares"}
+        or not all(isinstance(v, list) and v and all(isinstance(f, str) for f in v) for v in (figures, shares))
+        or not isinstance(percentiles, list)
+        or not percentiles
+        or not all(not isinstance(q, bool) and isinstance(q, (int, float)) and 0 < q <= 100 for q in percentiles)
     ):
         raise ConfigError(
             [
-                f"report: must be a table with 'figures', a non-empty list of summary keys "
-                f"(magsail report), got {report!r}"
+                f"report: must be a table with 'figures' and 'shares', non-empty lists of summary keys, and "
+                f"'percentiles', a non-empty list of numbers in (0, 100] (magsail report), got {report!r}"
             ],
             source=str(path),
         )

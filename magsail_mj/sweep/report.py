@@ -12,6 +12,12 @@
   and failed (any run that did not complete, or whose structure failed), the share reached, and
   the 5/50/95 % percentiles;
   ``<figure>.png`` per figure: a histogram of the reached values and the empirical CDF.
+* **grid × Monte Carlo** (``[grid]`` and ``[monte_carlo]``: every grid point runs the same
+  samples, ids ``<grid id>/s<i>``): the Monte Carlo statistics per grid point (runs grouped by
+  the id's grid part, e.g. ``bdot_law=b_cross``), with the mean of the reached values beside the
+  percentiles: ``report.md`` with one table per figure (a row per grid point), ``percentiles.csv``
+  (a row per grid point and figure), and ``<figure>_cdf.png`` per figure with one empirical CDF
+  per grid point.
 
 Runs that failed or never reached a value are not dropped: they count in every denominator, as
 ``+inf`` in the percentiles (a percentile beyond the share reached is written ``never``), and
@@ -23,7 +29,11 @@ and failed as ``+inf``), the empirical CDF is ``F(x) = #{i : x_i ≤ x} / n`` an
 percentile is ``x_k`` with ``k = ⌈p n / 100⌉`` (the inverted CDF, no interpolation).
 
 The figures are the sweep file's ``[report] figures`` list, else (grid) every numeric scalar of
-the run summaries that varies across runs, or (Monte Carlo) every one ending in ``_s``.
+the run summaries that varies across runs, or (Monte Carlo) every one ending in ``_s``. The
+``[report]`` table may also give ``percentiles`` (numbers in (0, 100], default 5, 50, 95) and, for
+a Monte Carlo, ``shares``: summary keys holding true/false (e.g. ``detumbled``), each reported as
+the number and share of runs where it is true (failed runs count as not true; not-run runs are
+left out as above).
 ``magsail report sweep SWEEP_DIR`` (:func:`add_arguments`, :func:`main`) and ``python -m
 magsail_mj.sweep.report SWEEP_DIR`` run it.
 """
@@ -47,7 +57,7 @@ from magsail_mj.cli import add_sweep_report_arguments as add_arguments
 from magsail_mj.config import ConfigError, read_toml
 from magsail_mj.io import atomic_path, file_sha256
 
-__all__ = ["PERCENTILES", "write_report", "figure_stats", "add_arguments", "main", "ReportError"]
+__all__ = ["PERCENTILES", "write_report", "figure_stats", "share_stats", "add_arguments", "main", "ReportError"]
 
 PERCENTILES = (5.0, 50.0, 95.0)
 REPORT_DIR = "report"
@@ -92,17 +102,42 @@ def _load(sweep_dir: Path) -> tuple[list[dict[str, Any]], dict[str, Any], dict[s
     return records, manifest, tree
 
 
-def _report_options(tree: dict[str, Any]) -> list[str] | None:
-    """The ``[report] figures`` list of the sweep file (None when absent)."""
+def _report_table(tree: dict[str, Any]) -> dict[str, Any]:
     table = tree.get("report", {})
     if not isinstance(table, dict):
         raise ReportError(f"report: must be a table, got {table!r}")
-    figures = table.get("figures")
-    if figures is None:
+    unknown = sorted(set(table) - {"figures", "percentiles", "shares"})
+    if unknown:
+        raise ReportError(f"report: unknown keys {unknown!r} (known: figures, percentiles, shares)")
+    return table
+
+
+def _key_list(table: dict[str, Any], name: str) -> list[str] | None:
+    value = table.get(name)
+    if value is None:
         return None
-    if not isinstance(figures, list) or not figures or not all(isinstance(f, str) for f in figures):
-        raise ReportError(f"report.figures: must be a non-empty list of summary keys, got {figures!r}")
-    return figures
+    if not isinstance(value, list) or not value or not all(isinstance(f, str) for f in value):
+        raise ReportError(f"report.{name}: must be a non-empty list of summary keys, got {value!r}")
+    return value
+
+
+def _report_options(tree: dict[str, Any]) -> list[str] | None:
+    """The ``[report] figures`` list of the sweep file (None when absent)."""
+    return _key_list(_report_table(tree), "figures")
+
+
+def _report_percentiles(tree: dict[str, Any]) -> tuple[float, ...]:
+    """The ``[report] percentiles`` of the sweep file (:data:`PERCENTILES` when absent)."""
+    value = _report_table(tree).get("percentiles")
+    if value is None:
+        return PERCENTILES
+    if (
+        not isinstance(value, list)
+        or not value
+        or not all(not isinstance(p, bool) and isinstance(p, (int, float)) and 0 < p <= 100 for p in value)
+    ):
+        raise ReportError(f"report.percentiles: must be a non-empty list of numbers in (0, 100], got {value!r}")
+    return tuple(float(p) for p in value)
 
 
 def _number(value: Any) -> float | None:
@@ -193,6 +228,34 @@ def figure_stats(
         "percentiles": pct,
         "min": float(arr[0]) if reached else None,
         "max": float(arr[reached - 1]) if reached else None,
+        "mean_reached": float(np.mean(arr[:reached])) if reached else None,
+    }
+
+
+def share_stats(records: list[dict[str, Any]], key: str) -> dict[str, Any]:
+    """How many runs have the summary value ``key`` true: ``n`` (runs that ran, as
+    :func:`figure_stats` counts them), ``true``, ``false`` (completed, value not true), ``failed``
+    (counted as not true), ``not_run``, ``share_true = true / n`` and ``share_not = 1 − share_true``."""
+    true = false = failed = not_run = 0
+    for rec in records:
+        if rec.get("status") in _NOT_RUN:
+            not_run += 1
+        elif not _ok(rec):
+            failed += 1
+        elif (rec.get("summary") or {}).get(key) is True:
+            true += 1
+        else:
+            false += 1
+    n = true + false + failed
+    return {
+        "key": key,
+        "n": n,
+        "true": true,
+        "false": false,
+        "failed": failed,
+        "not_run": not_run,
+        "share_true": true / n if n else None,
+        "share_not": (n - true) / n if n else None,
     }
 
 
@@ -242,9 +305,17 @@ def _mc_plot(records: list[dict[str, Any]], figure: str, stats: dict[str, Any], 
         fig.savefig(tmp, format="png")
 
 
-def _mc_report(records: list[dict[str, Any]], figures: list[str], out: Path, title: str) -> list[Path]:
-    stats = [figure_stats(records, f) for f in figures]
-    names = [f"p{p:g}" for p in PERCENTILES]
+def _mc_report(
+    records: list[dict[str, Any]],
+    figures: list[str],
+    out: Path,
+    title: str,
+    *,
+    percentiles: Sequence[float] = PERCENTILES,
+    shares: Sequence[str] = (),
+) -> list[Path]:
+    stats = [figure_stats(records, f, percentiles) for f in figures]
+    names = [f"p{p:g}" for p in percentiles]
     head = ["figure", "n", "reached", "never", "failed", "not_run", "share_reached", *names, "min", "max"]
     rows = [
         [
@@ -278,11 +349,142 @@ def _mc_report(records: list[dict[str, Any]], figures: list[str], out: Path, tit
             f"{100 * (s['share_reached'] or 0):.1f} % | " + " | ".join(_fmt(s["percentiles"][k]) for k in names) + " |"
         )
     lines.append("")
+    if shares:
+        share_rows: list[list[Any]] = [["key", "n", "true", "false", "failed", "not_run", "share_true"]]
+        lines += ["| key | n | true | not true | failed | share true |", "|---|---|---|---|---|---|"]
+        for key in shares:
+            st = share_stats(records, key)
+            share_rows.append([key, st["n"], st["true"], st["false"], st["failed"], st["not_run"], st["share_true"]])
+            lines.append(
+                f"| `{key}` | {st['n']} | {st['true']} | {st['false']} | {st['failed']} | "
+                f"{100 * (st['share_true'] or 0):.1f} % |"
+            )
+        lines.append("")
+        paths.append(_write_csv(out / "shares.csv", share_rows))
     for s in stats:
         png = out / f"{_file_name(s['figure'])}.png"
         _mc_plot(records, s["figure"], s, png)
         paths.append(png)
         lines += [f"![{s['figure']}]({png.name})", ""]
+    paths.append(_write_md(out, lines))
+    return paths
+
+
+def _group_of(rec: dict[str, Any]) -> str:
+    """The grid point of a grid × Monte Carlo run: its id without the sample part ``/s<i>``."""
+    return str(rec["id"]).rsplit("/", 1)[0]
+
+
+def _groups(records: list[dict[str, Any]]) -> dict[str, list[dict[str, Any]]]:
+    groups: dict[str, list[dict[str, Any]]] = {}
+    for rec in records:
+        groups.setdefault(_group_of(rec), []).append(rec)
+    return groups
+
+
+def _cdf_plot(groups: dict[str, list[dict[str, Any]]], figure: str, path: Path) -> None:
+    """The empirical CDF of ``figure`` over every run of each group, one curve per group; a curve
+    ends at its group's share reached (failed and never-reached runs count in its n)."""
+    fig = Figure(figsize=(6.4, 4.0), dpi=_DPI)
+    ax = fig.subplots()
+    for name, records in groups.items():
+        n = sum(1 for r in records if r.get("status") not in _NOT_RUN)
+        reached = np.sort(
+            [x for r in records if _ok(r) and (x := _number((r.get("summary") or {}).get(figure))) is not None]
+        )
+        if not n:
+            continue
+        if reached.size:
+            steps = np.arange(1, reached.size + 1) / n
+            ax.step(
+                np.concatenate([[reached[0]], reached]),
+                np.concatenate([[0.0], steps]),
+                where="post",
+                label=f"{name} ({100 * reached.size / n:.0f} % reached)",
+            )
+        else:
+            ax.plot([], [], label=f"{name} (none reached)")
+    ax.set_xlabel(figure, fontsize=8)
+    ax.set_ylabel("F(x) over all runs of the grid point")
+    ax.set_ylim(0.0, 1.02)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+
+
+def _grouped_report(
+    records: list[dict[str, Any]],
+    figures: list[str],
+    out: Path,
+    title: str,
+    *,
+    percentiles: Sequence[float],
+    shares: Sequence[str],
+) -> list[Path]:
+    """The grid × Monte Carlo report (module docstring)."""
+    groups = _groups(records)
+    names = [f"p{p:g}" for p in percentiles]
+    head = ["grid_point", "figure", "n", "reached", "never", "failed", "not_run", "share_reached", *names]
+    head += ["mean_reached", "min", "max"]
+    rows: list[list[Any]] = []
+    lines = _report_head(
+        f"{title}: Monte Carlo report per grid point",
+        records,
+        f"{len(groups)} grid points, each over the same samples. Failed runs and runs that never reach a value "
+        "count in every share and as +inf in the percentiles (`never`); the mean is over the runs that reached "
+        "a value; runs the sweep did not run to their end (not_run, interrupted) are left out of n.",
+    )
+    for figure in figures:
+        lines += [
+            f"## `{figure}`",
+            "",
+            "| grid point | n | reached | never | failed | share reached | "
+            + " | ".join(names)
+            + " | mean (reached) |",
+            "|---|---|---|---|---|---|" + "---|" * len(names) + "---|",
+        ]
+        for name, group in groups.items():
+            st = figure_stats(group, figure, percentiles)
+            pct = [st["percentiles"][k] for k in names]
+            rows.append(
+                [name, figure, st["n"], st["reached"], st["never"], st["failed"], st["not_run"], st["share_reached"]]
+                + ["never" if v is None else v for v in pct]
+                + ["" if st[k] is None else st[k] for k in ("mean_reached", "min", "max")]
+            )
+            share = 100 * (st["share_reached"] or 0)
+            lines.append(
+                f"| {name} | {st['n']} | {st['reached']} | {st['never']} | {st['failed']} | {share:.1f} % | "
+                + " | ".join(_fmt(v) for v in pct)
+                + f" | {_fmt(st['mean_reached'])} |"
+            )
+        lines.append("")
+    paths = [_write_csv(out / "percentiles.csv", [head, *rows])]
+    if shares:
+        share_rows: list[list[Any]] = [["grid_point", "key", "n", "true", "false", "failed", "not_run", "share_true"]]
+        for key in shares:
+            lines += [
+                f"## `{key}`",
+                "",
+                "| grid point | n | true | not true | failed | share true | share not true |",
+                "|---|---|---|---|---|---|---|",
+            ]
+            for name, group in groups.items():
+                st = share_stats(group, key)
+                share_rows.append([name, key, st["n"], st["true"], st["false"], st["failed"], st["not_run"]])
+                share_rows[-1].append(st["share_true"])
+                lines.append(
+                    f"| {name} | {st['n']} | {st['true']} | {st['false']} | {st['failed']} | "
+                    f"{100 * (st['share_true'] or 0):.1f} % | {100 * (st['share_not'] or 0):.1f} % |"
+                )
+            lines.append("")
+        paths.append(_write_csv(out / "shares.csv", share_rows))
+    for figure in figures:
+        png = out / f"{_file_name(figure)}_cdf.png"
+        _cdf_plot(groups, figure, png)
+        paths.append(png)
+        lines += [f"![{figure}]({png.name})", ""]
     paths.append(_write_md(out, lines))
     return paths
 
@@ -416,7 +618,8 @@ def write_report(sweep_dir: str | Path, *, figures: Sequence[str] | None = None)
     """Write the report of the sweep in ``sweep_dir`` into ``sweep_dir/report/``; return its files.
 
     A Monte Carlo report when the sweep file has ``[monte_carlo]`` (or, without the file, the run
-    ids are the sample ids ``s<i>``), else a grid report. ``figures`` (summary keys) overrides the
+    ids are the sample ids ``s<i>``), per grid point when it also has ``[grid]`` (or, without the
+    file, the ids are ``<grid id>/s<i>``), else a grid report. ``figures`` (summary keys) overrides the
     sweep file's ``[report] figures`` and the defaults (module docstring).
 
     Raises:
@@ -436,8 +639,9 @@ def write_report(sweep_dir: str | Path, *, figures: Sequence[str] | None = None)
         )
     )
     chosen = list(figures) if figures else _report_options(tree) or _default_figures(records, monte_carlo=monte_carlo)
+    shares = (_key_list(_report_table(tree), "shares") or []) if monte_carlo else []
     known = {k for r in records for k in (r.get("summary") or {})}
-    unknown = [f for f in chosen if f not in known] if known else []
+    unknown = [f for f in [*chosen, *shares] if f not in known] if known else []
     if unknown:
         raise ReportError(f"figures: {unknown!r} not in any run summary (e.g. {sorted(known)[:8]!r})")
     if not chosen:
@@ -445,7 +649,11 @@ def write_report(sweep_dir: str | Path, *, figures: Sequence[str] | None = None)
     out = root / REPORT_DIR
     out.mkdir(exist_ok=True)
     title = str(manifest.get("name") or root.name)
-    return (_mc_report if monte_carlo else _grid_report)(records, chosen, out, title)
+    if not monte_carlo:
+        return _grid_report(records, chosen, out, title)
+    options = {"percentiles": _report_percentiles(tree), "shares": shares}
+    grouped = "grid" in tree if tree else any("/" in str(r["id"]) for r in records)
+    return (_grouped_report if grouped else _mc_report)(records, chosen, out, title, **options)
 
 
 def main(args: argparse.Namespace) -> int:
