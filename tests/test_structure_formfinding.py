@@ -261,6 +261,7 @@ def test_rest_lengths_carry_the_tension() -> None:
         (lambda: four_boom_sail(**SAIL_KW | {"n_segments": 1}, edge_sag_ratio=0.1), "edge_sag_ratio: needs n_segments"),
         (lambda: four_boom_sail(**SAIL_KW | {"net_prestrain": 0.0}, edge_sag_ratio=0.1), "net_prestrain: must be > 0"),
         (lambda: four_boom_sail(**SAIL_KW, edge_sag_ratio=-0.1), "edge_sag_ratio: must be finite and > 0"),
+        (lambda: four_boom_sail(**SAIL_KW, edge_sag_ratio=0.3), "edge_sag_ratio: no rim force density gives"),
         (
             lambda: four_boom_sail(**{k: v for k, v in SAIL_KW.items() if k != "net_EA_N"}, edge_sag_ratio=0.1),
             "edge_sag_ratio: needs a cable net",

@@ -137,16 +137,17 @@ def _cable_net(
             break
         low, high = low - math.log(10.0), high + math.log(10.0)
     else:
-        raise ValueError(f"edge_sag_ratio: no rim force density gives a sag of {ratio!r} × side")
+        reach = (miss(high) + ratio, miss(low) + ratio)
+        raise ValueError(
+            f"edge_sag_ratio: no rim force density gives a sag of {ratio!r} × side "
+            f"(from {math.exp(high):.3g} down to {math.exp(low):.3g} N/m: {reach[0]:.3g} to {reach[1]:.3g} × side)"
+        )
     found = shape(brentq(miss, low, high, xtol=1e-14, rtol=1e-12)) + 0.0  # no negative zeros
-    areas = (
-        0.5
-        * np.cross(found[triangles[:, 1]] - found[triangles[:, 0]], found[triangles[:, 2]] - found[triangles[:, 0]])[
-            :, 2
-        ]
-    )
-    if np.any(areas <= 0):
-        raise ValueError(f"edge_sag_ratio: the form-found net folds {int(np.sum(areas <= 0))} panels at {ratio!r}")
+    side_a = found[triangles[:, 1]] - found[triangles[:, 0]]
+    side_b = found[triangles[:, 2]] - found[triangles[:, 0]]
+    folded = int(np.sum(np.cross(side_a, side_b)[:, 2] <= 0))  # a panel's normal turned from +z
+    if folded:
+        raise ValueError(f"edge_sag_ratio: the form-found net folds {folded} panels at {ratio!r}")
     length = np.linalg.norm(found[edges[:, 1]] - found[edges[:, 0]], axis=1)
     cables = Members.build(
         edges,
@@ -218,7 +219,8 @@ def four_boom_sail(
       cable of tension ``T_e = q_e S / n`` (``S = side``) under the uniform inward pull
       ``p = q_i`` per length (the straight grid's two leg cables at a rim node, ``q_i a √2``
       inward per ``a √2`` of rim) sags ``f = p S² / (8 T_e)``, so ``q_e ≈ q_i n / (8 s)``.
-      Needs ``n_segments >= 2`` and ``net_prestrain > 0``.
+      Needs ``n_segments >= 2`` and ``net_prestrain > 0``; the sag is bounded by the rim's shape
+      as ``q_e → 0`` (0.204 of the side at 4 segments), and a ratio beyond it is refused.
     """
     side = check_positive("side_m", side_m)
     n = check_count("n_segments", n_segments, minimum=1)
