@@ -16,8 +16,8 @@ reproducible:
     free edges scalloped inward to a sag of a tenth of the side (10 m), which takes
     q_e = 1.48e-2 N/m (0.37-0.39 N in the rim cables); the membrane's area is then 7 480 m²
     (37.4 kg). The sag sets the rim's tension (the less sag, the more tension), and with it the
-    booms' compression: 0.61-1.17 N at the prestress equilibrium, under a third of their buckling load as
-    cantilevers from the hub, π² EI / (4 L²) = 3.9 N (a 5 m sag nearly triples the rim's
+    booms' compression: 0.61-1.17 N at the prestress equilibrium, under a third of their buckling
+    load as cantilevers from the hub, π² EI / (4 L²) = 3.9 N (a 5 m sag nearly triples the rim's
     tension, to 1.08 N, and takes them to 2.0 N; 2.5 m: 2.5 N and 3.7 N). The booms' axial
     rigidity is lowered to EA = 3e4 N (a tube's is about 6e6 N) so that the axial modes, which take
     no part in the attitude motion, stay below RK4's limit at δt = 0.05 s (ω_max δt < 2.8).
