@@ -481,7 +481,8 @@ def _add_run_verbs(sub: Any) -> None:
         default=None,
         metavar="N",
         help="time a batch of N identical worlds (the CNUSAIL B-dot detumble): adds worlds, us_per_world_step "
-        "and ratio_to_mj_step per world-step",
+        "and ratio_to_mj_step per world-step, and for a config on the Python path the same batch with compiled "
+        "loads (us_per_world_step_compiled, ratio_to_mj_step_compiled)",
     )
     bn.add_argument(
         "--threads",

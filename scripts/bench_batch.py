@@ -16,12 +16,17 @@ world-step:
   the same config, records in memory, wall);
 * the build time of the batch.
 
+``--loads compiled`` runs the batches and the single run with compiled loads (``sim.loads =
+"compiled"``: the plugin inside each world's step, Python only at the controller's samples and the
+records); the bare step is still that of the model without the plugin.
+
 Everything is measured in one run of this script, so the ratios compare like with like on the
 machine as it is then; absolute times move with the machine and its load.
 
     nice -n 10 python scripts/bench_batch.py              # 2000 steps (400 s) per pass, ≈ 5 min
     python scripts/bench_batch.py --steps 500 --worlds 1 16 --threads 1
     python scripts/bench_batch.py --epochs --json bench_batch.json
+    nice -n 10 python scripts/bench_batch.py --loads compiled --worlds 256 --threads 1
 """
 
 from __future__ import annotations
@@ -90,16 +95,17 @@ def batch_pass(overrides: list[str], n: int, nthread: int, *, epochs: bool) -> d
     bad = [f"world {k}: {w.status}" for k, w in enumerate(result.worlds) if w.status != "completed"]
     if bad:
         raise RuntimeError(f"batch of {n}: {', '.join(bad[:3])}")
-    physics = np.empty(mujoco.mj_stateSize(sim.model, _PHYSICS))
-    data = mujoco.MjData(sim.model)
+    model = getattr(sim.worlds, "bare_model", sim.model)  # without the compiled loads' plugin
+    physics = np.empty(mujoco.mj_stateSize(model, _PHYSICS))
+    data = mujoco.MjData(model)
     sim.worlds.init_state(0, data)
-    mujoco.mj_getState(sim.model, data, physics, _PHYSICS)
+    mujoco.mj_getState(model, data, physics, _PHYSICS)
     return {
         "us_per_world_step": result.wall_time_s / result.world_steps * 1e6,
         "cpu_us_per_world_step": cpu / result.world_steps * 1e6,
         "build_s": build,
         "physics": physics,
-        "model": sim.model,
+        "model": model,
     }
 
 
@@ -110,8 +116,9 @@ def main() -> int:
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="batch thread counts")
     ap.add_argument("--epochs", action="store_true", help="each world its own epoch (own environment tables)")
     ap.add_argument("--json", type=Path, default=None, help="also write the figures as JSON")
+    ap.add_argument("--loads", choices=("python", "compiled"), default="python", help="sim.loads (default python)")
     args = ap.parse_args()
-    overrides = [f"sim.duration_s={args.steps * 0.2!r}"]
+    overrides = [f"sim.duration_s={args.steps * 0.2!r}", f"sim.loads={args.loads!r}"]
     single = single_step_us(overrides, args.steps)
     rows = []
     bare = None
@@ -140,7 +147,7 @@ def main() -> int:
     assert bare is not None
     print()
     print(
-        f"config {CONFIG.name}, {args.steps} steps, epochs per world: {args.epochs}; "
+        f"config {CONFIG.name}, {args.steps} steps, loads {args.loads}, epochs per world: {args.epochs}; "
         f"bare mj_step {bare['wall_us']:.2f} us wall, {bare['cpu_us']:.2f} us CPU "
         f"(native nstep {bare['native_us']:.2f} us); single run {single:.2f} us/step "
         f"(÷ mj_step {single / bare['wall_us']:.2f})"
@@ -161,6 +168,7 @@ def main() -> int:
             "config": str(CONFIG),
             "steps": args.steps,
             "epochs": args.epochs,
+            "loads": args.loads,
             "mj_step": bare,
             "single_us_per_step": single,
             "rows": rows,

@@ -14,15 +14,20 @@ switched off (drag, SRP, residual dipole: the comparison of the peer's README); 
 rounds alternate the two, and the medians are compared. Prints one JSON object:
 ``project_us_per_step``, ``basilisk_us_per_step``, ``cost_ratio`` (project / Basilisk, per
 simulated second as both take the same steps; the target is ≤ 0.5), and the project's
-``ratio_to_mj_step`` (target ≤ 3) with its parts.
+``ratio_to_mj_step`` (target ≤ 3) with its parts. The same bench call times the project's compiled
+loads (``sim.loads = "compiled"``, loads held over the step as above): ``project_us_per_step_compiled``
+and ``cost_ratio_compiled``; ``--stage`` adds per round a bench of the compiled loads evaluated at
+every RK4 stage (``sim.load_timing = "stage"``: fourth order, as Basilisk's torque rods, which it
+evaluates at every stage): ``project_us_per_step_compiled_stage`` and ``cost_ratio_compiled_stage``.
 
-    python scripts/bench_cubesat_vs_basilisk.py --duration 1800 --rounds 3
+    python scripts/bench_cubesat_vs_basilisk.py --duration 1800 --rounds 3 --stage
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -74,19 +79,36 @@ def main(argv: list[str] | None = None) -> int:
         help="Python of the environment with bsk 2.12.1 (default $BSK_PYTHON or /tmp/bsk/bin/python)",
     )
     ap.add_argument("--peer-dir", type=Path, default=PEER_DIR, help="folder of bsk_detumble.py")
+    ap.add_argument("--stage", action="store_true", help="also time compiled loads evaluated at every RK4 stage")
     args = ap.parse_args(argv)
     if not (args.duration > 0 and args.rounds >= 1):
         ap.error("--duration must be > 0 and --rounds >= 1")
     if not Path(args.bsk_python).is_file():
         ap.error(f"--bsk-python: no such interpreter {args.bsk_python!r} (see the module docstring)")
-    peer, ours, ratios, runs = [], [], [], []
+    peer, ours, ratios, runs, compiled, stage = [], [], [], [], [], []
     for _ in range(args.rounds):
         peer.append(peer_us_per_step(args.bsk_python, args.peer_dir, args.duration))
         r = bench(CONFIG, overrides=SAME_PHYSICS, duration_s=args.duration)
         ours.append(r["us_per_step"])
         ratios.append(r["ratio_to_mj_step"])
+        compiled.append(r.get("us_per_step_compiled", math.nan))
         runs.append(r)
+        if args.stage:
+            over = (*SAME_PHYSICS, "sim.loads='compiled'", "sim.load_timing='stage'")
+            stage.append(bench(CONFIG, overrides=over, duration_s=args.duration)["us_per_step"])
     mid = runs[sorted(range(len(ours)), key=ours.__getitem__)[len(ours) // 2]]
+    bsk = statistics.median(peer)
+    extra = {
+        "project_us_per_step_compiled": statistics.median(compiled),
+        "cost_ratio_compiled": statistics.median(compiled) / bsk,
+        "project_compiled_runs_us": compiled,
+    }
+    if stage:
+        extra.update(
+            project_us_per_step_compiled_stage=statistics.median(stage),
+            cost_ratio_compiled_stage=statistics.median(stage) / bsk,
+            project_compiled_stage_runs_us=stage,
+        )
     out = {
         "duration_s": args.duration,
         "steps": mid["steps"],
@@ -95,6 +117,7 @@ def main(argv: list[str] | None = None) -> int:
         "basilisk_us_per_step": statistics.median(peer),
         "cost_ratio": statistics.median(ours) / statistics.median(peer),
         "ratio_to_mj_step": statistics.median(ratios),
+        **extra,
         "project_runs_us": ours,
         "basilisk_runs_us": peer,
         "project_parts_us": mid["parts_us"],

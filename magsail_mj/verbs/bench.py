@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 
+from magsail_mj.batch.groups import batch_bytes
 from magsail_mj.bench import BenchRunError, bench
 from magsail_mj.resources import check_memory, estimate_run_bytes
 from magsail_mj.verbs.common import load, print_json
@@ -20,7 +21,9 @@ def run_bench(args: argparse.Namespace) -> int:
         args.set = [*args.set, f"sim.duration_s={args.duration_s!r}"]
     cfg = load(args)
     worlds = getattr(args, "worlds", None)  # a batch of identical worlds (bench_worlds)
-    check_memory(estimate_run_bytes(cfg) * (worlds or 1), what=f"bench {args.config}: a run")
+    # a batch holds one world's records at a time in memory (each world streams to its store)
+    need = batch_bytes(cfg, worlds) if worlds else estimate_run_bytes(cfg)
+    check_memory(need, what=f"bench {args.config}: a run")
     try:
         result = bench(cfg, repeat=args.repeat, worlds=worlds, nthread=getattr(args, "nthread", 1))
     except BenchRunError as err:
