@@ -95,6 +95,7 @@ DIMENSIONLESS_NAMES = frozenset(
         "prestrain",  # structure: a member's strain at its reference length
         "reflectivity",  # structure: a panel's reflected and absorbed fractions
         "orientation",  # structure: a beam section's direction vector
+        "nonmonotonic_alpha",  # CNUSAIL: the weight of the look-ahead term in the detumble law's cost
     }
 )
 
