@@ -142,10 +142,14 @@ class Unit:
 
     def label(self, *, product: str = "·") -> str:
         """The printed unit: the factors of a product joined by ``product``, powers as
-        superscripts, one ``/`` per denominator group (``N·m/A``, ``kg/m³``, ``1/K``,
-        ``A·m²·s/T``; with ``product=" "``: ``N m s``)."""
+        superscripts, one ``/`` per denominator group, a group of several factors in parentheses
+        (``N·m/A``, ``kg/m³``, ``1/K``, ``A·m²·s/T``, ``1/(N·m·s)``; with ``product=" "``:
+        ``N m s``)."""
         top = _group_label(self.numerator, product) if self.numerator else "1"
-        return top + "".join("/" + _group_label(g, product) for g in self.denominators)
+        return top + "".join(
+            "/" + (f"({_group_label(g, product)})" if len(g) > 1 else _group_label(g, product))
+            for g in self.denominators
+        )
 
 
 def _group_label(group: tuple[tuple[str, int], ...], product: str) -> str:

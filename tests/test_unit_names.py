@@ -162,7 +162,7 @@ def _conventions_table() -> dict[str, str]:
         ("field_uT", "µT"),
         ("B_nT", "nT"),
         ("rho_ref_ohmm", "Ω·m"),
-        ("torque_matrix_Nm_AT", "N·m/A·T"),
+        ("torque_matrix_Nm_AT", "N·m/(A·T)"),
         ("lifetime_days", "days"),
     ],
 )
