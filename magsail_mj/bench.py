@@ -42,15 +42,19 @@ same call, never absolute times across machines.
 (:func:`magsail_mj.batch.load_batch`, ``nthread`` threads) is run for the same steps, each world's
 records streamed to its own temporary Zarr store, and the report gives ``worlds``, ``nthread``,
 ``us_per_world_step`` (the batch's step-loop wall time over the world-steps it took),
-``cpu_us_per_world_step`` (the process's CPU time over the same, every thread counted),
-``mj_step_us`` (the bare single-thread ``mj_step`` of world 0's model, as above),
-``ratio_to_mj_step = us_per_world_step / mj_step_us`` and ``cpu_ratio_to_mj_step``, medians of
+``cpu_us_per_world_step`` (the process's CPU time over the same, every thread counted, the
+threads writing the records' stores too), ``mj_step_us`` (the bare single-thread ``mj_step`` of
+world 0's model, as above) and ``mj_step_cpu_us`` (its thread's CPU time),
+``ratio_to_mj_step = us_per_world_step / mj_step_us`` and ``cpu_ratio_to_mj_step =
+cpu_us_per_world_step / mj_step_cpu_us`` (CPU to CPU: robust to other processes taking the cores
+from the wall time), medians of
 ``repeat`` passes, and ``build_s`` (the batch's build, median). For a config on the Python path
 whose scenario has compiled loads, the same passes with ``sim.loads = "compiled"`` (the batch's
 worlds on models with the plugin, stepped natively between the controller's samples and the
 records) add ``us_per_world_step_compiled``, ``cpu_us_per_world_step_compiled``,
 ``ratio_to_mj_step_compiled`` and ``cpu_ratio_to_mj_step_compiled`` against the bare step timed
-after each of those passes (``mj_step_us_compiled_passes``), and ``build_s_compiled`` (or
+after each of those passes (``mj_step_us_compiled_passes``, ``mj_step_cpu_us_compiled_passes``),
+and ``build_s_compiled`` (or
 ``compiled_unavailable``: why not). The bare step is always that of world 0's model without the
 plugin.
 """
@@ -146,9 +150,9 @@ def _timed_run(sim: Any, store: Path) -> tuple[float, float, int]:
     return float(result.wall_time_s), wall, int(result.steps)
 
 
-def _bare_step_s(model: mujoco.MjModel, physics_state: np.ndarray, n: int) -> tuple[float, float]:
-    """Seconds per bare ``mj_step`` of a model copy from ``physics_state``: per Python call, and
-    in one native ``nstep`` call."""
+def _bare_step_s(model: mujoco.MjModel, physics_state: np.ndarray, n: int) -> tuple[float, float, float]:
+    """Seconds per bare ``mj_step`` of a model copy from ``physics_state``: per Python call (wall),
+    in one native ``nstep`` call (wall), and the CPU time of the calling thread per Python call."""
     m = copy.deepcopy(model)
     d = mujoco.MjData(m)
     out = []
@@ -156,14 +160,16 @@ def _bare_step_s(model: mujoco.MjModel, physics_state: np.ndarray, n: int) -> tu
         mujoco.mj_resetData(m, d)
         mujoco.mj_setState(m, d, physics_state, _PHYSICS)
         step = mujoco.mj_step
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         if native:
             step(m, d, n)
         else:
             for _ in range(n):
                 step(m, d)
         out.append((time.perf_counter() - t0) / n)
-    return out[0], out[1]
+        if not native:
+            cpu = (time.thread_time() - c0) / n
+    return out[0], out[1], cpu
 
 
 def _bare_model(sim: Any) -> mujoco.MjModel:
@@ -376,7 +382,7 @@ def bench(
             wall, call, steps = _timed_run(sim, Path(tmp) / f"pass{i}.zarr")
             all_in.append(wall / steps)
             setup.append(call - wall)
-            per_call, per_native = _bare_step_s(_bare_model(sim), physics, steps)
+            per_call, per_native, _ = _bare_step_s(_bare_model(sim), physics, steps)
             bare.append(per_call)
             native.append(per_native)
         model = sim.model
@@ -472,7 +478,7 @@ def _batch_passes(cfg: BaseModel, *, worlds: int, nthread: int, repeat: int, tmp
 
     Raises:
       BenchRunError: a world of a pass did not complete."""
-    out: dict[str, Any] = {"wall": [], "cpu": [], "bare": [], "native": [], "build": []}
+    out: dict[str, Any] = {"wall": [], "cpu": [], "bare": [], "bare_cpu": [], "native": [], "build": []}
     for i in range(repeat):
         t0 = time.perf_counter()
         sim = load_batch(cfg, worlds=worlds, nthread=nthread)
@@ -492,8 +498,9 @@ def _batch_passes(cfg: BaseModel, *, worlds: int, nthread: int, repeat: int, tmp
         data = mujoco.MjData(bare_model)
         sim.worlds.init_state(0, data)
         mujoco.mj_getState(bare_model, data, physics, _PHYSICS)
-        per_call, per_native = _bare_step_s(bare_model, physics, sim.n_steps)
+        per_call, per_native, per_call_cpu = _bare_step_s(bare_model, physics, sim.n_steps)
         out["bare"].append(per_call)
+        out["bare_cpu"].append(per_call_cpu)
         out["native"].append(per_native)
         out["steps"], out["model"] = sim.n_steps, bare_model
         del sim, result
@@ -532,18 +539,20 @@ def bench_worlds(
             except ConfigError as err:
                 compiled = {"compiled_unavailable": "; ".join(err.problems)}
             else:
-                us_c, cpu_c = (statistics.median(c[x]) * 1e6 for x in ("wall", "cpu"))
-                mj_c = statistics.median(c["bare"]) * 1e6
+                us_c, cpu_c, mj_c, mj_cpu_c = (
+                    statistics.median(c[x]) * 1e6 for x in ("wall", "cpu", "bare", "bare_cpu")
+                )
                 compiled = {
                     "us_per_world_step_compiled": us_c,
                     "cpu_us_per_world_step_compiled": cpu_c,
                     "mj_step_us_compiled_passes": mj_c,
+                    "mj_step_cpu_us_compiled_passes": mj_cpu_c,
                     "ratio_to_mj_step_compiled": us_c / mj_c,
-                    "cpu_ratio_to_mj_step_compiled": cpu_c / mj_c,
+                    "cpu_ratio_to_mj_step_compiled": cpu_c / mj_cpu_c,
                     "build_s_compiled": statistics.median(c["build"]),
                     "us_per_world_step_compiled_runs": [x * 1e6 for x in c["wall"]],
                 }
-    us, cpu_us, mj_us = (statistics.median(runs[x]) * 1e6 for x in ("wall", "cpu", "bare"))
+    us, cpu_us, mj_us, mj_cpu_us = (statistics.median(runs[x]) * 1e6 for x in ("wall", "cpu", "bare", "bare_cpu"))
     steps, model = runs["steps"], runs["model"]
     dt = float(model.opt.timestep)
     return {
@@ -561,8 +570,9 @@ def bench_worlds(
         "us_per_world_step": us,
         "cpu_us_per_world_step": cpu_us,
         "mj_step_us": mj_us,
+        "mj_step_cpu_us": mj_cpu_us,
         "ratio_to_mj_step": us / mj_us,
-        "cpu_ratio_to_mj_step": cpu_us / mj_us,
+        "cpu_ratio_to_mj_step": cpu_us / mj_cpu_us,
         "mj_step_native_us": statistics.median(runs["native"]) * 1e6,
         "build_s": statistics.median(runs["build"]),
         "us_per_world_step_runs": [x * 1e6 for x in runs["wall"]],

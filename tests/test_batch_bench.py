@@ -19,7 +19,7 @@ def test_bench_worlds_reports_per_world_step_figures():
     assert (out["worlds"], out["nthread"], out["steps"], out["repeat"]) == (3, 2, 10, 2)
     assert out["us_per_world_step"] > 0 and out["mj_step_us"] > 0
     assert out["ratio_to_mj_step"] == pytest.approx(out["us_per_world_step"] / out["mj_step_us"], rel=1e-12)
-    assert out["cpu_ratio_to_mj_step"] == pytest.approx(out["cpu_us_per_world_step"] / out["mj_step_us"], rel=1e-12)
+    assert out["cpu_ratio_to_mj_step"] == pytest.approx(out["cpu_us_per_world_step"] / out["mj_step_cpu_us"], rel=1e-12)
     assert len(out["us_per_world_step_runs"]) == 2
     with pytest.raises(ValueError, match="worlds: must be an integer >= 1, got 0"):
         bench(PRE, duration_s=2.0, worlds=0)

@@ -136,7 +136,7 @@ def test_bench_worlds_adds_the_compiled_batch():
         out["us_per_world_step_compiled"] / out["mj_step_us_compiled_passes"], rel=1e-12
     )
     assert out["cpu_ratio_to_mj_step_compiled"] == pytest.approx(
-        out["cpu_us_per_world_step_compiled"] / out["mj_step_us_compiled_passes"], rel=1e-12
+        out["cpu_us_per_world_step_compiled"] / out["mj_step_cpu_us_compiled_passes"], rel=1e-12
     )
     own = bench(PRE, overrides=[COMPILED], duration_s=2.0, worlds=2)
     assert own["loads"] == "compiled" and "us_per_world_step_compiled" not in own and own["us_per_world_step"] > 0
