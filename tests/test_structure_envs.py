@@ -1,11 +1,13 @@
 """Environment of the structure concept (magsail_mj.concepts.structure.env): dm_env contract, the
-shipped controllers as policies (the run's summary to 1e-9 relative; the rods action gives the run's
-records exactly), the dipole action's torque, seeding, the drawn start, termination when a member
-breaks, action bounds and refusals.
+shipped controllers as policies (the run's summary to 1e-9 relative; the rods and currents actions
+give the run's records exactly), the dipole action's torque, a held loop current's torque, seeding,
+the drawn start, termination when a member breaks, action bounds and refusals.
 
 Small, short runs: the regular octahedron of the concept's tests (6 nodes of 1 kg, 12 struts with a
 200 A m² rod each, isotropic inertia 4 kg m², a constant field, free space) at δt = 5 ms, control
-every 50 ms, 1 s (20 environment steps); the shipped 100 m sail (``structure/detumble``) for 2–3 s.
+every 50 ms, 1 s (20 environment steps), and the same with current loops on its three equators
+(2 m² each, at most 50 A); the shipped 100 m sail (``structure/detumble``) for 2–3 s and the
+shipped 100 m reflector slewed by its two rim loops for 3 s.
 """
 
 from __future__ import annotations
@@ -30,6 +32,9 @@ from tests.envs_shared import RandomActions, assert_shipped_policy_gives_the_run
 
 SAIL = "structure/detumble"
 SAIL_SHORT = ("sim.duration_s=3", "sim.progress=false")  # control every 0.5 s: 6 steps
+REFLECTOR = envs.core.REPO_ROOT / "magsail_mj/concepts/structure/configs/reflector_loops_slew.toml"
+REFLECTOR_SHORT = ["sim.duration_s=3", "sim.progress=false"]  # control every 1 s: 3 steps
+LOOP_I_MAX_A = 50.0
 FIELD_T = 3e-5
 INERTIA_KGM2 = 4.0  # six 1 kg nodes at unit distance: I = 2 · 2 · 1 kg m² about every axis
 
@@ -67,6 +72,30 @@ def octahedron(scenario: str = "detumble", **sim: Any) -> dict[str, Any]:
     return tree
 
 
+def looped(scenario: str = "detumble", *, rods: bool = True, field_T: Any = None) -> dict[str, Any]:
+    """The octahedron with a current loop on each of its three equators (the squares of the nodes
+    ±e_j, ±e_k: vector areas 2 m² along +z, +x, +y in that order, at most ``LOOP_I_MAX_A``), with or
+    without its rods; ``field_T`` replaces the constant field."""
+    tree = octahedron(scenario)
+    edges = tree["structure"]["member_groups"][0]["nodes"]
+    index = {tuple(e): i for i, e in enumerate(edges)}
+
+    def loop(seq: list[int]) -> list[int]:
+        return [index[(min(a, b), max(a, b))] for a, b in zip(seq, seq[1:] + seq[:1])]
+
+    tree["structure"]["member_sets"] = {
+        "eq_z": loop([0, 2, 1, 3]),
+        "eq_x": loop([2, 4, 3, 5]),
+        "eq_y": loop([4, 0, 5, 1]),
+    }
+    tree["loops"] = {"member_sets": ["eq_z", "eq_x", "eq_y"], "I_max_A": LOOP_I_MAX_A}
+    if not rods:
+        del tree["actuators"]
+    if field_T is not None:
+        tree["field"]["constant_T"] = list(field_T)
+    return tree
+
+
 def load(tree: dict[str, Any], **options: Any):
     return envs.load(parse_config(tree), **options)
 
@@ -85,6 +114,16 @@ class StructureDetumbleTorqueEnvTest(RandomActions, test_utils.EnvironmentTestMi
 class StructureSlewRodsEnvTest(RandomActions, test_utils.EnvironmentTestMixin, absltest.TestCase):
     def make_object_under_test(self):
         return load(octahedron("slew"), random=0, action="rods")
+
+
+class StructureLoopsDetumbleTorqueEnvTest(RandomActions, test_utils.EnvironmentTestMixin, absltest.TestCase):
+    def make_object_under_test(self):
+        return load(looped(rods=False), random=0)
+
+
+class StructureLoopsSlewCurrentsEnvTest(RandomActions, test_utils.EnvironmentTestMixin, absltest.TestCase):
+    def make_object_under_test(self):
+        return load(looped("slew"), random=0, action="currents")
 
 
 # ----------------------------------------------------------------------------- the shipped controllers
@@ -127,6 +166,49 @@ def test_shipped_activations_as_the_rods_action_give_the_runs_records() -> None:
     np.testing.assert_allclose(got["rod_activation"], ref["rod_activation"], rtol=0, atol=1e-12)
 
 
+def test_shipped_reflector_loops_slew_through_the_environment_gives_the_run_summary() -> None:
+    """The shipped 100 m reflector slewed by its two rim loops (no rods; quaternion PD with the
+    gravity-gradient compensation, solar pressure, tidal gravity in orbit), its ``T_ref`` as the
+    torque action through the shipped allocation over the loops: every summary key of the run to
+    1e-9 relative, the loops saturated at every sample as in the run."""
+    ref, steps = assert_shipped_policy_gives_the_run_summary(REFLECTOR, REFLECTOR_SHORT)
+    assert steps == 3 and ref["control_samples"] == 4 and len(ref) > 30
+    assert ref["saturation_fraction"] == 1.0 and ref["loop_current_max_A"] == pytest.approx(10.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("scenario", ["detumble", "slew"])
+@pytest.mark.parametrize("rods", [False, True], ids=["loops", "loops_and_rods"])
+def test_shipped_commands_over_loops_through_every_action_give_the_run(scenario: str, rods: bool) -> None:
+    """The octahedron with its three equator loops (and its rods): the shipped ``T_ref`` as the
+    torque action gives every summary key of the run to 1e-9 relative; the shipped currents (and
+    activations) as the currents action give the run's motion and currents exactly (``I/I_max ·
+    I_max`` is ``I`` here, measured), the recorded dipole ``D v`` to 1e-14 of its largest (``v``
+    and ``I/I_max`` an ulp apart); the shipped dipole as the dipole action gives back ``v = D⁺ (D v)`` to
+    rounding (v lies in D's row space): positions within 1e-12 m, currents within 1e-9 A (of
+    ≤ 50 A; measured 6e-12)."""
+    tree = looped(scenario, rods=rods)
+    sim, result = run_of(tree)
+    ref = result.records
+    torque = load(tree, randomize=False)
+    _, steps = envs.run_episode(torque, envs.shipped_policy(torque))
+    assert steps == 20 and torque.physics.status == "completed"
+    assert envs.summary_mismatches(sim.scenario.postprocess(result)[0], torque.physics.summary(), rel=1e-9) == []
+    currents = load(tree, randomize=False, action="currents")
+    envs.run_episode(currents, envs.shipped_policy(currents))
+    got = currents.physics.result().records
+    for key in ["qpos", "loop_currents_A", "angmom_world_Nms"] + (["rod_activation"] if rods else []):
+        np.testing.assert_array_equal(got[key], ref[key], err_msg=key)
+    for key in ("dipole_body_Am2", "torque_alloc_body_Nm"):  # D v with v = I/I_max: an ulp apart
+        scale = np.max(np.abs(np.asarray(ref[key])))
+        np.testing.assert_allclose(got[key], ref[key], rtol=0, atol=1e-14 * scale, err_msg=key)
+    assert np.max(np.abs(np.asarray(ref["loop_currents_A"]))) > 1.0  # the loops carry the slew
+    dipole = load(tree, randomize=False, action="dipole")
+    envs.run_episode(dipole, envs.shipped_policy(dipole))
+    got = dipole.physics.result().records
+    np.testing.assert_allclose(got["qpos"], ref["qpos"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got["loop_currents_A"], ref["loop_currents_A"], rtol=0, atol=1e-9)
+
+
 # ----------------------------------------------------------------------------- physics of an action
 
 
@@ -149,6 +231,32 @@ def test_a_dipole_action_changes_the_angular_momentum_by_m_cross_b() -> None:
     t, H = np.asarray(rec["t"]), np.asarray(rec["angmom_world_Nms"])
     T = np.cross(m, [0.0, 0.0, FIELD_T])
     np.testing.assert_allclose(H[1:], np.outer(t[1:], T), rtol=0, atol=1e-6 * np.linalg.norm(T) * t[-1])
+
+
+def test_a_held_loop_current_changes_the_angular_momentum_by_i_a_n_cross_b() -> None:
+    """From rest, the equator loop of normal +z (a planar square of vector area A n̂ = 2 m² ẑ)
+    held at I = 25 A (half its limit; the other loops off) in the field B x̂ turns the octahedron
+    with the torque I A n̂ × B = I A B ŷ: H(t) = (I A n̂ × B) t. The body
+    turns about y by θ = |T| t² / (2 I_b) ≤ 1.9e-4 rad in 1 s, which turns n̂ in the x–z plane, so
+    the torque's y component falls by cos θ (≥ 1 − 2e-8) and it gains no other component; the loop
+    forces strain the stiff struts by ~1e-9. Within 1e-7 of |T| t (measured 3.5e-9). The
+    observation reports the held currents."""
+    field = np.array([FIELD_T, 0.0, 0.0])
+    tree = looped(rods=False, field_T=field)
+    tree["initial"] = {"omega0_rad_s": [0.0, 0.0, 0.0]}
+    env = load(tree, randomize=False, action="currents")
+    obs = env.reset().observation
+    np.testing.assert_array_equal(obs["loop_currents_A"], np.zeros(3))
+    action = np.array([0.5, 0.0, 0.0])
+    ts = env.step(action)
+    np.testing.assert_array_equal(ts.observation["loop_currents_A"], [0.5 * LOOP_I_MAX_A, 0.0, 0.0])
+    while not ts.last():
+        ts = env.step(action)
+    rec = env.physics.result().records
+    t, H = np.asarray(rec["t"]), np.asarray(rec["angmom_world_Nms"])
+    T = np.cross(0.5 * LOOP_I_MAX_A * 2.0 * np.array([0.0, 0.0, 1.0]), field)
+    assert T[1] == pytest.approx(1.5e-3, rel=1e-12)
+    np.testing.assert_allclose(H[1:], np.outer(t[1:], T), rtol=0, atol=1e-7 * np.linalg.norm(T) * t[-1])
 
 
 # ----------------------------------------------------------------------------- seeds and the start
@@ -260,6 +368,23 @@ def test_action_bounds_clipping_and_refusals() -> None:
         rods.step(np.zeros(3))
 
 
+@pytest.mark.parametrize("action", ["torque", "dipole", "currents"])
+def test_huge_finite_actions_keep_the_loop_currents_within_their_limits(action: str) -> None:
+    """Finite actions up to ±1.7e308 on every component through the loops and rods: the held
+    command is finite, every ``|I_L| ≤ I_max`` and ``|u_r| ≤ 1`` (to 1e-12: the saturation divides
+    by the largest ratio), and the step's observation is finite."""
+    env = load(looped("slew"), random=0, action=action)
+    env.reset()
+    n = env.action_spec().shape[0]
+    for value in (1e300, -1.7e308, 1e-300):
+        ts = env.step(np.full(n, value) * np.where(np.arange(n) % 2, -1.0, 1.0))
+        cmd = env.physics.controller.command
+        assert np.all(np.abs(cmd.currents_A) <= LOOP_I_MAX_A * (1 + 1e-12))
+        assert np.all(np.abs(cmd.activation) <= 1 + 1e-12)
+        assert np.all(np.isfinite(cmd.dipole_body)) and np.all(np.isfinite(cmd.torque_ref_body))
+        assert all(np.all(np.isfinite(v)) for v in ts.observation.values()) and math.isfinite(ts.reward)
+
+
 def test_sail_dipole_bounds_are_zero_across_the_plane_of_its_rods() -> None:
     """The sail's rods lie along its booms, in the sail's plane z = 0: no dipole across it (bound
     0, the component dropped), the in-plane bounds Σ m_max |r̂_i| (the booms along the diagonals:
@@ -280,7 +405,7 @@ def test_configs_without_rods_and_bad_options_are_refused_by_name() -> None:
     del free["control"]
     with pytest.raises(ValueError, match="config: the given config .*'free'.* has no environment"):
         load(free)
-    with pytest.raises(ValueError, match="action: must be one of 'torque', 'dipole', 'rods', got 'volts'"):
+    with pytest.raises(ValueError, match="action: must be one of 'torque', 'dipole', 'rods', 'currents', got 'volts'"):
         load(octahedron(), action="volts")
     with pytest.raises(ValueError, match="rate_range_rad_s: must be a finite number >= 0"):
         load(octahedron(), rate_range_rad_s=-1.0)
@@ -290,11 +415,36 @@ def test_configs_without_rods_and_bad_options_are_refused_by_name() -> None:
     with pytest.raises(ValueError, match=r"randomize: the structure holds components in place \(structure.fixed\)"):
         load(held)
     assert isinstance(load(held, randomize=False).task, StructureRodsTask)
-    looped = octahedron()
-    edges = looped["structure"]["member_groups"][0]["nodes"]
-    equator = [0, 2, 1, 3]  # nodes +x, +y, -x, -y
-    pairs = [sorted(p) for p in zip(equator, equator[1:] + equator[:1])]
-    looped["structure"]["member_sets"] = {"equator": [edges.index(p) for p in pairs]}
-    looped["loops"] = {"member_sets": ["equator"], "I_max_A": 10.0}
-    with pytest.raises(ValueError, match=r"config: loops: the environment drives the rods only"):
-        load(looped)
+    with pytest.raises(ValueError, match=r"action: 'currents' sets current loops and the config has none"):
+        load(octahedron(), action="currents")
+
+
+def test_loop_action_bounds_clipping_and_refusals() -> None:
+    """With loops: the torque bound adds Σ I_max |a_L| · 1e-4 T, the dipole bound I_max |a_L,i|
+    per axis to the rods'; the currents action is one value per loop then one per rod, clipped to
+    ±1 (currents ±I_max); a wrong length is refused, and so is ``rods`` without rods (naming
+    ``actuators.member_set``) or beside loops that it would leave off."""
+    rods_only = load(octahedron(), action="dipole").action_spec()
+    both = load(looped(), action="dipole").action_spec()
+    np.testing.assert_allclose(both.maximum, rods_only.maximum + 2.0 * LOOP_I_MAX_A, rtol=1e-12)
+    torque = load(looped()).action_spec()
+    np.testing.assert_allclose(torque.maximum, (12 * 200.0 + 3 * 2.0 * LOOP_I_MAX_A) * B_BOUND_T, rtol=1e-12)
+    env = load(looped(), random=0, action="currents")
+    spec = env.action_spec()
+    assert spec.shape == (15,) and spec.name.startswith("u_loop_eq_z,u_loop_eq_x,u_loop_eq_y,u_member0,")
+    env.reset()
+    env.step(np.r_[3.0, -0.25, -7.0, 2.0, -2.0, np.zeros(10)])
+    cmd = env.physics.controller.command
+    np.testing.assert_array_equal(cmd.currents_A, [LOOP_I_MAX_A, -0.25 * LOOP_I_MAX_A, -LOOP_I_MAX_A])
+    np.testing.assert_array_equal(cmd.activation, np.r_[1.0, -1.0, np.zeros(10)])
+    with pytest.raises(ValueError, match=r"action: expected shape \(15,\)"):
+        env.step(np.zeros(3))
+    loops_only = load(looped(rods=False), random=0, action="currents")
+    assert loops_only.action_spec().shape == (3,)
+    loops_only.reset()
+    with pytest.raises(ValueError, match=r"action: expected shape \(3,\)"):
+        loops_only.step(np.zeros(15))
+    with pytest.raises(ValueError, match=r"action: 'rods' drives magnetorquer rods and the config has none"):
+        load(looped(rods=False), action="rods")
+    with pytest.raises(ValueError, match=r"action: 'rods' would leave the config's current loops \(\[loops\]\) off"):
+        load(looped(), action="rods")

@@ -250,6 +250,17 @@ class StructureRodController:
         T = quaternion_feedback_torque(q_e, omega, Pq_Nm=self.Pq, Pw_Nms=self.Pw, gg_comp_body=comp)
         return T, q_e
 
+    def actuator_matrix(self, state: Any, R: np.ndarray) -> np.ndarray:
+        """``D`` (3 × (R + L)) [A m²], body axes: the rods' columns ``m_max,r r̂_r`` then the current
+        loops' ``I_max,L Rᵀ a_L`` with their vector areas ``a_L = ½ Σ x_a × x_b`` at ``state``'s
+        node positions (module docstring, step 5); ``R`` the sampled rotation, body → world. The
+        rods' ``D`` alone without loops."""
+        if self.loops is None:
+            return self.allocation.D
+        I_max = self.loops.loops.current_max_A
+        a_body = self.loops.vector_areas(self.loops.node_positions(state)) @ R  # rows Rᵀ a_L
+        return np.hstack([self.allocation.D, (a_body * I_max[:, None]).T])
+
     def update(self, state: Any) -> DipoleCommand:
         """One control sample: state → :class:`DipoleCommand`."""
         if state.env is None:
@@ -262,12 +273,10 @@ class StructureRodController:
             dipole = self.allocation.D @ u
             currents = np.zeros(0)
         else:
-            I_max = self.loops.loops.current_max_A
-            a_body = self.loops.vector_areas(self.loops.node_positions(state)) @ R  # rows Rᵀ a_L
-            D = np.hstack([self.allocation.D, (a_body * I_max[:, None]).T])
+            D = self.actuator_matrix(state, R)
             v, saturated = least_norm_activations(np.linalg.pinv(D, rcond=LOOP_PINV_RCOND), T_ref, B_body)
             n_rods = self.allocation.D.shape[1]
-            u, currents = v[:n_rods], v[n_rods:] * I_max
+            u, currents = v[:n_rods], v[n_rods:] * self.loops.loops.current_max_A
             dipole = D @ v
         self.stats[0] += 1
         self.stats[1] += saturated
