@@ -133,7 +133,7 @@ ACTIONS = ("torque", "dipole", "rods", "currents")
 """The action modes (module docstring)."""
 
 SERVED_SCENARIOS = ("detumble", "slew")
-"""The scenarios with rods and a controller, which the environment serves."""
+"""The scenarios with actuators (rods, current loops) and a controller, which the environment serves."""
 
 _IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
@@ -248,7 +248,7 @@ class StructureRodsTask(AttitudeTask):
         shipped = base.controller
         if not isinstance(shipped, StructureRodController):
             raise ValueError(
-                f"config: scenario {self.cfg.scenario!r} has no rod controller; the environment serves "
+                f"config: scenario {self.cfg.scenario!r} has no actuator controller; the environment serves "
                 f"{', '.join(map(repr, SERVED_SCENARIOS))}"
             )
         self.converter = ActionDipoleConverter(shipped=shipped, mode=action)
