@@ -762,6 +762,32 @@ class Simulation(SteppedRun):
             self.status, self.message = _non_finite_records(self.recorder) or (self.status, self.message)
         return self._result(start)
 
+    def _control_sample(self, state: StepState, t: float) -> None:
+        """The controller's sample at ``t``: its command, held from now (``state.ctrl`` too), the
+        index of the next sample and the command's actuator controls."""
+        loop, dt = self._loop, self.model.opt.timestep
+        loop["cmd"] = self.controller.update(state)
+        state.ctrl = loop["cmd"]
+        period = self.controller.period_s
+        loop["n_ctrl"] = int(np.floor(t / period + 1e-6 * dt / period)) + 1
+        if hasattr(loop["cmd"], "apply_ctrl"):
+            loop["cmd"].apply_ctrl(self.data)
+
+    def _record(self, state: StepState, t: float, pos: np.ndarray) -> str | None:
+        """Record the probes at ``t``; then the strain check (StructureFailure: the failing state
+        is valid and recorded first) and the stop rule, whose reason is returned when it ends the
+        run (else None)."""
+        values = {name: probe(state, self.data) for name, probe in self.probes.items()}
+        values["t"] = t
+        self.recorder.append(values)
+        if self.strain_check is not None:
+            strain, strut = self.strain_check(pos)
+            if not strain <= self.max_strain:
+                raise StructureFailure(
+                    f"strut {strut} strain {strain:.3g} exceeds sim.max_strain {self.max_strain:g} at t = {t:.6g} s"
+                )
+        return self.stop_rule.check(t, values) if self.stop_rule is not None else None
+
     def _checkpoint_if_due(self, ckpt: Path, step: int, *, stop_step: int, every: int, wall0: float) -> float:
         """Write the checkpoint at ``step`` when it is due (every ``every`` steps, and at a stop
         before the end); returns the wall-clock origin of the loop's next interval."""
@@ -818,26 +844,10 @@ class Simulation(SteppedRun):
                     t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega, env=env_t, ctrl=loop["cmd"]
                 )
                 if due:
-                    loop["cmd"] = self.controller.update(state)
-                    state.ctrl = loop["cmd"]
-                    period = self.controller.period_s
-                    loop["n_ctrl"] = int(np.floor(t / period + 1e-6 * dt / period)) + 1
-                    if hasattr(loop["cmd"], "apply_ctrl"):
-                        loop["cmd"].apply_ctrl(d)
-                if recording:
-                    values = {name: probe(state, d) for name, probe in self.probes.items()}
-                    values["t"] = t
-                    recorder.append(values)
-                    if self.strain_check is not None:  # the failing state is valid: it is recorded first
-                        strain, strut = self.strain_check(kin.pos)
-                        if not strain <= self.max_strain:
-                            raise StructureFailure(
-                                f"strut {strut} strain {strain:.3g} exceeds sim.max_strain "
-                                f"{self.max_strain:g} at t = {t:.6g} s"
-                            )
-                    if self.stop_rule is not None and (why := self.stop_rule.check(t, values)) is not None:
-                        self.status, self.message = "completed", why
-                        break
+                    self._control_sample(state, t)
+                if recording and (why := self._record(state, t, kin.pos)) is not None:
+                    self.status, self.message = "completed", why
+                    break
                 if step == self.n_steps:
                     self.status = "completed"
                     break
@@ -922,26 +932,10 @@ class Simulation(SteppedRun):
                         t=t, pos=kin.pos, vel=kin.vel, xquat=kin.xquat, omega=kin.omega, env=env_t, ctrl=loop["cmd"]
                     )
                     if due:
-                        loop["cmd"] = self.controller.update(state)
-                        state.ctrl = loop["cmd"]
-                        period = self.controller.period_s
-                        loop["n_ctrl"] = int(np.floor(t / period + 1e-6 * dt / period)) + 1
-                        if hasattr(loop["cmd"], "apply_ctrl"):
-                            loop["cmd"].apply_ctrl(d)
-                    if recording:
-                        values = {name: probe(state, d) for name, probe in self.probes.items()}
-                        values["t"] = t
-                        recorder.append(values)
-                        if self.strain_check is not None:
-                            strain, strut = self.strain_check(kin.pos)
-                            if not strain <= self.max_strain:
-                                raise StructureFailure(
-                                    f"strut {strut} strain {strain:.3g} exceeds sim.max_strain "
-                                    f"{self.max_strain:g} at t = {t:.6g} s"
-                                )
-                        if self.stop_rule is not None and (why := self.stop_rule.check(t, values)) is not None:
-                            self.status, self.message = "completed", why
-                            break
+                        self._control_sample(state, t)
+                    if recording and (why := self._record(state, t, kin.pos)) is not None:
+                        self.status, self.message = "completed", why
+                        break
                 if step == self.n_steps:
                     self.status = "completed"
                     break
