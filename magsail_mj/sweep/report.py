@@ -297,12 +297,22 @@ def _mc_plot(records: list[dict[str, Any]], figure: str, stats: dict[str, Any], 
     ax_h.set_xlabel(figure, fontsize=8)
     ax_h.set_ylabel("runs")
     ax_c.set_xlabel(figure, fontsize=8)
-    ax_c.set_ylabel("F(x) over all runs")
-    ax_c.set_ylim(0.0, 1.02)
-    ax_c.legend(fontsize=7, loc="lower right")
+    _finish_cdf(fig, ax_c, path, ylabel="F(x) over all runs")
+
+
+def _save(fig: Any, path: Path) -> None:
+    """Lay out ``fig`` and write it to ``path`` as PNG, atomically."""
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png")
+
+
+def _finish_cdf(fig: Any, ax: Any, path: Path, *, ylabel: str) -> None:
+    """Label a CDF axis (``ylabel``, F from 0 to 1, legend) and save ``fig`` to ``path``."""
+    ax.set_ylabel(ylabel)
+    ax.set_ylim(0.0, 1.02)
+    ax.legend(fontsize=7, loc="lower right")
+    _save(fig, path)
 
 
 def _mc_report(
@@ -405,13 +415,8 @@ def _cdf_plot(groups: dict[str, list[dict[str, Any]]], figure: str, path: Path) 
         else:
             ax.plot([], [], label=f"{name} (none reached)")
     ax.set_xlabel(figure, fontsize=8)
-    ax.set_ylabel("F(x) over all runs of the grid point")
-    ax.set_ylim(0.0, 1.02)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="lower right")
-    fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png")
+    _finish_cdf(fig, ax, path, ylabel="F(x) over all runs of the grid point")
 
 
 def _grouped_report(
@@ -537,9 +542,7 @@ def _grid_plot(records: list[dict[str, Any]], key: str, others: list[str], figur
         ax.set_visible(False)
     if 1 < len(groups) <= 8:
         axes[0].legend(fontsize=6)
-    fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png")
+    _save(fig, path)
 
 
 def _report_head(heading: str, records: list[dict[str, Any]], note: str) -> list[str]:
