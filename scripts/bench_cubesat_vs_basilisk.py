@@ -1,8 +1,9 @@
 """The CNUSAIL stowed detumble: the project's step loop against the Basilisk rebuild, back to back.
 
-The peer is the independent Basilisk rebuild of ``detumble_pre.toml`` in
-``/work/shared/peers/basilisk`` (its README: rigid hub, point mass + J2, WMM field, B-dot as a
-Basilisk Python module, ``MtbEffector``, gravity gradient; RK4 at 0.1 s). It needs ``bsk`` 2.12.1
+The peer is an independent Basilisk rebuild of ``detumble_pre.toml``, kept outside this
+repository and given with ``--peer-dir`` (a folder holding ``bsk_detumble.py``: rigid hub, point
+mass + J2, WMM field, B-dot as a Basilisk Python module, ``MtbEffector``, gravity gradient; RK4 at
+0.1 s; it writes its wall time around ``ExecuteSimulation``). It needs ``bsk`` 2.12.1
 in a separate environment (never a dependency of this package)::
 
     python3 -m venv /tmp/bsk && /tmp/bsk/bin/pip install bsk==2.12.1 numpy matplotlib
@@ -39,7 +40,6 @@ from magsail_mj.bench import bench
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "magsail_mj/concepts/cnusail/configs/detumble_pre.toml"
-PEER_DIR = Path("/work/shared/peers/basilisk")
 SAME_PHYSICS = (
     "drag.enabled=false",
     "srp.enabled=false",
@@ -78,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
         default=os.environ.get("BSK_PYTHON", "/tmp/bsk/bin/python"),
         help="Python of the environment with bsk 2.12.1 (default $BSK_PYTHON or /tmp/bsk/bin/python)",
     )
-    ap.add_argument("--peer-dir", type=Path, default=PEER_DIR, help="folder of bsk_detumble.py")
+    ap.add_argument("--peer-dir", type=Path, required=True, help="folder of the rebuild's bsk_detumble.py")
     ap.add_argument("--stage", action="store_true", help="also time compiled loads evaluated at every RK4 stage")
     args = ap.parse_args(argv)
     if not (args.duration > 0 and args.rounds >= 1):
