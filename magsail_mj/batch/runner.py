@@ -397,14 +397,20 @@ class BatchSimulation:
             for k in np.flatnonzero(finished):
                 self.status[k], self.message[k] = "interrupted", f"interrupted at t = {step * dt:.6g} s"
         finally:
-            self.step_index = step
-            ended = self.live | finished
-            self.end_step[ended] = step
-            rec.flush(ended)
-            if finished.any():
-                self.live[finished] = False
-                self.plant.set_live(self.live)
-            self._wall_s += time.perf_counter() - wall0
+            self._end_loop(step, finished, wall0)
+
+    def _end_loop(self, step: int, finished: np.ndarray, wall0: float) -> None:
+        """After a step loop stopped at ``step``: the worlds that ended there (the live ones and
+        ``finished``, those that completed or were interrupted) get their end step and their records
+        flushed, the finished ones stop, and the loop's wall time since ``wall0`` is counted."""
+        self.step_index = step
+        ended = self.live | finished
+        self.end_step[ended] = step
+        self.recorded.flush(ended)
+        if finished.any():
+            self.live[finished] = False
+            self.plant.set_live(self.live)
+        self._wall_s += time.perf_counter() - wall0
 
     def _advance_native(self, stop_step: int, *, bar: Any = None) -> None:
         """The loop with the loads inside MuJoCo's step (module docstring): Python at the
@@ -453,14 +459,7 @@ class BatchSimulation:
             for k in np.flatnonzero(finished):
                 self.status[k], self.message[k] = "interrupted", f"interrupted at t = {step * dt:.6g} s"
         finally:
-            self.step_index = step
-            ended = self.live | finished
-            self.end_step[ended] = step
-            rec.flush(ended)
-            if finished.any():
-                self.live[finished] = False
-                self.plant.set_live(self.live)
-            self._wall_s += time.perf_counter() - wall0
+            self._end_loop(step, finished, wall0)
 
     def _chunk(self, first: int, last: int) -> None:
         """Step every live world from step ``first`` to ``last`` in one native call. A world that
