@@ -47,7 +47,7 @@ import numpy as np
 from magsail_mj.batch.environment import EnvironmentStack
 from magsail_mj.compiled import load_plugin
 from magsail_mj.concepts.cnusail.batch_control import BdotWorlds
-from magsail_mj.concepts.cnusail.batch_plant import PROBES
+from magsail_mj.concepts.cnusail.batch_plant import PROBES, controller_probes
 from magsail_mj.concepts.cnusail.compiled import LIBRARY, STATE_OFFSETS, CompiledCubesat, cubesat_params
 from magsail_mj.concepts.cnusail.model import CnusailModel
 from magsail_mj.config import ConfigError
@@ -256,16 +256,8 @@ class CompiledCubesatWorlds:
         c = self.ctl
         v = self.plugin_values()
         return {
-            "qpos": qpos.copy(),
-            "qvel": qvel.copy(),
-            "mode": c.mode,
-            "p_e": c.p_e,
-            "theta_e_rad": c.theta_e,
-            "omega_e_rad_s": c.omega_e,
-            "u_cmd_Nm": c.u,
+            **controller_probes(c, qpos, qvel),
             "T_M_Nm": v[:, 15:18],
-            "dipole_cmd_Am2": c.dipole_held,
-            "unload_mask": c.unload_mask,
             "torque_dist_body_Nm": v[:, :12].reshape(self.n, 4, 3),
             "torque_mtq_body_Nm": v[:, 12:15],
         }

@@ -37,7 +37,7 @@ from magsail_mj.batch.environment import EnvironmentStack
 from magsail_mj.batch.worldmath import cross, mat_t_vec_blas, quat_integrate, quat_to_mat
 from magsail_mj.concepts.cnusail.mjcf import CubesatIndices
 
-__all__ = ["CubesatWorlds", "PROBES"]
+__all__ = ["CubesatWorlds", "PROBES", "controller_probes"]
 
 PROBES = (
     "qpos",
@@ -54,6 +54,23 @@ PROBES = (
     "torque_mtq_body_Nm",
 )
 """The probes of the cubesat's attitude run (the single run's, in its order)."""
+
+
+def controller_probes(ctl: Any, qpos: np.ndarray, qvel: np.ndarray) -> dict[str, np.ndarray]:
+    """The probes every world reads from its state and its controller ``ctl`` (the batch
+    controller of :mod:`magsail_mj.concepts.cnusail.batch_control`), (N, …) each: the state, the
+    mode, the attitude error, the wheel command, the held dipole and the unloading mask."""
+    return {
+        "qpos": qpos.copy(),
+        "qvel": qvel.copy(),
+        "mode": ctl.mode,
+        "p_e": ctl.p_e,
+        "theta_e_rad": ctl.theta_e,
+        "omega_e_rad_s": ctl.omega_e,
+        "u_cmd_Nm": ctl.u,
+        "dipole_cmd_Am2": ctl.dipole_held,
+        "unload_mask": ctl.unload_mask,
+    }
 
 
 class CubesatWorlds:
@@ -133,16 +150,8 @@ class CubesatWorlds:
         c = self.ctl
         R_raw = quat_to_mat(qpos[:, self.idx.q_quat])
         return {
-            "qpos": qpos.copy(),
-            "qvel": qvel.copy(),
-            "mode": c.mode,
-            "p_e": c.p_e,
-            "theta_e_rad": c.theta_e,
-            "omega_e_rad_s": c.omega_e,
-            "u_cmd_Nm": c.u,
+            **controller_probes(c, qpos, qvel),
             "T_M_Nm": c.T_M,
-            "dipole_cmd_Am2": c.dipole_held,
-            "unload_mask": c.unload_mask,
             "torque_dist_body_Nm": self.dist.torques_body(s),
             "torque_mtq_body_Nm": cross(c.dipole_body, mat_t_vec_blas(R_raw, s.env.B_eci)),
         }
