@@ -48,7 +48,7 @@ threshold (at most 32 MiB: not at 2 048 nodes, whose memory comes back from free
 raises a stage's per-node ratio by a step rather than a power.
 
 Our build's own superlinear part is MuJoCo's spec API: an element added to an ``MjSpec`` rebuilds
-its element lists (``ResetTreeLists``, ``MakeTreeLists``: the spec's size), and an attach costs the
+its element lists (``ResetTreeLists``, ``MakeTreeLists``: the MjSpec's size), and an attach costs the
 receiving spec's size (:class:`~magsail_mj.lattice.mjcf.WorldTrees`: chunks of 64 bodies, about
 ``√k`` groups). ``build_attach`` times every ``MjSpec.attach`` of the build (the method wrapped in
 the benchmark process): ``into_spec`` the groups attached into the returned spec, ``into_groups``
