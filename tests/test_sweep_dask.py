@@ -53,6 +53,15 @@ def _run_processes_below(nannies) -> dict[int, int]:
     return found
 
 
+def _scheduler_address(info: Path) -> str | None:
+    """The address in the scheduler file, or None while the scheduler has not finished writing it
+    (the file appears before its JSON is complete)."""
+    try:
+        return json.loads(info.read_text())["address"]
+    except (OSError, ValueError, KeyError):
+        return None
+
+
 @pytest.fixture
 def dask_cluster(tmp_path):
     """A scheduler and two single-thread workers on localhost (``dask scheduler`` / ``dask worker``)."""
@@ -84,8 +93,8 @@ def dask_cluster(tmp_path):
         )
     ]
     try:
-        wait_for(info.exists, 180, "the scheduler")
-        address = json.loads(info.read_text())["address"]
+        wait_for(lambda: _scheduler_address(info) is not None, 180, "the scheduler")
+        address = _scheduler_address(info)
         for name in ("w1", "w2"):
             procs.append(
                 subprocess.Popen(
