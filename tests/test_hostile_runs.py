@@ -547,7 +547,9 @@ def test_a_signal_while_the_command_starts_is_exit_130(tmp_path, signame, delay_
     """Ctrl-C or SIGTERM during the imports (before any verb runs) or in the verb: exit 130, one
     line, no traceback (it used to kill the process or print an ImportError traceback)."""
     config = str(MODELS / "cnusail/configs/detumble_pre.toml")
-    argv = ["run", config, "--out", str(tmp_path / "r"), "--set", "sim.duration_s=3000", "--no-progress"]
+    # Ten orbits (about 290 000 steps, tens of seconds): the run is still going when the signal
+    # comes even on a fast machine (3 000 s finished inside 4.5 s on one).
+    argv = ["run", config, "--out", str(tmp_path / "r"), "--set", "sim.duration_s=57825", "--no-progress"]
     proc = start_cli(argv, cwd=tmp_path, module="magsail_mj.entry")
     time.sleep(delay_s)
     proc.send_signal(getattr(signal, signame))
