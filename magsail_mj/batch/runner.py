@@ -36,8 +36,10 @@ go on. Statuses are those of :class:`~magsail_mj.sim.RunResult` (``running``, ``
 
 :meth:`get_state` / :meth:`set_state` hold the whole batch as plain data (every world's MuJoCo
 integration state, the plant's Python-side state, the statuses and record counts); continuing from
-a state gives the same numbers, bit for bit, as the run that followed it. Checkpoint files are not
-written by a batch (yet): its state is in memory.
+a state gives the same numbers, bit for bit, as the run that followed it. :meth:`run` writes that
+state to a checkpoint file every ``checkpoint_every_s`` and resumes from one
+(:mod:`magsail_mj.batch.checkpoint`: one data-only file for the whole batch, with each world's
+identity and record count; the records stay in each world's store).
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ from typing import Any, Mapping, Protocol, Sequence
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 
+from magsail_mj.batch.checkpoint import restore_batch_checkpoint, write_batch_checkpoint
 from magsail_mj.batch.records import WorldRecords
 from magsail_mj.divergence import BAD_STATE_WARNINGS
 from magsail_mj.sim import RunResult, _non_finite_records, progress_bar, vector_norm
@@ -305,23 +308,42 @@ class BatchSimulation:
         stop_after_s: float | None = None,
         records_paths: Sequence[str | Path] | None = None,
         records_attrs: Sequence[dict[str, Any] | None] | None = None,
+        checkpoint_path: str | Path | None = None,
+        checkpoint_every_s: float = 0.0,
+        resume: bool = False,
     ) -> BatchResult:
         """Run every live world from the current state to ``duration_s`` (or until it stops, an
         interrupt, or ``stop_after_s``).
 
         ``records_paths`` (one per world) streams each world's records to its Zarr store, with
-        ``records_attrs[k]`` as its attributes (as :meth:`Simulation.run`'s ``records_path``)."""
-        if records_paths is not None:
+        ``records_attrs[k]`` as its attributes (as :meth:`Simulation.run`'s ``records_path``).
+
+        ``checkpoint_path`` (with ``records_paths``): the batch checkpoint
+        (:mod:`magsail_mj.batch.checkpoint`) is written there at every step that is a multiple of
+        ``checkpoint_every_s`` [s] (0: none) and at ``stop_after_s``, as a single run's is; with
+        ``resume`` the batch (freshly built from the same configs) first continues from it, its
+        stores cut to the file's record counts. A resumed world's ``wall_time_s`` includes the
+        checkpointed batch's, as a resumed single run's does."""
+        if checkpoint_path is not None and records_paths is None:
+            raise ValueError("checkpoint_path: a batch checkpoint needs the worlds' record stores (records_paths)")
+        if resume and checkpoint_path is None:
+            raise ValueError("resume: needs the checkpoint_path to resume from")
+        if not (checkpoint_every_s >= 0.0 and math.isfinite(checkpoint_every_s)):
+            raise ValueError(f"checkpoint_every_s: must be a finite number >= 0 [s], got {checkpoint_every_s!r}")
+        if resume:
+            restore_batch_checkpoint(self, Path(checkpoint_path), list(records_paths))
+        elif records_paths is not None:
             attrs = list(records_attrs) if records_attrs is not None else [None] * len(records_paths)
             self.recorded.create_stores(list(records_paths), attrs)
         start = self.step_index
-        steps0 = self._world_steps.copy()
-        wall0 = self._wall_s
+        steps0 = np.zeros_like(self._world_steps) if resume else self._world_steps.copy()
+        wall0 = 0.0 if resume else self._wall_s
         stop_step = self.n_steps if stop_after_s is None else min(self.n_steps, int(round(stop_after_s / self.dt)))
         bar = progress_bar(total=self.n_steps, initial=start, mininterval_s=1.0) if progress else None
+        ckpt = Path(checkpoint_path) if checkpoint_path is not None else None
+        every = int(round(checkpoint_every_s / self.dt)) if checkpoint_every_s > 0 and ckpt is not None else 0
         try:
-            if self.live.any():
-                self._advance(stop_step, bar=bar)
+            self._advance_checkpointed(stop_step, ckpt=ckpt, every=every, bar=bar)
         finally:
             if bar is not None:
                 bar.close()
@@ -346,6 +368,32 @@ class BatchSimulation:
             for k, rec in enumerate(self.recorded.recorders)
         ]
         return BatchResult(worlds=worlds, wall_time_s=wall, world_steps=total)
+
+    def _advance_checkpointed(self, stop_step: int, *, ckpt: Path | None, every: int, bar: Any) -> None:
+        """:meth:`_advance` to ``stop_step`` in pieces that end at the checkpoint steps (multiples of
+        ``every``, and ``stop_step`` before the end), writing the checkpoint ``ckpt`` at each (at
+        the top of the step, before its controller sample and record, as a single run does). The
+        loops end a piece at its step exactly where they would pass it, so the numbers do not depend
+        on the pieces; an interrupt while a checkpoint is written (kept whole: it is replaced
+        atomically) stops the running worlds as one in a step would."""
+        while self.live.any():
+            target = stop_step if not every else min(stop_step, (self.step_index // every + 1) * every)
+            self._advance(target, bar=bar)
+            if ckpt is None or self.step_index != target or not self.live.any() or target == self.n_steps:
+                break
+            if (every and target % every == 0) or target == stop_step:
+                wall0 = time.perf_counter()
+                try:
+                    write_batch_checkpoint(self, ckpt)
+                except KeyboardInterrupt:
+                    for k in np.flatnonzero(self.live):
+                        self.status[k], self.message[k] = "interrupted", f"interrupted at t = {self.time:.6g} s"
+                    self.live[:] = False
+                    self.plant.set_live(self.live)
+                finally:
+                    self._wall_s += time.perf_counter() - wall0
+            if target == stop_step:
+                break
 
     def _advance(self, stop_step: int, *, bar: Any = None) -> None:
         """The lockstep loop from the current step to ``stop_step`` (module docstring)."""

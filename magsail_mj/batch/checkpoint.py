@@ -1,0 +1,238 @@
+r"""Checkpoint files of a batch: the whole batch's state in one data-only file, resumable bit for bit.
+
+A batch checkpoint is written in the single run's safe format (:func:`magsail_mj.checkpoint.write_checkpoint`:
+one NumPy ``.npz`` of plain arrays with a JSON header, read with ``allow_pickle=False``, carrying
+its :func:`~magsail_mj.checkpoint.state_digest`, written atomically). It holds
+:meth:`~magsail_mj.batch.runner.BatchSimulation.get_state` — the step, every world's MuJoCo
+integration state, which worlds run, their statuses, messages, end steps and record counts, the
+stop rules' state and the plant's Python-side state — as flat named arrays (``s.<key path>``) and
+JSON scalars, and, per world, its run identity (:func:`~magsail_mj.checkpoint.run_identity`: the
+hash of the config keys that change the numbers, the tree of those keys, the package versions),
+the name of its run folder and record store, its record count and the digests of every record
+chunk in its store (:meth:`~magsail_mj.records.Recorder.digest_table`). The records themselves stay
+in each world's store (flushed before the file is written), so the file's size does not grow
+with the run.
+
+On resume (:func:`restore_batch_checkpoint`) the batch is rebuilt from its configs, and the file
+is accepted only when
+
+* it reads back against its digest (an edited or truncated file is refused);
+* it holds as many worlds as the batch, and world k's identity is world k's now (a refusal names
+  the world, its folder and the config keys that differ, as a single run's ``--resume`` does);
+* every value has the key path, type, shape and dtype of the rebuilt batch's own
+  :meth:`~magsail_mj.batch.runner.BatchSimulation.get_state` (the file is data read into declared
+  fields: nothing of it names a class, an attribute or a module);
+* each world's store holds the records the file counts, equal to their digests.
+
+Each world's store is then cut to its record count and continued, and the batch continues from the
+file's step: the following steps, records and statuses are those of the uninterrupted batch.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, write_checkpoint
+from magsail_mj.records import RecordStoreError, verify_digests
+
+__all__ = ["BATCH_CHECKPOINT_NAME", "write_batch_checkpoint", "read_batch_checkpoint", "restore_batch_checkpoint"]
+
+BATCH_CHECKPOINT_NAME = "checkpoint-batch.npz"
+"""The file name of a batch's checkpoint (in its first world's run folder, by default)."""
+
+_KIND = "magsail_mj batch checkpoint 1"
+_STATUSES = ("running", "completed", "diverged", "failed", "stopped", "interrupted")
+_SCALARS = (bool, int, float, str, type(None))
+
+
+# ---------------------------------------------------------------------- plain data ↔ flat arrays
+def _flatten(value: Any, path: str, arrays: dict[str, np.ndarray], scalars: dict[str, Any]) -> None:
+    """Put the leaves of ``value`` (nested dicts of arrays, scalars and lists of scalars) into
+    ``arrays`` (``s.<path>``) and ``scalars`` (``<path>`` → JSON value)."""
+    if isinstance(value, dict):
+        for key, item in value.items():
+            if not isinstance(key, str) or "." in key or not key:
+                raise TypeError(f"batch state: key {key!r} under {path or 'the root'} is not a plain name")
+            _flatten(item, f"{path}.{key}" if path else key, arrays, scalars)
+    elif isinstance(value, np.ndarray):
+        if value.dtype.hasobject:
+            raise TypeError(f"batch state: {path} is an object array")
+        arrays[f"s.{path}"] = np.array(value, copy=True)
+    elif isinstance(value, np.generic):
+        scalars[path] = value.item()
+    elif isinstance(value, _SCALARS):
+        scalars[path] = value
+    elif isinstance(value, (list, tuple)) and all(isinstance(v, _SCALARS) for v in value):
+        scalars[path] = list(value)
+    else:
+        raise TypeError(f"batch state: {path} holds a {type(value).__name__}, not plain data")
+
+
+def _json_type(value: Any) -> type:
+    """The type a JSON round trip gives ``value`` (NumPy scalars as their Python type)."""
+    return type(value.item()) if isinstance(value, np.generic) else type(value)
+
+
+def _unflatten(
+    template: Any, path: str, arrays: dict[str, np.ndarray], scalars: dict[str, Any], seen: set[str], *, where: Path
+) -> Any:
+    """The value at ``path`` read from the file, with the form of ``template`` (the rebuilt batch's
+    own state): the same keys, the same array shapes and dtypes, the same scalar types."""
+    if isinstance(template, dict):
+        return {
+            key: _unflatten(item, f"{path}.{key}" if path else key, arrays, scalars, seen, where=where)
+            for key, item in template.items()
+        }
+    if isinstance(template, np.ndarray):
+        name = f"s.{path}"
+        seen.add(name)
+        if name not in arrays:
+            raise CheckpointError(f"checkpoint: {where} lacks the batch state {path!r}")
+        got = arrays[name]
+        if got.shape != template.shape or got.dtype != template.dtype:
+            raise CheckpointError(
+                f"checkpoint: {where}: batch state {path!r} is {got.dtype}{list(got.shape)}, "
+                f"this batch holds {template.dtype}{list(template.shape)}"
+            )
+        return np.array(got, copy=True)
+    seen.add(path)
+    if path not in scalars:
+        raise CheckpointError(f"checkpoint: {where} lacks the batch state {path!r}")
+    got = scalars[path]
+    if isinstance(template, (list, tuple)):
+        ok = (
+            isinstance(got, list)
+            and len(got) == len(template)
+            and all(type(a) is _json_type(b) for a, b in zip(got, template))
+        )
+    else:
+        ok = type(got) is _json_type(template)
+    if not ok:
+        raise CheckpointError(f"checkpoint: {where}: batch state {path!r} is {got!r}, not of this batch's form")
+    return got
+
+
+# ---------------------------------------------------------------------- writing
+def write_batch_checkpoint(sim: Any, path: Path) -> None:
+    """Write the batch ``sim`` (a :class:`~magsail_mj.batch.runner.BatchSimulation` whose worlds
+    stream their records to stores) to the checkpoint ``path`` (module docstring). Every world's
+    store is flushed first, so it holds every record the file counts."""
+    state = sim.get_state()
+    recorders = sim.recorders
+    if any(rec.path is None for rec in recorders):
+        raise ValueError("checkpoint_path: a batch checkpoints worlds whose records stream to stores (records_paths)")
+    arrays: dict[str, np.ndarray] = {}
+    scalars: dict[str, Any] = {}
+    _flatten(state, "", arrays, scalars)
+    arrays["world_steps"] = np.array(sim._world_steps, dtype=np.int64, copy=True)
+    worlds = []
+    for k, rec in enumerate(recorders):
+        rec.flush()
+        identity = sim.identities[k] if k < len(sim.identities) else {}
+        worlds.append(
+            {
+                **identity,
+                "folder": rec.path.parent.name,
+                "records_store": rec.path.name,
+                "n_records": len(rec),
+                "records_digests": rec.digest_table(),
+            }
+        )
+    header = {
+        "kind": _KIND,
+        "step": int(state["step"]),
+        "t_s": sim.time,
+        "wall_s": float(sim._wall_s),
+        "n_worlds": sim.n_worlds,
+        "scalars": scalars,
+        "worlds": worlds,
+    }
+    write_checkpoint(Path(path), header, tree={}, arrays={}, extra_arrays=arrays)
+
+
+# ---------------------------------------------------------------------- reading
+def read_batch_checkpoint(
+    path: Path, *, identities: Sequence[dict[str, Any]], folders: Sequence[str] | None = None
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """``(header, arrays)`` of the batch checkpoint ``path`` after its checks against the batch
+    that would resume it: its digest, its kind, one world per identity and world k's identity
+    equal to ``identities[k]``, and (given ``folders``) world k written into the folder named
+    ``folders[k]``.
+
+    Raises:
+      CheckpointError: naming the file and, for a world that differs, the world, its folder and
+        the config keys that differ.
+    """
+    path = Path(path)
+    header, _, arrays = read_checkpoint(path)
+    worlds = header.get("worlds")
+    if header.get("kind") != _KIND or not isinstance(worlds, list) or not all(isinstance(w, dict) for w in worlds):
+        raise CheckpointError(f"checkpoint: {path} is not a {_KIND!r} file")
+    if len(worlds) != len(identities):
+        raise CheckpointError(f"checkpoint: {path} holds {len(worlds)} worlds, this batch {len(identities)}")
+    for k, (world, identity) in enumerate(zip(worlds, identities)):
+        folder = world.get("folder")
+        if folders is not None and folder != folders[k]:
+            raise CheckpointError(
+                f"checkpoint: {path}: world {k} ran into the folder {folder!r}, "
+                f"this batch's world {k} runs into {folders[k]!r}"
+            )
+        try:
+            check_identity(world, identity, path=path)
+        except CheckpointError as err:
+            raise CheckpointError(f"world {k} (folder {folder!r}): {err}") from None
+    if not isinstance(header.get("scalars"), dict) or not isinstance(header.get("step"), int):
+        raise CheckpointError(f"checkpoint: {path} has a malformed batch header")
+    return header, arrays
+
+
+def restore_batch_checkpoint(sim: Any, path: Path, records_paths: Sequence[str | Path]) -> None:
+    """Continue the freshly built batch ``sim`` from the checkpoint ``path`` (module docstring):
+    the checks of :func:`read_batch_checkpoint`, every value read into the form of the batch's own
+    state, each world's store ``records_paths[k]`` read back against its digests, cut to its
+    record count and continued; then :meth:`~magsail_mj.batch.runner.BatchSimulation.set_state`.
+
+    Raises:
+      CheckpointError: the file or a store is refused (nothing of the batch is changed before
+        the file's checks pass).
+    """
+    path = Path(path)
+    stores = [Path(p) for p in records_paths]
+    header, arrays = read_batch_checkpoint(path, identities=sim.identities, folders=[p.parent.name for p in stores])
+    template = sim.get_state()
+    seen: set[str] = set()
+    state = _unflatten(template, "", arrays, header["scalars"], seen, where=path)
+    extra = sorted((set(header["scalars"]) | {k for k in arrays if k.startswith("s.")}) - seen)
+    if extra:
+        raise CheckpointError(f"checkpoint: {path} holds batch state this batch has not: {', '.join(extra[:5])}")
+    step = state["step"]
+    if not 0 <= step <= sim.n_steps:
+        raise CheckpointError(
+            f"checkpoint: {path} is at t = {header.get('t_s')} s, beyond sim.duration_s = {sim.duration_s:g} s "
+            "(a resume may extend a run, not shorten it)"
+        )
+    bad = [s for s in state["status"] if s not in _STATUSES]
+    counts = state["n_records"]
+    steps = arrays.get("world_steps")
+    if bad or (counts < 0).any() or steps is None or steps.shape != (sim.n_worlds,) or steps.dtype != np.int64:
+        raise CheckpointError(f"checkpoint: {path} has malformed world statuses, record counts or step counts")
+    for k, (world, store) in enumerate(zip(header["worlds"], stores)):  # every store checked first
+        n, digests = world.get("n_records"), world.get("records_digests")
+        if world.get("records_store") != store.name or n != int(counts[k]) or not isinstance(digests, dict):
+            raise CheckpointError(f"checkpoint: {path}: world {k} names no record count of {store.name}")
+        try:
+            if n:
+                verify_digests(store, digests)
+        except RecordStoreError as err:
+            raise CheckpointError(f"checkpoint: {path}: world {k}: {err}") from None
+    for k, (world, store) in enumerate(zip(header["worlds"], stores)):
+        try:
+            sim.recorders[k].open_store(store, world["n_records"], digests=world["records_digests"])
+        except RecordStoreError as err:
+            raise CheckpointError(f"checkpoint: {path}: world {k}: {err}") from None
+    sim.set_state(state)
+    sim._wall_s = float(header.get("wall_s", 0.0))
+    sim._world_steps = np.array(steps, copy=True)
