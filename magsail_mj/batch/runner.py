@@ -66,8 +66,10 @@ _WARNINGS = [(int(w), w.name.removeprefix("mjWARN_"), text) for w, text in BAD_S
 class Plant(Protocol):
     """What the runner needs from a concept's part of a batch (e.g.
     :class:`~magsail_mj.concepts.cnusail.batch_plant.CubesatWorlds`). Optional: ``attach(batch)``
-    (called once with the :class:`mujoco.batch.Batch`), and ``native_steps = True`` with
-    ``control_every`` [steps] for loads inside MuJoCo's step (module docstring)."""
+    (called once with the :class:`mujoco.batch.Batch`), ``native_steps = True`` with
+    ``control_every`` [steps] for loads inside MuJoCo's step (module docstring), and
+    ``failures(step, qpos, live)`` → ``{world: message}``, checked after each record of the Python
+    loop (those worlds stop, ``structure_failed``: a truss strut beyond its strain bound)."""
 
     probe_names: Sequence[str]
 
@@ -418,6 +420,8 @@ class BatchSimulation:
                         values = plant.probes(step, qpos, qvel)
                         values["t"] = np.full(n, t)
                         rec.append(values, self.live)
+                        if self._structure_failures(step):
+                            break
                         if self.stop_rule is not None:
                             ends = self.stop_rule.check(t, values, self.live)
                             self._stop(np.array(list(ends), dtype=np.intp), step, "completed", ends.__getitem__)
@@ -593,6 +597,16 @@ class BatchSimulation:
             "diverged",
             lambda k: f"state is not finite at t = {t + self.dt:.6g} s (after the step from t = {t:.6g} s)",
         )
+
+    def _structure_failures(self, step: int) -> bool:
+        """Stop the live worlds whose structure failed at the record of ``step`` (the plant's optional
+        ``failures(step, qpos, live)``: world → message), ``structure_failed`` with the record kept,
+        as the single run's strain check; return whether no world is left running."""
+        check = getattr(self.plant, "failures", None)
+        if check is not None:
+            fails = check(step, self._qpos, self.live)
+            self._stop(np.array(list(fails), dtype=np.intp), step, "structure_failed", fails.__getitem__)
+        return not self.live.any()
 
     def _stop(self, worlds: np.ndarray, step: int, status: str, message: Any, *, t_bad_s: float | None = None) -> None:
         """Stop ``worlds`` at ``step`` with ``status`` and ``message(k)``; with ``t_bad_s`` their
