@@ -42,7 +42,8 @@ from typing import Any
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from magsail_mj.batch import load_batch
-from magsail_mj.batch.folders import run_batch_folders
+from magsail_mj.batch.checkpoint import BATCH_CHECKPOINT_NAME
+from magsail_mj.batch.folders import batch_checkpoint_time, run_batch_folders
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
 from magsail_mj.config import config_hash, load_config, numbers_hash
 from magsail_mj.io import atomic_path, to_jsonable, write_json
@@ -179,25 +180,42 @@ def finished_record(run: SweepRun, out_dir: str | Path) -> dict[str, Any] | None
     )
 
 
-def run_batch(runs: tuple[SweepRun, ...], out_dir: str | Path) -> list[dict[str, Any]]:
+def run_batch(runs: tuple[SweepRun, ...], out_dir: str | Path, *, resume: bool = False) -> list[dict[str, Any]]:
     """One attempt of ``runs`` (runs of one config file) as the worlds of one batch, each into
     ``out_dir/<id>`` with the form and numbers of its single run; never raises an ``Exception``.
 
     Each record is a single run's (:func:`run_one`): a world that diverges or fails is reported
     alone, with its own status and message, and the others complete; ``wall_time_s`` is the
-    batch's wall time shared equally between its runs. When the batch itself cannot run or write
-    (its loader refuses the worlds, a world's folder fails to write), every run without a finished
-    folder then runs alone with :func:`run_one`, so a failure is its own run's. A
+    batch's wall time shared equally between its runs. With ``resume`` the batch continues from
+    its checkpoint (:func:`~magsail_mj.batch.folders.run_batch_folders`) when the first run's
+    folder holds one of these runs, configs and folders (``resumed_from_s`` says from when), and
+    starts afresh otherwise or when the checkpoint is refused. When the batch itself cannot run or
+    write (its loader refuses the worlds, a world's folder fails to write), every run without a
+    finished folder then runs alone with :func:`run_one`, so a failure is its own run's. A
     KeyboardInterrupt propagates (every folder written ``interrupted`` first).
     """
     t0 = time.perf_counter()
     out = Path(out_dir)
+    dirs = [out / run.id for run in runs]
     records = [_record(run, status="failed", message="", attempts=1) for run in runs]
+
+    def build() -> Any:
+        return load_batch(runs[0].config, world_overrides=[list(run.overrides) for run in runs])
+
     try:
-        sim = load_batch(runs[0].config, world_overrides=[list(run.overrides) for run in runs])
+        sim = build()
         for record, cfg in zip(records, sim.cfgs):
             record["config_hash"] = config_hash(cfg)
-        outcomes = run_batch_folders(sim, [out / run.id for run in runs], overwrite=True)
+        t_resume = batch_checkpoint_time(sim, dirs) if resume else None
+        try:
+            outcomes = run_batch_folders(sim, dirs, overwrite=t_resume is None, resume=t_resume is not None)
+        except CheckpointError:  # refused (a store that differs from its digests): run afresh
+            if t_resume is None:
+                raise
+            t_resume = None
+            outcomes = run_batch_folders(build(), dirs, overwrite=True)
+        for record in records:
+            record["resumed_from_s"] = t_resume
     except Exception:  # noqa: BLE001 - the batch could not run: each run alone says why it fails, if it does
         alone = []
         for run in runs:
@@ -303,7 +321,7 @@ def _batch_main(job: dict[str, Any]) -> None:
         with contextlib.ExitStack() as locks:
             for run in runs:
                 locks.enter_context(run_lock(out, run.id, wait_s=LOCK_WAIT_S))
-            records = run_batch(runs, out)
+            records = run_batch(runs, out, resume=not job["fresh"])
     except BaseException as err:  # noqa: BLE001 - a run process reports what stopped it, never a traceback
         records = _batch_stopped(runs, out, err, wall_time_s=(time.perf_counter() - t0) / len(runs))
     for record in records:
@@ -528,8 +546,9 @@ def supervise_batch(
             if record is not None:
                 records[run.id] = {**record, "attempts": attempts[run.id]}
     todo = tuple(run for run in runs if run.id not in records)
-    if todo:
-        proc, read_fd = _start(todo, out, video=False, fresh=True)
+    resume, t_from = not fresh, _batch_checkpoint_s(todo, out) if not fresh else None
+    while todo:
+        proc, read_fd = _start(todo, out, video=False, fresh=not resume)
         result, stopped = _wait(proc, read_fd, out=out, token=token, grace_s=grace_s)
         try:
             done = json.loads(result.decode()) if result else None
@@ -540,26 +559,50 @@ def supervise_batch(
                 if stopped and record["status"] not in FINISHED:
                     record.update(status="interrupted", message=record["message"] or "stopped while running")
                 records[run.id] = {**record, "attempts": attempts[run.id]}
-        else:
-            killed = proc.returncode is not None and proc.returncode < 0
-            for run in todo:
-                record = finished_record(run, out) if not stopped else None
-                if record is not None:
-                    records[run.id] = {**record, "attempts": attempts[run.id]}
-                elif killed and not stopped and attempts[run.id] <= run_retries and not _stop_request(out, token):
-                    records[run.id] = _supervised(
-                        run,
-                        out,
-                        video=False,
-                        fresh=False,
-                        token=token,
-                        run_retries=run_retries,
-                        grace_s=grace_s,
-                        t0=time.perf_counter(),
-                    )
-                else:
-                    record = _lost(run, proc, attempts[run.id])
-                    if stopped:
-                        record.update(status="interrupted", message="stopped while running")
-                    records[run.id] = record
+            break
+        killed = proc.returncode is not None and proc.returncode < 0
+        again = killed and not stopped and not _stop_request(out, token)
+        t_now = _batch_checkpoint_s(todo, out) if again else None
+        if t_now is not None and t_now > (-1.0 if t_from is None else t_from):
+            if all(attempts[run.id] <= run_retries for run in todo):  # progress since: resume the batch
+                attempts = {**attempts, **{run.id: _next_attempt(out, token, run.id) for run in todo}}
+                resume, t_from = True, t_now
+                continue
+        for run in todo:
+            record = finished_record(run, out) if not stopped else None
+            if record is not None:
+                records[run.id] = {**record, "attempts": attempts[run.id]}
+            elif again and attempts[run.id] <= run_retries:
+                records[run.id] = _supervised(
+                    run,
+                    out,
+                    video=False,
+                    fresh=False,
+                    token=token,
+                    run_retries=run_retries,
+                    grace_s=grace_s,
+                    t0=time.perf_counter(),
+                )
+            else:
+                record = _lost(run, proc, attempts[run.id])
+                if stopped:
+                    record.update(status="interrupted", message="stopped while running")
+                records[run.id] = record
+        break
     return [records[run.id] for run in runs]
+
+
+def _batch_checkpoint_s(runs: tuple[SweepRun, ...], out: Path) -> float | None:
+    """Simulated time [s] of the batch checkpoint of exactly ``runs`` (in their order) in the first
+    run's folder, else None (none there, another set of folders, or unreadable). Its identities
+    are checked by the batch process that resumes it."""
+    path = out / runs[0].id / BATCH_CHECKPOINT_NAME
+    if not path.is_file():
+        return None
+    try:
+        header, _, _ = read_checkpoint(path)
+        folders = [w.get("folder") for w in header["worlds"]]
+        t_s = float(header["t_s"])
+    except (CheckpointError, KeyError, TypeError, ValueError, AttributeError):
+        return None
+    return t_s if folders == [run.id for run in runs] else None
