@@ -13,6 +13,10 @@ Detumbling (``control.mode = "bdot"``):
 * ``mtq_energy_J``: Σ P_j over the on-time of each cycle, P_j = P_max (M_j/M_j,max)² (Yoo et al. 2016, Eqs. 5–7).
 * ``mtq_dipole_effort_Am2s``: ∫‖m‖ dt of the applied dipole [A m² s], m the held dipole while
   the coils are on and 0 while blanked (:func:`dipole_effort`);
+* ``detumble_time_h_1pct_s``: the first record time at which the body momentum ‖h‖ = ‖J ω‖ (J the
+  composite principal inertia ``spacecraft.inertia_kgm2``, body axes) is below 1 % of its value at
+  the first record (:func:`momentum_detumble_time`; Willis et al. 2024's criterion: *first* below,
+  not *stays* below); ``detumbled_h_1pct`` whether it is reached within the run;
 * ``detumbled``: with the stop rule (``sim.stop_rate_deg_s``) whether its hold condition was met
   (``stop_rule_time_s`` not ``None``), else whether ‖ω‖ stays below
   ``analysis.detumble_threshold_deg_s`` to the end (``detumble_time_s`` not ``None``).
@@ -70,7 +74,14 @@ from magsail_mj.quaternion import direction_quaternions, quat_mul
 from magsail_mj.concepts.cnusail.model import CnusailModel
 from magsail_mj.sim import RunResult, hold_below_time
 
-__all__ = ["attitude_outputs", "time_stays_below", "dipole_effort", "disturbance_orbit_profile"]
+__all__ = [
+    "attitude_outputs",
+    "time_stays_below",
+    "time_first_below",
+    "momentum_detumble_time",
+    "dipole_effort",
+    "disturbance_orbit_profile",
+]
 
 DEG = math.pi / 180.0
 RPM = 2.0 * math.pi / 60.0
@@ -84,6 +95,31 @@ def time_stays_below(t: np.ndarray, x: np.ndarray, threshold: float) -> float | 
         return float(t[0])
     k = int(above[-1])
     return None if k == len(t) - 1 else float(t[k + 1])
+
+
+def time_first_below(t: np.ndarray, x: np.ndarray, threshold: float) -> float | None:
+    """First time ``t_k`` with ``x_k < threshold`` (strictly below; ``None`` if no record is)."""
+    below = np.flatnonzero(np.asarray(x) < threshold)
+    return float(t[below[0]]) if below.size else None
+
+
+def momentum_detumble_time(
+    t: np.ndarray, omega_rad_s: np.ndarray, inertia_kgm2: np.ndarray, *, fraction: float = 0.01
+) -> float | None:
+    """First record time [s] at which ‖h‖ < ``fraction`` ‖h₀‖, with ``h = J ω`` [N m s] the body
+    momentum of the rates ``omega_rad_s`` ((n, 3) [rad/s], body axes) recorded at ``t`` ((n,) [s]),
+    ``J`` the inertia ``inertia_kgm2`` [kg m²] ((3,) principal moments or a (3, 3) matrix, body
+    axes) and ``h₀`` the momentum at the first record; ``None`` if no record is below.
+
+    Willis et al. (2024)'s detumble criterion: their Monte Carlo counts a run detumbled at the first
+    sample whose ‖J ω‖ is below 1 % of its initial value (it may rise again afterwards)."""
+    if not 0.0 < fraction < 1.0:
+        raise ValueError(f"fraction: must be in (0, 1), got {fraction!r}")
+    J = np.asarray(inertia_kgm2, dtype=float)
+    w = np.asarray(omega_rad_s, dtype=float)
+    h = w * J if J.shape == (3,) else w @ J.T
+    h_norm = np.linalg.norm(h, axis=1)
+    return time_first_below(np.asarray(t, dtype=float), h_norm, fraction * float(h_norm[0]))
 
 
 def dipole_effort(t: np.ndarray, dipole: np.ndarray, *, cycle: MagnetorquerCycle) -> float:
@@ -255,6 +291,9 @@ def attitude_outputs(
         mtq = cfg.actuators.mtq
         cycle = MagnetorquerCycle(cycle_s=mtq.cycle_s, blank_s=mtq.blank_s, timestep_s=cfg.sim.timestep_s)
         summary["mtq_dipole_effort_Am2s"] = dipole_effort(t, dip, cycle=cycle)
+        t_h = momentum_detumble_time(t, omega, np.asarray(cfg.spacecraft.inertia), fraction=0.01)
+        summary["detumble_time_h_1pct_s"] = t_h
+        summary["detumbled_h_1pct"] = t_h is not None
         rule = cfg.sim.stop_rate_deg_s is not None
         summary["detumbled"] = (stop_time if rule else summary["detumble_time_s"]) is not None
 
