@@ -1,9 +1,19 @@
-"""Compiled loads: C sources of the package built into MuJoCo plugin libraries on first use
-(:mod:`magsail_mj.compiled.build`). ``cubesat_loads.c`` is the CNUSAIL cubesat's loads
-(:mod:`magsail_mj.concepts.cnusail.compiled` builds its model data and runs it)."""
+"""Compiled loads: C sources of the package built into shared libraries on first use
+(:mod:`magsail_mj.compiled.build`). ``cubesat_loads.c`` is the CNUSAIL cubesat's loads, a MuJoCo
+plugin (:mod:`magsail_mj.concepts.cnusail.compiled` builds its model data and runs it);
+``lattice_rk4.c`` is the spring–dashpot lattice's RK4 reference, called through ``ctypes``
+(:mod:`magsail_mj.reference.compiled_rk4`)."""
 
 from __future__ import annotations
 
-from magsail_mj.compiled.build import SOURCE_DIR, CompiledLoadsError, cache_dir, compiler, library_path, load_plugin
+from magsail_mj.compiled.build import (
+    SOURCE_DIR,
+    CompiledLoadsError,
+    build_library,
+    cache_dir,
+    compiler,
+    library_path,
+    load_plugin,
+)
 
-__all__ = ["SOURCE_DIR", "CompiledLoadsError", "cache_dir", "compiler", "library_path", "load_plugin"]
+__all__ = ["SOURCE_DIR", "CompiledLoadsError", "build_library", "cache_dir", "compiler", "library_path", "load_plugin"]

@@ -1,7 +1,8 @@
 r"""Compiled loads: a C source of the package built into a MuJoCo plugin library on first use.
 
 :func:`load_plugin` compiles ``magsail_mj/compiled/<name>.c`` with the C compiler into a shared
-library and registers its plugins with MuJoCo (``mujoco.mj_loadPluginLibrary``). The library lives
+library and registers its plugins with MuJoCo (``mujoco.mj_loadPluginLibrary``);
+:func:`build_library` builds one without registering it (C functions called through ``ctypes``). The library lives
 in a cache folder keyed by the SHA-256 digest of the source, the MuJoCo version and the compiler
 (its resolved path and its ``--version`` line), so an edited source, another MuJoCo or another
 compiler builds anew and an unchanged one is reused across processes; a build costs 0.4 s once
@@ -34,7 +35,15 @@ import mujoco
 
 from magsail_mj.config import ConfigError
 
-__all__ = ["CompiledLoadsError", "SOURCE_DIR", "compiler", "cache_dir", "library_path", "load_plugin"]
+__all__ = [
+    "CompiledLoadsError",
+    "SOURCE_DIR",
+    "build_library",
+    "compiler",
+    "cache_dir",
+    "library_path",
+    "load_plugin",
+]
 
 SOURCE_DIR = Path(__file__).resolve().parent
 """Folder of the C sources."""
@@ -145,6 +154,19 @@ def _build(name: str, target: Path) -> None:
             os.unlink(tmp)
 
 
+def build_library(name: str) -> Path:
+    """Build ``<name>.c`` unless its library is cached and return the library's path, registering
+    nothing with MuJoCo (for C functions called through ``ctypes`` alone).
+
+    Raises:
+      CompiledLoadsError: no compiler, or the build failed (message names ``sim.loads``).
+    """
+    target = library_path(name)
+    if not target.is_file():
+        _build(name, target)
+    return target
+
+
 def load_plugin(name: str) -> Path:
     """Build ``<name>.c`` unless its library is cached, register its plugins with MuJoCo (once per
     process) and return the library's path.
@@ -155,8 +177,7 @@ def load_plugin(name: str) -> Path:
     target = library_path(name)
     if target in _loaded:
         return target
-    if not target.is_file():
-        _build(name, target)
+    build_library(name)
     mujoco.mj_loadPluginLibrary(str(target))
     _loaded.add(target)
     return target
