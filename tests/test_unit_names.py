@@ -96,6 +96,7 @@ DIMENSIONLESS_NAMES = frozenset(
         "reflectivity",  # structure: a panel's reflected and absorbed fractions
         "orientation",  # structure: a beam section's direction vector
         "nonmonotonic_alpha",  # CNUSAIL: the weight of the look-ahead term in the detumble law's cost
+        "bdot_law_params",  # CNUSAIL: a plug-in law's parameters, each name carrying its own unit suffix
     }
 )
 

@@ -15,7 +15,8 @@ and limits:
   each law evaluated on every world's row as the single run evaluates it on its one row): bang-bang
   ``−m_max sign Ḃ``, the B×ω law ``k (ω × B)/‖B‖²`` with the world's gain, or the non-monotonic
   law with the field table read ahead (``EnvironmentStack.sample`` at ``min(t + Δt, t_max)``, in
-  today's body axes);
+  today's body axes); a plug-in law (:mod:`magsail_mj.control.detumble_plugins`) is called per
+  world at the sample with that world's inputs, as its single run calls it;
 * attitude sample (every ``1/rate_Hz``): the telemetry of the single run (the error quaternion to
   the nadir frame, its eigen-angle, the rate error); in DETUMBLE the wheels idle (command 0);
 * wheel drivers every step (Eqs. 8–11): the quasi-static DC motor ``V = clip(R i_c + K_b ω_M,
@@ -40,6 +41,8 @@ import numpy as np
 from magsail_mj.batch.worldmath import mat_t_vec_blas, quat_to_mat
 from magsail_mj.concepts.cnusail.modes import CnusailController, Mode
 from magsail_mj.control.detumble_laws import bang_bang_dipole, bcross_dipole, nonmonotonic_dipole
+from magsail_mj.control.detumble_plugins import BUILTIN_DETUMBLE_LAWS as DETUMBLE_LAWS
+from magsail_mj.control.detumble_plugins import plugin_dipole
 
 __all__ = ["BdotWorlds", "nadir_frame", "error_quaternion", "eigen_angle", "rate_error"]
 
@@ -165,6 +168,9 @@ class BdotWorlds:
         self.bang_bang = laws == "bang_bang"
         self.b_cross = laws == "b_cross"
         self.non_monotonic = laws == "non_monotonic"
+        self.plugin = ~np.isin(laws, DETUMBLE_LAWS)
+        self.laws = laws.tolist()
+        self.law_params = [dict(c.p.bdot_law_params) for c in controllers]
         self.environments = environments  # CubesatWorlds gives its stack when None here
         self.dt = c0._dt
         self.lookahead_s = c0.p.nonmonotonic_lookahead_s
@@ -278,6 +284,17 @@ class BdotWorlds:
                 m_max_Am2=self.limit,
             )
             m = np.where(self.non_monotonic[:, None], m_nm, m)
+        for k in np.flatnonzero(self.plugin & self.live).tolist():
+            m[k] = plugin_dipole(
+                self.laws[k],
+                self.law_params[k],
+                t_s=step * self.dt,
+                field_body_T=B[k],
+                field_rate_body_T_s=self.B_dot[k],
+                rate_body_rad_s=omega[k],
+                inertia_kgm2=self.inertia[k],
+                dipole_max_Am2=self.limit[k],
+            )
         self._set("dipole_held", np.clip(m, -self.limit, self.limit))
 
     def _motor_torque(self, w: np.ndarray) -> np.ndarray:

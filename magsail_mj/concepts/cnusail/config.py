@@ -17,6 +17,8 @@ from pydantic import Field, field_validator, model_validator
 
 from magsail_mj.concepts import register_config
 from magsail_mj.config import MJ_MINVAL, ConfigProblem, SimConfig, StrictModel, derived_quantity, normalised
+from magsail_mj.control.detumble_plugins import BUILTIN_DETUMBLE_LAWS as DETUMBLE_LAWS
+from magsail_mj.control.detumble_plugins import check_params, detumble_law, detumble_law_names
 from magsail_mj.environment.config import (
     AtmosphereConfig,
     DragConfig,
@@ -233,7 +235,10 @@ class CnusailControlConfig(StrictModel):
     Giulietti's 2 n (1 + sin ξ_m) J_min) or ``"non_monotonic"`` (Willis et al. 2024: tanh gain
     ``nonmonotonic_gain_per_Nms``, second-step weight ``nonmonotonic_alpha``, the field table read
     ``nonmonotonic_lookahead_s`` ahead, clamped to the table's end; α at most 1e6 and the gains at
-    most 1e12 keep the law's 6×6 system and products finite)."""
+    most 1e12 keep the law's 6×6 system and products finite), or the name of a detumble law
+    plug-in (:mod:`magsail_mj.control.detumble_plugins`: registered in the process or installed as
+    an entry point; an unknown name is refused naming the laws known) with its parameters
+    ``bdot_law_params`` (names → finite numbers, passed to the law; a shipped law takes none)."""
 
     mode: Literal["bdot", "eigen_axis", "pd"]
     command: Literal["nadir", "deorbit"] = "nadir"
@@ -241,7 +246,8 @@ class CnusailControlConfig(StrictModel):
     bdot_gain_Am2s_T: float = Field(default=5.0e4, gt=0)
     bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
     bdot_omega_c_rad_s: float = Field(default=0.5, gt=0)
-    bdot_law: Literal["proportional", "bang_bang", "b_cross", "non_monotonic"] = "proportional"
+    bdot_law: str = "proportional"
+    bdot_law_params: dict[str, float] = {}
     bcross_gain_Nms: float | None = Field(default=None, gt=0, le=1e12)
     nonmonotonic_gain_per_Nms: float = Field(default=3.0e3, gt=0, le=1e12)
     nonmonotonic_alpha: float = Field(default=100.0, ge=0, le=1e6)
@@ -257,6 +263,27 @@ class CnusailControlConfig(StrictModel):
     unloading: UnloadingConfig = UnloadingConfig()
     modes: ModesConfig = ModesConfig()
     sensors: SensorsConfig = SensorsConfig()
+
+    @field_validator("bdot_law")
+    @classmethod
+    def _known_law(cls, v: str) -> str:
+        known = detumble_law_names()
+        if v not in known:
+            raise ValueError(f"unknown detumble law; known are {', '.join(known)}")
+        if v not in DETUMBLE_LAWS:
+            detumble_law(v)  # loads an installed plug-in now, so a broken one is refused here
+        return v
+
+    @field_validator("bdot_law_params")
+    @classmethod
+    def _finite_params(cls, v: dict[str, float]) -> dict[str, float]:
+        return check_params(v)
+
+    @model_validator(mode="after")
+    def _params_for_plugins(self):
+        if self.bdot_law_params and self.bdot_law in DETUMBLE_LAWS:
+            raise ValueError(f"bdot_law_params: the shipped law {self.bdot_law!r} takes none; they are a plug-in's")
+        return self
 
 
 class CnusailInitialConfig(StrictModel):

@@ -158,6 +158,7 @@ class CnusailModel:
             bdot_gain=c.bdot_gain_Am2s_T,
             bdot_omega_c_rad_s=c.bdot_omega_c_rad_s,
             bdot_law=c.bdot_law,
+            bdot_law_params=c.bdot_law_params,
             bcross_gain_Nms=bcross_gain_of(cfg, self.environment) if c.bdot_law == "b_cross" else 1.0,
             nonmonotonic_gain_per_Nms=c.nonmonotonic_gain_per_Nms,
             nonmonotonic_alpha=c.nonmonotonic_alpha,

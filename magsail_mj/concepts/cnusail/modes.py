@@ -40,7 +40,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import Any, Literal
+from typing import Any, Literal, Mapping
 
 import mujoco
 import numpy as np
@@ -48,6 +48,7 @@ import numpy as np
 from magsail_mj.checks import require_non_negative
 from magsail_mj.control.bdot import make_bdot
 from magsail_mj.control.detumble_laws import bang_bang_dipole, bcross_dipole, nonmonotonic_dipole
+from magsail_mj.control.detumble_plugins import BUILTIN_DETUMBLE_LAWS, check_params, detumble_law, plugin_dipole
 from magsail_mj.concepts.cnusail.eigenaxis import (
     EigenAxisGains,
     GyroComp,
@@ -79,8 +80,8 @@ __all__ = [
 
 DEG = math.pi / 180.0
 
-DETUMBLE_LAWS = ("proportional", "bang_bang", "b_cross", "non_monotonic")
-"""The detumble mode's laws (``control.bdot_law``)."""
+DETUMBLE_LAWS = BUILTIN_DETUMBLE_LAWS
+"""The detumble mode's shipped laws (``control.bdot_law``; plug-ins: :mod:`magsail_mj.control.detumble_plugins`)."""
 
 
 class Mode(IntEnum):
@@ -219,7 +220,9 @@ class CnusailControlParams:
       bdot_law: the detumble mode's law (:data:`DETUMBLE_LAWS`): ``"proportional"`` (the paper's
         M = −K Ḃ), ``"bang_bang"``, ``"b_cross"`` (B×ω, gain ``bcross_gain_Nms``) or
         ``"non_monotonic"`` (Willis et al. 2024; ``nonmonotonic_gain_per_Nms``, ``nonmonotonic_alpha``,
-        the field table read ``nonmonotonic_lookahead_s`` ahead); :mod:`magsail_mj.control.detumble_laws`.
+        the field table read ``nonmonotonic_lookahead_s`` ahead); :mod:`magsail_mj.control.detumble_laws`;
+        or the name of a plug-in law (:mod:`magsail_mj.control.detumble_plugins`) with its
+        ``bdot_law_params``.
       omega_n_rad_s, zeta, rate_max_rad_s, clamp_min, gyro_comp, shortest_rotation: eigen-axis
         (Yoo et al. 2016, Eqs. 28–38).
       recalc_enabled, recalc_margin_rad: deorbit gain recalculation.
@@ -240,7 +243,8 @@ class CnusailControlParams:
     bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
     bdot_gain: float = 5.0e4
     bdot_omega_c_rad_s: float = 0.5
-    bdot_law: Literal["proportional", "bang_bang", "b_cross", "non_monotonic"] = "proportional"
+    bdot_law: str = "proportional"
+    bdot_law_params: Mapping[str, float] = field(default_factory=dict)
     bcross_gain_Nms: float = 1.0e-3
     nonmonotonic_gain_per_Nms: float = 3.0e3
     nonmonotonic_alpha: float = 100.0
@@ -268,7 +272,10 @@ class CnusailControlParams:
         if self.law not in ("bdot", "eigen_axis", "pd"):
             raise ValueError(f"law: must be 'bdot', 'eigen_axis' or 'pd', got {self.law!r}")
         if self.bdot_law not in DETUMBLE_LAWS:
-            raise ValueError(f"bdot_law: must be one of {DETUMBLE_LAWS}, got {self.bdot_law!r}")
+            detumble_law(self.bdot_law)  # a plug-in, or ValueError naming the key and the laws known
+        elif self.bdot_law_params:
+            raise ValueError(f"bdot_law_params: the shipped law {self.bdot_law!r} takes none; they are a plug-in's")
+        self.bdot_law_params = check_params(self.bdot_law_params, key="bdot_law_params")
         if self.command not in ("nadir", "deorbit"):
             raise ValueError(f"command: must be 'nadir' or 'deorbit', got {self.command!r}")
         n = self.attitude_period_s / self.timestep_s
@@ -506,6 +513,17 @@ class CnusailController:
             omega = omega + self.rng.normal(0.0, p.gyro_noise_rad_s, 3)
         if p.bdot_law == "b_cross":
             return bcross_dipole(omega[None], B[None], k_Nms=p.bcross_gain_Nms)[0]
+        if p.bdot_law not in DETUMBLE_LAWS:
+            return plugin_dipole(
+                p.bdot_law,
+                p.bdot_law_params,
+                t_s=t,
+                field_body_T=B,
+                field_rate_body_T_s=self.bdot.B_dot,
+                rate_body_rad_s=omega,
+                inertia_kgm2=p.inertia_kgm2,
+                dipole_max_Am2=p.mtq_limits_Am2,
+            )
         t_ahead = min(t + p.nonmonotonic_lookahead_s, self.environment.t_max)
         B_ahead = R.T @ self.environment.sample(t_ahead).B_eci
         return nonmonotonic_dipole(
