@@ -38,7 +38,8 @@ from magsail_mj.config import load_config
 from magsail_mj.export import read_timeseries
 from magsail_mj.records import SERIES_GROUP, open_records
 from magsail_mj.run import RunInterrupted, run_scenario
-from magsail_mj.sweep import load_sweep, run_sweep
+from magsail_mj.sweep import SweepRun, load_sweep, run_sweep
+from magsail_mj.sweep.batches import plan_batches
 from magsail_mj.sweep.runner import run_one
 from tests.conftest import REPO, wait_for
 from tests.test_sweep_batch import _batch_processes, _monte_carlo
@@ -245,3 +246,30 @@ def test_a_killed_sweep_batch_resumes_from_its_checkpoint(tmp_path):
     assert single["status"] == "completed" and sorted(got) == sorted(want)
     for key in want:
         assert np.array_equal(got[key], want[key], equal_nan=True), key
+
+
+def test_a_later_sweep_keeps_the_batch_its_checkpoint_names(tmp_path):
+    """The planner keeps together, in the file's order, the runs a batch checkpoint names."""
+
+    def run(rid: str, *extra: str) -> SweepRun:
+        return SweepRun(id=rid, config=Path(PRE), overrides=(f"initial.omega0_deg_s=[{rid[1]}.5, 1.0, 1.0]", *extra),
+                        concept="cnusail")  # fmt: skip
+
+    runs = [run(f"b{i}") for i in range(6)]
+
+    def checkpoint(first: str, folders: list[str]) -> None:
+        header = {"kind": "magsail_mj batch checkpoint 1", "t_s": 5.0, "worlds": [{"folder": f} for f in folders]}
+        (tmp_path / first).mkdir(exist_ok=True)
+        write_checkpoint(tmp_path / first / BATCH_CHECKPOINT_NAME, header, tree={}, arrays={}, extra_arrays={})
+
+    checkpoint("b4", ["b4", "b1"])
+    checkpoint("b2", ["b2", "b9"])  # names a run that is not to run: not kept
+    checkpoint("b5", ["b5", "b0", "b3", "b2"])  # four worlds, more than the batch size: not kept
+    tasks, _ = plan_batches(runs, tmp_path, batch_size=3, cores=1, memory_per_core_bytes=1e12)
+    # b4 and b1 together as the file names them; the other four in two balanced batches
+    assert [[r.id for r in t] for t in tasks] == [["b0", "b2"], ["b3", "b5"], ["b4", "b1"]]
+    tasks, _ = plan_batches(runs, tmp_path, batch_size=3, cores=1, memory_per_core_bytes=1e12, resume=False)
+    assert [[r.id for r in t] for t in tasks] == [["b0", "b1", "b2"], ["b3", "b4", "b5"]]
+    (tmp_path / "b4" / BATCH_CHECKPOINT_NAME).write_bytes(b"edited")  # unreadable: the runs are grouped as usual
+    tasks, _ = plan_batches(runs, tmp_path, batch_size=3, cores=1, memory_per_core_bytes=1e12)
+    assert [[r.id for r in t] for t in tasks] == [["b0", "b1", "b2"], ["b3", "b4", "b5"]]

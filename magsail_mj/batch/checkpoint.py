@@ -38,7 +38,13 @@ import numpy as np
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, write_checkpoint
 from magsail_mj.records import RecordStoreError, verify_digests
 
-__all__ = ["BATCH_CHECKPOINT_NAME", "write_batch_checkpoint", "read_batch_checkpoint", "restore_batch_checkpoint"]
+__all__ = [
+    "BATCH_CHECKPOINT_NAME",
+    "write_batch_checkpoint",
+    "read_batch_checkpoint",
+    "restore_batch_checkpoint",
+    "checkpoint_folders",
+]
 
 BATCH_CHECKPOINT_NAME = "checkpoint-batch.npz"
 """The file name of a batch's checkpoint (in its first world's run folder, by default)."""
@@ -187,6 +193,22 @@ def read_batch_checkpoint(
     if not isinstance(header.get("scalars"), dict) or not isinstance(header.get("step"), int):
         raise CheckpointError(f"checkpoint: {path} has a malformed batch header")
     return header, arrays
+
+
+def checkpoint_folders(path: Path) -> tuple[list[str], float] | None:
+    """``(folder names of its worlds in order, simulated time [s])`` of the batch checkpoint
+    ``path`` when it reads back against its digest, else None (none there, unreadable, edited, not
+    a batch checkpoint). Its identities are checked by the batch that resumes it."""
+    try:
+        header, _, _ = read_checkpoint(Path(path))
+        worlds = header["worlds"]
+        folders = [w["folder"] for w in worlds]
+        t_s = float(header["t_s"])
+    except (CheckpointError, OSError, KeyError, TypeError, ValueError):
+        return None
+    if header.get("kind") != _KIND or not all(isinstance(f, str) for f in folders):
+        return None
+    return folders, t_s
 
 
 def restore_batch_checkpoint(sim: Any, path: Path, records_paths: Sequence[str | Path]) -> None:

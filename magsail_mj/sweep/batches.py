@@ -9,8 +9,15 @@ form and numbers of its single run (:func:`magsail_mj.batch.folders.run_batch_fo
 Which runs share a batch is asked of the batch loader (:mod:`magsail_mj.batch.groups`): runs of
 one config file whose configs the loader takes together — one concept with a batch, the keys every
 world shares, one model's sizes. A run goes alone when its concept has no batch or the batch
-refuses it (for CNUSAIL: the pointing laws, sensor noise), when its folder holds a checkpoint it
-may resume from (a batch starts from t = 0 and writes none), and with ``batch_size = 1``.
+refuses it (for CNUSAIL: the pointing laws, sensor noise), when its folder holds a single run's
+checkpoint (``checkpoint.npz``) it may resume from, and with ``batch_size = 1``.
+
+A batch that checkpointed (its worlds' ``sim.checkpoint_every_s``) leaves one checkpoint of the
+whole batch in its first run's folder (:mod:`magsail_mj.batch.checkpoint`), naming its runs'
+folders. When a later call plans runs of which such a file names a whole batch (every run in it
+still to run, batchable, of one config file, no more than ``batch_size``), those runs are kept
+together, in the file's order, so the batch resumes from the file
+(:func:`magsail_mj.sweep.runner.run_batch`); the other runs are grouped as usual.
 
 :func:`default_batch_size` chooses the size when none is given: the runs that can share batches
 spread over the cores (every core gets a batch), at most :data:`DEFAULT_MAX_WORLDS` worlds and at
@@ -27,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from magsail_mj.batch.build import concept_batch
+from magsail_mj.batch.checkpoint import BATCH_CHECKPOINT_NAME, checkpoint_folders
 from magsail_mj.batch.groups import batch_bytes, group_worlds, world_key
 from magsail_mj.config import ConfigError, load_config
 from magsail_mj.sweep.common import SweepRun
@@ -39,6 +47,7 @@ __all__ = [
     "default_batch_size",
     "batchable_configs",
     "plan_batches",
+    "checkpointed_batches",
 ]
 
 MAX_BATCH_SIZE = 1024
@@ -119,7 +128,8 @@ def plan_batches(
     """The tasks of ``runs`` (module docstring) in the runs' order, and the batch size used
     (``batch_size``, or :func:`default_batch_size` when None).
 
-    ``resume``: a run whose folder under ``out`` holds a checkpoint goes alone (it may resume).
+    ``resume``: a run whose folder under ``out`` holds a single run's checkpoint goes alone (it
+    may resume), and the batches a batch checkpoint names are kept together (module docstring).
     """
     size = check_batch_size(batch_size)
     if size == 1:
@@ -131,11 +141,39 @@ def plan_batches(
     position = {run.id: n for n, run in enumerate(runs)}
     tasks: list[tuple[SweepRun, ...]] = [(run,) for run in runs if run.id not in cfgs or size == 1]
     if size > 1:
+        kept = checkpointed_batches(runs, out, batchable=set(cfgs), max_worlds=size) if resume else []
+        tasks.extend(kept)
+        taken = {run.id for task in kept for run in task}
         by_config: dict[Path, list[SweepRun]] = {}
         for run in runs:
-            if run.id in cfgs:
+            if run.id in cfgs and run.id not in taken:
                 by_config.setdefault(Path(run.config), []).append(run)
         for members in by_config.values():
             groups = group_worlds([cfgs[r.id] for r in members], max_worlds=size)
             tasks.extend(tuple(members[i] for i in group) for group in groups)
     return sorted(tasks, key=lambda task: position[task[0].id]), size
+
+
+def checkpointed_batches(
+    runs: Sequence[SweepRun], out: Path, *, batchable: set[str], max_worlds: int
+) -> list[tuple[SweepRun, ...]]:
+    """The batches of ``runs`` that a batch checkpoint in a run's folder under ``out`` names, in the
+    file's order: every run it names is one of ``runs``, in ``batchable``, of the first one's config
+    file, and in no batch found before; at most ``max_worlds`` runs (module docstring)."""
+    by_id = {run.id: run for run in runs}
+    used: set[str] = set()
+    kept: list[tuple[SweepRun, ...]] = []
+    for run in runs:
+        if run.id not in batchable or run.id in used:
+            continue
+        found = checkpoint_folders(out / run.id / BATCH_CHECKPOINT_NAME)
+        if found is None or not 1 < len(found[0]) <= max_worlds or found[0][0] != run.id:
+            continue
+        members = [by_id.get(name) for name in found[0]]
+        if len(set(found[0])) == len(members) and all(
+            m is not None and m.id in batchable and m.id not in used and Path(m.config) == Path(run.config)
+            for m in members
+        ):
+            kept.append(tuple(members))
+            used.update(found[0])
+    return kept

@@ -42,7 +42,7 @@ from typing import Any
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from magsail_mj.batch import load_batch
-from magsail_mj.batch.checkpoint import BATCH_CHECKPOINT_NAME
+from magsail_mj.batch.checkpoint import BATCH_CHECKPOINT_NAME, checkpoint_folders
 from magsail_mj.batch.folders import batch_checkpoint_time, run_batch_folders
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
 from magsail_mj.config import config_hash, load_config, numbers_hash
@@ -596,13 +596,7 @@ def _batch_checkpoint_s(runs: tuple[SweepRun, ...], out: Path) -> float | None:
     """Simulated time [s] of the batch checkpoint of exactly ``runs`` (in their order) in the first
     run's folder, else None (none there, another set of folders, or unreadable). Its identities
     are checked by the batch process that resumes it."""
-    path = out / runs[0].id / BATCH_CHECKPOINT_NAME
-    if not path.is_file():
+    found = checkpoint_folders(out / runs[0].id / BATCH_CHECKPOINT_NAME)
+    if found is None or found[0] != [run.id for run in runs]:
         return None
-    try:
-        header, _, _ = read_checkpoint(path)
-        folders = [w.get("folder") for w in header["worlds"]]
-        t_s = float(header["t_s"])
-    except (CheckpointError, KeyError, TypeError, ValueError, AttributeError):
-        return None
-    return t_s if folders == [run.id for run in runs] else None
+    return found[1]
