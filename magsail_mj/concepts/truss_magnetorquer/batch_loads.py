@@ -15,7 +15,10 @@ the force rows of every world's ``xfrc_applied`` (world = ECI axes):
 The products go through BLAS as the single run's (``x @ r``, ``(x·x) @ 1``, ``r @ B`` as one
 :func:`numpy.matmul` per world, ``|r|²`` as the same :func:`numpy.einsum`), and the incidence
 product sums each body's rods in the single run's order for every column, so each world's forces
-equal its single run's bit for bit. A world whose rods are all off gets no rod term at all (as its
+equal its single run's bit for bit. The products of a per-particle factor and a vector are formed
+one component at a time (``F[..., c] = (k f) r_c − k x_c``: the same two roundings per entry as
+the single run's broadcast ``(k f)[:, None] * r − k[:, None] * x``, without NumPy's slow inner
+loops of length 3). A world whose rods are all off gets no rod term at all (as its
 single run, whose rod load then adds nothing).
 """
 
@@ -75,23 +78,25 @@ class LatticeLoadWorlds:
           B: (N, 3) field [T]; polarity: (N, R) held rod polarities (int8).
         """
         if self.tidal_on:
-            xfrc[:, self.sel, :3] += self._tidal(pos[:, self.sel], r_ref)
-        dip = polarity * self.m_of_rod
+            F = self._tidal(pos[:, self.sel], r_ref)
+            for c in range(3):
+                xfrc[:, self.sel, c] += F[c]
         on = polarity.any(axis=1)
         if not on.any():
             return
         rows = np.flatnonzero(on)
-        F = self._rod_forces(pos[rows], dip[rows], B[rows])  # (M, R, 3)
         m = len(rows)
-        cols = np.ascontiguousarray(F.transpose(1, 0, 2)).reshape(self.n_rods, 3 * m)
-        per_body = (self.incidence @ cols).reshape(-1, m, 3).transpose(1, 0, 2)
-        if m == len(on):
-            xfrc[:, :, :3] += per_body
-        else:
-            xfrc[rows, :, :3] += per_body
+        cols = self._rod_forces(pos[rows], polarity[rows] * self.m_of_rod[rows], B[rows])  # (R, 3 M)
+        per_body = self.incidence @ cols  # (nbody, 3 M): column c·M + j is world rows[j]'s component c
+        for c in range(3):
+            block = per_body[:, c * m : (c + 1) * m].T
+            if m == len(on):
+                xfrc[:, :, c] += block
+            else:
+                xfrc[rows, :, c] += block
 
     def _tidal(self, x: np.ndarray, r: np.ndarray) -> np.ndarray:
-        """(N, n, 3) tidal forces [N] at positions ``x`` (N, n, 3) about ``r`` (N, 3)."""
+        """(3, N, n) tidal forces [N] (by component) at positions ``x`` (N, n, 3) about ``r`` (N, 3)."""
         r2 = dot_blas(r, r)
         xr = np.matmul(x, r[:, :, None])[:, :, 0]
         xx = np.matmul(x * x, _ONES3)
@@ -101,19 +106,25 @@ class LatticeLoadWorlds:
         for k in np.flatnonzero(~(qmax <= _SERIES_Q_MAX)).tolist():
             f[k] = np.expm1(1.5 * np.log1p(q[k]))
         k = (self.mu / (r2 * np.sqrt(r2)))[:, None] * self.mass / (1.0 + f)
-        F = (k * f)[:, :, None] * r[:, None, :]
-        F -= k[:, :, None] * x
+        kf = k * f
+        F = np.empty((3, *k.shape))
+        for c in range(3):
+            np.subtract(kf * r[:, c : c + 1], k * x[:, :, c], out=F[c])
         return F
 
     def _rod_forces(self, pos: np.ndarray, dip: np.ndarray, B: np.ndarray) -> np.ndarray:
-        """(M, R, 3) forces on the rods' ``j`` ends [N]
-        (:func:`~magsail_mj.loads.magnetorquer_rods.rod_pair_forces`)."""
+        """(R, 3 M) forces on the rods' ``j`` ends [N] of M worlds
+        (:func:`~magsail_mj.loads.magnetorquer_rods.rod_pair_forces`), column ``c·M + j`` holding
+        component c of world j."""
         n = self.n_rods
+        m = len(pos)
         ends = pos.take(self.ji, axis=1)  # rows: r_j of every rod, then r_i
         r = ends[:, :n] - ends[:, n:]
         r2 = np.einsum("nij,nij->ni", r, r)
         k = dip / (r2 * np.sqrt(r2))
-        out = (k * r2)[:, :, None] * B[:, None, :]
-        rB = np.matmul(r, B[:, :, None])[:, :, 0]
-        out -= (k * rB)[:, :, None] * r
-        return out
+        kr2 = k * r2
+        krB = k * np.matmul(r, B[:, :, None])[:, :, 0]
+        cols = np.empty((n, 3 * m))
+        for c in range(3):
+            np.subtract(kr2 * B[:, c : c + 1], krB * r[:, :, c], out=cols[:, c * m : (c + 1) * m].T)
+        return cols
