@@ -260,7 +260,7 @@ def timed_rows(models: Models, euler: Models, args, log) -> tuple[list[Row], dic
             row.take(bare_cpu(model, sc, n))
         for row, model in zip(rows[9:], (euler.tendon, euler.plugin)):
             row.take(bare_cpu(model, euler.sim.scenario, n))
-        log(f"round {r + 1}/{args.rounds}: " + ", ".join(f"{row.cpu_s * 1e6:.0f}" for row in rows) + " µs")
+        log(f"round {r + 1}/{args.rounds}, best so far: " + ", ".join(f"{row.cpu_s * 1e6:.0f}" for row in rows) + " µs")
     return rows, info
 
 
