@@ -128,6 +128,15 @@ class EnvSamples:
         return self._worlds(self._val[:, 6:9])
 
     @cached_property
+    def B_dot_eci(self) -> np.ndarray:
+        """(N, 3) time derivative of the field along the reference orbit [T/s]: row 1 of
+        ``P @ coef[i]`` (:attr:`_val`), as :meth:`Environment.sample` forms ``B_dot_eci``."""
+        tau = self._tau
+        t2 = tau * tau
+        P = np.array(((1.0, tau, t2, t2 * tau), (0.0, 1.0, 2.0 * tau, 3.0 * t2)))
+        return self._worlds(np.matmul(P, self.stack.coef[:, self._i])[:, 1, 6:9])
+
+    @cached_property
     def _rn(self) -> np.ndarray:
         v = self._val
         rx, ry, rz = v[:, 0], v[:, 1], v[:, 2]

@@ -26,7 +26,7 @@ from typing import Literal
 
 import numpy as np
 
-__all__ = ["BdotFiniteDifference", "BdotFiltered", "make_bdot"]
+__all__ = ["BdotFiniteDifference", "BdotFiltered", "make_bdot", "normalised_bdot_dipole"]
 
 
 class BdotFiniteDifference:
@@ -102,3 +102,16 @@ def make_bdot(
     if form == "filtered":
         return BdotFiltered(gain=gain, sample_period_s=sample_period_s, omega_c_rad_s=omega_c_rad_s)
     raise ValueError(f"form: must be 'finite_difference' or 'filtered', got {form!r}")
+
+
+def normalised_bdot_dipole(B_dot: np.ndarray, B: np.ndarray, *, gain_Am2s: float | np.ndarray) -> np.ndarray:
+    """B-dot scaled by the field magnitude, ``M = −k Ḃ/‖B‖`` [A m²] (unsaturated; the "B-dot" of
+    Willis, Fisch, Seletskiy & Manchester 2024's code, ``bdot_control``), for field rates ``B_dot``
+    [T/s] and fields ``B`` [T] (body axes, ``(..., 3)``) and gain ``gain_Am2s`` = k [A m² s] (scalar
+    or ``(..., 1)``); zero where B = 0. ‖B‖ by components, so one row and a stack give the same bits."""
+    B_dot = np.asarray(B_dot, dtype=float)
+    B = np.asarray(B, dtype=float)
+    n = np.sqrt(B[..., 0] * B[..., 0] + B[..., 1] * B[..., 1] + B[..., 2] * B[..., 2])[..., None]
+    some = n > 0.0
+    scale = np.where(some, gain_Am2s / np.where(some, n, 1.0), 0.0)
+    return -scale * B_dot

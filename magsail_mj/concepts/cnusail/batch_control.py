@@ -40,6 +40,7 @@ import numpy as np
 
 from magsail_mj.batch.worldmath import mat_t_vec_blas, quat_to_mat
 from magsail_mj.concepts.cnusail.modes import CnusailController, Mode
+from magsail_mj.control.bdot import normalised_bdot_dipole
 from magsail_mj.control.detumble_laws import bang_bang_dipole, bcross_dipole, nonmonotonic_dipole
 from magsail_mj.control.detumble_plugins import BUILTIN_DETUMBLE_LAWS as DETUMBLE_LAWS
 from magsail_mj.control.detumble_plugins import plugin_dipole
@@ -160,6 +161,9 @@ class BdotWorlds:
         self.wheel_act = c0.wheel_act
         self.filtered = np.array([c.bdot.form == "filtered" for c in controllers])
         self.gain = np.array([c.bdot.gain for c in controllers])[:, None]
+        k_norm = [c.p.bdot_normalised_gain_Am2s for c in controllers]
+        self.normalised = np.array([k is not None for k in k_norm])
+        self.k_normalised = np.array([1.0 if k is None else k for k in k_norm])[:, None]
         self.bdot_dt = np.array([c.bdot.dt for c in controllers])[:, None]
         self.c_prev = np.array([getattr(c.bdot, "_c_prev", 0.0) for c in controllers])[:, None]
         self.c_in = np.array([getattr(c.bdot, "_c_in", 0.0) for c in controllers])[:, None]
@@ -168,6 +172,7 @@ class BdotWorlds:
         self.bang_bang = laws == "bang_bang"
         self.b_cross = laws == "b_cross"
         self.non_monotonic = laws == "non_monotonic"
+        self.extrapolated = np.array([c.p.nonmonotonic_field_ahead == "extrapolated" for c in controllers])
         self.plugin = ~np.isin(laws, DETUMBLE_LAWS)
         self.laws = laws.tolist()
         self.law_params = [dict(c.p.bdot_law_params) for c in controllers]
@@ -267,13 +272,22 @@ class BdotWorlds:
         self._set("prev", B.copy())
         self.has_prev = True
         m = -self.gain * self.B_dot
+        if self.normalised.any():
+            m_norm = normalised_bdot_dipole(self.B_dot, B, gain_Am2s=self.k_normalised)
+            m = np.where(self.normalised[:, None], m_norm, m)
         if self.bang_bang.any():
             m = np.where(self.bang_bang[:, None], bang_bang_dipole(self.B_dot, self.limit), m)
         if self.b_cross.any():
             m = np.where(self.b_cross[:, None], bcross_dipole(omega, B, k_Nms=self.k_bcross), m)
         if self.non_monotonic.any():
-            t_ahead = min(step * self.dt + self.lookahead_s, self.environments.t_max)
-            B_ahead = mat_t_vec_blas(R, self.environments.sample(t_ahead).B_eci)
+            if self.extrapolated.all():
+                B_ahead = mat_t_vec_blas(R, env.B_eci + self.lookahead_s * env.B_dot_eci)
+            else:
+                t_ahead = min(step * self.dt + self.lookahead_s, self.environments.t_max)
+                B_ahead = mat_t_vec_blas(R, self.environments.sample(t_ahead).B_eci)
+                if self.extrapolated.any():
+                    B_ext = mat_t_vec_blas(R, env.B_eci + self.lookahead_s * env.B_dot_eci)
+                    B_ahead = np.where(self.extrapolated[:, None], B_ext, B_ahead)
             m_nm = nonmonotonic_dipole(
                 omega,
                 B,

@@ -230,12 +230,16 @@ class CnusailControlConfig(StrictModel):
     recalculation and the sub-tables ``unloading``, ``modes``, ``sensors``.
 
     ``bdot_law`` is the detumble mode's law (:mod:`magsail_mj.control.detumble_laws`):
-    ``"proportional"`` (the paper's M = −K Ḃ, default), ``"bang_bang"`` (−m_max sign Ḃ per
-    axis), ``"b_cross"`` (m = k (ω × B)/‖B‖², k = ``bcross_gain_Nms`` or, absent, Avanzini &
-    Giulietti's 2 n (1 + sin ξ_m) J_min) or ``"non_monotonic"`` (Willis et al. 2024: tanh gain
-    ``nonmonotonic_gain_per_Nms``, second-step weight ``nonmonotonic_alpha``, the field table read
-    ``nonmonotonic_lookahead_s`` ahead, clamped to the table's end; α at most 1e6 and the gains at
-    most 1e12 keep the law's 6×6 system and products finite), or the name of a detumble law
+    ``"proportional"`` (the paper's M = −K Ḃ, default; with ``bdot_normalised_gain_Am2s`` = k
+    given, M = −k Ḃ/‖B‖ instead, the B-dot of Willis et al. 2024's code, k [A m² s]),
+    ``"bang_bang"`` (−m_max sign Ḃ per axis), ``"b_cross"`` (m = k (ω × B)/‖B‖², k =
+    ``bcross_gain_Nms`` or, absent, Avanzini & Giulietti's 2 n (1 + sin ξ_m) J_min) or
+    ``"non_monotonic"`` (Willis et al. 2024: tanh gain ``nonmonotonic_gain_per_Nms``, second-step
+    weight ``nonmonotonic_alpha``, the field ``nonmonotonic_lookahead_s`` = T ahead, clamped to the
+    table's end; α at most 1e6 and the gains at most 1e12 keep the law's 6×6 system and products
+    finite; ``nonmonotonic_field_ahead``: ``"table"`` reads the reference orbit's field table at
+    t + T, ``"extrapolated"`` takes B(t) + T Ḃ(t), Ḃ the orbit field's rate at t, as their Monte
+    Carlo's law does), or the name of a detumble law
     plug-in (:mod:`magsail_mj.control.detumble_plugins`: registered in the process or installed as
     an entry point; an unknown name is refused naming the laws known) with its parameters
     ``bdot_law_params`` (names → finite numbers, passed to the law; a shipped law takes none)."""
@@ -246,12 +250,14 @@ class CnusailControlConfig(StrictModel):
     bdot_gain_Am2s_T: float = Field(default=5.0e4, gt=0)
     bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
     bdot_omega_c_rad_s: float = Field(default=0.5, gt=0)
+    bdot_normalised_gain_Am2s: float | None = Field(default=None, gt=0, le=1e12)
     bdot_law: str = "proportional"
     bdot_law_params: dict[str, float] = {}
     bcross_gain_Nms: float | None = Field(default=None, gt=0, le=1e12)
     nonmonotonic_gain_per_Nms: float = Field(default=3.0e3, gt=0, le=1e12)
     nonmonotonic_alpha: float = Field(default=100.0, ge=0, le=1e6)
     nonmonotonic_lookahead_s: float = Field(default=600.0, gt=0)
+    nonmonotonic_field_ahead: Literal["table", "extrapolated"] = "table"
     slew_rate_max_deg_s: float = Field(default=0.3, gt=0)
     omega_n_rad_s: float = Field(default=0.02, gt=0)
     zeta: float = Field(default=0.9, gt=0)

@@ -46,7 +46,7 @@ import mujoco
 import numpy as np
 
 from magsail_mj.checks import require_non_negative
-from magsail_mj.control.bdot import make_bdot
+from magsail_mj.control.bdot import make_bdot, normalised_bdot_dipole
 from magsail_mj.control.detumble_laws import bang_bang_dipole, bcross_dipole, nonmonotonic_dipole
 from magsail_mj.control.detumble_plugins import BUILTIN_DETUMBLE_LAWS, check_params, detumble_law, plugin_dipole
 from magsail_mj.concepts.cnusail.eigenaxis import (
@@ -217,10 +217,13 @@ class CnusailControlParams:
       mtq_cycle: magnetorquer cycle with blanking.
       mtq_limits_Am2: (3,) dipole limits.
       bdot_form, bdot_gain, bdot_omega_c_rad_s: B-dot law (Yoo et al. 2016, Eqs. 24–27).
+      bdot_normalised_gain_Am2s: when given, the proportional law is M = −k Ḃ/‖B‖ with this k
+        [A m² s] (Willis et al. 2024's B-dot) in place of −K Ḃ.
       bdot_law: the detumble mode's law (:data:`DETUMBLE_LAWS`): ``"proportional"`` (the paper's
         M = −K Ḃ), ``"bang_bang"``, ``"b_cross"`` (B×ω, gain ``bcross_gain_Nms``) or
         ``"non_monotonic"`` (Willis et al. 2024; ``nonmonotonic_gain_per_Nms``, ``nonmonotonic_alpha``,
-        the field table read ``nonmonotonic_lookahead_s`` ahead); :mod:`magsail_mj.control.detumble_laws`;
+        the field ``nonmonotonic_lookahead_s`` ahead, from the table or extrapolated,
+        ``nonmonotonic_field_ahead``); :mod:`magsail_mj.control.detumble_laws`;
         or the name of a plug-in law (:mod:`magsail_mj.control.detumble_plugins`) with its
         ``bdot_law_params``.
       omega_n_rad_s, zeta, rate_max_rad_s, clamp_min, gyro_comp, shortest_rotation: eigen-axis
@@ -242,6 +245,7 @@ class CnusailControlParams:
     mtq_limits_Am2: np.ndarray = field(default_factory=lambda: np.array([0.2, 0.2, 0.1]))
     bdot_form: Literal["finite_difference", "filtered"] = "finite_difference"
     bdot_gain: float = 5.0e4
+    bdot_normalised_gain_Am2s: float | None = None
     bdot_omega_c_rad_s: float = 0.5
     bdot_law: str = "proportional"
     bdot_law_params: Mapping[str, float] = field(default_factory=dict)
@@ -249,6 +253,7 @@ class CnusailControlParams:
     nonmonotonic_gain_per_Nms: float = 3.0e3
     nonmonotonic_alpha: float = 100.0
     nonmonotonic_lookahead_s: float = 600.0
+    nonmonotonic_field_ahead: Literal["table", "extrapolated"] = "table"
     omega_n_rad_s: float = 0.02
     zeta: float = 0.9
     rate_max_rad_s: float = 0.3 * DEG
@@ -487,7 +492,12 @@ class CnusailController:
         m_bdot = self.bdot.update(B)
         if self.mode == Mode.DETUMBLE:
             self.unload_mask = np.zeros(3, dtype=bool)
-            m = m_bdot if p.bdot_law == "proportional" else self._detumble_dipole(t, R, B, omega)
+            if p.bdot_law != "proportional":
+                m = self._detumble_dipole(t, R, B, omega, env=env)
+            elif p.bdot_normalised_gain_Am2s is not None:
+                m = normalised_bdot_dipole(self.bdot.B_dot, B, gain_Am2s=p.bdot_normalised_gain_Am2s)
+            else:
+                m = m_bdot
             self.dipole_held = saturate_per_axis(m, p.mtq_limits_Am2)
         elif p.unloading_enabled:
             self.unload_mask = self.unload.update(omega_M)
@@ -498,14 +508,17 @@ class CnusailController:
             self.unload_mask = np.zeros(3, dtype=bool)
             self.dipole_held = np.zeros(3)
 
-    def _detumble_dipole(self, t: float, R: np.ndarray, B: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    def _detumble_dipole(self, t: float, R: np.ndarray, B: np.ndarray, omega: np.ndarray, *, env: Any) -> np.ndarray:
         """The unsaturated dipole [A m²] of the detumble law ``bdot_law`` other than the
         proportional one (:mod:`magsail_mj.control.detumble_laws`), at the magnetometer sample:
         the field ``B`` [T, body], the rate ``omega`` [rad/s, body; gyro noise added when set] and,
-        for the non-monotonic law, the reference orbit's field ``nonmonotonic_lookahead_s`` ahead in
-        today's body axes ``Rᵀ B(min(t + Δt, t_max))`` (the table's last time ``t_max`` bounds the
-        look-ahead near the end of a run, as the authors' interpolant clamps it). Each law is
-        evaluated on one row, as the batch evaluates it on every world's."""
+        for the non-monotonic law, the field Δt = ``nonmonotonic_lookahead_s`` ahead in today's body
+        axes: ``Rᵀ B(min(t + Δt, t_max))`` from the reference orbit's table (``"table"``; the
+        table's last time ``t_max`` bounds the look-ahead near the end of a run, as the authors'
+        interpolant clamps it) or ``Rᵀ (B(t) + Δt Ḃ(t))`` with B(t) and Ḃ(t) the orbit field and its
+        rate [T, T/s, ECI] of the environment sample ``env`` at t (``"extrapolated"``, the
+        ``bderivative_control`` of their Monte Carlo).
+        Each law is evaluated on one row, as the batch evaluates it on every world's."""
         p = self.p
         if p.bdot_law == "bang_bang":
             return bang_bang_dipole(self.bdot.B_dot, p.mtq_limits_Am2)
@@ -524,8 +537,11 @@ class CnusailController:
                 inertia_kgm2=p.inertia_kgm2,
                 dipole_max_Am2=p.mtq_limits_Am2,
             )
-        t_ahead = min(t + p.nonmonotonic_lookahead_s, self.environment.t_max)
-        B_ahead = R.T @ self.environment.sample(t_ahead).B_eci
+        if p.nonmonotonic_field_ahead == "extrapolated":
+            B_ahead = R.T @ (env.B_eci + p.nonmonotonic_lookahead_s * env.B_dot_eci)
+        else:
+            t_ahead = min(t + p.nonmonotonic_lookahead_s, self.environment.t_max)
+            B_ahead = R.T @ self.environment.sample(t_ahead).B_eci
         return nonmonotonic_dipole(
             omega[None],
             B[None],
