@@ -215,6 +215,11 @@ def test_checkpoints_of_another_config_other_folders_or_edited_are_refused(tmp_p
         np.savez(fh, **raw)
     with pytest.raises(CheckpointError, match="differs from its state digest"):
         run_batch_folders(_batch("python"), dirs, resume=True)
+    # a file with a pickled object inside is never unpickled
+    with open(ckpt, "wb") as fh:
+        np.savez(fh, **raw, x_payload=np.array([{"a": 1}], dtype=object))
+    with pytest.raises(CheckpointError, match="unreadable or truncated .*allow_pickle=False"):
+        run_batch_folders(_batch("python"), dirs, resume=True)
     assert {d: (d / "manifest.json").read_bytes() for d in dirs} == before
 
 

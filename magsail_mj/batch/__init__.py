@@ -23,6 +23,7 @@ Modules (one job each):
 * :mod:`~magsail_mj.batch.worldmath` — element-wise arithmetic rounded as the single run's;
 * :mod:`~magsail_mj.batch.records` — per-world recorders filled in blocks;
 * :mod:`~magsail_mj.batch.runner` — the lockstep loop, per-world divergence, state;
+* :mod:`~magsail_mj.batch.checkpoint` — the whole batch's checkpoint file, its checks on resume;
 * :mod:`~magsail_mj.batch.build` — :func:`load_batch`, and how a concept joins (its ``batch``
   module; CNUSAIL's: :mod:`magsail_mj.concepts.cnusail.batch`, with the cubesat's loads, B-dot
   controller and step over the world axis in ``batch_loads``, ``batch_control``, ``batch_plant``);
@@ -30,8 +31,7 @@ Modules (one job each):
   its own: it uses the run-folder writer, which itself loads configs through this package).
 
 The batch runs the CNUSAIL cubesat's B-dot detumble (``control.mode = "bdot"``); other concepts,
-the pointing laws, sensor noise and checkpoint files are refused or not yet written (see
-``docs/batch.md``).
+the pointing laws and sensor noise are refused (see ``docs/batch.md``).
 """
 
 from __future__ import annotations

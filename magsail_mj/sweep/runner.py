@@ -13,8 +13,9 @@ client only), waits for its record, and
 
 :func:`supervise_batch` is the task of a batch of runs (:mod:`magsail_mj.sweep.batches`): one
 run process runs them as the worlds of one batch (:func:`run_batch`), each into its single run's
-folder, and the attempts stay per run: a killed batch process's unfinished runs are retried one
-by one as single runs.
+folder, and the attempts stay per run: a killed batch process's unfinished runs resume as the
+same batch from its checkpoint when it has advanced since the attempt began, else they are
+retried one by one as single runs.
 
 The run process holds the run's lock (:func:`~magsail_mj.sweep.common.run_lock`) while it runs,
 dies with its supervisor (``PR_SET_PDEATHSIG`` and a parent-pid watch), and turns SIGTERM into an
@@ -530,10 +531,14 @@ def supervise_batch(
 
     Retries are per run. A task started again after its worker died (Dask reschedules it; the
     attempt counters say so) keeps the runs whose folders that attempt finished (unless ``fresh``:
-    they may be an earlier call's) and runs the others as a batch again. When the batch process is
-    killed by a signal, the runs it did not finish are retried one by one as single runs
-    (:func:`supervise`'s attempts: a world that takes its process down is then alone), each while
-    its attempts are within ``run_retries``; otherwise they fail, naming the signal.
+    they may be an earlier call's) and runs the others as a batch again; unless ``fresh``, a batch
+    resumes from the checkpoint of exactly these runs in the first one's folder. When the batch
+    process is killed by a signal and its checkpoint of these runs has advanced since the attempt
+    began, the batch is started again from it while every run's attempts are within
+    ``run_retries``; otherwise the runs it did not finish are retried one by one as single runs
+    (:func:`supervise`'s attempts: a world that takes its process down, so that the checkpoint
+    stops advancing, is then alone), each while its attempts are within ``run_retries``; otherwise
+    they fail, naming the signal.
     """
     out = Path(out_dir)
     if _stop_request(out, token):
