@@ -39,6 +39,7 @@ machine as it is then; absolute times move with the machine and its load.
     python scripts/bench_batch.py --epochs --json bench_batch.json
     nice -n 10 python scripts/bench_batch.py --loads compiled --worlds 256 --threads 1
     nice -n 10 python scripts/bench_batch.py --config truss   # 8 and 16 worlds, 300 steps, ≈ 3 min
+    nice -n 10 python scripts/bench_batch.py --config truss --warm   # each batch's second run timed
 """
 
 from __future__ import annotations
@@ -136,15 +137,27 @@ def single_step_us(overrides: list[str], steps: int, *, config: Path = CONFIG) -
 
 
 def batch_pass(
-    overrides: list[str], n: int, nthread: int, *, epochs: bool, config: Path = CONFIG, setup: tuple = SETUP["cnusail"]
+    overrides: list[str],
+    n: int,
+    nthread: int,
+    *,
+    epochs: bool,
+    config: Path = CONFIG,
+    setup: tuple = SETUP["cnusail"],
+    warm: bool = False,
 ) -> dict[str, float]:
     """One batch of ``n`` worlds on ``nthread`` threads: µs per world-step (wall, CPU), the Python
-    share of the loop's wall time and the build s."""
+    share of the loop's wall time and the build s. ``warm``: run the steps once first and time the
+    run after ``reset()`` (what a world computes once and keeps, such as the truss's Lloyd rod
+    selections of each new rod count, is then already there, as through most of a long run)."""
     _, key, rate, _, _ = setup
     t0 = time.perf_counter()
     worlds = world_overrides(n, epochs=epochs, key=key, rate=rate)
     sim = magsail_mj.load(config, overrides, world_overrides=worlds, nthread=nthread)
     build = time.perf_counter() - t0
+    if warm:
+        sim.run()
+        sim.reset()
     timed = sim.batch = TimedBatch(sim.batch)
     c0, m0 = time.process_time(), time.thread_time()
     result = sim.run()
@@ -227,6 +240,7 @@ def main() -> int:
     ap.add_argument("--epochs", action="store_true", help="each world its own epoch (own environment tables)")
     ap.add_argument("--json", type=Path, default=None, help="also write the figures as JSON")
     ap.add_argument("--loads", choices=("python", "compiled"), default="python", help="sim.loads (default python)")
+    ap.add_argument("--warm", action="store_true", help="time each batch's second run of the steps (after reset)")
     args = ap.parse_args()
     config, setup = CONFIGS[args.config], SETUP[args.config]
     dt, _, _, default_worlds, default_steps = setup
@@ -240,7 +254,7 @@ def main() -> int:
     bare = None
     for n in worlds:
         for nthread in args.threads:
-            row = batch_pass(overrides, n, nthread, epochs=args.epochs, config=config, setup=setup)
+            row = batch_pass(overrides, n, nthread, epochs=args.epochs, config=config, setup=setup, warm=args.warm)
             if bare is None:  # the bare step of the same model, right after the first batch
                 bare = bare_step(row["model"], row["physics"], steps)
             rows.append(_row(n, nthread, row, bare, single))
@@ -252,7 +266,8 @@ def main() -> int:
     assert bare is not None
     print()
     print(
-        f"config {config.name}, {steps} steps, loads {args.loads}, epochs per world: {args.epochs}; "
+        f"config {config.name}, {steps} steps, loads {args.loads}, epochs per world: {args.epochs}, "
+        f"warm: {args.warm}; "
         f"bare mj_step {bare['wall_us']:.2f} us wall, {bare['cpu_us']:.2f} us CPU "
         f"(native nstep {bare['native_us']:.2f} us); single run {single:.2f} us/step "
         f"(÷ mj_step {single / bare['wall_us']:.2f})"
@@ -276,6 +291,7 @@ def main() -> int:
             "steps": steps,
             "epochs": args.epochs,
             "loads": args.loads,
+            "warm": args.warm,
             "mj_step": bare,
             "single_us_per_step": single,
             "rows": rows,
