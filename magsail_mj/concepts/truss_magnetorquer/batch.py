@@ -38,7 +38,6 @@ from magsail_mj.concepts.truss_magnetorquer.config import TrussConfig
 from magsail_mj.concepts.truss_magnetorquer.model import TrussModel, make_truss_model
 from magsail_mj.concepts.truss_magnetorquer.tasks import OrbitalTrussTask
 from magsail_mj.environment.environment import Environment
-from magsail_mj.lattice.geometry import strain_check
 from magsail_mj.sim import BodyKinematics
 
 __all__ = ["LOCKSTEP_KEYS", "refusals", "build_worlds", "compile_model", "TrussWorlds", "world_task", "MODEL_KEYS"]
@@ -208,10 +207,19 @@ class TrussWorlds:
             ),
             controller=RodControlWorlds(self.controllers, timestep_s=cfg0.sim.timestep_s),
             probes=self.probes,
-            strain_checks=[strain_check(task.tm.lattice) for task in self.tasks],
+            struts=self._struts(),
+            inv_rest_length_sq=np.array([1.0 / task.tm.lattice.rest_length**2 for task in self.tasks]),
             max_strain=np.array([cfg.sim.max_strain for cfg in self.cfgs]),
             timestep_s=cfg0.sim.timestep_s,
         )
+
+    def _struts(self) -> np.ndarray:
+        """(S, 2) the struts' end bodies (node ``i`` is body ``i + 1``, as the single run's strain
+        check reads them), the same in every world."""
+        struts = self.tasks[0].tm.lattice.struts
+        if any(not np.array_equal(task.tm.lattice.struts, struts) for task in self.tasks):
+            raise ValueError("lattice: the worlds' lattices have different struts")
+        return struts + 1
 
     def scenario(self, world: int) -> OrbitalTrussTask:
         """World ``world``'s task (post-processing, plots, manifest), with the loads and controller

@@ -13,7 +13,9 @@ drives it). Each step ``k`` (``t = k·δt``), for all N worlds at once, as
 2. :meth:`probes` (record steps): the single run's probes (``qpos`` and those of
    :func:`~magsail_mj.concepts.truss_magnetorquer.orbital.orbital_probes`), each world's by its own
    probe functions on its own rows, so every value is the single run's; then :meth:`failures`: the
-   strut strain check of each world (``|l/l0 − 1| > sim.max_strain`` stops that world,
+   strut strain check of every live world at once (:func:`~magsail_mj.lattice.geometry.strain_check`'s
+   ``(l/l0)² = |x_b − x_a|²/l0²`` with its :func:`numpy.einsum` per world, the largest
+   ``|l/l0 − 1|`` at the largest or smallest ratio; beyond ``sim.max_strain`` it stops that world,
    ``structure_failed``, as :class:`~magsail_mj.divergence.StructureFailure` stops its single run);
 3. :meth:`loads`: ``xfrc_applied`` zeroed, then tidal gravity and the rod force pairs of the held
    polarities (:class:`~magsail_mj.concepts.truss_magnetorquer.batch_loads.LatticeLoadWorlds`), at
@@ -24,6 +26,7 @@ A stopped world keeps its ``xfrc_applied`` and controller state.
 
 from __future__ import annotations
 
+import math
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -36,7 +39,6 @@ from magsail_mj.loads.base import StepState
 __all__ = ["LatticeWorlds"]
 
 Probe = Callable[[StepState, Any], Any]
-StrainCheck = Callable[[np.ndarray], tuple[float, int]]
 
 
 class LatticeWorlds:
@@ -50,7 +52,8 @@ class LatticeWorlds:
       controller: the worlds' rod controllers.
       probes: each world's probe functions (``state, data → value``), the same names in every
         world, ``qpos`` excluded (recorded from the batch's ``qpos``).
-      strain_checks: each world's strut strain check (``pos → (strain, strut)``).
+      struts: (S, 2) the struts' end bodies (every world's lattice has the same struts).
+      inv_rest_length_sq: (N, S) each world's ``1/l0²`` of every strut [1/m²].
       max_strain: (N,) each world's strain bound.
       timestep_s: δt [s].
     """
@@ -64,7 +67,8 @@ class LatticeWorlds:
         loads: LatticeLoadWorlds,
         controller: RodControlWorlds,
         probes: Sequence[dict[str, Probe]],
-        strain_checks: Sequence[StrainCheck],
+        struts: np.ndarray,
+        inv_rest_length_sq: np.ndarray,
         max_strain: np.ndarray,
         timestep_s: float,
     ) -> None:
@@ -75,7 +79,8 @@ class LatticeWorlds:
         self.ctl = controller
         self.world_probes = [dict(p) for p in probes]
         self.probe_names = ("qpos", *self.world_probes[0])
-        self.strain_checks = list(strain_checks)
+        self.strut_a, self.strut_b = np.asarray(struts[:, 0]), np.asarray(struts[:, 1])
+        self.inv_l0_sq = np.asarray(inv_rest_length_sq, dtype=float)
         self.max_strain = np.asarray(max_strain, dtype=float)
         self.dt = float(timestep_s)
         self.n = len(self.world_probes)
@@ -138,9 +143,16 @@ class LatticeWorlds:
         run's message (the largest strut strain beyond ``sim.max_strain``)."""
         pos, _, _ = self._state(step, qpos)
         t = step * self.dt
+        rows = np.flatnonzero(live)
+        p = pos[rows]
+        r = p.take(self.strut_b, axis=1)
+        r -= p.take(self.strut_a, axis=1)
+        ratio2 = np.einsum("nij,nij->ni", r, r) * self.inv_l0_sq[rows]
+        i_max, i_min = np.argmax(ratio2, axis=1).tolist(), np.argmin(ratio2, axis=1).tolist()
         out = {}
-        for k in np.flatnonzero(live).tolist():
-            strain, strut = self.strain_checks[k](pos[k])
+        for j, k in enumerate(rows.tolist()):
+            stretch, squeeze = math.sqrt(ratio2[j, i_max[j]]) - 1.0, 1.0 - math.sqrt(ratio2[j, i_min[j]])
+            strain, strut = (stretch, i_max[j]) if stretch >= squeeze else (squeeze, i_min[j])
             if not strain <= self.max_strain[k]:
                 out[k] = (
                     f"strut {strut} strain {strain:.3g} exceeds sim.max_strain {self.max_strain[k]:g} at t = {t:.6g} s"
