@@ -1,8 +1,9 @@
 """Compiled loads: C sources of the package built into shared libraries on first use
 (:mod:`magsail_mj.compiled.build`). ``cubesat_loads.c`` is the CNUSAIL cubesat's loads, a MuJoCo
 plugin (:mod:`magsail_mj.concepts.cnusail.compiled` builds its model data and runs it);
-``lattice_rk4.c`` is the spring–dashpot lattice's RK4 reference, called through ``ctypes``
-(:mod:`magsail_mj.reference.compiled_rk4`)."""
+``dipole_in_field.c`` is a body-fixed dipole in a uniform field, a MuJoCo plugin any rigid model
+can carry (:mod:`magsail_mj.compiled.dipole`); ``lattice_rk4.c`` is the spring–dashpot lattice's
+RK4 reference, called through ``ctypes`` (:mod:`magsail_mj.reference.compiled_rk4`)."""
 
 from __future__ import annotations
 
