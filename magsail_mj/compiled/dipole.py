@@ -73,7 +73,7 @@ def add_dipole_in_field(
       CompiledLoadsError: the library cannot be built or loaded (no compiler).
     """
     if not body or spec.body(body) is None or body == spec.worldbody.name:
-        raise ValueError(f"body: no body {body!r} other than the world in the spec")
+        raise ValueError(f"body: no body {body!r} other than the world in the MjSpec")
     config = {
         "body": body,
         "dipole": _vec3_text(dipole_body_Am2, name="dipole_body_Am2"),
