@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import zarr
 
 import magsail_mj
 from magsail_mj.batch.checkpoint import BATCH_CHECKPOINT_NAME
@@ -36,7 +37,8 @@ from magsail_mj.checkpoint import CheckpointError, read_checkpoint, write_checkp
 from magsail_mj.concepts.cnusail.tasks import AttitudeTask
 from magsail_mj.config import load_config
 from magsail_mj.export import read_timeseries
-from magsail_mj.records import SERIES_GROUP, open_records
+from magsail_mj.batch.records import WorldRecords
+from magsail_mj.records import SERIES_GROUP, Recorder, open_records
 from magsail_mj.run import RunInterrupted, run_scenario
 from magsail_mj.sweep import SweepRun, load_sweep, run_sweep
 from magsail_mj.sweep.batches import plan_batches
@@ -61,6 +63,22 @@ TIMING = ("wall_time_s", "step_cost_us")
 def _no_plots(monkeypatch):
     """The plots are drawn by the same function from the same series; drawing them is most of a short run's cost."""
     monkeypatch.setattr(AttitudeTask, "plots", lambda self, run_dir, result, series: [])
+
+
+SHORT_CHUNKS = """
+from magsail_mj.batch.records import WorldRecords
+from magsail_mj.records import Recorder
+WorldRecords.__init__.__kwdefaults__["chunk_bytes"] = 1024  # 1024 B / 208 B of qpos: 4 records a chunk
+Recorder.__init__.__kwdefaults__["min_chunk"] = 4
+"""
+
+
+@pytest.fixture(autouse=True)
+def _short_chunks(monkeypatch):
+    """Record chunks of 4 records (of 1 260 in a batch's CNUSAIL world), so that every checkpoint
+    finds full chunks in the stores and rows after them (:data:`SHORT_CHUNKS` in a subprocess)."""
+    monkeypatch.setitem(WorldRecords.__init__.__kwdefaults__, "chunk_bytes", 1024)
+    monkeypatch.setitem(Recorder.__init__.__kwdefaults__, "min_chunk", 4)
 
 
 def _batch(loads: str, worlds: list[list[str]] = WORLDS) -> magsail_mj.batch.BatchSimulation:
@@ -109,8 +127,11 @@ def test_a_stopped_batch_resumes_to_the_uninterrupted_folders(tmp_path, tmp_path
     dirs = _dirs(tmp_path)
     stopped = run_batch_folders(_batch(loads), dirs, stop_after_s=6.4)
     assert [o.status for o in stopped] == ["stopped", "stopped", "stopped", "diverged"]
-    header = read_checkpoint(dirs[0] / BATCH_CHECKPOINT_NAME)[0]
+    header, _, arrays = read_checkpoint(dirs[0] / BATCH_CHECKPOINT_NAME)
     assert (header["step"], [w["folder"] for w in header["worlds"]]) == (32, ["w0", "w1", "w2", "w3"])
+    # 7 records at t = 0 … 6 s: one chunk of 4 in the store, 3 rows in the file (1 record of the diverged world)
+    counts = [(w["n_records"], w["n_stored"], len(arrays.get(f"r{k}.t", ()))) for k, w in enumerate(header["worlds"])]
+    assert counts == [(7, 4, 3), (7, 4, 3), (7, 4, 3), (1, 0, 1)]
     resumed = run_batch_folders(_batch(loads), dirs, resume=True)
     assert [o.status for o in resumed] == ENDED
     assert not (dirs[0] / BATCH_CHECKPOINT_NAME).exists()
@@ -146,7 +167,9 @@ def test_an_interrupted_batch_resumes_from_its_last_checkpoint(tmp_path, tmp_pat
         _assert_same_folder(mine, want)
 
 
-KILLED = """
+KILLED = (
+    SHORT_CHUNKS
+    + """
 import os, signal, sys
 import magsail_mj
 from magsail_mj.batch import runner
@@ -162,6 +185,7 @@ runner.write_batch_checkpoint = write_then_die
 sim = magsail_mj.load({pre!r}, {shared!r}, world_overrides={worlds!r})
 run_batch_folders(sim, {dirs!r})
 """
+)
 
 
 def test_a_killed_batch_process_resumes(tmp_path, tmp_path_factory):
@@ -195,6 +219,10 @@ def test_checkpoints_of_another_config_other_folders_or_edited_are_refused(tmp_p
         run_batch_folders(sim, dirs, resume=True)
     assert {d: (d / "manifest.json").read_bytes() for d in dirs} == before  # nothing touched
     header, _, arrays = read_checkpoint(ckpt)
+    store = zarr.open_group(str(dirs[1] / "timeseries.zarr"), mode="r+", use_consolidated=False)
+    store["qvel"][2, 3] = 0.5  # a record the checkpoint counts in the store, edited
+    with pytest.raises(CheckpointError, match=r"world 1: .*qvel.*records 0-3"):
+        run_batch_folders(_batch("python"), dirs, resume=True)
     # a forged file with a valid digest but a state this batch does not have
     forged = {k: v for k, v in header.items() if k not in ("format", "state_tree", "state_digest")}
     forged["scalars"] = {**forged["scalars"], "plant.injected": 1}

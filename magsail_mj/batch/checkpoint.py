@@ -8,10 +8,12 @@ integration state, which worlds run, their statuses, messages, end steps and rec
 stop rules' state and the plant's Python-side state — as flat named arrays (``s.<key path>``) and
 JSON scalars, and, per world, its run identity (:func:`~magsail_mj.checkpoint.run_identity`: the
 hash of the config keys that change the numbers, the tree of those keys, the package versions),
-the name of its run folder and record store, its record count and the digests of every record
-chunk in its store (:meth:`~magsail_mj.records.Recorder.digest_table`). The records themselves stay
-in each world's store (flushed before the file is written), so the file's size does not grow
-with the run.
+the name of its run folder and record store, its record count, the count its store holds and
+the digests of every record chunk there (:meth:`~magsail_mj.records.Recorder.digest_table`). The
+records stay in each world's store, which a world's recorder writes a chunk at a time as it
+fills; the file holds only each world's rows after them (``r<k>.<name>``: the part of its current
+chunk, at most one chunk — 1 260 records, 0.8 MB of a CNUSAIL world), so writing it touches no
+store and its size does not grow with the run.
 
 On resume (:func:`restore_batch_checkpoint`) the batch is rebuilt from its configs, and the file
 is accepted only when
@@ -22,10 +24,12 @@ is accepted only when
 * every value has the key path, type, shape and dtype of the rebuilt batch's own
   :meth:`~magsail_mj.batch.runner.BatchSimulation.get_state` (the file is data read into declared
   fields: nothing of it names a class, an attribute or a module);
-* each world's store holds the records the file counts, equal to their digests.
+* each world's store holds the records the file counts, equal to their digests, and the file's
+  rows after them are every variable's, of equal length, plain numbers of the store's types.
 
-Each world's store is then cut to its record count and continued, and the batch continues from the
-file's step: the following steps, records and statuses are those of the uninterrupted batch.
+Each world's store is then cut to its count, the file's rows are added after it, and the batch
+continues from the file's step: the following steps, records and statuses are those of the
+uninterrupted batch.
 """
 
 from __future__ import annotations
@@ -122,10 +126,21 @@ def _unflatten(
 
 
 # ---------------------------------------------------------------------- writing
+def _tail(rec: Any) -> tuple[int, dict[str, np.ndarray]]:
+    """``(records in the store, the rows after them)`` of a world's recorder: the store holds its
+    full chunks (written as they fill) and the rows of its last flush; the rest of its current
+    chunk is in its buffers."""
+    if rec.written < rec.base:  # never in store mode (a full chunk is written as it fills): flush then
+        rec.flush()
+    lo, hi = rec.written - rec.base, len(rec) - rec.base
+    return rec.written, {name: np.array(buf[lo:hi], copy=True) for name, buf in rec.buffers.items() if hi > lo}
+
+
 def write_batch_checkpoint(sim: Any, path: Path) -> None:
     """Write the batch ``sim`` (a :class:`~magsail_mj.batch.runner.BatchSimulation` whose worlds
-    stream their records to stores) to the checkpoint ``path`` (module docstring). Every world's
-    store is flushed first, so it holds every record the file counts."""
+    stream their records to stores) to the checkpoint ``path`` (module docstring). Nothing is
+    written to the stores: the file counts the records each store holds (with their digests) and
+    holds each world's rows after them (at most one chunk a world, ``r<k>.<name>``)."""
     state = sim.get_state()
     recorders = sim.recorders
     if any(rec.path is None for rec in recorders):
@@ -136,7 +151,8 @@ def write_batch_checkpoint(sim: Any, path: Path) -> None:
     arrays["world_steps"] = np.array(sim._world_steps, dtype=np.int64, copy=True)
     worlds = []
     for k, rec in enumerate(recorders):
-        rec.flush()
+        stored, tail = _tail(rec)
+        arrays.update({f"r{k}.{name}": rows for name, rows in tail.items()})
         identity = sim.identities[k] if k < len(sim.identities) else {}
         worlds.append(
             {
@@ -144,6 +160,7 @@ def write_batch_checkpoint(sim: Any, path: Path) -> None:
                 "folder": rec.path.parent.name,
                 "records_store": rec.path.name,
                 "n_records": len(rec),
+                "n_stored": stored,
                 "records_digests": rec.digest_table(),
             }
         )
@@ -211,6 +228,24 @@ def checkpoint_folders(path: Path) -> tuple[list[str], float] | None:
     return folders, t_s
 
 
+def _read_tail(
+    arrays: dict[str, np.ndarray], k: int, world: dict[str, Any], *, names: Sequence[str], where: Path
+) -> dict[str, np.ndarray]:
+    """World ``k``'s record rows after its store's (``r<k>.<name>``): every variable or none, of
+    equal length, plain numbers, and ``world["n_stored"]`` a record count."""
+    stored = world.get("n_stored")
+    if not isinstance(stored, int) or isinstance(stored, bool) or stored < 0:
+        raise CheckpointError(f"checkpoint: {where}: world {k} names no record count of its store")
+    tail = {name: arrays[f"r{k}.{name}"] for name in names if f"r{k}.{name}" in arrays}
+    if tail and (
+        set(tail) != set(names)
+        or len({len(v) for v in tail.values()}) != 1
+        or any(v.ndim < 1 or v.dtype.kind not in "biuf" for v in tail.values())
+    ):
+        raise CheckpointError(f"checkpoint: {where}: world {k}'s records after its store's are malformed")
+    return tail
+
+
 def restore_batch_checkpoint(sim: Any, path: Path, records_paths: Sequence[str | Path]) -> None:
     """Continue the freshly built batch ``sim`` from the checkpoint ``path`` (module docstring):
     the checks of :func:`read_batch_checkpoint`, every value read into the form of the batch's own
@@ -227,7 +262,12 @@ def restore_batch_checkpoint(sim: Any, path: Path, records_paths: Sequence[str |
     template = sim.get_state()
     seen: set[str] = set()
     state = _unflatten(template, "", arrays, header["scalars"], seen, where=path)
-    extra = sorted((set(header["scalars"]) | {k for k in arrays if k.startswith("s.")}) - seen)
+    tails = [
+        _read_tail(arrays, k, world, names=sim.recorders[k].names, where=path)
+        for k, world in enumerate(header["worlds"])
+    ]
+    seen.update(f"r{k}.{name}" for k, tail in enumerate(tails) for name in tail)
+    extra = sorted((set(header["scalars"]) | {k for k in arrays if k != "world_steps"}) - seen)
     if extra:
         raise CheckpointError(f"checkpoint: {path} holds batch state this batch has not: {', '.join(extra[:5])}")
     step = state["step"]
@@ -241,20 +281,26 @@ def restore_batch_checkpoint(sim: Any, path: Path, records_paths: Sequence[str |
     steps = arrays.get("world_steps")
     if bad or (counts < 0).any() or steps is None or steps.shape != (sim.n_worlds,) or steps.dtype != np.int64:
         raise CheckpointError(f"checkpoint: {path} has malformed world statuses, record counts or step counts")
-    for k, (world, store) in enumerate(zip(header["worlds"], stores)):  # every store checked first
-        n, digests = world.get("n_records"), world.get("records_digests")
-        if world.get("records_store") != store.name or n != int(counts[k]) or not isinstance(digests, dict):
+    for k, (world, store, tail) in enumerate(zip(header["worlds"], stores, tails)):  # every store checked first
+        n, digests = world["n_stored"], world.get("records_digests")
+        rows = len(tail["t"]) if tail else 0
+        if world.get("records_store") != store.name or n + rows != int(counts[k]) or not isinstance(digests, dict):
             raise CheckpointError(f"checkpoint: {path}: world {k} names no record count of {store.name}")
         try:
             if n:
                 verify_digests(store, digests)
         except RecordStoreError as err:
             raise CheckpointError(f"checkpoint: {path}: world {k}: {err}") from None
-    for k, (world, store) in enumerate(zip(header["worlds"], stores)):
+    for k, (world, store, tail) in enumerate(zip(header["worlds"], stores, tails)):
+        rec = sim.recorders[k]
         try:
-            sim.recorders[k].open_store(store, world["n_records"], digests=world["records_digests"])
+            rec.open_store(store, world["n_stored"], digests=world["records_digests"])
         except RecordStoreError as err:
             raise CheckpointError(f"checkpoint: {path}: world {k}: {err}") from None
+        if tail:
+            if rec.buffers and any(rec.buffers[name].dtype != rows.dtype for name, rows in tail.items()):
+                raise CheckpointError(f"checkpoint: {path}: world {k}: its records' types differ from {store.name}'s")
+            rec.extend(tail)
     sim.set_state(state)
     sim._wall_s = float(header.get("wall_s", 0.0))
     sim._world_steps = np.array(steps, copy=True)
