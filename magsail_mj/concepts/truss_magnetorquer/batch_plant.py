@@ -115,8 +115,8 @@ class LatticeWorlds:
         """The rod controllers' sample at step ``step`` when one is due (the model has no actuators:
         ``ctrl`` is not written)."""
         if self.ctl.due(step):
-            pos, _, views = self._state(step, qpos)
-            self.ctl.sample(step, pos, views, self.live)
+            pos, env, views = self._state(step, qpos)
+            self.ctl.sample(step, pos, env.B_eci, views, self.live)
 
     def probes(self, step: int, qpos: np.ndarray, qvel: np.ndarray) -> dict[str, np.ndarray]:
         """The probes' values at step ``step`` (after :meth:`control`), (N, …) each; a stopped
@@ -126,7 +126,7 @@ class LatticeWorlds:
         names = self.probe_names[1:]
         rows: dict[int, list[Any]] = {}
         for k in np.flatnonzero(self.live).tolist():
-            s = StepState(t=t, pos=pos[k], vel=None, xquat=None, omega=None, env=views[k], ctrl=self.ctl.cmd[k])
+            s = StepState(t=t, pos=pos[k], vel=None, xquat=None, omega=None, env=views[k], ctrl=self.ctl.command(k))
             probes = self.world_probes[k]
             rows[k] = [np.asarray(probes[name](s, None)) for name in names]
         first = next(iter(rows.values()))
@@ -163,11 +163,7 @@ class LatticeWorlds:
         """``xfrc_applied`` of step ``step``: zero, then tidal gravity and the rods' force pairs."""
         pos, env, _ = self._state(step, qpos)
         live = self.live
-        pol = np.zeros((self.n, self.lds.n_rods), dtype=np.int8)
-        for k in np.flatnonzero(live).tolist():
-            cmd = self.ctl.cmd[k]
-            if cmd is not None and cmd.polarity is not None:
-                pol[k] = cmd.polarity
+        pol = self.ctl.polarity if live.all() else np.where(live[:, None], self.ctl.polarity, 0).astype(np.int8)
         if live.all():
             xfrc[...] = 0.0
             self.lds.add(pos, env.r_ref_eci, env.B_eci, pol, xfrc)
