@@ -204,8 +204,12 @@ def test_a_killed_batch_process_resumes(tmp_path, tmp_path_factory):
 
 def test_checkpoints_of_another_config_other_folders_or_edited_are_refused(tmp_path):
     dirs = _dirs(tmp_path)
+    with pytest.raises(ValueError, match=r"stop_after_s: must be at least one time step \(0.2 s\) beyond t = 0 s"):
+        run_batch_folders(_batch("python"), dirs, stop_after_s=0.1)
     run_batch_folders(_batch("python"), dirs, stop_after_s=5.0)
     ckpt = dirs[0] / BATCH_CHECKPOINT_NAME
+    with pytest.raises(ValueError, match=r"stop_after_s: must be at least one time step \(0.2 s\) beyond t = 5 s"):
+        run_batch_folders(_batch("python"), dirs, resume=True, stop_after_s=5.1)
     before = {d: (d / "manifest.json").read_bytes() for d in dirs}
     other = [WORLDS[0], ["initial.omega0_deg_s=[2.0, 9.5, -4.0]", "control.bdot_gain_Am2s_T=20000.0"], *WORLDS[2:]]
     with pytest.raises(CheckpointError, match=r"world 1 \(folder 'w1'\).*initial\.omega0_deg_s"):

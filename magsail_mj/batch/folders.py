@@ -107,7 +107,8 @@ def run_batch_folders(
       checkpoint_path: the batch checkpoint (default: ``out_dirs[0]/checkpoint-batch.npz``).
 
     Raises:
-      ValueError: ``out_dirs`` is not one distinct folder per world, or ``sim`` is not at its start.
+      ValueError: ``out_dirs`` is not one distinct folder per world, ``sim`` is not at its start, or
+        ``stop_after_s`` is less than one time step beyond the start (or the checkpoint).
       RunDirError: a folder cannot be used (nothing is run); with ``resume``, a checkpoint that is
         missing or refused (:class:`~magsail_mj.checkpoint.CheckpointError`, naming the world,
         its folder and what differs).
@@ -123,8 +124,14 @@ def run_batch_folders(
         raise ValueError("sim: run folders are written from the start of a fresh batch (call sim.reset() first)")
     ckpt = Path(checkpoint_path) if checkpoint_path is not None else dirs[0] / BATCH_CHECKPOINT_NAME
     every_s = checkpoint_interval_s(sim.cfgs)
+    t0_s = 0.0
     if resume:  # refused before any folder is touched
-        read_batch_checkpoint(ckpt, identities=sim.identities, folders=[d.name for d in dirs])
+        t0_s = float(read_batch_checkpoint(ckpt, identities=sim.identities, folders=[d.name for d in dirs])[0]["t_s"])
+    if stop_after_s is not None and not stop_after_s >= t0_s + sim.dt * (1 - 1e-9):
+        raise ValueError(
+            f"stop_after_s: must be at least one time step ({sim.dt:.6g} s) beyond t = {t0_s:.6g} s, "
+            f"got {stop_after_s!r}"
+        )
     run_dirs = [prepare_run_dir(d, overwrite=overwrite, resume=resume) for d in dirs]
     attrs = [store_attrs(cfg, ident) for cfg, ident in zip(sim.cfgs, sim.identities)]
     outcomes: list[RunOutcome] = []

@@ -60,7 +60,8 @@ LOCKSTEP_KEYS: dict[str, str] = {
 """Keys that must be the same in every world of a batch, with the reason."""
 
 IGNORED_KEYS = ("description", "sim.progress", "sim.checkpoint_every_s")
-"""Keys that may differ freely (they change no number of a batch run)."""
+"""Keys that may differ freely (they change no number of a batch run; the batch checkpoints at the
+smallest positive ``sim.checkpoint_every_s`` of its worlds, :func:`magsail_mj.batch.folders.checkpoint_interval_s`)."""
 
 
 def _config(config: str | Path | BaseModel, overrides: list[str]) -> BaseModel:
