@@ -229,20 +229,22 @@ def test_checkpoints_of_another_config_other_folders_or_edited_are_refused(tmp_p
         run_batch_folders(_batch("python"), dirs, resume=True)
     # a forged file with a valid digest but a state this batch does not have
     forged = {k: v for k, v in header.items() if k not in ("format", "state_tree", "state_digest")}
-    forged["scalars"] = {**forged["scalars"], "plant.injected": 1}
+    plant = forged["state"]["dict"]["plant"]["dict"]
+    forged["state"]["dict"]["plant"]["dict"] = {**plant, "injected": {"value": 1}}
     write_checkpoint(tmp_path / "forged.npz", forged, tree={}, arrays={}, extra_arrays=arrays)
-    with pytest.raises(CheckpointError, match="holds batch state this batch has not: plant.injected"):
+    with pytest.raises(CheckpointError, match=r"batch state \.plant: has the keys \['controller', 'injected'"):
         run_batch_folders(_batch("python"), dirs, resume=True, checkpoint_path=tmp_path / "forged.npz")
-    reshaped = {**arrays, "s.mj_state": arrays["s.mj_state"][:, :-1]}
-    write_checkpoint(tmp_path / "reshaped.npz", forged | {"scalars": header["scalars"]}, tree={}, arrays={},
-                     extra_arrays=reshaped)  # fmt: skip
-    with pytest.raises(CheckpointError, match="batch state 'mj_state' is float64"):
+    forged["state"]["dict"]["plant"]["dict"] = plant
+    name = forged["state"]["dict"]["mj_state"]["array"]
+    reshaped = {**arrays, name: arrays[name][:, :-1]}
+    write_checkpoint(tmp_path / "reshaped.npz", forged, tree={}, arrays={}, extra_arrays=reshaped)
+    with pytest.raises(CheckpointError, match=r"batch state \.mj_state: is float64\[4, \d+\], this batch holds"):
         run_batch_folders(_batch("python"), dirs, resume=True, checkpoint_path=tmp_path / "reshaped.npz")
     # an edited file: one number of the MuJoCo state changed, the digest left as it was
     with np.load(ckpt, allow_pickle=False) as npz:
         raw = {k: npz[k] for k in npz.files}
-    raw["x_s.mj_state"] = raw["x_s.mj_state"].copy()
-    raw["x_s.mj_state"][1, 3] += 1e-12
+    raw[f"x_{name}"] = raw[f"x_{name}"].copy()
+    raw[f"x_{name}"][1, 3] += 1e-12
     with open(ckpt, "wb") as fh:
         np.savez(fh, **raw)
     with pytest.raises(CheckpointError, match="differs from its state digest"):

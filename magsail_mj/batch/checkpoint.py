@@ -5,9 +5,10 @@ one NumPy ``.npz`` of plain arrays with a JSON header, read with ``allow_pickle=
 its :func:`~magsail_mj.checkpoint.state_digest`, written atomically). It holds
 :meth:`~magsail_mj.batch.runner.BatchSimulation.get_state` — the step, every world's MuJoCo
 integration state, which worlds run, their statuses, messages, end steps and record counts, the
-stop rules' state and the plant's Python-side state — as flat named arrays (``s.<key path>``) and
-JSON scalars, and, per world, its run identity (:func:`~magsail_mj.checkpoint.run_identity`: the
-hash of the config keys that change the numbers, the tree of those keys, the package versions),
+stop rules' state and the plant's Python-side state — as its layout in the header (dicts, lists,
+JSON scalars, and names of the arrays ``s<number>``), and, per world, its run identity
+(:func:`~magsail_mj.checkpoint.run_identity`: the hash of the config keys that change the
+numbers, the tree of those keys, the package versions),
 the name of its run folder and record store, its record count, the count its store holds and
 the digests of every record chunk there (:meth:`~magsail_mj.records.Recorder.digest_table`). The
 records stay in each world's store, which a world's recorder writes a chunk at a time as it
@@ -22,8 +23,10 @@ is accepted only when
 * it holds as many worlds as the batch, and world k's identity is world k's now (a refusal names
   the world, its folder and the config keys that differ, as a single run's ``--resume`` does);
 * every value has the key path, type, shape and dtype of the rebuilt batch's own
-  :meth:`~magsail_mj.batch.runner.BatchSimulation.get_state` (the file is data read into declared
-  fields: nothing of it names a class, an attribute or a module);
+  :meth:`~magsail_mj.batch.runner.BatchSimulation.get_state`, except inside a container that is
+  empty there (filled while the batch runs, e.g. a law's values per world), which takes dicts,
+  lists, arrays of numbers and JSON scalars (the file is data read into declared fields: nothing
+  of it names a class, an attribute or a module);
 * each world's store holds the records the file counts, equal to their digests, and the file's
   rows after them are every variable's, of equal length, plain numbers of the store's types.
 
@@ -58,27 +61,28 @@ _STATUSES = ("running", "completed", "diverged", "failed", "stopped", "interrupt
 _SCALARS = (bool, int, float, str, type(None))
 
 
-# ---------------------------------------------------------------------- plain data ↔ flat arrays
-def _flatten(value: Any, path: str, arrays: dict[str, np.ndarray], scalars: dict[str, Any]) -> None:
-    """Put the leaves of ``value`` (nested dicts of arrays, scalars and lists of scalars) into
-    ``arrays`` (``s.<path>``) and ``scalars`` (``<path>`` → JSON value)."""
+# ---------------------------------------------------------------------- plain data ↔ layout and arrays
+def _flatten(value: Any, path: str, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
+    """The layout of ``value`` (nested dicts with string keys, lists and tuples of arrays and JSON
+    scalars) as JSON: ``{"dict": {key: node}}``, ``{"list": [node, …]}``, ``{"array": name}`` (the
+    array stored in ``arrays`` as ``s<number>``) or ``{"value": scalar}``."""
     if isinstance(value, dict):
-        for key, item in value.items():
-            if not isinstance(key, str) or "." in key or not key:
-                raise TypeError(f"batch state: key {key!r} under {path or 'the root'} is not a plain name")
-            _flatten(item, f"{path}.{key}" if path else key, arrays, scalars)
-    elif isinstance(value, np.ndarray):
+        if not all(isinstance(key, str) for key in value):
+            raise TypeError(f"batch state: {path or 'the root'} has a key that is not a string")
+        return {"dict": {key: _flatten(item, f"{path}.{key}", arrays) for key, item in value.items()}}
+    if isinstance(value, (list, tuple)):
+        return {"list": [_flatten(item, f"{path}[{i}]", arrays) for i, item in enumerate(value)]}
+    if isinstance(value, np.ndarray):
         if value.dtype.hasobject:
             raise TypeError(f"batch state: {path} is an object array")
-        arrays[f"s.{path}"] = np.array(value, copy=True)
-    elif isinstance(value, np.generic):
-        scalars[path] = value.item()
-    elif isinstance(value, _SCALARS):
-        scalars[path] = value
-    elif isinstance(value, (list, tuple)) and all(isinstance(v, _SCALARS) for v in value):
-        scalars[path] = list(value)
-    else:
-        raise TypeError(f"batch state: {path} holds a {type(value).__name__}, not plain data")
+        name = f"s{len(arrays):05d}"
+        arrays[name] = np.array(value, copy=True)
+        return {"array": name}
+    if isinstance(value, np.generic):
+        return {"value": value.item()}
+    if isinstance(value, _SCALARS):
+        return {"value": value}
+    raise TypeError(f"batch state: {path} holds a {type(value).__name__}, not plain data")
 
 
 def _json_type(value: Any) -> type:
@@ -86,43 +90,72 @@ def _json_type(value: Any) -> type:
     return type(value.item()) if isinstance(value, np.generic) else type(value)
 
 
-def _unflatten(
-    template: Any, path: str, arrays: dict[str, np.ndarray], scalars: dict[str, Any], seen: set[str], *, where: Path
-) -> Any:
-    """The value at ``path`` read from the file, with the form of ``template`` (the rebuilt batch's
-    own state): the same keys, the same array shapes and dtypes, the same scalar types."""
-    if isinstance(template, dict):
-        return {
-            key: _unflatten(item, f"{path}.{key}" if path else key, arrays, scalars, seen, where=where)
-            for key, item in template.items()
-        }
-    if isinstance(template, np.ndarray):
-        name = f"s.{path}"
-        seen.add(name)
-        if name not in arrays:
-            raise CheckpointError(f"checkpoint: {where} lacks the batch state {path!r}")
-        got = arrays[name]
-        if got.shape != template.shape or got.dtype != template.dtype:
-            raise CheckpointError(
-                f"checkpoint: {where}: batch state {path!r} is {got.dtype}{list(got.shape)}, "
-                f"this batch holds {template.dtype}{list(template.shape)}"
-            )
-        return np.array(got, copy=True)
-    seen.add(path)
-    if path not in scalars:
-        raise CheckpointError(f"checkpoint: {where} lacks the batch state {path!r}")
-    got = scalars[path]
-    if isinstance(template, (list, tuple)):
-        ok = (
-            isinstance(got, list)
-            and len(got) == len(template)
-            and all(type(a) is _json_type(b) for a, b in zip(got, template))
-        )
-    else:
-        ok = type(got) is _json_type(template)
-    if not ok:
-        raise CheckpointError(f"checkpoint: {where}: batch state {path!r} is {got!r}, not of this batch's form")
-    return got
+class _Layout:
+    """Reads a layout of :func:`_flatten` back (the arrays it names are ``used``)."""
+
+    def __init__(self, arrays: dict[str, np.ndarray], where: Path) -> None:
+        self.arrays, self.where, self.used = arrays, where, set()
+
+    def refuse(self, path: str, why: str) -> CheckpointError:
+        return CheckpointError(f"checkpoint: {self.where}: batch state {path or 'root'}: {why}")
+
+    def array(self, node: Any, path: str) -> np.ndarray:
+        name = node.get("array") if isinstance(node, dict) else None
+        if not isinstance(name, str) or name not in self.arrays:
+            raise self.refuse(path, "names no array of the file")
+        self.used.add(name)
+        return np.array(self.arrays[name], copy=True)
+
+    def read(self, template: Any, node: Any, path: str) -> Any:
+        """The value at ``path`` in the form of ``template`` (the rebuilt batch's own state): the
+        same keys, lengths, array shapes and dtypes and scalar types; a container that is empty in
+        the template (filled while the batch runs) takes the file's plain data (:meth:`free`)."""
+        if not isinstance(node, dict) or len(node) != 1:
+            raise self.refuse(path, "malformed")
+        if isinstance(template, (dict, list, tuple)) and not template:
+            kind = "dict" if isinstance(template, dict) else "list"
+            if kind not in node:
+                raise self.refuse(path, f"is not a {kind}")
+            return self.free(node, path)
+        if isinstance(template, dict):
+            items = node.get("dict")
+            if not isinstance(items, dict) or set(items) != set(template):
+                raise self.refuse(path, f"has the keys {sorted(items or {})}, this batch {sorted(template)}")
+            return {key: self.read(sub, items[key], f"{path}.{key}") for key, sub in template.items()}
+        if isinstance(template, (list, tuple)):
+            items = node.get("list")
+            if not isinstance(items, list) or len(items) != len(template):
+                raise self.refuse(path, f"is not a list of {len(template)}")
+            out = [self.read(sub, item, f"{path}[{i}]") for i, (sub, item) in enumerate(zip(template, items))]
+            return out if isinstance(template, list) else tuple(out)
+        if isinstance(template, np.ndarray):
+            got = self.array(node, path)
+            if got.shape != template.shape or got.dtype != template.dtype:
+                raise self.refuse(
+                    path, f"is {got.dtype}{list(got.shape)}, this batch holds {template.dtype}{list(template.shape)}"
+                )
+            return got
+        if "value" not in node or type(node["value"]) is not _json_type(template):
+            raise self.refuse(path, f"is {node.get('value', node)!r}, not of this batch's form")
+        return node["value"]
+
+    def free(self, node: Any, path: str) -> Any:
+        """Plain data of the file where the build declares none: dicts with string keys, lists,
+        arrays of numbers and JSON scalars."""
+        if not isinstance(node, dict) or len(node) != 1:
+            raise self.refuse(path, "malformed")
+        if "dict" in node and isinstance(node["dict"], dict):
+            return {str(key): self.free(sub, f"{path}.{key}") for key, sub in node["dict"].items()}
+        if "list" in node and isinstance(node["list"], list):
+            return [self.free(sub, f"{path}[{i}]") for i, sub in enumerate(node["list"])]
+        if "array" in node:
+            got = self.array(node, path)
+            if got.dtype.kind not in "biuf":
+                raise self.refuse(path, f"is an array of {got.dtype}, not of numbers")
+            return got
+        if "value" in node and isinstance(node["value"], _SCALARS):
+            return node["value"]
+        raise self.refuse(path, "malformed")
 
 
 # ---------------------------------------------------------------------- writing
@@ -146,8 +179,7 @@ def write_batch_checkpoint(sim: Any, path: Path) -> None:
     if any(rec.path is None for rec in recorders):
         raise ValueError("checkpoint_path: a batch checkpoints worlds whose records stream to stores (records_paths)")
     arrays: dict[str, np.ndarray] = {}
-    scalars: dict[str, Any] = {}
-    _flatten(state, "", arrays, scalars)
+    layout = _flatten(state, "", arrays)
     arrays["world_steps"] = np.array(sim._world_steps, dtype=np.int64, copy=True)
     worlds = []
     for k, rec in enumerate(recorders):
@@ -170,7 +202,7 @@ def write_batch_checkpoint(sim: Any, path: Path) -> None:
         "t_s": sim.time,
         "wall_s": float(sim._wall_s),
         "n_worlds": sim.n_worlds,
-        "scalars": scalars,
+        "state": layout,
         "worlds": worlds,
     }
     write_checkpoint(Path(path), header, tree={}, arrays={}, extra_arrays=arrays)
@@ -207,7 +239,7 @@ def read_batch_checkpoint(
             check_identity(world, identity, path=path)
         except CheckpointError as err:
             raise CheckpointError(f"world {k} (folder {folder!r}): {err}") from None
-    if not isinstance(header.get("scalars"), dict) or not isinstance(header.get("step"), int):
+    if not isinstance(header.get("state"), dict) or not isinstance(header.get("step"), int):
         raise CheckpointError(f"checkpoint: {path} has a malformed batch header")
     return header, arrays
 
@@ -260,16 +292,14 @@ def restore_batch_checkpoint(sim: Any, path: Path, records_paths: Sequence[str |
     stores = [Path(p) for p in records_paths]
     header, arrays = read_batch_checkpoint(path, identities=sim.identities, folders=[p.parent.name for p in stores])
     template = sim.get_state()
-    seen: set[str] = set()
-    state = _unflatten(template, "", arrays, header["scalars"], seen, where=path)
-    tails = [
-        _read_tail(arrays, k, world, names=sim.recorders[k].names, where=path)
-        for k, world in enumerate(header["worlds"])
-    ]
-    seen.update(f"r{k}.{name}" for k, tail in enumerate(tails) for name in tail)
-    extra = sorted((set(header["scalars"]) | {k for k in arrays if k != "world_steps"}) - seen)
+    layout = _Layout(arrays, path)
+    state = layout.read(template, header["state"], "")
+    names = [sim.recorders[k].names for k in range(sim.n_worlds)]
+    tails = [_read_tail(arrays, k, world, names=names[k], where=path) for k, world in enumerate(header["worlds"])]
+    layout.used.update(f"r{k}.{name}" for k, tail in enumerate(tails) for name in tail)
+    extra = sorted(set(arrays) - layout.used - {"world_steps"})
     if extra:
-        raise CheckpointError(f"checkpoint: {path} holds batch state this batch has not: {', '.join(extra[:5])}")
+        raise CheckpointError(f"checkpoint: {path} holds arrays this batch has not: {', '.join(extra[:5])}")
     step = state["step"]
     if not 0 <= step <= sim.n_steps:
         raise CheckpointError(
