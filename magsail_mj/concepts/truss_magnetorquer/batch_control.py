@@ -16,7 +16,8 @@ Robb et al. 2022a, Eqs. 11–13) is, per world:
 4. the allocation (Eqs. 11–13, ``mode`` paper or exact:
    :func:`~magsail_mj.control.allocation._allocate_core`: the rounded and clipped rod counts
    ``N1``, ``N2``, the delivered ``N1 τ1 + N2 τ2``) and the Lloyd rod selection of each world's
-   counts (its own :class:`~magsail_mj.control.lloyd.LloydSelector`, per world);
+   counts (its own :class:`~magsail_mj.control.lloyd.LloydSelector`, per world, looked up again
+   only when the world's counts changed: a selection is a function of the counts);
 5. the counters (samples, family 1, family 2, either saturated).
 
 :class:`RodControlWorlds` does every step but the selection lookup and the non-B-dot laws for all
@@ -310,10 +311,12 @@ class RodControlWorlds:
         tau2 = np.stack((m2 * Bz, zero, -m2 * Bx), axis=1)
         self.T_alloc[rows] = N1[:, None] * tau1 + N2[:, None] * tau2
         clipped = np.stack((np.abs(r1) > n1, np.abs(r2) > n2), axis=1)
-        self.N[rows] = np.stack((N1, N2), axis=1)
-        self.clipped[rows] = clipped
-        for k, c1, c2 in zip(rows.tolist(), N1.tolist(), N2.tolist()):
+        counts = np.stack((N1, N2), axis=1)
+        new = ~self.has_cmd[rows] | (counts != self.N[rows]).any(axis=1)
+        for k, c1, c2 in zip(rows[new].tolist(), N1[new].tolist(), N2[new].tolist()):
             self.polarity[k] = self.ctls[k].distributor.selector.polarity((c1, c2))
+        self.N[rows] = counts
+        self.clipped[rows] = clipped
         self.stats[rows] += np.stack(
             (np.ones(len(rows), dtype=np.int64), clipped[:, 0], clipped[:, 1], clipped.any(axis=1)), axis=1
         )
