@@ -26,11 +26,14 @@ Modules (one job each):
 * :mod:`~magsail_mj.batch.checkpoint` — the whole batch's checkpoint file, its checks on resume;
 * :mod:`~magsail_mj.batch.build` — :func:`load_batch`, and how a concept joins (its ``batch``
   module; CNUSAIL's: :mod:`magsail_mj.concepts.cnusail.batch`, with the cubesat's loads, B-dot
-  controller and step over the world axis in ``batch_loads``, ``batch_control``, ``batch_plant``);
+  controller and step over the world axis in ``batch_loads``, ``batch_control``, ``batch_plant``;
+  the truss lattice's: :mod:`magsail_mj.concepts.truss_magnetorquer.batch`, likewise);
 * :mod:`magsail_mj.batch.folders` — each world's run folder as a single run writes it (imported on
   its own: it uses the run-folder writer, which itself loads configs through this package).
 
-The batch runs the CNUSAIL cubesat's B-dot detumble (``control.mode = "bdot"``); other concepts,
+The batch runs the CNUSAIL cubesat's B-dot detumble (``control.mode = "bdot"``) and the flexible
+truss lattice's orbital detumble and slews (``truss_magnetorquer``: the truss's SRP, drag and
+mid-step loads are refused); other concepts,
 the pointing laws and sensor noise are refused (see ``docs/batch.md``).
 """
 
