@@ -261,7 +261,7 @@ def test_a_killed_sweep_batch_resumes_from_its_checkpoint(tmp_path):
     """The sweep's retry of a batch process killed after its first checkpoint resumes the batch."""
     before = set(_batch_processes())
     sweep = load_sweep(
-        _monte_carlo(tmp_path, 3, ["sim.duration_s=1200", "sim.checkpoint_every_s=100.0", "sim.progress=false"])
+        _monte_carlo(tmp_path, 3, ["sim.duration_s=600", "sim.checkpoint_every_s=50.0", "sim.progress=false"])
     )
     out, box = tmp_path / "out", {}
     thread = threading.Thread(
@@ -278,7 +278,7 @@ def test_a_killed_sweep_batch_resumes_from_its_checkpoint(tmp_path):
     records = box["records"]
     assert [(r["status"], r["attempts"]) for r in records] == [("completed", 2)] * 3
     t_from = {r["resumed_from_s"] for r in records}
-    assert len(t_from) == 1 and t_from.pop() in (100.0 * k for k in range(1, 12))  # from a checkpoint, not t = 0
+    assert len(t_from) == 1 and t_from.pop() in (50.0 * k for k in range(1, 12))  # from a checkpoint, not t = 0
     assert not (out / "s0" / BATCH_CHECKPOINT_NAME).exists()
     single = run_one(sweep.runs[1], tmp_path / "single", video=False)  # the resumed world equals its single run
     got, want = read_timeseries(out / "s1"), read_timeseries(tmp_path / "single" / "s1")

@@ -47,7 +47,7 @@ from magsail_mj.batch.checkpoint import BATCH_CHECKPOINT_NAME, checkpoint_folder
 from magsail_mj.batch.folders import batch_checkpoint_time, run_batch_folders
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, run_identity
 from magsail_mj.config import config_hash, load_config, numbers_hash
-from magsail_mj.io import atomic_path, to_jsonable, write_json
+from magsail_mj.io import RunDirError, atomic_path, to_jsonable, write_json
 from magsail_mj.run import run_scenario
 from magsail_mj.sweep.common import FINISHED, STATE_DIR, SweepRun, _folder_check, _record, run_lock
 
@@ -210,7 +210,7 @@ def run_batch(runs: tuple[SweepRun, ...], out_dir: str | Path, *, resume: bool =
         t_resume = batch_checkpoint_time(sim, dirs) if resume else None
         try:
             outcomes = run_batch_folders(sim, dirs, overwrite=t_resume is None, resume=t_resume is not None)
-        except CheckpointError:  # refused (a store that differs from its digests): run afresh
+        except RunDirError:  # the resume refused (a store that differs from its digests, a folder gone): afresh
             if t_resume is None:
                 raise
             t_resume = None
