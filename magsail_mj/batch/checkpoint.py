@@ -57,7 +57,7 @@ BATCH_CHECKPOINT_NAME = "checkpoint-batch.npz"
 """The file name of a batch's checkpoint (in its first world's run folder, by default)."""
 
 _KIND = "magsail_mj batch checkpoint 1"
-_STATUSES = ("running", "completed", "diverged", "failed", "stopped", "interrupted")
+_STATUSES = ("running", "completed", "diverged", "structure_failed", "failed", "stopped", "interrupted")
 _SCALARS = (bool, int, float, str, type(None))
 
 
