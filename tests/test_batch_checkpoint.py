@@ -223,10 +223,6 @@ def test_checkpoints_of_another_config_other_folders_or_edited_are_refused(tmp_p
         run_batch_folders(sim, dirs, resume=True)
     assert {d: (d / "manifest.json").read_bytes() for d in dirs} == before  # nothing touched
     header, _, arrays = read_checkpoint(ckpt)
-    store = zarr.open_group(str(dirs[1] / "timeseries.zarr"), mode="r+", use_consolidated=False)
-    store["qvel"][2, 3] = 0.5  # a record the checkpoint counts in the store, edited
-    with pytest.raises(CheckpointError, match=r"world 1: .*qvel.*records 0-3"):
-        run_batch_folders(_batch("python"), dirs, resume=True)
     # a forged file with a valid digest but a state this batch does not have
     forged = {k: v for k, v in header.items() if k not in ("format", "state_tree", "state_digest")}
     plant = forged["state"]["dict"]["plant"]["dict"]
@@ -240,6 +236,14 @@ def test_checkpoints_of_another_config_other_folders_or_edited_are_refused(tmp_p
     write_checkpoint(tmp_path / "reshaped.npz", forged, tree={}, arrays={}, extra_arrays=reshaped)
     with pytest.raises(CheckpointError, match=r"batch state \.mj_state: is float64\[4, \d+\], this batch holds"):
         run_batch_folders(_batch("python"), dirs, resume=True, checkpoint_path=tmp_path / "reshaped.npz")
+    retyped = {**arrays, "r2.qvel": arrays["r2.qvel"].astype(np.float32)}  # a record after the store's
+    write_checkpoint(tmp_path / "retyped.npz", forged, tree={}, arrays={}, extra_arrays=retyped)
+    with pytest.raises(CheckpointError, match=r"world 2: the checkpoint's records of 'qvel' are float32\[21\]"):
+        run_batch_folders(_batch("python"), dirs, resume=True, checkpoint_path=tmp_path / "retyped.npz")
+    store = zarr.open_group(str(dirs[1] / "timeseries.zarr"), mode="r+", use_consolidated=False)
+    store["qvel"][2, 3] = 0.5  # a record the checkpoint counts in the store, edited
+    with pytest.raises(CheckpointError, match=r"world 1: .*qvel.*records 0-3"):
+        run_batch_folders(_batch("python"), dirs, resume=True)
     # an edited file: one number of the MuJoCo state changed, the digest left as it was
     with np.load(ckpt, allow_pickle=False) as npz:
         raw = {k: npz[k] for k in npz.files}

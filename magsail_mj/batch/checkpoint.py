@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
+import zarr
 
 from magsail_mj.checkpoint import CheckpointError, check_identity, read_checkpoint, write_checkpoint
 from magsail_mj.records import RecordStoreError, verify_digests
@@ -278,6 +279,19 @@ def _read_tail(
     return tail
 
 
+def _check_tail_form(store: Path, tail: dict[str, np.ndarray]) -> None:
+    """RecordStoreError unless every variable's rows in ``tail`` have the dtype and record shape of
+    the store's array of that name."""
+    group = zarr.open_group(str(store), mode="r", use_consolidated=False)
+    for name, rows in tail.items():
+        array = group[name]
+        if array.dtype != rows.dtype or tuple(array.shape[1:]) != rows.shape[1:]:
+            raise RecordStoreError(
+                f"the checkpoint's records of {name!r} are {rows.dtype}{list(rows.shape[1:])}, "
+                f"{store.name} holds {array.dtype}{list(array.shape[1:])}"
+            )
+
+
 def restore_batch_checkpoint(sim: Any, path: Path, records_paths: Sequence[str | Path]) -> None:
     """Continue the freshly built batch ``sim`` from the checkpoint ``path`` (module docstring):
     the checks of :func:`read_batch_checkpoint`, every value read into the form of the batch's own
@@ -319,6 +333,8 @@ def restore_batch_checkpoint(sim: Any, path: Path, records_paths: Sequence[str |
         try:
             if n:
                 verify_digests(store, digests)
+                if tail:
+                    _check_tail_form(store, tail)
         except RecordStoreError as err:
             raise CheckpointError(f"checkpoint: {path}: world {k}: {err}") from None
     for k, (world, store, tail) in enumerate(zip(header["worlds"], stores, tails)):
@@ -328,8 +344,6 @@ def restore_batch_checkpoint(sim: Any, path: Path, records_paths: Sequence[str |
         except RecordStoreError as err:
             raise CheckpointError(f"checkpoint: {path}: world {k}: {err}") from None
         if tail:
-            if rec.buffers and any(rec.buffers[name].dtype != rows.dtype for name, rows in tail.items()):
-                raise CheckpointError(f"checkpoint: {path}: world {k}: its records' types differ from {store.name}'s")
             rec.extend(tail)
     sim.set_state(state)
     sim._wall_s = float(header.get("wall_s", 0.0))
