@@ -41,7 +41,9 @@ def test_what_the_batch_does_not_run_is_refused_by_name():
     text = refused([['actuators.wheels.electrical="substep"']])
     assert "world 0: actuators.wheels.electrical: the batch runs the quasi-static armature only" in text
     reflector = str(REPO / "magsail_mj/concepts/reflector/configs/detumble.toml")
-    assert "concept: the batch runs cnusail only (for now), got 'reflector'" in refused([[], []], config=reflector)
+    assert "concept: the batch runs cnusail, truss_magnetorquer only (for now), got 'reflector'" in refused(
+        [[], []], config=reflector
+    )
 
 
 def test_invalid_worlds_and_arguments_are_named():
