@@ -166,6 +166,7 @@ def closed_loop(case: dict, law: Law | None, *, q0: np.ndarray, duration_s: floa
         "final_error_deg": round(float(err[-1]), 2),
         "max_error_deg": round(float(err.max()), 1),
         "t_err_below_5deg_stay_s": stay,
+        "t_err_below_5deg_first_s": float(t[below][0]) if below.any() else math.nan,
         "err_every_0p5h_deg": [round(float(np.interp(s, t, err)), 1) for s in np.arange(1800.0, t[-1] + 1, 1800.0)],
     }
 
