@@ -119,3 +119,18 @@ def test_example_search_at_ci_size(tmp_path, monkeypatch, capsys):
         assert 10.0 <= e["values"]["control.nonmonotonic_gain_per_Nms"] <= 1e6
     assert math.isclose(out["cpu_s"], sum(e["cpu_s"] for e in out["evaluations"]))
     assert '"best"' in capsys.readouterr().out
+
+
+def test_tuned_benchmark_runs_the_search_result_on_the_benchmarks_draws():
+    tuned_file = BENCH.parent / "detumble_benchmark_tuned.toml"
+    tree = read_toml(tuned_file)
+    search = json.loads((REPO / "docs" / "_static" / "detumble_benchmark" / "tuned_search.json").read_text())
+    tuned, held_out = design_points(tree), design_points(read_toml(BENCH))
+    shipped = [p for p in held_out if p.params["control.bdot_law"] == "non_monotonic"]
+    assert len(tuned) == len(shipped) == 1000
+    assert search["best"]["score_s"] < search["shipped"]["score_s"]
+    for t, s in zip(tuned, shipped):
+        assert t.id.split("/")[1] == s.id.split("/")[1] and t.id != s.id
+        assert {k: v for k, v in t.params.items() if k not in search["best"]["values"]} == s.params
+        assert {k: t.params[k] for k in search["best"]["values"]} == search["best"]["values"]
+    assert tree["set"] == read_toml(BENCH)["set"] and tree["report"] == read_toml(BENCH)["report"]
