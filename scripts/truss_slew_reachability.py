@@ -86,7 +86,9 @@ def nominal_path(inp: dict, rot: rc.SlewRotation) -> dict:
     rn = np.linalg.norm(r_b, axis=1, keepdims=True)
     u = r_b / rn
     T_gg = 3 * inp["mu"] / rn**3 * np.cross(u, u @ J.T)
-    T_req = (e @ J @ e) * phi_dd[:, None] * e[None, :] - T_gg  # J ω̇ − T_gg, ω × Jω = 0 for ω ∥ e principal
+    phi_d = np.where(t <= PAPER_TIME_S, rot.angle_rad / PAPER_TIME_S * (1 - np.cos(2 * np.pi * tau)), 0.0)
+    # J ω̇ + ω × J ω − T_gg with ω = φ̇ e
+    T_req = phi_dd[:, None] * (J @ e)[None, :] + (phi_d**2)[:, None] * np.cross(e, J @ e)[None, :] - T_gg
     b = B_b / np.linalg.norm(B_b, axis=1, keepdims=True)
     along_B = np.abs(np.einsum("ki,ki->k", T_req, b))
     h_e = rc.max_torque_about_Nm(inp["zono"], B_b, e)
