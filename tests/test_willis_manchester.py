@@ -93,10 +93,15 @@ def test_extrapolated_field_rate_is_the_tables_derivative():
         assert np.linalg.norm(rate - central) < 1e-5 * np.linalg.norm(rate)
 
 
-def test_their_laws_batched_equal_single_runs():
+def test_their_laws_batched_equal_single_runs(tmp_path):
     """Their B-dot (M = −k Ḃ/‖B‖) and their extrapolated non-monotonic law, two worlds of one batch,
     give their single runs' records bit for bit; the law forms differ from the proportional and table
-    forms (their dipoles differ)."""
+    forms (their dipoles differ). The base is the case without ``bdot_normalised_gain_Am2s``: the
+    constant-gain B-dot m = −K Ḃ (world 3)."""
+    text = CASE.read_text()
+    assert "\nbdot_normalised_gain_Am2s = 1.0\n" in text
+    config = tmp_path / "constant_gain.toml"
+    config.write_text(text.replace("\nbdot_normalised_gain_Am2s = 1.0\n", "\n"))
     base = ["sim.duration_s=60", "sim.progress=false"]
     worlds = [
         ['control.bdot_law="proportional"', "control.bdot_normalised_gain_Am2s=1.0"],
@@ -104,9 +109,9 @@ def test_their_laws_batched_equal_single_runs():
         ['control.bdot_law="non_monotonic"', 'control.nonmonotonic_field_ahead="table"'],
         ['control.bdot_law="proportional"'],
     ]
-    batch = magsail_mj.load(CASE, base, world_overrides=worlds).run()
+    batch = magsail_mj.load(config, base, world_overrides=worlds).run()
     for k, extra in enumerate(worlds):
-        single = magsail_mj.load(CASE, [*base, *extra]).run()
+        single = magsail_mj.load(config, [*base, *extra]).run()
         for key in ("qvel", "dipole_cmd_Am2"):
             assert np.array_equal(batch.worlds[k].records[key], single.records[key]), (k, key)
     dipoles = [w.records["dipole_cmd_Am2"] for w in batch.worlds]
