@@ -20,9 +20,9 @@ with ``t_0.3,k`` = ``detumble_time_below_0p3dps_s`` (the time after which ‖ω�
 ``rate_mean_last_orbit_rad_s`` (mean ‖ω‖ over the run's last orbit), ``ω_stop`` the stop rule's
 rate [rad/s], ``P`` the penalty ``penalty_s`` [s] and ``E_k`` = ``mtq_dipole_effort_Am2s``
 (∫‖m‖ dt [A m² s]) with the weight ``w`` = ``effort_weight_s_per_Am2s`` [s/(A m² s)] (0: time
-only). A run that does not detumble within the horizon so counts at least ``H + P`` (its ω̄ is
-above ω_stop, or the stop rule would most likely have ended it), and the more so the faster it
-still turns, which keeps the objective graded where no world detumbles. Every evaluation runs
+only). A run that does not detumble within the horizon so counts more than the horizon, by P for
+each multiple of ω_stop at which it still turns over its last orbit, which keeps the objective
+graded where no world detumbles (a run that detumbled counts less than H − hold time). Every evaluation runs
 the same worlds (common random numbers), so two parameter vectors are compared on the same
 conditions.
 """
