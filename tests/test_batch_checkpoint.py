@@ -261,25 +261,6 @@ def test_checkpoints_of_another_config_other_folders_or_edited_are_refused(tmp_p
     assert {d: (d / "manifest.json").read_bytes() for d in dirs} == before
 
 
-def _descends_from_here(pid: int) -> bool:
-    """Whether process ``pid`` is a descendant of this test process (its parent chain in /proc)."""
-    me = os.getpid()
-    while pid > 1:
-        try:
-            stat = Path(f"/proc/{pid}/stat").read_text()
-        except OSError:
-            return False
-        pid = int(stat[stat.rindex(")") + 2 :].split()[1])
-        if pid == me:
-            return True
-    return False
-
-
-def _my_batch_processes() -> set[int]:
-    """The batch run processes this test started (not those of another sweep on the machine)."""
-    return {pid for pid in _batch_processes() if _descends_from_here(pid)}
-
-
 def test_a_killed_sweep_batch_resumes_from_its_checkpoint(tmp_path):
     """The sweep's retry of a batch process killed after its first checkpoint resumes the batch."""
     sweep = load_sweep(
@@ -292,7 +273,7 @@ def test_a_killed_sweep_batch_resumes_from_its_checkpoint(tmp_path):
     thread.start()
     try:
         wait_for(lambda: (out / "s0" / BATCH_CHECKPOINT_NAME).is_file(), 300, "the batch's first checkpoint")
-        (pid,) = _my_batch_processes()
+        (pid,) = set(_batch_processes())
         os.kill(pid, signal.SIGKILL)
     finally:
         thread.join(timeout=600)

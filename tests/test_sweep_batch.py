@@ -120,15 +120,30 @@ def test_a_diverging_world_is_reported_alone(tmp_path):
     assert (manifest["status"], manifest["status_message"]) == ("diverged", single["message"])
 
 
+def _descends_from_here(pid: int) -> bool:
+    """Whether process ``pid`` is a descendant of this test process (its parent chain in /proc)."""
+    me = os.getpid()
+    while pid > 1:
+        try:
+            stat = Path(f"/proc/{pid}/stat").read_text()
+        except OSError:
+            return False
+        pid = int(stat[stat.rindex(")") + 2 :].split()[1])
+        if pid == me:
+            return True
+    return False
+
+
 def _batch_processes() -> dict[int, str]:
-    """Batch run processes (``python -m magsail_mj.sweep --batch …``) on this machine below this test."""
+    """Batch run processes (``python -m magsail_mj.sweep --batch …``) below this test process (never
+    those of another test worker or another sweep on the machine, which the tests must not kill)."""
     found = {}
     for entry in Path("/proc").iterdir():
         try:
             cmd = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
         except OSError:
             continue
-        if entry.name.isdigit() and "-m magsail_mj.sweep --batch" in cmd and str(os.getpid()) != entry.name:
+        if entry.name.isdigit() and "-m magsail_mj.sweep --batch" in cmd and _descends_from_here(int(entry.name)):
             found[int(entry.name)] = cmd
     return found
 
