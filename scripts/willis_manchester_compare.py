@@ -16,7 +16,10 @@ widened by √2 about our value, since their figure is itself a 100-run estimate
 sampling error (the difference of two independent estimates has √2 times the standard error of
 one). Their number inside that band counts as reproduced. Prints one JSON object.
 
-    python scripts/willis_manchester_compare.py runs/willis_manchester_mc
+    python scripts/willis_manchester_compare.py runs/willis_manchester_mc [--plot cdf.png]
+
+With several sweep folders each law is read from the first that holds it. ``--plot`` draws each law's
+empirical CDF of the time to 1 % [h] over the 2 h, their 50 % mark and their share at 2 h beside it.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 FIGURE = "detumble_time_h_1pct_s"
 LAWS = {"non_monotonic": "Discrete Non-monotonic", "proportional": "B-dot", "b_cross": "B-cross"}
@@ -58,13 +62,50 @@ def band(value: float, samples: np.ndarray) -> list[float]:
     return [value - math.sqrt(2.0) * (value - float(lo)), value + math.sqrt(2.0) * (float(hi) - value)]
 
 
-def compare(sweep_dir: Path, *, draws: int) -> dict[str, dict]:
+def law_times_h(sweep_dirs: list[Path]) -> dict[str, np.ndarray]:
+    """Each law's times [h] from the first of ``sweep_dirs`` that holds its runs."""
+    out = {}
+    for law in LAWS:
+        for d in sweep_dirs:
+            t = times_h(d, law)
+            if t.size:
+                out[law] = t
+                break
+    return out
+
+
+def plot_cdf(times: dict[str, np.ndarray], path: Path) -> None:
+    """Empirical CDF [%] of each law's time to 1 % [h], with their 50 % mark and share at 2 h."""
+    fig = Figure(figsize=(9.5, 4.0))
+    ax = fig.add_subplot()
+    for (law, t), color in zip(times.items(), ("C0", "C1", "C2")):
+        x = np.sort(t[np.isfinite(t)])
+        y = 100.0 * np.arange(1, x.size + 1) / t.size
+        ax.step(
+            np.r_[0.0, x, 2.0],
+            np.r_[0.0, y, y[-1] if y.size else 0.0],
+            where="post",
+            color=color,
+            label=f"{law} (here)",
+        )
+        half, share = THEIRS[law]
+        ax.plot([half], [50.0], "o", color=color, mfc="none", label=f"{LAWS[law]}: their 50 % mark")
+        ax.plot([2.0], [share], "s", color=color, mfc="none", label=f"{LAWS[law]}: their share at 2 h")
+    ax.set_xlim(0.0, 2.05)
+    ax.set_ylim(0.0, 102.0)
+    ax.set_xlabel("time to ‖Jω‖ < 1 % of its start [h]")
+    ax.set_ylabel("runs detumbled [%]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def compare(times: dict[str, np.ndarray], *, draws: int) -> dict[str, dict]:
     rng = np.random.default_rng(0)
     out = {}
-    for law, name in LAWS.items():
-        t = times_h(sweep_dir, law)
-        if t.size == 0:
-            continue
+    for law, t in times.items():
+        name = LAWS[law]
         resampled = rng.choice(t, size=(draws, t.size), replace=True)
         half = half_mark_h(t)
         halves = np.sort(resampled, axis=1)[:, t.size // 2]
@@ -93,10 +134,14 @@ def compare(sweep_dir: Path, *, draws: int) -> dict[str, dict]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("sweep_dir", type=Path)
+    ap.add_argument("sweep_dirs", type=Path, nargs="+")
     ap.add_argument("--draws", type=int, default=20000)
+    ap.add_argument("--plot", type=Path)
     args = ap.parse_args()
-    print(json.dumps(compare(args.sweep_dir, draws=args.draws), indent=2))
+    times = law_times_h(args.sweep_dirs)
+    print(json.dumps(compare(times, draws=args.draws), indent=2))
+    if args.plot:
+        plot_cdf(times, args.plot)
 
 
 if __name__ == "__main__":
