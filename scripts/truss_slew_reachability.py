@@ -100,6 +100,10 @@ def nominal_path(inp: dict, rot: rc.SlewRotation) -> dict:
         "along_B": along_B,
         "h_target_body": np.stack([rc.max_torque_about_Nm(inp["zono"], B_end, a) for a in np.eye(3)], axis=1),
         "h_target_axis": rc.max_torque_about_Nm(inp["zono"], B_end, e),
+        "h_path_body": np.stack([rc.max_torque_about_Nm(inp["zono"], B_b, a) for a in np.eye(3)], axis=1),
+        "h_path_inertial": np.stack(
+            [rc.max_torque_about_Nm(inp["zono"], B_b, np.einsum("kji,j->ki", Rs, a)) for a in np.eye(3)], axis=1
+        ),
     }
 
 
@@ -145,6 +149,8 @@ def analyse(config_id: str) -> tuple[dict, dict]:
         "nominal_T_req_Nm_max": float(nom["T_req_norm"][during].max()),
         "nominal_along_B_share": float(nom["along_B"][during].sum() / nom["T_req_norm"][during].sum()),
         "target_h_body_Nm_mean": nom["h_target_body"].mean(axis=0).round(4).tolist(),
+        "nominal_h_body_xyz_Nm_mean": nom["h_path_body"][during].mean(axis=0).round(4).tolist(),
+        "nominal_h_inertial_xyz_Nm_mean": nom["h_path_inertial"][during].mean(axis=0).round(4).tolist(),
         "verdict": "not ruled out"
         if math.degrees(rot.angle_rad) <= math.degrees(float(np.interp(PAPER_TIME_S, t, th_any)))
         else "impossible",
@@ -180,6 +186,11 @@ def print_tables(rows: list[dict]) -> None:
             f"| {r['id']} | {m[0]:.3f} / {m[1]:.4f} / {m[2]:.3f} | {low:.1f} % | "
             f"{r['nominal_T_req_Nm_max']:.3f} | {r['nominal_along_B_share']:.2f} | {r['target_h_body_Nm_mean']} |"
         )
+    print()
+    print("| slew | 1.5 h path: mean largest torque about body x, y, z [N m] | about inertial x, y, z [N m] |")
+    print("|---|---|---|")
+    for r in rows:
+        print(f"| {r['id']} | {r['nominal_h_body_xyz_Nm_mean']} | {r['nominal_h_inertial_xyz_Nm_mean']} |")
 
 
 def plot(series: dict[str, dict], path: Path) -> Path:
