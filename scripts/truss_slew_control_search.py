@@ -69,25 +69,10 @@ def load_case(config_id: str) -> dict:
     }
 
 
-def _qmul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product of quaternion batches (…, 4), scalar first."""
-    pw, px, py, pz = np.moveaxis(p, -1, 0)
-    qw, qx, qy, qz = np.moveaxis(q, -1, 0)
-    return np.stack(
-        [
-            pw * qw - px * qx - py * qy - pz * qz,
-            pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw,
-        ],
-        axis=-1,
-    )
-
-
 def _to_body(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """``R(q)ᵀ v`` for quaternions (P, 4) and one inertial vector (3,)."""
     vq = np.concatenate([np.zeros(q.shape[:-1] + (1,)), np.broadcast_to(v, q.shape[:-1] + (3,))], axis=-1)
-    return _qmul(_qmul(q * np.array([1.0, -1.0, -1.0, -1.0]), vq), q)[..., 1:]
+    return quat_mul(quat_mul(q * np.array([1.0, -1.0, -1.0, -1.0]), vq), q)[..., 1:]
 
 
 def _gravity_gradient(r_b: np.ndarray, J: np.ndarray, mu: float) -> np.ndarray:
@@ -105,7 +90,7 @@ def _rhs(case: dict, q: np.ndarray, w: np.ndarray, m_b: np.ndarray, t: float) ->
     r = (1 - f) * case["r"][k] + f * case["r"][k + 1]
     J = case["J"]
     T = np.cross(m_b, _to_body(q, B)) + _gravity_gradient(_to_body(q, r), J, case["mu"]) - np.cross(w, w @ J.T)
-    q_dot = 0.5 * _qmul(q, np.concatenate([np.zeros(w.shape[:-1] + (1,)), w], axis=-1))
+    q_dot = 0.5 * quat_mul(q, np.concatenate([np.zeros(w.shape[:-1] + (1,)), w], axis=-1))
     return q_dot, np.linalg.solve(J, T.T).T
 
 
@@ -121,7 +106,7 @@ def _rk4(case: dict, q: np.ndarray, w: np.ndarray, m_b: np.ndarray, t: float, dt
 
 
 def _error_deg(case: dict, q: np.ndarray) -> np.ndarray:
-    qe = _qmul(np.broadcast_to(case["q_ref"] * np.array([1.0, -1.0, -1.0, -1.0]), q.shape), q)
+    qe = quat_mul(np.broadcast_to(case["q_ref"] * np.array([1.0, -1.0, -1.0, -1.0]), q.shape), q)
     return np.degrees(2 * np.arctan2(np.linalg.norm(qe[..., 1:], axis=-1), np.abs(qe[..., 0])))
 
 

@@ -21,9 +21,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from magsail_mj.concepts.truss_magnetorquer.metrics import PROFILE_AXES
 from magsail_mj.config import load_config
-from magsail_mj.control.profiles import torque_profile
 from magsail_mj.lattice.compiled_springs import plugin_truss_model, strut_table
 from magsail_mj.lattice.geometry import make_lattice
 from magsail_mj.lattice.mjcf import TrussModelOptions, build_truss_spec
@@ -31,6 +29,7 @@ from magsail_mj.lattice.properties import clamped_nodes, node_masses, strut_damp
 from magsail_mj.loads.strut_torque import StrutTorqueLoad
 from magsail_mj.reference.compiled_rk4 import CompiledLattice, StrutCouples
 from magsail_mj.reference.numpy_rk4 import SpringMassLattice, from_truss_scenario, rk4_run
+from tests.conftest import load_file_module
 
 CASE_A = (
     Path(__file__).resolve().parents[1]
@@ -51,16 +50,8 @@ def case_a():
 
 
 def profile_command(profile):
-    """``τ(t)`` (T, 3) [N m] of the scenario's ``[profile]`` table, vectorised over times."""
-    axis = PROFILE_AXES[profile.axis]
-
-    def command(t: np.ndarray) -> np.ndarray:
-        out = np.zeros((t.size, 3))
-        p = profile
-        out[:, axis] = torque_profile(p.kind, t, tau_max=p.tau_max_Nm, t_end=p.t_end_s, t_v=p.t_v_s)
-        return out
-
-    return command
+    """The benchmark's ``τ(t)`` of the scenario's ``[profile]`` table (the script's own function)."""
+    return load_file_module("scripts", "bench_lattice_compiled", register=True).profile_command(profile)
 
 
 def small_lattice(*, clamp: bool):

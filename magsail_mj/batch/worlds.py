@@ -42,6 +42,7 @@ __all__ = [
     "check_batchable",
     "differing_keys",
     "size_changing_keys",
+    "atmosphere_mix_problems",
     "LOCKSTEP_KEYS",
     "IGNORED_KEYS",
 ]
@@ -169,6 +170,19 @@ def check_batchable(cfgs: Sequence[BaseModel], concept: Any) -> None:
                 )
     if problems:
         raise ConfigError(problems)
+
+
+def atmosphere_mix_problems(first: Any, cfg: Any, *, where: str) -> list[str]:
+    """The refusal (as a one-item list, else empty) of a world whose ``atmosphere.model`` mixes
+    ``"msis"`` with another model against world 0's ``first``: the two give environment tables with
+    different channels, which a batch's one environment stack cannot hold."""
+    base, model = first.atmosphere.model, cfg.atmosphere.model
+    if (base == "msis") == (model == "msis"):
+        return []
+    return [
+        f"{where}atmosphere.model: 'msis' and the other models cannot be mixed in one batch (their "
+        f"environment tables have different channels); world 0 has {base!r}, got {model!r}"
+    ]
 
 
 def _with_key(cfg: BaseModel, key: str, value: Any) -> BaseModel:

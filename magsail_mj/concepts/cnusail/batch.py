@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 
 from magsail_mj.batch.environment import EnvironmentStack
+from magsail_mj.batch.worlds import atmosphere_mix_problems
 from magsail_mj.batch.runner import HoldBelowWorlds
 from magsail_mj.concepts.cnusail.batch_compiled import CompiledCubesatWorlds, world_models
 from magsail_mj.concepts.cnusail.batch_control import BdotWorlds
@@ -93,12 +94,7 @@ def refusals(cfgs: Sequence[CnusailConfig]) -> list[str]:
                 f"{where}actuators.wheels.electrical: the batch runs the quasi-static armature only, "
                 f"got {cfg.actuators.wheels.electrical!r}"
             )
-        base = cfgs[0].atmosphere.model
-        if k and (base == "msis") != (cfg.atmosphere.model == "msis"):
-            out.append(
-                f"{where}atmosphere.model: 'msis' and the other models cannot be mixed in one batch (their "
-                f"environment tables have different channels); world 0 has {base!r}, got {cfg.atmosphere.model!r}"
-            )
+        out += atmosphere_mix_problems(cfgs[0], cfg, where=where) if k else []
     return out
 
 

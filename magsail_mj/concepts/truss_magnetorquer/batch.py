@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 
 from magsail_mj.batch.environment import EnvironmentStack
+from magsail_mj.batch.worlds import atmosphere_mix_problems
 from magsail_mj.concepts import TASKS, discover
 from magsail_mj.concepts.truss_magnetorquer.batch_control import RodControlWorlds
 from magsail_mj.concepts.truss_magnetorquer.batch_loads import LatticeLoadWorlds
@@ -97,12 +98,7 @@ def refusals(cfgs: Sequence[TrussConfig]) -> list[str]:
                 f"{where}gravity.tidal: tidal gravity must be on in every world or in none; world 0 has "
                 f"{cfgs[0].gravity.tidal!r}, got {cfg.gravity.tidal!r}"
             )
-        base = cfgs[0].atmosphere.model
-        if k and (base == "msis") != (cfg.atmosphere.model == "msis"):
-            out.append(
-                f"{where}atmosphere.model: 'msis' and the other models cannot be mixed in one batch (their "
-                f"environment tables have different channels); world 0 has {base!r}, got {cfg.atmosphere.model!r}"
-            )
+        out += atmosphere_mix_problems(cfgs[0], cfg, where=where) if k else []
     return out
 
 
