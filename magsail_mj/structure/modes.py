@@ -276,7 +276,7 @@ def principal_frame(inertia_kg_m2: np.ndarray) -> np.ndarray:
 
 def _aligned_basis(basis: np.ndarray) -> np.ndarray:
     """Orthonormal rows spanning ``basis`` (3, c), taken from the structure axes' projections
-    (the axis most in the subspace first)."""
+    (the axis most in the subspace first; of axes equally far in, to 1e-9, the first: x, y, z)."""
     projector = basis @ basis.T
     chosen: list[np.ndarray] = []
     for _ in range(basis.shape[1]):
@@ -284,7 +284,8 @@ def _aligned_basis(basis: np.ndarray) -> np.ndarray:
         for c in chosen:
             candidates -= np.outer(c, c @ candidates)
         norms = np.linalg.norm(candidates, axis=0)
-        j = int(np.argmax(norms))
+        # the first axis among those as far in as the most (to 1e-9): ties are not left to round-off
+        j = int(np.flatnonzero(norms >= norms.max() - 1e-9)[0])
         chosen.append(candidates[:, j] / norms[j])
     return np.array(chosen)
 
