@@ -38,6 +38,11 @@ def test_mjcf_comparison_ignores_rounding_noise_only():
     assert "range" in mjcf_difference(base, base.replace("0 1.5", "0 1.6"))
     assert mjcf_difference(base, base.replace('name="t"', 'name="u"')) is not None
     assert mjcf_difference(base, base.replace("<tendon>", "<tendon><spatial/>")) is not None
+    # an attribute on one side only: equal when it is round-off of its zero default, else not
+    joint = '<mujoco><body><joint name="j" type="slide" stiffness="2.0"/></body></mujoco>'
+    assert mjcf_difference(joint, joint.replace('stiffness="2.0"', 'stiffness="2.0" springref="3.5e-15"')) is None
+    assert "springref" in mjcf_difference(joint, joint.replace('stiffness="2.0"', 'stiffness="2.0" springref="1e-3"'))
+    assert mjcf_difference(joint, joint.replace('type="slide" ', "")) is not None
 
 
 def test_build_cli_prints_model_size(tmp_path, capsys):

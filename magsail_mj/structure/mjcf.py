@@ -426,7 +426,7 @@ def _beam_joints(g: _Geometry, body: mujoco.MjsBody, j: int, start: int, origin_
         type=mujoco.mjtJoint.mjJNT_SLIDE,
         axis=((p[end] - p[start]) / length).tolist(),
         stiffness=axial,
-        springref=_rest_offset_m(l0, length),
+        springref=l0 - length,
         damping=float(members.damping_Ns_m[j]),
     )
     for name, axis, rigidity in (
@@ -1063,14 +1063,3 @@ class StructureModelIndex:
         p = self.node_positions(data)
         ends = structure.members.nodes
         return np.linalg.norm(p[ends[:, 1]] - p[ends[:, 0]], axis=1)
-
-
-def _rest_offset_m(rest_length_m: float, length_m: float) -> float:
-    """The axial joint's spring reference ``l0 − l`` [m], zero where the two lengths agree to the
-    round-off of the subtraction (8 ulp of the larger): a member built at its rest length gets no
-    spring reference, whatever the last bits of the node coordinates (they differ between NumPy
-    builds, and a reference of ~1e-15 m would then appear or not in the model file)."""
-    offset = rest_length_m - length_m
-    if abs(offset) <= 8.0 * np.finfo(float).eps * max(abs(rest_length_m), abs(length_m)):
-        return 0.0
-    return offset
