@@ -32,7 +32,7 @@ from magsail_mj.control.detumble_plugins import (
 )
 from tests.conftest import REPO
 from tests.envs_shared import assert_shipped_policy_gives_the_run_summary
-from tests.test_batch_equals_single import run_and_compare
+from tests.test_batch_equals_single import assert_same_records, run_and_compare
 
 PRE = REPO / "magsail_mj/concepts/cnusail/configs/detumble_pre.toml"
 
@@ -109,6 +109,41 @@ def test_worlds_with_plugins_equal_their_single_runs(registered):
     ]
     _, result = run_and_compare(str(PRE), ["sim.duration_s=30"], worlds, nthread=2)
     assert result.status == ["completed"] * len(worlds)
+
+
+def _zero_law(inputs: DetumbleInputs, params: Mapping[str, float]) -> MagneticDipole:
+    return MagneticDipole(dipole_body_Am2=np.zeros(3))
+
+
+def _raising_law(inputs: DetumbleInputs, params: Mapping[str, float]) -> MagneticDipole:
+    """The zero law until ``params["after_s"]``, then an error (a user's law with a bug)."""
+    if inputs.t_s >= params["after_s"]:
+        raise RuntimeError("law broke")
+    return _zero_law(inputs, params)
+
+
+@pytest.mark.parametrize("loads", ["python", "compiled"])
+def test_a_plugin_that_raises_stops_its_world_alone(registered, loads):
+    register_detumble_law("zero_law", _zero_law)
+    register_detumble_law("raising_law", _raising_law)
+    try:
+        shared = ["sim.duration_s=12", f'sim.loads="{loads}"']
+        worlds = [_law("bcross_plugin", gain_Nms=2e-4), _law("raising_law", after_s=4.0), []]
+        result = magsail_mj.load(str(PRE), shared, world_overrides=worlds, nthread=2).run()
+        assert result.status == ["completed", "failed", "completed"]
+        broken = result.worlds[1]
+        assert "'raising_law' raised RuntimeError at t = 4 s: law broke" in broken.message, broken.message
+        # what it recorded before is kept: the zero law's run up to the failure, bit for bit
+        zero = magsail_mj.load(str(PRE), [*shared, *_law("zero_law")]).run().records
+        t = np.asarray(broken.records["t"])
+        assert 0 < len(t) < len(zero["t"]) and t[-1] < 4.0
+        assert_same_records(broken.records, {k: np.asarray(v)[: len(t)] for k, v in zero.items()}, "raising")
+        for k in (0, 2):  # the others run on as their single runs
+            single = magsail_mj.load(str(PRE), [*shared, *worlds[k]]).run()
+            assert_same_records(result.worlds[k].records, single.records, f"world {k}")
+    finally:
+        unregister_detumble_law("zero_law")
+        unregister_detumble_law("raising_law")
 
 
 def test_the_environment_runs_a_plugin_as_its_shipped_policy(registered):

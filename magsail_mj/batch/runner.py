@@ -69,7 +69,9 @@ class Plant(Protocol):
     (called once with the :class:`mujoco.batch.Batch`), ``native_steps = True`` with
     ``control_every`` [steps] for loads inside MuJoCo's step (module docstring), and
     ``failures(step, qpos, live)`` → ``{world: message}``, checked after each record of the Python
-    loop (those worlds stop, ``structure_failed``: a truss strut beyond its strain bound)."""
+    loop (those worlds stop, ``structure_failed``: a truss strut beyond its strain bound), and
+    ``control_failures()`` → ``{world: message}``, checked after each :meth:`control` (those worlds
+    stop, ``failed``: a user's control law that raised)."""
 
     probe_names: Sequence[str]
 
@@ -416,6 +418,8 @@ class BatchSimulation:
                         break
                     t = step * dt
                     plant.control(step, qpos, qvel, ctrl)
+                    if self._control_failures(step):
+                        break
                     if step % self.record_every == 0 or step == self.n_steps:
                         values = plant.probes(step, qpos, qvel)
                         values["t"] = np.full(n, t)
@@ -484,6 +488,8 @@ class BatchSimulation:
                         break
                     if step % control_every == 0:
                         plant.control(step, qpos, qvel, ctrl)
+                        if self._control_failures(step):
+                            break
                     if step % every == 0 or step == self.n_steps:
                         values = plant.probes(step, qpos, qvel)
                         values["t"] = np.full(n, step * dt)
@@ -606,6 +612,16 @@ class BatchSimulation:
         if check is not None:
             fails = check(step, self._qpos, self.live)
             self._stop(np.array(list(fails), dtype=np.intp), step, "structure_failed", fails.__getitem__)
+        return not self.live.any()
+
+    def _control_failures(self, step: int) -> bool:
+        """Stop the live worlds whose controller failed at step ``step`` (the plant's optional
+        ``control_failures()``: world → message), ``failed`` with their records so far kept; return
+        whether no world is left running."""
+        take = getattr(self.plant, "control_failures", None)
+        if take is not None:
+            fails = {k: m for k, m in take().items() if self.live[k]}
+            self._stop(np.array(list(fails), dtype=np.intp), step, "failed", fails.__getitem__)
         return not self.live.any()
 
     def _stop(self, worlds: np.ndarray, step: int, status: str, message: Any, *, t_bad_s: float | None = None) -> None:

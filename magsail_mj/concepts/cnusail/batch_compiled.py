@@ -225,6 +225,12 @@ class CompiledCubesatWorlds:
         ps[rows, w0 : w0 + 3] = c.wheel_cmd[rows]
         ps[rows, a + _S["STALE"]] = 1.0
 
+    def control_failures(self) -> dict[int, str]:
+        """The worlds whose plug-in detumble law raised at the last :meth:`control` → message
+        (taken: the next call starts empty)."""
+        errors, self.ctl.law_errors = self.ctl.law_errors, {}
+        return errors
+
     def plugin_values(self) -> np.ndarray:
         """(N, 18) what the plugin computes at each live world's state and step (the single run's
         :meth:`~magsail_mj.concepts.cnusail.compiled.CompiledCubesat.probe`): gravity gradient, drag,

@@ -16,7 +16,9 @@ and limits:
   ``−m_max sign Ḃ``, the B×ω law ``k (ω × B)/‖B‖²`` with the world's gain, or the non-monotonic
   law with the field table read ahead (``EnvironmentStack.sample`` at ``min(t + Δt, t_max)``, in
   today's body axes); a plug-in law (:mod:`magsail_mj.control.detumble_plugins`) is called per
-  world at the sample with that world's inputs, as its single run calls it;
+  world at the sample with that world's inputs, as its single run calls it; a law that raises
+  stops its world alone (``failed``, with the law, the time and the error: :attr:`law_errors`,
+  taken by the plant's ``control_failures``);
 * attitude sample (every ``1/rate_Hz``): the telemetry of the single run (the error quaternion to
   the nadir frame, its eigen-angle, the rate error); in DETUMBLE the wheels idle (command 0);
 * wheel drivers every step (Eqs. 8–11): the quasi-static DC motor ``V = clip(R i_c + K_b ω_M,
@@ -214,6 +216,7 @@ class BdotWorlds:
         self.wheel_cmd = np.zeros((n, 3))
         self.last_att = -1
         self.last_mtq = -1
+        self.law_errors: dict[int, str] = {}
 
     def _set(self, name: str, value: np.ndarray) -> None:
         """``self.<name> = value`` for the live worlds; a stopped world keeps its value."""
@@ -299,16 +302,21 @@ class BdotWorlds:
             )
             m = np.where(self.non_monotonic[:, None], m_nm, m)
         for k in np.flatnonzero(self.plugin & self.live).tolist():
-            m[k] = plugin_dipole(
-                self.laws[k],
-                self.law_params[k],
-                t_s=step * self.dt,
-                field_body_T=B[k],
-                field_rate_body_T_s=self.B_dot[k],
-                rate_body_rad_s=omega[k],
-                inertia_kgm2=self.inertia[k],
-                dipole_max_Am2=self.limit[k],
-            )
+            try:
+                m[k] = plugin_dipole(
+                    self.laws[k],
+                    self.law_params[k],
+                    t_s=step * self.dt,
+                    field_body_T=B[k],
+                    field_rate_body_T_s=self.B_dot[k],
+                    rate_body_rad_s=omega[k],
+                    inertia_kgm2=self.inertia[k],
+                    dipole_max_Am2=self.limit[k],
+                )
+            except Exception as err:  # noqa: BLE001 - the law is the user's code: its world fails alone
+                m[k] = 0.0
+                t_s, kind = step * self.dt, type(err).__name__
+                self.law_errors[k] = f"control.bdot_law {self.laws[k]!r} raised {kind} at t = {t_s:.6g} s: {err}"
         self._set("dipole_held", np.clip(m, -self.limit, self.limit))
 
     def _motor_torque(self, w: np.ndarray) -> np.ndarray:

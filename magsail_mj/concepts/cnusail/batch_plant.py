@@ -144,6 +144,12 @@ class CubesatWorlds:
         T_M = self.ctl.step(step, qpos, qvel, s.env)
         _write(ctrl, self.ctl.wheel_act, T_M, self.live)
 
+    def control_failures(self) -> dict[int, str]:
+        """The worlds whose plug-in detumble law raised at the last :meth:`control` → message
+        (taken: the next call starts empty)."""
+        errors, self.ctl.law_errors = self.ctl.law_errors, {}
+        return errors
+
     def probes(self, step: int, qpos: np.ndarray, qvel: np.ndarray) -> dict[str, np.ndarray]:
         """The probes' values at step ``step`` (after :meth:`control`), (N, …) each."""
         s = self._start_state(step, qpos, qvel)
