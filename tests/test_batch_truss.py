@@ -12,7 +12,8 @@ world's own controller and probe functions, and MuJoCo's batch steps each world 
 does, so no tolerance is needed. Status, message, end time and step count agree too, also for a
 world that diverges (stiffness too high for the step: MuJoCo's bad-state warning at 0.2 s) and one
 whose strain bound is passed (``structure_failed``) while the others go on. The numbers do not
-depend on the thread count, and a state handed out by ``get_state`` continues bit-identically.
+depend on the thread count, a state handed out by ``get_state`` continues bit-identically, and a
+stopped batch resumes from its checkpoint to the uninterrupted batch's folders.
 """
 
 from __future__ import annotations
@@ -22,9 +23,15 @@ import pytest
 
 import magsail_mj
 from magsail_mj.concepts import build_task
+from magsail_mj.batch.checkpoint import BATCH_CHECKPOINT_NAME
+from magsail_mj.batch.folders import run_batch_folders
+from magsail_mj.batch.runner import BatchSimulation
+from magsail_mj.checkpoint import read_checkpoint
 from magsail_mj.concepts.truss_magnetorquer.batch import TrussWorlds
+from magsail_mj.concepts.truss_magnetorquer.tasks import TrussScenario
 from magsail_mj.config import ConfigError, load_config
 from tests.conftest import REPO
+from tests.test_batch_checkpoint import _assert_same_folder
 from tests.test_batch_equals_single import assert_same_records, run_and_compare
 
 CONFIGS = REPO / "magsail_mj/concepts/truss_magnetorquer/configs"
@@ -138,3 +145,29 @@ def test_refusals_name_the_key(config, override, key):
 def test_other_scenarios_are_refused_by_name():
     with pytest.raises(ConfigError, match="scenario: the batch runs the truss's orbital scenarios"):
         magsail_mj.load(str(CONFIGS / "libration.toml"), ["sim.duration_s=1"], worlds=2)
+
+
+def test_a_stopped_truss_batch_resumes_to_the_uninterrupted_folders(tmp_path, monkeypatch):
+    """Two lattice worlds stopped at 1.3 s (their checkpoint at 1 s and the stop's at 1.3 s) and
+    resumed write the uninterrupted batch's folders: every record and series bit for bit, the same
+    summary but for the process's timing, the same manifest status and end time."""
+    monkeypatch.setattr(TrussScenario, "plots", lambda self, run_dir, result, series: [])
+    shared = ["sim.duration_s=3", "sim.checkpoint_every_s=1.0", "sim.progress=false"]
+
+    def batch() -> magsail_mj.batch.BatchSimulation:
+        return magsail_mj.load(DETUMBLE, shared, world_overrides=WORLDS[:2])
+
+    want = [tmp_path / "whole" / f"w{k}" for k in range(2)]
+    assert [o.status for o in run_batch_folders(batch(), want)] == ["completed"] * 2
+    got = [tmp_path / "resumed" / f"w{k}" for k in range(2)]
+    assert [o.status for o in run_batch_folders(batch(), got, stop_after_s=1.3)] == ["stopped"] * 2
+    header, _, _ = read_checkpoint(got[0] / BATCH_CHECKPOINT_NAME)
+    assert header["step"] == 13 and [w["folder"] for w in header["worlds"]] == ["w0", "w1"]
+    restored: list[int] = []  # the resumed batch starts from the checkpoint's state, not from t = 0
+    set_state = BatchSimulation.set_state
+    monkeypatch.setattr(BatchSimulation, "set_state", lambda sim, state: (restored.append(1), set_state(sim, state)))
+    assert [o.status for o in run_batch_folders(batch(), got, resume=True)] == ["completed"] * 2
+    assert restored == [1]
+    assert not (got[0] / BATCH_CHECKPOINT_NAME).exists()
+    for mine, theirs in zip(got, want):
+        _assert_same_folder(mine, theirs)
