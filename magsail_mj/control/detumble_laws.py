@@ -28,7 +28,9 @@ calls it with one row get the same bits. The torque of a dipole m [A m²] in the
   ``blookahead_core`` with the field table read ahead, ``setup_blookahead_control``) with the gains
   of their Monte Carlo script (``final/monte_carlo_controllers.jl``: k = 3e3, α = 100, look-ahead
   600 s). With the body momentum ``h = J ω`` [N m s], the field now B₁ and the field ahead B₂ (the
-  reference orbit's field a look-ahead time later, in today's body axes), ``b₁ = B₁/‖B₁‖`` and
+  reference orbit's field a look-ahead time T later, in today's body axes: read from the field
+  table at t + T, or extrapolated as ``B(t) + T Ḃ(t)`` from the orbit field's rate at t, which is
+  what the authors' Monte Carlo does — ``control.nonmonotonic_field_ahead``), ``b₁ = B₁/‖B₁‖`` and
   ``b₂ = B₂/‖B₁‖`` (both scaled by the present magnitude, as the authors' code does), the two-step
   control ``ū = (u₁, u₂)`` minimises
 
