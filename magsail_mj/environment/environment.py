@@ -114,7 +114,9 @@ class Environment:
     """Orbit, field, Sun and atmosphere precomputed along the reference orbit (module docstring).
 
     Build with :meth:`from_config` or the keyword-only constructor. ``duration_s`` is the run
-    length; samples are valid on [0, ``t_max``] with ``t_max = duration_s + 2 h``.
+    length; samples are valid on [0, ``t_max``], ``t_max = K h`` the first whole number of table
+    steps ``h`` (``field.sample_step_s``, not hours) at or beyond ``duration_s + 2 h``, and at least
+    ``3 h``.
     """
 
     def __init__(
