@@ -210,7 +210,7 @@ class SimConfig(StrictModel):
     the loads are computed: ``"python"`` (the default: NumPy/Python loads adding into
     ``xfrc_applied`` before each step) or ``"compiled"`` (a MuJoCo plugin built from C on first use,
     computing them inside the step, :mod:`magsail_mj.compiled`; the scenarios that have one: the
-    CNUSAIL attitude runs). ``progress`` only shows a progress bar.
+    CNUSAIL attitude runs and the reflector's pitch tracking). ``progress`` only shows a progress bar.
     """
 
     duration_s: float = Field(gt=0)

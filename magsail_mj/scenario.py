@@ -55,7 +55,8 @@ def build_scenario(cfg: Any) -> Scenario:
         key = KIND_KEYS.get(cfg.concept, "scenario")
         raise ConfigError(
             [
-                f"sim.loads: compiled loads exist for the CNUSAIL attitude runs only; {cfg.concept} "
+                "sim.loads: compiled loads exist for the CNUSAIL attitude runs and the reflector's pitch "
+                f"tracking only; {cfg.concept} "
                 f"({key} {getattr(cfg, key, None)!r}) computes its loads in Python: use sim.loads = 'python', "
                 "got 'compiled'"
             ]

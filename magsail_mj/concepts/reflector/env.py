@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from magsail_mj.concepts.reflector.bdot import BdotCommand, PlateBdotController
+from magsail_mj.config import ConfigError
 from magsail_mj.control.reflector_pitch import PitchCommand, ReflectorPitchController, saturate_norm
 from magsail_mj.control.reflector_steering import SteeringReference
 from magsail_mj.envs.core import (
@@ -319,5 +320,14 @@ def reflector_detumble(cfg: Any, *, random: Any = None, **options: Any):
     matches=_reflector_kind("pitch"),
 )  # noqa: E501
 def reflector_pitch_tracking(cfg: Any, *, random: Any = None, **options: Any):
-    """Scenario B pitch tracking (:class:`ReflectorPitchTask`)."""
+    """Scenario B pitch tracking (:class:`ReflectorPitchTask`). A config with ``sim.loads =
+    "compiled"`` is refused (:class:`~magsail_mj.config.ConfigError` naming the key): the
+    environment's actions are the controller, which runs in Python each step."""
+    if getattr(cfg.sim, "loads", "python") == "compiled":
+        raise ConfigError(
+            [
+                "sim.loads: the environment's actions drive the reflector's coils from Python each step "
+                "and keep the loads there; use sim.loads = 'python', got 'compiled'"
+            ]
+        )
     return make_environment(cfg, ReflectorPitchTask, random=random, **options)

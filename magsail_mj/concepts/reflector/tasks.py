@@ -34,6 +34,7 @@ from magsail_mj.control.reflector_steering import ReflectorOrbit
 from magsail_mj.loads.body_torque import HeldBodyTorqueLoad, OrbitGravityGradientLoad
 from magsail_mj.concepts.reflector.mjcf import MarkerSpec
 from magsail_mj.concepts.reflector.caps import CapSweepRunner, caps_outputs, caps_plots
+from magsail_mj.concepts.reflector.compiled import CompiledReflector
 from magsail_mj.concepts.reflector.config import ReflectorConfig
 from magsail_mj.concepts.reflector.metrics import detumble_outputs, pass_table, pitch_outputs, reference_products
 from magsail_mj.concepts.reflector.model import (
@@ -235,9 +236,17 @@ class PitchTask(ReflectorTask):
     """Scenario B: polar dawn–dusk orbit, dipole field Eq. 11, steering law
     (:mod:`magsail_mj.control.reflector_steering`), quaternion feedback with projection ⟂ B and
     saturation (:mod:`magsail_mj.control.reflector_pitch`); optional gravity-gradient torque (B5).
-    Starts on the reference: ``q_ref(0)``, ``ω_ref(0) = −ψ̇(0) ŷ``."""
+    Starts on the reference: ``q_ref(0)``, ``ω_ref(0) = −ψ̇(0) ŷ``.
+
+    With ``sim.loads = "compiled"`` the simulation's model is the plate's with the compiled pitch
+    tracking (:class:`~magsail_mj.concepts.reflector.compiled.CompiledReflector`: controller, coil
+    torque and gravity gradient inside ``mj_step``; ``model`` stays the model without it), the runner
+    has no Python controller or loads, and the probes record the same quantities, computed by the
+    plugin's C function at the record's state."""
 
     markers = PITCH_MARKERS
+    #: the scenario can run its loads compiled (``sim.loads = "compiled"``)
+    compiled_loads = True
 
     def make_controller(self) -> ReflectorPitchController:
         return self.plate.pitch_controller()
@@ -254,6 +263,54 @@ class PitchTask(ReflectorTask):
                 )
             )
         return loads
+
+    def simulation(self) -> Simulation:
+        if self.cfg.sim.loads != "compiled":
+            return super().simulation()
+        self.controller = ctl = self.make_controller()
+        sim, idx = self.cfg.sim, self.idx
+        compiled = CompiledReflector(
+            self.spec,
+            bare_model=self.model,
+            controller=ctl,
+            gravity_gradient_mu=self.cfg.orbit.mu_m3_s2 if self.cfg.gravity.gg_torque else None,
+            plate_qpos=idx.q_quat.start - 3,
+            plate_dof=idx.v_ang.start - 3,
+            timing=sim.load_timing,
+        )
+        return Simulation(
+            model=compiled.model,
+            duration_s=sim.duration_s,
+            loads=[],
+            controller=None,
+            compiled=compiled,
+            environment=None,
+            probes=self.compiled_probes(compiled),
+            record_every=sim.record_every,
+            checkpoint_every_s=sim.checkpoint_every_s,
+            init=self.init_state,
+        )
+
+    def compiled_probes(self, compiled: CompiledReflector) -> dict[str, Callable[[Any, mujoco.MjData], Any]]:
+        """The probes of :meth:`probes` read from what the plugin's C function computes at the
+        record's state (:meth:`CompiledReflector.probe`): the same names, values and dtypes."""
+        f = compiled.field
+        out: dict[str, Callable[[Any, mujoco.MjData], Any]] = {
+            "qpos": lambda s, d: d.qpos,
+            "qvel": lambda s, d: d.qvel,
+            "torque_body_Nm": lambda s, d: f(d, "T_ACT"),
+            "T_ref_body_Nm": lambda s, d: f(d, "T_REF"),
+            "saturated": lambda s, d: np.int8(f(d, "SATURATED")[0]),
+            "q_e": lambda s, d: f(d, "Q_E"),
+            "q_ref": lambda s, d: f(d, "Q_REF"),
+            "psi_ref_rad": lambda s, d: float(f(d, "PSI")[0]),
+            "psi_dot_ref_rad_s": lambda s, d: float(f(d, "PSI")[1]),
+            "psi_ddot_ref_rad_s2": lambda s, d: float(f(d, "PSI")[2]),
+            "B_world_T": lambda s, d: f(d, "B_WORLD"),
+        }
+        if self.cfg.gravity.gg_torque:
+            out["torque_gg_world_Nm"] = lambda s, d: f(d, "GG_WORLD")
+        return out
 
     def probes(self, loads: list[Any]) -> dict[str, Callable[[Any, mujoco.MjData], Any]]:
         out = {
@@ -325,7 +382,9 @@ class PitchTask(ReflectorTask):
 class PitchCapsTask(PitchTask):
     """Case B3: the whole cap sweep with bisection in one run; its runner
     (:class:`magsail_mj.concepts.reflector.caps.CapSweepRunner`) runs one
-    :class:`magsail_mj.sim.Simulation` per cap. No gravity gradient."""
+    :class:`magsail_mj.sim.Simulation` per cap. No gravity gradient; no compiled loads."""
+
+    compiled_loads = False
 
     def simulation(self) -> CapSweepRunner:  # type: ignore[override]
         if self.cfg.gravity.gg_torque:
