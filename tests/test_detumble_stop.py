@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 import magsail_mj
-from magsail_mj.concepts.cnusail.metrics import dipole_effort, time_stays_below
+from magsail_mj.concepts.cnusail.metrics import dipole_effort, held_on_integral, time_stays_below
 from magsail_mj.config import ConfigError, load_config
-from magsail_mj.loads.actuators_cubesat import MagnetorquerCycle
+from magsail_mj.loads.actuators_cubesat import MagnetorquerCycle, mtq_power
 from magsail_mj.sim import HoldBelow, hold_below_time, vector_norm
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -71,6 +71,27 @@ def test_dipole_effort_by_hand():
     # a run that ends mid-cycle (t = 3) stops the integral there
     assert dipole_effort(t[:4], m[:4], cycle=cycle) == pytest.approx(0.1 * 1.8 + 0.05 * 1.0, rel=1e-15)
     assert dipole_effort(t[:1], m[:1], cycle=cycle) == 0.0
+
+
+def test_magnetorquer_energy_integrates_the_held_power_over_the_on_time():
+    """``mtq_energy_J`` = Σ_{i<n−1} P_i × (on-time from record i to i+1): the last record closes the
+    integral (a sum over all n records would count one record interval too many)."""
+    cycle = MagnetorquerCycle(cycle_s=2.0, blank_s=0.2, timestep_s=0.2)
+    t = np.array([0.0, 1.0, 2.0, 3.0])
+    power_W = np.array([0.5, 0.25, 0.125, 99.0])
+    want = 0.5 * 1.0 + 0.25 * 0.8 + 0.125 * 1.0  # on-time of [0, 1), [1, 2), [2, 3) as in the effort above
+    assert held_on_integral(t, power_W, cycle=cycle) == pytest.approx(want, rel=1e-15, abs=0.0)
+    sim = magsail_mj.load(PRE, ["sim.duration_s=20", "sim.progress=false", "initial.omega0_deg_s=[4.0, -6.0, 2.0]"])
+    result = sim.run()
+    summary = _summary(sim, result)
+    cfg = load_config(PRE)
+    mtq = cfg.actuators.mtq
+    power = mtq_power(np.asarray(result.records["dipole_cmd_Am2"]), mtq.limit_vector, power_max_W=mtq.power_max_W)
+    run_cycle = MagnetorquerCycle(cycle_s=mtq.cycle_s, blank_s=mtq.blank_s, timestep_s=cfg.sim.timestep_s)
+    t_rec = np.asarray(result.records["t"])
+    assert summary["mtq_energy_J"] == held_on_integral(t_rec, power.sum(axis=1), cycle=run_cycle) > 0.0
+    all_records = float(power.sum()) * float(np.median(np.diff(t_rec))) * run_cycle.duty
+    assert summary["mtq_energy_J"] < all_records  # the last record's power is not counted
 
 
 def test_config_keys():

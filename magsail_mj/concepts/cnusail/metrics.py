@@ -10,7 +10,8 @@ Detumbling (``control.mode = "bdot"``):
   component is below it); ``detumble_time_below_{1p0,0p5,0p3,0p2}dps_s`` and ``…_orbits`` for the
   four thresholds;
 * ``rate_mean_last_orbit_rad_s`` (mean ‖ω‖ over the last orbit), ``rate_ptp_last_two_orbits_rad_s``;
-* ``mtq_energy_J``: Σ P_j over the on-time of each cycle, P_j = P_max (M_j/M_j,max)² (Yoo et al. 2016, Eqs. 5–7).
+* ``mtq_energy_J``: ∫ Σ_j P_j dt over the coils' on-time, P_j = P_max (M_j/M_j,max)² (Yoo et al. 2016,
+  Eqs. 5–7), each record's command held to the next record (:func:`held_on_integral`).
 * ``mtq_dipole_effort_Am2s``: ∫‖m‖ dt of the applied dipole [A m² s], m the held dipole while
   the coils are on and 0 while blanked (:func:`dipole_effort`);
 * ``detumble_time_h_1pct_s``: the first record time at which the body momentum ‖h‖ = ‖J ω‖ (J the
@@ -122,18 +123,17 @@ def momentum_detumble_time(
     return time_first_below(np.asarray(t, dtype=float), h_norm, fraction * float(h_norm[0]))
 
 
-def dipole_effort(t: np.ndarray, dipole: np.ndarray, *, cycle: MagnetorquerCycle) -> float:
-    """∫‖m‖ dt [A m² s] of the applied dipole over the records.
+def held_on_integral(t: np.ndarray, values: np.ndarray, *, cycle: MagnetorquerCycle) -> float:
+    """∫ x dt over the coils' on-time of a quantity ``values`` (n,) recorded at the times ``t``
+    (n,) [s] and held from each record to the next; the coils are on at the steps ``k`` with
+    ``k mod N_c < N_on`` of ``cycle`` (N_c steps a cycle, the first N_on on, the rest blanked; step
+    k at t = k δt), so
 
-    ``dipole``: (n, 3) the held dipole [A m², body] recorded at the times ``t`` (n,) [s], held from
-    each record to the next; the coils carry it on the steps ``k`` with ``k mod N_c < N_on`` of
-    ``cycle`` (N_c steps a cycle, the first N_on on, the rest blanked; step k at t = k δt), so
-
-        E = Σ_{i<n−1} ‖m_i‖ δt (F(k_{i+1}) − F(k_i)),  F(k) = ⌊k/N_c⌋ N_on + min(k mod N_c, N_on),
+        ∫ x dt = Σ_{i<n−1} x_i δt (F(k_{i+1}) − F(k_i)),  F(k) = ⌊k/N_c⌋ N_on + min(k mod N_c, N_on),
 
     F(k) counting the on-steps before step k. Exact when every magnetometer sample (a multiple of
     N_c) is a record step (the record interval divides the cycle: 1 s records, 2 s cycle), since
-    then the held dipole changes at records only; the last record ends the integral."""
+    then the held command changes at records only; the last record ends the integral."""
     t = np.asarray(t, dtype=float)
     if t.size < 2:
         return 0.0
@@ -141,7 +141,15 @@ def dipole_effort(t: np.ndarray, dipole: np.ndarray, *, cycle: MagnetorquerCycle
     n_c, n_on = cycle.steps_per_cycle, cycle.steps_on
     on_before = (k // n_c) * n_on + np.minimum(k % n_c, n_on)
     on_s = np.diff(on_before) * cycle.timestep_s
-    return float(np.sum(np.linalg.norm(np.asarray(dipole, dtype=float)[:-1], axis=1) * on_s))
+    return float(np.sum(np.asarray(values, dtype=float)[:-1] * on_s))
+
+
+def dipole_effort(t: np.ndarray, dipole: np.ndarray, *, cycle: MagnetorquerCycle) -> float:
+    """∫‖m‖ dt [A m² s] of the applied dipole over the records: ``dipole`` (n, 3) the held dipole
+    [A m², body] at the times ``t`` (n,) [s], integrated over the coils' on-time
+    (:func:`held_on_integral`)."""
+    norms = np.linalg.norm(np.asarray(dipole, dtype=float), axis=1) if len(dipole) else np.zeros(0)
+    return held_on_integral(t, norms, cycle=cycle)
 
 
 def _euler_321_deg(p_e: np.ndarray) -> np.ndarray:
@@ -285,11 +293,10 @@ def attitude_outputs(
         summary["rate_mean_last_orbit_rad_s"] = float(np.mean(w_norm[last]))
         last2 = t >= t[-1] - 2 * period
         summary["rate_ptp_last_two_orbits_rad_s"] = float(np.ptp(w_norm[last2]))
-        duty = controller.p.mtq_cycle.duty if controller is not None else 1.0
-        summary["mtq_energy_J"] = float(np.sum(power.sum(axis=1)) * dt_rec * duty)
-        summary["mtq_dipole_max_Am2"] = float(np.max(np.abs(dip))) if n else 0.0
         mtq = cfg.actuators.mtq
         cycle = MagnetorquerCycle(cycle_s=mtq.cycle_s, blank_s=mtq.blank_s, timestep_s=cfg.sim.timestep_s)
+        summary["mtq_energy_J"] = held_on_integral(t, power.sum(axis=1), cycle=cycle)
+        summary["mtq_dipole_max_Am2"] = float(np.max(np.abs(dip))) if n else 0.0
         summary["mtq_dipole_effort_Am2s"] = dipole_effort(t, dip, cycle=cycle)
         t_h = momentum_detumble_time(t, omega, np.asarray(cfg.spacecraft.inertia), fraction=0.01)
         summary["detumble_time_h_1pct_s"] = t_h
