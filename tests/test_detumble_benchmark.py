@@ -11,6 +11,7 @@ runs of the same configs, figure by figure, with the report's percentile rule (t
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
 import math
 from pathlib import Path
@@ -116,3 +117,44 @@ def _inline(value: object) -> str:
     if isinstance(value, dict):
         return "{ " + ", ".join(f"{k} = {_inline(v)}" for k, v in value.items()) + " }"
     return json.dumps(value)
+
+
+def _paired_script():
+    spec = importlib.util.spec_from_file_location("paired", ROOT / "scripts" / "detumble_benchmark_paired.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_paired_comparison_counts_by_hand(tmp_path):
+    """The per-condition comparison of two laws: only samples completed in both are paired; a run
+    that never stays below 0.3 °/s is later than any time; the mean difference is over the pairs
+    where both reached it."""
+    paired = _paired_script()
+
+    def folder(point: str, runs: dict[str, tuple[str, float | None]]) -> Path:
+        for sample, (status, t) in runs.items():
+            run = tmp_path / point / sample
+            run.mkdir(parents=True)
+            (run / "manifest.json").write_text(json.dumps({"status": status}))
+            summary = {"detumble_time_below_0p3dps_s": t, "detumbled": t is not None}
+            (run / "summary.json").write_text(json.dumps(summary))
+                json.dumps({"detumble_time_below_0p3dps_s": t, "detumbled": t is not None})
+            )
+        return tmp_path / point
+
+    first = folder("a", {"s000": ("completed", 100.0), "s001": ("completed", 300.0), "s002": ("completed", None),
+                         "s003": ("failed", 50.0), "s004": ("completed", 80.0)})  # fmt: skip
+    second = folder("b", {"s000": ("completed", 60.0), "s001": ("completed", 400.0), "s002": ("completed", 900.0),
+                          "s003": ("completed", 10.0)})  # fmt: skip
+    names = ("shipped", "tuned")
+    rows = paired.paired_rows(paired.completed_summaries(first), paired.completed_summaries(second), names=names)
+    assert [r["sample"] for r in rows] == ["s000", "s001", "s002"]
+    got = paired.comparison(rows, names=names)
+    assert (got["n"], got["second_sooner"], got["second_later"], got["first_never"]) == (3, 2, 1, 1)
+    assert got["mean_difference_s"] == pytest.approx((-40.0 + 100.0) / 2) and got["largest_later_s"] == 100.0
+    assert (got["first_median_s"], got["second_median_s"]) == (300.0, 400.0)
+    out = tmp_path / "p.csv"
+    assert paired.main([str(first), str(second), "--names", *names, "--out", str(out)]) == 0
+    header = next(csv.reader(out.open()))
+    assert header[:2] == ["sample", "shipped_detumble_time_below_1p0dps_s"] and "tuned_detumbled" in header
