@@ -139,8 +139,6 @@ def test_paired_comparison_counts_by_hand(tmp_path):
             (run / "manifest.json").write_text(json.dumps({"status": status}))
             summary = {"detumble_time_below_0p3dps_s": t, "detumbled": t is not None}
             (run / "summary.json").write_text(json.dumps(summary))
-                json.dumps({"detumble_time_below_0p3dps_s": t, "detumbled": t is not None})
-            )
         return tmp_path / point
 
     first = folder("a", {"s000": ("completed", 100.0), "s001": ("completed", 300.0), "s002": ("completed", None),
