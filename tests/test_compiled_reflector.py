@@ -13,7 +13,7 @@ import pytest
 
 import magsail_mj
 from magsail_mj.bench import bench
-from magsail_mj.compiled import SOURCE_DIR
+from magsail_mj.compiled import CompiledLoadsError, SOURCE_DIR
 from magsail_mj.concepts.reflector.compiled import PARAM_FIELDS, PROBE_FIELDS, STATE_FIELDS
 from magsail_mj.concepts.reflector.env import reflector_pitch_tracking
 from magsail_mj.config import ConfigError, load_config
@@ -237,3 +237,11 @@ def test_bench_reports_the_compiled_step_of_the_reflector():
     assert out["loads"] == "python" and len(out["us_per_step_compiled_runs"]) == 3
     assert out["us_per_step_compiled"] == pytest.approx(sorted(out["us_per_step_compiled_runs"])[1], rel=1e-15)
     assert out["ratio_to_mj_step_compiled"] == pytest.approx(out["us_per_step_compiled"] / out["mj_step_us"], rel=1e-12)
+
+
+def test_a_missing_compiler_is_refused_naming_the_key(monkeypatch, tmp_path):
+    monkeypatch.setenv("MAGSAIL_CC", str(tmp_path / "no-such-cc"))
+    monkeypatch.setenv("MAGSAIL_COMPILED_CACHE", str(tmp_path / "cache"))
+    with pytest.raises(CompiledLoadsError, match=r"sim\.loads: 'compiled' needs a C compiler.*no-such-cc"):
+        _load(TRACK, "sim.duration_s=10", "sim.loads='compiled'")
+    assert _load(TRACK, "sim.duration_s=10").run().status == "completed"  # the Python path needs none
