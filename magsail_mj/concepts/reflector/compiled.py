@@ -207,8 +207,16 @@ class CompiledReflector:
         probe = ctypes.CDLL(str(library)).magsail_reflector_probe
         probe.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p]
         probe.restype = ctypes.c_int
-        # a C function and the last probe's key and values: not part of the walked state
-        self._probe = SimpleNamespace(fn=probe, key=None, out=None, fields={})
+        # a C function, its output buffer (with a view per field) and the key of the state the
+        # buffer holds: not part of the walked state
+        out = np.empty(_O["END"])
+        self._probe = SimpleNamespace(
+            fn=probe,
+            key=None,
+            out=out,
+            ptr=out.ctypes.data,
+            fields={name: out[_O[name] : _O[name] + n] for name, n in PROBE_FIELDS},
+        )
         params = reflector_params(
             controller=controller,
             gravity_gradient_mu=gravity_gradient_mu,
@@ -231,13 +239,11 @@ class CompiledReflector:
         of the C source; :data:`PROBE_FIELDS`): the coil torque ``T_act`` and ``T_ref`` [N m, body
         axes], saturated (0/1), ``q_e``, ``q_ref``, ``ψ_c`` [rad], ``ψ̇`` [rad/s], ``ψ̈`` [rad/s²], the
         world field [T], the gravity-gradient torque [N m, world axes; zero when off] and β [rad].
-        The values of the last state asked for are kept (a new array for each new state), so the
-        probes of one record call the C function once."""
-        return self._values(data)[0]
 
-    def _values(self, data: mujoco.MjData) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        """``(probe array, its fields)`` at ``data``'s state, from the cache when the state is the
-        last one asked for (the same data, time, ``qpos``, ``qvel`` and unwrapping memory)."""
+        A live buffer, like ``data.qpos``: the call for another state overwrites it (copy what is
+        kept). The C function runs once per state (the same data, time, ``qpos``, ``qvel`` and
+        unwrapping memory as the last call reuse the buffer), so the probes of one record call it
+        once."""
         ns = self._probe
         a = self.state_adr + _S["PRIMED"]
         key = (
@@ -248,17 +254,17 @@ class CompiledReflector:
             data.plugin_state[a : a + 2].tobytes(),
         )
         if key != ns.key:
-            out = np.empty(_O["END"])
-            if ns.fn(self.model._address, data._address, 0, out.ctypes.data) != 0:
+            ns.key = None
+            if ns.fn(self.model._address, data._address, 0, ns.ptr) != 0:
                 raise ValueError("data: its model has no initialised reflector-loads plugin")
-            ns.key, ns.out = key, out
-            ns.fields = {name: out[_O[name] : _O[name] + n] for name, n in PROBE_FIELDS}
-        return ns.out, ns.fields
+            ns.key = key
+        return ns.out
 
     def field(self, data: mujoco.MjData, name: str) -> np.ndarray:
-        """The field ``name`` of :data:`PROBE_FIELDS` at ``data``'s state (a view of :meth:`probe`'s
-        array, which is new for each new state)."""
-        return self._values(data)[1][name]
+        """The field ``name`` of :data:`PROBE_FIELDS` at ``data``'s state: a view of :meth:`probe`'s
+        live buffer."""
+        self.probe(data)
+        return self._probe.fields[name]
 
     def state(self, data: mujoco.MjData, name: str) -> np.ndarray:
         """A view of the field ``name`` of :data:`STATE_FIELDS` in ``data``'s plugin state."""
