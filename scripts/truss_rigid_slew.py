@@ -9,6 +9,7 @@ flexible lattice fails because of the law, its gains or the manoeuvre definition
     python scripts/truss_rigid_slew.py slew_i slew_iii slew_iv          # 15 120 s each
     python scripts/truss_rigid_slew.py slew_iii --duration 3600 --out /tmp/rigid.json
     python scripts/truss_rigid_slew.py slew_iii --actuation ideal_perp_B   # unsaturated, T ⊥ B
+    python scripts/truss_rigid_slew.py mpc/slew_iv_mpc --dt 1.0         # receding-horizon control
 """
 
 from __future__ import annotations
@@ -31,12 +32,23 @@ from magsail_mj.concepts.truss_magnetorquer.orbital import first_time_below, sta
 MODELS = Path(__file__).resolve().parents[1] / "magsail_mj" / "concepts" / "truss_magnetorquer" / "configs"
 
 
-def rigid_slew(config_id: str, *, duration_s: float | None, gravity_gradient: bool, actuation: str = "rods") -> dict:
-    """Run one slew config rigidly; its summary figures (same definitions as the flexible run)."""
+def rigid_slew(
+    config_id: str,
+    *,
+    duration_s: float | None,
+    gravity_gradient: bool,
+    actuation: str = "rods",
+    dt_s: float | None = None,
+) -> dict:
+    """Run one slew config rigidly; its summary figures (same definitions as the flexible run).
+
+    ``dt_s``: RK4 step and controller call interval [s] (default the config's ``sim.timestep_s``).
+    ``max_error_after_arrival_deg``: the largest error after the first sample within 5°;
+    ``int_T_mag_Nms``: ``∫|m × B| dt`` (trapezoid over the 10 s records)."""
     sc = magsail_mj.load(MODELS / f"{config_id}.toml").scenario  # the scenario with its rod load wired
     cfg = sc.cfg
-    if cfg.control.kind != "quat_pd":
-        raise SystemExit(f"{config_id}: control.kind is {cfg.control.kind!r}; only slews (quat_pd) run here")
+    if cfg.control.kind not in ("quat_pd", "mpc"):
+        raise SystemExit(f"{config_id}: control.kind is {cfg.control.kind!r}; only slews (quat_pd, mpc) run here")
     controller = sc.make_controller()
     duration = float(duration_s if duration_s is not None else cfg.sim.duration_s)
     t0 = time.perf_counter()
@@ -51,13 +63,15 @@ def rigid_slew(config_id: str, *, duration_s: float | None, gravity_gradient: bo
         omega0_body=np.asarray(cfg.initial.omega0_rad_s),
         q_ref_wxyz=np.asarray(cfg.maneuver.q_ref_wxyz),
         duration_s=duration,
-        dt=cfg.sim.timestep_s,
+        dt=dt_s if dt_s is not None else cfg.sim.timestep_s,
         gravity_gradient=gravity_gradient,
         actuation=actuation,
     )
     err = np.radians(run.err_deg)
     w_norm = np.linalg.norm(run.omega, axis=1)
     steps = np.arange(1800.0, run.t[-1] + 1e-9, 1800.0)
+    arrived = np.flatnonzero(run.err_deg < 5.0)
+    T_norm = np.linalg.norm(run.T_mag, axis=1)
     return {
         "id": config_id,
         "gravity_gradient": gravity_gradient,
@@ -69,7 +83,10 @@ def rigid_slew(config_id: str, *, duration_s: float | None, gravity_gradient: bo
         "tumbled": tumbled(err, w_norm),
         "saturation_fraction": float(controller.stats[3] / max(controller.stats[0], 1)),
         "err_at_0p5h_steps_deg": [round(float(np.interp(s, run.t, run.err_deg)), 1) for s in steps],
-        "T_mag_max_Nm": float(np.linalg.norm(run.T_mag, axis=1).max()),
+        "max_error_after_arrival_deg": float(run.err_deg[arrived[0] :].max()) if arrived.size else math.nan,
+        "omega_final_rad_s": float(w_norm[-1]),
+        "int_T_mag_Nms": float(np.sum(0.5 * (T_norm[1:] + T_norm[:-1]) * np.diff(run.t))),
+        "T_mag_max_Nm": float(T_norm.max()),
         "T_gg_max_Nm": float(np.linalg.norm(run.T_gg, axis=1).max()),
         "wall_time_s": time.perf_counter() - t0,
     }
@@ -86,6 +103,7 @@ def main(argv: list[str] | None = None) -> int:
         default="rods",
         help="rods (the scenario's), ideal (T_ref itself) or ideal_perp_B (T_ref less its part along B)",
     )
+    ap.add_argument("--dt", type=float, default=None, help="RK4 and controller step [s] (default: the config's)")
     ap.add_argument("--out", type=Path, default=None, help="also write the figures as JSON here")
     args = ap.parse_args(argv)
     for config_id in args.ids:
@@ -97,7 +115,13 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     rows = []
     for config_id in args.ids:
-        row = rigid_slew(config_id, duration_s=args.duration, gravity_gradient=not args.no_gg, actuation=args.actuation)
+        row = rigid_slew(
+            config_id,
+            duration_s=args.duration,
+            gravity_gradient=not args.no_gg,
+            actuation=args.actuation,
+            dt_s=args.dt,
+        )
         rows.append(row)
         print(json.dumps(row))
     if args.out is not None:

@@ -39,6 +39,7 @@ __all__ = [
     "DampingConfig",
     "ActuatorsConfig",
     "LloydConfig",
+    "MpcConfig",
     "TrussControlConfig",
     "ManeuverConfig",
     "ProfileConfig",
@@ -51,7 +52,7 @@ __all__ = [
 
 Vec3 = tuple[float, float, float]
 
-ORBITAL_CONTROL_KINDS = {"detumble": ("bdot", "open_loop"), "slew": ("quat_pd", "open_loop")}
+ORBITAL_CONTROL_KINDS = {"detumble": ("bdot", "open_loop"), "slew": ("quat_pd", "mpc", "open_loop")}
 """Scenario kinds driven by the magnetorquer rod array in orbit → the
 ``control.kind`` values each takes."""
 ORBITAL_SCENARIOS = tuple(ORBITAL_CONTROL_KINDS)
@@ -177,13 +178,41 @@ class LloydConfig(StrictModel):
     symmetry: Symmetry = "none"
 
 
+class MpcConfig(StrictModel):
+    """``[control.mpc]``: the receding-horizon rod control (``control.kind = "mpc"``,
+    :mod:`~magsail_mj.concepts.truss_magnetorquer.mpc`): prediction horizon and step [s], RK4
+    substeps per step, replan interval [s] (absent = ``step_s``), weight of the rate ``T_ω`` [s],
+    of the horizon's last step, of the effort and of the plan's change, SQP iterations per replan,
+    and the step of the field forecast table [s]."""
+
+    horizon_s: float = Field(default=3600.0, gt=0)
+    step_s: float = Field(default=60.0, gt=0)
+    substeps: int = Field(default=3, ge=1)
+    replan_s: float | None = Field(default=None, gt=0)
+    rate_weight_s: float = Field(default=1000.0, gt=0)
+    terminal_weight: float = Field(default=10.0, gt=0)
+    effort_weight: float = Field(default=1e-4, ge=0)
+    step_weight: float = Field(default=1e-3, ge=0)
+    iterations: int = Field(default=1, ge=1)
+    forecast_step_s: float = Field(default=10.0, gt=0)
+
+    @model_validator(mode="after")
+    def _grid(self) -> MpcConfig:
+        if self.horizon_s < self.step_s:
+            raise ValueError(f"horizon_s: must be >= step_s = {self.step_s} s, got {self.horizon_s!r}")
+        if abs(self.horizon_s / self.step_s - round(self.horizon_s / self.step_s)) > 1e-9:
+            raise ValueError(f"horizon_s: must be a whole number of step_s = {self.step_s} s, got {self.horizon_s!r}")
+        return self
+
+
 class TrussControlConfig(StrictModel):
     """``[control]`` of the orbital rod-array scenarios.
 
     ``kind``: ``"bdot"`` (gain ``k_bdot_Nms_T2``), ``"quat_pd"`` (diagonal gains
     ``Pq_Nm``, ``Pw_Nms``; gravity-gradient compensation ``gg_comp`` with the Eq. 21 inertia, or
     ``gg_comp_inertia_kgm2`` when given, e.g. the printed ``[1893, 1893, 2867]``) or
-    ``"open_loop"`` (the ``[profile]`` torque through the allocation).
+    ``"open_loop"`` (the ``[profile]`` torque through the allocation) or ``"mpc"`` (receding-horizon
+    dipole plan, ``[control.mpc]``; needs ``allocation = "exact"``).
     ``period_s``: control period (absent = every integration step).
     ``rate_method``: backward-difference form. ``allocation``: ``"paper"`` or ``"exact"`` (Eqs. 11–13).
     ``cache_dir``: on-disk Lloyd cache (relative paths from the working directory; ``""`` = none);
@@ -191,7 +220,7 @@ class TrussControlConfig(StrictModel):
     ``low_authority_threshold_Nm``: |T_ref| above which low delivered torque is reported.
     """
 
-    kind: Literal["bdot", "quat_pd", "open_loop"]
+    kind: Literal["bdot", "quat_pd", "open_loop", "mpc"]
     period_s: float | None = Field(default=None, gt=0)
     rate_method: Literal["log", "first_order"] = "log"
     k_bdot_Nms_T2: float = Field(default=1e12, ge=0)
@@ -203,9 +232,15 @@ class TrussControlConfig(StrictModel):
     lloyd: LloydConfig = LloydConfig()
     cache_dir: str = "runs/lloyd_cache"
     low_authority_threshold_Nm: float = Field(default=0.02, ge=0)
+    mpc: MpcConfig = MpcConfig()
 
     @model_validator(mode="after")
     def _gains(self) -> TrussControlConfig:
+        if self.kind == "mpc" and self.allocation != "exact":
+            raise ValueError(
+                f"allocation: control.kind = 'mpc' commands dipoles and needs allocation = 'exact' "
+                f"(the paper's sweep does not return them), got {self.allocation!r}"
+            )
         for name in ("Pq_Nm", "Pw_Nms"):
             if any(not (g >= 0) for g in getattr(self, name)):
                 raise ValueError(f"{name}: gains must be >= 0, got {getattr(self, name)!r}")

@@ -74,6 +74,7 @@ from magsail_mj.concepts.truss_magnetorquer.metrics import (
     surface_uvw,
 )
 from magsail_mj.concepts.truss_magnetorquer.model import TrussModel
+from magsail_mj.concepts.truss_magnetorquer.mpc import FieldForecast, MagneticMpcController, MpcWeights, RigidPlant
 from magsail_mj.sim import RunResult
 from magsail_mj.vec3 import cross3, moment_sum
 
@@ -83,6 +84,7 @@ __all__ = [
     "controller_inertia",
     "make_distributor",
     "rod_controller",
+    "environment_forecast",
     "orbital_probes",
     "orbital_summary",
     "detumble_keys",
@@ -154,11 +156,13 @@ def make_distributor(control: TrussControlConfig, rod_load: MagnetorquerRodLoad,
 
 
 def rod_controller(
-    cfg: TrussConfig, tm: TrussModel, rod_load: MagnetorquerRodLoad, *, mu_m3_s2: float
+    cfg: TrussConfig, tm: TrussModel, rod_load: MagnetorquerRodLoad, *, mu_m3_s2: float, environment: Any = None
 ) -> RodAttitudeController:
-    """The ``[control]`` law (``control.kind``: B-dot, quaternion feedback or the open-loop
-    ``[profile]``) feeding the rod allocation, sampled every ``control.period_s`` (default: every
-    step); ``mu_m3_s2`` [m³/s²] is the gravitational parameter of the gravity-gradient compensation."""
+    """The ``[control]`` law (``control.kind``: B-dot, quaternion feedback, the receding-horizon
+    dipole plan or the open-loop ``[profile]``) feeding the rod allocation, sampled every
+    ``control.period_s`` (default: every step); ``mu_m3_s2`` [m³/s²] is the gravitational parameter
+    of the gravity-gradient compensation; ``environment`` (an
+    :class:`~magsail_mj.environment.environment.Environment`) gives ``"mpc"`` its field forecast."""
     c = cfg.control
     common = dict(
         reference_nodes=tm.lattice.nodes,
@@ -168,7 +172,63 @@ def rod_controller(
         omega0_body=cfg.initial.omega0_rad_s,
         rate_method=c.rate_method,
     )
+    if c.kind == "mpc":
+        if environment is None:
+            raise ValueError("environment: control.kind = 'mpc' needs the environment for its field forecast")
+        return _mpc(cfg, tm, mu_m3_s2, common, rod_load, environment)
     return _CONTROL_LAWS[c.kind](cfg, tm, mu_m3_s2, common)
+
+
+def environment_forecast(environment: Any, *, duration_s: float, step_s: float) -> FieldForecast:
+    """The field and position forecast of ``environment`` (``sample_many``) on a grid of ``step_s``
+    over ``[0, duration_s]``, interpolated linearly and held constant beyond its ends."""
+    t_grid = np.arange(0.0, duration_s + step_s, step_s)
+    env = environment.sample_many(t_grid)
+    B, r = np.asarray(env["B_eci"], dtype=float), np.asarray(env["r_ref_eci"], dtype=float)
+
+    def forecast(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x = np.clip(np.asarray(t, dtype=float), t_grid[0], t_grid[-1]) / step_s
+        k = np.minimum(x.astype(np.int64), len(t_grid) - 2)
+        f = (x - k)[..., None]
+        return (1 - f) * B[k] + f * B[k + 1], (1 - f) * r[k] + f * r[k + 1]
+
+    return forecast
+
+
+def _mpc(
+    cfg: TrussConfig,
+    tm: TrussModel,
+    mu_m3_s2: float,
+    common: dict[str, Any],
+    rod_load: MagnetorquerRodLoad,
+    environment: Any,
+) -> RodAttitudeController:
+    p = cfg.control.mpc
+    M = np.asarray(rod_load.m_rod_Am2, dtype=float) * np.asarray(rod_load.rods.n_per_family, dtype=float)
+    plant = RigidPlant(
+        inertia_kgm2=particle_inertia(tm.lattice.nodes, tm.masses).tensor,
+        max_dipole_Am2=M,
+        mu_m3_s2=mu_m3_s2,
+        forecast=environment_forecast(environment, duration_s=cfg.sim.duration_s, step_s=p.forecast_step_s),
+        gravity_gradient=cfg.gravity.tidal,
+    )
+    weights = MpcWeights(
+        horizon_s=p.horizon_s,
+        step_s=p.step_s,
+        substeps=p.substeps,
+        rate_weight_s=p.rate_weight_s,
+        terminal_weight=p.terminal_weight,
+        effort_weight=p.effort_weight,
+        step_weight=p.step_weight,
+        iterations=p.iterations,
+    )
+    return MagneticMpcController(
+        q_ref_wxyz=np.asarray(cfg.maneuver.q_ref_wxyz, dtype=float),
+        plant=plant,
+        weights=weights,
+        replan_s=p.replan_s if p.replan_s is not None else p.step_s,
+        **common,
+    )
 
 
 def _bdot(cfg: TrussConfig, tm: TrussModel, mu_m3_s2: float, common: dict[str, Any]) -> RodAttitudeController:
@@ -197,7 +257,8 @@ def _open_loop(cfg: TrussConfig, tm: TrussModel, mu_m3_s2: float, common: dict[s
 
 
 _CONTROL_LAWS = {"bdot": _bdot, "quat_pd": _quat_pd, "open_loop": _open_loop}
-"""``control.kind`` → controller factory (the config schema allows exactly these keys)."""
+"""``control.kind`` → controller factory (with ``"mpc"``, built by :func:`_mpc`, the kinds the
+config schema allows)."""
 
 
 def orbital_probes(

@@ -528,7 +528,9 @@ class OrbitalTrussTask(TrussScenario):
     def make_controller(self) -> RodAttitudeController:
         """The ``[control]`` law feeding the rod allocation
         (:func:`~magsail_mj.concepts.truss_magnetorquer.orbital.rod_controller`); builds the rod load if absent."""
-        return rod_controller(self.cfg, self.tm, self.rods(), mu_m3_s2=self.environment.mu)
+        return rod_controller(
+            self.cfg, self.tm, self.rods(), mu_m3_s2=self.environment.mu, environment=self.environment
+        )
 
     def task_probes(self) -> dict[str, Any]:
         return orbital_probes(
