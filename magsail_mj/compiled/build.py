@@ -2,9 +2,11 @@ r"""Compiled loads: a C source of the package built into a MuJoCo plugin library
 
 :func:`load_plugin` compiles ``magsail_mj/compiled/<name>.c`` with the C compiler into a shared
 library and registers its plugins with MuJoCo (``mujoco.mj_loadPluginLibrary``);
-:func:`build_library` builds one without registering it (C functions called through ``ctypes``). The library lives
-in a cache folder keyed by the SHA-256 digest of the source, the MuJoCo version and the compiler
-(its resolved path and its ``--version`` line), so an edited source, another MuJoCo or another
+:func:`build_library` builds one without registering it (C functions called through ``ctypes``). A
+source may include the folder's headers (``#include "plugin_common.h"``: the pieces the loads
+plugins share). The library lives in a cache folder keyed by the SHA-256 digest of the source, of
+every header of the folder (``*.h``, by name and content), the MuJoCo version and the compiler (its
+resolved path and its ``--version`` line), so an edited source or header, another MuJoCo or another
 compiler builds anew and an unchanged one is reused across processes; a build costs 0.4 s once
 (gcc 12, the cubesat loads, the compiler's version query included).
 
@@ -110,13 +112,15 @@ def _resolved_compiler() -> tuple[str, str]:
 
 
 def library_path(name: str) -> Path:
-    """The cached library of the source ``<name>.c`` for this MuJoCo and compiler (not built)."""
+    """The cached library of the source ``<name>.c`` for this MuJoCo and compiler (not built); its
+    key covers the folder's headers, which the source may include."""
     source = SOURCE_DIR / f"{name}.c"
     if not source.is_file():
         raise ValueError(f"name: no C source {source}")
     cc, version = _resolved_compiler()
+    headers = [part for h in sorted(SOURCE_DIR.glob("*.h")) for part in (h.name, h.read_bytes())]
     key = hashlib.sha256()
-    for part in (source.read_bytes(), mujoco.__version__, cc, version, " ".join(_FLAGS)):
+    for part in (source.read_bytes(), *headers, mujoco.__version__, cc, version, " ".join(_FLAGS)):
         key.update(part if isinstance(part, bytes) else part.encode())
         key.update(b"\0")
     return cache_dir() / key.hexdigest()[:24] / f"lib{name}.so"

@@ -1,7 +1,7 @@
 /* The CNUSAIL cubesat's loads as a MuJoCo engine plugin ("magsail.cubesat_loads", passive force).
 
-   Built and loaded by magsail_mj.compiled (one shared library per source digest, MuJoCo version
-   and compiler); the Python side is magsail_mj.concepts.cnusail.compiled. Every time MuJoCo
+   Built and loaded by magsail_mj.compiled (one shared library per digest of the source and the
+   folder's headers, MuJoCo version and compiler); the Python side is magsail_mj.concepts.cnusail.compiled. Every time MuJoCo
    computes the passive forces (mj_passive, once per mj_forward: once at the step's start and at
    each further stage of RK4) it adds to qfrc_passive of the bus's free joint the body-axes torque
 
@@ -51,6 +51,8 @@
 #include <string.h>
 
 #include <mujoco/mujoco.h>
+
+#include "plugin_common.h"
 
 /* parameter block (the order of magsail_mj.concepts.cnusail.compiled.PARAM_FIELDS) */
 enum {
@@ -123,24 +125,15 @@ enum {
   S_FIXED                       /* then S_V_PREV (nv), S_V_CUR (nv) */
 };
 
-enum { TIMING_START = 0, TIMING_MIDPOINT = 1, TIMING_STAGE = 2 };
 enum { ATMO_NONE = 0, ATMO_EXPONENTIAL = 1, ATMO_MSIS = 2 };
 enum { WHEELS_NONE = 0, WHEELS_DC_MOTOR = 1, WHEELS_IDEAL = 2 };
 
 static const char* kAttributes[] = {"params", "table"};
+static const StepMemory kMemory = {S_STALE, S_MID_STEP, S_PRIMED, S_FIXED};
 
 typedef struct {
   mjtNum r[3], v[3], B[3], sun[3], P, rho, vrel[3];
 } EnvSample;
-
-/* the numeric named by attribute `key` of instance `instance` (-1 when absent) */
-static int numeric_of(const mjModel* m, int instance, const char* key) {
-  const char* name = mj_getPluginConfig(m, instance, key);
-  if (!name || !name[0]) {
-    return -1;
-  }
-  return mj_name2id(m, mjOBJ_NUMERIC, name);
-}
 
 static const mjtNum* params_of(const mjModel* m, const mjData* d, int instance) {
   return m->numeric_data + (int)(d->plugin_data[instance] & 0xffffffffu);
@@ -148,19 +141,6 @@ static const mjtNum* params_of(const mjModel* m, const mjData* d, int instance) 
 
 static const mjtNum* table_of(const mjModel* m, const mjData* d, int instance) {
   return m->numeric_data + (int)(d->plugin_data[instance] >> 32);
-}
-
-static void cross3(mjtNum out[3], const mjtNum a[3], const mjtNum b[3]) {
-  out[0] = a[1] * b[2] - a[2] * b[1];
-  out[1] = a[2] * b[0] - a[0] * b[2];
-  out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-/* R^T a with R row-major (body components of a world vector) */
-static void mat_t_vec(mjtNum out[3], const mjtNum R[9], const mjtNum a[3]) {
-  out[0] = R[0] * a[0] + R[3] * a[1] + R[6] * a[2];
-  out[1] = R[1] * a[0] + R[4] * a[1] + R[7] * a[2];
-  out[2] = R[2] * a[0] + R[5] * a[1] + R[8] * a[2];
 }
 
 /* the environment at time t (module comment) */
@@ -380,13 +360,11 @@ static void evaluate(const mjtNum* p, const mjtNum* table, mjtNum* s, mjtNum t, 
 }
 
 static int cubesat_nstate(const mjModel* m, int instance) {
-  return S_FIXED + 2 * m->nv;
+  return step_memory_nstate(m, &kMemory);
 }
 
 static void cubesat_reset(const mjModel* m, mjtNum* state, void* plugin_data, int instance) {
-  mju_zero(state, S_FIXED + 2 * m->nv);
-  state[S_STALE] = 1;
-  state[S_MID_STEP] = -1;
+  step_memory_reset(m, state, &kMemory);
 }
 
 static int cubesat_init(const mjModel* m, mjData* d, int instance) {
@@ -415,7 +393,7 @@ static void cubesat_compute(const mjModel* m, mjData* d, int instance, int capab
   const mjtNum* p = params_of(m, d, instance);
   const mjtNum* table = table_of(m, d, instance);
   mjtNum* s = d->plugin_state + m->plugin_stateadr[instance];
-  int timing = (int)p[P_TIMING], nv = m->nv;
+  int timing = (int)p[P_TIMING];
   mjtNum dt = m->opt.timestep;
   if (s[S_STALE] != 0) {
     long k = lround(d->time / dt);
@@ -430,27 +408,9 @@ static void cubesat_compute(const mjModel* m, mjData* d, int instance, int capab
     if (timing == TIMING_START) {
       evaluate(p, table, s, t, d->qpos, d->qvel);
     } else if (timing == TIMING_MIDPOINT) {
-      mjtNum* v_prev = s + S_FIXED;
-      mjtNum* v_cur = v_prev + nv;
-      if ((long)s[S_MID_STEP] != k) {  /* a new step: its start velocity becomes the memory */
-        if (s[S_MID_STEP] >= 0) {
-          mju_copy(v_prev, v_cur, nv);
-          s[S_PRIMED] = 1;
-        }
-        mju_copy(v_cur, d->qvel, nv);
-        s[S_MID_STEP] = (mjtNum)k;
-      }
+      mjtNum *qpos, *vm;
       mj_markStack(d);
-      mjtNum* qpos = mj_stackAllocNum(d, m->nq);
-      mjtNum* vq = mj_stackAllocNum(d, nv);
-      mjtNum* vm = mj_stackAllocNum(d, nv);
-      mju_copy(qpos, d->qpos, m->nq);
-      for (int i = 0; i < nv; i++) {
-        mjtNum v = d->qvel[i], dv = s[S_PRIMED] != 0 ? v - v_prev[i] : 0.0;
-        vq[i] = v + 0.25 * dv;
-        vm[i] = v + 0.5 * dv;
-      }
-      mj_integratePos(m, qpos, vq, 0.5 * dt);
+      midpoint_state(m, d, s, &kMemory, k, &qpos, &vm);
       evaluate(p, table, s, t + 0.5 * dt, qpos, vm);
       mj_freeStack(d);
     }
@@ -487,7 +447,7 @@ static void probe_values(const mjtNum* p, const mjtNum* table, const mjtNum* s, 
    dipole, and the wheel motor torques the step applies (3). Nothing in d changes. Returns 0, or -1
    when `instance` is not an instance of this plugin's data. */
 int magsail_cubesat_probe(const mjModel* m, const mjData* d, int instance, mjtNum* out) {
-  if (instance < 0 || instance >= m->nplugin || d->plugin_data[instance] == 0) {
+  if (!initialised_instance(m, d, instance)) {
     return -1;
   }
   probe_values(params_of(m, d, instance), table_of(m, d, instance), d->plugin_state + m->plugin_stateadr[instance],
@@ -522,20 +482,10 @@ int magsail_cubesat_probe_rows(int n, const mjModel* const* models, int adr_para
 }
 
 static void cubesat_advance(const mjModel* m, mjData* d, int instance) {
-  d->plugin_state[m->plugin_stateadr[instance] + S_STALE] = 1;
+  step_memory_advance(m, d, instance, &kMemory);
 }
 
 mjPLUGIN_LIB_INIT(magsail_cubesat_loads) {
-  mjpPlugin plugin;
-  mjp_defaultPlugin(&plugin);
-  plugin.name = "magsail.cubesat_loads";
-  plugin.capabilityflags = mjPLUGIN_PASSIVE;
-  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
-  plugin.attributes = kAttributes;
-  plugin.nstate = cubesat_nstate;
-  plugin.init = cubesat_init;
-  plugin.reset = cubesat_reset;
-  plugin.compute = cubesat_compute;
-  plugin.advance = cubesat_advance;
-  mjp_registerPlugin(&plugin);
+  register_passive_plugin("magsail.cubesat_loads", kAttributes, sizeof(kAttributes) / sizeof(kAttributes[0]),
+                          cubesat_nstate, cubesat_init, cubesat_reset, cubesat_compute, cubesat_advance);
 }

@@ -55,6 +55,8 @@
 
 #include <mujoco/mujoco.h>
 
+#include "plugin_common.h"
+
 /* parameter block (the order of magsail_mj.concepts.reflector.compiled.PARAM_FIELDS) */
 enum {
   P_VERSION = 0,
@@ -98,7 +100,6 @@ enum {
   S_FIXED             /* then S_V_PREV (nv), S_V_CUR (nv) */
 };
 
-enum { TIMING_START = 0, TIMING_MIDPOINT = 1, TIMING_STAGE = 2 };
 enum { SAT_NORM = 0, SAT_FIELD_SCALED = 1, SAT_PER_PATH = 2 };
 
 /* the probe's numbers (magsail_reflector_probe) */
@@ -116,6 +117,7 @@ enum {
 };
 
 static const char* kAttributes[] = {"params"};
+static const StepMemory kMemory = {S_STALE, S_MID_STEP, S_V_PRIMED, S_FIXED};
 
 static const mjtNum* params_of(const mjModel* m, const mjData* d, int instance) {
   return m->numeric_data + ((int)d->plugin_data[instance] - 1); /* address + 1: 0 means uninitialised */
@@ -135,22 +137,8 @@ static void quat_rows(mjtNum R[9], const mjtNum q[4]) {
   R[8] = 1 - 2 * (x * x + y * y);
 }
 
-static void cross3(mjtNum out[3], const mjtNum a[3], const mjtNum b[3]) {
-  mjtNum o0 = a[1] * b[2] - a[2] * b[1], o1 = a[2] * b[0] - a[0] * b[2], o2 = a[0] * b[1] - a[1] * b[0];
-  out[0] = o0;
-  out[1] = o1;
-  out[2] = o2;
-}
-
 static mjtNum dot3(const mjtNum a[3], const mjtNum b[3]) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-/* R^T a, R row-major */
-static void mat_t_vec(mjtNum out[3], const mjtNum R[9], const mjtNum a[3]) {
-  out[0] = R[0] * a[0] + R[3] * a[1] + R[6] * a[2];
-  out[1] = R[1] * a[0] + R[4] * a[1] + R[7] * a[2];
-  out[2] = R[2] * a[0] + R[5] * a[1] + R[8] * a[2];
 }
 
 /* R a, R row-major */
@@ -323,18 +311,15 @@ static void world_torque(const mjtNum* p, const mjtNum* s, mjtNum t, const mjtNu
 }
 
 static int reflector_nstate(const mjModel* m, int instance) {
-  return S_FIXED + 2 * m->nv;
+  return step_memory_nstate(m, &kMemory);
 }
 
 static void reflector_reset(const mjModel* m, mjtNum* state, void* plugin_data, int instance) {
-  mju_zero(state, S_FIXED + 2 * m->nv);
-  state[S_STALE] = 1;
-  state[S_MID_STEP] = -1;
+  step_memory_reset(m, state, &kMemory);
 }
 
 static int reflector_init(const mjModel* m, mjData* d, int instance) {
-  const char* name = mj_getPluginConfig(m, instance, "params");
-  int ip = name && name[0] ? mj_name2id(m, mjOBJ_NUMERIC, name) : -1;
+  int ip = numeric_of(m, instance, "params");
   if (ip < 0) {
     mju_warning("magsail.reflector_loads: the instance's 'params' must name a custom numeric");
     return -1;
@@ -352,7 +337,7 @@ static int reflector_init(const mjModel* m, mjData* d, int instance) {
 static void reflector_compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
   const mjtNum* p = params_of(m, d, instance);
   mjtNum* s = d->plugin_state + m->plugin_stateadr[instance];
-  int timing = (int)p[P_TIMING], nv = m->nv;
+  int timing = (int)p[P_TIMING];
   mjtNum dt = m->opt.timestep, out[O_SIZE];
   if (s[S_STALE] != 0) {
     long k = lround(d->time / dt);
@@ -362,28 +347,9 @@ static void reflector_compute(const mjModel* m, mjData* d, int instance, int cap
     world_torque(p, s, t, d->qpos, d->qvel, NULL, s + S_WORLD, out);
     mju_copy3(s + S_T_ACT, out + O_T_ACT);
     if (timing == TIMING_MIDPOINT) {
-      mjtNum* v_prev = s + S_FIXED;
-      mjtNum* v_cur = v_prev + nv;
-      if ((long)s[S_MID_STEP] != k) { /* a new step: its start velocity becomes the memory */
-        if (s[S_MID_STEP] >= 0) {
-          mju_copy(v_prev, v_cur, nv);
-          s[S_V_PRIMED] = 1;
-        }
-        mju_copy(v_cur, d->qvel, nv);
-        s[S_MID_STEP] = (mjtNum)k;
-      }
+      mjtNum *qpos, *vm, mid[O_SIZE];
       mj_markStack(d);
-      mjtNum* qpos = mj_stackAllocNum(d, m->nq);
-      mjtNum* vq = mj_stackAllocNum(d, nv);
-      mjtNum* vm = mj_stackAllocNum(d, nv);
-      mju_copy(qpos, d->qpos, m->nq);
-      for (int i = 0; i < nv; i++) {
-        mjtNum v = d->qvel[i], dv = s[S_V_PRIMED] != 0 ? v - v_prev[i] : 0.0;
-        vq[i] = v + 0.25 * dv;
-        vm[i] = v + 0.5 * dv;
-      }
-      mj_integratePos(m, qpos, vq, 0.5 * dt);
-      mjtNum mid[O_SIZE];
+      midpoint_state(m, d, s, &kMemory, k, &qpos, &vm);
       world_torque(p, s, t + 0.5 * dt, qpos, vm, s + S_T_ACT, s + S_WORLD, mid);
       mj_freeStack(d);
     }
@@ -403,7 +369,7 @@ static void reflector_compute(const mjModel* m, mjData* d, int instance, int cap
 }
 
 static void reflector_advance(const mjModel* m, mjData* d, int instance) {
-  d->plugin_state[m->plugin_stateadr[instance] + S_STALE] = 1;
+  step_memory_advance(m, d, instance, &kMemory);
 }
 
 /* For the runner's records (called from Python through ctypes): into out (25) what the controller
@@ -412,7 +378,7 @@ static void reflector_advance(const mjModel* m, mjData* d, int instance) {
    psi_ddot (3), B_world (3), the gravity gradient in world axes (3, zero when off) and beta (1).
    Nothing in d changes. Returns 0, or -1 when `instance` is not an initialised instance. */
 int magsail_reflector_probe(const mjModel* m, const mjData* d, int instance, mjtNum* out) {
-  if (instance < 0 || instance >= m->nplugin || d->plugin_data[instance] == 0) {
+  if (!initialised_instance(m, d, instance)) {
     return -1;
   }
   const mjtNum* p = params_of(m, d, instance);
@@ -425,16 +391,6 @@ int magsail_reflector_probe(const mjModel* m, const mjData* d, int instance, mjt
 }
 
 mjPLUGIN_LIB_INIT(magsail_reflector_loads) {
-  mjpPlugin plugin;
-  mjp_defaultPlugin(&plugin);
-  plugin.name = "magsail.reflector_loads";
-  plugin.capabilityflags = mjPLUGIN_PASSIVE;
-  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
-  plugin.attributes = kAttributes;
-  plugin.nstate = reflector_nstate;
-  plugin.init = reflector_init;
-  plugin.reset = reflector_reset;
-  plugin.compute = reflector_compute;
-  plugin.advance = reflector_advance;
-  mjp_registerPlugin(&plugin);
+  register_passive_plugin("magsail.reflector_loads", kAttributes, sizeof(kAttributes) / sizeof(kAttributes[0]),
+                          reflector_nstate, reflector_init, reflector_reset, reflector_compute, reflector_advance);
 }
