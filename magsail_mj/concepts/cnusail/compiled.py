@@ -25,7 +25,6 @@ the step, evaluated at the step's start or its predicted middle), equal to it to
 
 from __future__ import annotations
 
-import ctypes
 import math
 from types import SimpleNamespace
 from typing import Any
@@ -34,6 +33,8 @@ import mujoco
 import numpy as np
 
 from magsail_mj.compiled import load_plugin
+from magsail_mj.compiled.plugin import PARAM_HEAD, TIMINGS, CompiledPlant, field_offsets, param_block
+from magsail_mj.compiled.plugin import plugin_model, probe_function
 from magsail_mj.concepts.cnusail.disturbances import CubesatDisturbanceLoad
 from magsail_mj.concepts.cnusail.modes import CnusailController
 from magsail_mj.config import ConfigError
@@ -58,14 +59,9 @@ PLUGIN = "magsail.cubesat_loads"
 LIBRARY = "cubesat_loads"
 LAYOUT_VERSION = 1
 MAX_FACETS = 8
-TIMINGS = {"start": 0, "midpoint": 1, "stage": 2}
 
 PARAM_FIELDS: tuple[tuple[str, int], ...] = (
-    ("VERSION", 1),
-    ("BODY", 1),
-    ("QPOSADR", 1),
-    ("DOFADR", 1),
-    ("TIMING", 1),
+    *PARAM_HEAD,
     ("T0", 1),
     ("H", 1),
     ("K", 1),
@@ -109,7 +105,8 @@ PARAM_FIELDS: tuple[tuple[str, int], ...] = (
     ("NEXP", 1),
     ("FACETS", 7 * MAX_FACETS),
 )
-"""The parameter block, in the order of the C source's ``P_*`` enum (name, length); then ``NEXP``
+"""The parameter block, in the order of the C source's ``P_*`` enum (name, length), starting with
+the common head (:data:`~magsail_mj.compiled.plugin.PARAM_HEAD`); then ``NEXP``
 rows of the exponential atmosphere ``(h0 [km], h0 [m], ρ0 [kg/m³], H [m])``. Units SI; flags 0/1;
 ``J`` row-major [kg m²]; facet rows ``(n̂ (3), k = −½ C_d A c (3) [m³], two-sided)``, body axes."""
 
@@ -129,17 +126,7 @@ STATE_FIELDS: tuple[tuple[str, int], ...] = (
 previous and the current step's start ``qvel``, for the midpoint prediction)."""
 
 
-def _offsets(fields: tuple[tuple[str, int], ...]) -> dict[str, int]:
-    out, k = {}, 0
-    for name, n in fields:
-        out[name] = k
-        k += n
-    out["END"] = k
-    return out
-
-
-_P = _offsets(PARAM_FIELDS)
-_S = _offsets(STATE_FIELDS)
+_S = field_offsets(STATE_FIELDS)
 STATE_OFFSETS: dict[str, int] = dict(_S)
 """Each field of :data:`STATE_FIELDS` at its offset from the instance's plugin state address."""
 
@@ -163,8 +150,9 @@ def cubesat_params(
       ValueError: a wheel driver the plugin does not model (``actuators.wheels.electrical =
         "substep"`` of a DC motor), too many drag facets, or an unknown ``timing``.
     """
-    if timing not in TIMINGS:
-        raise ValueError(f"timing: must be one of {sorted(TIMINGS)}, got {timing!r}")
+    p, put = param_block(
+        PARAM_FIELDS, version=LAYOUT_VERSION, body=body, qpos_adr=qpos_adr, dof_adr=dof_adr, timing=timing
+    )
     driver = controller.driver
     wheel_model = _WHEEL_MODELS.get((driver.model, driver.electrical))
     if wheel_model is None:
@@ -176,17 +164,6 @@ def cubesat_params(
     if len(drag) > MAX_FACETS:
         raise ValueError(f"disturbances: compiled loads take at most {MAX_FACETS} drag facets, got {len(drag)}")
     table = environment._table
-    p = np.zeros(_P["END"])
-
-    def put(name: str, value: Any) -> None:
-        v = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
-        p[_P[name] : _P[name] + len(v)] = v
-
-    put("VERSION", LAYOUT_VERSION)
-    put("BODY", body)
-    put("QPOSADR", qpos_adr)
-    put("DOFADR", dof_adr)
-    put("TIMING", TIMINGS[timing])
     put("T0", table.t0)
     put("H", table.h)
     put("K", table.K)
@@ -237,7 +214,7 @@ def cubesat_params(
     return np.concatenate([p, np.array(rows, dtype=float).ravel()])
 
 
-class CompiledCubesat:
+class CompiledCubesat(CompiledPlant):
     """The cubesat's model with the compiled loads (module docstring).
 
     Args:
@@ -256,6 +233,8 @@ class CompiledCubesat:
         "substep"``), named.
     """
 
+    state_fields = STATE_FIELDS
+
     def __init__(
         self,
         spec: mujoco.MjSpec,
@@ -268,10 +247,7 @@ class CompiledCubesat:
         bus_dof: int,
         timing: str,
     ) -> None:
-        library = load_plugin(LIBRARY)
-        probe = ctypes.CDLL(str(library)).magsail_cubesat_probe
-        probe.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p]
-        probe.restype = ctypes.c_int
+        probe = probe_function(load_plugin(LIBRARY), "magsail_cubesat_probe")
         self._probe = SimpleNamespace(fn=probe)  # a C function: not part of the walked state
         try:
             params = cubesat_params(
@@ -285,17 +261,16 @@ class CompiledCubesat:
             )
         except ValueError as err:
             raise ConfigError([str(err)]) from None
-        table = environment._table.coef.ravel()
-        s = spec.copy()
-        s.add_numeric(name="magsail_cubesat_params", size=len(params), data=params.tolist())
-        s.add_numeric(name="magsail_cubesat_table", size=len(table), data=table.tolist())
-        s.activate_plugin(PLUGIN)
-        plugin = s.add_plugin(name="magsail_cubesat_loads", plugin_name=PLUGIN, active=True)
-        plugin.config = {"params": "magsail_cubesat_params", "table": "magsail_cubesat_table"}
-        self.model = s.compile()
-        self.bare_model = bare_model
-        self.timing = timing
-        self.state_adr = int(self.model.plugin_stateadr[0])
+        model = plugin_model(
+            spec,
+            plugin=PLUGIN,
+            instance="magsail_cubesat_loads",
+            numerics={
+                "params": ("magsail_cubesat_params", params),
+                "table": ("magsail_cubesat_table", environment._table.coef.ravel()),
+            },
+        )
+        super().__init__(model, bare_model=bare_model, timing=timing)
 
     def probe(self, data: mujoco.MjData) -> np.ndarray:
         """(18,) what the plugin computes at ``data``'s state and step (``magsail_cubesat_probe`` of
@@ -307,12 +282,6 @@ class CompiledCubesat:
         if self._probe.fn(self.model._address, data._address, 0, out.ctypes.data) != 0:
             raise ValueError("data: its model has no initialised cubesat-loads plugin")
         return out
-
-    def state(self, data: mujoco.MjData, name: str) -> np.ndarray:
-        """A view of the field ``name`` of :data:`STATE_FIELDS` in ``data``'s plugin state."""
-        i = self.state_adr + _S[name]
-        n = dict(STATE_FIELDS)[name]
-        return data.plugin_state[i : i + n]
 
     def write_command(self, data: mujoco.MjData, *, dipole_Am2: np.ndarray, wheel_cmd: np.ndarray) -> None:
         """Hold the dipole [A m², body axes] and the wheel command (current [A], or torque [N m] for

@@ -21,14 +21,14 @@ it to round-off; ``"stage"`` evaluates the control law and the gravity gradient 
 
 from __future__ import annotations
 
-import ctypes
 from types import SimpleNamespace
-from typing import Any
 
 import mujoco
 import numpy as np
 
 from magsail_mj.compiled import load_plugin
+from magsail_mj.compiled.plugin import PARAM_HEAD, TIMINGS, CompiledPlant, field_offsets, param_block
+from magsail_mj.compiled.plugin import plugin_model, probe_function
 from magsail_mj.control.reflector_pitch import ReflectorPitchController
 
 __all__ = [
@@ -45,15 +45,10 @@ __all__ = [
 PLUGIN = "magsail.reflector_loads"
 LIBRARY = "reflector_loads"
 LAYOUT_VERSION = 1
-TIMINGS = {"start": 0, "midpoint": 1, "stage": 2}
 SATURATIONS = {"norm": 0, "field_scaled": 1, "per_path": 2}
 
 PARAM_FIELDS: tuple[tuple[str, int], ...] = (
-    ("VERSION", 1),
-    ("BODY", 1),
-    ("QPOSADR", 1),
-    ("DOFADR", 1),
-    ("TIMING", 1),
+    *PARAM_HEAD,
     ("ORBIT_R", 1),
     ("R_E", 1),
     ("N", 1),
@@ -72,11 +67,12 @@ PARAM_FIELDS: tuple[tuple[str, int], ...] = (
     ("GG", 1),
     ("MU", 1),
 )
-"""The parameter block, in the order of the C source's ``P_*`` enum (name, length). SI units; flags
-0/1; orbit radius ``r`` [m], Earth radius [m], mean motion ``n`` [rad/s], ground-point rate [rad/s],
-overhead time ``t_m`` [s], field factor ``k = B₀ (R_e/r)³`` [T]; gains ``P_q`` [N m], ``P_ω``
-[N m s] and principal inertia [kg m²] per body axis; the torque cap [N m], the cap's reference
-field [T], the per-path dipole limits [A m²]; μ [m³/s²] of the gravity gradient."""
+"""The parameter block, in the order of the C source's ``P_*`` enum (name, length): the common
+head (:data:`~magsail_mj.compiled.plugin.PARAM_HEAD`), then, in SI units, flags 0/1: orbit radius
+``r`` [m], Earth radius [m], mean motion ``n`` [rad/s], ground-point rate [rad/s], overhead time
+``t_m`` [s], field factor ``k = B₀ (R_e/r)³`` [T]; gains ``P_q`` [N m], ``P_ω`` [N m s] and
+principal inertia [kg m²] per body axis; the torque cap [N m], the cap's reference field [T], the
+per-path dipole limits [A m²]; μ [m³/s²] of the gravity gradient."""
 
 STATE_FIELDS: tuple[tuple[str, int], ...] = (
     ("STALE", 1),
@@ -106,18 +102,8 @@ PROBE_FIELDS: tuple[tuple[str, int], ...] = (
 """What :meth:`CompiledReflector.probe` returns, in the order of the C source's ``O_*`` enum."""
 
 
-def _offsets(fields: tuple[tuple[str, int], ...]) -> dict[str, int]:
-    out, k = {}, 0
-    for name, n in fields:
-        out[name] = k
-        k += n
-    out["END"] = k
-    return out
-
-
-_P = _offsets(PARAM_FIELDS)
-_S = _offsets(STATE_FIELDS)
-_O = _offsets(PROBE_FIELDS)
+_S = field_offsets(STATE_FIELDS)
+_O = field_offsets(PROBE_FIELDS)
 
 
 def reflector_params(
@@ -135,24 +121,17 @@ def reflector_params(
     Raises:
       ValueError: an unknown ``timing`` or saturation mode.
     """
-    if timing not in TIMINGS:
-        raise ValueError(f"timing: must be one of {sorted(TIMINGS)}, got {timing!r}")
+    p, put = param_block(
+        PARAM_FIELDS,
+        version=LAYOUT_VERSION,
+        body=controller.body_id,
+        qpos_adr=qpos_adr,
+        dof_adr=dof_adr,
+        timing=timing,
+    )
     if controller.saturation not in SATURATIONS:
         raise ValueError(f"control.saturation: must be one of {sorted(SATURATIONS)}, got {controller.saturation!r}")
     o = controller.orbit
-    p = np.zeros(_P["END"])
-
-    def put(name: str, value: Any) -> None:
-        v = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
-        if len(v) != dict(PARAM_FIELDS)[name]:
-            raise ValueError(f"{name}: expected {dict(PARAM_FIELDS)[name]} numbers, got {len(v)}")
-        p[_P[name] : _P[name] + len(v)] = v
-
-    put("VERSION", LAYOUT_VERSION)
-    put("BODY", controller.body_id)
-    put("QPOSADR", qpos_adr)
-    put("DOFADR", dof_adr)
-    put("TIMING", TIMINGS[timing])
     put("ORBIT_R", o.r_m)
     put("R_E", o.R_e_m)
     put("N", o.n_rad_s)
@@ -173,7 +152,7 @@ def reflector_params(
     return p
 
 
-class CompiledReflector:
+class CompiledReflector(CompiledPlant):
     """The plate's model with the compiled pitch tracking (module docstring).
 
     Args:
@@ -192,6 +171,8 @@ class CompiledReflector:
       CompiledLoadsError: the plugin library cannot be built or loaded (no compiler).
     """
 
+    state_fields = STATE_FIELDS
+
     def __init__(
         self,
         spec: mujoco.MjSpec,
@@ -203,10 +184,7 @@ class CompiledReflector:
         plate_dof: int,
         timing: str,
     ) -> None:
-        library = load_plugin(LIBRARY)
-        probe = ctypes.CDLL(str(library)).magsail_reflector_probe
-        probe.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p]
-        probe.restype = ctypes.c_int
+        probe = probe_function(load_plugin(LIBRARY), "magsail_reflector_probe")
         # a C function, its output buffer (with a view per field) and the key of the state the
         # buffer holds: not part of the walked state
         out = np.empty(_O["END"])
@@ -224,15 +202,13 @@ class CompiledReflector:
             dof_adr=plate_dof,
             timing=timing,
         )
-        s = spec.copy()
-        s.add_numeric(name="magsail_reflector_params", size=len(params), data=params.tolist())
-        s.activate_plugin(PLUGIN)
-        plugin = s.add_plugin(name="magsail_reflector_loads", plugin_name=PLUGIN, active=True)
-        plugin.config = {"params": "magsail_reflector_params"}
-        self.model = s.compile()
-        self.bare_model = bare_model
-        self.timing = timing
-        self.state_adr = int(self.model.plugin_stateadr[0])
+        model = plugin_model(
+            spec,
+            plugin=PLUGIN,
+            instance="magsail_reflector_loads",
+            numerics={"params": ("magsail_reflector_params", params)},
+        )
+        super().__init__(model, bare_model=bare_model, timing=timing)
 
     def probe(self, data: mujoco.MjData) -> np.ndarray:
         """(25,) what the controller commands at ``data``'s state and step (``magsail_reflector_probe``
@@ -265,8 +241,3 @@ class CompiledReflector:
         live buffer."""
         self.probe(data)
         return self._probe.fields[name]
-
-    def state(self, data: mujoco.MjData, name: str) -> np.ndarray:
-        """A view of the field ``name`` of :data:`STATE_FIELDS` in ``data``'s plugin state."""
-        i = self.state_adr + _S[name]
-        return data.plugin_state[i : i + dict(STATE_FIELDS)[name]]
