@@ -5,22 +5,20 @@ refused by name without a compiler, and keep the runner's divergence checks."""
 
 from __future__ import annotations
 
-import re
-
 import mujoco
 import numpy as np
 import pytest
 
 import magsail_mj
 from magsail_mj.bench import bench
-from magsail_mj.compiled import CompiledLoadsError, SOURCE_DIR, build
+from magsail_mj.compiled import SOURCE_DIR, build
 from magsail_mj.concepts.cnusail.compiled import PARAM_FIELDS, STATE_FIELDS
 from magsail_mj.concepts.cnusail.env import make_cubesat_environment
 from magsail_mj.config import ConfigError, load_config
-from magsail_mj.export import read_timeseries
 from magsail_mj.loads.base import StepState
 from magsail_mj.quaternion import quat_conj, quat_mul
-from magsail_mj.run import run_scenario
+from tests.compiled_shared import assert_c_layout, assert_missing_compiler_is_refused, assert_records_close
+from tests.compiled_shared import assert_resume_is_bitwise, assert_set_state_continues_bitwise, random_states
 from tests.conftest import REPO
 
 CONFIGS = REPO / "magsail_mj/concepts/cnusail/configs"
@@ -33,30 +31,9 @@ def _load(config, *overrides: str):
 
 def test_the_c_layout_is_the_python_layout():
     """The parameter and state blocks the Python side writes have the C enums' order and lengths."""
-    src = (SOURCE_DIR / "cubesat_loads.c").read_text()
-
-    def enum_offsets(prefix: str) -> dict[str, int]:
-        body = src[src.index(f"  {prefix}_", src.index("enum {")) :]
-        out, k = {}, 0
-        for line in body.splitlines():
-            m = re.match(rf"\s+{prefix}_(\w+)(?:\s*=\s*(?:0|{prefix}_(\w+)\s*\+\s*([\w* ]+)))?,", line)
-            if not m:
-                if line.strip().startswith("};"):
-                    break
-                continue
-            name, base, plus = m.groups()
-            if base is not None:
-                k = out[base] + eval(plus, {"MAX_FACETS": 8})  # noqa: S307 (a constant expression of the C source)
-            out[name] = k
-            k += 1
-        return out
-
-    for prefix, fields in (("P", PARAM_FIELDS), ("S", STATE_FIELDS)):
-        c = enum_offsets(prefix)
-        k = 0
-        for name, n in fields:
-            assert c[name] == k, (prefix, name, c[name], k)
-            k += n
+    assert_c_layout(
+        "cubesat_loads.c", [("P", PARAM_FIELDS, "EXP"), ("S", STATE_FIELDS, "FIXED")], constants={"MAX_FACETS": 8}
+    )
 
 
 @pytest.mark.parametrize("config", [PRE, POST], ids=["stowed", "deployed"])
@@ -69,12 +46,7 @@ def test_plugin_torques_equal_the_python_loads(config):
     m, d, plant, sc = sim.model, sim.data, sim.compiled, sim.scenario
     rng = np.random.default_rng(5)
     worst = 0.0
-    for _ in range(200):
-        q = rng.normal(size=4)
-        d.qpos[3:7] = q / np.linalg.norm(q)
-        d.qvel[3:6] = rng.uniform(-0.17, 0.17, 3)
-        d.qvel[0:3] = rng.uniform(-1.0, 1.0, 3)
-        d.time = float(rng.integers(0, 30000)) * m.opt.timestep
+    for _ in random_states(rng, d, n=200, rate_max_rad_s=0.17, steps=30000, dt=m.opt.timestep, speed_max_m_s=1.0):
         dipole = rng.uniform(-0.2, 0.2, 3)
         plant.write_command(d, dipole_Am2=dipole, wheel_cmd=np.zeros(3))
         mujoco.mj_forward(m, d)
@@ -106,11 +78,7 @@ def test_compiled_run_equals_the_python_run(config, timing):
     ra, rb = a.run(), b.run()
     assert ra.status == rb.status == "completed"
     assert b.compiled is not None and a.compiled is None
-    for key in ra.records:
-        x, y = np.asarray(ra.records[key], dtype=float), np.asarray(rb.records[key], dtype=float)
-        assert x.shape == y.shape, key
-        scale = max(float(np.abs(x).max()), 1e-300)
-        assert float(np.abs(x - y).max()) <= 1e-10 * scale, (key, float(np.abs(x - y).max()), scale)
+    assert_records_close(ra.records, rb.records, rel_tol=1e-10)
 
 
 @pytest.mark.parametrize(
@@ -129,10 +97,7 @@ def test_compiled_slews_with_wheels_equal_the_python_run(config, extra):
     ra, rb = a.run(), b.run()
     assert ra.status == rb.status == "completed"
     assert np.abs(np.asarray(ra.records["T_M_Nm"])).max() > 1e-5  # the wheels do work
-    for key in ra.records:
-        x, y = np.asarray(ra.records[key], dtype=float), np.asarray(rb.records[key], dtype=float)
-        scale = max(float(np.abs(x).max()), 1e-300)
-        assert float(np.abs(x - y).max()) <= 1e-9 * scale, (key, float(np.abs(x - y).max()), scale)
+    assert_records_close(ra.records, rb.records, rel_tol=1e-9)
 
 
 def _final_state(dt: float, timing: str) -> tuple[np.ndarray, np.ndarray]:
@@ -174,26 +139,12 @@ def test_checkpoint_and_resume_are_bitwise(tmp_path):
     through, record for record and bit for bit: the plugin's held command and step memory are part
     of MuJoCo's integration state, which the checkpoint carries."""
     over = ["sim.duration_s=60", "sim.loads='compiled'", "sim.checkpoint_every_s=10", "sim.progress=false"]
-    cfg = load_config(PRE, over)
-    run_scenario(cfg, tmp_path / "full")
-    run_scenario(cfg, tmp_path / "cut", stop_after_s=30.0)
-    run_scenario(cfg, tmp_path / "cut", resume=True)
-    a, b = read_timeseries(tmp_path / "full"), read_timeseries(tmp_path / "cut")
-    assert sorted(a) == sorted(b)
-    assert all(np.array_equal(a[k], b[k], equal_nan=True) for k in a)
+    assert_resume_is_bitwise(PRE, over, tmp_path, stop_after_s=30.0)
 
 
 def test_get_state_and_set_state_continue_bitwise():
-    sim = _load(PRE, "sim.duration_s=60", "sim.loads='compiled'", "sim.load_timing='midpoint'")
-    sim.step(37)
-    state = sim.get_state()
-    sim.step(50)
-    after = (sim.data.qpos.copy(), sim.data.qvel.copy(), sim.data.plugin_state.copy())
-    other = _load(PRE, "sim.duration_s=60", "sim.loads='compiled'", "sim.load_timing='midpoint'")
-    other.set_state(state)
-    other.step(50)
-    assert np.array_equal(other.data.qpos, after[0]) and np.array_equal(other.data.qvel, after[1])
-    assert np.array_equal(other.data.plugin_state, after[2])
+    over = ("sim.duration_s=60", "sim.loads='compiled'", "sim.load_timing='midpoint'")
+    assert_set_state_continues_bitwise(lambda: _load(PRE, *over), steps_before=37)
 
 
 def test_two_simulations_in_one_process_do_not_share_state():
@@ -212,13 +163,7 @@ def test_two_simulations_in_one_process_do_not_share_state():
 
 
 def test_a_missing_compiler_is_refused_naming_the_key(monkeypatch, tmp_path):
-    monkeypatch.setenv("MAGSAIL_CC", str(tmp_path / "no-such-cc"))
-    monkeypatch.setenv("MAGSAIL_COMPILED_CACHE", str(tmp_path / "cache"))
-    with pytest.raises(CompiledLoadsError, match=r"sim\.loads: 'compiled' needs a C compiler.*no-such-cc") as err:
-        _load(PRE, "sim.duration_s=10", "sim.loads='compiled'")
-    assert isinstance(err.value, ConfigError)
-    assert "sim.loads = 'python'" in str(err.value)
-    assert _load(PRE, "sim.duration_s=10").run().status == "completed"  # the Python path needs none
+    assert_missing_compiler_is_refused(monkeypatch, tmp_path, _load, config=PRE)
 
 
 def test_the_library_is_keyed_by_source_mujoco_and_compiler(monkeypatch, tmp_path):
@@ -227,6 +172,26 @@ def test_the_library_is_keyed_by_source_mujoco_and_compiler(monkeypatch, tmp_pat
     assert path.parent.parent == tmp_path and path.name == "libcubesat_loads.so"
     monkeypatch.setattr(build.mujoco, "__version__", "0.0.0")
     assert build.library_path("cubesat_loads") != path
+
+
+def test_the_library_key_covers_the_folders_headers(monkeypatch, tmp_path):
+    """The sources include the folder's headers (plugin_common.h): an edited header, or a new
+    one, keys another library, so the next load builds anew; the unchanged folder keys the same."""
+    monkeypatch.setenv("MAGSAIL_COMPILED_CACHE", str(tmp_path / "cache"))
+    src = tmp_path / "src"
+    src.mkdir()
+    for f in [*SOURCE_DIR.glob("*.c"), *SOURCE_DIR.glob("*.h")]:
+        (src / f.name).write_bytes(f.read_bytes())
+    assert (src / "plugin_common.h").is_file() and '#include "plugin_common.h"' in (src / "cubesat_loads.c").read_text()
+    monkeypatch.setattr(build, "SOURCE_DIR", src)
+    path = build.library_path("cubesat_loads")
+    assert build.library_path("cubesat_loads") == path
+    header = src / "plugin_common.h"
+    header.write_text(header.read_text() + "\n/* edited */\n")
+    edited = build.library_path("cubesat_loads")
+    assert edited != path
+    (src / "extra.h").write_text("/* another header */\n")
+    assert build.library_path("cubesat_loads") not in (path, edited)
 
 
 def test_refusals_name_the_key():

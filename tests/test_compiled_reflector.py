@@ -6,21 +6,18 @@ refused by name where they cannot run."""
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 import pytest
 
 import magsail_mj
 from magsail_mj.bench import bench
-from magsail_mj.compiled import CompiledLoadsError, SOURCE_DIR
 from magsail_mj.concepts.reflector.compiled import PARAM_FIELDS, PROBE_FIELDS, STATE_FIELDS
 from magsail_mj.concepts.reflector.env import reflector_pitch_tracking
 from magsail_mj.config import ConfigError, load_config
-from magsail_mj.export import read_timeseries
 from magsail_mj.loads.base import StepState
 from magsail_mj.quaternion import error_quaternion, quat_angle
-from magsail_mj.run import run_scenario
+from tests.compiled_shared import assert_c_layout, assert_missing_compiler_is_refused, assert_records_close
+from tests.compiled_shared import assert_resume_is_bitwise, assert_set_state_continues_bitwise, random_states
 from tests.conftest import REPO
 
 CONFIGS = REPO / "magsail_mj/concepts/reflector/configs"
@@ -35,33 +32,9 @@ def _load(config, *overrides: str):
 def test_the_c_layout_is_the_python_layout():
     """The parameter, state and probe blocks the Python side reads and writes have the C enums'
     order and lengths."""
-    src = (SOURCE_DIR / "reflector_loads.c").read_text()
-
-    def enum_offsets(prefix: str) -> dict[str, int]:
-        body = src[src.index(f"  {prefix}_") :]
-        out, k = {}, 0
-        for line in body.splitlines():
-            m = re.match(rf"\s+{prefix}_(\w+)(?:\s*=\s*(?:(\d+)|{prefix}_(\w+)\s*\+\s*(\d+)))?,?", line)
-            if not m:
-                if line.strip().startswith("};"):
-                    break
-                continue
-            name, value, base, plus = m.groups()
-            if value is not None:
-                k = int(value)
-            elif base is not None:
-                k = out[base] + int(plus)
-            out[name] = k
-            k += 1
-        return out
-
-    for prefix, fields, end in (("P", PARAM_FIELDS, "SIZE"), ("S", STATE_FIELDS, "FIXED"), ("O", PROBE_FIELDS, "SIZE")):
-        c = enum_offsets(prefix)
-        k = 0
-        for name, n in fields:
-            assert c[name] == k, (prefix, name, c[name], k)
-            k += n
-        assert c[end] == k, (prefix, c[end], k)
+    assert_c_layout(
+        "reflector_loads.c", [("P", PARAM_FIELDS, "SIZE"), ("S", STATE_FIELDS, "FIXED"), ("O", PROBE_FIELDS, "SIZE")]
+    )
 
 
 @pytest.mark.parametrize("config", [TRACK, GG, FF], ids=["baseline", "gravity_gradient", "rate_error_ff"])
@@ -77,11 +50,7 @@ def test_plugin_command_equals_the_python_controller(config):
     gg = [load for load in ref.loads if load.name == "gravity_gradient"]
     rng = np.random.default_rng(3)
     worst = 0.0
-    for _ in range(200):
-        q = rng.normal(size=4)
-        d.qpos[3:7] = q / np.linalg.norm(q)
-        d.qvel[3:6] = rng.uniform(-0.05, 0.05, 3)
-        d.time = float(rng.integers(0, 120000)) * m.opt.timestep
+    for _ in random_states(rng, d, n=200, rate_max_rad_s=0.05, steps=120000, dt=m.opt.timestep):
         plant.state(d, "PRIMED")[:] = 0.0  # no unwrapping memory, as the fresh steering below
         ref.data.qpos[:], ref.data.qvel[:] = d.qpos, d.qvel
         ref.kin.update(ref.data)
@@ -128,12 +97,7 @@ def test_compiled_run_equals_the_python_run(config, extra, tol):
     ra, rb = a.run(), b.run()
     assert ra.status == rb.status == "completed"
     assert b.compiled is not None and a.compiled is None and b.controller is None and not b.loads
-    assert sorted(ra.records) == sorted(rb.records)
-    for key in ra.records:
-        x, y = np.asarray(ra.records[key], dtype=float), np.asarray(rb.records[key], dtype=float)
-        assert x.shape == y.shape and np.asarray(ra.records[key]).dtype == np.asarray(rb.records[key]).dtype, key
-        scale = max(float(np.abs(x).max()), 1e-300)
-        assert float(np.abs(x - y).max()) <= tol * scale, (key, float(np.abs(x - y).max()), scale)
+    assert_records_close(ra.records, rb.records, rel_tol=tol, dtypes=True)
 
 
 def _final_attitude(dt: float, timing: str) -> np.ndarray:
@@ -173,27 +137,12 @@ def test_checkpoint_and_resume_are_bitwise(tmp_path):
     went through, record for record and bit for bit: the steering reference's unwrapping memory and
     the held torque are plugin state, part of MuJoCo's integration state."""
     over = ["sim.duration_s=300", "sim.loads='compiled'", "sim.checkpoint_every_s=50", "sim.progress=false"]
-    cfg = load_config(TRACK, over)
-    run_scenario(cfg, tmp_path / "full")
-    run_scenario(cfg, tmp_path / "cut", stop_after_s=150.0)
-    run_scenario(cfg, tmp_path / "cut", resume=True)
-    a, b = read_timeseries(tmp_path / "full"), read_timeseries(tmp_path / "cut")
-    assert sorted(a) == sorted(b) and "psi_ref_rad" in a
-    assert all(np.array_equal(a[k], b[k], equal_nan=True) for k in a)
+    assert "psi_ref_rad" in assert_resume_is_bitwise(TRACK, over, tmp_path, stop_after_s=150.0)
 
 
 def test_get_state_and_set_state_continue_bitwise():
     over = ("sim.duration_s=300", "sim.loads='compiled'", "sim.load_timing='midpoint'")
-    sim = _load(GG, *over)
-    sim.step(137)
-    state = sim.get_state()
-    sim.step(50)
-    after = (sim.data.qpos.copy(), sim.data.qvel.copy(), sim.data.plugin_state.copy())
-    other = _load(GG, *over)
-    other.set_state(state)
-    other.step(50)
-    assert np.array_equal(other.data.qpos, after[0]) and np.array_equal(other.data.qvel, after[1])
-    assert np.array_equal(other.data.plugin_state, after[2])
+    assert_set_state_continues_bitwise(lambda: _load(GG, *over), steps_before=137)
 
 
 def test_simulations_in_one_process_do_not_share_state():
@@ -240,8 +189,4 @@ def test_bench_reports_the_compiled_step_of_the_reflector():
 
 
 def test_a_missing_compiler_is_refused_naming_the_key(monkeypatch, tmp_path):
-    monkeypatch.setenv("MAGSAIL_CC", str(tmp_path / "no-such-cc"))
-    monkeypatch.setenv("MAGSAIL_COMPILED_CACHE", str(tmp_path / "cache"))
-    with pytest.raises(CompiledLoadsError, match=r"sim\.loads: 'compiled' needs a C compiler.*no-such-cc"):
-        _load(TRACK, "sim.duration_s=10", "sim.loads='compiled'")
-    assert _load(TRACK, "sim.duration_s=10").run().status == "completed"  # the Python path needs none
+    assert_missing_compiler_is_refused(monkeypatch, tmp_path, _load, config=TRACK)
