@@ -115,14 +115,29 @@ class ReflectorTask(ABC):
     def simulation(self) -> Simulation:
         self.controller = ctl = self.make_controller()
         loads = self.loads()
+        return self.make_simulation(model=self.model, loads=loads, controller=ctl, probes=self.probes(loads))
+
+    def make_simulation(
+        self,
+        *,
+        model: mujoco.MjModel,
+        loads: list[Any],
+        controller: Any,
+        probes: dict[str, Callable[[Any, mujoco.MjData], Any]],
+        compiled: Any = None,
+    ) -> Simulation:
+        """The run's :class:`Simulation` of ``model`` with the given loads, controller, probes and
+        compiled loads, and the config's duration, record and checkpoint intervals and initial
+        state (no environment object, as every reflector run)."""
         sim = self.cfg.sim
         return Simulation(
-            model=self.model,
+            model=model,
             duration_s=sim.duration_s,
             loads=loads,
-            controller=ctl,
+            controller=controller,
+            compiled=compiled,
             environment=None,
-            probes=self.probes(loads),
+            probes=probes,
             record_every=sim.record_every,
             checkpoint_every_s=sim.checkpoint_every_s,
             init=self.init_state,
@@ -268,7 +283,7 @@ class PitchTask(ReflectorTask):
         if self.cfg.sim.loads != "compiled":
             return super().simulation()
         self.controller = ctl = self.make_controller()
-        sim, idx = self.cfg.sim, self.idx
+        idx = self.idx
         compiled = CompiledReflector(
             self.spec,
             bare_model=self.model,
@@ -276,19 +291,10 @@ class PitchTask(ReflectorTask):
             gravity_gradient_mu=self.cfg.orbit.mu_m3_s2 if self.cfg.gravity.gg_torque else None,
             plate_qpos=idx.q_quat.start - 3,
             plate_dof=idx.v_ang.start - 3,
-            timing=sim.load_timing,
+            timing=self.cfg.sim.load_timing,
         )
-        return Simulation(
-            model=compiled.model,
-            duration_s=sim.duration_s,
-            loads=[],
-            controller=None,
-            compiled=compiled,
-            environment=None,
-            probes=self.compiled_probes(compiled),
-            record_every=sim.record_every,
-            checkpoint_every_s=sim.checkpoint_every_s,
-            init=self.init_state,
+        return self.make_simulation(
+            model=compiled.model, loads=[], controller=None, probes=self.compiled_probes(compiled), compiled=compiled
         )
 
     def compiled_probes(self, compiled: CompiledReflector) -> dict[str, Callable[[Any, mujoco.MjData], Any]]:
