@@ -548,6 +548,11 @@ def _add_run_verbs(sub: Any) -> None:
         help="run only the ids containing this text (repeatable: any of them)",
     )
     sw.add_argument("--video", action="store_true", help="render video.mp4 in every run folder")
+    sw.add_argument(
+        "--no-plots",
+        action="store_true",
+        help="no PNG plots in the run folders (records, summary and manifest only; as the sweep file's plots = false)",
+    )
     _set_option(sw, "override a key in every run, e.g. --set sim.duration_s=60")
     sw.add_argument("--overwrite", action="store_true", help="rerun runs that already finished")
     sw.add_argument(

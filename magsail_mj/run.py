@@ -156,6 +156,7 @@ def run_scenario(
     overwrite: bool = False,
     progress: bool | None = None,
     stop_after_s: float | None = None,
+    plots: bool = True,
 ) -> RunOutcome:
     """Run a validated config into ``out_dir`` and return its summary.
 
@@ -166,6 +167,8 @@ def run_scenario(
       video: also render ``video.mp4``.
       progress: show a progress bar (default: ``cfg.sim.progress``).
       stop_after_s: stop early at this simulated time, leaving a checkpoint (used to test resume).
+      plots: draw the scenario's PNG plots into the folder (False: records, series, summary and
+        manifest only — for sweeps of many runs, where drawing costs as much as a short run).
 
     Raises:
       RunDirError: the folder cannot be used (holds a run and neither ``overwrite`` nor
@@ -181,11 +184,20 @@ def run_scenario(
             overwrite=overwrite,
             progress=cfg.sim.progress if progress is None else progress,
             stop_after_s=stop_after_s,
+            plots=plots,
         )
 
 
 def _run(
-    cfg: Any, out_dir: Path, *, video: bool, resume: bool, overwrite: bool, progress: bool, stop_after_s: float | None
+    cfg: Any,
+    out_dir: Path,
+    *,
+    video: bool,
+    resume: bool,
+    overwrite: bool,
+    progress: bool,
+    stop_after_s: float | None,
+    plots: bool,
 ) -> RunOutcome:
     sim = load(cfg)
     scenario = sim.scenario
@@ -208,7 +220,15 @@ def _run(
         if overwrite:
             remove_earlier_run(run_dir)
         return _run_locked(
-            cfg, sim, run_dir, identity, video=video, resume=resume, progress=progress, stop_after_s=stop_after_s
+            cfg,
+            sim,
+            run_dir,
+            identity,
+            video=video,
+            resume=resume,
+            progress=progress,
+            stop_after_s=stop_after_s,
+            plots=plots,
         )
 
 
@@ -222,6 +242,7 @@ def _run_locked(
     resume: bool,
     progress: bool,
     stop_after_s: float | None,
+    plots: bool = True,
 ) -> RunOutcome:
     scenario = sim.scenario
     with atomic_path(run_dir / "model.xml") as tmp:
@@ -243,7 +264,7 @@ def _run_locked(
     status, message = result.status, result.message
     with deferred_interrupts() as pending:  # the numbers' files are written whole, even on Ctrl-C
         result, digests = _stored(result, store, attrs, recorder=getattr(sim, "recorder", None))
-        summary, series, plots, series_digests = _outputs(scenario, result, run_dir)
+        summary, series, plot_files, series_digests = _outputs(scenario, result, run_dir, plots=plots)
         digests.update(series_digests)
         overflowed = [k for k, v in series.items() if np.asarray(v).dtype.kind == "f" and np.isinf(v).any()]
         if status == "completed" and overflowed:  # NaN may mark an undefined value; ±inf never is a number
@@ -272,7 +293,7 @@ def _run_locked(
         }
         write_json(run_dir / "summary.json", summary)
         update_attrs(store, {"status": status, "status_message": message, "t_end_s": result.t_end_s})
-        files = ["model.xml", STORE_NAME, "summary.json", *[p.name for p in plots]]
+        files = ["model.xml", STORE_NAME, "summary.json", *[p.name for p in plot_files]]
         manifest = {
             "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
             "concept": cfg.concept,
@@ -395,10 +416,11 @@ def _stored(result: Any, store: Path, attrs: dict[str, Any], *, recorder: Any) -
 
 
 def _outputs(
-    scenario: Any, result: Any, run_dir: Path
+    scenario: Any, result: Any, run_dir: Path, *, plots: bool = True
 ) -> tuple[dict[str, Any], dict[str, Any], list[Path], dict[str, Any]]:
-    """Summary, series, plots of a run and the digests of the stored series; the series go to the
-    store's group ``series`` here.
+    """Summary, series, the files of a run (its scenario's ``data_files`` and, with ``plots``,
+    its plots) and the digests of the stored series; the series go to the store's group ``series``
+    here.
 
     A run that did not complete may have too few records for the scenario's metrics (a state
     that was bad from the start has none): its records are still written, and the summary then
@@ -412,14 +434,17 @@ def _outputs(
         return {"t_end_s": result.t_end_s, "postprocess_error": f"{type(err).__name__}: {err}"}, {}, [], {}
     series = {"t": result.records["t"], **series}
     digests = write_group(run_dir / STORE_NAME, series, group=SERIES_GROUP, n_time=len(series["t"]))
+    data_files = getattr(scenario, "data_files", None)
+    files = [] if data_files is None else list(data_files(run_dir, result, series))
+    if not plots:
+        return summary, series, files, digests
     try:
-        plots = scenario.plots(run_dir, result, series)
+        files += scenario.plots(run_dir, result, series)
     except Exception as err:  # noqa: BLE001 - same rule as above
         if result.status == "completed":
             raise
         summary = {**summary, "plots_error": f"{type(err).__name__}: {err}"}
-        plots = []
-    return summary, series, plots, digests
+    return summary, series, files, digests
 
 
 def _n_steps(cfg: Any) -> int:

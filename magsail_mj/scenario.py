@@ -28,7 +28,10 @@ class Scenario(Protocol):
     ``postprocess(result)`` returns ``(summary, series)``: flat summary keys with SI units in
     their names, and derived time series (stored in the group ``series`` of the run's
     ``timeseries.zarr``). ``plots(run_dir, result, series)`` writes PNG files and returns their
-    paths. ``render_info()`` goes to the manifest's ``render`` entry.
+    paths (a run may be asked for none: ``plots=False``). Optional: ``data_files(run_dir, result,
+    series)`` writes the run's other derived files (JSON tables such as CNUSAIL's controller events)
+    and returns their paths; it runs whether or not plots are drawn. ``render_info()`` goes to the
+    manifest's ``render`` entry.
     """
 
     spec: mujoco.MjSpec

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from magsail_mj.cli import SWEEP_MAX_BATCH_SIZE, main
-from magsail_mj.config import load_config
+from magsail_mj.config import ConfigError, load_config
 from magsail_mj.export import read_timeseries
 from magsail_mj.sweep import SweepRun, load_sweep, run_sweep
 from magsail_mj.sweep.batches import (
@@ -240,3 +240,34 @@ def test_batch_size_limits_agree_and_are_checked():
     for bad in (0, -1, MAX_BATCH_SIZE + 1, 2.0, True, "3"):
         with pytest.raises(ValueError, match="--batch-size: must be an integer from 1 to"):
             check_batch_size(bad)
+
+
+def test_a_sweep_without_plots_writes_the_same_numbers_and_no_png(tmp_path, capsys):
+    """``plots = false`` (the sweep file) or ``--no-plots`` (the command line): the run folders of
+    single and batched runs hold no PNG and list none, and everything else equals the plotted
+    sweep's; a value that is not a boolean is refused naming the key."""
+    path = _monte_carlo(tmp_path, 3, SHORT)
+    plotted = tmp_path / "plotted"
+    run_sweep(load_sweep(path), plotted, log=None, batch_size=2)
+    text = path.read_text()
+    path.write_text("plots = false\n" + text)
+    for size in (1, 2):
+        out = tmp_path / f"bare{size}"
+        records = run_sweep(load_sweep(path), out, log=None, batch_size=size)
+        assert [r["status"] for r in records] == ["completed"] * 3
+        assert json.loads((out / "sweep_manifest.json").read_text())["plots"] is False
+        for rid in ("s0", "s1", "s2"):
+            files = {p.name for p in (out / rid).iterdir()}
+            assert not any(name.endswith(".png") for name in files), (size, rid)
+            want = {p.name for p in (plotted / rid).iterdir() if p.suffix != ".png"} - {"checkpoint.npz"}
+            assert files - {"checkpoint.npz"} == want, (size, rid)
+            listed = json.loads((out / rid / "manifest.json").read_text())["files"]
+            assert not any(name.endswith(".png") for name in listed)
+        _assert_same_runs(plotted, out, ["s0", "s1", "s2"])
+    path.write_text(text)  # the command line's --no-plots does the same for a file without the key
+    assert main(["sweep", str(path), "--out", str(tmp_path / "cli"), "--no-plots", "--no-progress"]) == 0
+    assert not list((tmp_path / "cli").glob("s*/*.png")) and list((tmp_path / "cli").glob("s*/summary.json"))
+    assert all(r.plots for r in load_sweep(path).runs) and not any(r.plots for r in load_sweep(path, plots=False).runs)
+    path.write_text('plots = "no"\n' + text)
+    with pytest.raises(ConfigError, match=r"plots: must be true or false, got 'no'"):
+        load_sweep(path)

@@ -93,6 +93,7 @@ def run_batch_folders(
     resume: bool = False,
     stop_after_s: float | None = None,
     checkpoint_path: str | Path | None = None,
+    plots: bool = True,
 ) -> list[RunOutcome]:
     """Run the fresh batch ``sim`` into one run folder per world and return each world's summary.
 
@@ -105,6 +106,7 @@ def run_batch_folders(
       stop_after_s: stop every running world at this simulated time [s], leaving a checkpoint
         (status ``stopped``).
       checkpoint_path: the batch checkpoint (default: ``out_dirs[0]/checkpoint-batch.npz``).
+      plots: draw each world's PNG plots (as :func:`magsail_mj.run.run_scenario`).
 
     Raises:
       ValueError: ``out_dirs`` is not one distinct folder per world, ``sim`` is not at its start, or
@@ -163,6 +165,7 @@ def run_batch_folders(
                     resume=False,
                     progress=False,
                     stop_after_s=None,
+                    plots=plots,
                 )
             except RunInterrupted as err:
                 outcome, interrupted = err.outcome, interrupted or err

@@ -90,7 +90,7 @@ import threading
 import time
 import uuid
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Self
 
@@ -155,7 +155,7 @@ _SWEEP_COLUMNS = ("id", "status", "reused", "wall_time_s", "message")
 _EXTRA_COLUMNS = ("attempts", "resumed_from_s", "config_hash")
 _SUMMARY_DUPLICATES = ("status_message",)  # the run's own message: the sweep's "message" column says it
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
-_SWEEP_KEYS = ("name", "description", "set", "config", "run", "grid", "monte_carlo", "report")
+_SWEEP_KEYS = ("name", "description", "set", "config", "run", "grid", "monte_carlo", "report", "plots")
 RECORD_KEYS = (
     "id",
     "status",
@@ -304,6 +304,8 @@ def _check_header(tree: dict[str, Any], path: Path) -> tuple[str, str]:
     description = tree.get("description", "")
     if not isinstance(description, str):
         raise ConfigError([f"description: must be a string, got {description!r}"], source=str(path))
+    if not isinstance(tree.get("plots", True), bool):
+        raise ConfigError([f"plots: must be true or false, got {tree['plots']!r}"], source=str(path))
     report = tree.get("report", {})
     figures = report.get("figures", ["-"]) if isinstance(report, dict) else None
     shares = report.get("shares", ["-"]) if isinstance(report, dict) else None
@@ -407,7 +409,11 @@ def _entries(tree: dict[str, Any], path: Path) -> list[dict[str, Any]]:
 
 
 def load_sweep(
-    path: str | Path, *, extra_overrides: tuple[str, ...] = (), only: str | list[str] | tuple[str, ...] | None = None
+    path: str | Path,
+    *,
+    extra_overrides: tuple[str, ...] = (),
+    only: str | list[str] | tuple[str, ...] | None = None,
+    plots: bool | None = None,
 ) -> Sweep:
     """Parse and validate a sweep file; every listed config is loaded and its hash computed.
 
@@ -422,6 +428,9 @@ def load_sweep(
       only: select the runs whose id contains this substring (or any of these substrings);
         the others stay in ``runs`` (for the merged summary) with ``selected=False``, and a
         config of theirs that does not load is not an error.
+      plots: draw the scenarios' PNG plots in every run folder (None: the file's ``plots``, default
+        true; false leaves records, series, summary and manifest — a Monte Carlo's runs then cost
+        their simulation only, and ``magsail report sweep`` needs none of the plots).
     Raises:
       ConfigError: naming the sweep key, or the run index and id, with the problems.
     """
@@ -432,6 +441,7 @@ def load_sweep(
     common = _str_list(tree.get("set", []), "set")
     extra = tuple(extra_overrides)
     wanted = _only_terms(only)
+    draw = bool(tree.get("plots", True)) if plots is None else bool(plots)
     ids, problems = _check_ids(
         [{k: v for k, v in e.items() if k != "params"} if isinstance(e, dict) else e for e in entries]
     )
@@ -449,7 +459,7 @@ def load_sweep(
             continue
         selected = wanted is None or any(w in rid for w in wanted)
         run, errors = _load_run(rid, (path.parent / config).resolve(), common + own + extra, selected, params)
-        runs.append(run)
+        runs.append(replace(run, plots=draw))
         problems.extend(errors)
     if not any(r.selected for r in runs) and not problems:
         # nothing selected: the runs' own problems are the file's problems too, and are not hidden
@@ -1230,6 +1240,7 @@ def _run_sweep_locked(
                 "workers": n_workers,
                 "engine": engine,
                 "video": video,
+                "plots": all(r.plots for r in sweep.selected),
                 "overwrite": overwrite,
                 "retries": retries,
                 "process_per_run": True,

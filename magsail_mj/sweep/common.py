@@ -39,7 +39,8 @@ class SweepRun:
     ``config_hash`` is the hash of the config as it would run now (empty when it does not load);
     ``selected`` is False for runs outside ``only``; ``problem`` says why an unselected config
     does not load; ``params`` holds the values this run varies (grid or Monte Carlo values, or
-    the keys of its own ``set``); ``concept`` is its config's concept (empty when it does not load).
+    the keys of its own ``set``); ``concept`` is its config's concept (empty when it does not load);
+    ``plots`` says whether its folder gets the scenario's PNG plots (the sweep file's ``plots``).
     """
 
     id: str
@@ -50,6 +51,7 @@ class SweepRun:
     problem: str = ""
     params: dict[str, Any] = field(default_factory=dict, hash=False)
     concept: str = ""
+    plots: bool = True
 
 
 def _check_files(run_dir: Path, files: Any, *, video: bool) -> str:

@@ -107,13 +107,19 @@ def run_one(run: SweepRun, out_dir: str | Path, *, video: bool, fresh: bool = Tr
         # overwrite: the earlier run's files go first (its manifest last), so a stopped rerun never looks finished
         try:
             outcome = run_scenario(
-                cfg, run_dir, video=video, resume=t_resume is not None, overwrite=t_resume is None, progress=False
+                cfg,
+                run_dir,
+                video=video,
+                resume=t_resume is not None,
+                overwrite=t_resume is None,
+                progress=False,
+                plots=run.plots,
             )
         except CheckpointError:  # refused before anything was written: run afresh
             if t_resume is None:
                 raise
             record["resumed_from_s"] = None
-            outcome = run_scenario(cfg, run_dir, video=video, overwrite=True, progress=False)
+            outcome = run_scenario(cfg, run_dir, video=video, overwrite=True, progress=False, plots=run.plots)
         record.update(
             status=str(outcome.status),
             message=str(outcome.get("status_message") or ""),
@@ -198,6 +204,7 @@ def run_batch(runs: tuple[SweepRun, ...], out_dir: str | Path, *, resume: bool =
     t0 = time.perf_counter()
     out = Path(out_dir)
     dirs = [out / run.id for run in runs]
+    plots = all(run.plots for run in runs)  # one sweep's runs: all or none
     records = [_record(run, status="failed", message="", attempts=1) for run in runs]
 
     def build() -> Any:
@@ -209,12 +216,14 @@ def run_batch(runs: tuple[SweepRun, ...], out_dir: str | Path, *, resume: bool =
             record["config_hash"] = config_hash(cfg)
         t_resume = batch_checkpoint_time(sim, dirs) if resume else None
         try:
-            outcomes = run_batch_folders(sim, dirs, overwrite=t_resume is None, resume=t_resume is not None)
+            outcomes = run_batch_folders(
+                sim, dirs, overwrite=t_resume is None, resume=t_resume is not None, plots=plots
+            )
         except RunDirError:  # the resume refused (a store that differs from its digests, a folder gone): afresh
             if t_resume is None:
                 raise
             t_resume = None
-            outcomes = run_batch_folders(build(), dirs, overwrite=True)
+            outcomes = run_batch_folders(build(), dirs, overwrite=True, plots=plots)
         for record in records:
             record["resumed_from_s"] = t_resume
     except Exception:  # noqa: BLE001 - the batch could not run: each run alone says why it fails, if it does

@@ -99,7 +99,8 @@ def sweep(args: argparse.Namespace) -> int:
     out = output_dir(args.out, "--out") if args.out is not None else None
     _check_engine_options(args)
     try:
-        sweep = load_sweep(path, extra_overrides=tuple(args.set), only=args.only)
+        plots = False if args.no_plots else None  # None: the sweep file's own plots key
+        sweep = load_sweep(path, extra_overrides=tuple(args.set), only=args.only, plots=plots)
     except UnicodeDecodeError:
         raise CliInputError(f"SWEEP: {str(path)!r} is not a UTF-8 text (TOML) file") from None
     out = out or output_dir(str(Path("runs") / sweep.name), "--out")

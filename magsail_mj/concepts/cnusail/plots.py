@@ -1,6 +1,5 @@
 """Plots of a CNUSAIL run: time in orbits for detumbling, minutes for slews;
-dashed lines for limits. Also writes ``events.json`` (mode changes, manoeuvre starts, gain
-recalculations with time, angle and gains)."""
+dashed lines for limits (the run's ``events.json`` is written by the task's ``data_files``)."""
 
 from __future__ import annotations
 
@@ -13,7 +12,6 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from magsail_mj.io import write_json
 from magsail_mj.concepts.cnusail.disturbances import SOURCES
 from magsail_mj.plotting import new_figure, save_figure
 from magsail_mj.concepts.cnusail.config import CnusailConfig
@@ -109,10 +107,11 @@ def attitude_plots(
     orbit_period_s: float,
     events: list[dict[str, Any]],
 ) -> list[Path]:
-    """Write the run's figures and ``events.json`` (the controller's ``events``) into ``run_dir``;
-    return their paths. ``records``: the run's records (a series of the same name replaces a
-    record). Time axes in orbits of ``orbit_period_s`` [s] (detumbling) or minutes."""
-    out: list[Path] = [write_json(run_dir / "events.json", {"count": len(events), "events": events})]
+    """Write the run's figures into ``run_dir``; return their paths. ``records``: the run's records
+    (a series of the same name replaces a record); ``events``: the controller's events (gain
+    recalculations drawn on the pointing plots). Time axes in orbits of ``orbit_period_s`` [s]
+    (detumbling) or minutes."""
+    out: list[Path] = []
     rec = ChainMap(series, records)
     title = f"CNUSAIL-1 {cfg.scenario} ({cfg.spacecraft.configuration}, {cfg.control.mode})"
     if cfg.control.mode == "bdot" or cfg.control.modes.enabled:

@@ -29,6 +29,7 @@ from magsail_mj.concepts.cnusail.lifetime import LifetimeTask
 from magsail_mj.concepts.cnusail.metrics import attitude_outputs
 from magsail_mj.concepts.cnusail.model import CnusailModel
 from magsail_mj.concepts.cnusail.plots import attitude_plots
+from magsail_mj.io import write_json
 from magsail_mj.sim import HoldBelow, RunResult, Simulation
 
 __all__ = ["AttitudeTask", "LifetimeTask", "build_cnusail_scenario", "stop_rule_of"]
@@ -137,6 +138,11 @@ class AttitudeTask:
     # -------------------------------------------------------------- outputs
     def postprocess(self, result: RunResult) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         return attitude_outputs(self.cubesat, result, controller=self.controller)
+
+    def data_files(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
+        """``events.json``: the controller's events (mode changes, manoeuvre starts, gain recalculations)."""
+        events = self.controller.events if self.controller is not None else []
+        return [write_json(run_dir / "events.json", {"count": len(events), "events": events})]
 
     def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
         events = self.controller.events if self.controller is not None else []

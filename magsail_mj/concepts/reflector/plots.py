@@ -7,18 +7,16 @@ and |T| with the per-path cap), ``currents.png``, ``momentum.png`` (|h| with the
 Pitch: ``psi_tracking.png`` ((a) ψ actual and reference, unwrapped and wrapped to [0, π); (b) ψ̇),
 ``attitude_error.png`` (linear and log), ``torque.png`` (T_ref and T_act against the cap),
 ``reference.png`` (ψ_c, ψ̇, ψ̈ over the nominal run), ``feedforward_torque.png`` (I₂|ψ̈| for both
-densities, log, with the cap), ``field.png`` (B_x, B_z, |B| along the orbit), ``passes.json``
-(the per-pass table).
+densities, log, with the cap), ``field.png`` (B_x, B_z, |B| along the orbit); the per-pass table
+``passes.json`` is written by the pitch task's ``data_files``.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from magsail_mj.io import write_json
 from magsail_mj.plotting import new_figure, save_figure
 from magsail_mj.concepts.reflector.config import ReflectorConfig
 
@@ -98,13 +96,10 @@ def pitch_plots(
     cfg: ReflectorConfig,
     cap_Nm: float,
     orbit_period_s: float,
-    t_mid_s: float,
-    passes: list[dict[str, Any]],
 ) -> list[Path]:
     """Scenario B figures (module docstring) of the series of
-    :func:`magsail_mj.concepts.reflector.metrics.pitch_outputs`, and ``passes.json`` with the pass
-    table ``passes`` (:func:`magsail_mj.concepts.reflector.metrics.pass_table`), the cap [N m],
-    the orbit period [s] and the overhead time ``t_mid_s`` [s]."""
+    :func:`magsail_mj.concepts.reflector.metrics.pitch_outputs`; time axes in hours, the orbit of
+    ``orbit_period_s`` [s], the cap ``cap_Nm`` [N m]."""
     run_dir = Path(run_dir)
     th = series["time_h"]
     cap = cap_Nm
@@ -180,8 +175,4 @@ def pitch_plots(
     ax.set_xlabel("time [h]"), ax.set_ylabel("field [µT]"), ax.set_title("dipole field along the orbit (Eq. 11)")
     ax.grid(alpha=0.3), ax.legend()
     out.append(save_figure(fig, run_dir / "field.png"))
-
-    path = run_dir / "passes.json"
-    write_json(path, {"cap_Nm": cap, "orbit_period_s": orbit_period_s, "t_mid_s": t_mid_s, "passes": passes})
-    out.append(path)
     return out

@@ -44,6 +44,7 @@ from magsail_mj.concepts.reflector.model import (
     ReflectorModel,
 )
 from magsail_mj.concepts.reflector.plots import detumble_plots, pitch_plots
+from magsail_mj.io import write_json
 from magsail_mj.sim import RunResult, Simulation
 
 __all__ = ["ReflectorTask", "DetumbleTask", "PitchTask", "PitchCapsTask", "build_reflector_scenario"]
@@ -340,17 +341,18 @@ class PitchTask(ReflectorTask):
         self.passes = pass_table(self.plate, ref)
         return pitch_outputs(self.plate, result, ref=ref)
 
-    def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
-        o = self.orbit
-        return pitch_plots(
-            run_dir,
-            series,
-            cfg=self.cfg,
-            cap_Nm=self.cap.cap_Nm,
-            orbit_period_s=o.period_s,
-            t_mid_s=o.t_mid_s,
-            passes=getattr(self, "passes", []),
+    def data_files(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
+        """``passes.json``: the per-pass table (:func:`~magsail_mj.concepts.reflector.metrics.pass_table`
+        of :meth:`postprocess`), the cap [N m], the orbit period [s] and the overhead time [s]."""
+        o, path = self.orbit, run_dir / "passes.json"
+        passes = getattr(self, "passes", [])
+        write_json(
+            path, {"cap_Nm": self.cap.cap_Nm, "orbit_period_s": o.period_s, "t_mid_s": o.t_mid_s, "passes": passes}
         )
+        return [path]
+
+    def plots(self, run_dir: Path, result: RunResult, series: dict[str, np.ndarray]) -> list[Path]:
+        return pitch_plots(run_dir, series, cfg=self.cfg, cap_Nm=self.cap.cap_Nm, orbit_period_s=self.orbit.period_s)
 
     def render_text(self) -> dict[str, Any]:
         cfg = self.cfg
