@@ -6,8 +6,8 @@ gradient), a MuJoCo plugin (:mod:`magsail_mj.concepts.reflector.compiled`);
 ``dipole_in_field.c`` is a body-fixed dipole in a uniform field, a MuJoCo plugin any rigid model
 can carry (:mod:`magsail_mj.compiled.dipole`); ``lattice_rk4.c`` is the spring–dashpot lattice's
 RK4 reference, called through ``ctypes`` (:mod:`magsail_mj.reference.compiled_rk4`). The two
-loads plugins share ``plugin_common.h`` (C) and :mod:`magsail_mj.compiled.plugin` (their Python
-side's common parts)."""
+loads plugins share ``plugin_common.h`` (C; its plugin registration serves every plugin here) and
+:mod:`magsail_mj.compiled.plugin` (their Python side's common parts)."""
 
 from __future__ import annotations
 

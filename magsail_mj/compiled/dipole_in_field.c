@@ -3,8 +3,8 @@
    each time it computes the passive forces (mj_passive, once per mj_forward: at the step's start
    and at each further stage of RK4), so the load takes part in every stage of the integration.
 
-   Built and loaded by magsail_mj.compiled (one shared library per source digest, MuJoCo version
-   and compiler); the Python side is magsail_mj.compiled.dipole. With R the body -> world rotation
+   Built and loaded by magsail_mj.compiled (one shared library per digest of the source and the
+   folder's headers, MuJoCo version and compiler); the Python side is magsail_mj.compiled.dipole. With R the body -> world rotation
    of the body's frame (d->xmat), m the dipole [A m^2, body axes] and B the field [T, world axes],
    the world torque
 
@@ -28,6 +28,8 @@
 #include <stdlib.h>
 
 #include <mujoco/mujoco.h>
+
+#include "plugin_common.h"
 
 enum { S_DIPOLE = 0, S_FIELD = 3, S_COUNT = 6 };
 
@@ -96,15 +98,6 @@ static void dipole_compute(const mjModel* m, mjData* d, int instance, int capabi
 }
 
 mjPLUGIN_LIB_INIT(magsail_dipole_in_field) {
-  mjpPlugin plugin;
-  mjp_defaultPlugin(&plugin);
-  plugin.name = "magsail.dipole_in_field";
-  plugin.capabilityflags = mjPLUGIN_PASSIVE;
-  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
-  plugin.attributes = kAttributes;
-  plugin.nstate = dipole_nstate;
-  plugin.init = dipole_init;
-  plugin.reset = dipole_reset;
-  plugin.compute = dipole_compute;
-  mjp_registerPlugin(&plugin);
+  register_passive_plugin("magsail.dipole_in_field", kAttributes, sizeof(kAttributes) / sizeof(kAttributes[0]),
+                          dipole_nstate, dipole_init, dipole_reset, dipole_compute, NULL);
 }

@@ -1,8 +1,8 @@
 /* The lattice's strut springs and dashpots as a MuJoCo engine plugin ("magsail.lattice_springs",
    passive force), in place of one spatial tendon per strut.
 
-   Built and loaded by magsail_mj.compiled (one shared library per source digest, MuJoCo version
-   and compiler); the Python side is magsail_mj.lattice.compiled_springs. Every time MuJoCo
+   Built and loaded by magsail_mj.compiled (one shared library per digest of the source and the
+   folder's headers, MuJoCo version and compiler); the Python side is magsail_mj.lattice.compiled_springs. Every time MuJoCo
    computes the passive forces (mj_passive, once per mj_forward: at the step's start and at each
    further stage of RK4) it adds, for every strut s from node i to node j with r = x_j - x_i,
    l = |r|, e = r / l (x: the node bodies' xpos, world axes [m]; v: their slide-joint velocities,
@@ -35,6 +35,8 @@
 #include <time.h>
 
 #include <mujoco/mujoco.h>
+
+#include "plugin_common.h"
 
 #define LAYOUT_VERSION 1
 enum { P_VERSION = 0, P_NNODE, P_NSTRUT, P_HEAD };
@@ -128,15 +130,6 @@ static void springs_compute(const mjModel* m, mjData* d, int instance, int capab
 }
 
 mjPLUGIN_LIB_INIT(magsail_lattice_springs) {
-  mjpPlugin plugin;
-  mjp_defaultPlugin(&plugin);
-  plugin.name = "magsail.lattice_springs";
-  plugin.capabilityflags = mjPLUGIN_PASSIVE;
-  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
-  plugin.attributes = kAttributes;
-  plugin.nstate = springs_nstate;
-  plugin.init = springs_init;
-  plugin.reset = springs_reset;
-  plugin.compute = springs_compute;
-  mjp_registerPlugin(&plugin);
+  register_passive_plugin("magsail.lattice_springs", kAttributes, sizeof(kAttributes) / sizeof(kAttributes[0]),
+                          springs_nstate, springs_init, springs_reset, springs_compute, NULL);
 }

@@ -1,6 +1,7 @@
-/* Pieces shared by the package's loads plugins (cubesat_loads.c, reflector_loads.c): the lookup of
-   a custom numeric an instance attribute names, 3-vector helpers, the timing codes, the step
-   memory of the plugin state with the midpoint prediction it serves, and the registration of a
+/* Pieces shared by the package's plugins: for the loads plugins (cubesat_loads.c,
+   reflector_loads.c) the lookup of a custom numeric an instance attribute names, 3-vector helpers,
+   the timing codes and the step memory of the plugin state with the midpoint prediction it serves;
+   for every plugin of the folder (also dipole_in_field.c, lattice_springs.c) the registration of a
    passive-force plugin.
 
    Included as "plugin_common.h" from a source in this folder; magsail_mj.compiled.build hashes the
