@@ -76,6 +76,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from scipy.spatial import Delaunay, Voronoi, cKDTree
 
+from magsail_mj.checkpoint import restorable
 from magsail_mj.io import atomic_path
 
 #: the selections of the shipped configs, computed once (``scripts/ship_lloyd_selections.py``) and
@@ -378,6 +379,7 @@ def voronoi_cells(points: np.ndarray, region: Sequence[float]) -> list[np.ndarra
     return cells
 
 
+@restorable  # a selection made during a run is part of its checkpoint (the rebuilt run has not made it)
 @dataclass(frozen=True)
 class LloydResult:
     """Outcome of :func:`lloyd`.
