@@ -273,6 +273,7 @@ def linearise(
     return F[:, :6, :6], F[:, :6, 6:8]
 
 
+@threadpool_limits.wrap(limits=1)
 def plan_dipoles(
     plant: RigidPlant,
     *,
@@ -286,20 +287,6 @@ def plan_dipoles(
     """The planned dipoles ``U`` (N, 2) [A m²] from the state ``(q0, ω0)`` at ``t0_s`` (module
     docstring), and figures of the plan (predicted final error [rad], cost). BLAS runs on one
     thread here: the matrices are small, and threads cost more than they give on a shared machine."""
-    with threadpool_limits(limits=1):
-        return _plan(plant, q_ref=q_ref, q0=q0, w0=w0, t0_s=t0_s, U_guess_Am2=U_guess_Am2, weights=weights)
-
-
-def _plan(
-    plant: RigidPlant,
-    *,
-    q_ref: np.ndarray,
-    q0: np.ndarray,
-    w0: np.ndarray,
-    t0_s: float,
-    U_guess_Am2: np.ndarray,
-    weights: MpcWeights,
-) -> tuple[np.ndarray, dict[str, float]]:
     W = weights
     N, h = W.n_steps, W.step_s
     M = plant.max_dipole_Am2
