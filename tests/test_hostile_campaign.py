@@ -209,28 +209,14 @@ def _numeric_keys(tree: dict[str, Any], prefix: str = "") -> list[str]:
     return keys
 
 
-class _NoPlots:
-    """A scenario without figures (everything else is the scenario's own)."""
-
-    def __init__(self, scenario: Any) -> None:
-        self._scenario = scenario
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._scenario, name)
-
-    def plots(self, run_dir: Path, result: Any, series: Any) -> list[Path]:
-        """No figures."""
-        return []
-
-
 @pytest.fixture(scope="module")
 def no_plots() -> Iterator[None]:
     """Within the module's default tests, runs write no figures (the fuzz is about the options;
     figures cost seconds a run and have their own tests)."""
     real = run_module._outputs
 
-    def outputs(scenario: Any, result: Any, run_dir: Path) -> Any:
-        return real(_NoPlots(scenario), result, run_dir)
+    def outputs(scenario: Any, result: Any, run_dir: Path, *, plots: bool = True) -> Any:
+        return real(scenario, result, run_dir, plots=False)
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(run_module, "_outputs", outputs)

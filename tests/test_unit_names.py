@@ -77,6 +77,9 @@ DIMENSIONLESS_WORDS = frozenset(
 DIMENSIONLESS_NAMES = frozenset(
     {
         "J2",  # Earth's oblateness coefficient
+        "terminal_weight",  # truss MPC: weight of the horizon's last step relative to the others
+        "effort_weight",  # truss MPC: weight of the dipole normalised by its limit
+        "step_weight",  # truss MPC: weight of the plan's change, normalised as the effort
         "ap",  # geomagnetic Ap index
         "kg",  # [mass] point masses: the key is the unit itself (a mass in kg)
         "kappa",  # current loops: the light-branch parameter of the paper's Eq. 9
