@@ -280,9 +280,16 @@ class ManeuverConfig(StrictModel):
 
 
 class ProfileConfig(StrictModel):
-    """``[profile]``: open-loop torque about body ``axis`` (Robb et al. 2022a, Table 1)."""
+    """``[profile]``: open-loop torque about body ``axis`` (Robb et al. 2022a, Table 1).
 
-    kind: Literal["bang_bang_off", "versine"]
+    ``kind``: ``"bang_bang_off"`` (Table 1), ``"versine"`` (Eq. 9 with the third line's
+    denominator read as ``t_v``; rest-to-rest) or ``"versine_printed"`` (Eq. 9 exactly as
+    printed, ``t`` in that denominator: the torque jumps to −τ_max at ``t₋ + t_v`` and leaves a
+    net impulse, see :func:`magsail_mj.control.profiles.versine_printed`). ``"versine_printed"``
+    is an option to test the paper as printed, never a default.
+    """
+
+    kind: Literal["bang_bang_off", "versine", "versine_printed"]
     tau_max_Nm: float = Field(ge=0)
     t_end_s: float = Field(gt=0)
     t_v_s: float | None = Field(default=None, gt=0)
