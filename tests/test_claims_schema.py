@@ -45,7 +45,7 @@ def test_claim_quotes_the_paper_with_its_number_or_states_a_criterion(paper: Pap
             assert claim.unit in claim.paper_says, (claim.unit, claim.paper_says)
     else:
         assert claim.criterion_why.strip()
-        assert claim.bound is not None or claim.expect is not None
+        assert claim.bound is not None or claim.matches_value
 
 
 def _summaries(claim: Claim, value: float | str | bool) -> dict:
@@ -69,6 +69,8 @@ def _passing_and_failing(claim: Claim) -> tuple[float | str | bool, float | str 
         return claim.expect, not claim.expect
     if isinstance(claim.expect, str):
         return claim.expect, claim.expect + "_not"
+    if claim.expect_not is not None:
+        return claim.expect_not + "_not", claim.expect_not
     lo, hi = claim.paper_range if claim.paper_range is not None else (claim.paper_value, claim.paper_value)
     if lo is None:
         lo = hi = claim.bound

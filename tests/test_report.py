@@ -131,6 +131,21 @@ def test_qualitative_claims_check_a_bound_or_an_expected_value():
         _judge(bound, {"x_m": "flexible"})
 
 
+def test_an_expect_not_claim_agrees_with_every_other_class():
+    not_collapsed = _claim(key="classification", expect_not="collapsed", criterion_why="w", explanation="x")
+    assert _judge(not_collapsed, {"classification": "flexible"}).verdict == AGREES
+    assert _judge(not_collapsed, {"classification": "rigid_like"}).verdict == AGREES
+    v = _judge(not_collapsed, {"classification": "collapsed"})
+    assert v.verdict == DIFFERS and v.value == "collapsed"
+    assert _judge(not_collapsed, {"classification": None}).verdict == DIFFERS  # no class is no evidence
+    failed = not_collapsed.model_copy(update={"compare_failed": True})
+    assert _judge(failed, {"classification": "collapsed"}, status="structure_failed").verdict == DIFFERS
+    with pytest.raises(ValueError, match="exactly one of"):
+        _claim(expect="flexible", expect_not="collapsed", criterion_why="w")
+    with pytest.raises(ValueError, match="no ratio_key, no tolerance"):
+        _claim(expect_not="collapsed", criterion_why="w", ratio_key="k")
+
+
 def test_ratio_claims_divide_by_a_key_of_another_run():
     ratio = _claim(
         ratio_key="x_m",

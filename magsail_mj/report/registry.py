@@ -22,7 +22,9 @@ compute (``quantity``: one summary ``key`` of one ``run``, times ``scale``, opti
   (``compare = "max"``), or a value it must match within ``tolerance`` (``"abs"``, ``"rel"``);
   ``criterion_why`` says where in the paper's figure or text the bound comes from;
 * ``expect``: a value the run must report (a classification such as ``"collapsed"``, or a flag), also
-  qualitative, with ``criterion_why``.
+  qualitative, with ``criterion_why``;
+* ``expect_not``: a classification the run must not report (e.g. "does not collapse": any class but
+  ``"collapsed"``), qualitative, with ``criterion_why``.
 
 A run that stopped as ``structure_failed`` is only compared when ``compare_failed`` is set: when the
 paper's claim is about the structure giving way, the values up to the failure are the outcome.
@@ -97,6 +99,7 @@ class Claim(_Strict):
     paper_range: tuple[float, float] | None = None
     bound: float | None = None
     expect: str | bool | None = None
+    expect_not: str | None = None
     compare: Compare = "abs"
     tolerance: float = Field(default=0.0, ge=0.0)
     tolerance_why: str = ""
@@ -107,10 +110,11 @@ class Claim(_Strict):
 
     @model_validator(mode="after")
     def _one_target(self) -> Claim:
-        """Exactly one of paper_value, paper_range, bound, expect, each with its reason."""
-        given = [n for n in ("paper_value", "paper_range", "bound", "expect") if getattr(self, n) is not None]
+        """Exactly one of paper_value, paper_range, bound, expect, expect_not, each with its reason."""
+        targets = ("paper_value", "paper_range", "bound", "expect", "expect_not")
+        given = [n for n in targets if getattr(self, n) is not None]
         if len(given) != 1:
-            raise ValueError(f"give exactly one of paper_value, paper_range, bound, expect (got {given or 'none'})")
+            raise ValueError(f"give exactly one of {', '.join(targets)} (got {given or 'none'})")
         if self.paper_range is not None and self.paper_range[0] > self.paper_range[1]:
             raise ValueError(f"paper_range {list(self.paper_range)} is not [low, high]")
         if self.numeric:
@@ -120,8 +124,8 @@ class Claim(_Strict):
                 raise ValueError(f"paper_says states no number for paper_value/paper_range: {self.paper_says!r}")
         elif not self.criterion_why.strip():
             raise ValueError("a qualitative claim (bound or expect) needs criterion_why (where the bound comes from)")
-        if self.expect is not None and (self.ratio_key is not None or self.tolerance):
-            raise ValueError("expect compares a value as it is: no ratio_key, no tolerance")
+        if self.matches_value and (self.ratio_key is not None or self.tolerance):
+            raise ValueError("expect and expect_not compare a value as it is: no ratio_key, no tolerance")
         if self.ratio_run is not None and self.ratio_key is None:
             raise ValueError("ratio_run names the run of ratio_key: give ratio_key")
         return self
@@ -137,13 +141,18 @@ class Claim(_Strict):
         return self.ratio_run or self.run
 
     @property
+    def matches_value(self) -> bool:
+        """Whether ours is compared as a value (``expect`` or ``expect_not``), not as a number."""
+        return self.expect is not None or self.expect_not is not None
+
+    @property
     def numeric(self) -> bool:
         """Whether the paper states the number compared with (``paper_value`` or ``paper_range``)."""
         return self.paper_value is not None or self.paper_range is not None
 
     @property
     def qualitative(self) -> bool:
-        """Whether the paper states no number: ours is checked against a ``bound`` or an ``expect``."""
+        """Whether the paper states no number: ours keeps a ``bound``, an ``expect`` or an ``expect_not``."""
         return not self.numeric
 
 

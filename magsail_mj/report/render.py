@@ -106,6 +106,8 @@ def _target_text(claim: Claim) -> str:
     """The paper's number, range or (qualitative) the bound or value ours must keep."""
     if claim.expect is not None:
         return _value_text(claim, claim.expect if isinstance(claim.expect, str) else float(claim.expect))
+    if claim.expect_not is not None:
+        return f"anything but {claim.expect_not}"
     if claim.paper_range is not None:
         return f"{claim.paper_range[0]:g} – {claim.paper_range[1]:g}{_unit(claim)}"
     target = claim.paper_value if claim.paper_value is not None else claim.bound
@@ -119,7 +121,7 @@ def _paper_text(claim: Claim) -> str:
 
 
 def _tolerance_text(claim: Claim) -> str:
-    if claim.expect is not None:
+    if claim.matches_value:
         return "none (a value)"
     unit = _unit(claim)
     tol = claim.tolerance
@@ -236,7 +238,7 @@ def _claim_detail(
     else:
         lines.append(
             f"- **Qualitative** (the paper gives no number): ours must be {_target_text(claim)}"
-            + ("" if claim.expect is not None or claim.tolerance == 0.0 else f" (tolerance {_tolerance_text(claim)})")
+            + ("" if claim.matches_value or claim.tolerance == 0.0 else f" (tolerance {_tolerance_text(claim)})")
             + f". Why: {' '.join(claim.criterion_why.split())}"
         )
     lines.append(f"- **Compared**: {claim.quantity} ({_key_text(claim)}, claim `{claim.id}`)")

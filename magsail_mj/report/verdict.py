@@ -88,7 +88,7 @@ def claim_value(claim: Claim, summary: dict[str, Any], *, denominator: bool = Fa
         return None
     if isinstance(raw, bool):
         return float(raw)
-    if isinstance(raw, str) and isinstance(claim.expect, str):
+    if isinstance(raw, str) and (isinstance(claim.expect, str) or claim.expect_not is not None):
         return raw
     if not isinstance(raw, int | float):
         raise MissingKey(f"claim {claim.id!r}: summary key {key!r} of run {run!r} is not a number (got {raw!r})")
@@ -170,6 +170,8 @@ def _ratio(numerator: float | str | None, denominator: float | str | None) -> fl
 
 
 def _agrees(claim: Claim, value: float | str | None) -> bool:
+    if claim.expect_not is not None:
+        return value is not None and value != claim.expect_not
     if claim.expect is not None:
         expected = float(claim.expect) if isinstance(claim.expect, bool) else claim.expect
         return value == expected
@@ -181,5 +183,7 @@ def _target_text(claim: Claim) -> str:
         return f"{list(claim.paper_range)} {claim.unit}".strip()
     if claim.expect is not None:
         return repr(claim.expect)
+    if claim.expect_not is not None:
+        return f"not {claim.expect_not!r}"
     target = claim.paper_value if claim.paper_value is not None else claim.bound
     return f"{claim.compare} {target} {claim.unit}".strip()
