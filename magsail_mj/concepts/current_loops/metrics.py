@@ -37,7 +37,11 @@ Shape of the response (the figures the papers' S4/S5 plots are read against):
   of the body-frame deformation (``q_n = φ_nᵀ M u``), its share ``E_n / Σ_m E_m`` at ``max U``
   and time-averaged (``Σ_t E_n / Σ_t Σ_m E_m``, weighting each record by its energy), and the
   :data:`N_DOMINANT` largest with their frequencies (:func:`modal_energy_profile`,
-  :func:`dominant_modes`).
+  :func:`dominant_modes`); the same over the last :data:`LAST_WINDOW_S` of the run
+  (``t ≥ t_end − LAST_WINDOW_S``), and the share of the first :data:`N_FIRST_MODES` elastic modes
+  in the total modal strain energy (:func:`modal_energy_summary`);
+* **error swings** of a slew: the times and values of the extrema of the attitude error after it
+  first comes within 5°, and the half-swing durations between them (:func:`error_swing_keys`).
 
 Every function takes the data it needs (the :class:`~magsail_mj.concepts.current_loops.model.LoopsModel`,
 node positions ``x`` (T, n, 3) [m], the records, config values), never the task object.
@@ -45,7 +49,8 @@ node positions ``x`` (T, n, 3) [m], the records, config values), never the task 
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from dataclasses import dataclass
+from typing import Any, Callable, Iterable
 
 import numpy as np
 
@@ -88,6 +93,11 @@ __all__ = [
     "modal_strain_energies",
     "modal_energy_profile",
     "dominant_modes",
+    "modal_energy_stats",
+    "modal_energy_summary",
+    "ModalEnergySummary",
+    "first_modes_share_keys",
+    "error_swing_keys",
     "shape_keys",
 ]
 
@@ -100,6 +110,17 @@ N_DOMINANT = 3
 """Dominant modes reported per slew."""
 N_INTERVALS_LISTED = 50
 """Saturation intervals listed in a summary (the count and total cover all)."""
+LAST_WINDOW_S = 2000.0
+"""The closing window of a slew for its modal figures: ``t ≥ t_end − LAST_WINDOW_S`` [s]."""
+N_FIRST_MODES = 10
+"""The elastic modes 1 … N_FIRST_MODES whose share of the modal strain energy a slew reports."""
+SWING_SETTLE_DEG = 5.0
+"""The error swings are counted from the first time the attitude error comes within this [deg]."""
+SWING_PROMINENCE_FRACTION = 0.02
+"""An extremum of the attitude error counts when its prominence is at least this fraction of the
+largest swing (``max − min`` of the error after it first comes within :data:`SWING_SETTLE_DEG`)."""
+N_EXTREMA_LISTED = 100
+"""Error extrema listed in a summary (the count and the mean half-swing cover all)."""
 
 Probe = Callable[[Any, Any], np.ndarray]
 Metrics = tuple[dict[str, Any], dict[str, np.ndarray]]
@@ -395,6 +416,175 @@ def dominant_modes(omega: np.ndarray, energy: np.ndarray, *, prefix: str, count:
     }
 
 
+@dataclass(frozen=True)
+class ModalEnergySummary:
+    """Elastic modal strain energies ``E_n`` (:func:`modal_strain_energies`) of a run, (K,) each [J]:
+    at one record (``at``), averaged over all records (``mean``) and over the records of the
+    closing window ``t ≥ t_end − window_s`` (``window_mean``); and the share of the first ``first``
+    elastic modes ``s(t) = Σ_{n ≤ first} E_n(t) / Σ_n E_n(t)``: its mean over the records with
+    ``Σ_n E_n > 0`` (``share_first_mean``), over those of the window (``share_first_window``) and at
+    the one record (``share_first_at``); ``None`` where no record has strain energy."""
+
+    at: np.ndarray
+    mean: np.ndarray
+    window_mean: np.ndarray
+    share_first_at: float | None
+    share_first_mean: float | None
+    share_first_window: float | None
+    first: int
+    window_s: float
+
+
+def modal_energy_stats(
+    t: np.ndarray,
+    energies: Iterable[np.ndarray],
+    *,
+    index: int,
+    window_s: float = LAST_WINDOW_S,
+    first: int = N_FIRST_MODES,
+) -> ModalEnergySummary:
+    """:class:`ModalEnergySummary` of the modal strain energies ``energies`` [J], given as (B, K)
+    blocks in record order that together cover the records of ``t`` (T,) [s] (one (T, K) array
+    may be passed as ``[E]``). The records are taken as equally spaced, so a time mean is the mean
+    over records; the share ``s(t)`` is averaged record by record (not weighted by the energy, unlike
+    the shares of :func:`dominant_modes` over a run).
+
+    Raises:
+      ValueError: ``window_s`` not positive, ``first`` below 1, ``index`` outside the records, or
+        blocks that do not cover ``t``.
+    """
+    if not window_s > 0:
+        raise ValueError(f"window_s: must be positive, got {window_s!r}")
+    if first < 1:
+        raise ValueError(f"first: must be at least 1, got {first!r}")
+    t = np.asarray(t, dtype=float)
+    if not 0 <= index < t.size:
+        raise ValueError(f"index: must be in [0, {t.size}), got {index!r}")
+    in_window = t >= t[-1] - window_s
+    total = window = None
+    at = None
+    share_sum = share_win_sum = 0.0
+    share_n = share_win_n = 0
+    k0 = 0
+    for E in energies:
+        E = np.asarray(E, dtype=float)
+        k1 = k0 + E.shape[0]
+        if k1 > t.size:
+            raise ValueError(f"energies: blocks hold more records than t ({t.size})")
+        w = in_window[k0:k1]
+        if total is None:
+            total = np.zeros(E.shape[1])
+            window = np.zeros(E.shape[1])
+        total += E.sum(axis=0)
+        window += E[w].sum(axis=0)
+        if k0 <= index < k1:
+            at = E[index - k0].copy()
+        row = E.sum(axis=1)
+        pos = row > 0
+        share = E[pos, :first].sum(axis=1) / row[pos]
+        share_sum += float(share.sum())
+        share_n += int(pos.sum())
+        share_win_sum += float(share[w[pos]].sum())
+        share_win_n += int(np.count_nonzero(w & pos))
+        k0 = k1
+    if k0 != t.size or total is None or window is None or at is None:
+        raise ValueError(f"energies: blocks hold {k0} records, t holds {t.size}")
+    at_total = float(at.sum())
+    return ModalEnergySummary(
+        at=at,
+        mean=total / t.size,
+        window_mean=window / int(in_window.sum()),
+        share_first_at=float(at[:first].sum() / at_total) if at_total > 0 else None,
+        share_first_mean=share_sum / share_n if share_n else None,
+        share_first_window=share_win_sum / share_win_n if share_win_n else None,
+        first=first,
+        window_s=window_s,
+    )
+
+
+def modal_energy_summary(
+    md: Modes,
+    nodes: np.ndarray,
+    positions: NodeTrajectory | np.ndarray,
+    *,
+    t: np.ndarray,
+    index: int,
+    window_s: float = LAST_WINDOW_S,
+    first: int = N_FIRST_MODES,
+) -> ModalEnergySummary:
+    """:func:`modal_energy_stats` of the elastic modal strain energies (:func:`modal_strain_energies`)
+    of node ``positions`` recorded at ``t`` (T,) [s], read block by block."""
+    traj = as_trajectory(positions)
+    if len(traj) != len(t):
+        raise ValueError(f"t: {len(t)} times for {len(traj)} records")
+    blocks = (modal_strain_energies(md, nodes, x) for x in traj.blocks())
+    return modal_energy_stats(t, blocks, index=index, window_s=window_s, first=first)
+
+
+def first_modes_share_keys(s: ModalEnergySummary) -> dict[str, float | None]:
+    """``modal_energy_share_first{N}_mean``, ``_at_Umax`` and ``_last{W}s`` of ``s`` (``N = s.first``,
+    ``W = s.window_s``; the record ``s.at`` is taken at the maximum of U)."""
+    stem = f"modal_energy_share_first{s.first}"
+    return {
+        f"{stem}_mean": s.share_first_mean,
+        f"{stem}_at_Umax": s.share_first_at,
+        f"{stem}_last{s.window_s:g}s": s.share_first_window,
+    }
+
+
+def error_swing_keys(
+    t: np.ndarray,
+    err_rad: np.ndarray,
+    *,
+    settle_deg: float = SWING_SETTLE_DEG,
+    prominence_fraction: float = SWING_PROMINENCE_FRACTION,
+) -> dict[str, Any]:
+    """Swings of the attitude error ``err_rad`` (T,) [rad] about the target after it first comes
+    within ``settle_deg`` (at ``t_5``, :func:`first_time_below`): the local maxima and minima of
+    ``θ(t)`` [deg] over ``t ≥ t_5`` (``scipy.signal.find_peaks`` on ``θ`` and ``−θ``) whose
+    prominence is at least ``prominence_fraction × (max θ − min θ)`` over that part.
+
+    The threshold is relative to the largest swing so that it scales with the response: the
+    extrema of the swings themselves count until they have decayed below 2 % (the default) of the
+    largest, while the ripple on the recorded error (the flexible plate's best-fit attitude jitters
+    at its elastic periods, and the record samples a smooth turn every few seconds) is far below it
+    and does not split one swing into several. A planar swing through the target has cusp minima
+    ``θ ≈ 0`` at the crossings; they count as minima like any other.
+
+    Keys: ``error_extrema_count``; the first :data:`N_EXTREMA_LISTED` extrema in time order as
+    ``error_extrema_t_s`` [s] and ``error_extrema_deg`` [deg]; ``error_half_swing_s`` [s], the
+    times between successive extrema ``t_{k+1} − t_k`` (half a period of a regular swing), of those
+    listed; ``error_half_swing_mean_s`` [s], their mean over all extrema (``None`` with fewer than
+    two). No extremum (and empty lists) if the error never comes within ``settle_deg``.
+
+    Raises:
+      ValueError: ``prominence_fraction`` outside (0, 1].
+    """
+    if not 0.0 < prominence_fraction <= 1.0:
+        raise ValueError(f"prominence_fraction: must be in (0, 1], got {prominence_fraction!r}")
+    t = np.asarray(t, dtype=float)
+    err = np.asarray(err_rad, dtype=float)
+    t_in = first_time_below(t, err, np.radians(settle_deg))
+    idx = np.zeros(0, dtype=int)
+    if t_in is not None:
+        after = np.flatnonzero(t >= t_in)
+        deg = np.degrees(err[after])
+        swing = float(np.ptp(deg))
+        if swing > 0:
+            hi, _ = find_peaks(deg, prominence=prominence_fraction * swing)
+            lo, _ = find_peaks(-deg, prominence=prominence_fraction * swing)
+            idx = after[np.sort(np.concatenate([hi, lo]))]
+    te = t[idx]
+    half = np.diff(te)
+    return {
+        "error_extrema_count": int(idx.size),
+        "error_extrema_t_s": te[:N_EXTREMA_LISTED].tolist(),
+        "error_extrema_deg": np.degrees(err[idx[:N_EXTREMA_LISTED]]).tolist(),
+        "error_half_swing_s": half[: N_EXTREMA_LISTED - 1].tolist(),
+        "error_half_swing_mean_s": float(half.mean()) if half.size else None,
+    }
+
+
 def shape_keys(t: np.ndarray, st: dict[str, np.ndarray]) -> dict[str, Any]:
     """Stretch (:func:`stretch_keys`, body ``x`` and ``y``) and strain-energy peak
     (:func:`strain_energy_peaks`) keys of :func:`structural_series` ``st``."""
@@ -540,8 +730,8 @@ def sweep_metrics(
 
 def slew_metrics(rec: dict[str, np.ndarray], *, areas_body_m2: np.ndarray) -> Metrics:
     """Attitude metrics of a slew: error 2 atan2(|q_e,xyz|, |q_e,w|) [rad], times below 5° and 2°, largest
-    error after first reaching 5°, saturation fraction, torques, achieved dipole Σ I_L a_L [A m²]
-    and the largest current per axis [A]."""
+    error after first reaching 5°, its swings after that (:func:`error_swing_keys`), saturation
+    fraction, torques, achieved dipole Σ I_L a_L [A m²] and the largest current per axis [A]."""
     t = rec["t"]
     qe = rec["q_err"]
     err = quat_angle(qe)
@@ -572,6 +762,7 @@ def slew_metrics(rec: dict[str, np.ndarray], *, areas_body_m2: np.ndarray) -> Me
         "time_to_target_s": t5,
         "attitude_error_max_after_target_deg": None if err_after is None else float(np.degrees(err_after)),
         "current_max_A": [float(v) for v in np.abs(currents_axis).max(axis=0)],
+        **error_swing_keys(t, err),
     }
     series = {
         "error_angle_rad": err,

@@ -51,11 +51,12 @@ from magsail_mj.concepts.current_loops.config import CurrentLoopsConfig
 from magsail_mj.concepts.current_loops.metrics import (
     base_summary,
     dominant_modes,
+    first_modes_share_keys,
     flexible_probes,
     flexible_torque_probe,
     rigid_probes,
     rigid_torque_probe,
-    modal_energy_profile,
+    modal_energy_summary,
     saturation_keys,
     slew_metrics,
     slew_probes,
@@ -536,18 +537,24 @@ class LoopsSlewTask(FlexibleLoopsTask):
 
     def dominant_mode_keys(self, rec: Mapping[str, Any], index: int) -> dict[str, Any]:
         """The :data:`~magsail_mj.concepts.current_loops.metrics.N_DOMINANT` modes of largest strain
-        energy at record ``index`` (the maximum of U) and over the run (``dominant_modes_at_Umax_*``,
-        ``dominant_modes_mean_*``); none when the modes cannot be had."""
+        energy at record ``index`` (the maximum of U), over the run and over its last
+        :data:`~magsail_mj.concepts.current_loops.metrics.LAST_WINDOW_S` (``dominant_modes_at_Umax_*``,
+        ``dominant_modes_mean_*``, ``dominant_modes_last2000s_*``), and the share of the first ten
+        elastic modes in the modal strain energy at the same three (``modal_energy_share_first10_*``,
+        :func:`~magsail_mj.concepts.current_loops.metrics.first_modes_share_keys`); none when the
+        modes cannot be had."""
         try:
             md = self.modes()
         except Exception:  # noqa: BLE001 - the modes are a diagnostic; never lose a run for them
             return {}
         traj = NodeTrajectory(lazy_record(rec, "qpos"), self.node_positions)
-        at, mean = modal_energy_profile(md, self.lm.lattice.nodes, traj, index=index)
+        s = modal_energy_summary(md, self.lm.lattice.nodes, traj, t=rec["t"], index=index)
         omega = md.omega[md.elastic]
         return {
-            **dominant_modes(omega, at, prefix="dominant_modes_at_Umax"),
-            **dominant_modes(omega, mean, prefix="dominant_modes_mean"),
+            **dominant_modes(omega, s.at, prefix="dominant_modes_at_Umax"),
+            **dominant_modes(omega, s.mean, prefix="dominant_modes_mean"),
+            **dominant_modes(omega, s.window_mean, prefix=f"dominant_modes_last{s.window_s:g}s"),
+            **first_modes_share_keys(s),
         }
 
     def task_plots(self, run_dir: Path, series: dict[str, np.ndarray], qpos: np.ndarray | None) -> list[Path]:
