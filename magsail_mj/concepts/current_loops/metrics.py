@@ -14,7 +14,10 @@ the work ledger (Lorentz work and damping work, exact for forces held over a ste
   dipole, its rotation angle and the flexible run's largest deviation from it;
 * classification (thresholds in ``[classification]``): *collapsed* if ρ_max > 0.1 D, or
   the largest strain > 0.5, or h_max > 5 w; *rigid_like* if ρ_max < 0.005 D and the rotation
-  stays within 3° of the rigid reference; otherwise *flexible*.
+  stays within 3° of the rigid reference; otherwise *flexible*. Beside it, the classification by
+  shape alone (the same thresholds without the strain bound: does the plate look collapsed when a
+  strut gives way?), the criteria that were met, and the fold angle: the largest rotation between
+  the best rigid fits of the plate's two halves, over four dividing lines (:func:`fold_angle`).
 
 Slews add the attitude error ``2 atan2(|q_e,xyz|, |q_e,w|)``, currents, saturation, commanded and achieved
 dipole, magnetic and gravity-gradient torques about the centre of mass.
@@ -84,6 +87,11 @@ __all__ = [
     "slew_metrics",
     "slew_structure",
     "classify",
+    "classification_keys",
+    "collapse_criteria",
+    "fold_angle",
+    "fold_keys",
+    "plate_halves",
     "first_time_below",
     "structural_series",
     "stretch_keys",
@@ -274,6 +282,7 @@ def _structural_block(lm: LoopsModel, x: np.ndarray, md: Modes | None) -> dict[s
         "strut_strain_max": np.abs(strut_strain(x, lat.struts, lat.rest_length)).max(axis=1),
         "stretch_x_m": np.ptp(xb[:, :, 0], axis=1) - np.ptp(p0[:, 0]),
         "stretch_y_m": np.ptp(xb[:, :, 1], axis=1) - np.ptp(p0[:, 1]),
+        "fold_angle_rad": fold_angle(p0, x),
     }
     if md is not None:
         try:
@@ -283,6 +292,37 @@ def _structural_block(lm: LoopsModel, x: np.ndarray, md: Modes | None) -> dict[s
         except Exception:  # noqa: BLE001 - as above
             pass
     return out
+
+
+def plate_halves(nodes: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The two halves of a plate for each of four dividing lines through its centre (in its own
+    plane xy, from the undeformed ``nodes`` (n, 3) [m]): the two mid-lines x = x_c and y = y_c and
+    the two diagonals (x − x_c) ∓ (y − y_c) = 0 scaled by the plate's extents. Nodes on a line
+    belong to neither half. Returns (index array, index array) per line."""
+    c = 0.5 * (nodes.min(axis=0) + nodes.max(axis=0))
+    ext = np.maximum(np.ptp(nodes, axis=0), 1e-300)
+    u = (nodes[:, 0] - c[0]) / ext[0]
+    v = (nodes[:, 1] - c[1]) / ext[1]
+    tol = 1e-9
+    out = []
+    for d in (u, v, u - v, u + v):
+        out.append((np.flatnonzero(d < -tol), np.flatnonzero(d > tol)))
+    return out
+
+
+def fold_angle(nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Fold angle [rad] of node positions ``x`` (T, n, 3) [m] against the undeformed ``nodes``
+    (n, 3): for each dividing line of :func:`plate_halves`, the angle of R₁ᵀR₂ between the best
+    rigid fits (Kabsch, uniform masses) R₁, R₂ of the two halves, each half fitted to its own
+    undeformed nodes; the largest over the four lines, per record. A plate turned as a whole has
+    fold angle 0; one folded along a mid-line or a diagonal through θ, θ (a twist shows too)."""
+    x = np.asarray(x, dtype=float)
+    worst = np.zeros(x.shape[0])
+    for a, b in plate_halves(nodes):
+        Ra, _ = BestFitRotation(nodes[a])(x[:, a])
+        Rb, _ = BestFitRotation(nodes[b])(x[:, b])
+        worst = np.maximum(worst, rotation_angle(Rb, relative_to=Ra))
+    return worst
 
 
 def _at(t: np.ndarray, y: np.ndarray) -> tuple[float, float]:
@@ -604,6 +644,27 @@ def base_summary(result: RunResult) -> dict[str, Any]:
     }
 
 
+def collapse_criteria(
+    c: ClassificationConfig,
+    *,
+    side_m: float,
+    units: int,
+    rho_max: float,
+    strain_max: float,
+    h_max: float,
+) -> list[str]:
+    """The collapse criteria a run meets, in this order: ``"residual"`` (ρ_max > f_c D),
+    ``"strain"`` (largest strut strain > ε_c), ``"thickness"`` (h_max > n_c w, w = D / N)."""
+    met = []
+    if rho_max > c.collapse_residual_frac * side_m:
+        met.append("residual")
+    if strain_max > c.collapse_strain:
+        met.append("strain")
+    if h_max > c.collapse_thickness_units * side_m / units:
+        met.append("thickness")
+    return met
+
+
 def classify(
     c: ClassificationConfig,
     *,
@@ -613,21 +674,47 @@ def classify(
     strain_max: float,
     h_max: float,
     dev_max: float,
+    by_shape: bool = False,
 ) -> str:
     """Classification: ``collapsed`` if ρ_max > f_c D or the strain > ε_c or h_max > n_c w (w = D / N);
     ``rigid_like`` if ρ_max < f_r D and the rotation stays within the angle tolerance of the rigid
-    reference (``dev_max`` [rad]); else ``flexible``."""
+    reference (``dev_max`` [rad]); else ``flexible``. ``by_shape``: the strain criterion left out,
+    so that a run stopped at the strain bound is classed by the shape it had reached."""
+    met = collapse_criteria(c, side_m=side_m, units=units, rho_max=rho_max, strain_max=strain_max, h_max=h_max)
+    if by_shape:
+        met = [m for m in met if m != "strain"]
     D = side_m
-    w = D / units
-    if (
-        rho_max > c.collapse_residual_frac * D
-        or strain_max > c.collapse_strain
-        or h_max > c.collapse_thickness_units * w
-    ):
+    if met:
         return "collapsed"
     if rho_max < c.rigid_residual_frac * D and dev_max <= np.radians(c.rigid_angle_tol_deg):
         return "rigid_like"
     return "flexible"
+
+
+def classification_keys(
+    c: ClassificationConfig,
+    *,
+    side_m: float,
+    units: int,
+    rho_max: float,
+    strain_max: float,
+    h_max: float,
+    dev_max: float,
+) -> dict[str, Any]:
+    """``classification`` (:func:`classify`), ``classification_by_shape`` (the same without the
+    strain criterion) and ``collapse_criteria`` (:func:`collapse_criteria`)."""
+    kw = dict(side_m=side_m, units=units, rho_max=rho_max, strain_max=strain_max, h_max=h_max)
+    return {
+        "classification": classify(c, dev_max=dev_max, **kw),
+        "classification_by_shape": classify(c, dev_max=dev_max, by_shape=True, **kw),
+        "collapse_criteria": collapse_criteria(c, **kw),
+    }
+
+
+def fold_keys(t: np.ndarray, st: dict[str, np.ndarray]) -> dict[str, float]:
+    """``fold_angle_max_deg`` [deg] and its time ``t_fold_angle_max_s`` [s] (:func:`fold_angle`)."""
+    a_max, t_a = _at(t, st["fold_angle_rad"])
+    return {"fold_angle_max_deg": float(np.degrees(a_max)), "t_fold_angle_max_s": t_a}
 
 
 def sweep_metrics(
@@ -702,7 +789,7 @@ def sweep_metrics(
         **({"stiffness_work_final_J": float(W_K[-1])} if linear else {}),
         "stability_product_max": stability_product_max,
         "self_field_max_T": float(self_field_max_T(lm.lattice.nodes, segments, currents)),
-        "classification": classify(
+        **classification_keys(
             classification,
             side_m=side_m,
             units=units,
@@ -711,6 +798,7 @@ def sweep_metrics(
             h_max=h_max,
             dev_max=dev_max,
         ),
+        **fold_keys(t, st),
         **shape_keys(t, st),
     }
     series = {k: v for k, v in st.items() if k != "R_bestfit"}
@@ -791,6 +879,7 @@ def slew_structure(t: np.ndarray, st: dict[str, np.ndarray]) -> Metrics:
         rigid_fit_residual_max_m=float(st["rigid_fit_residual_m"].max()),
         strut_strain_max=float(st["strut_strain_max"].max()),
         thickness_max_m=float(st["thickness_m"].max()),
+        **fold_keys(t, st),
         **shape_keys(t, st),
     )
     series = {k: v for k, v in st.items() if k != "R_bestfit"}
