@@ -210,3 +210,132 @@ def test_small_lattices_close():
         for c in circuits(lat, list(CIRCUIT_NAMES)):
             assert np.all(c.net_flow(lat.n_nodes) == 0), (n, c.name)
             assert c.vector_area(lat.nodes)[c.axis] > 0, (n, c.name)
+
+
+# --- closure of the D winding (``d_return``) -------------------------------------------------------------------------
+#
+# Every return starts where the helix and its closure end (D_x: node (n, 0, 0), D_y: (0, n, 1)) and ends at the
+# winding's first node (D_x: (0, 0, 0), D_y: (0, 0, 1)), so a variant differs from the centre return by the closed
+# loop "variant's return, then the centre return backwards"; its vector area is that of a flat rectangle.
+#   edge, D_x: (n,0,0) -> (0,0,0), then back along the centre return (0,0,0) -> (0,c,0) -> (n,c,0) -> (n,0,0),
+#     c = ceil(n/2): the rectangle [0, n] x [0, c] on the bottom layer, run clockwise seen from +z:
+#     a_z = -n c w^2, a_x and a_y unchanged.
+#   other_layer, D_x: the two returns share (n,0,0) -> (n,c,0) and (0,c,0) -> (0,0,0); what is left is
+#     (n,c,0) -> (n,c,1) -> (0,c,1) -> (0,c,0) -> (n,c,0), the D x w rectangle in the plane y = y_c. In (x, z)
+#     it runs counter-clockwise, whose normal is x^ x z^ = -y^: a_y = -n w^2.
+#   D_y is D_x under (i, j, l) -> (j, i, 1 - l), a half turn about the diagonal x = y (a proper rotation), so
+#     a(D_y) = (a_y, a_x, -a_z) of D_x: edge a_z = +n c w^2, other_layer a_x = -n w^2.
+# The centre return's own area is (T D w, s w^2, 0) for D_x (test_closed_forms): T full turns, s top-layer steps.
+
+D_RETURN_DELTA_X = {  # change against the centre return, D_x, in units of w²: n -> variant -> (dx, dy, dz)
+    "centre": lambda n: (0, 0, 0),
+    "edge": lambda n: (0, 0, -n * ceil(n / 2)),
+    "other_layer": lambda n: (0, -n, 0),
+}
+# N = 19 by hand: T = (3·20 + 0)/4 = 15 turns of 19 w², so a_x = 285 w²; top-layer steps s = 10 (k = 0..18 with
+# 3(k+1) mod 4 in {2, 3}: k = 1, 2, 5, 6, 9, 10, 13, 14, 17, 18); c = 10.
+D_X_N19_W2 = {"centre": (285, 10, 0), "edge": (285, 10, -190), "other_layer": (285, -9, 0)}
+
+
+def _d_centre_area_w2(n: int) -> tuple[float, float, float]:
+    turns = (3 * (n + 1) + (n + 1) % 4) / 4
+    top_steps = sum(1 for k in range(n) if (3 * (k + 1)) % 4 in (2, 3))
+    return (turns * n, top_steps, 0.0)
+
+
+@pytest.mark.parametrize("n", SIDES)
+def test_d_return_variants_vector_area(n):
+    """All three components of each D closure at N = 12, 19, 27 against the hand-derived rectangles above."""
+    lat = make_lattice(units=n, side_m=2.0 * n)
+    w = lat.cube_edge_m
+    base = np.array(_d_centre_area_w2(n))
+    for ret, delta in D_RETURN_DELTA_X.items():
+        ax_w2 = base + np.array(delta(n))
+        ay_w2 = np.array([ax_w2[1], ax_w2[0], -ax_w2[2]])
+        ax = circuit(lat, "D_x", d_return=ret).vector_area(lat.nodes)
+        ay = circuit(lat, "D_y", d_return=ret).vector_area(lat.nodes)
+        np.testing.assert_allclose(ax / w**2, ax_w2, rtol=0, atol=1e-9, err_msg=f"D_x {ret}")
+        np.testing.assert_allclose(ay / w**2, ay_w2, rtol=0, atol=1e-9, err_msg=f"D_y {ret}")
+    if n == 19:
+        for ret, exp in D_X_N19_W2.items():
+            np.testing.assert_allclose(circuit(lat, "D_x", d_return=ret).vector_area(lat.nodes) / w**2, exp, atol=1e-9)
+    # the edge return's normal area is about half the plate, the other layer's in-plane part about the opposite
+    a_edge = circuit(lat, "D_x", d_return="edge").vector_area(lat.nodes)
+    assert abs(a_edge[2] / lat.side_m**2 + 0.5) < 0.5 / n + 1e-12
+    a_c = circuit(lat, "D_x").vector_area(lat.nodes)[1]
+    a_o = circuit(lat, "D_x", d_return="other_layer").vector_area(lat.nodes)[1]
+    assert a_c > 0 > a_o and abs(a_c + a_o) <= w**2 + 1e-9
+
+
+def test_d_return_default_is_centre():
+    """No ``d_return`` gives the centre return: the same segments, multiplicities and wire as ``"centre"``."""
+    for n in SIDES:
+        lat = make_lattice(units=n, side_m=1.0)
+        for nm in ("D_x", "D_y"):
+            a, b = circuit(lat, nm), circuit(lat, nm, d_return="centre")
+            for f in ("src", "dst", "mult", "wire_src", "wire_dst", "wire_count"):
+                np.testing.assert_array_equal(getattr(a, f), getattr(b, f), err_msg=f"{nm} {f}")
+        plain = circuits(lat, ["F"])
+        centred = circuits(lat, ["F"], d_return="centre")
+        for a, b in zip(plain, centred):
+            np.testing.assert_array_equal(a.src, b.src)
+            np.testing.assert_array_equal(a.mult, b.mult)
+
+
+def test_d_return_default_path_by_hand_n4():
+    """The centre return at N = 4 (c = 2), D_x: the bottom-layer run (4,0) -> (4,2) -> (0,2) -> (0,0) is on the
+    wire, on no vertical, and carries net current exactly where the helix has no opposite pass."""
+    lat = make_lattice(units=4, side_m=4.0)
+    D = circuit(lat, "D_x")
+    flat = {tuple(int(v) for v in ijk): k for k, ijk in enumerate(lat.ijk)}
+    wire = {frozenset((int(a), int(b))) for a, b in zip(D.wire_src, D.wire_dst)}
+    for run in ([(4, j, 0) for j in range(3)], [(i, 2, 0) for i in range(4, -1, -1)], [(0, j, 0) for j in (2, 1, 0)]):
+        for p, q in zip(run[:-1], run[1:]):
+            assert frozenset((flat[p], flat[q])) in wire, (p, q)
+    # along y = y_c = 2 only the return runs (the helix lies in the planes x = const and steps along x at y = 0, n)
+    on_mid = [(int(a), int(b)) for a, b in zip(D.src, D.dst) if lat.ijk[a][1] == 2 and lat.ijk[b][1] == 2]
+    assert sorted((tuple(lat.ijk[a]), tuple(lat.ijk[b])) for a, b in on_mid) == [
+        ((i, 2, 0), (i - 1, 2, 0)) for i in range(1, 5)
+    ]
+
+
+@pytest.mark.parametrize("ret", ["centre", "edge", "other_layer"])
+def test_d_return_variants_closed_on_struts(ret):
+    """Each closure is a closed path on axis-aligned struts (net flow zero at every node) for n = 1..8 and the table
+    sides, with the dipole along its axis."""
+    allowed = [STRUT_KINDS.index(k) for k in ("x_edge", "y_edge", "vertical")]
+    for n in (*range(1, 9), *SIDES):
+        lat = make_lattice(units=n, side_m=1.0)
+        for nm in ("D_x", "D_y"):
+            c = circuit(lat, nm, d_return=ret)
+            assert np.all(c.net_flow(lat.n_nodes) == 0), (n, nm, ret)
+            assert np.all(c.mult >= 1)
+            assert np.isin(lat.kind[c.strut_index(lat)], allowed).all()
+            assert c.vector_area(lat.nodes)[c.axis] > 0, (n, nm, ret)
+
+
+@pytest.mark.parametrize("ret", ["centre", "edge", "other_layer"])
+def test_d_return_D_y_is_D_x_turned(ret):
+    """D_y is D_x turned half a turn about the diagonal x = y: node (i, j, l) -> (j, i, 1 - l) maps D_x's net
+    segments onto D_y's, with the same multiplicities, for every closure."""
+    for n in SIDES:
+        lat = make_lattice(units=n, side_m=1.0)
+        ijk = lat.ijk
+        N = n + 1
+
+        def turned(k):
+            i, j, l = ijk[k].T
+            return (1 - l) * N * N + i * N + j
+
+        dx = circuit(lat, "D_x", d_return=ret)
+        dy = circuit(lat, "D_y", d_return=ret)
+        mapped = sorted(zip(turned(dx.src).tolist(), turned(dx.dst).tolist(), dx.mult.tolist()))
+        assert mapped == sorted(zip(dy.src.tolist(), dy.dst.tolist(), dy.mult.tolist())), (n, ret)
+
+
+def test_d_return_refused():
+    lat = make_lattice(units=4, side_m=1.0)
+    with pytest.raises(ValueError, match="d_return"):
+        circuit(lat, "D_x", d_return="middle")
+    with pytest.raises(ValueError, match="d_return"):
+        circuits(lat, ["A"], d_return="middle")

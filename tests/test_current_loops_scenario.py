@@ -135,6 +135,24 @@ def test_sweep_config_rejects_orbit_and_names_the_key():
         load_config(MODELS / "slew.toml", ['loops.circuits=["C_x", "B"]'])
 
 
+def test_d_return_key_reaches_the_model_and_refuses_unknown_values():
+    """``loops.d_return`` builds the D winding the model carries (a normal area only for ``"edge"``); an unknown
+    value is refused naming the key."""
+    from magsail_mj.concepts.current_loops.model import make_loops_model
+
+    base = MODELS / "sweep" / "dy_n12_ei1e3.toml"
+    with pytest.raises(ConfigError, match="d_return"):
+        load_config(base, ["lattice.units=4", "loops.d_return=middle"])
+    normal = {}
+    for ret in ("centre", "edge", "other_layer"):
+        lm = make_loops_model(load_config(base, ["lattice.units=4", f"loops.d_return={ret}"]))
+        (c,) = lm.circuits
+        normal[ret] = c.vector_area(lm.lattice.nodes)[2] / lm.lattice.cube_edge_m**2
+    # D_y edge return: + n ceil(n/2) = 4 * 2 unit squares along the plate normal (geometry tests derive it)
+    np.testing.assert_allclose([normal["centre"], normal["edge"], normal["other_layer"]], [0.0, 8.0, 0.0], atol=1e-9)
+    assert load_config(base).loops.d_return == "centre"
+
+
 def test_every_current_loops_config_loads():
     configs = [p for p in MODELS.rglob("*.toml") if p.name != "sweep36.toml"]
     assert len(configs) == 36 + 2 + 2 + 3  # sweep, slews, mirror sweep, paper-literal variants

@@ -25,7 +25,23 @@ Geometries:
 * ``B``  — ⌈n/2⌉ concentric rings [k, n−k]², top layer for even k, bottom for odd k (+z).
 * ``C_x``/``C_y`` — one D × w loop in every lattice plane normal to x / y, n+1 in series.
 * ``D_x``/``D_y`` — one continuous winding: ¾ turn per lattice plane, a unit step to the next
-  plane, closure around the last plane and a return on one layer.
+  plane, closure around the last plane and a return on one layer. The paper does not say how the
+  winding is closed; ``d_return`` chooses the return (:data:`D_RETURNS`):
+
+  - ``"centre"`` (default): along the plate's middle line, index c = ⌈n/2⌉ (D_x on the bottom
+    layer at y = y_c, D_y on the top layer at x = x_c). The area along the plate normal is then
+    exactly zero; the in-plane parasitic component (along y for D_x) is s w², s the number of
+    unit steps on the top layer (about D²/(2n)).
+  - ``"edge"``: straight along the plate edge at index 0 on the same layer (D_x: y = 0, bottom;
+    D_y: x = 0, top). Against ``"centre"`` it adds the rectangle n × c w² on that layer, a normal
+    area of −n c w² for D_x and +n c w² for D_y (about D²/2).
+  - ``"other_layer"``: the middle-line return on the other layer, reached by one vertical at each
+    end of the middle line. Against ``"centre"`` it adds the D × w rectangle in the plane of the
+    middle line, −n w² along the in-plane parasitic axis (D_x: along y, D_y: along x): that
+    component becomes (s − n) w², about the opposite of the centre return's.
+
+  D_y is D_x turned half a turn about the plate's diagonal x = y, node (i, j, ℓ) → (j, i, 1 − ℓ),
+  for every return: a_(D_y) = (a_y, a_x, −a_z) of D_x.
 * ``F``  — B + D_x + D_y (three circuits); the section-5 set is ``["C_x", "C_y", "B"]``.
 """
 
@@ -33,7 +49,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from math import ceil
-from typing import Iterable, Sequence
+from typing import Iterable, Literal, Sequence, get_args
 
 import numpy as np
 
@@ -47,6 +63,8 @@ __all__ = [
     "circuits",
     "circuit_from_path",
     "SECTION5_SET",
+    "D_RETURNS",
+    "DReturn",
     "expand_names",
 ]
 
@@ -58,6 +76,9 @@ AXIS_OF = {"A": 2, "B": 2, "C_x": 0, "C_y": 1, "D_x": 0, "D_y": 1}
 COMPOSITES = {"F": ("B", "D_x", "D_y")}
 #: The three-axis set (x, y, z).
 SECTION5_SET = ("C_x", "C_y", "B")
+#: How the D winding is closed (see the module docstring); ``"centre"`` is the default.
+DReturn = Literal["centre", "edge", "other_layer"]
+D_RETURNS: tuple[str, ...] = get_args(DReturn)
 
 _AXIS_KINDS = tuple(STRUT_KINDS.index(k) for k in ("x_edge", "y_edge", "vertical"))
 
@@ -220,21 +241,35 @@ def _paths_C(n: int, axis: int) -> list[list[tuple[int, int, int]]]:
     return [[(0, j, 1), (n, j, 1), (n, j, 0), (0, j, 0), (0, j, 1)] for j in range(n + 1)]
 
 
-def _paths_D(n: int, axis: int) -> list[list[tuple[int, int, int]]]:
-    """One continuous winding as a single closed path of corner points."""
+def _paths_D(n: int, axis: int, d_return: str = "centre") -> list[list[tuple[int, int, int]]]:
+    """One continuous winding as a single closed path of corner points.
+
+    The helix and its closure end at the start corner of the last plane; ``d_return`` chooses the
+    run back to the start corner of the first plane (module docstring).
+    """
     half = ceil(n / 2)
     if axis == 0:
 
         def corner(k: int, c: int) -> tuple[int, int, int]:
             return ((k, 0, 0), (k, n, 0), (k, n, 1), (k, 0, 1))[c]
 
-        ret = [(n, half, 0), (0, half, 0), (0, 0, 0)]  # bottom layer return
+        returns = {  # from (n, 0, 0) to (0, 0, 0)
+            "centre": [(n, half, 0), (0, half, 0), (0, 0, 0)],  # bottom layer, y = y_c
+            "edge": [(0, 0, 0)],  # bottom layer, y = 0
+            "other_layer": [(n, half, 0), (n, half, 1), (0, half, 1), (0, half, 0), (0, 0, 0)],
+        }
     else:
 
         def corner(k: int, c: int) -> tuple[int, int, int]:
             return ((0, k, 1), (n, k, 1), (n, k, 0), (0, k, 0))[c]
 
-        ret = [(half, n, 1), (half, 0, 1), (0, 0, 1)]  # top layer return
+        returns = {  # from (0, n, 1) to (0, 0, 1)
+            "centre": [(half, n, 1), (half, 0, 1), (0, 0, 1)],  # top layer, x = x_c
+            "edge": [(0, 0, 1)],  # top layer, x = 0
+            "other_layer": [(half, n, 1), (half, n, 0), (half, 0, 0), (half, 0, 1), (0, 0, 1)],
+        }
+    if d_return not in returns:
+        raise ValueError(f"d_return: must be one of {D_RETURNS}, got {d_return!r}")
     path = [corner(0, 0)]
     c = 0
     for k in range(n + 1):
@@ -246,14 +281,19 @@ def _paths_D(n: int, axis: int) -> list[list[tuple[int, int, int]]]:
     while c != 0:  # closure: (n+1) mod 4 sides
         c = (c + 1) % 4
         path.append(corner(n, c))
-    path.extend(ret)
+    path.extend(returns[d_return])
     return [path]
 
 
-def circuit(lattice: Lattice, name: str) -> Circuit:
-    """The circuit ``name`` (one of :data:`CIRCUIT_NAMES`) on ``lattice``."""
+def circuit(lattice: Lattice, name: str, *, d_return: DReturn = "centre") -> Circuit:
+    """The circuit ``name`` (one of :data:`CIRCUIT_NAMES`) on ``lattice``.
+
+    ``d_return`` (one of :data:`D_RETURNS`) closes the D windings; the other geometries ignore it.
+    """
     if name not in CIRCUIT_NAMES:
         raise ValueError(f"name: must be one of {CIRCUIT_NAMES}, got {name!r}")
+    if d_return not in D_RETURNS:
+        raise ValueError(f"d_return: must be one of {D_RETURNS}, got {d_return!r}")
     n = lattice.units
     if name == "A":
         paths = _paths_A(n)
@@ -262,7 +302,7 @@ def circuit(lattice: Lattice, name: str) -> Circuit:
     elif name.startswith("C_"):
         paths = _paths_C(n, AXIS_OF[name])
     else:
-        paths = _paths_D(n, AXIS_OF[name])
+        paths = _paths_D(n, AXIS_OF[name], d_return)
     c = circuit_from_path(name, AXIS_OF[name], paths, units=n)
     c.strut_index(lattice)  # every segment must lie on a lattice strut
     return c
@@ -286,6 +326,7 @@ def expand_names(names: Iterable[str]) -> list[str]:
     return out
 
 
-def circuits(lattice: Lattice, names: Iterable[str]) -> list[Circuit]:
-    """Circuits for ``names`` (``"F"`` expands to B, D_x, D_y), in the order given."""
-    return [circuit(lattice, nm) for nm in expand_names(names)]
+def circuits(lattice: Lattice, names: Iterable[str], *, d_return: DReturn = "centre") -> list[Circuit]:
+    """Circuits for ``names`` (``"F"`` expands to B, D_x, D_y), in the order given; ``d_return``
+    closes the D windings (:func:`circuit`)."""
+    return [circuit(lattice, nm, d_return=d_return) for nm in expand_names(names)]

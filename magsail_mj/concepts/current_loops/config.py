@@ -32,7 +32,7 @@ from magsail_mj.environment.config import (
     environment_config_of,
     environment_problems,
 )
-from magsail_mj.geometry.current_loops import AXIS_OF, CIRCUIT_NAMES, COMPOSITES
+from magsail_mj.geometry.current_loops import AXIS_OF, CIRCUIT_NAMES, COMPOSITES, DReturn
 
 __all__ = [
     "CurrentLoopsConfig",
@@ -113,6 +113,13 @@ class LoopsCircuitConfig(StrictModel):
     the Eq.-9 current of each circuit for this plate (A on the light branch with ``kappa``);
     ``"fixed"``: ``current_A`` (one value per circuit, or one for all). ``sizing_units``: the N
     used in the sizing (default: ``lattice.units``).
+
+    ``d_return``: how the D windings (D_x, D_y) are closed, which the paper does not say
+    (:mod:`magsail_mj.geometry.current_loops`). ``"centre"`` (default): a return along the plate's
+    middle line, zero area along the plate normal. ``"edge"``: along the plate edge, a parasitic
+    normal area n ⌈n/2⌉ w² (about D²/2). ``"other_layer"``: the middle-line return on the other
+    layer, which turns the in-plane parasitic component from s w² to (s − n) w² (s the top-layer
+    unit steps, about n/2). The Eq.-9 sizing keeps the Table-1 helix form whatever the return.
     """
 
     circuits: list[str] = Field(min_length=1)
@@ -120,6 +127,7 @@ class LoopsCircuitConfig(StrictModel):
     current_A: float | list[float] | None = None
     kappa: float = Field(default=15.0, ge=0)
     sizing_units: int | None = Field(default=None, ge=1)
+    d_return: DReturn = "centre"
 
     @model_validator(mode="after")
     def _names(self) -> LoopsCircuitConfig:

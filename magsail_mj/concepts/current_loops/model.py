@@ -75,7 +75,7 @@ def make_loops_model(cfg: CurrentLoopsConfig) -> LoopsModel:
     masses = np.full(lat.n_nodes, M / lat.n_nodes)
     k, c = strut_stiffness(lat, EI_Nm2=cfg.stiffness.EI_Nm2, calibration=cfg.stiffness.calibration)
     EA = float(k[0] * lat.rest_length[0])
-    circuits = make_circuits(lat, cfg.loops.expanded())
+    circuits = make_circuits(lat, cfg.loops.expanded(), d_return=cfg.loops.d_return)
     currents, sizing = loop_currents(cfg)
     structure = loops_structure(cfg, lat, masses=masses, calibration_factor=c)
     spec = build_structure_spec(
