@@ -86,3 +86,26 @@ def test_report_table_refuses_bad_options(tmp_path):
         path.write_text(base + f"[report]\n{bad}\n")
         with pytest.raises(ConfigError, match="report: must be a table"):
             load_sweep(path)
+
+
+def test_a_grid_point_not_run_reads_as_no_runs_not_as_never(tmp_path):
+    """A grid point all of whose runs the sweep did not run (n = 0) has no percentile, share or
+    mean: its cells read "—" (the CSV leaves them empty), never "never" or "0.0 %"."""
+    records = _records({"a": [30.0, 10.0, 20.0]})
+    records += [{"id": f"bdot_law=b/s{i}", "status": "not_run", "summary": {}} for i in range(3)]
+    (tmp_path / "sweep_summary.json").write_text(json.dumps(records))
+    sweep = tmp_path / "s.toml"
+    sweep.write_text(
+        'name = "g"\nconfig = "x.toml"\n[grid]\n"control.bdot_law" = ["a", "b"]\n[monte_carlo]\nsamples = 3\n'
+        'seed = 1\n"x" = { dist = "uniform", low = 0, high = 1 }\n'
+        '[report]\nfigures = ["t_s"]\npercentiles = [10, 50, 90]\nshares = ["detumbled"]\n'
+    )
+    (tmp_path / "sweep_manifest.json").write_text(json.dumps({"sweep": str(sweep), "name": "g"}))
+    write_report(tmp_path)
+    md = (tmp_path / "report" / "report.md").read_text()
+    assert "| bdot_law=b | 0 | 0 | 0 | 0 | — | — | — | — | — |" in md
+    assert "| bdot_law=b | 0 | 0 | 0 | 0 | — | — |" in md.split("## `detumbled`")[1]
+    assert "| bdot_law=a | 3 | 3 | 0 | 0 | 100.0 % | 10 | 20 | 30 | 20 |" in md
+    rows = list(csv.DictReader((tmp_path / "report" / "percentiles.csv").open()))
+    b = rows[1]
+    assert (b["grid_point"], b["n"], b["not_run"], b["p10"], b["p50"], b["p90"]) == ("bdot_law=b", "0", "3", "", "", "")

@@ -267,6 +267,27 @@ def _fmt(value: Any) -> str:
     return str(value)
 
 
+NO_RUNS = "—"
+"""A cell of a group none of whose runs ran (n = 0): no percentile, share or mean, not ``never``."""
+
+
+def _cell(value: Any, n: int) -> str:
+    """A percentile or mean cell: :data:`NO_RUNS` when no run ran, else :func:`_fmt`."""
+    return NO_RUNS if n == 0 else _fmt(value)
+
+
+def _share_cell(share: float | None) -> str:
+    """A share in per cent, :data:`NO_RUNS` when no run ran (``share`` None)."""
+    return NO_RUNS if share is None else f"{100 * share:.1f} %"
+
+
+def _csv_pct(value: float | None, n: int) -> Any:
+    """A percentile in the CSV: empty when no run ran, ``never`` for +inf, else the number."""
+    if n == 0:
+        return ""
+    return "never" if value is None else value
+
+
 def _mc_plot(records: list[dict[str, Any]], figure: str, stats: dict[str, Any], path: Path) -> None:
     """Histogram of the reached values and the empirical CDF over every run (percentiles marked)."""
     reached = np.sort(
@@ -336,7 +357,7 @@ def _mc_report(
             s["failed"],
             s["not_run"],
             s["share_reached"],
-            *["never" if s["percentiles"][k] is None else s["percentiles"][k] for k in names],
+            *[_csv_pct(s["percentiles"][k], s["n"]) for k in names],
             "" if s["min"] is None else s["min"],
             "" if s["max"] is None else s["max"],
         ]
@@ -356,7 +377,9 @@ def _mc_report(
     for s in stats:
         lines.append(
             f"| `{s['figure']}` | {s['n']} | {s['reached']} | {s['never']} | {s['failed']} | {s['not_run']} | "
-            f"{100 * (s['share_reached'] or 0):.1f} % | " + " | ".join(_fmt(s["percentiles"][k]) for k in names) + " |"
+            f"{_share_cell(s['share_reached'])} | "
+            + " | ".join(_cell(s["percentiles"][k], s["n"]) for k in names)
+            + " |"
         )
     lines.append("")
     if shares:
@@ -367,7 +390,7 @@ def _mc_report(
             share_rows.append([key, st["n"], st["true"], st["false"], st["failed"], st["not_run"], st["share_true"]])
             lines.append(
                 f"| `{key}` | {st['n']} | {st['true']} | {st['false']} | {st['failed']} | "
-                f"{100 * (st['share_true'] or 0):.1f} % |"
+                f"{_share_cell(st['share_true'])} |"
             )
         lines.append("")
         paths.append(_write_csv(out / "shares.csv", share_rows))
@@ -455,14 +478,14 @@ def _grouped_report(
             pct = [st["percentiles"][k] for k in names]
             rows.append(
                 [name, figure, st["n"], st["reached"], st["never"], st["failed"], st["not_run"], st["share_reached"]]
-                + ["never" if v is None else v for v in pct]
+                + [_csv_pct(v, st["n"]) for v in pct]
                 + ["" if st[k] is None else st[k] for k in ("mean_reached", "min", "max")]
             )
-            share = 100 * (st["share_reached"] or 0)
             lines.append(
-                f"| {name} | {st['n']} | {st['reached']} | {st['never']} | {st['failed']} | {share:.1f} % | "
-                + " | ".join(_fmt(v) for v in pct)
-                + f" | {_fmt(st['mean_reached'])} |"
+                f"| {name} | {st['n']} | {st['reached']} | {st['never']} | {st['failed']} | "
+                f"{_share_cell(st['share_reached'])} | "
+                + " | ".join(_cell(v, st["n"]) for v in pct)
+                + f" | {_cell(st['mean_reached'], st['n'])} |"
             )
         lines.append("")
     paths = [_write_csv(out / "percentiles.csv", [head, *rows])]
@@ -481,7 +504,7 @@ def _grouped_report(
                 share_rows[-1].append(st["share_true"])
                 lines.append(
                     f"| {name} | {st['n']} | {st['true']} | {st['false']} | {st['failed']} | "
-                    f"{100 * (st['share_true'] or 0):.1f} % | {100 * (st['share_not'] or 0):.1f} % |"
+                    f"{_share_cell(st['share_true'])} | {_share_cell(st['share_not'])} |"
                 )
             lines.append("")
         paths.append(_write_csv(out / "shares.csv", share_rows))
