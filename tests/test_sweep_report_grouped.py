@@ -31,16 +31,22 @@ def _records(law_values: dict[str, list]) -> list[dict]:
     return out
 
 
-def test_grouped_report_by_hand(tmp_path):
-    records = _records({"a": [30.0, 10.0, None, 20.0, 40.0], "b": [5.0, "failed", 1.0, 3.0, 2.0]})
-    (tmp_path / "sweep_summary.json").write_text(json.dumps(records))
-    sweep = tmp_path / "s.toml"
+def _write_sweep(folder, records: list[dict], *, samples: int) -> None:
+    """A finished laws × Monte Carlo sweep folder holding ``records``, reporting ``t_s`` and
+    ``detumbled``."""
+    (folder / "sweep_summary.json").write_text(json.dumps(records))
+    sweep = folder / "s.toml"
     sweep.write_text(
-        'name = "g"\nconfig = "x.toml"\n[grid]\n"control.bdot_law" = ["a", "b"]\n[monte_carlo]\nsamples = 5\n'
+        f'name = "g"\nconfig = "x.toml"\n[grid]\n"control.bdot_law" = ["a", "b"]\n[monte_carlo]\nsamples = {samples}\n'
         'seed = 1\n"x" = { dist = "uniform", low = 0, high = 1 }\n'
         '[report]\nfigures = ["t_s"]\npercentiles = [10, 50, 90]\nshares = ["detumbled"]\n'
     )
-    (tmp_path / "sweep_manifest.json").write_text(json.dumps({"sweep": str(sweep), "name": "g"}))
+    (folder / "sweep_manifest.json").write_text(json.dumps({"sweep": str(sweep), "name": "g"}))
+
+
+def test_grouped_report_by_hand(tmp_path):
+    records = _records({"a": [30.0, 10.0, None, 20.0, 40.0], "b": [5.0, "failed", 1.0, 3.0, 2.0]})
+    _write_sweep(tmp_path, records, samples=5)
     write_report(tmp_path)
     rows = list(csv.DictReader((tmp_path / "report" / "percentiles.csv").open()))
     # a: sorted 10, 20, 30, 40, inf (n = 5): p10 → k = 1, p50 → k = 3, p90 → k = 5 (never); mean of reached 25
@@ -93,14 +99,7 @@ def test_a_grid_point_not_run_reads_as_no_runs_not_as_never(tmp_path):
     mean: its cells read "—" (the CSV leaves them empty), never "never" or "0.0 %"."""
     records = _records({"a": [30.0, 10.0, 20.0]})
     records += [{"id": f"bdot_law=b/s{i}", "status": "not_run", "summary": {}} for i in range(3)]
-    (tmp_path / "sweep_summary.json").write_text(json.dumps(records))
-    sweep = tmp_path / "s.toml"
-    sweep.write_text(
-        'name = "g"\nconfig = "x.toml"\n[grid]\n"control.bdot_law" = ["a", "b"]\n[monte_carlo]\nsamples = 3\n'
-        'seed = 1\n"x" = { dist = "uniform", low = 0, high = 1 }\n'
-        '[report]\nfigures = ["t_s"]\npercentiles = [10, 50, 90]\nshares = ["detumbled"]\n'
-    )
-    (tmp_path / "sweep_manifest.json").write_text(json.dumps({"sweep": str(sweep), "name": "g"}))
+    _write_sweep(tmp_path, records, samples=3)
     write_report(tmp_path)
     md = (tmp_path / "report" / "report.md").read_text()
     assert "| bdot_law=b | 0 | 0 | 0 | 0 | — | — | — | — | — |" in md

@@ -668,25 +668,18 @@ def collapse_criteria(
 def classify(
     c: ClassificationConfig,
     *,
+    criteria: list[str],
     side_m: float,
-    units: int,
     rho_max: float,
-    strain_max: float,
-    h_max: float,
     dev_max: float,
-    by_shape: bool = False,
 ) -> str:
-    """Classification: ``collapsed`` if ρ_max > f_c D or the strain > ε_c or h_max > n_c w (w = D / N);
-    ``rigid_like`` if ρ_max < f_r D and the rotation stays within the angle tolerance of the rigid
-    reference (``dev_max`` [rad]); else ``flexible``. ``by_shape``: the strain criterion left out,
-    so that a run stopped at the strain bound is classed by the shape it had reached."""
-    met = collapse_criteria(c, side_m=side_m, units=units, rho_max=rho_max, strain_max=strain_max, h_max=h_max)
-    if by_shape:
-        met = [m for m in met if m != "strain"]
-    D = side_m
-    if met:
+    """Classification: ``collapsed`` if any collapse criterion is met (:func:`collapse_criteria`:
+    ρ_max > f_c D, strain > ε_c, h_max > n_c w, w = D / N); ``rigid_like`` if ρ_max < f_r D and the
+    rotation stays within the angle tolerance of the rigid reference (``dev_max`` [rad]); else
+    ``flexible``."""
+    if criteria:
         return "collapsed"
-    if rho_max < c.rigid_residual_frac * D and dev_max <= np.radians(c.rigid_angle_tol_deg):
+    if rho_max < c.rigid_residual_frac * side_m and dev_max <= np.radians(c.rigid_angle_tol_deg):
         return "rigid_like"
     return "flexible"
 
@@ -701,13 +694,16 @@ def classification_keys(
     h_max: float,
     dev_max: float,
 ) -> dict[str, Any]:
-    """``classification`` (:func:`classify`), ``classification_by_shape`` (the same without the
-    strain criterion) and ``collapse_criteria`` (:func:`collapse_criteria`)."""
-    kw = dict(side_m=side_m, units=units, rho_max=rho_max, strain_max=strain_max, h_max=h_max)
+    """``classification`` (:func:`classify` over every collapse criterion),
+    ``classification_by_shape`` (the strain criterion left out, so that a run stopped at the strain
+    bound is classed by the shape it had reached) and ``collapse_criteria``
+    (:func:`collapse_criteria`)."""
+    met = collapse_criteria(c, side_m=side_m, units=units, rho_max=rho_max, strain_max=strain_max, h_max=h_max)
+    shape = [m for m in met if m != "strain"]
     return {
-        "classification": classify(c, dev_max=dev_max, **kw),
-        "classification_by_shape": classify(c, dev_max=dev_max, by_shape=True, **kw),
-        "collapse_criteria": collapse_criteria(c, **kw),
+        "classification": classify(c, criteria=met, side_m=side_m, rho_max=rho_max, dev_max=dev_max),
+        "classification_by_shape": classify(c, criteria=shape, side_m=side_m, rho_max=rho_max, dev_max=dev_max),
+        "collapse_criteria": met,
     }
 
 
