@@ -88,7 +88,6 @@ __all__ = [
     "slew_structure",
     "classify",
     "classification_keys",
-    "collapse_criteria",
     "fold_angle",
     "fold_keys",
     "plate_halves",
@@ -644,27 +643,6 @@ def base_summary(result: RunResult) -> dict[str, Any]:
     }
 
 
-def collapse_criteria(
-    c: ClassificationConfig,
-    *,
-    side_m: float,
-    units: int,
-    rho_max: float,
-    strain_max: float,
-    h_max: float,
-) -> list[str]:
-    """The collapse criteria a run meets, in this order: ``"residual"`` (ρ_max > f_c D),
-    ``"strain"`` (largest strut strain > ε_c), ``"thickness"`` (h_max > n_c w, w = D / N)."""
-    met = []
-    if rho_max > c.collapse_residual_frac * side_m:
-        met.append("residual")
-    if strain_max > c.collapse_strain:
-        met.append("strain")
-    if h_max > c.collapse_thickness_units * side_m / units:
-        met.append("thickness")
-    return met
-
-
 def classify(
     c: ClassificationConfig,
     *,
@@ -673,10 +651,10 @@ def classify(
     rho_max: float,
     dev_max: float,
 ) -> str:
-    """Classification: ``collapsed`` if any collapse criterion is met (:func:`collapse_criteria`:
-    ρ_max > f_c D, strain > ε_c, h_max > n_c w, w = D / N); ``rigid_like`` if ρ_max < f_r D and the
-    rotation stays within the angle tolerance of the rigid reference (``dev_max`` [rad]); else
-    ``flexible``."""
+    """Classification: ``collapsed`` if any collapse criterion is met (``criteria``, from
+    :func:`classification_keys`: ρ_max > f_c D, strain > ε_c, h_max > n_c w, w = D / N);
+    ``rigid_like`` if ρ_max < f_r D and the rotation stays within the angle tolerance of the rigid
+    reference (``dev_max`` [rad]); else ``flexible``."""
     if criteria:
         return "collapsed"
     if rho_max < c.rigid_residual_frac * side_m and dev_max <= np.radians(c.rigid_angle_tol_deg):
@@ -694,11 +672,17 @@ def classification_keys(
     h_max: float,
     dev_max: float,
 ) -> dict[str, Any]:
-    """``classification`` (:func:`classify` over every collapse criterion),
+    """``collapse_criteria``: the collapse criteria a run meets, in this order: ``"residual"``
+    (ρ_max > f_c D), ``"strain"`` (largest strut strain > ε_c), ``"thickness"`` (h_max > n_c w,
+    w = D / N); ``classification`` (:func:`classify` over all of them) and
     ``classification_by_shape`` (the strain criterion left out, so that a run stopped at the strain
-    bound is classed by the shape it had reached) and ``collapse_criteria``
-    (:func:`collapse_criteria`)."""
-    met = collapse_criteria(c, side_m=side_m, units=units, rho_max=rho_max, strain_max=strain_max, h_max=h_max)
+    bound is classed by the shape it had reached)."""
+    bounds = {
+        "residual": rho_max > c.collapse_residual_frac * side_m,
+        "strain": strain_max > c.collapse_strain,
+        "thickness": h_max > c.collapse_thickness_units * side_m / units,
+    }
+    met = [name for name, exceeded in bounds.items() if exceeded]
     shape = [m for m in met if m != "strain"]
     return {
         "classification": classify(c, criteria=met, side_m=side_m, rho_max=rho_max, dev_max=dev_max),
