@@ -315,6 +315,9 @@ class RunResult:
     variable from the run's store on first access).
     ``status`` is ``"completed"``, ``"diverged"``, ``"structure_failed"``, ``"stopped"``
     (``stop_after_s`` reached) or ``"interrupted"`` (Ctrl-C: the records up to then are kept).
+    ``steps`` counts every step from t = 0 to ``t_end_s`` and ``wall_time_s`` [s] the wall time of
+    their step loops, a resumed run's earlier calls included (both carried by the checkpoint), so
+    ``wall_time_s / steps`` is the cost of a step.
     """
 
     records: Mapping[str, np.ndarray]
@@ -403,14 +406,16 @@ class SteppedRun:
         except RecordStoreError as err:
             raise CheckpointError(f"checkpoint: {path}: {err}") from None
 
-    def _result(self, start_step: int) -> RunResult:
-        """The :class:`RunResult` of the steps from ``start_step`` to the current one."""
+    def _result(self) -> RunResult:
+        """The :class:`RunResult` of the run so far: every step from t = 0 (a resumed run's steps
+        before its checkpoint included) and the wall time of their step loops, which the checkpoint
+        carries over."""
         return RunResult(
             records=self.records(),
             status=self.status,
             message=self.message,
             t_end_s=self.time,
-            steps=self.step_index - start_step,
+            steps=self.step_index,
             wall_time_s=self._wall_s,
         )
 
@@ -760,7 +765,7 @@ class Simulation(SteppedRun):
             self.status, self.message = "stopped", f"stopped at t = {self.time:.6g} s (stop_after_s)"
         if self.status == "completed":
             self.status, self.message = _non_finite_records(self.recorder) or (self.status, self.message)
-        return self._result(start)
+        return self._result()
 
     def _control_sample(self, state: StepState, t: float) -> None:
         """The controller's sample at ``t``: its command, held from now (``state.ctrl`` too), the

@@ -110,7 +110,7 @@ def _assert_same_folder(got: Path, want: Path, *, chunks: bool = True) -> None:
     a, b = (json.loads((d / "summary.json").read_text()) for d in (got, want))
     assert {k: v for k, v in a.items() if k not in TIMING} == {k: v for k, v in b.items() if k not in TIMING}, got
     ma, mb = (json.loads((d / "manifest.json").read_text()) for d in (got, want))
-    for key in ("config", "config_hash", "numbers_hash", "status", "status_message", "t_end_s"):
+    for key in ("config", "config_hash", "numbers_hash", "status", "status_message", "t_end_s", "steps"):
         assert ma[key] == mb[key], (got, key)
     assert sorted(ma["files"]) == sorted(mb["files"])
     assert ma["records_digests"] == mb["records_digests"] or not chunks

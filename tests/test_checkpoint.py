@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import json
 
 import numpy as np
 import pytest
@@ -179,6 +180,11 @@ def test_cli_stop_then_resume_in_new_processes_is_bitwise(tmp_path):
     a, b = read_timeseries(tmp_path / "full"), read_timeseries(tmp_path / "cut")
     assert sorted(a) == sorted(b)
     assert all(np.array_equal(a[k], b[k], equal_nan=True) for k in a)
+    # the manifest counts every step from t = 0, those before the checkpoint included, as it counts
+    # their wall time: the resumed run reports the uninterrupted run's steps
+    full, cut = (json.loads((tmp_path / name / "manifest.json").read_text()) for name in ("full", "cut"))
+    assert cut["steps"] == full["steps"] == round(40.0 / full["config"]["sim"]["timestep_s"])
+    assert cut["wall_time_s"] > 0
 
 
 def test_an_alias_follows_a_leaf_put_back_as_built():

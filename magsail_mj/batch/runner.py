@@ -358,16 +358,18 @@ class BatchSimulation:
             if self.status[k] == "completed":
                 self.status[k], self.message[k] = _non_finite_records(rec) or (self.status[k], self.message[k])
         wall = self._wall_s - wall0
-        steps = self._world_steps - steps0
-        total = int(steps.sum())
+        total = int((self._world_steps - steps0).sum())
+        # each world as a single run counts it: every step from t = 0 and its share of the loops'
+        # wall time so far (a resumed batch's earlier calls included)
+        all_steps = int(self._world_steps.sum())
         worlds = [
             RunResult(
                 records=rec.arrays(),
                 status=self.status[k],
                 message=self.message[k],
                 t_end_s=float(self.end_step[k]) * self.dt,
-                steps=int(self.end_step[k]) - start,
-                wall_time_s=wall * float(steps[k]) / total if total else 0.0,
+                steps=int(self.end_step[k]),
+                wall_time_s=self._wall_s * float(self._world_steps[k]) / all_steps if all_steps else 0.0,
             )
             for k, rec in enumerate(self.recorded.recorders)
         ]

@@ -462,7 +462,7 @@ class MsacRunner(SteppedRun):
             self.status, self.message = "stopped", f"stopped at t = {self.time:.6f} s (stop_after_s)"
             if ckpt is not None:
                 self._save(ckpt)
-        return self._result(k_start)
+        return self._result()
 
     def _advance(self, stop_step: int, *, ckpt: Path | None = None, bar: Any = None) -> None:
         """Roll out from the current step to ``stop_step`` in chunks that end at the absolute chunk
