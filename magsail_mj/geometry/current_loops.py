@@ -244,8 +244,8 @@ def _paths_C(n: int, axis: int) -> list[list[tuple[int, int, int]]]:
 def _paths_D(n: int, axis: int, d_return: str = "centre") -> list[list[tuple[int, int, int]]]:
     """One continuous winding as a single closed path of corner points.
 
-    The helix and its closure end at the start corner of the last plane; ``d_return`` chooses the
-    run back to the start corner of the first plane (module docstring).
+    The helix and its closure end at the start corner of the last plane; ``d_return`` (checked by
+    :func:`circuit`) chooses the run back to the start corner of the first plane (module docstring).
     """
     half = ceil(n / 2)
     if axis == 0:
@@ -268,8 +268,6 @@ def _paths_D(n: int, axis: int, d_return: str = "centre") -> list[list[tuple[int
             "edge": [(0, 0, 1)],  # top layer, x = 0
             "other_layer": [(half, n, 1), (half, n, 0), (half, 0, 0), (half, 0, 1), (0, 0, 1)],
         }
-    if d_return not in returns:
-        raise ValueError(f"d_return: must be one of {D_RETURNS}, got {d_return!r}")
     path = [corner(0, 0)]
     c = 0
     for k in range(n + 1):

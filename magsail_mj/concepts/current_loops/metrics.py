@@ -88,6 +88,7 @@ __all__ = [
     "slew_structure",
     "classify",
     "classification_keys",
+    "FoldAngle",
     "fold_angle",
     "fold_keys",
     "plate_halves",
@@ -244,7 +245,8 @@ def structural_series(
       ValueError: there are no records.
     """
     md = _modes_or_none(modes)
-    out = as_trajectory(positions).map(lambda x: _structural_block(lm, x, md))
+    fold = FoldAngle(lm.lattice.nodes)
+    out = as_trajectory(positions).map(lambda x: _structural_block(lm, x, md, fold))
     if md is not None and "modal_amplitude" in out:
         q = out["modal_amplitude"]
         out["modal_amplitude"] = q / max(np.abs(q).max(), 1e-300)
@@ -263,7 +265,7 @@ def _modes_or_none(modes: Callable[[], Modes] | None) -> Modes | None:
         return None
 
 
-def _structural_block(lm: LoopsModel, x: np.ndarray, md: Modes | None) -> dict[str, np.ndarray]:
+def _structural_block(lm: LoopsModel, x: np.ndarray, md: Modes | None, fold: FoldAngle) -> dict[str, np.ndarray]:
     """:func:`structural_series` of one block of node positions ``x`` (B, n, 3) [m]; the modal
     amplitudes ``φᵀ M u`` are not yet normalised."""
     lat = lm.lattice
@@ -281,7 +283,7 @@ def _structural_block(lm: LoopsModel, x: np.ndarray, md: Modes | None) -> dict[s
         "strut_strain_max": np.abs(strut_strain(x, lat.struts, lat.rest_length)).max(axis=1),
         "stretch_x_m": np.ptp(xb[:, :, 0], axis=1) - np.ptp(p0[:, 0]),
         "stretch_y_m": np.ptp(xb[:, :, 1], axis=1) - np.ptp(p0[:, 1]),
-        "fold_angle_rad": fold_angle(p0, x),
+        "fold_angle_rad": fold(x),
     }
     if md is not None:
         try:
@@ -309,19 +311,30 @@ def plate_halves(nodes: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     return out
 
 
-def fold_angle(nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
+class FoldAngle:
     """Fold angle [rad] of node positions ``x`` (T, n, 3) [m] against the undeformed ``nodes``
     (n, 3): for each dividing line of :func:`plate_halves`, the angle of R₁ᵀR₂ between the best
     rigid fits (Kabsch, uniform masses) R₁, R₂ of the two halves, each half fitted to its own
     undeformed nodes; the largest over the four lines, per record. A plate turned as a whole has
-    fold angle 0; one folded along a mid-line or a diagonal through θ, θ (a twist shows too)."""
-    x = np.asarray(x, dtype=float)
-    worst = np.zeros(x.shape[0])
-    for a, b in plate_halves(nodes):
-        Ra, _ = BestFitRotation(nodes[a])(x[:, a])
-        Rb, _ = BestFitRotation(nodes[b])(x[:, b])
-        worst = np.maximum(worst, rotation_angle(Rb, relative_to=Ra))
-    return worst
+    fold angle 0; one folded along a mid-line or a diagonal through θ, θ (a twist shows too).
+    The halves and their fits are built once; calling it on a block of records is the only work."""
+
+    def __init__(self, nodes: np.ndarray):
+        self._fits = [(a, BestFitRotation(nodes[a]), b, BestFitRotation(nodes[b])) for a, b in plate_halves(nodes)]
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        worst = np.zeros(x.shape[0])
+        for a, fit_a, b, fit_b in self._fits:
+            Ra, _ = fit_a(x[:, a])
+            Rb, _ = fit_b(x[:, b])
+            worst = np.maximum(worst, rotation_angle(Rb, relative_to=Ra))
+        return worst
+
+
+def fold_angle(nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """:class:`FoldAngle` of ``nodes`` applied to ``x`` (T, n, 3) [m], in [rad]."""
+    return FoldAngle(nodes)(x)
 
 
 def _at(t: np.ndarray, y: np.ndarray) -> tuple[float, float]:
